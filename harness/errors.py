@@ -1,0 +1,27 @@
+"""User-facing errors.
+
+A :class:`UserError` is a mistake in what the user gave (a scene file, an
+option, a file path).  The CLI prints its message on one line and exits with
+status 2; it never shows a traceback for it.
+"""
+
+
+class UserError(Exception):
+    """A problem with the user's input, reported as one line, exit status 2."""
+
+    exit_code = 2
+
+
+class SimulationError(Exception):
+    """A run that failed on its own terms (non-finite state, blow-up).
+
+    Reported as one line with the step and time, exit status 3; nothing
+    partial is kept.
+    """
+
+    exit_code = 3
+
+    def __init__(self, message, step=None, time=None):
+        super().__init__(message)
+        self.step = step
+        self.time = time

@@ -1,0 +1,181 @@
+"""Runs as self-describing HDF5 files, written atomically.
+
+Layout (every solver: full SPH, reduced models, continuum references)::
+
+    /t     (M,)    sample times                         [s]
+    /x     (N,)    Lagrangian (reference) positions     [m]
+    /v     (M, N)  velocity                             [m s^-1]
+    /rho   (M, N)  density                              [kg m^-3]
+    /steps (M,)    step index of each sample (when the solver has steps)
+
+Each dataset has a ``units`` and a ``description`` attribute.  The root
+attributes hold every scene parameter (``scene.*``: name, L, T and the field
+expressions; the full TOML text in ``scene.toml``), the solver and its
+settings (``solver``, ``solver.*``), the package version, the command line,
+the creation time and the wall time [s].  Errors against references, when
+computed, are stored as ``error.*`` attributes.
+
+A file is written to a temporary name in the target folder and renamed at the
+end, so an interrupted run leaves no half-written file.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import datetime as _dt
+import os
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from . import __version__
+from .errors import UserError
+
+FORMAT = "sphrom-run"
+FORMAT_VERSION = 1
+
+UNITS = {"t": "s", "x": "m", "v": "m s^-1", "rho": "kg m^-3", "steps": "1"}
+DESCRIPTIONS = {
+    "t": "sample times",
+    "x": "Lagrangian (reference) positions of the samples",
+    "v": "velocity v(x, t)",
+    "rho": "density rho(x, t)",
+    "steps": "time-step index of each sample",
+}
+
+
+@dataclass
+class Run:
+    """A run read back from (or to be written to) HDF5.  Shapes as above."""
+
+    t: np.ndarray
+    x: np.ndarray
+    v: np.ndarray
+    rho: np.ndarray
+    attrs: dict = field(default_factory=dict)
+    steps: np.ndarray | None = None
+
+
+def check_output_path(path, option="--out"):
+    """Fail early (before any work) when ``path`` cannot be written.
+
+    Raises UserError naming the option when the folder does not exist or is
+    not writable, or the path is a folder.
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise UserError(f"{option}: '{path}' is a directory (allowed: a file path)")
+    parent = path.parent if str(path.parent) else Path(".")
+    if not parent.is_dir():
+        raise UserError(f"{option}: folder '{parent}' does not exist")
+    if not os.access(parent, os.W_OK):
+        raise UserError(f"{option}: folder '{parent}' is not writable")
+    return path
+
+
+@contextlib.contextmanager
+def atomic_path(path):
+    """Yield a temporary path beside ``path``; rename it to ``path`` on success.
+
+    On any exception (including KeyboardInterrupt) the temporary file is
+    removed and ``path`` is left as it was.
+    """
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+def scene_attrs(scene):
+    """Root attributes describing a scene (``scene.*``)."""
+    attrs = {
+        "scene.name": scene.name,
+        "scene.section": scene.section,
+        "scene.source": str(scene.source),
+        "scene.toml": scene.text,
+        "scene.L": scene.L,
+        "scene.T": scene.T,
+    }
+    for name, expr in scene.fields.items():
+        attrs[f"scene.{name}"] = expr.text
+    attrs["scene.f"] = scene.f.text
+    for key, value in vars(scene.sph).items():
+        attrs[f"scene.sph.{key}"] = value
+    return attrs
+
+
+def _clean(value):
+    if value is None:
+        return "none"
+    if isinstance(value, (bool, np.bool_)):
+        return int(value)
+    if isinstance(value, (list, tuple)):
+        return np.asarray(value)
+    return value
+
+
+def write_run(path, t, x, v, rho, attrs, steps=None, extra=None):
+    """Write a run to ``path`` atomically.
+
+    Parameters
+    ----------
+    path : str or Path
+    t, x, v, rho : ndarray
+        See the module docstring for shapes and units.
+    attrs : dict
+        Root attributes (scene, solver, timings, errors); values must be
+        numbers, strings or arrays of numbers.
+    steps : ndarray of int, optional
+    extra : dict of name -> ndarray, optional
+        Additional datasets (e.g. reduced coordinates).
+    """
+    t, x = np.asarray(t, float), np.asarray(x, float)
+    v, rho = np.asarray(v, float), np.asarray(rho, float)
+    if v.shape != (t.size, x.size) or rho.shape != v.shape:
+        raise ValueError(f"shapes: t {t.shape}, x {x.shape}, v {v.shape}, rho {rho.shape}")
+    base = {
+        "format": FORMAT,
+        "format_version": FORMAT_VERSION,
+        "sphrom_version": __version__,
+        "created_utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "command": " ".join(sys.argv),
+    }
+    with atomic_path(path) as tmp:
+        with h5py.File(tmp, "w") as h5:
+            for key, value in {**base, **attrs}.items():
+                h5.attrs[key] = _clean(value)
+            data = {"t": t, "x": x, "v": v, "rho": rho}
+            if steps is not None:
+                data["steps"] = np.asarray(steps, dtype=np.int64)
+            for name, arr in data.items():
+                ds = h5.create_dataset(name, data=arr, compression="gzip" if arr.size > 4096 else None)
+                ds.attrs["units"] = UNITS[name]
+                ds.attrs["description"] = DESCRIPTIONS[name]
+            for name, arr in (extra or {}).items():
+                h5.create_dataset(name, data=np.asarray(arr))
+
+
+def read_run(path, option="run file") -> Run:
+    """Read a run written by :func:`write_run`.
+
+    Raises UserError when the file is missing or not a sphrom run.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise UserError(f"{option} '{path}': not found")
+    try:
+        with h5py.File(path, "r") as h5:
+            if h5.attrs.get("format") != FORMAT:
+                raise UserError(f"{option} '{path}': not a sphrom run file (format attribute missing)")
+            attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in h5.attrs.items()}
+            steps = h5["steps"][()] if "steps" in h5 else None
+            return Run(t=h5["t"][()], x=h5["x"][()], v=h5["v"][()], rho=h5["rho"][()], attrs=attrs, steps=steps)
+    except OSError as exc:
+        raise UserError(f"{option} '{path}': cannot be read as HDF5 ({exc})") from None

@@ -1,0 +1,1 @@
+"""The full SPH model of section 2.2: kernel, neighbour operator, solver."""

@@ -1,0 +1,260 @@
+"""The full SPH solver: eqs. 2.10-2.11 on fixed particles, three integrators.
+
+    dρ_i/dt = -(ρ_i^2/ρ_i(0)) Σ_j (m_j/ρ_j(0)) v_j ∇W_ij                 (2.10)
+    dv_i/dt = -(1/ρ_i(0)) Σ_j (m_j/ρ_j(0)) c_j (1 - ρ_j(0)/ρ_j) ∇W_ij
+              - d_i v_i + f_i(t)                                        (2.11)
+
+with m_j = ρ0(x_j) Δx (a = 1 m^2), so m_j/ρ_j(0) = Δx, and
+f_i(t) = profile(x_i) f(t).  Time is t_n = n Δt (never accumulated).
+"""
+
+from __future__ import annotations
+
+import time as _time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import SimulationError
+from ..progress import progress_bar
+from ..scene import Scene
+from . import kernels_numba as kn
+from .operator import Neighbours, build_neighbours, particle_positions
+
+METHODS = {"euler": 0, "symplectic": 1, "rk4": 2}
+
+
+@dataclass(frozen=True)
+class SPHProblem:
+    """Everything the compiled loop needs, built once from a scene.
+
+    Attributes
+    ----------
+    x : ndarray (N,)
+        Particle reference positions [m].
+    mass : ndarray (N,)
+        m_i = ρ0(x_i) Δx [kg] (a = 1 m^2).
+    rho0, c, d, profile, v0 : ndarray (N,)
+        Fields at the particles.
+    neighbours : Neighbours
+        The gradient operator G of eq. 2.9.
+    terms : dict
+        Which terms exist: damping, force_profile, uniform_c, uniform_rho0,
+        uniform_d, uniform_profile.
+    """
+
+    scene: Scene
+    x: np.ndarray
+    mass: np.ndarray
+    rho0: np.ndarray
+    c: np.ndarray
+    d: np.ndarray
+    profile: np.ndarray
+    v0: np.ndarray
+    neighbours: Neighbours
+    terms: dict
+
+    @property
+    def n(self):
+        return self.x.size
+
+    def flags(self, force_active):
+        """The flag bits of :mod:`.kernels_numba` for this problem."""
+        t = self.terms
+        flags = 0
+        flags |= kn.DAMPING if t["damping"] else 0
+        flags |= kn.FORCE if (force_active and t["force_profile"]) else 0
+        flags |= kn.UNIFORM_C if t["uniform_c"] else 0
+        flags |= kn.UNIFORM_RHO0 if t["uniform_rho0"] else 0
+        flags |= kn.UNIFORM_D if t["uniform_d"] else 0
+        flags |= kn.UNIFORM_PROFILE if t["uniform_profile"] else 0
+        return flags
+
+    def packed(self, name):
+        """A field as the compiled loop takes it: length 1 when uniform."""
+        arr = getattr(self, name)
+        key = {"c": "uniform_c", "rho0": "uniform_rho0", "d": "uniform_d", "profile": "uniform_profile"}[name]
+        return np.ascontiguousarray(arr[:1] if self.terms[key] else arr)
+
+
+def build_problem(scene: Scene) -> SPHProblem:
+    """Particles, fields and neighbour lists of ``scene``'s SPH settings."""
+    n, alpha = scene.sph.n_particles, scene.sph.alpha
+    x = particle_positions(scene.L, n)
+    dx = scene.L / n
+    rho0 = scene.field("rho0", x)
+    mass = rho0 * dx
+    volume = mass / rho0
+    nb = build_neighbours(x, scene.L, alpha * dx, volume)
+    c, d, profile = scene.field("c", x), scene.field("d", x), scene.field("profile", x)
+    terms = {
+        "damping": bool(np.any(d != 0)),
+        "force_profile": bool(np.any(profile != 0)),
+        "uniform_c": bool(np.all(c == c[0])),
+        "uniform_rho0": bool(np.all(rho0 == rho0[0])),
+        "uniform_d": bool(np.all(d == d[0])),
+        "uniform_profile": bool(np.all(profile == profile[0])),
+    }
+    return SPHProblem(scene=scene, x=x, mass=mass, rho0=rho0, c=c, d=d, profile=profile,
+                      v0=scene.field("v0", x), neighbours=nb, terms=terms)
+
+
+def step_count(T, dt):
+    """Number of steps n with n Δt = T (to 1e-9 relative), else floor(T/Δt)."""
+    ratio = T / dt
+    n = int(round(ratio))
+    if abs(ratio - n) <= 1e-9 * max(1.0, ratio):
+        return n
+    return int(np.floor(ratio))
+
+
+def default_sample_steps(n_steps, every, extra=()):
+    """Steps 0, every, 2 every, ..., the last step, and any ``extra`` ones."""
+    steps = np.arange(0, n_steps + 1, every, dtype=np.int64)
+    steps = np.union1d(steps, np.asarray([n_steps], dtype=np.int64))
+    if len(extra):
+        extra = np.asarray(extra, dtype=np.int64)
+        steps = np.union1d(steps, extra[(extra >= 0) & (extra <= n_steps)])
+    return steps
+
+
+def force_values(scene, problem, n0, n1, dt, method):
+    """f at the stage times of steps n0..n1-1, shape (n1 - n0, 3)."""
+    g = np.zeros((n1 - n0, 3))
+    if not problem.terms["force_profile"]:
+        return g
+    tn = np.arange(n0, n1) * dt
+    g[:, 0] = scene.force(tn)
+    if method == METHODS["rk4"]:
+        g[:, 1] = scene.force(tn + 0.5 * dt)
+        g[:, 2] = scene.force(tn + dt)
+    return g
+
+
+@dataclass
+class SPHResult:
+    """Samples of a full SPH run.
+
+    t (M,) [s], x (N,) [m], v (M, N) [m s^-1], rho (M, N) [kg m^-3],
+    steps (M,) step indices, wall_time [s] of the time loop.
+    """
+
+    t: np.ndarray
+    x: np.ndarray
+    v: np.ndarray
+    rho: np.ndarray
+    steps: np.ndarray
+    wall_time: float
+    problem: SPHProblem
+
+
+def run_sph(scene: Scene, *, sample_steps=None, progress=True, problem=None, chunk_steps=None,
+            state=None):
+    """Run the full SPH model of ``scene`` from t = 0 to its T.
+
+    Parameters
+    ----------
+    scene : Scene
+        Scene with the SPH settings to use (see :meth:`Scene.with_sph`).
+    sample_steps : array_like of int, optional
+        Steps at which to store (v, ρ); default every ``scene.sph.every``
+        steps and the last one.
+    progress : bool
+        Show a progress bar on runs longer than a couple of seconds.
+    problem : SPHProblem, optional
+        A prebuilt problem (saves the neighbour build in repeated runs).
+    state : (v, rho), optional
+        Initial state instead of (v0, ρ0).
+
+    Returns
+    -------
+    SPHResult
+
+    Raises
+    ------
+    SimulationError
+        When the state turns non-finite or ρ <= 0; names the step and time.
+    """
+    problem = problem or build_problem(scene)
+    dt = scene.sph.dt
+    method = METHODS[scene.sph.integrator]
+    n_steps = step_count(scene.T, dt)
+    if sample_steps is None:
+        sample_steps = default_sample_steps(n_steps, scene.sph.every)
+    sample_steps = np.unique(np.asarray(sample_steps, dtype=np.int64))
+    if sample_steps.size and (sample_steps[0] < 0 or sample_steps[-1] > n_steps):
+        raise ValueError("sample steps outside [0, n_steps]")
+    if state is None:
+        v, rho = problem.v0.copy(), problem.rho0.copy()
+    else:
+        v, rho = np.array(state[0], dtype=float), np.array(state[1], dtype=float)
+    out_v = np.empty((sample_steps.size, problem.n))
+    out_rho = np.empty((sample_steps.size, problem.n))
+    nb = problem.neighbours
+    args = (nb.index, nb.weight, problem.packed("rho0"), problem.packed("c"), problem.packed("d"),
+            problem.packed("profile"))
+    if chunk_steps is None:
+        # about 2e6 particle-steps per chunk: a few ms, so the bar moves smoothly
+        chunk_steps = max(1, min(n_steps, int(2e6 // max(problem.n, 1))))
+    check_every = 64
+    # Load the compiled loop (numba's cache) before the clock starts.
+    kn.advance(method, v, rho, 0, 0, dt, np.zeros((0, 3)), *args, 0, sample_steps[:0], 0, out_v, out_rho, 1)
+    ptr = 0
+    wall = 0.0
+    with progress_bar(total=n_steps, desc=f"sph {scene.name}", unit="step", enabled=progress) as bar:
+        n0 = 0
+        while n0 < n_steps:
+            n1 = min(n_steps, n0 + chunk_steps)
+            g = force_values(scene, problem, n0, n1, dt, method)
+            flags = problem.flags(bool(np.any(g != 0)))
+            t0 = _time.perf_counter()
+            status, ptr, bad = kn.advance(method, v, rho, n0, n1, dt, g, *args, flags,
+                                          sample_steps, ptr, out_v, out_rho, check_every)
+            wall += _time.perf_counter() - t0
+            if status != 0:
+                raise SimulationError(
+                    f"SPH state became non-finite or non-positive density by step {bad} "
+                    f"(t = {bad * dt:.6g} s, integrator {scene.sph.integrator}, dt = {dt:g} s)",
+                    step=bad, time=bad * dt)
+            bar.update(n1 - n0)
+            n0 = n1
+    return SPHResult(t=sample_steps * dt, x=problem.x, v=out_v, rho=out_rho, steps=sample_steps,
+                     wall_time=wall, problem=problem)
+
+
+def spectral_radius(problem: SPHProblem):
+    """An upper bound of the fastest angular frequency ω_max [rad s^-1].
+
+    Linearised about rest, the scheme is J̇ = G v, v̇ = ρ0^-1 G c J (J the
+    specific volume): ω_max <= sqrt(max c / min ρ0) ||G||, and on a uniform
+    lattice ||G|| is the maximum over wavenumbers of the stencil's symbol.
+    """
+    nb = problem.neighbours
+    n = problem.n
+    kk = np.arange(n // 2 + 1)
+    # symbol of row 0 of G (a circulant on a uniform lattice)
+    j = nb.index[0]
+    offs = (j - 0) % n
+    sym = np.abs(np.sum(nb.weight[0][None, :] * np.exp(2j * np.pi * kk[:, None] * offs[None, :] / n), axis=1))
+    return float(np.sqrt(problem.c.max() / problem.rho0.min()) * sym.max())
+
+
+STABILITY_BOUND = {"euler": 2.0, "symplectic": 2.0, "rk4": 2.0 * np.sqrt(2.0)}
+
+
+def stability(problem: SPHProblem, dt, integrator, T):
+    """The explicit stability limit and CFL numbers of a run.
+
+    Returns a dict with ``omega_max`` [rad/s], ``dt_limit`` [s] (ω_max Δt
+    below 2 for the Euler schemes, 2√2 for RK4: the imaginary-axis limits),
+    ``cfl`` (c_s Δt / Δx with the largest sound speed of eq. 2.5 at rest),
+    ``omega_dt`` and ``euler_growth`` (the factor by which explicit Euler
+    amplifies the fastest mode over T when d = 0; Euler has no strict
+    stability on the imaginary axis).
+    """
+    w = spectral_radius(problem)
+    cs = float(np.sqrt(np.max(problem.c / problem.rho0)))
+    lim = STABILITY_BOUND[integrator] / w
+    growth = float(np.exp(min(700.0, 0.5 * (T / dt) * np.log1p((w * dt) ** 2))))
+    return {"omega_max": w, "dt_limit": lim, "cfl": cs * dt / problem.neighbours.dx,
+            "omega_dt": w * dt, "euler_growth": growth}

@@ -1,0 +1,28 @@
+import os
+
+import numpy as np
+import pytest
+
+from harness.scene import derive_scene, load_scene
+
+os.environ.setdefault("MPLBACKEND", "Agg")
+
+
+def small_scene(base="multimode", T=0.5, n=32, dt=None, integrator="euler", every=None, **fields):
+    """A built-in scene shrunk for tests: N particles, horizon T."""
+    changes = {"domain": {"T": T}, "sph": {"n_particles": n, "integrator": integrator}}
+    if dt is not None:
+        changes["sph"]["dt"] = dt
+    if every is not None:
+        changes["sph"]["every"] = every
+    if fields:
+        changes["fields"] = {k: v for k, v in fields.items() if k in ("rho0", "v0", "c", "d")}
+        force = {k: v for k, v in fields.items() if k in ("f", "profile")}
+        if force:
+            changes["force"] = force
+    return derive_scene(load_scene(base), changes)
+
+
+@pytest.fixture
+def tmp_out(tmp_path):
+    return tmp_path

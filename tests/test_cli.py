@@ -1,0 +1,128 @@
+"""The CLI contract: names, HDF5 layout, one-line errors with exit status 2, no partial files."""
+
+import subprocess
+import sys
+
+import h5py
+import numpy as np
+import pytest
+
+from harness.cli import main
+from harness.runio import atomic_path, read_run
+from harness.scene import builtin_names, dump_toml, load_scene, scene_dict
+
+PAPER_SCENES = ["damped", "damped_forced", "gaussian", "heterogeneous", "high_frequency",
+                "mild_damped_forced", "multimode", "tenmode"]
+
+
+def test_builtin_scenes_are_the_papers():
+    assert builtin_names() == PAPER_SCENES
+    for name in PAPER_SCENES:
+        scene = load_scene(name)
+        assert scene.name == name and scene.L == 1.0 and scene.T == 10.0
+        assert scene.paper["sph_error_v"] > 0
+
+
+def test_scenes_command(capsys):
+    assert main(["scenes"]) == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert [line.split()[0] for line in lines] == PAPER_SCENES
+
+
+def test_sph_run_file_layout(tmp_path, capsys):
+    out = tmp_path / "run.h5"
+    assert main(["sph", "multimode", "--n-particles", "32", "--t-end", "0.5", "--every", "25",
+                 "--integrator", "rk4", "--dt", "1e-3", "--out", str(out), "--quiet"]) == 0
+    text = capsys.readouterr().out
+    assert "relative L2 error vs exact" in text
+    run = read_run(out)
+    assert run.t.shape == (21,) and run.x.shape == (32,) and run.v.shape == (21, 32) == run.rho.shape
+    np.testing.assert_allclose(run.t, np.arange(21) * 0.025)
+    with h5py.File(out) as h5:
+        assert h5["v"].attrs["units"] == "m s^-1" and h5["t"].attrs["units"] == "s"
+        a = h5.attrs
+        assert a["solver"] == "sph" and a["solver.integrator"] == "rk4" and a["scene.name"] == "multimode"
+        assert a["scene.T"] == 0.5 and a["solver.n_particles"] == 32 and a["wall_time_s"] > 0
+        assert "sum(l*sin" in a["scene.v0"] and "[sph]" in a["scene.toml"] and a["sphrom_version"]
+        assert 0 < a["error.exact.v"] < 0.2          # N = 32: the SPH dispersion dominates
+
+
+def _write_variant(tmp_path, mutate):
+    data = scene_dict(load_scene("multimode"))
+    mutate(data)
+    path = tmp_path / "bad.toml"
+    path.write_text(dump_toml(data))
+    return path
+
+
+@pytest.mark.parametrize("mutate, expect", [
+    (lambda d: d["sph"].update(foo=1), "sph.foo"),
+    (lambda d: d["sph"].pop("dt"), "sph.dt: missing key"),
+    (lambda d: d["sph"].update(n_particles="100"), "sph.n_particles: expected an integer"),
+    (lambda d: d["sph"].update(n_particles=4), "sph.n_particles: 4 is out of range"),
+    (lambda d: d["sph"].update(alpha=0.4), "sph.alpha: 0.4 is out of range (allowed: 0.5 < alpha"),
+    (lambda d: d["sph"].update(dt=0.0), "sph.dt: 0.0 is out of range (allowed: a number > 0)"),
+    (lambda d: d["sph"].update(dt=-1e-3), "sph.dt"),
+    (lambda d: d["fields"].update(v0="sin(y)"), "fields.v0: name 'y' is not allowed"),
+    (lambda d: d["fields"].update(rho0="-1"), "fields.rho0: must be > 0"),
+    (lambda d: d["fields"].update(c="1/(x - x)"), "fields.c: non-finite value"),
+    (lambda d: d["force"].update(f="open('x')"), "force.f: function 'open' is not allowed"),
+    (lambda d: d["snapshots"].pop("window"), "snapshots.window: missing key"),
+    (lambda d: d.update(extra=1), "unknown key 'extra'"),
+])
+def test_bad_scene_file_is_one_line_exit_2_no_output(tmp_path, capsys, mutate, expect):
+    path = _write_variant(tmp_path, mutate)
+    out = tmp_path / "out.h5"
+    assert main(["sph", str(path), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and str(path) in err and expect in err, err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("argv, expect", [
+    (["--alpha", "0.4"], "--alpha: 0.4 is out of range"),
+    (["--n-particles", "5"], "--n-particles: 5 is out of range"),
+    (["--t-end", "1e-5"], "--t-end"),
+])
+def test_bad_options(tmp_path, capsys, argv, expect):
+    out = tmp_path / "out.h5"
+    assert main(["sph", "multimode", *argv, "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and expect in err, err
+    assert not out.exists()
+
+
+def test_unknown_scene_and_bad_out(tmp_path, capsys):
+    assert main(["sph", "nosuchscene", "--out", str(tmp_path / "x.h5")]) == 2
+    assert "built-in:" in capsys.readouterr().err
+    assert main(["sph", "multimode", "--out", str(tmp_path / "missing" / "x.h5")]) == 2
+    assert "does not exist" in capsys.readouterr().err
+
+
+def test_blow_up_names_step_and_time_and_keeps_nothing(tmp_path, capsys):
+    out = tmp_path / "out.h5"
+    code = main(["sph", "multimode", "--dt", "0.1", "--t-end", "5", "--out", str(out), "--quiet"])
+    captured = capsys.readouterr()
+    assert code == 3
+    assert "warning: dt = 0.1 s exceeds the explicit stability limit" in captured.out
+    assert "CFL number" in captured.out
+    assert "by step" in captured.err and "t = " in captured.err
+    assert not out.exists() and list(tmp_path.iterdir()) == []
+
+
+def test_interrupted_write_leaves_nothing(tmp_path):
+    target = tmp_path / "x.h5"
+    with pytest.raises(KeyboardInterrupt):
+        with atomic_path(target) as tmp:
+            tmp.write_bytes(b"half")
+            raise KeyboardInterrupt
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_console_script_and_module_entry_points():
+    for cmd in (["sphrom", "scenes"], [sys.executable, "-m", "harness", "scenes"]):
+        done = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
+        assert done.returncode == 0 and "tenmode" in done.stdout
+    done = subprocess.run(["sphrom", "sph", "multimode", "--dt", "-1", "--out", "x.h5"],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2 and "Traceback" not in done.stderr
