@@ -1,0 +1,44 @@
+"""From a scene to a POD basis: the full SPH run (cached) and the SVD."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..cache import cached_sph
+from ..sph.solver import build_problem, default_sample_steps, step_count
+from .basis import build_basis
+from .snapshots import describe, snapshot_steps
+
+
+def error_steps(scene):
+    """The steps at which errors are measured: every ``sph.every`` and the last."""
+    return default_sample_steps(step_count(scene.T, scene.sph.dt), scene.sph.every)
+
+
+def basis_for_scene(scene, spec=None, progress=True, problem=None):
+    """POD basis of ``scene`` for the snapshot strategy ``spec`` (default the scene's).
+
+    Returns (basis, run): the run is the cached full SPH solution, with samples
+    at the error steps and at the snapshot steps.
+    """
+    spec = dict(scene.snapshots if spec is None else spec)
+    problem = problem or build_problem(scene)
+    n = step_count(scene.T, scene.sph.dt)
+    steps = error_steps(scene)
+    if not spec.get("all"):
+        sv, sr = snapshot_steps(spec, scene.sph.dt, n)
+        run = cached_sph(scene, np.union1d(steps, np.union1d(sv, sr)), progress=progress, problem=problem)
+    else:
+        run = cached_sph(scene, steps, progress=progress, problem=problem)
+        sv, sr = snapshot_steps(spec, scene.sph.dt, n, stored_steps=run.steps)
+    basis = build_basis(run.v, run.rho, run.steps, sv, sr, run.x, scene.sph.dt, scene, describe(spec))
+    basis.timings["sph"] = 0.0 if run.reused else run.wall_time
+    return basis, run
+
+
+def on_steps(run, steps):
+    """(v, rho) of a cached run at ``steps`` (all must be stored)."""
+    index = np.searchsorted(run.steps, steps)
+    if np.any(run.steps[np.minimum(index, run.steps.size - 1)] != steps):
+        raise ValueError("requested steps are not all stored")
+    return run.v[index], run.rho[index]

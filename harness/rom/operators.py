@@ -1,0 +1,200 @@
+"""Reduced operators of the density-linearised model (eqs. 2.17-2.24).
+
+With v ≈ U^v a^v, ρ ≈ U^ρ a^ρ (eq. 2.18), the linearisation
+1 - ρ_j(0)/ρ_j ≈ ρ_j/ρ_j(0) - 1 (eq. 2.17) turns eq. 2.11 into
+
+    ȧ^v = -K a^ρ + b - D̂ a^v + p̂ f(t)                                 (2.19)
+    ȧ^ρ = -M(a^ρ) a^v,   M = U^ρᵀ diag(ρ²/ρ0) G U^v,  ρ = U^ρ a^ρ        (2.20)
+
+with K = U^vᵀ A U^ρ (A of eq. 2.21), b = U^vᵀ B 1 (eq. 2.22),
+D̂ = U^vᵀ D U^v (eq. 2.24), p̂ = U^vᵀ profile, and C = diag(ρ²/ρ0) G of eq.
+2.23 (the paper's C_ij has m_j/ρ_i(0), a misprint of the m_j/ρ_j(0) of eq.
+2.10).  G_ij = (m_j/ρ_j(0)) ∇W_ij is the SPH gradient (eq. 2.9).
+
+M is quadratic in a^ρ: M = Σ_{a<=b} a^ρ_a a^ρ_b T[(a,b)] with the tensor
+
+    T[(a,b), p, q] = w_ab Σ_i U^ρ_ip U^ρ_ia U^ρ_ib (G U^v)_iq / ρ0_i,  w_ab = 1 if a = b else 2,
+
+so the frozen-coefficient refresh costs k_ρ(k_ρ+1)/2 · k_ρ k_v operations,
+independent of N, and is exact.  Pairs are ordered a = 0..k_ρ-1, b = a..k_ρ-1.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..sph.solver import SPHProblem
+
+# Above this many tensor entries the refresh falls back to the O(N k²) path.
+TENSOR_MAX_ENTRIES = 20_000_000
+
+
+def pair_index(k):
+    """(a, b) for every pair a <= b in the tensor's order, shape (k(k+1)/2, 2)."""
+    return np.array([(a, b) for a in range(k) for b in range(a, k)], dtype=np.int64).reshape(-1, 2)
+
+
+@dataclass
+class ReducedOperators:
+    """Everything the density-linearised and frozen models need.
+
+    Attributes
+    ----------
+    U_v, U_rho : ndarray (N, k_v), (N, k_rho)
+        Bases (U_v with the input direction appended when augmented).
+    K : ndarray (k_v, k_rho)
+        U^vᵀ A U^ρ [s^-2 m^3 kg^-1 ... per unit of a^ρ], eq. 2.21.
+    b : ndarray (k_v,)
+        U^vᵀ B 1, eq. 2.22.
+    D : ndarray (k_v, k_v) or None
+        U^vᵀ D U^v [s^-1], eq. 2.24; None when d ≡ 0.
+    p : ndarray (k_v,) or None
+        U^vᵀ profile: the input direction; None when there is no force input.
+    GU_v : ndarray (N, k_v)
+        G U^v, for the O(N k) and O(N k²) paths.
+    inv_rho0 : ndarray (N,)
+        1/ρ0 at the particles.
+    T : ndarray (n_pairs, k_rho, k_v) or None
+        The refresh tensor (module docstring); None above TENSOR_MAX_ENTRIES.
+    a_v0, a_rho0 : ndarray
+        Initial reduced coordinates U^ᵀ v0, U^ᵀ ρ0.
+    input_error : float
+        ||(I - U U^ᵀ) profile|| / ||profile|| of the POD velocity modes
+        (before augmentation; nan without an input).
+    augmented : bool
+        Whether the input direction was appended to U_v.
+    timings : dict
+        Offline wall time [s] of the operators (``operators``, ``tensor``).
+    """
+
+    U_v: np.ndarray
+    U_rho: np.ndarray
+    K: np.ndarray
+    b: np.ndarray
+    D: np.ndarray | None
+    p: np.ndarray | None
+    GU_v: np.ndarray
+    inv_rho0: np.ndarray
+    T: np.ndarray | None
+    a_v0: np.ndarray
+    a_rho0: np.ndarray
+    input_error: float
+    augmented: bool
+    timings: dict = field(default_factory=dict)
+
+    @property
+    def k_v(self):
+        return self.U_v.shape[1]
+
+    @property
+    def k_rho(self):
+        return self.U_rho.shape[1]
+
+
+def augment_with(U, direction, tol=1e-10):
+    """Append the part of ``direction`` outside span(U) as a new unit column.
+
+    Returns (U', relative projection error before augmentation, augmented?).
+    Gram-Schmidt is applied twice for orthogonality to round-off.
+    """
+    d = np.asarray(direction, float)
+    norm = np.linalg.norm(d)
+    if norm == 0:
+        return U, float("nan"), False
+    r = d - U @ (U.T @ d)
+    error = float(np.linalg.norm(r) / norm)
+    if error <= tol:
+        return U, error, False
+    r = r - U @ (U.T @ r)
+    return np.column_stack([U, r / np.linalg.norm(r)]), error, True
+
+
+def build_operators(problem: SPHProblem, U_v, U_rho, input_direction="auto", tensor="auto"):
+    """Reduced operators for bases ``U_v`` (N, k_v) and ``U_rho`` (N, k_rho).
+
+    Parameters
+    ----------
+    problem : SPHProblem
+        The full SPH problem (fields, G) the bases belong to.
+    input_direction : {"auto", "always", "never"}
+        Whether the force profile gets an input row p̂ and, when it is not in
+        span(U_v), an appended basis vector.  ``auto``: when the scene has a
+        force; ``always``: the FMU, whose input f may be anything.
+    tensor : {"auto", "always", "never"}
+        Whether to build the refresh tensor T.
+    """
+    t0 = time.perf_counter()
+    U_v = np.ascontiguousarray(U_v, dtype=float)
+    U_rho = np.ascontiguousarray(U_rho, dtype=float)
+    rho0, c, d, profile = problem.rho0, problem.c, problem.d, problem.profile
+    scene = problem.scene
+    has_force = problem.terms["force_profile"] and bool(np.any(scene.force(np.linspace(0, scene.T, 1025)) != 0))
+    want_input = {"auto": has_force, "always": bool(np.any(profile != 0)), "never": False}[input_direction]
+    input_error, augmented = float("nan"), False
+    if want_input:
+        U_v, input_error, augmented = augment_with(U_v, profile)
+    G = problem.neighbours.matrix()
+    inv_rho0 = 1.0 / rho0
+    GU_v = np.asarray(G @ U_v)
+    K = U_v.T @ (inv_rho0[:, None] * np.asarray(G @ ((c * inv_rho0)[:, None] * U_rho)))     # eq. 2.21
+    b = U_v.T @ (inv_rho0 * (G @ c))                                                      # eq. 2.22
+    D = U_v.T @ (d[:, None] * U_v) if problem.terms["damping"] else None                  # eq. 2.24
+    p = U_v.T @ profile if want_input else None
+    t1 = time.perf_counter()
+    k_v, k_r = U_v.shape[1], U_rho.shape[1]
+    n_pairs = k_r * (k_r + 1) // 2
+    build = {"auto": n_pairs * k_r * k_v <= TENSOR_MAX_ENTRIES, "always": True, "never": False}[tensor]
+    T = refresh_tensor(U_rho, GU_v, inv_rho0) if build else None
+    t2 = time.perf_counter()
+    return ReducedOperators(U_v=U_v, U_rho=U_rho, K=np.ascontiguousarray(K), b=b,
+                            D=None if D is None else np.ascontiguousarray(D), p=p,
+                            GU_v=np.ascontiguousarray(GU_v), inv_rho0=inv_rho0, T=T,
+                            a_v0=U_v.T @ problem.v0, a_rho0=U_rho.T @ rho0, input_error=input_error,
+                            augmented=augmented, timings={"operators": t1 - t0, "tensor": t2 - t1})
+
+
+def refresh_tensor(U_rho, GU_v, inv_rho0):
+    """T[(a,b), p, q] of the module docstring, shape (k_rho(k_rho+1)/2, k_rho, k_v)."""
+    k_r = U_rho.shape[1]
+    pairs = pair_index(k_r)
+    weights = np.where(pairs[:, 0] == pairs[:, 1], 1.0, 2.0)
+    prods = U_rho[:, pairs[:, 0]] * U_rho[:, pairs[:, 1]] * (inv_rho0[:, None] * weights[None, :])  # (N, n_pairs)
+    scaled = U_rho.T[None, :, :] * prods.T[:, None, :]          # (n_pairs, k_r, N)
+    return np.ascontiguousarray(scaled @ GU_v)                   # (n_pairs, k_r, k_v)
+
+
+def density_matrix(ops: ReducedOperators, a_rho):
+    """M(a^ρ) = U^ρᵀ diag(ρ²/ρ0) G U^v by the straightforward O(N k²) path."""
+    rho = ops.U_rho @ a_rho
+    return ops.U_rho.T @ ((rho * rho * ops.inv_rho0)[:, None] * ops.GU_v)
+
+
+def probe_rows(U, x, L, probes):
+    """Rows that interpolate U a linearly between particles at ``probes``.
+
+    Parameters
+    ----------
+    U : ndarray (N, k)
+        Basis; the field is U a at the particles x.
+    x : ndarray (N,)
+        Uniform, cell-centred particle positions [m].
+    L : float
+        Period [m].
+    probes : array_like
+        Probe positions in units of L, in [0, 1].
+
+    Returns
+    -------
+    ndarray (P, k): row j gives the field at probe j as row @ a.
+    """
+    probes = np.asarray(probes, float)
+    n = x.size
+    dx = L / n
+    s = np.mod(probes * L - x[0], L) / dx        # fractional index from particle 0
+    i0 = np.floor(s).astype(np.int64) % n
+    w = s - np.floor(s)
+    i1 = (i0 + 1) % n
+    return (1.0 - w)[:, None] * U[i0] + w[:, None] * U[i1]
