@@ -18,6 +18,9 @@ from .errors import SimulationError, UserError
 COMMANDS = {
     "scenes": "scenes",
     "sph": "sph",
+    "pod": "pod",
+    "rom": "rom",
+    "modes": "modes",
     "bench-sph": "bench_sph",
 }
 

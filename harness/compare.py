@@ -35,3 +35,21 @@ def exact_errors(scene, t, x, v, rho, rho0=None):
     if rho0 is None:
         rho0 = scene.field("rho0", x)
     return error_table(v, rho, v_ref, rho_ref, t, np.asarray(rho0))
+
+
+def reference_fields(scene, x, t):
+    """The reference solution (v, rho, label) at positions x and times t.
+
+    The exact solution when the scene has one; otherwise the continuum
+    reference of :mod:`harness.references.continuum`, or None when no
+    reference can be computed.
+    """
+    from .references.exact import exact_solution, is_available
+    if is_available(scene):
+        v, rho = exact_solution(scene, x, t)
+        return v, rho, "exact"
+    try:
+        from .references.continuum import best_reference
+    except ImportError:
+        return None
+    return best_reference(scene, x, t)

@@ -26,3 +26,9 @@ def small_scene(base="multimode", T=0.5, n=32, dt=None, integrator="euler", ever
 @pytest.fixture
 def tmp_out(tmp_path):
     return tmp_path
+
+
+@pytest.fixture(autouse=True, scope="session")
+def _private_cache(tmp_path_factory):
+    """Every test session gets its own SPH-run cache."""
+    os.environ["SPHROM_CACHE"] = str(tmp_path_factory.mktemp("sphrom-cache"))

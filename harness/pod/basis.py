@@ -48,8 +48,8 @@ def pod(snapshots):
 def modes_for_energy(sigma, tol):
     """Smallest k with Σ_{i>k} σ_i² <= tol Σ σ_i² (the energy left out)."""
     e = np.asarray(sigma, float) ** 2
-    tail = 1.0 - np.cumsum(e) / e.sum()
-    return int(np.argmax(tail <= tol) + 1) if np.any(tail <= tol) else e.size
+    tail = np.append(np.cumsum(e[::-1])[::-1][1:], 0.0) / e.sum()   # Σ_{i>k} σ_i², no cancellation
+    return int(np.argmax(tail <= tol) + 1)
 
 
 @dataclass

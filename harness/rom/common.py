@@ -148,7 +148,8 @@ def run_reduced(model, ops, problem, *, n_steps, dt, integrator="euler", sample_
                                   sample_steps, ptr, out_av, out_ar, bound)
     else:
         mcode = 0 if model == "original" else 1
-        flags = problem.flags(has_f)
+        # the original model applies the scene's force through the full right-hand side
+        flags = problem.flags(problem.terms["force_profile"] if model == "original" else has_f)
         packed = [problem.packed(name) for name in ("rho0", "c", "d", "profile")]
         Uv = np.ascontiguousarray(ops.U_v)
         Ur = np.ascontiguousarray(ops.U_rho)

@@ -1,0 +1,143 @@
+"""``sphrom modes``: the mode sweeps of the paper (singular values, error against k)."""
+
+from .options import int_at_least
+from .snapshot_options import add_snapshot_options
+
+
+def add_parser(sub):
+    p = sub.add_parser("modes", help="singular values and reduced-model error against the number of modes",
+                       description="The mode sweep of the paper's figures: singular-value decay and the relative L2 "
+                                   "error of a reduced model against the full SPH for k = 1..KMAX, with the SPH error "
+                                   "line (SPH vs the exact or continuum reference), as PNG and CSV. The mode threshold "
+                                   "is the smallest k from which the error stays below the SPH error in v and in "
+                                   "rho - rho0. With --all: every paper scene and every snapshot study of the paper, "
+                                   "beside the paper's findings, in summary.md.")
+    p.add_argument("scene", metavar="SCENE", nargs="?")
+    p.add_argument("--all", action="store_true", help="every paper scene and snapshot study")
+    add_snapshot_options(p)
+    p.add_argument("--kmax", type=int_at_least(1), metavar="K", help="largest k (default min(rank, 20 or more))")
+    p.add_argument("--models", default="original", help="comma-separated: original, linearized, frozen")
+    p.add_argument("--freeze", type=int_at_least(1), default=10, metavar="NF", help="n_freeze of the frozen model")
+    p.add_argument("--out", metavar="DIR", default="modes", help="output folder (default ./modes)")
+    p.add_argument("--quiet", action="store_true")
+    p.set_defaults(handler=run)
+
+
+def _write_csv(path, sweep):
+    import csv
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["k", "model", "err_v", "err_rho", "err_rho_var", "online_s"])
+        for r in sweep["rows"]:
+            w.writerow([r["k"], r["model"], f"{r['v']:.6e}", f"{r['rho']:.6e}", f"{r['rho_var']:.6e}",
+                        f"{r['online']:.6e}"])
+        w.writerow([])
+        w.writerow(["mode", "sigma_v", "sigma_rho"])
+        sv, sr = sweep["sigma_v"], sweep["sigma_rho"]
+        for i in range(max(sv.size, sr.size)):
+            w.writerow([i + 1, f"{sv[i]:.6e}" if i < sv.size else "", f"{sr[i]:.6e}" if i < sr.size else ""])
+
+
+def _one(scene, spec, args, out, tag, models):
+    from ..pod.study import mode_sweep, plot_sweep, threshold
+    sweep = mode_sweep(scene, spec, kmax=args.kmax, models=models, n_freeze=args.freeze, progress=not args.quiet)
+    _write_csv(out / f"{tag}.csv", sweep)
+    plot_sweep(sweep, out / f"{tag}.png", scene.paper.get("mode_threshold") if spec is None else None)
+    ths = {m: threshold(sweep["rows"], sweep["sph_error"], m) for m in models}
+    return sweep, ths
+
+
+def run(args):
+    from pathlib import Path
+
+    from ..errors import UserError
+    from ..scene import builtin_names, load_scene
+    from .snapshot_options import strategy_from_args
+
+    models = tuple(m for m in args.models.split(",") if m)
+    bad = [m for m in models if m not in ("original", "linearized", "frozen")]
+    if bad:
+        raise UserError(f"--models: {bad[0]!r} is not one of original, linearized, frozen")
+    if args.all == (args.scene is not None):
+        raise UserError("give a SCENE or --all")
+    out = Path(args.out)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UserError(f"--out: cannot create '{out}' ({exc})") from None
+    if not args.all:
+        scene = load_scene(args.scene)
+        spec = strategy_from_args(args, scene)
+        custom = spec != dict(scene.snapshots)
+        sweep, ths = _one(scene, spec if custom else None, args, out, scene.name, models)
+        _print_sweep(scene, sweep, ths, None if custom else scene.paper.get("mode_threshold"))
+        print(f"wrote {out / (scene.name + '.csv')} and {out / (scene.name + '.png')}")
+        return 0
+    return _run_all(args, out, models, [load_scene(n) for n in builtin_names()])
+
+
+def _print_sweep(scene, sweep, ths, paper):
+    e = sweep["sph_error"]
+    sph = "no reference" if e is None else f"SPH error vs {sweep['reference']}: v {e['v']:.3e}, rho-rho0 {e['rho_var']:.3e}"
+    print(f"modes {scene.name}: {sweep['strategy']}; {sph}")
+    for model, k in ths.items():
+        paper_txt = f" (paper: {paper})" if paper and model == "original" else ""
+        print(f"  {model}: POD error below the SPH error from k = {k if k else '-- (not within k <= ' + str(sweep['kmax']) + ')'}{paper_txt}")
+
+
+def _run_all(args, out, models, scenes):
+    from ..pod.study import outcome, study_spec
+    from ..pod.snapshots import describe
+
+    lines = ["# Mode thresholds and snapshot studies", "",
+             "Produced by `sphrom modes --all`. Threshold: the smallest k from which the original POD-MOR error "
+             "against the full SPH stays below the SPH error against the reference, in v and in ρ−ρ0 "
+             "(relative L², square-root form of eq. 3.4).", "",
+             "| scene | snapshots | reference | SPH error v | SPH error ρ−ρ0 | threshold k (ours) | paper |",
+             "| --- | --- | --- | --- | --- | --- | --- |"]
+    studies = []
+    for scene in scenes:
+        sweep, ths = _one(scene, None, args, out, scene.name, models)
+        _print_sweep(scene, sweep, ths, scene.paper.get("mode_threshold"))
+        e = sweep["sph_error"]
+        lines.append(f"| {scene.name} | {sweep['strategy']} | {sweep['reference'] or 'none'} | "
+                     f"{e['v']:.3e} | {e['rho_var']:.3e} | {ths['original'] or '—'} | "
+                     f"{scene.paper.get('mode_threshold', '—')} |" if e else
+                     f"| {scene.name} | {sweep['strategy']} | none | — | — | — | {scene.paper.get('mode_threshold', '—')} |")
+        for i, study in enumerate(scene.paper.get("snapshot_studies", [])):
+            studies.append((scene, i, study, sweep))
+    lines += ["", "## Snapshot studies", "",
+              "| scene | paper figure | snapshots | paper | ours | detail |", "| --- | --- | --- | --- | --- | --- |"]
+    for scene, i, study, base in studies:
+        spec = study_spec(study)
+        tag = f"{scene.name}-study{i + 1}"
+        if study["outcome"] == "critical":
+            # the smallest uniform count in [count-1, count+4] that works
+            found = None
+            for count in range(study["count"] - 1, study["count"] + 5):
+                s = {**spec, "count": count}
+                sweep, ths = _one(scene, s, args, out, f"{tag}-count{count}", models)
+                if ths["original"] is not None:
+                    found = (count, ths["original"])
+                    break
+            ours = f"critical count {found[0]} (k = {found[1]})" if found else "no count works"
+            detail = f"searched counts {study['count'] - 1}..{study['count'] + 4}"
+        else:
+            sweep, ths = _one(scene, spec, args, out, tag, models)
+            if study["outcome"] == "larger_error":
+                kk = min(5, sweep["kmax"], base["kmax"])
+                ev = [r["v"] for r in sweep["rows"] if r["k"] == kk and r["model"] == "original"][0]
+                eb = [r["v"] for r in base["rows"] if r["k"] == kk and r["model"] == "original"][0]
+                ours = "larger_error" if ev > eb else "not larger"
+                detail = f"v error at k = {kk}: {ev:.3e} vs {eb:.3e} with the scene's snapshots"
+            else:
+                ours = outcome(sweep)
+                detail = f"threshold k = {ths['original']}" if ths["original"] else f"no k <= {sweep['kmax']} works"
+                if study.get("mode_threshold"):
+                    detail += f" (paper k = {study['mode_threshold']})"
+        lines.append(f"| {scene.name} | {study.get('figure', '')} | {describe(spec)} | {study['outcome']} | "
+                     f"{ours} | {detail} |")
+        print(f"  study {scene.name} {describe(spec)}: paper {study['outcome']}, ours {ours} ({detail})")
+    (out / "summary.md").write_text("\n".join(lines) + "\n")
+    print(f"wrote {out / 'summary.md'}")
+    return 0

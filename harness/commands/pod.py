@@ -1,0 +1,71 @@
+"""``sphrom pod``: POD bases of a scene (eq. 2.15) from the full SPH (cached)."""
+
+from .options import positive_float
+from .snapshot_options import add_snapshot_options
+
+
+def add_parser(sub):
+    p = sub.add_parser("pod", help="POD bases of velocity and density snapshots",
+                       description="Run the full SPH of SCENE (or reuse a cached run of the same settings), take "
+                                   "velocity and density snapshots, and write their POD bases (thin SVD, eq. 2.15), "
+                                   "singular values, the reduced operators and initial reduced coordinates at the "
+                                   "chosen mode count, to a basis file.")
+    p.add_argument("scene", metavar="SCENE")
+    add_snapshot_options(p)
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--modes", metavar="K|KV,KRHO", help="mode counts stored with the operators (default the scene's)")
+    g.add_argument("--energy", type=positive_float, metavar="TOL",
+                   help="choose k as the fewest modes leaving out at most TOL of the snapshot energy")
+    p.add_argument("--out", required=True, metavar="BASIS.h5")
+    p.add_argument("--quiet", action="store_true")
+    p.set_defaults(handler=run)
+
+
+def run(args):
+    import numpy as np
+
+    from ..errors import UserError
+    from ..pod.basis import modes_for_energy, write_basis
+    from ..pod.pipeline import basis_for_scene
+    from ..rom.operators import build_operators
+    from ..runio import check_output_path
+    from ..scene import load_scene
+    from .snapshot_options import parse_modes, strategy_from_args
+
+    out = check_output_path(args.out)
+    scene = load_scene(args.scene)
+    spec = strategy_from_args(args, scene)
+    basis, run_ = basis_for_scene(scene, spec, progress=not args.quiet)
+    rv, rr = basis.max_modes
+    if args.energy is not None:
+        if args.energy >= 1:
+            raise UserError(f"--energy: {args.energy:g} is out of range (allowed: 0 < TOL < 1)")
+        k_v, k_r = modes_for_energy(basis.sigma_v, args.energy), modes_for_energy(basis.sigma_rho, args.energy)
+    else:
+        k_v, k_r = parse_modes(args.modes or scene.rom["modes"])
+        if k_v > rv or k_r > rr:
+            raise UserError(f"--modes: {k_v},{k_r} is out of range (allowed: at most {rv} velocity and {rr} density "
+                            "modes, the rank of these snapshots)")
+    ops = build_operators(run_.problem, basis.U_v[:, :k_v], basis.U_rho[:, :k_r])
+    basis.attrs.update({"default_modes_v": k_v, "default_modes_rho": k_r})
+    operators = {"K": ops.K, "b": ops.b, "D": ops.D, "p": ops.p, "a_v0": ops.a_v0, "a_rho0": ops.a_rho0,
+                 "attrs": {"k_v": ops.k_v, "k_rho": ops.k_rho, "augmented": int(ops.augmented),
+                           "input_error": ops.input_error, "offline_time.operators": ops.timings["operators"]}}
+    if ops.augmented:
+        operators["input_mode"] = ops.U_v[:, -1]
+    write_basis(out, basis, scene, extra={"operators": operators})
+    energy_left = lambda s, k: float(1 - np.sum(s[:k] ** 2) / np.sum(s**2))
+    print(f"pod {scene.name}: {basis.strategy}; {basis.steps_v.size} velocity and {basis.steps_rho.size} "
+          f"density snapshots; rank {rv}, {rr}")
+    print(f"  sigma_v / sigma_v[0]:   " + " ".join(f"{x:.2e}" for x in basis.sigma_v[:14] / basis.sigma_v[0]))
+    print(f"  sigma_rho / sigma_rho[0]: " + " ".join(f"{x:.2e}" for x in basis.sigma_rho[:14] / basis.sigma_rho[0]))
+    print(f"  k_v = {k_v} (energy left out {energy_left(basis.sigma_v, k_v):.2e}), "
+          f"k_rho = {k_r} (energy left out {energy_left(basis.sigma_rho, k_r):.2e})")
+    if not np.isnan(ops.input_error):
+        print(f"  force direction: projection error {ops.input_error:.3e} in the POD velocity modes"
+              + ("; appended to the basis" if ops.augmented else ""))
+    sph_txt = "reused cached run" if run_.reused else f"{basis.timings['sph']:.3f} s"
+    print(f"  offline: full SPH {sph_txt}, SVD {basis.timings['svd'] * 1e3:.2f} ms, "
+          f"operators {ops.timings['operators'] * 1e3:.2f} ms")
+    print(f"wrote {out}")
+    return 0

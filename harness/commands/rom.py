@@ -1,0 +1,89 @@
+"""``sphrom rom``: run a reduced model from a basis file."""
+
+from .options import int_at_least
+
+
+def add_parser(sub):
+    p = sub.add_parser("rom", help="run a reduced model (original, linearized, frozen)",
+                       description="Run the original POD-MOR (eq. 2.16), the density-linearised model (eq. 2.17) or "
+                                   "the frozen-coefficient model (eqs. 2.19-2.24) of SCENE on a basis from "
+                                   "'sphrom pod', write the reconstructed fields in the run layout of 'sphrom sph', "
+                                   "and print the errors against the full SPH and the exact solution.")
+    p.add_argument("scene", metavar="SCENE")
+    p.add_argument("--basis", required=True, metavar="BASIS.h5")
+    p.add_argument("--model", required=True, choices=("original", "linearized", "frozen"))
+    p.add_argument("--freeze", type=int_at_least(1), default=10, metavar="NF",
+                   help="refresh period n_freeze of the frozen coefficients (default 10)")
+    p.add_argument("--modes", metavar="K|KV,KRHO", help="mode counts (default: the basis file's)")
+    p.add_argument("--integrator", choices=("euler", "symplectic", "rk4"),
+                   help="time integrator (default: the scene's; rk4 is not defined for frozen coefficients)")
+    p.add_argument("--refresh", choices=("tensor", "direct"), default="tensor",
+                   help="frozen refresh: the exact O(k^4)-type tensor (default) or the O(N k^2) product")
+    p.add_argument("--out", required=True, metavar="RUN.h5")
+    p.add_argument("--quiet", action="store_true")
+    p.set_defaults(handler=run)
+
+
+def run(args):
+    from ..cache import cached_sph
+    from ..compare import error_table, exact_errors, format_errors
+    from ..errors import UserError
+    from ..pod.basis import read_basis
+    from ..pod.pipeline import error_steps, on_steps
+    from ..rom.common import run_reduced
+    from ..rom.operators import build_operators
+    from ..runio import check_output_path, scene_attrs, write_run
+    from ..scene import load_scene
+    from ..sph.solver import build_problem, step_count
+    from .snapshot_options import parse_modes
+
+    out = check_output_path(args.out)
+    scene = load_scene(args.scene)
+    basis = read_basis(args.basis)
+    if basis.U_v.shape[0] != scene.sph.n_particles:
+        raise UserError(f"--basis: '{args.basis}' has {basis.U_v.shape[0]} particles, the scene "
+                        f"{scene.sph.n_particles}")
+    if abs(basis.dt - scene.sph.dt) > 1e-15 * scene.sph.dt:
+        raise UserError(f"--basis: '{args.basis}' was made with dt = {basis.dt:g} s, the scene has {scene.sph.dt:g} s")
+    integrator = args.integrator or scene.sph.integrator
+    if args.model == "frozen" and integrator == "rk4":
+        raise UserError("--integrator: rk4 is not defined for frozen coefficients (allowed: euler, symplectic)")
+    default = f"{basis.attrs.get('default_modes_v', 1)},{basis.attrs.get('default_modes_rho', 1)}"
+    k_v, k_r = parse_modes(args.modes or default)
+    rv, rr = basis.max_modes
+    if k_v > rv or k_r > rr:
+        raise UserError(f"--modes: {k_v},{k_r} is out of range (allowed: at most {rv},{rr}, the basis' modes)")
+    problem = build_problem(scene)
+    ops = build_operators(problem, basis.U_v[:, :k_v], basis.U_rho[:, :k_r])
+    steps = error_steps(scene)
+    n = step_count(scene.T, scene.sph.dt)
+    result = run_reduced(args.model, ops, problem, n_steps=n, dt=scene.sph.dt, integrator=integrator,
+                         sample_steps=steps, n_freeze=args.freeze, refresh=args.refresh, progress=not args.quiet)
+    sph = cached_sph(scene.with_sph(integrator=integrator), steps, progress=not args.quiet, problem=problem)
+    v_sph, rho_sph = on_steps(sph, steps)
+    v, rho = result.v, result.rho
+    vs_sph = error_table(v, rho, v_sph, rho_sph, result.t, problem.rho0)
+    vs_exact = exact_errors(scene, result.t, problem.x, v, rho, problem.rho0)
+    offline = {"svd": basis.timings.get("svd", 0.0), **ops.timings}
+    label = f"{args.model}" + (f", n_freeze = {args.freeze}, {args.refresh} refresh" if args.model == "frozen" else "")
+    print(f"rom {scene.name}: {label}, k_v = {ops.k_v}, k_rho = {ops.k_rho}, {integrator}, {n} steps")
+    print(format_errors(vs_sph, "  relative L2 error vs full SPH"))
+    if vs_exact is not None:
+        print(format_errors(vs_exact, "  relative L2 error vs exact   "))
+    print(f"  online {result.wall_time:.4f} s; offline: SVD {offline['svd'] * 1e3:.2f} ms, operators "
+          f"{offline['operators'] * 1e3:.2f} ms, tensor {offline['tensor'] * 1e3:.2f} ms; full SPH "
+          f"{sph.wall_time:.4f} s ({'cached run, timed earlier' if sph.reused else 'timed now'})")
+    attrs = {**scene_attrs(scene), "solver": f"rom-{args.model}", "solver.model": args.model,
+             "solver.integrator": integrator, "solver.k_v": ops.k_v, "solver.k_rho": ops.k_rho,
+             "solver.basis": str(args.basis), "solver.augmented_input": int(ops.augmented),
+             "solver.input_error": ops.input_error, "wall_time_s": result.wall_time,
+             **{f"offline_time.{k}": v for k, v in offline.items()},
+             **{f"error.sph.{k}": v for k, v in vs_sph.items()}}
+    if args.model == "frozen":
+        attrs.update({"solver.n_freeze": args.freeze, "solver.refresh": args.refresh})
+    if vs_exact is not None:
+        attrs.update({f"error.exact.{k}": v for k, v in vs_exact.items()})
+    write_run(out, result.t, problem.x, v, rho, attrs, steps=result.steps,
+              extra={"a_v": result.a_v, "a_rho": result.a_rho})
+    print(f"wrote {out}")
+    return 0

@@ -1,0 +1,144 @@
+"""Mode sweeps and snapshot studies: the paper's Figs. 3.3-3.16, 3.19-3.27, C.4, C.8.
+
+For a scene and a snapshot strategy: the singular values, and the relative
+L² error of a reduced model against the full SPH for k = 1..kmax, beside the
+SPH's own error against the reference (exact solution, or a continuum
+reference for ``heterogeneous``).  The *mode threshold* is the smallest k
+from which the POD error stays below the SPH error.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..compare import error_table, reference_fields
+from ..progress import progress_bar
+from ..rom.common import run_reduced
+from ..rom.operators import build_operators
+from ..sph.solver import step_count
+from .pipeline import basis_for_scene, error_steps, on_steps
+from .snapshots import describe
+
+
+def mode_sweep(scene, spec=None, kmax=None, models=("original",), n_freeze=10, progress=True, reference=None):
+    """Errors of reduced models against the full SPH for k = 1..kmax.
+
+    Parameters
+    ----------
+    scene : Scene
+    spec : dict, optional
+        Snapshot strategy (default the scene's).
+    kmax : int, optional
+        Largest k (default min(rank, max(20, paper threshold + 8))).
+    models : tuple of str
+        Reduced models to sweep.
+    reference : (v, rho, label), optional
+        Reference fields at the error steps; computed when not given.
+
+    Returns
+    -------
+    dict with ``sigma_v``, ``sigma_rho``, ``rows`` (one per model and k:
+    k, model, v, rho, rho_var, online [s]), ``sph_error`` (dict of
+    error_table or None), ``reference`` (label), ``strategy`` and
+    ``sph_time`` [s].
+    """
+    basis, run = basis_for_scene(scene, spec, progress=progress)
+    problem = run.problem
+    steps = error_steps(scene)
+    v_sph, rho_sph = on_steps(run, steps)
+    t = steps * scene.sph.dt
+    if reference is None:
+        reference = reference_fields(scene, problem.x, t)
+    sph_error = None
+    if reference is not None:
+        sph_error = error_table(v_sph, rho_sph, reference[0], reference[1], t, problem.rho0)
+    rank = min(basis.max_modes)
+    if kmax is None:
+        kmax = min(rank, max(20, scene.paper.get("mode_threshold", 12) + 8))
+    kmax = min(kmax, rank)
+    n = step_count(scene.T, scene.sph.dt)
+    rows = []
+    with progress_bar(total=kmax * len(models), desc=f"modes {scene.name}", enabled=progress) as bar:
+        for k in range(1, kmax + 1):
+            ops = build_operators(problem, basis.U_v[:, :k], basis.U_rho[:, :k])
+            for model in models:
+                try:
+                    res = run_reduced(model, ops, problem, n_steps=n, dt=scene.sph.dt,
+                                      integrator=scene.sph.integrator, sample_steps=steps, n_freeze=n_freeze)
+                    err = error_table(res.v, res.rho, v_sph, rho_sph, t, problem.rho0)
+                    online = res.wall_time
+                except Exception as exc:              # a blow-up is a result here, not a failure
+                    from ..errors import SimulationError
+                    if not isinstance(exc, SimulationError):
+                        raise
+                    err = {key: float("inf") for key in ("v", "rho", "rho_var", "v_sq", "rho_sq")}
+                    online = float("nan")
+                rows.append({"k": k, "model": model, **{key: err[key] for key in ("v", "rho", "rho_var")},
+                             "online": online})
+                bar.update(1)
+    return {"scene": scene.name, "sigma_v": basis.sigma_v, "sigma_rho": basis.sigma_rho, "rows": rows,
+            "sph_error": sph_error, "reference": None if reference is None else reference[2],
+            "strategy": describe(spec or scene.snapshots), "sph_time": run.wall_time, "kmax": kmax}
+
+
+def threshold(rows, sph_error, model="original", keys=("v", "rho_var")):
+    """Smallest k from which the POD error stays below the SPH error in every key.
+
+    Returns None when no such k exists up to the sweep's kmax (or no SPH error).
+    """
+    if sph_error is None:
+        return None
+    ks = sorted(r["k"] for r in rows if r["model"] == model)
+    below = {r["k"]: all(r[key] < sph_error[key] for key in keys) for r in rows if r["model"] == model}
+    best = None
+    for k in reversed(ks):
+        if below[k]:
+            best = k
+        else:
+            break
+    return best
+
+
+def outcome(sweep, model="original"):
+    """'works' when a threshold exists within the sweep, else 'fails'."""
+    return "works" if threshold(sweep["rows"], sweep["sph_error"], model) is not None else "fails"
+
+
+def study_spec(study):
+    """The snapshot strategy of one of the paper's snapshot studies."""
+    return {k: study[k] for k in ("count", "window", "times", "times_v", "times_rho", "random") if k in study}
+
+
+def plot_sweep(sweep, path, paper_threshold=None):
+    """Singular values (left) and error against k with the SPH error line (right), as PNG."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (a, b) = plt.subplots(1, 2, figsize=(9.5, 3.6))
+    sv, sr = sweep["sigma_v"], sweep["sigma_rho"]
+    a.semilogy(np.arange(1, sv.size + 1), sv / sv[0], "o-", ms=3, label="velocity")
+    a.semilogy(np.arange(1, sr.size + 1), sr / sr[0], "s-", ms=3, label="density")
+    a.set_xlabel("mode")
+    a.set_ylabel("σ / σ₁")
+    a.set_title("singular values")
+    a.legend()
+    for model, style in (("original", "-"), ("linearized", "--"), ("frozen", ":")):
+        rows = [r for r in sweep["rows"] if r["model"] == model]
+        if not rows:
+            continue
+        ks = [r["k"] for r in rows]
+        b.semilogy(ks, [r["v"] for r in rows], "o" + style, ms=3, label=f"{model}: v")
+        b.semilogy(ks, [r["rho_var"] for r in rows], "s" + style, ms=3, label=f"{model}: ρ−ρ0")
+    if sweep["sph_error"] is not None:
+        b.axhline(sweep["sph_error"]["v"], color="C0", lw=0.8, ls="-.", label="SPH error: v")
+        b.axhline(sweep["sph_error"]["rho_var"], color="C1", lw=0.8, ls="-.", label="SPH error: ρ−ρ0")
+    if paper_threshold:
+        b.axvline(paper_threshold, color="gray", lw=0.8, ls=":", label=f"paper: k = {paper_threshold}")
+    b.set_xlabel("modes k")
+    b.set_ylabel("relative L² error vs full SPH")
+    b.set_title(f"{sweep['scene']}: {sweep['strategy']}", fontsize=9)
+    b.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
