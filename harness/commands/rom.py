@@ -1,6 +1,6 @@
 """``sphrom rom``: run a reduced model from a basis file."""
 
-from .options import int_at_least
+from .options import int_at_least, positive_float
 
 
 def add_parser(sub):
@@ -11,7 +11,9 @@ def add_parser(sub):
                                    "and print the errors against the full SPH and the exact solution.")
     p.add_argument("scene", metavar="SCENE")
     p.add_argument("--basis", required=True, metavar="BASIS.h5")
-    p.add_argument("--model", required=True, choices=("original", "linearized", "frozen"))
+    p.add_argument("--model", required=True, choices=("original", "linearized", "frozen", "exact"),
+                   help="exact: the linear model in the specific volume J = rho0/rho, advanced by the matrix "
+                        "exponential (beyond the paper; see harness/rom/exact_linear.py)")
     p.add_argument("--freeze", type=int_at_least(1), default=10, metavar="NF",
                    help="refresh period n_freeze of the frozen coefficients (default 10)")
     p.add_argument("--modes", metavar="K|KV,KRHO", help="mode counts (default: the basis file's)")
@@ -19,6 +21,10 @@ def add_parser(sub):
                    help="time integrator (default: the scene's; rk4 is not defined for frozen coefficients)")
     p.add_argument("--refresh", choices=("tensor", "direct"), default="tensor",
                    help="frozen refresh: the exact O(k^4)-type tensor (default) or the O(N k^2) product")
+    p.add_argument("--step", type=positive_float, metavar="H",
+                   help="exact model: communication step [s] (default the sample spacing)")
+    p.add_argument("--hold", choices=("linear", "held"), default="linear",
+                   help="exact model: input linear or held over a step (default linear)")
     p.add_argument("--out", required=True, metavar="RUN.h5")
     p.add_argument("--quiet", action="store_true")
     p.set_defaults(handler=run)
@@ -54,19 +60,32 @@ def run(args):
     if k_v > rv or k_r > rr:
         raise UserError(f"--modes: {k_v},{k_r} is out of range (allowed: at most {rv},{rr}, the basis' modes)")
     problem = build_problem(scene)
-    ops = build_operators(problem, basis.U_v[:, :k_v], basis.U_rho[:, :k_r])
     steps = error_steps(scene)
     n = step_count(scene.T, scene.sph.dt)
-    result = run_reduced(args.model, ops, problem, n_steps=n, dt=scene.sph.dt, integrator=integrator,
-                         sample_steps=steps, n_freeze=args.freeze, refresh=args.refresh, progress=not args.quiet)
-    sph = cached_sph(scene.with_sph(integrator=integrator), steps, progress=not args.quiet, problem=problem)
+    if args.model == "exact":
+        from ..rom.exact_linear import build_linear_operators, run_exact
+        if basis.U_ve is None:
+            raise UserError(f"--basis: '{args.basis}' has no energy-weighted bases (made by an older sphrom); "
+                            "rebuild it with 'sphrom pod'")
+        ops = build_linear_operators(problem, basis.U_ve[:, :k_v], basis.U_e[:, :k_r])
+        result = run_exact(ops, steps * scene.sph.dt, step=args.step, force=scene.force, hold=args.hold)
+        result.a_v, result.a_rho, result.steps = result.z[:, :ops.k_v], result.z[:, ops.k_v:], steps
+        integrator = f"matrix exponential, H = {result.settings['step']:g} s, input {args.hold}"
+    else:
+        ops = build_operators(problem, basis.U_v[:, :k_v], basis.U_rho[:, :k_r])
+        result = run_reduced(args.model, ops, problem, n_steps=n, dt=scene.sph.dt, integrator=integrator,
+                             sample_steps=steps, n_freeze=args.freeze, refresh=args.refresh, progress=not args.quiet)
+    sph_scene = scene if args.model == "exact" else scene.with_sph(integrator=integrator)
+    sph = cached_sph(sph_scene, steps, progress=not args.quiet, problem=problem)
     v_sph, rho_sph = on_steps(sph, steps)
     v, rho = result.v, result.rho
     vs_sph = error_table(v, rho, v_sph, rho_sph, result.t, problem.rho0)
     vs_exact = exact_errors(scene, result.t, problem.x, v, rho, problem.rho0)
-    offline = {"svd": basis.timings.get("svd", 0.0), **ops.timings}
+    offline = {"svd": basis.timings.get("svd", 0.0), "tensor": 0.0, **ops.timings}
     label = f"{args.model}" + (f", n_freeze = {args.freeze}, {args.refresh} refresh" if args.model == "frozen" else "")
-    print(f"rom {scene.name}: {label}, k_v = {ops.k_v}, k_rho = {ops.k_rho}, {integrator}, {n} steps")
+    k_second = ops.k_e if args.model == "exact" else ops.k_rho
+    print(f"rom {scene.name}: {label}, k_v = {ops.k_v}, k_{'J' if args.model == 'exact' else 'rho'} = {k_second}, "
+          f"{integrator}, to t = {n * scene.sph.dt:g} s")
     print(format_errors(vs_sph, "  relative L2 error vs full SPH"))
     if vs_exact is not None:
         print(format_errors(vs_exact, "  relative L2 error vs exact   "))
@@ -74,7 +93,7 @@ def run(args):
           f"{offline['operators'] * 1e3:.2f} ms, tensor {offline['tensor'] * 1e3:.2f} ms; full SPH "
           f"{sph.wall_time:.4f} s ({'cached run, timed earlier' if sph.reused else 'timed now'})")
     attrs = {**scene_attrs(scene), "solver": f"rom-{args.model}", "solver.model": args.model,
-             "solver.integrator": integrator, "solver.k_v": ops.k_v, "solver.k_rho": ops.k_rho,
+             "solver.integrator": integrator, "solver.k_v": ops.k_v, "solver.k_rho": k_second,
              "solver.basis": str(args.basis), "solver.augmented_input": int(ops.augmented),
              "solver.input_error": ops.input_error, "wall_time_s": result.wall_time,
              **{f"offline_time.{k}": v for k, v in offline.items()},

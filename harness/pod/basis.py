@@ -88,6 +88,13 @@ class Basis:
     strategy: str
     timings: dict = field(default_factory=dict)
     attrs: dict = field(default_factory=dict)
+    # Energy-weighted bases of the exact linear model (harness.rom.exact_linear):
+    # velocity modes orthonormal in Σ ρ0 u w, specific-volume modes (e = ρ0/ρ - 1)
+    # orthonormal in Σ c u w.
+    U_ve: np.ndarray | None = None
+    sigma_ve: np.ndarray | None = None
+    U_e: np.ndarray | None = None
+    sigma_e: np.ndarray | None = None
 
     @property
     def max_modes(self):
@@ -98,10 +105,19 @@ class Basis:
         return parse_scene(self.scene_text, "<basis scene>")
 
 
-def build_basis(v_samples, rho_samples, sample_steps, steps_v, steps_rho, x, dt, scene, strategy):
+def weighted_pod(snapshots, weight):
+    """POD in the inner product Σ_i weight_i u_i w_i: modes U with Uᵀ diag(weight) U = I."""
+    root = np.sqrt(np.asarray(weight, float))
+    u, s = pod(root[:, None] * snapshots)
+    return u / root[:, None], s
+
+
+def build_basis(v_samples, rho_samples, sample_steps, steps_v, steps_rho, x, dt, scene, strategy, weights=None):
     """POD of the snapshots at ``steps_v`` / ``steps_rho`` among stored samples.
 
     ``v_samples`` and ``rho_samples`` have shape (M, N) at ``sample_steps``.
+    ``weights = (rho0, c)`` at the particles also gives the energy-weighted
+    bases of velocity and specific volume e = ρ0/ρ - 1 (eq. A.9).
     """
     index = {int(s): i for i, s in enumerate(sample_steps)}
     missing = [s for s in np.concatenate([steps_v, steps_rho]) if int(s) not in index]
@@ -111,9 +127,17 @@ def build_basis(v_samples, rho_samples, sample_steps, steps_v, steps_rho, x, dt,
     U_v, s_v = pod(v_samples[[index[int(s)] for s in steps_v]].T)
     U_r, s_r = pod(rho_samples[[index[int(s)] for s in steps_rho]].T)
     svd = time.perf_counter() - t0
-    return Basis(U_v=U_v, U_rho=U_r, sigma_v=s_v, sigma_rho=s_r, steps_v=np.asarray(steps_v),
-                 steps_rho=np.asarray(steps_rho), x=np.asarray(x), dt=float(dt), scene_text=scene.text,
-                 strategy=strategy, timings={"svd": svd})
+    basis = Basis(U_v=U_v, U_rho=U_r, sigma_v=s_v, sigma_rho=s_r, steps_v=np.asarray(steps_v),
+                  steps_rho=np.asarray(steps_rho), x=np.asarray(x), dt=float(dt), scene_text=scene.text,
+                  strategy=strategy, timings={"svd": svd})
+    if weights is not None:
+        rho0, c = weights
+        t0 = time.perf_counter()
+        basis.U_ve, basis.sigma_ve = weighted_pod(v_samples[[index[int(s)] for s in steps_v]].T, rho0)
+        e = rho0[None, :] / rho_samples[[index[int(s)] for s in steps_rho]] - 1.0
+        basis.U_e, basis.sigma_e = weighted_pod(e.T, c)
+        basis.timings["svd_energy"] = time.perf_counter() - t0
+    return basis
 
 
 def write_basis(path, basis: Basis, scene, extra=None):
@@ -134,8 +158,10 @@ def write_basis(path, basis: Basis, scene, extra=None):
                 h5.attrs[f"offline_time.{k}"] = v
             for k, v in basis.attrs.items():
                 h5.attrs[k] = v
-            for name in ("U_v", "U_rho", "sigma_v", "sigma_rho", "steps_v", "steps_rho", "x"):
-                h5.create_dataset(name, data=getattr(basis, name))
+            for name in ("U_v", "U_rho", "sigma_v", "sigma_rho", "steps_v", "steps_rho", "x",
+                         "U_ve", "sigma_ve", "U_e", "sigma_e"):
+                if getattr(basis, name) is not None:
+                    h5.create_dataset(name, data=getattr(basis, name))
             h5.create_dataset("snapshot_times_v", data=basis.steps_v * basis.dt).attrs["units"] = "s"
             h5.create_dataset("snapshot_times_rho", data=basis.steps_rho * basis.dt).attrs["units"] = "s"
             h5["x"].attrs["units"] = "m"
@@ -164,9 +190,11 @@ def read_basis(path, option="--basis") -> Basis:
                                 f"(this sphrom reads {BASIS_VERSION})")
             attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in h5.attrs.items()}
             timings = {k.split(".", 1)[1]: float(v) for k, v in attrs.items() if k.startswith("offline_time.")}
+            optional = {name: (h5[name][()] if name in h5 else None)
+                        for name in ("U_ve", "sigma_ve", "U_e", "sigma_e")}
             return Basis(U_v=h5["U_v"][()], U_rho=h5["U_rho"][()], sigma_v=h5["sigma_v"][()],
                          sigma_rho=h5["sigma_rho"][()], steps_v=h5["steps_v"][()], steps_rho=h5["steps_rho"][()],
                          x=h5["x"][()], dt=float(attrs["dt"]), scene_text=attrs["scene.toml"],
-                         strategy=attrs["strategy"], timings=timings, attrs=attrs)
+                         strategy=attrs["strategy"], timings=timings, attrs=attrs, **optional)
     except OSError as exc:
         raise UserError(f"{option}: '{path}' cannot be read as HDF5 ({exc})") from None
