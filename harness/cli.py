@@ -21,6 +21,7 @@ COMMANDS = {
     "pod": "pod",
     "rom": "rom",
     "modes": "modes",
+    "bench": "bench",
     "bench-sph": "bench_sph",
 }
 

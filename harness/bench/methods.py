@@ -1,0 +1,161 @@
+"""Run time against error for every method on one scene, measured in one run.
+
+Each method's online time is the median of ``repeats`` runs; the full SPH is
+timed in the same invocation, so speed-ups are ratios measured side by side
+on the same (shared, noisy) machine.  Offline times (the SPH run that makes
+the snapshots, the SVD, the operators) are reported separately.
+
+Errors are relative L² (square-root form of eq. 3.4): reduced models against
+the full SPH with the same integrator (the paper's "POD error"), the full
+SPH against the reference (exact, or a continuum reference).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..compare import error_table, reference_fields
+from ..pod.pipeline import basis_for_scene, error_steps, on_steps
+from ..rom.common import run_reduced
+from ..rom.exact_linear import build_linear_operators, run_exact
+from ..rom.operators import build_operators
+from ..sph.solver import run_sph, step_count
+from .timing import median_time
+
+N_FREEZE = (1, 2, 5, 10, 20, 50)
+
+
+def _row(scene, method, k, n_freeze, online, offline, err_sph, err_ref, note=""):
+    return {"scene": scene.name, "method": method, "k": k, "n_freeze": n_freeze, "online_s": online,
+            "offline_s": offline,
+            "err_v_sph": np.nan if err_sph is None else err_sph["v"],
+            "err_rho_sph": np.nan if err_sph is None else err_sph["rho_var"],
+            "err_v_ref": np.nan if err_ref is None else err_ref["v"],
+            "err_rho_ref": np.nan if err_ref is None else err_ref["rho_var"], "note": note}
+
+
+def bench_python(scene, ks=None, n_freezes=N_FREEZE, repeats=5, models=("original", "linearized", "frozen", "exact"),
+                 progress=None, extra=None):
+    """Time and error of the full SPH and the Python reduced models on ``scene``.
+
+    Parameters
+    ----------
+    ks : list of int, optional
+        Mode counts (default the scene's acceleration study k, e.g. [12]).
+    n_freezes : tuple of int
+        Refresh periods of the frozen model.
+    repeats : int
+        Median of this many timed runs per point.
+    extra : callable, optional
+        ``extra(context) -> rows`` adds methods timed in the same run (the
+        FMU entries); ``context`` holds the scene, basis, run, steps and SPH time.
+
+    Returns
+    -------
+    rows : list of dict
+        scene, method, k, n_freeze, online_s, offline_s, err_v_sph,
+        err_rho_sph (ρ - ρ0), err_v_ref, err_rho_ref, speedup (SPH time / online).
+    """
+    ks = list(ks or scene.rom.get("accel_modes", [scene.rom["modes"]]))
+    basis, run = basis_for_scene(scene, progress=False)
+    problem = run.problem
+    steps = error_steps(scene)
+    t = steps * scene.sph.dt
+    n = step_count(scene.T, scene.sph.dt)
+    v_sph, rho_sph = on_steps(run, steps)
+    ref = reference_fields(scene, problem.x, t)
+    rows = []
+
+    def tick():
+        if progress is not None:
+            progress.update(1)
+
+    sph_time, _ = median_time(lambda: run_sph(scene, sample_steps=steps, progress=False, problem=problem),
+                              repeats=repeats)
+    err_ref = None if ref is None else error_table(v_sph, rho_sph, ref[0], ref[1], t, problem.rho0)
+    rows.append(_row(scene, "full SPH", problem.n, None, sph_time, 0.0, None, err_ref,
+                     f"N = {problem.n}, {scene.sph.integrator}"))
+    tick()
+    offline_pod = basis.timings.get("svd", 0.0) + run.wall_time
+    for k in ks:
+        ops = build_operators(problem, basis.U_v[:, :k], basis.U_rho[:, :k])
+        offline = offline_pod + ops.timings["operators"] + ops.timings["tensor"]
+        plan = [(m, None) for m in models if m in ("original", "linearized")]
+        if "frozen" in models:
+            plan += [("frozen", nf) for nf in n_freezes]
+        for model, nf in plan:
+            kwargs = dict(n_steps=n, dt=scene.sph.dt, integrator=scene.sph.integrator, sample_steps=steps,
+                          n_freeze=nf or 1)
+            result = {}
+
+            def go():
+                result["r"] = run_reduced(model, ops, problem, **kwargs)
+            online, _ = median_time(go, repeats=repeats)
+            r = result["r"]
+            err_sph = error_table(r.v, r.rho, v_sph, rho_sph, t, problem.rho0)
+            err_r = None if ref is None else error_table(r.v, r.rho, ref[0], ref[1], t, problem.rho0)
+            rows.append(_row(scene, model, k, nf, online, offline, err_sph, err_r))
+            tick()
+        if "exact" in models and basis.U_ve is not None:
+            lin = build_linear_operators(problem, basis.U_ve[:, :k], basis.U_e[:, :k])
+            result = {}
+
+            def go_exact():
+                result["r"] = run_exact(lin, t, force=scene.force)
+            online, _ = median_time(go_exact, repeats=repeats)
+            r = result["r"]
+            err_sph = error_table(r.v, r.rho, v_sph, rho_sph, t, problem.rho0)
+            err_r = None if ref is None else error_table(r.v, r.rho, ref[0], ref[1], t, problem.rho0)
+            rows.append(_row(scene, "exact", k, None, online,
+                             offline_pod + basis.timings.get("svd_energy", 0.0) + lin.timings["operators"],
+                             err_sph, err_r, f"H = {r.settings['step']:g} s"))
+            tick()
+    if extra is not None:
+        rows += extra({"scene": scene, "basis": basis, "run": run, "steps": steps, "sph_time": sph_time,
+                       "v_sph": v_sph, "rho_sph": rho_sph, "reference": ref, "ks": ks, "repeats": repeats})
+    for row in rows:
+        row["speedup"] = sph_time / row["online_s"] if row["online_s"] > 0 else np.nan
+    return rows
+
+
+def paper_saving(rows, scene):
+    """Our CPU saving of the frozen model (n_freeze = 10, the paper's largest k) against the full SPH."""
+    k = max(scene.rom.get("accel_modes", [scene.rom["modes"]]))
+    sph = [r for r in rows if r["method"] == "full SPH"][0]["online_s"]
+    fr = [r for r in rows if r["method"] == "frozen" and r["k"] == k and r["n_freeze"] == 10]
+    if not fr:
+        return None
+    return 1.0 - fr[0]["online_s"] / sph
+
+
+def plot_time_error(rows, path, title):
+    """Log-log error against online time, v (left) and ρ - ρ0 (right), as in Figs. 3.17/3.21."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.8))
+    markers = {"full SPH": "*", "original": "P", "linearized": "X", "frozen": "o", "exact": "D",
+               "FMU (fmpy)": "s", "FMU core (C)": "^"}
+    for ax, key, ref_key, label in ((axes[0], "err_v_sph", "err_v_ref", "v"),
+                                    (axes[1], "err_rho_sph", "err_rho_ref", "ρ − ρ0")):
+        for method, marker in markers.items():
+            sel = [r for r in rows if r["method"] == method]
+            if not sel:
+                continue
+            for k in sorted({r["k"] for r in sel}):
+                pts = sorted([(r["online_s"], r[ref_key] if method == "full SPH" else r[key]) for r in sel
+                              if r["k"] == k and np.isfinite(r[ref_key] if method == "full SPH" else r[key])])
+                if not pts:
+                    continue
+                lab = method if method == "full SPH" else f"{method}, k = {k}"
+                ax.loglog(*zip(*pts), marker + ("--" if method == "frozen" else ""), ms=7, label=lab)
+        ax.set_xlabel("online CPU time [s] (median)")
+        ax.set_ylabel(f"relative L² error of {label}")
+        ax.set_title(f"{title}: {label}", fontsize=10)
+    axes[0].legend(fontsize=7)
+    fig.text(0.01, 0.01, "full SPH: error vs reference; reduced models: error vs full SPH (frozen: n_freeze "
+             "1 → 50 right to left)", fontsize=7)
+    fig.tight_layout(rect=(0, 0.04, 1, 1))
+    fig.savefig(path, dpi=100)
+    plt.close(fig)

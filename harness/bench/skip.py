@@ -1,0 +1,76 @@
+"""What the specialised right-hand sides save: the same loop with every term on.
+
+For a scene, each solver is timed twice on identical inputs: once with the
+terms the scene has (its own flags: no damping when d ≡ 0, no force when
+f ≡ 0, scalars for uniform c, ρ0, d), once forced through the general path
+(every term evaluated, with zero damping and force, per-particle arrays).
+The results are identical (asserted); the time difference is what skipping
+saves.  Medians of repeats, ratios from the same run.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..pod.pipeline import basis_for_scene
+from ..rom.common import run_reduced
+from ..rom.operators import build_operators
+from ..sph import kernels_numba as kn
+from ..sph.solver import METHODS, build_problem, step_count
+from .timing import median_time
+
+
+def _sph_loop(problem, scene, n, general):
+    nb = problem.neighbours
+    if general:
+        arrays = [np.ascontiguousarray(a) for a in (problem.rho0, problem.c, problem.d, problem.profile)]
+        flags = kn.DAMPING | kn.FORCE
+    else:
+        arrays = [problem.packed(name) for name in ("rho0", "c", "d", "profile")]
+        flags = problem.flags(False)
+    g = np.zeros((n, 3))
+    method = METHODS[scene.sph.integrator]
+    out = np.zeros((1, problem.n))
+    state = {}
+
+    def go():
+        v, rho = problem.v0.copy(), problem.rho0.copy()
+        kn.advance(method, v, rho, 0, n, scene.sph.dt, g, nb.index, nb.weight, *arrays, flags,
+                   np.array([n]), 0, out, out.copy(), 64)
+        state["v"] = v
+    return go, state
+
+
+def skip_savings(scene, steps=20000, k=None, repeats=5):
+    """Rows (solver, specialised µs/step, general µs/step, saving) for ``scene``."""
+    problem = build_problem(scene)
+    n = min(steps, step_count(scene.T, scene.sph.dt))
+    rows = []
+    fast, sf = _sph_loop(problem, scene, n, general=False)
+    slow, sg = _sph_loop(problem, scene, n, general=True)
+    t_fast, _ = median_time(fast, repeats)
+    t_slow, _ = median_time(slow, repeats)
+    assert np.array_equal(sf["v"], sg["v"]) or not (problem.terms["damping"] or problem.terms["force_profile"])
+    rows.append(("full SPH", 1e6 * t_fast / n, 1e6 * t_slow / n))
+
+    basis, run = basis_for_scene(scene, progress=False, problem=problem)
+    k = k or max(scene.rom.get("accel_modes", [scene.rom["modes"]]))
+    ops = build_operators(problem, basis.U_v[:, :k], basis.U_rho[:, :k], input_direction="never")
+    # the general path: a zero damping matrix and a zero-force input row, evaluated every step
+    import dataclasses
+    general = dataclasses.replace(ops, D=ops.D if ops.D is not None else np.zeros((ops.k_v, ops.k_v)),
+                                  p=np.zeros(ops.k_v))
+    for model in ("linearized", "frozen"):
+        res = {}
+
+        def run_with(o, key):
+            def go():
+                res[key] = run_reduced(model, o, problem, n_steps=n, dt=scene.sph.dt, sample_steps=[n], n_freeze=10,
+                                       force=lambda t: np.zeros_like(t))
+            return go
+        tf, _ = median_time(run_with(ops, "fast"), repeats)
+        tg, _ = median_time(run_with(general, "slow"), repeats)
+        np.testing.assert_array_equal(res["fast"].a_v, res["slow"].a_v)
+        rows.append((f"{model} POD-MOR (k = {k})", 1e6 * tf / n, 1e6 * tg / n))
+    return [{"scene": scene.name, "solver": s, "specialised_us": a, "general_us": b, "saving": 1 - a / b}
+            for s, a, b in rows]
