@@ -11,6 +11,9 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 def small_scene(base="multimode", T=0.5, n=32, dt=None, integrator="euler", every=None, **fields):
     """A built-in scene shrunk for tests: N particles, horizon T."""
     changes = {"domain": {"T": T}, "sph": {"n_particles": n, "integrator": integrator}}
+    snaps = load_scene(base).snapshots
+    if "window" in snaps and snaps["window"][1] > T:          # keep the snapshots inside the run
+        changes["snapshots"] = {"count": min(snaps["count"], 20), "window": [0.0, T]}
     if dt is not None:
         changes["sph"]["dt"] = dt
     if every is not None:

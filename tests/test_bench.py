@@ -19,7 +19,7 @@ def test_bench_python_rows_are_consistent():
     assert sph["speedup"] == 1.0 and np.isfinite(sph["err_v_ref"])
     fro = {r["n_freeze"]: r for r in rows if r["method"] == "frozen"}
     lin = [r for r in rows if r["method"] == "linearized"][0]
-    assert fro[1]["err_v_sph"] == lin["err_v_sph"]                # n_freeze = 1 is the linearised model
+    assert abs(fro[1]["err_v_sph"] - lin["err_v_sph"]) <= 1e-10 * lin["err_v_sph"]   # n_freeze = 1: linearised
     for r in rows:
         assert r["online_s"] > 0 and np.isfinite(r["speedup"])
 
