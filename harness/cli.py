@@ -23,6 +23,7 @@ COMMANDS = {
     "modes": "modes",
     "bench": "bench",
     "bench-sph": "bench_sph",
+    "stress": "stress",
 }
 
 

@@ -38,3 +38,27 @@ def test_bench_command_smoke(tmp_path, monkeypatch):
     assert {r["method"] for r in rows} >= {"full SPH", "frozen (n_freeze = 10)"}
     assert np.isfinite(growth(rows, "full SPH"))
     assert (out / "multimode_time_error.png").stat().st_size > 5000
+
+
+def test_stress_smoke_and_physics(tmp_path):
+    from harness.bench import stress as st
+    scene = small_scene("multimode", T=2.0, n=32, every=25)
+    ctx = st.context(scene, k=6)
+    # far below the limit everything that should hold holds; the exact model holds at 2x
+    assert st.run_one(ctx, "sph-rk4", 0.1 * ctx.dt_limit)["outcome"] == "stable"
+    assert st.run_one(ctx, "exact", 2.0 * ctx.dt_limit)["outcome"] == "stable"
+    # above the RK4 limit the full SPH blows up, and says when
+    r = st.run_one(ctx, "sph-rk4", 2.0 * ctx.dt_limit, T=200.0)
+    assert r["outcome"] == "blow-up" and 0 < r["blowup_time"] <= 200.0
+    # a compression beyond J = 0 is flagged, not passed on
+    r = st.run_one(ctx, "exact", scene.sph.dt, amplitude=2000.0)
+    assert r["outcome"] == "unphysical" and r["blowup_time"] < scene.T
+    assert main(["stress", "--quick", "--no-fmu", "--out", str(tmp_path), "--modes", "4,6", "--horizons", "2",
+                 str(_scene_file(tmp_path, scene))]) == 0
+    assert "Largest Δt" in (tmp_path / "stress.md").read_text()
+
+
+def _scene_file(tmp_path, scene):
+    path = tmp_path / "scene.toml"
+    path.write_text(scene.text)
+    return path

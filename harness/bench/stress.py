@@ -1,0 +1,242 @@
+"""Numerical-stability stress maps: where each method holds and where it breaks.
+
+Settings swept per scene:
+
+* Δt from 0.1x to 2x the explicit limit Δt* = 2/ω_max of the full SPH
+  operator (:func:`harness.sph.solver.stability`), plus the paper's Δt;
+* the initial amplitude x1 ... x1000 (v0 scaled; up to compression where
+  ρ -> 0 or J -> 0);
+* horizons up to T = 1000 at the paper's settings;
+* k up to the number of snapshots;
+* random piecewise-constant force inputs of large amplitude.
+
+Each run ends in one of: ``stable`` (energy never above 1.1x its start),
+``growing`` (finite, but energy gained more than 10 %), ``unphysical`` (finite,
+but the density left (0, ∞): J = ρ0/ρ <= 0 somewhere, a compression beyond
+the physical limit that the linear exact model can pass through), or
+``blow-up`` (the solver's own non-finite / non-positive-density / runaway
+check fired).  The time of a blow-up or of the first unphysical sample is
+recorded.  Under a forcing the energy grows physically, so force runs report
+their final energy relative to the exact-in-time reduced model instead.  Energy is E = Σ Δx [ρ0 v²/2 + c (J - 1)²/2], J = ρ0/ρ,
+conserved by the semi-discrete system when d = f = 0.
+
+Reduced models use the basis of the scene's paper-setting run (x1) and start
+from the amplified initial state, so the map shows the stability of the
+reduced dynamics themselves; the full SPH runs the amplified scene.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ..errors import SimulationError
+from ..pod.pipeline import basis_for_scene
+from ..rom.common import run_reduced
+from ..rom.exact_linear import build_linear_operators, run_exact
+from ..rom.operators import build_operators
+from ..scene import derive_scene
+from ..sph.diagnostics import energy
+from ..sph.solver import build_problem, run_sph, stability, step_count
+
+DT_FACTORS = (0.1, 0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 2.0)
+AMPLITUDES = (1, 10, 100, 1000)
+METHODS = ("sph-euler", "sph-symplectic", "sph-rk4", "original", "linearized", "frozen", "exact")
+
+
+def _classify(e):
+    e = np.asarray(e, float)
+    growth = float(np.max(e) / e[0]) if e[0] > 0 else float("nan")
+    drift = float((e[-1] - e[0]) / e[0]) if e[0] > 0 else float("nan")
+    return ("stable" if growth <= 1.1 else "growing"), growth, drift
+
+
+@dataclasses.dataclass
+class Context:
+    """What every run of a scene shares: the x1 basis and operators."""
+
+    scene: object
+    problem: object
+    basis: object
+    k: int
+    ops: object
+    lin: object
+    dt_limit: float
+
+
+def context(scene, k=None):
+    problem = build_problem(scene)
+    basis, _ = basis_for_scene(scene, progress=False, problem=problem)
+    k = min(k or max(scene.rom.get("accel_modes", [scene.rom["modes"]])), *basis.max_modes)
+    ops = build_operators(problem, basis.U_v[:, :k], basis.U_rho[:, :k], input_direction="always")
+    lin = build_linear_operators(problem, basis.U_ve[:, :k], basis.U_e[:, :k], input_direction="always")
+    lim = stability(problem, scene.sph.dt, "euler", scene.T)["dt_limit"]
+    return Context(scene, problem, basis, k, ops, lin, lim)
+
+
+def run_one(ctx: Context, method, dt, amplitude=1.0, T=None, force=None, n_samples=200, ops=None, lin=None):
+    """One stress run; returns a dict: outcome, blowup_time, energy_growth, energy_drift, energy_end."""
+    scene = ctx.scene
+    T = T or scene.T
+    problem = ctx.problem
+    n = max(1, step_count(T, dt))
+    steps = np.unique(np.linspace(0, n, min(n, n_samples) + 1).astype(np.int64))
+    custom_force = force is not None
+    force = force or scene.force
+    ops = ops or ctx.ops
+    lin = lin or ctx.lin
+    try:
+        if method.startswith("sph-"):
+            amp_scene = derive_scene(scene, {"domain": {"T": n * dt},
+                                             "fields": {"v0": f"{amplitude!r}*({scene.fields['v0'].text})"},
+                                             "force": {"f": scene.f.text}})
+            amp_scene = amp_scene.with_sph(dt=dt, integrator=method[4:])
+            if custom_force:
+                raise ValueError("the full SPH takes its force from the scene")
+            res = run_sph(amp_scene, sample_steps=steps, progress=False)
+            t, rho = res.t, res.rho
+            e = energy(res.problem, res.v, res.rho)
+        elif method == "exact":
+            state = dataclasses.replace(lin, z0=lin.z0 * amplitude)
+            res = run_exact(state, steps * dt, step=dt, force=force, hold="held")
+            t, rho = res.t, res.rho
+            e = energy(problem, res.v, rho)
+        else:
+            a_v0 = ops.a_v0 * amplitude
+            a_r0 = ops.a_rho0.copy()                               # the density starts at ρ0
+            res = run_reduced(method, ops, problem, n_steps=n, dt=dt, sample_steps=steps, n_freeze=10,
+                              force=force, state=(a_v0, a_r0))
+            t, rho = res.t, res.rho
+            e = energy(problem, res.v, rho)
+    except SimulationError as exc:
+        return {"outcome": "blow-up", "blowup_time": exc.time, "energy_growth": np.inf, "energy_drift": np.inf,
+                "energy_end": np.inf}
+    if not np.all(np.isfinite(e)) or np.any(e < 0):
+        return {"outcome": "blow-up", "blowup_time": float("nan"), "energy_growth": np.inf, "energy_drift": np.inf,
+                "energy_end": np.inf}
+    outcome, growth, drift = _classify(e)
+    bad = np.any(~(rho > 0), axis=1)
+    if np.any(bad):
+        return {"outcome": "unphysical", "blowup_time": float(t[np.argmax(bad)]), "energy_growth": growth,
+                "energy_drift": drift, "energy_end": float(e[-1])}
+    return {"outcome": outcome, "blowup_time": None, "energy_growth": growth, "energy_drift": drift,
+            "energy_end": float(e[-1])}
+
+
+def dt_amplitude_map(ctx: Context, methods=METHODS, dt_factors=DT_FACTORS, amplitudes=AMPLITUDES, progress=None,
+                     extra=None):
+    """Rows for every (method, Δt factor, amplitude); ``extra`` adds methods (the FMU)."""
+    rows = []
+    factors = list(dt_factors) + ["paper"]
+    for method in list(methods) + list(extra or {}):
+        for f in factors:
+            dt = ctx.scene.sph.dt if f == "paper" else f * ctx.dt_limit
+            for a in amplitudes:
+                runner = (extra or {}).get(method)
+                r = runner(ctx, dt, a) if runner else run_one(ctx, method, dt, a)
+                rows.append({"scene": ctx.scene.name, "method": method, "dt_factor": f, "dt": dt, "amplitude": a, **r})
+                if progress is not None:
+                    progress.update(1)
+    return rows
+
+
+def horizon_rows(ctx: Context, methods=METHODS, horizons=(10.0, 100.0, 1000.0), progress=None, extra=None):
+    """Stability at the paper's Δt over long horizons."""
+    rows = []
+    for method in list(methods) + list(extra or {}):
+        for T in horizons:
+            runner = (extra or {}).get(method)
+            r = runner(ctx, ctx.scene.sph.dt, 1.0, T) if runner else run_one(ctx, method, ctx.scene.sph.dt, 1.0, T=T)
+            rows.append({"scene": ctx.scene.name, "method": method, "T": T, **r})
+            if progress is not None:
+                progress.update(1)
+    return rows
+
+
+def modes_rows(ctx: Context, ks=(4, 8, 12, 20, 40, 100), methods=("original", "linearized", "frozen", "exact")):
+    """Stability at the paper's Δt with k up to the number of snapshots."""
+    rows = []
+    rank = min(ctx.basis.max_modes)
+    for k in sorted({min(k, rank) for k in ks}):
+        ops = build_operators(ctx.problem, ctx.basis.U_v[:, :k], ctx.basis.U_rho[:, :k], input_direction="always",
+                              tensor="auto")
+        lin = build_linear_operators(ctx.problem, ctx.basis.U_ve[:, :k], ctx.basis.U_e[:, :k],
+                                     input_direction="always")
+        for method in methods:
+            if method == "frozen" and ops.T is None:
+                continue
+            r = run_one(ctx, method, ctx.scene.sph.dt, 1.0, ops=ops, lin=lin)
+            rows.append({"scene": ctx.scene.name, "method": method, "k": k, **r})
+    return rows
+
+
+def random_force(amplitude, seed=0, hold=0.05, T=10.0):
+    """A seeded piecewise-constant random force of the given amplitude [m s^-2], held ``hold`` s."""
+    rng = np.random.default_rng(seed)
+    values = amplitude * rng.uniform(-1, 1, int(np.ceil(T / hold)) + 2)
+
+    def f(t):
+        return values[np.minimum((np.asarray(t) / hold).astype(np.int64), values.size - 1)]
+    return f
+
+
+def force_rows(ctx: Context, amplitudes=(1e-2, 1.0, 100.0), methods=("exact", "original", "linearized", "frozen"),
+               extra=None):
+    """Reduced models under large random forces (the FMU's use: an arbitrary input).
+
+    ``energy_vs_exact`` is the final energy over that of the exact-in-time
+    reduced model (``exact``, which comes first) minus 1.
+    """
+    rows = []
+    for a in amplitudes:
+        f = random_force(a, T=ctx.scene.T)
+        e_ref = None
+        for method in list(methods) + list(extra or {}):
+            runner = (extra or {}).get(method)
+            r = runner(ctx, ctx.scene.sph.dt, 1.0, None, f) if runner else run_one(ctx, method, ctx.scene.sph.dt,
+                                                                                   force=f)
+            if method == "exact":
+                e_ref = r.get("energy_end")
+            r["energy_vs_exact"] = (r.get("energy_end", np.inf) / e_ref - 1.0) if e_ref else float("nan")
+            rows.append({"scene": ctx.scene.name, "method": method, "force_amplitude": a, **r})
+    return rows
+
+
+def plot_map(rows, path, title, dt_limit):
+    """One heat map per method: x = Δt factor, y = amplitude; colour = log10 energy growth, ✕ = blow-up."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import Normalize
+
+    methods = list(dict.fromkeys(r["method"] for r in rows))
+    factors = list(dict.fromkeys(r["dt_factor"] for r in rows))
+    amps = list(dict.fromkeys(r["amplitude"] for r in rows))
+    cols = min(4, len(methods))
+    nrow = int(np.ceil(len(methods) / cols))
+    fig, axes = plt.subplots(nrow, cols, figsize=(3.3 * cols, 2.7 * nrow), squeeze=False)
+    norm = Normalize(vmin=0, vmax=3)
+    for ax, method in zip(axes.flat, methods):
+        grid = np.full((len(amps), len(factors)), np.nan)
+        for r in rows:
+            if r["method"] != method:
+                continue
+            i, j = amps.index(r["amplitude"]), factors.index(r["dt_factor"])
+            grid[i, j] = np.log10(max(r["energy_growth"], 1.0)) if np.isfinite(r["energy_growth"]) else np.nan
+            if r["outcome"] in ("blow-up", "unphysical"):
+                bt = r["blowup_time"]
+                mark = "✕" if r["outcome"] == "blow-up" else "ρ≤0"
+                ax.text(j, i, mark if bt is None or not np.isfinite(bt) else f"{mark}\n{bt:.2g}s", ha="center",
+                        va="center", fontsize=6, color="w" if r["outcome"] == "blow-up" else "r")
+        ax.imshow(grid, origin="lower", cmap="viridis", norm=norm, aspect="auto")
+        ax.set_xticks(range(len(factors)), [str(f) for f in factors], fontsize=6, rotation=45)
+        ax.set_yticks(range(len(amps)), [f"×{a}" for a in amps], fontsize=7)
+        ax.set_title(method, fontsize=9)
+    for ax in list(axes.flat)[len(methods):]:
+        ax.axis("off")
+    fig.suptitle(f"{title}: Δt / Δt* (Δt* = {dt_limit:.3g} s) against v0 amplitude; colour log10(max E / E0), "
+                 "✕ blow-up, ρ≤0 unphysical (time)", fontsize=8)
+    fig.tight_layout(rect=(0, 0, 1, 0.95))
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
