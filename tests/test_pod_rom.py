@@ -133,13 +133,19 @@ def test_input_direction_augmentation():
     assert err == pytest.approx(np.linalg.norm(ones - U @ (U.T @ ones)) / np.linalg.norm(ones))
     np.testing.assert_allclose(U3.T @ U3, np.eye(5), atol=1e-14)
     np.testing.assert_allclose(U3 @ (U3.T @ ones), ones, atol=1e-13)
-    # a forced scene gets the force direction in its velocity basis
+    # a forced scene: the paper projects the force on the POD modes (and we report what is lost);
+    # augmenting puts the whole direction in the basis (the FMU, whose f may be anything)
     scene = small_scene("damped_forced", T=0.5, n=32)
     basis, run = basis_for_scene(scene, {"count": 6, "window": [0, 0.5]}, progress=False)
-    ops = build_operators(run.problem, basis.U_v[:, :4], basis.U_rho[:, :4])
-    assert ops.p is not None and ops.k_v == 4 + int(ops.augmented)
-    resid = run.problem.profile - ops.U_v @ (ops.U_v.T @ run.problem.profile)
-    assert np.linalg.norm(resid) < 1e-12 * np.linalg.norm(run.problem.profile)
+    prof = run.problem.profile
+    proj = build_operators(run.problem, basis.U_v[:, :4], basis.U_rho[:, :4])
+    assert proj.k_v == 4 and not proj.augmented and proj.input_error > 1e-6
+    np.testing.assert_allclose(proj.p, basis.U_v[:, :4].T @ prof)
+    aug = build_operators(run.problem, basis.U_v[:, :4], basis.U_rho[:, :4], input_direction="augment")
+    assert aug.augmented and aug.k_v == 5 and aug.input_error == proj.input_error
+    resid = prof - aug.U_v @ (aug.U_v.T @ prof)
+    assert np.linalg.norm(resid) < 1e-12 * np.linalg.norm(prof)
+    assert build_operators(run.problem, basis.U_v[:, :4], basis.U_rho[:, :4], input_direction="never").p is None
 
 
 def test_probe_rows_interpolate_linearly_and_periodically():
@@ -193,7 +199,7 @@ def test_pod_and_rom_commands(tmp_path, capsys):
     scene_path.write_text(small_scene("damped_forced", T=1.0, n=32, every=25).text)
     basis_file = tmp_path / "b.h5"
     assert main(["pod", str(scene_path), "--snapshots", "12", "--window", "0,0.96", "--modes", "6,5",
-                 "--out", str(basis_file), "--quiet"]) == 0
+                 "--augment-input", "--out", str(basis_file), "--quiet"]) == 0
     text = capsys.readouterr().out
     assert "force direction: projection error" in text and "appended" in text
     b = read_basis(basis_file)
@@ -204,7 +210,7 @@ def test_pod_and_rom_commands(tmp_path, capsys):
     for model in ("original", "linearized", "frozen"):
         out = tmp_path / f"{model}.h5"
         assert main(["rom", str(scene_path), "--basis", str(basis_file), "--model", model, "--freeze", "5",
-                     "--out", str(out), "--quiet"]) == 0
+                     "--augment-input", "--out", str(out), "--quiet"]) == 0
         text = capsys.readouterr().out
         assert "vs full SPH" in text and "vs exact" in text and "online" in text and "offline" in text
         with h5py.File(out) as h5:

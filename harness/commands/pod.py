@@ -16,6 +16,9 @@ def add_parser(sub):
     g.add_argument("--modes", metavar="K|KV,KRHO", help="mode counts stored with the operators (default the scene's)")
     g.add_argument("--energy", type=positive_float, metavar="TOL",
                    help="choose k as the fewest modes leaving out at most TOL of the snapshot energy")
+    p.add_argument("--augment-input", action="store_true",
+                   help="append the force direction to the velocity basis when the POD modes miss part of it "
+                        "(default: project it on the POD modes, as the paper does)")
     p.add_argument("--out", required=True, metavar="BASIS.h5")
     p.add_argument("--quiet", action="store_true")
     p.set_defaults(handler=run)
@@ -46,7 +49,8 @@ def run(args):
         if k_v > rv or k_r > rr:
             raise UserError(f"--modes: {k_v},{k_r} is out of range (allowed: at most {rv} velocity and {rr} density "
                             "modes, the rank of these snapshots)")
-    ops = build_operators(run_.problem, basis.U_v[:, :k_v], basis.U_rho[:, :k_r])
+    ops = build_operators(run_.problem, basis.U_v[:, :k_v], basis.U_rho[:, :k_r],
+                          input_direction="augment" if args.augment_input else "auto")
     basis.attrs.update({"default_modes_v": k_v, "default_modes_rho": k_r})
     operators = {"K": ops.K, "b": ops.b, "D": ops.D, "p": ops.p, "a_v0": ops.a_v0, "a_rho0": ops.a_rho0,
                  "attrs": {"k_v": ops.k_v, "k_rho": ops.k_rho, "augmented": int(ops.augmented),
@@ -63,7 +67,7 @@ def run(args):
           f"k_rho = {k_r} (energy left out {energy_left(basis.sigma_rho, k_r):.2e})")
     if not np.isnan(ops.input_error):
         print(f"  force direction: projection error {ops.input_error:.3e} in the POD velocity modes"
-              + ("; appended to the basis" if ops.augmented else ""))
+              + ("; appended to the basis" if ops.augmented else "; projected (--augment-input appends it)"))
     sph_txt = "reused cached run" if run_.reused else f"{basis.timings['sph']:.3f} s"
     print(f"  offline: full SPH {sph_txt}, SVD {basis.timings['svd'] * 1e3:.2f} ms, "
           f"operators {ops.timings['operators'] * 1e3:.2f} ms")

@@ -25,6 +25,8 @@ def add_parser(sub):
                    help="exact model: communication step [s] (default the sample spacing)")
     p.add_argument("--hold", choices=("linear", "held"), default="linear",
                    help="exact model: input linear or held over a step (default linear)")
+    p.add_argument("--augment-input", action="store_true",
+                   help="append the force direction to the velocity basis (default: project it, as the paper does)")
     p.add_argument("--out", required=True, metavar="RUN.h5")
     p.add_argument("--quiet", action="store_true")
     p.set_defaults(handler=run)
@@ -67,12 +69,14 @@ def run(args):
         if basis.U_ve is None:
             raise UserError(f"--basis: '{args.basis}' has no energy-weighted bases (made by an older sphrom); "
                             "rebuild it with 'sphrom pod'")
-        ops = build_linear_operators(problem, basis.U_ve[:, :k_v], basis.U_e[:, :k_r])
+        ops = build_linear_operators(problem, basis.U_ve[:, :k_v], basis.U_e[:, :k_r],
+                                     input_direction="augment" if args.augment_input else "auto")
         result = run_exact(ops, steps * scene.sph.dt, step=args.step, force=scene.force, hold=args.hold)
         result.a_v, result.a_rho, result.steps = result.z[:, :ops.k_v], result.z[:, ops.k_v:], steps
         integrator = f"matrix exponential, H = {result.settings['step']:g} s, input {args.hold}"
     else:
-        ops = build_operators(problem, basis.U_v[:, :k_v], basis.U_rho[:, :k_r])
+        ops = build_operators(problem, basis.U_v[:, :k_v], basis.U_rho[:, :k_r],
+                              input_direction="augment" if args.augment_input else "auto")
         result = run_reduced(args.model, ops, problem, n_steps=n, dt=scene.sph.dt, integrator=integrator,
                              sample_steps=steps, n_freeze=args.freeze, refresh=args.refresh, progress=not args.quiet)
     sph_scene = scene if args.model == "exact" else scene.with_sph(integrator=integrator)

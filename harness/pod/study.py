@@ -52,7 +52,8 @@ def mode_sweep(scene, spec=None, kmax=None, models=("original",), n_freeze=10, p
     sph_error = None
     if reference is not None:
         sph_error = error_table(v_sph, rho_sph, reference[0], reference[1], t, problem.rho0)
-    rank = min(basis.max_modes)
+    rv, rr = basis.max_modes
+    rank = max(rv, rr)               # k_v and k_rho are each capped at their own rank below
     if kmax is None:
         kmax = min(rank, max(20, scene.paper.get("mode_threshold", 12) + 8))
     kmax = min(kmax, rank)
@@ -60,7 +61,7 @@ def mode_sweep(scene, spec=None, kmax=None, models=("original",), n_freeze=10, p
     rows = []
     with progress_bar(total=kmax * len(models), desc=f"modes {scene.name}", enabled=progress) as bar:
         for k in range(1, kmax + 1):
-            ops = build_operators(problem, basis.U_v[:, :k], basis.U_rho[:, :k])
+            ops = build_operators(problem, basis.U_v[:, :min(k, rv)], basis.U_rho[:, :min(k, rr)])
             for model in models:
                 try:
                     res = run_reduced(model, ops, problem, n_steps=n, dt=scene.sph.dt,

@@ -125,18 +125,23 @@ def build_linear_operators(problem, U_v, U_e, input_direction="auto"):
         ρ0-orthonormal velocity modes (``Basis.U_ve[:, :k]``).
     U_e : ndarray (N, k_e)
         c-orthonormal specific-volume modes (``Basis.U_e[:, :k]``).
-    input_direction : {"auto", "always", "never"}
-        As in :func:`harness.rom.operators.build_operators`.
+    input_direction : {"auto", "project", "augment", "always", "never"}
+        As in :func:`harness.rom.operators.build_operators` (W_v-weighted).
     """
     t0 = time.perf_counter()
     rho0, c, d, profile = problem.rho0, problem.c, problem.d, problem.profile
     scene = problem.scene
     has_force = problem.terms["force_profile"] and bool(np.any(scene.force(np.linspace(0, scene.T, 1025)) != 0))
-    want_input = {"auto": has_force, "always": bool(np.any(profile != 0)), "never": False}[input_direction]
+    mode = {"auto": "project" if has_force else "never", "always": "augment"}.get(input_direction, input_direction)
+    if mode not in ("project", "augment", "never"):
+        raise ValueError(f"input_direction {input_direction!r}")
+    want_input = mode != "never" and bool(np.any(profile != 0))
     input_error, augmented = float("nan"), False
     U_v = np.asarray(U_v, float)
     if want_input:
-        U_v, input_error, augmented = augment_weighted(U_v, profile, rho0)
+        U_aug, input_error, added = augment_weighted(U_v, profile, rho0)
+        if mode == "augment":
+            U_v, augmented = U_aug, added
     G = problem.neighbours.matrix()
     P = U_v.T @ np.asarray(G @ (c[:, None] * U_e))
     k_v, k_e = U_v.shape[1], U_e.shape[1]

@@ -119,10 +119,16 @@ def build_operators(problem: SPHProblem, U_v, U_rho, input_direction="auto", ten
     ----------
     problem : SPHProblem
         The full SPH problem (fields, G) the bases belong to.
-    input_direction : {"auto", "always", "never"}
-        Whether the force profile gets an input row p̂ and, when it is not in
-        span(U_v), an appended basis vector.  ``auto``: when the scene has a
-        force; ``always``: the FMU, whose input f may be anything.
+    input_direction : {"auto", "project", "augment", "always", "never"}
+        How the force enters.  ``project`` (the paper's eq. 2.19): the input
+        row p̂ = U_vᵀ profile, with whatever part of the profile the POD modes
+        miss lost (its size is reported as ``input_error``).  ``augment`` (or
+        ``always``): the profile's component outside span(U_v) is appended to
+        the basis, so any f(t) enters exactly (the FMU, whose input may be
+        anything).  ``never``: no input row.  ``auto``: ``project`` when the
+        scene has a force, else ``never``.  Note that appending a mode can
+        make a Galerkin model less accurate at small k (weak damping: see
+        the README's findings).
     tensor : {"auto", "always", "never"}
         Whether to build the refresh tensor T.
     """
@@ -132,10 +138,15 @@ def build_operators(problem: SPHProblem, U_v, U_rho, input_direction="auto", ten
     rho0, c, d, profile = problem.rho0, problem.c, problem.d, problem.profile
     scene = problem.scene
     has_force = problem.terms["force_profile"] and bool(np.any(scene.force(np.linspace(0, scene.T, 1025)) != 0))
-    want_input = {"auto": has_force, "always": bool(np.any(profile != 0)), "never": False}[input_direction]
+    mode = {"auto": "project" if has_force else "never", "always": "augment"}.get(input_direction, input_direction)
+    if mode not in ("project", "augment", "never"):
+        raise ValueError(f"input_direction {input_direction!r}")
+    want_input = mode != "never" and bool(np.any(profile != 0))
     input_error, augmented = float("nan"), False
     if want_input:
-        U_v, input_error, augmented = augment_with(U_v, profile)
+        U_aug, input_error, added = augment_with(U_v, profile)
+        if mode == "augment":
+            U_v, augmented = U_aug, added
     G = problem.neighbours.matrix()
     inv_rho0 = 1.0 / rho0
     GU_v = np.asarray(G @ U_v)
