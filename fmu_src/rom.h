@@ -1,0 +1,174 @@
+/*
+ * sphrom model core: the frozen-coefficient reduced model of the paper's
+ * eqs. 2.19-2.24 (POD-accelerated SPH of a 1D mass-spring-damper system).
+ *
+ * No FMI types appear here: the FMI 2.0 and 3.0 co-simulation wrappers
+ * (fmi2_cs.c, fmi3_cs.c) are thin glue over these functions.  There are no
+ * globals; every object is owned by the caller, so many instances can run in
+ * one process and in several threads (one thread per instance at a time).
+ *
+ * The scene's numbers come from resources/model.bin (format below), written by
+ * the harness (harness/fmu/resources.py).  Units: time [s], velocity [m s^-1],
+ * density [kg m^-3], force per mass [m s^-2].
+ *
+ * Resource format, version 1 (all little-endian):
+ *
+ *   char[8]  magic "SPHROMRS"
+ *   uint32   format_version (1), model_kind (1 frozen; 2 reserved: exact linear),
+ *            integrator (0 euler, 1 symplectic), k_v, k_rho, n_probes, n_pairs,
+ *            flags (bit0: damping D present, bit1: input row p present),
+ *            n_freeze_default, reserved (0)
+ *   float64  dt [s], runaway_bound, L [m]
+ *   float64  a_v0[k_v], a_rho0[k_rho], K[k_v][k_rho], b[k_v], D[k_v][k_v] (bit0),
+ *            p[k_v] (bit1), T[n_pairs][k_rho][k_v], Pv[n_probes][k_v],
+ *            Prho[n_probes][k_rho], probe_x[n_probes] (units of L)
+ *   char[40] token "{xxxxxxxx-xxxx-xxxx-xxxx-xxxxxxxxxxxx}", NUL padded
+ *   uint32   crc32 (zlib's) of every byte before it
+ */
+#ifndef SPHROM_ROM_H
+#define SPHROM_ROM_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* The core library (libsphrom_core, for ctypes and the benchmark) exports the
+ * rom_* functions; inside the FMU binaries they stay hidden. */
+#if defined(ROM_EXPORT_API)
+#  if defined(_WIN32)
+#    define ROM_API __declspec(dllexport)
+#  else
+#    define ROM_API __attribute__((visibility("default")))
+#  endif
+#else
+#  define ROM_API
+#endif
+
+#define ROM_FORMAT_VERSION 1u
+#define ROM_STATE_VERSION 1u
+#define ROM_MODEL_FROZEN 1u
+#define ROM_MODEL_EXACT_LINEAR 2u      /* reserved for a later model */
+#define ROM_INTEGRATOR_EULER 0u
+#define ROM_INTEGRATOR_SYMPLECTIC 1u
+#define ROM_FLAG_DAMPING 1u
+#define ROM_FLAG_INPUT 2u
+#define ROM_TOKEN_SIZE 40
+#define ROM_HEADER_SIZE 72
+#define ROM_MAX_MODES 1024u
+#define ROM_MAX_PROBES 100u
+#define ROM_MESSAGE_SIZE 1024
+#define ROM_RESOURCE_FILE "model.bin"
+
+/* value references shared by both FMI versions */
+#define ROM_VR_TIME 0u               /* FMI 3 only: the independent variable */
+#define ROM_VR_F 1u                  /* input f [m s^-2] */
+#define ROM_VR_N_FREEZE 2u           /* parameter n_freeze */
+#define ROM_VR_DT 3u                 /* parameter dt [s] */
+#define ROM_VR_V_PROBE 1000u         /* v_probe_1 .. : 1000 + j */
+#define ROM_VR_RHO_PROBE 2000u       /* rho_probe_1 .. : 2000 + j */
+
+/* log categories (bit masks); names as declared in modelDescription.xml */
+#define ROM_LOG_EVENTS 1u
+#define ROM_LOG_WARNING 2u
+#define ROM_LOG_ERROR 4u
+#define ROM_LOG_ALL (ROM_LOG_EVENTS | ROM_LOG_WARNING | ROM_LOG_ERROR)
+
+typedef enum { ROM_OK = 0, ROM_FAIL = 1 } RomStatus;
+
+/* The reduced model of one scene (immutable once loaded).  Matrices are kept
+ * transposed and zero-padded (k_v, k_rho rounded up to multiples of 4) so that
+ * the inner loops run over contiguous, fixed-width blocks; the arithmetic on
+ * every real entry is the file's, in the same order. */
+typedef struct {
+    uint32_t integrator, k_v, k_rho, n_probes, n_pairs, flags, n_freeze_default;
+    uint32_t kv_pad, kr_pad;   /* k_v, k_rho rounded up to a multiple of 4 */
+    uint32_t nm;               /* length of a padded M^T block: k_v kr_pad rounded up to 32 */
+    double dt;                 /* internal step of the scene [s] */
+    double runaway_bound;      /* |a| above this is a runaway */
+    double L;                  /* period [m] */
+    double *a_v0, *a_rho0;     /* initial reduced coordinates [k_v], [k_rho] */
+    double *Kt;                /* K^T: Kt[q*kv_pad + p] = K[p][q] (eq. 2.21 projected) */
+    double *b;                 /* [kv_pad] eq. 2.22 projected */
+    double *Dt;                /* D^T [k_v][kv_pad] (eq. 2.24 projected), NULL without damping */
+    double *p;                 /* [kv_pad] input row U^vT profile, NULL without input */
+    double *Tt;                /* Tt[k*nm + q*kr_pad + p] = T[k][p][q], the refresh tensor */
+    double *Pv, *Prho;         /* probe rows [n_probes][k_v], [n_probes][k_rho] */
+    double *probe_x;           /* probe positions in units of L */
+    char token[ROM_TOKEN_SIZE + 1];
+    void *storage_;            /* one allocation behind all arrays */
+} RomModel;
+
+/* The mutable state of one instance (arrays padded like the model's). */
+typedef struct {
+    const RomModel *model;
+    double *av, *ar;        /* reduced coordinates a^v [kv_pad], a^rho [kr_pad] */
+    double *Mt;             /* frozen M(a^rho)^T: Mt[q*kr_pad + p] = M[p][q], [nm] */
+    double *F;              /* frozen force term p f [kv_pad] */
+    double *dv, *dr;        /* scratch: rates */
+    double *S;              /* scratch: a^rho_a a^rho_b per pair */
+    int64_t n;              /* internal steps since reset (shortened ones too) */
+    double time;            /* time of the state [s] */
+    double f;               /* input, held over a communication step [m s^-2] */
+    double dt;              /* internal step [s] (parameter) */
+    int32_t n_freeze;       /* refresh period (parameter) */
+    void *storage_;
+} RomState;
+
+/* ---- resources ---------------------------------------------------------- */
+ROM_API RomStatus rom_model_load_memory(const void *data, size_t size, RomModel **out,
+                                        char *message, size_t message_size);
+ROM_API RomStatus rom_model_load_file(const char *path, RomModel **out,
+                                      char *message, size_t message_size);
+ROM_API void rom_model_free(RomModel *model);
+ROM_API uint32_t rom_crc32(const void *data, size_t size);
+
+/* ---- state -------------------------------------------------------------- */
+ROM_API RomState *rom_state_new(const RomModel *model);
+ROM_API void rom_state_free(RomState *state);
+/* a = a0, n = 0, time = t_start, f = 0, parameters to their defaults */
+ROM_API void rom_state_reset(RomState *state, double t_start);
+ROM_API RomStatus rom_set_start_time(RomState *state, double t_start, char *message, size_t message_size);
+ROM_API RomStatus rom_set_input(RomState *state, double f, char *message, size_t message_size);
+ROM_API RomStatus rom_set_dt(RomState *state, double dt, char *message, size_t message_size);
+ROM_API RomStatus rom_set_n_freeze(RomState *state, int64_t n_freeze, char *message, size_t message_size);
+
+/* Advance from t_comm by h > 0, reaching t_comm + h exactly: whole internal
+ * steps of dt and one shortened last step.  Fails (message names the time) on
+ * a time mismatch, a bad h, a non-finite or runaway state, or a density <= 0
+ * at a probe. */
+ROM_API RomStatus rom_do_step(RomState *state, double t_comm, double h, char *message, size_t message_size);
+/* n_steps whole internal steps with the runaway check (benchmark, tests) */
+ROM_API RomStatus rom_advance(RomState *state, int64_t n_steps, char *message, size_t message_size);
+/* Probe outputs: v_j = sum_q Pv[j][q] a^v_q, rho_j = sum_q Prho[j][q] a^rho_q */
+ROM_API double rom_v_probe(const RomState *state, uint32_t j);
+ROM_API double rom_rho_probe(const RomState *state, uint32_t j);
+/* Check the probe densities (> 0 and finite) at the current time */
+ROM_API RomStatus rom_check_outputs(const RomState *state, char *message, size_t message_size);
+
+/* ---- serialized state (magic, version, sizes, token, crc) ------------------ */
+ROM_API size_t rom_state_serialized_size(const RomModel *model);
+ROM_API void rom_state_serialize(const RomState *state, uint32_t tag, unsigned char *buffer);
+/* Checks a blob against this model (magic, version, sizes, token, crc). */
+ROM_API RomStatus rom_state_check(const RomModel *model, const unsigned char *buffer, size_t size,
+                                  char *message, size_t message_size);
+ROM_API RomStatus rom_state_deserialize(RomState *state, const unsigned char *buffer, size_t size,
+                                        uint32_t *tag, char *message, size_t message_size);
+
+/* ---- helpers for the FMI glue (no FMI types) ------------------------------- */
+/* resources/model.bin from a resource location: a file URI (FMI 2) or a
+ * folder path (FMI 3) */
+ROM_API RomStatus rom_resource_file(const char *location, int is_uri, char *path, size_t path_size,
+                                    char *message, size_t message_size);
+/* bit of a log category name, 0 when unknown */
+ROM_API uint32_t rom_log_category(const char *name);
+ROM_API const char *rom_log_category_name(uint32_t bit);
+ROM_API const char *rom_version(void);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* SPHROM_ROM_H */

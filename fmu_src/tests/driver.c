@@ -1,0 +1,706 @@
+/*
+ * C test driver for the sphrom FMU binaries, built by CMake (target
+ * sphrom_driver) with or without -fsanitize=address,undefined and run from
+ * pytest (tests/test_fmu_c.py).  It links the core and both FMI wrappers
+ * directly and exercises them through the FMI functions:
+ *
+ *   sphrom_driver RESOURCES_DIR SCRATCH_DIR [scenario ...]
+ *
+ * scenarios: basic, state, bad, resources, cycles, threads (default: all).
+ * Every failed check prints a line; the exit status is the number of failed
+ * checks (capped at 100).  Under AddressSanitizer, leaks fail the run at exit.
+ */
+#include <math.h>
+#include <pthread.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#include "fmi2Functions.h"
+#include "fmi3Functions.h"
+#include "rom.h"
+
+#define MAX_OUT (2 * ROM_MAX_PROBES)
+
+static int failures = 0;
+static int checks = 0;
+
+#define EXPECT(cond, ...) \
+    do { \
+        checks++; \
+        if (!(cond)) { \
+            failures++; \
+            printf("FAIL %s:%d: ", __FILE__, __LINE__); \
+            printf(__VA_ARGS__); \
+            printf("\n"); \
+        } \
+    } while (0)
+
+/* ------------------------------------------------------------------------ */
+/* log book: per-instance environment recording what the FMU logged           */
+/* ------------------------------------------------------------------------ */
+
+typedef struct {
+    int errors;
+    int messages;
+    char last[2048];
+} LogBook;
+
+static void logger2(fmi2ComponentEnvironment env, fmi2String name, fmi2Status status, fmi2String category,
+                    fmi2String message, ...) {
+    (void)name;
+    (void)category;
+    LogBook *book = (LogBook *)env;
+    if (!book) return;
+    book->messages++;
+    if (status == fmi2Error || status == fmi2Fatal) book->errors++;
+    snprintf(book->last, sizeof book->last, "%s", message ? message : "");
+}
+
+static void logger3(fmi3InstanceEnvironment env, fmi3Status status, fmi3String category, fmi3String message) {
+    (void)category;
+    LogBook *book = (LogBook *)env;
+    if (!book) return;
+    book->messages++;
+    if (status == fmi3Error || status == fmi3Fatal) book->errors++;
+    snprintf(book->last, sizeof book->last, "%s", message ? message : "");
+}
+
+/* status must be an error and a new error message must have been logged */
+#define EXPECT_ERROR(book, call, ok_value) \
+    do { \
+        const int _before = (book)->errors; \
+        const int _status = (int)(call); \
+        EXPECT(_status != (int)(ok_value), "%s returned OK, expected an error", #call); \
+        EXPECT((book)->errors > _before, "%s logged no error message", #call); \
+    } while (0)
+
+/* ------------------------------------------------------------------------ */
+/* setup                                                                     */
+/* ------------------------------------------------------------------------ */
+
+typedef struct {
+    char resources[4096];   /* folder */
+    char uri[4200];         /* file URI of the folder (FMI 2) */
+    char path3[4200];       /* folder path with a trailing slash (FMI 3) */
+    char token[ROM_TOKEN_SIZE + 1];
+    uint32_t n_probes;
+    double dt;
+    const char *scratch;
+} Setup;
+
+static Setup setup;
+
+static fmi2CallbackFunctions callbacks2(LogBook *book) {
+    fmi2CallbackFunctions f;
+    f.logger = logger2;
+    f.allocateMemory = calloc;
+    f.freeMemory = free;
+    f.stepFinished = NULL;
+    f.componentEnvironment = book;
+    return f;
+}
+
+static fmi2Component instantiate2(LogBook *book, const fmi2CallbackFunctions *f, const char *uri, const char *token) {
+    (void)book;
+    return fmi2Instantiate("driver2", fmi2CoSimulation, token, uri, f, fmi2False, fmi2False);
+}
+
+static fmi3Instance instantiate3(LogBook *book, const char *path, const char *token) {
+    return fmi3InstantiateCoSimulation("driver3", token, path, fmi3False, fmi3False, fmi3False, fmi3False, NULL, 0,
+                                       book, logger3, NULL);
+}
+
+static size_t output_refs(fmi2ValueReference *vr) {
+    size_t n = 0;
+    for (uint32_t j = 0; j < setup.n_probes; j++) vr[n++] = ROM_VR_V_PROBE + j;
+    for (uint32_t j = 0; j < setup.n_probes; j++) vr[n++] = ROM_VR_RHO_PROBE + j;
+    return n;
+}
+
+/* the input sequence of every scenario: f_k = 0.05 sin(0.7 k) [m s^-2] */
+static double input_at(int k) {
+    return 0.05 * sin(0.7 * (double)k);
+}
+
+/* communication step k: alternates whole multiples and non-multiples of dt */
+static double step_at(int k) {
+    static const double factors[4] = {3.0, 2.5, 0.4, 7.25};
+    return factors[k % 4] * setup.dt;
+}
+
+/* run n communication steps from step k0 at time t; record outputs (n x n_out) */
+static int run2(fmi2Component c, int k0, int n, double *t, double *out) {
+    fmi2ValueReference vr[MAX_OUT];
+    const size_t n_out = output_refs(vr);
+    const fmi2ValueReference vf = ROM_VR_F;
+    for (int k = k0; k < k0 + n; k++) {
+        const double f = input_at(k);
+        if (fmi2SetReal(c, &vf, 1, &f) != fmi2OK) return 0;
+        const double h = step_at(k);
+        if (fmi2DoStep(c, *t, h, fmi2True) != fmi2OK) return 0;
+        *t += h;
+        if (fmi2GetReal(c, vr, n_out, out + (size_t)(k - k0) * n_out) != fmi2OK) return 0;
+    }
+    return 1;
+}
+
+static int run3(fmi3Instance c, int k0, int n, double *t, double *out) {
+    fmi3ValueReference vr[MAX_OUT];
+    const size_t n_out = output_refs(vr);
+    const fmi3ValueReference vf = ROM_VR_F;
+    for (int k = k0; k < k0 + n; k++) {
+        const double f = input_at(k);
+        if (fmi3SetFloat64(c, &vf, 1, &f, 1) != fmi3OK) return 0;
+        const double h = step_at(k);
+        fmi3Boolean event, terminate, early;
+        fmi3Float64 last;
+        if (fmi3DoStep(c, *t, h, fmi3True, &event, &terminate, &early, &last) != fmi3OK) return 0;
+        *t += h;
+        if (fmi3GetFloat64(c, vr, n_out, out + (size_t)(k - k0) * n_out, n_out) != fmi3OK) return 0;
+    }
+    return 1;
+}
+
+static fmi2Component ready2(LogBook *book, const fmi2CallbackFunctions *f) {
+    fmi2Component c = instantiate2(book, f, setup.uri, setup.token);
+    if (!c) return NULL;
+    if (fmi2SetupExperiment(c, fmi2False, 0.0, 0.0, fmi2False, 0.0) != fmi2OK ||
+        fmi2EnterInitializationMode(c) != fmi2OK || fmi2ExitInitializationMode(c) != fmi2OK) {
+        fmi2FreeInstance(c);
+        return NULL;
+    }
+    return c;
+}
+
+static fmi3Instance ready3(LogBook *book) {
+    fmi3Instance c = instantiate3(book, setup.path3, setup.token);
+    if (!c) return NULL;
+    if (fmi3EnterInitializationMode(c, fmi3False, 0.0, 0.0, fmi3False, 0.0) != fmi3OK ||
+        fmi3ExitInitializationMode(c) != fmi3OK) {
+        fmi3FreeInstance(c);
+        return NULL;
+    }
+    return c;
+}
+
+/* ------------------------------------------------------------------------ */
+/* scenarios                                                                 */
+/* ------------------------------------------------------------------------ */
+
+#define N_STEPS 40
+
+static void scenario_basic(void) {
+    LogBook book2 = {0}, book3 = {0};
+    const fmi2CallbackFunctions f2 = callbacks2(&book2);
+    fmi2Component c2 = ready2(&book2, &f2);
+    fmi3Instance c3 = ready3(&book3);
+    EXPECT(c2 && c3, "instantiation failed: %s / %s", book2.last, book3.last);
+    if (!c2 || !c3) {
+        fmi2FreeInstance(c2);
+        fmi3FreeInstance(c3);
+        return;
+    }
+    const size_t n_out = 2 * setup.n_probes;
+    double *out2 = calloc(N_STEPS * n_out, sizeof(double));
+    double *out3 = calloc(N_STEPS * n_out, sizeof(double));
+    double t2 = 0.0, t3 = 0.0;
+    EXPECT(run2(c2, 0, N_STEPS, &t2, out2), "FMI 2 run failed: %s", book2.last);
+    EXPECT(run3(c3, 0, N_STEPS, &t3, out3), "FMI 3 run failed: %s", book3.last);
+    EXPECT(memcmp(out2, out3, N_STEPS * n_out * sizeof(double)) == 0, "FMI 2 and FMI 3 outputs differ");
+    for (size_t i = 0; i < N_STEPS * n_out; i++) EXPECT(isfinite(out2[i]), "non-finite output %zu", i);
+    /* FMI 3 time reaches the communication point exactly */
+    const fmi3ValueReference vt = ROM_VR_TIME;
+    double time3 = -1.0;
+    EXPECT(fmi3GetFloat64(c3, &vt, 1, &time3, 1) == fmi3OK && time3 == t3, "FMI 3 time %.17g != %.17g", time3, t3);
+    fmi2Real last = -1.0;
+    EXPECT(fmi2GetRealStatus(c2, fmi2LastSuccessfulTime, &last) == fmi2OK && last == t2, "FMI 2 time %.17g", last);
+    EXPECT(fmi2Terminate(c2) == fmi2OK, "fmi2Terminate");
+    EXPECT(fmi3Terminate(c3) == fmi3OK, "fmi3Terminate");
+    /* debug logging is honoured: logEvents on gives messages, all off gives none */
+    EXPECT(fmi2Reset(c2) == fmi2OK, "fmi2Reset");
+    const fmi2String events[1] = {"logEvents"};
+    EXPECT(fmi2SetDebugLogging(c2, fmi2True, 1, events) == fmi2OK, "fmi2SetDebugLogging");
+    const int before = book2.messages;
+    EXPECT(fmi2SetupExperiment(c2, fmi2False, 0, 0, fmi2False, 0) == fmi2OK && fmi2EnterInitializationMode(c2) ==
+           fmi2OK && fmi2ExitInitializationMode(c2) == fmi2OK && fmi2DoStep(c2, 0.0, setup.dt, fmi2True) == fmi2OK,
+           "run after reset");
+    EXPECT(book2.messages > before, "logEvents on: no message");
+    EXPECT(fmi2SetDebugLogging(c2, fmi2False, 0, NULL) == fmi2OK, "fmi2SetDebugLogging off");
+    const int before_off = book2.messages;
+    EXPECT(fmi2DoStep(c2, setup.dt, setup.dt, fmi2True) == fmi2OK, "doStep");
+    EXPECT(fmi2DoStep(c2, 0.0, setup.dt, fmi2True) == fmi2Error, "wrong time accepted");
+    EXPECT(book2.messages == before_off, "logging off: the FMU still logged '%s'", book2.last);
+    const fmi3String bogus[1] = {"logBogus"};
+    EXPECT_ERROR(&book3, fmi3SetDebugLogging(c3, fmi3True, 1, bogus), fmi3OK);
+    fmi2FreeInstance(c2);
+    fmi3FreeInstance(c3);
+    free(out2);
+    free(out3);
+}
+
+static void scenario_state(void) {
+    LogBook book2 = {0}, book3 = {0};
+    const fmi2CallbackFunctions f2 = callbacks2(&book2);
+    fmi2Component c2 = ready2(&book2, &f2);
+    fmi3Instance c3 = ready3(&book3);
+    EXPECT(c2 && c3, "instantiation failed");
+    if (!c2 || !c3) {
+        fmi2FreeInstance(c2);
+        fmi3FreeInstance(c3);
+        return;
+    }
+    const size_t n_out = 2 * setup.n_probes;
+    double *a = calloc(N_STEPS * n_out, sizeof(double));
+    double *b = calloc(N_STEPS * n_out, sizeof(double));
+    double *c = calloc(N_STEPS * n_out, sizeof(double));
+    double t = 0.0, t1;
+    /* FMI 2: get/set and serialize/deserialize */
+    EXPECT(run2(c2, 0, 13, &t, a), "run to t1");
+    t1 = t;
+    fmi2FMUstate s2 = NULL;
+    EXPECT(fmi2GetFMUstate(c2, &s2) == fmi2OK && s2, "fmi2GetFMUstate");
+    EXPECT(run2(c2, 13, N_STEPS, &t, a), "run to t2");
+    t = t1;
+    EXPECT(fmi2SetFMUstate(c2, s2) == fmi2OK, "fmi2SetFMUstate");
+    EXPECT(run2(c2, 13, N_STEPS, &t, b), "rerun to t2");
+    EXPECT(memcmp(a, b, N_STEPS * n_out * sizeof(double)) == 0, "FMI 2 get/set: outputs differ after restore");
+    size_t size = 0;
+    EXPECT(fmi2SerializedFMUstateSize(c2, s2, &size) == fmi2OK && size > 0, "size");
+    fmi2Byte *blob = malloc(size);
+    EXPECT(fmi2SerializeFMUstate(c2, s2, blob, size) == fmi2OK, "serialize");
+    fmi2FMUstate s2b = NULL;
+    EXPECT(fmi2DeSerializeFMUstate(c2, blob, size, &s2b) == fmi2OK && s2b, "deserialize");
+    t = t1;
+    EXPECT(fmi2SetFMUstate(c2, s2b) == fmi2OK, "set deserialized");
+    EXPECT(run2(c2, 13, N_STEPS, &t, c), "rerun after deserialize");
+    EXPECT(memcmp(a, c, N_STEPS * n_out * sizeof(double)) == 0, "FMI 2 serialize: outputs differ after restore");
+    /* a blob from another FMU (other token), truncated or corrupt: refused */
+    fmi2Byte *other = malloc(size);
+    memcpy(other, blob, size);
+    other[40] ^= 0x01;                        /* inside the token */
+    fmi2FMUstate s_bad = NULL;
+    EXPECT_ERROR(&book2, fmi2DeSerializeFMUstate(c2, other, size, &s_bad), fmi2OK);
+    EXPECT(s_bad == NULL, "no state may be created from a refused blob");
+    EXPECT(strstr(book2.last, "another FMU") != NULL, "message should say 'another FMU': %s", book2.last);
+    EXPECT(fmi2Reset(c2) == fmi2OK, "reset after a refused blob");
+    memcpy(other, blob, size);
+    other[16] ^= 0x01;                        /* k_v */
+    EXPECT_ERROR(&book2, fmi2DeSerializeFMUstate(c2, other, size, &s_bad), fmi2OK);
+    EXPECT(fmi2Reset(c2) == fmi2OK, "reset");
+    EXPECT_ERROR(&book2, fmi2DeSerializeFMUstate(c2, blob, size - 5, &s_bad), fmi2OK);
+    EXPECT(fmi2Reset(c2) == fmi2OK, "reset");
+    memcpy(other, blob, size);
+    other[size / 2] ^= 0x10;                  /* payload: crc mismatch */
+    EXPECT_ERROR(&book2, fmi2DeSerializeFMUstate(c2, other, size, &s_bad), fmi2OK);
+    /* restart from a saved state out of the Error state (allowed by FMI 2.0) */
+    t = t1;
+    EXPECT(fmi2SetFMUstate(c2, s2) == fmi2OK, "set state in the Error state");
+    EXPECT(run2(c2, 13, N_STEPS, &t, b), "run after restart from error");
+    EXPECT(memcmp(a, b, N_STEPS * n_out * sizeof(double)) == 0, "restart from error: outputs differ");
+    EXPECT(fmi2FreeFMUstate(c2, &s2) == fmi2OK && s2 == NULL, "free state");
+    EXPECT(fmi2FreeFMUstate(c2, &s2b) == fmi2OK, "free state");
+    free(other);
+
+    /* FMI 3 */
+    t = 0.0;
+    EXPECT(run3(c3, 0, 13, &t, a), "run3 to t1");
+    t1 = t;
+    fmi3FMUState s3 = NULL;
+    EXPECT(fmi3GetFMUState(c3, &s3) == fmi3OK && s3, "fmi3GetFMUState");
+    EXPECT(run3(c3, 13, N_STEPS, &t, a), "run3 to t2");
+    t = t1;
+    EXPECT(fmi3SetFMUState(c3, s3) == fmi3OK, "fmi3SetFMUState");
+    EXPECT(run3(c3, 13, N_STEPS, &t, b), "rerun3");
+    EXPECT(memcmp(a, b, N_STEPS * n_out * sizeof(double)) == 0, "FMI 3 get/set: outputs differ");
+    size_t size3 = 0;
+    EXPECT(fmi3SerializedFMUStateSize(c3, s3, &size3) == fmi3OK && size3 == size, "size3");
+    fmi3Byte *blob3 = malloc(size3);
+    EXPECT(fmi3SerializeFMUState(c3, s3, blob3, size3) == fmi3OK, "serialize3");
+    /* a state serialized by FMI 3 restores in a fresh instance */
+    LogBook book3b = {0};
+    fmi3Instance d3 = instantiate3(&book3b, setup.path3, setup.token);
+    fmi3FMUState s3b = NULL;
+    EXPECT(d3 && fmi3DeserializeFMUState(d3, blob3, size3, &s3b) == fmi3OK, "deserialize3");
+    EXPECT(d3 && fmi3SetFMUState(d3, s3b) == fmi3OK, "set3 in a fresh instance");
+    t = t1;
+    EXPECT(d3 && run3(d3, 13, N_STEPS, &t, c), "run in the fresh instance: %s", book3b.last);
+    EXPECT(memcmp(a, c, N_STEPS * n_out * sizeof(double)) == 0, "FMI 3 serialize: outputs differ");
+    blob3[40] ^= 0x01;
+    fmi3FMUState s3_bad = NULL;
+    EXPECT_ERROR(&book3, fmi3DeserializeFMUState(c3, blob3, size3, &s3_bad), fmi3OK);
+    EXPECT(fmi3FreeFMUState(c3, &s3) == fmi3OK, "free3");
+    if (d3) {
+        EXPECT(fmi3FreeFMUState(d3, &s3b) == fmi3OK, "free3b");
+        fmi3FreeInstance(d3);
+    }
+    fmi2FreeInstance(c2);
+    fmi3FreeInstance(c3);
+    free(blob);
+    free(blob3);
+    free(a);
+    free(b);
+    free(c);
+}
+
+static void scenario_bad(void) {
+    LogBook book = {0};
+    const fmi2CallbackFunctions f2 = callbacks2(&book);
+    const fmi2ValueReference vf = ROM_VR_F, vdt = ROM_VR_DT, vnf = ROM_VR_N_FREEZE, vout = ROM_VR_V_PROBE;
+    const fmi2ValueReference vbad = 777;
+    double value = 0.0;
+    fmi2Integer ivalue = 0;
+
+    /* NULL instance: error, no crash */
+    EXPECT(fmi2DoStep(NULL, 0.0, 1.0, fmi2True) == fmi2Error, "NULL instance");
+    EXPECT(fmi2GetReal(NULL, &vf, 1, &value) == fmi2Error, "NULL instance");
+    EXPECT(fmi2Reset(NULL) == fmi2Error, "NULL instance");
+    fmi2FreeInstance(NULL);
+    EXPECT(fmi3DoStep(NULL, 0.0, 1.0, fmi3True, NULL, NULL, NULL, NULL) == fmi3Error, "NULL instance");
+    fmi3FreeInstance(NULL);
+
+    fmi2Component c = instantiate2(&book, &f2, setup.uri, setup.token);
+    EXPECT(c != NULL, "instantiate: %s", book.last);
+    if (!c) return;
+    /* illegal call sequences */
+    EXPECT_ERROR(&book, fmi2DoStep(c, 0.0, setup.dt, fmi2True), fmi2OK);       /* before initialization */
+    EXPECT_ERROR(&book, fmi2GetReal(c, &vout, 1, &value), fmi2OK);              /* in the Error state */
+    EXPECT(strstr(book.last, "Error state") != NULL, "message should name the Error state: %s", book.last);
+    EXPECT(fmi2Reset(c) == fmi2OK, "reset leaves the Error state");
+    EXPECT_ERROR(&book, fmi2ExitInitializationMode(c), fmi2OK);
+    EXPECT(fmi2Reset(c) == fmi2OK, "reset");
+    /* bad parameter values */
+    EXPECT(fmi2SetupExperiment(c, fmi2False, 0, 0, fmi2False, 0) == fmi2OK, "setup");
+    EXPECT(fmi2EnterInitializationMode(c) == fmi2OK, "enter");
+    const fmi2Integer zero = 0;
+    EXPECT_ERROR(&book, fmi2SetInteger(c, &vnf, 1, &zero), fmi2OK);
+    EXPECT(fmi2Reset(c) == fmi2OK, "reset");
+    const double nan_value = NAN, inf_value = INFINITY, negative = -1.0;
+    EXPECT_ERROR(&book, fmi2SetReal(c, &vdt, 1, &negative), fmi2OK);
+    EXPECT(fmi2Reset(c) == fmi2OK, "reset");
+    EXPECT_ERROR(&book, fmi2SetReal(c, &vdt, 1, &nan_value), fmi2OK);
+    EXPECT(fmi2Reset(c) == fmi2OK, "reset");
+    /* NaN and Inf input */
+    EXPECT_ERROR(&book, fmi2SetReal(c, &vf, 1, &nan_value), fmi2OK);
+    EXPECT(strstr(book.last, "not finite") != NULL, "NaN message: %s", book.last);
+    EXPECT(fmi2Reset(c) == fmi2OK, "reset");
+    EXPECT_ERROR(&book, fmi2SetReal(c, &vf, 1, &inf_value), fmi2OK);
+    EXPECT(fmi2Reset(c) == fmi2OK, "reset");
+    /* unknown value references, NULL arrays */
+    EXPECT(fmi2SetupExperiment(c, fmi2False, 0, 0, fmi2False, 0) == fmi2OK && fmi2EnterInitializationMode(c) ==
+           fmi2OK, "init");
+    EXPECT_ERROR(&book, fmi2GetReal(c, &vbad, 1, &value), fmi2OK);
+    EXPECT(fmi2Reset(c) == fmi2OK, "reset");
+    EXPECT(fmi2SetupExperiment(c, fmi2False, 0, 0, fmi2False, 0) == fmi2OK && fmi2EnterInitializationMode(c) ==
+           fmi2OK, "init");
+    EXPECT_ERROR(&book, fmi2GetReal(c, &vout, 1, NULL), fmi2OK);
+    EXPECT(fmi2Reset(c) == fmi2OK, "reset");
+    /* step mode: parameters are fixed, time must match, h > 0 */
+    EXPECT(fmi2SetupExperiment(c, fmi2False, 0, 0.5, fmi2False, 0) == fmi2OK && fmi2EnterInitializationMode(c) ==
+           fmi2OK && fmi2ExitInitializationMode(c) == fmi2OK, "init at t = 0.5");
+    EXPECT(fmi2GetInteger(c, &vnf, 1, &ivalue) == fmi2OK && ivalue >= 1, "n_freeze readable");
+    EXPECT_ERROR(&book, fmi2SetReal(c, &vdt, 1, &value), fmi2OK);
+    EXPECT(strstr(book.last, "fixed parameter") != NULL, "message: %s", book.last);
+    EXPECT(fmi2Reset(c) == fmi2OK, "reset");
+    EXPECT(fmi2SetupExperiment(c, fmi2False, 0, 0.5, fmi2False, 0) == fmi2OK && fmi2EnterInitializationMode(c) ==
+           fmi2OK && fmi2ExitInitializationMode(c) == fmi2OK, "init at t = 0.5");
+    EXPECT_ERROR(&book, fmi2DoStep(c, 0.0, setup.dt, fmi2True), fmi2OK);        /* wrong time */
+    EXPECT(strstr(book.last, "does not match") != NULL, "message: %s", book.last);
+    EXPECT(fmi2Reset(c) == fmi2OK, "reset");
+    EXPECT(fmi2SetupExperiment(c, fmi2False, 0, 0, fmi2False, 0) == fmi2OK && fmi2EnterInitializationMode(c) ==
+           fmi2OK && fmi2ExitInitializationMode(c) == fmi2OK, "init");
+    EXPECT_ERROR(&book, fmi2DoStep(c, 0.0, 0.0, fmi2True), fmi2OK);
+    EXPECT(fmi2Reset(c) == fmi2OK, "reset");
+    EXPECT(fmi2SetupExperiment(c, fmi2False, 0, 0, fmi2False, 0) == fmi2OK && fmi2EnterInitializationMode(c) ==
+           fmi2OK && fmi2ExitInitializationMode(c) == fmi2OK, "init");
+    EXPECT_ERROR(&book, fmi2DoStep(c, 0.0, -setup.dt, fmi2True), fmi2OK);
+    EXPECT(fmi2Reset(c) == fmi2OK, "reset");
+    EXPECT(fmi2SetupExperiment(c, fmi2False, 0, 0, fmi2False, 0) == fmi2OK && fmi2EnterInitializationMode(c) ==
+           fmi2OK && fmi2ExitInitializationMode(c) == fmi2OK, "init");
+    EXPECT_ERROR(&book, fmi2DoStep(c, 0.0, nan_value, fmi2True), fmi2OK);
+    /* everything but reset/free/setFMUstate fails in the Error state */
+    EXPECT_ERROR(&book, fmi2SetReal(c, &vf, 1, &value), fmi2OK);
+    EXPECT_ERROR(&book, fmi2Terminate(c), fmi2OK);
+    EXPECT_ERROR(&book, fmi2EnterInitializationMode(c), fmi2OK);
+    EXPECT(fmi2Reset(c) == fmi2OK, "reset");
+    /* a runaway state is an error naming the time, never a silent NaN */
+    const double huge_force = 1e300;
+    EXPECT(fmi2SetupExperiment(c, fmi2False, 0, 0, fmi2False, 0) == fmi2OK && fmi2EnterInitializationMode(c) ==
+           fmi2OK && fmi2SetReal(c, &vf, 1, &huge_force) == fmi2OK && fmi2ExitInitializationMode(c) == fmi2OK,
+           "init with a huge force");
+    EXPECT_ERROR(&book, fmi2DoStep(c, 0.0, 10 * setup.dt, fmi2True), fmi2OK);
+    EXPECT(strstr(book.last, "t = ") != NULL, "runaway message should name the time: %s", book.last);
+    EXPECT(fmi2Reset(c) == fmi2OK, "reset");
+    /* an unstable dt: non-finite or runaway, an error */
+    const double big_dt = 1e6;
+    EXPECT(fmi2SetupExperiment(c, fmi2False, 0, 0, fmi2False, 0) == fmi2OK && fmi2EnterInitializationMode(c) ==
+           fmi2OK && fmi2SetReal(c, &vdt, 1, &big_dt) == fmi2OK && fmi2ExitInitializationMode(c) == fmi2OK,
+           "init with dt = 1e6");
+    EXPECT_ERROR(&book, fmi2DoStep(c, 0.0, 1e9, fmi2True), fmi2OK);
+    EXPECT(fmi2Reset(c) == fmi2OK, "reset");
+    /* after all that, a clean run works */
+    EXPECT(fmi2SetupExperiment(c, fmi2False, 0, 0, fmi2False, 0) == fmi2OK && fmi2EnterInitializationMode(c) ==
+           fmi2OK && fmi2ExitInitializationMode(c) == fmi2OK && fmi2DoStep(c, 0.0, 0.01, fmi2True) == fmi2OK,
+           "clean run after reset: %s", book.last);
+    fmi2FreeInstance(c);
+
+    /* FMI 3 */
+    LogBook book3 = {0};
+    fmi3Instance c3 = instantiate3(&book3, setup.path3, setup.token);
+    EXPECT(c3 != NULL, "instantiate3: %s", book3.last);
+    if (!c3) return;
+    fmi3Boolean e, term, early;
+    fmi3Float64 last;
+    EXPECT_ERROR(&book3, fmi3DoStep(c3, 0.0, setup.dt, fmi3True, &e, &term, &early, &last), fmi3OK);
+    EXPECT(fmi3Reset(c3) == fmi3OK, "reset3");
+    EXPECT(fmi3EnterInitializationMode(c3, fmi3False, 0, 0, fmi3False, 0) == fmi3OK, "enter3");
+    EXPECT_ERROR(&book3, fmi3SetFloat64(c3, &vf, 1, &nan_value, 1), fmi3OK);
+    EXPECT(fmi3Reset(c3) == fmi3OK, "reset3");
+    const fmi3ValueReference vt = ROM_VR_TIME;
+    EXPECT(fmi3EnterInitializationMode(c3, fmi3False, 0, 0, fmi3False, 0) == fmi3OK, "enter3");
+    EXPECT_ERROR(&book3, fmi3SetFloat64(c3, &vt, 1, &value, 1), fmi3OK);
+    EXPECT(fmi3Reset(c3) == fmi3OK, "reset3");
+    EXPECT(fmi3EnterInitializationMode(c3, fmi3False, 0, 0, fmi3False, 0) == fmi3OK, "enter3");
+    EXPECT_ERROR(&book3, fmi3GetFloat64(c3, &vf, 1, &value, 2), fmi3OK);      /* nValues mismatch */
+    EXPECT(fmi3Reset(c3) == fmi3OK, "reset3");
+    EXPECT(fmi3EnterInitializationMode(c3, fmi3False, 0, 0, fmi3False, 0) == fmi3OK && fmi3ExitInitializationMode(c3)
+           == fmi3OK, "init3");
+    const fmi3Int32 nf = 5;
+    EXPECT_ERROR(&book3, fmi3SetInt32(c3, &vnf, 1, &nf, 1), fmi3OK);          /* fixed parameter in step mode */
+    EXPECT_ERROR(&book3, fmi3EnterEventMode(c3), fmi3OK);
+    EXPECT(fmi3Reset(c3) == fmi3OK, "reset3");
+    EXPECT(fmi3EnterInitializationMode(c3, fmi3False, 0, 0, fmi3False, 0) == fmi3OK && fmi3ExitInitializationMode(c3)
+           == fmi3OK, "init3");
+    EXPECT_ERROR(&book3, fmi3DoStep(c3, 0.0, setup.dt, fmi3True, NULL, &term, &early, &last), fmi3OK);
+    EXPECT(fmi3Reset(c3) == fmi3OK, "reset3");
+    EXPECT_ERROR(&book3, fmi3UpdateDiscreteStates(c3, NULL, NULL, NULL, NULL, NULL, NULL), fmi3OK);
+    fmi3FreeInstance(c3);
+}
+
+static int write_file(const char *path, const unsigned char *data, size_t size) {
+    FILE *f = fopen(path, "wb");
+    if (!f) return 0;
+    const size_t written = fwrite(data, 1, size, f);
+    fclose(f);
+    return written == size;
+}
+
+static unsigned char *read_file(const char *path, size_t *size) {
+    FILE *f = fopen(path, "rb");
+    if (!f) return NULL;
+    fseek(f, 0, SEEK_END);
+    const long n = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    unsigned char *data = malloc((size_t)n);
+    if (data && fread(data, 1, (size_t)n, f) != (size_t)n) {
+        free(data);
+        data = NULL;
+    }
+    fclose(f);
+    *size = (size_t)n;
+    return data;
+}
+
+/* instantiate both versions on a resources variant; both must refuse it with a message */
+static void expect_refused(const char *folder, const char *what) {
+    char uri[4200], path3[4200];
+    snprintf(uri, sizeof uri, "file://%s", folder);
+    snprintf(path3, sizeof path3, "%s/", folder);
+    LogBook book2 = {0}, book3 = {0};
+    const fmi2CallbackFunctions f2 = callbacks2(&book2);
+    fmi2Component c2 = instantiate2(&book2, &f2, uri, setup.token);
+    fmi3Instance c3 = instantiate3(&book3, path3, setup.token);
+    EXPECT(c2 == NULL && book2.errors == 1, "FMI 2 accepted resources with %s", what);
+    EXPECT(c3 == NULL && book3.errors == 1, "FMI 3 accepted resources with %s", what);
+    fmi2FreeInstance(c2);
+    fmi3FreeInstance(c3);
+}
+
+static void scenario_resources(void) {
+    char source[4300];
+    snprintf(source, sizeof source, "%s/%s", setup.resources, ROM_RESOURCE_FILE);
+    size_t size = 0;
+    unsigned char *data = read_file(source, &size);
+    EXPECT(data != NULL, "cannot read %s", source);
+    if (!data) return;
+    char folder[4200], file[4300];
+    snprintf(folder, sizeof folder, "%s/variant", setup.scratch);
+    mkdir(folder, 0755);
+    snprintf(file, sizeof file, "%s/%s", folder, ROM_RESOURCE_FILE);
+
+    /* missing file */
+    remove(file);
+    expect_refused(folder, "no model.bin");
+    /* truncated at several lengths */
+    const size_t cuts[6] = {0, 7, 40, ROM_HEADER_SIZE, size / 2, size - 1};
+    for (int i = 0; i < 6; i++) {
+        char what[64];
+        snprintf(what, sizeof what, "the file cut to %zu bytes", cuts[i]);
+        EXPECT(write_file(file, data, cuts[i]), "write");
+        expect_refused(folder, what);
+    }
+    /* one extra byte */
+    unsigned char *padded = malloc(size + 1);
+    memcpy(padded, data, size);
+    padded[size] = 0;
+    EXPECT(write_file(file, padded, size + 1), "write");
+    expect_refused(folder, "a trailing byte");
+    free(padded);
+    /* a flipped bit at many positions: header, arrays, token, crc */
+    unsigned char *copy = malloc(size);
+    const size_t step = size > 64 ? size / 61 : 1;
+    for (size_t pos = 0; pos < size; pos += step) {
+        memcpy(copy, data, size);
+        copy[pos] ^= 0x04;
+        EXPECT(write_file(file, copy, size), "write");
+        char what[64];
+        snprintf(what, sizeof what, "a flipped bit at byte %zu", pos);
+        expect_refused(folder, what);
+    }
+    memcpy(copy, data, size);
+    copy[size - 1] ^= 0x80;
+    EXPECT(write_file(file, copy, size), "write");
+    expect_refused(folder, "a corrupt crc");
+    free(copy);
+    /* the intact file works from the scratch folder */
+    EXPECT(write_file(file, data, size), "write");
+    {
+        char uri[4300];
+        snprintf(uri, sizeof uri, "file://%s", folder);
+        LogBook book = {0};
+        const fmi2CallbackFunctions f2 = callbacks2(&book);
+        fmi2Component c = instantiate2(&book, &f2, uri, setup.token);
+        EXPECT(c != NULL, "intact copy refused: %s", book.last);
+        fmi2FreeInstance(c);
+        /* wrong token, wrong type, missing arguments */
+        book.errors = 0;
+        c = instantiate2(&book, &f2, uri, "{00000000-0000-0000-0000-000000000000}");
+        EXPECT(c == NULL && book.errors == 1 && strstr(book.last, "does not match"), "wrong GUID: %s", book.last);
+        fmi2FreeInstance(c);
+        c = fmi2Instantiate("x", fmi2ModelExchange, setup.token, uri, &f2, fmi2False, fmi2False);
+        EXPECT(c == NULL, "model exchange accepted");
+        fmi2FreeInstance(c);
+        c = fmi2Instantiate("x", fmi2CoSimulation, setup.token, NULL, &f2, fmi2False, fmi2False);
+        EXPECT(c == NULL, "NULL resource location accepted");
+        c = fmi2Instantiate("x", fmi2CoSimulation, setup.token, "http://example.com/r", &f2, fmi2False, fmi2False);
+        EXPECT(c == NULL, "http resource location accepted");
+        c = fmi2Instantiate("x", fmi2CoSimulation, setup.token, uri, NULL, fmi2False, fmi2False);
+        EXPECT(c == NULL, "NULL callbacks accepted");
+        LogBook book3 = {0};
+        fmi3Instance c3 = instantiate3(&book3, folder, "{00000000-0000-0000-0000-000000000000}");
+        EXPECT(c3 == NULL && book3.errors == 1, "wrong token accepted by FMI 3");
+        c3 = fmi3InstantiateModelExchange("x", setup.token, folder, fmi3False, fmi3False, &book3, logger3);
+        EXPECT(c3 == NULL, "FMI 3 model exchange accepted");
+        c3 = instantiate3(&book3, folder, setup.token);      /* path without a trailing slash */
+        EXPECT(c3 != NULL, "FMI 3 path without trailing slash: %s", book3.last);
+        fmi3FreeInstance(c3);
+    }
+    free(data);
+}
+
+static void scenario_cycles(void) {
+    LogBook book = {0};
+    const fmi2CallbackFunctions f2 = callbacks2(&book);
+    int ok2 = 0, ok3 = 0;
+    for (int i = 0; i < 1000; i++) {
+        fmi2Component c = ready2(&book, &f2);
+        if (c && fmi2DoStep(c, 0.0, 2.5 * setup.dt, fmi2True) == fmi2OK) {
+            fmi2FMUstate s = NULL;
+            if (fmi2GetFMUstate(c, &s) == fmi2OK && fmi2FreeFMUstate(c, &s) == fmi2OK) ok2++;
+        }
+        fmi2FreeInstance(c);
+        fmi3Instance d = ready3(&book);
+        fmi3Boolean e, t, r;
+        fmi3Float64 last;
+        if (d && fmi3DoStep(d, 0.0, 2.5 * setup.dt, fmi3True, &e, &t, &r, &last) == fmi3OK) ok3++;
+        fmi3FreeInstance(d);
+    }
+    EXPECT(ok2 == 1000 && ok3 == 1000, "instantiate/free cycles: %d, %d of 1000 ok: %s", ok2, ok3, book.last);
+}
+
+#define N_THREADS 4
+
+typedef struct {
+    double *out;
+    int ok;
+} Job;
+
+static void *thread_main(void *arg) {
+    Job *job = (Job *)arg;
+    LogBook book = {0};
+    const fmi2CallbackFunctions f2 = callbacks2(&book);
+    fmi2Component c = ready2(&book, &f2);
+    double t = 0.0;
+    job->ok = c != NULL && run2(c, 0, N_STEPS, &t, job->out);
+    fmi2FreeInstance(c);
+    return NULL;
+}
+
+static void scenario_threads(void) {
+    const size_t n_out = 2 * setup.n_probes;
+    pthread_t threads[N_THREADS];
+    Job jobs[N_THREADS];
+    for (int i = 0; i < N_THREADS; i++) {
+        jobs[i].out = calloc(N_STEPS * n_out, sizeof(double));
+        jobs[i].ok = 0;
+        pthread_create(&threads[i], NULL, thread_main, &jobs[i]);
+    }
+    for (int i = 0; i < N_THREADS; i++) pthread_join(threads[i], NULL);
+    for (int i = 0; i < N_THREADS; i++) {
+        EXPECT(jobs[i].ok, "thread %d failed", i);
+        size_t first = 0;
+        while (first < N_STEPS * n_out && jobs[0].out[first] == jobs[i].out[first]) first++;
+        EXPECT(first == N_STEPS * n_out, "thread %d differs at value %zu: %.17g vs %.17g", i, first,
+               first < N_STEPS * n_out ? jobs[0].out[first] : 0.0, first < N_STEPS * n_out ? jobs[i].out[first] : 0.0);
+    }
+    for (int i = 0; i < N_THREADS; i++) free(jobs[i].out);
+}
+
+/* ------------------------------------------------------------------------ */
+
+int main(int argc, char **argv) {
+    if (argc < 3) {
+        fprintf(stderr, "usage: %s RESOURCES_DIR SCRATCH_DIR [basic|state|bad|resources|cycles|threads ...]\n",
+                argv[0]);
+        return 2;
+    }
+    snprintf(setup.resources, sizeof setup.resources, "%s", argv[1]);
+    snprintf(setup.uri, sizeof setup.uri, "file://%s", argv[1]);
+    snprintf(setup.path3, sizeof setup.path3, "%s/", argv[1]);
+    setup.scratch = argv[2];
+    char path[4300];
+    snprintf(path, sizeof path, "%s/%s", argv[1], ROM_RESOURCE_FILE);
+    RomModel *model = NULL;
+    char message[ROM_MESSAGE_SIZE];
+    if (rom_model_load_file(path, &model, message, sizeof message) != ROM_OK) {
+        fprintf(stderr, "cannot load %s: %s\n", path, message);
+        return 2;
+    }
+    snprintf(setup.token, sizeof setup.token, "%s", model->token);
+    setup.n_probes = model->n_probes;
+    setup.dt = model->dt;
+    rom_model_free(model);
+
+    static const char *all[] = {"basic", "state", "bad", "resources", "cycles", "threads"};
+    const char **names = argc > 3 ? (const char **)(argv + 3) : all;
+    const int count = argc > 3 ? argc - 3 : 6;
+    for (int i = 0; i < count; i++) {
+        const int before = failures, checks_before = checks;
+        if (strcmp(names[i], "basic") == 0) scenario_basic();
+        else if (strcmp(names[i], "state") == 0) scenario_state();
+        else if (strcmp(names[i], "bad") == 0) scenario_bad();
+        else if (strcmp(names[i], "resources") == 0) scenario_resources();
+        else if (strcmp(names[i], "cycles") == 0) scenario_cycles();
+        else if (strcmp(names[i], "threads") == 0) scenario_threads();
+        else {
+            fprintf(stderr, "unknown scenario %s\n", names[i]);
+            return 2;
+        }
+        printf("scenario %s: %s (%d checks, %d failed)\n", names[i], failures == before ? "ok" : "FAILED",
+               checks - checks_before, failures - before);
+    }
+    fflush(stdout);
+    return failures > 100 ? 100 : failures;
+}
