@@ -312,11 +312,18 @@ RomStatus rom_model_load_memory(const void *data, size_t size, RomModel **out, c
         }
     }
     if (m->p) read_doubles(&cursor, m->p, c.p);
-    for (size_t k = 0; k < npairs; k++) {                /* T[k][p][q] -> Tt[k*nm + q*kr_pad + p] */
+    /* T[k][p][q] is entry i = q*kr_pad + p of pair k's M^T; entries are
+     * stored in blocks of 32, each block's pairs contiguous:
+     * Tt[(i/32)*n_pairs*32 + k*32 + i%32] */
+    for (size_t k = 0; k < npairs; k++) {
         for (size_t p = 0; p < kr; p++) {
-            for (size_t q = 0; q < kv; q++, cursor += 8) m->Tt[k * nm + q * krp + p] = get_f64(cursor);
+            for (size_t q = 0; q < kv; q++, cursor += 8) {
+                const size_t i = q * krp + p;
+                m->Tt[(i / 32) * npairs * 32 + k * 32 + i % 32] = get_f64(cursor);
+            }
         }
     }
+    (void)nm;
     read_doubles(&cursor, m->Pv, c.Pv);
     read_doubles(&cursor, m->Prho, c.Prho);
     read_doubles(&cursor, m->probe_x, c.probe_x);
@@ -497,8 +504,8 @@ ROM_INLINE void refresh(RomState *s) {
     for (size_t i = 0; i < nm; i += 32) {
         double acc[32];
         for (int j = 0; j < 32; j++) acc[j] = 0.0;
-        const double *restrict T = m->Tt + i;
-        for (k = 0; k < np; k++, T += nm) {
+        const double *restrict T = m->Tt + i * np;
+        for (k = 0; k < np; k++, T += 32) {
             const double sk = S[k];
             for (int j = 0; j < 32; j++) acc[j] += sk * T[j];
         }

@@ -94,7 +94,8 @@ typedef struct {
     double *b;                 /* [kv_pad] eq. 2.22 projected */
     double *Dt;                /* D^T [k_v][kv_pad] (eq. 2.24 projected), NULL without damping */
     double *p;                 /* [kv_pad] input row U^vT profile, NULL without input */
-    double *Tt;                /* Tt[k*nm + q*kr_pad + p] = T[k][p][q], the refresh tensor */
+    double *Tt;                /* the refresh tensor T[k][p][q] as entries i = q*kr_pad + p of M^T, in blocks
+                                * of 32 with each block's pairs contiguous: Tt[(i/32)*n_pairs*32 + k*32 + i%32] */
     double *Pv, *Prho;         /* probe rows [n_probes][k_v], [n_probes][k_rho] */
     double *probe_x;           /* probe positions in units of L */
     char token[ROM_TOKEN_SIZE + 1];

@@ -24,6 +24,9 @@ COMMANDS = {
     "bench": "bench",
     "bench-sph": "bench_sph",
     "stress": "stress",
+    "fmu": "fmu",
+    "cosim": "cosim",
+    "bench-fmu": "bench_fmu",
 }
 
 

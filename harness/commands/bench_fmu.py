@@ -1,0 +1,89 @@
+"""``sphrom bench-fmu``: ns per internal step of the C core, and the FMU end to end beside the full SPH."""
+
+from .options import int_at_least
+
+
+def add_parser(sub):
+    p = sub.add_parser("bench-fmu", help="time the FMU: C core ns/step against N, end to end through fmpy vs full SPH",
+                       description="(1) ns per internal step of the C model core at k = 12, n_freeze = 10 for "
+                                   "several particle counts N (scenes derived from SCENE), showing the cost does "
+                                   "not depend on N; (2) the end-to-end time of SCENE's FMU through "
+                                   "fmpy.simulate_fmu with 10 ms and 1 ms communication steps beside the Python "
+                                   "full SPH of the same scene in the same run, as ratios, with the time split into "
+                                   "fmpy's fixed cost, its per-doStep cost and the core's. Medians of --repeats.")
+    p.add_argument("scene", nargs="?", default="tenmode", metavar="SCENE", help="scene (default tenmode)")
+    p.add_argument("--sizes", default="100,400,1600", help="particle counts for the core benchmark")
+    p.add_argument("--repeats", type=int_at_least(5), default=5, help="repeats per figure, >= 5 (median)")
+    p.add_argument("--steps", default="0.01,0.001", help="communication steps [s] for the end-to-end runs")
+    p.add_argument("--core-only", action="store_true", help="only the core benchmark")
+    p.add_argument("--out", metavar="DIR", help="folder for bench_fmu_core.csv, bench_fmu_e2e.csv, bench_fmu.md")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.set_defaults(handler=run)
+
+
+def run(args):
+    import csv
+    from pathlib import Path
+
+    from ..errors import UserError
+    from ..fmu.bench import core_rows, end_to_end, markdown
+    from ..progress import progress_bar
+    from ..scene import MAX_PARTICLES, MIN_PARTICLES, load_scene
+
+    try:
+        sizes = [int(s) for s in args.sizes.split(",") if s.strip()]
+    except ValueError:
+        raise UserError(f"--sizes: {args.sizes!r} is not a comma-separated list of integers") from None
+    if not sizes or min(sizes) < 4 * 12 or max(sizes) > MAX_PARTICLES:
+        raise UserError(f"--sizes: {args.sizes!r} is out of range (allowed: integers in [48, {MAX_PARTICLES}], "
+                        f"enough particles for 12 modes; N >= {MIN_PARTICLES})")
+    try:
+        steps = [float(s) for s in args.steps.split(",") if s.strip()]
+    except ValueError:
+        raise UserError(f"--steps: {args.steps!r} is not a comma-separated list of numbers") from None
+    if not steps or min(steps) <= 0:
+        raise UserError(f"--steps: {args.steps!r} is out of range (allowed: numbers > 0)")
+    scene = load_scene(args.scene)
+    out = Path(args.out) if args.out else None
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+    total = len(sizes) + (0 if args.core_only else len(steps) + args.repeats)
+    with progress_bar(total=total, desc="bench-fmu", enabled=not args.quiet) as bar:
+        core = core_rows(args.scene, sizes, repeats=args.repeats, progress=False, bar=bar)
+        e2e = None if args.core_only else end_to_end(args.scene, steps=steps, repeats=args.repeats, progress=False,
+                                                     bar=bar)
+    print(f"C core (libsphrom_core, no FMI), k = 12, n_freeze = 10, scenes like {scene.name} at several N; "
+          f"median of {args.repeats}")
+    print(f"{'N':>7} {'k_v':>4} {'k_rho':>5} {'ns/step':>9} {'min':>7} {'max':>7}")
+    for r in core:
+        print(f"{r['n']:>7} {r['k_v']:>4} {r['k_rho']:>5} {r['ns_per_step']:>9.1f} {r['ns_min']:>7.1f} "
+              f"{r['ns_max']:>7.1f}")
+    target = "meets" if max(r["ns_per_step"] for r in core) <= 150 else "misses"
+    print(f"  target <= 150 ns/step: {target} it")
+    if e2e is not None:
+        print(f"\nend to end: {e2e['scene']} (N = {e2e['n']}, T = {e2e['T']:g} s, {e2e['internal_steps']} internal "
+              f"steps of {e2e['dt']:g} s, k_v = {e2e['k_v']}, k_rho = {e2e['k_rho']}), fmpy {e2e['fmpy']}")
+        print(f"  full SPH (run_sph, numba): {e2e['sph']['call_s']:.3f} s per run "
+              f"({e2e['sph']['loop_s']:.3f} s in its time loop)")
+        for r in e2e["rows"]:
+            print(f"  FMU, {r['step_s'] * 1e3:g} ms steps ({r['doSteps']} doSteps): {r['fmu_e2e_s']:.4f} s "
+                  f"-> {r['speedup']:.1f}x faster than the full SPH ({r['speedup_vs_loop']:.1f}x vs its loop alone)")
+            print(f"    where the time goes: fixed cost of simulate_fmu (extract, load, instantiate, free) "
+                  f"{r['fixed_s']:.4f} s, core {r['core_s']:.4f} s, fmpy {r['us_per_doStep_fmpy']:.1f} us per "
+                  f"doStep (of which the bare doStep call through ctypes {r['us_per_doStep_bare_call']:.1f} us)")
+        first = e2e["rows"][0]
+        verdict = "meets" if first["speedup"] >= 50 else "misses"
+        print(f"  target >= 50x at {first['step_s'] * 1e3:g} ms: {verdict} it ({first['speedup']:.1f}x)")
+    if out is not None:
+        with open(out / "bench_fmu_core.csv", "w", newline="") as fh:
+            w = csv.DictWriter(fh, fieldnames=list(core[0]))
+            w.writeheader()
+            w.writerows(core)
+        if e2e is not None:
+            with open(out / "bench_fmu_e2e.csv", "w", newline="") as fh:
+                w = csv.DictWriter(fh, fieldnames=list(e2e["rows"][0]))
+                w.writeheader()
+                w.writerows(e2e["rows"])
+        (out / "bench_fmu.md").write_text(markdown(core, e2e))
+        print(f"wrote {out / 'bench_fmu_core.csv'}" + (", bench_fmu_e2e.csv" if e2e else "") + ", bench_fmu.md")
+    return 0

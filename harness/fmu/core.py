@@ -1,0 +1,113 @@
+"""ctypes access to the C model core (``libsphrom_core``, fmu_src/rom.h).
+
+Used by the benchmark (ns per internal step without any FMI or Python in the
+loop) and by tests that exercise the core directly.
+"""
+
+from __future__ import annotations
+
+import ctypes
+from pathlib import Path
+
+MESSAGE_SIZE = 1024
+
+
+class CoreError(RuntimeError):
+    """A rom_* call failed; the message is the core's."""
+
+
+class Core:
+    """The loaded core library.
+
+    Parameters
+    ----------
+    path : Path
+        libsphrom_core (see :class:`harness.fmu.build.Binaries`).
+    """
+
+    def __init__(self, path):
+        self.path = Path(path)
+        lib = ctypes.CDLL(str(self.path))
+        vp, sz, cp = ctypes.c_void_p, ctypes.c_size_t, ctypes.c_char_p
+        lib.rom_model_load_memory.argtypes = [ctypes.c_char_p, sz, ctypes.POINTER(vp), cp, sz]
+        lib.rom_model_load_memory.restype = ctypes.c_int
+        lib.rom_model_free.argtypes = [vp]
+        lib.rom_model_free.restype = None
+        lib.rom_state_new.argtypes = [vp]
+        lib.rom_state_new.restype = vp
+        lib.rom_state_free.argtypes = [vp]
+        lib.rom_state_free.restype = None
+        lib.rom_state_reset.argtypes = [vp, ctypes.c_double]
+        lib.rom_state_reset.restype = None
+        lib.rom_advance.argtypes = [vp, ctypes.c_int64, cp, sz]
+        lib.rom_advance.restype = ctypes.c_int
+        lib.rom_do_step.argtypes = [vp, ctypes.c_double, ctypes.c_double, cp, sz]
+        lib.rom_do_step.restype = ctypes.c_int
+        lib.rom_set_input.argtypes = [vp, ctypes.c_double, cp, sz]
+        lib.rom_set_input.restype = ctypes.c_int
+        lib.rom_set_n_freeze.argtypes = [vp, ctypes.c_int64, cp, sz]
+        lib.rom_set_n_freeze.restype = ctypes.c_int
+        lib.rom_v_probe.argtypes = [vp, ctypes.c_uint32]
+        lib.rom_v_probe.restype = ctypes.c_double
+        lib.rom_rho_probe.argtypes = [vp, ctypes.c_uint32]
+        lib.rom_rho_probe.restype = ctypes.c_double
+        lib.rom_crc32.argtypes = [ctypes.c_char_p, sz]
+        lib.rom_crc32.restype = ctypes.c_uint32
+        self.lib = lib
+
+    def load(self, blob: bytes) -> "CoreModel":
+        """A model from model.bin bytes; CoreError with the loader's message on failure."""
+        handle = ctypes.c_void_p()
+        msg = ctypes.create_string_buffer(MESSAGE_SIZE)
+        if self.lib.rom_model_load_memory(blob, len(blob), ctypes.byref(handle), msg, MESSAGE_SIZE) != 0:
+            raise CoreError(msg.value.decode())
+        return CoreModel(self, handle)
+
+
+class CoreModel:
+    """A loaded model and one state on it (freed on close / garbage collection)."""
+
+    def __init__(self, core, handle):
+        self.core = core
+        self.model = handle
+        self.state = ctypes.c_void_p(core.lib.rom_state_new(handle))
+        self._msg = ctypes.create_string_buffer(MESSAGE_SIZE)
+
+    def _check(self, status):
+        if status != 0:
+            raise CoreError(self._msg.value.decode())
+
+    def reset(self, t_start=0.0):
+        self.core.lib.rom_state_reset(self.state, t_start)
+
+    def set_n_freeze(self, n_freeze):
+        self._check(self.core.lib.rom_set_n_freeze(self.state, n_freeze, self._msg, MESSAGE_SIZE))
+
+    def set_input(self, f):
+        self._check(self.core.lib.rom_set_input(self.state, f, self._msg, MESSAGE_SIZE))
+
+    def advance(self, n_steps):
+        """n_steps whole internal steps (with the runaway check)."""
+        self._check(self.core.lib.rom_advance(self.state, int(n_steps), self._msg, MESSAGE_SIZE))
+
+    def do_step(self, t, h):
+        self._check(self.core.lib.rom_do_step(self.state, t, h, self._msg, MESSAGE_SIZE))
+
+    def outputs(self, n_probes):
+        lib = self.core.lib
+        return ([lib.rom_v_probe(self.state, j) for j in range(n_probes)],
+                [lib.rom_rho_probe(self.state, j) for j in range(n_probes)])
+
+    def close(self):
+        if self.state:
+            self.core.lib.rom_state_free(self.state)
+            self.state = None
+        if self.model:
+            self.core.lib.rom_model_free(self.model)
+            self.model = None
+
+    def __del__(self):
+        try:
+            self.close()
+        except Exception:       # interpreter shutdown
+            pass

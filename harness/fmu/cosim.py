@@ -1,0 +1,212 @@
+"""Co-simulation of an sphrom FMU through ``fmpy.simulate_fmu`` (``sphrom cosim``).
+
+The input f(t) is an expression in t (and T, the end time) or a CSV file with
+columns ``time,f``; an expression is sampled at the communication points,
+where fmpy sets it and the FMU holds it over the step.  The result has the
+time and every output of the FMU at the communication points.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import SimulationError, UserError
+
+
+@dataclass
+class CosimResult:
+    """Outputs at the communication points.
+
+    Attributes
+    ----------
+    names : list of str
+        ``time`` and the output names.
+    values : ndarray (M, len(names))
+        time [s], v_probe_* [m s^-1], rho_probe_* [kg m^-3].
+    wall_time : float
+        Wall time of fmpy.simulate_fmu [s] (extraction, instantiation, loop).
+    steps : int
+        Communication steps.
+    """
+
+    names: list
+    values: np.ndarray
+    wall_time: float
+    steps: int
+
+
+class LogCapture:
+    """fmpy logger callbacks that keep the FMU's messages (FMI 2 and FMI 3 signatures)."""
+
+    def __init__(self):
+        self.messages = []
+
+    def _keep(self, status, message):
+        text = message.decode("utf-8", "replace") if isinstance(message, bytes) else str(message)
+        self.messages.append((int(status), text))
+
+    def fmi2(self, component, instance_name, status, category, message):
+        self._keep(status, message)
+
+    def fmi3(self, environment, status, category, message):
+        self._keep(status, message)
+
+    def errors(self):
+        return [m for s, m in self.messages if s >= 3]
+
+
+def read_fmu_description(path, option="FILE.fmu"):
+    """fmpy's model description of an sphrom FMU; UserError when it is not one."""
+    from fmpy import read_model_description
+    path = Path(path)
+    if not path.is_file():
+        raise UserError(f"{option} '{path}': not found")
+    try:
+        md = read_model_description(str(path))
+    except Exception as exc:            # fmpy raises plain exceptions for bad archives
+        raise UserError(f"{option} '{path}': not a readable FMU ({str(exc).splitlines()[0]})") from None
+    if md.coSimulation is None or md.coSimulation.modelIdentifier != "sphrom":
+        raise UserError(f"{option} '{path}': not an sphrom co-simulation FMU (modelIdentifier sphrom)")
+    return md
+
+
+def force_signal(force, t_end, step, option="--force"):
+    """The input signal (structured array time, f) for fmpy, or None without a force.
+
+    ``force`` is an expression in t and T (T = t_end), sampled at the
+    communication points, or the path of a CSV file with columns time,f.
+    """
+    if force is None:
+        return None
+    text = str(force).strip()
+    path = Path(text)
+    if text.lower().endswith(".csv") or path.is_file():
+        return _csv_signal(path, option)
+    from ..expr import compile_expr
+    expr = compile_expr(text, ("t", "T"), option)
+    n = int(round(t_end / step))
+    times = np.arange(n + 1) * step
+    if times[-1] < t_end - 1e-12 * max(1.0, t_end):
+        times = np.append(times, t_end)
+    times[-1] = min(times[-1], t_end)
+    try:
+        with np.errstate(all="ignore"):
+            values = np.broadcast_to(expr(t=times, T=t_end), times.shape).astype(float)
+    except (ValueError, TypeError, ZeroDivisionError) as exc:
+        raise UserError(f"{option}: cannot evaluate {text!r} ({exc})") from None
+    bad = ~np.isfinite(values)
+    if np.any(bad):
+        raise UserError(f"{option}: {text!r} is not finite at t = {times[bad][0]:g} s (allowed: a finite force)")
+    signal = np.zeros(times.size, dtype=[("time", np.float64), ("f", np.float64)])
+    signal["time"], signal["f"] = times, values
+    return signal
+
+
+def _csv_signal(path, option):
+    if not path.is_file():
+        raise UserError(f"{option}: CSV file '{path}' not found")
+    try:
+        with open(path, newline="") as fh:
+            reader = csv.reader(fh)
+            header = [h.strip() for h in next(reader)]
+            rows = [row for row in reader if row and any(c.strip() for c in row)]
+    except (OSError, StopIteration, UnicodeDecodeError, csv.Error) as exc:
+        raise UserError(f"{option}: cannot read CSV file '{path}' ({exc or 'empty'})") from None
+    if "time" not in header or "f" not in header:
+        raise UserError(f"{option}: '{path}' needs the columns time,f (found: {','.join(header)})")
+    it, jf = header.index("time"), header.index("f")
+    try:
+        data = np.array([(float(r[it]), float(r[jf])) for r in rows], dtype=float).reshape(-1, 2)
+    except (ValueError, IndexError):
+        raise UserError(f"{option}: '{path}' has a row that is not two numbers time,f") from None
+    if data.shape[0] == 0:
+        raise UserError(f"{option}: '{path}' has no rows")
+    if not np.all(np.isfinite(data)):
+        raise UserError(f"{option}: '{path}' has non-finite values (allowed: finite time and f)")
+    if np.any(np.diff(data[:, 0]) < 0):
+        raise UserError(f"{option}: '{path}': time must not decrease")
+    signal = np.zeros(data.shape[0], dtype=[("time", np.float64), ("f", np.float64)])
+    signal["time"], signal["f"] = data[:, 0], data[:, 1]
+    return signal
+
+
+def _positive(value, option):
+    if value is None:
+        return None
+    if not (math.isfinite(value) and value > 0):
+        raise UserError(f"{option}: {value!r} is out of range (allowed: a finite number > 0)")
+    return float(value)
+
+
+def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None) -> CosimResult:
+    """Co-simulate ``fmu`` with fmpy.simulate_fmu.
+
+    Parameters
+    ----------
+    fmu : path
+        An sphrom FMU (FMI 2.0 or 3.0).
+    force : str, optional
+        Expression in t, T [m s^-2] or a CSV file time,f (default f = 0).
+    t_end : float, optional
+        End time [s] (default the DefaultExperiment's stopTime).
+    step : float, optional
+        Communication step [s] (default its stepSize).
+    n_freeze : int, optional
+        The ``n_freeze`` parameter (default the packaged one).
+
+    Raises
+    ------
+    UserError
+        A bad file or option.
+    SimulationError
+        The FMU reported an error (its message is included).
+    """
+    import fmpy
+    from fmpy.fmi1 import FMICallException
+
+    md = read_fmu_description(fmu)
+    de = md.defaultExperiment
+    t_end = _positive(t_end, "--t-end") or float(de.stopTime)
+    step = _positive(step, "--step") or float(de.stepSize)
+    if step > t_end:
+        raise UserError(f"--step: {step:g} is out of range (allowed: 0 < step <= t-end = {t_end:g})")
+    steps = int(math.ceil(t_end / step - 1e-9))
+    if steps > 100_000_000:
+        raise UserError(f"--step: {step:g} gives {steps} communication steps (allowed: at most 1e8)")
+    start = {}
+    if n_freeze is not None:
+        if isinstance(n_freeze, bool) or int(n_freeze) != n_freeze or not 1 <= n_freeze <= 2**31 - 1:
+            raise UserError(f"--n-freeze: {n_freeze!r} is out of range (allowed: an integer >= 1)")
+        start["n_freeze"] = int(n_freeze)
+    signal = force_signal(force, t_end, step)
+    outputs = [v.name for v in md.modelVariables if v.causality == "output"]
+    capture = LogCapture()
+    logger = capture.fmi2 if md.fmiVersion == "2.0" else capture.fmi3
+    t0 = time.perf_counter()
+    try:
+        result = fmpy.simulate_fmu(str(fmu), start_time=0.0, stop_time=t_end, output_interval=step, input=signal,
+                                   start_values=start, output=outputs, logger=logger, model_description=md)
+    except FMICallException as exc:
+        detail = "; ".join(capture.errors()) or str(exc)
+        raise SimulationError(f"the FMU failed: {detail}") from None
+    wall = time.perf_counter() - t0
+    names = ["time"] + outputs
+    values = np.column_stack([result[n] for n in names])
+    return CosimResult(names=names, values=values, wall_time=wall, steps=steps)
+
+
+def write_csv(path, result: CosimResult):
+    """Write ``result`` as CSV (full double precision), atomically."""
+    from ..runio import atomic_path
+    with atomic_path(path) as tmp:
+        with open(tmp, "w", newline="") as fh:
+            writer = csv.writer(fh)
+            writer.writerow(result.names)
+            for row in result.values:
+                writer.writerow([repr(float(x)) for x in row])

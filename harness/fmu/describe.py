@@ -1,0 +1,98 @@
+"""Fill the modelDescription templates (``modelDescription/*.xml``).
+
+The templates hold all the XML; this module only substitutes values:
+``{{name}}`` takes one (XML-escaped) value and ``{{#list}} ... {{/list}}``
+repeats its body once per item of a list (probes, outputs).
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import re
+from xml.sax.saxutils import escape
+
+from .. import __version__
+from ..paths import data_dir
+
+VR_V_PROBE = 1000        # fmu_src/rom.h ROM_VR_V_PROBE
+VR_RHO_PROBE = 2000      # ROM_VR_RHO_PROBE
+FIXED_VARIABLES = 3      # FMI 2 indices 1..3: f, n_freeze, dt
+
+_BLOCK = re.compile(r"\{\{#(\w+)\}\}(.*?)\{\{/\1\}\}", re.S)
+_FIELD = re.compile(r"\{\{(\w+)\}\}")
+
+
+def render(template: str, values: dict, lists: dict) -> str:
+    """Substitute ``values`` and repeat ``lists`` blocks (see module docstring)."""
+    def field(match, scope):
+        key = match.group(1)
+        if key not in scope:
+            raise KeyError(f"template placeholder {{{{{key}}}}} has no value")
+        return escape(str(scope[key]), {'"': "&quot;"})
+
+    def block(match):
+        body = match.group(2)
+        return "".join(_FIELD.sub(lambda m: field(m, {**values, **item}), body) for item in lists[match.group(1)])
+
+    return _FIELD.sub(lambda m: field(m, values), _BLOCK.sub(block, template))
+
+
+def template(name: str) -> str:
+    """The text of ``modelDescription/<name>``."""
+    return (data_dir("model_description") / name).read_text(encoding="utf-8")
+
+
+def number(x) -> str:
+    """Shortest text that reads back as the same float (xs:double)."""
+    return repr(float(x))
+
+
+def model_description(fmi: int, *, token, scene, data, k_requested, step_size, stop_time, input_error):
+    """The modelDescription.xml text for FMI version ``fmi`` (2 or 3).
+
+    Parameters
+    ----------
+    token : str
+        GUID / instantiationToken (from the resources).
+    scene : Scene
+    data : ModelData
+        The packed model (sizes, dt, n_freeze, probes).
+    k_requested : int
+        POD modes asked for (k_v may be one more: the input direction).
+    step_size, stop_time : float
+        DefaultExperiment [s].
+    input_error : float
+        Relative projection error of the force profile on the POD velocity modes.
+    """
+    probes = [{"j": j + 1, "x": f"{x:g}", "v_vr": VR_V_PROBE + j, "rho_vr": VR_RHO_PROBE + j,
+               "v_index": FIXED_VARIABLES + 1 + j, "rho_index": FIXED_VARIABLES + 1 + data.n_probes + j}
+              for j, x in enumerate(data.probe_x)]
+    outputs = ([{"vr": p["v_vr"], "index": p["v_index"]} for p in probes]
+               + [{"vr": p["rho_vr"], "index": p["rho_index"]} for p in probes])
+    augmented = data.k_v > k_requested
+    modes = (f"k_v = {data.k_v} velocity modes ({k_requested} POD modes"
+             + (" + the force profile direction" if augmented else "") + f"), k_rho = {data.k_rho} density modes")
+    where = ", ".join(f"{x:g}" for x in data.probe_x)
+    description = (f"Frozen-coefficient POD reduced model (Fang et al., eqs. 2.19-2.24) of the SPH mass-spring-damper "
+                   f"scene '{scene.name}' ({scene.title}; N = {scene.sph.n_particles}, L = {scene.L:g} m): {modes}; "
+                   f"{data.integrator} integrator, internal dt = {data.dt:g} s, n_freeze = {data.n_freeze} by default; "
+                   f"probes at x/L = {where}; input projection error {input_error:.3g}.")
+    values = {
+        "model_name": f"sphrom {scene.name}",
+        "token": token,
+        "description": description,
+        "version": __version__,
+        "generation_tool": f"sphrom {__version__}",
+        "date": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
+        "stop_time": number(stop_time),
+        "step_size": number(step_size),
+        "n_freeze": int(data.n_freeze),
+        "dt": number(data.dt),
+        "profile": scene.fields["profile"].text,
+    }
+    return render(template(f"fmi{fmi}.xml"), values, {"probes": probes, "outputs": outputs})
+
+
+def build_description() -> str:
+    """sources/buildDescription.xml of the FMI 3 FMU."""
+    return template("buildDescription.xml")

@@ -1,0 +1,143 @@
+"""The FMU's co-simulation, in Python: the reference its outputs must equal.
+
+:func:`cosim_reference` drives the compiled loop of the frozen model
+(:func:`harness.rom.frozen.frozen_advance`, the same loop as
+``run_reduced("frozen", ...)``) communication step by communication step,
+with the FMU's rules (fmu_src/rom.c ``rom_do_step``):
+
+* the input f is held over each communication step;
+* a step of length h is ``n_full`` whole internal steps of dt and, when the
+  remainder exceeds 1e-12 dt, one shortened step (:func:`split_step`);
+* the internal step counter n runs over all internal steps, shortened ones
+  included, and the frozen coefficients are refreshed when n % n_freeze == 0.
+
+Probe outputs are summed in the C order (q ascending from 0.0), so equality
+with the FMU can be checked bit for bit.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+STEP_ROUNDING = 1e-9       # fmu_src/rom.c ROM_STEP_ROUNDING
+SHORT_STEP_MIN = 1e-12     # ROM_SHORT_STEP_MIN
+
+
+def split_step(h, dt):
+    """(n_full, rest): whole internal steps of ``dt`` in ``h`` and the shortened remainder [s].
+
+    h/dt is taken as a whole number when within 1e-9 max(1, h/dt) of one;
+    ``rest`` is 0 when no shortened step is taken.
+    """
+    ratio = h / dt
+    nearest = math.floor(ratio + 0.5)
+    if abs(ratio - nearest) <= STEP_ROUNDING * max(1.0, ratio):
+        return int(nearest), 0.0
+    n_full = int(math.floor(ratio))
+    rest = h - n_full * dt
+    return n_full, (rest if rest > SHORT_STEP_MIN * dt else 0.0)
+
+
+def probe_values(rows, a):
+    """rows @ a summed in the C order: 0.0 + rows[:, 0] a_0 + rows[:, 1] a_1 + ..."""
+    acc = np.zeros(rows.shape[0])
+    for q in range(rows.shape[1]):
+        acc = acc + rows[:, q] * a[q]
+    return acc
+
+
+class FrozenCosim:
+    """The frozen model stepped like the FMU (see module docstring).
+
+    Parameters
+    ----------
+    data : harness.fmu.resources.ModelData
+        The FMU's model (what model.bin holds).
+    n_freeze : int, optional
+        Refresh period (default the packaged one).
+    dt : float, optional
+        Internal step [s] (default the packaged one).
+    """
+
+    def __init__(self, data, n_freeze=None, dt=None):
+        from ..rom.operators import pair_index
+        self.data = data
+        self.n_freeze = int(data.n_freeze if n_freeze is None else n_freeze)
+        self.dt = float(data.dt if dt is None else dt)
+        self.method = {"euler": 0, "symplectic": 1}[data.integrator]
+        self.av = np.array(data.a_v0, dtype=float)
+        self.ar = np.array(data.a_rho0, dtype=float)
+        self.M = np.zeros((data.k_rho, data.k_v))
+        self.F = np.zeros(data.k_v)
+        self.n = 0
+        self.t = 0.0
+        self._pairs = pair_index(data.k_rho)
+        self._D = data.D if data.D is not None else np.zeros((1, 1))
+        self._p = data.p if data.p is not None else np.zeros(data.k_v)
+        self._T = np.ascontiguousarray(data.T)
+        self._K = np.ascontiguousarray(data.K)
+        self._dummy = np.zeros((1, 1))
+        self._no_samples = np.zeros(0, dtype=np.int64)
+        self._out = np.zeros((0, 1))
+
+    def _advance(self, count, h, f):
+        from ..errors import SimulationError
+        from ..rom.frozen import frozen_advance
+        if count <= 0:
+            return
+        g = np.full(count, float(f))
+        status, _, bad = frozen_advance(self.method, self.av, self.ar, self.n, self.n + count, h, g, self._K,
+                                        self.data.b, self._D, self.data.D is not None, self._p,
+                                        self.data.p is not None, self._T, self._pairs, True, self._dummy, self._dummy,
+                                        self._dummy[0], self.n_freeze, self.M, self.F, self._no_samples, 0, self._out,
+                                        self._out, self.data.bound)
+        if status != 0:
+            raise SimulationError(f"reference: reduced state failed (status {status}) by internal step {bad}",
+                                  step=bad)
+        self.n += count
+
+    def do_step(self, h, f):
+        """One communication step of length ``h`` [s] with input ``f`` [m s^-2] held."""
+        n_full, rest = split_step(h, self.dt)
+        self._advance(n_full, self.dt, f)
+        if rest > 0.0:
+            self._advance(1, rest, f)
+        self.t = self.t + h
+
+    def outputs(self):
+        """(v at the probes [m s^-1], rho at the probes [kg m^-3])."""
+        return probe_values(self.data.Pv, self.av), probe_values(self.data.Prho, self.ar)
+
+
+def cosim_reference(data, steps, inputs, n_freeze=None, dt=None):
+    """Outputs of the FMU's co-simulation computed in Python.
+
+    Parameters
+    ----------
+    data : ModelData
+    steps : sequence of float
+        Communication step sizes [s].
+    inputs : sequence of float
+        f held over each step [m s^-2] (same length as ``steps``).
+
+    Returns
+    -------
+    t : ndarray (M+1,)
+        Communication points [s], starting at 0.
+    v, rho : ndarray (M+1, P)
+        Probe outputs at the communication points.
+    """
+    sim = FrozenCosim(data, n_freeze=n_freeze, dt=dt)
+    t, v, rho = [0.0], [], []
+    v0, r0 = sim.outputs()
+    v.append(v0)
+    rho.append(r0)
+    for h, f in zip(steps, inputs):
+        sim.do_step(h, f)
+        t.append(sim.t)
+        vi, ri = sim.outputs()
+        v.append(vi)
+        rho.append(ri)
+    return np.array(t), np.array(v), np.array(rho)

@@ -1,0 +1,201 @@
+"""``resources/model.bin``: the scene's reduced model for the FMU's C core.
+
+One binary serves every scene; the numbers of a scene live in this small,
+versioned, little-endian file (the layout is documented in fmu_src/rom.h and
+repeated here)::
+
+    char[8]  magic "SPHROMRS"
+    uint32   format_version (1), model_kind (1 frozen, 2 reserved: exact linear),
+             integrator (0 euler, 1 symplectic), k_v, k_rho, n_probes, n_pairs,
+             flags (bit0 damping: D present, bit1 input: p present),
+             n_freeze_default, reserved (0)
+    float64  dt [s], runaway_bound, L [m]
+    float64  a_v0[k_v], a_rho0[k_rho], K[k_v, k_rho], b[k_v], D[k_v, k_v] (bit0),
+             p[k_v] (bit1), T[n_pairs, k_rho, k_v], Pv[n_probes, k_v],
+             Prho[n_probes, k_rho], probe_x[n_probes]   (row-major)
+    char[40] token "{xxxxxxxx-xxxx-xxxx-xxxx-xxxxxxxxxxxx}", NUL padded: the
+             FMI guid / instantiationToken, from the first 16 bytes of the
+             sha256 of every byte before the token field
+    uint32   crc32 (zlib) of every byte before it
+
+K, b, D, p and T are the projected operators of eqs. 2.19-2.24
+(:func:`harness.rom.operators.build_operators`); Pv, Prho interpolate the
+reconstructed fields linearly between particles at the probes
+(:func:`harness.rom.operators.probe_rows`).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import struct
+import zlib
+from dataclasses import dataclass
+
+import numpy as np
+
+MAGIC = b"SPHROMRS"
+FORMAT_VERSION = 1
+MODEL_FROZEN = 1
+MODEL_EXACT_LINEAR = 2          # reserved
+INTEGRATORS = {"euler": 0, "symplectic": 1}
+FLAG_DAMPING = 1
+FLAG_INPUT = 2
+TOKEN_SIZE = 40
+MAX_PROBES = 100
+MAX_MODES = 1024
+_HEADER = struct.Struct("<8s10I3d")        # 72 bytes
+
+
+@dataclass
+class ModelData:
+    """The contents of a model.bin (all arrays float64, shapes as in the file).
+
+    Attributes
+    ----------
+    integrator : str
+        ``euler`` or ``symplectic``.
+    n_freeze : int
+        Default refresh period of the frozen coefficients.
+    dt : float
+        Internal step [s].
+    bound : float
+        Runaway bound on |a| (:func:`harness.rom.common.runaway_bound`).
+    L : float
+        Period [m].
+    a_v0, a_rho0, K, b, D, p, T, Pv, Prho, probe_x : ndarray
+        D and p may be None.
+    token : str
+        The instantiation token (set by :func:`pack`).
+    """
+
+    integrator: str
+    n_freeze: int
+    dt: float
+    bound: float
+    L: float
+    a_v0: np.ndarray
+    a_rho0: np.ndarray
+    K: np.ndarray
+    b: np.ndarray
+    D: np.ndarray | None
+    p: np.ndarray | None
+    T: np.ndarray
+    Pv: np.ndarray
+    Prho: np.ndarray
+    probe_x: np.ndarray
+    token: str = ""
+
+    @property
+    def k_v(self):
+        return self.a_v0.size
+
+    @property
+    def k_rho(self):
+        return self.a_rho0.size
+
+    @property
+    def n_probes(self):
+        return self.probe_x.size
+
+
+def model_data(ops, problem, *, dt, integrator, n_freeze, probes, bound):
+    """Collect the FMU's numbers from reduced operators.
+
+    Parameters
+    ----------
+    ops : ReducedOperators
+        Built with ``tensor="always"`` (and ``input_direction="always"`` for an
+        input row).
+    problem : SPHProblem
+        The full problem (particle positions, L).
+    dt : float
+        Internal step [s].
+    integrator : {"euler", "symplectic"}
+    n_freeze : int
+        Default refresh period (>= 1).
+    probes : sequence of float
+        Probe positions in units of L, in [0, 1].
+    bound : float
+        Runaway bound on |a|.
+    """
+    from ..rom.operators import probe_rows
+
+    if ops.T is None:
+        raise ValueError("the FMU needs the refresh tensor (build_operators(..., tensor='always'))")
+    probes = np.asarray(probes, dtype=float)
+    L = problem.scene.L
+    return ModelData(integrator=integrator, n_freeze=int(n_freeze), dt=float(dt), bound=float(bound), L=float(L),
+                     a_v0=np.asarray(ops.a_v0, float), a_rho0=np.asarray(ops.a_rho0, float),
+                     K=np.asarray(ops.K, float), b=np.asarray(ops.b, float),
+                     D=None if ops.D is None else np.asarray(ops.D, float),
+                     p=None if ops.p is None else np.asarray(ops.p, float),
+                     T=np.asarray(ops.T, float),
+                     Pv=probe_rows(ops.U_v, problem.x, L, probes), Prho=probe_rows(ops.U_rho, problem.x, L, probes),
+                     probe_x=probes)
+
+
+def make_token(digest16: bytes) -> str:
+    """``{xxxxxxxx-xxxx-xxxx-xxxx-xxxxxxxxxxxx}`` from 16 bytes."""
+    h = digest16.hex()
+    return "{" + f"{h[:8]}-{h[8:12]}-{h[12:16]}-{h[16:20]}-{h[20:32]}" + "}"
+
+
+def pack(data: ModelData) -> bytes:
+    """The bytes of model.bin; sets ``data.token``."""
+    kv, kr, npr = data.k_v, data.k_rho, data.n_probes
+    n_pairs = kr * (kr + 1) // 2
+    if not (1 <= kv <= MAX_MODES and 1 <= kr <= MAX_MODES):
+        raise ValueError(f"mode counts {kv}, {kr} out of range")
+    if not 1 <= npr <= MAX_PROBES:
+        raise ValueError(f"{npr} probes (allowed: 1 to {MAX_PROBES})")
+    shapes = {"K": (kv, kr), "b": (kv,), "T": (n_pairs, kr, kv), "Pv": (npr, kv), "Prho": (npr, kr)}
+    for name, shape in shapes.items():
+        if getattr(data, name).shape != shape:
+            raise ValueError(f"{name} has shape {getattr(data, name).shape}, expected {shape}")
+    flags = (FLAG_DAMPING if data.D is not None else 0) | (FLAG_INPUT if data.p is not None else 0)
+    header = _HEADER.pack(MAGIC, FORMAT_VERSION, MODEL_FROZEN, INTEGRATORS[data.integrator], kv, kr, npr, n_pairs,
+                          flags, int(data.n_freeze), 0, data.dt, data.bound, data.L)
+    arrays = [data.a_v0, data.a_rho0, data.K, data.b]
+    if data.D is not None:
+        arrays.append(data.D)
+    if data.p is not None:
+        arrays.append(data.p)
+    arrays += [data.T, data.Pv, data.Prho, data.probe_x]
+    body = header + b"".join(np.ascontiguousarray(a, dtype="<f8").tobytes() for a in arrays)
+    token = make_token(hashlib.sha256(body).digest()[:16])
+    data.token = token
+    body += token.encode("ascii").ljust(TOKEN_SIZE, b"\0")
+    return body + struct.pack("<I", zlib.crc32(body) & 0xFFFFFFFF)
+
+
+def unpack(blob: bytes) -> ModelData:
+    """Read model.bin bytes back (the same checks as the C loader)."""
+    if len(blob) < _HEADER.size + TOKEN_SIZE + 4:
+        raise ValueError("truncated")
+    (magic, version, kind, integrator, kv, kr, npr, n_pairs, flags, n_freeze, reserved, dt, bound,
+     L) = _HEADER.unpack_from(blob)
+    if magic != MAGIC or version != FORMAT_VERSION or kind != MODEL_FROZEN or reserved != 0:
+        raise ValueError("not a version-1 frozen sphrom model.bin")
+    if n_pairs != kr * (kr + 1) // 2:
+        raise ValueError("n_pairs")
+    if struct.unpack("<I", blob[-4:])[0] != zlib.crc32(blob[:-4]) & 0xFFFFFFFF:
+        raise ValueError("crc mismatch")
+    cursor = _HEADER.size
+
+    def take(*shape):
+        nonlocal cursor
+        n = int(np.prod(shape))
+        out = np.frombuffer(blob, dtype="<f8", count=n, offset=cursor).reshape(shape).astype(float)
+        cursor += 8 * n
+        return out
+
+    a_v0, a_rho0, K, b = take(kv), take(kr), take(kv, kr), take(kv)
+    D = take(kv, kv) if flags & FLAG_DAMPING else None
+    p = take(kv) if flags & FLAG_INPUT else None
+    T, Pv, Prho, probe_x = take(n_pairs, kr, kv), take(npr, kv), take(npr, kr), take(npr)
+    token = blob[cursor:cursor + TOKEN_SIZE].rstrip(b"\0").decode("ascii")
+    if cursor + TOKEN_SIZE + 4 != len(blob):
+        raise ValueError("size mismatch")
+    name = {v: k for k, v in INTEGRATORS.items()}[integrator]
+    return ModelData(integrator=name, n_freeze=n_freeze, dt=dt, bound=bound, L=L, a_v0=a_v0, a_rho0=a_rho0, K=K,
+                     b=b, D=D, p=p, T=T, Pv=Pv, Prho=Prho, probe_x=probe_x, token=token)
