@@ -27,6 +27,7 @@ COMMANDS = {
     "fmu": "fmu",
     "cosim": "cosim",
     "bench-fmu": "bench_fmu",
+    "reference": "reference",
 }
 
 
