@@ -1,0 +1,237 @@
+"""The FMU's C side: warning-free build, exported symbols, the C test driver
+(release and -fsanitize=address,undefined), the core loader's checks, the
+resources format, rebuilding from sources/ with fmpy, and the core benchmark.
+"""
+
+import json
+import os
+import re
+import shutil
+import struct
+import subprocess
+import sys
+import zipfile
+import zlib
+
+import fmpy
+import numpy as np
+import pytest
+
+from conftest import small_scene
+from harness.fmu.build import ensure_binaries
+from harness.fmu.core import Core, CoreError
+from harness.fmu.fmi import Slave
+from harness.fmu.package import package_fmu
+from harness.fmu.resources import pack, unpack
+
+SCENARIOS = ["basic", "state", "bad", "resources", "cycles", "threads"]
+
+
+@pytest.fixture(scope="session")
+def binaries():
+    return ensure_binaries()
+
+
+@pytest.fixture(scope="session")
+def packaged(binaries, tmp_path_factory):
+    """FMI 2 and 3 FMUs of a forced damped scene and an unforced undamped one, with their resources folders."""
+    folder = tmp_path_factory.mktemp("c-fmus")
+    out = {}
+    for case, scene in (("forced", small_scene("damped_forced", T=0.5, n=32)),
+                        ("unforced", small_scene("multimode", T=0.5, n=32))):
+        for fmi in (2, 3):
+            path = folder / f"{case}{fmi}.fmu"
+            package_fmu(scene, path, k=6, fmi=fmi, progress=False, binaries=binaries)
+            out[(case, fmi)] = path
+        resources = folder / f"{case}-resources"
+        resources.mkdir()
+        (resources / "model.bin").write_bytes(zipfile.ZipFile(out[(case, 2)]).read("resources/model.bin"))
+        out[(case, "resources")] = resources
+    return out
+
+
+def sanitizers_available(tmp_path):
+    src = tmp_path / "probe.c"
+    src.write_text("int main(void) { return 0; }\n")
+    cc = os.environ.get("CC", "cc")
+    if shutil.which(cc) is None:
+        return False
+    proc = subprocess.run([cc, "-fsanitize=address,undefined", str(src), "-o", str(tmp_path / "probe")],
+                          capture_output=True)
+    return proc.returncode == 0 and subprocess.run([str(tmp_path / "probe")], capture_output=True).returncode == 0
+
+
+# ---------------------------------------------------------------------------
+# build
+# ---------------------------------------------------------------------------
+
+def test_build_is_warning_free_with_werror(binaries):
+    commands = json.loads((binaries.folder / "compile_commands.json").read_text())
+    sources = {os.path.basename(c["file"]) for c in commands}
+    assert {"rom.c", "fmi2_cs.c", "fmi3_cs.c", "driver.c"} <= sources
+    for c in commands:
+        flags = c.get("command") or " ".join(c["arguments"])
+        for flag in ("-Wall", "-Wextra", "-Werror", "-ffp-contract=off"):
+            assert flag in flags, (c["file"], flag)
+    log = (binaries.folder / "build.log").read_text()
+    assert "warning:" not in log and "error:" not in log
+
+
+def test_only_fmi_functions_are_exported(binaries):
+    nm = shutil.which("nm")
+    if nm is None:
+        pytest.skip("nm not available")
+    for library, prefix, count in ((binaries.fmi2, "fmi2", 34), (binaries.fmi3, "fmi3", 75)):
+        out = subprocess.run([nm, "-D", "--defined-only", str(library)], capture_output=True, text=True).stdout
+        names = [line.split()[-1] for line in out.splitlines() if line.strip()]
+        assert names and all(n.startswith(prefix) for n in names), [n for n in names if not n.startswith(prefix)]
+        assert len(names) == count
+
+
+# ---------------------------------------------------------------------------
+# the C driver
+# ---------------------------------------------------------------------------
+
+def run_driver(driver, resources, scratch, env=None, scenarios=SCENARIOS):
+    scratch.mkdir(parents=True, exist_ok=True)
+    proc = subprocess.run([str(driver), str(resources), str(scratch), *scenarios], capture_output=True, text=True,
+                          env={**os.environ, **(env or {})}, timeout=300)
+    return proc.returncode, proc.stdout + proc.stderr
+
+
+@pytest.mark.parametrize("case", ["forced", "unforced"])
+def test_c_driver_release(binaries, packaged, tmp_path, case):
+    assert binaries.driver is not None
+    rc, output = run_driver(binaries.driver, packaged[(case, "resources")], tmp_path / "scratch")
+    assert rc == 0, output
+    for name in SCENARIOS:
+        assert f"scenario {name}: ok" in output
+
+
+def test_c_driver_under_address_and_undefined_sanitizers(packaged, tmp_path):
+    """All scenarios, the bad-input ones and 1000 instantiate/free cycles included, clean under ASan+UBSan+LSan."""
+    if not sanitizers_available(tmp_path):
+        pytest.skip("the C compiler cannot build and run -fsanitize=address,undefined programs")
+    san = ensure_binaries(sanitize=True)
+    assert san.driver is not None
+    env = {"ASAN_OPTIONS": "detect_leaks=1:abort_on_error=0:halt_on_error=1:detect_stack_use_after_return=1",
+           "UBSAN_OPTIONS": "halt_on_error=1:print_stacktrace=1"}
+    for case in ("forced", "unforced"):
+        rc, output = run_driver(san.driver, packaged[(case, "resources")], tmp_path / f"scratch-{case}", env=env)
+        assert rc == 0, output
+        assert "AddressSanitizer" not in output and "LeakSanitizer" not in output and "runtime error" not in output
+        for name in SCENARIOS:
+            assert f"scenario {name}: ok" in output
+
+
+def test_sanitizer_build_catches_a_leak(tmp_path):
+    """The leak check is live here (so a clean driver run means something)."""
+    if not sanitizers_available(tmp_path):
+        pytest.skip("the C compiler cannot build and run -fsanitize=address,undefined programs")
+    src = tmp_path / "leak.c"
+    src.write_text("#include <stdlib.h>\nvoid *volatile keep;\nint main(void) { keep = malloc(77); keep = 0; "
+                   "return 0; }\n")
+    subprocess.run([os.environ.get("CC", "cc"), "-fsanitize=address", str(src), "-o", str(tmp_path / "leak")],
+                   check=True)
+    proc = subprocess.run([str(tmp_path / "leak")], capture_output=True, text=True,
+                          env={**os.environ, "ASAN_OPTIONS": "detect_leaks=1"})
+    assert proc.returncode != 0 and "LeakSanitizer" in proc.stderr
+
+
+# ---------------------------------------------------------------------------
+# resources format and the core's loader
+# ---------------------------------------------------------------------------
+
+def with_crc(body):
+    return body + struct.pack("<I", zlib.crc32(body) & 0xFFFFFFFF)
+
+
+def test_resources_round_trip_and_token(packaged, binaries):
+    blob = zipfile.ZipFile(packaged[("forced", 2)]).read("resources/model.bin")
+    data = unpack(blob)
+    assert re.fullmatch(r"\{[0-9a-f]{8}-[0-9a-f]{4}-[0-9a-f]{4}-[0-9a-f]{4}-[0-9a-f]{12}\}", data.token)
+    assert pack(data) == blob                          # deterministic: same numbers, same bytes, same token
+    md = fmpy.read_model_description(str(packaged[("forced", 2)]))
+    assert md.guid == data.token
+    assert fmpy.read_model_description(str(packaged[("forced", 3)])).instantiationToken == data.token
+    assert data.D is not None and data.p is not None and data.integrator == "euler"
+    assert data.T.shape == (21, 6, 7) and data.Pv.shape == (3, 7)
+    core = Core(binaries.core)
+    assert core.lib.rom_crc32(blob, len(blob) - 4) == struct.unpack("<I", blob[-4:])[0]
+    model = core.load(blob)
+    model.close()
+
+
+def test_core_loader_names_the_problem(packaged, binaries):
+    blob = zipfile.ZipFile(packaged[("forced", 2)]).read("resources/model.bin")
+    body = blob[:-4]
+    core = Core(binaries.core)
+
+    def u32(offset, value, source=body):
+        return source[:offset] + struct.pack("<I", value) + source[offset + 4:]
+
+    def f64(offset, value, source=body):
+        return source[:offset] + struct.pack("<d", value) + source[offset + 8:]
+
+    cases = [
+        (b"XXXXXXXX" + blob[8:], "bad magic"),
+        (with_crc(u32(8, 2)), "format version 2"),
+        (with_crc(u32(12, 2)), "reserved"),
+        (with_crc(u32(16, 7)), "integrator 7"),
+        (with_crc(u32(32, 20)), "n_pairs"),
+        (with_crc(u32(36, 8)), "flag"),
+        (with_crc(u32(40, 0)), "n_freeze"),
+        (with_crc(f64(48, -1.0)), "dt = -1"),
+        (with_crc(f64(48, float("nan"))), "dt = nan"),
+        (with_crc(f64(72, float("inf"))), "non-finite"),
+        (blob[:-1], "bytes"),
+        (blob + b"\0", "bytes"),
+        (blob[:-5] + bytes([blob[-5] ^ 1]) + blob[-4:], "checksum"),
+        (b"", "truncated"),
+    ]
+    for bad, text in cases:
+        with pytest.raises(CoreError, match=re.escape(text)):
+            core.load(bad)
+
+
+# ---------------------------------------------------------------------------
+# rebuilding from sources/ (fmpy compile)
+# ---------------------------------------------------------------------------
+
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_fmpy_compile_rebuilds_from_sources(packaged, tmp_path, fmi):
+    """A copy without binaries is rebuilt by `fmpy compile` and gives the same outputs."""
+    original = packaged[("forced", fmi)]
+    copy = tmp_path / f"copy{fmi}.fmu"
+    with zipfile.ZipFile(original) as src, zipfile.ZipFile(copy, "w", zipfile.ZIP_DEFLATED) as dst:
+        for item in src.infolist():
+            if not item.filename.startswith("binaries/"):
+                dst.writestr(item, src.read(item.filename))
+    proc = subprocess.run([sys.executable, "-m", "fmpy.cli", "compile", str(copy)], capture_output=True, text=True,
+                          timeout=300)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert any(n.startswith("binaries/") for n in zipfile.ZipFile(copy).namelist())
+    assert fmpy.validation.validate_fmu(str(copy)) == []
+    rng = np.random.default_rng(2)
+    steps, inputs = list(rng.uniform(0.3, 40, 25) * 2e-4), rng.normal(0, 0.05, 25)
+    outs = []
+    for path in (original, copy):
+        with Slave(path) as s:
+            s.initialize()
+            outs.append(s.run(steps, inputs))
+    scale = np.abs(outs[0]).max(axis=0)
+    assert np.all(np.abs(outs[0] - outs[1]) <= 1e-12 * scale)
+
+
+# ---------------------------------------------------------------------------
+# the core benchmark (smoke) and the bench-fmu command
+# ---------------------------------------------------------------------------
+
+def test_core_benchmark_rows_do_not_depend_on_n(binaries):
+    from harness.fmu.bench import core_rows
+    rows = core_rows("multimode", [48, 96], k=8, n_steps=20_000, repeats=5, core=Core(binaries.core))
+    assert [r["n"] for r in rows] == [48, 96]
+    for r in rows:
+        assert r["k_rho"] == 8 and r["ns_per_step"] > 0
+    # same k, same work: the times agree within a generous factor (timing noise on a shared machine)
+    assert max(r["ns_per_step"] for r in rows) < 3 * min(r["ns_per_step"] for r in rows)
