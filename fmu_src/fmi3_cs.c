@@ -832,7 +832,7 @@ fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoi
     *earlyReturn = fmi3False;
     const RomStatus status = rom_do_step(inst->state, currentCommunicationPoint, communicationStepSize,
                                          inst->message, sizeof inst->message);
-    *lastSuccessfulTime = inst->state->time;
+    *lastSuccessfulTime = inst->state->time;   /* t_comm + h, or the last point reached on an error */
     if (status != ROM_OK) return error(inst, "fmi3DoStep", inst->message);
     log_message(inst, fmi3OK, ROM_LOG_EVENTS, "fmi3DoStep: t = %.9g s reached (%lld internal steps in all)",
                 inst->state->time, (long long)inst->state->n);

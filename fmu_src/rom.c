@@ -684,10 +684,7 @@ RomStatus rom_do_step(RomState *s, double t_comm, double h, char *message, size_
     if (status == ROM_OK && rest > ROM_SHORT_STEP_MIN * dt) {
         status = run_steps(s, 1, rest, t_comm + (double)n_full * dt, message, message_size);
     }
-    if (status != ROM_OK) {
-        s->time = t_comm + h;
-        return status;
-    }
+    if (status != ROM_OK) return status;     /* the instance is unusable; the message names the time */
     s->time = t_comm + h;
     return rom_check_outputs(s, message, message_size);
 }

@@ -235,3 +235,13 @@ def test_core_benchmark_rows_do_not_depend_on_n(binaries):
         assert r["k_rho"] == 8 and r["ns_per_step"] > 0
     # same k, same work: the times agree within a generous factor (timing noise on a shared machine)
     assert max(r["ns_per_step"] for r in rows) < 3 * min(r["ns_per_step"] for r in rows)
+
+
+def test_density_at_a_probe_must_stay_positive(packaged, binaries):
+    """A state with negative density at the probes is an error at the communication point, naming the time."""
+    data = unpack(zipfile.ZipFile(packaged[("forced", 2)]).read("resources/model.bin"))
+    data.a_rho0 = -data.a_rho0
+    model = Core(binaries.core).load(pack(data))
+    with pytest.raises(CoreError, match=r"density at probe 1 \(x/L = 0.25\) is -.* at t = 0.001 s"):
+        model.do_step(0.0, 1e-3)
+    model.close()

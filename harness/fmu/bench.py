@@ -8,9 +8,11 @@
    horizon with 10 ms and 1 ms communication steps (extraction, loading,
    instantiation, the loop, recording), beside the full SPH of the same scene
    timed in the same run (:func:`harness.sph.solver.run_sph`), as ratios.
-3. Where the time goes: the fixed cost of simulate_fmu (a one-step run), a
-   bare ``doStep`` loop on FMU2Slave (the FMI call through ctypes), and the
-   core's own time for the same internal steps.
+3. Where the time goes: the fixed cost of simulate_fmu (a one-step run:
+   extraction, loading, instantiation, freeing), the core's own time for the
+   same internal steps, the rest per doStep (fmpy's loop: input, doStep,
+   recording), and of that the bare ``fmi2DoStep`` call through fmpy/ctypes
+   (doSteps of one internal step on FMU2Slave, minus the core's time).
 
 Every figure is the median of ``repeats`` runs.
 """
@@ -85,20 +87,19 @@ def _simulate(path, stop_time, step):
     return time.perf_counter() - t0
 
 
-def _bare_loop(unzipdir, md, stop_time, step):
-    """doStep only, on an extracted FMU (FMI 2): the FMI call overhead through fmpy/ctypes."""
+def _bare_calls(unzipdir, md, n_calls, h):
+    """n_calls fmi2DoStep of length h on an extracted FMU, nothing else: the call cost through fmpy/ctypes."""
     from fmpy.fmi2 import FMU2Slave
     fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir, modelIdentifier="sphrom", instanceName="bench")
     fmu.instantiate()
     fmu.setupExperiment(startTime=0.0)
     fmu.enterInitializationMode()
     fmu.exitInitializationMode()
-    n = int(round(stop_time / step))
     t = 0.0
     t0 = time.perf_counter()
-    for i in range(n):
-        fmu.doStep(t, step)
-        t = (i + 1) * step
+    for i in range(n_calls):
+        fmu.doStep(t, h)
+        t = (i + 1) * h
     wall = time.perf_counter() - t0
     fmu.terminate()
     fmu.freeInstance()
@@ -143,18 +144,20 @@ def end_to_end(scene_name="tenmode", steps=(0.01, 0.001), repeats=5, k=None, pro
         model.close()
         core_time = _median(core_times)
         fixed = _median([_simulate(path, min(steps), min(steps)) for _ in range(repeats)])
+        # the bare call: doSteps of one internal step each, minus the core's time for those steps
+        n_calls = 20_000
+        bare = _median([_bare_calls(unzipdir, md, n_calls, scene.sph.dt) for _ in range(repeats)])
+        bare_us = (bare - n_calls * core_time / n_internal) / n_calls * 1e6
         rows = []
         for h in steps:
             _simulate(path, scene.T, h)                          # warm (page cache, imports)
             e2e = [_simulate(path, scene.T, h) for _ in range(repeats)]
-            bare = [_bare_loop(unzipdir, md, scene.T, h) for _ in range(repeats)]
             n_comm = int(round(scene.T / h))
-            e2e_m, bare_m = _median(e2e), _median(bare)
+            e2e_m = _median(e2e)
             rows.append({"step_s": h, "doSteps": n_comm, "internal_steps": n_internal,
-                         "fmu_e2e_s": e2e_m, "fmu_e2e_min_s": min(e2e), "fixed_s": fixed,
-                         "bare_doStep_loop_s": bare_m, "core_s": core_time,
+                         "fmu_e2e_s": e2e_m, "fmu_e2e_min_s": min(e2e), "fixed_s": fixed, "core_s": core_time,
                          "us_per_doStep_fmpy": (e2e_m - fixed - core_time) / n_comm * 1e6,
-                         "us_per_doStep_bare_call": (bare_m - core_time) / n_comm * 1e6})
+                         "us_per_doStep_bare_call": bare_us})
             if bar is not None:
                 bar.update(1)
     sph_loop, sph_call = [], []
