@@ -535,3 +535,25 @@ def test_cosim_command_errors(fmus, tmp_path, capsys):
     assert main(["cosim", str(path), "--force", "1e300", "--t-end", "0.05", "--out", str(out)]) == 3
     err = capsys.readouterr().err
     assert "t = " in err and not out.exists()
+
+
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_resources_in_a_folder_that_needs_escaping(fmus, tmp_path, fmi):
+    """FMI 2 passes a percent-encoded file URI, FMI 3 a plain path: both find model.bin."""
+    path, _ = fmus("forced", fmi)
+    folder = tmp_path / "a folder with space, 100% #1"
+    fmpy.extract(str(path), unzipdir=str(folder))
+    with Slave(folder) as s:
+        s.initialize()
+        s.do_step(0.0, 0.01)
+        assert np.all(np.isfinite(s.output_values()))
+
+
+def test_bench_fmu_command_smoke(scene_file, tmp_path, capsys):
+    out = tmp_path / "bench"
+    assert main(["bench-fmu", str(scene_file), "--sizes", "48", "--steps", "0.05", "--out", str(out),
+                 "--quiet"]) == 0
+    text = capsys.readouterr().out
+    assert "ns/step" in text and "faster than the full SPH" in text and "where the time goes" in text
+    assert (out / "bench_fmu_core.csv").is_file() and (out / "bench_fmu_e2e.csv").is_file()
+    assert "| comm. step |" in (out / "bench_fmu.md").read_text()
