@@ -126,3 +126,13 @@ def test_console_script_and_module_entry_points():
     done = subprocess.run(["sphrom", "sph", "multimode", "--dt", "-1", "--out", "x.h5"],
                           capture_output=True, text=True, timeout=120)
     assert done.returncode == 2 and "Traceback" not in done.stderr
+
+
+def test_every_subpackage_is_installed():
+    """pyproject lists every harness package: a non-editable install must not lose a module."""
+    import tomllib
+    from pathlib import Path
+    root = Path(__file__).resolve().parents[1]
+    listed = set(tomllib.loads((root / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
+    found = {".".join(p.parent.relative_to(root).parts) for p in (root / "harness").rglob("__init__.py")}
+    assert found <= listed, f"missing from pyproject packages: {sorted(found - listed)}"
