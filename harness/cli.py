@@ -28,6 +28,7 @@ COMMANDS = {
     "cosim": "cosim",
     "bench-fmu": "bench_fmu",
     "reference": "reference",
+    "validate": "validate",
 }
 
 

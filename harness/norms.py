@@ -59,3 +59,35 @@ def relative_l2(u, ref, t=None, squared=False, baseline=None):
         return 0.0 if num == 0.0 else float("inf")
     ratio = num / den
     return ratio if squared else float(np.sqrt(ratio))
+
+
+def relative_l2_history(u, ref, t, baseline=None):
+    """Eq. 3.4 over [0, t_m] for every sample time t_m (square-root form).
+
+    Parameters
+    ----------
+    u, ref : ndarray, shape (M, N)
+    t : ndarray, shape (M,)
+        Sample times [s].
+    baseline : ndarray, optional
+        Subtracted from both (see :func:`relative_l2`).
+
+    Returns
+    -------
+    ndarray (M,)
+        The relative error of the run cut at each sample time (the first
+        entry uses the first sample alone).
+    """
+    u = np.asarray(u, dtype=float)
+    ref = np.asarray(ref, dtype=float)
+    if baseline is not None:
+        u = u - baseline
+        ref = ref - baseline
+    t = np.asarray(t, dtype=float)
+    num = np.sum((u - ref) ** 2, axis=1)
+    den = np.sum(ref**2, axis=1)
+    dt = np.diff(t)
+    cnum = np.concatenate([[num[0]], np.cumsum(0.5 * dt * (num[1:] + num[:-1]))])
+    cden = np.concatenate([[den[0]], np.cumsum(0.5 * dt * (den[1:] + den[:-1]))])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.sqrt(np.where(cden > 0, cnum / cden, np.where(cnum > 0, np.inf, 0.0)))

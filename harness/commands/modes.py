@@ -86,8 +86,7 @@ def _print_sweep(scene, sweep, ths, paper):
 
 
 def _run_all(args, out, models, scenes):
-    from ..pod.study import outcome, study_spec
-    from ..pod.snapshots import describe
+    from ..pod.study import snapshot_study
 
     lines = ["# Mode thresholds and snapshot studies", "",
              "Produced by `sphrom modes --all`. Threshold: the smallest k from which the original POD-MOR error "
@@ -109,35 +108,13 @@ def _run_all(args, out, models, scenes):
     lines += ["", "## Snapshot studies", "",
               "| scene | paper figure | snapshots | paper | ours | detail |", "| --- | --- | --- | --- | --- | --- |"]
     for scene, i, study, base in studies:
-        spec = study_spec(study)
         tag = f"{scene.name}-study{i + 1}"
-        if study["outcome"] == "critical":
-            # the smallest uniform count in [count-1, count+4] that works
-            found = None
-            for count in range(study["count"] - 1, study["count"] + 5):
-                s = {**spec, "count": count}
-                sweep, ths = _one(scene, s, args, out, f"{tag}-count{count}", models)
-                if ths["original"] is not None:
-                    found = (count, ths["original"])
-                    break
-            ours = f"critical count {found[0]} (k = {found[1]})" if found else "no count works"
-            detail = f"searched counts {study['count'] - 1}..{study['count'] + 4}"
-        else:
-            sweep, ths = _one(scene, spec, args, out, tag, models)
-            if study["outcome"] == "larger_error":
-                kk = min(5, sweep["kmax"], base["kmax"])
-                ev = [r["v"] for r in sweep["rows"] if r["k"] == kk and r["model"] == "original"][0]
-                eb = [r["v"] for r in base["rows"] if r["k"] == kk and r["model"] == "original"][0]
-                ours = "larger_error" if ev > eb else "not larger"
-                detail = f"v error at k = {kk}: {ev:.3e} vs {eb:.3e} with the scene's snapshots"
-            else:
-                ours = outcome(sweep)
-                detail = f"threshold k = {ths['original']}" if ths["original"] else f"no k <= {sweep['kmax']} works"
-                if study.get("mode_threshold"):
-                    detail += f" (paper k = {study['mode_threshold']})"
-        lines.append(f"| {scene.name} | {study.get('figure', '')} | {describe(spec)} | {study['outcome']} | "
-                     f"{ours} | {detail} |")
-        print(f"  study {scene.name} {describe(spec)}: paper {study['outcome']}, ours {ours} ({detail})")
+
+        def sweep_fn(spec, suffix, scene=scene, tag=tag):
+            return _one(scene, spec, args, out, tag + suffix, models)
+        r = snapshot_study(scene, study, base, sweep_fn)
+        lines.append(f"| {scene.name} | {r['figure']} | {r['snapshots']} | {r['paper']} | {r['ours']} | {r['detail']} |")
+        print(f"  study {scene.name} {r['snapshots']}: paper {r['paper']}, ours {r['ours']} ({r['detail']})")
     (out / "summary.md").write_text("\n".join(lines) + "\n")
     print(f"wrote {out / 'summary.md'}")
     return 0

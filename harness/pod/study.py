@@ -143,3 +143,55 @@ def plot_sweep(sweep, path, paper_threshold=None):
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)
+
+
+def snapshot_study(scene, study, base, sweep_fn):
+    """Our outcome of one of the paper's snapshot studies (§3.1.2-3.1.3, §3.2.1).
+
+    Parameters
+    ----------
+    scene : Scene
+    study : dict
+        One ``[[paper.snapshot_studies]]`` entry: the strategy, the paper's
+        ``outcome`` (works, fails, critical, larger_error) and figure.
+    base : dict
+        The mode sweep with the scene's own snapshots (for ``larger_error``).
+    sweep_fn : callable
+        ``sweep_fn(spec, tag_suffix) -> (sweep, thresholds)``: runs and
+        records one mode sweep for a snapshot strategy.
+
+    Returns
+    -------
+    dict
+        ``figure``, ``snapshots`` (description), ``paper``, ``ours``,
+        ``detail`` and ``agrees`` (bool).
+    """
+    spec = study_spec(study)
+    paper = study["outcome"]
+    if paper == "critical":
+        # the smallest uniform count in [count-1, count+4] that works
+        found = None
+        for count in range(study["count"] - 1, study["count"] + 5):
+            sweep, ths = sweep_fn({**spec, "count": count}, f"-count{count}")
+            if ths["original"] is not None:
+                found = (count, ths["original"])
+                break
+        ours = f"critical count {found[0]} (k = {found[1]})" if found else "no count works"
+        detail = f"searched counts {study['count'] - 1}..{study['count'] + 4}"
+        agrees = found is not None and abs(found[0] - study["count"]) <= 1
+    else:
+        sweep, ths = sweep_fn(spec, "")
+        if paper == "larger_error":
+            kk = min(5, sweep["kmax"], base["kmax"])
+            ev = [r["v"] for r in sweep["rows"] if r["k"] == kk and r["model"] == "original"][0]
+            eb = [r["v"] for r in base["rows"] if r["k"] == kk and r["model"] == "original"][0]
+            ours = "larger_error" if ev > eb else "not larger"
+            detail = f"v error at k = {kk}: {ev:.3e} vs {eb:.3e} with the scene's snapshots"
+        else:
+            ours = outcome(sweep)
+            detail = f"threshold k = {ths['original']}" if ths["original"] else f"no k <= {sweep['kmax']} works"
+            if study.get("mode_threshold"):
+                detail += f" (paper k = {study['mode_threshold']})"
+        agrees = ours == paper
+    return {"figure": study.get("figure", ""), "snapshots": describe(spec), "paper": paper, "ours": ours,
+            "detail": detail, "agrees": agrees}

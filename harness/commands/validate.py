@@ -1,0 +1,53 @@
+"""``sphrom validate``: the validation report of one scene or of every paper scene."""
+
+from .options import int_at_least
+
+
+def add_parser(sub):
+    p = sub.add_parser("validate", help="validation report: SPH and reduced models against independent references",
+                       description="One Markdown page per scene (PNG plots beside it) and an index: the full SPH "
+                                   "against the exact solution and each continuum reference (scikit-fem, py-pde, "
+                                   "the paper's FD), the references against each other, the paper's reported "
+                                   "figures beside ours with the ratio and, beyond 25 %, the evidence; the POD "
+                                   "figures (singular values, modes, error against k, the snapshot studies, time "
+                                   "against error of the accelerated models); convergence studies of the references "
+                                   "(multimode, damped_forced) and scikit-fem against py-pde (heterogeneous).")
+    p.add_argument("scene", metavar="SCENE", nargs="?", help="a built-in scene name or a scene TOML path")
+    p.add_argument("--all", action="store_true", help="every built-in (paper) scene, and the index")
+    p.add_argument("--out", metavar="DIR", default="validation/reports", help="report folder (default "
+                   "validation/reports)")
+    p.add_argument("--repeats", type=int_at_least(1), default=3,
+                   help="timed runs per point of the time-against-error study (median; default 3)")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.set_defaults(handler=run)
+
+
+def run(args):
+    import time
+    from pathlib import Path
+
+    from ..errors import UserError
+    from ..progress import progress_bar
+    from ..report.pages import index_page, scene_page
+    from ..scene import builtin_names, load_scene
+
+    if args.all == (args.scene is not None):
+        raise UserError("give a SCENE or --all")
+    scenes = [load_scene(n) for n in builtin_names()] if args.all else [load_scene(args.scene)]
+    out = Path(args.out)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UserError(f"--out: cannot create '{out}' ({exc})") from None
+    started = time.perf_counter()
+    summaries = []
+    with progress_bar(total=len(scenes), desc="validate", enabled=not args.quiet) as bar:
+        for scene in scenes:
+            bar.set_postfix_str(scene.name)
+            summaries.append(scene_page(scene, out, repeats=args.repeats, progress=not args.quiet))
+            bar.update(1)
+            print(f"wrote {out / (scene.name + '.md')} ({summaries[-1]['wall']:.0f} s)")
+    if args.all:
+        index_page(summaries, out, f"sphrom validate --all --repeats {args.repeats}", time.perf_counter() - started)
+        print(f"wrote {out / 'README.md'}")
+    return 0

@@ -1,0 +1,34 @@
+"""Small Markdown helpers for the reports: tables and numbers."""
+
+from __future__ import annotations
+
+import math
+
+
+def num(x, spec=".3e"):
+    """A number for a table; ``—`` for None or NaN."""
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return "—"
+    if isinstance(x, float) and math.isinf(x):
+        return "∞"
+    return format(x, spec)
+
+
+def table(headers, rows):
+    """Markdown table lines from a header list and rows of cells (already text)."""
+    out = ["| " + " | ".join(headers) + " |", "| " + " | ".join("---" for _ in headers) + " |"]
+    out += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
+    return out + [""]
+
+
+def image(path, alt):
+    """A Markdown image line (``path`` relative to the page)."""
+    return [f"![{alt}]({path})", ""]
+
+
+def write_text(path, text):
+    """Write a page atomically (a temporary file, then rename): never half a page."""
+    from ..runio import atomic_path
+    with atomic_path(path) as tmp:
+        with open(tmp, "w", encoding="utf-8") as fh:
+            fh.write(text)

@@ -1,0 +1,97 @@
+"""The POD figures of a scene's report: singular values, modes, error against k,
+the paper's snapshot studies and the time against error of the accelerated models."""
+
+from __future__ import annotations
+
+from ..bench.methods import bench_python, paper_saving, plot_time_error
+from ..pod.pipeline import basis_for_scene
+from ..pod.study import mode_sweep, plot_sweep, snapshot_study, threshold
+from .markdown import image, num, table
+
+
+def plot_modes(basis, path, title, n_modes=4):
+    """The first POD modes of v and ρ against x, as PNG."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(9.5, 3.2), sharex=True)
+    for ax, U, label in ((axes[0], basis.U_v, "velocity"), (axes[1], basis.U_rho, "density")):
+        for j in range(min(n_modes, U.shape[1])):
+            ax.plot(basis.x, U[:, j], lw=1.2, label=f"mode {j + 1}")
+        ax.set_xlabel("x [m]")
+        ax.set_title(f"{title}: {label} modes", fontsize=9)
+    axes[0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def pod_section(scene, reference, out_dir, stem, repeats=3, progress=True):
+    """Markdown lines and a summary dict of the POD part of a scene's report.
+
+    Parameters
+    ----------
+    reference : (v, rho, label)
+        The reference at the SPH particles and error steps (for the SPH error line).
+    repeats : int
+        Timed runs per point of the time-against-error study (median).
+    """
+    lines = ["## POD and the reduced models", ""]
+    summary = {}
+    sweep = mode_sweep(scene, kmax=None, models=("original",), progress=progress, reference=reference)
+    paper_k = scene.paper.get("mode_threshold")
+    plot_sweep(sweep, out_dir / f"{stem}_modes_sweep.png", paper_k)
+    k = threshold(sweep["rows"], sweep["sph_error"], "original")
+    summary["threshold"], summary["paper_threshold"] = k, paper_k
+    lines += [f"Snapshots: {sweep['strategy']}. Mode threshold (smallest k from which the original POD-MOR error "
+              f"against the full SPH stays below the SPH error against {sweep['reference']}, in v and in ρ − ρ0): "
+              f"**{k if k else 'none within k ≤ ' + str(sweep['kmax'])}**"
+              + (f"; paper: {paper_k} (ratio {k / paper_k:.2f})." if k and paper_k else "."), ""]
+    lines += image(f"{out_dir.name}/{stem}_modes_sweep.png", "singular values and error against k")
+    basis, _ = basis_for_scene(scene, progress=False)
+    plot_modes(basis, out_dir / f"{stem}_modes.png", scene.name)
+    lines += image(f"{out_dir.name}/{stem}_modes.png", "POD modes")
+    rows = [r for r in sweep["rows"] if r["model"] == "original"]
+    pick = sorted({1, 2, 4} | {r["k"] for r in rows if r["k"] % 4 == 0} | ({k} if k else set()))
+    lines += table(["k", "v", "ρ − ρ0", "online [s]"],
+                   [[r["k"], num(r["v"]), num(r["rho_var"]), num(r["online"], ".3f")] for r in rows if r["k"] in pick])
+
+    studies = scene.paper.get("snapshot_studies", [])
+    if studies:
+        lines += ["### The paper's snapshot studies", ""]
+        srows, agree = [], 0
+        for i, study in enumerate(studies):
+            def sweep_fn(spec, suffix, i=i):
+                s = mode_sweep(scene, spec, models=("original",), progress=progress, reference=reference)
+                plot_sweep(s, out_dir / f"{stem}_study{i + 1}{suffix}.png")
+                return s, {"original": threshold(s["rows"], s["sph_error"], "original")}
+            r = snapshot_study(scene, study, sweep, sweep_fn)
+            agree += bool(r["agrees"])
+            srows.append([r["figure"], r["snapshots"], r["paper"], r["ours"], "yes" if r["agrees"] else "**no**",
+                          r["detail"]])
+        lines += table(["paper figure", "snapshots", "paper", "ours", "agrees", "detail"], srows)
+        summary["studies"] = (agree, len(studies))
+
+    accel = scene.rom.get("accel_modes")
+    if accel:
+        lines += ["### Time against error of the accelerated models", ""]
+        rows = bench_python(scene, repeats=repeats)
+        plot_time_error(rows, out_dir / f"{stem}_time_error.png", scene.name)
+        lines += image(f"{out_dir.name}/{stem}_time_error.png", "time against error")
+        lines += table(["method", "k", "n_freeze", "online [s]", "speed-up", "v vs SPH", "ρ−ρ0 vs SPH",
+                        "v vs ref", "ρ−ρ0 vs ref"],
+                       [[r["method"], r["k"] or "", r["n_freeze"] or "", num(r["online_s"], ".4f"),
+                         num(r["speedup"], ".1f"), num(r["err_v_sph"]), num(r["err_rho_sph"]), num(r["err_v_ref"]),
+                         num(r["err_rho_ref"])] for r in rows])
+        saving = paper_saving(rows, scene)
+        paper = scene.paper.get("cpu_saving")
+        summary["saving"], summary["paper_saving"] = saving, paper
+        lines += [f"Online times: medians of {repeats} runs, speed-ups against the full SPH timed in the same run. "
+                  f"CPU saving of the frozen model (k = {max(accel)}, n_freeze = 10) against the full SPH: "
+                  f"**{num(None if saving is None else 100 * saving, '.0f')} %**"
+                  + (f"; paper {100 * paper:.0f} %." if paper else ".")
+                  + " Our full SPH is compiled (numba), the paper's was not (its reduced models gain more against "
+                    "it); BENCHMARKS.md has the per-step costs.", ""]
+    return lines, summary
+
