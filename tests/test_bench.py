@@ -29,10 +29,11 @@ def test_bench_command_smoke(tmp_path, monkeypatch):
     scene_file.write_text(small_scene("multimode", T=0.5, n=24, every=25).text)
     out = tmp_path / "bench"
     report = tmp_path / "B.md"
-    assert main(["bench", str(scene_file), "--repeats", "1", "--sizes", "50,100", "--no-fmu",
+    assert main(["bench", str(scene_file), "--repeats", "1", "--sizes", "50,100", "--scaling-ks", "4,8", "--no-fmu",
                  "--out", str(out), "--report", str(report)]) == 0
     text = report.read_text()
     assert "CPU saving of the frozen model" in text and "Cost per step against N" in text
+    assert "Cost per step against k" in text and (out / "scaling_k.png").stat().st_size > 1000
     with open(out / "scaling.csv") as fh:
         rows = [dict(r, n=int(r["n"]), us_per_step=float(r["us_per_step"])) for r in csv.DictReader(fh)]
     assert {r["method"] for r in rows} >= {"full SPH", "frozen (n_freeze = 10)"}
