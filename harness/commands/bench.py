@@ -49,7 +49,6 @@ def run(args):
     import time
     from pathlib import Path
 
-    import numpy as np
 
     from .. import __version__
     from ..bench.methods import bench_python, paper_saving, plot_time_error
