@@ -182,15 +182,16 @@ def index_page(summaries, out, command, wall):
         st = s.get("studies")
         rows.append([s["scene"], s.get("threshold") or "—", s.get("paper_threshold") or "—",
                      f"{st[0]} of {st[1]}" if st else "—",
-                     num(None if s.get("saving") is None else 100 * s["saving"], ".0f") + " %" if "saving" in s
-                     else "—",
+                     ", ".join(f"{100 * v:.0f} % (k = {k})" for k, v in s["saving_by_k"].items())
+                     if s.get("saving_by_k") else "—",
                      num(None if s.get("paper_saving") is None else 100 * s["paper_saving"], ".0f") + " %"
                      if s.get("paper_saving") else "—"])
     lines += table(["scene", "mode threshold (ours)", "paper", "snapshot studies agreeing", "frozen CPU saving",
-                    "paper"], rows)
+                    "paper (up to)"], rows)
     lines += ["## scikit-fem against py-pde", "",
-              "The two continuum references on every scene (smooth scenes: both at N = 256; `heterogeneous`: the "
-              "finest of the study on its page). Target: ≤ 1e-4 on smooth scenes, ≤ 1e-3 on `heterogeneous`.", ""]
+              "The two continuum references on every scene (scikit-fem P2 at N = 1024, py-pde at N = 2048; "
+              "`heterogeneous`: the finest pair of the study on its page, both at N = 2048). Target: ≤ 1e-4 on "
+              "smooth scenes, ≤ 1e-3 on `heterogeneous`.", ""]
     rows = []
     for s in summaries:
         if "agreement" in s:
