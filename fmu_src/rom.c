@@ -23,7 +23,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define ROM_VERSION_STRING "sphrom-core 1"
+#define ROM_VERSION_STRING "sphrom-core 2"
 #define ROM_MAX_FILE_SIZE ((size_t)1 << 30)    /* 1 GiB: far above any k <= 100 model */
 #define ROM_STATE_HEADER_SIZE 112
 #define ROM_TIME_TOLERANCE 1e-9                /* relative, for currentCommunicationPoint */
@@ -198,6 +198,133 @@ static void read_doubles(const unsigned char **cursor, double *out, uint64_t n) 
     }
 }
 
+/* The exact linear model (kind 2): header checks, sizes, checksum, operators.
+ * Called by rom_model_load_memory once magic, version and kind are read. */
+static RomStatus load_exact(const unsigned char *bytes, size_t size, RomModel **out, char *message,
+                            size_t message_size) {
+    const uint32_t integrator = get_u32(bytes + 16);
+    const uint32_t kv = get_u32(bytes + 20), ke = get_u32(bytes + 24), np = get_u32(bytes + 28);
+    const uint32_t npairs = get_u32(bytes + 32), flags = get_u32(bytes + 36);
+    const uint32_t n_freeze = get_u32(bytes + 40), reserved = get_u32(bytes + 44);
+    const double dt = get_f64(bytes + 48), bound = get_f64(bytes + 56), L = get_f64(bytes + 64);
+    if (integrator != 0) {
+        return fail(message, message_size, "resources: integrator %u given for the exact model (must be 0: it "
+                    "is advanced by the matrix exponential)", integrator);
+    }
+    if (kv < 1 || kv > ROM_MAX_MODES || ke < 1 || ke > ROM_MAX_MODES) {
+        return fail(message, message_size, "resources: mode counts k_v = %u, k_e = %u out of range [1, %u]",
+                    kv, ke, ROM_MAX_MODES);
+    }
+    if (np < 1 || np > ROM_MAX_PROBES) {
+        return fail(message, message_size, "resources: %u probes, out of range [1, %u]", np, ROM_MAX_PROBES);
+    }
+    if (npairs != 0) return fail(message, message_size, "resources: n_pairs = %u, must be 0 for the exact model",
+                                 npairs);
+    if (flags & ~(ROM_FLAG_DAMPING | ROM_FLAG_INPUT | ROM_FLAG_SCHUR)) {
+        return fail(message, message_size, "resources: unknown flag bits 0x%x", flags);
+    }
+    if ((flags & ROM_FLAG_SCHUR) && (flags & ROM_FLAG_DAMPING)) {
+        return fail(message, message_size, "resources: flag bits 0x%x: a Schur form with damping (the free "
+                    "response by rotations needs a skew operator)", flags);
+    }
+    if (n_freeze < 1 || n_freeze > INT32_MAX || reserved != 0) {
+        return fail(message, message_size, "resources: n_freeze_default = %u (must be >= 1) or reserved = %u "
+                    "(must be 0)", n_freeze, reserved);
+    }
+    const uint64_t k = (uint64_t)kv + ke;
+    const uint64_t cB = (flags & ROM_FLAG_INPUT) ? k : 0, cQ = (flags & ROM_FLAG_SCHUR) ? k * k : 0;
+    const uint64_t total = k + k * k + cB + 2 * cQ + (uint64_t)np * kv + (uint64_t)np * 2 * ke + 4 * (uint64_t)np +
+                           np;
+    const uint64_t expected = (uint64_t)ROM_HEADER_SIZE + 8u * total + ROM_TOKEN_SIZE + 4u;
+    if ((uint64_t)size != expected) {
+        return fail(message, message_size,
+                    "resources: %zu bytes, expected %llu for the exact model with k_v = %u, k_e = %u, %u probes, "
+                    "flags 0x%x (file truncated or corrupt)", size, (unsigned long long)expected, kv, ke, np, flags);
+    }
+    const uint32_t stored_crc = get_u32(bytes + size - 4);
+    const uint32_t crc = rom_crc32(bytes, size - 4);
+    if (crc != stored_crc) {
+        return fail(message, message_size, "resources: checksum mismatch (stored 0x%08x, computed 0x%08x): "
+                    "file corrupt", stored_crc, crc);
+    }
+    if (!(isfinite(dt) && dt > 0)) {
+        return fail(message, message_size, "resources: dt = %g (must be finite and > 0)", dt);
+    }
+    if (!(isfinite(bound) && bound > 0) || !(isfinite(L) && L > 0)) {
+        return fail(message, message_size, "resources: runaway bound %g and L %g must be finite and > 0", bound, L);
+    }
+    const char *token = (const char *)(bytes + size - 4 - ROM_TOKEN_SIZE);
+    if (!valid_token(token)) return fail(message, message_size, "resources: the token field is not a GUID string");
+
+    RomModel *m = (RomModel *)calloc(1, sizeof(RomModel));
+    if (!m) return fail(message, message_size, "resources: out of memory");
+    m->kind = ROM_MODEL_EXACT_LINEAR;
+    m->integrator = 0;
+    m->k_v = kv;
+    m->k_rho = ke;
+    m->k = (uint32_t)k;
+    m->n_probes = np;
+    m->n_pairs = 0;
+    m->flags = flags;
+    m->n_freeze_default = n_freeze;
+    m->kv_pad = (uint32_t)round_up(kv, 4);
+    m->kr_pad = (uint32_t)round_up(ke, 4);
+    m->nm = 0;
+    m->dt = dt;
+    m->runaway_bound = bound;
+    m->L = L;
+    const size_t counts[11] = {k, k * k, cB, cQ, cQ, cQ ? k : 0, (size_t)np * kv, (size_t)np * 2 * ke, 2 * (size_t)np,
+                               2 * (size_t)np, np};
+    double **ptrs[11] = {&m->z0, &m->A, &m->B, &m->Q, &m->S, &m->y0, &m->Pv, &m->Pe, &m->pw, &m->prho0,
+                         &m->probe_x};
+    m->storage_ = alloc_arrays(counts, ptrs, 11);
+    if (!m->storage_) {
+        free(m);
+        return fail(message, message_size, "resources: out of memory (%llu values)", (unsigned long long)total);
+    }
+    const unsigned char *cursor = bytes + ROM_HEADER_SIZE;
+    read_doubles(&cursor, m->z0, k);
+    read_doubles(&cursor, m->A, k * k);
+    if (m->B) read_doubles(&cursor, m->B, k);
+    if (m->Q) {
+        read_doubles(&cursor, m->Q, k * k);
+        read_doubles(&cursor, m->S, k * k);
+    }
+    read_doubles(&cursor, m->Pv, (uint64_t)np * kv);
+    read_doubles(&cursor, m->Pe, (uint64_t)np * 2 * ke);
+    read_doubles(&cursor, m->pw, 2 * (uint64_t)np);
+    read_doubles(&cursor, m->prho0, 2 * (uint64_t)np);
+    read_doubles(&cursor, m->probe_x, np);
+    memcpy(m->token, token, ROM_TOKEN_SIZE);
+    m->token[ROM_TOKEN_SIZE] = '\0';
+    m->a_v0 = m->z0;
+    m->a_rho0 = m->z0 + kv;
+    int finite = 1;
+    for (int i = 0; i < 11; i++) finite &= !*ptrs[i] || all_finite(*ptrs[i], counts[i]);
+    if (!finite) {
+        rom_model_free(m);
+        return fail(message, message_size, "resources: non-finite numbers in the operators");
+    }
+    for (uint32_t j = 0; j < np; j++) {
+        const double x = m->probe_x[j], w0 = m->pw[2 * j], w1 = m->pw[2 * j + 1];
+        if (x < 0.0 || x > 1.0 || w0 < 0.0 || w1 < 0.0 || fabs(w0 + w1 - 1.0) > 1e-12 || !(m->prho0[2 * j] > 0) ||
+            !(m->prho0[2 * j + 1] > 0)) {
+            rom_model_free(m);
+            return fail(message, message_size, "resources: probe %u: x/L = %g outside [0, 1], or weights %g, %g "
+                        "not a convex pair, or rho0 <= 0", j + 1, x, w0, w1);
+        }
+    }
+    if (m->Q) {                      /* y0 = Q^T z0 */
+        for (size_t i = 0; i < k; i++) {
+            double acc = 0.0;
+            for (size_t r = 0; r < k; r++) acc += m->Q[r * k + i] * m->z0[r];
+            m->y0[i] = acc;
+        }
+    }
+    *out = m;
+    return ROM_OK;
+}
+
 RomStatus rom_model_load_memory(const void *data, size_t size, RomModel **out, char *message, size_t message_size) {
     if (!out) return fail(message, message_size, "resources: no output pointer");
     *out = NULL;
@@ -217,12 +344,13 @@ RomStatus rom_model_load_memory(const void *data, size_t size, RomModel **out, c
                     version, ROM_FORMAT_VERSION);
     }
     const uint32_t kind = get_u32(bytes + 12);
-    if (kind != ROM_MODEL_FROZEN) {
+    if (kind != ROM_MODEL_FROZEN && kind != ROM_MODEL_EXACT_LINEAR) {
         return fail(message, message_size,
-                    "resources: model kind %u is not supported by this binary (it runs kind %u, the "
-                    "frozen-coefficient model%s)", kind, ROM_MODEL_FROZEN,
-                    kind == ROM_MODEL_EXACT_LINEAR ? "; kind 2, the exact linear model, is reserved" : "");
+                    "resources: model kind %u is not supported by this binary (it runs kinds %u, the "
+                    "frozen-coefficient model, and %u, the exact linear model)", kind, ROM_MODEL_FROZEN,
+                    ROM_MODEL_EXACT_LINEAR);
     }
+    if (kind == ROM_MODEL_EXACT_LINEAR) return load_exact(bytes, size, out, message, message_size);
     const uint32_t integrator = get_u32(bytes + 16);
     const uint32_t kv = get_u32(bytes + 20), kr = get_u32(bytes + 24), np = get_u32(bytes + 28);
     const uint32_t npairs = get_u32(bytes + 32), flags = get_u32(bytes + 36);
@@ -276,6 +404,7 @@ RomStatus rom_model_load_memory(const void *data, size_t size, RomModel **out, c
 
     RomModel *m = (RomModel *)calloc(1, sizeof(RomModel));
     if (!m) return fail(message, message_size, "resources: out of memory");
+    m->kind = ROM_MODEL_FROZEN;
     m->integrator = integrator;
     m->k_v = kv;
     m->k_rho = kr;
@@ -411,6 +540,23 @@ RomState *rom_state_new(const RomModel *model) {
     if (!model) return NULL;
     RomState *s = (RomState *)calloc(1, sizeof(RomState));
     if (!s) return NULL;
+    if (model->kind == ROM_MODEL_EXACT_LINEAR) {
+        const size_t k = model->k, n = k + 2;
+        const size_t kk = k * k;
+        const size_t counts[5 + 3 * ROM_EXACT_CACHE] = {model->kv_pad, model->kr_pad, k, 2, 4 * n * n + 2 * k,
+                                                        kk, k, k, kk, k, k};
+        double **ptrs[4 + 3 * ROM_EXACT_CACHE + 1] = {&s->av, &s->ar, &s->X, &s->aux, &s->work,
+                                                      &s->cache[0].Phi, &s->cache[0].G0, &s->cache[0].G1,
+                                                      &s->cache[1].Phi, &s->cache[1].G0, &s->cache[1].G1};
+        s->storage_ = alloc_arrays(counts, ptrs, 5 + 3 * ROM_EXACT_CACHE);
+        if (!s->storage_) {
+            free(s);
+            return NULL;
+        }
+        s->model = model;
+        rom_state_reset(s, 0.0);
+        return s;
+    }
     const size_t counts[7] = {model->kv_pad, model->kr_pad, model->nm, model->kv_pad, model->kv_pad, model->kr_pad,
                               model->n_pairs};
     double **ptrs[7] = {&s->av, &s->ar, &s->Mt, &s->F, &s->dv, &s->dr, &s->S};
@@ -437,8 +583,17 @@ void rom_state_reset(RomState *s, double t_start) {
     memset(s->ar, 0, m->kr_pad * sizeof(double));
     memcpy(s->av, m->a_v0, m->k_v * sizeof(double));
     memcpy(s->ar, m->a_rho0, m->k_rho * sizeof(double));
-    memset(s->Mt, 0, (size_t)m->nm * sizeof(double));
-    memset(s->F, 0, m->kv_pad * sizeof(double));
+    if (s->Mt) memset(s->Mt, 0, (size_t)m->nm * sizeof(double));
+    if (s->F) memset(s->F, 0, m->kv_pad * sizeof(double));
+    if (m->kind == ROM_MODEL_EXACT_LINEAR) {
+        if (m->Q) {
+            memset(s->X, 0, m->k * sizeof(double));            /* forced part; the free response is e^{At} z0 */
+        } else {
+            memcpy(s->X, m->z0, m->k * sizeof(double));
+        }
+        s->aux[0] = t_start;
+        s->aux[1] = 0.0;
+    }
     s->n = 0;
     s->time = t_start;
     s->f = 0.0;
@@ -451,6 +606,7 @@ RomStatus rom_set_start_time(RomState *s, double t_start, char *message, size_t 
     if (!isfinite(t_start)) return fail(message, message_size, "start time %g is not finite", t_start);
     if (s->n != 0) return fail(message, message_size, "the start time can be set only before the first step");
     s->time = t_start;
+    if (s->aux) s->aux[0] = t_start;
     return ROM_OK;
 }
 
@@ -462,6 +618,32 @@ RomStatus rom_set_input(RomState *s, double f, char *message, size_t message_siz
     }
     s->f = f;
     return ROM_OK;
+}
+
+RomStatus rom_set_input_rate(RomState *s, double rate, char *message, size_t message_size) {
+    if (!s) return fail(message, message_size, "no state");
+    if (!isfinite(rate)) {
+        return fail(message, message_size, "input rate df/dt = %g at t = %.9g s is not finite", rate, s->time);
+    }
+    if (s->aux) s->aux[1] = rate;
+    return ROM_OK;
+}
+
+size_t rom_reduced_state(const RomState *s, double *out, size_t n) {
+    if (!s || !out) return 0;
+    const size_t kv = s->model->k_v, kr = s->model->k_rho;
+    if (n < kv + kr) return 0;
+    memcpy(out, s->av, kv * sizeof(double));
+    memcpy(out + kv, s->ar, kr * sizeof(double));
+    return kv + kr;
+}
+
+int64_t rom_expm_count(const RomState *s) {
+    return s ? s->n_expm : -1;
+}
+
+uint32_t rom_model_kind(const RomModel *m) {
+    return m ? m->kind : 0u;
 }
 
 RomStatus rom_set_dt(RomState *s, double dt, char *message, size_t message_size) {
@@ -650,6 +832,171 @@ static RomStatus run_steps(RomState *s, int64_t count, double h, double t0, char
     return ROM_OK;
 }
 
+/* ------------------------------------------------------------------------ */
+/* the exact linear model (harness/rom/exact_linear.py)                      */
+/* ------------------------------------------------------------------------ */
+
+#define ROM_TAYLOR_DEGREE 16            /* ||X||_1 <= 1/2: remainder < 0.5^17/17! ~ 2e-20 */
+#define ROM_TAYLOR_NORM 0.5
+#define ROM_MAX_SQUARINGS 1100
+
+static double norm1(size_t n, const double *M) {
+    double best = 0.0;
+    for (size_t j = 0; j < n; j++) {
+        double sum = 0.0;
+        for (size_t i = 0; i < n; i++) sum += fabs(M[i * n + j]);
+        if (!(sum <= best)) best = sum;          /* NaN propagates */
+    }
+    return best;
+}
+
+static void matmul(size_t n, const double *restrict A, const double *restrict B, double *restrict C) {
+    for (size_t i = 0; i < n * n; i++) C[i] = 0.0;
+    for (size_t i = 0; i < n; i++) {
+        for (size_t l = 0; l < n; l++) {
+            const double a = A[i * n + l];
+            if (a == 0.0) continue;
+            const double *restrict row = B + l * n;
+            double *restrict out = C + i * n;
+            for (size_t j = 0; j < n; j++) out[j] += a * row[j];
+        }
+    }
+}
+
+/* E = e^M (n x n, row-major) by scaling and squaring with a Taylor polynomial
+ * (Horner form) on M / 2^s, ||M / 2^s||_1 <= 1/2.  X, T: n x n scratch.
+ * Returns 0 when M or the result is not finite. */
+static int expm_taylor(size_t n, const double *M, double *E, double *X, double *T) {
+    const double nrm = norm1(n, M);
+    if (!isfinite(nrm)) return 0;
+    int squarings = 0;
+    if (nrm > ROM_TAYLOR_NORM) squarings = (int)ceil(log2(nrm / ROM_TAYLOR_NORM));
+    if (squarings > ROM_MAX_SQUARINGS) return 0;
+    const double scale = ldexp(1.0, -squarings);
+    for (size_t i = 0; i < n * n; i++) X[i] = M[i] * scale;
+    for (size_t i = 0; i < n * n; i++) E[i] = 0.0;
+    for (size_t i = 0; i < n; i++) E[i * n + i] = 1.0;
+    for (int j = ROM_TAYLOR_DEGREE; j >= 1; j--) {      /* E = I + X E / j */
+        matmul(n, X, E, T);
+        const double inv = 1.0 / (double)j;
+        for (size_t i = 0; i < n * n; i++) E[i] = T[i] * inv;
+        for (size_t i = 0; i < n; i++) E[i * n + i] += 1.0;
+    }
+    for (int q = 0; q < squarings; q++) {
+        matmul(n, E, E, T);
+        memcpy(E, T, n * n * sizeof(double));
+    }
+    return all_finite(E, n * n);
+}
+
+/* The maps of a step of length h: Phi = e^{A h}, G0, G1 from the exponential
+ * of [[A h, B h, 0], [0, 0, 1], [0, 0, 0]] (as harness.rom.exact_linear.propagators),
+ * cached per step length (two slots, the least recently used replaced). */
+static RomExpCache *exact_maps(RomState *s, double h, char *message, size_t message_size) {
+    const RomModel *m = s->model;
+    s->clock++;
+    for (int c = 0; c < ROM_EXACT_CACHE; c++) {
+        if (s->cache[c].h == h) {
+            s->cache[c].used = s->clock;
+            return &s->cache[c];
+        }
+    }
+    RomExpCache *slot = &s->cache[0];
+    for (int c = 1; c < ROM_EXACT_CACHE; c++) {
+        if (s->cache[c].used < slot->used) slot = &s->cache[c];
+    }
+    const size_t k = m->k, n = m->B ? k + 2 : k;
+    double *M = s->work, *E = M + n * n, *X = E + n * n, *T = X + n * n;
+    memset(M, 0, n * n * sizeof(double));
+    for (size_t i = 0; i < k; i++) {
+        for (size_t j = 0; j < k; j++) M[i * n + j] = m->A[i * k + j] * h;
+        if (m->B) M[i * n + k] = m->B[i] * h;
+    }
+    if (m->B) M[k * n + k + 1] = 1.0;
+    slot->h = 0.0;
+    if (!expm_taylor(n, M, E, X, T)) {
+        fail(message, message_size, "the matrix exponential for the step %g s is not finite (step too long for "
+             "this model)", h);
+        return NULL;
+    }
+    s->n_expm++;
+    for (size_t i = 0; i < k; i++) {
+        memcpy(slot->Phi + i * k, E + i * n, k * sizeof(double));
+        slot->G0[i] = m->B ? E[i * n + k] : 0.0;
+        slot->G1[i] = m->B ? E[i * n + k + 1] : 0.0;
+    }
+    slot->h = h;
+    slot->used = s->clock;
+    return slot;
+}
+
+/* z = e^{A t} z0 from the real Schur form A = Q S Q^T (skew A: S has 2x2
+ * rotation blocks [[0, w], [-w, 0]] and zeros), evaluated at t directly. */
+static void free_response(const RomModel *m, double t, double *restrict y, double *restrict z) {
+    const size_t k = m->k;
+    size_t i = 0;
+    while (i < k) {
+        if (i + 1 < k && m->S[(i + 1) * k + i] != 0.0) {
+            const double w = m->S[i * k + i + 1];
+            const double cs = cos(w * t), sn = sin(w * t);
+            const double a = m->y0[i], b = m->y0[i + 1];
+            y[i] = cs * a + sn * b;
+            y[i + 1] = -sn * a + cs * b;
+            i += 2;
+        } else {
+            y[i] = m->y0[i];
+            i += 1;
+        }
+    }
+    for (size_t r = 0; r < k; r++) {
+        double acc = 0.0;
+        const double *row = m->Q + r * k;
+        for (size_t c = 0; c < k; c++) acc += row[c] * y[c];
+        z[r] = acc;
+    }
+}
+
+/* One exact step from t_comm over h: X <- Phi X + G0 f + G1 (rate h); z = free(t - t0) + X
+ * (or X).  On failure the state keeps its last good values (the time stays t_comm). */
+static RomStatus exact_step(RomState *s, double t_comm, double h, char *message, size_t message_size) {
+    const RomModel *m = s->model;
+    const size_t k = m->k, kv = m->k_v;
+    const RomExpCache *c = exact_maps(s, h, message, message_size);
+    if (!c) return ROM_FAIL;
+    const size_t n = m->B ? k + 2 : k;
+    double *xn = s->work + 4 * n * n, *z = xn + k;
+    const double f = s->f, df = s->aux[1] * h;
+    for (size_t i = 0; i < k; i++) {
+        double acc = 0.0;
+        const double *row = c->Phi + i * k;
+        for (size_t j = 0; j < k; j++) acc += row[j] * s->X[j];
+        if (m->B) acc = acc + c->G0[i] * f + c->G1[i] * df;
+        xn[i] = acc;
+    }
+    const double t_new = t_comm + h;
+    if (m->Q) {
+        double *y = s->work;             /* the exponential's scratch is free again */
+        free_response(m, t_new - s->aux[0], y, z);
+        for (size_t i = 0; i < k; i++) z[i] += xn[i];
+    } else {
+        memcpy(z, xn, k * sizeof(double));
+    }
+    const double bound = m->runaway_bound;
+    int ok = 1;
+    for (size_t i = 0; i < k; i++) ok &= (fabs(z[i]) <= bound);
+    if (!ok) {
+        return fail(message, message_size, "the exact reduced state %s at t = %.9g s (step %lld from t = %.9g s)",
+                    all_finite(z, k) ? "ran away (|z| above its bound)" : "became non-finite", t_new,
+                    (long long)s->n + 1, t_comm);
+    }
+    memcpy(s->X, xn, k * sizeof(double));
+    memcpy(s->av, z, kv * sizeof(double));
+    memcpy(s->ar, z + kv, m->k_rho * sizeof(double));
+    s->n++;
+    s->time = t_new;
+    return ROM_OK;
+}
+
 RomStatus rom_do_step(RomState *s, double t_comm, double h, char *message, size_t message_size) {
     if (!s) return fail(message, message_size, "no state");
     if (!isfinite(t_comm)) {
@@ -663,6 +1010,14 @@ RomStatus rom_do_step(RomState *s, double t_comm, double h, char *message, size_
         return fail(message, message_size,
                     "communicationStepSize = %g s at t = %.9g s is out of range (allowed: a finite number > 0)",
                     h, t_comm);
+    }
+    if (s->model->kind == ROM_MODEL_EXACT_LINEAR) {
+        /* one exact step over h whatever dt is: the input held (or linear) over it */
+        if (s->n == INT64_MAX) return fail(message, message_size, "step counter overflow");
+        const RomStatus status = exact_step(s, t_comm, h, message, message_size);
+        if (status != ROM_OK) return status;
+        s->time = t_comm + h;
+        return rom_check_outputs(s, message, message_size);
     }
     const double dt = s->dt;
     const double ratio = h / dt;
@@ -692,6 +1047,12 @@ RomStatus rom_do_step(RomState *s, double t_comm, double h, char *message, size_
 RomStatus rom_advance(RomState *s, int64_t n_steps, char *message, size_t message_size) {
     if (!s) return fail(message, message_size, "no state");
     if (n_steps < 0) return fail(message, message_size, "negative step count %lld", (long long)n_steps);
+    if (s->model->kind == ROM_MODEL_EXACT_LINEAR) {
+        for (int64_t j = 0; j < n_steps; j++) {
+            if (exact_step(s, s->time, s->dt, message, message_size) != ROM_OK) return ROM_FAIL;
+        }
+        return ROM_OK;
+    }
     const double t0 = s->time;
     const RomStatus status = run_steps(s, n_steps, s->dt, t0, message, message_size);
     s->time = t0 + (double)n_steps * s->dt;
@@ -710,6 +1071,19 @@ double rom_v_probe(const RomState *s, uint32_t j) {
 double rom_rho_probe(const RomState *s, uint32_t j) {
     if (!s || j >= s->model->n_probes) return NAN;
     const size_t kr = s->model->k_rho;
+    if (s->model->kind == ROM_MODEL_EXACT_LINEAR) {      /* rho = rho0 / J, J = 1 + e at the two particles */
+        const RomModel *m = s->model;
+        double rho = 0.0;
+        for (int side = 0; side < 2; side++) {
+            const double *row = m->Pe + ((size_t)j * 2 + (size_t)side) * kr;
+            double e = 0.0;
+            for (size_t q = 0; q < kr; q++) e += row[q] * s->ar[q];
+            const double J = 1.0 + e;
+            if (!(J > 0)) return NAN;                     /* compressed through J = 0: no density */
+            rho += m->pw[2 * j + side] * (m->prho0[2 * j + side] / J);
+        }
+        return rho;
+    }
     const double *row = s->model->Prho + (size_t)j * kr;
     double rho = 0.0;
     for (size_t q = 0; q < kr; q++) rho += row[q] * s->ar[q];
@@ -735,6 +1109,13 @@ RomStatus rom_check_outputs(const RomState *s, char *message, size_t message_siz
 /* the real entries of a^v, a^rho, M^T (k_v rows of k_rho, stride kr_pad) and F,
  * in the order they are serialized */
 static void state_blocks(const RomModel *m, size_t rows[4], size_t cols[4], size_t strides[4]) {
+    if (m->kind == ROM_MODEL_EXACT_LINEAR) {           /* a, b, the forced part X, (t0, input rate) */
+        rows[0] = 1; cols[0] = m->k_v;   strides[0] = 0;
+        rows[1] = 1; cols[1] = m->k_rho; strides[1] = 0;
+        rows[2] = 1; cols[2] = m->k;     strides[2] = 0;
+        rows[3] = 1; cols[3] = 2;        strides[3] = 0;
+        return;
+    }
     rows[0] = 1; cols[0] = m->k_v;   strides[0] = 0;
     rows[1] = 1; cols[1] = m->k_rho; strides[1] = 0;
     rows[2] = m->k_v; cols[2] = m->k_rho; strides[2] = m->kr_pad;
@@ -742,6 +1123,7 @@ static void state_blocks(const RomModel *m, size_t rows[4], size_t cols[4], size
 }
 
 static size_t state_doubles(const RomModel *m) {
+    if (m->kind == ROM_MODEL_EXACT_LINEAR) return (size_t)m->k_v + m->k_rho + m->k + 2;
     return 2 * (size_t)m->k_v + m->k_rho + (size_t)m->k_rho * m->k_v;
 }
 
@@ -770,7 +1152,8 @@ void rom_state_serialize(const RomState *s, uint32_t tag, unsigned char *buffer)
     put_f64(buffer + 96, s->f);
     put_f64(buffer + 104, s->dt);
     unsigned char *cursor = buffer + ROM_STATE_HEADER_SIZE;
-    const double *arrays[4] = {s->av, s->ar, s->Mt, s->F};
+    const int exact = m->kind == ROM_MODEL_EXACT_LINEAR;
+    const double *arrays[4] = {s->av, s->ar, exact ? s->X : s->Mt, exact ? s->aux : s->F};
     size_t rows[4], cols[4], strides[4];
     state_blocks(m, rows, cols, strides);
     for (int a = 0; a < 4; a++) {
@@ -846,7 +1229,8 @@ RomStatus rom_state_deserialize(RomState *s, const unsigned char *buffer, size_t
     s->f = get_f64(buffer + 96);
     s->dt = get_f64(buffer + 104);
     const unsigned char *cursor = buffer + ROM_STATE_HEADER_SIZE;
-    double *arrays[4] = {s->av, s->ar, s->Mt, s->F};
+    const int exact = m->kind == ROM_MODEL_EXACT_LINEAR;
+    double *arrays[4] = {s->av, s->ar, exact ? s->X : s->Mt, exact ? s->aux : s->F};
     size_t rows[4], cols[4], strides[4];
     state_blocks(m, rows, cols, strides);
     for (int a = 0; a < 4; a++) {

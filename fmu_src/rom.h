@@ -1,6 +1,9 @@
 /*
  * sphrom model core: the frozen-coefficient reduced model of the paper's
- * eqs. 2.19-2.24 (POD-accelerated SPH of a 1D mass-spring-damper system).
+ * eqs. 2.19-2.24 (POD-accelerated SPH of a 1D mass-spring-damper system), and
+ * the exact linear reduced model in the specific volume J = rho0/rho
+ * (harness/rom/exact_linear.py), advanced over each communication step by the
+ * matrix exponential of its augmented matrix.
  *
  * No FMI types appear here: the FMI 2.0 and 3.0 co-simulation wrappers
  * (fmi2_cs.c, fmi3_cs.c) are thin glue over these functions.  There are no
@@ -11,17 +14,27 @@
  * the harness (harness/fmu/resources.py).  Units: time [s], velocity [m s^-1],
  * density [kg m^-3], force per mass [m s^-2].
  *
- * Resource format, version 1 (all little-endian):
+ * Resource format, version 2 (all little-endian):
  *
  *   char[8]  magic "SPHROMRS"
- *   uint32   format_version (1), model_kind (1 frozen; 2 reserved: exact linear),
- *            integrator (0 euler, 1 symplectic), k_v, k_rho, n_probes, n_pairs,
- *            flags (bit0: damping D present, bit1: input row p present),
- *            n_freeze_default, reserved (0)
+ *   uint32   format_version (2), model_kind (1 frozen, 2 exact linear),
+ *            integrator (0 euler, 1 symplectic; kind 2: 0), k_v, k_rho, n_probes,
+ *            n_pairs, flags, n_freeze_default, reserved (0)
  *   float64  dt [s], runaway_bound, L [m]
+ * kind 1 (frozen; n_pairs = k_rho (k_rho + 1)/2; flags bit0: damping D
+ * present, bit1: input row p present):
  *   float64  a_v0[k_v], a_rho0[k_rho], K[k_v][k_rho], b[k_v], D[k_v][k_v] (bit0),
  *            p[k_v] (bit1), T[n_pairs][k_rho][k_v], Pv[n_probes][k_v],
  *            Prho[n_probes][k_rho], probe_x[n_probes] (units of L)
+ * kind 2 (exact linear; k_rho = k_e specific-volume modes, k = k_v + k_e,
+ * n_pairs = 0; flags bit0: damping (A not skew), bit1: input column B present,
+ * bit2: real Schur form Q, S of A present (only without damping)):
+ *   float64  z0[k], A[k][k], B[k] (bit1), Q[k][k] (bit2), S[k][k] (bit2),
+ *            Pv[n_probes][k_v], Pe[n_probes][2][k_e], pw[n_probes][2],
+ *            prho0[n_probes][2], probe_x[n_probes]
+ *            (probe j lies between two particles: e = J - 1 there is Pe[j][m] . b,
+ *            weights pw[j][m], rho0 there prho0[j][m]; rho_j = sum_m pw rho0/(1 + e))
+ * both kinds:
  *   char[40] token "{xxxxxxxx-xxxx-xxxx-xxxx-xxxxxxxxxxxx}", NUL padded
  *   uint32   crc32 (zlib's) of every byte before it
  */
@@ -47,14 +60,16 @@ extern "C" {
 #  define ROM_API
 #endif
 
-#define ROM_FORMAT_VERSION 1u
+#define ROM_FORMAT_VERSION 2u
 #define ROM_STATE_VERSION 1u
 #define ROM_MODEL_FROZEN 1u
-#define ROM_MODEL_EXACT_LINEAR 2u      /* reserved for a later model */
+#define ROM_MODEL_EXACT_LINEAR 2u
 #define ROM_INTEGRATOR_EULER 0u
 #define ROM_INTEGRATOR_SYMPLECTIC 1u
 #define ROM_FLAG_DAMPING 1u
 #define ROM_FLAG_INPUT 2u
+#define ROM_FLAG_SCHUR 4u            /* kind 2 only */
+#define ROM_EXACT_CACHE 2            /* exponentials kept per state (two step lengths) */
 #define ROM_TOKEN_SIZE 40
 #define ROM_HEADER_SIZE 72
 #define ROM_MAX_MODES 1024u
@@ -83,6 +98,7 @@ typedef enum { ROM_OK = 0, ROM_FAIL = 1 } RomStatus;
  * the inner loops run over contiguous, fixed-width blocks; the arithmetic on
  * every real entry is the file's, in the same order. */
 typedef struct {
+    uint32_t kind;             /* ROM_MODEL_FROZEN or ROM_MODEL_EXACT_LINEAR */
     uint32_t integrator, k_v, k_rho, n_probes, n_pairs, flags, n_freeze_default;
     uint32_t kv_pad, kr_pad;   /* k_v, k_rho rounded up to a multiple of 4 */
     uint32_t nm;               /* length of a padded M^T block: k_v kr_pad rounded up to 32 */
@@ -98,9 +114,27 @@ typedef struct {
                                 * of 32 with each block's pairs contiguous: Tt[(i/32)*n_pairs*32 + k*32 + i%32] */
     double *Pv, *Prho;         /* probe rows [n_probes][k_v], [n_probes][k_rho] */
     double *probe_x;           /* probe positions in units of L */
+    /* kind 2 (exact linear): k = k_v + k_rho; a_v0, a_rho0 point into z0; the
+     * frozen arrays above (Kt, b, Dt, p, Tt, Prho) are NULL */
+    uint32_t k;
+    double *z0;                /* [k] initial reduced state (a; b) */
+    double *A;                 /* [k][k] row-major: dz/dt = A z + B f */
+    double *B;                 /* [k] input column, NULL without input */
+    double *Q, *S;             /* [k][k] real Schur form A = Q S Q^T (skew A), NULL otherwise */
+    double *y0;                /* [k] Q^T z0 (with the Schur form) */
+    double *Pe;                /* [n_probes][2][k_rho] rows of U_e at the probe's two particles */
+    double *pw, *prho0;        /* [n_probes][2] interpolation weights, rho0 at those particles */
     char token[ROM_TOKEN_SIZE + 1];
     void *storage_;            /* one allocation behind all arrays */
 } RomModel;
+
+/* One cached exponential: the maps of a step of length h (exact model) */
+typedef struct {
+    double h;                  /* step length [s]; 0 when the slot is empty */
+    int64_t used;              /* clock of the last use (least recently used is replaced) */
+    double *Phi;               /* [k][k] e^{A h} */
+    double *G0, *G1;           /* [k] held-input and linear-input columns */
+} RomExpCache;
 
 /* The mutable state of one instance (arrays padded like the model's). */
 typedef struct {
@@ -115,6 +149,14 @@ typedef struct {
     double f;               /* input, held over a communication step [m s^-2] */
     double dt;              /* internal step [s] (parameter) */
     int32_t n_freeze;       /* refresh period (parameter) */
+    /* exact model (kind 2) */
+    double *X;              /* [k] the forced part of z (the whole z without the Schur form) */
+    double *aux;            /* [2]: aux[0] the start time t0 [s] of the free response, aux[1] the
+                             * input rate df/dt over a step [m s^-3] (0: input held) */
+    double *work;           /* scratch for the exponential: 4 (k+2)^2 + 2k */
+    RomExpCache cache[ROM_EXACT_CACHE];
+    int64_t clock;          /* cache clock */
+    int64_t n_expm;         /* exponentials computed since the state was created */
     void *storage_;
 } RomState;
 
@@ -143,7 +185,18 @@ ROM_API RomStatus rom_set_n_freeze(RomState *state, int64_t n_freeze, char *mess
 ROM_API RomStatus rom_do_step(RomState *state, double t_comm, double h, char *message, size_t message_size);
 /* n_steps whole internal steps with the runaway check (benchmark, tests) */
 ROM_API RomStatus rom_advance(RomState *state, int64_t n_steps, char *message, size_t message_size);
-/* Probe outputs: v_j = sum_q Pv[j][q] a^v_q, rho_j = sum_q Prho[j][q] a^rho_q */
+/* Exact model only: the input goes linearly over each step, f(t_comm + tau) = f + rate tau
+ * (rate 0, the default, holds it).  The frozen model ignores the rate. */
+ROM_API RomStatus rom_set_input_rate(RomState *state, double rate, char *message, size_t message_size);
+/* The reduced state: a^v (k_v values) then a^rho (frozen) or b = e coordinates (exact) into out[n];
+ * returns the count written (0 on a bad argument) */
+ROM_API size_t rom_reduced_state(const RomState *state, double *out, size_t n);
+/* exponentials computed by this state (the exact model caches them per step length) */
+ROM_API int64_t rom_expm_count(const RomState *state);
+/* kind of a loaded model (ROM_MODEL_*), 0 for NULL */
+ROM_API uint32_t rom_model_kind(const RomModel *model);
+/* Probe outputs.  Frozen: v_j = sum_q Pv[j][q] a^v_q, rho_j = sum_q Prho[j][q] a^rho_q.
+ * Exact: v_j the same, rho_j = sum_m pw[j][m] prho0[j][m] / (1 + Pe[j][m] . b) (NaN when a J <= 0) */
 ROM_API double rom_v_probe(const RomState *state, uint32_t j);
 ROM_API double rom_rho_probe(const RomState *state, uint32_t j);
 /* Check the probe densities (> 0 and finite) at the current time */

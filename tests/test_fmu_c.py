@@ -175,8 +175,10 @@ def test_core_loader_names_the_problem(packaged, binaries):
 
     cases = [
         (b"XXXXXXXX" + blob[8:], "bad magic"),
-        (with_crc(u32(8, 2)), "format version 2"),
-        (with_crc(u32(12, 2)), "reserved"),
+        (with_crc(u32(8, 3)), "format version 3"),
+        (with_crc(u32(8, 1)), "format version 1"),
+        (with_crc(u32(12, 3)), "model kind 3"),
+        (with_crc(u32(12, 2)), "must be 0 for the exact model"),
         (with_crc(u32(16, 7)), "integrator 7"),
         (with_crc(u32(32, 20)), "n_pairs"),
         (with_crc(u32(36, 8)), "flag"),

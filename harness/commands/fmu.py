@@ -1,8 +1,8 @@
-"""``sphrom fmu``: package a scene's frozen-coefficient reduced model as an FMU."""
+"""``sphrom fmu``: package a scene's reduced model (frozen-coefficient or exact linear) as an FMU."""
 
 
 def add_parser(sub):
-    p = sub.add_parser("fmu", help="package a scene's frozen reduced model as an FMI 2.0/3.0 co-simulation FMU",
+    p = sub.add_parser("fmu", help="package a scene's reduced model as an FMI 2.0/3.0 co-simulation FMU",
                        description="Build the frozen-coefficient reduced model of SCENE (eqs. 2.19-2.24: full SPH "
                                    "and POD reused from the cache or run now, the force profile as input direction), "
                                    "write its numbers to resources/model.bin, build or reuse the binary with CMake, "
@@ -17,7 +17,11 @@ def add_parser(sub):
                    help="probe positions in units of L, in [0, 1] (default 0.25,0.5,0.66)")
     p.add_argument("--fmi", metavar="2|3", default="2", help="FMI version (default 2)")
     p.add_argument("--integrator", metavar="euler|symplectic",
-                   help="time integrator (default: the scene's)")
+                   help="time integrator of the frozen model (default: the scene's)")
+    p.add_argument("--model", metavar="frozen|exact", default="frozen",
+                   help="reduced model: frozen (eqs. 2.19-2.24, internal dt; default) or exact (the exact linear "
+                        "model in the specific volume, advanced by the matrix exponential over each "
+                        "communication step)")
     p.add_argument("--out", required=True, metavar="FILE.fmu")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(handler=run)
@@ -51,15 +55,26 @@ def run(args):
     fmi = int(args.fmi)
     if args.integrator is not None and args.integrator not in ("euler", "symplectic"):
         raise UserError(f"--integrator: {args.integrator!r} is out of range (allowed: euler, symplectic)")
+    if args.model not in ("frozen", "exact"):
+        raise UserError(f"--model: {args.model!r} is out of range (allowed: frozen, exact)")
     scene = load_scene(args.scene)
-    check_options(scene, k=k, n_freeze=n_freeze, probes=probes, fmi=fmi, integrator=args.integrator)
+    check_options(scene, k=k, n_freeze=n_freeze, probes=probes, fmi=fmi, integrator=args.integrator,
+                  model=args.model)
     s = package_fmu(scene, out, k=k, n_freeze=n_freeze, probes=probes, fmi=fmi, integrator=args.integrator,
-                    progress=not args.quiet)
+                    progress=not args.quiet, model=args.model)
     added = " (+ the force profile direction, not in the POD span)" if s.augmented else ""
-    print(f"fmu {s.scene}: FMI {s.fmi}.0 co-simulation, wrote {s.path} ({s.size / 1024:.1f} KiB)")
-    print(f"  modes: k = {s.k} POD modes -> k_v = {s.k_v}{added}, k_rho = {s.k_rho}")
+    print(f"fmu {s.scene}: FMI {s.fmi}.0 co-simulation, {s.model} model, wrote {s.path} ({s.size / 1024:.1f} KiB)")
+    if s.model == "exact":
+        print(f"  modes: k = {s.k} energy-weighted POD modes -> k_v = {s.k_v}{added}, k_e = {s.k_rho} "
+              f"(specific volume)")
+    else:
+        print(f"  modes: k = {s.k} POD modes -> k_v = {s.k_v}{added}, k_rho = {s.k_rho}")
     print(f"  input projection error of the force profile on the {s.k} POD velocity modes: {s.input_error:.3g}")
-    print(f"  integrator {s.integrator}, dt = {s.dt:g} s, n_freeze = {s.n_freeze} (parameters dt, n_freeze)")
+    if s.model == "exact":
+        print("  advanced by the matrix exponential over each communication step (input held; cached per step "
+              "length); parameters dt, n_freeze have no effect")
+    else:
+        print(f"  integrator {s.integrator}, dt = {s.dt:g} s, n_freeze = {s.n_freeze} (parameters dt, n_freeze)")
     print(f"  probes at x/L = {', '.join(f'{x:g}' for x in s.probes)}: outputs v_probe_1..{len(s.probes)}, "
           f"rho_probe_1..{len(s.probes)}; input f")
     t = s.timings

@@ -47,7 +47,8 @@ def number(x) -> str:
     return repr(float(x))
 
 
-def model_description(fmi: int, *, token, scene, data, k_requested, step_size, stop_time, input_error):
+def model_description(fmi: int, *, token, scene, data, k_requested, step_size, stop_time, input_error,
+                      model="frozen"):
     """The modelDescription.xml text for FMI version ``fmi`` (2 or 3).
 
     Parameters
@@ -73,10 +74,19 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
     modes = (f"k_v = {data.k_v} velocity modes ({k_requested} POD modes"
              + (" + the force profile direction" if augmented else "") + f"), k_rho = {data.k_rho} density modes")
     where = ", ".join(f"{x:g}" for x in data.probe_x)
-    description = (f"Frozen-coefficient POD reduced model (Fang et al., eqs. 2.19-2.24) of the SPH mass-spring-damper "
-                   f"scene '{scene.name}' ({scene.title}; N = {scene.sph.n_particles}, L = {scene.L:g} m): {modes}; "
-                   f"{data.integrator} integrator, internal dt = {data.dt:g} s, n_freeze = {data.n_freeze} by default; "
-                   f"probes at x/L = {where}; input projection error {input_error:.3g}.")
+    if model == "exact":
+        modes = modes.replace("density modes", "specific-volume modes")
+        description = (f"Exact linear POD reduced model in the specific volume J = rho0/rho (energy inner product; "
+                       f"beyond Fang et al.) of the SPH mass-spring-damper scene '{scene.name}' ({scene.title}; "
+                       f"N = {scene.sph.n_particles}, L = {scene.L:g} m): {modes}; advanced over each communication "
+                       f"step by the matrix exponential (input held), so dt and n_freeze have no effect; "
+                       f"probes at x/L = {where}; input projection error {input_error:.3g}.")
+    else:
+        description = (f"Frozen-coefficient POD reduced model (Fang et al., eqs. 2.19-2.24) of the SPH "
+                       f"mass-spring-damper scene '{scene.name}' ({scene.title}; N = {scene.sph.n_particles}, "
+                       f"L = {scene.L:g} m): {modes}; {data.integrator} integrator, internal dt = {data.dt:g} s, "
+                       f"n_freeze = {data.n_freeze} by default; probes at x/L = {where}; input projection error "
+                       f"{input_error:.3g}.")
     values = {
         "model_name": f"sphrom {scene.name}",
         "token": token,

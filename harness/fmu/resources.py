@@ -5,23 +5,32 @@ versioned, little-endian file (the layout is documented in fmu_src/rom.h and
 repeated here)::
 
     char[8]  magic "SPHROMRS"
-    uint32   format_version (1), model_kind (1 frozen, 2 reserved: exact linear),
-             integrator (0 euler, 1 symplectic), k_v, k_rho, n_probes, n_pairs,
-             flags (bit0 damping: D present, bit1 input: p present),
-             n_freeze_default, reserved (0)
+    uint32   format_version (2), model_kind (1 frozen, 2 exact linear),
+             integrator (0 euler, 1 symplectic; 0 for kind 2), k_v, k_rho,
+             n_probes, n_pairs, flags, n_freeze_default, reserved (0)
     float64  dt [s], runaway_bound, L [m]
+    kind 1 (frozen; flags bit0 damping: D present, bit1 input: p present):
     float64  a_v0[k_v], a_rho0[k_rho], K[k_v, k_rho], b[k_v], D[k_v, k_v] (bit0),
              p[k_v] (bit1), T[n_pairs, k_rho, k_v], Pv[n_probes, k_v],
              Prho[n_probes, k_rho], probe_x[n_probes]   (row-major)
+    kind 2 (exact linear, k_rho = k_e, k = k_v + k_e, n_pairs = 0; flags bit0
+    damping, bit1 input: B present, bit2 Schur: Q, S present):
+    float64  z0[k], A[k, k], B[k] (bit1), Q[k, k], S[k, k] (bit2), Pv[n_probes, k_v],
+             Pe[n_probes, 2, k_e], pw[n_probes, 2], prho0[n_probes, 2], probe_x[n_probes]
     char[40] token "{xxxxxxxx-xxxx-xxxx-xxxx-xxxxxxxxxxxx}", NUL padded: the
              FMI guid / instantiationToken, from the first 16 bytes of the
              sha256 of every byte before the token field
     uint32   crc32 (zlib) of every byte before it
 
-K, b, D, p and T are the projected operators of eqs. 2.19-2.24
+Kind 1: K, b, D, p and T are the projected operators of eqs. 2.19-2.24
 (:func:`harness.rom.operators.build_operators`); Pv, Prho interpolate the
 reconstructed fields linearly between particles at the probes
-(:func:`harness.rom.operators.probe_rows`).
+(:func:`harness.rom.operators.probe_rows`).  Kind 2: the exact linear model of
+:mod:`harness.rom.exact_linear` (A, B, z0 and the real Schur form of a skew A);
+the density at a probe interpolates ρ = ρ0/J linearly between the two
+particles around it, J = 1 + e with e = U_e b.
+
+Version 2 added kind 2; the kind-1 layout is that of version 1.
 """
 
 from __future__ import annotations
@@ -34,12 +43,13 @@ from dataclasses import dataclass
 import numpy as np
 
 MAGIC = b"SPHROMRS"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 MODEL_FROZEN = 1
-MODEL_EXACT_LINEAR = 2          # reserved
+MODEL_EXACT_LINEAR = 2
 INTEGRATORS = {"euler": 0, "symplectic": 1}
 FLAG_DAMPING = 1
 FLAG_INPUT = 2
+FLAG_SCHUR = 4
 TOKEN_SIZE = 40
 MAX_PROBES = 100
 MAX_MODES = 1024
@@ -168,14 +178,16 @@ def pack(data: ModelData) -> bytes:
     return body + struct.pack("<I", zlib.crc32(body) & 0xFFFFFFFF)
 
 
-def unpack(blob: bytes) -> ModelData:
-    """Read model.bin bytes back (the same checks as the C loader)."""
+def unpack(blob: bytes):
+    """Read model.bin bytes back (the same checks as the C loader): ModelData or ExactData."""
     if len(blob) < _HEADER.size + TOKEN_SIZE + 4:
         raise ValueError("truncated")
     (magic, version, kind, integrator, kv, kr, npr, n_pairs, flags, n_freeze, reserved, dt, bound,
      L) = _HEADER.unpack_from(blob)
+    if magic == MAGIC and version == FORMAT_VERSION and kind == MODEL_EXACT_LINEAR and reserved == 0:
+        return _unpack_exact(blob)
     if magic != MAGIC or version != FORMAT_VERSION or kind != MODEL_FROZEN or reserved != 0:
-        raise ValueError("not a version-1 frozen sphrom model.bin")
+        raise ValueError(f"not a version-{FORMAT_VERSION} sphrom model.bin")
     if n_pairs != kr * (kr + 1) // 2:
         raise ValueError("n_pairs")
     if struct.unpack("<I", blob[-4:])[0] != zlib.crc32(blob[:-4]) & 0xFFFFFFFF:
@@ -199,3 +211,147 @@ def unpack(blob: bytes) -> ModelData:
     name = {v: k for k, v in INTEGRATORS.items()}[integrator]
     return ModelData(integrator=name, n_freeze=n_freeze, dt=dt, bound=bound, L=L, a_v0=a_v0, a_rho0=a_rho0, K=K,
                      b=b, D=D, p=p, T=T, Pv=Pv, Prho=Prho, probe_x=probe_x, token=token)
+
+
+@dataclass
+class ExactData:
+    """The contents of a kind-2 model.bin: the exact linear reduced model.
+
+    Attributes
+    ----------
+    dt : float
+        The scene's internal step [s] (the ``dt`` parameter; unused by the model).
+    n_freeze : int
+        Start value of the ``n_freeze`` parameter (unused by the model).
+    bound : float
+        Runaway bound on |z| (as :func:`harness.rom.exact_linear.run_exact`: 10⁶ max|z0|).
+    L : float
+    k_v : int
+    z0, A : ndarray
+        (k,), (k, k).
+    B : ndarray or None
+        (k,) input column.
+    damping : bool
+    Q, S : ndarray or None
+        Real Schur form of a skew A (d = 0).
+    Pv : ndarray (P, k_v)
+    Pe : ndarray (P, 2, k_e)
+    pw, prho0 : ndarray (P, 2)
+    probe_x : ndarray (P,)
+    token : str
+    """
+
+    dt: float
+    n_freeze: int
+    bound: float
+    L: float
+    k_v: int
+    z0: np.ndarray
+    A: np.ndarray
+    B: np.ndarray | None
+    damping: bool
+    Q: np.ndarray | None
+    S: np.ndarray | None
+    Pv: np.ndarray
+    Pe: np.ndarray
+    pw: np.ndarray
+    prho0: np.ndarray
+    probe_x: np.ndarray
+    token: str = ""
+    integrator: str = "exponential"
+
+    @property
+    def k(self):
+        return self.z0.size
+
+    @property
+    def k_rho(self):
+        return self.k - self.k_v
+
+    @property
+    def n_probes(self):
+        return self.probe_x.size
+
+
+def probe_pairs(x, L, probes):
+    """(i0, i1, w): the particles around each probe and the weight of i1 (as probe_rows)."""
+    probes = np.asarray(probes, float)
+    n = x.size
+    dx = L / n
+    s = np.mod(probes * L - x[0], L) / dx
+    i0 = np.floor(s).astype(np.int64) % n
+    w = s - np.floor(s)
+    return i0, (i0 + 1) % n, w
+
+
+def exact_data(lin, problem, *, dt, n_freeze, probes, bound=None):
+    """Collect the exact model's numbers from :class:`harness.rom.exact_linear.LinearOperators`."""
+    from ..rom.operators import probe_rows
+    probes = np.asarray(probes, dtype=float)
+    L = problem.scene.L
+    i0, i1, w = probe_pairs(problem.x, L, probes)
+    bound = 1e6 * max(float(np.max(np.abs(lin.z0))), 1e-300) if bound is None else bound
+    rho0 = np.asarray(lin.rho0, float)
+    return ExactData(dt=float(dt), n_freeze=int(n_freeze), bound=float(bound), L=float(L), k_v=lin.k_v,
+                     z0=np.asarray(lin.z0, float), A=np.asarray(lin.A, float),
+                     B=None if lin.B is None else np.asarray(lin.B, float), damping=not lin.skew,
+                     Q=np.asarray(lin.schur_Q, float) if lin.skew else None,
+                     S=np.asarray(lin.schur_T, float) if lin.skew else None,
+                     Pv=probe_rows(lin.U_v, problem.x, L, probes),
+                     Pe=np.stack([lin.U_e[i0], lin.U_e[i1]], axis=1),
+                     pw=np.stack([1.0 - w, w], axis=1), prho0=np.stack([rho0[i0], rho0[i1]], axis=1),
+                     probe_x=probes)
+
+
+def pack_exact(data: ExactData) -> bytes:
+    """The bytes of a kind-2 model.bin; sets ``data.token``."""
+    kv, k, npr = data.k_v, data.k, data.n_probes
+    ke = k - kv
+    if not (1 <= kv <= MAX_MODES and 1 <= ke <= MAX_MODES):
+        raise ValueError(f"mode counts {kv}, {ke} out of range")
+    if not 1 <= npr <= MAX_PROBES:
+        raise ValueError(f"{npr} probes (allowed: 1 to {MAX_PROBES})")
+    if data.Q is not None and data.damping:
+        raise ValueError("a Schur form needs a skew operator (no damping)")
+    flags = ((FLAG_DAMPING if data.damping else 0) | (FLAG_INPUT if data.B is not None else 0)
+             | (FLAG_SCHUR if data.Q is not None else 0))
+    header = _HEADER.pack(MAGIC, FORMAT_VERSION, MODEL_EXACT_LINEAR, 0, kv, ke, npr, 0, flags, int(data.n_freeze), 0,
+                          data.dt, data.bound, data.L)
+    arrays = [data.z0, data.A] + ([data.B] if data.B is not None else [])
+    arrays += [data.Q, data.S] if data.Q is not None else []
+    arrays += [data.Pv, data.Pe, data.pw, data.prho0, data.probe_x]
+    shapes = {"A": (k, k), "Pv": (npr, kv), "Pe": (npr, 2, ke), "pw": (npr, 2), "prho0": (npr, 2)}
+    for name, shape in shapes.items():
+        if getattr(data, name).shape != shape:
+            raise ValueError(f"{name} has shape {getattr(data, name).shape}, expected {shape}")
+    body = header + b"".join(np.ascontiguousarray(a, dtype="<f8").tobytes() for a in arrays)
+    token = make_token(hashlib.sha256(body).digest()[:16])
+    data.token = token
+    body += token.encode("ascii").ljust(TOKEN_SIZE, b"\0")
+    return body + struct.pack("<I", zlib.crc32(body) & 0xFFFFFFFF)
+
+
+def _unpack_exact(blob: bytes) -> ExactData:
+    (_, _, _, _, kv, ke, npr, _, flags, n_freeze, _, dt, bound, L) = _HEADER.unpack_from(blob)
+    if struct.unpack("<I", blob[-4:])[0] != zlib.crc32(blob[:-4]) & 0xFFFFFFFF:
+        raise ValueError("crc mismatch")
+    k = kv + ke
+    cursor = _HEADER.size
+
+    def take(*shape):
+        nonlocal cursor
+        n = int(np.prod(shape))
+        out = np.frombuffer(blob, dtype="<f8", count=n, offset=cursor).reshape(shape).astype(float)
+        cursor += 8 * n
+        return out
+
+    z0, A = take(k), take(k, k)
+    B = take(k) if flags & FLAG_INPUT else None
+    Q, S = (take(k, k), take(k, k)) if flags & FLAG_SCHUR else (None, None)
+    Pv, Pe, pw, prho0, probe_x = take(npr, kv), take(npr, 2, ke), take(npr, 2), take(npr, 2), take(npr)
+    token = blob[cursor:cursor + TOKEN_SIZE].rstrip(b"\0").decode("ascii")
+    if cursor + TOKEN_SIZE + 4 != len(blob):
+        raise ValueError("size mismatch")
+    return ExactData(dt=dt, n_freeze=n_freeze, bound=bound, L=L, k_v=kv, z0=z0, A=A, B=B,
+                     damping=bool(flags & FLAG_DAMPING), Q=Q, S=S, Pv=Pv, Pe=Pe, pw=pw, prho0=prho0,
+                     probe_x=probe_x, token=token)
