@@ -53,7 +53,24 @@ class Core:
         lib.rom_rho_probe.restype = ctypes.c_double
         lib.rom_crc32.argtypes = [ctypes.c_char_p, sz]
         lib.rom_crc32.restype = ctypes.c_uint32
+        lib.rom_set_input_rate.argtypes = [vp, ctypes.c_double, cp, sz]
+        lib.rom_set_input_rate.restype = ctypes.c_int
+        lib.rom_reduced_state.argtypes = [vp, ctypes.POINTER(ctypes.c_double), sz]
+        lib.rom_reduced_state.restype = sz
+        lib.rom_expm_count.argtypes = [vp]
+        lib.rom_expm_count.restype = ctypes.c_int64
+        lib.rom_model_kind.argtypes = [vp]
+        lib.rom_model_kind.restype = ctypes.c_uint32
         self.lib = lib
+        self._sph = None
+
+    @property
+    def sph(self):
+        """The full SPH step of fmu_src/sph.c in the same library (:class:`harness.fmu.sph_c.SphC`)."""
+        if self._sph is None:
+            from .sph_c import SphC
+            self._sph = SphC(self.lib)
+        return self._sph
 
     def load(self, blob: bytes) -> "CoreModel":
         """A model from model.bin bytes; CoreError with the loader's message on failure."""
@@ -85,6 +102,27 @@ class CoreModel:
 
     def set_input(self, f):
         self._check(self.core.lib.rom_set_input(self.state, f, self._msg, MESSAGE_SIZE))
+
+    def set_input_rate(self, rate):
+        """Exact model: the input goes linearly over each step with this df/dt (0 holds it)."""
+        self._check(self.core.lib.rom_set_input_rate(self.state, rate, self._msg, MESSAGE_SIZE))
+
+    def reduced_state(self):
+        """(a^v, a^rho) (frozen) or (a, b) (exact) as one array."""
+        import numpy as np
+        out = np.zeros(2 * 1024)
+        n = self.core.lib.rom_reduced_state(self.state, out.ctypes.data_as(ctypes.POINTER(ctypes.c_double)),
+                                            out.size)
+        return out[:n].copy()
+
+    @property
+    def expm_count(self):
+        """Matrix exponentials computed so far (exact model)."""
+        return int(self.core.lib.rom_expm_count(self.state))
+
+    @property
+    def kind(self):
+        return int(self.core.lib.rom_model_kind(self.model))
 
     def advance(self, n_steps):
         """n_steps whole internal steps (with the runaway check)."""

@@ -1,0 +1,79 @@
+"""ctypes access to the full SPH step in C (fmu_src/sph.c, in ``libsphrom_core``).
+
+The C step repeats :mod:`harness.sph.kernels_numba` (eqs. 2.10-2.11 with the
+neighbour lists of :mod:`harness.sph.operator`) operation for operation.  It
+exists for the same-language benchmark: a C frozen reduced step against a C
+full SPH step (``sphrom bench``, ``sphrom bench-fmu``).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import time
+
+import numpy as np
+
+from .core import MESSAGE_SIZE, CoreError
+
+METHODS = {"euler": 0, "symplectic": 1}
+
+
+class SphC:
+    """The sph_* functions of a loaded core library (``Core(path).sph``)."""
+
+    def __init__(self, lib):
+        p = ctypes.c_void_p
+        lib.sph_advance_flat.argtypes = [ctypes.c_int64, ctypes.c_int64, p, p, p, p, p, p, ctypes.c_uint32,
+                                         ctypes.c_int, p, p, ctypes.c_int64, ctypes.c_double, p, p, ctypes.c_int64,
+                                         ctypes.POINTER(ctypes.c_int64), ctypes.c_char_p, ctypes.c_size_t]
+        lib.sph_advance_flat.restype = ctypes.c_int
+        self.lib = lib
+
+    def runner(self, problem, method="euler"):
+        return SphRunner(self, problem, method)
+
+
+class SphRunner:
+    """One problem's arrays held for repeated C calls.
+
+    Parameters
+    ----------
+    problem : SPHProblem
+    method : {"euler", "symplectic"}
+    """
+
+    def __init__(self, sph, problem, method="euler"):
+        if method not in METHODS:
+            raise ValueError(f"method {method!r} (allowed: euler, symplectic)")
+        self.sph, self.problem, self.method = sph, problem, METHODS[method]
+        nb = problem.neighbours
+        self.index = np.ascontiguousarray(nb.index, dtype=np.int64)
+        self.weight = np.ascontiguousarray(nb.weight, dtype=float)
+        self.fields = [np.ascontiguousarray(problem.packed(name), dtype=float)
+                       for name in ("rho0", "c", "d", "profile")]
+        self.work = np.empty(3 * problem.n)
+        self._msg = ctypes.create_string_buffer(MESSAGE_SIZE)
+
+    def advance(self, v, rho, n_steps, dt, g=None, check_every=64):
+        """Advance (v, rho) in place by n_steps steps of dt; g: f per step (None: no force).
+
+        Returns the wall time [s] of the C call; CoreError on a failure (non-finite, rho <= 0).
+        """
+        n = self.problem.n
+        if v.dtype != float or rho.dtype != float or not (v.flags.c_contiguous and rho.flags.c_contiguous):
+            raise ValueError("v, rho must be contiguous float64 arrays")
+        gs = None if g is None else np.ascontiguousarray(g, dtype=float)
+        if gs is not None and gs.size < n_steps:
+            raise ValueError("g needs one value per step")
+        flags = self.problem.flags(gs is not None and bool(np.any(gs != 0)))
+        done = ctypes.c_int64(0)
+        ptr = lambda a: None if a is None else a.ctypes.data      # noqa: E731
+        t0 = time.perf_counter()
+        status = self.sph.lib.sph_advance_flat(n, self.index.shape[1], ptr(self.index), ptr(self.weight),
+                                               *[ptr(a) for a in self.fields], flags, self.method, ptr(v), ptr(rho),
+                                               int(n_steps), float(dt), ptr(gs), ptr(self.work), int(check_every),
+                                               ctypes.byref(done), self._msg, MESSAGE_SIZE)
+        wall = time.perf_counter() - t0
+        if status != 0:
+            raise CoreError(self._msg.value.decode())
+        return wall
