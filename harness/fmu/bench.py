@@ -14,15 +14,33 @@
    recording), and of that the bare ``fmi2DoStep`` call through fmpy/ctypes
    (doSteps of one internal step on FMU2Slave, minus the core's time).
 
-Every figure is the median of ``repeats`` runs.
+4. The lean path (issue 6's headline): a scripted fmpy loop on a pre-extracted
+   FMU - FMU2Slave instantiated once (timed separately), fmi2Reset,
+   setupExperiment and initialization per run, then per communication step
+   the input (when the scene has a force), fmi2DoStep and reading every
+   output, through fmpy's ctypes bindings with preallocated arrays.  Not
+   included: extraction, loading the shared library, instantiation (reported
+   beside), recording the outputs in Python lists.  Against the full SPH
+   (numba, the same run_sph call the rest of the tool uses, compiled before
+   the clock starts).
+5. The same-language ratio: the C frozen step (k = 12, n_freeze = 10) against
+   the C full SPH step of fmu_src/sph.c at N = 400.
+
+``bench_rows`` gives the FMU rows of ``sphrom bench``.  Every figure is the
+median of ``repeats`` runs.
 """
 
 from __future__ import annotations
 
+import atexit
+import ctypes
+import shutil
 import statistics
 import tempfile
 import time
 from pathlib import Path
+
+import numpy as np
 
 BENCH_K = 12
 BENCH_FREEZE = 10
@@ -177,6 +195,322 @@ def end_to_end(scene_name="tenmode", steps=(0.01, 0.001), repeats=5, k=None, pro
     return {"rows": rows, "sph": sph, "scene": scene.name, "n": scene.sph.n_particles, "T": scene.T,
             "dt": scene.sph.dt, "internal_steps": n_internal, "k_v": summary.k_v, "k_rho": summary.k_rho,
             "n_freeze": summary.n_freeze, "fmpy": fmpy.__version__, "repeats": repeats}
+
+
+# ---------------------------------------------------------------------------
+# FMUs built once per process (bench_rows, the lean loop, stress runners)
+# ---------------------------------------------------------------------------
+
+_PREPARED = {}
+_WORKDIR = []
+
+
+def _workdir():
+    if not _WORKDIR:
+        folder = Path(tempfile.mkdtemp(prefix="sphrom-fmu-bench-"))
+        atexit.register(shutil.rmtree, folder, True)
+        _WORKDIR.append(folder)
+    return _WORKDIR[0]
+
+
+def prepared_fmu(scene, k, model="frozen", n_freeze=10, problem=None, probes=(0.25, 0.5, 0.66)):
+    """(path, unzipdir, model description, summary) of the FMI 2 FMU of ``scene``: packaged and extracted
+    once per process for each (scene text, k, model, n_freeze, probes)."""
+    import hashlib
+
+    from fmpy import extract, read_model_description
+
+    from .build import ensure_binaries
+    from .package import package_fmu
+    key = (hashlib.sha256(scene.text.encode()).hexdigest() if getattr(scene, "text", None) else scene.name,
+           int(k), model, int(n_freeze), tuple(probes))
+    if key not in _PREPARED:
+        folder = _workdir() / f"{scene.name}-{model}-k{k}-nf{n_freeze}-{len(_PREPARED)}"
+        folder.mkdir()
+        path = folder / "model.fmu"
+        summary = package_fmu(scene, path, k=k, n_freeze=n_freeze, probes=probes, fmi=2, progress=False,
+                              binaries=ensure_binaries(), problem=problem, model=model)
+        unzipdir = extract(str(path), unzipdir=str(folder / "unzipped"))
+        _PREPARED[key] = (path, unzipdir, read_model_description(str(path)), summary)
+    return _PREPARED[key]
+
+
+class LeanSlave:
+    """A pre-extracted FMI 2 FMU driven through fmpy's FMU2Slave with preallocated ctypes arrays.
+
+    Parameters
+    ----------
+    unzipdir : str
+    md : fmpy ModelDescription
+    guid : str, optional
+        Token to pass (default the model description's).
+    """
+
+    def __init__(self, unzipdir, md, guid=None):
+        from fmpy.fmi2 import FMU2Slave
+        t0 = time.perf_counter()
+        self.fmu = FMU2Slave(guid=guid or md.guid, unzipDirectory=unzipdir, modelIdentifier="sphrom",
+                             instanceName="lean")
+        self.messages = []
+        self.fmu.instantiate(loggingOn=False)
+        self.instantiate_s = time.perf_counter() - t0
+        outs = [v.valueReference for v in md.modelVariables if v.causality == "output"]
+        self.n_out = len(outs)
+        self.out_vr = (ctypes.c_uint * len(outs))(*outs)
+        self.out = (ctypes.c_double * len(outs))()
+        self.in_vr = (ctypes.c_uint * 1)(1)
+        self.in_val = (ctypes.c_double * 1)()
+        self.par_vr = (ctypes.c_uint * 1)(3)
+        self.int_vr = (ctypes.c_uint * 1)(2)
+        self.int_val = (ctypes.c_int * 1)()
+
+    def start(self, dt=None, n_freeze=None):
+        """fmi2Reset, setupExperiment, parameters, initialization."""
+        fmu = self.fmu
+        fmu.reset()
+        fmu.setupExperiment(startTime=0.0)
+        if dt is not None:
+            self.in_val[0] = dt
+            fmu.fmi2SetReal(fmu.component, self.par_vr, 1, self.in_val)
+        if n_freeze is not None:
+            self.int_val[0] = int(n_freeze)
+            fmu.fmi2SetInteger(fmu.component, self.int_vr, 1, self.int_val)
+        fmu.enterInitializationMode()
+        fmu.exitInitializationMode()
+
+    def loop(self, h, n_steps, f=None):
+        """n_steps communication steps of h: input (when f is given), doStep, all outputs."""
+        fmu = self.fmu
+        comp, do_step, get_real, set_real = fmu.component, fmu.fmi2DoStep, fmu.fmi2GetReal, fmu.fmi2SetReal
+        out_vr, out, n_out, in_vr, in_val = self.out_vr, self.out, self.n_out, self.in_vr, self.in_val
+        if f is None:
+            for i in range(n_steps):
+                do_step(comp, i * h, h, 1)
+                get_real(comp, out_vr, n_out, out)
+        else:
+            for i in range(n_steps):
+                in_val[0] = f[i]
+                set_real(comp, in_vr, 1, in_val)
+                do_step(comp, i * h, h, 1)
+                get_real(comp, out_vr, n_out, out)
+        return list(out)
+
+    def reduced_state(self, k_v, k_rho):
+        """The FMU's reduced state from its serialized FMU state (header 112 bytes, then a, then a^rho or b)."""
+        fmu = self.fmu
+        state = fmu.getFMUstate()
+        blob = bytes(fmu.serializeFMUstate(state))
+        fmu.freeFMUstate(state)
+        return np.frombuffer(blob, dtype="<f8", count=k_v + k_rho, offset=112).copy()
+
+    def close(self):
+        if self.fmu is not None:
+            try:
+                self.fmu.terminate()
+            except Exception:      # an instance in the error state cannot terminate
+                pass
+            self.fmu.freeInstance()
+            self.fmu = None
+
+
+def lean_run(unzipdir, md, T, h, repeats=5, f=None):
+    """The lean fmpy loop over [0, T] with communication step h (module docstring, item 4).
+
+    Returns a dict: instantiate_s (once), start_s (reset + initialization, median), loop_s (median),
+    run_s = start_s + loop_s, doSteps, us_per_doStep.
+    """
+    n_comm = int(round(T / h))
+    slave = LeanSlave(unzipdir, md)
+    starts, loops = [], []
+    try:
+        for r in range(repeats + 1):                   # the first run warms up
+            t0 = time.perf_counter()
+            slave.start()
+            t1 = time.perf_counter()
+            slave.loop(h, n_comm, f)
+            t2 = time.perf_counter()
+            if r:
+                starts.append(t1 - t0)
+                loops.append(t2 - t1)
+    finally:
+        slave.close()
+    start, loop = _median(starts), _median(loops)
+    return {"instantiate_s": slave.instantiate_s, "start_s": start, "loop_s": loop, "run_s": start + loop,
+            "doSteps": n_comm, "us_per_doStep": loop / n_comm * 1e6, "step_s": h}
+
+
+def _fields(data_kind, ops, z, k_v):
+    """(v, ρ) at the particles from reduced states (frozen ops: U_v, U_rho; exact lin: fields)."""
+    z = np.atleast_2d(z)
+    if data_kind == "exact":
+        return ops.fields(z)
+    return z[:, :k_v] @ ops.U_v.T, z[:, k_v:] @ ops.U_rho.T
+
+
+def _fmu_states(unzipdir, md, summary, ops, steps, dt, force, model, n_freeze, h):
+    """The FMU's fields at the error steps, from one untimed run on the timed configuration: communication
+    points on the grid of h plus the error-step times, input held over each step at its start value."""
+    t_samples = np.asarray(steps) * dt
+    grid = np.arange(int(round(t_samples[-1] / h)) + 1) * h
+    points = np.unique(np.concatenate([grid[grid < t_samples[-1]], t_samples]))
+    wanted = set(np.searchsorted(points, t_samples).tolist())
+    slave = LeanSlave(unzipdir, md)
+    fmu = slave.fmu
+    zs = []
+    try:
+        slave.start(n_freeze=n_freeze)
+        if 0 in wanted:
+            zs.append(slave.reduced_state(summary.k_v, summary.k_rho))
+        for i in range(points.size - 1):
+            if force is not None:
+                slave.in_val[0] = float(force(points[i]))
+                fmu.fmi2SetReal(fmu.component, slave.in_vr, 1, slave.in_val)
+            fmu.fmi2DoStep(fmu.component, points[i], points[i + 1] - points[i], 1)
+            if i + 1 in wanted:
+                zs.append(slave.reduced_state(summary.k_v, summary.k_rho))
+    finally:
+        slave.close()
+    return _fields(model, ops, np.array(zs), summary.k_v)
+
+
+def bench_rows(context):
+    """The FMU rows of ``sphrom bench`` (harness.bench.methods.bench_python's ``extra``).
+
+    For each k of the study: the frozen FMU through the lean fmpy loop at a 10 ms communication step
+    (n_freeze 10 and 1), the exact FMU the same way, the C core loop alone (rom_advance through ctypes, no
+    fmpy), and once the C full SPH (fmu_src/sph.c).  Errors against the full SPH (context v_sph/rho_sph at the
+    context steps) and the reference; times are medians of context["repeats"].
+    """
+    from ..bench.methods import _row
+    from ..compare import error_table
+    from ..sph.solver import force_values, step_count
+    from .core import Core
+    from .build import ensure_binaries
+    from .package import exact_model, reduced_model
+
+    scene, run, steps = context["scene"], context["run"], np.asarray(context["steps"])
+    repeats = max(1, int(context.get("repeats", 3)))
+    problem = run.problem
+    dt, T = scene.sph.dt, scene.T
+    n = step_count(T, dt)
+    t = steps * dt
+    v_sph, rho_sph, ref = context["v_sph"], context["rho_sph"], context["reference"]
+    forced = bool(problem.terms["force_profile"]) and bool(np.any(scene.force(np.linspace(0, T, 1025)) != 0))
+    force = scene.force if forced else None
+    h = min(0.01, T / 10)
+    n_comm = int(round(T / h))
+    f_comm = None if force is None else np.asarray(force(np.arange(n_comm) * h), float)
+    core = Core(ensure_binaries().core)
+    rows = []
+
+    def errors(v, rho):
+        e_s = error_table(v, rho, v_sph, rho_sph, t, problem.rho0)
+        e_r = None if ref is None else error_table(v, rho, ref[0], ref[1], t, problem.rho0)
+        return e_s, e_r
+
+    for k in context["ks"]:
+        for model, nfs in (("frozen", (10, 1)), ("exact", (10,))):
+            try:
+                path, unzipdir, md, summary = prepared_fmu(scene, k, model, problem=problem)
+            except Exception as exc:                    # e.g. no energy basis: say so, keep the others
+                rows.append(_row(scene, f"FMU {model} (fmpy)", k, None, float("nan"), 0.0, None, None,
+                                 f"not built: {exc}"))
+                continue
+            if model == "exact":
+                _, ops, _, _ = exact_model(scene, k, 10, summary.probes, progress=False, problem=problem)
+            else:
+                _, ops, _, _ = reduced_model(scene, k, 10, summary.probes, summary.integrator, progress=False,
+                                             problem=problem)
+            for nf in nfs:
+                slave = LeanSlave(unzipdir, md)
+                times = []
+                try:
+                    for r in range(repeats + 1):
+                        slave.start(n_freeze=nf if model == "frozen" else None)
+                        t0 = time.perf_counter()
+                        slave.loop(h, n_comm, f_comm)
+                        if r:
+                            times.append(time.perf_counter() - t0)
+                finally:
+                    slave.close()
+                v, rho = _fmu_states(unzipdir, md, summary, ops, steps, dt, force, model, nf, h)
+                e_s, e_r = errors(v, rho)
+                method = "FMU (fmpy)" if model == "frozen" else "FMU exact (fmpy)"
+                rows.append(_row(scene, method, k, nf if model == "frozen" else None, _median(times),
+                                 summary.timings.get("model", 0.0), e_s, e_r,
+                                 f"lean fmpy loop, {h * 1e3:g} ms comm. step ({n_comm} doSteps, input + doStep + "
+                                 f"all outputs), instantiate {slave.instantiate_s * 1e3:.1f} ms not included; "
+                                 f"errors from the FMU's serialized state (input held over each step)"))
+            if model == "frozen":
+                from .resources import pack
+                data, *_ = reduced_model(scene, k, 10, summary.probes, summary.integrator, progress=False,
+                                         problem=problem)
+                cm = core.load(pack(data))
+                try:
+                    cm.set_n_freeze(10)
+                    times = []
+                    for r in range(repeats + 1):
+                        cm.reset()
+                        cm.set_n_freeze(10)
+                        t0 = time.perf_counter()
+                        if force is None:
+                            cm.advance(n)
+                        else:
+                            for i in range(n_comm):
+                                cm.set_input(float(f_comm[i]))
+                                cm.do_step(i * h, h)
+                        if r:
+                            times.append(time.perf_counter() - t0)
+                finally:
+                    cm.close()
+                rows.append(_row(scene, "FMU core (C)", k, 10, _median(times), 0.0, None, None,
+                                 (f"rom_advance over {n} internal steps in one ctypes call, no fmpy"
+                                  if force is None else
+                                  f"rom_set_input + rom_do_step per {h * 1e3:g} ms step through ctypes, no fmpy")
+                                 + "; same arithmetic as the FMU"))
+    # the C full SPH, same scene and integrator
+    if scene.sph.integrator in ("euler", "symplectic"):
+        runner = core.sph.runner(problem, scene.sph.integrator)
+        g = force_values(scene, problem, 0, n, dt, 0)[:, 0] if forced else None
+        times = []
+        for r in range(repeats + 1):
+            v, rho = problem.v0.copy(), problem.rho0.copy()
+            vs, rs = [v.copy()], [rho.copy()]
+            wall = 0.0
+            for a, b in zip(steps[:-1], steps[1:]):
+                wall += runner.advance(v, rho, int(b - a), dt, g=None if g is None else g[a:b])
+                if r == 0:
+                    vs.append(v.copy())
+                    rs.append(rho.copy())
+            if r == 0:
+                e_s, e_r = errors(np.array(vs), np.array(rs))
+            else:
+                times.append(wall)
+        rows.append(_row(scene, "C full SPH", problem.n, None, _median(times), 0.0, e_s, e_r,
+                         f"fmu_src/sph.c, {scene.sph.integrator}, N = {problem.n} (time in the C calls)"))
+    return rows
+
+
+def sph_step_rows(base="tenmode", n=400, k=BENCH_K, n_freeze=BENCH_FREEZE, n_steps=20_000, repeats=5, core=None):
+    """The same-language ratio at N = n: ns per step of the C frozen core and of the C full SPH (sph.c)."""
+    from ..sph.solver import build_problem
+    from .build import ensure_binaries
+    from .core import Core
+    core = core or Core(ensure_binaries().core)
+    frozen = core_rows(base, [n], k=k, n_freeze=n_freeze, n_steps=max(n_steps, 100_000), repeats=repeats,
+                       core=core)[0]
+    scene = bench_scene(base, n)
+    problem = build_problem(scene)
+    runner = core.sph.runner(problem, "euler")
+    v, rho = problem.v0.copy(), problem.rho0.copy()
+    runner.advance(v, rho, 100, scene.sph.dt)
+    times = []
+    for _ in range(repeats):
+        v, rho = problem.v0.copy(), problem.rho0.copy()
+        times.append(runner.advance(v, rho, n_steps, scene.sph.dt) / n_steps * 1e9)
+    sph_ns = _median(times)
+    return {"n": n, "k": k, "n_freeze": n_freeze, "frozen_ns": frozen["ns_per_step"], "sph_ns": sph_ns,
+            "ratio": sph_ns / frozen["ns_per_step"], "k_v": frozen["k_v"], "k_rho": frozen["k_rho"]}
 
 
 def markdown(core, e2e):
