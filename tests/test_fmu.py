@@ -8,6 +8,7 @@ scenes are packaged once per combination of options.
 
 import concurrent.futures
 import math
+import os
 import shutil
 import zipfile
 
@@ -447,10 +448,14 @@ def test_many_instances_interleaved_and_threads(fmus):
             s.initialize()
             return s.run(steps, inputs)
 
+    cwd = os.getcwd()
     with concurrent.futures.ThreadPoolExecutor(4) as pool:
         results = list(pool.map(job, range(8)))
     for r in results:
         assert np.array_equal(r, alone)
+    # fmpy chdir()s while loading a library: concurrent loads must not leave the
+    # process in another instance's (deleted) folder
+    assert os.getcwd() == cwd
 
 
 # ---------------------------------------------------------------------------

@@ -8,11 +8,18 @@ FMU states, and the FMU's log messages (kept in ``messages``).
 
 from __future__ import annotations
 
+import threading
 from pathlib import Path
 
 import numpy as np
 
 VR_TIME, VR_F, VR_N_FREEZE, VR_DT = 0, 1, 2, 3     # fmu_src/rom.h
+
+# fmpy's FMU constructors chdir() into binaries/<platform> to load the library
+# and chdir() back: the working directory is per process, so two threads that
+# construct at once can leave the process in another instance's (later deleted)
+# folder.  Every construction of an fmpy FMU object in sphrom goes through this.
+FMPY_LOAD_LOCK = threading.Lock()
 
 
 class Slave:
@@ -64,8 +71,9 @@ class Slave:
             from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
                                    fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
             from fmpy.fmi1 import calloc, free
-            self.fmu = FMU2Slave(guid=token, unzipDirectory=self.unzipdir, modelIdentifier="sphrom",
-                                 instanceName=name)
+            with FMPY_LOAD_LOCK:
+                self.fmu = FMU2Slave(guid=token, unzipDirectory=self.unzipdir, modelIdentifier="sphrom",
+                                     instanceName=name)
             callbacks = fmi2CallbackFunctions()
             callbacks.logger = fmi2CallbackLoggerTYPE(self._log2)
             callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
@@ -79,8 +87,9 @@ class Slave:
             self.fmu.instantiate(callbacks=callbacks, loggingOn=logging)
         else:
             from fmpy.fmi3 import FMU3Slave
-            self.fmu = FMU3Slave(guid=token, unzipDirectory=self.unzipdir, modelIdentifier="sphrom",
-                                 instanceName=name)
+            with FMPY_LOAD_LOCK:
+                self.fmu = FMU3Slave(guid=token, unzipDirectory=self.unzipdir, modelIdentifier="sphrom",
+                                     instanceName=name)
             self.fmu.instantiate(loggingOn=logging, logMessage=self._log3)
 
     # -- logging ---------------------------------------------------------------
