@@ -1,0 +1,188 @@
+"""The exact linear reduced model (issue 7) inside the FMU: `sphrom fmu --model exact`.
+
+The C core advances z = [a; b] over each communication step by its own matrix
+exponential (scaling and squaring, cached per step length) and, without
+damping, evaluates the free response from the real Schur form.  These tests
+hold it against the Python model of :mod:`harness.rom.exact_linear` (scipy's
+expm, an independent implementation), against itself at other communication
+steps, and check the energy over T = 1000, states and bad input.
+"""
+
+import math
+import zipfile
+
+import fmpy
+import numpy as np
+import pytest
+from fmpy.fmi1 import FMICallException
+
+from conftest import small_scene
+from harness.fmu.build import ensure_binaries
+from harness.fmu.fmi import Slave
+from harness.fmu.package import exact_model, package_fmu
+from harness.fmu.resources import unpack
+from harness.rom.exact_linear import run_exact
+
+K = 6
+PROBES = (0.25, 0.5, 0.66)
+RTOL = 1e-11
+
+
+def scene_for(case):
+    """forced: damped_forced shrunk (d = 10, three-tone force); unforced: multimode shrunk (d = f = 0)."""
+    if case == "forced":
+        return small_scene("damped_forced", T=0.5, n=32)
+    return small_scene("multimode", T=0.5, n=32)
+
+
+@pytest.fixture(scope="module")
+def exact_fmus(tmp_path_factory):
+    """make(case, fmi) -> (path, ExactData), packaged once each."""
+    folder = tmp_path_factory.mktemp("exact-fmus")
+    binaries = ensure_binaries()
+    made = {}
+
+    def make(case="forced", fmi=2):
+        if (case, fmi) not in made:
+            path = folder / f"{case}-fmi{fmi}.fmu"
+            package_fmu(scene_for(case), path, k=K, fmi=fmi, probes=PROBES, progress=False, binaries=binaries,
+                        model="exact")
+            made[case, fmi] = (path, unpack(zipfile.ZipFile(path).read("resources/model.bin")))
+        return made[case, fmi]
+
+    return make
+
+
+def probe_outputs(data, z):
+    """[v_probe..., rho_probe...] from reduced states z (M, k), as rom_v_probe / rom_rho_probe."""
+    z = np.atleast_2d(z)
+    a, b = z[:, :data.k_v], z[:, data.k_v:]
+    v = a @ data.Pv.T
+    e = np.einsum("psk,mk->mps", data.Pe, b)                 # e = J - 1 at the two particles of each probe
+    rho = np.sum(data.pw * data.prho0 / (1.0 + e), axis=2)
+    return np.hstack([v, rho])
+
+
+def relative_residual(out, ref):
+    """max |out - ref| relative to the largest |ref| of the same kind (v probes, ρ probes): a probe at a node
+    of every mode (x = L/2 in multimode) has v ≈ 1e-17 and no meaningful relative error of its own."""
+    half = ref.shape[1] // 2
+    scale = np.repeat([np.abs(ref[:, :half]).max(), np.abs(ref[:, half:]).max()], half)
+    return float((np.abs(out - ref) / np.maximum(scale, 1e-300)).max())
+
+
+def reduced_state(slave, k):
+    """z from the FMU's serialized state (header of 112 bytes, then a^v and b)."""
+    state = slave.get_state()
+    blob = slave.serialize(state)
+    slave.free_state(state)
+    return np.frombuffer(blob, dtype="<f8", count=k, offset=112).copy()
+
+
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_exact_fmu_validates_and_declares_the_model(exact_fmus, fmi):
+    path, data = exact_fmus("forced", fmi)
+    assert fmpy.validation.validate_fmu(str(path)) == []
+    assert data.integrator == "exponential" and data.B is not None and data.damping
+    md = fmpy.read_model_description(str(path))
+    assert [v.name for v in md.modelVariables if v.causality == "output"] == \
+        [f"v_probe_{j}" for j in (1, 2, 3)] + [f"rho_probe_{j}" for j in (1, 2, 3)]
+    _, unforced = exact_fmus("unforced", fmi)
+    assert unforced.Q is not None and not unforced.damping       # d = 0: the Schur path
+
+
+@pytest.mark.parametrize("case", ["forced", "unforced"])
+def test_exact_fmu_equals_the_python_exact_model(exact_fmus, case, record_property):
+    """FMU (C expm) = run_exact (scipy expm) with the input held over each step, FMI 2 and 3 bitwise alike."""
+    path, data = exact_fmus(case, 2)
+    scene = scene_for(case)
+    _, lin, _, _ = exact_model(scene, K, 10, PROBES, progress=False)
+    assert np.array_equal(lin.A, data.A) and np.array_equal(lin.z0, data.z0)
+    H, M = 0.01, 50
+    t = np.arange(M + 1) * H
+    inputs = scene.force(t[:-1]) if case == "forced" else np.zeros(M)
+    ref = run_exact(lin, t, step=H, force=scene.force if case == "forced" else None, hold="held")
+    expected = probe_outputs(data, ref.z)
+    outs = []
+    for fmi in (2, 3):
+        with Slave(exact_fmus(case, fmi)[0]) as s:
+            s.initialize()
+            outs.append(s.run([H] * M, inputs))
+    assert np.array_equal(outs[0], outs[1])
+    residual = relative_residual(outs[0], expected)
+    record_property("relative_residual", residual)
+    assert residual <= RTOL
+    assert np.ptp(outs[0][:, 0]) > 0                              # the probe velocity moves
+
+
+def test_exact_fmu_does_not_depend_on_the_communication_step(exact_fmus):
+    """Unforced: the state at t = 0.4 s from 40, 8, 1 and 14 (shortened last) steps agrees to round-off."""
+    path, data = exact_fmus("unforced", 2)
+    finals = {}
+    for steps in ([0.01] * 40, [0.05] * 8, [0.4], [0.03] * 13 + [0.4 - 13 * 0.03]):
+        with Slave(path) as s:
+            s.initialize()
+            out = s.run(steps, [0.0] * len(steps))
+            assert s.time() == pytest.approx(0.4, abs=1e-15)
+            finals[len(steps)] = out[-1]
+    ref = finals[1]
+    for n, value in finals.items():
+        assert relative_residual(value[None, :], ref[None, :]) <= 1e-12, n
+
+
+def test_exact_fmu_conserves_energy_over_t_1000(exact_fmus):
+    """d = f = 0: the reduced energy ½|z|² (energy inner products) stays at its initial value to 1e-12 over
+    T = 1000 s, and the state equals the Schur-form free response there."""
+    path, data = exact_fmus("unforced", 2)
+    e0 = float(data.z0 @ data.z0)
+    with Slave(path) as s:
+        s.initialize()
+        assert np.array_equal(reduced_state(s, data.k), data.z0)
+        t, drift = 0.0, 0.0
+        for h in [0.7] * 500 + [1.3] * 500:                       # two step lengths, 1000 s in all
+            s.do_step(t, h)
+            t += h
+        z = reduced_state(s, data.k)
+        drift = abs(float(z @ z) - e0) / e0
+    assert t == pytest.approx(1000.0, rel=1e-12)
+    assert drift <= 1e-12, drift
+    _, lin, _, _ = exact_model(scene_for("unforced"), K, 10, PROBES, progress=False)
+    free = run_exact(lin, np.array([0.0, t]), step=t).z[-1]
+    assert np.max(np.abs(z - free)) <= 1e-12 * np.max(np.abs(free))
+
+
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_exact_fmu_state_round_trip_is_bitwise(exact_fmus, fmi):
+    path, data = exact_fmus("forced", fmi)
+    rng = np.random.default_rng(4)
+    steps, inputs = list(rng.uniform(0.002, 0.03, 20)), rng.normal(0, 0.05, 20)
+    with Slave(path) as s:
+        s.initialize()
+        s.run(steps[:8], inputs[:8])
+        t1 = s.time()
+        state = s.get_state()
+        blob = s.serialize(state)
+        a = s.run(steps[8:], inputs[8:], t0=t1)
+        s.set_state(state)
+        b = s.run(steps[8:], inputs[8:], t0=t1)
+        restored = s.deserialize(blob)
+        s.set_state(restored)
+        c = s.run(steps[8:], inputs[8:], t0=t1)
+        s.free_state(state)
+        s.free_state(restored)
+    assert np.array_equal(a, b) and np.array_equal(a, c)
+
+
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_exact_fmu_bad_input_and_runaway_are_errors(exact_fmus, fmi):
+    path, _ = exact_fmus("forced", fmi)
+    with Slave(path) as s:
+        s.initialize()
+        with pytest.raises(FMICallException):
+            s.set_input(math.nan)
+        assert any("not finite" in e for e in s.errors())
+    with Slave(path) as s:
+        s.initialize(f=1e300)
+        with pytest.raises(FMICallException):
+            s.do_step(0.0, 0.01)
+        assert any(("ran away" in e or "non-finite" in e) and "t = " in e for e in s.errors()), s.errors()
