@@ -48,6 +48,11 @@ def test_scene_page_quotes_the_errors_of_independent_paths(tmp_path):
             assert e["v"] < 1e-3 and e["rho_var"] < 1e-2, (a, b, e)
     page = (tmp_path / f"{scene.name}.md").read_text()
     assert f"{direct['v']:.3e}" in page
+    # the continuum pair is refined only while it misses the target, and stops as soon as it meets it
+    refinement = summary["refinement"]
+    assert all(max(ev, er) > 1e-4 for _, _, _, ev, er in refinement[:-1])
+    assert len(refinement) == 3 or max(refinement[-1][3:]) <= 1e-4
+    assert "refined together" in page
     assert (tmp_path / scene.name / f"{scene.name}_modes_sweep.png").stat().st_size > 1000
 
 

@@ -30,26 +30,38 @@ FE_ELEMENTS = 1024        # scikit-fem P2 elements
 PDE_CELLS = 2048          # py-pde cells
 
 
-def reference_plan(scene):
+AGREEMENT_TARGET = 1e-4   # scikit-fem against py-pde on scenes with uniform c (issue 5)
+AGREEMENT_TARGET_JUMP = 1e-3   # ... and with the jump of c (heterogeneous), where convergence is first order
+MAX_DOUBLINGS = 2         # refinements of the continuum pair beyond FE_ELEMENTS, PDE_CELLS
+
+
+def continuum_plan(scene, level=0):
+    """scikit-fem P2 and py-pde at ``FE_ELEMENTS·2^level`` elements and ``PDE_CELLS·2^level`` cells.
+
+    Returns [(name, label, callable(x, t) -> (v, rho, settings))], with the
+    convergence study's time steps (:func:`harness.references.convergence.study_dt`).
+    """
+    n_fe, n_pp = FE_ELEMENTS << level, PDE_CELLS << level
+    dt_fe, dt_pp = study_dt(scene, "skfem2", n_fe, scene.T), study_dt(scene, "pypde", n_pp, scene.T)
+    return [("skfem", f"scikit-fem P2, N = {n_fe}, Δt = {dt_fe:.3g} s",
+             lambda x, t: skfem_ref.solve(scene, n_fe, dt_fe, x, t, order=2)),
+            ("pypde", f"py-pde RK4, N = {n_pp}, Δt = {dt_pp:.3g} s",
+             lambda x, t: pypde_ref.solve(scene, n_pp, dt_pp, x, t))]
+
+
+def reference_plan(scene, level=0):
     """The references run for ``scene``: (name, label, callable(x, t) -> (v, rho, settings)).
 
-    scikit-fem and py-pde run at the finest resolutions of the convergence
-    study (:mod:`harness.references.convergence`: ~1e-5 in v and ~4e-5 in
-    ρ − ρ0 at T = 10 even where the x(1 − x) factor of eq. 3.8 puts kinks in
-    v0), with its time steps.  The paper's finite differences run at the
-    paper's Δx, Δt when the scene states them.
+    The exact solution where there is one; scikit-fem and py-pde at the
+    finest resolutions of the convergence study (:mod:`harness.references.convergence`),
+    refined ``level`` times; the paper's finite differences at the paper's
+    Δx, Δt when the scene states them.
     """
-    smooth = is_available(scene)
     plan = []
-    if smooth:
+    if is_available(scene):
         plan.append(("exact", "exact (Fourier / d'Alembert)",
                      lambda x, t: (*exact_solution(scene, x, t), {})))
-    n_fe, n_pp = FE_ELEMENTS, PDE_CELLS
-    dt_fe, dt_pp = study_dt(scene, "skfem2", n_fe, scene.T), study_dt(scene, "pypde", n_pp, scene.T)
-    plan.append(("skfem", f"scikit-fem P2, N = {n_fe}, Δt = {dt_fe:.3g} s",
-                 lambda x, t: skfem_ref.solve(scene, n_fe, dt_fe, x, t, order=2)))
-    plan.append(("pypde", f"py-pde RK4, N = {n_pp}, Δt = {dt_pp:.3g} s",
-                 lambda x, t: pypde_ref.solve(scene, n_pp, dt_pp, x, t)))
+    plan += continuum_plan(scene, level)
     dx, dt = scene.paper.get("reference_dx"), scene.paper.get("reference_dt")
     if dx and dt:
         plan.append(("fd", f"paper's FD (RK2), staggered ρ (2nd order), Δx = {dx:g}, Δt = {dt:g}",
@@ -59,14 +71,9 @@ def reference_plan(scene):
     return plan
 
 
-def run_references(scene, x, t, progress=None):
-    """Run every reference of :func:`reference_plan` at (x, t).
-
-    Returns a dict name -> {label, v, rho, wall [s]} (``error`` instead of
-    v/rho when a reference refuses the settings, e.g. an unstable FD).
-    """
+def _run(plan, x, t, progress=None):
     refs = {}
-    for name, label, solve in reference_plan(scene):
+    for name, label, solve in plan:
         t0 = time.perf_counter()
         try:
             v, rho, _ = solve(x, t)
@@ -75,6 +82,43 @@ def run_references(scene, x, t, progress=None):
             refs[name] = {"label": label, "error": str(exc), "wall": time.perf_counter() - t0}
         if progress is not None:
             progress.update(1)
+    return refs
+
+
+def agreement_target(scene):
+    """The target of scikit-fem against py-pde: 1e-4 with uniform c, 1e-3 with a jump in c."""
+    return AGREEMENT_TARGET if np.ptp(scene.field("c", np.linspace(0, scene.L, 257))) == 0 else AGREEMENT_TARGET_JUMP
+
+
+def run_references(scene, x, t, progress=None, max_doublings=MAX_DOUBLINGS):
+    """Run every reference of :func:`reference_plan` at (x, t).
+
+    scikit-fem and py-pde are refined together (resolution and Δt doubled,
+    at most ``max_doublings`` times) until they agree to
+    :func:`agreement_target` in v and in ρ − ρ0: where v0 has a kink (the
+    x(1 − x) factor of eq. 3.8) they converge at about order 1.3 and the
+    study's finest pair is not always enough.
+
+    Returns a dict name -> {label, v, rho, wall [s]} (``error`` instead of
+    v/rho when a reference refuses the settings, e.g. an unstable FD); the
+    pair's entries carry ``refinement``: [(level, labels, v, ρ − ρ0 difference)].
+    """
+    refs = _run(reference_plan(scene), x, t, progress)
+    rho0 = scene.field("rho0", x)
+    target = agreement_target(scene)
+    history = []
+    for level in range(max_doublings + 1):
+        if level:
+            refs.update(_run(continuum_plan(scene, level), x, t, progress))
+        if not all("v" in refs.get(n, {}) for n in ("skfem", "pypde")):
+            break
+        e = error_table(refs["skfem"]["v"], refs["skfem"]["rho"], refs["pypde"]["v"], refs["pypde"]["rho"], t, rho0)
+        history.append((level, refs["skfem"]["label"], refs["pypde"]["label"], e["v"], e["rho_var"]))
+        if max(e["v"], e["rho_var"]) <= target:
+            break
+    for name in ("skfem", "pypde"):
+        if name in refs:
+            refs[name]["refinement"] = history
     return refs
 
 
