@@ -41,8 +41,8 @@ def _sph_loop(problem, scene, n, general):
     return go, state
 
 
-def skip_savings(scene, steps=20000, k=None, repeats=5):
-    """Rows (solver, specialised µs/step, general µs/step, saving) for ``scene``."""
+def skip_savings(scene, steps=20000, k=None, repeats=5, fmu=True):
+    """Rows (solver, specialised µs/step, general µs/step, saving) for ``scene``; ``fmu``: with the FMU's C core."""
     problem = build_problem(scene)
     n = min(steps, step_count(scene.T, scene.sph.dt))
     rows = []
@@ -72,5 +72,43 @@ def skip_savings(scene, steps=20000, k=None, repeats=5):
         tg, _ = median_time(run_with(general, "slow"), repeats)
         np.testing.assert_array_equal(res["fast"].a_v, res["slow"].a_v)
         rows.append((f"{model} POD-MOR (k = {k})", 1e6 * tf / n, 1e6 * tg / n))
+    row = _fmu_core_rows(scene, problem, k, n, repeats) if fmu else None
+    if row is not None:
+        rows.append(row)
     return [{"scene": scene.name, "solver": s, "specialised_us": a, "general_us": b, "saving": 1 - a / b}
             for s, a, b in rows]
+
+
+def _fmu_core_rows(scene, problem, k, n, repeats):
+    """The FMU's C core (rom.c): the scene's resources against the same resources with a zero damping matrix
+    and a zero input column present (flags set), so that rom.c evaluates both terms every step.
+
+    Returns (label, specialised µs/step, general µs/step), or None when the core cannot be built here.
+    """
+    import dataclasses
+
+    try:
+        from ..fmu.build import ensure_binaries
+        from ..fmu.core import Core
+        from ..fmu.package import DEFAULT_PROBES, reduced_model
+        from ..fmu.resources import pack
+        core = Core(ensure_binaries(quiet=True).core)
+    except Exception:                     # no compiler or cmake: the Python rows stand alone
+        return None
+    data, *_ = reduced_model(scene, k, 10, DEFAULT_PROBES, scene.sph.integrator, progress=False, problem=problem)
+    general = dataclasses.replace(data, D=data.D if data.D is not None else np.zeros((data.k_v, data.k_v)),
+                                  p=data.p if data.p is not None else np.zeros(data.k_v))
+    times, states = [], []
+    for d in (data, general):
+        model = core.load(pack(d))
+        try:
+            def go():
+                model.reset()
+                model.advance(n)
+            t, _ = median_time(go, repeats)
+            times.append(t)
+            states.append(model.reduced_state())
+        finally:
+            model.close()
+    np.testing.assert_array_equal(states[0], states[1])
+    return (f"FMU core, C (k = {k})", 1e6 * times[0] / n, 1e6 * times[1] / n)

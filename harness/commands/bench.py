@@ -88,7 +88,7 @@ def run(args):
     plot_costs(scaling_k, out / "scaling_k.png", key="k")
     skips = []
     for scene in scenes[:2]:
-        skips += skip_savings(scene, repeats=args.repeats)
+        skips += skip_savings(scene, repeats=args.repeats, fmu=not args.no_fmu)
     wall = time.perf_counter() - started
 
     fields = ["scene", "method", "k", "n_freeze", "online_s", "offline_s", "speedup", "err_v_sph", "err_rho_sph",
