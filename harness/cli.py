@@ -29,6 +29,7 @@ COMMANDS = {
     "bench-fmu": "bench_fmu",
     "reference": "reference",
     "validate": "validate",
+    "sweep": "sweep",
 }
 
 

@@ -1,0 +1,79 @@
+"""``sphrom sweep``: a parameter study of FMU co-simulations (and full SPH runs) on dask.distributed."""
+
+
+def add_parser(sub):
+    p = sub.add_parser("sweep", help="a parameter study of FMU runs (and full SPH runs) on dask.distributed",
+                       description="Expand SPEC.toml (a scene and grids over force shape, amplitude, frequency, "
+                                   "c, d, profile, k, model, n_freeze) into entries, package one FMU per scene "
+                                   "variant (cached), and run every entry as a task on dask.distributed: a "
+                                   "LocalCluster on this machine, or the cluster at --scheduler. Each worker "
+                                   "loads an FMU once and resets it between runs. Writes RESULTS.h5, "
+                                   "RESULTS.csv and a summary RESULTS.png; a failed run is recorded with its "
+                                   "error; a rerun on the same --out skips the finished entries (resume).")
+    p.add_argument("spec", metavar="SPEC.toml")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="address of a running dask scheduler, e.g. tcp://host:8786 (default: a LocalCluster)")
+    p.add_argument("--workers", metavar="N",
+                   help="workers of the LocalCluster, one process with one thread each (default: the number "
+                        "of cores)")
+    p.add_argument("--out", required=True, metavar="RESULTS.h5")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.set_defaults(handler=run)
+
+
+def _workers(text):
+    from ..errors import UserError
+    try:
+        value = int(str(text).strip())
+    except ValueError:
+        raise UserError(f"--workers: {text!r} is not an integer (allowed: an integer in [1, 256])") from None
+    if not 1 <= value <= 256:
+        raise UserError(f"--workers: {value} is out of range (allowed: an integer in [1, 256])")
+    return value
+
+
+def run(args):
+    import os
+    import sys
+
+    from ..errors import UserError
+    from ..runio import check_output_path
+    from ..sweep.spec import load_spec
+
+    out = check_output_path(args.out)
+    if out.suffix.lower() not in (".h5", ".hdf5"):
+        raise UserError(f"--out: '{out}' must end in .h5 (RESULTS.csv and RESULTS.png are written beside it)")
+    if args.scheduler is not None and args.workers is not None:
+        raise UserError("--workers: applies to the LocalCluster only (the cluster at --scheduler has its own "
+                        "workers)")
+    if args.scheduler is not None and not args.scheduler.strip():
+        raise UserError("--scheduler: empty address (allowed: a scheduler address such as tcp://host:8786)")
+    workers = _workers(args.workers) if args.workers is not None else (os.cpu_count() or 1)
+    spec = load_spec(args.spec)
+    if out.exists():        # a file that is not ours is refused before any work
+        from ..sweep.table import read_results
+        read_results(out)
+
+    from ..sweep.study import run_study
+
+    def log(text):
+        if not args.quiet:
+            print(text, file=sys.stderr)
+
+    r = run_study(spec, out, scheduler=args.scheduler, workers=None if args.scheduler else workers,
+                  progress=not args.quiet, log=log)
+    print(f"sweep {args.spec}: {r.entries} entries on scene {spec.scene.name}; {r.skipped} already done, "
+          f"{r.ran} run now ({r.ok} ok, {r.failed} failed)" + (f"; {r.kept} rows of earlier specs kept"
+                                                            if r.kept else ""))
+    if r.ran:
+        print(f"  {r.workers} workers ({r.scheduler}); compute {r.compute_wall:.2f} s, {r.throughput:.2f} runs/s; "
+              f"packaging {r.package_wall:.2f} s, cluster start {r.cluster_start:.2f} s, total {r.total_wall:.2f} s")
+    for path in r.paths:
+        print(f"wrote {path}")
+    if r.interrupted:
+        print(f"sphrom sweep: interrupted; {r.ran} finished runs kept in {out}; run the same command again to "
+              f"resume", file=sys.stderr)
+        return 130
+    if not r.ran and not r.paths:
+        print("  nothing to run: every entry is done (remove the file to run afresh)")
+    return 0

@@ -1,0 +1,273 @@
+"""The client side of a study: cluster, tasks, progress, checkpoints, resume.
+
+Steps of :func:`run_study`:
+
+1. read RESULTS.h5 when it exists: entries whose id is there with status
+   ``ok`` are skipped (resume); failed ones are run again (a failure may be
+   the cluster's, e.g. a lost worker; a deterministic one fails again
+   quickly), with ``attempts`` counting; rows of entries no longer in the
+   spec are kept;
+2. package the FMUs the remaining entries need (:mod:`.fmus`, cached);
+3. connect: a LocalCluster on this machine (``workers`` processes, one thread
+   each) or the scheduler at ``scheduler``;
+4. scatter each FMU once, submit one task per entry (grouped by FMU), and
+   collect them as they complete behind a progress bar; the table is written
+   (atomically) every ``checkpoint_s`` seconds, at the end, and on
+   KeyboardInterrupt, so an interrupted study keeps every finished entry;
+5. write RESULTS.h5, RESULTS.csv and the summary RESULTS.png.
+
+Throughput is the entries finished in this session per second of the compute
+phase (first submission to last result; packaging and cluster start-up are
+timed apart).
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import logging
+import math
+import sys
+import time
+import uuid
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..errors import UserError
+from .spec import scene_value
+from .table import merge, read_results, write_results
+
+CONNECT_TIMEOUT = 20.0     # s, to reach a scheduler
+WORKER_TIMEOUT = 60.0      # s, to see a first worker of an existing cluster
+CHECKPOINT_S = 30.0        # s between partial writes
+
+
+@dataclass
+class StudyResult:
+    """What a session did (counts of entries; times in s; throughput in runs/s)."""
+
+    entries: int
+    skipped: int
+    ran: int
+    ok: int
+    failed: int
+    kept: int
+    workers: int
+    scheduler: str
+    package_wall: float
+    cluster_start: float
+    compute_wall: float
+    total_wall: float
+    throughput: float
+    interrupted: bool
+    paths: list = field(default_factory=list)
+    plot: str | None = None
+
+
+def input_row(spec, entry, fmu_key):
+    """The input columns of ``entry`` (c, d, profile: the scene's when not swept)."""
+    scene = spec.scene
+    return {
+        "id": entry.id, "index": entry.index, "scene": entry.scene,
+        "c": entry.c if entry.c is not None else scene_value(scene, "c"),
+        "d": entry.d if entry.d is not None else scene_value(scene, "d"),
+        "profile": entry.profile if entry.profile is not None else scene.fields["profile"].text,
+        "k": entry.k, "model": entry.model, "fmi": entry.fmi, "shape": entry.shape,
+        "amplitude": entry.amplitude, "frequency": entry.frequency, "n_freeze": entry.n_freeze,
+        "t_end": entry.t_end, "step": entry.step, "compare_sph": int(entry.compare_sph), "fmu": fmu_key,
+    }
+
+
+def connect(scheduler=None, workers=None):
+    """(client, cluster): the scheduler at ``scheduler``, else a new LocalCluster (cluster None otherwise).
+
+    Raises UserError when the scheduler cannot be reached or has no worker.
+    """
+    from distributed import Client, LocalCluster
+    if scheduler:
+        try:
+            client = Client(scheduler, timeout=CONNECT_TIMEOUT)
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise UserError(f"--scheduler: cannot connect to {scheduler!r} within {CONNECT_TIMEOUT:g} s "
+                            f"({str(exc).splitlines()[0] if str(exc) else type(exc).__name__})") from None
+        try:
+            client.wait_for_workers(1, timeout=WORKER_TIMEOUT)
+        except (TimeoutError, OSError):
+            client.close()
+            raise UserError(f"--scheduler: the cluster at {scheduler!r} has no worker after "
+                            f"{WORKER_TIMEOUT:g} s") from None
+        return client, None
+    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                           silence_logs=logging.ERROR)
+    return Client(cluster), cluster
+
+
+def _versions():
+    import dask
+    import distributed
+    import fmpy
+    import numpy
+    from .. import __version__
+    return {"version.sphrom": __version__, "version.dask": dask.__version__,
+            "version.distributed": distributed.__version__, "version.fmpy": fmpy.__version__,
+            "version.numpy": numpy.__version__, "version.python": sys.version.split()[0]}
+
+
+def run_study(spec, out, *, scheduler=None, workers=None, progress=True, checkpoint_s=CHECKPOINT_S,
+              log=None) -> StudyResult:
+    """Run the entries of ``spec`` not yet done in ``out`` and write the results.
+
+    Parameters
+    ----------
+    spec : harness.sweep.spec.Spec
+    out : Path
+        RESULTS.h5 (RESULTS.csv and RESULTS.png beside it).
+    scheduler : str, optional
+        Address of an existing dask scheduler; default a LocalCluster.
+    workers : int, optional
+        Workers of the LocalCluster (one process and thread each).
+    progress : bool
+        Progress bar (tqdm, after 2 s).
+    checkpoint_s : float
+        Seconds between partial writes.
+    log : callable, optional
+        Told about packaging and connection (one line each).
+
+    Returns
+    -------
+    StudyResult
+    """
+    from ..progress import progress_bar
+    from .fmus import bundle, ensure_fmus
+    from .plot import summary_plot
+    from .worker import run_entry
+
+    log = log or (lambda text: None)
+    t_start = time.perf_counter()
+    out = Path(out)
+    previous, old_attrs = read_results(out) if out.exists() else ([], {})
+    sessions = json.loads(old_attrs.get("sessions", "[]"))
+    session = len(sessions) + 1
+    by_id = {row["id"]: row for row in previous}
+    ids = {e.id for e in spec.entries}
+    todo = [e for e in spec.entries if by_id.get(e.id, {}).get("status") != "ok"]
+    skipped = len(spec.entries) - len(todo)
+    kept = sum(1 for row in previous if row["id"] not in ids)
+    n_probes = len(spec.probes)
+
+    def attrs_for(rows, state):
+        in_spec = [r for r in rows if r["id"] in ids]
+        record = {"session": session, "utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+                  "scheduler": state["scheduler"], "workers": state["workers"], "runs": state["ran"],
+                  "compute_wall_s": state["compute"], "throughput_runs_per_s": state["throughput"],
+                  "interrupted": state["interrupted"]}
+        return {
+            "spec.text": spec.text, "spec.source": spec.source, "spec.title": spec.title,
+            "scene": spec.scene.name, "probes": list(spec.probes), "window": list(spec.window),
+            "scheduler": state["scheduler"], "workers": state["workers"], "threads_per_worker": 1
+            if not state["remote"] else -1,
+            "package_wall_s": state["package"], "cluster_start_s": state["start"],
+            "compute_wall_s": state["compute"], "total_wall_s": time.perf_counter() - t_start,
+            "throughput_runs_per_s": state["throughput"], "runs_this_session": state["ran"],
+            "entries": len(spec.entries), "ok": sum(r["status"] == "ok" for r in in_spec),
+            "failed": sum(r["status"] == "failed" for r in in_spec),
+            "complete": int(len(in_spec) == len(spec.entries) and not state["interrupted"]),
+            "created_utc": record["utc"], "command": " ".join(sys.argv),
+            "sessions": json.dumps(sessions + [record]), **_versions(),
+        }
+
+    state = {"scheduler": "none", "workers": 0, "ran": 0, "compute": 0.0, "throughput": float("nan"),
+             "package": 0.0, "start": 0.0, "interrupted": False, "remote": bool(scheduler)}
+    new_rows = []
+    client = cluster = None
+    if todo:
+        t0 = time.perf_counter()
+        variants = ensure_fmus(spec, todo, progress=progress, log=log)
+        state["package"] = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        log(f"connecting to {scheduler}" if scheduler else f"starting a LocalCluster of {workers} workers")
+        client, cluster = connect(scheduler, workers)
+        state["start"] = time.perf_counter() - t0
+        state["scheduler"] = scheduler if scheduler else f"LocalCluster {client.scheduler.address}"
+        state["workers"] = len(client.scheduler_info()["workers"])
+        try:
+            _compute(client, spec, todo, variants, by_id, session, new_rows, state, progress, checkpoint_s,
+                     lambda: write_results(out, merge(previous, new_rows), attrs_for(merge(previous, new_rows),
+                                                                                      state), n_probes),
+                     bundle, run_entry, progress_bar)
+        except KeyboardInterrupt:
+            state["interrupted"] = True
+        finally:
+            _close(client, cluster)
+    rows = merge(previous, new_rows)
+    written = []
+    plot = None
+    if new_rows or not out.exists():
+        write_results(out, rows, attrs_for(rows, state), n_probes)
+        written = [out, out.with_suffix(".csv")]
+        if not state["interrupted"]:
+            try:
+                plot = summary_plot([r for r in rows if r["id"] in ids], out.with_suffix(".png"),
+                                    title=spec.title or f"{spec.scene.name}: {len(spec.entries)} entries")
+                if plot:
+                    written.append(out.with_suffix(".png"))
+            except Exception as exc:            # a plot must never lose the table
+                log(f"summary plot not written: {exc}")
+    return StudyResult(entries=len(spec.entries), skipped=skipped, ran=state["ran"],
+                       ok=sum(r["status"] == "ok" for r in new_rows),
+                       failed=sum(r["status"] == "failed" for r in new_rows), kept=kept, workers=state["workers"],
+                       scheduler=state["scheduler"], package_wall=state["package"], cluster_start=state["start"],
+                       compute_wall=state["compute"], total_wall=time.perf_counter() - t_start,
+                       throughput=state["throughput"], interrupted=state["interrupted"], paths=written, plot=plot)
+
+
+def _close(client, cluster):
+    try:
+        client.close()
+    finally:
+        if cluster is not None:
+            cluster.close()
+
+
+def _compute(client, spec, todo, variants, by_id, session, new_rows, state, progress, checkpoint_s, checkpoint,
+             bundle, run_entry, progress_bar):
+    """Submit ``todo`` and collect rows into ``new_rows`` (state updated as they come)."""
+    from distributed import as_completed
+
+    order = {vin: i for i, vin in enumerate(variants)}
+    scattered = {vin: client.scatter([bundle(v)], hash=False)[0] for vin, v in variants.items()}
+    tag = uuid.uuid4().hex[:8]
+    t0 = time.perf_counter()
+    futures = {}
+    for entry in sorted(todo, key=lambda e: (order[e.variant_inputs()], e.index)):
+        fut = client.submit(run_entry, scattered[entry.variant_inputs()], entry, key=f"sweep-{entry.id}-{tag}",
+                            pure=False)
+        futures[fut] = entry
+    last = time.perf_counter()
+    n_failed = 0
+    try:
+        with progress_bar(total=len(futures), desc="sweep", unit="run", enabled=progress) as bar:
+            for fut in as_completed(futures):
+                entry = futures[fut]
+                row = input_row(spec, entry, variants[entry.variant_inputs()].key)
+                try:
+                    row.update(fut.result())
+                except Exception as exc:            # the task itself was lost (e.g. a killed worker)
+                    row.update({"status": "failed", "error": f"{type(exc).__name__}: {exc}"[:600]})
+                row["attempts"] = int(by_id.get(entry.id, {}).get("attempts", 0)) + 1
+                row["session"] = session
+                new_rows.append(row)
+                fut.release()
+                n_failed += row["status"] != "ok"
+                state["ran"] = len(new_rows)
+                state["compute"] = time.perf_counter() - t0
+                state["throughput"] = state["ran"] / state["compute"] if state["compute"] > 0 else math.nan
+                bar.update(1)
+                if n_failed:
+                    bar.set_postfix_str(f"{n_failed} failed")
+                if time.perf_counter() - last >= checkpoint_s:
+                    checkpoint()
+                    last = time.perf_counter()
+    except KeyboardInterrupt:
+        client.cancel(list(futures))
+        raise
