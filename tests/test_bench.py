@@ -34,6 +34,12 @@ def test_bench_command_smoke(tmp_path, monkeypatch):
     text = report.read_text()
     assert "CPU saving of the frozen model" in text and "Cost per step against N" in text
     assert "Cost per step against k" in text and (out / "scaling_k.png").stat().st_size > 1000
+    assert "How the force direction enters the frozen model" in text
+    with open(out / "input_direction.csv") as fh:
+        choices = {r["choice"]: r for r in csv.DictReader(fh)}
+    # multimode's v has zero mean: the modes miss the whole uniform profile, and appending adds one mode
+    assert float(choices["project"]["input_error"]) > 0.99 and choices["project"]["fmu_rule"] == "augment"
+    assert int(choices["augment"]["k_v"]) == int(choices["project"]["k_v"]) + 1
     with open(out / "scaling.csv") as fh:
         rows = [dict(r, n=int(r["n"]), us_per_step=float(r["us_per_step"])) for r in csv.DictReader(fh)]
     assert {r["method"] for r in rows} >= {"full SPH", "frozen (n_freeze = 10)"}

@@ -146,6 +146,13 @@ def test_input_direction_augmentation():
     resid = prof - aug.U_v @ (aug.U_v.T @ prof)
     assert np.linalg.norm(resid) < 1e-12 * np.linalg.norm(prof)
     assert build_operators(run.problem, basis.U_v[:, :4], basis.U_rho[:, :4], input_direction="never").p is None
+    # "needed" (the FMU): append only when the modes miss more than the tolerance, else project
+    for tol, appended in ((2 * proj.input_error, False), (0.5 * proj.input_error, True)):
+        ops = build_operators(run.problem, basis.U_v[:, :4], basis.U_rho[:, :4], input_direction="needed",
+                              input_tolerance=tol)
+        assert ops.augmented is appended and ops.k_v == 4 + appended and ops.p is not None
+        if not appended:
+            np.testing.assert_array_equal(ops.p, proj.p)
 
 
 def test_probe_rows_interpolate_linearly_and_periodically():

@@ -69,8 +69,8 @@ def context(scene, k=None):
     problem = build_problem(scene)
     basis, _ = basis_for_scene(scene, progress=False, problem=problem)
     k = min(k or max(scene.rom.get("accel_modes", [scene.rom["modes"]])), *basis.max_modes)
-    ops = build_operators(problem, basis.U_v[:, :k], basis.U_rho[:, :k], input_direction="always")
-    lin = build_linear_operators(problem, basis.U_ve[:, :k], basis.U_e[:, :k], input_direction="always")
+    ops = build_operators(problem, basis.U_v[:, :k], basis.U_rho[:, :k], input_direction="needed")
+    lin = build_linear_operators(problem, basis.U_ve[:, :k], basis.U_e[:, :k], input_direction="needed")
     lim = stability(problem, scene.sph.dt, "euler", scene.T)["dt_limit"]
     return Context(scene, problem, basis, k, ops, lin, lim)
 
@@ -159,10 +159,10 @@ def modes_rows(ctx: Context, ks=(4, 8, 12, 20, 40, 100), methods=("original", "l
     rows = []
     rank = min(ctx.basis.max_modes)
     for k in sorted({min(k, rank) for k in ks}):
-        ops = build_operators(ctx.problem, ctx.basis.U_v[:, :k], ctx.basis.U_rho[:, :k], input_direction="always",
+        ops = build_operators(ctx.problem, ctx.basis.U_v[:, :k], ctx.basis.U_rho[:, :k], input_direction="needed",
                               tensor="auto")
         lin = build_linear_operators(ctx.problem, ctx.basis.U_ve[:, :k], ctx.basis.U_e[:, :k],
-                                     input_direction="always")
+                                     input_direction="needed")
         for method in methods:
             if method == "frozen" and ops.T is None:
                 continue

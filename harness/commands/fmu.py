@@ -62,6 +62,7 @@ def run(args):
                   model=args.model)
     s = package_fmu(scene, out, k=k, n_freeze=n_freeze, probes=probes, fmi=fmi, integrator=args.integrator,
                     progress=not args.quiet, model=args.model)
+    from ..rom.operators import INPUT_TOLERANCE
     added = " (+ the force profile direction, not in the POD span)" if s.augmented else ""
     print(f"fmu {s.scene}: FMI {s.fmi}.0 co-simulation, {s.model} model, wrote {s.path} ({s.size / 1024:.1f} KiB)")
     if s.model == "exact":
@@ -69,7 +70,10 @@ def run(args):
               f"(specific volume)")
     else:
         print(f"  modes: k = {s.k} POD modes -> k_v = {s.k_v}{added}, k_rho = {s.k_rho}")
-    print(f"  input projection error of the force profile on the {s.k} POD velocity modes: {s.input_error:.3g}")
+    decision = (f"above {INPUT_TOLERANCE:g}: its residual appended to the basis" if s.augmented else
+                f"at most {INPUT_TOLERANCE:g}: f projected on the modes (eq. 2.19)")
+    print(f"  input projection error of the force profile on the {s.k} POD velocity modes: {s.input_error:.3g} "
+          f"({decision})")
     if s.model == "exact":
         print("  advanced by the matrix exponential over each communication step (input held; cached per step "
               "length); parameters dt, n_freeze have no effect")

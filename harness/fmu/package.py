@@ -175,7 +175,8 @@ def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem
     """The FMU's numbers for ``scene``: (ModelData, ops, problem, basis).
 
     Runs (or reuses) the full SPH and the POD (harness.pod.pipeline), builds
-    the operators with ``input_direction="always"`` and ``tensor="always"``.
+    the operators with ``input_direction="needed"`` (an input row always; the force profile appended
+    to U_v only when the POD modes miss more than 1 % of it) and ``tensor="always"``.
     """
     from ..pod.pipeline import basis_for_scene
     from ..rom.common import runaway_bound
@@ -188,7 +189,7 @@ def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem
     if k > available:
         raise UserError(f"--modes: {k} is out of range (allowed: 1 to {available}, the POD modes of scene "
                         f"'{scene.name}')")
-    ops = build_operators(problem, basis.U_v[:, :k], basis.U_rho[:, :k], input_direction="always", tensor="always")
+    ops = build_operators(problem, basis.U_v[:, :k], basis.U_rho[:, :k], input_direction="needed", tensor="always")
     data = model_data(ops, problem, dt=scene.sph.dt, integrator=integrator, n_freeze=n_freeze, probes=probes,
                       bound=runaway_bound(ops))
     return data, ops, problem, basis
@@ -198,7 +199,7 @@ def exact_model(scene, k, n_freeze, probes, progress=True, problem=None):
     """The exact model's numbers for ``scene``: (ExactData, lin, problem, basis).
 
     The energy-weighted POD bases (``Basis.U_ve``, ``U_e``), the operators with
-    ``input_direction="always"`` (the FMU always has the input f).
+    ``input_direction="needed"`` (the FMU always has the input f).
     """
     from ..pod.pipeline import basis_for_scene
     from ..rom.exact_linear import build_linear_operators
@@ -212,7 +213,7 @@ def exact_model(scene, k, n_freeze, probes, progress=True, problem=None):
     if k > available:
         raise UserError(f"--modes: {k} is out of range (allowed: 1 to {available}, the POD modes of scene "
                         f"'{scene.name}')")
-    lin = build_linear_operators(problem, basis.U_ve[:, :k], basis.U_e[:, :k], input_direction="always")
+    lin = build_linear_operators(problem, basis.U_ve[:, :k], basis.U_e[:, :k], input_direction="needed")
     data = exact_data(lin, problem, dt=scene.sph.dt, n_freeze=n_freeze, probes=probes)
     return data, lin, problem, basis
 

@@ -114,7 +114,7 @@ def model_data(ops, problem, *, dt, integrator, n_freeze, probes, bound):
     Parameters
     ----------
     ops : ReducedOperators
-        Built with ``tensor="always"`` (and ``input_direction="always"`` for an
+        Built with ``tensor="always"`` (and ``input_direction="needed"`` for an
         input row).
     problem : SPHProblem
         The full problem (particle positions, L).

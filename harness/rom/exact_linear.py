@@ -37,6 +37,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from ..errors import SimulationError
+from .operators import input_mode
 
 
 @dataclass
@@ -115,7 +116,7 @@ def augment_weighted(U, direction, weight, tol=1e-10):
     return np.column_stack([U, r / np.sqrt(r @ (w * r))]), error, True
 
 
-def build_linear_operators(problem, U_v, U_e, input_direction="auto"):
+def build_linear_operators(problem, U_v, U_e, input_direction="auto", input_tolerance=None):
     """The exact linear model's operators from energy-weighted bases.
 
     Parameters
@@ -125,21 +126,20 @@ def build_linear_operators(problem, U_v, U_e, input_direction="auto"):
         ρ0-orthonormal velocity modes (``Basis.U_ve[:, :k]``).
     U_e : ndarray (N, k_e)
         c-orthonormal specific-volume modes (``Basis.U_e[:, :k]``).
-    input_direction : {"auto", "project", "augment", "always", "never"}
+    input_direction : {"auto", "project", "augment", "always", "needed", "never"}
+    input_tolerance : float, optional
         As in :func:`harness.rom.operators.build_operators` (W_v-weighted).
     """
     t0 = time.perf_counter()
     rho0, c, d, profile = problem.rho0, problem.c, problem.d, problem.profile
     scene = problem.scene
     has_force = problem.terms["force_profile"] and bool(np.any(scene.force(np.linspace(0, scene.T, 1025)) != 0))
-    mode = {"auto": "project" if has_force else "never", "always": "augment"}.get(input_direction, input_direction)
-    if mode not in ("project", "augment", "never"):
-        raise ValueError(f"input_direction {input_direction!r}")
+    mode, tol = input_mode(input_direction, has_force, input_tolerance)
     want_input = mode != "never" and bool(np.any(profile != 0))
     input_error, augmented = float("nan"), False
     U_v = np.asarray(U_v, float)
     if want_input:
-        U_aug, input_error, added = augment_weighted(U_v, profile, rho0)
+        U_aug, input_error, added = augment_weighted(U_v, profile, rho0, tol=tol)
         if mode == "augment":
             U_v, augmented = U_aug, added
     G = problem.neighbours.matrix()
