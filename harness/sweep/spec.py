@@ -304,8 +304,8 @@ def resolve_scene(value, where, spec_path):
         path = Path(spec_path).parent / path
     if not path.is_file():
         from ..scene import builtin_names
-        _fail(f"{where}: scene", f"'{value}' is neither a built-in scene ({', '.join(builtin_names())}) "
-                                 f"nor a file")
+        _fail(f"{where}: scene", f"'{value}' not found (allowed: a built-in scene, {', '.join(builtin_names())}, "
+                                 f"or a scene TOML path relative to the spec)")
     return load_scene(path)
 
 
