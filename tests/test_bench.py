@@ -3,6 +3,7 @@
 import csv
 
 import numpy as np
+import pytest
 
 from conftest import small_scene
 from harness.bench.methods import bench_python
@@ -74,6 +75,25 @@ def test_skipped_terms_give_identical_results_in_every_solver():
         ["full SPH", "linearized POD-MOR", "frozen POD-MOR", "FMU core"]
     for r in rows:
         assert r["specialised_us"] > 0 and r["general_us"] > 0 and r["saving"] < 1
+
+
+def test_stress_fmu_columns_report_errors_never_nan():
+    """The FMU in the stress maps: the same outcome as the Python model it packages, an error status naming the
+    time where the state runs away or the density leaves (0, ∞), and never a silent NaN."""
+    from harness.bench import stress as st
+    from harness.fmu.stress import FMUStress, stress_runners
+    scene = small_scene("multimode", T=1.0, n=32, every=25)
+    ctx = st.context(scene, k=6)
+    with FMUStress() as fs:
+        runners = stress_runners(fs)
+        for name, model in (("FMU frozen", "frozen"), ("FMU exact", "exact")):
+            r = runners[name](ctx, 0.5 * ctx.dt_limit, 1.0)
+            py = st.run_one(ctx, model, 0.5 * ctx.dt_limit)
+            assert r["outcome"] == py["outcome"] and r["silent_nan"] == 0 and not r["fmu_error"]
+            assert r["energy_end"] == pytest.approx(py["energy_end"], rel=1e-9)
+            bad = runners[name](ctx, scene.sph.dt, 2000.0)            # compressed beyond ρ -> 0, or runaway
+            assert bad["outcome"] == "blow-up" and bad["silent_nan"] == 0
+            assert "t = " in bad["fmu_error"] and 0 < bad["blowup_time"] <= scene.T
 
 
 def _scene_file(tmp_path, scene):

@@ -1,7 +1,5 @@
 """``sphrom stress``: numerical-stability maps of every method."""
 
-from .options import int_at_least
-
 DEFAULT_SCENES = ("tenmode", "damped_forced", "heterogeneous")
 
 
@@ -31,24 +29,25 @@ def _ints(text, option):
         raise UserError(f"{option}: {text!r} is not a comma-separated list of numbers") from None
 
 
-def _fmu_extra(no_fmu):
+def _fmu_stress(no_fmu):
+    """An FMUStress (the FMU columns), or None with --no-fmu or when the FMU cannot be built here."""
     if no_fmu:
         return None
     try:
-        from ..fmu.stress import stress_runners
-    except ImportError:
+        from ..fmu.build import ensure_binaries
+        from ..fmu.stress import FMUStress
+        ensure_binaries(quiet=True)
+    except Exception as exc:               # no compiler or cmake: say so, keep the Python columns
+        print(f"stress: the FMU columns are skipped ({exc})")
         return None
-    return stress_runners()
+    return FMUStress()
 
 
 def run(args):
-    import csv
-    import time
     from pathlib import Path
 
     from ..bench import stress as st
     from ..errors import UserError
-    from ..progress import progress_bar
     from ..scene import load_scene
 
     scenes = [load_scene(s) for s in (args.scenes or DEFAULT_SCENES)]
@@ -65,7 +64,25 @@ def run(args):
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise UserError(f"--out: cannot create '{out}' ({exc})") from None
-    extra = _fmu_extra(args.no_fmu)
+    fmu = _fmu_stress(args.no_fmu)
+    try:
+        return _run(args, scenes, amps, horizons, ks, factors, out, fmu)
+    finally:
+        if fmu is not None:
+            fmu.close()
+
+
+def _run(args, scenes, amps, horizons, ks, factors, out, fmu):
+    import csv
+    import time
+
+    from ..bench import stress as st
+    from ..progress import progress_bar
+
+    extra = None
+    if fmu is not None:
+        from ..fmu.stress import stress_runners
+        extra = stress_runners(fmu)
     started = time.perf_counter()
     md = ["# Stability stress maps", "",
           f"Produced by `sphrom stress {' '.join(s.name for s in scenes)}"
@@ -104,6 +121,14 @@ def run(args):
             first = (f"{bad[0]['outcome']} at Δt = {bad[0]['dt_factor']} Δt*, t = {bad[0]['blowup_time']:.3g} s"
                      if bad and bad[0]["blowup_time"] is not None else (bad[0]["outcome"] if bad else "none"))
             md.append(f"| {method} | {max(good) if good else '—'} | {first} |")
+        if extra:
+            fmu_rows = [r for r in rows + hor + frows if str(r["method"]).startswith("FMU")]
+            errors = [r for r in fmu_rows if r.get("fmu_error")]
+            silent = sum(int(r.get("silent_nan", 0)) for r in fmu_rows)
+            md += ["", f"The FMU (FMI 2 through fmpy, the same operators and internal grid): {len(fmu_rows)} runs, "
+                       f"{len(errors)} ended with an error status whose message names the time"
+                       + (f" (e.g. “{errors[0]['fmu_error'][:160]}”)" if errors else "")
+                       + f"; non-finite outputs without an error status: **{silent}**."]
         md += ["", "Long horizons at the paper's Δt (amplitude ×1):", "", "| method | T | outcome | blow-up time | "
                "max E/E0 |", "| --- | --- | --- | --- | --- |"]
         for r in hor:

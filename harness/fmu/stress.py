@@ -1,0 +1,156 @@
+"""The FMU in the stability stress maps (``sphrom stress``): does it report an error where it blows up?
+
+For each stress setting the FMU (FMI 2, through fmpy and :class:`harness.fmu.fmi.Slave`) runs the same
+reduced model as the Python rows of :mod:`harness.bench.stress`: the scene's x1 basis and operators,
+the initial velocity coordinates scaled by the amplitude, the internal step ``dt`` (the FMU's ``dt``
+parameter; the exact model ignores it), n_freeze = 10, the force held over each communication step.
+Communication points are the stress run's sample steps, so the FMU's internal grid is the Python one.
+
+Each run ends as in :func:`harness.bench.stress.run_one` (stable, growing, unphysical, blow-up), with
+two more fields: ``fmu_error``, the FMU's logged error message when a call returned an error status
+(its blow-up time is read from that message), and ``silent_nan``, the number of communication points
+at which an output was non-finite without an error status: the contract is that this is always 0.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+import shutil
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from ..rom.common import runaway_bound
+from ..sph.diagnostics import energy
+from ..sph.solver import step_count
+
+N_FREEZE = 10
+_TIME = re.compile(r"t = ([-+0-9.eE]+) s")
+
+
+def _outcome(e, rho_bad_time=None):
+    from ..bench.stress import _classify
+    outcome, growth, drift = _classify(e)
+    if rho_bad_time is not None:
+        outcome = "unphysical"
+    return {"outcome": outcome, "blowup_time": rho_bad_time, "energy_growth": growth, "energy_drift": drift,
+            "energy_end": float(e[-1])}
+
+
+class FMUStress:
+    """FMUs made from a stress context's operators, one per (scene, model, amplitude), in a private folder.
+
+    Call :meth:`close` (or use as a context manager) to remove the folder.
+    """
+
+    def __init__(self):
+        self.folder = Path(tempfile.mkdtemp(prefix="sphrom-stress-"))
+        self._made = {}
+
+    def close(self):
+        shutil.rmtree(self.folder, ignore_errors=True)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def fmu(self, ctx, model, amplitude):
+        """(extracted folder, fields(z) -> (v, ρ), k) of the FMU for ``ctx`` with the amplified initial state."""
+        key = (ctx.scene.name, id(ctx), model, float(amplitude))
+        if key in self._made:
+            return self._made[key]
+        from fmpy import extract
+
+        from .build import ensure_binaries
+        from .describe import model_description
+        from .package import DEFAULT_PROBES, write_fmu
+        from .resources import exact_data, model_data, pack, pack_exact
+
+        scene, problem = ctx.scene, ctx.problem
+        if model == "exact":
+            lin = dataclasses.replace(ctx.lin, z0=ctx.lin.z0 * amplitude)
+            data = exact_data(lin, problem, dt=scene.sph.dt, n_freeze=N_FREEZE, probes=DEFAULT_PROBES)
+            blob, input_error = pack_exact(data), lin.input_error
+
+            def fields(z):
+                return lin.fields(z)
+        else:
+            ops = ctx.ops
+            data = model_data(ops, problem, dt=scene.sph.dt, integrator="euler", n_freeze=N_FREEZE,
+                              probes=DEFAULT_PROBES, bound=runaway_bound(ops))
+            data = dataclasses.replace(data, a_v0=np.asarray(data.a_v0) * amplitude)
+            blob, input_error = pack(data), ops.input_error
+
+            def fields(z):
+                z = np.atleast_2d(z)
+                return z[:, :ops.k_v] @ ops.U_v.T, z[:, ops.k_v:] @ ops.U_rho.T
+        description = model_description(2, token=data.token, scene=scene, data=data, k_requested=ctx.k,
+                                         step_size=0.01, stop_time=scene.T, input_error=input_error, model=model)
+        path = self.folder / f"{len(self._made)}.fmu"
+        write_fmu(path, fmi=2, blob=blob, description=description, binary=ensure_binaries().fmi2)
+        unzipped = extract(str(path), unzipdir=str(self.folder / f"{len(self._made)}"))
+        self._made[key] = (unzipped, fields, data.k_v + data.k_rho)
+        return self._made[key]
+
+    def run(self, ctx, model, dt, amplitude=1.0, T=None, force=None, n_samples=200):
+        """One stress run of the FMU; the dict of :func:`harness.bench.stress.run_one` plus fmu_error, silent_nan."""
+        from fmpy.fmi1 import FMICallException
+
+        from .fmi import Slave
+
+        scene, problem = ctx.scene, ctx.problem
+        T = T or scene.T
+        force = force or scene.force
+        n = max(1, step_count(T, dt))
+        steps = np.unique(np.linspace(0, n, min(n, n_samples) + 1).astype(np.int64))
+        folder, fields, k = self.fmu(ctx, model, amplitude)
+        energies, rho_bad, silent_nan = [], None, 0
+        with Slave(folder, name="stress") as s:
+            try:
+                s.initialize(dt=dt if model != "exact" else None, n_freeze=N_FREEZE)
+                for i in range(steps.size):
+                    z = _state(s, k)
+                    v, rho = fields(z)
+                    energies.append(float(energy(problem, v, rho)[0]))
+                    if rho_bad is None and np.any(~(rho > 0)):
+                        rho_bad = float(steps[i] * dt)
+                    if not np.all(np.isfinite(s.output_values())):
+                        silent_nan += 1
+                    if i + 1 < steps.size:
+                        t = float(steps[i] * dt)
+                        s.set_input(float(np.asarray(force(np.array([t])))[0]))
+                        s.do_step(t, float((steps[i + 1] - steps[i]) * dt))
+            except FMICallException:
+                message = "; ".join(s.errors()) or "error status"
+                times = [float(m) for m in _TIME.findall(message)]
+                return {"outcome": "blow-up", "blowup_time": times[0] if times else float("nan"),
+                        "energy_growth": np.inf, "energy_drift": np.inf, "energy_end": np.inf,
+                        "fmu_error": message, "silent_nan": silent_nan}
+        e = np.asarray(energies)
+        if not np.all(np.isfinite(e)):
+            return {"outcome": "blow-up", "blowup_time": float("nan"), "energy_growth": np.inf,
+                    "energy_drift": np.inf, "energy_end": np.inf, "fmu_error": "", "silent_nan": silent_nan + 1}
+        return {**_outcome(e, rho_bad), "fmu_error": "", "silent_nan": silent_nan}
+
+
+def _state(slave, k):
+    """The reduced state from the FMU's serialized state (112-byte header, then the k coordinates)."""
+    state = slave.get_state()
+    try:
+        blob = slave.serialize(state)
+    finally:
+        slave.free_state(state)
+    return np.frombuffer(blob, dtype="<f8", count=k, offset=112).copy()
+
+
+def stress_runners(stress: FMUStress):
+    """The ``extra`` methods of :mod:`harness.bench.stress`: name -> runner(ctx, dt, amplitude, T=None, force=None)."""
+    def runner(model):
+        def go(ctx, dt, amplitude=1.0, T=None, force=None):
+            return stress.run(ctx, model, dt, amplitude, T=T, force=force)
+        return go
+    return {"FMU frozen": runner("frozen"), "FMU exact": runner("exact")}
