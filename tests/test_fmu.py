@@ -563,3 +563,11 @@ def test_bench_fmu_command_smoke(scene_file, tmp_path, capsys):
     assert "ns/step" in text and "faster than the full SPH" in text and "where the time goes" in text
     assert (out / "bench_fmu_core.csv").is_file() and (out / "bench_fmu_e2e.csv").is_file()
     assert "| comm. step |" in (out / "bench_fmu.md").read_text()
+    # both FMUs, each with its probe-velocity error against the full SPH, and the SPH's against exact
+    assert "FMU frozen" in text and "FMU exact" in text and "probe v error against the full SPH" in text
+    import csv
+    with open(out / "bench_fmu_e2e.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    assert {r["model"] for r in rows} == {"frozen", "exact"}
+    for r in rows:
+        assert 0 < float(r["probe_error_v_vs_sph"]) < 1

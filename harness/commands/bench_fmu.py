@@ -62,18 +62,30 @@ def run(args):
     print(f"  target <= 150 ns/step: {target} it")
     if e2e is not None:
         print(f"\nend to end: {e2e['scene']} (N = {e2e['n']}, T = {e2e['T']:g} s, {e2e['internal_steps']} internal "
-              f"steps of {e2e['dt']:g} s, k_v = {e2e['k_v']}, k_rho = {e2e['k_rho']}), fmpy {e2e['fmpy']}")
+              f"steps of {e2e['dt']:g} s), fmpy {e2e['fmpy']}")
+        sph_err = e2e["sph"]["probe_error_v_vs_exact"]
         print(f"  full SPH (run_sph, numba): {e2e['sph']['call_s']:.3f} s per run "
-              f"({e2e['sph']['loop_s']:.3f} s in its time loop)")
+              f"({e2e['sph']['loop_s']:.3f} s in its time loop); probe v error against exact: "
+              + ("—" if sph_err is None else f"{sph_err:.3e}"))
         for r in e2e["rows"]:
-            print(f"  FMU, {r['step_s'] * 1e3:g} ms steps ({r['doSteps']} doSteps): {r['fmu_e2e_s']:.4f} s "
-                  f"-> {r['speedup']:.1f}x faster than the full SPH ({r['speedup_vs_loop']:.1f}x vs its loop alone)")
-            print(f"    where the time goes: fixed cost of simulate_fmu (extract, load, instantiate, free) "
-                  f"{r['fixed_s']:.4f} s, core {r['core_s']:.4f} s, fmpy {r['us_per_doStep_fmpy']:.1f} us per "
-                  f"doStep (of which the bare doStep call through ctypes {r['us_per_doStep_bare_call']:.1f} us)")
-        first = e2e["rows"][0]
-        verdict = "meets" if first["speedup"] >= 50 else "misses"
-        print(f"  target >= 50x at {first['step_s'] * 1e3:g} ms: {verdict} it ({first['speedup']:.1f}x)")
+            err = r["probe_error_v_vs_sph"]
+            print(f"  FMU {r['model']} (k_v = {r['k_v']}, k_rho = {r['k_rho']}), {r['step_s'] * 1e3:g} ms steps "
+                  f"({r['doSteps']} doSteps): {r['fmu_e2e_s']:.4f} s -> {r['speedup']:.1f}x faster than the full SPH "
+                  f"({r['speedup_vs_loop']:.1f}x vs its loop alone)"
+                  + ("" if err is None else f"; probe v error against the full SPH {err:.3e}"))
+            if r["model"] == "frozen":
+                print(f"    where the time goes: fixed cost of simulate_fmu (extract, load, instantiate, free) "
+                      f"{r['fixed_s']:.4f} s, core {r['core_s']:.4f} s, fmpy {r['us_per_doStep_fmpy']:.1f} us per "
+                      f"doStep (of which the bare doStep call through ctypes {r['us_per_doStep_bare_call']:.1f} us)")
+        for model in dict.fromkeys(r["model"] for r in e2e["rows"]):
+            first = next(r for r in e2e["rows"] if r["model"] == model)
+            verdict = "meets" if first["speedup"] >= 50 else "misses"
+            accuracy = ""
+            if first["probe_error_v_vs_sph"] is not None and sph_err is not None:
+                below = first["probe_error_v_vs_sph"] < sph_err
+                accuracy = f", at a probe v error {'below' if below else 'above'} the SPH's"
+            print(f"  target >= 50x at {first['step_s'] * 1e3:g} ms, FMU {model}: {verdict} it "
+                  f"({first['speedup']:.1f}x{accuracy})")
     if out is not None:
         with open(out / "bench_fmu_core.csv", "w", newline="") as fh:
             w = csv.DictWriter(fh, fieldnames=list(core[0]))

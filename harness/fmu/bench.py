@@ -98,11 +98,15 @@ def core_rows(base, sizes, k=BENCH_K, n_freeze=BENCH_FREEZE, n_steps=200_000, re
     return rows
 
 
-def _simulate(path, stop_time, step):
+def _simulate(path, stop_time, step, keep=None):
+    """Wall time [s] of fmpy.simulate_fmu; the result goes into ``keep`` (a list) when given."""
     import fmpy
     t0 = time.perf_counter()
-    fmpy.simulate_fmu(str(path), stop_time=stop_time, output_interval=step)
-    return time.perf_counter() - t0
+    result = fmpy.simulate_fmu(str(path), stop_time=stop_time, output_interval=step)
+    wall = time.perf_counter() - t0
+    if keep is not None:
+        keep.append(result)
+    return wall
 
 
 def _bare_calls(unzipdir, md, n_calls, h):
@@ -124,11 +128,49 @@ def _bare_calls(unzipdir, md, n_calls, h):
     return wall
 
 
-def end_to_end(scene_name="tenmode", steps=(0.01, 0.001), repeats=5, k=None, progress=False, bar=None, workdir=None):
+def probe_errors(scene, problem, result, probes, step):
+    """Relative L² errors over the run of an FMU's probe velocities (a fmpy.simulate_fmu result).
+
+    Against the full SPH interpolated linearly at the probes (as the FMU interpolates its reduced
+    field), sampled at the same communication points, and of that SPH against the exact solution
+    at the probes when the scene has one.  Returns (fmu vs SPH, SPH vs exact or None).
+    """
+    from ..norms import relative_l2
+    from ..references.exact import exact_solution, is_available
+    from ..sph.solver import run_sph, step_count
+    from .resources import probe_pairs
+
+    n = step_count(scene.T, scene.sph.dt)
+    m = int(round(step / scene.sph.dt))
+    sph = run_sph(scene, sample_steps=np.arange(0, n + 1, m), progress=False, problem=problem)
+    i0, i1, w = probe_pairs(problem.x, scene.L, probes)
+    v_sph = sph.v[:, i0] * (1.0 - w) + sph.v[:, i1] * w
+    names = [f"v_probe_{j + 1}" for j in range(len(probes))]
+    t = np.asarray(result["time"])
+    v_fmu = np.column_stack([result[name] for name in names])
+    rows = np.searchsorted(t, sph.t - 1e-12 * max(1.0, scene.T))
+    if np.any(np.abs(t[np.minimum(rows, t.size - 1)] - sph.t) > 1e-9 * max(1.0, scene.T)):
+        raise ValueError("the FMU's communication points are not the SPH samples")
+    e_fmu = relative_l2(v_fmu[rows], v_sph, sph.t)
+    e_sph = None
+    if is_available(scene):
+        v_ex, _ = exact_solution(scene, np.asarray(probes, float) * scene.L, sph.t)
+        e_sph = relative_l2(v_sph, v_ex, sph.t)
+    return e_fmu, e_sph
+
+
+def end_to_end(scene_name="tenmode", steps=(0.01, 0.001), repeats=5, k=None, progress=False, bar=None, workdir=None,
+               models=("frozen", "exact")):
     """End-to-end FMU time (fmpy.simulate_fmu) beside the full SPH of the same scene.
 
-    Returns a dict with ``rows`` (one per communication step), ``sph`` (full
-    SPH medians) and ``scene`` facts.
+    For each model (the frozen FMU, the product's default, and the exact linear one) and each
+    communication step: the median wall time of ``fmpy.simulate_fmu`` over the scene's horizon,
+    the ratio to the full SPH (numba, :func:`harness.sph.solver.run_sph`) timed in the same run,
+    and, at the first step, the probe-velocity error against the full SPH (:func:`probe_errors`).
+    For the frozen model also where the time goes (fixed cost, core, per doStep).
+
+    Returns a dict with ``rows`` (one per model and communication step), ``sph`` (full SPH medians,
+    its probe error against the exact solution) and ``scene`` facts.
     """
     import fmpy
     from fmpy import extract, read_model_description
@@ -144,40 +186,52 @@ def end_to_end(scene_name="tenmode", steps=(0.01, 0.001), repeats=5, k=None, pro
     problem = build_problem(scene)
     n_internal = step_count(scene.T, scene.sph.dt)
     binaries = ensure_binaries()
+    rows, summaries, sph_probe_error = [], {}, None
     with tempfile.TemporaryDirectory(dir=workdir) as tmp:
-        path = Path(tmp) / f"{scene.name}.fmu"
-        summary = package_fmu(scene, path, k=k, fmi=2, progress=progress, binaries=binaries, problem=problem)
-        md = read_model_description(str(path))
-        unzipdir = extract(str(path), unzipdir=str(Path(tmp) / "unzipped"))
-        # the core alone, same model, same internal steps
-        data, *_ = reduced_model(scene, summary.k, summary.n_freeze, summary.probes, summary.integrator,
-                                 progress=False, problem=problem)
-        model = Core(binaries.core).load(pack(data))
-        core_times = []
-        for _ in range(repeats):
-            model.reset()
-            t0 = time.perf_counter()
-            model.advance(n_internal)
-            core_times.append(time.perf_counter() - t0)
-        model.close()
-        core_time = _median(core_times)
-        fixed = _median([_simulate(path, min(steps), min(steps)) for _ in range(repeats)])
-        # the bare call: doSteps of one internal step each, minus the core's time for those steps
-        n_calls = 20_000
-        bare = _median([_bare_calls(unzipdir, md, n_calls, scene.sph.dt) for _ in range(repeats)])
-        bare_us = (bare - n_calls * core_time / n_internal) / n_calls * 1e6
-        rows = []
-        for h in steps:
-            _simulate(path, scene.T, h)                          # warm (page cache, imports)
-            e2e = [_simulate(path, scene.T, h) for _ in range(repeats)]
-            n_comm = int(round(scene.T / h))
-            e2e_m = _median(e2e)
-            rows.append({"step_s": h, "doSteps": n_comm, "internal_steps": n_internal,
-                         "fmu_e2e_s": e2e_m, "fmu_e2e_min_s": min(e2e), "fixed_s": fixed, "core_s": core_time,
-                         "us_per_doStep_fmpy": (e2e_m - fixed - core_time) / n_comm * 1e6,
-                         "us_per_doStep_bare_call": bare_us})
-            if bar is not None:
-                bar.update(1)
+        for model in models:
+            path = Path(tmp) / f"{scene.name}-{model}.fmu"
+            summary = package_fmu(scene, path, k=k, fmi=2, progress=progress, binaries=binaries, problem=problem,
+                                  model=model)
+            summaries[model] = summary
+            fixed = _median([_simulate(path, min(steps), min(steps)) for _ in range(repeats)])
+            core_time = bare_us = float("nan")
+            if model == "frozen":
+                md = read_model_description(str(path))
+                unzipdir = extract(str(path), unzipdir=str(Path(tmp) / f"unzipped-{model}"))
+                # the core alone, same model, same internal steps
+                data, *_ = reduced_model(scene, summary.k, summary.n_freeze, summary.probes, summary.integrator,
+                                         progress=False, problem=problem)
+                core_model = Core(binaries.core).load(pack(data))
+                core_times = []
+                for _ in range(repeats):
+                    core_model.reset()
+                    t0 = time.perf_counter()
+                    core_model.advance(n_internal)
+                    core_times.append(time.perf_counter() - t0)
+                core_model.close()
+                core_time = _median(core_times)
+                # the bare call: doSteps of one internal step each, minus the core's time for those steps
+                n_calls = 20_000
+                bare = _median([_bare_calls(unzipdir, md, n_calls, scene.sph.dt) for _ in range(repeats)])
+                bare_us = (bare - n_calls * core_time / n_internal) / n_calls * 1e6
+            for j, h in enumerate(steps):
+                kept = []
+                _simulate(path, scene.T, h, keep=kept)                # warm (page cache, imports); kept for errors
+                e2e = [_simulate(path, scene.T, h) for _ in range(repeats)]
+                n_comm = int(round(scene.T / h))
+                e2e_m = _median(e2e)
+                err = None
+                if j == 0:
+                    err, sph_err = probe_errors(scene, problem, kept[0], summary.probes, h)
+                    sph_probe_error = sph_err if sph_probe_error is None else sph_probe_error
+                rows.append({"model": model, "step_s": h, "doSteps": n_comm, "internal_steps": n_internal,
+                             "fmu_e2e_s": e2e_m, "fmu_e2e_min_s": min(e2e), "fixed_s": fixed, "core_s": core_time,
+                             "us_per_doStep_fmpy": (e2e_m - fixed - (0.0 if model == "exact" else core_time))
+                             / n_comm * 1e6,
+                             "us_per_doStep_bare_call": bare_us, "probe_error_v_vs_sph": err,
+                             "k_v": summary.k_v, "k_rho": summary.k_rho})
+                if bar is not None:
+                    bar.update(1)
     sph_loop, sph_call = [], []
     run_sph(scene, progress=False, problem=problem, sample_steps=[0, n_internal])      # compile/warm
     for _ in range(repeats):
@@ -187,14 +241,16 @@ def end_to_end(scene_name="tenmode", steps=(0.01, 0.001), repeats=5, k=None, pro
         sph_loop.append(result.wall_time)
         if bar is not None:
             bar.update(1)
-    sph = {"loop_s": _median(sph_loop), "call_s": _median(sph_call)}
+    sph = {"loop_s": _median(sph_loop), "call_s": _median(sph_call), "probe_error_v_vs_exact": sph_probe_error}
     for row in rows:
         row["sph_s"] = sph["call_s"]
         row["speedup"] = sph["call_s"] / row["fmu_e2e_s"]
         row["speedup_vs_loop"] = sph["loop_s"] / row["fmu_e2e_s"]
+    first = summaries.get("frozen") or next(iter(summaries.values()))
     return {"rows": rows, "sph": sph, "scene": scene.name, "n": scene.sph.n_particles, "T": scene.T,
-            "dt": scene.sph.dt, "internal_steps": n_internal, "k_v": summary.k_v, "k_rho": summary.k_rho,
-            "n_freeze": summary.n_freeze, "fmpy": fmpy.__version__, "repeats": repeats}
+            "dt": scene.sph.dt, "internal_steps": n_internal, "k_v": first.k_v, "k_rho": first.k_rho,
+            "n_freeze": first.n_freeze, "fmpy": fmpy.__version__, "repeats": repeats,
+            "probes": list(first.probes)}
 
 
 # ---------------------------------------------------------------------------
@@ -513,23 +569,33 @@ def sph_step_rows(base="tenmode", n=400, k=BENCH_K, n_freeze=BENCH_FREEZE, n_ste
             "ratio": sph_ns / frozen["ns_per_step"], "k_v": frozen["k_v"], "k_rho": frozen["k_rho"]}
 
 
-def markdown(core, e2e):
+def markdown(core, e2e, heading="##"):
     """The two tables as Markdown text."""
-    lines = ["## C core: ns per internal step (k = %d, n_freeze = %d)" % (core[0]["k"], core[0]["n_freeze"]), "",
-             "| N | k_v | k_rho | ns/step (median) | min | max |", "| ---: | ---: | ---: | ---: | ---: | ---: |"]
+    lines = [f"{heading} C core: ns per internal step (k = %d, n_freeze = %d)" % (core[0]["k"], core[0]["n_freeze"]),
+             "", "| N | k_v | k_rho | ns/step (median) | min | max |", "| ---: | ---: | ---: | ---: | ---: | ---: |"]
     for r in core:
         lines.append(f"| {r['n']} | {r['k_v']} | {r['k_rho']} | {r['ns_per_step']:.1f} | {r['ns_min']:.1f} | "
                      f"{r['ns_max']:.1f} |")
     if e2e is not None:
-        lines += ["", f"## End to end: {e2e['scene']} (N = {e2e['n']}, T = {e2e['T']:g} s, "
-                      f"{e2e['internal_steps']} internal steps, k_v = {e2e['k_v']}, k_rho = {e2e['k_rho']})", "",
+        sph_err = e2e["sph"].get("probe_error_v_vs_exact")
+        lines += ["", f"{heading} End to end through fmpy.simulate_fmu: {e2e['scene']} (N = {e2e['n']}, "
+                      f"T = {e2e['T']:g} s, {e2e['internal_steps']} internal steps, k_v = {e2e['k_v']}, "
+                      f"k_rho = {e2e['k_rho']}, probes x/L = {', '.join(f'{p:g}' for p in e2e['probes'])})", "",
                   f"Full SPH (run_sph, numba, same run): {e2e['sph']['call_s']:.3f} s per run "
-                  f"({e2e['sph']['loop_s']:.3f} s in its time loop).", "",
-                  "| comm. step | doSteps | FMU via fmpy.simulate_fmu [s] | speed-up vs full SPH | fixed cost [s] | "
-                  "core [s] | fmpy per doStep [µs] | bare doStep call [µs] |",
-                  "| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+                  f"({e2e['sph']['loop_s']:.3f} s in its time loop); its probe-velocity error against the exact "
+                  f"solution: {'—' if sph_err is None else format(sph_err, '.3e')}. Each FMU time is the whole "
+                  "`fmpy.simulate_fmu` call (extract, load, instantiate, loop, record, free); the probe error is "
+                  "the FMU's probe velocities against the full SPH interpolated at the probes (relative L² over "
+                  "the run, input held), at the first communication step.", "",
+                  "| model | comm. step | doSteps | FMU [s] | speed-up vs full SPH | probe v error vs SPH | "
+                  "fixed cost [s] | core [s] | fmpy per doStep [µs] | bare doStep call [µs] |",
+                  "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+
+        def f(x, spec):
+            return "—" if x is None or (isinstance(x, float) and np.isnan(x)) else format(x, spec)
         for r in e2e["rows"]:
-            lines.append(f"| {r['step_s'] * 1e3:g} ms | {r['doSteps']} | {r['fmu_e2e_s']:.4f} | "
-                         f"{r['speedup']:.1f}x | {r['fixed_s']:.4f} | {r['core_s']:.4f} | "
-                         f"{r['us_per_doStep_fmpy']:.1f} | {r['us_per_doStep_bare_call']:.1f} |")
+            lines.append(f"| {r.get('model', 'frozen')} | {r['step_s'] * 1e3:g} ms | {r['doSteps']} | "
+                         f"{r['fmu_e2e_s']:.4f} | {r['speedup']:.1f}x | {f(r.get('probe_error_v_vs_sph'), '.3e')} | "
+                         f"{r['fixed_s']:.4f} | {f(r['core_s'], '.4f')} | {r['us_per_doStep_fmpy']:.1f} | "
+                         f"{f(r['us_per_doStep_bare_call'], '.1f')} |")
     return "\n".join(lines) + "\n"
