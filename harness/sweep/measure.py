@@ -28,11 +28,14 @@ import shutil
 import statistics
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
 
 from .table import finite, read_results
+
+LOADS = []       # CPU used by other processes during each sweep run [cores]
 
 
 def _cpu():
@@ -45,9 +48,27 @@ def _cpu():
     return platform.processor() or "unknown"
 
 
+def _busy():
+    """CPU seconds the whole machine has been busy (/proc/stat; nan elsewhere)."""
+    try:
+        values = [int(v) for v in Path("/proc/stat").read_text().splitlines()[0].split()[1:9]]
+        return (sum(values) - values[3] - values[4]) / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError):
+        return float("nan")
+
+
+def _children_cpu():
+    import resource
+    ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return ru.ru_utime + ru.ru_stime
+
+
 def _sweep(spec, workers, out):
     cmd = ["sphrom", "sweep", str(spec), "--workers", str(workers), "--out", str(out), "--quiet"]
+    busy, mine, t0 = _busy(), _children_cpu(), time.perf_counter()
     done = subprocess.run(cmd, capture_output=True, text=True)
+    # the CPU the rest of the machine used meanwhile, in cores: busy time less this run's own processes
+    LOADS.append(((_busy() - busy) - (_children_cpu() - mine)) / (time.perf_counter() - t0))
     if done.returncode != 0:
         raise SystemExit(f"{' '.join(cmd)} failed ({done.returncode}): {done.stderr.strip()}")
     rows, attrs = read_results(out)
@@ -92,7 +113,7 @@ def main(argv=None):
             path.unlink(missing_ok=True)
             rows, attrs, cmd = _sweep(args.spec, w, path)
             commands.setdefault(w, cmd.replace(str(path), "RESULTS.h5"))
-            runs[w].append({"throughput": float(attrs["throughput_runs_per_s"]),
+            runs[w].append({"throughput": float(attrs["throughput_runs_per_s"]), "load": LOADS[-1],
                             "compute": float(attrs["compute_wall_s"]), "start": float(attrs["cluster_start_s"]),
                             "ok": int(attrs["ok"]), "failed": int(attrs["failed"]), "path": path,
                             "fmu": statistics.median(r_["fmu_wall_s"] for r_ in rows if r_["status"] == "ok"),
@@ -166,16 +187,19 @@ def report(spec, sph_spec, runs, commands, sph_rows, sph_attrs, sph_cmd, started
         "submitted to last result; FMU loading on each worker included, cluster start-up not).  The client and "
         "the scheduler share the same cores as the workers.")
     add("")
+    add(f"The last column is the CPU that other processes used during each run, in cores (of {os.cpu_count()}): "
+        "the machine's busy time (/proc/stat) less the CPU time of the run's own processes.")
+    add("")
     add("| workers | runs | throughput per repeat [runs/s] | median [runs/s] | speed-up | median FMU run "
-        "[ms] | median task [ms] | cluster start [s] |")
-    add("| --- | --- | --- | --- | --- | --- | --- | --- |")
+        "[ms] | median task [ms] | cluster start [s] | other work [cores] |")
+    add("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for w in workers:
         rs = runs[w]
         med = statistics.median(x["throughput"] for x in rs)
         add(f"| {w} | {rs[0]['ok'] + rs[0]['failed']} ({rs[0]['failed']} failed) | "
             f"{', '.join('%.2f' % x['throughput'] for x in rs)} | **{med:.2f}** | {med / base:.2f} | "
             f"{1e3 * statistics.median(x['fmu'] for x in rs):.0f} | {1e3 * statistics.median(x['task'] for x in rs):.0f} | "
-            f"{statistics.median(x['start'] for x in rs):.1f} |")
+            f"{statistics.median(x['start'] for x in rs):.1f} | {', '.join('%.2f' % x['load'] for x in rs)} |")
     add("")
     add(f"The FMU run is the reset, the initialization and the co-simulation loop ({spec.steps} doStep calls "
         "through fmpy, with the frozen model's internal steps of the scene's dt inside); the task adds the "
@@ -207,6 +231,8 @@ def report(spec, sph_spec, runs, commands, sph_rows, sph_attrs, sph_cmd, started
         "sub-grid only.  Run once, in the same session as the table above:")
     add("")
     add(f"    {sph_cmd}")
+    add("")
+    add(f"(other work during it: {LOADS[-1]:.2f} cores)")
     add("")
     add("| compared runs | median FMU run [ms] | median full SPH run [ms] | speed ratio SPH / FMU | whole "
         "study [runs/s] | median error of v | max error of v | median error of rho - rho0 |")
