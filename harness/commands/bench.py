@@ -21,6 +21,9 @@ def add_parser(sub):
     p.add_argument("--scaling-ks", default=",".join(map(str, KS_SCALING)),
                    help="comma-separated mode counts of the cost-against-k table at N = 400")
     p.add_argument("--no-fmu", action="store_true", help="skip the FMU entries")
+    p.add_argument("--no-stress", action="store_true", help="leave the stress maps out of the report")
+    p.add_argument("--fmu-scene", default="tenmode", metavar="SCENE",
+                   help="scene of the FMU end-to-end table (default tenmode, the issue's headline)")
     p.add_argument("--out", default="validation/benchmarks", metavar="DIR", help="folder for CSV and PNG files")
     p.add_argument("--report", metavar="FILE.md", nargs="?", const="BENCHMARKS.md",
                    help="also write the Markdown report (default BENCHMARKS.md)")
@@ -58,6 +61,7 @@ def run(args):
     from ..rom.operators import INPUT_TOLERANCE
     from ..errors import UserError
     from ..progress import progress_bar
+    from ..report.markdown import write_text
     from ..scene import load_scene
 
     scenes = [load_scene(s) for s in (args.scenes or DEFAULT_SCENES)]
@@ -94,6 +98,19 @@ def run(args):
     directions = []
     for scene in scenes:
         directions += input_direction_rows(scene)
+    fmu_md, headline = [], []
+    if not args.no_fmu:
+        fmu_md, headline = _fmu_section(args, out)
+    stress_md = []
+    if args.report and not args.no_stress:
+        from .stress import DEFAULT_SCENES as STRESS_SCENES
+        from .stress import stress_report
+        from ..bench import stress as st
+        text, _ = stress_report([load_scene(s) for s in STRESS_SCENES], list(st.AMPLITUDES), [10.0, 100.0, 1000.0],
+                                [4, 8, 12, 20, 40, 100], st.DT_FACTORS, out / "stress", no_fmu=args.no_fmu,
+                                command="sphrom bench --report (the stress maps of sphrom stress)")
+        (out / "stress" / "stress.md").write_text(text)
+        stress_md = ["#" + line if line.startswith("#") else line for line in text.splitlines()]
     wall = time.perf_counter() - started
 
     fields = ["scene", "method", "k", "n_freeze", "online_s", "offline_s", "speedup", "err_v_sph", "err_rho_sph",
@@ -123,6 +140,8 @@ def run(args):
           "of eq. 3.4); reduced models against the full SPH, the full SPH against the reference (exact, or a "
           "continuum reference for heterogeneous); ρ errors of ρ − ρ0. Online = the time loop; offline = SPH run for "
           "the snapshots, SVD and operators.", ""]
+    if headline:
+        md += ["## Headline", ""] + headline + [""]
     md += ["## CPU saving of the frozen model against the full SPH (n_freeze = 10)", "",
            "| scene | ours, per k | paper (\"up to\") |", "| --- | --- | --- |"]
     for scene, rows_s in savings:
@@ -185,9 +204,10 @@ def run(args):
                 md.append(f"| {scene.name} | {a['k']} | {100 * a['input_error']:.2g} % | {_fmt(a['err_v'])} | "
                           f"{_fmt(a['err_rho'])} | {_fmt(b['err_v'])} | {_fmt(b['err_rho'])} | {a['fmu_rule']} |")
         md.append("")
-    (out / "bench.md").write_text("\n".join(md) + "\n")
+    md += fmu_md + [""] + stress_md
+    write_text(out / "bench.md", "\n".join(md) + "\n")
     if args.report:
-        Path(args.report).write_text("\n".join(md) + "\n")
+        write_text(Path(args.report), "\n".join(md) + "\n")
     for scene, by_k in savings:
         paper = scene.paper.get("cpu_saving")
         print(f"{scene.name}: frozen (n_freeze = 10) saves " + ", ".join(f"{100 * v:.0f} % (k = {k})" for k, v in
@@ -196,3 +216,51 @@ def run(args):
     print(f"wrote {out}/bench.csv, scaling.csv, skip.csv, bench.md and plots" +
           (f"; report {args.report}" if args.report else "") + f" ({wall:.0f} s)")
     return 0
+
+
+def _fmu_section(args, out):
+    """The FMU's own tables (end to end through fmpy.simulate_fmu, the C core against N, the same-language
+    ratio at N = 400) as Markdown lines, and the headline sentences; CSV files into ``out``."""
+    import csv
+
+    from ..fmu.bench import core_rows, end_to_end, markdown, sph_step_rows
+    from ..progress import progress_bar
+
+    repeats = max(5, args.repeats)
+    with progress_bar(total=4 + repeats + 3, desc="FMU", enabled=True) as bar:
+        e2e = end_to_end(args.fmu_scene, steps=(0.01, 0.001), repeats=repeats, bar=bar)
+        core = core_rows(args.fmu_scene, [100, 400, 1600], repeats=repeats, bar=bar)
+        same = sph_step_rows(args.fmu_scene, n=400, repeats=repeats)
+        bar.update(1)
+    with open(out / "fmu_e2e.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(e2e["rows"][0]))
+        w.writeheader()
+        w.writerows(e2e["rows"])
+    with open(out / "fmu_core.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(core[0]))
+        w.writeheader()
+        w.writerows(core)
+    lines = ["## The FMU", "", markdown(core, e2e, heading="###"),
+             f"### Same language: the C frozen step against the C full-SPH step (N = {same['n']})", "",
+             f"`fmu_src/rom.c` at k = {same['k']} (k_v = {same['k_v']}, k_ρ = {same['k_rho']}), n_freeze = "
+             f"{same['n_freeze']}: {same['frozen_ns']:.0f} ns per step; `fmu_src/sph.c` (eqs. 2.10-2.11, explicit "
+             f"Euler): {same['sph_ns']:.0f} ns per step; ratio **{same['ratio']:.1f}×** (target ≥ 10×). Medians of "
+             f"{repeats}.", ""]
+    sph_err = e2e["sph"]["probe_error_v_vs_exact"]
+    head = []
+    for r in e2e["rows"]:
+        if r["step_s"] != 0.01:
+            continue
+        err = r["probe_error_v_vs_sph"]
+        cond = ("—" if err is None or sph_err is None else
+                f"probe v error against the full SPH {err:.2e}, "
+                f"{'below' if err < sph_err else '**above**'} the full SPH's own error against exact ({sph_err:.2e})")
+        head.append(f"- {e2e['scene']}, FMU {r['model']} through `fmpy.simulate_fmu` at 10 ms: {r['fmu_e2e_s']:.4f} s "
+                    f"for T = {e2e['T']:g} s against {e2e['sph']['call_s']:.3f} s for the Python full SPH (numba) in "
+                    f"the same run: **{r['speedup']:.1f}×** (target ≥ 50×); {cond}.")
+    head.append(f"- C frozen step against the C full-SPH step at N = {same['n']}: **{same['ratio']:.1f}×** "
+                f"({same['frozen_ns']:.0f} ns against {same['sph_ns']:.0f} ns; target ≥ 10×).")
+    head.append("- C core per internal step at k = 12, n_freeze = 10: "
+                + ", ".join(f"{r['ns_per_step']:.0f} ns (N = {r['n']})" for r in core) + " (target ≤ 150 ns, "
+                "independent of N).")
+    return lines, head

@@ -64,15 +64,26 @@ def run(args):
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise UserError(f"--out: cannot create '{out}' ({exc})") from None
-    fmu = _fmu_stress(args.no_fmu)
+    text, wall = stress_report(scenes, amps, horizons, ks, factors, out, no_fmu=args.no_fmu, quick=args.quick)
+    (out / "stress.md").write_text(text)
+    print(f"wrote {out}/stress.md, stress_*.csv and a heat map per scene ({wall:.0f} s)")
+    return 0
+
+
+def stress_report(scenes, amps, horizons, ks, factors, out, no_fmu=False, quick=False, command=None):
+    """Run the stress maps of ``scenes`` (CSV and PNG into ``out``); return (Markdown text, wall time [s]).
+
+    ``command`` is the command line quoted in the text (default the ``sphrom stress`` one).
+    """
+    fmu = _fmu_stress(no_fmu)
     try:
-        return _run(args, scenes, amps, horizons, ks, factors, out, fmu)
+        return _stress(scenes, amps, horizons, ks, factors, out, fmu, quick, command)
     finally:
         if fmu is not None:
             fmu.close()
 
 
-def _run(args, scenes, amps, horizons, ks, factors, out, fmu):
+def _stress(scenes, amps, horizons, ks, factors, out, fmu, quick, command):
     import csv
     import time
 
@@ -85,8 +96,8 @@ def _run(args, scenes, amps, horizons, ks, factors, out, fmu):
         extra = stress_runners(fmu)
     started = time.perf_counter()
     md = ["# Stability stress maps", "",
-          f"Produced by `sphrom stress {' '.join(s.name for s in scenes)}"
-          + (" --quick" if args.quick else "") + "`. Outcomes: stable (energy never above 1.1× its start), growing, "
+          "Produced by `" + (command or f"sphrom stress {' '.join(s.name for s in scenes)}"
+                             + (" --quick" if quick else "")) + "`. Outcomes: stable (energy never above 1.1× its start), growing, "
           "unphysical (ρ ≤ 0 / J ≤ 0 reached: compression beyond the physical limit), blow-up (the method's own "
           "check fired: non-finite, non-positive density, runaway; the FMU returns an error status). Δt* = 2/ω_max is "
           "the explicit limit of the full SPH operator (ω_max Δt < 2 for the Euler schemes, 2√2 for RK4). Reduced "
@@ -150,7 +161,6 @@ def _run(args, scenes, amps, horizons, ks, factors, out, fmu):
             w = csv.DictWriter(fh, fieldnames=keys)
             w.writeheader()
             w.writerows(rows)
-    md[2] += f" Wall time {time.perf_counter() - started:.0f} s."
-    (out / "stress.md").write_text("\n".join(md) + "\n")
-    print(f"wrote {out}/stress.md, stress_*.csv and a heat map per scene ({time.perf_counter() - started:.0f} s)")
-    return 0
+    wall = time.perf_counter() - started
+    md[2] += f" Wall time {wall:.0f} s."
+    return "\n".join(md) + "\n", wall
