@@ -30,12 +30,13 @@ def test_bench_command_smoke(tmp_path, monkeypatch):
     scene_file.write_text(small_scene("multimode", T=0.5, n=24, every=25).text)
     out = tmp_path / "bench"
     report = tmp_path / "B.md"
-    assert main(["bench", str(scene_file), "--repeats", "1", "--sizes", "50,100", "--scaling-ks", "4,8", "--no-fmu",
+    assert main(["bench", str(scene_file), "--repeats", "1", "--sizes", "50,100", "--scaling-ks", "4,8",
+                 "--sph-sizes", "50,100", "--no-fmu",
                  "--no-stress", "--out", str(out), "--report", str(report)]) == 0
     text = report.read_text()
     assert "CPU saving of the frozen model" in text and "Cost per step against N" in text
     assert "Cost per step against k" in text and (out / "scaling_k.png").stat().st_size > 1000
-    assert "How the force direction enters the frozen model" in text
+    assert "How the force direction enters the frozen model" in text and "The full SPH step against N" in text
     with open(out / "input_direction.csv") as fh:
         choices = {r["choice"]: r for r in csv.DictReader(fh)}
     # multimode's v has zero mean: the modes miss the whole uniform profile, and appending adds one mode

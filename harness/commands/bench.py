@@ -20,6 +20,8 @@ def add_parser(sub):
     p.add_argument("--sizes", default="100,400,1600,6400,10000", help="particle counts of the scaling table")
     p.add_argument("--scaling-ks", default=",".join(map(str, KS_SCALING)),
                    help="comma-separated mode counts of the cost-against-k table at N = 400")
+    p.add_argument("--sph-sizes", default="100,400,10000,100000",
+                   help="particle counts of the full-SPH step table (as sphrom bench-sph)")
     p.add_argument("--no-fmu", action="store_true", help="skip the FMU entries")
     p.add_argument("--no-stress", action="store_true", help="leave the stress maps out of the report")
     p.add_argument("--fmu-scene", default="tenmode", metavar="SCENE",
@@ -98,6 +100,28 @@ def run(args):
     directions = []
     for scene in scenes:
         directions += input_direction_rows(scene)
+    from ..bench.sph_scaling import growth_exponent, scaling_table
+    try:
+        sph_sizes = [int(n) for n in args.sph_sizes.split(",")]
+    except ValueError:
+        raise UserError("--sph-sizes: comma-separated integers expected") from None
+    with progress_bar(total=len(sph_sizes) * 3, desc="full SPH step", enabled=True) as bar:
+        sph_steps = scaling_table("tenmode", sph_sizes, ["euler", "symplectic", "rk4"], args.repeats, bar)
+    with open(out / "sph_scaling.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(sph_steps[0]))
+        w.writeheader()
+        w.writerows(sph_steps)
+    sph_md = ["## The full SPH step against N (as `sphrom bench-sph`)", "",
+              "µs per step of the numba loop (one thread), tenmode's fields, medians of "
+              f"{args.repeats}; growth exponent of time against N for N ≥ 1000 (1 = linear). Target: ≤ 10 µs per "
+              "step at N = 400 (explicit Euler).", "",
+              "| integrator | " + " | ".join(f"N = {n}" for n in sph_sizes) + " | growth exponent |",
+              "| --- |" + " ---: |" * (len(sph_sizes) + 1)]
+    for integrator in ("euler", "symplectic", "rk4"):
+        cells = [next(f"{r['us_per_step']:.3g} µs" for r in sph_steps if r["integrator"] == integrator and r["n"] == n)
+                 for n in sph_sizes]
+        sph_md.append(f"| {integrator} | " + " | ".join(cells) + f" | {growth_exponent(sph_steps, integrator):.2f} |")
+    sph_md.append("")
     fmu_md, headline = [], []
     if not args.no_fmu:
         fmu_md, headline = _fmu_section(args, out)
@@ -204,7 +228,7 @@ def run(args):
                 md.append(f"| {scene.name} | {a['k']} | {100 * a['input_error']:.2g} % | {_fmt(a['err_v'])} | "
                           f"{_fmt(a['err_rho'])} | {_fmt(b['err_v'])} | {_fmt(b['err_rho'])} | {a['fmu_rule']} |")
         md.append("")
-    md += fmu_md + [""] + stress_md
+    md += sph_md + fmu_md + [""] + stress_md
     write_text(out / "bench.md", "\n".join(md) + "\n")
     if args.report:
         write_text(Path(args.report), "\n".join(md) + "\n")
