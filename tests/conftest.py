@@ -26,6 +26,14 @@ def small_scene(base="multimode", T=0.5, n=32, dt=None, integrator="euler", ever
     return derive_scene(load_scene(base), changes)
 
 
+def fmu_scene(case):
+    """The FMU tests' scenes. forced: damped_forced shrunk (d = 10, three-tone force); unforced: multimode shrunk
+    (d = f = 0)."""
+    if case == "forced":
+        return small_scene("damped_forced", T=0.5, n=32)
+    return small_scene("multimode", T=0.5, n=32)
+
+
 @pytest.fixture
 def tmp_out(tmp_path):
     return tmp_path

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from fmpy.fmi1 import FMICallException
 
-from conftest import small_scene
+from conftest import fmu_scene
 from harness.cli import main
 from harness.fmu.build import ensure_binaries
 from harness.fmu.fmi import VR_DT, VR_N_FREEZE, Slave
@@ -34,11 +34,7 @@ PROBES = (0.25, 0.5, 0.66)
 RTOL = 1e-12
 
 
-def scene_for(case):
-    """forced: damped_forced shrunk (d = 10, three-tone force); unforced: multimode shrunk."""
-    if case == "forced":
-        return small_scene("damped_forced", T=0.5, n=32)
-    return small_scene("multimode", T=0.5, n=32)
+scene_for = fmu_scene
 
 
 @pytest.fixture(scope="session")

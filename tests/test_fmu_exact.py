@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from fmpy.fmi1 import FMICallException
 
-from conftest import small_scene
+from conftest import fmu_scene
 from harness.fmu.build import ensure_binaries
 from harness.fmu.fmi import Slave
 from harness.fmu.package import exact_model, package_fmu
@@ -28,11 +28,7 @@ PROBES = (0.25, 0.5, 0.66)
 RTOL = 1e-11
 
 
-def scene_for(case):
-    """forced: damped_forced shrunk (d = 10, three-tone force); unforced: multimode shrunk (d = f = 0)."""
-    if case == "forced":
-        return small_scene("damped_forced", T=0.5, n=32)
-    return small_scene("multimode", T=0.5, n=32)
+scene_for = fmu_scene
 
 
 @pytest.fixture(scope="module")
