@@ -53,6 +53,8 @@ def test_scene_page_quotes_the_errors_of_independent_paths(tmp_path):
     assert all(max(ev, er) > 1e-4 for _, _, _, ev, er in refinement[:-1])
     assert len(refinement) == 3 or max(refinement[-1][3:]) <= 1e-4
     assert "refined together" in page
+    assert "The exact linear model (beyond the paper) against the original POD-MOR" in page
+    assert summary["exact_model"] and all(r["pure_v"] < 1 for r in summary["exact_model"])
     assert (tmp_path / scene.name / f"{scene.name}_modes_sweep.png").stat().st_size > 1000
 
 

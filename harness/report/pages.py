@@ -13,6 +13,7 @@ from ..pod.pipeline import error_steps
 from ..sph.solver import build_problem, run_sph
 from . import accuracy
 from .convergence import agreement_section, convergence_section
+from .exact_model import exact_section
 from .markdown import image, num, table, write_text
 from .reduced import pod_section
 
@@ -162,6 +163,8 @@ def scene_page(scene, out, repeats=3, progress=True, bar=None, convergence=None,
     pod_lines, pod = pod_section(scene, reference, img, stem, repeats=repeats, progress=progress)
     lines += pod_lines
     summary.update(pod)
+    exact_lines, summary["exact_model"] = exact_section(scene)
+    lines += exact_lines
     wall = time.perf_counter() - started
     summary["wall"] = wall
     lines += [f"Wall time of this page: {wall:.0f} s.", ""]
@@ -217,6 +220,17 @@ def index_page(summaries, out, command, wall):
                      "yes" if max(ev, er) <= target else "**no**"])
     lines += table(["scene", "scikit-fem", "py-pde", "v", "ρ − ρ0", "observed order (v / ρ−ρ0)", "within target"],
                    rows)
+    rows = []
+    for s in summaries:
+        for r in s.get("exact_model", []):
+            rows.append([s["scene"], r["k"], f"{num(r['orig_v'])} / {num(r['orig_rho'])}",
+                         f"{num(r['pure_v'])} / {num(r['pure_rho'])}", f"{num(r['time_v'])} / {num(r['time_rho'])}"])
+    if rows:
+        lines += ["## The exact linear model against the original POD-MOR", "",
+                  "POD errors (v / ρ − ρ0): the original against the full SPH (same Euler scheme), the exact model "
+                  "against the full SPH solved exactly in time; and the SPH's own time error. Details on each page.",
+                  ""]
+        lines += table(["scene", "k", "original", "exact", "SPH time error"], rows)
     conv = [(s["scene"], s["convergence"]) for s in summaries if "convergence" in s]
     if conv:
         lines += ["## Convergence against the exact solution (finest resolution)", ""]
