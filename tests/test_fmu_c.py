@@ -155,7 +155,8 @@ def test_resources_round_trip_and_token(packaged, binaries):
     assert md.guid == data.token
     assert fmpy.read_model_description(str(packaged[("forced", 3)])).instantiationToken == data.token
     assert data.D is not None and data.p is not None and data.integrator == "euler"
-    assert data.T.shape == (21, 6, 7) and data.Pv.shape == (3, 7)
+    # the POD modes hold the uniform force profile to within 1 %, so it is projected, not appended: k_v = k = 6
+    assert data.T.shape == (21, 6, 6) and data.Pv.shape == (3, 6)
     core = Core(binaries.core)
     assert core.lib.rom_crc32(blob, len(blob) - 4) == struct.unpack("<I", blob[-4:])[0]
     model = core.load(blob)
