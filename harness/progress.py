@@ -24,7 +24,7 @@ def progress_bar(total, desc, unit="it", enabled=True):
         yield _Null()
         return
     bar = tqdm(total=total, desc=desc, unit=unit, delay=2.0, file=sys.stderr, leave=False,
-               dynamic_ncols=True, unit_scale=True)
+               dynamic_ncols=True, unit_scale=bool(total and total >= 10_000))   # "200k" steps, "3/8" runs
     try:
         yield bar
     finally:
