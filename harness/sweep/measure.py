@@ -112,7 +112,7 @@ def main(argv=None):
             path = work / f"plain-w{w}-r{r}.h5"
             path.unlink(missing_ok=True)
             rows, attrs, cmd = _sweep(args.spec, w, path)
-            commands.setdefault(w, cmd.replace(str(path), "RESULTS.h5"))
+            commands.setdefault(w, cmd.replace(str(path), "RESULTS.h5").replace(str(root) + "/", ""))
             runs[w].append({"throughput": float(attrs["throughput_runs_per_s"]), "load": LOADS[-1],
                             "compute": float(attrs["compute_wall_s"]), "start": float(attrs["cluster_start_s"]),
                             "ok": int(attrs["ok"]), "failed": int(attrs["failed"]), "path": path,
@@ -123,7 +123,7 @@ def main(argv=None):
     sph_path = work / f"sph-w{wmax}.h5"
     sph_path.unlink(missing_ok=True)
     sph_rows, sph_attrs, sph_cmd = _sweep(args.sph_spec, wmax, sph_path)
-    sph_cmd = sph_cmd.replace(str(sph_path), "RESULTS.h5")
+    sph_cmd = sph_cmd.replace(str(sph_path), "RESULTS.h5").replace(str(root) + "/", "")
     finished = _dt.datetime.now(_dt.timezone.utc)
 
     shutil.copyfile(runs[wmax][0]["path"].with_suffix(".png"), out / "tenmode_forces.png")
