@@ -65,6 +65,10 @@ def test_stress_smoke_and_physics(tmp_path):
     assert main(["stress", "--quick", "--no-fmu", "--out", str(tmp_path), "--modes", "4,6", "--horizons", "2",
                  str(_scene_file(tmp_path, scene))]) == 0
     assert "Largest Δt" in (tmp_path / "stress.md").read_text()
+    # as `sphrom bench --report` calls it: into a folder that does not exist yet
+    from harness.commands.stress import stress_report
+    text, _ = stress_report([scene], [1], [2.0], [4], (0.5,), tmp_path / "new" / "stress", no_fmu=True)
+    assert "Largest Δt" in text and (tmp_path / "new" / "stress" / f"{scene.name}_stress.png").is_file()
 
 
 def test_skipped_terms_give_identical_results_in_every_solver():

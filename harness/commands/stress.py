@@ -75,6 +75,7 @@ def stress_report(scenes, amps, horizons, ks, factors, out, no_fmu=False, quick=
 
     ``command`` is the command line quoted in the text (default the ``sphrom stress`` one).
     """
+    out.mkdir(parents=True, exist_ok=True)
     fmu = _fmu_stress(no_fmu)
     try:
         return _stress(scenes, amps, horizons, ks, factors, out, fmu, quick, command)
