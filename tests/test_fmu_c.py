@@ -34,14 +34,17 @@ def binaries():
 
 @pytest.fixture(scope="session")
 def packaged(binaries, tmp_path_factory):
-    """FMI 2 and 3 FMUs of a forced damped scene and an unforced undamped one, with their resources folders."""
+    """FMI 2 and 3 FMUs of a forced damped scene and an unforced undamped one, with their resources folders;
+    ``exact-forced`` and ``exact-unforced``: the same scenes with the exact linear model (FMI 2 and resources)."""
     folder = tmp_path_factory.mktemp("c-fmus")
     out = {}
-    for case, scene in (("forced", small_scene("damped_forced", T=0.5, n=32)),
-                        ("unforced", small_scene("multimode", T=0.5, n=32))):
-        for fmi in (2, 3):
+    forced, unforced = small_scene("damped_forced", T=0.5, n=32), small_scene("multimode", T=0.5, n=32)
+    for case, scene, model, versions in (("forced", forced, "frozen", (2, 3)), ("unforced", unforced, "frozen", (2, 3)),
+                                         ("exact-forced", forced, "exact", (2,)),
+                                         ("exact-unforced", unforced, "exact", (2,))):
+        for fmi in versions:
             path = folder / f"{case}{fmi}.fmu"
-            package_fmu(scene, path, k=6, fmi=fmi, progress=False, binaries=binaries)
+            package_fmu(scene, path, k=6, fmi=fmi, progress=False, binaries=binaries, model=model)
             out[(case, fmi)] = path
         resources = folder / f"{case}-resources"
         resources.mkdir()
@@ -99,7 +102,7 @@ def run_driver(driver, resources, scratch, env=None, scenarios=SCENARIOS):
     return proc.returncode, proc.stdout + proc.stderr
 
 
-@pytest.mark.parametrize("case", ["forced", "unforced"])
+@pytest.mark.parametrize("case", ["forced", "unforced", "exact-forced", "exact-unforced"])
 def test_c_driver_release(binaries, packaged, tmp_path, case):
     assert binaries.driver is not None
     rc, output = run_driver(binaries.driver, packaged[(case, "resources")], tmp_path / "scratch")
@@ -109,14 +112,15 @@ def test_c_driver_release(binaries, packaged, tmp_path, case):
 
 
 def test_c_driver_under_address_and_undefined_sanitizers(packaged, tmp_path):
-    """All scenarios, the bad-input ones and 1000 instantiate/free cycles included, clean under ASan+UBSan+LSan."""
+    """All scenarios, the bad-input ones and 1000 instantiate/free cycles included, clean under ASan+UBSan+LSan,
+    for both models (the exact one's exponentials and their cache included)."""
     if not sanitizers_available(tmp_path):
         pytest.skip("the C compiler cannot build and run -fsanitize=address,undefined programs")
     san = ensure_binaries(sanitize=True)
     assert san.driver is not None
     env = {"ASAN_OPTIONS": "detect_leaks=1:abort_on_error=0:halt_on_error=1:detect_stack_use_after_return=1",
            "UBSAN_OPTIONS": "halt_on_error=1:print_stacktrace=1"}
-    for case in ("forced", "unforced"):
+    for case in ("forced", "unforced", "exact-forced", "exact-unforced"):
         rc, output = run_driver(san.driver, packaged[(case, "resources")], tmp_path / f"scratch-{case}", env=env)
         assert rc == 0, output
         assert "AddressSanitizer" not in output and "LeakSanitizer" not in output and "runtime error" not in output
