@@ -17,7 +17,7 @@ from ..rom.common import run_reduced
 from ..rom.operators import build_operators
 from ..sph import kernels_numba as kn
 from ..sph.solver import METHODS, build_problem, step_count
-from .timing import median_time
+from .timing import median_times_interleaved
 
 
 def _sph_loop(problem, scene, n, general):
@@ -41,15 +41,15 @@ def _sph_loop(problem, scene, n, general):
     return go, state
 
 
-def skip_savings(scene, steps=20000, k=None, repeats=5, fmu=True):
+def skip_savings(scene, steps=20000, k=None, repeats=5, fmu=True, reduced_factor=10):
     """Rows (solver, specialised µs/step, general µs/step, saving) for ``scene``; ``fmu``: with the FMU's C core."""
     problem = build_problem(scene)
     n = min(steps, step_count(scene.T, scene.sph.dt))
+    n_rom = reduced_factor * n          # a reduced step costs a tenth of a full one or less: time more of them
     rows = []
     fast, sf = _sph_loop(problem, scene, n, general=False)
     slow, sg = _sph_loop(problem, scene, n, general=True)
-    t_fast, _ = median_time(fast, repeats)
-    t_slow, _ = median_time(slow, repeats)
+    t_fast, t_slow = median_times_interleaved([fast, slow], repeats)
     assert np.array_equal(sf["v"], sg["v"]) or not (problem.terms["damping"] or problem.terms["force_profile"])
     rows.append(("full SPH", 1e6 * t_fast / n, 1e6 * t_slow / n))
 
@@ -62,17 +62,17 @@ def skip_savings(scene, steps=20000, k=None, repeats=5, fmu=True):
                                   p=np.zeros(ops.k_v))
     for model in ("linearized", "frozen"):
         res = {}
+        steps_m = n if model == "linearized" else n_rom      # the linearized step costs O(N k), like a full one
 
         def run_with(o, key):
             def go():
-                res[key] = run_reduced(model, o, problem, n_steps=n, dt=scene.sph.dt, sample_steps=[n], n_freeze=10,
-                                       force=lambda t: np.zeros_like(t))
+                res[key] = run_reduced(model, o, problem, n_steps=steps_m, dt=scene.sph.dt, sample_steps=[steps_m],
+                                       n_freeze=10, force=lambda t: np.zeros_like(t))
             return go
-        tf, _ = median_time(run_with(ops, "fast"), repeats)
-        tg, _ = median_time(run_with(general, "slow"), repeats)
+        tf, tg = median_times_interleaved([run_with(ops, "fast"), run_with(general, "slow")], repeats)
         np.testing.assert_array_equal(res["fast"].a_v, res["slow"].a_v)
-        rows.append((f"{model} POD-MOR (k = {k})", 1e6 * tf / n, 1e6 * tg / n))
-    row = _fmu_core_rows(scene, problem, k, n, repeats) if fmu else None
+        rows.append((f"{model} POD-MOR (k = {k})", 1e6 * tf / steps_m, 1e6 * tg / steps_m))
+    row = _fmu_core_rows(scene, problem, k, reduced_factor * n_rom, repeats) if fmu else None
     if row is not None:
         rows.append(row)
     return [{"scene": scene.name, "solver": s, "specialised_us": a, "general_us": b, "saving": 1 - a / b}
@@ -98,17 +98,17 @@ def _fmu_core_rows(scene, problem, k, n, repeats):
     data, *_ = reduced_model(scene, k, 10, DEFAULT_PROBES, scene.sph.integrator, progress=False, problem=problem)
     general = dataclasses.replace(data, D=data.D if data.D is not None else np.zeros((data.k_v, data.k_v)),
                                   p=data.p if data.p is not None else np.zeros(data.k_v))
-    times, states = [], []
-    for d in (data, general):
-        model = core.load(pack(d))
-        try:
+    models = [core.load(pack(d)) for d in (data, general)]
+    try:
+        def runner(model):
             def go():
                 model.reset()
                 model.advance(n)
-            t, _ = median_time(go, repeats)
-            times.append(t)
-            states.append(model.reduced_state())
-        finally:
-            model.close()
+            return go
+        times = median_times_interleaved([runner(m) for m in models], repeats)
+        states = [m.reduced_state() for m in models]
+    finally:
+        for m in models:
+            m.close()
     np.testing.assert_array_equal(states[0], states[1])
     return (f"FMU core, C (k = {k})", 1e6 * times[0] / n, 1e6 * times[1] / n)
