@@ -47,6 +47,10 @@ def test_bench_command_smoke(tmp_path, monkeypatch):
     assert {r["method"] for r in rows} >= {"full SPH", "frozen (n_freeze = 10)"}
     assert np.isfinite(growth(rows, "full SPH"))
     assert (out / "multimode_time_error.png").stat().st_size > 5000
+    (out / "multimode_time_error.png").unlink()
+    assert main(["bench", "--replot", "--out", str(out)]) == 0               # from bench.csv, no timing
+    assert (out / "multimode_time_error.png").stat().st_size > 5000
+    assert main(["bench", "--replot", "--out", str(tmp_path / "none")]) == 2
 
 
 def test_stress_smoke_and_physics(tmp_path):

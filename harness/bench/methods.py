@@ -138,8 +138,9 @@ def plot_time_error(rows, path, title):
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.8))
-    markers = {"full SPH": "*", "original": "P", "linearized": "X", "frozen": "o", "exact": "D",
-               "FMU (fmpy)": "s", "FMU core (C)": "^"}
+    markers = {"full SPH": "*", "C full SPH": "p", "original": "P", "linearized": "X", "frozen": "o",
+               "exact": "D", "FMU (fmpy)": "s", "FMU exact (fmpy)": "h", "FMU core (C)": "^"}
+    full = ("full SPH", "C full SPH")           # plotted with their error against the reference
     for ax, key, ref_key, label in ((axes[0], "err_v_sph", "err_v_ref", "v"),
                                     (axes[1], "err_rho_sph", "err_rho_ref", "ρ − ρ0")):
         for method, marker in markers.items():
@@ -147,18 +148,18 @@ def plot_time_error(rows, path, title):
             if not sel:
                 continue
             for k in sorted({r["k"] for r in sel}):
-                pts = sorted([(r["online_s"], r[ref_key] if method == "full SPH" else r[key]) for r in sel
-                              if r["k"] == k and np.isfinite(r[ref_key] if method == "full SPH" else r[key])])
+                pts = sorted([(r["online_s"], r[ref_key] if method in full else r[key]) for r in sel
+                              if r["k"] == k and np.isfinite(r[ref_key] if method in full else r[key])])
                 if not pts:
                     continue
-                lab = method if method == "full SPH" else f"{method}, k = {k}"
+                lab = method if method in full else f"{method}, k = {k}"
                 ax.loglog(*zip(*pts), marker + ("--" if method == "frozen" else ""), ms=7, label=lab)
         ax.set_xlabel("online CPU time [s] (median)")
         ax.set_ylabel(f"relative L² error of {label}")
         ax.set_title(f"{title}: {label}", fontsize=10)
     axes[0].legend(fontsize=7)
-    fig.text(0.01, 0.01, "full SPH: error vs reference; reduced models: error vs full SPH (frozen: n_freeze "
-             "1 → 50 right to left)", fontsize=7)
+    fig.text(0.01, 0.01, "full SPH (numba, C): error vs reference; reduced models and FMUs: error vs full SPH "
+             "(frozen: n_freeze 1 → 50 right to left; FMUs through a scripted fmpy loop, 10 ms steps)", fontsize=7)
     fig.tight_layout(rect=(0, 0.04, 1, 1))
     fig.savefig(path, dpi=100)
     plt.close(fig)

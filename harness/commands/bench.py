@@ -27,6 +27,8 @@ def add_parser(sub):
     p.add_argument("--fmu-scene", default="tenmode", metavar="SCENE",
                    help="scene of the FMU end-to-end table (default tenmode, the issue's headline)")
     p.add_argument("--out", default="validation/benchmarks", metavar="DIR", help="folder for CSV and PNG files")
+    p.add_argument("--replot", action="store_true",
+                   help="only redraw the time-against-error plots from --out's bench.csv (no timing)")
     p.add_argument("--report", metavar="FILE.md", nargs="?", const="BENCHMARKS.md",
                    help="also write the Markdown report (default BENCHMARKS.md)")
     p.set_defaults(handler=run)
@@ -66,6 +68,8 @@ def run(args):
     from ..report.markdown import write_text
     from ..scene import load_scene
 
+    if args.replot:
+        return _replot(Path(args.out))
     scenes = [load_scene(s) for s in (args.scenes or DEFAULT_SCENES)]
     try:
         ks = [int(k) for k in args.ks.split(",")] if args.ks else None
@@ -288,3 +292,26 @@ def _fmu_section(args, out):
                 + ", ".join(f"{r['ns_per_step']:.0f} ns (N = {r['n']})" for r in core) + " (target ≤ 150 ns, "
                 "independent of N).")
     return lines, head
+
+
+def _replot(out):
+    """Redraw ``out``/<scene>_time_error.png from ``out``/bench.csv (the measured rows, unchanged)."""
+    import csv
+
+    from ..bench.methods import plot_time_error
+    from ..errors import UserError
+    path = out / "bench.csv"
+    if not path.is_file():
+        raise UserError(f"--replot: no {path} (run sphrom bench --out {out} first)")
+    rows = []
+    with open(path) as fh:
+        for r in csv.DictReader(fh):
+            for key in ("online_s", "offline_s", "speedup", "err_v_sph", "err_rho_sph", "err_v_ref", "err_rho_ref"):
+                r[key] = float(r[key]) if r[key] not in ("", "nan") else float("nan")
+            r["k"] = int(r["k"]) if r["k"] else None
+            r["n_freeze"] = int(r["n_freeze"]) if r["n_freeze"] else None
+            rows.append(r)
+    for scene in dict.fromkeys(r["scene"] for r in rows):
+        plot_time_error([r for r in rows if r["scene"] == scene], out / f"{scene}_time_error.png", scene)
+    print(f"redrew {out}/*_time_error.png from {path}")
+    return 0
