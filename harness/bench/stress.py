@@ -42,6 +42,8 @@ from ..sph.solver import build_problem, run_sph, stability, step_count
 
 DT_FACTORS = (0.1, 0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 2.0)
 AMPLITUDES = (1, 10, 100, 1000)
+HORIZONS = (10.0, 100.0, 1000.0)          # T [s] at the paper's Δt
+MODE_COUNTS = (4, 8, 12, 20, 40, 100)     # the k sweep (capped at the snapshot count)
 METHODS = ("sph-euler", "sph-symplectic", "sph-rk4", "original", "linearized", "frozen", "exact")
 
 
@@ -141,7 +143,7 @@ def dt_amplitude_map(ctx: Context, methods=METHODS, dt_factors=DT_FACTORS, ampli
     return rows
 
 
-def horizon_rows(ctx: Context, methods=METHODS, horizons=(10.0, 100.0, 1000.0), progress=None, extra=None):
+def horizon_rows(ctx: Context, methods=METHODS, horizons=HORIZONS, progress=None, extra=None):
     """Stability at the paper's Δt over long horizons."""
     rows = []
     for method in list(methods) + list(extra or {}):
@@ -154,7 +156,7 @@ def horizon_rows(ctx: Context, methods=METHODS, horizons=(10.0, 100.0, 1000.0), 
     return rows
 
 
-def modes_rows(ctx: Context, ks=(4, 8, 12, 20, 40, 100), methods=("original", "linearized", "frozen", "exact")):
+def modes_rows(ctx: Context, ks=MODE_COUNTS, methods=("original", "linearized", "frozen", "exact")):
     """Stability at the paper's Δt with k up to the number of snapshots."""
     rows = []
     rank = min(ctx.basis.max_modes)

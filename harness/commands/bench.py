@@ -134,8 +134,8 @@ def run(args):
         from .stress import DEFAULT_SCENES as STRESS_SCENES
         from .stress import stress_report
         from ..bench import stress as st
-        text, _ = stress_report([load_scene(s) for s in STRESS_SCENES], list(st.AMPLITUDES), [10.0, 100.0, 1000.0],
-                                [4, 8, 12, 20, 40, 100], st.DT_FACTORS, out / "stress", no_fmu=args.no_fmu,
+        text, _ = stress_report([load_scene(s) for s in STRESS_SCENES], list(st.AMPLITUDES), list(st.HORIZONS),
+                                list(st.MODE_COUNTS), st.DT_FACTORS, out / "stress", no_fmu=args.no_fmu,
                                 command="sphrom bench --report (the stress maps of sphrom stress)")
         (out / "stress" / "stress.md").write_text(text)
         stress_md = ["#" + line if line.startswith("#") else line for line in text.splitlines()]

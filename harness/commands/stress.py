@@ -12,9 +12,11 @@ def add_parser(sub):
                                    "blow-up, the time of blow-up and the energy drift. Writes a heat-map PNG per scene, "
                                    "CSV files and stress.md.")
     p.add_argument("scenes", nargs="*", metavar="SCENE")
-    p.add_argument("--amplitudes", default="1,10,100,1000", help="initial-amplitude factors")
-    p.add_argument("--horizons", default="10,100,1000", help="horizons T [s] at the paper's dt")
-    p.add_argument("--modes", default="4,8,12,20,40,100", help="mode counts of the k sweep")
+    from ..bench.stress import AMPLITUDES, HORIZONS, MODE_COUNTS
+    p.add_argument("--amplitudes", default=",".join(map(str, AMPLITUDES)), help="initial-amplitude factors")
+    p.add_argument("--horizons", default=",".join(f"{h:g}" for h in HORIZONS),
+                   help="horizons T [s] at the paper's dt")
+    p.add_argument("--modes", default=",".join(map(str, MODE_COUNTS)), help="mode counts of the k sweep")
     p.add_argument("--quick", action="store_true", help="a small sweep (a smoke run)")
     p.add_argument("--no-fmu", action="store_true", help="skip the FMU column")
     p.add_argument("--out", default="validation/stress", metavar="DIR")

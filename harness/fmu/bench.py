@@ -111,8 +111,8 @@ def _simulate(path, stop_time, step, keep=None):
 
 def _bare_calls(unzipdir, md, n_calls, h):
     """n_calls fmi2DoStep of length h on an extracted FMU, nothing else: the call cost through fmpy/ctypes."""
-    from fmpy.fmi2 import FMU2Slave
-    fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir, modelIdentifier="sphrom", instanceName="bench")
+    from .fmi import load_fmu
+    fmu = load_fmu(2, unzipdir, md.guid, "bench")
     fmu.instantiate()
     fmu.setupExperiment(startTime=0.0)
     fmu.enterInitializationMode()
@@ -128,13 +128,10 @@ def _bare_calls(unzipdir, md, n_calls, h):
     return wall
 
 
-def probe_errors(scene, problem, result, probes, step):
-    """Relative L² errors over the run of an FMU's probe velocities (a fmpy.simulate_fmu result).
-
-    Against the full SPH interpolated linearly at the probes (as the FMU interpolates its reduced
-    field), sampled at the same communication points, and of that SPH against the exact solution
-    at the probes when the scene has one.  Returns (fmu vs SPH, SPH vs exact or None).
-    """
+def sph_at_probes(scene, problem, probes, step):
+    """The full SPH sampled every ``step`` [s] and interpolated linearly at the probes (as the FMU interpolates
+    its reduced field): (t, v (M, P)), and the relative L² error of that v against the exact solution at the
+    probes when the scene has one (else None)."""
     from ..norms import relative_l2
     from ..references.exact import exact_solution, is_available
     from ..sph.solver import run_sph, step_count
@@ -144,19 +141,25 @@ def probe_errors(scene, problem, result, probes, step):
     m = int(round(step / scene.sph.dt))
     sph = run_sph(scene, sample_steps=np.arange(0, n + 1, m), progress=False, problem=problem)
     i0, i1, w = probe_pairs(problem.x, scene.L, probes)
-    v_sph = sph.v[:, i0] * (1.0 - w) + sph.v[:, i1] * w
-    names = [f"v_probe_{j + 1}" for j in range(len(probes))]
-    t = np.asarray(result["time"])
-    v_fmu = np.column_stack([result[name] for name in names])
-    rows = np.searchsorted(t, sph.t - 1e-12 * max(1.0, scene.T))
-    if np.any(np.abs(t[np.minimum(rows, t.size - 1)] - sph.t) > 1e-9 * max(1.0, scene.T)):
-        raise ValueError("the FMU's communication points are not the SPH samples")
-    e_fmu = relative_l2(v_fmu[rows], v_sph, sph.t)
-    e_sph = None
+    v = sph.v[:, i0] * (1.0 - w) + sph.v[:, i1] * w
+    error = None
     if is_available(scene):
         v_ex, _ = exact_solution(scene, np.asarray(probes, float) * scene.L, sph.t)
-        e_sph = relative_l2(v_sph, v_ex, sph.t)
-    return e_fmu, e_sph
+        error = relative_l2(v, v_ex, sph.t)
+    return sph.t, v, error
+
+
+def probe_error(result, t, v_sph, scene):
+    """Relative L² error over the run of an FMU's probe velocities (a fmpy.simulate_fmu result) against
+    the full SPH at the probes (:func:`sph_at_probes`) at the same communication points."""
+    from ..norms import relative_l2
+    names = [f"v_probe_{j + 1}" for j in range(v_sph.shape[1])]
+    times = np.asarray(result["time"])
+    v_fmu = np.column_stack([result[name] for name in names])
+    rows = np.searchsorted(times, t - 1e-12 * max(1.0, scene.T))
+    if np.any(np.abs(times[np.minimum(rows, times.size - 1)] - t) > 1e-9 * max(1.0, scene.T)):
+        raise ValueError("the FMU's communication points are not the SPH samples")
+    return relative_l2(v_fmu[rows], v_sph, t)
 
 
 def end_to_end(scene_name="tenmode", steps=(0.01, 0.001), repeats=5, k=None, progress=False, bar=None, workdir=None,
@@ -166,7 +169,7 @@ def end_to_end(scene_name="tenmode", steps=(0.01, 0.001), repeats=5, k=None, pro
     For each model (the frozen FMU, the product's default, and the exact linear one) and each
     communication step: the median wall time of ``fmpy.simulate_fmu`` over the scene's horizon,
     the ratio to the full SPH (numba, :func:`harness.sph.solver.run_sph`) timed in the same run,
-    and, at the first step, the probe-velocity error against the full SPH (:func:`probe_errors`).
+    and, at the first step, the probe-velocity error against the full SPH (:func:`probe_error`).
     For the frozen model also where the time goes (fixed cost, core, per doStep).
 
     Returns a dict with ``rows`` (one per model and communication step), ``sph`` (full SPH medians,
@@ -186,7 +189,7 @@ def end_to_end(scene_name="tenmode", steps=(0.01, 0.001), repeats=5, k=None, pro
     problem = build_problem(scene)
     n_internal = step_count(scene.T, scene.sph.dt)
     binaries = ensure_binaries()
-    rows, summaries, sph_probe_error = [], {}, None
+    rows, summaries, sph_probes = [], {}, None
     with tempfile.TemporaryDirectory(dir=workdir) as tmp:
         for model in models:
             path = Path(tmp) / f"{scene.name}-{model}.fmu"
@@ -222,8 +225,9 @@ def end_to_end(scene_name="tenmode", steps=(0.01, 0.001), repeats=5, k=None, pro
                 e2e_m = _median(e2e)
                 err = None
                 if j == 0:
-                    err, sph_err = probe_errors(scene, problem, kept[0], summary.probes, h)
-                    sph_probe_error = sph_err if sph_probe_error is None else sph_probe_error
+                    if sph_probes is None:                          # one SPH run serves every model
+                        sph_probes = sph_at_probes(scene, problem, summary.probes, h)
+                    err = probe_error(kept[0], sph_probes[0], sph_probes[1], scene)
                 rows.append({"model": model, "step_s": h, "doSteps": n_comm, "internal_steps": n_internal,
                              "fmu_e2e_s": e2e_m, "fmu_e2e_min_s": min(e2e), "fixed_s": fixed, "core_s": core_time,
                              "us_per_doStep_fmpy": (e2e_m - fixed - (0.0 if model == "exact" else core_time))
@@ -241,7 +245,8 @@ def end_to_end(scene_name="tenmode", steps=(0.01, 0.001), repeats=5, k=None, pro
         sph_loop.append(result.wall_time)
         if bar is not None:
             bar.update(1)
-    sph = {"loop_s": _median(sph_loop), "call_s": _median(sph_call), "probe_error_v_vs_exact": sph_probe_error}
+    sph = {"loop_s": _median(sph_loop), "call_s": _median(sph_call),
+           "probe_error_v_vs_exact": None if sph_probes is None else sph_probes[2]}
     for row in rows:
         row["sph_s"] = sph["call_s"]
         row["speedup"] = sph["call_s"] / row["fmu_e2e_s"]
@@ -303,10 +308,9 @@ class LeanSlave:
     """
 
     def __init__(self, unzipdir, md, guid=None):
-        from fmpy.fmi2 import FMU2Slave
+        from .fmi import load_fmu
         t0 = time.perf_counter()
-        self.fmu = FMU2Slave(guid=guid or md.guid, unzipDirectory=unzipdir, modelIdentifier="sphrom",
-                             instanceName="lean")
+        self.fmu = load_fmu(2, unzipdir, guid or md.guid, "lean")
         self.messages = []
         self.fmu.instantiate(loggingOn=False)
         self.instantiate_s = time.perf_counter() - t0
@@ -352,12 +356,14 @@ class LeanSlave:
         return list(out)
 
     def reduced_state(self, k_v, k_rho):
-        """The FMU's reduced state from its serialized FMU state (header 112 bytes, then a, then a^rho or b)."""
+        """The FMU's reduced state (a^v, then a^rho or b) from its serialized FMU state."""
+        from .fmi import state_coordinates
         fmu = self.fmu
         state = fmu.getFMUstate()
-        blob = bytes(fmu.serializeFMUstate(state))
-        fmu.freeFMUstate(state)
-        return np.frombuffer(blob, dtype="<f8", count=k_v + k_rho, offset=112).copy()
+        try:
+            return state_coordinates(bytes(fmu.serializeFMUstate(state)), k_v + k_rho)
+        finally:
+            fmu.freeFMUstate(state)
 
     def close(self):
         if self.fmu is not None:

@@ -20,6 +20,25 @@ VR_TIME, VR_F, VR_N_FREEZE, VR_DT = 0, 1, 2, 3     # fmu_src/rom.h
 # construct at once can leave the process in another instance's (later deleted)
 # folder.  Every construction of an fmpy FMU object in sphrom goes through this.
 FMPY_LOAD_LOCK = threading.Lock()
+STATE_HEADER_SIZE = 112     # ROM_STATE_HEADER_SIZE of fmu_src/rom.c: magic, version, sizes, token, time, counters
+
+
+def load_fmu(fmi, unzipdir, token, name):
+    """An fmpy FMU2Slave / FMU3Slave of an extracted sphrom FMU (library loaded, not instantiated).
+
+    The one place sphrom constructs fmpy FMU objects: it holds :data:`FMPY_LOAD_LOCK`.
+    """
+    if fmi == 2:
+        from fmpy.fmi2 import FMU2Slave as cls
+    else:
+        from fmpy.fmi3 import FMU3Slave as cls
+    with FMPY_LOAD_LOCK:
+        return cls(guid=token, unzipDirectory=str(unzipdir), modelIdentifier="sphrom", instanceName=name)
+
+
+def state_coordinates(blob: bytes, k: int):
+    """The k reduced coordinates (a^v then a^ρ, or a then b for the exact model) of a serialized FMU state."""
+    return np.frombuffer(blob, dtype="<f8", count=k, offset=STATE_HEADER_SIZE).copy()
 
 
 class Slave:
@@ -68,12 +87,10 @@ class Slave:
         if self.fmi == 2:
             from ctypes import byref
 
-            from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
+            from fmpy.fmi2 import (fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
                                    fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
             from fmpy.fmi1 import calloc, free
-            with FMPY_LOAD_LOCK:
-                self.fmu = FMU2Slave(guid=token, unzipDirectory=self.unzipdir, modelIdentifier="sphrom",
-                                     instanceName=name)
+            self.fmu = load_fmu(2, self.unzipdir, token, name)
             callbacks = fmi2CallbackFunctions()
             callbacks.logger = fmi2CallbackLoggerTYPE(self._log2)
             callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
@@ -86,10 +103,7 @@ class Slave:
             self._callbacks = callbacks
             self.fmu.instantiate(callbacks=callbacks, loggingOn=logging)
         else:
-            from fmpy.fmi3 import FMU3Slave
-            with FMPY_LOAD_LOCK:
-                self.fmu = FMU3Slave(guid=token, unzipDirectory=self.unzipdir, modelIdentifier="sphrom",
-                                     instanceName=name)
+            self.fmu = load_fmu(3, self.unzipdir, token, name)
             self.fmu.instantiate(loggingOn=logging, logMessage=self._log3)
 
     # -- logging ---------------------------------------------------------------
@@ -192,6 +206,14 @@ class Slave:
 
     def deserialize(self, blob: bytes):
         return self.fmu.deSerializeFMUstate(blob) if self.fmi == 2 else self.fmu.deserializeFMUState(blob)
+
+    def reduced_state(self, k):
+        """The FMU's k reduced coordinates, from a serialized FMU state (the model is not disturbed)."""
+        state = self.get_state()
+        try:
+            return state_coordinates(self.serialize(state), k)
+        finally:
+            self.free_state(state)
 
     def reset(self):
         self.fmu.reset()

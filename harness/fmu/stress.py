@@ -113,7 +113,7 @@ class FMUStress:
             try:
                 s.initialize(dt=dt if model != "exact" else None, n_freeze=N_FREEZE)
                 for i in range(steps.size):
-                    z = _state(s, k)
+                    z = s.reduced_state(k)
                     v, rho = fields(z)
                     energies.append(float(energy(problem, v, rho)[0]))
                     if rho_bad is None and np.any(~(rho > 0)):
@@ -135,16 +135,6 @@ class FMUStress:
             return {"outcome": "blow-up", "blowup_time": float("nan"), "energy_growth": np.inf,
                     "energy_drift": np.inf, "energy_end": np.inf, "fmu_error": "", "silent_nan": silent_nan + 1}
         return {**_outcome(e, rho_bad), "fmu_error": "", "silent_nan": silent_nan}
-
-
-def _state(slave, k):
-    """The reduced state from the FMU's serialized state (112-byte header, then the k coordinates)."""
-    state = slave.get_state()
-    try:
-        blob = slave.serialize(state)
-    finally:
-        slave.free_state(state)
-    return np.frombuffer(blob, dtype="<f8", count=k, offset=112).copy()
 
 
 def stress_runners(stress: FMUStress):
