@@ -29,3 +29,20 @@ def data_dir(kind: str) -> Path:
 def repo_root() -> Path:
     """The repository root when running from a checkout (else the install dir)."""
     return _REPO
+
+
+def is_file(path) -> bool:
+    """Whether ``path`` names an existing file; False, never OSError or ValueError,
+    for a name the system refuses (too long, a NUL character)."""
+    try:
+        return Path(path).is_file()
+    except (OSError, ValueError):
+        return False
+
+
+def exists(path) -> bool:
+    """Whether ``path`` exists; False for a name the system refuses (see :func:`is_file`)."""
+    try:
+        return Path(path).exists()
+    except (OSError, ValueError):
+        return False

@@ -24,7 +24,7 @@ import numpy as np
 
 from .errors import UserError
 from .expr import Expr, compile_expr
-from .paths import data_dir
+from .paths import data_dir, exists, is_file
 
 INTEGRATORS = ("euler", "symplectic", "rk4")
 CLI = "command line"    # the source of settings given as options
@@ -357,13 +357,13 @@ def load_scene(spec) -> Scene:
     """
     spec = str(spec)
     path = Path(spec)
-    if not (spec.endswith(".toml") or path.exists()):
+    if not (spec.endswith(".toml") or exists(path)):
         candidate = builtin_dir() / f"{spec}.toml"
-        if not candidate.exists():
+        if not exists(candidate):
             raise UserError(f"scene '{spec}': no such built-in scene and no such file "
                             f"(built-in: {', '.join(builtin_names())})")
         path = candidate
-    if not path.is_file():
+    if not is_file(path):
         raise UserError(f"scene file '{spec}': not found")
     try:
         text = path.read_text(encoding="utf-8")

@@ -539,6 +539,26 @@ def test_cosim_command_errors(fmus, tmp_path, capsys):
     assert "t = " in err and not out.exists()
 
 
+def test_cosim_force_longer_than_a_file_name_is_an_expression(fmus, tmp_path, capsys):
+    """A --force of 300 characters is no possible file name: it is evaluated, never an OSError."""
+    path, _ = fmus("forced", 2)
+    long = " + ".join(["1e-3*sin(2*pi*t/T)"] * 15) + " + 0*t" * 5
+    assert len(long) > 255
+    runs = {}
+    for name, force in (("long", long), ("short", "15e-3*sin(2*pi*t/T)")):
+        out = tmp_path / f"{name}.csv"
+        assert main(["cosim", str(path), "--force", force, "--t-end", "0.1", "--step", "0.01",
+                     "--out", str(out)]) == 0
+        runs[name] = np.genfromtxt(out, delimiter=",", names=True)
+    capsys.readouterr()
+    for col in runs["short"].dtype.names:
+        np.testing.assert_allclose(runs["long"][col], runs["short"][col], rtol=1e-12, atol=1e-15)
+    out = tmp_path / "r.csv"
+    assert main(["cosim", str(path), "--force", "maximum(t, 0.9, t)" + " " * 300, "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--force: maximum() takes 2 arguments" in err[0] and not out.exists(), err
+
+
 @pytest.mark.parametrize("fmi", [2, 3])
 def test_resources_in_a_folder_that_needs_escaping(fmus, tmp_path, fmi):
     """FMI 2 passes a percent-encoded file URI, FMI 3 a plain path: both find model.bin."""

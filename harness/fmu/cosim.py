@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SimulationError, UserError
+from ..paths import is_file
 
 
 @dataclass
@@ -65,7 +66,7 @@ def read_fmu_description(path, option="FILE.fmu"):
     """fmpy's model description of an sphrom FMU; UserError when it is not one."""
     from fmpy import read_model_description
     path = Path(path)
-    if not path.is_file():
+    if not is_file(path):
         raise UserError(f"{option} '{path}': not found")
     try:
         md = read_model_description(str(path))
@@ -80,13 +81,15 @@ def force_signal(force, t_end, step, option="--force"):
     """The input signal (structured array time, f) for fmpy, or None without a force.
 
     ``force`` is an expression in t and T (T = t_end), sampled at the
-    communication points, or the path of a CSV file with columns time,f.
+    communication points, or the path of a CSV file with columns time,f: a
+    CSV when it ends in ``.csv`` or names an existing file, else an
+    expression (also when it is no possible file name: too long, a NUL).
     """
     if force is None:
         return None
     text = str(force).strip()
     path = Path(text)
-    if text.lower().endswith(".csv") or path.is_file():
+    if text.lower().endswith(".csv") or is_file(path):
         return _csv_signal(path, option)
     from ..expr import compile_expr
     expr = compile_expr(text, ("t", "T"), option)
@@ -109,7 +112,7 @@ def force_signal(force, t_end, step, option="--force"):
 
 
 def _csv_signal(path, option):
-    if not path.is_file():
+    if not is_file(path):
         raise UserError(f"{option}: CSV file '{path}' not found")
     try:
         with open(path, newline="") as fh:

@@ -48,6 +48,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UserError
+from ..paths import exists, is_file
 
 SHAPES = {
     "sine": "A*sin(2*pi*F*t)",
@@ -272,8 +273,8 @@ def _grid_values(raw, name, where, scene):
 
 def shape_expr(shape):
     """The compiled force shape (an :class:`~harness.expr.Expr` in t, T, A, F)."""
-    from ..expr import compile_expr
-    return compile_expr(SHAPES.get(shape, shape), ("t", "T", "A", "F"), f"shape {shape!r}")
+    from ..expr import compile_expr, shown
+    return compile_expr(SHAPES.get(shape, shape), ("t", "T", "A", "F"), f"shape {shown(shape)}")
 
 
 def force_at(entry, times):
@@ -297,12 +298,12 @@ def resolve_scene(value, where, spec_path):
     from ..scene import builtin_dir, load_scene
     if not isinstance(value, str) or not value.strip():
         _fail(f"{where}: scene", f"{value!r} is out of range (allowed: a built-in scene name or a scene TOML path)")
-    if (builtin_dir() / f"{value}.toml").exists() and not value.endswith(".toml"):
+    if exists(builtin_dir() / f"{value}.toml") and not value.endswith(".toml"):
         return load_scene(value)
     path = Path(value)
     if not path.is_absolute() and spec_path is not None:
         path = Path(spec_path).parent / path
-    if not path.is_file():
+    if not is_file(path):
         from ..scene import builtin_names
         _fail(f"{where}: scene", f"'{value}' not found (allowed: a built-in scene, {', '.join(builtin_names())}, "
                                  f"or a scene TOML path relative to the spec)")
@@ -465,7 +466,7 @@ def variant_scene(scene, c=None, d=None, profile=None, source=None):
 def load_spec(path) -> Spec:
     """Read and validate SPEC.toml at ``path`` (UserError when missing or invalid)."""
     path = Path(path)
-    if not path.is_file():
+    if not is_file(path):
         raise UserError(f"SPEC.toml '{path}': not found")
     try:
         text = path.read_text(encoding="utf-8")
