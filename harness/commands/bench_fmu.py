@@ -22,12 +22,13 @@ def add_parser(sub):
 
 
 def run(args):
-    import csv
     from pathlib import Path
 
     from ..errors import UserError
-    from ..fmu.bench import core_rows, end_to_end, markdown
+    from ..bench.fmu import core_rows, end_to_end, write_fmu_csv
+    from ..bench.report import fmu_tables
     from ..progress import progress_bar
+    from ..report.markdown import write_text
     from ..scene import MAX_PARTICLES, MIN_PARTICLES, load_scene
 
     try:
@@ -87,15 +88,7 @@ def run(args):
             print(f"  target >= 50x at {first['step_s'] * 1e3:g} ms, FMU {model}: {verdict} it "
                   f"({first['speedup']:.1f}x{accuracy})")
     if out is not None:
-        with open(out / "bench_fmu_core.csv", "w", newline="") as fh:
-            w = csv.DictWriter(fh, fieldnames=list(core[0]))
-            w.writeheader()
-            w.writerows(core)
-        if e2e is not None:
-            with open(out / "bench_fmu_e2e.csv", "w", newline="") as fh:
-                w = csv.DictWriter(fh, fieldnames=list(e2e["rows"][0]))
-                w.writeheader()
-                w.writerows(e2e["rows"])
-        (out / "bench_fmu.md").write_text(markdown(core, e2e))
+        write_fmu_csv(out, core, e2e)
+        write_text(out / "bench_fmu.md", fmu_tables(core, e2e))
         print(f"wrote {out / 'bench_fmu_core.csv'}" + (", bench_fmu_e2e.csv" if e2e else "") + ", bench_fmu.md")
     return 0

@@ -17,10 +17,10 @@ def add_parser(sub):
 
 
 def run(args):
-    import csv
     from pathlib import Path
 
-    from ..bench.sph_scaling import growth_exponent, scaling_table
+    from ..bench.sph_scaling import growth_exponent, plot_scaling, scaling_table
+    from ..bench.tables import write_csv
     from ..errors import UserError
     from ..progress import progress_bar
 
@@ -46,25 +46,7 @@ def run(args):
     for integrator in integrators:
         print(f"{integrator}: time ~ N^{growth_exponent(rows, integrator):.2f} for N >= 1000")
     if out is not None:
-        with open(out / "sph_scaling.csv", "w", newline="") as fh:
-            writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
-            writer.writeheader()
-            writer.writerows(rows)
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-        fig, ax = plt.subplots(figsize=(5, 3.6))
-        for integrator in integrators:
-            pts = [(r["n"], r["us_per_step"]) for r in rows if r["integrator"] == integrator]
-            ax.loglog(*zip(*pts), "o-", label=integrator)
-        n = sizes
-        ref = rows[0]["us_per_step"] * max(n) / min(n)
-        ax.loglog([min(n), max(n)], [rows[0]["us_per_step"], ref], "k:", label="linear")
-        ax.set_xlabel("particles N")
-        ax.set_ylabel("µs per step")
-        ax.set_title(f"full SPH step, scene {args.scene}")
-        ax.legend()
-        fig.tight_layout()
-        fig.savefig(out / "sph_scaling.png", dpi=110)
+        write_csv(out / "sph_scaling.csv", rows)
+        plot_scaling(rows, integrators, out / "sph_scaling.png", args.scene)
         print(f"wrote {out / 'sph_scaling.csv'} and {out / 'sph_scaling.png'}")
     return 0
