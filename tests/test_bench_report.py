@@ -85,7 +85,8 @@ def _stress_scene(name, fmu):
     methods = ["frozen", "exact"] + (["FMU frozen"] if fmu else [])
     rows = [{"method": m, "dt_factor": f, "amplitude": a, "outcome": "blow-up" if f == 2.0 else "stable",
              "blowup_time": 1.5 if f == 2.0 else None, "energy_growth": math.inf if f == 2.0 else 1.0,
-             **({"fmu_error": "t = 1.5 s: runaway" if f == 2.0 else "", "silent_nan": 0} if m.startswith("FMU") else {})}
+             **({"fmu_error": "t = 1.5 s: runaway" if f == 2.0 else "", "silent_nan": 0}
+                if m.startswith("FMU") else {})}
             for m in methods for f in (0.5, 2.0, "paper") for a in (1, 10)]
     hor = [{"method": m, "T": T, "outcome": "stable", "blowup_time": None, "energy_growth": 1.0}
            for m in methods for T in (10.0, 100.0)]

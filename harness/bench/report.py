@@ -34,8 +34,8 @@ def intro_section(command, version, python, machine, wall, repeats):
             f"Produced by `{command}` (sphrom {version}, Python {python}, {machine}, {wall:.0f} s wall). Times are "
             f"medians of {repeats} runs on a shared 2-core machine; speed-ups are ratios to the full SPH timed in the "
             "same run. Errors: relative L² (square-root form of eq. 3.4); reduced models against the full SPH, the "
-            "full SPH against the reference (exact, or a continuum reference for heterogeneous); ρ errors of ρ − ρ0. "
-            "Online = the time loop; offline = SPH run for the snapshots, SVD and operators.", ""]
+            "full SPH against the reference (exact, or a continuum reference for heterogeneous); ρ errors of "
+            "ρ − ρ0. Online = the time loop; offline = SPH run for the snapshots, SVD and operators.", ""]
 
 
 def headline_section(fmu):
@@ -234,9 +234,9 @@ def stress_section(maps, command, image_dir="", level=1):
     prefix = f"{image_dir.rstrip('/')}/" if image_dir else ""
     lines = [f"{h} Stability stress maps", "",
              f"Produced by `{command}`. Outcomes: stable (energy never above 1.1× its start), growing, "
-             "unphysical (ρ ≤ 0 / J ≤ 0 reached: compression beyond the physical limit), blow-up (the method's own "
-             "check fired: non-finite, non-positive density, runaway; the FMU returns an error status). Δt* = 2/ω_max "
-             "is the explicit limit of the full SPH operator (ω_max Δt < 2 for the Euler schemes, 2√2 for RK4). "
+             "unphysical (ρ ≤ 0 / J ≤ 0 reached: compression beyond the physical limit), blow-up (the method's "
+             "own check fired: non-finite, non-positive density, runaway; the FMU returns an error status). "
+             "Δt* = 2/ω_max is the explicit limit of the full SPH operator (ω_max Δt < 2 for the Euler schemes, 2√2 for RK4). "
              "Reduced models use the basis of the paper-setting run and start from the amplified state. "
              f"Wall time {maps.wall:.0f} s.", ""]
     for s in maps.scenes:

@@ -132,8 +132,8 @@ def run_benchmarks(scenes, out, *, ks=None, repeats=5, sizes=SIZES, ks_scaling=K
     maps, stress_command = None, ""
     if stress:
         from .report import stress_section
-        from .stress import AMPLITUDES, DT_FACTORS, HORIZONS, MODE_COUNTS
-        from .stress_maps import DEFAULT_SCENES as STRESS_SCENES, stress_maps
+        from .stress_maps import AMPLITUDES, DT_FACTORS, HORIZONS, MODE_COUNTS, stress_maps
+        from .stress_maps import DEFAULT_SCENES as STRESS_SCENES
         from ..report.markdown import write_text
         stress_command = "sphrom bench --report (the stress maps of sphrom stress)"
         maps = stress_maps([load_scene(s) for s in STRESS_SCENES], list(AMPLITUDES), list(HORIZONS),

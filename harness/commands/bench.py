@@ -1,6 +1,6 @@
 """``sphrom bench``: run time against error for every method, cost scaling, skipped terms (BENCHMARKS.md)."""
 
-from .options import int_at_least
+from .options import add_quiet, int_at_least, int_list, min_particles
 
 
 def add_parser(sub):
@@ -14,12 +14,17 @@ def add_parser(sub):
     from ..bench.suite import KS_SCALING, SIZES, SPH_SIZES
     p.add_argument("scenes", nargs="*", metavar="SCENE")
     p.add_argument("--repeats", type=int_at_least(1), default=5, help="timed runs per point (median; default 5)")
-    p.add_argument("--ks", help="comma-separated mode counts (default: the scene's acceleration-study k)")
-    p.add_argument("--sizes", default=",".join(map(str, SIZES)), help="particle counts of the scaling table")
-    p.add_argument("--scaling-ks", default=",".join(map(str, KS_SCALING)),
-                   help="comma-separated mode counts of the cost-against-k table at N = 400")
-    p.add_argument("--sph-sizes", default=",".join(map(str, SPH_SIZES)),
-                   help="particle counts of the full-SPH step table (as sphrom bench-sph)")
+    p.add_argument("--modes", "--ks", dest="modes", type=int_list(lo=1), metavar="K,...",
+                   help="comma-separated mode counts (default: the scene's acceleration-study k)")
+    p.add_argument("--n-particles", "--sizes", dest="n_particles", type=int_list(lo=min_particles),
+                   default=",".join(map(str, SIZES)), metavar="N,...",
+                   help="particle counts of the cost-against-N table (default %(default)s)")
+    p.add_argument("--scaling-modes", "--scaling-ks", dest="scaling_modes", type=int_list(lo=1),
+                   default=",".join(map(str, KS_SCALING)), metavar="K,...",
+                   help="mode counts of the cost-against-k table at N = 400 (default %(default)s)")
+    p.add_argument("--sph-n-particles", "--sph-sizes", dest="sph_n_particles", type=int_list(lo=min_particles),
+                   default=",".join(map(str, SPH_SIZES)), metavar="N,...",
+                   help="particle counts of the full-SPH step table, as sphrom bench-sph (default %(default)s)")
     p.add_argument("--no-fmu", action="store_true", help="skip the FMU entries")
     p.add_argument("--no-stress", action="store_true", help="leave the stress maps out of the report")
     p.add_argument("--fmu-scene", default="tenmode", metavar="SCENE",
@@ -29,6 +34,7 @@ def add_parser(sub):
                    help="only redraw the time-against-error plots from --out's bench.csv (no timing)")
     p.add_argument("--report", metavar="FILE.md", nargs="?", const="BENCHMARKS.md",
                    help="also write the Markdown report (default BENCHMARKS.md)")
+    add_quiet(p)
     p.set_defaults(handler=run)
 
 
@@ -51,19 +57,13 @@ def run(args):
         return 0
     scenes = [load_scene(s) for s in (args.scenes or DEFAULT_SCENES)]
     try:
-        ks = [int(k) for k in args.ks.split(",")] if args.ks else None
-        sizes = [int(n) for n in args.sizes.split(",")]
-        ks_scaling = [int(k) for k in args.scaling_ks.split(",")]
-        sph_sizes = [int(n) for n in args.sph_sizes.split(",")]
-    except ValueError:
-        raise UserError("--ks/--sizes/--scaling-ks/--sph-sizes: comma-separated integers expected") from None
-    try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise UserError(f"--out: cannot create '{out}' ({exc})") from None
-    r = run_benchmarks(scenes, out, ks=ks, repeats=args.repeats, sizes=sizes, ks_scaling=ks_scaling,
-                       sph_sizes=sph_sizes, fmu=not args.no_fmu, fmu_scene=args.fmu_scene,
-                       stress=bool(args.report) and not args.no_stress)
+    r = run_benchmarks(scenes, out, ks=args.modes, repeats=args.repeats, sizes=args.n_particles,
+                       ks_scaling=args.scaling_modes, sph_sizes=args.sph_n_particles, fmu=not args.no_fmu,
+                       fmu_scene=args.fmu_scene, stress=bool(args.report) and not args.no_stress,
+                       progress=not args.quiet)
     if args.report:
         path = Path(args.report)
         write_text(path, report(r, Path(os.path.relpath(out.resolve(), path.resolve().parent)).as_posix()))

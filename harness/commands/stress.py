@@ -1,5 +1,7 @@
 """``sphrom stress``: numerical-stability maps of every method."""
 
+from .options import add_quiet, float_list, int_list
+
 
 def add_parser(sub):
     p = sub.add_parser("stress", help="stability maps: time step, amplitude, horizon, modes, random forces",
@@ -9,42 +11,32 @@ def add_parser(sub):
                                    "snapshots, and under large random forces; record stable / growing / unphysical / "
                                    "blow-up, the time of blow-up and the energy drift. Writes a heat-map PNG per scene, "
                                    "CSV files and stress.md.")
+    from ..bench.stress_maps import AMPLITUDES, HORIZONS, MODE_COUNTS
     p.add_argument("scenes", nargs="*", metavar="SCENE")
-    from ..bench.stress import AMPLITUDES, HORIZONS, MODE_COUNTS
-    p.add_argument("--amplitudes", default=",".join(map(str, AMPLITUDES)), help="initial-amplitude factors")
-    p.add_argument("--horizons", default=",".join(f"{h:g}" for h in HORIZONS),
-                   help="horizons T [s] at the paper's dt")
-    p.add_argument("--modes", default=",".join(map(str, MODE_COUNTS)), help="mode counts of the k sweep")
+    p.add_argument("--amplitudes", type=float_list(lo=0, lo_open=True, integral_as_int=True), metavar="A,...",
+                   default=",".join(map(str, AMPLITUDES)), help="initial-amplitude factors (default %(default)s)")
+    p.add_argument("--horizons", type=float_list(lo=0, lo_open=True), metavar="T,...",
+                   default=",".join(f"{h:g}" for h in HORIZONS), help="horizons T [s] at the paper's dt "
+                   "(default %(default)s)")
+    p.add_argument("--modes", type=int_list(lo=1), metavar="K,...", default=",".join(map(str, MODE_COUNTS)),
+                   help="mode counts of the k sweep (default %(default)s)")
     p.add_argument("--quick", action="store_true", help="a small sweep (a smoke run)")
     p.add_argument("--no-fmu", action="store_true", help="skip the FMU column")
     p.add_argument("--out", default="validation/stress", metavar="DIR")
+    add_quiet(p)
     p.set_defaults(handler=run)
-
-
-def _ints(text, option):
-    from ..errors import UserError
-    try:
-        return [float(x) if "." in x or "e" in x else int(x) for x in text.split(",") if x]
-    except ValueError:
-        raise UserError(f"{option}: {text!r} is not a comma-separated list of numbers") from None
 
 
 def run(args):
     from pathlib import Path
 
-    from ..bench.stress import DT_FACTORS
-    from ..bench.stress_maps import DEFAULT_SCENES, QUICK_DT_FACTORS, stress_report
+    from ..bench.stress_maps import DEFAULT_SCENES, DT_FACTORS, QUICK_DT_FACTORS, stress_report
     from ..errors import UserError
     from ..report.markdown import write_text
     from ..scene import load_scene
 
     scenes = [load_scene(s) for s in (args.scenes or DEFAULT_SCENES)]
-    amps = _ints(args.amplitudes, "--amplitudes")
-    horizons = [float(x) for x in _ints(args.horizons, "--horizons")]
-    ks = [int(x) for x in _ints(args.modes, "--modes")]
-    if min(amps) <= 0 or min(horizons) <= 0 or min(ks) < 1:
-        raise UserError("--amplitudes, --horizons, --modes: allowed: positive values")
-    factors = DT_FACTORS
+    amps, horizons, ks, factors = args.amplitudes, args.horizons, args.modes, DT_FACTORS
     if args.quick:
         amps, horizons, ks, factors = amps[:2], horizons[:1], ks[:2], QUICK_DT_FACTORS
     out = Path(args.out)
@@ -52,7 +44,8 @@ def run(args):
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise UserError(f"--out: cannot create '{out}' ({exc})") from None
-    text, wall = stress_report(scenes, amps, horizons, ks, factors, out, no_fmu=args.no_fmu, quick=args.quick)
+    text, wall = stress_report(scenes, amps, horizons, ks, factors, out, no_fmu=args.no_fmu, quick=args.quick,
+                               progress=not args.quiet)
     write_text(out / "stress.md", text)
     print(f"wrote {out}/stress.md, stress_*.csv and a heat map per scene ({wall:.0f} s)")
     return 0
