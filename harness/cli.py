@@ -1,8 +1,9 @@
 """The ``sphrom`` command line (also ``python -m harness``).
 
 A user's mistake (a bad scene, option or path) is one line on stderr and exit
-status 2; a run that fails on its own terms (non-finite state) is one line
-and exit status 3.  Neither leaves a partial output file.
+status 2 (``sphrom COMMAND: error: --option: what is allowed``, argparse's
+errors included); a run that fails on its own terms (non-finite state) is one
+line and exit status 3.  Neither leaves a partial output file.
 """
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ import importlib
 import sys
 
 from . import __version__
-from .errors import SimulationError, UserError
+from .errors import FieldError, SimulationError, UserError
 
 # subcommand name -> module in harness.commands
 COMMANDS = {
@@ -33,8 +34,18 @@ COMMANDS = {
 }
 
 
+class Parser(argparse.ArgumentParser):
+    """An ArgumentParser (and, through ``add_subparsers``, its subcommands' parsers) whose errors are one line:
+    ``sphrom COMMAND: error: --option: what is allowed``, exit status 2, no usage block."""
+
+    def error(self, message):
+        if message.startswith("argument "):        # "argument --probes: ..." -> "--probes: ..."
+            message = message[len("argument "):]
+        self.exit(2, f"{self.prog}: error: {' '.join(message.split())}\n")
+
+
 def build_parser():
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="sphrom",
         description="Reduced-order models of a Lagrangian SPH mass-spring-damper system, "
                     "packaged as an FMU, with the harness that builds and validates them.")
@@ -43,14 +54,31 @@ def build_parser():
     sub.required = True
     for name, module in COMMANDS.items():
         importlib.import_module(f".commands.{module}", __package__).add_parser(sub)
+    parser.commands = dict(sub.choices)          # name -> its parser (errors, option names)
     return parser
+
+
+def parse(parser, argv=None):
+    """Parse ``argv``; an unknown argument is an error of the subcommand it was given to."""
+    args, extra = parser.parse_known_args(argv)
+    if extra:
+        parser.commands[args.command].error(f"unrecognized arguments: {' '.join(extra)}")
+    return args
 
 
 def main(argv=None):
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parse(parser, argv)
+    except SystemExit as exc:                    # argparse: --help, --version, a bad option (one line)
+        return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
     try:
         return int(args.handler(args) or 0)
+    except FieldError as exc:                    # the library names the field; show the option that set it
+        from .commands.options import option_message
+        print(f"sphrom {args.command}: error: {option_message(parser.commands[args.command], exc)}",
+              file=sys.stderr)
+        return exc.exit_code
     except UserError as exc:
         print(f"sphrom {args.command}: error: {exc}", file=sys.stderr)
         return exc.exit_code

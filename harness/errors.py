@@ -12,6 +12,21 @@ class UserError(Exception):
     exit_code = 2
 
 
+class FieldError(UserError):
+    """A bad value of one named field (a setting such as ``n_freeze``, ``dt``, ``out``).
+
+    The library names the field and what is allowed; the command line, which
+    alone knows option names, may show the option that set the field instead
+    (``harness.commands.options.option_message``).  ``str(exc)`` is
+    ``"<field>: <detail>"``.
+    """
+
+    def __init__(self, field, detail):
+        super().__init__(f"{field}: {detail}")
+        self.field = field
+        self.detail = detail
+
+
 class SimulationError(Exception):
     """A run that failed on its own terms (non-finite state, blow-up).
 

@@ -32,7 +32,7 @@ import h5py
 import numpy as np
 
 from . import __version__
-from .errors import UserError
+from .errors import FieldError
 
 FORMAT = "sphrom-run"
 FORMAT_VERSION = 1
@@ -59,20 +59,20 @@ class Run:
     steps: np.ndarray | None = None
 
 
-def check_output_path(path, option="--out"):
+def check_output_path(path):
     """Fail early (before any work) when ``path`` cannot be written.
 
-    Raises UserError naming the option when the folder does not exist or is
-    not writable, or the path is a folder.
+    Raises FieldError ``out`` when the folder does not exist or is not
+    writable, or the path is a folder.
     """
     path = Path(path)
     if path.is_dir():
-        raise UserError(f"{option}: '{path}' is a directory (allowed: a file path)")
+        raise FieldError("out", f"'{path}' is a directory (allowed: a file path)")
     parent = path.parent if str(path.parent) else Path(".")
     if not parent.is_dir():
-        raise UserError(f"{option}: folder '{parent}' does not exist")
+        raise FieldError("out", f"folder '{parent}' does not exist")
     if not os.access(parent, os.W_OK):
-        raise UserError(f"{option}: folder '{parent}' is not writable")
+        raise FieldError("out", f"folder '{parent}' is not writable")
     return path
 
 
@@ -162,20 +162,20 @@ def write_run(path, t, x, v, rho, attrs, steps=None, extra=None):
                 h5.create_dataset(name, data=np.asarray(arr))
 
 
-def read_run(path, option="run file") -> Run:
+def read_run(path) -> Run:
     """Read a run written by :func:`write_run`.
 
-    Raises UserError when the file is missing or not a sphrom run.
+    Raises FieldError ``run`` when the file is missing or not a sphrom run.
     """
     path = Path(path)
     if not path.is_file():
-        raise UserError(f"{option} '{path}': not found")
+        raise FieldError("run", f"'{path}': not found")
     try:
         with h5py.File(path, "r") as h5:
             if h5.attrs.get("format") != FORMAT:
-                raise UserError(f"{option} '{path}': not a sphrom run file (format attribute missing)")
+                raise FieldError("run", f"'{path}': not a sphrom run file (format attribute missing)")
             attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in h5.attrs.items()}
             steps = h5["steps"][()] if "steps" in h5 else None
             return Run(t=h5["t"][()], x=h5["x"][()], v=h5["v"][()], rho=h5["rho"][()], attrs=attrs, steps=steps)
     except OSError as exc:
-        raise UserError(f"{option} '{path}': cannot be read as HDF5 ({exc})") from None
+        raise FieldError("run", f"'{path}': cannot be read as HDF5 ({exc})") from None

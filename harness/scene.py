@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import UserError
+from .errors import FieldError, UserError
 from .expr import Expr, compile_expr
 from .paths import data_dir, exists, is_file
 
@@ -292,7 +292,8 @@ class Scene:
     def with_sph(self, source=CLI, **changes):
         """A copy with SPH settings changed (``None`` values are ignored), re-validated.
 
-        Errors name the CLI option (``--dt``) unless ``source`` names a file.
+        Errors name the field: the setting (FieldError ``dt``) for settings given on their own
+        (``source`` = ``CLI``), else the file and its key (``sph.dt``).
         """
         changes = {k: v for k, v in changes.items() if v is not None}
         sph = dataclasses.replace(self.sph, **changes)
@@ -304,38 +305,34 @@ class Scene:
         if T is None:
             return self
         if not (np.isfinite(T) and T > 0):
-            raise UserError(f"--t-end: {T!r} is out of range (allowed: a number > 0)")
+            raise FieldError("t_end", f"{T!r} is out of range (allowed: a number > 0)")
         if self.sph.dt > T:
-            raise UserError(f"--t-end: {T:g} is out of range (allowed: T >= dt = {self.sph.dt:g})")
+            raise FieldError("t_end", f"{T:g} is out of range (allowed: T >= dt = {self.sph.dt:g})")
         return dataclasses.replace(self, T=float(T))
 
 
-_SPH_OPTIONS = {"n_particles": "--n-particles", "alpha": "--alpha", "dt": "--dt",
-                "integrator": "--integrator", "every": "--every"}
-
-
 def _check_sph(sph: SPHSettings, source, T):
-    """Check SPH settings; messages name the scene key, or the CLI option."""
-    def label(key):
-        return _SPH_OPTIONS[key] if source == CLI else f"{source}: sph.{key}"
+    """Check SPH settings; errors name the scene file and key, or (``source`` = ``CLI``) the field."""
+    def fail(key, detail):
+        if source == CLI:
+            raise FieldError(key, detail)
+        raise UserError(f"{source}: sph.{key}: {detail}")
 
     n = sph.n_particles
     if not (MIN_PARTICLES <= n <= MAX_PARTICLES):
-        raise UserError(f"{label('n_particles')}: {n} is out of range "
-                        f"(allowed: an integer in [{MIN_PARTICLES}, {MAX_PARTICLES}])")
+        fail("n_particles", f"{n} is out of range (allowed: an integer in [{MIN_PARTICLES}, {MAX_PARTICLES}])")
     hi = n / 4.0
     if not (0.5 < sph.alpha < hi):
-        raise UserError(f"{label('alpha')}: {sph.alpha:g} is out of range (allowed: 0.5 < alpha < N/4 = {hi:g}, "
-                        "so that each particle has neighbours and the kernel support 2h stays below L/2)")
+        fail("alpha", f"{sph.alpha:g} is out of range (allowed: 0.5 < alpha < N/4 = {hi:g}, "
+                      "so that each particle has neighbours and the kernel support 2h stays below L/2)")
     if not (sph.dt > 0 and np.isfinite(sph.dt)):
-        raise UserError(f"{label('dt')}: {sph.dt!r} is out of range (allowed: a number > 0)")
+        fail("dt", f"{sph.dt!r} is out of range (allowed: a number > 0)")
     if sph.dt > T:
-        raise UserError(f"{label('dt')}: {sph.dt:g} is out of range (allowed: 0 < dt <= T = {T:g})")
+        fail("dt", f"{sph.dt:g} is out of range (allowed: 0 < dt <= T = {T:g})")
     if sph.integrator not in INTEGRATORS:
-        raise UserError(f"{label('integrator')}: {sph.integrator!r} is out of range "
-                        f"(allowed: one of {', '.join(INTEGRATORS)})")
+        fail("integrator", f"{sph.integrator!r} is out of range (allowed: one of {', '.join(INTEGRATORS)})")
     if sph.every < 1:
-        raise UserError(f"{label('every')}: {sph.every} is out of range (allowed: an integer >= 1)")
+        fail("every", f"{sph.every} is out of range (allowed: an integer >= 1)")
 
 
 def builtin_dir() -> Path:

@@ -70,7 +70,7 @@ def test_stress_smoke_and_physics(tmp_path):
                  str(_scene_file(tmp_path, scene))]) == 0
     assert "Largest Δt" in (tmp_path / "stress.md").read_text()
     # as `sphrom bench --report` calls it: into a folder that does not exist yet
-    from harness.commands.stress import stress_report
+    from harness.bench.stress_maps import stress_report
     text, _ = stress_report([scene], [1], [2.0], [4], (0.5,), tmp_path / "new" / "stress", no_fmu=True)
     assert "Largest Δt" in text and (tmp_path / "new" / "stress" / f"{scene.name}_stress.png").is_file()
 
@@ -90,7 +90,7 @@ def test_stress_fmu_columns_report_errors_never_nan():
     """The FMU in the stress maps: the same outcome as the Python model it packages, an error status naming the
     time where the state runs away or the density leaves (0, ∞), and never a silent NaN."""
     from harness.bench import stress as st
-    from harness.fmu.stress import FMUStress, stress_runners
+    from harness.bench.stress_fmu import FMUStress, stress_runners
     scene = small_scene("multimode", T=1.0, n=32, every=25)
     ctx = st.context(scene, k=6)
     with FMUStress() as fs:

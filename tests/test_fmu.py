@@ -525,6 +525,7 @@ def test_cosim_command_errors(fmus, tmp_path, capsys):
         (["--t-end", "-1"], "--t-end"),
         (["--n-freeze", "0"], "--n-freeze"),
         (["--force", str(tmp_path / "missing.csv")], "--force"),
+        (["--t-end", "0.1", "--step", "0.2"], "--step: 0.2 is out of range (allowed: 0 < step <= t_end = 0.1)"),
     ]
     for args, option in bad:
         assert main(["cosim", str(path), *args, "--out", str(out)]) == 2, args

@@ -235,7 +235,7 @@ def test_fmpy_compile_rebuilds_from_sources(packaged, tmp_path, fmi):
 # ---------------------------------------------------------------------------
 
 def test_core_benchmark_rows_do_not_depend_on_n(binaries):
-    from harness.fmu.bench import core_rows
+    from harness.bench.fmu import core_rows
     rows = core_rows("multimode", [48, 96], k=8, n_steps=20_000, repeats=5, core=Core(binaries.core))
     assert [r["n"] for r in rows] == [48, 96]
     for r in rows:

@@ -1,1 +1,8 @@
-"""Benchmarks: commands of their own, never part of the test suite."""
+"""Benchmarks and stress maps: everything that measures, for commands of their own (never the test suite).
+
+``suite`` runs what ``sphrom bench`` reports (``methods``, ``scaling``, ``skip``,
+``input_direction``, ``sph_scaling``, ``fmu``), ``stress_maps`` the maps of
+``sphrom stress`` (``stress``, ``stress_fmu``); ``report`` writes their Markdown
+(BENCHMARKS.md, stress.md); ``timing`` and ``tables`` are the shared medians and
+CSV files.
+"""

@@ -25,7 +25,9 @@ from .timing import median_time
 N_FREEZE = (1, 2, 5, 10, 20, 50)
 
 
-def _row(scene, method, k, n_freeze, online, offline, err_sph, err_ref, note=""):
+def bench_row(scene, method, k, n_freeze, online, offline, err_sph, err_ref, note=""):
+    """One row of the time-against-error table: times [s], errors (dicts of :func:`harness.compare.error_table`
+    against the full SPH and the reference, or None) flattened to v and ρ − ρ0."""
     return {"scene": scene.name, "method": method, "k": k, "n_freeze": n_freeze, "online_s": online,
             "offline_s": offline,
             "err_v_sph": np.nan if err_sph is None else err_sph["v"],
@@ -73,7 +75,7 @@ def bench_python(scene, ks=None, n_freezes=N_FREEZE, repeats=5, models=("origina
     sph_time, _ = median_time(lambda: run_sph(scene, sample_steps=steps, progress=False, problem=problem),
                               repeats=repeats)
     err_ref = None if ref is None else error_table(v_sph, rho_sph, ref[0], ref[1], t, problem.rho0)
-    rows.append(_row(scene, "full SPH", problem.n, None, sph_time, 0.0, None, err_ref,
+    rows.append(bench_row(scene, "full SPH", problem.n, None, sph_time, 0.0, None, err_ref,
                      f"N = {problem.n}, {scene.sph.integrator}"))
     tick()
     offline_pod = basis.timings.get("svd", 0.0) + run.wall_time
@@ -94,7 +96,7 @@ def bench_python(scene, ks=None, n_freezes=N_FREEZE, repeats=5, models=("origina
             r = result["r"]
             err_sph = error_table(r.v, r.rho, v_sph, rho_sph, t, problem.rho0)
             err_r = None if ref is None else error_table(r.v, r.rho, ref[0], ref[1], t, problem.rho0)
-            rows.append(_row(scene, model, k, nf, online, offline, err_sph, err_r))
+            rows.append(bench_row(scene, model, k, nf, online, offline, err_sph, err_r))
             tick()
         if "exact" in models and basis.U_ve is not None:
             lin = build_linear_operators(problem, basis.U_ve[:, :k], basis.U_e[:, :k])
@@ -106,7 +108,7 @@ def bench_python(scene, ks=None, n_freezes=N_FREEZE, repeats=5, models=("origina
             r = result["r"]
             err_sph = error_table(r.v, r.rho, v_sph, rho_sph, t, problem.rho0)
             err_r = None if ref is None else error_table(r.v, r.rho, ref[0], ref[1], t, problem.rho0)
-            rows.append(_row(scene, "exact", k, None, online,
+            rows.append(bench_row(scene, "exact", k, None, online,
                              offline_pod + basis.timings.get("svd_energy", 0.0) + lin.timings["operators"],
                              err_sph, err_r, f"H = {r.settings['step']:g} s"))
             tick()

@@ -63,3 +63,24 @@ def growth_exponent(rows, integrator, n_min=1000):
         return float("nan")
     n, t = np.array(pts).T
     return float(np.polyfit(np.log(n), np.log(t), 1)[0])
+
+
+def plot_scaling(rows, integrators, path, scene_name):
+    """µs per step against N per integrator (log-log) with a linear guide, as PNG at ``path``."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(5, 3.6))
+    for integrator in integrators:
+        pts = [(r["n"], r["us_per_step"]) for r in rows if r["integrator"] == integrator]
+        ax.loglog(*zip(*pts), "o-", label=integrator)
+    n = [r["n"] for r in rows]
+    ref = rows[0]["us_per_step"] * max(n) / min(n)
+    ax.loglog([min(n), max(n)], [rows[0]["us_per_step"], ref], "k:", label="linear")
+    ax.set_xlabel("particles N")
+    ax.set_ylabel("µs per step")
+    ax.set_title(f"full SPH step, scene {scene_name}")
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

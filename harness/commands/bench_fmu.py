@@ -1,6 +1,12 @@
 """``sphrom bench-fmu``: ns per internal step of the C core, and the FMU end to end beside the full SPH."""
 
-from .options import int_at_least
+from .options import add_quiet, add_scene, float_list, int_at_least, int_list, max_particles
+
+
+def _min_particles():
+    """Enough particles for the benchmark's k modes: 4 k."""
+    from ..bench.fmu import BENCH_K
+    return 4 * BENCH_K
 
 
 def add_parser(sub):
@@ -11,43 +17,34 @@ def add_parser(sub):
                                    "fmpy.simulate_fmu with 10 ms and 1 ms communication steps beside the Python "
                                    "full SPH of the same scene in the same run, as ratios, with the time split into "
                                    "fmpy's fixed cost, its per-doStep cost and the core's. Medians of --repeats.")
-    p.add_argument("scene", nargs="?", default="tenmode", metavar="SCENE", help="scene (default tenmode)")
-    p.add_argument("--sizes", default="100,400,1600", help="particle counts for the core benchmark")
+    add_scene(p, default="tenmode")
+    p.add_argument("--n-particles", "--sizes", dest="n_particles", metavar="N,...", default="100,400,1600",
+                   type=int_list(lo=_min_particles, hi=max_particles),
+                   help="particle counts for the core benchmark, enough for 12 modes (default %(default)s)")
     p.add_argument("--repeats", type=int_at_least(5), default=5, help="repeats per figure, >= 5 (median)")
-    p.add_argument("--steps", default="0.01,0.001", help="communication steps [s] for the end-to-end runs")
+    p.add_argument("--step", "--steps", dest="step", type=float_list(lo=0, lo_open=True), metavar="H,...",
+                   default="0.01,0.001", help="communication steps [s] for the end-to-end runs (default %(default)s)")
     p.add_argument("--core-only", action="store_true", help="only the core benchmark")
     p.add_argument("--out", metavar="DIR", help="folder for bench_fmu_core.csv, bench_fmu_e2e.csv, bench_fmu.md")
-    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    add_quiet(p)
     p.set_defaults(handler=run)
 
 
 def run(args):
-    import csv
     from pathlib import Path
 
-    from ..errors import UserError
-    from ..fmu.bench import core_rows, end_to_end, markdown
+    from ..bench.fmu import core_rows, end_to_end, write_fmu_csv
+    from ..bench.report import fmu_tables
     from ..progress import progress_bar
-    from ..scene import MAX_PARTICLES, MIN_PARTICLES, load_scene
+    from ..report.markdown import write_text
+    from ..scene import load_scene
 
-    try:
-        sizes = [int(s) for s in args.sizes.split(",") if s.strip()]
-    except ValueError:
-        raise UserError(f"--sizes: {args.sizes!r} is not a comma-separated list of integers") from None
-    if not sizes or min(sizes) < 4 * 12 or max(sizes) > MAX_PARTICLES:
-        raise UserError(f"--sizes: {args.sizes!r} is out of range (allowed: integers in [48, {MAX_PARTICLES}], "
-                        f"enough particles for 12 modes; N >= {MIN_PARTICLES})")
-    try:
-        steps = [float(s) for s in args.steps.split(",") if s.strip()]
-    except ValueError:
-        raise UserError(f"--steps: {args.steps!r} is not a comma-separated list of numbers") from None
-    if not steps or min(steps) <= 0:
-        raise UserError(f"--steps: {args.steps!r} is out of range (allowed: numbers > 0)")
+    sizes, steps = args.n_particles, args.step
     scene = load_scene(args.scene)
     out = Path(args.out) if args.out else None
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
-    total = len(sizes) + (0 if args.core_only else len(steps) + args.repeats)
+    total = len(sizes) + (0 if args.core_only else 2 * len(steps) + args.repeats)     # two models
     with progress_bar(total=total, desc="bench-fmu", enabled=not args.quiet) as bar:
         core = core_rows(args.scene, sizes, repeats=args.repeats, progress=False, bar=bar)
         e2e = None if args.core_only else end_to_end(args.scene, steps=steps, repeats=args.repeats, progress=False,
@@ -87,15 +84,7 @@ def run(args):
             print(f"  target >= 50x at {first['step_s'] * 1e3:g} ms, FMU {model}: {verdict} it "
                   f"({first['speedup']:.1f}x{accuracy})")
     if out is not None:
-        with open(out / "bench_fmu_core.csv", "w", newline="") as fh:
-            w = csv.DictWriter(fh, fieldnames=list(core[0]))
-            w.writeheader()
-            w.writerows(core)
-        if e2e is not None:
-            with open(out / "bench_fmu_e2e.csv", "w", newline="") as fh:
-                w = csv.DictWriter(fh, fieldnames=list(e2e["rows"][0]))
-                w.writeheader()
-                w.writerows(e2e["rows"])
-        (out / "bench_fmu.md").write_text(markdown(core, e2e))
+        write_fmu_csv(out, core, e2e)
+        write_text(out / "bench_fmu.md", fmu_tables(core, e2e))
         print(f"wrote {out / 'bench_fmu_core.csv'}" + (", bench_fmu_e2e.csv" if e2e else "") + ", bench_fmu.md")
     return 0

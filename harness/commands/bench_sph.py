@@ -1,6 +1,8 @@
 """``sphrom bench-sph``: µs per step of the full SPH model against N."""
 
-from .options import int_at_least
+from .options import add_quiet, add_scene, choice_list, int_at_least, int_list, min_particles
+
+INTEGRATORS = ("euler", "symplectic", "rk4")
 
 
 def add_parser(sub):
@@ -8,36 +10,33 @@ def add_parser(sub):
                        description="Median microseconds per step of the full SPH loop (numba) for several particle "
                                    "counts and integrators, and the growth exponent of time against N "
                                    "(1 = linear). Writes CSV and a PNG plot when --out is given.")
-    p.add_argument("--scene", default="tenmode", help="scene whose fields are used (default tenmode)")
-    p.add_argument("--sizes", default="100,400,10000,100000", help="comma-separated particle counts")
-    p.add_argument("--integrators", default="euler,symplectic,rk4", help="comma-separated integrators")
+    add_scene(p, default="tenmode", option_alias=True, help="scene whose fields are used")
+    p.add_argument("--n-particles", "--sizes", dest="n_particles", type=int_list(lo=min_particles),
+                   default="100,400,10000,100000", metavar="N,...",
+                   help="comma-separated particle counts (default %(default)s)")
+    p.add_argument("--integrator", "--integrators", dest="integrator", type=choice_list(*INTEGRATORS),
+                   default=",".join(INTEGRATORS), metavar="NAME,...",
+                   help="comma-separated integrators out of euler, symplectic, rk4 (default all)")
     p.add_argument("--repeats", type=int_at_least(1), default=5, help="repeats per point (median reported)")
     p.add_argument("--out", metavar="DIR", help="folder for sph_scaling.csv and sph_scaling.png")
+    add_quiet(p)
     p.set_defaults(handler=run)
 
 
 def run(args):
-    import csv
     from pathlib import Path
 
-    from ..bench.sph_scaling import growth_exponent, scaling_table
-    from ..errors import UserError
+    from ..bench.sph_scaling import growth_exponent, plot_scaling, scaling_table
+    from ..bench.tables import write_csv
     from ..progress import progress_bar
+    from ..scene import load_scene
 
-    try:
-        sizes = [int(s) for s in args.sizes.split(",")]
-    except ValueError:
-        raise UserError(f"--sizes: {args.sizes!r} is not a comma-separated list of integers") from None
-    if min(sizes) < 8:
-        raise UserError(f"--sizes: {min(sizes)} is out of range (allowed: integers >= 8)")
-    integrators = args.integrators.split(",")
-    bad = [i for i in integrators if i not in ("euler", "symplectic", "rk4")]
-    if bad:
-        raise UserError(f"--integrators: {bad[0]!r} is not one of euler, symplectic, rk4")
+    load_scene(args.scene)                       # a bad name is a one-line error before any work
+    sizes, integrators = args.n_particles, args.integrator
     out = Path(args.out) if args.out else None
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
-    with progress_bar(total=len(sizes) * len(integrators), desc="bench-sph", enabled=True) as bar:
+    with progress_bar(total=len(sizes) * len(integrators), desc="bench-sph", enabled=not args.quiet) as bar:
         rows = scaling_table(args.scene, sizes, integrators, args.repeats, bar)
     print(f"full SPH step (numba, one thread), scene {args.scene}, median of {args.repeats} repeats")
     print(f"{'integrator':<11} {'N':>8} {'us/step':>10} {'ns/particle':>12}")
@@ -46,25 +45,7 @@ def run(args):
     for integrator in integrators:
         print(f"{integrator}: time ~ N^{growth_exponent(rows, integrator):.2f} for N >= 1000")
     if out is not None:
-        with open(out / "sph_scaling.csv", "w", newline="") as fh:
-            writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
-            writer.writeheader()
-            writer.writerows(rows)
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-        fig, ax = plt.subplots(figsize=(5, 3.6))
-        for integrator in integrators:
-            pts = [(r["n"], r["us_per_step"]) for r in rows if r["integrator"] == integrator]
-            ax.loglog(*zip(*pts), "o-", label=integrator)
-        n = sizes
-        ref = rows[0]["us_per_step"] * max(n) / min(n)
-        ax.loglog([min(n), max(n)], [rows[0]["us_per_step"], ref], "k:", label="linear")
-        ax.set_xlabel("particles N")
-        ax.set_ylabel("µs per step")
-        ax.set_title(f"full SPH step, scene {args.scene}")
-        ax.legend()
-        fig.tight_layout()
-        fig.savefig(out / "sph_scaling.png", dpi=110)
+        write_csv(out / "sph_scaling.csv", rows)
+        plot_scaling(rows, integrators, out / "sph_scaling.png", args.scene)
         print(f"wrote {out / 'sph_scaling.csv'} and {out / 'sph_scaling.png'}")
     return 0

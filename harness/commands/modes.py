@@ -1,6 +1,6 @@
 """``sphrom modes``: the mode sweeps of the paper (singular values, error against k)."""
 
-from .options import int_at_least
+from .options import add_n_freeze, add_quiet, choice_list, int_at_least
 from .snapshot_options import add_snapshot_options
 
 
@@ -15,11 +15,14 @@ def add_parser(sub):
     p.add_argument("scene", metavar="SCENE", nargs="?")
     p.add_argument("--all", action="store_true", help="every paper scene and snapshot study")
     add_snapshot_options(p)
-    p.add_argument("--kmax", type=int_at_least(1), metavar="K", help="largest k (default min(rank, 20 or more))")
-    p.add_argument("--models", default="original", help="comma-separated: original, linearized, frozen")
-    p.add_argument("--freeze", type=int_at_least(1), default=10, metavar="NF", help="n_freeze of the frozen model")
+    p.add_argument("--max-modes", "--kmax", dest="max_modes", type=int_at_least(1), metavar="K",
+                   help="largest k (default min(rank, 20 or more))")
+    p.add_argument("--model", "--models", dest="model", type=choice_list("original", "linearized", "frozen"),
+                   default="original", metavar="NAME,...",
+                   help="comma-separated reduced models out of original, linearized, frozen (default original)")
+    add_n_freeze(p, default=10, help="refresh period n_freeze of the frozen model")
     p.add_argument("--out", metavar="DIR", default="modes", help="output folder (default ./modes)")
-    p.add_argument("--quiet", action="store_true")
+    add_quiet(p)
     p.set_defaults(handler=run)
 
 
@@ -40,7 +43,8 @@ def _write_csv(path, sweep):
 
 def _one(scene, spec, args, out, tag, models):
     from ..pod.study import mode_sweep, plot_sweep, threshold
-    sweep = mode_sweep(scene, spec, kmax=args.kmax, models=models, n_freeze=args.freeze, progress=not args.quiet)
+    sweep = mode_sweep(scene, spec, kmax=args.max_modes, models=models, n_freeze=args.n_freeze,
+                       progress=not args.quiet)
     _write_csv(out / f"{tag}.csv", sweep)
     plot_sweep(sweep, out / f"{tag}.png", scene.paper.get("mode_threshold") if spec is None else None)
     ths = {m: threshold(sweep["rows"], sweep["sph_error"], m) for m in models}
@@ -54,10 +58,7 @@ def run(args):
     from ..scene import builtin_names, load_scene
     from .snapshot_options import strategy_from_args
 
-    models = tuple(m for m in args.models.split(",") if m)
-    bad = [m for m in models if m not in ("original", "linearized", "frozen")]
-    if bad:
-        raise UserError(f"--models: {bad[0]!r} is not one of original, linearized, frozen")
+    models = tuple(args.model)
     if args.all == (args.scene is not None):
         raise UserError("give a SCENE or --all")
     out = Path(args.out)

@@ -1,6 +1,6 @@
 """``sphrom pod``: POD bases of a scene (eq. 2.15) from the full SPH (cached)."""
 
-from .options import positive_float
+from .options import add_quiet, add_scene, modes_pair, positive_float
 from .snapshot_options import add_snapshot_options
 
 
@@ -10,17 +10,18 @@ def add_parser(sub):
                                    "velocity and density snapshots, and write their POD bases (thin SVD, eq. 2.15), "
                                    "singular values, the reduced operators and initial reduced coordinates at the "
                                    "chosen mode count, to a basis file.")
-    p.add_argument("scene", metavar="SCENE")
+    add_scene(p)
     add_snapshot_options(p)
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--modes", metavar="K|KV,KRHO", help="mode counts stored with the operators (default the scene's)")
+    g.add_argument("--modes", type=modes_pair, metavar="K|KV,KRHO",
+                   help="mode counts stored with the operators (default the scene's)")
     g.add_argument("--energy", type=positive_float, metavar="TOL",
                    help="choose k as the fewest modes leaving out at most TOL of the snapshot energy")
     p.add_argument("--augment-input", action="store_true",
                    help="append the force direction to the velocity basis when the POD modes miss part of it "
                         "(default: project it on the POD modes, as the paper does)")
     p.add_argument("--out", required=True, metavar="BASIS.h5")
-    p.add_argument("--quiet", action="store_true")
+    add_quiet(p)
     p.set_defaults(handler=run)
 
 
@@ -33,7 +34,7 @@ def run(args):
     from ..rom.operators import build_operators
     from ..runio import check_output_path
     from ..scene import load_scene
-    from .snapshot_options import parse_modes, strategy_from_args
+    from .snapshot_options import strategy_from_args
 
     out = check_output_path(args.out)
     scene = load_scene(args.scene)
@@ -45,7 +46,7 @@ def run(args):
             raise UserError(f"--energy: {args.energy:g} is out of range (allowed: 0 < TOL < 1)")
         k_v, k_r = modes_for_energy(basis.sigma_v, args.energy), modes_for_energy(basis.sigma_rho, args.energy)
     else:
-        k_v, k_r = parse_modes(args.modes or scene.rom["modes"])
+        k_v, k_r = args.modes or (scene.rom["modes"], scene.rom["modes"])
         if k_v > rv or k_r > rr:
             raise UserError(f"--modes: {k_v},{k_r} is out of range (allowed: at most {rv} velocity and {rr} density "
                             "modes, the rank of these snapshots)")

@@ -2,6 +2,8 @@
 
 import argparse
 
+from .options import add_quiet, add_scene, integer, number
+
 SOLVERS = ("skfem", "pypde", "fd", "exact")
 LAYOUTS = ("staggered", "collocated")
 
@@ -30,39 +32,25 @@ damped_forced) every solver converges more slowly (about order 1.5 in L2).
 """
 
 
-def _int(text):
-    try:
-        return int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-
-
-def _float(text):
-    try:
-        return float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-
-
 def add_parser(sub):
     p = sub.add_parser("reference", help="a continuum reference of eqs. 2.2-2.4 (skfem, pypde, fd, exact)",
                        description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("scene", metavar="SCENE", help="built-in scene name (see 'sphrom scenes') or path to a .toml file")
+    add_scene(p)
     p.add_argument("--solver", required=True, metavar="|".join(SOLVERS), help="reference solver (see above)")
-    p.add_argument("--resolution", type=_int, metavar="N",
+    p.add_argument("--resolution", type=integer, metavar="N",
                    help="elements (skfem) or cells (pypde, fd), an integer >= 8 (default: see above)")
-    p.add_argument("--dt", type=_float, metavar="DT",
+    p.add_argument("--dt", type=number, metavar="DT",
                    help="time step [s] (default: see above); reduced so that every sample time is a step")
-    p.add_argument("--t-end", type=_float, metavar="T", help="final time [s] (scene default)")
-    p.add_argument("--every", type=_int, metavar="K",
+    p.add_argument("--t-end", type=number, metavar="T", help="final time [s] (scene default)")
+    p.add_argument("--every", type=integer, metavar="K",
                    help="a sample every K SPH steps of the scene, as 'sphrom sph --every K' (scene default)")
-    p.add_argument("--n-particles", type=_int, metavar="N", help="output at N particles' positions (scene default)")
-    p.add_argument("--order", type=_int, metavar="1|2", help="skfem: P1 or P2 elements (default 1)")
+    p.add_argument("--n-particles", type=integer, metavar="N", help="output at N particles' positions (scene default)")
+    p.add_argument("--order", type=integer, metavar="1|2", help="skfem: P1 or P2 elements (default 1)")
     p.add_argument("--layout", metavar="|".join(LAYOUTS),
                    help="fd: rho on the cell centres (staggered, 2nd order; default) or on the nodes "
                         "(collocated, 1st order in rho)")
     p.add_argument("--out", required=True, metavar="FILE.h5", help="output HDF5 run file")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_quiet(p)
     p.set_defaults(handler=run)
 
 

@@ -1,6 +1,6 @@
 """``sphrom rom``: run a reduced model from a basis file."""
 
-from .options import int_at_least, positive_float
+from .options import add_n_freeze, add_quiet, add_scene, modes_pair, positive_float
 
 
 def add_parser(sub):
@@ -9,14 +9,13 @@ def add_parser(sub):
                                    "the frozen-coefficient model (eqs. 2.19-2.24) of SCENE on a basis from "
                                    "'sphrom pod', write the reconstructed fields in the run layout of 'sphrom sph', "
                                    "and print the errors against the full SPH and the exact solution.")
-    p.add_argument("scene", metavar="SCENE")
+    add_scene(p)
     p.add_argument("--basis", required=True, metavar="BASIS.h5")
     p.add_argument("--model", required=True, choices=("original", "linearized", "frozen", "exact"),
                    help="exact: the linear model in the specific volume J = rho0/rho, advanced by the matrix "
                         "exponential (beyond the paper; see harness/rom/exact_linear.py)")
-    p.add_argument("--freeze", type=int_at_least(1), default=10, metavar="NF",
-                   help="refresh period n_freeze of the frozen coefficients (default 10)")
-    p.add_argument("--modes", metavar="K|KV,KRHO", help="mode counts (default: the basis file's)")
+    add_n_freeze(p, default=10)
+    p.add_argument("--modes", type=modes_pair, metavar="K|KV,KRHO", help="mode counts (default: the basis file's)")
     p.add_argument("--integrator", choices=("euler", "symplectic", "rk4"),
                    help="time integrator (default: the scene's; rk4 is not defined for frozen coefficients)")
     p.add_argument("--refresh", choices=("tensor", "direct"), default="tensor",
@@ -28,7 +27,7 @@ def add_parser(sub):
     p.add_argument("--augment-input", action="store_true",
                    help="append the force direction to the velocity basis (default: project it, as the paper does)")
     p.add_argument("--out", required=True, metavar="RUN.h5")
-    p.add_argument("--quiet", action="store_true")
+    add_quiet(p)
     p.set_defaults(handler=run)
 
 
@@ -43,7 +42,6 @@ def run(args):
     from ..runio import check_output_path, scene_attrs, write_run
     from ..scene import load_scene
     from ..sph.solver import build_problem, step_count
-    from .snapshot_options import parse_modes
 
     out = check_output_path(args.out)
     scene = load_scene(args.scene)
@@ -56,8 +54,8 @@ def run(args):
     integrator = args.integrator or scene.sph.integrator
     if args.model == "frozen" and integrator == "rk4":
         raise UserError("--integrator: rk4 is not defined for frozen coefficients (allowed: euler, symplectic)")
-    default = f"{basis.attrs.get('default_modes_v', 1)},{basis.attrs.get('default_modes_rho', 1)}"
-    k_v, k_r = parse_modes(args.modes or default)
+    k_v, k_r = args.modes or (int(basis.attrs.get("default_modes_v", 1)),
+                              int(basis.attrs.get("default_modes_rho", 1)))
     rv, rr = basis.max_modes
     if k_v > rv or k_r > rr:
         raise UserError(f"--modes: {k_v},{k_r} is out of range (allowed: at most {rv},{rr}, the basis' modes)")
@@ -78,7 +76,7 @@ def run(args):
         ops = build_operators(problem, basis.U_v[:, :k_v], basis.U_rho[:, :k_r],
                               input_direction="augment" if args.augment_input else "auto")
         result = run_reduced(args.model, ops, problem, n_steps=n, dt=scene.sph.dt, integrator=integrator,
-                             sample_steps=steps, n_freeze=args.freeze, refresh=args.refresh, progress=not args.quiet)
+                             sample_steps=steps, n_freeze=args.n_freeze, refresh=args.refresh, progress=not args.quiet)
     sph_scene = scene if args.model == "exact" else scene.with_sph(integrator=integrator)
     sph = cached_sph(sph_scene, steps, progress=not args.quiet, problem=problem)
     v_sph, rho_sph = on_steps(sph, steps)
@@ -86,7 +84,8 @@ def run(args):
     vs_sph = error_table(v, rho, v_sph, rho_sph, result.t, problem.rho0)
     vs_exact = exact_errors(scene, result.t, problem.x, v, rho, problem.rho0)
     offline = {"svd": basis.timings.get("svd", 0.0), "tensor": 0.0, **ops.timings}
-    label = f"{args.model}" + (f", n_freeze = {args.freeze}, {args.refresh} refresh" if args.model == "frozen" else "")
+    label = f"{args.model}" + (f", n_freeze = {args.n_freeze}, {args.refresh} refresh" if args.model == "frozen"
+                               else "")
     k_second = ops.k_e if args.model == "exact" else ops.k_rho
     print(f"rom {scene.name}: {label}, k_v = {ops.k_v}, k_{'J' if args.model == 'exact' else 'rho'} = {k_second}, "
           f"{integrator}, to t = {n * scene.sph.dt:g} s")
@@ -103,7 +102,7 @@ def run(args):
              **{f"offline_time.{k}": v for k, v in offline.items()},
              **{f"error.sph.{k}": v for k, v in vs_sph.items()}}
     if args.model == "frozen":
-        attrs.update({"solver.n_freeze": args.freeze, "solver.refresh": args.refresh})
+        attrs.update({"solver.n_freeze": args.n_freeze, "solver.refresh": args.refresh})
     if vs_exact is not None:
         attrs.update({f"error.exact.{k}": v for k, v in vs_exact.items()})
     write_run(out, result.t, problem.x, v, rho, attrs, steps=result.steps,

@@ -8,12 +8,12 @@ def add_snapshot_options(p):
     g = p.add_argument_group("snapshots (default: the scene's [snapshots] table, the paper's setting)")
     g.add_argument("--snapshots", metavar="COUNT|all",
                    help="COUNT snapshots uniform in the window (t0 + i (t1-t0)/COUNT), or 'all' stored samples")
-    g.add_argument("--window", type=lambda s: float_list(s, lo=0.0), metavar="T0,T1",
+    g.add_argument("--window", type=float_list(2, 2, lo=0.0, increasing=True), metavar="T0,T1",
                    help="time window [s] of the snapshots (default the scene's)")
-    g.add_argument("--times", type=lambda s: float_list(s, lo=0.0), metavar="T,...",
+    g.add_argument("--times", type=float_list(lo=0.0), metavar="T,...",
                    help="explicit snapshot times [s] for both fields")
-    g.add_argument("--times-v", type=lambda s: float_list(s, lo=0.0), metavar="T,...", help="velocity snapshot times [s]")
-    g.add_argument("--times-rho", type=lambda s: float_list(s, lo=0.0), metavar="T,...", help="density snapshot times [s]")
+    g.add_argument("--times-v", type=float_list(lo=0.0), metavar="T,...", help="velocity snapshot times [s]")
+    g.add_argument("--times-rho", type=float_list(lo=0.0), metavar="T,...", help="density snapshot times [s]")
     g.add_argument("--random", type=int_at_least(0), metavar="SEED", help="random times in the window, with this seed")
 
 
@@ -59,13 +59,3 @@ def strategy_from_args(args, scene):
         spec["random"] = args.random
     return spec
 
-
-def parse_modes(text, option="--modes"):
-    """'12' -> (12, 12); '12,8' -> (k_v, k_rho) = (12, 8)."""
-    try:
-        parts = [int(p) for p in str(text).split(",")]
-    except ValueError:
-        raise UserError(f"{option}: {text!r} is not K or KV,KRHO (positive integers)") from None
-    if len(parts) not in (1, 2) or min(parts) < 1:
-        raise UserError(f"{option}: {text!r} is out of range (allowed: K or KV,KRHO with integers >= 1)")
-    return (parts[0], parts[-1])

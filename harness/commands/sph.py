@@ -1,6 +1,6 @@
 """``sphrom sph``: run the full SPH model of a scene and write an HDF5 run."""
 
-from .options import int_at_least, positive_float
+from .options import add_quiet, add_scene, int_at_least, positive_float
 
 
 def add_parser(sub):
@@ -8,7 +8,7 @@ def add_parser(sub):
                        description="Run the full SPH model of SCENE with the paper's settings (or the ones given), "
                                    "write the samples to an HDF5 run file, and print the relative L2 errors "
                                    "(eq. 3.4, square-root form) against the exact solution when the scene has one.")
-    p.add_argument("scene", metavar="SCENE", help="built-in scene name (see 'sphrom scenes') or path to a .toml file")
+    add_scene(p)
     p.add_argument("--n-particles", type=int_at_least(1), metavar="N", help="number of particles (scene default)")
     p.add_argument("--alpha", type=positive_float, metavar="A", help="h / dx (scene default)")
     p.add_argument("--dt", type=positive_float, metavar="DT", help="time step [s] (scene default)")
@@ -16,7 +16,7 @@ def add_parser(sub):
     p.add_argument("--integrator", choices=("euler", "symplectic", "rk4"), help="time integrator (scene default: euler)")
     p.add_argument("--every", type=int_at_least(1), metavar="K", help="store a sample every K steps (scene default)")
     p.add_argument("--out", required=True, metavar="FILE.h5", help="output HDF5 run file")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_quiet(p)
     p.set_defaults(handler=run)
 
 

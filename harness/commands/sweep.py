@@ -1,5 +1,7 @@
 """``sphrom sweep``: a parameter study of FMU co-simulations (and full SPH runs) on dask.distributed."""
 
+from .options import add_quiet, int_in
+
 
 def add_parser(sub):
     p = sub.add_parser("sweep", help="a parameter study of FMU runs (and full SPH runs) on dask.distributed",
@@ -13,23 +15,12 @@ def add_parser(sub):
     p.add_argument("spec", metavar="SPEC.toml")
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="address of a running dask scheduler, e.g. tcp://host:8786 (default: a LocalCluster)")
-    p.add_argument("--workers", metavar="N",
+    p.add_argument("--workers", type=int_in(1, 256), metavar="N",
                    help="workers of the LocalCluster, one process with one thread each (default: the number "
                         "of cores)")
     p.add_argument("--out", required=True, metavar="RESULTS.h5")
-    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    add_quiet(p)
     p.set_defaults(handler=run)
-
-
-def _workers(text):
-    from ..errors import UserError
-    try:
-        value = int(str(text).strip())
-    except ValueError:
-        raise UserError(f"--workers: {text!r} is not an integer (allowed: an integer in [1, 256])") from None
-    if not 1 <= value <= 256:
-        raise UserError(f"--workers: {value} is out of range (allowed: an integer in [1, 256])")
-    return value
 
 
 def run(args):
@@ -48,7 +39,7 @@ def run(args):
                         "workers)")
     if args.scheduler is not None and not args.scheduler.strip():
         raise UserError("--scheduler: empty address (allowed: a scheduler address such as tcp://host:8786)")
-    workers = _workers(args.workers) if args.workers is not None else (os.cpu_count() or 1)
+    workers = args.workers if args.workers is not None else (os.cpu_count() or 1)
     spec = load_spec(args.spec)
     if out.exists():        # a file that is not ours is refused before any work
         from ..sweep.table import read_results

@@ -1,6 +1,6 @@
 """``sphrom validate``: the validation report of one scene or of every paper scene."""
 
-from .options import int_at_least
+from .options import add_quiet, int_at_least
 
 
 def add_parser(sub):
@@ -18,7 +18,7 @@ def add_parser(sub):
                    "validation/reports)")
     p.add_argument("--repeats", type=int_at_least(1), default=3,
                    help="timed runs per point of the time-against-error study (median; default 3)")
-    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    add_quiet(p)
     p.set_defaults(handler=run)
 
 

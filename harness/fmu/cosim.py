@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import SimulationError, UserError
+from ..errors import FieldError, SimulationError, UserError
 from ..paths import is_file
 
 
@@ -62,37 +62,41 @@ class LogCapture:
         return [m for s, m in self.messages if s >= 3]
 
 
-def read_fmu_description(path, option="FILE.fmu"):
-    """fmpy's model description of an sphrom FMU; UserError when it is not one."""
+def read_fmu_description(path):
+    """fmpy's model description of an sphrom FMU; FieldError ``fmu`` when it is not one."""
     from fmpy import read_model_description
     path = Path(path)
     if not is_file(path):
-        raise UserError(f"{option} '{path}': not found")
+        raise FieldError("fmu", f"'{path}': not found")
     try:
         md = read_model_description(str(path))
     except Exception as exc:            # fmpy raises plain exceptions for bad archives
-        raise UserError(f"{option} '{path}': not a readable FMU ({str(exc).splitlines()[0]})") from None
+        raise FieldError("fmu", f"'{path}': not a readable FMU ({str(exc).splitlines()[0]})") from None
     if md.coSimulation is None or md.coSimulation.modelIdentifier != "sphrom":
-        raise UserError(f"{option} '{path}': not an sphrom co-simulation FMU (modelIdentifier sphrom)")
+        raise FieldError("fmu", f"'{path}': not an sphrom co-simulation FMU (modelIdentifier sphrom)")
     return md
 
 
-def force_signal(force, t_end, step, option="--force"):
+def force_signal(force, t_end, step):
     """The input signal (structured array time, f) for fmpy, or None without a force.
 
     ``force`` is an expression in t and T (T = t_end), sampled at the
     communication points, or the path of a CSV file with columns time,f: a
     CSV when it ends in ``.csv`` or names an existing file, else an
     expression (also when it is no possible file name: too long, a NUL).
+    Raises FieldError ``force`` when it cannot be read or evaluated or is not finite.
     """
     if force is None:
         return None
     text = str(force).strip()
     path = Path(text)
     if text.lower().endswith(".csv") or is_file(path):
-        return _csv_signal(path, option)
+        return _csv_signal(path)
     from ..expr import compile_expr
-    expr = compile_expr(text, ("t", "T"), option)
+    try:
+        expr = compile_expr(text, ("t", "T"), "force")
+    except UserError as exc:             # "force: <what is wrong>"
+        raise FieldError("force", str(exc).split(": ", 1)[-1]) from None
     n = int(round(t_end / step))
     times = np.arange(n + 1) * step
     if times[-1] < t_end - 1e-12 * max(1.0, t_end):
@@ -101,49 +105,51 @@ def force_signal(force, t_end, step, option="--force"):
     try:
         with np.errstate(all="ignore"):
             values = np.broadcast_to(expr(t=times, T=t_end), times.shape).astype(float)
+    except UserError as exc:
+        raise FieldError("force", str(exc).split(": ", 1)[-1]) from None
     except (ValueError, TypeError, ZeroDivisionError) as exc:
-        raise UserError(f"{option}: cannot evaluate {text!r} ({exc})") from None
+        raise FieldError("force", f"cannot evaluate {text!r} ({exc})") from None
     bad = ~np.isfinite(values)
     if np.any(bad):
-        raise UserError(f"{option}: {text!r} is not finite at t = {times[bad][0]:g} s (allowed: a finite force)")
+        raise FieldError("force", f"{text!r} is not finite at t = {times[bad][0]:g} s (allowed: a finite force)")
     signal = np.zeros(times.size, dtype=[("time", np.float64), ("f", np.float64)])
     signal["time"], signal["f"] = times, values
     return signal
 
 
-def _csv_signal(path, option):
+def _csv_signal(path):
     if not is_file(path):
-        raise UserError(f"{option}: CSV file '{path}' not found")
+        raise FieldError("force", f"CSV file '{path}' not found")
     try:
         with open(path, newline="") as fh:
             reader = csv.reader(fh)
             header = [h.strip() for h in next(reader)]
             rows = [row for row in reader if row and any(c.strip() for c in row)]
     except (OSError, StopIteration, UnicodeDecodeError, csv.Error) as exc:
-        raise UserError(f"{option}: cannot read CSV file '{path}' ({exc or 'empty'})") from None
+        raise FieldError("force", f"cannot read CSV file '{path}' ({exc or 'empty'})") from None
     if "time" not in header or "f" not in header:
-        raise UserError(f"{option}: '{path}' needs the columns time,f (found: {','.join(header)})")
+        raise FieldError("force", f"'{path}' needs the columns time,f (found: {','.join(header)})")
     it, jf = header.index("time"), header.index("f")
     try:
         data = np.array([(float(r[it]), float(r[jf])) for r in rows], dtype=float).reshape(-1, 2)
     except (ValueError, IndexError):
-        raise UserError(f"{option}: '{path}' has a row that is not two numbers time,f") from None
+        raise FieldError("force", f"'{path}' has a row that is not two numbers time,f") from None
     if data.shape[0] == 0:
-        raise UserError(f"{option}: '{path}' has no rows")
+        raise FieldError("force", f"'{path}' has no rows")
     if not np.all(np.isfinite(data)):
-        raise UserError(f"{option}: '{path}' has non-finite values (allowed: finite time and f)")
+        raise FieldError("force", f"'{path}' has non-finite values (allowed: finite time and f)")
     if np.any(np.diff(data[:, 0]) < 0):
-        raise UserError(f"{option}: '{path}': time must not decrease")
+        raise FieldError("force", f"'{path}': time must not decrease")
     signal = np.zeros(data.shape[0], dtype=[("time", np.float64), ("f", np.float64)])
     signal["time"], signal["f"] = data[:, 0], data[:, 1]
     return signal
 
 
-def _positive(value, option):
+def _positive(value, field):
     if value is None:
         return None
     if not (math.isfinite(value) and value > 0):
-        raise UserError(f"{option}: {value!r} is out of range (allowed: a finite number > 0)")
+        raise FieldError(field, f"{value!r} is out of range (allowed: a finite number > 0)")
     return float(value)
 
 
@@ -165,8 +171,8 @@ def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None) -> CosimRes
 
     Raises
     ------
-    UserError
-        A bad file or option.
+    FieldError
+        A bad value of ``fmu``, ``force``, ``t_end``, ``step`` or ``n_freeze``.
     SimulationError
         The FMU reported an error (its message is included).
     """
@@ -175,17 +181,17 @@ def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None) -> CosimRes
 
     md = read_fmu_description(fmu)
     de = md.defaultExperiment
-    t_end = _positive(t_end, "--t-end") or float(de.stopTime)
-    step = _positive(step, "--step") or float(de.stepSize)
+    t_end = _positive(t_end, "t_end") or float(de.stopTime)
+    step = _positive(step, "step") or float(de.stepSize)
     if step > t_end:
-        raise UserError(f"--step: {step:g} is out of range (allowed: 0 < step <= t-end = {t_end:g})")
+        raise FieldError("step", f"{step:g} is out of range (allowed: 0 < step <= t_end = {t_end:g})")
     steps = int(math.ceil(t_end / step - 1e-9))
     if steps > 100_000_000:
-        raise UserError(f"--step: {step:g} gives {steps} communication steps (allowed: at most 1e8)")
+        raise FieldError("step", f"{step:g} gives {steps} communication steps (allowed: at most 1e8)")
     start = {}
     if n_freeze is not None:
         if isinstance(n_freeze, bool) or int(n_freeze) != n_freeze or not 1 <= n_freeze <= 2**31 - 1:
-            raise UserError(f"--n-freeze: {n_freeze!r} is out of range (allowed: an integer >= 1)")
+            raise FieldError("n_freeze", f"{n_freeze!r} is out of range (allowed: an integer >= 1)")
         start["n_freeze"] = int(n_freeze)
     signal = force_signal(force, t_end, step)
     outputs = [v.name for v in md.modelVariables if v.causality == "output"]

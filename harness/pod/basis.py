@@ -16,7 +16,7 @@ import h5py
 import numpy as np
 
 from .. import __version__
-from ..errors import UserError
+from ..errors import FieldError
 from ..runio import atomic_path, scene_attrs
 
 BASIS_FORMAT = "sphrom-basis"
@@ -175,19 +175,19 @@ def write_basis(path, basis: Basis, scene, extra=None):
                         g.create_dataset(name, data=np.asarray(arr))
 
 
-def read_basis(path, option="--basis") -> Basis:
-    """Read a basis file; UserError when missing or not a basis."""
+def read_basis(path) -> Basis:
+    """Read a basis file; FieldError ``basis`` when missing or not a basis."""
     from pathlib import Path
     path = Path(path)
     if not path.is_file():
-        raise UserError(f"{option}: '{path}' not found")
+        raise FieldError("basis", f"'{path}' not found")
     try:
         with h5py.File(path, "r") as h5:
             if h5.attrs.get("format") != BASIS_FORMAT:
-                raise UserError(f"{option}: '{path}' is not a sphrom basis file")
+                raise FieldError("basis", f"'{path}' is not a sphrom basis file")
             if int(h5.attrs["format_version"]) != BASIS_VERSION:
-                raise UserError(f"{option}: '{path}' has basis format version {h5.attrs['format_version']} "
-                                f"(this sphrom reads {BASIS_VERSION})")
+                raise FieldError("basis", f"'{path}' has basis format version {h5.attrs['format_version']} "
+                                          f"(this sphrom reads {BASIS_VERSION})")
             attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in h5.attrs.items()}
             timings = {k.split(".", 1)[1]: float(v) for k, v in attrs.items() if k.startswith("offline_time.")}
             optional = {name: (h5[name][()] if name in h5 else None)
@@ -197,4 +197,4 @@ def read_basis(path, option="--basis") -> Basis:
                          x=h5["x"][()], dt=float(attrs["dt"]), scene_text=attrs["scene.toml"],
                          strategy=attrs["strategy"], timings=timings, attrs=attrs, **optional)
     except OSError as exc:
-        raise UserError(f"{option}: '{path}' cannot be read as HDF5 ({exc})") from None
+        raise FieldError("basis", f"'{path}' cannot be read as HDF5 ({exc})") from None

@@ -26,7 +26,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from ..errors import UserError
+from ..errors import FieldError
 from ..scene import Scene
 from ..sph.operator import particle_positions
 from ..sph.solver import default_sample_steps, step_count
@@ -298,35 +298,35 @@ def to_output(native: NativeRun, scene: Scene, x_out, breaks):
 
 
 # --------------------------------------------------------------------------
-# checks of user input (messages name the CLI option)
+# checks of user input (messages name the field: resolution, dt)
 # --------------------------------------------------------------------------
-def check_resolution(n, option="--resolution"):
-    """The resolution as an int in [MIN_RESOLUTION, MAX_RESOLUTION], else UserError."""
+def check_resolution(n):
+    """The resolution as an int in [MIN_RESOLUTION, MAX_RESOLUTION], else FieldError ``resolution``."""
     if isinstance(n, (bool, np.bool_)) or int(n) != n or not (MIN_RESOLUTION <= n <= MAX_RESOLUTION):
-        raise UserError(f"{option}: {n!r} is out of range "
-                        f"(allowed: an integer in [{MIN_RESOLUTION}, {MAX_RESOLUTION}])")
+        raise FieldError("resolution", f"{n!r} is out of range "
+                                       f"(allowed: an integer in [{MIN_RESOLUTION}, {MAX_RESOLUTION}])")
     return int(n)
 
 
-def resolution_from(scene: Scene, resolution=None, dx=None, default=None, option="--resolution"):
+def resolution_from(scene: Scene, resolution=None, dx=None, default=None):
     """N from ``resolution`` or a cell size ``dx`` [m] (N = round(L/dx)), else ``default``."""
     if resolution is not None and dx is not None:
         raise ValueError("give resolution or dx, not both")
     if dx is not None:
         if not (np.isfinite(dx) and dx > 0):
-            raise UserError(f"{option}: dx = {dx!r} is out of range (allowed: a number > 0)")
+            raise FieldError("resolution", f"dx = {dx!r} is out of range (allowed: a number > 0)")
         resolution = int(round(scene.L / dx))
     if resolution is None:
         resolution = default
-    return check_resolution(resolution, option)
+    return check_resolution(resolution)
 
 
-def check_dt(dt, T, option="--dt"):
-    """dt as a float in (0, T], else UserError."""
+def check_dt(dt, T):
+    """dt as a float in (0, T], else FieldError ``dt``."""
     if dt is None or not (np.isfinite(dt) and dt > 0):
-        raise UserError(f"{option}: {dt!r} is out of range (allowed: a number > 0)")
+        raise FieldError("dt", f"{dt!r} is out of range (allowed: a number > 0)")
     if dt > T:
-        raise UserError(f"{option}: {dt:g} is out of range (allowed: 0 < dt <= T = {T:g})")
+        raise FieldError("dt", f"{dt:g} is out of range (allowed: 0 < dt <= T = {T:g})")
     return float(dt)
 
 
@@ -352,14 +352,14 @@ def rk_growth(coefficients, omega_max, d_range, dt, n_steps, samples=400):
     return float(np.exp(min(700.0, n_steps * np.log(worst))))
 
 
-def unstable_message(solver, n, dt_requested, dt_used, T, stab):
-    """One line for a Δt beyond an explicit scheme's limit (names --dt, its range and the CFL number)."""
+def unstable_error(solver, n, dt_requested, dt_used, T, stab):
+    """FieldError ``dt`` for a Δt beyond an explicit scheme's limit (its range and the CFL number)."""
     growth = stab["growth"]
     grows = "without bound" if growth >= 1e300 else f"{growth:.3g}x"
     used = "" if dt_used == dt_requested else f" (step used {dt_used:g} s)"
-    return (f"--dt: {dt_requested:g}{used} is out of range (allowed: 0 < dt <= {stab['dt_limit']:.3g} s for "
-            f"{solver} at N = {n} over t = {T:g} s; CFL number c_s dt/dx = {stab['cfl']:.3g}, the fastest "
-            f"mode would grow {grows})")
+    return FieldError("dt", f"{dt_requested:g}{used} is out of range (allowed: 0 < dt <= {stab['dt_limit']:.3g} s "
+                            f"for {solver} at N = {n} over t = {T:g} s; CFL number c_s dt/dx = {stab['cfl']:.3g}, "
+                            f"the fastest mode would grow {grows})")
 
 
 def largest_stable_dt(coefficients, omega_max, d_range, T, growth=GROWTH_MAX, hi=None):

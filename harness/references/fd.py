@@ -39,12 +39,12 @@ import time as _time
 import numpy as np
 from numba import njit
 
-from ..errors import SimulationError, UserError
+from ..errors import SimulationError
 from ..progress import progress_bar
 from ..scene import Scene
 from .common import (GROWTH_MAX, NativeRun, Reference, check_dt, coefficient_breaks, damping_range,
                      force_active, largest_stable_dt, max_sound_speed, output_points, output_times,
-                     resolution_from, rk_growth, step_plan, to_output, unstable_message)
+                     resolution_from, rk_growth, step_plan, to_output, unstable_error)
 
 HEUN = (1.0, 1.0, 0.5)          # R(z) = 1 + z + z²/2
 DEFAULT_N = 2048                 # cells, when the scene gives no paper reference_dx (~1e-4 at T = 10)
@@ -163,7 +163,7 @@ def run(scene: Scene, resolution=None, dt=None, t=None, *, dx=None, layout="stag
     progress : bool
         Progress bar on long runs.
     check : bool
-        Refuse (UserError) a Δt whose fastest mode grows by more than
+        Refuse (FieldError ``dt``) a Δt whose fastest mode grows by more than
         GROWTH_MAX over the run.
     layout : {"staggered", "collocated"}
         Where ρ_i, c_i and ρ0_i live: the cell centre x_{i+1/2} (second
@@ -185,7 +185,7 @@ def run(scene: Scene, resolution=None, dt=None, t=None, *, dx=None, layout="stag
     n_steps = int(sample_steps[-1])
     stab = stability(scene, n, dt_used, max(T, dt_used))
     if check and stab["growth"] > GROWTH_MAX:
-        raise UserError(unstable_message("fd (Heun)", n, dt_req, dt_used, T, stab))
+        raise unstable_error("fd (Heun)", n, dt_req, dt_used, T, stab)
     x_v, x_c = grid(scene, n)
     if layout == "collocated":
         x_c = x_v

@@ -38,12 +38,12 @@ import time as _time
 
 import numpy as np
 
-from ..errors import SimulationError, UserError
+from ..errors import FieldError, SimulationError
 from ..progress import progress_bar
 from ..scene import Scene
 from .common import (GROWTH_MAX, NativeRun, Reference, check_dt, coefficient_breaks, damping_range,
                      force_active, largest_stable_dt, max_sound_speed, output_points, output_times,
-                     resolution_from, rk_growth, step_plan, to_output, unstable_message)
+                     resolution_from, rk_growth, step_plan, to_output, unstable_error)
 
 RK4 = (1.0, 1.0, 0.5, 1.0 / 6.0, 1.0 / 24.0)
 DEFAULT_N = 256                  # cells: ~1e-5 relative at T = 10 on the smooth scenes
@@ -184,14 +184,14 @@ def run(scene: Scene, resolution=None, dt=None, t=None, *, dx=None, adaptive=Fal
         py-pde backend; "auto" takes numba for long runs only (its
         compilation costs seconds).
     check : bool
-        Refuse (UserError) a fixed Δt beyond RK4's stability limit.
+        Refuse (FieldError ``dt``) a fixed Δt beyond RK4's stability limit.
 
     Returns
     -------
     NativeRun
     """
     if backend not in BACKENDS:
-        raise UserError(f"--backend: {backend!r} is out of range (allowed: {', '.join(BACKENDS)})")
+        raise FieldError("backend", f"{backend!r} is out of range (allowed: {', '.join(BACKENDS)})")
     n = resolution_from(scene, resolution, dx, DEFAULT_N)
     t_out = output_times(scene, t)
     T = float(t_out[-1])
@@ -200,7 +200,7 @@ def run(scene: Scene, resolution=None, dt=None, t=None, *, dx=None, adaptive=Fal
     n_steps = int(sample_steps[-1])
     stab = stability(scene, n, dt_used, max(T, dt_used))
     if check and not adaptive and stab["growth"] > GROWTH_MAX:
-        raise UserError(unstable_message("pypde (RK4)", n, dt_req, dt_used, T, stab))
+        raise unstable_error("pypde (RK4)", n, dt_req, dt_used, T, stab)
     if backend == "auto":
         backend = "numba" if n * max(n_steps, 1) > NUMBA_WORK else "numpy"
 

@@ -47,7 +47,7 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 from skfem import Basis, BilinearForm, ElementLineP1, ElementLineP2, LinearForm, MeshLine1, asm
 
-from ..errors import SimulationError, UserError
+from ..errors import FieldError, SimulationError
 from ..progress import progress_bar
 from ..scene import Scene
 from .common import (NativeRun, Reference, check_dt, coefficient_breaks, force_active, output_points,
@@ -201,7 +201,7 @@ def run(scene: Scene, resolution=None, dt=None, t=None, *, dx=None, order=1, pro
     NativeRun
     """
     if order not in ELEMENTS:
-        raise UserError(f"--order: {order!r} is out of range (allowed: 1 or 2)")
+        raise FieldError("order", f"{order!r} is out of range (allowed: 1 or 2)")
     n = resolution_from(scene, resolution, dx, DEFAULT_N[order])
     t_out = output_times(scene, t)
     T = float(t_out[-1])

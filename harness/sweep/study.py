@@ -33,7 +33,7 @@ import uuid
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..errors import UserError
+from ..errors import FieldError
 from .spec import scene_value
 from .table import merge, read_results, write_results
 
@@ -81,21 +81,21 @@ def input_row(spec, entry, fmu_key):
 def connect(scheduler=None, workers=None):
     """(client, cluster): the scheduler at ``scheduler``, else a new LocalCluster (cluster None otherwise).
 
-    Raises UserError when the scheduler cannot be reached or has no worker.
+    Raises FieldError ``scheduler`` when the scheduler cannot be reached or has no worker.
     """
     from distributed import Client, LocalCluster
     if scheduler:
         try:
             client = Client(scheduler, timeout=CONNECT_TIMEOUT)
         except (OSError, TimeoutError, ValueError) as exc:
-            raise UserError(f"--scheduler: cannot connect to {scheduler!r} within {CONNECT_TIMEOUT:g} s "
-                            f"({str(exc).splitlines()[0] if str(exc) else type(exc).__name__})") from None
+            raise FieldError("scheduler", f"cannot connect to {scheduler!r} within {CONNECT_TIMEOUT:g} s "
+                                          f"({str(exc).splitlines()[0] if str(exc) else type(exc).__name__})") from None
         try:
             client.wait_for_workers(1, timeout=WORKER_TIMEOUT)
         except (TimeoutError, OSError):
             client.close()
-            raise UserError(f"--scheduler: the cluster at {scheduler!r} has no worker after "
-                            f"{WORKER_TIMEOUT:g} s") from None
+            raise FieldError("scheduler", f"the cluster at {scheduler!r} has no worker after "
+                                          f"{WORKER_TIMEOUT:g} s") from None
         return client, None
     cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
                            silence_logs=logging.ERROR)

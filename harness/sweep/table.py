@@ -28,7 +28,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from ..errors import UserError
+from ..errors import FieldError
 from ..runio import atomic_path
 
 FORMAT = "sphrom-sweep"
@@ -159,17 +159,17 @@ def _csv(value, kind):
     return str(value)
 
 
-def read_results(path, option="--out"):
+def read_results(path):
     """(rows, attrs) of a RESULTS.h5 written by :func:`write_results`.
 
-    Raises UserError when the file is not one.
+    Raises FieldError ``out`` when the file is not one.
     """
     path = Path(path)
     try:
         with h5py.File(path, "r") as h5:
             if h5.attrs.get("format") != FORMAT or "results" not in h5:
-                raise UserError(f"{option}: '{path}' exists and is not a sphrom sweep result file (allowed: a new "
-                                f"path, or the results of an earlier sweep to resume)")
+                raise FieldError("out", f"'{path}' exists and is not a sphrom sweep result file (allowed: a new "
+                                        f"path, or the results of an earlier sweep to resume)")
             attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in h5.attrs.items()}
             group = h5["results"]
             names = [n.decode() if isinstance(n, bytes) else str(n) for n in group.attrs["columns"]]
@@ -181,8 +181,8 @@ def read_results(path, option="--out"):
                 else:
                     data[name] = arr[()].tolist()
     except OSError as exc:
-        raise UserError(f"{option}: '{path}' exists and cannot be read as HDF5 ({exc}); move it away to start "
-                        f"afresh") from None
+        raise FieldError("out", f"'{path}' exists and cannot be read as HDF5 ({exc}); move it away to start "
+                                f"afresh") from None
     n = len(data[names[0]]) if names else 0
     rows = [{name: data[name][i] for name in names} for i in range(n)]
     return rows, attrs

@@ -31,8 +31,8 @@ _TIME = re.compile(r"t = ([-+0-9.eE]+) s")
 
 
 def _outcome(e, rho_bad_time=None):
-    from ..bench.stress import _classify
-    outcome, growth, drift = _classify(e)
+    from .stress import classify_energy
+    outcome, growth, drift = classify_energy(e)
     if rho_bad_time is not None:
         outcome = "unphysical"
     return {"outcome": outcome, "blowup_time": rho_bad_time, "energy_growth": growth, "energy_drift": drift,
@@ -65,10 +65,10 @@ class FMUStress:
             return self._made[key]
         from fmpy import extract
 
-        from .build import ensure_binaries
-        from .describe import model_description
-        from .package import DEFAULT_PROBES, write_fmu
-        from .resources import exact_data, model_data, pack, pack_exact
+        from ..fmu.build import ensure_binaries
+        from ..fmu.describe import model_description
+        from ..fmu.package import DEFAULT_PROBES, write_fmu
+        from ..fmu.resources import exact_data, model_data, pack, pack_exact
 
         scene, problem = ctx.scene, ctx.problem
         if model == "exact":
@@ -100,7 +100,7 @@ class FMUStress:
         """One stress run of the FMU; the dict of :func:`harness.bench.stress.run_one` plus fmu_error, silent_nan."""
         from fmpy.fmi1 import FMICallException
 
-        from .fmi import Slave
+        from ..fmu.fmi import Slave
 
         scene, problem = ctx.scene, ctx.problem
         T = T or scene.T

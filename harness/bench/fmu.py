@@ -1,4 +1,4 @@
-"""Benchmarks of the FMU (``sphrom bench-fmu``).
+"""Benchmarks of the FMU (``sphrom bench-fmu``, the FMU rows and section of ``sphrom bench``).
 
 1. The C core alone (``libsphrom_core`` through ctypes, no FMI, no Python in
    the loop): ns per internal step at k = 12, n_freeze = 10 for several
@@ -14,8 +14,8 @@
    recording), and of that the bare ``fmi2DoStep`` call through fmpy/ctypes
    (doSteps of one internal step on FMU2Slave, minus the core's time).
 
-4. The lean path (issue 6's headline): a scripted fmpy loop on a pre-extracted
-   FMU - FMU2Slave instantiated once (timed separately), fmi2Reset,
+4. The lean path (the FMU rows of ``sphrom bench``): a scripted fmpy loop on
+   a pre-extracted FMU - FMU2Slave instantiated once (timed separately), fmi2Reset,
    setupExperiment and initialization per run, then per communication step
    the input (when the scene has a force), fmi2DoStep and reading every
    output, through fmpy's ctypes bindings with preallocated arrays.  Not
@@ -26,8 +26,9 @@
 5. The same-language ratio: the C frozen step (k = 12, n_freeze = 10) against
    the C full SPH step of fmu_src/sph.c at N = 400.
 
-``bench_rows`` gives the FMU rows of ``sphrom bench``.  Every figure is the
-median of ``repeats`` runs.
+``bench_rows`` gives the FMU rows of ``sphrom bench``, :func:`fmu_measurements`
+its FMU section (the Markdown is :func:`harness.bench.report.fmu_tables`).
+Every figure is the median of ``repeats`` runs.
 """
 
 from __future__ import annotations
@@ -70,10 +71,10 @@ def bench_scene(base, n):
 def core_rows(base, sizes, k=BENCH_K, n_freeze=BENCH_FREEZE, n_steps=200_000, repeats=5, core=None, progress=False,
               bar=None):
     """ns per internal step of the C core for each N in ``sizes`` (list of dicts)."""
-    from .build import ensure_binaries
-    from .core import Core
-    from .package import reduced_model
-    from .resources import pack
+    from ..fmu.build import ensure_binaries
+    from ..fmu.core import Core
+    from ..fmu.package import reduced_model
+    from ..fmu.resources import pack
 
     core = core or Core(ensure_binaries().core)
     rows = []
@@ -111,7 +112,7 @@ def _simulate(path, stop_time, step, keep=None):
 
 def _bare_calls(unzipdir, md, n_calls, h):
     """n_calls fmi2DoStep of length h on an extracted FMU, nothing else: the call cost through fmpy/ctypes."""
-    from .fmi import load_fmu
+    from ..fmu.fmi import load_fmu
     fmu = load_fmu(2, unzipdir, md.guid, "bench")
     fmu.instantiate()
     fmu.setupExperiment(startTime=0.0)
@@ -135,7 +136,7 @@ def sph_at_probes(scene, problem, probes, step):
     from ..norms import relative_l2
     from ..references.exact import exact_solution, is_available
     from ..sph.solver import run_sph, step_count
-    from .resources import probe_pairs
+    from ..fmu.resources import probe_pairs
 
     n = step_count(scene.T, scene.sph.dt)
     m = int(round(step / scene.sph.dt))
@@ -180,10 +181,10 @@ def end_to_end(scene_name="tenmode", steps=(0.01, 0.001), repeats=5, k=None, pro
 
     from ..scene import load_scene
     from ..sph.solver import build_problem, run_sph, step_count
-    from .build import ensure_binaries
-    from .core import Core
-    from .package import package_fmu, reduced_model
-    from .resources import pack
+    from ..fmu.build import ensure_binaries
+    from ..fmu.core import Core
+    from ..fmu.package import package_fmu, reduced_model
+    from ..fmu.resources import pack
 
     scene = load_scene(scene_name)
     problem = build_problem(scene)
@@ -281,8 +282,8 @@ def prepared_fmu(scene, k, model="frozen", n_freeze=10, problem=None, probes=(0.
 
     from fmpy import extract, read_model_description
 
-    from .build import ensure_binaries
-    from .package import package_fmu
+    from ..fmu.build import ensure_binaries
+    from ..fmu.package import package_fmu
     key = (hashlib.sha256(scene.text.encode()).hexdigest() if getattr(scene, "text", None) else scene.name,
            int(k), model, int(n_freeze), tuple(probes))
     if key not in _PREPARED:
@@ -308,7 +309,7 @@ class LeanSlave:
     """
 
     def __init__(self, unzipdir, md, guid=None):
-        from .fmi import load_fmu
+        from ..fmu.fmi import load_fmu
         t0 = time.perf_counter()
         self.fmu = load_fmu(2, unzipdir, guid or md.guid, "lean")
         self.messages = []
@@ -357,7 +358,7 @@ class LeanSlave:
 
     def reduced_state(self, k_v, k_rho):
         """The FMU's reduced state (a^v, then a^rho or b) from its serialized FMU state."""
-        from .fmi import state_coordinates
+        from ..fmu.fmi import state_coordinates
         fmu = self.fmu
         state = fmu.getFMUstate()
         try:
@@ -443,12 +444,12 @@ def bench_rows(context):
     fmpy), and once the C full SPH (fmu_src/sph.c).  Errors against the full SPH (context v_sph/rho_sph at the
     context steps) and the reference; times are medians of context["repeats"].
     """
-    from ..bench.methods import _row
+    from .methods import bench_row
     from ..compare import error_table
     from ..sph.solver import force_values, step_count
-    from .core import Core
-    from .build import ensure_binaries
-    from .package import exact_model, reduced_model
+    from ..fmu.core import Core
+    from ..fmu.build import ensure_binaries
+    from ..fmu.package import exact_model, reduced_model
 
     scene, run, steps = context["scene"], context["run"], np.asarray(context["steps"])
     repeats = max(1, int(context.get("repeats", 3)))
@@ -475,7 +476,7 @@ def bench_rows(context):
             try:
                 path, unzipdir, md, summary = prepared_fmu(scene, k, model, problem=problem)
             except Exception as exc:                    # e.g. no energy basis: say so, keep the others
-                rows.append(_row(scene, f"FMU {model} (fmpy)", k, None, float("nan"), 0.0, None, None,
+                rows.append(bench_row(scene, f"FMU {model} (fmpy)", k, None, float("nan"), 0.0, None, None,
                                  f"not built: {exc}"))
                 continue
             if model == "exact":
@@ -498,13 +499,13 @@ def bench_rows(context):
                 v, rho = _fmu_states(unzipdir, md, summary, ops, steps, dt, force, model, nf, h)
                 e_s, e_r = errors(v, rho)
                 method = "FMU (fmpy)" if model == "frozen" else "FMU exact (fmpy)"
-                rows.append(_row(scene, method, k, nf if model == "frozen" else None, _median(times),
+                rows.append(bench_row(scene, method, k, nf if model == "frozen" else None, _median(times),
                                  summary.timings.get("model", 0.0), e_s, e_r,
                                  f"lean fmpy loop, {h * 1e3:g} ms comm. step ({n_comm} doSteps, input + doStep + "
                                  f"all outputs), instantiate {slave.instantiate_s * 1e3:.1f} ms not included; "
                                  f"errors from the FMU's serialized state (input held over each step)"))
             if model == "frozen":
-                from .resources import pack
+                from ..fmu.resources import pack
                 data, *_ = reduced_model(scene, k, 10, summary.probes, summary.integrator, progress=False,
                                          problem=problem)
                 cm = core.load(pack(data))
@@ -525,7 +526,7 @@ def bench_rows(context):
                             times.append(time.perf_counter() - t0)
                 finally:
                     cm.close()
-                rows.append(_row(scene, "FMU core (C)", k, 10, _median(times), 0.0, None, None,
+                rows.append(bench_row(scene, "FMU core (C)", k, 10, _median(times), 0.0, None, None,
                                  (f"rom_advance over {n} internal steps in one ctypes call, no fmpy"
                                   if force is None else
                                   f"rom_set_input + rom_do_step per {h * 1e3:g} ms step through ctypes, no fmpy")
@@ -548,7 +549,7 @@ def bench_rows(context):
                 e_s, e_r = errors(np.array(vs), np.array(rs))
             else:
                 times.append(wall)
-        rows.append(_row(scene, "C full SPH", problem.n, None, _median(times), 0.0, e_s, e_r,
+        rows.append(bench_row(scene, "C full SPH", problem.n, None, _median(times), 0.0, e_s, e_r,
                          f"fmu_src/sph.c, {scene.sph.integrator}, N = {problem.n} (time in the C calls)"))
     return rows
 
@@ -556,8 +557,8 @@ def bench_rows(context):
 def sph_step_rows(base="tenmode", n=400, k=BENCH_K, n_freeze=BENCH_FREEZE, n_steps=20_000, repeats=5, core=None):
     """The same-language ratio at N = n: ns per step of the C frozen core and of the C full SPH (sph.c)."""
     from ..sph.solver import build_problem
-    from .build import ensure_binaries
-    from .core import Core
+    from ..fmu.build import ensure_binaries
+    from ..fmu.core import Core
     core = core or Core(ensure_binaries().core)
     frozen = core_rows(base, [n], k=k, n_freeze=n_freeze, n_steps=max(n_steps, 100_000), repeats=repeats,
                        core=core)[0]
@@ -575,33 +576,30 @@ def sph_step_rows(base="tenmode", n=400, k=BENCH_K, n_freeze=BENCH_FREEZE, n_ste
             "ratio": sph_ns / frozen["ns_per_step"], "k_v": frozen["k_v"], "k_rho": frozen["k_rho"]}
 
 
-def markdown(core, e2e, heading="##"):
-    """The two tables as Markdown text."""
-    lines = [f"{heading} C core: ns per internal step (k = %d, n_freeze = %d)" % (core[0]["k"], core[0]["n_freeze"]),
-             "", "| N | k_v | k_rho | ns/step (median) | min | max |", "| ---: | ---: | ---: | ---: | ---: | ---: |"]
-    for r in core:
-        lines.append(f"| {r['n']} | {r['k_v']} | {r['k_rho']} | {r['ns_per_step']:.1f} | {r['ns_min']:.1f} | "
-                     f"{r['ns_max']:.1f} |")
-    if e2e is not None:
-        sph_err = e2e["sph"].get("probe_error_v_vs_exact")
-        lines += ["", f"{heading} End to end through fmpy.simulate_fmu: {e2e['scene']} (N = {e2e['n']}, "
-                      f"T = {e2e['T']:g} s, {e2e['internal_steps']} internal steps, k_v = {e2e['k_v']}, "
-                      f"k_rho = {e2e['k_rho']}, probes x/L = {', '.join(f'{p:g}' for p in e2e['probes'])})", "",
-                  f"Full SPH (run_sph, numba, same run): {e2e['sph']['call_s']:.3f} s per run "
-                  f"({e2e['sph']['loop_s']:.3f} s in its time loop); its probe-velocity error against the exact "
-                  f"solution: {'—' if sph_err is None else format(sph_err, '.3e')}. Each FMU time is the whole "
-                  "`fmpy.simulate_fmu` call (extract, load, instantiate, loop, record, free); the probe error is "
-                  "the FMU's probe velocities against the full SPH interpolated at the probes (relative L² over "
-                  "the run, input held), at the first communication step.", "",
-                  "| model | comm. step | doSteps | FMU [s] | speed-up vs full SPH | probe v error vs SPH | "
-                  "fixed cost [s] | core [s] | fmpy per doStep [µs] | bare doStep call [µs] |",
-                  "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+def fmu_measurements(scene_name="tenmode", repeats=5, sizes=(100, 400, 1600), steps=(0.01, 0.001),
+                     progress=True):
+    """The FMU section of ``sphrom bench``: the C core against N, end to end through fmpy.simulate_fmu, and
+    the same-language ratio at N = 400.
 
-        def f(x, spec):
-            return "—" if x is None or (isinstance(x, float) and np.isnan(x)) else format(x, spec)
-        for r in e2e["rows"]:
-            lines.append(f"| {r.get('model', 'frozen')} | {r['step_s'] * 1e3:g} ms | {r['doSteps']} | "
-                         f"{r['fmu_e2e_s']:.4f} | {r['speedup']:.1f}x | {f(r.get('probe_error_v_vs_sph'), '.3e')} | "
-                         f"{r['fixed_s']:.4f} | {f(r['core_s'], '.4f')} | {r['us_per_doStep_fmpy']:.1f} | "
-                         f"{f(r['us_per_doStep_bare_call'], '.1f')} |")
-    return "\n".join(lines) + "\n"
+    Returns a dict: ``core`` (:func:`core_rows`), ``e2e`` (:func:`end_to_end`), ``same``
+    (:func:`sph_step_rows`), ``repeats``.
+    """
+    from ..progress import progress_bar
+    with progress_bar(total=len(sizes) + len(steps) * len(("frozen", "exact")) + repeats + 1, desc="FMU",
+                      enabled=progress) as bar:
+        e2e = end_to_end(scene_name, steps=steps, repeats=repeats, bar=bar)
+        core = core_rows(scene_name, list(sizes), repeats=repeats, bar=bar)
+        same = sph_step_rows(scene_name, n=400, repeats=repeats)
+        bar.update(1)
+    return {"core": core, "e2e": e2e, "same": same, "repeats": repeats}
+
+
+def write_fmu_csv(out, core, e2e, prefix="bench_fmu_"):
+    """``out``/<prefix>core.csv and, with ``e2e``, <prefix>e2e.csv (written atomically); returns the paths."""
+    from .tables import write_csv
+    paths = [out / f"{prefix}core.csv"]
+    write_csv(paths[0], core)
+    if e2e is not None:
+        paths.append(out / f"{prefix}e2e.csv")
+        write_csv(paths[1], e2e["rows"])
+    return paths

@@ -1,0 +1,315 @@
+"""The Markdown of BENCHMARKS.md (``sphrom bench --report``) and of the stress maps (``sphrom stress``).
+
+One function per section, each taking measured rows (plain dicts, as
+:mod:`harness.bench.suite` and :mod:`harness.bench.stress_maps` produce them)
+and returning a list of Markdown lines that ends with a blank line;
+:func:`report` assembles them.  Nothing here measures or reads a file.
+
+Image paths are given by the caller relative to the page that holds them.
+"""
+
+from __future__ import annotations
+
+import math
+
+SPH_INTEGRATORS = ("euler", "symplectic", "rk4")
+
+
+def _fmt(x, spec=".3e"):
+    """A number for a table; ``—`` for None or NaN."""
+    return "—" if x is None or (isinstance(x, float) and math.isnan(x)) else format(x, spec)
+
+
+def _pct(x):
+    return f"{100 * x:.0f} %"
+
+
+# ---------------------------------------------------------------------------
+# BENCHMARKS.md, in document order
+# ---------------------------------------------------------------------------
+
+def intro_section(command, version, python, machine, wall, repeats):
+    """The title and the paragraph saying how the figures were made."""
+    return ["# Benchmarks", "",
+            f"Produced by `{command}` (sphrom {version}, Python {python}, {machine}, {wall:.0f} s wall). Times are "
+            f"medians of {repeats} runs on a shared 2-core machine; speed-ups are ratios to the full SPH timed in the "
+            "same run. Errors: relative L² (square-root form of eq. 3.4); reduced models against the full SPH, the "
+            "full SPH against the reference (exact, or a continuum reference for heterogeneous); ρ errors of "
+            "ρ − ρ0. Online = the time loop; offline = SPH run for the snapshots, SVD and operators.", ""]
+
+
+def headline_section(fmu):
+    """The FMU's headline sentences (end to end at 10 ms, the same-language ratio, the core); [] without FMU.
+
+    ``fmu`` is the dict of :func:`harness.bench.fmu.fmu_measurements` (``e2e``, ``core``, ``same``).
+    """
+    if not fmu:
+        return []
+    e2e, core, same = fmu["e2e"], fmu["core"], fmu["same"]
+    sph_err = e2e["sph"]["probe_error_v_vs_exact"]
+    lines = ["## Headline", ""]
+    for r in e2e["rows"]:
+        if r["step_s"] != 0.01:
+            continue
+        err = r["probe_error_v_vs_sph"]
+        cond = ("—" if err is None or sph_err is None else
+                f"probe v error against the full SPH {err:.2e}, "
+                f"{'below' if err < sph_err else '**above**'} the full SPH's own error against exact ({sph_err:.2e})")
+        lines.append(f"- {e2e['scene']}, FMU {r['model']} through `fmpy.simulate_fmu` at 10 ms: {r['fmu_e2e_s']:.4f} s "
+                     f"for T = {e2e['T']:g} s against {e2e['sph']['call_s']:.3f} s for the Python full SPH (numba) "
+                     f"in the same run: **{r['speedup']:.1f}×** (target ≥ 50×); {cond}.")
+    lines.append(f"- C frozen step against the C full-SPH step at N = {same['n']}: **{same['ratio']:.1f}×** "
+                 f"({same['frozen_ns']:.0f} ns against {same['sph_ns']:.0f} ns; target ≥ 10×).")
+    lines.append("- C core per internal step at k = 12, n_freeze = 10: "
+                 + ", ".join(f"{r['ns_per_step']:.0f} ns (N = {r['n']})" for r in core) + " (target ≤ 150 ns, "
+                 "independent of N).")
+    return lines + [""]
+
+
+def savings_section(savings):
+    """CPU saving of the frozen model per scene and k beside the paper's.
+
+    ``savings``: list of (scene name, {k: saving}, the paper's saving or None).
+    """
+    lines = ["## CPU saving of the frozen model against the full SPH (n_freeze = 10)", "",
+             "| scene | ours, per k | paper (\"up to\") |", "| --- | --- | --- |"]
+    for name, by_k, paper in savings:
+        lines.append(f"| {name} | " + ", ".join(f"{100 * v:.0f} % (k = {k})" for k, v in by_k.items())
+                     + f" | {_fmt(None if paper is None else 100 * paper, '.0f')} % |")
+    return lines + ["", "Both in Python in our case; the paper's full SPH was slower relative to its reduced models "
+                    "than our compiled (numba) one, which is why our savings are smaller: see the per-step costs "
+                    "below.", ""]
+
+
+def scene_section(name, rows, image):
+    """Run time against error of every method on one scene: the plot and the table of ``rows``."""
+    lines = [f"## {name}", "", f"![time against error]({image})", "",
+             "| method | k | n_freeze | online [s] | speed-up | offline [s] | error v | error ρ−ρ0 | vs ref: v | "
+             "vs ref: ρ−ρ0 |",
+             "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+    for r in rows:
+        lines.append(f"| {r['method']} | {r['k']} | {r['n_freeze'] or ''} | {r['online_s']:.4f} | "
+                     f"{r['speedup']:.1f}× | {r['offline_s']:.3f} | {_fmt(r['err_v_sph'])} | "
+                     f"{_fmt(r['err_rho_sph'])} | {_fmt(r['err_v_ref'])} | {_fmt(r['err_rho_ref'])} |")
+    return lines + [""]
+
+
+def _cost_rows(rows, key, values, methods):
+    from .scaling import growth
+    out = []
+    for method in methods:
+        cells = [next((f"{r['us_per_step']:.3g} µs" for r in rows if r["method"] == method and r[key] == v), "—")
+                 for v in values]
+        out.append(f"| {method} | " + " | ".join(cells) + f" | {growth(rows, method, key=key):.2f} |")
+    return out
+
+
+def cost_n_section(scaling, sizes, image):
+    """Cost per step of every method against the particle count N (rows of ``per_step_costs``)."""
+    lines = ["## Cost per step against N (k = 12, tenmode fields, Δt at the scene's CFL number)", "",
+             f"![cost against N]({image})", "",
+             "| method | " + " | ".join(f"N = {n}" for n in sizes) + " | growth exponent |",
+             "| --- |" + " --- |" * (len(sizes) + 1)]
+    lines += _cost_rows(scaling, "n", sizes, dict.fromkeys(r["method"] for r in scaling))
+    return lines + [""]
+
+
+def cost_k_section(scaling_k, ks, image):
+    """Cost per step of every reduced model against the mode count k at N = 400."""
+    lines = [f"## Cost per step against k (N = 400, k = {', '.join(map(str, ks))})", "",
+             f"![cost against k]({image})", "",
+             "| method | " + " | ".join(f"k = {k}" for k in ks) + " | growth exponent in k |",
+             "| --- |" + " --- |" * (len(ks) + 1)]
+    lines += _cost_rows(scaling_k, "k", ks, dict.fromkeys(r["method"] for r in scaling_k if r["k"]))
+    return lines + ["", "Expected: the original and linearised models cost O(N k) per step (the nonlinear term is "
+                    "evaluated on the particles), the frozen model O(k²) per step plus O(k⁴)/n_freeze for the exact "
+                    "refresh tensor, the exact model O(k²) per communication step.", ""]
+
+
+def skip_section(skips):
+    """What skipping absent terms saves (rows of :func:`harness.bench.skip.skip_savings`)."""
+    lines = ["## Skipping what a scene doesn't need", "",
+             "The same loop on the same inputs with the scene's own terms (specialised) and with every term forced "
+             "on (zero damping and force evaluated, per-particle arrays); the results are identical.", "",
+             "| scene | solver | specialised [µs/step] | general [µs/step] | saving |",
+             "| --- | --- | --- | --- | --- |"]
+    for r in skips:
+        lines.append(f"| {r['scene']} | {r['solver']} | {r['specialised_us']:.3f} | {r['general_us']:.3f} | "
+                     f"{_pct(r['saving'])} |")
+    return lines + [""]
+
+
+def input_direction_section(directions, scene_names, tolerance):
+    """Projected against appended force direction per scene; [] without rows.
+
+    ``tolerance`` is the FMU's rule (``harness.rom.operators.INPUT_TOLERANCE``).
+    """
+    if not directions:
+        return []
+    lines = ["## How the force direction enters the frozen model", "",
+             "The FMU takes any f(t) along the scene's force profile (uniform). Projected as in eq. 2.19, the part "
+             "of the profile outside the POD velocity modes is lost; appended, the normalised residual becomes an "
+             "extra velocity mode. Frozen model, n_freeze = 10, errors against the full SPH. The FMU appends only "
+             f"when the modes miss more than {tolerance:g} of the profile (`INPUT_TOLERANCE`).", "",
+             "| scene | k | modes miss | projected: v | ρ − ρ0 | appended (k_v + 1): v | ρ − ρ0 | FMU's rule |",
+             "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+    for name in scene_names:
+        pr = {r["choice"]: r for r in directions if r["scene"] == name}
+        if len(pr) == 2:
+            a, b = pr["project"], pr["augment"]
+            lines.append(f"| {name} | {a['k']} | {100 * a['input_error']:.2g} % | {_fmt(a['err_v'])} | "
+                         f"{_fmt(a['err_rho'])} | {_fmt(b['err_v'])} | {_fmt(b['err_rho'])} | {a['fmu_rule']} |")
+    return lines + [""]
+
+
+def sph_step_section(sph_steps, sizes, repeats, integrators=SPH_INTEGRATORS):
+    """The full SPH step against N per integrator (rows of :func:`harness.bench.sph_scaling.scaling_table`)."""
+    from .sph_scaling import growth_exponent
+    lines = ["## The full SPH step against N (as `sphrom bench-sph`)", "",
+             "µs per step of the numba loop (one thread), tenmode's fields, medians of "
+             f"{repeats}; growth exponent of time against N for N ≥ 1000 (1 = linear). Target: ≤ 10 µs per "
+             "step at N = 400 (explicit Euler).", "",
+             "| integrator | " + " | ".join(f"N = {n}" for n in sizes) + " | growth exponent |",
+             "| --- |" + " ---: |" * (len(sizes) + 1)]
+    for integrator in integrators:
+        cells = [next(f"{r['us_per_step']:.3g} µs" for r in sph_steps if r["integrator"] == integrator and r["n"] == n)
+                 for n in sizes]
+        lines.append(f"| {integrator} | " + " | ".join(cells) + f" | {growth_exponent(sph_steps, integrator):.2f} |")
+    return lines + [""]
+
+
+def fmu_tables(core, e2e, heading="##"):
+    """The C core table and the end-to-end table (``sphrom bench-fmu``) as Markdown text.
+
+    ``core``: rows of :func:`harness.bench.fmu.core_rows`; ``e2e``: the dict of
+    :func:`harness.bench.fmu.end_to_end`, or None.
+    """
+    lines = [f"{heading} C core: ns per internal step (k = %d, n_freeze = %d)" % (core[0]["k"], core[0]["n_freeze"]),
+             "", "| N | k_v | k_rho | ns/step (median) | min | max |", "| ---: | ---: | ---: | ---: | ---: | ---: |"]
+    for r in core:
+        lines.append(f"| {r['n']} | {r['k_v']} | {r['k_rho']} | {r['ns_per_step']:.1f} | {r['ns_min']:.1f} | "
+                     f"{r['ns_max']:.1f} |")
+    if e2e is not None:
+        sph_err = e2e["sph"].get("probe_error_v_vs_exact")
+        lines += ["", f"{heading} End to end through fmpy.simulate_fmu: {e2e['scene']} (N = {e2e['n']}, "
+                      f"T = {e2e['T']:g} s, {e2e['internal_steps']} internal steps, k_v = {e2e['k_v']}, "
+                      f"k_rho = {e2e['k_rho']}, probes x/L = {', '.join(f'{p:g}' for p in e2e['probes'])})", "",
+                  f"Full SPH (run_sph, numba, same run): {e2e['sph']['call_s']:.3f} s per run "
+                  f"({e2e['sph']['loop_s']:.3f} s in its time loop); its probe-velocity error against the exact "
+                  f"solution: {_fmt(sph_err)}. Each FMU time is the whole "
+                  "`fmpy.simulate_fmu` call (extract, load, instantiate, loop, record, free); the probe error is "
+                  "the FMU's probe velocities against the full SPH interpolated at the probes (relative L² over "
+                  "the run, input held), at the first communication step.", "",
+                  "| model | comm. step | doSteps | FMU [s] | speed-up vs full SPH | probe v error vs SPH | "
+                  "fixed cost [s] | core [s] | fmpy per doStep [µs] | bare doStep call [µs] |",
+                  "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+        for r in e2e["rows"]:
+            lines.append(f"| {r.get('model', 'frozen')} | {r['step_s'] * 1e3:g} ms | {r['doSteps']} | "
+                         f"{r['fmu_e2e_s']:.4f} | {r['speedup']:.1f}x | {_fmt(r.get('probe_error_v_vs_sph'))} | "
+                         f"{r['fixed_s']:.4f} | {_fmt(r['core_s'], '.4f')} | {r['us_per_doStep_fmpy']:.1f} | "
+                         f"{_fmt(r['us_per_doStep_bare_call'], '.1f')} |")
+    return "\n".join(lines) + "\n"
+
+
+def fmu_section(fmu):
+    """The FMU's own tables and the same-language ratio; [] without FMU."""
+    if not fmu:
+        return []
+    same = fmu["same"]
+    return ["## The FMU", "", *fmu_tables(fmu["core"], fmu["e2e"], heading="###").splitlines(), "",
+            f"### Same language: the C frozen step against the C full-SPH step (N = {same['n']})", "",
+            f"`fmu_src/rom.c` at k = {same['k']} (k_v = {same['k_v']}, k_ρ = {same['k_rho']}), n_freeze = "
+            f"{same['n_freeze']}: {same['frozen_ns']:.0f} ns per step; `fmu_src/sph.c` (eqs. 2.10-2.11, explicit "
+            f"Euler): {same['sph_ns']:.0f} ns per step; ratio **{same['ratio']:.1f}×** (target ≥ 10×). Medians of "
+            f"{fmu['repeats']}.", ""]
+
+
+def stress_section(maps, command, image_dir="", level=1):
+    """The stability stress maps (:class:`harness.bench.stress_maps.StressMaps`) as Markdown lines.
+
+    ``level`` 1 gives a page of its own (``stress.md``), 2 the section of BENCHMARKS.md; ``image_dir`` is
+    the heat maps' folder as seen from the page ('' when they sit beside it).
+    """
+    h = "#" * level
+    prefix = f"{image_dir.rstrip('/')}/" if image_dir else ""
+    lines = [f"{h} Stability stress maps", "",
+             f"Produced by `{command}`. Outcomes: stable (energy never above 1.1× its start), growing, "
+             "unphysical (ρ ≤ 0 / J ≤ 0 reached: compression beyond the physical limit), blow-up (the method's "
+             "own check fired: non-finite, non-positive density, runaway; the FMU returns an error status). "
+             "Δt* = 2/ω_max is the explicit limit of the full SPH operator (ω_max Δt < 2 for the Euler schemes, 2√2 for RK4). "
+             "Reduced models use the basis of the paper-setting run and start from the amplified state. "
+             f"Wall time {maps.wall:.0f} s.", ""]
+    for s in maps.scenes:
+        lines += _stress_scene(s, maps.amplitudes[0], h + "#", prefix)
+    return lines
+
+
+def _stress_scene(s, amplitude, h, prefix):
+    rows, hor, krows, frows = s["map"], s["horizons"], s["modes"], s["forces"]
+    lines = [f"{h} {s['name']}", "",
+             f"Explicit limit Δt* = {s['dt_limit']:.4g} s; the paper's Δt = {s['dt']:g} s "
+             f"= {s['dt'] / s['dt_limit']:.3g} Δt*; k = {s['k']}.", "",
+             f"![stress map]({prefix}{s['name']}_stress.png)", "",
+             f"Largest Δt (in Δt*) at which each method stays finite and physical at amplitude ×1 over T = "
+             f"{s['T']:g} s:", "", "| method | stable up to | first failure |", "| --- | --- | --- |"]
+    for method in dict.fromkeys(r["method"] for r in rows):
+        ok = [r for r in rows if r["method"] == method and r["amplitude"] == amplitude and r["dt_factor"] != "paper"]
+        good = [r["dt_factor"] for r in ok if r["outcome"] in ("stable", "growing")]
+        bad = [r for r in ok if r["outcome"] in ("blow-up", "unphysical")]
+        first = (f"{bad[0]['outcome']} at Δt = {bad[0]['dt_factor']} Δt*, t = {bad[0]['blowup_time']:.3g} s"
+                 if bad and bad[0]["blowup_time"] is not None else (bad[0]["outcome"] if bad else "none"))
+        lines.append(f"| {method} | {max(good) if good else '—'} | {first} |")
+    if s["fmu"]:
+        fmu_rows = [r for r in rows + hor + frows if str(r["method"]).startswith("FMU")]
+        errors = [r for r in fmu_rows if r.get("fmu_error")]
+        silent = sum(int(r.get("silent_nan", 0)) for r in fmu_rows)
+        lines += ["", f"The FMU (FMI 2 through fmpy, the same operators and internal grid): {len(fmu_rows)} runs, "
+                      f"{len(errors)} ended with an error status whose message names the time"
+                      + (f" (e.g. “{errors[0]['fmu_error'][:160]}”)" if errors else "")
+                      + f"; non-finite outputs without an error status: **{silent}**."]
+    lines += ["", "Long horizons at the paper's Δt (amplitude ×1):", "",
+              "| method | T | outcome | blow-up time | max E/E0 |", "| --- | --- | --- | --- | --- |"]
+    for r in hor:
+        bt = "" if r["blowup_time"] is None else f"{r['blowup_time']:.4g} s"
+        lines.append(f"| {r['method']} | {r['T']:g} | {r['outcome']} | {bt} | {r['energy_growth']:.4g} |")
+    lines += ["", "Mode count (paper's Δt, amplitude ×1):", "", "| method | k | outcome | max E/E0 |",
+              "| --- | --- | --- | --- |"]
+    for r in krows:
+        lines.append(f"| {r['method']} | {r['k']} | {r['outcome']} | {r['energy_growth']:.4g} |")
+    lines += ["", "Random piecewise-constant forces (held 0.05 s): final energy against the exact-in-time reduced "
+              "model:", "", "| force amplitude [m/s²] | method | outcome | E_end / E_end(exact) − 1 |",
+              "| --- | --- | --- | --- |"]
+    for r in frows:
+        lines.append(f"| {r['force_amplitude']:g} | {r['method']} | {r['outcome']} | {r['energy_vs_exact']:.3g} |")
+    return lines + [""]
+
+
+# ---------------------------------------------------------------------------
+# the document
+# ---------------------------------------------------------------------------
+
+def report(results, image_dir, stress_image_dir=None):
+    """BENCHMARKS.md from :class:`harness.bench.suite.BenchResults` (text ending in a newline).
+
+    ``image_dir`` is the folder of the PNG files as seen from the report; ``stress_image_dir`` that of the
+    heat maps (default ``image_dir``/stress).
+    """
+    r = results
+    d = image_dir.rstrip("/") + "/" if image_dir else ""
+    lines = intro_section(r.command, r.version, r.python, r.machine, r.wall, r.repeats)
+    lines += headline_section(r.fmu)
+    lines += savings_section(r.savings)
+    for name in r.scene_names:
+        lines += scene_section(name, [row for row in r.rows if row["scene"] == name], f"{d}{name}_time_error.png")
+    lines += cost_n_section(r.scaling, r.sizes, f"{d}scaling_n.png")
+    lines += cost_k_section(r.scaling_k, r.ks_scaling, f"{d}scaling_k.png")
+    lines += skip_section(r.skips)
+    lines += input_direction_section(r.directions, r.scene_names, r.input_tolerance)
+    lines += sph_step_section(r.sph_steps, r.sph_sizes, r.repeats)
+    lines += fmu_section(r.fmu)
+    if r.stress is not None:
+        lines += stress_section(r.stress, r.stress_command, f"{d}stress" if stress_image_dir is None
+                                else stress_image_dir, level=2)
+    while lines and not lines[-1]:
+        lines.pop()
+    return "\n".join(lines) + "\n"
