@@ -55,8 +55,9 @@ def run(args):
     fmi = int(args.fmi)
     if args.integrator is not None and args.integrator not in ("euler", "symplectic"):
         raise UserError(f"--integrator: {args.integrator!r} is out of range (allowed: euler, symplectic)")
-    if args.model not in ("frozen", "exact"):
-        raise UserError(f"--model: {args.model!r} is out of range (allowed: frozen, exact)")
+    from ..rom.registry import MODELS, fmu_model_names
+    if args.model not in fmu_model_names():
+        raise UserError(f"--model: {args.model!r} is out of range (allowed: {', '.join(fmu_model_names())})")
     scene = load_scene(args.scene)
     check_options(scene, k=k, n_freeze=n_freeze, probes=probes, fmi=fmi, integrator=args.integrator,
                   model=args.model)
@@ -65,7 +66,8 @@ def run(args):
     from ..rom.operators import INPUT_TOLERANCE
     added = " (+ the force profile direction, not in the POD span)" if s.augmented else ""
     print(f"fmu {s.scene}: FMI {s.fmi}.0 co-simulation, {s.model} model, wrote {s.path} ({s.size / 1024:.1f} KiB)")
-    if s.model == "exact":
+    model = MODELS[s.model]
+    if model.basis_kind == "energy":
         print(f"  modes: k = {s.k} energy-weighted POD modes -> k_v = {s.k_v}{added}, k_e = {s.k_rho} "
               f"(specific volume)")
     else:
@@ -74,7 +76,7 @@ def run(args):
                 f"at most {INPUT_TOLERANCE:g}: f projected on the modes (eq. 2.19)")
     print(f"  input projection error of the force profile on the {s.k} POD velocity modes: {s.input_error:.3g} "
           f"({decision})")
-    if s.model == "exact":
+    if model.linear:
         print("  advanced by the matrix exponential over each communication step (input held; cached per step "
               "length); parameters dt, n_freeze have no effect")
     else:
