@@ -8,11 +8,13 @@ from conftest import small_scene
 from harness.cli import main
 from harness.errors import SimulationError, UserError
 from harness.norms import relative_l2
-from harness.pod.basis import modes_for_energy, pod, read_basis
+from harness.pod.basis import modes_for_energy, pod
+from harness.pod.io import read_basis
 from harness.pod.pipeline import basis_for_scene, error_steps, on_steps
 from harness.pod.snapshots import snapshot_steps
 from harness.rom.common import run_reduced
 from harness.rom.frozen import frozen_advance, refresh_direct_path, refresh_tensor_path
+from harness.rom.kernels import FrozenOperators
 from harness.rom.operators import augment_with, build_operators, density_matrix, pair_index, probe_rows
 from harness.scene import load_scene
 from harness.sph.solver import build_problem, run_sph, step_count
@@ -113,9 +115,10 @@ def test_frozen_online_loop_touches_no_particle_array():
     av, ar = ops.a_v0.copy(), ops.a_rho0.copy()
     out_v, out_r = np.empty((1, ops.k_v)), np.empty((1, ops.k_rho))
     g = scene.force(np.arange(n) * scene.sph.dt)
-    status, _, _ = frozen_advance(0, av, ar, 0, n, scene.sph.dt, g, ops.K, ops.b, ops.D, True, ops.p, True,
-                                  ops.T, pair_index(6), True, np.empty((0, 6)), np.empty((0, ops.k_v)),
-                                  np.empty(0), 5, np.zeros((6, ops.k_v)), np.zeros(ops.k_v),
+    loop = FrozenOperators(K=ops.K, b=ops.b, D=ops.D, has_d=True, p=ops.p, has_f=True, T=ops.T, pairs=pair_index(6),
+                           use_tensor=True, U_rho=np.empty((0, 6)), GU_v=np.empty((0, ops.k_v)), inv_rho0=np.empty(0),
+                           n_freeze=5)
+    status, _, _ = frozen_advance(0, av, ar, np.zeros((6, ops.k_v)), np.zeros(ops.k_v), 0, n, scene.sph.dt, g, loop,
                                   np.array([n]), 0, out_v, out_r, 1e300)
     assert status == 0
     np.testing.assert_array_equal(out_v[0], ref.a_v[-1])

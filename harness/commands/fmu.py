@@ -19,7 +19,7 @@ def add_parser(sub):
     p.add_argument("--fmi", type=one_of("2", "3"), metavar="2|3", default="2", help="FMI version (default 2)")
     p.add_argument("--integrator", type=one_of("euler", "symplectic"), metavar="euler|symplectic",
                    help="time integrator of the frozen model (default: the scene's)")
-    p.add_argument("--model", type=one_of("frozen", "exact"), metavar="frozen|exact", default="frozen",
+    p.add_argument("--model", metavar="frozen|exact", default="frozen",
                    help="reduced model: frozen (eqs. 2.19-2.24, internal dt; default) or exact (the exact linear "
                         "model in the specific volume, advanced by the matrix exponential over each "
                         "communication step)")
@@ -38,6 +38,9 @@ def run(args):
     if out.suffix.lower() != ".fmu":
         raise UserError(f"--out: '{out}' must end in .fmu")
     fmi = int(args.fmi)
+    from ..rom.registry import MODELS, fmu_model_names
+    if args.model not in fmu_model_names():
+        raise UserError(f"--model: {args.model!r} is out of range (allowed: {', '.join(fmu_model_names())})")
     scene = load_scene(args.scene)
     check_options(scene, k=args.modes, n_freeze=args.n_freeze, probes=args.probes, fmi=fmi,
                   integrator=args.integrator, model=args.model)
@@ -46,7 +49,8 @@ def run(args):
     from ..rom.operators import INPUT_TOLERANCE
     added = " (+ the force profile direction, not in the POD span)" if s.augmented else ""
     print(f"fmu {s.scene}: FMI {s.fmi}.0 co-simulation, {s.model} model, wrote {s.path} ({s.size / 1024:.1f} KiB)")
-    if s.model == "exact":
+    model = MODELS[s.model]
+    if model.basis_kind == "energy":
         print(f"  modes: k = {s.k} energy-weighted POD modes -> k_v = {s.k_v}{added}, k_e = {s.k_rho} "
               f"(specific volume)")
     else:
@@ -55,7 +59,7 @@ def run(args):
                 f"at most {INPUT_TOLERANCE:g}: f projected on the modes (eq. 2.19)")
     print(f"  input projection error of the force profile on the {s.k} POD velocity modes: {s.input_error:.3g} "
           f"({decision})")
-    if s.model == "exact":
+    if model.linear:
         print("  advanced by the matrix exponential over each communication step (input held; cached per step "
               "length); parameters dt, n_freeze have no effect")
     else:

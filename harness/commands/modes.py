@@ -55,10 +55,15 @@ def run(args):
     from pathlib import Path
 
     from ..errors import UserError
+    from ..rom.registry import model_names
     from ..scene import builtin_names, load_scene
     from .snapshot_options import strategy_from_args
 
     models = tuple(args.model)
+    allowed = model_names(linear=False)          # the models integrated with the full SPH's own time scheme
+    bad = [m for m in models if m not in allowed]
+    if bad:
+        raise UserError(f"--model: {bad[0]!r} is not one of {', '.join(allowed)}")
     if args.all == (args.scene is not None):
         raise UserError("give a SCENE or --all")
     out = Path(args.out)
@@ -78,16 +83,17 @@ def run(args):
 
 
 def _print_sweep(scene, sweep, ths, paper):
+    from ..pod.study import PAPER_MODEL
     e = sweep["sph_error"]
     sph = "no reference" if e is None else f"SPH error vs {sweep['reference']}: v {e['v']:.3e}, rho-rho0 {e['rho_var']:.3e}"
     print(f"modes {scene.name}: {sweep['strategy']}; {sph}")
     for model, k in ths.items():
-        paper_txt = f" (paper: {paper})" if paper and model == "original" else ""
+        paper_txt = f" (paper: {paper})" if paper and model == PAPER_MODEL else ""
         print(f"  {model}: POD error below the SPH error from k = {k if k else '-- (not within k <= ' + str(sweep['kmax']) + ')'}{paper_txt}")
 
 
 def _run_all(args, out, models, scenes):
-    from ..pod.study import snapshot_study
+    from ..pod.study import PAPER_MODEL, snapshot_study
 
     lines = ["# Mode thresholds and snapshot studies", "",
              "Produced by `sphrom modes --all`. Threshold: the smallest k from which the original POD-MOR error "
@@ -101,7 +107,7 @@ def _run_all(args, out, models, scenes):
         _print_sweep(scene, sweep, ths, scene.paper.get("mode_threshold"))
         e = sweep["sph_error"]
         lines.append(f"| {scene.name} | {sweep['strategy']} | {sweep['reference'] or 'none'} | "
-                     f"{e['v']:.3e} | {e['rho_var']:.3e} | {ths['original'] or '—'} | "
+                     f"{e['v']:.3e} | {e['rho_var']:.3e} | {ths[PAPER_MODEL] or '—'} | "
                      f"{scene.paper.get('mode_threshold', '—')} |" if e else
                      f"| {scene.name} | {sweep['strategy']} | none | — | — | — | {scene.paper.get('mode_threshold', '—')} |")
         for i, study in enumerate(scene.paper.get("snapshot_studies", [])):

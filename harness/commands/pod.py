@@ -29,7 +29,8 @@ def run(args):
     import numpy as np
 
     from ..errors import UserError
-    from ..pod.basis import modes_for_energy, write_basis
+    from ..pod.basis import modes_for_energy
+    from ..pod.io import operators_group, write_basis
     from ..pod.pipeline import basis_for_scene
     from ..rom.operators import build_operators
     from ..runio import check_output_path
@@ -53,12 +54,7 @@ def run(args):
     ops = build_operators(run_.problem, basis.U_v[:, :k_v], basis.U_rho[:, :k_r],
                           input_direction="augment" if args.augment_input else "auto")
     basis.attrs.update({"default_modes_v": k_v, "default_modes_rho": k_r})
-    operators = {"K": ops.K, "b": ops.b, "D": ops.D, "p": ops.p, "a_v0": ops.a_v0, "a_rho0": ops.a_rho0,
-                 "attrs": {"k_v": ops.k_v, "k_rho": ops.k_rho, "augmented": int(ops.augmented),
-                           "input_error": ops.input_error, "offline_time.operators": ops.timings["operators"]}}
-    if ops.augmented:
-        operators["input_mode"] = ops.U_v[:, -1]
-    write_basis(out, basis, scene, extra={"operators": operators})
+    write_basis(out, basis, scene, extra={"operators": operators_group(ops)})
     energy_left = lambda s, k: float(1 - np.sum(s[:k] ** 2) / np.sum(s**2))
     print(f"pod {scene.name}: {basis.strategy}; {basis.steps_v.size} velocity and {basis.steps_rho.size} "
           f"density snapshots; rank {rv}, {rr}")

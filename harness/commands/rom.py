@@ -11,9 +11,9 @@ def add_parser(sub):
                                    "and print the errors against the full SPH and the exact solution.")
     add_scene(p)
     p.add_argument("--basis", required=True, metavar="BASIS.h5")
-    p.add_argument("--model", required=True, choices=("original", "linearized", "frozen", "exact"),
-                   help="exact: the linear model in the specific volume J = rho0/rho, advanced by the matrix "
-                        "exponential (beyond the paper; see harness/rom/exact_linear.py)")
+    from ..rom.registry import MODELS
+    p.add_argument("--model", required=True, choices=tuple(MODELS),
+                   help="; ".join(f"{m.name}: {m.description}" for m in MODELS.values()))
     add_n_freeze(p, default=10)
     p.add_argument("--modes", type=modes_pair, metavar="K|KV,KRHO", help="mode counts (default: the basis file's)")
     p.add_argument("--integrator", choices=("euler", "symplectic", "rk4"),
@@ -35,25 +35,26 @@ def run(args):
     from ..cache import cached_sph
     from ..compare import error_table, exact_errors, format_errors
     from ..errors import UserError
-    from ..pod.basis import read_basis
+    from ..pod.io import read_basis
     from ..pod.pipeline import error_steps, on_steps
-    from ..rom.common import run_reduced
-    from ..rom.operators import build_operators
+    from ..rom.registry import get_model
     from ..runio import check_output_path, scene_attrs, write_run
     from ..scene import load_scene
     from ..sph.solver import build_problem, step_count
 
+    model = get_model(args.model)
     out = check_output_path(args.out)
     scene = load_scene(args.scene)
-    basis = read_basis(args.basis)
+    basis = read_basis(args.basis)              # FieldError "basis": the CLI names --basis
     if basis.U_v.shape[0] != scene.sph.n_particles:
         raise UserError(f"--basis: '{args.basis}' has {basis.U_v.shape[0]} particles, the scene "
                         f"{scene.sph.n_particles}")
     if abs(basis.dt - scene.sph.dt) > 1e-15 * scene.sph.dt:
         raise UserError(f"--basis: '{args.basis}' was made with dt = {basis.dt:g} s, the scene has {scene.sph.dt:g} s")
-    integrator = args.integrator or scene.sph.integrator
-    if args.model == "frozen" and integrator == "rk4":
-        raise UserError("--integrator: rk4 is not defined for frozen coefficients (allowed: euler, symplectic)")
+    integrator = args.integrator or (model.integrators[0] if model.linear else scene.sph.integrator)
+    if integrator not in model.integrators:
+        raise UserError(f"--integrator: {integrator} is not defined for the {model.name} model "
+                        f"(allowed: {', '.join(model.integrators)})")
     k_v, k_r = args.modes or (int(basis.attrs.get("default_modes_v", 1)),
                               int(basis.attrs.get("default_modes_rho", 1)))
     rv, rr = basis.max_modes
@@ -62,32 +63,25 @@ def run(args):
     problem = build_problem(scene)
     steps = error_steps(scene)
     n = step_count(scene.T, scene.sph.dt)
-    if args.model == "exact":
-        from ..rom.exact_linear import build_linear_operators, run_exact
-        if basis.U_ve is None:
-            raise UserError(f"--basis: '{args.basis}' has no energy-weighted bases (made by an older sphrom); "
-                            "rebuild it with 'sphrom pod'")
-        ops = build_linear_operators(problem, basis.U_ve[:, :k_v], basis.U_e[:, :k_r],
-                                     input_direction="augment" if args.augment_input else "auto")
-        result = run_exact(ops, steps * scene.sph.dt, step=args.step, force=scene.force, hold=args.hold)
-        result.a_v, result.a_rho, result.steps = result.z[:, :ops.k_v], result.z[:, ops.k_v:], steps
+    try:
+        ops = model.build(problem, basis, k_v, k_r, input_direction="augment" if args.augment_input else "auto")
+    except UserError as exc:
+        raise UserError(f"--basis: '{args.basis}': {exc}") from None
+    result = model.run(ops, problem, dt=scene.sph.dt, n_steps=n, sample_steps=steps, integrator=integrator,
+                       n_freeze=args.n_freeze, refresh=args.refresh, step=args.step, hold=args.hold, force=scene.force,
+                       progress=not args.quiet)
+    if model.linear:
         integrator = f"matrix exponential, H = {result.settings['step']:g} s, input {args.hold}"
-    else:
-        ops = build_operators(problem, basis.U_v[:, :k_v], basis.U_rho[:, :k_r],
-                              input_direction="augment" if args.augment_input else "auto")
-        result = run_reduced(args.model, ops, problem, n_steps=n, dt=scene.sph.dt, integrator=integrator,
-                             sample_steps=steps, n_freeze=args.n_freeze, refresh=args.refresh, progress=not args.quiet)
-    sph_scene = scene if args.model == "exact" else scene.with_sph(integrator=integrator)
+    sph_scene = scene if model.linear else scene.with_sph(integrator=integrator)
     sph = cached_sph(sph_scene, steps, progress=not args.quiet, problem=problem)
     v_sph, rho_sph = on_steps(sph, steps)
     v, rho = result.v, result.rho
     vs_sph = error_table(v, rho, v_sph, rho_sph, result.t, problem.rho0)
     vs_exact = exact_errors(scene, result.t, problem.x, v, rho, problem.rho0)
     offline = {"svd": basis.timings.get("svd", 0.0), "tensor": 0.0, **ops.timings}
-    label = f"{args.model}" + (f", n_freeze = {args.n_freeze}, {args.refresh} refresh" if args.model == "frozen"
-                               else "")
-    k_second = ops.k_e if args.model == "exact" else ops.k_rho
-    print(f"rom {scene.name}: {label}, k_v = {ops.k_v}, k_{'J' if args.model == 'exact' else 'rho'} = {k_second}, "
+    label = f"{args.model}" + (f", n_freeze = {args.n_freeze}, {args.refresh} refresh" if model.uses_n_freeze else "")
+    k_second = ops.k_rho
+    print(f"rom {scene.name}: {label}, k_v = {ops.k_v}, k_{model.second_symbol} = {k_second}, "
           f"{integrator}, to t = {n * scene.sph.dt:g} s")
     print(format_errors(vs_sph, "  relative L2 error vs full SPH"))
     if vs_exact is not None:
@@ -101,7 +95,7 @@ def run(args):
              "solver.input_error": ops.input_error, "wall_time_s": result.wall_time,
              **{f"offline_time.{k}": v for k, v in offline.items()},
              **{f"error.sph.{k}": v for k, v in vs_sph.items()}}
-    if args.model == "frozen":
+    if model.uses_n_freeze:
         attrs.update({"solver.n_freeze": args.n_freeze, "solver.refresh": args.refresh})
     if vs_exact is not None:
         attrs.update({f"error.exact.{k}": v for k, v in vs_exact.items()})

@@ -64,7 +64,11 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
         DefaultExperiment [s].
     input_error : float
         Relative projection error of the force profile on the POD velocity modes.
+    model : str
+        The registered reduced model packaged (its title heads the description).
     """
+    from ..rom.registry import get_model
+
     probes = [{"j": j + 1, "x": f"{x:g}", "v_vr": VR_V_PROBE + j, "rho_vr": VR_RHO_PROBE + j,
                "v_index": FIXED_VARIABLES + 1 + j, "rho_index": FIXED_VARIABLES + 1 + data.n_probes + j}
               for j, x in enumerate(data.probe_x)]
@@ -74,19 +78,18 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
     modes = (f"k_v = {data.k_v} velocity modes ({k_requested} POD modes"
              + (" + the force profile direction" if augmented else "") + f"), k_rho = {data.k_rho} density modes")
     where = ", ".join(f"{x:g}" for x in data.probe_x)
-    if model == "exact":
+    spec = get_model(model)
+    if spec.basis_kind == "energy":
         modes = modes.replace("density modes", "specific-volume modes")
-        description = (f"Exact linear POD reduced model in the specific volume J = rho0/rho (energy inner product; "
-                       f"beyond Fang et al.) of the SPH mass-spring-damper scene '{scene.name}' ({scene.title}; "
-                       f"N = {scene.sph.n_particles}, L = {scene.L:g} m): {modes}; advanced over each communication "
-                       f"step by the matrix exponential (input held), so dt and n_freeze have no effect; "
-                       f"probes at x/L = {where}; input projection error {input_error:.3g}.")
+    if spec.linear:
+        stepping = ("advanced over each communication step by the matrix exponential (input held), so dt and "
+                    "n_freeze have no effect")
     else:
-        description = (f"Frozen-coefficient POD reduced model (Fang et al., eqs. 2.19-2.24) of the SPH "
-                       f"mass-spring-damper scene '{scene.name}' ({scene.title}; N = {scene.sph.n_particles}, "
-                       f"L = {scene.L:g} m): {modes}; {data.integrator} integrator, internal dt = {data.dt:g} s, "
-                       f"n_freeze = {data.n_freeze} by default; probes at x/L = {where}; input projection error "
-                       f"{input_error:.3g}.")
+        stepping = (f"{data.integrator} integrator, internal dt = {data.dt:g} s, n_freeze = {data.n_freeze} by "
+                    "default")
+    description = (f"{spec.title} of the SPH mass-spring-damper scene '{scene.name}' ({scene.title}; "
+                   f"N = {scene.sph.n_particles}, L = {scene.L:g} m): {modes}; {stepping}; probes at x/L = {where}; "
+                   f"input projection error {input_error:.3g}.")
     values = {
         "model_name": f"sphrom {scene.name}",
         "token": token,

@@ -34,12 +34,11 @@ import numpy as np
 from ..errors import SimulationError, UserError
 from ..paths import data_dir
 from ..runio import atomic_path
-from .resources import MAX_PROBES, exact_data, model_data, pack, pack_exact
+from .resources import MAX_PROBES, MODEL_EXACT_LINEAR, MODEL_FROZEN, exact_data, model_data, pack, pack_exact
 
 DEFAULT_PROBES = (0.25, 0.5, 0.66)     # 0.66: the probe of the paper's Fig. C.6
 DEFAULT_FREEZE = 10
 DEFAULT_STEP = 0.01                    # DefaultExperiment stepSize [s]
-MODELS = ("frozen", "exact")
 MODEL_IDENTIFIER = "sphrom"
 
 SOURCES_NOTE = """sphrom FMU sources
@@ -96,7 +95,7 @@ class FMUSummary:
     timings : dict
         Wall times [s] of the stages.
     model : str
-        ``frozen`` or ``exact``.
+        The registered reduced model packaged (one with an FMU resource kind).
     """
 
     path: Path
@@ -143,10 +142,11 @@ def check_options(scene, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_PROB
                   model="frozen"):
     """Validate the packaging options before any work; returns (k, n_freeze, probes, fmi, integrator).
 
-    For ``model="exact"`` the integrator is ``exponential`` (``--integrator`` does not apply).
+    For a linear model (the exact one) the integrator is ``exponential`` (``--integrator`` does not apply).
 
     Raises UserError naming the option and the allowed range.
     """
+    from ..rom.registry import fmu_model_names, get_model
     k = default_modes(scene) if k is None else k
     if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
         raise UserError(f"--modes: {k!r} is out of range (allowed: an integer >= 1)")
@@ -157,65 +157,87 @@ def check_options(scene, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_PROB
     probes = parse_probes(",".join(str(p) for p in probes)) if not isinstance(probes, str) else parse_probes(probes)
     if fmi not in (2, 3):
         raise UserError(f"--fmi: {fmi!r} is out of range (allowed: 2 or 3)")
-    if model not in MODELS:
-        raise UserError(f"--model: {model!r} is out of range (allowed: {', '.join(MODELS)})")
-    if model == "exact":
+    if model not in fmu_model_names():
+        raise UserError(f"--model: {model!r} is out of range (allowed: {', '.join(fmu_model_names())})")
+    spec = get_model(model)
+    if spec.linear:
         if integrator is not None:
-            raise UserError(f"--integrator: {integrator!r} does not apply to --model exact (it is advanced by the "
+            raise UserError(f"--integrator: {integrator!r} does not apply to --model {model} (it is advanced by the "
                             "matrix exponential)")
-        return int(k), int(n_freeze), probes, int(fmi), "exponential"
+        return int(k), int(n_freeze), probes, int(fmi), spec.integrators[0]
     integrator = integrator or scene.sph.integrator
-    if integrator not in ("euler", "symplectic"):
-        raise UserError(f"--integrator: {integrator!r} is not defined for frozen coefficients "
-                        f"(allowed: euler, symplectic; scene '{scene.name}' uses {scene.sph.integrator})")
+    if integrator not in spec.integrators:
+        raise UserError(f"--integrator: {integrator!r} is not defined for the {model} model "
+                        f"(allowed: {', '.join(spec.integrators)}; scene '{scene.name}' uses {scene.sph.integrator})")
     return int(k), int(n_freeze), probes, int(fmi), integrator
 
 
-def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem=None):
-    """The FMU's numbers for ``scene``: (ModelData, ops, problem, basis).
+def model_basis(scene, spec, k, progress=True, problem=None):
+    """(basis, problem) of ``scene`` for the model ``spec``: its POD basis, with k checked against the modes of the
+    model's basis kind (UserError naming --modes or --model)."""
+    from ..pod.pipeline import basis_for_scene
+    from ..rom.model import BASIS_KINDS
+    from ..sph.solver import build_problem
+
+    problem = problem or build_problem(scene)
+    basis, _ = basis_for_scene(scene, progress=progress, problem=problem)
+    modes = [getattr(basis, name) for name in BASIS_KINDS[spec.basis_kind][:2]]
+    if any(U is None for U in modes):
+        raise UserError(f"--model {spec.name}: the basis of scene '{scene.name}' has no "
+                        f"{' and '.join(BASIS_KINDS[spec.basis_kind][:2])} modes")
+    available = min(U.shape[1] for U in modes)
+    if k > available:
+        raise UserError(f"--modes: {k} is out of range (allowed: 1 to {available}, the POD modes of scene "
+                        f"'{scene.name}')")
+    return basis, problem
+
+
+def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem=None, model="frozen"):
+    """The FMU's numbers for a model of resource kind 1 (frozen coefficients): (ModelData, ops, problem, basis).
 
     Runs (or reuses) the full SPH and the POD (harness.pod.pipeline), builds
     the operators with ``input_direction="needed"`` (an input row always; the force profile appended
     to U_v only when the POD modes miss more than 1 % of it) and ``tensor="always"``.
     """
-    from ..pod.pipeline import basis_for_scene
-    from ..rom.common import runaway_bound
-    from ..rom.operators import build_operators
-    from ..sph.solver import build_problem
+    from ..rom.registry import get_model
+    from ..rom.stepping import runaway_bound
 
-    problem = problem or build_problem(scene)
-    basis, _ = basis_for_scene(scene, progress=progress, problem=problem)
-    available = min(basis.U_v.shape[1], basis.U_rho.shape[1])
-    if k > available:
-        raise UserError(f"--modes: {k} is out of range (allowed: 1 to {available}, the POD modes of scene "
-                        f"'{scene.name}')")
-    ops = build_operators(problem, basis.U_v[:, :k], basis.U_rho[:, :k], input_direction="needed", tensor="always")
+    spec = get_model(model)
+    basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem)
+    ops = spec.build(problem, basis, k, k, input_direction="needed", tensor="always")
     data = model_data(ops, problem, dt=scene.sph.dt, integrator=integrator, n_freeze=n_freeze, probes=probes,
                       bound=runaway_bound(ops))
     return data, ops, problem, basis
 
 
-def exact_model(scene, k, n_freeze, probes, progress=True, problem=None):
-    """The exact model's numbers for ``scene``: (ExactData, lin, problem, basis).
+def exact_model(scene, k, n_freeze, probes, progress=True, problem=None, model="exact"):
+    """The FMU's numbers for a model of resource kind 2 (linear): (ExactData, lin, problem, basis).
 
-    The energy-weighted POD bases (``Basis.U_ve``, ``U_e``), the operators with
+    The model's bases (the exact model: the energy-weighted ``Basis.U_ve``, ``U_e``), the operators with
     ``input_direction="needed"`` (the FMU always has the input f).
     """
-    from ..pod.pipeline import basis_for_scene
-    from ..rom.exact_linear import build_linear_operators
-    from ..sph.solver import build_problem
+    from ..rom.registry import get_model
 
-    problem = problem or build_problem(scene)
-    basis, _ = basis_for_scene(scene, progress=progress, problem=problem)
-    if basis.U_ve is None or basis.U_e is None:
-        raise UserError(f"--model exact: the basis of scene '{scene.name}' has no energy-weighted modes")
-    available = min(basis.U_ve.shape[1], basis.U_e.shape[1])
-    if k > available:
-        raise UserError(f"--modes: {k} is out of range (allowed: 1 to {available}, the POD modes of scene "
-                        f"'{scene.name}')")
-    lin = build_linear_operators(problem, basis.U_ve[:, :k], basis.U_e[:, :k], input_direction="needed")
+    spec = get_model(model)
+    basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem)
+    lin = spec.build(problem, basis, k, k, input_direction="needed")
     data = exact_data(lin, problem, dt=scene.sph.dt, n_freeze=n_freeze, probes=probes)
     return data, lin, problem, basis
+
+
+def _frozen_resource(scene, model, k, n_freeze, probes, integrator, progress, problem):
+    data, ops, _, _ = reduced_model(scene, k, n_freeze, probes, integrator, progress=progress, problem=problem,
+                                    model=model)
+    return data, ops, pack(data)
+
+
+def _linear_resource(scene, model, k, n_freeze, probes, integrator, progress, problem):
+    data, lin, _, _ = exact_model(scene, k, n_freeze, probes, progress=progress, problem=problem, model=model)
+    return data, lin, pack_exact(data)
+
+
+# model_kind of resources/model.bin (ReducedModel.fmu_kind) -> the FMU's numbers and their bytes
+RESOURCES = {MODEL_FROZEN: _frozen_resource, MODEL_EXACT_LINEAR: _linear_resource}
 
 
 def platform_folder(fmi):
@@ -273,8 +295,9 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
         DefaultExperiment stepSize [s] (default min(0.01, T/10)).
     binaries : Binaries, optional
         Prebuilt binaries (default: :func:`harness.fmu.build.ensure_binaries`).
-    model : {"frozen", "exact"}
-        The reduced model to ship (module docstring).
+    model : str
+        The reduced model to ship: a registered one with an FMU resource kind
+        (``frozen``, ``exact``; module docstring).
 
     Raises
     ------
@@ -283,6 +306,7 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
     SimulationError
         The packaged FMU fails fmpy's validation (nothing is written).
     """
+    from ..rom.registry import get_model
     from .build import ensure_binaries
     from .describe import model_description
 
@@ -290,13 +314,8 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
                                                          integrator=integrator, model=model)
     timings = {}
     t0 = time.perf_counter()
-    if model == "exact":
-        data, ops, problem, basis = exact_model(scene, k, n_freeze, probes, progress=progress, problem=problem)
-        blob = pack_exact(data)
-    else:
-        data, ops, problem, basis = reduced_model(scene, k, n_freeze, probes, integrator, progress=progress,
-                                                  problem=problem)
-        blob = pack(data)
+    data, ops, blob = RESOURCES[get_model(model).fmu_kind](scene, model, k, n_freeze, probes, integrator,
+                                                              progress, problem)
     timings["model"] = time.perf_counter() - t0
     t1 = time.perf_counter()
     binaries = binaries or ensure_binaries(quiet=not progress)

@@ -62,7 +62,7 @@ class FrozenCosim:
     """
 
     def __init__(self, data, n_freeze=None, dt=None):
-        from ..rom.operators import pair_index
+        from ..rom.frozen import loop_operators
         self.data = data
         self.n_freeze = int(data.n_freeze if n_freeze is None else n_freeze)
         self.dt = float(data.dt if dt is None else dt)
@@ -73,12 +73,7 @@ class FrozenCosim:
         self.F = np.zeros(data.k_v)
         self.n = 0
         self.t = 0.0
-        self._pairs = pair_index(data.k_rho)
-        self._D = data.D if data.D is not None else np.zeros((1, 1))
-        self._p = data.p if data.p is not None else np.zeros(data.k_v)
-        self._T = np.ascontiguousarray(data.T)
-        self._K = np.ascontiguousarray(data.K)
-        self._dummy = np.zeros((1, 1))
+        self._ops = loop_operators(data.K, data.b, data.D, data.p, self.n_freeze, T=data.T, refresh="tensor")
         self._no_samples = np.zeros(0, dtype=np.int64)
         self._out = np.zeros((0, 1))
 
@@ -88,11 +83,8 @@ class FrozenCosim:
         if count <= 0:
             return
         g = np.full(count, float(f))
-        status, _, bad = frozen_advance(self.method, self.av, self.ar, self.n, self.n + count, h, g, self._K,
-                                        self.data.b, self._D, self.data.D is not None, self._p,
-                                        self.data.p is not None, self._T, self._pairs, True, self._dummy, self._dummy,
-                                        self._dummy[0], self.n_freeze, self.M, self.F, self._no_samples, 0, self._out,
-                                        self._out, self.data.bound)
+        status, _, bad = frozen_advance(self.method, self.av, self.ar, self.M, self.F, self.n, self.n + count, h, g,
+                                        self._ops, self._no_samples, 0, self._out, self._out, self.data.bound)
         if status != 0:
             raise SimulationError(f"reference: reduced state failed (status {status}) by internal step {bad}",
                                   step=bad)

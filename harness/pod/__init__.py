@@ -1,1 +1,17 @@
-"""POD (section 2.3): snapshot selection and bases from full SPH runs."""
+"""POD (section 2.3): snapshot selection and bases from full SPH runs.
+
+``basis`` is the pure POD (arrays in, modes and singular values out), ``io``
+the one reader and writer of basis files, ``snapshots`` the paper's snapshot
+strategies, ``pipeline`` the way from a scene to a basis (the cached full SPH
+run and the SVD).  ``study`` (mode sweeps, snapshot studies) builds on the
+reduced models and is imported from its module.
+"""
+
+from .basis import Basis, build_basis, modes_for_energy, pod, weighted_pod
+from .io import BASIS_FORMAT, BASIS_VERSION, operators_group, read_basis, write_basis
+from .pipeline import basis_for_scene, error_steps, on_steps
+from .snapshots import describe, snapshot_steps
+
+__all__ = ["BASIS_FORMAT", "BASIS_VERSION", "Basis", "basis_for_scene", "build_basis", "describe", "error_steps",
+           "modes_for_energy", "on_steps", "operators_group", "pod", "read_basis", "snapshot_steps",
+           "weighted_pod", "write_basis"]

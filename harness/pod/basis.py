@@ -1,10 +1,12 @@
-"""POD bases (eq. 2.15) of velocity and density snapshots, and basis files.
+"""POD bases (eq. 2.15) of velocity and density snapshots: arrays in, modes and singular values out.
 
     X = Û Σ̂ V̂ᵀ  (thin SVD),  U = first k columns of Û          (2.15)
 
 Velocity and density get separate bases (U^v, U^ρ of eq. 2.18), with their
 own counts k_v, k_ρ.  The snapshots are not centred (the paper's POD), so the
 first density mode is the near-uniform ρ ≈ ρ0.
+
+Basis files are read and written by :mod:`harness.pod.io`.
 """
 
 from __future__ import annotations
@@ -12,15 +14,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 
-import h5py
 import numpy as np
-
-from .. import __version__
-from ..errors import FieldError
-from ..runio import atomic_path, scene_attrs
-
-BASIS_FORMAT = "sphrom-basis"
-BASIS_VERSION = 1
 
 
 def pod(snapshots):
@@ -69,7 +63,7 @@ class Basis:
     dt : float
         Time step of the run the snapshots come from [s].
     scene_text : str
-        The scene's TOML text (the basis is rebuilt into a Scene with it).
+        The scene's TOML text.
     strategy : str
         Description of the snapshot strategy.
     timings : dict
@@ -100,10 +94,6 @@ class Basis:
     def max_modes(self):
         return self.U_v.shape[1], self.U_rho.shape[1]
 
-    def scene(self):
-        from ..scene import parse_scene
-        return parse_scene(self.scene_text, "<basis scene>")
-
 
 def weighted_pod(snapshots, weight):
     """POD in the inner product Σ_i weight_i u_i w_i: modes U with Uᵀ diag(weight) U = I."""
@@ -112,10 +102,12 @@ def weighted_pod(snapshots, weight):
     return u / root[:, None], s
 
 
-def build_basis(v_samples, rho_samples, sample_steps, steps_v, steps_rho, x, dt, scene, strategy, weights=None):
+def build_basis(v_samples, rho_samples, sample_steps, steps_v, steps_rho, x, dt, scene_text, strategy, weights=None):
     """POD of the snapshots at ``steps_v`` / ``steps_rho`` among stored samples.
 
-    ``v_samples`` and ``rho_samples`` have shape (M, N) at ``sample_steps``.
+    ``v_samples`` and ``rho_samples`` have shape (M, N) at ``sample_steps``
+    [m s^-1], [kg m^-3]; ``x`` the particles [m], ``dt`` the run's step [s];
+    ``scene_text`` and ``strategy`` are kept with the basis as provenance.
     ``weights = (rho0, c)`` at the particles also gives the energy-weighted
     bases of velocity and specific volume e = ρ0/ρ - 1 (eq. A.9).
     """
@@ -128,7 +120,7 @@ def build_basis(v_samples, rho_samples, sample_steps, steps_v, steps_rho, x, dt,
     U_r, s_r = pod(rho_samples[[index[int(s)] for s in steps_rho]].T)
     svd = time.perf_counter() - t0
     basis = Basis(U_v=U_v, U_rho=U_r, sigma_v=s_v, sigma_rho=s_r, steps_v=np.asarray(steps_v),
-                  steps_rho=np.asarray(steps_rho), x=np.asarray(x), dt=float(dt), scene_text=scene.text,
+                  steps_rho=np.asarray(steps_rho), x=np.asarray(x), dt=float(dt), scene_text=scene_text,
                   strategy=strategy, timings={"svd": svd})
     if weights is not None:
         rho0, c = weights
@@ -138,63 +130,3 @@ def build_basis(v_samples, rho_samples, sample_steps, steps_v, steps_rho, x, dt,
         basis.U_e, basis.sigma_e = weighted_pod(e.T, c)
         basis.timings["svd_energy"] = time.perf_counter() - t0
     return basis
-
-
-def write_basis(path, basis: Basis, scene, extra=None):
-    """Write a basis file atomically (HDF5, format ``sphrom-basis``).
-
-    ``extra`` maps group paths to dicts of arrays (e.g. reduced operators).
-    """
-    with atomic_path(path) as tmp:
-        with h5py.File(tmp, "w") as h5:
-            h5.attrs["format"] = BASIS_FORMAT
-            h5.attrs["format_version"] = BASIS_VERSION
-            h5.attrs["sphrom_version"] = __version__
-            h5.attrs["strategy"] = basis.strategy
-            h5.attrs["dt"] = basis.dt
-            for k, v in scene_attrs(scene).items():
-                h5.attrs[k] = v
-            for k, v in basis.timings.items():
-                h5.attrs[f"offline_time.{k}"] = v
-            for k, v in basis.attrs.items():
-                h5.attrs[k] = v
-            for name in ("U_v", "U_rho", "sigma_v", "sigma_rho", "steps_v", "steps_rho", "x",
-                         "U_ve", "sigma_ve", "U_e", "sigma_e"):
-                if getattr(basis, name) is not None:
-                    h5.create_dataset(name, data=getattr(basis, name))
-            h5.create_dataset("snapshot_times_v", data=basis.steps_v * basis.dt).attrs["units"] = "s"
-            h5.create_dataset("snapshot_times_rho", data=basis.steps_rho * basis.dt).attrs["units"] = "s"
-            h5["x"].attrs["units"] = "m"
-            for group, arrays in (extra or {}).items():
-                g = h5.require_group(group)
-                for name, arr in arrays.items():
-                    if isinstance(arr, dict):
-                        for k, v in arr.items():
-                            g.attrs[k] = v
-                    elif arr is not None:
-                        g.create_dataset(name, data=np.asarray(arr))
-
-
-def read_basis(path) -> Basis:
-    """Read a basis file; FieldError ``basis`` when missing or not a basis."""
-    from pathlib import Path
-    path = Path(path)
-    if not path.is_file():
-        raise FieldError("basis", f"'{path}' not found")
-    try:
-        with h5py.File(path, "r") as h5:
-            if h5.attrs.get("format") != BASIS_FORMAT:
-                raise FieldError("basis", f"'{path}' is not a sphrom basis file")
-            if int(h5.attrs["format_version"]) != BASIS_VERSION:
-                raise FieldError("basis", f"'{path}' has basis format version {h5.attrs['format_version']} "
-                                          f"(this sphrom reads {BASIS_VERSION})")
-            attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in h5.attrs.items()}
-            timings = {k.split(".", 1)[1]: float(v) for k, v in attrs.items() if k.startswith("offline_time.")}
-            optional = {name: (h5[name][()] if name in h5 else None)
-                        for name in ("U_ve", "sigma_ve", "U_e", "sigma_e")}
-            return Basis(U_v=h5["U_v"][()], U_rho=h5["U_rho"][()], sigma_v=h5["sigma_v"][()],
-                         sigma_rho=h5["sigma_rho"][()], steps_v=h5["steps_v"][()], steps_rho=h5["steps_rho"][()],
-                         x=h5["x"][()], dt=float(attrs["dt"]), scene_text=attrs["scene.toml"],
-                         strategy=attrs["strategy"], timings=timings, attrs=attrs, **optional)
-    except OSError as exc:
-        raise FieldError("basis", f"'{path}' cannot be read as HDF5 ({exc})") from None

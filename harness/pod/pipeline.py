@@ -31,7 +31,7 @@ def basis_for_scene(scene, spec=None, progress=True, problem=None):
     else:
         run = cached_sph(scene, steps, progress=progress, problem=problem)
         sv, sr = snapshot_steps(spec, scene.sph.dt, n, stored_steps=run.steps)
-    basis = build_basis(run.v, run.rho, run.steps, sv, sr, run.x, scene.sph.dt, scene, describe(spec),
+    basis = build_basis(run.v, run.rho, run.steps, sv, sr, run.x, scene.sph.dt, scene.text, describe(spec),
                         weights=(problem.rho0, problem.c))
     basis.timings["sph"] = 0.0 if run.reused else run.wall_time
     return basis, run

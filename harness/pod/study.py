@@ -9,18 +9,24 @@ from which the POD error stays below the SPH error.
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 
 from ..compare import error_table, reference_fields
 from ..progress import progress_bar
-from ..rom.common import run_reduced
-from ..rom.operators import build_operators
+from ..rom.model import BASIS_KINDS
+from ..rom.registry import MODEL_NAMES, get_model
 from ..sph.solver import step_count
 from .pipeline import basis_for_scene, error_steps, on_steps
 from .snapshots import describe
 
+# The paper's mode thresholds and snapshot studies are those of its original POD-MOR.
+PAPER_MODEL = "original"
+LINE_STYLES = ("-", "--", ":", "-.")        # one per registered model, in registry order
 
-def mode_sweep(scene, spec=None, kmax=None, models=("original",), n_freeze=10, progress=True, reference=None):
+
+def mode_sweep(scene, spec=None, kmax=None, models=(PAPER_MODEL,), n_freeze=10, progress=True, reference=None):
     """Errors of reduced models against the full SPH for k = 1..kmax.
 
     Parameters
@@ -31,7 +37,8 @@ def mode_sweep(scene, spec=None, kmax=None, models=("original",), n_freeze=10, p
     kmax : int, optional
         Largest k (default min(rank, max(20, paper threshold + 8))).
     models : tuple of str
-        Reduced models to sweep.
+        Registered reduced models to sweep (their operators are built once
+        per k and per builder, so the density-mode models share theirs).
     reference : (v, rho, label), optional
         Reference fields at the error steps; computed when not given.
 
@@ -59,13 +66,20 @@ def mode_sweep(scene, spec=None, kmax=None, models=("original",), n_freeze=10, p
     kmax = min(kmax, rank)
     n = step_count(scene.T, scene.sph.dt)
     rows = []
+    specs = [get_model(model) for model in models]
     with progress_bar(total=kmax * len(models), desc=f"modes {scene.name}", enabled=progress) as bar:
         for k in range(1, kmax + 1):
-            ops = build_operators(problem, basis.U_v[:, :min(k, rv)], basis.U_rho[:, :min(k, rr)])
-            for model in models:
+            built = {}                                # builder -> operators at this k
+            for model, entry in zip(models, specs):
+                if entry.build not in built:
+                    # k_v and k_rho capped at their own rank
+                    k_v, k_r = (min(k, getattr(basis, name).shape[1]) for name in BASIS_KINDS[entry.basis_kind][:2])
+                    built[entry.build] = entry.build(problem, basis, k_v, k_r)
+                ops = built[entry.build]
                 try:
-                    res = run_reduced(model, ops, problem, n_steps=n, dt=scene.sph.dt,
-                                      integrator=scene.sph.integrator, sample_steps=steps, n_freeze=n_freeze)
+                    res = entry.run(ops, problem, n_steps=n, dt=scene.sph.dt,
+                                    integrator=None if entry.linear else scene.sph.integrator, sample_steps=steps,
+                                    n_freeze=n_freeze)
                     err = error_table(res.v, res.rho, v_sph, rho_sph, t, problem.rho0)
                     online = res.wall_time
                 except Exception as exc:              # a blow-up is a result here, not a failure
@@ -82,7 +96,7 @@ def mode_sweep(scene, spec=None, kmax=None, models=("original",), n_freeze=10, p
             "strategy": describe(spec or scene.snapshots), "sph_time": run.wall_time, "kmax": kmax}
 
 
-def threshold(rows, sph_error, model="original", keys=("v", "rho_var")):
+def threshold(rows, sph_error, model=PAPER_MODEL, keys=("v", "rho_var")):
     """Smallest k from which the POD error stays below the SPH error in every key.
 
     Returns None when no such k exists up to the sweep's kmax (or no SPH error).
@@ -100,7 +114,7 @@ def threshold(rows, sph_error, model="original", keys=("v", "rho_var")):
     return best
 
 
-def outcome(sweep, model="original"):
+def outcome(sweep, model=PAPER_MODEL):
     """'works' when a threshold exists within the sweep, else 'fails'."""
     return "works" if threshold(sweep["rows"], sweep["sph_error"], model) is not None else "fails"
 
@@ -124,7 +138,7 @@ def plot_sweep(sweep, path, paper_threshold=None):
     a.set_ylabel("σ / σ₁")
     a.set_title("singular values")
     a.legend()
-    for model, style in (("original", "-"), ("linearized", "--"), ("frozen", ":")):
+    for model, style in zip(MODEL_NAMES, itertools.cycle(LINE_STYLES)):
         rows = [r for r in sweep["rows"] if r["model"] == model]
         if not rows:
             continue
@@ -173,8 +187,8 @@ def snapshot_study(scene, study, base, sweep_fn):
         found = None
         for count in range(study["count"] - 1, study["count"] + 5):
             sweep, ths = sweep_fn({**spec, "count": count}, f"-count{count}")
-            if ths["original"] is not None:
-                found = (count, ths["original"])
+            if ths[PAPER_MODEL] is not None:
+                found = (count, ths[PAPER_MODEL])
                 break
         ours = f"critical count {found[0]} (k = {found[1]})" if found else "no count works"
         detail = f"searched counts {study['count'] - 1}..{study['count'] + 4}"
@@ -183,13 +197,13 @@ def snapshot_study(scene, study, base, sweep_fn):
         sweep, ths = sweep_fn(spec, "")
         if paper == "larger_error":
             kk = min(5, sweep["kmax"], base["kmax"])
-            ev = [r["v"] for r in sweep["rows"] if r["k"] == kk and r["model"] == "original"][0]
-            eb = [r["v"] for r in base["rows"] if r["k"] == kk and r["model"] == "original"][0]
+            ev = [r["v"] for r in sweep["rows"] if r["k"] == kk and r["model"] == PAPER_MODEL][0]
+            eb = [r["v"] for r in base["rows"] if r["k"] == kk and r["model"] == PAPER_MODEL][0]
             ours = "larger_error" if ev > eb else "not larger"
             detail = f"v error at k = {kk}: {ev:.3e} vs {eb:.3e} with the scene's snapshots"
         else:
             ours = outcome(sweep)
-            detail = f"threshold k = {ths['original']}" if ths["original"] else f"no k <= {sweep['kmax']} works"
+            detail = f"threshold k = {ths[PAPER_MODEL]}" if ths[PAPER_MODEL] else f"no k <= {sweep['kmax']} works"
             if study.get("mode_threshold"):
                 detail += f" (paper k = {study['mode_threshold']})"
         agrees = ours == paper

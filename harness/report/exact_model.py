@@ -19,9 +19,8 @@ import numpy as np
 
 from ..compare import error_table
 from ..pod.pipeline import basis_for_scene, error_steps, on_steps
-from ..rom.common import run_reduced
 from ..rom.exact_linear import build_linear_operators, run_exact
-from ..rom.operators import build_operators
+from ..rom.registry import get_model
 from ..sph.solver import step_count
 from .markdown import num, table
 
@@ -62,15 +61,16 @@ def compare_exact_and_original(scene, ks=None):
     else:
         time_err = {"v": float("nan"), "rho_var": float("nan")}
     ks = ks or scene.rom.get("accel_modes", [scene.rom["modes"]])
+    original, exact = get_model("original"), get_model("exact")
+    n = step_count(scene.T, scene.sph.dt)
     rows = []
     for k in ks:
         k = min(k, *basis.max_modes)
-        ops = build_operators(problem, basis.U_v[:, :k], basis.U_rho[:, :k])
-        orig = run_reduced("original", ops, problem, n_steps=step_count(scene.T, scene.sph.dt), dt=scene.sph.dt,
-                           integrator=scene.sph.integrator, sample_steps=steps)
+        orig = original.run(original.build(problem, basis, k, k), problem, n_steps=n, dt=scene.sph.dt,
+                            integrator=scene.sph.integrator, sample_steps=steps)
         e_orig = error_table(orig.v, orig.rho, v_sph, rho_sph, t, problem.rho0)
-        lin = build_linear_operators(problem, basis.U_ve[:, :k], basis.U_e[:, :k])
-        ex = run_exact(lin, t, force=scene.force)
+        ex = exact.run(exact.build(problem, basis, k, k), problem, n_steps=n, dt=scene.sph.dt, sample_steps=steps,
+                       force=scene.force)
         e_ex = error_table(ex.v, ex.rho, v_sph, rho_sph, t, problem.rho0)
         e_pure = (error_table(ex.v, ex.rho, v_ex, rho_ex, t, problem.rho0) if in_time
                   else {"v": float("nan"), "rho_var": float("nan")})

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from ..bench.methods import bench_python, paper_saving, plot_time_error, savings_by_k
 from ..pod.pipeline import basis_for_scene
-from ..pod.study import mode_sweep, plot_sweep, snapshot_study, threshold
+from ..pod.study import PAPER_MODEL, mode_sweep, plot_sweep, snapshot_study, threshold
 from .markdown import image, num, table
 
 
@@ -39,10 +39,10 @@ def pod_section(scene, reference, out_dir, stem, repeats=3, progress=True):
     """
     lines = ["## POD and the reduced models", ""]
     summary = {}
-    sweep = mode_sweep(scene, kmax=None, models=("original",), progress=progress, reference=reference)
+    sweep = mode_sweep(scene, kmax=None, models=(PAPER_MODEL,), progress=progress, reference=reference)
     paper_k = scene.paper.get("mode_threshold")
     plot_sweep(sweep, out_dir / f"{stem}_modes_sweep.png", paper_k)
-    k = threshold(sweep["rows"], sweep["sph_error"], "original")
+    k = threshold(sweep["rows"], sweep["sph_error"], PAPER_MODEL)
     summary["threshold"], summary["paper_threshold"] = k, paper_k
     lines += [f"Snapshots: {sweep['strategy']}. Mode threshold (smallest k from which the original POD-MOR error "
               f"against the full SPH stays below the SPH error against {sweep['reference']}, in v and in ρ − ρ0): "
@@ -52,7 +52,7 @@ def pod_section(scene, reference, out_dir, stem, repeats=3, progress=True):
     basis, _ = basis_for_scene(scene, progress=False)
     plot_modes(basis, out_dir / f"{stem}_modes.png", scene.name)
     lines += image(f"{out_dir.name}/{stem}_modes.png", "POD modes")
-    rows = [r for r in sweep["rows"] if r["model"] == "original"]
+    rows = [r for r in sweep["rows"] if r["model"] == PAPER_MODEL]
     pick = sorted({1, 2, 4} | {r["k"] for r in rows if r["k"] % 4 == 0} | ({k} if k else set()))
     lines += table(["k", "v", "ρ − ρ0", "online [s]"],
                    [[r["k"], num(r["v"]), num(r["rho_var"]), num(r["online"], ".3f")] for r in rows if r["k"] in pick])
@@ -63,9 +63,9 @@ def pod_section(scene, reference, out_dir, stem, repeats=3, progress=True):
         srows, agree = [], 0
         for i, study in enumerate(studies):
             def sweep_fn(spec, suffix, i=i):
-                s = mode_sweep(scene, spec, models=("original",), progress=progress, reference=reference)
+                s = mode_sweep(scene, spec, models=(PAPER_MODEL,), progress=progress, reference=reference)
                 plot_sweep(s, out_dir / f"{stem}_study{i + 1}{suffix}.png")
-                return s, {"original": threshold(s["rows"], s["sph_error"], "original")}
+                return s, {PAPER_MODEL: threshold(s["rows"], s["sph_error"], PAPER_MODEL)}
             r = snapshot_study(scene, study, sweep, sweep_fn)
             agree += bool(r["agrees"])
             srows.append([r["figure"], r["snapshots"], r["paper"], r["ours"], "yes" if r["agrees"] else "**no**",

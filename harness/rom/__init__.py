@@ -1,0 +1,19 @@
+"""The reduced models (eqs. 2.16-2.24 and the exact linear model): one registry, one interface.
+
+``get_model(name)`` gives a model's entry (:class:`ReducedModel`: properties,
+``build``, ``run``, ``truncate``); every run returns a :class:`ReducedResult`.
+"""
+
+from .common import run_reduced
+from .exact_linear import LinearOperators, build_linear_operators, run_exact
+from .model import BASIS_KINDS, ReducedModel, basis_modes
+from .operators import ReducedOperators, build_operators, probe_rows
+from .registry import (MODEL_NAMES, MODELS, build_model, fmu_model_names, get_model, model_names, run_model,
+                       truncate_model)
+from .result import ReducedResult
+from .stepping import runaway_bound
+
+__all__ = ["BASIS_KINDS", "LinearOperators", "MODEL_NAMES", "MODELS", "ReducedModel", "ReducedOperators",
+           "ReducedResult", "basis_modes", "build_linear_operators", "build_model", "build_operators",
+           "fmu_model_names", "get_model", "model_names", "probe_rows", "run_exact", "run_model", "run_reduced",
+           "runaway_bound", "truncate_model"]

@@ -30,6 +30,7 @@ propagated step by step.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 
@@ -37,7 +38,12 @@ import numpy as np
 import scipy.linalg as sla
 
 from ..errors import SimulationError
-from .operators import input_mode
+from .model import ReducedModel, basis_modes
+from .operators import ROUNDOFF_TOLERANCE, input_mode
+from .result import ReducedResult
+from .stepping import sample_grid
+
+NAME = "exact"
 
 
 @dataclass
@@ -65,6 +71,9 @@ class LinearOperators:
         W_v-relative projection error of the force profile in the POD modes.
     augmented : bool
     timings : dict
+    input_mode : {"project", "augment", "never"}
+        How the force entered, and ``input_tolerance`` the augmentation
+        threshold (repeated by :func:`truncate_linear_operators`).
     """
 
     U_v: np.ndarray
@@ -79,6 +88,8 @@ class LinearOperators:
     input_error: float
     augmented: bool
     timings: dict = field(default_factory=dict)
+    input_mode: str = "project"
+    input_tolerance: float = ROUNDOFF_TOLERANCE
 
     @property
     def k_v(self):
@@ -88,12 +99,24 @@ class LinearOperators:
     def k_e(self):
         return self.U_e.shape[1]
 
+    @property
+    def k_rho(self):
+        """The size of the second block of coordinates (specific volume), as for the density models."""
+        return self.U_e.shape[1]
+
+    def velocity(self, a_v):
+        """v = U_v a at the particles, (M, N) [m s^-1] from coordinates (M, k_v)."""
+        return a_v @ self.U_v.T
+
+    def density(self, a_e):
+        """ρ = ρ0 / (1 + e), e = U_e b, at the particles, (M, N) [kg m^-3] from coordinates (M, k_e)."""
+        e = a_e @ self.U_e.T
+        return self.rho0[None, :] / (1.0 + e)
+
     def fields(self, z):
         """(v, ρ) at the particles from reduced states z of shape (M, k)."""
         z = np.atleast_2d(z)
-        v = z[:, :self.k_v] @ self.U_v.T
-        e = z[:, self.k_v:] @ self.U_e.T
-        return v, self.rho0[None, :] / (1.0 + e)
+        return self.velocity(z[:, :self.k_v]), self.density(z[:, self.k_v:])
 
     def energy(self, z):
         """Reduced energy ½|z|² (= the physical energy / Δx for the reduced fields)."""
@@ -155,7 +178,67 @@ def build_linear_operators(problem, U_v, U_e, input_direction="auto", input_tole
         T, Q = sla.schur(A, output="real")
     return LinearOperators(U_v=U_v, U_e=np.asarray(U_e, float), A=A, B=B, z0=z0, rho0=rho0, skew=not damping,
                            schur_Q=Q, schur_T=T, input_error=input_error, augmented=augmented,
-                           timings={"operators": time.perf_counter() - t0})
+                           timings={"operators": time.perf_counter() - t0}, input_mode=mode, input_tolerance=tol)
+
+
+def build_from_basis(problem, basis, k_v, k_rho, *, input_direction="auto", input_tolerance=None, tensor="auto"):
+    """:func:`build_linear_operators` on the first k_v, k_rho energy-weighted modes of ``basis``
+    (``Basis.U_ve``, ``Basis.U_e``): the model's ``build`` (:mod:`harness.rom.model`; ``tensor`` does not apply)."""
+    U_v, U_e = basis_modes(basis, "energy", k_v, k_rho)
+    return build_linear_operators(problem, U_v, U_e, input_direction=input_direction, input_tolerance=input_tolerance)
+
+
+def truncate_linear_operators(problem, ops: LinearOperators, k_v, k_e):
+    """The operators of the first ``k_v`` POD velocity and ``k_e`` specific-volume modes of ``ops``.
+
+    P, D̂ (the blocks of A), p̂ (of B) and z0 are slices of the larger ones, so
+    A and B equal :func:`build_linear_operators` at the smaller counts to
+    round-off (each entry is the same weighted sum over the particles; the
+    dense products may group it differently); the energy inner products need no
+    care, since the modes stay W-orthonormal.  Rebuilt: the Schur form of the
+    smaller A (O(k³)), the input direction's projection error, and, when the
+    force profile is appended to U_v (``input_mode`` augment), the appended
+    column (the profile's W_v-part outside the first k_v modes, not outside all
+    of them) with its rows of P, D̂, p̂ and z0, at O(N k).
+    """
+    t0 = time.perf_counter()
+    kv_pod = ops.k_v - int(ops.augmented)
+    if not (1 <= k_v <= kv_pod and 1 <= k_e <= ops.k_e):
+        raise ValueError(f"k_v, k_e = {k_v}, {k_e} out of range (allowed: 1 to {kv_pod}, 1 to {ops.k_e})")
+    rho0, c, d, profile = problem.rho0, problem.c, problem.d, problem.profile
+    k0 = ops.k_v
+    U_pod = ops.U_v[:, :k_v]
+    U_e = ops.U_e[:, :k_e]
+    input_error, augmented, U_v = float("nan"), False, U_pod
+    if ops.B is not None:
+        U_aug, input_error, added = augment_weighted(U_pod, profile, rho0, tol=ops.input_tolerance)
+        if ops.input_mode == "augment":
+            U_v, augmented = U_aug, added
+    P = ops.A[:k_v, k0:k0 + k_e]
+    D = -ops.A[:k_v, :k_v]
+    pv = None if ops.B is None else ops.B[:k_v]
+    a0 = ops.z0[:k_v]
+    if augmented:                                  # the appended column u and its rows, as build_linear_operators
+        u = U_v[:, -1]
+        G = problem.neighbours.matrix()
+        P = np.vstack([P, u @ np.asarray(G @ (c[:, None] * U_e))])
+        if problem.terms["damping"]:
+            D = np.vstack([np.column_stack([D, U_pod.T @ (rho0 * d * u)]), u @ ((rho0 * d)[:, None] * U_v)])
+        else:
+            D = np.zeros((k_v + 1, k_v + 1))
+        if pv is not None:
+            pv = np.append(pv, u @ (rho0 * profile))
+        a0 = np.append(a0, u @ (rho0 * problem.v0))
+    A = np.block([[-D, P], [-P.T, np.zeros((k_e, k_e))]])
+    B = None if pv is None else np.concatenate([pv, np.zeros(k_e)])
+    z0 = np.concatenate([a0, np.zeros(k_e)])
+    Q = T = None
+    if ops.skew:
+        T, Q = sla.schur(A, output="real")
+    return LinearOperators(U_v=U_v, U_e=U_e, A=A, B=B, z0=z0, rho0=rho0, skew=ops.skew, schur_Q=Q, schur_T=T,
+                           input_error=input_error, augmented=augmented,
+                           timings={"operators": time.perf_counter() - t0}, input_mode=ops.input_mode,
+                           input_tolerance=ops.input_tolerance)
 
 
 def propagators(A, B, h):
@@ -210,27 +293,8 @@ def free_response(ops: LinearOperators, t):
     return out
 
 
-@dataclass
-class ExactResult:
-    """Samples of the exact linear model: t (M,), z (M, k), timings [s]."""
-
-    t: np.ndarray
-    z: np.ndarray
-    ops: LinearOperators
-    wall_time: float
-    settings: dict
-
-    @property
-    def v(self):
-        return self.ops.fields(self.z)[0]
-
-    @property
-    def rho(self):
-        return self.ops.fields(self.z)[1]
-
-
 def run_exact(ops: LinearOperators, t_samples, step=None, force=None, hold="linear", bound=None):
-    """Advance the exact linear model and sample it.
+    """Advance the exact linear model and sample it at any times (a ReducedResult with ``steps`` None).
 
     Parameters
     ----------
@@ -248,6 +312,14 @@ def run_exact(ops: LinearOperators, t_samples, step=None, force=None, hold="line
     bound : float, optional
         |z| above this raises SimulationError (default 10⁶ |z0|).
     """
+    z, wall, step = _advance(ops, t_samples, step, force, hold, bound)
+    return ReducedResult(model=NAME, t=np.asarray(t_samples, float), steps=None, a_v=z[:, :ops.k_v],
+                         a_rho=z[:, ops.k_v:], ops=ops, wall_time=wall, offline=dict(ops.timings),
+                         settings={"model": NAME, "step": step, "hold": hold, "k_v": ops.k_v, "k_e": ops.k_e})
+
+
+def _advance(ops, t_samples, step, force, hold, bound):
+    """The reduced states z (M, k) at ``t_samples``, the wall time [s] and the step H (:func:`run_exact`)."""
     t_samples = np.asarray(t_samples, float)
     if step is None:
         gaps = np.diff(t_samples)
@@ -293,6 +365,40 @@ def run_exact(ops: LinearOperators, t_samples, step=None, force=None, hold="line
         if not np.all(np.isfinite(z[m])) or np.max(np.abs(z[m])) > bound:
             raise SimulationError(f"exact reduced state became non-finite or runaway at t = {ts:.6g} s",
                                   step=m, time=ts)
-    wall = time.perf_counter() - t0
-    return ExactResult(t=t_samples, z=z, ops=ops, wall_time=wall,
-                       settings={"model": "exact", "step": step, "hold": hold, "k_v": ops.k_v, "k_e": ops.k_e})
+    return z, time.perf_counter() - t0, step
+
+
+INTEGRATORS = ("exponential",)
+
+
+def run(ops, problem, *, dt, n_steps, sample_steps=None, every=1, force=None, integrator=None, n_freeze=10,
+        refresh="tensor", step=None, hold="linear", state=None, bound=None, progress=False):
+    """Run the exact linear model to ``n_steps * dt`` (the signature of :mod:`harness.rom.model`).
+
+    Samples at ``sample_steps * dt``; the communication step ``step`` H [s]
+    (default the smallest sample spacing) and the input ``hold`` as in
+    :func:`run_exact`; ``state`` (a_v, a_e) replaces z0.  ``n_freeze``,
+    ``refresh`` and ``progress`` do not apply.
+    """
+    if integrator not in (None,) + INTEGRATORS:
+        raise ValueError(f"the exact linear model is advanced by the matrix exponential (integrator "
+                         f"{integrator!r}; allowed: {', '.join(INTEGRATORS)})")
+    steps = sample_grid(n_steps, sample_steps, every)
+    if state is not None:
+        ops = dataclasses.replace(ops, z0=np.concatenate([np.asarray(state[0], float), np.asarray(state[1], float)]))
+    z, wall, step = _advance(ops, steps * dt, step, force or problem.scene.force, hold, bound)
+    return ReducedResult(model=NAME, t=steps * dt, steps=steps, a_v=z[:, :ops.k_v], a_rho=z[:, ops.k_v:], ops=ops,
+                         wall_time=wall, offline=dict(ops.timings),
+                         settings={"model": NAME, "dt": dt, "step": step, "hold": hold, "k_v": ops.k_v,
+                                   "k_e": ops.k_e})
+
+
+MODEL = ReducedModel(
+    name=NAME,
+    description="beyond the paper: exactly linear in the specific volume J = ρ0/ρ (energy inner products), "
+                "advanced by the matrix exponential",
+    title="Exact linear POD reduced model in the specific volume J = rho0/rho (energy inner product; beyond "
+          "Fang et al.)",
+    linear=True, integrators=INTEGRATORS, uses_n_freeze=False, basis_kind="energy",
+    fmu_kind=2,                 # resources/model.bin kind 2 (harness.fmu.resources.MODEL_EXACT_LINEAR)
+    build=build_from_basis, run=run, truncate=truncate_linear_operators)

@@ -21,7 +21,11 @@ The step is written with plain loops in a fixed order, which the C model core
 import numpy as np
 from numba import njit
 
-from .common import _check, _velocity_rate
+from .kernels import FrozenOperators, _check, _velocity_rate
+from .model import ReducedModel
+from .operators import build_from_basis, pair_index, truncate_operators
+from .result import ReducedResult
+from .stepping import drive, force_table, method_code, runaway_bound, sample_grid
 
 
 @njit(cache=True, nogil=True)
@@ -68,13 +72,16 @@ def refresh_direct_path(ar, Ur, GUv, inv_rho0, M):
 
 
 @njit(cache=True, nogil=True)
-def frozen_advance(method, av, ar, n0, n1, dt, g, K, b, D, has_d, pv, has_f, T, pairs, use_tensor,
-                   Ur, GUv, inv_rho0, n_freeze, M, F, sample_steps, ptr, out_av, out_ar, bound):
+def frozen_advance(method, av, ar, M, F, n0, n1, dt, g, ops, sample_steps, ptr, out_av, out_ar, bound):
     """Frozen-coefficient model from step n0 to n1 (method 0 Euler, 1 symplectic).
 
-    ``M`` and ``F`` carry the frozen coefficients between calls; ``g[row]`` is
-    f at step n0 + row.  Returns (status, ptr, step).
+    ``av``, ``ar`` are the reduced state and ``M``, ``F`` the frozen
+    coefficients, carried between calls; ``g[row]`` is f at step n0 + row;
+    ``ops`` a :data:`~harness.rom.kernels.FrozenOperators`.  States at the
+    ``sample_steps`` from ``ptr`` on go to ``out_av``, ``out_ar``.  Returns
+    (status, ptr, step).
     """
+    K = ops.K
     kv, kr = K.shape
     dv = np.empty(kv)
     dr = np.empty(kr)
@@ -83,16 +90,16 @@ def frozen_advance(method, av, ar, n0, n1, dt, g, K, b, D, has_d, pv, has_f, T, 
             out_av[ptr, :] = av
             out_ar[ptr, :] = ar
             ptr += 1
-        if step % n_freeze == 0:
-            if use_tensor:
-                refresh_tensor_path(ar, T, pairs, M)
+        if step % ops.n_freeze == 0:
+            if ops.use_tensor:
+                refresh_tensor_path(ar, ops.T, ops.pairs, M)
             else:
-                refresh_direct_path(ar, Ur, GUv, inv_rho0, M)
+                refresh_direct_path(ar, ops.U_rho, ops.GU_v, ops.inv_rho0, M)
             for p in range(kv):
-                F[p] = pv[p] * g[step - n0] if has_f else 0.0
+                F[p] = ops.p[p] * g[step - n0] if ops.has_f else 0.0
         _density_rate_frozen(av, M, dr)
         if method == 0:
-            _velocity_rate(av, ar, K, b, D, has_d, F, dv)
+            _velocity_rate(av, ar, K, ops.b, ops.D, ops.has_d, F, dv)
             for p in range(kv):
                 av[p] += dt * dv[p]
             for p in range(kr):
@@ -100,7 +107,7 @@ def frozen_advance(method, av, ar, n0, n1, dt, g, K, b, D, has_d, pv, has_f, T, 
         else:
             for p in range(kr):
                 ar[p] += dt * dr[p]
-            _velocity_rate(av, ar, K, b, D, has_d, F, dv)
+            _velocity_rate(av, ar, K, ops.b, ops.D, ops.has_d, F, dv)
             for p in range(kv):
                 av[p] += dt * dv[p]
         if (step + 1 - n0) % 64 == 0 or step + 1 == n1:
@@ -112,3 +119,71 @@ def frozen_advance(method, av, ar, n0, n1, dt, g, K, b, D, has_d, pv, has_f, T, 
         out_ar[ptr, :] = ar
         ptr += 1
     return 0, ptr, n1
+
+
+def loop_operators(K, b, D, p, n_freeze, *, T=None, U_rho=None, GU_v=None, inv_rho0=None, refresh="tensor"):
+    """The :data:`~harness.rom.kernels.FrozenOperators` of one run (built once per run).
+
+    ``D`` or ``p`` None: no damping / no input (a dummy array in the tuple).
+    ``refresh="tensor"`` needs ``T``; ``"direct"`` needs ``U_rho``, ``GU_v``, ``inv_rho0``.
+    """
+    if refresh not in ("tensor", "direct"):
+        raise ValueError(f"refresh {refresh!r} (allowed: tensor, direct)")
+    tensor = refresh == "tensor"
+    if tensor and T is None:
+        raise ValueError("no refresh tensor (k too large); use refresh='direct'")
+    kv, kr = K.shape
+    dummy2 = np.zeros((1, 1))
+    return FrozenOperators(
+        K=np.ascontiguousarray(K), b=np.ascontiguousarray(b), D=dummy2 if D is None else np.ascontiguousarray(D),
+        has_d=D is not None, p=np.zeros(kv) if p is None else np.ascontiguousarray(p), has_f=p is not None,
+        T=np.ascontiguousarray(T) if tensor else np.zeros((1, 1, 1)), pairs=pair_index(kr), use_tensor=tensor,
+        U_rho=dummy2 if tensor else np.ascontiguousarray(U_rho),
+        GU_v=dummy2 if tensor else np.ascontiguousarray(GU_v),
+        inv_rho0=np.zeros(1) if tensor else np.ascontiguousarray(inv_rho0), n_freeze=int(n_freeze))
+
+
+INTEGRATORS = ("euler", "symplectic")
+
+
+def run(ops, problem, *, dt, n_steps, sample_steps=None, every=1, force=None, integrator=None, n_freeze=10,
+        refresh="tensor", step=None, hold="linear", state=None, bound=None, progress=False):
+    """Run the frozen-coefficient model (the signature of :mod:`harness.rom.model`).
+
+    ``ops`` are :class:`~harness.rom.operators.ReducedOperators`; ``refresh``
+    ``tensor`` (exact, no N) or ``direct`` (the O(N k²) reference path);
+    ``step`` and ``hold`` do not apply.
+    """
+    integrator = integrator or INTEGRATORS[0]
+    method = method_code(integrator, INTEGRATORS, "frozen coefficients")
+    steps = sample_grid(n_steps, sample_steps, every)
+    force = force or problem.scene.force
+    av = np.array(ops.a_v0 if state is None else state[0], dtype=float)
+    ar = np.array(ops.a_rho0 if state is None else state[1], dtype=float)
+    out_av = np.empty((steps.size, ops.k_v))
+    out_ar = np.empty((steps.size, ops.k_rho))
+    bound = runaway_bound(ops) if bound is None else bound
+    loop = loop_operators(ops.K, ops.b, ops.D, ops.p, n_freeze, T=ops.T, U_rho=ops.U_rho, GU_v=ops.GU_v,
+                          inv_rho0=ops.inv_rho0, refresh=refresh)
+    M = np.zeros((ops.k_rho, ops.k_v))
+    F = np.zeros(ops.k_v)
+
+    def advance(n0, n1, g, ptr):
+        return frozen_advance(method, av, ar, M, F, n0, n1, dt, np.ascontiguousarray(g[:, 0]), loop, steps, ptr,
+                              out_av, out_ar, bound)
+
+    wall = drive(MODEL.name, advance, lambda n0, n1: force_table(force, loop.has_f, method, n0, n1, dt),
+                 n_steps=n_steps, dt=dt, cost=ops.k_v * ops.k_rho, bound=bound, progress=progress)
+    settings = {"model": MODEL.name, "integrator": integrator, "dt": dt, "k_v": ops.k_v, "k_rho": ops.k_rho,
+                "n_freeze": int(n_freeze), "refresh": refresh}
+    return ReducedResult(model=MODEL.name, t=steps * dt, steps=steps, a_v=out_av, a_rho=out_ar, ops=ops,
+                         wall_time=wall, offline=dict(ops.timings), settings=settings)
+
+
+MODEL = ReducedModel(
+    name="frozen",
+    description="accelerated POD-MOR with frozen coefficients (eqs. 2.19-2.24): O(k²) per step between refreshes",
+    title="Frozen-coefficient POD reduced model (Fang et al., eqs. 2.19-2.24)",
+    linear=False, integrators=INTEGRATORS, uses_n_freeze=True, basis_kind="density",
+    fmu_kind=1,                 # resources/model.bin kind 1 (harness.fmu.resources.MODEL_FROZEN)
+    build=build_from_basis, run=run, truncate=truncate_operators)

@@ -3,30 +3,22 @@
 Eq. 2.19 for the velocity with the precomputed K, b, D̂, p̂, and eq. 2.20 for
 the density with ρ² recomputed from the reconstruction ρ = U^ρ a^ρ at every
 evaluation: O(N k) per step.  The frozen model with n_freeze = 1 is this model.
+
+The compiled rate is :func:`harness.rom.galerkin._linearized_rates`, on the
+Galerkin loop it shares with the original model.
 """
 
-from numba import njit
+from functools import partial
 
-from .common import _velocity_rate
+from .galerkin import INTEGRATORS, run_galerkin
+from .model import ReducedModel
+from .operators import build_from_basis, truncate_operators
 
+NAME = "linearized"
 
-@njit(cache=True, nogil=True)
-def _linearized_rates(av, ar, g, K, b, D, has_d, pv, has_f, Ur, GUv, inv_rho0, F, dv, dr, rho, w):
-    kv, kr = K.shape
-    n = Ur.shape[0]
-    for p in range(kv):
-        F[p] = pv[p] * g if has_f else 0.0
-    _velocity_rate(av, ar, K, b, D, has_d, F, dv)                   # eq. 2.19
-    for i in range(n):                                              # eq. 2.20, ρ² from U^ρ a^ρ
-        r = 0.0
-        for a in range(kr):
-            r += Ur[i, a] * ar[a]
-        s = 0.0
-        for q in range(kv):
-            s += GUv[i, q] * av[q]
-        w[i] = r * r * inv_rho0[i] * s
-    for p in range(kr):
-        s = 0.0
-        for i in range(n):
-            s -= Ur[i, p] * w[i]
-        dr[p] = s
+MODEL = ReducedModel(
+    name=NAME,
+    description="POD-MOR with the density linearisation of eq. 2.17 (eqs. 2.19-2.20, ρ² at every step), O(N k)",
+    title="Density-linearised POD-MOR (Fang et al., eqs. 2.17-2.20)",
+    linear=False, integrators=INTEGRATORS, uses_n_freeze=False, basis_kind="density", fmu_kind=None,
+    build=build_from_basis, run=partial(run_galerkin, NAME, False), truncate=truncate_operators)

@@ -27,9 +27,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..sph.solver import SPHProblem
+from .model import basis_modes
 
 # Above this many tensor entries the refresh falls back to the O(N k²) path.
 TENSOR_MAX_ENTRIES = 20_000_000
+INPUT_TOLERANCE = 1e-2      # "needed": append the input direction when the modes miss more than 1 % of it
+ROUNDOFF_TOLERANCE = 1e-10  # "augment": append unless the modes hold the direction to round-off
 
 
 def pair_index(k):
@@ -68,6 +71,12 @@ class ReducedOperators:
         Whether the input direction was appended to U_v.
     timings : dict
         Offline wall time [s] of the operators (``operators``, ``tensor``).
+    input_mode : {"project", "augment", "never"}
+        How the force entered (:func:`input_mode`), and ``input_tolerance``
+        the augmentation threshold: :func:`truncate_operators` repeats the
+        decision at fewer modes.
+    tensor_rule : {"auto", "always", "never"}
+        The ``tensor`` choice the operators were built with.
     """
 
     U_v: np.ndarray
@@ -84,6 +93,9 @@ class ReducedOperators:
     input_error: float
     augmented: bool
     timings: dict = field(default_factory=dict)
+    input_mode: str = "project"
+    input_tolerance: float = ROUNDOFF_TOLERANCE
+    tensor_rule: str = "auto"
 
     @property
     def k_v(self):
@@ -93,9 +105,13 @@ class ReducedOperators:
     def k_rho(self):
         return self.U_rho.shape[1]
 
+    def velocity(self, a_v):
+        """v = U^v a^v at the particles, (M, N) [m s^-1] from coordinates (M, k_v)."""
+        return a_v @ self.U_v.T
 
-INPUT_TOLERANCE = 1e-2      # "needed": append the input direction when the modes miss more than 1 % of it
-ROUNDOFF_TOLERANCE = 1e-10  # "augment": append unless the modes hold the direction to round-off
+    def density(self, a_rho):
+        """ρ = U^ρ a^ρ at the particles, (M, N) [kg m^-3] from coordinates (M, k_rho)."""
+        return a_rho @ self.U_rho.T
 
 
 def input_mode(input_direction, has_force, input_tolerance=None):
@@ -174,16 +190,109 @@ def build_operators(problem: SPHProblem, U_v, U_rho, input_direction="auto", ten
     D = U_v.T @ (d[:, None] * U_v) if problem.terms["damping"] else None                  # eq. 2.24
     p = U_v.T @ profile if want_input else None
     t1 = time.perf_counter()
-    k_v, k_r = U_v.shape[1], U_rho.shape[1]
-    n_pairs = k_r * (k_r + 1) // 2
-    build = {"auto": n_pairs * k_r * k_v <= TENSOR_MAX_ENTRIES, "always": True, "never": False}[tensor]
-    T = refresh_tensor(U_rho, GU_v, inv_rho0) if build else None
+    T = refresh_tensor(U_rho, GU_v, inv_rho0) if wants_tensor(tensor, U_v.shape[1], U_rho.shape[1]) else None
     t2 = time.perf_counter()
     return ReducedOperators(U_v=U_v, U_rho=U_rho, K=np.ascontiguousarray(K), b=b,
                             D=None if D is None else np.ascontiguousarray(D), p=p,
                             GU_v=np.ascontiguousarray(GU_v), inv_rho0=inv_rho0, T=T,
                             a_v0=U_v.T @ problem.v0, a_rho0=U_rho.T @ rho0, input_error=input_error,
-                            augmented=augmented, timings={"operators": t1 - t0, "tensor": t2 - t1})
+                            augmented=augmented, timings={"operators": t1 - t0, "tensor": t2 - t1},
+                            input_mode=mode, input_tolerance=tol, tensor_rule=tensor)
+
+
+def wants_tensor(tensor, k_v, k_rho):
+    """Whether the rule ``tensor`` ({"auto", "always", "never"}) builds the refresh tensor at k_v, k_rho."""
+    n_pairs = k_rho * (k_rho + 1) // 2
+    return {"auto": n_pairs * k_rho * k_v <= TENSOR_MAX_ENTRIES, "always": True, "never": False}[tensor]
+
+
+def build_from_basis(problem: SPHProblem, basis, k_v, k_rho, *, input_direction="auto", input_tolerance=None,
+                     tensor="auto"):
+    """:func:`build_operators` on the first k_v, k_rho POD modes of ``basis`` (``Basis.U_v``, ``Basis.U_rho``).
+
+    The ``build`` of the models on density modes (:mod:`harness.rom.model`).
+    """
+    U_v, U_rho = basis_modes(basis, "density", k_v, k_rho)
+    return build_operators(problem, U_v, U_rho, input_direction=input_direction, tensor=tensor,
+                           input_tolerance=input_tolerance)
+
+
+def truncate_operators(problem: SPHProblem, ops: ReducedOperators, k_v, k_rho):
+    """The operators of the first ``k_v`` POD velocity and ``k_rho`` density modes of ``ops``, without a rebuild.
+
+    K, b, D̂, p̂, G U^v, the initial coordinates and the refresh tensor T (its
+    pairs (a, b), a <= b < k_rho, re-indexed) are slices of the larger ones:
+    each entry is the same sum over the particles, so they equal
+    :func:`build_operators` at the smaller counts to round-off (the dense
+    products may group the sum differently).  What a slice cannot give is
+    rebuilt: the input direction's projection error at k_v, and, when the
+    force profile is appended to U^v (``input_mode`` augment), the appended
+    column - the profile's part outside the first k_v modes differs from its
+    part outside all of them - with its row of K, b, D̂, p̂, its column of G U^v
+    and of T, at O(N k) (O(N k³) for T).  A tensor the larger operators did
+    not have (k above TENSOR_MAX_ENTRIES) is built when the rule now asks for one.
+
+    Parameters
+    ----------
+    problem : SPHProblem
+        The problem ``ops`` were built on.
+    ops : ReducedOperators
+    k_v : int
+        POD velocity modes to keep (at most ``ops.k_v``, less the appended input direction).
+    k_rho : int
+        Density modes to keep (at most ``ops.k_rho``).
+    """
+    t0 = time.perf_counter()
+    kv_pod = ops.k_v - int(ops.augmented)
+    if not (1 <= k_v <= kv_pod and 1 <= k_rho <= ops.k_rho):
+        raise ValueError(f"k_v, k_rho = {k_v}, {k_rho} out of range (allowed: 1 to {kv_pod}, 1 to {ops.k_rho})")
+    rho0, c, d, profile = problem.rho0, problem.c, problem.d, problem.profile
+    inv_rho0 = ops.inv_rho0
+    U_pod = ops.U_v[:, :k_v]
+    U_rho = np.ascontiguousarray(ops.U_rho[:, :k_rho])
+    input_error, augmented, U_v = float("nan"), False, U_pod
+    if ops.p is not None:
+        U_aug, input_error, added = augment_with(U_pod, profile, tol=ops.input_tolerance)
+        if ops.input_mode == "augment":
+            U_v, augmented = U_aug, added
+    U_v = np.ascontiguousarray(U_v)
+    K = ops.K[:k_v, :k_rho]
+    b = ops.b[:k_v]
+    D = None if ops.D is None else ops.D[:k_v, :k_v]
+    p = None if ops.p is None else ops.p[:k_v]
+    GU_v = ops.GU_v[:, :k_v]
+    a_v0 = ops.a_v0[:k_v]
+    if augmented:                                   # the appended column u and its rows, as build_operators
+        u = U_v[:, -1]
+        G = problem.neighbours.matrix()
+        Gu = np.asarray(G @ u)
+        GU_v = np.column_stack([GU_v, Gu])
+        K = np.vstack([K, u @ (inv_rho0[:, None] * np.asarray(G @ ((c * inv_rho0)[:, None] * U_rho)))])  # eq. 2.21
+        b = np.append(b, u @ (inv_rho0 * (G @ c)))                                                    # eq. 2.22
+        if D is not None:                                                                             # eq. 2.24
+            D = np.vstack([np.column_stack([D, U_pod.T @ (d * u)]), u @ (d[:, None] * U_v)])
+        p = np.append(p, u @ profile)
+        a_v0 = np.append(a_v0, u @ problem.v0)
+    t1 = time.perf_counter()
+    T = None
+    if ops.T is not None and wants_tensor(ops.tensor_rule, U_v.shape[1], k_rho):
+        index = {tuple(pair): i for i, pair in enumerate(pair_index(ops.k_rho))}
+        rows = [index[tuple(pair)] for pair in pair_index(k_rho)]
+        T = ops.T[rows][:, :k_rho, :k_v]
+        if augmented:
+            T = np.concatenate([T, refresh_tensor(U_rho, GU_v[:, -1:], inv_rho0)], axis=2)
+    elif wants_tensor(ops.tensor_rule, U_v.shape[1], k_rho):
+        T = refresh_tensor(U_rho, np.ascontiguousarray(GU_v), inv_rho0)
+    t2 = time.perf_counter()
+    return ReducedOperators(U_v=U_v, U_rho=U_rho, K=np.ascontiguousarray(K), b=np.ascontiguousarray(b),
+                            D=None if D is None else np.ascontiguousarray(D),
+                            p=None if p is None else np.ascontiguousarray(p), GU_v=np.ascontiguousarray(GU_v),
+                            inv_rho0=inv_rho0, T=None if T is None else np.ascontiguousarray(T),
+                            a_v0=np.ascontiguousarray(a_v0), a_rho0=np.ascontiguousarray(ops.a_rho0[:k_rho]),
+                            input_error=input_error, augmented=augmented,
+                            timings={"operators": t1 - t0, "tensor": t2 - t1},
+                            input_mode=ops.input_mode, input_tolerance=ops.input_tolerance,
+                            tensor_rule=ops.tensor_rule)
 
 
 def refresh_tensor(U_rho, GU_v, inv_rho0):

@@ -1,34 +1,22 @@
 """The original POD-MOR: Galerkin projection (eq. 2.16, Φ = U) of the full SPH
 right-hand side (eqs. 2.10-2.11), evaluated at the reconstructed state
 v = U^v a^v, ρ = U^ρ a^ρ: O(N k) per step, exact for k = N.
+
+The compiled rate is :func:`harness.rom.galerkin._original_rates`, on the
+Galerkin loop it shares with the density-linearised model.
 """
 
-from numba import njit
+from functools import partial
 
-from ..sph.kernels_numba import rates
+from .galerkin import INTEGRATORS, run_galerkin
+from .model import ReducedModel
+from .operators import build_from_basis, truncate_operators
 
+NAME = "original"
 
-@njit(cache=True, nogil=True)
-def _original_rates(av, ar, g, Uv, Ur, index, weight, rho0, c, d, profile, flags, dv, dr, v, rho, fv, fr, tmp):
-    n, kv = Uv.shape
-    kr = Ur.shape[1]
-    for i in range(n):
-        s = 0.0
-        for q in range(kv):
-            s += Uv[i, q] * av[q]
-        v[i] = s
-        s = 0.0
-        for q in range(kr):
-            s += Ur[i, q] * ar[q]
-        rho[i] = s
-    rates(v, rho, g, index, weight, rho0, c, d, profile, flags, fv, fr, tmp)   # eqs. 2.10-2.11
-    for p in range(kv):                                                          # eq. 2.16, Φ = U
-        s = 0.0
-        for i in range(n):
-            s += Uv[i, p] * fv[i]
-        dv[p] = s
-    for p in range(kr):
-        s = 0.0
-        for i in range(n):
-            s += Ur[i, p] * fr[i]
-        dr[p] = s
+MODEL = ReducedModel(
+    name=NAME,
+    description="the paper's original POD-MOR (eq. 2.16): the full SPH right-hand side projected, O(N k) per step",
+    title="Original POD-MOR (Fang et al., eq. 2.16)",
+    linear=False, integrators=INTEGRATORS, uses_n_freeze=False, basis_kind="density", fmu_kind=None,
+    build=build_from_basis, run=partial(run_galerkin, NAME, True), truncate=truncate_operators)

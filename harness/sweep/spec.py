@@ -57,7 +57,6 @@ SHAPES = {
     "chirp": "A*sin(pi*F*t**2/T)",
     "step": "A",
 }
-MODELS = ("frozen", "exact")
 SCENE_GRIDS = ("c", "d", "profile", "k", "model")       # one FMU per combination
 RUN_GRIDS = ("shape", "amplitude", "frequency", "n_freeze")
 GRIDS = SCENE_GRIDS + RUN_GRIDS
@@ -253,8 +252,9 @@ def _grid_values(raw, name, where, scene):
             n = scene.sph.n_particles
             out.append(_integer(value, at, 1, n, f"an integer in [1, N = {n}]"))
         elif name == "model":
-            if value not in MODELS:
-                _fail(at, f"{value!r} is out of range (allowed: {', '.join(MODELS)})")
+            from ..rom.registry import fmu_model_names          # the models an FMU can hold
+            if value not in fmu_model_names():
+                _fail(at, f"{value!r} is out of range (allowed: {', '.join(fmu_model_names())})")
             out.append(value)
         elif name == "shape":
             if not isinstance(value, str) or not value.strip():

@@ -1,0 +1,59 @@
+"""The registry of the reduced models: one entry per model, looked up by name.
+
+Each model module defines its :class:`~harness.rom.model.ReducedModel`
+(``MODEL``: name, description, properties, build, run, truncate); this module
+lists them, one line per model.  A new model is one new module and one line
+here.  Code elsewhere asks a model's properties (``get_model(name).linear``,
+``.uses_n_freeze``, ``.basis_kind``, ``.fmu_kind``) and runs it through
+``.build`` / ``.run`` / ``.truncate``; it never compares model names.
+"""
+
+from __future__ import annotations
+
+from . import exact_linear, frozen, linearized, original
+from .model import ReducedModel
+
+MODELS: dict[str, ReducedModel] = {m.name: m for m in (
+    original.MODEL,
+    linearized.MODEL,
+    frozen.MODEL,
+    exact_linear.MODEL,
+)}
+MODEL_NAMES = tuple(MODELS)
+
+
+def get_model(name) -> ReducedModel:
+    """The registry entry of ``name``; ValueError naming the allowed models otherwise."""
+    try:
+        return MODELS[name]
+    except (KeyError, TypeError):
+        raise ValueError(f"reduced model {name!r} is not one of {', '.join(MODEL_NAMES)}") from None
+
+
+def model_names(**properties):
+    """Names of the models whose properties equal ``properties``, in registry order.
+
+    ``model_names(linear=False)``: the time-stepped models; ``model_names(fmu_kind=None)``: the models that
+    cannot be packaged as an FMU.
+    """
+    return tuple(name for name, m in MODELS.items() if all(getattr(m, k) == v for k, v in properties.items()))
+
+
+def fmu_model_names():
+    """The models that can be packaged as an FMU (``fmu_kind`` set)."""
+    return tuple(name for name, m in MODELS.items() if m.fmu_kind is not None)
+
+
+def build_model(name, problem, basis, k_v, k_rho, **options):
+    """``get_model(name).build(problem, basis, k_v, k_rho, **options)`` (:mod:`harness.rom.model`)."""
+    return get_model(name).build(problem, basis, k_v, k_rho, **options)
+
+
+def run_model(name, operators, problem, **options):
+    """``get_model(name).run(operators, problem, **options)`` -> ReducedResult (:mod:`harness.rom.model`)."""
+    return get_model(name).run(operators, problem, **options)
+
+
+def truncate_model(name, problem, operators, k_v, k_rho):
+    """``get_model(name).truncate(problem, operators, k_v, k_rho)`` (:mod:`harness.rom.model`)."""
+    return get_model(name).truncate(problem, operators, k_v, k_rho)
