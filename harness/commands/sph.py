@@ -59,7 +59,7 @@ def run(args):
     else:
         print(format_errors(errors, "relative L2 error vs exact (sqrt form of eq. 3.4)"))
         paper = scene.paper
-        if scene.sph == base.sph and scene.T == base.T:
+        if scene.sph == base.sph and scene.T == base.T and "sph_error_v" in paper:
             rho_txt = f"rho {paper['sph_error_rho']:.4e}" if "sph_error_rho" in paper else "rho not reported"
             print(f"paper ({paper['reference']} reference): v {paper['sph_error_v']:.4e}   {rho_txt}")
     return 0
