@@ -1,14 +1,17 @@
-"""Hostile input: numerical blow-ups said before and stopped during a run, unusual scenes."""
+"""Hostile input: numerical blow-ups said before and stopped during a run, unusual scenes, signals."""
 
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from harness.cli import main
-from harness.scene import dump_toml, load_scene, parse_scene, scene_dict
+from harness.scene import dump_toml, load_scene, scene_dict
 from harness.sph.solver import (BLOWUP_FACTOR, GROWTH_WARN, build_problem, energy, run_sph, stability,
                                 step_count)
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def _stiff_scene(tmp_path, v0, T, name="stiff"):
@@ -203,3 +206,109 @@ def test_continuum_references_agree_on_an_unseen_smooth_scene(gaussian_force_sce
     er = relative_l2(sph.rho - rho0, refs["skfem"][1] - rho0)
     assert ev < 5e-2 and er < 5e-2, (ev, er)
     assert min(ev, er) > 100 * worst                # the references are far more accurate than the SPH
+
+
+# --------------------------------------------------------------------------
+# interrupted runs
+# --------------------------------------------------------------------------
+def _big_write_scene(tmp_path):
+    """A run whose HDF5 write lasts about a second (2001 samples x 1000 particles, gzip)."""
+    data = scene_dict(load_scene("multimode"))
+    data["domain"]["T"] = 0.4
+    data["sph"].update(n_particles=1000, every=1, integrator="symplectic", dt=2e-4)
+    path = tmp_path / "big.toml"
+    path.write_text(dump_toml(data))
+    return path
+
+
+def _spawn_sph(scene_path, out, *extra):
+    import signal
+    import subprocess
+    import sys
+    return subprocess.Popen([sys.executable, "-m", "harness", "sph", str(scene_path), "--out", str(out), "--quiet",
+                             *extra], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+
+
+def _temporaries(folder):
+    return [p for p in folder.iterdir() if ".tmp-" in p.name]
+
+
+@pytest.mark.parametrize("signame", ["SIGINT", "SIGTERM", "SIGKILL"])
+def test_signal_during_the_hdf5_write(tmp_path, capsys, signame):
+    """SIGINT used to land in an h5py weakref callback ("Exception ignored"): the run exited 0 with its file."""
+    import signal
+    import time
+    sig = getattr(signal, signame)
+    scene_path = _big_write_scene(tmp_path)
+    out = tmp_path / "run.h5"
+    proc = _spawn_sph(scene_path, out)
+    deadline = time.monotonic() + 300
+    while not _temporaries(tmp_path) and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.002)
+    assert _temporaries(tmp_path), "the run never reached its write"
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=300)
+    if sig == signal.SIGKILL:
+        assert proc.returncode == -signal.SIGKILL
+        stale = _temporaries(tmp_path)
+        assert len(stale) == 1 and not out.exists()
+        # the next run of the same output removes what the killed one left
+        assert main(["sph", str(scene_path), "--n-particles", "32", "--t-end", "0.02", "--every", "10",
+                     "--out", str(out), "--quiet"]) == 0
+        assert out.exists() and _temporaries(tmp_path) == []
+        return
+    assert proc.returncode == 128 + sig, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and "interrupted" in lines[0] and signame in lines[0], err
+    assert not out.exists() and _temporaries(tmp_path) == []
+
+
+def test_sigterm_during_the_run(tmp_path):
+    import signal
+    import subprocess
+    import sys
+    import time
+    # how long this machine takes to reach a run: a tiny one from start to end
+    data = scene_dict(load_scene("multimode"))
+    data["domain"]["T"] = 5000.0                       # 2.5e7 symplectic steps: tens of seconds
+    data["sph"].update(integrator="symplectic", every=100000)
+    path = tmp_path / "long.toml"
+    path.write_text(dump_toml(data))
+    start = time.monotonic()
+    subprocess.run([sys.executable, "-m", "harness", "sph", str(path), "--t-end", "0.01", "--every", "1",
+                    "--out", str(tmp_path / "tiny.h5"), "--quiet"], check=True, capture_output=True,
+                   cwd=ROOT)
+    startup = time.monotonic() - start
+    out = tmp_path / "run.h5"
+    proc = _spawn_sph(path, out)
+    time.sleep(2 * startup + 1.0)
+    assert proc.poll() is None, "the run ended before the signal"
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 143, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("sphrom sph: interrupted (SIGTERM)"), err
+    assert not out.exists() and _temporaries(tmp_path) == []
+
+
+def test_stale_temporaries_of_dead_processes_only(tmp_path):
+    import subprocess
+    from harness.runio import atomic_path
+    dead = subprocess.Popen(["true"])
+    dead.wait()
+    live = subprocess.Popen(["sleep", "60"])
+    try:
+        target = tmp_path / "x.h5"
+        stale = tmp_path / f".x.h5.tmp-{dead.pid}"
+        other = tmp_path / f".x.h5.tmp-{live.pid}"
+        unrelated = tmp_path / f".y.h5.tmp-{dead.pid}"
+        for p in (stale, other, unrelated):
+            p.write_bytes(b"half")
+        with atomic_path(target) as tmp:
+            tmp.write_bytes(b"whole")
+        assert target.read_bytes() == b"whole"
+        assert not stale.exists() and other.exists() and unrelated.exists()
+    finally:
+        live.kill()
+        live.wait()
