@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import contextlib
 import datetime as _dt
+import glob
 import os
 import signal
 import sys
@@ -102,7 +103,7 @@ def sweep_stale_temporaries(path):
     prefix = f".{path.name}{TMP_MARK}"
     removed = []
     try:
-        siblings = list(path.parent.glob(f"{glob_escape(prefix)}*"))
+        siblings = list(path.parent.glob(f"{glob.escape(prefix)}*"))
     except OSError:
         return removed
     for tmp in siblings:
@@ -116,12 +117,6 @@ def sweep_stale_temporaries(path):
             tmp.unlink()
             removed.append(tmp)
     return removed
-
-
-def glob_escape(text):
-    """``text`` with glob's special characters escaped."""
-    import glob
-    return glob.escape(text)
 
 
 @contextlib.contextmanager

@@ -310,7 +310,7 @@ def amplification(problem: SPHProblem, dt, integrator, T, samples=257):
     """
     w_max = spectral_radius(problem)
     n = step_count(T, dt)
-    d = max(float(np.min(problem.d)), 0.0)
+    d = float(np.min(problem.d))          # negative damping (if a scene has it) amplifies too
     best, best_w = -np.inf, 0.0
     for w in np.linspace(0.0, w_max, samples)[1:]:
         r = float(np.max(np.abs(np.linalg.eigvals(step_matrix(integrator, w * dt, d * dt)))))
@@ -361,7 +361,7 @@ def stability_warnings(problem: SPHProblem, dt, integrator, T):
         fig = "more than 1e+304" if big else f"{stab['growth']:.3g}"
         out.append(f"'{integrator}' amplifies the mode at omega = {stab['growth_omega']:.4g} rad/s "
                    f"(omega dt = {stab['growth_omega'] * dt:.3g}, smallest damping d = "
-                   f"{max(float(np.min(problem.d)), 0.0):g} 1/s) by a factor {fig} over the run "
+                   f"{float(np.min(problem.d)):g} 1/s) by a factor {fig} over the run "
                    f"({n} steps to T = {T:g} s); rounding errors in that mode grow with it: use a smaller "
                    f"dt, a shorter T or --integrator symplectic/rk4")
     return out
