@@ -312,3 +312,16 @@ def test_stale_temporaries_of_dead_processes_only(tmp_path):
     finally:
         live.kill()
         live.wait()
+
+
+def test_interpolation_with_breaks_closer_than_the_samples():
+    """Two breaks with no sample between them (a narrow step in a coefficient) used to crash the references."""
+    from harness.references.common import interpolate
+    xs = (np.arange(16) + 0.5) / 16
+    ys = np.stack([np.sin(2 * np.pi * xs), np.cos(2 * np.pi * xs)])
+    xq = np.array([0.2, 0.5, 0.505, 0.52, 0.9])
+    out = interpolate(xs, ys, xq, 1.0, breaks=[0.5, 0.51])
+    assert np.all(np.isfinite(out))
+    np.testing.assert_allclose(out[:, 1:3], np.stack([np.interp(xq[1:3], xs, row, period=1.0) for row in ys]))
+    smooth = interpolate(xs, ys, xq, 1.0)
+    np.testing.assert_allclose(out[:, [0, 4]], smooth[:, [0, 4]], atol=2e-2)
