@@ -3,17 +3,21 @@
 A user's mistake (a bad scene, option or path) is one line on stderr and exit
 status 2 (``sphrom COMMAND: error: --option: what is allowed``, argparse's
 errors included); a run that fails on its own terms (non-finite state) is one
-line and exit status 3.  Neither leaves a partial output file.
+line and exit status 3; SIGINT and SIGTERM are one line "interrupted" and exit
+status 128 + the signal (130, 143).  None leaves a partial output file.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
+import signal
 import sys
+import threading
 
 from . import __version__
-from .errors import FieldError, SimulationError, UserError
+from .errors import FieldError, Interrupted, SimulationError, UserError
 
 # subcommand name -> module in harness.commands
 COMMANDS = {
@@ -66,12 +70,41 @@ def parse(parser, argv=None):
     return args
 
 
+def _raise_interrupted(signum, frame):
+    raise Interrupted(signum)
+
+
+@contextlib.contextmanager
+def _signals_as_exceptions():
+    """SIGINT and SIGTERM raise :class:`Interrupted` while a command runs (main thread only).
+
+    An ignored SIGINT (a job started with it ignored) stays ignored.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+    for sig, handler in previous.items():
+        if not (sig == signal.SIGINT and handler is signal.SIG_IGN):
+            signal.signal(sig, _raise_interrupted)
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler if handler is not None else signal.SIG_DFL)
+
+
 def main(argv=None):
     parser = build_parser()
     try:
         args = parse(parser, argv)
     except SystemExit as exc:                    # argparse: --help, --version, a bad option (one line)
         return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
+    with _signals_as_exceptions():
+        return _run(parser, args)
+
+
+def _run(parser, args):
     try:
         return int(args.handler(args) or 0)
     except FieldError as exc:                    # the library names the field; show the option that set it
@@ -89,9 +122,11 @@ def main(argv=None):
         import os
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
-    except KeyboardInterrupt:
-        print(f"sphrom {args.command}: interrupted; no output written", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        signum = exc.signum if isinstance(exc, Interrupted) else signal.SIGINT
+        print(f"sphrom {args.command}: interrupted ({signal.Signals(signum).name}); no output written",
+              file=sys.stderr)
+        return 128 + int(signum)
 
 
 if __name__ == "__main__":

@@ -40,3 +40,11 @@ class SimulationError(Exception):
         super().__init__(message)
         self.step = step
         self.time = time
+
+
+class Interrupted(KeyboardInterrupt):
+    """SIGINT or SIGTERM received by the command line: a one-line exit, 128 + the signal number."""
+
+    def __init__(self, signum):
+        super().__init__(signum)
+        self.signum = signum

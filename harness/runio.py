@@ -23,8 +23,11 @@ from __future__ import annotations
 
 import contextlib
 import datetime as _dt
+import glob
 import os
+import signal
 import sys
+import threading
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -76,17 +79,91 @@ def check_output_path(path):
     return path
 
 
+TMP_MARK = ".tmp-"
+
+
+def _pid_alive(pid):
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OSError):
+        return True              # someone else's live process
+    return True
+
+
+def sweep_stale_temporaries(path):
+    """Remove temporaries of ``path`` left by processes that no longer run.
+
+    A run killed by SIGKILL cannot remove its temporary ``.NAME.tmp-PID``;
+    the next write of the same output removes it when PID is dead (a live
+    writer's temporary is left alone).  Returns the removed paths.
+    """
+    path = Path(path)
+    prefix = f".{path.name}{TMP_MARK}"
+    removed = []
+    try:
+        siblings = list(path.parent.glob(f"{glob.escape(prefix)}*"))
+    except OSError:
+        return removed
+    for tmp in siblings:
+        pid_text = tmp.name[len(prefix):].split("-")[0]
+        if not pid_text.isdigit():
+            continue
+        pid = int(pid_text)
+        if pid != os.getpid() and _pid_alive(pid):
+            continue
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+            removed.append(tmp)
+    return removed
+
+
+@contextlib.contextmanager
+def _deferred_signals(signums=(signal.SIGINT, signal.SIGTERM)):
+    """Hold SIGINT/SIGTERM while the block runs, then deliver them to the previous handlers.
+
+    A signal raised as an exception inside h5py or zipfile can land in a
+    finaliser, where Python prints "Exception ignored" and carries on, so the
+    run went on to rename its output and exit 0.  Held here, the signal is
+    re-raised after the block and before the rename.  Only the main thread
+    can set handlers; elsewhere nothing is held.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield []
+        return
+    caught = []
+    previous = {}
+    for sig in signums:
+        previous[sig] = signal.getsignal(sig)
+        if previous[sig] is not signal.SIG_IGN and previous[sig] is not None:
+            signal.signal(sig, lambda signum, frame: caught.append(signum))
+    try:
+        yield caught
+    finally:
+        for sig, handler in previous.items():
+            if handler is not signal.SIG_IGN and handler is not None:
+                signal.signal(sig, handler)
+    for sig in dict.fromkeys(caught):
+        signal.raise_signal(sig)         # the restored handler raises (or ends the process)
+
+
 @contextlib.contextmanager
 def atomic_path(path):
     """Yield a temporary path beside ``path``; rename it to ``path`` on success.
 
     On any exception (including KeyboardInterrupt) the temporary file is
-    removed and ``path`` is left as it was.
+    removed and ``path`` is left as it was.  SIGINT and SIGTERM arriving while
+    the block writes are held until it ends and then delivered before the
+    rename (never swallowed).  Temporaries of ``path`` left by killed
+    processes are removed first (:func:`sweep_stale_temporaries`).
     """
     path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    sweep_stale_temporaries(path)
+    tmp = path.with_name(f".{path.name}{TMP_MARK}{os.getpid()}")
     try:
-        yield tmp
+        with _deferred_signals():
+            yield tmp
         os.replace(tmp, path)
     finally:
         if tmp.exists():

@@ -142,7 +142,7 @@ SCHEMA = {
             "mode_threshold": (int, False, _int_at_least(1)),
             "note": (str, False, None),
         }),
-    }, True, None),
+    }, False, None),        # a scene beyond the paper's eight has no [paper] table
 }
 
 
@@ -378,6 +378,7 @@ def parse_scene(text: str, source: str = "<scene>") -> Scene:
     data = _validate_table(raw, SCHEMA, f"{source}:")
     snaps = data["snapshots"]
     _check_snapshot_spec(snaps, f"{source}: snapshots")
+    data.setdefault("paper", {})
     for i, study in enumerate(data["paper"].get("snapshot_studies", [])):
         _check_snapshot_spec(study, f"{source}: paper.snapshot_studies[{i}]")
 

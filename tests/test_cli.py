@@ -104,8 +104,8 @@ def test_blow_up_names_step_and_time_and_keeps_nothing(tmp_path, capsys):
     code = main(["sph", "multimode", "--dt", "0.1", "--t-end", "5", "--out", str(out), "--quiet"])
     captured = capsys.readouterr()
     assert code == 3
-    assert "warning: dt = 0.1 s exceeds the explicit stability limit" in captured.out
-    assert "CFL number" in captured.out
+    assert "warning: dt = 0.1 s exceeds the explicit stability limit" in captured.err
+    assert "CFL number" in captured.err
     assert "by step" in captured.err and "t = " in captured.err
     assert not out.exists() and list(tmp_path.iterdir()) == []
 

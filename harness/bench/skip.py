@@ -36,7 +36,7 @@ def _sph_loop(problem, scene, n, general):
     def go():
         v, rho = problem.v0.copy(), problem.rho0.copy()
         kn.advance(method, v, rho, 0, n, scene.sph.dt, g, nb.index, nb.weight, *arrays, flags,
-                   np.array([n]), 0, out, out.copy(), 64)
+                   np.array([n]), 0, out, out.copy(), 64, np.inf, nb.dx)   # energy checked as in run_sph
         state["v"] = v
     return go, state
 

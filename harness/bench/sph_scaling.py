@@ -29,7 +29,8 @@ def time_per_step(scene_name, n, integrator, repeats=5, target_seconds=0.05):
     def run(steps):
         v, rho = problem.v0.copy(), problem.rho0.copy()
         g = np.zeros((steps, 3))
-        status, _, _ = kn.advance(method, v, rho, 0, steps, dt, g, *args, flags, empty, 0, out, out, 64)
+        status, _, _ = kn.advance(method, v, rho, 0, steps, dt, g, *args, flags, empty, 0, out, out, 64,
+                                  np.inf, problem.neighbours.dx)        # energy checked as in run_sph
         assert status == 0
 
     # size the run to ~target_seconds

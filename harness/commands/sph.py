@@ -1,5 +1,7 @@
 """``sphrom sph``: run the full SPH model of a scene and write an HDF5 run."""
 
+import sys
+
 from .options import add_quiet, add_scene, int_at_least, positive_float
 
 
@@ -24,7 +26,7 @@ def run(args):
     from ..compare import exact_errors, format_errors
     from ..runio import check_output_path, scene_attrs, write_run
     from ..scene import load_scene
-    from ..sph.solver import build_problem, run_sph, stability, step_count
+    from ..sph.solver import build_problem, run_sph, stability, stability_warnings, step_count
 
     out = check_output_path(args.out)
     base = load_scene(args.scene)
@@ -33,9 +35,8 @@ def run(args):
     sph = scene.sph
     problem = build_problem(scene)
     stab = stability(problem, sph.dt, sph.integrator, scene.T)
-    if sph.dt > stab["dt_limit"]:
-        print(f"warning: dt = {sph.dt:g} s exceeds the explicit stability limit {stab['dt_limit']:.3g} s of "
-              f"'{sph.integrator}' (CFL number c_s dt/dx = {stab['cfl']:.3g}, omega_max dt = {stab['omega_dt']:.3g})")
+    for line in stability_warnings(problem, sph.dt, sph.integrator, scene.T):
+        print(f"sphrom sph: warning: {line}", file=sys.stderr)
     n_steps = step_count(scene.T, sph.dt)
     result = run_sph(scene, problem=problem, progress=not args.quiet)
     us = 1e6 * result.wall_time / max(n_steps, 1)
@@ -58,7 +59,7 @@ def run(args):
     else:
         print(format_errors(errors, "relative L2 error vs exact (sqrt form of eq. 3.4)"))
         paper = scene.paper
-        if scene.sph == base.sph and scene.T == base.T:
+        if scene.sph == base.sph and scene.T == base.T and "sph_error_v" in paper:
             rho_txt = f"rho {paper['sph_error_rho']:.4e}" if "sph_error_rho" in paper else "rho not reported"
             print(f"paper ({paper['reference']} reference): v {paper['sph_error_v']:.4e}   {rho_txt}")
     return 0

@@ -75,8 +75,22 @@ def _finite_positive(v, rho):
 
 
 @njit(cache=True, nogil=True)
+def energy(v, rho, rho0, c, flags, dx):
+    """½ Σ ρ0 v² Δx + ½ Σ c e² Δx with e = ρ0/ρ − 1 (see ``solver.energy``)."""
+    uc = (flags & UNIFORM_C) != 0
+    ur = (flags & UNIFORM_RHO0) != 0
+    s = 0.0
+    for i in range(v.size):
+        r0 = rho0[0] if ur else rho0[i]
+        ci = c[0] if uc else c[i]
+        e = r0 / rho[i] - 1.0
+        s += r0 * v[i] * v[i] + ci * e * e
+    return 0.5 * dx * s
+
+
+@njit(cache=True, nogil=True)
 def advance(method, v, rho, n0, n1, dt, gvals, index, weight, rho0, c, d, profile, flags,
-            sample_steps, ptr, out_v, out_rho, check_every):
+            sample_steps, ptr, out_v, out_rho, check_every, energy_max, dx):
     """Advance (v, ρ) from step n0 to step n1 in place.
 
     Parameters
@@ -90,12 +104,18 @@ def advance(method, v, rho, n0, n1, dt, gvals, index, weight, rho0, c, d, profil
     sample_steps, ptr, out_v, out_rho
         Samples are stored at the steps listed in ``sample_steps`` (sorted);
         ``ptr`` is the next one to store.
+    check_every : int
+        The state is checked every ``check_every`` steps and at n1.
+    energy_max : float
+        A state whose :func:`energy` exceeds this has blown up (np.inf: no
+        check); ``dx`` is the particle spacing [m].
 
     Returns
     -------
     (status, ptr, step)
-        status 0 when every state stayed finite with ρ > 0, else 1 and the
-        first step at which the check failed.
+        status 0 when every state stayed finite with ρ > 0 and energy at most
+        ``energy_max``; 1 (non-finite or ρ <= 0) or 2 (energy) and the step at
+        which the check failed.
     """
     n = v.size
     dv = np.empty(n)
@@ -142,6 +162,8 @@ def advance(method, v, rho, n0, n1, dt, gvals, index, weight, rho0, c, d, profil
         if (step + 1 - n0) % check_every == 0 or step + 1 == n1:
             if not _finite_positive(v, rho):
                 return 1, ptr, step + 1
+            if energy(v, rho, rho0, c, flags, dx) > energy_max:
+                return 2, ptr, step + 1
     if ptr < sample_steps.size and sample_steps[ptr] == n1:
         out_v[ptr, :] = v
         out_rho[ptr, :] = rho

@@ -173,7 +173,9 @@ def run_sph(scene: Scene, *, sample_steps=None, progress=True, problem=None, chu
     Raises
     ------
     SimulationError
-        When the state turns non-finite or ρ <= 0; names the step and time.
+        When the state turns non-finite or ρ <= 0, or its energy exceeds
+        :data:`BLOWUP_FACTOR` times the bound of :func:`energy_bound_factors`
+        (a numerical blow-up); names the step and time.
     """
     problem = problem or build_problem(scene)
     dt = scene.sph.dt
@@ -197,8 +199,14 @@ def run_sph(scene: Scene, *, sample_steps=None, progress=True, problem=None, chu
         # about 2e6 particle-steps per chunk: a few ms, so the bar moves smoothly
         chunk_steps = max(1, min(n_steps, int(2e6 // max(problem.n, 1))))
     check_every = 64
+    dx = nb.dx
+    # blow-up bound: sqrt(E) <= e^{lam t} (sqrt(E0) + sigma * int |f| dt) for the exact dynamics
+    sqrt_e0 = np.sqrt(energy(problem, v, rho)) if np.all(rho > 0) else np.inf
+    sigma, lam = energy_bound_factors(problem)
+    f_integral = 0.0
     # Load the compiled loop (numba's cache) before the clock starts.
-    kn.advance(method, v, rho, 0, 0, dt, np.zeros((0, 3)), *args, 0, sample_steps[:0], 0, out_v, out_rho, 1)
+    kn.advance(method, v, rho, 0, 0, dt, np.zeros((0, 3)), *args, 0, sample_steps[:0], 0, out_v, out_rho, 1,
+               np.inf, dx)
     ptr = 0
     wall = 0.0
     with progress_bar(total=n_steps, desc=f"sph {scene.name}", unit="step", enabled=progress) as bar:
@@ -207,10 +215,21 @@ def run_sph(scene: Scene, *, sample_steps=None, progress=True, problem=None, chu
             n1 = min(n_steps, n0 + chunk_steps)
             g = force_values(scene, problem, n0, n1, dt, method)
             flags = problem.flags(bool(np.any(g != 0)))
+            # the bound grows with t: its value at the chunk's end holds for every step in it
+            f_integral += dt * float(np.sum(np.max(np.abs(g), axis=1))) if g.size else 0.0
+            bound = (np.exp(lam * n1 * dt) * (sqrt_e0 + sigma * f_integral)) ** 2
+            energy_max = BLOWUP_FACTOR * bound if bound > 0 else np.inf
             t0 = _time.perf_counter()
             status, ptr, bad = kn.advance(method, v, rho, n0, n1, dt, g, *args, flags,
-                                          sample_steps, ptr, out_v, out_rho, check_every)
+                                          sample_steps, ptr, out_v, out_rho, check_every, energy_max, dx)
             wall += _time.perf_counter() - t0
+            if status == 2:
+                e_now = energy(problem, v, rho)
+                raise SimulationError(
+                    f"SPH run blew up by step {bad} (t = {bad * dt:.6g} s): its energy {e_now:.3g} J/m^2 "
+                    f"exceeds {BLOWUP_FACTOR:g} x the bound {bound:.3g} J/m^2 that the scene's initial "
+                    f"energy and forcing allow (integrator {scene.sph.integrator}, dt = {dt:g} s)",
+                    step=bad, time=bad * dt)
             if status != 0:
                 raise SimulationError(
                     f"SPH state became non-finite or non-positive density by step {bad} "
@@ -241,6 +260,65 @@ def spectral_radius(problem: SPHProblem):
 
 STABILITY_BOUND = {"euler": 2.0, "symplectic": 2.0, "rk4": 2.0 * np.sqrt(2.0)}
 
+# Amplification over a run above which `sph` warns.  The paper's own settings
+# (explicit Euler) amplify the fastest mode by up to 51 (tenmode; 48.6 for
+# high_frequency) while their fast modes hold only rounding error and the
+# discrete energy stays within 7 % of the exact dynamics' bound (measured with
+# :func:`energy`); above 100 the factor is no longer harmless.
+GROWTH_WARN = 100.0
+
+
+def step_matrix(integrator, omega_dt, d_dt):
+    """One step of ``integrator`` on the mode (e, v) with ė = ω v, v̇ = -ω e - d v.
+
+    Parameters
+    ----------
+    integrator : str
+        "euler", "symplectic" (e then v, as in :func:`.kernels_numba.advance`)
+        or "rk4".
+    omega_dt, d_dt : float
+        ω Δt and d Δt (dimensionless).
+
+    Returns
+    -------
+    ndarray (2, 2)
+        The amplification matrix of one step.  This is the linearisation of
+        eqs. 2.10-2.11 about rest in the specific volume (eq. A.9), one
+        eigen-pair of the SPH operator at a time.
+    """
+    a = np.array([[0.0, omega_dt], [-omega_dt, -d_dt]])
+    eye = np.eye(2)
+    if integrator == "euler":
+        return eye + a
+    if integrator == "symplectic":
+        e_step = np.array([[1.0, omega_dt], [0.0, 1.0]])
+        v_step = np.array([[1.0, 0.0], [-omega_dt, 1.0 - d_dt]])
+        return v_step @ e_step
+    a2 = a @ a
+    return eye + a + a2 / 2.0 + a2 @ a / 6.0 + a2 @ a2 / 24.0
+
+
+def amplification(problem: SPHProblem, dt, integrator, T, samples=257):
+    """The largest factor by which the scheme amplifies a mode over [0, T].
+
+    Every linear mode of the SPH operator has a frequency ω in [0, ω_max]
+    (:func:`spectral_radius`); with the smallest damping of the scene, a step
+    multiplies the mode by the spectral radius r(ω) of :func:`step_matrix`
+    (explicit Euler, undamped: r = |1 + i ω Δt| = (1 + ω²Δt²)^½), so n steps
+    multiply it by r^n.  Returns the largest r(ω)^n over ``samples``
+    frequencies (a float, capped at exp(700)) and the ω that attains it.
+    """
+    w_max = spectral_radius(problem)
+    n = step_count(T, dt)
+    d = float(np.min(problem.d))          # negative damping (if a scene has it) amplifies too
+    best, best_w = -np.inf, 0.0
+    for w in np.linspace(0.0, w_max, samples)[1:]:
+        r = float(np.max(np.abs(np.linalg.eigvals(step_matrix(integrator, w * dt, d * dt)))))
+        log_growth = n * np.log(r) if r > 0 else -np.inf
+        if log_growth > best:
+            best, best_w = log_growth, w
+    return float(np.exp(min(700.0, best))), best_w
+
 
 def stability(problem: SPHProblem, dt, integrator, T):
     """The explicit stability limit and CFL numbers of a run.
@@ -248,13 +326,78 @@ def stability(problem: SPHProblem, dt, integrator, T):
     Returns a dict with ``omega_max`` [rad/s], ``dt_limit`` [s] (ω_max Δt
     below 2 for the Euler schemes, 2√2 for RK4: the imaginary-axis limits),
     ``cfl`` (c_s Δt / Δx with the largest sound speed of eq. 2.5 at rest),
-    ``omega_dt`` and ``euler_growth`` (the factor by which explicit Euler
+    ``omega_dt``, ``euler_growth`` (the factor by which explicit Euler
     amplifies the fastest mode over T when d = 0; Euler has no strict
-    stability on the imaginary axis).
+    stability on the imaginary axis), ``growth`` and ``growth_omega`` (the
+    factor by which ``integrator`` amplifies its worst mode over T with the
+    scene's smallest damping, and that mode's ω: :func:`amplification`).
     """
     w = spectral_radius(problem)
     cs = float(np.sqrt(np.max(problem.c / problem.rho0)))
     lim = STABILITY_BOUND[integrator] / w
     growth = float(np.exp(min(700.0, 0.5 * (T / dt) * np.log1p((w * dt) ** 2))))
+    amp, amp_w = amplification(problem, dt, integrator, T)
     return {"omega_max": w, "dt_limit": lim, "cfl": cs * dt / problem.neighbours.dx,
-            "omega_dt": w * dt, "euler_growth": growth}
+            "omega_dt": w * dt, "euler_growth": growth, "growth": amp, "growth_omega": amp_w}
+
+
+def stability_warnings(problem: SPHProblem, dt, integrator, T):
+    """One-line warnings (no prefix) about the time step of a run, maybe none.
+
+    Warns when Δt exceeds the imaginary-axis limit of the integrator, and when
+    the integrator amplifies some mode by more than :data:`GROWTH_WARN` over
+    the run even below that limit (explicit Euler on an undamped scene over a
+    long horizon), with the figure.
+    """
+    stab = stability(problem, dt, integrator, T)
+    out = []
+    if dt > stab["dt_limit"]:
+        out.append(f"dt = {dt:g} s exceeds the explicit stability limit {stab['dt_limit']:.3g} s of "
+                   f"'{integrator}' (CFL number c_s dt/dx = {stab['cfl']:.3g}, "
+                   f"omega_max dt = {stab['omega_dt']:.3g})")
+    if stab["growth"] > GROWTH_WARN:
+        n = step_count(T, dt)
+        big = stab["growth"] >= np.exp(700.0) * (1 - 1e-12)
+        fig = "more than 1e+304" if big else f"{stab['growth']:.3g}"
+        out.append(f"'{integrator}' amplifies the mode at omega = {stab['growth_omega']:.4g} rad/s "
+                   f"(omega dt = {stab['growth_omega'] * dt:.3g}, smallest damping d = "
+                   f"{float(np.min(problem.d)):g} 1/s) by a factor {fig} over the run "
+                   f"({n} steps to T = {T:g} s); rounding errors in that mode grow with it: use a smaller "
+                   f"dt, a shorter T or --integrator symplectic/rk4")
+    return out
+
+
+def energy(problem: SPHProblem, v, rho):
+    """The discrete energy ½ Σ ρ0 v² Δx + ½ Σ c e² Δx [J per m²], e = ρ0/ρ − 1.
+
+    In the specific volume J = ρ0/ρ (eq. A.9) eqs. 2.10-2.11 read ė = G v,
+    ρ0 v̇ = G(c e) − ρ0 d v + ρ0 f with G skew in the volume inner product,
+    so this energy is conserved by the exact (semi-discrete) SPH dynamics
+    when d = f = 0, and non-increasing when d ≥ 0 and f = 0.
+    """
+    dx = problem.neighbours.dx
+    e = problem.rho0 / rho - 1.0
+    return 0.5 * dx * float(np.sum(problem.rho0 * v * v) + np.sum(problem.c * e * e))
+
+
+# Factor between the discrete energy and the bound of the exact dynamics at
+# which a run is declared blown up.  A consistent scheme run at an accurate
+# step stays within a few percent of the bound's energy; 10^4 in energy is a
+# factor 100 in amplitude, far beyond any discretisation error, and a mode
+# that has grown that much keeps growing geometrically, so stopping there
+# loses no run that could still be trusted.
+BLOWUP_FACTOR = 1e4
+
+
+def energy_bound_factors(problem: SPHProblem):
+    """(σ, λ): √E(t) ≤ e^{λt} (√E0 + σ ∫_0^t |f| ds) for the exact SPH dynamics.
+
+    dE/dt = −Σ ρ0 d v² Δx + f(t) Σ ρ0 profile v Δx, so with
+    σ = (½ Σ ρ0 profile² Δx)^½ (Cauchy-Schwarz) and λ = max(0, −min d)
+    (growth only where the scene's damping is negative) Grönwall gives the
+    bound.
+    """
+    dx = problem.neighbours.dx
+    sigma = float(np.sqrt(0.5 * dx * np.sum(problem.rho0 * problem.profile ** 2)))
+    lam = max(0.0, -float(np.min(problem.d)))
+    return sigma, lam
