@@ -12,6 +12,7 @@ import subprocess
 import sys
 import zipfile
 import zlib
+from pathlib import Path
 
 import fmpy
 import numpy as np
@@ -204,6 +205,20 @@ def test_core_loader_names_the_problem(packaged, binaries):
 # ---------------------------------------------------------------------------
 # rebuilding from sources/ (fmpy compile)
 # ---------------------------------------------------------------------------
+
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_sources_lists_agree(packaged, fmi):
+    """sources/ holds the files of package.fmu_sources, and the build description fmpy compile reads
+    (FMI 2: <SourceFiles> of modelDescription.xml, FMI 3: sources/buildDescription.xml) names its C files."""
+    from harness.fmu.package import fmu_sources
+    files = fmu_sources(fmi)
+    assert all((Path(__file__).parents[1] / "fmu_src" / name).is_file() for name in files)
+    zf = zipfile.ZipFile(packaged[("forced", fmi)])
+    assert {f"sources/{name}" for name in files} <= set(zf.namelist())
+    md = fmpy.read_model_description(str(packaged[("forced", fmi)]))
+    compiled = md.buildConfigurations[0].sourceFileSets[0].sourceFiles
+    assert compiled == [name for name in files if name.endswith(".c")]
+
 
 @pytest.mark.parametrize("fmi", [2, 3])
 def test_fmpy_compile_rebuilds_from_sources(packaged, tmp_path, fmi):
