@@ -240,15 +240,6 @@ ROM_API RomStatus rom_state_check(const RomModel *model, const unsigned char *bu
 ROM_API RomStatus rom_state_deserialize(RomState *state, const unsigned char *buffer, size_t size,
                                         uint32_t *tag, char *message, size_t message_size);
 
-/* ---- helpers for the FMI glue (no FMI types) ------------------------------- */
-ROM_API RomStatus rom_resource_file(const char *location, int is_uri, char *path, size_t path_size,
-                                    char *message, size_t message_size);
-#define ROM_LOG_EVENTS 1u
-#define ROM_LOG_WARNING 2u
-#define ROM_LOG_ERROR 4u
-#define ROM_LOG_ALL (ROM_LOG_EVENTS | ROM_LOG_WARNING | ROM_LOG_ERROR)
-ROM_API uint32_t rom_log_category(const char *name);
-ROM_API const char *rom_log_category_name(uint32_t bit);
 ROM_API const char *rom_version(void);
 
 #ifdef __cplusplus

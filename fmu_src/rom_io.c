@@ -91,14 +91,16 @@ typedef struct {
     const char *magic;         /* 8 bytes */
     const char *contents;      /* what the magic announces */
     const char *empty;         /* what the smallest valid blob is */
+    const char *one;           /* one such blob, in messages */
+    const char *damaged;       /* what is truncated or corrupt when a check fails */
     uint32_t version;
     size_t min_size;           /* bytes needed before the header can be read */
 } Envelope;
 
 static const Envelope RESOURCES = {"resources", ROM_RESOURCE_MAGIC, "an sphrom model.bin", "an empty model",
-                                   ROM_FORMAT_VERSION, ROM_HEADER_SIZE + ROM_TOKEN_SIZE + 4};
+                                   "a model", "file ", ROM_FORMAT_VERSION, ROM_HEADER_SIZE + ROM_TOKEN_SIZE + 4};
 static const Envelope STATE = {"serialized state", ROM_STATE_MAGIC, "an sphrom FMU state", "an empty state",
-                               ROM_STATE_VERSION, ROM_STATE_HEADER_SIZE + 4};
+                               "a state", "", ROM_STATE_VERSION, ROM_STATE_HEADER_SIZE + 4};
 
 /* Size, magic and version: then the header can be read */
 static RomStatus envelope_open(const Envelope *e, const unsigned char *bytes, size_t size, char *message,
@@ -133,17 +135,17 @@ static RomStatus envelope_close(const Envelope *e, const unsigned char *bytes, s
         for (size_t i = 0; i < ROM_TOKEN_SIZE && other[i]; i++) {
             if (other[i] < 32 || other[i] > 126) other[i] = '?';
         }
-        return rom_fail(message, message_size, "%s: token %s is not this FMU's %s (from another FMU)", e->what,
-                        other, token);
+        return rom_fail(message, message_size, "%s: token %s is not this FMU's %s (%s from another FMU)", e->what,
+                        other, token, e->one);
     }
     if ((uint64_t)size != expected) {
-        return rom_fail(message, message_size, "%s: %zu bytes, expected %llu%s (truncated or corrupt)", e->what,
-                        size, (unsigned long long)expected, detail);
+        return rom_fail(message, message_size, "%s: %zu bytes, expected %llu%s (%struncated or corrupt)", e->what,
+                        size, (unsigned long long)expected, detail, e->damaged);
     }
     const uint32_t stored = get_u32(bytes + size - 4), crc = rom_crc32(bytes, size - 4);
     if (crc != stored) {
-        return rom_fail(message, message_size, "%s: checksum mismatch (stored 0x%08x, computed 0x%08x): corrupt",
-                        e->what, stored, crc);
+        return rom_fail(message, message_size, "%s: checksum mismatch (stored 0x%08x, computed 0x%08x): %scorrupt",
+                        e->what, stored, crc, e->damaged);
     }
     if (!valid_token((const char *)(bytes + token_offset))) {
         return rom_fail(message, message_size, "%s: the token field is not a GUID string", e->what);
@@ -160,20 +162,15 @@ typedef struct {
     double dt, bound, L;
 } Header;
 
+/* the fields after magic and version, in the order of rom.h */
 static Header read_header(const unsigned char *bytes) {
     Header h;
-    h.kind = get_u32(bytes + 12);
-    h.integrator = get_u32(bytes + 16);
-    h.k_v = get_u32(bytes + 20);
-    h.k_rho = get_u32(bytes + 24);
-    h.n_probes = get_u32(bytes + 28);
-    h.n_pairs = get_u32(bytes + 32);
-    h.flags = get_u32(bytes + 36);
-    h.n_freeze = get_u32(bytes + 40);
-    h.reserved = get_u32(bytes + 44);
-    h.dt = get_f64(bytes + 48);
-    h.bound = get_f64(bytes + 56);
-    h.L = get_f64(bytes + 64);
+    uint32_t *const words[9] = {&h.kind, &h.integrator, &h.k_v, &h.k_rho, &h.n_probes, &h.n_pairs, &h.flags,
+                                 &h.n_freeze, &h.reserved};
+    double *const numbers[3] = {&h.dt, &h.bound, &h.L};
+    const unsigned char *cursor = bytes + 12;
+    for (int i = 0; i < 9; i++, cursor += 4) *words[i] = get_u32(cursor);
+    for (int i = 0; i < 3; i++, cursor += 8) *numbers[i] = get_f64(cursor);
     return h;
 }
 
