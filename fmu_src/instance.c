@@ -291,7 +291,8 @@ InstanceStatus instance_reset(Instance *inst) {
 /* ------------------------------------------------------------------------ */
 
 typedef enum { TYPE_FLOAT64, TYPE_INT32 } VariableType;
-typedef enum { ROLE_INDEPENDENT, ROLE_INPUT, ROLE_FIXED_PARAMETER, ROLE_OUTPUT } VariableRole;
+typedef enum { ROLE_INDEPENDENT, ROLE_INPUT, ROLE_FIXED, ROLE_OUTPUT } VariableRole;   /* FIXED: fixed parameter */
+typedef enum { COUNT_ONE, COUNT_PER_PROBE } VariableCount;     /* how many value references a row stands for */
 
 static double get_time(const RomState *s, uint32_t j) { (void)j; return s->time; }
 static double get_f(const RomState *s, uint32_t j) { (void)j; return s->f; }
@@ -299,12 +300,12 @@ static double get_dt(const RomState *s, uint32_t j) { (void)j; return s->dt; }
 static int32_t get_n_freeze(const RomState *s) { return s->n_freeze; }
 
 /* The FMU's variables (modelDescription/fmi2.xml, fmi3.xml; value references rom.h ROM_VR_*):
- * the one place that maps value references onto the core.  A per-probe variable
- * stands for n_probes value references, vr + j. */
+ * the one place that maps value references onto the core.  A COUNT_PER_PROBE row
+ * stands for n_probes value references vr + j, its getter receiving j. */
 typedef struct {
     const char *name;
     uint32_t vr;
-    int per_probe;
+    VariableCount count;
     VariableType type;
     VariableRole role;
     double (*get_float64)(const RomState *s, uint32_t j);
@@ -314,12 +315,13 @@ typedef struct {
 } Variable;
 
 static const Variable VARIABLES[] = {
-    {"time", ROM_VR_TIME, 0, TYPE_FLOAT64, ROLE_INDEPENDENT, get_time, NULL, NULL, NULL},
-    {"f", ROM_VR_F, 0, TYPE_FLOAT64, ROLE_INPUT, get_f, NULL, rom_set_input, NULL},
-    {"n_freeze", ROM_VR_N_FREEZE, 0, TYPE_INT32, ROLE_FIXED_PARAMETER, NULL, get_n_freeze, NULL, rom_set_n_freeze},
-    {"dt", ROM_VR_DT, 0, TYPE_FLOAT64, ROLE_FIXED_PARAMETER, get_dt, NULL, rom_set_dt, NULL},
-    {"v_probe", ROM_VR_V_PROBE, 1, TYPE_FLOAT64, ROLE_OUTPUT, rom_v_probe, NULL, NULL, NULL},
-    {"rho_probe", ROM_VR_RHO_PROBE, 1, TYPE_FLOAT64, ROLE_OUTPUT, rom_rho_probe, NULL, NULL, NULL},
+    /* name, value reference, count, type, role, get float64, get int32, set float64, set int32 */
+    {"time", ROM_VR_TIME, COUNT_ONE, TYPE_FLOAT64, ROLE_INDEPENDENT, get_time, NULL, NULL, NULL},
+    {"f", ROM_VR_F, COUNT_ONE, TYPE_FLOAT64, ROLE_INPUT, get_f, NULL, rom_set_input, NULL},
+    {"n_freeze", ROM_VR_N_FREEZE, COUNT_ONE, TYPE_INT32, ROLE_FIXED, NULL, get_n_freeze, NULL, rom_set_n_freeze},
+    {"dt", ROM_VR_DT, COUNT_ONE, TYPE_FLOAT64, ROLE_FIXED, get_dt, NULL, rom_set_dt, NULL},
+    {"v_probe", ROM_VR_V_PROBE, COUNT_PER_PROBE, TYPE_FLOAT64, ROLE_OUTPUT, rom_v_probe, NULL, NULL, NULL},
+    {"rho_probe", ROM_VR_RHO_PROBE, COUNT_PER_PROBE, TYPE_FLOAT64, ROLE_OUTPUT, rom_rho_probe, NULL, NULL, NULL},
 };
 
 /* the variable of value reference ref (time only where the version has it), or NULL; *j: the probe index */
@@ -327,7 +329,7 @@ static const Variable *lookup(const Instance *inst, uint32_t ref, uint32_t *j) {
     for (size_t i = 0; i < sizeof VARIABLES / sizeof VARIABLES[0]; i++) {
         const Variable *var = &VARIABLES[i];
         if (var->role == ROLE_INDEPENDENT && !inst->version->has_time) continue;
-        const uint32_t count = var->per_probe ? inst->model->n_probes : 1u;
+        const uint32_t count = var->count == COUNT_PER_PROBE ? inst->model->n_probes : 1u;
         if (ref >= var->vr && ref - var->vr < count) {
             *j = ref - var->vr;
             return var;
@@ -391,7 +393,7 @@ static InstanceStatus set_values(Instance *inst, const char *fn, VariableType ty
             case ROLE_OUTPUT: return instance_error(inst, fn, "outputs cannot be set");
             case ROLE_INDEPENDENT:
                 return instance_error(inst, fn, "%s is the independent variable and cannot be set", var->name);
-            case ROLE_FIXED_PARAMETER:
+            case ROLE_FIXED:
                 if (inst->mode == MODE_STEP) {
                     return instance_error(inst, fn, "%s is a fixed parameter: it can be set only before %s",
                                           var->name, inst->version->exit_initialization);

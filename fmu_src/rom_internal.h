@@ -28,7 +28,8 @@
 
 /* The code path of a model kind.  Every linear kind (the exact model, and any
  * later one that differs from it only in its matrices) runs the exact model's
- * path; adding such a kind is one case here and its name in rom_kind_name. */
+ * path, loader and serialization included: adding such a kind is one case here
+ * (and its name in rom_io.c's message on unsupported kinds). */
 typedef enum { ROM_PATH_NONE = 0, ROM_PATH_FROZEN = 1, ROM_PATH_LINEAR = 2 } RomPath;
 
 static inline RomPath rom_path(uint32_t kind) {
