@@ -42,10 +42,9 @@ INSTANCE_CALL_TABLE(FMI2_CALLS);
 #define ENTER_AS(call, name) INSTANCE_ENTER(c, call, name, fmi2Error)
 #define ENTER(call) ENTER_AS(call, "fmi2" #call)
 
-/* InstanceStatus is numbered as fmi2Status (checked when compiling) */
+/* InstanceStatus is numbered as fmi2Status */
+INSTANCE_STATUS_NUMBERING(fmi2OK, fmi2Warning, fmi2Error);
 #define status2(status) ((fmi2Status)(status))
-typedef char status_numbering_matches[(fmi2OK == (int)INSTANCE_OK && fmi2Warning == (int)INSTANCE_WARNING &&
-                                       fmi2Error == (int)INSTANCE_ERROR) ? 1 : -1];
 
 /* the logger adapter: the message is a printf format and '#' starts a value
  * reference (#r12#): escape both as '%%' and '##' */

@@ -51,10 +51,9 @@ INSTANCE_CALL_TABLE(FMI3_CALLS);
 #define REQUIRE(pointer) \
     if (!(pointer)) return status3(instance_error(inst, fn, "%s is NULL", #pointer))
 
-/* InstanceStatus is numbered as fmi3Status (checked when compiling) */
+/* InstanceStatus is numbered as fmi3Status */
+INSTANCE_STATUS_NUMBERING(fmi3OK, fmi3Warning, fmi3Error);
 #define status3(status) ((fmi3Status)(status))
-typedef char status_numbering_matches[(fmi3OK == (int)INSTANCE_OK && fmi3Warning == (int)INSTANCE_WARNING &&
-                                       fmi3Error == (int)INSTANCE_ERROR) ? 1 : -1];
 
 /* the logger adapter: "[instance name] message" */
 static void emit3(InstanceCallback logger, void *environment, const char *name, InstanceStatus status,

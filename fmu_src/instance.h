@@ -26,6 +26,11 @@
  * that an adapter converts a status with a cast. */
 typedef enum { INSTANCE_OK = 0, INSTANCE_WARNING = 1, INSTANCE_ERROR = 3 } InstanceStatus;
 
+/* An adapter checks that numbering when it compiles (a negative array size otherwise) */
+#define INSTANCE_STATUS_NUMBERING(ok, warning, error) \
+    typedef char instance_status_numbering[((ok) == (int)INSTANCE_OK && (warning) == (int)INSTANCE_WARNING && \
+                                            (error) == (int)INSTANCE_ERROR) ? 1 : -1]
+
 /* Modes of the state machine, as bits so that a set of modes is one mask.
  * MODE_STEP is FMI 2's StepComplete and FMI 3's StepMode. */
 typedef enum {
