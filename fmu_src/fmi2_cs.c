@@ -9,9 +9,7 @@
  * '#' starting a value reference: '%' and '#' are escaped), the file URI of the
  * resources, and the status queries.
  */
-#include <stdio.h>
-#include <stdlib.h>
-#include <string.h>
+#include <stddef.h>
 
 #include "fmi2Functions.h"
 #include "instance.h"

@@ -11,8 +11,6 @@
  * exchange, scheduled execution, event mode, clocks and derivatives.
  */
 #include <stdio.h>
-#include <stdlib.h>
-#include <string.h>
 
 #include "fmi3Functions.h"
 #include "instance.h"

@@ -115,7 +115,8 @@ extern "C" {
 
 typedef enum { ROM_OK = 0, ROM_FAIL = 1 } RomStatus;
 
-/* Writes the message (printf format) into message[message_size] when given; returns ROM_FAIL */
+/* Writes the message (printf format) into message[message_size] when given; returns ROM_FAIL
+ * (rom_fail.c: the core, the instance layer and sph.c report failures through it; never exported) */
 RomStatus rom_fail(char *message, size_t message_size, const char *format, ...)
 #if defined(__GNUC__)
     __attribute__((format(printf, 3, 4)))
