@@ -5,10 +5,16 @@
  * (harness/rom/exact_linear.py), advanced over each communication step by the
  * matrix exponential of its augmented matrix.
  *
- * No FMI types appear here: the FMI 2.0 and 3.0 co-simulation wrappers
- * (fmi2_cs.c, fmi3_cs.c) are thin glue over these functions.  There are no
- * globals; every object is owned by the caller, so many instances can run in
- * one process and in several threads (one thread per instance at a time).
+ * No FMI types appear here: the version-neutral instance layer (instance.h)
+ * and the FMI 2.0 and 3.0 co-simulation adapters (fmi2_cs.c, fmi3_cs.c) sit on
+ * top of these functions.  There are no globals; every object is owned by the
+ * caller, so many instances can run in one process and in several threads (one
+ * thread per instance at a time).
+ *
+ * The core's sources: rom.c (state API, dispatch by model kind), rom_io.c
+ * (resources, checksums, serialized states), rom_frozen.c (the frozen step),
+ * rom_exact.c (the exact linear model), rom_fail.c (messages); what they share
+ * privately is in rom_internal.h.
  *
  * The scene's numbers come from resources/model.bin (format below), written by
  * the harness (harness/fmu/resources.py).  Units: time [s], velocity [m s^-1],
@@ -37,6 +43,20 @@
  * both kinds:
  *   char[40] token "{xxxxxxxx-xxxx-xxxx-xxxx-xxxxxxxxxxxx}", NUL padded
  *   uint32   crc32 (zlib's) of every byte before it
+ *
+ * Serialized FMU state, version 1 (little-endian; rom_state_serialize):
+ *
+ *   char[8]  magic "SPHROMST"
+ *   uint32   state_version (1), tag (the instance's mode), k_v, k_rho, n_probes, n_pairs
+ *   char[40] token of the model
+ *   uint64   n (internal steps); uint32 n_freeze, 0; float64 time [s], f, dt [s]
+ *            (112 bytes so far: ROM_STATE_HEADER_SIZE)
+ *   float64  kind 1: a_v[k_v], a_rho[k_rho], M^T rows [k_v][k_rho], F[k_v];
+ *            kind 2: a[k_v], b[k_rho], X[k], (t0, df/dt)
+ *   uint32   crc32 of every byte before it
+ *
+ * Both are read through one envelope check (rom_io.c): size, magic, version,
+ * sizes, token, checksum.
  */
 #ifndef SPHROM_ROM_H
 #define SPHROM_ROM_H
@@ -71,11 +91,19 @@ extern "C" {
 #define ROM_FLAG_SCHUR 4u            /* kind 2 only */
 #define ROM_EXACT_CACHE 2            /* exponentials kept per state (two step lengths) */
 #define ROM_TOKEN_SIZE 40
-#define ROM_HEADER_SIZE 72
+#define ROM_HEADER_SIZE 72            /* resource header: magic to L */
+#define ROM_STATE_HEADER_SIZE 112     /* serialized state header: magic to dt */
+#define ROM_RESOURCE_MAGIC "SPHROMRS"
+#define ROM_STATE_MAGIC "SPHROMST"
 #define ROM_MAX_MODES 1024u
 #define ROM_MAX_PROBES 100u
 #define ROM_MESSAGE_SIZE 1024
 #define ROM_RESOURCE_FILE "model.bin"
+
+/* doStep's rules (harness/fmu/reference.py repeats them) */
+#define ROM_TIME_TOLERANCE 1e-9       /* relative: currentCommunicationPoint must equal the FMU's time */
+#define ROM_STEP_ROUNDING 1e-9        /* relative: h/dt within this of an integer is that many whole steps */
+#define ROM_SHORT_STEP_MIN 1e-12      /* a remainder below this x dt is no step */
 
 /* value references shared by both FMI versions */
 #define ROM_VR_TIME 0u               /* FMI 3 only: the independent variable */
@@ -85,13 +113,15 @@ extern "C" {
 #define ROM_VR_V_PROBE 1000u         /* v_probe_1 .. : 1000 + j */
 #define ROM_VR_RHO_PROBE 2000u       /* rho_probe_1 .. : 2000 + j */
 
-/* log categories (bit masks); names as declared in modelDescription.xml */
-#define ROM_LOG_EVENTS 1u
-#define ROM_LOG_WARNING 2u
-#define ROM_LOG_ERROR 4u
-#define ROM_LOG_ALL (ROM_LOG_EVENTS | ROM_LOG_WARNING | ROM_LOG_ERROR)
-
 typedef enum { ROM_OK = 0, ROM_FAIL = 1 } RomStatus;
+
+/* Writes the message (printf format) into message[message_size] when given; returns ROM_FAIL
+ * (rom_fail.c: the core, the instance layer and sph.c report failures through it; never exported) */
+RomStatus rom_fail(char *message, size_t message_size, const char *format, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
 
 /* The reduced model of one scene (immutable once loaded).  Matrices are kept
  * transposed and zero-padded (k_v, k_rho rounded up to multiples of 4) so that
@@ -211,14 +241,6 @@ ROM_API RomStatus rom_state_check(const RomModel *model, const unsigned char *bu
 ROM_API RomStatus rom_state_deserialize(RomState *state, const unsigned char *buffer, size_t size,
                                         uint32_t *tag, char *message, size_t message_size);
 
-/* ---- helpers for the FMI glue (no FMI types) ------------------------------- */
-/* resources/model.bin from a resource location: a file URI (FMI 2) or a
- * folder path (FMI 3) */
-ROM_API RomStatus rom_resource_file(const char *location, int is_uri, char *path, size_t path_size,
-                                    char *message, size_t message_size);
-/* bit of a log category name, 0 when unknown */
-ROM_API uint32_t rom_log_category(const char *name);
-ROM_API const char *rom_log_category_name(uint32_t bit);
 ROM_API const char *rom_version(void);
 
 #ifdef __cplusplus

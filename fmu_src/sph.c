@@ -1,6 +1,7 @@
 /*
  * Full SPH step in C (eqs. 2.10-2.11); see sph.h.  Same order of operations
- * as harness/sph/kernels_numba.py, no fused multiply-add.
+ * as harness/sph/kernels_numba.py, no fused multiply-add (the pragmas below,
+ * and -ffp-contract=off in the build).
  */
 #if defined(__clang__)
 #pragma STDC FP_CONTRACT OFF
@@ -11,51 +12,33 @@
 #include "sph.h"
 
 #include <math.h>
-#include <stdarg.h>
-#include <stdio.h>
-
-static RomStatus sph_fail(char *message, size_t message_size, const char *format, ...)
-#if defined(__GNUC__)
-    __attribute__((format(printf, 3, 4)))
-#endif
-    ;
-
-static RomStatus sph_fail(char *message, size_t message_size, const char *format, ...) {
-    if (message && message_size > 0) {
-        va_list args;
-        va_start(args, format);
-        vsnprintf(message, message_size, format, args);
-        va_end(args);
-    }
-    return ROM_FAIL;
-}
 
 RomStatus sph_check(const SphOperator *op, char *message, size_t message_size) {
-    if (!op) return sph_fail(message, message_size, "sph: no operator");
+    if (!op) return rom_fail(message, message_size, "sph: no operator");
     if (op->n < 1 || op->k < 1 || op->n > ((int64_t)1 << 31) || op->k > op->n) {
-        return sph_fail(message, message_size, "sph: n = %lld particles, k = %lld neighbours out of range",
+        return rom_fail(message, message_size, "sph: n = %lld particles, k = %lld neighbours out of range",
                         (long long)op->n, (long long)op->k);
     }
     if (!op->index || !op->weight || !op->rho0 || !op->c) {
-        return sph_fail(message, message_size, "sph: missing neighbour lists, rho0 or c");
+        return rom_fail(message, message_size, "sph: missing neighbour lists, rho0 or c");
     }
-    if (op->flags & ~(uint32_t)63u) return sph_fail(message, message_size, "sph: unknown flag bits 0x%x", op->flags);
-    if ((op->flags & SPH_DAMPING) && !op->d) return sph_fail(message, message_size, "sph: damping without d");
+    if (op->flags & ~(uint32_t)63u) return rom_fail(message, message_size, "sph: unknown flag bits 0x%x", op->flags);
+    if ((op->flags & SPH_DAMPING) && !op->d) return rom_fail(message, message_size, "sph: damping without d");
     if ((op->flags & SPH_FORCE) && !op->profile) {
-        return sph_fail(message, message_size, "sph: force without a profile");
+        return rom_fail(message, message_size, "sph: force without a profile");
     }
     const int64_t total = op->n * op->k;
     for (int64_t i = 0; i < total; i++) {
         if (op->index[i] < 0 || op->index[i] >= op->n) {
-            return sph_fail(message, message_size, "sph: neighbour index %lld of particle %lld out of range [0, %lld)",
+            return rom_fail(message, message_size, "sph: neighbour index %lld of particle %lld out of range [0, %lld)",
                             (long long)op->index[i], (long long)(i / op->k), (long long)op->n);
         }
-        if (!isfinite(op->weight[i])) return sph_fail(message, message_size, "sph: non-finite weight");
+        if (!isfinite(op->weight[i])) return rom_fail(message, message_size, "sph: non-finite weight");
     }
     const int64_t nr = (op->flags & SPH_UNIFORM_RHO0) ? 1 : op->n;
     for (int64_t i = 0; i < nr; i++) {
         if (!(op->rho0[i] > 0) || !isfinite(op->rho0[i])) {
-            return sph_fail(message, message_size, "sph: rho0[%lld] = %g (must be finite and > 0)", (long long)i,
+            return rom_fail(message, message_size, "sph: rho0[%lld] = %g (must be finite and > 0)", (long long)i,
                             op->rho0[i]);
         }
     }
@@ -107,8 +90,8 @@ static void rates(const SphOperator *op, const double *restrict v, const double 
 RomStatus sph_rates(const SphOperator *op, const double *v, const double *rho, double g, double *dv, double *drho,
                     double *p, char *message, size_t message_size) {
     if (sph_check(op, message, message_size) != ROM_OK) return ROM_FAIL;
-    if (!v || !rho || !dv || !drho || !p) return sph_fail(message, message_size, "sph: missing array");
-    if (!isfinite(g)) return sph_fail(message, message_size, "sph: force value %g is not finite", g);
+    if (!v || !rho || !dv || !drho || !p) return rom_fail(message, message_size, "sph: missing array");
+    if (!isfinite(g)) return rom_fail(message, message_size, "sph: force value %g is not finite", g);
     rates(op, v, rho, g, dv, drho, p);
     return ROM_OK;
 }
@@ -125,12 +108,12 @@ RomStatus sph_advance(const SphOperator *op, int method, double *v, double *rho,
                       size_t message_size) {
     if (done) *done = 0;
     if (sph_check(op, message, message_size) != ROM_OK) return ROM_FAIL;
-    if (!v || !rho || !work) return sph_fail(message, message_size, "sph: missing state or work array");
+    if (!v || !rho || !work) return rom_fail(message, message_size, "sph: missing state or work array");
     if (method != SPH_METHOD_EULER && method != SPH_METHOD_SYMPLECTIC) {
-        return sph_fail(message, message_size, "sph: method %d (allowed: 0 euler, 1 symplectic)", method);
+        return rom_fail(message, message_size, "sph: method %d (allowed: 0 euler, 1 symplectic)", method);
     }
     if (n_steps < 0 || !(isfinite(dt) && dt > 0) || check_every < 1) {
-        return sph_fail(message, message_size, "sph: n_steps = %lld, dt = %g, check_every = %lld out of range",
+        return rom_fail(message, message_size, "sph: n_steps = %lld, dt = %g, check_every = %lld out of range",
                         (long long)n_steps, dt, (long long)check_every);
     }
     const int64_t n = op->n;
@@ -151,7 +134,7 @@ RomStatus sph_advance(const SphOperator *op, int method, double *v, double *rho,
         if ((s + 1) % check_every == 0 || s + 1 == n_steps) {
             if (!finite_positive(n, v, rho)) {
                 if (done) *done = s + 1;
-                return sph_fail(message, message_size, "sph: the state became non-finite or rho <= 0 by step %lld",
+                return rom_fail(message, message_size, "sph: the state became non-finite or rho <= 0 by step %lld",
                                 (long long)(s + 1));
             }
         }

@@ -5,10 +5,11 @@
  * harness/sph/operator.py) and the explicit (and symplectic) Euler step.
  *
  * The arithmetic repeats harness/sph/kernels_numba.py (rates, advance with
- * method 0 or 1) operation for operation, so the two agree to round-off (bit
- * for bit with -ffp-contract=off).  Used for the same-language benchmark
- * (C frozen reduced step against C full SPH step); it is part of the core
- * library (libsphrom_core), not of the FMU binaries.  No FMI types, no globals.
+ * method 0 or 1) operation for operation, so the two agree bit for bit
+ * (-ffp-contract=off; tests/test_fmu_c.py checks it).  Used for the
+ * same-language benchmark (C frozen reduced step against C full SPH step); it
+ * is its own library (libsphrom_sph, with rom_fail.c for its messages), in
+ * neither the FMU binaries nor the core library.  No FMI types, no globals.
  *
  * Fields of length 1 carry a uniform value (flag bits SPH_UNIFORM_*), as in
  * the numba kernels.  Units: v [m s^-1], rho [kg m^-3], c [m^2 s^-2 ... as the
@@ -20,7 +21,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "rom.h"      /* ROM_API, RomStatus */
+#include "rom.h"      /* ROM_API, RomStatus, rom_fail */
 
 #ifdef __cplusplus
 extern "C" {

@@ -12,6 +12,7 @@ import subprocess
 import sys
 import zipfile
 import zlib
+from pathlib import Path
 
 import fmpy
 import numpy as np
@@ -206,6 +207,20 @@ def test_core_loader_names_the_problem(packaged, binaries):
 # ---------------------------------------------------------------------------
 
 @pytest.mark.parametrize("fmi", [2, 3])
+def test_sources_lists_agree(packaged, fmi):
+    """sources/ holds the files of package.fmu_sources, and the build description fmpy compile reads
+    (FMI 2: <SourceFiles> of modelDescription.xml, FMI 3: sources/buildDescription.xml) names its C files."""
+    from harness.fmu.package import fmu_sources
+    files = fmu_sources(fmi)
+    assert all((Path(__file__).parents[1] / "fmu_src" / name).is_file() for name in files)
+    zf = zipfile.ZipFile(packaged[("forced", fmi)])
+    assert {f"sources/{name}" for name in files} <= set(zf.namelist())
+    md = fmpy.read_model_description(str(packaged[("forced", fmi)]))
+    compiled = md.buildConfigurations[0].sourceFileSets[0].sourceFiles
+    assert compiled == [name for name in files if name.endswith(".c")]
+
+
+@pytest.mark.parametrize("fmi", [2, 3])
 def test_fmpy_compile_rebuilds_from_sources(packaged, tmp_path, fmi):
     """A copy without binaries is rebuilt by `fmpy compile` and gives the same outputs."""
     original = packaged[("forced", fmi)]
@@ -252,3 +267,41 @@ def test_density_at_a_probe_must_stay_positive(packaged, binaries):
     with pytest.raises(CoreError, match=r"density at probe 1 \(x/L = 0.25\) is -.* at t = 0.001 s"):
         model.do_step(0.0, 1e-3)
     model.close()
+
+
+# ---------------------------------------------------------------------------
+# the C full SPH (fmu_src/sph.c) against the numba loop it repeats
+# ---------------------------------------------------------------------------
+
+NONUNIFORM = {"rho0": "1 + 0.3*sin(2*pi*x/L)", "c": "where(x/L <= 0.5, 0.1, 0.2)", "d": "10*(1 + x/L)",
+              "profile": "1 + 0.5*cos(2*pi*x/L)"}
+
+
+@pytest.mark.parametrize("integrator", ["euler", "symplectic"])
+@pytest.mark.parametrize("case", ["damped_forced", "nonuniform", "unforced"])
+def test_c_full_sph_repeats_numba_bit_for_bit(binaries, case, integrator):
+    """sph.c repeats harness/sph/kernels_numba.py operation for operation: the same scene, initial state and
+    force values, 2000 steps in C (harness/fmu/sph_c.py) and in numba (run_sph) end in the same bits.  Cases:
+    damping and force with uniform fields, every field non-uniform (rho0, c, d, profile), and f = d = 0."""
+    from harness.fmu.sph_c import SphC
+    from harness.sph.solver import METHODS, build_problem, force_values, run_sph, step_count
+    if case == "unforced":
+        scene = small_scene("multimode", T=0.4, n=48, integrator=integrator)
+    else:
+        scene = small_scene("damped_forced", T=0.4, n=48, integrator=integrator,
+                            **(NONUNIFORM if case == "nonuniform" else {}))
+    problem = build_problem(scene)
+    uniform = [problem.terms[k] for k in ("uniform_c", "uniform_rho0", "uniform_d", "uniform_profile")]
+    assert problem.terms["damping"] == (case != "unforced")
+    assert not any(uniform) if case == "nonuniform" else all(uniform)
+    n, dt = step_count(scene.T, scene.sph.dt), scene.sph.dt
+    assert n == 2000
+    # numba: one chunk, so that one set of flags holds for every step as in the one C call
+    ref = run_sph(scene, sample_steps=[n], progress=False, problem=problem, chunk_steps=n)
+    g = force_values(scene, problem, 0, n, dt, METHODS[integrator])[:, 0]
+    assert (np.any(g != 0)) == (case != "unforced")
+    v, rho = problem.v0.copy(), problem.rho0.copy()
+    SphC(binaries.sph).runner(problem, integrator).advance(v, rho, n, dt, g=g)
+    assert v.tobytes() == ref.v[-1].tobytes() and rho.tobytes() == ref.rho[-1].tobytes(), (
+        np.abs(v - ref.v[-1]).max(), np.abs(rho - ref.rho[-1]).max())
+    assert not np.array_equal(v, problem.v0)          # it moved

@@ -187,6 +187,18 @@ static fmi3Instance ready3(LogBook *book) {
     return c;
 }
 
+/* an initialized instance of each version; 0 (and none left) when either fails */
+static int ready_both(LogBook *book2, const fmi2CallbackFunctions *f2, LogBook *book3, fmi2Component *c2,
+                      fmi3Instance *c3) {
+    *c2 = ready2(book2, f2);
+    *c3 = ready3(book3);
+    EXPECT(*c2 && *c3, "instantiation failed: %s / %s", book2->last, book3->last);
+    if (*c2 && *c3) return 1;
+    fmi2FreeInstance(*c2);
+    fmi3FreeInstance(*c3);
+    return 0;
+}
+
 /* ------------------------------------------------------------------------ */
 /* scenarios                                                                 */
 /* ------------------------------------------------------------------------ */
@@ -196,14 +208,9 @@ static fmi3Instance ready3(LogBook *book) {
 static void scenario_basic(void) {
     LogBook book2 = {0}, book3 = {0};
     const fmi2CallbackFunctions f2 = callbacks2(&book2);
-    fmi2Component c2 = ready2(&book2, &f2);
-    fmi3Instance c3 = ready3(&book3);
-    EXPECT(c2 && c3, "instantiation failed: %s / %s", book2.last, book3.last);
-    if (!c2 || !c3) {
-        fmi2FreeInstance(c2);
-        fmi3FreeInstance(c3);
-        return;
-    }
+    fmi2Component c2;
+    fmi3Instance c3;
+    if (!ready_both(&book2, &f2, &book3, &c2, &c3)) return;
     const size_t n_out = 2 * setup.n_probes;
     double *out2 = calloc(N_STEPS * n_out, sizeof(double));
     double *out3 = calloc(N_STEPS * n_out, sizeof(double));
@@ -242,32 +249,52 @@ static void scenario_basic(void) {
     free(out3);
 }
 
+/* The calls of the get/set check, per FMI version (handles and states are void * in both) */
+typedef struct {
+    const char *name;
+    int (*run)(void *c, int k0, int n, double *t, double *out);
+    int (*get_state)(void *c, void **state);
+    int (*set_state)(void *c, void *state);
+} Version;
+
+static int get_state2(void *c, void **state) { return fmi2GetFMUstate(c, state) == fmi2OK; }
+static int set_state2(void *c, void *state) { return fmi2SetFMUstate(c, state) == fmi2OK; }
+static int get_state3(void *c, void **state) { return fmi3GetFMUState(c, state) == fmi3OK; }
+static int set_state3(void *c, void *state) { return fmi3SetFMUState(c, state) == fmi3OK; }
+
+static const Version VERSION2 = {"FMI 2", run2, get_state2, set_state2};
+static const Version VERSION3 = {"FMI 3", run3, get_state3, set_state3};
+
+/* Run 13 steps, save the state (returned; *t1 its time), run on to N_STEPS into a, restore the state and run
+ * again into b: the outputs must be the same bits. */
+static void *check_get_set(const Version *v, void *c, double *a, double *b, double *t1) {
+    const size_t n_out = 2 * setup.n_probes;
+    double t = 0.0;
+    EXPECT(v->run(c, 0, 13, &t, a), "%s: run to t1", v->name);
+    *t1 = t;
+    void *state = NULL;
+    EXPECT(v->get_state(c, &state) && state, "%s: get the FMU state", v->name);
+    EXPECT(v->run(c, 13, N_STEPS, &t, a), "%s: run to t2", v->name);
+    t = *t1;
+    EXPECT(v->set_state(c, state), "%s: set the FMU state", v->name);
+    EXPECT(v->run(c, 13, N_STEPS, &t, b), "%s: rerun to t2", v->name);
+    EXPECT(memcmp(a, b, N_STEPS * n_out * sizeof(double)) == 0, "%s get/set: outputs differ after restore", v->name);
+    return state;
+}
+
 static void scenario_state(void) {
     LogBook book2 = {0}, book3 = {0};
     const fmi2CallbackFunctions f2 = callbacks2(&book2);
-    fmi2Component c2 = ready2(&book2, &f2);
-    fmi3Instance c3 = ready3(&book3);
-    EXPECT(c2 && c3, "instantiation failed");
-    if (!c2 || !c3) {
-        fmi2FreeInstance(c2);
-        fmi3FreeInstance(c3);
-        return;
-    }
+    fmi2Component c2;
+    fmi3Instance c3;
+    if (!ready_both(&book2, &f2, &book3, &c2, &c3)) return;
     const size_t n_out = 2 * setup.n_probes;
     double *a = calloc(N_STEPS * n_out, sizeof(double));
     double *b = calloc(N_STEPS * n_out, sizeof(double));
     double *c = calloc(N_STEPS * n_out, sizeof(double));
-    double t = 0.0, t1;
+    double t, t1;
     /* FMI 2: get/set and serialize/deserialize */
-    EXPECT(run2(c2, 0, 13, &t, a), "run to t1");
-    t1 = t;
-    fmi2FMUstate s2 = NULL;
-    EXPECT(fmi2GetFMUstate(c2, &s2) == fmi2OK && s2, "fmi2GetFMUstate");
-    EXPECT(run2(c2, 13, N_STEPS, &t, a), "run to t2");
-    t = t1;
-    EXPECT(fmi2SetFMUstate(c2, s2) == fmi2OK, "fmi2SetFMUstate");
-    EXPECT(run2(c2, 13, N_STEPS, &t, b), "rerun to t2");
-    EXPECT(memcmp(a, b, N_STEPS * n_out * sizeof(double)) == 0, "FMI 2 get/set: outputs differ after restore");
+    fmi2FMUstate s2 = check_get_set(&VERSION2, c2, a, b, &t1);
     size_t size = 0;
     EXPECT(fmi2SerializedFMUstateSize(c2, s2, &size) == fmi2OK && size > 0, "size");
     fmi2Byte *blob = malloc(size);
@@ -306,16 +333,7 @@ static void scenario_state(void) {
     free(other);
 
     /* FMI 3 */
-    t = 0.0;
-    EXPECT(run3(c3, 0, 13, &t, a), "run3 to t1");
-    t1 = t;
-    fmi3FMUState s3 = NULL;
-    EXPECT(fmi3GetFMUState(c3, &s3) == fmi3OK && s3, "fmi3GetFMUState");
-    EXPECT(run3(c3, 13, N_STEPS, &t, a), "run3 to t2");
-    t = t1;
-    EXPECT(fmi3SetFMUState(c3, s3) == fmi3OK, "fmi3SetFMUState");
-    EXPECT(run3(c3, 13, N_STEPS, &t, b), "rerun3");
-    EXPECT(memcmp(a, b, N_STEPS * n_out * sizeof(double)) == 0, "FMI 3 get/set: outputs differ");
+    fmi3FMUState s3 = check_get_set(&VERSION3, c3, a, b, &t1);
     size_t size3 = 0;
     EXPECT(fmi3SerializedFMUStateSize(c3, s3, &size3) == fmi3OK && size3 == size, "size3");
     fmi3Byte *blob3 = malloc(size3);

@@ -39,6 +39,8 @@ class Binaries:
         The FMI 2.0 and 3.0 co-simulation shared libraries.
     core : Path
         The core library with the rom_* functions exported (ctypes).
+    sph : Path
+        The C full SPH step with the sph_* functions exported (ctypes, benchmark).
     driver : Path or None
         The C test driver (tests/driver.c).
     sanitize : bool
@@ -49,6 +51,7 @@ class Binaries:
     fmi2: Path
     fmi3: Path
     core: Path
+    sph: Path
     driver: Path | None
     sanitize: bool
 
@@ -86,16 +89,21 @@ def _library_name(stem):
     return f"{stem}.{fmpy.sharedLibraryExtension.lstrip('.')}"
 
 
+def _target_library(folder: Path, target):
+    """The shared library CMake builds for ``target`` (lib<target>.so/.dylib, <target>.dll)."""
+    return folder / (f"{target}.dll" if sys.platform == "win32" else _library_name(f"lib{target}"))
+
+
 def _binaries(folder: Path, sanitize):
     driver = folder / ("sphrom_driver.exe" if sys.platform == "win32" else "sphrom_driver")
     return Binaries(folder=folder, fmi2=folder / "fmi2" / _library_name("sphrom"),
-                    fmi3=folder / "fmi3" / _library_name("sphrom"),
-                    core=folder / ("sphrom_core.dll" if sys.platform == "win32" else _library_name("libsphrom_core")),
-                    driver=driver if driver.exists() else None, sanitize=sanitize)
+                    fmi3=folder / "fmi3" / _library_name("sphrom"), core=_target_library(folder, "sphrom_core"),
+                    sph=_target_library(folder, "sphrom_sph"), driver=driver if driver.exists() else None,
+                    sanitize=sanitize)
 
 
 def _complete(b: Binaries):
-    return b.fmi2.is_file() and b.fmi3.is_file() and b.core.is_file() and (b.folder / "build.ok").is_file()
+    return all(p.is_file() for p in (b.fmi2, b.fmi3, b.core, b.sph, b.folder / "build.ok"))
 
 
 @contextlib.contextmanager

@@ -9,7 +9,9 @@ from __future__ import annotations
 import ctypes
 from pathlib import Path
 
-MESSAGE_SIZE = 1024
+from .sph_c import SphC
+
+MESSAGE_SIZE = 1024         # ROM_MESSAGE_SIZE of fmu_src/rom.h: the core's message buffers
 
 
 class CoreError(RuntimeError):
@@ -66,10 +68,9 @@ class Core:
 
     @property
     def sph(self):
-        """The full SPH step of fmu_src/sph.c in the same library (:class:`harness.fmu.sph_c.SphC`)."""
+        """The C full SPH (:class:`harness.fmu.sph_c.SphC`) of the same build: libsphrom_sph beside this library."""
         if self._sph is None:
-            from .sph_c import SphC
-            self._sph = SphC(self.lib)
+            self._sph = SphC(self.path.with_name(self.path.name.replace("sphrom_core", "sphrom_sph")))
         return self._sph
 
     def load(self, blob: bytes) -> "CoreModel":

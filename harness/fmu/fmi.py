@@ -20,7 +20,7 @@ VR_TIME, VR_F, VR_N_FREEZE, VR_DT = 0, 1, 2, 3     # fmu_src/rom.h
 # construct at once can leave the process in another instance's (later deleted)
 # folder.  Every construction of an fmpy FMU object in sphrom goes through this.
 FMPY_LOAD_LOCK = threading.Lock()
-STATE_HEADER_SIZE = 112     # ROM_STATE_HEADER_SIZE of fmu_src/rom.c: magic, version, sizes, token, time, counters
+STATE_HEADER_SIZE = 112     # ROM_STATE_HEADER_SIZE of fmu_src/rom.h: magic, version, sizes, token, time, counters
 
 
 def load_fmu(fmi, unzipdir, token, name):

@@ -21,7 +21,7 @@ import math
 
 import numpy as np
 
-STEP_ROUNDING = 1e-9       # fmu_src/rom.c ROM_STEP_ROUNDING
+STEP_ROUNDING = 1e-9       # fmu_src/rom.h ROM_STEP_ROUNDING
 SHORT_STEP_MIN = 1e-12     # ROM_SHORT_STEP_MIN
 
 

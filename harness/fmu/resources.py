@@ -53,7 +53,8 @@ FLAG_SCHUR = 4
 TOKEN_SIZE = 40
 MAX_PROBES = 100
 MAX_MODES = 1024
-_HEADER = struct.Struct("<8s10I3d")        # 72 bytes
+_HEADER = struct.Struct("<8s10I3d")
+HEADER_SIZE = _HEADER.size                 # 72 bytes, magic to L (fmu_src/rom.h ROM_HEADER_SIZE)
 
 
 @dataclass

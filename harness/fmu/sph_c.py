@@ -1,27 +1,40 @@
-"""ctypes access to the full SPH step in C (fmu_src/sph.c, in ``libsphrom_core``).
+"""ctypes access to the full SPH step in C (fmu_src/sph.c, library ``libsphrom_sph``).
 
 The C step repeats :mod:`harness.sph.kernels_numba` (eqs. 2.10-2.11 with the
-neighbour lists of :mod:`harness.sph.operator`) operation for operation.  It
-exists for the same-language benchmark: a C frozen reduced step against a C
-full SPH step (``sphrom bench``, ``sphrom bench-fmu``).
+neighbour lists of :mod:`harness.sph.operator`) operation for operation, bit
+for bit (tests/test_fmu_c.py).  It exists for the same-language benchmark: a C
+frozen reduced step against a C full SPH step (``sphrom bench``,
+``sphrom bench-fmu``).  It is a library of its own, beside the model core's.
 """
 
 from __future__ import annotations
 
 import ctypes
 import time
+from pathlib import Path
 
 import numpy as np
 
-from .core import MESSAGE_SIZE, CoreError
-
 METHODS = {"euler": 0, "symplectic": 1}
+MESSAGE_SIZE = 1024        # bytes of the buffer that receives the C side's message (its size is passed along)
+
+
+class SphError(RuntimeError):
+    """An sph_* call failed (non-finite state, rho <= 0, bad arguments); the message is the C side's."""
 
 
 class SphC:
-    """The sph_* functions of a loaded core library (``Core(path).sph``)."""
+    """The loaded C full SPH library.
 
-    def __init__(self, lib):
+    Parameters
+    ----------
+    path : Path
+        libsphrom_sph (see :class:`harness.fmu.build.Binaries`).
+    """
+
+    def __init__(self, path):
+        self.path = Path(path)
+        lib = ctypes.CDLL(str(self.path))
         p = ctypes.c_void_p
         lib.sph_advance_flat.argtypes = [ctypes.c_int64, ctypes.c_int64, p, p, p, p, p, p, ctypes.c_uint32,
                                          ctypes.c_int, p, p, ctypes.c_int64, ctypes.c_double, p, p, ctypes.c_int64,
@@ -57,7 +70,7 @@ class SphRunner:
     def advance(self, v, rho, n_steps, dt, g=None, check_every=64):
         """Advance (v, rho) in place by n_steps steps of dt; g: f per step (None: no force).
 
-        Returns the wall time [s] of the C call; CoreError on a failure (non-finite, rho <= 0).
+        Returns the wall time [s] of the C call; SphError on a failure (non-finite, rho <= 0).
         """
         n = self.problem.n
         if v.dtype != float or rho.dtype != float or not (v.flags.c_contiguous and rho.flags.c_contiguous):
@@ -75,5 +88,5 @@ class SphRunner:
                                                ctypes.byref(done), self._msg, MESSAGE_SIZE)
         wall = time.perf_counter() - t0
         if status != 0:
-            raise CoreError(self._msg.value.decode())
+            raise SphError(self._msg.value.decode())
         return wall

@@ -1,0 +1,550 @@
+/*
+ * The FMU instance, version-neutral (instance.h).
+ */
+#include "instance.h"
+
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define INSTANCE_TEXT_SIZE (ROM_MESSAGE_SIZE + 512)    /* a message with the function's name and context */
+
+/* snapshot tags: the mode the state was saved in */
+#define TAG_INSTANTIATED 1u
+#define TAG_INITIALIZATION 2u
+#define TAG_STEP 3u
+#define TAG_TERMINATED 4u
+
+/* ------------------------------------------------------------------------ */
+/* logging                                                                   */
+/* ------------------------------------------------------------------------ */
+
+static const char *category_name(uint32_t bit) {
+    switch (bit) {
+        case INSTANCE_LOG_EVENTS: return "logEvents";
+        case INSTANCE_LOG_WARNING: return "logStatusWarning";
+        default: return "logStatusError";
+    }
+}
+
+/* bit of a log category name, 0 when unknown */
+static uint32_t category_bit(const char *name) {
+    if (!name) return 0;
+    if (strcmp(name, "logEvents") == 0) return INSTANCE_LOG_EVENTS;
+    if (strcmp(name, "logStatusWarning") == 0) return INSTANCE_LOG_WARNING;
+    if (strcmp(name, "logStatusError") == 0) return INSTANCE_LOG_ERROR;
+    return 0;
+}
+
+void instance_report(const InstanceVersion *version, InstanceCallback logger, void *environment, const char *name,
+                     const char *format, ...) {
+    char text[INSTANCE_TEXT_SIZE];
+    va_list args;
+    va_start(args, format);
+    vsnprintf(text, sizeof text, format, args);
+    va_end(args);
+    version->emit(logger, environment, name && *name ? name : "sphrom", INSTANCE_ERROR,
+                  category_name(INSTANCE_LOG_ERROR), text);
+}
+
+static void log_text(Instance *inst, InstanceStatus status, uint32_t category, const char *format, va_list args) {
+    if (!inst || !(inst->log_mask & category)) return;
+    char text[INSTANCE_TEXT_SIZE];
+    vsnprintf(text, sizeof text, format, args);
+    inst->version->emit(inst->logger, inst->environment, inst->name, status, category_name(category), text);
+}
+
+void instance_log(Instance *inst, InstanceStatus status, uint32_t category, const char *format, ...) {
+    va_list args;
+    va_start(args, format);
+    log_text(inst, status, category, format, args);
+    va_end(args);
+}
+
+InstanceStatus instance_error(Instance *inst, const char *fn, const char *format, ...) {
+    char text[INSTANCE_TEXT_SIZE];
+    va_list args;
+    va_start(args, format);
+    vsnprintf(text, sizeof text, format, args);
+    va_end(args);
+    inst->mode = MODE_ERROR;
+    instance_log(inst, INSTANCE_ERROR, INSTANCE_LOG_ERROR, "%s: %s", fn, text);
+    return INSTANCE_ERROR;
+}
+
+InstanceStatus instance_set_debug_logging(Instance *inst, const char *fn, int logging_on, size_t n_categories,
+                                          const char *const categories[]) {
+    if (n_categories > 0 && !categories) return instance_error(inst, fn, "categories is NULL");
+    if (n_categories == 0) {
+        inst->log_mask = logging_on ? INSTANCE_LOG_ALL : 0;
+        return INSTANCE_OK;
+    }
+    uint32_t mask = inst->log_mask;
+    for (size_t i = 0; i < n_categories; i++) {
+        const uint32_t bit = category_bit(categories[i]);
+        if (!bit) {
+            return instance_error(inst, fn, "unknown log category '%.200s' (declared: logEvents, logStatusWarning, "
+                                  "logStatusError)", categories[i] ? categories[i] : "(null)");
+        }
+        mask = logging_on ? (mask | bit) : (mask & ~bit);
+    }
+    inst->log_mask = mask;
+    return INSTANCE_OK;
+}
+
+/* ------------------------------------------------------------------------ */
+/* instantiation                                                             */
+/* ------------------------------------------------------------------------ */
+
+static int hex_value(char c) {
+    if (c >= '0' && c <= '9') return c - '0';
+    if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+    if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+    return -1;
+}
+
+/* resources/model.bin from a resource location: a file URI (is_uri) or a folder path */
+static RomStatus resource_file(const char *location, int is_uri, char *path, size_t path_size, char *message,
+                               size_t message_size) {
+    path[0] = '\0';
+    if (!location || !*location) {
+        return rom_fail(message, message_size, "no resource location given (the FMU needs its resources folder)");
+    }
+    const char *src = location;
+    int decode = 0;
+    if (is_uri && strncmp(location, "file:", 5) == 0) {
+        src = location + 5;
+        decode = 1;
+        if (strncmp(src, "///", 3) == 0) {
+            src += 2;                                   /* file:///path -> /path */
+        } else if (strncmp(src, "//localhost/", 12) == 0) {
+            src += 11;
+        } else if (strncmp(src, "//", 2) == 0) {
+            return rom_fail(message, message_size, "resource location '%s': file URIs with a host are not supported",
+                            location);
+        }
+#if defined(_WIN32)
+        if (src[0] == '/' && src[1] && src[2] == ':') src += 1;   /* /C:/dir -> C:/dir */
+#endif
+    } else if (is_uri && strstr(location, "://")) {
+        return rom_fail(message, message_size, "resource location '%s' is not a file URI", location);
+    }
+    size_t n = 0;
+    for (const char *c = src; *c; c++) {
+        char out = *c;
+        if (decode && *c == '%') {
+            const int hi = hex_value(c[1]);
+            const int lo = hi >= 0 ? hex_value(c[2]) : -1;
+            if (hi < 0 || lo < 0 || (hi == 0 && lo == 0)) {
+                return rom_fail(message, message_size, "resource location '%s': bad percent escape", location);
+            }
+            out = (char)(hi * 16 + lo);
+            c += 2;
+        }
+        if (n + 1 >= path_size) {
+            return rom_fail(message, message_size, "resource location '%s' is too long", location);
+        }
+        path[n++] = out;
+    }
+    if (n > 0 && path[n - 1] != '/' && path[n - 1] != '\\') {
+        if (n + 1 >= path_size) {
+            return rom_fail(message, message_size, "resource location '%s' is too long", location);
+        }
+        path[n++] = '/';
+    }
+    const size_t name_length = strlen(ROM_RESOURCE_FILE);
+    if (n + name_length + 1 > path_size) {
+        return rom_fail(message, message_size, "resource location '%s' is too long", location);
+    }
+    memcpy(path + n, ROM_RESOURCE_FILE, name_length + 1);
+    return ROM_OK;
+}
+
+Instance *instance_new(const InstanceVersion *version, const char *fn, const char *name, const char *token,
+                       const char *resource_location, int logging_on, InstanceCallback logger, void *environment) {
+    char core[ROM_MESSAGE_SIZE];
+    char path[4096];
+    if (!name || !*name) {
+        instance_report(version, logger, environment, NULL, "%s: instanceName is missing", fn);
+        return NULL;
+    }
+    if (!token) {
+        instance_report(version, logger, environment, name, "%s: %s is missing", fn, version->token_name);
+        return NULL;
+    }
+    if (resource_file(resource_location, version->resource_uri, path, sizeof path, core, sizeof core) != ROM_OK) {
+        instance_report(version, logger, environment, name, "%s: %s", fn, core);
+        return NULL;
+    }
+    RomModel *model = NULL;
+    if (rom_model_load_file(path, &model, core, sizeof core) != ROM_OK) {
+        instance_report(version, logger, environment, name, "%s: cannot load the model: %s", fn, core);
+        return NULL;
+    }
+    if (strcmp(token, model->token) != 0) {
+        instance_report(version, logger, environment, name, "%s: %s '%.100s' does not match the resources' token "
+                        "'%s' (modelDescription.xml and resources/model.bin belong to different FMUs)", fn,
+                        version->token_name, token, model->token);
+        rom_model_free(model);
+        return NULL;
+    }
+    Instance *inst = (Instance *)calloc(1, sizeof(Instance));
+    RomState *state = rom_state_new(model);
+    char *copy = (char *)malloc(strlen(name) + 1);
+    if (!inst || !state || !copy) {
+        free(inst);
+        rom_state_free(state);
+        free(copy);
+        rom_model_free(model);
+        instance_report(version, logger, environment, name, "%s: out of memory", fn);
+        return NULL;
+    }
+    strcpy(copy, name);
+    inst->model = model;
+    inst->state = state;
+    inst->name = copy;
+    inst->version = version;
+    inst->logger = logger;
+    inst->environment = environment;
+    inst->log_mask = INSTANCE_LOG_WARNING | INSTANCE_LOG_ERROR | (logging_on ? INSTANCE_LOG_EVENTS : 0u);
+    inst->mode = MODE_INSTANTIATED;
+    instance_log(inst, INSTANCE_OK, INSTANCE_LOG_EVENTS, "%s: k_v = %u, k_rho = %u, %u probes, dt = %g s, "
+                 "n_freeze = %u, %s", fn, model->k_v, model->k_rho, model->n_probes, model->dt,
+                 model->n_freeze_default, model->integrator == ROM_INTEGRATOR_SYMPLECTIC ? "symplectic" : "euler");
+    return inst;
+}
+
+void instance_free(Instance *inst) {
+    if (!inst) return;
+    rom_state_free(inst->state);
+    rom_model_free(inst->model);
+    free(inst->name);
+    free(inst);
+}
+
+/* ------------------------------------------------------------------------ */
+/* the state machine                                                         */
+/* ------------------------------------------------------------------------ */
+
+static const char *mode_name(const Instance *inst) {
+    switch (inst->mode) {
+        case MODE_INSTANTIATED: return "Instantiated";
+        case MODE_INITIALIZATION: return "InitializationMode";
+        case MODE_STEP: return inst->version->step_mode;
+        case MODE_TERMINATED: return "Terminated";
+        case MODE_ERROR: return "Error";
+        default: return "unknown";
+    }
+}
+
+int instance_allowed(Instance *inst, const char *fn, unsigned modes) {
+    if (!inst) return 0;
+    if (inst->mode & modes) return 1;
+    if (inst->mode == MODE_ERROR) {
+        instance_error(inst, fn, "illegal call in the Error state after an earlier error (allowed: %s)",
+                       inst->version->error_exits);
+    } else {
+        instance_error(inst, fn, "illegal call sequence: not allowed in %s", mode_name(inst));
+    }
+    return 0;
+}
+
+InstanceStatus instance_setup_experiment(Instance *inst, const char *fn, double start_time, int stop_time_defined,
+                                         double stop_time) {
+    if (stop_time_defined && !(stop_time >= start_time)) {
+        return instance_error(inst, fn, "stopTime is before startTime");
+    }
+    if (rom_set_start_time(inst->state, start_time, inst->message, sizeof inst->message) != ROM_OK) {
+        return instance_error(inst, fn, "%s", inst->message);
+    }
+    return INSTANCE_OK;
+}
+
+InstanceStatus instance_enter_initialization(Instance *inst) {
+    inst->mode = MODE_INITIALIZATION;
+    return INSTANCE_OK;
+}
+
+InstanceStatus instance_exit_initialization(Instance *inst, const char *fn) {
+    if (rom_check_outputs(inst->state, inst->message, sizeof inst->message) != ROM_OK) {
+        return instance_error(inst, fn, "%s", inst->message);
+    }
+    inst->mode = MODE_STEP;
+    return INSTANCE_OK;
+}
+
+InstanceStatus instance_terminate(Instance *inst) {
+    inst->mode = MODE_TERMINATED;
+    return INSTANCE_OK;
+}
+
+InstanceStatus instance_reset(Instance *inst) {
+    rom_state_reset(inst->state, 0.0);
+    inst->mode = MODE_INSTANTIATED;
+    return INSTANCE_OK;
+}
+
+/* ------------------------------------------------------------------------ */
+/* variables                                                                 */
+/* ------------------------------------------------------------------------ */
+
+typedef enum { TYPE_FLOAT64, TYPE_INT32 } VariableType;
+typedef enum { ROLE_INDEPENDENT, ROLE_INPUT, ROLE_FIXED, ROLE_OUTPUT } VariableRole;   /* FIXED: fixed parameter */
+typedef enum { COUNT_ONE, COUNT_PER_PROBE } VariableCount;     /* how many value references a row stands for */
+
+static double get_time(const RomState *s, uint32_t j) { (void)j; return s->time; }
+static double get_f(const RomState *s, uint32_t j) { (void)j; return s->f; }
+static double get_dt(const RomState *s, uint32_t j) { (void)j; return s->dt; }
+static int32_t get_n_freeze(const RomState *s) { return s->n_freeze; }
+
+/* The FMU's variables (modelDescription/fmi2.xml, fmi3.xml; value references rom.h ROM_VR_*):
+ * the one place that maps value references onto the core.  A COUNT_PER_PROBE row
+ * stands for n_probes value references vr + j, its getter receiving j. */
+typedef struct {
+    const char *name;
+    uint32_t vr;
+    VariableCount count;
+    VariableType type;
+    VariableRole role;
+    double (*get_float64)(const RomState *s, uint32_t j);
+    int32_t (*get_int32)(const RomState *s);
+    RomStatus (*set_float64)(RomState *s, double value, char *message, size_t message_size);
+    RomStatus (*set_int32)(RomState *s, int64_t value, char *message, size_t message_size);
+} Variable;
+
+static const Variable VARIABLES[] = {
+    /* name, value reference, count, type, role, get float64, get int32, set float64, set int32 */
+    {"time", ROM_VR_TIME, COUNT_ONE, TYPE_FLOAT64, ROLE_INDEPENDENT, get_time, NULL, NULL, NULL},
+    {"f", ROM_VR_F, COUNT_ONE, TYPE_FLOAT64, ROLE_INPUT, get_f, NULL, rom_set_input, NULL},
+    {"n_freeze", ROM_VR_N_FREEZE, COUNT_ONE, TYPE_INT32, ROLE_FIXED, NULL, get_n_freeze, NULL, rom_set_n_freeze},
+    {"dt", ROM_VR_DT, COUNT_ONE, TYPE_FLOAT64, ROLE_FIXED, get_dt, NULL, rom_set_dt, NULL},
+    {"v_probe", ROM_VR_V_PROBE, COUNT_PER_PROBE, TYPE_FLOAT64, ROLE_OUTPUT, rom_v_probe, NULL, NULL, NULL},
+    {"rho_probe", ROM_VR_RHO_PROBE, COUNT_PER_PROBE, TYPE_FLOAT64, ROLE_OUTPUT, rom_rho_probe, NULL, NULL, NULL},
+};
+
+/* the variable of value reference ref (time only where the version has it), or NULL; *j: the probe index */
+static const Variable *lookup(const Instance *inst, uint32_t ref, uint32_t *j) {
+    for (size_t i = 0; i < sizeof VARIABLES / sizeof VARIABLES[0]; i++) {
+        const Variable *var = &VARIABLES[i];
+        if (var->role == ROLE_INDEPENDENT && !inst->version->has_time) continue;
+        const uint32_t count = var->count == COUNT_PER_PROBE ? inst->model->n_probes : 1u;
+        if (ref >= var->vr && ref - var->vr < count) {
+            *j = ref - var->vr;
+            return var;
+        }
+    }
+    return NULL;
+}
+
+static InstanceStatus unknown_reference(Instance *inst, const char *fn, uint32_t ref) {
+    return instance_error(inst, fn, "unknown value reference %u for this type", (unsigned)ref);
+}
+
+InstanceStatus instance_dependencies(Instance *inst, const char *fn, uint32_t ref, size_t *count) {
+    uint32_t j;
+    if (!count) return instance_error(inst, fn, "the dependency count pointer is NULL");
+    if (!lookup(inst, ref, &j)) return unknown_reference(inst, fn, ref);
+    *count = 0;
+    return INSTANCE_OK;
+}
+
+/* the counts and arrays of a get or set call */
+static InstanceStatus check_arguments(Instance *inst, const char *fn, const uint32_t refs[], size_t n_refs,
+                                      const void *values, size_t n_values) {
+    if (n_refs != n_values) {
+        return instance_error(inst, fn, "nValues = %zu must equal nValueReferences = %zu (all variables are "
+                              "scalars)", n_values, n_refs);
+    }
+    if (n_refs > 0 && !refs) return instance_error(inst, fn, "the value reference array is NULL");
+    if (n_refs > 0 && !values) return instance_error(inst, fn, "the value array is NULL");
+    return INSTANCE_OK;
+}
+
+/* reals or ints (by type) receive the values */
+static InstanceStatus get_values(Instance *inst, const char *fn, VariableType type, const uint32_t refs[],
+                                 size_t n_refs, double reals[], int32_t ints[], size_t n_values) {
+    const void *values = type == TYPE_FLOAT64 ? (const void *)reals : (const void *)ints;
+    if (check_arguments(inst, fn, refs, n_refs, values, n_values) != INSTANCE_OK) return INSTANCE_ERROR;
+    for (size_t i = 0; i < n_refs; i++) {
+        uint32_t j = 0;
+        const Variable *var = lookup(inst, refs[i], &j);
+        if (!var || var->type != type) return unknown_reference(inst, fn, refs[i]);
+        if (type == TYPE_FLOAT64) {
+            reals[i] = var->get_float64(inst->state, j);
+        } else {
+            ints[i] = var->get_int32(inst->state);
+        }
+    }
+    return INSTANCE_OK;
+}
+
+/* in order: each value reference known for the type, settable in this mode, the value in range */
+static InstanceStatus set_values(Instance *inst, const char *fn, VariableType type, const uint32_t refs[],
+                                 size_t n_refs, const double reals[], const int32_t ints[], size_t n_values) {
+    const void *values = type == TYPE_FLOAT64 ? (const void *)reals : (const void *)ints;
+    if (check_arguments(inst, fn, refs, n_refs, values, n_values) != INSTANCE_OK) return INSTANCE_ERROR;
+    for (size_t i = 0; i < n_refs; i++) {
+        uint32_t j = 0;
+        const Variable *var = lookup(inst, refs[i], &j);
+        if (!var || var->type != type) return unknown_reference(inst, fn, refs[i]);
+        switch (var->role) {
+            case ROLE_OUTPUT: return instance_error(inst, fn, "outputs cannot be set");
+            case ROLE_INDEPENDENT:
+                return instance_error(inst, fn, "%s is the independent variable and cannot be set", var->name);
+            case ROLE_FIXED:
+                if (inst->mode == MODE_STEP) {
+                    return instance_error(inst, fn, "%s is a fixed parameter: it can be set only before %s",
+                                          var->name, inst->version->exit_initialization);
+                }
+                break;
+            case ROLE_INPUT: break;
+        }
+        const RomStatus status = type == TYPE_FLOAT64
+                                     ? var->set_float64(inst->state, reals[i], inst->message, sizeof inst->message)
+                                     : var->set_int32(inst->state, ints[i], inst->message, sizeof inst->message);
+        if (status != ROM_OK) return instance_error(inst, fn, "%s", inst->message);
+    }
+    return INSTANCE_OK;
+}
+
+InstanceStatus instance_get_float64(Instance *inst, const char *fn, const uint32_t refs[], size_t n_refs,
+                                    double values[], size_t n_values) {
+    return get_values(inst, fn, TYPE_FLOAT64, refs, n_refs, values, NULL, n_values);
+}
+
+InstanceStatus instance_set_float64(Instance *inst, const char *fn, const uint32_t refs[], size_t n_refs,
+                                    const double values[], size_t n_values) {
+    return set_values(inst, fn, TYPE_FLOAT64, refs, n_refs, values, NULL, n_values);
+}
+
+InstanceStatus instance_get_int32(Instance *inst, const char *fn, const uint32_t refs[], size_t n_refs,
+                                  int32_t values[], size_t n_values) {
+    return get_values(inst, fn, TYPE_INT32, refs, n_refs, NULL, values, n_values);
+}
+
+InstanceStatus instance_set_int32(Instance *inst, const char *fn, const uint32_t refs[], size_t n_refs,
+                                  const int32_t values[], size_t n_values) {
+    return set_values(inst, fn, TYPE_INT32, refs, n_refs, NULL, values, n_values);
+}
+
+InstanceStatus instance_no_variables(Instance *inst, const char *fn, const uint32_t refs[], size_t n_refs,
+                                     const void *values, size_t n_values) {
+    if (check_arguments(inst, fn, refs, n_refs, values, n_values) != INSTANCE_OK) return INSTANCE_ERROR;
+    return n_refs == 0 ? INSTANCE_OK : unknown_reference(inst, fn, refs[0]);
+}
+
+/* ------------------------------------------------------------------------ */
+/* stepping                                                                  */
+/* ------------------------------------------------------------------------ */
+
+InstanceStatus instance_do_step(Instance *inst, const char *fn, double t_comm, double h) {
+    if (rom_do_step(inst->state, t_comm, h, inst->message, sizeof inst->message) != ROM_OK) {
+        return instance_error(inst, fn, "%s", inst->message);
+    }
+    instance_log(inst, INSTANCE_OK, INSTANCE_LOG_EVENTS, "%s: t = %.9g s reached (%lld internal steps in all)", fn,
+                 inst->state->time, (long long)inst->state->n);
+    return INSTANCE_OK;
+}
+
+double instance_time(const Instance *inst) {
+    return inst->state->time;
+}
+
+/* ------------------------------------------------------------------------ */
+/* FMU state snapshots                                                       */
+/* ------------------------------------------------------------------------ */
+
+typedef struct {
+    size_t size;
+    unsigned char data[];
+} Snapshot;
+
+static uint32_t mode_tag(InstanceMode mode) {
+    switch (mode) {
+        case MODE_INITIALIZATION: return TAG_INITIALIZATION;
+        case MODE_STEP: return TAG_STEP;
+        case MODE_TERMINATED: return TAG_TERMINATED;
+        default: return TAG_INSTANTIATED;
+    }
+}
+
+static InstanceMode tag_mode(uint32_t tag) {
+    switch (tag) {
+        case TAG_INITIALIZATION: return MODE_INITIALIZATION;
+        case TAG_STEP: return MODE_STEP;
+        case TAG_TERMINATED: return MODE_TERMINATED;
+        default: return MODE_INSTANTIATED;
+    }
+}
+
+/* a snapshot of the right size: reuse existing when it fits, else allocate */
+static Snapshot *snapshot_for(const Instance *inst, Snapshot *existing) {
+    const size_t size = rom_state_serialized_size(inst->model);
+    if (existing && existing->size == size) return existing;
+    Snapshot *snap = (Snapshot *)malloc(sizeof(Snapshot) + size);
+    if (snap) snap->size = size;
+    return snap;
+}
+
+InstanceStatus instance_get_state(Instance *inst, const char *fn, void **snapshot) {
+    if (!snapshot) return instance_error(inst, fn, "the FMU state pointer is NULL");
+    Snapshot *snap = snapshot_for(inst, (Snapshot *)*snapshot);
+    if (!snap) return instance_error(inst, fn, "out of memory");
+    rom_state_serialize(inst->state, mode_tag(inst->mode), snap->data);
+    *snapshot = snap;
+    return INSTANCE_OK;
+}
+
+InstanceStatus instance_set_state(Instance *inst, const char *fn, const void *snapshot) {
+    if (!snapshot) return instance_error(inst, fn, "the FMU state is NULL");
+    const Snapshot *snap = (const Snapshot *)snapshot;
+    uint32_t tag = 0;
+    if (rom_state_deserialize(inst->state, snap->data, snap->size, &tag, inst->message, sizeof inst->message) !=
+        ROM_OK) {
+        return instance_error(inst, fn, "%s", inst->message);
+    }
+    inst->mode = tag_mode(tag);
+    return INSTANCE_OK;
+}
+
+InstanceStatus instance_free_state(Instance *inst, const char *fn, void **snapshot) {
+    if (!snapshot) return instance_error(inst, fn, "the FMU state pointer is NULL");
+    free(*snapshot);
+    *snapshot = NULL;
+    return INSTANCE_OK;
+}
+
+InstanceStatus instance_state_size(Instance *inst, const char *fn, const void *snapshot, size_t *size) {
+    if (!snapshot) return instance_error(inst, fn, "the FMU state is NULL");
+    if (!size) return instance_error(inst, fn, "size is NULL");
+    *size = ((const Snapshot *)snapshot)->size;
+    return INSTANCE_OK;
+}
+
+InstanceStatus instance_serialize_state(Instance *inst, const char *fn, const void *snapshot, unsigned char bytes[],
+                                        size_t size) {
+    if (!snapshot) return instance_error(inst, fn, "the FMU state is NULL");
+    if (!bytes) return instance_error(inst, fn, "serializedState is NULL");
+    const Snapshot *snap = (const Snapshot *)snapshot;
+    if (size != snap->size) {
+        return instance_error(inst, fn, "size %zu does not match the serialized state size %zu", size, snap->size);
+    }
+    memcpy(bytes, snap->data, size);
+    return INSTANCE_OK;
+}
+
+InstanceStatus instance_deserialize_state(Instance *inst, const char *fn, const unsigned char bytes[], size_t size,
+                                          void **snapshot) {
+    if (!bytes) return instance_error(inst, fn, "serializedState is NULL");
+    if (!snapshot) return instance_error(inst, fn, "the FMU state pointer is NULL");
+    if (rom_state_check(inst->model, bytes, size, inst->message, sizeof inst->message) != ROM_OK) {
+        return instance_error(inst, fn, "%s", inst->message);
+    }
+    Snapshot *snap = snapshot_for(inst, (Snapshot *)*snapshot);
+    if (!snap) return instance_error(inst, fn, "out of memory");
+    memcpy(snap->data, bytes, size);
+    *snapshot = snap;
+    return INSTANCE_OK;
+}

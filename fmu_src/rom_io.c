@@ -1,0 +1,574 @@
+/*
+ * Bytes in and out of the model core: resources/model.bin (the loader), the
+ * serialized FMU state, zlib's CRC-32 and little-endian numbers.  Both formats
+ * (rom.h) are read through one envelope check: size, magic, version, then the
+ * caller's check of the header's sizes, then length, token and checksum.
+ */
+#include "rom_internal.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+
+#define ROM_MAX_FILE_SIZE ((size_t)1 << 30)    /* 1 GiB: far above any k <= 100 model */
+
+/* ------------------------------------------------------------------------ */
+/* little-endian numbers, CRC-32, token                                      */
+/* ------------------------------------------------------------------------ */
+
+static uint32_t get_u32(const unsigned char *p) {
+    return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) | ((uint32_t)p[3] << 24);
+}
+
+static uint64_t get_u64(const unsigned char *p) {
+    return (uint64_t)get_u32(p) | ((uint64_t)get_u32(p + 4) << 32);
+}
+
+static double get_f64(const unsigned char *p) {
+    const uint64_t bits = get_u64(p);
+    double value;
+    memcpy(&value, &bits, sizeof value);
+    return value;
+}
+
+static void put_u32(unsigned char *p, uint32_t v) {
+    p[0] = (unsigned char)(v & 0xffu);
+    p[1] = (unsigned char)((v >> 8) & 0xffu);
+    p[2] = (unsigned char)((v >> 16) & 0xffu);
+    p[3] = (unsigned char)((v >> 24) & 0xffu);
+}
+
+static void put_u64(unsigned char *p, uint64_t v) {
+    put_u32(p, (uint32_t)(v & 0xffffffffu));
+    put_u32(p + 4, (uint32_t)(v >> 32));
+}
+
+static void put_f64(unsigned char *p, double value) {
+    uint64_t bits;
+    memcpy(&bits, &value, sizeof bits);
+    put_u64(p, bits);
+}
+
+uint32_t rom_crc32(const void *data, size_t size) {
+    /* zlib's CRC-32 (reflected polynomial 0xEDB88320); the table lives on the
+     * stack so that there is no global state */
+    uint32_t table[256];
+    for (uint32_t i = 0; i < 256; i++) {
+        uint32_t c = i;
+        for (int k = 0; k < 8; k++) {
+            c = (c & 1u) ? (0xEDB88320u ^ (c >> 1)) : (c >> 1);
+        }
+        table[i] = c;
+    }
+    const unsigned char *bytes = (const unsigned char *)data;
+    uint32_t crc = 0xFFFFFFFFu;
+    for (size_t i = 0; i < size; i++) {
+        crc = table[(crc ^ bytes[i]) & 0xFFu] ^ (crc >> 8);
+    }
+    return crc ^ 0xFFFFFFFFu;
+}
+
+static int valid_token(const char *token) {
+    /* "{xxxxxxxx-xxxx-xxxx-xxxx-xxxxxxxxxxxx}" with lower-case hex digits */
+    static const char pattern[] = "{hhhhhhhh-hhhh-hhhh-hhhh-hhhhhhhhhhhh}";
+    for (size_t i = 0; i + 1 < sizeof pattern; i++) {
+        const char c = token[i];
+        if (pattern[i] == 'h') {
+            if (!((c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'))) return 0;
+        } else if (c != pattern[i]) {
+            return 0;
+        }
+    }
+    return token[sizeof pattern - 1] == '\0';
+}
+
+/* ------------------------------------------------------------------------ */
+/* the envelope shared by resources and serialized states                    */
+/* ------------------------------------------------------------------------ */
+
+typedef struct {
+    const char *what;          /* the messages' subject */
+    const char *magic;         /* 8 bytes */
+    const char *contents;      /* what the magic announces */
+    const char *empty;         /* what the smallest valid blob is */
+    const char *one;           /* one such blob, in messages */
+    const char *damaged;       /* what is truncated or corrupt when a check fails */
+    uint32_t version;
+    size_t min_size;           /* bytes needed before the header can be read */
+} Envelope;
+
+static const Envelope RESOURCES = {"resources", ROM_RESOURCE_MAGIC, "an sphrom model.bin", "an empty model",
+                                   "a model", "file ", ROM_FORMAT_VERSION, ROM_HEADER_SIZE + ROM_TOKEN_SIZE + 4};
+static const Envelope STATE = {"serialized state", ROM_STATE_MAGIC, "an sphrom FMU state", "an empty state",
+                               "a state", "", ROM_STATE_VERSION, ROM_STATE_HEADER_SIZE + 4};
+
+/* Size, magic and version: then the header can be read */
+static RomStatus envelope_open(const Envelope *e, const unsigned char *bytes, size_t size, char *message,
+                               size_t message_size) {
+    if (!bytes) return rom_fail(message, message_size, "%s: no data", e->what);
+    if (size < e->min_size) {
+        return rom_fail(message, message_size, "%s truncated: %zu bytes, fewer than the %zu of %s", e->what, size,
+                        e->min_size, e->empty);
+    }
+    if (memcmp(bytes, e->magic, 8) != 0) {
+        return rom_fail(message, message_size, "%s: bad magic (not %s)", e->what, e->contents);
+    }
+    const uint32_t version = get_u32(bytes + 8);
+    if (version != e->version) {
+        return rom_fail(message, message_size, "%s: format version %u is not supported (this binary reads %u)",
+                        e->what, version, e->version);
+    }
+    return ROM_OK;
+}
+
+/* Once the caller has checked the header's sizes: the token, when it must be a
+ * given one (before the checksum, so that a blob from another FMU is named as
+ * such), the length (detail says what it was computed for), the checksum of
+ * every byte before the last four, and the token's form. */
+static RomStatus envelope_close(const Envelope *e, const unsigned char *bytes, size_t size, uint64_t expected,
+                                const char *detail, size_t token_offset, const char *token, char *message,
+                                size_t message_size) {
+    if (token && memcmp(bytes + token_offset, token, ROM_TOKEN_SIZE) != 0) {
+        char other[ROM_TOKEN_SIZE + 1];
+        memcpy(other, bytes + token_offset, ROM_TOKEN_SIZE);
+        other[ROM_TOKEN_SIZE] = '\0';
+        for (size_t i = 0; i < ROM_TOKEN_SIZE && other[i]; i++) {
+            if (other[i] < 32 || other[i] > 126) other[i] = '?';
+        }
+        return rom_fail(message, message_size, "%s: token %s is not this FMU's %s (%s from another FMU)", e->what,
+                        other, token, e->one);
+    }
+    if ((uint64_t)size != expected) {
+        return rom_fail(message, message_size, "%s: %zu bytes, expected %llu%s (%struncated or corrupt)", e->what,
+                        size, (unsigned long long)expected, detail, e->damaged);
+    }
+    const uint32_t stored = get_u32(bytes + size - 4), crc = rom_crc32(bytes, size - 4);
+    if (crc != stored) {
+        return rom_fail(message, message_size, "%s: checksum mismatch (stored 0x%08x, computed 0x%08x): %scorrupt",
+                        e->what, stored, crc, e->damaged);
+    }
+    if (!valid_token((const char *)(bytes + token_offset))) {
+        return rom_fail(message, message_size, "%s: the token field is not a GUID string", e->what);
+    }
+    return ROM_OK;
+}
+
+/* ------------------------------------------------------------------------ */
+/* resources                                                                 */
+/* ------------------------------------------------------------------------ */
+
+typedef struct {
+    uint32_t kind, integrator, k_v, k_rho, n_probes, n_pairs, flags, n_freeze, reserved;
+    double dt, bound, L;
+} Header;
+
+/* the fields after magic and version, in the order of rom.h */
+static Header read_header(const unsigned char *bytes) {
+    Header h;
+    uint32_t *const words[9] = {&h.kind, &h.integrator, &h.k_v, &h.k_rho, &h.n_probes, &h.n_pairs, &h.flags,
+                                 &h.n_freeze, &h.reserved};
+    double *const numbers[3] = {&h.dt, &h.bound, &h.L};
+    const unsigned char *cursor = bytes + 12;
+    for (int i = 0; i < 9; i++, cursor += 4) *words[i] = get_u32(cursor);
+    for (int i = 0; i < 3; i++, cursor += 8) *numbers[i] = get_f64(cursor);
+    return h;
+}
+
+/* The header's kind-specific rules; *doubles receives the count of float64 values after it. */
+static RomStatus check_header(const Header *h, uint64_t *doubles, char *message, size_t message_size) {
+    const int linear = rom_path(h->kind) == ROM_PATH_LINEAR;
+    const char *second = linear ? "k_e" : "k_rho";
+    const uint64_t kv = h->k_v, kr = h->k_rho, np = h->n_probes;
+    if (linear && h->integrator != 0) {
+        return rom_fail(message, message_size, "resources: integrator %u given for the exact model (must be 0: it "
+                        "is advanced by the matrix exponential)", h->integrator);
+    }
+    if (!linear && h->integrator != ROM_INTEGRATOR_EULER && h->integrator != ROM_INTEGRATOR_SYMPLECTIC) {
+        return rom_fail(message, message_size, "resources: integrator %u is not one of 0 (euler), 1 (symplectic)",
+                        h->integrator);
+    }
+    if (kv < 1 || kv > ROM_MAX_MODES || kr < 1 || kr > ROM_MAX_MODES) {
+        return rom_fail(message, message_size, "resources: mode counts k_v = %u, %s = %u out of range [1, %u]",
+                        h->k_v, second, h->k_rho, ROM_MAX_MODES);
+    }
+    if (np < 1 || np > ROM_MAX_PROBES) {
+        return rom_fail(message, message_size, "resources: %u probes, out of range [1, %u]", h->n_probes,
+                        ROM_MAX_PROBES);
+    }
+    if (linear && h->n_pairs != 0) {
+        return rom_fail(message, message_size, "resources: n_pairs = %u, must be 0 for the exact model", h->n_pairs);
+    }
+    if (!linear && (uint64_t)h->n_pairs != kr * (kr + 1) / 2) {
+        return rom_fail(message, message_size, "resources: n_pairs = %u, expected k_rho (k_rho + 1)/2 = %u",
+                        h->n_pairs, h->k_rho * (h->k_rho + 1) / 2);
+    }
+    const uint32_t known = ROM_FLAG_DAMPING | ROM_FLAG_INPUT | (linear ? ROM_FLAG_SCHUR : 0u);
+    if (h->flags & ~known) return rom_fail(message, message_size, "resources: unknown flag bits 0x%x", h->flags);
+    if ((h->flags & ROM_FLAG_SCHUR) && (h->flags & ROM_FLAG_DAMPING)) {
+        return rom_fail(message, message_size, "resources: flag bits 0x%x: a Schur form with damping (the free "
+                        "response by rotations needs a skew operator)", h->flags);
+    }
+    if (h->n_freeze < 1 || h->n_freeze > INT32_MAX || h->reserved != 0) {
+        return rom_fail(message, message_size, "resources: n_freeze_default = %u (must be >= 1) or reserved = %u "
+                        "(must be 0)", h->n_freeze, h->reserved);
+    }
+    const int damping = (h->flags & ROM_FLAG_DAMPING) != 0, input = (h->flags & ROM_FLAG_INPUT) != 0;
+    if (linear) {               /* z0, A, B, Q, S, Pv, Pe, pw, prho0, probe_x */
+        const uint64_t k = kv + kr, schur = (h->flags & ROM_FLAG_SCHUR) ? k * k : 0;
+        *doubles = k + k * k + (input ? k : 0) + 2 * schur + np * kv + np * 2 * kr + 4 * np + np;
+    } else {                    /* a_v0, a_rho0, K, b, D, p, T, Pv, Prho, probe_x */
+        *doubles = kv + kr + kv * kr + kv + (damping ? kv * kv : 0) + (input ? kv : 0) + h->n_pairs * kr * kv +
+                   np * kv + np * kr + np;
+    }
+    return ROM_OK;
+}
+
+static void read_doubles(const unsigned char **cursor, double *out, uint64_t n) {
+    for (uint64_t i = 0; i < n; i++) {
+        out[i] = get_f64(*cursor);
+        *cursor += 8;
+    }
+}
+
+static int arrays_finite(double **ptrs[], const size_t *counts, int n) {
+    int finite = 1;
+    for (int i = 0; i < n; i++) finite &= !*ptrs[i] || rom_all_finite(*ptrs[i], counts[i]);
+    return finite;
+}
+
+/* Frozen model: the operators transposed, zero-padded and blocked as rom.h's RomModel describes. */
+static RomStatus read_frozen(RomModel *m, const unsigned char *cursor, uint64_t doubles, char *message,
+                             size_t message_size) {
+    const size_t kv = m->k_v, kr = m->k_rho, np = m->n_probes, npairs = m->n_pairs;
+    m->kv_pad = (uint32_t)rom_round_up(kv, 4);
+    m->kr_pad = (uint32_t)rom_round_up(kr, 4);
+    m->nm = (uint32_t)rom_round_up(kv * m->kr_pad, 32);
+    const size_t kvp = m->kv_pad, krp = m->kr_pad;
+    const size_t counts[10] = {kv, kr, kr * kvp, kvp, (m->flags & ROM_FLAG_DAMPING) ? kv * kvp : 0,
+                               (m->flags & ROM_FLAG_INPUT) ? kvp : 0, npairs * m->nm, np * kv, np * kr, np};
+    double **ptrs[10] = {&m->a_v0, &m->a_rho0, &m->Kt, &m->b, &m->Dt, &m->p, &m->Tt, &m->Pv, &m->Prho, &m->probe_x};
+    m->storage_ = rom_alloc_arrays(counts, ptrs, 10);
+    if (!m->storage_) {
+        return rom_fail(message, message_size, "resources: out of memory (%llu values)", (unsigned long long)doubles);
+    }
+    read_doubles(&cursor, m->a_v0, kv);
+    read_doubles(&cursor, m->a_rho0, kr);
+    for (size_t p = 0; p < kv; p++) {                    /* K[p][q] -> Kt[q*kv_pad + p] */
+        for (size_t q = 0; q < kr; q++, cursor += 8) m->Kt[q * kvp + p] = get_f64(cursor);
+    }
+    read_doubles(&cursor, m->b, kv);
+    if (m->Dt) {
+        for (size_t p = 0; p < kv; p++) {
+            for (size_t q = 0; q < kv; q++, cursor += 8) m->Dt[q * kvp + p] = get_f64(cursor);
+        }
+    }
+    if (m->p) read_doubles(&cursor, m->p, kv);
+    /* T[k][p][q] is entry i = q*kr_pad + p of pair k's M^T; entries are
+     * stored in blocks of 32, each block's pairs contiguous:
+     * Tt[(i/32)*n_pairs*32 + k*32 + i%32] */
+    for (size_t k = 0; k < npairs; k++) {
+        for (size_t p = 0; p < kr; p++) {
+            for (size_t q = 0; q < kv; q++, cursor += 8) {
+                const size_t i = q * krp + p;
+                m->Tt[(i / 32) * npairs * 32 + k * 32 + i % 32] = get_f64(cursor);
+            }
+        }
+    }
+    read_doubles(&cursor, m->Pv, np * kv);
+    read_doubles(&cursor, m->Prho, np * kr);
+    read_doubles(&cursor, m->probe_x, np);
+    if (!arrays_finite(ptrs, counts, 10)) {
+        return rom_fail(message, message_size, "resources: non-finite numbers in the operators");
+    }
+    for (uint32_t j = 0; j < np; j++) {
+        const double x = m->probe_x[j];
+        if (x < 0.0 || x > 1.0) {
+            return rom_fail(message, message_size, "resources: probe %u at x/L = %g is outside [0, 1]", j + 1, x);
+        }
+    }
+    return ROM_OK;
+}
+
+/* Exact linear model: the arrays as stored (row-major), a_v0 and a_rho0 pointing into z0. */
+static RomStatus read_exact(RomModel *m, const unsigned char *cursor, uint64_t doubles, char *message,
+                            size_t message_size) {
+    const size_t kv = m->k_v, ke = m->k_rho, np = m->n_probes, k = (size_t)kv + ke;
+    m->k = (uint32_t)k;
+    m->kv_pad = (uint32_t)rom_round_up(kv, 4);
+    m->kr_pad = (uint32_t)rom_round_up(ke, 4);
+    m->nm = 0;
+    const size_t cB = (m->flags & ROM_FLAG_INPUT) ? k : 0, cQ = (m->flags & ROM_FLAG_SCHUR) ? k * k : 0;
+    const size_t counts[11] = {k, k * k, cB, cQ, cQ, cQ ? k : 0, np * kv, np * 2 * ke, 2 * np, 2 * np, np};
+    double **ptrs[11] = {&m->z0, &m->A, &m->B, &m->Q, &m->S, &m->y0, &m->Pv, &m->Pe, &m->pw, &m->prho0,
+                         &m->probe_x};
+    m->storage_ = rom_alloc_arrays(counts, ptrs, 11);
+    if (!m->storage_) {
+        return rom_fail(message, message_size, "resources: out of memory (%llu values)", (unsigned long long)doubles);
+    }
+    read_doubles(&cursor, m->z0, k);
+    read_doubles(&cursor, m->A, k * k);
+    if (m->B) read_doubles(&cursor, m->B, k);
+    if (m->Q) {
+        read_doubles(&cursor, m->Q, k * k);
+        read_doubles(&cursor, m->S, k * k);
+    }
+    read_doubles(&cursor, m->Pv, np * kv);
+    read_doubles(&cursor, m->Pe, np * 2 * ke);
+    read_doubles(&cursor, m->pw, 2 * np);
+    read_doubles(&cursor, m->prho0, 2 * np);
+    read_doubles(&cursor, m->probe_x, np);
+    m->a_v0 = m->z0;
+    m->a_rho0 = m->z0 + kv;
+    if (!arrays_finite(ptrs, counts, 11)) {
+        return rom_fail(message, message_size, "resources: non-finite numbers in the operators");
+    }
+    for (uint32_t j = 0; j < np; j++) {
+        const double x = m->probe_x[j], w0 = m->pw[2 * j], w1 = m->pw[2 * j + 1];
+        if (x < 0.0 || x > 1.0 || w0 < 0.0 || w1 < 0.0 || fabs(w0 + w1 - 1.0) > 1e-12 || !(m->prho0[2 * j] > 0) ||
+            !(m->prho0[2 * j + 1] > 0)) {
+            return rom_fail(message, message_size, "resources: probe %u: x/L = %g outside [0, 1], or weights %g, "
+                            "%g not a convex pair, or rho0 <= 0", j + 1, x, w0, w1);
+        }
+    }
+    rom_exact_prepare(m);
+    return ROM_OK;
+}
+
+RomStatus rom_model_load_memory(const void *data, size_t size, RomModel **out, char *message, size_t message_size) {
+    if (!out) return rom_fail(message, message_size, "resources: no output pointer");
+    *out = NULL;
+    const unsigned char *bytes = (const unsigned char *)data;
+    if (envelope_open(&RESOURCES, bytes, size, message, message_size) != ROM_OK) return ROM_FAIL;
+    const Header h = read_header(bytes);
+    const RomPath path = rom_path(h.kind);
+    if (path == ROM_PATH_NONE) {
+        return rom_fail(message, message_size,
+                        "resources: model kind %u is not supported by this binary (it runs kinds %u, the "
+                        "frozen-coefficient model, and %u, the exact linear model)", h.kind, ROM_MODEL_FROZEN,
+                        ROM_MODEL_EXACT_LINEAR);
+    }
+    uint64_t doubles = 0;
+    if (check_header(&h, &doubles, message, message_size) != ROM_OK) return ROM_FAIL;
+    const uint64_t expected = (uint64_t)ROM_HEADER_SIZE + 8u * doubles + ROM_TOKEN_SIZE + 4u;
+    char detail[160];
+    snprintf(detail, sizeof detail, " for %sk_v = %u, %s = %u, %u probes, flags 0x%x",
+             path == ROM_PATH_LINEAR ? "the exact model with " : "", h.k_v, path == ROM_PATH_LINEAR ? "k_e" : "k_rho",
+             h.k_rho, h.n_probes, h.flags);
+    const size_t token_offset = (size_t)(expected - 4 - ROM_TOKEN_SIZE);
+    if (envelope_close(&RESOURCES, bytes, size, expected, detail, token_offset, NULL, message, message_size) !=
+        ROM_OK) {
+        return ROM_FAIL;
+    }
+    if (!(isfinite(h.dt) && h.dt > 0)) {
+        return rom_fail(message, message_size, "resources: dt = %g (must be finite and > 0)", h.dt);
+    }
+    if (!(isfinite(h.bound) && h.bound > 0) || !(isfinite(h.L) && h.L > 0)) {
+        return rom_fail(message, message_size, "resources: runaway bound %g and L %g must be finite and > 0", h.bound,
+                        h.L);
+    }
+    RomModel *m = (RomModel *)calloc(1, sizeof(RomModel));
+    if (!m) return rom_fail(message, message_size, "resources: out of memory");
+    m->kind = h.kind;
+    m->integrator = h.integrator;
+    m->k_v = h.k_v;
+    m->k_rho = h.k_rho;
+    m->n_probes = h.n_probes;
+    m->n_pairs = h.n_pairs;
+    m->flags = h.flags;
+    m->n_freeze_default = h.n_freeze;
+    m->dt = h.dt;
+    m->runaway_bound = h.bound;
+    m->L = h.L;
+    memcpy(m->token, bytes + token_offset, ROM_TOKEN_SIZE);
+    m->token[ROM_TOKEN_SIZE] = '\0';
+    const unsigned char *payload = bytes + ROM_HEADER_SIZE;
+    const RomStatus status = path == ROM_PATH_LINEAR ? read_exact(m, payload, doubles, message, message_size)
+                                                     : read_frozen(m, payload, doubles, message, message_size);
+    if (status != ROM_OK) {
+        rom_model_free(m);
+        return ROM_FAIL;
+    }
+    *out = m;
+    return ROM_OK;
+}
+
+RomStatus rom_model_load_file(const char *path, RomModel **out, char *message, size_t message_size) {
+    if (!out) return rom_fail(message, message_size, "resources: no output pointer");
+    *out = NULL;
+    if (!path) return rom_fail(message, message_size, "resources: no path");
+    errno = 0;
+    FILE *file = fopen(path, "rb");
+    if (!file) {
+        const int err = errno;
+        return rom_fail(message, message_size, "resources file '%s' %s", path,
+                        err == ENOENT ? "not found" : err == EACCES ? "is not readable (permission denied)"
+                                                                     : "cannot be opened");
+    }
+    unsigned char *buffer = NULL;
+    size_t size = 0, capacity = 0;
+    RomStatus status = ROM_OK;
+    for (;;) {
+        if (size == capacity) {
+            if (capacity >= ROM_MAX_FILE_SIZE) {
+                status = rom_fail(message, message_size, "resources file '%s' is larger than %zu bytes", path,
+                                  ROM_MAX_FILE_SIZE);
+                break;
+            }
+            const size_t grown = capacity ? 2 * capacity : 65536;
+            unsigned char *bigger = (unsigned char *)realloc(buffer, grown);
+            if (!bigger) {
+                status = rom_fail(message, message_size, "resources file '%s': out of memory", path);
+                break;
+            }
+            buffer = bigger;
+            capacity = grown;
+        }
+        const size_t got = fread(buffer + size, 1, capacity - size, file);
+        size += got;
+        if (got == 0) {
+            if (ferror(file)) status = rom_fail(message, message_size, "resources file '%s': read error", path);
+            break;
+        }
+    }
+    fclose(file);
+    if (status == ROM_OK) {
+        char inner[ROM_MESSAGE_SIZE];
+        inner[0] = '\0';
+        status = rom_model_load_memory(buffer, size, out, inner, sizeof inner);
+        if (status != ROM_OK) rom_fail(message, message_size, "'%s': %s", path, inner);
+    }
+    free(buffer);
+    return status;
+}
+
+void rom_model_free(RomModel *model) {
+    if (!model) return;
+    free(model->storage_);
+    free(model);
+}
+
+/* ------------------------------------------------------------------------ */
+/* serialized state                                                          */
+/* ------------------------------------------------------------------------ */
+
+/* byte offsets of the state header's fields (rom.h) */
+enum {
+    ST_TAG = 12, ST_K_V = 16, ST_K_RHO = 20, ST_N_PROBES = 24, ST_N_PAIRS = 28, ST_TOKEN = 32,
+    ST_N = 72, ST_N_FREEZE = 80, ST_RESERVED = 84, ST_TIME = 88, ST_F = 96, ST_DT = 104
+};
+
+/* The state's arrays in the order they are serialized: count rows of cols real
+ * entries each, stride apart (frozen: a^v, a^rho, M^T (k_v rows of k_rho, stride
+ * kr_pad) and F; linear: a, b, the forced part X, (t0, input rate)). */
+typedef struct {
+    double *data[4];
+    size_t rows[4], cols[4], strides[4];
+} StateBlocks;
+
+static StateBlocks state_blocks(const RomState *s) {
+    const RomModel *m = s->model;
+    StateBlocks b;
+    const int linear = rom_is_linear(m);
+    double *third = linear ? s->X : s->Mt, *fourth = linear ? s->aux : s->F;
+    const size_t sizes[4][3] = {{1, m->k_v, 0}, {1, m->k_rho, 0},
+                                {linear ? 1 : m->k_v, linear ? m->k : m->k_rho, linear ? 0 : m->kr_pad},
+                                {1, linear ? 2 : m->k_v, 0}};
+    double *data[4] = {s->av, s->ar, third, fourth};
+    for (int a = 0; a < 4; a++) {
+        b.data[a] = data[a];
+        b.rows[a] = sizes[a][0];
+        b.cols[a] = sizes[a][1];
+        b.strides[a] = sizes[a][2];
+    }
+    return b;
+}
+
+static size_t state_doubles(const RomModel *m) {
+    if (rom_is_linear(m)) return (size_t)m->k_v + m->k_rho + m->k + 2;
+    return 2 * (size_t)m->k_v + m->k_rho + (size_t)m->k_rho * m->k_v;
+}
+
+size_t rom_state_serialized_size(const RomModel *m) {
+    if (!m) return 0;
+    return ROM_STATE_HEADER_SIZE + 8 * state_doubles(m) + 4;
+}
+
+void rom_state_serialize(const RomState *s, uint32_t tag, unsigned char *buffer) {
+    if (!s || !buffer) return;
+    const RomModel *m = s->model;
+    const size_t size = rom_state_serialized_size(m);
+    memset(buffer, 0, size);
+    memcpy(buffer, ROM_STATE_MAGIC, 8);
+    put_u32(buffer + 8, ROM_STATE_VERSION);
+    put_u32(buffer + ST_TAG, tag);
+    put_u32(buffer + ST_K_V, m->k_v);
+    put_u32(buffer + ST_K_RHO, m->k_rho);
+    put_u32(buffer + ST_N_PROBES, m->n_probes);
+    put_u32(buffer + ST_N_PAIRS, m->n_pairs);
+    memcpy(buffer + ST_TOKEN, m->token, ROM_TOKEN_SIZE);
+    put_u64(buffer + ST_N, (uint64_t)s->n);
+    put_u32(buffer + ST_N_FREEZE, (uint32_t)s->n_freeze);
+    put_u32(buffer + ST_RESERVED, 0);
+    put_f64(buffer + ST_TIME, s->time);
+    put_f64(buffer + ST_F, s->f);
+    put_f64(buffer + ST_DT, s->dt);
+    unsigned char *cursor = buffer + ROM_STATE_HEADER_SIZE;
+    const StateBlocks b = state_blocks(s);
+    for (int a = 0; a < 4; a++) {
+        for (size_t r = 0; r < b.rows[a]; r++) {
+            for (size_t c = 0; c < b.cols[a]; c++, cursor += 8) put_f64(cursor, b.data[a][r * b.strides[a] + c]);
+        }
+    }
+    put_u32(cursor, rom_crc32(buffer, size - 4));
+}
+
+RomStatus rom_state_check(const RomModel *m, const unsigned char *buffer, size_t size, char *message,
+                          size_t message_size) {
+    if (!m) return rom_fail(message, message_size, "serialized state: no data");
+    if (envelope_open(&STATE, buffer, size, message, message_size) != ROM_OK) return ROM_FAIL;
+    if (get_u32(buffer + ST_K_V) != m->k_v || get_u32(buffer + ST_K_RHO) != m->k_rho ||
+        get_u32(buffer + ST_N_PROBES) != m->n_probes || get_u32(buffer + ST_N_PAIRS) != m->n_pairs) {
+        return rom_fail(message, message_size,
+                        "serialized state: sizes k_v = %u, k_rho = %u, %u probes do not match this FMU's %u, %u, %u "
+                        "(a state from another FMU)", get_u32(buffer + ST_K_V), get_u32(buffer + ST_K_RHO),
+                        get_u32(buffer + ST_N_PROBES), m->k_v, m->k_rho, m->n_probes);
+    }
+    if (envelope_close(&STATE, buffer, size, rom_state_serialized_size(m), "", ST_TOKEN, m->token, message,
+                       message_size) != ROM_OK) {
+        return ROM_FAIL;
+    }
+    const int64_t n = (int64_t)get_u64(buffer + ST_N);
+    const int64_t n_freeze = (int32_t)get_u32(buffer + ST_N_FREEZE);
+    const double time = get_f64(buffer + ST_TIME), f = get_f64(buffer + ST_F), dt = get_f64(buffer + ST_DT);
+    if (n < 0 || n_freeze < 1 || !isfinite(time) || !isfinite(f) || !(isfinite(dt) && dt > 0)) {
+        return rom_fail(message, message_size, "serialized state: invalid values (step %lld, n_freeze %lld, t %g, "
+                        "f %g, dt %g)", (long long)n, (long long)n_freeze, time, f, dt);
+    }
+    const unsigned char *cursor = buffer + ROM_STATE_HEADER_SIZE;
+    for (size_t i = 0; i < state_doubles(m); i++, cursor += 8) {
+        if (!isfinite(get_f64(cursor))) {
+            return rom_fail(message, message_size, "serialized state: non-finite reduced state");
+        }
+    }
+    return ROM_OK;
+}
+
+RomStatus rom_state_deserialize(RomState *s, const unsigned char *buffer, size_t size, uint32_t *tag, char *message,
+                                size_t message_size) {
+    if (!s) return rom_fail(message, message_size, "no state");
+    if (rom_state_check(s->model, buffer, size, message, message_size) != ROM_OK) return ROM_FAIL;
+    if (tag) *tag = get_u32(buffer + ST_TAG);
+    s->n = (int64_t)get_u64(buffer + ST_N);
+    s->n_freeze = (int32_t)get_u32(buffer + ST_N_FREEZE);
+    s->time = get_f64(buffer + ST_TIME);
+    s->f = get_f64(buffer + ST_F);
+    s->dt = get_f64(buffer + ST_DT);
+    const unsigned char *cursor = buffer + ROM_STATE_HEADER_SIZE;
+    const StateBlocks b = state_blocks(s);
+    for (int a = 0; a < 4; a++) {
+        for (size_t r = 0; r < b.rows[a]; r++) {
+            for (size_t c = 0; c < b.cols[a]; c++, cursor += 8) b.data[a][r * b.strides[a] + c] = get_f64(cursor);
+        }
+    }
+    return ROM_OK;
+}

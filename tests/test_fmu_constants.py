@@ -1,0 +1,85 @@
+"""The numbers the C sources and the Python side share (value references, format sizes and versions, model kinds,
+flags, doStep's rounding rule, the full SPH's flag bits) are the same on both sides: parsed from the C headers,
+compared with the Python constants and the modelDescription templates."""
+
+import re
+from pathlib import Path
+
+import harness.fmu.core as core
+import harness.fmu.describe as describe
+import harness.fmu.fmi as fmi
+import harness.fmu.reference as reference
+import harness.fmu.resources as resources
+import harness.fmu.sph_c as sph_c
+import harness.sph.kernels_numba as kernels
+import harness.sph.solver as solver
+
+ROOT = Path(__file__).parents[1]
+_DEFINE = re.compile(r'^#define\s+(\w+)\s+("[^"]*"|[-+0-9.eE]+u?)\s*(?:/\*.*)?$', re.M)
+
+
+def header_constants(name):
+    """{NAME: value} of the ``#define NAME literal`` lines of fmu_src/<name> (numbers and strings)."""
+    out = {}
+    for key, text in _DEFINE.findall((ROOT / "fmu_src" / name).read_text()):
+        if text.startswith('"'):
+            out[key] = text[1:-1]
+        else:
+            text = text.rstrip("u")
+            out[key] = float(text) if any(c in text for c in ".eE") else int(text)
+    return out
+
+
+def template_references(name):
+    """{variable name: value reference} of the fixed variables of modelDescription/<name>."""
+    text = (ROOT / "modelDescription" / name).read_text()
+    return {m[0]: int(m[1]) for m in re.findall(r'name="(\w+)" valueReference="(\d+)"', text)}
+
+
+def test_constants_shared_by_c_and_python():
+    rom, sph = header_constants("rom.h"), header_constants("sph.h")
+    xml2, xml3 = template_references("fmi2.xml"), template_references("fmi3.xml")
+    shared = {
+        # resources/model.bin
+        "ROM_RESOURCE_MAGIC": resources.MAGIC.decode(),
+        "ROM_FORMAT_VERSION": resources.FORMAT_VERSION,
+        "ROM_HEADER_SIZE": resources.HEADER_SIZE,
+        "ROM_TOKEN_SIZE": resources.TOKEN_SIZE,
+        "ROM_MODEL_FROZEN": resources.MODEL_FROZEN,
+        "ROM_MODEL_EXACT_LINEAR": resources.MODEL_EXACT_LINEAR,
+        "ROM_INTEGRATOR_EULER": resources.INTEGRATORS["euler"],
+        "ROM_INTEGRATOR_SYMPLECTIC": resources.INTEGRATORS["symplectic"],
+        "ROM_FLAG_DAMPING": resources.FLAG_DAMPING,
+        "ROM_FLAG_INPUT": resources.FLAG_INPUT,
+        "ROM_FLAG_SCHUR": resources.FLAG_SCHUR,
+        "ROM_MAX_MODES": resources.MAX_MODES,
+        "ROM_MAX_PROBES": resources.MAX_PROBES,
+        # the serialized FMU state and the core's messages
+        "ROM_STATE_HEADER_SIZE": fmi.STATE_HEADER_SIZE,
+        "ROM_MESSAGE_SIZE": core.MESSAGE_SIZE,
+        # doStep: h/dt within this of a whole number is that many steps; remainders below this x dt are dropped
+        "ROM_STEP_ROUNDING": reference.STEP_ROUNDING,
+        "ROM_SHORT_STEP_MIN": reference.SHORT_STEP_MIN,
+        # value references (harness and both modelDescription templates)
+        "ROM_VR_TIME": fmi.VR_TIME,
+        "ROM_VR_F": fmi.VR_F,
+        "ROM_VR_N_FREEZE": fmi.VR_N_FREEZE,
+        "ROM_VR_DT": fmi.VR_DT,
+        "ROM_VR_V_PROBE": describe.VR_V_PROBE,
+        "ROM_VR_RHO_PROBE": describe.VR_RHO_PROBE,
+    }
+    assert {name: rom.get(name) for name in shared} == shared
+    for name, key in (("f", "ROM_VR_F"), ("n_freeze", "ROM_VR_N_FREEZE"), ("dt", "ROM_VR_DT")):
+        assert xml2[name] == xml3[name] == rom[key], name
+    assert xml3["time"] == rom["ROM_VR_TIME"] and "time" not in xml2
+    # the header sizes are what the layouts add up to (rom.h): 8 magic + 10 uint32 + 3 float64; 8 magic + 6 uint32
+    # + token + uint64 + 2 uint32 + 3 float64
+    assert rom["ROM_HEADER_SIZE"] == 8 + 10 * 4 + 3 * 8
+    assert rom["ROM_STATE_HEADER_SIZE"] == 8 + 6 * 4 + rom["ROM_TOKEN_SIZE"] + 8 + 2 * 4 + 3 * 8
+    # the C full SPH's flag bits and methods (fmu_src/sph.h) are the numba kernels'
+    sph_shared = {"SPH_DAMPING": kernels.DAMPING, "SPH_FORCE": kernels.FORCE, "SPH_UNIFORM_C": kernels.UNIFORM_C,
+                  "SPH_UNIFORM_RHO0": kernels.UNIFORM_RHO0, "SPH_UNIFORM_D": kernels.UNIFORM_D,
+                  "SPH_UNIFORM_PROFILE": kernels.UNIFORM_PROFILE,
+                  "SPH_METHOD_EULER": sph_c.METHODS["euler"], "SPH_METHOD_SYMPLECTIC": sph_c.METHODS["symplectic"]}
+    assert {name: sph.get(name) for name in sph_shared} == sph_shared
+    assert sph_c.METHODS == {name: solver.METHODS[name] for name in sph_c.METHODS}
