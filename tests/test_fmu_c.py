@@ -255,8 +255,9 @@ def test_core_benchmark_rows_do_not_depend_on_n(binaries):
     assert [r["n"] for r in rows] == [48, 96]
     for r in rows:
         assert r["k_rho"] == 8 and r["ns_per_step"] > 0
-    # same k, same work: the times agree within a generous factor (timing noise on a shared machine)
-    assert max(r["ns_per_step"] for r in rows) < 3 * min(r["ns_per_step"] for r in rows)
+    # same k, same work: the fastest repeats agree within a generous factor (the medians carry the preemption
+    # noise of a shared 2-core machine; the minimum is the cost of the work itself)
+    assert max(r["ns_min"] for r in rows) < 3 * min(r["ns_min"] for r in rows)
 
 
 def test_density_at_a_probe_must_stay_positive(packaged, binaries):

@@ -218,7 +218,7 @@ def fmu_section(fmu):
     same = fmu["same"]
     return ["## The FMU", "", *fmu_tables(fmu["core"], fmu["e2e"], heading="###").splitlines(), "",
             f"### Same language: the C frozen step against the C full-SPH step (N = {same['n']})", "",
-            f"`fmu_src/rom.c` at k = {same['k']} (k_v = {same['k_v']}, k_ρ = {same['k_rho']}), n_freeze = "
+            f"`fmu_src/rom_frozen.c` at k = {same['k']} (k_v = {same['k_v']}, k_ρ = {same['k_rho']}), n_freeze = "
             f"{same['n_freeze']}: {same['frozen_ns']:.0f} ns per step; `fmu_src/sph.c` (eqs. 2.10-2.11, explicit "
             f"Euler): {same['sph_ns']:.0f} ns per step; ratio **{same['ratio']:.1f}×** (target ≥ 10×). Medians of "
             f"{fmu['repeats']}.", ""]
