@@ -7,7 +7,7 @@ step costs O(k²).  The refresh uses the exact tensor of
 straightforward O(N k²) product.
 
 The step is written with plain loops in a fixed order, which the C model core
-(fmu_src/rom.c) repeats operation for operation:
+(fmu_src/rom_frozen.c) repeats operation for operation:
 
     refresh (step % n_freeze == 0):
         M[p][q] = 0;  for each pair (a <= b): s = ar[a]*ar[b]; M[p][q] += s*T[pair][p][q]
