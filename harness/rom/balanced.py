@@ -387,6 +387,7 @@ def hinf_norm(A, b, c, margin, response=None, tol=1e-4, max_iter=60, omega_scale
     bb, cc = np.outer(b, b), np.outer(c, c)
     colA = np.sum(np.abs(A), axis=0)
     level = max((1.0 + 2.0 * tol) * lower, 1e-300)
+    stuck = 0
     for _ in range(max_iter):
         scale = max(float(np.max(colA + np.abs(c) * np.sum(np.abs(c)) / level)),
                     float(np.max(np.sum(np.abs(A), axis=1) + np.abs(b) * np.sum(np.abs(b)) / level)))
@@ -406,8 +407,10 @@ def hinf_norm(A, b, c, margin, response=None, tol=1e-4, max_iter=60, omega_scale
         if gm[j] > lower:
             lower, peak = float(gm[j]), float(mids[j])
         # next level: above the best |G| found; when the eigenvalues flagged imaginary gave no |G| above
-        # the level (a tangency at round-off level), step the level itself up
-        level = max((1.0 + 2.0 * tol) * lower, level * (1.0 + 2.0 * tol) if gm[j] <= level else 0.0)
+        # the level (a tangency at round-off level, or round-off near the floor), step the level itself
+        # up, by growing factors 1 + 2 tol 4^k on the k-th such step in a row
+        stuck = stuck + 1 if gm[j] <= level else 0
+        level = max((1.0 + 2.0 * tol) * lower, level * (1.0 + 2.0 * tol * 4.0 ** (stuck - 1)) if stuck else 0.0)
     raise RuntimeError("hinf_norm: no certified upper bound after max_iter steps")
 
 
