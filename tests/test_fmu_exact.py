@@ -174,3 +174,57 @@ def test_exact_fmu_bad_input_and_runaway_are_errors(exact_fmus, fmi):
         with pytest.raises(FMICallException):
             s.do_step(0.0, 0.01)
         assert any(("ran away" in e or "non-finite" in e) and "t = " in e for e in s.errors()), s.errors()
+
+
+# ---------------------------------------------------------------------------
+# the exact FMU keeps its input direction: a force it was never trained on
+# ---------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def unforced_exact_fmu(tmp_path_factory):
+    """tenmode shrunk (d = f = 0: a free vibration, trained without any force), exact model, FMI 2."""
+    from conftest import small_scene
+    scene = small_scene("tenmode", T=1.0, n=64)
+    path = tmp_path_factory.mktemp("unseen") / "tenmode-exact.fmu"
+    package_fmu(scene, path, k=K, fmi=2, probes=PROBES, progress=False, binaries=ensure_binaries(), model="exact")
+    return scene, path, unpack(zipfile.ZipFile(path).read("resources/model.bin"))
+
+
+def _forced_response(path, steps, inputs):
+    """Forced minus free run at the communication points (the model is linear): (v, rho) at the probes."""
+    runs = []
+    for f in (inputs, np.zeros_like(inputs)):
+        with Slave(path) as s:
+            s.initialize()
+            runs.append(s.run(steps, f))
+    d = runs[0] - runs[1]
+    n = len(PROBES)
+    return d[:, :n], d[:, n:]
+
+
+def test_exact_fmu_reproduces_a_force_it_was_never_trained_on(unforced_exact_fmu):
+    """A uniform force on uniform rho0 and c moves the bar rigidly: the full SPH's forced response is
+    v(t) = the integral of the (held) input at every particle and no density change, because the SPH
+    gradient of a constant vanishes (G 1 = 0).  The exact FMU, whose velocity basis always contains the
+    force profile, gives that response to round-off although its POD modes come from a free vibration."""
+    from harness.sph.solver import build_problem
+    scene, path, data = unforced_exact_fmu
+    G = build_problem(scene).neighbours.matrix()
+    assert np.abs(G @ np.ones(G.shape[1])).max() < 1e-12 * np.abs(G).max()    # the full SPH's rigid response
+    assert data.k_v == K + 1 and data.B is not None       # the profile's residual is a velocity mode
+    h, n = 0.01, 150                                      # 1.5 s: beyond the training horizon
+    t = np.arange(n) * h
+    f = 2e-3 * np.sin(2 * np.pi * 3.7 * t) + 1e-3         # unseen frequency and a mean: a drift
+    v, rho = _forced_response(path, [h] * n, f)
+    expected = np.concatenate([[0.0], np.cumsum(f * h)])   # the integral of the held input
+    assert np.abs(v - expected[:, None]).max() <= 1e-6 * np.abs(expected).max()
+    assert np.abs(rho).max() <= 1e-9
+
+
+def test_exact_fmu_ramps_under_a_constant_force_for_1000_s(unforced_exact_fmu):
+    _, path, _ = unforced_exact_fmu
+    h, n, f0 = 0.25, 4000, 1e-3
+    v, rho = _forced_response(path, [h] * n, np.full(n, f0))
+    ramp = f0 * h * np.arange(n + 1)
+    assert np.abs(v - ramp[:, None]).max() <= 1e-6 * ramp[-1]
+    assert np.abs(rho).max() <= 1e-9

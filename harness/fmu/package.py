@@ -219,7 +219,7 @@ def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem
 
     spec = get_model(model)
     basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem)
-    ops = spec.build(problem, basis, k, k, input_direction="needed", tensor="always")
+    ops = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction, tensor="always")
     data = model_data(ops, problem, dt=scene.sph.dt, integrator=integrator, n_freeze=n_freeze, probes=probes,
                       bound=runaway_bound(ops))
     return data, ops, problem, basis
@@ -228,14 +228,15 @@ def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem
 def exact_model(scene, k, n_freeze, probes, progress=True, problem=None, model="exact"):
     """The FMU's numbers for a model of resource kind 2 (linear): (ExactData, lin, problem, basis).
 
-    The model's bases (the exact model: the energy-weighted ``Basis.U_ve``, ``U_e``), the operators with
-    ``input_direction="needed"`` (the FMU always has the input f).
+    The model's bases (the exact model: the energy-weighted ``Basis.U_ve``, ``U_e``), the operators with the
+    model's ``fmu_input_direction`` (the exact model: ``"always"``, the force profile is always in its
+    velocity basis, so the input f is represented exactly).
     """
     from ..rom.registry import get_model
 
     spec = get_model(model)
     basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem)
-    lin = spec.build(problem, basis, k, k, input_direction="needed")
+    lin = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction)
     data = exact_data(lin, problem, dt=scene.sph.dt, n_freeze=n_freeze, probes=probes)
     return data, lin, problem, basis
 

@@ -70,6 +70,13 @@ class ReducedModel:
         None when it cannot be packaged as an FMU.
     build, run, truncate : callable
         Module docstring.
+    fmu_input_direction : str
+        How the force profile enters the model's FMU (``input_direction`` of
+        ``build``): ``"needed"`` appends its residual to the velocity modes
+        only when they miss more than 1 % of it (the frozen model: a small
+        appended residual is a rough mode its Galerkin coupling excites),
+        ``"always"`` appends it whenever it is not in their span to round-off
+        (a linear model: the input is then represented exactly).
     """
 
     name: str
@@ -83,6 +90,7 @@ class ReducedModel:
     build: Callable
     run: Callable
     truncate: Callable
+    fmu_input_direction: str = "needed"
 
     @property
     def second_symbol(self):
