@@ -274,10 +274,6 @@ def test_basis_io_is_one_module_and_names_the_file(tmp_path, capsys):
 # code structure
 # ---------------------------------------------------------------------------
 
-# The benchmark code is being moved by another change; the lead converts its comparisons after merging and
-# then empties this list.
-PENDING = ["harness/bench/*.py", "harness/fmu/bench.py", "harness/fmu/stress.py", "harness/commands/bench*.py",
-           "harness/commands/stress.py"]
 REGISTRY = ["harness/rom/registry.py"]
 # "exact" is also a continuum reference solver (sphrom reference --solver exact): not a model name there.
 REFERENCE_SOLVER_FILES = ["harness/commands/reference.py", "harness/report/accuracy.py",
@@ -311,16 +307,14 @@ def _model_name_comparisons(path, names):
 
 def test_no_model_name_comparisons_outside_the_registry():
     names = set(MODEL_NAMES)
-    pending = {p for pattern in PENDING for p in ROOT.glob(pattern)}
     registry = {ROOT / p for p in REGISTRY}
     solver_files = {p for pattern in REFERENCE_SOLVER_FILES for p in ROOT.glob(pattern)}
-    offenders, left = [], []
+    offenders = []
     for path in sorted((ROOT / "harness").rglob("*.py")):
         if path in registry:
             continue
         hits = _model_name_comparisons(path, names - ({"exact"} if path in solver_files else set()))
-        (left if path in pending else offenders).extend(f"{path.relative_to(ROOT)}:{line}: {text}"
-                                                        for line, text in hits)
+        offenders.extend(f"{path.relative_to(ROOT)}:{line}: {text}" for line, text in hits)
     assert not offenders, "model names compared outside the registry (ask get_model(name) instead):\n" + \
         "\n".join(offenders)
 

@@ -43,6 +43,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..rom.registry import fmu_model_names, get_model
+
 BENCH_K = 12
 BENCH_FREEZE = 10
 
@@ -164,14 +166,16 @@ def probe_error(result, t, v_sph, scene):
 
 
 def end_to_end(scene_name="tenmode", steps=(0.01, 0.001), repeats=5, k=None, progress=False, bar=None, workdir=None,
-               models=("frozen", "exact")):
+               models=None):
     """End-to-end FMU time (fmpy.simulate_fmu) beside the full SPH of the same scene.
 
-    For each model (the frozen FMU, the product's default, and the exact linear one) and each
-    communication step: the median wall time of ``fmpy.simulate_fmu`` over the scene's horizon,
-    the ratio to the full SPH (numba, :func:`harness.sph.solver.run_sph`) timed in the same run,
-    and, at the first step, the probe-velocity error against the full SPH (:func:`probe_error`).
-    For the frozen model also where the time goes (fixed cost, core, per doStep).
+    For each model (default every model that can be packaged as an FMU: the frozen FMU, the product's
+    default, and the exact linear one) and each communication step: the median wall time of
+    ``fmpy.simulate_fmu`` over the scene's horizon, the ratio to the full SPH (numba,
+    :func:`harness.sph.solver.run_sph`) timed in the same run, and, at the first step, the
+    probe-velocity error against the full SPH (:func:`probe_error`).  For a time-stepped model (the
+    frozen one) also where the time goes (fixed cost, the core's internal steps, per doStep); a linear
+    model has no internal steps.
 
     Returns a dict with ``rows`` (one per model and communication step), ``sph`` (full SPH medians,
     its probe error against the exact solution) and ``scene`` facts.
@@ -183,29 +187,30 @@ def end_to_end(scene_name="tenmode", steps=(0.01, 0.001), repeats=5, k=None, pro
     from ..sph.solver import build_problem, run_sph, step_count
     from ..fmu.build import ensure_binaries
     from ..fmu.core import Core
-    from ..fmu.package import package_fmu, reduced_model
-    from ..fmu.resources import pack
+    from ..fmu.package import RESOURCES, package_fmu
 
     scene = load_scene(scene_name)
     problem = build_problem(scene)
     n_internal = step_count(scene.T, scene.sph.dt)
     binaries = ensure_binaries()
     rows, summaries, sph_probes = [], {}, None
+    models = fmu_model_names() if models is None else models
     with tempfile.TemporaryDirectory(dir=workdir) as tmp:
         for model in models:
+            spec = get_model(model)
             path = Path(tmp) / f"{scene.name}-{model}.fmu"
             summary = package_fmu(scene, path, k=k, fmi=2, progress=progress, binaries=binaries, problem=problem,
                                   model=model)
             summaries[model] = summary
             fixed = _median([_simulate(path, min(steps), min(steps)) for _ in range(repeats)])
             core_time = bare_us = float("nan")
-            if model == "frozen":
+            if not spec.linear:
                 md = read_model_description(str(path))
                 unzipdir = extract(str(path), unzipdir=str(Path(tmp) / f"unzipped-{model}"))
-                # the core alone, same model, same internal steps
-                data, *_ = reduced_model(scene, summary.k, summary.n_freeze, summary.probes, summary.integrator,
-                                         progress=False, problem=problem)
-                core_model = Core(binaries.core).load(pack(data))
+                # the core alone, same model (the FMU's resources), same internal steps
+                *_, blob = RESOURCES[spec.fmu_kind](scene, model, summary.k, summary.n_freeze, summary.probes,
+                                                    summary.integrator, False, problem)
+                core_model = Core(binaries.core).load(blob)
                 core_times = []
                 for _ in range(repeats):
                     core_model.reset()
@@ -231,7 +236,7 @@ def end_to_end(scene_name="tenmode", steps=(0.01, 0.001), repeats=5, k=None, pro
                     err = probe_error(kept[0], sph_probes[0], sph_probes[1], scene)
                 rows.append({"model": model, "step_s": h, "doSteps": n_comm, "internal_steps": n_internal,
                              "fmu_e2e_s": e2e_m, "fmu_e2e_min_s": min(e2e), "fixed_s": fixed, "core_s": core_time,
-                             "us_per_doStep_fmpy": (e2e_m - fixed - (0.0 if model == "exact" else core_time))
+                             "us_per_doStep_fmpy": (e2e_m - fixed - (0.0 if spec.linear else core_time))
                              / n_comm * 1e6,
                              "us_per_doStep_bare_call": bare_us, "probe_error_v_vs_sph": err,
                              "k_v": summary.k_v, "k_rho": summary.k_rho})
@@ -252,7 +257,8 @@ def end_to_end(scene_name="tenmode", steps=(0.01, 0.001), repeats=5, k=None, pro
         row["sph_s"] = sph["call_s"]
         row["speedup"] = sph["call_s"] / row["fmu_e2e_s"]
         row["speedup_vs_loop"] = sph["loop_s"] / row["fmu_e2e_s"]
-    first = summaries.get("frozen") or next(iter(summaries.values()))
+    # the scene facts of the first time-stepped model (its n_freeze applies), else of the first model
+    first = next((s for m, s in summaries.items() if get_model(m).uses_n_freeze), next(iter(summaries.values())))
     return {"rows": rows, "sph": sph, "scene": scene.name, "n": scene.sph.n_particles, "T": scene.T,
             "dt": scene.sph.dt, "internal_steps": n_internal, "k_v": first.k_v, "k_rho": first.k_rho,
             "n_freeze": first.n_freeze, "fmpy": fmpy.__version__, "repeats": repeats,
@@ -402,15 +408,13 @@ def lean_run(unzipdir, md, T, h, repeats=5, f=None):
             "doSteps": n_comm, "us_per_doStep": loop / n_comm * 1e6, "step_s": h}
 
 
-def _fields(data_kind, ops, z, k_v):
-    """(v, ρ) at the particles from reduced states (frozen ops: U_v, U_rho; exact lin: fields)."""
+def _fields(ops, z, k_v):
+    """(v, ρ) at the particles from reduced states z (M, k): the operators' own reconstruction."""
     z = np.atleast_2d(z)
-    if data_kind == "exact":
-        return ops.fields(z)
-    return z[:, :k_v] @ ops.U_v.T, z[:, k_v:] @ ops.U_rho.T
+    return ops.velocity(z[:, :k_v]), ops.density(z[:, k_v:])
 
 
-def _fmu_states(unzipdir, md, summary, ops, steps, dt, force, model, n_freeze, h):
+def _fmu_states(unzipdir, md, summary, ops, steps, dt, force, n_freeze, h):
     """The FMU's fields at the error steps, from one untimed run on the timed configuration: communication
     points on the grid of h plus the error-step times, input held over each step at its start value."""
     t_samples = np.asarray(steps) * dt
@@ -433,15 +437,16 @@ def _fmu_states(unzipdir, md, summary, ops, steps, dt, force, model, n_freeze, h
                 zs.append(slave.reduced_state(summary.k_v, summary.k_rho))
     finally:
         slave.close()
-    return _fields(model, ops, np.array(zs), summary.k_v)
+    return _fields(ops, np.array(zs), summary.k_v)
 
 
 def bench_rows(context):
     """The FMU rows of ``sphrom bench`` (harness.bench.methods.bench_python's ``extra``).
 
-    For each k of the study: the frozen FMU through the lean fmpy loop at a 10 ms communication step
-    (n_freeze 10 and 1), the exact FMU the same way, the C core loop alone (rom_advance through ctypes, no
-    fmpy), and once the C full SPH (fmu_src/sph.c).  Errors against the full SPH (context v_sph/rho_sph at the
+    For each k of the study and each model that can be packaged as an FMU: the FMU through the lean fmpy
+    loop at a 10 ms communication step (n_freeze 10 and 1 for the frozen model, the one refreshed every
+    n_freeze steps), and for that model the C core loop alone (rom_advance through ctypes, no fmpy); once
+    the C full SPH (fmu_src/sph.c).  Errors against the full SPH (context v_sph/rho_sph at the
     context steps) and the reference; times are medians of context["repeats"].
     """
     from .methods import bench_row
@@ -449,7 +454,7 @@ def bench_rows(context):
     from ..sph.solver import force_values, step_count
     from ..fmu.core import Core
     from ..fmu.build import ensure_binaries
-    from ..fmu.package import exact_model, reduced_model
+    from ..fmu.package import RESOURCES
 
     scene, run, steps = context["scene"], context["run"], np.asarray(context["steps"])
     repeats = max(1, int(context.get("repeats", 3)))
@@ -472,43 +477,41 @@ def bench_rows(context):
         return e_s, e_r
 
     for k in context["ks"]:
-        for model, nfs in (("frozen", (10, 1)), ("exact", (10,))):
+        for model in fmu_model_names():
+            spec = get_model(model)
+            nfs = (10, 1) if spec.uses_n_freeze else (10,)
+            # the time-stepped FMU is "FMU (fmpy)", the product's default; the others are named
+            method = "FMU (fmpy)" if spec.uses_n_freeze else f"FMU {model} (fmpy)"
             try:
                 path, unzipdir, md, summary = prepared_fmu(scene, k, model, problem=problem)
             except Exception as exc:                    # e.g. no energy basis: say so, keep the others
                 rows.append(bench_row(scene, f"FMU {model} (fmpy)", k, None, float("nan"), 0.0, None, None,
                                  f"not built: {exc}"))
                 continue
-            if model == "exact":
-                _, ops, _, _ = exact_model(scene, k, 10, summary.probes, progress=False, problem=problem)
-            else:
-                _, ops, _, _ = reduced_model(scene, k, 10, summary.probes, summary.integrator, progress=False,
-                                             problem=problem)
+            # the FMU's numbers and operators (the resources of its model_kind), as packaged, at n_freeze 10
+            _, ops, blob = RESOURCES[spec.fmu_kind](scene, model, k, 10, summary.probes, summary.integrator,
+                                                       False, problem)
             for nf in nfs:
                 slave = LeanSlave(unzipdir, md)
                 times = []
                 try:
                     for r in range(repeats + 1):
-                        slave.start(n_freeze=nf if model == "frozen" else None)
+                        slave.start(n_freeze=nf if spec.uses_n_freeze else None)
                         t0 = time.perf_counter()
                         slave.loop(h, n_comm, f_comm)
                         if r:
                             times.append(time.perf_counter() - t0)
                 finally:
                     slave.close()
-                v, rho = _fmu_states(unzipdir, md, summary, ops, steps, dt, force, model, nf, h)
+                v, rho = _fmu_states(unzipdir, md, summary, ops, steps, dt, force, nf, h)
                 e_s, e_r = errors(v, rho)
-                method = "FMU (fmpy)" if model == "frozen" else "FMU exact (fmpy)"
-                rows.append(bench_row(scene, method, k, nf if model == "frozen" else None, _median(times),
+                rows.append(bench_row(scene, method, k, nf if spec.uses_n_freeze else None, _median(times),
                                  summary.timings.get("model", 0.0), e_s, e_r,
                                  f"lean fmpy loop, {h * 1e3:g} ms comm. step ({n_comm} doSteps, input + doStep + "
                                  f"all outputs), instantiate {slave.instantiate_s * 1e3:.1f} ms not included; "
                                  f"errors from the FMU's serialized state (input held over each step)"))
-            if model == "frozen":
-                from ..fmu.resources import pack
-                data, *_ = reduced_model(scene, k, 10, summary.probes, summary.integrator, progress=False,
-                                         problem=problem)
-                cm = core.load(pack(data))
+            if spec.uses_n_freeze:                      # the C core's internal steps, refreshed every 10
+                cm = core.load(blob)
                 try:
                     cm.set_n_freeze(10)
                     times = []
@@ -585,7 +588,7 @@ def fmu_measurements(scene_name="tenmode", repeats=5, sizes=(100, 400, 1600), st
     (:func:`sph_step_rows`), ``repeats``.
     """
     from ..progress import progress_bar
-    with progress_bar(total=len(sizes) + len(steps) * len(("frozen", "exact")) + repeats + 1, desc="FMU",
+    with progress_bar(total=len(sizes) + len(steps) * len(fmu_model_names()) + repeats + 1, desc="FMU",
                       enabled=progress) as bar:
         e2e = end_to_end(scene_name, steps=steps, repeats=repeats, bar=bar)
         core = core_rows(scene_name, list(sizes), repeats=repeats, bar=bar)

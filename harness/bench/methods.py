@@ -16,9 +16,8 @@ import numpy as np
 
 from ..compare import error_table, reference_fields
 from ..pod.pipeline import basis_for_scene, error_steps, on_steps
-from ..rom.common import run_reduced
-from ..rom.exact_linear import build_linear_operators, run_exact
-from ..rom.operators import build_operators
+from ..rom.model import BASIS_KINDS
+from ..rom.registry import MODEL_NAMES, get_model, model_names
 from ..sph.solver import run_sph, step_count
 from .timing import median_time
 
@@ -36,8 +35,7 @@ def bench_row(scene, method, k, n_freeze, online, offline, err_sph, err_ref, not
             "err_rho_ref": np.nan if err_ref is None else err_ref["rho_var"], "note": note}
 
 
-def bench_python(scene, ks=None, n_freezes=N_FREEZE, repeats=5, models=("original", "linearized", "frozen", "exact"),
-                 progress=None, extra=None):
+def bench_python(scene, ks=None, n_freezes=N_FREEZE, repeats=5, models=MODEL_NAMES, progress=None, extra=None):
     """Time and error of the full SPH and the Python reduced models on ``scene``.
 
     Parameters
@@ -45,7 +43,10 @@ def bench_python(scene, ks=None, n_freezes=N_FREEZE, repeats=5, models=("origina
     ks : list of int, optional
         Mode counts (default the scene's acceleration study k, e.g. [12]).
     n_freezes : tuple of int
-        Refresh periods of the frozen model.
+        Refresh periods of the models refreshed every n_freeze steps (the frozen model).
+    models : tuple of str
+        Registered reduced models (default all), each run on the basis kind it needs; one whose modes the
+        basis lacks is left out.
     repeats : int
         Median of this many timed runs per point.
     extra : callable, optional
@@ -79,39 +80,34 @@ def bench_python(scene, ks=None, n_freezes=N_FREEZE, repeats=5, models=("origina
                      f"N = {problem.n}, {scene.sph.integrator}"))
     tick()
     offline_pod = basis.timings.get("svd", 0.0) + run.wall_time
+    available = [m for m in models if all(getattr(basis, name, None) is not None
+                                          for name in BASIS_KINDS[get_model(m).basis_kind][:2])]
     for k in ks:
-        ops = build_operators(problem, basis.U_v[:, :k], basis.U_rho[:, :k])
-        offline = offline_pod + ops.timings["operators"] + ops.timings["tensor"]
-        plan = [(m, None) for m in models if m in ("original", "linearized")]
-        if "frozen" in models:
-            plan += [("frozen", nf) for nf in n_freezes]
-        for model, nf in plan:
-            kwargs = dict(n_steps=n, dt=scene.sph.dt, integrator=scene.sph.integrator, sample_steps=steps,
-                          n_freeze=nf or 1)
-            result = {}
+        built = {}                                  # one set of operators per basis kind, shared by its models
+        for model in available:
+            spec = get_model(model)
+            if spec.basis_kind not in built:
+                built[spec.basis_kind] = spec.build(problem, basis, k, k)
+            ops = built[spec.basis_kind]
+            # the offline time: the snapshots' SPH run and SVD, the energy-weighted SVD for energy modes, and
+            # the operators (with the refresh tensor where built)
+            offline = (offline_pod + (basis.timings.get("svd_energy", 0.0) if spec.basis_kind == "energy" else 0.0)
+                       + sum(ops.timings.values()))
+            for nf in (n_freezes if spec.uses_n_freeze else (None,)):
+                # a linear model is advanced exactly in time (no integrator), by the smallest sample spacing
+                kwargs = dict(n_steps=n, dt=scene.sph.dt, integrator=None if spec.linear else scene.sph.integrator,
+                              sample_steps=steps, n_freeze=nf or 1)
+                result = {}
 
-            def go():
-                result["r"] = run_reduced(model, ops, problem, **kwargs)
-            online, _ = median_time(go, repeats=repeats)
-            r = result["r"]
-            err_sph = error_table(r.v, r.rho, v_sph, rho_sph, t, problem.rho0)
-            err_r = None if ref is None else error_table(r.v, r.rho, ref[0], ref[1], t, problem.rho0)
-            rows.append(bench_row(scene, model, k, nf, online, offline, err_sph, err_r))
-            tick()
-        if "exact" in models and basis.U_ve is not None:
-            lin = build_linear_operators(problem, basis.U_ve[:, :k], basis.U_e[:, :k])
-            result = {}
-
-            def go_exact():
-                result["r"] = run_exact(lin, t, force=scene.force)
-            online, _ = median_time(go_exact, repeats=repeats)
-            r = result["r"]
-            err_sph = error_table(r.v, r.rho, v_sph, rho_sph, t, problem.rho0)
-            err_r = None if ref is None else error_table(r.v, r.rho, ref[0], ref[1], t, problem.rho0)
-            rows.append(bench_row(scene, "exact", k, None, online,
-                             offline_pod + basis.timings.get("svd_energy", 0.0) + lin.timings["operators"],
-                             err_sph, err_r, f"H = {r.settings['step']:g} s"))
-            tick()
+                def go():
+                    result["r"] = spec.run(ops, problem, **kwargs)
+                online, _ = median_time(go, repeats=repeats)
+                r = result["r"]
+                err_sph = error_table(r.v, r.rho, v_sph, rho_sph, t, problem.rho0)
+                err_r = None if ref is None else error_table(r.v, r.rho, ref[0], ref[1], t, problem.rho0)
+                rows.append(bench_row(scene, model, k, nf, online, offline, err_sph, err_r,
+                                      f"H = {r.settings['step']:g} s" if spec.linear else ""))
+                tick()
     if extra is not None:
         rows += extra({"scene": scene, "basis": basis, "run": run, "steps": steps, "sph_time": sph_time,
                        "v_sph": v_sph, "rho_sph": rho_sph, "reference": ref, "ks": ks, "repeats": repeats})
@@ -123,7 +119,8 @@ def bench_python(scene, ks=None, n_freezes=N_FREEZE, repeats=5, models=("origina
 def savings_by_k(rows, scene, n_freeze=10):
     """{k: CPU saving 1 - t_frozen / t_SPH} of the frozen model at ``n_freeze``, per k of the study."""
     sph = [r for r in rows if r["method"] == "full SPH"][0]["online_s"]
-    return {r["k"]: 1.0 - r["online_s"] / sph for r in rows if r["method"] == "frozen" and r["n_freeze"] == n_freeze}
+    frozen = model_names(uses_n_freeze=True)
+    return {r["k"]: 1.0 - r["online_s"] / sph for r in rows if r["method"] in frozen and r["n_freeze"] == n_freeze}
 
 
 def paper_saving(rows, scene):
@@ -140,8 +137,9 @@ def plot_time_error(rows, path, title):
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.8))
-    markers = {"full SPH": "*", "C full SPH": "p", "original": "P", "linearized": "X", "frozen": "o",
-               "exact": "D", "FMU (fmpy)": "s", "FMU exact (fmpy)": "h", "FMU core (C)": "^"}
+    markers = {"full SPH": "*", "C full SPH": "p", **dict(zip(MODEL_NAMES, "PXoDv<>8")), "FMU (fmpy)": "s",
+               "FMU exact (fmpy)": "h", "FMU core (C)": "^"}
+    dashed = model_names(uses_n_freeze=True)         # one line per k through the n_freeze points
     full = ("full SPH", "C full SPH")           # plotted with their error against the reference
     for ax, key, ref_key, label in ((axes[0], "err_v_sph", "err_v_ref", "v"),
                                     (axes[1], "err_rho_sph", "err_rho_ref", "ρ − ρ0")):
@@ -155,7 +153,7 @@ def plot_time_error(rows, path, title):
                 if not pts:
                     continue
                 lab = method if method in full else f"{method}, k = {k}"
-                ax.loglog(*zip(*pts), marker + ("--" if method == "frozen" else ""), ms=7, label=lab)
+                ax.loglog(*zip(*pts), marker + ("--" if method in dashed else ""), ms=7, label=lab)
         ax.set_xlabel("online CPU time [s] (median)")
         ax.set_ylabel(f"relative L² error of {label}")
         ax.set_title(f"{title}: {label}", fontsize=10)

@@ -12,9 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..pod.pipeline import basis_for_scene
-from ..rom.common import run_reduced
-from ..rom.exact_linear import build_linear_operators, run_exact
-from ..rom.operators import build_operators
+from ..rom.registry import MODEL_NAMES, get_model
 from ..scene import derive_scene, load_scene
 from ..sph.solver import run_sph
 from .timing import median_time
@@ -45,16 +43,18 @@ def per_step_costs(name="tenmode", sizes=(100, 400, 1600, 6400, 10000), ks=(12,)
         rows.append({"method": "full SPH", "n": n, "k": 0, "us_per_step": 1e6 * t_sph / steps})
         for k in ks:
             k = min(k, *basis.max_modes)
-            ops = build_operators(problem, basis.U_v[:, :k], basis.U_rho[:, :k])
-            for model in ("original", "linearized", "frozen"):
-                t, _ = median_time(lambda: run_reduced(model, ops, problem, n_steps=steps, dt=dt, sample_steps=[steps],
-                                                       n_freeze=n_freeze), repeats=repeats)
-                rows.append({"method": model if model != "frozen" else f"frozen (n_freeze = {n_freeze})",
-                             "n": n, "k": k, "us_per_step": 1e6 * t / steps})
-            lin = build_linear_operators(problem, basis.U_ve[:, :k], basis.U_e[:, :k])
-            ts = np.arange(steps + 1) * dt
-            t, _ = median_time(lambda: run_exact(lin, ts[-1:], step=dt), repeats=repeats)
-            rows.append({"method": "exact (per step H = dt)", "n": n, "k": k, "us_per_step": 1e6 * t / steps})
+            built = {}                              # one set of operators per basis kind, shared by its models
+            for model in MODEL_NAMES:
+                spec = get_model(model)
+                if spec.basis_kind not in built:
+                    built[spec.basis_kind] = spec.build(problem, basis, k, k)
+                ops = built[spec.basis_kind]
+                # a linear model advances by its communication step H = dt, sampled once at the end
+                t, _ = median_time(lambda: spec.run(ops, problem, n_steps=steps, dt=dt, sample_steps=[steps],
+                                                    n_freeze=n_freeze, step=dt), repeats=repeats)
+                label = (f"{model} (per step H = dt)" if spec.linear else
+                         f"{model} (n_freeze = {n_freeze})" if spec.uses_n_freeze else model)
+                rows.append({"method": label, "n": n, "k": k, "us_per_step": 1e6 * t / steps})
             if progress is not None:
                 progress.update(1)
     return rows

@@ -33,15 +33,13 @@ import numpy as np
 
 from ..errors import SimulationError
 from ..pod.pipeline import basis_for_scene
-from ..rom.common import run_reduced
-from ..rom.exact_linear import build_linear_operators, run_exact
-from ..rom.operators import build_operators
+from ..rom.registry import MODEL_NAMES, MODELS, get_model, model_names
 from ..scene import derive_scene
 from ..sph.diagnostics import energy
 from ..sph.solver import build_problem, run_sph, stability, step_count
 
-from .stress_maps import AMPLITUDES, DT_FACTORS, HORIZONS, MODE_COUNTS     # the grid (light, for the CLI)
-METHODS = ("sph-euler", "sph-symplectic", "sph-rk4", "original", "linearized", "frozen", "exact")
+from .stress_settings import AMPLITUDES, DT_FACTORS, HORIZONS, MODE_COUNTS
+METHODS = ("sph-euler", "sph-symplectic", "sph-rk4") + MODEL_NAMES      # the full SPH, then every reduced model
 
 
 def classify_energy(e):
@@ -52,16 +50,27 @@ def classify_energy(e):
     return ("stable" if growth <= 1.1 else "growing"), growth, drift
 
 
+def model_operators(problem, basis, k, models=MODEL_NAMES, **options):
+    """{model: operators} of ``models`` at k modes, built once per basis kind and shared by the models on it
+    (``input_direction="needed"``, the FMU's rule, unless ``options`` say otherwise)."""
+    by_kind, out = {}, {}
+    for name in models:
+        spec = get_model(name)
+        if spec.basis_kind not in by_kind:
+            by_kind[spec.basis_kind] = spec.build(problem, basis, k, k, **{"input_direction": "needed", **options})
+        out[name] = by_kind[spec.basis_kind]
+    return out
+
+
 @dataclasses.dataclass
 class Context:
-    """What every run of a scene shares: the x1 basis and operators."""
+    """What every run of a scene shares: the x1 basis and the operators of every model (``operators``)."""
 
     scene: object
     problem: object
     basis: object
     k: int
-    ops: object
-    lin: object
+    operators: dict
     dt_limit: float
 
 
@@ -69,14 +78,18 @@ def context(scene, k=None):
     problem = build_problem(scene)
     basis, _ = basis_for_scene(scene, progress=False, problem=problem)
     k = min(k or max(scene.rom.get("accel_modes", [scene.rom["modes"]])), *basis.max_modes)
-    ops = build_operators(problem, basis.U_v[:, :k], basis.U_rho[:, :k], input_direction="needed")
-    lin = build_linear_operators(problem, basis.U_ve[:, :k], basis.U_e[:, :k], input_direction="needed")
     lim = stability(problem, scene.sph.dt, "euler", scene.T)["dt_limit"]
-    return Context(scene, problem, basis, k, ops, lin, lim)
+    return Context(scene, problem, basis, k, model_operators(problem, basis, k), lim)
 
 
-def run_one(ctx: Context, method, dt, amplitude=1.0, T=None, force=None, n_samples=200, ops=None, lin=None):
-    """One stress run; returns a dict: outcome, blowup_time, energy_growth, energy_drift, energy_end."""
+def run_one(ctx: Context, method, dt, amplitude=1.0, T=None, force=None, n_samples=200, operators=None):
+    """One stress run; returns a dict: outcome, blowup_time, energy_growth, energy_drift, energy_end.
+
+    ``method``: ``sph-INTEGRATOR`` (the full SPH of the amplified scene) or a registered model, run from its
+    operators in ``operators`` (default the context's) with the velocity coordinates scaled by ``amplitude``
+    and the second block at its start value (the density starts at ρ0); n_freeze = 10 where it applies, and a
+    linear model advances with communication step dt, input held over each step (as the FMU does).
+    """
     scene = ctx.scene
     T = T or scene.T
     problem = ctx.problem
@@ -84,8 +97,6 @@ def run_one(ctx: Context, method, dt, amplitude=1.0, T=None, force=None, n_sampl
     steps = np.unique(np.linspace(0, n, min(n, n_samples) + 1).astype(np.int64))
     custom_force = force is not None
     force = force or scene.force
-    ops = ops or ctx.ops
-    lin = lin or ctx.lin
     try:
         if method.startswith("sph-"):
             amp_scene = derive_scene(scene, {"domain": {"T": n * dt},
@@ -97,16 +108,12 @@ def run_one(ctx: Context, method, dt, amplitude=1.0, T=None, force=None, n_sampl
             res = run_sph(amp_scene, sample_steps=steps, progress=False)
             t, rho = res.t, res.rho
             e = energy(res.problem, res.v, res.rho)
-        elif method == "exact":
-            state = dataclasses.replace(lin, z0=lin.z0 * amplitude)
-            res = run_exact(state, steps * dt, step=dt, force=force, hold="held")
-            t, rho = res.t, res.rho
-            e = energy(problem, res.v, rho)
         else:
-            a_v0 = ops.a_v0 * amplitude
-            a_r0 = ops.a_rho0.copy()                               # the density starts at ρ0
-            res = run_reduced(method, ops, problem, n_steps=n, dt=dt, sample_steps=steps, n_freeze=10,
-                              force=force, state=(a_v0, a_r0))
+            spec = get_model(method)
+            ops = (operators or ctx.operators)[method]
+            state = (ops.a_v0 * amplitude, ops.a_rho0.copy())        # the density starts at ρ0
+            res = spec.run(ops, problem, n_steps=n, dt=dt, sample_steps=steps, n_freeze=10, force=force,
+                           state=state, step=dt, hold="held")
             t, rho = res.t, res.rho
             e = energy(problem, res.v, rho)
     except SimulationError as exc:
@@ -154,19 +161,19 @@ def horizon_rows(ctx: Context, methods=METHODS, horizons=HORIZONS, progress=None
     return rows
 
 
-def modes_rows(ctx: Context, ks=MODE_COUNTS, methods=("original", "linearized", "frozen", "exact")):
-    """Stability at the paper's Δt with k up to the number of snapshots."""
+def modes_rows(ctx: Context, ks=MODE_COUNTS, methods=MODEL_NAMES):
+    """Stability at the paper's Δt with k up to the number of snapshots.
+
+    A model refreshed every n_freeze steps is skipped at a k without its refresh tensor (too large to build).
+    """
     rows = []
     rank = min(ctx.basis.max_modes)
     for k in sorted({min(k, rank) for k in ks}):
-        ops = build_operators(ctx.problem, ctx.basis.U_v[:, :k], ctx.basis.U_rho[:, :k], input_direction="needed",
-                              tensor="auto")
-        lin = build_linear_operators(ctx.problem, ctx.basis.U_ve[:, :k], ctx.basis.U_e[:, :k],
-                                     input_direction="needed")
+        operators = model_operators(ctx.problem, ctx.basis, k, methods, tensor="auto")
         for method in methods:
-            if method == "frozen" and ops.T is None:
+            if get_model(method).uses_n_freeze and operators[method].T is None:
                 continue
-            r = run_one(ctx, method, ctx.scene.sph.dt, 1.0, ops=ops, lin=lin)
+            r = run_one(ctx, method, ctx.scene.sph.dt, 1.0, operators=operators)
             rows.append({"scene": ctx.scene.name, "method": method, "k": k, **r})
     return rows
 
@@ -181,12 +188,12 @@ def random_force(amplitude, seed=0, hold=0.05, T=10.0):
     return f
 
 
-def force_rows(ctx: Context, amplitudes=(1e-2, 1.0, 100.0), methods=("exact", "original", "linearized", "frozen"),
-               extra=None):
+def force_rows(ctx: Context, amplitudes=(1e-2, 1.0, 100.0),
+               methods=model_names(linear=True) + model_names(linear=False), extra=None):
     """Reduced models under large random forces (the FMU's use: an arbitrary input).
 
     ``energy_vs_exact`` is the final energy over that of the exact-in-time
-    reduced model (``exact``, which comes first) minus 1.
+    reduced model (the first linear model of ``methods``, which comes first) minus 1.
     """
     rows = []
     for a in amplitudes:
@@ -196,7 +203,7 @@ def force_rows(ctx: Context, amplitudes=(1e-2, 1.0, 100.0), methods=("exact", "o
             runner = (extra or {}).get(method)
             r = runner(ctx, ctx.scene.sph.dt, 1.0, None, f) if runner else run_one(ctx, method, ctx.scene.sph.dt,
                                                                                    force=f)
-            if method == "exact":
+            if e_ref is None and method in MODELS and get_model(method).linear:
                 e_ref = r.get("energy_end")
             r["energy_vs_exact"] = (r.get("energy_end", np.inf) / e_ref - 1.0) if e_ref else float("nan")
             rows.append({"scene": ctx.scene.name, "method": method, "force_amplitude": a, **r})

@@ -22,7 +22,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..fmu.resources import MODEL_EXACT_LINEAR, MODEL_FROZEN
 from ..rom.common import runaway_bound
+from ..rom.registry import fmu_model_names, get_model
 from ..sph.diagnostics import energy
 from ..sph.solver import step_count
 
@@ -37,6 +39,30 @@ def _outcome(e, rho_bad_time=None):
         outcome = "unphysical"
     return {"outcome": outcome, "blowup_time": rho_bad_time, "energy_growth": growth, "energy_drift": drift,
             "energy_end": float(e[-1])}
+
+
+def _frozen_resource(ops, problem, dt, amplitude):
+    """(ModelData, bytes) of resource kind 1 (frozen coefficients), the velocity coordinates scaled."""
+    from ..fmu.package import DEFAULT_PROBES
+    from ..fmu.resources import model_data, pack
+    data = model_data(ops, problem, dt=dt, integrator="euler", n_freeze=N_FREEZE, probes=DEFAULT_PROBES,
+                      bound=runaway_bound(ops))
+    data = dataclasses.replace(data, a_v0=np.asarray(data.a_v0) * amplitude)
+    return data, pack(data)
+
+
+def _linear_resource(ops, problem, dt, amplitude):
+    """(ExactData, bytes) of resource kind 2 (linear: A, B, z0), the initial state scaled (its runaway bound
+    follows the scaled state, as the Python run's)."""
+    from ..fmu.package import DEFAULT_PROBES
+    from ..fmu.resources import exact_data, pack_exact
+    lin = dataclasses.replace(ops, z0=ops.z0 * amplitude)
+    data = exact_data(lin, problem, dt=dt, n_freeze=N_FREEZE, probes=DEFAULT_PROBES)
+    return data, pack_exact(data)
+
+
+# model_kind of resources/model.bin (ReducedModel.fmu_kind) -> the stress FMU's numbers and their bytes
+RESOURCES = {MODEL_FROZEN: _frozen_resource, MODEL_EXACT_LINEAR: _linear_resource}
 
 
 class FMUStress:
@@ -67,29 +93,17 @@ class FMUStress:
 
         from ..fmu.build import ensure_binaries
         from ..fmu.describe import model_description
-        from ..fmu.package import DEFAULT_PROBES, write_fmu
-        from ..fmu.resources import exact_data, model_data, pack, pack_exact
+        from ..fmu.package import write_fmu
 
         scene, problem = ctx.scene, ctx.problem
-        if model == "exact":
-            lin = dataclasses.replace(ctx.lin, z0=ctx.lin.z0 * amplitude)
-            data = exact_data(lin, problem, dt=scene.sph.dt, n_freeze=N_FREEZE, probes=DEFAULT_PROBES)
-            blob, input_error = pack_exact(data), lin.input_error
+        ops = ctx.operators[model]
+        data, blob = RESOURCES[get_model(model).fmu_kind](ops, problem, scene.sph.dt, amplitude)
 
-            def fields(z):
-                return lin.fields(z)
-        else:
-            ops = ctx.ops
-            data = model_data(ops, problem, dt=scene.sph.dt, integrator="euler", n_freeze=N_FREEZE,
-                              probes=DEFAULT_PROBES, bound=runaway_bound(ops))
-            data = dataclasses.replace(data, a_v0=np.asarray(data.a_v0) * amplitude)
-            blob, input_error = pack(data), ops.input_error
-
-            def fields(z):
-                z = np.atleast_2d(z)
-                return z[:, :ops.k_v] @ ops.U_v.T, z[:, ops.k_v:] @ ops.U_rho.T
+        def fields(z):
+            z = np.atleast_2d(z)
+            return ops.velocity(z[:, :ops.k_v]), ops.density(z[:, ops.k_v:])
         description = model_description(2, token=data.token, scene=scene, data=data, k_requested=ctx.k,
-                                         step_size=0.01, stop_time=scene.T, input_error=input_error, model=model)
+                                         step_size=0.01, stop_time=scene.T, input_error=ops.input_error, model=model)
         path = self.folder / f"{len(self._made)}.fmu"
         write_fmu(path, fmi=2, blob=blob, description=description, binary=ensure_binaries().fmi2)
         unzipped = extract(str(path), unzipdir=str(self.folder / f"{len(self._made)}"))
@@ -111,7 +125,7 @@ class FMUStress:
         energies, rho_bad, silent_nan = [], None, 0
         with Slave(folder, name="stress") as s:
             try:
-                s.initialize(dt=dt if model != "exact" else None, n_freeze=N_FREEZE)
+                s.initialize(dt=None if get_model(model).linear else dt, n_freeze=N_FREEZE)
                 for i in range(steps.size):
                     z = s.reduced_state(k)
                     v, rho = fields(z)
@@ -143,4 +157,4 @@ def stress_runners(stress: FMUStress):
         def go(ctx, dt, amplitude=1.0, T=None, force=None):
             return stress.run(ctx, model, dt, amplitude, T=T, force=force)
         return go
-    return {"FMU frozen": runner("frozen"), "FMU exact": runner("exact")}
+    return {f"FMU {model}": runner(model) for model in fmu_model_names()}

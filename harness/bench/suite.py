@@ -77,7 +77,7 @@ def run_benchmarks(scenes, out, *, ks=None, repeats=5, sizes=SIZES, ks_scaling=K
     fmu_scene : str
         Scene of the FMU's end-to-end table.
     stress : bool
-        Also the stress maps of :data:`harness.bench.stress_maps.DEFAULT_SCENES`.
+        Also the stress maps of :data:`harness.bench.stress_settings.DEFAULT_SCENES`.
     progress : bool
         Progress bars.
 
@@ -132,8 +132,9 @@ def run_benchmarks(scenes, out, *, ks=None, repeats=5, sizes=SIZES, ks_scaling=K
     maps, stress_command = None, ""
     if stress:
         from .report import stress_section
-        from .stress_maps import AMPLITUDES, DT_FACTORS, HORIZONS, MODE_COUNTS, stress_maps
-        from .stress_maps import DEFAULT_SCENES as STRESS_SCENES
+        from .stress_maps import stress_maps
+        from .stress_settings import AMPLITUDES, DT_FACTORS, HORIZONS, MODE_COUNTS
+        from .stress_settings import DEFAULT_SCENES as STRESS_SCENES
         from ..report.markdown import write_text
         stress_command = "sphrom bench --report (the stress maps of sphrom stress)"
         maps = stress_maps([load_scene(s) for s in STRESS_SCENES], list(AMPLITUDES), list(HORIZONS),

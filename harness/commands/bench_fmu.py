@@ -37,6 +37,7 @@ def run(args):
     from ..bench.report import fmu_tables
     from ..progress import progress_bar
     from ..report.markdown import write_text
+    from ..rom.registry import fmu_model_names, get_model
     from ..scene import load_scene
 
     sizes, steps = args.n_particles, args.step
@@ -44,7 +45,7 @@ def run(args):
     out = Path(args.out) if args.out else None
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
-    total = len(sizes) + (0 if args.core_only else 2 * len(steps) + args.repeats)     # two models
+    total = len(sizes) + (0 if args.core_only else len(fmu_model_names()) * len(steps) + args.repeats)
     with progress_bar(total=total, desc="bench-fmu", enabled=not args.quiet) as bar:
         core = core_rows(args.scene, sizes, repeats=args.repeats, progress=False, bar=bar)
         e2e = None if args.core_only else end_to_end(args.scene, steps=steps, repeats=args.repeats, progress=False,
@@ -70,7 +71,7 @@ def run(args):
                   f"({r['doSteps']} doSteps): {r['fmu_e2e_s']:.4f} s -> {r['speedup']:.1f}x faster than the full SPH "
                   f"({r['speedup_vs_loop']:.1f}x vs its loop alone)"
                   + ("" if err is None else f"; probe v error against the full SPH {err:.3e}"))
-            if r["model"] == "frozen":
+            if not get_model(r["model"]).linear:        # a time-stepped model: the core's internal steps
                 print(f"    where the time goes: fixed cost of simulate_fmu (extract, load, instantiate, free) "
                       f"{r['fixed_s']:.4f} s, core {r['core_s']:.4f} s, fmpy {r['us_per_doStep_fmpy']:.1f} us per "
                       f"doStep (of which the bare doStep call through ctypes {r['us_per_doStep_bare_call']:.1f} us)")

@@ -104,6 +104,16 @@ class LinearOperators:
         """The size of the second block of coordinates (specific volume), as for the density models."""
         return self.U_e.shape[1]
 
+    @property
+    def a_v0(self):
+        """Initial velocity coordinates (k_v,), as :class:`~harness.rom.operators.ReducedOperators` has them."""
+        return self.z0[:self.k_v]
+
+    @property
+    def a_rho0(self):
+        """Initial coordinates of the second block (specific volume, zero at the start), (k_e,)."""
+        return self.z0[self.k_v:]
+
     def velocity(self, a_v):
         """v = U_v a at the particles, (M, N) [m s^-1] from coordinates (M, k_v)."""
         return a_v @ self.U_v.T
