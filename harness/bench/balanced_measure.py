@@ -290,7 +290,7 @@ def main(argv=None):
     sections = [s.strip() for s in args.sections.split(",") if s.strip()]
     bad = [s for s in sections if s not in SECTIONS]
     if bad:
-        ap.error(f"--sections: {bad[0]!r} (allowed: {', '.join(SECTIONS)})")
+        ap.error(f"unknown section {bad[0]!r} (allowed sections: {', '.join(SECTIONS)})")
     Path(args.out).mkdir(parents=True, exist_ok=True)
     if "headline" in sections:
         headline()
