@@ -15,7 +15,7 @@ import numpy as np
 from ..pod.pipeline import basis_for_scene
 from ..rom.common import run_reduced
 from ..rom.operators import build_operators
-from ..sph import kernels_numba as kn
+from ..sph import loops
 from ..sph.solver import METHODS, build_problem, step_count
 from .timing import median_times_interleaved
 
@@ -24,7 +24,7 @@ def _sph_loop(problem, scene, n, general):
     nb = problem.neighbours
     if general:
         arrays = [np.ascontiguousarray(a) for a in (problem.rho0, problem.c, problem.d, problem.profile)]
-        flags = kn.DAMPING | kn.FORCE
+        flags = loops.DAMPING | loops.FORCE
     else:
         arrays = [problem.packed(name) for name in ("rho0", "c", "d", "profile")]
         flags = problem.flags(False)
@@ -35,7 +35,7 @@ def _sph_loop(problem, scene, n, general):
 
     def go():
         v, rho = problem.v0.copy(), problem.rho0.copy()
-        kn.advance(method, v, rho, 0, n, scene.sph.dt, g, nb.index, nb.weight, *arrays, flags,
+        loops.advance(method, v, rho, 0, n, scene.sph.dt, g, nb.index, nb.weight, *arrays, flags,
                    np.array([n]), 0, out, out.copy(), 64, np.inf, nb.dx)   # energy checked as in run_sph
         state["v"] = v
     return go, state
