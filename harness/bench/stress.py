@@ -40,7 +40,7 @@ from ..scene import derive_scene
 from ..sph.diagnostics import energy
 from ..sph.solver import build_problem, run_sph, stability, step_count
 
-from .stress_maps import AMPLITUDES, DT_FACTORS, HORIZONS, MODE_COUNTS     # the grid (light, for the CLI)
+from .stress_grid import AMPLITUDES, DT_FACTORS, HORIZONS, MODE_COUNTS
 METHODS = ("sph-euler", "sph-symplectic", "sph-rk4", "original", "linearized", "frozen", "exact")
 
 
