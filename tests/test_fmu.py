@@ -1,4 +1,4 @@
-"""The FMU (issue 4): packaging, fmpy validation and simulation, equality with
+"""The FMU: packaging, fmpy validation and simulation, equality with
 the Python frozen model, exact communication points, FMU states, bad input,
 many instances, the sphrom fmu / cosim commands.
 
