@@ -22,3 +22,24 @@ def test_no_text_cites_an_issue_number_instead_of_the_claim():
     cited = [(str(p.relative_to(ROOT)), n) for p in _prose_files()
              for n, line in enumerate(p.read_text(errors="replace").splitlines(), 1) if ISSUE.search(line)]
     assert not cited, cited
+
+
+def _section(text, title):
+    start = text.index(f"\n## {title}\n")
+    end = text.find("\n## ", start + 1)
+    return text[start:end if end > 0 else None]
+
+
+def test_the_code_map_names_paths_that_exist():
+    code_map = _section((ROOT / "README.md").read_text(), "Code map")
+    paths = [p for p in re.findall(r"`([^`\s]+)`", code_map) if "/" in p or p.endswith(".md")]
+    assert len(paths) > 30, paths                       # the map is there and names its modules
+    missing = [p for p in paths if not (ROOT / p).exists()]
+    assert not missing, missing
+
+
+def test_every_harness_path_in_the_readme_exists():
+    readme = (ROOT / "README.md").read_text()
+    paths = set(re.findall(r"(?<![\w/.])((?:harness|fmu_src|validation|tests)/[\w./-]*[\w/])", readme))
+    missing = sorted(p for p in paths if "*" not in p and not (ROOT / p).exists())
+    assert not missing, missing

@@ -80,8 +80,9 @@ def skip_savings(scene, steps=20000, k=None, repeats=5, fmu=True, reduced_factor
 
 
 def _fmu_core_rows(scene, problem, k, n, repeats):
-    """The FMU's C core (rom.c): the scene's resources against the same resources with a zero damping matrix
-    and a zero input column present (flags set), so that rom.c evaluates both terms every step.
+    """The FMU's C core (the frozen step of fmu_src/rom_frozen.c): the scene's resources against the same
+    resources with a zero damping matrix and a zero input column present (flags set), so that the step evaluates
+    both terms every step.
 
     Returns (label, specialised µs/step, general µs/step), or None when the core cannot be built here.
     """
