@@ -100,7 +100,7 @@ extern "C" {
 #define ROM_MESSAGE_SIZE 1024
 #define ROM_RESOURCE_FILE "model.bin"
 
-/* doStep's rules (harness/fmu/reference.py repeats them) */
+/* doStep's rules (harness/fmu/python_cosim.py repeats them) */
 #define ROM_TIME_TOLERANCE 1e-9       /* relative: currentCommunicationPoint must equal the FMU's time */
 #define ROM_STEP_ROUNDING 1e-9        /* relative: h/dt within this of an integer is that many whole steps */
 #define ROM_SHORT_STEP_MIN 1e-12      /* a remainder below this x dt is no step */

@@ -1,6 +1,6 @@
 /*
  * Full SPH step in C (eqs. 2.10-2.11); see sph.h.  Same order of operations
- * as harness/sph/kernels_numba.py, no fused multiply-add (the pragmas below,
+ * as harness/sph/loops.py, no fused multiply-add (the pragmas below,
  * and -ffp-contract=off in the build).
  */
 #if defined(__clang__)
@@ -45,7 +45,7 @@ RomStatus sph_check(const SphOperator *op, char *message, size_t message_size) {
     return ROM_OK;
 }
 
-/* the rates, no checks (kernels_numba.rates) */
+/* the rates, no checks (loops.rates) */
 static void rates(const SphOperator *op, const double *restrict v, const double *restrict rho, double g,
                   double *restrict dv, double *restrict drho, double *restrict p) {
     const int64_t n = op->n, k = op->k;

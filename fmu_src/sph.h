@@ -4,7 +4,7 @@
  * precomputed periodic neighbour lists and weights (m_j/rho_j(0)) grad W_ij,
  * harness/sph/operator.py) and the explicit (and symplectic) Euler step.
  *
- * The arithmetic repeats harness/sph/kernels_numba.py (rates, advance with
+ * The arithmetic repeats harness/sph/loops.py (rates, advance with
  * method 0 or 1) operation for operation, so the two agree bit for bit
  * (-ffp-contract=off; tests/test_fmu_c.py checks it).  Used for the
  * same-language benchmark (C frozen reduced step against C full SPH step); it
@@ -12,8 +12,8 @@
  * neither the FMU binaries nor the core library.  No FMI types, no globals.
  *
  * Fields of length 1 carry a uniform value (flag bits SPH_UNIFORM_*), as in
- * the numba kernels.  Units: v [m s^-1], rho [kg m^-3], c [m^2 s^-2 ... as the
- * scene defines it], d [s^-1], force per mass g [m s^-2].
+ * the compiled loops of harness/sph/loops.py.  Units: v [m s^-1],
+ * rho [kg m^-3], c [m^2 s^-2 ... as the scene defines it], d [s^-1], force per mass g [m s^-2].
  */
 #ifndef SPHROM_SPH_H
 #define SPHROM_SPH_H
@@ -27,7 +27,7 @@
 extern "C" {
 #endif
 
-/* flag bits, as harness/sph/kernels_numba.py */
+/* flag bits, as harness/sph/loops.py */
 #define SPH_DAMPING 1u
 #define SPH_FORCE 2u
 #define SPH_UNIFORM_C 4u
@@ -55,7 +55,7 @@ ROM_API RomStatus sph_rates(const SphOperator *op, const double *v, const double
 /* n_steps steps of length dt in place (method 0 explicit Euler, 1 symplectic Euler: rho then v),
  * with g[s] the force value of step s (NULL: 0).  work: [3 n].  Fails (message names the step,
  * *done the steps completed) when v or rho stops being finite or rho <= 0; the check runs every
- * check_every steps and after the last (as kernels_numba.advance). */
+ * check_every steps and after the last (as loops.advance). */
 ROM_API RomStatus sph_advance(const SphOperator *op, int method, double *v, double *rho, int64_t n_steps, double dt,
                               const double *g, double *work, int64_t check_every, int64_t *done, char *message,
                               size_t message_size);

@@ -262,13 +262,9 @@ def _raise_strings(path):
 
 LIBRARY = sorted(p for p in (ROOT / "harness").rglob("*.py")
                  if "commands" not in p.relative_to(ROOT / "harness").parts and p.name != "cli.py")
-# harness/fmu/package.py is being restructured on another branch: its messages are converted after that merge
-PENDING = {"harness/fmu/package.py"}
 
 
-@pytest.mark.parametrize("path", [
-    pytest.param(p, marks=pytest.mark.xfail(strict=True, reason="converted after the FMU restructuring merge"))
-    if str(p.relative_to(ROOT)) in PENDING else p for p in LIBRARY], ids=lambda p: str(p.relative_to(ROOT)))
+@pytest.mark.parametrize("path", LIBRARY, ids=lambda p: str(p.relative_to(ROOT)))
 def test_no_error_message_outside_the_commands_quotes_an_option(path):
     quoted = [(line, text) for line, text in _raise_strings(path) if re.search(r"(?<![\w-])--[a-z]", text)]
     assert not quoted, quoted

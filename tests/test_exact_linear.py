@@ -1,4 +1,4 @@
-"""The exact linear reduced model in specific volume (issue 7, Python side)."""
+"""The exact linear reduced model in specific volume, Python side (the FMU side is test_fmu_exact.py)."""
 
 import numpy as np
 import pytest

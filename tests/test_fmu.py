@@ -1,4 +1,4 @@
-"""The FMU (issue 4): packaging, fmpy validation and simulation, equality with
+"""The FMU: packaging, fmpy validation and simulation, equality with
 the Python frozen model, exact communication points, FMU states, bad input,
 many instances, the sphrom fmu / cosim commands.
 
@@ -22,7 +22,7 @@ from harness.cli import main
 from harness.fmu.build import ensure_binaries
 from harness.fmu.fmi import VR_DT, VR_N_FREEZE, Slave
 from harness.fmu.package import package_fmu
-from harness.fmu.reference import cosim_reference, probe_values, split_step
+from harness.fmu.python_cosim import cosim_reference, probe_values, split_step
 from harness.fmu.resources import unpack
 from harness.pod.pipeline import basis_for_scene
 from harness.rom.common import run_reduced

@@ -281,7 +281,7 @@ NONUNIFORM = {"rho0": "1 + 0.3*sin(2*pi*x/L)", "c": "where(x/L <= 0.5, 0.1, 0.2)
 @pytest.mark.parametrize("integrator", ["euler", "symplectic"])
 @pytest.mark.parametrize("case", ["damped_forced", "nonuniform", "unforced"])
 def test_c_full_sph_repeats_numba_bit_for_bit(binaries, case, integrator):
-    """sph.c repeats harness/sph/kernels_numba.py operation for operation: the same scene, initial state and
+    """sph.c repeats harness/sph/loops.py operation for operation: the same scene, initial state and
     force values, 2000 steps in C (harness/fmu/sph_c.py) and in numba (run_sph) end in the same bits.  Cases:
     damping and force with uniform fields, every field non-uniform (rho0, c, d, profile), and f = d = 0."""
     from harness.fmu.sph_c import SphC

@@ -8,10 +8,10 @@ from pathlib import Path
 import harness.fmu.core as core
 import harness.fmu.describe as describe
 import harness.fmu.fmi as fmi
-import harness.fmu.reference as reference
+import harness.fmu.python_cosim as python_cosim
 import harness.fmu.resources as resources
 import harness.fmu.sph_c as sph_c
-import harness.sph.kernels_numba as kernels
+import harness.sph.loops as sph_loops
 import harness.sph.solver as solver
 
 ROOT = Path(__file__).parents[1]
@@ -58,8 +58,8 @@ def test_constants_shared_by_c_and_python():
         "ROM_STATE_HEADER_SIZE": fmi.STATE_HEADER_SIZE,
         "ROM_MESSAGE_SIZE": core.MESSAGE_SIZE,
         # doStep: h/dt within this of a whole number is that many steps; remainders below this x dt are dropped
-        "ROM_STEP_ROUNDING": reference.STEP_ROUNDING,
-        "ROM_SHORT_STEP_MIN": reference.SHORT_STEP_MIN,
+        "ROM_STEP_ROUNDING": python_cosim.STEP_ROUNDING,
+        "ROM_SHORT_STEP_MIN": python_cosim.SHORT_STEP_MIN,
         # value references (harness and both modelDescription templates)
         "ROM_VR_TIME": fmi.VR_TIME,
         "ROM_VR_F": fmi.VR_F,
@@ -76,10 +76,10 @@ def test_constants_shared_by_c_and_python():
     # + token + uint64 + 2 uint32 + 3 float64
     assert rom["ROM_HEADER_SIZE"] == 8 + 10 * 4 + 3 * 8
     assert rom["ROM_STATE_HEADER_SIZE"] == 8 + 6 * 4 + rom["ROM_TOKEN_SIZE"] + 8 + 2 * 4 + 3 * 8
-    # the C full SPH's flag bits and methods (fmu_src/sph.h) are the numba kernels'
-    sph_shared = {"SPH_DAMPING": kernels.DAMPING, "SPH_FORCE": kernels.FORCE, "SPH_UNIFORM_C": kernels.UNIFORM_C,
-                  "SPH_UNIFORM_RHO0": kernels.UNIFORM_RHO0, "SPH_UNIFORM_D": kernels.UNIFORM_D,
-                  "SPH_UNIFORM_PROFILE": kernels.UNIFORM_PROFILE,
+    # the C full SPH's flag bits and methods (fmu_src/sph.h) are the compiled loops'
+    sph_shared = {"SPH_DAMPING": sph_loops.DAMPING, "SPH_FORCE": sph_loops.FORCE, "SPH_UNIFORM_C": sph_loops.UNIFORM_C,
+                  "SPH_UNIFORM_RHO0": sph_loops.UNIFORM_RHO0, "SPH_UNIFORM_D": sph_loops.UNIFORM_D,
+                  "SPH_UNIFORM_PROFILE": sph_loops.UNIFORM_PROFILE,
                   "SPH_METHOD_EULER": sph_c.METHODS["euler"], "SPH_METHOD_SYMPLECTIC": sph_c.METHODS["symplectic"]}
     assert {name: sph.get(name) for name in sph_shared} == sph_shared
     assert sph_c.METHODS == {name: solver.METHODS[name] for name in sph_c.METHODS}

@@ -1,4 +1,4 @@
-"""The exact linear reduced model (issue 7) inside the FMU: `sphrom fmu --model exact`.
+"""The exact linear reduced model (in the specific volume) inside the FMU: `sphrom fmu --model exact`.
 
 The C core advances z = [a; b] over each communication step by its own matrix
 exponential (scaling and squaring, cached per step length) and, without

@@ -14,7 +14,7 @@ from harness.pod.pipeline import basis_for_scene, error_steps, on_steps
 from harness.pod.snapshots import snapshot_steps
 from harness.rom.common import run_reduced
 from harness.rom.frozen import frozen_advance, refresh_direct_path, refresh_tensor_path
-from harness.rom.kernels import FrozenOperators
+from harness.rom.loops import FrozenOperators
 from harness.rom.operators import augment_with, build_operators, density_matrix, pair_index, probe_rows
 from harness.scene import load_scene
 from harness.sph.solver import build_problem, run_sph, step_count

@@ -7,7 +7,7 @@ from conftest import small_scene
 from harness.compare import error_table
 from harness.references.exact import exact_solution
 from harness.scene import load_scene
-from harness.sph import kernels_numba as kn
+from harness.sph import loops
 from harness.sph.diagnostics import energy, momentum, total_length
 from harness.sph.operator import gradient_symbol
 from harness.sph.solver import build_problem, run_sph
@@ -93,20 +93,20 @@ def test_specialised_rates_equal_general_path():
     nb = p.neighbours
     outs = []
     for flags, packed in [
-        (kn.DAMPING | kn.FORCE | kn.UNIFORM_C | kn.UNIFORM_RHO0 | kn.UNIFORM_D | kn.UNIFORM_PROFILE,
+        (loops.DAMPING | loops.FORCE | loops.UNIFORM_C | loops.UNIFORM_RHO0 | loops.UNIFORM_D | loops.UNIFORM_PROFILE,
          lambda a: a[:1].copy()),
-        (kn.DAMPING | kn.FORCE, lambda a: a.copy()),
+        (loops.DAMPING | loops.FORCE, lambda a: a.copy()),
     ]:
         dv, drho, tmp = np.empty(p.n), np.empty(p.n), np.empty(p.n)
-        kn.rates(v, rho, 0.7, nb.index, nb.weight, packed(p.rho0), packed(p.c), packed(p.d), packed(p.profile),
+        loops.rates(v, rho, 0.7, nb.index, nb.weight, packed(p.rho0), packed(p.c), packed(p.d), packed(p.profile),
                  flags, dv, drho, tmp)
         outs.append((dv, drho))
     np.testing.assert_array_equal(outs[0][0], outs[1][0])
     np.testing.assert_array_equal(outs[0][1], outs[1][1])
     # and a term that is absent costs nothing and contributes nothing:
     dv0, dr0, tmp = np.empty(p.n), np.empty(p.n), np.empty(p.n)
-    kn.rates(v, rho, 0.7, nb.index, nb.weight, p.rho0[:1], p.c[:1], p.d[:1], p.profile[:1],
-             kn.UNIFORM_C | kn.UNIFORM_RHO0, dv0, dr0, tmp)
+    loops.rates(v, rho, 0.7, nb.index, nb.weight, p.rho0[:1], p.c[:1], p.d[:1], p.profile[:1],
+             loops.UNIFORM_C | loops.UNIFORM_RHO0, dv0, dr0, tmp)
     np.testing.assert_allclose(outs[0][0] - dv0, -p.d * v + 0.7 * p.profile, rtol=1e-12, atol=1e-18)
 
 

@@ -1,4 +1,4 @@
-"""sphrom sweep (issue 8): a tiny study on a LocalCluster of 2 workers, failures
+"""sphrom sweep: a tiny study on a LocalCluster of 2 workers, failures
 recorded, resume, FMU once per worker, agreement with a direct Slave run and
 with an independent full SPH comparison, bad specs.
 

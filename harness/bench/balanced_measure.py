@@ -278,19 +278,25 @@ def cost(large):
     print_table(["N", "Gramian", "time [s]", "rank of factor", "relative residual"], rows)
 
 
+def _sections(text):
+    """``headline,cost`` -> ["headline", "cost"], each one of SECTIONS (argparse names the option on failure)."""
+    sections = [s.strip() for s in text.split(",") if s.strip()]
+    bad = [s for s in sections if s not in SECTIONS]
+    if bad:
+        raise argparse.ArgumentTypeError(f"{bad[0]!r} is not a section (allowed: {', '.join(SECTIONS)})")
+    return sections
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="python3 -m harness.bench.balanced_measure", description=__doc__.split("\n")[0])
     ap.add_argument("--out", default=".", help="folder for balanced_orders.png (default .)")
-    ap.add_argument("--sections", default=",".join(SECTIONS),
+    ap.add_argument("--sections", type=_sections, default=list(SECTIONS),
                     help=f"comma-separated subset of {','.join(SECTIONS)} (default all)")
     ap.add_argument("--scenes", default=DEFAULT_FORCE_SCENES,
                     help=f"forces section: NAME[@shaped]:ORDER,... (default {DEFAULT_FORCE_SCENES})")
     ap.add_argument("--large", action="store_true", help="cost section: also the dense solve at N = 1600")
     args = ap.parse_args(argv)
-    sections = [s.strip() for s in args.sections.split(",") if s.strip()]
-    bad = [s for s in sections if s not in SECTIONS]
-    if bad:
-        ap.error(f"unknown section {bad[0]!r} (allowed sections: {', '.join(SECTIONS)})")
+    sections = args.sections
     Path(args.out).mkdir(parents=True, exist_ok=True)
     if "headline" in sections:
         headline()

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..pod.pipeline import basis_for_scene
 from ..rom.registry import get_model
-from ..sph import kernels_numba as kn
+from ..sph import loops
 from ..sph.solver import METHODS, build_problem, step_count
 from .timing import median_times_interleaved
 
@@ -26,7 +26,7 @@ def _sph_loop(problem, scene, n, general):
     nb = problem.neighbours
     if general:
         arrays = [np.ascontiguousarray(a) for a in (problem.rho0, problem.c, problem.d, problem.profile)]
-        flags = kn.DAMPING | kn.FORCE
+        flags = loops.DAMPING | loops.FORCE
     else:
         arrays = [problem.packed(name) for name in ("rho0", "c", "d", "profile")]
         flags = problem.flags(False)
@@ -37,7 +37,7 @@ def _sph_loop(problem, scene, n, general):
 
     def go():
         v, rho = problem.v0.copy(), problem.rho0.copy()
-        kn.advance(method, v, rho, 0, n, scene.sph.dt, g, nb.index, nb.weight, *arrays, flags,
+        loops.advance(method, v, rho, 0, n, scene.sph.dt, g, nb.index, nb.weight, *arrays, flags,
                    np.array([n]), 0, out, out.copy(), 64, np.inf, nb.dx)   # energy checked as in run_sph
         state["v"] = v
     return go, state
@@ -88,8 +88,9 @@ def skip_savings(scene, steps=20000, k=None, repeats=5, fmu=True, reduced_factor
 
 
 def _fmu_core_rows(scene, problem, k, n, repeats):
-    """The FMU's C core (rom.c): the scene's resources against the same resources with a zero damping matrix
-    and a zero input column present (flags set), so that rom.c evaluates both terms every step.
+    """The FMU's C core (the frozen step of fmu_src/rom_frozen.c): the scene's resources against the same
+    resources with a zero damping matrix and a zero input column present (flags set), so that the step evaluates
+    both terms every step.
 
     Returns (label, specialised µs/step, general µs/step), or None when the core cannot be built here.
     """

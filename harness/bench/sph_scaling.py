@@ -7,7 +7,7 @@ sampling) at the scene's CFL number (Δt scaled as 1/N), median of repeats.
 import numpy as np
 
 from ..scene import derive_scene, load_scene
-from ..sph import kernels_numba as kn
+from ..sph import loops
 from ..sph.solver import METHODS, build_problem
 from .timing import median_time
 
@@ -29,7 +29,7 @@ def time_per_step(scene_name, n, integrator, repeats=5, target_seconds=0.05):
     def run(steps):
         v, rho = problem.v0.copy(), problem.rho0.copy()
         g = np.zeros((steps, 3))
-        status, _, _ = kn.advance(method, v, rho, 0, steps, dt, g, *args, flags, empty, 0, out, out, 64,
+        status, _, _ = loops.advance(method, v, rho, 0, steps, dt, g, *args, flags, empty, 0, out, out, 64,
                                   np.inf, problem.neighbours.dx)        # energy checked as in run_sph
         assert status == 0
 

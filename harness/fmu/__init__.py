@@ -1,12 +1,33 @@
-"""The FMU: the frozen-coefficient reduced model as FMI 2.0 / 3.0 co-simulation.
+"""The FMU: the reduced model (frozen coefficients or exact linear) as FMI 2.0 / 3.0 co-simulation.
 
-resources  model.bin, the scene's numbers for the C core (format and token)
-build      the binaries from fmu_src/ with CMake, built once and cached
-describe   modelDescription.xml from the templates in modelDescription/
-package    sphrom fmu: scene -> validated .fmu
-reference  the FMU's co-simulation in Python (the equality reference)
-fmi        one FMU instance through fmpy, with its log
-cosim      sphrom cosim: fmpy.simulate_fmu with a force expression or CSV
-core       ctypes access to the C core (benchmark, tests)
-bench      sphrom bench-fmu
+Public names (imported from their modules on first use)::
+
+    package_fmu, FMUSummary      sphrom fmu: scene -> validated .fmu               (package)
+    run_cosim, CosimResult       sphrom cosim: fmpy.simulate_fmu with a force      (cosim)
+    Slave, load_fmu              one FMU instance through fmpy, with its log       (fmi)
+    cosim_reference              the FMU's co-simulation in Python                 (python_cosim)
+    ensure_binaries, Binaries    the binaries from fmu_src/, built once and cached (build)
+    model_data, exact_data, pack, unpack, ModelData, ExactData   resources/model.bin (resources)
+    Core, CoreModel              ctypes access to the C core                       (core)
+
+Modules: ``resources`` (model.bin: format and token), ``build`` (CMake),
+``describe`` (modelDescription.xml from the templates in modelDescription/),
+``package``, ``python_cosim`` (the equality reference of the C code),
+``fmi``, ``cosim``, ``core``, ``sph_c`` (the C full SPH step, for the
+benchmark).  The FMU benchmark is :mod:`harness.bench.fmu`.
 """
+
+from ..lazy import lazy_exports
+
+EXPORTS = {
+    "package_fmu": "package", "FMUSummary": "package",
+    "run_cosim": "cosim", "CosimResult": "cosim",
+    "Slave": "fmi", "load_fmu": "fmi",
+    "cosim_reference": "python_cosim",
+    "ensure_binaries": "build", "Binaries": "build",
+    "model_data": "resources", "exact_data": "resources", "pack": "resources", "unpack": "resources",
+    "ModelData": "resources", "ExactData": "resources",
+    "Core": "core", "CoreModel": "core",
+}
+__all__ = sorted(EXPORTS)
+__getattr__, __dir__ = lazy_exports(__name__, EXPORTS)

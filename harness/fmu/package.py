@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import SimulationError, UserError
+from ..errors import FieldError, SimulationError
 from ..paths import data_dir
 from ..runio import atomic_path
 from .resources import MAX_PROBES, MODEL_EXACT_LINEAR, MODEL_FROZEN, exact_data, model_data, pack, pack_exact
@@ -138,18 +138,18 @@ def default_modes(scene):
 
 
 def parse_probes(text):
-    """``0.25,0.5`` -> [0.25, 0.5]; UserError naming --probes when out of range."""
+    """``0.25,0.5`` -> [0.25, 0.5]; FieldError naming the field ``probes`` when out of range."""
     parts = [p.strip() for p in str(text).split(",")]
     try:
         values = [float(p) for p in parts]
     except ValueError:
-        raise UserError(f"--probes: {text!r} is not a comma-separated list of numbers "
-                        f"(allowed: 1 to {MAX_PROBES} positions x/L in [0, 1])") from None
+        raise FieldError("probes", f"{text!r} is not a comma-separated list of numbers "
+                                   f"(allowed: 1 to {MAX_PROBES} positions x/L in [0, 1])") from None
     if not values or len(values) > MAX_PROBES:
-        raise UserError(f"--probes: {len(values)} probes (allowed: 1 to {MAX_PROBES} positions x/L in [0, 1])")
+        raise FieldError("probes", f"{len(values)} probes (allowed: 1 to {MAX_PROBES} positions x/L in [0, 1])")
     for v in values:
         if not (math.isfinite(v) and 0.0 <= v <= 1.0):
-            raise UserError(f"--probes: {v!r} is out of range (allowed: positions x/L in [0, 1])")
+            raise FieldError("probes", f"{v!r} is out of range (allowed: positions x/L in [0, 1])")
     return values
 
 
@@ -157,39 +157,41 @@ def check_options(scene, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_PROB
                   model="frozen"):
     """Validate the packaging options before any work; returns (k, n_freeze, probes, fmi, integrator).
 
-    For a linear model (the exact one) the integrator is ``exponential`` (``--integrator`` does not apply).
+    For a linear model (the exact one) the integrator is ``exponential`` (an ``integrator`` does not apply).
 
-    Raises UserError naming the option and the allowed range.
+    Raises FieldError naming the field (``k``, ``n_freeze``, ``probes``, ``fmi``, ``model``, ``integrator``) and
+    the allowed range; the command line shows the option that set it.
     """
     from ..rom.registry import fmu_model_names, get_model
     k = default_modes(scene) if k is None else k
     if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
-        raise UserError(f"--modes: {k!r} is out of range (allowed: an integer >= 1)")
+        raise FieldError("k", f"{k!r} is out of range (allowed: an integer >= 1)")
     if k > scene.sph.n_particles:
-        raise UserError(f"--modes: {k} is out of range (allowed: 1 to N = {scene.sph.n_particles})")
+        raise FieldError("k", f"{k} is out of range (allowed: 1 to N = {scene.sph.n_particles})")
     if isinstance(n_freeze, bool) or not isinstance(n_freeze, (int, np.integer)) or not 1 <= n_freeze <= 2**31 - 1:
-        raise UserError(f"--freeze: {n_freeze!r} is out of range (allowed: an integer >= 1)")
+        raise FieldError("n_freeze", f"{n_freeze!r} is out of range (allowed: an integer >= 1)")
     probes = parse_probes(",".join(str(p) for p in probes)) if not isinstance(probes, str) else parse_probes(probes)
     if fmi not in (2, 3):
-        raise UserError(f"--fmi: {fmi!r} is out of range (allowed: 2 or 3)")
+        raise FieldError("fmi", f"{fmi!r} is out of range (allowed: 2 or 3)")
     if model not in fmu_model_names():
-        raise UserError(f"--model: {model!r} is out of range (allowed: {', '.join(fmu_model_names())})")
+        raise FieldError("model", f"{model!r} is out of range (allowed: {', '.join(fmu_model_names())})")
     spec = get_model(model)
     if spec.linear:
         if integrator is not None:
-            raise UserError(f"--integrator: {integrator!r} does not apply to --model {model} (it is advanced by the "
-                            "matrix exponential)")
+            raise FieldError("integrator", f"{integrator!r} does not apply to the {model} model (it is advanced "
+                                           "by the matrix exponential)")
         return int(k), int(n_freeze), probes, int(fmi), spec.integrators[0]
     integrator = integrator or scene.sph.integrator
     if integrator not in spec.integrators:
-        raise UserError(f"--integrator: {integrator!r} is not defined for the {model} model "
-                        f"(allowed: {', '.join(spec.integrators)}; scene '{scene.name}' uses {scene.sph.integrator})")
+        raise FieldError("integrator", f"{integrator!r} is not defined for the {model} model "
+                                       f"(allowed: {', '.join(spec.integrators)}; scene '{scene.name}' uses "
+                                       f"{scene.sph.integrator})")
     return int(k), int(n_freeze), probes, int(fmi), integrator
 
 
 def model_basis(scene, spec, k, progress=True, problem=None):
     """(basis, problem) of ``scene`` for the model ``spec``: its POD basis, with k checked against the modes of the
-    model's basis kind (UserError naming --modes or --model)."""
+    model's basis kind (FieldError naming the field ``k`` or ``model``)."""
     from ..pod.pipeline import basis_for_scene
     from ..rom.model import BASIS_KINDS
     from ..sph.solver import build_problem
@@ -198,12 +200,12 @@ def model_basis(scene, spec, k, progress=True, problem=None):
     basis, _ = basis_for_scene(scene, progress=progress, problem=problem)
     modes = [getattr(basis, name) for name in BASIS_KINDS[spec.basis_kind][:2]]
     if any(U is None for U in modes):
-        raise UserError(f"--model {spec.name}: the basis of scene '{scene.name}' has no "
-                        f"{' and '.join(BASIS_KINDS[spec.basis_kind][:2])} modes")
+        raise FieldError("model", f"{spec.name}: the basis of scene '{scene.name}' has no "
+                                  f"{' and '.join(BASIS_KINDS[spec.basis_kind][:2])} modes")
     available = min(U.shape[1] for U in modes)
     if k > available:
-        raise UserError(f"--modes: {k} is out of range (allowed: 1 to {available}, the POD modes of scene "
-                        f"'{scene.name}')")
+        raise FieldError("k", f"{k} is out of range (allowed: 1 to {available}, the POD modes of scene "
+                              f"'{scene.name}')")
     return basis, problem
 
 
@@ -318,8 +320,8 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
 
     Raises
     ------
-    UserError
-        A bad option (naming it and the allowed range); nothing is written.
+    FieldError
+        A bad setting (naming its field and the allowed range); nothing is written.
     SimulationError
         The packaged FMU fails fmpy's validation (nothing is written).
     """

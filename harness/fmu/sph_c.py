@@ -1,6 +1,6 @@
 """ctypes access to the full SPH step in C (fmu_src/sph.c, library ``libsphrom_sph``).
 
-The C step repeats :mod:`harness.sph.kernels_numba` (eqs. 2.10-2.11 with the
+The C step repeats :mod:`harness.sph.loops` (eqs. 2.10-2.11 with the
 neighbour lists of :mod:`harness.sph.operator`) operation for operation, bit
 for bit (tests/test_fmu_c.py).  It exists for the same-language benchmark: a C
 frozen reduced step against a C full SPH step (``sphrom bench``,

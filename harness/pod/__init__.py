@@ -5,6 +5,13 @@ the one reader and writer of basis files, ``snapshots`` the paper's snapshot
 strategies, ``pipeline`` the way from a scene to a basis (the cached full SPH
 run and the SVD).  ``study`` (mode sweeps, snapshot studies) builds on the
 reduced models and is imported from its module.
+
+Public names::
+
+    pod, weighted_pod, build_basis, Basis, modes_for_energy     the POD of eq. 2.15        (basis)
+    read_basis, write_basis, operators_group, BASIS_FORMAT, BASIS_VERSION   basis files (io)
+    basis_for_scene, error_steps, on_steps                      scene -> cached basis      (pipeline)
+    snapshot_steps, describe                                    the snapshot strategies    (snapshots)
 """
 
 from .basis import Basis, build_basis, modes_for_energy, pod, weighted_pod

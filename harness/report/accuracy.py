@@ -25,12 +25,12 @@ from ..sph.operator import gradient_symbol
 from ..sph.solver import run_sph
 from .markdown import image, num, table
 
-DEVIATION = 0.25          # the issue's threshold for "differs from the paper"
+DEVIATION = 0.25          # |ours / paper's - 1| above which a figure "differs from the paper"
 FE_ELEMENTS = 1024        # scikit-fem P2 elements
 PDE_CELLS = 2048          # py-pde cells
 
 
-AGREEMENT_TARGET = 1e-4   # scikit-fem against py-pde on scenes with uniform c (issue 5)
+AGREEMENT_TARGET = 1e-4   # relative L² difference required of scikit-fem against py-pde on scenes with uniform c
 AGREEMENT_TARGET_JUMP = 1e-3   # ... and where a coefficient jumps (heterogeneous), where convergence is first order
 MAX_DOUBLINGS = 2         # refinements of the continuum pair beyond FE_ELEMENTS, PDE_CELLS
 
@@ -276,7 +276,8 @@ def evidence(scene, problem, run, ref, t, out_dir, stem):
         facts["rk4_vs_dispersion"] = relative_l2(rk4.v, v_mod, t)
         ax.semilogy(t[1:], relative_l2_history(v_mod, v_ref, t)[1:], "--", label="SPH dispersion alone: v")
         lines += ["#### The SPH operator's dispersion", "",
-                  "The SPH system is linear in J = ρ0/ρ (issue 7), so the exact solution with the SPH gradient's "
+                  "The SPH system is linear in J = ρ0/ρ (eqs. 2.10-2.11 read ė = G v, ρ0 v̇ = G(c e) − ρ0 d v + "
+                  "ρ0 f with e = J − 1, eq. A.9), so the exact solution with the SPH gradient's "
                   f"own symbol D(κ) in place of iκ is what the SPH would give with an exact time integrator. Its "
                   f"error against the exact solution: v {num(disp)} (the SPH's: {num(hist_v[-1])}); RK4-SPH against "
                   f"it: {num(facts['rk4_vs_dispersion'])}.", ""]

@@ -17,7 +17,7 @@ from .exact_model import exact_section
 from .markdown import image, num, table, write_text
 from .reduced import pod_section
 
-CONVERGENCE_SCENES = ("multimode", "damped_forced")     # the convergence studies
+CONVERGENCE_SCENES = ("multimode", "damped_forced")     # the convergence studies: undamped, damped and forced
 PACKAGES = ("numpy", "scipy", "numba", "scikit-fem", "py-pde", "h5py", "fmpy", "matplotlib")
 
 

@@ -2,6 +2,17 @@
 
 ``get_model(name)`` gives a model's entry (:class:`ReducedModel`: properties,
 ``build``, ``run``, ``truncate``); every run returns a :class:`ReducedResult`.
+
+Public names::
+
+    get_model, MODELS, MODEL_NAMES, model_names, fmu_model_names   the registry        (registry)
+    build_model, run_model, truncate_model                           by model name       (registry)
+    ReducedModel, BASIS_KINDS, basis_modes                           a model's entry     (model)
+    ReducedResult                                                    what a run returns  (result)
+    build_operators, ReducedOperators, probe_rows                    eqs. 2.17-2.24      (operators)
+    build_linear_operators, LinearOperators, run_exact               the exact linear model (exact_linear)
+    run_reduced                                                      the earlier entry point (common)
+    runaway_bound                                                    the blow-up bound   (stepping)
 """
 
 from .common import run_reduced

@@ -21,7 +21,7 @@ The step is written with plain loops in a fixed order, which the C model core
 import numpy as np
 from numba import njit
 
-from .kernels import FrozenOperators, _check, _velocity_rate
+from .loops import FrozenOperators, _check, _velocity_rate
 from .model import ReducedModel
 from .operators import build_from_basis, pair_index, truncate_operators
 from .result import ReducedResult
@@ -77,7 +77,7 @@ def frozen_advance(method, av, ar, M, F, n0, n1, dt, g, ops, sample_steps, ptr, 
 
     ``av``, ``ar`` are the reduced state and ``M``, ``F`` the frozen
     coefficients, carried between calls; ``g[row]`` is f at step n0 + row;
-    ``ops`` a :data:`~harness.rom.kernels.FrozenOperators`.  States at the
+    ``ops`` a :data:`~harness.rom.loops.FrozenOperators`.  States at the
     ``sample_steps`` from ``ptr`` on go to ``out_av``, ``out_ar``.  Returns
     (status, ptr, step).
     """
@@ -122,7 +122,7 @@ def frozen_advance(method, av, ar, M, F, n0, n1, dt, g, ops, sample_steps, ptr, 
 
 
 def loop_operators(K, b, D, p, n_freeze, *, T=None, U_rho=None, GU_v=None, inv_rho0=None, refresh="tensor"):
-    """The :data:`~harness.rom.kernels.FrozenOperators` of one run (built once per run).
+    """The :data:`~harness.rom.loops.FrozenOperators` of one run (built once per run).
 
     ``D`` or ``p`` None: no damping / no input (a dummy array in the tuple).
     ``refresh="tensor"`` needs ``T``; ``"direct"`` needs ``U_rho``, ``GU_v``, ``inv_rho0``.

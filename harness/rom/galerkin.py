@@ -10,8 +10,8 @@ rate: the full SPH right-hand side at the reconstruction (original) or eqs.
 import numpy as np
 from numba import njit
 
-from ..sph.kernels_numba import rates
-from .kernels import GalerkinOperators, _check, _velocity_rate
+from ..sph.loops import rates
+from .loops import GalerkinOperators, _check, _velocity_rate
 from .result import ReducedResult
 from .stepping import drive, force_table, method_code, runaway_bound, sample_grid
 
@@ -77,7 +77,7 @@ def galerkin_advance(method, av, ar, n0, n1, dt, g, ops, sample_steps, ptr, out_
 
     method 0 Euler, 1 symplectic Euler (ρ then v), 2 RK4; g[row] holds f at
     the stage times t_n, t_n + dt/2, t_n + dt; ``ops`` a
-    :data:`~harness.rom.kernels.GalerkinOperators`.  Returns (status, ptr, step).
+    :data:`~harness.rom.loops.GalerkinOperators`.  Returns (status, ptr, step).
     """
     full = ops.full_rhs
     n = ops.U_v.shape[0]
@@ -155,7 +155,7 @@ def galerkin_advance(method, av, ar, n0, n1, dt, g, ops, sample_steps, ptr, out_
 
 
 def loop_operators(ops, problem, full_rhs):
-    """The :data:`~harness.rom.kernels.GalerkinOperators` of one run.
+    """The :data:`~harness.rom.loops.GalerkinOperators` of one run.
 
     The original model (``full_rhs``) applies the scene's force through the
     full right-hand side (the profile, eqs. 2.10-2.11); the linearised one

@@ -214,12 +214,12 @@ def sph_rates(problem, v, rho, f=0.0):
 
     Returns (v̇, ė) with ė = -ρ0 ρ̇ / ρ² (e = ρ0/ρ - 1).
     """
-    from ..sph import kernels_numba as kn
+    from ..sph import loops
     v = np.ascontiguousarray(v, float)
     rho = np.ascontiguousarray(rho, float)
     nb = problem.neighbours
     dv, drho, scratch = np.empty_like(v), np.empty_like(v), np.empty_like(v)
-    kn.rates(v, rho, float(f), nb.index, nb.weight, problem.packed("rho0"), problem.packed("c"),
+    loops.rates(v, rho, float(f), nb.index, nb.weight, problem.packed("rho0"), problem.packed("c"),
              problem.packed("d"), problem.packed("profile"), problem.flags(f != 0), dv, drho, scratch)
     return dv, -problem.rho0 * drho / (rho * rho)
 

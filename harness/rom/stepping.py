@@ -3,7 +3,7 @@
 A model's ``run`` wraps its compiled loop as ``advance(n0, n1, g, ptr) ->
 (status, ptr, step)`` and hands it to :func:`drive`, which runs it in chunks
 from step 0 to ``n_steps``, times the loop alone and turns a bad status
-(:mod:`.kernels`) into a SimulationError naming the step and time.
+(:mod:`.loops`) into a SimulationError naming the step and time.
 """
 
 from __future__ import annotations

@@ -18,7 +18,7 @@ import numpy as np
 from ..errors import SimulationError
 from ..progress import progress_bar
 from ..scene import Scene
-from . import kernels_numba as kn
+from . import loops
 from .operator import Neighbours, build_neighbours, particle_positions
 
 METHODS = {"euler": 0, "symplectic": 1, "rk4": 2}
@@ -59,15 +59,15 @@ class SPHProblem:
         return self.x.size
 
     def flags(self, force_active):
-        """The flag bits of :mod:`.kernels_numba` for this problem."""
+        """The flag bits of :mod:`.loops` for this problem."""
         t = self.terms
         flags = 0
-        flags |= kn.DAMPING if t["damping"] else 0
-        flags |= kn.FORCE if (force_active and t["force_profile"]) else 0
-        flags |= kn.UNIFORM_C if t["uniform_c"] else 0
-        flags |= kn.UNIFORM_RHO0 if t["uniform_rho0"] else 0
-        flags |= kn.UNIFORM_D if t["uniform_d"] else 0
-        flags |= kn.UNIFORM_PROFILE if t["uniform_profile"] else 0
+        flags |= loops.DAMPING if t["damping"] else 0
+        flags |= loops.FORCE if (force_active and t["force_profile"]) else 0
+        flags |= loops.UNIFORM_C if t["uniform_c"] else 0
+        flags |= loops.UNIFORM_RHO0 if t["uniform_rho0"] else 0
+        flags |= loops.UNIFORM_D if t["uniform_d"] else 0
+        flags |= loops.UNIFORM_PROFILE if t["uniform_profile"] else 0
         return flags
 
     def packed(self, name):
@@ -205,7 +205,7 @@ def run_sph(scene: Scene, *, sample_steps=None, progress=True, problem=None, chu
     sigma, lam = energy_bound_factors(problem)
     f_integral = 0.0
     # Load the compiled loop (numba's cache) before the clock starts.
-    kn.advance(method, v, rho, 0, 0, dt, np.zeros((0, 3)), *args, 0, sample_steps[:0], 0, out_v, out_rho, 1,
+    loops.advance(method, v, rho, 0, 0, dt, np.zeros((0, 3)), *args, 0, sample_steps[:0], 0, out_v, out_rho, 1,
                np.inf, dx)
     ptr = 0
     wall = 0.0
@@ -220,7 +220,7 @@ def run_sph(scene: Scene, *, sample_steps=None, progress=True, problem=None, chu
             bound = (np.exp(lam * n1 * dt) * (sqrt_e0 + sigma * f_integral)) ** 2
             energy_max = BLOWUP_FACTOR * bound if bound > 0 else np.inf
             t0 = _time.perf_counter()
-            status, ptr, bad = kn.advance(method, v, rho, n0, n1, dt, g, *args, flags,
+            status, ptr, bad = loops.advance(method, v, rho, n0, n1, dt, g, *args, flags,
                                           sample_steps, ptr, out_v, out_rho, check_every, energy_max, dx)
             wall += _time.perf_counter() - t0
             if status == 2:
@@ -274,7 +274,7 @@ def step_matrix(integrator, omega_dt, d_dt):
     Parameters
     ----------
     integrator : str
-        "euler", "symplectic" (e then v, as in :func:`.kernels_numba.advance`)
+        "euler", "symplectic" (e then v, as in :func:`.loops.advance`)
         or "rk4".
     omega_dt, d_dt : float
         ω Δt and d Δt (dimensionless).

@@ -1,4 +1,6 @@
-"""Compiled inner loops of the full SPH model (eqs. 2.10-2.11).
+"""The compiled right-hand side and time loops of the full SPH model (eqs. 2.10-2.11).
+
+The SPH kernel itself (eqs. 2.6-2.7) is :mod:`.kernel`.
 
 numba is used because a step of the explicit schemes is ~20 vector
 operations of length N: in numpy each costs ~1 µs of call overhead at
