@@ -149,3 +149,20 @@ def test_not_allowed_before_initialization(fmus):
         with pytest.raises(FMICallException):
             s.set_input_derivative(0.1)
         assert any("fmi2SetRealInputDerivatives" in text for text in s.errors())
+
+
+def test_linear_input_converges_at_second_order_held_at_first(fmus):
+    """Against the same FMU at 1 ms with df/dt: halving the step divides the held-input error by ~2 and the
+    linear-input error by ~4 (harness.bench.input_derivatives measures tenmode the same way)."""
+    from harness.bench.input_derivatives import relative_l2, velocity_columns
+    path = fmus("exact", 2)
+    force = "3e-2*sin(2*pi*3*t) + 1e-2"
+    ref = velocity_columns(run_cosim(path, force=force, t_end=0.5, step=1e-3))
+    errors = {}
+    for h, stride in ((0.01, 10), (0.02, 20)):
+        for hold in (True, False):
+            v = velocity_columns(run_cosim(path, force=force, t_end=0.5, step=h, hold_inputs=hold))
+            errors[h, hold] = relative_l2(v, ref[::stride][:v.shape[0]])
+    assert 1.6 < errors[0.02, True] / errors[0.01, True] < 2.5
+    assert 3.0 < errors[0.02, False] / errors[0.01, False] < 5.0
+    assert errors[0.01, False] < 0.1 * errors[0.01, True]
