@@ -34,7 +34,8 @@ def run(args):
     write_csv(out, result)
     t_end = result.values[-1, 0]
     print(f"cosim {args.fmu}: {result.steps} communication steps to t = {t_end:g} s, "
-          f"{len(result.names) - 1} outputs; wall time {result.wall_time:.3f} s (fmpy.simulate_fmu)")
+          f"{len(result.names) - 1} outputs; wall time {result.wall_time:.3f} s "
+          f"({'fmpy FMU2Slave loop' if result.input_derivatives else 'fmpy.simulate_fmu'})")
     print("input: f linear over each step (df/dt by fmi2SetRealInputDerivatives)" if result.input_derivatives
           else "input: f held over each communication step")
     print(f"wrote {out}")

@@ -31,7 +31,8 @@ class CosimResult:
     values : ndarray (M, len(names))
         time [s], v_probe_* [m s^-1], rho_probe_* [kg m^-3].
     wall_time : float
-        Wall time of fmpy.simulate_fmu [s] (extraction, instantiation, loop).
+        Wall time of fmpy.simulate_fmu, or of the FMU2Slave loop with input derivatives [s]
+        (extraction, instantiation, loop).
     steps : int
         Communication steps.
     input_derivatives : bool
