@@ -31,6 +31,7 @@
     X(SerializedFMUstateSize,   MODES_NOT_ERROR) \
     X(SerializeFMUstate,        MODES_NOT_ERROR) \
     X(DeSerializeFMUstate,      MODES_ANY) \
+    X(SetRealInputDerivatives,  MODE_INITIALIZATION | MODE_STEP) \
     X(DoStep,                   MODE_STEP) \
     X(GetStatus,                MODE_STEP | MODE_TERMINATED)     /* and fmi2Get<type>Status */ \
     X(NotProvided,              MODES_NOT_ERROR)                 /* derivatives, fmi2CancelStep */
@@ -212,13 +213,6 @@ fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReferenc
     return status2(instance_error(inst, fn, "not provided (providesDirectionalDerivative = false)"));
 }
 
-fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                                       const fmi2Integer order[], const fmi2Real value[]) {
-    (void)vr; (void)order; (void)value;
-    ENTER_AS(NotProvided, "fmi2SetRealInputDerivatives");
-    if (nvr == 0) return fmi2OK;
-    return status2(instance_error(inst, fn, "not supported (canInterpolateInputs = false)"));
-}
 
 fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                                         const fmi2Integer order[], fmi2Real value[]) {
@@ -242,6 +236,13 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
     (void)noSetFMUStatePriorToCurrentPoint;
     ENTER(DoStep);
     return status2(instance_do_step(inst, fn, currentCommunicationPoint, communicationStepSize));
+}
+
+/* df/dt of the input f (order 1 only; exact model only), applied over the following steps */
+fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                       const fmi2Integer order[], const fmi2Real value[]) {
+    ENTER(SetRealInputDerivatives);
+    return status2(instance_set_input_derivatives(inst, fn, vr, nvr, order, value));
 }
 
 /* a status query: the value pointer given and the kind one this FMU answers */

@@ -299,6 +299,13 @@ static double get_f(const RomState *s, uint32_t j) { (void)j; return s->f; }
 static double get_dt(const RomState *s, uint32_t j) { (void)j; return s->dt; }
 static int32_t get_n_freeze(const RomState *s) { return s->n_freeze; }
 
+/* Setting f without a new derivative holds it: the rate goes back to 0, so an
+ * importer that never sets input derivatives gets held inputs. */
+static RomStatus set_f_held(RomState *s, double value, char *message, size_t message_size) {
+    const RomStatus status = rom_set_input(s, value, message, message_size);
+    return status == ROM_OK ? rom_set_input_rate(s, 0.0, message, message_size) : status;
+}
+
 /* The FMU's variables (modelDescription/fmi2.xml, fmi3.xml; value references rom.h ROM_VR_*):
  * the one place that maps value references onto the core.  A COUNT_PER_PROBE row
  * stands for n_probes value references vr + j, its getter receiving j. */
@@ -317,7 +324,7 @@ typedef struct {
 static const Variable VARIABLES[] = {
     /* name, value reference, count, type, role, get float64, get int32, set float64, set int32 */
     {"time", ROM_VR_TIME, COUNT_ONE, TYPE_FLOAT64, ROLE_INDEPENDENT, get_time, NULL, NULL, NULL},
-    {"f", ROM_VR_F, COUNT_ONE, TYPE_FLOAT64, ROLE_INPUT, get_f, NULL, rom_set_input, NULL},
+    {"f", ROM_VR_F, COUNT_ONE, TYPE_FLOAT64, ROLE_INPUT, get_f, NULL, set_f_held, NULL},
     {"n_freeze", ROM_VR_N_FREEZE, COUNT_ONE, TYPE_INT32, ROLE_FIXED, NULL, get_n_freeze, NULL, rom_set_n_freeze},
     {"dt", ROM_VR_DT, COUNT_ONE, TYPE_FLOAT64, ROLE_FIXED, get_dt, NULL, rom_set_dt, NULL},
     {"v_probe", ROM_VR_V_PROBE, COUNT_PER_PROBE, TYPE_FLOAT64, ROLE_OUTPUT, rom_v_probe, NULL, NULL, NULL},
@@ -433,6 +440,32 @@ InstanceStatus instance_no_variables(Instance *inst, const char *fn, const uint3
                                      const void *values, size_t n_values) {
     if (check_arguments(inst, fn, refs, n_refs, values, n_values) != INSTANCE_OK) return INSTANCE_ERROR;
     return n_refs == 0 ? INSTANCE_OK : unknown_reference(inst, fn, refs[0]);
+}
+
+InstanceStatus instance_set_input_derivatives(Instance *inst, const char *fn, const uint32_t refs[], size_t n_refs,
+                                             const int32_t orders[], const double values[]) {
+    if (n_refs > 0 && (!refs || !orders || !values)) {
+        return instance_error(inst, fn, "the value reference, order or value array is NULL");
+    }
+    for (size_t i = 0; i < n_refs; i++) {
+        if (refs[i] != ROM_VR_F) {
+            return instance_error(inst, fn, "value reference %u is not a real input (allowed: %u, the input f)",
+                                  (unsigned)refs[i], (unsigned)ROM_VR_F);
+        }
+        if (orders[i] != 1) {
+            return instance_error(inst, fn, "order %d is not supported (allowed: 1)", (int)orders[i]);
+        }
+    }
+    if (n_refs > 0 && !rom_interpolates_inputs(inst->model)) {
+        return instance_error(inst, fn, "the frozen model does not interpolate inputs (canInterpolateInputs = "
+                              "false; set f at every communication point)");
+    }
+    for (size_t i = 0; i < n_refs; i++) {
+        if (rom_set_input_rate(inst->state, values[i], inst->message, sizeof inst->message) != ROM_OK) {
+            return instance_error(inst, fn, "%s", inst->message);
+        }
+    }
+    return INSTANCE_OK;
 }
 
 /* ------------------------------------------------------------------------ */

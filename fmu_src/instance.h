@@ -156,6 +156,12 @@ InstanceStatus instance_get_int32(Instance *inst, const char *fn, const uint32_t
                                   int32_t values[], size_t n_values);
 InstanceStatus instance_set_int32(Instance *inst, const char *fn, const uint32_t refs[], size_t n_refs,
                                   const int32_t values[], size_t n_values);
+/* First derivatives df/dt [m s^-3] of the input f at the time of the last set value (FMI 2's
+ * fmi2SetRealInputDerivatives): f(t_comm + tau) = f + rate tau over the following
+ * communication steps, until f is set again (which resets the rate to 0).  Only
+ * value reference ROM_VR_F and order 1; exact linear model only (canInterpolateInputs). */
+InstanceStatus instance_set_input_derivatives(Instance *inst, const char *fn, const uint32_t refs[], size_t n_refs,
+                                             const int32_t orders[], const double values[]);
 /* a type without variables: any value reference is unknown */
 InstanceStatus instance_no_variables(Instance *inst, const char *fn, const uint32_t refs[], size_t n_refs,
                                      const void *values, size_t n_values);

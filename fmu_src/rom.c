@@ -122,6 +122,10 @@ RomStatus rom_set_input_rate(RomState *s, double rate, char *message, size_t mes
     return ROM_OK;
 }
 
+int rom_interpolates_inputs(const RomModel *m) {
+    return m && rom_is_linear(m);
+}
+
 RomStatus rom_set_dt(RomState *s, double dt, char *message, size_t message_size) {
     if (!s) return rom_fail(message, message_size, "no state");
     if (!(isfinite(dt) && dt > 0)) {
@@ -177,6 +181,7 @@ RomStatus rom_do_step(RomState *s, double t_comm, double h, char *message, size_
                                                      : rom_frozen_step(s, t_comm, h, message, message_size);
     if (status != ROM_OK) return status;
     s->time = t_comm + h;
+    if (s->aux && s->aux[1] != 0.0) s->f = s->f + s->aux[1] * h;    /* the input continues linearly */
     return rom_check_outputs(s, message, message_size);
 }
 

@@ -216,8 +216,11 @@ ROM_API RomStatus rom_do_step(RomState *state, double t_comm, double h, char *me
 /* n_steps whole internal steps with the runaway check (benchmark, tests) */
 ROM_API RomStatus rom_advance(RomState *state, int64_t n_steps, char *message, size_t message_size);
 /* Exact model only: the input goes linearly over each step, f(t_comm + tau) = f + rate tau
- * (rate 0, the default, holds it).  The frozen model ignores the rate. */
+ * (rate 0, the default, holds it), and after the step f = f + rate h, so that the input
+ * continues linearly until it is set again.  The frozen model ignores the rate. */
 ROM_API RomStatus rom_set_input_rate(RomState *state, double rate, char *message, size_t message_size);
+/* 1 when the model uses the input rate (the exact linear model: canInterpolateInputs), else 0 */
+ROM_API int rom_interpolates_inputs(const RomModel *model);
 /* The reduced state: a^v (k_v values) then a^rho (frozen) or b = e coordinates (exact) into out[n];
  * returns the count written (0 on a bad argument) */
 ROM_API size_t rom_reduced_state(const RomState *state, double *out, size_t n);

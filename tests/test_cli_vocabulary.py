@@ -30,7 +30,7 @@ PREVIOUS_OPTIONS = {
     "bench-sph": ['--integrators', '--out', '--repeats', '--scene', '--sizes'],
     "stress": ['--amplitudes', '--horizons', '--modes', '--no-fmu', '--out', '--quick'],
     "fmu": ['--fmi', '--freeze', '--integrator', '--model', '--modes', '--out', '--probes', '--quiet'],
-    "cosim": ['--force', '--n-freeze', '--out', '--step', '--t-end'],
+    "cosim": ['--force', '--hold-inputs', '--n-freeze', '--out', '--step', '--t-end'],
     "bench-fmu": ['--core-only', '--out', '--quiet', '--repeats', '--sizes', '--steps'],
     "reference": ['--dt', '--every', '--layout', '--n-particles', '--order', '--out', '--quiet', '--resolution',
                   '--solver', '--t-end'],

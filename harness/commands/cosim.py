@@ -7,14 +7,19 @@ def add_parser(sub):
     p = sub.add_parser("cosim", help="co-simulate an FMU from 'sphrom fmu' through fmpy",
                        description="Run FILE.fmu with fmpy.simulate_fmu: the input f [m s^-2] is an expression in t "
                                    "(and T, the end time) sampled at the communication points, or a CSV file with "
-                                   "columns time,f; the FMU holds it over each step. Writes time and all outputs as "
-                                   "CSV and prints the wall time.")
+                                   "columns time,f. An FMU that declares canInterpolateInputs (FMI 2, the exact "
+                                   "linear model) also gets df/dt, so f goes linearly between the samples over "
+                                   "each step; otherwise (or with --hold-inputs) the FMU holds f over each step. "
+                                   "Writes time and all outputs as CSV and prints the wall time.")
     p.add_argument("fmu", metavar="FILE.fmu")
     p.add_argument("--force", metavar="EXPR|CSV", help="f(t) as an expression in t, T or a CSV file (default 0)")
     p.add_argument("--t-end", type=positive_float, metavar="T",
                    help="end time [s] (default: the FMU's DefaultExperiment stopTime)")
     p.add_argument("--step", type=positive_float, metavar="H", help="communication step [s] (default: its stepSize)")
     add_n_freeze(p, help="the n_freeze parameter (default: the packaged value)")
+    p.add_argument("--hold-inputs", action="store_true",
+                   help="hold f over each communication step even when the FMU can interpolate inputs "
+                        "(default: pass df/dt with fmi2SetRealInputDerivatives when the FMU declares it)")
     p.add_argument("--out", required=True, metavar="RESULT.csv")
     p.set_defaults(handler=run)
 
@@ -24,10 +29,14 @@ def run(args):
     from ..runio import check_output_path
 
     out = check_output_path(args.out)
-    result = run_cosim(args.fmu, force=args.force, t_end=args.t_end, step=args.step, n_freeze=args.n_freeze)
+    result = run_cosim(args.fmu, force=args.force, t_end=args.t_end, step=args.step, n_freeze=args.n_freeze,
+                        hold_inputs=args.hold_inputs)
     write_csv(out, result)
     t_end = result.values[-1, 0]
     print(f"cosim {args.fmu}: {result.steps} communication steps to t = {t_end:g} s, "
-          f"{len(result.names) - 1} outputs; wall time {result.wall_time:.3f} s (fmpy.simulate_fmu)")
+          f"{len(result.names) - 1} outputs; wall time {result.wall_time:.3f} s "
+          f"({'fmpy FMU2Slave loop' if result.input_derivatives else 'fmpy.simulate_fmu'})")
+    print("input: f linear over each step (df/dt by fmi2SetRealInputDerivatives)" if result.input_derivatives
+          else "input: f held over each communication step")
     print(f"wrote {out}")
     return 0

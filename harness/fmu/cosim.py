@@ -31,15 +31,19 @@ class CosimResult:
     values : ndarray (M, len(names))
         time [s], v_probe_* [m s^-1], rho_probe_* [kg m^-3].
     wall_time : float
-        Wall time of fmpy.simulate_fmu [s] (extraction, instantiation, loop).
+        Wall time of fmpy.simulate_fmu, or of the FMU2Slave loop with input derivatives [s]
+        (extraction, instantiation, loop).
     steps : int
         Communication steps.
+    input_derivatives : bool
+        Whether df/dt was passed with fmi2SetRealInputDerivatives (else f held over each step).
     """
 
     names: list
     values: np.ndarray
     wall_time: float
     steps: int
+    input_derivatives: bool = False
 
 
 class LogCapture:
@@ -117,6 +121,43 @@ def force_signal(force, t_end, step):
     return signal
 
 
+def input_samples(signal, times):
+    """f at the communication points ``times`` (the signal interpolated linearly, held outside) and the
+    forward slopes df/dt over each step [m s^-3] (len(times) - 1 values)."""
+    f = np.interp(times, signal["time"], signal["f"])
+    return f, np.diff(f) / np.diff(times)
+
+
+def _run_with_derivatives(fmu, md, signal, t_end, step, start, outputs):
+    """The co-simulation loop on fmpy's FMU2Slave, f and df/dt set before each step.
+
+    fmpy 0.3.32's ``simulate_fmu(set_input_derivatives=True)`` cannot be used: it
+    sizes its derivative buffer for 9 inputs (simulation.Input) and fails with
+    one, and at a sample time it passes the slope of the segment before it
+    (0 on the first step).  Here f goes linearly between the samples at the
+    communication points over each step, as ``run_exact(..., hold="linear")``.
+    """
+    from .fmi import Slave
+    n = int(math.ceil(t_end / step - 1e-9))
+    times = np.minimum(np.arange(n + 1) * step, t_end)
+    f, rate = input_samples(signal, times)
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    out_vr = [vr[name] for name in outputs]
+    with Slave(fmu) as slave:
+        try:
+            slave.initialize(n_freeze=start.get("n_freeze"), f=float(f[0]))
+            rows = [slave.get_real(out_vr)]
+            for j in range(n):
+                slave.set_input(f[j])
+                slave.set_input_derivative(rate[j])
+                slave.do_step(times[j], times[j + 1] - times[j])
+                rows.append(slave.get_real(out_vr))
+        except Exception as exc:
+            detail = "; ".join(slave.errors()) or str(exc)
+            raise SimulationError(f"the FMU failed: {detail}") from None
+    return np.column_stack([times, np.array(rows)])
+
+
 def _csv_signal(path):
     if not is_file(path):
         raise FieldError("force", f"CSV file '{path}' not found")
@@ -153,7 +194,12 @@ def _positive(value, field):
     return float(value)
 
 
-def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None) -> CosimResult:
+def can_interpolate_inputs(md) -> bool:
+    """Whether the FMU takes input derivatives: FMI 2 with canInterpolateInputs (FMI 3 has no such call)."""
+    return md.fmiVersion == "2.0" and bool(md.coSimulation.canInterpolateInputs)
+
+
+def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None, hold_inputs=False) -> CosimResult:
     """Co-simulate ``fmu`` with fmpy.simulate_fmu.
 
     Parameters
@@ -168,6 +214,9 @@ def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None) -> CosimRes
         Communication step [s] (default its stepSize).
     n_freeze : int, optional
         The ``n_freeze`` parameter (default the packaged one).
+    hold_inputs : bool
+        Hold f over each step even when the FMU can interpolate inputs (default: an FMU
+        that declares canInterpolateInputs gets df/dt, f going linearly between the samples).
 
     Raises
     ------
@@ -194,10 +243,15 @@ def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None) -> CosimRes
             raise FieldError("n_freeze", f"{n_freeze!r} is out of range (allowed: an integer >= 1)")
         start["n_freeze"] = int(n_freeze)
     signal = force_signal(force, t_end, step)
+    derivatives = can_interpolate_inputs(md) and not hold_inputs and signal is not None
     outputs = [v.name for v in md.modelVariables if v.causality == "output"]
     capture = LogCapture()
     logger = capture.fmi2 if md.fmiVersion == "2.0" else capture.fmi3
     t0 = time.perf_counter()
+    if derivatives:
+        values = _run_with_derivatives(fmu, md, signal, t_end, step, start, outputs)
+        return CosimResult(names=["time"] + outputs, values=values, wall_time=time.perf_counter() - t0,
+                           steps=steps, input_derivatives=True)
     try:
         result = fmpy.simulate_fmu(str(fmu), start_time=0.0, stop_time=t_end, output_interval=step, input=signal,
                                    start_values=start, output=outputs, logger=logger, model_description=md)

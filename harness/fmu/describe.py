@@ -82,8 +82,8 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
     if spec.basis_kind == "energy":
         modes = modes.replace("density modes", "specific-volume modes")
     if spec.linear:
-        stepping = ("advanced over each communication step by the matrix exponential (input held), so dt and "
-                    "n_freeze have no effect")
+        stepping = ("advanced over each communication step by the matrix exponential (input held, or linear "
+                    "with fmi2SetRealInputDerivatives in FMI 2), so dt and n_freeze have no effect")
     else:
         stepping = (f"{data.integrator} integrator, internal dt = {data.dt:g} s, n_freeze = {data.n_freeze} by "
                     "default")
@@ -102,6 +102,10 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
         "n_freeze": int(data.n_freeze),
         "dt": number(data.dt),
         "profile": scene.fields["profile"].text,
+        # FMI 2 only: the exact linear model integrates f + (df/dt) tau over a step exactly
+        "can_interpolate_inputs": "true" if spec.linear else "false",
+        "input_hold": ("held over each communication step, or linear with the derivative of "
+                       "fmi2SetRealInputDerivatives" if spec.linear else "held over each communication step"),
     }
     return render(template(f"fmi{fmi}.xml"), values, {"probes": probes, "outputs": outputs})
 

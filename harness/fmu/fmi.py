@@ -162,6 +162,12 @@ class Slave:
         """The input f [m s^-2], held over the next communication step."""
         self.set_real([VR_F], [float(f)])
 
+    def set_input_derivative(self, rate, order=1):
+        """fmi2SetRealInputDerivatives on f: df/dt [m s^-3] over the next steps (FMI 2 only)."""
+        from ctypes import c_double, c_int, c_uint32
+        self.fmu.fmi2SetRealInputDerivatives(self.fmu.component, (c_uint32 * 1)(VR_F), 1, (c_int * 1)(int(order)),
+                                             (c_double * 1)(float(rate)))
+
     def do_step(self, t, h):
         """fmi2DoStep / fmi3DoStep from ``t`` over ``h`` [s]."""
         if self.fmi == 2:

@@ -1,0 +1,113 @@
+"""Held against interpolated inputs: the exact FMU's probe-velocity error against the communication step.
+
+``python -m harness.bench.input_derivatives [--out FOLDER]`` packages tenmode's
+exact linear FMU (FMI 2), co-simulates it with f = 1e-2 sin(2 pi t) at
+communication steps of 1, 5, 10, 20, 50 ms with the input held over each step
+and with df/dt (fmi2SetRealInputDerivatives, f linear between the samples),
+and measures the probe velocities against the same FMU at 0.1 ms with
+derivatives: relative L2 over probes and time at the coarse communication
+points.  Writes ``input_derivatives.csv`` and prints a Markdown table.
+"""
+
+import argparse
+import csv
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+FORCE = "1e-2*sin(2*pi*t)"
+STEPS = (1e-3, 5e-3, 1e-2, 2e-2, 5e-2)
+REFERENCE_STEP = 1e-4
+
+
+def velocity_columns(result):
+    """The v_probe_* columns of a CosimResult, (M, n_probes) [m s^-1]."""
+    cols = [i for i, name in enumerate(result.names) if name.startswith("v_probe_")]
+    return result.values[:, cols]
+
+
+def relative_l2(v, ref):
+    """||v - ref|| / ||ref|| over all probes and times."""
+    return float(np.linalg.norm(v - ref) / np.linalg.norm(ref))
+
+
+def measure(scene_name="tenmode", steps=STEPS, reference_step=REFERENCE_STEP, force=FORCE, workdir=None,
+            progress=True):
+    """Rows (model, step [s], input, relative L2 v error, communication steps) for the exact FMU.
+
+    The reference is the same FMU at ``reference_step`` with input derivatives;
+    every step in ``steps`` must be a whole multiple of it.
+    """
+    from ..fmu.build import ensure_binaries
+    from ..fmu.cosim import run_cosim
+    from ..fmu.package import package_fmu
+    from ..progress import progress_bar
+    from ..scene import load_scene
+
+    scene = load_scene(scene_name)
+    with tempfile.TemporaryDirectory(dir=workdir) as tmp:
+        path = Path(tmp) / f"{scene_name}-exact.fmu"
+        package_fmu(scene, path, fmi=2, progress=progress, binaries=ensure_binaries(), model="exact")
+        t_end = float(scene.T)
+        rows = []
+        with progress_bar(2 * len(steps) + 1, "input derivatives", unit="run", enabled=progress) as bar:
+            ref = run_cosim(path, force=force, t_end=t_end, step=reference_step)
+            assert ref.input_derivatives
+            v_ref = velocity_columns(ref)
+            bar.update(1)
+            for h in steps:
+                stride = int(round(h / reference_step))
+                if abs(stride * reference_step - h) > 1e-12 * h:
+                    raise ValueError(f"step {h:g} s is not a multiple of the reference step {reference_step:g} s")
+                for hold in (True, False):
+                    res = run_cosim(path, force=force, t_end=t_end, step=h, hold_inputs=hold)
+                    n = res.values.shape[0]
+                    sub = v_ref[::stride][:n]
+                    assert np.allclose(res.values[:, 0], ref.values[::stride, 0][:n], rtol=0, atol=1e-9)
+                    rows.append({"model": "exact", "step_ms": h * 1e3,
+                                 "input": "derivative" if res.input_derivatives else "held",
+                                 "v_error_rel_l2": relative_l2(velocity_columns(res), sub),
+                                 "communication_steps": res.steps})
+                    bar.update(1)
+    return rows
+
+
+def markdown(rows):
+    """A Markdown table: one line per step, held and derivative errors side by side."""
+    by = {(r["step_ms"], r["input"]): r["v_error_rel_l2"] for r in rows}
+    lines = ["| communication step | v error, f held | v error, f linear (df/dt) |", "| --- | --- | --- |"]
+    for h in sorted({r["step_ms"] for r in rows}):
+        lines.append(f"| {h:g} ms | {by[h, 'held']:.2e} | {by[h, 'derivative']:.2e} |")
+    return "\n".join(lines)
+
+
+def write_csv(path, rows):
+    from ..runio import atomic_path
+    with atomic_path(path) as tmp:
+        with open(tmp, "w", newline="") as fh:
+            writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+            writer.writeheader()
+            for row in rows:
+                writer.writerow({k: (repr(v) if isinstance(v, float) else v) for k, v in row.items()})
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(prog="python -m harness.bench.input_derivatives", description=__doc__.split("\n\n")[0])
+    p.add_argument("--out", default="validation/benchmarks", metavar="FOLDER")
+    p.add_argument("--scene", default="tenmode")
+    args = p.parse_args(argv)
+    rows = measure(args.scene)
+    out = Path(args.out) / "input_derivatives.csv"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    write_csv(out, rows)
+    print(f"{args.scene}, exact FMU (FMI 2), f = {FORCE}; probe-velocity error (relative L2 over probes and time) "
+          f"against the same FMU at {REFERENCE_STEP * 1e3:g} ms with df/dt")
+    print(markdown(rows))
+    print(f"wrote {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
