@@ -138,7 +138,7 @@ def headline():
             rows.append([name, label, red.order, f"{ev:.3e}", f"{ee:.3e}", f"{alpha:.2e}", f"{skew:.1e}",
                          "-" if np.isnan(drift) else f"{drift:.1e}", f"{offline:.2f}"])
     print("## Headline: probe errors against the full linear model (scene's own force and initial state)\n")
-    print_table(["scene", "model", "r", "v error (eq. 3.4)", "e error", "max Re λ(Ar)", "|Ar + Arᵀ|",
+    print_table(["scene", "model", "r", "v error (eq. 3.4)", "e error", "max Re λ(Ar)", "max abs(Ar + Arᵀ)",
                  "energy drift T=1000", "offline [s]"], rows)
 
 
