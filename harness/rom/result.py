@@ -78,9 +78,15 @@ class ReducedResult:
         x : ndarray (N,)
             Particle positions [m]; ``L`` the period [m]; ``rho0`` (N,) the initial density [kg m^-3].
         """
-        from .operators import probe_rows
-        e = rho0[None, :] / self.rho - 1.0
-        return np.concatenate([probe_rows(self.v.T, x, L, probes).T, probe_rows(e.T, x, L, probes).T], axis=1)
+        return probe_values(self.v, self.rho, rho0, x, L, probes)
+
+
+def probe_values(v, rho, rho0, x, L, probes):
+    """Fields (M, N) at ``probes`` (x/L), linear between particles as the FMU does, (M, 2P): v [m s^-1], then
+    e = ρ0/ρ - 1 (the rows of :func:`harness.rom.lti.full_linear_system`'s C)."""
+    from .operators import probe_rows
+    e = np.asarray(rho0)[None, :] / np.asarray(rho) - 1.0
+    return np.concatenate([probe_rows(np.asarray(v).T, x, L, probes).T, probe_rows(e.T, x, L, probes).T], axis=1)
 
     @property
     def z(self):
