@@ -80,6 +80,11 @@ class ReducedResult:
         """
         return probe_values(self.v, self.rho, rho0, x, L, probes)
 
+    @property
+    def z(self):
+        """The whole reduced state [a_v, a_rho], (M, k_v + k_2)."""
+        return np.concatenate([self.a_v, self.a_rho], axis=1)
+
 
 def probe_values(v, rho, rho0, x, L, probes):
     """Fields (M, N) at ``probes`` (x/L), linear between particles as the FMU does, (M, 2P): v [m s^-1], then
@@ -87,8 +92,3 @@ def probe_values(v, rho, rho0, x, L, probes):
     from .operators import probe_rows
     e = np.asarray(rho0)[None, :] / np.asarray(rho) - 1.0
     return np.concatenate([probe_rows(np.asarray(v).T, x, L, probes).T, probe_rows(e.T, x, L, probes).T], axis=1)
-
-    @property
-    def z(self):
-        """The whole reduced state [a_v, a_rho], (M, k_v + k_2)."""
-        return np.concatenate([self.a_v, self.a_rho], axis=1)
