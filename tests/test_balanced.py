@@ -217,3 +217,88 @@ def test_exact_pod_model_is_a_galerkin_model_within_its_bound(base):
     U[:, 0] = scene.force(np.arange(U.shape[0]) * h)                 # the scene's own force (zero for multimode)
     U = U[:, np.any(U != 0, axis=0)]
     assert np.all(_measured_force_gain(lti, red, h, U) <= b["force_error_bound"][:, None])
+
+
+# --------------------------------------------------------------------------- the registry's model and the CLI
+def _small_toml(tmp_path):
+    """damped_forced shrunk (N = 32, T = 0.5 s, RK4 at dt = 1e-4) as a scene file."""
+    from harness.scene import dump_toml, scene_dict
+    path = tmp_path / "small.toml"
+    path.write_text(dump_toml(scene_dict(small_scene("damped_forced", T=0.5, n=32, dt=1e-4, integrator="rk4",
+                                                     every=20))))
+    return path
+
+
+def _table(text):
+    """{probe x/L: (force bound, measured force gain, initial bound, measured initial error)} of the bounds table."""
+    rows = {}
+    for line in text.splitlines():
+        cells = [c.strip() for c in line.split("|")]
+        if len(cells) == 6:
+            try:
+                rows[float(cells[0])] = tuple(float(c) for c in cells[1:5])
+            except ValueError:
+                continue
+    return rows
+
+
+def test_rom_balanced_command_prints_its_bounds_and_the_errors_stay_below_them(tmp_path, capsys):
+    import h5py
+    from harness.cli import main
+    from harness.rom import get_model
+    scene_file = _small_toml(tmp_path)
+    out = tmp_path / "bal.h5"
+    assert main(["rom", str(scene_file), "--model", "balanced", "--modes", "6", "--out", str(out), "--quiet"]) == 0
+    text = capsys.readouterr().out
+    assert "order r = 6 (bt: square-root balanced truncation)" in text
+    assert "force_error_bound [s]" in text and "initial_state_error_bound [m s^-1 s^1/2]" in text
+    rows = _table(text)
+    assert sorted(rows) == [0.25, 0.5, 0.66]
+    for fb, gain, ib, measured in rows.values():
+        assert 0 < gain <= fb and 0 < measured <= ib             # measured (Simpson, exact in time) <= certified
+    with h5py.File(out) as h5:
+        a = h5.attrs
+        assert a["solver.model"] == "balanced" and a["solver.order"] == 6 and a["solver.method"] == "bt"
+        assert h5["x_r"].shape == (h5["t"].size, 6) and h5["y"].shape == (h5["t"].size, 6)
+        assert h5["v"].shape == (h5["t"].size, 32) and np.all(np.isfinite(h5["rho"][()]))
+        # the printed bounds are the file's, and the file's are error_bounds' of the same model
+        np.testing.assert_allclose(a["bound.initial_state_error_bound"], [rows[p][2] for p in (0.25, 0.5, 0.66)],
+                                   rtol=1e-4)
+        assert np.all(a["bound.initial_state_error_measured"] <= a["bound.initial_state_error_bound"])
+        assert 0 < a["error.sph.probes.v"] < 0.05
+    # the command's model is the registry's: the same build gives the same outputs
+    problem = build_problem(small_scene("damped_forced", T=0.5, n=32, dt=1e-4, integrator="rk4", every=20))
+    ops = get_model("balanced").build(problem, None, 6, 6)
+    b = error_bounds(ops.lti, ops.reduced)
+    with h5py.File(out) as h5:
+        np.testing.assert_allclose(h5.attrs["bound.force_error_bound"], b["force_error_bound"], rtol=1e-3)
+
+
+def test_rom_balanced_needs_no_basis_and_the_others_do(tmp_path, capsys):
+    from harness.cli import main
+    from harness.rom import MODELS
+    scene_file = _small_toml(tmp_path)
+    out = tmp_path / "r.h5"
+    assert main(["rom", str(scene_file), "--model", "balanced", "--tolerance", "1e-2", "--out", str(out),
+                 "--quiet"]) == 0
+    assert "order r = " in capsys.readouterr().out and out.exists()
+    for name, model in MODELS.items():
+        if model.basis_kind is None:
+            continue
+        path = tmp_path / f"{name}.h5"
+        assert main(["rom", str(scene_file), "--model", name, "--out", str(path), "--quiet"]) == 2
+        err = capsys.readouterr().err.strip()
+        assert err == f"sphrom rom: error: --basis: required for the {name} model (a POD basis from 'sphrom pod')"
+        assert not path.exists()
+    # bad values: one line naming the option, no file
+    for argv, expect in ((["--tolerance", "0"], "--tolerance: '0' is out of range (allowed: a number > 0)"),
+                         (["--tolerance", "2"], "--tolerance: 2.0 is out of range (allowed: 0 < tolerance < 1)"),
+                         (["--modes", "64"], "--modes: 64 is out of range (allowed: 1 to 63, below 2N)"),
+                         (["--modes", "6,4"], "--modes: the balanced model takes one order R"),
+                         (["--modes", "6", "--tolerance", "1e-2"], "--tolerance: give --modes R or --tolerance"),
+                         (["--basis", "b.h5"], "--basis: the balanced model uses no POD basis")):
+        path = tmp_path / "bad.h5"
+        assert main(["rom", str(scene_file), "--model", "balanced", "--out", str(path), "--quiet", *argv]) == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and expect in err, err
+        assert not path.exists()

@@ -43,8 +43,9 @@ def test_every_model_runs_through_the_one_interface(forced, name):
     scene, problem, basis, run = forced
     model = get_model(name)
     assert MODELS[name] is model and model.name == name and model.description
-    assert model.basis_kind in ("density", "energy") and model.integrators
-    ops = model.build(problem, basis, 5, 4)
+    assert model.basis_kind in ("density", "energy", None) and model.integrators
+    # a model without a POD basis ignores it and takes its order from k_v: as many coordinates as 5 + 4 modes
+    ops = model.build(problem, basis, 5, 4) if model.basis_kind else model.build(problem, None, 9, None)
     n = step_count(scene.T, scene.sph.dt)
     steps = np.arange(0, n + 1, 10)
     res = model.run(ops, problem, dt=scene.sph.dt, n_steps=n, sample_steps=steps)
@@ -55,15 +56,29 @@ def test_every_model_runs_through_the_one_interface(forced, name):
     assert res.a_v.shape == (M, ops.k_v) and res.a_rho.shape == (M, ops.k_rho) and res.z.shape == (M, ops.k_v + ops.k_rho)
     assert res.v.shape == (M, N) and res.rho.shape == (M, N)
     assert res.wall_time > 0 and res.offline["operators"] > 0
-    # the fields are the reconstruction from the coordinates: U_rho a (density modes), rho0 / (1 + U_e b) (energy)
-    np.testing.assert_array_equal(res.v, res.a_v @ ops.U_v.T)
-    if model.basis_kind == "density":
-        np.testing.assert_array_equal(res.rho, res.a_rho @ ops.U_rho.T)
-        a_v0 = ops.U_v.T @ problem.v0                     # Euclidean projection of v0
+    # every model's probe values come from its fields; a model with its own outputs (y) gives the same values
+    probes = [0.25, 0.5, 0.66] if res.probes is None else res.probes
+    at_probes = res.probe_outputs(problem.x, scene.L, probes, problem.rho0)
+    assert at_probes.shape == (M, 2 * len(probes)) and np.all(np.isfinite(at_probes))
+    if res.y is not None:
+        np.testing.assert_allclose(at_probes, res.y, rtol=0, atol=1e-12 * np.max(np.abs(res.y)))
+    if model.basis_kind is None:
+        # the whole state x_r in a_v; the fields are the reconstruction x = V x_r in energy coordinates
+        assert ops.k_rho == 0 and ops.k_v == 9
+        lti, V = ops.lti, ops.reduced.V
+        np.testing.assert_array_equal(res.v, (res.a_v @ V.T)[:, :N] / lti.w_v)
+        np.testing.assert_array_equal(res.rho, problem.rho0 / (1.0 + (res.a_v @ V.T)[:, N:] / lti.w_e))
+        np.testing.assert_array_equal(res.a_v[0], ops.reduced.x0)            # Wᵀ x0, x0 = [√ρ0 v0; 0]
     else:
-        np.testing.assert_array_equal(res.rho, problem.rho0 / (1.0 + res.a_rho @ ops.U_e.T))
-        a_v0 = ops.U_v.T @ (problem.rho0 * problem.v0)    # ρ0-weighted projection of v0
-    np.testing.assert_allclose(res.a_v[0], a_v0, rtol=0, atol=1e-14 * np.max(np.abs(a_v0)))
+        # the fields are the reconstruction from the coordinates: U_rho a (density modes), rho0 / (1 + U_e b)
+        np.testing.assert_array_equal(res.v, res.a_v @ ops.U_v.T)
+        if model.basis_kind == "density":
+            np.testing.assert_array_equal(res.rho, res.a_rho @ ops.U_rho.T)
+            a_v0 = ops.U_v.T @ problem.v0                     # Euclidean projection of v0
+        else:
+            np.testing.assert_array_equal(res.rho, problem.rho0 / (1.0 + res.a_rho @ ops.U_e.T))
+            a_v0 = ops.U_v.T @ (problem.rho0 * problem.v0)    # ρ0-weighted projection of v0
+        np.testing.assert_allclose(res.a_v[0], a_v0, rtol=0, atol=1e-14 * np.max(np.abs(a_v0)))
     # five modes hold this short run: every model is near the full SPH [m/s], [kg/m^3]
     v_sph, rho_sph = run.v[np.searchsorted(run.steps, steps)], run.rho[np.searchsorted(run.steps, steps)]
     assert relative_l2(res.v, v_sph, res.t) < 0.05
@@ -77,7 +92,7 @@ def test_properties_are_what_the_models_do(forced):
     n = step_count(scene.T, scene.sph.dt)
     steps = np.arange(0, n + 1, 50)
     for name, model in MODELS.items():
-        ops = model.build(problem, basis, 5, 4)
+        ops = model.build(problem, basis, 5, 4) if model.basis_kind else model.build(problem, None, 9, None)
 
         def go(**kw):
             return model.run(ops, problem, dt=scene.sph.dt, n_steps=n, sample_steps=steps, **kw).a_v
@@ -95,7 +110,8 @@ def test_properties_are_what_the_models_do(forced):
                 with pytest.raises(ValueError):
                     go(integrator=integrator)
     assert model_names(linear=False) == ("original", "linearized", "frozen")
-    assert set(model_names(fmu_kind=None)) == {"original", "linearized"}
+    assert set(model_names(fmu_kind=None)) == {"original", "linearized", "balanced"}
+    assert model_names(basis_kind=None) == ("balanced",)
     with pytest.raises(ValueError, match="not one of original, linearized, frozen, exact"):
         get_model("balanced-typo")
 

@@ -2,20 +2,29 @@
 
 from .options import add_n_freeze, add_quiet, add_scene, modes_pair, positive_float
 
+BOUND_PROBE_SAMPLES = 4000      # at least T/4000 between samples of the measured errors (h |A|_1 <= 0.05 up to 40000)
+
 
 def add_parser(sub):
-    p = sub.add_parser("rom", help="run a reduced model (original, linearized, frozen)",
+    p = sub.add_parser("rom", help="run a reduced model (original, linearized, frozen, exact, balanced)",
                        description="Run the original POD-MOR (eq. 2.16), the density-linearised model (eq. 2.17) or "
                                    "the frozen-coefficient model (eqs. 2.19-2.24) of SCENE on a basis from "
-                                   "'sphrom pod', write the reconstructed fields in the run layout of 'sphrom sph', "
-                                   "and print the errors against the full SPH and the exact solution.")
+                                   "'sphrom pod', the exact linear model on its energy-weighted modes, or the balanced "
+                                   "model (no basis: --modes R is its order), write the reconstructed fields in the "
+                                   "run layout of 'sphrom sph', and print the errors against the full SPH and the "
+                                   "exact solution (balanced: also at the probes, with its certified error bounds).")
     add_scene(p)
-    p.add_argument("--basis", required=True, metavar="BASIS.h5")
+    p.add_argument("--basis", metavar="BASIS.h5",
+                   help="POD basis from 'sphrom pod' (required by every model but balanced, which uses none)")
     from ..rom.registry import MODELS
     p.add_argument("--model", required=True, choices=tuple(MODELS),
                    help="; ".join(f"{m.name}: {m.description}" for m in MODELS.values()))
     add_n_freeze(p, default=10)
-    p.add_argument("--modes", type=modes_pair, metavar="K|KV,KRHO", help="mode counts (default: the basis file's)")
+    p.add_argument("--modes", type=modes_pair, metavar="K|KV,KRHO",
+                   help="mode counts (default: the basis file's); balanced: its order r, one number")
+    p.add_argument("--tolerance", type=positive_float, metavar="TOL",
+                   help="balanced: instead of --modes, the smallest order r with 2 sum_{i>r} sigma_i <= TOL "
+                        "2 sum sigma_i (0 < TOL < 1; default 1e-3 when neither is given)")
     p.add_argument("--integrator", choices=("euler", "symplectic", "rk4"),
                    help="time integrator (default: the scene's; rk4 is not defined for frozen coefficients)")
     p.add_argument("--refresh", choices=("tensor", "direct"), default="tensor",
@@ -43,6 +52,12 @@ def run(args):
     from ..sph.solver import build_problem, step_count
 
     model = get_model(args.model)
+    if model.basis_kind is None:
+        return run_without_basis(args, model)
+    if args.basis is None:
+        raise UserError(f"--basis: required for the {model.name} model (a POD basis from 'sphrom pod')")
+    if args.tolerance is not None:
+        raise UserError(f"--tolerance: applies to models without a POD basis; the {model.name} model takes --modes")
     out = check_output_path(args.out)
     scene = load_scene(args.scene)
     basis = read_basis(args.basis)              # FieldError "basis": the CLI names --basis
@@ -101,5 +116,141 @@ def run(args):
         attrs.update({f"error.exact.{k}": v for k, v in vs_exact.items()})
     write_run(out, result.t, problem.x, v, rho, attrs, steps=result.steps,
               extra={"a_v": result.a_v, "a_rho": result.a_rho})
+    print(f"wrote {out}")
+    return 0
+
+
+def run_without_basis(args, model):
+    """``sphrom rom --model M`` for a model without a POD basis (balanced): its order from --modes R or
+    --tolerance, errors at the probes and of the reconstructed fields, and its certified error bounds."""
+    import time
+
+    import numpy as np
+    from scipy.integrate import simpson
+
+    from ..cache import cached_sph
+    from ..compare import error_table, exact_errors, format_errors
+    from ..errors import FieldError, UserError
+    from ..norms import relative_l2
+    from ..pod.pipeline import error_steps, on_steps
+    from ..progress import progress_bar
+    from ..references.exact import exact_solution, is_available
+    from ..rom.balanced import error_bounds
+    from ..rom.balanced_model import METHOD_TITLES
+    from ..rom.lti import input_norm, sample_outputs
+    from ..rom.result import probe_values
+    from ..runio import check_output_path, scene_attrs, write_run
+    from ..scene import load_scene
+    from ..sph.solver import build_problem, step_count
+
+    if args.basis is not None:
+        raise UserError(f"--basis: the {model.name} model uses no POD basis (leave --basis out)")
+    if args.modes is not None and args.modes[0] != args.modes[1]:
+        raise UserError(f"--modes: the {model.name} model takes one order R (allowed: one integer >= 1, "
+                        f"not KV,KRHO)")
+    if args.modes is not None and args.tolerance is not None:
+        raise UserError("--tolerance: give --modes R or --tolerance TOL, not both")
+    if args.integrator is not None and args.integrator not in model.integrators:
+        raise UserError(f"--integrator: {args.integrator} is not defined for the {model.name} model "
+                        f"(allowed: {', '.join(model.integrators)})")
+    out = check_output_path(args.out)
+    scene = load_scene(args.scene)
+    problem = build_problem(scene)
+    steps = error_steps(scene)
+    n = step_count(scene.T, scene.sph.dt)
+    order = None if args.modes is None else args.modes[0]
+    try:
+        ops = model.build(problem, None, order, order, tolerance=args.tolerance)
+    except ValueError as exc:
+        field, _, detail = str(exc).partition(": ")
+        raise FieldError("modes" if field == "order" else field, detail) from None
+    result = model.run(ops, problem, dt=scene.sph.dt, n_steps=n, sample_steps=steps, step=args.step, hold=args.hold,
+                       force=scene.force)
+    integrator = f"matrix exponential, H = {result.settings['step']:g} s, input {args.hold}"
+    sph = cached_sph(scene, steps, progress=not args.quiet, problem=problem)
+    v_sph, rho_sph = on_steps(sph, steps)
+    v, rho, t, x, L, rho0 = result.v, result.rho, result.t, problem.x, scene.L, problem.rho0
+    if not (np.all(np.isfinite(v)) and np.all(np.isfinite(rho)) and np.all(rho > 0)):
+        raise UserError(f"--modes: the fields reconstructed at order {ops.order} are not finite and positive; "
+                        "raise the order")
+    lti, red = ops.lti, ops.reduced
+    P = lti.n_probes
+    y = result.y
+    y_sph = probe_values(v_sph, rho_sph, rho0, x, L, lti.probes)
+    probe_err = {"v": relative_l2(y[:, :P], y_sph[:, :P], t), "e": relative_l2(y[:, P:], y_sph[:, P:], t)}
+    vs_sph = error_table(v, rho, v_sph, rho_sph, t, rho0)
+    vs_exact = exact_errors(scene, t, x, v, rho, rho0)
+    probe_exact = None
+    if is_available(scene):
+        y_ex = probe_values(*exact_solution(scene, x, t), rho0, x, L, lti.probes)
+        probe_exact = {"v": relative_l2(y[:, :P], y_ex[:, :P], t), "e": relative_l2(y[:, P:], y_ex[:, P:], t)}
+    # certified bounds, and the initial-state error measured apart: free responses sampled exactly in time,
+    # Simpson's rule on a grid fine against the fastest rate of A (|A|_1)
+    t0 = time.perf_counter()
+    with progress_bar(P, "bounds", unit="probe", enabled=not args.quiet) as bar:
+        bounds = error_bounds(lti, red, progress=bar)
+    t_bounds = time.perf_counter() - t0
+    A = lti.dense()
+    k = int(min(40000, max(BOUND_PROBE_SAMPLES, np.ceil(scene.T * np.max(np.sum(np.abs(A), axis=0)) / 0.05))))
+    k += -k % 4                                                   # Simpson at h and 2h on the same samples
+    h = scene.T / k
+    zero = np.zeros(k + 1)
+
+    def l2(full, reduced):
+        """‖full - reduced‖_L2(0,T) per probe: Simpson's rule at h and 2h, extrapolated (Romberg, O(h^6))."""
+        e2 = (full - reduced) ** 2
+        fine, coarse = simpson(e2, dx=h, axis=0), simpson(e2[::2], dx=2 * h, axis=0)
+        return np.sqrt(np.maximum(fine + (fine - coarse) / 15.0, 0.0))
+
+    measured = l2(sample_outputs(A, None, lti.C[:P], lti.x0, h, zero),
+                  sample_outputs(red.Ar, None, red.Cr[:P], red.x0, h, zero))
+    f = np.asarray(scene.force(np.arange(k + 1) * h), float)
+    gain = np.full(P, np.nan)
+    if np.any(f):                   # the scene's force from rest, linear between the samples: the same input to both
+        gain = l2(sample_outputs(A, lti.B[:, 0], lti.C[:P], np.zeros(lti.order), h, f),
+                  sample_outputs(red.Ar, red.Br[:, 0], red.Cr[:P], np.zeros(red.order), h, f)) / input_norm(h, f)
+    fb, ib = bounds["force_error_bound"], bounds["initial_state_error_bound"]
+    offline = dict(ops.timings)
+    probes = ", ".join(f"{p:g}" for p in lti.probes)
+    print(f"rom {scene.name}: {model.name}, order r = {ops.order} ({ops.method}: {METHOD_TITLES[ops.method]}), "
+          f"{integrator}, to t = {n * scene.sph.dt:g} s")
+    print(f"  relative L2 error at the probes x/L = {probes} vs full SPH: v {probe_err['v']:.4e}   "
+          f"e {probe_err['e']:.4e}")
+    if probe_exact is not None:
+        print(f"  relative L2 error at the probes x/L = {probes} vs exact   : v {probe_exact['v']:.4e}   "
+              f"e {probe_exact['e']:.4e}")
+    print(format_errors(vs_sph, "  fields reconstructed through V, vs full SPH"))
+    if vs_exact is not None:
+        print(format_errors(vs_exact, "  fields reconstructed through V, vs exact   "))
+    print(f"  online {result.wall_time:.4f} s; offline {offline['operators']:.3f} s (Lyapunov "
+          f"{offline.get('lyapunov', 0.0):.3f} s, factors + SVD {offline.get('svd', 0.0):.3f} s, projection "
+          f"{offline.get('projection', 0.0) * 1e3:.2f} ms); bounds {t_bounds:.2f} s; full SPH {sph.wall_time:.4f} s "
+          f"({'cached run, timed earlier' if sph.reused else 'timed now'})")
+    shift = (f"shift sigma = {bounds['sigma']:.4g} 1/s, factor e^(sigma T) = {bounds['factor']:.4g}"
+             if bounds["sigma"] else "shift sigma = 0: the error system is stable")
+    print(f"  certified bounds on [0, T] = [0, {bounds['horizon']:g}] s against the full linear SPH ({shift}); "
+          "measured: both models exact in time, Simpson's rule at h = " f"{h:.3g} s and 2h, extrapolated")
+    print("  probe x/L | force_error_bound [s] | measured, scene's force from rest [s] | "
+          "initial_state_error_bound [m s^-1 s^1/2] | measured initial-state error | measured/bound")
+    for j in range(P):
+        print(f"  {lti.probes[j]:9.4g} | {fb[j]:21.4e} | {'-' if np.isnan(gain[j]) else f'{gain[j]:.4e}':>37} | "
+              f"{ib[j]:40.4e} | {measured[j]:28.4e} | {measured[j] / ib[j] if ib[j] else float('nan'):.6f}")
+    attrs = {**scene_attrs(scene), "solver": f"rom-{args.model}", "solver.model": args.model,
+             "solver.integrator": integrator, "solver.order": ops.order, "solver.method": ops.method,
+             "solver.k_v": ops.order, "solver.k_rho": 0, "solver.basis": "", "wall_time_s": result.wall_time,
+             "probes": lti.probes, **{f"offline_time.{k}": v for k, v in offline.items()},
+             "offline_time.bounds": t_bounds,
+             **{f"error.sph.{k}": v for k, v in vs_sph.items()},
+             **{f"error.sph.probes.{k}": v for k, v in probe_err.items()},
+             "bound.force_error_bound": fb, "bound.initial_state_error_bound": ib,
+             "bound.initial_state_error_measured": measured, "bound.force_gain_measured": gain,
+             "bound.sigma": bounds["sigma"]}
+    if args.tolerance is not None:
+        attrs["solver.tolerance"] = args.tolerance
+    if vs_exact is not None:
+        attrs.update({f"error.exact.{k}": v for k, v in vs_exact.items()})
+        attrs.update({f"error.exact.probes.{k}": v for k, v in probe_exact.items()})
+    write_run(out, t, x, v, rho, attrs, steps=result.steps,
+              extra={"x_r": result.a_v, "y": y, "hsv": red.hsv})
     print(f"wrote {out}")
     return 0

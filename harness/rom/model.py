@@ -39,6 +39,7 @@ BASIS_KINDS = {
     "density": ("U_v", "U_rho", "rho", "POD modes of v and ρ (Euclidean inner product, eq. 2.15)"),
     "energy": ("U_ve", "U_e", "J", "POD modes of v and of the specific volume e = ρ0/ρ - 1 in the energy inner "
                                    "products (weights ρ0 and c)"),
+    None: (None, None, None, "no POD basis: the model reduces the full linear SPH itself (balanced)"),
 }
 
 
@@ -61,8 +62,10 @@ class ReducedModel:
         The time integrators ``run`` accepts, the default first.
     uses_n_freeze : bool
         The refresh period ``n_freeze`` (and ``refresh``) matter.
-    basis_kind : {"density", "energy"}
-        The modes ``build`` takes (:data:`BASIS_KINDS`).
+    basis_kind : {"density", "energy"} or None
+        The modes ``build`` takes (:data:`BASIS_KINDS`); None: the model
+        needs no POD basis, ``build`` ignores ``basis`` and takes its order
+        from ``k_v`` (or a ``tolerance`` option).
     fmu_kind : int or None
         The ``model_kind`` of the FMU's ``resources/model.bin`` the model is
         packaged as (:mod:`harness.fmu.resources`: 1 the frozen-coefficient
@@ -85,7 +88,7 @@ class ReducedModel:
     linear: bool
     integrators: tuple
     uses_n_freeze: bool
-    basis_kind: str
+    basis_kind: str | None
     fmu_kind: int | None
     build: Callable
     run: Callable
@@ -94,7 +97,8 @@ class ReducedModel:
 
     @property
     def second_symbol(self):
-        """Symbol of the second block of coordinates: ``rho`` (density) or ``J`` (specific volume)."""
+        """Symbol of the second block of coordinates: ``rho`` (density), ``J`` (specific volume), None (no
+        second block)."""
         return BASIS_KINDS[self.basis_kind][2]
 
 

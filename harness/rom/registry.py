@@ -10,7 +10,7 @@ here.  Code elsewhere asks a model's properties (``get_model(name).linear``,
 
 from __future__ import annotations
 
-from . import exact_linear, frozen, linearized, original
+from . import balanced_model, exact_linear, frozen, linearized, original
 from .model import ReducedModel
 
 MODELS: dict[str, ReducedModel] = {m.name: m for m in (
@@ -18,6 +18,7 @@ MODELS: dict[str, ReducedModel] = {m.name: m for m in (
     linearized.MODEL,
     frozen.MODEL,
     exact_linear.MODEL,
+    balanced_model.MODEL,
 )}
 MODEL_NAMES = tuple(MODELS)
 

@@ -1,0 +1,212 @@
+"""The balanced reduced model (:mod:`harness.rom.balanced`) as an entry of the registry.
+
+It needs no POD basis: ``build`` takes the full linear SPH of the problem
+(:func:`harness.rom.lti.full_linear_system`, probes at
+:data:`harness.rom.lti.DEFAULT_PROBES`), balances it and keeps the order r
+(the mode-count argument ``k_v``, i.e. ``sphrom rom --modes R``, or the
+smallest r meeting ``tolerance``); the ``basis`` argument is ignored.
+Balanced truncation on damped scenes (d > 0 everywhere), the
+structure-preserving Galerkin projection on the Gramian trial space otherwise
+(:func:`harness.rom.balanced.balanced_reduce`, method ``auto``).
+
+The state x_r (r numbers) does not split into a velocity and a second block:
+every balanced coordinate mixes v and e.  The run's :class:`ReducedResult`
+holds the whole state in ``a_v`` (M, r) and nothing in ``a_rho`` (M, 0); its
+fields are the reconstruction through the trial basis, x ≈ V x_r in energy
+coordinates, v = (V x_r)_v / √ρ0, e = (V x_r)_e / √c, ρ = ρ0 / (1 + e).  BT
+balances the probe outputs, not the fields, so the fields away from the
+probes are only as good as V's span; the model's own outputs are the probe
+values ``y = Cr x_r`` (``ReducedResult.y``), equal to the reconstruction
+interpolated at the probes to round-off.  Time: exact, by the matrix
+exponential of :mod:`harness.rom.exact_linear` (any communication step, input
+held or linear over a step); undamped, the free response is evaluated from
+the real Schur form of the skew Ar at each sample time.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg as sla
+
+from .balanced import BalancedModel, Balancing, balancing, order_from_tolerance, truncate as truncate_balanced
+from .balanced import DEFAULT_TOLERANCE
+from .exact_linear import INTEGRATORS, _advance
+from .lti import DEFAULT_PROBES, LTI, full_linear_system
+from .model import ReducedModel
+from .result import ReducedResult
+from .stepping import sample_grid
+
+NAME = "balanced"
+METHOD_TITLES = {"bt": "square-root balanced truncation",
+                 "galerkin": "structure-preserving Galerkin projection on the shifted-Gramian trial space",
+                 "bt_shifted": "balanced truncation of the shifted system"}
+
+
+@dataclass
+class BalancedOperators:
+    """A balanced reduced model ready to run (module docstring).
+
+    Attributes
+    ----------
+    reduced : BalancedModel
+        Ar, Br, Cr, V, W, the method and the Hankel singular values.
+    lti : LTI
+        The full linear SPH it reduces (for the bounds and the reconstruction).
+    bal : Balancing
+        The Gramian factors and their SVD (``truncate`` re-cuts them).
+    A : ndarray (r, r)
+        Ar [s^-1].
+    B : ndarray (r,)
+        The force input column Br[:, 0] (per m s^-2).
+    z0 : ndarray (r,)
+        The reduced initial state Br[:, 1] = Wᵀ x0.
+    skew : bool
+        Ar exactly skew (undamped, Galerkin): the free response uses the Schur form.
+    schur_Q, schur_T : ndarray or None
+        Real Schur form of Ar (skew case).
+    rho0 : ndarray (N,)
+        ρ0 at the particles [kg m^-3] (the density reconstruction).
+    timings : dict
+        Offline times [s]: ``lyapunov``, ``svd``, ``projection``, ``operators`` (their sum).
+    """
+
+    reduced: BalancedModel
+    lti: LTI
+    bal: Balancing
+    A: np.ndarray
+    B: np.ndarray
+    z0: np.ndarray
+    skew: bool
+    schur_Q: np.ndarray | None
+    schur_T: np.ndarray | None
+    rho0: np.ndarray = None
+    timings: dict = field(default_factory=dict)
+    input_error: float = float("nan")        # no POD basis: the force column enters exactly (Br = Wᵀ B)
+    augmented: bool = False
+    whole_state: bool = True                 # ReducedResult: a_v is the whole state, a_rho is empty
+
+    @property
+    def order(self):
+        return self.A.shape[0]
+
+    @property
+    def k_v(self):
+        """The whole state's size r (the state does not split; module docstring)."""
+        return self.order
+
+    @property
+    def k_rho(self):
+        return 0
+
+    @property
+    def method(self):
+        return self.reduced.method
+
+    def _x(self, z):
+        return np.atleast_2d(z) @ self.reduced.V.T
+
+    def velocity(self, z):
+        """v = (V x_r)_v / √ρ0 at the particles, (M, N) [m s^-1] from states (M, r)."""
+        return self._x(z)[:, :self.lti.n] / self.lti.w_v
+
+    def specific_volume(self, z):
+        """e = (V x_r)_e / √c at the particles, (M, N) (dimensionless) from states (M, r)."""
+        return self._x(z)[:, self.lti.n:] / self.lti.w_e
+
+    def density(self, z):
+        """ρ = ρ0 / (1 + e) at the particles, (M, N) [kg m^-3] from states (M, r)."""
+        return self.rho0[None, :] / (1.0 + self.specific_volume(z))
+
+    def outputs(self, z):
+        """y = Cr x_r, (M, 2P): the probe velocities [m s^-1], then the probe values of e."""
+        return np.atleast_2d(z) @ self.reduced.Cr.T
+
+
+def _operators(lti, bal, reduced, rho0, t_setup):
+    t0 = time.perf_counter()
+    Q = T = None
+    if reduced.skew:
+        T, Q = sla.schur(reduced.Ar, output="real")
+    timings = dict(reduced.timings)
+    timings["operators"] = t_setup + sum(timings.values()) + time.perf_counter() - t0
+    return BalancedOperators(reduced=reduced, lti=lti, bal=bal, A=reduced.Ar, B=reduced.Br[:, 0].copy(),
+                             z0=reduced.x0.copy(), skew=reduced.skew, schur_Q=Q, schur_T=T, rho0=rho0,
+                             timings=timings)
+
+
+def build(problem, basis, k_v, k_rho, *, tolerance=None, method="auto", probes=DEFAULT_PROBES, **ignored):
+    """Balance the full linear SPH of ``problem`` and keep order r (the model's ``build``, :mod:`harness.rom.model`).
+
+    Parameters
+    ----------
+    problem : SPHProblem
+    basis : ignored
+        The model needs no POD basis.
+    k_v : int or None
+        The order r (1 <= r < 2N); ``k_rho`` is ignored.
+    tolerance : float, optional
+        Instead of ``k_v``: the smallest r with 2 Σ_{i>r} σ_i <= tolerance · 2 Σ σ_i (0 < tolerance < 1;
+        default 1e-3 when neither is given).
+    method : {"auto", "bt", "galerkin", "bt_shifted"}
+    probes : sequence of float
+        The output probes x/L.
+
+    Raises ValueError naming ``order`` or ``tolerance`` when out of range.
+    """
+    t0 = time.perf_counter()
+    lti = full_linear_system(problem, probes)
+    if tolerance is not None and not (np.isfinite(tolerance) and 0 < tolerance < 1):
+        raise ValueError(f"tolerance: {tolerance} is out of range (allowed: 0 < tolerance < 1)")
+    if tolerance is None and k_v is not None and not 1 <= int(k_v) < lti.order:
+        raise ValueError(f"order: {k_v} is out of range (allowed: 1 to {lti.order - 1}, below 2N)")
+    t_setup = time.perf_counter() - t0
+    bal = balancing(lti, method=method)
+    if tolerance is not None or k_v is None:
+        r = max(1, order_from_tolerance(bal.hsv, DEFAULT_TOLERANCE if tolerance is None else tolerance))
+    else:
+        r = int(k_v)
+    return _operators(lti, bal, truncate_balanced(lti, bal, r), problem.rho0, t_setup)
+
+
+def truncate(problem, ops: BalancedOperators, k_v, k_rho):
+    """The model of order ``k_v`` (<= ops.order) from the same Gramians (equal to ``build`` at that order)."""
+    if not 1 <= k_v <= ops.order:
+        raise ValueError(f"order: {k_v} is out of range (allowed: 1 to {ops.order})")
+    return _operators(ops.lti, ops.bal, truncate_balanced(ops.lti, ops.bal, k_v), ops.rho0, 0.0)
+
+
+def run(ops: BalancedOperators, problem, *, dt, n_steps, sample_steps=None, every=1, force=None, integrator=None,
+        n_freeze=10, refresh="tensor", step=None, hold="linear", state=None, bound=None, progress=False):
+    """Run the balanced model to ``n_steps * dt`` (the signature of :mod:`harness.rom.model`).
+
+    As :func:`harness.rom.exact_linear.run`: exact in time, communication step
+    ``step`` H [s] (default the sample spacing), input ``hold`` linear or held;
+    ``state`` (x_r, ignored) replaces the initial state Wᵀ x0.  The result's
+    ``y`` holds the probe outputs Cr x_r and ``probes`` their positions x/L.
+    """
+    if integrator not in (None,) + INTEGRATORS:
+        raise ValueError(f"the balanced model is advanced by the matrix exponential (integrator "
+                         f"{integrator!r}; allowed: {', '.join(INTEGRATORS)})")
+    steps = sample_grid(n_steps, sample_steps, every)
+    if state is not None:
+        ops = dataclasses.replace(ops, z0=np.asarray(state[0], float))
+    z, wall, step = _advance(ops, steps * dt, step, force or problem.scene.force, hold, bound)
+    return ReducedResult(model=NAME, t=steps * dt, steps=steps, a_v=z, a_rho=np.zeros((z.shape[0], 0)), ops=ops,
+                         wall_time=wall, offline=dict(ops.timings), y=ops.outputs(z), probes=ops.lti.probes.copy(),
+                         settings={"model": NAME, "dt": dt, "step": step, "hold": hold, "order": ops.order,
+                                   "method": ops.method, "k_v": ops.order, "k_e": 0})
+
+
+MODEL = ReducedModel(
+    name=NAME,
+    description="beyond the paper: balanced reduction of the full linear SPH in J = ρ0/ρ (no POD basis; "
+                "--modes R is the order r), with certified error bounds at the probes",
+    title="Balanced reduced model of the linear SPH in the specific volume J = rho0/rho (beyond Fang et al.)",
+    linear=True, integrators=INTEGRATORS, uses_n_freeze=False,
+    basis_kind=None,            # needs no POD basis: build ignores it (BASIS_KINDS[None])
+    fmu_kind=None,              # not packaged as an FMU yet
+    build=build, run=run, truncate=truncate)
