@@ -17,7 +17,7 @@ import numpy as np
 from ..compare import error_table, reference_fields
 from ..pod.pipeline import basis_for_scene, error_steps, on_steps
 from ..rom.model import BASIS_KINDS
-from ..rom.registry import MODEL_NAMES, get_model, model_names
+from ..rom.registry import MODEL_NAMES, get_model, model_names, pod_model_names
 from ..sph.solver import run_sph, step_count
 from .timing import median_time
 
@@ -35,7 +35,7 @@ def bench_row(scene, method, k, n_freeze, online, offline, err_sph, err_ref, not
             "err_rho_ref": np.nan if err_ref is None else err_ref["rho_var"], "note": note}
 
 
-def bench_python(scene, ks=None, n_freezes=N_FREEZE, repeats=5, models=MODEL_NAMES, progress=None, extra=None):
+def bench_python(scene, ks=None, n_freezes=N_FREEZE, repeats=5, models=None, progress=None, extra=None):
     """Time and error of the full SPH and the Python reduced models on ``scene``.
 
     Parameters
@@ -80,6 +80,7 @@ def bench_python(scene, ks=None, n_freezes=N_FREEZE, repeats=5, models=MODEL_NAM
                      f"N = {problem.n}, {scene.sph.integrator}"))
     tick()
     offline_pod = basis.timings.get("svd", 0.0) + run.wall_time
+    models = pod_model_names() if models is None else models
     available = [m for m in models if all(getattr(basis, name, None) is not None
                                           for name in BASIS_KINDS[get_model(m).basis_kind][:2])]
     for k in ks:

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..pod.pipeline import basis_for_scene
-from ..rom.registry import MODEL_NAMES, get_model
+from ..rom.registry import get_model, pod_model_names
 from ..scene import derive_scene, load_scene
 from ..sph.solver import run_sph
 from .timing import median_time
@@ -44,7 +44,7 @@ def per_step_costs(name="tenmode", sizes=(100, 400, 1600, 6400, 10000), ks=(12,)
         for k in ks:
             k = min(k, *basis.max_modes)
             built = {}                              # one set of operators per basis kind, shared by its models
-            for model in MODEL_NAMES:
+            for model in pod_model_names():
                 spec = get_model(model)
                 if spec.basis_kind not in built:
                     built[spec.basis_kind] = spec.build(problem, basis, k, k)

@@ -33,13 +33,13 @@ import numpy as np
 
 from ..errors import SimulationError
 from ..pod.pipeline import basis_for_scene
-from ..rom.registry import MODEL_NAMES, MODELS, get_model, model_names
+from ..rom.registry import MODELS, get_model, pod_model_names
 from ..scene import derive_scene
 from ..sph.diagnostics import energy
 from ..sph.solver import build_problem, run_sph, stability, step_count
 
 from .stress_settings import AMPLITUDES, DT_FACTORS, HORIZONS, MODE_COUNTS
-METHODS = ("sph-euler", "sph-symplectic", "sph-rk4") + MODEL_NAMES      # the full SPH, then every reduced model
+METHODS = ("sph-euler", "sph-symplectic", "sph-rk4") + pod_model_names()  # the full SPH, then every POD model
 
 
 def classify_energy(e):
@@ -50,11 +50,11 @@ def classify_energy(e):
     return ("stable" if growth <= 1.1 else "growing"), growth, drift
 
 
-def model_operators(problem, basis, k, models=MODEL_NAMES, **options):
+def model_operators(problem, basis, k, models=None, **options):
     """{model: operators} of ``models`` at k modes, built once per basis kind and shared by the models on it
     (``input_direction="needed"``, the FMU's rule, unless ``options`` say otherwise)."""
     by_kind, out = {}, {}
-    for name in models:
+    for name in pod_model_names() if models is None else models:
         spec = get_model(name)
         if spec.basis_kind not in by_kind:
             by_kind[spec.basis_kind] = spec.build(problem, basis, k, k, **{"input_direction": "needed", **options})
@@ -161,12 +161,13 @@ def horizon_rows(ctx: Context, methods=METHODS, horizons=HORIZONS, progress=None
     return rows
 
 
-def modes_rows(ctx: Context, ks=MODE_COUNTS, methods=MODEL_NAMES):
+def modes_rows(ctx: Context, ks=MODE_COUNTS, methods=None):
     """Stability at the paper's Δt with k up to the number of snapshots.
 
     A model refreshed every n_freeze steps is skipped at a k without its refresh tensor (too large to build).
     """
     rows = []
+    methods = pod_model_names() if methods is None else methods
     rank = min(ctx.basis.max_modes)
     for k in sorted({min(k, rank) for k in ks}):
         operators = model_operators(ctx.problem, ctx.basis, k, methods, tensor="auto")
@@ -189,7 +190,7 @@ def random_force(amplitude, seed=0, hold=0.05, T=10.0):
 
 
 def force_rows(ctx: Context, amplitudes=(1e-2, 1.0, 100.0),
-               methods=model_names(linear=True) + model_names(linear=False), extra=None):
+               methods=pod_model_names(linear=True) + pod_model_names(linear=False), extra=None):
     """Reduced models under large random forces (the FMU's use: an arbitrary input).
 
     ``energy_vs_exact`` is the final energy over that of the exact-in-time

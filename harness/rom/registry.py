@@ -40,6 +40,13 @@ def model_names(**properties):
     return tuple(name for name, m in MODELS.items() if all(getattr(m, k) == v for k, v in properties.items()))
 
 
+def pod_model_names(**properties):
+    """Names of the models built on a POD basis (``basis_kind`` set), filtered by ``properties`` as
+    :func:`model_names`: the models the POD benchmarks and stress maps compare (the balanced model needs no
+    basis and has its own measurement, ``python -m harness.bench.balanced_measure``)."""
+    return tuple(name for name in model_names(**properties) if MODELS[name].basis_kind is not None)
+
+
 def fmu_model_names():
     """The models that can be packaged as an FMU (``fmu_kind`` set)."""
     return tuple(name for name, m in MODELS.items() if m.fmu_kind is not None)
