@@ -43,3 +43,44 @@ def tmp_out(tmp_path):
 def _private_cache(tmp_path_factory):
     """Every test session gets its own SPH-run cache."""
     os.environ["SPHROM_CACHE"] = str(tmp_path_factory.mktemp("sphrom-cache"))
+
+
+# the unit of each FMU variable (README, "The FMU": the variable contract), by name prefix
+FMU_UNITS = {"time": "s", "f": "m/s2", "dt": "s", "v_probe_": "m/s", "rho_probe_": "kg/m3"}
+# the order of modelDescription's elements in the FMI 2 and 3 schemas (each optional)
+FMU_ELEMENT_ORDER = ["ModelExchange", "CoSimulation", "ScheduledExecution", "UnitDefinitions", "TypeDefinitions",
+                     "LogCategories", "DefaultExperiment", "VendorAnnotations", "ModelVariables", "ModelStructure"]
+
+
+def assert_units_through_declared_types(path):
+    """Every unit of the FMU's variables comes through a declared type of <TypeDefinitions> (as in the
+    Reference-FMUs; importers such as fmi-sim refuse a unit on the variable), every declared unit is defined,
+    the elements are in schema order, and fmpy reads each variable's contract unit from its declared type."""
+    import xml.etree.ElementTree as ET
+    import zipfile
+
+    import fmpy
+
+    root = ET.fromstring(zipfile.ZipFile(path).read("modelDescription.xml"))
+    fmi3 = root.get("fmiVersion").startswith("3")
+    tags = [child.tag for child in root]
+    assert tags == sorted(tags, key=FMU_ELEMENT_ORDER.index)
+    units = {u.get("name") for u in root.find("UnitDefinitions")}
+    types = root.find("TypeDefinitions")
+    if fmi3:
+        declared = {t.get("name"): t.get("unit") for t in types if t.tag == "Float64Type"}
+    else:
+        declared = {t.get("name"): t.find("Real").get("unit") for t in types.findall("SimpleType")}
+    assert declared and set(declared.values()) <= units
+    variables = root.find("ModelVariables")
+    reals = list(variables.iter("Float64" if fmi3 else "Real"))
+    assert len(reals) >= 5
+    for element in reals:
+        assert element.get("unit") is None and element.get("declaredType") in declared
+    for v in fmpy.read_model_description(str(path)).modelVariables:
+        unit = next((u for prefix, u in FMU_UNITS.items() if v.name == prefix or
+                     (prefix.endswith("_") and v.name.startswith(prefix))), None)
+        if v.type in ("Real", "Float64"):
+            assert v.unit is None and v.declaredType.unit == unit, v.name
+        else:
+            assert unit is None and v.declaredType is None, v.name

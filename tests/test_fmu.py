@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from fmpy.fmi1 import FMICallException
 
-from conftest import fmu_scene
+from conftest import assert_units_through_declared_types, fmu_scene
 from harness.cli import main
 from harness.fmu.build import ensure_binaries
 from harness.fmu.fmi import VR_DT, VR_N_FREEZE, Slave
@@ -74,6 +74,7 @@ def relative_residual(out, ref):
 def test_fmpy_validates_and_simulates(fmus, fmi):
     path, data = fmus("forced", fmi)
     assert fmpy.validation.validate_fmu(str(path)) == []
+    assert_units_through_declared_types(path)
     md = fmpy.read_model_description(str(path))
     names = [v.name for v in md.modelVariables]
     assert names[:4 - (fmi == 2)] == (["f", "n_freeze", "dt"] if fmi == 2 else ["time", "f", "n_freeze", "dt"])

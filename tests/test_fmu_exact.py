@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from fmpy.fmi1 import FMICallException
 
-from conftest import fmu_scene
+from conftest import assert_units_through_declared_types, fmu_scene
 from harness.fmu.build import ensure_binaries
 from harness.fmu.fmi import Slave
 from harness.fmu.package import exact_model, package_fmu
@@ -71,8 +71,12 @@ def relative_residual(out, ref):
 def test_exact_fmu_validates_and_declares_the_model(exact_fmus, fmi):
     path, data = exact_fmus("forced", fmi)
     assert fmpy.validation.validate_fmu(str(path)) == []
+    assert_units_through_declared_types(path)
     assert data.integrator == "exponential" and data.B is not None and data.damping
     md = fmpy.read_model_description(str(path))
+    # no internal step: the exact model steps by the matrix exponential over any communication step
+    assert b"fixedInternalStepSize" not in zipfile.ZipFile(path).read("modelDescription.xml")
+    assert fmi == 2 or md.coSimulation.fixedInternalStepSize is None
     assert [v.name for v in md.modelVariables if v.causality == "output"] == \
         [f"v_probe_{j}" for j in (1, 2, 3)] + [f"rho_probe_{j}" for j in (1, 2, 3)]
     _, unforced = exact_fmus("unforced", fmi)

@@ -107,7 +107,10 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
         "input_hold": ("held over each communication step, or linear with the derivative of "
                        "fmi2SetRealInputDerivatives" if spec.linear else "held over each communication step"),
     }
-    return render(template(f"fmi{fmi}.xml"), values, {"probes": probes, "outputs": outputs})
+    # FMI 3 fixedInternalStepSize only where there is one: the linear model steps by the matrix exponential
+    internal_step = [] if spec.linear else [{}]
+    return render(template(f"fmi{fmi}.xml"), values,
+                  {"probes": probes, "outputs": outputs, "internal_step": internal_step})
 
 
 def build_description() -> str:

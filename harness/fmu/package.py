@@ -71,6 +71,16 @@ binary serves every scene.  To rebuild the binary for another platform:
 
   fmpy compile this.fmu                     (fmpy provides the FMI headers)
 
+The core calls log2, sin, exp, ... from the C maths library, which FMI 3's
+buildDescription.xml names (<Library name="m"/>); fmpy 0.3.32's compile
+ignores it and links no libm, so its binary loads in Python (which has libm
+loaded) but not in an importer without libm.  To link it, on the extracted
+FMU's folder (an absolute path):
+
+  from fmpy.build import build_platform_binary
+  build_platform_binary("/abs/path/of/fmu", cmake_options={{
+      "CMAKE_C_STANDARD_LIBRARIES:STRING": "-lm"}})
+
 or by hand, with the FMI {fmi}.0 headers on the include path:
 
   cc -std=c99 -O2 -shared -fPIC -fvisibility=hidden -ffp-contract=off \\
