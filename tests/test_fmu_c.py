@@ -25,7 +25,7 @@ from harness.fmu.fmi import Slave
 from harness.fmu.package import package_fmu
 from harness.fmu.resources import pack, unpack
 
-SCENARIOS = ["basic", "state", "bad", "resources", "cycles", "threads"]
+SCENARIOS = ["basic", "state", "bad", "resources", "cycles", "threads", "edge"]
 
 
 @pytest.fixture(scope="session")
