@@ -87,3 +87,64 @@ def test_unknown_log_category_is_a_warning(edge_fmus, fmi):
         s.do_step(0.0, H)                                      # still usable, and logEvents was honoured
         assert any(cat == "logEvents" for _, cat, _ in s.messages)
 
+
+# ---------------------------------------------------------------------------
+# sphrom cosim: a bad FMU or force CSV is one line on stderr, exit 2, no output file
+# ---------------------------------------------------------------------------
+
+def corrupted_copy(path, folder):
+    """A copy of the FMU with one byte of resources/model.bin flipped."""
+    import zipfile
+    bad = folder / f"corrupt-{path.name}"
+    with zipfile.ZipFile(path) as src, zipfile.ZipFile(bad, "w") as dst:
+        for info in src.infolist():
+            data = src.read(info.filename)
+            if info.filename == "resources/model.bin":
+                data = data[:200] + bytes([data[200] ^ 1]) + data[201:]
+            dst.writestr(info, data)
+    return bad
+
+
+def one_error_line(capsys):
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    return lines[0]
+
+
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_cosim_fmu_that_fails_to_instantiate(edge_fmus, tmp_path, capsys, fmi):
+    from harness.cli import main
+    bad, out = corrupted_copy(edge_fmus(fmi), tmp_path), tmp_path / "result.csv"
+    for extra in ([], ["--force", "0.01*t"]):
+        assert main(["cosim", str(bad), "--t-end", "0.05", "--out", str(out)] + extra) == 2
+        line = one_error_line(capsys)
+        assert line.startswith("sphrom cosim: error: FILE.fmu: ") and "cannot be instantiated" in line
+        assert "checksum mismatch" in line                        # the FMU's own logged reason
+        assert not out.exists() and not list(tmp_path.glob("result*"))
+
+
+def test_cosim_force_csv_must_cover_the_run(edge_fmus, tmp_path, capsys):
+    from harness.cli import main
+    out = tmp_path / "result.csv"
+    cases = {
+        "one row": ("time,f\n0,0.01\n", "has 1 row"),
+        "short": ("time,f\n0,0.01\n0.02,0.0\n", "covers [0, 0.02] s, not [0, 0.05] s"),
+        "late start": ("time,f\n0.01,0.01\n0.1,0.0\n", "covers [0.01, 0.1] s, not [0, 0.05] s"),
+        "negative": ("time,f\n-2,0.01\n-1,0.0\n", "only negative times"),
+    }
+    for name, (text, expected) in cases.items():
+        csv = tmp_path / f"{name.replace(' ', '_')}.csv"
+        csv.write_text(text)
+        assert main(["cosim", str(edge_fmus(2)), "--force", str(csv), "--t-end", "0.05", "--step", "0.01",
+                     "--out", str(out)]) == 2, name
+        line = one_error_line(capsys)
+        assert line.startswith("sphrom cosim: error: --force: ") and expected in line, (name, line)
+        assert "allowed: at least two rows whose times cover [0, 0.05] s" in line
+        assert not out.exists()
+    csv = tmp_path / "covering.csv"                               # the boundary: exactly [0, t_end] is fine
+    csv.write_text("time,f\n0,0.01\n0.05,0.0\n")
+    assert main(["cosim", str(edge_fmus(2)), "--force", str(csv), "--t-end", "0.05", "--step", "0.01",
+                 "--out", str(out)]) == 0
+    assert out.exists()
