@@ -122,6 +122,10 @@ def test_cosim_fmu_that_fails_to_instantiate(edge_fmus, tmp_path, capsys, fmi):
         line = one_error_line(capsys)
         assert line.startswith("sphrom cosim: error: FILE.fmu: ") and "cannot be instantiated" in line
         assert "checksum mismatch" in line                        # the FMU's own logged reason
+        import re
+        from pathlib import Path
+        extracted = re.search(r"cannot load the model: '(.*)/resources/model\.bin'", line)
+        assert extracted and not Path(extracted.group(1)).exists()   # no extracted folder left behind
         assert not out.exists() and not list(tmp_path.glob("result*"))
 
 

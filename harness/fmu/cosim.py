@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import csv
 import math
+import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -290,8 +291,11 @@ def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None, hold_inputs
         return CosimResult(names=["time"] + outputs, values=values, wall_time=time.perf_counter() - t0,
                            steps=steps, input_derivatives=True)
     try:
-        result = fmpy.simulate_fmu(str(fmu), start_time=0.0, stop_time=t_end, output_interval=step, input=signal,
-                                   start_values=start, output=outputs, logger=logger, model_description=md)
+        with tempfile.TemporaryDirectory(prefix="sphrom-cosim-") as unzipdir:   # removed also when it fails
+            fmpy.extract(str(fmu), unzipdir=unzipdir)
+            result = fmpy.simulate_fmu(unzipdir, start_time=0.0, stop_time=t_end, output_interval=step,
+                                       input=signal, start_values=start, output=outputs, logger=logger,
+                                       model_description=md)
     except FMICallException as exc:
         detail = "; ".join(capture.errors()) or str(exc)
         raise SimulationError(f"the FMU failed: {detail}") from None
