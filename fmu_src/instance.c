@@ -82,16 +82,20 @@ InstanceStatus instance_set_debug_logging(Instance *inst, const char *fn, int lo
         return INSTANCE_OK;
     }
     uint32_t mask = inst->log_mask;
+    InstanceStatus status = INSTANCE_OK;
     for (size_t i = 0; i < n_categories; i++) {
         const uint32_t bit = category_bit(categories[i]);
-        if (!bit) {
-            return instance_error(inst, fn, "unknown log category '%.200s' (declared: logEvents, logStatusWarning, "
-                                  "logStatusError)", categories[i] ? categories[i] : "(null)");
+        if (!bit) {     /* the importer's mistake, not the model's: the instance stays usable */
+            instance_log(inst, INSTANCE_WARNING, INSTANCE_LOG_WARNING, "%s: unknown log category '%.200s' ignored "
+                         "(known: logEvents, logStatusWarning, logStatusError)", fn,
+                         categories[i] ? categories[i] : "(null)");
+            status = INSTANCE_WARNING;
+            continue;
         }
         mask = logging_on ? (mask | bit) : (mask & ~bit);
     }
     inst->log_mask = mask;
-    return INSTANCE_OK;
+    return status;
 }
 
 /* ------------------------------------------------------------------------ */
@@ -473,6 +477,12 @@ InstanceStatus instance_set_input_derivatives(Instance *inst, const char *fn, co
 /* ------------------------------------------------------------------------ */
 
 InstanceStatus instance_do_step(Instance *inst, const char *fn, double t_comm, double h) {
+    if (!inst->warned_long_dt && rom_step_exceeds(inst->state, h)) {
+        inst->warned_long_dt = 1;
+        instance_log(inst, INSTANCE_WARNING, INSTANCE_LOG_WARNING, "%s: dt = %g s is larger than the communication "
+                     "step h = %g s at t = %.9g s: such a step is one internal step of length h (warned once per "
+                     "instance)", fn, inst->state->dt, h, t_comm);
+    }
     if (rom_do_step(inst->state, t_comm, h, inst->message, sizeof inst->message) != ROM_OK) {
         return instance_error(inst, fn, "%s", inst->message);
     }

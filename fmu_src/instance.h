@@ -80,6 +80,7 @@ typedef struct {
     InstanceCallback logger;
     void *environment;
     uint32_t log_mask;                 /* enabled INSTANCE_LOG_* categories */
+    int warned_long_dt;                /* the warning on dt > h was logged */
     char message[ROM_MESSAGE_SIZE];    /* the core's last message */
 } Instance;
 

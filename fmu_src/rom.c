@@ -185,6 +185,12 @@ RomStatus rom_do_step(RomState *s, double t_comm, double h, char *message, size_
     return rom_check_outputs(s, message, message_size);
 }
 
+int rom_step_exceeds(const RomState *s, double h) {
+    if (!s || rom_is_linear(s->model) || !(isfinite(h) && h > 0)) return 0;
+    const double ratio = h / s->dt;
+    return ratio < 1.0 && !(fabs(ratio - 1.0) <= ROM_STEP_ROUNDING);
+}
+
 RomStatus rom_advance(RomState *s, int64_t n_steps, char *message, size_t message_size) {
     if (!s) return rom_fail(message, message_size, "no state");
     if (n_steps < 0) return rom_fail(message, message_size, "negative step count %lld", (long long)n_steps);
@@ -209,6 +215,14 @@ double rom_rho_probe(const RomState *s, uint32_t j) {
 RomStatus rom_check_outputs(const RomState *s, char *message, size_t message_size) {
     if (!s) return rom_fail(message, message_size, "no state");
     for (uint32_t j = 0; j < s->model->n_probes; j++) {
+        if (rom_is_linear(s->model)) {
+            const double J = rom_exact_probe_J(s, j);
+            if (!(J > 0)) {
+                return rom_fail(message, message_size, "specific volume J = 1 + e = %g <= 0 at probe %u (x/L = %g) "
+                                "at t = %.9g s: compression beyond the model's range", J, j + 1,
+                                s->model->probe_x[j], s->time);
+            }
+        }
         const double rho = rom_rho_probe(s, j);
         if (!(rho > 0) || !isfinite(rho)) {
             return rom_fail(message, message_size, "density at probe %u (x/L = %g) is %g (must be > 0) at t = %.9g s",

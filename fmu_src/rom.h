@@ -213,6 +213,9 @@ ROM_API RomStatus rom_set_n_freeze(RomState *state, int64_t n_freeze, char *mess
  * a time mismatch, a bad h, a non-finite or runaway state, or a density <= 0
  * at a probe. */
 ROM_API RomStatus rom_do_step(RomState *state, double t_comm, double h, char *message, size_t message_size);
+/* 1 when the frozen model's internal step dt exceeds the communication step h (beyond
+ * ROM_STEP_ROUNDING): rom_do_step then takes one internal step of length h */
+ROM_API int rom_step_exceeds(const RomState *state, double h);
 /* n_steps whole internal steps with the runaway check (benchmark, tests) */
 ROM_API RomStatus rom_advance(RomState *state, int64_t n_steps, char *message, size_t message_size);
 /* Exact model only: the input goes linearly over each step, f(t_comm + tau) = f + rate tau

@@ -197,6 +197,21 @@ double rom_exact_rho_probe(const RomState *s, uint32_t j) {
     return rho;
 }
 
+double rom_exact_probe_J(const RomState *s, uint32_t j) {
+    const RomModel *m = s->model;
+    const size_t kr = m->k_rho;
+    double smallest = INFINITY;
+    for (int side = 0; side < 2; side++) {
+        const double *row = m->Pe + ((size_t)j * 2 + (size_t)side) * kr;
+        double e = 0.0;
+        for (size_t q = 0; q < kr; q++) e += row[q] * s->ar[q];
+        const double J = 1.0 + e;
+        if (!isfinite(J)) return NAN;
+        if (J < smallest) smallest = J;
+    }
+    return smallest;
+}
+
 void rom_exact_prepare(RomModel *m) {
     if (!m->Q) return;
     const size_t k = m->k;

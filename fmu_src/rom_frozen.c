@@ -207,14 +207,17 @@ RomStatus rom_frozen_step(RomState *s, double t_comm, double h, char *message, s
     const double nearest = floor(ratio + 0.5);
     int64_t n_full;
     double rest = 0.0;
-    if (fabs(ratio - nearest) <= ROM_STEP_ROUNDING * fmax(1.0, ratio)) {
+    if (nearest < 1.0 || (ratio < 1.0 && !(fabs(ratio - 1.0) <= ROM_STEP_ROUNDING))) {
+        n_full = 0;                               /* dt > h: one internal step of length h (rom_step_exceeds) */
+        rest = h;
+    } else if (fabs(ratio - nearest) <= ROM_STEP_ROUNDING * fmax(1.0, ratio)) {
         n_full = (int64_t)nearest;
     } else {
         n_full = (int64_t)floor(ratio);
         rest = h - (double)n_full * dt;
     }
     RomStatus status = run_steps(s, n_full, dt, t_comm, message, message_size);
-    if (status == ROM_OK && rest > ROM_SHORT_STEP_MIN * dt) {
+    if (status == ROM_OK && (n_full == 0 || rest > ROM_SHORT_STEP_MIN * dt)) {
         status = run_steps(s, 1, rest, t_comm + (double)n_full * dt, message, message_size);
     }
     return status;     /* on failure the instance is unusable; the message names the time */

@@ -526,12 +526,15 @@ RomStatus rom_state_check(const RomModel *m, const unsigned char *buffer, size_t
                           size_t message_size) {
     if (!m) return rom_fail(message, message_size, "serialized state: no data");
     if (envelope_open(&STATE, buffer, size, message, message_size) != ROM_OK) return ROM_FAIL;
-    if (get_u32(buffer + ST_K_V) != m->k_v || get_u32(buffer + ST_K_RHO) != m->k_rho ||
-        get_u32(buffer + ST_N_PROBES) != m->n_probes || get_u32(buffer + ST_N_PAIRS) != m->n_pairs) {
-        return rom_fail(message, message_size,
-                        "serialized state: sizes k_v = %u, k_rho = %u, %u probes do not match this FMU's %u, %u, %u "
-                        "(a state from another FMU)", get_u32(buffer + ST_K_V), get_u32(buffer + ST_K_RHO),
-                        get_u32(buffer + ST_N_PROBES), m->k_v, m->k_rho, m->n_probes);
+    static const struct { const char *field; size_t offset; } SIZES[4] = {
+        {"k_v", ST_K_V}, {"k_rho", ST_K_RHO}, {"n_probes", ST_N_PROBES}, {"n_pairs", ST_N_PAIRS}};
+    const uint32_t mine[4] = {m->k_v, m->k_rho, m->n_probes, m->n_pairs};
+    for (int i = 0; i < 4; i++) {
+        const uint32_t theirs = get_u32(buffer + SIZES[i].offset);
+        if (theirs != mine[i]) {
+            return rom_fail(message, message_size, "serialized state: %s is %u in the state, %u in this FMU (a state "
+                            "from another FMU)", SIZES[i].field, theirs, mine[i]);
+        }
     }
     if (envelope_close(&STATE, buffer, size, rom_state_serialized_size(m), "", ST_TOKEN, m->token, message,
                        message_size) != ROM_OK) {

@@ -25,7 +25,7 @@ from harness.fmu.fmi import Slave
 from harness.fmu.package import package_fmu
 from harness.fmu.resources import pack, unpack
 
-SCENARIOS = ["basic", "state", "bad", "resources", "cycles", "threads"]
+SCENARIOS = ["basic", "state", "bad", "resources", "cycles", "threads", "edge"]
 
 
 @pytest.fixture(scope="session")
@@ -308,6 +308,21 @@ def test_density_at_a_probe_must_stay_positive(packaged, binaries):
     model = Core(binaries.core).load(pack(data))
     with pytest.raises(CoreError, match=r"density at probe 1 \(x/L = 0.25\) is -.* at t = 0.001 s"):
         model.do_step(0.0, 1e-3)
+    model.close()
+
+
+def test_exact_model_names_a_specific_volume_at_or_below_zero(packaged, binaries):
+    """J = 1 + e <= 0 at a probe (compression through zero volume) is named as such, not as a NaN density."""
+    from harness.fmu.resources import pack_exact
+    data = unpack(zipfile.ZipFile(packaged[("exact-unforced", 2)]).read("resources/model.bin"))
+    row = data.Pe[0, 0]
+    data.z0 = data.z0.copy()
+    data.z0[data.k_v:] = -2.0 * row / (row @ row)          # e = -2 at probe 1's first particle
+    data.bound = 1e6 * float(np.max(np.abs(data.z0)))
+    model = Core(binaries.core).load(pack_exact(data))
+    with pytest.raises(CoreError, match=r"specific volume J = 1 \+ e = -.* <= 0 at probe 1 \(x/L = 0.25\) at "
+                                        r"t = 1e-06 s: compression beyond the model's range"):
+        model.do_step(0.0, 1e-6)
     model.close()
 
 

@@ -6,7 +6,7 @@
  *
  *   sphrom_driver RESOURCES_DIR SCRATCH_DIR [scenario ...]
  *
- * scenarios: basic, state, bad, resources, cycles, threads (default: all).
+ * scenarios: basic, state, bad, resources, cycles, threads, edge (default: all).
  * Every failed check prints a line; the exit status is the number of failed
  * checks (capped at 100).  Under AddressSanitizer, leaks fail the run at exit.
  */
@@ -44,6 +44,7 @@ static int checks = 0;
 
 typedef struct {
     int errors;
+    int warnings;
     int messages;
     char last[2048];
 } LogBook;
@@ -56,6 +57,7 @@ static void logger2(fmi2ComponentEnvironment env, fmi2String name, fmi2Status st
     if (!book) return;
     book->messages++;
     if (status == fmi2Error || status == fmi2Fatal) book->errors++;
+    if (status == fmi2Warning) book->warnings++;
     snprintf(book->last, sizeof book->last, "%s", message ? message : "");
 }
 
@@ -65,6 +67,7 @@ static void logger3(fmi3InstanceEnvironment env, fmi3Status status, fmi3String c
     if (!book) return;
     book->messages++;
     if (status == fmi3Error || status == fmi3Fatal) book->errors++;
+    if (status == fmi3Warning) book->warnings++;
     snprintf(book->last, sizeof book->last, "%s", message ? message : "");
 }
 
@@ -241,8 +244,14 @@ static void scenario_basic(void) {
     EXPECT(fmi2DoStep(c2, setup.dt, setup.dt, fmi2True) == fmi2OK, "doStep");
     EXPECT(fmi2DoStep(c2, 0.0, setup.dt, fmi2True) == fmi2Error, "wrong time accepted");
     EXPECT(book2.messages == before_off, "logging off: the FMU still logged '%s'", book2.last);
-    const fmi3String bogus[1] = {"logBogus"};
-    EXPECT_ERROR(&book3, fmi3SetDebugLogging(c3, fmi3True, 1, bogus), fmi3OK);
+    /* an unknown category is a warning naming it and the known ones; the instance stays usable */
+    const fmi3String bogus[2] = {"logBogus", "logEvents"};
+    const int warnings3 = book3.warnings;
+    EXPECT(fmi3SetDebugLogging(c3, fmi3True, 2, bogus) == fmi3Warning, "unknown category: not fmi3Warning");
+    EXPECT(book3.warnings == warnings3 + 1 && strstr(book3.last, "logBogus") && strstr(book3.last, "logEvents"),
+           "unknown category: warning should name it and the known ones: %s", book3.last);
+    EXPECT(fmi3Reset(c3) == fmi3OK && fmi3EnterInitializationMode(c3, fmi3False, 0, 0, fmi3False, 0) == fmi3OK &&
+           fmi3ExitInitializationMode(c3) == fmi3OK, "FMI 3 instance unusable after an unknown category");
     fmi2FreeInstance(c2);
     fmi3FreeInstance(c3);
     free(out2);
@@ -702,11 +711,98 @@ static void scenario_threads(void) {
     for (int i = 0; i < N_THREADS; i++) free(jobs[i].out);
 }
 
+
+/* Edge cases: dt far above the communication step h, a serialized state of other
+ * sizes, J <= 0 in the exact model. */
+static fmi2Component ready2_dt(LogBook *book, const fmi2CallbackFunctions *f, double dt) {
+    fmi2Component c = instantiate2(book, f, setup.uri, setup.token);
+    if (!c) return NULL;
+    const fmi2ValueReference vdt = ROM_VR_DT;
+    if (fmi2SetupExperiment(c, fmi2False, 0.0, 0.0, fmi2False, 0.0) != fmi2OK ||
+        fmi2EnterInitializationMode(c) != fmi2OK || fmi2SetReal(c, &vdt, 1, &dt) != fmi2OK ||
+        fmi2ExitInitializationMode(c) != fmi2OK) {
+        fmi2FreeInstance(c);
+        return NULL;
+    }
+    return c;
+}
+
+static void scenario_edge(void) {
+    /* dt = 1e10 h: each step is one internal step of length h (not a no-op), warned once */
+    const double h = setup.dt;
+    LogBook big = {0}, same = {0};
+    const fmi2CallbackFunctions fb = callbacks2(&big), fs = callbacks2(&same);
+    fmi2Component cb = ready2_dt(&big, &fb, 1e10 * h), cs = ready2_dt(&same, &fs, h);
+    EXPECT(cb && cs, "instantiation with dt failed: %s / %s", big.last, same.last);
+    if (cb && cs) {
+        fmi2ValueReference vr[MAX_OUT];
+        const size_t n_out = output_refs(vr);
+        double before[MAX_OUT], ob[MAX_OUT], os[MAX_OUT];
+        const fmi2ValueReference vf = ROM_VR_F;
+        const double f = 0.05;
+        EXPECT(fmi2GetReal(cb, vr, n_out, before) == fmi2OK, "outputs before");
+        for (int k = 0; k < 3; k++) {
+            EXPECT(fmi2SetReal(cb, &vf, 1, &f) == fmi2OK && fmi2SetReal(cs, &vf, 1, &f) == fmi2OK, "set f");
+            EXPECT(fmi2DoStep(cb, k * h, h, fmi2True) == fmi2OK, "dt = 1e10 h: doStep failed: %s", big.last);
+            EXPECT(fmi2DoStep(cs, k * h, h, fmi2True) == fmi2OK, "dt = h: doStep failed: %s", same.last);
+        }
+        EXPECT(fmi2GetReal(cb, vr, n_out, ob) == fmi2OK && fmi2GetReal(cs, vr, n_out, os) == fmi2OK, "outputs");
+        EXPECT(memcmp(ob, before, n_out * sizeof(double)) != 0, "dt = 1e10 h: the state did not advance");
+        EXPECT(memcmp(ob, os, n_out * sizeof(double)) == 0, "dt = 1e10 h: outputs %.17g differ from dt = h %.17g",
+               ob[0], os[0]);
+        const int expected = setup.kind == ROM_MODEL_FROZEN ? 1 : 0;     /* the exact step ignores dt */
+        EXPECT(big.warnings == expected && same.warnings == 0, "warnings on dt > h: %d (expected %d): %s",
+               big.warnings, expected, big.last);
+        if (expected) EXPECT(strstr(big.last, "dt = ") && strstr(big.last, "h = ") && strstr(big.last, "t = "),
+                             "the warning should name dt, h and the time: %s", big.last);
+        /* FMI 2: an unknown log category is a warning, the instance goes on stepping */
+        const fmi2String bogus[1] = {"logBogus"};
+        const int warnings = same.warnings, errors = same.errors;
+        EXPECT(fmi2SetDebugLogging(cs, fmi2True, 1, bogus) == fmi2Warning, "fmi2 unknown category: not fmi2Warning");
+        EXPECT(same.warnings == warnings + 1 && same.errors == errors && strstr(same.last, "logBogus"),
+               "fmi2 unknown category: %s", same.last);
+        EXPECT(fmi2DoStep(cs, 3 * h, h, fmi2True) == fmi2OK, "doStep after an unknown category: %s", same.last);
+        /* a serialized state whose k_v differs: the message names the field and both values */
+        fmi2FMUstate st = NULL;
+        size_t size = 0;
+        EXPECT(fmi2GetFMUstate(cs, &st) == fmi2OK && fmi2SerializedFMUstateSize(cs, st, &size) == fmi2OK, "state");
+        unsigned char *blob = calloc(size ? size : 1, 1);
+        EXPECT(fmi2SerializeFMUstate(cs, st, (fmi2Byte *)blob, size) == fmi2OK, "serialize");
+        const unsigned k_v = (unsigned)blob[16] | (unsigned)blob[17] << 8;
+        blob[16] = (unsigned char)(blob[16] + 1);
+        fmi2FMUstate other = NULL;
+        EXPECT_ERROR(&same, fmi2DeSerializeFMUstate(cs, (const fmi2Byte *)blob, size, &other), fmi2OK);
+        char want[64];
+        snprintf(want, sizeof want, "k_v is %u in the state, %u in this FMU", k_v + 1, k_v);
+        EXPECT(strstr(same.last, want) != NULL, "state of other size: message should say '%s': %s", want, same.last);
+        free(blob);
+        fmi2FreeFMUstate(cs, &st);
+    }
+    fmi2FreeInstance(cb);
+    fmi2FreeInstance(cs);
+    /* exact model: J = 1 + e <= 0 at a probe is named as such, not as a NaN density */
+    char path[4300], message[ROM_MESSAGE_SIZE];
+    snprintf(path, sizeof path, "%s/%s", setup.resources, ROM_RESOURCE_FILE);
+    RomModel *model = NULL;
+    EXPECT(rom_model_load_file(path, &model, message, sizeof message) == ROM_OK, "load: %s", message);
+    RomState *s = model ? rom_state_new(model) : NULL;
+    if (s && setup.kind == ROM_MODEL_EXACT_LINEAR) {
+        double norm = 0.0;
+        for (uint32_t q = 0; q < model->k_rho; q++) norm += model->Pe[q] * model->Pe[q];
+        for (uint32_t q = 0; q < model->k_rho; q++) s->ar[q] = -2.0 * model->Pe[q] / norm;    /* e = -2 at probe 1 */
+        EXPECT(rom_check_outputs(s, message, sizeof message) != ROM_OK, "J <= 0 accepted");
+        EXPECT(strstr(message, "specific volume J = 1 + e = ") && strstr(message, "<= 0 at probe 1 (x/L = ") &&
+               strstr(message, "compression beyond the model's range"), "J <= 0: message %s", message);
+    }
+    rom_state_free(s);
+    rom_model_free(model);
+}
+
 /* ------------------------------------------------------------------------ */
 
 int main(int argc, char **argv) {
     if (argc < 3) {
-        fprintf(stderr, "usage: %s RESOURCES_DIR SCRATCH_DIR [basic|state|bad|resources|cycles|threads ...]\n",
+        fprintf(stderr, "usage: %s RESOURCES_DIR SCRATCH_DIR [basic|state|bad|resources|cycles|threads|edge ...]\n",
                 argv[0]);
         return 2;
     }
@@ -728,9 +824,9 @@ int main(int argc, char **argv) {
     setup.dt = model->dt;
     rom_model_free(model);
 
-    static const char *all[] = {"basic", "state", "bad", "resources", "cycles", "threads"};
+    static const char *all[] = {"basic", "state", "bad", "resources", "cycles", "threads", "edge"};
     const char **names = argc > 3 ? (const char **)(argv + 3) : all;
-    const int count = argc > 3 ? argc - 3 : 6;
+    const int count = argc > 3 ? argc - 3 : 7;
     for (int i = 0; i < count; i++) {
         const int before = failures, checks_before = checks;
         if (strcmp(names[i], "basic") == 0) scenario_basic();
@@ -739,6 +835,7 @@ int main(int argc, char **argv) {
         else if (strcmp(names[i], "resources") == 0) scenario_resources();
         else if (strcmp(names[i], "cycles") == 0) scenario_cycles();
         else if (strcmp(names[i], "threads") == 0) scenario_threads();
+        else if (strcmp(names[i], "edge") == 0) scenario_edge();
         else {
             fprintf(stderr, "unknown scenario %s\n", names[i]);
             return 2;

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import csv
 import math
+import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -88,14 +89,17 @@ def force_signal(force, t_end, step):
     communication points, or the path of a CSV file with columns time,f: a
     CSV when it ends in ``.csv`` or names an existing file, else an
     expression (also when it is no possible file name: too long, a NUL).
-    Raises FieldError ``force`` when it cannot be read or evaluated or is not finite.
+    Raises FieldError ``force`` when it cannot be read or evaluated or is not finite, or
+    when a CSV has fewer than two rows or its times do not cover [0, t_end].
     """
     if force is None:
         return None
     text = str(force).strip()
     path = Path(text)
     if text.lower().endswith(".csv") or is_file(path):
-        return _csv_signal(path)
+        signal = _csv_signal(path)
+        check_coverage(signal, path, 0.0, t_end)
+        return signal
     from ..expr import compile_expr
     try:
         expr = compile_expr(text, ("t", "T"), "force")
@@ -128,6 +132,17 @@ def input_samples(signal, times):
     return f, np.diff(f) / np.diff(times)
 
 
+def _not_instantiable(fmu, exc, messages):
+    """FieldError ``fmu`` with the FMU's own logged reason for a failed instantiate (a bad file is the user's)."""
+    reason = "; ".join(" ".join(m.split()) for m in messages) or str(exc).splitlines()[0]
+    return FieldError("fmu", f"'{fmu}' cannot be instantiated: {reason}")
+
+
+def _is_instantiate_failure(exc) -> bool:
+    """fmpy raises a plain Exception("Failed to instantiate ...") when fmi2Instantiate / fmi3Instantiate... fail."""
+    return type(exc) is Exception and "instantiate" in str(exc).lower()
+
+
 def _run_with_derivatives(fmu, md, signal, t_end, step, start, outputs):
     """The co-simulation loop on fmpy's FMU2Slave, f and df/dt set before each step.
 
@@ -143,7 +158,14 @@ def _run_with_derivatives(fmu, md, signal, t_end, step, start, outputs):
     f, rate = input_samples(signal, times)
     vr = {v.name: v.valueReference for v in md.modelVariables}
     out_vr = [vr[name] for name in outputs]
-    with Slave(fmu) as slave:
+    messages = []
+    try:
+        slave = Slave(fmu, messages=messages)
+    except Exception as exc:
+        if _is_instantiate_failure(exc):
+            raise _not_instantiable(fmu, exc, [text for status, _, text in messages if status >= 3]) from None
+        raise
+    with slave:
         try:
             slave.initialize(n_freeze=start.get("n_freeze"), f=float(f[0]))
             rows = [slave.get_real(out_vr)]
@@ -186,6 +208,21 @@ def _csv_signal(path):
     return signal
 
 
+def check_coverage(signal, path, start, t_end):
+    """FieldError ``force`` unless the CSV signal has two rows or more and its times cover [start, t_end] [s]
+    (f is never held silently beyond the last row, nor before the first)."""
+    times = signal["time"]
+    allowed = f"(allowed: at least two rows whose times cover [{start:g}, {t_end:g}] s)"
+    if times.size < 2:
+        raise FieldError("force", f"'{path}' has {times.size} row {allowed}")
+    if times[-1] < 0:
+        raise FieldError("force", f"'{path}' has only negative times (last {times[-1]:g} s) {allowed}")
+    tol = 1e-12 * max(1.0, abs(t_end))
+    if times[0] > start + tol or times[-1] < t_end - tol:
+        raise FieldError("force", f"'{path}' covers [{times[0]:g}, {times[-1]:g}] s, not [{start:g}, {t_end:g}] s "
+                         f"{allowed}")
+
+
 def _positive(value, field):
     if value is None:
         return None
@@ -221,7 +258,8 @@ def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None, hold_inputs
     Raises
     ------
     FieldError
-        A bad value of ``fmu``, ``force``, ``t_end``, ``step`` or ``n_freeze``.
+        A bad value of ``fmu`` (also: an FMU that fails to instantiate, with the reason it
+        logged), ``force``, ``t_end``, ``step`` or ``n_freeze``.
     SimulationError
         The FMU reported an error (its message is included).
     """
@@ -253,11 +291,18 @@ def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None, hold_inputs
         return CosimResult(names=["time"] + outputs, values=values, wall_time=time.perf_counter() - t0,
                            steps=steps, input_derivatives=True)
     try:
-        result = fmpy.simulate_fmu(str(fmu), start_time=0.0, stop_time=t_end, output_interval=step, input=signal,
-                                   start_values=start, output=outputs, logger=logger, model_description=md)
+        with tempfile.TemporaryDirectory(prefix="sphrom-cosim-") as unzipdir:   # removed also when it fails
+            fmpy.extract(str(fmu), unzipdir=unzipdir)
+            result = fmpy.simulate_fmu(unzipdir, start_time=0.0, stop_time=t_end, output_interval=step,
+                                       input=signal, start_values=start, output=outputs, logger=logger,
+                                       model_description=md)
     except FMICallException as exc:
         detail = "; ".join(capture.errors()) or str(exc)
         raise SimulationError(f"the FMU failed: {detail}") from None
+    except Exception as exc:
+        if _is_instantiate_failure(exc):
+            raise _not_instantiable(fmu, exc, capture.errors()) from None
+        raise
     wall = time.perf_counter() - t0
     names = ["time"] + outputs
     values = np.column_stack([result[n] for n in names])

@@ -101,10 +101,21 @@ class Slave:
             except Exception:       # pragma: no cover - proxy is optional
                 pass
             self._callbacks = callbacks
-            self.fmu.instantiate(callbacks=callbacks, loggingOn=logging)
+            self._instantiate(lambda: self.fmu.instantiate(callbacks=callbacks, loggingOn=logging))
         else:
             self.fmu = load_fmu(3, self.unzipdir, token, name)
-            self.fmu.instantiate(loggingOn=logging, logMessage=self._log3)
+            self._instantiate(lambda: self.fmu.instantiate(loggingOn=logging, logMessage=self._log3))
+
+    def _instantiate(self, call):
+        """Run the instantiate call; on failure remove the folder we extracted before re-raising."""
+        try:
+            call()
+        except Exception:
+            self.fmu = None
+            if self._owns_dir:
+                import shutil
+                shutil.rmtree(self.unzipdir, ignore_errors=True)
+            raise
 
     # -- logging ---------------------------------------------------------------
     def _keep(self, status, category, message):

@@ -29,10 +29,13 @@ def split_step(h, dt):
     """(n_full, rest): whole internal steps of ``dt`` in ``h`` and the shortened remainder [s].
 
     h/dt is taken as a whole number when within 1e-9 max(1, h/dt) of one;
-    ``rest`` is 0 when no shortened step is taken.
+    ``rest`` is 0 when no shortened step is taken.  A ``dt`` above ``h`` gives
+    (0, h): one internal step of length h (the FMU warns once), never a no-op.
     """
     ratio = h / dt
     nearest = math.floor(ratio + 0.5)
+    if nearest < 1 or (ratio < 1.0 and not abs(ratio - 1.0) <= STEP_ROUNDING):
+        return 0, h
     if abs(ratio - nearest) <= STEP_ROUNDING * max(1.0, ratio):
         return int(nearest), 0.0
     n_full = int(math.floor(ratio))
