@@ -25,7 +25,7 @@ from .loops import FrozenOperators, _check, _velocity_rate
 from .model import ReducedModel
 from .operators import build_from_basis, pair_index, truncate_operators
 from .result import ReducedResult
-from .stepping import drive, force_table, method_code, runaway_bound, sample_grid
+from .stepping import drive, force_table, method_code, runaway_bound, sample_grid, start_arrays
 
 
 @njit(cache=True, nogil=True)
@@ -158,10 +158,7 @@ def run(ops, problem, *, dt, n_steps, sample_steps=None, every=1, force=None, in
     method = method_code(integrator, INTEGRATORS, "frozen coefficients")
     steps = sample_grid(n_steps, sample_steps, every)
     force = force or problem.scene.force
-    av = np.array(ops.a_v0 if state is None else state[0], dtype=float)
-    ar = np.array(ops.a_rho0 if state is None else state[1], dtype=float)
-    out_av = np.empty((steps.size, ops.k_v))
-    out_ar = np.empty((steps.size, ops.k_rho))
+    av, ar, out_av, out_ar = start_arrays(ops, state, steps.size)
     bound = runaway_bound(ops) if bound is None else bound
     loop = loop_operators(ops.K, ops.b, ops.D, ops.p, n_freeze, T=ops.T, U_rho=ops.U_rho, GU_v=ops.GU_v,
                           inv_rho0=ops.inv_rho0, refresh=refresh)

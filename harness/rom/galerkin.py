@@ -13,7 +13,7 @@ from numba import njit
 from ..sph.loops import rates
 from .loops import GalerkinOperators, _check, _velocity_rate
 from .result import ReducedResult
-from .stepping import drive, force_table, method_code, runaway_bound, sample_grid
+from .stepping import drive, force_table, method_code, runaway_bound, sample_grid, start_arrays
 
 INTEGRATORS = ("euler", "symplectic", "rk4")
 
@@ -184,10 +184,7 @@ def run_galerkin(name, full_rhs, ops, problem, *, dt, n_steps, sample_steps=None
     method = method_code(integrator, INTEGRATORS, f"{name} POD-MOR integrators")
     steps = sample_grid(n_steps, sample_steps, every)
     force = force or problem.scene.force
-    av = np.array(ops.a_v0 if state is None else state[0], dtype=float)
-    ar = np.array(ops.a_rho0 if state is None else state[1], dtype=float)
-    out_av = np.empty((steps.size, ops.k_v))
-    out_ar = np.empty((steps.size, ops.k_rho))
+    av, ar, out_av, out_ar = start_arrays(ops, state, steps.size)
     bound = runaway_bound(ops) if bound is None else bound
     loop = loop_operators(ops, problem, full_rhs)
     force_active = loop.has_f or (bool(full_rhs) and problem.terms["force_profile"])

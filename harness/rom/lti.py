@@ -297,13 +297,7 @@ def output_energy(A, b, C, x0, h, u, hold="linear"):
     should keep ‖e^{-Mᵀ h}‖ moderate (h times the largest decay rate ≲ 1),
     as the Van Loan block grows like it.
     """
-    x0 = np.asarray(x0, float)
-    single = x0.ndim == 1
-    X = x0[:, None] if single else x0
-    U = np.asarray(u, float)
-    U = U[:, None] if U.ndim == 1 else U
-    if U.shape[1] != X.shape[1]:
-        U = np.broadcast_to(U, (U.shape[0], X.shape[1]))
+    single, X, U = _columns(x0, u)
     if hold not in ("linear", "zero"):
         raise ValueError(f"hold: {hold!r} (allowed: linear, zero)")
     phi, Q = step_maps(A, b, C, h)
@@ -319,11 +313,8 @@ def output_energy(A, b, C, x0, h, u, hold="linear"):
     return out[:, 0] if single else out
 
 
-def sample_outputs(A, b, C, x0, h, u):
-    """y(t_k) = C x(t_k) at t_k = k h, exactly for u linear between samples.
-
-    Shapes as :func:`output_energy`; returns (K+1, P) or (K+1, P, m).
-    """
+def _columns(x0, u):
+    """(single, X (n, m), U (K+1, m)): initial states and input samples as columns, one per case."""
     x0 = np.asarray(x0, float)
     single = x0.ndim == 1
     X = x0[:, None] if single else x0
@@ -331,6 +322,15 @@ def sample_outputs(A, b, C, x0, h, u):
     U = U[:, None] if U.ndim == 1 else U
     if U.shape[1] != X.shape[1]:
         U = np.broadcast_to(U, (U.shape[0], X.shape[1]))
+    return single, X, U
+
+
+def sample_outputs(A, b, C, x0, h, u):
+    """y(t_k) = C x(t_k) at t_k = k h, exactly for u linear between samples.
+
+    Shapes as :func:`output_energy`; returns (K+1, P) or (K+1, P, m).
+    """
+    single, X, U = _columns(x0, u)
     n = X.shape[0]
     phi = sla.expm(_augmented(np.asarray(A, float), np.zeros(n) if b is None else b) * h)
     out = np.empty((U.shape[0], C.shape[0], X.shape[1]))

@@ -25,6 +25,14 @@ def runaway_bound(ops):
     return RUNAWAY_FACTOR * max(np.max(np.abs(ops.a_v0)), np.max(np.abs(ops.a_rho0)), 1e-300)
 
 
+def start_arrays(ops, state, n_samples):
+    """(a_v, a_rho, out_av, out_ar): the initial reduced coordinates (``state`` = (a_v, a_rho), default the
+    operators' projections of v0, ρ0) as fresh arrays, and the sample arrays of ``n_samples`` rows."""
+    av = np.array(ops.a_v0 if state is None else state[0], dtype=float)
+    ar = np.array(ops.a_rho0 if state is None else state[1], dtype=float)
+    return av, ar, np.empty((n_samples, ops.k_v)), np.empty((n_samples, ops.k_rho))
+
+
 def sample_grid(n_steps, sample_steps=None, every=1):
     """The sorted, unique sample steps: ``sample_steps``, or every ``every`` steps and the last."""
     if sample_steps is None:
