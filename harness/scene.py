@@ -30,6 +30,11 @@ INTEGRATORS = ("euler", "symplectic", "rk4")
 CLI = "command line"    # the source of settings given as options
 MIN_PARTICLES = 8
 MAX_PARTICLES = 10_000_000
+# At most this many SPH steps T/dt in one run.  Step times are n*dt with n exact in float64 far
+# beyond this (2^53), and the int64 step counters cannot overflow; the bound is the wall time: at the
+# cheapest step (N = MIN_PARTICLES, about a microsecond) 1e9 steps already take the better part of an hour.
+MAX_STEPS = 10**9
+MAX_STEPS_TEXT = "1e9"
 
 X_FIELDS = {  # name: (unit, description)
     "rho0": ("kg m^-3", "initial density rho0(x)"),
@@ -161,7 +166,7 @@ def _check_value(value, kind, where):
             raise UserError(f"{where}: expected {_type_name(kind)}, got {value!r}")
         value = float(value)
         if not np.isfinite(value):
-            raise UserError(f"{where}: expected a finite number, got {value!r}")
+            raise UserError(f"{where}: {value!r} is out of range (allowed: a finite number)")
         return value
     if kind is int:
         if isinstance(value, bool) or not isinstance(value, int):
@@ -308,6 +313,9 @@ class Scene:
             raise FieldError("t_end", f"{T!r} is out of range (allowed: a number > 0)")
         if self.sph.dt > T:
             raise FieldError("t_end", f"{T:g} is out of range (allowed: T >= dt = {self.sph.dt:g})")
+        if T / self.sph.dt > MAX_STEPS:
+            raise FieldError("t_end", f"{T:g} is out of range (allowed: T <= {MAX_STEPS_TEXT} dt = "
+                                      f"{MAX_STEPS * self.sph.dt:g} s, at most {MAX_STEPS_TEXT} SPH steps)")
         return dataclasses.replace(self, T=float(T))
 
 
@@ -329,6 +337,9 @@ def _check_sph(sph: SPHSettings, source, T):
         fail("dt", f"{sph.dt!r} is out of range (allowed: a number > 0)")
     if sph.dt > T:
         fail("dt", f"{sph.dt:g} is out of range (allowed: 0 < dt <= T = {T:g})")
+    if T / sph.dt > MAX_STEPS:
+        fail("dt", f"{sph.dt:g} is out of range (allowed: dt >= T / {MAX_STEPS_TEXT} = {T / MAX_STEPS:g} s "
+                   f"for T = {T:g} s, at most {MAX_STEPS_TEXT} SPH steps)")
     if sph.integrator not in INTEGRATORS:
         fail("integrator", f"{sph.integrator!r} is out of range (allowed: one of {', '.join(INTEGRATORS)})")
     if sph.every < 1:

@@ -1,0 +1,97 @@
+"""Ranges of every number a user gives: a one-line error naming the option or field and the allowed range,
+exit status 2, no traceback, no output file created and an existing one left intact.
+
+Each case is refused before any long run or large allocation (huge step counts, snapshot counts).
+"""
+
+import zipfile
+
+import pytest
+
+from conftest import small_scene
+from harness.cli import main
+from harness.scene import dump_toml, scene_dict
+
+DUMMY = b"an earlier result, not to be touched\n"
+
+
+def _scene_file(tmp_path, name="tiny", **changes):
+    """A tiny scene TOML (multimode at N = 16, T = 0.1) with nested ``changes`` merged in; its path."""
+    data = scene_dict(small_scene("multimode", T=0.1, n=16, dt=1e-3, every=10))
+    data["name"] = name
+    for table, values in changes.items():
+        data[table].update(values)
+    path = tmp_path / f"{name}.toml"
+    path.write_text(dump_toml(data))
+    return path
+
+
+def _refused(capsys, tmp_path, args, out_name, *needles):
+    """Run ``args + --out OUT`` twice (OUT absent, then OUT holding dummy bytes): status 2, one stderr line that
+    holds every needle and 'allowed', no traceback, OUT not created and then left byte for byte."""
+    for existing in (False, True):
+        out = tmp_path / ("existing-" if existing else "new-") / out_name
+        out.parent.mkdir(exist_ok=True)
+        if existing:
+            out.write_bytes(DUMMY)
+        assert main(args + ["--out", str(out)]) == 2
+        captured = capsys.readouterr()
+        lines = captured.err.strip().splitlines()
+        assert len(lines) == 1, captured.err
+        assert "Traceback" not in captured.err + captured.out
+        for needle in needles + ("allowed",):
+            assert needle in lines[0], lines[0]
+        if existing:
+            assert out.read_bytes() == DUMMY
+        else:
+            assert not out.exists()
+        assert sorted(p.name for p in out.parent.iterdir()) == ([out_name] if existing else [])
+    return lines[0]
+
+
+# ---------------------------------------------------------------------------
+# the SPH step count T / dt, from options and from the scene file
+# ---------------------------------------------------------------------------
+
+def test_sph_dt_too_small_for_T_names_the_smallest_dt(tmp_path, capsys):
+    scene = _scene_file(tmp_path)
+    line = _refused(capsys, tmp_path, ["sph", str(scene), "--dt", "1e-320", "--quiet"], "x.h5", "--dt", "1e9")
+    assert "dt >= T / 1e9 = 1e-10 s" in line             # T = 0.1 s
+
+
+def test_sph_t_end_too_long_for_dt(tmp_path, capsys):
+    scene = _scene_file(tmp_path)
+    line = _refused(capsys, tmp_path, ["sph", str(scene), "--t-end", "1e300", "--quiet"], "x.h5", "--t-end", "1e9")
+    assert "T <= 1e9 dt = 1e+06 s" in line                # dt = 1e-3 s
+
+
+@pytest.mark.parametrize("changes, needles", [
+    ({"sph": {"dt": 1e-12}}, ("sph.dt", "1e9", "T = 0.1")),
+    ({"domain": {"T": 1e300}}, ("sph.dt", "1e9", "T = 1e+300")),
+    ({"domain": {"T": float("inf")}}, ("domain.T", "finite")),
+    ({"domain": {"T": -1.0}}, ("domain.T", "> 0")),
+    ({"domain": {"L": float("nan")}}, ("domain.L", "finite")),
+    ({"domain": {"L": 0.0}}, ("domain.L", "> 0")),
+    ({"sph": {"n_particles": 4}}, ("sph.n_particles", "[8, 10000000]")),
+    ({"sph": {"n_particles": 10**8}}, ("sph.n_particles", "[8, 10000000]")),
+    ({"sph": {"alpha": 0.0}}, ("sph.alpha", "0.5 < alpha < N/4")),
+    ({"sph": {"alpha": float("inf")}}, ("sph.alpha", "finite")),
+])
+def test_scene_file_numbers(tmp_path, capsys, changes, needles):
+    scene = _scene_file(tmp_path, **changes)
+    line = _refused(capsys, tmp_path, ["sph", str(scene), "--quiet"], "x.h5", *needles)
+    assert str(scene) in line
+
+
+@pytest.mark.parametrize("option, value, needles", [
+    ("--n-particles", "4", ("--n-particles", "[8, 10000000]")),
+    ("--n-particles", "100000000", ("--n-particles", "[8, 10000000]")),
+    ("--alpha", "nan", ("--alpha", "> 0")),
+    ("--alpha", "1e9", ("--alpha", "N/4")),
+    ("--t-end", "inf", ("--t-end", "> 0")),
+    ("--t-end", "0", ("--t-end", "> 0")),
+    ("--dt", "-1", ("--dt", "> 0")),
+])
+def test_sph_options(tmp_path, capsys, option, value, needles):
+    scene = _scene_file(tmp_path)
+    _refused(capsys, tmp_path, ["sph", str(scene), option, value, "--quiet"], "x.h5", *needles)
