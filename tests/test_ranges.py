@@ -95,3 +95,22 @@ def test_scene_file_numbers(tmp_path, capsys, changes, needles):
 def test_sph_options(tmp_path, capsys, option, value, needles):
     scene = _scene_file(tmp_path)
     _refused(capsys, tmp_path, ["sph", str(scene), option, value, "--quiet"], "x.h5", *needles)
+
+
+# ---------------------------------------------------------------------------
+# pod: snapshot counts bounded by the run's steps and by memory
+# ---------------------------------------------------------------------------
+
+def test_pod_snapshots_beyond_the_run(tmp_path, capsys):
+    scene = _scene_file(tmp_path)                         # 100 steps of 1e-3 s: 101 in [0, 0.1]
+    line = _refused(capsys, tmp_path, ["pod", str(scene), "--snapshots", "1000000000", "--window", "0,0.1",
+                                       "--quiet"], "b.h5", "--snapshots", "at most 101 snapshots")
+    assert "1000000000" in line
+
+
+def test_pod_snapshots_beyond_memory(tmp_path, capsys):
+    # 1e8 steps are allowed; 4e7 snapshots of 16 particles need 4e7 x 16 x 8 x 2 bytes = 9.5 GiB
+    scene = _scene_file(tmp_path, sph={"dt": 1e-9, "every": 10**7})
+    line = _refused(capsys, tmp_path, ["pod", str(scene), "--snapshots", "40000000", "--window", "0,0.1",
+                                       "--quiet"], "b.h5", "--snapshots", "9.5 GiB", "at most 16777216 snapshots")
+    assert "4 GiB" in line

@@ -26,7 +26,7 @@ def basis_for_scene(scene, spec=None, progress=True, problem=None):
     n = step_count(scene.T, scene.sph.dt)
     steps = error_steps(scene)
     if not spec.get("all"):
-        sv, sr = snapshot_steps(spec, scene.sph.dt, n)
+        sv, sr = snapshot_steps(spec, scene.sph.dt, n, n_particles=scene.sph.n_particles)
         run = cached_sph(scene, np.union1d(steps, np.union1d(sv, sr)), progress=progress, problem=problem)
     else:
         run = cached_sph(scene, steps, progress=progress, problem=problem)

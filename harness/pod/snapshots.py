@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import UserError
+from ..errors import FieldError, UserError
 
 
 def _to_steps(times, dt, n_steps, where):
@@ -33,7 +33,22 @@ def _to_steps(times, dt, n_steps, where):
     return steps
 
 
-def snapshot_steps(spec, dt, n_steps, stored_steps=None, where="snapshots"):
+# The snapshot matrices of v and rho (count x N float64 each) above this are refused before they are made.
+MAX_SNAPSHOT_BYTES = 4 * 2**30
+
+
+def check_snapshot_memory(count, n_particles):
+    """FieldError ``snapshots`` when ``count`` snapshots of N particles need more than MAX_SNAPSHOT_BYTES:
+    count x N x 8 bytes for each of v and rho."""
+    need = count * n_particles * 8 * 2
+    if need > MAX_SNAPSHOT_BYTES:
+        most = MAX_SNAPSHOT_BYTES // (n_particles * 8 * 2)
+        raise FieldError("snapshots", f"{count} snapshots of {n_particles} particles need {need / 2**30:.1f} GiB "
+                                      f"(allowed: at most {most} snapshots, "
+                                      f"{MAX_SNAPSHOT_BYTES / 2**30:g} GiB for v and rho)")
+
+
+def snapshot_steps(spec, dt, n_steps, stored_steps=None, where="snapshots", n_particles=None):
     """Step indices of the velocity and density snapshots of a strategy.
 
     Parameters
@@ -46,6 +61,8 @@ def snapshot_steps(spec, dt, n_steps, stored_steps=None, where="snapshots"):
         Steps of the run (its last step index).
     stored_steps : ndarray, optional
         The steps a run stores (for ``all``).
+    n_particles : int, optional
+        N: when given, a count whose snapshot matrices exceed MAX_SNAPSHOT_BYTES is refused.
 
     Returns
     -------
@@ -71,6 +88,13 @@ def snapshot_steps(spec, dt, n_steps, stored_steps=None, where="snapshots"):
     if t1 > n_steps * dt + 1e-12:
         raise UserError(f"{where}.window: [{t0:g}, {t1:g}] exceeds the run's end {n_steps * dt:g} s")
     lo, hi = int(np.ceil(t0 / dt - 1e-9)), int(np.floor(t1 / dt + 1e-9))
+    available = hi - lo + 1             # the distinct steps of the run in the window
+    if count > available:               # checked before any array of `count` times is made
+        raise FieldError("snapshots", f"{count} is out of range (allowed: at most {available} snapshots, "
+                                      f"the steps of the full SPH run in the window [{t0:g}, {t1:g}] s "
+                                      f"at dt = {dt:g} s)")
+    if n_particles is not None:
+        check_snapshot_memory(count, n_particles)
     if "random" in spec:
         available = np.arange(lo, hi)
         if count > available.size:
