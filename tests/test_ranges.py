@@ -114,3 +114,47 @@ def test_pod_snapshots_beyond_memory(tmp_path, capsys):
     line = _refused(capsys, tmp_path, ["pod", str(scene), "--snapshots", "40000000", "--window", "0,0.1",
                                        "--quiet"], "b.h5", "--snapshots", "9.5 GiB", "at most 16777216 snapshots")
     assert "4 GiB" in line
+
+
+# ---------------------------------------------------------------------------
+# cosim: t_end finite and > 0, at most 1e8 communication steps
+# ---------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def fmu_file(tmp_path_factory):
+    from harness.fmu.package import package_fmu
+    path = tmp_path_factory.mktemp("fmu") / "tiny.fmu"
+    package_fmu(small_scene("multimode", T=0.1, n=16, dt=1e-3, every=10), path, k=4, fmi=2, n_freeze=10,
+                probes=(0.5,), progress=False)
+    assert zipfile.is_zipfile(path)
+    return path
+
+
+@pytest.mark.parametrize("args, needles", [
+    (["--t-end", "1e308"], ("--step", "at most 1e8", "t_end / 1e8")),
+    (["--t-end", "1", "--step", "1e-300"], ("--step", "at most 1e8", "step >= t_end / 1e8 = 1e-08 s")),
+    (["--t-end", "inf"], ("--t-end", "> 0")),
+    (["--t-end", "nan"], ("--t-end", "> 0")),
+    (["--t-end", "0"], ("--t-end", "> 0")),
+    (["--step", "-0.1"], ("--step", "> 0")),
+])
+def test_cosim_steps(fmu_file, tmp_path, capsys, args, needles):
+    _refused(capsys, tmp_path, ["cosim", str(fmu_file)] + args, "r.csv", *needles)
+
+
+# ---------------------------------------------------------------------------
+# sweep spec: t_end finite, > 0, and a bounded step count
+# ---------------------------------------------------------------------------
+
+@pytest.mark.parametrize("t_end, needles", [
+    ("1e308", ("t_end = 1e+308", "at most 10000000", ": step")),
+    ("inf", (": t_end", "finite number > 0")),
+    ("nan", (": t_end", "finite number > 0")),
+    ("-1.0", (": t_end", "finite number > 0")),
+])
+def test_sweep_spec_t_end(tmp_path, capsys, t_end, needles):
+    scene = _scene_file(tmp_path)
+    spec = tmp_path / "spec.toml"
+    spec.write_text(f'scene = "{scene}"\nt_end = {t_end}\n\n[grid]\namplitude = [0.01]\n')
+    line = _refused(capsys, tmp_path, ["sweep", str(spec)], "s.h5", *needles)
+    assert str(spec) in line

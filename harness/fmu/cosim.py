@@ -223,6 +223,11 @@ def check_coverage(signal, path, start, t_end):
                          f"{allowed}")
 
 
+# At most this many communication steps in one co-simulation: the output table holds one row per step
+# (1e8 rows x the outputs x 8 bytes is already gigabytes).
+MAX_COMM_STEPS = 100_000_000
+
+
 def _positive(value, field):
     if value is None:
         return None
@@ -272,9 +277,11 @@ def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None, hold_inputs
     step = _positive(step, "step") or float(de.stepSize)
     if step > t_end:
         raise FieldError("step", f"{step:g} is out of range (allowed: 0 < step <= t_end = {t_end:g})")
-    steps = int(math.ceil(t_end / step - 1e-9))
-    if steps > 100_000_000:
-        raise FieldError("step", f"{step:g} gives {steps} communication steps (allowed: at most 1e8)")
+    ratio = t_end / step                # may be inf (t_end 1e308, step tiny): compared before int()
+    if ratio > MAX_COMM_STEPS:
+        raise FieldError("step", f"{step:g} gives {ratio:.3g} communication steps to t_end = {t_end:g} s "
+                                 f"(allowed: step >= t_end / 1e8 = {t_end / MAX_COMM_STEPS:g} s, at most 1e8 steps)")
+    steps = int(math.ceil(ratio - 1e-9))
     start = {}
     if n_freeze is not None:
         if isinstance(n_freeze, bool) or int(n_freeze) != n_freeze or not 1 <= n_freeze <= 2**31 - 1:

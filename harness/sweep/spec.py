@@ -368,6 +368,9 @@ def parse_spec(text, source="<spec>", spec_path=None) -> Spec:
     step = _number(raw.get("step", min(DEFAULT_STEP, t_end)), f"{source}: step", lambda v: 0 < v <= t_end,
                    f"a finite number in (0, t_end = {t_end:g}] [s]")
     ratio = t_end / step
+    if ratio > MAX_STEPS:               # before round(): t_end 1e308 over a small step is inf
+        _fail(f"{source}: step", f"{step!r} gives {ratio:.3g} steps to t_end = {t_end:g} s "
+                                 f"(allowed: at most {MAX_STEPS})")
     if abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio):
         _fail(f"{source}: step", f"{step!r} is out of range (allowed: t_end / step a whole number; "
                                  f"t_end / step = {ratio:.6g})")
