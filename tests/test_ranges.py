@@ -158,3 +158,15 @@ def test_sweep_spec_t_end(tmp_path, capsys, t_end, needles):
     spec.write_text(f'scene = "{scene}"\nt_end = {t_end}\n\n[grid]\namplitude = [0.01]\n')
     line = _refused(capsys, tmp_path, ["sweep", str(spec)], "s.h5", *needles)
     assert str(spec) in line
+
+
+# ---------------------------------------------------------------------------
+# reference: the continuum solvers' step count, bounded like the SPH's
+# ---------------------------------------------------------------------------
+
+@pytest.mark.parametrize("solver", ["fd", "skfem"])
+def test_reference_dt_too_small_for_T(tmp_path, capsys, solver):
+    scene = _scene_file(tmp_path)
+    line = _refused(capsys, tmp_path, ["reference", str(scene), "--solver", solver, "--dt", "1e-320", "--quiet"],
+                    "r.h5", "--dt", "1e9")
+    assert "dt >= T / 1e9 = 1e-10 s" in line
