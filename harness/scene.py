@@ -35,6 +35,9 @@ MAX_PARTICLES = 10_000_000
 # cheapest step (N = MIN_PARTICLES, about a microsecond) 1e9 steps already take the better part of an hour.
 MAX_STEPS = 10**9
 MAX_STEPS_TEXT = "1e9"
+# The stored samples of a full SPH run, v and rho (samples x N float64 each), above this are refused
+# before the run: a small `every` over many steps would otherwise fill the memory.
+MAX_SAMPLE_BYTES = 4 * 2**30
 
 X_FIELDS = {  # name: (unit, description)
     "rho0": ("kg m^-3", "initial density rho0(x)"),
@@ -344,6 +347,13 @@ def _check_sph(sph: SPHSettings, source, T):
         fail("integrator", f"{sph.integrator!r} is out of range (allowed: one of {', '.join(INTEGRATORS)})")
     if sph.every < 1:
         fail("every", f"{sph.every} is out of range (allowed: an integer >= 1)")
+    steps = int(T / sph.dt)             # <= MAX_STEPS, checked above
+    per_sample = n * 8 * 2              # v and rho of N particles [bytes]
+    if (steps // sph.every + 2) * per_sample > MAX_SAMPLE_BYTES:
+        least = -(-steps // max(1, MAX_SAMPLE_BYTES // per_sample - 2))
+        need = (steps // sph.every + 2) * per_sample / 2**30
+        fail("every", f"{sph.every} stores {steps // sph.every + 2} samples of {n} particles, {need:.1f} GiB "
+                      f"(allowed: every >= {least}, at most {MAX_SAMPLE_BYTES / 2**30:g} GiB of samples)")
 
 
 def builtin_dir() -> Path:

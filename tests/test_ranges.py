@@ -170,3 +170,17 @@ def test_reference_dt_too_small_for_T(tmp_path, capsys, solver):
     line = _refused(capsys, tmp_path, ["reference", str(scene), "--solver", solver, "--dt", "1e-320", "--quiet"],
                     "r.h5", "--dt", "1e9")
     assert "dt >= T / 1e9 = 1e-10 s" in line
+
+
+def test_sph_samples_beyond_memory(tmp_path, capsys):
+    # T / dt = 1e8 steps stored every step: 1e8 samples x 16 particles x 8 bytes x 2 = 23.8 GiB
+    scene = _scene_file(tmp_path)
+    line = _refused(capsys, tmp_path, ["sph", str(scene), "--dt", "1e-9", "--every", "1", "--quiet"], "x.h5",
+                    "--every", "23.8 GiB", "at most 4 GiB")
+    least = int(line.split("every >= ")[1].split(",")[0])
+    assert (10**8 // least + 2) * 16 * 16 <= 4 * 2**30 < (10**8 // (least - 1) + 2) * 16 * 16
+
+
+def test_scene_file_samples_beyond_memory(tmp_path, capsys):
+    scene = _scene_file(tmp_path, sph={"dt": 1e-9, "every": 1})
+    _refused(capsys, tmp_path, ["sph", str(scene), "--quiet"], "x.h5", "sph.every", "GiB")
