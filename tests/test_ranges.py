@@ -184,3 +184,14 @@ def test_sph_samples_beyond_memory(tmp_path, capsys):
 def test_scene_file_samples_beyond_memory(tmp_path, capsys):
     scene = _scene_file(tmp_path, sph={"dt": 1e-9, "every": 1})
     _refused(capsys, tmp_path, ["sph", str(scene), "--quiet"], "x.h5", "sph.every", "GiB")
+
+
+def test_bench_fmu_step_too_small_for_T(tmp_path, capsys):
+    scene = _scene_file(tmp_path)
+    out = tmp_path / "bench"
+    assert main(["bench-fmu", str(scene), "--step", "1e-300", "--out", str(out), "--quiet"]) == 2
+    captured = capsys.readouterr()
+    lines = captured.err.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in captured.err, captured.err
+    assert "--step" in lines[0] and "allowed: T / 1e8 = 1e-09 s <= step" in lines[0], lines[0]
+    assert not out.exists()

@@ -42,6 +42,13 @@ def run(args):
 
     sizes, steps = args.n_particles, args.step
     scene = load_scene(args.scene)
+    if not args.core_only:
+        from ..errors import UserError
+        from ..fmu.cosim import MAX_COMM_STEPS
+        for h in steps:                 # each step runs the scene's horizon T through fmpy
+            if h > scene.T or scene.T / h > MAX_COMM_STEPS:
+                raise UserError(f"--step: {h:g} is out of range (allowed: T / 1e8 = {scene.T / MAX_COMM_STEPS:g} s "
+                                f"<= step <= T = {scene.T:g} s, at most 1e8 communication steps)")
     out = Path(args.out) if args.out else None
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
