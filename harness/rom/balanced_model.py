@@ -34,7 +34,7 @@ import scipy.linalg as sla
 
 from .balanced import BalancedModel, Balancing, balancing, order_from_tolerance, truncate as truncate_balanced
 from .balanced import DEFAULT_TOLERANCE
-from .exact_linear import INTEGRATORS, _advance
+from .exact_linear import INTEGRATORS, advance_linear
 from .lti import DEFAULT_PROBES, LTI, full_linear_system
 from .model import ReducedModel
 from .result import ReducedResult
@@ -194,7 +194,7 @@ def run(ops: BalancedOperators, problem, *, dt, n_steps, sample_steps=None, ever
     steps = sample_grid(n_steps, sample_steps, every)
     if state is not None:
         ops = dataclasses.replace(ops, z0=np.asarray(state[0], float))
-    z, wall, step = _advance(ops, steps * dt, step, force or problem.scene.force, hold, bound)
+    z, wall, step = advance_linear(ops, steps * dt, step, force or problem.scene.force, hold, bound)
     return ReducedResult(model=NAME, t=steps * dt, steps=steps, a_v=z, a_rho=np.zeros((z.shape[0], 0)), ops=ops,
                          wall_time=wall, offline=dict(ops.timings), y=ops.outputs(z), probes=ops.lti.probes.copy(),
                          settings={"model": NAME, "dt": dt, "step": step, "hold": hold, "order": ops.order,

@@ -322,14 +322,16 @@ def run_exact(ops: LinearOperators, t_samples, step=None, force=None, hold="line
     bound : float, optional
         |z| above this raises SimulationError (default 10⁶ |z0|).
     """
-    z, wall, step = _advance(ops, t_samples, step, force, hold, bound)
+    z, wall, step = advance_linear(ops, t_samples, step, force, hold, bound)
     return ReducedResult(model=NAME, t=np.asarray(t_samples, float), steps=None, a_v=z[:, :ops.k_v],
                          a_rho=z[:, ops.k_v:], ops=ops, wall_time=wall, offline=dict(ops.timings),
                          settings={"model": NAME, "step": step, "hold": hold, "k_v": ops.k_v, "k_e": ops.k_e})
 
 
-def _advance(ops, t_samples, step, force, hold, bound):
-    """The reduced states z (M, k) at ``t_samples``, the wall time [s] and the step H (:func:`run_exact`)."""
+def advance_linear(ops, t_samples, step, force, hold, bound):
+    """The reduced states z (M, k) at ``t_samples``, the wall time [s] and the step H (:func:`run_exact`).
+
+    Shared by every linear model (exact, balanced): their operators differ, the stepping does not."""
     t_samples = np.asarray(t_samples, float)
     if step is None:
         gaps = np.diff(t_samples)
@@ -396,7 +398,7 @@ def run(ops, problem, *, dt, n_steps, sample_steps=None, every=1, force=None, in
     steps = sample_grid(n_steps, sample_steps, every)
     if state is not None:
         ops = dataclasses.replace(ops, z0=np.concatenate([np.asarray(state[0], float), np.asarray(state[1], float)]))
-    z, wall, step = _advance(ops, steps * dt, step, force or problem.scene.force, hold, bound)
+    z, wall, step = advance_linear(ops, steps * dt, step, force or problem.scene.force, hold, bound)
     return ReducedResult(model=NAME, t=steps * dt, steps=steps, a_v=z[:, :ops.k_v], a_rho=z[:, ops.k_v:], ops=ops,
                          wall_time=wall, offline=dict(ops.timings),
                          settings={"model": NAME, "dt": dt, "step": step, "hold": hold, "k_v": ops.k_v,
