@@ -20,7 +20,7 @@
  * the harness (harness/fmu/resources.py).  Units: time [s], velocity [m s^-1],
  * density [kg m^-3], force per mass [m s^-2].
  *
- * Resource format, version 2 (all little-endian):
+ * Resource format, version 3 (all little-endian):
  *
  *   char[8]  magic "SPHROMRS"
  *   uint32   format_version (2), model_kind (1 frozen, 2 exact linear),
@@ -40,6 +40,12 @@
  *            prho0[n_probes][2], probe_x[n_probes]
  *            (probe j lies between two particles: e = J - 1 there is Pe[j][m] . b,
  *            weights pw[j][m], rho0 there prho0[j][m]; rho_j = sum_m pw rho0/(1 + e))
+ * both kinds, then tagged sections (what later features add, each optional;
+ * the loader knows every tag it accepts, checks each one's shape, and rejects
+ * unknown or repeated tags):
+ *   uint32   n_sections (at most ROM_MAX_SECTIONS)
+ *   n_sections x { char[8] tag (ASCII, NUL padded), uint32 rows, cols,
+ *                  float64 data[rows][cols] (finite) }
  * both kinds:
  *   char[40] token "{xxxxxxxx-xxxx-xxxx-xxxx-xxxxxxxxxxxx}", NUL padded
  *   uint32   crc32 (zlib's) of every byte before it
@@ -80,7 +86,7 @@ extern "C" {
 #  define ROM_API
 #endif
 
-#define ROM_FORMAT_VERSION 2u
+#define ROM_FORMAT_VERSION 3u
 #define ROM_STATE_VERSION 1u
 #define ROM_MODEL_FROZEN 1u
 #define ROM_MODEL_EXACT_LINEAR 2u
@@ -99,6 +105,9 @@ extern "C" {
 #define ROM_MAX_PROBES 100u
 #define ROM_MESSAGE_SIZE 1024
 #define ROM_RESOURCE_FILE "model.bin"
+#define ROM_SECTION_TAG_SIZE 8
+#define ROM_MAX_SECTIONS 32u
+#define ROM_MAX_SECTION_VALUES 67108864u  /* rows x cols of one section (2^26) */
 
 /* doStep's rules (harness/fmu/python_cosim.py repeats them) */
 #define ROM_TIME_TOLERANCE 1e-9       /* relative: currentCommunicationPoint must equal the FMU's time */
@@ -114,6 +123,13 @@ extern "C" {
 #define ROM_VR_RHO_PROBE 2000u       /* rho_probe_1 .. : 2000 + j */
 
 typedef enum { ROM_OK = 0, ROM_FAIL = 1 } RomStatus;
+
+/* One tagged section of the resources: a rows x cols matrix (row-major) */
+typedef struct {
+    char tag[ROM_SECTION_TAG_SIZE + 1];  /* NUL terminated */
+    uint32_t rows, cols;
+    double *data;
+} RomSection;
 
 /* Writes the message (printf format) into message[message_size] when given; returns ROM_FAIL
  * (rom_fail.c: the core, the instance layer and sph.c report failures through it; never exported) */
@@ -154,8 +170,11 @@ typedef struct {
     double *y0;                /* [k] Q^T z0 (with the Schur form) */
     double *Pe;                /* [n_probes][2][k_rho] rows of U_e at the probe's two particles */
     double *pw, *prho0;        /* [n_probes][2] interpolation weights, rho0 at those particles */
+    uint32_t n_sections;       /* the tagged sections, in file order (rom_model_section) */
+    RomSection sections[ROM_MAX_SECTIONS];
     char token[ROM_TOKEN_SIZE + 1];
     void *storage_;            /* one allocation behind all arrays */
+    void *sections_storage_;   /* one allocation behind the sections' data */
 } RomModel;
 
 /* One cached exponential: the maps of a step of length h (exact model) */
@@ -196,6 +215,8 @@ ROM_API RomStatus rom_model_load_memory(const void *data, size_t size, RomModel 
 ROM_API RomStatus rom_model_load_file(const char *path, RomModel **out,
                                       char *message, size_t message_size);
 ROM_API void rom_model_free(RomModel *model);
+/* The section with this tag, NULL when the model has none */
+ROM_API const RomSection *rom_model_section(const RomModel *model, const char *tag);
 ROM_API uint32_t rom_crc32(const void *data, size_t size);
 
 /* ---- state -------------------------------------------------------------- */

@@ -334,6 +334,138 @@ static RomStatus read_exact(RomModel *m, const unsigned char *cursor, uint64_t d
     return ROM_OK;
 }
 
+/* ------------------------------------------------------------------------ */
+/* tagged sections                                                           */
+/* ------------------------------------------------------------------------ */
+
+/* The tags this binary reads, each with the check of its shape against the
+ * model (a feature that stores numbers in the resources adds one row here and
+ * reads them with rom_model_section). */
+typedef RomStatus (*SectionCheck)(const RomModel *m, const RomSection *s, char *message, size_t message_size);
+
+typedef struct {
+    const char *tag;
+    const char *what;          /* what the section holds, in messages */
+    SectionCheck check;        /* NULL: any shape */
+} SectionRule;
+
+static const SectionRule SECTION_RULES[] = {
+    {NULL, NULL, NULL},        /* end of the table */
+};
+
+static const SectionRule *section_rule(const char *tag) {
+    for (const SectionRule *r = SECTION_RULES; r->tag; r++) {
+        if (strcmp(r->tag, tag) == 0) return r;
+    }
+    return NULL;
+}
+
+/* Walks the section headers from offset start: *count and *end (the offset
+ * after the last section) for the length check; a header that runs past the
+ * bytes before token and checksum makes *end exceed size, so that the length
+ * check names the blob as truncated. */
+static RomStatus scan_sections(const unsigned char *bytes, size_t size, uint64_t start, uint32_t *count,
+                               uint64_t *end, char *message, size_t message_size) {
+    const uint64_t limit = (uint64_t)size - ROM_TOKEN_SIZE - 4;
+    *count = 0;
+    *end = start + 4;
+    if (start + 4 > limit) return ROM_OK;
+    const uint32_t n = get_u32(bytes + start);
+    if (n > ROM_MAX_SECTIONS) {
+        return rom_fail(message, message_size, "resources: %u tagged sections, more than the %u allowed", n,
+                        ROM_MAX_SECTIONS);
+    }
+    uint64_t cursor = start + 4;
+    for (uint32_t i = 0; i < n; i++) {
+        if (cursor + ROM_SECTION_TAG_SIZE + 8 > limit) {
+            *end = cursor + ROM_SECTION_TAG_SIZE + 8;
+            *count = n;
+            return ROM_OK;
+        }
+        const uint64_t rows = get_u32(bytes + cursor + ROM_SECTION_TAG_SIZE);
+        const uint64_t cols = get_u32(bytes + cursor + ROM_SECTION_TAG_SIZE + 4);
+        if (rows * cols > ROM_MAX_SECTION_VALUES) {
+            return rom_fail(message, message_size, "resources: section %u has %llu x %llu values, more than the %u "
+                            "allowed", i + 1, (unsigned long long)rows, (unsigned long long)cols,
+                            ROM_MAX_SECTION_VALUES);
+        }
+        cursor += ROM_SECTION_TAG_SIZE + 8 + 8 * rows * cols;
+    }
+    *count = n;
+    *end = cursor;
+    return ROM_OK;
+}
+
+/* Reads the n sections from offset start (the length is checked): tags known,
+ * unique and well formed, data finite, shapes accepted by their rules. */
+static RomStatus read_sections(RomModel *m, const unsigned char *bytes, uint64_t start, uint32_t n, char *message,
+                               size_t message_size) {
+    uint64_t cursor = start + 4, values = 0;
+    for (uint32_t i = 0; i < n; i++) {
+        RomSection *s = &m->sections[i];
+        memcpy(s->tag, bytes + cursor, ROM_SECTION_TAG_SIZE);
+        s->tag[ROM_SECTION_TAG_SIZE] = '\0';
+        int ended = 0, printable = 1;
+        for (int c = 0; c < ROM_SECTION_TAG_SIZE; c++) {
+            const char ch = s->tag[c];
+            if (ch == '\0') ended = 1;
+            else if (ended || ch < 33 || ch > 126) printable = 0;
+        }
+        if (!printable || s->tag[0] == '\0') {
+            return rom_fail(message, message_size, "resources: section %u: the tag is not NUL-padded printable "
+                            "ASCII", i + 1);
+        }
+        const SectionRule *rule = section_rule(s->tag);
+        if (!rule) {
+            return rom_fail(message, message_size, "resources: section %u has the unknown tag '%s' (resources "
+                            "written for a newer binary?)", i + 1, s->tag);
+        }
+        for (uint32_t j = 0; j < i; j++) {
+            if (strcmp(m->sections[j].tag, s->tag) == 0) {
+                return rom_fail(message, message_size, "resources: section '%s' appears twice", s->tag);
+            }
+        }
+        s->rows = get_u32(bytes + cursor + ROM_SECTION_TAG_SIZE);
+        s->cols = get_u32(bytes + cursor + ROM_SECTION_TAG_SIZE + 4);
+        cursor += ROM_SECTION_TAG_SIZE + 8 + 8 * (uint64_t)s->rows * s->cols;
+        values += (uint64_t)s->rows * s->cols;
+    }
+    m->n_sections = n;
+    if (values > 0) {
+        m->sections_storage_ = malloc((size_t)values * sizeof(double));
+        if (!m->sections_storage_) {
+            return rom_fail(message, message_size, "resources: out of memory (%llu section values)",
+                            (unsigned long long)values);
+        }
+    }
+    double *next = (double *)m->sections_storage_;
+    cursor = start + 4;
+    for (uint32_t i = 0; i < n; i++) {
+        RomSection *s = &m->sections[i];
+        const uint64_t count = (uint64_t)s->rows * s->cols;
+        cursor += ROM_SECTION_TAG_SIZE + 8;
+        s->data = count ? next : NULL;
+        for (uint64_t v = 0; v < count; v++, cursor += 8) next[v] = get_f64(bytes + cursor);
+        next += count;
+        if (count && !rom_all_finite(s->data, (size_t)count)) {
+            return rom_fail(message, message_size, "resources: non-finite numbers in section '%s'", s->tag);
+        }
+    }
+    for (uint32_t i = 0; i < n; i++) {
+        const SectionRule *rule = section_rule(m->sections[i].tag);
+        if (rule->check && rule->check(m, &m->sections[i], message, message_size) != ROM_OK) return ROM_FAIL;
+    }
+    return ROM_OK;
+}
+
+const RomSection *rom_model_section(const RomModel *model, const char *tag) {
+    if (!model || !tag) return NULL;
+    for (uint32_t i = 0; i < model->n_sections; i++) {
+        if (strcmp(model->sections[i].tag, tag) == 0) return &model->sections[i];
+    }
+    return NULL;
+}
+
 RomStatus rom_model_load_memory(const void *data, size_t size, RomModel **out, char *message, size_t message_size) {
     if (!out) return rom_fail(message, message_size, "resources: no output pointer");
     *out = NULL;
@@ -349,11 +481,17 @@ RomStatus rom_model_load_memory(const void *data, size_t size, RomModel **out, c
     }
     uint64_t doubles = 0;
     if (check_header(&h, &doubles, message, message_size) != ROM_OK) return ROM_FAIL;
-    const uint64_t expected = (uint64_t)ROM_HEADER_SIZE + 8u * doubles + ROM_TOKEN_SIZE + 4u;
+    const uint64_t sections_start = (uint64_t)ROM_HEADER_SIZE + 8u * doubles;
+    uint32_t n_sections = 0;
+    uint64_t sections_end = 0;
+    if (scan_sections(bytes, size, sections_start, &n_sections, &sections_end, message, message_size) != ROM_OK) {
+        return ROM_FAIL;
+    }
+    const uint64_t expected = sections_end + ROM_TOKEN_SIZE + 4u;
     char detail[160];
-    snprintf(detail, sizeof detail, " for %sk_v = %u, %s = %u, %u probes, flags 0x%x",
+    snprintf(detail, sizeof detail, " for %sk_v = %u, %s = %u, %u probes, flags 0x%x, %u sections",
              path == ROM_PATH_LINEAR ? "the exact model with " : "", h.k_v, path == ROM_PATH_LINEAR ? "k_e" : "k_rho",
-             h.k_rho, h.n_probes, h.flags);
+             h.k_rho, h.n_probes, h.flags, n_sections);
     const size_t token_offset = (size_t)(expected - 4 - ROM_TOKEN_SIZE);
     if (envelope_close(&RESOURCES, bytes, size, expected, detail, token_offset, NULL, message, message_size) !=
         ROM_OK) {
@@ -382,8 +520,9 @@ RomStatus rom_model_load_memory(const void *data, size_t size, RomModel **out, c
     memcpy(m->token, bytes + token_offset, ROM_TOKEN_SIZE);
     m->token[ROM_TOKEN_SIZE] = '\0';
     const unsigned char *payload = bytes + ROM_HEADER_SIZE;
-    const RomStatus status = path == ROM_PATH_LINEAR ? read_exact(m, payload, doubles, message, message_size)
-                                                     : read_frozen(m, payload, doubles, message, message_size);
+    RomStatus status = path == ROM_PATH_LINEAR ? read_exact(m, payload, doubles, message, message_size)
+                                               : read_frozen(m, payload, doubles, message, message_size);
+    if (status == ROM_OK) status = read_sections(m, bytes, sections_start, n_sections, message, message_size);
     if (status != ROM_OK) {
         rom_model_free(m);
         return ROM_FAIL;
@@ -444,6 +583,7 @@ RomStatus rom_model_load_file(const char *path, RomModel **out, char *message, s
 void rom_model_free(RomModel *model) {
     if (!model) return;
     free(model->storage_);
+    free(model->sections_storage_);
     free(model);
 }
 

@@ -181,7 +181,8 @@ def test_core_loader_names_the_problem(packaged, binaries):
 
     cases = [
         (b"XXXXXXXX" + blob[8:], "bad magic"),
-        (with_crc(u32(8, 3)), "format version 3"),
+        (with_crc(u32(8, 4)), "format version 4"),
+        (with_crc(u32(8, 2)), "format version 2"),
         (with_crc(u32(8, 1)), "format version 1"),
         (with_crc(u32(12, 3)), "model kind 3"),
         (with_crc(u32(12, 2)), "must be 0 for the exact model"),
@@ -200,6 +201,41 @@ def test_core_loader_names_the_problem(packaged, binaries):
     for bad, text in cases:
         with pytest.raises(CoreError, match=re.escape(text)):
             core.load(bad)
+
+
+def test_core_loader_checks_the_tagged_sections(packaged, binaries):
+    """Sections are read by tag: a model written without any loads; an unknown, repeated, malformed or oversized
+    section, a count above the limit, and a section cut short are each refused with a message naming it."""
+    from harness.fmu.resources import unpack
+    blob = zipfile.ZipFile(packaged[("forced", 2)]).read("resources/model.bin")
+    data = unpack(blob)
+    assert data.sections == {}
+    start = len(blob) - 4 - 40 - 4              # the section count (0) before token and checksum
+    assert blob[start:start + 4] == struct.pack("<I", 0)
+    head, tail = blob[:start], blob[start + 4:-4]
+    core = Core(binaries.core)
+
+    def section(tag, rows, cols, values=None):
+        values = [0.5] * (rows * cols) if values is None else values
+        return tag.ljust(8, b"\0") + struct.pack("<2I", rows, cols) + struct.pack(f"<{len(values)}d", *values)
+
+    def blob_with(*sections, count=None):
+        n = len(sections) if count is None else count
+        return with_crc(head + struct.pack("<I", n) + b"".join(sections) + tail)
+
+    cases = [
+        (blob_with(section(b"NOSUCH", 1, 2)), "unknown tag 'NOSUCH'"),
+        (blob_with(section(b"A B", 1, 1)), "printable ASCII"),
+        (blob_with(section(b"\0ABC", 1, 1)), "printable ASCII"),
+        (blob_with(count=33), "33 tagged sections, more than the 32"),
+        (blob_with(section(b"BIG", 1 << 14, 1 << 14, values=[])), "more than the 67108864"),
+        (blob_with(section(b"NOSUCH", 4, 4, values=[0.5])), "bytes"),
+        (blob_with(section(b"NOSUCH", 1, 1), count=2), "bytes"),
+    ]
+    for bad, text in cases:
+        with pytest.raises(CoreError, match=re.escape(text)):
+            core.load(bad)
+    assert core.load(blob_with()) is not None
 
 
 # ---------------------------------------------------------------------------

@@ -54,6 +54,9 @@ def test_constants_shared_by_c_and_python():
         "ROM_FLAG_SCHUR": resources.FLAG_SCHUR,
         "ROM_MAX_MODES": resources.MAX_MODES,
         "ROM_MAX_PROBES": resources.MAX_PROBES,
+        "ROM_SECTION_TAG_SIZE": resources.SECTION_TAG_SIZE,
+        "ROM_MAX_SECTIONS": resources.MAX_SECTIONS,
+        "ROM_MAX_SECTION_VALUES": resources.MAX_SECTION_VALUES,
         # the serialized FMU state and the core's messages
         "ROM_STATE_HEADER_SIZE": fmi.STATE_HEADER_SIZE,
         "ROM_MESSAGE_SIZE": core.MESSAGE_SIZE,
@@ -83,3 +86,11 @@ def test_constants_shared_by_c_and_python():
                   "SPH_METHOD_EULER": sph_c.METHODS["euler"], "SPH_METHOD_SYMPLECTIC": sph_c.METHODS["symplectic"]}
     assert {name: sph.get(name) for name in sph_shared} == sph_shared
     assert sph_c.METHODS == {name: solver.METHODS[name] for name in sph_c.METHODS}
+
+
+def test_section_tags_shared_by_c_and_python():
+    """The tags the C loader accepts (rom_io.c's SECTION_RULES) are the tags the Python writer may write."""
+    text = (ROOT / "fmu_src" / "rom_io.c").read_text()
+    table = text[text.index("SECTION_RULES[] = {"):]
+    table = table[:table.index("};")]
+    assert set(re.findall(r'\{"([^"]+)",', table)) == set(resources.SECTION_TAGS)

@@ -17,6 +17,8 @@ repeated here)::
     damping, bit1 input: B present, bit2 Schur: Q, S present):
     float64  z0[k], A[k, k], B[k] (bit1), Q[k, k], S[k, k] (bit2), Pv[n_probes, k_v],
              Pe[n_probes, 2, k_e], pw[n_probes, 2], prho0[n_probes, 2], probe_x[n_probes]
+    uint32   n_sections, then per section: char[8] tag (ASCII, NUL padded),
+             uint32 rows, cols, float64 data[rows, cols]   (``sections``)
     char[40] token "{xxxxxxxx-xxxx-xxxx-xxxx-xxxxxxxxxxxx}", NUL padded: the
              FMI guid / instantiationToken, from the first 16 bytes of the
              sha256 of every byte before the token field
@@ -30,7 +32,10 @@ reconstructed fields linearly between particles at the probes
 the density at a probe interpolates ρ = ρ0/J linearly between the two
 particles around it, J = 1 + e with e = U_e b.
 
-Version 2 added kind 2; the kind-1 layout is that of version 1.
+Version 2 added kind 2; the kind-1 layout is that of version 1.  Version 3
+added the tagged sections: optional numbers that later features store (each
+tag is known to the C loader, which checks its shape and rejects unknown or
+repeated tags; :data:`SECTION_TAGS` lists them here).
 """
 
 from __future__ import annotations
@@ -38,12 +43,12 @@ from __future__ import annotations
 import hashlib
 import struct
 import zlib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 MAGIC = b"SPHROMRS"
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3
 MODEL_FROZEN = 1
 MODEL_EXACT_LINEAR = 2
 INTEGRATORS = {"euler": 0, "symplectic": 1}
@@ -53,7 +58,12 @@ FLAG_SCHUR = 4
 TOKEN_SIZE = 40
 MAX_PROBES = 100
 MAX_MODES = 1024
+SECTION_TAG_SIZE = 8
+MAX_SECTIONS = 32                          # fmu_src/rom.h ROM_MAX_SECTIONS
+MAX_SECTION_VALUES = 1 << 26               # fmu_src/rom.h ROM_MAX_SECTION_VALUES
+SECTION_TAGS: dict[str, str] = {}          # tag -> what it holds (the C loader's SECTION_RULES)
 _HEADER = struct.Struct("<8s10I3d")
+_SECTION = struct.Struct("<8s2I")
 HEADER_SIZE = _HEADER.size                 # 72 bytes, magic to L (fmu_src/rom.h ROM_HEADER_SIZE)
 
 
@@ -77,6 +87,8 @@ class ModelData:
         D and p may be None.
     token : str
         The instantiation token (set by :func:`pack`).
+    sections : dict of str to ndarray
+        Tagged sections (tag -> 2-D float64 array), in file order.
     """
 
     integrator: str
@@ -95,6 +107,7 @@ class ModelData:
     Prho: np.ndarray
     probe_x: np.ndarray
     token: str = ""
+    sections: dict = field(default_factory=dict)
 
     @property
     def k_v(self):
@@ -151,6 +164,59 @@ def make_token(digest16: bytes) -> str:
     return "{" + f"{h[:8]}-{h[8:12]}-{h[12:16]}-{h[16:20]}-{h[20:32]}" + "}"
 
 
+def pack_sections(sections) -> bytes:
+    """The bytes of the tagged sections: count, then (tag, rows, cols, data) each.
+
+    Parameters
+    ----------
+    sections : dict of str to array_like
+        Tag (1 to 8 printable ASCII characters, one of :data:`SECTION_TAGS`) ->
+        values (a scalar or 1-D array is stored as one row).
+    """
+    if len(sections) > MAX_SECTIONS:
+        raise ValueError(f"{len(sections)} sections, more than {MAX_SECTIONS}")
+    out = [struct.pack("<I", len(sections))]
+    for tag, values in sections.items():
+        raw = tag.encode("ascii")
+        if not 1 <= len(raw) <= SECTION_TAG_SIZE or not all(33 <= c <= 126 for c in raw):
+            raise ValueError(f"section tag {tag!r} is not 1 to {SECTION_TAG_SIZE} printable ASCII characters")
+        if tag not in SECTION_TAGS:
+            raise ValueError(f"section tag {tag!r} is unknown (known: {sorted(SECTION_TAGS)})")
+        a = np.atleast_2d(np.asarray(values, dtype=float))
+        if a.ndim != 2 or a.size > MAX_SECTION_VALUES or not np.all(np.isfinite(a)):
+            raise ValueError(f"section {tag!r}: a finite matrix of at most {MAX_SECTION_VALUES} values expected")
+        out.append(_SECTION.pack(raw.ljust(SECTION_TAG_SIZE, b"\0"), a.shape[0], a.shape[1]))
+        out.append(np.ascontiguousarray(a, dtype="<f8").tobytes())
+    return b"".join(out)
+
+
+def unpack_sections(blob: bytes, cursor: int):
+    """(sections, cursor after them) read from ``blob`` at ``cursor``."""
+    (n,) = struct.unpack_from("<I", blob, cursor)
+    if n > MAX_SECTIONS:
+        raise ValueError(f"{n} sections")
+    cursor += 4
+    sections = {}
+    for _ in range(n):
+        raw, rows, cols = _SECTION.unpack_from(blob, cursor)
+        cursor += _SECTION.size
+        tag = raw.rstrip(b"\0").decode("ascii")
+        if tag in sections:
+            raise ValueError(f"section {tag!r} appears twice")
+        sections[tag] = np.frombuffer(blob, dtype="<f8", count=rows * cols, offset=cursor).reshape(rows, cols).copy()
+        cursor += 8 * rows * cols
+    return sections, cursor
+
+
+def _finish(body: bytes, data) -> bytes:
+    """Sections, token and checksum after the kind's arrays; sets ``data.token``."""
+    body += pack_sections(data.sections)
+    token = make_token(hashlib.sha256(body).digest()[:16])
+    data.token = token
+    body += token.encode("ascii").ljust(TOKEN_SIZE, b"\0")
+    return body + struct.pack("<I", zlib.crc32(body) & 0xFFFFFFFF)
+
+
 def pack(data: ModelData) -> bytes:
     """The bytes of model.bin; sets ``data.token``."""
     kv, kr, npr = data.k_v, data.k_rho, data.n_probes
@@ -173,10 +239,7 @@ def pack(data: ModelData) -> bytes:
         arrays.append(data.p)
     arrays += [data.T, data.Pv, data.Prho, data.probe_x]
     body = header + b"".join(np.ascontiguousarray(a, dtype="<f8").tobytes() for a in arrays)
-    token = make_token(hashlib.sha256(body).digest()[:16])
-    data.token = token
-    body += token.encode("ascii").ljust(TOKEN_SIZE, b"\0")
-    return body + struct.pack("<I", zlib.crc32(body) & 0xFFFFFFFF)
+    return _finish(body, data)
 
 
 def unpack(blob: bytes):
@@ -206,12 +269,13 @@ def unpack(blob: bytes):
     D = take(kv, kv) if flags & FLAG_DAMPING else None
     p = take(kv) if flags & FLAG_INPUT else None
     T, Pv, Prho, probe_x = take(n_pairs, kr, kv), take(npr, kv), take(npr, kr), take(npr)
+    sections, cursor = unpack_sections(blob, cursor)
     token = blob[cursor:cursor + TOKEN_SIZE].rstrip(b"\0").decode("ascii")
     if cursor + TOKEN_SIZE + 4 != len(blob):
         raise ValueError("size mismatch")
     name = {v: k for k, v in INTEGRATORS.items()}[integrator]
     return ModelData(integrator=name, n_freeze=n_freeze, dt=dt, bound=bound, L=L, a_v0=a_v0, a_rho0=a_rho0, K=K,
-                     b=b, D=D, p=p, T=T, Pv=Pv, Prho=Prho, probe_x=probe_x, token=token)
+                     b=b, D=D, p=p, T=T, Pv=Pv, Prho=Prho, probe_x=probe_x, token=token, sections=sections)
 
 
 @dataclass
@@ -240,6 +304,8 @@ class ExactData:
     pw, prho0 : ndarray (P, 2)
     probe_x : ndarray (P,)
     token : str
+    sections : dict of str to ndarray
+        Tagged sections (tag -> 2-D float64 array), in file order.
     """
 
     dt: float
@@ -260,6 +326,7 @@ class ExactData:
     probe_x: np.ndarray
     token: str = ""
     integrator: str = "exponential"
+    sections: dict = field(default_factory=dict)
 
     @property
     def k(self):
@@ -326,10 +393,7 @@ def pack_exact(data: ExactData) -> bytes:
         if getattr(data, name).shape != shape:
             raise ValueError(f"{name} has shape {getattr(data, name).shape}, expected {shape}")
     body = header + b"".join(np.ascontiguousarray(a, dtype="<f8").tobytes() for a in arrays)
-    token = make_token(hashlib.sha256(body).digest()[:16])
-    data.token = token
-    body += token.encode("ascii").ljust(TOKEN_SIZE, b"\0")
-    return body + struct.pack("<I", zlib.crc32(body) & 0xFFFFFFFF)
+    return _finish(body, data)
 
 
 def _unpack_exact(blob: bytes) -> ExactData:
@@ -350,9 +414,10 @@ def _unpack_exact(blob: bytes) -> ExactData:
     B = take(k) if flags & FLAG_INPUT else None
     Q, S = (take(k, k), take(k, k)) if flags & FLAG_SCHUR else (None, None)
     Pv, Pe, pw, prho0, probe_x = take(npr, kv), take(npr, 2, ke), take(npr, 2), take(npr, 2), take(npr)
+    sections, cursor = unpack_sections(blob, cursor)
     token = blob[cursor:cursor + TOKEN_SIZE].rstrip(b"\0").decode("ascii")
     if cursor + TOKEN_SIZE + 4 != len(blob):
         raise ValueError("size mismatch")
     return ExactData(dt=dt, n_freeze=n_freeze, bound=bound, L=L, k_v=kv, z0=z0, A=A, B=B,
                      damping=bool(flags & FLAG_DAMPING), Q=Q, S=S, Pv=Pv, Pe=Pe, pw=pw, prho0=prho0,
-                     probe_x=probe_x, token=token)
+                     probe_x=probe_x, token=token, sections=sections)
