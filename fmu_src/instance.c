@@ -312,7 +312,9 @@ static RomStatus set_f_held(RomState *s, double value, char *message, size_t mes
 
 /* The FMU's variables (modelDescription/fmi2.xml, fmi3.xml; value references rom.h ROM_VR_*):
  * the one place that maps value references onto the core.  A COUNT_PER_PROBE row
- * stands for n_probes value references vr + j, its getter receiving j. */
+ * stands for n_probes value references vr + j, its getter receiving j.  A row
+ * with a `present` test exists only in the models it accepts (its value
+ * references are unknown in the others). */
 typedef struct {
     const char *name;
     uint32_t vr;
@@ -323,16 +325,17 @@ typedef struct {
     int32_t (*get_int32)(const RomState *s);
     RomStatus (*set_float64)(RomState *s, double value, char *message, size_t message_size);
     RomStatus (*set_int32)(RomState *s, int64_t value, char *message, size_t message_size);
+    int (*present)(const RomModel *m);     /* NULL: every model has the variable */
 } Variable;
 
 static const Variable VARIABLES[] = {
-    /* name, value reference, count, type, role, get float64, get int32, set float64, set int32 */
-    {"time", ROM_VR_TIME, COUNT_ONE, TYPE_FLOAT64, ROLE_INDEPENDENT, get_time, NULL, NULL, NULL},
-    {"f", ROM_VR_F, COUNT_ONE, TYPE_FLOAT64, ROLE_INPUT, get_f, NULL, set_f_held, NULL},
-    {"n_freeze", ROM_VR_N_FREEZE, COUNT_ONE, TYPE_INT32, ROLE_FIXED, NULL, get_n_freeze, NULL, rom_set_n_freeze},
-    {"dt", ROM_VR_DT, COUNT_ONE, TYPE_FLOAT64, ROLE_FIXED, get_dt, NULL, rom_set_dt, NULL},
-    {"v_probe", ROM_VR_V_PROBE, COUNT_PER_PROBE, TYPE_FLOAT64, ROLE_OUTPUT, rom_v_probe, NULL, NULL, NULL},
-    {"rho_probe", ROM_VR_RHO_PROBE, COUNT_PER_PROBE, TYPE_FLOAT64, ROLE_OUTPUT, rom_rho_probe, NULL, NULL, NULL},
+    /* name, value reference, count, type, role, get float64, get int32, set float64, set int32, present */
+    {"time", ROM_VR_TIME, COUNT_ONE, TYPE_FLOAT64, ROLE_INDEPENDENT, get_time, NULL, NULL, NULL, NULL},
+    {"f", ROM_VR_F, COUNT_ONE, TYPE_FLOAT64, ROLE_INPUT, get_f, NULL, set_f_held, NULL, NULL},
+    {"n_freeze", ROM_VR_N_FREEZE, COUNT_ONE, TYPE_INT32, ROLE_FIXED, NULL, get_n_freeze, NULL, rom_set_n_freeze, NULL},
+    {"dt", ROM_VR_DT, COUNT_ONE, TYPE_FLOAT64, ROLE_FIXED, get_dt, NULL, rom_set_dt, NULL, NULL},
+    {"v_probe", ROM_VR_V_PROBE, COUNT_PER_PROBE, TYPE_FLOAT64, ROLE_OUTPUT, rom_v_probe, NULL, NULL, NULL, NULL},
+    {"rho_probe", ROM_VR_RHO_PROBE, COUNT_PER_PROBE, TYPE_FLOAT64, ROLE_OUTPUT, rom_rho_probe, NULL, NULL, NULL, NULL},
 };
 
 /* the variable of value reference ref (time only where the version has it), or NULL; *j: the probe index */
@@ -340,6 +343,7 @@ static const Variable *lookup(const Instance *inst, uint32_t ref, uint32_t *j) {
     for (size_t i = 0; i < sizeof VARIABLES / sizeof VARIABLES[0]; i++) {
         const Variable *var = &VARIABLES[i];
         if (var->role == ROLE_INDEPENDENT && !inst->version->has_time) continue;
+        if (var->present && !var->present(inst->model)) continue;
         const uint32_t count = var->count == COUNT_PER_PROBE ? inst->model->n_probes : 1u;
         if (ref >= var->vr && ref - var->vr < count) {
             *j = ref - var->vr;
