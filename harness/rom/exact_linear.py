@@ -123,6 +123,10 @@ class LinearOperators:
         e = a_e @ self.U_e.T
         return self.rho0[None, :] / (1.0 + e)
 
+    def strain(self, a_e):
+        """e = U_e b = J − 1 at the particles, (M, N) from coordinates (M, k_e)."""
+        return a_e @ self.U_e.T
+
     def fields(self, z):
         """(v, ρ) at the particles from reduced states z of shape (M, k)."""
         z = np.atleast_2d(z)
