@@ -48,11 +48,11 @@ RomState *rom_state_new(const RomModel *model) {
                                                   &s->cache[1].Phi, &s->cache[1].G0, &s->cache[1].G1};
         s->storage_ = rom_alloc_arrays(counts, ptrs, 5 + 3 * ROM_EXACT_CACHE);
     } else {
-        /* a^v, a^rho; M^T, F; the rates; the pair products */
-        const size_t counts[7] = {model->kv_pad, model->kr_pad, model->nm, model->kv_pad, model->kv_pad,
-                                  model->kr_pad, model->n_pairs};
-        double **ptrs[7] = {&s->av, &s->ar, &s->Mt, &s->F, &s->dv, &s->dr, &s->S};
-        s->storage_ = rom_alloc_arrays(counts, ptrs, 7);
+        /* a^v, a^rho; M^T, F; the rates; the pair products; (t0, input rate) */
+        const size_t counts[8] = {model->kv_pad, model->kr_pad, model->nm, model->kv_pad, model->kv_pad,
+                                  model->kr_pad, model->n_pairs, 2};
+        double **ptrs[8] = {&s->av, &s->ar, &s->Mt, &s->F, &s->dv, &s->dr, &s->S, &s->aux};
+        s->storage_ = rom_alloc_arrays(counts, ptrs, 8);
     }
     if (!s->storage_) {
         free(s);
@@ -84,9 +84,9 @@ void rom_state_reset(RomState *s, double t_start) {
         } else {
             memcpy(s->X, m->z0, m->k * sizeof(double));
         }
-        s->aux[0] = t_start;
-        s->aux[1] = 0.0;
     }
+    s->aux[0] = t_start;      /* both kinds: the start time and the input rate (0: f held) */
+    s->aux[1] = 0.0;
     s->n = 0;
     s->time = t_start;
     s->f = 0.0;
@@ -123,7 +123,8 @@ RomStatus rom_set_input_rate(RomState *s, double rate, char *message, size_t mes
 }
 
 int rom_interpolates_inputs(const RomModel *m) {
-    return m && rom_is_linear(m);
+    /* the linear models integrate f + rate tau exactly; the frozen model evaluates it at each refresh */
+    return m != NULL;
 }
 
 RomStatus rom_set_dt(RomState *s, double dt, char *message, size_t message_size) {

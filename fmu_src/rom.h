@@ -198,7 +198,7 @@ typedef struct {
     double f;               /* input, held over a communication step [m s^-2] */
     double dt;              /* internal step [s] (parameter) */
     int32_t n_freeze;       /* refresh period (parameter) */
-    /* exact model (kind 2) */
+    /* exact model (kind 2); aux in both kinds */
     double *X;              /* [k] the forced part of z (the whole z without the Schur form) */
     double *aux;            /* [2]: aux[0] the start time t0 [s] of the free response, aux[1] the
                              * input rate df/dt over a step [m s^-3] (0: input held) */
@@ -239,11 +239,13 @@ ROM_API RomStatus rom_do_step(RomState *state, double t_comm, double h, char *me
 ROM_API int rom_step_exceeds(const RomState *state, double h);
 /* n_steps whole internal steps with the runaway check (benchmark, tests) */
 ROM_API RomStatus rom_advance(RomState *state, int64_t n_steps, char *message, size_t message_size);
-/* Exact model only: the input goes linearly over each step, f(t_comm + tau) = f + rate tau
- * (rate 0, the default, holds it), and after the step f = f + rate h, so that the input
- * continues linearly until it is set again.  The frozen model ignores the rate. */
+/* The input goes linearly over each step, f(t_comm + tau) = f + rate tau (rate 0, the
+ * default, holds it), and after the step f = f + rate h, so that the input continues linearly
+ * until it is set again.  The exact model integrates it exactly; the frozen model evaluates it
+ * at each refresh of its force term, at the internal step's time tau = j dt (as
+ * harness/rom/frozen.py and harness/fmu/python_cosim.py do, bit for bit). */
 ROM_API RomStatus rom_set_input_rate(RomState *state, double rate, char *message, size_t message_size);
-/* 1 when the model uses the input rate (the exact linear model: canInterpolateInputs), else 0 */
+/* 1 when the model uses the input rate (canInterpolateInputs: every model now), else 0 */
 ROM_API int rom_interpolates_inputs(const RomModel *model);
 /* The reduced state: a^v (k_v values) then a^rho (frozen) or b = e coordinates (exact) into out[n];
  * returns the count written (0 on a bad argument) */

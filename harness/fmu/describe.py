@@ -102,10 +102,11 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
         "n_freeze": int(data.n_freeze),
         "dt": number(data.dt),
         "profile": scene.fields["profile"].text,
-        # FMI 2 only: the exact linear model integrates f + (df/dt) tau over a step exactly
-        "can_interpolate_inputs": "true" if spec.linear else "false",
-        "input_hold": ("held over each communication step, or linear with the derivative of "
-                       "fmi2SetRealInputDerivatives" if spec.linear else "held over each communication step"),
+        # FMI 2 only: the linear models integrate f + (df/dt) tau over a step exactly, the frozen model
+        # evaluates it at each refresh of its force term
+        "can_interpolate_inputs": "true",
+        "input_hold": "held over each communication step, or linear with the derivative of "
+                      "fmi2SetRealInputDerivatives",
     }
     # FMI 3 fixedInternalStepSize only where there is one: the linear model steps by the matrix exponential
     internal_step = [] if spec.linear else [{}]
