@@ -8,7 +8,7 @@
  *            margin (>= 1), checks (bit mask ROM_ENVELOPE_CHECK_*), force mean [m s^-2]
  *   ENVRANGE [2][k_v + k_rho]: min (row 0) and max (row 1) of each reduced coordinate
  *            over the training run (a^v then a^rho; the exact model: z)
- *   ENVPROBE [1][n_probes]: rho0 at the probes [kg m^-3]
+ *   ENVPROBE [2][n_probes]: rho0 at the probes [kg m^-3]; max |v| at the probes in training [m s^-1]
  *
  * The check (frozen model only; a linear model is exact in its state and stores
  * checks = 0), in this order, the first breach reported:
@@ -85,8 +85,8 @@ RomStatus rom_envelope_check_range(const RomModel *m, const RomSection *s, char 
 }
 
 RomStatus rom_envelope_check_probe(const RomModel *m, const RomSection *s, char *message, size_t message_size) {
-    if (s->rows != 1 || s->cols != m->n_probes) {
-        return rom_fail(message, message_size, "resources: section 'ENVPROBE' is %u x %u, expected 1 x %u "
+    if (s->rows != 2 || s->cols != m->n_probes) {
+        return rom_fail(message, message_size, "resources: section 'ENVPROBE' is %u x %u, expected 2 x %u "
                         "(n_probes)", s->rows, s->cols, m->n_probes);
     }
     for (uint32_t j = 0; j < m->n_probes; j++) {

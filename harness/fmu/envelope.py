@@ -21,9 +21,10 @@ Recorded at packaging (``sphrom fmu``) in three tagged sections of ``resources/m
     row 0 the minimum, row 1 the maximum of each reduced coordinate over the training run's stored
     samples (the full SPH projected on the FMU's basis): a^v then a^ρ (frozen, Euclidean projection
     as eq. 2.16) or z = (a; b) (exact linear model, ρ0- and c-weighted projections of v and e = J - 1).
-``ENVPROBE`` (1 x n_probes)
-    ρ0 at each probe (linear between particles) [kg m^-3]: the C core's probe strain is
-    |ρ0_j / ρ_j - 1|.
+``ENVPROBE`` (2 x n_probes)
+    row 0: ρ0 at each probe (linear between particles) [kg m^-3]: the C core's probe strain is
+    |ρ0_j / ρ_j - 1|; row 1: max |v| at each probe over the training run [m s^-1] (the outputs'
+    ``nominal`` in modelDescription.xml).
 
 At run time the frozen model is checked after every doStep (fmu_src/rom_envelope.c): a coordinate
 a_i whose distance from the centre c_i of its trained range [lo_i, hi_i] exceeds its half-width h_i plus
@@ -78,6 +79,7 @@ class Envelope:
     lo: np.ndarray
     hi: np.ndarray
     probe_rho0: np.ndarray
+    probe_v_max: np.ndarray
     k_v: int = 0                 # the first k_v coordinates are a^v (not stored: the header has it)
 
     def sections(self):
@@ -85,7 +87,7 @@ class Envelope:
         scalars = [self.force_amplitude, self.force_band, self.max_strain, self.max_probe_strain,
                    self.failure_strain, self.margin, float(self.checks), self.force_mean]
         return {"ENVELOPE": np.array([scalars]), "ENVRANGE": np.vstack([self.lo, self.hi]),
-                "ENVPROBE": np.asarray(self.probe_rho0, float)[None, :]}
+                "ENVPROBE": np.vstack([self.probe_rho0, self.probe_v_max])}
 
     @classmethod
     def from_sections(cls, sections, k_v):
@@ -96,7 +98,8 @@ class Envelope:
         rng = np.asarray(sections["ENVRANGE"], float)
         return cls(force_amplitude=s[0], force_band=s[1], max_strain=s[2], max_probe_strain=s[3],
                    failure_strain=s[4], margin=s[5], checks=int(s[6]), force_mean=s[7], lo=rng[0], hi=rng[1],
-                   probe_rho0=np.asarray(sections["ENVPROBE"], float)[0], k_v=int(k_v))
+                   probe_rho0=np.asarray(sections["ENVPROBE"], float)[0],
+                   probe_v_max=np.asarray(sections["ENVPROBE"], float)[1], k_v=int(k_v))
 
     def lines(self, linear=False):
         """Human-readable lines (the ``sphrom fmu`` summary and the model description)."""
@@ -199,7 +202,8 @@ def measure(scene, ops, problem, run, probes, linear):
     return Envelope(force_amplitude=amplitude, force_band=band, max_strain=float(strain.max()),
                     max_probe_strain=float(probe_strain.max()), failure_strain=0.0 if linear else FAILURE_STRAIN,
                     margin=MARGIN, checks=checks, force_mean=mean, lo=z.min(axis=0), hi=z.max(axis=0),
-                    probe_rho0=probe_rho0, k_v=int(ops.k_v))
+                    probe_rho0=probe_rho0, probe_v_max=np.abs(_probe_values(run.v, problem.x, L, probes)).max(axis=0),
+                    k_v=int(ops.k_v))
 
 
 def check(env: Envelope, z, f, probe_rho, k_v):
