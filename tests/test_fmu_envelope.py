@@ -172,3 +172,42 @@ def test_force_band_of_known_signals():
     assert E.force_band(np.sin(2 * np.pi * 3.0 * t), dt) == pytest.approx(3.0)
     assert E.force_band(np.full_like(t, 2.0), dt) == 0.0
     assert E.force_band(np.zeros_like(t), dt) == 0.0
+
+
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_cosim_shows_the_envelope_warning(envelope_fmus, tmp_path, capsys, fmi):
+    """``sphrom cosim`` prints the FMU's envelope warning (once) at 10x, nothing at the training amplitude."""
+    from harness.cli import main
+    scene = fmu_scene("forced")
+    for scale, expected in ((1.0, 0), (10.0, 1)):
+        out = tmp_path / f"x{scale:g}.csv"
+        assert main(["cosim", str(envelope_fmus("frozen", fmi, scale)), "--force", scene.f.text, "--step",
+                     str(H), "--t-end", str(scene.T), "--out", str(out)]) == 0
+        printed = [line for line in capsys.readouterr().out.splitlines() if line.startswith("FMU warning:")]
+        assert len(printed) == expected and all(ENVELOPE_TEXT in line for line in printed)
+        assert out.exists()
+
+
+@pytest.mark.parametrize("fmi", [2, 3])
+@pytest.mark.parametrize("model", ["frozen", "exact"])
+def test_description_states_the_envelope_and_nominal_values(envelope_fmus, fmi, model):
+    """The model description carries the envelope, and the variables' nominal values are the envelope's
+    (f: the training amplitude; v_probe_j: max |v| at probe j in training; rho_probe_j: rho0 there); dt > 0,
+    densities > 0, n_freeze >= 1 as min where the variables exist."""
+    import fmpy
+    path = envelope_fmus(model, fmi)
+    data = unpack(zipfile.ZipFile(path).read("resources/model.bin"))
+    env = E.Envelope.from_sections(data.sections, data.k_v)
+    md = fmpy.read_model_description(str(path))
+    assert "Training envelope: training force max |f| = " in md.description
+    assert f"largest strain |rho0/rho - 1| in training {env.max_strain:.3g}" in md.description
+    variables = {v.name: v for v in md.modelVariables}
+    assert float(variables["f"].nominal) == env.force_amplitude
+    for j in range(data.n_probes):
+        assert float(variables[f"v_probe_{j + 1}"].nominal) == env.probe_v_max[j] > 0
+        assert float(variables[f"rho_probe_{j + 1}"].nominal) == env.probe_rho0[j]
+        assert float(variables[f"rho_probe_{j + 1}"].min) == 0.0
+    if "dt" in variables:
+        assert float(variables["dt"].min) == 0.0
+    if "n_freeze" in variables:
+        assert int(variables["n_freeze"].min) == 1
