@@ -211,3 +211,20 @@ def test_description_states_the_envelope_and_nominal_values(envelope_fmus, fmi, 
         assert float(variables["dt"].min) == 0.0
     if "n_freeze" in variables:
         assert int(variables["n_freeze"].min) == 1
+
+
+def test_amplitude_sweep_measures_where_the_frozen_model_fails():
+    """The benchmark behind the margin and the failure strain, on a small undamped scene: the full SPH is
+    linear in J (up to its time stepping of ρ), so the exact model's error hardly moves with the scale, while
+    the frozen model's error and the strain grow in proportion to it, and its coordinates leave the trained
+    ranges (excess above margin - 1)."""
+    from harness.bench.envelope import failure_strain, measure
+    rows = measure(fmu_scene("unforced"), scales=(1.0, 2.0, 10.0), progress=False)
+    one, two, ten = rows
+    assert ten["exact_v_error"] == pytest.approx(one["exact_v_error"], rel=0.05)
+    assert ten["peak_strain"] == pytest.approx(10 * one["peak_strain"], rel=0.05)
+    assert one["frozen_v_error"] < two["frozen_v_error"] < ten["frozen_v_error"]
+    assert ten["frozen_v_error"] > 5 * one["frozen_v_error"]
+    assert one["frozen_coordinate_excess"] < E.MARGIN - 1 < ten["frozen_coordinate_excess"]
+    mid = 0.5 * (one["frozen_v_error"] + two["frozen_v_error"])
+    assert one["peak_probe_strain"] < failure_strain(rows, one["scene"], mid) < two["peak_probe_strain"]

@@ -4,8 +4,8 @@ The scene's initial velocity is scaled by s (the density starts at ρ0, as the F
 ``initial_state_scale``); the full SPH runs the scaled scene, the reduced models start from the
 scaled coordinates on the x1 basis (the FMU's basis: what it was trained on).  Per s it records the
 relative L² error of the probe velocities against the full SPH (frozen: n_freeze = 10, the scene's
-integrator and Δt; exact: the exact linear model, scale invariant, whose error grows only with the
-full SPH's own nonlinearity), the peak strain |ρ0/ρ - 1| of the full SPH at the particles and at the
+integrator and Δt; exact: the exact linear model, scale invariant, whose error moves only with the
+full SPH's departure from linearity in J, its time stepping of ρ), the peak strain |ρ0/ρ - 1| of the full SPH at the particles and at the
 probes, and the frozen run's largest coordinate excess beyond the trained ranges in units of its
 block's largest half-width (the quantity the FMU's coordinate check compares with margin - 1,
 :mod:`harness.fmu.envelope`).  Run as::
@@ -49,7 +49,7 @@ def coordinate_excess(env, z, k_v):
 
 
 def measure(scene_name, scales=SCALES, progress=True):
-    """Rows (dicts) of the amplitude sweep of one scene (module docstring)."""
+    """Rows (dicts) of the amplitude sweep of one scene (a name, a path or a Scene; module docstring)."""
     from ..fmu import envelope as E
     from ..norms import relative_l2
     from ..pod.pipeline import basis_for_scene
@@ -58,10 +58,10 @@ def measure(scene_name, scales=SCALES, progress=True):
     from ..scene import derive_scene, load_scene
     from ..sph.solver import build_problem, run_sph, step_count
 
-    scene = load_scene(scene_name)
+    scene = load_scene(scene_name) if isinstance(scene_name, str) else scene_name
     problem = build_problem(scene)
     basis, run = basis_for_scene(scene, progress=False, problem=problem)
-    k = int(max(scene.rom.get("accel_modes", [scene.rom["modes"]])))
+    k = min(int(max(scene.rom.get("accel_modes", [scene.rom["modes"]]))), *basis.max_modes)
     frozen, exact = get_model("frozen"), get_model("exact")
     ops = frozen.build(problem, basis, k, k, input_direction=frozen.fmu_input_direction, tensor="always")
     lin = exact.build(problem, basis, k, k, input_direction=exact.fmu_input_direction)

@@ -33,7 +33,7 @@ that a coordinate the training hardly moved is not judged on the reduced model's
 |f| above ``margin`` times the trained max |f| (a forced scene only: f = 0 trains no amplitude, and a
 force is then judged by the response it makes); a probe strain above ``margin`` x
 ``max_probe_strain``; a probe strain above ``failure_strain``.  The linear models are exact in the
-state (scale invariant; the full SPH is itself linear in J): no amplitude check applies, and the input
+state (scale invariant; the full SPH is itself linear in J up to its time stepping of ρ): no amplitude check applies, and the input
 band is recorded, not checked (a frequency cannot be estimated from the samples of one step).  The
 FMU logs the first breach once per instance as a warning.
 """
