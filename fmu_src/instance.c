@@ -286,6 +286,7 @@ InstanceStatus instance_terminate(Instance *inst) {
 
 InstanceStatus instance_reset(Instance *inst) {
     rom_state_reset(inst->state, 0.0);
+    inst->warned_envelope = 0;
     inst->mode = MODE_INSTANTIATED;
     return INSTANCE_OK;
 }
@@ -489,6 +490,12 @@ InstanceStatus instance_do_step(Instance *inst, const char *fn, double t_comm, d
     }
     if (rom_do_step(inst->state, t_comm, h, inst->message, sizeof inst->message) != ROM_OK) {
         return instance_error(inst, fn, "%s", inst->message);
+    }
+    /* the training envelope (rom_envelope.c): a warning, never an error, once per instance */
+    if (!inst->warned_envelope && rom_envelope_check(inst->state, inst->message, sizeof inst->message)) {
+        inst->warned_envelope = 1;
+        instance_log(inst, INSTANCE_WARNING, INSTANCE_LOG_WARNING, "%s: %s; the frozen model may be inaccurate "
+                     "there (warned once per instance)", fn, inst->message);
     }
     instance_log(inst, INSTANCE_OK, INSTANCE_LOG_EVENTS, "%s: t = %.9g s reached (%lld internal steps in all)", fn,
                  inst->state->time, (long long)inst->state->n);

@@ -270,6 +270,18 @@ ROM_API RomStatus rom_state_check(const RomModel *model, const unsigned char *bu
 ROM_API RomStatus rom_state_deserialize(RomState *state, const unsigned char *buffer, size_t size,
                                         uint32_t *tag, char *message, size_t message_size);
 
+/* ---- the training envelope (rom_envelope.c; sections ENVELOPE, ENVRANGE, ENVPROBE) ---- */
+#define ROM_ENVELOPE_SCALARS 8u          /* columns of ENVELOPE (harness/fmu/envelope.py N_SCALARS) */
+#define ROM_ENVELOPE_CHECK_COORDINATES 1u
+#define ROM_ENVELOPE_CHECK_FORCE 2u
+#define ROM_ENVELOPE_CHECK_STRAIN 4u
+#define ROM_ENVELOPE_CHECK_FAILURE 8u
+#define ROM_ENVELOPE_CHECK_ALL 15u
+/* 1 when the state or the input is outside the model's training envelope widened by its margin (the
+ * message, when given, names the quantity, its value, the trained range and the time); 0 inside it, for
+ * a model without an envelope, and for a linear model (no run-time checks) */
+ROM_API int rom_envelope_check(const RomState *state, char *message, size_t message_size);
+
 ROM_API const char *rom_version(void);
 
 #ifdef __cplusplus

@@ -350,6 +350,9 @@ typedef struct {
 } SectionRule;
 
 static const SectionRule SECTION_RULES[] = {
+    {"ENVELOPE", "the training envelope's scalars", rom_envelope_check_scalars},
+    {"ENVRANGE", "the training envelope's coordinate ranges", rom_envelope_check_range},
+    {"ENVPROBE", "rho0 at the probes (training envelope)", rom_envelope_check_probe},
     {NULL, NULL, NULL},        /* end of the table */
 };
 

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import harness.fmu.core as core
 import harness.fmu.describe as describe
+import harness.fmu.envelope as envelope
 import harness.fmu.fmi as fmi
 import harness.fmu.python_cosim as python_cosim
 import harness.fmu.resources as resources
@@ -57,6 +58,12 @@ def test_constants_shared_by_c_and_python():
         "ROM_SECTION_TAG_SIZE": resources.SECTION_TAG_SIZE,
         "ROM_MAX_SECTIONS": resources.MAX_SECTIONS,
         "ROM_MAX_SECTION_VALUES": resources.MAX_SECTION_VALUES,
+        # the training envelope (harness/fmu/envelope.py, fmu_src/rom_envelope.c)
+        "ROM_ENVELOPE_SCALARS": envelope.N_SCALARS,
+        "ROM_ENVELOPE_CHECK_COORDINATES": envelope.CHECK_COORDINATES,
+        "ROM_ENVELOPE_CHECK_FORCE": envelope.CHECK_FORCE,
+        "ROM_ENVELOPE_CHECK_STRAIN": envelope.CHECK_STRAIN,
+        "ROM_ENVELOPE_CHECK_FAILURE": envelope.CHECK_FAILURE,
         # the serialized FMU state and the core's messages
         "ROM_STATE_HEADER_SIZE": fmi.STATE_HEADER_SIZE,
         "ROM_MESSAGE_SIZE": core.MESSAGE_SIZE,

@@ -38,5 +38,7 @@ def run(args):
           f"({'fmpy FMU2Slave loop' if result.input_derivatives else 'fmpy.simulate_fmu'})")
     print("input: f linear over each step (df/dt by fmi2SetRealInputDerivatives)" if result.input_derivatives
           else "input: f held over each communication step")
+    for text in result.warnings:             # e.g. the FMU left its training envelope
+        print(f"FMU warning: {' '.join(text.split())}")
     print(f"wrote {out}")
     return 0

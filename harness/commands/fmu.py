@@ -66,6 +66,9 @@ def run(args):
         print(f"  integrator {s.integrator}, dt = {s.dt:g} s, n_freeze = {s.n_freeze} (parameters dt, n_freeze)")
     print(f"  probes at x/L = {', '.join(f'{x:g}' for x in s.probes)}: outputs v_probe_1..{len(s.probes)}, "
           f"rho_probe_1..{len(s.probes)}; input f")
+    if s.envelope is not None:
+        for line in s.envelope.lines(linear=model.linear):
+            print(f"  envelope: {line}")
     t = s.timings
     print(f"  token {s.token}; fmpy validation: no problems; times: model {t['model']:.2f} s, "
           f"binaries {t['binaries']:.2f} s, package {t['package']:.2f} s")

@@ -12,7 +12,7 @@ import csv
 import math
 import tempfile
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -38,6 +38,8 @@ class CosimResult:
         Communication steps.
     input_derivatives : bool
         Whether df/dt was passed with fmi2SetRealInputDerivatives (else f held over each step).
+    warnings : list of str
+        The FMU's logged warnings (e.g. leaving its training envelope).
     """
 
     names: list
@@ -45,6 +47,7 @@ class CosimResult:
     wall_time: float
     steps: int
     input_derivatives: bool = False
+    warnings: list = field(default_factory=list)
 
 
 class LogCapture:
@@ -65,6 +68,9 @@ class LogCapture:
 
     def errors(self):
         return [m for s, m in self.messages if s >= 3]
+
+    def warnings(self):
+        return [m for s, m in self.messages if s == 1]
 
 
 def read_fmu_description(path):
@@ -143,7 +149,7 @@ def _is_instantiate_failure(exc) -> bool:
     return type(exc) is Exception and "instantiate" in str(exc).lower()
 
 
-def _run_with_derivatives(fmu, md, signal, t_end, step, start, outputs):
+def _run_with_derivatives(fmu, md, signal, t_end, step, start, outputs, warnings=None):
     """The co-simulation loop on fmpy's FMU2Slave, f and df/dt set before each step.
 
     fmpy 0.3.32's ``simulate_fmu(set_input_derivatives=True)`` cannot be used: it
@@ -177,6 +183,8 @@ def _run_with_derivatives(fmu, md, signal, t_end, step, start, outputs):
         except Exception as exc:
             detail = "; ".join(slave.errors()) or str(exc)
             raise SimulationError(f"the FMU failed: {detail}") from None
+    if warnings is not None:                 # (status, text) pairs, as LogCapture keeps them
+        warnings.extend((status, text) for status, _, text in messages if status == 1)
     return np.column_stack([times, np.array(rows)])
 
 
@@ -294,9 +302,9 @@ def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None, hold_inputs
     logger = capture.fmi2 if md.fmiVersion == "2.0" else capture.fmi3
     t0 = time.perf_counter()
     if derivatives:
-        values = _run_with_derivatives(fmu, md, signal, t_end, step, start, outputs)
+        values = _run_with_derivatives(fmu, md, signal, t_end, step, start, outputs, warnings=capture.messages)
         return CosimResult(names=["time"] + outputs, values=values, wall_time=time.perf_counter() - t0,
-                           steps=steps, input_derivatives=True)
+                           steps=steps, input_derivatives=True, warnings=capture.warnings())
     try:
         with tempfile.TemporaryDirectory(prefix="sphrom-cosim-") as unzipdir:   # removed also when it fails
             fmpy.extract(str(fmu), unzipdir=unzipdir)
@@ -313,7 +321,7 @@ def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None, hold_inputs
     wall = time.perf_counter() - t0
     names = ["time"] + outputs
     values = np.column_stack([result[n] for n in names])
-    return CosimResult(names=names, values=values, wall_time=wall, steps=steps)
+    return CosimResult(names=names, values=values, wall_time=wall, steps=steps, warnings=capture.warnings())
 
 
 def write_csv(path, result: CosimResult):

@@ -48,7 +48,7 @@ def number(x) -> str:
 
 
 def model_description(fmi: int, *, token, scene, data, k_requested, step_size, stop_time, input_error,
-                      model="frozen"):
+                      model="frozen", envelope=None):
     """The modelDescription.xml text for FMI version ``fmi`` (2 or 3).
 
     Parameters
@@ -66,12 +66,22 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
         Relative projection error of the force profile on the POD velocity modes.
     model : str
         The registered reduced model packaged (its title heads the description).
+    envelope : Envelope, optional
+        What the basis was trained on (:mod:`harness.fmu.envelope`), appended to the description.
     """
     from ..rom.registry import get_model
 
     probes = [{"j": j + 1, "x": f"{x:g}", "v_vr": VR_V_PROBE + j, "rho_vr": VR_RHO_PROBE + j,
                "v_index": FIXED_VARIABLES + 1 + j, "rho_index": FIXED_VARIABLES + 1 + data.n_probes + j}
               for j, x in enumerate(data.probe_x)]
+    # nominal values from the training envelope: max |v| and rho0 at each probe, the training force amplitude
+    # (none for f = 0: a free response trained no force scale)
+    for j, p in enumerate(probes):
+        v_max = envelope.probe_v_max[j] if envelope is not None else 0.0
+        p["v_nominal"] = number(v_max if v_max > 0 else 1.0)
+        p["rho_nominal"] = number(envelope.probe_rho0[j] if envelope is not None else 1.0)
+    f_nominal = ([{"f_nominal": number(envelope.force_amplitude)}]
+                 if envelope is not None and envelope.force_amplitude > 0 else [])
     outputs = ([{"vr": p["v_vr"], "index": p["v_index"]} for p in probes]
                + [{"vr": p["rho_vr"], "index": p["rho_index"]} for p in probes])
     augmented = data.k_v > k_requested
@@ -90,6 +100,8 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
     description = (f"{spec.title} of the SPH mass-spring-damper scene '{scene.name}' ({scene.title}; "
                    f"N = {scene.sph.n_particles}, L = {scene.L:g} m): {modes}; {stepping}; probes at x/L = {where}; "
                    f"input projection error {input_error:.3g}.")
+    if envelope is not None:
+        description += " Training envelope: " + "; ".join(envelope.lines(linear=spec.linear)) + "."
     values = {
         "model_name": f"sphrom {scene.name}",
         "token": token,
@@ -111,7 +123,7 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
     # FMI 3 fixedInternalStepSize only where there is one: the linear model steps by the matrix exponential
     internal_step = [] if spec.linear else [{}]
     return render(template(f"fmi{fmi}.xml"), values,
-                  {"probes": probes, "outputs": outputs, "internal_step": internal_step})
+                  {"probes": probes, "outputs": outputs, "internal_step": internal_step, "f_nominal": f_nominal})
 
 
 def build_description() -> str:

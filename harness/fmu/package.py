@@ -43,7 +43,8 @@ MODEL_IDENTIFIER = "sphrom"
 
 # fmu_src/ files an FMU carries in sources/ (the C files of each list are also named by
 # modelDescription/fmi2.xml <SourceFiles> and modelDescription/buildDescription.xml)
-CORE_SOURCES = ("rom.h", "rom_internal.h", "rom.c", "rom_io.c", "rom_frozen.c", "rom_exact.c", "rom_fail.c")
+CORE_SOURCES = ("rom.h", "rom_internal.h", "rom.c", "rom_io.c", "rom_frozen.c", "rom_exact.c", "rom_fail.c",
+                "rom_envelope.c")
 INSTANCE_SOURCES = ("instance.h", "instance.c")
 
 
@@ -139,6 +140,7 @@ class FMUSummary:
     size: int
     timings: dict = field(default_factory=dict)
     model: str = "frozen"
+    envelope: object = None        # harness.fmu.envelope.Envelope: what the basis was trained on
 
 
 def default_modes(scene):
@@ -253,14 +255,25 @@ def exact_model(scene, k, n_freeze, probes, progress=True, problem=None, model="
     return data, lin, problem, basis
 
 
+def training_envelope(scene, ops, problem, probes, linear, progress=False):
+    """The :class:`~harness.fmu.envelope.Envelope` of the model ``ops``: its ranges over the scene's cached
+    full SPH training run (:mod:`harness.fmu.envelope`)."""
+    from ..pod.pipeline import basis_for_scene
+    from .envelope import measure
+    _, run = basis_for_scene(scene, progress=progress, problem=problem)
+    return measure(scene, ops, problem, run, probes, linear)
+
+
 def _frozen_resource(scene, model, k, n_freeze, probes, integrator, progress, problem):
-    data, ops, _, _ = reduced_model(scene, k, n_freeze, probes, integrator, progress=progress, problem=problem,
-                                    model=model)
+    data, ops, problem, _ = reduced_model(scene, k, n_freeze, probes, integrator, progress=progress,
+                                          problem=problem, model=model)
+    data.sections.update(training_envelope(scene, ops, problem, probes, False, progress).sections())
     return data, ops, pack(data)
 
 
 def _linear_resource(scene, model, k, n_freeze, probes, integrator, progress, problem):
-    data, lin, _, _ = exact_model(scene, k, n_freeze, probes, progress=progress, problem=problem, model=model)
+    data, lin, problem, _ = exact_model(scene, k, n_freeze, probes, progress=progress, problem=problem, model=model)
+    data.sections.update(training_envelope(scene, lin, problem, probes, True, progress).sections())
     return data, lin, pack_exact(data)
 
 
@@ -346,12 +359,15 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
     data, ops, blob = RESOURCES[get_model(model).fmu_kind](scene, model, k, n_freeze, probes, integrator,
                                                               progress, problem)
     timings["model"] = time.perf_counter() - t0
+    from .envelope import Envelope
+    envelope = Envelope.from_sections(data.sections, data.k_v)
     t1 = time.perf_counter()
     binaries = binaries or ensure_binaries(quiet=not progress)
     timings["binaries"] = time.perf_counter() - t1
     step = step_size if step_size is not None else min(DEFAULT_STEP, scene.T / 10)
     description = model_description(fmi, token=data.token, scene=scene, data=data, k_requested=k, step_size=step,
-                                     stop_time=scene.T, input_error=ops.input_error, model=model)
+                                     stop_time=scene.T, input_error=ops.input_error, model=model,
+                                     envelope=envelope)
     t2 = time.perf_counter()
     out = Path(out)
     with atomic_path(out) as tmp:
@@ -364,4 +380,5 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
     timings["package"] = time.perf_counter() - t2
     return FMUSummary(path=out, fmi=fmi, scene=scene.name, k=k, k_v=data.k_v, k_rho=data.k_rho,
                       input_error=ops.input_error, augmented=ops.augmented, probes=list(probes), n_freeze=n_freeze,
-                      integrator=integrator, dt=data.dt, token=data.token, size=size, timings=timings, model=model)
+                      integrator=integrator, dt=data.dt, token=data.token, size=size, timings=timings, model=model,
+                      envelope=envelope)

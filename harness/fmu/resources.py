@@ -62,6 +62,11 @@ SECTION_TAG_SIZE = 8
 MAX_SECTIONS = 32                          # fmu_src/rom.h ROM_MAX_SECTIONS
 MAX_SECTION_VALUES = 1 << 26               # fmu_src/rom.h ROM_MAX_SECTION_VALUES
 SECTION_TAGS: dict[str, str] = {}          # tag -> what it holds (the C loader's SECTION_RULES)
+SECTION_TAGS.update({                      # the training envelope (harness/fmu/envelope.py, fmu_src/rom_envelope.c)
+    "ENVELOPE": "the training envelope's scalars",
+    "ENVRANGE": "the training envelope's coordinate ranges",
+    "ENVPROBE": "rho0 at the probes (training envelope)",
+})
 _HEADER = struct.Struct("<8s10I3d")
 _SECTION = struct.Struct("<8s2I")
 HEADER_SIZE = _HEADER.size                 # 72 bytes, magic to L (fmu_src/rom.h ROM_HEADER_SIZE)
