@@ -48,7 +48,7 @@ def number(x) -> str:
 
 
 def model_description(fmi: int, *, token, scene, data, k_requested, step_size, stop_time, input_error,
-                      model="frozen"):
+                      model="frozen", measured=None):
     """The modelDescription.xml text for FMI version ``fmi`` (2 or 3).
 
     Parameters
@@ -66,6 +66,8 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
         Relative projection error of the force profile on the POD velocity modes.
     model : str
         The registered reduced model packaged (its title heads the description).
+    measured : str, optional
+        The verification's sentence (errors against the full SPH, run times), appended to the description.
     """
     from ..rom.registry import get_model
 
@@ -90,6 +92,8 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
     description = (f"{spec.title} of the SPH mass-spring-damper scene '{scene.name}' ({scene.title}; "
                    f"N = {scene.sph.n_particles}, L = {scene.L:g} m): {modes}; {stepping}; probes at x/L = {where}; "
                    f"input projection error {input_error:.3g}.")
+    if measured:
+        description += " " + measured
     values = {
         "model_name": f"sphrom {scene.name}",
         "token": token,
