@@ -242,3 +242,37 @@ def test_readme_and_help_list_every_fmu_variable(packaged, capsys):
             assert row is not None, f"{var.name} is not documented in harness/fmu/contract.py and README.md"
             unit = var.unit or (var.declaredType.unit if var.declaredType is not None else None) or ""
             assert (vr, row[2], row[3]) == (var.valueReference, var.causality, unit), var.name
+
+
+def test_the_benchmark_section_is_replaced_in_place_or_put_before_the_stress_maps():
+    from harness.bench.fmu_verify import SECTION_HEADING, replace_section
+    doc = "# Benchmarks\n\n## The FMU\n\ntext\n\n## Stability stress maps\n\nmaps\n"
+    first = replace_section(doc, SECTION_HEADING, [SECTION_HEADING, "", "| a |", ""])
+    assert first == ("# Benchmarks\n\n## The FMU\n\ntext\n\n" + SECTION_HEADING + "\n\n| a |\n\n"
+                     "## Stability stress maps\n\nmaps\n")
+    second = replace_section(first, SECTION_HEADING, [SECTION_HEADING, "", "| b |", ""])
+    assert second == first.replace("| a |", "| b |")
+    assert replace_section("# B\n", SECTION_HEADING, [SECTION_HEADING, "", "x"]) == f"# B\n\n{SECTION_HEADING}\n\nx\n\n"
+
+
+def test_the_benchmark_writes_its_table_from_the_measurement(tmp_path):
+    """python -m harness.bench.fmu_verify on a small scene: the CSV rows and the section of the report carry
+    the verification's errors; the speed-up is the ratio of the medians."""
+    import csv
+
+    from harness.bench.fmu_verify import SECTION_HEADING
+    from harness.bench.fmu_verify import main as bench_main
+    scene_file = tmp_path / "small.toml"
+    scene_file.write_text(fmu_scene("forced").text)
+    report = tmp_path / "B.md"
+    report.write_text("# Benchmarks\n\n## Stability stress maps\n\nmaps\n")
+    assert bench_main([str(scene_file), "--repeats", "1", "--out", str(tmp_path), "--report", str(report),
+                       "--quiet"]) == 0
+    rows = list(csv.DictReader(open(tmp_path / "fmu_verify.csv")))
+    assert [r["model"] for r in rows] == ["frozen", "exact"]
+    text = report.read_text()
+    assert text.index(SECTION_HEADING) < text.index("## Stability stress maps")
+    for r in rows:
+        assert float(r["speedup"]) == pytest.approx(float(r["sph_s"]) / float(r["fmu_s"]))
+        assert f"| {r['model']} |" in text and f"{float(r['train_err_v']):.3e}" in text
+        assert float(r["tolerance"]) == fmu_scene("forced").paper["sph_error_v"]
