@@ -48,7 +48,7 @@ def number(x) -> str:
 
 
 def model_description(fmi: int, *, token, scene, data, k_requested, step_size, stop_time, input_error,
-                      model="frozen", envelope=None):
+                      model="frozen", envelope=None, measured=None):
     """The modelDescription.xml text for FMI version ``fmi`` (2 or 3).
 
     Parameters
@@ -68,6 +68,8 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
         The registered reduced model packaged (its title heads the description).
     envelope : Envelope, optional
         What the basis was trained on (:mod:`harness.fmu.envelope`), appended to the description.
+    measured : str, optional
+        The verification's sentence (errors against the full SPH, run times), appended to the description.
     """
     from ..rom.registry import get_model
 
@@ -102,6 +104,8 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
                    f"input projection error {input_error:.3g}.")
     if envelope is not None:
         description += " Training envelope: " + "; ".join(envelope.lines(linear=spec.linear)) + "."
+    if measured:
+        description += " " + measured
     values = {
         "model_name": f"sphrom {scene.name}",
         "token": token,
