@@ -288,11 +288,32 @@ def _stress_scene(s, amplitude, h, prefix):
 # the document
 # ---------------------------------------------------------------------------
 
-def report(results, image_dir, stress_image_dir=None):
+# Sections that other commands write into BENCHMARKS.md (each names its command; they sit between the FMU's
+# section and the stress maps): ``sphrom bench --report`` carries them over from the existing document, in
+# its order, so that regenerating the benchmarks never drops them.
+CARRIED = ("## The training envelope of the frozen FMU",
+           "## The packaged FMU against the full SPH, every scene")
+PACKAGED_HEADING = "## The packaged FMU against the full SPH, every scene"
+
+
+def split_sections(text):
+    """{"## heading": lines up to the next ``## `` heading} of a Markdown document, in document order."""
+    out, current = {}, None
+    for line in text.splitlines():
+        if line.startswith("## "):
+            current = line
+            out[current] = []
+        if current is not None:
+            out[current].append(line)
+    return out
+
+
+def report(results, image_dir, stress_image_dir=None, existing=None):
     """BENCHMARKS.md from :class:`harness.bench.suite.BenchResults` (text ending in a newline).
 
     ``image_dir`` is the folder of the PNG files as seen from the report; ``stress_image_dir`` that of the
-    heat maps (default ``image_dir``/stress).
+    heat maps (default ``image_dir``/stress); ``existing`` the document being replaced, whose
+    :data:`CARRIED` sections are kept.
     """
     r = results
     d = image_dir.rstrip("/") + "/" if image_dir else ""
@@ -307,8 +328,15 @@ def report(results, image_dir, stress_image_dir=None):
     lines += input_direction_section(r.directions, r.scene_names, r.input_tolerance)
     lines += sph_step_section(r.sph_steps, r.sph_sizes, r.repeats)
     lines += fmu_section(r.fmu)
+    old = split_sections(existing or "")
+    carried = {h: body for h, body in old.items() if h in CARRIED}
     if getattr(r, "packaged", None):
-        lines += packaged_fmu_section(r.packaged, **r.packaged_meta)
+        carried[PACKAGED_HEADING] = packaged_fmu_section(r.packaged, **r.packaged_meta)
+    for heading in [h for h in old if h in carried] + [h for h in carried if h not in old]:
+        body = list(carried[heading])
+        while body and not body[-1]:
+            body.pop()
+        lines += body + [""]
     if r.stress is not None:
         lines += stress_section(r.stress, r.stress_command, f"{d}stress" if stress_image_dir is None
                                 else stress_image_dir, level=2)
