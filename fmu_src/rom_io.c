@@ -602,8 +602,9 @@ enum {
 
 /* The state's arrays in the order they are serialized: count rows of cols real
  * entries each, stride apart (frozen: a^v, a^rho, M^T (k_v rows of k_rho, stride
- * kr_pad), F and (t0, input rate); linear: a, b, the forced part X, (t0, input rate)). */
-#define ROM_STATE_BLOCKS 5
+ * kr_pad), F and (t0, input rate); linear: a, b, the forced part X, (t0, input rate); both: the
+ * parameters a state carries, initial_state_scale). */
+#define ROM_STATE_BLOCKS 6
 typedef struct {
     double *data[ROM_STATE_BLOCKS];
     size_t rows[ROM_STATE_BLOCKS], cols[ROM_STATE_BLOCKS], strides[ROM_STATE_BLOCKS];
@@ -616,8 +617,8 @@ static StateBlocks state_blocks(const RomState *s) {
     double *third = linear ? s->X : s->Mt, *fourth = linear ? s->aux : s->F;
     const size_t sizes[ROM_STATE_BLOCKS][3] = {{1, m->k_v, 0}, {1, m->k_rho, 0},
                                 {linear ? 1 : m->k_v, linear ? m->k : m->k_rho, linear ? 0 : m->kr_pad},
-                                {1, linear ? 2 : m->k_v, 0}, {linear ? 0 : 1, 2, 0}};
-    double *data[ROM_STATE_BLOCKS] = {s->av, s->ar, third, fourth, s->aux};
+                                {1, linear ? 2 : m->k_v, 0}, {linear ? 0 : 1, 2, 0}, {1, 1, 0}};
+    double *data[ROM_STATE_BLOCKS] = {s->av, s->ar, third, fourth, s->aux, (double *)&s->initial_state_scale};
     for (int a = 0; a < ROM_STATE_BLOCKS; a++) {
         b.data[a] = data[a];
         b.rows[a] = sizes[a][0];
@@ -628,8 +629,9 @@ static StateBlocks state_blocks(const RomState *s) {
 }
 
 static size_t state_doubles(const RomModel *m) {
-    if (rom_is_linear(m)) return (size_t)m->k_v + m->k_rho + m->k + 2;
-    return 2 * (size_t)m->k_v + m->k_rho + (size_t)m->k_rho * m->k_v + 2;
+    const size_t parameters = 1;     /* initial_state_scale */
+    if (rom_is_linear(m)) return (size_t)m->k_v + m->k_rho + m->k + 2 + parameters;
+    return 2 * (size_t)m->k_v + m->k_rho + (size_t)m->k_rho * m->k_v + 2 + parameters;
 }
 
 size_t rom_state_serialized_size(const RomModel *m) {

@@ -69,8 +69,8 @@ def test_exact_fmu_with_derivatives_equals_linear_input_model(fmus, tmp_path, re
     t = np.arange(M + 1) * H
     csv = tmp_path / "f.csv"
     np.savetxt(csv, np.column_stack([t, _force(t)]), delimiter=",", header="time,f", comments="", fmt="%.17g")
-    lin_run = run_cosim(path, force=str(csv), t_end=M * H, step=H)
-    held_run = run_cosim(path, force=str(csv), t_end=M * H, step=H, hold_inputs=True)
+    lin_run = run_cosim(path, force=str(csv), t_end=M * H, step=H, initial_state_scale=1)
+    held_run = run_cosim(path, force=str(csv), t_end=M * H, step=H, hold_inputs=True, initial_state_scale=1)
     assert lin_run.input_derivatives and not held_run.input_derivatives
     assert np.allclose(lin_run.values[:, 0], t, rtol=0, atol=1e-12)
     scene_force = lambda s: _force(np.asarray(s, float))                 # noqa: E731
@@ -88,10 +88,10 @@ def test_without_derivatives_outputs_are_bitwise_held(fmus):
     path = fmus("exact", 2)
     inputs = _force(np.arange(M) * H)
     with Slave(path) as s:
-        s.initialize()
+        s.initialize(initial_state_scale=1)
         held = s.run([H] * M, inputs)
     with Slave(path) as s:
-        s.initialize()
+        s.initialize(initial_state_scale=1)
         s.set_input_derivative(5.0)
         s.set_input(inputs[0])                      # a new value without a derivative: held again
         out = [s.output_values()]
@@ -110,7 +110,7 @@ def test_rate_continues_until_f_is_set(fmus):
     finals = []
     for steps in ([2 * H], [H, H]):
         with Slave(path) as s:
-            s.initialize()
+            s.initialize(initial_state_scale=1)
             s.set_input(1e-2)
             s.set_input_derivative(0.5)
             t = 0.0
@@ -128,7 +128,7 @@ def test_rate_continues_until_f_is_set(fmus):
 def test_refused_with_a_message(fmus, case, allowed):
     vr, order, value = case
     with Slave(fmus("exact", 2)) as s:
-        s.initialize()
+        s.initialize(initial_state_scale=1)
         with pytest.raises(FMICallException) as exc:
             from ctypes import c_double, c_int, c_uint32
             s.fmu.fmi2SetRealInputDerivatives(s.fmu.component, (c_uint32 * 1)(vr), 1, (c_int * 1)(order),
@@ -152,7 +152,7 @@ def test_frozen_fmu_with_derivatives_equals_python_bitwise(fmus):
     rates = np.diff(_force(t)) / np.diff(t)
     for n_freeze in (1, 4, 10):
         with Slave(path) as s:
-            s.initialize(n_freeze=n_freeze)
+            s.initialize(n_freeze=n_freeze, initial_state_scale=1)
             out = [s.output_values()]
             tc = 0.0
             for h, f, rate in zip(steps, inputs, rates):
@@ -169,14 +169,14 @@ def test_frozen_fmu_with_derivatives_equals_python_bitwise(fmus):
         _, v0, r0 = cosim_reference(data, steps, inputs, n_freeze=n_freeze, rates=np.zeros(len(steps)))
         assert np.array_equal(np.hstack([v0, r0]), np.hstack([vh, rh]))
         with Slave(path) as s:
-            s.initialize(n_freeze=n_freeze)
+            s.initialize(n_freeze=n_freeze, initial_state_scale=1)
             assert np.array_equal(s.run(steps, inputs), np.hstack([vh, rh]))
 
 
 def test_frozen_fmu_derivative_survives_a_saved_state(fmus):
     """The rate is part of the FMU state: restored, a step with it equals the step taken before saving."""
     with Slave(fmus("frozen", 2)) as s:
-        s.initialize()
+        s.initialize(initial_state_scale=1)
         s.set_input(1e-2)
         s.set_input_derivative(0.7)
         saved = s.get_state()
@@ -203,11 +203,12 @@ def test_linear_input_converges_at_second_order_held_at_first(fmus):
     from harness.bench.input_derivatives import relative_l2, velocity_columns
     path = fmus("exact", 2)
     force = "3e-2*sin(2*pi*3*t) + 1e-2"
-    ref = velocity_columns(run_cosim(path, force=force, t_end=0.5, step=1e-3))
+    ref = velocity_columns(run_cosim(path, force=force, t_end=0.5, step=1e-3, initial_state_scale=1))
     errors = {}
     for h, stride in ((0.01, 10), (0.02, 20)):
         for hold in (True, False):
-            v = velocity_columns(run_cosim(path, force=force, t_end=0.5, step=h, hold_inputs=hold))
+            v = velocity_columns(run_cosim(path, force=force, t_end=0.5, step=h, hold_inputs=hold,
+                                           initial_state_scale=1))
             errors[h, hold] = relative_l2(v, ref[::stride][:v.shape[0]])
     assert 1.6 < errors[0.02, True] / errors[0.01, True] < 2.5
     assert 3.0 < errors[0.02, False] / errors[0.01, False] < 5.0

@@ -62,7 +62,7 @@ def _measure_model(model, scene_name, steps, reference_step, force, workdir, pro
         t_end = float(scene.T)
         rows = []
         with progress_bar(2 * len(steps) + 1, f"input derivatives, {model}", unit="run", enabled=progress) as bar:
-            ref = run_cosim(path, force=force, t_end=t_end, step=reference_step)
+            ref = run_cosim(path, force=force, t_end=t_end, step=reference_step, initial_state_scale=1)
             assert ref.input_derivatives
             v_ref = velocity_columns(ref)
             bar.update(1)
@@ -71,7 +71,8 @@ def _measure_model(model, scene_name, steps, reference_step, force, workdir, pro
                 if abs(stride * reference_step - h) > 1e-12 * h:
                     raise ValueError(f"step {h:g} s is not a multiple of the reference step {reference_step:g} s")
                 for hold in (True, False):
-                    res = run_cosim(path, force=force, t_end=t_end, step=h, hold_inputs=hold)
+                    res = run_cosim(path, force=force, t_end=t_end, step=h, hold_inputs=hold,
+                                    initial_state_scale=1)
                     n = res.values.shape[0]
                     sub = v_ref[::stride][:n]
                     assert np.allclose(res.values[:, 0], ref.values[::stride, 0][:n], rtol=0, atol=1e-9)

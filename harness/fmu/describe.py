@@ -16,6 +16,8 @@ from ..paths import data_dir
 
 VR_V_PROBE = 1000        # fmu_src/rom.h ROM_VR_V_PROBE
 VR_RHO_PROBE = 2000      # ROM_VR_RHO_PROBE
+VR_INITIAL_STATE_SCALE = 4   # ROM_VR_INITIAL_STATE_SCALE
+INITIAL_STATE_SCALE_START = 0.0  # ROM_INITIAL_STATE_SCALE_START: the FMU starts at rest
 FIXED_VARIABLES = 3      # FMI 2 indices 1..3: f, n_freeze, dt
 
 _BLOCK = re.compile(r"\{\{#(\w+)\}\}(.*?)\{\{/\1\}\}", re.S)
@@ -116,6 +118,8 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
         "stop_time": number(stop_time),
         "step_size": number(step_size),
         "n_freeze": int(data.n_freeze),
+        # FMI 2: after the probes (the outputs keep their indices)
+        "initial_state_scale_index": FIXED_VARIABLES + 2 * data.n_probes + 1,
         "dt": number(data.dt),
         "profile": scene.fields["profile"].text,
         # FMI 2 only: the linear models integrate f + (df/dt) tau over a step exactly, the frozen model

@@ -282,6 +282,21 @@ def _linear_resource(scene, model, k, n_freeze, probes, integrator, progress, pr
 RESOURCES = {MODEL_FROZEN: _frozen_resource, MODEL_EXACT_LINEAR: _linear_resource}
 
 
+def operator_resource(kind, ops, problem, *, dt, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_PROBES, integrator="euler"):
+    """(data, bytes) of resources/model.bin of kind ``kind`` (ReducedModel.fmu_kind) from operators built
+    elsewhere (a benchmark's own), the runaway bound that of their initial state, as :func:`reduced_model` and
+    :func:`exact_model` have it; the initial state is scaled at run time by the FMU's initial_state_scale."""
+    from ..rom.stepping import runaway_bound
+    if kind == MODEL_FROZEN:
+        data = model_data(ops, problem, dt=dt, integrator=integrator, n_freeze=n_freeze, probes=probes,
+                          bound=runaway_bound(ops))
+        return data, pack(data)
+    if kind == MODEL_EXACT_LINEAR:
+        data = exact_data(ops, problem, dt=dt, n_freeze=n_freeze, probes=probes)
+        return data, pack_exact(data)
+    raise ValueError(f"resource kind {kind!r} (allowed: {MODEL_FROZEN}, {MODEL_EXACT_LINEAR})")
+
+
 def platform_folder(fmi):
     """binaries/<folder> of this platform: fmpy.platform (FMI 2) or fmpy.platform_tuple (FMI 3)."""
     import fmpy

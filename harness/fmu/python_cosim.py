@@ -66,15 +66,19 @@ class FrozenCosim:
         Refresh period (default the packaged one).
     dt : float, optional
         Internal step [s] (default the packaged one).
+    initial_state_scale : float
+        a^v(0) = this x a_v0, a^rho(0) = a_rho0 (the FMU parameter; default 1, the scene's initial state,
+        where the FMU's own start value is 0, at rest).
     """
 
-    def __init__(self, data, n_freeze=None, dt=None):
+    def __init__(self, data, n_freeze=None, dt=None, initial_state_scale=1.0):
+        from ..rom.stepping import initial_scale
         from ..rom.frozen import loop_operators
         self.data = data
         self.n_freeze = int(data.n_freeze if n_freeze is None else n_freeze)
         self.dt = float(data.dt if dt is None else dt)
         self.method = {"euler": 0, "symplectic": 1}[data.integrator]
-        self.av = np.array(data.a_v0, dtype=float)
+        self.av = initial_scale(initial_state_scale) * np.array(data.a_v0, dtype=float)    # rom.c apply_initial_state
         self.ar = np.array(data.a_rho0, dtype=float)
         self.M = np.zeros((data.k_rho, data.k_v))
         self.F = np.zeros(data.k_v)
@@ -112,7 +116,7 @@ class FrozenCosim:
         return probe_values(self.data.Pv, self.av), probe_values(self.data.Prho, self.ar)
 
 
-def cosim_reference(data, steps, inputs, n_freeze=None, dt=None, rates=None):
+def cosim_reference(data, steps, inputs, n_freeze=None, dt=None, rates=None, initial_state_scale=1.0):
     """Outputs of the FMU's co-simulation computed in Python.
 
     Parameters
@@ -124,6 +128,8 @@ def cosim_reference(data, steps, inputs, n_freeze=None, dt=None, rates=None):
         f held over each step [m s^-2] (same length as ``steps``), its value at the step's start.
     rates : sequence of float, optional
         df/dt over each step [m s^-3] (input derivatives; default none: f held).
+    n_freeze, dt, initial_state_scale
+        The FMU's parameters (:class:`FrozenCosim`).
 
     Returns
     -------
@@ -132,7 +138,7 @@ def cosim_reference(data, steps, inputs, n_freeze=None, dt=None, rates=None):
     v, rho : ndarray (M+1, P)
         Probe outputs at the communication points.
     """
-    sim = FrozenCosim(data, n_freeze=n_freeze, dt=dt)
+    sim = FrozenCosim(data, n_freeze=n_freeze, dt=dt, initial_state_scale=initial_state_scale)
     t, v, rho = [0.0], [], []
     v0, r0 = sim.outputs()
     v.append(v0)

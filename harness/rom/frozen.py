@@ -147,7 +147,7 @@ INTEGRATORS = ("euler", "symplectic")
 
 
 def run(ops, problem, *, dt, n_steps, sample_steps=None, every=1, force=None, integrator=None, n_freeze=10,
-        refresh="tensor", step=None, hold="linear", state=None, bound=None, progress=False):
+        refresh="tensor", step=None, hold="linear", state=None, bound=None, progress=False, initial_state_scale=1.0):
     """Run the frozen-coefficient model (the signature of :mod:`harness.rom.model`).
 
     ``ops`` are :class:`~harness.rom.operators.ReducedOperators`; ``refresh``
@@ -158,7 +158,7 @@ def run(ops, problem, *, dt, n_steps, sample_steps=None, every=1, force=None, in
     method = method_code(integrator, INTEGRATORS, "frozen coefficients")
     steps = sample_grid(n_steps, sample_steps, every)
     force = force or problem.scene.force
-    av, ar, out_av, out_ar = start_arrays(ops, state, steps.size)
+    av, ar, out_av, out_ar = start_arrays(ops, state, steps.size, initial_state_scale)
     bound = runaway_bound(ops) if bound is None else bound
     loop = loop_operators(ops.K, ops.b, ops.D, ops.p, n_freeze, T=ops.T, U_rho=ops.U_rho, GU_v=ops.GU_v,
                           inv_rho0=ops.inv_rho0, refresh=refresh)

@@ -175,7 +175,7 @@ def loop_operators(ops, problem, full_rhs):
 
 def run_galerkin(name, full_rhs, ops, problem, *, dt, n_steps, sample_steps=None, every=1, force=None,
                  integrator=None, n_freeze=10, refresh="tensor", step=None, hold="linear", state=None, bound=None,
-                 progress=False):
+                 progress=False, initial_state_scale=1.0):
     """Run the original (``full_rhs``) or the linearised model (the signature of :mod:`harness.rom.model`).
 
     ``n_freeze``, ``refresh``, ``step`` and ``hold`` do not apply.
@@ -184,7 +184,7 @@ def run_galerkin(name, full_rhs, ops, problem, *, dt, n_steps, sample_steps=None
     method = method_code(integrator, INTEGRATORS, f"{name} POD-MOR integrators")
     steps = sample_grid(n_steps, sample_steps, every)
     force = force or problem.scene.force
-    av, ar, out_av, out_ar = start_arrays(ops, state, steps.size)
+    av, ar, out_av, out_ar = start_arrays(ops, state, steps.size, initial_state_scale)
     bound = runaway_bound(ops) if bound is None else bound
     loop = loop_operators(ops, problem, full_rhs)
     force_active = loop.has_f or (bool(full_rhs) and problem.terms["force_profile"])

@@ -39,10 +39,22 @@ def runaway_bound(ops):
     return RUNAWAY_FACTOR * max(np.max(np.abs(ops.a_v0)), np.max(np.abs(ops.a_rho0)), 1e-300)
 
 
-def start_arrays(ops, state, n_samples):
+def initial_scale(value):
+    """``initial_state_scale`` as a float; ValueError naming it unless it is a finite real number."""
+    scale = float(value)
+    if not np.isfinite(scale):
+        raise ValueError(f"initial_state_scale = {value!r} is out of range (allowed: a finite real number; 1 the "
+                         "scene's initial state, 0 at rest)")
+    return scale
+
+
+def start_arrays(ops, state, n_samples, initial_state_scale=1.0):
     """(a_v, a_rho, out_av, out_ar): the initial reduced coordinates (``state`` = (a_v, a_rho), default the
-    operators' projections of v0, ρ0) as fresh arrays, and the sample arrays of ``n_samples`` rows."""
-    av = np.array(ops.a_v0 if state is None else state[0], dtype=float)
+    operators' projections of v0, ρ0) as fresh arrays, and the sample arrays of ``n_samples`` rows.
+
+    ``initial_state_scale`` multiplies the velocity coordinates only (the density coordinates are those of
+    ρ0, the rest state), as the FMU's parameter of that name; 1 leaves them bit for bit."""
+    av = initial_scale(initial_state_scale) * np.array(ops.a_v0 if state is None else state[0], dtype=float)
     ar = np.array(ops.a_rho0 if state is None else state[1], dtype=float)
     return av, ar, np.empty((n_samples, ops.k_v)), np.empty((n_samples, ops.k_rho))
 
