@@ -98,7 +98,6 @@ void rom_state_reset(RomState *s, double t_start) {
     apply_initial_state(s);
     if (s->Mt) memset(s->Mt, 0, (size_t)m->nm * sizeof(double));
     if (s->F) memset(s->F, 0, m->kv_pad * sizeof(double));
-    }
     s->aux[0] = t_start;      /* both kinds: the start time and the input rate (0: f held) */
     s->aux[1] = 0.0;
     s->n = 0;
