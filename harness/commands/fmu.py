@@ -1,6 +1,6 @@
 """``sphrom fmu``: package a scene's reduced model (frozen-coefficient or exact linear) as an FMU."""
 
-from .options import add_n_freeze, add_quiet, add_scene, float_list, int_at_least, max_probes, one_of
+from .options import add_n_freeze, add_quiet, add_scene, float_list, int_at_least, max_probes, one_of, positive_float
 
 
 def add_parser(sub):
@@ -12,17 +12,22 @@ def add_parser(sub):
                                    "outputs v_probe_j [m s^-1] and rho_probe_j [kg m^-3]; parameters n_freeze, dt.")
     add_scene(p)
     p.add_argument("--modes", type=int_at_least(1), metavar="K",
-                   help="POD modes k (default: the largest of the scene's rom.accel_modes)")
+                   help="POD modes k (default: the largest of the scene's rom.accel_modes); balanced: its order r "
+                        "(1 to 2N - 1)")
+    p.add_argument("--tolerance", type=positive_float, metavar="TOL",
+                   help="balanced: instead of --modes, the smallest order r with 2 sum_{i>r} sigma_i <= TOL "
+                        "2 sum sigma_i (0 < TOL < 1; default 1e-3 when neither is given)")
     add_n_freeze(p, default=10, help="default refresh period n_freeze of the frozen coefficients")
     p.add_argument("--probes", type=float_list(1, max_probes, lo=0.0, hi=1.0), metavar="X1,X2,...",
                    default="0.25,0.5,0.66", help="probe positions in units of L, in [0, 1] (default 0.25,0.5,0.66)")
     p.add_argument("--fmi", type=one_of("2", "3"), metavar="2|3", default="2", help="FMI version (default 2)")
     p.add_argument("--integrator", type=one_of("euler", "symplectic"), metavar="euler|symplectic",
                    help="time integrator of the frozen model (default: the scene's)")
-    p.add_argument("--model", metavar="frozen|exact", default="frozen",
-                   help="reduced model: frozen (eqs. 2.19-2.24, internal dt; default) or exact (the exact linear "
+    p.add_argument("--model", metavar="frozen|exact|balanced", default="frozen",
+                   help="reduced model: frozen (eqs. 2.19-2.24, internal dt; default), exact (the exact linear "
                         "model in the specific volume, advanced by the matrix exponential over each "
-                        "communication step)")
+                        "communication step) or balanced (balanced reduction of the full linear SPH, no POD basis, "
+                        "the same C code as exact); the linear models carry certified error bounds")
     p.add_argument("--out", required=True, metavar="FILE.fmu")
     add_quiet(p)
     p.set_defaults(handler=run)
@@ -43,22 +48,29 @@ def run(args):
         raise UserError(f"--model: {args.model!r} is out of range (allowed: {', '.join(fmu_model_names())})")
     scene = load_scene(args.scene)
     check_options(scene, k=args.modes, n_freeze=args.n_freeze, probes=args.probes, fmi=fmi,
-                  integrator=args.integrator, model=args.model)
+                  integrator=args.integrator, model=args.model, tolerance=args.tolerance)
     s = package_fmu(scene, out, k=args.modes, n_freeze=args.n_freeze, probes=args.probes, fmi=fmi,
-                    integrator=args.integrator, progress=not args.quiet, model=args.model)
+                    integrator=args.integrator, progress=not args.quiet, model=args.model, tolerance=args.tolerance)
     from ..rom.operators import INPUT_TOLERANCE
     added = " (+ the force profile direction, not in the POD span)" if s.augmented else ""
     print(f"fmu {s.scene}: FMI {s.fmi}.0 co-simulation, {s.model} model, wrote {s.path} ({s.size / 1024:.1f} KiB)")
     model = MODELS[s.model]
-    if model.basis_kind == "energy":
+    if model.basis_kind is None:
+        from ..rom.balanced_model import METHOD_TITLES
+        print(f"  order r = {s.k_v} ({s.method}: {METHOD_TITLES.get(s.method, s.method)}"
+              + (f", from --tolerance {args.tolerance:g}" if args.tolerance is not None else
+                 "" if args.modes is not None else ", from the default tolerance 1e-3") + "); the state does not "
+              "split into velocity and specific-volume coordinates: outputs are rows over the whole state")
+    elif model.basis_kind == "energy":
         print(f"  modes: k = {s.k} energy-weighted POD modes -> k_v = {s.k_v}{added}, k_e = {s.k_rho} "
               f"(specific volume)")
     else:
         print(f"  modes: k = {s.k} POD modes -> k_v = {s.k_v}{added}, k_rho = {s.k_rho}")
     decision = (f"above {INPUT_TOLERANCE:g}: its residual appended to the basis" if s.augmented else
                 f"at most {INPUT_TOLERANCE:g}: f projected on the modes (eq. 2.19)")
-    print(f"  input projection error of the force profile on the {s.k} POD velocity modes: {s.input_error:.3g} "
-          f"({decision})")
+    if model.basis_kind is not None:
+        print(f"  input projection error of the force profile on the {s.k} POD velocity modes: {s.input_error:.3g} "
+              f"({decision})")
     if model.linear:
         print("  advanced by the matrix exponential over each communication step (input held; cached per step "
               "length); parameters dt, n_freeze have no effect")
@@ -66,7 +78,22 @@ def run(args):
         print(f"  integrator {s.integrator}, dt = {s.dt:g} s, n_freeze = {s.n_freeze} (parameters dt, n_freeze)")
     print(f"  probes at x/L = {', '.join(f'{x:g}' for x in s.probes)}: outputs v_probe_1..{len(s.probes)}, "
           f"rho_probe_1..{len(s.probes)}; input f")
+    if s.bounds is not None:
+        print_bounds(s)
     t = s.timings
     print(f"  token {s.token}; fmpy validation: no problems; times: model {t['model']:.2f} s, "
           f"binaries {t['binaries']:.2f} s, package {t['package']:.2f} s")
     return 0
+
+
+def print_bounds(s):
+    """The certified error bounds stored in the FMU, and exactly what they bound."""
+    from ..fmu.describe import bound_text
+    b = s.bounds
+    print(f"  error bounds (calculated parameters force_error_bound[_j], initial_state_error_bound[_j]): "
+          f"{bound_text(b)}")
+    print("    probe x/L | force_error_bound_j [s] | initial_state_error_bound_j [m s^-1 s^1/2]")
+    for j, x in enumerate(s.probes):
+        print(f"    {x:9.4g} | {b['force_error_bound'][j]:23.4e} | {b['initial_state_error_bound'][j]:.4e}")
+    t = b["timings"]
+    print(f"    computed in {sum(t.values()):.2f} s (H-infinity bisection {t['hinf']:.2f} s)")
