@@ -265,3 +265,59 @@ def test_measured_fmu_error_stays_below_its_bounds(fmus, model, record_property)
     assert np.all(initial_error <= ib), (initial_error, ib)
     assert np.all(force_gain <= fb), (force_gain, fb)
     assert np.all(initial_error > 0) and np.all(force_gain > 0)
+
+
+def test_fmu_balanced_command_prints_its_order_and_bounds(tmp_path, capsys):
+    """`sphrom fmu --model balanced --tolerance`: the order from the tolerance, the bounds and what they bound;
+    option errors name the option."""
+    from harness.cli import main
+    from harness.scene import dump_toml, scene_dict
+    scene_file = tmp_path / "small.toml"
+    scene_file.write_text(dump_toml(scene_dict(scene_for("forced"))))
+    out = tmp_path / "bal.fmu"
+    assert main(["fmu", str(scene_file), "--model", "balanced", "--tolerance", "1e-3", "--out", str(out),
+                 "--quiet"]) == 0
+    text = capsys.readouterr().out
+    assert "balanced model" in text and "from --tolerance 0.001" in text and "order r = " in text
+    assert "force_error_bound_j [s]" in text and "||f||_L2(0,T)" in text and "no shift" in text
+    data = unpack(zipfile.ZipFile(out).read("resources/model.bin"))
+    lines = [line for line in text.splitlines() if line.strip().startswith(("0.25 |", "0.5 |", "0.66 |"))]
+    printed = np.array([[float(x) for x in line.split("|")[1:]] for line in lines])
+    np.testing.assert_allclose(printed.T, data.sections["BOUNDS"], rtol=1e-4)       # printed to 5 digits
+    for argv, message in ((["--model", "frozen", "--tolerance", "1e-3"], "--tolerance: applies to models without"),
+                          (["--model", "balanced", "--modes", "6", "--tolerance", "1e-3"], "--tolerance: give"),
+                          (["--model", "balanced", "--modes", "64"], "--modes (k): 64 is out of range (allowed: an "
+                                                                      "order r from 1 to 2N - 1 = 63)")):
+        assert main(["fmu", str(scene_file), "--out", str(tmp_path / "x.fmu"), "--quiet", *argv]) == 2
+        assert message in capsys.readouterr().err
+    assert not (tmp_path / "x.fmu").exists()
+
+
+def test_loader_checks_the_output_rows_and_the_bounds_section(fmus):
+    """The C loader: output rows need flag bit3 to allow k_e = 0; BOUNDS must be 2 x n_probes and >= 0;
+    LINMODEL one known value; each refusal names the field."""
+    import dataclasses
+
+    from harness.fmu.core import Core, CoreError
+    from harness.fmu.resources import pack_exact
+    _, data, _ = fmus("balanced", "forced", 2)
+    core = Core(ensure_binaries().core)
+
+    def load(**changes):
+        return core.load(pack_exact(dataclasses.replace(data, **changes)))
+
+    assert load() is not None                                # the packaged numbers load
+    bounds = data.sections["BOUNDS"]
+    for sections, message in (({"BOUNDS": bounds[:, :2]}, "'BOUNDS' is 2 x 2, expected 2 x 3"),
+                              ({"BOUNDS": -bounds}, "bounds are >= 0"),
+                              ({"LINMODEL": [[3.0]]}, "'LINMODEL' must be one value")):
+        with pytest.raises(CoreError, match=message):
+            load(sections=sections)
+    # without bit3 the rows are over a and b: k_e = 0 is refused by the pack and, forced through, by the loader
+    with pytest.raises(ValueError, match="mode counts"):
+        load(output_rows=False)
+    blob = bytearray(pack_exact(data))
+    flags_at = 8 + 7 * 4                                     # after magic, version, kind, integrator, k_v, k_e, P, pairs
+    blob[flags_at] &= ~8 & 0xFF
+    with pytest.raises(CoreError, match=r"k_e = 0 out of range \[1"):
+        core.load(bytes(blob))
