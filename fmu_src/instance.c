@@ -224,6 +224,11 @@ Instance *instance_new(const InstanceVersion *version, const char *fn, const cha
     instance_log(inst, INSTANCE_OK, INSTANCE_LOG_EVENTS, "%s: k_v = %u, k_rho = %u, %u probes, dt = %g s, "
                  "n_freeze = %u, %s", fn, model->k_v, model->k_rho, model->n_probes, model->dt,
                  model->n_freeze_default, model->integrator == ROM_INTEGRATOR_SYMPLECTIC ? "symplectic" : "euler");
+    if (rom_linear_model_name(model)) {
+        instance_log(inst, INSTANCE_OK, INSTANCE_LOG_EVENTS, "%s: the %s model (linear, %u states, advanced by the "
+                     "matrix exponential%s)", fn, rom_linear_model_name(model), model->k_v + model->k_rho,
+                     rom_model_section(model, "BOUNDS") ? "; certified error bounds force_error_bound, initial_state_error_bound" : "");
+    }
     return inst;
 }
 
@@ -304,7 +309,8 @@ InstanceStatus instance_reset(Instance *inst) {
 /* ------------------------------------------------------------------------ */
 
 typedef enum { TYPE_FLOAT64, TYPE_INT32 } VariableType;
-typedef enum { ROLE_INDEPENDENT, ROLE_INPUT, ROLE_FIXED, ROLE_OUTPUT } VariableRole;   /* FIXED: fixed parameter */
+typedef enum { ROLE_INDEPENDENT, ROLE_INPUT, ROLE_FIXED, ROLE_OUTPUT, ROLE_CALCULATED } VariableRole;
+/* FIXED: fixed parameter; CALCULATED: calculated parameter (read only) */
 typedef enum { COUNT_ONE, COUNT_PER_PROBE } VariableCount;     /* how many value references a row stands for */
 
 static double get_time(const RomState *s, uint32_t j) { (void)j; return s->time; }
@@ -312,6 +318,23 @@ static double get_f(const RomState *s, uint32_t j) { (void)j; return s->f; }
 static double get_dt(const RomState *s, uint32_t j) { (void)j; return s->dt; }
 static int32_t get_n_freeze(const RomState *s) { return s->n_freeze; }
 static double get_initial_state_scale(const RomState *s, uint32_t j) { (void)j; return s->initial_state_scale; }
+
+/* The certified error bounds of a linear model (section BOUNDS: row 0 force, row 1 initial state, one column per
+ * probe): per probe j, and the largest over the probes */
+static double bound_of(const RomState *s, uint32_t row, uint32_t j) {
+    const RomSection *b = rom_model_section(s->model, "BOUNDS");
+    return b && j < b->cols ? b->data[(size_t)row * b->cols + j] : NAN;
+}
+static double largest_bound(const RomState *s, uint32_t row) {
+    double best = 0.0;
+    for (uint32_t j = 0; j < s->model->n_probes; j++) best = fmax(best, bound_of(s, row, j));
+    return best;
+}
+static double get_force_bound(const RomState *s, uint32_t j) { return bound_of(s, 0, j); }
+static double get_initial_bound(const RomState *s, uint32_t j) { return bound_of(s, 1, j); }
+static double get_force_bound_max(const RomState *s, uint32_t j) { (void)j; return largest_bound(s, 0); }
+static double get_initial_bound_max(const RomState *s, uint32_t j) { (void)j; return largest_bound(s, 1); }
+static int has_bounds(const RomModel *m) { return rom_model_section(m, "BOUNDS") != NULL; }
 
 /* Setting f without a new derivative holds it: the rate goes back to 0, so an
  * importer that never sets input derivatives gets held inputs. */
@@ -348,6 +371,14 @@ static const Variable VARIABLES[] = {
      NULL, rom_set_initial_state_scale, NULL, NULL},
     {"v_probe", ROM_VR_V_PROBE, COUNT_PER_PROBE, TYPE_FLOAT64, ROLE_OUTPUT, rom_v_probe, NULL, NULL, NULL, NULL},
     {"rho_probe", ROM_VR_RHO_PROBE, COUNT_PER_PROBE, TYPE_FLOAT64, ROLE_OUTPUT, rom_rho_probe, NULL, NULL, NULL, NULL},
+    {"force_error_bound", ROM_VR_FORCE_ERROR_BOUND, COUNT_ONE, TYPE_FLOAT64, ROLE_CALCULATED, get_force_bound_max,
+     NULL, NULL, NULL, has_bounds},
+    {"initial_state_error_bound", ROM_VR_INITIAL_STATE_ERROR_BOUND, COUNT_ONE, TYPE_FLOAT64, ROLE_CALCULATED,
+     get_initial_bound_max, NULL, NULL, NULL, has_bounds},
+    {"force_error_bound_j", ROM_VR_FORCE_ERROR_BOUND_PROBE, COUNT_PER_PROBE, TYPE_FLOAT64, ROLE_CALCULATED,
+     get_force_bound, NULL, NULL, NULL, has_bounds},
+    {"initial_state_error_bound_j", ROM_VR_INITIAL_STATE_ERROR_BOUND_PROBE, COUNT_PER_PROBE, TYPE_FLOAT64,
+     ROLE_CALCULATED, get_initial_bound, NULL, NULL, NULL, has_bounds},
 };
 
 /* the variable of value reference ref (time only where the version has it), or NULL; *j: the probe index */
@@ -418,6 +449,9 @@ static InstanceStatus set_values(Instance *inst, const char *fn, VariableType ty
         if (!var || var->type != type) return unknown_reference(inst, fn, refs[i]);
         switch (var->role) {
             case ROLE_OUTPUT: return instance_error(inst, fn, "outputs cannot be set");
+            case ROLE_CALCULATED:
+                return instance_error(inst, fn, "%s is a calculated parameter (computed at packaging) and cannot be "
+                                      "set", var->name);
             case ROLE_INDEPENDENT:
                 return instance_error(inst, fn, "%s is the independent variable and cannot be set", var->name);
             case ROLE_FIXED:

@@ -30,6 +30,13 @@ uint32_t rom_model_kind(const RomModel *m) {
     return m ? m->kind : 0u;
 }
 
+const char *rom_linear_model_name(const RomModel *m) {
+    if (!m || !rom_is_linear(m)) return NULL;
+    const RomSection *id = rom_model_section(m, "LINMODEL");
+    if (!id) return "linear";
+    return id->data[0] == ROM_LINEAR_BALANCED ? "balanced" : "exact POD";
+}
+
 /* ------------------------------------------------------------------------ */
 /* state                                                                     */
 /* ------------------------------------------------------------------------ */
@@ -41,7 +48,8 @@ RomState *rom_state_new(const RomModel *model) {
     if (rom_is_linear(model)) {
         /* a, b; the forced part X; (t0, input rate); the exponential's scratch; the cached maps */
         const size_t k = model->k, n = k + 2, kk = k * k;
-        const size_t counts[5 + 3 * ROM_EXACT_CACHE] = {model->kv_pad, model->kr_pad, k, 2, 4 * n * n + 2 * k,
+        const size_t kr_alloc = model->kr_pad ? model->kr_pad : 1;    /* never NULL: a state with k_e = 0 */
+        const size_t counts[5 + 3 * ROM_EXACT_CACHE] = {model->kv_pad, kr_alloc, k, 2, 4 * n * n + 2 * k,
                                                         kk, k, k, kk, k, k};
         double **ptrs[5 + 3 * ROM_EXACT_CACHE] = {&s->av, &s->ar, &s->X, &s->aux, &s->work,
                                                   &s->cache[0].Phi, &s->cache[0].G0, &s->cache[0].G1,
@@ -228,6 +236,7 @@ RomStatus rom_advance(RomState *s, int64_t n_steps, char *message, size_t messag
 
 double rom_v_probe(const RomState *s, uint32_t j) {
     if (!s || j >= s->model->n_probes) return NAN;
+    if (rom_is_linear(s->model)) return rom_exact_output(s, s->model->Pv + (size_t)j * s->model->k);
     const size_t kv = s->model->k_v;
     const double *row = s->model->Pv + (size_t)j * kv;
     double v = 0.0;

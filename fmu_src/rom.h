@@ -40,6 +40,14 @@
  *            prho0[n_probes][2], probe_x[n_probes]
  *            (probe j lies between two particles: e = J - 1 there is Pe[j][m] . b,
  *            weights pw[j][m], rho0 there prho0[j][m]; rho_j = sum_m pw rho0/(1 + e))
+ * kind 2 with flags bit3 (output rows): the probe rows act on the whole state
+ *   z = (a; b), Pv[n_probes][k] and Pe[n_probes][2][k] in place of the two
+ *   arrays above (v_j = Pv[j] . z, e = Pe[j][m] . z); the loader stores the
+ *   rows of a file without bit3 the same way, zero over the block they skip,
+ *   so one output code serves every linear model.  With bit3, k_v + k_e = k
+ *   only sizes the serialized state's blocks a, b (a model whose state does not
+ *   split into velocity and specific-volume coordinates, the balanced one,
+ *   writes k_v = k, k_e = 0).
  * both kinds, then tagged sections (what later features add, each optional;
  * the loader knows every tag it accepts, checks each one's shape, and rejects
  * unknown or repeated tags):
@@ -97,6 +105,7 @@ extern "C" {
 #define ROM_FLAG_DAMPING 1u
 #define ROM_FLAG_INPUT 2u
 #define ROM_FLAG_SCHUR 4u            /* kind 2 only */
+#define ROM_FLAG_OUTPUT_ROWS 8u      /* kind 2 only: probe rows over the whole state z */
 #define ROM_EXACT_CACHE 2            /* exponentials kept per state (two step lengths) */
 #define ROM_TOKEN_SIZE 40
 #define ROM_HEADER_SIZE 72            /* resource header: magic to L */
@@ -125,6 +134,12 @@ extern "C" {
 #define ROM_INITIAL_STATE_SCALE_START 0.0  /* its start value in the FMU: a component starts at rest */
 #define ROM_VR_V_PROBE 1000u         /* v_probe_1 .. : 1000 + j */
 #define ROM_VR_RHO_PROBE 2000u       /* rho_probe_1 .. : 2000 + j */
+#define ROM_VR_FORCE_ERROR_BOUND 8u  /* linear models: certified force-channel bound, max over probes [s] */
+#define ROM_VR_INITIAL_STATE_ERROR_BOUND 9u   /* linear models: initial-state bound, max over probes [m s^-1 s^0.5] */
+#define ROM_VR_FORCE_ERROR_BOUND_PROBE 5000u   /* force_error_bound_1 .. : 5000 + j */
+#define ROM_VR_INITIAL_STATE_ERROR_BOUND_PROBE 6000u   /* initial_state_error_bound_1 .. : 6000 + j */
+#define ROM_LINEAR_EXACT_POD 1u      /* section LINMODEL: which linear model (messages only) */
+#define ROM_LINEAR_BALANCED 2u
 
 typedef enum { ROM_OK = 0, ROM_FAIL = 1 } RomStatus;
 
@@ -172,7 +187,8 @@ typedef struct {
     double *B;                 /* [k] input column, NULL without input */
     double *Q, *S;             /* [k][k] real Schur form A = Q S Q^T (skew A), NULL otherwise */
     double *y0;                /* [k] Q^T z0 (with the Schur form) */
-    double *Pe;                /* [n_probes][2][k_rho] rows of U_e at the probe's two particles */
+    double *Pe;                /* [n_probes][2][k] e rows over z at the probe's two particles (kind 2's Pv is
+                                * [n_probes][k] too: rows over z, format above) */
     double *pw, *prho0;        /* [n_probes][2] interpolation weights, rho0 at those particles */
     uint32_t n_sections;       /* the tagged sections, in file order (rom_model_section) */
     RomSection sections[ROM_MAX_SECTIONS];
@@ -265,8 +281,11 @@ ROM_API int64_t rom_expm_count(const RomState *state);
 /* kind of a loaded model (ROM_MODEL_*), 0 for NULL */
 ROM_API uint32_t rom_model_kind(const RomModel *model);
 /* Probe outputs.  Frozen: v_j = sum_q Pv[j][q] a^v_q, rho_j = sum_q Prho[j][q] a^rho_q.
- * Exact: v_j the same, rho_j = sum_m pw[j][m] prho0[j][m] / (1 + Pe[j][m] . b) (NaN when a J <= 0) */
+ * Linear: v_j = Pv[j] . z, rho_j = sum_m pw[j][m] prho0[j][m] / (1 + Pe[j][m] . z) (NaN when a J <= 0) */
 ROM_API double rom_v_probe(const RomState *state, uint32_t j);
+/* Linear models: the name of the linear model (section LINMODEL: "exact POD", "balanced"; "linear" when the
+ * resources do not say), for messages; NULL for the frozen model.  The core never branches on it. */
+ROM_API const char *rom_linear_model_name(const RomModel *model);
 ROM_API double rom_rho_probe(const RomState *state, uint32_t j);
 /* Check the probe densities (> 0 and finite) at the current time */
 ROM_API RomStatus rom_check_outputs(const RomState *state, char *message, size_t message_size);

@@ -182,15 +182,23 @@ RomStatus rom_exact_advance(RomState *s, int64_t n_steps, char *message, size_t 
     return ROM_OK;
 }
 
+/* row . z over the whole state z = (a; b), in the order of z (a row that is zero over one block adds
+ * zeros to an exact +0 start or to the sum: the value over the other block, bit for bit) */
+double rom_exact_output(const RomState *s, const double *row) {
+    const RomModel *m = s->model;
+    const size_t kv = m->k_v, ke = m->k_rho;
+    double acc = 0.0;
+    for (size_t q = 0; q < kv; q++) acc += row[q] * s->av[q];
+    for (size_t q = 0; q < ke; q++) acc += row[kv + q] * s->ar[q];
+    return acc;
+}
+
 /* rho = sum_m pw[j][m] rho0[j][m] / J_m, J = 1 + e at the probe's two particles */
 double rom_exact_rho_probe(const RomState *s, uint32_t j) {
     const RomModel *m = s->model;
-    const size_t kr = m->k_rho;
     double rho = 0.0;
     for (int side = 0; side < 2; side++) {
-        const double *row = m->Pe + ((size_t)j * 2 + (size_t)side) * kr;
-        double e = 0.0;
-        for (size_t q = 0; q < kr; q++) e += row[q] * s->ar[q];
+        const double e = rom_exact_output(s, m->Pe + ((size_t)j * 2 + (size_t)side) * m->k);
         const double J = 1.0 + e;
         if (!(J > 0)) return NAN;                     /* compressed through J = 0: no density */
         rho += m->pw[2 * j + side] * (m->prho0[2 * j + side] / J);
@@ -200,13 +208,9 @@ double rom_exact_rho_probe(const RomState *s, uint32_t j) {
 
 double rom_exact_probe_J(const RomState *s, uint32_t j) {
     const RomModel *m = s->model;
-    const size_t kr = m->k_rho;
     double smallest = INFINITY;
     for (int side = 0; side < 2; side++) {
-        const double *row = m->Pe + ((size_t)j * 2 + (size_t)side) * kr;
-        double e = 0.0;
-        for (size_t q = 0; q < kr; q++) e += row[q] * s->ar[q];
-        const double J = 1.0 + e;
+        const double J = 1.0 + rom_exact_output(s, m->Pe + ((size_t)j * 2 + (size_t)side) * m->k);
         if (!isfinite(J)) return NAN;
         if (J < smallest) smallest = J;
     }

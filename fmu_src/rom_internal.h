@@ -72,6 +72,8 @@ void rom_exact_prepare(RomModel *m);
 RomStatus rom_exact_step(RomState *s, double t_comm, double h, char *message, size_t message_size);
 RomStatus rom_exact_advance(RomState *s, int64_t n_steps, char *message, size_t message_size);
 double rom_exact_rho_probe(const RomState *s, uint32_t j);
+/* a probe row over the whole state z = (a; b) times z (rom.h: kind 2's rows) */
+double rom_exact_output(const RomState *s, const double *row);
 /* the smaller J = 1 + e of the probe's two particles (NaN when not finite) */
 double rom_exact_probe_J(const RomState *s, uint32_t j);
 
