@@ -28,9 +28,9 @@ def add_parser(sub):
                    help="POD modes k (default: the largest of the scene's rom.accel_modes); balanced: its order r "
                         "(1 to 2N - 1)")
     p.add_argument("--tolerance", type=positive_float, metavar="TOL",
-                   help="the relative probe v error asked for (0 < TOL < 1): the FMU's measured error on the "
-                        "training force must meet it (else exit status 4, nothing written); balanced without "
-                        "--modes: its order is the smallest r with 2 sum_{i>r} sigma_i <= TOL 2 sum sigma_i "
+                   help="the largest relative probe v error (eq. 3.4) on the training force accepted (0 < TOL < "
+                        "1): above it the exit status is 4 and nothing is written; balanced without --modes: "
+                        "instead, its order is the smallest r with 2 sum_{i>r} sigma_i <= TOL 2 sum sigma_i "
                         "(default 1e-3 when neither is given)")
     add_n_freeze(p, default=10, help="default refresh period n_freeze of the frozen coefficients")
     p.add_argument("--probes", type=float_list(1, max_probes, lo=0.0, hi=1.0), metavar="X1,X2,...",

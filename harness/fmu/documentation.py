@@ -127,11 +127,14 @@ def sections_section(sections):
     [] without sections."""
     if not sections:
         return []
+    import numpy as np
+
     from .resources import SECTION_TAGS
+    sections = {tag: np.atleast_2d(np.asarray(values, dtype=float)) for tag, values in sections.items()}
     envelope = [tag for tag in sections if "envelope" in SECTION_TAGS.get(tag, "").lower()]
     lines = []
     if envelope:
-        lines += ["<h2>Training envelope</h2>",
+        lines += ["<h3>The training envelope's numbers</h3>",
                   "<p>What the model was trained on, as recorded at packaging (the FMU warns once when a run "
                   "leaves it).</p>",
                   *_table(("section", "what", "values"),

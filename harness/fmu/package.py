@@ -186,10 +186,9 @@ def check_options(scene, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_PROB
     """Validate the packaging options before any work; returns (k, n_freeze, probes, fmi, integrator).
 
     For a linear model (the exact one) the integrator is ``exponential`` (an ``integrator`` does not apply).
-    ``tolerance`` (0 < tolerance < 1) is the relative probe-v error asked for: every model's measured
-    training error is checked against it (:func:`package_fmu` with ``verify``), and a model without a POD
-    basis (balanced) given no order ``k`` (1 <= r < 2N) takes its order from it; with neither, k is returned
-    as None (the order then comes from the default tolerance, :data:`harness.rom.balanced.DEFAULT_TOLERANCE`).
+    ``tolerance`` (0 < tolerance < 1) is the largest measured training error accepted (:func:`package_fmu`
+    with ``verify``), except that a model without a POD basis (balanced) given no order ``k`` (1 <= r < 2N)
+    takes its order from it instead; with neither, k is returned as None (the order then comes from the default tolerance, :data:`harness.rom.balanced.DEFAULT_TOLERANCE`).
 
     Raises FieldError naming the field (``k``, ``n_freeze``, ``probes``, ``fmi``, ``model``, ``integrator``,
     ``tolerance``) and the allowed range; the command line shows the option that set it.
@@ -444,10 +443,10 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
         force and an unseen one, errors and run times), and store the figures in its description and in
         ``documentation/`` (with the plot ``probes.png``).  Without it the documentation says "not measured".
     tolerance : float, optional
-        The relative probe-v error asked for.  Balanced model without ``k``: its order is the smallest r with
-        2 Σ_{i>r} σ_i <= tolerance · 2 Σ σ_i.  With ``verify``: the largest v error on the training force
-        accepted; above it :class:`harness.errors.ToleranceError` is raised and nothing is written (an
-        existing ``out`` is left as it was).
+        Balanced model without ``k``: its order is the smallest r with 2 Σ_{i>r} σ_i <= tolerance · 2 Σ σ_i
+        (and nothing else).  Otherwise, with ``verify``: the largest v error on the training force accepted;
+        above it :class:`harness.errors.ToleranceError` is raised and nothing is written (an existing ``out``
+        is left as it was).
     references : dict, optional
         :func:`harness.fmu.verify.references` computed before (several models of one scene).
     bounds : bool
@@ -485,6 +484,9 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
     timings["binaries"] = time.perf_counter() - t1
     step = step_size if step_size is not None else min(DEFAULT_STEP, scene.T / 10)
     spec = get_model(model)
+    # a model without a POD basis given no order takes it from the tolerance (a Hankel-singular-value
+    # tail, not a measured error): then the tolerance is not also the measured check
+    check = None if (spec.basis_kind is None and k is None) else tolerance
     k = data.k_v if k is None else k                 # the balanced model's order from its tolerance
 
     def archive(path, verification=None):
@@ -495,7 +497,7 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
                                          measured=None if verification is None else verification.sentence())
         docs = documentation_files(scene=scene, spec=spec, data=data, k=k, input_error=ops.input_error,
                                    augmented=ops.augmented, description_xml=description, verification=verification,
-                                   tolerance=tolerance, envelope=envelope)
+                                   tolerance=check, envelope=envelope)
         write_fmu(path, fmi=fmi, blob=blob, description=description,
                   binary=binaries.fmi2 if fmi == 2 else binaries.fmi3, documentation=docs)
         problems = validate(path)
@@ -513,7 +515,7 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
             t3 = time.perf_counter()
             verification = verify_fmu(tmp, scene, probes, refs=references, problem=problem, progress=progress)
             timings["verify"] = time.perf_counter() - t3
-            check_tolerance(verification, tolerance, out, model)
+            check_tolerance(verification, check, out, model)
             archive(tmp, verification)           # the same model and binary: only the texts change
         size = tmp.stat().st_size
     return FMUSummary(path=out, fmi=fmi, scene=scene.name, k=k, k_v=data.k_v, k_rho=data.k_rho,
