@@ -74,5 +74,8 @@ RomStatus rom_exact_advance(RomState *s, int64_t n_steps, char *message, size_t 
 double rom_exact_rho_probe(const RomState *s, uint32_t j);
 /* the smaller J = 1 + e of the probe's two particles (NaN when not finite) */
 double rom_exact_probe_J(const RomState *s, uint32_t j);
+/* dv_j/dt and drho_j/dt of a linear model (rom_v_probe_rate, rom_rho_probe_rate) */
+double rom_exact_v_rate(const RomState *s, uint32_t j);
+double rom_exact_rho_rate(const RomState *s, uint32_t j);
 
 #endif /* SPHROM_ROM_INTERNAL_H */

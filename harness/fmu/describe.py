@@ -108,6 +108,9 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
         "profile": scene.fields["profile"].text,
         # FMI 2 only: the exact linear model integrates f + (df/dt) tau over a step exactly
         "can_interpolate_inputs": "true" if spec.linear else "false",
+        # the linear models give dy/dt = C (A z + B f) exactly (fmu_src/rom.h rom_max_output_derivative_order);
+        # the frozen model's trajectory is a discrete map of internal steps: none
+        "max_output_derivative_order": 1 if spec.linear else 0,
         "input_hold": ("held over each communication step, or linear with the derivative of "
                        "fmi2SetRealInputDerivatives" if spec.linear else "held over each communication step"),
     }
