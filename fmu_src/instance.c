@@ -522,6 +522,43 @@ InstanceStatus instance_set_input_derivatives(Instance *inst, const char *fn, co
     return INSTANCE_OK;
 }
 
+InstanceStatus instance_get_output_derivatives(Instance *inst, const char *fn, const uint32_t refs[], size_t n_refs,
+                                               const int32_t orders[], double values[], size_t n_values) {
+    if (check_arguments(inst, fn, refs, n_refs, values, n_values) != INSTANCE_OK) return INSTANCE_ERROR;
+    if (n_refs > 0 && !orders) return instance_error(inst, fn, "the order array is NULL");
+    const int max_order = rom_max_output_derivative_order(inst->model);
+    for (size_t i = 0; i < n_refs; i++) {
+        uint32_t j = 0;
+        const Variable *var = lookup(inst, refs[i], &j);
+        if (!var || var->type != TYPE_FLOAT64) return unknown_reference(inst, fn, refs[i]);
+        if (var->role != ROLE_OUTPUT) {
+            return instance_error(inst, fn, "%s is not an output (derivatives exist for v_probe_j and rho_probe_j)",
+                                  var->name);
+        }
+        if (max_order == 0) {
+            return instance_error(inst, fn, "the frozen model provides no output derivatives "
+                                  "(maxOutputDerivativeOrder = 0: its trajectory is a discrete map of internal "
+                                  "steps, not a differentiable function of time)");
+        }
+        if (orders[i] < 1 || orders[i] > max_order) {
+            return instance_error(inst, fn, "order %d of the derivative of %s_%u is not supported "
+                                  "(maxOutputDerivativeOrder = %d: allowed orders 1 to %d)", (int)orders[i],
+                                  var->name, j + 1, max_order, max_order);
+        }
+        RomStatus status;
+        if (var->vr == ROM_VR_V_PROBE) {
+            status = rom_v_probe_rate(inst->state, j, &values[i], inst->message, sizeof inst->message);
+        } else if (var->vr == ROM_VR_RHO_PROBE) {
+            status = rom_rho_probe_rate(inst->state, j, &values[i], inst->message, sizeof inst->message);
+        } else {
+            return instance_error(inst, fn, "no derivative of %s is provided (derivatives exist for v_probe_j and "
+                                  "rho_probe_j)", var->name);
+        }
+        if (status != ROM_OK) return instance_error(inst, fn, "%s", inst->message);
+    }
+    return INSTANCE_OK;
+}
+
 /* ------------------------------------------------------------------------ */
 /* stepping                                                                  */
 /* ------------------------------------------------------------------------ */

@@ -249,6 +249,38 @@ double rom_rho_probe(const RomState *s, uint32_t j) {
     return rom_is_linear(s->model) ? rom_exact_rho_probe(s, j) : rom_frozen_rho_probe(s, j);
 }
 
+int rom_max_output_derivative_order(const RomModel *m) {
+    return m && rom_is_linear(m) ? 1 : 0;
+}
+
+/* the checks shared by the output rates: a linear model, a probe index, a finite result */
+static RomStatus probe_rate(const RomState *s, uint32_t j, double *rate, double (*compute)(const RomState *, uint32_t),
+                            const char *what, char *message, size_t message_size) {
+    if (!s || !rate) return rom_fail(message, message_size, "no state or no result pointer");
+    if (!rom_is_linear(s->model)) {
+        return rom_fail(message, message_size, "the frozen model provides no output derivatives "
+                        "(maxOutputDerivativeOrder = 0: its trajectory is a discrete map of internal steps)");
+    }
+    if (j >= s->model->n_probes) {
+        return rom_fail(message, message_size, "probe %u does not exist (allowed: 1 to %u)", j + 1,
+                        s->model->n_probes);
+    }
+    *rate = compute(s, j);
+    if (!isfinite(*rate)) {
+        return rom_fail(message, message_size, "d%s_probe_%u/dt is not finite at t = %.9g s (J <= 0 at the probe: "
+                        "compression beyond the model's range)", what, j + 1, s->time);
+    }
+    return ROM_OK;
+}
+
+RomStatus rom_v_probe_rate(const RomState *s, uint32_t j, double *rate, char *message, size_t message_size) {
+    return probe_rate(s, j, rate, rom_exact_v_rate, "v", message, message_size);
+}
+
+RomStatus rom_rho_probe_rate(const RomState *s, uint32_t j, double *rate, char *message, size_t message_size) {
+    return probe_rate(s, j, rate, rom_exact_rho_rate, "rho", message, message_size);
+}
+
 RomStatus rom_check_outputs(const RomState *s, char *message, size_t message_size) {
     if (!s) return rom_fail(message, message_size, "no state");
     for (uint32_t j = 0; j < s->model->n_probes; j++) {

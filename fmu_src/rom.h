@@ -287,6 +287,17 @@ ROM_API double rom_v_probe(const RomState *state, uint32_t j);
  * resources do not say), for messages; NULL for the frozen model.  The core never branches on it. */
 ROM_API const char *rom_linear_model_name(const RomModel *model);
 ROM_API double rom_rho_probe(const RomState *state, uint32_t j);
+/* The highest order of output derivatives the model gives exactly: 1 for the linear models, 0 for the
+ * frozen model (a discrete map of internal steps, not a differentiable function of time) */
+ROM_API int rom_max_output_derivative_order(const RomModel *model);
+/* Linear models: the first time derivative of a probe output at the state's time, exact:
+ * dz/dt = A z + B f with f the input now (after a step with an input rate: f + rate h),
+ * dv_j/dt = Pv[j] . (dz/dt)_a, drho_j/dt = -sum_m pw[j][m] prho0[j][m] (Pe[j][m] . (dz/dt)_b) / J_m^2.
+ * Fails (message) for the frozen model or a bad probe index. */
+ROM_API RomStatus rom_v_probe_rate(const RomState *state, uint32_t j, double *rate, char *message,
+                                   size_t message_size);
+ROM_API RomStatus rom_rho_probe_rate(const RomState *state, uint32_t j, double *rate, char *message,
+                                     size_t message_size);
 /* Check the probe densities (> 0 and finite) at the current time */
 ROM_API RomStatus rom_check_outputs(const RomState *state, char *message, size_t message_size);
 

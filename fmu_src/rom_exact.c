@@ -226,3 +226,42 @@ void rom_exact_prepare(RomModel *m) {
         m->y0[i] = acc;
     }
 }
+
+/* (dz/dt)_q = sum_c A[q][c] z_c + B[q] f, z = (a; b) the state now, f the input now */
+static double state_rate(const RomState *s, size_t q) {
+    const RomModel *m = s->model;
+    const size_t k = m->k, kv = m->k_v;
+    const double *row = m->A + q * k;
+    double acc = 0.0;
+    for (size_t c = 0; c < kv; c++) acc += row[c] * s->av[c];
+    for (size_t c = kv; c < k; c++) acc += row[c] * s->ar[c - kv];
+    if (m->B) acc += m->B[q] * s->f;
+    return acc;
+}
+
+double rom_exact_v_rate(const RomState *s, uint32_t j) {
+    const RomModel *m = s->model;
+    const double *row = m->Pv + (size_t)j * m->k_v;
+    double rate = 0.0;
+    for (size_t q = 0; q < m->k_v; q++) rate += row[q] * state_rate(s, q);
+    return rate;
+}
+
+/* d/dt sum_m pw rho0 / J_m = -sum_m pw rho0 (dJ_m/dt) / J_m^2, dJ_m/dt = Pe[j][m] . db/dt */
+double rom_exact_rho_rate(const RomState *s, uint32_t j) {
+    const RomModel *m = s->model;
+    const size_t kr = m->k_rho, kv = m->k_v;
+    double rate = 0.0;
+    for (int side = 0; side < 2; side++) {
+        const double *row = m->Pe + ((size_t)j * 2 + (size_t)side) * kr;
+        double e = 0.0, de = 0.0;
+        for (size_t q = 0; q < kr; q++) {
+            e += row[q] * s->ar[q];
+            de += row[q] * state_rate(s, kv + q);
+        }
+        const double J = 1.0 + e;
+        if (!(J > 0)) return NAN;
+        rate -= m->pw[2 * j + side] * m->prho0[2 * j + side] * de / (J * J);
+    }
+    return rate;
+}

@@ -153,6 +153,9 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
         "can_interpolate_inputs": "true",
         "input_hold": "held over each communication step, or linear with the derivative of "
                       "fmi2SetRealInputDerivatives",
+        # the linear models give dy/dt = C (A z + B f) exactly (fmu_src/rom.h rom_max_output_derivative_order);
+        # the frozen model's trajectory is a discrete map of internal steps: none
+        "max_output_derivative_order": 1 if spec.linear else 0,
     }
     # FMI 3 fixedInternalStepSize only where there is one: the linear model steps by the matrix exponential
     internal_step = [] if spec.linear else [{}]

@@ -273,6 +273,12 @@ def propagators(A, B, h):
     return E[:k, :k], E[:k, k], E[:k, k + 1]
 
 
+def state_rate(A, B, z, f=0.0):
+    """dz/dt = A z + B f (B None: no input) [per s], the linear models' right-hand side at one state."""
+    rate = np.asarray(A, float) @ np.asarray(z, float)
+    return rate if B is None else rate + np.asarray(B, float) * float(f)
+
+
 def free_response(ops: LinearOperators, t):
     """e^{A t} z0 at times t, shape (M, k).
 
