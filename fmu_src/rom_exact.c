@@ -239,29 +239,26 @@ static double state_rate(const RomState *s, size_t q) {
     return acc;
 }
 
-double rom_exact_v_rate(const RomState *s, uint32_t j) {
-    const RomModel *m = s->model;
-    const double *row = m->Pv + (size_t)j * m->k_v;
+/* the rate of the output row over z: sum_q row[q] (dz/dt)_q */
+static double row_rate(const RomState *s, const double *row) {
     double rate = 0.0;
-    for (size_t q = 0; q < m->k_v; q++) rate += row[q] * state_rate(s, q);
+    for (size_t q = 0; q < s->model->k; q++) rate += row[q] * state_rate(s, q);
     return rate;
 }
 
-/* d/dt sum_m pw rho0 / J_m = -sum_m pw rho0 (dJ_m/dt) / J_m^2, dJ_m/dt = Pe[j][m] . db/dt */
+double rom_exact_v_rate(const RomState *s, uint32_t j) {
+    return row_rate(s, s->model->Pv + (size_t)j * s->model->k);
+}
+
+/* d/dt sum_m pw rho0 / J_m = -sum_m pw rho0 (dJ_m/dt) / J_m^2, J_m = 1 + Pe[j][m] . z */
 double rom_exact_rho_rate(const RomState *s, uint32_t j) {
     const RomModel *m = s->model;
-    const size_t kr = m->k_rho, kv = m->k_v;
     double rate = 0.0;
     for (int side = 0; side < 2; side++) {
-        const double *row = m->Pe + ((size_t)j * 2 + (size_t)side) * kr;
-        double e = 0.0, de = 0.0;
-        for (size_t q = 0; q < kr; q++) {
-            e += row[q] * s->ar[q];
-            de += row[q] * state_rate(s, kv + q);
-        }
-        const double J = 1.0 + e;
+        const double *row = m->Pe + ((size_t)j * 2 + (size_t)side) * m->k;
+        const double J = 1.0 + rom_exact_output(s, row);
         if (!(J > 0)) return NAN;
-        rate -= m->pw[2 * j + side] * m->prho0[2 * j + side] * de / (J * J);
+        rate -= m->pw[2 * j + side] * m->prho0[2 * j + side] * row_rate(s, row) / (J * J);
     }
     return rate;
 }
