@@ -132,3 +132,23 @@ def test_no_false_alarm_on_training_scenes(base):
         f_int = np.concatenate([[0.0], np.cumsum(f[:-1]) * scene.sph.dt])[res.steps]
         bound = (np.exp(lam * res.t) * (np.sqrt(e[0]) + sigma * f_int)) ** 2
         assert np.max(e / bound) < 1.2, (base, name, np.max(e / bound))
+
+
+@pytest.mark.parametrize("name", ["exact", "frozen", "balanced"])
+def test_forced_run_from_rest_is_not_a_runaway(name):
+    """A scene starting at rest under a force: the linear models' runaway bound was 1e6 |z0| = 0 and stopped
+    the run at its first sample; now it counts the forcing (|z| <= |z0| + |B| int |f| for the exact model)."""
+    from harness.rom.exact_linear import linear_runaway_bound
+    scene = small_scene("damped_forced", T=0.5, n=32, v0="0")
+    problem = build_problem(scene)
+    model = get_model(name)
+    basis = None if model.basis_kind is None else basis_for_scene(scene, progress=False, problem=problem)[0]
+    ops = model.build(problem, basis, 4, 4)
+    res = model.run(ops, problem, dt=scene.sph.dt, n_steps=step_count(scene.T, scene.sph.dt), every=50,
+                    force=scene.force)
+    assert np.all(np.isfinite(res.a_v)) and np.max(np.abs(res.a_v)) > 0
+    if name == "exact":
+        h = res.settings["step"]
+        f_int = h * float(np.sum(np.abs(scene.force(np.arange(res.t.size + 1) * h))))
+        z = np.hstack([res.a_v, res.a_rho])
+        assert np.max(np.linalg.norm(z, axis=1)) <= linear_runaway_bound(ops, f_int) / 1e6 * 1.01
