@@ -278,7 +278,8 @@ def exact_model(scene, k, n_freeze, probes, progress=True, problem=None, model="
     spec = get_model(model)
     basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem)
     lin = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction)
-    data = exact_data(lin, problem, dt=scene.sph.dt, n_freeze=n_freeze, probes=probes)
+    data = exact_data(lin, problem, dt=scene.sph.dt, n_freeze=n_freeze, probes=probes,
+                      bound=linear_bound(lin, scene))
     return data, lin, problem, basis
 
 
@@ -318,6 +319,20 @@ def linear_bounds(lti, reduced, progress=True):
 
     with progress_bar(lti.n_probes, "error bounds", unit="probe", enabled=progress) as bar:
         return error_bounds(lti, reduced, outputs="v", progress=bar)
+
+
+def linear_bound(lin, scene, samples=4097):
+    """The linear FMU's runaway bound on |z|: 10⁶ (|z0| + |B| ∫_0^T |f| dt) with the scene's force over its T
+    (:func:`harness.rom.exact_linear.linear_runaway_bound`; trapezoidal rule on ``samples`` points).
+
+    10⁶ |z0| alone is 0 for a scene at rest, and such an FMU stopped as a runaway at its first forced step.
+    """
+    import numpy as np
+
+    from ..rom.exact_linear import linear_runaway_bound
+    t = np.linspace(0.0, float(scene.T), samples)
+    f = np.abs(np.asarray(scene.force(t), float)) if lin.B is not None else np.zeros(samples)
+    return linear_runaway_bound(lin, float(np.sum(0.5 * (f[1:] + f[:-1]) * np.diff(t))))
 
 
 def _frozen_resource(scene, model, k, n_freeze, probes, integrator, progress, problem, tolerance=None, bounds=True):
