@@ -79,6 +79,11 @@ E2E = {"rows": [{"model": m, "step_s": h, "doSteps": round(10 / h), "fmu_e2e_s":
        "T": 10.0, "internal_steps": 200000, "k_v": 12, "k_rho": 12, "probes": [0.25, 0.5]}
 SAME = {"n": 400, "k": 12, "n_freeze": 10, "frozen_ns": 181.0, "sph_ns": 2613.0, "ratio": 14.4, "k_v": 12, "k_rho": 12}
 FMU = {"core": CORE, "e2e": E2E, "same": SAME, "repeats": 5}
+ENVELOPE = {"command": "python -m harness.bench.envelope a",
+            "rows": [{"scene": "a", "scale": s, "peak_strain": 0.01 * s, "peak_probe_strain": 0.008 * s,
+                      "frozen_v_error": 0.1 * s, "frozen_peak_probe_strain": 0.008 * s,
+                      "frozen_coordinate_excess": s - 1.0, "exact_v_error": 0.05} for s in (1.0, 2.0, 10.0)],
+            "training": [{"scene": "a", "coordinate_excess": 0.1, "probe_strain_ratio": 1.0}]}
 
 
 def _stress_scene(name, fmu):
@@ -135,7 +140,8 @@ def test_the_report_has_the_committed_documents_sections_in_order(tmp_path):
                            repeats=3, scene_names=["a", "b"], rows=ROWS, savings=[("a", {8: 0.8}, 0.95)],
                            sizes=[100, 400], scaling=SCALING, ks_scaling=[4, 8], scaling_k=SCALING_K, skips=SKIPS,
                            directions=DIRECTIONS, input_tolerance=0.01, sph_sizes=[100, 1000, 10000],
-                           sph_steps=SPH_STEPS, fmu=FMU, stress=MAPS, stress_command="sphrom bench --report", wall=3)
+                           sph_steps=SPH_STEPS, fmu=FMU, stress=MAPS, stress_command="sphrom bench --report", wall=3,
+                           envelope=ENVELOPE)
     text = rp.report(results, "validation/benchmarks")
     assert text.endswith("|\n") and "\n\n\n" not in text
     assert_well_formed(text.splitlines() + [""])
