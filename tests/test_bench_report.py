@@ -79,11 +79,6 @@ E2E = {"rows": [{"model": m, "step_s": h, "doSteps": round(10 / h), "fmu_e2e_s":
        "T": 10.0, "internal_steps": 200000, "k_v": 12, "k_rho": 12, "probes": [0.25, 0.5]}
 SAME = {"n": 400, "k": 12, "n_freeze": 10, "frozen_ns": 181.0, "sph_ns": 2613.0, "ratio": 14.4, "k_v": 12, "k_rho": 12}
 FMU = {"core": CORE, "e2e": E2E, "same": SAME, "repeats": 5}
-ENVELOPE = {"command": "python -m harness.bench.envelope a",
-            "rows": [{"scene": "a", "scale": s, "peak_strain": 0.01 * s, "peak_probe_strain": 0.008 * s,
-                      "frozen_v_error": 0.1 * s, "frozen_peak_probe_strain": 0.008 * s,
-                      "frozen_coordinate_excess": s - 1.0, "exact_v_error": 0.05} for s in (1.0, 2.0, 10.0)],
-            "training": [{"scene": "a", "coordinate_excess": 0.1, "probe_strain_ratio": 1.0}]}
 
 
 def _stress_scene(name, fmu):
@@ -101,6 +96,12 @@ def _stress_scene(name, fmu):
                        for m in methods]}
 
 
+PACKAGED = [{"scene": sc, "model": m, "k": 12, "k_v": 12, "k_rho": 12, "train_err_v": 1e-2, "train_err_rho": 2e-3,
+             "unseen_err_v": 3e-2, "unseen_err_rho": NAN, "unseen_start": "rest", "fmu_s": 0.05, "sph_s": 0.7,
+             "speedup": 14.0, "tolerance": tol, "meets": None if tol is None else True, "note": ""}
+            for sc, tol in (("a", 0.08), ("b", None)) for m in ("frozen", "exact")]
+PACKAGED_META = {"command": "python -m harness.bench.fmu_verify a b", "repeats": 3, "wall": 60.0, "machine": "m"}
+
 MAPS = StressMaps([_stress_scene("a", True), _stress_scene("b", False)], [1, 10], 12.0)
 
 
@@ -114,6 +115,7 @@ MAPS = StressMaps([_stress_scene("a", True), _stress_scene("b", False)], [1, 10]
     (rp.input_direction_section, (DIRECTIONS, ["a", "b"], 0.01), [8]),
     (rp.sph_step_section, (SPH_STEPS, [100, 1000, 10000], 3), [5]),
     (rp.fmu_section, (FMU,), [6, 10]),
+    (lambda rows: rp.packaged_fmu_section(rows, **PACKAGED_META), (PACKAGED,), [13]),
     (rp.stress_section, (MAPS, "sphrom stress a b", "x/stress", 2), [3, 5, 4, 4] * 2),
 ])
 def test_each_section_is_well_formed_markdown(section, args, columns):
@@ -141,8 +143,8 @@ def test_the_report_has_the_committed_documents_sections_in_order(tmp_path):
                            sizes=[100, 400], scaling=SCALING, ks_scaling=[4, 8], scaling_k=SCALING_K, skips=SKIPS,
                            directions=DIRECTIONS, input_tolerance=0.01, sph_sizes=[100, 1000, 10000],
                            sph_steps=SPH_STEPS, fmu=FMU, stress=MAPS, stress_command="sphrom bench --report", wall=3,
-                           envelope=ENVELOPE)
-    text = rp.report(results, "validation/benchmarks")
+                           packaged=PACKAGED, packaged_meta=PACKAGED_META)
+    text = rp.report(results, "validation/benchmarks", existing=(ROOT / "BENCHMARKS.md").read_text())
     assert text.endswith("|\n") and "\n\n\n" not in text
     assert_well_formed(text.splitlines() + [""])
 

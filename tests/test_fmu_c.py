@@ -279,7 +279,7 @@ def test_fmpy_compile_rebuilds_from_sources(packaged, tmp_path, fmi):
     outs = []
     for path in (original, copy):
         with Slave(path) as s:
-            s.initialize()
+            s.initialize(initial_state_scale=1)
             outs.append(s.run(steps, inputs))
     scale = np.abs(outs[0]).max(axis=0)
     assert np.all(np.abs(outs[0] - outs[1]) <= 1e-12 * scale)
@@ -316,7 +316,7 @@ def test_rebuild_from_sources_links_the_maths_library(packaged, tmp_path, fmi):
     outs = []
     for path in (packaged[("forced", fmi)], copy):
         with Slave(path) as s:
-            s.initialize()
+            s.initialize(initial_state_scale=1)
             outs.append(s.run([0.01] * 20, np.linspace(-0.05, 0.05, 20)))
     scale = np.abs(outs[0]).max(axis=0)
     assert np.all(np.abs(outs[0] - outs[1]) <= 1e-12 * scale)

@@ -75,11 +75,15 @@ def test_constants_shared_by_c_and_python():
         "ROM_VR_F": fmi.VR_F,
         "ROM_VR_N_FREEZE": fmi.VR_N_FREEZE,
         "ROM_VR_DT": fmi.VR_DT,
+        "ROM_VR_INITIAL_STATE_SCALE": fmi.VR_INITIAL_STATE_SCALE,
+        "ROM_INITIAL_STATE_SCALE_START": describe.INITIAL_STATE_SCALE_START,
         "ROM_VR_V_PROBE": describe.VR_V_PROBE,
         "ROM_VR_RHO_PROBE": describe.VR_RHO_PROBE,
     }
     assert {name: rom.get(name) for name in shared} == shared
-    for name, key in (("f", "ROM_VR_F"), ("n_freeze", "ROM_VR_N_FREEZE"), ("dt", "ROM_VR_DT")):
+    assert describe.VR_INITIAL_STATE_SCALE == fmi.VR_INITIAL_STATE_SCALE
+    for name, key in (("f", "ROM_VR_F"), ("n_freeze", "ROM_VR_N_FREEZE"), ("dt", "ROM_VR_DT"),
+                      ("initial_state_scale", "ROM_VR_INITIAL_STATE_SCALE")):
         assert xml2[name] == xml3[name] == rom[key], name
     assert xml3["time"] == rom["ROM_VR_TIME"] and "time" not in xml2
     # the header sizes are what the layouts add up to (rom.h): 8 magic + 10 uint32 + 3 float64; 8 magic + 6 uint32

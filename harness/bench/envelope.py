@@ -11,8 +11,10 @@ block's largest half-width (the quantity the FMU's coordinate check compares wit
 :mod:`harness.fmu.envelope`).  Run as::
 
     python -m harness.bench.envelope [SCENE ...] [--scales 1,1.5,...] [--out validation/benchmarks/envelope.csv]
+                                     [--report BENCHMARKS.md]
 
-It writes the CSV and a PNG of error against peak probe strain beside it, and prints the table.  It
+It writes the CSV and a PNG of error against peak probe strain beside it, and its section of
+BENCHMARKS.md (``sphrom bench --report`` carries it over).  It
 also measures the headroom of every built-in scene's frozen model on its own training run (the FMU's
 settings: k = the scene's largest rom.accel_modes, n_freeze = 10, the scene's force): the largest
 coordinate excess (the check allows margin - 1) and the largest probe strain over the trained one (the
@@ -192,14 +194,21 @@ def main(argv=None):
     p.add_argument("scenes", nargs="*", default=list(SCENES), metavar="SCENE")
     p.add_argument("--scales", type=_scales, default=list(SCALES), metavar="S1,S2,...")
     p.add_argument("--out", default="validation/benchmarks/envelope.csv", metavar="FILE.csv")
+    p.add_argument("--report", default="BENCHMARKS.md", metavar="FILE.md")
     p.add_argument("--quiet", action="store_true")
     args = p.parse_args(argv)
+    from ..report.markdown import write_text
+    from .fmu_verify import replace_section
     result = run(args.out, args.scenes, args.scales, progress=not args.quiet)
-    print("\n".join(envelope_section(result, image_dir=str(Path(args.out).parent))))
+    lines = envelope_section(result, image_dir=str(Path(args.out).parent))
+    print("\n".join(lines))
+    report = Path(args.report)
+    text = report.read_text() if report.exists() else "# Benchmarks\n"
+    write_text(report, replace_section(text, lines[0], lines))
     for scene in args.scenes:
         print(f"{scene}: probe strain at {FAILURE_ERROR:.0%} frozen probe error: "
               f"{failure_strain(result['rows'], scene):.3g} (nan: not reached)")
-    print(f"wrote {args.out}, its .png and envelope_training.csv beside it")
+    print(f"wrote {args.out}, its .png, envelope_training.csv beside it and the section of {report}")
 
 
 if __name__ == "__main__":

@@ -54,7 +54,8 @@ class BenchResults:
     stress: object = None         # harness.bench.stress_maps.StressMaps, None without the maps
     stress_command: str = ""
     wall: float = 0.0             # [s]
-    envelope: dict | None = None  # harness.bench.envelope.run, None without the FMU
+    packaged: list | None = None  # rows of harness.bench.fmu_verify (python -m harness.bench.fmu_verify), or None
+    packaged_meta: dict | None = None   # its command, repeats, wall, machine
 
 
 def run_benchmarks(scenes, out, *, ks=None, repeats=5, sizes=SIZES, ks_scaling=KS_SCALING, sph_sizes=SPH_SIZES,
@@ -66,7 +67,7 @@ def run_benchmarks(scenes, out, *, ks=None, repeats=5, sizes=SIZES, ks_scaling=K
     scenes : list of Scene
     out : Path
         Folder for bench.csv, scaling.csv, scaling_k.csv, skip.csv, input_direction.csv, sph_scaling.csv,
-        fmu_core.csv, fmu_e2e.csv, envelope.csv, envelope_training.csv, the plots and (``stress``) ``stress/``.
+        fmu_core.csv, fmu_e2e.csv, the plots and (``stress``) ``stress/``.
     ks : list of int, optional
         Mode counts (default each scene's acceleration-study k).
     repeats : int
@@ -130,10 +131,6 @@ def run_benchmarks(scenes, out, *, ks=None, repeats=5, sizes=SIZES, ks_scaling=K
         from .fmu import fmu_measurements, write_fmu_csv
         fmu_results = fmu_measurements(fmu_scene, repeats=max(5, repeats), progress=progress)
         write_fmu_csv(out, fmu_results["core"], fmu_results["e2e"], prefix="fmu_")
-    envelope = None
-    if fmu:
-        from .envelope import run as envelope_run
-        envelope = envelope_run(out / "envelope.csv", progress=progress)
     maps, stress_command = None, ""
     if stress:
         from .report import stress_section
@@ -158,7 +155,7 @@ def run_benchmarks(scenes, out, *, ks=None, repeats=5, sizes=SIZES, ks_scaling=K
         scene_names=[s.name for s in scenes], rows=all_rows, savings=savings, sizes=list(sizes), scaling=scaling,
         ks_scaling=list(ks_scaling), scaling_k=scaling_k, skips=skips, directions=directions,
         input_tolerance=INPUT_TOLERANCE, sph_sizes=list(sph_sizes), sph_steps=sph_steps, fmu=fmu_results,
-        stress=maps, stress_command=stress_command, wall=wall, envelope=envelope)
+        stress=maps, stress_command=stress_command, wall=wall)
 
 
 def read_bench_csv(path):

@@ -173,7 +173,8 @@ def _run_with_derivatives(fmu, md, signal, t_end, step, start, outputs, warnings
         raise
     with slave:
         try:
-            slave.initialize(n_freeze=start.get("n_freeze"), f=float(f[0]))
+            slave.initialize(n_freeze=start.get("n_freeze"), f=float(f[0]),
+                             initial_state_scale=start.get("initial_state_scale"))
             rows = [slave.get_real(out_vr)]
             for j in range(n):
                 slave.set_input(f[j])
@@ -249,7 +250,8 @@ def can_interpolate_inputs(md) -> bool:
     return md.fmiVersion == "2.0" and bool(md.coSimulation.canInterpolateInputs)
 
 
-def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None, hold_inputs=False) -> CosimResult:
+def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None, hold_inputs=False,
+              initial_state_scale=None) -> CosimResult:
     """Co-simulate ``fmu`` with fmpy.simulate_fmu.
 
     Parameters
@@ -267,12 +269,15 @@ def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None, hold_inputs
     hold_inputs : bool
         Hold f over each step even when the FMU can interpolate inputs (default: an FMU
         that declares canInterpolateInputs gets df/dt, f going linearly between the samples).
+    initial_state_scale : float, optional
+        The ``initial_state_scale`` parameter (default the FMU's start value: 0, at rest; 1 starts
+        from the scene's initial state).
 
     Raises
     ------
     FieldError
         A bad value of ``fmu`` (also: an FMU that fails to instantiate, with the reason it
-        logged), ``force``, ``t_end``, ``step`` or ``n_freeze``.
+        logged), ``force``, ``t_end``, ``step``, ``n_freeze`` or ``initial_state_scale``.
     SimulationError
         The FMU reported an error (its message is included).
     """
@@ -295,6 +300,15 @@ def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None, hold_inputs
         if isinstance(n_freeze, bool) or int(n_freeze) != n_freeze or not 1 <= n_freeze <= 2**31 - 1:
             raise FieldError("n_freeze", f"{n_freeze!r} is out of range (allowed: an integer >= 1)")
         start["n_freeze"] = int(n_freeze)
+    if initial_state_scale is not None:
+        if isinstance(initial_state_scale, bool) or not isinstance(initial_state_scale, (int, float)) \
+                or not math.isfinite(initial_state_scale):
+            raise FieldError("initial_state_scale", f"{initial_state_scale!r} is out of range (allowed: a finite "
+                             "real number; 1 the scene's initial state, 0 at rest)")
+        if not any(v.name == "initial_state_scale" for v in md.modelVariables):
+            raise FieldError("initial_state_scale", f"'{fmu}' has no parameter initial_state_scale (an FMU made "
+                             "by an older sphrom: it always starts from the scene's initial state)")
+        start["initial_state_scale"] = float(initial_state_scale)
     signal = force_signal(force, t_end, step)
     derivatives = can_interpolate_inputs(md) and not hold_inputs and signal is not None
     outputs = [v.name for v in md.modelVariables if v.causality == "output"]

@@ -16,6 +16,8 @@ from ..paths import data_dir
 
 VR_V_PROBE = 1000        # fmu_src/rom.h ROM_VR_V_PROBE
 VR_RHO_PROBE = 2000      # ROM_VR_RHO_PROBE
+VR_INITIAL_STATE_SCALE = 4   # ROM_VR_INITIAL_STATE_SCALE
+INITIAL_STATE_SCALE_START = 0.0  # ROM_INITIAL_STATE_SCALE_START: the FMU starts at rest
 FIXED_VARIABLES = 3      # FMI 2 indices 1..3: f, n_freeze, dt
 
 _BLOCK = re.compile(r"\{\{#(\w+)\}\}(.*?)\{\{/\1\}\}", re.S)
@@ -48,7 +50,7 @@ def number(x) -> str:
 
 
 def model_description(fmi: int, *, token, scene, data, k_requested, step_size, stop_time, input_error,
-                      model="frozen", envelope=None):
+                      model="frozen", envelope=None, measured=None):
     """The modelDescription.xml text for FMI version ``fmi`` (2 or 3).
 
     Parameters
@@ -68,6 +70,8 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
         The registered reduced model packaged (its title heads the description).
     envelope : Envelope, optional
         What the basis was trained on (:mod:`harness.fmu.envelope`), appended to the description.
+    measured : str, optional
+        The verification's sentence (errors against the full SPH, run times), appended to the description.
     """
     from ..rom.registry import get_model
 
@@ -102,6 +106,8 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
                    f"input projection error {input_error:.3g}.")
     if envelope is not None:
         description += " Training envelope: " + "; ".join(envelope.lines(linear=spec.linear)) + "."
+    if measured:
+        description += " " + measured
     values = {
         "model_name": f"sphrom {scene.name}",
         "token": token,
@@ -112,12 +118,15 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
         "stop_time": number(stop_time),
         "step_size": number(step_size),
         "n_freeze": int(data.n_freeze),
+        # FMI 2: after the probes (the outputs keep their indices)
+        "initial_state_scale_index": FIXED_VARIABLES + 2 * data.n_probes + 1,
         "dt": number(data.dt),
         "profile": scene.fields["profile"].text,
-        # FMI 2 only: the exact linear model integrates f + (df/dt) tau over a step exactly
-        "can_interpolate_inputs": "true" if spec.linear else "false",
-        "input_hold": ("held over each communication step, or linear with the derivative of "
-                       "fmi2SetRealInputDerivatives" if spec.linear else "held over each communication step"),
+        # FMI 2 only: the linear models integrate f + (df/dt) tau over a step exactly, the frozen model
+        # evaluates it at each refresh of its force term
+        "can_interpolate_inputs": "true",
+        "input_hold": "held over each communication step, or linear with the derivative of "
+                      "fmi2SetRealInputDerivatives",
     }
     # FMI 3 fixedInternalStepSize only where there is one: the linear model steps by the matrix exponential
     internal_step = [] if spec.linear else [{}]

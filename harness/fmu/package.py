@@ -141,6 +141,7 @@ class FMUSummary:
     timings: dict = field(default_factory=dict)
     model: str = "frozen"
     envelope: object = None        # harness.fmu.envelope.Envelope: what the basis was trained on
+    verification: object = None      # harness.fmu.verify.Verification when measured, else None
 
 
 def default_modes(scene):
@@ -281,14 +282,30 @@ def _linear_resource(scene, model, k, n_freeze, probes, integrator, progress, pr
 RESOURCES = {MODEL_FROZEN: _frozen_resource, MODEL_EXACT_LINEAR: _linear_resource}
 
 
+def operator_resource(kind, ops, problem, *, dt, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_PROBES, integrator="euler"):
+    """(data, bytes) of resources/model.bin of kind ``kind`` (ReducedModel.fmu_kind) from operators built
+    elsewhere (a benchmark's own), the runaway bound that of their initial state, as :func:`reduced_model` and
+    :func:`exact_model` have it; the initial state is scaled at run time by the FMU's initial_state_scale."""
+    from ..rom.stepping import runaway_bound
+    if kind == MODEL_FROZEN:
+        data = model_data(ops, problem, dt=dt, integrator=integrator, n_freeze=n_freeze, probes=probes,
+                          bound=runaway_bound(ops))
+        return data, pack(data)
+    if kind == MODEL_EXACT_LINEAR:
+        data = exact_data(ops, problem, dt=dt, n_freeze=n_freeze, probes=probes)
+        return data, pack_exact(data)
+    raise ValueError(f"resource kind {kind!r} (allowed: {MODEL_FROZEN}, {MODEL_EXACT_LINEAR})")
+
+
 def platform_folder(fmi):
     """binaries/<folder> of this platform: fmpy.platform (FMI 2) or fmpy.platform_tuple (FMI 3)."""
     import fmpy
     return fmpy.platform if fmi == 2 else fmpy.platform_tuple
 
 
-def write_fmu(path, *, fmi, blob, description, binary, sources=None):
-    """Write the FMU archive to ``path`` (not atomically: see :func:`package_fmu`)."""
+def write_fmu(path, *, fmi, blob, description, binary, sources=None, documentation=None):
+    """Write the FMU archive to ``path`` (not atomically: see :func:`package_fmu`); ``documentation`` maps
+    archive names (``documentation/index.html``, ...) to their bytes or text."""
     import fmpy
     src = data_dir("fmu_src")
     sources = sources or fmu_sources(fmi)
@@ -307,6 +324,8 @@ def write_fmu(path, *, fmi, blob, description, binary, sources=None):
         if fmi == 3:
             from .describe import build_description
             zf.writestr("sources/buildDescription.xml", build_description())
+        for name, content in (documentation or {}).items():
+            zf.writestr(name, content)
 
 
 def validate(path):
@@ -316,7 +335,8 @@ def validate(path):
 
 
 def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_PROBES, fmi=2, integrator=None,
-                step_size=None, progress=True, binaries=None, problem=None, model="frozen") -> FMUSummary:
+                step_size=None, progress=True, binaries=None, problem=None, model="frozen", verify=False,
+                tolerance=None, references=None) -> FMUSummary:
     """Build the FMU of ``scene`` at ``out`` (atomically) and validate it.
 
     Parameters
@@ -340,6 +360,16 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
     model : str
         The reduced model to ship: a registered one with an FMU resource kind
         (``frozen``, ``exact``; module docstring).
+    verify : bool
+        Measure the FMU against the full SPH before it is moved into place (:mod:`.verify`: the training
+        force and an unseen one, errors and run times), and store the figures in its description and in
+        ``documentation/`` (with the plot ``probes.png``).  Without it the documentation says "not measured".
+    tolerance : float, optional
+        With ``verify``: the largest v error on the training force accepted; above it
+        :class:`harness.errors.ToleranceError` is raised and nothing is written (an existing ``out`` is left
+        as it was).
+    references : dict, optional
+        :func:`harness.fmu.verify.references` computed before (several models of one scene).
 
     Raises
     ------
@@ -347,6 +377,8 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
         A bad setting (naming its field and the allowed range); nothing is written.
     SimulationError
         The packaged FMU fails fmpy's validation (nothing is written).
+    ToleranceError
+        ``verify`` with ``tolerance``: the measured training error is above it (nothing is written).
     """
     from ..rom.registry import get_model
     from .build import ensure_binaries
@@ -365,20 +397,108 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
     binaries = binaries or ensure_binaries(quiet=not progress)
     timings["binaries"] = time.perf_counter() - t1
     step = step_size if step_size is not None else min(DEFAULT_STEP, scene.T / 10)
-    description = model_description(fmi, token=data.token, scene=scene, data=data, k_requested=k, step_size=step,
-                                     stop_time=scene.T, input_error=ops.input_error, model=model,
-                                     envelope=envelope)
-    t2 = time.perf_counter()
-    out = Path(out)
-    with atomic_path(out) as tmp:
-        write_fmu(tmp, fmi=fmi, blob=blob, description=description,
-                  binary=binaries.fmi2 if fmi == 2 else binaries.fmi3)
-        problems = validate(tmp)
+    spec = get_model(model)
+
+    def archive(path, verification=None):
+        """Write and validate the FMU at ``path``; its description and documentation carry ``verification``."""
+        description = model_description(fmi, token=data.token, scene=scene, data=data, k_requested=k,
+                                         step_size=step, stop_time=scene.T, input_error=ops.input_error,
+                                         model=model, envelope=envelope, measured=None if verification is None
+                                         else verification.sentence())
+        docs = documentation_files(scene=scene, spec=spec, data=data, k=k, input_error=ops.input_error,
+                                   augmented=ops.augmented, description_xml=description, verification=verification,
+                                   tolerance=tolerance, envelope=envelope)
+        write_fmu(path, fmi=fmi, blob=blob, description=description,
+                  binary=binaries.fmi2 if fmi == 2 else binaries.fmi3, documentation=docs)
+        problems = validate(path)
         if problems:
             raise SimulationError("the packaged FMU fails fmpy's validation: " + "; ".join(problems))
+
+    t2 = time.perf_counter()
+    out = Path(out)
+    verification = None
+    with atomic_path(out) as tmp:
+        archive(tmp)
+        timings["package"] = time.perf_counter() - t2
+        if verify:
+            from .verify import verify_fmu
+            t3 = time.perf_counter()
+            verification = verify_fmu(tmp, scene, probes, refs=references, problem=problem, progress=progress)
+            timings["verify"] = time.perf_counter() - t3
+            check_tolerance(verification, tolerance, out, model)
+            archive(tmp, verification)           # the same model and binary: only the texts change
         size = tmp.stat().st_size
-    timings["package"] = time.perf_counter() - t2
     return FMUSummary(path=out, fmi=fmi, scene=scene.name, k=k, k_v=data.k_v, k_rho=data.k_rho,
                       input_error=ops.input_error, augmented=ops.augmented, probes=list(probes), n_freeze=n_freeze,
                       integrator=integrator, dt=data.dt, token=data.token, size=size, timings=timings, model=model,
-                      envelope=envelope)
+                      envelope=envelope, verification=verification)
+
+
+def check_tolerance(verification, tolerance, out, model):
+    """ToleranceError (one line: the measured error, the tolerance, that ``out`` was not written) when the
+    training-force v error of ``verification`` is above ``tolerance`` (None: no check)."""
+    if tolerance is None:
+        return
+    from ..errors import ToleranceError
+    err = verification.training.err_v
+    if not err <= tolerance:
+        raise ToleranceError(f"the {model} FMU's probe v error on the training force, {err:.3g}, is above the "
+                             f"tolerance {tolerance:g}; '{out}' was not written (an existing file is unchanged)")
+
+
+def documentation_files(*, scene, spec, data, k, input_error, augmented, description_xml, verification=None,
+                        tolerance=None, envelope=None):
+    """{archive name: content} of the FMU's documentation/ folder: index.html, and probes.png when measured."""
+    from .documentation import DOC_INDEX, DOC_PLOT, index_html
+    files = {DOC_INDEX: index_html(scene=scene, spec=spec, data=data, k=k, input_error=input_error,
+                                   augmented=augmented, description_xml=description_xml,
+                                   verification=verification, tolerance=tolerance, envelope=envelope)}
+    if verification is not None:
+        from .verify import probes_png
+        files[DOC_PLOT] = probes_png(verification, title=f"{scene.name}, {spec.name} FMU against the full SPH")
+    return files
+
+
+def package_auto(scene, out, *, tolerance, progress=True, integrator=None, **options):
+    """``sphrom fmu --model auto``: the fastest FMU model whose measured error meets ``tolerance``.
+
+    Every model that can be packaged (:func:`harness.rom.registry.fmu_model_names`) is packaged with the same
+    options into a temporary folder and measured (:func:`package_fmu` with ``verify``; the full SPH runs are
+    made once and shared); the candidates whose v error on the training force is at most ``tolerance`` are
+    kept, and of those the one with the smallest FMU run time on the training force (one run each) is
+    moved to ``out``.  ``integrator`` applies to the time-stepped models only.
+
+    Returns
+    -------
+    (FMUSummary of the chosen model at ``out``, list of the FMUSummary of every candidate)
+
+    Raises
+    ------
+    ToleranceError
+        No model meets ``tolerance`` (the message lists each one's error); nothing is written.
+    """
+    import shutil
+    import tempfile
+
+    from ..errors import ToleranceError
+    from ..rom.registry import fmu_model_names, get_model
+    out = Path(out)
+    candidates = []
+    refs = None
+    with tempfile.TemporaryDirectory(prefix="sphrom-auto-") as tmp:
+        for model in fmu_model_names():
+            own = None if get_model(model).linear else integrator
+            s = package_fmu(scene, Path(tmp) / f"{model}.fmu", model=model, integrator=own, verify=True,
+                            references=refs, progress=progress, **options)
+            refs = s.verification.refs
+            candidates.append(s)
+        good = [s for s in candidates if s.verification.training.err_v <= tolerance]
+        if not good:
+            errors = ", ".join(f"{s.model} {s.verification.training.err_v:.3g}" for s in candidates)
+            raise ToleranceError(f"no model meets the tolerance {tolerance:g} on the training force (v errors: "
+                                 f"{errors}); '{out}' was not written (an existing file is unchanged)")
+        best = min(good, key=lambda s: s.verification.training.fmu_s)
+        with atomic_path(out) as final:
+            shutil.copyfile(best.path, final)
+        best.path = out
+    return best, candidates
