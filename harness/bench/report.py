@@ -224,6 +224,16 @@ def fmu_section(fmu):
             f"{fmu['repeats']}.", ""]
 
 
+def _within_margin(rows, scenes, margin):
+    """", at s = margin the frozen error is r × its value at s = 1 (scene, ...)" from the rows that have both."""
+    ratios = []
+    for s in scenes:
+        at = {r["scale"]: r["frozen_v_error"] for r in rows if r["scene"] == s}
+        if 1.0 in at and margin in at and at[1.0] > 0:
+            ratios.append(f"{at[margin] / at[1.0]:.2g}× ({s})")
+    return f": at s = {margin:g} the frozen error is {', '.join(ratios)} its value at s = 1" if ratios else ""
+
+
 def envelope_section(envelope, image_dir=""):
     """The frozen FMU's training envelope (:func:`harness.bench.envelope.run`): error against amplitude and
     strain, the margin's headroom on the training runs; [] without it."""
@@ -255,7 +265,7 @@ def envelope_section(envelope, image_dir=""):
               f"scales its solution and the exact model's error hardly moves with s ({exact}); the frozen "
               "model's error grows about linearly with the strain (the density linearization of eq. 2.17 and the "
               f"ρ² coefficient): it reaches {FAILURE_ERROR:.0%} at a probe strain of {where}. The FMU's failure "
-              f"strain is {FAILURE_STRAIN:g}, its margin {MARGIN:g}.", "",
+              f"strain is {FAILURE_STRAIN:g}, its margin {MARGIN:g}{_within_margin(rows, scenes, MARGIN)}.", "",
               "Headroom on the training runs (every built-in scene's frozen model on its own scene, "
               f"`{d}envelope_training.csv`): the FMU warns above a coordinate excess of {MARGIN - 1:g} or a probe "
               f"strain of {MARGIN:g}× the trained one.", "",
