@@ -235,12 +235,12 @@ def _within_margin(rows, scenes, margin):
 
 
 def envelope_section(envelope, image_dir=""):
-    """The frozen FMU's training envelope (:func:`harness.bench.envelope.run`): error against amplitude and
-    strain, the margin's headroom on the training runs; [] without it."""
+    """The frozen FMU's training envelope (:func:`harness.bench.envelope.run`: rows, training, command, and
+    failure, the probe strain per scene where the frozen error reaches failure_error): error against
+    amplitude and strain, the margin's headroom on the training runs; [] without it."""
     if not envelope:
         return []
     from ..fmu.envelope import FAILURE_STRAIN, MARGIN
-    from .envelope import FAILURE_ERROR, failure_strain
     rows, d = envelope["rows"], image_dir.rstrip("/") + "/" if image_dir else ""
     scenes = list(dict.fromkeys(r["scene"] for r in rows))
     lines = ["## The training envelope of the frozen FMU", "",
@@ -257,14 +257,14 @@ def envelope_section(envelope, image_dir=""):
     for r in rows:
         lines.append(f"| {r['scene']} | {r['scale']:g} | {r['peak_strain']:.3g} | {r['peak_probe_strain']:.3g} | "
                      f"{r['frozen_v_error']:.3g} | {r['frozen_coordinate_excess']:.3g} | {r['exact_v_error']:.3g} |")
-    reached = [(s, failure_strain(rows, s)) for s in scenes]
-    where = ", ".join(f"{v:.3g} ({s})" for s, v in reached if not math.isnan(v)) or "never in this range"
+    reached = envelope["failure"]              # scene -> probe strain at the failure error (nan: not reached)
+    where = ", ".join(f"{v:.3g} ({s})" for s, v in reached.items() if not math.isnan(v)) or "never in this range"
     exact = "; ".join(f"{s} {min(r['exact_v_error'] for r in rows if r['scene'] == s):.4g} to "
                       f"{max(r['exact_v_error'] for r in rows if r['scene'] == s):.4g}" for s in scenes)
     lines += ["", "The full SPH is linear in J = ρ0/ρ (up to its time stepping of ρ), so a scaled initial state "
               f"scales its solution and the exact model's error hardly moves with s ({exact}); the frozen "
               "model's error grows about linearly with the strain (the density linearization of eq. 2.17 and the "
-              f"ρ² coefficient): it reaches {FAILURE_ERROR:.0%} at a probe strain of {where}. The FMU's failure "
+              f"ρ² coefficient): it reaches {envelope['failure_error']:.0%} at a probe strain of {where}. The FMU's failure "
               f"strain is {FAILURE_STRAIN:g}, its margin {MARGIN:g}{_within_margin(rows, scenes, MARGIN)}.", "",
               "Headroom on the training runs (every built-in scene's frozen model on its own scene, "
               f"`{d}envelope_training.csv`): the FMU warns above a coordinate excess of {MARGIN - 1:g} or a probe "
