@@ -175,6 +175,8 @@ def run(out, scenes=SCENES, scales=SCALES, progress=True):
     training = [training_headroom(name) for name in builtin_names()]
     write_csv(out.with_name("envelope_training.csv"), training)
     command = "python -m harness.bench.envelope " + " ".join(scenes)
+    if tuple(scales) != SCALES:
+        command += " --scales " + ",".join(f"{s:g}" for s in scales)
     failure = {s: failure_strain(rows, s) for s in dict.fromkeys(r["scene"] for r in rows)}
     return {"rows": rows, "training": training, "command": command, "failure": failure,
             "failure_error": FAILURE_ERROR}
