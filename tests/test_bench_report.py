@@ -97,7 +97,7 @@ def _stress_scene(name, fmu):
 
 
 PACKAGED = [{"scene": sc, "model": m, "k": 12, "k_v": 12, "k_rho": 12, "train_err_v": 1e-2, "train_err_rho": 2e-3,
-             "unseen_err_v": 3e-2, "unseen_err_rho": NAN, "unseen_start": "rest", "fmu_s": 0.05, "sph_s": 0.7,
+             "unseen_err_v": 3e-2, "unseen_err_rho": NAN, "unseen_max_drho": 1e-9, "unseen_start": "rest", "fmu_s": 0.05, "sph_s": 0.7,
              "speedup": 14.0, "tolerance": tol, "meets": None if tol is None else True, "note": ""}
             for sc, tol in (("a", 0.08), ("b", None)) for m in ("frozen", "exact")]
 PACKAGED_META = {"command": "python -m harness.bench.fmu_verify a b", "repeats": 3, "wall": 60.0, "machine": "m"}
@@ -115,7 +115,7 @@ MAPS = StressMaps([_stress_scene("a", True), _stress_scene("b", False)], [1, 10]
     (rp.input_direction_section, (DIRECTIONS, ["a", "b"], 0.01), [8]),
     (rp.sph_step_section, (SPH_STEPS, [100, 1000, 10000], 3), [5]),
     (rp.fmu_section, (FMU,), [6, 10]),
-    (lambda rows: rp.packaged_fmu_section(rows, **PACKAGED_META), (PACKAGED,), [13]),
+    (lambda rows: rp.packaged_fmu_section(rows, **PACKAGED_META), (PACKAGED,), [14]),
     (rp.stress_section, (MAPS, "sphrom stress a b", "x/stress", 2), [3, 5, 4, 4] * 2),
 ])
 def test_each_section_is_well_formed_markdown(section, args, columns):

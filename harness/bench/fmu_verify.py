@@ -71,6 +71,7 @@ def measure_scene(name, models, repeats, folder, fmi=2, progress=True):
                      "train_err_v": v.training.err_v, "train_err_rho": v.training.err_rho,
                      "unseen_force": v.unseen.force, "unseen_start": v.unseen.start,
                      "unseen_err_v": v.unseen.err_v, "unseen_err_rho": v.unseen.err_rho,
+                     "unseen_max_drho": v.unseen.max_drho,
                      "fmu_s": fmu_s, "sph_s": sph_s, "speedup": sph_s / fmu_s, "repeats": repeats,
                      "tolerance": tol, "meets": None if tol is None else bool(v.training.err_v <= tol),
                      "note": "; ".join(c.note for c in v.cases if c.note)})

@@ -150,8 +150,9 @@ def print_verification(v, tolerance=None):
     print(f"  measured against the full SPH at the probes (h = {v.step:g} s, T = {v.T:g} s, input {v.input}; "
           "relative L2 of eq. 3.4; one run each; stored in the description and documentation/index.html):")
     for c in v.cases:
-        print(f"    {c.name:8s} f = {c.force} from {c.start}: v error {c.err_v:.3e}, rho-rho0 error "
-              f"{c.err_rho:.3e}; FMU {c.fmu_s:.4f} s, full SPH {c.sph_s:.4f} s ({c.speedup:.3g}x)"
+        rho = ("rho-rho0 of the full SPH is 0" if c.err_rho != c.err_rho else f"rho-rho0 error {c.err_rho:.3e}")
+        print(f"    {c.name:8s} f = {c.force} from {c.start}: v error {c.err_v:.3e}, {rho}, max |rho - rho_SPH| "
+              f"{c.max_drho:.2e} kg/m^3; FMU {c.fmu_s:.4f} s, full SPH {c.sph_s:.4f} s ({c.speedup:.3g}x)"
               + (f"; {c.note}" if c.note else ""))
     if tolerance is not None:
         print(f"  tolerance {tolerance:g} on the training-force v error: met ({v.training.err_v:.3e})")

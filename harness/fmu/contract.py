@@ -18,6 +18,8 @@ FMU_VARIABLES = (
                                "communication step, or linear with an input derivative (FMI 2, linear models)"),
     ("n_freeze", "2", "parameter", "", "refresh period of the frozen coefficients in internal steps, >= 1"),
     ("dt", "3", "parameter", "s", "internal time step, > 0 (start: the scene's dt)"),
+    ("initial_state_scale", "4", "parameter", "1", "the initial state is this multiple of the scene's deviation "
+                                                  "from rest: 0 (start) at rest, 1 the scene's v0, any finite real"),
     ("v_probe_j", "1000+j-1", "output", "m/s", "velocity at probe j (x_j/L), interpolated linearly between "
                                                "particles"),
     ("rho_probe_j", "2000+j-1", "output", "kg/m3", "density at probe j, likewise"),
