@@ -8,6 +8,7 @@ from pathlib import Path
 import pytest
 
 from harness.bench import report as rp
+from harness.bench.linear_tradeoff import DEFAULT_SCENES as TRADEOFF_SCENES
 from harness.bench.stress_maps import StressMaps
 from harness.bench.suite import BenchResults
 
@@ -130,12 +131,19 @@ def test_sections_without_data_are_empty_and_images_are_given_paths():
     assert len(fmu_lines) == 1 and "t = 1.5 s" in fmu_lines[0] and "**0**" in fmu_lines[0]
 
 
+# harness.bench.linear_tradeoff's rows: its default scenes (those of the committed document), both forces
+TRADEOFF = [{"scene": sc, "force": f, "order": 4, "model": m, "state": 4, "online_s": 0.5,
+             "err_sph": 1e-2, "err_linear": 2e-5 if m == "balanced" else NAN, "bound": 3e-5 if m == "balanced" else NAN,
+             "note": ""} for sc in TRADEOFF_SCENES for f in ("training", "unseen") for m in ("balanced", "frozen")]
+
+
 def test_the_report_has_the_committed_documents_sections_in_order(tmp_path):
     results = BenchResults(command="sphrom bench a b --repeats 3 --report", version="0", python="3", machine="m",
                            repeats=3, scene_names=["a", "b"], rows=ROWS, savings=[("a", {8: 0.8}, 0.95)],
                            sizes=[100, 400], scaling=SCALING, ks_scaling=[4, 8], scaling_k=SCALING_K, skips=SKIPS,
                            directions=DIRECTIONS, input_tolerance=0.01, sph_sizes=[100, 1000, 10000],
-                           sph_steps=SPH_STEPS, fmu=FMU, stress=MAPS, stress_command="sphrom bench --report", wall=3)
+                           sph_steps=SPH_STEPS, fmu=FMU, stress=MAPS, stress_command="sphrom bench --report", wall=3,
+                           tradeoff=TRADEOFF, tradeoff_command="python -m harness.bench.linear_tradeoff", tradeoff_wall=1)
     text = rp.report(results, "validation/benchmarks")
     assert text.endswith("|\n") and "\n\n\n" not in text
     assert_well_formed(text.splitlines() + [""])
@@ -156,3 +164,23 @@ def test_the_report_has_the_committed_documents_sections_in_order(tmp_path):
     assert "![cost against N](validation/benchmarks/scaling_n.png)" in text
     assert "![stress map](validation/benchmarks/stress/a_stress.png)" in text
     assert not (ROOT / "validation" / "benchmarks" / "bench.md").exists()
+
+
+def test_linear_tradeoff_section_replaces_its_own_section_only(tmp_path):
+    """python -m harness.bench.linear_tradeoff writes its section into BENCHMARKS.md: a second run replaces it,
+    the other sections stay; the bound's ratio to the measured error is shown where there is a bound."""
+    from harness.bench.linear_tradeoff import SECTION_TITLE, write_section
+    from harness.bench.report import linear_tradeoff_section
+    rows = [{"scene": "s", "force": f, "order": 4, "model": m, "state": 4, "online_s": 0.5, "err_sph": 1e-2,
+             "err_linear": 2e-5 if m == "balanced" else float("nan"), "bound": 3e-5 if m == "balanced" else
+             float("nan"), "note": ""} for f in ("training", "unseen") for m in ("balanced", "frozen")]
+    text = "\n".join(linear_tradeoff_section(rows, "cmd", 1.0)) + "\n"
+    assert text.startswith(SECTION_TITLE) and "### s, training force" in text and "### s, unseen force" in text
+    assert "| 4 | balanced | 4 | 0.5000 | 1.000e-02 | 2.000e-05 | 3.000e-05 | 1.50000 |  |" in text
+    assert "| 4 | frozen | 4 | 0.5000 | 1.000e-02 | — | — | — |  |" in text
+    page = tmp_path / "B.md"
+    page.write_text("# Benchmarks\n\n## A\n\na\n\n" + text + "\n## Z\n\nz\n")
+    write_section(page, text.replace("cmd", "cmd2"))
+    out = page.read_text()
+    assert out.count(SECTION_TITLE) == 1 and "cmd2" in out and "`cmd`" not in out
+    assert out.index("## A") < out.index(SECTION_TITLE) < out.index("## Z") and out.endswith("z\n")
