@@ -166,6 +166,12 @@ static RomStatus resource_file(const char *location, int is_uri, char *path, siz
     return ROM_OK;
 }
 
+/* The FMU's start values where they differ from the core's defaults (modelDescription start=""):
+ * initial_state_scale starts at 0, a component at rest (the core's default 1 is the model's own initial state) */
+static void apply_start_values(Instance *inst) {
+    (void)rom_set_initial_state_scale(inst->state, ROM_INITIAL_STATE_SCALE_START, NULL, 0);
+}
+
 Instance *instance_new(const InstanceVersion *version, const char *fn, const char *name, const char *token,
                        const char *resource_location, int logging_on, InstanceCallback logger, void *environment) {
     char core[ROM_MESSAGE_SIZE];
@@ -214,6 +220,7 @@ Instance *instance_new(const InstanceVersion *version, const char *fn, const cha
     inst->environment = environment;
     inst->log_mask = INSTANCE_LOG_WARNING | INSTANCE_LOG_ERROR | (logging_on ? INSTANCE_LOG_EVENTS : 0u);
     inst->mode = MODE_INSTANTIATED;
+    apply_start_values(inst);
     instance_log(inst, INSTANCE_OK, INSTANCE_LOG_EVENTS, "%s: k_v = %u, k_rho = %u, %u probes, dt = %g s, "
                  "n_freeze = %u, %s", fn, model->k_v, model->k_rho, model->n_probes, model->dt,
                  model->n_freeze_default, model->integrator == ROM_INTEGRATOR_SYMPLECTIC ? "symplectic" : "euler");
@@ -291,6 +298,8 @@ InstanceStatus instance_terminate(Instance *inst) {
 
 InstanceStatus instance_reset(Instance *inst) {
     rom_state_reset(inst->state, 0.0);
+    inst->warned_envelope = 0;
+    apply_start_values(inst);
     inst->mode = MODE_INSTANTIATED;
     return INSTANCE_OK;
 }
@@ -308,6 +317,7 @@ static double get_time(const RomState *s, uint32_t j) { (void)j; return s->time;
 static double get_f(const RomState *s, uint32_t j) { (void)j; return s->f; }
 static double get_dt(const RomState *s, uint32_t j) { (void)j; return s->dt; }
 static int32_t get_n_freeze(const RomState *s) { return s->n_freeze; }
+static double get_initial_state_scale(const RomState *s, uint32_t j) { (void)j; return s->initial_state_scale; }
 
 /* The certified error bounds of a linear model (section BOUNDS: row 0 force, row 1 initial state, one column per
  * probe): per probe j, and the largest over the probes */
@@ -357,6 +367,8 @@ static const Variable VARIABLES[] = {
     {"f", ROM_VR_F, COUNT_ONE, TYPE_FLOAT64, ROLE_INPUT, get_f, NULL, set_f_held, NULL, NULL},
     {"n_freeze", ROM_VR_N_FREEZE, COUNT_ONE, TYPE_INT32, ROLE_FIXED, NULL, get_n_freeze, NULL, rom_set_n_freeze, NULL},
     {"dt", ROM_VR_DT, COUNT_ONE, TYPE_FLOAT64, ROLE_FIXED, get_dt, NULL, rom_set_dt, NULL, NULL},
+    {"initial_state_scale", ROM_VR_INITIAL_STATE_SCALE, COUNT_ONE, TYPE_FLOAT64, ROLE_FIXED, get_initial_state_scale,
+     NULL, rom_set_initial_state_scale, NULL, NULL},
     {"v_probe", ROM_VR_V_PROBE, COUNT_PER_PROBE, TYPE_FLOAT64, ROLE_OUTPUT, rom_v_probe, NULL, NULL, NULL, NULL},
     {"rho_probe", ROM_VR_RHO_PROBE, COUNT_PER_PROBE, TYPE_FLOAT64, ROLE_OUTPUT, rom_rho_probe, NULL, NULL, NULL, NULL},
     {"force_error_bound", ROM_VR_FORCE_ERROR_BOUND, COUNT_ONE, TYPE_FLOAT64, ROLE_CALCULATED, get_force_bound_max,
@@ -523,6 +535,12 @@ InstanceStatus instance_do_step(Instance *inst, const char *fn, double t_comm, d
     }
     if (rom_do_step(inst->state, t_comm, h, inst->message, sizeof inst->message) != ROM_OK) {
         return instance_error(inst, fn, "%s", inst->message);
+    }
+    /* the training envelope (rom_envelope.c): a warning, never an error, once per instance */
+    if (!inst->warned_envelope && rom_envelope_check(inst->state, inst->message, sizeof inst->message)) {
+        inst->warned_envelope = 1;
+        instance_log(inst, INSTANCE_WARNING, INSTANCE_LOG_WARNING, "%s: %s; the frozen model may be inaccurate "
+                     "there (warned once per instance)", fn, inst->message);
     }
     instance_log(inst, INSTANCE_OK, INSTANCE_LOG_EVENTS, "%s: t = %.9g s reached (%lld internal steps in all)", fn,
                  inst->state->time, (long long)inst->state->n);

@@ -81,6 +81,7 @@ typedef struct {
     void *environment;
     uint32_t log_mask;                 /* enabled INSTANCE_LOG_* categories */
     int warned_long_dt;                /* the warning on dt > h was logged */
+    int warned_envelope;               /* the warning on leaving the training envelope was logged (reset re-arms) */
     char message[ROM_MESSAGE_SIZE];    /* the core's last message */
 } Instance;
 

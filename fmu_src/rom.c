@@ -56,11 +56,11 @@ RomState *rom_state_new(const RomModel *model) {
                                                   &s->cache[1].Phi, &s->cache[1].G0, &s->cache[1].G1};
         s->storage_ = rom_alloc_arrays(counts, ptrs, 5 + 3 * ROM_EXACT_CACHE);
     } else {
-        /* a^v, a^rho; M^T, F; the rates; the pair products */
-        const size_t counts[7] = {model->kv_pad, model->kr_pad, model->nm, model->kv_pad, model->kv_pad,
-                                  model->kr_pad, model->n_pairs};
-        double **ptrs[7] = {&s->av, &s->ar, &s->Mt, &s->F, &s->dv, &s->dr, &s->S};
-        s->storage_ = rom_alloc_arrays(counts, ptrs, 7);
+        /* a^v, a^rho; M^T, F; the rates; the pair products; (t0, input rate) */
+        const size_t counts[8] = {model->kv_pad, model->kr_pad, model->nm, model->kv_pad, model->kv_pad,
+                                  model->kr_pad, model->n_pairs, 2};
+        double **ptrs[8] = {&s->av, &s->ar, &s->Mt, &s->F, &s->dv, &s->dr, &s->S, &s->aux};
+        s->storage_ = rom_alloc_arrays(counts, ptrs, 8);
     }
     if (!s->storage_) {
         free(s);
@@ -77,24 +77,37 @@ void rom_state_free(RomState *state) {
     free(state);
 }
 
-void rom_state_reset(RomState *s, double t_start) {
-    if (!s) return;
+/* The initial reduced state from the model's and initial_state_scale.  Frozen: a^v = scale a_v0, a^rho = a_rho0
+ * (the rest density's coordinates); linear: z = scale z0 (z = 0 is rest: v = 0, e = 0); with the Schur form the
+ * forced part X starts at 0 and the free response is scale e^{At} z0.  scale = 1 gives the model's own numbers
+ * bit for bit (1 x a = a). */
+static void apply_initial_state(RomState *s) {
     const RomModel *m = s->model;
+    const double scale = s->initial_state_scale;
     memset(s->av, 0, m->kv_pad * sizeof(double));
     memset(s->ar, 0, m->kr_pad * sizeof(double));
-    memcpy(s->av, m->a_v0, m->k_v * sizeof(double));
-    memcpy(s->ar, m->a_rho0, m->k_rho * sizeof(double));
-    if (s->Mt) memset(s->Mt, 0, (size_t)m->nm * sizeof(double));
-    if (s->F) memset(s->F, 0, m->kv_pad * sizeof(double));
+    for (size_t i = 0; i < m->k_v; i++) s->av[i] = scale * m->a_v0[i];
     if (rom_is_linear(m)) {
+        for (size_t i = 0; i < m->k_rho; i++) s->ar[i] = scale * m->a_rho0[i];
         if (m->Q) {
             memset(s->X, 0, m->k * sizeof(double));            /* forced part; the free response is e^{At} z0 */
         } else {
-            memcpy(s->X, m->z0, m->k * sizeof(double));
+            for (size_t i = 0; i < m->k; i++) s->X[i] = scale * m->z0[i];
         }
-        s->aux[0] = t_start;
-        s->aux[1] = 0.0;
+    } else {
+        memcpy(s->ar, m->a_rho0, m->k_rho * sizeof(double));
     }
+}
+
+void rom_state_reset(RomState *s, double t_start) {
+    if (!s) return;
+    const RomModel *m = s->model;
+    s->initial_state_scale = 1.0;
+    apply_initial_state(s);
+    if (s->Mt) memset(s->Mt, 0, (size_t)m->nm * sizeof(double));
+    if (s->F) memset(s->F, 0, m->kv_pad * sizeof(double));
+    s->aux[0] = t_start;      /* both kinds: the start time and the input rate (0: f held) */
+    s->aux[1] = 0.0;
     s->n = 0;
     s->time = t_start;
     s->f = 0.0;
@@ -131,7 +144,8 @@ RomStatus rom_set_input_rate(RomState *s, double rate, char *message, size_t mes
 }
 
 int rom_interpolates_inputs(const RomModel *m) {
-    return m && rom_is_linear(m);
+    /* the linear models integrate f + rate tau exactly; the frozen model evaluates it at each refresh */
+    return m != NULL;
 }
 
 RomStatus rom_set_dt(RomState *s, double dt, char *message, size_t message_size) {
@@ -151,6 +165,20 @@ RomStatus rom_set_n_freeze(RomState *s, int64_t n_freeze, char *message, size_t 
                         (long long)n_freeze);
     }
     s->n_freeze = (int32_t)n_freeze;
+    return ROM_OK;
+}
+
+RomStatus rom_set_initial_state_scale(RomState *s, double scale, char *message, size_t message_size) {
+    if (!s) return rom_fail(message, message_size, "no state");
+    if (!isfinite(scale)) {
+        return rom_fail(message, message_size, "parameter initial_state_scale = %g is out of range (allowed: a "
+                        "finite real number; 1 the scene's initial state, 0 at rest)", scale);
+    }
+    if (s->n != 0) {
+        return rom_fail(message, message_size, "parameter initial_state_scale can be set only before the first step");
+    }
+    s->initial_state_scale = scale;
+    apply_initial_state(s);
     return ROM_OK;
 }
 

@@ -58,15 +58,17 @@
  *   char[40] token "{xxxxxxxx-xxxx-xxxx-xxxx-xxxxxxxxxxxx}", NUL padded
  *   uint32   crc32 (zlib's) of every byte before it
  *
- * Serialized FMU state, version 1 (little-endian; rom_state_serialize):
+ * Serialized FMU state, version 2 (little-endian; rom_state_serialize):
  *
  *   char[8]  magic "SPHROMST"
- *   uint32   state_version (1), tag (the instance's mode), k_v, k_rho, n_probes, n_pairs
+ *   uint32   state_version (2), tag (the instance's mode), k_v, k_rho, n_probes, n_pairs
  *   char[40] token of the model
  *   uint64   n (internal steps); uint32 n_freeze, 0; float64 time [s], f, dt [s]
  *            (112 bytes so far: ROM_STATE_HEADER_SIZE)
  *   float64  kind 1: a_v[k_v], a_rho[k_rho], M^T rows [k_v][k_rho], F[k_v];
  *            kind 2: a[k_v], b[k_rho], X[k], (t0, df/dt)
+ *   float64  the parameters a state carries: initial_state_scale (version 2: the exact model's
+ *            free response is scaled by it at every step)
  *   uint32   crc32 of every byte before it
  *
  * Both are read through one envelope check (rom_io.c): size, magic, version,
@@ -95,7 +97,7 @@ extern "C" {
 #endif
 
 #define ROM_FORMAT_VERSION 3u
-#define ROM_STATE_VERSION 1u
+#define ROM_STATE_VERSION 2u          /* 2: the parameter block (initial_state_scale) */
 #define ROM_MODEL_FROZEN 1u
 #define ROM_MODEL_EXACT_LINEAR 2u
 #define ROM_INTEGRATOR_EULER 0u
@@ -128,6 +130,8 @@ extern "C" {
 #define ROM_VR_F 1u                  /* input f [m s^-2] */
 #define ROM_VR_N_FREEZE 2u           /* parameter n_freeze */
 #define ROM_VR_DT 3u                 /* parameter dt [s] */
+#define ROM_VR_INITIAL_STATE_SCALE 4u  /* parameter initial_state_scale (1: the scene's initial state, 0: rest) */
+#define ROM_INITIAL_STATE_SCALE_START 0.0  /* its start value in the FMU: a component starts at rest */
 #define ROM_VR_V_PROBE 1000u         /* v_probe_1 .. : 1000 + j */
 #define ROM_VR_RHO_PROBE 2000u       /* rho_probe_1 .. : 2000 + j */
 #define ROM_VR_FORCE_ERROR_BOUND 8u  /* linear models: certified force-channel bound, max over probes [s] */
@@ -214,7 +218,9 @@ typedef struct {
     double f;               /* input, held over a communication step [m s^-2] */
     double dt;              /* internal step [s] (parameter) */
     int32_t n_freeze;       /* refresh period (parameter) */
-    /* exact model (kind 2) */
+    double initial_state_scale;  /* the initial velocity coordinates (frozen) or z (linear) are this times the
+                                  * model's; the density coordinates of the frozen model stay (rho0 is rest) */
+    /* exact model (kind 2); aux in both kinds */
     double *X;              /* [k] the forced part of z (the whole z without the Schur form) */
     double *aux;            /* [2]: aux[0] the start time t0 [s] of the free response, aux[1] the
                              * input rate df/dt over a step [m s^-3] (0: input held) */
@@ -238,12 +244,16 @@ ROM_API uint32_t rom_crc32(const void *data, size_t size);
 /* ---- state -------------------------------------------------------------- */
 ROM_API RomState *rom_state_new(const RomModel *model);
 ROM_API void rom_state_free(RomState *state);
-/* a = a0, n = 0, time = t_start, f = 0, parameters to their defaults */
+/* a = a0, n = 0, time = t_start, f = 0, parameters to their defaults (initial_state_scale 1: the model's own
+ * initial state; the FMU instance then applies its start value ROM_INITIAL_STATE_SCALE_START) */
 ROM_API void rom_state_reset(RomState *state, double t_start);
 ROM_API RomStatus rom_set_start_time(RomState *state, double t_start, char *message, size_t message_size);
 ROM_API RomStatus rom_set_input(RomState *state, double f, char *message, size_t message_size);
 ROM_API RomStatus rom_set_dt(RomState *state, double dt, char *message, size_t message_size);
 ROM_API RomStatus rom_set_n_freeze(RomState *state, int64_t n_freeze, char *message, size_t message_size);
+/* Any finite real, before the first step: the initial state becomes scale x the model's deviation from rest
+ * (frozen: a^v(0) = scale a_v0, a^rho(0) = a_rho0; linear: z(0) = scale z0, z = 0 being rest) */
+ROM_API RomStatus rom_set_initial_state_scale(RomState *state, double scale, char *message, size_t message_size);
 
 /* Advance from t_comm by h > 0, reaching t_comm + h exactly: whole internal
  * steps of dt and one shortened last step.  Fails (message names the time) on
@@ -255,11 +265,13 @@ ROM_API RomStatus rom_do_step(RomState *state, double t_comm, double h, char *me
 ROM_API int rom_step_exceeds(const RomState *state, double h);
 /* n_steps whole internal steps with the runaway check (benchmark, tests) */
 ROM_API RomStatus rom_advance(RomState *state, int64_t n_steps, char *message, size_t message_size);
-/* Exact model only: the input goes linearly over each step, f(t_comm + tau) = f + rate tau
- * (rate 0, the default, holds it), and after the step f = f + rate h, so that the input
- * continues linearly until it is set again.  The frozen model ignores the rate. */
+/* The input goes linearly over each step, f(t_comm + tau) = f + rate tau (rate 0, the
+ * default, holds it), and after the step f = f + rate h, so that the input continues linearly
+ * until it is set again.  The exact model integrates it exactly; the frozen model evaluates it
+ * at each refresh of its force term, at the internal step's time tau = j dt (as
+ * harness/rom/frozen.py and harness/fmu/python_cosim.py do, bit for bit). */
 ROM_API RomStatus rom_set_input_rate(RomState *state, double rate, char *message, size_t message_size);
-/* 1 when the model uses the input rate (the exact linear model: canInterpolateInputs), else 0 */
+/* 1 when the model uses the input rate (canInterpolateInputs: every model now), else 0 */
 ROM_API int rom_interpolates_inputs(const RomModel *model);
 /* The reduced state: a^v (k_v values) then a^rho (frozen) or b = e coordinates (exact) into out[n];
  * returns the count written (0 on a bad argument) */
@@ -286,6 +298,18 @@ ROM_API RomStatus rom_state_check(const RomModel *model, const unsigned char *bu
                                   char *message, size_t message_size);
 ROM_API RomStatus rom_state_deserialize(RomState *state, const unsigned char *buffer, size_t size,
                                         uint32_t *tag, char *message, size_t message_size);
+
+/* ---- the training envelope (rom_envelope.c; sections ENVELOPE, ENVRANGE, ENVPROBE) ---- */
+#define ROM_ENVELOPE_SCALARS 8u          /* columns of ENVELOPE (harness/fmu/envelope.py N_SCALARS) */
+#define ROM_ENVELOPE_CHECK_COORDINATES 1u
+#define ROM_ENVELOPE_CHECK_FORCE 2u
+#define ROM_ENVELOPE_CHECK_STRAIN 4u
+#define ROM_ENVELOPE_CHECK_FAILURE 8u
+#define ROM_ENVELOPE_CHECK_ALL 15u
+/* 1 when the state or the input is outside the model's training envelope widened by its margin (the
+ * message, when given, names the quantity, its value, the trained range and the time); 0 inside it, for
+ * a model without an envelope, and for a linear model (no run-time checks) */
+ROM_API int rom_envelope_check(const RomState *state, char *message, size_t message_size);
 
 ROM_API const char *rom_version(void);
 

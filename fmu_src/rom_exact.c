@@ -148,7 +148,8 @@ static RomStatus exact_step(RomState *s, double t_comm, double h, char *message,
     if (m->Q) {
         double *y = s->work;             /* the exponential's scratch is free again */
         free_response(m, t_new - s->aux[0], y, z);
-        for (size_t i = 0; i < k; i++) z[i] += xn[i];
+        const double scale = s->initial_state_scale;     /* the free response of scale z0 */
+        for (size_t i = 0; i < k; i++) z[i] = scale * z[i] + xn[i];
     } else {
         memcpy(z, xn, k * sizeof(double));
     }

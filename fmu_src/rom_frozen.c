@@ -36,8 +36,8 @@
 /* M(a^rho) = sum_{a<=b} a^rho_a a^rho_b T_ab (eq. 2.23 projected; exact) and
  * the frozen force term F = p f (eq. 2.19), every n_freeze steps.  Each entry
  * is 0.0 + s_0 T_0 + s_1 T_1 + ... in pair order, as in Python; the entries are
- * computed 32 at a time in registers. */
-ROM_INLINE void refresh(RomState *s) {
+ * computed 32 at a time in registers.  f is the input at the step's time. */
+ROM_INLINE void refresh(RomState *s, double f) {
     const RomModel *m = s->model;
     const size_t kr = m->k_rho, np = m->n_pairs, nm = m->nm;
     const double *restrict ar = s->ar;
@@ -60,7 +60,7 @@ ROM_INLINE void refresh(RomState *s) {
     double *restrict F = s->F;
     const size_t kv = m->kv_pad;
     if (m->p) {
-        for (size_t p = 0; p < kv; p++) F[p] = m->p[p] * s->f;
+        for (size_t p = 0; p < kv; p++) F[p] = m->p[p] * f;
     } else {
         for (size_t p = 0; p < kv; p++) F[p] = 0.0;
     }
@@ -160,9 +160,11 @@ static RomStatus state_failure(const RomState *s, double t, char *message, size_
 
 /* count internal steps of length h; returns the number done before a failure
  * (count when all are fine).  Euler: both rates from the old state;
- * symplectic: a^rho first, then the velocity rate with the new a^rho. */
+ * symplectic: a^rho first, then the velocity rate with the new a^rho.  Step j
+ * starts tau0 + j h after the communication point: a refresh there takes the
+ * input f + rate (tau0 + j h) (f itself when the rate is 0, the held input). */
 ROM_CLONES
-static int64_t run_steps_kernel(RomState *s, int64_t count, double h) {
+static int64_t run_steps_kernel(RomState *s, int64_t count, double h, double tau0) {
     const RomModel *m = s->model;
     const int64_t nf = s->n_freeze;
     int64_t phase = s->n % nf;
@@ -172,7 +174,10 @@ static int64_t run_steps_kernel(RomState *s, int64_t count, double h) {
     double *restrict dv = s->dv;
     double *restrict dr = s->dr;
     for (int64_t j = 0; j < count; j++) {
-        if (phase == 0) refresh(s);
+        if (phase == 0) {
+            const double rate = s->aux[1];
+            refresh(s, rate == 0.0 ? s->f : s->f + rate * (tau0 + (double)j * h));
+        }
         density_rate(m, dr, av, s->Mt);
         if (symplectic) {
             axpy(ar, h, dr, m->kr_pad);
@@ -189,9 +194,10 @@ static int64_t run_steps_kernel(RomState *s, int64_t count, double h) {
     return count;
 }
 
-static RomStatus run_steps(RomState *s, int64_t count, double h, double t0, char *message, size_t message_size) {
+static RomStatus run_steps(RomState *s, int64_t count, double h, double t0, double tau0, char *message,
+                           size_t message_size) {
     if (count <= 0) return ROM_OK;
-    const int64_t done = run_steps_kernel(s, count, h);
+    const int64_t done = run_steps_kernel(s, count, h, tau0);
     if (done < count || !state_ok(s)) return state_failure(s, t0 + (double)done * h, message, message_size);
     return ROM_OK;
 }
@@ -216,16 +222,16 @@ RomStatus rom_frozen_step(RomState *s, double t_comm, double h, char *message, s
         n_full = (int64_t)floor(ratio);
         rest = h - (double)n_full * dt;
     }
-    RomStatus status = run_steps(s, n_full, dt, t_comm, message, message_size);
+    RomStatus status = run_steps(s, n_full, dt, t_comm, 0.0, message, message_size);
     if (status == ROM_OK && (n_full == 0 || rest > ROM_SHORT_STEP_MIN * dt)) {
-        status = run_steps(s, 1, rest, t_comm + (double)n_full * dt, message, message_size);
+        status = run_steps(s, 1, rest, t_comm + (double)n_full * dt, (double)n_full * dt, message, message_size);
     }
     return status;     /* on failure the instance is unusable; the message names the time */
 }
 
 RomStatus rom_frozen_advance(RomState *s, int64_t n_steps, char *message, size_t message_size) {
     const double t0 = s->time;
-    const RomStatus status = run_steps(s, n_steps, s->dt, t0, message, message_size);
+    const RomStatus status = run_steps(s, n_steps, s->dt, t0, 0.0, message, message_size);
     s->time = t0 + (double)n_steps * s->dt;
     return status;
 }

@@ -77,4 +77,9 @@ double rom_exact_output(const RomState *s, const double *row);
 /* the smaller J = 1 + e of the probe's two particles (NaN when not finite) */
 double rom_exact_probe_J(const RomState *s, uint32_t j);
 
+/* shape checks of the envelope's sections (rom_envelope.c; rows of rom_io.c's SECTION_RULES) */
+RomStatus rom_envelope_check_scalars(const RomModel *m, const RomSection *s, char *message, size_t message_size);
+RomStatus rom_envelope_check_range(const RomModel *m, const RomSection *s, char *message, size_t message_size);
+RomStatus rom_envelope_check_probe(const RomModel *m, const RomSection *s, char *message, size_t message_size);
+
 #endif /* SPHROM_ROM_INTERNAL_H */

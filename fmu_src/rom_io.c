@@ -385,6 +385,9 @@ static RomStatus check_linear_model(const RomModel *m, const RomSection *s, char
 }
 
 static const SectionRule SECTION_RULES[] = {
+    {"ENVELOPE", "the training envelope's scalars", rom_envelope_check_scalars},
+    {"ENVRANGE", "the training envelope's coordinate ranges", rom_envelope_check_range},
+    {"ENVPROBE", "rho0 at the probes (training envelope)", rom_envelope_check_probe},
     {"BOUNDS", "certified error bounds per probe (force, initial state)", check_bounds},
     {"LINMODEL", "which linear model: 1 exact POD, 2 balanced", check_linear_model},
     {NULL, NULL, NULL},        /* end of the table */
@@ -636,10 +639,12 @@ enum {
 
 /* The state's arrays in the order they are serialized: count rows of cols real
  * entries each, stride apart (frozen: a^v, a^rho, M^T (k_v rows of k_rho, stride
- * kr_pad) and F; linear: a, b, the forced part X, (t0, input rate)). */
+ * kr_pad), F and (t0, input rate); linear: a, b, the forced part X, (t0, input rate); both: the
+ * parameters a state carries, initial_state_scale). */
+#define ROM_STATE_BLOCKS 6
 typedef struct {
-    double *data[4];
-    size_t rows[4], cols[4], strides[4];
+    double *data[ROM_STATE_BLOCKS];
+    size_t rows[ROM_STATE_BLOCKS], cols[ROM_STATE_BLOCKS], strides[ROM_STATE_BLOCKS];
 } StateBlocks;
 
 static StateBlocks state_blocks(const RomState *s) {
@@ -647,11 +652,11 @@ static StateBlocks state_blocks(const RomState *s) {
     StateBlocks b;
     const int linear = rom_is_linear(m);
     double *third = linear ? s->X : s->Mt, *fourth = linear ? s->aux : s->F;
-    const size_t sizes[4][3] = {{1, m->k_v, 0}, {1, m->k_rho, 0},
+    const size_t sizes[ROM_STATE_BLOCKS][3] = {{1, m->k_v, 0}, {1, m->k_rho, 0},
                                 {linear ? 1 : m->k_v, linear ? m->k : m->k_rho, linear ? 0 : m->kr_pad},
-                                {1, linear ? 2 : m->k_v, 0}};
-    double *data[4] = {s->av, s->ar, third, fourth};
-    for (int a = 0; a < 4; a++) {
+                                {1, linear ? 2 : m->k_v, 0}, {linear ? 0 : 1, 2, 0}, {1, 1, 0}};
+    double *data[ROM_STATE_BLOCKS] = {s->av, s->ar, third, fourth, s->aux, (double *)&s->initial_state_scale};
+    for (int a = 0; a < ROM_STATE_BLOCKS; a++) {
         b.data[a] = data[a];
         b.rows[a] = sizes[a][0];
         b.cols[a] = sizes[a][1];
@@ -661,8 +666,9 @@ static StateBlocks state_blocks(const RomState *s) {
 }
 
 static size_t state_doubles(const RomModel *m) {
-    if (rom_is_linear(m)) return (size_t)m->k_v + m->k_rho + m->k + 2;
-    return 2 * (size_t)m->k_v + m->k_rho + (size_t)m->k_rho * m->k_v;
+    const size_t parameters = 1;     /* initial_state_scale */
+    if (rom_is_linear(m)) return (size_t)m->k_v + m->k_rho + m->k + 2 + parameters;
+    return 2 * (size_t)m->k_v + m->k_rho + (size_t)m->k_rho * m->k_v + 2 + parameters;
 }
 
 size_t rom_state_serialized_size(const RomModel *m) {
@@ -691,7 +697,7 @@ void rom_state_serialize(const RomState *s, uint32_t tag, unsigned char *buffer)
     put_f64(buffer + ST_DT, s->dt);
     unsigned char *cursor = buffer + ROM_STATE_HEADER_SIZE;
     const StateBlocks b = state_blocks(s);
-    for (int a = 0; a < 4; a++) {
+    for (int a = 0; a < ROM_STATE_BLOCKS; a++) {
         for (size_t r = 0; r < b.rows[a]; r++) {
             for (size_t c = 0; c < b.cols[a]; c++, cursor += 8) put_f64(cursor, b.data[a][r * b.strides[a] + c]);
         }
@@ -745,7 +751,7 @@ RomStatus rom_state_deserialize(RomState *s, const unsigned char *buffer, size_t
     s->dt = get_f64(buffer + ST_DT);
     const unsigned char *cursor = buffer + ROM_STATE_HEADER_SIZE;
     const StateBlocks b = state_blocks(s);
-    for (int a = 0; a < 4; a++) {
+    for (int a = 0; a < ROM_STATE_BLOCKS; a++) {
         for (size_t r = 0; r < b.rows[a]; r++) {
             for (size_t c = 0; c < b.cols[a]; c++, cursor += 8) b.data[a][r * b.strides[a] + c] = get_f64(cursor);
         }

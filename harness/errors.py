@@ -42,6 +42,15 @@ class SimulationError(Exception):
         self.time = time
 
 
+class ToleranceError(SimulationError):
+    """A packaged model whose measured error is above the tolerance asked for (``sphrom fmu --tolerance``).
+
+    Reported as one line with the error and the tolerance, exit status 4; the output is not written.
+    """
+
+    exit_code = 4
+
+
 class Interrupted(KeyboardInterrupt):
     """SIGINT or SIGTERM received by the command line: a one-line exit, 128 + the signal number."""
 

@@ -8,7 +8,6 @@ from pathlib import Path
 import pytest
 
 from harness.bench import report as rp
-from harness.bench.linear_tradeoff import DEFAULT_SCENES as TRADEOFF_SCENES
 from harness.bench.stress_maps import StressMaps
 from harness.bench.suite import BenchResults
 
@@ -97,6 +96,12 @@ def _stress_scene(name, fmu):
                        for m in methods]}
 
 
+PACKAGED = [{"scene": sc, "model": m, "k": 12, "k_v": 12, "k_rho": 12, "train_err_v": 1e-2, "train_err_rho": 2e-3,
+             "unseen_err_v": 3e-2, "unseen_err_rho": NAN, "unseen_start": "rest", "fmu_s": 0.05, "sph_s": 0.7,
+             "speedup": 14.0, "tolerance": tol, "meets": None if tol is None else True, "note": ""}
+            for sc, tol in (("a", 0.08), ("b", None)) for m in ("frozen", "exact")]
+PACKAGED_META = {"command": "python -m harness.bench.fmu_verify a b", "repeats": 3, "wall": 60.0, "machine": "m"}
+
 MAPS = StressMaps([_stress_scene("a", True), _stress_scene("b", False)], [1, 10], 12.0)
 
 
@@ -110,6 +115,7 @@ MAPS = StressMaps([_stress_scene("a", True), _stress_scene("b", False)], [1, 10]
     (rp.input_direction_section, (DIRECTIONS, ["a", "b"], 0.01), [8]),
     (rp.sph_step_section, (SPH_STEPS, [100, 1000, 10000], 3), [5]),
     (rp.fmu_section, (FMU,), [6, 10]),
+    (lambda rows: rp.packaged_fmu_section(rows, **PACKAGED_META), (PACKAGED,), [13]),
     (rp.stress_section, (MAPS, "sphrom stress a b", "x/stress", 2), [3, 5, 4, 4] * 2),
 ])
 def test_each_section_is_well_formed_markdown(section, args, columns):
@@ -131,20 +137,14 @@ def test_sections_without_data_are_empty_and_images_are_given_paths():
     assert len(fmu_lines) == 1 and "t = 1.5 s" in fmu_lines[0] and "**0**" in fmu_lines[0]
 
 
-# harness.bench.linear_tradeoff's rows: its default scenes (those of the committed document), both forces
-TRADEOFF = [{"scene": sc, "force": f, "order": 4, "model": m, "state": 4, "online_s": 0.5,
-             "err_sph": 1e-2, "err_linear": 2e-5 if m == "balanced" else NAN, "bound": 3e-5 if m == "balanced" else NAN,
-             "note": ""} for sc in TRADEOFF_SCENES for f in ("training", "unseen") for m in ("balanced", "frozen")]
-
-
 def test_the_report_has_the_committed_documents_sections_in_order(tmp_path):
     results = BenchResults(command="sphrom bench a b --repeats 3 --report", version="0", python="3", machine="m",
                            repeats=3, scene_names=["a", "b"], rows=ROWS, savings=[("a", {8: 0.8}, 0.95)],
                            sizes=[100, 400], scaling=SCALING, ks_scaling=[4, 8], scaling_k=SCALING_K, skips=SKIPS,
                            directions=DIRECTIONS, input_tolerance=0.01, sph_sizes=[100, 1000, 10000],
                            sph_steps=SPH_STEPS, fmu=FMU, stress=MAPS, stress_command="sphrom bench --report", wall=3,
-                           tradeoff=TRADEOFF, tradeoff_command="python -m harness.bench.linear_tradeoff", tradeoff_wall=1)
-    text = rp.report(results, "validation/benchmarks")
+                           packaged=PACKAGED, packaged_meta=PACKAGED_META)
+    text = rp.report(results, "validation/benchmarks", existing=(ROOT / "BENCHMARKS.md").read_text())
     assert text.endswith("|\n") and "\n\n\n" not in text
     assert_well_formed(text.splitlines() + [""])
 
@@ -167,20 +167,22 @@ def test_the_report_has_the_committed_documents_sections_in_order(tmp_path):
 
 
 def test_linear_tradeoff_section_replaces_its_own_section_only(tmp_path):
-    """python -m harness.bench.linear_tradeoff writes its section into BENCHMARKS.md: a second run replaces it,
-    the other sections stay; the bound's ratio to the measured error is shown where there is a bound."""
+    """python -m harness.bench.linear_tradeoff writes its section into BENCHMARKS.md, before the stress maps: a
+    second run replaces it, the other sections stay; the bound's ratio to the measured error is shown where
+    there is a bound; sphrom bench --report carries it over."""
     from harness.bench.linear_tradeoff import SECTION_TITLE, write_section
-    from harness.bench.report import linear_tradeoff_section
     rows = [{"scene": "s", "force": f, "order": 4, "model": m, "state": 4, "online_s": 0.5, "err_sph": 1e-2,
-             "err_linear": 2e-5 if m == "balanced" else float("nan"), "bound": 3e-5 if m == "balanced" else
-             float("nan"), "note": ""} for f in ("training", "unseen") for m in ("balanced", "frozen")]
-    text = "\n".join(linear_tradeoff_section(rows, "cmd", 1.0)) + "\n"
+             "err_linear": 2e-5 if m == "balanced" else NAN, "bound": 3e-5 if m == "balanced" else NAN, "note": ""}
+            for f in ("training", "unseen") for m in ("balanced", "frozen")]
+    text = "\n".join(rp.linear_tradeoff_section(rows, "cmd", 1.0)) + "\n"
     assert text.startswith(SECTION_TITLE) and "### s, training force" in text and "### s, unseen force" in text
     assert "| 4 | balanced | 4 | 0.5000 | 1.000e-02 | 2.000e-05 | 3.000e-05 | 1.50000 |  |" in text
     assert "| 4 | frozen | 4 | 0.5000 | 1.000e-02 | — | — | — |  |" in text
+    assert SECTION_TITLE in rp.CARRIED
     page = tmp_path / "B.md"
-    page.write_text("# Benchmarks\n\n## A\n\na\n\n" + text + "\n## Z\n\nz\n")
+    page.write_text("# Benchmarks\n\n## A\n\na\n\n## Stability stress maps\n\nz\n")
+    write_section(page, text)
     write_section(page, text.replace("cmd", "cmd2"))
     out = page.read_text()
-    assert out.count(SECTION_TITLE) == 1 and "cmd2" in out and "`cmd`" not in out
-    assert out.index("## A") < out.index(SECTION_TITLE) < out.index("## Z") and out.endswith("z\n")
+    assert out.count(SECTION_TITLE) == 1 and "cmd2" in out and "`cmd`" not in out and "\n\n\n" not in out
+    assert out.index("## A") < out.index(SECTION_TITLE) < out.index("## Stability stress maps") and out.endswith("z\n")

@@ -105,7 +105,7 @@ def test_fmi2_and_fmi3_agree_bitwise(fmus):
     outs = []
     for fmi in (2, 3):
         with Slave(fmus("forced", fmi)[0]) as s:
-            s.initialize()
+            s.initialize(initial_state_scale=1)
             outs.append(s.run(steps, inputs))
     assert np.array_equal(outs[0], outs[1])
 
@@ -137,7 +137,7 @@ def test_equals_python_frozen_model(fmus, case, integrator, record_property):
     ref = np.hstack([np.array([probe_values(Pv, a) for a in res.a_v]),
                      np.array([probe_values(Pr, a) for a in res.a_rho])])
     with Slave(path) as s:
-        s.initialize()
+        s.initialize(initial_state_scale=1)
         out = s.run([H] * M, inputs)
     residual = relative_residual(out, ref)
     record_property("relative_residual", residual)
@@ -151,7 +151,8 @@ def test_equals_python_frozen_model(fmus, case, integrator, record_property):
     signal["time"] = np.arange(M + 1) * H
     signal["f"][:M] = inputs
     signal["f"][M] = inputs[-1]
-    sim = fmpy.simulate_fmu(str(path3), stop_time=M * H, output_interval=H, input=signal)
+    sim = fmpy.simulate_fmu(str(path3), stop_time=M * H, output_interval=H, input=signal,
+                            start_values={"initial_state_scale": 1.0})
     names = ["v_probe_1", "v_probe_2", "v_probe_3", "rho_probe_1", "rho_probe_2", "rho_probe_3"]
     out3 = np.column_stack([sim[n] for n in names])
     assert relative_residual(out3, ref) <= RTOL
@@ -163,7 +164,7 @@ def test_n_freeze_parameter(fmus):
     rng = np.random.default_rng(3)
     steps, inputs = [0.004] * 30, rng.normal(0, 0.05, 30)
     with Slave(path) as s:
-        s.initialize(n_freeze=3)
+        s.initialize(n_freeze=3, initial_state_scale=1)
         assert s.fmu.getInteger([VR_N_FREEZE]) == [3]
         out = s.run(steps, inputs)
     _, v, r = cosim_reference(data, steps, inputs, n_freeze=3)
@@ -198,7 +199,7 @@ def test_non_multiple_steps_reach_points_exactly(fmus, fmi):
     inputs = rng.normal(0, 0.05, len(steps))
     times, out = [], []
     with Slave(path) as s:
-        s.initialize(n_freeze=4)
+        s.initialize(n_freeze=4, initial_state_scale=1)
         t = 0.0
         out.append(s.output_values())
         for h, f in zip(steps, inputs):
@@ -217,8 +218,8 @@ def test_start_time_and_long_step(fmus):
     """A start time other than 0 and one communication step over the whole horizon."""
     path, data = fmus("forced", 3)
     with Slave(path) as a, Slave(path) as b:
-        a.initialize(start=1.25, f=0.01)
-        b.initialize(start=0.0, f=0.01)
+        a.initialize(start=1.25, f=0.01, initial_state_scale=1)
+        b.initialize(start=0.0, f=0.01, initial_state_scale=1)
         a.do_step(1.25, 0.3)
         b.do_step(0.0, 0.3)
         assert a.time() == 1.25 + 0.3
@@ -237,7 +238,7 @@ def test_state_get_set_serialize_bitwise(fmus, fmi):
     steps = list(rng.uniform(0.5, 30, 30) * data.dt)
     inputs = rng.normal(0, 0.05, 30)
     with Slave(path) as s:
-        s.initialize(n_freeze=7)
+        s.initialize(n_freeze=7, initial_state_scale=1)
         s.run(steps[:12], inputs[:12])
         t1 = s.time()
         state = s.get_state()
@@ -262,13 +263,13 @@ def test_state_get_set_serialize_bitwise(fmus, fmi):
 def test_state_from_another_fmu_is_refused(fmus, fmi):
     path, data = fmus("forced", fmi)
     with Slave(path) as s:
-        s.initialize()
+        s.initialize(initial_state_scale=1)
         s.do_step(0.0, 0.01)
         blob = s.serialize(s.get_state())
     # same sizes, other token (other default n_freeze), and other sizes (k = 5)
     for other_path in (fmus("forced", fmi, n_freeze=7)[0], fmus("forced", fmi, k=5)[0]):
         with Slave(other_path) as o:
-            o.initialize()
+            o.initialize(initial_state_scale=1)
             with pytest.raises(FMICallException):
                 o.deserialize(blob)
             assert any("another FMU" in e for e in o.errors()), o.errors()
@@ -289,7 +290,7 @@ def test_bad_input_values(fmus, fmi):
     path, _ = fmus("forced", fmi)
     for value in (math.nan, math.inf, -math.inf):
         with Slave(path) as s:
-            s.initialize()
+            s.initialize(initial_state_scale=1)
             with pytest.raises(FMICallException):
                 s.set_input(value)
             assert any("not finite" in e for e in s.errors())
@@ -298,16 +299,16 @@ def test_bad_input_values(fmus, fmi):
                 s.do_step(0.0, 0.01)
             assert any("Error state" in e for e in s.errors())
             s.reset()
-            s.initialize(f=0.01)
+            s.initialize(f=0.01, initial_state_scale=1)
             s.do_step(0.0, 0.01)
             assert np.all(np.isfinite(s.output_values()))
     with Slave(path) as s:
         with pytest.raises(FMICallException):
-            s.initialize(n_freeze=0)
+            s.initialize(n_freeze=0, initial_state_scale=1)
         assert any("n_freeze" in e and ">= 1" in e for e in s.errors())
     with Slave(path) as s:
         with pytest.raises(FMICallException):
-            s.initialize(dt=-1.0)
+            s.initialize(dt=-1.0, initial_state_scale=1)
         assert any("dt" in e for e in s.errors())
 
 
@@ -315,13 +316,13 @@ def test_bad_input_values(fmus, fmi):
 def test_runaway_is_an_error_naming_the_time(fmus, fmi):
     path, _ = fmus("forced", fmi)
     with Slave(path) as s:
-        s.initialize(f=1e300)
+        s.initialize(f=1e300, initial_state_scale=1)
         with pytest.raises(FMICallException):
             s.do_step(0.0, 0.01)
         assert any("ran away" in e or "non-finite" in e for e in s.errors())
         assert any("t = " in e for e in s.errors())
     with Slave(path) as s:
-        s.initialize(dt=1e3)
+        s.initialize(dt=1e3, initial_state_scale=1)
         with pytest.raises(FMICallException):
             s.do_step(0.0, 1e6)
         assert any("t = " in e for e in s.errors())
@@ -335,23 +336,23 @@ def test_illegal_call_sequences(fmus, fmi):
             s.do_step(0.0, 0.01)
         assert any("illegal call sequence" in e for e in s.errors())
     with Slave(path) as s:                    # a fixed parameter in step mode
-        s.initialize()
+        s.initialize(initial_state_scale=1)
         with pytest.raises(FMICallException):
             s.set_real([VR_DT], [1e-4])
         assert any("fixed parameter" in e for e in s.errors())
     with Slave(path) as s:                    # the wrong communication point
-        s.initialize()
+        s.initialize(initial_state_scale=1)
         with pytest.raises(FMICallException):
             s.do_step(0.5, 0.01)
         assert any("does not match" in e for e in s.errors())
     for h in (0.0, -0.01, math.nan):
         with Slave(path) as s:
-            s.initialize()
+            s.initialize(initial_state_scale=1)
             with pytest.raises(FMICallException):
                 s.do_step(0.0, h)
             assert s.errors()
     with Slave(path) as s:                    # an unknown value reference
-        s.initialize()
+        s.initialize(initial_state_scale=1)
         with pytest.raises(FMICallException):
             s.get_real([999])
         assert any("unknown value reference" in e for e in s.errors())
@@ -395,7 +396,7 @@ def test_bad_resources_and_token(fmus, fmi, tmp_path):
 def test_debug_logging_categories_are_honoured(fmus, fmi):
     path, _ = fmus("forced", fmi)
     with Slave(path) as s:
-        s.initialize()
+        s.initialize(initial_state_scale=1)
         s.do_step(0.0, 0.01)
         assert not any(cat == "logEvents" for _, cat, _ in s.messages)       # off by default
         s.fmu.setDebugLogging(True, ["logEvents"])
@@ -411,7 +412,7 @@ def test_debug_logging_categories_are_honoured(fmus, fmi):
         assert not s.errors()
         assert any(status == 1 and "unknown log category 'logNoSuchCategory'" in text and "logEvents" in text
                    for status, _, text in s.messages), s.messages
-        s.initialize()
+        s.initialize(initial_state_scale=1)
         s.do_step(0.0, 0.01)                                     # the instance stays usable
 
 
@@ -425,12 +426,12 @@ def test_many_instances_interleaved_and_threads(fmus):
     rng = np.random.default_rng(5)
     steps, inputs = [0.01] * 30, rng.normal(0, 0.05, 30)
     with Slave(path) as s:
-        s.initialize()
+        s.initialize(initial_state_scale=1)
         alone = s.run(steps, inputs)
     instances = [Slave(path, name=f"i{i}") for i in range(3)] + [Slave(other, name="other")]
     try:
         for s in instances:
-            s.initialize()
+            s.initialize(initial_state_scale=1)
         outs = [[s.output_values()] for s in instances]
         t = 0.0
         for h, f in zip(steps, inputs):       # interleave the instances step by step
@@ -447,7 +448,7 @@ def test_many_instances_interleaved_and_threads(fmus):
 
     def job(i):
         with Slave(path, name=f"thread{i}") as s:
-            s.initialize()
+            s.initialize(initial_state_scale=1)
             return s.run(steps, inputs)
 
     cwd = os.getcwd()
@@ -504,7 +505,7 @@ def test_fmu_and_cosim_commands(scene_file, tmp_path, capsys):
     # cosim with an expression: equals the reference with f sampled at the points
     csv_out = tmp_path / "result.csv"
     assert main(["cosim", str(out), "--force", "0.02*sin(2*pi*t/T)", "--t-end", "0.2", "--step", "0.01",
-                 "--out", str(csv_out)]) == 0
+                 "--initial-state-scale", "1", "--out", str(csv_out)]) == 0
     assert "wall time" in capsys.readouterr().out
     table = np.genfromtxt(csv_out, delimiter=",", names=True)
     assert table.dtype.names == ("time", "v_probe_1", "v_probe_2", "rho_probe_1", "rho_probe_2")
@@ -530,6 +531,8 @@ def test_cosim_command_errors(fmus, tmp_path, capsys):
         (["--step", "0"], "--step"),
         (["--t-end", "-1"], "--t-end"),
         (["--n-freeze", "0"], "--n-freeze"),
+        (["--initial-state-scale", "nan"], "--initial-state-scale"),
+        (["--initial-state-scale", "inf"], "--initial-state-scale"),
         (["--force", str(tmp_path / "missing.csv")], "--force"),
         (["--t-end", "0.1", "--step", "0.2"], "--step: 0.2 is out of range (allowed: 0 < step <= t_end = 0.1)"),
     ]
@@ -573,7 +576,7 @@ def test_resources_in_a_folder_that_needs_escaping(fmus, tmp_path, fmi):
     folder = tmp_path / "a folder with space, 100% #1"
     fmpy.extract(str(path), unzipdir=str(folder))
     with Slave(folder) as s:
-        s.initialize()
+        s.initialize(initial_state_scale=1)
         s.do_step(0.0, 0.01)
         assert np.all(np.isfinite(s.output_values()))
 

@@ -105,12 +105,12 @@ def test_frozen_fmu_has_no_bounds_and_bounds_cannot_be_set(fmus, tmp_path):
     md = fmpy.read_model_description(str(path))
     assert not [v for v in md.modelVariables if "error_bound" in v.name]
     with Slave(path) as s:
-        s.initialize()
+        s.initialize(initial_state_scale=1)
         with pytest.raises(FMICallException):
             s.get_real([VR_FORCE_ERROR_BOUND])
         assert any("unknown value reference 8" in e for e in s.errors())
     with Slave(fmus("balanced", "forced", 2)[0]) as s:
-        s.initialize()
+        s.initialize(initial_state_scale=1)
         with pytest.raises(FMICallException):
             s.set_real([VR_FORCE_ERROR_BOUND_PROBE], [1.0])
         assert any("calculated parameter" in e for e in s.errors())
@@ -136,7 +136,7 @@ def test_balanced_fmu_equals_the_python_balanced_model(fmus, case, record_proper
     outs = []
     for fmi in (2, 3) if case == "forced" else (2,):
         with Slave(fmus("balanced", case, fmi)[0]) as s:
-            s.initialize()
+            s.initialize(initial_state_scale=1)
             outs.append(s.run([H] * M, inputs))
     assert np.array_equal(outs[0], outs[-1])
     residual = relative_residual(outs[0], expected)
@@ -151,7 +151,7 @@ def test_balanced_fmu_state_round_trip_is_bitwise(fmus, fmi):
     rng = np.random.default_rng(5)
     steps, inputs = list(rng.uniform(0.002, 0.03, 20)), rng.normal(0, 0.05, 20)
     with Slave(path) as s:
-        s.initialize()
+        s.initialize(initial_state_scale=1)
         s.run(steps[:8], inputs[:8])
         t1 = s.time()
         state = s.get_state()
@@ -171,10 +171,10 @@ def test_balanced_fmu_state_round_trip_is_bitwise(fmus, fmi):
 
 def test_balanced_fmu_refuses_a_state_of_the_exact_fmu(fmus):
     with Slave(fmus("exact", "forced", 2)[0]) as s:
-        s.initialize()
+        s.initialize(initial_state_scale=1)
         blob = s.serialize(s.get_state())
     with Slave(fmus("balanced", "forced", 2)[0]) as s:
-        s.initialize()
+        s.initialize(initial_state_scale=1)
         with pytest.raises(FMICallException):
             s.deserialize(blob)
         assert any("another FMU" in e for e in s.errors()), s.errors()
@@ -185,7 +185,7 @@ def test_balanced_fmu_conserves_energy_over_t_1000(fmus):
     path, data, _ = fmus("balanced", "unforced", 2)
     e0 = float(data.z0 @ data.z0)
     with Slave(path) as s:
-        s.initialize()
+        s.initialize(initial_state_scale=1)
         t = 0.0
         for h in [0.7] * 500 + [1.3] * 500:
             s.do_step(t, h)
@@ -209,7 +209,7 @@ def test_the_fmu_bounds_are_the_python_bounds(fmus, model):
     for fmi in (2, 3) if model == "balanced" else (2,):
         path, data, _ = fmus(model, "forced", fmi)
         with Slave(path) as s:
-            s.initialize()
+            s.initialize(initial_state_scale=1)
             fmax, imax, fb, ib = bound_values(s, len(PROBES))
         np.testing.assert_allclose(fb, ref["force_error_bound"], rtol=1e-12)
         np.testing.assert_allclose(ib, ref["initial_state_error_bound"], rtol=1e-12)
@@ -243,7 +243,7 @@ def test_measured_fmu_error_stays_below_its_bounds(fmus, model, record_property)
 
     def fmu_run(force):
         with Slave(path) as s:
-            s.initialize()
+            s.initialize(initial_state_scale=1)
             out = [s.output_values()[:P]]
             for m in range(M):
                 s.set_input(force[m])
@@ -268,28 +268,25 @@ def test_measured_fmu_error_stays_below_its_bounds(fmus, model, record_property)
 
 
 def test_fmu_balanced_command_prints_its_order_and_bounds(tmp_path, capsys):
-    """`sphrom fmu --model balanced --tolerance`: the order from the tolerance, the bounds and what they bound;
-    option errors name the option."""
+    """`sphrom fmu --model balanced --modes R`: the order, the bounds as stored and what they bound; an order
+    out of range names the option."""
     from harness.cli import main
     from harness.scene import dump_toml, scene_dict
     scene_file = tmp_path / "small.toml"
     scene_file.write_text(dump_toml(scene_dict(scene_for("forced"))))
     out = tmp_path / "bal.fmu"
-    assert main(["fmu", str(scene_file), "--model", "balanced", "--tolerance", "1e-3", "--out", str(out),
+    assert main(["fmu", str(scene_file), "--model", "balanced", "--modes", str(R), "--out", str(out),
                  "--quiet"]) == 0
     text = capsys.readouterr().out
-    assert "balanced model" in text and "from --tolerance 0.001" in text and "order r = " in text
+    assert "balanced model" in text and f"order r = {R} (bt" in text
     assert "force_error_bound_j [s]" in text and "||f||_L2(0,T)" in text and "no shift" in text
     data = unpack(zipfile.ZipFile(out).read("resources/model.bin"))
     lines = [line for line in text.splitlines() if line.strip().startswith(("0.25 |", "0.5 |", "0.66 |"))]
     printed = np.array([[float(x) for x in line.split("|")[1:]] for line in lines])
     np.testing.assert_allclose(printed.T, data.sections["BOUNDS"], rtol=1e-4)       # printed to 5 digits
-    for argv, message in ((["--model", "frozen", "--tolerance", "1e-3"], "--tolerance: applies to models without"),
-                          (["--model", "balanced", "--modes", "6", "--tolerance", "1e-3"], "--tolerance: give"),
-                          (["--model", "balanced", "--modes", "64"], "--modes (k): 64 is out of range (allowed: an "
-                                                                      "order r from 1 to 2N - 1 = 63)")):
-        assert main(["fmu", str(scene_file), "--out", str(tmp_path / "x.fmu"), "--quiet", *argv]) == 2
-        assert message in capsys.readouterr().err
+    assert main(["fmu", str(scene_file), "--model", "balanced", "--modes", "64", "--out", str(tmp_path / "x.fmu"),
+                 "--quiet"]) == 2
+    assert "--modes (k): 64 is out of range (allowed: an order r from 1 to 2N - 1 = 63)" in capsys.readouterr().err
     assert not (tmp_path / "x.fmu").exists()
 
 

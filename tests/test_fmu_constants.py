@@ -7,6 +7,7 @@ from pathlib import Path
 
 import harness.fmu.core as core
 import harness.fmu.describe as describe
+import harness.fmu.envelope as envelope
 import harness.fmu.fmi as fmi
 import harness.fmu.python_cosim as python_cosim
 import harness.fmu.resources as resources
@@ -60,6 +61,12 @@ def test_constants_shared_by_c_and_python():
         "ROM_SECTION_TAG_SIZE": resources.SECTION_TAG_SIZE,
         "ROM_MAX_SECTIONS": resources.MAX_SECTIONS,
         "ROM_MAX_SECTION_VALUES": resources.MAX_SECTION_VALUES,
+        # the training envelope (harness/fmu/envelope.py, fmu_src/rom_envelope.c)
+        "ROM_ENVELOPE_SCALARS": envelope.N_SCALARS,
+        "ROM_ENVELOPE_CHECK_COORDINATES": envelope.CHECK_COORDINATES,
+        "ROM_ENVELOPE_CHECK_FORCE": envelope.CHECK_FORCE,
+        "ROM_ENVELOPE_CHECK_STRAIN": envelope.CHECK_STRAIN,
+        "ROM_ENVELOPE_CHECK_FAILURE": envelope.CHECK_FAILURE,
         # the serialized FMU state and the core's messages
         "ROM_STATE_HEADER_SIZE": fmi.STATE_HEADER_SIZE,
         "ROM_MESSAGE_SIZE": core.MESSAGE_SIZE,
@@ -71,6 +78,8 @@ def test_constants_shared_by_c_and_python():
         "ROM_VR_F": fmi.VR_F,
         "ROM_VR_N_FREEZE": fmi.VR_N_FREEZE,
         "ROM_VR_DT": fmi.VR_DT,
+        "ROM_VR_INITIAL_STATE_SCALE": fmi.VR_INITIAL_STATE_SCALE,
+        "ROM_INITIAL_STATE_SCALE_START": describe.INITIAL_STATE_SCALE_START,
         "ROM_VR_V_PROBE": describe.VR_V_PROBE,
         "ROM_VR_RHO_PROBE": describe.VR_RHO_PROBE,
         "ROM_VR_FORCE_ERROR_BOUND": describe.VR_FORCE_ERROR_BOUND,
@@ -79,7 +88,9 @@ def test_constants_shared_by_c_and_python():
         "ROM_VR_INITIAL_STATE_ERROR_BOUND_PROBE": describe.VR_INITIAL_STATE_ERROR_BOUND_PROBE,
     }
     assert {name: rom.get(name) for name in shared} == shared
-    for name, key in (("f", "ROM_VR_F"), ("n_freeze", "ROM_VR_N_FREEZE"), ("dt", "ROM_VR_DT")):
+    assert describe.VR_INITIAL_STATE_SCALE == fmi.VR_INITIAL_STATE_SCALE
+    for name, key in (("f", "ROM_VR_F"), ("n_freeze", "ROM_VR_N_FREEZE"), ("dt", "ROM_VR_DT"),
+                      ("initial_state_scale", "ROM_VR_INITIAL_STATE_SCALE")):
         assert xml2[name] == xml3[name] == rom[key], name
     assert xml3["time"] == rom["ROM_VR_TIME"] and "time" not in xml2
     # the header sizes are what the layouts add up to (rom.h): 8 magic + 10 uint32 + 3 float64; 8 magic + 6 uint32

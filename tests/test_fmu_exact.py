@@ -98,7 +98,7 @@ def test_exact_fmu_equals_the_python_exact_model(exact_fmus, case, record_proper
     outs = []
     for fmi in (2, 3):
         with Slave(exact_fmus(case, fmi)[0]) as s:
-            s.initialize()
+            s.initialize(initial_state_scale=1)
             outs.append(s.run([H] * M, inputs))
     assert np.array_equal(outs[0], outs[1])
     residual = relative_residual(outs[0], expected)
@@ -113,7 +113,7 @@ def test_exact_fmu_does_not_depend_on_the_communication_step(exact_fmus):
     finals = {}
     for steps in ([0.01] * 40, [0.05] * 8, [0.4], [0.03] * 13 + [0.4 - 13 * 0.03]):
         with Slave(path) as s:
-            s.initialize()
+            s.initialize(initial_state_scale=1)
             out = s.run(steps, [0.0] * len(steps))
             assert s.time() == pytest.approx(0.4, abs=1e-15)
             finals[len(steps)] = out[-1]
@@ -128,7 +128,7 @@ def test_exact_fmu_conserves_energy_over_t_1000(exact_fmus):
     path, data = exact_fmus("unforced", 2)
     e0 = float(data.z0 @ data.z0)
     with Slave(path) as s:
-        s.initialize()
+        s.initialize(initial_state_scale=1)
         assert np.array_equal(s.reduced_state(data.k), data.z0)
         t, drift = 0.0, 0.0
         for h in [0.7] * 500 + [1.3] * 500:                       # two step lengths, 1000 s in all
@@ -149,7 +149,7 @@ def test_exact_fmu_state_round_trip_is_bitwise(exact_fmus, fmi):
     rng = np.random.default_rng(4)
     steps, inputs = list(rng.uniform(0.002, 0.03, 20)), rng.normal(0, 0.05, 20)
     with Slave(path) as s:
-        s.initialize()
+        s.initialize(initial_state_scale=1)
         s.run(steps[:8], inputs[:8])
         t1 = s.time()
         state = s.get_state()
@@ -169,12 +169,12 @@ def test_exact_fmu_state_round_trip_is_bitwise(exact_fmus, fmi):
 def test_exact_fmu_bad_input_and_runaway_are_errors(exact_fmus, fmi):
     path, _ = exact_fmus("forced", fmi)
     with Slave(path) as s:
-        s.initialize()
+        s.initialize(initial_state_scale=1)
         with pytest.raises(FMICallException):
             s.set_input(math.nan)
         assert any("not finite" in e for e in s.errors())
     with Slave(path) as s:
-        s.initialize(f=1e300)
+        s.initialize(f=1e300, initial_state_scale=1)
         with pytest.raises(FMICallException):
             s.do_step(0.0, 0.01)
         assert any(("ran away" in e or "non-finite" in e) and "t = " in e for e in s.errors()), s.errors()
@@ -199,7 +199,7 @@ def _forced_response(path, steps, inputs):
     runs = []
     for f in (inputs, np.zeros_like(inputs)):
         with Slave(path) as s:
-            s.initialize()
+            s.initialize(initial_state_scale=1)
             runs.append(s.run(steps, f))
     d = runs[0] - runs[1]
     n = len(PROBES)

@@ -4,8 +4,10 @@ With fmpy's ``set_input_derivatives`` and a force sampled at the communication
 points, the exact FMU must equal the Python exact model with the input going
 linearly between the samples (``run_exact(..., hold="linear")``) to round-off,
 differ from the held-input run, and without derivatives give exactly today's
-held outputs.  Order 2, another value reference and the frozen model are
-refused with fmi2Error and a message naming what is allowed.
+held outputs.  Order 2 and another value reference are refused with fmi2Error
+and a message naming what is allowed.  The frozen FMU takes the derivative
+too: f + (df/dt) tau evaluated at each refresh of its force term, equal bit for
+bit to the Python mirror (harness.fmu.python_cosim with ``rates``).
 """
 
 import zipfile
@@ -51,11 +53,11 @@ def _force(t):
 
 
 def test_declared_per_model(fmus):
-    """canInterpolateInputs: the exact (linear) model in FMI 2 only; fmpy validates both."""
-    for model, expected in (("exact", True), ("frozen", False)):
+    """canInterpolateInputs in FMI 2 for both models (FMI 3 has no such attribute); fmpy validates both."""
+    for model in ("exact", "frozen"):
         path = fmus(model, 2)
         assert fmpy.validation.validate_fmu(str(path)) == []
-        assert fmpy.read_model_description(str(path)).coSimulation.canInterpolateInputs is expected
+        assert fmpy.read_model_description(str(path)).coSimulation.canInterpolateInputs is True
 
 
 def test_exact_fmu_with_derivatives_equals_linear_input_model(fmus, tmp_path, record_property):
@@ -67,8 +69,8 @@ def test_exact_fmu_with_derivatives_equals_linear_input_model(fmus, tmp_path, re
     t = np.arange(M + 1) * H
     csv = tmp_path / "f.csv"
     np.savetxt(csv, np.column_stack([t, _force(t)]), delimiter=",", header="time,f", comments="", fmt="%.17g")
-    lin_run = run_cosim(path, force=str(csv), t_end=M * H, step=H)
-    held_run = run_cosim(path, force=str(csv), t_end=M * H, step=H, hold_inputs=True)
+    lin_run = run_cosim(path, force=str(csv), t_end=M * H, step=H, initial_state_scale=1)
+    held_run = run_cosim(path, force=str(csv), t_end=M * H, step=H, hold_inputs=True, initial_state_scale=1)
     assert lin_run.input_derivatives and not held_run.input_derivatives
     assert np.allclose(lin_run.values[:, 0], t, rtol=0, atol=1e-12)
     scene_force = lambda s: _force(np.asarray(s, float))                 # noqa: E731
@@ -86,10 +88,10 @@ def test_without_derivatives_outputs_are_bitwise_held(fmus):
     path = fmus("exact", 2)
     inputs = _force(np.arange(M) * H)
     with Slave(path) as s:
-        s.initialize()
+        s.initialize(initial_state_scale=1)
         held = s.run([H] * M, inputs)
     with Slave(path) as s:
-        s.initialize()
+        s.initialize(initial_state_scale=1)
         s.set_input_derivative(5.0)
         s.set_input(inputs[0])                      # a new value without a derivative: held again
         out = [s.output_values()]
@@ -108,7 +110,7 @@ def test_rate_continues_until_f_is_set(fmus):
     finals = []
     for steps in ([2 * H], [H, H]):
         with Slave(path) as s:
-            s.initialize()
+            s.initialize(initial_state_scale=1)
             s.set_input(1e-2)
             s.set_input_derivative(0.5)
             t = 0.0
@@ -126,7 +128,7 @@ def test_rate_continues_until_f_is_set(fmus):
 def test_refused_with_a_message(fmus, case, allowed):
     vr, order, value = case
     with Slave(fmus("exact", 2)) as s:
-        s.initialize()
+        s.initialize(initial_state_scale=1)
         with pytest.raises(FMICallException) as exc:
             from ctypes import c_double, c_int, c_uint32
             s.fmu.fmi2SetRealInputDerivatives(s.fmu.component, (c_uint32 * 1)(vr), 1, (c_int * 1)(order),
@@ -135,12 +137,56 @@ def test_refused_with_a_message(fmus, case, allowed):
         assert any(allowed in text and "fmi2SetRealInputDerivatives" in text for text in s.errors()), s.errors()
 
 
-def test_frozen_model_refuses_input_derivatives(fmus):
+def test_frozen_fmu_with_derivatives_equals_python_bitwise(fmus):
+    """The frozen FMU with f and df/dt at every point, over whole, shortened and sub-dt steps, equals the
+    Python mirror (cosim_reference with rates) bit for bit; a zero rate gives the held run bit for bit; the
+    rate changes the outputs; and f reads back as f + rate h after a step."""
+    from harness.fmu.python_cosim import cosim_reference
+    path = fmus("frozen", 2)
+    data = unpack(zipfile.ZipFile(path).read("resources/model.bin"))
+    dt = data.dt
+    rng = np.random.default_rng(11)
+    steps = [H] * 10 + [2.5 * dt, 0.3 * dt, 7.3 * dt, 13.03 * dt] + list(rng.uniform(0.5, 30, 10) * dt)
+    t = np.concatenate([[0.0], np.cumsum(steps)])
+    inputs = _force(t[:-1])
+    rates = np.diff(_force(t)) / np.diff(t)
+    for n_freeze in (1, 4, 10):
+        with Slave(path) as s:
+            s.initialize(n_freeze=n_freeze, initial_state_scale=1)
+            out = [s.output_values()]
+            tc = 0.0
+            for h, f, rate in zip(steps, inputs, rates):
+                s.set_input(f)
+                s.set_input_derivative(rate)
+                s.do_step(tc, h)
+                tc = tc + h
+                out.append(s.output_values())
+                assert s.get_real([1])[0] == f + rate * h
+        _, v, r = cosim_reference(data, steps, inputs, n_freeze=n_freeze, rates=rates)
+        assert np.array_equal(np.array(out), np.hstack([v, r])), n_freeze
+        _, vh, rh = cosim_reference(data, steps, inputs, n_freeze=n_freeze)
+        assert relative_residual(np.array(out), np.hstack([vh, rh])) > 1e-6
+        _, v0, r0 = cosim_reference(data, steps, inputs, n_freeze=n_freeze, rates=np.zeros(len(steps)))
+        assert np.array_equal(np.hstack([v0, r0]), np.hstack([vh, rh]))
+        with Slave(path) as s:
+            s.initialize(n_freeze=n_freeze, initial_state_scale=1)
+            assert np.array_equal(s.run(steps, inputs), np.hstack([vh, rh]))
+
+
+def test_frozen_fmu_derivative_survives_a_saved_state(fmus):
+    """The rate is part of the FMU state: restored, a step with it equals the step taken before saving."""
     with Slave(fmus("frozen", 2)) as s:
-        s.initialize()
-        with pytest.raises(FMICallException):
-            s.set_input_derivative(0.1)
-        assert any("the frozen model does not interpolate inputs" in text for text in s.errors()), s.errors()
+        s.initialize(initial_state_scale=1)
+        s.set_input(1e-2)
+        s.set_input_derivative(0.7)
+        saved = s.get_state()
+        s.do_step(0.0, H)
+        first = s.output_values()
+        s.set_input(5.0)
+        s.set_input_derivative(-3.0)            # both overwritten by the restored state
+        s.set_state(saved)
+        s.do_step(0.0, H)
+        assert np.array_equal(s.output_values(), first)
 
 
 def test_not_allowed_before_initialization(fmus):
@@ -157,11 +203,12 @@ def test_linear_input_converges_at_second_order_held_at_first(fmus):
     from harness.bench.input_derivatives import relative_l2, velocity_columns
     path = fmus("exact", 2)
     force = "3e-2*sin(2*pi*3*t) + 1e-2"
-    ref = velocity_columns(run_cosim(path, force=force, t_end=0.5, step=1e-3))
+    ref = velocity_columns(run_cosim(path, force=force, t_end=0.5, step=1e-3, initial_state_scale=1))
     errors = {}
     for h, stride in ((0.01, 10), (0.02, 20)):
         for hold in (True, False):
-            v = velocity_columns(run_cosim(path, force=force, t_end=0.5, step=h, hold_inputs=hold))
+            v = velocity_columns(run_cosim(path, force=force, t_end=0.5, step=h, hold_inputs=hold,
+                                           initial_state_scale=1))
             errors[h, hold] = relative_l2(v, ref[::stride][:v.shape[0]])
     assert 1.6 < errors[0.02, True] / errors[0.01, True] < 2.5
     assert 3.0 < errors[0.02, False] / errors[0.01, False] < 5.0

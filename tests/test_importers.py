@@ -28,6 +28,8 @@ def libcosim_outputs(path, names):
     obs = CosimObserver.create_last_value()
     ex.add_observer(observer=obs)
     refs = {v.name.decode(): v.reference for v in ex.slave_variables(idx)}
+    # the scene's initial state (the FMU starts at rest): the comparison needs a trajectory that moves
+    assert ex.real_initial_value(slave_index=idx, variable_reference=refs["initial_state_scale"], value=1.0)
     rows = []
     for _ in range(N_STEPS):
         assert ex.step()
@@ -40,11 +42,11 @@ def test_libcosim_runs_the_fmi2_fmu_as_fmpy_does(tmp_path, model):
     path = tmp_path / f"{model}.fmu"
     package_fmu(fmu_scene("forced"), path, k=6, fmi=2, progress=False, binaries=ensure_binaries(), model=model)
     with Slave(path) as s:
-        s.initialize()
+        s.initialize(initial_state_scale=1)
         names = list(s.outputs)
         ours = s.run([H] * N_STEPS, np.zeros(N_STEPS))[1:]
     theirs = libcosim_outputs(path, names)
-    assert theirs.shape == ours.shape
+    assert theirs.shape == ours.shape and np.ptp(ours[:, 0]) > 0         # a trajectory that moves
     assert np.all(np.isfinite(theirs))
     np.testing.assert_allclose(theirs, ours, rtol=1e-12, atol=1e-15)
 
@@ -64,15 +66,16 @@ def test_fmu_manipulation_toolbox_container_runs_the_fmi3_fmu_as_fmpy_does(tmp_p
     path = tmp_path / f"{model}.fmu"
     package_fmu(fmu_scene("forced"), path, k=6, fmi=3, progress=False, binaries=ensure_binaries(), model=model)
     (tmp_path / "container.json").write_text(json.dumps({"name": "container.fmu", "step_size": H,
-                                                         "fmu": [path.name]}))
+                                                         "fmu": [path.name],
+                                                         "start": [[path.name, "initial_state_scale", "1"]]}))
     done = subprocess.run([tool, "-container", "container.json", "-fmi", "3"], cwd=tmp_path, capture_output=True,
                           text=True, timeout=300)
     assert (tmp_path / "container.fmu").is_file(), done.stdout + done.stderr
     result = fmpy.simulate_fmu(str(tmp_path / "container.fmu"), stop_time=N_STEPS * H, output_interval=H)
     with Slave(path) as s:
-        s.initialize()
+        s.initialize(initial_state_scale=1)
         names = list(s.outputs)
         ours = s.run([H] * N_STEPS, np.zeros(N_STEPS))
     theirs = np.column_stack([result[n] for n in names])
-    assert theirs.shape == ours.shape
+    assert theirs.shape == ours.shape and np.ptp(ours[:, 0]) > 0         # a trajectory that moves
     np.testing.assert_allclose(theirs, ours, rtol=1e-12, atol=1e-15)

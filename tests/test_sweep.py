@@ -218,7 +218,7 @@ def test_agrees_with_a_direct_slave_run(first_run):
         t = np.arange(51) * 0.01
         f = 1e-2 * np.sin(2 * np.pi * 3.0 * t[:-1])
         with Slave(sweep_dir() / f"fmu-{r['fmu']}.fmu") as s:
-            s.initialize(n_freeze=10)
+            s.initialize(n_freeze=10, initial_state_scale=1)
             out = s.run([0.01] * 50, f)
         stats = probe_stats(t, out[:, :2], (0.0, 0.5))
         for name in ("v_max", "v_rms", "v_final"):
@@ -250,7 +250,7 @@ def test_sph_comparison_agrees_with_an_independent_run(first_run, study):
         from harness.fmu.fmi import Slave
         from harness.sweep.fmus import sweep_dir
         with Slave(sweep_dir() / f"fmu-{r['fmu']}.fmu") as s:
-            s.initialize(n_freeze=10)
+            s.initialize(n_freeze=10, initial_state_scale=1)
             v_fmu = s.run([0.01] * 50, f)[:, :2]
         w = time_weights(t)[:, None]
         err = math.sqrt(np.sum(w * (v_fmu - v_sph) ** 2) / np.sum(w * v_sph**2))

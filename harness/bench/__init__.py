@@ -4,5 +4,6 @@
 ``input_direction``, ``sph_scaling``, ``fmu``), ``stress_maps`` the maps of
 ``sphrom stress`` (``stress``, ``stress_fmu``); ``report`` writes their Markdown
 (BENCHMARKS.md, stress.md); ``timing`` and ``tables`` are the shared medians and
-CSV files.
+CSV files.  ``fmu_verify`` (``python -m harness.bench.fmu_verify``) writes the
+section of BENCHMARKS.md on the packaged FMU against the full SPH, every scene.
 """

@@ -102,10 +102,12 @@ def core_rows(base, sizes, k=BENCH_K, n_freeze=BENCH_FREEZE, n_steps=200_000, re
 
 
 def _simulate(path, stop_time, step, keep=None):
-    """Wall time [s] of fmpy.simulate_fmu; the result goes into ``keep`` (a list) when given."""
+    """Wall time [s] of fmpy.simulate_fmu from the scene's initial state (initial_state_scale = 1, the training
+    run's; the FMU's own start is rest); the result goes into ``keep`` (a list) when given."""
     import fmpy
     t0 = time.perf_counter()
-    result = fmpy.simulate_fmu(str(path), stop_time=stop_time, output_interval=step)
+    result = fmpy.simulate_fmu(str(path), stop_time=stop_time, output_interval=step,
+                               start_values={"initial_state_scale": 1.0})
     wall = time.perf_counter() - t0
     if keep is not None:
         keep.append(result)
@@ -114,10 +116,11 @@ def _simulate(path, stop_time, step, keep=None):
 
 def _bare_calls(unzipdir, md, n_calls, h):
     """n_calls fmi2DoStep of length h on an extracted FMU, nothing else: the call cost through fmpy/ctypes."""
-    from ..fmu.fmi import load_fmu
+    from ..fmu.fmi import VR_INITIAL_STATE_SCALE, load_fmu
     fmu = load_fmu(2, unzipdir, md.guid, "bench")
     fmu.instantiate()
     fmu.setupExperiment(startTime=0.0)
+    fmu.setReal([VR_INITIAL_STATE_SCALE], [1.0])          # the scene's initial state, as every bench run
     fmu.enterInitializationMode()
     fmu.exitInitializationMode()
     t = 0.0
@@ -338,11 +341,15 @@ class LeanSlave:
         self.int_vr = (ctypes.c_uint * 1)(2)
         self.int_val = (ctypes.c_int * 1)()
 
-    def start(self, dt=None, n_freeze=None):
-        """fmi2Reset, setupExperiment, parameters, initialization."""
+    def start(self, dt=None, n_freeze=None, initial_state_scale=1.0):
+        """fmi2Reset, setupExperiment, parameters (initial_state_scale default 1: the scene's initial state, as
+        the training run and the Python models have it), initialization."""
+        from ..fmu.fmi import VR_INITIAL_STATE_SCALE
         fmu = self.fmu
         fmu.reset()
         fmu.setupExperiment(startTime=0.0)
+        self.in_val[0] = float(initial_state_scale)
+        fmu.fmi2SetReal(fmu.component, (ctypes.c_uint * 1)(VR_INITIAL_STATE_SCALE), 1, self.in_val)
         if dt is not None:
             self.in_val[0] = dt
             fmu.fmi2SetReal(fmu.component, self.par_vr, 1, self.in_val)

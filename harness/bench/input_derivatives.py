@@ -1,12 +1,14 @@
-"""Held against interpolated inputs: the exact FMU's probe-velocity error against the communication step.
+"""Held against interpolated inputs: the FMUs' probe-velocity error against the communication step.
 
 ``python -m harness.bench.input_derivatives [--out FOLDER]`` packages tenmode's
-exact linear FMU (FMI 2), co-simulates it with f = 1e-2 sin(2 pi t) at
-communication steps of 1, 5, 10, 20, 50 ms with the input held over each step
-and with df/dt (fmi2SetRealInputDerivatives, f linear between the samples),
-and measures the probe velocities against the same FMU at 0.1 ms with
-derivatives: relative L2 over probes and time at the coarse communication
-points.  Writes ``input_derivatives.csv`` and prints a Markdown table.
+exact linear FMU and its frozen-coefficient FMU (FMI 2), co-simulates each with
+f = 1e-2 sin(2 pi t) at communication steps of 1, 5, 10, 20, 50 ms with the
+input held over each step and with df/dt (fmi2SetRealInputDerivatives, f
+linear between the samples: integrated exactly by the exact model, evaluated
+at each refresh of the force term by the frozen one), and measures the probe
+velocities against the same FMU at 0.1 ms with derivatives: relative L2 over
+probes and time at the coarse communication points.  Writes
+``input_derivatives.csv`` and prints a Markdown table per model.
 """
 
 import argparse
@@ -18,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 FORCE = "1e-2*sin(2*pi*t)"
+MODELS = ("exact", "frozen")
 STEPS = (1e-3, 5e-3, 1e-2, 2e-2, 5e-2)
 REFERENCE_STEP = 1e-4
 
@@ -34,12 +37,18 @@ def relative_l2(v, ref):
 
 
 def measure(scene_name="tenmode", steps=STEPS, reference_step=REFERENCE_STEP, force=FORCE, workdir=None,
-            progress=True):
-    """Rows (model, step [s], input, relative L2 v error, communication steps) for the exact FMU.
+            progress=True, models=("exact",)):
+    """Rows (model, step [s], input, relative L2 v error, communication steps) for the FMUs of ``models``.
 
     The reference is the same FMU at ``reference_step`` with input derivatives;
     every step in ``steps`` must be a whole multiple of it.
     """
+    return [row for model in models
+            for row in _measure_model(model, scene_name, steps, reference_step, force, workdir, progress)]
+
+
+def _measure_model(model, scene_name, steps, reference_step, force, workdir, progress):
+    """:func:`measure` for one model's FMU."""
     from ..fmu.build import ensure_binaries
     from ..fmu.cosim import run_cosim
     from ..fmu.package import package_fmu
@@ -48,12 +57,12 @@ def measure(scene_name="tenmode", steps=STEPS, reference_step=REFERENCE_STEP, fo
 
     scene = load_scene(scene_name)
     with tempfile.TemporaryDirectory(dir=workdir) as tmp:
-        path = Path(tmp) / f"{scene_name}-exact.fmu"
-        package_fmu(scene, path, fmi=2, progress=progress, binaries=ensure_binaries(), model="exact")
+        path = Path(tmp) / f"{scene_name}-{model}.fmu"
+        package_fmu(scene, path, fmi=2, progress=progress, binaries=ensure_binaries(), model=model)
         t_end = float(scene.T)
         rows = []
-        with progress_bar(2 * len(steps) + 1, "input derivatives", unit="run", enabled=progress) as bar:
-            ref = run_cosim(path, force=force, t_end=t_end, step=reference_step)
+        with progress_bar(2 * len(steps) + 1, f"input derivatives, {model}", unit="run", enabled=progress) as bar:
+            ref = run_cosim(path, force=force, t_end=t_end, step=reference_step, initial_state_scale=1)
             assert ref.input_derivatives
             v_ref = velocity_columns(ref)
             bar.update(1)
@@ -62,11 +71,12 @@ def measure(scene_name="tenmode", steps=STEPS, reference_step=REFERENCE_STEP, fo
                 if abs(stride * reference_step - h) > 1e-12 * h:
                     raise ValueError(f"step {h:g} s is not a multiple of the reference step {reference_step:g} s")
                 for hold in (True, False):
-                    res = run_cosim(path, force=force, t_end=t_end, step=h, hold_inputs=hold)
+                    res = run_cosim(path, force=force, t_end=t_end, step=h, hold_inputs=hold,
+                                    initial_state_scale=1)
                     n = res.values.shape[0]
                     sub = v_ref[::stride][:n]
                     assert np.allclose(res.values[:, 0], ref.values[::stride, 0][:n], rtol=0, atol=1e-9)
-                    rows.append({"model": "exact", "step_ms": h * 1e3,
+                    rows.append({"model": model, "step_ms": h * 1e3,
                                  "input": "derivative" if res.input_derivatives else "held",
                                  "v_error_rel_l2": relative_l2(velocity_columns(res), sub),
                                  "communication_steps": res.steps})
@@ -74,11 +84,11 @@ def measure(scene_name="tenmode", steps=STEPS, reference_step=REFERENCE_STEP, fo
     return rows
 
 
-def markdown(rows):
-    """A Markdown table: one line per step, held and derivative errors side by side."""
-    by = {(r["step_ms"], r["input"]): r["v_error_rel_l2"] for r in rows}
+def markdown(rows, model="exact"):
+    """A Markdown table of ``model``'s rows: one line per step, held and derivative errors side by side."""
+    by = {(r["step_ms"], r["input"]): r["v_error_rel_l2"] for r in rows if r["model"] == model}
     lines = ["| communication step | v error, f held | v error, f linear (df/dt) |", "| --- | --- | --- |"]
-    for h in sorted({r["step_ms"] for r in rows}):
+    for h in sorted({r["step_ms"] for r in rows if r["model"] == model}):
         lines.append(f"| {h:g} ms | {by[h, 'held']:.2e} | {by[h, 'derivative']:.2e} |")
     return "\n".join(lines)
 
@@ -97,14 +107,18 @@ def main(argv=None):
     p = argparse.ArgumentParser(prog="python -m harness.bench.input_derivatives", description=__doc__.split("\n\n")[0])
     p.add_argument("--out", default="validation/benchmarks", metavar="FOLDER")
     p.add_argument("--scene", default="tenmode")
+    p.add_argument("--model", choices=MODELS, action="append",
+                   help="measure this model's FMU (repeat for several; default both)")
     args = p.parse_args(argv)
-    rows = measure(args.scene)
+    models = tuple(args.model or MODELS)
+    rows = measure(args.scene, models=models)
     out = Path(args.out) / "input_derivatives.csv"
     out.parent.mkdir(parents=True, exist_ok=True)
     write_csv(out, rows)
-    print(f"{args.scene}, exact FMU (FMI 2), f = {FORCE}; probe-velocity error (relative L2 over probes and time) "
-          f"against the same FMU at {REFERENCE_STEP * 1e3:g} ms with df/dt")
-    print(markdown(rows))
+    for model in models:
+        print(f"{args.scene}, {model} FMU (FMI 2), f = {FORCE}; probe-velocity error (relative L2 over probes and "
+              f"time) against the same FMU at {REFERENCE_STEP * 1e3:g} ms with df/dt")
+        print(markdown(rows, model))
     print(f"wrote {out}")
     return 0
 

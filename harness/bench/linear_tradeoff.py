@@ -32,6 +32,7 @@ MODELS = ("balanced", "exact", "frozen", "original")
 UNSEEN_FORCE = "2e-2*sin(2*pi*3.7*t)*exp(-t/T) + 5e-3*sin(2*pi*0.37*t)"      # not the scene's three tones
 PROBES = (0.25, 0.5, 0.66)
 SECTION_TITLE = "## Linear models: time against error"
+STRESS_TITLE = "## Stability stress maps"
 
 
 def _scenes(name):
@@ -144,17 +145,23 @@ def _l2(e, h):
 
 
 def write_section(path, text):
-    """Replace the section SECTION_TITLE of the Markdown file ``path`` with ``text`` (or append it)."""
+    """Replace the section SECTION_TITLE of the Markdown file ``path`` with ``text``; a new one goes before the
+    stress maps (where ``sphrom bench --report`` carries it over, :data:`harness.bench.report.CARRIED`), else at
+    the end."""
     path = Path(path)
     old = path.read_text(encoding="utf-8") if path.exists() else ""
     lines = old.splitlines()
-    try:
+    body = text.rstrip("\n").splitlines()
+    if SECTION_TITLE in lines:
         start = lines.index(SECTION_TITLE)
-    except ValueError:
-        new = old.rstrip("\n") + "\n\n" + text
-    else:
         end = next((i for i in range(start + 1, len(lines)) if lines[i].startswith("## ")), len(lines))
-        new = "\n".join(lines[:start] + text.rstrip("\n").splitlines() + lines[end:]) + "\n"
+        new_lines = lines[:start] + body + ([""] if end < len(lines) else []) + lines[end:]
+    elif STRESS_TITLE in lines:
+        at = lines.index(STRESS_TITLE)
+        new_lines = lines[:at] + body + [""] + lines[at:]
+    else:
+        new_lines = lines + ([""] if lines else []) + body
+    new = "\n".join(new_lines) + "\n"
     from ..report.markdown import write_text
     write_text(path, new if new.endswith("\n") else new + "\n")
 

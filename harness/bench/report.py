@@ -321,11 +321,33 @@ def linear_tradeoff_section(rows, command, wall):
     return lines
 
 
-def report(results, image_dir, stress_image_dir=None):
+# Sections that other commands write into BENCHMARKS.md (each names its command; they sit between the FMU's
+# section and the stress maps): ``sphrom bench --report`` carries them over from the existing document, in
+# its order, so that regenerating the benchmarks never drops them.
+CARRIED = ("## The training envelope of the frozen FMU",
+           "## The packaged FMU against the full SPH, every scene",
+           "## Linear models: time against error")
+PACKAGED_HEADING = "## The packaged FMU against the full SPH, every scene"
+
+
+def split_sections(text):
+    """{"## heading": lines up to the next ``## `` heading} of a Markdown document, in document order."""
+    out, current = {}, None
+    for line in text.splitlines():
+        if line.startswith("## "):
+            current = line
+            out[current] = []
+        if current is not None:
+            out[current].append(line)
+    return out
+
+
+def report(results, image_dir, stress_image_dir=None, existing=None):
     """BENCHMARKS.md from :class:`harness.bench.suite.BenchResults` (text ending in a newline).
 
     ``image_dir`` is the folder of the PNG files as seen from the report; ``stress_image_dir`` that of the
-    heat maps (default ``image_dir``/stress).
+    heat maps (default ``image_dir``/stress); ``existing`` the document being replaced, whose
+    :data:`CARRIED` sections are kept.
     """
     r = results
     d = image_dir.rstrip("/") + "/" if image_dir else ""
@@ -340,11 +362,52 @@ def report(results, image_dir, stress_image_dir=None):
     lines += input_direction_section(r.directions, r.scene_names, r.input_tolerance)
     lines += sph_step_section(r.sph_steps, r.sph_sizes, r.repeats)
     lines += fmu_section(r.fmu)
+    old = split_sections(existing or "")
+    carried = {h: body for h, body in old.items() if h in CARRIED}
+    if getattr(r, "packaged", None):
+        carried[PACKAGED_HEADING] = packaged_fmu_section(r.packaged, **r.packaged_meta)
+    for heading in [h for h in old if h in carried] + [h for h in carried if h not in old]:
+        body = list(carried[heading])
+        while body and not body[-1]:
+            body.pop()
+        lines += body + [""]
     if r.stress is not None:
         lines += stress_section(r.stress, r.stress_command, f"{d}stress" if stress_image_dir is None
                                 else stress_image_dir, level=2)
-    if r.tradeoff:
-        lines += linear_tradeoff_section(r.tradeoff, r.tradeoff_command, r.tradeoff_wall)
     while lines and not lines[-1]:
         lines.pop()
     return "\n".join(lines) + "\n"
+
+
+# ---------------------------------------------------------------------------
+# written by python -m harness.bench.fmu_verify into BENCHMARKS.md
+# ---------------------------------------------------------------------------
+
+def packaged_fmu_section(rows, *, command, repeats, wall, machine):
+    """The packaged FMU against the full SPH for every scene and model (rows of
+    :func:`harness.bench.fmu_verify.measure_scene`): what ``sphrom fmu`` measures and stores in each FMU."""
+    lines = ["## The packaged FMU against the full SPH, every scene", "",
+             f"Produced by `{command}` ({machine}, {wall:.0f} s wall). Each scene's FMU (FMI 2, the scene's "
+             "default k, n_freeze = 10, probes x/L = 0.25, 0.5, 0.66), as `sphrom fmu SCENE --model MODEL` "
+             "builds and measures it: co-simulated through fmpy at its default communication step (f at the "
+             "points, held, or linear with df/dt where the FMU declares canInterpolateInputs) against the full "
+             "SPH (f at every internal step), relative L² errors of eq. 3.4 at the probes (v; ρ as ρ − ρ0). "
+             "Training: the scene's force and initial state. Unseen: A sin(2π·0.7 t) (A: the training force's "
+             "peak, or 2π·0.7·max|v0| for a free scene), from the start given in the table. Times: medians of "
+             f"{repeats} runs of the training case, timed in turn in one run, setup excluded (the FMU through "
+             "fmpy on an instantiated FMU, Python's per-step overhead included; the full SPH's compiled time "
+             "loop); speed-up = full SPH / FMU. Tolerance: the full SPH's own v error against the reference "
+             "(the paper's, `paper.sph_error_v`): met when the FMU adds less than that.", "",
+             "| scene | model | k_v, k_ρ | training: v | ρ − ρ0 | unseen: v | ρ − ρ0 | unseen from | FMU [s] | "
+             "full SPH [s] | speed-up | tolerance | met |",
+             "| --- | --- | --- | ---: | ---: | ---: | ---: | --- | ---: | ---: | ---: | ---: | --- |"]
+    for r in rows:
+        met = "—" if r["meets"] is None else ("yes" if r["meets"] else "**no**")
+        lines.append(f"| {r['scene']} | {r['model']} | {r['k_v']}, {r['k_rho']} | {_fmt(r['train_err_v'])} | "
+                     f"{_fmt(r['train_err_rho'])} | {_fmt(r['unseen_err_v'])} | {_fmt(r['unseen_err_rho'])} | "
+                     f"{r['unseen_start']} | {r['fmu_s']:.4f} | {r['sph_s']:.4f} | {r['speedup']:.1f}× | "
+                     f"{_fmt(r['tolerance'], '.3g')} | {met} |")
+    notes = [f"{r['scene']} {r['model']}: {r['note']}" for r in rows if r.get("note")]
+    if notes:
+        lines += ["", "FMU failures: " + "; ".join(notes) + "."]
+    return lines + [""]

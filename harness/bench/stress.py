@@ -111,9 +111,9 @@ def run_one(ctx: Context, method, dt, amplitude=1.0, T=None, force=None, n_sampl
         else:
             spec = get_model(method)
             ops = (operators or ctx.operators)[method]
-            state = (ops.a_v0 * amplitude, ops.a_rho0.copy())        # the density starts at ρ0
+            # the velocity coordinates (a linear model: z) scaled, the density at ρ0: as the FMU's initial_state_scale
             res = spec.run(ops, problem, n_steps=n, dt=dt, sample_steps=steps, n_freeze=10, force=force,
-                           state=state, step=dt, hold="held")
+                           initial_state_scale=amplitude, step=dt, hold="held")
             t, rho = res.t, res.rho
             e = energy(problem, res.v, rho)
     except SimulationError as exc:

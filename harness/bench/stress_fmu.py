@@ -2,7 +2,8 @@
 
 For each stress setting the FMU (FMI 2, through fmpy and :class:`harness.fmu.fmi.Slave`) runs the same
 reduced model as the Python rows of :mod:`harness.bench.stress`: the scene's x1 basis and operators,
-the initial velocity coordinates scaled by the amplitude, the internal step ``dt`` (the FMU's ``dt``
+the initial velocity coordinates scaled by the amplitude (the FMU's ``initial_state_scale``, so one FMU per
+scene and model serves every amplitude), the internal step ``dt`` (the FMU's ``dt``
 parameter; the exact model ignores it), n_freeze = 10, the force held over each communication step.
 Communication points are the stress run's sample steps, so the FMU's internal grid is the Python one.
 
@@ -14,7 +15,6 @@ at which an output was non-finite without an error status: the contract is that 
 
 from __future__ import annotations
 
-import dataclasses
 import re
 import shutil
 import tempfile
@@ -22,8 +22,6 @@ from pathlib import Path
 
 import numpy as np
 
-from ..fmu.resources import MODEL_EXACT_LINEAR, MODEL_FROZEN
-from ..rom.common import runaway_bound
 from ..rom.registry import fmu_model_names, get_model
 from ..sph.diagnostics import energy
 from ..sph.solver import step_count
@@ -41,32 +39,8 @@ def _outcome(e, rho_bad_time=None):
             "energy_end": float(e[-1])}
 
 
-def _frozen_resource(ops, problem, dt, amplitude):
-    """(ModelData, bytes) of resource kind 1 (frozen coefficients), the velocity coordinates scaled."""
-    from ..fmu.package import DEFAULT_PROBES
-    from ..fmu.resources import model_data, pack
-    data = model_data(ops, problem, dt=dt, integrator="euler", n_freeze=N_FREEZE, probes=DEFAULT_PROBES,
-                      bound=runaway_bound(ops))
-    data = dataclasses.replace(data, a_v0=np.asarray(data.a_v0) * amplitude)
-    return data, pack(data)
-
-
-def _linear_resource(ops, problem, dt, amplitude):
-    """(ExactData, bytes) of resource kind 2 (linear: A, B, z0), the initial state scaled (its runaway bound
-    follows the scaled state, as the Python run's)."""
-    from ..fmu.package import DEFAULT_PROBES
-    from ..fmu.resources import exact_data, pack_exact
-    lin = dataclasses.replace(ops, z0=ops.z0 * amplitude)
-    data = exact_data(lin, problem, dt=dt, n_freeze=N_FREEZE, probes=DEFAULT_PROBES)
-    return data, pack_exact(data)
-
-
-# model_kind of resources/model.bin (ReducedModel.fmu_kind) -> the stress FMU's numbers and their bytes
-RESOURCES = {MODEL_FROZEN: _frozen_resource, MODEL_EXACT_LINEAR: _linear_resource}
-
-
 class FMUStress:
-    """FMUs made from a stress context's operators, one per (scene, model, amplitude), in a private folder.
+    """FMUs made from a stress context's operators, one per (scene, model), in a private folder.
 
     Call :meth:`close` (or use as a context manager) to remove the folder.
     """
@@ -84,20 +58,20 @@ class FMUStress:
     def __exit__(self, *exc):
         self.close()
 
-    def fmu(self, ctx, model, amplitude):
-        """(extracted folder, fields(z) -> (v, ρ), k) of the FMU for ``ctx`` with the amplified initial state."""
-        key = (ctx.scene.name, id(ctx), model, float(amplitude))
+    def fmu(self, ctx, model):
+        """(extracted folder, fields(z) -> (v, ρ), k) of the FMU for ``ctx`` (the amplitude is set at run time)."""
+        key = (ctx.scene.name, id(ctx), model)
         if key in self._made:
             return self._made[key]
         from fmpy import extract
 
         from ..fmu.build import ensure_binaries
         from ..fmu.describe import model_description
-        from ..fmu.package import write_fmu
+        from ..fmu.package import operator_resource, write_fmu
 
         scene, problem = ctx.scene, ctx.problem
         ops = ctx.operators[model]
-        data, blob = RESOURCES[get_model(model).fmu_kind](ops, problem, scene.sph.dt, amplitude)
+        data, blob = operator_resource(get_model(model).fmu_kind, ops, problem, dt=scene.sph.dt, n_freeze=N_FREEZE)
 
         def fields(z):
             z = np.atleast_2d(z)
@@ -121,11 +95,12 @@ class FMUStress:
         force = force or scene.force
         n = max(1, step_count(T, dt))
         steps = np.unique(np.linspace(0, n, min(n, n_samples) + 1).astype(np.int64))
-        folder, fields, k = self.fmu(ctx, model, amplitude)
+        folder, fields, k = self.fmu(ctx, model)
         energies, rho_bad, silent_nan = [], None, 0
         with Slave(folder, name="stress") as s:
             try:
-                s.initialize(dt=None if get_model(model).linear else dt, n_freeze=N_FREEZE)
+                s.initialize(dt=None if get_model(model).linear else dt, n_freeze=N_FREEZE,
+                             initial_state_scale=amplitude)
                 for i in range(steps.size):
                     z = s.reduced_state(k)
                     v, rho = fields(z)

@@ -54,9 +54,8 @@ class BenchResults:
     stress: object = None         # harness.bench.stress_maps.StressMaps, None without the maps
     stress_command: str = ""
     wall: float = 0.0             # [s]
-    tradeoff: list | None = None  # harness.bench.linear_tradeoff rows (its own command), None: no such section
-    tradeoff_command: str = ""
-    tradeoff_wall: float = 0.0    # [s]
+    packaged: list | None = None  # rows of harness.bench.fmu_verify (python -m harness.bench.fmu_verify), or None
+    packaged_meta: dict | None = None   # its command, repeats, wall, machine
 
 
 def run_benchmarks(scenes, out, *, ks=None, repeats=5, sizes=SIZES, ks_scaling=KS_SCALING, sph_sizes=SPH_SIZES,

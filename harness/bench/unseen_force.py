@@ -39,7 +39,7 @@ def forced_response(path, h, inputs):
     runs = []
     for f in (inputs, np.zeros_like(inputs)):
         with Slave(path) as s:
-            s.initialize()
+            s.initialize(initial_state_scale=1)
             try:
                 runs.append(s.run([h] * len(f), f))
             except Exception:                  # fmpy's FMICallException: the FMU logged why
@@ -52,7 +52,7 @@ def forced_response(path, h, inputs):
 def _free_probe_velocities(path, h, n):
     from ..fmu.fmi import Slave
     with Slave(path) as s:
-        s.initialize()
+        s.initialize(initial_state_scale=1)
         out = s.run([h] * n, np.zeros(n))
     return out[:, :out.shape[1] // 2]
 

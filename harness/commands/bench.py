@@ -66,7 +66,9 @@ def run(args):
                        progress=not args.quiet)
     if args.report:
         path = Path(args.report)
-        write_text(path, report(r, Path(os.path.relpath(out.resolve(), path.resolve().parent)).as_posix()))
+        existing = path.read_text() if path.is_file() else None
+        write_text(path, report(r, Path(os.path.relpath(out.resolve(), path.resolve().parent)).as_posix(),
+                                existing=existing))
     for name, by_k, paper in r.savings:
         print(f"{name}: frozen (n_freeze = 10) saves " + ", ".join(f"{100 * v:.0f} % (k = {k})" for k, v in
                                                                    by_k.items())

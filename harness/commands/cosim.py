@@ -1,6 +1,6 @@
 """``sphrom cosim``: co-simulate an sphrom FMU through fmpy.simulate_fmu."""
 
-from .options import add_n_freeze, positive_float
+from .options import add_n_freeze, number, positive_float
 
 
 def add_parser(sub):
@@ -17,6 +17,9 @@ def add_parser(sub):
                    help="end time [s] (default: the FMU's DefaultExperiment stopTime)")
     p.add_argument("--step", type=positive_float, metavar="H", help="communication step [s] (default: its stepSize)")
     add_n_freeze(p, help="the n_freeze parameter (default: the packaged value)")
+    p.add_argument("--initial-state-scale", type=number, metavar="S",
+                   help="the initial_state_scale parameter: the initial state is S x the scene's deviation from "
+                        "rest (1: the scene's initial velocity v0, 0: at rest; default: the FMU's start value, 0)")
     p.add_argument("--hold-inputs", action="store_true",
                    help="hold f over each communication step even when the FMU can interpolate inputs "
                         "(default: pass df/dt with fmi2SetRealInputDerivatives when the FMU declares it)")
@@ -30,7 +33,7 @@ def run(args):
 
     out = check_output_path(args.out)
     result = run_cosim(args.fmu, force=args.force, t_end=args.t_end, step=args.step, n_freeze=args.n_freeze,
-                        hold_inputs=args.hold_inputs)
+                        hold_inputs=args.hold_inputs, initial_state_scale=args.initial_state_scale)
     write_csv(out, result)
     t_end = result.values[-1, 0]
     print(f"cosim {args.fmu}: {result.steps} communication steps to t = {t_end:g} s, "
@@ -38,5 +41,7 @@ def run(args):
           f"({'fmpy FMU2Slave loop' if result.input_derivatives else 'fmpy.simulate_fmu'})")
     print("input: f linear over each step (df/dt by fmi2SetRealInputDerivatives)" if result.input_derivatives
           else "input: f held over each communication step")
+    for text in result.warnings:             # e.g. the FMU left its training envelope
+        print(f"FMU warning: {' '.join(text.split())}")
     print(f"wrote {out}")
     return 0

@@ -1,39 +1,67 @@
 """``sphrom fmu``: package a scene's reduced model (frozen-coefficient or exact linear) as an FMU."""
 
+import argparse
+import sys
+import textwrap
+
 from .options import add_n_freeze, add_quiet, add_scene, float_list, int_at_least, max_probes, one_of, positive_float
+
+DESCRIPTION = ("Build the frozen-coefficient reduced model of SCENE (eqs. 2.19-2.24: full SPH "
+               "and POD reused from the cache or run now, the force profile as input direction), "
+               "write its numbers to resources/model.bin, build or reuse the binary with CMake, "
+               "zip the FMU, validate it with fmpy, measure it against the full SPH (the training force and "
+               "an unseen one, A sin(2 pi 0.7 t), from rest where the FMU can start at rest: probe errors of "
+               "eq. 3.4 and run times, stored in its description and in documentation/index.html with a plot) "
+               "and print a summary. Input f [m s^-2]; outputs v_probe_j [m s^-1] and rho_probe_j [kg m^-3]; "
+               "parameters n_freeze, dt (frozen), initial_state_scale; linear models (exact, balanced) also "
+               "carry certified error bounds. Exit status 4: the measured error is above --tolerance (nothing "
+               "written).")
 
 
 def add_parser(sub):
+    from ..fmu.contract import help_text
     p = sub.add_parser("fmu", help="package a scene's reduced model as an FMI 2.0/3.0 co-simulation FMU",
-                       description="Build the frozen-coefficient reduced model of SCENE (eqs. 2.19-2.24: full SPH "
-                                   "and POD reused from the cache or run now, the force profile as input direction), "
-                                   "write its numbers to resources/model.bin, build or reuse the binary with CMake, "
-                                   "zip the FMU, validate it with fmpy and print a summary. Input f [m s^-2]; "
-                                   "outputs v_probe_j [m s^-1] and rho_probe_j [kg m^-3]; parameters n_freeze, dt.")
+                       description="\n".join(textwrap.wrap(DESCRIPTION, 100)), epilog=help_text(),
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
     add_scene(p)
     p.add_argument("--modes", type=int_at_least(1), metavar="K",
                    help="POD modes k (default: the largest of the scene's rom.accel_modes); balanced: its order r "
                         "(1 to 2N - 1)")
     p.add_argument("--tolerance", type=positive_float, metavar="TOL",
-                   help="balanced: instead of --modes, the smallest order r with 2 sum_{i>r} sigma_i <= TOL "
-                        "2 sum sigma_i (0 < TOL < 1; default 1e-3 when neither is given)")
+                   help="the relative probe v error asked for (0 < TOL < 1): the FMU's measured error on the "
+                        "training force must meet it (else exit status 4, nothing written); balanced without "
+                        "--modes: its order is the smallest r with 2 sum_{i>r} sigma_i <= TOL 2 sum sigma_i "
+                        "(default 1e-3 when neither is given)")
     add_n_freeze(p, default=10, help="default refresh period n_freeze of the frozen coefficients")
     p.add_argument("--probes", type=float_list(1, max_probes, lo=0.0, hi=1.0), metavar="X1,X2,...",
                    default="0.25,0.5,0.66", help="probe positions in units of L, in [0, 1] (default 0.25,0.5,0.66)")
     p.add_argument("--fmi", type=one_of("2", "3"), metavar="2|3", default="2", help="FMI version (default 2)")
     p.add_argument("--integrator", type=one_of("euler", "symplectic"), metavar="euler|symplectic",
                    help="time integrator of the frozen model (default: the scene's)")
-    p.add_argument("--model", metavar="frozen|exact|balanced", default="frozen",
+    p.add_argument("--model", metavar="frozen|exact|balanced|auto", default="frozen",
                    help="reduced model: frozen (eqs. 2.19-2.24, internal dt; default), exact (the exact linear "
                         "model in the specific volume, advanced by the matrix exponential over each "
                         "communication step) or balanced (balanced reduction of the full linear SPH, no POD basis, "
-                        "the same C code as exact); the linear models carry certified error bounds")
+                        "the same C code as exact); the linear models carry certified error bounds; auto (needs "
+                        "--tolerance) packages and measures every model and keeps the fastest whose "
+                        "training-force error meets the tolerance")
+    p.add_argument("--no-verify", dest="verify", action="store_false",
+                   help="skip the measurement against the full SPH (the documentation then says 'not measured')")
     p.add_argument("--out", required=True, metavar="FILE.fmu")
     add_quiet(p)
     p.set_defaults(handler=run)
 
 
 def run(args):
+    from ..errors import ToleranceError
+    try:
+        return _run(args)
+    except ToleranceError as exc:       # the library's one line, with what to try next
+        hint = "more --modes" if args.model == "auto" else "--model auto tries every model, --modes sets k"
+        raise ToleranceError(f"{exc}; {hint}") from None
+
+
+def _run(args):
     from ..errors import UserError
     from ..fmu.package import check_options, package_fmu
     from ..runio import check_output_path
@@ -44,13 +72,36 @@ def run(args):
         raise UserError(f"--out: '{out}' must end in .fmu")
     fmi = int(args.fmi)
     from ..rom.registry import MODELS, fmu_model_names
-    if args.model not in fmu_model_names():
-        raise UserError(f"--model: {args.model!r} is out of range (allowed: {', '.join(fmu_model_names())})")
+    if args.model not in fmu_model_names() + ("auto",):
+        raise UserError(f"--model: {args.model!r} is out of range (allowed: {', '.join(fmu_model_names())}, auto)")
+    if args.tolerance is not None and not args.verify and (args.model == "auto" or args.modes is not None
+                                                           or MODELS[args.model].basis_kind is not None):
+        raise UserError("--tolerance: needs the measurement (drop --no-verify)")
     scene = load_scene(args.scene)
-    check_options(scene, k=args.modes, n_freeze=args.n_freeze, probes=args.probes, fmi=fmi,
-                  integrator=args.integrator, model=args.model, tolerance=args.tolerance)
-    s = package_fmu(scene, out, k=args.modes, n_freeze=args.n_freeze, probes=args.probes, fmi=fmi,
-                    integrator=args.integrator, progress=not args.quiet, model=args.model, tolerance=args.tolerance)
+    if args.model == "auto":
+        if args.tolerance is None:
+            raise UserError("--model: auto needs --tolerance TOL (the error the chosen model must meet)")
+        for model in fmu_model_names():
+            check_options(scene, k=args.modes, n_freeze=args.n_freeze, probes=args.probes, fmi=fmi,
+                          integrator=None if MODELS[model].linear else args.integrator, model=model,
+                          tolerance=args.tolerance)
+        from ..fmu.package import package_auto
+        s, candidates = package_auto(scene, out, tolerance=args.tolerance, k=args.modes, n_freeze=args.n_freeze,
+                                     probes=args.probes, fmi=fmi, integrator=args.integrator,
+                                     progress=not args.quiet)
+        print(f"fmu {s.scene}: --model auto, tolerance {args.tolerance:g} on the training-force v error; "
+              "candidates (each packaged and measured):")
+        for c in candidates:
+            tr = c.verification.training
+            verdict = ("chosen: the fastest that meets it" if c is s else
+                       "meets it, slower" if tr.err_v <= args.tolerance else "above the tolerance")
+            print(f"  {c.model:8s} v error {tr.err_v:.3e}, FMU {tr.fmu_s:.4f} s: {verdict}")
+    else:
+        check_options(scene, k=args.modes, n_freeze=args.n_freeze, probes=args.probes, fmi=fmi,
+                      integrator=args.integrator, model=args.model, tolerance=args.tolerance)
+        s = package_fmu(scene, out, k=args.modes, n_freeze=args.n_freeze, probes=args.probes, fmi=fmi,
+                        integrator=args.integrator, progress=not args.quiet, model=args.model, verify=args.verify,
+                        tolerance=args.tolerance)
     from ..rom.operators import INPUT_TOLERANCE
     added = " (+ the force profile direction, not in the POD span)" if s.augmented else ""
     print(f"fmu {s.scene}: FMI {s.fmi}.0 co-simulation, {s.model} model, wrote {s.path} ({s.size / 1024:.1f} KiB)")
@@ -78,12 +129,37 @@ def run(args):
         print(f"  integrator {s.integrator}, dt = {s.dt:g} s, n_freeze = {s.n_freeze} (parameters dt, n_freeze)")
     print(f"  probes at x/L = {', '.join(f'{x:g}' for x in s.probes)}: outputs v_probe_1..{len(s.probes)}, "
           f"rho_probe_1..{len(s.probes)}; input f")
+    if s.envelope is not None:
+        for line in s.envelope.lines(linear=model.linear):
+            print(f"  envelope: {line}")
     if s.bounds is not None:
         print_bounds(s)
     t = s.timings
     print(f"  token {s.token}; fmpy validation: no problems; times: model {t['model']:.2f} s, "
-          f"binaries {t['binaries']:.2f} s, package {t['package']:.2f} s")
+          f"binaries {t['binaries']:.2f} s, package {t['package']:.2f} s"
+          + (f", verification {t['verify']:.2f} s" if "verify" in t else ""))
+    print_verification(s.verification, args.tolerance)
     return 0
+
+
+def print_verification(v, tolerance=None):
+    """The measurement's lines (stdout) and its warnings (stderr); nothing when not measured."""
+    if v is None:
+        print("  not measured against the full SPH (--no-verify)")
+        return
+    print(f"  measured against the full SPH at the probes (h = {v.step:g} s, T = {v.T:g} s, input {v.input}; "
+          "relative L2 of eq. 3.4; one run each; stored in the description and documentation/index.html):")
+    for c in v.cases:
+        print(f"    {c.name:8s} f = {c.force} from {c.start}: v error {c.err_v:.3e}, rho-rho0 error "
+              f"{c.err_rho:.3e}; FMU {c.fmu_s:.4f} s, full SPH {c.sph_s:.4f} s ({c.speedup:.3g}x)"
+              + (f"; {c.note}" if c.note else ""))
+    if tolerance is not None:
+        print(f"  tolerance {tolerance:g} on the training-force v error: met ({v.training.err_v:.3e})")
+    slow = [c.name for c in v.cases if c.speedup < 1]
+    if slow:
+        print(f"sphrom fmu: warning: the FMU is slower than the full SPH on the {' and '.join(slow)} force "
+              f"(full SPH / FMU = {min(c.speedup for c in v.cases):.3g}); the full SPH may serve better here "
+              "(or fewer --modes, or another --model)", file=sys.stderr)
 
 
 def print_bounds(s):

@@ -1,5 +1,7 @@
 """``sphrom rom``: run a reduced model from a basis file."""
 
+import sys
+
 from .options import add_n_freeze, add_quiet, add_scene, modes_pair, positive_float
 
 BOUND_PROBE_SAMPLES = 4000      # at least T/4000 between samples of the measured errors (h |A|_1 <= 0.05 up to 40000)
@@ -47,6 +49,7 @@ def run(args):
     from ..pod.io import read_basis
     from ..pod.pipeline import error_steps, on_steps
     from ..rom.registry import get_model
+    from ..rom.stepping import reduced_stability_warnings
     from ..runio import check_output_path, scene_attrs, write_run
     from ..scene import load_scene
     from ..sph.solver import build_problem, step_count
@@ -82,6 +85,8 @@ def run(args):
         ops = model.build(problem, basis, k_v, k_r, input_direction="augment" if args.augment_input else "auto")
     except UserError as exc:
         raise UserError(f"--basis: '{args.basis}': {exc}") from None
+    for line in reduced_stability_warnings(model, ops, scene.sph.dt, integrator, scene.T):
+        print(f"sphrom rom: warning: {line}", file=sys.stderr)
     result = model.run(ops, problem, dt=scene.sph.dt, n_steps=n, sample_steps=steps, integrator=integrator,
                        n_freeze=args.n_freeze, refresh=args.refresh, step=args.step, hold=args.hold, force=scene.force,
                        progress=not args.quiet)

@@ -14,7 +14,11 @@ Modules: ``resources`` (model.bin: format and token), ``build`` (CMake),
 ``describe`` (modelDescription.xml from the templates in modelDescription/),
 ``package``, ``python_cosim`` (the equality reference of the C code),
 ``fmi``, ``cosim``, ``core``, ``sph_c`` (the C full SPH step, for the
-benchmark).  The FMU benchmark is :mod:`harness.bench.fmu`.
+benchmark), ``verify`` (the packaged FMU against the full SPH: errors and run
+times), ``documentation`` (documentation/index.html), ``contract`` (the
+variables as documented to users).  The FMU benchmark is
+:mod:`harness.bench.fmu`; the verification for every scene is
+:mod:`harness.bench.fmu_verify`.
 """
 
 from ..lazy import lazy_exports

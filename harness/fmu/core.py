@@ -14,6 +14,12 @@ from .sph_c import SphC
 MESSAGE_SIZE = 1024         # ROM_MESSAGE_SIZE of fmu_src/rom.h: the core's message buffers
 
 
+class _Section(ctypes.Structure):
+    """fmu_src/rom.h RomSection."""
+    _fields_ = [("tag", ctypes.c_char * 9), ("rows", ctypes.c_uint32), ("cols", ctypes.c_uint32),
+                ("data", ctypes.POINTER(ctypes.c_double))]
+
+
 class CoreError(RuntimeError):
     """A rom_* call failed; the message is the core's."""
 
@@ -63,6 +69,10 @@ class Core:
         lib.rom_expm_count.restype = ctypes.c_int64
         lib.rom_model_kind.argtypes = [vp]
         lib.rom_model_kind.restype = ctypes.c_uint32
+        lib.rom_model_section.argtypes = [vp, cp]
+        lib.rom_model_section.restype = ctypes.POINTER(_Section)
+        lib.rom_envelope_check.argtypes = [vp, cp, sz]
+        lib.rom_envelope_check.restype = ctypes.c_int
         self.lib = lib
         self._sph = None
 
@@ -97,6 +107,21 @@ class CoreModel:
 
     def reset(self, t_start=0.0):
         self.core.lib.rom_state_reset(self.state, t_start)
+
+    def section(self, tag):
+        """The tagged section ``tag`` as the core read it: a (rows, cols) array, or None when absent."""
+        import numpy as np
+        ptr = self.core.lib.rom_model_section(self.model, tag.encode("ascii"))
+        if not ptr:
+            return None
+        s = ptr.contents
+        n = s.rows * s.cols
+        return np.ctypeslib.as_array(s.data, shape=(n,)).copy().reshape(s.rows, s.cols) if n else np.zeros((0, 0))
+
+    def envelope_check(self):
+        """The core's envelope message for the current state and input (None inside the envelope)."""
+        return self._msg.value.decode() if self.core.lib.rom_envelope_check(self.state, self._msg,
+                                                                            MESSAGE_SIZE) else None
 
     def set_n_freeze(self, n_freeze):
         self._check(self.core.lib.rom_set_n_freeze(self.state, n_freeze, self._msg, MESSAGE_SIZE))

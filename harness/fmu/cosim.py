@@ -12,7 +12,7 @@ import csv
 import math
 import tempfile
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -38,6 +38,8 @@ class CosimResult:
         Communication steps.
     input_derivatives : bool
         Whether df/dt was passed with fmi2SetRealInputDerivatives (else f held over each step).
+    warnings : list of str
+        The FMU's logged warnings (e.g. leaving its training envelope).
     """
 
     names: list
@@ -45,6 +47,7 @@ class CosimResult:
     wall_time: float
     steps: int
     input_derivatives: bool = False
+    warnings: list = field(default_factory=list)
 
 
 class LogCapture:
@@ -65,6 +68,9 @@ class LogCapture:
 
     def errors(self):
         return [m for s, m in self.messages if s >= 3]
+
+    def warnings(self):
+        return [m for s, m in self.messages if s == 1]
 
 
 def read_fmu_description(path):
@@ -143,7 +149,7 @@ def _is_instantiate_failure(exc) -> bool:
     return type(exc) is Exception and "instantiate" in str(exc).lower()
 
 
-def _run_with_derivatives(fmu, md, signal, t_end, step, start, outputs):
+def _run_with_derivatives(fmu, md, signal, t_end, step, start, outputs, warnings=None):
     """The co-simulation loop on fmpy's FMU2Slave, f and df/dt set before each step.
 
     fmpy 0.3.32's ``simulate_fmu(set_input_derivatives=True)`` cannot be used: it
@@ -167,7 +173,8 @@ def _run_with_derivatives(fmu, md, signal, t_end, step, start, outputs):
         raise
     with slave:
         try:
-            slave.initialize(n_freeze=start.get("n_freeze"), f=float(f[0]))
+            slave.initialize(n_freeze=start.get("n_freeze"), f=float(f[0]),
+                             initial_state_scale=start.get("initial_state_scale"))
             rows = [slave.get_real(out_vr)]
             for j in range(n):
                 slave.set_input(f[j])
@@ -177,6 +184,8 @@ def _run_with_derivatives(fmu, md, signal, t_end, step, start, outputs):
         except Exception as exc:
             detail = "; ".join(slave.errors()) or str(exc)
             raise SimulationError(f"the FMU failed: {detail}") from None
+    if warnings is not None:                 # (status, text) pairs, as LogCapture keeps them
+        warnings.extend((status, text) for status, _, text in messages if status == 1)
     return np.column_stack([times, np.array(rows)])
 
 
@@ -241,7 +250,8 @@ def can_interpolate_inputs(md) -> bool:
     return md.fmiVersion == "2.0" and bool(md.coSimulation.canInterpolateInputs)
 
 
-def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None, hold_inputs=False) -> CosimResult:
+def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None, hold_inputs=False,
+              initial_state_scale=None) -> CosimResult:
     """Co-simulate ``fmu`` with fmpy.simulate_fmu.
 
     Parameters
@@ -259,12 +269,15 @@ def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None, hold_inputs
     hold_inputs : bool
         Hold f over each step even when the FMU can interpolate inputs (default: an FMU
         that declares canInterpolateInputs gets df/dt, f going linearly between the samples).
+    initial_state_scale : float, optional
+        The ``initial_state_scale`` parameter (default the FMU's start value: 0, at rest; 1 starts
+        from the scene's initial state).
 
     Raises
     ------
     FieldError
         A bad value of ``fmu`` (also: an FMU that fails to instantiate, with the reason it
-        logged), ``force``, ``t_end``, ``step`` or ``n_freeze``.
+        logged), ``force``, ``t_end``, ``step``, ``n_freeze`` or ``initial_state_scale``.
     SimulationError
         The FMU reported an error (its message is included).
     """
@@ -287,6 +300,15 @@ def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None, hold_inputs
         if isinstance(n_freeze, bool) or int(n_freeze) != n_freeze or not 1 <= n_freeze <= 2**31 - 1:
             raise FieldError("n_freeze", f"{n_freeze!r} is out of range (allowed: an integer >= 1)")
         start["n_freeze"] = int(n_freeze)
+    if initial_state_scale is not None:
+        if isinstance(initial_state_scale, bool) or not isinstance(initial_state_scale, (int, float)) \
+                or not math.isfinite(initial_state_scale):
+            raise FieldError("initial_state_scale", f"{initial_state_scale!r} is out of range (allowed: a finite "
+                             "real number; 1 the scene's initial state, 0 at rest)")
+        if not any(v.name == "initial_state_scale" for v in md.modelVariables):
+            raise FieldError("initial_state_scale", f"'{fmu}' has no parameter initial_state_scale (an FMU made "
+                             "by an older sphrom: it always starts from the scene's initial state)")
+        start["initial_state_scale"] = float(initial_state_scale)
     signal = force_signal(force, t_end, step)
     derivatives = can_interpolate_inputs(md) and not hold_inputs and signal is not None
     outputs = [v.name for v in md.modelVariables if v.causality == "output"]
@@ -294,9 +316,9 @@ def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None, hold_inputs
     logger = capture.fmi2 if md.fmiVersion == "2.0" else capture.fmi3
     t0 = time.perf_counter()
     if derivatives:
-        values = _run_with_derivatives(fmu, md, signal, t_end, step, start, outputs)
+        values = _run_with_derivatives(fmu, md, signal, t_end, step, start, outputs, warnings=capture.messages)
         return CosimResult(names=["time"] + outputs, values=values, wall_time=time.perf_counter() - t0,
-                           steps=steps, input_derivatives=True)
+                           steps=steps, input_derivatives=True, warnings=capture.warnings())
     try:
         with tempfile.TemporaryDirectory(prefix="sphrom-cosim-") as unzipdir:   # removed also when it fails
             fmpy.extract(str(fmu), unzipdir=unzipdir)
@@ -313,7 +335,7 @@ def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None, hold_inputs
     wall = time.perf_counter() - t0
     names = ["time"] + outputs
     values = np.column_stack([result[n] for n in names])
-    return CosimResult(names=names, values=values, wall_time=wall, steps=steps)
+    return CosimResult(names=names, values=values, wall_time=wall, steps=steps, warnings=capture.warnings())
 
 
 def write_csv(path, result: CosimResult):

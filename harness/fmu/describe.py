@@ -16,6 +16,8 @@ from ..paths import data_dir
 
 VR_V_PROBE = 1000        # fmu_src/rom.h ROM_VR_V_PROBE
 VR_RHO_PROBE = 2000      # ROM_VR_RHO_PROBE
+VR_INITIAL_STATE_SCALE = 4   # ROM_VR_INITIAL_STATE_SCALE
+INITIAL_STATE_SCALE_START = 0.0  # ROM_INITIAL_STATE_SCALE_START: the FMU starts at rest
 VR_FORCE_ERROR_BOUND = 8                     # ROM_VR_FORCE_ERROR_BOUND
 VR_INITIAL_STATE_ERROR_BOUND = 9             # ROM_VR_INITIAL_STATE_ERROR_BOUND
 VR_FORCE_ERROR_BOUND_PROBE = 5000            # ROM_VR_FORCE_ERROR_BOUND_PROBE
@@ -67,7 +69,7 @@ def bound_text(bounds):
 
 
 def model_description(fmi: int, *, token, scene, data, k_requested, step_size, stop_time, input_error,
-                      model="frozen", bounds=None):
+                      model="frozen", envelope=None, measured=None, bounds=None):
     """The modelDescription.xml text for FMI version ``fmi`` (2 or 3).
 
     Parameters
@@ -85,6 +87,10 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
         Relative projection error of the force profile on the POD velocity modes.
     model : str
         The registered reduced model packaged (its title heads the description).
+    envelope : Envelope, optional
+        What the basis was trained on (:mod:`harness.fmu.envelope`), appended to the description.
+    measured : str, optional
+        The verification's sentence (errors against the full SPH, run times), appended to the description.
     bounds : dict, optional
         Linear models: the certified error bounds (:func:`harness.rom.balanced.error_bounds`), declared as
         calculated parameters.
@@ -94,6 +100,14 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
     probes = [{"j": j + 1, "x": f"{x:g}", "v_vr": VR_V_PROBE + j, "rho_vr": VR_RHO_PROBE + j,
                "v_index": FIXED_VARIABLES + 1 + j, "rho_index": FIXED_VARIABLES + 1 + data.n_probes + j}
               for j, x in enumerate(data.probe_x)]
+    # nominal values from the training envelope: max |v| and rho0 at each probe, the training force amplitude
+    # (none for f = 0: a free response trained no force scale)
+    for j, p in enumerate(probes):
+        v_max = envelope.probe_v_max[j] if envelope is not None else 0.0
+        p["v_nominal"] = number(v_max if v_max > 0 else 1.0)
+        p["rho_nominal"] = number(envelope.probe_rho0[j] if envelope is not None else 1.0)
+    f_nominal = ([{"f_nominal": number(envelope.force_amplitude)}]
+                 if envelope is not None and envelope.force_amplitude > 0 else [])
     outputs = ([{"vr": p["v_vr"], "index": p["v_index"]} for p in probes]
                + [{"vr": p["rho_vr"], "index": p["rho_index"]} for p in probes])
     augmented = data.k_v > k_requested
@@ -116,6 +130,10 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
                    f"N = {scene.sph.n_particles}, L = {scene.L:g} m): {modes}; {stepping}; probes at x/L = {where}"
                    + (f"; input projection error {input_error:.3g}" if input_error == input_error else "")
                    + (f"; error bounds {bound_text(bounds)}" if bounds is not None else "") + ".")
+    if envelope is not None:
+        description += " Training envelope: " + "; ".join(envelope.lines(linear=spec.linear)) + "."
+    if measured:
+        description += " " + measured
     values = {
         "model_name": f"sphrom {scene.name}",
         "token": token,
@@ -126,17 +144,20 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
         "stop_time": number(stop_time),
         "step_size": number(step_size),
         "n_freeze": int(data.n_freeze),
+        # FMI 2: after the probes (the outputs keep their indices)
+        "initial_state_scale_index": FIXED_VARIABLES + 2 * data.n_probes + 1,
         "dt": number(data.dt),
         "profile": scene.fields["profile"].text,
-        # FMI 2 only: the exact linear model integrates f + (df/dt) tau over a step exactly
-        "can_interpolate_inputs": "true" if spec.linear else "false",
-        "input_hold": ("held over each communication step, or linear with the derivative of "
-                       "fmi2SetRealInputDerivatives" if spec.linear else "held over each communication step"),
+        # FMI 2 only: the linear models integrate f + (df/dt) tau over a step exactly, the frozen model
+        # evaluates it at each refresh of its force term
+        "can_interpolate_inputs": "true",
+        "input_hold": "held over each communication step, or linear with the derivative of "
+                      "fmi2SetRealInputDerivatives",
     }
     # FMI 3 fixedInternalStepSize only where there is one: the linear model steps by the matrix exponential
     internal_step = [] if spec.linear else [{}]
-    lists = {"probes": probes, "outputs": outputs, "internal_step": internal_step}
-    lists.update(bound_lists(bounds, data, FIXED_VARIABLES + 2 * data.n_probes))
+    lists = {"probes": probes, "outputs": outputs, "internal_step": internal_step, "f_nominal": f_nominal}
+    lists.update(bound_lists(bounds, data, FIXED_VARIABLES + 2 * data.n_probes + 1))
     return render(template(f"fmi{fmi}.xml"), values, lists)
 
 

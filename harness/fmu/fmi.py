@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 VR_TIME, VR_F, VR_N_FREEZE, VR_DT = 0, 1, 2, 3     # fmu_src/rom.h
+VR_INITIAL_STATE_SCALE = 4                         # ROM_VR_INITIAL_STATE_SCALE (the FMU's start: 0, at rest)
 
 # fmpy's FMU constructors chdir() into binaries/<platform> to load the library
 # and chdir() back: the working directory is per process, so two threads that
@@ -134,22 +135,27 @@ class Slave:
         return [text for status, _, text in self.messages if status >= 3]
 
     # -- lifecycle -------------------------------------------------------------
-    def initialize(self, start=0.0, n_freeze=None, dt=None, f=None):
-        """Set up, set parameters/input, enter and exit initialization mode."""
+    def initialize(self, start=0.0, n_freeze=None, dt=None, f=None, initial_state_scale=None):
+        """Set up, set parameters/input, enter and exit initialization mode.
+
+        A parameter left None keeps the FMU's start value (``initial_state_scale``: 0, the component at
+        rest; pass 1 for the scene's initial state, as the training run had it)."""
         fmu = self.fmu
         if self.fmi == 2:
             fmu.setupExperiment(startTime=start)
-            self._set_parameters(n_freeze, dt)
+            self._set_parameters(n_freeze, dt, initial_state_scale)
             fmu.enterInitializationMode()
         else:
-            self._set_parameters(n_freeze, dt)
+            self._set_parameters(n_freeze, dt, initial_state_scale)
             fmu.enterInitializationMode(startTime=start)
         if f is not None:
             self.set_input(f)
         fmu.exitInitializationMode()
         return self
 
-    def _set_parameters(self, n_freeze, dt):
+    def _set_parameters(self, n_freeze, dt, initial_state_scale=None):
+        if initial_state_scale is not None:
+            self.set_real([VR_INITIAL_STATE_SCALE], [float(initial_state_scale)])
         if n_freeze is not None:
             if self.fmi == 2:
                 self.fmu.setInteger([VR_N_FREEZE], [int(n_freeze)])

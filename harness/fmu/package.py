@@ -49,7 +49,8 @@ MODEL_IDENTIFIER = "sphrom"
 
 # fmu_src/ files an FMU carries in sources/ (the C files of each list are also named by
 # modelDescription/fmi2.xml <SourceFiles> and modelDescription/buildDescription.xml)
-CORE_SOURCES = ("rom.h", "rom_internal.h", "rom.c", "rom_io.c", "rom_frozen.c", "rom_exact.c", "rom_fail.c")
+CORE_SOURCES = ("rom.h", "rom_internal.h", "rom.c", "rom_io.c", "rom_frozen.c", "rom_exact.c", "rom_fail.c",
+                "rom_envelope.c")
 INSTANCE_SOURCES = ("instance.h", "instance.c")
 
 
@@ -152,6 +153,8 @@ class FMUSummary:
     size: int
     timings: dict = field(default_factory=dict)
     model: str = "frozen"
+    envelope: object = None        # harness.fmu.envelope.Envelope: what the basis was trained on
+    verification: object = None      # harness.fmu.verify.Verification when measured, else None
     bounds: dict | None = None
     method: str = ""
 
@@ -183,9 +186,10 @@ def check_options(scene, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_PROB
     """Validate the packaging options before any work; returns (k, n_freeze, probes, fmi, integrator).
 
     For a linear model (the exact one) the integrator is ``exponential`` (an ``integrator`` does not apply).
-    A model without a POD basis (balanced) takes its order r as ``k`` (1 <= r < 2N) or, instead, a
-    ``tolerance`` (0 < tolerance < 1); with neither, k is returned as None (the order then comes from the
-    default tolerance, :data:`harness.rom.balanced.DEFAULT_TOLERANCE`).
+    ``tolerance`` (0 < tolerance < 1) is the relative probe-v error asked for: every model's measured
+    training error is checked against it (:func:`package_fmu` with ``verify``), and a model without a POD
+    basis (balanced) given no order ``k`` (1 <= r < 2N) takes its order from it; with neither, k is returned
+    as None (the order then comes from the default tolerance, :data:`harness.rom.balanced.DEFAULT_TOLERANCE`).
 
     Raises FieldError naming the field (``k``, ``n_freeze``, ``probes``, ``fmi``, ``model``, ``integrator``,
     ``tolerance``) and the allowed range; the command line shows the option that set it.
@@ -195,11 +199,6 @@ def check_options(scene, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_PROB
         raise FieldError("model", f"{model!r} is out of range (allowed: {', '.join(fmu_model_names())})")
     no_basis = get_model(model).basis_kind is None
     if tolerance is not None:
-        if not no_basis:
-            raise FieldError("tolerance", f"applies to models without a POD basis (balanced); the {model} model "
-                                          "takes k")
-        if k is not None:
-            raise FieldError("tolerance", "give the order k or a tolerance, not both")
         if isinstance(tolerance, bool) or not (isinstance(tolerance, (int, float)) and math.isfinite(tolerance)
                                                and 0 < tolerance < 1):
             raise FieldError("tolerance", f"{tolerance!r} is out of range (allowed: 0 < tolerance < 1)")
@@ -284,6 +283,15 @@ def exact_model(scene, k, n_freeze, probes, progress=True, problem=None, model="
     return data, lin, problem, basis
 
 
+def training_envelope(scene, ops, problem, probes, linear, progress=False):
+    """The :class:`~harness.fmu.envelope.Envelope` of the model ``ops``: its ranges over the scene's cached
+    full SPH training run (:mod:`harness.fmu.envelope`)."""
+    from ..pod.pipeline import basis_for_scene
+    from .envelope import measure
+    _, run = basis_for_scene(scene, progress=progress, problem=problem)
+    return measure(scene, ops, problem, run, probes, linear)
+
+
 def balanced_model(scene, k, n_freeze, probes, tolerance=None, problem=None, model="balanced"):
     """The FMU's numbers for a linear model without a POD basis (balanced): (ExactData, ops, problem).
 
@@ -296,7 +304,7 @@ def balanced_model(scene, k, n_freeze, probes, tolerance=None, problem=None, mod
 
     problem = problem or build_problem(scene)
     try:
-        ops = get_model(model).build(problem, None, k, k, tolerance=tolerance, probes=probes)
+        ops = get_model(model).build(problem, None, k, k, tolerance=None if k is not None else tolerance, probes=probes)
     except ValueError as exc:
         field_name, _, detail = str(exc).partition(": ")
         raise FieldError("k" if field_name == "order" else field_name, detail) from None
@@ -314,8 +322,9 @@ def linear_bounds(lti, reduced, progress=True):
 
 
 def _frozen_resource(scene, model, k, n_freeze, probes, integrator, progress, problem, tolerance=None, bounds=True):
-    data, ops, _, _ = reduced_model(scene, k, n_freeze, probes, integrator, progress=progress, problem=problem,
-                                    model=model)
+    data, ops, problem, _ = reduced_model(scene, k, n_freeze, probes, integrator, progress=progress,
+                                          problem=problem, model=model)
+    data.sections.update(training_envelope(scene, ops, problem, probes, False, progress).sections())
     return data, ops, pack(data)
 
 
@@ -335,6 +344,7 @@ def _linear_resource(scene, model, k, n_freeze, probes, integrator, progress, pr
     else:
         data, ops, problem, _ = exact_model(scene, k, n_freeze, probes, progress=progress, problem=problem,
                                             model=model)
+        data.sections.update(training_envelope(scene, ops, problem, probes, True, progress).sections())
         lti = reduced = None
     if not bounds:
         return data, ops, pack_exact(data)
@@ -350,14 +360,30 @@ def _linear_resource(scene, model, k, n_freeze, probes, integrator, progress, pr
 RESOURCES = {MODEL_FROZEN: _frozen_resource, MODEL_EXACT_LINEAR: _linear_resource}
 
 
+def operator_resource(kind, ops, problem, *, dt, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_PROBES, integrator="euler"):
+    """(data, bytes) of resources/model.bin of kind ``kind`` (ReducedModel.fmu_kind) from operators built
+    elsewhere (a benchmark's own), the runaway bound that of their initial state, as :func:`reduced_model` and
+    :func:`exact_model` have it; the initial state is scaled at run time by the FMU's initial_state_scale."""
+    from ..rom.stepping import runaway_bound
+    if kind == MODEL_FROZEN:
+        data = model_data(ops, problem, dt=dt, integrator=integrator, n_freeze=n_freeze, probes=probes,
+                          bound=runaway_bound(ops))
+        return data, pack(data)
+    if kind == MODEL_EXACT_LINEAR:
+        data = exact_data(ops, problem, dt=dt, n_freeze=n_freeze, probes=probes)
+        return data, pack_exact(data)
+    raise ValueError(f"resource kind {kind!r} (allowed: {MODEL_FROZEN}, {MODEL_EXACT_LINEAR})")
+
+
 def platform_folder(fmi):
     """binaries/<folder> of this platform: fmpy.platform (FMI 2) or fmpy.platform_tuple (FMI 3)."""
     import fmpy
     return fmpy.platform if fmi == 2 else fmpy.platform_tuple
 
 
-def write_fmu(path, *, fmi, blob, description, binary, sources=None):
-    """Write the FMU archive to ``path`` (not atomically: see :func:`package_fmu`)."""
+def write_fmu(path, *, fmi, blob, description, binary, sources=None, documentation=None):
+    """Write the FMU archive to ``path`` (not atomically: see :func:`package_fmu`); ``documentation`` maps
+    archive names (``documentation/index.html``, ...) to their bytes or text."""
     import fmpy
     src = data_dir("fmu_src")
     sources = sources or fmu_sources(fmi)
@@ -376,6 +402,8 @@ def write_fmu(path, *, fmi, blob, description, binary, sources=None):
         if fmi == 3:
             from .describe import build_description
             zf.writestr("sources/buildDescription.xml", build_description())
+        for name, content in (documentation or {}).items():
+            zf.writestr(name, content)
 
 
 def validate(path):
@@ -385,8 +413,8 @@ def validate(path):
 
 
 def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_PROBES, fmi=2, integrator=None,
-                step_size=None, progress=True, binaries=None, problem=None, model="frozen",
-                tolerance=None, bounds=True) -> FMUSummary:
+                step_size=None, progress=True, binaries=None, problem=None, model="frozen", verify=False,
+                tolerance=None, references=None, bounds=True) -> FMUSummary:
     """Build the FMU of ``scene`` at ``out`` (atomically) and validate it.
 
     Parameters
@@ -411,9 +439,17 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
     model : str
         The reduced model to ship: a registered one with an FMU resource kind
         (``frozen``, ``exact``, ``balanced``; module docstring).
+    verify : bool
+        Measure the FMU against the full SPH before it is moved into place (:mod:`.verify`: the training
+        force and an unseen one, errors and run times), and store the figures in its description and in
+        ``documentation/`` (with the plot ``probes.png``).  Without it the documentation says "not measured".
     tolerance : float, optional
-        Balanced model only, instead of ``k``: the smallest order r with
-        2 Σ_{i>r} σ_i <= tolerance · 2 Σ σ_i.
+        The relative probe-v error asked for.  Balanced model without ``k``: its order is the smallest r with
+        2 Σ_{i>r} σ_i <= tolerance · 2 Σ σ_i.  With ``verify``: the largest v error on the training force
+        accepted; above it :class:`harness.errors.ToleranceError` is raised and nothing is written (an
+        existing ``out`` is left as it was).
+    references : dict, optional
+        :func:`harness.fmu.verify.references` computed before (several models of one scene).
     bounds : bool
         Linear models: compute and declare the certified error bounds (default;
         seconds to minutes at N = 400).  False leaves them out (benchmarks that
@@ -425,6 +461,8 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
         A bad setting (naming its field and the allowed range); nothing is written.
     SimulationError
         The packaged FMU fails fmpy's validation (nothing is written).
+    ToleranceError
+        ``verify`` with ``tolerance``: the measured training error is above it (nothing is written).
     """
     from ..rom.registry import get_model
     from .build import ensure_binaries
@@ -440,24 +478,116 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
                                                               bounds=bounds)
     bounds = getattr(data, "bounds", None)
     timings["model"] = time.perf_counter() - t0
+    from .envelope import Envelope
+    envelope = Envelope.from_sections(data.sections, data.k_v)
     t1 = time.perf_counter()
     binaries = binaries or ensure_binaries(quiet=not progress)
     timings["binaries"] = time.perf_counter() - t1
     step = step_size if step_size is not None else min(DEFAULT_STEP, scene.T / 10)
+    spec = get_model(model)
     k = data.k_v if k is None else k                 # the balanced model's order from its tolerance
-    description = model_description(fmi, token=data.token, scene=scene, data=data, k_requested=k, step_size=step,
-                                     stop_time=scene.T, input_error=ops.input_error, model=model, bounds=bounds)
-    t2 = time.perf_counter()
-    out = Path(out)
-    with atomic_path(out) as tmp:
-        write_fmu(tmp, fmi=fmi, blob=blob, description=description,
-                  binary=binaries.fmi2 if fmi == 2 else binaries.fmi3)
-        problems = validate(tmp)
+
+    def archive(path, verification=None):
+        """Write and validate the FMU at ``path``; its description and documentation carry ``verification``."""
+        description = model_description(fmi, token=data.token, scene=scene, data=data, k_requested=k,
+                                         step_size=step, stop_time=scene.T, input_error=ops.input_error,
+                                         model=model, envelope=envelope, bounds=bounds,
+                                         measured=None if verification is None else verification.sentence())
+        docs = documentation_files(scene=scene, spec=spec, data=data, k=k, input_error=ops.input_error,
+                                   augmented=ops.augmented, description_xml=description, verification=verification,
+                                   tolerance=tolerance, envelope=envelope)
+        write_fmu(path, fmi=fmi, blob=blob, description=description,
+                  binary=binaries.fmi2 if fmi == 2 else binaries.fmi3, documentation=docs)
+        problems = validate(path)
         if problems:
             raise SimulationError("the packaged FMU fails fmpy's validation: " + "; ".join(problems))
+
+    t2 = time.perf_counter()
+    out = Path(out)
+    verification = None
+    with atomic_path(out) as tmp:
+        archive(tmp)
+        timings["package"] = time.perf_counter() - t2
+        if verify:
+            from .verify import verify_fmu
+            t3 = time.perf_counter()
+            verification = verify_fmu(tmp, scene, probes, refs=references, problem=problem, progress=progress)
+            timings["verify"] = time.perf_counter() - t3
+            check_tolerance(verification, tolerance, out, model)
+            archive(tmp, verification)           # the same model and binary: only the texts change
         size = tmp.stat().st_size
-    timings["package"] = time.perf_counter() - t2
     return FMUSummary(path=out, fmi=fmi, scene=scene.name, k=k, k_v=data.k_v, k_rho=data.k_rho,
                       input_error=ops.input_error, augmented=ops.augmented, probes=list(probes), n_freeze=n_freeze,
                       integrator=integrator, dt=data.dt, token=data.token, size=size, timings=timings, model=model,
-                      bounds=bounds, method=getattr(ops, "method", ""))
+                      envelope=envelope, verification=verification, bounds=bounds,
+                      method=getattr(ops, "method", ""))
+
+
+def check_tolerance(verification, tolerance, out, model):
+    """ToleranceError (one line: the measured error, the tolerance, that ``out`` was not written) when the
+    training-force v error of ``verification`` is above ``tolerance`` (None: no check)."""
+    if tolerance is None:
+        return
+    from ..errors import ToleranceError
+    err = verification.training.err_v
+    if not err <= tolerance:
+        raise ToleranceError(f"the {model} FMU's probe v error on the training force, {err:.3g}, is above the "
+                             f"tolerance {tolerance:g}; '{out}' was not written (an existing file is unchanged)")
+
+
+def documentation_files(*, scene, spec, data, k, input_error, augmented, description_xml, verification=None,
+                        tolerance=None, envelope=None):
+    """{archive name: content} of the FMU's documentation/ folder: index.html, and probes.png when measured."""
+    from .documentation import DOC_INDEX, DOC_PLOT, index_html
+    files = {DOC_INDEX: index_html(scene=scene, spec=spec, data=data, k=k, input_error=input_error,
+                                   augmented=augmented, description_xml=description_xml,
+                                   verification=verification, tolerance=tolerance, envelope=envelope)}
+    if verification is not None:
+        from .verify import probes_png
+        files[DOC_PLOT] = probes_png(verification, title=f"{scene.name}, {spec.name} FMU against the full SPH")
+    return files
+
+
+def package_auto(scene, out, *, tolerance, progress=True, integrator=None, **options):
+    """``sphrom fmu --model auto``: the fastest FMU model whose measured error meets ``tolerance``.
+
+    Every model that can be packaged (:func:`harness.rom.registry.fmu_model_names`) is packaged with the same
+    options into a temporary folder and measured (:func:`package_fmu` with ``verify``; the full SPH runs are
+    made once and shared); the candidates whose v error on the training force is at most ``tolerance`` are
+    kept, and of those the one with the smallest FMU run time on the training force (one run each) is
+    moved to ``out``.  ``integrator`` applies to the time-stepped models only.
+
+    Returns
+    -------
+    (FMUSummary of the chosen model at ``out``, list of the FMUSummary of every candidate)
+
+    Raises
+    ------
+    ToleranceError
+        No model meets ``tolerance`` (the message lists each one's error); nothing is written.
+    """
+    import shutil
+    import tempfile
+
+    from ..errors import ToleranceError
+    from ..rom.registry import fmu_model_names, get_model
+    out = Path(out)
+    candidates = []
+    refs = None
+    with tempfile.TemporaryDirectory(prefix="sphrom-auto-") as tmp:
+        for model in fmu_model_names():
+            own = None if get_model(model).linear else integrator
+            s = package_fmu(scene, Path(tmp) / f"{model}.fmu", model=model, integrator=own, verify=True,
+                            references=refs, progress=progress, **options)
+            refs = s.verification.refs
+            candidates.append(s)
+        good = [s for s in candidates if s.verification.training.err_v <= tolerance]
+        if not good:
+            errors = ", ".join(f"{s.model} {s.verification.training.err_v:.3g}" for s in candidates)
+            raise ToleranceError(f"no model meets the tolerance {tolerance:g} on the training force (v errors: "
+                                 f"{errors}); '{out}' was not written (an existing file is unchanged)")
+        best = min(good, key=lambda s: s.verification.training.fmu_s)
+        with atomic_path(out) as final:
+            shutil.copyfile(best.path, final)
+        best.path = out
+    return best, candidates

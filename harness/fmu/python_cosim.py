@@ -5,7 +5,11 @@
 ``run_reduced("frozen", ...)``) communication step by communication step,
 with the FMU's rules (fmu_src/rom.c ``rom_do_step``):
 
-* the input f is held over each communication step;
+* the input f is held over each communication step, or, with an input
+  derivative (``rate``, fmi2SetRealInputDerivatives), taken as
+  f + rate τ at each refresh of the force term, τ = j Δt the time of internal
+  step j after the communication point (the shortened step: τ = n_full Δt),
+  in the C order of operations: f + rate (τ0 + j h);
 * a step of length h is ``n_full`` whole internal steps of dt and, when the
   remainder exceeds 1e-12 dt, one shortened step (:func:`split_step`);
 * the internal step counter n runs over all internal steps, shortened ones
@@ -62,15 +66,19 @@ class FrozenCosim:
         Refresh period (default the packaged one).
     dt : float, optional
         Internal step [s] (default the packaged one).
+    initial_state_scale : float
+        a^v(0) = this x a_v0, a^rho(0) = a_rho0 (the FMU parameter; default 1, the scene's initial state,
+        where the FMU's own start value is 0, at rest).
     """
 
-    def __init__(self, data, n_freeze=None, dt=None):
+    def __init__(self, data, n_freeze=None, dt=None, initial_state_scale=1.0):
+        from ..rom.stepping import initial_scale
         from ..rom.frozen import loop_operators
         self.data = data
         self.n_freeze = int(data.n_freeze if n_freeze is None else n_freeze)
         self.dt = float(data.dt if dt is None else dt)
         self.method = {"euler": 0, "symplectic": 1}[data.integrator]
-        self.av = np.array(data.a_v0, dtype=float)
+        self.av = initial_scale(initial_state_scale) * np.array(data.a_v0, dtype=float)    # rom.c apply_initial_state
         self.ar = np.array(data.a_rho0, dtype=float)
         self.M = np.zeros((data.k_rho, data.k_v))
         self.F = np.zeros(data.k_v)
@@ -80,12 +88,13 @@ class FrozenCosim:
         self._no_samples = np.zeros(0, dtype=np.int64)
         self._out = np.zeros((0, 1))
 
-    def _advance(self, count, h, f):
+    def _advance(self, count, h, f, rate=0.0, tau0=0.0):
         from ..errors import SimulationError
         from ..rom.frozen import frozen_advance
         if count <= 0:
             return
-        g = np.full(count, float(f))
+        # f at each step's time tau0 + j h after the communication point (fmu_src/rom_frozen.c run_steps_kernel)
+        g = np.full(count, float(f)) if rate == 0.0 else float(f) + float(rate) * (tau0 + np.arange(count) * h)
         status, _, bad = frozen_advance(self.method, self.av, self.ar, self.M, self.F, self.n, self.n + count, h, g,
                                         self._ops, self._no_samples, 0, self._out, self._out, self.data.bound)
         if status != 0:
@@ -93,12 +102,13 @@ class FrozenCosim:
                                   step=bad)
         self.n += count
 
-    def do_step(self, h, f):
-        """One communication step of length ``h`` [s] with input ``f`` [m s^-2] held."""
+    def do_step(self, h, f, rate=0.0):
+        """One communication step of length ``h`` [s] with input ``f`` [m s^-2] held, or going as
+        f + ``rate`` τ over the step (``rate`` df/dt [m s^-3], an input derivative)."""
         n_full, rest = split_step(h, self.dt)
-        self._advance(n_full, self.dt, f)
+        self._advance(n_full, self.dt, f, rate, 0.0)
         if rest > 0.0:
-            self._advance(1, rest, f)
+            self._advance(1, rest, f, rate, n_full * self.dt)
         self.t = self.t + h
 
     def outputs(self):
@@ -106,7 +116,7 @@ class FrozenCosim:
         return probe_values(self.data.Pv, self.av), probe_values(self.data.Prho, self.ar)
 
 
-def cosim_reference(data, steps, inputs, n_freeze=None, dt=None):
+def cosim_reference(data, steps, inputs, n_freeze=None, dt=None, rates=None, initial_state_scale=1.0):
     """Outputs of the FMU's co-simulation computed in Python.
 
     Parameters
@@ -115,7 +125,11 @@ def cosim_reference(data, steps, inputs, n_freeze=None, dt=None):
     steps : sequence of float
         Communication step sizes [s].
     inputs : sequence of float
-        f held over each step [m s^-2] (same length as ``steps``).
+        f held over each step [m s^-2] (same length as ``steps``), its value at the step's start.
+    rates : sequence of float, optional
+        df/dt over each step [m s^-3] (input derivatives; default none: f held).
+    n_freeze, dt, initial_state_scale
+        The FMU's parameters (:class:`FrozenCosim`).
 
     Returns
     -------
@@ -124,13 +138,14 @@ def cosim_reference(data, steps, inputs, n_freeze=None, dt=None):
     v, rho : ndarray (M+1, P)
         Probe outputs at the communication points.
     """
-    sim = FrozenCosim(data, n_freeze=n_freeze, dt=dt)
+    sim = FrozenCosim(data, n_freeze=n_freeze, dt=dt, initial_state_scale=initial_state_scale)
     t, v, rho = [0.0], [], []
     v0, r0 = sim.outputs()
     v.append(v0)
     rho.append(r0)
-    for h, f in zip(steps, inputs):
-        sim.do_step(h, f)
+    rates = np.zeros(len(steps)) if rates is None else rates
+    for h, f, rate in zip(steps, inputs, rates):
+        sim.do_step(h, f, rate)
         t.append(sim.t)
         vi, ri = sim.outputs()
         v.append(vi)

@@ -66,7 +66,12 @@ MAX_MODES = 1024
 SECTION_TAG_SIZE = 8
 MAX_SECTIONS = 32                          # fmu_src/rom.h ROM_MAX_SECTIONS
 MAX_SECTION_VALUES = 1 << 26               # fmu_src/rom.h ROM_MAX_SECTION_VALUES
-SECTION_TAGS: dict[str, str] = {            # tag -> what it holds (the C loader's SECTION_RULES)
+SECTION_TAGS: dict[str, str] = {          # tag -> what it holds (the C loader's SECTION_RULES)
+    # the training envelope (harness/fmu/envelope.py, fmu_src/rom_envelope.c)
+    "ENVELOPE": "the training envelope's scalars",
+    "ENVRANGE": "the training envelope's coordinate ranges",
+    "ENVPROBE": "rho0 at the probes (training envelope)",
+    # linear models (harness/rom/balanced.py)
     "BOUNDS": "certified error bounds per probe (force, initial state)",
     "LINMODEL": "which linear model: 1 exact POD, 2 balanced",
 }
@@ -385,7 +390,7 @@ def exact_data(lin, problem, *, dt, n_freeze, probes, bound=None):
                      Pv=probe_rows(lin.U_v, problem.x, L, probes),
                      Pe=np.stack([lin.U_e[i0], lin.U_e[i1]], axis=1),
                      pw=np.stack([1.0 - w, w], axis=1), prho0=np.stack([rho0[i0], rho0[i1]], axis=1),
-                     probe_x=probes, sections={"LINMODEL": [[LINEAR_EXACT_POD]]})
+                     probe_x=probes, sections={"LINMODEL": np.array([[LINEAR_EXACT_POD]], float)})
 
 
 def balanced_data(ops, problem, *, dt, n_freeze, bound=None):
@@ -411,7 +416,7 @@ def balanced_data(ops, problem, *, dt, n_freeze, bound=None):
                      S=np.asarray(ops.schur_T, float) if ops.skew else None,
                      Pv=np.asarray(red.Cr[:P], float), Pe=np.stack([Ve[i0], Ve[i1]], axis=1),
                      pw=np.stack([1.0 - w, w], axis=1), prho0=np.stack([rho0[i0], rho0[i1]], axis=1),
-                     probe_x=probes, output_rows=True, sections={"LINMODEL": [[LINEAR_BALANCED]]})
+                     probe_x=probes, output_rows=True, sections={"LINMODEL": np.array([[LINEAR_BALANCED]], float)})
 
 
 def pack_exact(data: ExactData) -> bytes:

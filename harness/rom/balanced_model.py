@@ -185,12 +185,14 @@ def truncate(problem, ops: BalancedOperators, k_v, k_rho):
 
 
 def run(ops: BalancedOperators, problem, *, dt, n_steps, sample_steps=None, every=1, force=None, integrator=None,
-        n_freeze=10, refresh="tensor", step=None, hold="linear", state=None, bound=None, progress=False):
+        n_freeze=10, refresh="tensor", step=None, hold="linear", state=None, bound=None, progress=False,
+        initial_state_scale=1.0):
     """Run the balanced model to ``n_steps * dt`` (the signature of :mod:`harness.rom.model`).
 
     As :func:`harness.rom.exact_linear.run`: exact in time, communication step
     ``step`` H [s] (default the sample spacing), input ``hold`` linear or held;
-    ``state`` (x_r, ignored) replaces the initial state Wᵀ x0.  The result's
+    ``state`` (x_r, ignored) replaces the initial state Wᵀ x0; ``initial_state_scale`` multiplies it
+    (x_r = 0 is rest).  The result's
     ``y`` holds the probe outputs Cr x_r and ``probes`` their positions x/L.
     """
     if integrator not in (None,) + INTEGRATORS:
@@ -199,7 +201,8 @@ def run(ops: BalancedOperators, problem, *, dt, n_steps, sample_steps=None, ever
     steps = sample_grid(n_steps, sample_steps, every)
     if state is not None:
         ops = dataclasses.replace(ops, z0=np.asarray(state[0], float))
-    z, wall, step = advance_linear(ops, steps * dt, step, force or problem.scene.force, hold, bound)
+    z, wall, step = advance_linear(ops, steps * dt, step, force or problem.scene.force, hold, bound,
+                                   initial_state_scale)
     return ReducedResult(model=NAME, t=steps * dt, steps=steps, a_v=z, a_rho=np.zeros((z.shape[0], 0)), ops=ops,
                          wall_time=wall, offline=dict(ops.timings), y=ops.outputs(z), probes=ops.lti.probes.copy(),
                          settings={"model": NAME, "dt": dt, "step": step, "hold": hold, "order": ops.order,

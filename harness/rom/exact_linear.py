@@ -41,7 +41,7 @@ from ..errors import SimulationError
 from .model import ReducedModel, basis_modes
 from .operators import ROUNDOFF_TOLERANCE, input_mode
 from .result import ReducedResult
-from .stepping import sample_grid
+from .stepping import initial_scale, sample_grid
 
 NAME = "exact"
 
@@ -122,6 +122,10 @@ class LinearOperators:
         """ρ = ρ0 / (1 + e), e = U_e b, at the particles, (M, N) [kg m^-3] from coordinates (M, k_e)."""
         e = a_e @ self.U_e.T
         return self.rho0[None, :] / (1.0 + e)
+
+    def strain(self, a_e):
+        """e = U_e b = J − 1 at the particles, (M, N) from coordinates (M, k_e)."""
+        return a_e @ self.U_e.T
 
     def fields(self, z):
         """(v, ρ) at the particles from reduced states z of shape (M, k)."""
@@ -303,7 +307,8 @@ def free_response(ops: LinearOperators, t):
     return out
 
 
-def run_exact(ops: LinearOperators, t_samples, step=None, force=None, hold="linear", bound=None):
+def run_exact(ops: LinearOperators, t_samples, step=None, force=None, hold="linear", bound=None,
+              initial_state_scale=1.0):
     """Advance the exact linear model and sample it at any times (a ReducedResult with ``steps`` None).
 
     Parameters
@@ -320,15 +325,17 @@ def run_exact(ops: LinearOperators, t_samples, step=None, force=None, hold="line
     hold : {"linear", "held"}
         Input over a step: linear between its end values, or held at the start value.
     bound : float, optional
-        |z| above this raises SimulationError (default 10⁶ |z0|).
+        |z| above this raises SimulationError (default 10⁶ |z0|, of the unscaled z0).
+    initial_state_scale : float
+        z(0) = this x z0 (z = 0 is rest: v = 0, e = 0), as the FMU parameter; 1 leaves the run bit for bit.
     """
-    z, wall, step = advance_linear(ops, t_samples, step, force, hold, bound)
+    z, wall, step = advance_linear(ops, t_samples, step, force, hold, bound, initial_state_scale)
     return ReducedResult(model=NAME, t=np.asarray(t_samples, float), steps=None, a_v=z[:, :ops.k_v],
                          a_rho=z[:, ops.k_v:], ops=ops, wall_time=wall, offline=dict(ops.timings),
                          settings={"model": NAME, "step": step, "hold": hold, "k_v": ops.k_v, "k_e": ops.k_e})
 
 
-def advance_linear(ops, t_samples, step, force, hold, bound):
+def advance_linear(ops, t_samples, step, force, hold, bound, initial_state_scale=1.0):
     """The reduced states z (M, k) at ``t_samples``, the wall time [s] and the step H (:func:`run_exact`).
 
     Shared by every linear model (exact, balanced): their operators differ, the stepping does not."""
@@ -362,9 +369,10 @@ def advance_linear(ops, t_samples, step, force, hold, bound):
             x = x + g0 * fa + g1 * (fb - fa)
         return x
 
+    scale = initial_scale(initial_state_scale)                    # z(0) = scale z0 (fmu_src/rom.c, the same order)
     free_at = free_response(ops, t_samples) if ops.skew else None
     z = np.empty((t_samples.size, ops.z0.size))
-    x = np.zeros_like(ops.z0) if ops.skew else ops.z0.copy()     # forced part (skew) or the whole state
+    x = np.zeros_like(ops.z0) if ops.skew else scale * ops.z0     # forced part (skew) or the whole state
     n = 0                                                         # grid index: the state is at t_n = n H
     for m, ts in enumerate(t_samples):
         n_target = int(np.floor(ts / step + 1e-9))
@@ -373,7 +381,7 @@ def advance_linear(ops, t_samples, step, force, hold, bound):
             n += 1
         y = advance(x, ts - n * step,                               # shortened step to an off-grid sample
                     *((f_grid[n], f_samples[m]) if has_input else (0.0, 0.0)))
-        z[m] = (free_at[m] + y) if ops.skew else y
+        z[m] = (scale * free_at[m] + y) if ops.skew else y
         if not np.all(np.isfinite(z[m])) or np.max(np.abs(z[m])) > bound:
             raise SimulationError(f"exact reduced state became non-finite or runaway at t = {ts:.6g} s",
                                   step=m, time=ts)
@@ -384,12 +392,12 @@ INTEGRATORS = ("exponential",)
 
 
 def run(ops, problem, *, dt, n_steps, sample_steps=None, every=1, force=None, integrator=None, n_freeze=10,
-        refresh="tensor", step=None, hold="linear", state=None, bound=None, progress=False):
+        refresh="tensor", step=None, hold="linear", state=None, bound=None, progress=False, initial_state_scale=1.0):
     """Run the exact linear model to ``n_steps * dt`` (the signature of :mod:`harness.rom.model`).
 
     Samples at ``sample_steps * dt``; the communication step ``step`` H [s]
     (default the smallest sample spacing) and the input ``hold`` as in
-    :func:`run_exact`; ``state`` (a_v, a_e) replaces z0.  ``n_freeze``,
+    :func:`run_exact`; ``state`` (a_v, a_e) replaces z0; ``initial_state_scale`` multiplies it.  ``n_freeze``,
     ``refresh`` and ``progress`` do not apply.
     """
     if integrator not in (None,) + INTEGRATORS:
@@ -398,7 +406,8 @@ def run(ops, problem, *, dt, n_steps, sample_steps=None, every=1, force=None, in
     steps = sample_grid(n_steps, sample_steps, every)
     if state is not None:
         ops = dataclasses.replace(ops, z0=np.concatenate([np.asarray(state[0], float), np.asarray(state[1], float)]))
-    z, wall, step = advance_linear(ops, steps * dt, step, force or problem.scene.force, hold, bound)
+    z, wall, step = advance_linear(ops, steps * dt, step, force or problem.scene.force, hold, bound,
+                                   initial_state_scale)
     return ReducedResult(model=NAME, t=steps * dt, steps=steps, a_v=z[:, :ops.k_v], a_rho=z[:, ops.k_v:], ops=ops,
                          wall_time=wall, offline=dict(ops.timings),
                          settings={"model": NAME, "dt": dt, "step": step, "hold": hold, "k_v": ops.k_v,

@@ -25,7 +25,7 @@ from .loops import FrozenOperators, _check, _velocity_rate
 from .model import ReducedModel
 from .operators import build_from_basis, pair_index, truncate_operators
 from .result import ReducedResult
-from .stepping import drive, force_table, method_code, runaway_bound, sample_grid, start_arrays
+from .stepping import drive, energy_guard, force_table, method_code, runaway_bound, sample_grid, start_arrays
 
 
 @njit(cache=True, nogil=True)
@@ -147,7 +147,7 @@ INTEGRATORS = ("euler", "symplectic")
 
 
 def run(ops, problem, *, dt, n_steps, sample_steps=None, every=1, force=None, integrator=None, n_freeze=10,
-        refresh="tensor", step=None, hold="linear", state=None, bound=None, progress=False):
+        refresh="tensor", step=None, hold="linear", state=None, bound=None, progress=False, initial_state_scale=1.0):
     """Run the frozen-coefficient model (the signature of :mod:`harness.rom.model`).
 
     ``ops`` are :class:`~harness.rom.operators.ReducedOperators`; ``refresh``
@@ -158,7 +158,7 @@ def run(ops, problem, *, dt, n_steps, sample_steps=None, every=1, force=None, in
     method = method_code(integrator, INTEGRATORS, "frozen coefficients")
     steps = sample_grid(n_steps, sample_steps, every)
     force = force or problem.scene.force
-    av, ar, out_av, out_ar = start_arrays(ops, state, steps.size)
+    av, ar, out_av, out_ar = start_arrays(ops, state, steps.size, initial_state_scale)
     bound = runaway_bound(ops) if bound is None else bound
     loop = loop_operators(ops.K, ops.b, ops.D, ops.p, n_freeze, T=ops.T, U_rho=ops.U_rho, GU_v=ops.GU_v,
                           inv_rho0=ops.inv_rho0, refresh=refresh)
@@ -170,7 +170,8 @@ def run(ops, problem, *, dt, n_steps, sample_steps=None, every=1, force=None, in
                               out_av, out_ar, bound)
 
     wall = drive(MODEL.name, advance, lambda n0, n1: force_table(force, loop.has_f, method, n0, n1, dt),
-                 n_steps=n_steps, dt=dt, cost=ops.k_v * ops.k_rho, bound=bound, progress=progress)
+                 n_steps=n_steps, dt=dt, cost=ops.k_v * ops.k_rho, bound=bound, progress=progress,
+                 guard=energy_guard(ops, problem, av, ar, dt=dt, name=MODEL.name, integrator=integrator))
     settings = {"model": MODEL.name, "integrator": integrator, "dt": dt, "k_v": ops.k_v, "k_rho": ops.k_rho,
                 "n_freeze": int(n_freeze), "refresh": refresh}
     return ReducedResult(model=MODEL.name, t=steps * dt, steps=steps, a_v=out_av, a_rho=out_ar, ops=ops,

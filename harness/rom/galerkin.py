@@ -13,7 +13,7 @@ from numba import njit
 from ..sph.loops import rates
 from .loops import GalerkinOperators, _check, _velocity_rate
 from .result import ReducedResult
-from .stepping import drive, force_table, method_code, runaway_bound, sample_grid, start_arrays
+from .stepping import drive, energy_guard, force_table, method_code, runaway_bound, sample_grid, start_arrays
 
 INTEGRATORS = ("euler", "symplectic", "rk4")
 
@@ -175,7 +175,7 @@ def loop_operators(ops, problem, full_rhs):
 
 def run_galerkin(name, full_rhs, ops, problem, *, dt, n_steps, sample_steps=None, every=1, force=None,
                  integrator=None, n_freeze=10, refresh="tensor", step=None, hold="linear", state=None, bound=None,
-                 progress=False):
+                 progress=False, initial_state_scale=1.0):
     """Run the original (``full_rhs``) or the linearised model (the signature of :mod:`harness.rom.model`).
 
     ``n_freeze``, ``refresh``, ``step`` and ``hold`` do not apply.
@@ -184,7 +184,7 @@ def run_galerkin(name, full_rhs, ops, problem, *, dt, n_steps, sample_steps=None
     method = method_code(integrator, INTEGRATORS, f"{name} POD-MOR integrators")
     steps = sample_grid(n_steps, sample_steps, every)
     force = force or problem.scene.force
-    av, ar, out_av, out_ar = start_arrays(ops, state, steps.size)
+    av, ar, out_av, out_ar = start_arrays(ops, state, steps.size, initial_state_scale)
     bound = runaway_bound(ops) if bound is None else bound
     loop = loop_operators(ops, problem, full_rhs)
     force_active = loop.has_f or (bool(full_rhs) and problem.terms["force_profile"])
@@ -193,7 +193,8 @@ def run_galerkin(name, full_rhs, ops, problem, *, dt, n_steps, sample_steps=None
         return galerkin_advance(method, av, ar, n0, n1, dt, g, loop, steps, ptr, out_av, out_ar, bound)
 
     wall = drive(name, advance, lambda n0, n1: force_table(force, force_active, method, n0, n1, dt),
-                 n_steps=n_steps, dt=dt, cost=problem.n * (ops.k_v + ops.k_rho), bound=bound, progress=progress)
+                 n_steps=n_steps, dt=dt, cost=problem.n * (ops.k_v + ops.k_rho), bound=bound, progress=progress,
+                 guard=energy_guard(ops, problem, av, ar, dt=dt, name=name, integrator=integrator))
     settings = {"model": name, "integrator": integrator, "dt": dt, "k_v": ops.k_v, "k_rho": ops.k_rho}
     return ReducedResult(model=name, t=steps * dt, steps=steps, a_v=out_av, a_rho=out_ar, ops=ops, wall_time=wall,
                          offline=dict(ops.timings), settings=settings)

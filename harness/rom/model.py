@@ -12,14 +12,19 @@ use for are ignored, so one call serves every model):
     The model's operators from the first k_v, k_rho modes of a POD basis
     (:class:`harness.pod.basis.Basis`) of the kind ``basis_kind`` names.
 ``run(operators, problem, *, dt, n_steps, sample_steps=None, every=1, force=None, integrator=None, n_freeze=10,
-refresh="tensor", step=None, hold="linear", state=None, bound=None, progress=False) -> ReducedResult``
+refresh="tensor", step=None, hold="linear", state=None, bound=None, progress=False, initial_state_scale=1.0)
+-> ReducedResult``
     From t = 0 to ``n_steps * dt`` [s], sampled at ``sample_steps`` (default
     every ``every`` steps and the last); ``force`` f(t) [m s^-2] (default the
     scene's); ``integrator`` one of ``integrators`` (default the first);
     ``n_freeze``, ``refresh`` for models with ``uses_n_freeze``; ``step`` (the
     communication step H [s], default the sample spacing) and ``hold``
     (``linear`` or ``held`` input over a step) for linear models; ``state`` the
-    initial reduced coordinates (a_v, a_rho).  Raises SimulationError on a
+    initial reduced coordinates (a_v, a_rho); ``initial_state_scale`` multiplies
+    the initial state's deviation from rest (the velocity coordinates; for a
+    linear model the whole z, whose rest is z = 0), as the FMU parameter of
+    that name (1, the default, leaves the run bit for bit as without it; the
+    runaway bound stays that of the unscaled state).  Raises SimulationError on a
     non-finite or runaway state, naming the step and time.
 ``truncate(problem, operators, k_v, k_rho) -> operators``
     The operators of the first k_v, k_rho modes, sliced from larger ones

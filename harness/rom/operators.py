@@ -113,6 +113,11 @@ class ReducedOperators:
         """ρ = U^ρ a^ρ at the particles, (M, N) [kg m^-3] from coordinates (M, k_rho)."""
         return a_rho @ self.U_rho.T
 
+    def strain(self, a_rho):
+        """The specific-volume strain ρ0/ρ − 1 in its linearisation 1 − ρ/ρ0 (eq. 2.17) at the particles,
+        (M, N) from coordinates (M, k_rho): finite for any reconstructed ρ (the blow-up check's energy)."""
+        return 1.0 - self.density(a_rho) * self.inv_rho0
+
 
 def input_mode(input_direction, has_force, input_tolerance=None):
     """(mode, augmentation tolerance) of an ``input_direction`` (see :func:`build_operators`)."""

@@ -4,6 +4,17 @@ A model's ``run`` wraps its compiled loop as ``advance(n0, n1, g, ptr) ->
 (status, ptr, step)`` and hands it to :func:`drive`, which runs it in chunks
 from step 0 to ``n_steps``, times the loop alone and turns a bad status
 (:mod:`.loops`) into a SimulationError naming the step and time.
+
+Numerical blow-ups of the explicit integrators, as for the full SPH
+(:mod:`harness.sph.solver`): before a run, :func:`reduced_stability_warnings`
+estimates the factor by which the integrator amplifies the fastest reduced
+mode over the run, from the eigenvalues of the reduced operator linearised
+about rest (explicit Euler, undamped: |1 + iωΔt|^n); during a run,
+:func:`energy_guard` stops it (SimulationError, exit status 3 on the command
+line) when the energy of the reconstructed fields exceeds
+:data:`~harness.sph.solver.BLOWUP_FACTOR` times the bound that the scene's
+initial energy and forcing allow (:func:`~harness.sph.solver.energy_bound_factors`),
+even while the state is finite.
 """
 
 from __future__ import annotations
@@ -14,10 +25,13 @@ import numpy as np
 
 from ..errors import SimulationError
 from ..progress import progress_bar
+from ..sph.solver import (BLOWUP_FACTOR, GROWTH_WARN, energy_bound_factors, growth_figure, step_count,
+                          strain_energy)
 
 METHODS = {"euler": 0, "symplectic": 1, "rk4": 2}
 RUNAWAY_FACTOR = 1e6
 CHUNK_WORK = 5e7          # multiply-adds per chunk of steps
+GUARD_CHECKS = 100        # a guarded run is checked at least this many times (chunks of at most n_steps / 100)
 
 
 def runaway_bound(ops):
@@ -25,10 +39,22 @@ def runaway_bound(ops):
     return RUNAWAY_FACTOR * max(np.max(np.abs(ops.a_v0)), np.max(np.abs(ops.a_rho0)), 1e-300)
 
 
-def start_arrays(ops, state, n_samples):
+def initial_scale(value):
+    """``initial_state_scale`` as a float; ValueError naming it unless it is a finite real number."""
+    scale = float(value)
+    if not np.isfinite(scale):
+        raise ValueError(f"initial_state_scale = {value!r} is out of range (allowed: a finite real number; 1 the "
+                         "scene's initial state, 0 at rest)")
+    return scale
+
+
+def start_arrays(ops, state, n_samples, initial_state_scale=1.0):
     """(a_v, a_rho, out_av, out_ar): the initial reduced coordinates (``state`` = (a_v, a_rho), default the
-    operators' projections of v0, ρ0) as fresh arrays, and the sample arrays of ``n_samples`` rows."""
-    av = np.array(ops.a_v0 if state is None else state[0], dtype=float)
+    operators' projections of v0, ρ0) as fresh arrays, and the sample arrays of ``n_samples`` rows.
+
+    ``initial_state_scale`` multiplies the velocity coordinates only (the density coordinates are those of
+    ρ0, the rest state), as the FMU's parameter of that name; 1 leaves them bit for bit."""
+    av = initial_scale(initial_state_scale) * np.array(ops.a_v0 if state is None else state[0], dtype=float)
     ar = np.array(ops.a_rho0 if state is None else state[1], dtype=float)
     return av, ar, np.empty((n_samples, ops.k_v)), np.empty((n_samples, ops.k_rho))
 
@@ -62,7 +88,7 @@ def force_table(force, active, method, n0, n1, dt):
     return g
 
 
-def drive(name, advance, forces, *, n_steps, dt, cost, bound, progress=False):
+def drive(name, advance, forces, *, n_steps, dt, cost, bound, progress=False, guard=None):
     """Run ``advance`` over steps 0..n_steps in chunks of about :data:`CHUNK_WORK` / ``cost`` steps.
 
     Parameters
@@ -78,6 +104,10 @@ def drive(name, advance, forces, *, n_steps, dt, cost, bound, progress=False):
         Multiply-adds per step.
     bound : float
         The runaway bound (for the message).
+    guard : callable, optional
+        ``guard(n1, g)`` after each chunk (:func:`energy_guard`): raises
+        SimulationError on a blow-up; chunks are then at most
+        ``n_steps / GUARD_CHECKS`` steps, so a run is stopped early.
 
     Returns
     -------
@@ -85,6 +115,8 @@ def drive(name, advance, forces, *, n_steps, dt, cost, bound, progress=False):
         Wall time of the loop alone [s].
     """
     chunk = max(1, min(n_steps, int(CHUNK_WORK // max(cost, 1))))
+    if guard is not None:
+        chunk = max(1, min(chunk, -(-n_steps // GUARD_CHECKS)))
     advance(0, 0, np.zeros((0, 3)), 0)          # load the compiled loop before the clock starts
     ptr, wall, n0 = 0, 0.0, 0
     with progress_bar(total=n_steps, desc=f"rom {name}", unit="step", enabled=progress) as bar:
@@ -98,6 +130,123 @@ def drive(name, advance, forces, *, n_steps, dt, cost, bound, progress=False):
                 what = "non-finite" if status == 1 else f"runaway (|a| > {bound:.3g})"
                 raise SimulationError(f"{name} reduced state became {what} by step {bad} (t = {bad * dt:.6g} s)",
                                       step=bad, time=bad * dt)
+            if guard is not None:
+                guard(n1, g)
             bar.update(n1 - n0)
             n0 = n1
     return wall
+
+
+def reduced_energy(ops, problem, a_v, a_rho):
+    """The energy [J per m²] of the fields a reduced state reconstructs (:func:`~harness.sph.solver.strain_energy`).
+
+    ``ops.velocity`` gives v, ``ops.strain`` the specific-volume strain e
+    (the density models: its linearisation 1 − ρ/ρ0, eq. 2.17, finite for
+    any reconstructed ρ; the exact model: U_e b).
+    """
+    return strain_energy(problem, ops.velocity(np.asarray(a_v, float)), ops.strain(np.asarray(a_rho, float)))
+
+
+def energy_guard(ops, problem, a_v, a_rho, *, dt, name, integrator):
+    """The blow-up check of a time-stepped reduced run: ``guard(n1, g)`` for :func:`drive`.
+
+    ``a_v``, ``a_rho`` are the run's state arrays (read, never written,
+    after each chunk); ``g`` the chunk's force table (:func:`force_table`).
+    As for the full SPH (:func:`harness.sph.solver.run_sph`): with (σ, λ) of
+    :func:`~harness.sph.solver.energy_bound_factors`, the exact dynamics
+    keep √E(t) ≤ e^{λt} (√E0 + σ ∫|f| dt); the guard raises SimulationError
+    naming the step and time when the reconstructed energy
+    (:func:`reduced_energy`) exceeds :data:`~harness.sph.solver.BLOWUP_FACTOR`
+    times that bound (a factor 100 in amplitude) at the end of a chunk.
+    """
+    sqrt_e0 = float(np.sqrt(reduced_energy(ops, problem, a_v, a_rho)))
+    sigma, lam = energy_bound_factors(problem)
+    f_integral = [0.0]
+
+    def guard(n1, g):
+        if g.size:
+            f_integral[0] += dt * float(np.sum(np.max(np.abs(g), axis=1)))
+        bound = (np.exp(lam * n1 * dt) * (sqrt_e0 + sigma * f_integral[0])) ** 2
+        if not bound > 0:
+            return
+        e_now = reduced_energy(ops, problem, a_v, a_rho)
+        if not e_now <= BLOWUP_FACTOR * bound:        # NaN fails it too
+            raise SimulationError(
+                f"{name} reduced run blew up by step {n1} (t = {n1 * dt:.6g} s): the energy of its fields "
+                f"{e_now:.3g} J/m^2 exceeds {BLOWUP_FACTOR:g} x the bound {bound:.3g} J/m^2 that the scene's "
+                f"initial energy and forcing allow (integrator {integrator}, dt = {dt:g} s)", step=n1, time=n1 * dt)
+
+    return guard
+
+
+def linearized_jacobian(ops):
+    """J = [[−D̂, −K], [−M0, 0]] over (a^v, a^ρ): eqs. 2.19-2.20 linearised about rest, M0 = M(a^ρ(0)) (eq. 2.23).
+
+    At a^v = 0 the term (∂M/∂a^ρ) a^v vanishes, so this is the Jacobian of the
+    frozen, density-linearised and (to first order in the strain) original
+    models alike.
+    """
+    from .operators import density_matrix
+    kv, kr = ops.k_v, ops.k_rho
+    D = np.zeros((kv, kv)) if ops.D is None else ops.D
+    return np.block([[-D, -ops.K], [-density_matrix(ops, ops.a_rho0), np.zeros((kr, kr))]])
+
+
+def reduced_step_matrix(J, k_v, dt, integrator):
+    """One step of ``integrator`` on ż = J z, z = (a^v, a^ρ), as the reduced loops take it.
+
+    "euler": I + Δt J; "symplectic": a^ρ first, then a^v with the new a^ρ
+    (:mod:`.frozen`, :mod:`.galerkin`); "rk4": the degree-4 Taylor polynomial of e^{Δt J}.
+    """
+    k = J.shape[0]
+    eye = np.eye(k)
+    if integrator == "euler":
+        return eye + dt * J
+    if integrator == "symplectic":
+        rho_rows = np.hstack([dt * J[k_v:, :k_v], np.eye(k - k_v) + dt * J[k_v:, k_v:]])
+        v_rows = np.hstack([np.eye(k_v) + dt * J[:k_v, :k_v], np.zeros((k_v, k - k_v))]) + dt * J[:k_v, k_v:] @ rho_rows
+        return np.vstack([v_rows, rho_rows])
+    hj = dt * J
+    out, term = eye.copy(), eye
+    for order in range(1, 5):
+        term = term @ hj / order
+        out = out + term
+    return out
+
+
+def reduced_amplification(ops, dt, integrator, T):
+    """(growth, ω): the largest factor by which ``integrator`` amplifies a reduced mode over [0, T], and its ω.
+
+    The spectral radius r of :func:`reduced_step_matrix` on
+    :func:`linearized_jacobian` to the power of the run's steps n (capped at
+    exp(700), as :func:`harness.sph.solver.amplification`); ω [rad s^-1] is
+    the angle of that eigenvalue per step.  Explicit Euler on an undamped mode
+    of frequency ω: r = |1 + iωΔt|.
+    """
+    n = step_count(T, dt)
+    mu = np.linalg.eigvals(reduced_step_matrix(linearized_jacobian(ops), ops.k_v, dt, integrator))
+    i = int(np.argmax(np.abs(mu)))
+    r = float(np.abs(mu[i]))
+    log_growth = n * np.log(r) if r > 0 else -np.inf
+    return float(np.exp(min(700.0, log_growth))), float(abs(np.angle(mu[i])) / dt)
+
+
+def reduced_stability_warnings(model, ops, dt, integrator, T):
+    """One-line warnings (no prefix) about the time step of a reduced run of ``model``, maybe none.
+
+    Warns with the figure when ``integrator`` amplifies the fastest reduced
+    mode by more than :data:`~harness.sph.solver.GROWTH_WARN` over the run
+    (:func:`reduced_amplification`).  Linear models are advanced exactly in
+    time (no integrator): none.
+    """
+    if model.linear or integrator not in METHODS:
+        return []
+    growth, w = reduced_amplification(ops, dt, integrator, T)
+    if growth <= GROWTH_WARN:
+        return []
+    others = [m for m in model.integrators if m != integrator]
+    n = step_count(T, dt)
+    return [f"'{integrator}' amplifies the {model.name} model's fastest reduced mode (omega = {w:.4g} rad/s, "
+            f"omega dt = {w * dt:.3g}, linearised about rest) by a factor {growth_figure(growth)} over the run "
+            f"({n} steps to T = {T:g} s); rounding errors in that mode grow with it: use fewer modes, a shorter T"
+            + (f" or --integrator {'/'.join(others)}" if others else "")]

@@ -357,14 +357,18 @@ def stability_warnings(problem: SPHProblem, dt, integrator, T):
                    f"omega_max dt = {stab['omega_dt']:.3g})")
     if stab["growth"] > GROWTH_WARN:
         n = step_count(T, dt)
-        big = stab["growth"] >= np.exp(700.0) * (1 - 1e-12)
-        fig = "more than 1e+304" if big else f"{stab['growth']:.3g}"
+        fig = growth_figure(stab["growth"])
         out.append(f"'{integrator}' amplifies the mode at omega = {stab['growth_omega']:.4g} rad/s "
                    f"(omega dt = {stab['growth_omega'] * dt:.3g}, smallest damping d = "
                    f"{float(np.min(problem.d)):g} 1/s) by a factor {fig} over the run "
                    f"({n} steps to T = {T:g} s); rounding errors in that mode grow with it: use a smaller "
                    f"dt, a shorter T or --integrator symplectic/rk4")
     return out
+
+
+def growth_figure(growth):
+    """An amplification factor as printed in a warning: 3 digits, or "more than 1e+304" at the exp(700) cap."""
+    return "more than 1e+304" if growth >= np.exp(700.0) * (1 - 1e-12) else f"{growth:.3g}"
 
 
 def energy(problem: SPHProblem, v, rho):
@@ -375,8 +379,13 @@ def energy(problem: SPHProblem, v, rho):
     so this energy is conserved by the exact (semi-discrete) SPH dynamics
     when d = f = 0, and non-increasing when d ≥ 0 and f = 0.
     """
+    return strain_energy(problem, v, problem.rho0 / rho - 1.0)
+
+
+def strain_energy(problem: SPHProblem, v, e):
+    """The discrete energy ½ Σ ρ0 v² Δx + ½ Σ c e² Δx [J per m²] of velocities ``v`` and specific-volume
+    strains ``e`` (J − 1 = ρ0/ρ − 1, or its linearisation 1 − ρ/ρ0 of eq. 2.17) at the particles."""
     dx = problem.neighbours.dx
-    e = problem.rho0 / rho - 1.0
     return 0.5 * dx * float(np.sum(problem.rho0 * v * v) + np.sum(problem.c * e * e))
 
 

@@ -242,7 +242,7 @@ def run_entry(bundle, entry):
             out["load_s"] += load
             out["fmu_loads"] = _LOADS[(bundle["key"], threading.get_ident())]
             t0 = time.perf_counter()
-        slave.initialize(n_freeze=entry.n_freeze)
+        slave.initialize(n_freeze=entry.n_freeze, initial_state_scale=1)     # the scene's v0, as its full SPH
         values = slave.run(np.full(m, entry.step), f)
         out["fmu_wall_s"] = time.perf_counter() - t0
         v, rho = values[:, :P], values[:, P:2 * P]

@@ -1,0 +1,175 @@
+/*
+ * The training envelope (harness/fmu/envelope.py writes it): what the basis was
+ * trained on, stored in three tagged sections, and the run-time check of the
+ * state and the input against it widened by a margin.
+ *
+ *   ENVELOPE [1][ROM_ENVELOPE_SCALARS]: force amplitude max|f| [m s^-2], force band [Hz],
+ *            max strain |rho0/rho - 1| (particles), max probe strain, failure strain,
+ *            margin (>= 1), checks (bit mask ROM_ENVELOPE_CHECK_*), force mean [m s^-2]
+ *   ENVRANGE [2][k_v + k_rho]: min (row 0) and max (row 1) of each reduced coordinate
+ *            over the training run (a^v then a^rho; the exact model: z)
+ *   ENVPROBE [2][n_probes]: rho0 at the probes [kg m^-3]; max |v| at the probes in training [m s^-1]
+ *
+ * The check (frozen model only; a linear model is exact in its state and stores
+ * checks = 0), in this order, the first breach reported:
+ *   failure:     a probe strain above the failure strain (eq. 2.17's linearization fails)
+ *   coordinates: |a_i - c_i| > h_i + (margin - 1) H, [c_i - h_i, c_i + h_i] the trained range of
+ *                coordinate i, H the largest h of its block (a^v or a^rho)
+ *   force:       |f| > margin x the trained max |f|
+ *   strain:      a probe strain above margin x the largest trained probe strain
+ * harness/fmu/envelope.py check() repeats it.
+ */
+#include "rom_internal.h"
+
+#include <stdio.h>
+
+/* the scalars of ENVELOPE */
+enum {
+    ENV_FORCE_AMPLITUDE = 0,
+    ENV_FORCE_BAND = 1,
+    ENV_MAX_STRAIN = 2,
+    ENV_MAX_PROBE_STRAIN = 3,
+    ENV_FAILURE_STRAIN = 4,
+    ENV_MARGIN = 5,
+    ENV_CHECKS = 6,
+    ENV_FORCE_MEAN = 7
+};
+
+RomStatus rom_envelope_check_scalars(const RomModel *m, const RomSection *s, char *message, size_t message_size) {
+    if (s->rows != 1 || s->cols != ROM_ENVELOPE_SCALARS) {
+        return rom_fail(message, message_size, "resources: section 'ENVELOPE' is %u x %u, expected 1 x %u", s->rows,
+                        s->cols, ROM_ENVELOPE_SCALARS);
+    }
+    const double *e = s->data;
+    const double checks = e[ENV_CHECKS];
+    if (!(checks >= 0 && checks <= ROM_ENVELOPE_CHECK_ALL && checks == floor(checks))) {
+        return rom_fail(message, message_size, "resources: section 'ENVELOPE': checks = %g is not a mask of bits "
+                        "0 to 3", checks);
+    }
+    if (!(e[ENV_MARGIN] >= 1.0)) {
+        return rom_fail(message, message_size, "resources: section 'ENVELOPE': margin = %g (allowed: >= 1)",
+                        e[ENV_MARGIN]);
+    }
+    for (int i = ENV_FORCE_AMPLITUDE; i <= ENV_FAILURE_STRAIN; i++) {
+        if (e[i] < 0) {
+            return rom_fail(message, message_size, "resources: section 'ENVELOPE': value %d is %g (allowed: >= 0)",
+                            i, e[i]);
+        }
+    }
+    if (checks != 0 && rom_path(m->kind) != ROM_PATH_FROZEN) {
+        return rom_fail(message, message_size, "resources: section 'ENVELOPE': run-time checks on a linear model "
+                        "(it is exact in its state: checks must be 0)");
+    }
+    const RomSection *range = rom_model_section(m, "ENVRANGE");
+    const RomSection *probe = rom_model_section(m, "ENVPROBE");
+    if (!range || !probe) {
+        return rom_fail(message, message_size, "resources: section 'ENVELOPE' needs the sections 'ENVRANGE' and "
+                        "'ENVPROBE'");
+    }
+    return ROM_OK;
+}
+
+RomStatus rom_envelope_check_range(const RomModel *m, const RomSection *s, char *message, size_t message_size) {
+    const uint32_t k = m->k_v + m->k_rho;
+    if (s->rows != 2 || s->cols != k) {
+        return rom_fail(message, message_size, "resources: section 'ENVRANGE' is %u x %u, expected 2 x %u "
+                        "(k_v + k_rho)", s->rows, s->cols, k);
+    }
+    for (uint32_t i = 0; i < k; i++) {
+        if (!(s->data[i] <= s->data[k + i])) {
+            return rom_fail(message, message_size, "resources: section 'ENVRANGE': coordinate %u has min %g > "
+                            "max %g", i + 1, s->data[i], s->data[k + i]);
+        }
+    }
+    return ROM_OK;
+}
+
+RomStatus rom_envelope_check_probe(const RomModel *m, const RomSection *s, char *message, size_t message_size) {
+    if (s->rows != 2 || s->cols != m->n_probes) {
+        return rom_fail(message, message_size, "resources: section 'ENVPROBE' is %u x %u, expected 2 x %u "
+                        "(n_probes)", s->rows, s->cols, m->n_probes);
+    }
+    for (uint32_t j = 0; j < m->n_probes; j++) {
+        if (!(s->data[j] > 0)) {
+            return rom_fail(message, message_size, "resources: section 'ENVPROBE': rho0 = %g at probe %u (allowed: "
+                            "> 0)", s->data[j], j + 1);
+        }
+    }
+    return ROM_OK;
+}
+
+/* coordinate i of the frozen state: a^v then a^rho */
+static double coordinate(const RomState *state, uint32_t i) {
+    const uint32_t kv = state->model->k_v;
+    return i < kv ? state->av[i] : state->ar[i - kv];
+}
+
+/* the largest half-width of the block [first, last) */
+static double block_half(const double *lo, const double *hi, uint32_t first, uint32_t last) {
+    double h = 0.0;
+    for (uint32_t i = first; i < last; i++) h = fmax(h, 0.5 * (hi[i] - lo[i]));
+    return h;
+}
+
+int rom_envelope_check(const RomState *state, char *message, size_t message_size) {
+    if (!state || !state->model) return 0;
+    if (!message) message_size = 0;
+    const RomModel *m = state->model;
+    const RomSection *env = rom_model_section(m, "ENVELOPE");
+    const RomSection *range = rom_model_section(m, "ENVRANGE");
+    const RomSection *probe = rom_model_section(m, "ENVPROBE");
+    if (!env || !range || !probe || rom_path(m->kind) != ROM_PATH_FROZEN) return 0;
+    const double *e = env->data;
+    const unsigned checks = (unsigned)e[ENV_CHECKS];
+    const double margin = e[ENV_MARGIN];
+    const double t = state->time;
+    if (checks & (ROM_ENVELOPE_CHECK_FAILURE | ROM_ENVELOPE_CHECK_STRAIN)) {
+        for (uint32_t j = 0; j < m->n_probes; j++) {
+            const double strain = fabs(probe->data[j] / rom_rho_probe(state, j) - 1.0);
+            if ((checks & ROM_ENVELOPE_CHECK_FAILURE) && strain > e[ENV_FAILURE_STRAIN]) {
+                snprintf(message, message_size, "outside the training envelope at t = %.9g s: strain |rho0/rho - 1| "
+                         "= %.3g at probe %u (x/L = %g) is above %.3g, where the density linearization (eq. 2.17) of "
+                         "the frozen model is measured to fail (trained range [0, %.3g] at the probes)", t, strain,
+                         j + 1, m->probe_x[j], e[ENV_FAILURE_STRAIN], e[ENV_MAX_PROBE_STRAIN]);
+                return 1;
+            }
+        }
+    }
+    if (checks & ROM_ENVELOPE_CHECK_COORDINATES) {
+        const uint32_t k = m->k_v + m->k_rho;
+        const double *lo = range->data, *hi = range->data + k;
+        const uint32_t blocks[3] = {0, m->k_v, k};
+        for (int b = 0; b < 2; b++) {
+            const double widen = (margin - 1.0) * block_half(lo, hi, blocks[b], blocks[b + 1]);
+            for (uint32_t i = blocks[b]; i < blocks[b + 1]; i++) {
+                const double centre = 0.5 * (lo[i] + hi[i]), half = 0.5 * (hi[i] - lo[i]);
+                const double a = coordinate(state, i);
+                if (fabs(a - centre) > half + widen) {
+                    snprintf(message, message_size, "outside the training envelope at t = %.9g s: reduced coordinate "
+                             "%s_%u = %.6g is outside its trained range [%.6g, %.6g] widened by the margin %g (to "
+                             "[%.6g, %.6g])", t, b == 0 ? "a_v" : "a_rho", i - blocks[b] + 1, a, lo[i], hi[i], margin,
+                             lo[i] - widen, hi[i] + widen);
+                    return 1;
+                }
+            }
+        }
+    }
+    if ((checks & ROM_ENVELOPE_CHECK_FORCE) && fabs(state->f) > margin * e[ENV_FORCE_AMPLITUDE]) {
+        snprintf(message, message_size, "outside the training envelope at t = %.9g s: input |f| = %.6g m s^-2 is "
+                 "above %g x the trained amplitude (trained range [-%.6g, %.6g] m s^-2)", t, fabs(state->f), margin,
+                 e[ENV_FORCE_AMPLITUDE], e[ENV_FORCE_AMPLITUDE]);
+        return 1;
+    }
+    if (checks & ROM_ENVELOPE_CHECK_STRAIN) {
+        for (uint32_t j = 0; j < m->n_probes; j++) {
+            const double strain = fabs(probe->data[j] / rom_rho_probe(state, j) - 1.0);
+            if (strain > margin * e[ENV_MAX_PROBE_STRAIN]) {
+                snprintf(message, message_size, "outside the training envelope at t = %.9g s: strain |rho0/rho - 1| "
+                         "= %.3g at probe %u (x/L = %g) is above %g x the largest trained probe strain (trained "
+                         "range [0, %.3g])", t, strain, j + 1, m->probe_x[j], margin, e[ENV_MAX_PROBE_STRAIN]);
+                return 1;
+            }
+        }
+    }
+    return 0;
+}

@@ -1,0 +1,198 @@
+"""Where the frozen model leaves its envelope: probe error against the full SPH as the amplitude grows.
+
+The scene's initial velocity is scaled by s (the density starts at ρ0, as the FMU's
+``initial_state_scale``); the full SPH runs the scaled scene, the reduced models start from the
+scaled coordinates on the x1 basis (the FMU's basis: what it was trained on).  Per s it records the
+relative L² error of the probe velocities against the full SPH (frozen: n_freeze = 10, the scene's
+integrator and Δt; exact: the exact linear model, scale invariant, whose error moves only with the
+full SPH's departure from linearity in J, its time stepping of ρ), the peak strain |ρ0/ρ - 1| of the full SPH at the particles and at the
+probes, and the frozen run's largest coordinate excess beyond the trained ranges in units of its
+block's largest half-width (the quantity the FMU's coordinate check compares with margin - 1,
+:mod:`harness.fmu.envelope`).  Run as::
+
+    python -m harness.bench.envelope [SCENE ...] [--scales 1,1.5,...] [--out validation/benchmarks/envelope.csv]
+
+It writes the CSV and a PNG of error against peak probe strain beside it, and prints the table.  It
+also measures the headroom of every built-in scene's frozen model on its own training run (the FMU's
+settings: k = the scene's largest rom.accel_modes, n_freeze = 10, the scene's force): the largest
+coordinate excess (the check allows margin - 1) and the largest probe strain over the trained one (the
+check allows the margin), in ``envelope_training.csv`` beside the CSV.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+SCALES = (1.0, 1.25, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0)
+PROBES = (0.25, 0.5, 0.66)
+N_FREEZE = 10
+FAILURE_ERROR = 0.5      # the frozen model has failed where its probe error reaches this
+
+
+def _probe(field, x, L):
+    from ..fmu.resources import probe_pairs
+    i0, i1, w = probe_pairs(x, L, PROBES)
+    return (1.0 - w) * field[..., i0] + w * field[..., i1]
+
+
+def coordinate_excess(env, z, k_v):
+    """max over samples and coordinates of (|a_i - c_i| - h_i) / H_block (the FMU's coordinate check)."""
+    out = -np.inf
+    for block in (slice(0, k_v), slice(k_v, None)):
+        lo, hi = env.lo[block], env.hi[block]
+        c, h = 0.5 * (lo + hi), 0.5 * (hi - lo)
+        out = max(out, float(np.max((np.abs(z[:, block] - c) - h) / h.max())))
+    return out
+
+
+def measure(scene_name, scales=SCALES, progress=True):
+    """Rows (dicts) of the amplitude sweep of one scene (a name, a path or a Scene; module docstring)."""
+    from ..fmu import envelope as E
+    from ..norms import relative_l2
+    from ..pod.pipeline import basis_for_scene
+    from ..progress import progress_bar
+    from ..rom.registry import get_model
+    from ..scene import derive_scene, load_scene
+    from ..sph.solver import build_problem, run_sph, step_count
+
+    scene = load_scene(scene_name) if isinstance(scene_name, str) else scene_name
+    problem = build_problem(scene)
+    basis, run = basis_for_scene(scene, progress=False, problem=problem)
+    k = min(int(max(scene.rom.get("accel_modes", [scene.rom["modes"]]))), *basis.max_modes)
+    frozen, exact = get_model("frozen"), get_model("exact")
+    ops = frozen.build(problem, basis, k, k, input_direction=frozen.fmu_input_direction, tensor="always")
+    lin = exact.build(problem, basis, k, k, input_direction=exact.fmu_input_direction)
+    env = E.measure(scene, ops, problem, run, PROBES, linear=False)
+    n = step_count(scene.T, scene.sph.dt)
+    steps = np.arange(0, n + 1, scene.sph.every)
+    rho0 = np.asarray(problem.rho0, float)
+    rows = []
+    with progress_bar(len(scales), f"envelope {scene.name}", unit="scale", enabled=progress) as bar:
+        for s in scales:
+            amp = derive_scene(scene, {"fields": {"v0": f"{s!r}*({scene.fields['v0'].text})"}})
+            ref = run_sph(amp, sample_steps=steps, progress=False)
+            v_ref = _probe(ref.v, problem.x, scene.L)
+            strain = np.abs(rho0[None, :] / ref.rho - 1.0)
+            probe_strain = np.abs(_probe(rho0, problem.x, scene.L) / _probe(ref.rho, problem.x, scene.L) - 1.0)
+            row = {"scene": scene.name, "scale": s, "peak_strain": float(strain.max()),
+                   "peak_probe_strain": float(probe_strain.max())}
+            fr = frozen.run(ops, problem, dt=scene.sph.dt, n_steps=n, sample_steps=steps, n_freeze=N_FREEZE,
+                            integrator=scene.sph.integrator, state=(ops.a_v0 * s, ops.a_rho0.copy()))
+            row["frozen_v_error"] = relative_l2(_probe(fr.v, problem.x, scene.L), v_ref, fr.t)
+            fr_rho = _probe(fr.rho, problem.x, scene.L)
+            row["frozen_peak_probe_strain"] = float(np.max(np.abs(_probe(rho0, problem.x, scene.L) / fr_rho - 1)))
+            row["frozen_coordinate_excess"] = coordinate_excess(env, np.hstack([fr.a_v, fr.a_rho]), ops.k_v)
+            ex = exact.run(lin, problem, dt=scene.sph.dt, n_steps=n, sample_steps=steps,
+                           state=(lin.a_v0 * s, lin.a_rho0.copy()), step=scene.sph.dt * scene.sph.every)
+            row["exact_v_error"] = relative_l2(_probe(ex.v, problem.x, scene.L), v_ref, ex.t)
+            rows.append(row)
+            bar.update()
+    return rows
+
+
+def training_headroom(scene_name):
+    """One row: the frozen model's run of its own training scene against its recorded envelope."""
+    from ..fmu import envelope as E
+    from ..pod.pipeline import basis_for_scene
+    from ..rom.registry import get_model
+    from ..scene import load_scene
+    from ..sph.solver import build_problem, step_count
+
+    scene = load_scene(scene_name)
+    problem = build_problem(scene)
+    basis, run = basis_for_scene(scene, progress=False, problem=problem)
+    k = int(max(scene.rom.get("accel_modes", [scene.rom["modes"]])))
+    frozen = get_model("frozen")
+    ops = frozen.build(problem, basis, k, k, input_direction=frozen.fmu_input_direction, tensor="always")
+    env = E.measure(scene, ops, problem, run, PROBES, linear=False)
+    n = step_count(scene.T, scene.sph.dt)
+    fr = frozen.run(ops, problem, dt=scene.sph.dt, n_steps=n, every=scene.sph.every, n_freeze=N_FREEZE,
+                    integrator=scene.sph.integrator)
+    rho0 = _probe(np.asarray(problem.rho0, float), problem.x, scene.L)
+    strain = float(np.max(np.abs(rho0 / _probe(fr.rho, problem.x, scene.L) - 1.0)))
+    return {"scene": scene.name, "k_v": ops.k_v, "coordinate_excess": coordinate_excess(env, np.hstack([fr.a_v, fr.a_rho]),
+                                                                                        ops.k_v),
+            "probe_strain_ratio": strain / env.max_probe_strain, "max_probe_strain": env.max_probe_strain,
+            "allowed_excess": env.margin - 1.0, "allowed_ratio": env.margin}
+
+
+def failure_strain(rows, scene, error=None):
+    """The full SPH's peak probe strain at which the frozen probe error reaches ``error`` (default
+    :data:`FAILURE_ERROR`), interpolated linearly between the scales measured; nan when never reached."""
+    error = FAILURE_ERROR if error is None else error
+    rs = sorted((r for r in rows if r["scene"] == scene), key=lambda r: r["scale"])
+    for a, b in zip(rs, rs[1:]):
+        if a["frozen_v_error"] < error <= b["frozen_v_error"]:
+            w = (error - a["frozen_v_error"]) / (b["frozen_v_error"] - a["frozen_v_error"])
+            return a["peak_probe_strain"] + w * (b["peak_probe_strain"] - a["peak_probe_strain"])
+    return float("nan")
+
+
+def plot(rows, path):
+    """Probe velocity error against the full SPH's peak probe strain, one line per scene and model."""
+    import matplotlib.pyplot as plt
+    from ..fmu.envelope import FAILURE_STRAIN
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    for scene in dict.fromkeys(r["scene"] for r in rows):
+        rs = [r for r in rows if r["scene"] == scene]
+        x = [r["peak_probe_strain"] for r in rs]
+        ax.loglog(x, [r["frozen_v_error"] for r in rs], "o-", label=f"{scene}: frozen")
+        ax.loglog(x, [r["exact_v_error"] for r in rs], "s--", label=f"{scene}: exact")
+        for r in rs:
+            ax.annotate(f"{r['scale']:g}x", (r["peak_probe_strain"], r["frozen_v_error"]), fontsize=7,
+                        textcoords="offset points", xytext=(3, -9))
+    ax.axvline(FAILURE_STRAIN, color="k", lw=0.8, ls=":", label=f"failure strain {FAILURE_STRAIN:g}")
+    ax.set_xlabel("peak probe strain |ρ0/ρ - 1| of the full SPH")
+    ax.set_ylabel("relative L² error of the probe velocities")
+    ax.set_title("Initial state scaled by s: reduced models (x1 basis) against the full SPH", fontsize=9)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120, format="png")
+    plt.close(fig)
+
+
+def main(argv=None):
+    from ..runio import atomic_path
+    from .tables import write_csv
+    p = argparse.ArgumentParser(prog="python -m harness.bench.envelope", description=__doc__.split("\n\n")[0])
+    p.add_argument("scenes", nargs="*", default=["tenmode"], metavar="SCENE")
+    p.add_argument("--scales", default=",".join(f"{s:g}" for s in SCALES), metavar="S1,S2,...")
+    p.add_argument("--out", default="validation/benchmarks/envelope.csv", metavar="FILE.csv")
+    p.add_argument("--quiet", action="store_true")
+    args = p.parse_args(argv)
+    try:
+        scales = [float(s) for s in args.scales.split(",")]
+        if not all(np.isfinite(s) and s > 0 for s in scales):
+            raise ValueError
+    except ValueError:
+        p.error(f"--scales: {args.scales!r} is not a list of numbers > 0")
+    rows = [r for s in args.scenes for r in measure(s, scales, progress=not args.quiet)]
+    out = Path(args.out)
+    write_csv(out, rows)
+    png = out.with_suffix(".png")
+    with atomic_path(png) as tmp:
+        plot(rows, tmp)
+    print("| scene | s | peak strain | peak probe strain | frozen v error | frozen coord. excess | exact v error |")
+    print("| --- | --- | --- | --- | --- | --- | --- |")
+    for r in rows:
+        print(f"| {r['scene']} | {r['scale']:g} | {r['peak_strain']:.3g} | {r['peak_probe_strain']:.3g} | "
+              f"{r['frozen_v_error']:.3g} | {r['frozen_coordinate_excess']:.3g} | {r['exact_v_error']:.3g} |")
+    for scene in dict.fromkeys(r["scene"] for r in rows):
+        print(f"{scene}: probe strain at {FAILURE_ERROR:.0%} frozen probe error: "
+              f"{failure_strain(rows, scene):.3g} (nan: not reached)")
+    from ..scene import builtin_names
+    training = [training_headroom(name) for name in builtin_names()]
+    write_csv(out.with_name("envelope_training.csv"), training)
+    print("| scene | largest coordinate excess (allowed 0.5) | probe strain / trained (allowed 1.5) |")
+    print("| --- | --- | --- |")
+    for r in training:
+        print(f"| {r['scene']} | {r['coordinate_excess']:.3g} | {r['probe_strain_ratio']:.3g} |")
+    print(f"wrote {out}, {png} and {out.with_name('envelope_training.csv')}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,136 @@
+"""What ``sphrom fmu`` measures, for every built-in scene: the packaged FMU against the full SPH.
+
+``python -m harness.bench.fmu_verify [SCENE ...] [--models frozen,exact] [--repeats R] [--out FOLDER]
+[--report BENCHMARKS.md]`` packages each scene's FMU of each model (FMI 2, the scene's default settings, as
+``sphrom fmu SCENE --model MODEL``), with the verification of :mod:`harness.fmu.verify` (training force and
+the unseen force A sin(2 pi 0.7 t); errors of eq. 3.4 at the probes), then times the training run of the
+full SPH (its compiled loop) and of every model's FMU (fmpy on an instantiated FMU) in turn, ``repeats``
+times (medians; the speed-up is the ratio of the medians taken in the same run).  The tolerance column
+compares the FMU's training error with the full SPH's own error against the reference (the paper's figure,
+the scene's ``paper.sph_error_v``): below it, the reduced model adds less than the SPH's own error.
+
+Writes ``fmu_verify.csv`` into FOLDER and the section "The packaged FMU against the full SPH, every scene"
+of the report (replaced when present, else put before the stress maps or at the end).
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+SECTION_HEADING = "## The packaged FMU against the full SPH, every scene"
+
+
+def measure_scene(name, models, repeats, folder, fmi=2, progress=True):
+    """Rows (one per model) of scene ``name``: errors of the verification, median times, speed-up."""
+    import statistics
+
+    from ..fmu.build import ensure_binaries
+    from ..fmu.package import package_fmu
+    from ..fmu.verify import fmu_features, fmu_run, sph_reference
+    from ..scene import load_scene
+    from ..sph.solver import build_problem
+    from .timing import median_times_interleaved
+
+    scene = load_scene(name)
+    problem = build_problem(scene)
+    binaries = ensure_binaries(quiet=True)
+    summaries, refs = [], None
+    for model in models:
+        s = package_fmu(scene, Path(folder) / f"{name}-{model}.fmu", model=model, fmi=fmi, progress=progress,
+                        binaries=binaries, problem=problem, verify=True, references=refs)
+        refs = s.verification.refs
+        summaries.append(s)
+    first = summaries[0].verification
+    force, scale, _, (t, *_) = refs["training"]
+    values = scene.force(t)
+    sph_times, fmu_times = [], {s.model: [] for s in summaries}
+
+    def sph():
+        sph_times.append(sph_reference(scene, force, scale, first.step, first.probes, problem=problem)[-1])
+
+    def fmu(summary):
+        has_scale = fmu_features(summary.path)[0]
+        interpolate = summary.verification.input != "held"
+        return lambda: fmu_times[summary.model].append(
+            fmu_run(summary.path, values, t, scale=1.0 if has_scale else None, interpolate=interpolate)[-1])
+
+    median_times_interleaved([sph] + [fmu(s) for s in summaries], repeats=repeats, warmup=0)
+    sph_s = statistics.median(sph_times)
+    tol = scene.paper.get("sph_error_v")
+    rows = []
+    for s in summaries:
+        v = s.verification
+        fmu_s = statistics.median(fmu_times[s.model])
+        rows.append({"scene": name, "model": s.model, "k": s.k, "k_v": s.k_v, "k_rho": s.k_rho,
+                     "N": scene.sph.n_particles, "T": scene.T, "step": v.step, "input": v.input,
+                     "train_err_v": v.training.err_v, "train_err_rho": v.training.err_rho,
+                     "unseen_force": v.unseen.force, "unseen_start": v.unseen.start,
+                     "unseen_err_v": v.unseen.err_v, "unseen_err_rho": v.unseen.err_rho,
+                     "fmu_s": fmu_s, "sph_s": sph_s, "speedup": sph_s / fmu_s, "repeats": repeats,
+                     "tolerance": tol, "meets": None if tol is None else bool(v.training.err_v <= tol),
+                     "note": "; ".join(c.note for c in v.cases if c.note)})
+    return rows
+
+
+def replace_section(text, heading, lines, before="## Stability stress maps"):
+    """``text`` with the section ``heading`` (up to the next ``## ``) replaced by ``lines``, or inserted before
+    the section ``before`` (at the end when that is absent)."""
+    block = "\n".join(lines).rstrip("\n") + "\n\n"
+    start = text.find(heading + "\n")
+    if start >= 0:
+        end = text.find("\n## ", start + len(heading))
+        return text[:start] + block + (text[end + 1:] if end >= 0 else "")
+    at = text.find("\n" + before + "\n")
+    if at >= 0:
+        return text[:at + 1] + block + text[at + 1:]
+    return text.rstrip("\n") + "\n\n" + block
+
+
+def main(argv=None):
+    from ..report.markdown import write_text
+    from ..rom.registry import fmu_model_names
+    from ..scene import builtin_names
+    from .report import packaged_fmu_section
+    from .tables import write_csv
+
+    p = argparse.ArgumentParser(prog="python -m harness.bench.fmu_verify", description=__doc__.split("\n\n")[0])
+    p.add_argument("scenes", nargs="*", metavar="SCENE", help="default: every built-in scene")
+    p.add_argument("--models", default=",".join(fmu_model_names()), metavar="M1,M2")
+    p.add_argument("--repeats", type=int, default=3, metavar="R")
+    p.add_argument("--out", default="validation/benchmarks", metavar="FOLDER")
+    p.add_argument("--report", default="BENCHMARKS.md", metavar="FILE.md")
+    p.add_argument("--quiet", action="store_true")
+    args = p.parse_args(argv)
+    scenes = args.scenes or builtin_names()
+    models = [m for m in args.models.split(",") if m]
+    t0 = time.perf_counter()
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="sphrom-fmu-verify-") as folder:
+        for name in scenes:
+            for r in measure_scene(name, models, args.repeats, folder, progress=not args.quiet):
+                rows.append(r)
+                print(f"{r['scene']:20s} {r['model']:7s} training v {r['train_err_v']:.3e}  unseen v "
+                      f"{r['unseen_err_v']:.3e}  FMU {r['fmu_s']:.4f} s  SPH {r['sph_s']:.4f} s  "
+                      f"{r['speedup']:.3g}x", flush=True)
+    wall = time.perf_counter() - t0
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    write_csv(out / "fmu_verify.csv", rows)
+    command = "python -m harness.bench.fmu_verify" + (" " + " ".join(argv if argv is not None else sys.argv[1:])
+                                                      if (argv if argv is not None else sys.argv[1:]) else "")
+    lines = packaged_fmu_section(rows, command=command, repeats=args.repeats, wall=wall,
+                                 machine=f"{platform.machine()}, Python {platform.python_version()}")
+    report = Path(args.report)
+    text = report.read_text() if report.exists() else "# Benchmarks\n"
+    write_text(report, replace_section(text, SECTION_HEADING, lines))
+    print(f"wrote {out / 'fmu_verify.csv'} and the section of {report} ({wall:.0f} s)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,70 @@
+"""Write tests/data/initial_state_reference.npz: FMU outputs of the code before ``initial_state_scale``.
+
+Run from the repository root::
+
+    python3 tests/data/make_initial_state_reference.py [--code ROOT]
+
+``--code`` names the checkout whose ``harness`` (and fmu_src/) runs (default this repository).  It was run
+once with ``--code`` on the commit before the FMU parameter ``initial_state_scale`` existed (57f8748), when
+every FMU started from the scene's initial state; tests/test_fmu_initial_state.py packages the stored
+resources with today's binaries and holds their outputs at ``initial_state_scale = 1`` bitwise equal to
+these, FMI 2 and 3, frozen and exact.
+
+Stored per model (frozen, exact): the resources/model.bin bytes of damped_forced shrunk (the FMU tests'
+"forced" scene, k = 6, probes 0.25, 0.5, 0.66), the inputs f held over 60 steps of 10 ms (seeded), and the
+outputs at the 61 communication points of the FMI 2 and the FMI 3 FMU.  Bitwise equality assumes the same
+compiler and flags as the capture (the core's arithmetic has no fused multiply-add, rom_internal.h).
+"""
+
+import argparse
+import os
+import sys
+import tempfile
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+OUT = Path(__file__).resolve().parent / "initial_state_reference.npz"
+MODELS = ("frozen", "exact")
+H, STEPS, SEED = 0.01, 60, 7
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--code", default=str(Path(__file__).resolve().parents[2]),
+                        help="the checkout whose harness runs (default: this repository)")
+    args = parser.parse_args()
+    root = Path(args.code).resolve()
+    tests = Path(__file__).resolve().parents[1]
+    sys.path[:0] = [str(root), str(tests)]
+    os.environ.setdefault("SPHROM_CACHE", tempfile.mkdtemp(prefix="sphrom-cache-"))
+    from conftest import fmu_scene
+    from harness.fmu.build import ensure_binaries
+    from harness.fmu.fmi import Slave
+    from harness.fmu.package import package_fmu
+    import harness
+    assert Path(harness.__file__).resolve().parents[1] == root, harness.__file__
+
+    inputs = np.random.default_rng(SEED).normal(0.0, 0.02, STEPS)
+    arrays = {"inputs": inputs, "steps": np.full(STEPS, H)}
+    folder = Path(tempfile.mkdtemp(prefix="sphrom-isr-"))
+    for model in MODELS:
+        for fmi in (2, 3):
+            path = folder / f"{model}-{fmi}.fmu"
+            package_fmu(fmu_scene("forced"), path, k=6, fmi=fmi, probes=(0.25, 0.5, 0.66), progress=False,
+                        binaries=ensure_binaries(), model=model)
+            blob = zipfile.ZipFile(path).read("resources/model.bin")
+            if fmi == 2:
+                arrays[f"{model}/model_bin"] = np.frombuffer(blob, dtype=np.uint8)
+            else:
+                assert blob == arrays[f"{model}/model_bin"].tobytes()
+            with Slave(path) as s:
+                s.initialize()                  # before initial_state_scale: the scene's initial state
+                arrays[f"{model}/fmi{fmi}"] = s.run([H] * STEPS, inputs)
+    np.savez_compressed(OUT, **arrays)
+    print(f"wrote {OUT}")
+
+
+if __name__ == "__main__":
+    main()

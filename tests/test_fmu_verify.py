@@ -1,0 +1,278 @@
+"""The FMU explains itself: ``sphrom fmu`` measures the FMU it built against the full SPH (numbers stored in the
+FMU equal an independent recomputation), ``documentation/index.html`` lists exactly the modelDescription's
+variables, ``--tolerance`` refuses a model above it without losing a file, ``--model auto`` keeps the fastest
+model that meets it, and the README's variable list covers every variable of packaged FMUs."""
+
+import dataclasses
+import re
+import zipfile
+from html.parser import HTMLParser
+from pathlib import Path
+
+import fmpy
+import numpy as np
+import pytest
+
+from conftest import fmu_scene
+from harness.cli import main
+from harness.expr import compile_expr
+from harness.fmu.build import ensure_binaries
+from harness.fmu.contract import FMU_VARIABLES, lookup
+from harness.fmu.package import package_auto, package_fmu
+from harness.sph.solver import build_problem, run_sph
+
+ROOT = Path(__file__).resolve().parents[1]
+K = 6
+
+
+@pytest.fixture(scope="module")
+def packaged(tmp_path_factory):
+    """make(case, model, fmi, verify) -> (path, FMUSummary), packaged once each."""
+    binaries = ensure_binaries()
+    folder = tmp_path_factory.mktemp("verified")
+    made = {}
+
+    def make(case="forced", model="frozen", fmi=2, verify=True):
+        key = (case, model, fmi, verify)
+        if key not in made:
+            path = folder / f"{case}-{model}-{fmi}-{verify}.fmu"
+            s = package_fmu(fmu_scene(case), path, k=K, fmi=fmi, model=model, progress=False, binaries=binaries,
+                            verify=verify)
+            made[key] = (path, s)
+        return made[key]
+
+    return make
+
+
+class _Tables(HTMLParser):
+    """The cells of every <table> of a page, by table id, and every src/href attribute."""
+
+    def __init__(self):
+        super().__init__()
+        self.tables, self.links, self._id, self._row, self._cell = {}, [], None, None, None
+        self.open = []
+
+    def handle_starttag(self, tag, attrs):
+        attrs = dict(attrs)
+        if tag not in ("meta", "img", "br"):
+            self.open.append(tag)
+        self.links += [attrs[a] for a in ("src", "href") if a in attrs]
+        if tag == "table":
+            self._id = attrs.get("id", len(self.tables))
+            self.tables[self._id] = []
+        elif tag == "tr":
+            self._row = []
+        elif tag in ("td", "th"):
+            self._cell = ""
+
+    def handle_endtag(self, tag):
+        assert self.open and self.open[-1] == tag, (tag, self.open[-3:])
+        self.open.pop()
+        if tag in ("td", "th"):
+            self._row.append(self._cell)
+            self._cell = None
+        elif tag == "tr":
+            self.tables[self._id].append(self._row)
+
+    def handle_data(self, data):
+        if self._cell is not None:
+            self._cell += data
+
+
+def page(path):
+    parser = _Tables()
+    parser.feed(zipfile.ZipFile(path).read("documentation/index.html").decode("utf-8"))
+    parser.close()
+    assert parser.open == []                      # every element closed: a well-formed page
+    return parser
+
+
+def probe_interp(problem, L, probes, a):
+    """Linear interpolation at x/L of the particle values (independent of the packager's probe rows)."""
+    x = problem.x
+    return np.stack([np.interp(p * L, x, a_t) for a_t in a for p in probes]).reshape(len(a), len(probes))
+
+
+def l2(u, ref, t, base=0.0):
+    """sqrt(int sum_j (u - ref)^2 dt / int sum_j (ref - base)^2 dt), trapezoidal in t."""
+    num = np.trapezoid(np.sum((u - ref) ** 2, axis=1), t)
+    den = np.trapezoid(np.sum((ref - base) ** 2, axis=1), t)
+    return float(np.sqrt(num / den))
+
+
+@pytest.mark.parametrize("case, model, fmi", [("forced", "frozen", 2), ("unforced", "exact", 3)])
+def test_stored_errors_equal_an_independent_recomputation(packaged, case, model, fmi):
+    """The FMU through fmpy.simulate_fmu (f held at the communication points) against a full SPH run made
+    here, at linearly interpolated probes: the errors equal the verification's, and the FMU stores them."""
+    path, s = packaged(case, model, fmi)
+    v = s.verification
+    scene = fmu_scene(case)
+    problem = build_problem(scene)
+    md = fmpy.read_model_description(str(path))
+    names = {x.name for x in md.modelVariables}
+    assert v.step == float(md.defaultExperiment.stepSize) and v.input == "held"
+    for c in v.cases:
+        t = np.arange(int(round(scene.T / v.step)) + 1) * v.step
+        force = scene.f.text if c.name == "training" else c.force
+        expr = compile_expr(force, ("t", "L", "T"), "force")
+        f = np.broadcast_to(expr(t=t, L=scene.L, T=scene.T), t.shape).astype(float)
+        signal = np.zeros(t.size, dtype=[("time", float), ("f", float)])
+        signal["time"], signal["f"] = t, f
+        start = {}
+        if "initial_state_scale" in names:
+            start["initial_state_scale"] = 1.0 if c.start != "rest" else 0.0
+        res = fmpy.simulate_fmu(str(path), stop_time=scene.T, output_interval=v.step, input=signal,
+                                start_values=start)
+        fmu_v = np.column_stack([res[f"v_probe_{j + 1}"] for j in range(3)])
+        fmu_rho = np.column_stack([res[f"rho_probe_{j + 1}"] for j in range(3)])
+        # the full SPH with the same force at every internal step, from the same state
+        run_scene = dataclasses.replace(scene, f=expr)
+        scale = 0.0 if c.start == "rest" else 1.0
+        steps = np.round(t / scene.sph.dt).astype(int)
+        run = run_sph(run_scene, sample_steps=steps, progress=False, problem=problem,
+                      state=(scale * problem.v0, problem.rho0.copy()))
+        sph_v = probe_interp(problem, scene.L, v.probes, run.v)
+        sph_rho = probe_interp(problem, scene.L, v.probes, run.rho)
+        rho0 = probe_interp(problem, scene.L, v.probes, problem.rho0[None, :])[0]
+        err_v, err_rho = l2(fmu_v, sph_v, t), l2(fmu_rho - rho0, sph_rho - rho0, t)
+        assert c.err_v == pytest.approx(err_v, rel=1e-9) and c.err_rho == pytest.approx(err_rho, rel=1e-9)
+        assert 0 < c.err_v < 0.5 and c.fmu_s > 0 and c.sph_s > 0
+    # stored in the FMU: the description (short) and the documentation page
+    assert v.sentence() in md.description
+    assert f"{v.training.err_v:.2g} on the training force" in md.description
+    measured = page(path).tables["measured"]
+    assert [row[0] for row in measured[1:]] == ["training", "unseen"]
+    for row, c in zip(measured[1:], v.cases):
+        assert float(row[3]) == pytest.approx(c.err_v, rel=2e-3) and float(row[4]) == pytest.approx(c.err_rho,
+                                                                                                   rel=2e-3)
+    png = zipfile.ZipFile(path).read("documentation/probes.png")
+    assert png[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize("fmi, model, verify", [(2, "frozen", True), (3, "frozen", True), (3, "exact", False),
+                                                (2, "exact", False)])
+def test_documentation_lists_exactly_the_model_description_variables(packaged, fmi, model, verify):
+    path, s = packaged("forced", model, fmi, verify)
+    md = fmpy.read_model_description(str(path))
+    doc = page(path)
+    rows = doc.tables["variables"]
+    assert rows[0][:3] == ["name", "value reference", "causality"]
+    assert [r[0] for r in rows[1:]] == [v.name for v in md.modelVariables]
+    for r, var in zip(rows[1:], md.modelVariables):
+        unit = var.unit or (var.declaredType.unit if var.declaredType is not None else None)
+        assert int(r[1]) == var.valueReference and r[2] == var.causality and r[5] == (unit or "-")
+    # self-contained: the only resource is the plot beside it, present exactly when measured
+    names = zipfile.ZipFile(path).namelist()
+    assert "documentation/index.html" in names
+    assert doc.links == (["probes.png"] if verify else [])
+    assert ("documentation/probes.png" in names) == verify
+    text = zipfile.ZipFile(path).read("documentation/index.html").decode()
+    assert "http:" not in text and "https:" not in text and "<script" not in text
+    assert s.scene in text and f"<code>{model}</code>" in text
+    assert ("Not measured" in text) == (not verify)
+    assert fmpy.validation.validate_fmu(str(path)) == []
+
+
+def test_tolerance_failure_is_one_line_and_loses_nothing(tmp_path, capsys):
+    scene_file = tmp_path / "forced.toml"
+    scene_file.write_text(fmu_scene("forced").text)
+    out = tmp_path / "model.fmu"
+    out.write_bytes(b"an earlier FMU")
+    args = ["fmu", str(scene_file), "--modes", str(K), "--out", str(out), "--quiet"]
+    assert main(args + ["--tolerance", "1e-9"]) == 4
+    captured = capsys.readouterr()
+    err = captured.err.strip().splitlines()
+    assert len(err) == 1 and "tolerance 1e-09" in err[0] and "not written" in err[0], err
+    assert out.read_bytes() == b"an earlier FMU"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["forced.toml", "model.fmu"]
+    # met: written, and the measurement printed
+    assert main(args + ["--tolerance", "0.5"]) == 0
+    text = capsys.readouterr().out
+    assert "tolerance 0.5 on the training-force v error: met" in text and "unseen" in text
+    assert fmpy.validation.validate_fmu(str(out)) == []
+    assert main(args + ["--model", "auto"]) == 2                     # auto needs a tolerance
+    assert "needs --tolerance" in capsys.readouterr().err
+
+
+def test_model_auto_keeps_the_fastest_model_meeting_the_tolerance(tmp_path):
+    scene = fmu_scene("forced")
+    best, candidates = package_auto(scene, tmp_path / "auto.fmu", tolerance=10.0, k=K, progress=False)
+    assert {c.model for c in candidates} >= {"frozen", "exact"}
+    assert best.verification.training.fmu_s == min(c.verification.training.fmu_s for c in candidates)
+    md = fmpy.read_model_description(str(tmp_path / "auto.fmu"))
+    assert best.verification.sentence() in md.description
+    errors = {c.model: c.verification.training.err_v for c in candidates}
+    # every model measured on the same full SPH runs
+    assert len({id(c.verification.refs) for c in candidates}) == 1
+    tight = min(errors.values()) * 1.0001
+    best2, _ = package_auto(scene, tmp_path / "auto2.fmu", tolerance=tight, k=K, progress=False)
+    assert best2.model == min(errors, key=errors.get)
+
+
+README_UNITS = {"s": "s", "m s⁻²": "m/s2", "m s⁻¹": "m/s", "kg m⁻³": "kg/m3", "–": "", "-": ""}
+
+
+def readme_variables():
+    """Rows (name, value reference text, causality word, unit) of README's FMU variable table."""
+    text = (ROOT / "README.md").read_text()
+    start = text.index("**Variables**")
+    rows = []
+    for line in text[start:].splitlines()[1:]:
+        if rows and not line.startswith("|"):
+            break
+        m = re.match(r"\| `(\w+)` \[([\w+-]+)\] \| (\w+)[^|]*\|[^|]*\| ([^|]*?) \|", line)
+        if m:
+            rows.append((m[1], m[2], m[3], README_UNITS[m[4].strip()]))
+    return rows
+
+
+def test_readme_and_help_list_every_fmu_variable(packaged, capsys):
+    """README's table, ``sphrom fmu --help`` and harness.fmu.contract list the same variables, and every
+    variable of packaged FMUs (both models, FMI 2 and 3) is among them with its value reference, causality
+    and unit."""
+    assert readme_variables() == [row[:4] for row in FMU_VARIABLES]
+    assert main(["fmu", "--help"]) == 0
+    out = capsys.readouterr().out
+    for name, vr, causality, unit, meaning in FMU_VARIABLES:
+        assert f"{name} [{vr}] {causality}" in out
+    for model, fmi in [("frozen", 2), ("frozen", 3), ("exact", 2), ("exact", 3)]:
+        path, _ = packaged("forced", model, fmi, False)
+        for var in fmpy.read_model_description(str(path)).modelVariables:
+            row, vr = lookup(var.name)
+            assert row is not None, f"{var.name} is not documented in harness/fmu/contract.py and README.md"
+            unit = var.unit or (var.declaredType.unit if var.declaredType is not None else None) or ""
+            assert (vr, row[2], row[3]) == (var.valueReference, var.causality, unit), var.name
+
+
+def test_the_benchmark_section_is_replaced_in_place_or_put_before_the_stress_maps():
+    from harness.bench.fmu_verify import SECTION_HEADING, replace_section
+    doc = "# Benchmarks\n\n## The FMU\n\ntext\n\n## Stability stress maps\n\nmaps\n"
+    first = replace_section(doc, SECTION_HEADING, [SECTION_HEADING, "", "| a |", ""])
+    assert first == ("# Benchmarks\n\n## The FMU\n\ntext\n\n" + SECTION_HEADING + "\n\n| a |\n\n"
+                     "## Stability stress maps\n\nmaps\n")
+    second = replace_section(first, SECTION_HEADING, [SECTION_HEADING, "", "| b |", ""])
+    assert second == first.replace("| a |", "| b |")
+    assert replace_section("# B\n", SECTION_HEADING, [SECTION_HEADING, "", "x"]) == f"# B\n\n{SECTION_HEADING}\n\nx\n\n"
+
+
+def test_the_benchmark_writes_its_table_from_the_measurement(tmp_path):
+    """python -m harness.bench.fmu_verify on a small scene: the CSV rows and the section of the report carry
+    the verification's errors; the speed-up is the ratio of the medians."""
+    import csv
+
+    from harness.bench.fmu_verify import SECTION_HEADING
+    from harness.bench.fmu_verify import main as bench_main
+    scene_file = tmp_path / "small.toml"
+    scene_file.write_text(fmu_scene("forced").text)
+    report = tmp_path / "B.md"
+    report.write_text("# Benchmarks\n\n## Stability stress maps\n\nmaps\n")
+    assert bench_main([str(scene_file), "--repeats", "1", "--out", str(tmp_path), "--report", str(report),
+                       "--quiet"]) == 0
+    rows = list(csv.DictReader(open(tmp_path / "fmu_verify.csv")))
+    assert [r["model"] for r in rows] == ["frozen", "exact"]
+    text = report.read_text()
+    assert text.index(SECTION_HEADING) < text.index("## Stability stress maps")
+    for r in rows:
+        assert float(r["speedup"]) == pytest.approx(float(r["sph_s"]) / float(r["fmu_s"]))
+        assert f"| {r['model']} |" in text and f"{float(r['train_err_v']):.3e}" in text
+        assert float(r["tolerance"]) == fmu_scene("forced").paper["sph_error_v"]
