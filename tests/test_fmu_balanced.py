@@ -268,17 +268,17 @@ def test_measured_fmu_error_stays_below_its_bounds(fmus, model, record_property)
 
 
 def test_fmu_balanced_command_prints_its_order_and_bounds(tmp_path, capsys):
-    """`sphrom fmu --model balanced --tolerance`: the order from the tolerance, the bounds and what they bound;
-    option errors name the option."""
+    """`sphrom fmu --model balanced --modes R`: the order, the bounds as stored and what they bound; an order
+    out of range names the option."""
     from harness.cli import main
     from harness.scene import dump_toml, scene_dict
     scene_file = tmp_path / "small.toml"
     scene_file.write_text(dump_toml(scene_dict(scene_for("forced"))))
     out = tmp_path / "bal.fmu"
-    assert main(["fmu", str(scene_file), "--model", "balanced", "--tolerance", "1e-3", "--out", str(out),
+    assert main(["fmu", str(scene_file), "--model", "balanced", "--modes", str(R), "--out", str(out),
                  "--quiet"]) == 0
     text = capsys.readouterr().out
-    assert "balanced model" in text and "from --tolerance 0.001" in text and "order r = " in text
+    assert "balanced model" in text and f"order r = {R} (bt" in text
     assert "force_error_bound_j [s]" in text and "||f||_L2(0,T)" in text and "no shift" in text
     data = unpack(zipfile.ZipFile(out).read("resources/model.bin"))
     lines = [line for line in text.splitlines() if line.strip().startswith(("0.25 |", "0.5 |", "0.66 |"))]

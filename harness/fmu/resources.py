@@ -390,7 +390,7 @@ def exact_data(lin, problem, *, dt, n_freeze, probes, bound=None):
                      Pv=probe_rows(lin.U_v, problem.x, L, probes),
                      Pe=np.stack([lin.U_e[i0], lin.U_e[i1]], axis=1),
                      pw=np.stack([1.0 - w, w], axis=1), prho0=np.stack([rho0[i0], rho0[i1]], axis=1),
-                     probe_x=probes, sections={"LINMODEL": [[LINEAR_EXACT_POD]]})
+                     probe_x=probes, sections={"LINMODEL": np.array([[LINEAR_EXACT_POD]], float)})
 
 
 def balanced_data(ops, problem, *, dt, n_freeze, bound=None):
@@ -416,7 +416,7 @@ def balanced_data(ops, problem, *, dt, n_freeze, bound=None):
                      S=np.asarray(ops.schur_T, float) if ops.skew else None,
                      Pv=np.asarray(red.Cr[:P], float), Pe=np.stack([Ve[i0], Ve[i1]], axis=1),
                      pw=np.stack([1.0 - w, w], axis=1), prho0=np.stack([rho0[i0], rho0[i1]], axis=1),
-                     probe_x=probes, output_rows=True, sections={"LINMODEL": [[LINEAR_BALANCED]]})
+                     probe_x=probes, output_rows=True, sections={"LINMODEL": np.array([[LINEAR_BALANCED]], float)})
 
 
 def pack_exact(data: ExactData) -> bytes:
