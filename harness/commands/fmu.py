@@ -23,6 +23,11 @@ def add_parser(sub):
                    help="reduced model: frozen (eqs. 2.19-2.24, internal dt; default) or exact (the exact linear "
                         "model in the specific volume, advanced by the matrix exponential over each "
                         "communication step)")
+    p.add_argument("--vary", action="append", default=[], metavar="c=LO:HI|d=LO:HI",
+                   help="a parametric FMU: train one basis over this range of the uniform stiffness c "
+                        "[kg m^-1 s^-2] or damping d [s^-1] (full SPH at the corners and the centre of the range, "
+                        "one POD of all snapshots) and expose c (value reference 5) or d (6) as fixed parameters, "
+                        "min/max the range; give both to vary both")
     p.add_argument("--out", required=True, metavar="FILE.fmu")
     add_quiet(p)
     p.set_defaults(handler=run)
@@ -44,8 +49,9 @@ def run(args):
     scene = load_scene(args.scene)
     check_options(scene, k=args.modes, n_freeze=args.n_freeze, probes=args.probes, fmi=fmi,
                   integrator=args.integrator, model=args.model)
+    vary = check_vary(scene, args.vary, args.model)
     s = package_fmu(scene, out, k=args.modes, n_freeze=args.n_freeze, probes=args.probes, fmi=fmi,
-                    integrator=args.integrator, progress=not args.quiet, model=args.model)
+                    integrator=args.integrator, progress=not args.quiet, model=args.model, vary=vary)
     from ..rom.operators import INPUT_TOLERANCE
     added = " (+ the force profile direction, not in the POD span)" if s.augmented else ""
     print(f"fmu {s.scene}: FMI {s.fmi}.0 co-simulation, {s.model} model, wrote {s.path} ({s.size / 1024:.1f} KiB)")
@@ -66,7 +72,30 @@ def run(args):
         print(f"  integrator {s.integrator}, dt = {s.dt:g} s, n_freeze = {s.n_freeze} (parameters dt, n_freeze)")
     print(f"  probes at x/L = {', '.join(f'{x:g}' for x in s.probes)}: outputs v_probe_1..{len(s.probes)}, "
           f"rho_probe_1..{len(s.probes)}; input f")
+    for row in s.parameters:
+        print(f"  parameter {row['name']} (value reference {row['vr']}): start {row['start']}, trained range "
+              f"[{row['min']}, {row['max']}]")
     t = s.timings
     print(f"  token {s.token}; fmpy validation: no problems; times: model {t['model']:.2f} s, "
           f"binaries {t['binaries']:.2f} s, package {t['package']:.2f} s")
     return 0
+
+
+def check_vary(scene, texts, model):
+    """The parameter ranges of ``--vary`` (harness.rom.parametric.Range), checked before any run.
+
+    FieldError naming ``vary`` for a bad text, ``model`` for a model without a POD basis, and
+    ``fields.c`` / ``fields.d`` when the scene's field is not uniform.
+    """
+    if not texts:
+        return []
+    from ..errors import FieldError
+    from ..rom import parametric as par
+    from ..rom.registry import get_model
+    from ..sph.solver import build_problem
+
+    ranges = [par.parse_vary(text) for text in texts]
+    if get_model(model).basis_kind not in ("density", "energy"):
+        raise FieldError("model", f"{model} cannot be made parametric (allowed with --vary: frozen, exact)")
+    par.parameter_space(build_problem(scene), ranges)
+    return ranges

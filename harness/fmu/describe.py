@@ -48,7 +48,7 @@ def number(x) -> str:
 
 
 def model_description(fmi: int, *, token, scene, data, k_requested, step_size, stop_time, input_error,
-                      model="frozen"):
+                      model="frozen", parameters=()):
     """The modelDescription.xml text for FMI version ``fmi`` (2 or 3).
 
     Parameters
@@ -66,6 +66,9 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
         Relative projection error of the force profile on the POD velocity modes.
     model : str
         The registered reduced model packaged (its title heads the description).
+    parameters : sequence of dict
+        Parameters of a parametric model (:func:`harness.fmu.parametric.parameter_variables`): name, vr,
+        start, min, max, nominal, description; listed after the outputs.
     """
     from ..rom.registry import get_model
 
@@ -109,8 +112,9 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
     }
     # FMI 3 fixedInternalStepSize only where there is one: the linear model steps by the matrix exponential
     internal_step = [] if spec.linear else [{}]
+    params = [{**p, "index": FIXED_VARIABLES + 2 * data.n_probes + 1 + i} for i, p in enumerate(parameters)]
     return render(template(f"fmi{fmi}.xml"), values,
-                  {"probes": probes, "outputs": outputs, "internal_step": internal_step})
+                  {"probes": probes, "outputs": outputs, "internal_step": internal_step, "params": params})
 
 
 def build_description() -> str:

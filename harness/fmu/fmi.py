@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 VR_TIME, VR_F, VR_N_FREEZE, VR_DT = 0, 1, 2, 3     # fmu_src/rom.h
+VR_C, VR_D = 5, 6                                  # fmu_src/rom.h: parametric models only
 
 # fmpy's FMU constructors chdir() into binaries/<platform> to load the library
 # and chdir() back: the working directory is per process, so two threads that

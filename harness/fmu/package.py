@@ -139,6 +139,7 @@ class FMUSummary:
     size: int
     timings: dict = field(default_factory=dict)
     model: str = "frozen"
+    parameters: list = field(default_factory=list)     # a parametric FMU's c, d rows (harness.fmu.parametric)
 
 
 def default_modes(scene):
@@ -303,7 +304,7 @@ def validate(path):
 
 
 def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_PROBES, fmi=2, integrator=None,
-                step_size=None, progress=True, binaries=None, problem=None, model="frozen") -> FMUSummary:
+                step_size=None, progress=True, binaries=None, problem=None, model="frozen", vary=()) -> FMUSummary:
     """Build the FMU of ``scene`` at ``out`` (atomically) and validate it.
 
     Parameters
@@ -327,6 +328,9 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
     model : str
         The reduced model to ship: a registered one with an FMU resource kind
         (``frozen``, ``exact``; module docstring).
+    vary : sequence of harness.rom.parametric.Range
+        Parameter ranges of c and/or d: a parametric FMU (:mod:`.parametric`) trained over them, with
+        parameters ``c``, ``d``; empty (default): the scene's fixed c and d.
 
     Raises
     ------
@@ -343,15 +347,22 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
                                                          integrator=integrator, model=model)
     timings = {}
     t0 = time.perf_counter()
-    data, ops, blob = RESOURCES[get_model(model).fmu_kind](scene, model, k, n_freeze, probes, integrator,
-                                                              progress, problem)
+    parameters = []
+    if vary:
+        from .parametric import parameter_variables, parametric_resource
+        data, ops, blob, space = parametric_resource(scene, model, k, n_freeze, probes, integrator, progress, vary)
+        parameters = parameter_variables(space)
+    else:
+        data, ops, blob = RESOURCES[get_model(model).fmu_kind](scene, model, k, n_freeze, probes, integrator,
+                                                                  progress, problem)
     timings["model"] = time.perf_counter() - t0
     t1 = time.perf_counter()
     binaries = binaries or ensure_binaries(quiet=not progress)
     timings["binaries"] = time.perf_counter() - t1
     step = step_size if step_size is not None else min(DEFAULT_STEP, scene.T / 10)
     description = model_description(fmi, token=data.token, scene=scene, data=data, k_requested=k, step_size=step,
-                                     stop_time=scene.T, input_error=ops.input_error, model=model)
+                                     stop_time=scene.T, input_error=ops.input_error, model=model,
+                                     parameters=parameters)
     t2 = time.perf_counter()
     out = Path(out)
     with atomic_path(out) as tmp:
@@ -364,4 +375,5 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
     timings["package"] = time.perf_counter() - t2
     return FMUSummary(path=out, fmi=fmi, scene=scene.name, k=k, k_v=data.k_v, k_rho=data.k_rho,
                       input_error=ops.input_error, augmented=ops.augmented, probes=list(probes), n_freeze=n_freeze,
-                      integrator=integrator, dt=data.dt, token=data.token, size=size, timings=timings, model=model)
+                      integrator=integrator, dt=data.dt, token=data.token, size=size, timings=timings, model=model,
+                      parameters=parameters)

@@ -62,6 +62,15 @@ SECTION_TAG_SIZE = 8
 MAX_SECTIONS = 32                          # fmu_src/rom.h ROM_MAX_SECTIONS
 MAX_SECTION_VALUES = 1 << 26               # fmu_src/rom.h ROM_MAX_SECTION_VALUES
 SECTION_TAGS: dict[str, str] = {}          # tag -> what it holds (the C loader's SECTION_RULES)
+SECTION_TAGS.update({                      # parametric models (harness.rom.parametric)
+    "PARAMS": "parametric model: c and d (varied, start, min, max)",
+    "KC": "frozen model: K per unit c",
+    "BC": "frozen model: b per unit c",
+    "DD": "frozen model: D per unit d",
+    "A0": "linear model: the part of A without c or d",
+    "AC": "linear model: the part of A per unit c",
+    "AD": "linear model: the part of A per unit d",
+})
 _HEADER = struct.Struct("<8s10I3d")
 _SECTION = struct.Struct("<8s2I")
 HEADER_SIZE = _HEADER.size                 # 72 bytes, magic to L (fmu_src/rom.h ROM_HEADER_SIZE)
