@@ -280,3 +280,60 @@ def test_value_references_of_c_and_d_shared_by_c_and_python():
     from test_fmu_constants import header_constants
     rom = header_constants("rom.h")
     assert (rom["ROM_VR_C"], rom["ROM_VR_D"]) == (VR_C, VR_D) == (5, 6)
+
+
+# ---------------------------------------------------------------------------
+# sphrom sweep over c and d with one parametric FMU
+# ---------------------------------------------------------------------------
+
+SWEEP_SPEC = """
+scene = "scene.toml"
+t_end = 0.5
+step = 0.01
+probes = [0.25, 0.66]
+compare_sph = true
+
+[parametric]
+d = [5.0, 15.0]
+
+[grid]
+shape = ["sine"]
+amplitude = [1e-2]
+frequency = [1.0]
+d = [6.0, 12.0]
+k = [4]
+"""
+
+
+def test_sweep_uses_one_parametric_fmu_for_its_d_grid(tmp_path):
+    """Two values of d inside [parametric] run on ONE FMU (one packaging), each with its d set as the FMU
+    parameter: its probe statistics equal a direct run of that FMU at that d (bitwise), and its error against the
+    full SPH at that d is small; a grid value outside the range is one line naming the field."""
+    from harness.cli import main
+    from harness.sweep.fmus import sweep_dir
+    from harness.sweep.spec import load_spec
+    from harness.sweep.table import read_results
+    from harness.sweep.worker import probe_stats
+    (tmp_path / "scene.toml").write_text(scene_for("forced").text)
+    (tmp_path / "spec.toml").write_text(SWEEP_SPEC)
+    spec = load_spec(tmp_path / "spec.toml")
+    assert len({e.variant_inputs() for e in spec.entries}) == 1
+    out = tmp_path / "results.h5"
+    assert main(["sweep", str(tmp_path / "spec.toml"), "--workers", "1", "--out", str(out), "--quiet"]) == 0
+    rows, _ = read_results(out)
+    assert sorted(r["d"] for r in rows) == [6.0, 12.0] and len({r["fmu"] for r in rows}) == 1
+    t = np.arange(51) * 0.01
+    f = 1e-2 * np.sin(2 * np.pi * 1.0 * t[:-1])
+    stats = {}
+    for r in rows:
+        assert r["status"] == "ok" and 0 < r["sph_err_v"] < 0.05
+        with Slave(sweep_dir() / f"fmu-{r['fmu']}.fmu") as s:
+            s.set_real([VR_D], [r["d"]])
+            s.initialize(n_freeze=10)
+            o = s.run([0.01] * 50, f)
+        stats[r["d"]] = probe_stats(t, o[:, :2], (0.0, 0.5))
+        assert r["v_max_1"] == stats[r["d"]]["v_max"][0] and r["v_rms_2"] == stats[r["d"]]["v_rms"][1]
+    assert abs(stats[6.0]["v_rms"][0] - stats[12.0]["v_rms"][0]) > 1e-3 * stats[12.0]["v_rms"][0]
+    (tmp_path / "bad.toml").write_text(SWEEP_SPEC.replace("d = [6.0, 12.0]", "d = [6.0, 20.0]"))
+    with pytest.raises(Exception, match=r"grid.d: 20.0 is outside the parametric range \[5, 15\]"):
+        load_spec(tmp_path / "bad.toml")
