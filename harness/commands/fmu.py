@@ -63,6 +63,8 @@ def run(args):
         print(f"  modes: k = {s.k} POD modes -> k_v = {s.k_v}{added}, k_rho = {s.k_rho}")
     decision = (f"above {INPUT_TOLERANCE:g}: its residual appended to the basis" if s.augmented else
                 f"at most {INPUT_TOLERANCE:g}: f projected on the modes (eq. 2.19)")
+    if s.parameters and not s.augmented and not model.linear:
+        decision = "f projected on the modes (eq. 2.19), as in every parametric frozen model"
     print(f"  input projection error of the force profile on the {s.k} POD velocity modes: {s.input_error:.3g} "
           f"({decision})")
     if model.linear:
