@@ -48,8 +48,9 @@ def reduced_probe_velocity(model_name, ops, problem, scene, steps, n_freeze=10):
     from ..rom.common import run_reduced
     from ..rom.exact_linear import run_exact
     from ..rom.operators import probe_rows
+    from ..rom.registry import get_model
     dt = scene.sph.dt
-    if model_name == "exact":
+    if get_model(model_name).linear:
         t = steps * dt
         res = run_exact(ops, t, step=float(np.min(np.diff(t))), force=scene.force if ops.B is not None else None)
         a_v = res.a_v
@@ -96,6 +97,7 @@ def _held_out_row(scene, affine, model, k, c, d):
     from ..fmu.package import exact_model, reduced_model
     from ..pod.pipeline import error_steps
     from ..rom import parametric as par
+    from ..rom.registry import get_model
     from ..sph.solver import build_problem
 
     s = par.scene_at(scene, c, d)
@@ -104,10 +106,11 @@ def _held_out_row(scene, affine, model, k, c, d):
     run = cached_sph(s, steps, progress=False, problem=problem)
     ref = sph_probe_velocity(run, problem, s, steps)
     t = steps * s.sph.dt
-    ops_p = par.linear_at(affine, c, d) if model == "exact" else par.frozen_at(affine, c, d)
+    linear = get_model(model).linear
+    ops_p = par.linear_at(affine, c, d) if linear else par.frozen_at(affine, c, d)
     t0 = time.perf_counter()
     e_par = probe_velocity_error(reduced_probe_velocity(model, ops_p, problem, s, steps), ref, t)
-    if model == "exact":
+    if linear:
         _, ops_1, _, _ = exact_model(s, k, 10, PROBES, progress=False, problem=problem)
     else:
         _, ops_1, _, _ = reduced_model(s, k, 10, PROBES, s.sph.integrator, progress=False, problem=problem)
