@@ -284,6 +284,10 @@ InstanceStatus instance_enter_initialization(Instance *inst) {
 }
 
 InstanceStatus instance_exit_initialization(Instance *inst, const char *fn) {
+    /* a parametric model's operators from the parameters now fixed (O(k^2)) */
+    if (rom_model_assemble(inst->model, inst->state, inst->message, sizeof inst->message) != ROM_OK) {
+        return instance_error(inst, fn, "%s", inst->message);
+    }
     if (rom_check_outputs(inst->state, inst->message, sizeof inst->message) != ROM_OK) {
         return instance_error(inst, fn, "%s", inst->message);
     }
@@ -343,6 +347,18 @@ static RomStatus set_f_held(RomState *s, double value, char *message, size_t mes
     return status == ROM_OK ? rom_set_input_rate(s, 0.0, message, message_size) : status;
 }
 
+/* parametric models: the stiffness c [kg m^-1 s^-2] and the damping d [s^-1], each only where it was varied */
+static double get_c(const RomState *s, uint32_t j) { (void)j; return rom_get_param(s, ROM_PARAM_C); }
+static double get_d(const RomState *s, uint32_t j) { (void)j; return rom_get_param(s, ROM_PARAM_D); }
+static RomStatus set_c(RomState *s, double value, char *message, size_t message_size) {
+    return rom_set_param(s, ROM_PARAM_C, value, message, message_size);
+}
+static RomStatus set_d(RomState *s, double value, char *message, size_t message_size) {
+    return rom_set_param(s, ROM_PARAM_D, value, message, message_size);
+}
+static int varies_c(const RomModel *m) { return rom_varies(m, ROM_PARAM_C); }
+static int varies_d(const RomModel *m) { return rom_varies(m, ROM_PARAM_D); }
+
 /* The FMU's variables (modelDescription/fmi2.xml, fmi3.xml; value references rom.h ROM_VR_*):
  * the one place that maps value references onto the core.  A COUNT_PER_PROBE row
  * stands for n_probes value references vr + j, its getter receiving j.  A row
@@ -379,6 +395,8 @@ static const Variable VARIABLES[] = {
      get_force_bound, NULL, NULL, NULL, has_bounds},
     {"initial_state_error_bound_j", ROM_VR_INITIAL_STATE_ERROR_BOUND_PROBE, COUNT_PER_PROBE, TYPE_FLOAT64,
      ROLE_CALCULATED, get_initial_bound, NULL, NULL, NULL, has_bounds},
+    {"c", ROM_VR_C, COUNT_ONE, TYPE_FLOAT64, ROLE_FIXED, get_c, NULL, set_c, NULL, varies_c},
+    {"d", ROM_VR_D, COUNT_ONE, TYPE_FLOAT64, ROLE_FIXED, get_d, NULL, set_d, NULL, varies_d},
 };
 
 /* the variable of value reference ref (time only where the version has it), or NULL; *j: the probe index */

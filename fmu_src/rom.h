@@ -132,6 +132,8 @@ extern "C" {
 #define ROM_VR_DT 3u                 /* parameter dt [s] */
 #define ROM_VR_INITIAL_STATE_SCALE 4u  /* parameter initial_state_scale (1: the scene's initial state, 0: rest) */
 #define ROM_INITIAL_STATE_SCALE_START 0.0  /* its start value in the FMU: a component starts at rest */
+#define ROM_VR_C 5u                  /* parameter c [kg m^-1 s^-2] (parametric models only) */
+#define ROM_VR_D 6u                  /* parameter d [s^-1] (parametric models only) */
 #define ROM_VR_V_PROBE 1000u         /* v_probe_1 .. : 1000 + j */
 #define ROM_VR_RHO_PROBE 2000u       /* rho_probe_1 .. : 2000 + j */
 #define ROM_VR_FORCE_ERROR_BOUND 8u  /* linear models: certified force-channel bound, max over probes [s] */
@@ -229,6 +231,9 @@ typedef struct {
     int64_t clock;          /* cache clock */
     int64_t n_expm;         /* exponentials computed since the state was created */
     void *storage_;
+    /* parametric models (section PARAMS): the chosen stiffness c [kg m^-1 s^-2] and damping d [s^-1],
+     * the start values after a reset; the operators are assembled from them by rom_model_assemble */
+    double c, d;
 } RomState;
 
 /* ---- resources ---------------------------------------------------------- */
@@ -321,6 +326,22 @@ ROM_API RomStatus rom_state_deserialize(RomState *state, const unsigned char *bu
  * message, when given, names the quantity, its value, the trained range and the time); 0 inside it, for
  * a model without an envelope, and for a linear model (no run-time checks) */
 ROM_API int rom_envelope_check(const RomState *state, char *message, size_t message_size);
+
+/* ---- parametric models (sections PARAMS and KC, BC, DD or A0, AC, AD) ------------
+ * The operators are affine in c and d: frozen K = c K_c, b = c b_c, D = d D_d; linear
+ * A = A_0 + c A_c + d A_d (harness/rom/parametric.py).  PARAMS row 0 is c, row 1 is d:
+ * (varied 0/1, start, min, max). */
+#define ROM_PARAM_C 0
+#define ROM_PARAM_D 1
+/* 1 when the model exposes parameter which (ROM_PARAM_C or ROM_PARAM_D), else 0 */
+ROM_API int rom_varies(const RomModel *model, int which);
+/* Set c or d of a parametric model; fails, naming the value and the trained range, outside it */
+ROM_API RomStatus rom_set_param(RomState *state, int which, double value, char *message, size_t message_size);
+ROM_API double rom_get_param(const RomState *state, int which);
+/* Assemble the operators of the state's (c, d) into the model (O(k^2)) and empty the state's
+ * exponential cache; a model without PARAMS is left as it is.  Called once the parameters are
+ * fixed (ExitInitializationMode). */
+ROM_API RomStatus rom_model_assemble(RomModel *model, RomState *state, char *message, size_t message_size);
 
 ROM_API const char *rom_version(void);
 

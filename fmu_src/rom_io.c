@@ -384,12 +384,77 @@ static RomStatus check_linear_model(const RomModel *m, const RomSection *s, char
     return ROM_OK;
 }
 
+/* Parametric models (harness/rom/parametric.py): PARAMS (2 x 4: rows c, d; varied 0/1, start, min, max)
+ * and the kind's affine pieces, each needing the other */
+static RomStatus check_shape(const RomSection *s, uint32_t rows, uint32_t cols, char *message, size_t message_size) {
+    if (s->rows == rows && s->cols == cols) return ROM_OK;
+    return rom_fail(message, message_size, "resources: section '%s' is %u x %u, expected %u x %u", s->tag, s->rows,
+                    s->cols, rows, cols);
+}
+
+static RomStatus check_params(const RomModel *m, const RomSection *s, char *message, size_t message_size) {
+    if (check_shape(s, 2, 4, message, message_size) != ROM_OK) return ROM_FAIL;
+    int varied = 0;
+    for (int r = 0; r < 2; r++) {
+        const double *row = s->data + 4 * r;
+        if ((row[0] != 0.0 && row[0] != 1.0) || !(row[2] <= row[1] && row[1] <= row[3]) ||
+            !(row[2] > 0.0 || (r == 1 && row[2] == 0.0))) {
+            return rom_fail(message, message_size, "resources: section 'PARAMS' row %d: varied %g, start %g, range "
+                            "[%g, %g] (expected 0 or 1 and min <= start <= max, c > 0, d >= 0)", r + 1, row[0], row[1],
+                            row[2], row[3]);
+        }
+        varied |= row[0] != 0.0;
+    }
+    if (!varied) return rom_fail(message, message_size, "resources: section 'PARAMS' varies neither c nor d");
+    static const char *const frozen[] = {"KC", "BC", NULL}, *const linear[] = {"A0", "AC", "AD", NULL};
+    for (const char *const *tag = rom_is_linear(m) ? linear : frozen; *tag; tag++) {
+        if (!rom_model_section(m, *tag)) {
+            return rom_fail(message, message_size, "resources: section 'PARAMS' without section '%s'", *tag);
+        }
+    }
+    const int damping = (m->flags & ROM_FLAG_DAMPING) != 0;
+    if (!rom_is_linear(m) && damping != (rom_model_section(m, "DD") != NULL)) {
+        return rom_fail(message, message_size, "resources: section 'DD' %s (it goes with the damping flag)",
+                        damping ? "missing" : "without damping");
+    }
+    if (!rom_is_linear(m) && s->data[4] != 0.0 && !damping) {
+        return rom_fail(message, message_size, "resources: d varies but the model has no damping term");
+    }
+    if (rom_is_linear(m) && (m->flags & ROM_FLAG_SCHUR)) {
+        return rom_fail(message, message_size, "resources: a parametric linear model with a Schur form (A changes "
+                        "with c and d)");
+    }
+    return ROM_OK;
+}
+
+static RomStatus check_affine(const RomModel *m, const RomSection *s, char *message, size_t message_size) {
+    const int linear_tag = s->tag[0] == 'A';
+    if (linear_tag != rom_is_linear(m)) {
+        return rom_fail(message, message_size, "resources: section '%s' does not belong to a %s model", s->tag,
+                        rom_is_linear(m) ? "linear" : "frozen");
+    }
+    if (!rom_model_section(m, "PARAMS")) {
+        return rom_fail(message, message_size, "resources: section '%s' without section 'PARAMS'", s->tag);
+    }
+    if (linear_tag) return check_shape(s, m->k, m->k, message, message_size);
+    if (strcmp(s->tag, "KC") == 0) return check_shape(s, m->k_v, m->k_rho, message, message_size);
+    if (strcmp(s->tag, "BC") == 0) return check_shape(s, 1, m->k_v, message, message_size);
+    return check_shape(s, m->k_v, m->k_v, message, message_size);
+}
+
 static const SectionRule SECTION_RULES[] = {
     {"ENVELOPE", "the training envelope's scalars", rom_envelope_check_scalars},
     {"ENVRANGE", "the training envelope's coordinate ranges", rom_envelope_check_range},
     {"ENVPROBE", "rho0 at the probes (training envelope)", rom_envelope_check_probe},
     {"BOUNDS", "certified error bounds per probe (force, initial state)", check_bounds},
     {"LINMODEL", "which linear model: 1 exact POD, 2 balanced", check_linear_model},
+    {"PARAMS", "parametric model: c and d (varied, start, min, max)", check_params},
+    {"KC", "frozen model: K per unit c", check_affine},
+    {"BC", "frozen model: b per unit c", check_affine},
+    {"DD", "frozen model: D per unit d", check_affine},
+    {"A0", "linear model: the part of A without c or d", check_affine},
+    {"AC", "linear model: the part of A per unit c", check_affine},
+    {"AD", "linear model: the part of A per unit d", check_affine},
     {NULL, NULL, NULL},        /* end of the table */
 };
 

@@ -47,6 +47,11 @@ def add_parser(sub):
                         "training-force error meets the tolerance")
     p.add_argument("--no-verify", dest="verify", action="store_false",
                    help="skip the measurement against the full SPH (the documentation then says 'not measured')")
+    p.add_argument("--vary", action="append", default=[], metavar="c=LO:HI|d=LO:HI",
+                   help="a parametric FMU: train one basis over this range of the uniform stiffness c "
+                        "[kg m^-1 s^-2] or damping d [s^-1] (full SPH at the corners and the centre of the range, "
+                        "one POD of all snapshots) and expose c (value reference 5) or d (6) as fixed parameters, "
+                        "min/max the range; give both to vary both")
     p.add_argument("--out", required=True, metavar="FILE.fmu")
     add_quiet(p)
     p.set_defaults(handler=run)
@@ -79,6 +84,8 @@ def _run(args):
         raise UserError("--tolerance: needs the measurement (drop --no-verify)")
     scene = load_scene(args.scene)
     if args.model == "auto":
+        if args.vary:
+            raise UserError("--vary: not with --model auto (choose frozen or exact for a parametric FMU)")
         if args.tolerance is None:
             raise UserError("--model: auto needs --tolerance TOL (the error the chosen model must meet)")
         for model in fmu_model_names():
@@ -99,9 +106,10 @@ def _run(args):
     else:
         check_options(scene, k=args.modes, n_freeze=args.n_freeze, probes=args.probes, fmi=fmi,
                       integrator=args.integrator, model=args.model, tolerance=args.tolerance)
+        vary = check_vary(scene, args.vary, args.model)
         s = package_fmu(scene, out, k=args.modes, n_freeze=args.n_freeze, probes=args.probes, fmi=fmi,
                         integrator=args.integrator, progress=not args.quiet, model=args.model, verify=args.verify,
-                        tolerance=args.tolerance)
+                        tolerance=args.tolerance, vary=vary)
     from ..rom.operators import INPUT_TOLERANCE
     added = " (+ the force profile direction, not in the POD span)" if s.augmented else ""
     print(f"fmu {s.scene}: FMI {s.fmi}.0 co-simulation, {s.model} model, wrote {s.path} ({s.size / 1024:.1f} KiB)")
@@ -119,6 +127,8 @@ def _run(args):
         print(f"  modes: k = {s.k} POD modes -> k_v = {s.k_v}{added}, k_rho = {s.k_rho}")
     decision = (f"above {INPUT_TOLERANCE:g}: its residual appended to the basis" if s.augmented else
                 f"at most {INPUT_TOLERANCE:g}: f projected on the modes (eq. 2.19)")
+    if s.parameters and not s.augmented and not model.linear:
+        decision = "f projected on the modes (eq. 2.19), as in every parametric frozen model"
     if model.basis_kind is not None:
         print(f"  input projection error of the force profile on the {s.k} POD velocity modes: {s.input_error:.3g} "
               f"({decision})")
@@ -134,6 +144,9 @@ def _run(args):
             print(f"  envelope: {line}")
     if s.bounds is not None:
         print_bounds(s)
+    for row in s.parameters:
+        print(f"  parameter {row['name']} (value reference {row['vr']}): start {row['start']}, trained range "
+              f"[{row['min']}, {row['max']}]")
     t = s.timings
     print(f"  token {s.token}; fmpy validation: no problems; times: model {t['model']:.2f} s, "
           f"binaries {t['binaries']:.2f} s, package {t['package']:.2f} s"
@@ -174,3 +187,23 @@ def print_bounds(s):
         print(f"    {x:9.4g} | {b['force_error_bound'][j]:23.4e} | {b['initial_state_error_bound'][j]:.4e}")
     t = b["timings"]
     print(f"    computed in {sum(t.values()):.2f} s (H-infinity bisection {t['hinf']:.2f} s)")
+
+
+def check_vary(scene, texts, model):
+    """The parameter ranges of ``--vary`` (harness.rom.parametric.Range), checked before any run.
+
+    FieldError naming ``vary`` for a bad text, ``model`` for a model without a POD basis, and
+    ``fields.c`` / ``fields.d`` when the scene's field is not uniform.
+    """
+    if not texts:
+        return []
+    from ..errors import FieldError
+    from ..rom import parametric as par
+    from ..rom.registry import get_model
+    from ..sph.solver import build_problem
+
+    ranges = [par.parse_vary(text) for text in texts]
+    if get_model(model).basis_kind not in ("density", "energy"):
+        raise FieldError("model", f"{model} cannot be made parametric (allowed with --vary: frozen, exact)")
+    par.parameter_space(build_problem(scene), ranges)
+    return ranges

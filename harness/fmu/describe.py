@@ -69,7 +69,7 @@ def bound_text(bounds):
 
 
 def model_description(fmi: int, *, token, scene, data, k_requested, step_size, stop_time, input_error,
-                      model="frozen", envelope=None, measured=None, bounds=None):
+                      model="frozen", envelope=None, measured=None, bounds=None, parameters=()):
     """The modelDescription.xml text for FMI version ``fmi`` (2 or 3).
 
     Parameters
@@ -94,6 +94,9 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
     bounds : dict, optional
         Linear models: the certified error bounds (:func:`harness.rom.balanced.error_bounds`), declared as
         calculated parameters.
+    parameters : sequence of dict
+        Parameters of a parametric model (:func:`harness.fmu.parametric.parameter_variables`): name, vr,
+        start, min, max, nominal, description; listed after the outputs.
     """
     from ..rom.registry import get_model
 
@@ -160,7 +163,11 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
     # FMI 3 fixedInternalStepSize only where there is one: the linear model steps by the matrix exponential
     internal_step = [] if spec.linear else [{}]
     lists = {"probes": probes, "outputs": outputs, "internal_step": internal_step, "f_nominal": f_nominal}
-    lists.update(bound_lists(bounds, data, FIXED_VARIABLES + 2 * data.n_probes + 1))
+    last = FIXED_VARIABLES + 2 * data.n_probes + 1          # FMI 2 index of initial_state_scale
+    lists.update(bound_lists(bounds, data, last))
+    last += len(lists["bounds"]) * 2 + len(lists["bound_probes"]) * 2
+    # a parametric model's c, d: FMI 2 indices after everything above
+    lists["params"] = [{**p, "index": last + 1 + i} for i, p in enumerate(parameters)]
     return render(template(f"fmi{fmi}.xml"), values, lists)
 
 

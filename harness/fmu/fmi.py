@@ -15,6 +15,7 @@ import numpy as np
 
 VR_TIME, VR_F, VR_N_FREEZE, VR_DT = 0, 1, 2, 3     # fmu_src/rom.h
 VR_INITIAL_STATE_SCALE = 4                         # ROM_VR_INITIAL_STATE_SCALE (the FMU's start: 0, at rest)
+VR_C, VR_D = 5, 6                                  # fmu_src/rom.h: parametric models only
 
 # fmpy's FMU constructors chdir() into binaries/<platform> to load the library
 # and chdir() back: the working directory is per process, so two threads that

@@ -157,6 +157,7 @@ class FMUSummary:
     verification: object = None      # harness.fmu.verify.Verification when measured, else None
     bounds: dict | None = None
     method: str = ""
+    parameters: list = field(default_factory=list)     # a parametric FMU's c, d rows (harness.fmu.parametric)
 
 
 def default_modes(scene):
@@ -428,7 +429,7 @@ def validate(path):
 
 def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_PROBES, fmi=2, integrator=None,
                 step_size=None, progress=True, binaries=None, problem=None, model="frozen", verify=False,
-                tolerance=None, references=None, bounds=True) -> FMUSummary:
+                tolerance=None, references=None, bounds=True, vary=()) -> FMUSummary:
     """Build the FMU of ``scene`` at ``out`` (atomically) and validate it.
 
     Parameters
@@ -468,6 +469,9 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
         Linear models: compute and declare the certified error bounds (default;
         seconds to minutes at N = 400).  False leaves them out (benchmarks that
         time the stepping only).
+    vary : sequence of harness.rom.parametric.Range
+        Parameter ranges of c and/or d: a parametric FMU (:mod:`.parametric`) trained over them, with
+        parameters ``c``, ``d``; empty (default): the scene's fixed c and d.
 
     Raises
     ------
@@ -487,9 +491,15 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
                                                          tolerance=tolerance)
     timings = {}
     t0 = time.perf_counter()
-    data, ops, blob = RESOURCES[get_model(model).fmu_kind](scene, model, k, n_freeze, probes, integrator,
-                                                              progress, problem, tolerance=tolerance,
-                                                              bounds=bounds)
+    parameters = []
+    if vary:
+        from .parametric import parameter_variables, parametric_resource
+        data, ops, blob, space = parametric_resource(scene, model, k, n_freeze, probes, integrator, progress, vary)
+        parameters = parameter_variables(space)
+    else:
+        data, ops, blob = RESOURCES[get_model(model).fmu_kind](scene, model, k, n_freeze, probes, integrator,
+                                                                  progress, problem, tolerance=tolerance,
+                                                                  bounds=bounds)
     bounds = getattr(data, "bounds", None)
     timings["model"] = time.perf_counter() - t0
     from .envelope import Envelope
@@ -508,7 +518,7 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
         """Write and validate the FMU at ``path``; its description and documentation carry ``verification``."""
         description = model_description(fmi, token=data.token, scene=scene, data=data, k_requested=k,
                                          step_size=step, stop_time=scene.T, input_error=ops.input_error,
-                                         model=model, envelope=envelope, bounds=bounds,
+                                         model=model, envelope=envelope, bounds=bounds, parameters=parameters,
                                          measured=None if verification is None else verification.sentence())
         docs = documentation_files(scene=scene, spec=spec, data=data, k=k, input_error=ops.input_error,
                                    augmented=ops.augmented, description_xml=description, verification=verification,
@@ -537,7 +547,7 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
                       input_error=ops.input_error, augmented=ops.augmented, probes=list(probes), n_freeze=n_freeze,
                       integrator=integrator, dt=data.dt, token=data.token, size=size, timings=timings, model=model,
                       envelope=envelope, verification=verification, bounds=bounds,
-                      method=getattr(ops, "method", ""))
+                      method=getattr(ops, "method", ""), parameters=parameters)
 
 
 def check_tolerance(verification, tolerance, out, model):

@@ -74,6 +74,14 @@ SECTION_TAGS: dict[str, str] = {          # tag -> what it holds (the C loader's
     # linear models (harness/rom/balanced.py)
     "BOUNDS": "certified error bounds per probe (force, initial state)",
     "LINMODEL": "which linear model: 1 exact POD, 2 balanced",
+    # parametric models (harness.rom.parametric)
+    "PARAMS": "parametric model: c and d (varied, start, min, max)",
+    "KC": "frozen model: K per unit c",
+    "BC": "frozen model: b per unit c",
+    "DD": "frozen model: D per unit d",
+    "A0": "linear model: the part of A without c or d",
+    "AC": "linear model: the part of A per unit c",
+    "AD": "linear model: the part of A per unit d",
 }
 _HEADER = struct.Struct("<8s10I3d")
 _SECTION = struct.Struct("<8s2I")
