@@ -80,6 +80,9 @@ class ReducedModel:
         appended residual is a rough mode its Galerkin coupling excites),
         ``"always"`` appends it whenever it is not in their span to round-off
         (a linear model: the input is then represented exactly).
+    ports : bool
+        The model takes mechanical port forces as inputs and gives port velocities (``build(..., ports=X)``,
+        ``run(..., port_forces=F, area=A)``; :mod:`harness.sph.ports`), so its FMU can have ports.
     """
 
     name: str
@@ -94,6 +97,7 @@ class ReducedModel:
     run: Callable
     truncate: Callable
     fmu_input_direction: str = "needed"
+    ports: bool = False
 
     @property
     def second_symbol(self):
