@@ -310,6 +310,32 @@ static RomStatus set_f_held(RomState *s, double value, char *message, size_t mes
     return status == ROM_OK ? rom_set_input_rate(s, 0.0, message, message_size) : status;
 }
 
+/* Mechanical ports (only in a model with ports): area, and per port j (1-based, at most ROM_MAX_PORTS)
+ * the input F_port_j [VR 3000 + j - 1] and the output v_port_j [VR 4000 + j - 1], one row each with a
+ * `present` test on the model's port count. */
+static int has_ports(const RomModel *m) { return rom_n_ports(m) > 0; }
+static double get_area(const RomState *s, uint32_t j) { (void)j; return s->port[0]; }
+#define PORT_FUNCTIONS(J)                                                                                        \
+    static int has_port_##J(const RomModel *m) { return rom_n_ports(m) >= J; }                                  \
+    static double get_port_force_##J(const RomState *s, uint32_t j) { (void)j; return rom_port_force(s, J - 1); } \
+    static double get_v_port_##J(const RomState *s, uint32_t j) { (void)j; return rom_v_port(s, J - 1); }       \
+    static RomStatus set_port_force_##J(RomState *s, double value, char *message, size_t message_size) {        \
+        return rom_set_port_force(s, J - 1, value, message, message_size);                                       \
+    }
+PORT_FUNCTIONS(1)
+PORT_FUNCTIONS(2)
+PORT_FUNCTIONS(3)
+PORT_FUNCTIONS(4)
+PORT_FUNCTIONS(5)
+PORT_FUNCTIONS(6)
+PORT_FUNCTIONS(7)
+PORT_FUNCTIONS(8)
+#define PORT_ROWS(J)                                                                                             \
+    {"F_port_" #J, ROM_VR_F_PORT + J - 1, COUNT_ONE, TYPE_FLOAT64, ROLE_INPUT, get_port_force_##J, NULL,       \
+     set_port_force_##J, NULL, has_port_##J},                                                                    \
+    {"v_port_" #J, ROM_VR_V_PORT + J - 1, COUNT_ONE, TYPE_FLOAT64, ROLE_OUTPUT, get_v_port_##J, NULL, NULL, NULL, \
+     has_port_##J}
+
 /* The FMU's variables (modelDescription/fmi2.xml, fmi3.xml; value references rom.h ROM_VR_*):
  * the one place that maps value references onto the core.  A COUNT_PER_PROBE row
  * stands for n_probes value references vr + j, its getter receiving j.  A row
@@ -336,7 +362,9 @@ static const Variable VARIABLES[] = {
     {"dt", ROM_VR_DT, COUNT_ONE, TYPE_FLOAT64, ROLE_FIXED, get_dt, NULL, rom_set_dt, NULL, NULL},
     {"v_probe", ROM_VR_V_PROBE, COUNT_PER_PROBE, TYPE_FLOAT64, ROLE_OUTPUT, rom_v_probe, NULL, NULL, NULL, NULL},
     {"rho_probe", ROM_VR_RHO_PROBE, COUNT_PER_PROBE, TYPE_FLOAT64, ROLE_OUTPUT, rom_rho_probe, NULL, NULL, NULL, NULL},
-};
+    {"area", ROM_VR_AREA, COUNT_ONE, TYPE_FLOAT64, ROLE_FIXED, get_area, NULL, rom_set_area, NULL, has_ports},
+    PORT_ROWS(1), PORT_ROWS(2), PORT_ROWS(3), PORT_ROWS(4), PORT_ROWS(5), PORT_ROWS(6), PORT_ROWS(7), PORT_ROWS(8),
+};   /* one PORT_ROWS per port: ROM_MAX_PORTS rows */
 
 /* the variable of value reference ref (time only where the version has it), or NULL; *j: the probe index */
 static const Variable *lookup(const Instance *inst, uint32_t ref, uint32_t *j) {

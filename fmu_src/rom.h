@@ -58,7 +58,8 @@
  *   uint64   n (internal steps); uint32 n_freeze, 0; float64 time [s], f, dt [s]
  *            (112 bytes so far: ROM_STATE_HEADER_SIZE)
  *   float64  kind 1: a_v[k_v], a_rho[k_rho], M^T rows [k_v][k_rho], F[k_v];
- *            kind 2: a[k_v], b[k_rho], X[k], (t0, df/dt)
+ *            kind 2: a[k_v], b[k_rho], X[k], (t0, df/dt);
+ *            with ports (both kinds): area, F_port[n_ports]
  *   uint32   crc32 of every byte before it
  *
  * Both are read through one envelope check (rom_io.c): size, magic, version,
@@ -121,6 +122,10 @@ extern "C" {
 #define ROM_VR_DT 3u                 /* parameter dt [s] */
 #define ROM_VR_V_PROBE 1000u         /* v_probe_1 .. : 1000 + j */
 #define ROM_VR_RHO_PROBE 2000u       /* rho_probe_1 .. : 2000 + j */
+#define ROM_VR_AREA 7u               /* parameter area [m^2], only with ports */
+#define ROM_VR_F_PORT 3000u          /* input F_port_1 .. [N]: 3000 + j, only with ports */
+#define ROM_VR_V_PORT 4000u          /* output v_port_1 .. [m s^-1]: 4000 + j, only with ports */
+#define ROM_MAX_PORTS 8u             /* mechanical ports of one FMU */
 
 typedef enum { ROM_OK = 0, ROM_FAIL = 1 } RomStatus;
 
@@ -175,6 +180,13 @@ typedef struct {
     char token[ROM_TOKEN_SIZE + 1];
     void *storage_;            /* one allocation behind all arrays */
     void *sections_storage_;   /* one allocation behind the sections' data */
+    /* mechanical ports (sections PORTX, PORTB, PORTC; harness/sph/ports.py): a point force F_j [N] at x_j
+     * enters as u_j = F_j / area over the input row port_B[j] (k_v entries frozen, k linear, for area 1);
+     * v_port_j = port_C[j] . a^v (k_v entries) */
+    uint32_t n_ports;          /* 0: no ports */
+    const double *port_x;      /* [n_ports] positions x/L */
+    const double *port_B;      /* [n_ports][k_v] (frozen) or [n_ports][k] (linear) */
+    const double *port_C;      /* [n_ports][k_v] */
 } RomModel;
 
 /* One cached exponential: the maps of a step of length h (exact model) */
@@ -207,6 +219,8 @@ typedef struct {
     int64_t clock;          /* cache clock */
     int64_t n_expm;         /* exponentials computed since the state was created */
     void *storage_;
+    /* ports: port[0] the cross-section area [m^2] (parameter, > 0), port[1 + j] the force F_j [N] (input) */
+    double port[1 + ROM_MAX_PORTS];
 } RomState;
 
 /* ---- resources ---------------------------------------------------------- */
@@ -267,6 +281,17 @@ ROM_API RomStatus rom_state_check(const RomModel *model, const unsigned char *bu
                                   char *message, size_t message_size);
 ROM_API RomStatus rom_state_deserialize(RomState *state, const unsigned char *buffer, size_t size,
                                         uint32_t *tag, char *message, size_t message_size);
+
+/* ---- mechanical ports ----------------------------------------------------- */
+/* the number of ports of a model (0 without ports or for NULL) */
+ROM_API uint32_t rom_n_ports(const RomModel *model);
+/* the point force F_j [N] at port j (0-based), held over a communication step; finite */
+ROM_API RomStatus rom_set_port_force(RomState *state, uint32_t j, double force, char *message, size_t message_size);
+ROM_API double rom_port_force(const RomState *state, uint32_t j);
+/* the cross-section area [m^2] (> 0, finite): the port inputs are F_j / area */
+ROM_API RomStatus rom_set_area(RomState *state, double area, char *message, size_t message_size);
+/* v_port_j = sum_q port_C[j][q] a^v_q [m s^-1] (NaN for a bad j) */
+ROM_API double rom_v_port(const RomState *state, uint32_t j);
 
 ROM_API const char *rom_version(void);
 

@@ -349,9 +349,56 @@ typedef struct {
     SectionCheck check;        /* NULL: any shape */
 } SectionRule;
 
+/* mechanical ports: PORTX (1 x P positions x/L in [0, 1)), PORTB (P rows over a^v, or over z for a linear
+ * model), PORTC (P rows over a^v); all three or none (ports_prepare) */
+static RomStatus check_port_x(const RomModel *m, const RomSection *s, char *message, size_t message_size) {
+    (void)m;
+    if (s->rows != 1 || s->cols < 1 || s->cols > ROM_MAX_PORTS) {
+        return rom_fail(message, message_size, "resources: section 'PORTX' is %u x %u (allowed: 1 x 1 to 1 x %u "
+                        "port positions)", s->rows, s->cols, ROM_MAX_PORTS);
+    }
+    for (uint32_t j = 0; j < s->cols; j++) {
+        if (!(s->data[j] >= 0.0 && s->data[j] < 1.0)) {
+            return rom_fail(message, message_size, "resources: port %u at x/L = %g (allowed: [0, 1))", j + 1,
+                            s->data[j]);
+        }
+    }
+    return ROM_OK;
+}
+
+static RomStatus check_port_rows(const RomModel *m, const RomSection *s, char *message, size_t message_size) {
+    const RomSection *x = rom_model_section(m, "PORTX");
+    const uint32_t cols = (strcmp(s->tag, "PORTB") == 0 && rom_is_linear(m)) ? m->k : m->k_v;
+    if (!x) return rom_fail(message, message_size, "resources: section '%s' without 'PORTX'", s->tag);
+    if (s->rows != x->cols || s->cols != cols) {
+        return rom_fail(message, message_size, "resources: section '%s' is %u x %u, expected %u x %u (ports x "
+                        "coordinates)", s->tag, s->rows, s->cols, x->cols, cols);
+    }
+    return ROM_OK;
+}
+
 static const SectionRule SECTION_RULES[] = {
+    {"PORTX", "port positions x/L", check_port_x},
+    {"PORTB", "port input rows (area 1)", check_port_rows},
+    {"PORTC", "port velocity rows", check_port_rows},
     {NULL, NULL, NULL},        /* end of the table */
 };
+
+/* the model's ports from its sections: all three sections or none */
+static RomStatus ports_prepare(RomModel *m, char *message, size_t message_size) {
+    const RomSection *x = rom_model_section(m, "PORTX"), *b = rom_model_section(m, "PORTB"),
+                     *c = rom_model_section(m, "PORTC");
+    if (!x && !b && !c) return ROM_OK;
+    if (!x || !b || !c) {
+        return rom_fail(message, message_size, "resources: the port sections PORTX, PORTB, PORTC come together "
+                        "(%s missing)", !x ? "PORTX" : (!b ? "PORTB" : "PORTC"));
+    }
+    m->n_ports = x->cols;
+    m->port_x = x->data;
+    m->port_B = b->data;
+    m->port_C = c->data;
+    return ROM_OK;
+}
 
 static const SectionRule *section_rule(const char *tag) {
     for (const SectionRule *r = SECTION_RULES; r->tag; r++) {
@@ -523,6 +570,7 @@ RomStatus rom_model_load_memory(const void *data, size_t size, RomModel **out, c
     RomStatus status = path == ROM_PATH_LINEAR ? read_exact(m, payload, doubles, message, message_size)
                                                : read_frozen(m, payload, doubles, message, message_size);
     if (status == ROM_OK) status = read_sections(m, bytes, sections_start, n_sections, message, message_size);
+    if (status == ROM_OK) status = ports_prepare(m, message, message_size);
     if (status != ROM_OK) {
         rom_model_free(m);
         return ROM_FAIL;
@@ -601,8 +649,8 @@ enum {
  * entries each, stride apart (frozen: a^v, a^rho, M^T (k_v rows of k_rho, stride
  * kr_pad) and F; linear: a, b, the forced part X, (t0, input rate)). */
 typedef struct {
-    double *data[4];
-    size_t rows[4], cols[4], strides[4];
+    double *data[5];
+    size_t rows[5], cols[5], strides[5];
 } StateBlocks;
 
 static StateBlocks state_blocks(const RomState *s) {
@@ -620,12 +668,18 @@ static StateBlocks state_blocks(const RomState *s) {
         b.cols[a] = sizes[a][1];
         b.strides[a] = sizes[a][2];
     }
+    /* with ports: area, then the port forces */
+    b.data[4] = (double *)s->port;
+    b.rows[4] = 1;
+    b.cols[4] = m->n_ports ? 1 + (size_t)m->n_ports : 0;
+    b.strides[4] = 0;
     return b;
 }
 
 static size_t state_doubles(const RomModel *m) {
-    if (rom_is_linear(m)) return (size_t)m->k_v + m->k_rho + m->k + 2;
-    return 2 * (size_t)m->k_v + m->k_rho + (size_t)m->k_rho * m->k_v;
+    const size_t ports = m->n_ports ? 1 + (size_t)m->n_ports : 0;
+    if (rom_is_linear(m)) return (size_t)m->k_v + m->k_rho + m->k + 2 + ports;
+    return 2 * (size_t)m->k_v + m->k_rho + (size_t)m->k_rho * m->k_v + ports;
 }
 
 size_t rom_state_serialized_size(const RomModel *m) {
@@ -654,7 +708,7 @@ void rom_state_serialize(const RomState *s, uint32_t tag, unsigned char *buffer)
     put_f64(buffer + ST_DT, s->dt);
     unsigned char *cursor = buffer + ROM_STATE_HEADER_SIZE;
     const StateBlocks b = state_blocks(s);
-    for (int a = 0; a < 4; a++) {
+    for (int a = 0; a < 5; a++) {
         for (size_t r = 0; r < b.rows[a]; r++) {
             for (size_t c = 0; c < b.cols[a]; c++, cursor += 8) put_f64(cursor, b.data[a][r * b.strides[a] + c]);
         }
@@ -693,6 +747,10 @@ RomStatus rom_state_check(const RomModel *m, const unsigned char *buffer, size_t
             return rom_fail(message, message_size, "serialized state: non-finite reduced state");
         }
     }
+    if (m->n_ports) {                  /* the area: the first value after the kind's blocks */
+        const double area = get_f64(buffer + ROM_STATE_HEADER_SIZE + 8 * (state_doubles(m) - 1 - m->n_ports));
+        if (!(area > 0)) return rom_fail(message, message_size, "serialized state: area %g <= 0", area);
+    }
     return ROM_OK;
 }
 
@@ -708,7 +766,7 @@ RomStatus rom_state_deserialize(RomState *s, const unsigned char *buffer, size_t
     s->dt = get_f64(buffer + ST_DT);
     const unsigned char *cursor = buffer + ROM_STATE_HEADER_SIZE;
     const StateBlocks b = state_blocks(s);
-    for (int a = 0; a < 4; a++) {
+    for (int a = 0; a < 5; a++) {
         for (size_t r = 0; r < b.rows[a]; r++) {
             for (size_t c = 0; c < b.cols[a]; c++, cursor += 8) b.data[a][r * b.strides[a] + c] = get_f64(cursor);
         }

@@ -47,6 +47,7 @@ def _private_cache(tmp_path_factory):
 
 # the unit of each FMU variable (README, "The FMU": the variable contract), by name prefix
 FMU_UNITS = {"time": "s", "f": "m/s2", "dt": "s", "v_probe_": "m/s", "rho_probe_": "kg/m3"}
+FMU_UNITS.update({"area": "m2", "F_port_": "N", "v_port_": "m/s"})        # only in FMUs with ports
 # the order of modelDescription's elements in the FMI 2 and 3 schemas (each optional)
 FMU_ELEMENT_ORDER = ["ModelExchange", "CoSimulation", "ScheduledExecution", "UnitDefinitions", "TypeDefinitions",
                      "LogCategories", "DefaultExperiment", "VendorAnnotations", "ModelVariables", "ModelStructure"]

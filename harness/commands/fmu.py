@@ -23,6 +23,10 @@ def add_parser(sub):
                    help="reduced model: frozen (eqs. 2.19-2.24, internal dt; default) or exact (the exact linear "
                         "model in the specific volume, advanced by the matrix exponential over each "
                         "communication step)")
+    p.add_argument("--ports", metavar="X1,X2,...",
+                   help="mechanical ports at these positions in units of L, each in [0, 1), at most 8: per port j an "
+                        "input F_port_j [N] (a point force spread by the SPH kernel) and an output v_port_j "
+                        "[m s^-1] (its power-conjugate velocity), and the parameter area [m^2] (default: no ports)")
     p.add_argument("--out", required=True, metavar="FILE.fmu")
     add_quiet(p)
     p.set_defaults(handler=run)
@@ -44,8 +48,10 @@ def run(args):
     scene = load_scene(args.scene)
     check_options(scene, k=args.modes, n_freeze=args.n_freeze, probes=args.probes, fmi=fmi,
                   integrator=args.integrator, model=args.model)
+    from ..fmu.package import check_ports
+    ports = check_ports(args.ports, args.model)
     s = package_fmu(scene, out, k=args.modes, n_freeze=args.n_freeze, probes=args.probes, fmi=fmi,
-                    integrator=args.integrator, progress=not args.quiet, model=args.model)
+                    integrator=args.integrator, progress=not args.quiet, model=args.model, ports=ports)
     from ..rom.operators import INPUT_TOLERANCE
     added = " (+ the force profile direction, not in the POD span)" if s.augmented else ""
     print(f"fmu {s.scene}: FMI {s.fmi}.0 co-simulation, {s.model} model, wrote {s.path} ({s.size / 1024:.1f} KiB)")
@@ -66,6 +72,11 @@ def run(args):
         print(f"  integrator {s.integrator}, dt = {s.dt:g} s, n_freeze = {s.n_freeze} (parameters dt, n_freeze)")
     print(f"  probes at x/L = {', '.join(f'{x:g}' for x in s.probes)}: outputs v_probe_1..{len(s.probes)}, "
           f"rho_probe_1..{len(s.probes)}; input f")
+    if s.ports:
+        print(f"  ports at x/L = {', '.join(f'{x:g}' for x in s.ports)}: inputs F_port_1..{len(s.ports)} [N], outputs "
+              f"v_port_1..{len(s.ports)} [m s^-1], parameter area [m^2] (start 1); each port's profile and its "
+              f"Krylov directions appended to the basis (profile projection errors on the modes: "
+              f"{', '.join(f'{e:.3g}' for e in s.port_errors)})")
     t = s.timings
     print(f"  token {s.token}; fmpy validation: no problems; times: model {t['model']:.2f} s, "
           f"binaries {t['binaries']:.2f} s, package {t['package']:.2f} s")

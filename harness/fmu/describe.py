@@ -17,6 +17,9 @@ from ..paths import data_dir
 VR_V_PROBE = 1000        # fmu_src/rom.h ROM_VR_V_PROBE
 VR_RHO_PROBE = 2000      # ROM_VR_RHO_PROBE
 FIXED_VARIABLES = 3      # FMI 2 indices 1..3: f, n_freeze, dt
+VR_AREA = 7              # ROM_VR_AREA: the cross-section, only with ports
+VR_F_PORT = 3000         # ROM_VR_F_PORT: F_port_1 ..
+VR_V_PORT = 4000         # ROM_VR_V_PORT: v_port_1 ..
 
 _BLOCK = re.compile(r"\{\{#(\w+)\}\}(.*?)\{\{/\1\}\}", re.S)
 _FIELD = re.compile(r"\{\{(\w+)\}\}")
@@ -109,8 +112,29 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
     }
     # FMI 3 fixedInternalStepSize only where there is one: the linear model steps by the matrix exponential
     internal_step = [] if spec.linear else [{}]
+    ports, port_units = port_variables(data)
+    outputs += [{"vr": p["v_vr"], "index": p["v_index"]} for p in ports]
+    if ports:
+        values["description"] += (f" Mechanical ports at x/L = {', '.join(p['x'] for p in ports)}: inputs "
+                                  "F_port_j [N], outputs v_port_j [m s^-1], parameter area [m^2].")
     return render(template(f"fmi{fmi}.xml"), values,
-                  {"probes": probes, "outputs": outputs, "internal_step": internal_step})
+                  {"probes": probes, "outputs": outputs, "internal_step": internal_step, "ports": ports,
+                   "port_units": port_units})
+
+
+def port_variables(data):
+    """(one item per port, [{area_index}] or []) for the templates' ``ports`` and ``port_units`` blocks.
+
+    The port variables follow the probes' (FMI 2 indices): area, F_port_1..P, v_port_1..P.
+    """
+    x = data.sections.get("PORTX")
+    if x is None:
+        return [], []
+    base = FIXED_VARIABLES + 2 * data.n_probes + 1          # area's index
+    n = x.shape[1]
+    ports = [{"j": j + 1, "x": f"{xj:g}", "f_vr": VR_F_PORT + j, "v_vr": VR_V_PORT + j,
+              "f_index": base + 1 + j, "v_index": base + 1 + n + j} for j, xj in enumerate(x[0])]
+    return ports, [{"area_index": base}]
 
 
 def build_description() -> str:

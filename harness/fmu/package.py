@@ -139,6 +139,8 @@ class FMUSummary:
     size: int
     timings: dict = field(default_factory=dict)
     model: str = "frozen"
+    ports: list = field(default_factory=list)
+    port_errors: list = field(default_factory=list)
 
 
 def default_modes(scene):
@@ -199,6 +201,20 @@ def check_options(scene, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_PROB
     return int(k), int(n_freeze), probes, int(fmi), integrator
 
 
+def check_ports(ports, model):
+    """The port positions (a list, empty for None) of an FMU of ``model``; FieldError naming ``ports`` when bad
+    or when the model takes no port forces (the registry's ``ports``)."""
+    from ..rom.registry import get_model, model_names
+    from ..sph.ports import parse_ports
+    if ports is None or (not isinstance(ports, str) and len(ports) == 0):
+        return []
+    ports = parse_ports(ports)
+    if not get_model(model).ports:
+        raise FieldError("ports", f"the {model} model takes no port forces (allowed with: "
+                                  f"{', '.join(n for n in model_names(ports=True) if get_model(n).fmu_kind)})")
+    return ports
+
+
 def model_basis(scene, spec, k, progress=True, problem=None):
     """(basis, problem) of ``scene`` for the model ``spec``: its POD basis, with k checked against the modes of the
     model's basis kind (FieldError naming the field ``k`` or ``model``)."""
@@ -219,7 +235,7 @@ def model_basis(scene, spec, k, progress=True, problem=None):
     return basis, problem
 
 
-def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem=None, model="frozen"):
+def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem=None, model="frozen", ports=()):
     """The FMU's numbers for a model of resource kind 1 (frozen coefficients): (ModelData, ops, problem, basis).
 
     Runs (or reuses) the full SPH and the POD (harness.pod.pipeline), builds
@@ -231,13 +247,14 @@ def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem
 
     spec = get_model(model)
     basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem)
-    ops = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction, tensor="always")
+    ops = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction, tensor="always",
+                     **({"ports": tuple(ports)} if ports else {}))
     data = model_data(ops, problem, dt=scene.sph.dt, integrator=integrator, n_freeze=n_freeze, probes=probes,
                       bound=runaway_bound(ops))
     return data, ops, problem, basis
 
 
-def exact_model(scene, k, n_freeze, probes, progress=True, problem=None, model="exact"):
+def exact_model(scene, k, n_freeze, probes, progress=True, problem=None, model="exact", ports=()):
     """The FMU's numbers for a model of resource kind 2 (linear): (ExactData, lin, problem, basis).
 
     The model's bases (the exact model: the energy-weighted ``Basis.U_ve``, ``U_e``), the operators with the
@@ -248,19 +265,21 @@ def exact_model(scene, k, n_freeze, probes, progress=True, problem=None, model="
 
     spec = get_model(model)
     basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem)
-    lin = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction)
+    lin = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction,
+                     **({"ports": tuple(ports)} if ports else {}))
     data = exact_data(lin, problem, dt=scene.sph.dt, n_freeze=n_freeze, probes=probes)
     return data, lin, problem, basis
 
 
-def _frozen_resource(scene, model, k, n_freeze, probes, integrator, progress, problem):
+def _frozen_resource(scene, model, k, n_freeze, probes, integrator, progress, problem, ports=()):
     data, ops, _, _ = reduced_model(scene, k, n_freeze, probes, integrator, progress=progress, problem=problem,
-                                    model=model)
+                                    model=model, ports=ports)
     return data, ops, pack(data)
 
 
-def _linear_resource(scene, model, k, n_freeze, probes, integrator, progress, problem):
-    data, lin, _, _ = exact_model(scene, k, n_freeze, probes, progress=progress, problem=problem, model=model)
+def _linear_resource(scene, model, k, n_freeze, probes, integrator, progress, problem, ports=()):
+    data, lin, _, _ = exact_model(scene, k, n_freeze, probes, progress=progress, problem=problem, model=model,
+                                  ports=ports)
     return data, lin, pack_exact(data)
 
 
@@ -303,7 +322,7 @@ def validate(path):
 
 
 def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_PROBES, fmi=2, integrator=None,
-                step_size=None, progress=True, binaries=None, problem=None, model="frozen") -> FMUSummary:
+                step_size=None, progress=True, binaries=None, problem=None, model="frozen", ports=None) -> FMUSummary:
     """Build the FMU of ``scene`` at ``out`` (atomically) and validate it.
 
     Parameters
@@ -327,6 +346,9 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
     model : str
         The reduced model to ship: a registered one with an FMU resource kind
         (``frozen``, ``exact``; module docstring).
+    ports : sequence of float or str, optional
+        Mechanical port positions x/L (:mod:`harness.sph.ports`): inputs F_port_j [N], outputs v_port_j
+        [m s^-1], parameter area [m^2]; the model must take ports (``ports`` in the registry).
 
     Raises
     ------
@@ -341,10 +363,12 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
 
     k, n_freeze, probes, fmi, integrator = check_options(scene, k=k, n_freeze=n_freeze, probes=probes, fmi=fmi,
                                                          integrator=integrator, model=model)
+    ports = check_ports(ports, model)
     timings = {}
     t0 = time.perf_counter()
     data, ops, blob = RESOURCES[get_model(model).fmu_kind](scene, model, k, n_freeze, probes, integrator,
-                                                              progress, problem)
+                                                              progress, problem,
+                                                              **({"ports": ports} if ports else {}))
     timings["model"] = time.perf_counter() - t0
     t1 = time.perf_counter()
     binaries = binaries or ensure_binaries(quiet=not progress)
@@ -364,4 +388,5 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
     timings["package"] = time.perf_counter() - t2
     return FMUSummary(path=out, fmi=fmi, scene=scene.name, k=k, k_v=data.k_v, k_rho=data.k_rho,
                       input_error=ops.input_error, augmented=ops.augmented, probes=list(probes), n_freeze=n_freeze,
-                      integrator=integrator, dt=data.dt, token=data.token, size=size, timings=timings, model=model)
+                      integrator=integrator, dt=data.dt, token=data.token, size=size, timings=timings, model=model,
+                      ports=list(ports), port_errors=list(getattr(ops, "port_errors", ())))

@@ -119,10 +119,10 @@ class Lumped:
     forces: object
 
 
-def mass_spring(mass, stiffness, port=0, n_ports=1):
+def mass_spring(mass, stiffness, port=0, n_ports=1, s0=0.0):
     """A mass on a spring whose other end is port ``port``: y = (s, w), s the spring elongation [m] (mass position
     minus port displacement), w the mass velocity [m s^-1]; s' = w - v_port, w' = -k s / m, and the spring pulls the
-    port with F = k s [N].  Starts at rest."""
+    port with F = k s [N].  Starts with elongation ``s0`` [m] and the mass at rest."""
     def rates(y, v_port):
         return np.array([y[1] - v_port[port], -stiffness * y[0] / mass])
 
@@ -131,7 +131,7 @@ def mass_spring(mass, stiffness, port=0, n_ports=1):
         out[port] = stiffness * y[0]
         return out
 
-    return Lumped(y0=np.zeros(2), rates=rates, forces=forces)
+    return Lumped(y0=np.array([float(s0), 0.0]), rates=rates, forces=forces)
 
 
 @dataclass
@@ -161,10 +161,10 @@ def run_sph_ports(scene, ports, *, forces=None, lumped=None, area=1.0, t_end=Non
     ports : sequence of float
         Port positions x/L.
     forces : callable, optional
-        ``forces(t) -> F`` (P,) [N] at time t [s]; or
+        ``forces(t) -> F`` (P,) [N] at time t [s], applied as given;
     lumped : Lumped, optional
-        A component that sets the port forces from its state and is integrated with the SPH (same integrator,
-        same steps).  Neither: no port force.
+        A component that sets port forces from its state and is integrated with the SPH (same integrator,
+        same steps), added to ``forces``.  Neither: no port force.
     area : float
         Cross-section A [m^2].
     every : int
@@ -202,11 +202,12 @@ def run_sph_ports(scene, ports, *, forces=None, lumped=None, area=1.0, t_end=Non
     flags = problem.flags(bool(np.any(g_all != 0)))
 
     def port_forces(t, y):
-        if lumped is not None:
-            return np.asarray(lumped.forces(y), float)
+        out = np.zeros(len(ports))
         if forces is not None:
-            return np.asarray(forces(t), float).reshape(len(ports))
-        return np.zeros(len(ports))
+            out = out + np.asarray(forces(t), float).reshape(len(ports))
+        if lumped is not None:
+            out = out + np.asarray(lumped.forces(y), float)
+        return out
 
     def rates(t, g, v, rho, y):
         """(dv, drho, dy) of the coupled system at one stage."""
