@@ -326,10 +326,6 @@ PORT_FUNCTIONS(1)
 PORT_FUNCTIONS(2)
 PORT_FUNCTIONS(3)
 PORT_FUNCTIONS(4)
-PORT_FUNCTIONS(5)
-PORT_FUNCTIONS(6)
-PORT_FUNCTIONS(7)
-PORT_FUNCTIONS(8)
 #define PORT_ROWS(J)                                                                                             \
     {"F_port_" #J, ROM_VR_F_PORT + J - 1, COUNT_ONE, TYPE_FLOAT64, ROLE_INPUT, get_port_force_##J, NULL,       \
      set_port_force_##J, NULL, has_port_##J},                                                                    \
@@ -363,7 +359,7 @@ static const Variable VARIABLES[] = {
     {"v_probe", ROM_VR_V_PROBE, COUNT_PER_PROBE, TYPE_FLOAT64, ROLE_OUTPUT, rom_v_probe, NULL, NULL, NULL, NULL},
     {"rho_probe", ROM_VR_RHO_PROBE, COUNT_PER_PROBE, TYPE_FLOAT64, ROLE_OUTPUT, rom_rho_probe, NULL, NULL, NULL, NULL},
     {"area", ROM_VR_AREA, COUNT_ONE, TYPE_FLOAT64, ROLE_FIXED, get_area, NULL, rom_set_area, NULL, has_ports},
-    PORT_ROWS(1), PORT_ROWS(2), PORT_ROWS(3), PORT_ROWS(4), PORT_ROWS(5), PORT_ROWS(6), PORT_ROWS(7), PORT_ROWS(8),
+    PORT_ROWS(1), PORT_ROWS(2), PORT_ROWS(3), PORT_ROWS(4),
 };   /* one PORT_ROWS per port: ROM_MAX_PORTS rows */
 
 /* the variable of value reference ref (time only where the version has it), or NULL; *j: the probe index */

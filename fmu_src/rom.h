@@ -125,7 +125,7 @@ extern "C" {
 #define ROM_VR_AREA 7u               /* parameter area [m^2], only with ports */
 #define ROM_VR_F_PORT 3000u          /* input F_port_1 .. [N]: 3000 + j, only with ports */
 #define ROM_VR_V_PORT 4000u          /* output v_port_1 .. [m s^-1]: 4000 + j, only with ports */
-#define ROM_MAX_PORTS 8u             /* mechanical ports of one FMU */
+#define ROM_MAX_PORTS 4u             /* mechanical ports of one FMU */
 
 typedef enum { ROM_OK = 0, ROM_FAIL = 1 } RomStatus;
 

@@ -53,7 +53,7 @@ def test_port_power_is_force_times_port_velocity():
     assert power == pytest.approx(float(F @ (port_velocity_rows(problem, ports) @ v)), rel=1e-13)
 
 
-@pytest.mark.parametrize("text", ["", "0.5,x", "1.0", "-0.1", "nan", "0.3,0.3", ",".join(["0.1"] * 9)])
+@pytest.mark.parametrize("text", ["", "0.5,x", "1.0", "-0.1", "nan", "0.3,0.3", "0.1,0.2,0.3,0.4,0.5"])
 def test_bad_ports_are_one_line_errors(text):
     with pytest.raises(FieldError, match="^ports: "):
         parse_ports(text)
@@ -201,7 +201,7 @@ def test_fmu_without_ports_has_no_port_variables(port_fmus, tmp_path):
 
 
 @pytest.mark.parametrize("ports, detail", [("1.5", "out of range"), ("0.2,0.2", "same position"),
-                                           ("a", "comma-separated"), (",".join(["0.1"] * 9), "9 ports")])
+                                           ("a", "comma-separated"), ("0.1,0.2,0.3,0.4,0.5", "5 ports")])
 def test_fmu_command_refuses_bad_ports(ports, detail, tmp_path, capsys):
     from harness.cli import main
     out = tmp_path / "x.fmu"
@@ -216,8 +216,8 @@ def test_coupled_example_against_one_full_sph_of_the_coupled_system():
     and coupled to a lumped mass-spring on port 1 through an fmpy loop (force and velocity exchanged every 1 ms),
     against the full SPH with the same forces and against ONE full SPH of the coupled system, over 1 s: every
     error below 2 % and within 4x the scene's POD error level (the same FMU without port forces against the
-    full SPH, read through the same port rows: 0.28 %; measured 0.69 % open loop, 0.95 % coupled), while the
-    coupling itself changes the port velocity by more than 100 %."""
+    full SPH, read through the same port rows: 0.28 %; measured 0.32 % open loop, 0.89 % coupled at port 1,
+    0.92 % in the spring's elongation), while the coupling itself changes the port velocity by more than 100 %."""
     from harness.bench.port_coupling import measure
     row = measure(t_end=1.0, models=("frozen",))[0]
     level = row["pod_level"]

@@ -24,7 +24,7 @@ def add_parser(sub):
                         "model in the specific volume, advanced by the matrix exponential over each "
                         "communication step)")
     p.add_argument("--ports", metavar="X1,X2,...",
-                   help="mechanical ports at these positions in units of L, each in [0, 1), at most 8: per port j an "
+                   help="mechanical ports at these positions in units of L, each in [0, 1), at most 4: per port j an "
                         "input F_port_j [N] (a point force spread by the SPH kernel) and an output v_port_j "
                         "[m s^-1] (its power-conjugate velocity), and the parameter area [m^2] (default: no ports)")
     p.add_argument("--out", required=True, metavar="FILE.fmu")

@@ -40,7 +40,10 @@ from ..errors import FieldError, SimulationError
 from . import loops
 from .kernel import cubic_spline
 
-MAX_PORTS = 8          # fmu_src/rom.h ROM_MAX_PORTS: F_port_1..8 [VR 3000..3007], v_port_1..8 [VR 4000..4007]
+# fmu_src/rom.h ROM_MAX_PORTS: F_port_1..4 [VR 3000..3003], v_port_1..4 [VR 4000..4003].  Each port adds
+# 2 x PORT_KRYLOV_LEVELS + 1 reduced coordinates (harness.rom.operators), and the frozen model's refresh tensor
+# grows as k^4: four ports at k = 12 make k_v = 48, k_rho = 44 (2.1e6 tensor entries, 17 MB in model.bin).
+MAX_PORTS = 4
 
 
 def parse_ports(text):
