@@ -320,7 +320,8 @@ static double get_area(const RomState *s, uint32_t j) { (void)j; return s->port[
     static double get_port_force_##J(const RomState *s, uint32_t j) { (void)j; return rom_port_force(s, J - 1); } \
     static double get_v_port_##J(const RomState *s, uint32_t j) { (void)j; return rom_v_port(s, J - 1); }       \
     static RomStatus set_port_force_##J(RomState *s, double value, char *message, size_t message_size) {        \
-        return rom_set_port_force(s, J - 1, value, message, message_size);                                       \
+        const RomStatus status = rom_set_port_force(s, J - 1, value, message, message_size);                     \
+        return status == ROM_OK ? rom_set_port_rate(s, J - 1, 0.0, message, message_size) : status;  /* held */  \
     }
 PORT_FUNCTIONS(1)
 PORT_FUNCTIONS(2)
@@ -479,8 +480,15 @@ InstanceStatus instance_set_input_derivatives(Instance *inst, const char *fn, co
     if (n_refs > 0 && (!refs || !orders || !values)) {
         return instance_error(inst, fn, "the value reference, order or value array is NULL");
     }
+    const uint32_t n_ports = rom_n_ports(inst->model);
     for (size_t i = 0; i < n_refs; i++) {
-        if (refs[i] != ROM_VR_F) {
+        const int is_port = refs[i] >= ROM_VR_F_PORT && refs[i] - ROM_VR_F_PORT < n_ports;
+        if (refs[i] != ROM_VR_F && !is_port) {
+            if (n_ports) {
+                return instance_error(inst, fn, "value reference %u is not a real input (allowed: %u, the input f, "
+                                      "and %u to %u, the port forces)", (unsigned)refs[i], (unsigned)ROM_VR_F,
+                                      (unsigned)ROM_VR_F_PORT, (unsigned)(ROM_VR_F_PORT + n_ports - 1));
+            }
             return instance_error(inst, fn, "value reference %u is not a real input (allowed: %u, the input f)",
                                   (unsigned)refs[i], (unsigned)ROM_VR_F);
         }
@@ -493,9 +501,10 @@ InstanceStatus instance_set_input_derivatives(Instance *inst, const char *fn, co
                               "false; set f at every communication point)");
     }
     for (size_t i = 0; i < n_refs; i++) {
-        if (rom_set_input_rate(inst->state, values[i], inst->message, sizeof inst->message) != ROM_OK) {
-            return instance_error(inst, fn, "%s", inst->message);
-        }
+        const RomStatus status = refs[i] == ROM_VR_F
+            ? rom_set_input_rate(inst->state, values[i], inst->message, sizeof inst->message)
+            : rom_set_port_rate(inst->state, refs[i] - ROM_VR_F_PORT, values[i], inst->message, sizeof inst->message);
+        if (status != ROM_OK) return instance_error(inst, fn, "%s", inst->message);
     }
     return INSTANCE_OK;
 }

@@ -94,7 +94,7 @@ void rom_state_reset(RomState *s, double t_start) {
     s->f = 0.0;
     s->dt = m->dt;
     s->n_freeze = (int32_t)m->n_freeze_default;
-    for (size_t j = 0; j <= ROM_MAX_PORTS; j++) s->port[j] = 0.0;
+    for (size_t j = 0; j < 2 * (1 + ROM_MAX_PORTS); j++) s->port[j] = 0.0;
     s->port[0] = 1.0;                                          /* area [m^2] */
 }
 
@@ -186,6 +186,10 @@ RomStatus rom_do_step(RomState *s, double t_comm, double h, char *message, size_
     if (status != ROM_OK) return status;
     s->time = t_comm + h;
     if (s->aux && s->aux[1] != 0.0) s->f = s->f + s->aux[1] * h;    /* the input continues linearly */
+    for (uint32_t j = 0; j < s->model->n_ports; j++) {              /* and the port forces */
+        const double rate = s->port[2 + ROM_MAX_PORTS + j];
+        if (rate != 0.0) s->port[1 + j] = s->port[1 + j] + rate * h;
+    }
     return rom_check_outputs(s, message, message_size);
 }
 
@@ -269,6 +273,22 @@ RomStatus rom_set_area(RomState *s, double area, char *message, size_t message_s
                         "> 0)", area);
     }
     s->port[0] = area;
+    return ROM_OK;
+}
+
+RomStatus rom_set_port_rate(RomState *s, uint32_t j, double rate, char *message, size_t message_size) {
+    if (!s) return rom_fail(message, message_size, "no state");
+    if (j >= s->model->n_ports) {
+        return rom_fail(message, message_size, "port %u does not exist (allowed: 1 to %u)", j + 1, s->model->n_ports);
+    }
+    if (!isfinite(rate)) {
+        return rom_fail(message, message_size, "input rate dF_port_%u/dt = %g at t = %.9g s is not finite", j + 1,
+                        rate, s->time);
+    }
+    if (rate != 0.0 && !rom_is_linear(s->model)) {
+        return rom_fail(message, message_size, "the frozen model does not interpolate inputs");
+    }
+    s->port[2 + ROM_MAX_PORTS + j] = rate;
     return ROM_OK;
 }
 

@@ -59,7 +59,7 @@
  *            (112 bytes so far: ROM_STATE_HEADER_SIZE)
  *   float64  kind 1: a_v[k_v], a_rho[k_rho], M^T rows [k_v][k_rho], F[k_v];
  *            kind 2: a[k_v], b[k_rho], X[k], (t0, df/dt);
- *            with ports (both kinds): area, F_port[n_ports]
+ *            with ports (both kinds): area, F_port[n_ports], 0, dF_port/dt[n_ports]
  *   uint32   crc32 of every byte before it
  *
  * Both are read through one envelope check (rom_io.c): size, magic, version,
@@ -219,8 +219,10 @@ typedef struct {
     int64_t clock;          /* cache clock */
     int64_t n_expm;         /* exponentials computed since the state was created */
     void *storage_;
-    /* ports: port[0] the cross-section area [m^2] (parameter, > 0), port[1 + j] the force F_j [N] (input) */
-    double port[1 + ROM_MAX_PORTS];
+    /* ports, two rows of 1 + ROM_MAX_PORTS: port[0] the cross-section area [m^2] (parameter, > 0),
+     * port[1 + j] the force F_j [N] (input); port[1 + ROM_MAX_PORTS] unused (0),
+     * port[2 + ROM_MAX_PORTS + j] the rate dF_j/dt [N s^-1] over a step (linear model; 0: held) */
+    double port[2 * (1 + ROM_MAX_PORTS)];
 } RomState;
 
 /* ---- resources ---------------------------------------------------------- */
@@ -290,6 +292,10 @@ ROM_API RomStatus rom_set_port_force(RomState *state, uint32_t j, double force, 
 ROM_API double rom_port_force(const RomState *state, uint32_t j);
 /* the cross-section area [m^2] (> 0, finite): the port inputs are F_j / area */
 ROM_API RomStatus rom_set_area(RomState *state, double area, char *message, size_t message_size);
+/* Linear model only (as rom_set_input_rate for f): F_j goes linearly over each step at this rate
+ * [N s^-1] and continues after it; setting F_j through rom_set_port_force keeps the rate (the instance
+ * layer resets it).  The frozen model refuses a nonzero rate. */
+ROM_API RomStatus rom_set_port_rate(RomState *state, uint32_t j, double rate, char *message, size_t message_size);
 /* v_port_j = sum_q port_C[j][q] a^v_q [m s^-1] (NaN for a bad j) */
 ROM_API double rom_v_port(const RomState *state, uint32_t j);
 

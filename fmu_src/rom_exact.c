@@ -150,9 +150,10 @@ static RomStatus exact_step(RomState *s, double t_comm, double h, char *message,
         const double *row = c->Phi + i * k;
         for (size_t j = 0; j < k; j++) acc += row[j] * s->X[j];
         if (m->B) acc = acc + c->G0[i * ni] * f + c->G1[i * ni] * df;
-        for (size_t j = 0; j < m->n_ports; j++) {    /* port forces held over the step */
+        for (size_t j = 0; j < m->n_ports; j++) {    /* port forces, held or linear (rate) over the step */
             const size_t col = i * ni + (m->B ? 1 : 0) + j;
-            acc = acc + c->G0[col] * (s->port[1 + j] / s->port[0]);
+            acc = acc + c->G0[col] * (s->port[1 + j] / s->port[0])
+                      + c->G1[col] * (s->port[2 + ROM_MAX_PORTS + j] * h / s->port[0]);
         }
         xn[i] = acc;
     }

@@ -668,16 +668,16 @@ static StateBlocks state_blocks(const RomState *s) {
         b.cols[a] = sizes[a][1];
         b.strides[a] = sizes[a][2];
     }
-    /* with ports: area, then the port forces */
+    /* with ports: (area, the port forces), then (0, their rates): rows 1 + ROM_MAX_PORTS apart */
     b.data[4] = (double *)s->port;
-    b.rows[4] = 1;
-    b.cols[4] = m->n_ports ? 1 + (size_t)m->n_ports : 0;
-    b.strides[4] = 0;
+    b.rows[4] = m->n_ports ? 2 : 0;
+    b.cols[4] = 1 + (size_t)m->n_ports;
+    b.strides[4] = 1 + ROM_MAX_PORTS;
     return b;
 }
 
 static size_t state_doubles(const RomModel *m) {
-    const size_t ports = m->n_ports ? 1 + (size_t)m->n_ports : 0;
+    const size_t ports = m->n_ports ? 2 * (1 + (size_t)m->n_ports) : 0;
     if (rom_is_linear(m)) return (size_t)m->k_v + m->k_rho + m->k + 2 + ports;
     return 2 * (size_t)m->k_v + m->k_rho + (size_t)m->k_rho * m->k_v + ports;
 }
@@ -748,7 +748,7 @@ RomStatus rom_state_check(const RomModel *m, const unsigned char *buffer, size_t
         }
     }
     if (m->n_ports) {                  /* the area: the first value after the kind's blocks */
-        const double area = get_f64(buffer + ROM_STATE_HEADER_SIZE + 8 * (state_doubles(m) - 1 - m->n_ports));
+        const double area = get_f64(buffer + ROM_STATE_HEADER_SIZE + 8 * (state_doubles(m) - 2 * (1 + m->n_ports)));
         if (!(area > 0)) return rom_fail(message, message_size, "serialized state: area %g <= 0", area);
     }
     return ROM_OK;

@@ -225,3 +225,52 @@ def test_coupled_example_against_one_full_sph_of_the_coupled_system():
     assert row["coupling_effect"] > 1.0 and row["port_force_effect"] > 0.3
     for key in ("open_loop", "coupled_v_port_1", "coupled_v_port_2", "coupled_spring"):
         assert row[key] <= min(4 * level, 2e-2), (key, row)
+
+
+def test_exact_port_fmu_takes_port_input_derivatives(port_fmus):
+    """FMI 2, exact model: fmi2SetRealInputDerivatives (order 1) on f and the port forces makes each input go
+    linearly between the communication points, equal to run_exact(hold="linear") to 1e-12; setting a force
+    without a derivative holds it again; the frozen FMU refuses a derivative; an unknown reference is named."""
+    from ctypes import c_double, c_int, c_uint32
+
+    from conftest import fmu_scene
+    from harness.fmu.fmi import Slave
+    from harness.fmu.package import exact_model
+    from harness.rom.exact_linear import run_exact
+    scene = fmu_scene("forced")
+    t = np.arange(M + 1) * H
+    path, _ = port_fmus("exact", 2)
+
+    def derivatives(s, refs, rates):
+        n = len(refs)
+        s.fmu.fmi2SetRealInputDerivatives(s.fmu.component, (c_uint32 * n)(*refs), n, (c_int * n)(*([1] * n)),
+                                          (c_double * n)(*rates))
+
+    with Slave(path) as s:
+        s.set_real([7], [AREA])
+        s.initialize()
+        out = [s.get_real([4000, 4001])]
+        for n in range(M):
+            F0, F1 = port_forces(t[n])[0], port_forces(t[n + 1])[0]
+            f0, f1 = float(scene.force(t[n])), float(scene.force(t[n + 1]))
+            s.set_input(f0)
+            s.set_real([3000, 3001], list(F0))
+            derivatives(s, [1, 3000, 3001], [(f1 - f0) / H, *((F1 - F0) / H)])
+            s.do_step(t[n], H)
+            out.append(s.get_real([4000, 4001]))
+        out = np.array(out)
+        with pytest.raises(Exception):
+            derivatives(s, [3002], [1.0])
+        assert any("value reference 3002 is not a real input" in m and "3000 to 3001" in m for m in s.errors())
+    _, lin, _, _ = exact_model(scene, 6, 10, (0.25, 0.5), progress=False, ports=FMU_PORTS)
+    ref = lin.port_velocity(run_exact(lin, t, step=H, force=scene.force, hold="linear", port_forces=port_forces,
+                                      area=AREA).a_v)
+    held = lin.port_velocity(run_exact(lin, t, step=H, force=scene.force, hold="held", port_forces=port_forces,
+                                       area=AREA).a_v)
+    assert np.abs(out - ref).max() <= 1e-12 * np.abs(ref).max()
+    assert np.abs(held - ref).max() > 1e-6 * np.abs(ref).max()            # the derivatives change the result
+    with Slave(port_fmus("frozen", 2)[0]) as s:
+        s.initialize()
+        with pytest.raises(Exception):
+            derivatives(s, [3000], [1.0])
+        assert any("does not interpolate inputs" in m for m in s.errors())
