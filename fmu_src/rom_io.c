@@ -649,8 +649,8 @@ enum {
  * entries each, stride apart (frozen: a^v, a^rho, M^T (k_v rows of k_rho, stride
  * kr_pad) and F; linear: a, b, the forced part X, (t0, input rate)). */
 typedef struct {
-    double *data[5];
-    size_t rows[5], cols[5], strides[5];
+    double *data[4];
+    size_t rows[4], cols[4], strides[4];
 } StateBlocks;
 
 static StateBlocks state_blocks(const RomState *s) {
@@ -668,18 +668,32 @@ static StateBlocks state_blocks(const RomState *s) {
         b.cols[a] = sizes[a][1];
         b.strides[a] = sizes[a][2];
     }
-    /* with ports: (area, the port forces), then (0, their rates): rows 1 + ROM_MAX_PORTS apart */
-    b.data[4] = (double *)s->port;
-    b.rows[4] = m->n_ports ? 2 : 0;
-    b.cols[4] = 1 + (size_t)m->n_ports;
-    b.strides[4] = 1 + ROM_MAX_PORTS;
     return b;
 }
 
+/* With ports, after the state's blocks: area, F_port[n_ports], then 0, dF_port/dt[n_ports] (RomState.port's
+ * two rows); port_values(m) doubles, read or written at cursor (returns the cursor after them). */
+static size_t port_values(const RomModel *m) {
+    return m->n_ports ? 2 * (1 + (size_t)m->n_ports) : 0;
+}
+
+static unsigned char *ports_put(const RomState *s, unsigned char *cursor) {
+    for (size_t r = 0; r < (s->model->n_ports ? 2u : 0u); r++) {
+        for (size_t c = 0; c <= s->model->n_ports; c++, cursor += 8) put_f64(cursor, s->port[r * (1 + ROM_MAX_PORTS) + c]);
+    }
+    return cursor;
+}
+
+static const unsigned char *ports_get(RomState *s, const unsigned char *cursor) {
+    for (size_t r = 0; r < (s->model->n_ports ? 2u : 0u); r++) {
+        for (size_t c = 0; c <= s->model->n_ports; c++, cursor += 8) s->port[r * (1 + ROM_MAX_PORTS) + c] = get_f64(cursor);
+    }
+    return cursor;
+}
+
 static size_t state_doubles(const RomModel *m) {
-    const size_t ports = m->n_ports ? 2 * (1 + (size_t)m->n_ports) : 0;
-    if (rom_is_linear(m)) return (size_t)m->k_v + m->k_rho + m->k + 2 + ports;
-    return 2 * (size_t)m->k_v + m->k_rho + (size_t)m->k_rho * m->k_v + ports;
+    if (rom_is_linear(m)) return (size_t)m->k_v + m->k_rho + m->k + 2 + port_values(m);
+    return 2 * (size_t)m->k_v + m->k_rho + (size_t)m->k_rho * m->k_v + port_values(m);
 }
 
 size_t rom_state_serialized_size(const RomModel *m) {
@@ -708,11 +722,12 @@ void rom_state_serialize(const RomState *s, uint32_t tag, unsigned char *buffer)
     put_f64(buffer + ST_DT, s->dt);
     unsigned char *cursor = buffer + ROM_STATE_HEADER_SIZE;
     const StateBlocks b = state_blocks(s);
-    for (int a = 0; a < 5; a++) {
+    for (int a = 0; a < 4; a++) {
         for (size_t r = 0; r < b.rows[a]; r++) {
             for (size_t c = 0; c < b.cols[a]; c++, cursor += 8) put_f64(cursor, b.data[a][r * b.strides[a] + c]);
         }
     }
+    cursor = ports_put(s, cursor);
     put_u32(cursor, rom_crc32(buffer, size - 4));
 }
 
@@ -748,7 +763,7 @@ RomStatus rom_state_check(const RomModel *m, const unsigned char *buffer, size_t
         }
     }
     if (m->n_ports) {                  /* the area: the first value after the kind's blocks */
-        const double area = get_f64(buffer + ROM_STATE_HEADER_SIZE + 8 * (state_doubles(m) - 2 * (1 + m->n_ports)));
+        const double area = get_f64(buffer + ROM_STATE_HEADER_SIZE + 8 * (state_doubles(m) - port_values(m)));
         if (!(area > 0)) return rom_fail(message, message_size, "serialized state: area %g <= 0", area);
     }
     return ROM_OK;
@@ -766,10 +781,11 @@ RomStatus rom_state_deserialize(RomState *s, const unsigned char *buffer, size_t
     s->dt = get_f64(buffer + ST_DT);
     const unsigned char *cursor = buffer + ROM_STATE_HEADER_SIZE;
     const StateBlocks b = state_blocks(s);
-    for (int a = 0; a < 5; a++) {
+    for (int a = 0; a < 4; a++) {
         for (size_t r = 0; r < b.rows[a]; r++) {
             for (size_t c = 0; c < b.cols[a]; c++, cursor += 8) b.data[a][r * b.strides[a] + c] = get_f64(cursor);
         }
     }
+    (void)ports_get(s, cursor);
     return ROM_OK;
 }

@@ -92,10 +92,9 @@ class FrozenCosim:
         if count <= 0:
             return
         g = np.full(count, float(f))
-        ports = () if not self.n_ports else (self.port_B, np.tile(self.port_forces / self.area, (count, 1)))
         status, _, bad = frozen_advance(self.method, self.av, self.ar, self.M, self.F, self.n, self.n + count, h, g,
                                         self._ops, self._no_samples, 0, self._out, self._out, self.data.bound,
-                                        *ports)
+                                        *self._port_arguments(count))
         if status != 0:
             raise SimulationError(f"reference: reduced state failed (status {status}) by internal step {bad}",
                                   step=bad)
@@ -112,6 +111,12 @@ class FrozenCosim:
     def outputs(self):
         """(v at the probes [m s^-1], rho at the probes [kg m^-3])."""
         return probe_values(self.data.Pv, self.av), probe_values(self.data.Prho, self.ar)
+
+    def _port_arguments(self, count):
+        """(Bp, the port inputs F/area per step) for frozen_advance; () without ports."""
+        if not self.n_ports:
+            return ()
+        return self.port_B, np.tile(self.port_forces / self.area, (count, 1))
 
     def port_velocities(self):
         """v_port_j [m s^-1] (as rom_v_port: 0.0 + C[j][0] a_0 + ...); empty without ports."""
