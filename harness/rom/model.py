@@ -20,7 +20,9 @@ refresh="tensor", step=None, hold="linear", state=None, bound=None, progress=Fal
     communication step H [s], default the sample spacing) and ``hold``
     (``linear`` or ``held`` input over a step) for linear models; ``state`` the
     initial reduced coordinates (a_v, a_rho).  Raises SimulationError on a
-    non-finite or runaway state, naming the step and time.
+    non-finite or runaway state, naming the step and time.  Models with
+    ``ports`` also take ``port_forces`` (F(t) -> (len(t), P) [N]) and ``area``
+    [m^2] (operators built with ``build(..., ports=X)``).
 ``truncate(problem, operators, k_v, k_rho) -> operators``
     The operators of the first k_v, k_rho modes, sliced from larger ones
     (equal to ``build`` at the smaller counts, to round-off); only what a
