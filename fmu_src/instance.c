@@ -359,6 +359,29 @@ static RomStatus set_d(RomState *s, double value, char *message, size_t message_
 static int varies_c(const RomModel *m) { return rom_varies(m, ROM_PARAM_C); }
 static int varies_d(const RomModel *m) { return rom_varies(m, ROM_PARAM_D); }
 
+/* Mechanical ports (only in a model with ports): area, and per port j (1-based, at most ROM_MAX_PORTS)
+ * the input F_port_j [VR 3000 + j - 1] and the output v_port_j [VR 4000 + j - 1], one row each with a
+ * `present` test on the model's port count. */
+static int has_ports(const RomModel *m) { return rom_n_ports(m) > 0; }
+static double get_area(const RomState *s, uint32_t j) { (void)j; return s->port[0]; }
+#define PORT_FUNCTIONS(J)                                                                                        \
+    static int has_port_##J(const RomModel *m) { return rom_n_ports(m) >= J; }                                  \
+    static double get_port_force_##J(const RomState *s, uint32_t j) { (void)j; return rom_port_force(s, J - 1); } \
+    static double get_v_port_##J(const RomState *s, uint32_t j) { (void)j; return rom_v_port(s, J - 1); }       \
+    static RomStatus set_port_force_##J(RomState *s, double value, char *message, size_t message_size) {        \
+        const RomStatus status = rom_set_port_force(s, J - 1, value, message, message_size);                     \
+        return status == ROM_OK ? rom_set_port_rate(s, J - 1, 0.0, message, message_size) : status;  /* held */  \
+    }
+PORT_FUNCTIONS(1)
+PORT_FUNCTIONS(2)
+PORT_FUNCTIONS(3)
+PORT_FUNCTIONS(4)
+#define PORT_ROWS(J)                                                                                             \
+    {"F_port_" #J, ROM_VR_F_PORT + J - 1, COUNT_ONE, TYPE_FLOAT64, ROLE_INPUT, get_port_force_##J, NULL,       \
+     set_port_force_##J, NULL, has_port_##J},                                                                    \
+    {"v_port_" #J, ROM_VR_V_PORT + J - 1, COUNT_ONE, TYPE_FLOAT64, ROLE_OUTPUT, get_v_port_##J, NULL, NULL, NULL, \
+     has_port_##J}
+
 /* The FMU's variables (modelDescription/fmi2.xml, fmi3.xml; value references rom.h ROM_VR_*):
  * the one place that maps value references onto the core.  A COUNT_PER_PROBE row
  * stands for n_probes value references vr + j, its getter receiving j.  A row
@@ -397,7 +420,9 @@ static const Variable VARIABLES[] = {
      ROLE_CALCULATED, get_initial_bound, NULL, NULL, NULL, has_bounds},
     {"c", ROM_VR_C, COUNT_ONE, TYPE_FLOAT64, ROLE_FIXED, get_c, NULL, set_c, NULL, varies_c},
     {"d", ROM_VR_D, COUNT_ONE, TYPE_FLOAT64, ROLE_FIXED, get_d, NULL, set_d, NULL, varies_d},
-};
+    {"area", ROM_VR_AREA, COUNT_ONE, TYPE_FLOAT64, ROLE_FIXED, get_area, NULL, rom_set_area, NULL, has_ports},
+    PORT_ROWS(1), PORT_ROWS(2), PORT_ROWS(3), PORT_ROWS(4),
+};   /* one PORT_ROWS per port: ROM_MAX_PORTS rows */
 
 /* the variable of value reference ref (time only where the version has it), or NULL; *j: the probe index */
 static const Variable *lookup(const Instance *inst, uint32_t ref, uint32_t *j) {
@@ -519,8 +544,15 @@ InstanceStatus instance_set_input_derivatives(Instance *inst, const char *fn, co
     if (n_refs > 0 && (!refs || !orders || !values)) {
         return instance_error(inst, fn, "the value reference, order or value array is NULL");
     }
+    const uint32_t n_ports = rom_n_ports(inst->model);
     for (size_t i = 0; i < n_refs; i++) {
-        if (refs[i] != ROM_VR_F) {
+        const int is_port = refs[i] >= ROM_VR_F_PORT && refs[i] - ROM_VR_F_PORT < n_ports;
+        if (refs[i] != ROM_VR_F && !is_port) {
+            if (n_ports) {
+                return instance_error(inst, fn, "value reference %u is not a real input (allowed: %u, the input f, "
+                                      "and %u to %u, the port forces)", (unsigned)refs[i], (unsigned)ROM_VR_F,
+                                      (unsigned)ROM_VR_F_PORT, (unsigned)(ROM_VR_F_PORT + n_ports - 1));
+            }
             return instance_error(inst, fn, "value reference %u is not a real input (allowed: %u, the input f)",
                                   (unsigned)refs[i], (unsigned)ROM_VR_F);
         }
@@ -533,9 +565,10 @@ InstanceStatus instance_set_input_derivatives(Instance *inst, const char *fn, co
                               "false; set f at every communication point)");
     }
     for (size_t i = 0; i < n_refs; i++) {
-        if (rom_set_input_rate(inst->state, values[i], inst->message, sizeof inst->message) != ROM_OK) {
-            return instance_error(inst, fn, "%s", inst->message);
-        }
+        const RomStatus status = refs[i] == ROM_VR_F
+            ? rom_set_input_rate(inst->state, values[i], inst->message, sizeof inst->message)
+            : rom_set_port_rate(inst->state, refs[i] - ROM_VR_F_PORT, values[i], inst->message, sizeof inst->message);
+        if (status != ROM_OK) return instance_error(inst, fn, "%s", inst->message);
     }
     return INSTANCE_OK;
 }

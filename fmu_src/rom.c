@@ -46,11 +46,13 @@ RomState *rom_state_new(const RomModel *model) {
     RomState *s = (RomState *)calloc(1, sizeof(RomState));
     if (!s) return NULL;
     if (rom_is_linear(model)) {
-        /* a, b; the forced part X; (t0, input rate); the exponential's scratch; the cached maps */
-        const size_t k = model->k, n = k + 2, kk = k * k;
+        /* a, b; the forced part X; (t0, input rate); the exponential's scratch; the cached maps (one G0, G1
+         * column per input: f and the ports) */
+        const size_t inputs = rom_linear_inputs(model) > 1 ? rom_linear_inputs(model) : 1;
+        const size_t k = model->k, n = k + 2 * inputs, kk = k * k, ki = k * inputs;
         const size_t kr_alloc = model->kr_pad ? model->kr_pad : 1;    /* never NULL: a state with k_e = 0 */
         const size_t counts[5 + 3 * ROM_EXACT_CACHE] = {model->kv_pad, kr_alloc, k, 2, 4 * n * n + 2 * k,
-                                                        kk, k, k, kk, k, k};
+                                                        kk, ki, ki, kk, ki, ki};
         double **ptrs[5 + 3 * ROM_EXACT_CACHE] = {&s->av, &s->ar, &s->X, &s->aux, &s->work,
                                                   &s->cache[0].Phi, &s->cache[0].G0, &s->cache[0].G1,
                                                   &s->cache[1].Phi, &s->cache[1].G0, &s->cache[1].G1};
@@ -116,6 +118,8 @@ void rom_state_reset(RomState *s, double t_start) {
     const RomSection *params = rom_model_section(m, "PARAMS");
     s->c = params ? params->data[1] : 0.0;
     s->d = params ? params->data[4 + 1] : 0.0;
+    for (size_t j = 0; j < 2 * (1 + ROM_MAX_PORTS); j++) s->port[j] = 0.0;
+    s->port[0] = 1.0;                                          /* area [m^2] */
 }
 
 RomStatus rom_set_start_time(RomState *s, double t_start, char *message, size_t message_size) {
@@ -221,6 +225,10 @@ RomStatus rom_do_step(RomState *s, double t_comm, double h, char *message, size_
     if (status != ROM_OK) return status;
     s->time = t_comm + h;
     if (s->aux && s->aux[1] != 0.0) s->f = s->f + s->aux[1] * h;    /* the input continues linearly */
+    for (uint32_t j = 0; j < s->model->n_ports; j++) {              /* and the port forces */
+        const double rate = s->port[2 + ROM_MAX_PORTS + j];
+        if (rate != 0.0) s->port[1 + j] = s->port[1 + j] + rate * h;
+    }
     return rom_check_outputs(s, message, message_size);
 }
 
@@ -358,4 +366,64 @@ RomStatus rom_model_assemble(RomModel *m, RomState *s, char *message, size_t mes
         }
     }
     return ROM_OK;
+}
+
+/* mechanical ports                                                          */
+/* ------------------------------------------------------------------------ */
+
+uint32_t rom_n_ports(const RomModel *m) {
+    return m ? m->n_ports : 0u;
+}
+
+RomStatus rom_set_port_force(RomState *s, uint32_t j, double force, char *message, size_t message_size) {
+    if (!s) return rom_fail(message, message_size, "no state");
+    if (j >= s->model->n_ports) {
+        return rom_fail(message, message_size, "port %u does not exist (allowed: 1 to %u)", j + 1, s->model->n_ports);
+    }
+    if (!isfinite(force)) {
+        return rom_fail(message, message_size, "input F_port_%u = %g N at t = %.9g s is not finite (allowed: a finite "
+                        "force in N)", j + 1, force, s->time);
+    }
+    s->port[1 + j] = force;
+    return ROM_OK;
+}
+
+double rom_port_force(const RomState *s, uint32_t j) {
+    if (!s || j >= s->model->n_ports) return NAN;
+    return s->port[1 + j];
+}
+
+RomStatus rom_set_area(RomState *s, double area, char *message, size_t message_size) {
+    if (!s) return rom_fail(message, message_size, "no state");
+    if (!(isfinite(area) && area > 0)) {
+        return rom_fail(message, message_size, "parameter area = %g m^2 is out of range (allowed: a finite number "
+                        "> 0)", area);
+    }
+    s->port[0] = area;
+    return ROM_OK;
+}
+
+RomStatus rom_set_port_rate(RomState *s, uint32_t j, double rate, char *message, size_t message_size) {
+    if (!s) return rom_fail(message, message_size, "no state");
+    if (j >= s->model->n_ports) {
+        return rom_fail(message, message_size, "port %u does not exist (allowed: 1 to %u)", j + 1, s->model->n_ports);
+    }
+    if (!isfinite(rate)) {
+        return rom_fail(message, message_size, "input rate dF_port_%u/dt = %g at t = %.9g s is not finite", j + 1,
+                        rate, s->time);
+    }
+    if (rate != 0.0 && !rom_is_linear(s->model)) {
+        return rom_fail(message, message_size, "the frozen model does not interpolate inputs");
+    }
+    s->port[2 + ROM_MAX_PORTS + j] = rate;
+    return ROM_OK;
+}
+
+double rom_v_port(const RomState *s, uint32_t j) {
+    if (!s || j >= s->model->n_ports) return NAN;
+    const size_t kv = s->model->k_v;
+    const double *row = s->model->port_C + (size_t)j * kv;
+    double v = 0.0;
+    for (size_t q = 0; q < kv; q++) v += row[q] * s->av[q];
+    return v;
 }

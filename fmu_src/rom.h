@@ -69,6 +69,7 @@
  *            kind 2: a[k_v], b[k_rho], X[k], (t0, df/dt)
  *   float64  the parameters a state carries: initial_state_scale (version 2: the exact model's
  *            free response is scaled by it at every step)
+ *   float64  with ports (both kinds): area, F_port[n_ports], 0, dF_port/dt[n_ports]
  *   uint32   crc32 of every byte before it
  *
  * Both are read through one envelope check (rom_io.c): size, magic, version,
@@ -142,6 +143,10 @@ extern "C" {
 #define ROM_VR_INITIAL_STATE_ERROR_BOUND_PROBE 6000u   /* initial_state_error_bound_1 .. : 6000 + j */
 #define ROM_LINEAR_EXACT_POD 1u      /* section LINMODEL: which linear model (messages only) */
 #define ROM_LINEAR_BALANCED 2u
+#define ROM_VR_AREA 7u               /* parameter area [m^2], only with ports */
+#define ROM_VR_F_PORT 3000u          /* input F_port_1 .. [N]: 3000 + j, only with ports */
+#define ROM_VR_V_PORT 4000u          /* output v_port_1 .. [m s^-1]: 4000 + j, only with ports */
+#define ROM_MAX_PORTS 4u             /* mechanical ports of one FMU */
 
 typedef enum { ROM_OK = 0, ROM_FAIL = 1 } RomStatus;
 
@@ -197,6 +202,13 @@ typedef struct {
     char token[ROM_TOKEN_SIZE + 1];
     void *storage_;            /* one allocation behind all arrays */
     void *sections_storage_;   /* one allocation behind the sections' data */
+    /* mechanical ports (sections PORTX, PORTB, PORTC; harness/sph/ports.py): a point force F_j [N] at x_j
+     * enters as u_j = F_j / area over the input row port_B[j] (k_v entries frozen, k linear, for area 1);
+     * v_port_j = port_C[j] . a^v (k_v entries) */
+    uint32_t n_ports;          /* 0: no ports */
+    const double *port_x;      /* [n_ports] positions x/L */
+    const double *port_B;      /* [n_ports][k_v] (frozen) or [n_ports][k] (linear) */
+    const double *port_C;      /* [n_ports][k_v] */
 } RomModel;
 
 /* One cached exponential: the maps of a step of length h (exact model) */
@@ -234,6 +246,10 @@ typedef struct {
     /* parametric models (section PARAMS): the chosen stiffness c [kg m^-1 s^-2] and damping d [s^-1],
      * the start values after a reset; the operators are assembled from them by rom_model_assemble */
     double c, d;
+    /* ports, two rows of 1 + ROM_MAX_PORTS: port[0] the cross-section area [m^2] (parameter, > 0),
+     * port[1 + j] the force F_j [N] (input); port[1 + ROM_MAX_PORTS] unused (0),
+     * port[2 + ROM_MAX_PORTS + j] the rate dF_j/dt [N s^-1] over a step (linear model; 0: held) */
+    double port[2 * (1 + ROM_MAX_PORTS)];
 } RomState;
 
 /* ---- resources ---------------------------------------------------------- */
@@ -342,6 +358,21 @@ ROM_API double rom_get_param(const RomState *state, int which);
  * exponential cache; a model without PARAMS is left as it is.  Called once the parameters are
  * fixed (ExitInitializationMode). */
 ROM_API RomStatus rom_model_assemble(RomModel *model, RomState *state, char *message, size_t message_size);
+
+/* ---- mechanical ports ----------------------------------------------------- */
+/* the number of ports of a model (0 without ports or for NULL) */
+ROM_API uint32_t rom_n_ports(const RomModel *model);
+/* the point force F_j [N] at port j (0-based), held over a communication step; finite */
+ROM_API RomStatus rom_set_port_force(RomState *state, uint32_t j, double force, char *message, size_t message_size);
+ROM_API double rom_port_force(const RomState *state, uint32_t j);
+/* the cross-section area [m^2] (> 0, finite): the port inputs are F_j / area */
+ROM_API RomStatus rom_set_area(RomState *state, double area, char *message, size_t message_size);
+/* Linear model only (as rom_set_input_rate for f): F_j goes linearly over each step at this rate
+ * [N s^-1] and continues after it; setting F_j through rom_set_port_force keeps the rate (the instance
+ * layer resets it).  The frozen model refuses a nonzero rate. */
+ROM_API RomStatus rom_set_port_rate(RomState *state, uint32_t j, double rate, char *message, size_t message_size);
+/* v_port_j = sum_q port_C[j][q] a^v_q [m s^-1] (NaN for a bad j) */
+ROM_API double rom_v_port(const RomState *state, uint32_t j);
 
 ROM_API const char *rom_version(void);
 

@@ -76,14 +76,16 @@ static RomExpCache *exact_maps(RomState *s, double h, char *message, size_t mess
     for (int c = 1; c < ROM_EXACT_CACHE; c++) {
         if (s->cache[c].used < slot->used) slot = &s->cache[c];
     }
-    const size_t k = m->k, n = m->B ? k + 2 : k;
+    /* inputs u = (f if B, F_1/area, ..., F_P/area): columns B, port_B[0], ... */
+    const size_t ni = rom_linear_inputs(m), k = m->k, n = k + 2 * ni;
     double *M = s->work, *E = M + n * n, *X = E + n * n, *T = X + n * n;
     memset(M, 0, n * n * sizeof(double));
     for (size_t i = 0; i < k; i++) {
         for (size_t j = 0; j < k; j++) M[i * n + j] = m->A[i * k + j] * h;
         if (m->B) M[i * n + k] = m->B[i] * h;
+        for (size_t j = 0; j < m->n_ports; j++) M[i * n + k + (m->B ? 1 : 0) + j] = m->port_B[j * k + i] * h;
     }
-    if (m->B) M[k * n + k + 1] = 1.0;
+    for (size_t c = 0; c < ni; c++) M[(k + c) * n + k + ni + c] = 1.0;
     slot->h = 0.0;
     if (!expm_taylor(n, M, E, X, T)) {
         rom_fail(message, message_size, "the matrix exponential for the step %g s is not finite (step too long for "
@@ -93,8 +95,14 @@ static RomExpCache *exact_maps(RomState *s, double h, char *message, size_t mess
     s->n_expm++;
     for (size_t i = 0; i < k; i++) {
         memcpy(slot->Phi + i * k, E + i * n, k * sizeof(double));
-        slot->G0[i] = m->B ? E[i * n + k] : 0.0;
-        slot->G1[i] = m->B ? E[i * n + k + 1] : 0.0;
+        if (ni == 0) {
+            slot->G0[i] = 0.0;
+            slot->G1[i] = 0.0;
+        }
+        for (size_t c = 0; c < ni; c++) {            /* G0, G1: [k][ni] */
+            slot->G0[i * ni + c] = E[i * n + k + c];
+            slot->G1[i * ni + c] = E[i * n + k + ni + c];
+        }
     }
     slot->h = h;
     slot->used = s->clock;
@@ -134,14 +142,19 @@ static RomStatus exact_step(RomState *s, double t_comm, double h, char *message,
     const size_t k = m->k, kv = m->k_v;
     const RomExpCache *c = exact_maps(s, h, message, message_size);
     if (!c) return ROM_FAIL;
-    const size_t n = m->B ? k + 2 : k;
+    const size_t ni = rom_linear_inputs(m), n = k + 2 * (ni > 1 ? ni : 1);
     double *xn = s->work + 4 * n * n, *z = xn + k;
     const double f = s->f, df = s->aux[1] * h;
     for (size_t i = 0; i < k; i++) {
         double acc = 0.0;
         const double *row = c->Phi + i * k;
         for (size_t j = 0; j < k; j++) acc += row[j] * s->X[j];
-        if (m->B) acc = acc + c->G0[i] * f + c->G1[i] * df;
+        if (m->B) acc = acc + c->G0[i * ni] * f + c->G1[i * ni] * df;
+        for (size_t j = 0; j < m->n_ports; j++) {    /* port forces, held or linear (rate) over the step */
+            const size_t col = i * ni + (m->B ? 1 : 0) + j;
+            acc = acc + c->G0[col] * (s->port[1 + j] / s->port[0])
+                      + c->G1[col] * (s->port[2 + ROM_MAX_PORTS + j] * h / s->port[0]);
+        }
         xn[i] = acc;
     }
     const double t_new = t_comm + h;

@@ -64,6 +64,12 @@ ROM_INLINE void refresh(RomState *s, double f) {
     } else {
         for (size_t p = 0; p < kv; p++) F[p] = 0.0;
     }
+    /* port forces, frozen with f: F += port_B[j] (F_j / area), ports in order (harness/rom/frozen.py) */
+    for (size_t j = 0; j < m->n_ports; j++) {
+        const double u = s->port[1 + j] / s->port[0];
+        const double *restrict row = m->port_B + j * m->k_v;
+        for (size_t p = 0; p < m->k_v; p++) F[p] += row[p] * u;
+    }
 }
 
 /* Blocks of 4 lanes: GCC/Clang vector extensions (one AVX2 register, two SSE2

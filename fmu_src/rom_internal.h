@@ -44,6 +44,11 @@ static inline int rom_is_linear(const RomModel *m) {
     return rom_path(m->kind) == ROM_PATH_LINEAR;
 }
 
+/* inputs of a linear model: f (when B is present), then the port forces */
+static inline size_t rom_linear_inputs(const RomModel *m) {
+    return (m->B ? 1u : 0u) + m->n_ports;
+}
+
 static inline int rom_all_finite(const double *x, size_t n) {
     for (size_t i = 0; i < n; i++) {
         if (!isfinite(x[i])) return 0;

@@ -442,6 +442,34 @@ static RomStatus check_affine(const RomModel *m, const RomSection *s, char *mess
     return check_shape(s, m->k_v, m->k_v, message, message_size);
 }
 
+/* mechanical ports: PORTX (1 x P positions x/L in [0, 1)), PORTB (P rows over a^v, or over z for a linear
+ * model), PORTC (P rows over a^v); all three or none (ports_prepare) */
+static RomStatus check_port_x(const RomModel *m, const RomSection *s, char *message, size_t message_size) {
+    (void)m;
+    if (s->rows != 1 || s->cols < 1 || s->cols > ROM_MAX_PORTS) {
+        return rom_fail(message, message_size, "resources: section 'PORTX' is %u x %u (allowed: 1 x 1 to 1 x %u "
+                        "port positions)", s->rows, s->cols, ROM_MAX_PORTS);
+    }
+    for (uint32_t j = 0; j < s->cols; j++) {
+        if (!(s->data[j] >= 0.0 && s->data[j] < 1.0)) {
+            return rom_fail(message, message_size, "resources: port %u at x/L = %g (allowed: [0, 1))", j + 1,
+                            s->data[j]);
+        }
+    }
+    return ROM_OK;
+}
+
+static RomStatus check_port_rows(const RomModel *m, const RomSection *s, char *message, size_t message_size) {
+    const RomSection *x = rom_model_section(m, "PORTX");
+    const uint32_t cols = (strcmp(s->tag, "PORTB") == 0 && rom_is_linear(m)) ? m->k : m->k_v;
+    if (!x) return rom_fail(message, message_size, "resources: section '%s' without 'PORTX'", s->tag);
+    if (s->rows != x->cols || s->cols != cols) {
+        return rom_fail(message, message_size, "resources: section '%s' is %u x %u, expected %u x %u (ports x "
+                        "coordinates)", s->tag, s->rows, s->cols, x->cols, cols);
+    }
+    return ROM_OK;
+}
+
 static const SectionRule SECTION_RULES[] = {
     {"ENVELOPE", "the training envelope's scalars", rom_envelope_check_scalars},
     {"ENVRANGE", "the training envelope's coordinate ranges", rom_envelope_check_range},
@@ -455,8 +483,27 @@ static const SectionRule SECTION_RULES[] = {
     {"A0", "linear model: the part of A without c or d", check_affine},
     {"AC", "linear model: the part of A per unit c", check_affine},
     {"AD", "linear model: the part of A per unit d", check_affine},
+    {"PORTX", "port positions x/L", check_port_x},
+    {"PORTB", "port input rows (area 1)", check_port_rows},
+    {"PORTC", "port velocity rows", check_port_rows},
     {NULL, NULL, NULL},        /* end of the table */
 };
+
+/* the model's ports from its sections: all three sections or none */
+static RomStatus ports_prepare(RomModel *m, char *message, size_t message_size) {
+    const RomSection *x = rom_model_section(m, "PORTX"), *b = rom_model_section(m, "PORTB"),
+                     *c = rom_model_section(m, "PORTC");
+    if (!x && !b && !c) return ROM_OK;
+    if (!x || !b || !c) {
+        return rom_fail(message, message_size, "resources: the port sections PORTX, PORTB, PORTC come together "
+                        "(%s missing)", !x ? "PORTX" : (!b ? "PORTB" : "PORTC"));
+    }
+    m->n_ports = x->cols;
+    m->port_x = x->data;
+    m->port_B = b->data;
+    m->port_C = c->data;
+    return ROM_OK;
+}
 
 static const SectionRule *section_rule(const char *tag) {
     for (const SectionRule *r = SECTION_RULES; r->tag; r++) {
@@ -628,6 +675,7 @@ RomStatus rom_model_load_memory(const void *data, size_t size, RomModel **out, c
     RomStatus status = path == ROM_PATH_LINEAR ? read_exact(m, payload, doubles, message, message_size)
                                                : read_frozen(m, payload, doubles, message, message_size);
     if (status == ROM_OK) status = read_sections(m, bytes, sections_start, n_sections, message, message_size);
+    if (status == ROM_OK) status = ports_prepare(m, message, message_size);
     if (status != ROM_OK) {
         rom_model_free(m);
         return ROM_FAIL;
@@ -730,10 +778,30 @@ static StateBlocks state_blocks(const RomState *s) {
     return b;
 }
 
+/* With ports, after the state's blocks: area, F_port[n_ports], then 0, dF_port/dt[n_ports] (RomState.port's
+ * two rows); port_values(m) doubles, read or written at cursor (returns the cursor after them). */
+static size_t port_values(const RomModel *m) {
+    return m->n_ports ? 2 * (1 + (size_t)m->n_ports) : 0;
+}
+
+static unsigned char *ports_put(const RomState *s, unsigned char *cursor) {
+    for (size_t r = 0; r < (s->model->n_ports ? 2u : 0u); r++) {
+        for (size_t c = 0; c <= s->model->n_ports; c++, cursor += 8) put_f64(cursor, s->port[r * (1 + ROM_MAX_PORTS) + c]);
+    }
+    return cursor;
+}
+
+static const unsigned char *ports_get(RomState *s, const unsigned char *cursor) {
+    for (size_t r = 0; r < (s->model->n_ports ? 2u : 0u); r++) {
+        for (size_t c = 0; c <= s->model->n_ports; c++, cursor += 8) s->port[r * (1 + ROM_MAX_PORTS) + c] = get_f64(cursor);
+    }
+    return cursor;
+}
+
 static size_t state_doubles(const RomModel *m) {
     const size_t parameters = 1;     /* initial_state_scale */
-    if (rom_is_linear(m)) return (size_t)m->k_v + m->k_rho + m->k + 2 + parameters;
-    return 2 * (size_t)m->k_v + m->k_rho + (size_t)m->k_rho * m->k_v + 2 + parameters;
+    if (rom_is_linear(m)) return (size_t)m->k_v + m->k_rho + m->k + 2 + parameters + port_values(m);
+    return 2 * (size_t)m->k_v + m->k_rho + (size_t)m->k_rho * m->k_v + 2 + parameters + port_values(m);
 }
 
 size_t rom_state_serialized_size(const RomModel *m) {
@@ -767,6 +835,7 @@ void rom_state_serialize(const RomState *s, uint32_t tag, unsigned char *buffer)
             for (size_t c = 0; c < b.cols[a]; c++, cursor += 8) put_f64(cursor, b.data[a][r * b.strides[a] + c]);
         }
     }
+    cursor = ports_put(s, cursor);
     put_u32(cursor, rom_crc32(buffer, size - 4));
 }
 
@@ -801,6 +870,10 @@ RomStatus rom_state_check(const RomModel *m, const unsigned char *buffer, size_t
             return rom_fail(message, message_size, "serialized state: non-finite reduced state");
         }
     }
+    if (m->n_ports) {                  /* the area: the first value after the kind's blocks */
+        const double area = get_f64(buffer + ROM_STATE_HEADER_SIZE + 8 * (state_doubles(m) - port_values(m)));
+        if (!(area > 0)) return rom_fail(message, message_size, "serialized state: area %g <= 0", area);
+    }
     return ROM_OK;
 }
 
@@ -821,5 +894,6 @@ RomStatus rom_state_deserialize(RomState *s, const unsigned char *buffer, size_t
             for (size_t c = 0; c < b.cols[a]; c++, cursor += 8) b.data[a][r * b.strides[a] + c] = get_f64(cursor);
         }
     }
+    (void)ports_get(s, cursor);
     return ROM_OK;
 }

@@ -229,7 +229,8 @@ def test_model_auto_keeps_the_fastest_model_meeting_the_tolerance(tmp_path):
     assert best2.model == min(errors, key=errors.get)
 
 
-README_UNITS = {"s": "s", "m s⁻²": "m/s2", "m s⁻¹": "m/s", "kg m⁻³": "kg/m3", "1": "1", "–": "", "-": ""}
+README_UNITS = {"s": "s", "m s⁻²": "m/s2", "m s⁻¹": "m/s", "kg m⁻³": "kg/m3", "1": "1", "–": "", "-": "",
+                "m s⁻¹ s^½": "m/s*s^0.5", "N": "N", "m²": "m2", "Pa": "Pa", "s⁻¹": "1/s"}
 
 
 def readme_variables():

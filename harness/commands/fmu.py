@@ -52,6 +52,10 @@ def add_parser(sub):
                         "[kg m^-1 s^-2] or damping d [s^-1] (full SPH at the corners and the centre of the range, "
                         "one POD of all snapshots) and expose c (value reference 5) or d (6) as fixed parameters, "
                         "min/max the range; give both to vary both")
+    p.add_argument("--ports", metavar="X1,X2,...",
+                   help="mechanical ports at these positions in units of L, each in [0, 1), at most 4: per port j an "
+                        "input F_port_j [N] (a point force spread by the SPH kernel) and an output v_port_j "
+                        "[m s^-1] (its power-conjugate velocity), and the parameter area [m^2] (default: no ports)")
     p.add_argument("--out", required=True, metavar="FILE.fmu")
     add_quiet(p)
     p.set_defaults(handler=run)
@@ -84,8 +88,8 @@ def _run(args):
         raise UserError("--tolerance: needs the measurement (drop --no-verify)")
     scene = load_scene(args.scene)
     if args.model == "auto":
-        if args.vary:
-            raise UserError("--vary: not with --model auto (choose frozen or exact for a parametric FMU)")
+        if args.vary or args.ports:
+            raise UserError(f"--{'vary' if args.vary else 'ports'}: not with --model auto (choose a model)")
         if args.tolerance is None:
             raise UserError("--model: auto needs --tolerance TOL (the error the chosen model must meet)")
         for model in fmu_model_names():
@@ -107,9 +111,13 @@ def _run(args):
         check_options(scene, k=args.modes, n_freeze=args.n_freeze, probes=args.probes, fmi=fmi,
                       integrator=args.integrator, model=args.model, tolerance=args.tolerance)
         vary = check_vary(scene, args.vary, args.model)
+        from ..fmu.package import check_ports
+        ports = check_ports(args.ports, args.model)
+        if vary and ports:
+            raise UserError("--ports: not with --vary (a parametric FMU has no ports)")
         s = package_fmu(scene, out, k=args.modes, n_freeze=args.n_freeze, probes=args.probes, fmi=fmi,
                         integrator=args.integrator, progress=not args.quiet, model=args.model, verify=args.verify,
-                        tolerance=args.tolerance, vary=vary)
+                        tolerance=args.tolerance, vary=vary, ports=ports)
     from ..rom.operators import INPUT_TOLERANCE
     added = " (+ the force profile direction, not in the POD span)" if s.augmented else ""
     print(f"fmu {s.scene}: FMI {s.fmi}.0 co-simulation, {s.model} model, wrote {s.path} ({s.size / 1024:.1f} KiB)")
@@ -147,6 +155,11 @@ def _run(args):
     for row in s.parameters:
         print(f"  parameter {row['name']} (value reference {row['vr']}): start {row['start']}, trained range "
               f"[{row['min']}, {row['max']}]")
+    if s.ports:
+        print(f"  ports at x/L = {', '.join(f'{x:g}' for x in s.ports)}: inputs F_port_1..{len(s.ports)} [N], outputs "
+              f"v_port_1..{len(s.ports)} [m s^-1], parameter area [m^2] (start 1); each port's profile and its "
+              f"Krylov directions appended to the basis (profile projection errors on the modes: "
+              f"{', '.join(f'{e:.3g}' for e in s.port_errors)})")
     t = s.timings
     print(f"  token {s.token}; fmpy validation: no problems; times: model {t['model']:.2f} s, "
           f"binaries {t['binaries']:.2f} s, package {t['package']:.2f} s"

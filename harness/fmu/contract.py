@@ -23,6 +23,22 @@ FMU_VARIABLES = (
     ("v_probe_j", "1000+j-1", "output", "m/s", "velocity at probe j (x_j/L), interpolated linearly between "
                                                "particles"),
     ("rho_probe_j", "2000+j-1", "output", "kg/m3", "density at probe j, likewise"),
+    ("force_error_bound", "8", "calculatedParameter", "s", "linear models: the largest of the "
+                                                           "force_error_bound_j"),
+    ("initial_state_error_bound", "9", "calculatedParameter", "m/s*s^0.5", "linear models: the largest of the "
+                                                                           "initial_state_error_bound_j"),
+    ("force_error_bound_j", "5000+j-1", "calculatedParameter", "s", "linear models: ||v_probe_j - v_full_j||_L2(0,T) "
+                                                                    "<= this ||f||_L2(0,T) for every force from rest"),
+    ("initial_state_error_bound_j", "6000+j-1", "calculatedParameter", "m/s*s^0.5",
+     "linear models: ||v_probe_j - v_full_j||_L2(0,T) of the free response from the scene's initial state"),
+    ("area", "7", "parameter", "m2", "with ports: the cross-section A, start 1, > 0"),
+    ("F_port_j", "3000+j-1", "input", "N", "with ports: point force at port j, spread by the SPH kernel"),
+    ("v_port_j", "4000+j-1", "output", "m/s", "with ports: sum_i W(x_i - x_j, h) v_i dx, power-conjugate to "
+                                              "F_port_j"),
+    ("c", "5", "parameter", "Pa", "parametric FMUs (--vary c=LO:HI): the uniform stiffness, min/max the trained "
+                                  "range"),
+    ("d", "6", "parameter", "1/s", "parametric FMUs (--vary d=LO:HI): the uniform damping, min/max the trained "
+                                   "range"),
 )
 
 

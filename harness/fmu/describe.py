@@ -23,6 +23,9 @@ VR_INITIAL_STATE_ERROR_BOUND = 9             # ROM_VR_INITIAL_STATE_ERROR_BOUND
 VR_FORCE_ERROR_BOUND_PROBE = 5000            # ROM_VR_FORCE_ERROR_BOUND_PROBE
 VR_INITIAL_STATE_ERROR_BOUND_PROBE = 6000    # ROM_VR_INITIAL_STATE_ERROR_BOUND_PROBE
 FIXED_VARIABLES = 3      # FMI 2 indices 1..3: f, n_freeze, dt
+VR_AREA = 7              # ROM_VR_AREA: the cross-section, only with ports
+VR_F_PORT = 3000         # ROM_VR_F_PORT: F_port_1 ..
+VR_V_PORT = 4000         # ROM_VR_V_PORT: v_port_1 ..
 
 _BLOCK = re.compile(r"\{\{#(\w+)\}\}(.*?)\{\{/\1\}\}", re.S)
 _FIELD = re.compile(r"\{\{(\w+)\}\}")
@@ -168,6 +171,14 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
     last += len(lists["bounds"]) * 2 + len(lists["bound_probes"]) * 2
     # a parametric model's c, d: FMI 2 indices after everything above
     lists["params"] = [{**p, "index": last + 1 + i} for i, p in enumerate(parameters)]
+    last += len(lists["params"])
+    # mechanical ports: area, F_port_j, v_port_j after everything above (FMI 2 indices)
+    ports, port_units = port_variables(data, last)
+    outputs += [{"vr": p["v_vr"], "index": p["v_index"]} for p in ports]
+    if ports:
+        values["description"] += (f" Mechanical ports at x/L = {', '.join(p['x'] for p in ports)}: inputs "
+                                  "F_port_j [N], outputs v_port_j [m s^-1], parameter area [m^2].")
+    lists.update({"ports": ports, "port_units": port_units})
     return render(template(f"fmi{fmi}.xml"), values, lists)
 
 
@@ -191,6 +202,22 @@ def bound_lists(bounds, data, last_index):
                 + [{"vr": p["fb_vr"], "index": p["fb_index"]} for p in per_probe]
                 + [{"vr": p["ib_vr"], "index": p["ib_index"]} for p in per_probe])
     return {"bounds": scalars, "bound_probes": per_probe, "bound_unknowns": unknowns}
+
+
+def port_variables(data, last_index):
+    """(one item per port, [{area_index}] or []) for the templates' ``ports`` and ``port_units`` blocks.
+
+    The port variables follow every other variable (FMI 2 indices after ``last_index``): area, F_port_1..P,
+    v_port_1..P.
+    """
+    x = data.sections.get("PORTX")
+    if x is None:
+        return [], []
+    base = last_index + 1                                   # area's index
+    n = x.shape[1]
+    ports = [{"j": j + 1, "x": f"{xj:g}", "f_vr": VR_F_PORT + j, "v_vr": VR_V_PORT + j,
+              "f_index": base + 1 + j, "v_index": base + 1 + n + j} for j, xj in enumerate(x[0])]
+    return ports, [{"area_index": base}]
 
 
 def build_description() -> str:

@@ -158,6 +158,8 @@ class FMUSummary:
     bounds: dict | None = None
     method: str = ""
     parameters: list = field(default_factory=list)     # a parametric FMU's c, d rows (harness.fmu.parametric)
+    ports: list = field(default_factory=list)
+    port_errors: list = field(default_factory=list)
 
 
 def default_modes(scene):
@@ -229,6 +231,20 @@ def check_options(scene, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_PROB
     return int(k), int(n_freeze), probes, int(fmi), integrator
 
 
+def check_ports(ports, model):
+    """The port positions (a list, empty for None) of an FMU of ``model``; FieldError naming ``ports`` when bad
+    or when the model takes no port forces (the registry's ``ports``)."""
+    from ..rom.registry import get_model, model_names
+    from ..sph.ports import parse_ports
+    if ports is None or (not isinstance(ports, str) and len(ports) == 0):
+        return []
+    ports = parse_ports(ports)
+    if not get_model(model).ports:
+        raise FieldError("ports", f"the {model} model takes no port forces (allowed with: "
+                                  f"{', '.join(n for n in model_names(ports=True) if get_model(n).fmu_kind)})")
+    return ports
+
+
 def model_basis(scene, spec, k, progress=True, problem=None):
     """(basis, problem) of ``scene`` for the model ``spec``: its POD basis, with k checked against the modes of the
     model's basis kind (FieldError naming the field ``k`` or ``model``)."""
@@ -249,7 +265,7 @@ def model_basis(scene, spec, k, progress=True, problem=None):
     return basis, problem
 
 
-def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem=None, model="frozen"):
+def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem=None, model="frozen", ports=()):
     """The FMU's numbers for a model of resource kind 1 (frozen coefficients): (ModelData, ops, problem, basis).
 
     Runs (or reuses) the full SPH and the POD (harness.pod.pipeline), builds
@@ -261,13 +277,14 @@ def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem
 
     spec = get_model(model)
     basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem)
-    ops = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction, tensor="always")
+    ops = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction, tensor="always",
+                     **({"ports": tuple(ports)} if ports else {}))
     data = model_data(ops, problem, dt=scene.sph.dt, integrator=integrator, n_freeze=n_freeze, probes=probes,
                       bound=runaway_bound(ops))
     return data, ops, problem, basis
 
 
-def exact_model(scene, k, n_freeze, probes, progress=True, problem=None, model="exact"):
+def exact_model(scene, k, n_freeze, probes, progress=True, problem=None, model="exact", ports=()):
     """The FMU's numbers for a model of resource kind 2 (linear): (ExactData, lin, problem, basis).
 
     The model's bases (the exact model: the energy-weighted ``Basis.U_ve``, ``U_e``), the operators with the
@@ -278,7 +295,8 @@ def exact_model(scene, k, n_freeze, probes, progress=True, problem=None, model="
 
     spec = get_model(model)
     basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem)
-    lin = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction)
+    lin = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction,
+                     **({"ports": tuple(ports)} if ports else {}))
     data = exact_data(lin, problem, dt=scene.sph.dt, n_freeze=n_freeze, probes=probes,
                       bound=linear_bound(lin, scene))
     return data, lin, problem, basis
@@ -336,14 +354,16 @@ def linear_bound(lin, scene, samples=4097):
     return linear_runaway_bound(lin, float(np.sum(0.5 * (f[1:] + f[:-1]) * np.diff(t))))
 
 
-def _frozen_resource(scene, model, k, n_freeze, probes, integrator, progress, problem, tolerance=None, bounds=True):
+def _frozen_resource(scene, model, k, n_freeze, probes, integrator, progress, problem, tolerance=None, bounds=True,
+                     ports=()):
     data, ops, problem, _ = reduced_model(scene, k, n_freeze, probes, integrator, progress=progress,
-                                          problem=problem, model=model)
+                                          problem=problem, model=model, ports=ports)
     data.sections.update(training_envelope(scene, ops, problem, probes, False, progress).sections())
     return data, ops, pack(data)
 
 
-def _linear_resource(scene, model, k, n_freeze, probes, integrator, progress, problem, tolerance=None, bounds=True):
+def _linear_resource(scene, model, k, n_freeze, probes, integrator, progress, problem, tolerance=None, bounds=True,
+                     ports=()):
     """Kind 2: the exact POD model (on its basis) or the balanced model (no basis); both with the certified
     error bounds against the full linear SPH at the FMU's probes (section BOUNDS: force, initial state),
     unless ``bounds`` is False (benchmarks that time the stepping only: the bounds take seconds to minutes at
@@ -358,7 +378,7 @@ def _linear_resource(scene, model, k, n_freeze, probes, integrator, progress, pr
         lti, reduced = ops.lti, ops.reduced
     else:
         data, ops, problem, _ = exact_model(scene, k, n_freeze, probes, progress=progress, problem=problem,
-                                            model=model)
+                                            model=model, ports=ports)
         data.sections.update(training_envelope(scene, ops, problem, probes, True, progress).sections())
         lti = reduced = None
     if not bounds:
@@ -429,7 +449,7 @@ def validate(path):
 
 def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_PROBES, fmi=2, integrator=None,
                 step_size=None, progress=True, binaries=None, problem=None, model="frozen", verify=False,
-                tolerance=None, references=None, bounds=True, vary=()) -> FMUSummary:
+                tolerance=None, references=None, bounds=True, vary=(), ports=None) -> FMUSummary:
     """Build the FMU of ``scene`` at ``out`` (atomically) and validate it.
 
     Parameters
@@ -472,6 +492,9 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
     vary : sequence of harness.rom.parametric.Range
         Parameter ranges of c and/or d: a parametric FMU (:mod:`.parametric`) trained over them, with
         parameters ``c``, ``d``; empty (default): the scene's fixed c and d.
+    ports : sequence of float or str, optional
+        Mechanical port positions x/L (:mod:`harness.sph.ports`): inputs F_port_j [N], outputs v_port_j
+        [m s^-1], parameter area [m^2]; the model must take ports (``ports`` in the registry).
 
     Raises
     ------
@@ -489,6 +512,7 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
     k, n_freeze, probes, fmi, integrator = check_options(scene, k=k, n_freeze=n_freeze, probes=probes, fmi=fmi,
                                                          integrator=integrator, model=model,
                                                          tolerance=tolerance)
+    ports = check_ports(ports, model)
     timings = {}
     t0 = time.perf_counter()
     parameters = []
@@ -499,7 +523,7 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
     else:
         data, ops, blob = RESOURCES[get_model(model).fmu_kind](scene, model, k, n_freeze, probes, integrator,
                                                                   progress, problem, tolerance=tolerance,
-                                                                  bounds=bounds)
+                                                                  bounds=bounds, ports=ports)
     bounds = getattr(data, "bounds", None)
     timings["model"] = time.perf_counter() - t0
     from .envelope import Envelope
@@ -547,7 +571,8 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
                       input_error=ops.input_error, augmented=ops.augmented, probes=list(probes), n_freeze=n_freeze,
                       integrator=integrator, dt=data.dt, token=data.token, size=size, timings=timings, model=model,
                       envelope=envelope, verification=verification, bounds=bounds,
-                      method=getattr(ops, "method", ""), parameters=parameters)
+                      method=getattr(ops, "method", ""), parameters=parameters,
+                      ports=list(ports), port_errors=list(getattr(ops, "port_errors", ())))
 
 
 def check_tolerance(verification, tolerance, out, model):

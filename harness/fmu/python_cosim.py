@@ -87,6 +87,12 @@ class FrozenCosim:
         self._ops = loop_operators(data.K, data.b, data.D, data.p, self.n_freeze, T=data.T, refresh="tensor")
         self._no_samples = np.zeros(0, dtype=np.int64)
         self._out = np.zeros((0, 1))
+        # mechanical ports (resources sections PORTB, PORTC): F_port [N] held over a step, divided by area
+        self.port_B = data.sections.get("PORTB")
+        self.port_C = data.sections.get("PORTC")
+        self.n_ports = 0 if self.port_B is None else self.port_B.shape[0]
+        self.port_forces = np.zeros(self.n_ports)
+        self.area = 1.0
 
     def _advance(self, count, h, f, rate=0.0, tau0=0.0):
         from ..errors import SimulationError
@@ -96,7 +102,8 @@ class FrozenCosim:
         # f at each step's time tau0 + j h after the communication point (fmu_src/rom_frozen.c run_steps_kernel)
         g = np.full(count, float(f)) if rate == 0.0 else float(f) + float(rate) * (tau0 + np.arange(count) * h)
         status, _, bad = frozen_advance(self.method, self.av, self.ar, self.M, self.F, self.n, self.n + count, h, g,
-                                        self._ops, self._no_samples, 0, self._out, self._out, self.data.bound)
+                                        self._ops, self._no_samples, 0, self._out, self._out, self.data.bound,
+                                        *self._port_arguments(count))
         if status != 0:
             raise SimulationError(f"reference: reduced state failed (status {status}) by internal step {bad}",
                                   step=bad)
@@ -114,6 +121,16 @@ class FrozenCosim:
     def outputs(self):
         """(v at the probes [m s^-1], rho at the probes [kg m^-3])."""
         return probe_values(self.data.Pv, self.av), probe_values(self.data.Prho, self.ar)
+
+    def _port_arguments(self, count):
+        """(Bp, the port inputs F/area per step) for frozen_advance; () without ports."""
+        if not self.n_ports:
+            return ()
+        return self.port_B, np.tile(self.port_forces / self.area, (count, 1))
+
+    def port_velocities(self):
+        """v_port_j [m s^-1] (as rom_v_port: 0.0 + C[j][0] a_0 + ...); empty without ports."""
+        return probe_values(self.port_C, self.av) if self.n_ports else np.zeros(0)
 
 
 def cosim_reference(data, steps, inputs, n_freeze=None, dt=None, rates=None, initial_state_scale=1.0):

@@ -82,7 +82,12 @@ SECTION_TAGS: dict[str, str] = {          # tag -> what it holds (the C loader's
     "A0": "linear model: the part of A without c or d",
     "AC": "linear model: the part of A per unit c",
     "AD": "linear model: the part of A per unit d",
+    # mechanical ports (harness.sph.ports), all three or none
+    "PORTX": "port positions x/L (1 x P)",
+    "PORTB": "port input rows at area 1 (P x k_v frozen, P x k linear)",
+    "PORTC": "port velocity rows (P x k_v)",
 }
+MAX_PORTS = 4                              # fmu_src/rom.h ROM_MAX_PORTS
 _HEADER = struct.Struct("<8s10I3d")
 _SECTION = struct.Struct("<8s2I")
 HEADER_SIZE = _HEADER.size                 # 72 bytes, magic to L (fmu_src/rom.h ROM_HEADER_SIZE)
@@ -176,7 +181,15 @@ def model_data(ops, problem, *, dt, integrator, n_freeze, probes, bound):
                      p=None if ops.p is None else np.asarray(ops.p, float),
                      T=np.asarray(ops.T, float),
                      Pv=probe_rows(ops.U_v, problem.x, L, probes), Prho=probe_rows(ops.U_rho, problem.x, L, probes),
-                     probe_x=probes)
+                     probe_x=probes, sections=port_sections(ops))
+
+
+def port_sections(ops):
+    """The tagged sections of a model with ports (PORTX, PORTB, PORTC; module docstring), {} without."""
+    if not getattr(ops, "ports", ()):
+        return {}
+    return {"PORTX": np.asarray(ops.ports, float)[None, :], "PORTB": np.asarray(ops.Bp, float),
+            "PORTC": np.asarray(ops.Cp, float)}
 
 
 def make_token(digest16: bytes) -> str:
@@ -398,7 +411,8 @@ def exact_data(lin, problem, *, dt, n_freeze, probes, bound=None):
                      Pv=probe_rows(lin.U_v, problem.x, L, probes),
                      Pe=np.stack([lin.U_e[i0], lin.U_e[i1]], axis=1),
                      pw=np.stack([1.0 - w, w], axis=1), prho0=np.stack([rho0[i0], rho0[i1]], axis=1),
-                     probe_x=probes, sections={"LINMODEL": np.array([[LINEAR_EXACT_POD]], float)})
+                     probe_x=probes,
+                     sections={"LINMODEL": np.array([[LINEAR_EXACT_POD]], float), **port_sections(lin)})
 
 
 def balanced_data(ops, problem, *, dt, n_freeze, bound=None):

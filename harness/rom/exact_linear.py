@@ -74,6 +74,17 @@ class LinearOperators:
     input_mode : {"project", "augment", "never"}
         How the force entered, and ``input_tolerance`` the augmentation
         threshold (repeated by :func:`truncate_linear_operators`).
+    ports : tuple of float
+        Port positions x/L (:mod:`harness.sph.ports`); empty without ports.
+    Bp : ndarray (P, k) or None
+        The port forces' input columns (as rows) at area A = 1: [U_vᵀ W(x - x_j, h); 0] (ρ0 cancels in the ρ0
+        inner product); dz/dt = A z + B f + Σ_j Bp[j] F_j / A.
+    Cp : ndarray (P, k_v) or None
+        v_port_j = Cp[j] a.
+    port_added, port_added_2, port_errors
+        Columns appended to U_v and U_e for the ports (after the force profile's: each port's profile and its
+        Krylov directions, :func:`harness.rom.operators.port_directions`) and each port profile's
+        ρ0-relative projection error before its column.
     """
 
     U_v: np.ndarray
@@ -90,10 +101,20 @@ class LinearOperators:
     timings: dict = field(default_factory=dict)
     input_mode: str = "project"
     input_tolerance: float = ROUNDOFF_TOLERANCE
+    ports: tuple = ()
+    Bp: np.ndarray | None = None
+    Cp: np.ndarray | None = None
+    port_added: int = 0
+    port_errors: tuple = ()
+    port_added_2: int = 0
 
     @property
     def k_v(self):
         return self.U_v.shape[1]
+
+    def port_velocity(self, a_v):
+        """v_port = Cp a [m s^-1], (M, P) from velocity coordinates (M, k_v) (:mod:`harness.sph.ports`)."""
+        return np.atleast_2d(a_v) @ self.Cp.T
 
     @property
     def k_e(self):
@@ -153,7 +174,7 @@ def augment_weighted(U, direction, weight, tol=1e-10):
     return np.column_stack([U, r / np.sqrt(r @ (w * r))]), error, True
 
 
-def build_linear_operators(problem, U_v, U_e, input_direction="auto", input_tolerance=None):
+def build_linear_operators(problem, U_v, U_e, input_direction="auto", input_tolerance=None, ports=()):
     """The exact linear model's operators from energy-weighted bases.
 
     Parameters
@@ -166,7 +187,11 @@ def build_linear_operators(problem, U_v, U_e, input_direction="auto", input_tole
     input_direction : {"auto", "project", "augment", "always", "needed", "never"}
     input_tolerance : float, optional
         As in :func:`harness.rom.operators.build_operators` (W_v-weighted).
+    ports : sequence of float
+        Port positions x/L: each port's acceleration profile W(x - x_j, h)/ρ0 is appended to U_v (its
+        ρ0-orthogonal part outside the modes), so every port force enters exactly, as the force profile.
     """
+    from .operators import augment_ports, port_rows
     t0 = time.perf_counter()
     rho0, c, d, profile = problem.rho0, problem.c, problem.d, problem.profile
     scene = problem.scene
@@ -179,6 +204,8 @@ def build_linear_operators(problem, U_v, U_e, input_direction="auto", input_tole
         U_aug, input_error, added = augment_weighted(U_v, profile, rho0, tol=tol)
         if mode == "augment":
             U_v, augmented = U_aug, added
+    U_v, U_e, port_added, port_added_e, port_errors = augment_ports(problem, U_v, np.asarray(U_e, float), ports,
+                                                                    energy=True)
     G = problem.neighbours.matrix()
     P = U_v.T @ np.asarray(G @ (c[:, None] * U_e))
     k_v, k_e = U_v.shape[1], U_e.shape[1]
@@ -190,16 +217,30 @@ def build_linear_operators(problem, U_v, U_e, input_direction="auto", input_tole
     Q = T = None
     if not damping:
         T, Q = sla.schur(A, output="real")
+    extra = port_rows(problem, U_v, ports, port_added, port_errors, port_added_e)
+    if extra:                        # ρ0 Bp_v = U_vᵀ ρ0 (W/ρ0): the rows over a, zeros over b
+        extra["Bp"] = np.ascontiguousarray(np.hstack([port_weighted(problem, U_v, ports),
+                                                      np.zeros((len(ports), k_e))]))
     return LinearOperators(U_v=U_v, U_e=np.asarray(U_e, float), A=A, B=B, z0=z0, rho0=rho0, skew=not damping,
                            schur_Q=Q, schur_T=T, input_error=input_error, augmented=augmented,
-                           timings={"operators": time.perf_counter() - t0}, input_mode=mode, input_tolerance=tol)
+                           timings={"operators": time.perf_counter() - t0}, input_mode=mode, input_tolerance=tol,
+                           **extra)
 
 
-def build_from_basis(problem, basis, k_v, k_rho, *, input_direction="auto", input_tolerance=None, tensor="auto"):
+def port_weighted(problem, U_v, ports):
+    """U_vᵀ W_v (W(x - x_j, h)/ρ0) = U_vᵀ W(x - x_j, h), one row per port (P, k_v): the port input in the ρ0
+    inner product (area 1)."""
+    from ..sph.ports import port_kernel
+    return port_kernel(problem, ports) @ U_v
+
+
+def build_from_basis(problem, basis, k_v, k_rho, *, input_direction="auto", input_tolerance=None, tensor="auto",
+                     ports=()):
     """:func:`build_linear_operators` on the first k_v, k_rho energy-weighted modes of ``basis``
     (``Basis.U_ve``, ``Basis.U_e``): the model's ``build`` (:mod:`harness.rom.model`; ``tensor`` does not apply)."""
     U_v, U_e = basis_modes(basis, "energy", k_v, k_rho)
-    return build_linear_operators(problem, U_v, U_e, input_direction=input_direction, input_tolerance=input_tolerance)
+    return build_linear_operators(problem, U_v, U_e, input_direction=input_direction, input_tolerance=input_tolerance,
+                                  ports=ports)
 
 
 def truncate_linear_operators(problem, ops: LinearOperators, k_v, k_e):
@@ -216,9 +257,14 @@ def truncate_linear_operators(problem, ops: LinearOperators, k_v, k_e):
     of them) with its rows of P, D̂, p̂ and z0, at O(N k).
     """
     t0 = time.perf_counter()
-    kv_pod = ops.k_v - int(ops.augmented)
-    if not (1 <= k_v <= kv_pod and 1 <= k_e <= ops.k_e):
-        raise ValueError(f"k_v, k_e = {k_v}, {k_e} out of range (allowed: 1 to {kv_pod}, 1 to {ops.k_e})")
+    kv_pod = ops.k_v - int(ops.augmented) - ops.port_added
+    ke_pod = ops.k_e - ops.port_added_2
+    if not (1 <= k_v <= kv_pod and 1 <= k_e <= ke_pod):
+        raise ValueError(f"k_v, k_e = {k_v}, {k_e} out of range (allowed: 1 to {kv_pod}, 1 to {ke_pod})")
+    if ops.ports:                                  # the port columns depend on every mode before them: rebuild
+        return build_linear_operators(problem, ops.U_v[:, :k_v], ops.U_e[:, :k_e],
+                                      input_direction=ops.input_mode if ops.B is not None else "never",
+                                      input_tolerance=ops.input_tolerance, ports=ops.ports)
     rho0, c, d, profile = problem.rho0, problem.c, problem.d, problem.profile
     k0 = ops.k_v
     U_pod = ops.U_v[:, :k_v]
@@ -260,11 +306,21 @@ def propagators(A, B, h):
 
     z(h) = Φ z(0) + Γ0 f(0) + Γ1 (f(h) - f(0)), from the exponential of the
     augmented matrix [[A, B, 0], [0, 0, 1/h], [0, 0, 0]] h.
-    Returns (Φ, Γ0, Γ1); Γ0 = Γ1 = 0 without an input.
+    Returns (Φ, Γ0, Γ1); Γ0 = Γ1 = 0 without an input.  A 2-D ``B`` (k, m)
+    holds m input columns (the force f and the port forces): Γ0, Γ1 are then
+    (k, m), from [[A, B, 0], [0, 0, I/h], [0, 0, 0]] h.
     """
     k = A.shape[0]
     if B is None:
         return sla.expm(A * h), np.zeros(k), np.zeros(k)
+    if np.ndim(B) == 2:
+        m = B.shape[1]
+        M = np.zeros((k + 2 * m, k + 2 * m))
+        M[:k, :k] = A * h
+        M[:k, k:k + m] = B * h
+        M[k:k + m, k + m:] = np.eye(m)
+        E = sla.expm(M)
+        return E[:k, :k], E[:k, k:k + m], E[:k, k + m:]
     M = np.zeros((k + 2, k + 2))
     M[:k, :k] = A * h
     M[:k, k] = B * h
@@ -314,7 +370,7 @@ def free_response(ops: LinearOperators, t):
 
 
 def run_exact(ops: LinearOperators, t_samples, step=None, force=None, hold="linear", bound=None,
-              initial_state_scale=1.0):
+              initial_state_scale=1.0, port_forces=None, area=1.0):
     """Advance the exact linear model and sample it at any times (a ReducedResult with ``steps`` None).
 
     Parameters
@@ -334,8 +390,12 @@ def run_exact(ops: LinearOperators, t_samples, step=None, force=None, hold="line
         |z| above this raises SimulationError (default :func:`linear_runaway_bound`, of the unscaled z0).
     initial_state_scale : float
         z(0) = this x z0 (z = 0 is rest: v = 0, e = 0), as the FMU parameter; 1 leaves the run bit for bit.
+    port_forces : callable, optional
+        F(t) -> (len(t), P) [N], the port forces (operators built with ports), divided by the cross-section
+        ``area`` [m^2]; held or linear over a step as f.
     """
-    z, wall, step = advance_linear(ops, t_samples, step, force, hold, bound, initial_state_scale)
+    z, wall, step = advance_linear(ops, t_samples, step, force, hold, bound, initial_state_scale,
+                                   port_forces=port_forces, area=area)
     return ReducedResult(model=NAME, t=np.asarray(t_samples, float), steps=None, a_v=z[:, :ops.k_v],
                          a_rho=z[:, ops.k_v:], ops=ops, wall_time=wall, offline=dict(ops.timings),
                          settings={"model": NAME, "step": step, "hold": hold, "k_v": ops.k_v, "k_e": ops.k_e})
@@ -356,15 +416,21 @@ def linear_runaway_bound(ops, f_integral):
     return RUNAWAY_FACTOR * max(scale, 1e-300)
 
 
-def advance_linear(ops, t_samples, step, force, hold, bound, initial_state_scale=1.0):
+def advance_linear(ops, t_samples, step, force, hold, bound, initial_state_scale=1.0, port_forces=None,
+                   area=1.0):
     """The reduced states z (M, k) at ``t_samples``, the wall time [s] and the step H (:func:`run_exact`).
 
-    Shared by every linear model (exact, balanced): their operators differ, the stepping does not."""
+    Shared by every linear model (exact, balanced): their operators differ, the stepping does not.  With
+    ``port_forces`` (operators with port columns ``Bp``) the inputs are u = [f, F_1/A, ..., F_P/A] over the
+    columns [B, Bp[0], ...] (f only when the model has B and a force is given)."""
     t_samples = np.asarray(t_samples, float)
     if step is None:
         gaps = np.diff(t_samples)
         step = float(np.min(gaps[gaps > 0])) if np.any(gaps > 0) else 1.0
     has_input = ops.B is not None and force is not None
+    if port_forces is not None and getattr(ops, "Bp", None) is not None:
+        ops, force = _with_port_inputs(ops, force if has_input else None, port_forces, area)
+        has_input = True
     t0 = time.perf_counter()
     cache = {}
 
@@ -387,7 +453,9 @@ def advance_linear(ops, t_samples, step, force, hold, bound, initial_state_scale
             return x
         phi, g0, g1 = maps(h)
         x = phi @ x
-        if has_input:
+        if has_input and np.ndim(g0) == 2:                     # several inputs (ports)
+            x = x + g0 @ fa + g1 @ (fb - fa)
+        elif has_input:
             x = x + g0 * fa + g1 * (fb - fa)
         return x
 
@@ -410,16 +478,33 @@ def advance_linear(ops, t_samples, step, force, hold, bound, initial_state_scale
     return z, time.perf_counter() - t0, step
 
 
+def _with_port_inputs(ops, force, port_forces, area):
+    """(ops with B the input matrix [B, Bp[0], ...] (k, m), u(t) -> (len(t), m) = [f, F_1/A, ...]) for
+    :func:`advance_linear`."""
+    columns = ([ops.B] if force is not None else []) + list(ops.Bp)
+    n_ports = ops.Bp.shape[0]
+
+    def inputs(t):
+        t = np.atleast_1d(np.asarray(t, float))
+        parts = [np.asarray(force(t), float).reshape(t.size, 1)] if force is not None else []
+        parts.append(np.asarray(port_forces(t), float).reshape(t.size, n_ports) / area)
+        return np.hstack(parts)
+
+    return dataclasses.replace(ops, B=np.column_stack(columns)), inputs
+
+
 INTEGRATORS = ("exponential",)
 
 
 def run(ops, problem, *, dt, n_steps, sample_steps=None, every=1, force=None, integrator=None, n_freeze=10,
-        refresh="tensor", step=None, hold="linear", state=None, bound=None, progress=False, initial_state_scale=1.0):
+        refresh="tensor", step=None, hold="linear", state=None, bound=None, progress=False, initial_state_scale=1.0,
+        port_forces=None, area=1.0):
     """Run the exact linear model to ``n_steps * dt`` (the signature of :mod:`harness.rom.model`).
 
     Samples at ``sample_steps * dt``; the communication step ``step`` H [s]
     (default the smallest sample spacing) and the input ``hold`` as in
-    :func:`run_exact`; ``state`` (a_v, a_e) replaces z0; ``initial_state_scale`` multiplies it.  ``n_freeze``,
+    :func:`run_exact`; ``state`` (a_v, a_e) replaces z0; ``initial_state_scale`` multiplies it; ``port_forces``,
+    ``area`` as in :func:`run_exact`.  ``n_freeze``,
     ``refresh`` and ``progress`` do not apply.
     """
     if integrator not in (None,) + INTEGRATORS:
@@ -429,7 +514,7 @@ def run(ops, problem, *, dt, n_steps, sample_steps=None, every=1, force=None, in
     if state is not None:
         ops = dataclasses.replace(ops, z0=np.concatenate([np.asarray(state[0], float), np.asarray(state[1], float)]))
     z, wall, step = advance_linear(ops, steps * dt, step, force or problem.scene.force, hold, bound,
-                                   initial_state_scale)
+                                   initial_state_scale, port_forces=port_forces, area=area)
     return ReducedResult(model=NAME, t=steps * dt, steps=steps, a_v=z[:, :ops.k_v], a_rho=z[:, ops.k_v:], ops=ops,
                          wall_time=wall, offline=dict(ops.timings),
                          settings={"model": NAME, "dt": dt, "step": step, "hold": hold, "k_v": ops.k_v,
@@ -442,7 +527,7 @@ MODEL = ReducedModel(
                 "advanced by the matrix exponential",
     title="Exact linear POD reduced model in the specific volume J = rho0/rho (energy inner product; beyond "
           "Fang et al.)",
-    linear=True, integrators=INTEGRATORS, uses_n_freeze=False, basis_kind="energy",
+    linear=True, integrators=INTEGRATORS, uses_n_freeze=False, basis_kind="energy", ports=True,
     fmu_kind=2,                 # resources/model.bin kind 2 (harness.fmu.resources.MODEL_EXACT_LINEAR)
     build=build_from_basis, run=run, truncate=truncate_linear_operators,
     # the force profile is always part of the velocity basis: for a linear model a projected input is a real

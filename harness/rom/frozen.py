@@ -11,7 +11,7 @@ The step is written with plain loops in a fixed order, which the C model core
 
     refresh (step % n_freeze == 0):
         M[p][q] = 0;  for each pair (a <= b): s = ar[a]*ar[b]; M[p][q] += s*T[pair][p][q]
-        F[p] = pv[p]*g
+        F[p] = pv[p]*g;  then per port j (ascending): F[p] += Bp[j][p]*u_j,  u_j = F_port_j / area
     dr[p] = 0;            dr[p] -= M[p][q]*av[q]          (q ascending)
     dv[p] = b[p] + F[p];  dv[p] -= K[p][q]*ar[q];  dv[p] -= D[p][q]*av[q]
     euler:      av += h*dv;  ar += h*dr              (dv, dr from the old state)
@@ -72,14 +72,17 @@ def refresh_direct_path(ar, Ur, GUv, inv_rho0, M):
 
 
 @njit(cache=True, nogil=True)
-def frozen_advance(method, av, ar, M, F, n0, n1, dt, g, ops, sample_steps, ptr, out_av, out_ar, bound):
+def frozen_advance(method, av, ar, M, F, n0, n1, dt, g, ops, sample_steps, ptr, out_av, out_ar, bound, Bp=None,
+                   gp=None):
     """Frozen-coefficient model from step n0 to n1 (method 0 Euler, 1 symplectic).
 
     ``av``, ``ar`` are the reduced state and ``M``, ``F`` the frozen
     coefficients, carried between calls; ``g[row]`` is f at step n0 + row;
     ``ops`` a :data:`~harness.rom.loops.FrozenOperators`.  States at the
     ``sample_steps`` from ``ptr`` on go to ``out_av``, ``out_ar``.  Returns
-    (status, ptr, step).
+    (status, ptr, step).  Ports (:mod:`harness.sph.ports`): ``Bp`` (P, k_v) the
+    input rows, ``gp[row, j]`` the port force F_j / A at step n0 + row [N m^-2],
+    frozen with f at each refresh.
     """
     K = ops.K
     kv, kr = K.shape
@@ -97,6 +100,11 @@ def frozen_advance(method, av, ar, M, F, n0, n1, dt, g, ops, sample_steps, ptr, 
                 refresh_direct_path(ar, ops.U_rho, ops.GU_v, ops.inv_rho0, M)
             for p in range(kv):
                 F[p] = ops.p[p] * g[step - n0] if ops.has_f else 0.0
+            if Bp is not None:
+                for j in range(Bp.shape[0]):
+                    u = gp[step - n0, j]
+                    for p in range(kv):
+                        F[p] += Bp[j, p] * u
         _density_rate_frozen(av, M, dr)
         if method == 0:
             _velocity_rate(av, ar, K, ops.b, ops.D, ops.has_d, F, dv)
@@ -147,12 +155,15 @@ INTEGRATORS = ("euler", "symplectic")
 
 
 def run(ops, problem, *, dt, n_steps, sample_steps=None, every=1, force=None, integrator=None, n_freeze=10,
-        refresh="tensor", step=None, hold="linear", state=None, bound=None, progress=False, initial_state_scale=1.0):
+        refresh="tensor", step=None, hold="linear", state=None, bound=None, progress=False, initial_state_scale=1.0,
+        port_forces=None, area=1.0):
     """Run the frozen-coefficient model (the signature of :mod:`harness.rom.model`).
 
     ``ops`` are :class:`~harness.rom.operators.ReducedOperators`; ``refresh``
     ``tensor`` (exact, no N) or ``direct`` (the O(N k²) reference path);
-    ``step`` and ``hold`` do not apply.
+    ``step`` and ``hold`` do not apply.  ``port_forces(t) -> (len(t), P)`` [N]
+    at the step times (operators built with ports), divided by the cross-section
+    ``area`` [m^2]; like f they are sampled at each refresh.
     """
     integrator = integrator or INTEGRATORS[0]
     method = method_code(integrator, INTEGRATORS, "frozen coefficients")
@@ -166,8 +177,12 @@ def run(ops, problem, *, dt, n_steps, sample_steps=None, every=1, force=None, in
     F = np.zeros(ops.k_v)
 
     def advance(n0, n1, g, ptr):
+        if port_forces is None or ops.Bp is None:
+            return frozen_advance(method, av, ar, M, F, n0, n1, dt, np.ascontiguousarray(g[:, 0]), loop, steps, ptr,
+                                  out_av, out_ar, bound)
+        gp = np.asarray(port_forces(np.arange(n0, n1) * dt), float).reshape(n1 - n0, ops.Bp.shape[0]) / area
         return frozen_advance(method, av, ar, M, F, n0, n1, dt, np.ascontiguousarray(g[:, 0]), loop, steps, ptr,
-                              out_av, out_ar, bound)
+                              out_av, out_ar, bound, ops.Bp, np.ascontiguousarray(gp))
 
     wall = drive(MODEL.name, advance, lambda n0, n1: force_table(force, loop.has_f, method, n0, n1, dt),
                  n_steps=n_steps, dt=dt, cost=ops.k_v * ops.k_rho, bound=bound, progress=progress,
@@ -182,6 +197,6 @@ MODEL = ReducedModel(
     name="frozen",
     description="accelerated POD-MOR with frozen coefficients (eqs. 2.19-2.24): O(k²) per step between refreshes",
     title="Frozen-coefficient POD reduced model (Fang et al., eqs. 2.19-2.24)",
-    linear=False, integrators=INTEGRATORS, uses_n_freeze=True, basis_kind="density",
+    linear=False, integrators=INTEGRATORS, uses_n_freeze=True, basis_kind="density", ports=True,
     fmu_kind=1,                 # resources/model.bin kind 1 (harness.fmu.resources.MODEL_FROZEN)
     build=build_from_basis, run=run, truncate=truncate_operators)

@@ -25,7 +25,9 @@ refresh="tensor", step=None, hold="linear", state=None, bound=None, progress=Fal
     linear model the whole z, whose rest is z = 0), as the FMU parameter of
     that name (1, the default, leaves the run bit for bit as without it; the
     runaway bound stays that of the unscaled state).  Raises SimulationError on a
-    non-finite or runaway state, naming the step and time.
+    non-finite or runaway state, naming the step and time.  Models with
+    ``ports`` also take ``port_forces`` (F(t) -> (len(t), P) [N]) and ``area``
+    [m^2] (operators built with ``build(..., ports=X)``).
 ``truncate(problem, operators, k_v, k_rho) -> operators``
     The operators of the first k_v, k_rho modes, sliced from larger ones
     (equal to ``build`` at the smaller counts, to round-off); only what a
@@ -85,6 +87,9 @@ class ReducedModel:
         appended residual is a rough mode its Galerkin coupling excites),
         ``"always"`` appends it whenever it is not in their span to round-off
         (a linear model: the input is then represented exactly).
+    ports : bool
+        The model takes mechanical port forces as inputs and gives port velocities (``build(..., ports=X)``,
+        ``run(..., port_forces=F, area=A)``; :mod:`harness.sph.ports`), so its FMU can have ports.
     """
 
     name: str
@@ -99,6 +104,7 @@ class ReducedModel:
     run: Callable
     truncate: Callable
     fmu_input_direction: str = "needed"
+    ports: bool = False
 
     @property
     def second_symbol(self):
