@@ -190,6 +190,8 @@ def test_documentation_lists_exactly_the_model_description_variables(packaged, f
     assert "http:" not in text and "https:" not in text and "<script" not in text
     assert s.scene in text and f"<code>{model}</code>" in text
     assert ("Not measured" in text) == (not verify)
+    headings = re.findall(r"<h2>(.*?)</h2>", text)
+    assert len(headings) == len(set(headings)) and "Variables" in headings, headings
     assert fmpy.validation.validate_fmu(str(path)) == []
 
 

@@ -6,8 +6,8 @@ FMU's documentation (FMI 1.0 used ``_main.html``).  The page is self-contained
 sits beside it) and holds: the scene, the model, every variable of the
 modelDescription.xml it is packed with (read from that XML, so a variable
 added to the templates appears here without a change to this module), the
-tagged sections of ``resources/model.bin`` (the training envelope among them
-when the model carries one), and the measured errors and run times of
+training envelope in words (when the model carries one) and the tagged
+sections of ``resources/model.bin`` with their numbers, and the measured errors and run times of
 :mod:`harness.fmu.verify`.
 """
 
@@ -123,27 +123,16 @@ def variables_section(description_xml):
 
 
 def sections_section(sections):
-    """The tagged sections of resources/model.bin (the training envelope, bounds, ... when the model has them);
-    [] without sections."""
+    """The tagged sections of resources/model.bin (the training envelope's numbers, bounds, ... when the model
+    has them), one row each; [] without sections.  The envelope in words is :func:`envelope_section`."""
     if not sections:
         return []
     from .resources import SECTION_TAGS
-    envelope = [tag for tag in sections if "envelope" in SECTION_TAGS.get(tag, "").lower()]
-    lines = []
-    if envelope:
-        lines += ["<h2>Training envelope</h2>",
-                  "<p>What the model was trained on, as recorded at packaging (the FMU warns once when a run "
-                  "leaves it).</p>",
-                  *_table(("section", "what", "values"),
-                          [(f"<code>{escape(t)}</code>", escape(SECTION_TAGS.get(t, "")), _matrix(sections[t]))
-                           for t in envelope])]
-    rest = [t for t in sections if t not in envelope]
-    if rest:
-        lines += ["<h2>Other numbers in resources/model.bin</h2>",
-                  *_table(("section", "what", "shape", "values"),
-                          [(f"<code>{escape(t)}</code>", escape(SECTION_TAGS.get(t, "")),
-                            "x".join(map(str, sections[t].shape)), _matrix(sections[t])) for t in rest])]
-    return lines
+    return ["<h2>Numbers stored in resources/model.bin</h2>",
+            "<p>The tagged sections after the model's arrays, as the FMU reads them.</p>",
+            *_table(("section", "what", "shape", "values"),
+                    [(f"<code>{escape(t)}</code>", escape(SECTION_TAGS.get(t, "")),
+                      "x".join(map(str, sections[t].shape)), _matrix(sections[t])) for t in sections])]
 
 
 def verification_section(verification, tolerance=None):
