@@ -32,6 +32,7 @@
     X(SerializeFMUstate,        MODES_NOT_ERROR) \
     X(DeSerializeFMUstate,      MODES_ANY) \
     X(SetRealInputDerivatives,  MODE_INITIALIZATION | MODE_STEP) \
+    X(GetRealOutputDerivatives, MODES_READABLE) \
     X(DoStep,                   MODE_STEP) \
     X(GetStatus,                MODE_STEP | MODE_TERMINATED)     /* and fmi2Get<type>Status */ \
     X(NotProvided,              MODES_NOT_ERROR)                 /* derivatives, fmi2CancelStep */
@@ -216,10 +217,8 @@ fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReferenc
 
 fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                                         const fmi2Integer order[], fmi2Real value[]) {
-    (void)vr; (void)order; (void)value;
-    ENTER_AS(NotProvided, "fmi2GetRealOutputDerivatives");
-    if (nvr == 0) return fmi2OK;
-    return status2(instance_error(inst, fn, "not supported (maxOutputDerivativeOrder = 0)"));
+    ENTER(GetRealOutputDerivatives);
+    return status2(instance_get_output_derivatives(inst, fn, vr, nvr, order, value, nvr));
 }
 
 fmi2Status fmi2CancelStep(fmi2Component c) {

@@ -34,6 +34,7 @@
     X(SerializeFMUState,                MODES_NOT_ERROR) \
     X(DeserializeFMUState,              MODES_ANY) \
     X(DoStep,                           MODE_STEP) \
+    X(GetOutputDerivatives,             MODES_READABLE) \
     X(NotProvided,                      MODES_NOT_ERROR)     /* events, clocks, derivatives, model exchange */
 
 INSTANCE_CALL_TABLE(FMI3_CALLS);
@@ -482,8 +483,9 @@ fmi3Status fmi3EnterStepMode(fmi3Instance instance) {
 fmi3Status fmi3GetOutputDerivatives(fmi3Instance instance, const fmi3ValueReference valueReferences[],
                                     size_t nValueReferences, const fmi3Int32 orders[], fmi3Float64 values[],
                                     size_t nValues) {
-    (void)valueReferences; (void)nValueReferences; (void)orders; (void)values; (void)nValues;
-    NOT_PROVIDED("fmi3GetOutputDerivatives", "maxOutputDerivativeOrder = 0");
+    ENTER(GetOutputDerivatives);
+    return status3(instance_get_output_derivatives(inst, fn, valueReferences, nValueReferences, orders, values,
+                                                   nValues));
 }
 
 fmi3Status fmi3ActivateModelPartition(fmi3Instance instance, fmi3ValueReference clockReference,

@@ -224,6 +224,11 @@ Instance *instance_new(const InstanceVersion *version, const char *fn, const cha
     instance_log(inst, INSTANCE_OK, INSTANCE_LOG_EVENTS, "%s: k_v = %u, k_rho = %u, %u probes, dt = %g s, "
                  "n_freeze = %u, %s", fn, model->k_v, model->k_rho, model->n_probes, model->dt,
                  model->n_freeze_default, model->integrator == ROM_INTEGRATOR_SYMPLECTIC ? "symplectic" : "euler");
+    if (rom_linear_model_name(model)) {
+        instance_log(inst, INSTANCE_OK, INSTANCE_LOG_EVENTS, "%s: the %s model (linear, %u states, advanced by the "
+                     "matrix exponential%s)", fn, rom_linear_model_name(model), model->k_v + model->k_rho,
+                     rom_model_section(model, "BOUNDS") ? "; certified error bounds force_error_bound, initial_state_error_bound" : "");
+    }
     return inst;
 }
 
@@ -279,6 +284,10 @@ InstanceStatus instance_enter_initialization(Instance *inst) {
 }
 
 InstanceStatus instance_exit_initialization(Instance *inst, const char *fn) {
+    /* a parametric model's operators from the parameters now fixed (O(k^2)) */
+    if (rom_model_assemble(inst->model, inst->state, inst->message, sizeof inst->message) != ROM_OK) {
+        return instance_error(inst, fn, "%s", inst->message);
+    }
     if (rom_check_outputs(inst->state, inst->message, sizeof inst->message) != ROM_OK) {
         return instance_error(inst, fn, "%s", inst->message);
     }
@@ -304,7 +313,8 @@ InstanceStatus instance_reset(Instance *inst) {
 /* ------------------------------------------------------------------------ */
 
 typedef enum { TYPE_FLOAT64, TYPE_INT32 } VariableType;
-typedef enum { ROLE_INDEPENDENT, ROLE_INPUT, ROLE_FIXED, ROLE_OUTPUT } VariableRole;   /* FIXED: fixed parameter */
+typedef enum { ROLE_INDEPENDENT, ROLE_INPUT, ROLE_FIXED, ROLE_OUTPUT, ROLE_CALCULATED } VariableRole;
+/* FIXED: fixed parameter; CALCULATED: calculated parameter (read only) */
 typedef enum { COUNT_ONE, COUNT_PER_PROBE } VariableCount;     /* how many value references a row stands for */
 
 static double get_time(const RomState *s, uint32_t j) { (void)j; return s->time; }
@@ -313,12 +323,41 @@ static double get_dt(const RomState *s, uint32_t j) { (void)j; return s->dt; }
 static int32_t get_n_freeze(const RomState *s) { return s->n_freeze; }
 static double get_initial_state_scale(const RomState *s, uint32_t j) { (void)j; return s->initial_state_scale; }
 
+/* The certified error bounds of a linear model (section BOUNDS: row 0 force, row 1 initial state, one column per
+ * probe): per probe j, and the largest over the probes */
+static double bound_of(const RomState *s, uint32_t row, uint32_t j) {
+    const RomSection *b = rom_model_section(s->model, "BOUNDS");
+    return b && j < b->cols ? b->data[(size_t)row * b->cols + j] : NAN;
+}
+static double largest_bound(const RomState *s, uint32_t row) {
+    double best = 0.0;
+    for (uint32_t j = 0; j < s->model->n_probes; j++) best = fmax(best, bound_of(s, row, j));
+    return best;
+}
+static double get_force_bound(const RomState *s, uint32_t j) { return bound_of(s, 0, j); }
+static double get_initial_bound(const RomState *s, uint32_t j) { return bound_of(s, 1, j); }
+static double get_force_bound_max(const RomState *s, uint32_t j) { (void)j; return largest_bound(s, 0); }
+static double get_initial_bound_max(const RomState *s, uint32_t j) { (void)j; return largest_bound(s, 1); }
+static int has_bounds(const RomModel *m) { return rom_model_section(m, "BOUNDS") != NULL; }
+
 /* Setting f without a new derivative holds it: the rate goes back to 0, so an
  * importer that never sets input derivatives gets held inputs. */
 static RomStatus set_f_held(RomState *s, double value, char *message, size_t message_size) {
     const RomStatus status = rom_set_input(s, value, message, message_size);
     return status == ROM_OK ? rom_set_input_rate(s, 0.0, message, message_size) : status;
 }
+
+/* parametric models: the stiffness c [kg m^-1 s^-2] and the damping d [s^-1], each only where it was varied */
+static double get_c(const RomState *s, uint32_t j) { (void)j; return rom_get_param(s, ROM_PARAM_C); }
+static double get_d(const RomState *s, uint32_t j) { (void)j; return rom_get_param(s, ROM_PARAM_D); }
+static RomStatus set_c(RomState *s, double value, char *message, size_t message_size) {
+    return rom_set_param(s, ROM_PARAM_C, value, message, message_size);
+}
+static RomStatus set_d(RomState *s, double value, char *message, size_t message_size) {
+    return rom_set_param(s, ROM_PARAM_D, value, message, message_size);
+}
+static int varies_c(const RomModel *m) { return rom_varies(m, ROM_PARAM_C); }
+static int varies_d(const RomModel *m) { return rom_varies(m, ROM_PARAM_D); }
 
 /* The FMU's variables (modelDescription/fmi2.xml, fmi3.xml; value references rom.h ROM_VR_*):
  * the one place that maps value references onto the core.  A COUNT_PER_PROBE row
@@ -348,6 +387,16 @@ static const Variable VARIABLES[] = {
      NULL, rom_set_initial_state_scale, NULL, NULL},
     {"v_probe", ROM_VR_V_PROBE, COUNT_PER_PROBE, TYPE_FLOAT64, ROLE_OUTPUT, rom_v_probe, NULL, NULL, NULL, NULL},
     {"rho_probe", ROM_VR_RHO_PROBE, COUNT_PER_PROBE, TYPE_FLOAT64, ROLE_OUTPUT, rom_rho_probe, NULL, NULL, NULL, NULL},
+    {"force_error_bound", ROM_VR_FORCE_ERROR_BOUND, COUNT_ONE, TYPE_FLOAT64, ROLE_CALCULATED, get_force_bound_max,
+     NULL, NULL, NULL, has_bounds},
+    {"initial_state_error_bound", ROM_VR_INITIAL_STATE_ERROR_BOUND, COUNT_ONE, TYPE_FLOAT64, ROLE_CALCULATED,
+     get_initial_bound_max, NULL, NULL, NULL, has_bounds},
+    {"force_error_bound_j", ROM_VR_FORCE_ERROR_BOUND_PROBE, COUNT_PER_PROBE, TYPE_FLOAT64, ROLE_CALCULATED,
+     get_force_bound, NULL, NULL, NULL, has_bounds},
+    {"initial_state_error_bound_j", ROM_VR_INITIAL_STATE_ERROR_BOUND_PROBE, COUNT_PER_PROBE, TYPE_FLOAT64,
+     ROLE_CALCULATED, get_initial_bound, NULL, NULL, NULL, has_bounds},
+    {"c", ROM_VR_C, COUNT_ONE, TYPE_FLOAT64, ROLE_FIXED, get_c, NULL, set_c, NULL, varies_c},
+    {"d", ROM_VR_D, COUNT_ONE, TYPE_FLOAT64, ROLE_FIXED, get_d, NULL, set_d, NULL, varies_d},
 };
 
 /* the variable of value reference ref (time only where the version has it), or NULL; *j: the probe index */
@@ -418,6 +467,9 @@ static InstanceStatus set_values(Instance *inst, const char *fn, VariableType ty
         if (!var || var->type != type) return unknown_reference(inst, fn, refs[i]);
         switch (var->role) {
             case ROLE_OUTPUT: return instance_error(inst, fn, "outputs cannot be set");
+            case ROLE_CALCULATED:
+                return instance_error(inst, fn, "%s is a calculated parameter (computed at packaging) and cannot be "
+                                      "set", var->name);
             case ROLE_INDEPENDENT:
                 return instance_error(inst, fn, "%s is the independent variable and cannot be set", var->name);
             case ROLE_FIXED:
@@ -484,6 +536,43 @@ InstanceStatus instance_set_input_derivatives(Instance *inst, const char *fn, co
         if (rom_set_input_rate(inst->state, values[i], inst->message, sizeof inst->message) != ROM_OK) {
             return instance_error(inst, fn, "%s", inst->message);
         }
+    }
+    return INSTANCE_OK;
+}
+
+InstanceStatus instance_get_output_derivatives(Instance *inst, const char *fn, const uint32_t refs[], size_t n_refs,
+                                               const int32_t orders[], double values[], size_t n_values) {
+    if (check_arguments(inst, fn, refs, n_refs, values, n_values) != INSTANCE_OK) return INSTANCE_ERROR;
+    if (n_refs > 0 && !orders) return instance_error(inst, fn, "the order array is NULL");
+    const int max_order = rom_max_output_derivative_order(inst->model);
+    for (size_t i = 0; i < n_refs; i++) {
+        uint32_t j = 0;
+        const Variable *var = lookup(inst, refs[i], &j);
+        if (!var || var->type != TYPE_FLOAT64) return unknown_reference(inst, fn, refs[i]);
+        if (var->role != ROLE_OUTPUT) {
+            return instance_error(inst, fn, "%s is not an output (derivatives exist for v_probe_j and rho_probe_j)",
+                                  var->name);
+        }
+        if (max_order == 0) {
+            return instance_error(inst, fn, "the frozen model provides no output derivatives "
+                                  "(maxOutputDerivativeOrder = 0: its trajectory is a discrete map of internal "
+                                  "steps, not a differentiable function of time)");
+        }
+        if (orders[i] < 1 || orders[i] > max_order) {
+            return instance_error(inst, fn, "order %d of the derivative of %s_%u is not supported "
+                                  "(maxOutputDerivativeOrder = %d: allowed orders 1 to %d)", (int)orders[i],
+                                  var->name, j + 1, max_order, max_order);
+        }
+        RomStatus status;
+        if (var->vr == ROM_VR_V_PROBE) {
+            status = rom_v_probe_rate(inst->state, j, &values[i], inst->message, sizeof inst->message);
+        } else if (var->vr == ROM_VR_RHO_PROBE) {
+            status = rom_rho_probe_rate(inst->state, j, &values[i], inst->message, sizeof inst->message);
+        } else {
+            return instance_error(inst, fn, "no derivative of %s is provided (derivatives exist for v_probe_j and "
+                                  "rho_probe_j)", var->name);
+        }
+        if (status != ROM_OK) return instance_error(inst, fn, "%s", inst->message);
     }
     return INSTANCE_OK;
 }

@@ -164,6 +164,12 @@ InstanceStatus instance_set_int32(Instance *inst, const char *fn, const uint32_t
  * value reference ROM_VR_F and order 1; exact linear model only (canInterpolateInputs). */
 InstanceStatus instance_set_input_derivatives(Instance *inst, const char *fn, const uint32_t refs[], size_t n_refs,
                                              const int32_t orders[], const double values[]);
+/* Time derivatives of outputs at the current time (fmi2GetRealOutputDerivatives,
+ * fmi3GetOutputDerivatives): order 1 of v_probe_j and rho_probe_j in the linear models
+ * (rom_max_output_derivative_order); the frozen model, another variable or another order is an
+ * error naming what is allowed.  n_values must equal n_refs. */
+InstanceStatus instance_get_output_derivatives(Instance *inst, const char *fn, const uint32_t refs[], size_t n_refs,
+                                               const int32_t orders[], double values[], size_t n_values);
 /* a type without variables: any value reference is unknown */
 InstanceStatus instance_no_variables(Instance *inst, const char *fn, const uint32_t refs[], size_t n_refs,
                                      const void *values, size_t n_values);

@@ -30,6 +30,13 @@ uint32_t rom_model_kind(const RomModel *m) {
     return m ? m->kind : 0u;
 }
 
+const char *rom_linear_model_name(const RomModel *m) {
+    if (!m || !rom_is_linear(m)) return NULL;
+    const RomSection *id = rom_model_section(m, "LINMODEL");
+    if (!id) return "linear";
+    return id->data[0] == ROM_LINEAR_BALANCED ? "balanced" : "exact POD";
+}
+
 /* ------------------------------------------------------------------------ */
 /* state                                                                     */
 /* ------------------------------------------------------------------------ */
@@ -41,7 +48,8 @@ RomState *rom_state_new(const RomModel *model) {
     if (rom_is_linear(model)) {
         /* a, b; the forced part X; (t0, input rate); the exponential's scratch; the cached maps */
         const size_t k = model->k, n = k + 2, kk = k * k;
-        const size_t counts[5 + 3 * ROM_EXACT_CACHE] = {model->kv_pad, model->kr_pad, k, 2, 4 * n * n + 2 * k,
+        const size_t kr_alloc = model->kr_pad ? model->kr_pad : 1;    /* never NULL: a state with k_e = 0 */
+        const size_t counts[5 + 3 * ROM_EXACT_CACHE] = {model->kv_pad, kr_alloc, k, 2, 4 * n * n + 2 * k,
                                                         kk, k, k, kk, k, k};
         double **ptrs[5 + 3 * ROM_EXACT_CACHE] = {&s->av, &s->ar, &s->X, &s->aux, &s->work,
                                                   &s->cache[0].Phi, &s->cache[0].G0, &s->cache[0].G1,
@@ -105,6 +113,9 @@ void rom_state_reset(RomState *s, double t_start) {
     s->f = 0.0;
     s->dt = m->dt;
     s->n_freeze = (int32_t)m->n_freeze_default;
+    const RomSection *params = rom_model_section(m, "PARAMS");
+    s->c = params ? params->data[1] : 0.0;
+    s->d = params ? params->data[4 + 1] : 0.0;
 }
 
 RomStatus rom_set_start_time(RomState *s, double t_start, char *message, size_t message_size) {
@@ -228,6 +239,7 @@ RomStatus rom_advance(RomState *s, int64_t n_steps, char *message, size_t messag
 
 double rom_v_probe(const RomState *s, uint32_t j) {
     if (!s || j >= s->model->n_probes) return NAN;
+    if (rom_is_linear(s->model)) return rom_exact_output(s, s->model->Pv + (size_t)j * s->model->k);
     const size_t kv = s->model->k_v;
     const double *row = s->model->Pv + (size_t)j * kv;
     double v = 0.0;
@@ -238,6 +250,38 @@ double rom_v_probe(const RomState *s, uint32_t j) {
 double rom_rho_probe(const RomState *s, uint32_t j) {
     if (!s || j >= s->model->n_probes) return NAN;
     return rom_is_linear(s->model) ? rom_exact_rho_probe(s, j) : rom_frozen_rho_probe(s, j);
+}
+
+int rom_max_output_derivative_order(const RomModel *m) {
+    return m && rom_is_linear(m) ? 1 : 0;
+}
+
+/* the checks shared by the output rates: a linear model, a probe index, a finite result */
+static RomStatus probe_rate(const RomState *s, uint32_t j, double *rate, double (*compute)(const RomState *, uint32_t),
+                            const char *what, char *message, size_t message_size) {
+    if (!s || !rate) return rom_fail(message, message_size, "no state or no result pointer");
+    if (!rom_is_linear(s->model)) {
+        return rom_fail(message, message_size, "the frozen model provides no output derivatives "
+                        "(maxOutputDerivativeOrder = 0: its trajectory is a discrete map of internal steps)");
+    }
+    if (j >= s->model->n_probes) {
+        return rom_fail(message, message_size, "probe %u does not exist (allowed: 1 to %u)", j + 1,
+                        s->model->n_probes);
+    }
+    *rate = compute(s, j);
+    if (!isfinite(*rate)) {
+        return rom_fail(message, message_size, "d%s_probe_%u/dt is not finite at t = %.9g s (J <= 0 at the probe: "
+                        "compression beyond the model's range)", what, j + 1, s->time);
+    }
+    return ROM_OK;
+}
+
+RomStatus rom_v_probe_rate(const RomState *s, uint32_t j, double *rate, char *message, size_t message_size) {
+    return probe_rate(s, j, rate, rom_exact_v_rate, "v", message, message_size);
+}
+
+RomStatus rom_rho_probe_rate(const RomState *s, uint32_t j, double *rate, char *message, size_t message_size) {
+    return probe_rate(s, j, rate, rom_exact_rho_rate, "rho", message, message_size);
 }
 
 RomStatus rom_check_outputs(const RomState *s, char *message, size_t message_size) {
@@ -255,6 +299,62 @@ RomStatus rom_check_outputs(const RomState *s, char *message, size_t message_siz
         if (!(rho > 0) || !isfinite(rho)) {
             return rom_fail(message, message_size, "density at probe %u (x/L = %g) is %g (must be > 0) at t = %.9g s",
                             j + 1, s->model->probe_x[j], rho, s->time);
+        }
+    }
+    return ROM_OK;
+}
+
+/* ------------------------------------------------------------------------ */
+/* parametric models                                                         */
+/* ------------------------------------------------------------------------ */
+
+int rom_varies(const RomModel *m, int which) {
+    const RomSection *params = rom_model_section(m, "PARAMS");
+    if (!params || (which != ROM_PARAM_C && which != ROM_PARAM_D)) return 0;
+    return params->data[4 * which] != 0.0;
+}
+
+RomStatus rom_set_param(RomState *s, int which, double value, char *message, size_t message_size) {
+    if (!s) return rom_fail(message, message_size, "no state");
+    if (!rom_varies(s->model, which)) return rom_fail(message, message_size, "the model has no parameter %d", which);
+    const double *row = rom_model_section(s->model, "PARAMS")->data + 4 * which;
+    const char *name = which == ROM_PARAM_C ? "c" : "d";
+    if (!(isfinite(value) && value >= row[2] && value <= row[3])) {
+        return rom_fail(message, message_size, "%s = %g is outside the trained range [%g, %g]", name, value, row[2],
+                        row[3]);
+    }
+    if (which == ROM_PARAM_C) s->c = value;
+    else s->d = value;
+    return ROM_OK;
+}
+
+double rom_get_param(const RomState *s, int which) {
+    if (!s) return NAN;
+    return which == ROM_PARAM_C ? s->c : s->d;
+}
+
+RomStatus rom_model_assemble(RomModel *m, RomState *s, char *message, size_t message_size) {
+    if (!m || !s || s->model != m) return rom_fail(message, message_size, "assemble: no model or a foreign state");
+    if (!rom_model_section(m, "PARAMS")) return ROM_OK;
+    const double c = s->c, d = s->d;
+    if (rom_is_linear(m)) {          /* A = A_0 + c A_c + d A_d, entry by entry (harness.rom.parametric) */
+        const double *A0 = rom_model_section(m, "A0")->data, *Ac = rom_model_section(m, "AC")->data;
+        const double *Ad = rom_model_section(m, "AD")->data;
+        const size_t kk = (size_t)m->k * m->k;
+        for (size_t i = 0; i < kk; i++) m->A[i] = A0[i] + c * Ac[i] + d * Ad[i];
+        for (int slot = 0; slot < ROM_EXACT_CACHE; slot++) s->cache[slot].h = 0.0;
+    } else {                         /* K = c K_c, b = c b_c, D = d D_d (eqs. 2.21, 2.22, 2.24) */
+        const size_t kv = m->k_v, kr = m->k_rho, kvp = m->kv_pad;
+        const double *Kc = rom_model_section(m, "KC")->data, *bc = rom_model_section(m, "BC")->data;
+        for (size_t p = 0; p < kv; p++) {
+            for (size_t q = 0; q < kr; q++) m->Kt[q * kvp + p] = c * Kc[p * kr + q];
+            m->b[p] = c * bc[p];
+        }
+        if (m->Dt) {
+            const double *Dd = rom_model_section(m, "DD")->data;
+            for (size_t p = 0; p < kv; p++) {
+                for (size_t q = 0; q < kv; q++) m->Dt[q * kvp + p] = d * Dd[p * kv + q];
+            }
         }
     }
     return ROM_OK;

@@ -40,6 +40,14 @@
  *            prho0[n_probes][2], probe_x[n_probes]
  *            (probe j lies between two particles: e = J - 1 there is Pe[j][m] . b,
  *            weights pw[j][m], rho0 there prho0[j][m]; rho_j = sum_m pw rho0/(1 + e))
+ * kind 2 with flags bit3 (output rows): the probe rows act on the whole state
+ *   z = (a; b), Pv[n_probes][k] and Pe[n_probes][2][k] in place of the two
+ *   arrays above (v_j = Pv[j] . z, e = Pe[j][m] . z); the loader stores the
+ *   rows of a file without bit3 the same way, zero over the block they skip,
+ *   so one output code serves every linear model.  With bit3, k_v + k_e = k
+ *   only sizes the serialized state's blocks a, b (a model whose state does not
+ *   split into velocity and specific-volume coordinates, the balanced one,
+ *   writes k_v = k, k_e = 0).
  * both kinds, then tagged sections (what later features add, each optional;
  * the loader knows every tag it accepts, checks each one's shape, and rejects
  * unknown or repeated tags):
@@ -97,6 +105,7 @@ extern "C" {
 #define ROM_FLAG_DAMPING 1u
 #define ROM_FLAG_INPUT 2u
 #define ROM_FLAG_SCHUR 4u            /* kind 2 only */
+#define ROM_FLAG_OUTPUT_ROWS 8u      /* kind 2 only: probe rows over the whole state z */
 #define ROM_EXACT_CACHE 2            /* exponentials kept per state (two step lengths) */
 #define ROM_TOKEN_SIZE 40
 #define ROM_HEADER_SIZE 72            /* resource header: magic to L */
@@ -123,8 +132,16 @@ extern "C" {
 #define ROM_VR_DT 3u                 /* parameter dt [s] */
 #define ROM_VR_INITIAL_STATE_SCALE 4u  /* parameter initial_state_scale (1: the scene's initial state, 0: rest) */
 #define ROM_INITIAL_STATE_SCALE_START 0.0  /* its start value in the FMU: a component starts at rest */
+#define ROM_VR_C 5u                  /* parameter c [kg m^-1 s^-2] (parametric models only) */
+#define ROM_VR_D 6u                  /* parameter d [s^-1] (parametric models only) */
 #define ROM_VR_V_PROBE 1000u         /* v_probe_1 .. : 1000 + j */
 #define ROM_VR_RHO_PROBE 2000u       /* rho_probe_1 .. : 2000 + j */
+#define ROM_VR_FORCE_ERROR_BOUND 8u  /* linear models: certified force-channel bound, max over probes [s] */
+#define ROM_VR_INITIAL_STATE_ERROR_BOUND 9u   /* linear models: initial-state bound, max over probes [m s^-1 s^0.5] */
+#define ROM_VR_FORCE_ERROR_BOUND_PROBE 5000u   /* force_error_bound_1 .. : 5000 + j */
+#define ROM_VR_INITIAL_STATE_ERROR_BOUND_PROBE 6000u   /* initial_state_error_bound_1 .. : 6000 + j */
+#define ROM_LINEAR_EXACT_POD 1u      /* section LINMODEL: which linear model (messages only) */
+#define ROM_LINEAR_BALANCED 2u
 
 typedef enum { ROM_OK = 0, ROM_FAIL = 1 } RomStatus;
 
@@ -172,7 +189,8 @@ typedef struct {
     double *B;                 /* [k] input column, NULL without input */
     double *Q, *S;             /* [k][k] real Schur form A = Q S Q^T (skew A), NULL otherwise */
     double *y0;                /* [k] Q^T z0 (with the Schur form) */
-    double *Pe;                /* [n_probes][2][k_rho] rows of U_e at the probe's two particles */
+    double *Pe;                /* [n_probes][2][k] e rows over z at the probe's two particles (kind 2's Pv is
+                                * [n_probes][k] too: rows over z, format above) */
     double *pw, *prho0;        /* [n_probes][2] interpolation weights, rho0 at those particles */
     uint32_t n_sections;       /* the tagged sections, in file order (rom_model_section) */
     RomSection sections[ROM_MAX_SECTIONS];
@@ -213,6 +231,9 @@ typedef struct {
     int64_t clock;          /* cache clock */
     int64_t n_expm;         /* exponentials computed since the state was created */
     void *storage_;
+    /* parametric models (section PARAMS): the chosen stiffness c [kg m^-1 s^-2] and damping d [s^-1],
+     * the start values after a reset; the operators are assembled from them by rom_model_assemble */
+    double c, d;
 } RomState;
 
 /* ---- resources ---------------------------------------------------------- */
@@ -265,9 +286,23 @@ ROM_API int64_t rom_expm_count(const RomState *state);
 /* kind of a loaded model (ROM_MODEL_*), 0 for NULL */
 ROM_API uint32_t rom_model_kind(const RomModel *model);
 /* Probe outputs.  Frozen: v_j = sum_q Pv[j][q] a^v_q, rho_j = sum_q Prho[j][q] a^rho_q.
- * Exact: v_j the same, rho_j = sum_m pw[j][m] prho0[j][m] / (1 + Pe[j][m] . b) (NaN when a J <= 0) */
+ * Linear: v_j = Pv[j] . z, rho_j = sum_m pw[j][m] prho0[j][m] / (1 + Pe[j][m] . z) (NaN when a J <= 0) */
 ROM_API double rom_v_probe(const RomState *state, uint32_t j);
+/* Linear models: the name of the linear model (section LINMODEL: "exact POD", "balanced"; "linear" when the
+ * resources do not say), for messages; NULL for the frozen model.  The core never branches on it. */
+ROM_API const char *rom_linear_model_name(const RomModel *model);
 ROM_API double rom_rho_probe(const RomState *state, uint32_t j);
+/* The highest order of output derivatives the model gives exactly: 1 for the linear models, 0 for the
+ * frozen model (a discrete map of internal steps, not a differentiable function of time) */
+ROM_API int rom_max_output_derivative_order(const RomModel *model);
+/* Linear models: the first time derivative of a probe output at the state's time, exact:
+ * dz/dt = A z + B f with f the input now (after a step with an input rate: f + rate h),
+ * dv_j/dt = Pv[j] . (dz/dt)_a, drho_j/dt = -sum_m pw[j][m] prho0[j][m] (Pe[j][m] . (dz/dt)_b) / J_m^2.
+ * Fails (message) for the frozen model or a bad probe index. */
+ROM_API RomStatus rom_v_probe_rate(const RomState *state, uint32_t j, double *rate, char *message,
+                                   size_t message_size);
+ROM_API RomStatus rom_rho_probe_rate(const RomState *state, uint32_t j, double *rate, char *message,
+                                     size_t message_size);
 /* Check the probe densities (> 0 and finite) at the current time */
 ROM_API RomStatus rom_check_outputs(const RomState *state, char *message, size_t message_size);
 
@@ -291,6 +326,22 @@ ROM_API RomStatus rom_state_deserialize(RomState *state, const unsigned char *bu
  * message, when given, names the quantity, its value, the trained range and the time); 0 inside it, for
  * a model without an envelope, and for a linear model (no run-time checks) */
 ROM_API int rom_envelope_check(const RomState *state, char *message, size_t message_size);
+
+/* ---- parametric models (sections PARAMS and KC, BC, DD or A0, AC, AD) ------------
+ * The operators are affine in c and d: frozen K = c K_c, b = c b_c, D = d D_d; linear
+ * A = A_0 + c A_c + d A_d (harness/rom/parametric.py).  PARAMS row 0 is c, row 1 is d:
+ * (varied 0/1, start, min, max). */
+#define ROM_PARAM_C 0
+#define ROM_PARAM_D 1
+/* 1 when the model exposes parameter which (ROM_PARAM_C or ROM_PARAM_D), else 0 */
+ROM_API int rom_varies(const RomModel *model, int which);
+/* Set c or d of a parametric model; fails, naming the value and the trained range, outside it */
+ROM_API RomStatus rom_set_param(RomState *state, int which, double value, char *message, size_t message_size);
+ROM_API double rom_get_param(const RomState *state, int which);
+/* Assemble the operators of the state's (c, d) into the model (O(k^2)) and empty the state's
+ * exponential cache; a model without PARAMS is left as it is.  Called once the parameters are
+ * fixed (ExitInitializationMode). */
+ROM_API RomStatus rom_model_assemble(RomModel *model, RomState *state, char *message, size_t message_size);
 
 ROM_API const char *rom_version(void);
 

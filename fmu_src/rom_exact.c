@@ -182,15 +182,23 @@ RomStatus rom_exact_advance(RomState *s, int64_t n_steps, char *message, size_t 
     return ROM_OK;
 }
 
+/* row . z over the whole state z = (a; b), in the order of z (a row that is zero over one block adds
+ * zeros to an exact +0 start or to the sum: the value over the other block, bit for bit) */
+double rom_exact_output(const RomState *s, const double *row) {
+    const RomModel *m = s->model;
+    const size_t kv = m->k_v, ke = m->k_rho;
+    double acc = 0.0;
+    for (size_t q = 0; q < kv; q++) acc += row[q] * s->av[q];
+    for (size_t q = 0; q < ke; q++) acc += row[kv + q] * s->ar[q];
+    return acc;
+}
+
 /* rho = sum_m pw[j][m] rho0[j][m] / J_m, J = 1 + e at the probe's two particles */
 double rom_exact_rho_probe(const RomState *s, uint32_t j) {
     const RomModel *m = s->model;
-    const size_t kr = m->k_rho;
     double rho = 0.0;
     for (int side = 0; side < 2; side++) {
-        const double *row = m->Pe + ((size_t)j * 2 + (size_t)side) * kr;
-        double e = 0.0;
-        for (size_t q = 0; q < kr; q++) e += row[q] * s->ar[q];
+        const double e = rom_exact_output(s, m->Pe + ((size_t)j * 2 + (size_t)side) * m->k);
         const double J = 1.0 + e;
         if (!(J > 0)) return NAN;                     /* compressed through J = 0: no density */
         rho += m->pw[2 * j + side] * (m->prho0[2 * j + side] / J);
@@ -200,13 +208,9 @@ double rom_exact_rho_probe(const RomState *s, uint32_t j) {
 
 double rom_exact_probe_J(const RomState *s, uint32_t j) {
     const RomModel *m = s->model;
-    const size_t kr = m->k_rho;
     double smallest = INFINITY;
     for (int side = 0; side < 2; side++) {
-        const double *row = m->Pe + ((size_t)j * 2 + (size_t)side) * kr;
-        double e = 0.0;
-        for (size_t q = 0; q < kr; q++) e += row[q] * s->ar[q];
-        const double J = 1.0 + e;
+        const double J = 1.0 + rom_exact_output(s, m->Pe + ((size_t)j * 2 + (size_t)side) * m->k);
         if (!isfinite(J)) return NAN;
         if (J < smallest) smallest = J;
     }
@@ -221,4 +225,40 @@ void rom_exact_prepare(RomModel *m) {
         for (size_t r = 0; r < k; r++) acc += m->Q[r * k + i] * m->z0[r];
         m->y0[i] = acc;
     }
+}
+
+/* (dz/dt)_q = sum_c A[q][c] z_c + B[q] f, z = (a; b) the state now, f the input now */
+static double state_rate(const RomState *s, size_t q) {
+    const RomModel *m = s->model;
+    const size_t k = m->k, kv = m->k_v;
+    const double *row = m->A + q * k;
+    double acc = 0.0;
+    for (size_t c = 0; c < kv; c++) acc += row[c] * s->av[c];
+    for (size_t c = kv; c < k; c++) acc += row[c] * s->ar[c - kv];
+    if (m->B) acc += m->B[q] * s->f;
+    return acc;
+}
+
+/* the rate of the output row over z: sum_q row[q] (dz/dt)_q */
+static double row_rate(const RomState *s, const double *row) {
+    double rate = 0.0;
+    for (size_t q = 0; q < s->model->k; q++) rate += row[q] * state_rate(s, q);
+    return rate;
+}
+
+double rom_exact_v_rate(const RomState *s, uint32_t j) {
+    return row_rate(s, s->model->Pv + (size_t)j * s->model->k);
+}
+
+/* d/dt sum_m pw rho0 / J_m = -sum_m pw rho0 (dJ_m/dt) / J_m^2, J_m = 1 + Pe[j][m] . z */
+double rom_exact_rho_rate(const RomState *s, uint32_t j) {
+    const RomModel *m = s->model;
+    double rate = 0.0;
+    for (int side = 0; side < 2; side++) {
+        const double *row = m->Pe + ((size_t)j * 2 + (size_t)side) * m->k;
+        const double J = 1.0 + rom_exact_output(s, row);
+        if (!(J > 0)) return NAN;
+        rate -= m->pw[2 * j + side] * m->prho0[2 * j + side] * row_rate(s, row) / (J * J);
+    }
+    return rate;
 }

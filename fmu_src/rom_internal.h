@@ -72,8 +72,13 @@ void rom_exact_prepare(RomModel *m);
 RomStatus rom_exact_step(RomState *s, double t_comm, double h, char *message, size_t message_size);
 RomStatus rom_exact_advance(RomState *s, int64_t n_steps, char *message, size_t message_size);
 double rom_exact_rho_probe(const RomState *s, uint32_t j);
+/* a probe row over the whole state z = (a; b) times z (rom.h: kind 2's rows) */
+double rom_exact_output(const RomState *s, const double *row);
 /* the smaller J = 1 + e of the probe's two particles (NaN when not finite) */
 double rom_exact_probe_J(const RomState *s, uint32_t j);
+/* dv_j/dt and drho_j/dt of a linear model (rom_v_probe_rate, rom_rho_probe_rate) */
+double rom_exact_v_rate(const RomState *s, uint32_t j);
+double rom_exact_rho_rate(const RomState *s, uint32_t j);
 
 /* shape checks of the envelope's sections (rom_envelope.c; rows of rom_io.c's SECTION_RULES) */
 RomStatus rom_envelope_check_scalars(const RomModel *m, const RomSection *s, char *message, size_t message_size);

@@ -187,9 +187,11 @@ static RomStatus check_header(const Header *h, uint64_t *doubles, char *message,
         return rom_fail(message, message_size, "resources: integrator %u is not one of 0 (euler), 1 (symplectic)",
                         h->integrator);
     }
-    if (kv < 1 || kv > ROM_MAX_MODES || kr < 1 || kr > ROM_MAX_MODES) {
-        return rom_fail(message, message_size, "resources: mode counts k_v = %u, %s = %u out of range [1, %u]",
-                        h->k_v, second, h->k_rho, ROM_MAX_MODES);
+    /* with output rows over z the state need not split: k_e may be 0 (the balanced model's k_v = k) */
+    const uint64_t kr_min = (linear && (h->flags & ROM_FLAG_OUTPUT_ROWS)) ? 0 : 1;
+    if (kv < 1 || kv > ROM_MAX_MODES || kr < kr_min || kr > ROM_MAX_MODES) {
+        return rom_fail(message, message_size, "resources: mode counts k_v = %u, %s = %u out of range [1, %u]%s",
+                        h->k_v, second, h->k_rho, ROM_MAX_MODES, kr_min ? "" : " (k_e: [0, ...])");
     }
     if (np < 1 || np > ROM_MAX_PROBES) {
         return rom_fail(message, message_size, "resources: %u probes, out of range [1, %u]", h->n_probes,
@@ -202,7 +204,7 @@ static RomStatus check_header(const Header *h, uint64_t *doubles, char *message,
         return rom_fail(message, message_size, "resources: n_pairs = %u, expected k_rho (k_rho + 1)/2 = %u",
                         h->n_pairs, h->k_rho * (h->k_rho + 1) / 2);
     }
-    const uint32_t known = ROM_FLAG_DAMPING | ROM_FLAG_INPUT | (linear ? ROM_FLAG_SCHUR : 0u);
+    const uint32_t known = ROM_FLAG_DAMPING | ROM_FLAG_INPUT | (linear ? ROM_FLAG_SCHUR | ROM_FLAG_OUTPUT_ROWS : 0u);
     if (h->flags & ~known) return rom_fail(message, message_size, "resources: unknown flag bits 0x%x", h->flags);
     if ((h->flags & ROM_FLAG_SCHUR) && (h->flags & ROM_FLAG_DAMPING)) {
         return rom_fail(message, message_size, "resources: flag bits 0x%x: a Schur form with damping (the free "
@@ -215,7 +217,9 @@ static RomStatus check_header(const Header *h, uint64_t *doubles, char *message,
     const int damping = (h->flags & ROM_FLAG_DAMPING) != 0, input = (h->flags & ROM_FLAG_INPUT) != 0;
     if (linear) {               /* z0, A, B, Q, S, Pv, Pe, pw, prho0, probe_x */
         const uint64_t k = kv + kr, schur = (h->flags & ROM_FLAG_SCHUR) ? k * k : 0;
-        *doubles = k + k * k + (input ? k : 0) + 2 * schur + np * kv + np * 2 * kr + 4 * np + np;
+        const int rows = (h->flags & ROM_FLAG_OUTPUT_ROWS) != 0;       /* Pv, Pe over z, or over a, b */
+        *doubles = k + k * k + (input ? k : 0) + 2 * schur + np * (rows ? k : kv) + np * 2 * (rows ? k : kr) +
+                   4 * np + np;
     } else {                    /* a_v0, a_rho0, K, b, D, p, T, Pv, Prho, probe_x */
         *doubles = kv + kr + kv * kr + kv + (damping ? kv * kv : 0) + (input ? kv : 0) + h->n_pairs * kr * kv +
                    np * kv + np * kr + np;
@@ -298,7 +302,7 @@ static RomStatus read_exact(RomModel *m, const unsigned char *cursor, uint64_t d
     m->kr_pad = (uint32_t)rom_round_up(ke, 4);
     m->nm = 0;
     const size_t cB = (m->flags & ROM_FLAG_INPUT) ? k : 0, cQ = (m->flags & ROM_FLAG_SCHUR) ? k * k : 0;
-    const size_t counts[11] = {k, k * k, cB, cQ, cQ, cQ ? k : 0, np * kv, np * 2 * ke, 2 * np, 2 * np, np};
+    const size_t counts[11] = {k, k * k, cB, cQ, cQ, cQ ? k : 0, np * k, np * 2 * k, 2 * np, 2 * np, np};
     double **ptrs[11] = {&m->z0, &m->A, &m->B, &m->Q, &m->S, &m->y0, &m->Pv, &m->Pe, &m->pw, &m->prho0,
                          &m->probe_x};
     m->storage_ = rom_alloc_arrays(counts, ptrs, 11);
@@ -312,8 +316,13 @@ static RomStatus read_exact(RomModel *m, const unsigned char *cursor, uint64_t d
         read_doubles(&cursor, m->Q, k * k);
         read_doubles(&cursor, m->S, k * k);
     }
-    read_doubles(&cursor, m->Pv, np * kv);
-    read_doubles(&cursor, m->Pe, np * 2 * ke);
+    if (m->flags & ROM_FLAG_OUTPUT_ROWS) {
+        read_doubles(&cursor, m->Pv, np * k);
+        read_doubles(&cursor, m->Pe, np * 2 * k);
+    } else {                      /* rows over a (v) and over b (e), stored as rows over z = (a; b) */
+        for (size_t j = 0; j < np; j++) read_doubles(&cursor, m->Pv + j * k, kv);
+        for (size_t r = 0; r < 2 * np; r++) read_doubles(&cursor, m->Pe + r * k + kv, ke);
+    }
     read_doubles(&cursor, m->pw, 2 * np);
     read_doubles(&cursor, m->prho0, 2 * np);
     read_doubles(&cursor, m->probe_x, np);
@@ -349,10 +358,103 @@ typedef struct {
     SectionCheck check;        /* NULL: any shape */
 } SectionRule;
 
+/* BOUNDS: the certified error bounds of a linear model, 2 rows of n_probes: force_error_bound [s],
+ * initial_state_error_bound [m s^-1 s^0.5] per probe (>= 0) */
+static RomStatus check_bounds(const RomModel *m, const RomSection *s, char *message, size_t message_size) {
+    if (!rom_is_linear(m) || s->rows != 2 || s->cols != m->n_probes) {
+        return rom_fail(message, message_size, "resources: section 'BOUNDS' is %u x %u, expected 2 x %u (n_probes) "
+                        "in a linear model", s->rows, s->cols, m->n_probes);
+    }
+    for (size_t i = 0; i < (size_t)s->rows * s->cols; i++) {
+        if (!(s->data[i] >= 0)) {
+            return rom_fail(message, message_size, "resources: section 'BOUNDS' holds %g (bounds are >= 0)",
+                            s->data[i]);
+        }
+    }
+    return ROM_OK;
+}
+
+/* LINMODEL: which linear model the matrices are (1 exact POD, 2 balanced), 1 x 1; for messages only */
+static RomStatus check_linear_model(const RomModel *m, const RomSection *s, char *message, size_t message_size) {
+    if (!rom_is_linear(m) || s->rows != 1 || s->cols != 1 ||
+        !(s->data[0] == ROM_LINEAR_EXACT_POD || s->data[0] == ROM_LINEAR_BALANCED)) {
+        return rom_fail(message, message_size, "resources: section 'LINMODEL' must be one value, %u (exact POD) or "
+                        "%u (balanced), in a linear model", ROM_LINEAR_EXACT_POD, ROM_LINEAR_BALANCED);
+    }
+    return ROM_OK;
+}
+
+/* Parametric models (harness/rom/parametric.py): PARAMS (2 x 4: rows c, d; varied 0/1, start, min, max)
+ * and the kind's affine pieces, each needing the other */
+static RomStatus check_shape(const RomSection *s, uint32_t rows, uint32_t cols, char *message, size_t message_size) {
+    if (s->rows == rows && s->cols == cols) return ROM_OK;
+    return rom_fail(message, message_size, "resources: section '%s' is %u x %u, expected %u x %u", s->tag, s->rows,
+                    s->cols, rows, cols);
+}
+
+static RomStatus check_params(const RomModel *m, const RomSection *s, char *message, size_t message_size) {
+    if (check_shape(s, 2, 4, message, message_size) != ROM_OK) return ROM_FAIL;
+    int varied = 0;
+    for (int r = 0; r < 2; r++) {
+        const double *row = s->data + 4 * r;
+        if ((row[0] != 0.0 && row[0] != 1.0) || !(row[2] <= row[1] && row[1] <= row[3]) ||
+            !(row[2] > 0.0 || (r == 1 && row[2] == 0.0))) {
+            return rom_fail(message, message_size, "resources: section 'PARAMS' row %d: varied %g, start %g, range "
+                            "[%g, %g] (expected 0 or 1 and min <= start <= max, c > 0, d >= 0)", r + 1, row[0], row[1],
+                            row[2], row[3]);
+        }
+        varied |= row[0] != 0.0;
+    }
+    if (!varied) return rom_fail(message, message_size, "resources: section 'PARAMS' varies neither c nor d");
+    static const char *const frozen[] = {"KC", "BC", NULL}, *const linear[] = {"A0", "AC", "AD", NULL};
+    for (const char *const *tag = rom_is_linear(m) ? linear : frozen; *tag; tag++) {
+        if (!rom_model_section(m, *tag)) {
+            return rom_fail(message, message_size, "resources: section 'PARAMS' without section '%s'", *tag);
+        }
+    }
+    const int damping = (m->flags & ROM_FLAG_DAMPING) != 0;
+    if (!rom_is_linear(m) && damping != (rom_model_section(m, "DD") != NULL)) {
+        return rom_fail(message, message_size, "resources: section 'DD' %s (it goes with the damping flag)",
+                        damping ? "missing" : "without damping");
+    }
+    if (!rom_is_linear(m) && s->data[4] != 0.0 && !damping) {
+        return rom_fail(message, message_size, "resources: d varies but the model has no damping term");
+    }
+    if (rom_is_linear(m) && (m->flags & ROM_FLAG_SCHUR)) {
+        return rom_fail(message, message_size, "resources: a parametric linear model with a Schur form (A changes "
+                        "with c and d)");
+    }
+    return ROM_OK;
+}
+
+static RomStatus check_affine(const RomModel *m, const RomSection *s, char *message, size_t message_size) {
+    const int linear_tag = s->tag[0] == 'A';
+    if (linear_tag != rom_is_linear(m)) {
+        return rom_fail(message, message_size, "resources: section '%s' does not belong to a %s model", s->tag,
+                        rom_is_linear(m) ? "linear" : "frozen");
+    }
+    if (!rom_model_section(m, "PARAMS")) {
+        return rom_fail(message, message_size, "resources: section '%s' without section 'PARAMS'", s->tag);
+    }
+    if (linear_tag) return check_shape(s, m->k, m->k, message, message_size);
+    if (strcmp(s->tag, "KC") == 0) return check_shape(s, m->k_v, m->k_rho, message, message_size);
+    if (strcmp(s->tag, "BC") == 0) return check_shape(s, 1, m->k_v, message, message_size);
+    return check_shape(s, m->k_v, m->k_v, message, message_size);
+}
+
 static const SectionRule SECTION_RULES[] = {
     {"ENVELOPE", "the training envelope's scalars", rom_envelope_check_scalars},
     {"ENVRANGE", "the training envelope's coordinate ranges", rom_envelope_check_range},
     {"ENVPROBE", "rho0 at the probes (training envelope)", rom_envelope_check_probe},
+    {"BOUNDS", "certified error bounds per probe (force, initial state)", check_bounds},
+    {"LINMODEL", "which linear model: 1 exact POD, 2 balanced", check_linear_model},
+    {"PARAMS", "parametric model: c and d (varied, start, min, max)", check_params},
+    {"KC", "frozen model: K per unit c", check_affine},
+    {"BC", "frozen model: b per unit c", check_affine},
+    {"DD", "frozen model: D per unit d", check_affine},
+    {"A0", "linear model: the part of A without c or d", check_affine},
+    {"AC", "linear model: the part of A per unit c", check_affine},
+    {"AD", "linear model: the part of A per unit d", check_affine},
     {NULL, NULL, NULL},        /* end of the table */
 };
 

@@ -47,6 +47,8 @@ def _private_cache(tmp_path_factory):
 
 # the unit of each FMU variable (README, "The FMU": the variable contract), by name prefix
 FMU_UNITS = {"time": "s", "f": "m/s2", "dt": "s", "v_probe_": "m/s", "rho_probe_": "kg/m3", "initial_state_scale": "1"}
+FMU_UNITS.update({"force_error_bound": "s", "force_error_bound_": "s",             # linear models' bounds
+                  "initial_state_error_bound": "m/s*s^0.5", "initial_state_error_bound_": "m/s*s^0.5"})
 # the order of modelDescription's elements in the FMI 2 and 3 schemas (each optional)
 FMU_ELEMENT_ORDER = ["ModelExchange", "CoSimulation", "ScheduledExecution", "UnitDefinitions", "TypeDefinitions",
                      "LogCategories", "DefaultExperiment", "VendorAnnotations", "ModelVariables", "ModelStructure"]

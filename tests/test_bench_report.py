@@ -164,3 +164,25 @@ def test_the_report_has_the_committed_documents_sections_in_order(tmp_path):
     assert "![cost against N](validation/benchmarks/scaling_n.png)" in text
     assert "![stress map](validation/benchmarks/stress/a_stress.png)" in text
     assert not (ROOT / "validation" / "benchmarks" / "bench.md").exists()
+
+
+def test_linear_tradeoff_section_replaces_its_own_section_only(tmp_path):
+    """python -m harness.bench.linear_tradeoff writes its section into BENCHMARKS.md, before the stress maps: a
+    second run replaces it, the other sections stay; the bound's ratio to the measured error is shown where
+    there is a bound; sphrom bench --report carries it over."""
+    from harness.bench.linear_tradeoff import SECTION_TITLE, write_section
+    rows = [{"scene": "s", "force": f, "order": 4, "model": m, "state": 4, "online_s": 0.5, "err_sph": 1e-2,
+             "err_linear": 2e-5 if m == "balanced" else NAN, "bound": 3e-5 if m == "balanced" else NAN, "note": ""}
+            for f in ("training", "unseen") for m in ("balanced", "frozen")]
+    text = "\n".join(rp.linear_tradeoff_section(rows, "cmd", 1.0)) + "\n"
+    assert text.startswith(SECTION_TITLE) and "### s, training force" in text and "### s, unseen force" in text
+    assert "| 4 | balanced | 4 | 0.5000 | 1.000e-02 | 2.000e-05 | 3.000e-05 | 1.50000 |  |" in text
+    assert "| 4 | frozen | 4 | 0.5000 | 1.000e-02 | — | — | — |  |" in text
+    assert SECTION_TITLE in rp.CARRIED
+    page = tmp_path / "B.md"
+    page.write_text("# Benchmarks\n\n## A\n\na\n\n## Stability stress maps\n\nz\n")
+    write_section(page, text)
+    write_section(page, text.replace("cmd", "cmd2"))
+    out = page.read_text()
+    assert out.count(SECTION_TITLE) == 1 and "cmd2" in out and "`cmd`" not in out and "\n\n\n" not in out
+    assert out.index("## A") < out.index(SECTION_TITLE) < out.index("## Stability stress maps") and out.endswith("z\n")

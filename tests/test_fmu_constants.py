@@ -53,6 +53,9 @@ def test_constants_shared_by_c_and_python():
         "ROM_FLAG_DAMPING": resources.FLAG_DAMPING,
         "ROM_FLAG_INPUT": resources.FLAG_INPUT,
         "ROM_FLAG_SCHUR": resources.FLAG_SCHUR,
+        "ROM_FLAG_OUTPUT_ROWS": resources.FLAG_OUTPUT_ROWS,
+        "ROM_LINEAR_EXACT_POD": resources.LINEAR_EXACT_POD,
+        "ROM_LINEAR_BALANCED": resources.LINEAR_BALANCED,
         "ROM_MAX_MODES": resources.MAX_MODES,
         "ROM_MAX_PROBES": resources.MAX_PROBES,
         "ROM_SECTION_TAG_SIZE": resources.SECTION_TAG_SIZE,
@@ -79,6 +82,10 @@ def test_constants_shared_by_c_and_python():
         "ROM_INITIAL_STATE_SCALE_START": describe.INITIAL_STATE_SCALE_START,
         "ROM_VR_V_PROBE": describe.VR_V_PROBE,
         "ROM_VR_RHO_PROBE": describe.VR_RHO_PROBE,
+        "ROM_VR_FORCE_ERROR_BOUND": describe.VR_FORCE_ERROR_BOUND,
+        "ROM_VR_INITIAL_STATE_ERROR_BOUND": describe.VR_INITIAL_STATE_ERROR_BOUND,
+        "ROM_VR_FORCE_ERROR_BOUND_PROBE": describe.VR_FORCE_ERROR_BOUND_PROBE,
+        "ROM_VR_INITIAL_STATE_ERROR_BOUND_PROBE": describe.VR_INITIAL_STATE_ERROR_BOUND_PROBE,
     }
     assert {name: rom.get(name) for name in shared} == shared
     assert describe.VR_INITIAL_STATE_SCALE == fmi.VR_INITIAL_STATE_SCALE

@@ -66,17 +66,18 @@ def envelope_warnings(slave):
     return [text for status, _, text in slave.messages if status == 1 and ENVELOPE_TEXT in text]
 
 
-def run_fmu(path, force, T=None, reset_and_repeat=False):
-    """The envelope warnings and the error-status count of a run of ``path`` at step H under ``force``."""
+def run_fmu(path, force, T=None, reset_and_repeat=False, scale=None):
+    """The envelope warnings and the error messages of a run of ``path`` at step H under ``force``,
+    initial_state_scale ``scale`` (None: the FMU's start value 0, from rest)."""
     T = T or fmu_scene("forced").T
     n = int(round(T / H))
     t = np.arange(n) * H
     with Slave(path) as s:
-        s.initialize()
+        s.initialize(initial_state_scale=scale)
         s.run([H] * n, force(t))
         if reset_and_repeat:
             s.reset()
-            s.initialize()
+            s.initialize(initial_state_scale=scale)
             s.run([H] * n, force(t))
         return envelope_warnings(s), s.errors()
 
@@ -120,26 +121,27 @@ def test_envelope_sections_round_trip_python_and_c(envelope_fmus):
 @pytest.mark.parametrize("fmi", [2, 3])
 @pytest.mark.parametrize("model", ["frozen", "exact"])
 def test_training_run_never_warns(envelope_fmus, fmi, model):
-    """The scene's own run (its force at the communication points, held) stays inside the envelope."""
+    """The scene's own run (its initial state, its force at the communication points, held) stays inside
+    the envelope."""
     scene = fmu_scene("forced")
-    warnings, errors = run_fmu(envelope_fmus(model, fmi), scene.force)
+    warnings, errors = run_fmu(envelope_fmus(model, fmi), scene.force, scale=1.0)
     assert warnings == [] and errors == []
 
 
 @pytest.mark.parametrize("fmi", [2, 3])
 def test_ten_times_the_amplitude_warns_once(envelope_fmus, fmi):
-    """10x the initial state: the frozen FMU logs exactly one warning (never an error) naming the quantity,
+    """initial_state_scale = 10: the frozen FMU logs exactly one warning (never an error) naming the quantity,
     its value, the trained range and the time; reset re-arms it; the exact FMU, exact in its state at any
     amplitude, logs none."""
     scene = fmu_scene("forced")
-    warnings, errors = run_fmu(envelope_fmus("frozen", fmi, 10.0), scene.force)
+    warnings, errors = run_fmu(envelope_fmus("frozen", fmi), scene.force, scale=10.0)
     assert errors == []
     (text,) = warnings
     assert "reduced coordinate a_v_" in text and "trained range [" in text and "t = 0.01 s" in text
     assert "warned once per instance" in text
-    warnings, errors = run_fmu(envelope_fmus("frozen", fmi, 10.0), scene.force, reset_and_repeat=True)
+    warnings, errors = run_fmu(envelope_fmus("frozen", fmi), scene.force, reset_and_repeat=True, scale=10.0)
     assert len(warnings) == 2 and errors == []
-    warnings, errors = run_fmu(envelope_fmus("exact", fmi, 10.0), scene.force)
+    warnings, errors = run_fmu(envelope_fmus("exact", fmi), scene.force, scale=10.0)
     assert warnings == [] and errors == []
 
 
@@ -157,8 +159,8 @@ def test_force_above_the_trained_amplitude_warns_once(envelope_fmus, fmi):
 @pytest.mark.parametrize("fmi", [2, 3])
 @pytest.mark.parametrize("model", ["frozen", "exact"])
 def test_unseen_force_inside_the_envelope_gives_no_warning(envelope_fmus, fmi, model):
-    """A force the basis never saw (one tone at another frequency, 0.6x the trained amplitude), from the
-    scene's start: no warning."""
+    """A force the basis never saw (one tone at another frequency, 0.6x the trained amplitude), from rest
+    (initial_state_scale 0, the FMU's start value): no warning."""
     scene = fmu_scene("forced")
     amplitude = float(np.max(np.abs(scene.force(np.linspace(0, scene.T, 2001)))))
     warnings, errors = run_fmu(envelope_fmus(model, fmi), lambda t: 0.6 * amplitude * np.sin(2 * np.pi * 7.0 * t))
@@ -181,8 +183,8 @@ def test_cosim_shows_the_envelope_warning(envelope_fmus, tmp_path, capsys, fmi):
     scene = fmu_scene("forced")
     for scale, expected in ((1.0, 0), (10.0, 1)):
         out = tmp_path / f"x{scale:g}.csv"
-        assert main(["cosim", str(envelope_fmus("frozen", fmi, scale)), "--force", scene.f.text, "--step",
-                     str(H), "--t-end", str(scene.T), "--out", str(out)]) == 0
+        assert main(["cosim", str(envelope_fmus("frozen", fmi)), "--force", scene.f.text, "--step", str(H),
+                     "--t-end", str(scene.T), "--initial-state-scale", f"{scale:g}", "--out", str(out)]) == 0
         printed = [line for line in capsys.readouterr().out.splitlines() if line.startswith("FMU warning:")]
         assert len(printed) == expected and all(ENVELOPE_TEXT in line for line in printed)
         assert out.exists()

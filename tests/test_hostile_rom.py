@@ -132,3 +132,53 @@ def test_no_false_alarm_on_training_scenes(base):
         f_int = np.concatenate([[0.0], np.cumsum(f[:-1]) * scene.sph.dt])[res.steps]
         bound = (np.exp(lam * res.t) * (np.sqrt(e[0]) + sigma * f_int)) ** 2
         assert np.max(e / bound) < 1.2, (base, name, np.max(e / bound))
+
+
+@pytest.mark.parametrize("name", ["exact", "frozen", "balanced"])
+def test_forced_run_from_rest_is_not_a_runaway(name):
+    """A scene starting at rest under a force: the linear models' runaway bound was 1e6 |z0| = 0 and stopped
+    the run at its first sample; now it counts the forcing (|z| <= |z0| + |B| int |f| for the exact model)."""
+    from harness.rom.exact_linear import linear_runaway_bound
+    scene = small_scene("damped_forced", T=0.5, n=32, v0="0")
+    problem = build_problem(scene)
+    model = get_model(name)
+    basis = None if model.basis_kind is None else basis_for_scene(scene, progress=False, problem=problem)[0]
+    ops = model.build(problem, basis, 4, 4)
+    res = model.run(ops, problem, dt=scene.sph.dt, n_steps=step_count(scene.T, scene.sph.dt), every=50,
+                    force=scene.force)
+    assert np.all(np.isfinite(res.a_v)) and np.max(np.abs(res.a_v)) > 0
+    if name == "exact":
+        h = res.settings["step"]
+        f_int = h * float(np.sum(np.abs(scene.force(np.arange(res.t.size + 1) * h))))
+        z = np.hstack([res.a_v, res.a_rho])
+        assert np.max(np.linalg.norm(z, axis=1)) <= linear_runaway_bound(ops, f_int) / 1e6 * 1.01
+
+
+def test_exact_fmu_forced_from_rest_is_not_a_runaway(tmp_path):
+    """The exact FMU of a scene at rest, driven by a force: its packaged bound was 1e6 |z0| = 0 (a runaway at the
+    first forced step); it is now 1e6 (|z0| + |B| int |f| dt) over the scene's force, so the forced run goes on
+    and equals the Python exact model (held input)."""
+    import zipfile
+
+    from harness.fmu.build import ensure_binaries
+    from harness.fmu.fmi import Slave
+    from harness.fmu.package import exact_model, package_fmu
+    from harness.rom.exact_linear import run_exact
+    from test_fmu_exact import probe_outputs, relative_residual
+    from harness.fmu.resources import unpack
+    scene = small_scene("damped_forced", T=0.5, n=32, v0="0")
+    path = tmp_path / "rest.fmu"
+    package_fmu(scene, path, k=4, fmi=2, progress=False, binaries=ensure_binaries(), model="exact")
+    data = unpack(zipfile.ZipFile(path).read("resources/model.bin"))
+    assert data.bound > 0 and not np.any(data.z0)                # at rest, and still a bound to scale by
+    h, m = 0.01, 30
+    t = np.arange(m + 1) * h
+    f = 1e-2 * np.sin(2 * np.pi * 3 * t[:-1])
+    with Slave(path) as s:
+        s.initialize()
+        out = s.run([h] * m, f)
+    assert np.all(np.isfinite(out)) and np.max(np.abs(out[:, 0])) > 0
+    _, lin, _, _ = exact_model(scene, 4, 10, (0.25, 0.5, 0.66), progress=False)
+    force = lambda s_: 1e-2 * np.sin(2 * np.pi * 3 * np.floor(np.asarray(s_, float) / h + 1e-9) * h)  # noqa: E731
+    ref = probe_outputs(data, run_exact(lin, t, step=h, force=force, hold="held").z)
+    assert relative_residual(out, ref) <= 1e-10

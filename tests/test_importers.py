@@ -37,7 +37,7 @@ def libcosim_outputs(path, names):
     return np.array(rows)
 
 
-@pytest.mark.parametrize("model", ["frozen", "exact"])
+@pytest.mark.parametrize("model", ["frozen", "exact", "balanced"])
 def test_libcosim_runs_the_fmi2_fmu_as_fmpy_does(tmp_path, model):
     path = tmp_path / f"{model}.fmu"
     package_fmu(fmu_scene("forced"), path, k=6, fmi=2, progress=False, binaries=ensure_binaries(), model=model)
@@ -51,7 +51,7 @@ def test_libcosim_runs_the_fmi2_fmu_as_fmpy_does(tmp_path, model):
     np.testing.assert_allclose(theirs, ours, rtol=1e-12, atol=1e-15)
 
 
-@pytest.mark.parametrize("model", ["frozen", "exact"])
+@pytest.mark.parametrize("model", ["frozen", "exact", "balanced"])
 def test_fmu_manipulation_toolbox_container_runs_the_fmi3_fmu_as_fmpy_does(tmp_path, model):
     """fmu-manipulation-toolbox's container wraps the FMI 3 FMU: its own runtime (not ours, not fmpy's)
     loads, instantiates and steps it; fmpy only drives the container."""

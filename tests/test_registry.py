@@ -16,6 +16,7 @@ from harness.errors import UserError
 from harness.norms import relative_l2
 from harness.pod import basis_for_scene, read_basis
 from harness.rom import MODEL_NAMES, MODELS, ReducedResult, get_model, model_names, probe_rows, run_model
+from harness.rom.registry import fmu_model_names
 from harness.sph.solver import build_problem, step_count
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -110,7 +111,9 @@ def test_properties_are_what_the_models_do(forced):
                 with pytest.raises(ValueError):
                     go(integrator=integrator)
     assert model_names(linear=False) == ("original", "linearized", "frozen")
-    assert set(model_names(fmu_kind=None)) == {"original", "linearized", "balanced"}
+    assert set(model_names(fmu_kind=None)) == {"original", "linearized"}
+    assert fmu_model_names() == ("frozen", "exact", "balanced")      # the linear ones share resource kind 2
+    assert get_model("balanced").fmu_kind == get_model("exact").fmu_kind == 2
     assert model_names(basis_kind=None) == ("balanced",)
     with pytest.raises(ValueError, match="not one of original, linearized, frozen, exact"):
         get_model("balanced-typo")

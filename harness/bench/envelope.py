@@ -11,8 +11,10 @@ block's largest half-width (the quantity the FMU's coordinate check compares wit
 :mod:`harness.fmu.envelope`).  Run as::
 
     python -m harness.bench.envelope [SCENE ...] [--scales 1,1.5,...] [--out validation/benchmarks/envelope.csv]
+                                     [--report BENCHMARKS.md]
 
-It writes the CSV and a PNG of error against peak probe strain beside it, and prints the table.  It
+It writes the CSV and a PNG of error against peak probe strain beside it, and its section of
+BENCHMARKS.md (``sphrom bench --report`` carries it over).  It
 also measures the headroom of every built-in scene's frozen model on its own training run (the FMU's
 settings: k = the scene's largest rom.accel_modes, n_freeze = 10, the scene's force): the largest
 coordinate excess (the check allows margin - 1) and the largest probe strain over the trained one (the
@@ -155,43 +157,62 @@ def plot(rows, path):
     plt.close(fig)
 
 
-def main(argv=None):
+SCENES = ("tenmode", "multimode", "damped")
+
+
+def run(out, scenes=SCENES, scales=SCALES, progress=True):
+    """The sweep of ``scenes`` and the training headroom of every built-in scene: rows written to ``out``
+    (envelope.csv), envelope.png and envelope_training.csv beside it; returns
+    {"rows", "training", "command"} for the report (:func:`harness.bench.report.envelope_section`)."""
     from ..runio import atomic_path
-    from .tables import write_csv
-    p = argparse.ArgumentParser(prog="python -m harness.bench.envelope", description=__doc__.split("\n\n")[0])
-    p.add_argument("scenes", nargs="*", default=["tenmode"], metavar="SCENE")
-    p.add_argument("--scales", default=",".join(f"{s:g}" for s in SCALES), metavar="S1,S2,...")
-    p.add_argument("--out", default="validation/benchmarks/envelope.csv", metavar="FILE.csv")
-    p.add_argument("--quiet", action="store_true")
-    args = p.parse_args(argv)
-    try:
-        scales = [float(s) for s in args.scales.split(",")]
-        if not all(np.isfinite(s) and s > 0 for s in scales):
-            raise ValueError
-    except ValueError:
-        p.error(f"--scales: {args.scales!r} is not a list of numbers > 0")
-    rows = [r for s in args.scenes for r in measure(s, scales, progress=not args.quiet)]
-    out = Path(args.out)
-    write_csv(out, rows)
-    png = out.with_suffix(".png")
-    with atomic_path(png) as tmp:
-        plot(rows, tmp)
-    print("| scene | s | peak strain | peak probe strain | frozen v error | frozen coord. excess | exact v error |")
-    print("| --- | --- | --- | --- | --- | --- | --- |")
-    for r in rows:
-        print(f"| {r['scene']} | {r['scale']:g} | {r['peak_strain']:.3g} | {r['peak_probe_strain']:.3g} | "
-              f"{r['frozen_v_error']:.3g} | {r['frozen_coordinate_excess']:.3g} | {r['exact_v_error']:.3g} |")
-    for scene in dict.fromkeys(r["scene"] for r in rows):
-        print(f"{scene}: probe strain at {FAILURE_ERROR:.0%} frozen probe error: "
-              f"{failure_strain(rows, scene):.3g} (nan: not reached)")
     from ..scene import builtin_names
+    from .tables import write_csv
+    out = Path(out)
+    rows = [r for s in scenes for r in measure(s, scales, progress=progress)]
+    write_csv(out, rows)
+    with atomic_path(out.with_suffix(".png")) as tmp:
+        plot(rows, tmp)
     training = [training_headroom(name) for name in builtin_names()]
     write_csv(out.with_name("envelope_training.csv"), training)
-    print("| scene | largest coordinate excess (allowed 0.5) | probe strain / trained (allowed 1.5) |")
-    print("| --- | --- | --- |")
-    for r in training:
-        print(f"| {r['scene']} | {r['coordinate_excess']:.3g} | {r['probe_strain_ratio']:.3g} |")
-    print(f"wrote {out}, {png} and {out.with_name('envelope_training.csv')}")
+    command = "python -m harness.bench.envelope " + " ".join(scenes)
+    if tuple(scales) != SCALES:
+        command += " --scales " + ",".join(f"{s:g}" for s in scales)
+    failure = {s: failure_strain(rows, s) for s in dict.fromkeys(r["scene"] for r in rows)}
+    return {"rows": rows, "training": training, "command": command, "failure": failure,
+            "failure_error": FAILURE_ERROR}
+
+
+def _scales(text):
+    try:
+        scales = [float(s) for s in text.split(",")]
+    except ValueError:
+        scales = []
+    if not scales or not all(np.isfinite(s) and s > 0 for s in scales):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a comma-separated list of numbers > 0")
+    return scales
+
+
+def main(argv=None):
+    from .report import envelope_section
+    p = argparse.ArgumentParser(prog="python -m harness.bench.envelope", description=__doc__.split("\n\n")[0])
+    p.add_argument("scenes", nargs="*", default=list(SCENES), metavar="SCENE")
+    p.add_argument("--scales", type=_scales, default=list(SCALES), metavar="S1,S2,...")
+    p.add_argument("--out", default="validation/benchmarks/envelope.csv", metavar="FILE.csv")
+    p.add_argument("--report", default="BENCHMARKS.md", metavar="FILE.md")
+    p.add_argument("--quiet", action="store_true")
+    args = p.parse_args(argv)
+    from ..report.markdown import write_text
+    from .fmu_verify import replace_section
+    result = run(args.out, args.scenes, args.scales, progress=not args.quiet)
+    lines = envelope_section(result, image_dir=str(Path(args.out).parent))
+    print("\n".join(lines))
+    report = Path(args.report)
+    text = report.read_text() if report.exists() else "# Benchmarks\n"
+    write_text(report, replace_section(text, lines[0], lines))
+    for scene in args.scenes:
+        print(f"{scene}: probe strain at {FAILURE_ERROR:.0%} frozen probe error: "
+              f"{failure_strain(result['rows'], scene):.3g} (nan: not reached)")
+    print(f"wrote {args.out}, its .png, envelope_training.csv beside it and the section of {report}")
 
 
 if __name__ == "__main__":

@@ -197,13 +197,13 @@ def end_to_end(scene_name="tenmode", steps=(0.01, 0.001), repeats=5, k=None, pro
     n_internal = step_count(scene.T, scene.sph.dt)
     binaries = ensure_binaries()
     rows, summaries, sph_probes = [], {}, None
-    models = fmu_model_names() if models is None else models
+    models = benched_fmu_models() if models is None else models
     with tempfile.TemporaryDirectory(dir=workdir) as tmp:
         for model in models:
             spec = get_model(model)
             path = Path(tmp) / f"{scene.name}-{model}.fmu"
             summary = package_fmu(scene, path, k=k, fmi=2, progress=progress, binaries=binaries, problem=problem,
-                                  model=model)
+                                  model=model, bounds=False)
             summaries[model] = summary
             fixed = _median([_simulate(path, min(steps), min(steps)) for _ in range(repeats)])
             core_time = bare_us = float("nan")
@@ -212,7 +212,7 @@ def end_to_end(scene_name="tenmode", steps=(0.01, 0.001), repeats=5, k=None, pro
                 unzipdir = extract(str(path), unzipdir=str(Path(tmp) / f"unzipped-{model}"))
                 # the core alone, same model (the FMU's resources), same internal steps
                 *_, blob = RESOURCES[spec.fmu_kind](scene, model, summary.k, summary.n_freeze, summary.probes,
-                                                    summary.integrator, False, problem)
+                                                    summary.integrator, False, problem, bounds=False)
                 core_model = Core(binaries.core).load(blob)
                 core_times = []
                 for _ in range(repeats):
@@ -284,6 +284,13 @@ def _workdir():
     return _WORKDIR[0]
 
 
+def benched_fmu_models():
+    """The FMU models these benchmarks time, per POD mode count k: those on a POD basis (frozen, exact).  The
+    balanced model has no POD basis (its order is not k) and its own measurement,
+    ``python -m harness.bench.balanced_measure``."""
+    return tuple(m for m in fmu_model_names() if get_model(m).basis_kind is not None)
+
+
 def prepared_fmu(scene, k, model="frozen", n_freeze=10, problem=None, probes=(0.25, 0.5, 0.66)):
     """(path, unzipdir, model description, summary) of the FMI 2 FMU of ``scene``: packaged and extracted
     once per process for each (scene text, k, model, n_freeze, probes)."""
@@ -300,7 +307,7 @@ def prepared_fmu(scene, k, model="frozen", n_freeze=10, problem=None, probes=(0.
         folder.mkdir()
         path = folder / "model.fmu"
         summary = package_fmu(scene, path, k=k, n_freeze=n_freeze, probes=probes, fmi=2, progress=False,
-                              binaries=ensure_binaries(), problem=problem, model=model)
+                              binaries=ensure_binaries(), problem=problem, model=model, bounds=False)
         unzipdir = extract(str(path), unzipdir=str(folder / "unzipped"))
         _PREPARED[key] = (path, unzipdir, read_model_description(str(path)), summary)
     return _PREPARED[key]
@@ -484,7 +491,7 @@ def bench_rows(context):
         return e_s, e_r
 
     for k in context["ks"]:
-        for model in fmu_model_names():
+        for model in benched_fmu_models():
             spec = get_model(model)
             nfs = (10, 1) if spec.uses_n_freeze else (10,)
             # the time-stepped FMU is "FMU (fmpy)", the product's default; the others are named
@@ -497,7 +504,7 @@ def bench_rows(context):
                 continue
             # the FMU's numbers and operators (the resources of its model_kind), as packaged, at n_freeze 10
             _, ops, blob = RESOURCES[spec.fmu_kind](scene, model, k, 10, summary.probes, summary.integrator,
-                                                       False, problem)
+                                                       False, problem, bounds=False)
             for nf in nfs:
                 slave = LeanSlave(unzipdir, md)
                 times = []
@@ -595,7 +602,7 @@ def fmu_measurements(scene_name="tenmode", repeats=5, sizes=(100, 400, 1600), st
     (:func:`sph_step_rows`), ``repeats``.
     """
     from ..progress import progress_bar
-    with progress_bar(total=len(sizes) + len(steps) * len(fmu_model_names()) + repeats + 1, desc="FMU",
+    with progress_bar(total=len(sizes) + len(steps) * len(benched_fmu_models()) + repeats + 1, desc="FMU",
                       enabled=progress) as bar:
         e2e = end_to_end(scene_name, steps=steps, repeats=repeats, bar=bar)
         core = core_rows(scene_name, list(sizes), repeats=repeats, bar=bar)

@@ -224,6 +224,57 @@ def fmu_section(fmu):
             f"{fmu['repeats']}.", ""]
 
 
+def _within_margin(rows, scenes, margin):
+    """", at s = margin the frozen error is r × its value at s = 1 (scene, ...)" from the rows that have both."""
+    ratios = []
+    for s in scenes:
+        at = {r["scale"]: r["frozen_v_error"] for r in rows if r["scene"] == s}
+        if 1.0 in at and margin in at and at[1.0] > 0:
+            ratios.append(f"{at[margin] / at[1.0]:.2g}× ({s})")
+    return f": at s = {margin:g} the frozen error is {', '.join(ratios)} its value at s = 1" if ratios else ""
+
+
+def envelope_section(envelope, image_dir=""):
+    """The frozen FMU's training envelope (:func:`harness.bench.envelope.run`: rows, training, command, and
+    failure, the probe strain per scene where the frozen error reaches failure_error): error against
+    amplitude and strain, the margin's headroom on the training runs; [] without it."""
+    if not envelope:
+        return []
+    from ..fmu.envelope import FAILURE_STRAIN, MARGIN
+    rows, d = envelope["rows"], image_dir.rstrip("/") + "/" if image_dir else ""
+    scenes = list(dict.fromkeys(r["scene"] for r in rows))
+    lines = ["## The training envelope of the frozen FMU", "",
+             f"`{envelope['command']}` (`{d}envelope.csv`): the initial velocity scaled by s, the density at ρ0; "
+             "the full SPH runs the scaled scene, the reduced models start from the scaled coordinates on the x1 "
+             "basis (the FMU's: k = the scene's largest `rom.accel_modes`, n_freeze = 10). Relative L² error of "
+             "the probe velocities (x/L = 0.25, 0.5, 0.66) against the full SPH; peak strain |ρ0/ρ − 1| of the "
+             "full SPH over the particles and at the probes; the frozen run's largest coordinate excess beyond "
+             "its trained ranges in units of its block's largest half-width (the FMU warns above margin − 1 = "
+             f"{MARGIN - 1:g}).", "",
+             f"![error against strain]({d}envelope.png)", "",
+             "| scene | s | peak strain | peak probe strain | frozen v error | coordinate excess | exact v error |",
+             "| --- | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    for r in rows:
+        lines.append(f"| {r['scene']} | {r['scale']:g} | {r['peak_strain']:.3g} | {r['peak_probe_strain']:.3g} | "
+                     f"{r['frozen_v_error']:.3g} | {r['frozen_coordinate_excess']:.3g} | {r['exact_v_error']:.3g} |")
+    reached = envelope["failure"]              # scene -> probe strain at the failure error (nan: not reached)
+    where = ", ".join(f"{v:.3g} ({s})" for s, v in reached.items() if not math.isnan(v)) or "never in this range"
+    exact = "; ".join(f"{s} {min(r['exact_v_error'] for r in rows if r['scene'] == s):.4g} to "
+                      f"{max(r['exact_v_error'] for r in rows if r['scene'] == s):.4g}" for s in scenes)
+    lines += ["", "The full SPH is linear in J = ρ0/ρ (up to its time stepping of ρ), so a scaled initial state "
+              f"scales its solution and the exact model's error hardly moves with s ({exact}); the frozen "
+              "model's error grows about linearly with the strain (the density linearization of eq. 2.17 and the "
+              f"ρ² coefficient): it reaches {envelope['failure_error']:.0%} at a probe strain of {where}. The FMU's failure "
+              f"strain is {FAILURE_STRAIN:g}, its margin {MARGIN:g}{_within_margin(rows, scenes, MARGIN)}.", "",
+              "Headroom on the training runs (every built-in scene's frozen model on its own scene, "
+              f"`{d}envelope_training.csv`): the FMU warns above a coordinate excess of {MARGIN - 1:g} or a probe "
+              f"strain of {MARGIN:g}× the trained one.", "",
+              "| scene | largest coordinate excess | probe strain / trained |", "| --- | ---: | ---: |"]
+    for r in envelope["training"]:
+        lines.append(f"| {r['scene']} | {r['coordinate_excess']:.3g} | {r['probe_strain_ratio']:.3g} |")
+    return lines + [""]
+
+
 def stress_section(maps, command, image_dir="", level=1):
     """The stability stress maps (:class:`harness.bench.stress_maps.StressMaps`) as Markdown lines.
 
@@ -288,11 +339,45 @@ def _stress_scene(s, amplitude, h, prefix):
 # the document
 # ---------------------------------------------------------------------------
 
+def linear_tradeoff_section(rows, command, wall):
+    """Time against error of balanced, exact, frozen and original at equal state dimension, per scene and force,
+    with the linear models' certified bounds beside their measured errors (:mod:`harness.bench.linear_tradeoff`)."""
+    lines = ["## Linear models: time against error", "",
+             f"Produced by `{command}` ({wall:.0f} s wall; online times are medians of repeated runs on a shared "
+             "2-core machine). State dimension r for every model: the balanced model's order, k = r/2 POD modes "
+             "of each kind for the others (one more velocity mode where the force profile is appended, as in each "
+             "model's FMU; the column *state* gives the count). "
+             "Errors: probe velocities at x/L = 0.25, 0.5, 0.66; *vs SPH* the relative L² error (eq. 3.4) against "
+             "the full SPH run; *vs linear* the absolute ‖y − y_full‖_L2(0,T) [m s⁻¹ s^½] against the full "
+             "linear SPH exact in time (largest over the probes), beside its certified *bound* "
+             "force_error_bound ‖f‖_L2 + initial_state_error_bound (what `sphrom fmu` stores in the FMU). "
+             "*training*: the scene's own force; *unseen*: another time history along the same profile "
+             "(`UNSEEN_FORCE` of the module), the POD basis unchanged. Where *vs linear* lies far below "
+             "*vs SPH*, the rest is the difference between the time-stepped full SPH run and the linear SPH exact "
+             "in time (the linear models have no time-step error).", ""]
+    for scene in dict.fromkeys(r["scene"] for r in rows):
+        for force in ("training", "unseen"):
+            sub = [r for r in rows if r["scene"] == scene and r["force"] == force]
+            if not sub:
+                continue
+            lines += [f"### {scene}, {force} force", "",
+                      "| r | model | state | online [s] | v error vs SPH | vs linear | bound | bound / measured | note |",
+                      "| -- | ----- | ----- | ---------- | -------------- | --------- | ----- | ---------------- | ---- |"]
+            for r in sub:
+                ratio = r["bound"] / r["err_linear"] if r["err_linear"] and not math.isnan(r["err_linear"]) else None
+                lines.append(f"| {r['order']} | {r['model']} | {r['state']} | {_fmt(r['online_s'], '.4f')} | "
+                             f"{_fmt(r['err_sph'])} | {_fmt(r['err_linear'])} | {_fmt(r['bound'])} | "
+                             f"{_fmt(ratio, '.5f')} | {r['note']} |")
+            lines.append("")
+    return lines
+
+
 # Sections that other commands write into BENCHMARKS.md (each names its command; they sit between the FMU's
 # section and the stress maps): ``sphrom bench --report`` carries them over from the existing document, in
 # its order, so that regenerating the benchmarks never drops them.
 CARRIED = ("## The training envelope of the frozen FMU",
-           "## The packaged FMU against the full SPH, every scene")
+           "## The packaged FMU against the full SPH, every scene",
+           "## Linear models: time against error")
 PACKAGED_HEADING = "## The packaged FMU against the full SPH, every scene"
 
 

@@ -33,7 +33,7 @@ def add_parser(sub):
 def run(args):
     from pathlib import Path
 
-    from ..bench.fmu import core_rows, end_to_end, write_fmu_csv
+    from ..bench.fmu import benched_fmu_models, core_rows, end_to_end, write_fmu_csv
     from ..bench.report import fmu_tables
     from ..progress import progress_bar
     from ..report.markdown import write_text
@@ -52,7 +52,7 @@ def run(args):
     out = Path(args.out) if args.out else None
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
-    total = len(sizes) + (0 if args.core_only else len(fmu_model_names()) * len(steps) + args.repeats)
+    total = len(sizes) + (0 if args.core_only else len(benched_fmu_models()) * len(steps) + args.repeats)
     with progress_bar(total=total, desc="bench-fmu", enabled=not args.quiet) as bar:
         core = core_rows(args.scene, sizes, repeats=args.repeats, progress=False, bar=bar)
         e2e = None if args.core_only else end_to_end(args.scene, steps=steps, repeats=args.repeats, progress=False,

@@ -13,7 +13,8 @@ DESCRIPTION = ("Build the frozen-coefficient reduced model of SCENE (eqs. 2.19-2
                "an unseen one, A sin(2 pi 0.7 t), from rest where the FMU can start at rest: probe errors of "
                "eq. 3.4 and run times, stored in its description and in documentation/index.html with a plot) "
                "and print a summary. Input f [m s^-2]; outputs v_probe_j [m s^-1] and rho_probe_j [kg m^-3]; "
-               "parameters n_freeze, dt. Exit status 4: the measured error is above --tolerance (nothing "
+               "parameters n_freeze, dt (frozen), initial_state_scale; linear models (exact, balanced) also "
+               "carry certified error bounds. Exit status 4: the measured error is above --tolerance (nothing "
                "written).")
 
 
@@ -24,23 +25,33 @@ def add_parser(sub):
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     add_scene(p)
     p.add_argument("--modes", type=int_at_least(1), metavar="K",
-                   help="POD modes k (default: the largest of the scene's rom.accel_modes)")
+                   help="POD modes k (default: the largest of the scene's rom.accel_modes); balanced: its order r "
+                        "(1 to 2N - 1)")
+    p.add_argument("--tolerance", type=positive_float, metavar="TOL",
+                   help="the largest relative probe v error (eq. 3.4) on the training force accepted (0 < TOL < "
+                        "1): above it the exit status is 4 and nothing is written; balanced without --modes: "
+                        "instead, its order is the smallest r with 2 sum_{i>r} sigma_i <= TOL 2 sum sigma_i "
+                        "(default 1e-3 when neither is given)")
     add_n_freeze(p, default=10, help="default refresh period n_freeze of the frozen coefficients")
     p.add_argument("--probes", type=float_list(1, max_probes, lo=0.0, hi=1.0), metavar="X1,X2,...",
                    default="0.25,0.5,0.66", help="probe positions in units of L, in [0, 1] (default 0.25,0.5,0.66)")
     p.add_argument("--fmi", type=one_of("2", "3"), metavar="2|3", default="2", help="FMI version (default 2)")
     p.add_argument("--integrator", type=one_of("euler", "symplectic"), metavar="euler|symplectic",
                    help="time integrator of the frozen model (default: the scene's)")
-    p.add_argument("--model", metavar="frozen|exact|auto", default="frozen",
-                   help="reduced model: frozen (eqs. 2.19-2.24, internal dt; default) or exact (the exact linear "
+    p.add_argument("--model", metavar="frozen|exact|balanced|auto", default="frozen",
+                   help="reduced model: frozen (eqs. 2.19-2.24, internal dt; default), exact (the exact linear "
                         "model in the specific volume, advanced by the matrix exponential over each "
-                        "communication step); auto (needs --tolerance) packages and measures every model and "
-                        "keeps the fastest whose training-force error meets the tolerance")
-    p.add_argument("--tolerance", type=positive_float, metavar="TOL",
-                   help="largest probe v error (eq. 3.4) on the training force accepted; above it the FMU is not "
-                        "written and the exit status is 4 (default: no check)")
+                        "communication step) or balanced (balanced reduction of the full linear SPH, no POD basis, "
+                        "the same C code as exact); the linear models carry certified error bounds; auto (needs "
+                        "--tolerance) packages and measures every model and keeps the fastest whose "
+                        "training-force error meets the tolerance")
     p.add_argument("--no-verify", dest="verify", action="store_false",
                    help="skip the measurement against the full SPH (the documentation then says 'not measured')")
+    p.add_argument("--vary", action="append", default=[], metavar="c=LO:HI|d=LO:HI",
+                   help="a parametric FMU: train one basis over this range of the uniform stiffness c "
+                        "[kg m^-1 s^-2] or damping d [s^-1] (full SPH at the corners and the centre of the range, "
+                        "one POD of all snapshots) and expose c (value reference 5) or d (6) as fixed parameters, "
+                        "min/max the range; give both to vary both")
     p.add_argument("--out", required=True, metavar="FILE.fmu")
     add_quiet(p)
     p.set_defaults(handler=run)
@@ -68,15 +79,19 @@ def _run(args):
     from ..rom.registry import MODELS, fmu_model_names
     if args.model not in fmu_model_names() + ("auto",):
         raise UserError(f"--model: {args.model!r} is out of range (allowed: {', '.join(fmu_model_names())}, auto)")
-    if args.tolerance is not None and not args.verify:
+    if args.tolerance is not None and not args.verify and (args.model == "auto" or args.modes is not None
+                                                           or MODELS[args.model].basis_kind is not None):
         raise UserError("--tolerance: needs the measurement (drop --no-verify)")
     scene = load_scene(args.scene)
     if args.model == "auto":
+        if args.vary:
+            raise UserError("--vary: not with --model auto (choose frozen or exact for a parametric FMU)")
         if args.tolerance is None:
             raise UserError("--model: auto needs --tolerance TOL (the error the chosen model must meet)")
         for model in fmu_model_names():
             check_options(scene, k=args.modes, n_freeze=args.n_freeze, probes=args.probes, fmi=fmi,
-                          integrator=None if MODELS[model].linear else args.integrator, model=model)
+                          integrator=None if MODELS[model].linear else args.integrator, model=model,
+                          tolerance=args.tolerance)
         from ..fmu.package import package_auto
         s, candidates = package_auto(scene, out, tolerance=args.tolerance, k=args.modes, n_freeze=args.n_freeze,
                                      probes=args.probes, fmi=fmi, integrator=args.integrator,
@@ -90,23 +105,33 @@ def _run(args):
             print(f"  {c.model:8s} v error {tr.err_v:.3e}, FMU {tr.fmu_s:.4f} s: {verdict}")
     else:
         check_options(scene, k=args.modes, n_freeze=args.n_freeze, probes=args.probes, fmi=fmi,
-                      integrator=args.integrator, model=args.model)
+                      integrator=args.integrator, model=args.model, tolerance=args.tolerance)
+        vary = check_vary(scene, args.vary, args.model)
         s = package_fmu(scene, out, k=args.modes, n_freeze=args.n_freeze, probes=args.probes, fmi=fmi,
                         integrator=args.integrator, progress=not args.quiet, model=args.model, verify=args.verify,
-                        tolerance=args.tolerance)
+                        tolerance=args.tolerance, vary=vary)
     from ..rom.operators import INPUT_TOLERANCE
     added = " (+ the force profile direction, not in the POD span)" if s.augmented else ""
     print(f"fmu {s.scene}: FMI {s.fmi}.0 co-simulation, {s.model} model, wrote {s.path} ({s.size / 1024:.1f} KiB)")
     model = MODELS[s.model]
-    if model.basis_kind == "energy":
+    if model.basis_kind is None:
+        from ..rom.balanced_model import METHOD_TITLES
+        print(f"  order r = {s.k_v} ({s.method}: {METHOD_TITLES.get(s.method, s.method)}"
+              + (f", from --tolerance {args.tolerance:g}" if args.tolerance is not None else
+                 "" if args.modes is not None else ", from the default tolerance 1e-3") + "); the state does not "
+              "split into velocity and specific-volume coordinates: outputs are rows over the whole state")
+    elif model.basis_kind == "energy":
         print(f"  modes: k = {s.k} energy-weighted POD modes -> k_v = {s.k_v}{added}, k_e = {s.k_rho} "
               f"(specific volume)")
     else:
         print(f"  modes: k = {s.k} POD modes -> k_v = {s.k_v}{added}, k_rho = {s.k_rho}")
     decision = (f"above {INPUT_TOLERANCE:g}: its residual appended to the basis" if s.augmented else
                 f"at most {INPUT_TOLERANCE:g}: f projected on the modes (eq. 2.19)")
-    print(f"  input projection error of the force profile on the {s.k} POD velocity modes: {s.input_error:.3g} "
-          f"({decision})")
+    if s.parameters and not s.augmented and not model.linear:
+        decision = "f projected on the modes (eq. 2.19), as in every parametric frozen model"
+    if model.basis_kind is not None:
+        print(f"  input projection error of the force profile on the {s.k} POD velocity modes: {s.input_error:.3g} "
+              f"({decision})")
     if model.linear:
         print("  advanced by the matrix exponential over each communication step (input held; cached per step "
               "length); parameters dt, n_freeze have no effect")
@@ -117,6 +142,11 @@ def _run(args):
     if s.envelope is not None:
         for line in s.envelope.lines(linear=model.linear):
             print(f"  envelope: {line}")
+    if s.bounds is not None:
+        print_bounds(s)
+    for row in s.parameters:
+        print(f"  parameter {row['name']} (value reference {row['vr']}): start {row['start']}, trained range "
+              f"[{row['min']}, {row['max']}]")
     t = s.timings
     print(f"  token {s.token}; fmpy validation: no problems; times: model {t['model']:.2f} s, "
           f"binaries {t['binaries']:.2f} s, package {t['package']:.2f} s"
@@ -144,3 +174,36 @@ def print_verification(v, tolerance=None):
         print(f"sphrom fmu: warning: the FMU is slower than the full SPH on the {' and '.join(slow)} force "
               f"(full SPH / FMU = {min(c.speedup for c in v.cases):.3g}); the full SPH may serve better here "
               "(or fewer --modes, or another --model)", file=sys.stderr)
+
+
+def print_bounds(s):
+    """The certified error bounds stored in the FMU, and exactly what they bound."""
+    from ..fmu.describe import bound_text
+    b = s.bounds
+    print(f"  error bounds (calculated parameters force_error_bound[_j], initial_state_error_bound[_j]): "
+          f"{bound_text(b)}")
+    print("    probe x/L | force_error_bound_j [s] | initial_state_error_bound_j [m s^-1 s^1/2]")
+    for j, x in enumerate(s.probes):
+        print(f"    {x:9.4g} | {b['force_error_bound'][j]:23.4e} | {b['initial_state_error_bound'][j]:.4e}")
+    t = b["timings"]
+    print(f"    computed in {sum(t.values()):.2f} s (H-infinity bisection {t['hinf']:.2f} s)")
+
+
+def check_vary(scene, texts, model):
+    """The parameter ranges of ``--vary`` (harness.rom.parametric.Range), checked before any run.
+
+    FieldError naming ``vary`` for a bad text, ``model`` for a model without a POD basis, and
+    ``fields.c`` / ``fields.d`` when the scene's field is not uniform.
+    """
+    if not texts:
+        return []
+    from ..errors import FieldError
+    from ..rom import parametric as par
+    from ..rom.registry import get_model
+    from ..sph.solver import build_problem
+
+    ranges = [par.parse_vary(text) for text in texts]
+    if get_model(model).basis_kind not in ("density", "energy"):
+        raise FieldError("model", f"{model} cannot be made parametric (allowed with --vary: frozen, exact)")
+    par.parameter_space(build_problem(scene), ranges)
+    return ranges

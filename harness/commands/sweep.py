@@ -67,4 +67,9 @@ def run(args):
         return 130
     if not r.ran and not r.paths:
         print("  nothing to run: every entry is done (remove the file to run afresh)")
+    if r.lost:                      # tasks lost with their workers beyond the retries: the sweep failed
+        for line in r.lost:
+            print(f"sphrom sweep: failed: {line}; the other results are kept in {out}; run the same command "
+                  f"again to retry it", file=sys.stderr)
+        return 3
     return 0

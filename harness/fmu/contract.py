@@ -20,9 +20,22 @@ FMU_VARIABLES = (
     ("dt", "3", "parameter", "s", "internal time step, > 0 (start: the scene's dt)"),
     ("initial_state_scale", "4", "parameter", "1", "the initial state is this multiple of the scene's deviation "
                                                   "from rest: 0 (start) at rest, 1 the scene's v0, any finite real"),
+    ("c", "5", "parameter", "Pa", "stiffness c, only in a parametric FMU (sphrom fmu --vary c=LO:HI); within the "
+                                  "trained range"),
+    ("d", "6", "parameter", "1/s", "damping d, only in a parametric FMU (--vary d=LO:HI); within the trained "
+                                   "range"),
     ("v_probe_j", "1000+j-1", "output", "m/s", "velocity at probe j (x_j/L), interpolated linearly between "
                                                "particles"),
     ("rho_probe_j", "2000+j-1", "output", "kg/m3", "density at probe j, likewise"),
+    ("force_error_bound", "8", "calculatedParameter", "s", "the largest of the force_error_bound_j (linear "
+                                                          "models only)"),
+    ("initial_state_error_bound", "9", "calculatedParameter", "m/s*s^0.5", "the largest of the "
+                                                                          "initial_state_error_bound_j"),
+    ("force_error_bound_j", "5000+j-1", "calculatedParameter", "s", "L2 error of v_probe_j against the full SPH "
+                                                                    "per unit L2 norm of f, for every force from rest"),
+    ("initial_state_error_bound_j", "6000+j-1", "calculatedParameter", "m/s*s^0.5", "L2 error of v_probe_j of the "
+                                                                                    "free response from the scene's "
+                                                                                    "initial state"),
 )
 
 

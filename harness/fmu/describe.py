@@ -18,6 +18,10 @@ VR_V_PROBE = 1000        # fmu_src/rom.h ROM_VR_V_PROBE
 VR_RHO_PROBE = 2000      # ROM_VR_RHO_PROBE
 VR_INITIAL_STATE_SCALE = 4   # ROM_VR_INITIAL_STATE_SCALE
 INITIAL_STATE_SCALE_START = 0.0  # ROM_INITIAL_STATE_SCALE_START: the FMU starts at rest
+VR_FORCE_ERROR_BOUND = 8                     # ROM_VR_FORCE_ERROR_BOUND
+VR_INITIAL_STATE_ERROR_BOUND = 9             # ROM_VR_INITIAL_STATE_ERROR_BOUND
+VR_FORCE_ERROR_BOUND_PROBE = 5000            # ROM_VR_FORCE_ERROR_BOUND_PROBE
+VR_INITIAL_STATE_ERROR_BOUND_PROBE = 6000    # ROM_VR_INITIAL_STATE_ERROR_BOUND_PROBE
 FIXED_VARIABLES = 3      # FMI 2 indices 1..3: f, n_freeze, dt
 
 _BLOCK = re.compile(r"\{\{#(\w+)\}\}(.*?)\{\{/\1\}\}", re.S)
@@ -49,8 +53,23 @@ def number(x) -> str:
     return repr(float(x))
 
 
+def bound_text(bounds):
+    """What the certified bounds bound, in one sentence (model description, ``sphrom fmu``)."""
+    T = bounds["horizon"]
+    if bounds["sigma"]:
+        how = (f"through the shifted error system (sigma = {bounds['sigma']:.4g} 1/s, factor e^(sigma T) = "
+               f"{bounds['factor']:.4g}), valid on [0, T]")
+    else:
+        how = "the error system is asymptotically stable (no shift): the force bound holds on any horizon"
+    return (f"certified against the full linear SPH (every particle, exact in the specific volume) on "
+            f"[0, T = {T:g} s]: "
+            f"||v_probe_j - v_full_j||_L2(0,T) <= force_error_bound_j ||f||_L2(0,T) for every force f from rest, "
+            f"and <= initial_state_error_bound_j for the free response from the scene's initial state "
+            f"(both together: the sum); {how}")
+
+
 def model_description(fmi: int, *, token, scene, data, k_requested, step_size, stop_time, input_error,
-                      model="frozen", envelope=None, measured=None):
+                      model="frozen", envelope=None, measured=None, bounds=None, parameters=()):
     """The modelDescription.xml text for FMI version ``fmi`` (2 or 3).
 
     Parameters
@@ -72,6 +91,12 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
         What the basis was trained on (:mod:`harness.fmu.envelope`), appended to the description.
     measured : str, optional
         The verification's sentence (errors against the full SPH, run times), appended to the description.
+    bounds : dict, optional
+        Linear models: the certified error bounds (:func:`harness.rom.balanced.error_bounds`), declared as
+        calculated parameters.
+    parameters : sequence of dict
+        Parameters of a parametric model (:func:`harness.fmu.parametric.parameter_variables`): name, vr,
+        start, min, max, nominal, description; listed after the outputs.
     """
     from ..rom.registry import get_model
 
@@ -95,6 +120,9 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
     spec = get_model(model)
     if spec.basis_kind == "energy":
         modes = modes.replace("density modes", "specific-volume modes")
+    if spec.basis_kind is None:
+        modes = (f"order r = {data.k} (its state mixes velocity and specific volume: the probe outputs are rows "
+                 f"over the whole state)")
     if spec.linear:
         stepping = ("advanced over each communication step by the matrix exponential (input held, or linear "
                     "with fmi2SetRealInputDerivatives in FMI 2), so dt and n_freeze have no effect")
@@ -102,8 +130,9 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
         stepping = (f"{data.integrator} integrator, internal dt = {data.dt:g} s, n_freeze = {data.n_freeze} by "
                     "default")
     description = (f"{spec.title} of the SPH mass-spring-damper scene '{scene.name}' ({scene.title}; "
-                   f"N = {scene.sph.n_particles}, L = {scene.L:g} m): {modes}; {stepping}; probes at x/L = {where}; "
-                   f"input projection error {input_error:.3g}.")
+                   f"N = {scene.sph.n_particles}, L = {scene.L:g} m): {modes}; {stepping}; probes at x/L = {where}"
+                   + (f"; input projection error {input_error:.3g}" if input_error == input_error else "")
+                   + (f"; error bounds {bound_text(bounds)}" if bounds is not None else "") + ".")
     if envelope is not None:
         description += " Training envelope: " + "; ".join(envelope.lines(linear=spec.linear)) + "."
     if measured:
@@ -127,11 +156,41 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
         "can_interpolate_inputs": "true",
         "input_hold": "held over each communication step, or linear with the derivative of "
                       "fmi2SetRealInputDerivatives",
+        # the linear models give dy/dt = C (A z + B f) exactly (fmu_src/rom.h rom_max_output_derivative_order);
+        # the frozen model's trajectory is a discrete map of internal steps: none
+        "max_output_derivative_order": 1 if spec.linear else 0,
     }
     # FMI 3 fixedInternalStepSize only where there is one: the linear model steps by the matrix exponential
     internal_step = [] if spec.linear else [{}]
-    return render(template(f"fmi{fmi}.xml"), values,
-                  {"probes": probes, "outputs": outputs, "internal_step": internal_step, "f_nominal": f_nominal})
+    lists = {"probes": probes, "outputs": outputs, "internal_step": internal_step, "f_nominal": f_nominal}
+    last = FIXED_VARIABLES + 2 * data.n_probes + 1          # FMI 2 index of initial_state_scale
+    lists.update(bound_lists(bounds, data, last))
+    last += len(lists["bounds"]) * 2 + len(lists["bound_probes"]) * 2
+    # a parametric model's c, d: FMI 2 indices after everything above
+    lists["params"] = [{**p, "index": last + 1 + i} for i, p in enumerate(parameters)]
+    return render(template(f"fmi{fmi}.xml"), values, lists)
+
+
+def bound_lists(bounds, data, last_index):
+    """The template lists of the calculated parameters holding the certified error bounds (none without
+    ``bounds``): ``bounds`` (the two largest over the probes), ``bound_probes`` (per probe), ``bound_unknowns``
+    (their FMI 2 indices after ``last_index`` and value references, for InitialUnknowns)."""
+    if bounds is None:
+        return {"bounds": [], "bound_probes": [], "bound_unknowns": []}
+    P = data.n_probes
+    fb, ib = bounds["force_error_bound"], bounds["initial_state_error_bound"]
+    scalars = [{"fb_vr": VR_FORCE_ERROR_BOUND, "ib_vr": VR_INITIAL_STATE_ERROR_BOUND, "fb_index": last_index + 1,
+                "ib_index": last_index + 2, "fb_value": f"{max(fb):.6g}", "ib_value": f"{max(ib):.6g}",
+                "what": bound_text(bounds)}]
+    per_probe = [{"j": j + 1, "x": f"{x:g}", "fb_vr": VR_FORCE_ERROR_BOUND_PROBE + j,
+                  "ib_vr": VR_INITIAL_STATE_ERROR_BOUND_PROBE + j, "fb_index": last_index + 3 + j,
+                  "ib_index": last_index + 3 + P + j, "fb_value": f"{fb[j]:.6g}", "ib_value": f"{ib[j]:.6g}"}
+                 for j, x in enumerate(data.probe_x)]
+    unknowns = ([{"vr": VR_FORCE_ERROR_BOUND, "index": last_index + 1},
+                 {"vr": VR_INITIAL_STATE_ERROR_BOUND, "index": last_index + 2}]
+                + [{"vr": p["fb_vr"], "index": p["fb_index"]} for p in per_probe]
+                + [{"vr": p["ib_vr"], "index": p["ib_index"]} for p in per_probe])
+    return {"bounds": scalars, "bound_probes": per_probe, "bound_unknowns": unknowns}
 
 
 def build_description() -> str:

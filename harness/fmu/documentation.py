@@ -123,16 +123,30 @@ def variables_section(description_xml):
 
 
 def sections_section(sections):
-    """The tagged sections of resources/model.bin (the training envelope's numbers, bounds, ... when the model
-    has them), one row each; [] without sections.  The envelope in words is :func:`envelope_section`."""
+    """The tagged sections of resources/model.bin with their numbers: the training envelope's (under an h3,
+    after the envelope in words of :func:`envelope_section`), then the others; [] without sections."""
     if not sections:
         return []
+    import numpy as np
+
     from .resources import SECTION_TAGS
-    return ["<h2>Numbers stored in resources/model.bin</h2>",
-            "<p>The tagged sections after the model's arrays, as the FMU reads them.</p>",
-            *_table(("section", "what", "shape", "values"),
-                    [(f"<code>{escape(t)}</code>", escape(SECTION_TAGS.get(t, "")),
-                      "x".join(map(str, sections[t].shape)), _matrix(sections[t])) for t in sections])]
+    sections = {tag: np.atleast_2d(np.asarray(values, dtype=float)) for tag, values in sections.items()}
+    envelope = [tag for tag in sections if "envelope" in SECTION_TAGS.get(tag, "").lower()]
+    lines = []
+    if envelope:
+        lines += ["<h3>The training envelope's numbers</h3>",
+                  "<p>What the model was trained on, as recorded at packaging (the FMU warns once when a run "
+                  "leaves it).</p>",
+                  *_table(("section", "what", "values"),
+                          [(f"<code>{escape(t)}</code>", escape(SECTION_TAGS.get(t, "")), _matrix(sections[t]))
+                           for t in envelope])]
+    rest = [t for t in sections if t not in envelope]
+    if rest:
+        lines += ["<h2>Other numbers in resources/model.bin</h2>",
+                  *_table(("section", "what", "shape", "values"),
+                          [(f"<code>{escape(t)}</code>", escape(SECTION_TAGS.get(t, "")),
+                            "x".join(map(str, sections[t].shape)), _matrix(sections[t])) for t in rest])]
+    return lines
 
 
 def verification_section(verification, tolerance=None):

@@ -15,6 +15,7 @@ import numpy as np
 
 VR_TIME, VR_F, VR_N_FREEZE, VR_DT = 0, 1, 2, 3     # fmu_src/rom.h
 VR_INITIAL_STATE_SCALE = 4                         # ROM_VR_INITIAL_STATE_SCALE (the FMU's start: 0, at rest)
+VR_C, VR_D = 5, 6                                  # fmu_src/rom.h: parametric models only
 
 # fmpy's FMU constructors chdir() into binaries/<platform> to load the library
 # and chdir() back: the working directory is per process, so two threads that
@@ -184,6 +185,15 @@ class Slave:
         from ctypes import c_double, c_int, c_uint32
         self.fmu.fmi2SetRealInputDerivatives(self.fmu.component, (c_uint32 * 1)(VR_F), 1, (c_int * 1)(int(order)),
                                              (c_double * 1)(float(rate)))
+
+    def output_derivatives(self, order=1, names=None):
+        """d^order y/dt^order of the outputs ``names`` (default all, order of ``outputs``) at the FMU's time:
+        fmi2GetRealOutputDerivatives / fmi3GetOutputDerivatives."""
+        vrs = self._out_vr if names is None else [self.vr[n] for n in names]
+        orders = [int(order)] * len(vrs)
+        if self.fmi == 2:
+            return np.array(self.fmu.getRealOutputDerivatives(vrs, orders))
+        return np.array(self.fmu.getOutputDerivatives(vrs, orders))
 
     def do_step(self, t, h):
         """fmi2DoStep / fmi3DoStep from ``t`` over ``h`` [s]."""

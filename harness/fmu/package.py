@@ -1,10 +1,15 @@
 """Package a scene's reduced model as an FMI 2.0 or 3.0 FMU.
 
-Two models (``model=``): ``frozen``, the frozen-coefficient model of eqs.
-2.19-2.24 (the default), stepped with the internal dt; and ``exact``, the
+Three models (``model=``): ``frozen``, the frozen-coefficient model of eqs.
+2.19-2.24 (the default), stepped with the internal dt; ``exact``, the
 exact linear model in the specific volume (:mod:`harness.rom.exact_linear`),
 advanced over each communication step by the matrix exponential (cached per
-step length in the C core), whatever dt.
+step length in the C core), whatever dt; and ``balanced``, the balanced
+reduction of the full linear SPH (:mod:`harness.rom.balanced_model`), which
+runs through the same C code as ``exact`` (resource kind 2; only its matrices
+differ).  The linear models carry certified error bounds against the full
+linear SPH at their probes (section BOUNDS; calculated parameters
+``force_error_bound``, ``initial_state_error_bound`` and per probe).
 
 Steps (``sphrom fmu``): the full SPH run and POD basis of the scene (reused
 from the cache when present), the reduced operators with the force profile as
@@ -34,7 +39,8 @@ import numpy as np
 from ..errors import FieldError, SimulationError
 from ..paths import data_dir
 from ..runio import atomic_path
-from .resources import MAX_PROBES, MODEL_EXACT_LINEAR, MODEL_FROZEN, exact_data, model_data, pack, pack_exact
+from .resources import (MAX_PROBES, MODEL_EXACT_LINEAR, MODEL_FROZEN, balanced_data, exact_data, model_data, pack,
+                        pack_exact)
 
 DEFAULT_PROBES = (0.25, 0.5, 0.66)     # 0.66: the probe of the paper's Fig. C.6
 DEFAULT_FREEZE = 10
@@ -122,6 +128,13 @@ class FMUSummary:
         Wall times [s] of the stages.
     model : str
         The registered reduced model packaged (one with an FMU resource kind).
+    bounds : dict or None
+        Linear models: the certified error bounds stored in the FMU
+        (:func:`harness.rom.balanced.error_bounds`: ``force_error_bound``,
+        ``initial_state_error_bound`` per probe, ``sigma``, ``factor``,
+        ``horizon``, ...); None for the frozen model.
+    method : str
+        The balanced model's method (``bt``, ``galerkin``), else "".
     """
 
     path: Path
@@ -142,6 +155,9 @@ class FMUSummary:
     model: str = "frozen"
     envelope: object = None        # harness.fmu.envelope.Envelope: what the basis was trained on
     verification: object = None      # harness.fmu.verify.Verification when measured, else None
+    bounds: dict | None = None
+    method: str = ""
+    parameters: list = field(default_factory=list)     # a parametric FMU's c, d rows (harness.fmu.parametric)
 
 
 def default_modes(scene):
@@ -167,33 +183,44 @@ def parse_probes(text):
 
 
 def check_options(scene, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_PROBES, fmi=2, integrator=None,
-                  model="frozen"):
+                  model="frozen", tolerance=None):
     """Validate the packaging options before any work; returns (k, n_freeze, probes, fmi, integrator).
 
     For a linear model (the exact one) the integrator is ``exponential`` (an ``integrator`` does not apply).
+    ``tolerance`` (0 < tolerance < 1) is the largest measured training error accepted (:func:`package_fmu`
+    with ``verify``), except that a model without a POD basis (balanced) given no order ``k`` (1 <= r < 2N)
+    takes its order from it instead; with neither, k is returned as None (the order then comes from the default tolerance, :data:`harness.rom.balanced.DEFAULT_TOLERANCE`).
 
-    Raises FieldError naming the field (``k``, ``n_freeze``, ``probes``, ``fmi``, ``model``, ``integrator``) and
-    the allowed range; the command line shows the option that set it.
+    Raises FieldError naming the field (``k``, ``n_freeze``, ``probes``, ``fmi``, ``model``, ``integrator``,
+    ``tolerance``) and the allowed range; the command line shows the option that set it.
     """
     from ..rom.registry import fmu_model_names, get_model
-    k = default_modes(scene) if k is None else k
-    if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
+    if model not in fmu_model_names():
+        raise FieldError("model", f"{model!r} is out of range (allowed: {', '.join(fmu_model_names())})")
+    no_basis = get_model(model).basis_kind is None
+    if tolerance is not None:
+        if isinstance(tolerance, bool) or not (isinstance(tolerance, (int, float)) and math.isfinite(tolerance)
+                                               and 0 < tolerance < 1):
+            raise FieldError("tolerance", f"{tolerance!r} is out of range (allowed: 0 < tolerance < 1)")
+    k = default_modes(scene) if k is None and not no_basis else k
+    if k is not None and (isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1):
         raise FieldError("k", f"{k!r} is out of range (allowed: an integer >= 1)")
-    if k > scene.sph.n_particles:
+    if no_basis and k is not None and k >= 2 * scene.sph.n_particles:
+        raise FieldError("k", f"{k} is out of range (allowed: an order r from 1 to 2N - 1 = "
+                              f"{2 * scene.sph.n_particles - 1})")
+    if not no_basis and k > scene.sph.n_particles:
         raise FieldError("k", f"{k} is out of range (allowed: 1 to N = {scene.sph.n_particles})")
     if isinstance(n_freeze, bool) or not isinstance(n_freeze, (int, np.integer)) or not 1 <= n_freeze <= 2**31 - 1:
         raise FieldError("n_freeze", f"{n_freeze!r} is out of range (allowed: an integer >= 1)")
     probes = parse_probes(",".join(str(p) for p in probes)) if not isinstance(probes, str) else parse_probes(probes)
     if fmi not in (2, 3):
         raise FieldError("fmi", f"{fmi!r} is out of range (allowed: 2 or 3)")
-    if model not in fmu_model_names():
-        raise FieldError("model", f"{model!r} is out of range (allowed: {', '.join(fmu_model_names())})")
     spec = get_model(model)
     if spec.linear:
         if integrator is not None:
             raise FieldError("integrator", f"{integrator!r} does not apply to the {model} model (it is advanced "
                                            "by the matrix exponential)")
-        return int(k), int(n_freeze), probes, int(fmi), spec.integrators[0]
+        return None if k is None else int(k), int(n_freeze), probes, int(fmi), spec.integrators[0]
     integrator = integrator or scene.sph.integrator
     if integrator not in spec.integrators:
         raise FieldError("integrator", f"{integrator!r} is not defined for the {model} model "
@@ -252,7 +279,8 @@ def exact_model(scene, k, n_freeze, probes, progress=True, problem=None, model="
     spec = get_model(model)
     basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem)
     lin = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction)
-    data = exact_data(lin, problem, dt=scene.sph.dt, n_freeze=n_freeze, probes=probes)
+    data = exact_data(lin, problem, dt=scene.sph.dt, n_freeze=n_freeze, probes=probes,
+                      bound=linear_bound(lin, scene))
     return data, lin, problem, basis
 
 
@@ -265,17 +293,82 @@ def training_envelope(scene, ops, problem, probes, linear, progress=False):
     return measure(scene, ops, problem, run, probes, linear)
 
 
-def _frozen_resource(scene, model, k, n_freeze, probes, integrator, progress, problem):
+def balanced_model(scene, k, n_freeze, probes, tolerance=None, problem=None, model="balanced"):
+    """The FMU's numbers for a linear model without a POD basis (balanced): (ExactData, ops, problem).
+
+    The full linear SPH of the scene with the FMU's probes as outputs, balanced
+    and truncated at order ``k`` (or the order ``tolerance`` gives; the default
+    tolerance when both are None); :func:`harness.fmu.resources.balanced_data`.
+    """
+    from ..rom.registry import get_model
+    from ..sph.solver import build_problem
+
+    problem = problem or build_problem(scene)
+    try:
+        ops = get_model(model).build(problem, None, k, k, tolerance=None if k is not None else tolerance, probes=probes)
+    except ValueError as exc:
+        field_name, _, detail = str(exc).partition(": ")
+        raise FieldError("k" if field_name == "order" else field_name, detail) from None
+    return balanced_data(ops, problem, dt=scene.sph.dt, n_freeze=n_freeze), ops, problem
+
+
+def linear_bounds(lti, reduced, progress=True):
+    """The certified error bounds of a linear reduced model at the velocity probes
+    (:func:`harness.rom.balanced.error_bounds`), with a progress bar over the probes."""
+    from ..progress import progress_bar
+    from ..rom.balanced import error_bounds
+
+    with progress_bar(lti.n_probes, "error bounds", unit="probe", enabled=progress) as bar:
+        return error_bounds(lti, reduced, outputs="v", progress=bar)
+
+
+def linear_bound(lin, scene, samples=4097):
+    """The linear FMU's runaway bound on |z|: 10⁶ (|z0| + |B| ∫_0^T |f| dt) with the scene's force over its T
+    (:func:`harness.rom.exact_linear.linear_runaway_bound`; trapezoidal rule on ``samples`` points).
+
+    10⁶ |z0| alone is 0 for a scene at rest, and such an FMU stopped as a runaway at its first forced step.
+    """
+    import numpy as np
+
+    from ..rom.exact_linear import linear_runaway_bound
+    t = np.linspace(0.0, float(scene.T), samples)
+    f = np.abs(np.asarray(scene.force(t), float)) if lin.B is not None else np.zeros(samples)
+    return linear_runaway_bound(lin, float(np.sum(0.5 * (f[1:] + f[:-1]) * np.diff(t))))
+
+
+def _frozen_resource(scene, model, k, n_freeze, probes, integrator, progress, problem, tolerance=None, bounds=True):
     data, ops, problem, _ = reduced_model(scene, k, n_freeze, probes, integrator, progress=progress,
                                           problem=problem, model=model)
     data.sections.update(training_envelope(scene, ops, problem, probes, False, progress).sections())
     return data, ops, pack(data)
 
 
-def _linear_resource(scene, model, k, n_freeze, probes, integrator, progress, problem):
-    data, lin, problem, _ = exact_model(scene, k, n_freeze, probes, progress=progress, problem=problem, model=model)
-    data.sections.update(training_envelope(scene, lin, problem, probes, True, progress).sections())
-    return data, lin, pack_exact(data)
+def _linear_resource(scene, model, k, n_freeze, probes, integrator, progress, problem, tolerance=None, bounds=True):
+    """Kind 2: the exact POD model (on its basis) or the balanced model (no basis); both with the certified
+    error bounds against the full linear SPH at the FMU's probes (section BOUNDS: force, initial state),
+    unless ``bounds`` is False (benchmarks that time the stepping only: the bounds take seconds to minutes at
+    N = 400)."""
+    from ..rom.balanced import reduced_from_exact
+    from ..rom.lti import full_linear_system
+    from ..rom.registry import get_model
+
+    if get_model(model).basis_kind is None:
+        data, ops, problem = balanced_model(scene, k, n_freeze, probes, tolerance=tolerance, problem=problem,
+                                            model=model)
+        lti, reduced = ops.lti, ops.reduced
+    else:
+        data, ops, problem, _ = exact_model(scene, k, n_freeze, probes, progress=progress, problem=problem,
+                                            model=model)
+        data.sections.update(training_envelope(scene, ops, problem, probes, True, progress).sections())
+        lti = reduced = None
+    if not bounds:
+        return data, ops, pack_exact(data)
+    if reduced is None:
+        lti = full_linear_system(problem, probes)
+        reduced = reduced_from_exact(lti, ops)
+    data.bounds = linear_bounds(lti, reduced, progress=progress)
+    data.sections["BOUNDS"] = np.vstack([data.bounds["force_error_bound"], data.bounds["initial_state_error_bound"]])
+    return data, ops, pack_exact(data)
 
 
 # model_kind of resources/model.bin (ReducedModel.fmu_kind) -> the FMU's numbers and their bytes
@@ -336,7 +429,7 @@ def validate(path):
 
 def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_PROBES, fmi=2, integrator=None,
                 step_size=None, progress=True, binaries=None, problem=None, model="frozen", verify=False,
-                tolerance=None, references=None) -> FMUSummary:
+                tolerance=None, references=None, bounds=True, vary=()) -> FMUSummary:
     """Build the FMU of ``scene`` at ``out`` (atomically) and validate it.
 
     Parameters
@@ -345,7 +438,8 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
     out : path
         The .fmu to write.
     k : int, optional
-        POD modes (default :func:`default_modes`).
+        POD modes (default :func:`default_modes`); for the balanced model its
+        order r (default: from ``tolerance``).
     n_freeze : int
         Default refresh period (the ``n_freeze`` parameter's start value).
     probes : sequence of float
@@ -359,17 +453,25 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
         Prebuilt binaries (default: :func:`harness.fmu.build.ensure_binaries`).
     model : str
         The reduced model to ship: a registered one with an FMU resource kind
-        (``frozen``, ``exact``; module docstring).
+        (``frozen``, ``exact``, ``balanced``; module docstring).
     verify : bool
         Measure the FMU against the full SPH before it is moved into place (:mod:`.verify`: the training
         force and an unseen one, errors and run times), and store the figures in its description and in
         ``documentation/`` (with the plot ``probes.png``).  Without it the documentation says "not measured".
     tolerance : float, optional
-        With ``verify``: the largest v error on the training force accepted; above it
-        :class:`harness.errors.ToleranceError` is raised and nothing is written (an existing ``out`` is left
-        as it was).
+        Balanced model without ``k``: its order is the smallest r with 2 Σ_{i>r} σ_i <= tolerance · 2 Σ σ_i
+        (and nothing else).  Otherwise, with ``verify``: the largest v error on the training force accepted;
+        above it :class:`harness.errors.ToleranceError` is raised and nothing is written (an existing ``out``
+        is left as it was).
     references : dict, optional
         :func:`harness.fmu.verify.references` computed before (several models of one scene).
+    bounds : bool
+        Linear models: compute and declare the certified error bounds (default;
+        seconds to minutes at N = 400).  False leaves them out (benchmarks that
+        time the stepping only).
+    vary : sequence of harness.rom.parametric.Range
+        Parameter ranges of c and/or d: a parametric FMU (:mod:`.parametric`) trained over them, with
+        parameters ``c``, ``d``; empty (default): the scene's fixed c and d.
 
     Raises
     ------
@@ -385,11 +487,20 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
     from .describe import model_description
 
     k, n_freeze, probes, fmi, integrator = check_options(scene, k=k, n_freeze=n_freeze, probes=probes, fmi=fmi,
-                                                         integrator=integrator, model=model)
+                                                         integrator=integrator, model=model,
+                                                         tolerance=tolerance)
     timings = {}
     t0 = time.perf_counter()
-    data, ops, blob = RESOURCES[get_model(model).fmu_kind](scene, model, k, n_freeze, probes, integrator,
-                                                              progress, problem)
+    parameters = []
+    if vary:
+        from .parametric import parameter_variables, parametric_resource
+        data, ops, blob, space = parametric_resource(scene, model, k, n_freeze, probes, integrator, progress, vary)
+        parameters = parameter_variables(space)
+    else:
+        data, ops, blob = RESOURCES[get_model(model).fmu_kind](scene, model, k, n_freeze, probes, integrator,
+                                                                  progress, problem, tolerance=tolerance,
+                                                                  bounds=bounds)
+    bounds = getattr(data, "bounds", None)
     timings["model"] = time.perf_counter() - t0
     from .envelope import Envelope
     envelope = Envelope.from_sections(data.sections, data.k_v)
@@ -398,16 +509,20 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
     timings["binaries"] = time.perf_counter() - t1
     step = step_size if step_size is not None else min(DEFAULT_STEP, scene.T / 10)
     spec = get_model(model)
+    # a model without a POD basis given no order takes it from the tolerance (a Hankel-singular-value
+    # tail, not a measured error): then the tolerance is not also the measured check
+    check = None if (spec.basis_kind is None and k is None) else tolerance
+    k = data.k_v if k is None else k                 # the balanced model's order from its tolerance
 
     def archive(path, verification=None):
         """Write and validate the FMU at ``path``; its description and documentation carry ``verification``."""
         description = model_description(fmi, token=data.token, scene=scene, data=data, k_requested=k,
                                          step_size=step, stop_time=scene.T, input_error=ops.input_error,
-                                         model=model, envelope=envelope, measured=None if verification is None
-                                         else verification.sentence())
+                                         model=model, envelope=envelope, bounds=bounds, parameters=parameters,
+                                         measured=None if verification is None else verification.sentence())
         docs = documentation_files(scene=scene, spec=spec, data=data, k=k, input_error=ops.input_error,
                                    augmented=ops.augmented, description_xml=description, verification=verification,
-                                   tolerance=tolerance, envelope=envelope)
+                                   tolerance=check, envelope=envelope)
         write_fmu(path, fmi=fmi, blob=blob, description=description,
                   binary=binaries.fmi2 if fmi == 2 else binaries.fmi3, documentation=docs)
         problems = validate(path)
@@ -425,13 +540,14 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
             t3 = time.perf_counter()
             verification = verify_fmu(tmp, scene, probes, refs=references, problem=problem, progress=progress)
             timings["verify"] = time.perf_counter() - t3
-            check_tolerance(verification, tolerance, out, model)
+            check_tolerance(verification, check, out, model)
             archive(tmp, verification)           # the same model and binary: only the texts change
         size = tmp.stat().st_size
     return FMUSummary(path=out, fmi=fmi, scene=scene.name, k=k, k_v=data.k_v, k_rho=data.k_rho,
                       input_error=ops.input_error, augmented=ops.augmented, probes=list(probes), n_freeze=n_freeze,
                       integrator=integrator, dt=data.dt, token=data.token, size=size, timings=timings, model=model,
-                      envelope=envelope, verification=verification)
+                      envelope=envelope, verification=verification, bounds=bounds,
+                      method=getattr(ops, "method", ""), parameters=parameters)
 
 
 def check_tolerance(verification, tolerance, out, model):

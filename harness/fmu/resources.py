@@ -17,6 +17,9 @@ repeated here)::
     damping, bit1 input: B present, bit2 Schur: Q, S present):
     float64  z0[k], A[k, k], B[k] (bit1), Q[k, k], S[k, k] (bit2), Pv[n_probes, k_v],
              Pe[n_probes, 2, k_e], pw[n_probes, 2], prho0[n_probes, 2], probe_x[n_probes]
+    kind 2 with flags bit3 (output rows): Pv[n_probes, k], Pe[n_probes, 2, k] are
+             rows over the whole state z = (a; b) (the balanced model: k_v = k,
+             k_e = 0, its state does not split)
     uint32   n_sections, then per section: char[8] tag (ASCII, NUL padded),
              uint32 rows, cols, float64 data[rows, cols]   (``sections``)
     char[40] token "{xxxxxxxx-xxxx-xxxx-xxxx-xxxxxxxxxxxx}", NUL padded: the
@@ -55,18 +58,31 @@ INTEGRATORS = {"euler": 0, "symplectic": 1}
 FLAG_DAMPING = 1
 FLAG_INPUT = 2
 FLAG_SCHUR = 4
+FLAG_OUTPUT_ROWS = 8                       # kind 2: probe rows over the whole state z (fmu_src/rom.h)
+LINEAR_EXACT_POD, LINEAR_BALANCED = 1, 2   # section LINMODEL: which linear model (messages only)
 TOKEN_SIZE = 40
 MAX_PROBES = 100
 MAX_MODES = 1024
 SECTION_TAG_SIZE = 8
 MAX_SECTIONS = 32                          # fmu_src/rom.h ROM_MAX_SECTIONS
 MAX_SECTION_VALUES = 1 << 26               # fmu_src/rom.h ROM_MAX_SECTION_VALUES
-SECTION_TAGS: dict[str, str] = {}          # tag -> what it holds (the C loader's SECTION_RULES)
-SECTION_TAGS.update({                      # the training envelope (harness/fmu/envelope.py, fmu_src/rom_envelope.c)
+SECTION_TAGS: dict[str, str] = {          # tag -> what it holds (the C loader's SECTION_RULES)
+    # the training envelope (harness/fmu/envelope.py, fmu_src/rom_envelope.c)
     "ENVELOPE": "the training envelope's scalars",
     "ENVRANGE": "the training envelope's coordinate ranges",
     "ENVPROBE": "rho0 at the probes (training envelope)",
-})
+    # linear models (harness/rom/balanced.py)
+    "BOUNDS": "certified error bounds per probe (force, initial state)",
+    "LINMODEL": "which linear model: 1 exact POD, 2 balanced",
+    # parametric models (harness.rom.parametric)
+    "PARAMS": "parametric model: c and d (varied, start, min, max)",
+    "KC": "frozen model: K per unit c",
+    "BC": "frozen model: b per unit c",
+    "DD": "frozen model: D per unit d",
+    "A0": "linear model: the part of A without c or d",
+    "AC": "linear model: the part of A per unit c",
+    "AD": "linear model: the part of A per unit d",
+}
 _HEADER = struct.Struct("<8s10I3d")
 _SECTION = struct.Struct("<8s2I")
 HEADER_SIZE = _HEADER.size                 # 72 bytes, magic to L (fmu_src/rom.h ROM_HEADER_SIZE)
@@ -311,6 +327,13 @@ class ExactData:
     token : str
     sections : dict of str to ndarray
         Tagged sections (tag -> 2-D float64 array), in file order.
+    output_rows : bool
+        Pv (P, k) and Pe (P, 2, k) are rows over the whole state z (flags bit3;
+        the balanced model, whose state does not split: k_v = k, k_e = 0).
+    bounds : dict or None
+        The full report of the certified error bounds computed at packaging
+        (:func:`harness.rom.balanced.error_bounds`: shift, factor, horizon,
+        timings); only their values are stored, in section BOUNDS.
     """
 
     dt: float
@@ -332,6 +355,8 @@ class ExactData:
     token: str = ""
     integrator: str = "exponential"
     sections: dict = field(default_factory=dict)
+    output_rows: bool = False
+    bounds: dict | None = None
 
     @property
     def k(self):
@@ -373,27 +398,55 @@ def exact_data(lin, problem, *, dt, n_freeze, probes, bound=None):
                      Pv=probe_rows(lin.U_v, problem.x, L, probes),
                      Pe=np.stack([lin.U_e[i0], lin.U_e[i1]], axis=1),
                      pw=np.stack([1.0 - w, w], axis=1), prho0=np.stack([rho0[i0], rho0[i1]], axis=1),
-                     probe_x=probes)
+                     probe_x=probes, sections={"LINMODEL": np.array([[LINEAR_EXACT_POD]], float)})
+
+
+def balanced_data(ops, problem, *, dt, n_freeze, bound=None):
+    """The numbers of a kind-2 model.bin for the balanced model (:class:`harness.rom.balanced_model.BalancedOperators`).
+
+    The state x_r (r numbers) does not split: k_v = r, k_e = 0 and the probe rows
+    are over the whole state (``output_rows``).  Velocity rows: Cr's probe
+    velocity rows.  e rows: the reconstruction e = (V x_r)_e / √c at the probe's two
+    particles, whose interpolation (weights pw) is Cr's probe-e row.  The probes
+    are those the model was balanced for (``ops.lti.probes``).
+    """
+    lti, red = ops.lti, ops.reduced
+    probes = np.asarray(lti.probes, float)
+    L = problem.scene.L
+    i0, i1, w = probe_pairs(problem.x, L, probes)
+    n, P = lti.n, lti.n_probes
+    Ve = red.V[n:] / lti.w_e[:, None]                        # e at every particle per unit x_r
+    bound = 1e6 * max(float(np.max(np.abs(ops.z0))), 1e-300) if bound is None else bound
+    rho0 = np.asarray(ops.rho0, float)
+    return ExactData(dt=float(dt), n_freeze=int(n_freeze), bound=float(bound), L=float(L), k_v=ops.order,
+                     z0=np.asarray(ops.z0, float), A=np.asarray(ops.A, float), B=np.asarray(ops.B, float),
+                     damping=not ops.skew, Q=np.asarray(ops.schur_Q, float) if ops.skew else None,
+                     S=np.asarray(ops.schur_T, float) if ops.skew else None,
+                     Pv=np.asarray(red.Cr[:P], float), Pe=np.stack([Ve[i0], Ve[i1]], axis=1),
+                     pw=np.stack([1.0 - w, w], axis=1), prho0=np.stack([rho0[i0], rho0[i1]], axis=1),
+                     probe_x=probes, output_rows=True, sections={"LINMODEL": np.array([[LINEAR_BALANCED]], float)})
 
 
 def pack_exact(data: ExactData) -> bytes:
     """The bytes of a kind-2 model.bin; sets ``data.token``."""
     kv, k, npr = data.k_v, data.k, data.n_probes
     ke = k - kv
-    if not (1 <= kv <= MAX_MODES and 1 <= ke <= MAX_MODES):
+    rows = bool(data.output_rows)
+    if not (1 <= kv <= MAX_MODES and (0 if rows else 1) <= ke <= MAX_MODES):
         raise ValueError(f"mode counts {kv}, {ke} out of range")
     if not 1 <= npr <= MAX_PROBES:
         raise ValueError(f"{npr} probes (allowed: 1 to {MAX_PROBES})")
     if data.Q is not None and data.damping:
         raise ValueError("a Schur form needs a skew operator (no damping)")
     flags = ((FLAG_DAMPING if data.damping else 0) | (FLAG_INPUT if data.B is not None else 0)
-             | (FLAG_SCHUR if data.Q is not None else 0))
+             | (FLAG_SCHUR if data.Q is not None else 0) | (FLAG_OUTPUT_ROWS if rows else 0))
     header = _HEADER.pack(MAGIC, FORMAT_VERSION, MODEL_EXACT_LINEAR, 0, kv, ke, npr, 0, flags, int(data.n_freeze), 0,
                           data.dt, data.bound, data.L)
     arrays = [data.z0, data.A] + ([data.B] if data.B is not None else [])
     arrays += [data.Q, data.S] if data.Q is not None else []
     arrays += [data.Pv, data.Pe, data.pw, data.prho0, data.probe_x]
-    shapes = {"A": (k, k), "Pv": (npr, kv), "Pe": (npr, 2, ke), "pw": (npr, 2), "prho0": (npr, 2)}
+    shapes = {"A": (k, k), "Pv": (npr, k if rows else kv), "Pe": (npr, 2, k if rows else ke), "pw": (npr, 2),
+              "prho0": (npr, 2)}
     for name, shape in shapes.items():
         if getattr(data, name).shape != shape:
             raise ValueError(f"{name} has shape {getattr(data, name).shape}, expected {shape}")
@@ -418,11 +471,13 @@ def _unpack_exact(blob: bytes) -> ExactData:
     z0, A = take(k), take(k, k)
     B = take(k) if flags & FLAG_INPUT else None
     Q, S = (take(k, k), take(k, k)) if flags & FLAG_SCHUR else (None, None)
-    Pv, Pe, pw, prho0, probe_x = take(npr, kv), take(npr, 2, ke), take(npr, 2), take(npr, 2), take(npr)
+    rows = bool(flags & FLAG_OUTPUT_ROWS)
+    Pv, Pe = (take(npr, k), take(npr, 2, k)) if rows else (take(npr, kv), take(npr, 2, ke))
+    pw, prho0, probe_x = take(npr, 2), take(npr, 2), take(npr)
     sections, cursor = unpack_sections(blob, cursor)
     token = blob[cursor:cursor + TOKEN_SIZE].rstrip(b"\0").decode("ascii")
     if cursor + TOKEN_SIZE + 4 != len(blob):
         raise ValueError("size mismatch")
     return ExactData(dt=dt, n_freeze=n_freeze, bound=bound, L=L, k_v=kv, z0=z0, A=A, B=B,
                      damping=bool(flags & FLAG_DAMPING), Q=Q, S=S, Pv=Pv, Pe=Pe, pw=pw, prho0=prho0,
-                     probe_x=probe_x, token=token, sections=sections)
+                     probe_x=probe_x, token=token, sections=sections, output_rows=rows)

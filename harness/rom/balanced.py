@@ -414,22 +414,28 @@ def hinf_norm(A, b, c, margin, response=None, tol=1e-4, max_iter=60, omega_scale
     raise RuntimeError("hinf_norm: no certified upper bound after max_iter steps")
 
 
-def _sparse_response(A_full, b_full, c_full, Ar, br, cr, shift):
-    """ω -> G_err(iω) of the error system, the full part by sparse LU (A_full sparse)."""
+def _sparse_response(A_full, b_full, c_full, Ar, br, cr, shift, solves=None):
+    """ω -> G_err(iω) of the error system, the full part by sparse LU (A_full sparse).
+
+    ``solves`` (a dict, optional) keeps the state responses (sI - A)^-1 b of the full and the reduced
+    model per ω: the probes share A and b (only c differs), so their bisections reuse each other's solves.
+    """
     n = A_full.shape[0]
     r = Ar.shape[0]
     I = sp.identity(n, format="csc")
     Ir = np.eye(r)
+    solves = {} if solves is None else solves
 
     def response(w):
         w = np.atleast_1d(np.asarray(w, float))
         out = np.empty(w.size, complex)
         for i, wi in enumerate(w):
-            s = 1j * wi + shift
-            lu = spla.splu((s * I - A_full).tocsc())
-            full = c_full @ lu.solve(b_full.astype(complex))
-            red = cr @ np.linalg.solve(s * Ir - Ar, br) if r else 0.0
-            out[i] = full - red
+            if wi not in solves:
+                s = 1j * wi + shift
+                lu = spla.splu((s * I - A_full).tocsc())
+                solves[wi] = (lu.solve(b_full.astype(complex)), np.linalg.solve(s * Ir - Ar, br) if r else None)
+            x_full, x_red = solves[wi]
+            out[i] = c_full @ x_full - (cr @ x_red if r else 0.0)
         return out
     return response
 
@@ -508,8 +514,10 @@ def error_bounds(lti: LTI, reduced: ReducedLTI, horizon=None, sigma=None, output
     A_full = (lti.A - deflate * sp.csr_matrix(lti.null @ lti.null.T)).tocsr()      # unshifted: the response adds σ
     hinf = np.empty((rows.size, 2))
     t1 = time.perf_counter()
+    solves = {}                                              # ω -> state responses, shared by the probes
     for i, j in enumerate(rows):
-        resp = _sparse_response(A_full, lti.B[:, 0], lti.C[j], reduced.Ar, reduced.Br[:, 0], reduced.Cr[j], shift)
+        resp = _sparse_response(A_full, lti.B[:, 0], lti.C[j], reduced.Ar, reduced.Br[:, 0], reduced.Cr[j], shift,
+                                solves)
         lo, hi, _ = hinf_norm(Ae, Be[:, 0], Ce[j], margin, response=resp, tol=tol)
         hinf[i] = lo, hi
         if progress is not None:

@@ -21,6 +21,11 @@ interpolated at the probes to round-off.  Time: exact, by the matrix
 exponential of :mod:`harness.rom.exact_linear` (any communication step, input
 held or linear over a step); undamped, the free response is evaluated from
 the real Schur form of the skew Ar at each sample time.
+
+As an FMU (``sphrom fmu --model balanced``) it is resource kind 2, the exact
+model's C code with these matrices (:func:`harness.fmu.resources.balanced_data`:
+probe rows over the whole state, k_v = r, k_e = 0), with its certified error
+bounds as calculated parameters.
 """
 
 from __future__ import annotations
@@ -211,5 +216,5 @@ MODEL = ReducedModel(
     title="Balanced reduced model of the linear SPH in the specific volume J = rho0/rho (beyond Fang et al.)",
     linear=True, integrators=INTEGRATORS, uses_n_freeze=False,
     basis_kind=None,            # needs no POD basis: build ignores it (BASIS_KINDS[None])
-    fmu_kind=None,              # not packaged as an FMU yet
+    fmu_kind=2,                 # resources/model.bin kind 2: the linear models' C path (its matrices, rows over z)
     build=build, run=run, truncate=truncate)

@@ -6,7 +6,10 @@ training run and POD basis (both cached by :mod:`harness.cache` and the
 pipeline) and its own FMU.  The FMU is kept as
 ``$SPHROM_CACHE/sweep/fmu-<key>.fmu``; the key hashes the variant, the sphrom
 version and the binaries' build key (a change of the C sources makes new
-FMUs).  Forces and n_freeze change per run on the same FMU.
+FMUs).  Forces and n_freeze change per run on the same FMU.  With a ``[parametric]``
+table in the spec, the values of c and d inside it share ONE parametric FMU
+(:mod:`harness.fmu.parametric`: trained at the corners and centre of the
+ranges), and each run sets c and d as FMU parameters.
 
 Packaging happens on the client, before any task: it needs CMake once (the
 binaries) and the full SPH runs, which are heavier than a task and cached
@@ -86,18 +89,32 @@ def ensure_fmus(spec, entries, progress=True, log=None):
         vin = entry.variant_inputs()
         if vin in out:
             continue
-        scene = spec.variants[(entry.c, entry.d, entry.profile)]
+        vary = []
+        if entry.parametric:             # one FMU over the ranges: c, d set per run
+            from ..rom.parametric import Range
+            from .spec import variant_scene
+            names = {p[0] for p in entry.parametric}
+            scene = variant_scene(spec.scene, None if "c" in names else entry.c, None if "d" in names else entry.d,
+                                  entry.profile)
+            vary = [Range(*p) for p in entry.parametric]
+        else:
+            scene = spec.variants[(entry.c, entry.d, entry.profile)]
         key = variant_key(entry, key_b)
         path = sweep_dir() / f"fmu-{key}.fmu"
         reused = path.is_file()
         t0 = time.perf_counter()
         if not reused:
             if log:
-                log(f"packaging the FMU of {scene.name} (c = {entry.c if entry.c is not None else 'scene'}, "
-                    f"d = {entry.d if entry.d is not None else 'scene'}, k = {entry.k}, {entry.model}) ...")
+                if vary:
+                    log(f"packaging the parametric FMU of {scene.name} ("
+                        + ", ".join(f"{r.name} in [{r.lo:g}, {r.hi:g}]" for r in vary)
+                        + f", k = {entry.k}, {entry.model}) ...")
+                else:
+                    log(f"packaging the FMU of {scene.name} (c = {entry.c if entry.c is not None else 'scene'}, "
+                        f"d = {entry.d if entry.d is not None else 'scene'}, k = {entry.k}, {entry.model}) ...")
             binaries = binaries or ensure_binaries(quiet=not progress)
             package_fmu(scene, path, k=entry.k, probes=entry.probes, fmi=entry.fmi, model=entry.model,
-                        progress=progress, binaries=binaries)
+                        progress=progress, binaries=binaries, vary=vary)
         out[vin] = Variant(key=key, path=path, scene_text=scene.text, probes=entry.probes, reused=reused,
                            wall_time=0.0 if reused else time.perf_counter() - t0)
     return out

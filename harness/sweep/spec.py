@@ -22,6 +22,10 @@ A spec names a scene and grids; their Cartesian product is the study::
     model = ["frozen"]         # frozen | exact                    }
     n_freeze = [10]            # refresh period, an FMU parameter set per run
 
+    [parametric]               # optional: ONE parametric FMU over these ranges (sphrom fmu --vary) instead
+    c = [0.05, 0.2]            # of one FMU (full SPH run, POD) per value of grid.c / grid.d; every grid
+    d = [0.0, 5.0]             # value must lie inside its range; c and d are set per run as FMU parameters
+
 The force is f(t) = shape(t; A, F) at the communication points t_j = j step,
 held over each step (the FMU's input), times the variant's profile(x).
 Built-in shapes (T = t_end): sine A sin(2 pi F t), cosine A cos(2 pi F t),
@@ -60,7 +64,7 @@ SHAPES = {
 SCENE_GRIDS = ("c", "d", "profile", "k", "model")       # one FMU per combination
 RUN_GRIDS = ("shape", "amplitude", "frequency", "n_freeze")
 GRIDS = SCENE_GRIDS + RUN_GRIDS
-TOP_KEYS = ("title", "scene", "t_end", "step", "window", "probes", "fmi", "compare_sph", "grid")
+TOP_KEYS = ("title", "scene", "t_end", "step", "window", "probes", "fmi", "compare_sph", "grid", "parametric")
 MAX_ENTRIES = 1_000_000
 MAX_STEPS = 10_000_000
 DEFAULT_STEP = 0.01
@@ -127,10 +131,20 @@ class Entry:
     probes: tuple
     fmi: int
     compare_sph: bool
+    parametric: tuple = ()      # ((name, lo, hi), ...): c / d set per run on one parametric FMU
 
     def variant_inputs(self):
-        """What selects the FMU: (scene_sha, c, d, profile, k, model, fmi, probes)."""
-        return (self.scene_sha, self.c, self.d, self.profile, self.k, self.model, self.fmi, self.probes)
+        """What selects the FMU: (scene_sha, c, d, profile, k, model, fmi, probes), and the parametric ranges
+        (a parameter of a parametric FMU does not select it: its c or d is None)."""
+        names = {p[0] for p in self.parametric}
+        base = (self.scene_sha, None if "c" in names else self.c, None if "d" in names else self.d, self.profile,
+                self.k, self.model, self.fmi, self.probes)
+        return base + ((self.parametric,) if self.parametric else ())
+
+    def parameter_values(self, scene):
+        """{name: value} of the parameters set on a parametric FMU (the scene's value where the grid has None)."""
+        return {name: (getattr(self, name) if getattr(self, name) is not None else scene_value(scene, name))
+                for name, _, _ in self.parametric}
 
     def as_dict(self):
         return asdict(self)
@@ -417,6 +431,7 @@ def parse_spec(text, source="<spec>", spec_path=None) -> Spec:
     compare = raw.get("compare_sph", False)
     selected = _compare_selection(compare, grids, source)
 
+    parametric = _parametric_ranges(raw.get("parametric"), grids, scene, source)
     variants = _check_variants(scene, grids, source)
     scene_sha = hashlib.sha256(scene.text.encode()).hexdigest()[:16]
     entries = []
@@ -425,9 +440,11 @@ def parse_spec(text, source="<spec>", spec_path=None) -> Spec:
         cmp = bool(selected(inputs))
         key = {**inputs, "scene_sha": scene_sha, "t_end": t_end, "step": step, "window": list(window),
                "probes": list(probes), "fmi": fmi, "compare_sph": cmp}
+        if parametric:
+            key["parametric"] = [list(p) for p in parametric]
         entries.append(Entry(id=entry_id(key), index=index, scene=scene.name, scene_sha=scene_sha,
                              t_end=t_end, step=step, window=window, probes=probes, fmi=fmi, compare_sph=cmp,
-                             **inputs))
+                             parametric=parametric, **inputs))
     if any(e.compare_sph for e in entries):
         dt = scene.sph.dt
         r = step / dt
@@ -438,6 +455,43 @@ def parse_spec(text, source="<spec>", spec_path=None) -> Spec:
                 probes=probes, fmi=fmi, grids=grids, compare=compare, entries=entries)
     spec.variants = variants
     return spec
+
+
+def _parametric_ranges(raw, grids, scene, source):
+    """The ``[parametric]`` table -> ((name, lo, hi), ...) sorted by name; () when absent.
+
+    Each key c or d: [lo, hi] with 0 < lo < hi (c) or 0 <= lo < hi (d); the scene's field uniform; every value
+    of grid.c / grid.d (the scene's value where the grid has none) inside [lo, hi].
+    """
+    if raw is None:
+        return ()
+    here = f"{source}: parametric"
+    if not isinstance(raw, dict) or not raw:
+        _fail(here, f"{raw!r} is out of range (allowed: a table with c = [lo, hi] and/or d = [lo, hi])")
+    out = []
+    for name in sorted(raw):
+        at = f"{here}.{name}"
+        if name not in ("c", "d"):
+            _fail(at, "unknown key (allowed: c, d)")
+        value = raw[name]
+        lo_ok = (lambda v: v > 0) if name == "c" else (lambda v: v >= 0)
+        if not (isinstance(value, list) and len(value) == 2 and all(_is_number(v) and math.isfinite(v)
+                                                                    for v in value)
+                and lo_ok(value[0]) and value[0] < value[1]):
+            _fail(at, f"{value!r} is out of range (allowed: [lo, hi] with {'0 < lo' if name == 'c' else '0 <= lo'}"
+                      f" < hi [{UNITS[name]}])")
+        lo, hi = float(value[0]), float(value[1])
+        base = scene_value(scene, name)
+        if math.isnan(base):
+            _fail(at, f"scene '{scene.name}' has a non-uniform {name} (fields.{name} = "
+                      f"{scene.fields[name].text!r}); a parametric FMU needs a uniform {name}")
+        for v in grids[name]:
+            v = base if v is None else v
+            if not lo <= v <= hi:
+                _fail(f"{source}: grid.{name}", f"{v!r} is outside the parametric range [{lo:g}, {hi:g}] "
+                                                f"(allowed: values inside parametric.{name})")
+        out.append((name, lo, hi))
+    return tuple(out)
 
 
 def _check_variants(scene, grids, source):

@@ -11,7 +11,12 @@ Steps of :func:`run_study`:
 3. connect: a LocalCluster on this machine (``workers`` processes, one thread
    each) or the scheduler at ``scheduler``;
 4. scatter each FMU once, submit one task per entry (grouped by FMU), and
-   collect them as they complete behind a progress bar; the table is written
+   collect them as they complete behind a progress bar; a task lost with its
+   worker (dask's KilledWorker, after the scheduler's own allowed-failures
+   rescheduling, or cancelled with a dependency lost with its worker) is
+   submitted again up to :data:`LOST_RETRIES` times, its FMU
+   scattered again, before it is recorded as failed with a one-line error
+   naming the grid point (``StudyResult.lost``); the table is written
    (atomically) every ``checkpoint_s`` seconds, at the end, and on
    KeyboardInterrupt, so an interrupted study keeps every finished entry;
 5. write RESULTS.h5, RESULTS.csv and the summary RESULTS.png.
@@ -40,6 +45,7 @@ from .table import merge, read_results, write_results
 CONNECT_TIMEOUT = 20.0     # s, to reach a scheduler
 WORKER_TIMEOUT = 60.0      # s, to see a first worker of an existing cluster
 CHECKPOINT_S = 30.0        # s between partial writes
+LOST_RETRIES = 2           # resubmissions of a task whose worker died, before the entry is recorded as failed
 
 
 @dataclass
@@ -62,6 +68,7 @@ class StudyResult:
     interrupted: bool
     paths: list = field(default_factory=list)
     plot: str | None = None
+    lost: list = field(default_factory=list)     # one line per entry lost with its workers beyond the retries
 
 
 def input_row(spec, entry, fmu_key):
@@ -97,8 +104,10 @@ def connect(scheduler=None, workers=None):
             raise FieldError("scheduler", f"the cluster at {scheduler!r} has no worker after "
                                           f"{WORKER_TIMEOUT:g} s") from None
         return client, None
+    # dask's own logs stay quiet below CRITICAL: a worker's death (logged as an ERROR with a traceback) reaches
+    # the study through its futures, which retry the lost tasks and report what stays lost in one line each
     cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
-                           silence_logs=logging.ERROR)
+                           silence_logs=logging.CRITICAL)
     return Client(cluster), cluster
 
 
@@ -177,7 +186,7 @@ def run_study(spec, out, *, scheduler=None, workers=None, progress=True, checkpo
         }
 
     state = {"scheduler": "none", "workers": 0, "ran": 0, "compute": 0.0, "throughput": float("nan"),
-             "package": 0.0, "start": 0.0, "interrupted": False, "remote": bool(scheduler)}
+             "package": 0.0, "start": 0.0, "interrupted": False, "remote": bool(scheduler), "lost": []}
     new_rows = []
     client = cluster = None
     if todo:
@@ -218,7 +227,8 @@ def run_study(spec, out, *, scheduler=None, workers=None, progress=True, checkpo
                        failed=sum(r["status"] == "failed" for r in new_rows), kept=kept, workers=state["workers"],
                        scheduler=state["scheduler"], package_wall=state["package"], cluster_start=state["start"],
                        compute_wall=state["compute"], total_wall=time.perf_counter() - t_start,
-                       throughput=state["throughput"], interrupted=state["interrupted"], paths=written, plot=plot)
+                       throughput=state["throughput"], interrupted=state["interrupted"], paths=written, plot=plot,
+                       lost=list(state["lost"]))
 
 
 def _close(client, cluster):
@@ -229,13 +239,32 @@ def _close(client, cluster):
             cluster.close()
 
 
+def grid_point(entry):
+    """The entry's grid point on one line: its index and the swept values (for a lost task's message)."""
+    values = {"shape": entry.shape, "amplitude": entry.amplitude, "frequency": entry.frequency, "c": entry.c,
+              "d": entry.d, "profile": entry.profile, "k": entry.k, "model": entry.model, "fmi": entry.fmi,
+              "n_freeze": entry.n_freeze}
+    return f"entry {entry.index} (" + ", ".join(f"{k} = {v}" for k, v in values.items() if v is not None) + ")"
+
+
+def is_lost(exc):
+    """Whether a task's exception means it was lost with a worker, not that the entry failed: dask's
+    KilledWorker (its worker died while running it), or a cancellation by the scheduler (a dependency, the
+    scattered FMU, died with its worker; the client cancels only on Ctrl-C, which ends the loop first)."""
+    from concurrent.futures import CancelledError
+
+    from distributed import KilledWorker
+    return isinstance(exc, (KilledWorker, CancelledError))
+
+
 def _compute(client, spec, todo, variants, by_id, session, new_rows, state, progress, checkpoint_s, checkpoint,
              bundle, run_entry, progress_bar):
     """Submit ``todo`` and collect rows into ``new_rows`` (state updated as they come)."""
     from distributed import as_completed
 
     order = {vin: i for i, vin in enumerate(variants)}
-    scattered = {vin: client.scatter([bundle(v)], hash=False)[0] for vin, v in variants.items()}
+    # on every worker: one worker's death does not lose the FMU the other tasks need
+    scattered = {vin: client.scatter([bundle(v)], hash=False, broadcast=True)[0] for vin, v in variants.items()}
     tag = uuid.uuid4().hex[:8]
     t0 = time.perf_counter()
     futures = {}
@@ -245,15 +274,42 @@ def _compute(client, spec, todo, variants, by_id, session, new_rows, state, prog
         futures[fut] = entry
     last = time.perf_counter()
     n_failed = 0
+    losses = {}                                     # entry id -> times its task was lost with its worker
     try:
         with progress_bar(total=len(futures), desc="sweep", unit="run", enabled=progress) as bar:
-            for fut in as_completed(futures):
+            pending = as_completed(futures)
+            for fut in pending:
                 entry = futures[fut]
                 row = input_row(spec, entry, variants[entry.variant_inputs()].key)
                 try:
                     row.update(fut.result())
                 except Exception as exc:            # the task itself was lost (e.g. a killed worker)
-                    row.update({"status": "failed", "error": f"{type(exc).__name__}: {exc}"[:600]})
+                    if is_lost(exc) and losses.get(entry.id, 0) < LOST_RETRIES:
+                        losses[entry.id] = losses.get(entry.id, 0) + 1
+                        vin = entry.variant_inputs()
+                        try:
+                            # the worker that died may have held the scattered FMU: scatter it again, once a
+                            # worker is back (the nanny restarts a dead one)
+                            client.wait_for_workers(1, timeout=WORKER_TIMEOUT)
+                            scattered[vin] = client.scatter([bundle(variants[vin])], hash=False,
+                                                            broadcast=True)[0]
+                            retry = client.submit(run_entry, scattered[vin], entry, pure=False,
+                                                  key=f"sweep-{entry.id}-{tag}-retry{losses[entry.id]}")
+                        except (TimeoutError, OSError) as again:       # no worker came back
+                            losses[entry.id] -= 1
+                            exc = again
+                        else:
+                            futures[retry] = entry
+                            pending.add(retry)
+                            fut.release()
+                            continue
+                    if entry.id in losses or is_lost(exc):
+                        lost = (f"{grid_point(entry)} was lost {losses.get(entry.id, 0) + 1} times with its "
+                                f"worker ({type(exc).__name__}: {' '.join(str(exc).split()).split('. ')[0]})")
+                        state["lost"].append(lost)
+                        row.update({"status": "failed", "error": lost[:600]})
+                    else:
+                        row.update({"status": "failed", "error": f"{type(exc).__name__}: {exc}"[:600]})
                 row["attempts"] = int(by_id.get(entry.id, {}).get("attempts", 0)) + 1
                 row["session"] = session
                 new_rows.append(row)

@@ -163,9 +163,12 @@ def sph_run(bundle, entry):
     from ..rom.operators import probe_rows
     from ..scene import parse_scene
     from ..sph.solver import build_problem, run_sph
-    key = bundle["key"]
+    key = (bundle["key"], entry.c, entry.d) if entry.parametric else bundle["key"]
     if key not in _PROBLEMS:
         scene = parse_scene(bundle["scene_text"], f"<{entry.scene} variant>")
+        if entry.parametric:         # the FMU's scene has the base c, d: the run's are the entry's
+            from .spec import variant_scene
+            scene = variant_scene(scene, **entry.parameter_values(scene))
         _PROBLEMS.clear()            # keep one: a worker mostly meets the variants in turn
         _PROBLEMS[key] = (scene, build_problem(scene))
     scene, problem = _PROBLEMS[key]
@@ -242,6 +245,11 @@ def run_entry(bundle, entry):
             out["load_s"] += load
             out["fmu_loads"] = _LOADS[(bundle["key"], threading.get_ident())]
             t0 = time.perf_counter()
+        if entry.parametric:         # c, d of this run on the one parametric FMU (fixed: before initialization)
+            from ..fmu.fmi import VR_C, VR_D
+            from ..scene import parse_scene
+            params = entry.parameter_values(parse_scene(bundle["scene_text"], f"<{entry.scene} variant>"))
+            slave.set_real([{"c": VR_C, "d": VR_D}[name] for name in params], list(params.values()))
         slave.initialize(n_freeze=entry.n_freeze, initial_state_scale=1)     # the scene's v0, as its full SPH
         values = slave.run(np.full(m, entry.step), f)
         out["fmu_wall_s"] = time.perf_counter() - t0

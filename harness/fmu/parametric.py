@@ -1,0 +1,116 @@
+"""The resources of a parametric FMU (``sphrom fmu SCENE --vary c=LO:HI [--vary d=LO:HI]``).
+
+The model of :mod:`harness.rom.parametric` is stored as the ordinary kind's
+arrays at the start values of c and d (the scene's values, or a range's
+midpoint when the scene's value lies outside it) plus tagged sections:
+``PARAMS`` (rows c, d: varied 0/1, start, min, max) and the affine pieces,
+``KC``, ``BC``, ``DD`` (frozen: K per unit c, b per unit c, D̂ per unit d) or
+``A0``, ``AC``, ``AD`` (linear).  The C core assembles K, b, D̂ or A from them
+at ExitInitializationMode in the order of :func:`harness.rom.parametric.frozen_at`
+and :func:`~harness.rom.parametric.linear_at`, so that at equal (c, d) the FMU
+and the Python model agree bitwise (frozen) or to round-off (exact: the C and
+the scipy matrix exponentials differ in the last bits).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..rom import parametric as par
+from .fmi import VR_C, VR_D
+from .resources import exact_data, model_data, pack, pack_exact
+
+# How the force profile enters a parametric model's FMU (``input_direction`` of build_operators), by model.
+# Frozen: the input row p = U_vᵀ profile, never the residual appended.  The combined basis of several (c, d)
+# misses a little more of the profile than a one-point basis (tenmode, c in [0.05, 0.2], d in [0, 5], k = 12:
+# 1.2 %, above the 1 % of the ordinary FMU's "needed" rule), and appending that rough residual raised the
+# probe-velocity error at held-out points from at most 0.09 to up to 0.36 (python -m harness.bench.parametric
+# --input-direction needed).  The exact model keeps its rule (the profile always in the basis).
+PARAMETRIC_INPUT_DIRECTION = {"frozen": "project"}
+DECLARED_TYPES = {"c": "Stiffness", "d": "DampingRate"}     # modelDescription TypeDefinitions (units Pa, 1/s)
+DESCRIPTIONS = {
+    "c": "stiffness (Young's modulus) c, uniform, of the parametric model; fixed before initialization, within the "
+         "trained range [kg m^-1 s^-2]",
+    "d": "damping rate d, uniform, of the parametric model; fixed before initialization, within the trained range "
+         "[s^-1]",
+}
+
+
+def params_section(space):
+    """The PARAMS section (2, 4): rows c, d; columns varied (0/1), start, min, max."""
+    rows = []
+    for name in par.PARAMETERS:
+        lo, hi = space.bounds(name)
+        rows.append([1.0 if space.varies(name) else 0.0, space.start(name), lo, hi])
+    return np.array(rows, dtype=float)
+
+
+def parameter_variables(space):
+    """The modelDescription rows of the varied parameters (dicts for :func:`harness.fmu.describe.model_description`)."""
+    from .describe import number
+    out = []
+    for name, vr in (("c", VR_C), ("d", VR_D)):
+        if not space.varies(name):
+            continue
+        lo, hi = space.bounds(name)
+        out.append({"name": name, "vr": vr, "start": number(space.start(name)), "min": number(lo), "max": number(hi),
+                    "nominal": number(max(abs(lo), abs(hi))), "description": DESCRIPTIONS[name],
+                    "declared_type": DECLARED_TYPES[name]})
+    return out
+
+
+def parametric_model(scene, ranges, k, *, model="frozen", progress=True, input_direction=None):
+    """The affine model of ``scene`` over ``ranges`` with k modes: (affine, space, basis, points).
+
+    ``affine`` is :class:`~harness.rom.parametric.AffineFrozen` or :class:`~harness.rom.parametric.AffineLinear`;
+    ``input_direction`` (default :data:`PARAMETRIC_INPUT_DIRECTION`, else the model's FMU rule) as in
+    :func:`harness.rom.operators.build_operators`.
+    """
+    from ..errors import FieldError
+    from ..rom.model import BASIS_KINDS, basis_modes
+    from ..rom.registry import get_model
+    from ..sph.solver import build_problem
+
+    spec = get_model(model)
+    if spec.basis_kind not in ("density", "energy"):
+        raise FieldError("model", f"{model} cannot be made parametric (allowed: a POD model: frozen, exact)")
+    space = par.parameter_space(build_problem(scene), ranges)
+    points = par.training_points(space)
+    basis, _ = par.training_basis(scene, points, progress=progress)
+    available = min(getattr(basis, name).shape[1] for name in BASIS_KINDS[spec.basis_kind][:2])
+    if k > available:
+        raise FieldError("k", f"{k} is out of range (allowed: 1 to {available}, the POD modes of the parametric "
+                              f"basis)")
+    U1, U2 = basis_modes(basis, spec.basis_kind, k, k)
+    direction = input_direction or PARAMETRIC_INPUT_DIRECTION.get(model, spec.fmu_input_direction)
+    if spec.linear:
+        affine = par.affine_linear(scene, space, U1, U2, input_direction=direction)
+    else:
+        affine = par.affine_frozen(scene, space, U1, U2, input_direction=direction, tensor="always")
+    return affine, space, basis, points
+
+
+def parametric_resource(scene, model, k, n_freeze, probes, integrator, progress, ranges):
+    """(data, ops at the start values, resource bytes, space) of a parametric FMU."""
+    from ..rom.registry import get_model
+    from ..rom.stepping import runaway_bound
+    from ..sph.solver import build_problem
+
+    affine, space, _, _ = parametric_model(scene, ranges, k, model=model, progress=progress)
+    c0, d0 = space.start("c"), space.start("d")
+    problem = build_problem(scene)
+    sections = {"PARAMS": params_section(space)}
+    if get_model(model).linear:
+        lin = par.linear_at(affine, c0, d0)
+        data = exact_data(lin, problem, dt=scene.sph.dt, n_freeze=n_freeze, probes=probes)
+        sections.update({"A0": affine.A0, "AC": affine.Ac, "AD": affine.Ad})
+        data.sections.update(sections)
+        return data, lin, pack_exact(data), space
+    ops = par.frozen_at(affine, c0, d0)
+    data = model_data(ops, problem, dt=scene.sph.dt, integrator=integrator, n_freeze=n_freeze, probes=probes,
+                      bound=runaway_bound(ops))
+    sections.update({"KC": affine.unit.K, "BC": affine.unit.b[None, :]})
+    if affine.damping:
+        sections["DD"] = affine.unit.D
+    data.sections.update(sections)
+    return data, ops, pack(data), space
