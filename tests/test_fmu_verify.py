@@ -21,6 +21,7 @@ from harness.fmu.build import ensure_binaries
 from harness.fmu.contract import FMU_VARIABLES, lookup
 from harness.fmu.cosim import run_cosim
 from harness.fmu.package import package_auto, package_fmu
+from harness.rom.registry import fmu_model_names
 from harness.sph.solver import build_problem, run_sph
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -190,6 +191,8 @@ def test_documentation_lists_exactly_the_model_description_variables(packaged, f
     assert "http:" not in text and "https:" not in text and "<script" not in text
     assert s.scene in text and f"<code>{model}</code>" in text
     assert ("Not measured" in text) == (not verify)
+    headings = re.findall(r"<h2>(.*?)</h2>", text)
+    assert len(headings) == len(set(headings)) and "Variables" in headings, headings
     assert fmpy.validation.validate_fmu(str(path)) == []
 
 
@@ -290,7 +293,7 @@ def test_the_benchmark_writes_its_table_from_the_measurement(tmp_path):
     assert bench_main([str(scene_file), "--repeats", "1", "--out", str(tmp_path), "--report", str(report),
                        "--quiet"]) == 0
     rows = list(csv.DictReader(open(tmp_path / "fmu_verify.csv")))
-    assert [r["model"] for r in rows] == ["frozen", "exact"]
+    assert [r["model"] for r in rows] == list(fmu_model_names())
     text = report.read_text()
     assert text.index(SECTION_HEADING) < text.index("## Stability stress maps")
     for r in rows:

@@ -20,6 +20,10 @@ FMU_VARIABLES = (
     ("dt", "3", "parameter", "s", "internal time step, > 0 (start: the scene's dt)"),
     ("initial_state_scale", "4", "parameter", "1", "the initial state is this multiple of the scene's deviation "
                                                   "from rest: 0 (start) at rest, 1 the scene's v0, any finite real"),
+    ("c", "5", "parameter", "Pa", "stiffness c, only in a parametric FMU (sphrom fmu --vary c=LO:HI); within the "
+                                  "trained range"),
+    ("d", "6", "parameter", "1/s", "damping d, only in a parametric FMU (--vary d=LO:HI); within the trained "
+                                   "range"),
     ("v_probe_j", "1000+j-1", "output", "m/s", "velocity at probe j (x_j/L), interpolated linearly between "
                                                "particles"),
     ("rho_probe_j", "2000+j-1", "output", "kg/m3", "density at probe j, likewise"),
@@ -35,10 +39,6 @@ FMU_VARIABLES = (
     ("F_port_j", "3000+j-1", "input", "N", "with ports: point force at port j, spread by the SPH kernel"),
     ("v_port_j", "4000+j-1", "output", "m/s", "with ports: sum_i W(x_i - x_j, h) v_i dx, power-conjugate to "
                                               "F_port_j"),
-    ("c", "5", "parameter", "Pa", "parametric FMUs (--vary c=LO:HI): the uniform stiffness, min/max the trained "
-                                  "range"),
-    ("d", "6", "parameter", "1/s", "parametric FMUs (--vary d=LO:HI): the uniform damping, min/max the trained "
-                                   "range"),
 )
 
 

@@ -6,8 +6,8 @@ FMU's documentation (FMI 1.0 used ``_main.html``).  The page is self-contained
 sits beside it) and holds: the scene, the model, every variable of the
 modelDescription.xml it is packed with (read from that XML, so a variable
 added to the templates appears here without a change to this module), the
-tagged sections of ``resources/model.bin`` (the training envelope among them
-when the model carries one), and the measured errors and run times of
+training envelope in words (when the model carries one) and the tagged
+sections of ``resources/model.bin`` with their numbers, and the measured errors and run times of
 :mod:`harness.fmu.verify`.
 """
 
@@ -123,8 +123,8 @@ def variables_section(description_xml):
 
 
 def sections_section(sections):
-    """The tagged sections of resources/model.bin (the training envelope, bounds, ... when the model has them);
-    [] without sections."""
+    """The tagged sections of resources/model.bin with their numbers: the training envelope's (under an h3,
+    after the envelope in words of :func:`envelope_section`), then the others; [] without sections."""
     if not sections:
         return []
     import numpy as np
