@@ -96,7 +96,7 @@ def run_port_fmu(path, scene, steps=M, area=AREA, state_at=None):
     t = np.arange(steps + 1) * H
     with Slave(path) as s:
         s.set_real([7], [area])
-        s.initialize()
+        s.initialize(initial_state_scale=1)
         out = [s.get_real([4000, 4001])]
         for n in range(steps):
             s.set_input(float(scene.force(t[n])))
@@ -172,12 +172,12 @@ def test_area_and_port_inputs_refuse_bad_values(port_fmus, fmi):
                 s.set_real([7], [bad])
             assert any("area" in m and "allowed: a finite number > 0" in m for m in s.errors()), s.errors()
     with Slave(path) as s:
-        s.initialize()
+        s.initialize(initial_state_scale=1)
         with pytest.raises(Exception):
             s.set_real([3001], [float("nan")])
         assert any("F_port_2" in m and "not finite" in m for m in s.errors())
     with Slave(path) as s:
-        s.initialize()
+        s.initialize(initial_state_scale=1)
         with pytest.raises(Exception):
             s.set_real([7], [2.0])                                  # fixed: not in step mode
         assert any("area is a fixed parameter" in m for m in s.errors())
@@ -194,7 +194,7 @@ def test_fmu_without_ports_has_no_port_variables(port_fmus, tmp_path):
         assert "v_port_1" not in s.outputs
         for vr in (7, 3000, 4000):
             with Slave(path) as t:
-                t.initialize()
+                t.initialize(initial_state_scale=1)
                 with pytest.raises(Exception):
                     t.get_real([vr])
                 assert any(f"unknown value reference {vr}" in m for m in t.errors())
@@ -248,7 +248,7 @@ def test_exact_port_fmu_takes_port_input_derivatives(port_fmus):
 
     with Slave(path) as s:
         s.set_real([7], [AREA])
-        s.initialize()
+        s.initialize(initial_state_scale=1)
         out = [s.get_real([4000, 4001])]
         for n in range(M):
             F0, F1 = port_forces(t[n])[0], port_forces(t[n + 1])[0]
@@ -270,7 +270,7 @@ def test_exact_port_fmu_takes_port_input_derivatives(port_fmus):
     assert np.abs(out - ref).max() <= 1e-12 * np.abs(ref).max()
     assert np.abs(held - ref).max() > 1e-6 * np.abs(ref).max()            # the derivatives change the result
     with Slave(port_fmus("frozen", 2)[0]) as s:
-        s.initialize()
+        s.initialize(initial_state_scale=1)
         with pytest.raises(Exception):
             derivatives(s, [3000], [1.0])
         assert any("does not interpolate inputs" in m for m in s.errors())

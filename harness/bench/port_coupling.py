@@ -65,7 +65,7 @@ def fmu_loop(path, scene, h, n, *, coupled, forced=True):
     t = np.arange(n + 1) * h
     out_v, out_s = [], []
     with Slave(path) as fmu:
-        fmu.initialize()
+        fmu.initialize(initial_state_scale=1)        # the scene's initial state, as the coupled full SPH
         for i in range(n + 1):
             v_port = fmu.get_real(vr_v)
             out_v.append(v_port)
