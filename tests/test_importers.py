@@ -79,3 +79,45 @@ def test_fmu_manipulation_toolbox_container_runs_the_fmi3_fmu_as_fmpy_does(tmp_p
     theirs = np.column_stack([result[n] for n in names])
     assert theirs.shape == ours.shape and np.ptp(ours[:, 0]) > 0         # a trajectory that moves
     np.testing.assert_allclose(theirs, ours, rtol=1e-12, atol=1e-15)
+
+
+def test_libcosim_runs_port_and_parametric_fmus_as_fmpy_does(tmp_path):
+    """The component features in an independent importer: a port FMU (exact, two ports, constant port forces
+    set as libcosim start values of the inputs) and a parametric FMU (frozen, d chosen inside its trained range
+    before initialization) give fmpy's outputs (port velocities included) to round-off."""
+    libcosim = pytest.importorskip("libcosimpy.CosimExecution",
+                                   reason="libcosimpy is not installed (pip install libcosimpy)")
+    from libcosimpy.CosimObserver import CosimObserver
+    from libcosimpy.CosimSlave import CosimLocalSlave
+
+    from harness.rom.parametric import parse_vary
+    cases = {"ports": (dict(model="exact", ports=[0.3, 0.7]), {"F_port_1": 0.5, "F_port_2": -0.2}),
+             "parametric": (dict(model="frozen", vary=[parse_vary("d=5:15")]), {"d": 12.5})}
+    for name, (options, values) in cases.items():
+        path = tmp_path / f"{name}.fmu"
+        package_fmu(fmu_scene("forced"), path, k=6, fmi=2, progress=False, binaries=ensure_binaries(), **options)
+        with Slave(path) as s:
+            s.set_real([s.vr[n] for n in values], list(values.values()))
+            s.initialize(initial_state_scale=1)
+            names = list(s.outputs)
+            ours = s.run([H] * N_STEPS, np.zeros(N_STEPS))[1:]
+        with Slave(path) as s:                      # the same without the values: they change the outputs
+            s.initialize(initial_state_scale=1)
+            plain = s.run([H] * N_STEPS, np.zeros(N_STEPS))[1:]
+        assert np.max(np.abs(plain - ours)) > 1e-6 * np.max(np.abs(ours)), name
+        ex = libcosim.CosimExecution.from_step_size(step_size=int(round(H * 1e9)))
+        idx = ex.add_local_slave(local_slave=CosimLocalSlave(fmu_path=str(path), instance_name="sphrom"))
+        obs = CosimObserver.create_last_value()
+        ex.add_observer(observer=obs)
+        refs = {v.name.decode(): v.reference for v in ex.slave_variables(idx)}
+        for var, value in {"initial_state_scale": 1.0, **values}.items():
+            assert ex.real_initial_value(slave_index=idx, variable_reference=refs[var], value=value), var
+        rows = []
+        for _ in range(N_STEPS):
+            assert ex.step()
+            rows.append(obs.last_real_values(slave_index=idx, variable_references=[refs[n] for n in names]))
+        theirs = np.array(rows)
+        if name == "ports":
+            assert {"v_port_1", "v_port_2"} <= set(names)
+        assert theirs.shape == ours.shape and np.ptp(ours[:, 0]) > 0, name
+        np.testing.assert_allclose(theirs, ours, rtol=1e-12, atol=1e-15, err_msg=name)
