@@ -320,3 +320,21 @@ def test_loader_checks_the_output_rows_and_the_bounds_section(fmus):
     blob[flags_at] &= ~8 & 0xFF
     with pytest.raises(CoreError, match=r"k_e = 0 out of range \[1"):
         core.load(bytes(blob))
+
+
+def test_fmu_no_bounds_leaves_the_bound_variables_out(tmp_path, capsys):
+    """``sphrom fmu --model exact --no-bounds``: an exact FMU without the BOUNDS section and without the
+    calculated parameters (the option for large N, where the bounds cost minutes)."""
+    import fmpy
+
+    from harness.cli import main
+    scene_file = tmp_path / "small.toml"
+    scene_file.write_text(scene_for("forced").text)
+    out = tmp_path / "exact.fmu"
+    assert main(["fmu", str(scene_file), "--model", "exact", "--modes", "6", "--no-bounds", "--no-verify",
+                 "--out", str(out), "--quiet"]) == 0
+    data = unpack(zipfile.ZipFile(out).read("resources/model.bin"))
+    assert "BOUNDS" not in data.sections
+    names = {v.name for v in fmpy.read_model_description(str(out)).modelVariables}
+    assert not any("error_bound" in n for n in names) and "v_probe_1" in names
+    assert "error bounds" not in capsys.readouterr().out
