@@ -18,7 +18,9 @@ from harness.fmu.package import package_fmu
 H, N_STEPS = 0.01, 50
 
 
-def libcosim_outputs(path, names):
+def libcosim_outputs(path, names, start=None):
+    """libcosim's outputs ``names`` over N_STEPS steps of H, from the scene's initial state and the start
+    values ``start`` (name -> value: inputs held, parameters fixed before initialization)."""
     libcosim = pytest.importorskip("libcosimpy.CosimExecution",
                                    reason="libcosimpy is not installed (pip install libcosimpy)")
     from libcosimpy.CosimObserver import CosimObserver
@@ -29,7 +31,8 @@ def libcosim_outputs(path, names):
     ex.add_observer(observer=obs)
     refs = {v.name.decode(): v.reference for v in ex.slave_variables(idx)}
     # the scene's initial state (the FMU starts at rest): the comparison needs a trajectory that moves
-    assert ex.real_initial_value(slave_index=idx, variable_reference=refs["initial_state_scale"], value=1.0)
+    for var, value in {"initial_state_scale": 1.0, **(start or {})}.items():
+        assert ex.real_initial_value(slave_index=idx, variable_reference=refs[var], value=value), var
     rows = []
     for _ in range(N_STEPS):
         assert ex.step()
@@ -85,11 +88,7 @@ def test_libcosim_runs_port_and_parametric_fmus_as_fmpy_does(tmp_path):
     """The component features in an independent importer: a port FMU (exact, two ports, constant port forces
     set as libcosim start values of the inputs) and a parametric FMU (frozen, d chosen inside its trained range
     before initialization) give fmpy's outputs (port velocities included) to round-off."""
-    libcosim = pytest.importorskip("libcosimpy.CosimExecution",
-                                   reason="libcosimpy is not installed (pip install libcosimpy)")
-    from libcosimpy.CosimObserver import CosimObserver
-    from libcosimpy.CosimSlave import CosimLocalSlave
-
+    pytest.importorskip("libcosimpy.CosimExecution", reason="libcosimpy is not installed (pip install libcosimpy)")
     from harness.rom.parametric import parse_vary
     cases = {"ports": (dict(model="exact", ports=[0.3, 0.7]), {"F_port_1": 0.5, "F_port_2": -0.2}),
              "parametric": (dict(model="frozen", vary=[parse_vary("d=5:15")]), {"d": 12.5})}
@@ -105,18 +104,7 @@ def test_libcosim_runs_port_and_parametric_fmus_as_fmpy_does(tmp_path):
             s.initialize(initial_state_scale=1)
             plain = s.run([H] * N_STEPS, np.zeros(N_STEPS))[1:]
         assert np.max(np.abs(plain - ours)) > 1e-6 * np.max(np.abs(ours)), name
-        ex = libcosim.CosimExecution.from_step_size(step_size=int(round(H * 1e9)))
-        idx = ex.add_local_slave(local_slave=CosimLocalSlave(fmu_path=str(path), instance_name="sphrom"))
-        obs = CosimObserver.create_last_value()
-        ex.add_observer(observer=obs)
-        refs = {v.name.decode(): v.reference for v in ex.slave_variables(idx)}
-        for var, value in {"initial_state_scale": 1.0, **values}.items():
-            assert ex.real_initial_value(slave_index=idx, variable_reference=refs[var], value=value), var
-        rows = []
-        for _ in range(N_STEPS):
-            assert ex.step()
-            rows.append(obs.last_real_values(slave_index=idx, variable_references=[refs[n] for n in names]))
-        theirs = np.array(rows)
+        theirs = libcosim_outputs(path, names, values)
         if name == "ports":
             assert {"v_port_1", "v_port_2"} <= set(names)
         assert theirs.shape == ours.shape and np.ptp(ours[:, 0]) > 0, name
