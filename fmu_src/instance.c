@@ -560,10 +560,6 @@ InstanceStatus instance_set_input_derivatives(Instance *inst, const char *fn, co
             return instance_error(inst, fn, "order %d is not supported (allowed: 1)", (int)orders[i]);
         }
     }
-    if (n_refs > 0 && !rom_interpolates_inputs(inst->model)) {
-        return instance_error(inst, fn, "the frozen model does not interpolate inputs (canInterpolateInputs = "
-                              "false; set f at every communication point)");
-    }
     for (size_t i = 0; i < n_refs; i++) {
         const RomStatus status = refs[i] == ROM_VR_F
             ? rom_set_input_rate(inst->state, values[i], inst->message, sizeof inst->message)

@@ -150,11 +150,6 @@ RomStatus rom_set_input_rate(RomState *s, double rate, char *message, size_t mes
     return ROM_OK;
 }
 
-int rom_interpolates_inputs(const RomModel *m) {
-    /* the linear models integrate f + rate tau exactly; the frozen model evaluates it at each refresh */
-    return m != NULL;
-}
-
 RomStatus rom_set_dt(RomState *s, double dt, char *message, size_t message_size) {
     if (!s) return rom_fail(message, message_size, "no state");
     if (!(isfinite(dt) && dt > 0)) {

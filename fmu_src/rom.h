@@ -292,8 +292,6 @@ ROM_API RomStatus rom_advance(RomState *state, int64_t n_steps, char *message, s
  * at each refresh of its force term, at the internal step's time tau = j dt (as
  * harness/rom/frozen.py and harness/fmu/python_cosim.py do, bit for bit). */
 ROM_API RomStatus rom_set_input_rate(RomState *state, double rate, char *message, size_t message_size);
-/* 1 when the model uses the input rate (canInterpolateInputs: every model now), else 0 */
-ROM_API int rom_interpolates_inputs(const RomModel *model);
 /* The reduced state: a^v (k_v values) then a^rho (frozen) or b = e coordinates (exact) into out[n];
  * returns the count written (0 on a bad argument) */
 ROM_API size_t rom_reduced_state(const RomState *state, double *out, size_t n);

@@ -156,7 +156,6 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
         "profile": scene.fields["profile"].text,
         # FMI 2 only: the linear models integrate f + (df/dt) tau over a step exactly, the frozen model
         # evaluates it at each refresh of its force term
-        "can_interpolate_inputs": "true",
         "input_hold": "held over each communication step, or linear with the derivative of "
                       "fmi2SetRealInputDerivatives",
         # the linear models give dy/dt = C (A z + B f) exactly (fmu_src/rom.h rom_max_output_derivative_order);
