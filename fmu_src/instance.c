@@ -363,7 +363,7 @@ static int varies_d(const RomModel *m) { return rom_varies(m, ROM_PARAM_D); }
  * the input F_port_j [VR 3000 + j - 1] and the output v_port_j [VR 4000 + j - 1], one row each with a
  * `present` test on the model's port count. */
 static int has_ports(const RomModel *m) { return rom_n_ports(m) > 0; }
-static double get_area(const RomState *s, uint32_t j) { (void)j; return s->port[0]; }
+static double get_area(const RomState *s, uint32_t j) { (void)j; return s->area; }
 #define PORT_FUNCTIONS(J)                                                                                        \
     static int has_port_##J(const RomModel *m) { return rom_n_ports(m) >= J; }                                  \
     static double get_port_force_##J(const RomState *s, uint32_t j) { (void)j; return rom_port_force(s, J - 1); } \

@@ -118,8 +118,8 @@ void rom_state_reset(RomState *s, double t_start) {
     const RomSection *params = rom_model_section(m, "PARAMS");
     s->c = params ? params->data[1] : 0.0;
     s->d = params ? params->data[4 + 1] : 0.0;
-    for (size_t j = 0; j < 2 * (1 + ROM_MAX_PORTS); j++) s->port[j] = 0.0;
-    s->port[0] = 1.0;                                          /* area [m^2] */
+    for (size_t j = 0; j < ROM_MAX_PORTS; j++) s->port_force[j] = s->port_rate[j] = 0.0;
+    s->area = 1.0;                                             /* [m^2] */
 }
 
 RomStatus rom_set_start_time(RomState *s, double t_start, char *message, size_t message_size) {
@@ -221,8 +221,7 @@ RomStatus rom_do_step(RomState *s, double t_comm, double h, char *message, size_
     s->time = t_comm + h;
     if (s->aux && s->aux[1] != 0.0) s->f = s->f + s->aux[1] * h;    /* the input continues linearly */
     for (uint32_t j = 0; j < s->model->n_ports; j++) {              /* and the port forces */
-        const double rate = s->port[2 + ROM_MAX_PORTS + j];
-        if (rate != 0.0) s->port[1 + j] = s->port[1 + j] + rate * h;
+        if (s->port_rate[j] != 0.0) s->port_force[j] = s->port_force[j] + s->port_rate[j] * h;
     }
     return rom_check_outputs(s, message, message_size);
 }
@@ -379,13 +378,13 @@ RomStatus rom_set_port_force(RomState *s, uint32_t j, double force, char *messag
         return rom_fail(message, message_size, "input F_port_%u = %g N at t = %.9g s is not finite (allowed: a finite "
                         "force in N)", j + 1, force, s->time);
     }
-    s->port[1 + j] = force;
+    s->port_force[j] = force;
     return ROM_OK;
 }
 
 double rom_port_force(const RomState *s, uint32_t j) {
     if (!s || j >= s->model->n_ports) return NAN;
-    return s->port[1 + j];
+    return s->port_force[j];
 }
 
 RomStatus rom_set_area(RomState *s, double area, char *message, size_t message_size) {
@@ -394,7 +393,7 @@ RomStatus rom_set_area(RomState *s, double area, char *message, size_t message_s
         return rom_fail(message, message_size, "parameter area = %g m^2 is out of range (allowed: a finite number "
                         "> 0)", area);
     }
-    s->port[0] = area;
+    s->area = area;
     return ROM_OK;
 }
 
@@ -410,7 +409,7 @@ RomStatus rom_set_port_rate(RomState *s, uint32_t j, double rate, char *message,
     if (rate != 0.0 && !rom_is_linear(s->model)) {
         return rom_fail(message, message_size, "the frozen model does not interpolate inputs");
     }
-    s->port[2 + ROM_MAX_PORTS + j] = rate;
+    s->port_rate[j] = rate;
     return ROM_OK;
 }
 

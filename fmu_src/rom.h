@@ -246,10 +246,11 @@ typedef struct {
     /* parametric models (section PARAMS): the chosen stiffness c [kg m^-1 s^-2] and damping d [s^-1],
      * the start values after a reset; the operators are assembled from them by rom_model_assemble */
     double c, d;
-    /* ports, two rows of 1 + ROM_MAX_PORTS: port[0] the cross-section area [m^2] (parameter, > 0),
-     * port[1 + j] the force F_j [N] (input); port[1 + ROM_MAX_PORTS] unused (0),
-     * port[2 + ROM_MAX_PORTS + j] the rate dF_j/dt [N s^-1] over a step (linear model; 0: held) */
-    double port[2 * (1 + ROM_MAX_PORTS)];
+    /* ports: the cross-section area [m^2] (parameter, > 0), the force F_j [N] at port j (input) and its
+     * rate dF_j/dt [N s^-1] over a step (linear model; 0: held) */
+    double area;
+    double port_force[ROM_MAX_PORTS];
+    double port_rate[ROM_MAX_PORTS];
 } RomState;
 
 /* ---- resources ---------------------------------------------------------- */

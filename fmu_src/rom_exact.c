@@ -152,8 +152,7 @@ static RomStatus exact_step(RomState *s, double t_comm, double h, char *message,
         if (m->B) acc = acc + c->G0[i * ni] * f + c->G1[i * ni] * df;
         for (size_t j = 0; j < m->n_ports; j++) {    /* port forces, held or linear (rate) over the step */
             const size_t col = i * ni + (m->B ? 1 : 0) + j;
-            acc = acc + c->G0[col] * (s->port[1 + j] / s->port[0])
-                      + c->G1[col] * (s->port[2 + ROM_MAX_PORTS + j] * h / s->port[0]);
+            acc = acc + c->G0[col] * (s->port_force[j] / s->area) + c->G1[col] * (s->port_rate[j] * h / s->area);
         }
         xn[i] = acc;
     }

@@ -66,7 +66,7 @@ ROM_INLINE void refresh(RomState *s, double f) {
     }
     /* port forces, frozen with f: F += port_B[j] (F_j / area), ports in order (harness/rom/frozen.py) */
     for (size_t j = 0; j < m->n_ports; j++) {
-        const double u = s->port[1 + j] / s->port[0];
+        const double u = s->port_force[j] / s->area;
         const double *restrict row = m->port_B + j * m->k_v;
         for (size_t p = 0; p < m->k_v; p++) F[p] += row[p] * u;
     }

@@ -778,23 +778,32 @@ static StateBlocks state_blocks(const RomState *s) {
     return b;
 }
 
-/* With ports, after the state's blocks: area, F_port[n_ports], then 0, dF_port/dt[n_ports] (RomState.port's
- * two rows); port_values(m) doubles, read or written at cursor (returns the cursor after them). */
+/* With ports, after the state's blocks: area, F_port[n_ports], then 0 (reserved), dF_port/dt[n_ports];
+ * port_values(m) doubles, read or written at cursor (returns the cursor after them). */
 static size_t port_values(const RomModel *m) {
     return m->n_ports ? 2 * (1 + (size_t)m->n_ports) : 0;
 }
 
 static unsigned char *ports_put(const RomState *s, unsigned char *cursor) {
-    for (size_t r = 0; r < (s->model->n_ports ? 2u : 0u); r++) {
-        for (size_t c = 0; c <= s->model->n_ports; c++, cursor += 8) put_f64(cursor, s->port[r * (1 + ROM_MAX_PORTS) + c]);
-    }
+    const size_t n = s->model->n_ports;
+    if (!n) return cursor;
+    put_f64(cursor, s->area);
+    cursor += 8;
+    for (size_t j = 0; j < n; j++, cursor += 8) put_f64(cursor, s->port_force[j]);
+    put_f64(cursor, 0.0);
+    cursor += 8;
+    for (size_t j = 0; j < n; j++, cursor += 8) put_f64(cursor, s->port_rate[j]);
     return cursor;
 }
 
 static const unsigned char *ports_get(RomState *s, const unsigned char *cursor) {
-    for (size_t r = 0; r < (s->model->n_ports ? 2u : 0u); r++) {
-        for (size_t c = 0; c <= s->model->n_ports; c++, cursor += 8) s->port[r * (1 + ROM_MAX_PORTS) + c] = get_f64(cursor);
-    }
+    const size_t n = s->model->n_ports;
+    if (!n) return cursor;
+    s->area = get_f64(cursor);
+    cursor += 8;
+    for (size_t j = 0; j < n; j++, cursor += 8) s->port_force[j] = get_f64(cursor);
+    cursor += 8;                                       /* reserved */
+    for (size_t j = 0; j < n; j++, cursor += 8) s->port_rate[j] = get_f64(cursor);
     return cursor;
 }
 
