@@ -270,8 +270,11 @@ def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem
 
     Runs (or reuses) the full SPH and the POD (harness.pod.pipeline), builds
     the operators with ``input_direction="needed"`` (an input row always; the force profile appended
-    to U_v only when the POD modes miss more than 1 % of it) and ``tensor="always"``.
+    to U_v only when the POD modes miss more than 1 % of it) and ``tensor="always"``, with b about the
+    projected rest density (:func:`harness.rom.operators.rest_equilibrium`), so that the FMU started at rest
+    stays at rest.
     """
+    from ..rom.operators import rest_equilibrium
     from ..rom.registry import get_model
     from ..rom.stepping import runaway_bound
 
@@ -279,6 +282,7 @@ def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem
     basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem)
     ops = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction, tensor="always",
                      **({"ports": tuple(ports)} if ports else {}))
+    ops = rest_equilibrium(ops)      # a component at rest stays at rest (b = K a^ρ_rest, not eq. 2.22's b)
     data = model_data(ops, problem, dt=scene.sph.dt, integrator=integrator, n_freeze=n_freeze, probes=probes,
                       bound=runaway_bound(ops))
     return data, ops, problem, basis

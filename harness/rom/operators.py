@@ -21,6 +21,7 @@ independent of N, and is exact.  Pairs are ordered a = 0..k_ρ-1, b = a..k_ρ-1.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 
@@ -301,6 +302,25 @@ def port_rows(problem, U_v, ports, port_added, port_errors, port_added_2=0):
     return {"ports": tuple(float(x) for x in ports), "Bp": np.ascontiguousarray(port_accelerations(problem, ports) @ U_v),
             "Cp": np.ascontiguousarray(port_velocity_rows(problem, ports) @ U_v), "port_added": port_added,
             "port_added_2": port_added_2, "port_errors": port_errors}
+
+
+def rest_equilibrium(ops: ReducedOperators) -> ReducedOperators:
+    """``ops`` with b = K a^ρ_rest: the projected rest state (a^v = 0, a^ρ = U^ρᵀ ρ0) is an equilibrium.
+
+    Eq. 2.22's b = U^vᵀ ρ0⁻¹ G c and K a^ρ (eq. 2.21) cancel at rest only as far as ρ0 lies in the span of
+    the density modes: K a^ρ - b = U^vᵀ ρ0⁻¹ G c (ρ0⁻¹ U^ρ a^ρ - 1), which at a^ρ = U^ρᵀ ρ0 leaves the
+    constant force U^vᵀ ρ0⁻¹ G c ρ0⁻¹ (P ρ0 - ρ0) of the projection error of ρ0 (P = U^ρ U^ρᵀ).  A reduced
+    model started at rest then drifts, and so does every run of it by that force.  Taking the linearisation
+    of eq. 2.17 about the projected rest density instead, ρ/ρ0 - 1 ≈ ρ0⁻¹ U^ρ (a^ρ - a^ρ_rest), keeps K and
+    replaces b by K a^ρ_rest (the exact model's deviation form z = 0 at rest does the same).  At rest the
+    velocity rate b - K a^ρ_rest is then zero up to the round-off of the k_ρ products.
+
+    ``ops.a_rho0`` is U^ρᵀ ρ0 (every scene starts at ρ = ρ0, :func:`build_operators`), so it is a^ρ_rest.
+    For the model affine in c (:mod:`harness.rom.parametric`) the unit operators' b_c = K_c a^ρ_rest keeps
+    b = c b_c = K a^ρ_rest at every c.
+    """
+    b = np.ascontiguousarray(ops.K @ ops.a_rho0)          # eq. 2.22 about the projected rest density
+    return dataclasses.replace(ops, b=b)
 
 
 def wants_tensor(tensor, k_v, k_rho):

@@ -275,11 +275,11 @@ def affine_frozen(scene, space, U_v, U_rho, *, input_direction="auto", input_tol
     :func:`harness.rom.operators.build_operators` (the profile does not depend on c, d).
     """
     from ..sph.solver import build_problem
-    from .operators import build_operators
+    from .operators import build_operators, rest_equilibrium
 
     unit_problem = build_problem(scene_at(scene, 1.0, 1.0))
-    unit = build_operators(unit_problem, U_v, U_rho, input_direction=input_direction, tensor=tensor,
-                           input_tolerance=input_tolerance)
+    unit = rest_equilibrium(build_operators(unit_problem, U_v, U_rho, input_direction=input_direction,
+                                            tensor=tensor, input_tolerance=input_tolerance))   # b_c = K_c a^ρ_rest
     damping = space.varies("d") or space.scene_values["d"] != 0
     return AffineFrozen(unit=unit, space=space, damping=damping, timings=dict(unit.timings))
 
@@ -287,7 +287,7 @@ def affine_frozen(scene, space, U_v, U_rho, *, input_direction="auto", input_tol
 def frozen_at(model: AffineFrozen, c, d):
     """The frozen model's ReducedOperators at (c [kg m^-1 s^-2], d [s^-1]), assembled in O(k²).
 
-    K = c K_c, b = c b_c (eqs. 2.21, 2.22), D̂ = d D_d (eq. 2.24): each entry one
+    K = c K_c, b = c b_c (eqs. 2.21, 2.22; b_c = K_c a^ρ_rest, so rest is an equilibrium at every c), D̂ = d D_d (eq. 2.24): each entry one
     product, as the C core assembles them.  FieldError outside the trained range.
     """
     model.space.check(c, d)
