@@ -1,0 +1,198 @@
+"""A component at rest: does the packaged FMU stay at rest, and what does the rest-consistent b cost?
+
+The frozen FMU takes b about the projected rest density (b = K a^ρ_rest,
+:func:`harness.rom.operators.rest_equilibrium`) instead of eq. 2.22's b = U^vᵀ ρ0⁻¹ G c, which leaves the
+constant force of ρ0's projection error in every run.  For every built-in scene this packages the FMUs as
+``sphrom fmu SCENE --model frozen|exact`` does (FMI 2, the scene's default k, n_freeze = 10, probes x/L =
+0.25, 0.5, 0.66) and, for comparison, the frozen FMU with eq. 2.22's b (the same resources with only b
+replaced), and measures through fmpy:
+
+* **rest**: ``initial_state_scale`` = 0 and f = 0 for T = 100 s at the FMU's default communication step:
+  the largest |v_probe| over the run, relative to the largest |v_probe| of the scene's own full SPH training
+  run, and the largest change of ρ_probe from its start, relative to ρ0;
+* **training** and **unseen**: the verification of ``sphrom fmu`` (:mod:`harness.fmu.verify`): the relative
+  L² errors (eq. 3.4) of the probe velocities against the full SPH on the scene's force and initial state,
+  and on A sin(2π·0.7 t) from rest.
+
+Run as::
+
+    python -m harness.bench.rest [SCENE ...] [--out validation/benchmarks/rest.csv] [--report BENCHMARKS.md]
+
+It writes the CSV, ``rest.png`` beside it (|v_probe|(t) at rest, multimode, every model) and the section
+"A component at rest" of the report.
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import sys
+import tempfile
+import time
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+SECTION_HEADING = "## A component at rest"
+PROBES = (0.25, 0.5, 0.66)
+REST_T = 100.0            # [s] the rest run's length
+PLOT_SCENE = "multimode"
+
+
+def paper_b(ops, problem):
+    """Eq. 2.22's b = U^vᵀ ρ0⁻¹ G c of the operators ``ops`` (k_v,)."""
+    G = problem.neighbours.matrix()
+    return ops.U_v.T @ (ops.inv_rho0 * np.asarray(G @ problem.c))      # eq. 2.22
+
+
+def with_b(path, out, b):
+    """Write a copy of the frozen FMU ``path`` to ``out`` whose resources have ``b`` instead of theirs (the
+    token in the resources and in modelDescription.xml renewed together)."""
+    from ..fmu.resources import pack, unpack
+    with zipfile.ZipFile(path) as zin:
+        blob = zin.read("resources/model.bin")
+        data = unpack(blob)
+        old = data.token
+        data.b = np.ascontiguousarray(b, float)
+        new_blob = pack(data)
+        with zipfile.ZipFile(out, "w", compression=zipfile.ZIP_DEFLATED) as zout:
+            for info in zin.infolist():
+                raw = zin.read(info.filename)
+                if info.filename == "resources/model.bin":
+                    raw = new_blob
+                elif info.filename == "modelDescription.xml":
+                    raw = raw.decode().replace(old, data.token).encode()
+                zout.writestr(info, raw)
+    return out
+
+
+def rest_run(path, step, T=REST_T):
+    """(t, v (M, P), rho (M, P)) of the FMU at ``path`` left at rest (initial_state_scale 0), f = 0."""
+    from ..fmu.verify import fmu_run
+    t = np.arange(int(round(T / step)) + 1) * step
+    v, rho, _ = fmu_run(path, np.zeros_like(t), t, scale=0.0)
+    return t, v, rho
+
+
+def measure_scene(name, folder, progress=True):
+    """Rows (frozen with eq. 2.22's b, frozen, exact) of scene ``name`` and the rest runs {model: (t, v)}."""
+    from ..fmu.build import ensure_binaries
+    from ..fmu.package import package_fmu, reduced_model
+    from ..fmu.verify import fmu_features, verify_fmu
+    from ..scene import load_scene
+    from ..sph.solver import build_problem
+
+    scene = load_scene(name)
+    problem = build_problem(scene)
+    binaries = ensure_binaries(quiet=True)
+    folder = Path(folder)
+    paths, refs = {}, None
+    for model in ("frozen", "exact"):
+        s = package_fmu(scene, folder / f"{name}-{model}.fmu", model=model, fmi=2, probes=PROBES, progress=progress,
+                        binaries=binaries, problem=problem, verify=True, references=refs)
+        refs = s.verification.refs
+        paths[model] = (s.path, s.verification)
+        if model == "frozen":
+            k = s.k
+    _, ops, _, _ = reduced_model(scene, k, 10, PROBES, scene.sph.integrator, progress=False, problem=problem)
+    eq222 = with_b(paths["frozen"][0], folder / f"{name}-frozen-eq222.fmu", paper_b(ops, problem))
+    paths = {"frozen, eq. 2.22's b": (eq222, verify_fmu(eq222, scene, PROBES, refs=refs, problem=problem)),
+             "frozen": paths["frozen"], "exact": paths["exact"]}
+    _, _, _, (t_train, sph_v, _, rho0, _) = refs["training"]
+    v_scale = float(np.max(np.abs(sph_v)))
+    rows, traces = [], {}
+    for label, (path, verification) in paths.items():
+        step = fmu_features(path)[2]
+        t, v, rho = rest_run(path, step)
+        traces[label] = (t, np.max(np.abs(v), axis=1) / v_scale)
+        rows.append({"scene": name, "model": label, "N": scene.sph.n_particles, "step": step, "T_rest": REST_T,
+                     "rest_v": float(np.max(np.abs(v))) / v_scale,
+                     "rest_drho": float(np.max(np.abs(rho - rho[0]) / rho0)),
+                     "rest_rho_offset": float(np.max(np.abs(rho[0] - rho0) / rho0)),
+                     "train_err_v": verification.training.err_v, "train_err_rho": verification.training.err_rho,
+                     "unseen_err_v": verification.unseen.err_v, "v_scale": v_scale})
+    return rows, traces
+
+
+def plot(traces, path, scene):
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(6.4, 4.0))
+    for label, (t, v) in traces.items():
+        ax.semilogy(t[1:], np.maximum(v[1:], 1e-20), label=label)
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("max |v_probe| / largest |v_probe| of the scene")
+    ax.set_title(f"{scene}: FMU left at rest (initial_state_scale = 0), f = 0", fontsize=9)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120, format="png")
+    plt.close(fig)
+
+
+def section(rows, command, wall, machine):
+    """The report's lines."""
+    def e(x):
+        return "—" if x is None or not np.isfinite(x) else f"{x:.2e}"
+    lines = [SECTION_HEADING, "",
+             f"Produced by `{command}` ({machine}, {wall:.0f} s wall; `validation/benchmarks/rest.csv`, "
+             "`rest.png`). Each scene's FMU (FMI 2, the scene's default k, n_freeze = 10, probes x/L = 0.25, 0.5, "
+             "0.66) as `sphrom fmu SCENE --model MODEL` builds it; *frozen, eq. 2.22's b*: the same frozen FMU with "
+             "only b replaced by eq. 2.22's U^vᵀ ρ0⁻¹ G c (what the frozen FMU used before it took b about the "
+             "projected rest density, b = K a^ρ_rest). *At rest*: `initial_state_scale` = 0, f = 0, "
+             f"T = {REST_T:g} s at the FMU's default step: the largest |v_probe| relative to the largest |v_probe| "
+             "of the scene's full SPH training run, and the largest change of ρ_probe from its start relative to "
+             "ρ0. *Training* / *unseen*: relative L² errors (eq. 3.4) of the probe velocities against the full SPH "
+             "(the scene's force and initial state; A sin(2π·0.7 t) from rest), as `sphrom fmu` measures them.",
+             "",
+             "| scene | model | at rest: max v | at rest: ρ change | training v error | unseen v error |",
+             "| --- | --- | ---: | ---: | ---: | ---: |"]
+    for r in rows:
+        lines.append(f"| {r['scene']} | {r['model']} | {e(r['rest_v'])} | {e(r['rest_drho'])} | "
+                     f"{e(r['train_err_v'])} | {e(r['unseen_err_v'])} |")
+    return lines
+
+
+def main(argv=None):
+    from ..report.markdown import write_text
+    from ..runio import atomic_path
+    from ..scene import builtin_names
+    from .fmu_verify import replace_section
+    from .tables import write_csv
+
+    p = argparse.ArgumentParser(prog="python -m harness.bench.rest", description=__doc__.split("\n\n")[0])
+    p.add_argument("scenes", nargs="*", metavar="SCENE", help="default: every built-in scene")
+    p.add_argument("--out", default="validation/benchmarks/rest.csv", metavar="FILE.csv")
+    p.add_argument("--report", default="BENCHMARKS.md", metavar="FILE.md")
+    p.add_argument("--quiet", action="store_true")
+    args = p.parse_args(argv)
+    scenes = args.scenes or builtin_names()
+    t0 = time.perf_counter()
+    rows, traces = [], None
+    with tempfile.TemporaryDirectory(prefix="sphrom-rest-") as folder:
+        for name in scenes:
+            r, tr = measure_scene(name, folder, progress=not args.quiet)
+            rows += r
+            if name == PLOT_SCENE or traces is None:
+                traces = (name, tr)
+            for x in r:
+                print(f"{x['scene']:20s} {x['model']:22s} rest v {x['rest_v']:.2e}  rest drho {x['rest_drho']:.2e}  "
+                      f"training v {x['train_err_v']:.3e}  unseen v {x['unseen_err_v']:.3e}", flush=True)
+    wall = time.perf_counter() - t0
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    write_csv(out, rows)
+    with atomic_path(out.with_suffix(".png")) as tmp:
+        plot(traces[1], tmp, traces[0])
+    given = argv if argv is not None else sys.argv[1:]
+    command = "python -m harness.bench.rest" + (" " + " ".join(given) if given else "")
+    lines = section(rows, command, wall, f"{platform.machine()}, Python {platform.python_version()}")
+    report = Path(args.report)
+    text = report.read_text() if report.exists() else "# Benchmarks\n"
+    write_text(report, replace_section(text, SECTION_HEADING, lines))
+    print(f"wrote {out}, {out.with_suffix('.png')} and the section of {report} ({wall:.0f} s)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
