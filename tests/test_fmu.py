@@ -26,7 +26,7 @@ from harness.fmu.python_cosim import cosim_reference, probe_values, split_step
 from harness.fmu.resources import unpack
 from harness.pod.pipeline import basis_for_scene
 from harness.rom.common import run_reduced
-from harness.rom.operators import build_operators, probe_rows
+from harness.rom.operators import build_operators, probe_rows, rest_equilibrium
 from harness.sph.solver import build_problem
 
 K = 6
@@ -122,7 +122,8 @@ def test_equals_python_frozen_model(fmus, case, integrator, record_property):
     scene = scene_for(case)
     problem = build_problem(scene)
     basis, _ = basis_for_scene(scene, progress=False, problem=problem)
-    ops = build_operators(problem, basis.U_v[:, :K], basis.U_rho[:, :K], input_direction="needed", tensor="always")
+    ops = rest_equilibrium(build_operators(problem, basis.U_v[:, :K], basis.U_rho[:, :K], input_direction="needed",
+                                           tensor="always"))          # the FMU's b: about the rest density
     dt, H, M = scene.sph.dt, 0.01, 50
     m = int(round(H / dt))
     inputs = scene.force(np.arange(M) * H) if case == "forced" else np.zeros(M)

@@ -230,3 +230,22 @@ def test_states_carry_the_scale_and_reset_restores_the_start_value(fmus, fmi, mo
         assert np.array_equal(s.run(steps, inputs), first)
         s.free_state(state)
         s.free_state(restored)
+
+
+def test_the_rest_bench_measures_the_frozen_fmu_with_eq_2_22s_b(fmus, tmp_path):
+    """harness.bench.rest's comparison FMU: the packaged frozen FMU with only b replaced by eq. 2.22's equals the
+    Python mirror of those resources bit for bit, and left at rest it drifts where the packaged one does not."""
+    from harness.bench.rest import paper_b, rest_run, with_b
+    scene = fmu_scene("unforced")
+    path, data = fmus("frozen", 2, "unforced")
+    _, ops, problem, _ = reduced_model(scene, K, 10, PROBES, "euler", progress=False)
+    old = with_b(path, tmp_path / "eq222.fmu", paper_b(ops, problem))
+    old_data = unpack(zipfile.ZipFile(old).read("resources/model.bin"))
+    assert np.array_equal(old_data.b, paper_b(ops, problem)) and not np.array_equal(old_data.b, data.b)
+    assert fmpy.validation.validate_fmu(str(old)) == []
+    t, v_old, rho_old = rest_run(old, 0.1, T=20.0)
+    _, v_new, _ = rest_run(path, 0.1, T=20.0)
+    _, rv, rr = cosim_reference(old_data, [0.1] * (t.size - 1), np.zeros(t.size - 1), initial_state_scale=0.0)
+    assert np.array_equal(np.hstack([v_old, rho_old]), np.hstack([rv, rr]))
+    moving = np.abs(_run(path, [0.1] * 50, np.zeros(50), scale=1.0)[:, :len(PROBES)]).max()
+    assert np.abs(v_old).max() > 1e-6 * moving > 1e6 * np.abs(v_new).max()

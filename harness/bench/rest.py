@@ -87,15 +87,15 @@ def measure_scene(name, folder, progress=True):
     problem = build_problem(scene)
     binaries = ensure_binaries(quiet=True)
     folder = Path(folder)
-    paths, refs = {}, None
+    summaries, refs = {}, None
     for model in ("frozen", "exact"):
-        s = package_fmu(scene, folder / f"{name}-{model}.fmu", model=model, fmi=2, probes=PROBES, progress=progress,
-                        binaries=binaries, problem=problem, verify=True, references=refs)
-        refs = s.verification.refs
-        paths[model] = (s.path, s.verification)
-        if model == "frozen":
-            k = s.k
-    _, ops, _, _ = reduced_model(scene, k, 10, PROBES, scene.sph.integrator, progress=False, problem=problem)
+        summaries[model] = package_fmu(scene, folder / f"{name}-{model}.fmu", model=model, fmi=2, probes=PROBES,
+                                       progress=progress, binaries=binaries, problem=problem, verify=True,
+                                       references=refs)
+        refs = summaries[model].verification.refs
+    paths = {model: (s.path, s.verification) for model, s in summaries.items()}
+    _, ops, _, _ = reduced_model(scene, summaries["frozen"].k, 10, PROBES, scene.sph.integrator, progress=False,
+                                 problem=problem)
     eq222 = with_b(paths["frozen"][0], folder / f"{name}-frozen-eq222.fmu", paper_b(ops, problem))
     paths = {"frozen, eq. 2.22's b": (eq222, verify_fmu(eq222, scene, PROBES, refs=refs, problem=problem)),
              "frozen": paths["frozen"], "exact": paths["exact"]}
