@@ -2,10 +2,18 @@
 container (FMI 3).
 
 libcosim loads the FMU with the FMI Library, runs its own instantiate/initialise/step sequence and reads the
-outputs; the outputs must equal fmpy's (through :class:`harness.fmu.fmi.Slave`) to round-off.  Skips, with a
-message, where an importer is not installed.  libcosim imports FMI 2.0 only; the FMI 3 FMU runs inside the
-container's own runtime.
+outputs; the container's own runtime loads, instantiates and steps the FMI 3 FMU (fmpy only drives the
+container), and sets the start values listed in the container's description (parameters before initialization,
+inputs it exposes).  The outputs must equal fmpy's (through :class:`harness.fmu.fmi.Slave`) to round-off: the
+plain frozen, exact and balanced FMUs, a port FMU (constant port forces), a parametric FMU (c and d set before
+initialization), and each FMU left at its start values (initial_state_scale = 0: at rest).  Skips, with a message,
+where an importer is not installed.  libcosim imports FMI 2.0 only; fmi-sim (the Reference-FMUs' importer) is not
+installable here, so the container is the FMI 3 importer.
 """
+
+import json
+import shutil
+import subprocess
 
 import numpy as np
 import pytest
@@ -14,13 +22,54 @@ from conftest import fmu_scene
 from harness.fmu.build import ensure_binaries
 from harness.fmu.fmi import Slave
 from harness.fmu.package import package_fmu
+from harness.rom.parametric import parse_vary
 
 H, N_STEPS = 0.01, 50
+# libcosim against fmpy: measured differences up to 2.2e-16 on the O(1) outputs of the exact and balanced FMUs and
+# 2e-11 on the port FMU's outputs (up to 235 m/s), each within RTOL |fmpy| + ATOL; 0 (bitwise) for the frozen and
+# parametric FMUs and at rest.  The container against fmpy: 0 (bitwise) in every case, asserted as such.
+RTOL, ATOL = 1e-12, 1e-15
+
+# name -> (package_fmu options, start values of the feature: inputs held, parameters set before initialization)
+PLAIN = {model: (dict(model=model), {}) for model in ("frozen", "exact", "balanced")}
+FEATURES = {"ports": (dict(model="exact", ports=[0.3, 0.7]), {"F_port_1": 0.5, "F_port_2": -0.2}),
+            "parametric": (dict(model="frozen", vary=[parse_vary("c=0.05:0.2"), parse_vary("d=5:15")]),
+                           {"c": 0.15, "d": 12.5})}       # inside the trained ranges, off the scene's c = 0.1, d = 10
+CASES = {**PLAIN, **FEATURES}
+LINEAR = {"exact", "balanced", "ports"}                  # models whose rest state is exactly v = 0
 
 
-def libcosim_outputs(path, names, start=None):
-    """libcosim's outputs ``names`` over N_STEPS steps of H, from the scene's initial state and the start
-    values ``start`` (name -> value: inputs held, parameters fixed before initialization)."""
+@pytest.fixture(scope="module")
+def fmus(tmp_path_factory):
+    """fmus(name, fmi) -> path of the case's FMU (fmu_scene("forced"), k = 6), packaged once per module."""
+    folder = tmp_path_factory.mktemp("importer-fmus")
+    made = {}
+
+    def make(name, fmi):
+        if (name, fmi) not in made:
+            path = folder / f"{name}-fmi{fmi}.fmu"
+            package_fmu(fmu_scene("forced"), path, k=6, fmi=fmi, progress=False, binaries=ensure_binaries(),
+                        **CASES[name][0])
+            made[name, fmi] = path
+        return made[name, fmi]
+
+    return make
+
+
+def fmpy_outputs(path, start=None, initial_state_scale=1.0):
+    """fmpy's outputs (names, rows at 0, H, ..., N_STEPS H) with the start values ``start`` set before
+    initialization and f = 0 held; ``initial_state_scale`` None leaves the FMU's start value (0: at rest)."""
+    start = start or {}
+    with Slave(path) as s:
+        s.set_real([s.vr[n] for n in start], list(start.values()))
+        s.initialize(initial_state_scale=initial_state_scale)
+        return list(s.outputs), s.run([H] * N_STEPS, np.zeros(N_STEPS))
+
+
+def libcosim_outputs(path, names, start=None, initial_state_scale=1.0):
+    """libcosim's outputs ``names`` over N_STEPS steps of H (rows at H, ..., N_STEPS H), from the start values
+    ``start`` (name -> value: inputs held, parameters fixed before initialization); ``initial_state_scale`` 1 is
+    the scene's initial state, None leaves the FMU's start value (0: at rest)."""
     libcosim = pytest.importorskip("libcosimpy.CosimExecution",
                                    reason="libcosimpy is not installed (pip install libcosimpy)")
     from libcosimpy.CosimObserver import CosimObserver
@@ -30,8 +79,10 @@ def libcosim_outputs(path, names, start=None):
     obs = CosimObserver.create_last_value()
     ex.add_observer(observer=obs)
     refs = {v.name.decode(): v.reference for v in ex.slave_variables(idx)}
-    # the scene's initial state (the FMU starts at rest): the comparison needs a trajectory that moves
-    for var, value in {"initial_state_scale": 1.0, **(start or {})}.items():
+    values = dict(start or {})
+    if initial_state_scale is not None:
+        values["initial_state_scale"] = float(initial_state_scale)
+    for var, value in values.items():
         assert ex.real_initial_value(slave_index=idx, variable_reference=refs[var], value=value), var
     rows = []
     for _ in range(N_STEPS):
@@ -40,72 +91,135 @@ def libcosim_outputs(path, names, start=None):
     return np.array(rows)
 
 
-@pytest.mark.parametrize("model", ["frozen", "exact", "balanced"])
-def test_libcosim_runs_the_fmi2_fmu_as_fmpy_does(tmp_path, model):
-    path = tmp_path / f"{model}.fmu"
-    package_fmu(fmu_scene("forced"), path, k=6, fmi=2, progress=False, binaries=ensure_binaries(), model=model)
-    with Slave(path) as s:
-        s.initialize(initial_state_scale=1)
-        names = list(s.outputs)
-        ours = s.run([H] * N_STEPS, np.zeros(N_STEPS))[1:]
-    theirs = libcosim_outputs(path, names)
-    assert theirs.shape == ours.shape and np.ptp(ours[:, 0]) > 0         # a trajectory that moves
-    assert np.all(np.isfinite(theirs))
-    np.testing.assert_allclose(theirs, ours, rtol=1e-12, atol=1e-15)
-
-
-@pytest.mark.parametrize("model", ["frozen", "exact", "balanced"])
-def test_fmu_manipulation_toolbox_container_runs_the_fmi3_fmu_as_fmpy_does(tmp_path, model):
-    """fmu-manipulation-toolbox's container wraps the FMI 3 FMU: its own runtime (not ours, not fmpy's)
-    loads, instantiates and steps it; fmpy only drives the container."""
-    import json
-    import shutil
-    import subprocess
-
+def container_outputs(folder, path, names, start=None, initial_state_scale=1.0):
+    """fmu-manipulation-toolbox's container around the FMI 3 FMU ``path``, built in ``folder`` with ``start``
+    (and ``initial_state_scale`` unless None) as the container's start values of the embedded FMU, simulated by
+    fmpy with nothing set on the container: outputs ``names`` at 0, H, ..., N_STEPS H."""
     import fmpy
     tool = shutil.which("fmucontainer")
     if tool is None:
         pytest.skip("fmu-manipulation-toolbox is not installed (pip install fmu-manipulation-toolbox)")
-    path = tmp_path / f"{model}.fmu"
-    package_fmu(fmu_scene("forced"), path, k=6, fmi=3, progress=False, binaries=ensure_binaries(), model=model)
-    (tmp_path / "container.json").write_text(json.dumps({"name": "container.fmu", "step_size": H,
-                                                         "fmu": [path.name],
-                                                         "start": [[path.name, "initial_state_scale", "1"]]}))
-    done = subprocess.run([tool, "-container", "container.json", "-fmi", "3"], cwd=tmp_path, capture_output=True,
+    folder.mkdir(parents=True, exist_ok=True)
+    shutil.copy(path, folder / path.name)
+    values = dict(start or {})
+    if initial_state_scale is not None:
+        values["initial_state_scale"] = float(initial_state_scale)
+    (folder / "container.json").write_text(json.dumps({
+        "name": "container.fmu", "step_size": H, "fmu": [path.name],
+        "start": [[path.name, var, repr(float(value))] for var, value in values.items()]}))
+    done = subprocess.run([tool, "-container", "container.json", "-fmi", "3"], cwd=folder, capture_output=True,
                           text=True, timeout=300)
-    assert (tmp_path / "container.fmu").is_file(), done.stdout + done.stderr
-    result = fmpy.simulate_fmu(str(tmp_path / "container.fmu"), stop_time=N_STEPS * H, output_interval=H)
-    with Slave(path) as s:
-        s.initialize(initial_state_scale=1)
-        names = list(s.outputs)
-        ours = s.run([H] * N_STEPS, np.zeros(N_STEPS))
-    theirs = np.column_stack([result[n] for n in names])
+    assert (folder / "container.fmu").is_file(), done.stdout + done.stderr
+    result = fmpy.simulate_fmu(str(folder / "container.fmu"), stop_time=N_STEPS * H, output_interval=H)
+    return np.column_stack([result[n] for n in names])
+
+
+@pytest.mark.parametrize("model", ["frozen", "exact", "balanced"])
+def test_libcosim_runs_the_fmi2_fmu_as_fmpy_does(fmus, model):
+    path = fmus(model, 2)
+    names, ours = fmpy_outputs(path)
+    ours = ours[1:]
+    theirs = libcosim_outputs(path, names)
     assert theirs.shape == ours.shape and np.ptp(ours[:, 0]) > 0         # a trajectory that moves
-    np.testing.assert_allclose(theirs, ours, rtol=1e-12, atol=1e-15)
+    assert np.all(np.isfinite(theirs))
+    np.testing.assert_allclose(theirs, ours, rtol=RTOL, atol=ATOL)
 
 
-def test_libcosim_runs_port_and_parametric_fmus_as_fmpy_does(tmp_path):
+@pytest.mark.parametrize("model", ["frozen", "exact", "balanced"])
+def test_fmu_manipulation_toolbox_container_runs_the_fmi3_fmu_as_fmpy_does(fmus, tmp_path, model):
+    """fmu-manipulation-toolbox's container wraps the FMI 3 FMU: its own runtime (not ours, not fmpy's)
+    loads, instantiates and steps it; fmpy only drives the container."""
+    path = fmus(model, 3)
+    names, ours = fmpy_outputs(path)
+    theirs = container_outputs(tmp_path, path, names)
+    assert theirs.shape == ours.shape and np.ptp(ours[:, 0]) > 0         # a trajectory that moves
+    np.testing.assert_array_equal(theirs, ours)                          # measured: bitwise
+
+
+def feature_run(path, name):
+    """fmpy's outputs of the feature FMU ``name`` with its start values, after checking that they change the
+    outputs (a port FMU: every port velocity too): without them the FMU runs otherwise, so an importer that
+    dropped them would fail the comparison."""
+    values = FEATURES[name][1]
+    names, ours = fmpy_outputs(path, values)
+    _, plain = fmpy_outputs(path)
+    change = np.max(np.abs(plain - ours), axis=0)
+    assert np.max(change) > 1e-6 * np.max(np.abs(ours)), name
+    if name == "ports":
+        assert {"v_port_1", "v_port_2"} <= set(names)
+        assert all(change[names.index(n)] > 0 for n in ("v_port_1", "v_port_2"))
+    assert np.ptp(ours[:, 0]) > 0, name                                   # a trajectory that moves
+    return names, ours
+
+
+@pytest.mark.parametrize("name", sorted(FEATURES))
+def test_libcosim_runs_port_and_parametric_fmus_as_fmpy_does(fmus, name):
     """The component features in an independent importer: a port FMU (exact, two ports, constant port forces
-    set as libcosim start values of the inputs) and a parametric FMU (frozen, d chosen inside its trained range
-    before initialization) give fmpy's outputs (port velocities included) to round-off."""
+    set as libcosim start values of the inputs) and a parametric FMU (frozen, c and d chosen inside their trained
+    ranges before initialization) give fmpy's outputs (port velocities included) to round-off."""
     pytest.importorskip("libcosimpy.CosimExecution", reason="libcosimpy is not installed (pip install libcosimpy)")
-    from harness.rom.parametric import parse_vary
-    cases = {"ports": (dict(model="exact", ports=[0.3, 0.7]), {"F_port_1": 0.5, "F_port_2": -0.2}),
-             "parametric": (dict(model="frozen", vary=[parse_vary("d=5:15")]), {"d": 12.5})}
-    for name, (options, values) in cases.items():
-        path = tmp_path / f"{name}.fmu"
-        package_fmu(fmu_scene("forced"), path, k=6, fmi=2, progress=False, binaries=ensure_binaries(), **options)
-        with Slave(path) as s:
-            s.set_real([s.vr[n] for n in values], list(values.values()))
-            s.initialize(initial_state_scale=1)
-            names = list(s.outputs)
-            ours = s.run([H] * N_STEPS, np.zeros(N_STEPS))[1:]
-        with Slave(path) as s:                      # the same without the values: they change the outputs
-            s.initialize(initial_state_scale=1)
-            plain = s.run([H] * N_STEPS, np.zeros(N_STEPS))[1:]
-        assert np.max(np.abs(plain - ours)) > 1e-6 * np.max(np.abs(ours)), name
-        theirs = libcosim_outputs(path, names, values)
-        if name == "ports":
-            assert {"v_port_1", "v_port_2"} <= set(names)
-        assert theirs.shape == ours.shape and np.ptp(ours[:, 0]) > 0, name
-        np.testing.assert_allclose(theirs, ours, rtol=1e-12, atol=1e-15, err_msg=name)
+    path = fmus(name, 2)
+    names, ours = feature_run(path, name)
+    theirs = libcosim_outputs(path, names, FEATURES[name][1])
+    assert theirs.shape == ours[1:].shape, name
+    np.testing.assert_allclose(theirs, ours[1:], rtol=RTOL, atol=ATOL, err_msg=name)
+
+
+@pytest.mark.parametrize("name", sorted(FEATURES))
+def test_fmu_manipulation_toolbox_container_runs_port_and_parametric_fmi3_fmus_as_fmpy_does(fmus, tmp_path, name):
+    """The same in the container (FMI 3): the port forces and c, d are the container's start values of the
+    embedded FMU (the port forces become container inputs with that start, which fmpy leaves alone); the
+    container's runtime sets them, and its outputs (port velocities included) are fmpy's to round-off."""
+    if shutil.which("fmucontainer") is None:
+        pytest.skip("fmu-manipulation-toolbox is not installed (pip install fmu-manipulation-toolbox)")
+    path = fmus(name, 3)
+    names, ours = feature_run(path, name)
+    theirs = container_outputs(tmp_path, path, names, FEATURES[name][1])
+    assert theirs.shape == ours.shape, name
+    np.testing.assert_array_equal(theirs, ours, err_msg=name)            # measured: bitwise
+
+
+def rest_run(path):
+    """fmpy's outputs of the FMU left at its start values (initial_state_scale = 0, f = 0, port forces 0, the
+    scene's c and d), after checking that the scene's initial state (scale 1) gives other outputs."""
+    names, rest = fmpy_outputs(path, initial_state_scale=None)
+    _, moving = fmpy_outputs(path)
+    assert np.max(np.abs(moving - rest)) > 1e-6 * np.max(np.abs(moving))
+    return names, rest
+
+
+def assert_rest(name, names, theirs, rest, bitwise=False):
+    """The importer's outputs are fmpy's at rest (``bitwise``, else to RTOL, ATOL); a linear model's velocities
+    are exactly 0 and its densities stay at their first value (the frozen model is compared with fmpy only: its
+    velocities at rest are not exactly 0, up to 3.4e-8 m/s measured here, the same in every importer)."""
+    if bitwise:
+        np.testing.assert_array_equal(theirs, rest, err_msg=name)
+    else:
+        np.testing.assert_allclose(theirs, rest[-len(theirs):], rtol=RTOL, atol=ATOL, err_msg=name)
+    if name in LINEAR:
+        v = [i for i, n in enumerate(names) if n.startswith("v_")]
+        rho = [i for i, n in enumerate(names) if n.startswith("rho_")]
+        assert len(v) >= 3 and np.all(theirs[:, v] == 0) and np.all(rest[:, v] == 0), name
+        assert rho and np.all(np.ptp(theirs[:, rho], axis=0) == 0), name
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_libcosim_leaves_the_fmu_at_rest_as_fmpy_does(fmus, name):
+    """Start at rest in an independent importer: libcosim sets nothing (initial_state_scale keeps its start
+    value 0, f its start 0) and the FMU stays where fmpy has it: the linear models exactly at rest."""
+    pytest.importorskip("libcosimpy.CosimExecution", reason="libcosimpy is not installed (pip install libcosimpy)")
+    path = fmus(name, 2)
+    names, rest = rest_run(path)
+    assert_rest(name, names, libcosim_outputs(path, names, initial_state_scale=None), rest)
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_fmu_manipulation_toolbox_container_leaves_the_fmi3_fmu_at_rest_as_fmpy_does(fmus, tmp_path, name):
+    """The same in the container (FMI 3), built with no start values."""
+    if shutil.which("fmucontainer") is None:
+        pytest.skip("fmu-manipulation-toolbox is not installed (pip install fmu-manipulation-toolbox)")
+    path = fmus(name, 3)
+    names, rest = rest_run(path)
+    theirs = container_outputs(tmp_path, path, names, initial_state_scale=None)
+    assert theirs.shape == rest.shape, name
+    assert_rest(name, names, theirs, rest, bitwise=True)                 # measured: bitwise
