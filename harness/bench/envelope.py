@@ -56,6 +56,7 @@ def measure(scene_name, scales=SCALES, progress=True):
     from ..norms import relative_l2
     from ..pod.pipeline import basis_for_scene
     from ..progress import progress_bar
+    from ..rom.operators import rest_equilibrium
     from ..rom.registry import get_model
     from ..scene import derive_scene, load_scene
     from ..sph.solver import build_problem, run_sph, step_count
@@ -65,7 +66,8 @@ def measure(scene_name, scales=SCALES, progress=True):
     basis, run = basis_for_scene(scene, progress=False, problem=problem)
     k = min(int(max(scene.rom.get("accel_modes", [scene.rom["modes"]]))), *basis.max_modes)
     frozen, exact = get_model("frozen"), get_model("exact")
-    ops = frozen.build(problem, basis, k, k, input_direction=frozen.fmu_input_direction, tensor="always")
+    ops = rest_equilibrium(frozen.build(problem, basis, k, k, input_direction=frozen.fmu_input_direction,
+                                        tensor="always"))            # the FMU's frozen model: b about rest
     lin = exact.build(problem, basis, k, k, input_direction=exact.fmu_input_direction)
     env = E.measure(scene, ops, problem, run, PROBES, linear=False)
     n = step_count(scene.T, scene.sph.dt)
@@ -99,6 +101,7 @@ def training_headroom(scene_name):
     """One row: the frozen model's run of its own training scene against its recorded envelope."""
     from ..fmu import envelope as E
     from ..pod.pipeline import basis_for_scene
+    from ..rom.operators import rest_equilibrium
     from ..rom.registry import get_model
     from ..scene import load_scene
     from ..sph.solver import build_problem, step_count
@@ -108,7 +111,8 @@ def training_headroom(scene_name):
     basis, run = basis_for_scene(scene, progress=False, problem=problem)
     k = int(max(scene.rom.get("accel_modes", [scene.rom["modes"]])))
     frozen = get_model("frozen")
-    ops = frozen.build(problem, basis, k, k, input_direction=frozen.fmu_input_direction, tensor="always")
+    ops = rest_equilibrium(frozen.build(problem, basis, k, k, input_direction=frozen.fmu_input_direction,
+                                        tensor="always"))            # the FMU's frozen model: b about rest
     env = E.measure(scene, ops, problem, run, PROBES, linear=False)
     n = step_count(scene.T, scene.sph.dt)
     fr = frozen.run(ops, problem, dt=scene.sph.dt, n_steps=n, every=scene.sph.every, n_freeze=N_FREEZE,
