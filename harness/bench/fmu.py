@@ -620,3 +620,49 @@ def write_fmu_csv(out, core, e2e, prefix="bench_fmu_"):
         paths.append(out / f"{prefix}e2e.csv")
         write_csv(paths[1], e2e["rows"])
     return paths
+
+
+def main(argv=None):
+    """``python -m harness.bench.fmu [--scene S] [--repeats R] [--out FOLDER] [--report BENCHMARKS.md]``: the FMU
+    measurements of ``sphrom bench`` alone; replaces the report's "Headline" and "The FMU" sections (the
+    figures of the rest of ``sphrom bench`` do not depend on the FMU) and writes fmu_core.csv, fmu_e2e.csv."""
+    import argparse
+    import platform
+    import sys
+    import time
+    from pathlib import Path
+
+    from ..report.markdown import write_text
+    from .fmu_verify import replace_section
+    from .report import fmu_section, headline_section
+
+    p = argparse.ArgumentParser(prog="python -m harness.bench.fmu", description=main.__doc__.split(":")[0])
+    p.add_argument("--scene", default="tenmode")
+    p.add_argument("--repeats", type=int, default=5, metavar="R")
+    p.add_argument("--out", default="validation/benchmarks", metavar="FOLDER")
+    p.add_argument("--report", default="BENCHMARKS.md", metavar="FILE.md")
+    p.add_argument("--quiet", action="store_true")
+    args = p.parse_args(argv)
+    t0 = time.perf_counter()
+    fmu = fmu_measurements(args.scene, repeats=args.repeats, progress=not args.quiet)
+    wall = time.perf_counter() - t0
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    write_fmu_csv(out, fmu["core"], fmu["e2e"], prefix="fmu_")
+    given = argv if argv is not None else sys.argv[1:]
+    note = (f"Re-measured alone by `python -m harness.bench.fmu{' ' + ' '.join(given) if given else ''}` "
+            f"({platform.machine()}, Python {platform.python_version()}, {wall:.0f} s wall; medians of "
+            f"{args.repeats}), after the rest of this report.")
+    head = headline_section(fmu)
+    section = fmu_section(fmu)
+    section[1:1] = ["", note]
+    report = Path(args.report)
+    text = report.read_text() if report.exists() else "# Benchmarks\n"
+    text = replace_section(text, "## Headline", head)
+    write_text(report, replace_section(text, "## The FMU", section))
+    print("\n".join(head + section))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
