@@ -632,8 +632,7 @@ def main(argv=None):
     import time
     from pathlib import Path
 
-    from ..report.markdown import write_text
-    from .fmu_verify import replace_section
+    from .fmu_verify import update_report
     from .report import fmu_section, headline_section
 
     p = argparse.ArgumentParser(prog="python -m harness.bench.fmu", description=main.__doc__.split(":")[0])
@@ -656,10 +655,7 @@ def main(argv=None):
     head = headline_section(fmu)
     section = fmu_section(fmu)
     section[1:1] = ["", note]
-    report = Path(args.report)
-    text = report.read_text() if report.exists() else "# Benchmarks\n"
-    text = replace_section(text, "## Headline", head)
-    write_text(report, replace_section(text, "## The FMU", section))
+    update_report(args.report, {"## Headline": head, "## The FMU": section})
     print("\n".join(head + section))
     return 0
 

@@ -92,8 +92,18 @@ def replace_section(text, heading, lines, before="## Stability stress maps"):
     return text.rstrip("\n") + "\n\n" + block
 
 
-def main(argv=None):
+def update_report(path, sections):
+    """Replace (or insert) the sections {heading: lines} of the Markdown report at ``path`` (atomically)."""
     from ..report.markdown import write_text
+    report = Path(path)
+    text = report.read_text() if report.exists() else "# Benchmarks\n"
+    for heading, lines in sections.items():
+        text = replace_section(text, heading, lines)
+    write_text(report, text)
+    return report
+
+
+def main(argv=None):
     from ..rom.registry import fmu_model_names
     from ..scene import builtin_names
     from .report import packaged_fmu_section
@@ -126,9 +136,7 @@ def main(argv=None):
                                                       if (argv if argv is not None else sys.argv[1:]) else "")
     lines = packaged_fmu_section(rows, command=command, repeats=args.repeats, wall=wall,
                                  machine=f"{platform.machine()}, Python {platform.python_version()}")
-    report = Path(args.report)
-    text = report.read_text() if report.exists() else "# Benchmarks\n"
-    write_text(report, replace_section(text, SECTION_HEADING, lines))
+    report = update_report(args.report, {SECTION_HEADING: lines})
     print(f"wrote {out / 'fmu_verify.csv'} and the section of {report} ({wall:.0f} s)")
     return 0
 

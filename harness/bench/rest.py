@@ -154,10 +154,9 @@ def section(rows, command, wall, machine):
 
 
 def main(argv=None):
-    from ..report.markdown import write_text
     from ..runio import atomic_path
     from ..scene import builtin_names
-    from .fmu_verify import replace_section
+    from .fmu_verify import update_report
     from .tables import write_csv
 
     p = argparse.ArgumentParser(prog="python -m harness.bench.rest", description=__doc__.split("\n\n")[0])
@@ -187,9 +186,7 @@ def main(argv=None):
     given = argv if argv is not None else sys.argv[1:]
     command = "python -m harness.bench.rest" + (" " + " ".join(given) if given else "")
     lines = section(rows, command, wall, f"{platform.machine()}, Python {platform.python_version()}")
-    report = Path(args.report)
-    text = report.read_text() if report.exists() else "# Benchmarks\n"
-    write_text(report, replace_section(text, SECTION_HEADING, lines))
+    report = update_report(args.report, {SECTION_HEADING: lines})
     print(f"wrote {out}, {out.with_suffix('.png')} and the section of {report} ({wall:.0f} s)")
     return 0
 
