@@ -130,13 +130,13 @@ def plot(traces, path, scene):
     plt.close(fig)
 
 
-def section(rows, command, wall, machine):
+def section(rows, command, wall, machine, out="validation/benchmarks/rest.csv"):
     """The report's lines."""
     def e(x):
         return "—" if x is None or not np.isfinite(x) else f"{x:.2e}"
     lines = [SECTION_HEADING, "",
-             f"Produced by `{command}` ({machine}, {wall:.0f} s wall; `validation/benchmarks/rest.csv`, "
-             "`rest.png`). Each scene's FMU (FMI 2, the scene's default k, n_freeze = 10, probes x/L = 0.25, 0.5, "
+             f"Produced by `{command}` ({machine}, {wall:.0f} s wall; `{out}`, "
+             f"`{Path(out).with_suffix('.png').name}`). Each scene's FMU (FMI 2, the scene's default k, n_freeze = 10, probes x/L = 0.25, 0.5, "
              "0.66) as `sphrom fmu SCENE --model MODEL` builds it; *frozen, eq. 2.22's b*: the same frozen FMU with "
              "only b replaced by eq. 2.22's U^vᵀ ρ0⁻¹ G c (what the frozen FMU used before it took b about the "
              "projected rest density, b = K a^ρ_rest). *At rest*: `initial_state_scale` = 0, f = 0, "
@@ -185,7 +185,7 @@ def main(argv=None):
         plot(traces[1], tmp, traces[0])
     given = argv if argv is not None else sys.argv[1:]
     command = "python -m harness.bench.rest" + (" " + " ".join(given) if given else "")
-    lines = section(rows, command, wall, f"{platform.machine()}, Python {platform.python_version()}")
+    lines = section(rows, command, wall, f"{platform.machine()}, Python {platform.python_version()}", args.out)
     report = update_report(args.report, {SECTION_HEADING: lines})
     print(f"wrote {out}, {out.with_suffix('.png')} and the section of {report} ({wall:.0f} s)")
     return 0
