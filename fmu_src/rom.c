@@ -403,11 +403,8 @@ RomStatus rom_set_port_rate(RomState *s, uint32_t j, double rate, char *message,
         return rom_fail(message, message_size, "port %u does not exist (allowed: 1 to %u)", j + 1, s->model->n_ports);
     }
     if (!isfinite(rate)) {
-        return rom_fail(message, message_size, "input rate dF_port_%u/dt = %g at t = %.9g s is not finite", j + 1,
-                        rate, s->time);
-    }
-    if (rate != 0.0 && !rom_is_linear(s->model)) {
-        return rom_fail(message, message_size, "the frozen model does not interpolate inputs");
+        return rom_fail(message, message_size, "input derivative of F_port_%u, dF_port_%u/dt = %g N s^-1 at t = %.9g "
+                        "s, is not finite (allowed: a finite rate)", j + 1, j + 1, rate, s->time);
     }
     s->port_rate[j] = rate;
     return ROM_OK;

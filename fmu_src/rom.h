@@ -366,9 +366,9 @@ ROM_API RomStatus rom_set_port_force(RomState *state, uint32_t j, double force, 
 ROM_API double rom_port_force(const RomState *state, uint32_t j);
 /* the cross-section area [m^2] (> 0, finite): the port inputs are F_j / area */
 ROM_API RomStatus rom_set_area(RomState *state, double area, char *message, size_t message_size);
-/* Linear model only (as rom_set_input_rate for f): F_j goes linearly over each step at this rate
- * [N s^-1] and continues after it; setting F_j through rom_set_port_force keeps the rate (the instance
- * layer resets it).  The frozen model refuses a nonzero rate. */
+/* As rom_set_input_rate for f: F_j goes linearly over each step at this rate [N s^-1] and continues
+ * after it; setting F_j through rom_set_port_force keeps the rate (the instance layer resets it).  The
+ * linear model integrates it exactly; the frozen model takes F_j + rate tau at each refresh, as f. */
 ROM_API RomStatus rom_set_port_rate(RomState *state, uint32_t j, double rate, char *message, size_t message_size);
 /* v_port_j = sum_q port_C[j][q] a^v_q [m s^-1] (NaN for a bad j) */
 ROM_API double rom_v_port(const RomState *state, uint32_t j);
