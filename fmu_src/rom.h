@@ -69,7 +69,8 @@
  *            kind 2: a[k_v], b[k_rho], X[k], (t0, df/dt)
  *   float64  the parameters a state carries: initial_state_scale (version 2: the exact model's
  *            free response is scaled by it at every step)
- *   float64  with ports (both kinds): area, F_port[n_ports], 0, dF_port/dt[n_ports]
+ *   float64  with ports (both kinds): area, F_port[n_ports], port_driven (0 or 1; 0 in states written
+ *            before it was kept, where the slot was reserved), dF_port/dt[n_ports]
  *   uint32   crc32 of every byte before it
  *
  * Both are read through one envelope check (rom_io.c): size, magic, version,
@@ -251,6 +252,10 @@ typedef struct {
     double area;
     double port_force[ROM_MAX_PORTS];
     double port_rate[ROM_MAX_PORTS];
+    /* 1 once a step was taken with a nonzero port force or rate (since reset), else 0: from then on the
+     * state holds a response the training run (without port forces) never saw, and the training
+     * envelope checks only |f| and the failure strain (rom_envelope.c) */
+    double port_driven;
 } RomState;
 
 /* ---- resources ---------------------------------------------------------- */
