@@ -40,6 +40,9 @@ probe strain beyond their trained ranges while the frozen model stays accurate (
 port error 0.28 % unforced, 0.32 % at the port-coupling forces, 0.48 % at 12x them, probe strain 8.5x
 the trained, README "Training envelope").  Until then a port FMU is checked as one without ports.
 
+A parametric model's envelope (``--vary``) is the :func:`union` of the envelopes of the runs at all its
+sample points (:func:`harness.fmu.parametric.parametric_envelope`).
+
 At run time the frozen model is checked after every doStep (fmu_src/rom_envelope.c): a coordinate
 a_i whose distance from the centre c_i of its trained range [lo_i, hi_i] exceeds its half-width h_i plus
 (margin - 1) H, H the largest half-width of its block (a^v or a^ρ: the block's trained amplitude, so
@@ -239,6 +242,22 @@ def measure(scene, ops, problem, run, probes, linear):
                     probe_rho0=probe_rho0, probe_v_max=np.abs(_probe_values(run.v, problem.x, L, probes)).max(axis=0),
                     k_v=int(ops.k_v), port_v=int(getattr(ops, "port_added", 0)),
                     port_rho=int(getattr(ops, "port_added_2", 0)))
+
+
+def union(envelopes):
+    """One :class:`Envelope` of several training runs of the same basis (a parametric model's sample points): the
+    ranges, strains, probe velocities and force amplitude and band the largest of any run's; the checks and
+    margins those of the first (all alike), the force mean that of the first (the same f at every point)."""
+    first = envelopes[0]
+    return Envelope(force_amplitude=max(e.force_amplitude for e in envelopes),
+                    force_band=max(e.force_band for e in envelopes),
+                    max_strain=max(e.max_strain for e in envelopes),
+                    max_probe_strain=max(e.max_probe_strain for e in envelopes),
+                    failure_strain=first.failure_strain, margin=first.margin, checks=first.checks,
+                    force_mean=first.force_mean, lo=np.min([e.lo for e in envelopes], axis=0),
+                    hi=np.max([e.hi for e in envelopes], axis=0), probe_rho0=first.probe_rho0,
+                    probe_v_max=np.max([e.probe_v_max for e in envelopes], axis=0), k_v=first.k_v,
+                    port_v=first.port_v, port_rho=first.port_rho)
 
 
 def check(env: Envelope, z, f, probe_rho, k_v, port_driven=False):
