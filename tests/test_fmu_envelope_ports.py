@@ -168,3 +168,18 @@ def test_port_directions_are_named_and_c_agrees_with_python(port_fmu):
             assert found[0] == expected and f"{expected} = " in message, (found, message)
             z, rho = cmp.reduced_state(), cmp.outputs(data.n_probes)[1]
             assert E.check(env, z, 0.0, rho, data.k_v, port_driven=True) is None     # port-driven: not judged
+
+
+@pytest.mark.parametrize("value, message", [
+    (np.array([[1.0, 2.0, 3.0]]), "'ENVPORT' is 1 x 3, expected 1 x 2"),
+    (np.array([[1.5, 0.0]]), "'ENVPORT': 1.5 port coordinates in block 1"),
+    (np.array([[0.0, -1.0]]), "'ENVPORT': -1 port coordinates in block 2"),
+    (np.array([[1e6, 0.0]]), "'ENVPORT': 1e+06 port coordinates in block 1")])
+def test_a_bad_envport_section_is_refused_naming_it(port_fmu, value, message):
+    from harness.fmu.core import CoreError
+    from harness.fmu.resources import pack
+    _, data, _ = port_fmu
+    bad = unpack(pack(data))
+    bad.sections["ENVPORT"] = value
+    with pytest.raises(CoreError, match=message.replace("(", r"\(").replace("+", r"\+")):
+        Core(ensure_binaries().core).load(pack(bad))
