@@ -119,6 +119,7 @@ void rom_state_reset(RomState *s, double t_start) {
     s->c = params ? params->data[1] : 0.0;
     s->d = params ? params->data[4 + 1] : 0.0;
     for (size_t j = 0; j < ROM_MAX_PORTS; j++) s->port_force[j] = s->port_rate[j] = 0.0;
+    s->port_driven = 0.0;
     s->area = 1.0;                                             /* [m^2] */
 }
 
@@ -214,6 +215,9 @@ RomStatus rom_do_step(RomState *s, double t_comm, double h, char *message, size_
         return rom_fail(message, message_size,
                         "communicationStepSize = %g s at t = %.9g s is out of range (allowed: a finite number > 0)",
                         h, t_comm);
+    }
+    for (uint32_t j = 0; j < s->model->n_ports; j++) {              /* a port force acts over this step */
+        if (s->port_force[j] != 0.0 || s->port_rate[j] != 0.0) s->port_driven = 1.0;
     }
     const RomStatus status = rom_is_linear(s->model) ? rom_exact_step(s, t_comm, h, message, message_size)
                                                      : rom_frozen_step(s, t_comm, h, message, message_size);
@@ -403,11 +407,8 @@ RomStatus rom_set_port_rate(RomState *s, uint32_t j, double rate, char *message,
         return rom_fail(message, message_size, "port %u does not exist (allowed: 1 to %u)", j + 1, s->model->n_ports);
     }
     if (!isfinite(rate)) {
-        return rom_fail(message, message_size, "input rate dF_port_%u/dt = %g at t = %.9g s is not finite", j + 1,
-                        rate, s->time);
-    }
-    if (rate != 0.0 && !rom_is_linear(s->model)) {
-        return rom_fail(message, message_size, "the frozen model does not interpolate inputs");
+        return rom_fail(message, message_size, "input derivative of F_port_%u, dF_port_%u/dt = %g N s^-1 at t = %.9g "
+                        "s, is not finite (allowed: a finite rate)", j + 1, j + 1, rate, s->time);
     }
     s->port_rate[j] = rate;
     return ROM_OK;

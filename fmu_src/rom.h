@@ -69,7 +69,8 @@
  *            kind 2: a[k_v], b[k_rho], X[k], (t0, df/dt)
  *   float64  the parameters a state carries: initial_state_scale (version 2: the exact model's
  *            free response is scaled by it at every step)
- *   float64  with ports (both kinds): area, F_port[n_ports], 0, dF_port/dt[n_ports]
+ *   float64  with ports (both kinds): area, F_port[n_ports], port_driven (0 or 1; 0 in states written
+ *            before it was kept, where the slot was reserved), dF_port/dt[n_ports]
  *   uint32   crc32 of every byte before it
  *
  * Both are read through one envelope check (rom_io.c): size, magic, version,
@@ -251,6 +252,10 @@ typedef struct {
     double area;
     double port_force[ROM_MAX_PORTS];
     double port_rate[ROM_MAX_PORTS];
+    /* 1 once a step was taken with a nonzero port force or rate (since reset), else 0: from then on the
+     * state holds a response the training run (without port forces) never saw, and the training
+     * envelope checks only |f| and the failure strain (rom_envelope.c) */
+    double port_driven;
 } RomState;
 
 /* ---- resources ---------------------------------------------------------- */
@@ -366,9 +371,9 @@ ROM_API RomStatus rom_set_port_force(RomState *state, uint32_t j, double force, 
 ROM_API double rom_port_force(const RomState *state, uint32_t j);
 /* the cross-section area [m^2] (> 0, finite): the port inputs are F_j / area */
 ROM_API RomStatus rom_set_area(RomState *state, double area, char *message, size_t message_size);
-/* Linear model only (as rom_set_input_rate for f): F_j goes linearly over each step at this rate
- * [N s^-1] and continues after it; setting F_j through rom_set_port_force keeps the rate (the instance
- * layer resets it).  The frozen model refuses a nonzero rate. */
+/* As rom_set_input_rate for f: F_j goes linearly over each step at this rate [N s^-1] and continues
+ * after it; setting F_j through rom_set_port_force keeps the rate (the instance layer resets it).  The
+ * linear model integrates it exactly; the frozen model takes F_j + rate tau at each refresh, as f. */
 ROM_API RomStatus rom_set_port_rate(RomState *state, uint32_t j, double rate, char *message, size_t message_size);
 /* v_port_j = sum_q port_C[j][q] a^v_q [m s^-1] (NaN for a bad j) */
 ROM_API double rom_v_port(const RomState *state, uint32_t j);

@@ -9,12 +9,18 @@
  *   ENVRANGE [2][k_v + k_rho]: min (row 0) and max (row 1) of each reduced coordinate
  *            over the training run (a^v then a^rho; the exact model: z)
  *   ENVPROBE [2][n_probes]: rho0 at the probes [kg m^-3]; max |v| at the probes in training [m s^-1]
+ *   ENVPORT  [1][2] (only with ports): the numbers of trailing coordinates of a^v and of a^rho that are
+ *            the ports' directions (exact input directions appended to the POD modes, which the
+ *            training run without port forces leaves at ~0): not checked, not in a block's H
  *
  * The check (frozen model only; a linear model is exact in its state and stores
- * checks = 0), in this order, the first breach reported:
+ * checks = 0), in this order, the first breach reported (once a port force has
+ * acted, state->port_driven, only failure and force: the training run had no
+ * port force, so its ranges do not bound a port-driven state):
  *   failure:     a probe strain above the failure strain (eq. 2.17's linearization fails)
  *   coordinates: |a_i - c_i| > h_i + (margin - 1) H, [c_i - h_i, c_i + h_i] the trained range of
- *                coordinate i, H the largest h of its block (a^v or a^rho)
+ *                coordinate i, H the largest h of its block (a^v or a^rho); the port coordinates
+ *                (ENVPORT) left out
  *   force:       |f| > margin x the trained max |f|
  *   strain:      a probe strain above margin x the largest trained probe strain
  * harness/fmu/envelope.py check() repeats it.
@@ -98,6 +104,25 @@ RomStatus rom_envelope_check_probe(const RomModel *m, const RomSection *s, char 
     return ROM_OK;
 }
 
+RomStatus rom_envelope_check_ports(const RomModel *m, const RomSection *s, char *message, size_t message_size) {
+    if (s->rows != 1 || s->cols != 2) {
+        return rom_fail(message, message_size, "resources: section 'ENVPORT' is %u x %u, expected 1 x 2", s->rows,
+                        s->cols);
+    }
+    const double limits[2] = {(double)m->k_v, (double)m->k_rho};
+    for (int b = 0; b < 2; b++) {
+        const double n = s->data[b];
+        if (!(n >= 0 && n < limits[b] && n == floor(n))) {
+            return rom_fail(message, message_size, "resources: section 'ENVPORT': %g port coordinates in block %d "
+                            "(allowed: an integer from 0 to %g)", n, b + 1, limits[b] - 1);
+        }
+    }
+    if (!rom_model_section(m, "ENVRANGE")) {
+        return rom_fail(message, message_size, "resources: section 'ENVPORT' needs the section 'ENVRANGE'");
+    }
+    return ROM_OK;
+}
+
 /* coordinate i of the frozen state: a^v then a^rho */
 static double coordinate(const RomState *state, uint32_t i) {
     const uint32_t kv = state->model->k_v;
@@ -120,7 +145,12 @@ int rom_envelope_check(const RomState *state, char *message, size_t message_size
     const RomSection *probe = rom_model_section(m, "ENVPROBE");
     if (!env || !range || !probe || rom_path(m->kind) != ROM_PATH_FROZEN) return 0;
     const double *e = env->data;
-    const unsigned checks = (unsigned)e[ENV_CHECKS];
+    unsigned checks = (unsigned)e[ENV_CHECKS];
+    if (state->port_driven != 0.0) {
+        /* a port force has acted: the state holds a response the training run never saw (by design), so it is
+         * no longer judged by that run's ranges; |f| and the failure strain stay */
+        checks &= ~(unsigned)(ROM_ENVELOPE_CHECK_COORDINATES | ROM_ENVELOPE_CHECK_STRAIN);
+    }
     const double margin = e[ENV_MARGIN];
     const double t = state->time;
     if (checks & (ROM_ENVELOPE_CHECK_FAILURE | ROM_ENVELOPE_CHECK_STRAIN)) {
@@ -139,9 +169,12 @@ int rom_envelope_check(const RomState *state, char *message, size_t message_size
         const uint32_t k = m->k_v + m->k_rho;
         const double *lo = range->data, *hi = range->data + k;
         const uint32_t blocks[3] = {0, m->k_v, k};
+        const RomSection *ports = rom_model_section(m, "ENVPORT");        /* trailing port coordinates: skipped */
+        const uint32_t skip[2] = {ports ? (uint32_t)ports->data[0] : 0u, ports ? (uint32_t)ports->data[1] : 0u};
         for (int b = 0; b < 2; b++) {
-            const double widen = (margin - 1.0) * block_half(lo, hi, blocks[b], blocks[b + 1]);
-            for (uint32_t i = blocks[b]; i < blocks[b + 1]; i++) {
+            const uint32_t last = blocks[b + 1] - skip[b];
+            const double widen = (margin - 1.0) * block_half(lo, hi, blocks[b], last);
+            for (uint32_t i = blocks[b]; i < last; i++) {
                 const double centre = 0.5 * (lo[i] + hi[i]), half = 0.5 * (hi[i] - lo[i]);
                 const double a = coordinate(state, i);
                 if (fabs(a - centre) > half + widen) {

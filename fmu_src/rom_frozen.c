@@ -36,8 +36,10 @@
 /* M(a^rho) = sum_{a<=b} a^rho_a a^rho_b T_ab (eq. 2.23 projected; exact) and
  * the frozen force term F = p f (eq. 2.19), every n_freeze steps.  Each entry
  * is 0.0 + s_0 T_0 + s_1 T_1 + ... in pair order, as in Python; the entries are
- * computed 32 at a time in registers.  f is the input at the step's time. */
-ROM_INLINE void refresh(RomState *s, double f) {
+ * computed 32 at a time in registers.  f is the input at the step's time, tau
+ * the step's time after the communication point [s] (for the port forces'
+ * rates, as for f's: F_j + rate_j tau, F_j itself when the rate is 0). */
+ROM_INLINE void refresh(RomState *s, double f, double tau) {
     const RomModel *m = s->model;
     const size_t kr = m->k_rho, np = m->n_pairs, nm = m->nm;
     const double *restrict ar = s->ar;
@@ -64,9 +66,11 @@ ROM_INLINE void refresh(RomState *s, double f) {
     } else {
         for (size_t p = 0; p < kv; p++) F[p] = 0.0;
     }
-    /* port forces, frozen with f: F += port_B[j] (F_j / area), ports in order (harness/rom/frozen.py) */
+    /* port forces, frozen with f: F += port_B[j] (F_j(tau) / area), ports in order (harness/rom/frozen.py;
+     * F_j(tau) = F_j + rate_j tau as harness/fmu/python_cosim.py computes it) */
     for (size_t j = 0; j < m->n_ports; j++) {
-        const double u = s->port_force[j] / s->area;
+        const double rate = s->port_rate[j];
+        const double u = (rate == 0.0 ? s->port_force[j] : s->port_force[j] + rate * tau) / s->area;
         const double *restrict row = m->port_B + j * m->k_v;
         for (size_t p = 0; p < m->k_v; p++) F[p] += row[p] * u;
     }
@@ -168,7 +172,8 @@ static RomStatus state_failure(const RomState *s, double t, char *message, size_
  * (count when all are fine).  Euler: both rates from the old state;
  * symplectic: a^rho first, then the velocity rate with the new a^rho.  Step j
  * starts tau0 + j h after the communication point: a refresh there takes the
- * input f + rate (tau0 + j h) (f itself when the rate is 0, the held input). */
+ * input f + rate (tau0 + j h) (f itself when the rate is 0, the held input),
+ * and each port force likewise F_j + rate_j (tau0 + j h). */
 ROM_CLONES
 static int64_t run_steps_kernel(RomState *s, int64_t count, double h, double tau0) {
     const RomModel *m = s->model;
@@ -181,8 +186,8 @@ static int64_t run_steps_kernel(RomState *s, int64_t count, double h, double tau
     double *restrict dr = s->dr;
     for (int64_t j = 0; j < count; j++) {
         if (phase == 0) {
-            const double rate = s->aux[1];
-            refresh(s, rate == 0.0 ? s->f : s->f + rate * (tau0 + (double)j * h));
+            const double rate = s->aux[1], tau = tau0 + (double)j * h;
+            refresh(s, rate == 0.0 ? s->f : s->f + rate * tau, tau);
         }
         density_rate(m, dr, av, s->Mt);
         if (symplectic) {

@@ -89,5 +89,6 @@ double rom_exact_rho_rate(const RomState *s, uint32_t j);
 RomStatus rom_envelope_check_scalars(const RomModel *m, const RomSection *s, char *message, size_t message_size);
 RomStatus rom_envelope_check_range(const RomModel *m, const RomSection *s, char *message, size_t message_size);
 RomStatus rom_envelope_check_probe(const RomModel *m, const RomSection *s, char *message, size_t message_size);
+RomStatus rom_envelope_check_ports(const RomModel *m, const RomSection *s, char *message, size_t message_size);
 
 #endif /* SPHROM_ROM_INTERNAL_H */

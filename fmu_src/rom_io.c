@@ -474,6 +474,8 @@ static const SectionRule SECTION_RULES[] = {
     {"ENVELOPE", "the training envelope's scalars", rom_envelope_check_scalars},
     {"ENVRANGE", "the training envelope's coordinate ranges", rom_envelope_check_range},
     {"ENVPROBE", "rho0 at the probes (training envelope)", rom_envelope_check_probe},
+    {"ENVPORT", "port coordinates at the end of each block (training envelope: not checked)",
+     rom_envelope_check_ports},
     {"BOUNDS", "certified error bounds per probe (force, initial state)", check_bounds},
     {"LINMODEL", "which linear model: 1 exact POD, 2 balanced", check_linear_model},
     {"PARAMS", "parametric model: c and d (varied, start, min, max)", check_params},
@@ -778,7 +780,8 @@ static StateBlocks state_blocks(const RomState *s) {
     return b;
 }
 
-/* With ports, after the state's blocks: area, F_port[n_ports], then 0 (reserved), dF_port/dt[n_ports];
+/* With ports, after the state's blocks: area, F_port[n_ports], port_driven (0 or 1; the slot was reserved and
+ * written 0 before, so such a state reads as not driven), dF_port/dt[n_ports];
  * port_values(m) doubles, read or written at cursor (returns the cursor after them). */
 static size_t port_values(const RomModel *m) {
     return m->n_ports ? 2 * (1 + (size_t)m->n_ports) : 0;
@@ -790,7 +793,7 @@ static unsigned char *ports_put(const RomState *s, unsigned char *cursor) {
     put_f64(cursor, s->area);
     cursor += 8;
     for (size_t j = 0; j < n; j++, cursor += 8) put_f64(cursor, s->port_force[j]);
-    put_f64(cursor, 0.0);
+    put_f64(cursor, s->port_driven);
     cursor += 8;
     for (size_t j = 0; j < n; j++, cursor += 8) put_f64(cursor, s->port_rate[j]);
     return cursor;
@@ -802,7 +805,8 @@ static const unsigned char *ports_get(RomState *s, const unsigned char *cursor) 
     s->area = get_f64(cursor);
     cursor += 8;
     for (size_t j = 0; j < n; j++, cursor += 8) s->port_force[j] = get_f64(cursor);
-    cursor += 8;                                       /* reserved */
+    s->port_driven = get_f64(cursor) != 0.0 ? 1.0 : 0.0;
+    cursor += 8;
     for (size_t j = 0; j < n; j++, cursor += 8) s->port_rate[j] = get_f64(cursor);
     return cursor;
 }

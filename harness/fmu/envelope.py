@@ -25,6 +25,23 @@ Recorded at packaging (``sphrom fmu``) in three tagged sections of ``resources/m
     row 0: ρ0 at each probe (linear between particles) [kg m^-3]: the C core's probe strain is
     |ρ0_j / ρ_j - 1|; row 1: max |v| at each probe over the training run [m s^-1] (the outputs'
     ``nominal`` in modelDescription.xml).
+``ENVPORT`` (1 x 2, only with mechanical ports)
+    the numbers of trailing coordinates of the first block (a^v, or a) and of the second (a^ρ, or b) that
+    are the ports' directions (:func:`harness.rom.operators.port_directions`), not POD modes.
+
+With ports the training run is the scene's own, without port forces: port forces are untrained inputs by
+design (the basis carries their exact input directions instead, each port's profile and its Krylov
+response, :func:`harness.rom.operators.port_directions`).  So (1) the port coordinates are never checked
+against the training run's ranges, which leave them at ~0 (its POD residual), nor do they count in a
+block's largest half-width; (2) once a step has been taken with a nonzero port force or rate (the C
+state's ``port_driven``, kept in FMU states, cleared by reset) the state holds a response that run never
+saw, and only |f| and the failure strain are checked: a port force moves the POD coordinates and the
+probe strain beyond their trained ranges while the frozen model stays accurate (damped_forced, k = 12:
+port error 0.28 % unforced, 0.32 % at the port-coupling forces, 0.48 % at 12x them, probe strain 8.5x
+the trained, README "Training envelope").  Until then a port FMU is checked as one without ports.
+
+A parametric model's envelope (``--vary``) is the :func:`union` of the envelopes of the runs at all its
+sample points (:func:`harness.fmu.parametric.parametric_envelope`).
 
 At run time the frozen model is checked after every doStep (fmu_src/rom_envelope.c): a coordinate
 a_i whose distance from the centre c_i of its trained range [lo_i, hi_i] exceeds its half-width h_i plus
@@ -81,13 +98,24 @@ class Envelope:
     probe_rho0: np.ndarray
     probe_v_max: np.ndarray
     k_v: int = 0                 # the first k_v coordinates are a^v (not stored: the header has it)
+    port_v: int = 0              # trailing port coordinates of the first block (ENVPORT), not checked
+    port_rho: int = 0            # and of the second block
 
     def sections(self):
         """The tagged sections (tag -> 2-D array) of :mod:`harness.fmu.resources`."""
         scalars = [self.force_amplitude, self.force_band, self.max_strain, self.max_probe_strain,
                    self.failure_strain, self.margin, float(self.checks), self.force_mean]
-        return {"ENVELOPE": np.array([scalars]), "ENVRANGE": np.vstack([self.lo, self.hi]),
-                "ENVPROBE": np.vstack([self.probe_rho0, self.probe_v_max])}
+        out = {"ENVELOPE": np.array([scalars]), "ENVRANGE": np.vstack([self.lo, self.hi]),
+               "ENVPROBE": np.vstack([self.probe_rho0, self.probe_v_max])}
+        if self.port_v or self.port_rho:
+            out["ENVPORT"] = np.array([[float(self.port_v), float(self.port_rho)]])
+        return out
+
+    def checked(self, k_v):
+        """The checked coordinates of each block: (("a_v", slice), ("a_rho", slice)), the port directions
+        (the last ``port_v`` and ``port_rho`` of the blocks) left out."""
+        k = self.lo.size
+        return (("a_v", slice(0, k_v - self.port_v)), ("a_rho", slice(k_v, k - self.port_rho)))
 
     @classmethod
     def from_sections(cls, sections, k_v):
@@ -96,10 +124,12 @@ class Envelope:
             return None
         s = np.asarray(sections["ENVELOPE"], float)[0]
         rng = np.asarray(sections["ENVRANGE"], float)
+        ports = np.asarray(sections.get("ENVPORT", np.zeros((1, 2))), float)[0]
         return cls(force_amplitude=s[0], force_band=s[1], max_strain=s[2], max_probe_strain=s[3],
                    failure_strain=s[4], margin=s[5], checks=int(s[6]), force_mean=s[7], lo=rng[0], hi=rng[1],
                    probe_rho0=np.asarray(sections["ENVPROBE"], float)[0],
-                   probe_v_max=np.asarray(sections["ENVPROBE"], float)[1], k_v=int(k_v))
+                   probe_v_max=np.asarray(sections["ENVPROBE"], float)[1], k_v=int(k_v), port_v=int(ports[0]),
+                   port_rho=int(ports[1]))
 
     def lines(self, linear=False):
         """Human-readable lines (the ``sphrom fmu`` summary and the model description)."""
@@ -118,6 +148,13 @@ class Envelope:
         if linear:
             out.append("run-time checks: none (the linear model is exact in its state: amplitude does not "
                        "change its accuracy)")
+        elif self.port_v or self.port_rho:
+            out.append(f"run-time warning (once) beyond {self.margin:g}x the trained ranges of the POD "
+                       f"coordinates, force amplitude and probe strain, or at a probe strain above "
+                       f"{self.failure_strain:g} (where the density linearization, eq. 2.17, fails); the "
+                       f"{self.port_v} + {self.port_rho} port coordinates are exact input directions, not trained: "
+                       "not checked; once a port force has acted (untrained by design) only the force amplitude "
+                       "and the failure strain are checked")
         else:
             out.append(f"run-time warning (once) beyond {self.margin:g}x the trained coordinate ranges, force "
                        f"amplitude and probe strain, or at a probe strain above {self.failure_strain:g} (where "
@@ -203,33 +240,52 @@ def measure(scene, ops, problem, run, probes, linear):
                     max_probe_strain=float(probe_strain.max()), failure_strain=0.0 if linear else FAILURE_STRAIN,
                     margin=MARGIN, checks=checks, force_mean=mean, lo=z.min(axis=0), hi=z.max(axis=0),
                     probe_rho0=probe_rho0, probe_v_max=np.abs(_probe_values(run.v, problem.x, L, probes)).max(axis=0),
-                    k_v=int(ops.k_v))
+                    k_v=int(ops.k_v), port_v=int(getattr(ops, "port_added", 0)),
+                    port_rho=int(getattr(ops, "port_added_2", 0)))
 
 
-def check(env: Envelope, z, f, probe_rho, k_v):
+def union(envelopes):
+    """One :class:`Envelope` of several training runs of the same basis (a parametric model's sample points): the
+    ranges, strains, probe velocities and force amplitude and band the largest of any run's; the checks and
+    margins those of the first (all alike), the force mean that of the first (the same f at every point)."""
+    first = envelopes[0]
+    return Envelope(force_amplitude=max(e.force_amplitude for e in envelopes),
+                    force_band=max(e.force_band for e in envelopes),
+                    max_strain=max(e.max_strain for e in envelopes),
+                    max_probe_strain=max(e.max_probe_strain for e in envelopes),
+                    failure_strain=first.failure_strain, margin=first.margin, checks=first.checks,
+                    force_mean=first.force_mean, lo=np.min([e.lo for e in envelopes], axis=0),
+                    hi=np.max([e.hi for e in envelopes], axis=0), probe_rho0=first.probe_rho0,
+                    probe_v_max=np.max([e.probe_v_max for e in envelopes], axis=0), k_v=first.k_v,
+                    port_v=first.port_v, port_rho=first.port_rho)
+
+
+def check(env: Envelope, z, f, probe_rho, k_v, port_driven=False):
     """The first breach of the envelope, as the C core finds it (fmu_src/rom_envelope.c, same order):
     (quantity, value, lo, hi) or None.
 
     ``z`` the reduced state (a^v then the second block), ``f`` the input [m s^-2], ``probe_rho`` the probe
-    densities [kg m^-3].
+    densities [kg m^-3].  The port coordinates (``port_v``, ``port_rho``) are not checked; ``port_driven``
+    (a port force has acted since the start) leaves out the coordinates and the trained probe strain.
     """
     z = np.asarray(z, float)
+    checks = env.checks & ~(CHECK_COORDINATES | CHECK_STRAIN) if port_driven else env.checks
     strain = np.abs(env.probe_rho0 / np.asarray(probe_rho, float) - 1.0)
-    if env.checks & CHECK_FAILURE:
+    if checks & CHECK_FAILURE:
         for j, s in enumerate(strain):
             if s > env.failure_strain:
                 return f"strain at probe {j + 1}", s, 0.0, env.failure_strain
-    if env.checks & CHECK_COORDINATES:
-        for name, block in (("a_v", slice(0, k_v)), ("a_rho", slice(k_v, None))):
+    if checks & CHECK_COORDINATES:
+        for name, block in env.checked(k_v):                 # the port directions left out
             lo, hi = env.lo[block], env.hi[block]
             centre, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
             widen = (env.margin - 1.0) * half.max()
             for i, value in enumerate(z[block]):
                 if abs(value - centre[i]) > half[i] + widen:
                     return f"{name}_{i + 1}", value, lo[i] - widen, hi[i] + widen
-    if env.checks & CHECK_FORCE and abs(f) > env.margin * env.force_amplitude:
+    if checks & CHECK_FORCE and abs(f) > env.margin * env.force_amplitude:
         return "|f|", abs(f), 0.0, env.force_amplitude
-    if env.checks & CHECK_STRAIN:
+    if checks & CHECK_STRAIN:
         for j, s in enumerate(strain):
             if s > env.margin * env.max_probe_strain:
                 return f"strain at probe {j + 1}", s, 0.0, env.max_probe_strain

@@ -90,8 +90,21 @@ def parametric_model(scene, ranges, k, *, model="frozen", progress=True, input_d
     return affine, space, basis, points
 
 
+def parametric_envelope(scene, space, ops, probes, linear, progress=False):
+    """The training envelope (:mod:`harness.fmu.envelope`) of a parametric model: the union over the full SPH
+    runs at every sample point (:func:`harness.rom.parametric.training_points`, the runs its basis was made of,
+    cached), each projected on the model's basis as the ordinary FMU's (the exact model in the scene's c, in
+    which its basis is orthonormal)."""
+    from ..sph.solver import build_problem
+    from .envelope import measure, union
+    problem = build_problem(scene)
+    _, runs = par.training_basis(scene, par.training_points(space), progress=progress)
+    return union([measure(scene, ops, problem, run, probes, linear) for run in runs])
+
+
 def parametric_resource(scene, model, k, n_freeze, probes, integrator, progress, ranges):
-    """(data, ops at the start values, resource bytes, space) of a parametric FMU."""
+    """(data, ops at the start values, resource bytes, space) of a parametric FMU; its training envelope that of
+    the runs at all sample points (:func:`parametric_envelope`)."""
     from ..rom.registry import get_model
     from ..rom.stepping import runaway_bound
     from ..sph.solver import build_problem
@@ -104,6 +117,7 @@ def parametric_resource(scene, model, k, n_freeze, probes, integrator, progress,
         lin = par.linear_at(affine, c0, d0)
         data = exact_data(lin, problem, dt=scene.sph.dt, n_freeze=n_freeze, probes=probes)
         sections.update({"A0": affine.A0, "AC": affine.Ac, "AD": affine.Ad})
+        sections.update(parametric_envelope(scene, space, lin, probes, True, progress).sections())
         data.sections.update(sections)
         return data, lin, pack_exact(data), space
     ops = par.frozen_at(affine, c0, d0)
@@ -112,5 +126,6 @@ def parametric_resource(scene, model, k, n_freeze, probes, integrator, progress,
     sections.update({"KC": affine.unit.K, "BC": affine.unit.b[None, :]})
     if affine.damping:
         sections["DD"] = affine.unit.D
+    sections.update(parametric_envelope(scene, space, ops, probes, False, progress).sections())
     data.sections.update(sections)
     return data, ops, pack(data), space

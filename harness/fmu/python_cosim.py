@@ -10,6 +10,10 @@ with the FMU's rules (fmu_src/rom.c ``rom_do_step``):
   f + rate τ at each refresh of the force term, τ = j Δt the time of internal
   step j after the communication point (the shortened step: τ = n_full Δt),
   in the C order of operations: f + rate (τ0 + j h);
+* the port forces F_port_j [N] likewise: held, or with their derivatives
+  (``port_rates``) F_j + rate_j (τ0 + j h) at each refresh, ports in order,
+  divided by the area after (fmu_src/rom_frozen.c ``refresh``); after a step
+  a force with a rate reads F_j + rate_j h (the FMU's rule for f);
 * a step of length h is ``n_full`` whole internal steps of dt and, when the
   remainder exceeds 1e-12 dt, one shortened step (:func:`split_step`);
 * the internal step counter n runs over all internal steps, shortened ones
@@ -87,11 +91,13 @@ class FrozenCosim:
         self._ops = loop_operators(data.K, data.b, data.D, data.p, self.n_freeze, T=data.T, refresh="tensor")
         self._no_samples = np.zeros(0, dtype=np.int64)
         self._out = np.zeros((0, 1))
-        # mechanical ports (resources sections PORTB, PORTC): F_port [N] held over a step, divided by area
+        # mechanical ports (resources sections PORTB, PORTC): F_port [N] held over a step, or going as
+        # F_port + port_rates τ [N s^-1] (input derivatives), divided by area
         self.port_B = data.sections.get("PORTB")
         self.port_C = data.sections.get("PORTC")
         self.n_ports = 0 if self.port_B is None else self.port_B.shape[0]
         self.port_forces = np.zeros(self.n_ports)
+        self.port_rates = np.zeros(self.n_ports)
         self.area = 1.0
 
     def _advance(self, count, h, f, rate=0.0, tau0=0.0):
@@ -100,10 +106,11 @@ class FrozenCosim:
         if count <= 0:
             return
         # f at each step's time tau0 + j h after the communication point (fmu_src/rom_frozen.c run_steps_kernel)
-        g = np.full(count, float(f)) if rate == 0.0 else float(f) + float(rate) * (tau0 + np.arange(count) * h)
+        tau = tau0 + np.arange(count) * h
+        g = np.full(count, float(f)) if rate == 0.0 else float(f) + float(rate) * tau
         status, _, bad = frozen_advance(self.method, self.av, self.ar, self.M, self.F, self.n, self.n + count, h, g,
                                         self._ops, self._no_samples, 0, self._out, self._out, self.data.bound,
-                                        *self._port_arguments(count))
+                                        *self._port_arguments(tau))
         if status != 0:
             raise SimulationError(f"reference: reduced state failed (status {status}) by internal step {bad}",
                                   step=bad)
@@ -117,16 +124,25 @@ class FrozenCosim:
         if rest > 0.0:
             self._advance(1, rest, f, rate, n_full * self.dt)
         self.t = self.t + h
+        if self.n_ports:                                   # a port force with a rate goes on linearly (rom_do_step)
+            rates = np.asarray(self.port_rates, float)
+            self.port_forces = np.where(rates != 0.0, self.port_forces + rates * h, self.port_forces)
 
     def outputs(self):
         """(v at the probes [m s^-1], rho at the probes [kg m^-3])."""
         return probe_values(self.data.Pv, self.av), probe_values(self.data.Prho, self.ar)
 
-    def _port_arguments(self, count):
-        """(Bp, the port inputs F/area per step) for frozen_advance; () without ports."""
+    def _port_arguments(self, tau):
+        """(Bp, the port inputs F(τ)/area per step, (len(τ), P)) for frozen_advance, τ [s] the steps' times after
+        the communication point; () without ports.  F(τ) = F + rate τ where the rate is nonzero, else F (held), as
+        fmu_src/rom_frozen.c refresh computes it."""
         if not self.n_ports:
             return ()
-        return self.port_B, np.tile(self.port_forces / self.area, (count, 1))
+        forces = np.asarray(self.port_forces, float)[None, :]
+        rates = np.asarray(self.port_rates, float)[None, :]
+        tau = np.asarray(tau, float)[:, None]
+        value = np.where(rates != 0.0, forces + rates * tau, forces)
+        return self.port_B, np.ascontiguousarray(value / self.area)
 
     def port_velocities(self):
         """v_port_j [m s^-1] (as rom_v_port: 0.0 + C[j][0] a_0 + ...); empty without ports."""

@@ -71,6 +71,7 @@ SECTION_TAGS: dict[str, str] = {          # tag -> what it holds (the C loader's
     "ENVELOPE": "the training envelope's scalars",
     "ENVRANGE": "the training envelope's coordinate ranges",
     "ENVPROBE": "rho0 at the probes (training envelope)",
+    "ENVPORT": "port coordinates at the end of each block (training envelope: not checked)",
     # linear models (harness/rom/balanced.py)
     "BOUNDS": "certified error bounds per probe (force, initial state)",
     "LINMODEL": "which linear model: 1 exact POD, 2 balanced",
