@@ -35,7 +35,8 @@ C1, D1, C2, D2 = 0.13, 7.5, 0.06, 14.0
 
 @pytest.fixture(scope="module")
 def fmus(tmp_path_factory):
-    """make(kind, fmi) -> path; kind: frozen / exact (parametric in c and d), plain (no parameters), ports."""
+    """make(kind, fmi) -> path; kind: frozen / exact (parametric in c and d), d-only (frozen, parametric in d),
+    plain (no parameters), ports."""
     folder = tmp_path_factory.mktemp("state-fmus")
     binaries = ensure_binaries()
     made = {}
@@ -44,8 +45,9 @@ def fmus(tmp_path_factory):
         if (kind, fmi) not in made:
             path = folder / f"{kind}-{fmi}.fmu"
             model = "exact" if kind == "exact" else "frozen"
+            vary = {"frozen": RANGES, "exact": RANGES, "d-only": RANGES[1:]}.get(kind, ())
             package_fmu(fmu_scene("forced"), path, k=K, fmi=fmi, probes=PROBES, progress=False, binaries=binaries,
-                        model=model, vary=RANGES if kind in ("frozen", "exact") else (),
+                        model=model, vary=vary,
                         ports=(0.3,) if kind == "ports" else None, bounds=False)
             made[kind, fmi] = path
         return made[kind, fmi]
@@ -243,14 +245,20 @@ def test_corrupted_parameter_fields_are_refused_naming_them(fmus, kind):
 
 
 def test_parameters_a_model_does_not_have_are_refused(fmus):
-    """In an FMU without c and d the state's c and d are 0; anything else is refused naming the field; a port
-    FMU's area must be finite and > 0."""
+    """In an FMU without c and d the state's c and d are 0, in one varying d only its c is the scene's; anything
+    else is refused naming the field; a port FMU's area must be finite and > 0."""
     plain = fmus("plain")
     blob = saved(plain, {})
     at = param_offset(blob)
     assert struct.unpack_from("<2d", blob, at + 8) == (0.0, 0.0)
     assert "this FMU has no parameter c (expected 0)" in refused(plain, put_double(blob, at + 8, 0.1))
     assert "parameter d = nan, but this FMU has no parameter d" in refused(plain, put_double(blob, at + 16, np.nan))
+    d_only = fmus("d-only")                                     # c is the scene's, fixed: not a parameter
+    blob = saved(d_only, {VR_D: D1})
+    at = param_offset(blob)
+    assert struct.unpack_from("<2d", blob, at + 8) == (0.1, D1)
+    assert "parameter c = 0.15, but this FMU's c is fixed at 0.1" in refused(d_only, put_double(blob, at + 8, 0.15))
+    assert "parameter d = 20 is outside the trained range [5, 15]" in refused(d_only, put_double(blob, at + 16, 20))
     ports = fmus("ports")
     blob = saved(ports, {VR_AREA: 2.5})
     area_at = param_offset(blob, n_ports=1) + 24
