@@ -680,10 +680,12 @@ static InstanceMode tag_mode(uint32_t tag) {
     }
 }
 
-/* a snapshot of size bytes (a serialized state of some version): reuse existing when it fits, else allocate */
+/* a snapshot of size bytes (a serialized state of some version): reuse existing when it fits, else resize it
+ * (a state of another version may be given in place of one of this version) or allocate; NULL when out of
+ * memory (existing is then left as it was) */
 static Snapshot *snapshot_for(Snapshot *existing, size_t size) {
     if (existing && existing->size == size) return existing;
-    Snapshot *snap = (Snapshot *)malloc(sizeof(Snapshot) + size);
+    Snapshot *snap = (Snapshot *)realloc(existing, sizeof(Snapshot) + size);
     if (snap) snap->size = size;
     return snap;
 }

@@ -153,6 +153,14 @@ def test_parametric_true_is_the_default_and_a_table_still_sets_the_range(tmp_pat
     assert [e.id for e in specs["default"].entries] == [e.id for e in specs["true"].entries]
     assert {e.parametric for e in specs["default"].entries} == {(("d", 6.0, 12.0),)}
     assert {e.parametric for e in specs["table"].entries} == {(("d", 5.0, 15.0),)}
+    # a model that cannot be parametric keeps one FMU per value for its own entries, with a note
+    (tmp_path / "models.toml").write_text(SPEC.format(top="").replace("k = [4]", 'k = [4]\nmodel = ["frozen", '
+                                                                                  '"balanced"]'))
+    mixed = load_spec(tmp_path / "models.toml")
+    assert {e.model: e.parametric for e in mixed.entries if e.model == "frozen"} == {"frozen": (("d", 6.0, 12.0),)}
+    assert all(e.parametric == () for e in mixed.entries if e.model == "balanced")
+    assert len({e.variant_inputs() for e in mixed.entries}) == 1 + len(D_VALUES)
+    assert any("grid.model: balanced cannot be parametric" in note for note in mixed.notes)
     (tmp_path / "out.toml").write_text(SPEC.format(top="[parametric]\nd = [7.0, 15.0]"))
     with pytest.raises(Exception, match=r"grid.d: 6.0 is outside the parametric range \[7, 15\]"):
         load_spec(tmp_path / "out.toml")

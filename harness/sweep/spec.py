@@ -464,8 +464,9 @@ def parse_spec(text, source="<spec>", spec_path=None) -> Spec:
     if auto and parametric:
         others = [m for m in grids["model"] if m not in PARAMETRIC_MODELS]
         if others:
-            notes.append(f"grid.model: {', '.join(others)} cannot be parametric: one FMU per value of "
-                         f"{' and '.join('grid.' + p[0] for p in parametric)} for {'it' if len(others) == 1 else 'them'}")
+            varied = " and ".join("grid." + p[0] for p in parametric)
+            notes.append(f"grid.model: {', '.join(others)} cannot be parametric: one FMU per value of {varied} "
+                         f"for {'it' if len(others) == 1 else 'them'}")
     if any(e.compare_sph for e in entries):
         dt = scene.sph.dt
         r = step / dt
