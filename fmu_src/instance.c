@@ -283,9 +283,27 @@ InstanceStatus instance_enter_initialization(Instance *inst) {
     return INSTANCE_OK;
 }
 
+/* A parametric model's operators at the state's c and d (O(k^2)), recording which ones the model holds;
+ * force: assemble even when they are the ones recorded */
+static RomStatus assemble_at_state(Instance *inst, int force) {
+    const double c = inst->state->c, d = inst->state->d;
+    if (!force && inst->assembled && c == inst->assembled_c && d == inst->assembled_d) return ROM_OK;
+    if (rom_model_assemble(inst->model, inst->state, inst->message, sizeof inst->message) != ROM_OK) return ROM_FAIL;
+    inst->assembled = 1;
+    inst->assembled_c = c;
+    inst->assembled_d = d;
+    return ROM_OK;
+}
+
+static RomStatus assemble(Instance *inst) {
+    if (!rom_model_section(inst->model, "PARAMS")) return ROM_OK;
+    return assemble_at_state(inst, 0);
+}
+
 InstanceStatus instance_exit_initialization(Instance *inst, const char *fn) {
-    /* a parametric model's operators from the parameters now fixed (O(k^2)) */
-    if (rom_model_assemble(inst->model, inst->state, inst->message, sizeof inst->message) != ROM_OK) {
+    /* a parametric model's operators from the parameters now fixed (O(k^2)); always, as before states carried
+     * them (it also empties the exact model's exponential cache) */
+    if (assemble_at_state(inst, 1) != ROM_OK) {
         return instance_error(inst, fn, "%s", inst->message);
     }
     if (rom_check_outputs(inst->state, inst->message, sizeof inst->message) != ROM_OK) {
@@ -662,18 +680,19 @@ static InstanceMode tag_mode(uint32_t tag) {
     }
 }
 
-/* a snapshot of the right size: reuse existing when it fits, else allocate */
-static Snapshot *snapshot_for(const Instance *inst, Snapshot *existing) {
-    const size_t size = rom_state_serialized_size(inst->model);
+/* a snapshot of size bytes (a serialized state of some version): reuse existing when it fits, else resize it
+ * (a state of another version may be given in place of one of this version) or allocate; NULL when out of
+ * memory (existing is then left as it was) */
+static Snapshot *snapshot_for(Snapshot *existing, size_t size) {
     if (existing && existing->size == size) return existing;
-    Snapshot *snap = (Snapshot *)malloc(sizeof(Snapshot) + size);
+    Snapshot *snap = (Snapshot *)realloc(existing, sizeof(Snapshot) + size);
     if (snap) snap->size = size;
     return snap;
 }
 
 InstanceStatus instance_get_state(Instance *inst, const char *fn, void **snapshot) {
     if (!snapshot) return instance_error(inst, fn, "the FMU state pointer is NULL");
-    Snapshot *snap = snapshot_for(inst, (Snapshot *)*snapshot);
+    Snapshot *snap = snapshot_for((Snapshot *)*snapshot, rom_state_serialized_size(inst->model));
     if (!snap) return instance_error(inst, fn, "out of memory");
     rom_state_serialize(inst->state, mode_tag(inst->mode), snap->data);
     *snapshot = snap;
@@ -688,6 +707,9 @@ InstanceStatus instance_set_state(Instance *inst, const char *fn, const void *sn
         ROM_OK) {
         return instance_error(inst, fn, "%s", inst->message);
     }
+    /* the state carries c and d (format 3): a parametric model's operators follow them, as the instance that
+     * saved the state had them (assembled again only when they differ from the ones this model holds) */
+    if (assemble(inst) != ROM_OK) return instance_error(inst, fn, "%s", inst->message);
     inst->mode = tag_mode(tag);
     return INSTANCE_OK;
 }
@@ -725,7 +747,7 @@ InstanceStatus instance_deserialize_state(Instance *inst, const char *fn, const 
     if (rom_state_check(inst->model, bytes, size, inst->message, sizeof inst->message) != ROM_OK) {
         return instance_error(inst, fn, "%s", inst->message);
     }
-    Snapshot *snap = snapshot_for(inst, (Snapshot *)*snapshot);
+    Snapshot *snap = snapshot_for((Snapshot *)*snapshot, size);
     if (!snap) return instance_error(inst, fn, "out of memory");
     memcpy(snap->data, bytes, size);
     *snapshot = snap;

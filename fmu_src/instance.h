@@ -82,6 +82,8 @@ typedef struct {
     uint32_t log_mask;                 /* enabled INSTANCE_LOG_* categories */
     int warned_long_dt;                /* the warning on dt > h was logged */
     int warned_envelope;               /* the warning on leaving the training envelope was logged (reset re-arms) */
+    int assembled;                     /* parametric models: the model's operators were assembled at */
+    double assembled_c, assembled_d;   /* these c [kg m^-1 s^-2] and d [s^-1] (rom_model_assemble) */
     char message[ROM_MESSAGE_SIZE];    /* the core's last message */
 } Instance;
 

@@ -58,20 +58,25 @@
  *   char[40] token "{xxxxxxxx-xxxx-xxxx-xxxx-xxxxxxxxxxxx}", NUL padded
  *   uint32   crc32 (zlib's) of every byte before it
  *
- * Serialized FMU state, version 2 (little-endian; rom_state_serialize):
+ * Serialized FMU state, version 3 (little-endian; rom_state_serialize):
  *
  *   char[8]  magic "SPHROMST"
- *   uint32   state_version (2), tag (the instance's mode), k_v, k_rho, n_probes, n_pairs
+ *   uint32   state_version (3), tag (the instance's mode), k_v, k_rho, n_probes, n_pairs
  *   char[40] token of the model
  *   uint64   n (internal steps); uint32 n_freeze, 0; float64 time [s], f, dt [s]
  *            (112 bytes so far: ROM_STATE_HEADER_SIZE)
  *   float64  kind 1: a_v[k_v], a_rho[k_rho], M^T rows [k_v][k_rho], F[k_v];
  *            kind 2: a[k_v], b[k_rho], X[k], (t0, df/dt)
  *   float64  the parameters a state carries: initial_state_scale (version 2: the exact model's
- *            free response is scaled by it at every step)
+ *            free response is scaled by it at every step); version 3: then c [kg m^-1 s^-2] and
+ *            d [s^-1] (a parametric model's values, restored with the state and the operators
+ *            re-assembled from them; 0 and 0 in a model without section PARAMS)
  *   float64  with ports (both kinds): area, F_port[n_ports], port_driven (0 or 1; 0 in states written
  *            before it was kept, where the slot was reserved), dF_port/dt[n_ports]
  *   uint32   crc32 of every byte before it
+ *
+ * Version 2 (without c and d, 16 bytes shorter) is still read: such a state keeps the instance's own
+ * c and d.  Versions below ROM_STATE_VERSION_OLDEST or above ROM_STATE_VERSION are refused, naming them.
  *
  * Both are read through one envelope check (rom_io.c): size, magic, version,
  * sizes, token, checksum.
@@ -99,7 +104,8 @@ extern "C" {
 #endif
 
 #define ROM_FORMAT_VERSION 3u
-#define ROM_STATE_VERSION 2u          /* 2: the parameter block (initial_state_scale) */
+#define ROM_STATE_VERSION 3u          /* 2: the parameter block (initial_state_scale); 3: c and d in it */
+#define ROM_STATE_VERSION_OLDEST 2u   /* the oldest serialized state version this binary reads */
 #define ROM_MODEL_FROZEN 1u
 #define ROM_MODEL_EXACT_LINEAR 2u
 #define ROM_INTEGRATOR_EULER 0u
@@ -327,11 +333,18 @@ ROM_API RomStatus rom_rho_probe_rate(const RomState *state, uint32_t j, double *
 ROM_API RomStatus rom_check_outputs(const RomState *state, char *message, size_t message_size);
 
 /* ---- serialized state (magic, version, sizes, token, crc) ------------------ */
+/* the size of a state of the current version (ROM_STATE_VERSION) */
 ROM_API size_t rom_state_serialized_size(const RomModel *model);
+/* the size of a state of format version (ROM_STATE_VERSION_OLDEST .. ROM_STATE_VERSION; 0 for another) */
+ROM_API size_t rom_state_serialized_size_version(const RomModel *model, uint32_t version);
 ROM_API void rom_state_serialize(const RomState *state, uint32_t tag, unsigned char *buffer);
-/* Checks a blob against this model (magic, version, sizes, token, crc). */
+/* Checks a blob against this model (magic, version, sizes, token, crc), then the parameters it carries, each
+ * named when refused: initial_state_scale finite, c and d (version 3) within the trained range of a varied
+ * parameter, equal to the model's value of a fixed one, 0 without section PARAMS; area finite and > 0. */
 ROM_API RomStatus rom_state_check(const RomModel *model, const unsigned char *buffer, size_t size,
                                   char *message, size_t message_size);
+/* Restores the state (a checked blob) with its parameters; a parametric model then needs its operators
+ * re-assembled at the restored c and d (rom_model_assemble; the instance layer does it) */
 ROM_API RomStatus rom_state_deserialize(RomState *state, const unsigned char *buffer, size_t size,
                                         uint32_t *tag, char *message, size_t message_size);
 

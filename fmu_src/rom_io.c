@@ -93,14 +93,17 @@ typedef struct {
     const char *empty;         /* what the smallest valid blob is */
     const char *one;           /* one such blob, in messages */
     const char *damaged;       /* what is truncated or corrupt when a check fails */
-    uint32_t version;
+    uint32_t version;          /* the version written */
     size_t min_size;           /* bytes needed before the header can be read */
+    uint32_t oldest;           /* the oldest version read */
 } Envelope;
 
 static const Envelope RESOURCES = {"resources", ROM_RESOURCE_MAGIC, "an sphrom model.bin", "an empty model",
-                                   "a model", "file ", ROM_FORMAT_VERSION, ROM_HEADER_SIZE + ROM_TOKEN_SIZE + 4};
+                                   "a model", "file ", ROM_FORMAT_VERSION, ROM_HEADER_SIZE + ROM_TOKEN_SIZE + 4,
+                                   ROM_FORMAT_VERSION};
 static const Envelope STATE = {"serialized state", ROM_STATE_MAGIC, "an sphrom FMU state", "an empty state",
-                               "a state", "", ROM_STATE_VERSION, ROM_STATE_HEADER_SIZE + 4};
+                               "a state", "", ROM_STATE_VERSION, ROM_STATE_HEADER_SIZE + 4,
+                               ROM_STATE_VERSION_OLDEST};
 
 /* Size, magic and version: then the header can be read */
 static RomStatus envelope_open(const Envelope *e, const unsigned char *bytes, size_t size, char *message,
@@ -114,9 +117,13 @@ static RomStatus envelope_open(const Envelope *e, const unsigned char *bytes, si
         return rom_fail(message, message_size, "%s: bad magic (not %s)", e->what, e->contents);
     }
     const uint32_t version = get_u32(bytes + 8);
-    if (version != e->version) {
-        return rom_fail(message, message_size, "%s: format version %u is not supported (this binary reads %u)",
-                        e->what, version, e->version);
+    if (version < e->oldest || version > e->version) {
+        if (e->oldest == e->version) {
+            return rom_fail(message, message_size, "%s: format version %u is not supported (this binary reads %u)",
+                            e->what, version, e->version);
+        }
+        return rom_fail(message, message_size, "%s: format version %u is not supported (this binary reads %u to "
+                        "%u)", e->what, version, e->oldest, e->version);
     }
     return ROM_OK;
 }
@@ -754,9 +761,9 @@ enum {
 
 /* The state's arrays in the order they are serialized: count rows of cols real
  * entries each, stride apart (frozen: a^v, a^rho, M^T (k_v rows of k_rho, stride
- * kr_pad), F and (t0, input rate); linear: a, b, the forced part X, (t0, input rate); both: the
- * parameters a state carries, initial_state_scale). */
-#define ROM_STATE_BLOCKS 6
+ * kr_pad), F and (t0, input rate); linear: a, b, the forced part X, (t0, input rate)).  The
+ * parameters a state carries follow them (params_put, params_get). */
+#define ROM_STATE_BLOCKS 5
 typedef struct {
     double *data[ROM_STATE_BLOCKS];
     size_t rows[ROM_STATE_BLOCKS], cols[ROM_STATE_BLOCKS], strides[ROM_STATE_BLOCKS];
@@ -769,8 +776,8 @@ static StateBlocks state_blocks(const RomState *s) {
     double *third = linear ? s->X : s->Mt, *fourth = linear ? s->aux : s->F;
     const size_t sizes[ROM_STATE_BLOCKS][3] = {{1, m->k_v, 0}, {1, m->k_rho, 0},
                                 {linear ? 1 : m->k_v, linear ? m->k : m->k_rho, linear ? 0 : m->kr_pad},
-                                {1, linear ? 2 : m->k_v, 0}, {linear ? 0 : 1, 2, 0}, {1, 1, 0}};
-    double *data[ROM_STATE_BLOCKS] = {s->av, s->ar, third, fourth, s->aux, (double *)&s->initial_state_scale};
+                                {1, linear ? 2 : m->k_v, 0}, {linear ? 0 : 1, 2, 0}};
+    double *data[ROM_STATE_BLOCKS] = {s->av, s->ar, third, fourth, s->aux};
     for (int a = 0; a < ROM_STATE_BLOCKS; a++) {
         b.data[a] = data[a];
         b.rows[a] = sizes[a][0];
@@ -811,15 +818,40 @@ static const unsigned char *ports_get(RomState *s, const unsigned char *cursor) 
     return cursor;
 }
 
-static size_t state_doubles(const RomModel *m) {
-    const size_t parameters = 1;     /* initial_state_scale */
-    if (rom_is_linear(m)) return (size_t)m->k_v + m->k_rho + m->k + 2 + parameters + port_values(m);
-    return 2 * (size_t)m->k_v + m->k_rho + (size_t)m->k_rho * m->k_v + 2 + parameters + port_values(m);
+/* The parameters a state carries, after the kind's blocks: initial_state_scale, then (version 3) c, d */
+static size_t param_values(uint32_t version) {
+    return version >= 3 ? 3 : 1;
+}
+
+static unsigned char *params_put(const RomState *s, unsigned char *cursor) {
+    const double values[3] = {s->initial_state_scale, s->c, s->d};
+    for (size_t i = 0; i < param_values(ROM_STATE_VERSION); i++, cursor += 8) put_f64(cursor, values[i]);
+    return cursor;
+}
+
+static const unsigned char *params_get(RomState *s, uint32_t version, const unsigned char *cursor) {
+    double *const fields[3] = {&s->initial_state_scale, &s->c, &s->d};
+    for (size_t i = 0; i < param_values(version); i++, cursor += 8) *fields[i] = get_f64(cursor);
+    return cursor;
+}
+
+/* the kind's blocks (state_blocks), in doubles */
+static size_t kind_doubles(const RomModel *m) {
+    if (rom_is_linear(m)) return (size_t)m->k_v + m->k_rho + m->k + 2;
+    return 2 * (size_t)m->k_v + m->k_rho + (size_t)m->k_rho * m->k_v + 2;
+}
+
+static size_t state_doubles(const RomModel *m, uint32_t version) {
+    return kind_doubles(m) + param_values(version) + port_values(m);
+}
+
+size_t rom_state_serialized_size_version(const RomModel *m, uint32_t version) {
+    if (!m || version < ROM_STATE_VERSION_OLDEST || version > ROM_STATE_VERSION) return 0;
+    return ROM_STATE_HEADER_SIZE + 8 * state_doubles(m, version) + 4;
 }
 
 size_t rom_state_serialized_size(const RomModel *m) {
-    if (!m) return 0;
-    return ROM_STATE_HEADER_SIZE + 8 * state_doubles(m) + 4;
+    return rom_state_serialized_size_version(m, ROM_STATE_VERSION);
 }
 
 void rom_state_serialize(const RomState *s, uint32_t tag, unsigned char *buffer) {
@@ -848,14 +880,59 @@ void rom_state_serialize(const RomState *s, uint32_t tag, unsigned char *buffer)
             for (size_t c = 0; c < b.cols[a]; c++, cursor += 8) put_f64(cursor, b.data[a][r * b.strides[a] + c]);
         }
     }
+    cursor = params_put(s, cursor);
     cursor = ports_put(s, cursor);
     put_u32(cursor, rom_crc32(buffer, size - 4));
+}
+
+/* The parameters a state of this version carries (offset: the first after the kind's blocks), each named when
+ * refused: initial_state_scale finite; c, d (version 3) inside a varied parameter's trained range, equal to the
+ * model's value of a fixed one, 0 in a model without them; with ports the area finite and > 0. */
+static RomStatus check_params_in_state(const RomModel *m, uint32_t version, const unsigned char *params,
+                                       char *message, size_t message_size) {
+    const double scale = get_f64(params);
+    if (!isfinite(scale)) {
+        return rom_fail(message, message_size, "serialized state: parameter initial_state_scale = %g is out of range "
+                        "(allowed: a finite real number)", scale);
+    }
+    if (version >= 3) {
+        const RomSection *section = rom_model_section(m, "PARAMS");
+        for (int which = ROM_PARAM_C; which <= ROM_PARAM_D; which++) {
+            const char *name = which == ROM_PARAM_C ? "c" : "d";
+            const double value = get_f64(params + 8 * (1 + which));
+            if (!section) {
+                if (value != 0.0) {
+                    return rom_fail(message, message_size, "serialized state: parameter %s = %g, but this FMU has "
+                                    "no parameter %s (expected 0)", name, value, name);
+                }
+                continue;
+            }
+            const double *row = section->data + 4 * which;
+            if (row[0] == 0.0 && !(value == row[1])) {
+                return rom_fail(message, message_size, "serialized state: parameter %s = %g, but this FMU's %s is "
+                                "fixed at %g", name, value, name, row[1]);
+            }
+            if (!(isfinite(value) && value >= row[2] && value <= row[3])) {
+                return rom_fail(message, message_size, "serialized state: parameter %s = %g is outside the trained "
+                                "range [%g, %g]", name, value, row[2], row[3]);
+            }
+        }
+    }
+    if (m->n_ports) {                  /* the area: the first value after the parameters */
+        const double area = get_f64(params + 8 * param_values(version));
+        if (!(isfinite(area) && area > 0)) {
+            return rom_fail(message, message_size, "serialized state: parameter area = %g m^2 is out of range "
+                            "(allowed: a finite number > 0)", area);
+        }
+    }
+    return ROM_OK;
 }
 
 RomStatus rom_state_check(const RomModel *m, const unsigned char *buffer, size_t size, char *message,
                           size_t message_size) {
     if (!m) return rom_fail(message, message_size, "serialized state: no data");
     if (envelope_open(&STATE, buffer, size, message, message_size) != ROM_OK) return ROM_FAIL;
+    const uint32_t version = get_u32(buffer + 8);
     static const struct { const char *field; size_t offset; } SIZES[4] = {
         {"k_v", ST_K_V}, {"k_rho", ST_K_RHO}, {"n_probes", ST_N_PROBES}, {"n_pairs", ST_N_PAIRS}};
     const uint32_t mine[4] = {m->k_v, m->k_rho, m->n_probes, m->n_pairs};
@@ -866,7 +943,10 @@ RomStatus rom_state_check(const RomModel *m, const unsigned char *buffer, size_t
                             "from another FMU)", SIZES[i].field, theirs, mine[i]);
         }
     }
-    if (envelope_close(&STATE, buffer, size, rom_state_serialized_size(m), "", ST_TOKEN, m->token, message,
+    char detail[48];
+    snprintf(detail, sizeof detail, " for state version %u", version);
+    if (envelope_close(&STATE, buffer, size, rom_state_serialized_size_version(m, version),
+                       version == ROM_STATE_VERSION ? "" : detail, ST_TOKEN, m->token, message,
                        message_size) != ROM_OK) {
         return ROM_FAIL;
     }
@@ -877,15 +957,13 @@ RomStatus rom_state_check(const RomModel *m, const unsigned char *buffer, size_t
         return rom_fail(message, message_size, "serialized state: invalid values (step %lld, n_freeze %lld, t %g, "
                         "f %g, dt %g)", (long long)n, (long long)n_freeze, time, f, dt);
     }
+    const unsigned char *params = buffer + ROM_STATE_HEADER_SIZE + 8 * kind_doubles(m);
+    if (check_params_in_state(m, version, params, message, message_size) != ROM_OK) return ROM_FAIL;
     const unsigned char *cursor = buffer + ROM_STATE_HEADER_SIZE;
-    for (size_t i = 0; i < state_doubles(m); i++, cursor += 8) {
+    for (size_t i = 0; i < state_doubles(m, version); i++, cursor += 8) {
         if (!isfinite(get_f64(cursor))) {
             return rom_fail(message, message_size, "serialized state: non-finite reduced state");
         }
-    }
-    if (m->n_ports) {                  /* the area: the first value after the kind's blocks */
-        const double area = get_f64(buffer + ROM_STATE_HEADER_SIZE + 8 * (state_doubles(m) - port_values(m)));
-        if (!(area > 0)) return rom_fail(message, message_size, "serialized state: area %g <= 0", area);
     }
     return ROM_OK;
 }
@@ -907,6 +985,7 @@ RomStatus rom_state_deserialize(RomState *s, const unsigned char *buffer, size_t
             for (size_t c = 0; c < b.cols[a]; c++, cursor += 8) b.data[a][r * b.strides[a] + c] = get_f64(cursor);
         }
     }
+    cursor = params_get(s, get_u32(buffer + 8), cursor);
     (void)ports_get(s, cursor);
     return ROM_OK;
 }

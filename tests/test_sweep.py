@@ -3,7 +3,7 @@ recorded, resume, FMU once per worker, agreement with a direct Slave run and
 with an independent full SPH comparison, bad specs.
 
 The study: the damped_forced scene shrunk to N = 32, T = 0.5; d in {5, 10}
-(two FMUs), F in {1, 3} Hz, two shapes, one of which sends the FMU into a
+(two FMUs: ``parametric = false``, the per-value path), F in {1, 3} Hz, two shapes, one of which sends the FMU into a
 runaway at F = 3 (the deliberately failing entries, one per FMU); the full
 SPH is run for the sine at F = 1.
 """
@@ -29,6 +29,7 @@ t_end = 0.5
 step = 0.01
 probes = [0.25, 0.66]
 compare_sph = {{ shape = ["sine"], frequency = [1.0] }}
+parametric = false
 
 [grid]
 shape = ["sine", "{FAILING}"]

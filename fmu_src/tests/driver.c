@@ -291,6 +291,91 @@ static void *check_get_set(const Version *v, void *c, double *a, double *b, doub
     return state;
 }
 
+/* Little-endian fields of a serialized state, and its checksum after an edit */
+static double blob_f64(const unsigned char *p) {
+    uint64_t bits = 0;
+    for (int i = 7; i >= 0; i--) bits = (bits << 8) | p[i];
+    double value;
+    memcpy(&value, &bits, sizeof value);
+    return value;
+}
+
+static void blob_put_f64(unsigned char *p, double value) {
+    uint64_t bits;
+    memcpy(&bits, &value, sizeof bits);
+    for (int i = 0; i < 8; i++) p[i] = (unsigned char)((bits >> (8 * i)) & 0xffu);
+}
+
+static void blob_put_u32(unsigned char *p, uint32_t value) {
+    for (int i = 0; i < 4; i++) p[i] = (unsigned char)((value >> (8 * i)) & 0xffu);
+}
+
+static void blob_seal(unsigned char *blob, size_t size) {
+    blob_put_u32(blob + size - 4, rom_crc32(blob, size - 4));
+}
+
+/* State format 3 in a model without parameters c, d or ports (blob of size bytes, saved at t1, whose run to
+ * N_STEPS gave a): the parameter block initial_state_scale, c = 0, d = 0 just before the checksum; a c or d
+ * other than 0, a non-finite initial_state_scale, a version other than 2 and 3 are refused naming them; the same
+ * state written as version 2 (without c and d) restores and continues bitwise. */
+static void check_state_parameters(fmi2Component c2, LogBook *book, const unsigned char *blob, size_t size,
+                                   double t1, const double *a, double *out) {
+    const size_t n_out = 2 * setup.n_probes;
+    const size_t params = size - 4 - 24;
+    EXPECT(blob[8] == ROM_STATE_VERSION && ROM_STATE_VERSION == 3u, "the state is version %u", (unsigned)blob[8]);
+    EXPECT(isfinite(blob_f64(blob + params)) && blob_f64(blob + params + 8) == 0.0 &&
+           blob_f64(blob + params + 16) == 0.0, "c and d are 0 in a model without them");
+    unsigned char *bad = malloc(size);
+    fmi2FMUstate s_bad = NULL;
+    static const struct { size_t at; double value; const char *text; } FIELDS[3] = {
+        {8, 0.1, "parameter c = 0.1, but this FMU has no parameter c"},
+        {16, NAN, "parameter d = nan, but this FMU has no parameter d"},
+        {0, INFINITY, "parameter initial_state_scale = inf is out of range"}};
+    for (int i = 0; i < 3; i++) {
+        memcpy(bad, blob, size);
+        blob_put_f64(bad + params + FIELDS[i].at, FIELDS[i].value);
+        blob_seal(bad, size);
+        EXPECT_ERROR(book, fmi2DeSerializeFMUstate(c2, (const fmi2Byte *)bad, size, &s_bad), fmi2OK);
+        EXPECT(strstr(book->last, FIELDS[i].text) != NULL, "message should say '%s': %s", FIELDS[i].text,
+               book->last);
+        EXPECT(fmi2Reset(c2) == fmi2OK, "reset");
+    }
+    static const uint32_t VERSIONS[3] = {1u, 4u, 0xffffffffu};
+    for (int i = 0; i < 3; i++) {
+        char want[96];
+        memcpy(bad, blob, size);
+        blob_put_u32(bad + 8, VERSIONS[i]);
+        blob_seal(bad, size);
+        EXPECT_ERROR(book, fmi2DeSerializeFMUstate(c2, (const fmi2Byte *)bad, size, &s_bad), fmi2OK);
+        snprintf(want, sizeof want, "format version %u is not supported (this binary reads %u to %u)", VERSIONS[i],
+                 ROM_STATE_VERSION_OLDEST, ROM_STATE_VERSION);
+        EXPECT(strstr(book->last, want) != NULL, "message should say '%s': %s", want, book->last);
+        EXPECT(fmi2Reset(c2) == fmi2OK, "reset");
+    }
+    /* version 2: the same bytes without c and d */
+    const size_t size2 = size - 16;
+    memcpy(bad, blob, params + 8);
+    memcpy(bad + params + 8, blob + params + 24, size - 4 - (params + 24));
+    blob_put_u32(bad + 8, 2u);
+    blob_seal(bad, size2);
+    /* with the length of version 3 */
+    EXPECT_ERROR(book, fmi2DeSerializeFMUstate(c2, (const fmi2Byte *)bad, size, &s_bad), fmi2OK);
+    EXPECT(strstr(book->last, "for state version 2") != NULL, "message should name version 2: %s", book->last);
+    EXPECT(fmi2Reset(c2) == fmi2OK, "reset");
+    fmi2FMUstate s2 = NULL;            /* a state of version 3 given to hold it: resized, not leaked */
+    EXPECT(fmi2GetFMUstate(c2, &s2) == fmi2OK && s2, "get a state to overwrite");
+    EXPECT(fmi2DeSerializeFMUstate(c2, (const fmi2Byte *)bad, size2, &s2) == fmi2OK && s2,
+           "deserialize version 2: %s", book->last);
+    size_t again = 0;
+    EXPECT(s2 && fmi2SerializedFMUstateSize(c2, s2, &again) == fmi2OK && again == size2, "version 2 size kept");
+    double t = t1;
+    EXPECT(s2 && fmi2SetFMUstate(c2, s2) == fmi2OK, "set a version 2 state: %s", book->last);
+    EXPECT(run2(c2, 13, N_STEPS, &t, out), "run after a version 2 state");
+    EXPECT(memcmp(a, out, N_STEPS * n_out * sizeof(double)) == 0, "version 2 state: outputs differ");
+    if (s2) fmi2FreeFMUstate(c2, &s2);
+    free(bad);
+}
+
 static void scenario_state(void) {
     LogBook book2 = {0}, book3 = {0};
     const fmi2CallbackFunctions f2 = callbacks2(&book2);
@@ -337,6 +422,7 @@ static void scenario_state(void) {
     EXPECT(fmi2SetFMUstate(c2, s2) == fmi2OK, "set state in the Error state");
     EXPECT(run2(c2, 13, N_STEPS, &t, b), "run after restart from error");
     EXPECT(memcmp(a, b, N_STEPS * n_out * sizeof(double)) == 0, "restart from error: outputs differ");
+    check_state_parameters(c2, &book2, (const unsigned char *)blob, size, t1, a, c);
     EXPECT(fmi2FreeFMUstate(c2, &s2) == fmi2OK && s2 == NULL, "free state");
     EXPECT(fmi2FreeFMUstate(c2, &s2b) == fmi2OK, "free state");
     free(other);

@@ -6,10 +6,11 @@ training run and POD basis (both cached by :mod:`harness.cache` and the
 pipeline) and its own FMU.  The FMU is kept as
 ``$SPHROM_CACHE/sweep/fmu-<key>.fmu``; the key hashes the variant, the sphrom
 version and the binaries' build key (a change of the C sources makes new
-FMUs).  Forces and n_freeze change per run on the same FMU.  With a ``[parametric]``
-table in the spec, the values of c and d inside it share ONE parametric FMU
-(:mod:`harness.fmu.parametric`: trained at the corners and centre of the
-ranges), and each run sets c and d as FMU parameters.
+FMUs).  Forces and n_freeze change per run on the same FMU.  Entries with
+parametric ranges (by default the grid's [min, max] of c and d when they
+vary, or a ``[parametric]`` table; :mod:`harness.sweep.spec`) share ONE
+parametric FMU (:mod:`harness.fmu.parametric`: trained at the corners and
+centre of the ranges), and each run sets c and d as FMU parameters.
 
 Packaging happens on the client, before any task: it needs CMake once (the
 binaries) and the full SPH runs, which are heavier than a task and cached

@@ -10,14 +10,16 @@ A spec names a scene and grids; their Cartesian product is the study::
     probes = [0.25, 0.5, 0.66] # probe positions x/L (outputs v_probe_j, rho_probe_j)
     fmi = 2                    # FMI version of the FMUs (2 or 3)
     compare_sph = false        # true, false, or a sub-grid: { shape = ["sine"], d = [0.1] }
+    parametric = true          # default: one parametric FMU over grid.c / grid.d (below); false: one per value
 
     [grid]                     # each a list, a single value, or {start, stop, count, spacing}
     shape = ["sine", "square"] # sine, cosine, square, chirp, step, or an expression in t, T, A, F
     amplitude = [1e-3, 1e-2]   # A [m s^-2]
     frequency = { start = 0.05, stop = 2.0, count = 20, spacing = "log" }   # F [Hz]
-    c = [0.1]                  # Young's modulus [kg m^-1 s^-2]   } a scene variant each:
-    d = [0.1, 1.0]             # damping [s^-1]                   } own full SPH run, POD
-    profile = ["1"]            # force profile over x (expression) } basis and FMU
+    c = [0.1]                  # Young's modulus [kg m^-1 s^-2]   } set per run on one parametric FMU, or
+    d = [0.1, 1.0]             # damping [s^-1]                   } (parametric = false) a scene variant each
+    profile = ["1"]            # force profile over x (expression) } a scene variant each: own full SPH run,
+                                                                   # POD basis and FMU
     k = [12]                   # POD modes                         }
     model = ["frozen"]         # frozen | exact                    }
     n_freeze = [10]            # refresh period, an FMU parameter set per run
@@ -25,6 +27,13 @@ A spec names a scene and grids; their Cartesian product is the study::
     [parametric]               # optional: ONE parametric FMU over these ranges (sphrom fmu --vary) instead
     c = [0.05, 0.2]            # of one FMU (full SPH run, POD) per value of grid.c / grid.d; every grid
     d = [0.0, 5.0]             # value must lie inside its range; c and d are set per run as FMU parameters
+
+Without a ``[parametric]`` table, a grid.c or grid.d of two or more values on a scene with uniform c and d
+gets the same by default: ONE parametric FMU per (profile, k, model) trained over [min, max] of the grid's
+values of each varied parameter (frozen and exact models; a note says so).  ``parametric = false`` (a top-level
+key) opts out: one FMU, with its own full SPH run and POD, per value, as a table-less spec had before.  A scene
+with a non-uniform c or d, or a model that cannot be parametric (balanced), falls back to one FMU per value
+with a note naming the field or model.
 
 The force is f(t) = shape(t; A, F) at the communication points t_j = j step,
 held over each step (the FMU's input), times the variant's profile(x).
@@ -62,6 +71,8 @@ SHAPES = {
     "step": "A",
 }
 SCENE_GRIDS = ("c", "d", "profile", "k", "model")       # one FMU per combination
+PARAMETER_GRIDS = ("c", "d")                             # ... or one parametric FMU over their values
+PARAMETRIC_MODELS = ("frozen", "exact")                  # the POD models harness.fmu.parametric can make
 RUN_GRIDS = ("shape", "amplitude", "frequency", "n_freeze")
 GRIDS = SCENE_GRIDS + RUN_GRIDS
 TOP_KEYS = ("title", "scene", "t_end", "step", "window", "probes", "fmi", "compare_sph", "grid", "parametric")
@@ -163,6 +174,8 @@ class Spec:
     scene : Scene
         The base scene.
     entries : list of Entry
+    notes : list of str
+        What the spec decided that a user should know (the parametric FMU and its ranges, or why not).
     grids : dict
         Grid name -> list of values as expanded (None: the scene's value).
     compare : dict or bool
@@ -181,6 +194,7 @@ class Spec:
     grids: dict
     compare: object
     entries: list = field(default_factory=list)
+    notes: list = field(default_factory=list)
 
     @property
     def steps(self):
@@ -431,7 +445,8 @@ def parse_spec(text, source="<spec>", spec_path=None) -> Spec:
     compare = raw.get("compare_sph", False)
     selected = _compare_selection(compare, grids, source)
 
-    parametric = _parametric_ranges(raw.get("parametric"), grids, scene, source)
+    notes = []
+    parametric, auto = _parametric_ranges(raw.get("parametric"), grids, scene, source, notes)
     variants = _check_variants(scene, grids, source)
     scene_sha = hashlib.sha256(scene.text.encode()).hexdigest()[:16]
     entries = []
@@ -440,11 +455,18 @@ def parse_spec(text, source="<spec>", spec_path=None) -> Spec:
         cmp = bool(selected(inputs))
         key = {**inputs, "scene_sha": scene_sha, "t_end": t_end, "step": step, "window": list(window),
                "probes": list(probes), "fmi": fmi, "compare_sph": cmp}
-        if parametric:
-            key["parametric"] = [list(p) for p in parametric]
+        shared = parametric if not auto or inputs["model"] in PARAMETRIC_MODELS else ()
+        if shared:
+            key["parametric"] = [list(p) for p in shared]
         entries.append(Entry(id=entry_id(key), index=index, scene=scene.name, scene_sha=scene_sha,
                              t_end=t_end, step=step, window=window, probes=probes, fmi=fmi, compare_sph=cmp,
-                             parametric=parametric, **inputs))
+                             parametric=shared, **inputs))
+    if auto and parametric:
+        others = [m for m in grids["model"] if m not in PARAMETRIC_MODELS]
+        if others:
+            varied = " and ".join("grid." + p[0] for p in parametric)
+            notes.append(f"grid.model: {', '.join(others)} cannot be parametric: one FMU per value of {varied} "
+                         f"for {'it' if len(others) == 1 else 'them'}")
     if any(e.compare_sph for e in entries):
         dt = scene.sph.dt
         r = step / dt
@@ -452,22 +474,27 @@ def parse_spec(text, source="<spec>", spec_path=None) -> Spec:
             _fail(f"{source}: step", f"{step!r} is out of range with compare_sph (allowed: a whole number of "
                                      f"SPH steps dt = {dt:g} s)")
     spec = Spec(source=source, text=text, title=title, scene=scene, t_end=t_end, step=step, window=window,
-                probes=probes, fmi=fmi, grids=grids, compare=compare, entries=entries)
+                probes=probes, fmi=fmi, grids=grids, compare=compare, entries=entries, notes=notes)
     spec.variants = variants
     return spec
 
 
-def _parametric_ranges(raw, grids, scene, source):
-    """The ``[parametric]`` table -> ((name, lo, hi), ...) sorted by name; () when absent.
+def _parametric_ranges(raw, grids, scene, source, notes):
+    """The ``parametric`` key -> (((name, lo, hi), ...) sorted by name, automatic); () when there is none.
 
-    Each key c or d: [lo, hi] with 0 < lo < hi (c) or 0 <= lo < hi (d); the scene's field uniform; every value
-    of grid.c / grid.d (the scene's value where the grid has none) inside [lo, hi].
+    A table: each key c or d, [lo, hi] with 0 < lo < hi (c) or 0 <= lo < hi (d); the scene's field uniform; every
+    value of grid.c / grid.d (the scene's value where the grid has none) inside [lo, hi].  Absent or ``true``: the
+    grid's own [min, max] of each of c, d with two or more values (:func:`_automatic_ranges`); ``false``: none.
+    Appends to ``notes`` what was decided.
     """
-    if raw is None:
-        return ()
+    if raw is None or raw is True:
+        return _automatic_ranges(grids, scene, source, notes), True
+    if raw is False:
+        return (), False
     here = f"{source}: parametric"
     if not isinstance(raw, dict) or not raw:
-        _fail(here, f"{raw!r} is out of range (allowed: a table with c = [lo, hi] and/or d = [lo, hi])")
+        _fail(here, f"{raw!r} is out of range (allowed: true, false, or a table with c = [lo, hi] and/or "
+                    f"d = [lo, hi])")
     out = []
     for name in sorted(raw):
         at = f"{here}.{name}"
@@ -491,7 +518,34 @@ def _parametric_ranges(raw, grids, scene, source):
                 _fail(f"{source}: grid.{name}", f"{v!r} is outside the parametric range [{lo:g}, {hi:g}] "
                                                 f"(allowed: values inside parametric.{name})")
         out.append((name, lo, hi))
-    return tuple(out)
+    _note_parametric(out, grids, notes, "the [parametric] table")
+    return tuple(out), False
+
+
+def _automatic_ranges(grids, scene, source, notes):
+    """((name, min, max), ...) of grid.c / grid.d with two or more values, when the scene's c and d are uniform
+    (a parametric model needs both: :func:`harness.rom.parametric.parameter_space`); else () with a note."""
+    varied = [name for name in PARAMETER_GRIDS if len(grids[name]) > 1]
+    if not varied:
+        return ()
+    for name in PARAMETER_GRIDS:
+        if math.isnan(scene_value(scene, name)):
+            grids_text = " and ".join(f"grid.{v}" for v in varied)
+            notes.append(f"{grids_text}: one FMU per value (its own full SPH run and POD): scene '{scene.name}' "
+                         f"has a non-uniform {name} (fields.{name} = {scene.fields[name].text!r}), and a "
+                         f"parametric FMU needs uniform c and d")
+            return ()
+    out = tuple((name, min(grids[name]), max(grids[name])) for name in varied)
+    _note_parametric(out, grids, notes, "the grid's [min, max]; parametric = false for one FMU per value")
+    return out
+
+
+def _note_parametric(ranges, grids, notes, origin):
+    counts = ", ".join(f"{len(grids[name])} value{'s' if len(grids[name]) > 1 else ''} of grid.{name}"
+                       for name, _, _ in ranges)
+    spans = ", ".join(f"{name} in [{lo:g}, {hi:g}]" for name, lo, hi in ranges)
+    notes.append(f"{counts}: one parametric FMU over {spans} ({origin}), {' and '.join(n for n, _, _ in ranges)} "
+                 f"set per run")
 
 
 def _check_variants(scene, grids, source):
