@@ -16,8 +16,6 @@ outputs at the 61 communication points of the FMI 2 and the FMI 3 FMU.  Bitwise 
 compiler and flags as the capture (the core's arithmetic has no fused multiply-add, rom_internal.h).
 """
 
-import argparse
-import os
 import sys
 import tempfile
 import zipfile
@@ -31,20 +29,13 @@ H, STEPS, SEED = 0.01, 60, 7
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--code", default=str(Path(__file__).resolve().parents[2]),
-                        help="the checkout whose harness runs (default: this repository)")
-    args = parser.parse_args()
-    root = Path(args.code).resolve()
-    tests = Path(__file__).resolve().parents[1]
-    sys.path[:0] = [str(root), str(tests)]
-    os.environ.setdefault("SPHROM_CACHE", tempfile.mkdtemp(prefix="sphrom-cache-"))
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from checkout import use_checkout
+    use_checkout(__doc__.splitlines()[0])
     from conftest import fmu_scene
     from harness.fmu.build import ensure_binaries
     from harness.fmu.fmi import Slave
     from harness.fmu.package import package_fmu
-    import harness
-    assert Path(harness.__file__).resolve().parents[1] == root, harness.__file__
 
     inputs = np.random.default_rng(SEED).normal(0.0, 0.02, STEPS)
     arrays = {"inputs": inputs, "steps": np.full(STEPS, H)}

@@ -16,8 +16,6 @@ serialized state after the first 20 steps (FMI 2; the FMI 3 FMU's blob is checke
 21 communication points of the last 20 steps, after restoring it in the same instance.
 """
 
-import argparse
-import os
 import sys
 import tempfile
 import zipfile
@@ -35,21 +33,14 @@ CASES = {"frozen": dict(model="frozen", vary="cd", values={VR_C: 0.13, VR_D: 7.5
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--code", default=str(Path(__file__).resolve().parents[2]),
-                        help="the checkout whose harness runs (default: this repository)")
-    args = parser.parse_args()
-    root = Path(args.code).resolve()
-    tests = Path(__file__).resolve().parents[1]
-    sys.path[:0] = [str(root), str(tests)]
-    os.environ.setdefault("SPHROM_CACHE", tempfile.mkdtemp(prefix="sphrom-cache-"))
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from checkout import use_checkout
+    use_checkout(__doc__.splitlines()[0])
     from conftest import fmu_scene
     from harness.fmu.build import ensure_binaries
     from harness.fmu.fmi import Slave
     from harness.fmu.package import package_fmu
     from harness.rom import parametric as par
-    import harness
-    assert Path(harness.__file__).resolve().parents[1] == root, harness.__file__
 
     inputs = np.random.default_rng(SEED).normal(0.0, 0.02, STEPS)
     arrays = {"inputs": inputs, "steps": np.full(STEPS, H), "split": np.array(SPLIT)}
