@@ -25,8 +25,11 @@ from pathlib import Path
 SECTION_HEADING = "## The packaged FMU against the full SPH, every scene"
 
 
-def measure_scene(name, models, repeats, folder, fmi=2, progress=True):
-    """Rows (one per model) of scene ``name``: errors of the verification, median times, speed-up."""
+def measure_scene(name, models, repeats, folder, fmi=2, progress=True, bounds=True):
+    """Rows (one per model) of scene ``name``: errors of the verification, median times, speed-up.
+
+    ``bounds=False`` packages the linear FMUs without their certified error bounds (``sphrom fmu --no-bounds``:
+    they cost the full 2N linear system, minutes at N = 1000; the outputs do not depend on them)."""
     import statistics
 
     from ..fmu.build import ensure_binaries
@@ -42,7 +45,7 @@ def measure_scene(name, models, repeats, folder, fmi=2, progress=True):
     summaries, refs = [], None
     for model in models:
         s = package_fmu(scene, Path(folder) / f"{name}-{model}.fmu", model=model, fmi=fmi, progress=progress,
-                        binaries=binaries, problem=problem, verify=True, references=refs)
+                        binaries=binaries, problem=problem, verify=True, references=refs, bounds=bounds)
         refs = s.verification.refs
         summaries.append(s)
     first = summaries[0].verification
@@ -115,6 +118,8 @@ def main(argv=None):
     p.add_argument("--repeats", type=int, default=3, metavar="R")
     p.add_argument("--out", default="validation/benchmarks", metavar="FOLDER")
     p.add_argument("--report", default="BENCHMARKS.md", metavar="FILE.md")
+    p.add_argument("--no-bounds", action="store_true",
+                   help="package the linear FMUs without their error bounds (as sphrom fmu --no-bounds)")
     p.add_argument("--quiet", action="store_true")
     args = p.parse_args(argv)
     scenes = args.scenes or builtin_names()
@@ -123,7 +128,8 @@ def main(argv=None):
     rows = []
     with tempfile.TemporaryDirectory(prefix="sphrom-fmu-verify-") as folder:
         for name in scenes:
-            for r in measure_scene(name, models, args.repeats, folder, progress=not args.quiet):
+            for r in measure_scene(name, models, args.repeats, folder, progress=not args.quiet,
+                                   bounds=not args.no_bounds):
                 rows.append(r)
                 print(f"{r['scene']:20s} {r['model']:7s} training v {r['train_err_v']:.3e}  unseen v "
                       f"{r['unseen_err_v']:.3e}  FMU {r['fmu_s']:.4f} s  SPH {r['sph_s']:.4f} s  "
