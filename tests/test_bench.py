@@ -1,6 +1,7 @@
 """Benchmarks stay out of the suite; this smoke test runs them at tiny size and checks their contracts."""
 
 import csv
+import dataclasses
 
 import numpy as np
 import pytest
@@ -91,13 +92,18 @@ def test_stress_fmu_columns_report_errors_never_nan():
     time where the state runs away or the density leaves (0, ∞), and never a silent NaN."""
     from harness.bench import stress as st
     from harness.bench.stress_fmu import FMUStress, stress_runners
+    from harness.rom.operators import rest_equilibrium
     scene = small_scene("multimode", T=1.0, n=32, every=25)
     ctx = st.context(scene, k=6)
+    # the Python model the FMU packages: the frozen one with b about the rest density (operator_resource)
+    packaged = dataclasses.replace(ctx, operators={**ctx.operators,
+                                                   "frozen": rest_equilibrium(ctx.operators["frozen"])})
     with FMUStress() as fs:
         runners = stress_runners(fs)
+        assert sorted(runners) == ["FMU exact", "FMU frozen"]          # the FMUs on the scene's POD basis
         for name, model in (("FMU frozen", "frozen"), ("FMU exact", "exact")):
             r = runners[name](ctx, 0.5 * ctx.dt_limit, 1.0)
-            py = st.run_one(ctx, model, 0.5 * ctx.dt_limit)
+            py = st.run_one(packaged, model, 0.5 * ctx.dt_limit)
             assert r["outcome"] == py["outcome"] and r["silent_nan"] == 0 and not r["fmu_error"]
             assert r["energy_end"] == pytest.approx(py["energy_end"], rel=1e-9)
             bad = runners[name](ctx, scene.sph.dt, 2000.0)            # compressed beyond ρ -> 0, or runaway

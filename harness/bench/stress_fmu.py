@@ -22,7 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..rom.registry import fmu_model_names, get_model
+from ..rom.registry import get_model
+from .fmu import benched_fmu_models
 from ..sph.diagnostics import energy
 from ..sph.solver import step_count
 
@@ -132,4 +133,4 @@ def stress_runners(stress: FMUStress):
         def go(ctx, dt, amplitude=1.0, T=None, force=None):
             return stress.run(ctx, model, dt, amplitude, T=T, force=force)
         return go
-    return {f"FMU {model}": runner(model) for model in fmu_model_names()}
+    return {f"FMU {model}": runner(model) for model in benched_fmu_models()}   # on the scene's POD basis

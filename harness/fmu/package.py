@@ -402,9 +402,12 @@ RESOURCES = {MODEL_FROZEN: _frozen_resource, MODEL_EXACT_LINEAR: _linear_resourc
 def operator_resource(kind, ops, problem, *, dt, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_PROBES, integrator="euler"):
     """(data, bytes) of resources/model.bin of kind ``kind`` (ReducedModel.fmu_kind) from operators built
     elsewhere (a benchmark's own), the runaway bound that of their initial state, as :func:`reduced_model` and
-    :func:`exact_model` have it; the initial state is scaled at run time by the FMU's initial_state_scale."""
+    :func:`exact_model` have it; the initial state is scaled at run time by the FMU's initial_state_scale.  Frozen
+    operators get b about the projected rest density, as :func:`reduced_model` gives them."""
+    from ..rom.operators import rest_equilibrium
     from ..rom.stepping import runaway_bound
     if kind == MODEL_FROZEN:
+        ops = rest_equilibrium(ops)
         data = model_data(ops, problem, dt=dt, integrator=integrator, n_freeze=n_freeze, probes=probes,
                           bound=runaway_bound(ops))
         return data, pack(data)
