@@ -373,11 +373,18 @@ uint32_t rom_n_ports(const RomModel *m) {
     return m ? m->n_ports : 0u;
 }
 
-RomStatus rom_set_port_force(RomState *s, uint32_t j, double force, char *message, size_t message_size) {
+/* the checks shared by the port setters: a state, and a port j (0-based) of its model */
+static RomStatus check_port(const RomState *s, uint32_t j, char *message, size_t message_size) {
     if (!s) return rom_fail(message, message_size, "no state");
     if (j >= s->model->n_ports) {
         return rom_fail(message, message_size, "port %u does not exist (allowed: 1 to %u)", j + 1, s->model->n_ports);
     }
+    return ROM_OK;
+}
+
+RomStatus rom_set_port_force(RomState *s, uint32_t j, double force, char *message, size_t message_size) {
+    RomStatus status = check_port(s, j, message, message_size);
+    if (status != ROM_OK) return status;
     if (!isfinite(force)) {
         return rom_fail(message, message_size, "input F_port_%u = %g N at t = %.9g s is not finite (allowed: a finite "
                         "force in N)", j + 1, force, s->time);
@@ -402,10 +409,8 @@ RomStatus rom_set_area(RomState *s, double area, char *message, size_t message_s
 }
 
 RomStatus rom_set_port_rate(RomState *s, uint32_t j, double rate, char *message, size_t message_size) {
-    if (!s) return rom_fail(message, message_size, "no state");
-    if (j >= s->model->n_ports) {
-        return rom_fail(message, message_size, "port %u does not exist (allowed: 1 to %u)", j + 1, s->model->n_ports);
-    }
+    RomStatus status = check_port(s, j, message, message_size);
+    if (status != ROM_OK) return status;
     if (!isfinite(rate)) {
         return rom_fail(message, message_size, "input derivative of F_port_%u, dF_port_%u/dt = %g N s^-1 at t = %.9g "
                         "s, is not finite (allowed: a finite rate)", j + 1, j + 1, rate, s->time);

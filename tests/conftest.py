@@ -88,3 +88,26 @@ def assert_units_through_declared_types(path):
             assert v.unit is None and v.declaredType.unit == unit, v.name
         else:
             assert unit is None and v.declaredType is None, v.name
+
+
+def fmu_maker(folder, default_model="frozen", k=6, probes=(0.25, 0.5, 0.66)):
+    """make(model, fmi, case) -> (path, ModelData or ExactData): the FMU of ``fmu_scene(case)`` packaged into
+    ``folder`` once per (model, fmi, case) and its resources read back."""
+    import zipfile
+
+    from harness.fmu.build import ensure_binaries
+    from harness.fmu.package import package_fmu
+    from harness.fmu.resources import unpack
+    binaries = ensure_binaries()
+    made = {}
+
+    def make(model=default_model, fmi=2, case="forced"):
+        key = (model, fmi, case)
+        if key not in made:
+            path = folder / f"{model}-{fmi}-{case}.fmu"
+            package_fmu(fmu_scene(case), path, k=k, fmi=fmi, probes=probes, progress=False, binaries=binaries,
+                        model=model)
+            made[key] = (path, unpack(zipfile.ZipFile(path).read("resources/model.bin")))
+        return made[key]
+
+    return make

@@ -17,11 +17,11 @@ import numpy as np
 import pytest
 from fmpy.fmi1 import FMICallException
 
-from conftest import fmu_scene
+from conftest import fmu_maker, fmu_scene
 from harness.fmu.build import ensure_binaries
 from harness.fmu.describe import model_description
 from harness.fmu.fmi import VR_INITIAL_STATE_SCALE, Slave
-from harness.fmu.package import exact_model, package_fmu, reduced_model, write_fmu
+from harness.fmu.package import exact_model, reduced_model, write_fmu
 from harness.fmu.python_cosim import cosim_reference
 from harness.fmu.resources import probe_pairs, unpack
 from harness.rom.exact_linear import run_exact
@@ -36,20 +36,7 @@ MODELS = ("frozen", "exact")
 @pytest.fixture(scope="module")
 def fmus(tmp_path_factory):
     """make(model, fmi, case) -> (path, data), packaged once each."""
-    folder = tmp_path_factory.mktemp("iss-fmus")
-    binaries = ensure_binaries()
-    made = {}
-
-    def make(model="frozen", fmi=2, case="forced"):
-        key = (model, fmi, case)
-        if key not in made:
-            path = folder / f"{model}-{fmi}-{case}.fmu"
-            package_fmu(fmu_scene(case), path, k=K, fmi=fmi, probes=PROBES, progress=False, binaries=binaries,
-                        model=model)
-            made[key] = (path, unpack(zipfile.ZipFile(path).read("resources/model.bin")))
-        return made[key]
-
-    return make
+    return fmu_maker(tmp_path_factory.mktemp("iss-fmus"), "frozen", k=K, probes=PROBES)
 
 
 def _run(path, steps, inputs, scale=None):
@@ -89,9 +76,10 @@ def test_scale_zero_without_force_stays_at_rest_for_100_s(fmus, model, fmi, case
 
     The exact model: to round-off (z = 0 is its rest state: v = 0 and e = 0 exactly).  The frozen model: to
     round-off too, because its b is taken about the projected rest density (rest_equilibrium: b = K a_rho_rest).
-    With eq. 2.22's b the FMU drifted at the level of ρ0's projection error (7.0e-4 of the scene's largest
-    probe velocity on multimode shrunk, d = 0).  Its density outputs stay constant at ρ0 as the density modes
-    represent it (off ρ0 by ρ0's projection error at the probes, 1.3e-7 of ρ0 here)."""
+    With eq. 2.22's b the FMU drifted at the level of ρ0's projection error
+    (test_the_rest_bench_measures_the_frozen_fmu_with_eq_2_22s_b; every scene: python -m harness.bench.rest).
+    Its density outputs stay constant at ρ0 as the density modes represent it (off ρ0 by ρ0's projection error
+    at the probes, asserted below 1e-6 of ρ0)."""
     path, data = fmus(model, fmi, case)
     n = 1000
     out = _run(path, [0.1] * n, np.zeros(n))                  # not set: the start value 0

@@ -6,19 +6,15 @@ FMU's own outputs over a tiny step, and against the Python model's rate.  The fr
 and refuses the call; order 2 is refused naming the maximum order.
 """
 
-import zipfile
 
 import fmpy
 import numpy as np
 import pytest
 from fmpy.fmi1 import FMICallException
 
-from conftest import fmu_scene
-from harness.fmu.build import ensure_binaries
+from conftest import fmu_maker
 from harness.fmu.fmi import Slave
-from harness.fmu.package import package_fmu
 from harness.fmu.python_cosim import linear_output_rates
-from harness.fmu.resources import unpack
 
 K = 6
 PROBES = (0.25, 0.5, 0.66)
@@ -27,20 +23,8 @@ DELTA = 1e-4            # the finite difference's half step [s]
 
 @pytest.fixture(scope="module")
 def fmus(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("deriv-out-fmus")
-    binaries = ensure_binaries()
-    made = {}
-
-    def make(model="exact", fmi=2, case="forced"):
-        key = (model, fmi, case)
-        if key not in made:
-            path = folder / f"{model}-{fmi}-{case}.fmu"
-            package_fmu(fmu_scene(case), path, k=K, fmi=fmi, probes=PROBES, progress=False, binaries=binaries,
-                        model=model)
-            made[key] = (path, unpack(zipfile.ZipFile(path).read("resources/model.bin")))
-        return made[key]
-
-    return make
+    """make(model, fmi, case) -> (path, data), packaged once each."""
+    return fmu_maker(tmp_path_factory.mktemp("deriv-out-fmus"), "exact", k=K, probes=PROBES)
 
 
 @pytest.mark.parametrize("fmi", [2, 3])

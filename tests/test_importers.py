@@ -114,6 +114,14 @@ def container_outputs(folder, path, names, start=None, initial_state_scale=1.0):
     return np.column_stack([result[n] for n in names])
 
 
+def print_difference(importer, name, theirs, ours):
+    """Print the largest |importer - fmpy| over the run, absolute and relative to the largest output (the figures
+    the README quotes: ``python3 -m pytest -s tests/test_importers.py -k libcosim``)."""
+    diff, scale = float(np.max(np.abs(theirs - ours))), float(np.max(np.abs(ours)))
+    print(f"\n{importer} vs fmpy, {name}: max |difference| {diff:.2e} (largest output {scale:.3g}, "
+          f"relative {diff / scale:.2e})")
+
+
 @pytest.mark.parametrize("model", ["frozen", "exact", "balanced"])
 def test_libcosim_runs_the_fmi2_fmu_as_fmpy_does(fmus, model):
     path = fmus(model, 2)
@@ -122,6 +130,7 @@ def test_libcosim_runs_the_fmi2_fmu_as_fmpy_does(fmus, model):
     theirs = libcosim_outputs(path, names)
     assert theirs.shape == ours.shape and np.ptp(ours[:, 0]) > 0         # a trajectory that moves
     assert np.all(np.isfinite(theirs))
+    print_difference("libcosim", model, theirs, ours)
     np.testing.assert_allclose(theirs, ours, rtol=RTOL, atol=ATOL)
 
 
@@ -162,6 +171,7 @@ def test_libcosim_runs_port_and_parametric_fmus_as_fmpy_does(fmus, name):
     names, ours = feature_run(path, name)
     theirs = libcosim_outputs(path, names, FEATURES[name][1])
     assert theirs.shape == ours[1:].shape, name
+    print_difference("libcosim", name, theirs, ours[1:])
     np.testing.assert_allclose(theirs, ours[1:], rtol=RTOL, atol=ATOL, err_msg=name)
 
 

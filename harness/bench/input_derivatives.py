@@ -12,7 +12,6 @@ probes and time at the coarse communication points.  Writes
 """
 
 import argparse
-import csv
 import sys
 import tempfile
 from pathlib import Path
@@ -93,16 +92,6 @@ def markdown(rows, model="exact"):
     return "\n".join(lines)
 
 
-def write_csv(path, rows):
-    from ..runio import atomic_path
-    with atomic_path(path) as tmp:
-        with open(tmp, "w", newline="") as fh:
-            writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
-            writer.writeheader()
-            for row in rows:
-                writer.writerow({k: (repr(v) if isinstance(v, float) else v) for k, v in row.items()})
-
-
 def main(argv=None):
     p = argparse.ArgumentParser(prog="python -m harness.bench.input_derivatives", description=__doc__.split("\n\n")[0])
     p.add_argument("--out", default="validation/benchmarks", metavar="FOLDER")
@@ -110,6 +99,7 @@ def main(argv=None):
     p.add_argument("--model", choices=MODELS, action="append",
                    help="measure this model's FMU (repeat for several; default both)")
     args = p.parse_args(argv)
+    from .tables import write_csv
     models = tuple(args.model or MODELS)
     rows = measure(args.scene, models=models)
     out = Path(args.out) / "input_derivatives.csv"

@@ -110,7 +110,7 @@ def markdown(rows):
 
 
 def main(argv=None):
-    from .input_derivatives import write_csv
+    from .tables import write_csv
     p = argparse.ArgumentParser(prog="python -m harness.bench.port_rates", description=__doc__.split("\n\n")[0])
     p.add_argument("--out", default="validation/benchmarks", metavar="FOLDER")
     p.add_argument("--scene", default="damped_forced")

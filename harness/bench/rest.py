@@ -38,6 +38,7 @@ SECTION_HEADING = "## A component at rest"
 PROBES = (0.25, 0.5, 0.66)
 REST_T = 100.0            # [s] the rest run's length
 PLOT_SCENE = "multimode"
+EQ222 = "frozen, eq. 2.22's b"      # the row label of the comparison FMU
 
 
 def paper_b(ops, problem):
@@ -97,8 +98,9 @@ def measure_scene(name, folder, progress=True):
     _, ops, _, _ = reduced_model(scene, summaries["frozen"].k, 10, PROBES, scene.sph.integrator, progress=False,
                                  problem=problem)
     eq222 = with_b(paths["frozen"][0], folder / f"{name}-frozen-eq222.fmu", paper_b(ops, problem))
-    paths = {"frozen, eq. 2.22's b": (eq222, verify_fmu(eq222, scene, PROBES, refs=refs, problem=problem)),
+    paths = {EQ222: (eq222, verify_fmu(eq222, scene, PROBES, refs=refs, problem=problem)),
              "frozen": paths["frozen"], "exact": paths["exact"]}
+    baseline = paths[EQ222][1]
     _, _, _, (t_train, sph_v, _, rho0, _) = refs["training"]
     v_scale = float(np.max(np.abs(sph_v)))
     rows, traces = [], {}
@@ -111,7 +113,8 @@ def measure_scene(name, folder, progress=True):
                      "rest_drho": float(np.max(np.abs(rho - rho[0]) / rho0)),
                      "rest_rho_offset": float(np.max(np.abs(rho[0] - rho0) / rho0)),
                      "train_err_v": verification.training.err_v, "train_err_rho": verification.training.err_rho,
-                     "unseen_err_v": verification.unseen.err_v, "v_scale": v_scale})
+                     "unseen_err_v": verification.unseen.err_v, "v_scale": v_scale,
+                     "baseline": EQ222 if path == summaries["frozen"].path else ""})
     return rows, traces
 
 
@@ -133,7 +136,8 @@ def plot(traces, path, scene):
 def section(rows, command, wall, machine, out="validation/benchmarks/rest.csv"):
     """The report's lines."""
     def e(x):
-        return "—" if x is None or not np.isfinite(x) else f"{x:.2e}"
+        x = float(x)
+        return "—" if not np.isfinite(x) else f"{x:.2e}"
     lines = [SECTION_HEADING, "",
              f"Produced by `{command}` ({machine}, {wall:.0f} s wall; `{out}`, "
              f"`{Path(out).with_suffix('.png').name}`). Each scene's FMU (FMI 2, the scene's default k, n_freeze = 10, probes x/L = 0.25, 0.5, "
@@ -145,12 +149,41 @@ def section(rows, command, wall, machine, out="validation/benchmarks/rest.csv"):
              "ρ0. *Training* / *unseen*: relative L² errors (eq. 3.4) of the probe velocities against the full SPH "
              "(the scene's force and initial state; A sin(2π·0.7 t) from rest), as `sphrom fmu` measures them.",
              "",
-             "| scene | model | at rest: max v | at rest: ρ change | training v error | unseen v error |",
-             "| --- | --- | ---: | ---: | ---: | ---: |"]
+             "*Change*: the frozen FMU's error relative to the same FMU with eq. 2.22's b.",
+             "",
+             "| scene | model | at rest: max v | at rest: ρ change | training v error | change | unseen v error "
+             "| change |",
+             "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |"]
+
+    base = {(r["scene"], r["model"]): r for r in rows}
+
+    def change(r, key):           # the row's error relative to its baseline row's (the FMU with eq. 2.22's b)
+        b = base.get((r["scene"], r.get("baseline") or None))
+        return "" if b is None else f"{100 * (float(r[key]) / float(b[key]) - 1):+.1f} %"
     for r in rows:
         lines.append(f"| {r['scene']} | {r['model']} | {e(r['rest_v'])} | {e(r['rest_drho'])} | "
-                     f"{e(r['train_err_v'])} | {e(r['unseen_err_v'])} |")
+                     f"{e(r['train_err_v'])} | {change(r, 'train_err_v')} | {e(r['unseen_err_v'])} | "
+                     f"{change(r, 'unseen_err_v')} |")
     return lines
+
+
+def rerender(csv_path, report):
+    """Rewrite the section of ``report`` from the rows of ``csv_path``, keeping its "Produced by" command and
+    wall time (the measurement is the CSV's; only the table's layout changes)."""
+    import csv
+    import re
+
+    from ..bench.report import split_sections
+    from .fmu_verify import update_report
+    with open(csv_path, newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    old = "\n".join(split_sections(report.read_text()).get(SECTION_HEADING, []))
+    m = re.search(r"Produced by `([^`]*)` \(([^,]*, Python [^,]*), ([0-9.]+) s wall", old)
+    if not m:
+        raise SystemExit(f"{report}: no section {SECTION_HEADING!r} with its command to keep")
+    update_report(report, {SECTION_HEADING: section(rows, m.group(1), float(m.group(3)), m.group(2), str(csv_path))})
+    print(f"re-rendered the section of {report} from {csv_path}")
+    return 0
 
 
 def main(argv=None):
@@ -164,7 +197,12 @@ def main(argv=None):
     p.add_argument("--out", default="validation/benchmarks/rest.csv", metavar="FILE.csv")
     p.add_argument("--report", default="BENCHMARKS.md", metavar="FILE.md")
     p.add_argument("--quiet", action="store_true")
+    p.add_argument("--from-csv", metavar="FILE.csv",
+                   help="re-render the report's section from a CSV this command wrote (no runs); the command and "
+                        "wall time of that run are read from the report's section")
     args = p.parse_args(argv)
+    if args.from_csv:
+        return rerender(Path(args.from_csv), Path(args.report))
     scenes = args.scenes or builtin_names()
     t0 = time.perf_counter()
     rows, traces = [], None
