@@ -1,7 +1,9 @@
 """The CLI contract: names, HDF5 layout, one-line errors with exit status 2, no partial files."""
 
+import os
 import subprocess
 import sys
+from pathlib import Path
 
 import h5py
 import numpy as np
@@ -119,11 +121,30 @@ def test_interrupted_write_leaves_nothing(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+def console_script():
+    """The ``sphrom`` console script of the installation that runs the tests, as a command: run through this
+    interpreter (a bare ``sphrom`` may not be on PATH, or may be another installation's)."""
+    import importlib.metadata
+    import sysconfig
+    (entry,) = [e for e in importlib.metadata.entry_points(group="console_scripts") if e.name == "sphrom"]
+    assert entry.value == "harness.cli:main"
+    for scheme in (None, f"{os.name}_user"):
+        try:
+            folder = sysconfig.get_path("scripts", scheme) if scheme else sysconfig.get_path("scripts")
+        except KeyError:
+            continue
+        script = Path(folder) / "sphrom"
+        if script.is_file():
+            return [sys.executable, str(script)]
+    pytest.fail(f"the sphrom console script is declared ({entry.value}) but not installed in {folder}")
+
+
 def test_console_script_and_module_entry_points():
-    for cmd in (["sphrom", "scenes"], [sys.executable, "-m", "harness", "scenes"]):
+    sphrom = console_script()
+    for cmd in (sphrom + ["scenes"], [sys.executable, "-m", "harness", "scenes"]):
         done = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
         assert done.returncode == 0 and "tenmode" in done.stdout
-    done = subprocess.run(["sphrom", "sph", "multimode", "--dt", "-1", "--out", "x.h5"],
+    done = subprocess.run(sphrom + ["sph", "multimode", "--dt", "-1", "--out", "x.h5"],
                           capture_output=True, text=True, timeout=120)
     assert done.returncode == 2 and "Traceback" not in done.stderr
 

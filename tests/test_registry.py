@@ -119,9 +119,30 @@ def test_properties_are_what_the_models_do(forced):
         get_model("balanced-typo")
 
 
+# Allowed differences to the stored reference, in ulps of each array's largest magnitude.  The reference was
+# written on one CPU; OpenBLAS and numpy pick CPU-specific kernels (AVX-512 on an EPYC sums in another order),
+# so the same code differs in the last bits elsewhere.  Measured on an AVX-512 EPYC: operators and runs
+# within 38 ulps; the operators on the appended input direction ("aug") within 4.4e5 ulps, because that
+# direction is the residual of a profile nearly in the modes' span (a cancellation that magnifies the
+# last-bit differences of the projection).  Bitwise on the CPU of the capture (.ci/run's second pass).
+ULPS_RUN = 256
+ULPS_APPENDED = 2 ** 22
+
+
+def assert_within_ulps(actual, desired, ulps, err_msg=""):
+    """|actual - desired| <= ulps * eps * max|desired| elementwise."""
+    actual, desired = np.asarray(actual), np.asarray(desired)
+    assert actual.shape == desired.shape, err_msg
+    scale = np.max(np.abs(desired)) if desired.size else 0.0
+    worst = np.max(np.abs(actual - desired)) if desired.size else 0.0
+    assert worst <= ulps * np.finfo(float).eps * scale, f"{err_msg}: {worst / (np.finfo(float).eps * scale):.3g} ulps"
+
+
+@pytest.mark.cpu_sensitive
 def test_registry_runs_equal_the_code_before_the_registry():
-    """Bitwise: the registry's build and run on the stored bases give the operators and the reduced
-    coordinates the per-model entry points gave before the refactoring (tests/data/make_registry_reference.py)."""
+    """The registry's build and run on the stored bases give the operators and the reduced coordinates the
+    per-model entry points gave before the refactoring (tests/data/make_registry_reference.py), to the ulps
+    stated above (bitwise on the CPU of the capture)."""
     from types import SimpleNamespace
     ref = np.load(DATA / "registry_reference.npz")
     for tag, scene in reference.scenes():
@@ -134,7 +155,8 @@ def test_registry_runs_equal_the_code_before_the_registry():
         for key in ref.files:
             parts = key.split("/")
             if parts[0] == tag and parts[1] in built:
-                np.testing.assert_array_equal(getattr(built[parts[1]], parts[2]), ref[key], err_msg=key)
+                ulps = ULPS_APPENDED if parts[1] == "aug" else ULPS_RUN
+                assert_within_ulps(getattr(built[parts[1]], parts[2]), ref[key], ulps, err_msg=key)
         for label, name, opts in reference.RUNS:
             opts = dict(opts)
             if "force" in opts:                               # the old run without an input: a zero force
@@ -142,11 +164,11 @@ def test_registry_runs_equal_the_code_before_the_registry():
             ops = built["aug" if label == "frozen-augmented" else "lin" if name == "exact" else "ops"]
             res = run_model(name, ops, problem, dt=scene.sph.dt, n_steps=n, sample_steps=steps, **opts)
             for field in ("a_v", "a_rho"):
-                np.testing.assert_array_equal(getattr(res, field), ref[f"{tag}/{label}/{field}"],
-                                              err_msg=f"{tag} {label} {field}")
+                assert_within_ulps(getattr(res, field), ref[f"{tag}/{label}/{field}"], ULPS_RUN,
+                                   err_msg=f"{tag} {label} {field}")
             for field in ("v", "rho"):
-                np.testing.assert_array_equal(getattr(res, field)[::10], ref[f"{tag}/{label}/{field}"],
-                                              err_msg=f"{tag} {label} {field}")
+                assert_within_ulps(getattr(res, field)[::10], ref[f"{tag}/{label}/{field}"], ULPS_RUN,
+                                   err_msg=f"{tag} {label} {field}")
 
 
 def test_the_old_entry_points_are_the_registry():

@@ -64,7 +64,7 @@ def _children_cpu():
 
 
 def _sweep(spec, workers, out):
-    cmd = ["sphrom", "sweep", str(spec), "--workers", str(workers), "--out", str(out), "--quiet"]
+    cmd = [sys.executable, "-m", "harness", "sweep", str(spec), "--workers", str(workers), "--out", str(out), "--quiet"]
     busy, mine, t0 = _busy(), _children_cpu(), time.perf_counter()
     done = subprocess.run(cmd, capture_output=True, text=True)
     # the CPU the rest of the machine used meanwhile, in cores: busy time less this run's own processes
