@@ -36,14 +36,15 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import defaults
 from ..errors import FieldError, SimulationError
 from ..paths import data_dir
 from ..runio import atomic_path
 from .resources import (MAX_PROBES, MODEL_EXACT_LINEAR, MODEL_FROZEN, balanced_data, exact_data, model_data, pack,
                         pack_exact)
 
-DEFAULT_PROBES = (0.25, 0.5, 0.66)     # 0.66: the probe of the paper's Fig. C.6
-DEFAULT_FREEZE = 10
+DEFAULT_PROBES = defaults.PROBES
+DEFAULT_FREEZE = defaults.N_FREEZE
 DEFAULT_STEP = 0.01                    # DefaultExperiment stepSize [s]
 MODEL_IDENTIFIER = "sphrom"
 

@@ -45,7 +45,9 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
-DEFAULT_PROBES = (0.25, 0.5, 0.66)      # the FMU's default probes (x/L); 0.66: the paper's Fig. C.6
+from .. import defaults
+
+DEFAULT_PROBES = defaults.PROBES       # the FMU's default probes (x/L)
 
 
 @dataclass

@@ -60,6 +60,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import defaults
 from ..errors import UserError
 from ..paths import exists, is_file
 
@@ -79,7 +80,7 @@ TOP_KEYS = ("title", "scene", "t_end", "step", "window", "probes", "fmi", "compa
 MAX_ENTRIES = 1_000_000
 MAX_STEPS = 10_000_000
 DEFAULT_STEP = 0.01
-DEFAULT_FREEZE = 10
+DEFAULT_FREEZE = defaults.N_FREEZE
 UNITS = {"amplitude": "m s^-2", "frequency": "Hz", "c": "kg m^-1 s^-2", "d": "s^-1", "t_end": "s", "step": "s",
          "window": "s"}
 
