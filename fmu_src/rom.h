@@ -11,10 +11,16 @@
  * caller, so many instances can run in one process and in several threads (one
  * thread per instance at a time).
  *
- * The core's sources: rom.c (state API, dispatch by model kind), rom_io.c
- * (resources, checksums, serialized states), rom_frozen.c (the frozen step),
- * rom_exact.c (the exact linear model), rom_fail.c (messages); what they share
- * privately is in rom_internal.h.
+ * The core's sources (rom_internal.h draws how they call each other):
+ *   rom.c           the state API, dispatched through the model kind's table of operations
+ *   rom_frozen.c/h  kind 1, the frozen-coefficient model: its data, load, state, step, outputs
+ *   rom_exact.c/h   kind 2, the exact linear model (every linear model): the same, by the matrix exponential
+ *   rom_resources.c resources/model.bin: the header, the tagged sections, the kind's body through its table
+ *   rom_state_io.c  the serialized FMU state
+ *   rom_envelope.c  the training envelope
+ *   rom_bytes.c     little-endian numbers, CRC-32, the check both formats share, aligned arrays
+ *   rom_fail.c      messages
+ * What they share privately (the table of operations per model kind) is in rom_internal.h.
  *
  * The scene's numbers come from resources/model.bin (format below), written by
  * the harness (harness/fmu/resources.py).  Units: time [s], velocity [m s^-1],
@@ -23,7 +29,7 @@
  * Resource format, version 3 (all little-endian):
  *
  *   char[8]  magic "SPHROMRS"
- *   uint32   format_version (2), model_kind (1 frozen, 2 exact linear),
+ *   uint32   format_version (3), model_kind (1 frozen, 2 exact linear),
  *            integrator (0 euler, 1 symplectic; kind 2: 0), k_v, k_rho, n_probes,
  *            n_pairs, flags, n_freeze_default, reserved (0)
  *   float64  dt [s], runaway_bound, L [m]
@@ -65,8 +71,8 @@
  *   char[40] token of the model
  *   uint64   n (internal steps); uint32 n_freeze, 0; float64 time [s], f, dt [s]
  *            (112 bytes so far: ROM_STATE_HEADER_SIZE)
- *   float64  kind 1: a_v[k_v], a_rho[k_rho], M^T rows [k_v][k_rho], F[k_v];
- *            kind 2: a[k_v], b[k_rho], X[k], (t0, df/dt)
+ *   float64  a_v[k_v], a_rho[k_rho] (kind 2: a, b), then the kind's block (kind 1: M^T rows [k_v][k_rho],
+ *            F[k_v]; kind 2: X[k]), then t0 [s] and df/dt [m s^-3] (both kinds)
  *   float64  the parameters a state carries: initial_state_scale (version 2: the exact model's
  *            free response is scaled by it at every step); version 3: then c [kg m^-1 s^-2] and
  *            d [s^-1] (a parametric model's values, restored with the state and the operators
@@ -78,7 +84,7 @@
  * Version 2 (without c and d, 16 bytes shorter) is still read: such a state keeps the instance's own
  * c and d.  Versions below ROM_STATE_VERSION_OLDEST or above ROM_STATE_VERSION are refused, naming them.
  *
- * Both are read through one envelope check (rom_io.c): size, magic, version,
+ * Both are read through one envelope check (rom_bytes.c): size, magic, version,
  * sizes, token, checksum.
  */
 #ifndef SPHROM_ROM_H
@@ -114,7 +120,6 @@ extern "C" {
 #define ROM_FLAG_INPUT 2u
 #define ROM_FLAG_SCHUR 4u            /* kind 2 only */
 #define ROM_FLAG_OUTPUT_ROWS 8u      /* kind 2 only: probe rows over the whole state z */
-#define ROM_EXACT_CACHE 2            /* exponentials kept per state (two step lengths) */
 #define ROM_TOKEN_SIZE 40
 #define ROM_HEADER_SIZE 72            /* resource header: magic to L */
 #define ROM_STATE_HEADER_SIZE 112     /* serialized state header: magic to dt */
@@ -172,68 +177,43 @@ RomStatus rom_fail(char *message, size_t message_size, const char *format, ...)
 #endif
     ;
 
-/* The reduced model of one scene (immutable once loaded).  Matrices are kept
- * transposed and zero-padded (k_v, k_rho rounded up to multiples of 4) so that
- * the inner loops run over contiguous, fixed-width blocks; the arithmetic on
- * every real entry is the file's, in the same order. */
+/* A model kind's table of operations (rom_internal.h): what the frozen and the linear models do differently */
+typedef struct RomKindOps RomKindOps;
+
+/* The reduced model of one scene (immutable once loaded, but for rom_model_assemble).  What every kind has
+ * is here; what one kind has is in its own struct behind body (rom_frozen.h RomFrozenModel, rom_exact.h
+ * RomExactModel), reached through the kind's operations ops. */
 typedef struct {
-    uint32_t kind;             /* ROM_MODEL_FROZEN or ROM_MODEL_EXACT_LINEAR */
+    uint32_t kind;             /* ROM_MODEL_FROZEN or ROM_MODEL_EXACT_LINEAR (the header's model_kind) */
+    const RomKindOps *ops;     /* the kind's operations, chosen from kind when the resources are read */
+    void *body;                /* the kind's own data (operators, probe rows), owned by the kind */
     uint32_t integrator, k_v, k_rho, n_probes, n_pairs, flags, n_freeze_default;
-    uint32_t kv_pad, kr_pad;   /* k_v, k_rho rounded up to a multiple of 4 */
-    uint32_t nm;               /* length of a padded M^T block: k_v kr_pad rounded up to 32 */
+    uint32_t kv_pad, kr_pad;   /* k_v, k_rho rounded up to a multiple of 4: the lengths of a state's av, ar */
+    uint32_t input_width;      /* entries of one input row (port_B): k_v (frozen), k = k_v + k_rho (linear) */
     double dt;                 /* internal step of the scene [s] */
     double runaway_bound;      /* |a| above this is a runaway */
     double L;                  /* period [m] */
-    double *a_v0, *a_rho0;     /* initial reduced coordinates [k_v], [k_rho] */
-    double *Kt;                /* K^T: Kt[q*kv_pad + p] = K[p][q] (eq. 2.21 projected) */
-    double *b;                 /* [kv_pad] eq. 2.22 projected */
-    double *Dt;                /* D^T [k_v][kv_pad] (eq. 2.24 projected), NULL without damping */
-    double *p;                 /* [kv_pad] input row U^vT profile, NULL without input */
-    double *Tt;                /* the refresh tensor T[k][p][q] as entries i = q*kr_pad + p of M^T, in blocks
-                                * of 32 with each block's pairs contiguous: Tt[(i/32)*n_pairs*32 + k*32 + i%32] */
-    double *Pv, *Prho;         /* probe rows [n_probes][k_v], [n_probes][k_rho] */
-    double *probe_x;           /* probe positions in units of L */
-    /* kind 2 (exact linear): k = k_v + k_rho; a_v0, a_rho0 point into z0; the
-     * frozen arrays above (Kt, b, Dt, p, Tt, Prho) are NULL */
-    uint32_t k;
-    double *z0;                /* [k] initial reduced state (a; b) */
-    double *A;                 /* [k][k] row-major: dz/dt = A z + B f */
-    double *B;                 /* [k] input column, NULL without input */
-    double *Q, *S;             /* [k][k] real Schur form A = Q S Q^T (skew A), NULL otherwise */
-    double *y0;                /* [k] Q^T z0 (with the Schur form) */
-    double *Pe;                /* [n_probes][2][k] e rows over z at the probe's two particles (kind 2's Pv is
-                                * [n_probes][k] too: rows over z, format above) */
-    double *pw, *prho0;        /* [n_probes][2] interpolation weights, rho0 at those particles */
+    const double *probe_x;     /* [n_probes] probe positions in units of L (in the kind's storage) */
     uint32_t n_sections;       /* the tagged sections, in file order (rom_model_section) */
     RomSection sections[ROM_MAX_SECTIONS];
     char token[ROM_TOKEN_SIZE + 1];
-    void *storage_;            /* one allocation behind all arrays */
     void *sections_storage_;   /* one allocation behind the sections' data */
     /* mechanical ports (sections PORTX, PORTB, PORTC; harness/sph/ports.py): a point force F_j [N] at x_j
-     * enters as u_j = F_j / area over the input row port_B[j] (k_v entries frozen, k linear, for area 1);
+     * enters as u_j = F_j / area over the input row port_B[j] (input_width entries, for area 1);
      * v_port_j = port_C[j] . a^v (k_v entries) */
     uint32_t n_ports;          /* 0: no ports */
     const double *port_x;      /* [n_ports] positions x/L */
-    const double *port_B;      /* [n_ports][k_v] (frozen) or [n_ports][k] (linear) */
+    const double *port_B;      /* [n_ports][input_width] */
     const double *port_C;      /* [n_ports][k_v] */
 } RomModel;
 
-/* One cached exponential: the maps of a step of length h (exact model) */
-typedef struct {
-    double h;                  /* step length [s]; 0 when the slot is empty */
-    int64_t used;              /* clock of the last use (least recently used is replaced) */
-    double *Phi;               /* [k][k] e^{A h} */
-    double *G0, *G1;           /* [k] held-input and linear-input columns */
-} RomExpCache;
-
-/* The mutable state of one instance (arrays padded like the model's). */
+/* The mutable state of one instance: what every kind has, and the kind's own state behind body
+ * (rom_frozen.h RomFrozenState, rom_exact.h RomExactState). */
 typedef struct {
     const RomModel *model;
-    double *av, *ar;        /* reduced coordinates a^v [kv_pad], a^rho [kr_pad] */
-    double *Mt;             /* frozen M(a^rho)^T: Mt[q*kr_pad + p] = M[p][q], [nm] */
-    double *F;              /* frozen force term p f [kv_pad] */
-    double *dv, *dr;        /* scratch: rates */
-    double *S;              /* scratch: a^rho_a a^rho_b per pair */
+    void *body;             /* the kind's own state (the frozen M^T and F; the exact model's forced part and
+                             * exponentials), owned by the kind */
+    double *av, *ar;        /* reduced coordinates a^v [kv_pad], a^rho (linear: b = e coordinates) [kr_pad] */
     int64_t n;              /* internal steps since reset (shortened ones too) */
     double time;            /* time of the state [s] */
     double f;               /* input, held over a communication step [m s^-2] */
@@ -241,15 +221,9 @@ typedef struct {
     int32_t n_freeze;       /* refresh period (parameter) */
     double initial_state_scale;  /* the initial velocity coordinates (frozen) or z (linear) are this times the
                                   * model's; the density coordinates of the frozen model stay (rho0 is rest) */
-    /* exact model (kind 2); aux in both kinds */
-    double *X;              /* [k] the forced part of z (the whole z without the Schur form) */
-    double *aux;            /* [2]: aux[0] the start time t0 [s] of the free response, aux[1] the
-                             * input rate df/dt over a step [m s^-3] (0: input held) */
-    double *work;           /* scratch for the exponential: 4 (k+2)^2 + 2k */
-    RomExpCache cache[ROM_EXACT_CACHE];
-    int64_t clock;          /* cache clock */
-    int64_t n_expm;         /* exponentials computed since the state was created */
-    void *storage_;
+    double t0;              /* the start time [s] (of the exact model's free response) */
+    double f_rate;          /* the input rate df/dt over a step [m s^-3] (0: input held) */
+    void *storage_;         /* one allocation behind av, ar */
     /* parametric models (section PARAMS): the chosen stiffness c [kg m^-1 s^-2] and damping d [s^-1],
      * the start values after a reset; the operators are assembled from them by rom_model_assemble */
     double c, d;

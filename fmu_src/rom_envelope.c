@@ -13,8 +13,8 @@
  *            the ports' directions (exact input directions appended to the POD modes, which the
  *            training run without port forces leaves at ~0): not checked, not in a block's H
  *
- * The check (frozen model only; a linear model is exact in its state and stores
- * checks = 0), in this order, the first breach reported (once a port force has
+ * The check (the kinds whose table says envelope = 1, the frozen model; a linear
+ * model is exact in its state and stores checks = 0), in this order, the first breach reported (once a port force has
  * acted, state->port_driven, only failure and force: the training run had no
  * port force, so its ranges do not bound a port-driven state):
  *   failure:     a probe strain above the failure strain (eq. 2.17's linearization fails)
@@ -62,12 +62,12 @@ RomStatus rom_envelope_check_scalars(const RomModel *m, const RomSection *s, cha
                             i, e[i]);
         }
     }
-    if (checks != 0 && rom_path(m->kind) != ROM_PATH_FROZEN) {
+    if (checks != 0 && !m->ops->envelope) {
         return rom_fail(message, message_size, "resources: section 'ENVELOPE': run-time checks on a linear model "
                         "(it is exact in its state: checks must be 0)");
     }
-    const RomSection *range = rom_model_section(m, "ENVRANGE");
-    const RomSection *probe = rom_model_section(m, "ENVPROBE");
+    const RomSection *range = rom_section(m, "ENVRANGE");
+    const RomSection *probe = rom_section(m, "ENVPROBE");
     if (!range || !probe) {
         return rom_fail(message, message_size, "resources: section 'ENVELOPE' needs the sections 'ENVRANGE' and "
                         "'ENVPROBE'");
@@ -117,7 +117,7 @@ RomStatus rom_envelope_check_ports(const RomModel *m, const RomSection *s, char 
                             "(allowed: an integer from 0 to %g)", n, b + 1, limits[b] - 1);
         }
     }
-    if (!rom_model_section(m, "ENVRANGE")) {
+    if (!rom_section(m, "ENVRANGE")) {
         return rom_fail(message, message_size, "resources: section 'ENVPORT' needs the section 'ENVRANGE'");
     }
     return ROM_OK;
@@ -140,10 +140,10 @@ int rom_envelope_check(const RomState *state, char *message, size_t message_size
     if (!state || !state->model) return 0;
     if (!message) message_size = 0;
     const RomModel *m = state->model;
-    const RomSection *env = rom_model_section(m, "ENVELOPE");
-    const RomSection *range = rom_model_section(m, "ENVRANGE");
-    const RomSection *probe = rom_model_section(m, "ENVPROBE");
-    if (!env || !range || !probe || rom_path(m->kind) != ROM_PATH_FROZEN) return 0;
+    const RomSection *env = rom_section(m, "ENVELOPE");
+    const RomSection *range = rom_section(m, "ENVRANGE");
+    const RomSection *probe = rom_section(m, "ENVPROBE");
+    if (!env || !range || !probe || !m->ops->envelope) return 0;
     const double *e = env->data;
     unsigned checks = (unsigned)e[ENV_CHECKS];
     if (state->port_driven != 0.0) {
@@ -155,7 +155,7 @@ int rom_envelope_check(const RomState *state, char *message, size_t message_size
     const double t = state->time;
     if (checks & (ROM_ENVELOPE_CHECK_FAILURE | ROM_ENVELOPE_CHECK_STRAIN)) {
         for (uint32_t j = 0; j < m->n_probes; j++) {
-            const double strain = fabs(probe->data[j] / rom_rho_probe(state, j) - 1.0);
+            const double strain = fabs(probe->data[j] / m->ops->rho_probe(state, j) - 1.0);
             if ((checks & ROM_ENVELOPE_CHECK_FAILURE) && strain > e[ENV_FAILURE_STRAIN]) {
                 snprintf(message, message_size, "outside the training envelope at t = %.9g s: strain |rho0/rho - 1| "
                          "= %.3g at probe %u (x/L = %g) is above %.3g, where the density linearization (eq. 2.17) of "
@@ -169,7 +169,7 @@ int rom_envelope_check(const RomState *state, char *message, size_t message_size
         const uint32_t k = m->k_v + m->k_rho;
         const double *lo = range->data, *hi = range->data + k;
         const uint32_t blocks[3] = {0, m->k_v, k};
-        const RomSection *ports = rom_model_section(m, "ENVPORT");        /* trailing port coordinates: skipped */
+        const RomSection *ports = rom_section(m, "ENVPORT");        /* trailing port coordinates: skipped */
         const uint32_t skip[2] = {ports ? (uint32_t)ports->data[0] : 0u, ports ? (uint32_t)ports->data[1] : 0u};
         for (int b = 0; b < 2; b++) {
             const uint32_t last = blocks[b + 1] - skip[b];
@@ -195,7 +195,7 @@ int rom_envelope_check(const RomState *state, char *message, size_t message_size
     }
     if (checks & ROM_ENVELOPE_CHECK_STRAIN) {
         for (uint32_t j = 0; j < m->n_probes; j++) {
-            const double strain = fabs(probe->data[j] / rom_rho_probe(state, j) - 1.0);
+            const double strain = fabs(probe->data[j] / m->ops->rho_probe(state, j) - 1.0);
             if (strain > margin * e[ENV_MAX_PROBE_STRAIN]) {
                 snprintf(message, message_size, "outside the training envelope at t = %.9g s: strain |rho0/rho - 1| "
                          "= %.3g at probe %u (x/L = %g) is above %g x the largest trained probe strain (trained "

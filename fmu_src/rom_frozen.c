@@ -1,6 +1,8 @@
 /*
- * The frozen-coefficient reduced model (eqs. 2.19-2.24): the internal step and
- * doStep's split of a communication step into internal steps.
+ * Model kind 1, the frozen-coefficient reduced model (eqs. 2.19-2.24): its
+ * body of the resources, its state, the internal step and doStep's split of a
+ * communication step into internal steps, its outputs, parameters and
+ * serialized block, and its table of operations (rom_frozen_kind, at the end).
  *
  * The step repeats harness/rom/frozen.py (frozen_advance) operation for
  * operation, in the same order, so that the FMU equals the Python reference
@@ -8,7 +10,9 @@
  * 4-wide blocks does the scalar IEEE operation, and the multiversioned clones
  * below compute the same bits.
  */
-#include "rom_internal.h"
+#include "rom_frozen.h"
+
+#include <stdlib.h>
 
 #define ROM_MAX_STEPS_PER_CALL 1e15            /* h/dt above this is refused */
 
@@ -39,30 +43,30 @@
  * computed 32 at a time in registers.  f is the input at the step's time, tau
  * the step's time after the communication point [s] (for the port forces'
  * rates, as for f's: F_j + rate_j tau, F_j itself when the rate is 0). */
-ROM_INLINE void refresh(RomState *s, double f, double tau) {
+ROM_INLINE void refresh(RomState *s, const RomFrozenModel *fm, RomFrozenState *fs, double f, double tau) {
     const RomModel *m = s->model;
-    const size_t kr = m->k_rho, np = m->n_pairs, nm = m->nm;
+    const size_t kr = m->k_rho, np = m->n_pairs, nm = fm->nm;
     const double *restrict ar = s->ar;
-    double *restrict S = s->S;
+    double *restrict S = fs->S;
     size_t k = 0;
     for (size_t a = 0; a < kr; a++) {
         for (size_t b = a; b < kr; b++) S[k++] = ar[a] * ar[b];
     }
-    double *restrict Mt = s->Mt;
+    double *restrict Mt = fs->Mt;
     for (size_t i = 0; i < nm; i += 32) {
         double acc[32];
         for (int j = 0; j < 32; j++) acc[j] = 0.0;
-        const double *restrict T = m->Tt + i * np;
+        const double *restrict T = fm->Tt + i * np;
         for (k = 0; k < np; k++, T += 32) {
             const double sk = S[k];
             for (int j = 0; j < 32; j++) acc[j] += sk * T[j];
         }
         for (int j = 0; j < 32; j++) Mt[i + j] = acc[j];
     }
-    double *restrict F = s->F;
+    double *restrict F = fs->F;
     const size_t kv = m->kv_pad;
-    if (m->p) {
-        for (size_t p = 0; p < kv; p++) F[p] = m->p[p] * f;
+    if (fm->p) {
+        for (size_t p = 0; p < kv; p++) F[p] = fm->p[p] * f;
     } else {
         for (size_t p = 0; p < kv; p++) F[p] = 0.0;
     }
@@ -108,27 +112,27 @@ ROM_INLINE void density_rate(const RomModel *m, double *restrict dr, const doubl
 }
 
 /* da^v/dt = b + F - K a^rho - D a^v (eq. 2.19 with frozen F) */
-ROM_INLINE void velocity_rate(const RomModel *m, double *restrict dv, const double *restrict av,
-                              const double *restrict ar, const double *restrict F) {
+ROM_INLINE void velocity_rate(const RomModel *m, const RomFrozenModel *fm, double *restrict dv,
+                              const double *restrict av, const double *restrict ar, const double *restrict F) {
     const size_t kvp = m->kv_pad, kv = m->k_v, kr = m->k_rho;
     for (size_t p = 0; p < kvp; p += 4) {
-        const double *restrict col = m->Kt + p;
+        const double *restrict col = fm->Kt + p;
 #if defined(__GNUC__)
-        v4d acc = V4_LOAD(m->b + p) + V4_LOAD(F + p);
+        v4d acc = V4_LOAD(fm->b + p) + V4_LOAD(F + p);
         for (size_t q = 0; q < kr; q++, col += kvp) acc -= V4_LOAD(col) * V4_SPLAT(ar[q]);
-        if (m->Dt) {
-            col = m->Dt + p;
+        if (fm->Dt) {
+            col = fm->Dt + p;
             for (size_t q = 0; q < kv; q++, col += kvp) acc -= V4_LOAD(col) * V4_SPLAT(av[q]);
         }
         V4_STORE(dv + p, acc);
 #else
         double acc[4];
-        for (int j = 0; j < 4; j++) acc[j] = m->b[p + j] + F[p + j];
+        for (int j = 0; j < 4; j++) acc[j] = fm->b[p + j] + F[p + j];
         for (size_t q = 0; q < kr; q++, col += kvp) {
             for (int j = 0; j < 4; j++) acc[j] -= col[j] * ar[q];
         }
-        if (m->Dt) {
-            col = m->Dt + p;
+        if (fm->Dt) {
+            col = fm->Dt + p;
             for (size_t q = 0; q < kv; q++, col += kvp) {
                 for (int j = 0; j < 4; j++) acc[j] -= col[j] * av[q];
             }
@@ -177,24 +181,26 @@ static RomStatus state_failure(const RomState *s, double t, char *message, size_
 ROM_CLONES
 static int64_t run_steps_kernel(RomState *s, int64_t count, double h, double tau0) {
     const RomModel *m = s->model;
+    const RomFrozenModel *fm = (const RomFrozenModel *)m->body;
+    RomFrozenState *fs = (RomFrozenState *)s->body;
     const int64_t nf = s->n_freeze;
     int64_t phase = s->n % nf;
     const int symplectic = m->integrator == ROM_INTEGRATOR_SYMPLECTIC;
     double *restrict av = s->av;
     double *restrict ar = s->ar;
-    double *restrict dv = s->dv;
-    double *restrict dr = s->dr;
+    double *restrict dv = fs->dv;
+    double *restrict dr = fs->dr;
     for (int64_t j = 0; j < count; j++) {
         if (phase == 0) {
-            const double rate = s->aux[1], tau = tau0 + (double)j * h;
-            refresh(s, rate == 0.0 ? s->f : s->f + rate * tau, tau);
+            const double rate = s->f_rate, tau = tau0 + (double)j * h;
+            refresh(s, fm, fs, rate == 0.0 ? s->f : s->f + rate * tau, tau);
         }
-        density_rate(m, dr, av, s->Mt);
+        density_rate(m, dr, av, fs->Mt);
         if (symplectic) {
             axpy(ar, h, dr, m->kr_pad);
-            velocity_rate(m, dv, av, ar, s->F);
+            velocity_rate(m, fm, dv, av, ar, fs->F);
         } else {
-            velocity_rate(m, dv, av, ar, s->F);
+            velocity_rate(m, fm, dv, av, ar, fs->F);
             axpy(ar, h, dr, m->kr_pad);
         }
         axpy(av, h, dv, m->kv_pad);
@@ -213,7 +219,8 @@ static RomStatus run_steps(RomState *s, int64_t count, double h, double t0, doub
     return ROM_OK;
 }
 
-RomStatus rom_frozen_step(RomState *s, double t_comm, double h, char *message, size_t message_size) {
+static RomStatus frozen_step(RomState *s, double t_comm, double h, char *message, size_t message_size) {
+    if (!s || !s->body) return rom_fail(message, message_size, "no state");
     const double dt = s->dt;
     const double ratio = h / dt;
     if (!(ratio < ROM_MAX_STEPS_PER_CALL) || s->n > INT64_MAX - (int64_t)ratio - 2) {
@@ -240,18 +247,314 @@ RomStatus rom_frozen_step(RomState *s, double t_comm, double h, char *message, s
     return status;     /* on failure the instance is unusable; the message names the time */
 }
 
-RomStatus rom_frozen_advance(RomState *s, int64_t n_steps, char *message, size_t message_size) {
+static RomStatus frozen_advance(RomState *s, int64_t n_steps, char *message, size_t message_size) {
+    if (!s || !s->body) return rom_fail(message, message_size, "no state");
     const double t0 = s->time;
     const RomStatus status = run_steps(s, n_steps, s->dt, t0, 0.0, message, message_size);
     s->time = t0 + (double)n_steps * s->dt;
     return status;
 }
 
+
+/* dt exceeds the communication step h (beyond ROM_STEP_ROUNDING): frozen_step takes one step of length h */
+static int frozen_step_exceeds(const RomState *s, double h) {
+    if (!s) return 0;
+    const double ratio = h / s->dt;
+    return ratio < 1.0 && !(fabs(ratio - 1.0) <= ROM_STEP_ROUNDING);
+}
+
+/* ------------------------------------------------------------------------ */
+/* outputs                                                                   */
+/* ------------------------------------------------------------------------ */
+
+/* v_j = sum_q Pv[j][q] a^v_q, from 0.0 in q order */
+static double frozen_v_probe(const RomState *s, uint32_t j) {
+    if (!s || !s->model->body) return NAN;
+    const size_t kv = s->model->k_v;
+    const double *row = ((const RomFrozenModel *)s->model->body)->Pv + (size_t)j * kv;
+    double v = 0.0;
+    for (size_t q = 0; q < kv; q++) v += row[q] * s->av[q];
+    return v;
+}
+
 /* rho_j = sum_q Prho[j][q] a^rho_q, from 0.0 in q order */
-double rom_frozen_rho_probe(const RomState *s, uint32_t j) {
+static double frozen_rho_probe(const RomState *s, uint32_t j) {
+    if (!s || !s->model->body) return NAN;
     const size_t kr = s->model->k_rho;
-    const double *row = s->model->Prho + (size_t)j * kr;
+    const double *row = ((const RomFrozenModel *)s->model->body)->Prho + (size_t)j * kr;
     double rho = 0.0;
     for (size_t q = 0; q < kr; q++) rho += row[q] * s->ar[q];
     return rho;
+}
+
+/* ------------------------------------------------------------------------ */
+/* resources: the header's rules, the body                                   */
+/* ------------------------------------------------------------------------ */
+
+static RomStatus frozen_check_integrator(const RomHeader *h, char *message, size_t message_size) {
+    if (!h) return rom_fail(message, message_size, "resources: no header");
+    if (h->integrator != ROM_INTEGRATOR_EULER && h->integrator != ROM_INTEGRATOR_SYMPLECTIC) {
+        return rom_fail(message, message_size, "resources: integrator %u is not one of 0 (euler), 1 (symplectic)",
+                        h->integrator);
+    }
+    return ROM_OK;
+}
+
+static uint32_t frozen_min_k_rho(const RomHeader *h) {
+    (void)h;
+    return 1u;
+}
+
+static RomStatus frozen_check_pairs(const RomHeader *h, char *message, size_t message_size) {
+    if (!h) return rom_fail(message, message_size, "resources: no header");
+    const uint64_t kr = h->k_rho;
+    if ((uint64_t)h->n_pairs != kr * (kr + 1) / 2) {
+        return rom_fail(message, message_size, "resources: n_pairs = %u, expected k_rho (k_rho + 1)/2 = %u",
+                        h->n_pairs, h->k_rho * (h->k_rho + 1) / 2);
+    }
+    return ROM_OK;
+}
+
+/* a_v0, a_rho0, K, b, D, p, T, Pv, Prho, probe_x */
+static uint64_t frozen_body_doubles(const RomHeader *h) {
+    if (!h) return 0;
+    const uint64_t kv = h->k_v, kr = h->k_rho, np = h->n_probes;
+    const int damping = (h->flags & ROM_FLAG_DAMPING) != 0, input = (h->flags & ROM_FLAG_INPUT) != 0;
+    return kv + kr + kv * kr + kv + (damping ? kv * kv : 0) + (input ? kv : 0) + h->n_pairs * kr * kv + np * kv +
+           np * kr + np;
+}
+
+/* The operators transposed, zero-padded and blocked as rom_frozen.h's RomFrozenModel describes. */
+static RomStatus frozen_load(RomModel *m, const unsigned char *cursor, uint64_t doubles, char *message,
+                             size_t message_size) {
+    if (!m || !cursor) return rom_fail(message, message_size, "resources: no model or no body");
+    RomFrozenModel *fm = (RomFrozenModel *)calloc(1, sizeof(RomFrozenModel));
+    if (!fm) {
+        return rom_fail(message, message_size, "resources: out of memory (%llu values)", (unsigned long long)doubles);
+    }
+    m->body = fm;
+    const size_t kv = m->k_v, kr = m->k_rho, np = m->n_probes, npairs = m->n_pairs;
+    fm->nm = (uint32_t)rom_round_up(kv * m->kr_pad, 32);
+    const size_t kvp = m->kv_pad, krp = m->kr_pad;
+    const size_t counts[10] = {kv, kr, kr * kvp, kvp, (m->flags & ROM_FLAG_DAMPING) ? kv * kvp : 0,
+                               (m->flags & ROM_FLAG_INPUT) ? kvp : 0, npairs * fm->nm, np * kv, np * kr, np};
+    double **ptrs[10] = {&fm->a_v0, &fm->a_rho0, &fm->Kt, &fm->b, &fm->Dt, &fm->p, &fm->Tt, &fm->Pv, &fm->Prho,
+                         &fm->probe_x};
+    fm->storage_ = rom_alloc_arrays(counts, ptrs, 10);
+    if (!fm->storage_) {
+        return rom_fail(message, message_size, "resources: out of memory (%llu values)", (unsigned long long)doubles);
+    }
+    m->probe_x = fm->probe_x;
+    m->input_width = m->k_v;
+    cursor = rom_get_f64s(cursor, fm->a_v0, kv);
+    cursor = rom_get_f64s(cursor, fm->a_rho0, kr);
+    for (size_t p = 0; p < kv; p++) {                    /* K[p][q] -> Kt[q*kv_pad + p] */
+        for (size_t q = 0; q < kr; q++, cursor += 8) fm->Kt[q * kvp + p] = rom_get_f64(cursor);
+    }
+    cursor = rom_get_f64s(cursor, fm->b, kv);
+    if (fm->Dt) {
+        for (size_t p = 0; p < kv; p++) {
+            for (size_t q = 0; q < kv; q++, cursor += 8) fm->Dt[q * kvp + p] = rom_get_f64(cursor);
+        }
+    }
+    if (fm->p) cursor = rom_get_f64s(cursor, fm->p, kv);
+    /* T[k][p][q] is entry i = q*kr_pad + p of pair k's M^T; entries are
+     * stored in blocks of 32, each block's pairs contiguous:
+     * Tt[(i/32)*n_pairs*32 + k*32 + i%32] */
+    for (size_t k = 0; k < npairs; k++) {
+        for (size_t p = 0; p < kr; p++) {
+            for (size_t q = 0; q < kv; q++, cursor += 8) {
+                const size_t i = q * krp + p;
+                fm->Tt[(i / 32) * npairs * 32 + k * 32 + i % 32] = rom_get_f64(cursor);
+            }
+        }
+    }
+    cursor = rom_get_f64s(cursor, fm->Pv, np * kv);
+    cursor = rom_get_f64s(cursor, fm->Prho, np * kr);
+    rom_get_f64s(cursor, fm->probe_x, np);
+    if (!rom_arrays_finite(ptrs, counts, 10)) {
+        return rom_fail(message, message_size, "resources: non-finite numbers in the operators");
+    }
+    for (uint32_t j = 0; j < np; j++) {
+        const double x = fm->probe_x[j];
+        if (x < 0.0 || x > 1.0) {
+            return rom_fail(message, message_size, "resources: probe %u at x/L = %g is outside [0, 1]", j + 1, x);
+        }
+    }
+    return ROM_OK;
+}
+
+static void frozen_model_free(RomModel *m) {
+    if (!m || !m->body) return;
+    free(((RomFrozenModel *)m->body)->storage_);
+    free(m->body);
+    m->body = NULL;
+}
+
+/* ------------------------------------------------------------------------ */
+/* parametric models: K = c K_c, b = c b_c, D = d D_d (sections KC, BC, DD)  */
+/* ------------------------------------------------------------------------ */
+
+static const char *const FROZEN_SECTIONS[] = {"KC", "BC", "DD", NULL};
+static const char *const FROZEN_PARAM_SECTIONS[] = {"KC", "BC", NULL};
+
+static void frozen_affine_shape(const RomModel *m, const char *tag, uint32_t *rows, uint32_t *cols) {
+    if (!m || !tag || !rows || !cols) return;
+    if (strcmp(tag, "KC") == 0) {
+        *rows = m->k_v;
+        *cols = m->k_rho;
+    } else if (strcmp(tag, "BC") == 0) {
+        *rows = 1;
+        *cols = m->k_v;
+    } else {                                             /* DD */
+        *rows = m->k_v;
+        *cols = m->k_v;
+    }
+}
+
+/* DD goes with the damping flag, and d varies only with damping */
+static RomStatus frozen_check_params(const RomModel *m, const RomSection *params, char *message,
+                                     size_t message_size) {
+    if (!m || !params) return rom_fail(message, message_size, "resources: no model or no section PARAMS");
+    const int damping = (m->flags & ROM_FLAG_DAMPING) != 0;
+    if (damping != (rom_section(m, "DD") != NULL)) {
+        return rom_fail(message, message_size, "resources: section 'DD' %s (it goes with the damping flag)",
+                        damping ? "missing" : "without damping");
+    }
+    if (params->data[4] != 0.0 && !damping) {
+        return rom_fail(message, message_size, "resources: d varies but the model has no damping term");
+    }
+    return ROM_OK;
+}
+
+/* K = c K_c, b = c b_c, D = d D_d (eqs. 2.21, 2.22, 2.24), entry by entry (harness.rom.parametric) */
+static void frozen_assemble(RomModel *m, RomState *s) {
+    if (!m || !s || !m->body) return;
+    RomFrozenModel *fm = (RomFrozenModel *)m->body;
+    const double c = s->c, d = s->d;
+    const size_t kv = m->k_v, kr = m->k_rho, kvp = m->kv_pad;
+    const double *Kc = rom_section(m, "KC")->data, *bc = rom_section(m, "BC")->data;
+    for (size_t p = 0; p < kv; p++) {
+        for (size_t q = 0; q < kr; q++) fm->Kt[q * kvp + p] = c * Kc[p * kr + q];
+        fm->b[p] = c * bc[p];
+    }
+    if (fm->Dt) {
+        const double *Dd = rom_section(m, "DD")->data;
+        for (size_t p = 0; p < kv; p++) {
+            for (size_t q = 0; q < kv; q++) fm->Dt[q * kvp + p] = d * Dd[p * kv + q];
+        }
+    }
+}
+
+/* ------------------------------------------------------------------------ */
+/* the state                                                                 */
+/* ------------------------------------------------------------------------ */
+
+/* M^T, F; the rates; the pair products */
+static RomStatus frozen_state_new(RomState *s) {
+    if (!s || !s->model || !s->model->body) return ROM_FAIL;
+    const RomModel *m = s->model;
+    RomFrozenState *fs = (RomFrozenState *)calloc(1, sizeof(RomFrozenState));
+    if (!fs) return ROM_FAIL;
+    s->body = fs;
+    const size_t counts[5] = {((const RomFrozenModel *)m->body)->nm, m->kv_pad, m->kv_pad, m->kr_pad, m->n_pairs};
+    double **ptrs[5] = {&fs->Mt, &fs->F, &fs->dv, &fs->dr, &fs->S};
+    fs->storage_ = rom_alloc_arrays(counts, ptrs, 5);
+    return fs->storage_ ? ROM_OK : ROM_FAIL;
+}
+
+static void frozen_state_free(RomState *s) {
+    if (!s || !s->body) return;
+    free(((RomFrozenState *)s->body)->storage_);
+    free(s->body);
+    s->body = NULL;
+}
+
+/* a^v = scale a_v0, a^rho = a_rho0 (the rest density's coordinates; scale = 1: the model's own numbers bit for
+ * bit, 1 x a = a) */
+static void frozen_initial_state(RomState *s) {
+    if (!s || !s->model->body) return;
+    const RomFrozenModel *fm = (const RomFrozenModel *)s->model->body;
+    const double scale = s->initial_state_scale;
+    for (size_t i = 0; i < s->model->k_v; i++) s->av[i] = scale * fm->a_v0[i];
+    memcpy(s->ar, fm->a_rho0, s->model->k_rho * sizeof(double));
+}
+
+/* M^T and F are refreshed at the first step */
+static void frozen_reset(RomState *s) {
+    if (!s || !s->body) return;
+    RomFrozenState *fs = (RomFrozenState *)s->body;
+    memset(fs->Mt, 0, (size_t)((const RomFrozenModel *)s->model->body)->nm * sizeof(double));
+    memset(fs->F, 0, s->model->kv_pad * sizeof(double));
+}
+
+/* ------------------------------------------------------------------------ */
+/* the serialized state: M^T (k_v rows of k_rho), F[k_v]                     */
+/* ------------------------------------------------------------------------ */
+
+static size_t frozen_state_doubles(const RomModel *m) {
+    return m ? (size_t)m->k_rho * m->k_v + m->k_v : 0;
+}
+
+static unsigned char *frozen_state_put(const RomState *s, unsigned char *cursor) {
+    if (!s || !s->body || !cursor) return cursor;
+    const RomFrozenState *fs = (const RomFrozenState *)s->body;
+    const size_t kv = s->model->k_v, kr = s->model->k_rho, krp = s->model->kr_pad;
+    for (size_t r = 0; r < kv; r++) cursor = rom_put_f64s(cursor, fs->Mt + r * krp, kr);
+    return rom_put_f64s(cursor, fs->F, kv);
+}
+
+static const unsigned char *frozen_state_get(RomState *s, const unsigned char *cursor) {
+    if (!s || !s->body || !cursor) return cursor;
+    RomFrozenState *fs = (RomFrozenState *)s->body;
+    const size_t kv = s->model->k_v, kr = s->model->k_rho, krp = s->model->kr_pad;
+    for (size_t r = 0; r < kv; r++) cursor = rom_get_f64s(cursor, fs->Mt + r * krp, kr);
+    return rom_get_f64s(cursor, fs->F, kv);
+}
+
+/* ------------------------------------------------------------------------ */
+/* the table                                                                 */
+/* ------------------------------------------------------------------------ */
+
+const RomKindOps *rom_frozen_kind(void) {
+    static const RomKindOps ops = {
+        .kind = ROM_MODEL_FROZEN,
+        .name = "the frozen-coefficient model",
+        .short_name = "frozen",
+        .k_rho_name = "k_rho",
+        .length_subject = "",
+        .flags = ROM_FLAG_DAMPING | ROM_FLAG_INPUT,
+        .check_integrator = frozen_check_integrator,
+        .min_k_rho = frozen_min_k_rho,
+        .check_pairs = frozen_check_pairs,
+        .body_doubles = frozen_body_doubles,
+        .load = frozen_load,
+        .model_free = frozen_model_free,
+        .sections = FROZEN_SECTIONS,
+        .param_sections = FROZEN_PARAM_SECTIONS,
+        .affine_shape = frozen_affine_shape,
+        .check_params = frozen_check_params,
+        .state_new = frozen_state_new,
+        .state_free = frozen_state_free,
+        .initial_state = frozen_initial_state,
+        .reset = frozen_reset,
+        .step = frozen_step,
+        .advance = frozen_advance,
+        .step_exceeds = frozen_step_exceeds,
+        .v_probe = frozen_v_probe,
+        .rho_probe = frozen_rho_probe,
+        .check_probe = NULL,
+        .v_rate = NULL,
+        .rho_rate = NULL,
+        .no_rates = "the frozen model provides no output derivatives (maxOutputDerivativeOrder = 0: its "
+                    "trajectory is a discrete map of internal steps)",
+        .envelope = 1,
+        .assemble = frozen_assemble,
+        .state_doubles = frozen_state_doubles,
+        .state_put = frozen_state_put,
+        .state_get = frozen_state_get,
+        .expm_count = NULL,
+        .linear_name = NULL,
+    };
+    return &ops;
 }

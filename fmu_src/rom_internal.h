@@ -1,10 +1,24 @@
 /*
- * What the pieces of the model core share (private: not part of rom.h's API).
+ * What the pieces of the model core share (private: not part of rom.h's API):
+ * the table of operations of a model kind, and the helpers below it.
  *
- *   rom.c         state API, dispatch by model kind
- *   rom_io.c      resources, checksums, serialized states (one envelope check)
- *   rom_frozen.c  the frozen-coefficient step (eqs. 2.19-2.24)
- *   rom_exact.c   the exact linear model: exponentials, their cache, the Schur path
+ * A model kind (the header's model_kind) is one constant RomKindOps, in the
+ * spirit of the Reference-FMUs' model.h contract: its own data (behind
+ * RomModel.body and RomState.body), how it is loaded, laid out, reset, stepped,
+ * observed, checked, assembled and serialized.  The common code never asks
+ * which kind a model is: it calls the model's table.  The one place that maps
+ * model_kind to a table is rom_resources.c (kind_ops); adding a kind is one
+ * table in a file of its own and one entry in that list.
+ *
+ * Who calls whom (no circle: a kind file calls only the helpers at the bottom):
+ *
+ *   instance.c ──> rom.c, rom_resources.c, rom_state_io.c, rom_envelope.c   (rom.h's API)
+ *   rom.c ─────────┐
+ *   rom_resources.c├─> the kind's table: rom_frozen.c | rom_exact.c ──> rom_bytes.c, rom_fail.c
+ *   rom_state_io.c │                                                 (and rom_internal.h's inline helpers)
+ *   rom_envelope.c ┘
+ *   rom_resources.c ──> rom_envelope.c (its sections' checks), rom_bytes.c
+ *   rom_state_io.c ───> rom_bytes.c
  *
  * Include this header first: the pragmas below keep the arithmetic free of
  * fused multiply-adds (the outputs equal the Python reference bit for bit)
@@ -26,28 +40,81 @@
 #include <stdint.h>
 #include <string.h>
 
-/* The code path of a model kind.  Every linear kind (the exact model, and any
- * later one that differs from it only in its matrices) runs the exact model's
- * path, loader and serialization included: adding such a kind is one case here
- * (and its name in rom_io.c's message on unsupported kinds). */
-typedef enum { ROM_PATH_NONE = 0, ROM_PATH_FROZEN = 1, ROM_PATH_LINEAR = 2 } RomPath;
+/* The resource header after magic and version, in the order of rom.h's format */
+typedef struct {
+    uint32_t kind, integrator, k_v, k_rho, n_probes, n_pairs, flags, n_freeze, reserved;
+    double dt, bound, L;
+} RomHeader;
 
-static inline RomPath rom_path(uint32_t kind) {
-    switch (kind) {
-        case ROM_MODEL_FROZEN: return ROM_PATH_FROZEN;
-        case ROM_MODEL_EXACT_LINEAR: return ROM_PATH_LINEAR;
-        default: return ROM_PATH_NONE;
-    }
-}
+/* The operations of one model kind.  Every pointer is set unless its comment says "NULL:"; the common code
+ * calls them with a checked model, state and probe index. */
+struct RomKindOps {
+    uint32_t kind;                 /* the header's model_kind (ROM_MODEL_*) */
+    const char *name;              /* in the loader's messages: "the frozen-coefficient model", ... */
+    const char *short_name;        /* in the sections' messages: "frozen", "linear" */
 
-static inline int rom_is_linear(const RomModel *m) {
-    return rom_path(m->kind) == ROM_PATH_LINEAR;
-}
+    /* ---- resources (rom_resources.c applies the header's rules in rom.h's order, the kind's among them) */
+    const char *k_rho_name;        /* the header's k_rho in messages: "k_rho", "k_e" */
+    const char *length_subject;    /* what the length check names before k_v: "", "the exact model with " */
+    uint32_t flags;                /* the flag bits the kind reads */
+    RomStatus (*check_integrator)(const RomHeader *h, char *message, size_t message_size);
+    uint32_t (*min_k_rho)(const RomHeader *h);         /* the smallest k_rho the kind accepts */
+    RomStatus (*check_pairs)(const RomHeader *h, char *message, size_t message_size);
+    uint64_t (*body_doubles)(const RomHeader *h);      /* float64 values of the kind's body after the header */
+    /* read the kind's body (doubles values at body, the length checked) into m->body; sets m->probe_x and
+     * m->input_width; m's common fields are set */
+    RomStatus (*load)(RomModel *m, const unsigned char *body, uint64_t doubles, char *message,
+                      size_t message_size);
+    void (*model_free)(RomModel *m);                   /* frees m->body (NULL: nothing) */
+    const char *const *sections;       /* the tagged sections only this kind reads (NULL-terminated) */
+    const char *const *param_sections; /* the sections PARAMS needs: the kind's affine pieces */
+    /* the shape of one of the kind's affine pieces (a tag of sections) */
+    void (*affine_shape)(const RomModel *m, const char *tag, uint32_t *rows, uint32_t *cols);
+    /* the kind's rules on PARAMS, after the common ones */
+    RomStatus (*check_params)(const RomModel *m, const RomSection *params, char *message, size_t message_size);
 
-/* inputs of a linear model: f (when B is present), then the port forces */
-static inline size_t rom_linear_inputs(const RomModel *m) {
-    return (m->B ? 1u : 0u) + m->n_ports;
-}
+    /* ---- the state */
+    RomStatus (*state_new)(RomState *s);               /* allocates s->body (the layout of the kind's arrays) */
+    void (*state_free)(RomState *s);                   /* frees s->body (NULL: nothing) */
+    /* a^v, a^rho and the kind's own initial state from s->initial_state_scale (av, ar are zeroed) */
+    void (*initial_state)(RomState *s);
+    void (*reset)(RomState *s);                        /* the kind's own state after a reset */
+
+    /* ---- doStep */
+    /* advance from t_comm over h > 0 (the internal steps of doStep; rom.c then sets the time, continues the
+     * inputs and checks the outputs) */
+    RomStatus (*step)(RomState *s, double t_comm, double h, char *message, size_t message_size);
+    RomStatus (*advance)(RomState *s, int64_t n_steps, char *message, size_t message_size);
+    int (*step_exceeds)(const RomState *s, double h);  /* NULL: one step of any length h */
+
+    /* ---- outputs and checks */
+    double (*v_probe)(const RomState *s, uint32_t j);
+    double (*rho_probe)(const RomState *s, uint32_t j);
+    /* the kind's check at probe j before the density's (NULL: none) */
+    RomStatus (*check_probe)(const RomState *s, uint32_t j, char *message, size_t message_size);
+    double (*v_rate)(const RomState *s, uint32_t j);   /* NULL: no output derivatives, no_rates says why */
+    double (*rho_rate)(const RomState *s, uint32_t j);
+    const char *no_rates;
+    int envelope;                  /* 1: the training envelope is checked at run time (rom_envelope.c) */
+
+    /* ---- parametric models: the operators at the state's c and d into the model (PARAMS present) */
+    void (*assemble)(RomModel *m, RomState *s);
+
+    /* ---- the serialized state: the kind's block between a^v, a^rho and (t0, df/dt) (rom.h) */
+    size_t (*state_doubles)(const RomModel *m);
+    unsigned char *(*state_put)(const RomState *s, unsigned char *cursor);            /* returns the end */
+    const unsigned char *(*state_get)(RomState *s, const unsigned char *cursor);      /* returns the end */
+
+    /* ---- what rom.h reports of a kind */
+    int64_t (*expm_count)(const RomState *s);          /* NULL: 0 (no exponentials) */
+    const char *(*linear_name)(const RomModel *m);     /* NULL: not a linear model */
+};
+
+/* the kinds (rom_frozen.c, rom_exact.c) */
+const RomKindOps *rom_frozen_kind(void);
+const RomKindOps *rom_exact_kind(void);
+
+/* ---- helpers shared by every file (inline: no file depends on another for them) ---- */
 
 static inline int rom_all_finite(const double *x, size_t n) {
     for (size_t i = 0; i < n; i++) {
@@ -60,32 +127,57 @@ static inline size_t rom_round_up(size_t n, size_t m) {
     return (n + m - 1) / m * m;
 }
 
-/* rom.c: one zeroed block for arrays of the given double counts, each 64-byte
- * aligned; *ptrs[i] receives array i (NULL for a count of 0).  Returns the block
- * to free (NULL when out of memory). */
+/* the section with this tag, NULL when the model has none (rom_model_section without the argument checks) */
+static inline const RomSection *rom_section(const RomModel *m, const char *tag) {
+    for (uint32_t i = 0; i < m->n_sections; i++) {
+        if (strcmp(m->sections[i].tag, tag) == 0) return &m->sections[i];
+    }
+    return NULL;
+}
+
+/* ---- rom_bytes.c: little-endian numbers, the check both blob formats share, arrays ---- */
+
+uint32_t rom_get_u32(const unsigned char *p);
+uint64_t rom_get_u64(const unsigned char *p);
+double rom_get_f64(const unsigned char *p);
+void rom_put_u32(unsigned char *p, uint32_t v);
+void rom_put_u64(unsigned char *p, uint64_t v);
+void rom_put_f64(unsigned char *p, double value);
+/* n float64 values from cursor into out; returns the cursor after them */
+const unsigned char *rom_get_f64s(const unsigned char *cursor, double *out, size_t n);
+/* n float64 values from values to cursor; returns the cursor after them */
+unsigned char *rom_put_f64s(unsigned char *cursor, const double *values, size_t n);
+
+/* A versioned blob's format (resources/model.bin, a serialized state), for the checks both share: magic,
+ * version, length, token, checksum; the strings name the blob in messages */
+typedef struct {
+    const char *what;          /* the messages' subject */
+    const char *magic;         /* 8 bytes */
+    const char *contents;      /* what the magic announces */
+    const char *empty;         /* what the smallest valid blob is */
+    const char *one;           /* one such blob, in messages */
+    const char *damaged;       /* what is truncated or corrupt when a check fails */
+    uint32_t version;          /* the version written */
+    size_t min_size;           /* bytes needed before the header can be read */
+    uint32_t oldest;           /* the oldest version read */
+} RomBlob;
+
+/* Size, magic and version: then the header can be read */
+RomStatus rom_blob_open(const RomBlob *e, const unsigned char *bytes, size_t size, char *message,
+                        size_t message_size);
+/* Once the caller has checked the header's sizes: the token when it must be a given one, the length (detail
+ * says what it was computed for), the checksum of every byte before the last four, the token's form */
+RomStatus rom_blob_close(const RomBlob *e, const unsigned char *bytes, size_t size, uint64_t expected,
+                         const char *detail, size_t token_offset, const char *token, char *message,
+                         size_t message_size);
+
+/* One zeroed block for arrays of the given double counts, each 64-byte aligned; *ptrs[i] receives array i
+ * (NULL for a count of 0).  Returns the block to free (NULL when out of memory or on a bad argument). */
 void *rom_alloc_arrays(const size_t *counts, double **ptrs[], int n);
+/* 1 when every array of ptrs (counts values each; NULL ones skipped) is finite */
+int rom_arrays_finite(double **ptrs[], const size_t *counts, int n);
 
-/* rom_frozen.c: advance over [t_comm, t_comm + h] in whole internal steps of dt and
- * one shortened last step; and n whole steps from the state's time */
-RomStatus rom_frozen_step(RomState *s, double t_comm, double h, char *message, size_t message_size);
-RomStatus rom_frozen_advance(RomState *s, int64_t n_steps, char *message, size_t message_size);
-double rom_frozen_rho_probe(const RomState *s, uint32_t j);
-
-/* rom_exact.c: y0 = Q^T z0 once the model is read; one exact step over h (input held, or
- * linear at the state's rate); n steps of dt; the density at a probe (rho0/J) */
-void rom_exact_prepare(RomModel *m);
-RomStatus rom_exact_step(RomState *s, double t_comm, double h, char *message, size_t message_size);
-RomStatus rom_exact_advance(RomState *s, int64_t n_steps, char *message, size_t message_size);
-double rom_exact_rho_probe(const RomState *s, uint32_t j);
-/* a probe row over the whole state z = (a; b) times z (rom.h: kind 2's rows) */
-double rom_exact_output(const RomState *s, const double *row);
-/* the smaller J = 1 + e of the probe's two particles (NaN when not finite) */
-double rom_exact_probe_J(const RomState *s, uint32_t j);
-/* dv_j/dt and drho_j/dt of a linear model (rom_v_probe_rate, rom_rho_probe_rate) */
-double rom_exact_v_rate(const RomState *s, uint32_t j);
-double rom_exact_rho_rate(const RomState *s, uint32_t j);
-
-/* shape checks of the envelope's sections (rom_envelope.c; rows of rom_io.c's SECTION_RULES) */
+/* ---- rom_envelope.c: shape checks of the envelope's sections (rows of rom_resources.c's SECTION_RULES) ---- */
 RomStatus rom_envelope_check_scalars(const RomModel *m, const RomSection *s, char *message, size_t message_size);
 RomStatus rom_envelope_check_range(const RomModel *m, const RomSection *s, char *message, size_t message_size);
 RomStatus rom_envelope_check_probe(const RomModel *m, const RomSection *s, char *message, size_t message_size);

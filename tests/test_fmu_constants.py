@@ -107,8 +107,8 @@ def test_constants_shared_by_c_and_python():
 
 
 def test_section_tags_shared_by_c_and_python():
-    """The tags the C loader accepts (rom_io.c's SECTION_RULES) are the tags the Python writer may write."""
-    text = (ROOT / "fmu_src" / "rom_io.c").read_text()
+    """The tags the C loader accepts (rom_resources.c's SECTION_RULES) are the tags the Python writer may write."""
+    text = (ROOT / "fmu_src" / "rom_resources.c").read_text()
     table = text[text.index("SECTION_RULES[] = {"):]
     table = table[:table.index("};")]
     assert set(re.findall(r'\{"([^"]+)",', table)) == set(resources.SECTION_TAGS)

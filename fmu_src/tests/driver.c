@@ -21,6 +21,7 @@
 #include "fmi2Functions.h"
 #include "fmi3Functions.h"
 #include "rom.h"
+#include "rom_exact.h"     /* the exact model's probe rows (the J <= 0 check below) */
 
 #define MAX_OUT (2 * ROM_MAX_PROBES)
 
@@ -868,9 +869,11 @@ static void scenario_edge(void) {
     EXPECT(rom_model_load_file(path, &model, message, sizeof message) == ROM_OK, "load: %s", message);
     RomState *s = model ? rom_state_new(model) : NULL;
     if (s && setup.kind == ROM_MODEL_EXACT_LINEAR) {
+        /* probe 1's first e row over b (the row over z = (a; b) from k_v on; zero over a in these resources) */
+        const double *row = ((const RomExactModel *)model->body)->Pe + model->k_v;
         double norm = 0.0;
-        for (uint32_t q = 0; q < model->k_rho; q++) norm += model->Pe[q] * model->Pe[q];
-        for (uint32_t q = 0; q < model->k_rho; q++) s->ar[q] = -2.0 * model->Pe[q] / norm;    /* e = -2 at probe 1 */
+        for (uint32_t q = 0; q < model->k_rho; q++) norm += row[q] * row[q];
+        for (uint32_t q = 0; q < model->k_rho; q++) s->ar[q] = -2.0 * row[q] / norm;    /* e = -2 at probe 1 */
         EXPECT(rom_check_outputs(s, message, sizeof message) != ROM_OK, "J <= 0 accepted");
         EXPECT(strstr(message, "specific volume J = 1 + e = ") && strstr(message, "<= 0 at probe 1 (x/L = ") &&
                strstr(message, "compression beyond the model's range"), "J <= 0: message %s", message);

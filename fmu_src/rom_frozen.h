@@ -1,0 +1,39 @@
+/*
+ * Model kind 1, the frozen-coefficient reduced model (eqs. 2.19-2.24): its own
+ * data behind RomModel.body and RomState.body (private to the core and its C
+ * test driver; rom_frozen.c owns them, the rest of the core reaches them
+ * through the kind's operations, rom_frozen_kind()).
+ *
+ * Matrices are kept transposed and zero-padded (k_v, k_rho rounded up to
+ * multiples of 4: RomModel.kv_pad, kr_pad) so that the inner loops run over
+ * contiguous, fixed-width blocks; the arithmetic on every real entry is the
+ * file's, in the same order.
+ */
+#ifndef SPHROM_ROM_FROZEN_H
+#define SPHROM_ROM_FROZEN_H
+
+#include "rom_internal.h"
+
+typedef struct {
+    uint32_t nm;               /* length of a padded M^T block: k_v kr_pad rounded up to 32 */
+    double *a_v0, *a_rho0;     /* initial reduced coordinates [k_v], [k_rho] */
+    double *Kt;                /* K^T: Kt[q*kv_pad + p] = K[p][q] (eq. 2.21 projected) */
+    double *b;                 /* [kv_pad] eq. 2.22 projected */
+    double *Dt;                /* D^T [k_v][kv_pad] (eq. 2.24 projected), NULL without damping */
+    double *p;                 /* [kv_pad] input row U^vT profile, NULL without input */
+    double *Tt;                /* the refresh tensor T[k][p][q] as entries i = q*kr_pad + p of M^T, in blocks
+                                * of 32 with each block's pairs contiguous: Tt[(i/32)*n_pairs*32 + k*32 + i%32] */
+    double *Pv, *Prho;         /* probe rows [n_probes][k_v], [n_probes][k_rho] */
+    double *probe_x;           /* [n_probes] probe positions in units of L (RomModel.probe_x) */
+    void *storage_;            /* one allocation behind the arrays */
+} RomFrozenModel;
+
+typedef struct {
+    double *Mt;                /* M(a^rho)^T: Mt[q*kr_pad + p] = M[p][q], [nm] */
+    double *F;                 /* the force term p f (and the ports') [kv_pad] */
+    double *dv, *dr;           /* scratch: rates [kv_pad], [kr_pad] */
+    double *S;                 /* scratch: a^rho_a a^rho_b per pair [n_pairs] */
+    void *storage_;            /* one allocation behind the arrays */
+} RomFrozenState;
+
+#endif /* SPHROM_ROM_FROZEN_H */
