@@ -219,6 +219,13 @@ static RomStatus run_steps(RomState *s, int64_t count, double h, double t0, doub
     return ROM_OK;
 }
 
+/* dt exceeds the communication step h (beyond ROM_STEP_ROUNDING): frozen_step takes one step of length h */
+static int frozen_step_exceeds(const RomState *s, double h) {
+    if (!s) return 0;
+    const double ratio = h / s->dt;
+    return ratio < 1.0 && !(fabs(ratio - 1.0) <= ROM_STEP_ROUNDING);
+}
+
 static RomStatus frozen_step(RomState *s, double t_comm, double h, char *message, size_t message_size) {
     if (!s || !s->body) return rom_fail(message, message_size, "no state");
     const double dt = s->dt;
@@ -231,8 +238,8 @@ static RomStatus frozen_step(RomState *s, double t_comm, double h, char *message
     const double nearest = floor(ratio + 0.5);
     int64_t n_full;
     double rest = 0.0;
-    if (nearest < 1.0 || (ratio < 1.0 && !(fabs(ratio - 1.0) <= ROM_STEP_ROUNDING))) {
-        n_full = 0;                               /* dt > h: one internal step of length h (rom_step_exceeds) */
+    if (nearest < 1.0 || frozen_step_exceeds(s, h)) {
+        n_full = 0;                               /* dt > h: one internal step of length h */
         rest = h;
     } else if (fabs(ratio - nearest) <= ROM_STEP_ROUNDING * fmax(1.0, ratio)) {
         n_full = (int64_t)nearest;
@@ -255,13 +262,6 @@ static RomStatus frozen_advance(RomState *s, int64_t n_steps, char *message, siz
     return status;
 }
 
-
-/* dt exceeds the communication step h (beyond ROM_STEP_ROUNDING): frozen_step takes one step of length h */
-static int frozen_step_exceeds(const RomState *s, double h) {
-    if (!s) return 0;
-    const double ratio = h / s->dt;
-    return ratio < 1.0 && !(fabs(ratio - 1.0) <= ROM_STEP_ROUNDING);
-}
 
 /* ------------------------------------------------------------------------ */
 /* outputs                                                                   */

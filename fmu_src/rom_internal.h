@@ -10,15 +10,18 @@
  * model_kind to a table is rom_resources.c (kind_ops); adding a kind is one
  * table in a file of its own and one entry in that list.
  *
- * Who calls whom (no circle: a kind file calls only the helpers at the bottom):
+ * Who calls whom (calls through a table count; no circle: a kind file calls
+ * only the helpers at the bottom, never rom.c, rom_resources.c or
+ * rom_state_io.c):
  *
- *   instance.c ──> rom.c, rom_resources.c, rom_state_io.c, rom_envelope.c   (rom.h's API)
- *   rom.c ─────────┐
- *   rom_resources.c├─> the kind's table: rom_frozen.c | rom_exact.c ──> rom_bytes.c, rom_fail.c
- *   rom_state_io.c │                                                 (and rom_internal.h's inline helpers)
- *   rom_envelope.c ┘
- *   rom_resources.c ──> rom_envelope.c (its sections' checks), rom_bytes.c
- *   rom_state_io.c ───> rom_bytes.c
+ *   instance.c -> rom.c, rom_resources.c, rom_state_io.c, rom_envelope.c   (rom.h's API)
+ *   rom.c ----------+
+ *   rom_resources.c +-> the model's table: rom_frozen.c | rom_exact.c -+
+ *   rom_state_io.c  |   (rom_resources.c also chooses it)               |
+ *   rom_envelope.c -+                                                   v
+ *   rom_resources.c -> rom_envelope.c (its sections' checks)     rom_bytes.c -> rom_fail.c
+ *   rom.c, rom_resources.c, rom_state_io.c ---------------------------^
+ *   (and every file: rom_internal.h's inline helpers, rom_fail.c)
  *
  * Include this header first: the pragmas below keep the arithmetic free of
  * fused multiply-adds (the outputs equal the Python reference bit for bit)
