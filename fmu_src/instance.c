@@ -217,13 +217,15 @@ Instance *instance_new(const InstanceVersion *version, const char *fn, const cha
     inst->log_mask = INSTANCE_LOG_WARNING | INSTANCE_LOG_ERROR | (logging_on ? INSTANCE_LOG_EVENTS : 0u);
     inst->mode = MODE_INSTANTIATED;
     apply_start_values(inst);
-    instance_log(inst, INSTANCE_OK, INSTANCE_LOG_EVENTS, "%s: k_v = %u, k_rho = %u, %u probes, dt = %g s, "
-                 "n_freeze = %u, %s", fn, model->k_v, model->k_rho, model->n_probes, model->dt,
-                 model->n_freeze_default, model->integrator == ROM_INTEGRATOR_SYMPLECTIC ? "symplectic" : "euler");
-    if (rom_linear_model_name(model)) {
-        instance_log(inst, INSTANCE_OK, INSTANCE_LOG_EVENTS, "%s: the %s model (linear, %u states, advanced by the "
-                     "matrix exponential%s)", fn, rom_linear_model_name(model), model->k_v + model->k_rho,
+    if (rom_linear_model_name(model)) {          /* no internal step: no dt, no n_freeze */
+        instance_log(inst, INSTANCE_OK, INSTANCE_LOG_EVENTS, "%s: k_v = %u, k_rho = %u, %u probes; the %s model "
+                     "(linear, %u states, advanced by the matrix exponential%s)", fn, model->k_v, model->k_rho,
+                     model->n_probes, rom_linear_model_name(model), model->k_v + model->k_rho,
                      rom_model_section(model, "BOUNDS") ? "; certified error bounds force_error_bound, initial_state_error_bound" : "");
+    } else {
+        instance_log(inst, INSTANCE_OK, INSTANCE_LOG_EVENTS, "%s: k_v = %u, k_rho = %u, %u probes, dt = %g s, "
+                     "n_freeze = %u, %s", fn, model->k_v, model->k_rho, model->n_probes, model->dt,
+                     model->n_freeze_default, model->integrator == ROM_INTEGRATOR_SYMPLECTIC ? "symplectic" : "euler");
     }
     return inst;
 }
@@ -331,9 +333,17 @@ typedef enum { ROLE_INDEPENDENT, ROLE_INPUT, ROLE_FIXED, ROLE_OUTPUT, ROLE_CALCU
 /* FIXED: fixed parameter; CALCULATED: calculated parameter (read only) */
 typedef enum { COUNT_ONE, COUNT_PER_PROBE, COUNT_PER_PORT } VariableCount;   /* value references a row stands for */
 
-/* The getters and setters the table names (fmu_variables.h), j the 0-based member of a family (0 otherwise) */
-static double get_time(const RomState *s, uint32_t j) { (void)j; return s->time; }
-static double get_f(const RomState *s, uint32_t j) { (void)j; return s->f; }
+/* The getters and setters the table names (fmu_variables.h), j the 0-based member of a family: for one variable
+ * (j unused) a getter returning an expression of the state s, a setter calling the core's setter */
+#define SCALAR_GETTER(type, name, expression) \
+    static type name(const RomState *s, uint32_t j) { (void)j; return (expression); }
+#define SCALAR_SETTER(type, name, core_setter) \
+    static RomStatus name(RomState *s, uint32_t j, type value, char *message, size_t message_size) { \
+        (void)j; \
+        return core_setter(s, value, message, message_size); \
+    }
+SCALAR_GETTER(double, get_time, s->time)
+SCALAR_GETTER(double, get_f, s->f)
 /* Setting f without a new derivative holds it: the rate goes back to 0, so an
  * importer that never sets input derivatives gets held inputs. */
 static RomStatus set_f(RomState *s, uint32_t j, double value, char *message, size_t message_size) {
@@ -341,25 +351,13 @@ static RomStatus set_f(RomState *s, uint32_t j, double value, char *message, siz
     const RomStatus status = rom_set_input(s, value, message, message_size);
     return status == ROM_OK ? rom_set_input_rate(s, 0.0, message, message_size) : status;
 }
-static RomStatus set_f_rate(RomState *s, uint32_t j, double rate, char *message, size_t message_size) {
-    (void)j;
-    return rom_set_input_rate(s, rate, message, message_size);
-}
-static int32_t get_n_freeze(const RomState *s, uint32_t j) { (void)j; return s->n_freeze; }
-static RomStatus set_n_freeze(RomState *s, uint32_t j, int64_t value, char *message, size_t message_size) {
-    (void)j;
-    return rom_set_n_freeze(s, value, message, message_size);
-}
-static double get_dt(const RomState *s, uint32_t j) { (void)j; return s->dt; }
-static RomStatus set_dt(RomState *s, uint32_t j, double value, char *message, size_t message_size) {
-    (void)j;
-    return rom_set_dt(s, value, message, message_size);
-}
-static double get_initial_state_scale(const RomState *s, uint32_t j) { (void)j; return s->initial_state_scale; }
-static RomStatus set_initial_state_scale(RomState *s, uint32_t j, double value, char *message, size_t message_size) {
-    (void)j;
-    return rom_set_initial_state_scale(s, value, message, message_size);
-}
+SCALAR_SETTER(double, set_f_rate, rom_set_input_rate)
+SCALAR_GETTER(int32_t, get_n_freeze, s->n_freeze)
+SCALAR_SETTER(int64_t, set_n_freeze, rom_set_n_freeze)
+SCALAR_GETTER(double, get_dt, s->dt)
+SCALAR_SETTER(double, set_dt, rom_set_dt)
+SCALAR_GETTER(double, get_initial_state_scale, s->initial_state_scale)
+SCALAR_SETTER(double, set_initial_state_scale, rom_set_initial_state_scale)
 
 /* The certified error bounds of a linear model (section BOUNDS: row 0 force, row 1 initial state, one column per
  * probe): per probe j, and the largest over the probes */
@@ -374,27 +372,24 @@ static double largest_bound(const RomState *s, uint32_t row) {
 }
 static double get_force_bound(const RomState *s, uint32_t j) { return bound_of(s, 0, j); }
 static double get_initial_bound(const RomState *s, uint32_t j) { return bound_of(s, 1, j); }
-static double get_force_bound_max(const RomState *s, uint32_t j) { (void)j; return largest_bound(s, 0); }
-static double get_initial_bound_max(const RomState *s, uint32_t j) { (void)j; return largest_bound(s, 1); }
+SCALAR_GETTER(double, get_force_bound_max, largest_bound(s, 0))
+SCALAR_GETTER(double, get_initial_bound_max, largest_bound(s, 1))
 
 /* parametric models: the stiffness c [kg m^-1 s^-2] and the damping d [s^-1], each only where it was varied */
-static double get_c(const RomState *s, uint32_t j) { (void)j; return rom_get_param(s, ROM_PARAM_C); }
-static double get_d(const RomState *s, uint32_t j) { (void)j; return rom_get_param(s, ROM_PARAM_D); }
-static RomStatus set_c(RomState *s, uint32_t j, double value, char *message, size_t message_size) {
-    (void)j;
+static RomStatus set_param_c(RomState *s, double value, char *message, size_t message_size) {
     return rom_set_param(s, ROM_PARAM_C, value, message, message_size);
 }
-static RomStatus set_d(RomState *s, uint32_t j, double value, char *message, size_t message_size) {
-    (void)j;
+static RomStatus set_param_d(RomState *s, double value, char *message, size_t message_size) {
     return rom_set_param(s, ROM_PARAM_D, value, message, message_size);
 }
+SCALAR_GETTER(double, get_c, rom_get_param(s, ROM_PARAM_C))
+SCALAR_SETTER(double, set_c, set_param_c)
+SCALAR_GETTER(double, get_d, rom_get_param(s, ROM_PARAM_D))
+SCALAR_SETTER(double, set_d, set_param_d)
 
 /* mechanical ports: the area, and per port j the force F_port (held when set: its rate goes back to 0) */
-static double get_area(const RomState *s, uint32_t j) { (void)j; return s->area; }
-static RomStatus set_area(RomState *s, uint32_t j, double value, char *message, size_t message_size) {
-    (void)j;
-    return rom_set_area(s, value, message, message_size);
-}
+SCALAR_GETTER(double, get_area, s->area)
+SCALAR_SETTER(double, set_area, rom_set_area)
 static double get_port_force(const RomState *s, uint32_t j) { return rom_port_force(s, j); }
 static RomStatus set_port_force(RomState *s, uint32_t j, double value, char *message, size_t message_size) {
     const RomStatus status = rom_set_port_force(s, j, value, message, message_size);

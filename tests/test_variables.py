@@ -76,8 +76,9 @@ def test_the_table_is_consistent():
         assert end < start, f"the value references of {a} and {b} overlap"
     instance = (ROOT / "fmu_src" / "instance.c").read_text()
     core = (ROOT / "fmu_src" / "rom.h").read_text()
-    defined = set(re.findall(r"^static \w+ \*?(\w+)\(", instance, re.M)) | set(re.findall(r"ROM_API \w+ \*?(\w+)\(",
-                                                                                       core))
+    defined = (set(re.findall(r"^static \w+ \*?(\w+)\(", instance, re.M))          # (the C build checks them too)
+               | set(re.findall(r"^SCALAR_[GS]ETTER\(\w+, (\w+),", instance, re.M))
+               | set(re.findall(r"ROM_API \w+ \*?(\w+)\(", core)))
     c_rules = set(re.findall(r"^static int rule_(\w+)\(const Instance", instance, re.M))
     assert c_rules == set(variables.RULES) - {"always"}, "every presence rule has its C predicate and no other"
     for r in rows:
@@ -165,6 +166,14 @@ def test_c_and_python_decide_presence_alike(fmus, case):
     assert answered == declared
     model = CASES[case][0]
     assert ("n_freeze" in declared.values()) == ("dt" in declared.values()) == (not get_model(model).linear)
+
+
+@pytest.mark.parametrize("case", ["exact-bounds-3", "frozen-vary-c-3"])
+def test_build_description_names_the_model_the_fmu_holds(fmus, case):
+    import xml.etree.ElementTree as ET
+    build = ET.fromstring(zipfile.ZipFile(fmus(case)).read("sources/buildDescription.xml"))
+    title = get_model(CASES[case][0]).title
+    assert build.find("BuildConfiguration").get("description") == f"{title}, FMI 3.0 co-simulation"
 
 
 def test_fmi2_indices_and_model_structure_are_derived(fmus):
