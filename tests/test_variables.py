@@ -124,7 +124,7 @@ def enter_initialization(slave, md):
 
 
 CASES = {   # (model, fmi, options): every presence rule on and off somewhere
-    "frozen-ports-2": ("frozen", 2, {"ports": [0.3, 0.7]}),
+    "frozen-ports-2": ("frozen", 2, {"ports": [0.3, 0.7], "probes": [0.5]}),     # more ports than probes
     "exact-bounds-3": ("exact", 3, {}),
     "balanced-2": ("balanced", 2, {}),
     "frozen-vary-c-3": ("frozen", 3, {"vary": [Range("c", 0.05, 0.2)]}),

@@ -148,7 +148,7 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
 
 def variable_values(fmi, scene, data, envelope, bounds):
     """The FMU's values the variable table's descriptions and :class:`~harness.fmu.variables.From` cells name
-    (a list: one value per probe)."""
+    (under ``probe``: one value per probe)."""
     values = {
         "profile": scene.fields["profile"].text,
         # FMI 2 only: the linear models integrate f + (df/dt) tau over a step exactly, the frozen model
@@ -161,16 +161,16 @@ def variable_values(fmi, scene, data, envelope, bounds):
         # (none for f = 0: a free response trained no force scale)
         "f_nominal": (envelope.force_amplitude if envelope is not None and envelope.force_amplitude > 0
                       else None),
-        "v_nominal": [float(envelope.probe_v_max[j]) if envelope is not None and envelope.probe_v_max[j] > 0
-                      else 1.0 for j in range(data.n_probes)],
-        "rho_nominal": [float(envelope.probe_rho0[j]) if envelope is not None else 1.0
-                        for j in range(data.n_probes)],
+        "probe": {"v_nominal": [float(envelope.probe_v_max[j]) if envelope is not None
+                                and envelope.probe_v_max[j] > 0 else 1.0 for j in range(data.n_probes)],
+                  "rho_nominal": [float(envelope.probe_rho0[j]) if envelope is not None else 1.0
+                                  for j in range(data.n_probes)]},
     }
     section = getattr(data, "sections", {}).get("BOUNDS")
     if section is not None:
         fb, ib = section[0], section[1]
-        values.update(fb=[f"{x:.6g}" for x in fb], ib=[f"{x:.6g}" for x in ib], fb_max=f"{max(fb):.6g}",
-                      ib_max=f"{max(ib):.6g}",
+        values["probe"].update(fb=[f"{x:.6g}" for x in fb], ib=[f"{x:.6g}" for x in ib])
+        values.update(fb_max=f"{max(fb):.6g}", ib_max=f"{max(ib):.6g}",
                       what=bound_text(bounds) if bounds is not None else "certified against the full linear SPH")
     params = getattr(data, "sections", {}).get("PARAMS")
     if params is not None:

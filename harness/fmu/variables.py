@@ -369,14 +369,12 @@ def _compact(x):
     return text[:-2] if text.endswith(".0") else text
 
 
-def _cell(row, value, values, j):
+def _cell(row, value, scope):
     """The text of an attribute: a constant, a model value (repr of the float, an integer for Int32), or None."""
     if value is None:
         return None
     if isinstance(value, From):
-        value = values.get(value.key)
-        if isinstance(value, (list, tuple)):
-            value = value[j - 1]
+        value = scope.get(value.key)
         if value is None:
             return None
         return str(int(value)) if row.type == "Int32" else number(value)
@@ -389,23 +387,23 @@ def declared(f, values):
     min, max, nominal (texts or None), description (formatted with ``values``, and per family member j and x),
     index (FMI 2: 1-based position).
 
-    ``values`` maps the keys of the table's :class:`From` cells and of its descriptions to the FMU's values
-    (a list holds one value per family member)."""
+    ``values`` maps the keys of the table's :class:`From` cells and of its descriptions to the FMU's values;
+    under a family's name (``probe``, ``port``) it holds a dict of lists, one value per member."""
     out = []
     for row in VARIABLES:
         if not present(row, f):
             continue
         members = range(1, f.count(row.family) + 1) if row.family else [None]
         for j in members:
-            scope = dict(values)
+            scope = {k: v for k, v in values.items() if k not in FAMILIES}
             if j is not None:
-                scope.update({k: v[j - 1] for k, v in values.items() if isinstance(v, (list, tuple))})
+                scope.update({k: v[j - 1] for k, v in values.get(row.family, {}).items()})
                 scope.update(j=j, x=f"{f.positions[row.family][j - 1]:g}")
             out.append({"row": row, "j": j, "name": concrete_name(row, j), "vr": row.vr + (j - 1 if j else 0),
                         "type": row.type, "causality": row.causality, "variability": row.variability,
                         "initial": row.initial, "declared_type": row.declared_type, "unit": row.unit,
-                        "start": _cell(row, row.start, values, j), "min": _cell(row, row.min, values, j),
-                        "max": _cell(row, row.max, values, j), "nominal": _cell(row, row.nominal, values, j),
+                        "start": _cell(row, row.start, scope), "min": _cell(row, row.min, scope),
+                        "max": _cell(row, row.max, scope), "nominal": _cell(row, row.nominal, scope),
                         "description": row.description.format(**scope), "index": len(out) + 1})
     return out
 
