@@ -217,6 +217,15 @@ def test_cosim_n_freeze_on_a_linear_fmu_is_a_one_line_error(fmus, tmp_path, caps
     assert main(["cosim", str(fmus("frozen-ports-2")), "--n-freeze", "5", "--t-end", "0.05", "--out", str(out)]) == 0
 
 
+def test_a_parameter_the_fmu_lacks_is_an_error_naming_it(fmus):
+    """The Python driver refuses n_freeze and dt for a linear FMU instead of losing them."""
+    with Slave(fmus("balanced-2")) as s:
+        for name, value in (("n_freeze", 3), ("dt", 1e-3)):
+            with pytest.raises(FieldError) as exc:
+                s.initialize(**{name: value})
+            assert str(exc.value) == f"{name}: this FMU has no parameter {name} (frozen model only)"
+
+
 def test_n_freeze_has_one_range_and_one_message():
     """The C core is the authority (rom_set_n_freeze); the Python pre-check (package, cosim) accepts the same
     range and refuses in the same words; so does the command line."""

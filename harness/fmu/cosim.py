@@ -19,7 +19,7 @@ import numpy as np
 
 from ..errors import FieldError, SimulationError, UserError
 from ..paths import is_file
-from .variables import check_parameter
+from .variables import absent, check_parameter
 
 
 @dataclass
@@ -248,11 +248,9 @@ def _positive(value, field):
 
 def has_parameter(md, fmu, name, why=None):
     """FieldError naming ``name`` when the FMU ``fmu`` (its model description ``md``) has no such parameter: a
-    start value for it would be ignored.  ``why`` defaults to the table's words for the FMUs that have it
-    (n_freeze: frozen model only)."""
+    start value for it would be ignored (:func:`harness.fmu.variables.absent`)."""
     if not any(v.name == name for v in md.modelVariables):
-        from .variables import BY_NAME, RULES
-        raise FieldError(name, f"'{fmu}' has no parameter {name} ({why or RULES[BY_NAME[name].rule][1]})")
+        raise absent(name, f"'{fmu}'", why)
 
 
 def can_interpolate_inputs(md) -> bool:

@@ -160,12 +160,10 @@ class Slave:
 
     def set_parameter(self, name, value):
         """Set the parameter ``name`` (its type from the variable table); FieldError when the FMU has none."""
-        from ..errors import FieldError
-        from .variables import BY_NAME, RULES
-        row = BY_NAME[name]
+        from .variables import BY_NAME, absent
         if name not in self.vr:
-            raise FieldError(name, f"this FMU has no parameter {name} ({RULES[row.rule][1]})")
-        if row.type == "Int32":
+            raise absent(name)
+        if BY_NAME[name].type == "Int32":
             (self.fmu.setInteger if self.fmi == 2 else self.fmu.setInt32)([self.vr[name]], [int(value)])
         else:
             self.set_real([self.vr[name]], [float(value)])

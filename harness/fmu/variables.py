@@ -317,6 +317,13 @@ def check_parameter(name, value):
     raise ValueError(f"{name}: only integer parameters have a Python pre-check")
 
 
+def absent(name, fmu="this FMU", why=None):
+    """The FieldError for a value given to the parameter ``name`` that ``fmu`` does not have (it would be ignored):
+    ``why`` defaults to the words of the row's rule (n_freeze: frozen model only)."""
+    from ..errors import FieldError
+    return FieldError(name, f"{fmu} has no parameter {name} ({why or RULES[BY_NAME[name].rule][1]})")
+
+
 # ---------------------------------------------------------------------------------------------------------------
 # presence and the variables of one FMU
 # ---------------------------------------------------------------------------------------------------------------
