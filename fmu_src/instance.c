@@ -166,11 +166,7 @@ static RomStatus resource_file(const char *location, int is_uri, char *path, siz
     return ROM_OK;
 }
 
-/* The FMU's start values where they differ from the core's defaults (modelDescription start=""):
- * initial_state_scale starts at 0, a component at rest (the core's default 1 is the model's own initial state) */
-static void apply_start_values(Instance *inst) {
-    (void)rom_set_initial_state_scale(inst->state, ROM_INITIAL_STATE_SCALE_START, NULL, 0);
-}
+static void apply_start_values(Instance *inst);   /* the table's start values (variables, below) */
 
 Instance *instance_new(const InstanceVersion *version, const char *fn, const char *name, const char *token,
                        const char *resource_location, int logging_on, InstanceCallback logger, void *environment) {
@@ -221,13 +217,15 @@ Instance *instance_new(const InstanceVersion *version, const char *fn, const cha
     inst->log_mask = INSTANCE_LOG_WARNING | INSTANCE_LOG_ERROR | (logging_on ? INSTANCE_LOG_EVENTS : 0u);
     inst->mode = MODE_INSTANTIATED;
     apply_start_values(inst);
-    instance_log(inst, INSTANCE_OK, INSTANCE_LOG_EVENTS, "%s: k_v = %u, k_rho = %u, %u probes, dt = %g s, "
-                 "n_freeze = %u, %s", fn, model->k_v, model->k_rho, model->n_probes, model->dt,
-                 model->n_freeze_default, model->integrator == ROM_INTEGRATOR_SYMPLECTIC ? "symplectic" : "euler");
-    if (rom_linear_model_name(model)) {
-        instance_log(inst, INSTANCE_OK, INSTANCE_LOG_EVENTS, "%s: the %s model (linear, %u states, advanced by the "
-                     "matrix exponential%s)", fn, rom_linear_model_name(model), model->k_v + model->k_rho,
+    if (rom_linear_model_name(model)) {          /* no internal step: no dt, no n_freeze */
+        instance_log(inst, INSTANCE_OK, INSTANCE_LOG_EVENTS, "%s: k_v = %u, k_rho = %u, %u probes; the %s model "
+                     "(linear, %u states, advanced by the matrix exponential%s)", fn, model->k_v, model->k_rho,
+                     model->n_probes, rom_linear_model_name(model), model->k_v + model->k_rho,
                      rom_model_section(model, "BOUNDS") ? "; certified error bounds force_error_bound, initial_state_error_bound" : "");
+    } else {
+        instance_log(inst, INSTANCE_OK, INSTANCE_LOG_EVENTS, "%s: k_v = %u, k_rho = %u, %u probes, dt = %g s, "
+                     "n_freeze = %u, %s", fn, model->k_v, model->k_rho, model->n_probes, model->dt,
+                     model->n_freeze_default, model->integrator == ROM_INTEGRATOR_SYMPLECTIC ? "symplectic" : "euler");
     }
     return inst;
 }
@@ -333,13 +331,33 @@ InstanceStatus instance_reset(Instance *inst) {
 typedef enum { TYPE_FLOAT64, TYPE_INT32 } VariableType;
 typedef enum { ROLE_INDEPENDENT, ROLE_INPUT, ROLE_FIXED, ROLE_OUTPUT, ROLE_CALCULATED } VariableRole;
 /* FIXED: fixed parameter; CALCULATED: calculated parameter (read only) */
-typedef enum { COUNT_ONE, COUNT_PER_PROBE } VariableCount;     /* how many value references a row stands for */
+typedef enum { COUNT_ONE, COUNT_PER_PROBE, COUNT_PER_PORT } VariableCount;   /* value references a row stands for */
 
-static double get_time(const RomState *s, uint32_t j) { (void)j; return s->time; }
-static double get_f(const RomState *s, uint32_t j) { (void)j; return s->f; }
-static double get_dt(const RomState *s, uint32_t j) { (void)j; return s->dt; }
-static int32_t get_n_freeze(const RomState *s) { return s->n_freeze; }
-static double get_initial_state_scale(const RomState *s, uint32_t j) { (void)j; return s->initial_state_scale; }
+/* The getters and setters the table names (fmu_variables.h), j the 0-based member of a family: for one variable
+ * (j unused) a getter returning an expression of the state s, a setter calling the core's setter */
+#define SCALAR_GETTER(type, name, expression) \
+    static type name(const RomState *s, uint32_t j) { (void)j; return (expression); }
+#define SCALAR_SETTER(type, name, core_setter) \
+    static RomStatus name(RomState *s, uint32_t j, type value, char *message, size_t message_size) { \
+        (void)j; \
+        return core_setter(s, value, message, message_size); \
+    }
+SCALAR_GETTER(double, get_time, s->time)
+SCALAR_GETTER(double, get_f, s->f)
+/* Setting f without a new derivative holds it: the rate goes back to 0, so an
+ * importer that never sets input derivatives gets held inputs. */
+static RomStatus set_f(RomState *s, uint32_t j, double value, char *message, size_t message_size) {
+    (void)j;
+    const RomStatus status = rom_set_input(s, value, message, message_size);
+    return status == ROM_OK ? rom_set_input_rate(s, 0.0, message, message_size) : status;
+}
+SCALAR_SETTER(double, set_f_rate, rom_set_input_rate)
+SCALAR_GETTER(int32_t, get_n_freeze, s->n_freeze)
+SCALAR_SETTER(int64_t, set_n_freeze, rom_set_n_freeze)
+SCALAR_GETTER(double, get_dt, s->dt)
+SCALAR_SETTER(double, set_dt, rom_set_dt)
+SCALAR_GETTER(double, get_initial_state_scale, s->initial_state_scale)
+SCALAR_SETTER(double, set_initial_state_scale, rom_set_initial_state_scale)
 
 /* The certified error bounds of a linear model (section BOUNDS: row 0 force, row 1 initial state, one column per
  * probe): per probe j, and the largest over the probes */
@@ -354,102 +372,100 @@ static double largest_bound(const RomState *s, uint32_t row) {
 }
 static double get_force_bound(const RomState *s, uint32_t j) { return bound_of(s, 0, j); }
 static double get_initial_bound(const RomState *s, uint32_t j) { return bound_of(s, 1, j); }
-static double get_force_bound_max(const RomState *s, uint32_t j) { (void)j; return largest_bound(s, 0); }
-static double get_initial_bound_max(const RomState *s, uint32_t j) { (void)j; return largest_bound(s, 1); }
-static int has_bounds(const RomModel *m) { return rom_model_section(m, "BOUNDS") != NULL; }
-
-/* Setting f without a new derivative holds it: the rate goes back to 0, so an
- * importer that never sets input derivatives gets held inputs. */
-static RomStatus set_f_held(RomState *s, double value, char *message, size_t message_size) {
-    const RomStatus status = rom_set_input(s, value, message, message_size);
-    return status == ROM_OK ? rom_set_input_rate(s, 0.0, message, message_size) : status;
-}
+SCALAR_GETTER(double, get_force_bound_max, largest_bound(s, 0))
+SCALAR_GETTER(double, get_initial_bound_max, largest_bound(s, 1))
 
 /* parametric models: the stiffness c [kg m^-1 s^-2] and the damping d [s^-1], each only where it was varied */
-static double get_c(const RomState *s, uint32_t j) { (void)j; return rom_get_param(s, ROM_PARAM_C); }
-static double get_d(const RomState *s, uint32_t j) { (void)j; return rom_get_param(s, ROM_PARAM_D); }
-static RomStatus set_c(RomState *s, double value, char *message, size_t message_size) {
+static RomStatus set_param_c(RomState *s, double value, char *message, size_t message_size) {
     return rom_set_param(s, ROM_PARAM_C, value, message, message_size);
 }
-static RomStatus set_d(RomState *s, double value, char *message, size_t message_size) {
+static RomStatus set_param_d(RomState *s, double value, char *message, size_t message_size) {
     return rom_set_param(s, ROM_PARAM_D, value, message, message_size);
 }
-static int varies_c(const RomModel *m) { return rom_varies(m, ROM_PARAM_C); }
-static int varies_d(const RomModel *m) { return rom_varies(m, ROM_PARAM_D); }
+SCALAR_GETTER(double, get_c, rom_get_param(s, ROM_PARAM_C))
+SCALAR_SETTER(double, set_c, set_param_c)
+SCALAR_GETTER(double, get_d, rom_get_param(s, ROM_PARAM_D))
+SCALAR_SETTER(double, set_d, set_param_d)
 
-/* Mechanical ports (only in a model with ports): area, and per port j (1-based, at most ROM_MAX_PORTS)
- * the input F_port_j [VR 3000 + j - 1] and the output v_port_j [VR 4000 + j - 1], one row each with a
- * `present` test on the model's port count. */
-static int has_ports(const RomModel *m) { return rom_n_ports(m) > 0; }
-static double get_area(const RomState *s, uint32_t j) { (void)j; return s->area; }
-#define PORT_FUNCTIONS(J)                                                                                        \
-    static int has_port_##J(const RomModel *m) { return rom_n_ports(m) >= J; }                                  \
-    static double get_port_force_##J(const RomState *s, uint32_t j) { (void)j; return rom_port_force(s, J - 1); } \
-    static double get_v_port_##J(const RomState *s, uint32_t j) { (void)j; return rom_v_port(s, J - 1); }       \
-    static RomStatus set_port_force_##J(RomState *s, double value, char *message, size_t message_size) {        \
-        const RomStatus status = rom_set_port_force(s, J - 1, value, message, message_size);                     \
-        return status == ROM_OK ? rom_set_port_rate(s, J - 1, 0.0, message, message_size) : status;  /* held */  \
-    }
-PORT_FUNCTIONS(1)
-PORT_FUNCTIONS(2)
-PORT_FUNCTIONS(3)
-PORT_FUNCTIONS(4)
-#define PORT_ROWS(J)                                                                                             \
-    {"F_port_" #J, ROM_VR_F_PORT + J - 1, COUNT_ONE, TYPE_FLOAT64, ROLE_INPUT, get_port_force_##J, NULL,       \
-     set_port_force_##J, NULL, has_port_##J},                                                                    \
-    {"v_port_" #J, ROM_VR_V_PORT + J - 1, COUNT_ONE, TYPE_FLOAT64, ROLE_OUTPUT, get_v_port_##J, NULL, NULL, NULL, \
-     has_port_##J}
+/* mechanical ports: the area, and per port j the force F_port (held when set: its rate goes back to 0) */
+SCALAR_GETTER(double, get_area, s->area)
+SCALAR_SETTER(double, set_area, rom_set_area)
+static double get_port_force(const RomState *s, uint32_t j) { return rom_port_force(s, j); }
+static RomStatus set_port_force(RomState *s, uint32_t j, double value, char *message, size_t message_size) {
+    const RomStatus status = rom_set_port_force(s, j, value, message, message_size);
+    return status == ROM_OK ? rom_set_port_rate(s, j, 0.0, message, message_size) : status;
+}
 
-/* The FMU's variables (modelDescription/fmi2.xml, fmi3.xml; value references rom.h ROM_VR_*):
- * the one place that maps value references onto the core.  A COUNT_PER_PROBE row
- * stands for n_probes value references vr + j, its getter receiving j.  A row
- * with a `present` test exists only in the models it accepts (its value
+/* The presence rules the table names (harness/fmu/variables.py RULES, decided there from the same resources):
+ * 1 when the FMU has the rule's variables */
+static int rule_fmi3(const Instance *inst) { return inst->version->has_time; }
+static int rule_frozen(const Instance *inst) { return rom_model_kind(inst->model) == ROM_MODEL_FROZEN; }
+static int rule_bounds(const Instance *inst) { return rom_model_section(inst->model, "BOUNDS") != NULL; }
+static int rule_varied_c(const Instance *inst) { return rom_varies(inst->model, ROM_PARAM_C); }
+static int rule_varied_d(const Instance *inst) { return rom_varies(inst->model, ROM_PARAM_D); }
+static int rule_ports(const Instance *inst) { return rom_n_ports(inst->model) > 0; }
+
+/* The FMU's variables: the one place that maps value references onto the core, its rows generated into
+ * fmu_variables.h from harness/fmu/variables.py (which also writes both modelDescriptions).  A family row
+ * (COUNT_PER_PROBE, COUNT_PER_PORT) stands for the value references vr + j, j < the model's probes or ports, its
+ * functions receiving j; a row with a `present` rule exists only in the FMUs the rule accepts (its value
  * references are unknown in the others). */
 typedef struct {
-    const char *name;
+    const char *name;                      /* a family's name is name, j + 1, name_tail (v_probe_2) */
+    const char *name_tail;
     uint32_t vr;
     VariableCount count;
     VariableType type;
     VariableRole role;
+    int (*present)(const Instance *inst);  /* NULL: every FMU has it */
     double (*get_float64)(const RomState *s, uint32_t j);
-    int32_t (*get_int32)(const RomState *s);
-    RomStatus (*set_float64)(RomState *s, double value, char *message, size_t message_size);
-    RomStatus (*set_int32)(RomState *s, int64_t value, char *message, size_t message_size);
-    int (*present)(const RomModel *m);     /* NULL: every model has the variable */
+    int32_t (*get_int32)(const RomState *s, uint32_t j);
+    RomStatus (*set_float64)(RomState *s, uint32_t j, double value, char *message, size_t message_size);
+    RomStatus (*set_int32)(RomState *s, uint32_t j, int64_t value, char *message, size_t message_size);
+    /* outputs: the first time derivative; inputs: its rate over the next steps (NULL: none) */
+    RomStatus (*get_rate)(const RomState *s, uint32_t j, double *rate, char *message, size_t message_size);
+    RomStatus (*set_rate)(RomState *s, uint32_t j, double rate, char *message, size_t message_size);
+    int has_start;                         /* the instance applies start after every instantiation and reset */
+    double start;
 } Variable;
 
-static const Variable VARIABLES[] = {
-    /* name, value reference, count, type, role, get float64, get int32, set float64, set int32, present */
-    {"time", ROM_VR_TIME, COUNT_ONE, TYPE_FLOAT64, ROLE_INDEPENDENT, get_time, NULL, NULL, NULL, NULL},
-    {"f", ROM_VR_F, COUNT_ONE, TYPE_FLOAT64, ROLE_INPUT, get_f, NULL, set_f_held, NULL, NULL},
-    {"n_freeze", ROM_VR_N_FREEZE, COUNT_ONE, TYPE_INT32, ROLE_FIXED, NULL, get_n_freeze, NULL, rom_set_n_freeze, NULL},
-    {"dt", ROM_VR_DT, COUNT_ONE, TYPE_FLOAT64, ROLE_FIXED, get_dt, NULL, rom_set_dt, NULL, NULL},
-    {"initial_state_scale", ROM_VR_INITIAL_STATE_SCALE, COUNT_ONE, TYPE_FLOAT64, ROLE_FIXED, get_initial_state_scale,
-     NULL, rom_set_initial_state_scale, NULL, NULL},
-    {"v_probe", ROM_VR_V_PROBE, COUNT_PER_PROBE, TYPE_FLOAT64, ROLE_OUTPUT, rom_v_probe, NULL, NULL, NULL, NULL},
-    {"rho_probe", ROM_VR_RHO_PROBE, COUNT_PER_PROBE, TYPE_FLOAT64, ROLE_OUTPUT, rom_rho_probe, NULL, NULL, NULL, NULL},
-    {"force_error_bound", ROM_VR_FORCE_ERROR_BOUND, COUNT_ONE, TYPE_FLOAT64, ROLE_CALCULATED, get_force_bound_max,
-     NULL, NULL, NULL, has_bounds},
-    {"initial_state_error_bound", ROM_VR_INITIAL_STATE_ERROR_BOUND, COUNT_ONE, TYPE_FLOAT64, ROLE_CALCULATED,
-     get_initial_bound_max, NULL, NULL, NULL, has_bounds},
-    {"force_error_bound_j", ROM_VR_FORCE_ERROR_BOUND_PROBE, COUNT_PER_PROBE, TYPE_FLOAT64, ROLE_CALCULATED,
-     get_force_bound, NULL, NULL, NULL, has_bounds},
-    {"initial_state_error_bound_j", ROM_VR_INITIAL_STATE_ERROR_BOUND_PROBE, COUNT_PER_PROBE, TYPE_FLOAT64,
-     ROLE_CALCULATED, get_initial_bound, NULL, NULL, NULL, has_bounds},
-    {"c", ROM_VR_C, COUNT_ONE, TYPE_FLOAT64, ROLE_FIXED, get_c, NULL, set_c, NULL, varies_c},
-    {"d", ROM_VR_D, COUNT_ONE, TYPE_FLOAT64, ROLE_FIXED, get_d, NULL, set_d, NULL, varies_d},
-    {"area", ROM_VR_AREA, COUNT_ONE, TYPE_FLOAT64, ROLE_FIXED, get_area, NULL, rom_set_area, NULL, has_ports},
-    PORT_ROWS(1), PORT_ROWS(2), PORT_ROWS(3), PORT_ROWS(4),
-};   /* one PORT_ROWS per port: ROM_MAX_PORTS rows */
+static const Variable VARIABLES[] = {FMU_VARIABLE_ROWS};
+#define N_VARIABLES (sizeof VARIABLES / sizeof VARIABLES[0])
 
-/* the variable of value reference ref (time only where the version has it), or NULL; *j: the probe index */
-static const Variable *lookup(const Instance *inst, uint32_t ref, uint32_t *j) {
-    for (size_t i = 0; i < sizeof VARIABLES / sizeof VARIABLES[0]; i++) {
+/* the number of value references var stands for in this FMU (0: absent) */
+static uint32_t variable_count(const Instance *inst, const Variable *var) {
+    if (var->present && !var->present(inst)) return 0;
+    switch (var->count) {
+        case COUNT_PER_PROBE: return inst->model->n_probes;
+        case COUNT_PER_PORT: return rom_n_ports(inst->model);
+        default: return 1;
+    }
+}
+
+/* the FMI name of var's member j (v_probe_2 for j = 1) */
+static const char *variable_name(const Variable *var, uint32_t j, char *out, size_t size) {
+    if (var->count == COUNT_ONE) return var->name;
+    snprintf(out, size, "%s%u%s", var->name, (unsigned)(j + 1), var->name_tail ? var->name_tail : "");
+    return out;
+}
+
+/* The FMU's start values (the table's constant starts; the others come from resources/model.bin, which the core
+ * applies at reset): after every instantiation and reset, whatever the core's own defaults (initial_state_scale
+ * starts at 0: the component at rest) */
+static void apply_start_values(Instance *inst) {
+    for (size_t i = 0; i < N_VARIABLES; i++) {
         const Variable *var = &VARIABLES[i];
-        if (var->role == ROLE_INDEPENDENT && !inst->version->has_time) continue;
-        if (var->present && !var->present(inst->model)) continue;
-        const uint32_t count = var->count == COUNT_PER_PROBE ? inst->model->n_probes : 1u;
-        if (ref >= var->vr && ref - var->vr < count) {
+        if (!var->has_start || !var->set_float64) continue;
+        const uint32_t count = variable_count(inst, var);
+        for (uint32_t j = 0; j < count; j++) (void)var->set_float64(inst->state, j, var->start, NULL, 0);
+    }
+}
+
+/* the variable of value reference ref in this FMU, or NULL; *j: the member of a family */
+static const Variable *lookup(const Instance *inst, uint32_t ref, uint32_t *j) {
+    for (size_t i = 0; i < N_VARIABLES; i++) {
+        const Variable *var = &VARIABLES[i];
+        if (ref >= var->vr && ref - var->vr < variable_count(inst, var)) {
             *j = ref - var->vr;
             return var;
         }
@@ -493,7 +509,7 @@ static InstanceStatus get_values(Instance *inst, const char *fn, VariableType ty
         if (type == TYPE_FLOAT64) {
             reals[i] = var->get_float64(inst->state, j);
         } else {
-            ints[i] = var->get_int32(inst->state);
+            ints[i] = var->get_int32(inst->state, j);
         }
     }
     return INSTANCE_OK;
@@ -506,26 +522,28 @@ static InstanceStatus set_values(Instance *inst, const char *fn, VariableType ty
     if (check_arguments(inst, fn, refs, n_refs, values, n_values) != INSTANCE_OK) return INSTANCE_ERROR;
     for (size_t i = 0; i < n_refs; i++) {
         uint32_t j = 0;
+        char name[64];
         const Variable *var = lookup(inst, refs[i], &j);
         if (!var || var->type != type) return unknown_reference(inst, fn, refs[i]);
         switch (var->role) {
             case ROLE_OUTPUT: return instance_error(inst, fn, "outputs cannot be set");
             case ROLE_CALCULATED:
                 return instance_error(inst, fn, "%s is a calculated parameter (computed at packaging) and cannot be "
-                                      "set", var->name);
+                                      "set", variable_name(var, j, name, sizeof name));
             case ROLE_INDEPENDENT:
                 return instance_error(inst, fn, "%s is the independent variable and cannot be set", var->name);
             case ROLE_FIXED:
                 if (inst->mode == MODE_STEP) {
                     return instance_error(inst, fn, "%s is a fixed parameter: it can be set only before %s",
-                                          var->name, inst->version->exit_initialization);
+                                          variable_name(var, j, name, sizeof name),
+                                          inst->version->exit_initialization);
                 }
                 break;
             case ROLE_INPUT: break;
         }
         const RomStatus status = type == TYPE_FLOAT64
-                                     ? var->set_float64(inst->state, reals[i], inst->message, sizeof inst->message)
-                                     : var->set_int32(inst->state, ints[i], inst->message, sizeof inst->message);
+                                     ? var->set_float64(inst->state, j, reals[i], inst->message, sizeof inst->message)
+                                     : var->set_int32(inst->state, j, ints[i], inst->message, sizeof inst->message);
         if (status != ROM_OK) return instance_error(inst, fn, "%s", inst->message);
     }
     return INSTANCE_OK;
@@ -557,32 +575,50 @@ InstanceStatus instance_no_variables(Instance *inst, const char *fn, const uint3
     return n_refs == 0 ? INSTANCE_OK : unknown_reference(inst, fn, refs[0]);
 }
 
+/* the inputs that take a rate in this FMU, for messages: "1 (f), 3000 to 3001 (F_port_1 to F_port_2)" */
+static void rate_inputs(const Instance *inst, char *out, size_t size) {
+    size_t used = 0;
+    out[0] = '\0';
+    for (size_t i = 0; i < N_VARIABLES && used < size; i++) {
+        const Variable *var = &VARIABLES[i];
+        const uint32_t count = variable_count(inst, var);
+        if (!var->set_rate || count == 0) continue;
+        char first[64], last[64];
+        const int n = count == 1
+            ? snprintf(out + used, size - used, "%s%u (%s)", used ? ", " : "", (unsigned)var->vr,
+                       variable_name(var, 0, first, sizeof first))
+            : snprintf(out + used, size - used, "%s%u to %u (%s to %s)", used ? ", " : "", (unsigned)var->vr,
+                       (unsigned)(var->vr + count - 1), variable_name(var, 0, first, sizeof first),
+                       variable_name(var, count - 1, last, sizeof last));
+        if (n < 0) break;
+        used += (size_t)n;
+    }
+}
+
 InstanceStatus instance_set_input_derivatives(Instance *inst, const char *fn, const uint32_t refs[], size_t n_refs,
                                              const int32_t orders[], const double values[]) {
     if (n_refs > 0 && (!refs || !orders || !values)) {
         return instance_error(inst, fn, "the value reference, order or value array is NULL");
     }
-    const uint32_t n_ports = rom_n_ports(inst->model);
     for (size_t i = 0; i < n_refs; i++) {
-        const int is_port = refs[i] >= ROM_VR_F_PORT && refs[i] - ROM_VR_F_PORT < n_ports;
-        if (refs[i] != ROM_VR_F && !is_port) {
-            if (n_ports) {
-                return instance_error(inst, fn, "value reference %u is not a real input (allowed: %u, the input f, "
-                                      "and %u to %u, the port forces)", (unsigned)refs[i], (unsigned)ROM_VR_F,
-                                      (unsigned)ROM_VR_F_PORT, (unsigned)(ROM_VR_F_PORT + n_ports - 1));
-            }
-            return instance_error(inst, fn, "value reference %u is not a real input (allowed: %u, the input f)",
-                                  (unsigned)refs[i], (unsigned)ROM_VR_F);
+        uint32_t j = 0;
+        const Variable *var = lookup(inst, refs[i], &j);
+        if (!var || !var->set_rate) {
+            char allowed[256];
+            rate_inputs(inst, allowed, sizeof allowed);
+            return instance_error(inst, fn, "value reference %u is not a real input (allowed: %s)", (unsigned)refs[i],
+                                  allowed);
         }
         if (orders[i] != 1) {
             return instance_error(inst, fn, "order %d is not supported (allowed: 1)", (int)orders[i]);
         }
     }
     for (size_t i = 0; i < n_refs; i++) {
-        const RomStatus status = refs[i] == ROM_VR_F
-            ? rom_set_input_rate(inst->state, values[i], inst->message, sizeof inst->message)
-            : rom_set_port_rate(inst->state, refs[i] - ROM_VR_F_PORT, values[i], inst->message, sizeof inst->message);
-        if (status != ROM_OK) return instance_error(inst, fn, "%s", inst->message);
+        uint32_t j = 0;
+        const Variable *var = lookup(inst, refs[i], &j);
+        if (var->set_rate(inst->state, j, values[i], inst->message, sizeof inst->message) != ROM_OK) {
+            return instance_error(inst, fn, "%s", inst->message);
+        }
     }
     return INSTANCE_OK;
 }
@@ -594,11 +630,12 @@ InstanceStatus instance_get_output_derivatives(Instance *inst, const char *fn, c
     const int max_order = rom_max_output_derivative_order(inst->model);
     for (size_t i = 0; i < n_refs; i++) {
         uint32_t j = 0;
+        char name[64];
         const Variable *var = lookup(inst, refs[i], &j);
         if (!var || var->type != TYPE_FLOAT64) return unknown_reference(inst, fn, refs[i]);
         if (var->role != ROLE_OUTPUT) {
-            return instance_error(inst, fn, "%s is not an output (derivatives exist for v_probe_j and rho_probe_j)",
-                                  var->name);
+            return instance_error(inst, fn, "%s is not an output (derivatives exist for " FMU_OUTPUTS_WITH_RATES ")",
+                                  variable_name(var, j, name, sizeof name));
         }
         if (max_order == 0) {
             return instance_error(inst, fn, "the frozen model provides no output derivatives "
@@ -606,20 +643,17 @@ InstanceStatus instance_get_output_derivatives(Instance *inst, const char *fn, c
                                   "steps, not a differentiable function of time)");
         }
         if (orders[i] < 1 || orders[i] > max_order) {
-            return instance_error(inst, fn, "order %d of the derivative of %s_%u is not supported "
+            return instance_error(inst, fn, "order %d of the derivative of %s is not supported "
                                   "(maxOutputDerivativeOrder = %d: allowed orders 1 to %d)", (int)orders[i],
-                                  var->name, j + 1, max_order, max_order);
+                                  variable_name(var, j, name, sizeof name), max_order, max_order);
         }
-        RomStatus status;
-        if (var->vr == ROM_VR_V_PROBE) {
-            status = rom_v_probe_rate(inst->state, j, &values[i], inst->message, sizeof inst->message);
-        } else if (var->vr == ROM_VR_RHO_PROBE) {
-            status = rom_rho_probe_rate(inst->state, j, &values[i], inst->message, sizeof inst->message);
-        } else {
-            return instance_error(inst, fn, "no derivative of %s is provided (derivatives exist for v_probe_j and "
-                                  "rho_probe_j)", var->name);
+        if (!var->get_rate) {
+            return instance_error(inst, fn, "no derivative of %s is provided (derivatives exist for "
+                                  FMU_OUTPUTS_WITH_RATES ")", variable_name(var, j, name, sizeof name));
         }
-        if (status != ROM_OK) return instance_error(inst, fn, "%s", inst->message);
+        if (var->get_rate(inst->state, j, &values[i], inst->message, sizeof inst->message) != ROM_OK) {
+            return instance_error(inst, fn, "%s", inst->message);
+        }
     }
     return INSTANCE_OK;
 }

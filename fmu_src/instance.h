@@ -21,6 +21,7 @@
 #include <stdint.h>
 
 #include "rom.h"
+#include "fmu_variables.h"   /* value references and the variable table's rows (generated) */
 
 /* Numbered as FMI 2 and FMI 3 number their statuses (OK, Warning, Discard, Error), so
  * that an adapter converts a status with a cast. */
@@ -160,10 +161,9 @@ InstanceStatus instance_get_int32(Instance *inst, const char *fn, const uint32_t
                                   int32_t values[], size_t n_values);
 InstanceStatus instance_set_int32(Instance *inst, const char *fn, const uint32_t refs[], size_t n_refs,
                                   const int32_t values[], size_t n_values);
-/* First derivatives df/dt [m s^-3] of the input f at the time of the last set value (FMI 2's
- * fmi2SetRealInputDerivatives): f(t_comm + tau) = f + rate tau over the following
- * communication steps, until f is set again (which resets the rate to 0).  Only
- * value reference ROM_VR_F and order 1; exact linear model only (canInterpolateInputs). */
+/* First derivatives of inputs at the time of their last set value (FMI 2's fmi2SetRealInputDerivatives), on the
+ * inputs the variable table gives a rate (f [m s^-3], F_port_j [N s^-1]): f(t_comm + tau) = f + rate tau over the
+ * following communication steps, until f is set again (which resets the rate to 0).  Order 1 only. */
 InstanceStatus instance_set_input_derivatives(Instance *inst, const char *fn, const uint32_t refs[], size_t n_refs,
                                              const int32_t orders[], const double values[]);
 /* Time derivatives of outputs at the current time (fmi2GetRealOutputDerivatives,

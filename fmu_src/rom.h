@@ -138,26 +138,10 @@ extern "C" {
 #define ROM_STEP_ROUNDING 1e-9        /* relative: h/dt within this of an integer is that many whole steps */
 #define ROM_SHORT_STEP_MIN 1e-12      /* a remainder below this x dt is no step */
 
-/* value references shared by both FMI versions */
-#define ROM_VR_TIME 0u               /* FMI 3 only: the independent variable */
-#define ROM_VR_F 1u                  /* input f [m s^-2] */
-#define ROM_VR_N_FREEZE 2u           /* parameter n_freeze */
-#define ROM_VR_DT 3u                 /* parameter dt [s] */
-#define ROM_VR_INITIAL_STATE_SCALE 4u  /* parameter initial_state_scale (1: the scene's initial state, 0: rest) */
-#define ROM_INITIAL_STATE_SCALE_START 0.0  /* its start value in the FMU: a component starts at rest */
-#define ROM_VR_C 5u                  /* parameter c [kg m^-1 s^-2] (parametric models only) */
-#define ROM_VR_D 6u                  /* parameter d [s^-1] (parametric models only) */
-#define ROM_VR_V_PROBE 1000u         /* v_probe_1 .. : 1000 + j */
-#define ROM_VR_RHO_PROBE 2000u       /* rho_probe_1 .. : 2000 + j */
-#define ROM_VR_FORCE_ERROR_BOUND 8u  /* linear models: certified force-channel bound, max over probes [s] */
-#define ROM_VR_INITIAL_STATE_ERROR_BOUND 9u   /* linear models: initial-state bound, max over probes [m s^-1 s^0.5] */
-#define ROM_VR_FORCE_ERROR_BOUND_PROBE 5000u   /* force_error_bound_1 .. : 5000 + j */
-#define ROM_VR_INITIAL_STATE_ERROR_BOUND_PROBE 6000u   /* initial_state_error_bound_1 .. : 6000 + j */
+/* The FMU's value references and start values are not the core's: fmu_src/fmu_variables.h, generated from the
+ * variable table harness/fmu/variables.py. */
 #define ROM_LINEAR_EXACT_POD 1u      /* section LINMODEL: which linear model (messages only) */
 #define ROM_LINEAR_BALANCED 2u
-#define ROM_VR_AREA 7u               /* parameter area [m^2], only with ports */
-#define ROM_VR_F_PORT 3000u          /* input F_port_1 .. [N]: 3000 + j, only with ports */
-#define ROM_VR_V_PORT 4000u          /* output v_port_1 .. [m s^-1]: 4000 + j, only with ports */
 #define ROM_MAX_PORTS 4u             /* mechanical ports of one FMU */
 
 typedef enum { ROM_OK = 0, ROM_FAIL = 1 } RomStatus;

@@ -5,3 +5,10 @@ A module that needs one of these imports it from here; nothing else types its va
 
 N_FREEZE = 10                   # refresh period of the frozen model's coefficients [internal steps] (eq. 2.23)
 PROBES = (0.25, 0.5, 0.66)      # probe positions [x/L]; 0.66: the probe of the paper's Fig. C.6
+
+# The FMU's start values that are the same in every FMU (harness/fmu/variables.py declares them; the instance
+# layer, fmu_src/instance.c, applies them after every instantiation and reset).  The Python models keep their
+# own defaults (harness/rom/: initial state scale 1, the scene's initial state).
+FMU_INITIAL_STATE_SCALE = 0     # the FMU starts at rest: initial state = this x the scene's deviation from rest [1]
+FMU_INPUT = 0                   # the inputs f [m s^-2] and F_port_j [N] before the importer sets them
+FMU_AREA = 1                    # the cross-section A of an FMU with ports [m^2]

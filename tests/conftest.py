@@ -45,12 +45,6 @@ def _private_cache(tmp_path_factory):
     os.environ["SPHROM_CACHE"] = str(tmp_path_factory.mktemp("sphrom-cache"))
 
 
-# the unit of each FMU variable (README, "The FMU": the variable contract), by name prefix
-FMU_UNITS = {"time": "s", "f": "m/s2", "dt": "s", "v_probe_": "m/s", "rho_probe_": "kg/m3", "initial_state_scale": "1"}
-FMU_UNITS.update({"force_error_bound": "s", "force_error_bound_": "s",             # linear models' bounds
-                  "initial_state_error_bound": "m/s*s^0.5", "initial_state_error_bound_": "m/s*s^0.5"})
-FMU_UNITS.update({"area": "m2", "F_port_": "N", "v_port_": "m/s"})        # only in FMUs with ports
-FMU_UNITS.update({"c": "Pa", "d": "1/s"})                                  # only in parametric FMUs
 # the order of modelDescription's elements in the FMI 2 and 3 schemas (each optional)
 FMU_ELEMENT_ORDER = ["ModelExchange", "CoSimulation", "ScheduledExecution", "UnitDefinitions", "TypeDefinitions",
                      "LogCategories", "DefaultExperiment", "VendorAnnotations", "ModelVariables", "ModelStructure"]
@@ -65,6 +59,7 @@ def assert_units_through_declared_types(path):
 
     import fmpy
 
+    from harness.fmu.variables import lookup
     root = ET.fromstring(zipfile.ZipFile(path).read("modelDescription.xml"))
     fmi3 = root.get("fmiVersion").startswith("3")
     tags = [child.tag for child in root]
@@ -82,8 +77,8 @@ def assert_units_through_declared_types(path):
     for element in reals:
         assert element.get("unit") is None and element.get("declaredType") in declared
     for v in fmpy.read_model_description(str(path)).modelVariables:
-        unit = next((u for prefix, u in FMU_UNITS.items() if v.name == prefix or
-                     (prefix.endswith("_") and v.name.startswith(prefix))), None)
+        row, _ = lookup(v.name)                         # the unit the variable table gives it
+        unit = row.unit or None
         if v.type in ("Real", "Float64"):
             assert v.unit is None and v.declaredType.unit == unit, v.name
         else:

@@ -20,10 +20,11 @@ from fmpy.fmi1 import FMICallException
 from conftest import assert_units_through_declared_types, fmu_scene
 from harness.cli import main
 from harness.fmu.build import ensure_binaries
-from harness.fmu.fmi import VR_DT, VR_N_FREEZE, Slave
+from harness.fmu.fmi import Slave
 from harness.fmu.package import package_fmu
 from harness.fmu.python_cosim import cosim_reference, probe_values, split_step
 from harness.fmu.resources import unpack
+from harness.fmu.variables import vr
 from harness.pod.pipeline import basis_for_scene
 from harness.rom.common import run_reduced
 from harness.rom.operators import build_operators, probe_rows, rest_equilibrium
@@ -166,7 +167,7 @@ def test_n_freeze_parameter(fmus):
     steps, inputs = [0.004] * 30, rng.normal(0, 0.05, 30)
     with Slave(path) as s:
         s.initialize(n_freeze=3, initial_state_scale=1)
-        assert s.fmu.getInteger([VR_N_FREEZE]) == [3]
+        assert s.fmu.getInteger([vr("n_freeze")]) == [3]
         out = s.run(steps, inputs)
     _, v, r = cosim_reference(data, steps, inputs, n_freeze=3)
     assert relative_residual(out, np.hstack([v, r])) <= RTOL
@@ -339,7 +340,7 @@ def test_illegal_call_sequences(fmus, fmi):
     with Slave(path) as s:                    # a fixed parameter in step mode
         s.initialize(initial_state_scale=1)
         with pytest.raises(FMICallException):
-            s.set_real([VR_DT], [1e-4])
+            s.set_real([vr("dt")], [1e-4])
         assert any("fixed parameter" in e for e in s.errors())
     with Slave(path) as s:                    # the wrong communication point
         s.initialize(initial_state_scale=1)

@@ -18,11 +18,10 @@ from scipy.integrate import simpson
 
 from conftest import assert_units_through_declared_types, fmu_scene, small_scene
 from harness.fmu.build import ensure_binaries
-from harness.fmu.describe import (VR_FORCE_ERROR_BOUND, VR_FORCE_ERROR_BOUND_PROBE, VR_INITIAL_STATE_ERROR_BOUND,
-                                  VR_INITIAL_STATE_ERROR_BOUND_PROBE)
 from harness.fmu.fmi import Slave
 from harness.fmu.package import balanced_model, exact_model, package_fmu
 from harness.fmu.resources import FLAG_OUTPUT_ROWS, probe_pairs, unpack
+from harness.fmu.variables import vr
 from harness.rom.balanced import error_bounds, reduced_from_exact
 from harness.rom.balanced_model import run as run_balanced
 from harness.rom.lti import full_linear_system, input_norm, sample_outputs
@@ -65,9 +64,9 @@ def fmus(tmp_path_factory):
 
 def bound_values(slave, n_probes):
     """(force max, initial max, force per probe, initial per probe) read from the FMU."""
-    vrs = ([VR_FORCE_ERROR_BOUND, VR_INITIAL_STATE_ERROR_BOUND]
-           + [VR_FORCE_ERROR_BOUND_PROBE + j for j in range(n_probes)]
-           + [VR_INITIAL_STATE_ERROR_BOUND_PROBE + j for j in range(n_probes)])
+    vrs = ([vr("force_error_bound"), vr("initial_state_error_bound")]
+           + [vr("force_error_bound_j", j) for j in range(1, n_probes + 1)]
+           + [vr("initial_state_error_bound_j", j) for j in range(1, n_probes + 1)])
     values = np.asarray(slave.get_real(vrs))
     return values[0], values[1], values[2:2 + n_probes], values[2 + n_probes:]
 
@@ -93,7 +92,9 @@ def test_balanced_fmu_validates_and_declares_its_model_and_bounds(fmus, fmi):
     assert [v.name for v in calculated] == (["force_error_bound", "initial_state_error_bound"]
                                             + [f"force_error_bound_{j}" for j in (1, 2, 3)]
                                             + [f"initial_state_error_bound_{j}" for j in (1, 2, 3)])
-    assert [v.valueReference for v in calculated] == [8, 9, 5000, 5001, 5002, 6000, 6001, 6002]
+    assert [v.valueReference for v in calculated] == ([vr("force_error_bound"), vr("initial_state_error_bound")]
+                                                      + [vr("force_error_bound_j", j) for j in (1, 2, 3)]
+                                                      + [vr("initial_state_error_bound_j", j) for j in (1, 2, 3)])
     assert all(v.variability == "fixed" for v in calculated)
     assert b"fixedInternalStepSize" not in zipfile.ZipFile(path).read("modelDescription.xml")
     assert "certified" in md.description and "||f||_L2(0,T)" in md.description
@@ -107,12 +108,12 @@ def test_frozen_fmu_has_no_bounds_and_bounds_cannot_be_set(fmus, tmp_path):
     with Slave(path) as s:
         s.initialize(initial_state_scale=1)
         with pytest.raises(FMICallException):
-            s.get_real([VR_FORCE_ERROR_BOUND])
-        assert any("unknown value reference 8" in e for e in s.errors())
+            s.get_real([vr("force_error_bound")])
+        assert any(f"unknown value reference {vr('force_error_bound')}" in e for e in s.errors())
     with Slave(fmus("balanced", "forced", 2)[0]) as s:
         s.initialize(initial_state_scale=1)
         with pytest.raises(FMICallException):
-            s.set_real([VR_FORCE_ERROR_BOUND_PROBE], [1.0])
+            s.set_real([vr("force_error_bound_j", 1)], [1.0])
         assert any("calculated parameter" in e for e in s.errors())
 
 

@@ -244,9 +244,9 @@ def test_core_loader_checks_the_tagged_sections(packaged, binaries):
 
 @pytest.mark.parametrize("fmi", [2, 3])
 def test_sources_lists_agree(packaged, fmi):
-    """sources/ holds the files of package.fmu_sources, and the build description fmpy compile reads
+    """sources/ holds the files of build.fmu_sources, and the build description fmpy compile reads
     (FMI 2: <SourceFiles> of modelDescription.xml, FMI 3: sources/buildDescription.xml) names its C files."""
-    from harness.fmu.package import fmu_sources
+    from harness.fmu.build import fmu_sources
     files = fmu_sources(fmi)
     assert all((Path(__file__).parents[1] / "fmu_src" / name).is_file() for name in files)
     zf = zipfile.ZipFile(packaged[("forced", fmi)])

@@ -11,9 +11,10 @@ import pytest
 from conftest import small_scene
 from harness.fmu import envelope as E
 from harness.fmu.build import ensure_binaries
-from harness.fmu.fmi import VR_C, VR_D, Slave
+from harness.fmu.fmi import Slave
 from harness.fmu.package import package_fmu
 from harness.fmu.resources import unpack
+from harness.fmu.variables import vr
 from harness.rom import parametric as par
 from harness.sph.solver import build_problem
 
@@ -76,7 +77,7 @@ def run_at(path, c, d, scale):
     sc = scene()
     n = int(round(sc.T / H))
     with Slave(path) as s:
-        s.set_real([VR_C, VR_D], [c, d])
+        s.set_real([vr("c"), vr("d")], [c, d])
         s.initialize(initial_state_scale=scale)
         s.run([H] * n, sc.force(np.arange(n) * H))
         return [text for status, _, text in s.messages if status == 1 and "outside the training envelope" in text]

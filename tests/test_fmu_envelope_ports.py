@@ -23,7 +23,11 @@ from harness.fmu.core import Core
 from harness.fmu.fmi import Slave
 from harness.fmu.package import package_fmu
 from harness.fmu.resources import unpack
+from harness.fmu.variables import vr
 from harness.scene import load_scene
+
+F_PORT = [vr("F_port_j", j) for j in (1, 2)]
+V_PORT = [vr("v_port_j", j) for j in (1, 2)]
 
 ENVELOPE_TEXT = "outside the training envelope"
 H = 1e-3
@@ -52,7 +56,7 @@ def run(path, scene, t_end, forces):
         for i in range(n):
             t = i * H
             s.set_input(float(scene.force(t)))
-            s.set_real([3000, 3001], list(forces(t)))
+            s.set_real(F_PORT, list(forces(t)))
             s.do_step(t, H)
             strain = max(strain, float(np.max(np.abs(rho0 / s.get_real(rho_vr) - 1.0))))
         warnings = [text for status, _, text in s.messages if status == 1 and ENVELOPE_TEXT in text]
@@ -69,11 +73,11 @@ def coupled_run(path, scene, t_end):
         s.initialize(initial_state_scale=1)
         for i in range(n):
             t = i * H
-            v_port = s.get_real([4000, 4001])
+            v_port = s.get_real(V_PORT)
             F = open_loop_forces(t)[0]
             F[0] = STIFFNESS * y[0]
             s.set_input(float(scene.force(t)))
-            s.set_real([3000, 3001], list(F))
+            s.set_real(F_PORT, list(F))
             s.do_step(t, H)
             y = mass_spring_step(y, v_port[0], H)
         return [text for status, _, text in s.messages if status == 1 and ENVELOPE_TEXT in text], s.errors()
@@ -121,9 +125,9 @@ def test_the_training_envelope_still_guards_a_port_fmu_until_a_port_force_acts(p
         assert len(warnings_of(s)) == 1 and "reduced coordinate" in warnings_of(s)[0], warnings_of(s)
     with Slave(path) as s:
         s.initialize(initial_state_scale=1)
-        s.set_real([3000], [1e-3])
+        s.set_real(F_PORT[:1], [1e-3])
         s.do_step(0.0, H)
-        s.set_real([3000], [0.0])
+        s.set_real(F_PORT[:1], [0.0])
         blob = s.serialize(s.get_state())
     with Slave(path) as s:
         s.initialize(initial_state_scale=1)

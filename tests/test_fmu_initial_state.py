@@ -20,10 +20,11 @@ from fmpy.fmi1 import FMICallException
 from conftest import fmu_maker, fmu_scene
 from harness.fmu.build import ensure_binaries
 from harness.fmu.describe import model_description
-from harness.fmu.fmi import VR_INITIAL_STATE_SCALE, Slave
+from harness.fmu.fmi import Slave
 from harness.fmu.package import exact_model, reduced_model, write_fmu
 from harness.fmu.python_cosim import cosim_reference
 from harness.fmu.resources import probe_pairs, unpack
+from harness.fmu.variables import vr
 from harness.rom.exact_linear import run_exact
 from harness.sph.solver import build_problem
 
@@ -170,7 +171,7 @@ def test_declared_as_a_fixed_parameter_starting_at_rest(fmus, fmi):
         md = fmpy.read_model_description(str(path))
         var = next(v for v in md.modelVariables if v.name == "initial_state_scale")
         assert (var.valueReference, var.causality, var.variability, var.type) == (
-            VR_INITIAL_STATE_SCALE, "parameter", "fixed", "Real" if fmi == 2 else "Float64")
+            vr("initial_state_scale"), "parameter", "fixed", "Real" if fmi == 2 else "Float64")
         assert float(var.start) == 0.0 and var.initial in (None, "exact")
         text = zipfile.ZipFile(path).read("modelDescription.xml").decode()
         assert re.search(r'name="initial_state_scale"[^>]*causality="parameter"', text)
@@ -180,22 +181,22 @@ def test_declared_as_a_fixed_parameter_starting_at_rest(fmus, fmi):
 def test_settable_before_initialization_refused_after_or_non_finite(fmus, fmi):
     path, _ = fmus("frozen", fmi)
     with Slave(path) as s:                                 # settable in Instantiated and in InitializationMode
-        s.set_real([VR_INITIAL_STATE_SCALE], [0.25])
+        s.set_real([vr("initial_state_scale")], [0.25])
         if fmi == 2:
             s.fmu.setupExperiment(startTime=0.0)
             s.fmu.enterInitializationMode()
         else:
             s.fmu.enterInitializationMode(startTime=0.0)
-        s.set_real([VR_INITIAL_STATE_SCALE], [0.5])
+        s.set_real([vr("initial_state_scale")], [0.5])
         s.fmu.exitInitializationMode()
-        assert s.get_real([VR_INITIAL_STATE_SCALE])[0] == 0.5
+        assert s.get_real([vr("initial_state_scale")])[0] == 0.5
         with pytest.raises(FMICallException):
-            s.set_real([VR_INITIAL_STATE_SCALE], [1.0])
+            s.set_real([vr("initial_state_scale")], [1.0])
         assert any("initial_state_scale is a fixed parameter" in e for e in s.errors())
     for bad in (math.nan, math.inf, -math.inf):
         with Slave(path) as s:
             with pytest.raises(FMICallException):
-                s.set_real([VR_INITIAL_STATE_SCALE], [bad])
+                s.set_real([vr("initial_state_scale")], [bad])
             assert any("initial_state_scale" in e and "finite" in e for e in s.errors()), s.errors()
 
 
@@ -211,10 +212,10 @@ def test_states_carry_the_scale_and_reset_restores_the_start_value(fmus, fmi, mo
         first = s.run(steps, inputs)
         s.reset()
         s.initialize()
-        assert s.get_real([VR_INITIAL_STATE_SCALE])[0] == 0.0      # fmi2Reset / fmi3Reset: the start value again
+        assert s.get_real([vr("initial_state_scale")])[0] == 0.0      # fmi2Reset / fmi3Reset: the start value again
         restored = s.deserialize(blob)
         s.set_state(restored)
-        assert s.get_real([VR_INITIAL_STATE_SCALE])[0] == 0.75
+        assert s.get_real([vr("initial_state_scale")])[0] == 0.75
         assert np.array_equal(s.run(steps, inputs), first)
         s.free_state(state)
         s.free_state(restored)

@@ -23,6 +23,7 @@ from harness.fmu.cosim import run_cosim
 from harness.fmu.fmi import Slave
 from harness.fmu.package import exact_model, package_fmu
 from harness.fmu.resources import unpack
+from harness.fmu.variables import vr
 from harness.rom.exact_linear import run_exact
 from test_fmu_exact import probe_outputs, relative_residual
 
@@ -118,20 +119,21 @@ def test_rate_continues_until_f_is_set(fmus):
                 s.do_step(t, h)
                 t += h
             finals.append(s.output_values())
-            assert s.get_real([1])[0] == pytest.approx(1e-2 + 0.5 * 2 * H, rel=1e-14)
+            assert s.get_real([vr("f")])[0] == pytest.approx(1e-2 + 0.5 * 2 * H, rel=1e-14)
     assert relative_residual(np.atleast_2d(finals[1]), np.atleast_2d(finals[0])) <= 1e-11
 
 
-@pytest.mark.parametrize("case,allowed", [((1, 2, 0.1), "order 2 is not supported (allowed: 1)"),
-                                          ((1000, 1, 0.1), "is not a real input (allowed: 1, the input f)"),
-                                          ((1, 1, float("nan")), "is not finite")])
+@pytest.mark.parametrize("case,allowed", [(("f", 2, 0.1), "order 2 is not supported (allowed: 1)"),
+                                          (("v_probe_j", 1, 0.1), "is not a real input (allowed: 1 (f))"),
+                                          (("f", 1, float("nan")), "is not finite")])
 def test_refused_with_a_message(fmus, case, allowed):
-    vr, order, value = case
+    name, order, value = case
+    ref = vr(name, 1 if name.endswith("_j") else None)
     with Slave(fmus("exact", 2)) as s:
         s.initialize(initial_state_scale=1)
         with pytest.raises(FMICallException) as exc:
             from ctypes import c_double, c_int, c_uint32
-            s.fmu.fmi2SetRealInputDerivatives(s.fmu.component, (c_uint32 * 1)(vr), 1, (c_int * 1)(order),
+            s.fmu.fmi2SetRealInputDerivatives(s.fmu.component, (c_uint32 * 1)(ref), 1, (c_int * 1)(order),
                                               (c_double * 1)(value))
         assert exc.value.status == 3                                       # fmi2Error
         assert any(allowed in text and "fmi2SetRealInputDerivatives" in text for text in s.errors()), s.errors()
@@ -161,7 +163,7 @@ def test_frozen_fmu_with_derivatives_equals_python_bitwise(fmus):
                 s.do_step(tc, h)
                 tc = tc + h
                 out.append(s.output_values())
-                assert s.get_real([1])[0] == f + rate * h
+                assert s.get_real([vr("f")])[0] == f + rate * h
         _, v, r = cosim_reference(data, steps, inputs, n_freeze=n_freeze, rates=rates)
         assert np.array_equal(np.array(out), np.hstack([v, r])), n_freeze
         _, vh, rh = cosim_reference(data, steps, inputs, n_freeze=n_freeze)

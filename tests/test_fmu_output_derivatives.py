@@ -15,6 +15,7 @@ from fmpy.fmi1 import FMICallException
 from conftest import fmu_maker
 from harness.fmu.fmi import Slave
 from harness.fmu.python_cosim import linear_output_rates
+from harness.fmu.variables import vr
 
 K = 6
 PROBES = (0.25, 0.5, 0.66)
@@ -82,7 +83,7 @@ def test_derivative_uses_the_input_now_with_its_rate(fmus):
         before = s.output_values()
         s.do_step(h - DELTA, DELTA)
         derivative = s.output_derivatives()
-        f_now = s.get_real([1])[0]
+        f_now = s.get_real([vr("f")])[0]
         z = s.reduced_state(data.k_v + data.k_rho)
         s.do_step(h, DELTA)
         after = s.output_values()

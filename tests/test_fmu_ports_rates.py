@@ -18,12 +18,13 @@ from harness.fmu.build import ensure_binaries
 from harness.fmu.fmi import Slave
 from harness.fmu.package import package_fmu
 from harness.fmu.resources import unpack
+from harness.fmu.variables import vr
 
 PORTS = (0.3, 0.7)
 PROBES = (0.25, 0.5)
 AREA = 2.0
-VR_F_PORT = [3000, 3001]
-VR_V_PORT = [4000, 4001]
+VR_F_PORT = [vr("F_port_j", j) for j in (1, 2)]
+VR_V_PORT = [vr("v_port_j", j) for j in (1, 2)]
 
 
 @pytest.fixture(scope="module")
@@ -53,7 +54,7 @@ def run_fmu(path, steps, F, rates=None, f=None, f_rates=None, n_freeze=None):
     with the port forces F (M, 2) set before each step, their rates when given (else held), and f with its rate."""
     out, back = [], []
     with Slave(path) as s:
-        s.set_real([7], [AREA])
+        s.set_real([vr("area")], [AREA])
         s.initialize(n_freeze=n_freeze, initial_state_scale=1)
         assert s.outputs[-2:] == ["v_port_1", "v_port_2"]
         out.append(s.output_values())

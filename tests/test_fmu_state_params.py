@@ -19,16 +19,17 @@ from fmpy.fmi1 import FMICallException
 from conftest import fmu_scene
 from harness.fmu.build import ensure_binaries
 from harness.fmu.describe import model_description
-from harness.fmu.fmi import VR_C, VR_D, Slave
+from harness.fmu.fmi import Slave
 from harness.fmu.package import package_fmu, write_fmu
 from harness.fmu.resources import unpack
+from harness.fmu.variables import vr
 from harness.rom import parametric as par
 
 DATA = Path(__file__).resolve().parent / "data"
 K = 6
 PROBES = (0.25, 0.5, 0.66)
 RANGES = [par.Range("c", 0.05, 0.2), par.Range("d", 5.0, 15.0)]
-VR_AREA, VR_F_PORT = 7, 3000
+VR_C, VR_D, VR_AREA, VR_F_PORT = vr("c"), vr("d"), vr("area"), vr("F_port_j", 1)
 H = 0.01
 C1, D1, C2, D2 = 0.13, 7.5, 0.06, 14.0
 

@@ -1,14 +1,13 @@
 """The FMU explains itself: ``sphrom fmu`` measures the FMU it built against the full SPH (numbers stored in the
 FMU equal an independent recomputation), ``documentation/index.html`` lists exactly the modelDescription's
 variables, ``--tolerance`` refuses a model above it without losing a file, ``--model auto`` keeps the fastest
-model that meets it, and the README's variable list covers every variable of packaged FMUs."""
+model that meets it, and every variable of packaged FMUs is a row of the variable table."""
 
 import dataclasses
 import math
 import re
 import zipfile
 from html.parser import HTMLParser
-from pathlib import Path
 
 import fmpy
 import numpy as np
@@ -18,13 +17,12 @@ from conftest import fmu_scene
 from harness.cli import main
 from harness.expr import compile_expr
 from harness.fmu.build import ensure_binaries
-from harness.fmu.contract import FMU_VARIABLES, lookup
 from harness.fmu.cosim import run_cosim
 from harness.fmu.package import package_auto, package_fmu
+from harness.fmu.variables import lookup, vr
 from harness.rom.registry import fmu_model_names
 from harness.sph.solver import build_problem, run_sph
 
-ROOT = Path(__file__).resolve().parents[1]
 K = 6
 
 
@@ -232,40 +230,21 @@ def test_model_auto_keeps_the_fastest_model_meeting_the_tolerance(tmp_path):
     assert best2.model == min(errors, key=errors.get)
 
 
-README_UNITS = {"s": "s", "m s⁻²": "m/s2", "m s⁻¹": "m/s", "kg m⁻³": "kg/m3", "1": "1", "–": "", "-": "",
-                "m s⁻¹ s^½": "m/s*s^0.5", "N": "N", "m²": "m2", "Pa": "Pa", "s⁻¹": "1/s"}
-
-
-def readme_variables():
-    """Rows (name, value reference text, causality word, unit) of README's FMU variable table."""
-    text = (ROOT / "README.md").read_text()
-    start = text.index("**Variables**")
-    rows = []
-    for line in text[start:].splitlines()[1:]:
-        if rows and not line.startswith("|"):
-            break
-        m = re.match(r"\| `(\w+)` \[([\w+-]+)\] \| (\w+)[^|]*\|[^|]*\| ([^|]*?) \|", line)
-        if m:
-            rows.append((m[1], m[2], m[3], README_UNITS[m[4].strip()]))
-    return rows
-
-
-def test_readme_and_help_list_every_fmu_variable(packaged, capsys):
-    """README's table, ``sphrom fmu --help`` and harness.fmu.contract list the same variables, and every
-    variable of packaged FMUs (both models, FMI 2 and 3) is among them with its value reference, causality
-    and unit."""
-    assert readme_variables() == [row[:4] for row in FMU_VARIABLES]
-    assert main(["fmu", "--help"]) == 0
-    out = capsys.readouterr().out
-    for name, vr, causality, unit, meaning in FMU_VARIABLES:
-        assert f"{name} [{vr}] {causality}" in out
+def test_every_variable_of_packaged_fmus_is_a_row_of_the_table(packaged):
+    """Every variable of packaged FMUs (both POD models, FMI 2 and 3) is a row of harness/fmu/variables.py (or a
+    member of a family row) with its value reference, causality and unit; the linear model declares neither
+    n_freeze nor dt, which do nothing there."""
     for model, fmi in [("frozen", 2), ("frozen", 3), ("exact", 2), ("exact", 3)]:
         path, _ = packaged("forced", model, fmi, False)
+        names = set()
         for var in fmpy.read_model_description(str(path)).modelVariables:
-            row, vr = lookup(var.name)
-            assert row is not None, f"{var.name} is not documented in harness/fmu/contract.py and README.md"
+            row, j = lookup(var.name)
+            assert row is not None, f"{var.name} is not a row of harness/fmu/variables.py"
             unit = var.unit or (var.declaredType.unit if var.declaredType is not None else None) or ""
-            assert (vr, row[2], row[3]) == (var.valueReference, var.causality, unit), var.name
+            ref = vr(row.display, j)
+            assert (ref, row.causality, row.unit) == (var.valueReference, var.causality, unit), var.name
+            names.add(var.name)
+        assert ({"n_freeze", "dt"} <= names) == (model == "frozen"), (model, fmi)
 
 
 def test_the_benchmark_section_is_replaced_in_place_or_put_before_the_stress_maps():

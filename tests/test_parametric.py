@@ -15,16 +15,17 @@ import pytest
 
 from conftest import small_scene
 from harness.errors import FieldError
+from harness.fmu import parametric as fmu_par
 from harness.fmu.build import ensure_binaries
-from harness.fmu.fmi import VR_C, VR_D, Slave
+from harness.fmu.fmi import Slave
 from harness.fmu.package import package_fmu
 from harness.fmu.python_cosim import probe_values
 from harness.fmu.resources import unpack
-from harness.fmu import parametric as fmu_par
+from harness.fmu.variables import vr
 from harness.rom import parametric as par
+from harness.rom.common import run_reduced
 from harness.rom.exact_linear import build_linear_operators, run_exact
 from harness.rom.operators import build_operators, probe_rows, rest_equilibrium
-from harness.rom.common import run_reduced
 from harness.sph.solver import build_problem
 
 K = 6
@@ -195,7 +196,7 @@ def exact_reference(affine, scene, c, d, data, inputs, H, M, forced):
 
 def run_slave(path, c, d, inputs, H, M):
     with Slave(path) as s:
-        vrs = [vr for vr in (VR_C, VR_D) if vr in s.vr.values()]
+        vrs = [ref for ref in (vr("c"), vr("d")) if ref in s.vr.values()]
         s.set_real(vrs, [c, d][:len(vrs)])
         s.initialize(initial_state_scale=1)
         assert np.array_equal(s.get_real(vrs), [c, d][:len(vrs)])
@@ -245,7 +246,7 @@ def test_fmu_declares_c_and_d_and_refuses_values_outside(fmus, fmi):
     path, data = fmus("unforced", "frozen", fmi)
     md = fmpy.read_model_description(str(path))
     var = {v.name: v for v in md.modelVariables}
-    assert var["c"].valueReference == VR_C and var["d"].valueReference == VR_D
+    assert var["c"].valueReference == vr("c") and var["d"].valueReference == vr("d")
     assert (var["c"].causality, var["c"].variability) == ("parameter", "fixed")
     assert float(var["c"].start) == 0.1 and float(var["c"].min) == 0.05 and float(var["c"].max) == 0.2
     assert float(var["d"].start) == 0.0 and float(var["d"].min) == 0.0 and float(var["d"].max) == 5.0
@@ -253,12 +254,12 @@ def test_fmu_declares_c_and_d_and_refuses_values_outside(fmus, fmi):
     from fmpy.fmi1 import FMICallException
     with Slave(path) as s:
         with pytest.raises(FMICallException):
-            s.set_real([VR_C], [0.3])
+            s.set_real([vr("c")], [0.3])
         assert any("c = 0.3 is outside the trained range [0.05, 0.2]" in m for m in s.errors())
     with Slave(path) as s:                              # fixed: not settable after initialization
         s.initialize(initial_state_scale=1)
         with pytest.raises(FMICallException):
-            s.set_real([VR_D], [1.0])
+            s.set_real([vr("d")], [1.0])
         assert any("d is a fixed parameter" in m for m in s.errors())
     assert not fmpy.validation.validate_fmu(str(path))
 
@@ -272,14 +273,8 @@ def test_ordinary_fmu_has_no_c_or_d(tmp_path):
     from fmpy.fmi1 import FMICallException
     with Slave(path) as s:
         with pytest.raises(FMICallException):
-            s.set_real([VR_C], [0.1])
-        assert any("unknown value reference 5" in m for m in s.errors())
-
-
-def test_value_references_of_c_and_d_shared_by_c_and_python():
-    from test_fmu_constants import header_constants
-    rom = header_constants("rom.h")
-    assert (rom["ROM_VR_C"], rom["ROM_VR_D"]) == (VR_C, VR_D) == (5, 6)
+            s.set_real([vr("c")], [0.1])
+        assert any(f"unknown value reference {vr('c')}" in m for m in s.errors())
 
 
 # ---------------------------------------------------------------------------
@@ -328,7 +323,7 @@ def test_sweep_uses_one_parametric_fmu_for_its_d_grid(tmp_path):
     for r in rows:
         assert r["status"] == "ok" and 0 < r["sph_err_v"] < 0.05
         with Slave(sweep_dir() / f"fmu-{r['fmu']}.fmu") as s:
-            s.set_real([VR_D], [r["d"]])
+            s.set_real([vr("d")], [r["d"]])
             s.initialize(n_freeze=10, initial_state_scale=1)
             o = s.run([0.01] * 50, f)
         stats[r["d"]] = probe_stats(t, o[:, :2], (0.0, 0.5))
@@ -349,11 +344,11 @@ def test_reset_reassembles_at_the_new_parameters(fmus, model):
     inputs = scene.force(np.arange(M) * H)
     fresh = run_slave(path, 0.07, 13.0, inputs, H, M)
     with Slave(path) as s:
-        s.set_real([VR_C, VR_D], [0.18, 6.0])
+        s.set_real([vr("c"), vr("d")], [0.18, 6.0])
         s.initialize(initial_state_scale=1)
         first = s.run([H] * M, inputs)
         s.reset()
-        s.set_real([VR_C, VR_D], [0.07, 13.0])
+        s.set_real([vr("c"), vr("d")], [0.07, 13.0])
         s.initialize(initial_state_scale=1)
         again = s.run([H] * M, inputs)
     assert np.array_equal(again, fresh) and not np.array_equal(first, fresh)

@@ -10,8 +10,12 @@ import pytest
 
 from conftest import small_scene
 from harness.errors import FieldError
+from harness.fmu.variables import vr
 from harness.sph.ports import momentum_weights, parse_ports, port_accelerations, port_velocity_rows, run_sph_ports
 from harness.sph.solver import build_problem
+
+F_PORT = [vr("F_port_j", j) for j in (1, 2)]
+V_PORT = [vr("v_port_j", j) for j in (1, 2)]
 
 
 def port_forces(t):
@@ -95,19 +99,19 @@ def run_port_fmu(path, scene, steps=M, area=AREA, state_at=None):
     from harness.fmu.fmi import Slave
     t = np.arange(steps + 1) * H
     with Slave(path) as s:
-        s.set_real([7], [area])
+        s.set_real([vr("area")], [area])
         s.initialize(initial_state_scale=1)
-        out = [s.get_real([4000, 4001])]
+        out = [s.get_real(V_PORT)]
         for n in range(steps):
             s.set_input(float(scene.force(t[n])))
-            s.set_real([3000, 3001], list(port_forces(t[n])[0]))
+            s.set_real(F_PORT, list(port_forces(t[n])[0]))
             s.do_step(t[n], H)
-            out.append(s.get_real([4000, 4001]))
+            out.append(s.get_real(V_PORT))
             if state_at == n:
                 snap = s.fmu.getFMUState() if s.fmi == 2 else s.fmu.getFMUState()
-                s.set_real([3000, 3001], [5.0, -5.0])              # changed, then restored with the state
+                s.set_real(F_PORT, [5.0, -5.0])              # changed, then restored with the state
                 s.fmu.setFMUState(snap)
-        assert s.get_real([7])[0] == area
+        assert s.get_real([vr("area")])[0] == area
     return np.array(out)
 
 
@@ -162,24 +166,24 @@ def test_area_and_port_inputs_refuse_bad_values(port_fmus, fmi):
     from harness.fmu.fmi import Slave
     path, _ = port_fmus("frozen", fmi)
     md = {v.name: v for v in fmpy.read_model_description(str(path)).modelVariables}
-    assert md["area"].valueReference == 7 and md["area"].start in ("1", 1, 1.0) and md["area"].variability == "fixed"
-    assert [md[f"F_port_{j}"].valueReference for j in (1, 2)] == [3000, 3001]
-    assert [md[f"v_port_{j}"].valueReference for j in (1, 2)] == [4000, 4001]
+    assert md["area"].valueReference == vr("area") and md["area"].start in ("1", 1, 1.0) and md["area"].variability == "fixed"
+    assert [md[f"F_port_{j}"].valueReference for j in (1, 2)] == F_PORT
+    assert [md[f"v_port_{j}"].valueReference for j in (1, 2)] == V_PORT
     assert md["F_port_1"].causality == "input" and md["v_port_2"].causality == "output"
     for bad in (0.0, -1.0, float("nan"), float("inf")):
         with Slave(path) as s:
             with pytest.raises(Exception):
-                s.set_real([7], [bad])
+                s.set_real([vr("area")], [bad])
             assert any("area" in m and "allowed: a finite number > 0" in m for m in s.errors()), s.errors()
     with Slave(path) as s:
         s.initialize(initial_state_scale=1)
         with pytest.raises(Exception):
-            s.set_real([3001], [float("nan")])
+            s.set_real(F_PORT[1:], [float("nan")])
         assert any("F_port_2" in m and "not finite" in m for m in s.errors())
     with Slave(path) as s:
         s.initialize(initial_state_scale=1)
         with pytest.raises(Exception):
-            s.set_real([7], [2.0])                                  # fixed: not in step mode
+            s.set_real([vr("area")], [2.0])                                  # fixed: not in step mode
         assert any("area is a fixed parameter" in m for m in s.errors())
 
 
@@ -192,12 +196,12 @@ def test_fmu_without_ports_has_no_port_variables(port_fmus, tmp_path):
     package_fmu(fmu_scene("forced"), path, k=6, progress=False, binaries=ensure_binaries())
     with Slave(path) as s:
         assert "v_port_1" not in s.outputs
-        for vr in (7, 3000, 4000):
+        for ref in (vr("area"), F_PORT[0], V_PORT[0]):
             with Slave(path) as t:
                 t.initialize(initial_state_scale=1)
                 with pytest.raises(Exception):
-                    t.get_real([vr])
-                assert any(f"unknown value reference {vr}" in m for m in t.errors())
+                    t.get_real([ref])
+                assert any(f"unknown value reference {ref}" in m for m in t.errors())
 
 
 @pytest.mark.parametrize("ports, detail", [("1.5", "out of range"), ("0.2,0.2", "same position"),
@@ -248,21 +252,22 @@ def test_exact_port_fmu_takes_port_input_derivatives(port_fmus):
                                           (c_double * n)(*rates))
 
     with Slave(path) as s:
-        s.set_real([7], [AREA])
+        s.set_real([vr("area")], [AREA])
         s.initialize(initial_state_scale=1)
-        out = [s.get_real([4000, 4001])]
+        out = [s.get_real(V_PORT)]
         for n in range(M):
             F0, F1 = port_forces(t[n])[0], port_forces(t[n + 1])[0]
             f0, f1 = float(scene.force(t[n])), float(scene.force(t[n + 1]))
             s.set_input(f0)
-            s.set_real([3000, 3001], list(F0))
-            derivatives(s, [1, 3000, 3001], [(f1 - f0) / H, *((F1 - F0) / H)])
+            s.set_real(F_PORT, list(F0))
+            derivatives(s, [vr("f"), *F_PORT], [(f1 - f0) / H, *((F1 - F0) / H)])
             s.do_step(t[n], H)
-            out.append(s.get_real([4000, 4001]))
+            out.append(s.get_real(V_PORT))
         out = np.array(out)
         with pytest.raises(Exception):
-            derivatives(s, [3002], [1.0])
-        assert any("value reference 3002 is not a real input" in m and "3000 to 3001" in m for m in s.errors())
+            derivatives(s, [F_PORT[-1] + 1], [1.0])          # one past the last port
+        assert any(f"value reference {F_PORT[-1] + 1} is not a real input" in m and f"{F_PORT[0]} to {F_PORT[1]}" in m
+                   for m in s.errors())
     _, lin, _, _ = exact_model(scene, 6, 10, (0.25, 0.5), progress=False, ports=FMU_PORTS)
     ref = lin.port_velocity(run_exact(lin, t, step=H, force=scene.force, hold="linear", port_forces=port_forces,
                                       area=AREA).a_v)

@@ -12,7 +12,8 @@ import pytest
 
 from conftest import small_scene
 from harness.cli import main
-from harness.fmu.fmi import VR_D, Slave
+from harness.fmu.fmi import Slave
+from harness.fmu.variables import vr
 from harness.norms import relative_l2
 from harness.sweep.fmus import sweep_dir
 from harness.sweep.spec import load_spec
@@ -65,7 +66,7 @@ def direct(row, d=None):
     f = 1e-2 * np.sin(2 * np.pi * 1.0 * t[:-1])
     with Slave(sweep_dir() / f"fmu-{row['fmu']}.fmu") as s:
         if d is not None:
-            s.set_real([VR_D], [d])
+            s.set_real([vr("d")], [d])
         s.initialize(n_freeze=10, initial_state_scale=1)
         v = s.run([0.01] * 50, f)[:, :2]
     return t, v, probe_stats(t, v, (0.0, 0.5))

@@ -22,6 +22,7 @@
 #include "fmi3Functions.h"
 #include "rom.h"
 #include "rom_exact.h"     /* the exact model's probe rows (the J <= 0 check below) */
+#include "fmu_variables.h"
 
 #define MAX_OUT (2 * ROM_MAX_PROBES)
 
@@ -491,6 +492,10 @@ static void scenario_bad(void) {
     EXPECT(fmi2EnterInitializationMode(c) == fmi2OK, "enter");
     const fmi2Integer zero = 0;
     EXPECT_ERROR(&book, fmi2SetInteger(c, &vnf, 1, &zero), fmi2OK);
+    /* the frozen model refuses the value; a linear model has no n_freeze (nor dt): no internal step */
+    EXPECT(strstr(book.last, setup.kind == ROM_MODEL_FROZEN ? "n_freeze = 0 is out of range (allowed: an integer >= 1)"
+                                                            : "unknown value reference 2") != NULL,
+           "n_freeze = 0: %s", book.last);
     EXPECT(fmi2Reset(c) == fmi2OK, "reset");
     const double nan_value = NAN, inf_value = INFINITY, negative = -1.0;
     EXPECT_ERROR(&book, fmi2SetReal(c, &vdt, 1, &negative), fmi2OK);
@@ -515,8 +520,11 @@ static void scenario_bad(void) {
     /* step mode: parameters are fixed, time must match, h > 0 */
     EXPECT(fmi2SetupExperiment(c, fmi2False, 0, 0.5, fmi2False, 0) == fmi2OK && fmi2EnterInitializationMode(c) ==
            fmi2OK && fmi2ExitInitializationMode(c) == fmi2OK, "init at t = 0.5");
-    EXPECT(fmi2GetInteger(c, &vnf, 1, &ivalue) == fmi2OK && ivalue >= 1, "n_freeze readable");
-    EXPECT_ERROR(&book, fmi2SetReal(c, &vdt, 1, &value), fmi2OK);
+    if (setup.kind == ROM_MODEL_FROZEN) {
+        EXPECT(fmi2GetInteger(c, &vnf, 1, &ivalue) == fmi2OK && ivalue >= 1, "n_freeze readable");
+    }
+    const fmi2ValueReference vfixed = setup.kind == ROM_MODEL_FROZEN ? vdt : ROM_VR_INITIAL_STATE_SCALE;
+    EXPECT_ERROR(&book, fmi2SetReal(c, &vfixed, 1, &value), fmi2OK);
     EXPECT(strstr(book.last, "fixed parameter") != NULL, "message: %s", book.last);
     EXPECT(fmi2Reset(c) == fmi2OK, "reset");
     EXPECT(fmi2SetupExperiment(c, fmi2False, 0, 0.5, fmi2False, 0) == fmi2OK && fmi2EnterInitializationMode(c) ==
@@ -800,8 +808,9 @@ static fmi2Component ready2_dt(LogBook *book, const fmi2CallbackFunctions *f, do
     fmi2Component c = instantiate2(book, f, setup.uri, setup.token);
     if (!c) return NULL;
     const fmi2ValueReference vdt = ROM_VR_DT;
+    const int has_dt = setup.kind == ROM_MODEL_FROZEN;      /* a linear model has no internal step: no dt */
     if (fmi2SetupExperiment(c, fmi2False, 0.0, 0.0, fmi2False, 0.0) != fmi2OK ||
-        fmi2EnterInitializationMode(c) != fmi2OK || fmi2SetReal(c, &vdt, 1, &dt) != fmi2OK ||
+        fmi2EnterInitializationMode(c) != fmi2OK || (has_dt && fmi2SetReal(c, &vdt, 1, &dt) != fmi2OK) ||
         fmi2ExitInitializationMode(c) != fmi2OK) {
         fmi2FreeInstance(c);
         return NULL;
@@ -832,7 +841,7 @@ static void scenario_edge(void) {
         EXPECT(memcmp(ob, before, n_out * sizeof(double)) != 0, "dt = 1e10 h: the state did not advance");
         EXPECT(memcmp(ob, os, n_out * sizeof(double)) == 0, "dt = 1e10 h: outputs %.17g differ from dt = h %.17g",
                ob[0], os[0]);
-        const int expected = setup.kind == ROM_MODEL_FROZEN ? 1 : 0;     /* the exact step ignores dt */
+        const int expected = setup.kind == ROM_MODEL_FROZEN ? 1 : 0;     /* a linear model has no dt */
         EXPECT(big.warnings == expected && same.warnings == 0, "warnings on dt > h: %d (expected %d): %s",
                big.warnings, expected, big.last);
         if (expected) EXPECT(strstr(big.last, "dt = ") && strstr(big.last, "h = ") && strstr(big.last, "t = "),

@@ -116,11 +116,12 @@ def _simulate(path, stop_time, step, keep=None):
 
 def _bare_calls(unzipdir, md, n_calls, h):
     """n_calls fmi2DoStep of length h on an extracted FMU, nothing else: the call cost through fmpy/ctypes."""
-    from ..fmu.fmi import VR_INITIAL_STATE_SCALE, load_fmu
+    from ..fmu.fmi import load_fmu
+    from ..fmu.variables import vr
     fmu = load_fmu(2, unzipdir, md.guid, "bench")
     fmu.instantiate()
     fmu.setupExperiment(startTime=0.0)
-    fmu.setReal([VR_INITIAL_STATE_SCALE], [1.0])          # the scene's initial state, as every bench run
+    fmu.setReal([vr("initial_state_scale")], [1.0])       # the scene's initial state, as every bench run
     fmu.enterInitializationMode()
     fmu.exitInitializationMode()
     t = 0.0
@@ -326,6 +327,7 @@ class LeanSlave:
 
     def __init__(self, unzipdir, md, guid=None):
         from ..fmu.fmi import load_fmu
+        from ..fmu.variables import vr
         t0 = time.perf_counter()
         self.fmu = load_fmu(2, unzipdir, guid or md.guid, "lean")
         self.messages = []
@@ -335,21 +337,21 @@ class LeanSlave:
         self.n_out = len(outs)
         self.out_vr = (ctypes.c_uint * len(outs))(*outs)
         self.out = (ctypes.c_double * len(outs))()
-        self.in_vr = (ctypes.c_uint * 1)(1)
+        self.in_vr = (ctypes.c_uint * 1)(vr("f"))
         self.in_val = (ctypes.c_double * 1)()
-        self.par_vr = (ctypes.c_uint * 1)(3)
-        self.int_vr = (ctypes.c_uint * 1)(2)
+        self.par_vr = (ctypes.c_uint * 1)(vr("dt"))
+        self.int_vr = (ctypes.c_uint * 1)(vr("n_freeze"))
+        self.scale_vr = (ctypes.c_uint * 1)(vr("initial_state_scale"))
         self.int_val = (ctypes.c_int * 1)()
 
     def start(self, dt=None, n_freeze=None, initial_state_scale=1.0):
         """fmi2Reset, setupExperiment, parameters (initial_state_scale default 1: the scene's initial state, as
         the training run and the Python models have it), initialization."""
-        from ..fmu.fmi import VR_INITIAL_STATE_SCALE
         fmu = self.fmu
         fmu.reset()
         fmu.setupExperiment(startTime=0.0)
         self.in_val[0] = float(initial_state_scale)
-        fmu.fmi2SetReal(fmu.component, (ctypes.c_uint * 1)(VR_INITIAL_STATE_SCALE), 1, self.in_val)
+        fmu.fmi2SetReal(fmu.component, self.scale_vr, 1, self.in_val)
         if dt is not None:
             self.in_val[0] = dt
             fmu.fmi2SetReal(fmu.component, self.par_vr, 1, self.in_val)
@@ -517,7 +519,8 @@ def bench_rows(context):
                             times.append(time.perf_counter() - t0)
                 finally:
                     slave.close()
-                v, rho = _fmu_states(unzipdir, md, summary, ops, steps, dt, force, nf, h)
+                v, rho = _fmu_states(unzipdir, md, summary, ops, steps, dt, force,
+                                     nf if spec.uses_n_freeze else None, h)
                 e_s, e_r = errors(v, rho)
                 rows.append(bench_row(scene, method, k, nf if spec.uses_n_freeze else None, _median(times),
                                  summary.timings.get("model", 0.0), e_s, e_r,

@@ -100,7 +100,8 @@ class FMUStress:
         energies, rho_bad, silent_nan = [], None, 0
         with Slave(folder, name="stress") as s:
             try:
-                s.initialize(dt=None if get_model(model).linear else dt, n_freeze=N_FREEZE,
+                linear = get_model(model).linear          # a linear FMU has no dt, no n_freeze
+                s.initialize(dt=None if linear else dt, n_freeze=None if linear else N_FREEZE,
                              initial_state_scale=amplitude)
                 for i in range(steps.size):
                     z = s.reduced_state(k)

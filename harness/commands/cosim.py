@@ -16,7 +16,8 @@ def add_parser(sub):
     p.add_argument("--t-end", type=positive_float, metavar="T",
                    help="end time [s] (default: the FMU's DefaultExperiment stopTime)")
     p.add_argument("--step", type=positive_float, metavar="H", help="communication step [s] (default: its stepSize)")
-    add_n_freeze(p, help="the n_freeze parameter (default: the packaged value)")
+    add_n_freeze(p, help="the n_freeze parameter of a frozen-model FMU (default: the packaged value; an FMU without "
+                         "it, a linear model's, is an error)")
     p.add_argument("--initial-state-scale", type=number, metavar="S",
                    help="the initial_state_scale parameter: the initial state is S x the scene's deviation from "
                         "rest (1: the scene's initial velocity v0, 0: at rest; default: the FMU's start value, 0)")

@@ -19,7 +19,7 @@ DESCRIPTION = ("Build the frozen-coefficient reduced model of SCENE (eqs. 2.19-2
 
 
 def add_parser(sub):
-    from ..fmu.contract import help_text
+    from ..fmu.variables import help_text, vr
     p = sub.add_parser("fmu", help="package a scene's reduced model as an FMI 2.0/3.0 co-simulation FMU",
                        description="\n".join(textwrap.wrap(DESCRIPTION, 100)), epilog=help_text(),
                        formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -54,8 +54,8 @@ def add_parser(sub):
     p.add_argument("--vary", action="append", default=[], metavar="c=LO:HI|d=LO:HI",
                    help="a parametric FMU: train one basis over this range of the uniform stiffness c "
                         "[kg m^-1 s^-2] or damping d [s^-1] (full SPH at the corners and the centre of the range, "
-                        "one POD of all snapshots) and expose c (value reference 5) or d (6) as fixed parameters, "
-                        "min/max the range; give both to vary both")
+                        f"one POD of all snapshots) and expose c (value reference {vr('c')}) or d ({vr('d')}) as "
+                        "fixed parameters, min/max the range; give both to vary both")
     p.add_argument("--ports", metavar="X1,X2,...",
                    help="mechanical ports at these positions in units of L, each in [0, 1), at most 4: per port j an "
                         "input F_port_j [N] (a point force spread by the SPH kernel) and an output v_port_j "
@@ -146,7 +146,7 @@ def _run(args):
               f"({decision})")
     if model.linear:
         print("  advanced by the matrix exponential over each communication step (input held; cached per step "
-              "length); parameters dt, n_freeze have no effect")
+              "length): no internal step, so no parameters dt and n_freeze")
     else:
         print(f"  integrator {s.integrator}, dt = {s.dt:g} s, n_freeze = {s.n_freeze} (parameters dt, n_freeze)")
     print(f"  probes at x/L = {', '.join(f'{x:g}' for x in s.probes)}: outputs v_probe_1..{len(s.probes)}, "

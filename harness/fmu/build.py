@@ -26,6 +26,18 @@ from ..paths import data_dir
 
 BUILD_TYPE = "Release"
 
+# fmu_src/ files an FMU carries in sources/ (harness/fmu/package.py; its C files are the modelDescription's
+# <SourceFiles> in FMI 2 and buildDescription.xml's in FMI 3, harness/fmu/describe.py)
+CORE_SOURCES = ("rom.h", "rom_internal.h", "rom_frozen.h", "rom_exact.h", "rom.c", "rom_resources.c",
+                "rom_state_io.c", "rom_bytes.c", "rom_frozen.c", "rom_exact.c", "rom_fail.c", "rom_envelope.c")
+INSTANCE_SOURCES = ("instance.h", "fmu_variables.h", "instance.c")
+
+
+def fmu_sources(fmi):
+    """The fmu_src/ files of the FMI ``fmi`` FMU's sources/ folder: the model core, the instance layer and
+    the FMI adapter."""
+    return [*CORE_SOURCES, *INSTANCE_SOURCES, f"fmi{fmi}_cs.c"]
+
 
 @dataclass(frozen=True)
 class Binaries:

@@ -19,6 +19,7 @@ import numpy as np
 
 from ..errors import FieldError, SimulationError, UserError
 from ..paths import is_file
+from .variables import absent, check_parameter
 
 
 @dataclass
@@ -245,6 +246,13 @@ def _positive(value, field):
     return float(value)
 
 
+def has_parameter(md, fmu, name, why=None):
+    """FieldError naming ``name`` when the FMU ``fmu`` (its model description ``md``) has no such parameter: a
+    start value for it would be ignored (:func:`harness.fmu.variables.absent`)."""
+    if not any(v.name == name for v in md.modelVariables):
+        raise absent(name, f"'{fmu}'", why)
+
+
 def can_interpolate_inputs(md) -> bool:
     """Whether the FMU takes input derivatives: FMI 2 with canInterpolateInputs (FMI 3 has no such call)."""
     return md.fmiVersion == "2.0" and bool(md.coSimulation.canInterpolateInputs)
@@ -265,7 +273,8 @@ def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None, hold_inputs
     step : float, optional
         Communication step [s] (default its stepSize).
     n_freeze : int, optional
-        The ``n_freeze`` parameter (default the packaged one).
+        The ``n_freeze`` parameter (default the packaged one); FieldError for an FMU without it (the linear
+        models: no internal step).
     hold_inputs : bool
         Hold f over each step even when the FMU can interpolate inputs (default: an FMU
         that declares canInterpolateInputs gets df/dt, f going linearly between the samples).
@@ -297,17 +306,15 @@ def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None, hold_inputs
     steps = int(math.ceil(ratio - 1e-9))
     start = {}
     if n_freeze is not None:
-        if isinstance(n_freeze, bool) or int(n_freeze) != n_freeze or not 1 <= n_freeze <= 2**31 - 1:
-            raise FieldError("n_freeze", f"{n_freeze!r} is out of range (allowed: an integer >= 1)")
-        start["n_freeze"] = int(n_freeze)
+        has_parameter(md, fmu, "n_freeze")
+        start["n_freeze"] = check_parameter("n_freeze", n_freeze)
     if initial_state_scale is not None:
         if isinstance(initial_state_scale, bool) or not isinstance(initial_state_scale, (int, float)) \
                 or not math.isfinite(initial_state_scale):
             raise FieldError("initial_state_scale", f"{initial_state_scale!r} is out of range (allowed: a finite "
                              "real number; 1 the scene's initial state, 0 at rest)")
-        if not any(v.name == "initial_state_scale" for v in md.modelVariables):
-            raise FieldError("initial_state_scale", f"'{fmu}' has no parameter initial_state_scale (an FMU made "
-                             "by an older sphrom: it always starts from the scene's initial state)")
+        has_parameter(md, fmu, "initial_state_scale", "an FMU made by an older sphrom: it always starts from the "
+                                                      "scene's initial state")
         start["initial_state_scale"] = float(initial_state_scale)
     signal = force_signal(force, t_end, step)
     derivatives = can_interpolate_inputs(md) and not hold_inputs and signal is not None

@@ -1,8 +1,10 @@
-"""Fill the modelDescription templates (``modelDescription/*.xml``).
+"""Assemble an FMU's modelDescription.xml: the templates (``modelDescription/*.xml``) and the variable table.
 
-The templates hold all the XML; this module only substitutes values:
-``{{name}}`` takes one (XML-escaped) value and ``{{#list}} ... {{/list}}``
-repeats its body once per item of a list (probes, outputs).
+The templates hold the XML around the variables; ``{{name}}`` takes one (XML-escaped) value,
+``{{{name}}}`` one piece of XML, and ``{{#list}} ... {{/list}}`` repeats its body once per item of a list.
+The variables, their units and declared types and the ModelStructure come from
+:mod:`harness.fmu.variables`: the rows the FMU has (its presence rules on the packed resources), FMI 2
+indices counted from them, the Outputs and InitialUnknowns listed from their causalities.
 """
 
 from __future__ import annotations
@@ -13,26 +15,17 @@ from xml.sax.saxutils import escape
 
 from .. import __version__
 from ..paths import data_dir
-
-VR_V_PROBE = 1000        # fmu_src/rom.h ROM_VR_V_PROBE
-VR_RHO_PROBE = 2000      # ROM_VR_RHO_PROBE
-VR_INITIAL_STATE_SCALE = 4   # ROM_VR_INITIAL_STATE_SCALE
-INITIAL_STATE_SCALE_START = 0.0  # ROM_INITIAL_STATE_SCALE_START: the FMU starts at rest
-VR_FORCE_ERROR_BOUND = 8                     # ROM_VR_FORCE_ERROR_BOUND
-VR_INITIAL_STATE_ERROR_BOUND = 9             # ROM_VR_INITIAL_STATE_ERROR_BOUND
-VR_FORCE_ERROR_BOUND_PROBE = 5000            # ROM_VR_FORCE_ERROR_BOUND_PROBE
-VR_INITIAL_STATE_ERROR_BOUND_PROBE = 6000    # ROM_VR_INITIAL_STATE_ERROR_BOUND_PROBE
-FIXED_VARIABLES = 3      # FMI 2 indices 1..3: f, n_freeze, dt
-VR_AREA = 7              # ROM_VR_AREA: the cross-section, only with ports
-VR_F_PORT = 3000         # ROM_VR_F_PORT: F_port_1 ..
-VR_V_PORT = 4000         # ROM_VR_V_PORT: v_port_1 ..
+from . import variables
+from .build import fmu_sources
+from .variables import number
 
 _BLOCK = re.compile(r"\{\{#(\w+)\}\}(.*?)\{\{/\1\}\}", re.S)
-_FIELD = re.compile(r"\{\{(\w+)\}\}")
+_RAW = re.compile(r"\{\{\{(\w+)\}\}\}")
+_FIELD = re.compile(r"(?<!\{)\{\{(\w+)\}\}(?!\})")
 
 
-def render(template: str, values: dict, lists: dict) -> str:
-    """Substitute ``values`` and repeat ``lists`` blocks (see module docstring)."""
+def render(template: str, values: dict, lists: dict, raw=None) -> str:
+    """Substitute ``values``, repeat ``lists`` blocks and insert the XML pieces ``raw`` (module docstring)."""
     def field(match, scope):
         key = match.group(1)
         if key not in scope:
@@ -43,17 +36,13 @@ def render(template: str, values: dict, lists: dict) -> str:
         body = match.group(2)
         return "".join(_FIELD.sub(lambda m: field(m, {**values, **item}), body) for item in lists[match.group(1)])
 
-    return _FIELD.sub(lambda m: field(m, values), _BLOCK.sub(block, template))
+    text = _FIELD.sub(lambda m: field(m, values), _BLOCK.sub(block, template))
+    return _RAW.sub(lambda m: (raw or {})[m.group(1)], text)
 
 
 def template(name: str) -> str:
     """The text of ``modelDescription/<name>``."""
     return (data_dir("model_description") / name).read_text(encoding="utf-8")
-
-
-def number(x) -> str:
-    """Shortest text that reads back as the same float (xs:double)."""
-    return repr(float(x))
 
 
 def bound_text(bounds):
@@ -72,7 +61,7 @@ def bound_text(bounds):
 
 
 def model_description(fmi: int, *, token, scene, data, k_requested, step_size, stop_time, input_error,
-                      model="frozen", envelope=None, measured=None, bounds=None, parameters=()):
+                      model="frozen", envelope=None, measured=None, bounds=None):
     """The modelDescription.xml text for FMI version ``fmi`` (2 or 3).
 
     Parameters
@@ -80,8 +69,9 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
     token : str
         GUID / instantiationToken (from the resources).
     scene : Scene
-    data : ModelData
-        The packed model (sizes, dt, n_freeze, probes).
+    data : ModelData or ExactData
+        The packed model (sizes, dt, n_freeze, probes, sections): which variables the FMU has and their
+        start values come from it, as the C instance takes them from the same resources/model.bin.
     k_requested : int
         POD modes asked for (k_v may be one more: the input direction).
     step_size, stop_time : float
@@ -91,31 +81,19 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
     model : str
         The registered reduced model packaged (its title heads the description).
     envelope : Envelope, optional
-        What the basis was trained on (:mod:`harness.fmu.envelope`), appended to the description.
+        What the basis was trained on (:mod:`harness.fmu.envelope`), appended to the description; the
+        nominal values of f and the probe outputs.
     measured : str, optional
         The verification's sentence (errors against the full SPH, run times), appended to the description.
     bounds : dict, optional
-        Linear models: the certified error bounds (:func:`harness.rom.balanced.error_bounds`), declared as
-        calculated parameters.
-    parameters : sequence of dict
-        Parameters of a parametric model (:func:`harness.fmu.parametric.parameter_variables`): name, vr,
-        start, min, max, nominal, description; listed after the outputs.
+        Linear models: the report of the certified error bounds (:func:`harness.rom.balanced.error_bounds`)
+        whose values section BOUNDS holds (default ``data.bounds``), for the words of the description.
     """
     from ..rom.registry import get_model
 
-    probes = [{"j": j + 1, "x": f"{x:g}", "v_vr": VR_V_PROBE + j, "rho_vr": VR_RHO_PROBE + j,
-               "v_index": FIXED_VARIABLES + 1 + j, "rho_index": FIXED_VARIABLES + 1 + data.n_probes + j}
-              for j, x in enumerate(data.probe_x)]
-    # nominal values from the training envelope: max |v| and rho0 at each probe, the training force amplitude
-    # (none for f = 0: a free response trained no force scale)
-    for j, p in enumerate(probes):
-        v_max = envelope.probe_v_max[j] if envelope is not None else 0.0
-        p["v_nominal"] = number(v_max if v_max > 0 else 1.0)
-        p["rho_nominal"] = number(envelope.probe_rho0[j] if envelope is not None else 1.0)
-    f_nominal = ([{"f_nominal": number(envelope.force_amplitude)}]
-                 if envelope is not None and envelope.force_amplitude > 0 else [])
-    outputs = ([{"vr": p["v_vr"], "index": p["v_index"]} for p in probes]
-               + [{"vr": p["rho_vr"], "index": p["rho_index"]} for p in probes])
+    bounds = bounds if bounds is not None else getattr(data, "bounds", None)
+    facts = variables.facts(data, fmi)
+    declared = variables.declared(facts, variable_values(fmi, scene, data, envelope, bounds))
     augmented = data.k_v > k_requested
     modes = (f"k_v = {data.k_v} velocity modes ({k_requested} POD modes"
              + (" + the force profile direction" if augmented else "") + f"), k_rho = {data.k_rho} density modes")
@@ -128,7 +106,7 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
                  f"over the whole state)")
     if spec.linear:
         stepping = ("advanced over each communication step by the matrix exponential (input held, or linear "
-                    "with fmi2SetRealInputDerivatives in FMI 2), so dt and n_freeze have no effect")
+                    "with fmi2SetRealInputDerivatives in FMI 2): no internal step, so no parameters dt and n_freeze")
     else:
         stepping = (f"{data.integrator} integrator, internal dt = {data.dt:g} s, n_freeze = {data.n_freeze} by "
                     "default")
@@ -140,6 +118,10 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
         description += " Training envelope: " + "; ".join(envelope.lines(linear=spec.linear)) + "."
     if measured:
         description += " " + measured
+    ports = facts.positions["port"]
+    if ports:
+        description += (f" Mechanical ports at x/L = {', '.join(f'{x:g}' for x in ports)}: inputs F_port_j [N], "
+                        "outputs v_port_j [m s^-1], parameter area [m^2].")
     values = {
         "model_name": f"sphrom {scene.name}",
         "token": token,
@@ -149,76 +131,149 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
         "date": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
         "stop_time": number(stop_time),
         "step_size": number(step_size),
-        "n_freeze": int(data.n_freeze),
-        # FMI 2: after the probes (the outputs keep their indices)
-        "initial_state_scale_index": FIXED_VARIABLES + 2 * data.n_probes + 1,
         "dt": number(data.dt),
-        "profile": scene.fields["profile"].text,
-        # FMI 2 only: the linear models integrate f + (df/dt) tau over a step exactly, the frozen model
-        # evaluates it at each refresh of its force term
-        "input_hold": "held over each communication step, or linear with the derivative of "
-                      "fmi2SetRealInputDerivatives",
         # the linear models give dy/dt = C (A z + B f) exactly (fmu_src/rom.h rom_max_output_derivative_order);
         # the frozen model's trajectory is a discrete map of internal steps: none
         "max_output_derivative_order": 1 if spec.linear else 0,
     }
-    # FMI 3 fixedInternalStepSize only where there is one: the linear model steps by the matrix exponential
-    internal_step = [] if spec.linear else [{}]
-    lists = {"probes": probes, "outputs": outputs, "internal_step": internal_step, "f_nominal": f_nominal}
-    last = FIXED_VARIABLES + 2 * data.n_probes + 1          # FMI 2 index of initial_state_scale
-    lists.update(bound_lists(bounds, data, last))
-    last += len(lists["bounds"]) * 2 + len(lists["bound_probes"]) * 2
-    # a parametric model's c, d: FMI 2 indices after everything above
-    lists["params"] = [{**p, "index": last + 1 + i} for i, p in enumerate(parameters)]
-    last += len(lists["params"])
-    # mechanical ports: area, F_port_j, v_port_j after everything above (FMI 2 indices)
-    ports, port_units = port_variables(data, last)
-    outputs += [{"vr": p["v_vr"], "index": p["v_index"]} for p in ports]
-    if ports:
-        values["description"] += (f" Mechanical ports at x/L = {', '.join(p['x'] for p in ports)}: inputs "
-                                  "F_port_j [N], outputs v_port_j [m s^-1], parameter area [m^2].")
-    lists.update({"ports": ports, "port_units": port_units})
-    return render(template(f"fmi{fmi}.xml"), values, lists)
+    lists = {
+        # FMI 3 fixedInternalStepSize only where there is one: the linear model steps by the matrix exponential
+        "internal_step": [] if spec.linear else [{}],
+        "source_files": [{"name": name} for name in fmu_sources(fmi) if name.endswith(".c")],
+    }
+    raw = {"unit_definitions": unit_definitions(declared), "type_definitions": type_definitions(declared, fmi),
+           "model_variables": model_variables(declared, fmi), "model_structure": model_structure(declared, fmi)}
+    return render(template(f"fmi{fmi}.xml"), values, lists, raw)
 
 
-def bound_lists(bounds, data, last_index):
-    """The template lists of the calculated parameters holding the certified error bounds (none without
-    ``bounds``): ``bounds`` (the two largest over the probes), ``bound_probes`` (per probe), ``bound_unknowns``
-    (their FMI 2 indices after ``last_index`` and value references, for InitialUnknowns)."""
-    if bounds is None:
-        return {"bounds": [], "bound_probes": [], "bound_unknowns": []}
-    P = data.n_probes
-    fb, ib = bounds["force_error_bound"], bounds["initial_state_error_bound"]
-    scalars = [{"fb_vr": VR_FORCE_ERROR_BOUND, "ib_vr": VR_INITIAL_STATE_ERROR_BOUND, "fb_index": last_index + 1,
-                "ib_index": last_index + 2, "fb_value": f"{max(fb):.6g}", "ib_value": f"{max(ib):.6g}",
-                "what": bound_text(bounds)}]
-    per_probe = [{"j": j + 1, "x": f"{x:g}", "fb_vr": VR_FORCE_ERROR_BOUND_PROBE + j,
-                  "ib_vr": VR_INITIAL_STATE_ERROR_BOUND_PROBE + j, "fb_index": last_index + 3 + j,
-                  "ib_index": last_index + 3 + P + j, "fb_value": f"{fb[j]:.6g}", "ib_value": f"{ib[j]:.6g}"}
-                 for j, x in enumerate(data.probe_x)]
-    unknowns = ([{"vr": VR_FORCE_ERROR_BOUND, "index": last_index + 1},
-                 {"vr": VR_INITIAL_STATE_ERROR_BOUND, "index": last_index + 2}]
-                + [{"vr": p["fb_vr"], "index": p["fb_index"]} for p in per_probe]
-                + [{"vr": p["ib_vr"], "index": p["ib_index"]} for p in per_probe])
-    return {"bounds": scalars, "bound_probes": per_probe, "bound_unknowns": unknowns}
+def variable_values(fmi, scene, data, envelope, bounds):
+    """The FMU's values the variable table's descriptions and :class:`~harness.fmu.variables.From` cells name
+    (under ``probe``: one value per probe)."""
+    values = {
+        "profile": scene.fields["profile"].text,
+        # FMI 2 only: the linear models integrate f + (df/dt) tau over a step exactly, the frozen model
+        # evaluates it at each refresh of its force term
+        "input_hold": ("held over each communication step, or linear with the derivative of "
+                       "fmi2SetRealInputDerivatives" if fmi == 2 else "held over each communication step"),
+        "n_freeze": int(data.n_freeze),
+        "dt": float(data.dt),
+        # nominal values from the training envelope: max |v| and rho0 at each probe, the training force amplitude
+        # (none for f = 0: a free response trained no force scale)
+        "f_nominal": (envelope.force_amplitude if envelope is not None and envelope.force_amplitude > 0
+                      else None),
+        "probe": {"v_nominal": [float(envelope.probe_v_max[j]) if envelope is not None
+                                and envelope.probe_v_max[j] > 0 else 1.0 for j in range(data.n_probes)],
+                  "rho_nominal": [float(envelope.probe_rho0[j]) if envelope is not None else 1.0
+                                  for j in range(data.n_probes)]},
+    }
+    section = getattr(data, "sections", {}).get("BOUNDS")
+    if section is not None:
+        fb, ib = section[0], section[1]
+        values["probe"].update(fb=[f"{x:.6g}" for x in fb], ib=[f"{x:.6g}" for x in ib])
+        values.update(fb_max=f"{max(fb):.6g}", ib_max=f"{max(ib):.6g}",
+                      what=bound_text(bounds) if bounds is not None else "certified against the full linear SPH")
+    params = getattr(data, "sections", {}).get("PARAMS")
+    if params is not None:
+        from ..rom.parametric import PARAMETERS
+        for i, name in enumerate(PARAMETERS):      # rows c, d: varied, start, min, max
+            values.update({f"{name}.start": params[i, 1], f"{name}.min": params[i, 2], f"{name}.max": params[i, 3],
+                           f"{name}.nominal": max(abs(params[i, 2]), abs(params[i, 3]))})
+    return values
 
 
-def port_variables(data, last_index):
-    """(one item per port, [{area_index}] or []) for the templates' ``ports`` and ``port_units`` blocks.
-
-    The port variables follow every other variable (FMI 2 indices after ``last_index``): area, F_port_1..P,
-    v_port_1..P.
-    """
-    x = data.sections.get("PORTX")
-    if x is None:
-        return [], []
-    base = last_index + 1                                   # area's index
-    n = x.shape[1]
-    ports = [{"j": j + 1, "x": f"{xj:g}", "f_vr": VR_F_PORT + j, "v_vr": VR_V_PORT + j,
-              "f_index": base + 1 + j, "v_index": base + 1 + n + j} for j, xj in enumerate(x[0])]
-    return ports, [{"area_index": base}]
+def _attributes(pairs):
+    """' name="value"' for every pair whose value is not None (values XML-escaped)."""
+    return "".join(f' {k}="{escape(str(v), {chr(34): "&quot;"})}"' for k, v in pairs if v not in (None, ""))
 
 
-def build_description() -> str:
-    """sources/buildDescription.xml of the FMI 3 FMU."""
-    return template("buildDescription.xml")
+FMI2_TYPES = {"Float64": "Real", "Int32": "Integer"}
+
+
+def model_variables(declared, fmi):
+    """The <ModelVariables> children of the declared variables (FMI 2: ScalarVariable with its index)."""
+    lines = []
+    for v in declared:
+        limits = [("start", v["start"]), ("min", v["min"]), ("max", v["max"]), ("nominal", v["nominal"])]
+        head = [("name", v["name"]), ("valueReference", v["vr"]), ("causality", v["causality"]),
+                ("variability", v["variability"]), ("initial", v["initial"])]
+        if fmi == 2:
+            element = FMI2_TYPES[v["type"]]
+            lines += [f"    <!-- index {v['index']} -->",
+                      f"    <ScalarVariable{_attributes(head)}",
+                      f"                   {_attributes([('description', v['description'])])}>",
+                      f"      <{element}{_attributes([('declaredType', v['declared_type']), *limits])}/>",
+                      "    </ScalarVariable>"]
+        else:
+            lines += [f"    <{v['type']}{_attributes(head + [('declaredType', v['declared_type'])] + limits)}",
+                      f"        {_attributes([('description', v['description'])])}/>"]
+    return "\n".join(lines)
+
+
+def model_structure(declared, fmi):
+    """The <ModelStructure> children: every output, then the initial unknowns (the outputs and the calculated
+    parameters, initial = calculated), in index order; no dependencies declared (the outputs depend on the
+    state)."""
+    outputs = [v for v in declared if v["causality"] == "output"]
+    initial = [v for v in declared if v["initial"] == "calculated"]
+    if fmi == 2:
+        lines = ["    <Outputs>", *(f'      <Unknown index="{v["index"]}" dependencies=""/>' for v in outputs),
+                 "    </Outputs>", "    <InitialUnknowns>",
+                 *(f'      <Unknown index="{v["index"]}" dependencies=""/>' for v in initial), "    </InitialUnknowns>"]
+    else:
+        lines = [*(f'    <Output valueReference="{v["vr"]}" dependencies=""/>' for v in outputs),
+                 *(f'    <InitialUnknown valueReference="{v["vr"]}" dependencies=""/>' for v in initial)]
+    return "\n".join(lines)
+
+
+def _used(declared):
+    """The declared types the variables use, in the table's order of types."""
+    names = {v["declared_type"] for v in declared}
+    return [name for name in variables.TYPES if name in names]
+
+
+def unit_definitions(declared):
+    """The <UnitDefinitions> children: the units of the declared types used."""
+    units = {variables.TYPES[name][1] for name in _used(declared)}
+    lines = []
+    for name, (base, _) in variables.UNITS.items():
+        if name not in units:
+            continue
+        if base is None:
+            lines += ["    <!-- no BaseUnit: its exponents are integers -->", f'    <Unit name="{escape(name)}"/>']
+        elif not base:
+            lines.append(f'    <Unit name="{escape(name)}"/>')
+        else:
+            lines.append(f'    <Unit name="{escape(name)}"><BaseUnit{_attributes(base.items())}/></Unit>')
+    return "\n".join(lines)
+
+
+def type_definitions(declared, fmi):
+    """The <TypeDefinitions> children: the declared types used, each with its quantity and unit."""
+    lines = []
+    for name in _used(declared):
+        quantity, unit = variables.TYPES[name]
+        if fmi == 2:
+            lines.append(f'    <SimpleType name="{name}"><Real quantity="{quantity}" unit="{escape(unit)}"/></SimpleType>')
+        else:
+            lines.append(f'    <Float64Type name="{name}" quantity="{quantity}" unit="{escape(unit)}"/>')
+    return "\n".join(lines)
+
+
+def build_description(blob) -> str:
+    """sources/buildDescription.xml of the FMI 3 FMU whose resources/model.bin is ``blob``: its sources, and the
+    model it holds (read from the resources) in its description."""
+    from ..rom.registry import get_model
+    from .resources import unpack
+    title = get_model(model_name(unpack(blob))).title
+    return render(template("buildDescription.xml"), {"description": f"{title}, FMI 3.0 co-simulation"},
+                  {"source_files": [{"name": name} for name in fmu_sources(3) if name.endswith(".c")]})
+
+
+def model_name(data):
+    """The registered model a packed model.bin holds: frozen (kind 1), balanced or exact (kind 2, section
+    LINMODEL)."""
+    from .resources import LINEAR_BALANCED, ModelData
+    if isinstance(data, ModelData):
+        return "frozen"
+    linmodel = data.sections.get("LINMODEL")
+    return "balanced" if linmodel is not None and int(linmodel[0, 0]) == LINEAR_BALANCED else "exact"

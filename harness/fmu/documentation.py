@@ -4,8 +4,10 @@ FMI 2.0 and 3.0 both name ``documentation/index.html`` the entry point of an
 FMU's documentation (FMI 1.0 used ``_main.html``).  The page is self-contained
 (inline CSS, no script, no network resource; the one image, ``probes.png``,
 sits beside it) and holds: the scene, the model, every variable of the
-modelDescription.xml it is packed with (read from that XML, so a variable
-added to the templates appears here without a change to this module), the
+modelDescription.xml it is packed with (read from that XML, which
+:mod:`harness.fmu.describe` generated from the variable table
+:mod:`harness.fmu.variables`, so a row added to the table appears here
+without a change to this module; the table adds which FMUs have each), the
 training envelope in words (when the model carries one) and the tagged
 sections of ``resources/model.bin`` with their numbers, and the measured errors and run times of
 :mod:`harness.fmu.verify`.
@@ -100,8 +102,8 @@ def model_section(spec, data, k, input_error, augmented):
             ("input projection error of the force profile", _number(input_error)),
             ("probes x/L", ", ".join(f"{x:g}" for x in data.probe_x))]
     if spec.linear:
-        rows.append(("time stepping", "the matrix exponential over each communication step (exact in time; "
-                                      "dt and n_freeze play no part)"))
+        rows.append(("time stepping", "the matrix exponential over each communication step (exact in time; no "
+                                      "internal step, so no parameters dt and n_freeze)"))
     else:
         rows += [("integrator", escape(data.integrator)), ("default n_freeze", str(data.n_freeze)),
                  ("default internal dt [s]", _number(data.dt, "g"))]
@@ -110,16 +112,20 @@ def model_section(spec, data, k, input_error, augmented):
 
 
 def variables_section(description_xml):
+    from .variables import RULES, lookup
     rows = []
     for v in variables(description_xml):
         limits = " ".join(f"{k} {v[k]}" for k in ("min", "max", "nominal") if v[k])
+        row, _ = lookup(v["name"])
         rows.append((f"<code>{escape(v['name'])}</code>", str(v["value_reference"]), escape(v["causality"]),
                      escape(v["variability"]), escape(v["type"]), escape(v["unit"] or "-"),
-                     escape(v["start"] or "-"), escape(limits or "-"), escape(v["description"])))
+                     escape(v["start"] or "-"), escape(limits or "-"),
+                     escape(RULES[row.rule][1] if row is not None else "-"), escape(v["description"])))
     return ["<h2>Variables</h2>",
-            "<p>Every variable of this FMU's modelDescription.xml (value references are the contract).</p>",
+            "<p>Every variable of this FMU's modelDescription.xml (value references are the contract; the "
+            "variable table of sphrom, harness/fmu/variables.py, declares them and which FMUs have each).</p>",
             *_table(("name", "value reference", "causality", "variability", "type", "unit", "start",
-                     "min / max / nominal", "description"), rows, table_id="variables")]
+                     "min / max / nominal", "in", "description"), rows, table_id="variables")]
 
 
 def sections_section(sections):

@@ -13,9 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-VR_TIME, VR_F, VR_N_FREEZE, VR_DT = 0, 1, 2, 3     # fmu_src/rom.h
-VR_INITIAL_STATE_SCALE = 4                         # ROM_VR_INITIAL_STATE_SCALE (the FMU's start: 0, at rest)
-VR_C, VR_D = 5, 6                                  # fmu_src/rom.h: parametric models only
+from .variables import vr
 
 # fmpy's FMU constructors chdir() into binaries/<platform> to load the library
 # and chdir() back: the working directory is per process, so two threads that
@@ -140,7 +138,8 @@ class Slave:
         """Set up, set parameters/input, enter and exit initialization mode.
 
         A parameter left None keeps the FMU's start value (``initial_state_scale``: 0, the component at
-        rest; pass 1 for the scene's initial state, as the training run had it)."""
+        rest; pass 1 for the scene's initial state, as the training run had it).  A parameter the FMU does
+        not have (``n_freeze`` and ``dt`` in a linear model) is a FieldError naming it."""
         fmu = self.fmu
         if self.fmi == 2:
             fmu.setupExperiment(startTime=start)
@@ -155,15 +154,19 @@ class Slave:
         return self
 
     def _set_parameters(self, n_freeze, dt, initial_state_scale=None):
-        if initial_state_scale is not None:
-            self.set_real([VR_INITIAL_STATE_SCALE], [float(initial_state_scale)])
-        if n_freeze is not None:
-            if self.fmi == 2:
-                self.fmu.setInteger([VR_N_FREEZE], [int(n_freeze)])
-            else:
-                self.fmu.setInt32([VR_N_FREEZE], [int(n_freeze)])
-        if dt is not None:
-            self.set_real([VR_DT], [dt])
+        for name, value in (("initial_state_scale", initial_state_scale), ("n_freeze", n_freeze), ("dt", dt)):
+            if value is not None:
+                self.set_parameter(name, value)
+
+    def set_parameter(self, name, value):
+        """Set the parameter ``name`` (its type from the variable table); FieldError when the FMU has none."""
+        from .variables import BY_NAME, absent
+        if name not in self.vr:
+            raise absent(name)
+        if BY_NAME[name].type == "Int32":
+            (self.fmu.setInteger if self.fmi == 2 else self.fmu.setInt32)([self.vr[name]], [int(value)])
+        else:
+            self.set_real([self.vr[name]], [float(value)])
 
     def set_real(self, vrs, values):
         if self.fmi == 2:
@@ -178,12 +181,12 @@ class Slave:
 
     def set_input(self, f):
         """The input f [m s^-2], held over the next communication step."""
-        self.set_real([VR_F], [float(f)])
+        self.set_real([vr("f")], [float(f)])
 
     def set_input_derivative(self, rate, order=1):
         """fmi2SetRealInputDerivatives on f: df/dt [m s^-3] over the next steps (FMI 2 only)."""
         from ctypes import c_double, c_int, c_uint32
-        self.fmu.fmi2SetRealInputDerivatives(self.fmu.component, (c_uint32 * 1)(VR_F), 1, (c_int * 1)(int(order)),
+        self.fmu.fmi2SetRealInputDerivatives(self.fmu.component, (c_uint32 * 1)(vr("f")), 1, (c_int * 1)(int(order)),
                                              (c_double * 1)(float(rate)))
 
     def output_derivatives(self, order=1, names=None):
@@ -209,7 +212,7 @@ class Slave:
     def time(self):
         """The FMU's time [s]: FMI 3 ``time``, FMI 2 the last successful time."""
         if self.fmi == 3:
-            return float(self.get_real([VR_TIME])[0])
+            return float(self.get_real([vr("time")])[0])
         from fmpy.fmi2 import fmi2LastSuccessfulTime
         return float(self.fmu.getRealStatus(fmi2LastSuccessfulTime))
 

@@ -17,8 +17,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..rom import parametric as par
-from .fmi import VR_C, VR_D
 from .resources import exact_data, model_data, pack, pack_exact
+from .variables import number, vr
 
 # How the force profile enters a parametric model's FMU (``input_direction`` of build_operators), by model.
 # Frozen: the input row p = U_vᵀ profile, never the residual appended.  The combined basis of several (c, d)
@@ -27,13 +27,6 @@ from .resources import exact_data, model_data, pack, pack_exact
 # probe-velocity error at held-out points from at most 0.09 to up to 0.36 (python -m harness.bench.parametric
 # --input-direction needed).  The exact model keeps its rule (the profile always in the basis).
 PARAMETRIC_INPUT_DIRECTION = {"frozen": "project"}
-DECLARED_TYPES = {"c": "Stiffness", "d": "DampingRate"}     # modelDescription TypeDefinitions (units Pa, 1/s)
-DESCRIPTIONS = {
-    "c": "stiffness (Young's modulus) c, uniform, of the parametric model; fixed before initialization, within the "
-         "trained range [kg m^-1 s^-2]",
-    "d": "damping rate d, uniform, of the parametric model; fixed before initialization, within the trained range "
-         "[s^-1]",
-}
 
 
 def params_section(space):
@@ -46,16 +39,15 @@ def params_section(space):
 
 
 def parameter_variables(space):
-    """The modelDescription rows of the varied parameters (dicts for :func:`harness.fmu.describe.model_description`)."""
-    from .describe import number
+    """The varied parameters of a parametric FMU, for its summary: dicts name, vr, start, min, max (the
+    modelDescription takes them from section PARAMS, :mod:`harness.fmu.describe`)."""
     out = []
-    for name, vr in (("c", VR_C), ("d", VR_D)):
+    for name in par.PARAMETERS:
         if not space.varies(name):
             continue
         lo, hi = space.bounds(name)
-        out.append({"name": name, "vr": vr, "start": number(space.start(name)), "min": number(lo), "max": number(hi),
-                    "nominal": number(max(abs(lo), abs(hi))), "description": DESCRIPTIONS[name],
-                    "declared_type": DECLARED_TYPES[name]})
+        out.append({"name": name, "vr": vr(name), "start": number(space.start(name)), "min": number(lo),
+                    "max": number(hi)})
     return out
 
 

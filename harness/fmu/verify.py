@@ -36,8 +36,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 UNSEEN_FREQUENCY = 0.7                 # nu of the unseen force [Hz]
-VR_INITIAL_STATE_SCALE = 4             # fmu_src/rom.h ROM_VR_INITIAL_STATE_SCALE (reserved)
-SCALE_NAME = "initial_state_scale"
+SCALE_NAME = "initial_state_scale"     # the FMU's parameter (harness/fmu/variables.py)
 
 
 @dataclass

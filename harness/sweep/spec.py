@@ -275,8 +275,10 @@ def _grid_values(raw, name, where, scene):
         if name in numeric:
             check, allowed = numeric[name]
             out.append(_number(value, at, check, allowed))
-        elif name == "n_freeze":
-            out.append(_integer(value, at, 1, 2**31 - 1, "an integer in [1, 2147483647]"))
+        elif name == "n_freeze":              # the FMU's parameter: its range and words (harness/fmu/variables.py)
+            from ..fmu.variables import BY_NAME, allowed_words
+            row = BY_NAME["n_freeze"]
+            out.append(_integer(value, at, row.min, row.max, allowed_words(row)))
         elif name == "k":
             n = scene.sph.n_particles
             out.append(_integer(value, at, 1, n, f"an integer in [1, N = {n}]"))

@@ -246,11 +246,12 @@ def run_entry(bundle, entry):
             out["fmu_loads"] = _LOADS[(bundle["key"], threading.get_ident())]
             t0 = time.perf_counter()
         if entry.parametric:         # c, d of this run on the one parametric FMU (fixed: before initialization)
-            from ..fmu.fmi import VR_C, VR_D
+            from ..fmu.variables import vr
             from ..scene import parse_scene
             params = entry.parameter_values(parse_scene(bundle["scene_text"], f"<{entry.scene} variant>"))
-            slave.set_real([{"c": VR_C, "d": VR_D}[name] for name in params], list(params.values()))
-        slave.initialize(n_freeze=entry.n_freeze, initial_state_scale=1)     # the scene's v0, as its full SPH
+            slave.set_real([vr(name) for name in params], list(params.values()))
+        # the scene's v0, as its full SPH; n_freeze where the FMU has it (a linear model has no internal step)
+        slave.initialize(n_freeze=entry.n_freeze if "n_freeze" in slave.vr else None, initial_state_scale=1)
         values = slave.run(np.full(m, entry.step), f)
         out["fmu_wall_s"] = time.perf_counter() - t0
         v, rho = values[:, :P], values[:, P:2 * P]
