@@ -217,16 +217,9 @@ Instance *instance_new(const InstanceVersion *version, const char *fn, const cha
     inst->log_mask = INSTANCE_LOG_WARNING | INSTANCE_LOG_ERROR | (logging_on ? INSTANCE_LOG_EVENTS : 0u);
     inst->mode = MODE_INSTANTIATED;
     apply_start_values(inst);
-    if (rom_linear_model_name(model)) {          /* no internal step: no dt, no n_freeze */
-        instance_log(inst, INSTANCE_OK, INSTANCE_LOG_EVENTS, "%s: k_v = %u, k_rho = %u, %u probes; the %s model "
-                     "(linear, %u states, advanced by the matrix exponential%s)", fn, model->k_v, model->k_rho,
-                     model->n_probes, rom_linear_model_name(model), model->k_v + model->k_rho,
-                     rom_model_section(model, "BOUNDS") ? "; certified error bounds force_error_bound, initial_state_error_bound" : "");
-    } else {
-        instance_log(inst, INSTANCE_OK, INSTANCE_LOG_EVENTS, "%s: k_v = %u, k_rho = %u, %u probes, dt = %g s, "
-                     "n_freeze = %u, %s", fn, model->k_v, model->k_rho, model->n_probes, model->dt,
-                     model->n_freeze_default, model->integrator == ROM_INTEGRATOR_SYMPLECTIC ? "symplectic" : "euler");
-    }
+    char about[512];
+    rom_describe(model, about, sizeof about);
+    instance_log(inst, INSTANCE_OK, INSTANCE_LOG_EVENTS, "%s: %s", fn, about);
     return inst;
 }
 
@@ -399,7 +392,7 @@ static RomStatus set_port_force(RomState *s, uint32_t j, double value, char *mes
 /* The presence rules the table names (harness/fmu/variables.py RULES, decided there from the same resources):
  * 1 when the FMU has the rule's variables */
 static int rule_fmi3(const Instance *inst) { return inst->version->has_time; }
-static int rule_frozen(const Instance *inst) { return rom_model_kind(inst->model) == ROM_MODEL_FROZEN; }
+static int rule_frozen(const Instance *inst) { return rom_has_internal_step(inst->model); }
 static int rule_bounds(const Instance *inst) { return rom_model_section(inst->model, "BOUNDS") != NULL; }
 static int rule_varied_c(const Instance *inst) { return rom_varies(inst->model, ROM_PARAM_C); }
 static int rule_varied_d(const Instance *inst) { return rom_varies(inst->model, ROM_PARAM_D); }

@@ -190,6 +190,16 @@ RomStatus rom_do_step(RomState *s, double t_comm, double h, char *message, size_
     return rom_check_outputs(s, message, message_size);
 }
 
+int rom_has_internal_step(const RomModel *m) {
+    return m && m->ops && m->ops->step_exceeds ? 1 : 0;
+}
+
+void rom_describe(const RomModel *m, char *out, size_t size) {
+    if (!out || size == 0) return;
+    out[0] = '\0';
+    if (m && m->ops && m->ops->describe) m->ops->describe(m, out, size);
+}
+
 int rom_step_exceeds(const RomState *s, double h) {
     if (!s || !s->model->ops->step_exceeds || !(isfinite(h) && h > 0)) return 0;
     return s->model->ops->step_exceeds(s, h);

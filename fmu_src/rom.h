@@ -254,6 +254,11 @@ ROM_API RomStatus rom_do_step(RomState *state, double t_comm, double h, char *me
 /* 1 when the frozen model's internal step dt exceeds the communication step h (beyond
  * ROM_STEP_ROUNDING): rom_do_step then takes one internal step of length h */
 ROM_API int rom_step_exceeds(const RomState *state, double h);
+/* 1 when the model advances by internal steps of dt (and has the parameters dt and n_freeze: the frozen
+ * model), 0 when it advances over any step exactly (the linear models) or for NULL */
+ROM_API int rom_has_internal_step(const RomModel *model);
+/* One line describing the model (sizes and the kind's settings) into out[size] (empty for NULL) */
+ROM_API void rom_describe(const RomModel *model, char *out, size_t size);
 /* n_steps whole internal steps with the runaway check (benchmark, tests) */
 ROM_API RomStatus rom_advance(RomState *state, int64_t n_steps, char *message, size_t message_size);
 /* The input goes linearly over each step, f(t_comm + tau) = f + rate tau (rate 0, the

@@ -10,6 +10,7 @@
  */
 #include "rom_exact.h"
 
+#include <stdio.h>
 #include <stdlib.h>
 
 #define ROM_TAYLOR_DEGREE 16            /* ||X||_1 <= 1/2: remainder < 0.5^17/17! ~ 2e-20 */
@@ -536,8 +537,16 @@ static int64_t exact_expm_count(const RomState *s) {
 /* the table                                                                 */
 /* ------------------------------------------------------------------------ */
 
+static void exact_describe(const RomModel *m, char *out, size_t size) {
+    snprintf(out, size, "k_v = %u, k_rho = %u, %u probes; the %s model (linear, %u states, advanced by the "
+             "matrix exponential%s)", m->k_v, m->k_rho, m->n_probes, exact_linear_name(m), m->k_v + m->k_rho,
+             rom_model_section(m, "BOUNDS") ? "; certified error bounds force_error_bound, initial_state_error_bound"
+                                            : "");
+}
+
 const RomKindOps *rom_exact_kind(void) {
     static const RomKindOps ops = {
+        .describe = exact_describe,
         .kind = ROM_MODEL_EXACT_LINEAR,
         .name = "the exact linear model",
         .short_name = "linear",

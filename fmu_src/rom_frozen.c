@@ -12,6 +12,7 @@
  */
 #include "rom_frozen.h"
 
+#include <stdio.h>
 #include <stdlib.h>
 
 #define ROM_MAX_STEPS_PER_CALL 1e15            /* h/dt above this is refused */
@@ -516,8 +517,15 @@ static const unsigned char *frozen_state_get(RomState *s, const unsigned char *c
 /* the table                                                                 */
 /* ------------------------------------------------------------------------ */
 
+static void frozen_describe(const RomModel *m, char *out, size_t size) {
+    snprintf(out, size, "k_v = %u, k_rho = %u, %u probes, dt = %g s, n_freeze = %u, %s", m->k_v, m->k_rho,
+             m->n_probes, m->dt, m->n_freeze_default,
+             m->integrator == ROM_INTEGRATOR_SYMPLECTIC ? "symplectic" : "euler");
+}
+
 const RomKindOps *rom_frozen_kind(void) {
     static const RomKindOps ops = {
+        .describe = frozen_describe,
         .kind = ROM_MODEL_FROZEN,
         .name = "the frozen-coefficient model",
         .short_name = "frozen",

@@ -111,6 +111,8 @@ struct RomKindOps {
     /* ---- what rom.h reports of a kind */
     int64_t (*expm_count)(const RomState *s);          /* NULL: 0 (no exponentials) */
     const char *(*linear_name)(const RomModel *m);     /* NULL: not a linear model */
+    /* one line on the model for the instance's log (sizes, the kind's own settings) into out[size] */
+    void (*describe)(const RomModel *m, char *out, size_t size);
 };
 
 /* the kinds (rom_frozen.c, rom_exact.c) */
