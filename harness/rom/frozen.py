@@ -16,6 +16,17 @@ The step is written with plain loops in a fixed order, which the C model core
     dv[p] = b[p] + F[p];  dv[p] -= K[p][q]*ar[q];  dv[p] -= D[p][q]*av[q]
     euler:      av += h*dv;  ar += h*dr              (dv, dr from the old state)
     symplectic: ar += h*dr, then dv with the new ar, av += h*dv
+
+b of eq. 2.19 is a build option (:func:`harness.rom.operators.build_operators`): ``b="rest"``, b = K a^ρ_rest
+(:func:`harness.rom.operators.rest_b`, the projected rest state an equilibrium), is the registry's default and
+the FMU's model; ``b="paper"``, eq. 2.22's b, is the model's ``paper_build``.  Which each entry point uses:
+
+    rest   ``get_model("frozen").build``, ``sphrom fmu`` (and every FMU: ``sphrom cosim``, ``sphrom sweep``,
+           the benchmarks' FMU rows, the stress maps' FMU columns), the envelope bench
+    paper  ``sphrom rom --model frozen`` (``--b rest`` for the FMU's), the validation report, the mode sweeps
+           (``sphrom modes``), the benchmarks' Python rows (methods, scaling, skip, stress, reduced stability,
+           linear models' trade-off): the reproduced figures stay the paper's model bit for bit
+    both   ``python -m harness.bench.rest`` (the FMU of each, through the option)
 """
 
 import numpy as np
