@@ -40,7 +40,7 @@ import scipy.linalg as sla
 
 from .balanced import BalancedModel, Balancing, balancing, order_from_tolerance, truncate as truncate_balanced
 from .balanced import DEFAULT_TOLERANCE
-from .exact_linear import INTEGRATORS, advance_linear, initial_z
+from .exact_linear import INTEGRATORS, advance_linear
 from .lti import DEFAULT_PROBES, LTI, full_linear_system
 from .model import LinearOptions, ReducedModel
 from .protocol import Operators
@@ -216,7 +216,7 @@ def run(ops: BalancedOperators, problem, *, dt, n_steps, sample_steps, every, fo
     """
     steps = sample_grid(n_steps, sample_steps, every)
     if state is not None:
-        ops = dataclasses.replace(ops, z0=initial_z(ops, state))
+        ops = dataclasses.replace(ops, z0=ops.as_state(state))
     z, wall, step = advance_linear(ops, steps * dt, options.step, force or problem.scene.force, options.hold, bound,
                                    initial_state_scale)
     return ReducedResult(model=NAME, t=steps * dt, steps=steps, z=z, ops=ops, wall_time=wall,

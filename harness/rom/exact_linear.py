@@ -529,21 +529,13 @@ def run(ops, problem, *, dt, n_steps, sample_steps, every, force, state, initial
         raise ValueError("port_forces: the operators have no ports (build them with ports=...)")
     steps = sample_grid(n_steps, sample_steps, every)
     if state is not None:
-        ops = dataclasses.replace(ops, z0=initial_z(ops, state))
+        ops = dataclasses.replace(ops, z0=ops.as_state(state))
     z, wall, step = advance_linear(ops, steps * dt, options.step, force or problem.scene.force, options.hold, bound,
                                    initial_state_scale, port_forces=port_forces, area=area)
     return ReducedResult(model=NAME, t=steps * dt, steps=steps, z=z, ops=ops, wall_time=wall,
                          offline=dict(ops.timings),
                          settings={"model": NAME, "dt": dt, "step": step, "hold": options.hold, "k_v": ops.k_v,
                                    "k_e": ops.k_e})
-
-
-def initial_z(ops, state):
-    """An initial state z of ``ops.order`` numbers as a float array; ValueError naming ``state`` otherwise."""
-    z = np.array(state, dtype=float)
-    if z.shape != (ops.order,):
-        raise ValueError(f"state: shape {z.shape} (allowed: ({ops.order},), the reduced state z)")
-    return z
 
 
 MODEL = ReducedModel(

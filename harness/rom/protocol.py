@@ -69,6 +69,13 @@ class Operators:
         """The size of the reduced state z."""
         return list(self.slices.values())[-1].stop
 
+    def as_state(self, state):
+        """A state z of the model as a fresh float array (order,); ValueError naming ``state`` otherwise."""
+        z = np.array(state, dtype=float)
+        if z.shape != (self.order,):
+            raise ValueError(f"state: shape {z.shape} (allowed: ({self.order},), the reduced state z)")
+        return z
+
     def block(self, z, name):
         """The coordinates ``name`` of states z, (M, size) (a view)."""
         return np.atleast_2d(z)[:, self.slices[name]]

@@ -55,19 +55,11 @@ def start_arrays(ops, state, n_samples, initial_state_scale=1.0):
     ``initial_state_scale`` multiplies the velocity coordinates only (the density coordinates are those of
     ρ0, the rest state), as the FMU's parameter of that name; 1 leaves them bit for bit.  The loops write the
     samples into the two blocks of ``out_z`` (:func:`sample_blocks`)."""
-    a_v0, a_rho0 = (ops.a_v0, ops.a_rho0) if state is None else split_state(ops, state)
+    z = None if state is None else ops.as_state(state)
+    a_v0, a_rho0 = (ops.a_v0, ops.a_rho0) if z is None else (z[:ops.k_v], z[ops.k_v:])
     av = initial_scale(initial_state_scale) * np.array(a_v0, dtype=float)
     ar = np.array(a_rho0, dtype=float)
     return av, ar, np.empty((n_samples, ops.order))
-
-
-def split_state(ops, state):
-    """(first block, second block) of an initial state z of two-block operators; ValueError naming ``state``
-    when it is not ``ops.order`` numbers."""
-    z = np.asarray(state, dtype=float)
-    if z.shape != (ops.order,):
-        raise ValueError(f"state: shape {z.shape} (allowed: ({ops.order},), the reduced state z)")
-    return z[:ops.k_v], z[ops.k_v:]
 
 
 def sample_blocks(out_z, k_v):
