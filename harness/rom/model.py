@@ -177,8 +177,8 @@ class ReducedModel:
     solver: Callable
     truncate: Callable
     options_type: type
-    build_defaults: dict = field(default_factory=dict)
-    paper_build: dict = field(default_factory=dict)
+    build_defaults: dict = field(default_factory=dict, hash=False)        # (not hashed: a model stays hashable)
+    paper_build: dict = field(default_factory=dict, hash=False)
     fmu_input_direction: str = "needed"
     ports: bool = False
 
