@@ -448,6 +448,24 @@ def test_no_model_name_comparisons_outside_the_registry():
         "\n".join(offenders)
 
 
+def test_operators_are_read_through_the_protocol_only():
+    """No getattr duck typing on operators or on a basis outside the protocol (harness/rom/model.py): every
+    operators type answers the protocol of harness.rom.protocol, every model its properties."""
+    suspects = {"ops", "lin", "operators", "basis"}
+    offenders = []
+    for path in sorted((ROOT / "harness").rglob("*.py")):
+        if path in (ROOT / "harness/rom/model.py", ROOT / "harness/pod/io.py"):   # the protocol; the basis file's
+            continue                                                                # writer, field by field
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in ("getattr",
+                                                                                                 "hasattr"):
+                target = node.args[0]
+                name = target.attr if isinstance(target, ast.Attribute) else getattr(target, "id", None)
+                if name in suspects:
+                    offenders.append(f"{path.relative_to(ROOT)}:{node.lineno}")
+    assert not offenders, "duck typing on operators or a basis (ask the protocol instead):\n" + "\n".join(offenders)
+
+
 def _import_graph():
     """{module: modules it imports} over harness/**/*.py: absolute, relative and function-level imports."""
     files = {}
