@@ -299,11 +299,11 @@ def test_rom_balanced_needs_no_basis_and_the_others_do(tmp_path, capsys):
     from harness.rom import MODELS
     scene_file = _small_toml(tmp_path)
     out = tmp_path / "r.h5"
-    assert main(["rom", str(scene_file), "--model", "balanced", "--tolerance", "1e-2", "--out", str(out),
+    assert main(["rom", str(scene_file), "--model", "balanced", "--order-tolerance", "1e-2", "--out", str(out),
                  "--quiet"]) == 0
     assert "order r = " in capsys.readouterr().out and out.exists()
     for name, model in MODELS.items():
-        if model.basis_kind is None:
+        if not model.needs_basis:
             continue
         path = tmp_path / f"{name}.h5"
         assert main(["rom", str(scene_file), "--model", name, "--out", str(path), "--quiet"]) == 2
@@ -311,11 +311,15 @@ def test_rom_balanced_needs_no_basis_and_the_others_do(tmp_path, capsys):
         assert err == f"sphrom rom: error: --basis: required for the {name} model (a POD basis from 'sphrom pod')"
         assert not path.exists()
     # bad values: one line naming the option, no file
-    for argv, expect in ((["--tolerance", "0"], "--tolerance: '0' is out of range (allowed: a number > 0)"),
-                         (["--tolerance", "2"], "--tolerance: 2.0 is out of range (allowed: 0 < tolerance < 1)"),
+    for argv, expect in ((["--order-tolerance", "0"], "'0' is out of range (allowed: a number > 0)"),
+                         (["--order-tolerance", "2"],
+                          "--order-tolerance: 2.0 is out of range (allowed: 0 < order_tolerance < 1)"),
+                         (["--tolerance", "2"],               # the earlier name, an alias in 'sphrom rom'
+                          "--order-tolerance: 2.0 is out of range (allowed: 0 < order_tolerance < 1)"),
                          (["--modes", "64"], "--modes: 64 is out of range (allowed: 1 to 63, below 2N)"),
                          (["--modes", "6,4"], "--modes: the balanced model takes one order R"),
-                         (["--modes", "6", "--tolerance", "1e-2"], "--tolerance: give --modes R or --tolerance"),
+                         (["--modes", "6", "--order-tolerance", "1e-2"],
+                          "--order-tolerance: give --modes R or --order-tolerance"),
                          (["--basis", "b.h5"], "--basis: the balanced model uses no POD basis")):
         path = tmp_path / "bad.h5"
         assert main(["rom", str(scene_file), "--model", "balanced", "--out", str(path), "--quiet", *argv]) == 2

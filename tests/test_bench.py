@@ -92,12 +92,11 @@ def test_stress_fmu_columns_report_errors_never_nan():
     time where the state runs away or the density leaves (0, ∞), and never a silent NaN."""
     from harness.bench import stress as st
     from harness.bench.stress_fmu import FMUStress, stress_runners
-    from harness.rom.operators import rest_equilibrium
     scene = small_scene("multimode", T=1.0, n=32, every=25)
     ctx = st.context(scene, k=6)
-    # the Python model the FMU packages: the frozen one with b about the rest density (operator_resource)
-    packaged = dataclasses.replace(ctx, operators={**ctx.operators,
-                                                   "frozen": rest_equilibrium(ctx.operators["frozen"])})
+    # the Python models the FMUs package: the registry's, the frozen one with b about the rest density
+    packaged = dataclasses.replace(ctx, operators={**ctx.operators, "frozen": st.fmu_operators(ctx, "frozen")})
+    assert packaged.operators["frozen"].b_form == "rest" and ctx.operators["frozen"].b_form == "paper"
     with FMUStress() as fs:
         runners = stress_runners(fs)
         assert sorted(runners) == ["FMU exact", "FMU frozen"]          # the FMUs on the scene's POD basis

@@ -52,6 +52,7 @@ REQUIRED = {
 ALIASES = [
     ("fmu", "--freeze", "--n-freeze", "5", "n_freeze", 5),
     ("rom", "--freeze", "--n-freeze", "5", "n_freeze", 5),
+    ("rom", "--tolerance", "--order-tolerance", "0.01", "order_tolerance", 0.01),   # balanced order: one meaning
     ("modes", "--freeze", "--n-freeze", "5", "n_freeze", 5),
     ("cosim", "--freeze", "--n-freeze", "5", "n_freeze", 5),
     ("modes", "--kmax", "--max-modes", "9", "max_modes", 9),

@@ -27,7 +27,8 @@ from harness.fmu.resources import unpack
 from harness.fmu.variables import vr
 from harness.pod.pipeline import basis_for_scene
 from harness.rom.common import run_reduced
-from harness.rom.operators import build_operators, probe_rows, rest_equilibrium
+from harness.rom.operators import probe_rows
+from harness.rom.registry import get_model
 from harness.sph.solver import build_problem
 
 K = 6
@@ -118,13 +119,13 @@ def test_fmi2_and_fmi3_agree_bitwise(fmus):
 @pytest.mark.parametrize("case", ["forced", "unforced"])
 @pytest.mark.parametrize("integrator", ["euler", "symplectic"])
 def test_equals_python_frozen_model(fmus, case, integrator, record_property):
-    """FMU outputs = run_reduced("frozen") on the same basis, k, n_freeze, force held per step."""
+    """FMU outputs = the registry's frozen model (b about the rest density, the FMU's) on the same basis, k,
+    n_freeze, force held per step."""
     path, data = fmus(case, 2, integrator)
     scene = scene_for(case)
     problem = build_problem(scene)
     basis, _ = basis_for_scene(scene, progress=False, problem=problem)
-    ops = rest_equilibrium(build_operators(problem, basis.U_v[:, :K], basis.U_rho[:, :K], input_direction="needed",
-                                           tensor="always"))          # the FMU's b: about the rest density
+    ops = get_model("frozen").build(problem, basis, K, K, input_direction="needed", tensor="always")
     dt, H, M = scene.sph.dt, 0.01, 50
     m = int(round(H / dt))
     inputs = scene.force(np.arange(M) * H) if case == "forced" else np.zeros(M)

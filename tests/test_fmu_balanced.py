@@ -23,8 +23,8 @@ from harness.fmu.package import balanced_model, exact_model, package_fmu
 from harness.fmu.resources import FLAG_OUTPUT_ROWS, probe_pairs, unpack
 from harness.fmu.variables import vr
 from harness.rom.balanced import error_bounds, reduced_from_exact
-from harness.rom.balanced_model import run as run_balanced
 from harness.rom.lti import full_linear_system, input_norm, sample_outputs
+from harness.rom.registry import get_model
 
 R = 12                      # balanced order
 K = 6                       # exact model: POD modes
@@ -130,9 +130,10 @@ def test_balanced_fmu_equals_the_python_balanced_model(fmus, case, record_proper
     t = np.arange(M + 1) * H
     force = scene.force if case == "forced" else (lambda tt: np.zeros_like(np.asarray(tt, float)))
     inputs = force(t[:-1])
-    ref = run_balanced(ops, problem, dt=H, n_steps=M, step=H, hold="held", force=force)
+    balanced = get_model("balanced")
+    ref = balanced.run(ops, problem, dt=H, n_steps=M, options=balanced.options(step=H, hold="held"), force=force)
     i0, i1, w = probe_pairs(problem.x, scene.L, np.asarray(PROBES))
-    rho = ops.density(ref.a_v)
+    rho = ref.rho
     expected = np.hstack([ref.y[:, :len(PROBES)], (1.0 - w) * rho[:, i0] + w * rho[:, i1]])
     outs = []
     for fmi in (2, 3) if case == "forced" else (2,):
@@ -270,9 +271,10 @@ def test_measured_fmu_error_stays_below_its_bounds(fmus, model, record_property)
 
 def test_fmu_balanced_command_prints_its_order_and_bounds(tmp_path, capsys):
     """`sphrom fmu --model balanced --modes R`: the order, the bounds as stored and what they bound; an order
-    out of range names the option."""
+    or an order tolerance out of range names the option, and --tolerance keeps one meaning (the accepted error)."""
     from harness.cli import main
     from harness.scene import dump_toml, scene_dict
+    from harness.sph.solver import build_problem
     scene_file = tmp_path / "small.toml"
     scene_file.write_text(dump_toml(scene_dict(scene_for("forced"))))
     out = tmp_path / "bal.fmu"
@@ -285,9 +287,26 @@ def test_fmu_balanced_command_prints_its_order_and_bounds(tmp_path, capsys):
     lines = [line for line in text.splitlines() if line.strip().startswith(("0.25 |", "0.5 |", "0.66 |"))]
     printed = np.array([[float(x) for x in line.split("|")[1:]] for line in lines])
     np.testing.assert_allclose(printed.T, data.sections["BOUNDS"], rtol=1e-4)       # printed to 5 digits
-    for argv, message in ((["--model", "balanced", "--tolerance", "1.5"], "allowed: 0 < tolerance < 1"),
+    # the order from --order-tolerance: the registry's balanced build with that order_tolerance
+    assert main(["fmu", str(scene_file), "--model", "balanced", "--order-tolerance", "1e-2", "--no-verify",
+                 "--no-bounds", "--out", str(out), "--quiet"]) == 0
+    r = get_model("balanced").build(build_problem(scene_for("forced")), None, None, None, order_tolerance=1e-2,
+                                    probes=PROBES).order
+    assert f"order r = {r} (" in capsys.readouterr().out and unpack(zipfile.ZipFile(out).read(
+        "resources/model.bin")).k_v == r
+    for argv, message in ((["--model", "balanced", "--order-tolerance", "1.5"],
+                           "--order-tolerance: 1.5 is out of range (allowed: 0 < order_tolerance < 1)"),
                           (["--model", "balanced", "--modes", "64"], "--modes (k): 64 is out of range (allowed: an "
-                                                                      "order r from 1 to 2N - 1 = 63)")):
+                                                                      "order r from 1 to 2N - 1 = 63)"),
+                          # --tolerance is the measured error accepted; where it set the order before: refused
+                          (["--model", "balanced", "--tolerance", "0.1"], "--tolerance: ambiguous with --model "
+                                                                          "balanced and no --modes"),
+                          (["--model", "balanced", "--modes", "6", "--order-tolerance", "0.01"],
+                           "--order-tolerance: give the order k or order_tolerance, not both"),
+                          (["--model", "frozen", "--order-tolerance", "0.01"],
+                           "--order-tolerance: does not apply to the frozen model"),
+                          (["--model", "auto", "--tolerance", "0.1", "--order-tolerance", "0.01"],
+                           "--order-tolerance: not with --model auto")):
         assert main(["fmu", str(scene_file), "--out", str(tmp_path / "x.fmu"), "--quiet", *argv]) == 2
         assert message in capsys.readouterr().err
     assert not (tmp_path / "x.fmu").exists()

@@ -76,9 +76,10 @@ def test_scale_zero_without_force_stays_at_rest_for_100_s(fmus, model, fmi, case
     """initial_state_scale = 0 (the start value), f = 0, T = 100 s: v = 0 and rho = rho0 at the probes.
 
     The exact model: to round-off (z = 0 is its rest state: v = 0 and e = 0 exactly).  The frozen model: to
-    round-off too, because its b is taken about the projected rest density (rest_equilibrium: b = K a_rho_rest).
-    With eq. 2.22's b the FMU drifted at the level of ρ0's projection error
-    (test_the_rest_bench_measures_the_frozen_fmu_with_eq_2_22s_b; every scene: python -m harness.bench.rest).
+    round-off too, because its b is taken about the projected rest density (the frozen model's build option
+    b="rest": b = K a_rho_rest).  With eq. 2.22's b (b="paper") the FMU drifts at the level of ρ0's projection
+    error (test_the_frozen_models_b_option_gives_the_rest_benchs_eq_2_22_fmu; every scene: python -m
+    harness.bench.rest).
     Its density outputs stay constant at ρ0 as the density modes represent it (off ρ0 by ρ0's projection error
     at the probes, asserted below 1e-6 of ρ0)."""
     path, data = fmus(model, fmi, case)
@@ -154,7 +155,7 @@ def test_python_models_scale_one_is_bitwise_and_rest_stays_at_rest():
             moving = np.abs(a.a_v).max()
             assert np.abs(c.a_v).max() <= 1e-13 * moving
             b_paper = operators.U_v.T @ (operators.inv_rho0 * (problem.neighbours.matrix() @ problem.c))  # eq. 2.22
-            paper = dataclasses.replace(operators, b=b_paper)
+            paper = dataclasses.replace(operators, b=b_paper, b_form="paper")
             drift = run(paper, problem, dt=scene.sph.dt, n_steps=n, initial_state_scale=0.0).a_v
             assert np.abs(drift).max() > 1e-9 * moving
             np.testing.assert_allclose(operators.b, operators.K @ operators.a_rho0, rtol=0, atol=0)
@@ -221,16 +222,26 @@ def test_states_carry_the_scale_and_reset_restores_the_start_value(fmus, fmi, mo
         s.free_state(restored)
 
 
-def test_the_rest_bench_measures_the_frozen_fmu_with_eq_2_22s_b(fmus, tmp_path):
-    """harness.bench.rest's comparison FMU: the packaged frozen FMU with only b replaced by eq. 2.22's equals the
-    Python mirror of those resources bit for bit, and left at rest it drifts where the packaged one does not."""
-    from harness.bench.rest import paper_b, rest_run, with_b
+def test_the_frozen_models_b_option_gives_the_rest_benchs_eq_2_22_fmu(fmus, tmp_path):
+    """The frozen model's build option b (harness.bench.rest compares its two values): the FMU packaged with
+    b="paper" holds eq. 2.22's b = U^vᵀ ρ0⁻¹ G c and otherwise the numbers of the registry's (b="rest") FMU; it
+    equals the Python mirror of its resources bit for bit, and left at rest it drifts where the packaged one
+    does not."""
+    from harness.bench.rest import rest_run
+    from harness.fmu.package import package_fmu
     scene = fmu_scene("unforced")
     path, data = fmus("frozen", 2, "unforced")
     _, ops, problem, _ = reduced_model(scene, K, 10, PROBES, "euler", progress=False)
-    old = with_b(path, tmp_path / "eq222.fmu", paper_b(ops, problem))
+    old = tmp_path / "eq222.fmu"
+    package_fmu(scene, old, k=K, fmi=2, probes=PROBES, progress=False, binaries=ensure_binaries(), model="frozen",
+                build_options={"b": "paper"})
     old_data = unpack(zipfile.ZipFile(old).read("resources/model.bin"))
-    assert np.array_equal(old_data.b, paper_b(ops, problem)) and not np.array_equal(old_data.b, data.b)
+    eq_2_22 = ops.U_v.T @ (ops.inv_rho0 * np.asarray(problem.neighbours.matrix() @ problem.c))     # eq. 2.22
+    np.testing.assert_allclose(old_data.b, eq_2_22, rtol=0, atol=1e-14 * np.max(np.abs(eq_2_22)))
+    assert not np.array_equal(old_data.b, data.b)
+    np.testing.assert_array_equal(data.b, ops.K @ ops.a_rho0)                       # b = K a^ρ_rest
+    for name in ("K", "T", "a_v0", "a_rho0", "Pv", "Prho"):
+        assert np.array_equal(getattr(old_data, name), getattr(data, name)), name
     assert fmpy.validation.validate_fmu(str(old)) == []
     t, v_old, rho_old = rest_run(old, 0.1, T=20.0)
     _, v_new, _ = rest_run(path, 0.1, T=20.0)

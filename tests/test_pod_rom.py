@@ -226,6 +226,18 @@ def test_pod_and_rom_commands(tmp_path, capsys):
         with h5py.File(out) as h5:
             assert h5["v"].shape == (201, 32) and h5.attrs["solver.model"] == model
             assert 0 < h5.attrs["error.sph.v"] < 0.1 and h5["a_v"].shape == (201, 7)
+            assert h5.attrs.get("solver.b") == ("paper" if model == "frozen" else None)   # the paper's model
+    # the frozen model's b: eq. 2.22's by default here (the paper's model), --b rest the FMU's (b = K a_rho_rest)
+    rest = tmp_path / "frozen-rest.h5"
+    assert main(["rom", str(scene_path), "--basis", str(basis_file), "--model", "frozen", "--freeze", "5",
+                 "--augment-input", "--b", "rest", "--out", str(rest), "--quiet"]) == 0
+    assert "b = K a_rho_rest" in capsys.readouterr().out
+    with h5py.File(rest) as h5, h5py.File(tmp_path / "frozen.h5") as paper:
+        assert h5.attrs["solver.b"] == "rest" and not np.array_equal(h5["a_v"][()], paper["a_v"][()])
+        np.testing.assert_array_equal(h5["a_v"][0], paper["a_v"][0])              # the same start
+    assert main(["rom", str(scene_path), "--basis", str(basis_file), "--model", "original", "--b", "rest",
+                 "--out", str(tmp_path / "o.h5")]) == 2
+    assert "--b: applies to the frozen model only" in capsys.readouterr().err
     assert main(["rom", str(scene_path), "--basis", str(basis_file), "--model", "frozen", "--modes", "40",
                  "--out", str(tmp_path / "x.h5")]) == 2
     assert "--modes: 40,40 is out of range" in capsys.readouterr().err

@@ -56,7 +56,6 @@ def measure(scene_name, scales=SCALES, progress=True):
     from ..norms import relative_l2
     from ..pod.pipeline import basis_for_scene
     from ..progress import progress_bar
-    from ..rom.operators import rest_equilibrium
     from ..rom.registry import get_model
     from ..scene import derive_scene, load_scene
     from ..sph.solver import build_problem, run_sph, step_count
@@ -66,8 +65,8 @@ def measure(scene_name, scales=SCALES, progress=True):
     basis, run = basis_for_scene(scene, progress=False, problem=problem)
     k = min(int(max(scene.rom.get("accel_modes", [scene.rom["modes"]]))), *basis.max_modes)
     frozen, exact = get_model("frozen"), get_model("exact")
-    ops = rest_equilibrium(frozen.build(problem, basis, k, k, input_direction=frozen.fmu_input_direction,
-                                        tensor="always"))            # the FMU's frozen model: b about rest
+    ops = frozen.build(problem, basis, k, k, input_direction=frozen.fmu_input_direction,
+                       tensor="always")            # the FMU's frozen model (the registry's: b about rest)
     lin = exact.build(problem, basis, k, k, input_direction=exact.fmu_input_direction)
     env = E.measure(scene, ops, problem, run, PROBES, linear=False)
     n = step_count(scene.T, scene.sph.dt)
@@ -83,14 +82,16 @@ def measure(scene_name, scales=SCALES, progress=True):
             probe_strain = np.abs(_probe(rho0, problem.x, scene.L) / _probe(ref.rho, problem.x, scene.L) - 1.0)
             row = {"scene": scene.name, "scale": s, "peak_strain": float(strain.max()),
                    "peak_probe_strain": float(probe_strain.max())}
-            fr = frozen.run(ops, problem, dt=scene.sph.dt, n_steps=n, sample_steps=steps, n_freeze=N_FREEZE,
-                            integrator=scene.sph.integrator, state=(ops.a_v0 * s, ops.a_rho0.copy()))
+            fr = frozen.run(ops, problem, dt=scene.sph.dt, n_steps=n, sample_steps=steps,
+                            options=frozen.options(n_freeze=N_FREEZE, integrator=scene.sph.integrator),
+                            state=np.concatenate([ops.a_v0 * s, ops.a_rho0]))
             row["frozen_v_error"] = relative_l2(_probe(fr.v, problem.x, scene.L), v_ref, fr.t)
             fr_rho = _probe(fr.rho, problem.x, scene.L)
             row["frozen_peak_probe_strain"] = float(np.max(np.abs(_probe(rho0, problem.x, scene.L) / fr_rho - 1)))
-            row["frozen_coordinate_excess"] = coordinate_excess(env, np.hstack([fr.a_v, fr.a_rho]), ops.k_v)
+            row["frozen_coordinate_excess"] = coordinate_excess(env, fr.z, ops.k_v)
             ex = exact.run(lin, problem, dt=scene.sph.dt, n_steps=n, sample_steps=steps,
-                           state=(lin.a_v0 * s, lin.a_rho0.copy()), step=scene.sph.dt * scene.sph.every)
+                           state=np.concatenate([lin.a_v0 * s, lin.a_rho0]),
+                           options=exact.options(step=scene.sph.dt * scene.sph.every))
             row["exact_v_error"] = relative_l2(_probe(ex.v, problem.x, scene.L), v_ref, ex.t)
             rows.append(row)
             bar.update()
@@ -101,7 +102,6 @@ def training_headroom(scene_name):
     """One row: the frozen model's run of its own training scene against its recorded envelope."""
     from ..fmu import envelope as E
     from ..pod.pipeline import basis_for_scene
-    from ..rom.operators import rest_equilibrium
     from ..rom.registry import get_model
     from ..scene import load_scene
     from ..sph.solver import build_problem, step_count
@@ -111,16 +111,15 @@ def training_headroom(scene_name):
     basis, run = basis_for_scene(scene, progress=False, problem=problem)
     k = int(max(scene.rom.get("accel_modes", [scene.rom["modes"]])))
     frozen = get_model("frozen")
-    ops = rest_equilibrium(frozen.build(problem, basis, k, k, input_direction=frozen.fmu_input_direction,
-                                        tensor="always"))            # the FMU's frozen model: b about rest
+    ops = frozen.build(problem, basis, k, k, input_direction=frozen.fmu_input_direction,
+                       tensor="always")            # the FMU's frozen model (the registry's: b about rest)
     env = E.measure(scene, ops, problem, run, PROBES, linear=False)
     n = step_count(scene.T, scene.sph.dt)
-    fr = frozen.run(ops, problem, dt=scene.sph.dt, n_steps=n, every=scene.sph.every, n_freeze=N_FREEZE,
-                    integrator=scene.sph.integrator)
+    fr = frozen.run(ops, problem, dt=scene.sph.dt, n_steps=n, every=scene.sph.every,
+                    options=frozen.options(n_freeze=N_FREEZE, integrator=scene.sph.integrator))
     rho0 = _probe(np.asarray(problem.rho0, float), problem.x, scene.L)
     strain = float(np.max(np.abs(rho0 / _probe(fr.rho, problem.x, scene.L) - 1.0)))
-    return {"scene": scene.name, "k_v": ops.k_v, "coordinate_excess": coordinate_excess(env, np.hstack([fr.a_v, fr.a_rho]),
-                                                                                        ops.k_v),
+    return {"scene": scene.name, "k_v": ops.k_v, "coordinate_excess": coordinate_excess(env, fr.z, ops.k_v),
             "probe_strain_ratio": strain / env.max_probe_strain, "max_probe_strain": env.max_probe_strain,
             "allowed_excess": env.margin - 1.0, "allowed_ratio": env.margin}
 

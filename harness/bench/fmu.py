@@ -289,7 +289,7 @@ def benched_fmu_models():
     """The FMU models these benchmarks time, per POD mode count k: those on a POD basis (frozen, exact).  The
     balanced model has no POD basis (its order is not k) and its own measurement,
     ``python -m harness.bench.balanced_measure``."""
-    return tuple(m for m in fmu_model_names() if get_model(m).basis_kind is not None)
+    return tuple(m for m in fmu_model_names() if get_model(m).needs_basis)
 
 
 def prepared_fmu(scene, k, model="frozen", n_freeze=10, problem=None, probes=(0.25, 0.5, 0.66)):
@@ -424,12 +424,6 @@ def lean_run(unzipdir, md, T, h, repeats=5, f=None):
             "doSteps": n_comm, "us_per_doStep": loop / n_comm * 1e6, "step_s": h}
 
 
-def _fields(ops, z, k_v):
-    """(v, ρ) at the particles from reduced states z (M, k): the operators' own reconstruction."""
-    z = np.atleast_2d(z)
-    return ops.velocity(z[:, :k_v]), ops.density(z[:, k_v:])
-
-
 def _fmu_states(unzipdir, md, summary, ops, steps, dt, force, n_freeze, h):
     """The FMU's fields at the error steps, from one untimed run on the timed configuration: communication
     points on the grid of h plus the error-step times, input held over each step at its start value."""
@@ -453,7 +447,7 @@ def _fmu_states(unzipdir, md, summary, ops, steps, dt, force, n_freeze, h):
                 zs.append(slave.reduced_state(summary.k_v, summary.k_rho))
     finally:
         slave.close()
-    return _fields(ops, np.array(zs), summary.k_v)
+    return ops.fields(np.array(zs))           # the operators' own reconstruction
 
 
 def bench_rows(context):

@@ -54,7 +54,6 @@ def measure_scene(name, orders=ORDERS, repeats=3, progress=None):
     from ..cache import cached_sph
     from ..norms import relative_l2
     from ..pod.pipeline import basis_for_scene, on_steps
-    from ..rom.balanced import error_bounds, reduced_from_exact
     from ..rom.lti import full_linear_system, input_norm, sample_outputs
     from ..rom.registry import get_model
     from ..rom.result import probe_values
@@ -92,23 +91,20 @@ def measure_scene(name, orders=ORDERS, repeats=3, progress=None):
         k = max(1, r // 2)
         for model in MODELS:
             spec = get_model(model)
-            if spec.basis_kind is None:
+            if spec.needs_basis:                      # the paper's frozen and original models, the exact one
+                ops = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction, **spec.paper_build)
+            else:
                 if balanced_ops is None:              # one balancing; each order truncates it (= build at r)
                     balanced_ops = spec.build(problem, None, max(orders), max(orders), probes=PROBES)
                 ops = spec.truncate(problem, balanced_ops, r, r)
-                reduced = ops.reduced
-            else:
-                ops = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction)
-                reduced = reduced_from_exact(lti, ops) if spec.linear else None
-            bounds = None
-            if reduced is not None:
-                t0 = time.perf_counter()
-                bounds = error_bounds(lti, reduced, outputs="v")
+            t0 = time.perf_counter()
+            bounds = ops.error_bounds(problem, PROBES)              # the linear models' certified bounds
+            if bounds is not None:
                 bounds["time"] = time.perf_counter() - t0
-            state_dim = ops.order if spec.basis_kind is None else ops.k_v + ops.k_rho
+            state_dim = ops.order
             for label, (sc, y_sph, f, full) in forces.items():
                 kwargs = dict(n_steps=n, dt=scene.sph.dt, sample_steps=steps, force=sc.force,
-                              integrator=None if spec.linear else scene.sph.integrator, n_freeze=10)
+                              options=spec.select_options(integrator=scene.sph.integrator, n_freeze=10))
                 out = {}
 
                 def go():

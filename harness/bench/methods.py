@@ -16,7 +16,6 @@ import numpy as np
 
 from ..compare import error_table, reference_fields
 from ..pod.pipeline import basis_for_scene, error_steps, on_steps
-from ..rom.model import BASIS_KINDS
 from ..rom.registry import MODEL_NAMES, get_model, model_names, pod_model_names
 from ..sph.solver import run_sph, step_count
 from .timing import median_time
@@ -45,8 +44,9 @@ def bench_python(scene, ks=None, n_freezes=N_FREEZE, repeats=5, models=None, pro
     n_freezes : tuple of int
         Refresh periods of the models refreshed every n_freeze steps (the frozen model).
     models : tuple of str
-        Registered reduced models (default all), each run on the basis kind it needs; one whose modes the
-        basis lacks is left out.
+        Registered reduced models (default all on a POD basis), each in its paper variant (``paper_build``:
+        the frozen model with eq. 2.22's b) on the basis kind it needs; one whose modes the basis lacks is
+        left out.
     repeats : int
         Median of this many timed runs per point.
     extra : callable, optional
@@ -81,14 +81,13 @@ def bench_python(scene, ks=None, n_freezes=N_FREEZE, repeats=5, models=None, pro
     tick()
     offline_pod = basis.timings.get("svd", 0.0) + run.wall_time
     models = pod_model_names() if models is None else models
-    available = [m for m in models if all(getattr(basis, name, None) is not None
-                                          for name in BASIS_KINDS[get_model(m).basis_kind][:2])]
+    available = [m for m in models if get_model(m).available_modes(basis) is not None]
     for k in ks:
         built = {}                                  # one set of operators per basis kind, shared by its models
         for model in available:
             spec = get_model(model)
             if spec.basis_kind not in built:
-                built[spec.basis_kind] = spec.build(problem, basis, k, k)
+                built[spec.basis_kind] = spec.build(problem, basis, k, k, **spec.paper_build)
             ops = built[spec.basis_kind]
             # the offline time: the snapshots' SPH run and SVD, the energy-weighted SVD for energy modes, and
             # the operators (with the refresh tensor where built)
@@ -96,8 +95,8 @@ def bench_python(scene, ks=None, n_freezes=N_FREEZE, repeats=5, models=None, pro
                        + sum(ops.timings.values()))
             for nf in (n_freezes if spec.uses_n_freeze else (None,)):
                 # a linear model is advanced exactly in time (no integrator), by the smallest sample spacing
-                kwargs = dict(n_steps=n, dt=scene.sph.dt, integrator=None if spec.linear else scene.sph.integrator,
-                              sample_steps=steps, n_freeze=nf or 1)
+                kwargs = dict(n_steps=n, dt=scene.sph.dt, sample_steps=steps,
+                              options=spec.select_options(integrator=scene.sph.integrator, n_freeze=nf or 1))
                 result = {}
 
                 def go():

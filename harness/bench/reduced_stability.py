@@ -60,10 +60,10 @@ def measure(scenes=SCENES, progress=True):
             k = min(k, *basis.max_modes)
             for model_name, integrator in RUNS:
                 model = get_model(model_name)
-                ops = model.build(problem, basis, k, k)
+                ops = model.build(problem, basis, k, k, **model.paper_build)       # the paper's models
                 t0 = time.perf_counter()
                 res = model.run(ops, problem, dt=scene.sph.dt, n_steps=n, every=scene.sph.every,
-                                integrator=integrator, force=scene.force, progress=progress)
+                                options=model.options(integrator=integrator), force=scene.force, progress=progress)
                 rows.append({"scene": name, "model": model_name, "integrator": integrator, "k": k,
                              "growth": reduced_amplification(ops, scene.sph.dt, integrator, scene.T)[0],
                              "energy_ratio": energy_ratio(res, ops, problem, scene),

@@ -1,11 +1,12 @@
 """A component at rest: does the packaged FMU stay at rest, and what does the rest-consistent b cost?
 
-The frozen FMU takes b about the projected rest density (b = K a^ρ_rest,
-:func:`harness.rom.operators.rest_equilibrium`) instead of eq. 2.22's b = U^vᵀ ρ0⁻¹ G c, which leaves the
-constant force of ρ0's projection error in every run.  For every built-in scene this packages the FMUs as
-``sphrom fmu SCENE --model frozen|exact`` does (FMI 2, the scene's default k, n_freeze = 10, probes x/L =
-0.25, 0.5, 0.66) and, for comparison, the frozen FMU with eq. 2.22's b (the same resources with only b
-replaced), and measures through fmpy:
+The frozen FMU takes b about the projected rest density (b = K a^ρ_rest, the frozen model's build option
+``b="rest"``, :func:`harness.rom.operators.rest_b`) instead of eq. 2.22's b = U^vᵀ ρ0⁻¹ G c (``b="paper"``),
+which leaves the constant force of ρ0's projection error in every run.  For every built-in scene this packages
+the FMUs as ``sphrom fmu SCENE --model frozen|exact`` does (FMI 2, the scene's default k, n_freeze = 10, probes
+x/L = 0.25, 0.5, 0.66) and, for comparison, the frozen FMU of the paper's variant (``package_fmu`` with
+``build_options={"b": "paper"}``: the same model and packaging with eq. 2.22's b, its training envelope measured
+on it), and measures through fmpy:
 
 * **rest**: ``initial_state_scale`` = 0 and f = 0 for T = 100 s at the FMU's default communication step:
   the largest |v_probe| over the run, relative to the largest |v_probe| of the scene's own full SPH training
@@ -29,7 +30,6 @@ import platform
 import sys
 import tempfile
 import time
-import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -39,33 +39,6 @@ PROBES = (0.25, 0.5, 0.66)
 REST_T = 100.0            # [s] the rest run's length
 PLOT_SCENE = "multimode"
 EQ222 = "frozen, eq. 2.22's b"      # the row label of the comparison FMU
-
-
-def paper_b(ops, problem):
-    """Eq. 2.22's b = U^vᵀ ρ0⁻¹ G c of the operators ``ops`` (k_v,)."""
-    G = problem.neighbours.matrix()
-    return ops.U_v.T @ (ops.inv_rho0 * np.asarray(G @ problem.c))      # eq. 2.22
-
-
-def with_b(path, out, b):
-    """Write a copy of the frozen FMU ``path`` to ``out`` whose resources have ``b`` instead of theirs (the
-    token in the resources and in modelDescription.xml renewed together)."""
-    from ..fmu.resources import pack, unpack
-    with zipfile.ZipFile(path) as zin:
-        blob = zin.read("resources/model.bin")
-        data = unpack(blob)
-        old = data.token
-        data.b = np.ascontiguousarray(b, float)
-        new_blob = pack(data)
-        with zipfile.ZipFile(out, "w", compression=zipfile.ZIP_DEFLATED) as zout:
-            for info in zin.infolist():
-                raw = zin.read(info.filename)
-                if info.filename == "resources/model.bin":
-                    raw = new_blob
-                elif info.filename == "modelDescription.xml":
-                    raw = raw.decode().replace(old, data.token).encode()
-                zout.writestr(info, raw)
-    return out
 
 
 def rest_run(path, step, T=REST_T):
@@ -79,8 +52,8 @@ def rest_run(path, step, T=REST_T):
 def measure_scene(name, folder, progress=True):
     """Rows (frozen with eq. 2.22's b, frozen, exact) of scene ``name`` and the rest runs {model: (t, v)}."""
     from ..fmu.build import ensure_binaries
-    from ..fmu.package import package_fmu, reduced_model
-    from ..fmu.verify import fmu_features, verify_fmu
+    from ..fmu.package import package_fmu
+    from ..fmu.verify import fmu_features
     from ..scene import load_scene
     from ..sph.solver import build_problem
 
@@ -89,18 +62,14 @@ def measure_scene(name, folder, progress=True):
     binaries = ensure_binaries(quiet=True)
     folder = Path(folder)
     summaries, refs = {}, None
-    for model in ("frozen", "exact"):
-        summaries[model] = package_fmu(scene, folder / f"{name}-{model}.fmu", model=model, fmi=2, probes=PROBES,
-                                       progress=progress, binaries=binaries, problem=problem, verify=True,
-                                       references=refs)
-        refs = summaries[model].verification.refs
-    paths = {model: (s.path, s.verification) for model, s in summaries.items()}
-    _, ops, _, _ = reduced_model(scene, summaries["frozen"].k, 10, PROBES, scene.sph.integrator, progress=False,
-                                 problem=problem)
-    eq222 = with_b(paths["frozen"][0], folder / f"{name}-frozen-eq222.fmu", paper_b(ops, problem))
-    paths = {EQ222: (eq222, verify_fmu(eq222, scene, PROBES, refs=refs, problem=problem)),
-             "frozen": paths["frozen"], "exact": paths["exact"]}
-    baseline = paths[EQ222][1]
+    # (label, model, build options): the frozen model's two variants through its build option b, and the exact
+    for label, model, options in ((EQ222, "frozen", {"b": "paper"}), ("frozen", "frozen", None),
+                                  ("exact", "exact", None)):
+        summaries[label] = package_fmu(scene, folder / f"{name}-{len(summaries)}.fmu",
+                                       model=model, fmi=2, probes=PROBES, progress=progress, binaries=binaries,
+                                       problem=problem, verify=True, references=refs, build_options=options)
+        refs = summaries[label].verification.refs
+    paths = {label: (s.path, s.verification) for label, s in summaries.items()}
     _, _, _, (t_train, sph_v, _, rho0, _) = refs["training"]
     v_scale = float(np.max(np.abs(sph_v)))
     rows, traces = [], {}

@@ -47,11 +47,12 @@ def per_step_costs(name="tenmode", sizes=(100, 400, 1600, 6400, 10000), ks=(12,)
             for model in pod_model_names():
                 spec = get_model(model)
                 if spec.basis_kind not in built:
-                    built[spec.basis_kind] = spec.build(problem, basis, k, k)
+                    built[spec.basis_kind] = spec.build(problem, basis, k, k, **spec.paper_build)
                 ops = built[spec.basis_kind]
                 # a linear model advances by its communication step H = dt, sampled once at the end
+                options = spec.select_options(n_freeze=n_freeze, step=dt)
                 t, _ = median_time(lambda: spec.run(ops, problem, n_steps=steps, dt=dt, sample_steps=[steps],
-                                                    n_freeze=n_freeze, step=dt), repeats=repeats)
+                                                    options=options), repeats=repeats)
                 label = (f"{model} (per step H = dt)" if spec.linear else
                          f"{model} (n_freeze = {n_freeze})" if spec.uses_n_freeze else model)
                 rows.append({"method": label, "n": n, "k": k, "us_per_step": 1e6 * t / steps})

@@ -62,7 +62,7 @@ def skip_savings(scene, steps=20000, k=None, repeats=5, fmu=True, reduced_factor
     for model in SKIP_MODELS:
         spec = get_model(model)
         if spec.basis_kind not in built:
-            ops = spec.build(problem, basis, k, k, input_direction="never")
+            ops = spec.build(problem, basis, k, k, input_direction="never", **spec.paper_build)
             # the general path: a zero damping matrix and a zero-force input row, evaluated every step
             general = dataclasses.replace(ops, D=ops.D if ops.D is not None else np.zeros((ops.k_v, ops.k_v)),
                                           p=np.zeros(ops.k_v))
@@ -75,7 +75,7 @@ def skip_savings(scene, steps=20000, k=None, repeats=5, fmu=True, reduced_factor
         def run_with(o, key):
             def go():
                 res[key] = spec.run(o, problem, n_steps=steps_m, dt=scene.sph.dt, sample_steps=[steps_m],
-                                    n_freeze=10, force=lambda t: np.zeros_like(t))
+                                    options=spec.select_options(n_freeze=10), force=lambda t: np.zeros_like(t))
             return go
         tf, tg = median_times_interleaved([run_with(ops, "fast"), run_with(general, "slow")], repeats)
         np.testing.assert_array_equal(res["fast"].a_v, res["slow"].a_v)

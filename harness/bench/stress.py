@@ -50,21 +50,32 @@ def classify_energy(e):
     return ("stable" if growth <= 1.1 else "growing"), growth, drift
 
 
-def model_operators(problem, basis, k, models=None, **options):
-    """{model: operators} of ``models`` at k modes, built once per basis kind and shared by the models on it
-    (``input_direction="needed"``, the FMU's rule, unless ``options`` say otherwise)."""
-    by_kind, out = {}, {}
+def model_operators(problem, basis, k, models=None, paper=True, **options):
+    """{model: operators} of ``models`` at k modes (``input_direction="needed"``, the FMU's rule, unless
+    ``options`` say otherwise): with ``paper`` each model's paper variant (the frozen model with eq. 2.22's b),
+    built once per basis kind and shared by the models on it; else the registry's models, the FMUs' (the
+    frozen model with b about the projected rest density), built per model."""
+    built, out = {}, {}
     for name in pod_model_names() if models is None else models:
         spec = get_model(name)
-        if spec.basis_kind not in by_kind:
-            by_kind[spec.basis_kind] = spec.build(problem, basis, k, k, **{"input_direction": "needed", **options})
-        out[name] = by_kind[spec.basis_kind]
+        key = spec.basis_kind if paper else name
+        if key not in built:
+            built[key] = spec.build(problem, basis, k, k, **{"input_direction": "needed", **options,
+                                                             **(spec.paper_build if paper else {})})
+        out[name] = built[key]
     return out
+
+
+def fmu_operators(ctx, model):
+    """The operators the FMU of ``model`` packages in the stress maps: the registry's model (the frozen one with
+    b about the projected rest density) on the context's basis and k, as :func:`model_operators` builds them."""
+    return model_operators(ctx.problem, ctx.basis, ctx.k, (model,), paper=False)[model]
 
 
 @dataclasses.dataclass
 class Context:
-    """What every run of a scene shares: the x1 basis and the operators of every model (``operators``)."""
+    """What every run of a scene shares: the x1 basis and the operators of every model (``operators``: the paper
+    variants, :func:`model_operators`)."""
 
     scene: object
     problem: object
@@ -86,9 +97,9 @@ def run_one(ctx: Context, method, dt, amplitude=1.0, T=None, force=None, n_sampl
     """One stress run; returns a dict: outcome, blowup_time, energy_growth, energy_drift, energy_end.
 
     ``method``: ``sph-INTEGRATOR`` (the full SPH of the amplified scene) or a registered model, run from its
-    operators in ``operators`` (default the context's) with the velocity coordinates scaled by ``amplitude``
-    and the second block at its start value (the density starts at ρ0); n_freeze = 10 where it applies, and a
-    linear model advances with communication step dt, input held over each step (as the FMU does).
+    operators in ``operators`` (default the context's, the paper variants) with the velocity coordinates scaled
+    by ``amplitude`` and the second block at its start value (the density starts at ρ0); n_freeze = 10 where it
+    applies, and a linear model advances with communication step dt, input held over each step (as the FMU does).
     """
     scene = ctx.scene
     T = T or scene.T
@@ -112,8 +123,9 @@ def run_one(ctx: Context, method, dt, amplitude=1.0, T=None, force=None, n_sampl
             spec = get_model(method)
             ops = (operators or ctx.operators)[method]
             # the velocity coordinates (a linear model: z) scaled, the density at ρ0: as the FMU's initial_state_scale
-            res = spec.run(ops, problem, n_steps=n, dt=dt, sample_steps=steps, n_freeze=10, force=force,
-                           initial_state_scale=amplitude, step=dt, hold="held")
+            options = spec.select_options(n_freeze=10, step=dt, hold="held")
+            res = spec.run(ops, problem, n_steps=n, dt=dt, sample_steps=steps, force=force,
+                           initial_state_scale=amplitude, options=options)
             t, rho = res.t, res.rho
             e = energy(problem, res.v, rho)
     except SimulationError as exc:
@@ -170,7 +182,7 @@ def modes_rows(ctx: Context, ks=MODE_COUNTS, methods=None):
     methods = pod_model_names() if methods is None else methods
     rank = min(ctx.basis.max_modes)
     for k in sorted({min(k, rank) for k in ks}):
-        operators = model_operators(ctx.problem, ctx.basis, k, methods, tensor="auto")
+        operators = model_operators(ctx.problem, ctx.basis, k, methods)        # the tensor where it fits ("auto")
         for method in methods:
             if get_model(method).uses_n_freeze and operators[method].T is None:
                 continue

@@ -1,7 +1,9 @@
 """The FMU in the stability stress maps (``sphrom stress``): does it report an error where it blows up?
 
 For each stress setting the FMU (FMI 2, through fmpy and :class:`harness.fmu.fmi.Slave`) runs the same
-reduced model as the Python rows of :mod:`harness.bench.stress`: the scene's x1 basis and operators,
+reduced model as the Python rows of :mod:`harness.bench.stress` (the frozen FMU with its own b, about the
+projected rest density, where the Python rows run the paper's: :func:`harness.bench.stress.fmu_operators`): the
+scene's x1 basis and operators,
 the initial velocity coordinates scaled by the amplitude (the FMU's ``initial_state_scale``, so one FMU per
 scene and model serves every amplitude), the internal step ``dt`` (the FMU's ``dt``
 parameter; the exact model ignores it), n_freeze = 10, the force held over each communication step.
@@ -69,14 +71,12 @@ class FMUStress:
         from ..fmu.build import ensure_binaries
         from ..fmu.describe import model_description
         from ..fmu.package import operator_resource, write_fmu
+        from .stress import fmu_operators
 
         scene, problem = ctx.scene, ctx.problem
-        ops = ctx.operators[model]
+        ops = fmu_operators(ctx, model)             # the FMU's model: the frozen one with b about rest
         data, blob = operator_resource(get_model(model).fmu_kind, ops, problem, dt=scene.sph.dt, n_freeze=N_FREEZE)
-
-        def fields(z):
-            z = np.atleast_2d(z)
-            return ops.velocity(z[:, :ops.k_v]), ops.density(z[:, ops.k_v:])
+        fields = ops.fields
         description = model_description(2, token=data.token, scene=scene, data=data, k_requested=ctx.k,
                                          step_size=0.01, stop_time=scene.T, input_error=ops.input_error, model=model)
         path = self.folder / f"{len(self._made)}.fmu"

@@ -4,7 +4,8 @@ import argparse
 import sys
 import textwrap
 
-from .options import add_n_freeze, add_quiet, add_scene, float_list, int_at_least, max_probes, one_of, positive_float
+from .options import (add_n_freeze, add_order_tolerance, add_quiet, add_scene, float_list, int_at_least, max_probes,
+                      one_of, positive_float)
 
 DESCRIPTION = ("Build the frozen-coefficient reduced model of SCENE (eqs. 2.19-2.24: full SPH "
                "and POD reused from the cache or run now, the force profile as input direction), "
@@ -29,9 +30,11 @@ def add_parser(sub):
                         "(1 to 2N - 1)")
     p.add_argument("--tolerance", type=positive_float, metavar="TOL",
                    help="the largest relative probe v error (eq. 3.4) on the training force accepted (0 < TOL < "
-                        "1): above it the exit status is 4 and nothing is written; balanced without --modes: "
-                        "instead, its order is the smallest r with 2 sum_{i>r} sigma_i <= TOL 2 sum sigma_i "
-                        "(default 1e-3 when neither is given)")
+                        "1), for every model: above it the exit status is 4 and nothing is written (its one "
+                        "meaning; the balanced model's order criterion is --order-tolerance, and --tolerance "
+                        "with --model balanced but neither --modes nor --order-tolerance, where it set the order "
+                        "before, is refused)")
+    add_order_tolerance(p, note=" (not with --model auto)")
     add_n_freeze(p, default=10, help="default refresh period n_freeze of the frozen coefficients")
     p.add_argument("--probes", type=float_list(1, max_probes, lo=0.0, hi=1.0), metavar="X1,X2,...",
                    default="0.25,0.5,0.66", help="probe positions in units of L, in [0, 1] (default 0.25,0.5,0.66)")
@@ -87,8 +90,12 @@ def _run(args):
     from ..rom.registry import MODELS, fmu_model_names
     if args.model not in fmu_model_names() + ("auto",):
         raise UserError(f"--model: {args.model!r} is out of range (allowed: {', '.join(fmu_model_names())}, auto)")
-    if args.tolerance is not None and not args.verify and (args.model == "auto" or args.modes is not None
-                                                           or MODELS[args.model].basis_kind is not None):
+    if (args.tolerance is not None and args.model != "auto" and MODELS[args.model].sized_by_tolerance
+            and args.modes is None and args.order_tolerance is None):
+        raise UserError(f"--tolerance: ambiguous with --model {args.model} and no --modes: it set the order before "
+                        "and now means the measured training error accepted; give the order with --order-tolerance "
+                        "TOL or --modes R (and --tolerance for the accepted error)")
+    if args.tolerance is not None and not args.verify:
         raise UserError("--tolerance: needs the measurement (drop --no-verify)")
     scene = load_scene(args.scene)
     if args.model == "auto":
@@ -96,6 +103,8 @@ def _run(args):
             raise UserError(f"--{'vary' if args.vary else 'ports'}: not with --model auto (choose a model)")
         if args.tolerance is None:
             raise UserError("--model: auto needs --tolerance TOL (the error the chosen model must meet)")
+        if args.order_tolerance is not None:
+            raise UserError("--order-tolerance: not with --model auto (choose --model balanced)")
         for model in fmu_model_names():
             check_options(scene, k=args.modes, n_freeze=args.n_freeze, probes=args.probes, fmi=fmi,
                           integrator=None if MODELS[model].linear else args.integrator, model=model,
@@ -113,7 +122,8 @@ def _run(args):
             print(f"  {c.model:8s} v error {tr.err_v:.3e}, FMU {tr.fmu_s:.4f} s: {verdict}")
     else:
         check_options(scene, k=args.modes, n_freeze=args.n_freeze, probes=args.probes, fmi=fmi,
-                      integrator=args.integrator, model=args.model, tolerance=args.tolerance)
+                      integrator=args.integrator, model=args.model, tolerance=args.tolerance,
+                      order_tolerance=args.order_tolerance)
         vary = check_vary(scene, args.vary, args.model)
         from ..fmu.package import check_ports
         ports = check_ports(args.ports, args.model)
@@ -121,17 +131,20 @@ def _run(args):
             raise UserError("--ports: not with --vary (a parametric FMU has no ports)")
         s = package_fmu(scene, out, k=args.modes, n_freeze=args.n_freeze, probes=args.probes, fmi=fmi,
                         integrator=args.integrator, progress=not args.quiet, model=args.model, verify=args.verify,
-                        tolerance=args.tolerance, vary=vary, ports=ports, bounds=args.bounds)
+                        tolerance=args.tolerance, vary=vary, ports=ports, bounds=args.bounds,
+                        order_tolerance=args.order_tolerance)
     from ..rom.operators import INPUT_TOLERANCE
     added = " (+ the force profile direction, not in the POD span)" if s.augmented else ""
     print(f"fmu {s.scene}: FMI {s.fmi}.0 co-simulation, {s.model} model, wrote {s.path} ({s.size / 1024:.1f} KiB)")
     model = MODELS[s.model]
-    if model.basis_kind is None:
+    if not model.needs_basis:
+        from ..defaults import ORDER_TOLERANCE
         from ..rom.balanced_model import METHOD_TITLES
         print(f"  order r = {s.k_v} ({s.method}: {METHOD_TITLES.get(s.method, s.method)}"
-              + (f", from --tolerance {args.tolerance:g}" if args.tolerance is not None else
-                 "" if args.modes is not None else ", from the default tolerance 1e-3") + "); the state does not "
-              "split into velocity and specific-volume coordinates: outputs are rows over the whole state")
+              + (f", from --order-tolerance {args.order_tolerance:g}" if args.order_tolerance is not None else
+                 "" if args.modes is not None else f", from the default order tolerance {ORDER_TOLERANCE:g}")
+              + "); the state does not split into velocity and specific-volume coordinates: outputs are rows "
+              "over the whole state")
     elif model.basis_kind == "energy":
         print(f"  modes: k = {s.k} energy-weighted POD modes -> k_v = {s.k_v}{added}, k_e = {s.k_rho} "
               f"(specific volume)")
@@ -141,7 +154,7 @@ def _run(args):
                 f"at most {INPUT_TOLERANCE:g}: f projected on the modes (eq. 2.19)")
     if s.parameters and not s.augmented and not model.linear:
         decision = "f projected on the modes (eq. 2.19), as in every parametric frozen model"
-    if model.basis_kind is not None:
+    if model.needs_basis:
         print(f"  input projection error of the force profile on the {s.k} POD velocity modes: {s.input_error:.3g} "
               f"({decision})")
     if model.linear:
@@ -220,7 +233,7 @@ def check_vary(scene, texts, model):
     from ..sph.solver import build_problem
 
     ranges = [par.parse_vary(text) for text in texts]
-    if get_model(model).basis_kind not in ("density", "energy"):
+    if not get_model(model).needs_basis:
         raise FieldError("model", f"{model} cannot be made parametric (allowed with --vary: frozen, exact)")
     par.parameter_space(build_problem(scene), ranges)
     return ranges

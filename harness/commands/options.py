@@ -209,6 +209,16 @@ def add_n_freeze(p, default=None, help="refresh period n_freeze of the frozen co
                    help=help + ("" if default is None else f" (default {default})"))
 
 
+def add_order_tolerance(p, *aliases, note=""):
+    """``--order-tolerance TOL``: the balanced model's order criterion, its one meaning (``aliases``: the earlier
+    names of the option where they meant only this; ``note`` ends the help)."""
+    from ..defaults import ORDER_TOLERANCE
+    p.add_argument("--order-tolerance", *aliases, dest="order_tolerance", type=positive_float, metavar="TOL",
+                   help="balanced model: instead of --modes R, its order is the smallest r with 2 sum_{i>r} sigma_i "
+                        f"<= TOL 2 sum sigma_i (0 < TOL < 1; default {ORDER_TOLERANCE:g} when neither is given)"
+                        + note)
+
+
 class _SceneOption(argparse.Action):
     """``--scene NAME``: the positional SCENE given as an option (same dest)."""
 

@@ -2,8 +2,10 @@
 
 import sys
 
-from .options import add_n_freeze, add_quiet, add_scene, modes_pair, positive_float
+from .. import defaults
+from .options import add_n_freeze, add_order_tolerance, add_quiet, add_scene, modes_pair, positive_float
 
+B_CHOICES = ("paper", "rest")    # the frozen model's b (harness.rom.operators.B_FORMS)
 BOUND_PROBE_SAMPLES = 4000      # at least T/4000 between samples of the measured errors (h |A|_1 <= 0.05 up to 40000)
 
 
@@ -21,20 +23,24 @@ def add_parser(sub):
     from ..rom.registry import MODELS
     p.add_argument("--model", required=True, choices=tuple(MODELS),
                    help="; ".join(f"{m.name}: {m.description}" for m in MODELS.values()))
-    add_n_freeze(p, default=10)
+    add_n_freeze(p, default=defaults.N_FREEZE)
     p.add_argument("--modes", type=modes_pair, metavar="K|KV,KRHO",
                    help="mode counts (default: the basis file's); balanced: its order r, one number")
-    p.add_argument("--tolerance", type=positive_float, metavar="TOL",
-                   help="balanced: instead of --modes, the smallest order r with 2 sum_{i>r} sigma_i <= TOL "
-                        "2 sum sigma_i (0 < TOL < 1; default 1e-3 when neither is given)")
+    add_order_tolerance(p, "--tolerance", note="; --tolerance is its earlier name (in 'sphrom rom' only: "
+                                               "'sphrom fmu --tolerance' is the measured error accepted)")
     p.add_argument("--integrator", choices=("euler", "symplectic", "rk4"),
                    help="time integrator (default: the scene's; rk4 is not defined for frozen coefficients)")
-    p.add_argument("--refresh", choices=("tensor", "direct"), default="tensor",
-                   help="frozen refresh: the exact O(k^4)-type tensor (default) or the O(N k^2) product")
+    p.add_argument("--refresh", choices=("tensor", "direct"), default=defaults.REFRESH,
+                   help=f"frozen refresh: the exact O(k^4)-type tensor or the O(N k^2) product (default "
+                        f"{defaults.REFRESH})")
+    p.add_argument("--b", choices=B_CHOICES, dest="b",
+                   help="frozen model: b of eq. 2.19, eq. 2.22's (paper; the default here, as the paper's model) or "
+                        "K a^rho_rest, which makes the projected rest state an equilibrium (rest; the frozen FMU's "
+                        "model, as 'sphrom fmu' packages it)")
     p.add_argument("--step", type=positive_float, metavar="H",
-                   help="exact model: communication step [s] (default the sample spacing)")
-    p.add_argument("--hold", choices=("linear", "held"), default="linear",
-                   help="exact model: input linear or held over a step (default linear)")
+                   help="linear models (exact, balanced): communication step [s] (default the sample spacing)")
+    p.add_argument("--hold", choices=("linear", "held"), default=defaults.HOLD,
+                   help=f"linear models: input linear or held over a step (default {defaults.HOLD})")
     p.add_argument("--augment-input", action="store_true",
                    help="append the force direction to the velocity basis (default: project it, as the paper does)")
     p.add_argument("--out", required=True, metavar="RUN.h5")
@@ -55,12 +61,14 @@ def run(args):
     from ..sph.solver import build_problem, step_count
 
     model = get_model(args.model)
-    if model.basis_kind is None:
+    build = build_options(args, model)
+    if not model.needs_basis:
         return run_without_basis(args, model)
     if args.basis is None:
         raise UserError(f"--basis: required for the {model.name} model (a POD basis from 'sphrom pod')")
-    if args.tolerance is not None:
-        raise UserError(f"--tolerance: applies to models without a POD basis; the {model.name} model takes --modes")
+    if args.order_tolerance is not None:
+        raise UserError(f"--order-tolerance: applies to models without a POD basis; the {model.name} model takes "
+                        "--modes")
     out = check_output_path(args.out)
     scene = load_scene(args.scene)
     basis = read_basis(args.basis)              # FieldError "basis": the CLI names --basis
@@ -82,14 +90,17 @@ def run(args):
     steps = error_steps(scene)
     n = step_count(scene.T, scene.sph.dt)
     try:
-        ops = model.build(problem, basis, k_v, k_r, input_direction="augment" if args.augment_input else "auto")
+        ops = model.build(problem, basis, k_v, k_r, input_direction="augment" if args.augment_input else "auto",
+                          **build)
     except UserError as exc:
         raise UserError(f"--basis: '{args.basis}': {exc}") from None
     for line in reduced_stability_warnings(model, ops, scene.sph.dt, integrator, scene.T):
         print(f"sphrom rom: warning: {line}", file=sys.stderr)
-    result = model.run(ops, problem, dt=scene.sph.dt, n_steps=n, sample_steps=steps, integrator=integrator,
-                       n_freeze=args.n_freeze, refresh=args.refresh, step=args.step, hold=args.hold, force=scene.force,
-                       progress=not args.quiet)
+    # the command's settings that are options of this model (integrator; n_freeze, refresh; step, hold)
+    options = model.select_options(integrator=integrator, n_freeze=args.n_freeze, refresh=args.refresh,
+                                   step=args.step, hold=args.hold)
+    result = model.run(ops, problem, dt=scene.sph.dt, n_steps=n, sample_steps=steps, options=options,
+                       force=scene.force, progress=not args.quiet)
     if model.linear:
         integrator = f"matrix exponential, H = {result.settings['step']:g} s, input {args.hold}"
     sph_scene = scene if model.linear else scene.with_sph(integrator=integrator)
@@ -99,7 +110,8 @@ def run(args):
     vs_sph = error_table(v, rho, v_sph, rho_sph, result.t, problem.rho0)
     vs_exact = exact_errors(scene, result.t, problem.x, v, rho, problem.rho0)
     offline = {"svd": basis.timings.get("svd", 0.0), "tensor": 0.0, **ops.timings}
-    label = f"{args.model}" + (f", n_freeze = {args.n_freeze}, {args.refresh} refresh" if model.uses_n_freeze else "")
+    label = (f"{args.model}" + (f", n_freeze = {args.n_freeze}, {args.refresh} refresh" if model.uses_n_freeze else "")
+             + (", b = K a_rho_rest" if build.get("b") == "rest" else ""))
     k_second = ops.k_rho
     print(f"rom {scene.name}: {label}, k_v = {ops.k_v}, k_{model.second_symbol} = {k_second}, "
           f"{integrator}, to t = {n * scene.sph.dt:g} s")
@@ -117,6 +129,8 @@ def run(args):
              **{f"error.sph.{k}": v for k, v in vs_sph.items()}}
     if model.uses_n_freeze:
         attrs.update({"solver.n_freeze": args.n_freeze, "solver.refresh": args.refresh})
+    if "b" in build:
+        attrs["solver.b"] = build["b"]
     if vs_exact is not None:
         attrs.update({f"error.exact.{k}": v for k, v in vs_exact.items()})
     write_run(out, result.t, problem.x, v, rho, attrs, steps=result.steps,
@@ -125,9 +139,21 @@ def run(args):
     return 0
 
 
+def build_options(args, model):
+    """The model's build options the command sets: the frozen model's ``b`` (``--b``, default ``paper``: 'sphrom
+    rom' runs the paper's model; the registry's and the FMU's default is ``rest``).  UserError for ``--b`` with a
+    model without that option."""
+    from ..errors import UserError
+    if "b" not in model.build_options:
+        if args.b is not None:
+            raise UserError(f"--b: applies to the frozen model only (not {model.name})")
+        return {}
+    return {"b": args.b or model.paper_build.get("b", "paper")}
+
+
 def run_without_basis(args, model):
     """``sphrom rom --model M`` for a model without a POD basis (balanced): its order from --modes R or
-    --tolerance, errors at the probes and of the reconstructed fields, and its certified error bounds."""
+    --order-tolerance, errors at the probes and of the reconstructed fields, and its certified error bounds."""
     import time
 
     import numpy as np
@@ -140,7 +166,6 @@ def run_without_basis(args, model):
     from ..pod.pipeline import error_steps, on_steps
     from ..progress import progress_bar
     from ..references.exact import exact_solution, is_available
-    from ..rom.balanced import error_bounds
     from ..rom.balanced_model import METHOD_TITLES
     from ..rom.lti import input_norm, sample_outputs
     from ..rom.result import probe_values
@@ -153,8 +178,8 @@ def run_without_basis(args, model):
     if args.modes is not None and args.modes[0] != args.modes[1]:
         raise UserError(f"--modes: the {model.name} model takes one order R (allowed: one integer >= 1, "
                         f"not KV,KRHO)")
-    if args.modes is not None and args.tolerance is not None:
-        raise UserError("--tolerance: give --modes R or --tolerance TOL, not both")
+    if args.modes is not None and args.order_tolerance is not None:
+        raise UserError("--order-tolerance: give --modes R or --order-tolerance TOL, not both")
     if args.integrator is not None and args.integrator not in model.integrators:
         raise UserError(f"--integrator: {args.integrator} is not defined for the {model.name} model "
                         f"(allowed: {', '.join(model.integrators)})")
@@ -165,12 +190,12 @@ def run_without_basis(args, model):
     n = step_count(scene.T, scene.sph.dt)
     order = None if args.modes is None else args.modes[0]
     try:
-        ops = model.build(problem, None, order, order, tolerance=args.tolerance)
+        ops = model.build(problem, None, order, order, order_tolerance=args.order_tolerance)
     except ValueError as exc:
         field, _, detail = str(exc).partition(": ")
         raise FieldError("modes" if field == "order" else field, detail) from None
-    result = model.run(ops, problem, dt=scene.sph.dt, n_steps=n, sample_steps=steps, step=args.step, hold=args.hold,
-                       force=scene.force)
+    result = model.run(ops, problem, dt=scene.sph.dt, n_steps=n, sample_steps=steps, force=scene.force,
+                       options=model.options(step=args.step, hold=args.hold))
     integrator = f"matrix exponential, H = {result.settings['step']:g} s, input {args.hold}"
     sph = cached_sph(scene, steps, progress=not args.quiet, problem=problem)
     v_sph, rho_sph = on_steps(sph, steps)
@@ -193,7 +218,7 @@ def run_without_basis(args, model):
     # Simpson's rule on a grid fine against the fastest rate of A (|A|_1)
     t0 = time.perf_counter()
     with progress_bar(P, "bounds", unit="probe", enabled=not args.quiet) as bar:
-        bounds = error_bounds(lti, red, progress=bar)
+        bounds = ops.error_bounds(problem, lti.probes, progress=bar)
     t_bounds = time.perf_counter() - t0
     A = lti.dense()
     k = int(min(40000, max(BOUND_PROBE_SAMPLES, np.ceil(scene.T * np.max(np.sum(np.abs(A), axis=0)) / 0.05))))
@@ -250,12 +275,12 @@ def run_without_basis(args, model):
              "bound.force_error_bound": fb, "bound.initial_state_error_bound": ib,
              "bound.initial_state_error_measured": measured, "bound.force_gain_measured": gain,
              "bound.sigma": bounds["sigma"]}
-    if args.tolerance is not None:
-        attrs["solver.tolerance"] = args.tolerance
+    if args.order_tolerance is not None:
+        attrs["solver.tolerance"] = args.order_tolerance          # the attribute's name kept (file layout)
     if vs_exact is not None:
         attrs.update({f"error.exact.{k}": v for k, v in vs_exact.items()})
         attrs.update({f"error.exact.probes.{k}": v for k, v in probe_exact.items()})
     write_run(out, t, x, v, rho, attrs, steps=result.steps,
-              extra={"x_r": result.a_v, "y": y, "hsv": red.hsv})
+              extra={"x_r": result.z, "y": y, "hsv": red.hsv})
     print(f"wrote {out}")
     return 0

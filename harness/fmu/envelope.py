@@ -198,19 +198,6 @@ def _probe_values(field, x, L, probes):
     return (1.0 - w) * field[..., i0] + w * field[..., i1]
 
 
-def coordinates(ops, run, problem, linear):
-    """The training run's reduced coordinates on the FMU's basis, (M, k).
-
-    Frozen (``linear`` False): a^v = U_vᵀ v, a^ρ = U_ρᵀ ρ (eq. 2.16's projection).  Linear (exact model):
-    a = U_vᵀ diag(ρ0) v, b = U_eᵀ diag(c) e with e = ρ0/ρ - 1 (its energy inner products).
-    """
-    if linear:
-        rho0 = np.asarray(problem.rho0, float)
-        e = rho0[None, :] / run.rho - 1.0
-        return np.hstack([(run.v * rho0) @ ops.U_v, (e * np.asarray(problem.c, float)) @ ops.U_e])
-    return np.hstack([run.v @ ops.U_v, run.rho @ ops.U_rho])
-
-
 def measure(scene, ops, problem, run, probes, linear):
     """The :class:`Envelope` of a packaged model.
 
@@ -218,7 +205,9 @@ def measure(scene, ops, problem, run, probes, linear):
     ----------
     scene : Scene
     ops : ReducedOperators or LinearOperators
-        The FMU's operators (their bases, the force direction appended where it was).
+        The FMU's operators (their bases, the force direction appended where it was); the training run's
+        reduced coordinates are their projection of its fields (``ops.project``: frozen a^v = U_vᵀ v,
+        a^ρ = U_ρᵀ ρ, eq. 2.16; exact a = U_vᵀ diag(ρ0) v, b = U_eᵀ diag(c) e, its energy inner products).
     problem : SPHProblem
     run : Run
         The cached full SPH training run (:func:`harness.pod.pipeline.basis_for_scene`).
@@ -227,7 +216,7 @@ def measure(scene, ops, problem, run, probes, linear):
     linear : bool
         The model is linear (exact in its state): no run-time checks.
     """
-    z = coordinates(ops, run, problem, linear)
+    z = ops.project(run.v, run.rho, problem)
     rho0 = np.asarray(problem.rho0, float)
     strain = np.abs(rho0[None, :] / run.rho - 1.0)
     L = scene.L
@@ -240,8 +229,7 @@ def measure(scene, ops, problem, run, probes, linear):
                     max_probe_strain=float(probe_strain.max()), failure_strain=0.0 if linear else FAILURE_STRAIN,
                     margin=MARGIN, checks=checks, force_mean=mean, lo=z.min(axis=0), hi=z.max(axis=0),
                     probe_rho0=probe_rho0, probe_v_max=np.abs(_probe_values(run.v, problem.x, L, probes)).max(axis=0),
-                    k_v=int(ops.k_v), port_v=int(getattr(ops, "port_added", 0)),
-                    port_rho=int(getattr(ops, "port_added_2", 0)))
+                    k_v=int(ops.k_v), port_v=int(ops.port_added), port_rho=int(ops.port_added_2))
 
 
 def union(envelopes):

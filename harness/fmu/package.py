@@ -178,38 +178,43 @@ def parse_probes(text):
 
 
 def check_options(scene, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_PROBES, fmi=2, integrator=None,
-                  model="frozen", tolerance=None):
+                  model="frozen", tolerance=None, order_tolerance=None):
     """Validate the packaging options before any work; returns (k, n_freeze, probes, fmi, integrator).
 
     For a linear model (the exact one) the integrator is ``exponential`` (an ``integrator`` does not apply).
     ``tolerance`` (0 < tolerance < 1) is the largest measured training error accepted (:func:`package_fmu`
-    with ``verify``), except that a model without a POD basis (balanced) given no order ``k`` (1 <= r < 2N)
-    takes its order from it instead; with neither, k is returned as None (the order then comes from the default tolerance, :data:`harness.rom.balanced.DEFAULT_TOLERANCE`).
+    with ``verify``), for every model.  ``order_tolerance`` (0 < order_tolerance < 1) applies to a model whose
+    order may come from a tolerance (``sized_by_tolerance``: balanced) given no order ``k`` (1 <= r < 2N); with
+    neither, k is returned as None (the order then comes from :data:`harness.defaults.ORDER_TOLERANCE`).
 
     Raises FieldError naming the field (``k``, ``n_freeze``, ``probes``, ``fmi``, ``model``, ``integrator``,
-    ``tolerance``) and the allowed range; the command line shows the option that set it.
+    ``tolerance``, ``order_tolerance``) and the allowed range; the command line shows the option that set it.
     """
-    from ..rom.registry import fmu_model_names, get_model
+    from ..rom.registry import fmu_model_names, get_model, model_names
     if model not in fmu_model_names():
         raise FieldError("model", f"{model!r} is out of range (allowed: {', '.join(fmu_model_names())})")
-    no_basis = get_model(model).basis_kind is None
-    if tolerance is not None:
-        if isinstance(tolerance, bool) or not (isinstance(tolerance, (int, float)) and math.isfinite(tolerance)
-                                               and 0 < tolerance < 1):
-            raise FieldError("tolerance", f"{tolerance!r} is out of range (allowed: 0 < tolerance < 1)")
-    k = default_modes(scene) if k is None and not no_basis else k
+    spec = get_model(model)
+    for name, value in (("tolerance", tolerance), ("order_tolerance", order_tolerance)):
+        if value is not None and (isinstance(value, bool) or not (isinstance(value, (int, float))
+                                                                  and math.isfinite(value) and 0 < value < 1)):
+            raise FieldError(name, f"{value!r} is out of range (allowed: 0 < {name} < 1)")
+    if order_tolerance is not None and not spec.sized_by_tolerance:
+        raise FieldError("order_tolerance", f"does not apply to the {model} model, whose size is its POD mode count "
+                                            f"k (allowed with: {', '.join(model_names(sized_by_tolerance=True))})")
+    if order_tolerance is not None and k is not None:
+        raise FieldError("order_tolerance", "give the order k or order_tolerance, not both")
+    k = default_modes(scene) if k is None and not spec.sized_by_tolerance else k
     if k is not None and (isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1):
         raise FieldError("k", f"{k!r} is out of range (allowed: an integer >= 1)")
-    if no_basis and k is not None and k >= 2 * scene.sph.n_particles:
-        raise FieldError("k", f"{k} is out of range (allowed: an order r from 1 to 2N - 1 = "
-                              f"{2 * scene.sph.n_particles - 1})")
-    if not no_basis and k > scene.sph.n_particles:
-        raise FieldError("k", f"{k} is out of range (allowed: 1 to N = {scene.sph.n_particles})")
+    limit = spec.max_modes(scene.sph.n_particles)
+    if k is not None and k > limit:
+        raise FieldError("k", f"{k} is out of range (allowed: " + (f"an order r from 1 to 2N - 1 = {limit})"
+                                                                    if spec.sized_by_tolerance else
+                                                                    f"1 to N = {limit})"))
     n_freeze = check_parameter("n_freeze", n_freeze)      # the FMU's range and words (harness/fmu/variables.py)
     probes = parse_probes(",".join(str(p) for p in probes)) if not isinstance(probes, str) else parse_probes(probes)
     if fmi not in (2, 3):
         raise FieldError("fmi", f"{fmi!r} is out of range (allowed: 2 or 3)")
-    spec = get_model(model)
     if spec.linear:
         if integrator is not None:
             raise FieldError("integrator", f"{integrator!r} does not apply to the {model} model (it is advanced "
@@ -246,53 +251,54 @@ def model_basis(scene, spec, k, progress=True, problem=None):
 
     problem = problem or build_problem(scene)
     basis, _ = basis_for_scene(scene, progress=progress, problem=problem)
-    modes = [getattr(basis, name) for name in BASIS_KINDS[spec.basis_kind][:2]]
-    if any(U is None for U in modes):
+    available = spec.available_modes(basis)
+    if available is None:
         raise FieldError("model", f"{spec.name}: the basis of scene '{scene.name}' has no "
                                   f"{' and '.join(BASIS_KINDS[spec.basis_kind][:2])} modes")
-    available = min(U.shape[1] for U in modes)
-    if k > available:
-        raise FieldError("k", f"{k} is out of range (allowed: 1 to {available}, the POD modes of scene "
+    if k > min(available):
+        raise FieldError("k", f"{k} is out of range (allowed: 1 to {min(available)}, the POD modes of scene "
                               f"'{scene.name}')")
     return basis, problem
 
 
-def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem=None, model="frozen", ports=()):
+def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem=None, model="frozen", ports=(),
+                  build_options=None):
     """The FMU's numbers for a model of resource kind 1 (frozen coefficients): (ModelData, ops, problem, basis).
 
-    Runs (or reuses) the full SPH and the POD (harness.pod.pipeline), builds
-    the operators with ``input_direction="needed"`` (an input row always; the force profile appended
-    to U_v only when the POD modes miss more than 1 % of it) and ``tensor="always"``, with b about the
-    projected rest density (:func:`harness.rom.operators.rest_equilibrium`), so that the FMU started at rest
-    stays at rest.
+    Runs (or reuses) the full SPH and the POD (harness.pod.pipeline), builds the model's operators
+    (``get_model(model).build``: the frozen model's own, b about the projected rest density so that the FMU
+    started at rest stays at rest, :func:`harness.rom.operators.rest_b`) with ``input_direction="needed"`` (an
+    input row always; the force profile appended to U_v only when the POD modes miss more than 1 % of it) and
+    ``tensor="always"``.  ``build_options`` go to the model's build (``{"b": "paper"}``: eq. 2.22's b, the
+    paper's variant, :mod:`harness.bench.rest` compares them).
     """
-    from ..rom.operators import rest_equilibrium
     from ..rom.registry import get_model
     from ..rom.stepping import runaway_bound
 
     spec = get_model(model)
     basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem)
     ops = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction, tensor="always",
-                     **({"ports": tuple(ports)} if ports else {}))
-    ops = rest_equilibrium(ops)      # a component at rest stays at rest (b = K a^ρ_rest, not eq. 2.22's b)
+                     **({"ports": tuple(ports)} if ports else {}), **(build_options or {}))
     data = model_data(ops, problem, dt=scene.sph.dt, integrator=integrator, n_freeze=n_freeze, probes=probes,
                       bound=runaway_bound(ops))
     return data, ops, problem, basis
 
 
-def exact_model(scene, k, n_freeze, probes, progress=True, problem=None, model="exact", ports=()):
-    """The FMU's numbers for a model of resource kind 2 (linear): (ExactData, lin, problem, basis).
+def exact_model(scene, k, n_freeze, probes, progress=True, problem=None, model="exact", ports=(),
+                build_options=None):
+    """The FMU's numbers for a model of resource kind 2 on a POD basis (the exact model):
+    (ExactData, lin, problem, basis).
 
     The model's bases (the exact model: the energy-weighted ``Basis.U_ve``, ``U_e``), the operators with the
     model's ``fmu_input_direction`` (the exact model: ``"always"``, the force profile is always in its
-    velocity basis, so the input f is represented exactly).
+    velocity basis, so the input f is represented exactly) and ``build_options``.
     """
     from ..rom.registry import get_model
 
     spec = get_model(model)
     basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem)
     lin = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction,
-                     **({"ports": tuple(ports)} if ports else {}))
+                     **({"ports": tuple(ports)} if ports else {}), **(build_options or {}))
     data = exact_data(lin, problem, dt=scene.sph.dt, n_freeze=n_freeze, probes=probes,
                       bound=linear_bound(lin, scene))
     return data, lin, problem, basis
@@ -307,11 +313,12 @@ def training_envelope(scene, ops, problem, probes, linear, progress=False):
     return measure(scene, ops, problem, run, probes, linear)
 
 
-def balanced_model(scene, k, n_freeze, probes, tolerance=None, problem=None, model="balanced"):
+def balanced_model(scene, k, n_freeze, probes, order_tolerance=None, problem=None, model="balanced",
+                   build_options=None):
     """The FMU's numbers for a linear model without a POD basis (balanced): (ExactData, ops, problem).
 
     The full linear SPH of the scene with the FMU's probes as outputs, balanced
-    and truncated at order ``k`` (or the order ``tolerance`` gives; the default
+    and truncated at order ``k`` (or the order ``order_tolerance`` gives; the default
     tolerance when both are None); :func:`harness.fmu.resources.balanced_data`.
     """
     from ..rom.registry import get_model
@@ -319,21 +326,21 @@ def balanced_model(scene, k, n_freeze, probes, tolerance=None, problem=None, mod
 
     problem = problem or build_problem(scene)
     try:
-        ops = get_model(model).build(problem, None, k, k, tolerance=None if k is not None else tolerance, probes=probes)
+        ops = get_model(model).build(problem, None, k, k, order_tolerance=None if k is not None else order_tolerance,
+                                     probes=probes, **(build_options or {}))
     except ValueError as exc:
         field_name, _, detail = str(exc).partition(": ")
         raise FieldError("k" if field_name == "order" else field_name, detail) from None
     return balanced_data(ops, problem, dt=scene.sph.dt, n_freeze=n_freeze), ops, problem
 
 
-def linear_bounds(lti, reduced, progress=True):
-    """The certified error bounds of a linear reduced model at the velocity probes
-    (:func:`harness.rom.balanced.error_bounds`), with a progress bar over the probes."""
+def linear_bounds(ops, problem, probes, progress=True):
+    """The certified error bounds of a linear reduced model at the velocity probes (the operators'
+    ``error_bounds``, :func:`harness.rom.balanced.error_bounds`), with a progress bar over the probes."""
     from ..progress import progress_bar
-    from ..rom.balanced import error_bounds
 
-    with progress_bar(lti.n_probes, "error bounds", unit="probe", enabled=progress) as bar:
-        return error_bounds(lti, reduced, outputs="v", progress=bar)
+    with progress_bar(len(probes), "error bounds", unit="probe", enabled=progress) as bar:
+        return ops.error_bounds(problem, probes, progress=bar)
 
 
 def linear_bound(lin, scene, samples=4097):
@@ -350,39 +357,32 @@ def linear_bound(lin, scene, samples=4097):
     return linear_runaway_bound(lin, float(np.sum(0.5 * (f[1:] + f[:-1]) * np.diff(t))))
 
 
-def _frozen_resource(scene, model, k, n_freeze, probes, integrator, progress, problem, tolerance=None, bounds=True,
-                     ports=()):
+def _frozen_resource(scene, model, k, n_freeze, probes, integrator, progress, problem, order_tolerance=None,
+                     bounds=True, ports=(), build_options=None):
     data, ops, problem, _ = reduced_model(scene, k, n_freeze, probes, integrator, progress=progress,
-                                          problem=problem, model=model, ports=ports)
+                                          problem=problem, model=model, ports=ports, build_options=build_options)
     data.sections.update(training_envelope(scene, ops, problem, probes, False, progress).sections())
     return data, ops, pack(data)
 
 
-def _linear_resource(scene, model, k, n_freeze, probes, integrator, progress, problem, tolerance=None, bounds=True,
-                     ports=()):
-    """Kind 2: the exact POD model (on its basis) or the balanced model (no basis); both with the certified
-    error bounds against the full linear SPH at the FMU's probes (section BOUNDS: force, initial state),
-    unless ``bounds`` is False (benchmarks that time the stepping only: the bounds take seconds to minutes at
-    N = 400)."""
-    from ..rom.balanced import reduced_from_exact
-    from ..rom.lti import full_linear_system
+def _linear_resource(scene, model, k, n_freeze, probes, integrator, progress, problem, order_tolerance=None,
+                     bounds=True, ports=(), build_options=None):
+    """Kind 2: the exact POD model (on its basis, with its training envelope) or the balanced model (no basis);
+    both with the certified error bounds against the full linear SPH at the FMU's probes (the operators'
+    ``error_bounds``; section BOUNDS: force, initial state), unless ``bounds`` is False (benchmarks that time
+    the stepping only: the bounds take seconds to minutes at N = 400)."""
     from ..rom.registry import get_model
 
-    if get_model(model).basis_kind is None:
-        data, ops, problem = balanced_model(scene, k, n_freeze, probes, tolerance=tolerance, problem=problem,
-                                            model=model)
-        lti, reduced = ops.lti, ops.reduced
-    else:
+    if get_model(model).needs_basis:
         data, ops, problem, _ = exact_model(scene, k, n_freeze, probes, progress=progress, problem=problem,
-                                            model=model, ports=ports)
+                                            model=model, ports=ports, build_options=build_options)
         data.sections.update(training_envelope(scene, ops, problem, probes, True, progress).sections())
-        lti = reduced = None
+    else:
+        data, ops, problem = balanced_model(scene, k, n_freeze, probes, order_tolerance=order_tolerance,
+                                            problem=problem, model=model, build_options=build_options)
     if not bounds:
         return data, ops, pack_exact(data)
-    if reduced is None:
-        lti = full_linear_system(problem, probes)
-        reduced = reduced_from_exact(lti, ops)
-    data.bounds = linear_bounds(lti, reduced, progress=progress)
+    data.bounds = linear_bounds(ops, problem, probes, progress=progress)
     data.sections["BOUNDS"] = np.vstack([data.bounds["force_error_bound"], data.bounds["initial_state_error_bound"]])
     return data, ops, pack_exact(data)
 
@@ -394,12 +394,11 @@ RESOURCES = {MODEL_FROZEN: _frozen_resource, MODEL_EXACT_LINEAR: _linear_resourc
 def operator_resource(kind, ops, problem, *, dt, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_PROBES, integrator="euler"):
     """(data, bytes) of resources/model.bin of kind ``kind`` (ReducedModel.fmu_kind) from operators built
     elsewhere (a benchmark's own), the runaway bound that of their initial state, as :func:`reduced_model` and
-    :func:`exact_model` have it; the initial state is scaled at run time by the FMU's initial_state_scale.  Frozen
-    operators get b about the projected rest density, as :func:`reduced_model` gives them."""
-    from ..rom.operators import rest_equilibrium
+    :func:`exact_model` have it; the initial state is scaled at run time by the FMU's initial_state_scale.  The
+    operators are packaged as they are: the frozen model's own (``get_model("frozen").build``, b about the
+    projected rest density) give the FMU's frozen model, ``b="paper"`` ones eq. 2.22's variant."""
     from ..rom.stepping import runaway_bound
     if kind == MODEL_FROZEN:
-        ops = rest_equilibrium(ops)
         data = model_data(ops, problem, dt=dt, integrator=integrator, n_freeze=n_freeze, probes=probes,
                           bound=runaway_bound(ops))
         return data, pack(data)
@@ -448,7 +447,8 @@ def validate(path):
 
 def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_PROBES, fmi=2, integrator=None,
                 step_size=None, progress=True, binaries=None, problem=None, model="frozen", verify=False,
-                tolerance=None, references=None, bounds=True, vary=(), ports=None) -> FMUSummary:
+                tolerance=None, references=None, bounds=True, vary=(), ports=None, order_tolerance=None,
+                build_options=None) -> FMUSummary:
     """Build the FMU of ``scene`` at ``out`` (atomically) and validate it.
 
     Parameters
@@ -458,7 +458,7 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
         The .fmu to write.
     k : int, optional
         POD modes (default :func:`default_modes`); for the balanced model its
-        order r (default: from ``tolerance``).
+        order r (default: from ``order_tolerance``).
     n_freeze : int
         Default refresh period (the ``n_freeze`` parameter's start value).
     probes : sequence of float
@@ -478,10 +478,15 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
         force and an unseen one, errors and run times), and store the figures in its description and in
         ``documentation/`` (with the plot ``probes.png``).  Without it the documentation says "not measured".
     tolerance : float, optional
-        Balanced model without ``k``: its order is the smallest r with 2 Σ_{i>r} σ_i <= tolerance · 2 Σ σ_i
-        (and nothing else).  Otherwise, with ``verify``: the largest v error on the training force accepted;
-        above it :class:`harness.errors.ToleranceError` is raised and nothing is written (an existing ``out``
-        is left as it was).
+        With ``verify``: the largest v error on the training force accepted; above it
+        :class:`harness.errors.ToleranceError` is raised and nothing is written (an existing ``out`` is left
+        as it was).
+    order_tolerance : float, optional
+        Balanced model without ``k``: its order is the smallest r with 2 Σ_{i>r} σ_i <= order_tolerance · 2 Σ σ_i
+        (default :data:`harness.defaults.ORDER_TOLERANCE`).
+    build_options : dict, optional
+        More options of the model's build (:meth:`harness.rom.model.ReducedModel.build`; the frozen model's
+        ``b="paper"``: eq. 2.22's b instead of the rest-consistent one).
     references : dict, optional
         :func:`harness.fmu.verify.references` computed before (several models of one scene).
     bounds : bool
@@ -510,20 +515,23 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
 
     k, n_freeze, probes, fmi, integrator = check_options(scene, k=k, n_freeze=n_freeze, probes=probes, fmi=fmi,
                                                          integrator=integrator, model=model,
-                                                         tolerance=tolerance)
+                                                         tolerance=tolerance, order_tolerance=order_tolerance)
     ports = check_ports(ports, model)
     timings = {}
     t0 = time.perf_counter()
     parameters = []
     if vary:
+        if build_options:
+            raise FieldError("build_options", "not with vary (a parametric model has its own build)")
         from .parametric import parameter_variables, parametric_resource
         data, ops, blob, space = parametric_resource(scene, model, k, n_freeze, probes, integrator, progress, vary)
         parameters = parameter_variables(space)
     else:
         data, ops, blob = RESOURCES[get_model(model).fmu_kind](scene, model, k, n_freeze, probes, integrator,
-                                                                  progress, problem, tolerance=tolerance,
-                                                                  bounds=bounds, ports=ports)
-    bounds = getattr(data, "bounds", None)
+                                                                  progress, problem, order_tolerance=order_tolerance,
+                                                                  bounds=bounds, ports=ports,
+                                                                  build_options=build_options)
+    bounds = data.bounds
     timings["model"] = time.perf_counter() - t0
     from .envelope import Envelope
     envelope = Envelope.from_sections(data.sections, data.k_v)
@@ -532,10 +540,7 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
     timings["binaries"] = time.perf_counter() - t1
     step = step_size if step_size is not None else min(DEFAULT_STEP, scene.T / 10)
     spec = get_model(model)
-    # a model without a POD basis given no order takes it from the tolerance (a Hankel-singular-value
-    # tail, not a measured error): then the tolerance is not also the measured check
-    check = None if (spec.basis_kind is None and k is None) else tolerance
-    k = data.k_v if k is None else k                 # the balanced model's order from its tolerance
+    k = data.k_v if k is None else k                 # the balanced model's order from its order tolerance
 
     def archive(path, verification=None):
         """Write and validate the FMU at ``path``; its description and documentation carry ``verification``."""
@@ -545,7 +550,7 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
                                          measured=None if verification is None else verification.sentence())
         docs = documentation_files(scene=scene, spec=spec, data=data, k=k, input_error=ops.input_error,
                                    augmented=ops.augmented, description_xml=description, verification=verification,
-                                   tolerance=check, envelope=envelope)
+                                   tolerance=tolerance, envelope=envelope)
         write_fmu(path, fmi=fmi, blob=blob, description=description,
                   binary=binaries.fmi2 if fmi == 2 else binaries.fmi3, documentation=docs)
         problems = validate(path)
@@ -563,15 +568,14 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
             t3 = time.perf_counter()
             verification = verify_fmu(tmp, scene, probes, refs=references, problem=problem, progress=progress)
             timings["verify"] = time.perf_counter() - t3
-            check_tolerance(verification, check, out, model)
+            check_tolerance(verification, tolerance, out, model)
             archive(tmp, verification)           # the same model and binary: only the texts change
         size = tmp.stat().st_size
     return FMUSummary(path=out, fmi=fmi, scene=scene.name, k=k, k_v=data.k_v, k_rho=data.k_rho,
                       input_error=ops.input_error, augmented=ops.augmented, probes=list(probes), n_freeze=n_freeze,
                       integrator=integrator, dt=data.dt, token=data.token, size=size, timings=timings, model=model,
                       envelope=envelope, verification=verification, bounds=bounds,
-                      method=getattr(ops, "method", ""), parameters=parameters,
-                      ports=list(ports), port_errors=list(getattr(ops, "port_errors", ())))
+                      method=ops.method, parameters=parameters, ports=list(ports), port_errors=list(ops.port_errors))
 
 
 def check_tolerance(verification, tolerance, out, model):

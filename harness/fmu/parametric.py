@@ -59,17 +59,17 @@ def parametric_model(scene, ranges, k, *, model="frozen", progress=True, input_d
     :func:`harness.rom.operators.build_operators`.
     """
     from ..errors import FieldError
-    from ..rom.model import BASIS_KINDS, basis_modes
+    from ..rom.model import basis_modes
     from ..rom.registry import get_model
     from ..sph.solver import build_problem
 
     spec = get_model(model)
-    if spec.basis_kind not in ("density", "energy"):
+    if not spec.needs_basis:
         raise FieldError("model", f"{model} cannot be made parametric (allowed: a POD model: frozen, exact)")
     space = par.parameter_space(build_problem(scene), ranges)
     points = par.training_points(space)
     basis, _ = par.training_basis(scene, points, progress=progress)
-    available = min(getattr(basis, name).shape[1] for name in BASIS_KINDS[spec.basis_kind][:2])
+    available = min(spec.available_modes(basis))
     if k > available:
         raise FieldError("k", f"{k} is out of range (allowed: 1 to {available}, the POD modes of the parametric "
                               f"basis)")

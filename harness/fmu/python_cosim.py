@@ -2,7 +2,7 @@
 
 :func:`cosim_reference` drives the compiled loop of the frozen model
 (:func:`harness.rom.frozen.frozen_advance`, the same loop as
-``run_reduced("frozen", ...)``) communication step by communication step,
+``get_model("frozen").run``) communication step by communication step,
 with the FMU's rules (fmu_src/rom.c ``rom_do_step``):
 
 * the input f is held over each communication step, or, with an input

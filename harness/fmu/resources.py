@@ -135,6 +135,7 @@ class ModelData:
     probe_x: np.ndarray
     token: str = ""
     sections: dict = field(default_factory=dict)
+    bounds = None                # the frozen model has no certified error bounds (ExactData.bounds)
 
     @property
     def k_v(self):
@@ -187,7 +188,7 @@ def model_data(ops, problem, *, dt, integrator, n_freeze, probes, bound):
 
 def port_sections(ops):
     """The tagged sections of a model with ports (PORTX, PORTB, PORTC; module docstring), {} without."""
-    if not getattr(ops, "ports", ()):
+    if not ops.ports:
         return {}
     return {"PORTX": np.asarray(ops.ports, float)[None, :], "PORTB": np.asarray(ops.Bp, float),
             "PORTC": np.asarray(ops.Cp, float)}

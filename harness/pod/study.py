@@ -15,7 +15,6 @@ import numpy as np
 
 from ..compare import error_table, reference_fields
 from ..progress import progress_bar
-from ..rom.model import BASIS_KINDS
 from ..rom.registry import MODEL_NAMES, get_model
 from ..sph.solver import step_count
 from .pipeline import basis_for_scene, error_steps, on_steps
@@ -37,8 +36,8 @@ def mode_sweep(scene, spec=None, kmax=None, models=(PAPER_MODEL,), n_freeze=10, 
     kmax : int, optional
         Largest k (default min(rank, max(20, paper threshold + 8))).
     models : tuple of str
-        Registered reduced models to sweep (their operators are built once
-        per k and per builder, so the density-mode models share theirs).
+        Registered reduced models to sweep, each in its paper variant (``paper_build``: the frozen model with
+        eq. 2.22's b), its operators built once per k and per basis kind (the density-mode models share theirs).
     reference : (v, rho, label), optional
         Reference fields at the error steps; computed when not given.
 
@@ -69,17 +68,17 @@ def mode_sweep(scene, spec=None, kmax=None, models=(PAPER_MODEL,), n_freeze=10, 
     specs = [get_model(model) for model in models]
     with progress_bar(total=kmax * len(models), desc=f"modes {scene.name}", enabled=progress) as bar:
         for k in range(1, kmax + 1):
-            built = {}                                # builder -> operators at this k
+            built = {}                                # basis kind -> the paper variants' operators at this k
             for model, entry in zip(models, specs):
-                if entry.build not in built:
+                if entry.basis_kind not in built:
                     # k_v and k_rho capped at their own rank
-                    k_v, k_r = (min(k, getattr(basis, name).shape[1]) for name in BASIS_KINDS[entry.basis_kind][:2])
-                    built[entry.build] = entry.build(problem, basis, k_v, k_r)
-                ops = built[entry.build]
+                    k_v, k_r = (min(k, m) for m in entry.available_modes(basis))
+                    built[entry.basis_kind] = entry.build(problem, basis, k_v, k_r, **entry.paper_build)
+                ops = built[entry.basis_kind]
                 try:
-                    res = entry.run(ops, problem, n_steps=n, dt=scene.sph.dt,
-                                    integrator=None if entry.linear else scene.sph.integrator, sample_steps=steps,
-                                    n_freeze=n_freeze)
+                    res = entry.run(ops, problem, n_steps=n, dt=scene.sph.dt, sample_steps=steps,
+                                    options=entry.select_options(integrator=scene.sph.integrator,
+                                                                 n_freeze=n_freeze))
                     err = error_table(res.v, res.rho, v_sph, rho_sph, t, problem.rho0)
                     online = res.wall_time
                 except Exception as exc:              # a blow-up is a result here, not a failure

@@ -67,7 +67,7 @@ def compare_exact_and_original(scene, ks=None):
     for k in ks:
         k = min(k, *basis.max_modes)
         orig = original.run(original.build(problem, basis, k, k), problem, n_steps=n, dt=scene.sph.dt,
-                            integrator=scene.sph.integrator, sample_steps=steps)
+                            options=original.options(integrator=scene.sph.integrator), sample_steps=steps)
         e_orig = error_table(orig.v, orig.rho, v_sph, rho_sph, t, problem.rho0)
         ex = exact.run(exact.build(problem, basis, k, k), problem, n_steps=n, dt=scene.sph.dt, sample_steps=steps,
                        force=scene.force)

@@ -67,10 +67,11 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from .. import defaults
 from .lti import LTI, output_energy
 
 METHODS = ("auto", "bt", "galerkin", "bt_shifted")
-DEFAULT_TOLERANCE = 1e-3
+DEFAULT_TOLERANCE = defaults.ORDER_TOLERANCE
 # Output weights on the probe values of e (the velocity probes weigh 1): BT balanced mostly for the
 # velocity probes (damped_forced, r = 12: velocity error 1.6e-4 at 0.1, 5.6e-4 at 1); the Galerkin
 # trial space needs both halves of each standing wave (tenmode, r = 24: 4.0e-2 at 1, 5.3e-2 at 0.1).

@@ -4,19 +4,20 @@ It needs no POD basis: ``build`` takes the full linear SPH of the problem
 (:func:`harness.rom.lti.full_linear_system`, probes at
 :data:`harness.rom.lti.DEFAULT_PROBES`), balances it and keeps the order r
 (the mode-count argument ``k_v``, i.e. ``sphrom rom --modes R``, or the
-smallest r meeting ``tolerance``); the ``basis`` argument is ignored.
+smallest r meeting ``order_tolerance``); the ``basis`` argument is ignored.
 Balanced truncation on damped scenes (d > 0 everywhere), the
 structure-preserving Galerkin projection on the Gramian trial space otherwise
 (:func:`harness.rom.balanced.balanced_reduce`, method ``auto``).
 
 The state x_r (r numbers) does not split into a velocity and a second block:
-every balanced coordinate mixes v and e.  The run's :class:`ReducedResult`
-holds the whole state in ``a_v`` (M, r) and nothing in ``a_rho`` (M, 0); its
-fields are the reconstruction through the trial basis, x ≈ V x_r in energy
-coordinates, v = (V x_r)_v / √ρ0, e = (V x_r)_e / √c, ρ = ρ0 / (1 + e).  BT
+every balanced coordinate mixes v and e, so its operators name one block of
+z, ``state`` (:mod:`harness.rom.protocol`), and the run's :class:`ReducedResult`
+holds it as ``z`` (M, r).  The fields are the reconstruction through the trial
+basis, x ≈ V x_r in energy coordinates, v = (V x_r)_v / √ρ0, e = (V x_r)_e / √c,
+ρ = ρ0 / (1 + e).  BT
 balances the probe outputs, not the fields, so the fields away from the
 probes are only as good as V's span; the model's own outputs are the probe
-values ``y = Cr x_r`` (``ReducedResult.y``), equal to the reconstruction
+values ``y = Cr x_r`` (``ReducedResult.y``, the operators' ``outputs``), equal to the reconstruction
 interpolated at the probes to round-off.  Time: exact, by the matrix
 exponential of :mod:`harness.rom.exact_linear` (any communication step, input
 held or linear over a step); undamped, the free response is evaluated from
@@ -25,7 +26,7 @@ the real Schur form of the skew Ar at each sample time.
 As an FMU (``sphrom fmu --model balanced``) it is resource kind 2, the exact
 model's C code with these matrices (:func:`harness.fmu.resources.balanced_data`:
 probe rows over the whole state, k_v = r, k_e = 0), with its certified error
-bounds as calculated parameters.
+bounds as calculated parameters (the operators' ``error_bounds``).
 """
 
 from __future__ import annotations
@@ -41,7 +42,8 @@ from .balanced import BalancedModel, Balancing, balancing, order_from_tolerance,
 from .balanced import DEFAULT_TOLERANCE
 from .exact_linear import INTEGRATORS, advance_linear
 from .lti import DEFAULT_PROBES, LTI, full_linear_system
-from .model import ReducedModel
+from .model import LinearOptions, ReducedModel
+from .protocol import Operators
 from .result import ReducedResult
 from .stepping import sample_grid
 
@@ -52,8 +54,9 @@ METHOD_TITLES = {"bt": "square-root balanced truncation",
 
 
 @dataclass
-class BalancedOperators:
-    """A balanced reduced model ready to run (module docstring).
+class BalancedOperators(Operators):
+    """A balanced reduced model ready to run (module docstring; the protocol of :mod:`harness.rom.protocol`:
+    one block ``state``, x_r).
 
     Attributes
     ----------
@@ -92,24 +95,44 @@ class BalancedOperators:
     timings: dict = field(default_factory=dict)
     input_error: float = float("nan")        # no POD basis: the force column enters exactly (Br = Wᵀ B)
     augmented: bool = False
-    whole_state: bool = True                 # ReducedResult: a_v is the whole state, a_rho is empty
 
     @property
-    def order(self):
-        return self.A.shape[0]
-
-    @property
-    def k_v(self):
-        """The whole state's size r (the state does not split; module docstring)."""
-        return self.order
-
-    @property
-    def k_rho(self):
-        return 0
+    def slices(self):
+        return {"state": slice(0, self.A.shape[0])}
 
     @property
     def method(self):
         return self.reduced.method
+
+    @property
+    def output_probes(self):
+        """The probes x/L the model was balanced for: its outputs y = Cr x_r."""
+        return self.lti.probes.copy()
+
+    def fields(self, z):
+        """(v, ρ) at the particles from states (M, r): the reconstruction through V."""
+        return self.velocity(z), self.density(z)
+
+    def project(self, v, rho, problem):
+        """x_r = Wᵀ x of full fields, x = [√ρ0 v; √c e] (e = ρ0/ρ - 1), (M, r)."""
+        e = np.asarray(problem.rho0, float)[None, :] / rho - 1.0
+        return self.lti.state(v, e) @ self.reduced.W
+
+    def outputs(self, z, problem, probes):
+        """y = Cr x_r at the model's own probes (``problem`` not needed), else the fields interpolated
+        (:class:`~harness.rom.protocol.Operators`)."""
+        if np.array_equal(np.asarray(probes, float), self.lti.probes):
+            return np.atleast_2d(z) @ self.reduced.Cr.T
+        return super().outputs(z, problem, probes)
+
+    def error_bounds(self, problem, probes, progress=None):
+        """The certified bounds at the probes the model was balanced for (:func:`harness.rom.balanced.error_bounds`);
+        ValueError for other ``probes``."""
+        from .balanced import error_bounds
+        if not np.array_equal(np.asarray(probes, float), self.lti.probes):
+            raise ValueError(f"probes: {list(probes)} (allowed: {list(self.lti.probes)}, the probes the model was "
+                             "balanced for)")
+        return error_bounds(self.lti, self.reduced, outputs="v", progress=progress)
 
     def _x(self, z):
         return np.atleast_2d(z) @ self.reduced.V.T
@@ -126,9 +149,6 @@ class BalancedOperators:
         """ρ = ρ0 / (1 + e) at the particles, (M, N) [kg m^-3] from states (M, r)."""
         return self.rho0[None, :] / (1.0 + self.specific_volume(z))
 
-    def outputs(self, z):
-        """y = Cr x_r, (M, 2P): the probe velocities [m s^-1], then the probe values of e."""
-        return np.atleast_2d(z) @ self.reduced.Cr.T
 
 
 def _operators(lti, bal, reduced, rho0, t_setup):
@@ -143,8 +163,8 @@ def _operators(lti, bal, reduced, rho0, t_setup):
                              timings=timings)
 
 
-def build(problem, basis, k_v, k_rho, *, tolerance=None, method="auto", probes=DEFAULT_PROBES, **ignored):
-    """Balance the full linear SPH of ``problem`` and keep order r (the model's ``build``, :mod:`harness.rom.model`).
+def build(problem, basis, k_v, k_rho, *, order_tolerance=None, method="auto", probes=DEFAULT_PROBES):
+    """Balance the full linear SPH of ``problem`` and keep order r (the model's builder, :mod:`harness.rom.model`).
 
     Parameters
     ----------
@@ -153,25 +173,25 @@ def build(problem, basis, k_v, k_rho, *, tolerance=None, method="auto", probes=D
         The model needs no POD basis.
     k_v : int or None
         The order r (1 <= r < 2N); ``k_rho`` is ignored.
-    tolerance : float, optional
-        Instead of ``k_v``: the smallest r with 2 Σ_{i>r} σ_i <= tolerance · 2 Σ σ_i (0 < tolerance < 1;
-        default 1e-3 when neither is given).
+    order_tolerance : float, optional
+        Instead of ``k_v``: the smallest r with 2 Σ_{i>r} σ_i <= order_tolerance · 2 Σ σ_i
+        (0 < order_tolerance < 1; default :data:`harness.defaults.ORDER_TOLERANCE` when neither is given).
     method : {"auto", "bt", "galerkin", "bt_shifted"}
     probes : sequence of float
         The output probes x/L.
 
-    Raises ValueError naming ``order`` or ``tolerance`` when out of range.
+    Raises ValueError naming ``order`` or ``order_tolerance`` when out of range.
     """
     t0 = time.perf_counter()
     lti = full_linear_system(problem, probes)
-    if tolerance is not None and not (np.isfinite(tolerance) and 0 < tolerance < 1):
-        raise ValueError(f"tolerance: {tolerance} is out of range (allowed: 0 < tolerance < 1)")
-    if tolerance is None and k_v is not None and not 1 <= int(k_v) < lti.order:
+    if order_tolerance is not None and not (np.isfinite(order_tolerance) and 0 < order_tolerance < 1):
+        raise ValueError(f"order_tolerance: {order_tolerance} is out of range (allowed: 0 < order_tolerance < 1)")
+    if order_tolerance is None and k_v is not None and not 1 <= int(k_v) < lti.order:
         raise ValueError(f"order: {k_v} is out of range (allowed: 1 to {lti.order - 1}, below 2N)")
     t_setup = time.perf_counter() - t0
     bal = balancing(lti, method=method)
-    if tolerance is not None or k_v is None:
-        r = max(1, order_from_tolerance(bal.hsv, DEFAULT_TOLERANCE if tolerance is None else tolerance))
+    if order_tolerance is not None or k_v is None:
+        r = max(1, order_from_tolerance(bal.hsv, DEFAULT_TOLERANCE if order_tolerance is None else order_tolerance))
     else:
         r = int(k_v)
     return _operators(lti, bal, truncate_balanced(lti, bal, r), problem.rho0, t_setup)
@@ -184,28 +204,24 @@ def truncate(problem, ops: BalancedOperators, k_v, k_rho):
     return _operators(ops.lti, ops.bal, truncate_balanced(ops.lti, ops.bal, k_v), ops.rho0, 0.0)
 
 
-def run(ops: BalancedOperators, problem, *, dt, n_steps, sample_steps=None, every=1, force=None, integrator=None,
-        n_freeze=10, refresh="tensor", step=None, hold="linear", state=None, bound=None, progress=False,
-        initial_state_scale=1.0):
-    """Run the balanced model to ``n_steps * dt`` (the signature of :mod:`harness.rom.model`).
+def run(ops: BalancedOperators, problem, *, dt, n_steps, sample_steps, every, force, state, initial_state_scale,
+        bound, progress, options):
+    """Run the balanced model to ``n_steps * dt`` (the shared arguments of :mod:`harness.rom.model`;
+    ``options`` a :class:`~harness.rom.model.LinearOptions`).
 
     As :func:`harness.rom.exact_linear.run`: exact in time, communication step
-    ``step`` H [s] (default the sample spacing), input ``hold`` linear or held;
-    ``state`` (x_r, ignored) replaces the initial state Wᵀ x0; ``initial_state_scale`` multiplies it
-    (x_r = 0 is rest).  The result's
-    ``y`` holds the probe outputs Cr x_r and ``probes`` their positions x/L.
+    ``options.step`` H [s] (default the sample spacing), input ``options.hold`` linear or held;
+    ``state`` (x_r) replaces the initial state Wᵀ x0; ``initial_state_scale`` multiplies it
+    (x_r = 0 is rest).  The result's ``y`` holds the probe outputs Cr x_r and ``probes`` their positions x/L.
     """
-    if integrator not in (None,) + INTEGRATORS:
-        raise ValueError(f"the balanced model is advanced by the matrix exponential (integrator "
-                         f"{integrator!r}; allowed: {', '.join(INTEGRATORS)})")
     steps = sample_grid(n_steps, sample_steps, every)
     if state is not None:
-        ops = dataclasses.replace(ops, z0=np.asarray(state[0], float))
-    z, wall, step = advance_linear(ops, steps * dt, step, force or problem.scene.force, hold, bound,
+        ops = dataclasses.replace(ops, z0=ops.as_state(state))
+    z, wall, step = advance_linear(ops, steps * dt, options.step, force or problem.scene.force, options.hold, bound,
                                    initial_state_scale)
-    return ReducedResult(model=NAME, t=steps * dt, steps=steps, a_v=z, a_rho=np.zeros((z.shape[0], 0)), ops=ops,
-                         wall_time=wall, offline=dict(ops.timings), y=ops.outputs(z), probes=ops.lti.probes.copy(),
-                         settings={"model": NAME, "dt": dt, "step": step, "hold": hold, "order": ops.order,
+    return ReducedResult(model=NAME, t=steps * dt, steps=steps, z=z, ops=ops, wall_time=wall,
+                         offline=dict(ops.timings),
+                         settings={"model": NAME, "dt": dt, "step": step, "hold": options.hold, "order": ops.order,
                                    "method": ops.method, "k_v": ops.order, "k_e": 0})
 
 
@@ -214,7 +230,7 @@ MODEL = ReducedModel(
     description="beyond the paper: balanced reduction of the full linear SPH in J = ρ0/ρ (no POD basis; "
                 "--modes R is the order r), with certified error bounds at the probes",
     title="Balanced reduced model of the linear SPH in the specific volume J = rho0/rho (beyond Fang et al.)",
-    linear=True, integrators=INTEGRATORS, uses_n_freeze=False,
-    basis_kind=None,            # needs no POD basis: build ignores it (BASIS_KINDS[None])
+    linear=True, integrators=INTEGRATORS,
+    basis_kind=None,            # needs no POD basis: build ignores it
     fmu_kind=2,                 # resources/model.bin kind 2: the linear models' C path (its matrices, rows over z)
-    build=build, run=run, truncate=truncate)
+    builder=build, solver=run, truncate=truncate, options_type=LinearOptions)

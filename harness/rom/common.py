@@ -15,12 +15,12 @@ ROMResult = ReducedResult          # the result type's earlier name
 __all__ = ["METHODS", "RUNAWAY_FACTOR", "ROMResult", "run_reduced", "runaway_bound"]
 
 
-def run_reduced(model, ops, problem, *, n_steps, dt, **options):
+def run_reduced(model, ops, problem, *, n_steps, dt, **keywords):
     """Run the registered model ``model`` from step 0 to ``n_steps`` -> ReducedResult.
 
-    The keywords of :mod:`harness.rom.model` (integrator, sample_steps, every,
-    n_freeze, refresh, force, bound, progress, state, step, hold).  Raises
-    ValueError for an unknown model, SimulationError for a non-finite or
-    runaway state, naming the step and time.
+    The shared arguments of :mod:`harness.rom.model` (sample_steps, every, force, bound, progress, state ...)
+    and the model's options as keywords (integrator; n_freeze, refresh; step, hold), as
+    :func:`harness.rom.registry.run_model`.  Raises ValueError for an unknown model or an option of another
+    model, SimulationError for a non-finite or runaway state, naming the step and time.
     """
-    return get_model(model).run(ops, problem, n_steps=n_steps, dt=dt, **options)
+    return get_model(model).run_keywords(ops, problem, n_steps=n_steps, dt=dt, **keywords)

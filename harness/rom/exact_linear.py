@@ -38,8 +38,9 @@ import numpy as np
 import scipy.linalg as sla
 
 from ..errors import SimulationError
-from .model import ReducedModel, basis_modes
+from .model import LinearOptions, ReducedModel, basis_modes
 from .operators import ROUNDOFF_TOLERANCE, input_mode
+from .protocol import Operators, two_blocks
 from .result import ReducedResult
 from .stepping import RUNAWAY_FACTOR, initial_scale, sample_grid
 
@@ -47,8 +48,9 @@ NAME = "exact"
 
 
 @dataclass
-class LinearOperators:
-    """The exact linear reduced model (module docstring).
+class LinearOperators(Operators):
+    """The exact linear reduced model (module docstring; the protocol of :mod:`harness.rom.protocol`:
+    z = [a, b], blocks ``velocity`` and ``specific_volume``).
 
     Attributes
     ----------
@@ -148,10 +150,28 @@ class LinearOperators:
         """e = U_e b = J − 1 at the particles, (M, N) from coordinates (M, k_e)."""
         return a_e @ self.U_e.T
 
+    @property
+    def slices(self):
+        return two_blocks("velocity", "specific_volume", self.k_v, self.k_e)
+
     def fields(self, z):
         """(v, ρ) at the particles from reduced states z of shape (M, k)."""
         z = np.atleast_2d(z)
         return self.velocity(z[:, :self.k_v]), self.density(z[:, self.k_v:])
+
+    def project(self, v, rho, problem):
+        """[U_vᵀ W_v v, U_eᵀ W_e e] per sample, e = ρ0/ρ - 1 (the energy inner products), (M, k)."""
+        rho0 = np.asarray(problem.rho0, float)
+        e = rho0[None, :] / rho - 1.0
+        return np.hstack([(v * rho0) @ self.U_v, (e * np.asarray(problem.c, float)) @ self.U_e])
+
+    def error_bounds(self, problem, probes, progress=None):
+        """The certified bounds of the model as a Galerkin model of the full linear SPH with outputs at
+        ``probes`` (:func:`harness.rom.balanced.reduced_from_exact`, :func:`harness.rom.balanced.error_bounds`)."""
+        from .balanced import error_bounds, reduced_from_exact
+        from .lti import full_linear_system
+        lti = full_linear_system(problem, probes)
+        return error_bounds(lti, reduced_from_exact(lti, self), outputs="v", progress=progress)
 
     def energy(self, z):
         """Reduced energy ½|z|² (= the physical energy / Δx for the reduced fields)."""
@@ -234,10 +254,9 @@ def port_weighted(problem, U_v, ports):
     return port_kernel(problem, ports) @ U_v
 
 
-def build_from_basis(problem, basis, k_v, k_rho, *, input_direction="auto", input_tolerance=None, tensor="auto",
-                     ports=()):
+def build_from_basis(problem, basis, k_v, k_rho, *, input_direction="auto", input_tolerance=None, ports=()):
     """:func:`build_linear_operators` on the first k_v, k_rho energy-weighted modes of ``basis``
-    (``Basis.U_ve``, ``Basis.U_e``): the model's ``build`` (:mod:`harness.rom.model`; ``tensor`` does not apply)."""
+    (``Basis.U_ve``, ``Basis.U_e``): the model's builder (:mod:`harness.rom.model`)."""
     U_v, U_e = basis_modes(basis, "energy", k_v, k_rho)
     return build_linear_operators(problem, U_v, U_e, input_direction=input_direction, input_tolerance=input_tolerance,
                                   ports=ports)
@@ -396,8 +415,8 @@ def run_exact(ops: LinearOperators, t_samples, step=None, force=None, hold="line
     """
     z, wall, step = advance_linear(ops, t_samples, step, force, hold, bound, initial_state_scale,
                                    port_forces=port_forces, area=area)
-    return ReducedResult(model=NAME, t=np.asarray(t_samples, float), steps=None, a_v=z[:, :ops.k_v],
-                         a_rho=z[:, ops.k_v:], ops=ops, wall_time=wall, offline=dict(ops.timings),
+    return ReducedResult(model=NAME, t=np.asarray(t_samples, float), steps=None, z=z, ops=ops, wall_time=wall,
+                         offline=dict(ops.timings),
                          settings={"model": NAME, "step": step, "hold": hold, "k_v": ops.k_v, "k_e": ops.k_e})
 
 
@@ -428,7 +447,7 @@ def advance_linear(ops, t_samples, step, force, hold, bound, initial_state_scale
         gaps = np.diff(t_samples)
         step = float(np.min(gaps[gaps > 0])) if np.any(gaps > 0) else 1.0
     has_input = ops.B is not None and force is not None
-    if port_forces is not None and getattr(ops, "Bp", None) is not None:
+    if port_forces is not None and ops.Bp is not None:
         ops, force = _with_port_inputs(ops, force if has_input else None, port_forces, area)
         has_input = True
     t0 = time.perf_counter()
@@ -496,28 +515,26 @@ def _with_port_inputs(ops, force, port_forces, area):
 INTEGRATORS = ("exponential",)
 
 
-def run(ops, problem, *, dt, n_steps, sample_steps=None, every=1, force=None, integrator=None, n_freeze=10,
-        refresh="tensor", step=None, hold="linear", state=None, bound=None, progress=False, initial_state_scale=1.0,
-        port_forces=None, area=1.0):
-    """Run the exact linear model to ``n_steps * dt`` (the signature of :mod:`harness.rom.model`).
+def run(ops, problem, *, dt, n_steps, sample_steps, every, force, state, initial_state_scale, bound, progress,
+        options, port_forces=None, area=1.0):
+    """Run the exact linear model to ``n_steps * dt`` (the shared arguments of :mod:`harness.rom.model`;
+    ``options`` a :class:`~harness.rom.model.LinearOptions`).
 
-    Samples at ``sample_steps * dt``; the communication step ``step`` H [s]
-    (default the smallest sample spacing) and the input ``hold`` as in
-    :func:`run_exact`; ``state`` (a_v, a_e) replaces z0; ``initial_state_scale`` multiplies it; ``port_forces``,
-    ``area`` as in :func:`run_exact`.  ``n_freeze``,
-    ``refresh`` and ``progress`` do not apply.
+    Samples at ``sample_steps * dt``; the communication step ``options.step`` H [s] (default the smallest sample
+    spacing) and the input ``options.hold`` as in :func:`run_exact`; ``state`` (z) replaces z0;
+    ``initial_state_scale`` multiplies it; ``port_forces``, ``area`` as in :func:`run_exact`.  ``progress`` does
+    not apply (no time loop to show).
     """
-    if integrator not in (None,) + INTEGRATORS:
-        raise ValueError(f"the exact linear model is advanced by the matrix exponential (integrator "
-                         f"{integrator!r}; allowed: {', '.join(INTEGRATORS)})")
+    if port_forces is not None and ops.Bp is None:
+        raise ValueError("port_forces: the operators have no ports (build them with ports=...)")
     steps = sample_grid(n_steps, sample_steps, every)
     if state is not None:
-        ops = dataclasses.replace(ops, z0=np.concatenate([np.asarray(state[0], float), np.asarray(state[1], float)]))
-    z, wall, step = advance_linear(ops, steps * dt, step, force or problem.scene.force, hold, bound,
+        ops = dataclasses.replace(ops, z0=ops.as_state(state))
+    z, wall, step = advance_linear(ops, steps * dt, options.step, force or problem.scene.force, options.hold, bound,
                                    initial_state_scale, port_forces=port_forces, area=area)
-    return ReducedResult(model=NAME, t=steps * dt, steps=steps, a_v=z[:, :ops.k_v], a_rho=z[:, ops.k_v:], ops=ops,
-                         wall_time=wall, offline=dict(ops.timings),
-                         settings={"model": NAME, "dt": dt, "step": step, "hold": hold, "k_v": ops.k_v,
+    return ReducedResult(model=NAME, t=steps * dt, steps=steps, z=z, ops=ops, wall_time=wall,
+                         offline=dict(ops.timings),
+                         settings={"model": NAME, "dt": dt, "step": step, "hold": options.hold, "k_v": ops.k_v,
                                    "k_e": ops.k_e})
 
 
@@ -527,9 +544,9 @@ MODEL = ReducedModel(
                 "advanced by the matrix exponential",
     title="Exact linear POD reduced model in the specific volume J = rho0/rho (energy inner product; beyond "
           "Fang et al.)",
-    linear=True, integrators=INTEGRATORS, uses_n_freeze=False, basis_kind="energy", ports=True,
+    linear=True, integrators=INTEGRATORS, basis_kind="energy", ports=True,
     fmu_kind=2,                 # resources/model.bin kind 2 (harness.fmu.resources.MODEL_EXACT_LINEAR)
-    build=build_from_basis, run=run, truncate=truncate_linear_operators,
+    builder=build_from_basis, solver=run, truncate=truncate_linear_operators, options_type=LinearOptions,
     # the force profile is always part of the velocity basis: for a linear model a projected input is a real
     # error (tenmode: the modes miss 0.39 % of the uniform profile and the forced response came out 10 % low)
     fmu_input_direction="always")

@@ -16,16 +16,28 @@ The step is written with plain loops in a fixed order, which the C model core
     dv[p] = b[p] + F[p];  dv[p] -= K[p][q]*ar[q];  dv[p] -= D[p][q]*av[q]
     euler:      av += h*dv;  ar += h*dr              (dv, dr from the old state)
     symplectic: ar += h*dr, then dv with the new ar, av += h*dv
+
+b of eq. 2.19 is a build option (:func:`harness.rom.operators.build_operators`): ``b="rest"``, b = K a^ρ_rest
+(:func:`harness.rom.operators.rest_b`, the projected rest state an equilibrium), is the registry's default and
+the FMU's model; ``b="paper"``, eq. 2.22's b, is the model's ``paper_build``.  Which each entry point uses:
+
+    rest   ``get_model("frozen").build``, ``sphrom fmu`` (and every FMU: ``sphrom cosim``, ``sphrom sweep``,
+           the benchmarks' FMU rows, the stress maps' FMU columns), the envelope bench
+    paper  ``sphrom rom --model frozen`` (``--b rest`` for the FMU's), the validation report, the mode sweeps
+           (``sphrom modes``), the benchmarks' Python rows (methods, scaling, skip, stress, reduced stability,
+           linear models' trade-off): the reproduced figures stay the paper's model bit for bit
+    both   ``python -m harness.bench.rest`` (the FMU of each, through the option)
 """
 
 import numpy as np
 from numba import njit
 
 from .loops import FrozenOperators, _check, _velocity_rate
-from .model import ReducedModel
+from .model import FrozenOptions, ReducedModel
 from .operators import build_from_basis, pair_index, truncate_operators
 from .result import ReducedResult
-from .stepping import drive, energy_guard, force_table, method_code, runaway_bound, sample_grid, start_arrays
+from .stepping import (drive, energy_guard, force_table, method_code, runaway_bound, sample_blocks, sample_grid,
+                       start_arrays)
 
 
 @njit(cache=True, nogil=True)
@@ -154,22 +166,25 @@ def loop_operators(K, b, D, p, n_freeze, *, T=None, U_rho=None, GU_v=None, inv_r
 INTEGRATORS = ("euler", "symplectic")
 
 
-def run(ops, problem, *, dt, n_steps, sample_steps=None, every=1, force=None, integrator=None, n_freeze=10,
-        refresh="tensor", step=None, hold="linear", state=None, bound=None, progress=False, initial_state_scale=1.0,
-        port_forces=None, area=1.0):
-    """Run the frozen-coefficient model (the signature of :mod:`harness.rom.model`).
+def run(ops, problem, *, dt, n_steps, sample_steps, every, force, state, initial_state_scale, bound, progress,
+        options, port_forces=None, area=1.0):
+    """Run the frozen-coefficient model (the shared arguments of :mod:`harness.rom.model`;
+    ``options`` a :class:`~harness.rom.model.FrozenOptions`).
 
-    ``ops`` are :class:`~harness.rom.operators.ReducedOperators`; ``refresh``
-    ``tensor`` (exact, no N) or ``direct`` (the O(N k²) reference path);
-    ``step`` and ``hold`` do not apply.  ``port_forces(t) -> (len(t), P)`` [N]
-    at the step times (operators built with ports), divided by the cross-section
-    ``area`` [m^2]; like f they are sampled at each refresh.
+    ``ops`` are :class:`~harness.rom.operators.ReducedOperators`; ``options.refresh``
+    ``tensor`` (exact, no N) or ``direct`` (the O(N k²) reference path).  ``port_forces(t) -> (len(t), P)`` [N]
+    at the step times (operators built with ports), divided by the cross-section ``area`` [m^2]; like f they
+    are sampled at each refresh.
     """
-    integrator = integrator or INTEGRATORS[0]
+    integrator = options.integrator or INTEGRATORS[0]
+    n_freeze, refresh = options.n_freeze, options.refresh
     method = method_code(integrator, INTEGRATORS, "frozen coefficients")
+    if port_forces is not None and ops.Bp is None:
+        raise ValueError("port_forces: the operators have no ports (build them with ports=...)")
     steps = sample_grid(n_steps, sample_steps, every)
     force = force or problem.scene.force
-    av, ar, out_av, out_ar = start_arrays(ops, state, steps.size, initial_state_scale)
+    av, ar, out_z = start_arrays(ops, state, steps.size, initial_state_scale)
+    out_av, out_ar = sample_blocks(out_z, ops.k_v)
     bound = runaway_bound(ops) if bound is None else bound
     loop = loop_operators(ops.K, ops.b, ops.D, ops.p, n_freeze, T=ops.T, U_rho=ops.U_rho, GU_v=ops.GU_v,
                           inv_rho0=ops.inv_rho0, refresh=refresh)
@@ -177,7 +192,7 @@ def run(ops, problem, *, dt, n_steps, sample_steps=None, every=1, force=None, in
     F = np.zeros(ops.k_v)
 
     def advance(n0, n1, g, ptr):
-        if port_forces is None or ops.Bp is None:
+        if port_forces is None:
             return frozen_advance(method, av, ar, M, F, n0, n1, dt, np.ascontiguousarray(g[:, 0]), loop, steps, ptr,
                                   out_av, out_ar, bound)
         gp = np.asarray(port_forces(np.arange(n0, n1) * dt), float).reshape(n1 - n0, ops.Bp.shape[0]) / area
@@ -189,14 +204,17 @@ def run(ops, problem, *, dt, n_steps, sample_steps=None, every=1, force=None, in
                  guard=energy_guard(ops, problem, av, ar, dt=dt, name=MODEL.name, integrator=integrator))
     settings = {"model": MODEL.name, "integrator": integrator, "dt": dt, "k_v": ops.k_v, "k_rho": ops.k_rho,
                 "n_freeze": int(n_freeze), "refresh": refresh}
-    return ReducedResult(model=MODEL.name, t=steps * dt, steps=steps, a_v=out_av, a_rho=out_ar, ops=ops,
-                         wall_time=wall, offline=dict(ops.timings), settings=settings)
+    return ReducedResult(model=MODEL.name, t=steps * dt, steps=steps, z=out_z, ops=ops, wall_time=wall,
+                         offline=dict(ops.timings), settings=settings)
 
 
 MODEL = ReducedModel(
     name="frozen",
     description="accelerated POD-MOR with frozen coefficients (eqs. 2.19-2.24): O(k²) per step between refreshes",
     title="Frozen-coefficient POD reduced model (Fang et al., eqs. 2.19-2.24)",
-    linear=False, integrators=INTEGRATORS, uses_n_freeze=True, basis_kind="density", ports=True,
+    linear=False, integrators=INTEGRATORS, basis_kind="density", ports=True,
     fmu_kind=1,                 # resources/model.bin kind 1 (harness.fmu.resources.MODEL_FROZEN)
-    build=build_from_basis, run=run, truncate=truncate_operators)
+    builder=build_from_basis, solver=run, truncate=truncate_operators, options_type=FrozenOptions,
+    # the registry's frozen model is the FMU's: b about the projected rest density, so rest is an equilibrium;
+    # the paper's eq. 2.22 b where the paper is reproduced
+    build_defaults={"b": "rest"}, paper_build={"b": "paper"})

@@ -13,7 +13,8 @@ from numba import njit
 from ..sph.loops import rates
 from .loops import GalerkinOperators, _check, _velocity_rate
 from .result import ReducedResult
-from .stepping import drive, energy_guard, force_table, method_code, runaway_bound, sample_grid, start_arrays
+from .stepping import (drive, energy_guard, force_table, method_code, runaway_bound, sample_blocks, sample_grid,
+                       start_arrays)
 
 INTEGRATORS = ("euler", "symplectic", "rk4")
 
@@ -173,18 +174,16 @@ def loop_operators(ops, problem, full_rhs):
         flags=problem.flags(problem.terms["force_profile"] if full_rhs else has_f))
 
 
-def run_galerkin(name, full_rhs, ops, problem, *, dt, n_steps, sample_steps=None, every=1, force=None,
-                 integrator=None, n_freeze=10, refresh="tensor", step=None, hold="linear", state=None, bound=None,
-                 progress=False, initial_state_scale=1.0):
-    """Run the original (``full_rhs``) or the linearised model (the signature of :mod:`harness.rom.model`).
-
-    ``n_freeze``, ``refresh``, ``step`` and ``hold`` do not apply.
-    """
-    integrator = integrator or INTEGRATORS[0]
+def run_galerkin(name, full_rhs, ops, problem, *, dt, n_steps, sample_steps, every, force, state,
+                 initial_state_scale, bound, progress, options):
+    """Run the original (``full_rhs``) or the linearised model (the shared arguments of :mod:`harness.rom.model`;
+    ``options`` a :class:`~harness.rom.model.GalerkinOptions`)."""
+    integrator = options.integrator or INTEGRATORS[0]
     method = method_code(integrator, INTEGRATORS, f"{name} POD-MOR integrators")
     steps = sample_grid(n_steps, sample_steps, every)
     force = force or problem.scene.force
-    av, ar, out_av, out_ar = start_arrays(ops, state, steps.size, initial_state_scale)
+    av, ar, out_z = start_arrays(ops, state, steps.size, initial_state_scale)
+    out_av, out_ar = sample_blocks(out_z, ops.k_v)
     bound = runaway_bound(ops) if bound is None else bound
     loop = loop_operators(ops, problem, full_rhs)
     force_active = loop.has_f or (bool(full_rhs) and problem.terms["force_profile"])
@@ -196,6 +195,5 @@ def run_galerkin(name, full_rhs, ops, problem, *, dt, n_steps, sample_steps=None
                  n_steps=n_steps, dt=dt, cost=problem.n * (ops.k_v + ops.k_rho), bound=bound, progress=progress,
                  guard=energy_guard(ops, problem, av, ar, dt=dt, name=name, integrator=integrator))
     settings = {"model": name, "integrator": integrator, "dt": dt, "k_v": ops.k_v, "k_rho": ops.k_rho}
-    return ReducedResult(model=name, t=steps * dt, steps=steps, a_v=out_av, a_rho=out_ar, ops=ops, wall_time=wall,
+    return ReducedResult(model=name, t=steps * dt, steps=steps, z=out_z, ops=ops, wall_time=wall,
                          offline=dict(ops.timings), settings=settings)
-

@@ -11,8 +11,8 @@ Galerkin loop it shares with the original model.
 from functools import partial
 
 from .galerkin import INTEGRATORS, run_galerkin
-from .model import ReducedModel
-from .operators import build_from_basis, truncate_operators
+from .model import GalerkinOptions, ReducedModel
+from .operators import build_paper, truncate_operators
 
 NAME = "linearized"
 
@@ -20,5 +20,6 @@ MODEL = ReducedModel(
     name=NAME,
     description="POD-MOR with the density linearisation of eq. 2.17 (eqs. 2.19-2.20, ρ² at every step), O(N k)",
     title="Density-linearised POD-MOR (Fang et al., eqs. 2.17-2.20)",
-    linear=False, integrators=INTEGRATORS, uses_n_freeze=False, basis_kind="density", fmu_kind=None,
-    build=build_from_basis, run=partial(run_galerkin, NAME, False), truncate=truncate_operators)
+    linear=False, integrators=INTEGRATORS, basis_kind="density", fmu_kind=None,
+    builder=build_paper, solver=partial(run_galerkin, NAME, False), truncate=truncate_operators,
+    options_type=GalerkinOptions)

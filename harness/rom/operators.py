@@ -6,7 +6,8 @@ With v ≈ U^v a^v, ρ ≈ U^ρ a^ρ (eq. 2.18), the linearisation
     ȧ^v = -K a^ρ + b - D̂ a^v + p̂ f(t)                                 (2.19)
     ȧ^ρ = -M(a^ρ) a^v,   M = U^ρᵀ diag(ρ²/ρ0) G U^v,  ρ = U^ρ a^ρ        (2.20)
 
-with K = U^vᵀ A U^ρ (A of eq. 2.21), b = U^vᵀ B 1 (eq. 2.22),
+with K = U^vᵀ A U^ρ (A of eq. 2.21), b = U^vᵀ B 1 (eq. 2.22; or, with the build option ``b="rest"``,
+b = K a^ρ_rest: :func:`rest_b`),
 D̂ = U^vᵀ D U^v (eq. 2.24), p̂ = U^vᵀ profile, and C = diag(ρ²/ρ0) G of eq.
 2.23 (the paper's C_ij has m_j/ρ_i(0), a misprint of the m_j/ρ_j(0) of eq.
 2.10).  G_ij = (m_j/ρ_j(0)) ∇W_ij is the SPH gradient (eq. 2.9).
@@ -21,7 +22,6 @@ independent of N, and is exact.  Pairs are ordered a = 0..k_ρ-1, b = a..k_ρ-1.
 
 from __future__ import annotations
 
-import dataclasses
 import time
 from dataclasses import dataclass, field
 
@@ -29,11 +29,14 @@ import numpy as np
 
 from ..sph.solver import SPHProblem
 from .model import basis_modes
+from .probes import probe_rows  # noqa: F401  (its earlier home: callers import it from here)
+from .protocol import Operators, two_blocks
 
 # Above this many tensor entries the refresh falls back to the O(N k²) path.
 TENSOR_MAX_ENTRIES = 20_000_000
 INPUT_TOLERANCE = 1e-2      # "needed": append the input direction when the modes miss more than 1 % of it
 ROUNDOFF_TOLERANCE = 1e-10  # "augment": append unless the modes hold the direction to round-off
+B_FORMS = ("paper", "rest")  # b of eq. 2.19: eq. 2.22's, or K a^ρ_rest (rest an equilibrium, :func:`rest_b`)
 
 
 def pair_index(k):
@@ -42,8 +45,9 @@ def pair_index(k):
 
 
 @dataclass
-class ReducedOperators:
-    """Everything the density-linearised and frozen models need.
+class ReducedOperators(Operators):
+    """Everything the density-linearised and frozen models need (the protocol of :mod:`harness.rom.protocol`:
+    z = [a^v, a^ρ], blocks ``velocity`` and ``density``).
 
     Attributes
     ----------
@@ -52,7 +56,7 @@ class ReducedOperators:
     K : ndarray (k_v, k_rho)
         U^vᵀ A U^ρ [s^-2 m^3 kg^-1 ... per unit of a^ρ], eq. 2.21.
     b : ndarray (k_v,)
-        U^vᵀ B 1, eq. 2.22.
+        U^vᵀ B 1, eq. 2.22 (``b_form`` "paper"), or K a^ρ_rest (``b_form`` "rest", :func:`rest_b`).
     D : ndarray (k_v, k_v) or None
         U^vᵀ D U^v [s^-1], eq. 2.24; None when d ≡ 0.
     p : ndarray (k_v,) or None
@@ -78,6 +82,8 @@ class ReducedOperators:
         decision at fewer modes.
     tensor_rule : {"auto", "always", "never"}
         The ``tensor`` choice the operators were built with.
+    b_form : {"paper", "rest"}
+        Which b the operators hold (:data:`B_FORMS`); :func:`truncate_operators` keeps it.
     ports : tuple of float
         Port positions x/L (:mod:`harness.sph.ports`); empty without ports.
     Bp : ndarray (P, k_v) or None
@@ -115,6 +121,7 @@ class ReducedOperators:
     port_added: int = 0
     port_errors: tuple = ()
     port_added_2: int = 0
+    b_form: str = "paper"
 
     def port_velocity(self, a_v):
         """v_port = Cp a^v [m s^-1], (M, P) from coordinates (M, k_v) (:mod:`harness.sph.ports`)."""
@@ -127,6 +134,23 @@ class ReducedOperators:
     @property
     def k_rho(self):
         return self.U_rho.shape[1]
+
+    @property
+    def slices(self):
+        return two_blocks("velocity", "density", self.k_v, self.k_rho)
+
+    @property
+    def z0(self):
+        """The initial reduced state [a^v(0), a^ρ(0)] = [U^vᵀ v0, U^ρᵀ ρ0]."""
+        return np.concatenate([self.a_v0, self.a_rho0])
+
+    def fields(self, z):
+        z = np.atleast_2d(z)
+        return self.velocity(z[:, :self.k_v]), self.density(z[:, self.k_v:])
+
+    def project(self, v, rho, problem):
+        """[U^vᵀ v, U^ρᵀ ρ] per sample (eq. 2.16's projection), (M, k_v + k_rho)."""
+        return np.hstack([v @ self.U_v, rho @ self.U_rho])
 
     def velocity(self, a_v):
         """v = U^v a^v at the particles, (M, N) [m s^-1] from coordinates (M, k_v)."""
@@ -171,7 +195,7 @@ def augment_with(U, direction, tol=ROUNDOFF_TOLERANCE):
 
 
 def build_operators(problem: SPHProblem, U_v, U_rho, input_direction="auto", tensor="auto",
-                    input_tolerance=None, ports=()):
+                    input_tolerance=None, ports=(), b="paper"):
     """Reduced operators for bases ``U_v`` (N, k_v) and ``U_rho`` (N, k_rho).
 
     Parameters
@@ -201,7 +225,12 @@ def build_operators(problem: SPHProblem, U_v, U_rho, input_direction="auto", ten
         appended to U^v (its part outside the modes, always: the port force is an input of any size and shape
         in time, so its direction is kept exactly, as the exact model keeps the force profile), and the input
         rows Bp and output rows Cp are built.
+    b : {"paper", "rest"}
+        Eq. 2.22's b (the paper's), or b = K a^ρ_rest (:func:`rest_b`: the projected rest state is an
+        equilibrium; the frozen FMU's).
     """
+    if b not in B_FORMS:
+        raise ValueError(f"b: {b!r} is out of range (allowed: {', '.join(B_FORMS)})")
     t0 = time.perf_counter()
     U_v = np.ascontiguousarray(U_v, dtype=float)
     U_rho = np.ascontiguousarray(U_rho, dtype=float)
@@ -220,18 +249,20 @@ def build_operators(problem: SPHProblem, U_v, U_rho, input_direction="auto", ten
     inv_rho0 = 1.0 / rho0
     GU_v = np.asarray(G @ U_v)
     K = U_v.T @ (inv_rho0[:, None] * np.asarray(G @ ((c * inv_rho0)[:, None] * U_rho)))     # eq. 2.21
-    b = U_v.T @ (inv_rho0 * (G @ c))                                                      # eq. 2.22
+    K = np.ascontiguousarray(K)
+    a_rho0 = U_rho.T @ rho0
+    b_vec = U_v.T @ (inv_rho0 * (G @ c)) if b == "paper" else rest_b(K, a_rho0)          # eq. 2.22
     D = U_v.T @ (d[:, None] * U_v) if problem.terms["damping"] else None                  # eq. 2.24
     p = U_v.T @ profile if want_input else None
     t1 = time.perf_counter()
     T = refresh_tensor(U_rho, GU_v, inv_rho0) if wants_tensor(tensor, U_v.shape[1], U_rho.shape[1]) else None
     t2 = time.perf_counter()
-    return ReducedOperators(U_v=U_v, U_rho=U_rho, K=np.ascontiguousarray(K), b=b,
+    return ReducedOperators(U_v=U_v, U_rho=U_rho, K=K, b=b_vec,
                             D=None if D is None else np.ascontiguousarray(D), p=p,
                             GU_v=np.ascontiguousarray(GU_v), inv_rho0=inv_rho0, T=T,
-                            a_v0=U_v.T @ problem.v0, a_rho0=U_rho.T @ rho0, input_error=input_error,
+                            a_v0=U_v.T @ problem.v0, a_rho0=a_rho0, input_error=input_error,
                             augmented=augmented, timings={"operators": t1 - t0, "tensor": t2 - t1},
-                            input_mode=mode, input_tolerance=tol, tensor_rule=tensor,
+                            input_mode=mode, input_tolerance=tol, tensor_rule=tensor, b_form=b,
                             **port_rows(problem, U_v, ports, port_added, port_errors, port_added_rho))
 
 
@@ -304,8 +335,9 @@ def port_rows(problem, U_v, ports, port_added, port_errors, port_added_2=0):
             "port_added_2": port_added_2, "port_errors": port_errors}
 
 
-def rest_equilibrium(ops: ReducedOperators) -> ReducedOperators:
-    """``ops`` with b = K a^ρ_rest: the projected rest state (a^v = 0, a^ρ = U^ρᵀ ρ0) is an equilibrium.
+def rest_b(K, a_rho_rest):
+    """b = K a^ρ_rest (k_v,): the b of eq. 2.19 that makes the projected rest state (a^v = 0, a^ρ = U^ρᵀ ρ0) an
+    equilibrium (the build option ``b="rest"``, the frozen FMU's model).
 
     Eq. 2.22's b = U^vᵀ ρ0⁻¹ G c and K a^ρ (eq. 2.21) cancel at rest only as far as ρ0 lies in the span of
     the density modes: K a^ρ - b = U^vᵀ ρ0⁻¹ G c (ρ0⁻¹ U^ρ a^ρ - 1), which at a^ρ = U^ρᵀ ρ0 leaves the
@@ -315,12 +347,11 @@ def rest_equilibrium(ops: ReducedOperators) -> ReducedOperators:
     replaces b by K a^ρ_rest (the exact model's deviation form z = 0 at rest does the same).  At rest the
     velocity rate b - K a^ρ_rest is then zero up to the round-off of the k_ρ products.
 
-    ``ops.a_rho0`` is U^ρᵀ ρ0 (every scene starts at ρ = ρ0, :func:`build_operators`), so it is a^ρ_rest.
-    For the model affine in c (:mod:`harness.rom.parametric`) the unit operators' b_c = K_c a^ρ_rest keeps
-    b = c b_c = K a^ρ_rest at every c.
+    ``a_rho_rest`` is U^ρᵀ ρ0, the operators' a^ρ(0) (every scene starts at ρ = ρ0).  For the model affine in
+    c (:mod:`harness.rom.parametric`) the unit operators' b_c = K_c a^ρ_rest keeps b = c b_c = K a^ρ_rest at
+    every c.
     """
-    b = np.ascontiguousarray(ops.K @ ops.a_rho0)          # eq. 2.22 about the projected rest density
-    return dataclasses.replace(ops, b=b)
+    return np.ascontiguousarray(K @ a_rho_rest)          # eq. 2.22 about the projected rest density
 
 
 def wants_tensor(tensor, k_v, k_rho):
@@ -330,14 +361,22 @@ def wants_tensor(tensor, k_v, k_rho):
 
 
 def build_from_basis(problem: SPHProblem, basis, k_v, k_rho, *, input_direction="auto", input_tolerance=None,
-                     tensor="auto", ports=()):
+                     tensor="auto", ports=(), b="paper"):
     """:func:`build_operators` on the first k_v, k_rho POD modes of ``basis`` (``Basis.U_v``, ``Basis.U_rho``).
 
-    The ``build`` of the models on density modes (:mod:`harness.rom.model`).
+    The builder of the frozen model (:mod:`harness.rom.model`; its registry default ``b="rest"``).
     """
     U_v, U_rho = basis_modes(basis, "density", k_v, k_rho)
     return build_operators(problem, U_v, U_rho, input_direction=input_direction, tensor=tensor,
-                           input_tolerance=input_tolerance, ports=ports)
+                           input_tolerance=input_tolerance, ports=ports, b=b)
+
+
+def build_paper(problem: SPHProblem, basis, k_v, k_rho, *, input_direction="auto", input_tolerance=None,
+                tensor="auto", ports=()):
+    """:func:`build_from_basis` with eq. 2.22's b: the builder of the paper's original and density-linearised
+    models (:mod:`harness.rom.model`)."""
+    return build_from_basis(problem, basis, k_v, k_rho, input_direction=input_direction,
+                            input_tolerance=input_tolerance, tensor=tensor, ports=ports, b="paper")
 
 
 def truncate_operators(problem: SPHProblem, ops: ReducedOperators, k_v, k_rho):
@@ -373,7 +412,8 @@ def truncate_operators(problem: SPHProblem, ops: ReducedOperators, k_v, k_rho):
     if ops.ports:                                   # the port columns depend on every mode before them: rebuild
         return build_operators(problem, ops.U_v[:, :k_v], ops.U_rho[:, :k_rho],
                                input_direction=ops.input_mode if ops.p is not None else "never",
-                               tensor=ops.tensor_rule, input_tolerance=ops.input_tolerance, ports=ops.ports)
+                               tensor=ops.tensor_rule, input_tolerance=ops.input_tolerance, ports=ops.ports,
+                               b=ops.b_form)
     rho0, c, d, profile = problem.rho0, problem.c, problem.d, problem.profile
     inv_rho0 = ops.inv_rho0
     U_pod = ops.U_v[:, :k_v]
@@ -401,6 +441,10 @@ def truncate_operators(problem: SPHProblem, ops: ReducedOperators, k_v, k_rho):
             D = np.vstack([np.column_stack([D, U_pod.T @ (d * u)]), u @ (d[:, None] * U_v)])
         p = np.append(p, u @ profile)
         a_v0 = np.append(a_v0, u @ problem.v0)
+    a_rho0 = np.ascontiguousarray(ops.a_rho0[:k_rho])
+    K = np.ascontiguousarray(K)
+    if ops.b_form == "rest":                        # K a^ρ_rest of the kept modes, not a slice of the larger one
+        b = rest_b(K, a_rho0)
     t1 = time.perf_counter()
     T = None
     if ops.T is not None and wants_tensor(ops.tensor_rule, U_v.shape[1], k_rho):
@@ -412,15 +456,15 @@ def truncate_operators(problem: SPHProblem, ops: ReducedOperators, k_v, k_rho):
     elif wants_tensor(ops.tensor_rule, U_v.shape[1], k_rho):
         T = refresh_tensor(U_rho, np.ascontiguousarray(GU_v), inv_rho0)
     t2 = time.perf_counter()
-    return ReducedOperators(U_v=U_v, U_rho=U_rho, K=np.ascontiguousarray(K), b=np.ascontiguousarray(b),
+    return ReducedOperators(U_v=U_v, U_rho=U_rho, K=K, b=np.ascontiguousarray(b),
                             D=None if D is None else np.ascontiguousarray(D),
                             p=None if p is None else np.ascontiguousarray(p), GU_v=np.ascontiguousarray(GU_v),
                             inv_rho0=inv_rho0, T=None if T is None else np.ascontiguousarray(T),
-                            a_v0=np.ascontiguousarray(a_v0), a_rho0=np.ascontiguousarray(ops.a_rho0[:k_rho]),
+                            a_v0=np.ascontiguousarray(a_v0), a_rho0=a_rho0,
                             input_error=input_error, augmented=augmented,
                             timings={"operators": t1 - t0, "tensor": t2 - t1},
                             input_mode=ops.input_mode, input_tolerance=ops.input_tolerance,
-                            tensor_rule=ops.tensor_rule)
+                            tensor_rule=ops.tensor_rule, b_form=ops.b_form)
 
 
 def refresh_tensor(U_rho, GU_v, inv_rho0):
@@ -437,31 +481,3 @@ def density_matrix(ops: ReducedOperators, a_rho):
     """M(a^ρ) = U^ρᵀ diag(ρ²/ρ0) G U^v by the straightforward O(N k²) path."""
     rho = ops.U_rho @ a_rho
     return ops.U_rho.T @ ((rho * rho * ops.inv_rho0)[:, None] * ops.GU_v)
-
-
-def probe_rows(U, x, L, probes):
-    """Rows that interpolate U a linearly between particles at ``probes``.
-
-    Parameters
-    ----------
-    U : ndarray (N, k)
-        Basis; the field is U a at the particles x.
-    x : ndarray (N,)
-        Uniform, cell-centred particle positions [m].
-    L : float
-        Period [m].
-    probes : array_like
-        Probe positions in units of L, in [0, 1].
-
-    Returns
-    -------
-    ndarray (P, k): row j gives the field at probe j as row @ a.
-    """
-    probes = np.asarray(probes, float)
-    n = x.size
-    dx = L / n
-    s = np.mod(probes * L - x[0], L) / dx        # fractional index from particle 0
-    i0 = np.floor(s).astype(np.int64) % n
-    w = s - np.floor(s)
-    i1 = (i0 + 1) % n
-    return (1.0 - w)[:, None] * U[i0] + w[:, None] * U[i1]

@@ -9,8 +9,8 @@ Galerkin loop it shares with the density-linearised model.
 from functools import partial
 
 from .galerkin import INTEGRATORS, run_galerkin
-from .model import ReducedModel
-from .operators import build_from_basis, truncate_operators
+from .model import GalerkinOptions, ReducedModel
+from .operators import build_paper, truncate_operators
 
 NAME = "original"
 
@@ -18,5 +18,6 @@ MODEL = ReducedModel(
     name=NAME,
     description="the paper's original POD-MOR (eq. 2.16): the full SPH right-hand side projected, O(N k) per step",
     title="Original POD-MOR (Fang et al., eq. 2.16)",
-    linear=False, integrators=INTEGRATORS, uses_n_freeze=False, basis_kind="density", fmu_kind=None,
-    build=build_from_basis, run=partial(run_galerkin, NAME, True), truncate=truncate_operators)
+    linear=False, integrators=INTEGRATORS, basis_kind="density", fmu_kind=None,
+    builder=build_paper, solver=partial(run_galerkin, NAME, True), truncate=truncate_operators,
+    options_type=GalerkinOptions)

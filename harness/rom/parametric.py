@@ -275,11 +275,11 @@ def affine_frozen(scene, space, U_v, U_rho, *, input_direction="auto", input_tol
     :func:`harness.rom.operators.build_operators` (the profile does not depend on c, d).
     """
     from ..sph.solver import build_problem
-    from .operators import build_operators, rest_equilibrium
+    from .operators import build_operators
 
     unit_problem = build_problem(scene_at(scene, 1.0, 1.0))
-    unit = rest_equilibrium(build_operators(unit_problem, U_v, U_rho, input_direction=input_direction,
-                                            tensor=tensor, input_tolerance=input_tolerance))   # b_c = K_c a^ρ_rest
+    unit = build_operators(unit_problem, U_v, U_rho, input_direction=input_direction, tensor=tensor,
+                           input_tolerance=input_tolerance, b="rest")         # b_c = K_c a^ρ_rest, as the FMU
     damping = space.varies("d") or space.scene_values["d"] != 0
     return AffineFrozen(unit=unit, space=space, damping=damping, timings=dict(unit.timings))
 

@@ -49,14 +49,22 @@ def initial_scale(value):
 
 
 def start_arrays(ops, state, n_samples, initial_state_scale=1.0):
-    """(a_v, a_rho, out_av, out_ar): the initial reduced coordinates (``state`` = (a_v, a_rho), default the
-    operators' projections of v0, ρ0) as fresh arrays, and the sample arrays of ``n_samples`` rows.
+    """(a_v, a_rho, out_z): the initial reduced coordinates as fresh arrays (``state`` the whole initial state
+    z = [a_v, a_rho], default the operators' projections of v0, ρ0) and the samples' states, (n_samples, k).
 
     ``initial_state_scale`` multiplies the velocity coordinates only (the density coordinates are those of
-    ρ0, the rest state), as the FMU's parameter of that name; 1 leaves them bit for bit."""
-    av = initial_scale(initial_state_scale) * np.array(ops.a_v0 if state is None else state[0], dtype=float)
-    ar = np.array(ops.a_rho0 if state is None else state[1], dtype=float)
-    return av, ar, np.empty((n_samples, ops.k_v)), np.empty((n_samples, ops.k_rho))
+    ρ0, the rest state), as the FMU's parameter of that name; 1 leaves them bit for bit.  The loops write the
+    samples into the two blocks of ``out_z`` (:func:`sample_blocks`)."""
+    z = None if state is None else ops.as_state(state)
+    a_v0, a_rho0 = (ops.a_v0, ops.a_rho0) if z is None else (z[:ops.k_v], z[ops.k_v:])
+    av = initial_scale(initial_state_scale) * np.array(a_v0, dtype=float)
+    ar = np.array(a_rho0, dtype=float)
+    return av, ar, np.empty((n_samples, ops.order))
+
+
+def sample_blocks(out_z, k_v):
+    """(out_av, out_ar): the velocity and second blocks of the sample states ``out_z`` (views the loops write)."""
+    return out_z[:, :k_v], out_z[:, k_v:]
 
 
 def sample_grid(n_steps, sample_steps=None, every=1):
