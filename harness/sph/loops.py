@@ -71,73 +71,72 @@ def _sum4(w0, w1, w2, w3, f0, f1, f2, f3):
 def _stencil_rows(lo, hi, v, rho, offsets, weight, rho0, ur, dv, drho, p):
     """Rows lo..hi-1 of the fixed-offset layout, every neighbour inside [0, N) (no wrap-around).
 
-    The arrays are taken as views that start at row lo (shifted by each offset), so that the loops index
-    from 0 and vectorise.
+    The indices are unsigned (i = lo + t, j = lo + offset + t, all >= 0): numba then needs no negative-index
+    check and no array views (whose reference counts cost more than the rows at small N), and the loop over t
+    vectorises.
     """
     k = offsets.size
-    m = hi - lo
-    rr, a, b = rho[lo:hi], drho[lo:hi], dv[lo:hi]
-    r0s = rho0 if ur else rho0[lo:hi]
+    ulo, m = np.uint64(lo), np.uint64(hi - lo)
     r0 = rho0[0]
     if k == 4:                      # α in (1, 1.5): offsets -2, -1, 1, 2; the sums and the finish in one pass
-        o0, o1, o2, o3 = offsets[0], offsets[1], offsets[2], offsets[3]
-        w0, w1, w2, w3 = weight[0, lo:hi], weight[1, lo:hi], weight[2, lo:hi], weight[3, lo:hi]
-        v0, v1, v2, v3 = v[lo + o0:hi + o0], v[lo + o1:hi + o1], v[lo + o2:hi + o2], v[lo + o3:hi + o3]
-        p0, p1, p2, p3 = p[lo + o0:hi + o0], p[lo + o1:hi + o1], p[lo + o2:hi + o2], p[lo + o3:hi + o3]
+        s0, s1 = np.uint64(lo + offsets[0]), np.uint64(lo + offsets[1])
+        s2, s3 = np.uint64(lo + offsets[2]), np.uint64(lo + offsets[3])
+        q0, q1, q2, q3 = np.uint64(0), np.uint64(1), np.uint64(2), np.uint64(3)
         if ur:
             for t in range(m):
-                sv = _sum4(w0[t], w1[t], w2[t], w3[t], v0[t], v1[t], v2[t], v3[t])
-                sp_ = _sum4(w0[t], w1[t], w2[t], w3[t], p0[t], p1[t], p2[t], p3[t])
-                a[t] = -(rr[t] * rr[t] / r0) * sv              # eq. 2.10
-                b[t] = -sp_ / r0                               # eq. 2.11, pressure part
+                i = ulo + t
+                w0, w1, w2, w3 = weight[q0, i], weight[q1, i], weight[q2, i], weight[q3, i]
+                sv = _sum4(w0, w1, w2, w3, v[s0 + t], v[s1 + t], v[s2 + t], v[s3 + t])
+                sp_ = _sum4(w0, w1, w2, w3, p[s0 + t], p[s1 + t], p[s2 + t], p[s3 + t])
+                drho[i] = -(rho[i] * rho[i] / r0) * sv           # eq. 2.10
+                dv[i] = -sp_ / r0                                # eq. 2.11, pressure part
         else:
             for t in range(m):
-                sv = _sum4(w0[t], w1[t], w2[t], w3[t], v0[t], v1[t], v2[t], v3[t])
-                sp_ = _sum4(w0[t], w1[t], w2[t], w3[t], p0[t], p1[t], p2[t], p3[t])
-                a[t] = -(rr[t] * rr[t] / r0s[t]) * sv
-                b[t] = -sp_ / r0s[t]
+                i = ulo + t
+                w0, w1, w2, w3 = weight[q0, i], weight[q1, i], weight[q2, i], weight[q3, i]
+                sv = _sum4(w0, w1, w2, w3, v[s0 + t], v[s1 + t], v[s2 + t], v[s3 + t])
+                sp_ = _sum4(w0, w1, w2, w3, p[s0 + t], p[s1 + t], p[s2 + t], p[s3 + t])
+                drho[i] = -(rho[i] * rho[i] / rho0[i]) * sv
+                dv[i] = -sp_ / rho0[i]
         return
     # any K: the sums of a block of rows in drho, dv (still in L1), one offset at a time, then the finish
-    for b0 in range(0, m, STENCIL_BLOCK):
-        b1 = min(b0 + STENCIL_BLOCK, m)
-        ab, bb = a[b0:b1], b[b0:b1]
-        ab[:] = 0.0
-        bb[:] = 0.0
+    for b0 in range(lo, hi, STENCIL_BLOCK):
+        ub0, bm = np.uint64(b0), np.uint64(min(STENCIL_BLOCK, hi - b0))
+        for t in range(bm):
+            drho[ub0 + t] = 0.0
+            dv[ub0 + t] = 0.0
         for q in range(k):
-            o = offsets[q]
-            wq, vq, pq = weight[q, lo + b0:lo + b1], v[lo + b0 + o:lo + b1 + o], p[lo + b0 + o:lo + b1 + o]
-            for t in range(b1 - b0):
-                ab[t] += wq[t] * vq[t]
-                bb[t] += wq[t] * pq[t]
-        rb = rr[b0:b1]
-        if ur:
-            for t in range(b1 - b0):
-                ab[t] = -(rb[t] * rb[t] / r0) * ab[t]
-                bb[t] = -bb[t] / r0
-        else:
-            rb0 = r0s[b0:b1]
-            for t in range(b1 - b0):
-                ab[t] = -(rb[t] * rb[t] / rb0[t]) * ab[t]
-                bb[t] = -bb[t] / rb0[t]
+            uq, sq = np.uint64(q), np.uint64(b0 + offsets[q])
+            for t in range(bm):
+                i = ub0 + t
+                drho[i] += weight[uq, i] * v[sq + t]
+                dv[i] += weight[uq, i] * p[sq + t]
+        for t in range(bm):
+            i = ub0 + t
+            ri = r0 if ur else rho0[i]
+            drho[i] = -(rho[i] * rho[i] / ri) * drho[i]
+            dv[i] = -dv[i] / ri
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _stencil_wrapped(i, v, rho, offsets, weight, rho0, ur, dv, drho, p):
-    """Row i of the fixed-offset layout with periodic wrap-around (the first and last rows)."""
+def _stencil_wrapped(lo, hi, v, rho, offsets, weight, rho0, ur, dv, drho, p):
+    """Rows 0..lo-1 and hi..N-1 of the fixed-offset layout: the periodic wrap-around (eq. 2.9's minimum image)."""
     n = v.size
-    sv = 0.0
-    sp_ = 0.0
-    for m in range(offsets.size):
-        j = i + offsets[m]
-        if j < 0:
-            j += n
-        elif j >= n:
-            j -= n
-        sv += weight[m, i] * v[j]
-        sp_ += weight[m, i] * p[j]
-    r0 = rho0[0] if ur else rho0[i]
-    drho[i] = -(rho[i] * rho[i] / r0) * sv
-    dv[i] = -sp_ / r0
+    for t in range(lo + n - hi):
+        i = t if t < lo else hi + (t - lo)
+        sv = 0.0
+        sp_ = 0.0
+        for m in range(offsets.size):
+            j = i + offsets[m]
+            if j < 0:
+                j += n
+            elif j >= n:
+                j -= n
+            sv += weight[m, i] * v[j]
+            sp_ += weight[m, i] * p[j]
+        r0 = rho0[0] if ur else rho0[i]
+        drho[i] = -(rho[i] * rho[i] / r0) * sv
+        dv[i] = -sp_ / r0
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -159,10 +158,7 @@ def rates(v, rho, g, index, weight, rho0, c, d, profile, flags, dv, drho, p):
             hi = min(hi, n - offsets[m])
         hi = max(hi, lo)
         _stencil_rows(lo, hi, v, rho, offsets, weight, rho0, ur, dv, drho, p)
-        for i in range(lo):
-            _stencil_wrapped(i, v, rho, offsets, weight, rho0, ur, dv, drho, p)
-        for i in range(hi, n):
-            _stencil_wrapped(i, v, rho, offsets, weight, rho0, ur, dv, drho, p)
+        _stencil_wrapped(lo, hi, v, rho, offsets, weight, rho0, ur, dv, drho, p)
     else:
         k = index.shape[1]
         for i in range(n):
