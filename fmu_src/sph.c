@@ -140,34 +140,19 @@ SPH_INLINE void stencil_rows(const SphOperator *op, int64_t lo, int64_t hi, cons
                      *restrict v3 = v + off[3];
         const double *restrict p0 = p + off[0], *restrict p1 = p + off[1], *restrict p2 = p + off[2],
                      *restrict p3 = p + off[3];
-        if (ur) {
-            for (int64_t i = lo; i < hi; i++) {
-                double sv = 0.0, sp = 0.0;
-                sv += w0[i] * v0[i];
-                sp += w0[i] * p0[i];
-                sv += w1[i] * v1[i];
-                sp += w1[i] * p1[i];
-                sv += w2[i] * v2[i];
-                sp += w2[i] * p2[i];
-                sv += w3[i] * v3[i];
-                sp += w3[i] * p3[i];
-                drho[i] = -(rho[i] * rho[i] / r0) * sv;
-                dv[i] = -sp / r0;
-            }
-        } else {
-            for (int64_t i = lo; i < hi; i++) {
-                double sv = 0.0, sp = 0.0;
-                sv += w0[i] * v0[i];
-                sp += w0[i] * p0[i];
-                sv += w1[i] * v1[i];
-                sp += w1[i] * p1[i];
-                sv += w2[i] * v2[i];
-                sp += w2[i] * p2[i];
-                sv += w3[i] * v3[i];
-                sp += w3[i] * p3[i];
-                drho[i] = -(rho[i] * rho[i] / rho0[i]) * sv;
-                dv[i] = -sp / rho0[i];
-            }
+        for (int64_t i = lo; i < hi; i++) {      /* one loop per branch of ur: GCC and Clang unswitch it */
+            double sv = 0.0, sp = 0.0;
+            sv += w0[i] * v0[i];
+            sp += w0[i] * p0[i];
+            sv += w1[i] * v1[i];
+            sp += w1[i] * p1[i];
+            sv += w2[i] * v2[i];
+            sp += w2[i] * p2[i];
+            sv += w3[i] * v3[i];
+            sp += w3[i] * p3[i];
+            const double ri = ur ? r0 : rho0[i];
+            drho[i] = -(rho[i] * rho[i] / ri) * sv;
+            dv[i] = -sp / ri;
         }
         return;
     }
