@@ -31,7 +31,7 @@ def slope_per_step(run, steps, repeats):
     return statistics.median(slopes), slopes
 
 
-def time_per_step(scene_name, n, integrator, repeats=5, target_seconds=0.02, layout="auto"):
+def time_per_step(scene_name, n, integrator, repeats=5, target_seconds=0.05, layout="auto"):
     """Median µs per step of ``integrator`` at N = n particles (scene's fields), a slope (module docstring).
 
     ``layout``: the operator's layout in the loop (:meth:`harness.sph.solver.SPHProblem.loop_args`).

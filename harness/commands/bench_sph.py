@@ -25,6 +25,9 @@ def add_parser(sub):
                    help="the SPH operator's layout in the loop: auto (the fixed-offset stencil where the neighbour "
                         "lists allow it, as sphrom sph runs) or general (the neighbour lists); the same bits")
     p.add_argument("--out", metavar="DIR", help="folder for sph_scaling.csv and sph_scaling.png")
+    p.add_argument("--report", metavar="FILE.md",
+                   help="replace the section 'The full SPH step against N' of this Markdown report (BENCHMARKS.md) "
+                        "with the table, naming this command, the CPU and the load")
     add_quiet(p)
     p.set_defaults(handler=run)
 
@@ -60,4 +63,13 @@ def run(args):
         write_csv(out / "sph_scaling.csv", rows)
         plot_scaling(rows, integrators, out / "sph_scaling.png", args.scene)
         print(f"wrote {out / 'sph_scaling.csv'} and {out / 'sph_scaling.png'}")
+    if args.report:
+        from ..bench.fmu_verify import update_report
+        from ..bench.report import SPH_STEP_HEADING, sph_step_section
+        command = (f"sphrom bench-sph {args.scene} --n-particles {','.join(map(str, sizes))} --integrator "
+                   f"{','.join(integrators)} --repeats {args.repeats} --layout {args.layout} --report {args.report}")
+        produced = (f"Produced by `{command}` on {cpu_model()}, load average (1 / 5 / 15 min) "
+                    f"{load(load_start)} at the start, {load(load_average())} at the end.")
+        lines = sph_step_section(rows, sizes, args.repeats, integrators, produced=produced)
+        print(f"wrote the section of {update_report(args.report, {SPH_STEP_HEADING: lines})}")
     return 0
