@@ -40,7 +40,7 @@ from pathlib import Path
 
 SECTION_HEADING = "## The full SPH step: numba against a hand-written C stencil"
 STEP_WORK = 1e7            # particle-steps in the shorter of the two timed runs (M = STEP_WORK / N steps)
-TARGET = 2.0               # the numba step within this factor of the C stencil (issue 24)
+TARGET = 2.0               # the target: the numba step within this factor of the C stencil
 C_INTEGRATORS = ("euler", "symplectic")
 WORKER = Path(__file__).with_name("sph_step_worker.py")
 
@@ -293,6 +293,23 @@ def _integrators(text):
     return out
 
 
+def _positive_int(text):
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} is out of range (allowed: an integer >= 1)")
+    return value
+
+
+def _checkout(text):
+    if not (Path(text) / "harness" / "sph" / "loops.py").is_file():
+        raise argparse.ArgumentTypeError(f"{text!r} is not a sphrom checkout (allowed: a folder with "
+                                         "harness/sph/loops.py)")
+    return text
+
+
 def main(argv=None):
     from ..progress import progress_bar
     from ..runio import atomic_path
@@ -306,18 +323,15 @@ def main(argv=None):
                    help="particle counts (default 10000,100000)")
     p.add_argument("--integrators", type=_integrators, default=["euler", "symplectic", "rk4"], metavar="NAME,...",
                    help="out of euler, symplectic, rk4 (default all; the C step has the first two)")
-    p.add_argument("--repeats", type=int, default=7, help="repeats, the median kept (default %(default)s)")
-    p.add_argument("--before", metavar="DIR", help="a checkout whose own step is timed in the same run")
+    p.add_argument("--repeats", type=_positive_int, default=7, help="repeats, the median kept (default %(default)s)")
+    p.add_argument("--before", type=_checkout, metavar="DIR", help="a checkout whose own step is timed in the same "
+                                                                   "run")
     p.add_argument("--no-training", action="store_true", help="skip the training runs (run_sph of the scene)")
     p.add_argument("--out", default="validation/benchmarks", help="folder for sph_stencil.csv and .png "
                                                                   "(default %(default)s)")
     p.add_argument("--report", default="BENCHMARKS.md", help="the Markdown report whose section is replaced")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     args = p.parse_args(argv)
-    if args.repeats < 1:
-        p.error(f"--repeats: {args.repeats} is out of range (allowed: an integer >= 1)")
-    if args.before and not (Path(args.before) / "harness" / "sph" / "loops.py").is_file():
-        p.error(f"--before: {args.before} is not a sphrom checkout (no harness/sph/loops.py)")
     from ..scene import load_scene
     load_scene(args.scene)                          # a bad name: one line, before any work
     t0 = time.perf_counter()

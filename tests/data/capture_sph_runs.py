@@ -1,6 +1,6 @@
 """Capture whole full SPH runs of every built-in scene with one checkout, to compare two checkouts bitwise.
 
-A change of the full SPH's loops that claims to change no number (the fixed-offset stencil of issue 24) runs
+A change of the full SPH's loops that claims to change no number (the fixed-offset stencil layout) runs
 this with the code before and after, then compares:
 
     PYTHONPATH=/work/main python3 tests/data/capture_sph_runs.py --out /tmp/sph_before.npz
