@@ -351,8 +351,9 @@ def main(argv=None):
         plot(rows, tmp)
     given = argv if argv is not None else sys.argv[1:]
     command = "python -m harness.bench.sph_stencil" + (" " + " ".join(given) if given else "")
-    image = os.path.relpath(out / "sph_stencil.png", Path(args.report).resolve().parent)
-    lines = section(rows, train, info, command, wall, csv_path, Path(image).as_posix())
+    here = Path(args.report).resolve().parent
+    image, shown_csv = (Path(os.path.relpath(path, here)).as_posix() for path in (out / "sph_stencil.png", csv_path))
+    lines = section(rows, train, info, command, wall, shown_csv, image)
     print("\n".join(lines))
     report = update_report(args.report, {SECTION_HEADING: lines})
     print(f"wrote {csv_path}, {out / 'sph_stencil.png'} and the section of {report} ({wall:.0f} s)")
