@@ -163,9 +163,10 @@ def input_direction_section(directions, scene_names, tolerance):
     return lines + [""]
 
 
-def sph_step_section(sph_steps, sizes, repeats, integrators=SPH_INTEGRATORS, produced=None):
+def sph_step_section(sph_steps, sizes, repeats, integrators=SPH_INTEGRATORS, produced=None, image=None):
     """The full SPH step against N per integrator (rows of :func:`harness.bench.sph_scaling.scaling_table`);
-    ``produced``: a sentence naming the command, the machine and its load (``sphrom bench-sph --report``)."""
+    ``produced``: a sentence naming the command, the machine and its load, ``image``: the plot's path from the
+    report (``sphrom bench-sph --report``)."""
     from .sph_scaling import growth_exponent
     lines = [SPH_STEP_HEADING, "",
              (produced + " " if produced else "")
@@ -180,7 +181,7 @@ def sph_step_section(sph_steps, sizes, repeats, integrators=SPH_INTEGRATORS, pro
         cells = [next(f"{r['us_per_step']:.3g} µs" for r in sph_steps if r["integrator"] == integrator and r["n"] == n)
                  for n in sizes]
         lines.append(f"| {integrator} | " + " | ".join(cells) + f" | {growth_exponent(sph_steps, integrator):.2f} |")
-    return lines + [""]
+    return lines + [""] + ([f"![full SPH step against N]({image})", ""] if image else [])
 
 
 def fmu_tables(core, e2e, heading="##"):

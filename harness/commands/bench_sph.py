@@ -67,9 +67,15 @@ def run(args):
         from ..bench.fmu_verify import update_report
         from ..bench.report import SPH_STEP_HEADING, sph_step_section
         command = (f"sphrom bench-sph {args.scene} --n-particles {','.join(map(str, sizes))} --integrator "
-                   f"{','.join(integrators)} --repeats {args.repeats} --layout {args.layout} --report {args.report}")
+                   f"{','.join(integrators)} --repeats {args.repeats} --layout {args.layout}"
+                   + (f" --out {args.out}" if args.out else "") + f" --report {args.report}")
         produced = (f"Produced by `{command}` on {cpu_model()}, load average (1 / 5 / 15 min) "
                     f"{load(load_start)} at the start, {load(load_average())} at the end.")
-        lines = sph_step_section(rows, sizes, args.repeats, integrators, produced=produced)
+        image = None
+        if out is not None:
+            import os
+            image = Path(os.path.relpath(out.resolve() / "sph_scaling.png", Path(args.report).resolve().parent))
+        lines = sph_step_section(rows, sizes, args.repeats, integrators, produced=produced,
+                                 image=image and image.as_posix())
         print(f"wrote the section of {update_report(args.report, {SPH_STEP_HEADING: lines})}")
     return 0
