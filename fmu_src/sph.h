@@ -34,18 +34,23 @@ extern "C" {
 #define SPH_UNIFORM_RHO0 8u
 #define SPH_UNIFORM_D 16u
 #define SPH_UNIFORM_PROFILE 32u
+#define SPH_STENCIL 64u            /* layout: index holds k offsets, weight is [k][n] (see SphOperator) */
 #define SPH_METHOD_EULER 0
 #define SPH_METHOD_SYMPLECTIC 1
 
+/* The operator of eq. 2.9 in one of two layouts.  Neighbour lists: index [n][k] (neighbour j of particle i),
+ * weight [n][k].  Fixed offsets (flag SPH_STENCIL, every row's neighbours at the same offsets, as
+ * harness/sph/operator.py detects): index [k] the offsets o_m in (-n, n), neighbour j = (i + o_m) mod n, and
+ * weight [k][n] the weights by offset, contiguous in i.  Both give the same bits. */
 typedef struct {
     int64_t n, k;              /* particles, neighbours per particle */
-    const int64_t *index;      /* [n][k] neighbour j of particle i */
-    const double *weight;      /* [n][k] (m_j/rho_j(0)) grad W(x_i - x_j), 0 where padded */
+    const int64_t *index;      /* [n][k] neighbour j of particle i, or [k] offsets (SPH_STENCIL) */
+    const double *weight;      /* [n][k] (m_j/rho_j(0)) grad W(x_i - x_j), 0 where padded; [k][n] (SPH_STENCIL) */
     const double *rho0, *c, *d, *profile;   /* [n], or [1] when uniform (flags) */
     uint32_t flags;
 } SphOperator;
 
-/* Checks sizes, pointers, flags and every neighbour index (O(n k)). */
+/* Checks sizes, pointers, flags, every neighbour index or offset, and every weight (O(n k)). */
 ROM_API RomStatus sph_check(const SphOperator *op, char *message, size_t message_size);
 
 /* dv, drho = the rates of eqs. 2.11, 2.10 at (v, rho) with force history value g; p: [n] scratch */

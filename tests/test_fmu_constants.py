@@ -78,7 +78,7 @@ def test_constants_shared_by_c_and_python():
     # the C full SPH's flag bits and methods (fmu_src/sph.h) are the compiled loops'
     sph_shared = {"SPH_DAMPING": sph_loops.DAMPING, "SPH_FORCE": sph_loops.FORCE, "SPH_UNIFORM_C": sph_loops.UNIFORM_C,
                   "SPH_UNIFORM_RHO0": sph_loops.UNIFORM_RHO0, "SPH_UNIFORM_D": sph_loops.UNIFORM_D,
-                  "SPH_UNIFORM_PROFILE": sph_loops.UNIFORM_PROFILE,
+                  "SPH_UNIFORM_PROFILE": sph_loops.UNIFORM_PROFILE, "SPH_STENCIL": sph_loops.STENCIL,
                   "SPH_METHOD_EULER": sph_c.METHODS["euler"], "SPH_METHOD_SYMPLECTIC": sph_c.METHODS["symplectic"]}
     assert {name: sph.get(name) for name in sph_shared} == sph_shared
     assert sph_c.METHODS == {name: solver.METHODS[name] for name in sph_c.METHODS}

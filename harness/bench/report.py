@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 
 SPH_INTEGRATORS = ("euler", "symplectic", "rk4")
+SPH_STEP_HEADING = "## The full SPH step against N (as `sphrom bench-sph`)"
 
 
 def _fmt(x, spec=".3e"):
@@ -162,20 +163,25 @@ def input_direction_section(directions, scene_names, tolerance):
     return lines + [""]
 
 
-def sph_step_section(sph_steps, sizes, repeats, integrators=SPH_INTEGRATORS):
-    """The full SPH step against N per integrator (rows of :func:`harness.bench.sph_scaling.scaling_table`)."""
+def sph_step_section(sph_steps, sizes, repeats, integrators=SPH_INTEGRATORS, produced=None, image=None):
+    """The full SPH step against N per integrator (rows of :func:`harness.bench.sph_scaling.scaling_table`);
+    ``produced``: a sentence naming the command, the machine and its load, ``image``: the plot's path from the
+    report (``sphrom bench-sph --report``)."""
     from .sph_scaling import growth_exponent
-    lines = ["## The full SPH step against N (as `sphrom bench-sph`)", "",
-             "µs per step of the numba loop (one thread), tenmode's fields, medians of "
-             f"{repeats}; growth exponent of time against N for N ≥ 1000 (1 = linear). Target: ≤ 10 µs per "
-             "step at N = 400 (explicit Euler).", "",
+    lines = [SPH_STEP_HEADING, "",
+             (produced + " " if produced else "")
+             + "µs per step of the numba loop (one thread) in the layout `sphrom sph` takes (the fixed-offset "
+             "stencil where the neighbour lists allow it, as in every built-in scene), tenmode's fields at the "
+             "scene's CFL number; each figure the slope between runs of M and 2M steps (the call's fixed cost "
+             f"cancels), the median of {repeats} repeats; growth exponent of time against N for N ≥ 1000 "
+             "(1 = linear). Target: ≤ 10 µs per step at N = 400 (explicit Euler).", "",
              "| integrator | " + " | ".join(f"N = {n}" for n in sizes) + " | growth exponent |",
              "| --- |" + " ---: |" * (len(sizes) + 1)]
     for integrator in integrators:
         cells = [next(f"{r['us_per_step']:.3g} µs" for r in sph_steps if r["integrator"] == integrator and r["n"] == n)
                  for n in sizes]
         lines.append(f"| {integrator} | " + " | ".join(cells) + f" | {growth_exponent(sph_steps, integrator):.2f} |")
-    return lines + [""]
+    return lines + [""] + ([f"![full SPH step against N]({image})", ""] if image else [])
 
 
 def fmu_tables(core, e2e, heading="##"):
@@ -375,7 +381,8 @@ def linear_tradeoff_section(rows, command, wall):
 # Sections that other commands write into BENCHMARKS.md (each names its command; they sit between the FMU's
 # section and the stress maps): ``sphrom bench --report`` carries them over from the existing document, in
 # its order, so that regenerating the benchmarks never drops them.
-CARRIED = ("## The training envelope of the frozen FMU",
+CARRIED = ("## The full SPH step: numba against a hand-written C stencil",
+           "## The training envelope of the frozen FMU",
            "## The packaged FMU against the full SPH, every scene",
            "## Linear models: time against error",
            "## A component at rest")

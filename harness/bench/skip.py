@@ -24,12 +24,13 @@ SKIP_MODELS = ("linearized", "frozen")
 
 def _sph_loop(problem, scene, n, general):
     nb = problem.neighbours
+    (index, weight, *packed), layout_bit = problem.loop_args()       # the layout run_sph takes
     if general:
         arrays = [np.ascontiguousarray(a) for a in (problem.rho0, problem.c, problem.d, problem.profile)]
-        flags = loops.DAMPING | loops.FORCE
+        flags = loops.DAMPING | loops.FORCE | layout_bit
     else:
-        arrays = [problem.packed(name) for name in ("rho0", "c", "d", "profile")]
-        flags = problem.flags(False)
+        arrays = packed
+        flags = problem.flags(False) | layout_bit
     g = np.zeros((n, 3))
     method = METHODS[scene.sph.integrator]
     out = np.zeros((1, problem.n))
@@ -37,7 +38,7 @@ def _sph_loop(problem, scene, n, general):
 
     def go():
         v, rho = problem.v0.copy(), problem.rho0.copy()
-        loops.advance(method, v, rho, 0, n, scene.sph.dt, g, nb.index, nb.weight, *arrays, flags,
+        loops.advance(method, v, rho, 0, n, scene.sph.dt, g, index, weight, *arrays, flags,
                    np.array([n]), 0, out, out.copy(), 64, np.inf, nb.dx)   # energy checked as in run_sph
         state["v"] = v
     return go, state

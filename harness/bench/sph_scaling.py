@@ -1,57 +1,93 @@
 """Cost per step of the full SPH model against the particle count N.
 
-Each point times a fixed number of steps of the compiled loop (no I/O, no
-sampling) at the scene's CFL number (Δt scaled as 1/N), median of repeats.
+Each point is a slope: runs of M and 2M steps of the compiled loop (no I/O,
+no sampling) at the scene's CFL number (Δt scaled as 1/N), timed back to
+back, give (t(2M) - t(M)) / M, so the call's fixed cost cancels instead of
+being subtracted; the median over the repeats.  M is sized so that the
+shorter run takes about ``target_seconds``.  A run longer than the scene's
+horizon T restarts from the initial state every T (:func:`chunks`): explicit
+Euler grows without bound past it, and a blown-up state would stop the loop.
 """
+
+import statistics
+import time
 
 import numpy as np
 
 from ..scene import derive_scene, load_scene
 from ..sph import loops
-from ..sph.solver import METHODS, build_problem
-from .timing import median_time
+from ..errors import SimulationError
+from ..sph.solver import METHODS, build_problem, step_count
 
 
-def time_per_step(scene_name, n, integrator, repeats=5, target_seconds=0.05):
-    """Median µs per step of ``integrator`` at N = n particles (scene's fields)."""
+def chunks(steps, horizon):
+    """``steps`` split into runs of at most ``horizon`` steps (each from the initial state)."""
+    out = [horizon] * (steps // horizon)
+    return out + ([steps % horizon] if steps % horizon else [])
+
+
+def slope_per_step(run, steps, repeats):
+    """Per-step times [s] of ``run(steps)`` as slopes: ``run(steps)`` then ``run(2 steps)`` per repeat,
+    (t2 - t1) / steps.  Returns (median, the slopes)."""
+    slopes = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        run(steps)
+        t1 = time.perf_counter()
+        run(2 * steps)
+        t2 = time.perf_counter()
+        slopes.append(((t2 - t1) - (t1 - t0)) / steps)
+    return statistics.median(slopes), slopes
+
+
+def time_per_step(scene_name, n, integrator, repeats=5, target_seconds=0.05, layout="auto"):
+    """Median µs per step of ``integrator`` at N = n particles (scene's fields), a slope (module docstring).
+
+    ``layout``: the operator's layout in the loop (:meth:`harness.sph.solver.SPHProblem.loop_args`).
+    Returns (µs per step, M, the per-repeat slopes in µs).
+    """
     base = load_scene(scene_name)
     scene = derive_scene(base, {"sph": {"n_particles": n, "integrator": integrator}})
     problem = build_problem(scene)
     dt = base.sph.dt * base.sph.n_particles / n          # the scene's CFL number
-    nb = problem.neighbours
-    args = (nb.index, nb.weight, problem.packed("rho0"), problem.packed("c"), problem.packed("d"),
-            problem.packed("profile"))
+    horizon = max(1, step_count(base.T, dt))
+    args, bit = problem.loop_args(layout)
     method = METHODS[integrator]
-    flags = problem.flags(True)
+    flags = problem.flags(True) | bit
     empty = np.zeros(0, dtype=np.int64)
     out = np.zeros((0, n))
 
     def run(steps):
-        v, rho = problem.v0.copy(), problem.rho0.copy()
-        g = np.zeros((steps, 3))
-        status, _, _ = loops.advance(method, v, rho, 0, steps, dt, g, *args, flags, empty, 0, out, out, 64,
-                                  np.inf, problem.neighbours.dx)        # energy checked as in run_sph
-        assert status == 0
+        g = np.zeros((min(steps, horizon), 3))
+        for k in chunks(steps, horizon):
+            v, rho = problem.v0.copy(), problem.rho0.copy()
+            status, _, _ = loops.advance(method, v, rho, 0, k, dt, g, *args, flags, empty, 0, out, out, 64,
+                                         np.inf, problem.neighbours.dx)        # energy checked as in run_sph
+            if status != 0:
+                raise SimulationError(f"bench-sph: the {integrator} run of {scene_name} at N = {n} failed its state "
+                                      f"check (status {status}) within the scene's horizon")
 
-    # size the run to ~target_seconds
-    steps = 16
-    while True:
-        t, _ = median_time(lambda: run(steps), repeats=1, warmup=1 if steps == 16 else 0)
-        if t > target_seconds or steps > 10_000_000:
+    run(16)                                              # compile or load the loop
+    steps = 16                                           # size the shorter run to ~target_seconds
+    while steps < 10_000_000:
+        t0 = time.perf_counter()
+        run(steps)
+        if time.perf_counter() - t0 > target_seconds:
             break
         steps *= 4
-    med, times = median_time(lambda: run(steps), repeats=repeats, warmup=0)
-    return 1e6 * med / steps, steps, [1e6 * x / steps for x in times]
+    med, slopes = slope_per_step(run, steps, repeats)
+    return 1e6 * med, steps, [1e6 * x for x in slopes]
 
 
-def scaling_table(scene_name, sizes, integrators, repeats=5, progress=None):
-    """Rows (integrator, N, µs/step, ns per particle-step, steps timed)."""
+def scaling_table(scene_name, sizes, integrators, repeats=5, progress=None, layout="auto"):
+    """Rows (integrator, N, µs/step, ns per particle-step, M, the slopes' min and max)."""
     rows = []
     for integrator in integrators:
         for n in sizes:
-            us, steps, _ = time_per_step(scene_name, n, integrator, repeats)
+            us, steps, slopes = time_per_step(scene_name, n, integrator, repeats, layout=layout)
             rows.append({"integrator": integrator, "n": n, "us_per_step": us,
-                         "ns_per_particle_step": 1e3 * us / n, "steps": steps})
+                         "ns_per_particle_step": 1e3 * us / n, "steps": steps, "us_min": min(slopes),
+                         "us_max": max(slopes)})
             if progress:
                 progress.update(1)
     return rows

@@ -32,3 +32,26 @@ def median_times_interleaved(fns, repeats=5, warmup=1):
             fn()
             times[i].append(time.perf_counter() - t0)
     return [statistics.median(t) for t in times]
+
+
+def cpu_model():
+    """The CPU's model name (``/proc/cpuinfo``, else :func:`platform.processor`), its logical core count and
+    the architecture, as one string: ``AMD EPYC, 2 cores, x86_64``."""
+    import os
+    import platform
+    name = ""
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8", errors="replace") as fh:
+            name = next((line.split(":", 1)[1].strip() for line in fh if line.startswith("model name")), "")
+    except OSError:
+        pass
+    return f"{name or platform.processor() or 'unknown CPU'}, {os.cpu_count()} cores, {platform.machine()}"
+
+
+def load_average():
+    """The 1, 5 and 15 minute load averages (:func:`os.getloadavg`), or None where the system has none."""
+    import os
+    try:
+        return tuple(round(x, 2) for x in os.getloadavg())
+    except (AttributeError, OSError):
+        return None

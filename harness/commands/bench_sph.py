@@ -9,7 +9,10 @@ def add_parser(sub):
     p = sub.add_parser("bench-sph", help="time the full SPH step against the particle count",
                        description="Median microseconds per step of the full SPH loop (numba) for several particle "
                                    "counts and integrators, and the growth exponent of time against N "
-                                   "(1 = linear). Writes CSV and a PNG plot when --out is given.")
+                                   "(1 = linear). Each figure is a slope: runs of M and 2M steps timed back to back "
+                                   "give (t(2M) - t(M)) / M, so the call's fixed cost cancels. Names the CPU and the "
+                                   "load average. Writes CSV and a PNG plot when --out is given. The numba step "
+                                   "against the C stencil and an older checkout: python -m harness.bench.sph_stencil.")
     add_scene(p, default="tenmode", option_alias=True, help="scene whose fields are used")
     p.add_argument("--n-particles", "--sizes", dest="n_particles", type=int_list(lo=min_particles),
                    default="100,400,10000,100000", metavar="N,...",
@@ -18,7 +21,13 @@ def add_parser(sub):
                    default=",".join(INTEGRATORS), metavar="NAME,...",
                    help="comma-separated integrators out of euler, symplectic, rk4 (default all)")
     p.add_argument("--repeats", type=int_at_least(1), default=5, help="repeats per point (median reported)")
+    p.add_argument("--layout", choices=("auto", "general"), default="auto",
+                   help="the SPH operator's layout in the loop: auto (the fixed-offset stencil where the neighbour "
+                        "lists allow it, as sphrom sph runs) or general (the neighbour lists); the same bits")
     p.add_argument("--out", metavar="DIR", help="folder for sph_scaling.csv and sph_scaling.png")
+    p.add_argument("--report", metavar="FILE.md",
+                   help="replace the section 'The full SPH step against N' of this Markdown report (BENCHMARKS.md) "
+                        "with the table, naming this command, the CPU and the load")
     add_quiet(p)
     p.set_defaults(handler=run)
 
@@ -28,6 +37,7 @@ def run(args):
 
     from ..bench.sph_scaling import growth_exponent, plot_scaling, scaling_table
     from ..bench.tables import write_csv
+    from ..bench.timing import cpu_model, load_average
     from ..progress import progress_bar
     from ..scene import load_scene
 
@@ -36,9 +46,14 @@ def run(args):
     out = Path(args.out) if args.out else None
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
+    load_start = load_average()
     with progress_bar(total=len(sizes) * len(integrators), desc="bench-sph", enabled=not args.quiet) as bar:
-        rows = scaling_table(args.scene, sizes, integrators, args.repeats, bar)
-    print(f"full SPH step (numba, one thread), scene {args.scene}, median of {args.repeats} repeats")
+        rows = scaling_table(args.scene, sizes, integrators, args.repeats, bar, layout=args.layout)
+    load = lambda x: "n/a" if x is None else " / ".join(f"{v:.2f}" for v in x)      # noqa: E731
+    print(f"full SPH step (numba, one thread, {args.layout} layout), scene {args.scene}, slope between M and 2M "
+          f"steps, median of {args.repeats} repeats")
+    print(f"machine: {cpu_model()}; load average (1 / 5 / 15 min) {load(load_start)} at the start, "
+          f"{load(load_average())} at the end")
     print(f"{'integrator':<11} {'N':>8} {'us/step':>10} {'ns/particle':>12}")
     for r in rows:
         print(f"{r['integrator']:<11} {r['n']:>8} {r['us_per_step']:>10.3f} {r['ns_per_particle_step']:>12.2f}")
@@ -48,4 +63,19 @@ def run(args):
         write_csv(out / "sph_scaling.csv", rows)
         plot_scaling(rows, integrators, out / "sph_scaling.png", args.scene)
         print(f"wrote {out / 'sph_scaling.csv'} and {out / 'sph_scaling.png'}")
+    if args.report:
+        from ..bench.fmu_verify import update_report
+        from ..bench.report import SPH_STEP_HEADING, sph_step_section
+        command = (f"sphrom bench-sph {args.scene} --n-particles {','.join(map(str, sizes))} --integrator "
+                   f"{','.join(integrators)} --repeats {args.repeats} --layout {args.layout}"
+                   + (f" --out {args.out}" if args.out else "") + f" --report {args.report}")
+        produced = (f"Produced by `{command}` on {cpu_model()}, load average (1 / 5 / 15 min) "
+                    f"{load(load_start)} at the start, {load(load_average())} at the end.")
+        image = None
+        if out is not None:
+            import os
+            image = Path(os.path.relpath(out.resolve() / "sph_scaling.png", Path(args.report).resolve().parent))
+        lines = sph_step_section(rows, sizes, args.repeats, integrators, produced=produced,
+                                 image=image and image.as_posix())
+        print(f"wrote the section of {update_report(args.report, {SPH_STEP_HEADING: lines})}")
     return 0

@@ -1,8 +1,9 @@
 """ctypes access to the full SPH step in C (fmu_src/sph.c, library ``libsphrom_sph``).
 
 The C step repeats :mod:`harness.sph.loops` (eqs. 2.10-2.11 with the
-neighbour lists of :mod:`harness.sph.operator`) operation for operation, bit
-for bit (tests/test_fmu_c.py).  It exists for the same-language benchmark: a C
+neighbour lists of :mod:`harness.sph.operator`, or their fixed-offset stencil)
+operation for operation, bit for bit (tests/test_fmu_c.py,
+tests/test_sph_stencil.py).  It exists for the same-language benchmark: a C
 frozen reduced step against a C full SPH step (``sphrom bench``,
 ``sphrom bench-fmu``).  It is a library of its own, beside the model core's.
 """
@@ -42,8 +43,8 @@ class SphC:
         lib.sph_advance_flat.restype = ctypes.c_int
         self.lib = lib
 
-    def runner(self, problem, method="euler"):
-        return SphRunner(self, problem, method)
+    def runner(self, problem, method="euler", layout="auto"):
+        return SphRunner(self, problem, method, layout)
 
 
 class SphRunner:
@@ -53,15 +54,19 @@ class SphRunner:
     ----------
     problem : SPHProblem
     method : {"euler", "symplectic"}
+    layout : {"auto", "general"}
+        The operator's layout (:meth:`harness.sph.operator.Neighbours.loop_arrays`): "auto" the fixed-offset
+        stencil where the neighbour lists allow it (flag SPH_STENCIL), "general" the lists; the same bits.
     """
 
-    def __init__(self, sph, problem, method="euler"):
+    def __init__(self, sph, problem, method="euler", layout="auto"):
         if method not in METHODS:
             raise ValueError(f"method {method!r} (allowed: euler, symplectic)")
         self.sph, self.problem, self.method = sph, problem, METHODS[method]
-        nb = problem.neighbours
-        self.index = np.ascontiguousarray(nb.index, dtype=np.int64)
-        self.weight = np.ascontiguousarray(nb.weight, dtype=float)
+        index, weight, self.layout_bit = problem.neighbours.loop_arrays(layout)
+        self.index = np.ascontiguousarray(index, dtype=np.int64)
+        self.weight = np.ascontiguousarray(weight, dtype=float)
+        self.k = problem.neighbours.index.shape[1]
         self.fields = [np.ascontiguousarray(problem.packed(name), dtype=float)
                        for name in ("rho0", "c", "d", "profile")]
         self.work = np.empty(3 * problem.n)
@@ -78,11 +83,11 @@ class SphRunner:
         gs = None if g is None else np.ascontiguousarray(g, dtype=float)
         if gs is not None and gs.size < n_steps:
             raise ValueError("g needs one value per step")
-        flags = self.problem.flags(gs is not None and bool(np.any(gs != 0)))
+        flags = self.problem.flags(gs is not None and bool(np.any(gs != 0))) | self.layout_bit
         done = ctypes.c_int64(0)
         ptr = lambda a: None if a is None else a.ctypes.data      # noqa: E731
         t0 = time.perf_counter()
-        status = self.sph.lib.sph_advance_flat(n, self.index.shape[1], ptr(self.index), ptr(self.weight),
+        status = self.sph.lib.sph_advance_flat(n, self.k, ptr(self.index), ptr(self.weight),
                                                *[ptr(a) for a in self.fields], flags, self.method, ptr(v), ptr(rho),
                                                int(n_steps), float(dt), ptr(gs), ptr(self.work), int(check_every),
                                                ctypes.byref(done), self._msg, MESSAGE_SIZE)

@@ -7,7 +7,7 @@ Public names (imported from their modules on first use)::
     step_count, stability, stability_warnings, energy_bound_factors           (solver)
     energy, momentum, total_length     diagnostics per sample                  (diagnostics)
     cubic_spline, cubic_spline_gradient  the kernel of eqs. 2.6-2.7            (kernel)
-    build_neighbours, Neighbours, particle_positions  eqs. 2.8-2.9             (operator)
+    build_neighbours, Neighbours, particle_positions, fixed_offsets  eqs. 2.8-2.9  (operator)
     run_sph_ports, port_kernel, mass_spring, ...  point forces in, port velocities out  (ports)
 
 Modules: ``kernel`` (the SPH kernel), ``operator`` (neighbour lists and
@@ -24,6 +24,7 @@ EXPORTS = {
     "energy": "diagnostics", "momentum": "diagnostics", "total_length": "diagnostics",
     "cubic_spline": "kernel", "cubic_spline_gradient": "kernel",
     "build_neighbours": "operator", "Neighbours": "operator", "particle_positions": "operator",
+    "fixed_offsets": "operator",
     "run_sph_ports": "ports", "port_kernel": "ports", "port_accelerations": "ports", "port_velocity_rows": "ports",
     "momentum_weights": "ports", "mass_spring": "ports", "parse_ports": "ports", "MAX_PORTS": "ports",
 }

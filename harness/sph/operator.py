@@ -11,7 +11,18 @@ applying it costs O(N K) for K neighbours per particle, and as a sparse
 matrix G for the Galerkin projections of the reduced models:
 
     [[∇f]]_i = Σ_j (m_j/ρ_j(0)) f_j ∇W_ij = (G f)_i           (eq. 2.9)
+
+Particles keep their neighbours, and on the uniform lattice every row has
+them at the same offsets: index[i, k] = (i + offsets[k]) mod N (-2, -1, 1, 2
+at α = 1.04).  :func:`fixed_offsets` detects that when the lists are built;
+the compiled loops then take the fixed-offset layout (no index loads,
+weights by offset; :meth:`Neighbours.loop_arrays`), which computes the same
+bits.  Where the rows differ (2h a whole number of spacings, α = 1.5 or 2,
+puts a neighbour at the support's edge into some rows only) ``offsets`` is
+None and the loops read the lists.
 """
+
+from __future__ import annotations
 
 from dataclasses import dataclass
 
@@ -44,16 +55,36 @@ class Neighbours:
         Particle spacing L/N [m].
     h : float
         Smoothing length α Δx [m].
+    offsets : ndarray of int64, shape (K,), or None
+        index[i, k] = (i + offsets[k]) mod N for every row (:func:`fixed_offsets`), or None when the rows
+        differ.
+    weight_by_offset : ndarray of float, shape (K, N), or None
+        weight transposed (contiguous in i for each offset) when ``offsets`` is set.
     """
 
     index: np.ndarray
     weight: np.ndarray
     dx: float
     h: float
+    offsets: np.ndarray | None = None
+    weight_by_offset: np.ndarray | None = None
 
     @property
     def n(self):
         return self.index.shape[0]
+
+    def loop_arrays(self, layout="auto"):
+        """(index, weight, flag bits) as the compiled loops of :mod:`.loops` take the operator.
+
+        ``layout`` "auto": the fixed-offset layout (flag ``loops.STENCIL``: offsets (1, K), weights by offset
+        (K, N)) when ``offsets`` is set, else the lists; "general": the lists (N, K) always.
+        """
+        from .loops import STENCIL
+        if layout not in ("auto", "general"):
+            raise ValueError(f"layout {layout!r} (allowed: auto, general)")
+        if layout == "general" or self.offsets is None:
+            return self.index, self.weight, 0
+        return self.offsets[None, :], self.weight_by_offset, STENCIL
 
     def matrix(self):
         """G as a CSR matrix, G @ f = [[∇f]] (eq. 2.9)."""
@@ -113,8 +144,32 @@ def build_neighbours(x, L, h, volume):
     index = np.where(valid, j, np.arange(n)[:, None])
     # Drop the self column (∇W(0) = 0) to keep K small.
     keep = np.any(w != 0.0, axis=0)
-    return Neighbours(index=np.ascontiguousarray(index[:, keep], dtype=np.int64),
-                      weight=np.ascontiguousarray(w[:, keep]), dx=L / n, h=h)
+    index = np.ascontiguousarray(index[:, keep], dtype=np.int64)
+    weight = np.ascontiguousarray(w[:, keep])
+    fixed = fixed_offsets(index)
+    return Neighbours(index=index, weight=weight, dx=L / n, h=h, offsets=fixed,
+                      weight_by_offset=None if fixed is None else np.ascontiguousarray(weight.T))
+
+
+def fixed_offsets(index):
+    """The offsets o_k with index[i, k] = (i + o_k) mod N for every row i, or None when the rows differ.
+
+    Parameters
+    ----------
+    index : ndarray of int, shape (N, K)
+        Neighbour lists (:class:`Neighbours`).
+
+    Returns
+    -------
+    ndarray of int64, shape (K,), or None
+        Each o_k taken in (-N/2, N/2] (the minimum image; the support 2h < L/2 keeps real neighbours there).
+    """
+    n = index.shape[0]
+    rel = (index - np.arange(n)[:, None]) % n
+    if n == 0 or not np.all(rel == rel[0]):
+        return None
+    off = rel[0].astype(np.int64)
+    return np.where(off > n // 2, off - n, off)
 
 
 def derivative_factor(alpha):

@@ -155,7 +155,7 @@ class PortRun:
 
 
 def run_sph_ports(scene, ports, *, forces=None, lumped=None, area=1.0, t_end=None, every=1, problem=None,
-                  state=None):
+                  state=None, layout="auto"):
     """The full SPH of ``scene`` with port forces, from t = 0 to ``t_end`` (default the scene's T).
 
     Parameters
@@ -174,6 +174,8 @@ def run_sph_ports(scene, ports, *, forces=None, lumped=None, area=1.0, t_end=Non
         Store every ``every`` steps (and the last).
     state : (v, rho), optional
         Initial state instead of (v0, ρ0).
+    layout : {"auto", "general"}
+        The operator's layout in the compiled rates (:meth:`.solver.SPHProblem.loop_args`); the same bits.
 
     Notes
     -----
@@ -193,16 +195,14 @@ def run_sph_ports(scene, ports, *, forces=None, lumped=None, area=1.0, t_end=Non
     method = METHODS[scene.sph.integrator]
     T = scene.T if t_end is None else float(t_end)
     n_steps = step_count(T, dt)
-    nb = problem.neighbours
-    args = (nb.index, nb.weight, problem.packed("rho0"), problem.packed("c"), problem.packed("d"),
-            problem.packed("profile"))
+    args, layout_bit = problem.loop_args(layout)
     v = problem.v0.copy() if state is None else np.array(state[0], float)
     rho = problem.rho0.copy() if state is None else np.array(state[1], float)
     y = np.zeros(0) if lumped is None else np.array(lumped.y0, float)
     n = problem.n
     dv, drho, p = np.empty(n), np.empty(n), np.empty(n)
     g_all = force_values(scene, problem, 0, n_steps, dt, method)
-    flags = problem.flags(bool(np.any(g_all != 0)))
+    flags = problem.flags(bool(np.any(g_all != 0))) | layout_bit
 
     def port_forces(t, y):
         out = np.zeros(len(ports))

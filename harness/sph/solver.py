@@ -76,6 +76,14 @@ class SPHProblem:
         key = {"c": "uniform_c", "rho0": "uniform_rho0", "d": "uniform_d", "profile": "uniform_profile"}[name]
         return np.ascontiguousarray(arr[:1] if self.terms[key] else arr)
 
+    def loop_args(self, layout="auto"):
+        """(index, weight, rho0, c, d, profile) as :func:`.loops.rates` and :func:`.loops.advance` take them, and
+        the layout's flag bit to add to :meth:`flags` (``loops.STENCIL`` for the fixed-offset layout, which
+        ``layout`` "auto" takes where the neighbour lists allow it; "general": the lists).
+        """
+        index, weight, bit = self.neighbours.loop_arrays(layout)
+        return (index, weight, *(self.packed(name) for name in ("rho0", "c", "d", "profile"))), bit
+
 
 def build_problem(scene: Scene) -> SPHProblem:
     """Particles, fields and neighbour lists of ``scene``'s SPH settings."""
@@ -149,7 +157,7 @@ class SPHResult:
 
 
 def run_sph(scene: Scene, *, sample_steps=None, progress=True, problem=None, chunk_steps=None,
-            state=None):
+            state=None, layout="auto"):
     """Run the full SPH model of ``scene`` from t = 0 to its T.
 
     Parameters
@@ -165,6 +173,8 @@ def run_sph(scene: Scene, *, sample_steps=None, progress=True, problem=None, chu
         A prebuilt problem (saves the neighbour build in repeated runs).
     state : (v, rho), optional
         Initial state instead of (v0, ρ0).
+    layout : {"auto", "general"}
+        The operator's layout in the compiled loop (:meth:`SPHProblem.loop_args`); both give the same bits.
 
     Returns
     -------
@@ -192,21 +202,19 @@ def run_sph(scene: Scene, *, sample_steps=None, progress=True, problem=None, chu
         v, rho = np.array(state[0], dtype=float), np.array(state[1], dtype=float)
     out_v = np.empty((sample_steps.size, problem.n))
     out_rho = np.empty((sample_steps.size, problem.n))
-    nb = problem.neighbours
-    args = (nb.index, nb.weight, problem.packed("rho0"), problem.packed("c"), problem.packed("d"),
-            problem.packed("profile"))
+    args, layout_bit = problem.loop_args(layout)
     if chunk_steps is None:
         # about 2e6 particle-steps per chunk: a few ms, so the bar moves smoothly
         chunk_steps = max(1, min(n_steps, int(2e6 // max(problem.n, 1))))
     check_every = 64
-    dx = nb.dx
+    dx = problem.neighbours.dx
     # blow-up bound: sqrt(E) <= e^{lam t} (sqrt(E0) + sigma * int |f| dt) for the exact dynamics
     sqrt_e0 = np.sqrt(energy(problem, v, rho)) if np.all(rho > 0) else np.inf
     sigma, lam = energy_bound_factors(problem)
     f_integral = 0.0
     # Load the compiled loop (numba's cache) before the clock starts.
-    loops.advance(method, v, rho, 0, 0, dt, np.zeros((0, 3)), *args, 0, sample_steps[:0], 0, out_v, out_rho, 1,
-               np.inf, dx)
+    loops.advance(method, v, rho, 0, 0, dt, np.zeros((0, 3)), *args, layout_bit, sample_steps[:0], 0, out_v, out_rho,
+                  1, np.inf, dx)
     ptr = 0
     wall = 0.0
     with progress_bar(total=n_steps, desc=f"sph {scene.name}", unit="step", enabled=progress) as bar:
@@ -214,7 +222,7 @@ def run_sph(scene: Scene, *, sample_steps=None, progress=True, problem=None, chu
         while n0 < n_steps:
             n1 = min(n_steps, n0 + chunk_steps)
             g = force_values(scene, problem, n0, n1, dt, method)
-            flags = problem.flags(bool(np.any(g != 0)))
+            flags = problem.flags(bool(np.any(g != 0))) | layout_bit
             # the bound grows with t: its value at the chunk's end holds for every step in it
             f_integral += dt * float(np.sum(np.max(np.abs(g), axis=1))) if g.size else 0.0
             bound = (np.exp(lam * n1 * dt) * (sqrt_e0 + sigma * f_integral)) ** 2
