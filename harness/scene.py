@@ -27,19 +27,15 @@ from .expr import Expr, compile_expr
 from .paths import data_dir, exists, is_file
 
 from . import defaults
-from .scene_schema import (MAX_ALPHA, MAX_DEPTH, MAX_PARTICLES, MAX_REFERENCE_CELLS, MAX_STEPS, MAX_STEPS_TEXT,
-                           MIN_PARTICLES, NAME_PATTERN, NAME_TEXT, SCALE, check_nesting, check_scene_tables,
-                           check_text_size, fmt, key, shown)
+from .scene_schema import (MAX_ALPHA, MAX_DEPTH, MAX_PARTICLES, MAX_REFERENCE_CELLS, MAX_SAMPLE_BYTES, MAX_STEPS,
+                           MAX_STEPS_TEXT, MIN_PARTICLES, NAME_PATTERN, NAME_TEXT, SCALE, check_nesting,
+                           check_scene_tables, check_text_size, fmt, key, least_every, shown)
 
 INTEGRATORS = key("sph.integrator").range.choices
 CLI = "command line"    # the source of settings given as options
 # At most MAX_STEPS SPH steps T/dt in one run.  Step times are n*dt with n exact in float64 far beyond this
 # (2^53), and the int64 step counters cannot overflow; the bound is the wall time: at the cheapest step
 # (N = MIN_PARTICLES, about a microsecond) 1e9 steps already take the better part of an hour.
-# The stored samples of a full SPH run, v and rho (samples x N float64 each), above this are refused
-# before the run: a small `every` over many steps would otherwise fill the memory.
-MAX_SAMPLE_BYTES = 4 * 2**30
-
 X_FIELDS = {  # name: (unit, description)
     name: (key(f"fields.{name}").unit, key(f"fields.{name}").doc) for name in ("rho0", "v0", "c", "d")
 }
@@ -76,7 +72,8 @@ class Scene:
     """A validated scene.  See the module docstring for units.
 
     ``automatic`` names what the scene file left to a rule (``name``, ``sph.every``, ``snapshots``,
-    ``rom.modes``; :func:`automatic_rules`); :func:`automatic_lines` says what the rules chose.
+    ``rom.modes``; :func:`harness.pod.automatic.automatic_rules`); :func:`automatic_lines` says what the rules
+    chose.
     """
 
     name: str
@@ -227,46 +224,28 @@ def _check_dt(dt, T, fail):
              f"for T = {T:g} s, at most {MAX_STEPS_TEXT} SPH steps)")
 
 
-def least_every(steps, n):
-    """The smallest ``every`` whose samples of ``steps`` steps and N = ``n`` particles fit MAX_SAMPLE_BYTES."""
-    return -(-steps // max(1, MAX_SAMPLE_BYTES // (n * 16) - 2))
-
-
 # --------------------------------------------------------------------------
-# automatic choices
+# automatic choices (the rules: harness.pod.automatic)
 # --------------------------------------------------------------------------
-AUTO_EVERY_RULE = ("a sample at the spacing of the automatic snapshots (below; T'/200 for runs from T'/10 to 5 T'), "
-                   "every = floor(T / (count dt)) steps, at least 1, and large enough that the samples fit "
-                   f"{MAX_SAMPLE_BYTES // 2**30} GiB (v and rho)")
+def run_steps(T, dt):
+    """The steps of a run to T [s] by dt [s]: harness.sph.solver.step_count's rule (n with n dt = T to 1e-9
+    relative, else floor(T/dt)), here because the solver imports this module
+    (tests/test_scene_minimal.py checks that the two agree)."""
+    ratio = T / dt
+    n = int(round(ratio))
+    return n if abs(ratio - n) <= 1e-9 * max(1.0, ratio) else int(np.floor(ratio))
 
 
 def automatic_every(T, period, sph):
-    """``sph.every`` when the scene leaves it out: :data:`AUTO_EVERY_RULE`."""
-    from .pod.snapshots import automatic_count
-    from .sph.solver import step_count
-    n = step_count(T, sph.dt)
-    count = automatic_count(T, period, n, sph.n_particles)
-    return int(max(1, np.floor(T / (count * sph.dt) + 1e-9), least_every(n, sph.n_particles)))
+    """``sph.every`` when the scene leaves it out (:data:`harness.pod.automatic.AUTO_EVERY_RULE`)."""
+    from .pod.automatic import automatic_every as rule
+    return rule(T, period, sph.dt, run_steps(T, sph.dt), sph.n_particles)
 
 
 def automatic_snapshots(T, period, sph):
-    """``[snapshots]`` when the scene leaves it out (:data:`harness.pod.snapshots.AUTO_SNAPSHOTS_RULE`)."""
-    from .pod.snapshots import automatic_count
-    from .sph.solver import step_count
-    n = step_count(T, sph.dt)
-    return {"count": automatic_count(T, period, n, sph.n_particles), "window": [0.0, float(min(T, n * sph.dt))]}
-
-
-def automatic_rules():
-    """(what, rule) of every automatic choice, for the schema page and the messages."""
-    from .pod.pipeline import AUTO_MODES_RULE
-    from .pod.snapshots import AUTO_SNAPSHOTS_RULE
-    return [("name", "the file name without `.toml` (it must then be a valid name)"),
-            ("title", "the name"),
-            ("sph.every", AUTO_EVERY_RULE),
-            ("snapshots", AUTO_SNAPSHOTS_RULE),
-            ("rom.modes", AUTO_MODES_RULE),
-            ("rom.accel_modes", "[modes]: the FMU's default k is then the automatic mode count")]
+    """``[snapshots]`` when the scene leaves it out (:data:`harness.pod.automatic.AUTO_SNAPSHOTS_RULE`)."""
+    from .pod.automatic import automatic_snapshots as rule
+    return rule(T, period, sph.dt, run_steps(T, sph.dt), sph.n_particles)
 
 
 def automatic_lines(scene):

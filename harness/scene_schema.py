@@ -2,11 +2,8 @@
 
 :data:`TABLES` and :data:`KEYS` are the one description of a scene file.  The loader
 (:func:`harness.scene.parse_scene`) checks every key, type and static range against them through
-:func:`check_scene_tables`, and the user documentation's page is generated from them::
-
-    python3 -m harness.scene_schema --write docs/user/scenes.md
-
-(``tests/test_scene_schema.py`` fails, naming that command, when the page is stale.)  Bounds that depend on
+:func:`check_scene_tables`, and the user documentation's page is generated from them
+(:mod:`harness.scene_page`, ``docs/user/scenes.md``).  Bounds that depend on
 other keys (alpha < N/4, dt <= T, at most 1e9 steps, modes <= N) are checked by the loader in
 :mod:`harness.scene` and stated in the ``also`` column of the same rows.
 
@@ -19,9 +16,8 @@ from __future__ import annotations
 import math
 import re
 import reprlib
-import sys
 import unicodedata
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from .errors import UserError
 
@@ -43,6 +39,9 @@ MAX_PARTICLES = 10_000_000
 MAX_ALPHA = 4.0
 MAX_STEPS = 10**9
 MAX_STEPS_TEXT = "1e9"
+# The stored samples of a full SPH run, v and rho (samples x N float64 each), above this are refused before the
+# run: a small `every` over many steps would otherwise fill the memory.
+MAX_SAMPLE_BYTES = 4 * 2**30
 MAX_FREEZE = 2**31 - 1          # the FMU's n_freeze is a 32-bit integer
 MAX_SEED = 2**63 - 1            # stored as a 64-bit integer attribute
 MAX_REFERENCE_CELLS = 10**6     # the FD reference's grid, L / reference_dx cells
@@ -99,12 +98,18 @@ class Range:
             return "one of " + ", ".join(str(c) for c in self.choices)
         noun = "an integer" if kind == "integer" else "a number"
         if self.lo is not None and self.hi is not None:
-            return f"{noun} in {'(' if self.lo_open else '['}{fmt(self.lo)}, {fmt(self.hi)}{')' if self.hi_open else ']'}"
+            left, right = "(" if self.lo_open else "[", ")" if self.hi_open else "]"
+            return f"{noun} in {left}{fmt(self.lo)}, {fmt(self.hi)}{right}"
         if self.lo is not None:
             return f"{noun} {'>' if self.lo_open else '>='} {fmt(self.lo)}"
         if self.hi is not None:
             return f"{noun} {'<' if self.hi_open else '<='} {fmt(self.hi)}"
         return f"any finite {'integer' if kind == 'integer' else 'number'}"
+
+
+def least_every(steps, n):
+    """The smallest ``sph.every`` whose samples of ``steps`` steps and N = ``n`` particles fit MAX_SAMPLE_BYTES."""
+    return -(-steps // max(1, MAX_SAMPLE_BYTES // (n * 16) - 2))
 
 
 @dataclass(frozen=True)
@@ -340,7 +345,7 @@ def shown(value) -> str:
     return _REPR.repr(value)
 
 
-def _type_name(kind):
+def type_name(kind):
     return {"name": "a string", "text": "a string", "choice": "a string", "number": "a number",
             "integer": "an integer", "expression": "an expression string or number",
             "numbers": "a list of numbers", "integers": "a list of integers", "window": "a list [t0, t1]"}[kind]
@@ -355,66 +360,38 @@ def check_text_size(text_bytes_len, source):
                         f"{MAX_FILE_BYTES} bytes)")
 
 
+# The TOML tokens that matter for nesting: strings (multi-line first, a run of up to two more quotes closing them),
+# comments, brackets, '=' and newlines.  An unterminated string ends at the line's end (the parser then refuses it).
+_TOKENS = re.compile("|".join([
+    r'"""(?:[^"\\]|\\.|"(?!""))*"""+',      # multi-line basic string
+    r"'''(?:[^']|'(?!''))*'''+",                # multi-line literal string
+    r'"(?:[^"\\\n]|\\.)*"?',                 # basic string
+    r"'[^'\n]*'?",                             # literal string
+    r"#[^\n]*",                                # comment
+    r"[\[\]{}=\n]"]), re.S)
+
+
 def check_nesting(text, source):
     """UserError naming the line and key where ``[`` / ``{`` nest deeper than :data:`MAX_DEPTH` (outside strings
     and comments), before the TOML parser (which recurses, and raised RecursionError at 2,000 levels)."""
-    depth, line, i, n = 0, 1, 0, len(text)
-    line_start, current_key = 0, ""
-    while i < n:
-        ch = text[i]
-        if ch == "\n":
-            line += 1
-            line_start = i + 1
-            i += 1
-            continue
-        if ch == "#":
-            while i < n and text[i] != "\n":
-                i += 1
-            continue
-        if ch in "\"'":
-            i = _skip_string(text, i)
-            continue
-        if ch == "=" and depth == 0:
-            current_key = text[line_start:i].strip()
-        elif ch in "[{":
+    depth, line, line_start, current_key = 0, 1, 0, ""
+    for m in _TOKENS.finditer(text):
+        token = m.group()
+        if token == "\n":
+            line, line_start = line + 1, m.end()
+        elif token == "=":
+            if depth == 0:
+                current_key = text[line_start:m.start()].strip()
+        elif token in "[{":
             depth += 1
             if depth > MAX_DEPTH:
                 where = f"{current_key}: " if current_key else ""
                 raise UserError(f"{source}: {where}line {line}: nested more than {MAX_DEPTH} levels deep (allowed: "
                                 f"at most {MAX_DEPTH} levels of [ ] and {{ }}; a scene needs 2)")
-        elif ch in "]}":
+        elif token in "]}":
             depth = max(0, depth - 1)
-        i += 1
-
-
-def _skip_string(text, i):
-    """The index after the TOML string starting at ``text[i]`` (basic, literal, multi-line)."""
-    quote = text[i]
-    if text.startswith(quote * 3, i):
-        j = i + 3
-        while j < len(text):
-            if quote == '"' and text[j] == "\\":
-                j += 2
-                continue
-            if text[j] == quote:
-                run = j
-                while run < len(text) and text[run] == quote:
-                    run += 1
-                if run - j >= 3:
-                    return run
-                j = run
-                continue
-            j += 1
-        return j
-    j = i + 1
-    while j < len(text) and text[j] != "\n":
-        if quote == '"' and text[j] == "\\":
-            j += 2
-            continue
-        if text[j] == quote:
-            return j + 1
-        j += 1
-    return j
+        else:                                   # a string or a comment: only its newlines count
+            line += token.count("\n")
 
 
 def _fail(source, path, detail):
@@ -443,7 +420,8 @@ def _check_number(value, k, source, path, integer):
             _fail(source, path, f"{shown(value)} is out of range (allowed: a finite number"
                                 + (f", {k.range.text()}" if k.range else "") + ")")
     if k.range is not None and not k.range.contains(value):
-        _fail(source, path, f"{shown(value)} is out of range (allowed: {k.range.text('integer' if integer else 'number')})")
+        allowed = k.range.text("integer" if integer else "number")
+        _fail(source, path, f"{shown(value)} is out of range (allowed: {allowed})")
     return value
 
 
@@ -466,11 +444,11 @@ def check_value(value, k: Key, source, path=None):
         return _check_number(value, k, source, path, kind == "integer")
     if kind == "expression":
         if isinstance(value, bool) or not isinstance(value, (str, int, float)):
-            _fail(source, path, f"expected {_type_name(kind)}, got {shown(value)}")
+            _fail(source, path, f"expected {type_name(kind)}, got {shown(value)}")
         return value
     if kind in ("numbers", "integers", "window"):
         if not isinstance(value, list):
-            _fail(source, path, f"expected {_type_name(kind)}, got {shown(value)}")
+            _fail(source, path, f"expected {type_name(kind)}, got {shown(value)}")
         if not value:
             _fail(source, path, f"[] is out of range (allowed: a non-empty list)")
         items = [_check_number(v, k, source, f"{path}[{i}]", kind == "integers") for i, v in enumerate(value)]
@@ -497,7 +475,7 @@ def _check_one(table_name, raw, source, where):
         here = f"{where}.{k.name}" if where else k.name
         if k.name not in raw:
             if k.required:
-                _fail(source, here, f"missing key ({_type_name(k.kind)} required: {k.doc})")
+                _fail(source, here, f"missing key ({type_name(k.kind)} required: {k.doc})")
             continue
         out[k.name] = check_value(raw[k.name], k, source, here)
     for t in children:
@@ -521,143 +499,3 @@ def check_scene_tables(raw, source):
     """Every key of a parsed scene checked against :data:`KEYS` (names, types, static ranges), as nested dicts
     of the values given (defaults are the loader's: :mod:`harness.scene`)."""
     return _check_one("", raw, source, "")
-
-
-# ----------------------------------------------------------------------------------------------------------------
-# the documentation page
-# ----------------------------------------------------------------------------------------------------------------
-MINIMAL_SCENE = '''\
-# my_bar.toml: the name comes from the file name
-[domain]
-L = 1.0                       # m
-T = 0.5                       # s
-
-[fields]
-rho0 = "1"                    # kg m^-3
-v0 = "1e-3*sin(2*pi*x/L)"     # m s^-1
-c = "0.1"                     # Pa
-d = "0.5"                     # s^-1
-
-[force]
-f = "1e-3*cos(2*pi*t)"        # m s^-2
-
-[sph]
-n_particles = 32
-dt = 1e-3                     # s
-'''
-
-
-def _cell(text):
-    return str(text).replace("|", "\\|").replace("\n", " ")
-
-
-def _default_cell(k: Key):
-    if k.default_text:
-        return k.default_text
-    if k.default is None:
-        return "required" if k.required else "absent"
-    if k.default == "":
-        return '""'
-    return f"`{k.default}`"
-
-
-def _allowed_cell(k: Key):
-    if k.kind == "name":
-        return NAME_TEXT
-    if k.kind == "text":
-        return f"at most {MAX_TEXT} printable characters"
-    if k.range is None:
-        return ""
-    if k.kind == "expression":
-        text = f"values {k.range.text()}"
-    elif k.kind in ("numbers", "integers"):
-        text = f"each {k.range.text('integer' if k.kind == 'integers' else 'number')}"
-    elif k.kind == "window":
-        text = f"0 <= t0 < t1 <= {fmt(SCALE)}"
-    else:
-        text = k.range.text("integer" if k.kind == "integer" else "number")
-    return text + (f"; {k.also}" if k.also else "")
-
-
-def markdown(automatic_rules) -> str:
-    """The page ``docs/user/scenes.md``: every key of :data:`KEYS` by table, the automatic choices
-    (``automatic_rules``: (title, text) pairs from :func:`harness.scene.automatic_rules`) and a minimal scene."""
-    lines = ["# Scene files", "",
-             "<!-- generated by `python3 -m harness.scene_schema --write docs/user/scenes.md` from "
-             "harness/scene_schema.py: do not edit by hand -->", "",
-             "A scene is a TOML file: the physics of a 1D periodic mass-spring-damper bar (eqs. 2.2-2.4 of the "
-             "paper) and the settings of its full SPH run.  Give its path wherever a command takes SCENE "
-             "(`sphrom sph my_bar.toml --out run.h5`).  The built-in scenes (`sphrom scenes`, "
-             "`validation/scenes/*.toml`) are complete examples.", "",
-             "## A minimal scene", "",
-             "Only the physics and the two settings that decide the SPH's accuracy and cost: the particle "
-             "count and the time step.  They have no default because no value suits every scene: the SPH "
-             "error falls with N and dt, the cost grows with N/dt, and an explicit step is stable only below a "
-             "limit set by c, rho0 and N (`sphrom sph` warns when dt is near it).  Everything else has a default "
-             "or is chosen automatically, and the commands print what they chose.", "",
-             "```toml", MINIMAL_SCENE.rstrip("\n"), "```", "",
-             "```sh",
-             "sphrom fmu my_bar.toml --out my_bar.fmu           # full SPH, POD, the reduced model as an FMU",
-             "sphrom cosim my_bar.fmu --out my_bar.csv          # co-simulate it",
-             "```", "",
-             "Units are SI (cross-section 1 m^2).  An expression is a string (or a number) in the sandboxed "
-             "language of `harness/expr.py`: numbers, `x t L T pi e`, arithmetic, comparisons, `where`, "
-             "`piecewise`, numpy functions and `sum(... for l in range(a, b))`.  Every key is checked when the "
-             "scene is loaded: an unknown or missing key, a wrong type or a value out of range is one line "
-             "naming the file, the key and the allowed range (exit status 2), before any work.", ""]
-    lines += ["## Keys", ""]
-    for t in TABLES:
-        keys = [k for k in KEYS if k.table == t.name]
-        heading = "The top level" if not t.name else (f"`[[{t.name}]]`" if t.array else f"`[{t.name}]`")
-        status = "required" if t.required else "optional"
-        lines += [f"### {heading} ({status})", "", t.doc, "",
-                  "| key | type | required | unit | default | allowed | description |",
-                  "| --- | --- | --- | --- | --- | --- | --- |"]
-        for k in keys:
-            kind = _type_name(k.kind).replace("a ", "", 1).replace("an ", "", 1)
-            if k.kind == "expression":
-                kind = f"expression of {', '.join(k.variables)}"
-            lines.append(f"| `{k.name}` | {_cell(kind)} | {'yes' if k.required else 'no'} | {_cell(k.unit)} | "
-                         f"{_cell(_default_cell(k))} | {_cell(_allowed_cell(k))} | {_cell(k.doc)} |")
-        lines.append("")
-    lines += ["## Automatic choices", "",
-              "When a scene leaves these out, the loader (or, for the mode count, the POD) chooses them by these "
-              "rules, and `sphrom sph`, `pod`, `rom`, `fmu`, `modes` and `validate` print the choice.", ""]
-    for title, text in automatic_rules:
-        lines += [f"- **{title}**: {text}"]
-    lines += ["", "## Why the bounds", ""]
-    seen = {}
-    for k in KEYS:
-        if k.why:
-            seen.setdefault(k.why, []).append(f"`{k.path}`")
-    for why, paths in seen.items():
-        lines.append(f"- {', '.join(paths)}: {why}.")
-    lines += ["", "The TOML text itself: at most "
-              f"{MAX_FILE_BYTES} bytes and {MAX_DEPTH} levels of nested `[ ]` / `{{ }}` (checked before the TOML "
-              "parser, which recurses).  A name comes from the file name when the scene has none; it must then "
-              "be a valid name too.", ""]
-    return "\n".join(lines)
-
-
-def main(argv=None):
-    import argparse
-    from pathlib import Path
-
-    p = argparse.ArgumentParser(prog="python3 -m harness.scene_schema",
-                                description="Print (or write) the scene schema page, generated from the loader's "
-                                            "table of keys.")
-    p.add_argument("--write", metavar="PATH", help="write the page here (docs/user/scenes.md)")
-    args = p.parse_args(argv)
-    from .scene import automatic_rules
-    text = markdown(automatic_rules())
-    if args.write:
-        Path(args.write).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.write).write_text(text, encoding="utf-8")
-        print(f"wrote {args.write}")
-    else:
-        sys.stdout.write(text)
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

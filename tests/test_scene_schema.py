@@ -14,12 +14,12 @@ import pytest
 from harness.cli import main
 from harness.errors import UserError
 from harness.scene import automatic_lines, builtin_names, load_scene, parse_scene
-from harness.scene_schema import (KEYS, MAX_DEPTH, MINIMAL_SCENE, SCALE, TABLES, accepted_keys, check_nesting,
-                                  markdown)
+from harness.scene_page import MINIMAL_SCENE, markdown
+from harness.scene_schema import KEYS, MAX_DEPTH, SCALE, TABLES, accepted_keys, check_nesting
 
 ROOT = Path(__file__).resolve().parents[1]
 PAGE = ROOT / "docs" / "user" / "scenes.md"
-REGENERATE = "python3 -m harness.scene_schema --write docs/user/scenes.md"
+REGENERATE = "python3 -m harness.scene_page --write docs/user/scenes.md"
 REFERENCE = Path(__file__).parent / "data" / "scenes_reference.npz"
 
 
@@ -27,6 +27,7 @@ REFERENCE = Path(__file__).parent / "data" / "scenes_reference.npz"
 # the built-in scenes: every value and every derived setting as main's loader made them
 # ---------------------------------------------------------------------------------------------------------------
 
+@pytest.mark.cpu_sensitive
 def test_builtin_scenes_load_exactly_as_before_the_schema():
     """tests/data/capture_scenes.py ran with the loader before scenes had defaults (main at 31aafc9); the same
     capture now: every attribute, the cache key and file name, the error and snapshot steps and the FMU's default
@@ -62,7 +63,7 @@ def test_builtin_scenes_load_exactly_as_before_the_schema():
 # ---------------------------------------------------------------------------------------------------------------
 
 def test_the_schema_page_is_generated_from_the_table():
-    from harness.scene import automatic_rules
+    from harness.pod.automatic import automatic_rules
     assert PAGE.read_text(encoding="utf-8") == markdown(automatic_rules()), \
         f"docs/user/scenes.md is stale: regenerate it with `{REGENERATE}`"
 
@@ -137,7 +138,8 @@ def test_the_page_lists_exactly_the_keys_the_loader_accepts():
             assert getattr(scene, name) == k.example, path
     for table in TABLES:
         path = f"{table.name}.no_such_key" if table.name else "no_such_key"
-        with pytest.raises(UserError, match=rf"<x>: {re.escape(path.replace('paper.runs', 'paper.runs[0]').replace('paper.snapshot_studies', 'paper.snapshot_studies[0]'))}: unknown key 'no_such_key' \(allowed: "):
+        shown = re.sub(r"^paper\.(runs|snapshot_studies)\.", r"paper.\1[0].", path)
+        with pytest.raises(UserError, match=rf"<x>: {re.escape(shown)}: unknown key 'no_such_key' \(allowed: "):
             parse_scene(_scene_with(path, 1), "<x>", name="x")
 
 
@@ -178,7 +180,8 @@ HOSTILE = {
     "tiny_c": (MINIMAL_SCENE.replace('c = "0.1"', 'c = "1e-300"'), "fields.c: 1e-300 at x = "),
     "huge_v0": (MINIMAL_SCENE.replace('v0 = "1e-3*sin(2*pi*x/L)"', 'v0 = "1e16*sin(2*pi*x/L)"'), "fields.v0: "),
     "negative_d": (MINIMAL_SCENE.replace('d = "0.5"', 'd = "-1"'), "fields.d: -1.0 at x = "),
-    "huge_f": (MINIMAL_SCENE.replace('f = "1e-3*cos(2*pi*t)"', 'f = "1e300*cos(2*pi*t)"'), "force.f: 1e+300 at t = 0 s"),
+    "huge_f": (MINIMAL_SCENE.replace('f = "1e-3*cos(2*pi*t)"', 'f = "1e300*cos(2*pi*t)"'),
+               "force.f: 1e+300 at t = 0 s"),
     "huge_profile": (MINIMAL_SCENE.replace('f = "1e-3', 'profile = "1e20"\nf = "1e-3'), "force.profile: 1e+20 at x"),
     # h5py refused the name after the run; the name went unescaped into the cache path
     "nul_name": ('name = "\\u0000"\n' + MINIMAL_SCENE, "name: '\\x00' is out of range (allowed: 1 to 64 characters"),

@@ -108,29 +108,6 @@ def snapshot_steps(spec, dt, n_steps, stored_steps=None, where="snapshots", n_pa
     return s, s.copy()
 
 
-# The automatic snapshots of a scene without [snapshots]: uniform over the training run [0, T], at the paper's
-# spacing T'/200 (section 3.1.1: 100 snapshots over T'/2 = 1.58 s, spacing 0.016 s), where T' is the time a
-# wave takes once around the periodic bar (harness.scene.Scene.period); at least MIN_AUTO_SNAPSHOTS for short
-# runs, at most MAX_AUTO_SNAPSHOTS for long ones.
-SNAPSHOTS_PER_PERIOD = 200
-MIN_AUTO_SNAPSHOTS = 20
-MAX_AUTO_SNAPSHOTS = 1000
-AUTO_SNAPSHOTS_RULE = (
-    f"count snapshots uniform over the training run [0, T] (the paper's strategy of section 3.1 at its spacing: "
-    f"100 snapshots over T'/2), count = ceil({SNAPSHOTS_PER_PERIOD} T / T'), where T' = sum over the particles of "
-    "dx sqrt(rho0/c) is the time a wave takes once around the periodic bar (L sqrt(rho0/c), the paper's T', for "
-    f"uniform fields); at least {MIN_AUTO_SNAPSHOTS} (short runs), at most {MAX_AUTO_SNAPSHOTS} (long ones), at "
-    f"most the run's steps, and at most {MAX_SNAPSHOT_BYTES // 2**30} GiB of snapshot matrices (v and rho)")
-
-
-def automatic_count(T, period, n_steps, n_particles):
-    """The snapshot count of :data:`AUTO_SNAPSHOTS_RULE` for a run of ``n_steps`` steps to ``T`` [s], the
-    wave's period ``period`` T' [s] and N = ``n_particles``."""
-    count = int(np.ceil(SNAPSHOTS_PER_PERIOD * T / period - 1e-9))
-    count = min(max(count, MIN_AUTO_SNAPSHOTS), MAX_AUTO_SNAPSHOTS)
-    return max(1, min(count, n_steps, MAX_SNAPSHOT_BYTES // (n_particles * 16)))
-
-
 def describe(spec):
     """A one-line description of a strategy, for reports."""
     if spec.get("all"):
