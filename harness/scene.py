@@ -5,9 +5,13 @@ A scene holds the domain (L, T), the fields of eqs. 2.2-2.4 as expressions
 profile), the SPH settings of the paper, the paper's POD snapshot settings and
 the figures the paper reports, so that reports can quote them.
 
-Every key is checked: an unknown or missing key, a wrong type or a value out
-of range is a :class:`~harness.errors.UserError` naming the file, the field
-and what is allowed.
+Every key is checked against the schema, one table (:mod:`harness.scene_schema`,
+documented in ``docs/user/scenes.md``): an unknown or missing key, a wrong type
+or a value out of range is a :class:`~harness.errors.UserError` naming the
+file, the field and what is allowed.  A scene needs only its physics
+([domain], [fields], [force] and [sph] n_particles, dt); the rest has a default
+or is chosen by a stated rule (:mod:`harness.pod.automatic`), and
+:func:`automatic_lines` says what was chosen.
 
 Units (SI, cross-section a = 1 m^2): x, L in m; t, T, dt in s; ρ0 in kg m^-3;
 v0 in m s^-1; c in kg m^-1 s^-2 (Young's modulus); d in s^-1; f in m s^-2.
@@ -22,20 +26,16 @@ from pathlib import Path
 
 import numpy as np
 
+from . import defaults
 from .errors import FieldError, UserError
 from .expr import Expr, compile_expr
 from .paths import data_dir, exists, is_file
-
-from . import defaults
 from .scene_schema import (MAX_ALPHA, MAX_DEPTH, MAX_PARTICLES, MAX_REFERENCE_CELLS, MAX_SAMPLE_BYTES, MAX_STEPS,
                            MAX_STEPS_TEXT, MIN_PARTICLES, NAME_PATTERN, NAME_TEXT, SCALE, check_nesting,
                            check_scene_tables, check_text_size, fmt, key, least_every, shown)
 
 INTEGRATORS = key("sph.integrator").range.choices
 CLI = "command line"    # the source of settings given as options
-# At most MAX_STEPS SPH steps T/dt in one run.  Step times are n*dt with n exact in float64 far beyond this
-# (2^53), and the int64 step counters cannot overflow; the bound is the wall time: at the cheapest step
-# (N = MIN_PARTICLES, about a microsecond) 1e9 steps already take the better part of an hour.
 X_FIELDS = {  # name: (unit, description)
     name: (key(f"fields.{name}").unit, key(f"fields.{name}").doc) for name in ("rho0", "v0", "c", "d")
 }
@@ -254,7 +254,8 @@ def automatic_lines(scene):
     from .pod.snapshots import describe
     lines = []
     if "name" in scene.automatic:
-        lines.append(f"scene {scene.name}: name from the file name ({scene.source})")
+        origin = "the file name" if scene.source.endswith(f"{scene.name}.toml") else "no name in the scene text"
+        lines.append(f"scene {scene.name}: name from {origin} ({scene.source})")
     if "sph.every" in scene.automatic:
         lines.append(f"scene {scene.name}: sph.every = {scene.sph.every} (automatic: a sample every "
                      f"{scene.sph.every * scene.sph.dt:.4g} s; T' = {scene.period():.4g} s, the wave's time once "
@@ -308,12 +309,15 @@ def load_scene(spec) -> Scene:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise UserError(f"scene file '{shown_spec}': cannot be read ({exc})") from None
-    return parse_scene(text, source, name=path.stem if path.suffix == ".toml" else None)
+    return parse_scene(text, source, name=path.stem)
+
+
+DEFAULT_NAME = "scene"      # the name of a scene text without one that is not read from a file
 
 
 def parse_scene(text: str, source: str = "<scene>", name: str | None = None) -> Scene:
     """Parse and validate scene TOML ``text``; ``source`` names it in errors, ``name`` is the name when the
-    text has none (:func:`load_scene`: the file name)."""
+    text has none (:func:`load_scene`: the file name; else :data:`DEFAULT_NAME`)."""
     check_text_size(len(text.encode("utf-8", "surrogatepass")), source)
     check_nesting(text, source)
     try:
@@ -326,9 +330,7 @@ def parse_scene(text: str, source: str = "<scene>", name: str | None = None) -> 
     data = check_scene_tables(raw, source)
     automatic = []
     if "name" not in data:
-        if name is None:
-            raise UserError(f"{source}: name: missing key (a string required when the scene is not read from a "
-                            "file: the name then comes from the file name)")
+        name = DEFAULT_NAME if name is None else name
         if not NAME_PATTERN.fullmatch(name):
             raise UserError(f"{source}: name: {shown(name)} (the file name) is out of range (allowed: {NAME_TEXT}); "
                             "give name = \"...\" in the file or rename it")

@@ -37,6 +37,9 @@ WHY_SCALE = ("15 decades either side of 1 in SI units: wider than any bar's phys
 MIN_PARTICLES = 8
 MAX_PARTICLES = 10_000_000
 MAX_ALPHA = 4.0
+# At most MAX_STEPS SPH steps T/dt in one run.  Step times are n*dt with n exact in float64 far beyond this
+# (2^53), and the int64 step counters cannot overflow; the bound is the wall time: at the cheapest step
+# (N = MIN_PARTICLES, about a microsecond) 1e9 steps already take the better part of an hour.
 MAX_STEPS = 10**9
 MAX_STEPS_TEXT = "1e9"
 # The stored samples of a full SPH run, v and rho (samples x N float64 each), above this are refused before the
