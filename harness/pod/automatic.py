@@ -96,3 +96,4 @@ def automatic_rules():
             ("snapshots", AUTO_SNAPSHOTS_RULE),
             ("rom.modes", AUTO_MODES_RULE),
             ("rom.accel_modes", "[modes]: the FMU's default k is then the automatic mode count")]
+
