@@ -147,8 +147,9 @@ class Scene:
         if T / self.sph.dt > MAX_STEPS:
             raise FieldError("t_end", f"{T:g} is out of range (allowed: T <= {MAX_STEPS_TEXT} dt = "
                                       f"{MAX_STEPS * self.sph.dt:g} s, at most {MAX_STEPS_TEXT} SPH steps)")
-        if T > SCALE:
-            raise FieldError("t_end", f"{T!r} is out of range (allowed: a number in (0, {fmt(SCALE)}] s)")
+        if not 1 / SCALE <= T <= SCALE:
+            raise FieldError("t_end", f"{T!r} is out of range (allowed: a number in [{fmt(1 / SCALE)}, {fmt(SCALE)}] "
+                                      "s, as domain.T)")
         scene = dataclasses.replace(self, T=float(T))
         if "sph.every" in scene.automatic:
             scene = dataclasses.replace(scene, sph=dataclasses.replace(

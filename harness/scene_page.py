@@ -83,8 +83,9 @@ def markdown(automatic_rules) -> str:
              "Only the physics and the two settings that decide the SPH's accuracy and cost: the particle "
              "count and the time step.  They have no default because no value suits every scene: the SPH "
              "error falls with N and dt, the cost grows with N/dt, and an explicit step is stable only below a "
-             "limit set by c, rho0 and N (`sphrom sph` warns when dt is near it).  Everything else has a default "
-             "or is chosen automatically, and the commands print what they chose.", "",
+             "limit set by c, rho0, d and N (`sphrom sph` warns before the run when its integrator would "
+             "amplify the worst mode more than 100-fold over the run).  Everything else has a default or is "
+             "chosen automatically, and the commands print what they chose.", "",
              "```toml", MINIMAL_SCENE.rstrip("\n"), "```", "",
              "```sh",
              "sphrom fmu my_bar.toml --out my_bar.fmu           # full SPH, POD, the reduced model as an FMU",
