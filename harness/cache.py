@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -29,6 +30,16 @@ def cache_dir() -> Path:
 def run_key(scene):
     text = f"{__version__}\n{scene.text}\n{scene.sph}\n{scene.T!r}"
     return hashlib.sha256(text.encode()).hexdigest()[:24]
+
+
+def run_file_name(scene):
+    """``sph-<name>-<key>.h5``: the key (:func:`run_key`) decides which run it is; the name, for people reading
+    the folder, keeps only the characters a scene name may have (A-Z a-z 0-9 _ . -, harness.scene_schema), each
+    other character replaced by ``_`` and a leading ``.`` too, so that no name reaches outside the folder."""
+    name = re.sub(r"[^A-Za-z0-9_.-]", "_", str(scene.name))[:64]
+    if name.startswith("."):
+        name = "_" + name[1:]
+    return f"sph-{name}-{run_key(scene)}.h5"
 
 
 @dataclass
@@ -54,7 +65,7 @@ def cached_sph(scene, sample_steps, progress=True, problem=None):
     from .sph.solver import build_problem, run_sph
     problem = problem or build_problem(scene)
     want = np.unique(np.asarray(sample_steps, dtype=np.int64))
-    path = cache_dir() / f"sph-{scene.name}-{run_key(scene)}.h5"
+    path = cache_dir() / run_file_name(scene)
     have = None
     if path.exists():
         try:

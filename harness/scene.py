@@ -5,9 +5,13 @@ A scene holds the domain (L, T), the fields of eqs. 2.2-2.4 as expressions
 profile), the SPH settings of the paper, the paper's POD snapshot settings and
 the figures the paper reports, so that reports can quote them.
 
-Every key is checked: an unknown or missing key, a wrong type or a value out
-of range is a :class:`~harness.errors.UserError` naming the file, the field
-and what is allowed.
+Every key is checked against the schema, one table (:mod:`harness.scene_schema`,
+documented in ``docs/user/scenes.md``): an unknown or missing key, a wrong type
+or a value out of range is a :class:`~harness.errors.UserError` naming the
+file, the field and what is allowed.  A scene needs only its physics
+([domain], [fields], [force] and [sph] n_particles, dt); the rest has a default
+or is chosen by a stated rule (:mod:`harness.pod.automatic`), and
+:func:`automatic_lines` says what was chosen.
 
 Units (SI, cross-section a = 1 m^2): x, L in m; t, T, dt in s; ρ0 in kg m^-3;
 v0 in m s^-1; c in kg m^-1 s^-2 (Young's modulus); d in s^-1; f in m s^-2.
@@ -17,211 +21,24 @@ from __future__ import annotations
 
 import dataclasses
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from . import defaults
 from .errors import FieldError, UserError
 from .expr import Expr, compile_expr
 from .paths import data_dir, exists, is_file
+from .scene_schema import (MAX_ALPHA, MAX_DEPTH, MAX_PARTICLES, MAX_REFERENCE_CELLS, MAX_SAMPLE_BYTES, MAX_STEPS,
+                           MAX_STEPS_TEXT, MIN_PARTICLES, NAME_PATTERN, NAME_TEXT, SCALE, check_nesting,
+                           check_scene_tables, check_text_size, fmt, key, least_every, shown)
 
-INTEGRATORS = ("euler", "symplectic", "rk4")
+INTEGRATORS = key("sph.integrator").range.choices
 CLI = "command line"    # the source of settings given as options
-MIN_PARTICLES = 8
-MAX_PARTICLES = 10_000_000
-# At most this many SPH steps T/dt in one run.  Step times are n*dt with n exact in float64 far
-# beyond this (2^53), and the int64 step counters cannot overflow; the bound is the wall time: at the
-# cheapest step (N = MIN_PARTICLES, about a microsecond) 1e9 steps already take the better part of an hour.
-MAX_STEPS = 10**9
-MAX_STEPS_TEXT = "1e9"
-# The stored samples of a full SPH run, v and rho (samples x N float64 each), above this are refused
-# before the run: a small `every` over many steps would otherwise fill the memory.
-MAX_SAMPLE_BYTES = 4 * 2**30
-
 X_FIELDS = {  # name: (unit, description)
-    "rho0": ("kg m^-3", "initial density rho0(x)"),
-    "v0": ("m s^-1", "initial velocity v0(x)"),
-    "c": ("kg m^-1 s^-2", "Young's modulus c(x)"),
-    "d": ("s^-1", "damping coefficient d(x)"),
+    name: (key(f"fields.{name}").unit, key(f"fields.{name}").doc) for name in ("rho0", "v0", "c", "d")
 }
-
-
-# --------------------------------------------------------------------------
-# schema: key -> (type, required, check) ; check(value) returns None or the
-# allowed-range text
-# --------------------------------------------------------------------------
-def _positive(v):
-    return None if v > 0 else "a number > 0"
-
-
-def _nonneg(v):
-    return None if v >= 0 else "a number >= 0"
-
-
-def _fraction(v):
-    return None if 0 <= v <= 1 else "a fraction in [0, 1]"
-
-
-def _window(v):
-    if len(v) == 2 and 0 <= v[0] < v[1]:
-        return None
-    return "[t0, t1] with 0 <= t0 < t1"
-
-
-def _int_at_least(n):
-    return lambda v: None if v >= n else f"an integer >= {n}"
-
-
-def _one_of(*options):
-    return lambda v: None if v in options else "one of " + ", ".join(options)
-
-
-def _list_of(kind, check=None):
-    return ("list", kind, check)
-
-
-SNAPSHOT_KEYS = {
-    "count": (int, False, _int_at_least(1)),
-    "window": (_list_of(float), False, _window),
-    "times": (_list_of(float), False, None),
-    "times_v": (_list_of(float), False, None),
-    "times_rho": (_list_of(float), False, None),
-    "random": (int, False, _int_at_least(0)),
-}
-
-SCHEMA = {
-    "name": (str, True, None),
-    "title": (str, True, None),
-    "section": (str, True, None),
-    "summary": (str, True, None),
-    "domain": ({
-        "L": (float, True, _positive),
-        "T": (float, True, _positive),
-    }, True, None),
-    "fields": ({
-        "rho0": ("expr", True, None),
-        "v0": ("expr", True, None),
-        "c": ("expr", True, None),
-        "d": ("expr", True, None),
-    }, True, None),
-    "force": ({
-        "f": ("expr", True, None),
-        "profile": ("expr", False, None),
-    }, True, None),
-    "sph": ({
-        "n_particles": (int, True, lambda v: None if MIN_PARTICLES <= v <= MAX_PARTICLES
-                        else f"an integer in [{MIN_PARTICLES}, {MAX_PARTICLES}]"),
-        "alpha": (float, True, None),   # range depends on N: checked below
-        "dt": (float, True, _positive),
-        "integrator": (str, True, _one_of(*INTEGRATORS)),
-        "every": (int, True, _int_at_least(1)),
-    }, True, None),
-    "snapshots": (SNAPSHOT_KEYS, True, None),
-    "rom": ({
-        "modes": (int, True, _int_at_least(1)),
-        "accel_modes": (_list_of(int), False, None),
-        "n_freeze": (_list_of(int), False, None),
-    }, True, None),
-    "paper": ({
-        "figures": (str, False, None),
-        "reference": (str, True, _one_of("analytic", "fd")),
-        "reference_dx": (float, False, _positive),
-        "reference_dt": (float, False, _positive),
-        "sph_error_v": (float, True, _nonneg),
-        "sph_error_rho": (float, False, _nonneg),
-        "mode_threshold": (int, False, _int_at_least(1)),
-        "cpu_saving": (float, False, _fraction),
-        "modified_reference_beta": (float, False, _positive),
-        "modified_reference_error_v": (float, False, _nonneg),
-        "notes": (str, False, None),
-        "runs": ("tables", False, {
-            "n_particles": (int, True, _int_at_least(MIN_PARTICLES)),
-            "alpha": (float, True, _positive),
-            "dt": (float, True, _positive),
-            "sph_error_v": (float, True, _nonneg),
-            "sph_error_rho": (float, False, _nonneg),
-            "note": (str, False, None),
-        }),
-        "snapshot_studies": ("tables", False, {
-            **SNAPSHOT_KEYS,
-            "figure": (str, False, None),
-            "outcome": (str, True, _one_of("works", "fails", "critical", "larger_error")),
-            "mode_threshold": (int, False, _int_at_least(1)),
-            "note": (str, False, None),
-        }),
-    }, False, None),        # a scene beyond the paper's eight has no [paper] table
-}
-
-
-def _type_name(kind):
-    if isinstance(kind, dict):
-        return "a table"
-    if isinstance(kind, tuple) and kind[0] == "list":
-        return f"a list of {_type_name(kind[1])}"
-    return {int: "an integer", float: "a number", str: "a string", "expr": "an expression string or number",
-            "tables": "an array of tables"}[kind]
-
-
-def _check_value(value, kind, where):
-    if kind is float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise UserError(f"{where}: expected {_type_name(kind)}, got {value!r}")
-        value = float(value)
-        if not np.isfinite(value):
-            raise UserError(f"{where}: {value!r} is out of range (allowed: a finite number)")
-        return value
-    if kind is int:
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise UserError(f"{where}: expected {_type_name(kind)}, got {value!r}")
-        return value
-    if kind is str:
-        if not isinstance(value, str):
-            raise UserError(f"{where}: expected {_type_name(kind)}, got {value!r}")
-        return value
-    if kind == "expr":
-        if isinstance(value, bool) or not isinstance(value, (str, int, float)):
-            raise UserError(f"{where}: expected {_type_name(kind)}, got {value!r}")
-        return value
-    if isinstance(kind, tuple) and kind[0] == "list":
-        if not isinstance(value, list):
-            raise UserError(f"{where}: expected {_type_name(kind)}, got {value!r}")
-        return [_check_value(v, kind[1], f"{where}[{i}]") for i, v in enumerate(value)]
-    raise AssertionError(kind)
-
-
-def _validate_table(table, schema, where):
-    if not isinstance(table, dict):
-        raise UserError(f"{where}: expected a table")
-    unknown = sorted(set(table) - set(schema))
-    if unknown:
-        here = f"{where} {unknown[0]}" if where.endswith(":") else f"{where}.{unknown[0]}"
-        raise UserError(f"{here}: unknown key '{unknown[0]}' (allowed: {', '.join(schema)})")
-    out = {}
-    for key, (kind, required, check) in schema.items():
-        here = f"{where} {key}" if where.endswith(":") else f"{where}.{key}"
-        if key not in table:
-            if required:
-                raise UserError(f"{here}: missing key ({_type_name(kind)} required)")
-            continue
-        value = table[key]
-        if isinstance(kind, dict):
-            out[key] = _validate_table(value, kind, here)
-            continue
-        if kind == "tables":
-            if not isinstance(value, list):
-                raise UserError(f"{here}: expected {_type_name(kind)}")
-            out[key] = [_validate_table(v, check, f"{here}[{i}]") for i, v in enumerate(value)]
-            continue
-        value = _check_value(value, kind, here)
-        if check is not None:
-            items = value if isinstance(kind, tuple) and kind[0] == "list" and key != "window" else [value]
-            for item in items:
-                problem = check(item)
-                if problem is not None:
-                    raise UserError(f"{here}: {item!r} is out of range (allowed: {problem})")
-        out[key] = value
-    return out
 
 
 # --------------------------------------------------------------------------
@@ -252,7 +69,12 @@ class SPHSettings:
 
 @dataclass(frozen=True)
 class Scene:
-    """A validated scene.  See the module docstring for units."""
+    """A validated scene.  See the module docstring for units.
+
+    ``automatic`` names what the scene file left to a rule (``name``, ``sph.every``, ``snapshots``,
+    ``rom.modes``; :func:`harness.pod.automatic.automatic_rules`); :func:`automatic_lines` says what the rules
+    chose.
+    """
 
     name: str
     title: str
@@ -268,48 +90,54 @@ class Scene:
     paper: dict
     source: str           # file path, for messages and provenance
     text: str             # the TOML text, stored in every output file
+    automatic: tuple = ()
 
     # -- fields ------------------------------------------------------------
     def field(self, name, x):
         """Evaluate the field ``name`` (rho0, v0, c, d, profile) at ``x`` [m].
 
         Returns a float array of ``x.shape``.  Raises UserError when a value is
-        non-finite or outside its physical range (ρ0 > 0, c > 0, d >= 0).
+        non-finite or outside its range (scene_schema: 1e-15 <= ρ0, c <= 1e15,
+        0 <= d <= 1e15, |v0|, |profile| <= 1e15).
         """
         x = np.asarray(x, dtype=float)
         value = np.broadcast_to(self.fields[name](x=x, L=self.L, T=self.T), x.shape).astype(float)
-        where = f"{self.source}: fields.{name}" if name != "profile" else f"{self.source}: force.profile"
-        if not np.all(np.isfinite(value)):
-            bad = x[~np.isfinite(value)][0]
-            raise UserError(f"{where}: non-finite value at x = {bad:g} m")
-        if name in ("rho0", "c") and np.any(value <= 0):
-            raise UserError(f"{where}: must be > 0 everywhere (min {value.min():g})")
-        if name == "d" and np.any(value < 0):
-            raise UserError(f"{where}: must be >= 0 everywhere (min {value.min():g})")
+        path = f"fields.{name}" if name != "profile" else "force.profile"
+        _check_values(value, x, key(path), f"{self.source}: {path}", "x", "m")
         return value
 
     def force(self, t):
         """The force time history f(t) [m s^-2] at times ``t`` [s]."""
         t = np.asarray(t, dtype=float)
         value = np.broadcast_to(self.f(t=t, L=self.L, T=self.T), t.shape).astype(float)
-        if not np.all(np.isfinite(value)):
-            bad = t[~np.isfinite(value)][0]
-            raise UserError(f"{self.source}: force.f: non-finite value at t = {bad:g} s")
+        _check_values(value, t, key("force.f"), f"{self.source}: force.f", "t", "s")
         return value
+
+    def period(self):
+        """T' [s]: the time a wave takes once around the periodic bar, Σ Δx sqrt(ρ0/c) over the particles
+        (the paper's T' = L sqrt(ρ0/c) for uniform fields, section 3.1.1)."""
+        from .sph.operator import particle_positions
+        x = particle_positions(self.L, self.sph.n_particles)
+        return float(np.sum(np.sqrt(self.field("rho0", x) / self.field("c", x))) * (self.L / self.sph.n_particles))
 
     def with_sph(self, source=CLI, **changes):
         """A copy with SPH settings changed (``None`` values are ignored), re-validated.
 
         Errors name the field: the setting (FieldError ``dt``) for settings given on their own
-        (``source`` = ``CLI``), else the file and its key (``sph.dt``).
+        (``source`` = ``CLI``), else the file and its key (``sph.dt``).  Automatic settings
+        (``sph.every``, ``snapshots``) not given here follow the new settings.
         """
         changes = {k: v for k, v in changes.items() if v is not None}
+        automatic = tuple(a for a in self.automatic if not (a.startswith("sph.") and a[4:] in changes))
         sph = dataclasses.replace(self.sph, **changes)
+        if "sph.every" in automatic:
+            _check_sph(dataclasses.replace(sph, every=MAX_STEPS), source, self.T)
+            sph = dataclasses.replace(sph, every=automatic_every(self.T, self._period_at(sph), sph))
         _check_sph(sph, source, self.T)
-        return dataclasses.replace(self, sph=sph)
+        return _follow(dataclasses.replace(self, sph=sph, automatic=automatic))
 
     def with_T(self, T):
-        """A copy with a different horizon T [s] (``None``: unchanged)."""
+        """A copy with a different horizon T [s] (``None``: unchanged); automatic settings follow it."""
         if T is None:
             return self
         if not (np.isfinite(T) and T > 0):
@@ -319,43 +147,128 @@ class Scene:
         if T / self.sph.dt > MAX_STEPS:
             raise FieldError("t_end", f"{T:g} is out of range (allowed: T <= {MAX_STEPS_TEXT} dt = "
                                       f"{MAX_STEPS * self.sph.dt:g} s, at most {MAX_STEPS_TEXT} SPH steps)")
-        return dataclasses.replace(self, T=float(T))
+        if not 1 / SCALE <= T <= SCALE:
+            raise FieldError("t_end", f"{T!r} is out of range (allowed: a number in [{fmt(1 / SCALE)}, {fmt(SCALE)}] "
+                                      "s, as domain.T)")
+        scene = dataclasses.replace(self, T=float(T))
+        if "sph.every" in scene.automatic:
+            scene = dataclasses.replace(scene, sph=dataclasses.replace(
+                scene.sph, every=automatic_every(scene.T, scene.period(), scene.sph)))
+        return _follow(scene)
+
+    def _period_at(self, sph):
+        return dataclasses.replace(self, sph=sph).period()
+
+
+def _check_values(value, at, k, where, var, unit):
+    """UserError naming ``where`` when a field's values are non-finite or outside ``k.range``."""
+    finite = np.isfinite(value)
+    if not np.all(finite):
+        bad = at[~finite][0]
+        raise UserError(f"{where}: non-finite value at {var} = {bad:g} {unit} (allowed: {k.range.text()} "
+                        f"{k.unit})".rstrip())
+    lo, hi = k.range.lo, k.range.hi
+    outside = (value < lo) | (value > hi)
+    if np.any(outside):
+        i = int(np.argmax(outside))
+        raise UserError(f"{where}: {shown(float(value.flat[i]))} at {var} = {float(at.flat[i]):g} {unit} is out of "
+                        f"range (allowed: {k.range.text()} {k.unit}".rstrip() + " everywhere)")
+
+
+def _follow(scene):
+    """The automatic snapshots of ``scene`` recomputed for its T and SPH settings."""
+    if "snapshots" not in scene.automatic:
+        return scene
+    return dataclasses.replace(scene, snapshots=automatic_snapshots(scene.T, scene.period(), scene.sph))
 
 
 def _check_sph(sph: SPHSettings, source, T):
     """Check SPH settings; errors name the scene file and key, or (``source`` = ``CLI``) the field."""
-    def fail(key, detail):
+    def fail(name, detail):
         if source == CLI:
-            raise FieldError(key, detail)
-        raise UserError(f"{source}: sph.{key}: {detail}")
+            raise FieldError(name, detail)
+        raise UserError(f"{source}: sph.{name}: {detail}")
 
     n = sph.n_particles
     if not (MIN_PARTICLES <= n <= MAX_PARTICLES):
         fail("n_particles", f"{n} is out of range (allowed: an integer in [{MIN_PARTICLES}, {MAX_PARTICLES}])")
-    hi = n / 4.0
-    if not (0.5 < sph.alpha < hi):
-        fail("alpha", f"{sph.alpha:g} is out of range (allowed: 0.5 < alpha < N/4 = {hi:g}, "
-                      "so that each particle has neighbours and the kernel support 2h stays below L/2)")
+    _check_alpha(sph.alpha, n, fail)
     if not (sph.dt > 0 and np.isfinite(sph.dt)):
         fail("dt", f"{sph.dt!r} is out of range (allowed: a number > 0)")
-    if sph.dt > T:
-        fail("dt", f"{sph.dt:g} is out of range (allowed: 0 < dt <= T = {T:g})")
-    if T / sph.dt > MAX_STEPS:
-        fail("dt", f"{sph.dt:g} is out of range (allowed: dt >= T / {MAX_STEPS_TEXT} = {T / MAX_STEPS:g} s "
-                   f"for T = {T:g} s, at most {MAX_STEPS_TEXT} SPH steps)")
+    _check_dt(sph.dt, T, lambda detail: fail("dt", detail))
     if sph.integrator not in INTEGRATORS:
         fail("integrator", f"{sph.integrator!r} is out of range (allowed: one of {', '.join(INTEGRATORS)})")
-    if sph.every < 1:
-        fail("every", f"{sph.every} is out of range (allowed: an integer >= 1)")
+    if not 1 <= sph.every <= MAX_STEPS:
+        fail("every", f"{sph.every} is out of range (allowed: an integer in [1, {MAX_STEPS}])")
     steps = int(T / sph.dt)             # <= MAX_STEPS, checked above
     per_sample = n * 8 * 2              # v and rho of N particles [bytes]
     if (steps // sph.every + 2) * per_sample > MAX_SAMPLE_BYTES:
-        least = -(-steps // max(1, MAX_SAMPLE_BYTES // per_sample - 2))
+        least = least_every(steps, n)
         need = (steps // sph.every + 2) * per_sample / 2**30
         fail("every", f"{sph.every} stores {steps // sph.every + 2} samples of {n} particles, {need:.1f} GiB "
                       f"(allowed: every >= {least}, at most {MAX_SAMPLE_BYTES / 2**30:g} GiB of samples)")
 
 
+def _check_alpha(alpha, n, fail):
+    hi = n / 4.0
+    if not (key("sph.alpha").range.contains(alpha) and alpha < hi):
+        fail("alpha", f"{alpha:g} is out of range (allowed: 0.5 < alpha < N/4 = {hi:g} and alpha <= {MAX_ALPHA:g}, "
+                      "so that each particle has neighbours, the kernel support 2h stays below L/2 and the "
+                      f"operator holds at most {4 * MAX_ALPHA + 1:g} neighbours per particle)")
+
+
+def _check_dt(dt, T, fail):
+    if dt > T:
+        fail(f"{dt:g} is out of range (allowed: 0 < dt <= T = {T:g})")
+    if T / dt > MAX_STEPS:
+        fail(f"{dt:g} is out of range (allowed: dt >= T / {MAX_STEPS_TEXT} = {T / MAX_STEPS:g} s "
+             f"for T = {T:g} s, at most {MAX_STEPS_TEXT} SPH steps)")
+
+
+# --------------------------------------------------------------------------
+# automatic choices (the rules: harness.pod.automatic)
+# --------------------------------------------------------------------------
+def run_steps(T, dt):
+    """The steps of a run to T [s] by dt [s]: harness.sph.solver.step_count's rule (n with n dt = T to 1e-9
+    relative, else floor(T/dt)), here because the solver imports this module
+    (tests/test_scene_minimal.py checks that the two agree)."""
+    ratio = T / dt
+    n = int(round(ratio))
+    return n if abs(ratio - n) <= 1e-9 * max(1.0, ratio) else int(np.floor(ratio))
+
+
+def automatic_every(T, period, sph):
+    """``sph.every`` when the scene leaves it out (:data:`harness.pod.automatic.AUTO_EVERY_RULE`)."""
+    from .pod.automatic import automatic_every as rule
+    return rule(T, period, sph.dt, run_steps(T, sph.dt), sph.n_particles)
+
+
+def automatic_snapshots(T, period, sph):
+    """``[snapshots]`` when the scene leaves it out (:data:`harness.pod.automatic.AUTO_SNAPSHOTS_RULE`)."""
+    from .pod.automatic import automatic_snapshots as rule
+    return rule(T, period, sph.dt, run_steps(T, sph.dt), sph.n_particles)
+
+
+def automatic_lines(scene):
+    """One line per choice the loader made for ``scene`` by a rule (nothing for a scene that gives them all,
+    as every built-in scene does); the mode count is chosen later, by the POD (harness.pod.pipeline)."""
+    from .pod.snapshots import describe
+    lines = []
+    if "name" in scene.automatic:
+        origin = "the file name" if scene.source.endswith(f"{scene.name}.toml") else "no name in the scene text"
+        lines.append(f"scene {scene.name}: name from {origin} ({scene.source})")
+    if "sph.every" in scene.automatic:
+        lines.append(f"scene {scene.name}: sph.every = {scene.sph.every} (automatic: a sample every "
+                     f"{scene.sph.every * scene.sph.dt:.4g} s; T' = {scene.period():.4g} s, the wave's time once "
+                     "around the bar)")
+    if "snapshots" in scene.automatic:
+        lines.append(f"scene {scene.name}: snapshots {describe(scene.snapshots)} s (automatic: uniform over the "
+                     f"training run, count = 200 T/T' = {200 * scene.T / scene.period():.4g} within [20, 1000], "
+                     "the run's steps and 4 GiB)")
+    return lines
+
+
+# --------------------------------------------------------------------------
 def builtin_dir() -> Path:
     """The folder of the built-in scenes (``validation/scenes`` in the repository)."""
     return data_dir("scenes")
@@ -365,8 +278,15 @@ def builtin_names():
     return sorted(p.stem for p in builtin_dir().glob("*.toml"))
 
 
+def _printable(text):
+    """A path as it goes into one-line messages (control characters escaped)."""
+    return text if text.isprintable() else repr(text)
+
+
 def load_scene(spec) -> Scene:
     """Load a scene by built-in name (``multimode``) or by path to a TOML file.
+
+    A scene without ``name`` is named after its file (``my_bar.toml``: ``my_bar``).
 
     Raises
     ------
@@ -375,65 +295,142 @@ def load_scene(spec) -> Scene:
     """
     spec = str(spec)
     path = Path(spec)
+    shown_spec = _printable(spec)
     if not (spec.endswith(".toml") or exists(path)):
         candidate = builtin_dir() / f"{spec}.toml"
         if not exists(candidate):
-            raise UserError(f"scene '{spec}': no such built-in scene and no such file "
+            raise UserError(f"scene '{shown_spec}': no such built-in scene and no such file "
                             f"(built-in: {', '.join(builtin_names())})")
         path = candidate
     if not is_file(path):
-        raise UserError(f"scene file '{spec}': not found")
+        raise UserError(f"scene file '{shown_spec}': not found")
+    source = _printable(str(path))
     try:
+        check_text_size(path.stat().st_size, source)
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
-        raise UserError(f"scene file '{spec}': cannot be read ({exc})") from None
-    return parse_scene(text, str(path))
+        raise UserError(f"scene file '{shown_spec}': cannot be read ({exc})") from None
+    return parse_scene(text, source, name=path.stem)
 
 
-def parse_scene(text: str, source: str = "<scene>") -> Scene:
-    """Parse and validate scene TOML ``text``; ``source`` names it in errors."""
+DEFAULT_NAME = "scene"      # the name of a scene text without one that is not read from a file
+
+
+def parse_scene(text: str, source: str = "<scene>", name: str | None = None) -> Scene:
+    """Parse and validate scene TOML ``text``; ``source`` names it in errors, ``name`` is the name when the
+    text has none (:func:`load_scene`: the file name; else :data:`DEFAULT_NAME`)."""
+    check_text_size(len(text.encode("utf-8", "surrogatepass")), source)
+    check_nesting(text, source)
     try:
         raw = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise UserError(f"{source}: not valid TOML ({exc})") from None
-    data = _validate_table(raw, SCHEMA, f"{source}:")
-    snaps = data["snapshots"]
-    _check_snapshot_spec(snaps, f"{source}: snapshots")
-    data.setdefault("paper", {})
-    for i, study in enumerate(data["paper"].get("snapshot_studies", [])):
-        _check_snapshot_spec(study, f"{source}: paper.snapshot_studies[{i}]")
+    except RecursionError:
+        raise UserError(f"{source}: nested too deep for the TOML parser (allowed: at most "
+                        f"{MAX_DEPTH} levels of [ ] and {{ }})") from None
+    data = check_scene_tables(raw, source)
+    automatic = []
+    if "name" not in data:
+        name = DEFAULT_NAME if name is None else name
+        if not NAME_PATTERN.fullmatch(name):
+            raise UserError(f"{source}: name: {shown(name)} (the file name) is out of range (allowed: {NAME_TEXT}); "
+                            "give name = \"...\" in the file or rename it")
+        data["name"] = name
+        automatic.append("name")
+    data.setdefault("title", data["name"])
+    for k in ("section", "summary"):
+        data.setdefault(k, key(k).default)
+    domain = data["domain"]
+    fields_data = {name_: data["fields"].get(name_, key(f"fields.{name_}").default) for name_ in X_FIELDS}
+    force = data.get("force", {})
+    sph_data = data["sph"]
+    for k in ("alpha", "integrator"):
+        sph_data.setdefault(k, key(f"sph.{k}").default)
+    if "every" not in sph_data:
+        automatic.append("sph.every")
+        sph_data["every"] = MAX_STEPS            # replaced below, once the fields give T'
+    sph = SPHSettings(**sph_data)
+    _check_sph(sph, source, domain["T"])
 
     fields = {}
-    for name in X_FIELDS:
-        fields[name] = compile_expr(data["fields"][name], ("x", "L", "T"), f"{source}: fields.{name}")
-    fields["profile"] = compile_expr(data["force"].get("profile", "1"), ("x", "L", "T"), f"{source}: force.profile")
-    f = compile_expr(data["force"]["f"], ("t", "L", "T"), f"{source}: force.f")
-    sph = SPHSettings(**data["sph"])
-    _check_sph(sph, source, data["domain"]["T"])
+    for name_ in X_FIELDS:
+        fields[name_] = compile_expr(fields_data[name_], key(f"fields.{name_}").variables, f"{source}: fields.{name_}")
+    fields["profile"] = compile_expr(force.get("profile", key("force.profile").default), key("force.profile").variables,
+                                     f"{source}: force.profile")
+    f = compile_expr(force.get("f", key("force.f").default), key("force.f").variables, f"{source}: force.f")
+
+    snaps = data.get("snapshots")
+    if snaps is not None:
+        _check_snapshot_spec(snaps, f"{source}: snapshots")
+    else:
+        automatic.append("snapshots")
+        snaps = {}
+    rom = data.get("rom", {})
+    if "modes" not in rom:
+        automatic.append("rom.modes")
+    rom.setdefault("n_freeze", [defaults.N_FREEZE])
+    for k in ("modes", "accel_modes"):
+        for i, value in enumerate(np.atleast_1d(rom.get(k, []))):
+            if value > sph.n_particles:
+                raise UserError(f"{source}: rom.{k}{'' if k == 'modes' else f'[{i}]'}: {value} is out of range "
+                                f"(allowed: an integer in [1, N = {sph.n_particles}], the modes of a POD basis of "
+                                "N particles)")
+    paper = data.get("paper", {})
+    _check_paper(paper, source, domain["L"], domain["T"], sph.n_particles)
+
     scene = Scene(name=data["name"], title=data["title"], section=data["section"], summary=data["summary"],
-                  L=data["domain"]["L"], T=data["domain"]["T"], fields=fields, f=f, sph=sph,
-                  snapshots=snaps, rom=data["rom"], paper=data["paper"], source=source, text=text)
+                  L=domain["L"], T=domain["T"], fields=fields, f=f, sph=sph,
+                  snapshots=snaps, rom=rom, paper=paper, source=source, text=text, automatic=tuple(automatic))
     # Evaluate every field once on the default particles so that a bad
     # expression (division by zero, a negative density) fails at load time.
     from .sph.operator import particle_positions
     x = particle_positions(scene.L, sph.n_particles)
-    for name in fields:
-        scene.field(name, x)
+    for name_ in fields:
+        scene.field(name_, x)
     scene.force(np.linspace(0.0, scene.T, 257))
-    return scene
+    if "sph.every" in scene.automatic:
+        sph = dataclasses.replace(sph, every=automatic_every(scene.T, scene.period(), sph))
+        scene = dataclasses.replace(scene, sph=sph)
+    return _follow(scene)
+
+
+def _check_paper(paper, source, L, T, n):
+    """The bounds of [paper] that depend on L, T and N."""
+    dx, dt = paper.get("reference_dx"), paper.get("reference_dt")
+    if dx is not None and L / dx > MAX_REFERENCE_CELLS:
+        raise UserError(f"{source}: paper.reference_dx: {shown(dx)} is out of range (allowed: reference_dx >= L / "
+                        f"{MAX_REFERENCE_CELLS:.0e} = {L / MAX_REFERENCE_CELLS:g} m, at most "
+                        f"{MAX_REFERENCE_CELLS:.0e} cells)".replace("e+0", "e"))
+    if dt is not None:
+        _check_dt(dt, T, lambda detail: _raise(f"{source}: paper.reference_dt: {detail}"))
+    for path, value in (("mode_threshold", paper.get("mode_threshold")),
+                        *((f"snapshot_studies[{i}].mode_threshold", s.get("mode_threshold"))
+                          for i, s in enumerate(paper.get("snapshot_studies", [])))):
+        if value is not None and value > n:
+            raise UserError(f"{source}: paper.{path}: {value} is out of range (allowed: an integer in [1, N = {n}])")
+    for i, run in enumerate(paper.get("runs", [])):
+        where = f"{source}: paper.runs[{i}]"
+        _check_alpha(run["alpha"], run["n_particles"], lambda name, detail: _raise(f"{where}.{name}: {detail}"))
+        _check_dt(run["dt"], T, lambda detail: _raise(f"{where}.dt: {detail}"))
+    for i, study in enumerate(paper.get("snapshot_studies", [])):
+        _check_snapshot_spec(study, f"{source}: paper.snapshot_studies[{i}]")
+
+
+def _raise(message):
+    raise UserError(message)
 
 
 def _check_snapshot_spec(spec, where):
     kinds = [k for k in ("count", "times", "times_v") if k in spec]
     if len(kinds) != 1:
-        raise UserError(f"{where}: give exactly one of count (with window), times, or times_v/times_rho")
+        raise UserError(f"{where}: give exactly one of count (with window), times, or times_v/times_rho "
+                        "(or leave [snapshots] out: chosen automatically)")
     if "count" in spec and "window" not in spec:
         raise UserError(f"{where}.window: missing key (required with count)")
     if ("times_v" in spec) != ("times_rho" in spec):
         raise UserError(f"{where}: times_v and times_rho go together")
-    for key in ("times", "times_v", "times_rho"):
-        if key in spec and (len(spec[key]) == 0 or min(spec[key]) < 0):
-            raise UserError(f"{where}.{key}: allowed: a non-empty list of times >= 0")
+    if "random" in spec and "count" not in spec:
+        raise UserError(f"{where}.random: needs count and window (random times in the window)")
 
 
 def describe_terms(scene: Scene, x=None, t=None):
@@ -471,13 +468,17 @@ def scene_dict(scene_or_text):
     return tomllib.loads(text)
 
 
+_TOML_ESCAPES = {"\\": "\\\\", '"': '\\"', "\n": "\\n", "\t": "\\t"}
+
+
 def _toml_value(value):
     if isinstance(value, bool):
         return "true" if value else "false"
     if isinstance(value, (int, float)):
         return repr(value)
     if isinstance(value, str):
-        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        return '"' + "".join(_TOML_ESCAPES.get(ch, ch if ch.isprintable() else f"\\u{ord(ch):04x}" if ord(ch) < 0x10000
+                                 else f"\\U{ord(ch):08x}") for ch in value) + '"'
     if isinstance(value, (list, tuple)):
         return "[" + ", ".join(_toml_value(v) for v in value) + "]"
     raise TypeError(f"cannot write {type(value).__name__} to TOML")
@@ -519,6 +520,8 @@ def derive_scene(base, changes, source=None):
                 merge(dst[key], value)
             else:
                 dst[key] = value
+    if isinstance(base, Scene):
+        data.setdefault("name", base.name)          # a scene named after its file keeps its name
     merge(data, changes)
     name = data.get("name", "scene")
     return parse_scene(dump_toml(data), source or f"<{name} variant>")

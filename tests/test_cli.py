@@ -66,7 +66,7 @@ def _write_variant(tmp_path, mutate):
     (lambda d: d["sph"].update(dt=0.0), "sph.dt: 0.0 is out of range (allowed: a number > 0)"),
     (lambda d: d["sph"].update(dt=-1e-3), "sph.dt"),
     (lambda d: d["fields"].update(v0="sin(y)"), "fields.v0: name 'y' is not allowed"),
-    (lambda d: d["fields"].update(rho0="-1"), "fields.rho0: must be > 0"),
+    (lambda d: d["fields"].update(rho0="-1"), "fields.rho0: -1.0 at x = 0.005 m is out of range (allowed: a number in [1e-15, 1e15] kg m^-3"),
     (lambda d: d["fields"].update(c="1/(x - x)"), "fields.c: non-finite value"),
     (lambda d: d["force"].update(f="open('x')"), "force.f: function 'open' is not allowed"),
     (lambda d: d["snapshots"].pop("window"), "snapshots.window: missing key"),

@@ -54,7 +54,7 @@ def measure(scene_name, scales=SCALES, progress=True):
     """Rows (dicts) of the amplitude sweep of one scene (a name, a path or a Scene; module docstring)."""
     from ..fmu import envelope as E
     from ..norms import relative_l2
-    from ..pod.pipeline import basis_for_scene
+    from ..pod.pipeline import accel_modes, basis_for_scene
     from ..progress import progress_bar
     from ..rom.registry import get_model
     from ..scene import derive_scene, load_scene
@@ -63,7 +63,7 @@ def measure(scene_name, scales=SCALES, progress=True):
     scene = load_scene(scene_name) if isinstance(scene_name, str) else scene_name
     problem = build_problem(scene)
     basis, run = basis_for_scene(scene, progress=False, problem=problem)
-    k = min(int(max(scene.rom.get("accel_modes", [scene.rom["modes"]]))), *basis.max_modes)
+    k = min(int(max(accel_modes(scene, basis))), *basis.max_modes)
     frozen, exact = get_model("frozen"), get_model("exact")
     ops = frozen.build(problem, basis, k, k, input_direction=frozen.fmu_input_direction,
                        tensor="always")            # the FMU's frozen model (the registry's: b about rest)
@@ -101,7 +101,7 @@ def measure(scene_name, scales=SCALES, progress=True):
 def training_headroom(scene_name):
     """One row: the frozen model's run of its own training scene against its recorded envelope."""
     from ..fmu import envelope as E
-    from ..pod.pipeline import basis_for_scene
+    from ..pod.pipeline import accel_modes, basis_for_scene
     from ..rom.registry import get_model
     from ..scene import load_scene
     from ..sph.solver import build_problem, step_count
@@ -109,7 +109,7 @@ def training_headroom(scene_name):
     scene = load_scene(scene_name)
     problem = build_problem(scene)
     basis, run = basis_for_scene(scene, progress=False, problem=problem)
-    k = int(max(scene.rom.get("accel_modes", [scene.rom["modes"]])))
+    k = int(max(accel_modes(scene, basis)))
     frozen = get_model("frozen")
     ops = frozen.build(problem, basis, k, k, input_direction=frozen.fmu_input_direction,
                        tensor="always")            # the FMU's frozen model (the registry's: b about rest)

@@ -14,7 +14,7 @@ full SPH at the scene's error steps, frozen model, n_freeze = 10.
 from __future__ import annotations
 
 from ..compare import error_table
-from ..pod.pipeline import basis_for_scene, error_steps, on_steps
+from ..pod.pipeline import accel_modes, basis_for_scene, error_steps, on_steps
 from ..rom.common import run_reduced
 from ..rom.operators import INPUT_TOLERANCE, build_operators
 from ..sph.solver import step_count
@@ -33,7 +33,7 @@ def input_direction_rows(scene, k=None, n_freeze=10):
     """
     basis, run = basis_for_scene(scene, progress=False)
     problem = run.problem
-    k = k or max(scene.rom.get("accel_modes", [scene.rom["modes"]]))
+    k = k or max(accel_modes(scene, basis))
     steps = error_steps(scene)
     t = steps * scene.sph.dt
     v_sph, rho_sph = on_steps(run, steps)

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..compare import error_table, reference_fields
-from ..pod.pipeline import basis_for_scene, error_steps, on_steps
+from ..pod.pipeline import accel_modes, basis_for_scene, error_steps, on_steps
 from ..rom.registry import MODEL_NAMES, get_model, model_names, pod_model_names
 from ..sph.solver import run_sph, step_count
 from .timing import median_time
@@ -59,7 +59,7 @@ def bench_python(scene, ks=None, n_freezes=N_FREEZE, repeats=5, models=None, pro
         scene, method, k, n_freeze, online_s, offline_s, err_v_sph,
         err_rho_sph (ρ - ρ0), err_v_ref, err_rho_ref, speedup (SPH time / online).
     """
-    ks = list(ks or scene.rom.get("accel_modes", [scene.rom["modes"]]))
+    ks = list(ks or accel_modes(scene, progress=False))
     basis, run = basis_for_scene(scene, progress=False)
     problem = run.problem
     steps = error_steps(scene)

@@ -43,7 +43,7 @@ def measure(scenes=SCENES, progress=True):
     """Rows (scene, model, integrator, k, growth, energy_ratio, wall_s)."""
     import time
 
-    from ..pod.pipeline import basis_for_scene
+    from ..pod.pipeline import basis_for_scene, scene_modes
     from ..rom.registry import get_model
     from ..rom.stepping import reduced_amplification
     from ..scene import load_scene
@@ -55,7 +55,7 @@ def measure(scenes=SCENES, progress=True):
         problem = build_problem(scene)
         basis, _ = basis_for_scene(scene, progress=progress, problem=problem)
         n = step_count(scene.T, scene.sph.dt)
-        ks = sorted({int(scene.rom["modes"]), *map(int, scene.rom.get("accel_modes", []) or [])})
+        ks = sorted({scene_modes(scene, basis), *map(int, scene.rom.get("accel_modes", []) or [])})
         for k in ks:
             k = min(k, *basis.max_modes)
             for model_name, integrator in RUNS:

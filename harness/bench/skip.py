@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..pod.pipeline import basis_for_scene
+from ..pod.pipeline import accel_modes, basis_for_scene
 from ..rom.registry import get_model
 from ..sph import loops
 from ..sph.solver import METHODS, build_problem, step_count
@@ -57,7 +57,7 @@ def skip_savings(scene, steps=20000, k=None, repeats=5, fmu=True, reduced_factor
     rows.append(("full SPH", 1e6 * t_fast / n, 1e6 * t_slow / n))
 
     basis, run = basis_for_scene(scene, progress=False, problem=problem)
-    k = k or max(scene.rom.get("accel_modes", [scene.rom["modes"]]))
+    k = k or max(accel_modes(scene, basis))
     import dataclasses
     built = {}                                  # one set of operators per basis kind, shared by its models
     for model in SKIP_MODELS:

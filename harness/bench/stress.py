@@ -32,7 +32,7 @@ import dataclasses
 import numpy as np
 
 from ..errors import SimulationError
-from ..pod.pipeline import basis_for_scene
+from ..pod.pipeline import accel_modes, basis_for_scene
 from ..rom.registry import MODELS, get_model, pod_model_names
 from ..scene import derive_scene
 from ..sph.diagnostics import energy
@@ -88,7 +88,7 @@ class Context:
 def context(scene, k=None):
     problem = build_problem(scene)
     basis, _ = basis_for_scene(scene, progress=False, problem=problem)
-    k = min(k or max(scene.rom.get("accel_modes", [scene.rom["modes"]])), *basis.max_modes)
+    k = min(k or max(accel_modes(scene, basis)), *basis.max_modes)
     lim = stability(problem, scene.sph.dt, "euler", scene.T)["dt_limit"]
     return Context(scene, problem, basis, k, model_operators(problem, basis, k), lim)
 

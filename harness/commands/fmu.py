@@ -81,7 +81,7 @@ def _run(args):
     from ..errors import UserError
     from ..fmu.package import check_options, package_fmu
     from ..runio import check_output_path
-    from ..scene import load_scene
+    from ..scene import automatic_lines, load_scene
 
     out = check_output_path(args.out)
     if out.suffix.lower() != ".fmu":
@@ -98,6 +98,13 @@ def _run(args):
     if args.tolerance is not None and not args.verify:
         raise UserError("--tolerance: needs the measurement (drop --no-verify)")
     scene = load_scene(args.scene)
+    for line in automatic_lines(scene):
+        print(line)
+    if args.modes is None and (args.model == "auto" or MODELS[args.model].basis_kind is not None):
+        from ..pod.pipeline import modes_line
+        line = modes_line(scene, progress=not args.quiet)    # runs the full SPH and the POD now (cached)
+        if line:
+            print(line)
     if args.model == "auto":
         if args.vary or args.ports:
             raise UserError(f"--{'vary' if args.vary else 'ports'}: not with --model auto (choose a model)")

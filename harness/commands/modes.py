@@ -56,7 +56,7 @@ def run(args):
 
     from ..errors import UserError
     from ..rom.registry import model_names
-    from ..scene import builtin_names, load_scene
+    from ..scene import automatic_lines, builtin_names, load_scene
     from .snapshot_options import strategy_from_args
 
     models = tuple(args.model)
@@ -74,6 +74,8 @@ def run(args):
     if not args.all:
         scene = load_scene(args.scene)
         spec = strategy_from_args(args, scene)
+        for line in automatic_lines(scene):
+            print(line)
         custom = spec != dict(scene.snapshots)
         sweep, ths = _one(scene, spec if custom else None, args, out, scene.name, models)
         _print_sweep(scene, sweep, ths, None if custom else scene.paper.get("mode_threshold"))

@@ -31,15 +31,17 @@ def run(args):
     from ..errors import UserError
     from ..pod.basis import modes_for_energy
     from ..pod.io import operators_group, write_basis
-    from ..pod.pipeline import basis_for_scene
+    from ..pod.pipeline import automatic_modes, basis_for_scene
     from ..rom.operators import build_operators
     from ..runio import check_output_path
-    from ..scene import load_scene
+    from ..scene import automatic_lines, load_scene
     from .snapshot_options import strategy_from_args
 
     out = check_output_path(args.out)
     scene = load_scene(args.scene)
     spec = strategy_from_args(args, scene)
+    for line in automatic_lines(scene):
+        print(line)
     basis, run_ = basis_for_scene(scene, spec, progress=not args.quiet)
     rv, rr = basis.max_modes
     if args.energy is not None:
@@ -47,7 +49,10 @@ def run(args):
             raise UserError(f"--energy: {args.energy:g} is out of range (allowed: 0 < TOL < 1)")
         k_v, k_r = modes_for_energy(basis.sigma_v, args.energy), modes_for_energy(basis.sigma_rho, args.energy)
     else:
-        k_v, k_r = args.modes or (scene.rom["modes"], scene.rom["modes"])
+        if args.modes is None and "modes" not in scene.rom:
+            k, why = automatic_modes(basis)
+            print(f"scene {scene.name}: rom.modes: {why}")
+        k_v, k_r = args.modes or ((scene.rom["modes"],) * 2 if "modes" in scene.rom else (k, k))
         if k_v > rv or k_r > rr:
             raise UserError(f"--modes: {k_v},{k_r} is out of range (allowed: at most {rv} velocity and {rr} density "
                             "modes, the rank of these snapshots)")

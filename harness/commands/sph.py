@@ -25,13 +25,15 @@ def add_parser(sub):
 def run(args):
     from ..compare import exact_errors, format_errors
     from ..runio import check_output_path, scene_attrs, write_run
-    from ..scene import load_scene
+    from ..scene import automatic_lines, load_scene
     from ..sph.solver import build_problem, run_sph, stability, stability_warnings, step_count
 
     out = check_output_path(args.out)
     base = load_scene(args.scene)
     scene = base.with_T(args.t_end).with_sph(n_particles=args.n_particles, alpha=args.alpha, dt=args.dt,
                            integrator=args.integrator, every=args.every)
+    for line in automatic_lines(scene):
+        print(line)
     sph = scene.sph
     problem = build_problem(scene)
     stab = stability(problem, sph.dt, sph.integrator, scene.T)

@@ -29,7 +29,8 @@ def run(args):
     from ..errors import UserError
     from ..progress import progress_bar
     from ..report.pages import index_page, scene_page
-    from ..scene import builtin_names, load_scene
+    from ..pod.pipeline import modes_line
+    from ..scene import automatic_lines, builtin_names, load_scene
 
     if args.all == (args.scene is not None):
         raise UserError("give a SCENE or --all")
@@ -39,12 +40,18 @@ def run(args):
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise UserError(f"--out: cannot create '{out}' ({exc})") from None
+    for scene in scenes:
+        for line in automatic_lines(scene):
+            print(line)
     started = time.perf_counter()
     summaries = []
     with progress_bar(total=len(scenes), desc="validate", enabled=not args.quiet) as bar:
         for scene in scenes:
             bar.set_postfix_str(scene.name)
             summaries.append(scene_page(scene, out, repeats=args.repeats, progress=not args.quiet))
+            line = modes_line(scene, progress=False)        # the POD's basis is in the cache by now
+            if line:
+                print(line)
             bar.update(1)
             print(f"wrote {out / (scene.name + '.md')} ({summaries[-1]['wall']:.0f} s)")
     if args.all:

@@ -156,9 +156,10 @@ class FMUSummary:
 
 
 def default_modes(scene):
-    """K of the scene: max(rom.accel_modes), else rom.modes."""
-    accel = scene.rom.get("accel_modes") or [scene.rom["modes"]]
-    return int(max(accel))
+    """K of the scene: max(rom.accel_modes), else rom.modes, else the automatic mode count of its POD
+    (:func:`harness.pod.pipeline.scene_modes`: runs the full SPH when it is not cached)."""
+    from ..pod.pipeline import accel_modes
+    return int(max(accel_modes(scene)))
 
 
 def parse_probes(text):

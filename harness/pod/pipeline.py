@@ -6,6 +6,7 @@ import numpy as np
 
 from ..cache import cached_sph
 from ..sph.solver import build_problem, default_sample_steps, step_count
+from .automatic import automatic_modes
 from .basis import build_basis
 from .snapshots import describe, snapshot_steps
 
@@ -43,3 +44,28 @@ def on_steps(run, steps):
     if np.any(run.steps[np.minimum(index, run.steps.size - 1)] != steps):
         raise ValueError("requested steps are not all stored")
     return run.v[index], run.rho[index]
+
+
+def scene_modes(scene, basis=None, progress=True, problem=None):
+    """The POD mode count k of ``scene``: its rom.modes, else :func:`automatic_modes` of its POD basis (the full
+    SPH run from the cache or run now)."""
+    if "modes" in scene.rom:
+        return int(scene.rom["modes"])
+    if basis is None:
+        basis, _ = basis_for_scene(scene, progress=progress, problem=problem)
+    return automatic_modes(basis)[0]
+
+
+def accel_modes(scene, basis=None, progress=True, problem=None):
+    """The mode counts of the scene's acceleration study: rom.accel_modes, else [:func:`scene_modes`]."""
+    given = scene.rom.get("accel_modes")
+    return [int(k) for k in given] if given else [scene_modes(scene, basis, progress=progress, problem=problem)]
+
+
+def modes_line(scene, basis=None, progress=True, problem=None):
+    """The line a command prints about the scene's automatic mode count; None when the scene gives rom.modes."""
+    if "modes" in scene.rom:
+        return None
+    if basis is None:
+        basis, _ = basis_for_scene(scene, progress=progress, problem=problem)
+    return f"scene {scene.name}: rom.modes: {automatic_modes(basis)[1]}"

@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..compare import error_table
-from ..pod.pipeline import basis_for_scene, error_steps, on_steps
+from ..pod.pipeline import accel_modes, basis_for_scene, error_steps, on_steps
 from ..rom.exact_linear import build_linear_operators, run_exact
 from ..rom.registry import get_model
 from ..sph.solver import step_count
@@ -60,7 +60,7 @@ def compare_exact_and_original(scene, ks=None):
         time_err = error_table(v_sph, rho_sph, v_ex, rho_ex, t, problem.rho0)
     else:
         time_err = {"v": float("nan"), "rho_var": float("nan")}
-    ks = ks or scene.rom.get("accel_modes", [scene.rom["modes"]])
+    ks = ks or accel_modes(scene, basis)
     original, exact = get_model("original"), get_model("exact")
     n = step_count(scene.T, scene.sph.dt)
     rows = []

@@ -79,7 +79,8 @@ def scene_page(scene, out, repeats=3, progress=True, bar=None, convergence=None,
     img.mkdir(parents=True, exist_ok=True)
     stem = scene.name
     lines = [f"# {scene.name}: {scene.title}", "",
-             f"Paper §{scene.section}. {scene.summary}", "",
+             (f"Paper §{scene.section}. {scene.summary}" if scene.section else
+              f"Not a scene of the paper. {scene.summary}".rstrip()), "",
              f"Produced by `sphrom validate {scene.name}` ({versions()}).", ""]
     summary = {"scene": scene.name}
 

@@ -4,7 +4,7 @@ the paper's snapshot studies and the time against error of the accelerated model
 from __future__ import annotations
 
 from ..bench.methods import bench_python, paper_saving, plot_time_error, savings_by_k
-from ..pod.pipeline import basis_for_scene
+from ..pod.pipeline import accel_modes, basis_for_scene
 from ..pod.study import PAPER_MODEL, mode_sweep, plot_sweep, snapshot_study, threshold
 from .markdown import image, num, table
 
@@ -73,10 +73,10 @@ def pod_section(scene, reference, out_dir, stem, repeats=3, progress=True):
         lines += table(["paper figure", "snapshots", "paper", "ours", "agrees", "detail"], srows)
         summary["studies"] = (agree, len(studies))
 
-    accel = scene.rom.get("accel_modes")
+    accel = accel_modes(scene, basis)            # a scene without rom: its automatic mode count
     if accel:
         lines += ["### Time against error of the accelerated models", ""]
-        rows = bench_python(scene, repeats=repeats)
+        rows = bench_python(scene, ks=accel, repeats=repeats)
         plot_time_error(rows, out_dir / f"{stem}_time_error.png", scene.name)
         lines += image(f"{out_dir.name}/{stem}_time_error.png", "time against error")
         lines += table(["method", "k", "n_freeze", "online [s]", "speed-up", "v vs SPH", "ρ−ρ0 vs SPH",
