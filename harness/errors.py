@@ -52,8 +52,23 @@ class ToleranceError(SimulationError):
 
 
 class Interrupted(KeyboardInterrupt):
-    """SIGINT or SIGTERM received by the command line: a one-line exit, 128 + the signal number."""
+    """SIGINT or SIGTERM received by the command line: a one-line exit, 128 + the signal number.
 
-    def __init__(self, signum):
+    ``note``, when given, is what the one line says was written (default: what the command line saw
+    committed, "no output written" when nothing).
+    """
+
+    def __init__(self, signum, note=None):
         super().__init__(signum)
         self.signum = signum
+        self.note = note
+
+
+def exact(value):
+    """A number as text that never rounds it onto a bound: ``%g`` when that reads back as the same float,
+    else the shortest round-trip form (``repr``): 0.2 -> '0.2', 0.2000001 -> '0.2000001', 1e-320 -> '1e-320'."""
+    try:
+        short = f"{value:g}"
+        return short if float(short) == float(value) else repr(float(value))
+    except (TypeError, ValueError):
+        return repr(value)

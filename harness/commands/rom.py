@@ -5,6 +5,9 @@ import sys
 from .options import add_n_freeze, add_quiet, add_scene, modes_pair, positive_float
 
 BOUND_PROBE_SAMPLES = 4000      # at least T/4000 between samples of the measured errors (h |A|_1 <= 0.05 up to 40000)
+# At most this many communication steps H in one run of a linear model (a Python loop of one k x k product
+# each, and the input sampled at every step): 1e6 steps take seconds, 1e12 would take days and terabytes.
+MAX_ROM_STEPS = 1_000_000
 
 
 def add_parser(sub):
@@ -78,6 +81,7 @@ def run(args):
     rv, rr = basis.max_modes
     if k_v > rv or k_r > rr:
         raise UserError(f"--modes: {k_v},{k_r} is out of range (allowed: at most {rv},{rr}, the basis' modes)")
+    check_step(args.step, scene.T, model)
     problem = build_problem(scene)
     steps = error_steps(scene)
     n = step_count(scene.T, scene.sph.dt)
@@ -125,6 +129,20 @@ def run(args):
     return 0
 
 
+def check_step(step, T, model):
+    """FieldError ``step`` unless ``step`` (None: the default) is a communication step of a linear model with
+    at most MAX_ROM_STEPS steps to T [s] and no longer than T."""
+    from ..errors import FieldError, exact
+    if step is None:
+        return
+    if not model.linear:
+        raise FieldError("step", f"applies to the linear models, whose communication step it is (the {model.name} "
+                                 "model steps with the scene's dt)")
+    if not (step <= T and T / step <= MAX_ROM_STEPS):
+        raise FieldError("step", f"{exact(step)} is out of range (allowed: T / {MAX_ROM_STEPS:.0e} = "
+                                 f"{T / MAX_ROM_STEPS:g} s <= step <= T = {T:g} s)")
+
+
 def run_without_basis(args, model):
     """``sphrom rom --model M`` for a model without a POD basis (balanced): its order from --modes R or
     --tolerance, errors at the probes and of the reconstructed fields, and its certified error bounds."""
@@ -160,6 +178,7 @@ def run_without_basis(args, model):
                         f"(allowed: {', '.join(model.integrators)})")
     out = check_output_path(args.out)
     scene = load_scene(args.scene)
+    check_step(args.step, scene.T, model)
     problem = build_problem(scene)
     steps = error_steps(scene)
     n = step_count(scene.T, scene.sph.dt)

@@ -155,7 +155,8 @@ def plot_sweep(sweep, path, paper_threshold=None):
     b.set_title(f"{sweep['scene']}: {sweep['strategy']}", fontsize=9)
     b.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    from ..runio import save_figure
+    save_figure(fig, path, dpi=100)
     plt.close(fig)
 
 
