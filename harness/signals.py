@@ -25,6 +25,7 @@ import threading
 from .errors import Interrupted
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
+RETRY_S = 0.01          # a signal that arrived inside an import is delivered again after this long [s]
 
 
 class Guard:
@@ -51,9 +52,13 @@ class Guard:
         self.raising = True
         self.finished = False
         self.command = None
+        self._retrying = set()
 
     def __call__(self, signum, frame):
-        self.received.append(signum)
+        if signum in self._retrying:         # the same signal, delivered again after an import
+            self._retrying.discard(signum)
+        else:
+            self.received.append(signum)
         if self.finished:                  # interpreter shutdown (dask's atexit hooks): leave now, one line
             self.finished = False
             with contextlib.suppress(Exception):
@@ -61,8 +66,17 @@ class Guard:
                 sys.stderr.write(interrupt_line(self.command, signum, self.written_text()) + "\n")
                 sys.stderr.flush()
             os._exit(128 + int(signum))
-        if self.raising:
-            raise Interrupted(signum)
+        if not self.raising:
+            return
+        if _inside_import(frame):
+            # an exception raised inside an import breaks it (numpy's C extension reports a failed import,
+            # importlib's lock callbacks print "Exception ignored"): deliver the signal again once it is done
+            self._retrying.add(signum)
+            timer = threading.Timer(RETRY_S, os.kill, (os.getpid(), signum))
+            timer.daemon = True
+            timer.start()
+            return
+        raise Interrupted(signum)
 
     @property
     def pending(self):
@@ -103,6 +117,16 @@ class Guard:
                     signal.signal(sig, handler if handler is not None else signal.SIG_DFL)
             else:
                 self.finished = True
+
+
+def _inside_import(frame, depth=400):
+    """Whether ``frame`` (the one a signal handler interrupted) runs inside an import (importlib's frames)."""
+    while frame is not None and depth > 0:
+        if frame.f_code.co_filename.startswith("<frozen importlib"):
+            return True
+        frame = frame.f_back
+        depth -= 1
+    return False
 
 
 def _exists(path):

@@ -263,11 +263,21 @@ def _stop_if_pending():
 
 
 def _close(client, cluster):
+    """Close the client, then the LocalCluster (if ours), with dask's loggers silent meanwhile: a scheduler
+    still reporting on cancelled tasks logs each message to the closed client as CRITICAL, with a traceback."""
+    quiet = {name: logging.getLogger(name).level for name in list(logging.root.manager.loggerDict)
+             if name == "distributed" or name.startswith("distributed.")}
+    for name in quiet:
+        logging.getLogger(name).setLevel(logging.CRITICAL + 1)
     try:
-        client.close()
+        try:
+            client.close()
+        finally:
+            if cluster is not None:
+                cluster.close()
     finally:
-        if cluster is not None:
-            cluster.close()
+        for name, level in quiet.items():
+            logging.getLogger(name).setLevel(level)
 
 
 def grid_point(entry):
