@@ -65,10 +65,11 @@ class Interrupted(KeyboardInterrupt):
 
 
 def exact(value):
-    """A number as text that never rounds it onto a bound: ``%g`` when that reads back as the same float,
-    else the shortest round-trip form (``repr``): 0.2 -> '0.2', 0.2000001 -> '0.2000001', 1e-320 -> '1e-320'."""
+    """A number as text that never rounds it onto a bound: the shorter of ``%g`` and ``repr`` that reads back
+    as the same float (``%g`` on a tie): 0.2 -> '0.2', 2.0 -> '2', 0.2000001 -> '0.2000001', 1e-320 -> '1e-320'."""
     try:
-        short = f"{value:g}"
-        return short if float(short) == float(value) else repr(float(value))
+        value = float(value)
     except (TypeError, ValueError):
         return repr(value)
+    forms = [text for text in (f"{value:g}", repr(value)) if float(text) == value or value != value]
+    return min(forms, key=len)

@@ -62,7 +62,7 @@ def run(args):
         try:
             load_scene(args.fmu_scene)          # every option checked before the long benchmark starts
         except UserError as exc:
-            raise FieldError("fmu_scene", str(exc).split(": ", 1)[-1]) from None
+            raise FieldError("fmu_scene", str(exc)) from None
     if args.report:
         check_output_path(args.report, field="report")
     check_output_dir(out)

@@ -228,7 +228,8 @@ def check_vary(scene, texts, model):
                 from ..errors import exact
                 raise FieldError("vary", f"{r.name} bound {exact(bound)} is below the smallest normal number "
                                          f"{sys.float_info.min:.4g}, where doubles lose their precision (allowed: "
-                                         f"{r.name} = 0 or |{r.name}| >= {sys.float_info.min:.4g})")
+                                         f"{'' if r.name == 'c' else r.name + ' = 0 or '}{r.name} >= "
+                                         f"{sys.float_info.min:.4g})")
     if get_model(model).basis_kind not in ("density", "energy"):
         raise FieldError("model", f"{model} cannot be made parametric (allowed with --vary: frozen, exact)")
     par.parameter_space(build_problem(scene), ranges)
