@@ -1,4 +1,4 @@
-"""The C test driver on the resources of port and parametric FMUs (issue 25).
+"""The C test driver on the resources of port and parametric FMUs.
 
 Its state-parameter scenario assumed a model without c, d or ports: the parameter block read at a fixed offset
 from the end (ports follow it), c and d expected 0 (a parametric model starts at its start values), every

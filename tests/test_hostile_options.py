@@ -1,4 +1,5 @@
-"""Hostile options: each case of issue 25 that gave a traceback or was accepted without a word.
+"""Hostile options: each case that gave a traceback or was accepted without a word (a hostile-input battery
+found them).
 
 Every one is now exit 2, exactly one line naming the option and what is allowed, no traceback, no output file
 (and no numpy RuntimeWarning before the line).

@@ -1,7 +1,7 @@
 """Signals: every command answers SIGINT and SIGTERM with one line and exit status 128 + the signal, and says
 "no output written" only when that is true.
 
-Issue 25 found: SIGINT during the first second of any command (the command line's imports) printed a
+A hostile-input battery found: SIGINT during the first second of any command (the command line's imports) printed a
 KeyboardInterrupt traceback, SIGTERM there died silently with -15; raised inside an import the exception broke
 numpy's import; SIGINT to a running sweep was lost (an "Exception ignored" line, exit 0 with the full output)
 or printed "no output written" while out.h5 and out.csv existed; a signal while the dask cluster started left

@@ -1,4 +1,4 @@
-"""A battery of hostile inputs (issue 25): every command's options, scenes, output paths, mutated FMU resources
+"""A battery of hostile inputs: every command's options, scenes, output paths, mutated FMU resources
 and states, FMI calls out of order, and signals at random moments of every long command.
 
     python3 -m harness.bench.hostile [--out validation/hostile] [--seed 25] [--jobs 2] [--quick]
@@ -410,14 +410,14 @@ def _options(command):
     return out
 
 
-def _with_option(args, option, values):
-    """``args`` with ``option`` set to ``values`` (replacing a value it had; a flag appended)."""
+def _with_option(args, flag, values):
+    """``args`` with the option string ``flag`` set to ``values`` (replacing a value it had)."""
     args = list(args)
-    if option in args:
-        i = args.index(option)
+    if flag in args:
+        i = args.index(flag)
         takes = i + 1 < len(args) and not args[i + 1].startswith("--")
         del args[i:i + 1 + takes]
-    return args + [option, *values]
+    return args + [flag, *values]
 
 
 def option_cases(ws, rng, per_option):

@@ -42,11 +42,11 @@ def run(args):
     sizes, steps = args.n_particles, args.step
     scene = load_scene(args.scene)
     if not args.core_only:
-        from ..errors import UserError
+        from ..errors import UserError, exact
         from ..fmu.cosim import MAX_COMM_STEPS
         for h in steps:                 # each step runs the scene's horizon T through fmpy
             if h > scene.T or scene.T / h > MAX_COMM_STEPS:
-                raise UserError(f"--step: {h:g} is out of range (allowed: T / 1e8 = {scene.T / MAX_COMM_STEPS:g} s "
+                raise UserError(f"--step: {exact(h)} is out of range (allowed: T / 1e8 = {scene.T / MAX_COMM_STEPS:g} s "
                                 f"<= step <= T = {scene.T:g} s, at most 1e8 communication steps)")
     from ..runio import check_output_dir, output_dir
     out = check_output_dir(args.out) if args.out else None

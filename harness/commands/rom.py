@@ -48,7 +48,7 @@ def add_parser(sub):
 def run(args):
     from ..cache import cached_sph
     from ..compare import error_table, exact_errors, format_errors
-    from ..errors import UserError
+    from ..errors import UserError, exact
     from ..pod.io import read_basis
     from ..pod.pipeline import error_steps, on_steps
     from ..rom.registry import get_model
@@ -71,7 +71,8 @@ def run(args):
         raise UserError(f"--basis: '{args.basis}' has {basis.U_v.shape[0]} particles, the scene "
                         f"{scene.sph.n_particles}")
     if abs(basis.dt - scene.sph.dt) > 1e-15 * scene.sph.dt:
-        raise UserError(f"--basis: '{args.basis}' was made with dt = {basis.dt:g} s, the scene has {scene.sph.dt:g} s")
+        raise UserError(f"--basis: '{args.basis}' was made with dt = {exact(basis.dt)} s, the scene has "
+                        f"{exact(scene.sph.dt)} s")
     integrator = args.integrator or (model.integrators[0] if model.linear else scene.sph.integrator)
     if integrator not in model.integrators:
         raise UserError(f"--integrator: {integrator} is not defined for the {model.name} model "

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import FieldError, SimulationError, UserError
+from ..errors import FieldError, SimulationError, UserError, exact
 from ..paths import is_file
 
 
@@ -245,7 +245,8 @@ def check_coverage(signal, path, start, t_end):
         raise FieldError("force", f"'{path}' has only negative times (last {times[-1]:g} s) {allowed}")
     tol = 1e-12 * max(1.0, abs(t_end))
     if times[0] > start + tol or times[-1] < t_end - tol:
-        raise FieldError("force", f"'{path}' covers [{times[0]:g}, {times[-1]:g}] s, not [{start:g}, {t_end:g}] s "
+        raise FieldError("force", f"'{path}' covers [{exact(times[0])}, {exact(times[-1])}] s, not [{exact(start)}, "
+                                  f"{exact(t_end)}] s "
                          f"{allowed}")
 
 
@@ -306,7 +307,7 @@ def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None, hold_inputs
     t_end = _positive(t_end, "t_end") or float(de.stopTime)
     step = _positive(step, "step") or float(de.stepSize)
     if step > t_end:
-        raise FieldError("step", f"{step:g} is out of range (allowed: 0 < step <= t_end = {t_end:g})")
+        raise FieldError("step", f"{exact(step)} is out of range (allowed: 0 < step <= t_end = {exact(t_end)})")
     ratio = t_end / step                # may be inf (t_end 1e308, step tiny): compared before int()
     if ratio > MAX_COMM_STEPS:
         raise FieldError("step", f"{step:g} gives {ratio:.3g} communication steps to t_end = {t_end:g} s "
