@@ -11,30 +11,9 @@ import warnings
 
 import pytest
 
-from conftest import small_scene
+from hostile_files import basis, fmu, scene  # noqa: F401 (fixtures)
 from harness.cli import main
 from harness.errors import exact
-
-
-@pytest.fixture(scope="module")
-def scene(tmp_path_factory):
-    path = tmp_path_factory.mktemp("scene") / "s.toml"
-    path.write_text(small_scene("damped_forced", T=0.2, n=32).text)
-    return path
-
-
-@pytest.fixture(scope="module")
-def basis(scene, tmp_path_factory):
-    out = tmp_path_factory.mktemp("basis") / "b.h5"
-    assert main(["pod", str(scene), "--out", str(out), "--quiet"]) == 0
-    return out
-
-
-@pytest.fixture(scope="module")
-def fmu(scene, tmp_path_factory):
-    out = tmp_path_factory.mktemp("fmu") / "f.fmu"
-    assert main(["fmu", str(scene), "--modes", "4", "--no-verify", "--out", str(out), "--quiet"]) == 0
-    return out
 
 
 def refused(capsys, argv, *words, out=None):

@@ -21,6 +21,7 @@ import pytest
 
 from conftest import small_scene
 from harness.cli import main
+from harness.bench.hostile import sphrom_catches_sigterm
 from harness.errors import Interrupted
 from harness.runio import atomic_path, atomic_paths
 from harness.signals import Guard, deferred, pending
@@ -28,17 +29,6 @@ from harness.sweep.table import read_results
 
 ROOT = Path(__file__).resolve().parents[1]
 ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
-
-
-def handled_by_sphrom(pid):
-    """Whether the process catches SIGTERM (Python alone does not): sphrom's own code is running."""
-    try:
-        for line in Path(f"/proc/{pid}/status").read_text().splitlines():
-            if line.startswith("SigCgt:"):
-                return bool(int(line.split()[1], 16) >> (signal.SIGTERM - 1) & 1)
-    except OSError:
-        pass
-    return False
 
 
 def spawn(args, cwd=ROOT):
@@ -50,7 +40,7 @@ def spawn(args, cwd=ROOT):
 def signal_after(proc, sig, delay, limit=60):
     """Send ``sig`` ``delay`` s after sphrom's handler is up; (returncode, stderr lines, whether it was alive)."""
     deadline = time.monotonic() + limit
-    while not handled_by_sphrom(proc.pid) and proc.poll() is None and time.monotonic() < deadline:
+    while not sphrom_catches_sigterm(proc.pid) and proc.poll() is None and time.monotonic() < deadline:
         time.sleep(0.001)
     time.sleep(delay)
     alive = proc.poll() is None
@@ -207,13 +197,26 @@ def check_interrupted_sweep(folder, code, lines, sig):
         assert len(rows) == kept == len(csv_rows) and attrs["complete"] == 0
 
 
+def copy_study(sweep_folder, folder):
+    for name in ("scene.toml", "spec.toml"):
+        (folder / name).write_text((sweep_folder / name).read_text())
+
+
+def interrupted_with_nothing_written(sweep_folder, folder, capsys):
+    """The study run in-process in a copy in ``folder``: exit 130, the one line, and nothing written."""
+    copy_study(sweep_folder, folder)
+    assert main(["sweep", str(folder / "spec.toml"), "--workers", "1", "--out", str(folder / "r.h5"),
+                 "--quiet"]) == 130
+    assert capsys.readouterr().err.strip().splitlines() == ["sphrom sweep: interrupted (SIGINT); no output written"]
+    assert sorted(p.name for p in folder.iterdir()) == ["scene.toml", "spec.toml"]
+
+
 @pytest.mark.skipif(not Path("/proc/self/status").exists(), reason="needs /proc (Linux)")
 @pytest.mark.parametrize("sig, delay", [(signal.SIGINT, 0.3), (signal.SIGINT, 1.5), (signal.SIGTERM, 2.5),
                                         (signal.SIGINT, 3.5)])
 def test_a_signal_at_a_moment_of_a_sweep(sweep_folder, tmp_path, sig, delay):
     """Before the cluster, while it starts, while the tasks run: always one line and the truth."""
-    for name in ("scene.toml", "spec.toml"):
-        (tmp_path / name).write_text((sweep_folder / name).read_text())
+    copy_study(sweep_folder, tmp_path)
     proc = spawn(["sweep", "spec.toml", "--workers", "1", "--out", str(tmp_path / "r.h5"), "--quiet"], cwd=tmp_path)
     code, lines, alive = signal_after(proc, sig, delay)
     if alive:
@@ -230,12 +233,7 @@ def test_a_signal_while_the_cluster_starts_is_held(sweep_folder, tmp_path, capsy
         signal.raise_signal(signal.SIGINT)
         return real(*args)
     monkeypatch.setattr(study, "connect", connect)
-    for name in ("scene.toml", "spec.toml"):
-        (tmp_path / name).write_text((sweep_folder / name).read_text())
-    assert main(["sweep", str(tmp_path / "spec.toml"), "--workers", "1", "--out", str(tmp_path / "r.h5"),
-                 "--quiet"]) == 130
-    assert capsys.readouterr().err.strip().splitlines() == ["sphrom sweep: interrupted (SIGINT); no output written"]
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["scene.toml", "spec.toml"]
+    interrupted_with_nothing_written(sweep_folder, tmp_path, capsys)
 
 
 def test_a_second_signal_during_the_final_write_leaves_no_half(sweep_folder, tmp_path, capsys, monkeypatch):
@@ -258,9 +256,4 @@ def test_a_second_signal_during_the_final_write_leaves_no_half(sweep_folder, tmp
         return real_h5(*args)
     monkeypatch.setattr(study, "input_row", input_row)
     monkeypatch.setattr(table, "_write_h5", write_h5)
-    for name in ("scene.toml", "spec.toml"):
-        (tmp_path / name).write_text((sweep_folder / name).read_text())
-    assert main(["sweep", str(tmp_path / "spec.toml"), "--workers", "1", "--out", str(tmp_path / "r.h5"),
-                 "--quiet"]) == 130
-    assert capsys.readouterr().err.strip().splitlines() == ["sphrom sweep: interrupted (SIGINT); no output written"]
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["scene.toml", "spec.toml"]
+    interrupted_with_nothing_written(sweep_folder, tmp_path, capsys)

@@ -214,7 +214,9 @@ def _snapshot(path: Path):
     return (stat.S_IFMT(st.st_mode), st.st_ino, st.st_rdev, digest)
 
 
-def _sphrom_catches_sigterm(pid):
+def sphrom_catches_sigterm(pid):
+    """Whether process ``pid`` catches SIGTERM (Python alone does not): sphrom's own code is running (Linux
+    /proc; False where it cannot tell)."""
     try:
         for line in Path(f"/proc/{pid}/status").read_text().splitlines():
             if line.startswith("SigCgt:"):
@@ -273,10 +275,10 @@ def run_case(case: Case, ws: Workspace, index: int) -> Result:
     if case.signal:
         if case.delay < 0:
             time.sleep(-case.delay)
-            early = not _sphrom_catches_sigterm(proc.pid)
+            early = not sphrom_catches_sigterm(proc.pid)
         else:
             deadline = time.monotonic() + 120
-            while not _sphrom_catches_sigterm(proc.pid) and proc.poll() is None and time.monotonic() < deadline:
+            while not sphrom_catches_sigterm(proc.pid) and proc.poll() is None and time.monotonic() < deadline:
                 time.sleep(0.001)
             time.sleep(case.delay)
         if proc.poll() is None:
