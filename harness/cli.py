@@ -89,7 +89,11 @@ def main(argv=None, restore_signals=None):
                 code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
             else:
                 guard.command = args.command
-                code = _run(parser, args)
+                import numpy as np
+                # a command checks its numbers and says what is wrong in one line; numpy's floating-point
+                # warnings (overflow in a square of 1e308, ...) printed before that line are noise
+                with np.errstate(all="ignore"):
+                    code = _run(parser, args)
             guard.raising = False                # from here a signal is only recorded
         except KeyboardInterrupt as exc:
             guard.raising = False

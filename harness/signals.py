@@ -98,15 +98,15 @@ class Guard:
 
     @contextlib.contextmanager
     def installed(self, restore=True):
-        """The guard as the handler of SIGINT (unless ignored: a job started with it ignored) and SIGTERM
-        (main thread only); the previous handlers back afterwards when ``restore``, else the guard stays
-        (``finished``) through the interpreter's shutdown."""
+        """The guard as the handler of SIGINT and SIGTERM, each unless ignored (main thread only); the
+        previous handlers back afterwards when ``restore``, else the guard stays (``finished``) through the
+        interpreter's shutdown."""
         if threading.current_thread() is not threading.main_thread():
             yield self
             return
         previous = {sig: signal.getsignal(sig) for sig in SIGNALS}
         for sig, handler in previous.items():
-            if not (sig == signal.SIGINT and handler is signal.SIG_IGN):
+            if handler is not signal.SIG_IGN:          # a job started with the signal ignored keeps it so
                 signal.signal(sig, self)
         try:
             yield self

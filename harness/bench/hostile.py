@@ -240,6 +240,11 @@ def _nan_in_output(path: Path):
                               and obj.dtype.kind == "f" and not np.all(np.isfinite(obj[()])) else None)
             return bool(bad)
         if path.suffix == ".csv":
+            if _nan_in_output(path.with_suffix(".h5")) is False and path.with_suffix(".h5").is_file():
+                import h5py
+                with h5py.File(path.with_suffix(".h5"), "r") as h5:
+                    if h5.attrs.get("format") == "sphrom-sweep":
+                        return False             # its CSV: the same table
             with open(path, newline="") as fh:
                 rows = list(csv.reader(fh))
             for row in rows[1:]:
@@ -431,8 +436,11 @@ def option_cases(ws, rng, per_option):
         for option, action in _options(command):
             if option == "--out":
                 continue                          # the path cases below
+            long = command in LONG_COMMANDS
+            if long and action.nargs != 0 and action.type is None:
+                continue                          # any text is valid there: the command would run for hours
             if action.nargs == 0:                 # a flag: given a value, or given twice
-                picks = [rng.choice([["=1"], ["twice"]])]
+                picks = [["=1"]] if long else [rng.choice([["=1"], ["twice"]])]
             else:                                 # hostile values; a third of the options also without a value
                 picks = [[v] for v in rng.sample(values, min(per_option, len(values)))]
                 picks += [rng.choice([["<missing>"], ["<dup>"]])] if rng.random() < 0.35 else []
@@ -539,42 +547,54 @@ def scene_cases(ws, rng, count):
     return cases
 
 
+def running_span(ws, command, args):
+    """Seconds from sphrom's handler being up to the end of an undisturbed run of ``command`` (a signal at a
+    random moment inside it lands while the command works)."""
+    folder = Path(tempfile.mkdtemp(prefix="span-", dir=ws.root))
+    (folder / "a").mkdir()
+    proc = subprocess.Popen([sys.executable, "-m", "harness", command, *args], cwd=folder / "a", env=ws.env,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    while not sphrom_catches_sigterm(proc.pid) and proc.poll() is None:
+        time.sleep(0.001)
+    start = time.monotonic()
+    proc.wait()
+    shutil.rmtree(folder, ignore_errors=True)
+    return time.monotonic() - start
+
+
 def signal_cases(ws, rng, sweeps, per_command):
-    """Signals at random moments of every long command (the delay counts from sphrom's handler being up), a
-    few in the interpreter's start-up; ``sweeps`` SIGINTs of a sweep."""
+    """Signals at random moments of every long command: uniform over the run (its span measured once here, from
+    sphrom's handler being up to the end), and a few in the interpreter's start-up; ``sweeps`` SIGINTs of a
+    sweep."""
     root = ws.root
-    (root / "long.toml").write_text(small_scene_text(T=16.0, n=64, every=500))        # sph: ~8 s here
-    (root / "ref.toml").write_text(small_scene_text(T=8.0, n=64, every=500))          # reference fd: ~8 s
-    cases = []
-    for i in range(sweeps):
-        cases.append(Case("signals", "sweep", ["../../spec_long.toml", "--workers", "2", "--out", "r.h5", "--quiet"],
-                          ["r.h5", "r.csv"], signal=signal.SIGINT, delay=rng.uniform(0, 9.0), timeout=240.0,
-                          note="SIGINT, sweep"))
-    for i in range(2):
-        cases.append(Case("signals", "sweep", ["../../spec_long.toml", "--workers", "2", "--out", "r.h5", "--quiet"],
-                          ["r.h5", "r.csv"], signal=signal.SIGTERM, delay=rng.uniform(0, 9.0), timeout=240.0,
-                          note="SIGTERM, sweep"))
+    (root / "long.toml").write_text(small_scene_text(T=16.0, n=64, every=500))
+    (root / "ref.toml").write_text(small_scene_text(T=8.0, n=64, every=500))
+    (root / "scenes").mkdir(exist_ok=True)
 
     def variant(tag):
         """A scene of its own per case (another T by 1e-9): nothing is taken from the cache."""
         path = root / "scenes" / f"long-{tag}.toml"
-        path.parent.mkdir(exist_ok=True)
         path.write_text(small_scene_text(T=4.0 + rng.randrange(1, 10**6) * 1e-9, n=64, every=500))
         return f"../../scenes/{path.name}"
 
-    for i in range(per_command):
-        sig = (signal.SIGINT, signal.SIGTERM)[i % 2]
-        tag = f"{i}"
-        plans = [
-            ("sph", ["../../long.toml", "--out", "o.h5", "--quiet"], ["o.h5"], 7.0),
-            ("pod", [variant("p" + tag), "--out", "o.h5", "--quiet"], ["o.h5"], 3.5),
-            ("fmu", [variant("f" + tag), "--modes", "4", "--out", "o.fmu", "--quiet"], ["o.fmu"], 7.0),
-            ("cosim", ["../../f2.fmu", "--t-end", "120", "--step", "0.001", "--out", "o.csv"], ["o.csv"], 5.0),
-            ("reference", ["../../ref.toml", "--solver", "fd", "--out", "o.h5", "--quiet"], ["o.h5"], 7.0),
-        ]
-        for command, args, outputs, span in plans:
-            cases.append(Case("signals", command, args, outputs, signal=sig, delay=rng.uniform(0, span),
-                              timeout=240.0, note=f"{signal.Signals(sig).name}, {command}"))
+    plans = {
+        "sweep": (lambda tag: ["../../spec_long.toml", "--workers", "2", "--out", "r.h5", "--quiet"], ["r.h5", "r.csv"]),
+        "sph": (lambda tag: ["../../long.toml", "--out", "o.h5", "--quiet"], ["o.h5"]),
+        "pod": (lambda tag: [variant("p" + tag), "--out", "o.h5", "--quiet"], ["o.h5"]),
+        "fmu": (lambda tag: [variant("f" + tag), "--modes", "4", "--out", "o.fmu", "--quiet"], ["o.fmu"]),
+        "cosim": (lambda tag: ["../../f2.fmu", "--t-end", "120", "--step", "0.001", "--out", "o.csv"], ["o.csv"]),
+        "reference": (lambda tag: ["../../ref.toml", "--solver", "fd", "--out", "o.h5", "--quiet"], ["o.h5"]),
+    }
+    spans = {command: running_span(ws, command, make("span")) for command, (make, _) in plans.items()}
+    cases = []
+    counts = {"sweep": [(signal.SIGINT, sweeps), (signal.SIGTERM, 2)]}
+    for command, (make, outputs) in plans.items():
+        for sig, n in counts.get(command, [(signal.SIGINT, (per_command + 1) // 2),
+                                           (signal.SIGTERM, per_command // 2)]):
+            for i in range(n):
+                cases.append(Case("signals", command, make(f"{sig}-{i}"), outputs, signal=sig,
+                                  delay=rng.uniform(0, 0.9 * spans[command]), timeout=240.0,
+                                  note=f"{signal.Signals(sig).name}, {command} (runs {spans[command]:.1f} s)"))
     for i in range(4):                 # the interpreter's own start-up: reported apart
         sig = (signal.SIGINT, signal.SIGTERM)[i % 2]
         cases.append(Case("signals", "scenes", [], [], signal=sig, delay=-rng.uniform(0.0, 0.08), timeout=60.0,
@@ -885,7 +905,8 @@ def zipfile_read(path, name):
 # the battery
 # ---------------------------------------------------------------------------
 
-def run_battery(out: Path, seed=25, jobs=2, quick=False, workdir=None, log=print):
+def run_battery(out: Path, seed=25, jobs=2, quick=False, workdir=None, log=print,
+                command="python3 -m harness.bench.hostile"):
     rng = random.Random(seed)
     root = Path(workdir or tempfile.mkdtemp(prefix="sphrom-hostile-"))
     t0 = time.monotonic()
@@ -913,7 +934,7 @@ def run_battery(out: Path, seed=25, jobs=2, quick=False, workdir=None, log=print
     results += fmu_cases(ws, rng, n_resources=int(1000 * scale), n_states=int(900 * scale),
                          n_sequences=int(600 * scale))
     wall = time.monotonic() - t0
-    write_results(out, results, wall, seed)
+    write_results(out, results, wall, seed, command)
     return results, wall, root
 
 
@@ -924,7 +945,7 @@ def counts(results):
     return table
 
 
-def write_results(out: Path, results, wall, seed):
+def write_results(out: Path, results, wall, seed, command="python3 -m harness.bench.hostile"):
     from .tables import write_csv
     out.mkdir(parents=True, exist_ok=True)
     rows = [{"category": r.case.category, "command": r.case.command, "args": " ".join(r.case.args)[:400],
@@ -938,7 +959,37 @@ def write_results(out: Path, results, wall, seed):
     total = {o: sum(by[o] for by in table.values()) for o in OUTCOMES}
     count_rows.append({"category": "all", **total})
     write_csv(out / "hostile_counts.csv", count_rows)
+    write_readme(out, results, table, total, wall, seed, command)
     return total
+
+
+def write_readme(out, results, table, total, wall, seed, command):
+    """README.md beside the CSV files: what the battery does, its counts and every case off target."""
+    from ..report.markdown import table as md_table
+    from ..report.markdown import write_text
+    lines = ["# Hostile-input battery", "",
+             f"Written by `{command}` (seed {seed}, {len(results)} cases, {wall / 60:.0f} min on the machine "
+             "that ran it); every case and its outcome: `hostile.csv`.  What each outcome means: the docstring of "
+             "`harness/bench/hostile.py`.", "", "## Counts by outcome", ""]
+    shown = [o for o in OUTCOMES]
+    rows = [[cat] + [str(by[o]) for o in shown] + [str(sum(by.values()))] for cat, by in table.items()]
+    rows.append(["**all**"] + [f"**{total[o]}**" for o in shown] + [f"**{sum(total.values())}**"])
+    lines += md_table(["category"] + shown + ["cases"], rows)
+    bad = [r for r in results if r.outcome in BAD]
+    lines += ["## Cases off target", ""]
+    if not bad:
+        lines += ["None: no traceback, hang, silent wrong result, replaced file, temporary left behind or "
+                  "unclear error.", ""]
+    else:
+        lines += md_table(["outcome", "category", "command", "case", "detail"],
+                          [[r.outcome, r.case.category, r.case.command, r.case.note.replace("|", "/"),
+                            r.detail.replace("|", "/")[:160]] for r in bad])
+    outside = [r for r in results if r.outcome == "outside sphrom"]
+    if outside:
+        lines += [f"{len(outside)} signals reached the process before the interpreter ran sphrom's first line "
+                  "(its start-up, where Python's own default handlers act) or after it restored the default "
+                  "handlers while exiting: counted apart, nothing a program can catch there.", ""]
+    write_text(out / "README.md", "\n".join(lines))
 
 
 def print_counts(results, wall, command):
@@ -970,7 +1021,7 @@ def main(argv=None):
         return 0
     command = "python3 -m harness.bench.hostile " + " ".join(argv if argv is not None else sys.argv[1:])
     results, wall, root = run_battery(Path(args.out), seed=args.seed, jobs=args.jobs, quick=args.quick,
-                                      workdir=args.workdir)
+                                      workdir=args.workdir, command=command.strip())
     print_counts(results, wall, command.strip())
     print(f"wrote {Path(args.out) / 'hostile.csv'} and {Path(args.out) / 'hostile_counts.csv'}; failed cases' "
           f"folders kept under {root / 'cases'}")

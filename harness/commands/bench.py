@@ -57,12 +57,11 @@ def run(args):
         print(f"redrew {out}/*_time_error.png from {out / 'bench.csv'}")
         return 0
     scenes = [load_scene(s) for s in (args.scenes or DEFAULT_SCENES)]
-    if not args.no_fmu:
-        from ..errors import FieldError
-        try:
-            load_scene(args.fmu_scene)          # every option checked before the long benchmark starts
-        except UserError as exc:
-            raise FieldError("fmu_scene", str(exc)) from None
+    from ..errors import FieldError
+    try:
+        load_scene(args.fmu_scene)              # every option checked before the long benchmark starts
+    except UserError as exc:
+        raise FieldError("fmu_scene", str(exc)) from None
     if args.report:
         check_output_path(args.report, field="report")
     check_output_dir(out)
