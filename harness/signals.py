@@ -3,11 +3,13 @@ was written.
 
 The command line (:func:`harness.cli.main`) installs a :class:`Guard` as the handler of both signals before
 anything else.  The guard raises :class:`~harness.errors.Interrupted` in the main thread and remembers the
-signal: an exception raised inside a finaliser or a callback (h5py, dask, zipfile) is printed by Python as
-"Exception ignored" and lost, but the guard still knows, so the next output is not committed
-(:func:`harness.runio.atomic_path` checks :func:`pending` before its rename) and the command exits 128 + the
-signal when it returns.  The guard also lists the outputs committed, so the one-line message says what was
-written before the signal ("no output written" only when that is true).
+signal: an exception raised inside a finaliser or a callback (h5py, dask, zipfile) is lost (Python would print
+it as "Exception ignored"; the guard keeps that report quiet), but the guard still knows, so the next output is
+not committed (:func:`harness.runio.atomic_path` checks :func:`pending` before its rename) and the command
+exits 128 + the signal when it returns.  Raised inside an import, the exception would break the import (numpy's
+C extension reports a failed import): there the guard delivers the signal again once the import is done.  The
+guard also lists the outputs committed, so the one-line message says what was written before the signal ("no
+output written" only when that is true).
 
 :func:`deferred` holds both signals while a block runs (an HDF5 write, a rename, a cluster start) and
 delivers them to the previous handler when it ends.  Only the main thread can set handlers; elsewhere
@@ -53,6 +55,7 @@ class Guard:
         self.finished = False
         self.command = None
         self._retrying = set()
+        self._previous_hook = None
 
     def __call__(self, signum, frame):
         if signum in self._retrying:         # the same signal, delivered again after an import
@@ -108,15 +111,25 @@ class Guard:
         for sig, handler in previous.items():
             if handler is not signal.SIG_IGN:          # a job started with the signal ignored keeps it so
                 signal.signal(sig, self)
+        hook = self._previous_hook = sys.unraisablehook
+        sys.unraisablehook = self._unraisable
         try:
             yield self
         finally:
             self.raising = False
             if restore:
+                sys.unraisablehook = hook
                 for sig, handler in previous.items():
                     signal.signal(sig, handler if handler is not None else signal.SIG_DFL)
             else:
                 self.finished = True
+
+    def _unraisable(self, unraisable):
+        """Python's report of an exception a finaliser could not raise: silent for the guard's own Interrupted
+        (the guard acts on that signal: :attr:`pending`), the default report for anything else."""
+        if isinstance(unraisable.exc_value, Interrupted) and unraisable.exc_value.signum in self.received:
+            return
+        (self._previous_hook or sys.__unraisablehook__)(unraisable)
 
 
 def _inside_import(frame, depth=400):

@@ -17,7 +17,6 @@ from pathlib import Path
 
 import pytest
 
-from hostile_files import basis, fmu, scene  # noqa: F401 (fixtures)
 from harness.cli import main
 from harness.runio import atomic_path, check_output_path
 
@@ -49,22 +48,22 @@ class Reader(threading.Thread):
             self.data = fh.read()
 
 
-def command_args(name, scene, basis, fmu, out):
+def command_args(name, hostile_scene, hostile_basis, hostile_fmu, out):
     """The arguments of ``name`` on the small scene, writing ``out``."""
-    args = {"sph": ["sph", str(scene)], "pod": ["pod", str(scene)],
-            "rom": ["rom", str(scene), "--basis", str(basis), "--model", "frozen"],
-            "reference": ["reference", str(scene), "--solver", "exact"],
-            "fmu": ["fmu", str(scene), "--modes", "4", "--no-verify"],
-            "cosim": ["cosim", str(fmu)]}[name]
+    args = {"sph": ["sph", str(hostile_scene)], "pod": ["pod", str(hostile_scene)],
+            "rom": ["rom", str(hostile_scene), "--basis", str(hostile_basis), "--model", "frozen"],
+            "reference": ["reference", str(hostile_scene), "--solver", "exact"],
+            "fmu": ["fmu", str(hostile_scene), "--modes", "4", "--no-verify"],
+            "cosim": ["cosim", str(hostile_fmu)]}[name]
     return args + ["--out", str(out)] + ([] if name == "cosim" else ["--quiet"])
 
 
 @pytest.mark.parametrize("command", ["sph", "pod", "rom", "reference", "fmu", "cosim"])
-def test_a_fifo_gets_the_output_and_stays_a_fifo(command, scene, basis, fmu, tmp_path, capsys):
+def test_a_fifo_gets_the_output_and_stays_a_fifo(command, hostile_scene, hostile_basis, hostile_fmu, tmp_path, capsys):
     fifo = tmp_path / ("out.fmu" if command == "fmu" else "out.csv" if command == "cosim" else "out.h5")
     os.mkfifo(fifo)
     reader = Reader(fifo)
-    assert main(command_args(command, scene, basis, fmu, fifo)) == 0, capsys.readouterr().err
+    assert main(command_args(command, hostile_scene, hostile_basis, hostile_fmu, fifo)) == 0, capsys.readouterr().err
     reader.join(60)
     assert stat.S_ISFIFO(os.stat(fifo).st_mode)                # still a FIFO
     magic = {".h5": b"\x89HDF", ".fmu": b"PK\x03\x04", ".csv": b"time,"}[fifo.suffix]
@@ -72,12 +71,12 @@ def test_a_fifo_gets_the_output_and_stays_a_fifo(command, scene, basis, fmu, tmp
     assert listing(tmp_path) == [fifo.name]                      # no temporary left beside it
 
 
-def test_a_fifo_nobody_reads_is_refused_after_a_bounded_wait(scene, tmp_path, capsys, monkeypatch):
+def test_a_fifo_nobody_reads_is_refused_after_a_bounded_wait(hostile_scene, tmp_path, capsys, monkeypatch):
     import harness.runio as runio
     monkeypatch.setattr(runio, "FIFO_WAIT_S", 0.3)
     fifo = tmp_path / "out.h5"
     os.mkfifo(fifo)
-    assert main(["sph", str(scene), "--out", str(fifo), "--quiet"]) == 2
+    assert main(["sph", str(hostile_scene), "--out", str(fifo), "--quiet"]) == 2
     one_line(capsys, "--out", "no process opened the FIFO", "nothing was written")
     assert stat.S_ISFIFO(os.stat(fifo).st_mode) and listing(tmp_path) == ["out.h5"]
 
@@ -96,54 +95,54 @@ def device(tmp_path, name, minor):
     return path
 
 
-def test_dev_null_is_written_into_and_stays_a_device(scene, tmp_path, capsys):
+def test_dev_null_is_written_into_and_stays_a_device(hostile_scene, tmp_path, capsys):
     null = device(tmp_path, "null", 3)
     before = os.stat(null)
-    assert main(["sph", str(scene), "--out", str(null), "--quiet"]) == 0
+    assert main(["sph", str(hostile_scene), "--out", str(null), "--quiet"]) == 0
     after = os.stat(null)
     assert stat.S_ISCHR(after.st_mode) and after.st_rdev == before.st_rdev and after.st_ino == before.st_ino
     assert "wrote" in capsys.readouterr().out
 
 
-def test_dev_full_is_one_line_and_stays_a_device(scene, tmp_path, capsys):
+def test_dev_full_is_one_line_and_stays_a_device(hostile_scene, tmp_path, capsys):
     full = device(tmp_path, "full", 7)
     before = os.stat(full)
-    assert main(["sph", str(scene), "--out", str(full), "--quiet"]) == 2
+    assert main(["sph", str(hostile_scene), "--out", str(full), "--quiet"]) == 2
     one_line(capsys, "--out", "cannot write into", "No space left on device")
     after = os.stat(full)
     assert stat.S_ISCHR(after.st_mode) and after.st_ino == before.st_ino
 
 
-def test_a_link_to_a_file_stays_a_link(scene, tmp_path, capsys):
+def test_a_link_to_a_file_stays_a_link(hostile_scene, tmp_path, capsys):
     target = tmp_path / "real.h5"
     target.write_bytes(b"old")
     link = tmp_path / "link.h5"
     link.symlink_to(target)
-    assert main(["sph", str(scene), "--out", str(link), "--quiet"]) == 0
+    assert main(["sph", str(hostile_scene), "--out", str(link), "--quiet"]) == 0
     assert link.is_symlink() and target.read_bytes().startswith(b"\x89HDF")
     assert listing(tmp_path) == ["link.h5", "real.h5"]
 
 
 @pytest.mark.parametrize("suffix, expect", [("/", "names a folder"), ("/x.h5/", "names a folder"),
                                             ("/x.h5/.", "names a folder"), ("/x.h5/..", "names a folder")])
-def test_a_trailing_slash_is_a_folder_never_a_file(scene, tmp_path, capsys, suffix, expect):
+def test_a_trailing_slash_is_a_folder_never_a_file(hostile_scene, tmp_path, capsys, suffix, expect):
     folder = tmp_path / "d"
     folder.mkdir()
-    assert main(["sph", str(scene), "--out", f"{folder}{suffix}", "--quiet"]) == 2
+    assert main(["sph", str(hostile_scene), "--out", f"{folder}{suffix}", "--quiet"]) == 2
     one_line(capsys, "--out", expect)
     assert listing(folder) == []
 
 
-def test_a_folder_a_socket_a_block_device_are_refused(scene, tmp_path, capsys):
+def test_a_folder_a_socket_a_block_device_are_refused(hostile_scene, tmp_path, capsys):
     folder = tmp_path / "d"
     folder.mkdir()
-    assert main(["sph", str(scene), "--out", str(folder), "--quiet"]) == 2
+    assert main(["sph", str(hostile_scene), "--out", str(folder), "--quiet"]) == 2
     one_line(capsys, "--out", "is a folder")
     sock_path = tmp_path / "s.h5"
     sock = socket.socket(socket.AF_UNIX)
     try:
         sock.bind(str(sock_path))
-        assert main(["sph", str(scene), "--out", str(sock_path), "--quiet"]) == 2
+        assert main(["sph", str(hostile_scene), "--out", str(sock_path), "--quiet"]) == 2
         one_line(capsys, "--out", "is a socket")
         assert stat.S_ISSOCK(os.stat(sock_path).st_mode)
     finally:
@@ -151,26 +150,26 @@ def test_a_folder_a_socket_a_block_device_are_refused(scene, tmp_path, capsys):
     if ROOT:
         block = tmp_path / "loop.h5"
         os.mknod(block, 0o600 | stat.S_IFBLK, os.makedev(7, 200))
-        assert main(["sph", str(scene), "--out", str(block), "--quiet"]) == 2
+        assert main(["sph", str(hostile_scene), "--out", str(block), "--quiet"]) == 2
         one_line(capsys, "--out", "is a block device")
         assert stat.S_ISBLK(os.stat(block).st_mode)
 
 
 @pytest.mark.parametrize("command", ["sph", "fmu", "cosim"])
 @pytest.mark.parametrize("folder", ["/proc", "/sys"])
-def test_a_folder_the_system_refuses(command, folder, scene, basis, fmu, capsys):
+def test_a_folder_the_system_refuses(command, folder, hostile_scene, hostile_basis, hostile_fmu, capsys):
     if not Path(folder).is_dir():
         pytest.skip(f"no {folder}")
     name = {"fmu": "x.fmu", "cosim": "x.csv"}.get(command, "x.h5")
-    assert main(command_args(command, scene, basis, fmu, f"{folder}/{name}")) == 2
+    assert main(command_args(command, hostile_scene, hostile_basis, hostile_fmu, f"{folder}/{name}")) == 2
     one_line(capsys, "--out", f"folder '{folder}'")
     assert not Path(folder, name).exists()
 
 
-def test_a_name_too_long_for_the_system(scene, tmp_path, capsys):
+def test_a_name_too_long_for_the_system(hostile_scene, tmp_path, capsys):
     for length in (300, 250):            # the name itself, or only its temporary, beyond 255 bytes
         out = tmp_path / ("a" * length + ".h5")
-        assert main(["sph", str(scene), "--out", str(out), "--quiet"]) == 2
+        assert main(["sph", str(hostile_scene), "--out", str(out), "--quiet"]) == 2
         one_line(capsys, "--out", "too long")
     assert listing(tmp_path) == []
 
@@ -213,9 +212,9 @@ def test_an_output_folder_that_is_a_file(argv, tmp_path, capsys):
     assert existing.read_bytes() == b"mine" and listing(tmp_path) == ["results"]
 
 
-def test_an_output_folder_made_for_a_run_that_failed_is_removed(scene, tmp_path, capsys):
+def test_an_output_folder_made_for_a_run_that_failed_is_removed(hostile_scene, tmp_path, capsys):
     out = tmp_path / "new" / "deeper"
-    assert main(["modes", str(scene), "--max-modes", "2", "--times", "999", "--out", str(out), "--quiet"]) == 2
+    assert main(["modes", str(hostile_scene), "--max-modes", "2", "--times", "999", "--out", str(out), "--quiet"]) == 2
     assert capsys.readouterr().err.count("\n") == 1
     assert listing(tmp_path) == []
 
@@ -256,9 +255,9 @@ def test_atomic_path_into_a_node_leaves_no_temporary(tmp_path):
     assert reader.data == b"payload" and not private.exists() and listing(tmp_path) == ["f"]
 
 
-def test_fmu_entries_are_readable_by_everyone(fmu):
+def test_fmu_entries_are_readable_by_everyone(hostile_fmu):
     """zipfile's writestr stores 0600: an FMU extracted by one user was unreadable to another."""
-    with zipfile.ZipFile(fmu) as zf:
+    with zipfile.ZipFile(hostile_fmu) as zf:
         for info in zf.infolist():
             mode = info.external_attr >> 16
             want = 0o755 if info.filename.startswith("binaries/") else 0o644

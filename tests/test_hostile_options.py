@@ -11,7 +11,6 @@ import warnings
 
 import pytest
 
-from hostile_files import basis, fmu, scene  # noqa: F401 (fixtures)
 from harness.cli import main
 from harness.errors import exact
 
@@ -33,69 +32,73 @@ def refused(capsys, argv, *words, out=None):
                                            (str(2**63), "at most 2^63 - 1"),
                                            (str(2**62), "allowed: 1 to 1000, the run's steps"),
                                            ("1001", "allowed: 1 to 1000")])
-def test_sph_every(scene, tmp_path, capsys, value, expect):
+def test_sph_every(hostile_scene, tmp_path, capsys, value, expect):
     """99999999999999999999 ran the whole simulation and failed in h5py (object dtype); 2^63 was accepted."""
     out = tmp_path / "o.h5"
-    refused(capsys, ["sph", str(scene), "--every", value, "--out", str(out), "--quiet"], "--every", expect, out=out)
-    assert main(["sph", str(scene), "--every", "1000", "--out", str(out), "--quiet"]) == 0     # all the steps
+    refused(capsys, ["sph", str(hostile_scene), "--every", value, "--out", str(out), "--quiet"], "--every", expect,
+            out=out)
+    assert main(["sph", str(hostile_scene), "--every", "1000", "--out", str(out), "--quiet"]) == 0     # all the steps
 
 
 @pytest.mark.parametrize("value", ["99999999999999999999", str(2**31)])
-def test_rom_n_freeze_beyond_the_fmu_integer(scene, basis, tmp_path, capsys, value):
+def test_rom_n_freeze_beyond_the_fmu_integer(hostile_scene, hostile_basis, tmp_path, capsys, value):
     """99999999999999999999 was a numba typing error; n_freeze is an FMI Integer (32 bits) everywhere."""
     out = tmp_path / "o.h5"
-    refused(capsys, ["rom", str(scene), "--basis", str(basis), "--model", "frozen", "--n-freeze", value,
+    refused(capsys, ["rom", str(hostile_scene), "--basis", str(hostile_basis), "--model", "frozen", "--n-freeze", value,
                      "--out", str(out), "--quiet"], "--n-freeze", "[1, 2147483647]", out=out)
 
 
 @pytest.mark.parametrize("step, expect", [("1e-12", "allowed: T / 1e+06"), ("1e-300", "1e-300 is out of range"),
                                           ("0.3", "step <= T = 0.2 s")])
-def test_rom_step_is_bounded(scene, basis, tmp_path, capsys, step, expect):
+def test_rom_step_is_bounded(hostile_scene, hostile_basis, tmp_path, capsys, step, expect):
     """--step 1e-12 asked for 1.46 TiB, 1e-300 was a ValueError; at most 1e6 communication steps now."""
     out = tmp_path / "o.h5"
-    refused(capsys, ["rom", str(scene), "--basis", str(basis), "--model", "exact", "--step", step, "--out", str(out),
-                     "--quiet"], "--step", expect, out=out)
-    refused(capsys, ["rom", str(scene), "--model", "balanced", "--modes", "4", "--step", step, "--out", str(out),
-                     "--quiet"], "--step", out=out)
+    refused(capsys, ["rom", str(hostile_scene), "--basis", str(hostile_basis), "--model", "exact", "--step", step,
+                     "--out", str(out), "--quiet"], "--step", expect, out=out)
+    refused(capsys, ["rom", str(hostile_scene), "--model", "balanced", "--modes", "4", "--step", step, "--out",
+                     str(out), "--quiet"], "--step", out=out)
 
 
-def test_rom_step_applies_to_linear_models_only(scene, basis, tmp_path, capsys):
+def test_rom_step_applies_to_linear_models_only(hostile_scene, hostile_basis, tmp_path, capsys):
     out = tmp_path / "o.h5"
-    refused(capsys, ["rom", str(scene), "--basis", str(basis), "--model", "frozen", "--step", "0.01", "--out",
-                     str(out), "--quiet"], "--step", "linear models", out=out)
+    refused(capsys, ["rom", str(hostile_scene), "--basis", str(hostile_basis), "--model", "frozen", "--step", "0.01",
+                     "--out", str(out), "--quiet"], "--step", "linear models", out=out)
 
 
 @pytest.mark.parametrize("probes, expect", [("0.5,0.5", "0.5 is given twice"), ("1.0", "1.0 in '1.0' is out of range"),
                                             ("0.25,1", "numbers in [0, 1)")])
-def test_fmu_probes_distinct_inside_the_period(scene, tmp_path, capsys, probes, expect):
+def test_fmu_probes_distinct_inside_the_period(hostile_scene, tmp_path, capsys, probes, expect):
     """x/L = 1 is x = 0 on the periodic bar (the FMU's probe rows wrap): the same output twice."""
     out = tmp_path / "o.fmu"
-    refused(capsys, ["fmu", str(scene), "--probes", probes, "--out", str(out), "--quiet"], "--probes", expect, out=out)
+    refused(capsys, ["fmu", str(hostile_scene), "--probes", probes, "--out", str(out), "--quiet"], "--probes", expect,
+            out=out)
 
 
 def test_sweep_probes_distinct_inside_the_period(tmp_path, capsys):
     spec = tmp_path / "spec.toml"
     for probes, expect in (("[0.5, 0.5]", "gives a position twice"), ("[1.0]", "in [0, 1)")):
-        spec.write_text(f'scene = "multimode"\nt_end = 0.1\nstep = 0.01\nprobes = {probes}\n[grid]\namplitude = [0.01]\n')
+        spec.write_text(f'scene = "multimode"\nt_end = 0.1\nstep = 0.01\nprobes = {probes}\n'
+                        '[grid]\namplitude = [0.01]\n')
         refused(capsys, ["sweep", str(spec), "--out", str(tmp_path / "r.h5"), "--quiet"], "probes", expect)
 
 
-def test_fmu_vary_subnormal(scene, tmp_path, capsys):
+def test_fmu_vary_subnormal(hostile_scene, tmp_path, capsys):
     """c = 1e-320 is a subnormal double (9.99989e-321): it keeps three of its sixteen digits."""
     out = tmp_path / "o.fmu"
-    refused(capsys, ["fmu", str(scene), "--vary", "c=1e-320:1e-300", "--out", str(out), "--quiet"], "--vary",
+    refused(capsys, ["fmu", str(hostile_scene), "--vary", "c=1e-320:1e-300", "--out", str(out), "--quiet"], "--vary",
             "1e-320", "smallest normal number", out=out)
 
 
-def test_fmu_ports_closer_than_a_particle_spacing(scene, tmp_path, capsys):
+def test_fmu_ports_closer_than_a_particle_spacing(hostile_scene, tmp_path, capsys):
     """Two ports 1e-11 L apart push the same particles with the same kernel weights: the second port's profile
     was inside the first one's span to 3e-10 and the model could not tell them apart."""
     out = tmp_path / "o.fmu"
-    line = refused(capsys, ["fmu", str(scene), "--model", "exact", "--ports", "0.3,0.30000000001", "--out", str(out),
-                            "--quiet"], "--ports", "0.3 and 0.30000000001", "1/N = 1/32 L", out=out)
+    line = refused(capsys, ["fmu", str(hostile_scene), "--model", "exact", "--ports", "0.3,0.30000000001", "--out",
+                            str(out), "--quiet"], "--ports", "0.3 and 0.30000000001", "1/N = 1/32 L", out=out)
     assert "kernel" in line
     # across the period's seam as well: 0.99 and 0.005 are 0.015 L apart, under 1/32
-    refused(capsys, ["fmu", str(scene), "--model", "exact", "--ports", "0.99,0.005", "--out", str(out), "--quiet"],
+    refused(capsys, ["fmu", str(hostile_scene), "--model", "exact", "--ports", "0.99,0.005", "--out", str(out),
+                     "--quiet"],
             "--ports", "closer than one particle spacing", out=out)
 
 
@@ -106,17 +109,18 @@ def test_fmu_ports_closer_than_a_particle_spacing(scene, tmp_path, capsys):
     ("time,f\n0,1,5\n0.2,2\n", "data row 1 has 3 values"),
     ("time,f\n0,1e308\n0.1,-1e308\n0.2,1e308\n", "its slope df/dt overflows"),
 ])
-def test_force_csv(fmu, tmp_path, capsys, text, expect):
+def test_force_csv(hostile_fmu, tmp_path, capsys, text, expect):
     csv = tmp_path / "force.csv"
     csv.write_text(text)
     out = tmp_path / "o.csv"
-    refused(capsys, ["cosim", str(fmu), "--force", str(csv), "--out", str(out)], "--force", expect, out=out)
-    refused(capsys, ["cosim", str(fmu), "--force", str(csv), "--hold-inputs", "--out", str(out)], "--force", out=out)
+    refused(capsys, ["cosim", str(hostile_fmu), "--force", str(csv), "--out", str(out)], "--force", expect, out=out)
+    refused(capsys, ["cosim", str(hostile_fmu), "--force", str(csv), "--hold-inputs", "--out", str(out)], "--force",
+            out=out)
 
 
-def test_force_expression_whose_slope_overflows(fmu, tmp_path, capsys):
+def test_force_expression_whose_slope_overflows(hostile_fmu, tmp_path, capsys):
     out = tmp_path / "o.csv"
-    refused(capsys, ["cosim", str(fmu), "--force", "1e308*(-1)**floor(t/0.01)", "--out", str(out)], "--force",
+    refused(capsys, ["cosim", str(hostile_fmu), "--force", "1e308*(-1)**floor(t/0.01)", "--out", str(out)], "--force",
             "slope df/dt overflows", out=out)
 
 
