@@ -77,6 +77,12 @@ _KINDS = {stat.S_IFREG: "file", stat.S_IFDIR: "folder", stat.S_IFCHR: "character
           stat.S_IFBLK: "block device", stat.S_IFSOCK: "socket"}
 
 
+def _shown(text, most=100):
+    """A path for a one-line message: long ones shortened in the middle."""
+    text = str(text)
+    return text if len(text) <= most else f"{text[:most // 2]}...{text[-most // 4:]}"
+
+
 def _field_of(path):
     """``cache`` for a path in the cache folder ($SPHROM_CACHE), else ``out``."""
     return "cache" if _in_cache(path) else "out"
@@ -127,9 +133,9 @@ def output_target(path, field="out"):
     except FileNotFoundError:
         st = None
     except NotADirectoryError:
-        raise FieldError(field, f"'{text}': a part of the path is not a folder") from None
+        raise FieldError(field, f"'{_shown(text)}': a part of the path is not a folder") from None
     except OSError as exc:
-        raise FieldError(field, f"'{text}': {exc.strerror or exc}") from None
+        raise FieldError(field, f"'{_shown(text)}': {exc.strerror or exc}") from None
     if st is not None and not stat.S_ISREG(st.st_mode):
         kind = _KINDS.get(stat.S_IFMT(st.st_mode), "special file")
         if kind in ("character device", "FIFO"):
