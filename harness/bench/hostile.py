@@ -4,8 +4,11 @@ and states, FMI calls out of order, and signals at random moments of every long 
     python3 -m harness.bench.hostile [--out validation/hostile] [--seed 25] [--jobs 2] [--quick]
 
 Each case runs in a process of its own (the command line through ``python -m harness`` of this checkout; the
-FMU cases in a child that loads the binaries through ctypes / fmpy, restarted after a crash) and gets one
-outcome:
+FMU cases in a child that loads the binaries through ctypes / fmpy, restarted after a crash:
+:mod:`harness.bench.hostile_fmu`) and gets one outcome.  The category "step bound" asks one doStep for the
+most work it can be given (an internal dt of 1e-12 s set as the parameter, carried by a state or by the
+resources, checksums recomputed; a communication step of 1e7 s): it must answer within 10 s, done or refused
+naming the limit.
 
 ok                    exit 0, its outputs present and finite
 clean error           exit 2, 3 or 4 with one line on stderr ("sphrom CMD: error: ..." / "failed: ..."; warning
@@ -620,10 +623,10 @@ def run_battery(out: Path, seed=25, jobs=2, quick=False, workdir=None, log=print
     log(f"workspace {root}: preparing scenes, a basis and FMUs ...")
     ws = prepare(root)
     scale = 0.3 if quick else 1.0
-    cases = (option_cases(ws, rng, per_option=max(1, int(2 * scale)))
+    cases = (option_cases(ws, rng, per_option=max(1, int(3 * scale)))
              + path_cases(ws, rng)
-             + scene_cases(ws, rng, int(40 * scale))
-             + signal_cases(ws, rng, sweeps=int(20 * scale) or 1, per_command=max(2, int(4 * scale))))
+             + scene_cases(ws, rng, int(60 * scale))
+             + signal_cases(ws, rng, sweeps=int(20 * scale) or 1, per_command=max(2, int(6 * scale))))
     log(f"{len(cases)} command-line cases ({jobs} at a time) ...")
     results = []
     signal_jobs = [c for c in cases if c.signal]
@@ -645,8 +648,8 @@ def run_battery(out: Path, seed=25, jobs=2, quick=False, workdir=None, log=print
         results.append(r)
     log("FMU resources, states and call sequences ...")
     from .hostile_fmu import fmu_cases
-    results += fmu_cases(ws, rng, n_resources=int(1000 * scale), n_states=int(900 * scale),
-                         n_sequences=int(600 * scale))
+    results += fmu_cases(ws, rng, n_resources=int(2000 * scale), n_states=int(1800 * scale),
+                         n_sequences=int(900 * scale))
     wall = time.monotonic() - t0
     write_results(out, results, wall, seed, command)
     return results, wall, root

@@ -212,6 +212,70 @@ def _child_sequences(unzipdir, cases, emit):
                 slave.close()
 
 
+# Byte offsets of the internal step dt: in a serialized state (fmu_src/rom_io.c ST_DT) and in resources/model.bin
+# (the header's first double, harness/fmu/resources.py).
+STATE_DT_AT, RESOURCE_DT_AT = 104, 48
+# The largest communication step tried and the time one doStep must answer in [s]
+STEP_BOUND_CASES = (("dt parameter", 1e-12, 0.01), ("dt parameter", 1e-9, 1.0), ("state dt", 1e-12, 0.01),
+                    ("resources dt", 1e-12, 0.01), ("communication step", None, 1e4), ("communication step", None, 1e7))
+
+
+def step_bound_cases(ws, fmu_names):
+    """The work of one doStep: a tiny internal dt (set as the parameter, carried by a state or by a resource file,
+    checksums recomputed) or a huge communication step must be answered (done, or refused naming the limit)
+    within the child's per-case time (10 s), FMI 2 and 3, frozen and exact."""
+    import shutil
+    from fmpy import extract
+    cases, labels = [], []
+    for name in fmu_names:
+        unzipdir = str(extract(str(ws[name]), unzipdir=str(ws.root / f"step-{name}")))
+        patched = ws.root / f"step-{name}-dt"
+        shutil.rmtree(patched, ignore_errors=True)
+        shutil.copytree(unzipdir, patched)
+        blob = bytearray((patched / "resources" / "model.bin").read_bytes())
+        blob[RESOURCE_DT_AT:RESOURCE_DT_AT + 8] = struct.pack("<d", 1e-12)
+        (patched / "resources" / "model.bin").write_bytes(_recrc(bytes(blob)))
+        for kind, dt, h in STEP_BOUND_CASES:
+            cases.append((kind, dt, h, str(patched) if kind == "resources dt" else unzipdir))
+            labels.append(f"{name}: {kind}" + (f" dt = {dt:g} s" if dt else "") + f", doStep h = {h:g} s")
+    return cases, labels
+
+
+def _child_step_bound(cases, emit):
+    import numpy as np
+    for i, (kind, dt, h, unzipdir) in enumerate(cases):
+        emit({"i": i, "start": True})
+        messages = []
+        try:
+            slave = _slave(unzipdir, messages)
+        except Exception as exc:
+            errors = [m for st, _, m in messages if st >= 3]
+            emit({"i": i, "outcome": "clean error" if errors else "unclear error",
+                  "detail": (errors[-1] if errors else str(exc))[:200]})
+            continue
+        try:
+            slave.initialize(dt=dt if kind == "dt parameter" else None)
+            if kind == "state dt":
+                state = slave.get_state()
+                blob = bytearray(slave.serialize(state))
+                slave.free_state(state)
+                blob[STATE_DT_AT:STATE_DT_AT + 8] = struct.pack("<d", dt)
+                slave.set_state(slave.deserialize(_recrc(bytes(blob))))
+            slave.set_input(0.01)
+            slave.do_step(slave.time(), h)
+            values = slave.output_values()
+            finite = bool(np.all(np.isfinite(values)))
+            emit({"i": i, "outcome": "ok" if finite else "silent wrong result",
+                  "detail": "done" if finite else "status OK, non-finite outputs"})
+        except Exception as exc:
+            errors = [m for st, _, m in messages if st >= 3]
+            emit({"i": i, "outcome": "clean error" if errors else "unclear error",
+                  "detail": (errors[-1] if errors else str(exc))[:200]})
+        finally:
+            with contextlib.suppress(Exception):
+                slave.close()
+
+
 def child_main(spec_path):
     spec = json.loads(Path(spec_path).read_text())
 
@@ -219,7 +283,9 @@ def child_main(spec_path):
         sys.stdout.write(json.dumps(record) + "\n")
         sys.stdout.flush()
     kind = spec["kind"]
-    if kind == "resources":
+    if kind == "step bound":
+        _child_step_bound(spec["cases"], emit)
+    elif kind == "resources":
         _child_resources(spec["core"], spec["cases"], emit)
     elif kind == "states":
         _child_states(spec["unzipdir"], spec["base"], spec["cases"], emit)
@@ -311,6 +377,8 @@ def fmu_cases(ws, rng, n_resources, n_states, n_sequences):
         seqs = [(rng.randrange(10**9), rng.randrange(3, 25)) for _ in range(n_sequences // 3)]
         results += run_children(ws, "sequences", {"unzipdir": unzipdir}, seqs,
                                 [f"{fmu_name}: seed {s}, {n} calls" for s, n in seqs], "call sequences")
+    cases, labels = step_bound_cases(ws, ("fmu2", "fmu3", "exact2"))
+    results += run_children(ws, "step bound", {}, cases, labels, "step bound", per_case_timeout=10.0)
     return results
 
 
