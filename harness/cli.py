@@ -76,36 +76,64 @@ def main(argv=None, restore_signals=None):
 
     SIGINT and SIGTERM are taken over first (:class:`harness.signals.Guard`): importing the commands takes
     a second.  ``restore_signals`` (default: when ``argv`` is given, i.e. called from Python) puts the
-    previous handlers back at the end; the program itself keeps the guard through the interpreter's
-    shutdown, where a signal ends the process with one line.
+    previous handlers back at the end and returns.  The program itself (``argv`` None) keeps the guard to
+    the end and does not return: once the command is done it runs the exit hooks and leaves
+    (:func:`_leave`), so that no moment of its life answers a signal with a silent death.
     """
+    restore = argv is not None if restore_signals is None else restore_signals
     guard = Guard()
-    with guard.installed(restore=argv is not None if restore_signals is None else restore_signals):
+    with guard.installed(restore=restore):
+        code = _guarded(guard, argv)
+    if not restore:
+        _leave(code)
+    return code
+
+
+def _guarded(guard, argv):
+    """Parse ``argv`` and run the command under ``guard``: its exit status, 128 + the signal when one came."""
+    try:
+        parser = build_parser()
         try:
-            parser = build_parser()
-            try:
-                args = parse(parser, argv)
-            except SystemExit as exc:            # argparse: --help, --version, a bad option (one line)
-                code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
-            else:
-                guard.command = args.command
-                import numpy as np
-                # a command checks its numbers and says what is wrong in one line; numpy's floating-point
-                # warnings (overflow in a square of 1e308, ...) printed before that line are noise
-                with np.errstate(all="ignore"):
-                    code = _run(parser, args)
-            guard.raising = False                # from here a signal is only recorded
-        except KeyboardInterrupt as exc:
-            guard.raising = False
-            signum = exc.signum if isinstance(exc, Interrupted) else signal.SIGINT
-            note = getattr(exc, "note", None) or guard.written_text()
-            print(interrupt_line(guard.command, signum, note), file=sys.stderr)
-            return 128 + int(signum)
-        if guard.pending:                        # a signal whose exception was lost (a finaliser swallowed it)
-            signum = guard.pending[0]
-            print(interrupt_line(guard.command, signum, guard.written_text()), file=sys.stderr)
-            return 128 + int(signum)
-        return code
+            args = parse(parser, argv)
+        except SystemExit as exc:            # argparse: --help, --version, a bad option (one line)
+            code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
+        else:
+            guard.command = args.command
+            import numpy as np
+            # a command checks its numbers and says what is wrong in one line; numpy's floating-point
+            # warnings (overflow in a square of 1e308, ...) printed before that line are noise
+            with np.errstate(all="ignore"):
+                code = _run(parser, args)
+        guard.raising = False                # from here a signal is only recorded
+    except KeyboardInterrupt as exc:
+        guard.raising = False
+        signum = exc.signum if isinstance(exc, Interrupted) else signal.SIGINT
+        note = getattr(exc, "note", None) or guard.written_text()
+        print(interrupt_line(guard.command, signum, note), file=sys.stderr)
+        return 128 + int(signum)
+    if guard.pending:                        # a signal whose exception was lost (a finaliser swallowed it)
+        signum = guard.pending[0]
+        print(interrupt_line(guard.command, signum, guard.written_text()), file=sys.stderr)
+        return 128 + int(signum)
+    return code
+
+
+def _leave(code):
+    """End the program with ``code`` once the command is done: flush, run the exit hooks (logging, dask's),
+    and exit without the interpreter's teardown of its modules.  That teardown took 150-300 ms here after
+    every output was written, and part of it runs with the default signal handlers back, where a signal
+    killed the process without a word; the guard stays installed until the very end instead."""
+    import atexit
+    import contextlib
+    import os
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(Exception):
+            stream.flush()
+    atexit._run_exitfuncs()
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(Exception):
+            stream.flush()
+    os._exit(code)
 
 
 def _run(parser, args):
