@@ -648,8 +648,10 @@ def run_battery(out: Path, seed=25, jobs=2, quick=False, workdir=None, log=print
         results.append(r)
     log("FMU resources, states and call sequences ...")
     from .hostile_fmu import fmu_cases
-    results += fmu_cases(ws, rng, n_resources=int(2000 * scale), n_states=int(1800 * scale),
-                         n_sequences=int(900 * scale))
+    results += [Result(Case(category, kind, [], note=label), outcome, detail, None, [], 0.0)
+                for category, kind, label, outcome, detail in
+                fmu_cases(ws, rng, n_resources=int(2000 * scale), n_states=int(1800 * scale),
+                          n_sequences=int(900 * scale))]
     wall = time.monotonic() - t0
     write_results(out, results, wall, seed, command)
     return results, wall, root

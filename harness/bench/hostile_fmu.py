@@ -22,8 +22,6 @@ import time
 import zlib
 from pathlib import Path
 
-from .hostile import Case, Result
-
 
 def _recrc(blob: bytes) -> bytes:
     return blob[:-4] + struct.pack("<I", zlib.crc32(blob[:-4]) & 0xFFFFFFFF)
@@ -295,7 +293,7 @@ def child_main(spec_path):
 
 def run_children(ws, kind, payload, cases, labels, category, per_case_timeout=20.0):
     """Run ``cases`` in child processes; a case in flight when the child crashes or stalls gets that outcome, and
-    a new child goes on from the next case."""
+    a new child goes on from the next case.  Returns (category, kind, label, outcome, detail) per case."""
     results = []
     start = 0
     while start < len(cases):
@@ -339,11 +337,7 @@ def run_children(ws, kind, payload, cases, labels, category, per_case_timeout=20
             raise RuntimeError(f"{kind} child failed to start: {stderr[-2000:]}")
         else:
             break
-    rows = []
-    for i, outcome, detail in sorted(results):
-        case = Case(category, kind, [], note=labels[i])
-        rows.append(Result(case, outcome, detail, None, [], 0.0))
-    return rows
+    return [(category, kind, labels[i], outcome, detail) for i, outcome, detail in sorted(results)]
 
 
 def fmu_cases(ws, rng, n_resources, n_states, n_sequences):

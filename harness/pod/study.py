@@ -155,8 +155,7 @@ def plot_sweep(sweep, path, paper_threshold=None):
     b.set_title(f"{sweep['scene']}: {sweep['strategy']}", fontsize=9)
     b.legend(fontsize=7)
     fig.tight_layout()
-    from ..runio import save_figure
-    save_figure(fig, path, dpi=100)
+    fig.savefig(path, dpi=100)
     plt.close(fig)
 
 
