@@ -91,13 +91,26 @@ def _child_resources(core_path, cases, emit):
             model.close()
 
 
+def verdict(emit, i, messages, outputs=None, exc=None, done=""):
+    """Emit case ``i``'s outcome: OK with ``outputs`` all finite, a silent wrong result when some are not; after
+    ``exc`` a clean error when the FMU logged why (``messages``: the Slave's log), else an unclear one."""
+    import numpy as np
+    if exc is None:
+        finite = bool(np.all(np.isfinite(outputs)))
+        emit({"i": i, "outcome": "ok" if finite else "silent wrong result",
+              "detail": done if finite else "status OK, non-finite outputs"})
+        return
+    errors = [m for status, _, m in messages if status >= 3]
+    emit({"i": i, "outcome": "clean error" if errors else "unclear error",
+          "detail": (errors[-1] if errors else f"error without a message ({exc})")[:200]})
+
+
 def _slave(unzipdir, messages):
     from ..fmu.fmi import Slave
     return Slave(unzipdir, messages=messages)
 
 
 def _child_states(unzipdir, base_hex, cases, emit):
-    import numpy as np
     from fmpy.fmi1 import FMICallException
     for i, (desc, hexblob, must_refuse) in enumerate(cases):
         emit({"i": i, "start": True})
@@ -124,13 +137,9 @@ def _child_states(unzipdir, base_hex, cases, emit):
                     slave.do_step(t, 0.01)
                     t += 0.01
                     outs.append(slave.output_values())
-                finite = bool(np.all(np.isfinite(outs)))
-                emit({"i": i, "outcome": "ok" if finite else "silent wrong result",
-                      "detail": "" if finite else "status OK, non-finite outputs"})
+                verdict(emit, i, messages, outputs=outs)
             except Exception as exc:
-                errors = [m for s, _, m in messages if s >= 3]
-                emit({"i": i, "outcome": "clean error" if errors else "unclear error",
-                      "detail": (errors[-1] if errors else f"error without a message ({exc})")[:200]})
+                verdict(emit, i, messages, exc=exc)
         finally:
             with contextlib.suppress(Exception):
                 slave.close()
@@ -240,7 +249,6 @@ def step_bound_cases(ws, fmu_names):
 
 
 def _child_step_bound(cases, emit):
-    import numpy as np
     for i, (kind, dt, h, unzipdir) in enumerate(cases):
         emit({"i": i, "start": True})
         messages = []
@@ -261,14 +269,9 @@ def _child_step_bound(cases, emit):
                 slave.set_state(slave.deserialize(_recrc(bytes(blob))))
             slave.set_input(0.01)
             slave.do_step(slave.time(), h)
-            values = slave.output_values()
-            finite = bool(np.all(np.isfinite(values)))
-            emit({"i": i, "outcome": "ok" if finite else "silent wrong result",
-                  "detail": "done" if finite else "status OK, non-finite outputs"})
+            verdict(emit, i, messages, outputs=slave.output_values(), done="done")
         except Exception as exc:
-            errors = [m for st, _, m in messages if st >= 3]
-            emit({"i": i, "outcome": "clean error" if errors else "unclear error",
-                  "detail": (errors[-1] if errors else str(exc))[:200]})
+            verdict(emit, i, messages, exc=exc)
         finally:
             with contextlib.suppress(Exception):
                 slave.close()
