@@ -4,20 +4,21 @@ A user's mistake (a bad scene, option or path) is one line on stderr and exit
 status 2 (``sphrom COMMAND: error: --option: what is allowed``, argparse's
 errors included); a run that fails on its own terms (non-finite state) is one
 line and exit status 3; SIGINT and SIGTERM are one line "interrupted" and exit
-status 128 + the signal (130, 143).  None leaves a partial output file.
+status 128 + the signal (130, 143), saying what was written before them ("no
+output written" only when nothing was; :mod:`harness.signals`).  None leaves a
+partial output file.
 """
 
 from __future__ import annotations
 
 import argparse
-import contextlib
 import importlib
 import signal
 import sys
-import threading
 
 from . import __version__
 from .errors import FieldError, Interrupted, SimulationError, UserError
+from .signals import Guard, interrupt_line
 
 # subcommand name -> module in harness.commands
 COMMANDS = {
@@ -70,38 +71,69 @@ def parse(parser, argv=None):
     return args
 
 
-def _raise_interrupted(signum, frame):
-    raise Interrupted(signum)
+def main(argv=None, restore_signals=None):
+    """Run ``sphrom`` with ``argv`` (default ``sys.argv[1:]``); returns the exit status.
 
-
-@contextlib.contextmanager
-def _signals_as_exceptions():
-    """SIGINT and SIGTERM raise :class:`Interrupted` while a command runs (main thread only).
-
-    An ignored SIGINT (a job started with it ignored) stays ignored.
+    SIGINT and SIGTERM are taken over first (:class:`harness.signals.Guard`): importing the commands takes
+    a second.  ``restore_signals`` (default: when ``argv`` is given, i.e. called from Python) puts the
+    previous handlers back at the end and returns.  The program itself (``argv`` None) keeps the guard to
+    the end and does not return: once the command is done it runs the exit hooks and leaves
+    (:func:`_leave`), so that no moment of its life answers a signal with a silent death.
     """
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    previous = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
-    for sig, handler in previous.items():
-        if not (sig == signal.SIGINT and handler is signal.SIG_IGN):
-            signal.signal(sig, _raise_interrupted)
-    try:
-        yield
-    finally:
-        for sig, handler in previous.items():
-            signal.signal(sig, handler if handler is not None else signal.SIG_DFL)
+    restore = argv is not None if restore_signals is None else restore_signals
+    guard = Guard()
+    with guard.installed(restore=restore):
+        code = _guarded(guard, argv)
+    if not restore:
+        _leave(code)
+    return code
 
 
-def main(argv=None):
-    parser = build_parser()
+def _guarded(guard, argv):
+    """Parse ``argv`` and run the command under ``guard``: its exit status, 128 + the signal when one came."""
     try:
-        args = parse(parser, argv)
-    except SystemExit as exc:                    # argparse: --help, --version, a bad option (one line)
-        return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
-    with _signals_as_exceptions():
-        return _run(parser, args)
+        parser = build_parser()
+        try:
+            args = parse(parser, argv)
+        except SystemExit as exc:            # argparse: --help, --version, a bad option (one line)
+            code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
+        else:
+            guard.command = args.command
+            import numpy as np
+            # a command checks its numbers and says what is wrong in one line; numpy's floating-point
+            # warnings (overflow in a square of 1e308, ...) printed before that line are noise
+            with np.errstate(all="ignore"):
+                code = _run(parser, args)
+        guard.raising = False                # from here a signal is only recorded
+    except KeyboardInterrupt as exc:
+        guard.raising = False
+        signum = exc.signum if isinstance(exc, Interrupted) else signal.SIGINT
+        note = getattr(exc, "note", None) or guard.written_text()
+        print(interrupt_line(guard.command, signum, note), file=sys.stderr)
+        return 128 + int(signum)
+    if guard.pending:                        # a signal whose exception was lost (a finaliser swallowed it)
+        signum = guard.pending[0]
+        print(interrupt_line(guard.command, signum, guard.written_text()), file=sys.stderr)
+        return 128 + int(signum)
+    return code
+
+
+def _leave(code):
+    """End the program with ``code`` once the command is done: flush, run the exit hooks (logging, dask's),
+    and exit without the interpreter's teardown of its modules.  That teardown took 150-300 ms here after
+    every output was written, and part of it runs with the default signal handlers back, where a signal
+    killed the process without a word; the guard stays installed until the very end instead."""
+    import atexit
+    import contextlib
+    import os
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(Exception):
+            stream.flush()
+    atexit._run_exitfuncs()
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(Exception):
+            stream.flush()
+    os._exit(code)
 
 
 def _run(parser, args):
@@ -122,11 +154,6 @@ def _run(parser, args):
         import os
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
-    except KeyboardInterrupt as exc:
-        signum = exc.signum if isinstance(exc, Interrupted) else signal.SIGINT
-        print(f"sphrom {args.command}: interrupted ({signal.Signals(signum).name}); no output written",
-              file=sys.stderr)
-        return 128 + int(signum)
 
 
 if __name__ == "__main__":

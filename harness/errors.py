@@ -52,8 +52,24 @@ class ToleranceError(SimulationError):
 
 
 class Interrupted(KeyboardInterrupt):
-    """SIGINT or SIGTERM received by the command line: a one-line exit, 128 + the signal number."""
+    """SIGINT or SIGTERM received by the command line: a one-line exit, 128 + the signal number.
 
-    def __init__(self, signum):
+    ``note``, when given, is what the one line says was written (default: what the command line saw
+    committed, "no output written" when nothing).
+    """
+
+    def __init__(self, signum, note=None):
         super().__init__(signum)
         self.signum = signum
+        self.note = note
+
+
+def exact(value):
+    """A number as text that never rounds it onto a bound: the shorter of ``%g`` and ``repr`` that reads back
+    as the same float (``%g`` on a tie): 0.2 -> '0.2', 2.0 -> '2', 0.2000001 -> '0.2000001', 1e-320 -> '1e-320'."""
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        return repr(value)
+    forms = [text for text in (f"{value:g}", repr(value)) if float(text) == value or value != value]
+    return min(forms, key=len)

@@ -16,18 +16,25 @@ the creation time and the wall time [s].  Errors against references, when
 computed, are stored as ``error.*`` attributes.
 
 A file is written to a temporary name in the target folder and renamed at the
-end, so an interrupted run leaves no half-written file.
+end, so an interrupted run leaves no half-written file.  An output path that is
+not a regular file is never replaced: a character device (/dev/null), a FIFO or
+an open descriptor (/dev/stdout) gets the finished bytes written into it, and a
+folder, a block device or a socket is refused before any work
+(:func:`check_output_path`).
 """
 
 from __future__ import annotations
 
 import contextlib
 import datetime as _dt
+import errno
 import glob
 import os
-import signal
+import re
+import stat
 import sys
-import threading
+import tempfile
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -35,7 +42,8 @@ import h5py
 import numpy as np
 
 from . import __version__
-from .errors import FieldError
+from .errors import FieldError, Interrupted
+from .signals import deferred, pending, record_written
 
 FORMAT = "sphrom-run"
 FORMAT_VERSION = 1
@@ -62,24 +70,195 @@ class Run:
     steps: np.ndarray | None = None
 
 
-def check_output_path(path):
-    """Fail early (before any work) when ``path`` cannot be written.
-
-    Raises FieldError ``out`` when the folder does not exist or is not
-    writable, or the path is a folder.
-    """
-    path = Path(path)
-    if path.is_dir():
-        raise FieldError("out", f"'{path}' is a directory (allowed: a file path)")
-    parent = path.parent if str(path.parent) else Path(".")
-    if not parent.is_dir():
-        raise FieldError("out", f"folder '{parent}' does not exist")
-    if not os.access(parent, os.W_OK):
-        raise FieldError("out", f"folder '{parent}' is not writable")
-    return path
-
-
+# How long an output that is a FIFO waits at the end of the run for a process to open it for reading [s].
+FIFO_WAIT_S = 30.0
 TMP_MARK = ".tmp-"
+_KINDS = {stat.S_IFREG: "file", stat.S_IFDIR: "folder", stat.S_IFCHR: "character device", stat.S_IFIFO: "FIFO",
+          stat.S_IFBLK: "block device", stat.S_IFSOCK: "socket"}
+
+
+def _shown(text, most=100):
+    """A path for a one-line message: long ones shortened in the middle."""
+    text = str(text)
+    return text if len(text) <= most else f"{text[:most // 2]}...{text[-most // 4:]}"
+
+
+def _field_of(path):
+    """``cache`` for a path in the cache folder ($SPHROM_CACHE), else ``out``."""
+    return "cache" if _in_cache(path) else "out"
+
+
+def _in_cache(path):
+    root = os.environ.get("SPHROM_CACHE") or os.path.join(os.path.expanduser("~"), ".cache", "sphrom")
+    try:
+        return os.path.commonpath([os.path.realpath(root), os.path.realpath(path)]) == os.path.realpath(root)
+    except (ValueError, OSError):
+        return False
+
+
+def _via_descriptor(text):
+    """Whether ``text`` is (a link to) an open descriptor: /dev/stdout, /dev/fd/N, /proc/PID/fd/N."""
+    path = os.path.abspath(text)
+    for _ in range(40):
+        if re.fullmatch(r"/proc/[^/]+/fd/\d+|/dev/fd/\d+", path):
+            return True
+        if not os.path.islink(path):
+            return False
+        path = os.path.abspath(os.path.join(os.path.dirname(path), os.readlink(path)))
+    return False
+
+
+def output_target(path, field="out"):
+    """How an output at ``path`` is written, decided from what the path is now (symbolic links followed).
+
+    Returns
+    -------
+    ("replace", Path)
+        Nothing there yet, or a regular file: written to a temporary beside the returned path (``path`` with
+        its links resolved, so that a link stays a link) and renamed over it.
+    ("into", kind)
+        A character device (/dev/null), a FIFO, or an open descriptor (/dev/stdout): the bytes are written
+        into the node, which stays what it was; ``kind`` is ``character device``, ``FIFO`` or ``descriptor``.
+
+    Raises FieldError ``field`` for a folder, a block device, a socket, a path the system refuses (a NUL
+    character, a link loop, a component that is not a folder).
+    """
+    text = os.fspath(path)
+    if not text:
+        raise FieldError(field, "empty path (allowed: a file path)")
+    if "\0" in text:
+        raise FieldError(field, f"{text!r} holds a NUL character (allowed: a file path)")
+    try:
+        st = os.stat(text)
+    except FileNotFoundError:
+        st = None
+    except NotADirectoryError:
+        raise FieldError(field, f"'{_shown(text)}': a part of the path is not a folder") from None
+    except OSError as exc:
+        raise FieldError(field, f"'{_shown(text)}': {exc.strerror or exc}") from None
+    if st is not None and not stat.S_ISREG(st.st_mode):
+        kind = _KINDS.get(stat.S_IFMT(st.st_mode), "special file")
+        if kind in ("character device", "FIFO"):
+            return "into", kind
+        raise FieldError(field, f"'{text}' is a {kind} (allowed: a file path, a character device or a FIFO; "
+                                f"nothing there is replaced)")
+    if st is not None and _via_descriptor(text):
+        return "into", "descriptor"
+    try:
+        return "replace", Path(os.path.realpath(text))
+    except (OSError, ValueError) as exc:
+        raise FieldError(field, f"'{text}': {exc}") from None
+
+
+def _temporary(target):
+    return target.with_name(f".{target.name}{TMP_MARK}{os.getpid()}")
+
+
+def check_output_path(path, field="out"):
+    """Fail early (before any work) when ``path`` cannot be written; returns it as a Path.
+
+    Allowed: a new file in an existing folder, a regular file (replaced at the end), a character device or a
+    FIFO (written into, never replaced: see :func:`atomic_path`).  The folder is tested by creating and
+    removing the very temporary the write will use (``os.access`` says yes to root on /proc and /sys, and
+    knows nothing of name lengths).  Raises FieldError ``field`` for a trailing ``/`` (a folder's name), a
+    folder, a block device, a socket, a missing folder, a folder where no file can be created, or a name
+    the system refuses.
+    """
+    text = os.fspath(path)
+    if text and re.split(r"/+", text)[-1] in ("", ".", ".."):
+        raise FieldError(field, f"'{text}' names a folder (allowed: a file path, without a trailing '/')")
+    how, target = output_target(text, field)
+    if how == "into":
+        if target == "character device":
+            try:
+                os.close(os.open(text, os.O_WRONLY | os.O_NONBLOCK))
+            except OSError as exc:
+                raise FieldError(field, f"cannot write into '{text}' ({exc.strerror or exc})") from None
+        return Path(text)
+    parent = target.parent
+    if not parent.is_dir():
+        raise FieldError(field, f"folder '{Path(text).parent}' does not exist")
+    tmp = _temporary(target)
+    try:
+        with contextlib.suppress(FileNotFoundError):
+            if tmp.is_symlink() or tmp.is_file():
+                tmp.unlink()                                   # this process's own, from an earlier write
+        os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), 0o600))
+        tmp.unlink()
+    except OSError as exc:
+        if exc.errno == errno.ENAMETOOLONG:
+            raise FieldError(field, f"'{target.name[:40]}...' is too long a file name for this system (with its "
+                                    f"temporary '.NAME{TMP_MARK}PID', {len(os.fsencode(tmp.name))} bytes)") from None
+        raise FieldError(field, f"cannot create a file in folder '{parent}' ({exc.strerror or exc})") from None
+    return Path(text)
+
+
+def _missing_folders(path):
+    """The folders of ``path`` (itself included) that do not exist yet, outermost first, and the nearest one
+    that does."""
+    missing = []
+    p = Path(os.path.abspath(path))
+    while not os.path.lexists(p) and p != p.parent:
+        missing.append(p)
+        p = p.parent
+    return missing[::-1], p
+
+
+def check_output_dir(path, field="out"):
+    """Fail early (before any work) unless ``path`` is a folder, or can be made one, where files can be
+    created; returns it as a Path (the folder is not made here: :func:`output_dir`).
+
+    Raises FieldError ``field`` for an existing path that is not a folder (a file, a device, a FIFO), a
+    name the system refuses (too long, a NUL), or a folder where no file can be created (/proc, /sys, a
+    read-only one: tested by creating a file, as :func:`check_output_path`).
+    """
+    text = os.fspath(path)
+    if not text or "\0" in text:
+        raise FieldError(field, f"{text!r} is not a folder name (allowed: a folder path)")
+    missing, existing = _missing_folders(text)
+    try:
+        st = os.stat(existing)
+    except OSError as exc:
+        raise FieldError(field, f"'{text}': {exc.strerror or exc}") from None
+    if not stat.S_ISDIR(st.st_mode):
+        kind = _KINDS.get(stat.S_IFMT(st.st_mode), "special file")
+        where = "" if not missing else f" (its part '{existing}')"
+        raise FieldError(field, f"'{text}' is a {kind}{where} (allowed: a folder, made when missing)")
+    for folder in missing:
+        if len(os.fsencode(folder.name)) > 255:
+            raise FieldError(field, f"'{folder.name[:40]}...' is too long a folder name for this system")
+    probe = Path(existing) / f".sphrom-probe{TMP_MARK}{os.getpid()}"
+    try:
+        os.close(os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), 0o600))
+        probe.unlink()
+    except OSError as exc:
+        raise FieldError(field, f"cannot create a file in folder '{existing}' ({exc.strerror or exc})") from None
+    return Path(text)
+
+
+@contextlib.contextmanager
+def output_dir(path, field="out"):
+    """The folder ``path`` (checked by :func:`check_output_dir`, made with its missing parents) for the block;
+    on an exception the folders it made are removed again when still empty (nothing left behind)."""
+    check_output_dir(path, field)
+    missing, _ = _missing_folders(path)
+    made = []
+    try:
+        for folder in missing:
+            folder.mkdir()
+            made.append(folder)
+    except OSError as exc:
+        for folder in reversed(made):
+            with contextlib.suppress(OSError):
+                folder.rmdir()
+        raise FieldError(field, f"cannot make folder '{path}' ({exc.strerror or exc})") from None
+    try:
+        yield Path(path)
+    except BaseException:
+        for folder in reversed(made):
+            with contextlib.suppress(OSError):
+                folder.rmdir()
+        raise
 
 
 def _pid_alive(pid):
@@ -119,55 +298,136 @@ def sweep_stale_temporaries(path):
     return removed
 
 
-@contextlib.contextmanager
-def _deferred_signals(signums=(signal.SIGINT, signal.SIGTERM)):
-    """Hold SIGINT/SIGTERM while the block runs, then deliver them to the previous handlers.
+def _commit(items):
+    """Rename each (temporary, target, shown) whose temporary exists, all or none as far as signals go: a
+    signal arriving meanwhile is held until every rename is done (and then reported as after the write); a
+    signal received earlier whose exception was lost (:func:`harness.signals.pending`) stops them all."""
+    with deferred():
+        signum = pending()
+        if signum is not None:
+            raise Interrupted(signum)
+        for tmp, target, shown in items:
+            if os.path.lexists(tmp):
+                os.replace(tmp, target)
+                if not _in_cache(target):
+                    record_written(shown)
 
-    A signal raised as an exception inside h5py or zipfile can land in a
-    finaliser, where Python prints "Exception ignored" and carries on, so the
-    run went on to rename its output and exit 0.  Held here, the signal is
-    re-raised after the block and before the rename.  Only the main thread
-    can set handlers; elsewhere nothing is held.
-    """
-    if threading.current_thread() is not threading.main_thread():
-        yield []
-        return
-    caught = []
-    previous = {}
-    for sig in signums:
-        previous[sig] = signal.getsignal(sig)
-        if previous[sig] is not signal.SIG_IGN and previous[sig] is not None:
-            signal.signal(sig, lambda signum, frame: caught.append(signum))
+
+def _open_fifo(node, field):
+    """A blocking write descriptor of FIFO ``node`` once a reader has it open (at most FIFO_WAIT_S)."""
+    deadline = time.monotonic() + FIFO_WAIT_S
+    while True:
+        try:
+            fd = os.open(node, os.O_WRONLY | os.O_NONBLOCK)
+            break
+        except OSError as exc:
+            if exc.errno != errno.ENXIO:
+                raise
+            if time.monotonic() > deadline:
+                raise FieldError(field, f"no process opened the FIFO '{node}' for reading within {FIFO_WAIT_S:g} s; "
+                                        "nothing was written into it") from None
+            time.sleep(0.02)
+    os.set_blocking(fd, True)
+    return fd
+
+
+def _write_into(node, tmp, kind, field):
+    """Copy the finished temporary ``tmp`` into the node ``node`` (a device, a FIFO, a descriptor)."""
+    with deferred():
+        signum = pending()
+        if signum is not None:
+            raise Interrupted(signum)
+    size = os.path.getsize(tmp)
+    sent = 0
     try:
-        yield caught
+        if kind == "FIFO":
+            fd = _open_fifo(node, field)
+        else:
+            append = kind == "descriptor" and stat.S_ISREG(os.stat(node).st_mode)
+            fd = os.open(node, os.O_WRONLY | (os.O_APPEND if append else 0))
+    except OSError as exc:
+        raise FieldError(field, f"cannot write into '{node}' ({exc.strerror or exc})") from None
+    try:
+        with open(tmp, "rb") as src:
+            while chunk := src.read(1 << 20):
+                view = memoryview(chunk)
+                while view:
+                    n = os.write(fd, view)
+                    sent += n
+                    view = view[n:]
+    except BrokenPipeError:
+        raise FieldError(field, f"the reader of '{node}' closed it after {sent} of {size} bytes") from None
+    except OSError as exc:
+        raise FieldError(field, f"cannot write into '{node}' ({exc.strerror or exc}; {sent} of {size} bytes "
+                                "written)") from None
+    except Interrupted as exc:
+        if sent:
+            raise Interrupted(exc.signum, note=f"'{node}' received {sent} of its {size} bytes") from None
+        raise
     finally:
-        for sig, handler in previous.items():
-            if handler is not signal.SIG_IGN and handler is not None:
-                signal.signal(sig, handler)
-    for sig in dict.fromkeys(caught):
-        signal.raise_signal(sig)         # the restored handler raises (or ends the process)
+        os.close(fd)
+    record_written(node)
 
 
 @contextlib.contextmanager
 def atomic_path(path):
-    """Yield a temporary path beside ``path``; rename it to ``path`` on success.
+    """Yield a temporary path; on success it becomes ``path``, else nothing is left.
 
-    On any exception (including KeyboardInterrupt) the temporary file is
-    removed and ``path`` is left as it was.  SIGINT and SIGTERM arriving while
-    the block writes are held until it ends and then delivered before the
-    rename (never swallowed).  Temporaries of ``path`` left by killed
-    processes are removed first (:func:`sweep_stale_temporaries`).
+    A new file or a regular file: the temporary is beside it (beside its target when ``path`` is a link) and
+    is renamed over it.  A character device, a FIFO or an open descriptor (/dev/null, a named pipe,
+    /dev/stdout): the temporary is in a private folder and its bytes are written into the node, which stays
+    a node (a FIFO waits up to :data:`FIFO_WAIT_S` for a reader).  On any exception (including
+    KeyboardInterrupt) the temporary is removed and ``path`` is left as it was.  SIGINT and SIGTERM arriving
+    while the block writes are held until it ends and then delivered before the rename (never swallowed); a
+    signal whose exception was lost earlier stops the rename (:func:`harness.signals.pending`).  Temporaries
+    of ``path`` left by killed processes are removed first (:func:`sweep_stale_temporaries`).
     """
     path = Path(path)
-    sweep_stale_temporaries(path)
-    tmp = path.with_name(f".{path.name}{TMP_MARK}{os.getpid()}")
+    field = _field_of(path)
+    how, target = output_target(path, field)
+    if how == "into":
+        with tempfile.TemporaryDirectory(prefix="sphrom-out-") as folder:
+            tmp = Path(folder) / (path.name or "out")
+            with deferred():
+                yield tmp
+            _write_into(path, tmp, target, field)
+        return
+    with atomic_paths([path]) as (tmp,):
+        yield tmp
+
+
+@contextlib.contextmanager
+def atomic_paths(paths):
+    """Temporaries for several outputs written together: all are renamed at the end, or none.
+
+    Each path must be new or a regular file (FieldError ``out`` otherwise).  A temporary the block did not
+    create leaves its path as it was (an optional output, e.g. a plot that could not be drawn).
+    """
+    items = []
+    for path in map(Path, paths):
+        field = _field_of(path)
+        how, target = output_target(path, field)
+        if how != "replace":
+            raise FieldError(field, f"'{path}' is a {target} (allowed here: a file path; outputs written together "
+                                    "are renamed into place)")
+        sweep_stale_temporaries(target)
+        items.append((_temporary(target), target, path))
     try:
-        with _deferred_signals():
-            yield tmp
-        os.replace(tmp, path)
+        with deferred():
+            yield [tmp for tmp, _, _ in items]
+        _commit(items)
     finally:
-        if tmp.exists():
-            tmp.unlink()
+        for tmp, _, _ in items:
+            if os.path.lexists(tmp):
+                tmp.unlink()
+
+
+def save_figure(fig, path, **kwargs):
+    """``fig.savefig`` through :func:`atomic_path` (a PNG unless ``format`` says otherwise): never half a
+    plot, never a node replaced."""
+    kwargs.setdefault("format", Path(path).suffix.lstrip(".").lower() or "png")
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, **kwargs)
 
 
 def scene_attrs(scene):

@@ -106,3 +106,28 @@ def fmu_maker(folder, default_model="frozen", k=6, probes=(0.25, 0.5, 0.66)):
         return made[key]
 
     return make
+
+
+@pytest.fixture(scope="session")
+def hostile_scene(tmp_path_factory):
+    """The hostile-input tests' small files, made through the command line once per session: a scene
+    (damped_forced, N = 32, T = 0.2), its POD basis, a frozen FMI 2 FMU (not measured)."""
+    path = tmp_path_factory.mktemp("scene") / "s.toml"
+    path.write_text(small_scene("damped_forced", T=0.2, n=32).text)
+    return path
+
+
+@pytest.fixture(scope="session")
+def hostile_basis(hostile_scene, tmp_path_factory):
+    from harness.cli import main
+    out = tmp_path_factory.mktemp("basis") / "b.h5"
+    assert main(["pod", str(hostile_scene), "--out", str(out), "--quiet"]) == 0
+    return out
+
+
+@pytest.fixture(scope="session")
+def hostile_fmu(hostile_scene, tmp_path_factory):
+    from harness.cli import main
+    out = tmp_path_factory.mktemp("fmu") / "f.fmu"
+    assert main(["fmu", str(hostile_scene), "--modes", "4", "--no-verify", "--out", str(out), "--quiet"]) == 0
+    return out

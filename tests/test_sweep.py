@@ -311,7 +311,7 @@ def test_interrupted_study_keeps_finished_entries(study, cluster, tmp_path, caps
     out = tmp_path / "r.h5"
     assert main(["sweep", str(study / "spec.toml"), "--scheduler", cl.scheduler_address, "--out", str(out),
                  "--quiet"]) == 130
-    assert "interrupted; 3 finished runs kept" in capsys.readouterr().err
+    assert "interrupted (SIGINT); 3 finished runs kept" in capsys.readouterr().err
     rows, attrs = read_results(out)
     assert len(rows) == 3 and attrs["complete"] == 0
     done = sum(r["status"] == "ok" for r in rows)

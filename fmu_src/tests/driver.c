@@ -94,6 +94,9 @@ typedef struct {
     uint32_t n_probes;
     uint32_t kind;          /* ROM_MODEL_FROZEN or ROM_MODEL_EXACT_LINEAR */
     double dt;
+    uint32_t n_ports;       /* 0: no ports */
+    int has_params;         /* a parametric model (a PARAMS section): c and d rows below */
+    double params[2][4];    /* per c, d: varied (0 or 1), start, min, max */
     const char *scratch;
 } Setup;
 
@@ -316,30 +319,59 @@ static void blob_seal(unsigned char *blob, size_t size) {
     blob_put_u32(blob + size - 4, rom_crc32(blob, size - 4));
 }
 
-/* State format 3 in a model without parameters c, d or ports (blob of size bytes, saved at t1, whose run to
- * N_STEPS gave a): the parameter block initial_state_scale, c = 0, d = 0 just before the checksum; a c or d
- * other than 0, a non-finite initial_state_scale, a version other than 2 and 3 are refused naming them; the same
- * state written as version 2 (without c and d) restores and continues bitwise. */
+/* A state accepted where a refusal was expected: freed, so that the failed check leaks nothing */
+static void free_unexpected(fmi2Component c2, fmi2FMUstate *state) {
+    if (*state) fmi2FreeFMUstate(c2, state);
+    *state = NULL;
+}
+
+/* Where the parameter block (initial_state_scale, c, d) of a serialized state of version 3 starts: after it
+ * come the port values (area, F_port[P], port_driven, dF_port/dt[P]; none without ports) and the checksum. */
+static size_t state_params_offset(size_t size) {
+    const size_t ports = setup.n_ports ? 2 * (1 + (size_t)setup.n_ports) : 0;
+    return size - 4 - 8 * (3 + ports);
+}
+
+/* State format 3 (blob of size bytes, saved at t1, whose run to N_STEPS gave a): the parameter block
+ * initial_state_scale, c, d before the port values and the checksum, c and d 0 in a model without them and
+ * their start values in a parametric one; a c or d this FMU cannot take (any other than 0 without them, outside
+ * the trained range of a varied one, another value of a fixed one), a non-finite initial_state_scale, a version
+ * other than 2 and 3 are refused naming them; the same state written as version 2 (without c and d) restores
+ * and continues bitwise. */
 static void check_state_parameters(fmi2Component c2, LogBook *book, const unsigned char *blob, size_t size,
                                    double t1, const double *a, double *out) {
     const size_t n_out = 2 * setup.n_probes;
-    const size_t params = size - 4 - 24;
+    const size_t params = state_params_offset(size);
+    const double c_now = blob_f64(blob + params + 8), d_now = blob_f64(blob + params + 16);
     EXPECT(blob[8] == ROM_STATE_VERSION && ROM_STATE_VERSION == 3u, "the state is version %u", (unsigned)blob[8]);
-    EXPECT(isfinite(blob_f64(blob + params)) && blob_f64(blob + params + 8) == 0.0 &&
-           blob_f64(blob + params + 16) == 0.0, "c and d are 0 in a model without them");
+    EXPECT(isfinite(blob_f64(blob + params)), "initial_state_scale %g", blob_f64(blob + params));
+    if (setup.has_params) {
+        EXPECT(c_now == setup.params[0][1] && d_now == setup.params[1][1], "c = %g, d = %g: not the start values "
+               "%g, %g", c_now, d_now, setup.params[0][1], setup.params[1][1]);
+    } else {
+        EXPECT(c_now == 0.0 && d_now == 0.0, "c = %g, d = %g: not 0 in a model without them", c_now, d_now);
+    }
     unsigned char *bad = malloc(size);
     fmi2FMUstate s_bad = NULL;
-    static const struct { size_t at; double value; const char *text; } FIELDS[3] = {
-        {8, 0.1, "parameter c = 0.1, but this FMU has no parameter c"},
-        {16, NAN, "parameter d = nan, but this FMU has no parameter d"},
-        {0, INFINITY, "parameter initial_state_scale = inf is out of range"}};
+    const double *row_c = setup.params[0];
+    const double c_bad = !setup.has_params ? 0.1 : row_c[0] != 0.0 ? 2.0 * row_c[3] + 1.0 : row_c[1] + 1.0;
+    struct { size_t at; double value; const char *name; const char *reason; } fields[3] = {
+        {8, c_bad, "c", "but this FMU has no parameter c"},
+        {16, NAN, "d", "but this FMU has no parameter d"},
+        {0, INFINITY, "initial_state_scale", "is out of range"}};
+    for (int which = 0; which < 2 && setup.has_params; which++) {
+        fields[which].reason = setup.params[which][0] != 0.0 ? "is outside the trained range" : "is fixed at";
+    }
     for (int i = 0; i < 3; i++) {
+        char want[96];
         memcpy(bad, blob, size);
-        blob_put_f64(bad + params + FIELDS[i].at, FIELDS[i].value);
+        blob_put_f64(bad + params + fields[i].at, fields[i].value);
         blob_seal(bad, size);
         EXPECT_ERROR(book, fmi2DeSerializeFMUstate(c2, (const fmi2Byte *)bad, size, &s_bad), fmi2OK);
-        EXPECT(strstr(book->last, FIELDS[i].text) != NULL, "message should say '%s': %s", FIELDS[i].text,
-               book->last);
+        free_unexpected(c2, &s_bad);
+        snprintf(want, sizeof want, "parameter %s = %g", fields[i].name, fields[i].value);
+        EXPECT(strstr(book->last, want) != NULL && strstr(book->last, fields[i].reason) != NULL,
+               "message should say '%s' and '%s': %s", want, fields[i].reason, book->last);
         EXPECT(fmi2Reset(c2) == fmi2OK, "reset");
     }
     static const uint32_t VERSIONS[3] = {1u, 4u, 0xffffffffu};
@@ -349,6 +381,7 @@ static void check_state_parameters(fmi2Component c2, LogBook *book, const unsign
         blob_put_u32(bad + 8, VERSIONS[i]);
         blob_seal(bad, size);
         EXPECT_ERROR(book, fmi2DeSerializeFMUstate(c2, (const fmi2Byte *)bad, size, &s_bad), fmi2OK);
+        free_unexpected(c2, &s_bad);
         snprintf(want, sizeof want, "format version %u is not supported (this binary reads %u to %u)", VERSIONS[i],
                  ROM_STATE_VERSION_OLDEST, ROM_STATE_VERSION);
         EXPECT(strstr(book->last, want) != NULL, "message should say '%s': %s", want, book->last);
@@ -362,6 +395,7 @@ static void check_state_parameters(fmi2Component c2, LogBook *book, const unsign
     blob_seal(bad, size2);
     /* with the length of version 3 */
     EXPECT_ERROR(book, fmi2DeSerializeFMUstate(c2, (const fmi2Byte *)bad, size, &s_bad), fmi2OK);
+    free_unexpected(c2, &s_bad);
     EXPECT(strstr(book->last, "for state version 2") != NULL, "message should name version 2: %s", book->last);
     EXPECT(fmi2Reset(c2) == fmi2OK, "reset");
     fmi2FMUstate s2 = NULL;            /* a state of version 3 given to hold it: resized, not leaked */
@@ -408,17 +442,21 @@ static void scenario_state(void) {
     fmi2FMUstate s_bad = NULL;
     EXPECT_ERROR(&book2, fmi2DeSerializeFMUstate(c2, other, size, &s_bad), fmi2OK);
     EXPECT(s_bad == NULL, "no state may be created from a refused blob");
+    free_unexpected(c2, &s_bad);
     EXPECT(strstr(book2.last, "another FMU") != NULL, "message should say 'another FMU': %s", book2.last);
     EXPECT(fmi2Reset(c2) == fmi2OK, "reset after a refused blob");
     memcpy(other, blob, size);
     other[16] ^= 0x01;                        /* k_v */
     EXPECT_ERROR(&book2, fmi2DeSerializeFMUstate(c2, other, size, &s_bad), fmi2OK);
+    free_unexpected(c2, &s_bad);
     EXPECT(fmi2Reset(c2) == fmi2OK, "reset");
     EXPECT_ERROR(&book2, fmi2DeSerializeFMUstate(c2, blob, size - 5, &s_bad), fmi2OK);
+    free_unexpected(c2, &s_bad);
     EXPECT(fmi2Reset(c2) == fmi2OK, "reset");
     memcpy(other, blob, size);
     other[size / 2] ^= 0x10;                  /* payload: crc mismatch */
     EXPECT_ERROR(&book2, fmi2DeSerializeFMUstate(c2, other, size, &s_bad), fmi2OK);
+    free_unexpected(c2, &s_bad);
     /* restart from a saved state out of the Error state (allowed by FMI 2.0) */
     t = t1;
     EXPECT(fmi2SetFMUstate(c2, s2) == fmi2OK, "set state in the Error state");
@@ -447,6 +485,7 @@ static void scenario_state(void) {
     blob3[40] ^= 0x01;
     fmi3FMUState s3_bad = NULL;
     EXPECT_ERROR(&book3, fmi3DeserializeFMUState(c3, blob3, size3, &s3_bad), fmi3OK);
+    if (s3_bad) fmi3FreeFMUState(c3, &s3_bad);
     EXPECT(fmi3FreeFMUState(c3, &s3) == fmi3OK, "free3");
     if (d3) {
         EXPECT(fmi3FreeFMUState(d3, &s3b) == fmi3OK, "free3b");
@@ -915,6 +954,12 @@ int main(int argc, char **argv) {
     setup.n_probes = model->n_probes;
     setup.kind = model->kind;
     setup.dt = model->dt;
+    setup.n_ports = model->n_ports;
+    const RomSection *params = rom_model_section(model, "PARAMS");
+    setup.has_params = params != NULL;
+    for (int i = 0; params && i < 8 && (uint32_t)i < params->rows * params->cols; i++) {
+        setup.params[i / 4][i % 4] = params->data[i];
+    }
     rom_model_free(model);
 
     static const char *all[] = {"basic", "state", "bad", "resources", "cycles", "threads", "edge"};

@@ -119,5 +119,6 @@ def plot_scaling(rows, integrators, path, scene_name):
     ax.set_title(f"full SPH step, scene {scene_name}")
     ax.legend()
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    from ..runio import save_figure
+    save_figure(fig, path, dpi=110)
     plt.close(fig)

@@ -1,6 +1,6 @@
 """``sphrom bench``: run time against error for every method, cost scaling, skipped terms (BENCHMARKS.md)."""
 
-from .options import add_quiet, int_at_least, int_list, min_particles
+from .options import MAX_REPEATS, add_quiet, int_in, int_list, min_particles
 
 
 def add_parser(sub):
@@ -13,7 +13,7 @@ def add_parser(sub):
                                    "specialised right-hand sides. Writes CSV, PNG plots and a Markdown report.")
     from ..bench.suite import KS_SCALING, SIZES, SPH_SIZES
     p.add_argument("scenes", nargs="*", metavar="SCENE")
-    p.add_argument("--repeats", type=int_at_least(1), default=5, help="timed runs per point (median; default 5)")
+    p.add_argument("--repeats", type=int_in(1, MAX_REPEATS), default=5, help="timed runs per point (median; default 5)")
     p.add_argument("--modes", "--ks", dest="modes", type=int_list(lo=1), metavar="K,...",
                    help="comma-separated mode counts (default: the scene's acceleration-study k)")
     p.add_argument("--n-particles", "--sizes", dest="n_particles", type=int_list(lo=min_particles),
@@ -46,6 +46,7 @@ def run(args):
     from ..bench.suite import DEFAULT_SCENES, replot, run_benchmarks
     from ..errors import UserError
     from ..report.markdown import write_text
+    from ..runio import check_output_dir, check_output_path, output_dir
     from ..scene import load_scene
 
     out = Path(args.out)
@@ -56,19 +57,24 @@ def run(args):
         print(f"redrew {out}/*_time_error.png from {out / 'bench.csv'}")
         return 0
     scenes = [load_scene(s) for s in (args.scenes or DEFAULT_SCENES)]
+    from ..errors import FieldError
     try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise UserError(f"--out: cannot create '{out}' ({exc})") from None
-    r = run_benchmarks(scenes, out, ks=args.modes, repeats=args.repeats, sizes=args.n_particles,
-                       ks_scaling=args.scaling_modes, sph_sizes=args.sph_n_particles, fmu=not args.no_fmu,
-                       fmu_scene=args.fmu_scene, stress=bool(args.report) and not args.no_stress,
-                       progress=not args.quiet)
+        load_scene(args.fmu_scene)              # every option checked before the long benchmark starts
+    except UserError as exc:
+        raise FieldError("fmu_scene", str(exc)) from None
     if args.report:
-        path = Path(args.report)
-        existing = path.read_text() if path.is_file() else None
-        write_text(path, report(r, Path(os.path.relpath(out.resolve(), path.resolve().parent)).as_posix(),
-                                existing=existing))
+        check_output_path(args.report, field="report")
+    check_output_dir(out)
+    with output_dir(out):
+        r = run_benchmarks(scenes, out, ks=args.modes, repeats=args.repeats, sizes=args.n_particles,
+                           ks_scaling=args.scaling_modes, sph_sizes=args.sph_n_particles, fmu=not args.no_fmu,
+                           fmu_scene=args.fmu_scene, stress=bool(args.report) and not args.no_stress,
+                           progress=not args.quiet)
+        if args.report:
+            path = Path(args.report)
+            existing = path.read_text() if path.is_file() else None
+            write_text(path, report(r, Path(os.path.relpath(out.resolve(), path.resolve().parent)).as_posix(),
+                                    existing=existing))
     for name, by_k, paper in r.savings:
         print(f"{name}: frozen (n_freeze = 10) saves " + ", ".join(f"{100 * v:.0f} % (k = {k})" for k, v in
                                                                    by_k.items())

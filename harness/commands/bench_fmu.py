@@ -1,6 +1,6 @@
 """``sphrom bench-fmu``: ns per internal step of the C core, and the FMU end to end beside the full SPH."""
 
-from .options import add_quiet, add_scene, float_list, int_at_least, int_list, max_particles
+from .options import MAX_REPEATS, add_quiet, add_scene, float_list, int_in, int_list, max_particles
 
 
 def _min_particles():
@@ -21,7 +21,7 @@ def add_parser(sub):
     p.add_argument("--n-particles", "--sizes", dest="n_particles", metavar="N,...", default="100,400,1600",
                    type=int_list(lo=_min_particles, hi=max_particles),
                    help="particle counts for the core benchmark, enough for 12 modes (default %(default)s)")
-    p.add_argument("--repeats", type=int_at_least(5), default=5, help="repeats per figure, >= 5 (median)")
+    p.add_argument("--repeats", type=int_in(5, MAX_REPEATS), default=5, help="repeats per figure, >= 5 (median)")
     p.add_argument("--step", "--steps", dest="step", type=float_list(lo=0, lo_open=True), metavar="H,...",
                    default="0.01,0.001", help="communication steps [s] for the end-to-end runs (default %(default)s)")
     p.add_argument("--core-only", action="store_true", help="only the core benchmark")
@@ -31,7 +31,6 @@ def add_parser(sub):
 
 
 def run(args):
-    from pathlib import Path
 
     from ..bench.fmu import benched_fmu_models, core_rows, end_to_end, write_fmu_csv
     from ..bench.report import fmu_tables
@@ -43,15 +42,14 @@ def run(args):
     sizes, steps = args.n_particles, args.step
     scene = load_scene(args.scene)
     if not args.core_only:
-        from ..errors import UserError
+        from ..errors import UserError, exact
         from ..fmu.cosim import MAX_COMM_STEPS
         for h in steps:                 # each step runs the scene's horizon T through fmpy
             if h > scene.T or scene.T / h > MAX_COMM_STEPS:
-                raise UserError(f"--step: {h:g} is out of range (allowed: T / 1e8 = {scene.T / MAX_COMM_STEPS:g} s "
+                raise UserError(f"--step: {exact(h)} is out of range (allowed: T / 1e8 = {scene.T / MAX_COMM_STEPS:g} s "
                                 f"<= step <= T = {scene.T:g} s, at most 1e8 communication steps)")
-    out = Path(args.out) if args.out else None
-    if out is not None:
-        out.mkdir(parents=True, exist_ok=True)
+    from ..runio import check_output_dir, output_dir
+    out = check_output_dir(args.out) if args.out else None
     total = len(sizes) + (0 if args.core_only else len(benched_fmu_models()) * len(steps) + args.repeats)
     with progress_bar(total=total, desc="bench-fmu", enabled=not args.quiet) as bar:
         core = core_rows(args.scene, sizes, repeats=args.repeats, progress=False, bar=bar)
@@ -92,7 +90,8 @@ def run(args):
             print(f"  target >= 50x at {first['step_s'] * 1e3:g} ms, FMU {model}: {verdict} it "
                   f"({first['speedup']:.1f}x{accuracy})")
     if out is not None:
-        write_fmu_csv(out, core, e2e)
-        write_text(out / "bench_fmu.md", fmu_tables(core, e2e))
+        with output_dir(out):
+            write_fmu_csv(out, core, e2e)
+            write_text(out / "bench_fmu.md", fmu_tables(core, e2e))
         print(f"wrote {out / 'bench_fmu_core.csv'}" + (", bench_fmu_e2e.csv" if e2e else "") + ", bench_fmu.md")
     return 0

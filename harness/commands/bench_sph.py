@@ -1,6 +1,6 @@
 """``sphrom bench-sph``: µs per step of the full SPH model against N."""
 
-from .options import add_quiet, add_scene, choice_list, int_at_least, int_list, min_particles
+from .options import MAX_REPEATS, add_quiet, add_scene, choice_list, int_in, int_list, min_particles
 
 INTEGRATORS = ("euler", "symplectic", "rk4")
 
@@ -20,7 +20,7 @@ def add_parser(sub):
     p.add_argument("--integrator", "--integrators", dest="integrator", type=choice_list(*INTEGRATORS),
                    default=",".join(INTEGRATORS), metavar="NAME,...",
                    help="comma-separated integrators out of euler, symplectic, rk4 (default all)")
-    p.add_argument("--repeats", type=int_at_least(1), default=5, help="repeats per point (median reported)")
+    p.add_argument("--repeats", type=int_in(1, MAX_REPEATS), default=5, help="repeats per point (median reported)")
     p.add_argument("--layout", choices=("auto", "general"), default="auto",
                    help="the SPH operator's layout in the loop: auto (the fixed-offset stencil where the neighbour "
                         "lists allow it, as sphrom sph runs) or general (the neighbour lists); the same bits")
@@ -33,19 +33,16 @@ def add_parser(sub):
 
 
 def run(args):
-    from pathlib import Path
-
     from ..bench.sph_scaling import growth_exponent, plot_scaling, scaling_table
     from ..bench.tables import write_csv
     from ..bench.timing import cpu_model, load_average
     from ..progress import progress_bar
+    from ..runio import check_output_dir, output_dir
     from ..scene import load_scene
 
     load_scene(args.scene)                       # a bad name is a one-line error before any work
     sizes, integrators = args.n_particles, args.integrator
-    out = Path(args.out) if args.out else None
-    if out is not None:
-        out.mkdir(parents=True, exist_ok=True)
+    out = check_output_dir(args.out) if args.out else None
     load_start = load_average()
     with progress_bar(total=len(sizes) * len(integrators), desc="bench-sph", enabled=not args.quiet) as bar:
         rows = scaling_table(args.scene, sizes, integrators, args.repeats, bar, layout=args.layout)
@@ -60,8 +57,9 @@ def run(args):
     for integrator in integrators:
         print(f"{integrator}: time ~ N^{growth_exponent(rows, integrator):.2f} for N >= 1000")
     if out is not None:
-        write_csv(out / "sph_scaling.csv", rows)
-        plot_scaling(rows, integrators, out / "sph_scaling.png", args.scene)
+        with output_dir(out):
+            write_csv(out / "sph_scaling.csv", rows)
+            plot_scaling(rows, integrators, out / "sph_scaling.png", args.scene)
         print(f"wrote {out / 'sph_scaling.csv'} and {out / 'sph_scaling.png'}")
     if args.report:
         from ..bench.fmu_verify import update_report
@@ -74,6 +72,7 @@ def run(args):
         image = None
         if out is not None:
             import os
+            from pathlib import Path
             image = Path(os.path.relpath(out.resolve() / "sph_scaling.png", Path(args.report).resolve().parent))
         lines = sph_step_section(rows, sizes, args.repeats, integrators, produced=produced,
                                  image=image and image.as_posix())

@@ -36,8 +36,10 @@ def add_parser(sub):
                         "before, is refused)")
     add_order_tolerance(p, note=" (not with --model auto)")
     add_n_freeze(p, default=10, help="default refresh period n_freeze of the frozen coefficients")
-    p.add_argument("--probes", type=float_list(1, max_probes, lo=0.0, hi=1.0), metavar="X1,X2,...",
-                   default="0.25,0.5,0.66", help="probe positions in units of L, in [0, 1] (default 0.25,0.5,0.66)")
+    p.add_argument("--probes", type=float_list(1, max_probes, lo=0.0, hi=1.0, hi_open=True, distinct=True),
+                   metavar="X1,X2,...", default="0.25,0.5,0.66",
+                   help="distinct probe positions in units of L, in [0, 1) (the bar is periodic: 1 is 0; default "
+                        "0.25,0.5,0.66)")
     p.add_argument("--fmi", type=one_of("2", "3"), metavar="2|3", default="2", help="FMI version (default 2)")
     p.add_argument("--integrator", type=one_of("euler", "symplectic"), metavar="euler|symplectic",
                    help="time integrator of the frozen model (default: the scene's)")
@@ -78,7 +80,7 @@ def run(args):
 
 
 def _run(args):
-    from ..errors import UserError
+    from ..errors import UserError, exact
     from ..fmu.package import check_options, package_fmu
     from ..runio import check_output_path
     from ..scene import automatic_lines, load_scene
@@ -133,7 +135,7 @@ def _run(args):
                       order_tolerance=args.order_tolerance)
         vary = check_vary(scene, args.vary, args.model)
         from ..fmu.package import check_ports
-        ports = check_ports(args.ports, args.model)
+        ports = check_port_spacing(scene, check_ports(args.ports, args.model))
         if vary and ports:
             raise UserError("--ports: not with --vary (a parametric FMU has no ports)")
         s = package_fmu(scene, out, k=args.modes, n_freeze=args.n_freeze, probes=args.probes, fmi=fmi,
@@ -169,7 +171,7 @@ def _run(args):
               "length): no internal step, so no parameters dt and n_freeze")
     else:
         print(f"  integrator {s.integrator}, dt = {s.dt:g} s, n_freeze = {s.n_freeze} (parameters dt, n_freeze)")
-    print(f"  probes at x/L = {', '.join(f'{x:g}' for x in s.probes)}: outputs v_probe_1..{len(s.probes)}, "
+    print(f"  probes at x/L = {', '.join(exact(x) for x in s.probes)}: outputs v_probe_1..{len(s.probes)}, "
           f"rho_probe_1..{len(s.probes)}; input f")
     if s.envelope is not None:
         for line in s.envelope.lines(linear=model.linear):
@@ -180,7 +182,7 @@ def _run(args):
         print(f"  parameter {row['name']} (value reference {row['vr']}): start {row['start']}, trained range "
               f"[{row['min']}, {row['max']}]")
     if s.ports:
-        print(f"  ports at x/L = {', '.join(f'{x:g}' for x in s.ports)}: inputs F_port_1..{len(s.ports)} [N], outputs "
+        print(f"  ports at x/L = {', '.join(exact(x) for x in s.ports)}: inputs F_port_1..{len(s.ports)} [N], outputs "
               f"v_port_1..{len(s.ports)} [m s^-1], parameter area [m^2] (start 1); each port's profile and its "
               f"Krylov directions appended to the basis (profile projection errors on the modes: "
               f"{', '.join(f'{e:.3g}' for e in s.port_errors)})")
@@ -240,7 +242,34 @@ def check_vary(scene, texts, model):
     from ..sph.solver import build_problem
 
     ranges = [par.parse_vary(text) for text in texts]
+    for r in ranges:                    # a subnormal bound keeps a few of its digits: c = 1e-320 is 9.99989e-321
+        for bound in (r.lo, r.hi):
+            if 0 < bound < sys.float_info.min:
+                from ..errors import exact
+                raise FieldError("vary", f"{r.name} bound {exact(bound)} is below the smallest normal number "
+                                         f"{sys.float_info.min:.4g}, where doubles lose their precision (allowed: "
+                                         f"{'' if r.name == 'c' else r.name + ' = 0 or '}{r.name} >= "
+                                         f"{sys.float_info.min:.4g})")
     if not get_model(model).needs_basis:
         raise FieldError("model", f"{model} cannot be made parametric (allowed with --vary: frozen, exact)")
     par.parameter_space(build_problem(scene), ranges)
     return ranges
+
+
+def check_port_spacing(scene, ports):
+    """``ports`` (x/L) unless two are closer than one particle spacing L/N on the periodic bar: each port's force
+    is spread over the particles by the SPH kernel, so two ports within one spacing push nearly the same
+    particles with nearly the same weights and the model cannot tell their forces (nor their velocities)
+    apart; the second one's profile is then almost inside the first one's directions. FieldError ``ports``."""
+    from ..errors import FieldError, exact
+    n = scene.sph.n_particles
+    for i, a in enumerate(ports):
+        for b in ports[i + 1:]:
+            gap = abs(a - b) % 1.0
+            gap = min(gap, 1.0 - gap)
+            if gap < 1.0 / n:
+                raise FieldError("ports", f"{exact(a)} and {exact(b)} are {gap:.3g} L apart, closer than one particle "
+                                          f"spacing (1/N = 1/{n} L): the SPH kernel spreads both forces over the same "
+                                          "particles, so the model cannot tell them apart (allowed: ports at least "
+                                          "L/N apart)")
+    return ports

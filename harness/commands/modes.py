@@ -28,17 +28,21 @@ def add_parser(sub):
 
 def _write_csv(path, sweep):
     import csv
-    with open(path, "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(["k", "model", "err_v", "err_rho", "err_rho_var", "online_s"])
-        for r in sweep["rows"]:
-            w.writerow([r["k"], r["model"], f"{r['v']:.6e}", f"{r['rho']:.6e}", f"{r['rho_var']:.6e}",
-                        f"{r['online']:.6e}"])
-        w.writerow([])
-        w.writerow(["mode", "sigma_v", "sigma_rho"])
-        sv, sr = sweep["sigma_v"], sweep["sigma_rho"]
-        for i in range(max(sv.size, sr.size)):
-            w.writerow([i + 1, f"{sv[i]:.6e}" if i < sv.size else "", f"{sr[i]:.6e}" if i < sr.size else ""])
+    import io
+
+    from ..report.markdown import write_text
+    fh = io.StringIO(newline="")
+    w = csv.writer(fh)
+    w.writerow(["k", "model", "err_v", "err_rho", "err_rho_var", "online_s"])
+    for r in sweep["rows"]:
+        w.writerow([r["k"], r["model"], f"{r['v']:.6e}", f"{r['rho']:.6e}", f"{r['rho_var']:.6e}",
+                    f"{r['online']:.6e}"])
+    w.writerow([])
+    w.writerow(["mode", "sigma_v", "sigma_rho"])
+    sv, sr = sweep["sigma_v"], sweep["sigma_rho"]
+    for i in range(max(sv.size, sr.size)):
+        w.writerow([i + 1, f"{sv[i]:.6e}" if i < sv.size else "", f"{sr[i]:.6e}" if i < sr.size else ""])
+    write_text(path, fh.getvalue())
 
 
 def _one(scene, spec, args, out, tag, models):
@@ -52,10 +56,9 @@ def _one(scene, spec, args, out, tag, models):
 
 
 def run(args):
-    from pathlib import Path
-
     from ..errors import UserError
     from ..rom.registry import model_names
+    from ..runio import check_output_dir, output_dir
     from ..scene import automatic_lines, builtin_names, load_scene
     from .snapshot_options import strategy_from_args
 
@@ -66,22 +69,21 @@ def run(args):
         raise UserError(f"--model: {bad[0]!r} is not one of {', '.join(allowed)}")
     if args.all == (args.scene is not None):
         raise UserError("give a SCENE or --all")
-    out = Path(args.out)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise UserError(f"--out: cannot create '{out}' ({exc})") from None
+    out = check_output_dir(args.out)
     if not args.all:
         scene = load_scene(args.scene)
         spec = strategy_from_args(args, scene)
         for line in automatic_lines(scene):
             print(line)
         custom = spec != dict(scene.snapshots)
-        sweep, ths = _one(scene, spec if custom else None, args, out, scene.name, models)
+        with output_dir(out):
+            sweep, ths = _one(scene, spec if custom else None, args, out, scene.name, models)
         _print_sweep(scene, sweep, ths, None if custom else scene.paper.get("mode_threshold"))
         print(f"wrote {out / (scene.name + '.csv')} and {out / (scene.name + '.png')}")
         return 0
-    return _run_all(args, out, models, [load_scene(n) for n in builtin_names()])
+    scenes = [load_scene(n) for n in builtin_names()]
+    with output_dir(out):
+        return _run_all(args, out, models, scenes)
 
 
 def _print_sweep(scene, sweep, ths, paper):
@@ -124,6 +126,7 @@ def _run_all(args, out, models, scenes):
         r = snapshot_study(scene, study, base, sweep_fn)
         lines.append(f"| {scene.name} | {r['figure']} | {r['snapshots']} | {r['paper']} | {r['ours']} | {r['detail']} |")
         print(f"  study {scene.name} {r['snapshots']}: paper {r['paper']}, ours {r['ours']} ({r['detail']})")
-    (out / "summary.md").write_text("\n".join(lines) + "\n")
+    from ..report.markdown import write_text
+    write_text(out / "summary.md", "\n".join(lines) + "\n")
     print(f"wrote {out / 'summary.md'}")
     return 0

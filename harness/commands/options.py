@@ -28,6 +28,12 @@ def max_probes():
     return MAX_PROBES
 
 
+# The most timed repeats of a benchmark point: a median of 1000 is already exact enough; 1e18 would never end.
+MAX_REPEATS = 1000
+# The largest integer any option takes: a 64-bit signed integer (numba, HDF5 attributes, numpy indices).
+INT_MAX = 2**63 - 1
+
+
 def _number(text, kind, allowed):
     try:
         value = kind(text)
@@ -36,6 +42,8 @@ def _number(text, kind, allowed):
                                          f"(allowed: {allowed})") from None
     if kind is float and not math.isfinite(value):
         raise argparse.ArgumentTypeError(f"{text!r} is out of range (allowed: {allowed})")
+    if kind is int and abs(value) > INT_MAX:
+        raise argparse.ArgumentTypeError(f"{text!r} is out of range (allowed: {allowed}, at most 2^63 - 1)")
     return value
 
 
@@ -93,14 +101,14 @@ def one_of(*choices):
     return parse
 
 
-def _bounds(lo, hi, lo_open):
+def _bounds(lo, hi, lo_open, hi_open=False):
     if lo is None and hi is None:
         return "numbers"
     if hi is None:
         return f"numbers {'>' if lo_open else '>='} {lo:g}"
     if lo is None:
-        return f"numbers <= {hi:g}"
-    return f"numbers in {'(' if lo_open else '['}{lo:g}, {hi:g}]"
+        return f"numbers {'<' if hi_open else '<='} {hi:g}"
+    return f"numbers in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
 
 
 def _value(bound):
@@ -108,10 +116,10 @@ def _value(bound):
     return bound() if callable(bound) else bound
 
 
-def _list(text, kind, min_count, max_count, lo, hi, lo_open, increasing, what):
+def _list(text, kind, min_count, max_count, lo, hi, lo_open, increasing, what, hi_open=False, distinct=False):
     count = (f"{min_count}" if max_count == min_count else
              f"{min_count} or more" if max_count is None else f"{min_count} to {max_count}")
-    allowed = f"{count} comma-separated {what}" + (", increasing" if increasing else "")
+    allowed = f"{count} comma-separated {what}" + (", increasing" if increasing else ", distinct" if distinct else "")
     parts = [p.strip() for p in str(text).split(",")]
     if parts and parts[-1] == "":              # a trailing comma
         parts.pop()
@@ -124,14 +132,18 @@ def _list(text, kind, min_count, max_count, lo, hi, lo_open, increasing, what):
         raise argparse.ArgumentTypeError(f"{text!r} has {len(values)} values (allowed: {allowed})")
     for v in values:
         if not math.isfinite(v) or (lo is not None and (v <= lo if lo_open else v < lo)) \
-                or (hi is not None and v > hi):
+                or (hi is not None and (v >= hi if hi_open else v > hi)) or (kind is int and abs(v) > INT_MAX):
             raise argparse.ArgumentTypeError(f"{v!r} in {text!r} is out of range (allowed: {allowed})")
     if increasing and any(b <= a for a, b in zip(values, values[1:])):
         raise argparse.ArgumentTypeError(f"{text!r} is not increasing (allowed: {allowed})")
+    if distinct and len(set(values)) != len(values):
+        twice = next(v for i, v in enumerate(values) if v in values[:i])
+        raise argparse.ArgumentTypeError(f"{twice!r} is given twice in {text!r} (allowed: {allowed})")
     return values
 
 
-def float_list(min_count=1, max_count=None, lo=None, hi=None, lo_open=False, increasing=False, integral_as_int=False):
+def float_list(min_count=1, max_count=None, lo=None, hi=None, lo_open=False, increasing=False, integral_as_int=False,
+               hi_open=False, distinct=False):
     """The type of a comma-separated list of finite numbers, ``0,0.4,0.8`` -> [0.0, 0.4, 0.8].
 
     Parameters
@@ -139,16 +151,19 @@ def float_list(min_count=1, max_count=None, lo=None, hi=None, lo_open=False, inc
     min_count, max_count : int or callable
         How many values (``max_count`` None: no limit).
     lo, hi : float or callable, optional
-        Bounds of every value (a callable is called when parsing); ``lo_open`` excludes ``lo`` itself.
+        Bounds of every value (a callable is called when parsing); ``lo_open`` excludes ``lo`` itself,
+        ``hi_open`` ``hi``.
     increasing : bool
         Values strictly increasing.
+    distinct : bool
+        No value twice.
     integral_as_int : bool
         Values written without a point or exponent come back as int (``10`` -> 10, ``1.5`` -> 1.5).
     """
     def parse(text):
         low, high = _value(lo), _value(hi)
         values = _list(text, float, _value(min_count), _value(max_count), low, high, lo_open, increasing,
-                       _bounds(low, high, lo_open))
+                       _bounds(low, high, lo_open, hi_open), hi_open=hi_open, distinct=distinct)
         if integral_as_int:
             parts = [p.strip() for p in str(text).split(",") if p.strip()]
             values = [int(v) if not any(c in p for c in ".eEnN") else v for p, v in zip(parts, values)]
@@ -203,9 +218,14 @@ def add_quiet(p):
     p.add_argument("--quiet", action="store_true", help="no progress bars")
 
 
+# n_freeze is an FMI Integer parameter of the FMU (32 bits) wherever it goes.
+N_FREEZE_MAX = 2**31 - 1
+
+
 def add_n_freeze(p, default=None, help="refresh period n_freeze of the frozen coefficients"):
-    """``--n-freeze NF`` (alias ``--freeze``), an integer >= 1."""
-    p.add_argument("--n-freeze", "--freeze", dest="n_freeze", type=int_at_least(1), default=default, metavar="NF",
+    """``--n-freeze NF`` (alias ``--freeze``), an integer in [1, 2^31 - 1] (the FMU's Integer parameter)."""
+    p.add_argument("--n-freeze", "--freeze", dest="n_freeze", type=int_in(1, N_FREEZE_MAX), default=default,
+                   metavar="NF",
                    help=help + ("" if default is None else f" (default {default})"))
 
 

@@ -28,7 +28,7 @@ def add_parser(sub):
 def run(args):
     import numpy as np
 
-    from ..errors import UserError
+    from ..errors import UserError, exact
     from ..pod.basis import modes_for_energy
     from ..pod.io import operators_group, write_basis
     from ..pod.pipeline import automatic_modes, basis_for_scene
@@ -46,7 +46,7 @@ def run(args):
     rv, rr = basis.max_modes
     if args.energy is not None:
         if args.energy >= 1:
-            raise UserError(f"--energy: {args.energy:g} is out of range (allowed: 0 < TOL < 1)")
+            raise UserError(f"--energy: {exact(args.energy)} is out of range (allowed: 0 < TOL < 1)")
         k_v, k_r = modes_for_energy(basis.sigma_v, args.energy), modes_for_energy(basis.sigma_rho, args.energy)
     else:
         if args.modes is None and "modes" not in scene.rom:

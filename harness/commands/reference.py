@@ -95,6 +95,12 @@ def run(args):
     out = check_output_path(args.out)
     scene = load_scene(args.scene).with_T(args.t_end).with_sph(every=args.every, n_particles=args.n_particles)
     _check_options(args, scene)
+    if args.every is not None:
+        from ..errors import FieldError
+        from ..sph.solver import step_count
+        steps = max(step_count(scene.T, scene.sph.dt), 1)
+        if args.every > steps:
+            raise FieldError("every", f"{args.every} is out of range (allowed: 1 to {steps}, the scene's SPH steps)")
     if args.resolution is not None:
         check_resolution(args.resolution)
     if args.dt is not None:

@@ -7,6 +7,9 @@ from .options import add_n_freeze, add_order_tolerance, add_quiet, add_scene, mo
 
 B_CHOICES = ("paper", "rest")    # the frozen model's b (harness.rom.operators.B_FORMS)
 BOUND_PROBE_SAMPLES = 4000      # at least T/4000 between samples of the measured errors (h |A|_1 <= 0.05 up to 40000)
+# At most this many communication steps H in one run of a linear model (a Python loop of one k x k product
+# each, and the input sampled at every step): 1e6 steps take seconds, 1e12 would take days and terabytes.
+MAX_ROM_STEPS = 1_000_000
 
 
 def add_parser(sub):
@@ -51,7 +54,7 @@ def add_parser(sub):
 def run(args):
     from ..cache import cached_sph
     from ..compare import error_table, exact_errors, format_errors
-    from ..errors import UserError
+    from ..errors import UserError, exact
     from ..pod.io import read_basis
     from ..pod.pipeline import error_steps, on_steps
     from ..rom.registry import get_model
@@ -78,7 +81,8 @@ def run(args):
         raise UserError(f"--basis: '{args.basis}' has {basis.U_v.shape[0]} particles, the scene "
                         f"{scene.sph.n_particles}")
     if abs(basis.dt - scene.sph.dt) > 1e-15 * scene.sph.dt:
-        raise UserError(f"--basis: '{args.basis}' was made with dt = {basis.dt:g} s, the scene has {scene.sph.dt:g} s")
+        raise UserError(f"--basis: '{args.basis}' was made with dt = {exact(basis.dt)} s, the scene has "
+                        f"{exact(scene.sph.dt)} s")
     integrator = args.integrator or (model.integrators[0] if model.linear else scene.sph.integrator)
     if integrator not in model.integrators:
         raise UserError(f"--integrator: {integrator} is not defined for the {model.name} model "
@@ -88,6 +92,7 @@ def run(args):
     rv, rr = basis.max_modes
     if k_v > rv or k_r > rr:
         raise UserError(f"--modes: {k_v},{k_r} is out of range (allowed: at most {rv},{rr}, the basis' modes)")
+    check_step(args.step, scene.T, model)
     problem = build_problem(scene)
     steps = error_steps(scene)
     n = step_count(scene.T, scene.sph.dt)
@@ -153,6 +158,20 @@ def build_options(args, model):
     return {"b": args.b or model.paper_build.get("b", "paper")}
 
 
+def check_step(step, T, model):
+    """FieldError ``step`` unless ``step`` (None: the default) is a communication step of a linear model with
+    at most MAX_ROM_STEPS steps to T [s] and no longer than T."""
+    from ..errors import FieldError, exact
+    if step is None:
+        return
+    if not model.linear:
+        raise FieldError("step", f"applies to the linear models, whose communication step it is (the {model.name} "
+                                 "model steps with the scene's dt)")
+    if not (step <= T and T / step <= MAX_ROM_STEPS):
+        raise FieldError("step", f"{exact(step)} is out of range (allowed: T / {MAX_ROM_STEPS:.0e} = "
+                                 f"{T / MAX_ROM_STEPS:g} s <= step <= T = {T:g} s)")
+
+
 def run_without_basis(args, model):
     """``sphrom rom --model M`` for a model without a POD basis (balanced): its order from --modes R or
     --order-tolerance, errors at the probes and of the reconstructed fields, and its certified error bounds."""
@@ -187,6 +206,7 @@ def run_without_basis(args, model):
                         f"(allowed: {', '.join(model.integrators)})")
     out = check_output_path(args.out)
     scene = load_scene(args.scene)
+    check_step(args.step, scene.T, model)
     problem = build_problem(scene)
     steps = error_steps(scene)
     n = step_count(scene.T, scene.sph.dt)

@@ -40,6 +40,9 @@ def run(args):
     for line in stability_warnings(problem, sph.dt, sph.integrator, scene.T):
         print(f"sphrom sph: warning: {line}", file=sys.stderr)
     n_steps = step_count(scene.T, sph.dt)
+    if args.every is not None and args.every > max(n_steps, 1):
+        from ..errors import FieldError
+        raise FieldError("every", f"{args.every} is out of range (allowed: 1 to {max(n_steps, 1)}, the run's steps)")
     result = run_sph(scene, problem=problem, progress=not args.quiet)
     us = 1e6 * result.wall_time / max(n_steps, 1)
     print(f"sph {scene.name}: N = {sph.n_particles}, alpha = {sph.alpha:g}, dt = {sph.dt:g} s, {sph.integrator}, "

@@ -28,25 +28,21 @@ def add_parser(sub):
 
 
 def run(args):
-    from pathlib import Path
 
     from ..bench.stress_maps import stress_report
     from ..bench.stress_settings import DEFAULT_SCENES, DT_FACTORS, QUICK_DT_FACTORS
-    from ..errors import UserError
     from ..report.markdown import write_text
+    from ..runio import check_output_dir, output_dir
     from ..scene import load_scene
 
     scenes = [load_scene(s) for s in (args.scenes or DEFAULT_SCENES)]
     amps, horizons, ks, factors = args.amplitudes, args.horizons, args.modes, DT_FACTORS
     if args.quick:
         amps, horizons, ks, factors = amps[:2], horizons[:1], ks[:2], QUICK_DT_FACTORS
-    out = Path(args.out)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise UserError(f"--out: cannot create '{out}' ({exc})") from None
-    text, wall = stress_report(scenes, amps, horizons, ks, factors, out, no_fmu=args.no_fmu, quick=args.quick,
-                               progress=not args.quiet)
-    write_text(out / "stress.md", text)
+    out = check_output_dir(args.out)
+    with output_dir(out):
+        text, wall = stress_report(scenes, amps, horizons, ks, factors, out, no_fmu=args.no_fmu, quick=args.quick,
+                                   progress=not args.quiet)
+        write_text(out / "stress.md", text)
     print(f"wrote {out}/stress.md, stress_*.csv and a heat map per scene ({wall:.0f} s)")
     return 0

@@ -28,12 +28,18 @@ def run(args):
     import sys
 
     from ..errors import UserError
-    from ..runio import check_output_path
+    from ..runio import check_output_path, output_target
     from ..sweep.spec import load_spec
+    from ..sweep.table import output_paths
 
     out = check_output_path(args.out)
     if out.suffix.lower() not in (".h5", ".hdf5"):
         raise UserError(f"--out: '{out}' must end in .h5 (RESULTS.csv and RESULTS.png are written beside it)")
+    for path in output_paths(out):          # written together, renamed into place: regular files only
+        how, kind = output_target(path)
+        if how != "replace":
+            raise UserError(f"--out: '{path}' is a {kind} (allowed: a new or regular file; a sweep's results "
+                            "are files it resumes from, renamed into place together)")
     if args.scheduler is not None and args.workers is not None:
         raise UserError("--workers: applies to the LocalCluster only (the cluster at --scheduler has its own "
                         "workers)")
@@ -64,9 +70,10 @@ def run(args):
     for path in r.paths:
         print(f"wrote {path}")
     if r.interrupted:
-        print(f"sphrom sweep: interrupted; {r.ran} finished runs kept in {out}; run the same command again to "
-              f"resume", file=sys.stderr)
-        return 130
+        import signal
+        print(f"sphrom sweep: interrupted ({signal.Signals(r.interrupted).name}); {r.ran} finished runs kept in "
+              f"{out} and {out.with_suffix('.csv')}; run the same command again to resume", file=sys.stderr)
+        return 128 + r.interrupted
     if not r.ran and not r.paths:
         print("  nothing to run: every entry is done (remove the file to run afresh)")
     if r.lost:                      # tasks lost with their workers beyond the retries: the sweep failed

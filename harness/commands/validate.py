@@ -1,6 +1,6 @@
 """``sphrom validate``: the validation report of one scene or of every paper scene."""
 
-from .options import add_quiet, int_at_least
+from .options import MAX_REPEATS, add_quiet, int_in
 
 
 def add_parser(sub):
@@ -16,7 +16,7 @@ def add_parser(sub):
     p.add_argument("--all", action="store_true", help="every built-in (paper) scene, and the index")
     p.add_argument("--out", metavar="DIR", default="validation/reports", help="report folder (default "
                    "validation/reports)")
-    p.add_argument("--repeats", type=int_at_least(1), default=3,
+    p.add_argument("--repeats", type=int_in(1, MAX_REPEATS), default=3,
                    help="timed runs per point of the time-against-error study (median; default 3)")
     add_quiet(p)
     p.set_defaults(handler=run)
@@ -24,28 +24,24 @@ def add_parser(sub):
 
 def run(args):
     import time
-    from pathlib import Path
 
     from ..errors import UserError
     from ..progress import progress_bar
     from ..report.pages import index_page, scene_page
     from ..pod.pipeline import modes_line
+    from ..runio import check_output_dir, output_dir
     from ..scene import automatic_lines, builtin_names, load_scene
 
     if args.all == (args.scene is not None):
         raise UserError("give a SCENE or --all")
     scenes = [load_scene(n) for n in builtin_names()] if args.all else [load_scene(args.scene)]
-    out = Path(args.out)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise UserError(f"--out: cannot create '{out}' ({exc})") from None
+    out = check_output_dir(args.out)
     for scene in scenes:
         for line in automatic_lines(scene):
             print(line)
     started = time.perf_counter()
     summaries = []
-    with progress_bar(total=len(scenes), desc="validate", enabled=not args.quiet) as bar:
+    with output_dir(out), progress_bar(total=len(scenes), desc="validate", enabled=not args.quiet) as bar:
         for scene in scenes:
             bar.set_postfix_str(scene.name)
             summaries.append(scene_page(scene, out, repeats=args.repeats, progress=not args.quiet))

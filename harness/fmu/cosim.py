@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import FieldError, SimulationError, UserError
+from ..errors import FieldError, SimulationError, UserError, exact
 from ..paths import is_file
 from .variables import absent, check_parameter
 
@@ -106,6 +106,7 @@ def force_signal(force, t_end, step):
     if text.lower().endswith(".csv") or is_file(path):
         signal = _csv_signal(path)
         check_coverage(signal, path, 0.0, t_end)
+        input_samples(signal, signal["time"])          # f is interpolated between rows: finite slopes
         return signal
     from ..expr import compile_expr
     try:
@@ -129,14 +130,23 @@ def force_signal(force, t_end, step):
         raise FieldError("force", f"{text!r} is not finite at t = {times[bad][0]:g} s (allowed: a finite force)")
     signal = np.zeros(times.size, dtype=[("time", np.float64), ("f", np.float64)])
     signal["time"], signal["f"] = times, values
+    input_samples(signal, times)
     return signal
 
 
 def input_samples(signal, times):
     """f at the communication points ``times`` (the signal interpolated linearly, held outside) and the
     forward slopes df/dt over each step [m s^-3] (len(times) - 1 values)."""
-    f = np.interp(times, signal["time"], signal["f"])
-    return f, np.diff(f) / np.diff(times)
+    with np.errstate(all="ignore"):
+        f = np.interp(times, signal["time"], signal["f"])
+        rate = np.diff(f) / np.diff(times)
+    bad = ~np.isfinite(rate)
+    if np.any(bad) or not np.all(np.isfinite(f)):
+        j = int(np.argmax(bad)) if np.any(bad) else 0
+        raise FieldError("force", f"f goes from {f[j]:.6g} to {f[j + 1]:.6g} m s^-2 between t = {times[j]:g} and "
+                                  f"{times[j + 1]:g} s: its slope df/dt overflows (allowed: a force whose slope "
+                                  "between samples is finite, |df/dt| <= 1.8e308 m s^-3)")
+    return f, rate
 
 
 def _not_instantiable(fmu, exc, messages):
@@ -200,9 +210,12 @@ def _csv_signal(path):
             rows = [row for row in reader if row and any(c.strip() for c in row)]
     except (OSError, StopIteration, UnicodeDecodeError, csv.Error) as exc:
         raise FieldError("force", f"cannot read CSV file '{path}' ({exc or 'empty'})") from None
-    if "time" not in header or "f" not in header:
-        raise FieldError("force", f"'{path}' needs the columns time,f (found: {','.join(header)})")
+    if sorted(header) != ["f", "time"]:         # an extra column would be dropped without a word
+        raise FieldError("force", f"'{path}' has the columns {','.join(header)} (allowed: exactly time,f)")
     it, jf = header.index("time"), header.index("f")
+    for i, row in enumerate(rows):
+        if len(row) != 2:
+            raise FieldError("force", f"'{path}': data row {i + 1} has {len(row)} values (allowed: two, time,f)")
     try:
         data = np.array([(float(r[it]), float(r[jf])) for r in rows], dtype=float).reshape(-1, 2)
     except (ValueError, IndexError):
@@ -211,8 +224,12 @@ def _csv_signal(path):
         raise FieldError("force", f"'{path}' has no rows")
     if not np.all(np.isfinite(data)):
         raise FieldError("force", f"'{path}' has non-finite values (allowed: finite time and f)")
-    if np.any(np.diff(data[:, 0]) < 0):
-        raise FieldError("force", f"'{path}': time must not decrease")
+    steps = np.diff(data[:, 0])
+    if np.any(steps <= 0):                      # a repeated time gives f two values there
+        i = int(np.argmax(steps <= 0))
+        what = "repeats" if steps[i] == 0 else "goes back to"
+        raise FieldError("force", f"'{path}': data row {i + 2} {what} t = {float(data[i + 1, 0])!r} s (allowed: times "
+                                  "increasing, one f per time)")
     signal = np.zeros(data.shape[0], dtype=[("time", np.float64), ("f", np.float64)])
     signal["time"], signal["f"] = data[:, 0], data[:, 1]
     return signal
@@ -229,7 +246,8 @@ def check_coverage(signal, path, start, t_end):
         raise FieldError("force", f"'{path}' has only negative times (last {times[-1]:g} s) {allowed}")
     tol = 1e-12 * max(1.0, abs(t_end))
     if times[0] > start + tol or times[-1] < t_end - tol:
-        raise FieldError("force", f"'{path}' covers [{times[0]:g}, {times[-1]:g}] s, not [{start:g}, {t_end:g}] s "
+        raise FieldError("force", f"'{path}' covers [{exact(times[0])}, {exact(times[-1])}] s, not [{exact(start)}, "
+                                  f"{exact(t_end)}] s "
                          f"{allowed}")
 
 
@@ -298,7 +316,7 @@ def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None, hold_inputs
     t_end = _positive(t_end, "t_end") or float(de.stopTime)
     step = _positive(step, "step") or float(de.stepSize)
     if step > t_end:
-        raise FieldError("step", f"{step:g} is out of range (allowed: 0 < step <= t_end = {t_end:g})")
+        raise FieldError("step", f"{exact(step)} is out of range (allowed: 0 < step <= t_end = {exact(t_end)})")
     ratio = t_end / step                # may be inf (t_end 1e308, step tiny): compared before int()
     if ratio > MAX_COMM_STEPS:
         raise FieldError("step", f"{step:g} gives {ratio:.3g} communication steps to t_end = {t_end:g} s "

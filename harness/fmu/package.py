@@ -417,27 +417,37 @@ def platform_folder(fmi):
 
 def write_fmu(path, *, fmi, blob, description, binary, sources=None, documentation=None):
     """Write the FMU archive to ``path`` (not atomically: see :func:`package_fmu`); ``documentation`` maps
-    archive names (``documentation/index.html``, ...) to their bytes or text."""
+    archive names (``documentation/index.html``, ...) to their bytes or text.  Entries are stored readable by
+    everyone (0644, the binary 0755): zipfile's default 0600 made an FMU extracted by one user unreadable to
+    another."""
     import fmpy
     src = data_dir("fmu_src")
     sources = sources or fmu_sources(fmi)
     with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED) as zf:
-        zf.writestr("modelDescription.xml", description)
+        zf.writestr(_readable("modelDescription.xml"), description)
         library = f"{MODEL_IDENTIFIER}{fmpy.sharedLibraryExtension}"
         info = zipfile.ZipInfo(f"binaries/{platform_folder(fmi)}/{library}", date_time=time.localtime()[:6])
         info.compress_type = zipfile.ZIP_DEFLATED
         info.external_attr = 0o755 << 16
         zf.writestr(info, Path(binary).read_bytes())
-        zf.writestr("resources/model.bin", blob)
+        zf.writestr(_readable("resources/model.bin"), blob)
         for name in sources:
-            zf.writestr(f"sources/{name}", (src / name).read_bytes())
+            zf.writestr(_readable(f"sources/{name}"), (src / name).read_bytes())
         c_files = " ".join(name for name in sources if name.endswith(".c"))
-        zf.writestr("sources/README.txt", SOURCES_NOTE.format(fmi=fmi, c_files=c_files))
+        zf.writestr(_readable("sources/README.txt"), SOURCES_NOTE.format(fmi=fmi, c_files=c_files))
         if fmi == 3:
             from .describe import build_description
-            zf.writestr("sources/buildDescription.xml", build_description(blob))
+            zf.writestr(_readable("sources/buildDescription.xml"), build_description(blob))
         for name, content in (documentation or {}).items():
-            zf.writestr(name, content)
+            zf.writestr(_readable(name), content)
+
+
+def _readable(name):
+    """A deflated archive entry ``name`` with mode 0644 (``writestr`` with a bare name stores 0600)."""
+    info = zipfile.ZipInfo(name, date_time=time.localtime()[:6])
+    info.compress_type = zipfile.ZIP_DEFLATED
+    info.external_attr = 0o644 << 16
+    return info
 
 
 def validate(path):

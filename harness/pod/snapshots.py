@@ -21,16 +21,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import FieldError, UserError
+from ..errors import FieldError, UserError, exact
 
 
 def _to_steps(times, dt, n_steps, where):
     times = np.asarray(times, dtype=float)
-    steps = np.rint(times / dt).astype(np.int64)
-    bad = (steps < 0) | (steps > n_steps)
+    ratio = times / dt                    # compared before the cast: 1e19 s is no int64 step (numpy warned)
+    bad = ~(np.rint(ratio) >= 0) | ~(np.rint(ratio) <= n_steps)
     if np.any(bad):
-        raise UserError(f"{where}: time {times[bad][0]:g} s is outside the run [0, {n_steps * dt:g}] s")
-    return steps
+        raise UserError(f"{where}: time {exact(times[bad][0])} s is outside the run [0, {exact(n_steps * dt)}] s")
+    return np.rint(ratio).astype(np.int64)
 
 
 # The snapshot matrices of v and rho (count x N float64 each) above this are refused before they are made.

@@ -30,10 +30,11 @@ def _log_axis(values):
     return v.size == len(values) and v.size > 2 and v.max() / v.min() > 20
 
 
-def summary_plot(rows, path, probe=1, title=""):
-    """Write the summary PNG of ``rows`` (table dicts) to ``path`` atomically; returns its kind.
+def summary_plot(rows, path, probe=1, title="", atomic=True):
+    """Write the summary PNG of ``rows`` (table dicts) to ``path`` (atomically unless ``atomic`` is False:
+    ``path`` is then a temporary of :func:`harness.runio.atomic_paths`); returns its kind.
 
-    Returns ``"surface"``, ``"scatter"`` or ``None`` (no row to plot).
+    Returns ``"surface"``, ``"scatter"`` or ``None`` (no row to plot, nothing written).
     """
     import matplotlib
     matplotlib.use("Agg")
@@ -116,7 +117,10 @@ def summary_plot(rows, path, probe=1, title=""):
     if title:
         fig.suptitle(title, fontsize=10)
     fig.tight_layout()
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, format="png")
+    if atomic:
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=110, format="png")
+    else:
+        fig.savefig(path, dpi=110, format="png")
     plt.close(fig)
     return kind

@@ -54,6 +54,7 @@ import hashlib
 import itertools
 import json
 import math
+import sys
 import tomllib
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -61,7 +62,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import defaults
-from ..errors import UserError
+from ..errors import UserError, exact
 from ..paths import exists, is_file
 
 SHAPES = {
@@ -416,9 +417,12 @@ def parse_spec(text, source="<spec>", spec_path=None) -> Spec:
     probes = raw.get("probes", [0.25, 0.5, 0.66])
     if not (isinstance(probes, list) and 1 <= len(probes) <= MAX_PROBES):
         _fail(f"{source}: probes", f"{probes!r} is out of range (allowed: a list of 1 to {MAX_PROBES} "
-                                   f"positions x/L in [0, 1])")
-    probes = tuple(_number(p, f"{source}: probes[{i}]", lambda v: 0 <= v <= 1, "a position x/L in [0, 1]")
+                                   f"distinct positions x/L in [0, 1))")
+    probes = tuple(_number(p, f"{source}: probes[{i}]", lambda v: 0 <= v < 1,
+                           "a position x/L in [0, 1) (the bar is periodic: 1 is 0)")
                    for i, p in enumerate(probes))
+    if len(set(probes)) != len(probes):
+        _fail(f"{source}: probes", f"{list(probes)!r} gives a position twice (allowed: distinct positions x/L)")
     fmi = raw.get("fmi", 2)
     if fmi not in (2, 3) or isinstance(fmi, bool):
         _fail(f"{source}: fmi", f"{fmi!r} is out of range (allowed: 2 or 3)")
@@ -504,12 +508,13 @@ def _parametric_ranges(raw, grids, scene, source, notes):
         if name not in ("c", "d"):
             _fail(at, "unknown key (allowed: c, d)")
         value = raw[name]
-        lo_ok = (lambda v: v > 0) if name == "c" else (lambda v: v >= 0)
+        # a subnormal bound (below 2.2e-308) keeps only a few of its digits
+        lo_ok = (lambda v: v >= sys.float_info.min) if name == "c" else (lambda v: v == 0 or v >= sys.float_info.min)
         if not (isinstance(value, list) and len(value) == 2 and all(_is_number(v) and math.isfinite(v)
                                                                     for v in value)
                 and lo_ok(value[0]) and value[0] < value[1]):
             _fail(at, f"{value!r} is out of range (allowed: [lo, hi] with {'0 < lo' if name == 'c' else '0 <= lo'}"
-                      f" < hi [{UNITS[name]}])")
+                      f" < hi [{UNITS[name]}], lo 0 or a normal number >= {sys.float_info.min:.4g})")
         lo, hi = float(value[0]), float(value[1])
         base = scene_value(scene, name)
         if math.isnan(base):
@@ -518,7 +523,7 @@ def _parametric_ranges(raw, grids, scene, source, notes):
         for v in grids[name]:
             v = base if v is None else v
             if not lo <= v <= hi:
-                _fail(f"{source}: grid.{name}", f"{v!r} is outside the parametric range [{lo:g}, {hi:g}] "
+                _fail(f"{source}: grid.{name}", f"{v!r} is outside the parametric range [{exact(lo)}, {exact(hi)}] "
                                                 f"(allowed: values inside parametric.{name})")
         out.append((name, lo, hi))
     _note_parametric(out, grids, notes, "the [parametric] table")
@@ -546,7 +551,7 @@ def _automatic_ranges(grids, scene, source, notes):
 def _note_parametric(ranges, grids, notes, origin):
     counts = ", ".join(f"{len(grids[name])} value{'s' if len(grids[name]) > 1 else ''} of grid.{name}"
                        for name, _, _ in ranges)
-    spans = ", ".join(f"{name} in [{lo:g}, {hi:g}]" for name, lo, hi in ranges)
+    spans = ", ".join(f"{name} in [{exact(lo)}, {exact(hi)}]" for name, lo, hi in ranges)
     notes.append(f"{counts}: one parametric FMU over {spans} ({origin}), {' and '.join(n for n, _, _ in ranges)} "
                  f"set per run")
 

@@ -18,8 +18,17 @@ Steps of :func:`run_study`:
    scattered again, before it is recorded as failed with a one-line error
    naming the grid point (``StudyResult.lost``); the table is written
    (atomically) every ``checkpoint_s`` seconds, at the end, and on
-   KeyboardInterrupt, so an interrupted study keeps every finished entry;
-5. write RESULTS.h5, RESULTS.csv and the summary RESULTS.png.
+   SIGINT/SIGTERM, so an interrupted study keeps every finished entry;
+5. write RESULTS.h5, RESULTS.csv and the summary RESULTS.png, together (all
+   renamed into place, or none).
+
+Signals: while the cluster starts, runs and closes, SIGINT and SIGTERM are held
+(:func:`harness.signals.deferred`) and acted on between results: raised as an
+exception inside dask's finalisers they were lost ("Exception ignored", exit 0
+with the full output) or left a half-started cluster to print a traceback at
+exit.  An interrupted study writes the finished runs (when there are any) and
+reports the signal (``StudyResult.interrupted``, its number); a second signal
+during that write leaves the files as they were.
 
 Throughput is the entries finished in this session per second of the compute
 phase (first submission to last result; packaging and cluster start-up are
@@ -38,13 +47,15 @@ import uuid
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..errors import FieldError
+from ..errors import FieldError, Interrupted
+from ..signals import current_guard, deferred, pending
 from .spec import scene_value
 from .table import merge, read_results, write_results
 
 CONNECT_TIMEOUT = 20.0     # s, to reach a scheduler
 WORKER_TIMEOUT = 60.0      # s, to see a first worker of an existing cluster
 CHECKPOINT_S = 30.0        # s between partial writes
+POLL_S = 0.05              # s between looks at the results (and at a held signal)
 LOST_RETRIES = 2           # resubmissions of a task whose worker died, before the entry is recorded as failed
 
 
@@ -65,7 +76,7 @@ class StudyResult:
     compute_wall: float
     total_wall: float
     throughput: float
-    interrupted: bool
+    interrupted: int                  # the signal that interrupted the study (0: it was not interrupted)
     paths: list = field(default_factory=list)
     plot: str | None = None
     lost: list = field(default_factory=list)     # one line per entry lost with its workers beyond the retries
@@ -186,42 +197,55 @@ def run_study(spec, out, *, scheduler=None, workers=None, progress=True, checkpo
         }
 
     state = {"scheduler": "none", "workers": 0, "ran": 0, "compute": 0.0, "throughput": float("nan"),
-             "package": 0.0, "start": 0.0, "interrupted": False, "remote": bool(scheduler), "lost": []}
+             "package": 0.0, "start": 0.0, "interrupted": 0, "remote": bool(scheduler), "lost": []}
     new_rows = []
     client = cluster = None
     if todo:
         t0 = time.perf_counter()
         variants = ensure_fmus(spec, todo, progress=progress, log=log)
+        _stop_if_pending()
         state["package"] = time.perf_counter() - t0
         t0 = time.perf_counter()
         log(f"connecting to {scheduler}" if scheduler else f"starting a LocalCluster of {workers} workers")
-        client, cluster = connect(scheduler, workers)
-        state["start"] = time.perf_counter() - t0
-        state["scheduler"] = scheduler if scheduler else f"LocalCluster {client.scheduler.address}"
-        state["workers"] = len(client.scheduler_info()["workers"])
         try:
-            _compute(client, spec, todo, variants, by_id, session, new_rows, state, progress, checkpoint_s,
-                     lambda: write_results(out, merge(previous, new_rows), attrs_for(merge(previous, new_rows),
-                                                                                      state), n_probes),
-                     bundle, run_entry, progress_bar)
-        except KeyboardInterrupt:
-            state["interrupted"] = True
-        finally:
-            _close(client, cluster)
+            with deferred() as held:                 # a signal is acted on between results, never inside dask
+                client, cluster = connect(scheduler, workers)
+                state["start"] = time.perf_counter() - t0
+                state["scheduler"] = scheduler if scheduler else f"LocalCluster {client.scheduler.address}"
+                state["workers"] = len(client.scheduler_info()["workers"])
+                try:
+                    _compute(client, spec, todo, variants, by_id, session, new_rows, state, progress, checkpoint_s,
+                             lambda: write_results(out, merge(previous, new_rows),
+                                                   attrs_for(merge(previous, new_rows), state), n_probes),
+                             bundle, run_entry, progress_bar, held)
+                finally:
+                    _close(client, cluster)
+                    if held:                         # arrived while the cluster closed
+                        raise Interrupted(held.pop(0))
+        except KeyboardInterrupt as exc:
+            state["interrupted"] = int(getattr(exc, "signum", 2))
+            guard = current_guard()
+            if guard is not None:
+                guard.acknowledge()                  # handled here: the finished runs are kept
+            if not new_rows:
+                raise Interrupted(state["interrupted"]) from None
     rows = merge(previous, new_rows)
     written = []
     plot = None
     if new_rows or not out.exists():
-        write_results(out, rows, attrs_for(rows, state), n_probes)
-        written = [out, out.with_suffix(".csv")]
-        if not state["interrupted"]:
+        drawn = {}
+
+        def draw(tmp):
             try:
-                plot = summary_plot([r for r in rows if r["id"] in ids], out.with_suffix(".png"),
-                                    title=spec.title or f"{spec.scene.name}: {len(spec.entries)} entries")
-                if plot:
-                    written.append(out.with_suffix(".png"))
+                drawn["kind"] = summary_plot([r for r in rows if r["id"] in ids], tmp, atomic=False,
+                                             title=spec.title or f"{spec.scene.name}: {len(spec.entries)} entries")
             except Exception as exc:            # a plot must never lose the table
                 log(f"summary plot not written: {exc}")
+        write_results(out, rows, attrs_for(rows, state), n_probes, plot=None if state["interrupted"] else draw)
+        written = [out, out.with_suffix(".csv")]
+        plot = drawn.get("kind")
+        if plot:
+            written.append(out.with_suffix(".png"))
     return StudyResult(entries=len(spec.entries), skipped=skipped, ran=state["ran"],
                        ok=sum(r["status"] == "ok" for r in new_rows),
                        failed=sum(r["status"] == "failed" for r in new_rows), kept=kept, workers=state["workers"],
@@ -231,12 +255,29 @@ def run_study(spec, out, *, scheduler=None, workers=None, progress=True, checkpo
                        lost=list(state["lost"]))
 
 
+def _stop_if_pending():
+    """Interrupted for a signal whose exception was lost (e.g. inside a finaliser while packaging)."""
+    signum = pending()
+    if signum is not None:
+        raise Interrupted(signum)
+
+
 def _close(client, cluster):
+    """Close the client, then the LocalCluster (if ours), with dask's loggers silent meanwhile: a scheduler
+    still reporting on cancelled tasks logs each message to the closed client as CRITICAL, with a traceback."""
+    quiet = {name: logging.getLogger(name).level for name in list(logging.root.manager.loggerDict)
+             if name == "distributed" or name.startswith("distributed.")}
+    for name in quiet:
+        logging.getLogger(name).setLevel(logging.CRITICAL + 1)
     try:
-        client.close()
+        try:
+            client.close()
+        finally:
+            if cluster is not None:
+                cluster.close()
     finally:
-        if cluster is not None:
-            cluster.close()
+        for name, level in quiet.items():
+            logging.getLogger(name).setLevel(level)
 
 
 def grid_point(entry):
@@ -257,9 +298,24 @@ def is_lost(exc):
     return isinstance(exc, (KilledWorker, CancelledError))
 
 
+def _completed(pending_futures, held):
+    """The futures of ``pending_futures`` (distributed.as_completed) as they finish, looking every POLL_S at
+    ``held`` (the signals held meanwhile): Interrupted for the first one."""
+    while not pending_futures.is_empty():
+        if held:
+            raise Interrupted(held.pop(0))
+        if not pending_futures.has_ready():
+            time.sleep(POLL_S)
+            continue
+        yield from pending_futures.next_batch(block=False)
+    if held:
+        raise Interrupted(held.pop(0))
+
+
 def _compute(client, spec, todo, variants, by_id, session, new_rows, state, progress, checkpoint_s, checkpoint,
-             bundle, run_entry, progress_bar):
-    """Submit ``todo`` and collect rows into ``new_rows`` (state updated as they come)."""
+             bundle, run_entry, progress_bar, held=()):
+    """Submit ``todo`` and collect rows into ``new_rows`` (state updated as they come); ``held``: the signals
+    held while it runs (:func:`harness.signals.deferred`), acted on between results."""
     from distributed import as_completed
 
     order = {vin: i for i, vin in enumerate(variants)}
@@ -278,7 +334,7 @@ def _compute(client, spec, todo, variants, by_id, session, new_rows, state, prog
     try:
         with progress_bar(total=len(futures), desc="sweep", unit="run", enabled=progress) as bar:
             pending = as_completed(futures)
-            for fut in pending:
+            for fut in _completed(pending, held):
                 entry = futures[fut]
                 row = input_row(spec, entry, variants[entry.variant_inputs()].key)
                 try:

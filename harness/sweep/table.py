@@ -12,9 +12,10 @@ Layout of RESULTS.h5::
                                counts, complete (0 while partial), and
                                ``sessions`` (JSON: one record per session)
 
-RESULTS.csv has the same columns and rows (full double precision).  Both are
-written to a temporary name and renamed, so an interrupted write leaves the
-previous version.  A row per entry: inputs, status (``ok`` | ``failed``) and
+RESULTS.csv has the same columns and rows (full double precision).  Both (and
+the summary plot RESULTS.png, when drawn) are written to temporary names and
+renamed together (:func:`harness.runio.atomic_paths`), so an interrupted write
+leaves the previous versions of all of them.  A row per entry: inputs, status (``ok`` | ``failed``) and
 error, attempts, probe statistics, errors against the full SPH (nan when not
 run), timings, worker.
 """
@@ -29,7 +30,7 @@ import h5py
 import numpy as np
 
 from ..errors import FieldError
-from ..runio import atomic_path
+from ..runio import atomic_paths
 
 FORMAT = "sphrom-sweep"
 FORMAT_VERSION = 1
@@ -109,8 +110,14 @@ def _all_columns(rows, n_probes):
     return cols
 
 
-def write_results(path, rows, attrs, n_probes):
-    """Write ``rows`` (dicts) to ``path`` (.h5) and the CSV beside it, atomically.
+def output_paths(path, plot=True):
+    """RESULTS.h5 and the files beside it: RESULTS.csv (and RESULTS.png with ``plot``)."""
+    path = Path(path)
+    return [path, path.with_suffix(".csv")] + ([path.with_suffix(".png")] if plot else [])
+
+
+def write_results(path, rows, attrs, n_probes, plot=None):
+    """Write ``rows`` (dicts) to ``path`` (.h5) and the CSV beside it, together: both renamed, or neither.
 
     Parameters
     ----------
@@ -120,35 +127,54 @@ def write_results(path, rows, attrs, n_probes):
     attrs : dict
         Root attributes (numbers or strings).
     n_probes : int
+    plot : callable, optional
+        ``plot(tmp)`` draws the summary PNG into the temporary ``tmp`` (or nothing, leaving RESULTS.png as it
+        was); committed with the table.
     """
-    from .. import __version__
     path = Path(path)
+    table = _table(rows, n_probes)
+    with atomic_paths(output_paths(path, plot is not None)) as tmps:
+        _write_h5(tmps[0], table, attrs)
+        _write_csv(tmps[1], table)
+        if plot is not None:
+            plot(tmps[2])
+
+
+def _table(rows, n_probes):
+    """(rows sorted by index, columns, {column: array})."""
     rows = sorted(rows, key=lambda r: (r.get("index", 0), r.get("id", "")))
     cols = _all_columns(rows, n_probes)
-    arrays = {name: _column_array(rows, name, kind) for name, (kind, _, _) in cols.items()}
-    with atomic_path(path) as tmp:
-        with h5py.File(tmp, "w") as h5:
-            h5.attrs["format"] = FORMAT
-            h5.attrs["format_version"] = FORMAT_VERSION
-            h5.attrs["sphrom_version"] = __version__
-            for key, value in attrs.items():
-                h5.attrs[key] = "none" if value is None else value
-            group = h5.create_group("results")
-            group.attrs["columns"] = np.array(list(cols), dtype=h5py.string_dtype())
-            for name, (kind, units, desc) in cols.items():
-                data = arrays[name]
-                if kind == "str":
-                    ds = group.create_dataset(name, data=data, dtype=h5py.string_dtype())
-                else:
-                    ds = group.create_dataset(name, data=data)
-                ds.attrs["units"] = units
-                ds.attrs["description"] = desc
-    with atomic_path(path.with_suffix(".csv")) as tmp:
-        with open(tmp, "w", newline="") as fh:
-            writer = csv.writer(fh)
-            writer.writerow(list(cols))
-            for i in range(len(rows)):
-                writer.writerow([_csv(arrays[name][i], cols[name][0]) for name in cols])
+    return rows, cols, {name: _column_array(rows, name, kind) for name, (kind, _, _) in cols.items()}
+
+
+def _write_h5(tmp, table, attrs):
+    from .. import __version__
+    rows, cols, arrays = table
+    with h5py.File(tmp, "w") as h5:
+        h5.attrs["format"] = FORMAT
+        h5.attrs["format_version"] = FORMAT_VERSION
+        h5.attrs["sphrom_version"] = __version__
+        for key, value in attrs.items():
+            h5.attrs[key] = "none" if value is None else value
+        group = h5.create_group("results")
+        group.attrs["columns"] = np.array(list(cols), dtype=h5py.string_dtype())
+        for name, (kind, units, desc) in cols.items():
+            data = arrays[name]
+            if kind == "str":
+                ds = group.create_dataset(name, data=data, dtype=h5py.string_dtype())
+            else:
+                ds = group.create_dataset(name, data=data)
+            ds.attrs["units"] = units
+            ds.attrs["description"] = desc
+
+
+def _write_csv(tmp, table):
+    rows, cols, arrays = table
+    with open(tmp, "w", newline="") as fh:
+        writer = csv.writer(fh)
+        writer.writerow(list(cols))
+        for i in range(len(rows)):
+            writer.writerow([_csv(arrays[name][i], cols[name][0]) for name in cols])
 
 
 def _csv(value, kind):
