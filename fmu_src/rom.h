@@ -133,7 +133,7 @@ extern "C" {
 #define ROM_MAX_SECTIONS 32u
 #define ROM_MAX_SECTION_VALUES 67108864u  /* rows x cols of one section (2^26) */
 
-/* doStep's rules (harness/fmu/python_cosim.py repeats them) */
+/* doStep's rules (harness/fmu/check/python_cosim.py repeats them) */
 #define ROM_TIME_TOLERANCE 1e-9       /* relative: currentCommunicationPoint must equal the FMU's time */
 #define ROM_STEP_ROUNDING 1e-9        /* relative: h/dt within this of an integer is that many whole steps */
 #define ROM_SHORT_STEP_MIN 1e-12      /* a remainder below this x dt is no step */
@@ -265,7 +265,7 @@ ROM_API RomStatus rom_advance(RomState *state, int64_t n_steps, char *message, s
  * default, holds it), and after the step f = f + rate h, so that the input continues linearly
  * until it is set again.  The exact model integrates it exactly; the frozen model evaluates it
  * at each refresh of its force term, at the internal step's time tau = j dt (as
- * harness/rom/frozen.py and harness/fmu/python_cosim.py do, bit for bit). */
+ * harness/rom/frozen.py and harness/fmu/check/python_cosim.py do, bit for bit). */
 ROM_API RomStatus rom_set_input_rate(RomState *state, double rate, char *message, size_t message_size);
 /* The reduced state: a^v (k_v values) then a^rho (frozen) or b = e coordinates (exact) into out[n];
  * returns the count written (0 on a bad argument) */
@@ -312,7 +312,7 @@ ROM_API RomStatus rom_state_deserialize(RomState *state, const unsigned char *bu
                                         uint32_t *tag, char *message, size_t message_size);
 
 /* ---- the training envelope (rom_envelope.c; sections ENVELOPE, ENVRANGE, ENVPROBE) ---- */
-#define ROM_ENVELOPE_SCALARS 8u          /* columns of ENVELOPE (harness/fmu/envelope.py N_SCALARS) */
+#define ROM_ENVELOPE_SCALARS 8u          /* columns of ENVELOPE (harness/fmu/make/envelope.py N_SCALARS) */
 #define ROM_ENVELOPE_CHECK_COORDINATES 1u
 #define ROM_ENVELOPE_CHECK_FORCE 2u
 #define ROM_ENVELOPE_CHECK_STRAIN 4u

@@ -72,7 +72,7 @@ ROM_INLINE void refresh(RomState *s, const RomFrozenModel *fm, RomFrozenState *f
         for (size_t p = 0; p < kv; p++) F[p] = 0.0;
     }
     /* port forces, frozen with f: F += port_B[j] (F_j(tau) / area), ports in order (harness/rom/frozen.py;
-     * F_j(tau) = F_j + rate_j tau as harness/fmu/python_cosim.py computes it) */
+     * F_j(tau) = F_j + rate_j tau as harness/fmu/check/python_cosim.py computes it) */
     for (size_t j = 0; j < m->n_ports; j++) {
         const double rate = s->port_rate[j];
         const double u = (rate == 0.0 ? s->port_force[j] : s->port_force[j] + rate * tau) / s->area;

@@ -90,8 +90,8 @@ def fmu_maker(folder, default_model="frozen", k=6, probes=(0.25, 0.5, 0.66)):
     ``folder`` once per (model, fmi, case) and its resources read back."""
     import zipfile
 
-    from harness.fmu.build import ensure_binaries
-    from harness.fmu.package import package_fmu
+    from harness.fmu.make.build import ensure_binaries
+    from harness.fmu.make.package import package_fmu
     from harness.fmu.resources import unpack
     binaries = ensure_binaries()
     made = {}

@@ -1,4 +1,4 @@
-"""The BENCHMARKS.md writer (harness.bench.report): each section on small inputs is well-formed Markdown, and the
+"""The BENCHMARKS.md writer (harness.measure.markdown): each section on small inputs is well-formed Markdown, and the
 assembled document has the sections of the committed BENCHMARKS.md in its order."""
 
 import math
@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from harness.bench import report as rp
-from harness.bench.stress_maps import StressMaps
-from harness.bench.suite import BenchResults
+from harness.measure import markdown as rp
+from harness.measure.stress_maps import StressMaps
+from harness.measure.suite import BenchResults
 
 ROOT = Path(__file__).resolve().parents[1]
 NAN = float("nan")

@@ -222,7 +222,7 @@ def test_field_errors_show_the_option_that_set_the_field():
 
 def test_the_library_names_fields_not_options(tmp_path):
     """The library's errors name the field and what is allowed; no option name."""
-    from harness.fmu.cosim import force_signal
+    from harness.fmu.run.cosim import force_signal
     from harness.pod.io import read_basis
     from harness.references.common import check_dt, check_resolution
     from harness.runio import check_output_path, read_run

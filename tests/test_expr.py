@@ -362,7 +362,7 @@ def test_scene_file_with_a_hostile_v0_is_exit_2_one_line_no_output(tmp_path, cap
 
 
 def test_cosim_force_longer_than_a_file_name_is_an_expression(tmp_path):
-    from harness.fmu.cosim import force_signal
+    from harness.fmu.run.cosim import force_signal
     term = "1e-3*sin(2*pi*t)"
     long = " + ".join([term] * 16)                      # 300 characters: no possible file name
     assert len(long) > 255
@@ -480,7 +480,7 @@ def _sample(value):
 
 def reference_values(keep=_sample):
     """{key: keep(array)} of everything the language is used for in the repository."""
-    from harness.fmu.cosim import force_signal
+    from harness.fmu.run.cosim import force_signal
     from harness.scene import builtin_dir, builtin_names
     from harness.sph.operator import particle_positions
     from harness.sweep.spec import force_at, load_spec

@@ -19,10 +19,10 @@ from fmpy.fmi1 import FMICallException
 
 from conftest import assert_units_through_declared_types, fmu_scene
 from harness.cli import main
-from harness.fmu.build import ensure_binaries
-from harness.fmu.fmi import Slave
-from harness.fmu.package import package_fmu
-from harness.fmu.python_cosim import cosim_reference, probe_values, split_step
+from harness.fmu.make.build import ensure_binaries
+from harness.fmu.run.driver import Slave
+from harness.fmu.make.package import package_fmu
+from harness.fmu.check.python_cosim import cosim_reference, probe_values, split_step
 from harness.fmu.resources import unpack
 from harness.fmu.variables import vr
 from harness.pod.pipeline import basis_for_scene

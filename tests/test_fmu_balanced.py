@@ -17,9 +17,9 @@ from fmpy.fmi1 import FMICallException
 from scipy.integrate import simpson
 
 from conftest import assert_units_through_declared_types, fmu_scene, small_scene
-from harness.fmu.build import ensure_binaries
-from harness.fmu.fmi import Slave
-from harness.fmu.package import balanced_model, exact_model, package_fmu
+from harness.fmu.make.build import ensure_binaries
+from harness.fmu.run.driver import Slave
+from harness.fmu.make.package import balanced_model, exact_model, package_fmu
 from harness.fmu.resources import FLAG_OUTPUT_ROWS, probe_pairs, unpack
 from harness.fmu.variables import vr
 from harness.rom.balanced import error_bounds, reduced_from_exact
@@ -317,7 +317,7 @@ def test_loader_checks_the_output_rows_and_the_bounds_section(fmus):
     LINMODEL one known value; each refusal names the field."""
     import dataclasses
 
-    from harness.fmu.core import Core, CoreError
+    from harness.fmu.run.core import Core, CoreError
     from harness.fmu.resources import pack_exact
     _, data, _ = fmus("balanced", "forced", 2)
     core = Core(ensure_binaries().core)

@@ -19,10 +19,10 @@ import numpy as np
 import pytest
 
 from conftest import small_scene
-from harness.fmu.build import ensure_binaries
-from harness.fmu.core import Core, CoreError
-from harness.fmu.fmi import Slave
-from harness.fmu.package import package_fmu
+from harness.fmu.make.build import ensure_binaries
+from harness.fmu.run.core import Core, CoreError
+from harness.fmu.run.driver import Slave
+from harness.fmu.make.package import package_fmu
 from harness.fmu.resources import pack, unpack
 
 SCENARIOS = ["basic", "state", "bad", "resources", "cycles", "threads", "edge"]
@@ -246,7 +246,7 @@ def test_core_loader_checks_the_tagged_sections(packaged, binaries):
 def test_sources_lists_agree(packaged, fmi):
     """sources/ holds the files of build.fmu_sources, and the build description fmpy compile reads
     (FMI 2: <SourceFiles> of modelDescription.xml, FMI 3: sources/buildDescription.xml) names its C files."""
-    from harness.fmu.build import fmu_sources
+    from harness.fmu.make.build import fmu_sources
     files = fmu_sources(fmi)
     assert all((Path(__file__).parents[1] / "fmu_src" / name).is_file() for name in files)
     zf = zipfile.ZipFile(packaged[("forced", fmi)])
@@ -327,7 +327,7 @@ def test_rebuild_from_sources_links_the_maths_library(packaged, tmp_path, fmi):
 # ---------------------------------------------------------------------------
 
 def test_core_benchmark_rows_do_not_depend_on_n(binaries):
-    from harness.bench.fmu import core_rows
+    from harness.measure.fmu import core_rows
     rows = core_rows("multimode", [48, 96], k=8, n_steps=20_000, repeats=5, core=Core(binaries.core))
     assert [r["n"] for r in rows] == [48, 96]
     for r in rows:
@@ -374,9 +374,9 @@ NONUNIFORM = {"rho0": "1 + 0.3*sin(2*pi*x/L)", "c": "where(x/L <= 0.5, 0.1, 0.2)
 @pytest.mark.parametrize("case", ["damped_forced", "nonuniform", "unforced"])
 def test_c_full_sph_repeats_numba_bit_for_bit(binaries, case, integrator):
     """sph.c repeats harness/sph/loops.py operation for operation: the same scene, initial state and
-    force values, 2000 steps in C (harness/fmu/sph_c.py) and in numba (run_sph) end in the same bits.  Cases:
+    force values, 2000 steps in C (harness/fmu/run/sph_c.py) and in numba (run_sph) end in the same bits.  Cases:
     damping and force with uniform fields, every field non-uniform (rho0, c, d, profile), and f = d = 0."""
-    from harness.fmu.sph_c import SphC
+    from harness.fmu.run.sph_c import SphC
     from harness.sph.solver import METHODS, build_problem, force_values, run_sph, step_count
     if case == "unforced":
         scene = small_scene("multimode", T=0.4, n=48, integrator=integrator)

@@ -6,12 +6,12 @@ is generated (tests/test_variables.py)."""
 import re
 from pathlib import Path
 
-import harness.fmu.core as core
-import harness.fmu.envelope as envelope
-import harness.fmu.fmi as fmi
-import harness.fmu.python_cosim as python_cosim
+import harness.fmu.run.core as core
+import harness.fmu.make.envelope as envelope
+import harness.fmu.run.driver as fmi
+import harness.fmu.check.python_cosim as python_cosim
 import harness.fmu.resources as resources
-import harness.fmu.sph_c as sph_c
+import harness.fmu.run.sph_c as sph_c
 import harness.sph.loops as sph_loops
 import harness.sph.solver as solver
 
@@ -54,7 +54,7 @@ def test_constants_shared_by_c_and_python():
         "ROM_SECTION_TAG_SIZE": resources.SECTION_TAG_SIZE,
         "ROM_MAX_SECTIONS": resources.MAX_SECTIONS,
         "ROM_MAX_SECTION_VALUES": resources.MAX_SECTION_VALUES,
-        # the training envelope (harness/fmu/envelope.py, fmu_src/rom_envelope.c)
+        # the training envelope (harness/fmu/make/envelope.py, fmu_src/rom_envelope.c)
         "ROM_ENVELOPE_SCALARS": envelope.N_SCALARS,
         "ROM_ENVELOPE_CHECK_COORDINATES": envelope.CHECK_COORDINATES,
         "ROM_ENVELOPE_CHECK_FORCE": envelope.CHECK_FORCE,

@@ -11,9 +11,9 @@ import pytest
 from fmpy.fmi1 import FMICallException
 
 from conftest import fmu_scene
-from harness.fmu.build import ensure_binaries
-from harness.fmu.fmi import Slave
-from harness.fmu.package import package_fmu
+from harness.fmu.make.build import ensure_binaries
+from harness.fmu.run.driver import Slave
+from harness.fmu.make.package import package_fmu
 
 H = 0.01
 

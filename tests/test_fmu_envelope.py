@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from conftest import fmu_scene
-from harness.fmu import envelope as E
-from harness.fmu.build import ensure_binaries
-from harness.fmu.core import Core
-from harness.fmu.fmi import Slave
-from harness.fmu.package import package_fmu
+from harness.fmu.make import envelope as E
+from harness.fmu.make.build import ensure_binaries
+from harness.fmu.run.core import Core
+from harness.fmu.run.driver import Slave
+from harness.fmu.make.package import package_fmu
 from harness.fmu.resources import ModelData, pack, pack_exact, unpack
 
 H = 0.01

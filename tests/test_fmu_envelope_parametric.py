@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 from conftest import small_scene
-from harness.fmu import envelope as E
-from harness.fmu.build import ensure_binaries
-from harness.fmu.fmi import Slave
-from harness.fmu.package import package_fmu
+from harness.fmu.make import envelope as E
+from harness.fmu.make.build import ensure_binaries
+from harness.fmu.run.driver import Slave
+from harness.fmu.make.package import package_fmu
 from harness.fmu.resources import unpack
 from harness.fmu.variables import vr
 from harness.rom import parametric as par
@@ -46,8 +46,8 @@ def test_envelope_is_the_union_over_the_sample_points(parametric_fmus):
     """ENVRANGE and the strains are those of the runs at every sample point (envelope.union of each run's
     envelope on the FMU's basis), wider than the run at the start value alone; the exact parametric FMU
     records its envelope without run-time checks."""
-    from harness.fmu.envelope import measure
-    from harness.fmu.package import DEFAULT_PROBES
+    from harness.fmu.make.envelope import measure
+    from harness.fmu.make.package import DEFAULT_PROBES
     sc = scene()
     path, data = parametric_fmus("frozen")
     env = E.Envelope.from_sections(data.sections, data.k_v)
@@ -68,7 +68,7 @@ def test_envelope_is_the_union_over_the_sample_points(parametric_fmus):
 
 
 def parametric_model_affine(sc):
-    from harness.fmu.parametric import parametric_model
+    from harness.fmu.make.parametric import parametric_model
     affine, _, _, _ = parametric_model(sc, RANGES, 6, model="frozen", progress=False)
     return affine
 

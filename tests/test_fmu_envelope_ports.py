@@ -17,11 +17,11 @@ import numpy as np
 import pytest
 
 from harness.bench.port_coupling import PORTS, open_loop_forces
-from harness.fmu import envelope as E
-from harness.fmu.build import ensure_binaries
-from harness.fmu.core import Core
-from harness.fmu.fmi import Slave
-from harness.fmu.package import package_fmu
+from harness.fmu.make import envelope as E
+from harness.fmu.make.build import ensure_binaries
+from harness.fmu.run.core import Core
+from harness.fmu.run.driver import Slave
+from harness.fmu.make.package import package_fmu
 from harness.fmu.resources import unpack
 from harness.fmu.variables import vr
 from harness.scene import load_scene
@@ -180,7 +180,7 @@ def test_port_directions_are_named_and_c_agrees_with_python(port_fmu):
     (np.array([[0.0, -1.0]]), "'ENVPORT': -1 port coordinates in block 2"),
     (np.array([[1e6, 0.0]]), "'ENVPORT': 1e+06 port coordinates in block 1")])
 def test_a_bad_envport_section_is_refused_naming_it(port_fmu, value, message):
-    from harness.fmu.core import CoreError
+    from harness.fmu.run.core import CoreError
     from harness.fmu.resources import pack
     _, data, _ = port_fmu
     bad = unpack(pack(data))

@@ -18,11 +18,11 @@ import pytest
 from fmpy.fmi1 import FMICallException
 
 from conftest import fmu_maker, fmu_scene
-from harness.fmu.build import ensure_binaries
-from harness.fmu.describe import model_description
-from harness.fmu.fmi import Slave
-from harness.fmu.package import exact_model, reduced_model, write_fmu
-from harness.fmu.python_cosim import cosim_reference
+from harness.fmu.make.build import ensure_binaries
+from harness.fmu.make.describe import model_description
+from harness.fmu.run.driver import Slave
+from harness.fmu.make.package import exact_model, reduced_model, write_fmu
+from harness.fmu.check.python_cosim import cosim_reference
 from harness.fmu.resources import probe_pairs, unpack
 from harness.fmu.variables import vr
 from harness.rom.exact_linear import run_exact
@@ -228,7 +228,7 @@ def test_the_frozen_models_b_option_gives_the_rest_benchs_eq_2_22_fmu(fmus, tmp_
     equals the Python mirror of its resources bit for bit, and left at rest it drifts where the packaged one
     does not."""
     from harness.bench.rest import rest_run
-    from harness.fmu.package import package_fmu
+    from harness.fmu.make.package import package_fmu
     scene = fmu_scene("unforced")
     path, data = fmus("frozen", 2, "unforced")
     _, ops, problem, _ = reduced_model(scene, K, 10, PROBES, "euler", progress=False)

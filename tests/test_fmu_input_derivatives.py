@@ -7,7 +7,7 @@ differ from the held-input run, and without derivatives give exactly today's
 held outputs.  Order 2 and another value reference are refused with fmi2Error
 and a message naming what is allowed.  The frozen FMU takes the derivative
 too: f + (df/dt) tau evaluated at each refresh of its force term, equal bit for
-bit to the Python mirror (harness.fmu.python_cosim with ``rates``).
+bit to the Python mirror (harness.fmu.check.python_cosim with ``rates``).
 """
 
 import zipfile
@@ -18,10 +18,10 @@ import pytest
 from fmpy.fmi1 import FMICallException
 
 from conftest import fmu_scene
-from harness.fmu.build import ensure_binaries
-from harness.fmu.cosim import run_cosim
-from harness.fmu.fmi import Slave
-from harness.fmu.package import exact_model, package_fmu
+from harness.fmu.make.build import ensure_binaries
+from harness.fmu.run.cosim import run_cosim
+from harness.fmu.run.driver import Slave
+from harness.fmu.make.package import exact_model, package_fmu
 from harness.fmu.resources import unpack
 from harness.fmu.variables import vr
 from harness.rom.exact_linear import run_exact
@@ -143,7 +143,7 @@ def test_frozen_fmu_with_derivatives_equals_python_bitwise(fmus):
     """The frozen FMU with f and df/dt at every point, over whole, shortened and sub-dt steps, equals the
     Python mirror (cosim_reference with rates) bit for bit; a zero rate gives the held run bit for bit; the
     rate changes the outputs; and f reads back as f + rate h after a step."""
-    from harness.fmu.python_cosim import cosim_reference
+    from harness.fmu.check.python_cosim import cosim_reference
     path = fmus("frozen", 2)
     data = unpack(zipfile.ZipFile(path).read("resources/model.bin"))
     dt = data.dt

@@ -13,8 +13,8 @@ import pytest
 from fmpy.fmi1 import FMICallException
 
 from conftest import fmu_maker
-from harness.fmu.fmi import Slave
-from harness.fmu.python_cosim import linear_output_rates
+from harness.fmu.run.driver import Slave
+from harness.fmu.check.python_cosim import linear_output_rates
 from harness.fmu.variables import vr
 
 K = 6

@@ -2,7 +2,7 @@
 
 The frozen FMU evaluates F_j + (dF_j/dt) τ at each refresh of its force term (τ the internal step's time after
 the communication point), ports in order, divided by the area after; the Python mirror
-(:class:`harness.fmu.python_cosim.FrozenCosim` with ``port_rates``) computes the same bits.  With rates the
+(:class:`harness.fmu.check.python_cosim.FrozenCosim` with ``port_rates``) computes the same bits.  With rates the
 port force follows a smooth time history to second order in the communication step, where a held force is
 first order: against the same FMU fed the exact force at every refresh, the rate run is much closer.
 """
@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 from conftest import fmu_scene
-from harness.fmu.build import ensure_binaries
-from harness.fmu.fmi import Slave
-from harness.fmu.package import package_fmu
+from harness.fmu.make.build import ensure_binaries
+from harness.fmu.run.driver import Slave
+from harness.fmu.make.package import package_fmu
 from harness.fmu.resources import unpack
 from harness.fmu.variables import vr
 
@@ -76,7 +76,7 @@ def run_fmu(path, steps, F, rates=None, f=None, f_rates=None, n_freeze=None):
 
 def run_mirror(data, steps, F, rates=None, f=None, f_rates=None, n_freeze=None):
     """The same run through the Python mirror (FrozenCosim)."""
-    from harness.fmu.python_cosim import FrozenCosim
+    from harness.fmu.check.python_cosim import FrozenCosim
     ref = FrozenCosim(data, n_freeze=n_freeze)
     ref.area = AREA
 

@@ -17,10 +17,10 @@ import pytest
 from fmpy.fmi1 import FMICallException
 
 from conftest import fmu_scene
-from harness.fmu.build import ensure_binaries
-from harness.fmu.describe import model_description
-from harness.fmu.fmi import Slave
-from harness.fmu.package import package_fmu, write_fmu
+from harness.fmu.make.build import ensure_binaries
+from harness.fmu.make.describe import model_description
+from harness.fmu.run.driver import Slave
+from harness.fmu.make.package import package_fmu, write_fmu
 from harness.fmu.resources import unpack
 from harness.fmu.variables import vr
 from harness.rom import parametric as par

@@ -16,9 +16,9 @@ import pytest
 from conftest import fmu_scene
 from harness.cli import main
 from harness.expr import compile_expr
-from harness.fmu.build import ensure_binaries
-from harness.fmu.cosim import run_cosim
-from harness.fmu.package import package_auto, package_fmu
+from harness.fmu.make.build import ensure_binaries
+from harness.fmu.run.cosim import run_cosim
+from harness.fmu.make.package import package_auto, package_fmu
 from harness.fmu.variables import lookup, vr
 from harness.rom.registry import fmu_model_names
 from harness.sph.solver import build_problem, run_sph
@@ -102,7 +102,7 @@ def l2(u, ref, t, base=0.0):
 
 
 def independent_fmu_run(path, md, force, T, step, scale):
-    """The FMU's probe outputs at the communication points, (v, rho), without harness.fmu.verify: sphrom cosim's
+    """The FMU's probe outputs at the communication points, (v, rho), without harness.fmu.check.verify: sphrom cosim's
     loop (f linear with df/dt) where the FMU declares canInterpolateInputs, else fmpy.simulate_fmu (f held)."""
     t = np.arange(int(round(T / step)) + 1) * step
     names = {x.name for x in md.modelVariables}

@@ -14,8 +14,8 @@ import zipfile
 import pytest
 
 from conftest import small_scene
-from harness.fmu.build import ensure_binaries
-from harness.fmu.package import package_fmu
+from harness.fmu.make.build import ensure_binaries
+from harness.fmu.make.package import package_fmu
 from harness.rom.parametric import parse_vary
 
 SCENARIOS = ["basic", "state", "bad", "resources", "cycles", "threads", "edge"]

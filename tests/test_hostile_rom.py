@@ -161,9 +161,9 @@ def test_exact_fmu_forced_from_rest_is_not_a_runaway(tmp_path):
     and equals the Python exact model (held input)."""
     import zipfile
 
-    from harness.fmu.build import ensure_binaries
-    from harness.fmu.fmi import Slave
-    from harness.fmu.package import exact_model, package_fmu
+    from harness.fmu.make.build import ensure_binaries
+    from harness.fmu.run.driver import Slave
+    from harness.fmu.make.package import exact_model, package_fmu
     from harness.rom.exact_linear import run_exact
     from test_fmu_exact import probe_outputs, relative_residual
     from harness.fmu.resources import unpack

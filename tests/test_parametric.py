@@ -15,11 +15,11 @@ import pytest
 
 from conftest import small_scene
 from harness.errors import FieldError
-from harness.fmu import parametric as fmu_par
-from harness.fmu.build import ensure_binaries
-from harness.fmu.fmi import Slave
-from harness.fmu.package import package_fmu
-from harness.fmu.python_cosim import probe_values
+from harness.fmu.make import parametric as fmu_par
+from harness.fmu.make.build import ensure_binaries
+from harness.fmu.run.driver import Slave
+from harness.fmu.make.package import package_fmu
+from harness.fmu.check.python_cosim import probe_values
 from harness.fmu.resources import unpack
 from harness.fmu.variables import vr
 from harness.rom import parametric as par

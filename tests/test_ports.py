@@ -75,8 +75,8 @@ def port_fmus(tmp_path_factory):
     import zipfile
 
     from conftest import fmu_scene
-    from harness.fmu.build import ensure_binaries
-    from harness.fmu.package import package_fmu
+    from harness.fmu.make.build import ensure_binaries
+    from harness.fmu.make.package import package_fmu
     from harness.fmu.resources import unpack
     folder = tmp_path_factory.mktemp("port-fmus")
     binaries = ensure_binaries()
@@ -96,7 +96,7 @@ def port_fmus(tmp_path_factory):
 def run_port_fmu(path, scene, steps=M, area=AREA, state_at=None):
     """v_port at the communication points of the FMU with port_forces held over steps of H and area set;
     ``state_at``: the step after which a state is taken and restored (the run goes on from the restored one)."""
-    from harness.fmu.fmi import Slave
+    from harness.fmu.run.driver import Slave
     t = np.arange(steps + 1) * H
     with Slave(path) as s:
         s.set_real([vr("area")], [area])
@@ -120,8 +120,8 @@ def test_port_fmu_equals_the_python_reduced_models(port_fmus, fmi):
     """F_port_j in, v_port_j out, area dividing the inputs: the frozen FMU equals the Python frozen model stepped
     like the FMU bit for bit, the exact FMU equals run_exact (scipy's expm) to 1e-12; FMI 2 and 3 alike."""
     from conftest import assert_units_through_declared_types, fmu_scene
-    from harness.fmu.package import exact_model
-    from harness.fmu.python_cosim import FrozenCosim
+    from harness.fmu.make.package import exact_model
+    from harness.fmu.check.python_cosim import FrozenCosim
     from harness.rom.exact_linear import run_exact
     scene = fmu_scene("forced")
     t = np.arange(M + 1) * H
@@ -163,7 +163,7 @@ def test_area_and_port_inputs_refuse_bad_values(port_fmus, fmi):
     area (start 1, fixed), F_port_j and v_port_j with their value references, and an FMU without ports has none."""
     import fmpy
 
-    from harness.fmu.fmi import Slave
+    from harness.fmu.run.driver import Slave
     path, _ = port_fmus("frozen", fmi)
     md = {v.name: v for v in fmpy.read_model_description(str(path)).modelVariables}
     assert md["area"].valueReference == vr("area") and md["area"].start in ("1", 1, 1.0) and md["area"].variability == "fixed"
@@ -189,9 +189,9 @@ def test_area_and_port_inputs_refuse_bad_values(port_fmus, fmi):
 
 def test_fmu_without_ports_has_no_port_variables(port_fmus, tmp_path):
     from conftest import fmu_scene
-    from harness.fmu.build import ensure_binaries
-    from harness.fmu.fmi import Slave
-    from harness.fmu.package import package_fmu
+    from harness.fmu.make.build import ensure_binaries
+    from harness.fmu.run.driver import Slave
+    from harness.fmu.make.package import package_fmu
     path = tmp_path / "plain.fmu"
     package_fmu(fmu_scene("forced"), path, k=6, progress=False, binaries=ensure_binaries())
     with Slave(path) as s:
@@ -239,8 +239,8 @@ def test_exact_port_fmu_takes_port_input_derivatives(port_fmus):
     from ctypes import c_double, c_int, c_uint32
 
     from conftest import fmu_scene
-    from harness.fmu.fmi import Slave
-    from harness.fmu.package import exact_model
+    from harness.fmu.run.driver import Slave
+    from harness.fmu.make.package import exact_model
     from harness.rom.exact_linear import run_exact
     scene = fmu_scene("forced")
     t = np.arange(M + 1) * H

@@ -123,7 +123,7 @@ def test_pod_snapshots_beyond_memory(tmp_path, capsys):
 
 @pytest.fixture(scope="module")
 def fmu_file(tmp_path_factory):
-    from harness.fmu.package import package_fmu
+    from harness.fmu.make.package import package_fmu
     path = tmp_path_factory.mktemp("fmu") / "tiny.fmu"
     package_fmu(small_scene("multimode", T=0.1, n=16, dt=1e-3, every=10), path, k=4, fmi=2, n_freeze=10,
                 probes=(0.5,), progress=False)

@@ -51,7 +51,7 @@ def _csv(path):
 
 
 def test_the_minimal_scene_builds_an_fmu_and_cosimulates_at_the_first_try(minimal):
-    from harness.fmu.verify import case_errors, probe_values
+    from harness.fmu.check.verify import case_errors, probe_values
     from harness.sph.solver import build_problem, run_sph
 
     folder = minimal.parent

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from conftest import small_scene
-from harness.fmu.build import ensure_binaries
+from harness.fmu.make.build import ensure_binaries
 from harness.scene import builtin_names, load_scene
 from harness.sph import loops
 from harness.sph.operator import build_neighbours, fixed_offsets, particle_positions
@@ -149,7 +149,7 @@ def test_ports_same_bits(integrator):
 # ---------------------------------------------------------------- the same bits: the C step
 @pytest.fixture(scope="module")
 def sph_c():
-    from harness.fmu.sph_c import SphC
+    from harness.fmu.run.sph_c import SphC
     return SphC(ensure_binaries().sph)
 
 
@@ -181,7 +181,7 @@ def test_c_stencil_same_bits_as_lists_and_numba(sph_c, integrator, case):
 
 def test_c_stencil_rejects_bad_offsets(sph_c):
     """An offset outside (-N, N) is a one-line error from the C side's check, not a read out of bounds."""
-    from harness.fmu.sph_c import SphError
+    from harness.fmu.run.sph_c import SphError
     problem = build_problem(small_scene(n=16))
     runner = sph_c.runner(problem, "euler")
     runner.index = np.array([[-2, -1, 1, 16]], dtype=np.int64)

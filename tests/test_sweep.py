@@ -208,7 +208,7 @@ def test_fmu_loaded_once_per_worker(first_run):
 
 def test_agrees_with_a_direct_slave_run(first_run):
     """The study's probe statistics equal those of the same entry run by hand on a fresh Slave."""
-    from harness.fmu.fmi import Slave
+    from harness.fmu.run.driver import Slave
     from harness.sweep.fmus import sweep_dir
     from harness.sweep.worker import probe_stats
     rows, _ = rows_by_index(first_run)
@@ -248,7 +248,7 @@ def test_sph_comparison_agrees_with_an_independent_run(first_run, study):
         v_sph = np.array([np.interp([0.25, 0.66], xp, np.append(v, v[0])) for v in sph.v])
         t = np.arange(51) * 0.01
         f = 1e-2 * np.sin(2 * np.pi * 1.0 * t[:-1])
-        from harness.fmu.fmi import Slave
+        from harness.fmu.run.driver import Slave
         from harness.sweep.fmus import sweep_dir
         with Slave(sweep_dir() / f"fmu-{r['fmu']}.fmu") as s:
             s.initialize(n_freeze=10, initial_state_scale=1)

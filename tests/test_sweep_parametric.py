@@ -12,7 +12,7 @@ import pytest
 
 from conftest import small_scene
 from harness.cli import main
-from harness.fmu.fmi import Slave
+from harness.fmu.run.driver import Slave
 from harness.fmu.variables import vr
 from harness.norms import relative_l2
 from harness.sweep.fmus import sweep_dir
@@ -40,7 +40,7 @@ k = [4]
 @pytest.fixture
 def packaging(monkeypatch):
     """Every call of package_fmu during the test: a list of its ``vary`` arguments."""
-    import harness.fmu.package as package
+    import harness.fmu.make.package as package
     calls = []
     real = package.package_fmu
 

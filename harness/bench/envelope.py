@@ -8,7 +8,7 @@ integrator and Δt; exact: the exact linear model, scale invariant, whose error 
 full SPH's departure from linearity in J, its time stepping of ρ), the peak strain |ρ0/ρ - 1| of the full SPH at the particles and at the
 probes, and the frozen run's largest coordinate excess beyond the trained ranges in units of its
 block's largest half-width (the quantity the FMU's coordinate check compares with margin - 1,
-:mod:`harness.fmu.envelope`).  Run as::
+:mod:`harness.fmu.make.envelope`).  Run as::
 
     python -m harness.bench.envelope [SCENE ...] [--scales 1,1.5,...] [--out validation/benchmarks/envelope.csv]
                                      [--report BENCHMARKS.md]
@@ -52,7 +52,7 @@ def coordinate_excess(env, z, k_v):
 
 def measure(scene_name, scales=SCALES, progress=True):
     """Rows (dicts) of the amplitude sweep of one scene (a name, a path or a Scene; module docstring)."""
-    from ..fmu import envelope as E
+    from ..fmu.make import envelope as E
     from ..norms import relative_l2
     from ..pod.pipeline import accel_modes, basis_for_scene
     from ..progress import progress_bar
@@ -100,7 +100,7 @@ def measure(scene_name, scales=SCALES, progress=True):
 
 def training_headroom(scene_name):
     """One row: the frozen model's run of its own training scene against its recorded envelope."""
-    from ..fmu import envelope as E
+    from ..fmu.make import envelope as E
     from ..pod.pipeline import accel_modes, basis_for_scene
     from ..rom.registry import get_model
     from ..scene import load_scene
@@ -139,7 +139,7 @@ def failure_strain(rows, scene, error=None):
 def plot(rows, path):
     """Probe velocity error against the full SPH's peak probe strain, one line per scene and model."""
     import matplotlib.pyplot as plt
-    from ..fmu.envelope import FAILURE_STRAIN
+    from ..fmu.make.envelope import FAILURE_STRAIN
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     for scene in dict.fromkeys(r["scene"] for r in rows):
         rs = [r for r in rows if r["scene"] == scene]
@@ -166,10 +166,10 @@ SCENES = ("tenmode", "multimode", "damped")
 def run(out, scenes=SCENES, scales=SCALES, progress=True):
     """The sweep of ``scenes`` and the training headroom of every built-in scene: rows written to ``out``
     (envelope.csv), envelope.png and envelope_training.csv beside it; returns
-    {"rows", "training", "command"} for the report (:func:`harness.bench.report.envelope_section`)."""
+    {"rows", "training", "command"} for the report (:func:`harness.measure.markdown.envelope_section`)."""
     from ..runio import atomic_path
     from ..scene import builtin_names
-    from .tables import write_csv
+    from ..measure.tables import write_csv
     out = Path(out)
     rows = [r for s in scenes for r in measure(s, scales, progress=progress)]
     write_csv(out, rows)
@@ -196,7 +196,7 @@ def _scales(text):
 
 
 def main(argv=None):
-    from .report import envelope_section
+    from ..measure.markdown import envelope_section
     p = argparse.ArgumentParser(prog="python -m harness.bench.envelope", description=__doc__.split("\n\n")[0])
     p.add_argument("scenes", nargs="*", default=list(SCENES), metavar="SCENE")
     p.add_argument("--scales", type=_scales, default=list(SCALES), metavar="S1,S2,...")

@@ -2,7 +2,7 @@
 
 ``python -m harness.bench.fmu_verify [SCENE ...] [--models frozen,exact] [--repeats R] [--out FOLDER]
 [--report BENCHMARKS.md]`` packages each scene's FMU of each model (FMI 2, the scene's default settings, as
-``sphrom fmu SCENE --model MODEL``), with the verification of :mod:`harness.fmu.verify` (training force and
+``sphrom fmu SCENE --model MODEL``), with the verification of :mod:`harness.fmu.check.verify` (training force and
 the unseen force A sin(2 pi 0.7 t); errors of eq. 3.4 at the probes), then times the training run of the
 full SPH (its compiled loop) and of every model's FMU (fmpy on an instantiated FMU) in turn, ``repeats``
 times (medians; the speed-up is the ratio of the medians taken in the same run).  The tolerance column
@@ -32,12 +32,12 @@ def measure_scene(name, models, repeats, folder, fmi=2, progress=True, bounds=Tr
     they cost the full 2N linear system, minutes at N = 1000; the outputs do not depend on them)."""
     import statistics
 
-    from ..fmu.build import ensure_binaries
-    from ..fmu.package import package_fmu
-    from ..fmu.verify import fmu_features, fmu_run, sph_reference
+    from ..fmu.make.build import ensure_binaries
+    from ..fmu.make.package import package_fmu
+    from ..fmu.check.verify import fmu_features, fmu_run, sph_reference
     from ..scene import load_scene
     from ..sph.solver import build_problem
-    from .timing import median_times_interleaved
+    from ..measure.timing import median_times_interleaved
 
     scene = load_scene(name)
     problem = build_problem(scene)
@@ -109,8 +109,8 @@ def update_report(path, sections):
 def main(argv=None):
     from ..rom.registry import fmu_model_names
     from ..scene import builtin_names
-    from .report import packaged_fmu_section
-    from .tables import write_csv
+    from ..measure.markdown import packaged_fmu_section
+    from ..measure.tables import write_csv
 
     p = argparse.ArgumentParser(prog="python -m harness.bench.fmu_verify", description=__doc__.split("\n\n")[0])
     p.add_argument("scenes", nargs="*", metavar="SCENE", help="default: every built-in scene")

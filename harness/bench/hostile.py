@@ -5,7 +5,7 @@ and states, FMI calls out of order, and signals at random moments of every long 
 
 Each case runs in a process of its own (the command line through ``python -m harness`` of this checkout; the
 FMU cases in a child that loads the binaries through ctypes / fmpy, restarted after a crash:
-:mod:`harness.bench.hostile_fmu`) and gets one outcome.  The category "step bound" asks one doStep for the
+:mod:`harness.measure.hostile_fmu`) and gets one outcome.  The category "step bound" asks one doStep for the
 most work it can be given (an internal dt of 1e-12 s set as the parameter, carried by a state or by the
 resources, checksums recomputed; a communication step of 1e7 s): it must answer within 10 s, done or refused
 naming the limit.
@@ -647,7 +647,7 @@ def run_battery(out: Path, seed=25, jobs=2, quick=False, workdir=None, log=print
             r = run_case(c, ws, len(plain) + n)
         results.append(r)
     log("FMU resources, states and call sequences ...")
-    from .hostile_fmu import fmu_cases
+    from ..measure.hostile_fmu import fmu_cases
     results += [Result(Case(category, kind, [], note=label), outcome, detail, None, [], 0.0)
                 for category, kind, label, outcome, detail in
                 fmu_cases(ws, rng, n_resources=int(2000 * scale), n_states=int(1800 * scale),
@@ -665,7 +665,7 @@ def counts(results):
 
 
 def write_results(out: Path, results, wall, seed, command="python3 -m harness.bench.hostile"):
-    from .tables import write_csv
+    from ..measure.tables import write_csv
     out.mkdir(parents=True, exist_ok=True)
     rows = [{"category": r.case.category, "command": r.case.command, "args": " ".join(r.case.args)[:400],
              "case": r.case.note, "signal": signal.Signals(r.case.signal).name if r.case.signal else "",
@@ -747,7 +747,7 @@ def main(argv=None):
     p.add_argument("--child", help=argparse.SUPPRESS)
     args = p.parse_args(argv)
     if args.child:
-        from .hostile_fmu import child_main
+        from ..measure.hostile_fmu import child_main
         child_main(args.child)
         return 0
     command = "python3 -m harness.bench.hostile " + " ".join(argv if argv is not None else sys.argv[1:])

@@ -48,9 +48,9 @@ def measure(scene_name="tenmode", steps=STEPS, reference_step=REFERENCE_STEP, fo
 
 def _measure_model(model, scene_name, steps, reference_step, force, workdir, progress):
     """:func:`measure` for one model's FMU."""
-    from ..fmu.build import ensure_binaries
-    from ..fmu.cosim import run_cosim
-    from ..fmu.package import package_fmu
+    from ..fmu.make.build import ensure_binaries
+    from ..fmu.run.cosim import run_cosim
+    from ..fmu.make.package import package_fmu
     from ..progress import progress_bar
     from ..scene import load_scene
 
@@ -99,7 +99,7 @@ def main(argv=None):
     p.add_argument("--model", choices=MODELS, action="append",
                    help="measure this model's FMU (repeat for several; default both)")
     args = p.parse_args(argv)
-    from .tables import write_csv
+    from ..measure.tables import write_csv
     models = tuple(args.model or MODELS)
     rows = measure(args.scene, models=models)
     out = Path(args.out) / "input_derivatives.csv"

@@ -15,7 +15,7 @@ times are medians of ``repeats`` runs.  Run as::
         [--repeats 3] [--benchmarks BENCHMARKS.md]
 
 which prints the table and writes it as the section "Linear models: time against error" of BENCHMARKS.md
-(:func:`harness.bench.report.linear_tradeoff_section`), replacing an earlier one.
+(:func:`harness.measure.markdown.linear_tradeoff_section`), replacing an earlier one.
 """
 
 from __future__ import annotations
@@ -58,7 +58,7 @@ def measure_scene(name, orders=ORDERS, repeats=3, progress=None):
     from ..rom.registry import get_model
     from ..rom.result import probe_values
     from ..sph.solver import build_problem, step_count
-    from .timing import median_time
+    from ..measure.timing import median_time
 
     scene, unseen = _scenes(name)
     problem = build_problem(scene)
@@ -142,7 +142,7 @@ def _l2(e, h):
 
 def write_section(path, text):
     """Replace the section SECTION_TITLE of the Markdown file ``path`` with ``text``; a new one goes before the
-    stress maps (where ``sphrom bench --report`` carries it over, :data:`harness.bench.report.CARRIED`), else at
+    stress maps (where ``sphrom bench --report`` carries it over, :data:`harness.measure.markdown.CARRIED`), else at
     the end."""
     path = Path(path)
     old = path.read_text(encoding="utf-8") if path.exists() else ""
@@ -164,7 +164,7 @@ def write_section(path, text):
 
 def main(argv=None):
     from ..progress import progress_bar
-    from .report import linear_tradeoff_section
+    from ..measure.markdown import linear_tradeoff_section
     p = argparse.ArgumentParser(prog="python -m harness.bench.linear_tradeoff", description=__doc__.split("\n")[0])
     p.add_argument("--scenes", default=",".join(DEFAULT_SCENES), help="NAME[@shaped],... (default %(default)s)")
     p.add_argument("--orders", default=",".join(map(str, ORDERS)), help="state dimensions r (default %(default)s)")

@@ -74,8 +74,8 @@ def measure(scene, vary, model="frozen", k=None, n_points=10, progress=True, inp
 
     Also returns (space, training points, held-out points).
     """
-    from ..fmu.package import default_modes
-    from ..fmu.parametric import parametric_model
+    from ..fmu.make.package import default_modes
+    from ..fmu.make.parametric import parametric_model
     from ..progress import progress_bar
     from ..rom import parametric as par
 
@@ -94,7 +94,7 @@ def measure(scene, vary, model="frozen", k=None, n_points=10, progress=True, inp
 def _held_out_row(scene, affine, model, k, c, d):
     """One held-out point: the full SPH there, the parametric model and a model trained there alone."""
     from ..cache import cached_sph
-    from ..fmu.package import exact_model, reduced_model
+    from ..fmu.make.package import exact_model, reduced_model
     from ..pod.pipeline import error_steps
     from ..rom import parametric as par
     from ..rom.registry import get_model
@@ -121,9 +121,9 @@ def _held_out_row(scene, affine, model, k, c, d):
 
 def step_cost(scene, vary, model="frozen", k=None, steps=2000, h=0.01):
     """Mean wall time [s] of one doStep (h) of the parametric FMU (at its start values) and of the fixed FMU."""
-    from ..fmu.build import ensure_binaries
-    from ..fmu.fmi import Slave
-    from ..fmu.package import package_fmu
+    from ..fmu.make.build import ensure_binaries
+    from ..fmu.run.driver import Slave
+    from ..fmu.make.package import package_fmu
     binaries = ensure_binaries()
     out = {}
     with tempfile.TemporaryDirectory() as folder:

@@ -57,7 +57,7 @@ def fmu_loop(path, scene, h, n, *, coupled, forced=True):
 
     ``coupled``: port 1 is the mass-spring (module docstring), else F_1 open loop; port 2 is always open loop
     (zero when not ``forced``)."""
-    from ..fmu.fmi import Slave
+    from ..fmu.run.driver import Slave
     P = len(PORTS)
     vr_f = [3000 + j for j in range(P)]
     vr_v = [4000 + j for j in range(P)]
@@ -85,8 +85,8 @@ def fmu_loop(path, scene, h, n, *, coupled, forced=True):
 
 def measure(scene_name="damped_forced", t_end=2.0, h=1e-3, k=12, models=("frozen", "exact"), progress=False):
     """Rows (dict) of the open-loop and coupled errors per model (module docstring)."""
-    from ..fmu.build import ensure_binaries
-    from ..fmu.package import package_fmu
+    from ..fmu.make.build import ensure_binaries
+    from ..fmu.make.package import package_fmu
     from ..scene import load_scene
     from ..sph.ports import mass_spring, run_sph_ports
     from ..sph.solver import build_problem

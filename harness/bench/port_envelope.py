@@ -26,8 +26,8 @@ ENVELOPE_TEXT = "outside the training envelope"
 def fmu_run(path, scene, h, n, forces):
     """(v_port (m, P), largest probe strain, envelope warning or "", error or "") of the port FMU over n steps
     of h [s] with the port forces ``forces(t) -> (P,)`` [N] held over each step (m < n + 1 after an error)."""
-    from ..fmu.envelope import Envelope
-    from ..fmu.fmi import Slave
+    from ..fmu.make.envelope import Envelope
+    from ..fmu.run.driver import Slave
     from ..fmu.resources import unpack
     data = unpack(zipfile.ZipFile(path).read("resources/model.bin"))
     rho0 = Envelope.from_sections(data.sections, data.k_v).probe_rho0
@@ -55,9 +55,9 @@ def fmu_run(path, scene, h, n, forces):
 def measure(scene_name="damped_forced", scales=SCALES, t_end=1.0, h=1e-3, k=12, progress=True):
     """Rows (scale, port force amplitude [N], v_port error, probe strain, its multiple of the trained one,
     warning, error) of the frozen port FMU (module docstring)."""
-    from ..fmu.build import ensure_binaries
-    from ..fmu.envelope import Envelope
-    from ..fmu.package import package_fmu
+    from ..fmu.make.build import ensure_binaries
+    from ..fmu.make.envelope import Envelope
+    from ..fmu.make.package import package_fmu
     from ..fmu.resources import unpack
     from ..progress import progress_bar
     from ..scene import load_scene
@@ -101,7 +101,7 @@ def markdown(rows):
 
 
 def main(argv=None):
-    from .tables import write_csv
+    from ..measure.tables import write_csv
     p = argparse.ArgumentParser(prog="python -m harness.bench.port_envelope", description=__doc__.split("\n\n")[0])
     p.add_argument("--out", default="validation/benchmarks", metavar="FOLDER")
     p.add_argument("--t-end", type=float, default=1.0)

@@ -33,7 +33,7 @@ def port_loop(path, scene, h, n, forces, port_rates):
     point) when ``port_rates``, else held."""
     from ctypes import c_double, c_int, c_uint32
 
-    from ..fmu.fmi import Slave
+    from ..fmu.run.driver import Slave
     t = np.arange(n + 1) * h
     F = forces(t)
     P = F.shape[1]
@@ -59,8 +59,8 @@ def port_loop(path, scene, h, n, forces, port_rates):
 def measure(scene_name="damped_forced", steps=STEPS, t_end=T_END, k=12, progress=True):
     """Rows (model, step_ms, input, v_port error against the reference, against the port forces' effect,
     communication steps) of the frozen port FMU (module docstring)."""
-    from ..fmu.build import ensure_binaries
-    from ..fmu.package import package_fmu
+    from ..fmu.make.build import ensure_binaries
+    from ..fmu.make.package import package_fmu
     from ..fmu.resources import unpack
     from ..progress import progress_bar
     from ..scene import load_scene
@@ -110,7 +110,7 @@ def markdown(rows):
 
 
 def main(argv=None):
-    from .tables import write_csv
+    from ..measure.tables import write_csv
     p = argparse.ArgumentParser(prog="python -m harness.bench.port_rates", description=__doc__.split("\n\n")[0])
     p.add_argument("--out", default="validation/benchmarks", metavar="FOLDER")
     p.add_argument("--scene", default="damped_forced")

@@ -79,7 +79,7 @@ def markdown(rows):
 
 
 def main(argv=None):
-    from .tables import write_csv
+    from ..measure.tables import write_csv
     p = argparse.ArgumentParser(prog="python -m harness.bench.reduced_stability",
                                 description=__doc__.split("\n\n")[0])
     p.add_argument("scenes", nargs="*", metavar="SCENE", help=f"default: {' '.join(SCENES)}")

@@ -11,7 +11,7 @@ on it), and measures through fmpy:
 * **rest**: ``initial_state_scale`` = 0 and f = 0 for T = 100 s at the FMU's default communication step:
   the largest |v_probe| over the run, relative to the largest |v_probe| of the scene's own full SPH training
   run, and the largest change of ρ_probe from its start, relative to ρ0;
-* **training** and **unseen**: the verification of ``sphrom fmu`` (:mod:`harness.fmu.verify`): the relative
+* **training** and **unseen**: the verification of ``sphrom fmu`` (:mod:`harness.fmu.check.verify`): the relative
   L² errors (eq. 3.4) of the probe velocities against the full SPH on the scene's force and initial state,
   and on A sin(2π·0.7 t) from rest.
 
@@ -43,7 +43,7 @@ EQ222 = "frozen, eq. 2.22's b"      # the row label of the comparison FMU
 
 def rest_run(path, step, T=REST_T):
     """(t, v (M, P), rho (M, P)) of the FMU at ``path`` left at rest (initial_state_scale 0), f = 0."""
-    from ..fmu.verify import fmu_run
+    from ..fmu.check.verify import fmu_run
     t = np.arange(int(round(T / step)) + 1) * step
     v, rho, _ = fmu_run(path, np.zeros_like(t), t, scale=0.0)
     return t, v, rho
@@ -51,9 +51,9 @@ def rest_run(path, step, T=REST_T):
 
 def measure_scene(name, folder, progress=True):
     """Rows (frozen with eq. 2.22's b, frozen, exact) of scene ``name`` and the rest runs {model: (t, v)}."""
-    from ..fmu.build import ensure_binaries
-    from ..fmu.package import package_fmu
-    from ..fmu.verify import fmu_features
+    from ..fmu.make.build import ensure_binaries
+    from ..fmu.make.package import package_fmu
+    from ..fmu.check.verify import fmu_features
     from ..scene import load_scene
     from ..sph.solver import build_problem
 
@@ -142,7 +142,7 @@ def rerender(csv_path, report):
     import csv
     import re
 
-    from ..bench.report import split_sections
+    from ..measure.markdown import split_sections
     from .fmu_verify import update_report
     with open(csv_path, newline="") as fh:
         rows = list(csv.DictReader(fh))
@@ -159,7 +159,7 @@ def main(argv=None):
     from ..runio import atomic_path
     from ..scene import builtin_names
     from .fmu_verify import update_report
-    from .tables import write_csv
+    from ..measure.tables import write_csv
 
     p = argparse.ArgumentParser(prog="python -m harness.bench.rest", description=__doc__.split("\n\n")[0])
     p.add_argument("scenes", nargs="*", metavar="SCENE", help="default: every built-in scene")

@@ -4,7 +4,7 @@ In one run, on one machine, this times per step:
 
 * the numba loop of :mod:`harness.sph.loops` in the fixed-offset layout (what ``run_sph`` takes where the
   neighbour lists allow it) and in the neighbour-list layout;
-* the C step of ``fmu_src/sph.c`` (:mod:`harness.fmu.sph_c`) in the same two layouts: its fixed-offset stencil
+* the C step of ``fmu_src/sph.c`` (:mod:`harness.fmu.run.sph_c`) in the same two layouts: its fixed-offset stencil
   is the hand-written reference of the machine's speed for this step;
 * with ``--before DIR``, the numba and the C step of the checkout in DIR (the code before a change), through a
   second worker process (:mod:`harness.bench.sph_step_worker`), interleaved with the others;
@@ -96,7 +96,7 @@ def measure(scene, sizes, integrators, repeats, before=None, training=True, prog
     (M), us_per_step (median slope), us_min, us_max, repeats, and the per-repeat slopes ``slopes``.
     Raises RuntimeError when two solvers end one size's run in different bits.
     """
-    from .timing import cpu_model, load_average
+    from ..measure.timing import cpu_model, load_average
     workers = {"after": Worker()}
     if before:
         workers["before"] = Worker(before)
@@ -314,7 +314,7 @@ def main(argv=None):
     from ..progress import progress_bar
     from ..runio import atomic_path
     from .fmu_verify import update_report
-    from .tables import write_csv
+    from ..measure.tables import write_csv
 
     p = argparse.ArgumentParser(prog="python -m harness.bench.sph_stencil", description=__doc__.split("\n\n")[0])
     p.add_argument("--scene", default="tenmode", help="scene whose fields, force and CFL number are used (default "

@@ -82,8 +82,8 @@ def time_steps(cache, req):
     if req["solver"] == "c":
         key = ("c", req["layout"], req["integrator"], req["n"])
         if key not in cache:
-            from harness.fmu.build import ensure_binaries
-            from harness.fmu.sph_c import SphC
+            from harness.fmu.make.build import ensure_binaries
+            from harness.fmu.run.sph_c import SphC
             if "sphc" not in cache:
                 cache["sphc"] = SphC(ensure_binaries().sph)
             kw = {"layout": req["layout"]} if hasattr(problem, "loop_args") else {}

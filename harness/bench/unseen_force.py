@@ -35,7 +35,7 @@ def forced_response(path, h, inputs):
     """(v, rho) at the probes: the run with ``inputs`` held over steps ``h`` minus the run without.
 
     Raises RuntimeError with the FMU's logged reason when a step ends in an error status."""
-    from ..fmu.fmi import Slave
+    from ..fmu.run.driver import Slave
     runs = []
     for f in (inputs, np.zeros_like(inputs)):
         with Slave(path) as s:
@@ -50,7 +50,7 @@ def forced_response(path, h, inputs):
 
 
 def _free_probe_velocities(path, h, n):
-    from ..fmu.fmi import Slave
+    from ..fmu.run.driver import Slave
     with Slave(path) as s:
         s.initialize(initial_state_scale=1)
         out = s.run([h] * n, np.zeros(n))
@@ -70,7 +70,7 @@ def _sph_probe_velocities(scene, h, n, probes=(0.25, 0.5, 0.66)):
 
 def measure(scene_name, models=None, folder=None):
     """Rows (scene, model, force, err_v, max_drho) for the FMU of each model of ``scene_name``."""
-    from ..fmu.package import package_fmu
+    from ..fmu.make.package import package_fmu
     from ..rom.registry import fmu_model_names
     from ..scene import load_scene
     scene = load_scene(scene_name)
@@ -104,7 +104,7 @@ def measure(scene_name, models=None, folder=None):
 
 
 def main(argv=None):
-    from .tables import write_csv
+    from ..measure.tables import write_csv
     p = argparse.ArgumentParser(prog="python -m harness.bench.unseen_force", description=__doc__.split("\n\n")[0])
     p.add_argument("scenes", nargs="*", default=["tenmode"], metavar="SCENE")
     p.add_argument("--out", default="validation/benchmarks/unseen_force.csv", metavar="FILE.csv")

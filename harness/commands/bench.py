@@ -11,7 +11,7 @@ def add_parser(sub):
                                    "--repeats runs, speed-ups as ratios to the full SPH timed in the same run, offline "
                                    "and online time apart. Also the cost per step against N and the saving of the "
                                    "specialised right-hand sides. Writes CSV, PNG plots and a Markdown report.")
-    from ..bench.suite import KS_SCALING, SIZES, SPH_SIZES
+    from ..measure.suite import KS_SCALING, SIZES, SPH_SIZES
     p.add_argument("scenes", nargs="*", metavar="SCENE")
     p.add_argument("--repeats", type=int_in(1, MAX_REPEATS), default=5, help="timed runs per point (median; default 5)")
     p.add_argument("--modes", "--ks", dest="modes", type=int_list(lo=1), metavar="K,...",
@@ -42,8 +42,8 @@ def run(args):
     import os
     from pathlib import Path
 
-    from ..bench.report import report
-    from ..bench.suite import DEFAULT_SCENES, replot, run_benchmarks
+    from ..measure.markdown import report
+    from ..measure.suite import DEFAULT_SCENES, replot, run_benchmarks
     from ..errors import UserError
     from ..report.markdown import write_text
     from ..runio import check_output_dir, check_output_path, output_dir

@@ -5,7 +5,7 @@ from .options import MAX_REPEATS, add_quiet, add_scene, float_list, int_in, int_
 
 def _min_particles():
     """Enough particles for the benchmark's k modes: 4 k."""
-    from ..bench.fmu import BENCH_K
+    from ..measure.fmu import BENCH_K
     return 4 * BENCH_K
 
 
@@ -32,8 +32,8 @@ def add_parser(sub):
 
 def run(args):
 
-    from ..bench.fmu import benched_fmu_models, core_rows, end_to_end, write_fmu_csv
-    from ..bench.report import fmu_tables
+    from ..measure.fmu import benched_fmu_models, core_rows, end_to_end, write_fmu_csv
+    from ..measure.markdown import fmu_tables
     from ..progress import progress_bar
     from ..report.markdown import write_text
     from ..rom.registry import fmu_model_names, get_model
@@ -43,7 +43,7 @@ def run(args):
     scene = load_scene(args.scene)
     if not args.core_only:
         from ..errors import UserError, exact
-        from ..fmu.cosim import MAX_COMM_STEPS
+        from ..fmu.run.cosim import MAX_COMM_STEPS
         for h in steps:                 # each step runs the scene's horizon T through fmpy
             if h > scene.T or scene.T / h > MAX_COMM_STEPS:
                 raise UserError(f"--step: {exact(h)} is out of range (allowed: T / 1e8 = {scene.T / MAX_COMM_STEPS:g} s "

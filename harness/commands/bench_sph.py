@@ -33,9 +33,9 @@ def add_parser(sub):
 
 
 def run(args):
-    from ..bench.sph_scaling import growth_exponent, plot_scaling, scaling_table
-    from ..bench.tables import write_csv
-    from ..bench.timing import cpu_model, load_average
+    from ..measure.sph_scaling import growth_exponent, plot_scaling, scaling_table
+    from ..measure.tables import write_csv
+    from ..measure.timing import cpu_model, load_average
     from ..progress import progress_bar
     from ..runio import check_output_dir, output_dir
     from ..scene import load_scene
@@ -63,7 +63,7 @@ def run(args):
         print(f"wrote {out / 'sph_scaling.csv'} and {out / 'sph_scaling.png'}")
     if args.report:
         from ..bench.fmu_verify import update_report
-        from ..bench.report import SPH_STEP_HEADING, sph_step_section
+        from ..measure.markdown import SPH_STEP_HEADING, sph_step_section
         command = (f"sphrom bench-sph {args.scene} --n-particles {','.join(map(str, sizes))} --integrator "
                    f"{','.join(integrators)} --repeats {args.repeats} --layout {args.layout}"
                    + (f" --out {args.out}" if args.out else "") + f" --report {args.report}")

@@ -29,7 +29,7 @@ def add_parser(sub):
 
 
 def run(args):
-    from ..fmu.cosim import run_cosim, write_csv
+    from ..fmu.run.cosim import run_cosim, write_csv
     from ..runio import check_output_path
 
     out = check_output_path(args.out)

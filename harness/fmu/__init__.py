@@ -1,39 +1,45 @@
 """The FMU: a reduced model (frozen coefficients, exact linear or balanced) as FMI 2.0 / 3.0 co-simulation.
 
+One job per folder::
+
+    variables.py   the one declaration of every FMU variable, and the files generated from it (the contract)
+    resources.py   resources/model.bin: its format, pack and unpack (the contract between Python and C)
+    make/          making an FMU: option checks, per-kind resources, training envelope, parametric models,
+                   modelDescription.xml, documentation page, binaries (CMake), the archive, package_fmu's
+                   steps, --model auto
+    run/           running an FMU: the one Python driver of an FMU (driver.py), sphrom cosim (cosim.py), the C
+                   core and the C full SPH through ctypes (core.py, sph_c.py)
+    check/         checking an FMU: measured against the full SPH (verify.py), the Python mirror of its
+                   co-simulation that the C code must equal (python_cosim.py)
+
 Public names (imported from their modules on first use)::
 
-    package_fmu, FMUSummary      sphrom fmu: scene -> validated .fmu               (package)
-    run_cosim, CosimResult       sphrom cosim: fmpy.simulate_fmu with a force      (cosim)
-    Slave, load_fmu              one FMU instance through fmpy, with its log       (fmi)
-    cosim_reference              the FMU's co-simulation in Python                 (python_cosim)
-    ensure_binaries, Binaries    the binaries from fmu_src/, built once and cached (build)
+    package_fmu, FMUSummary      sphrom fmu: scene -> validated .fmu               (make.package)
+    package_auto                 sphrom fmu --model auto                           (make.auto)
+    run_cosim, CosimResult       sphrom cosim                                      (run.cosim)
+    FMU, open_fmu                one FMU instance driven from Python               (run.driver)
+    cosim_reference              the FMU's co-simulation in Python                 (check.python_cosim)
+    verify_fmu                   the FMU against the full SPH                      (check.verify)
+    ensure_binaries, Binaries    the binaries from fmu_src/, built once and cached (make.build)
     model_data, exact_data, balanced_data, pack, pack_exact, unpack, ModelData, ExactData
                                  resources/model.bin: frozen (kind 1), exact and balanced (kind 2) (resources)
-    Core, CoreModel              ctypes access to the C core                       (core)
+    Core, CoreModel              ctypes access to the C core                       (run.core)
 
-Modules: ``resources`` (model.bin: format and token), ``build`` (CMake),
-``describe`` (modelDescription.xml from the templates in modelDescription/ and the variable table),
-``package``, ``python_cosim`` (the equality reference of the C code),
-``fmi``, ``cosim``, ``core``, ``sph_c`` (the C full SPH step, for the
-benchmark), ``verify`` (the packaged FMU against the full SPH: errors and run
-times), ``documentation`` (documentation/index.html), ``variables`` (the
-one declaration of every FMU variable, and the files generated from it).  The FMU benchmark is
-:mod:`harness.bench.fmu`; the verification for every scene is
-:mod:`harness.bench.fmu_verify`.
+The measurements that run FMUs are programs of :mod:`harness.bench` (``sphrom bench --list``).
 """
 
 from ..lazy import lazy_exports
 
 EXPORTS = {
-    "package_fmu": "package", "FMUSummary": "package",
-    "run_cosim": "cosim", "CosimResult": "cosim",
-    "Slave": "fmi", "load_fmu": "fmi",
-    "cosim_reference": "python_cosim",
-    "ensure_binaries": "build", "Binaries": "build",
+    "package_fmu": "make.package", "FMUSummary": "make.package", "package_auto": "make.package",
+    "run_cosim": "run.cosim", "CosimResult": "run.cosim",
+    "Slave": "run.driver", "load_fmu": "run.driver",
+    "cosim_reference": "check.python_cosim", "verify_fmu": "check.verify",
+    "ensure_binaries": "make.build", "Binaries": "make.build",
     "model_data": "resources", "exact_data": "resources", "balanced_data": "resources", "pack": "resources",
     "pack_exact": "resources", "unpack": "resources",
     "ModelData": "resources", "ExactData": "resources",
-    "Core": "core", "CoreModel": "core",
+    "Core": "run.core", "CoreModel": "run.core",
 }
 __all__ = sorted(EXPORTS)
 __getattr__, __dir__ = lazy_exports(__name__, EXPORTS)

@@ -67,7 +67,7 @@ SECTION_TAG_SIZE = 8
 MAX_SECTIONS = 32                          # fmu_src/rom.h ROM_MAX_SECTIONS
 MAX_SECTION_VALUES = 1 << 26               # fmu_src/rom.h ROM_MAX_SECTION_VALUES
 SECTION_TAGS: dict[str, str] = {          # tag -> what it holds (the C loader's SECTION_RULES)
-    # the training envelope (harness/fmu/envelope.py, fmu_src/rom_envelope.c)
+    # the training envelope (harness/fmu/make/envelope.py, fmu_src/rom_envelope.c)
     "ENVELOPE": "the training envelope's scalars",
     "ENVRANGE": "the training envelope's coordinate ranges",
     "ENVPROBE": "rho0 at the probes (training envelope)",

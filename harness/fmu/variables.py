@@ -9,7 +9,7 @@ nominal, the modelDescription's description, a one-line summary, and the C funct
 - ``fmu_src/fmu_variables.h`` (generated, committed): the value-reference ``#define``\\ s, the constant
   start values, and the rows of instance.c's variable table (the getters and setters they name stay
   hand-written C functions in instance.c, and each presence rule is a C predicate ``rule_<name>`` there);
-- both modelDescription variable lists and their ModelStructure (:mod:`harness.fmu.describe`, at packaging:
+- both modelDescription variable lists and their ModelStructure (:mod:`harness.fmu.make.describe`, at packaging:
   the rows present in the FMU, FMI 2 indices counted from them);
 - the Python value references (:func:`vr`; :mod:`.fmi`, :mod:`.verify`, :mod:`.cosim`, :mod:`.parametric`);
 - the variables section of ``sphrom fmu --help`` (:func:`help_text`), of README.md (between the generated
@@ -43,7 +43,7 @@ INT32_MAX = 2**31 - 1
 
 @dataclass(frozen=True)
 class From:
-    """A value taken from the packaged model (key of the values :mod:`harness.fmu.describe` passes), with the
+    """A value taken from the packaged model (key of the values :mod:`harness.fmu.make.describe` passes), with the
     words that say where it comes from (help, README).  A key without a value omits the attribute."""
 
     key: str
@@ -105,7 +105,7 @@ class Variable:
 
     ``type`` is the FMI 3 type name (Float64, Int32; FMI 2: Real, Integer).  ``start``, ``min``, ``max``,
     ``nominal``: a number, a :class:`From` the packaged model, or None (absent).  ``description`` is the
-    modelDescription's text, formatted with the FMU's values (:mod:`harness.fmu.describe`) and, in a family,
+    modelDescription's text, formatted with the FMU's values (:mod:`harness.fmu.make.describe`) and, in a family,
     ``j`` and ``x`` (the probe's or port's position x/L).  ``get``, ``set``, ``get_rate``, ``set_rate``: the
     C functions of instance.c (``get_rate``: the first time derivative of an output, ``set_rate``: the rate of
     an input over the next steps); '' for none.
@@ -303,7 +303,7 @@ def allowed_words(row):
 
 def check_parameter(name, value):
     """``value`` as the FMU's parameter ``name`` accepts it (an int for an Int32), or FieldError naming the field
-    and the allowed range in the C core's words: the Python pre-check of :func:`harness.fmu.package.check_options`
+    and the allowed range in the C core's words: the Python pre-check of :func:`harness.fmu.make.package.check_options`
     and ``sphrom cosim``, the same range and message as the FMU's own check."""
     from ..errors import FieldError
     import numpy as np

@@ -9,7 +9,7 @@ version and the binaries' build key (a change of the C sources makes new
 FMUs).  Forces and n_freeze change per run on the same FMU.  Entries with
 parametric ranges (by default the grid's [min, max] of c and d when they
 vary, or a ``[parametric]`` table; :mod:`harness.sweep.spec`) share ONE
-parametric FMU (:mod:`harness.fmu.parametric`: trained at the corners and
+parametric FMU (:mod:`harness.fmu.make.parametric`: trained at the corners and
 centre of the ranges), and each run sets c and d as FMU parameters.
 
 Packaging happens on the client, before any task: it needs CMake once (the
@@ -72,7 +72,7 @@ def variant_key(entry, binaries_key):
 def ensure_fmus(spec, entries, progress=True, log=None):
     """The FMU of every variant ``entries`` use: {variant_inputs: Variant}.
 
-    Packages (with :func:`harness.fmu.package.package_fmu`) the ones not in
+    Packages (with :func:`harness.fmu.make.package.package_fmu`) the ones not in
     the cache.  ``log(text)`` is told about each packaging.
 
     Raises
@@ -80,8 +80,8 @@ def ensure_fmus(spec, entries, progress=True, log=None):
     UserError
         A variant that cannot be packaged (e.g. k above the POD modes).
     """
-    from ..fmu.build import build_key, ensure_binaries
-    from ..fmu.package import package_fmu
+    from ..fmu.make.build import build_key, ensure_binaries
+    from ..fmu.make.package import package_fmu
 
     binaries = None
     key_b = build_key()

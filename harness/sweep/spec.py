@@ -74,7 +74,7 @@ SHAPES = {
 }
 SCENE_GRIDS = ("c", "d", "profile", "k", "model")       # one FMU per combination
 PARAMETER_GRIDS = ("c", "d")                             # ... or one parametric FMU over their values
-PARAMETRIC_MODELS = ("frozen", "exact")                  # the POD models harness.fmu.parametric can make
+PARAMETRIC_MODELS = ("frozen", "exact")                  # the POD models harness.fmu.make.parametric can make
 RUN_GRIDS = ("shape", "amplitude", "frequency", "n_freeze")
 GRIDS = SCENE_GRIDS + RUN_GRIDS
 TOP_KEYS = ("title", "scene", "t_end", "step", "window", "probes", "fmi", "compare_sph", "grid", "parametric")
@@ -377,7 +377,7 @@ def parse_spec(text, source="<spec>", spec_path=None) -> Spec:
     UserError
         Naming the file, the field and the allowed range.
     """
-    from ..fmu.package import default_modes
+    from ..fmu.make.package import default_modes
     from ..fmu.resources import MAX_PROBES
 
     try:

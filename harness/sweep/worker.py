@@ -2,7 +2,7 @@
 
 Worker-local FMU cache
 ----------------------
-Each worker keeps one instantiated :class:`~harness.fmu.fmi.Slave` per FMU in
+Each worker keeps one instantiated :class:`~harness.fmu.run.driver.Slave` per FMU in
 the module-level dict ``_SLAVES`` and resets it between runs (fmi2Reset /
 fmi3Reset, then initialization with the run's n_freeze), so an FMU is loaded
 (extracted, its library opened, instantiated) once per worker, not once per
@@ -83,7 +83,7 @@ def extracted(bundle):
 
 def slave_for(bundle):
     """(Slave, load time [s]) of ``bundle``'s FMU for this thread: cached, instantiated on first use."""
-    from ..fmu.fmi import Slave
+    from ..fmu.run.driver import Slave
     key = (bundle["key"], threading.get_ident())
     slave = _SLAVES.get(key)
     if slave is not None:

@@ -40,7 +40,7 @@ MS = 1024                                   # ROM_MESSAGE_SIZE
 def make_resources(folder):
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
     from conftest import small_scene
-    from harness.fmu.package import package_fmu
+    from harness.fmu.make.package import package_fmu
     from harness.rom.parametric import parse_vary
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
@@ -341,7 +341,7 @@ def library(path, folder):
     path = Path(path)
     if path.is_file():
         return path
-    from harness.fmu.build import configure_and_build
+    from harness.fmu.make.build import configure_and_build
     configure_and_build(path / "fmu_src", folder, tests=False)
     found = sorted(folder.glob("libsphrom_core.*")) + sorted(folder.glob("sphrom_core.dll"))
     if not found:

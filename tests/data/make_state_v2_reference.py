@@ -37,9 +37,9 @@ def main():
     from checkout import use_checkout
     use_checkout(__doc__.splitlines()[0])
     from conftest import fmu_scene
-    from harness.fmu.build import ensure_binaries
-    from harness.fmu.fmi import Slave
-    from harness.fmu.package import package_fmu
+    from harness.fmu.make.build import ensure_binaries
+    from harness.fmu.run.driver import Slave
+    from harness.fmu.make.package import package_fmu
     from harness.rom import parametric as par
 
     inputs = np.random.default_rng(SEED).normal(0.0, 0.02, STEPS)

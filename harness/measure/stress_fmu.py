@@ -1,15 +1,15 @@
 """The FMU in the stability stress maps (``sphrom stress``): does it report an error where it blows up?
 
-For each stress setting the FMU (FMI 2, through fmpy and :class:`harness.fmu.fmi.Slave`) runs the same
-reduced model as the Python rows of :mod:`harness.bench.stress` (the frozen FMU with its own b, about the
-projected rest density, where the Python rows run the paper's: :func:`harness.bench.stress.fmu_operators`): the
+For each stress setting the FMU (FMI 2, through fmpy and :class:`harness.fmu.run.driver.Slave`) runs the same
+reduced model as the Python rows of :mod:`harness.measure.stress` (the frozen FMU with its own b, about the
+projected rest density, where the Python rows run the paper's: :func:`harness.measure.stress.fmu_operators`): the
 scene's x1 basis and operators,
 the initial velocity coordinates scaled by the amplitude (the FMU's ``initial_state_scale``, so one FMU per
 scene and model serves every amplitude), the internal step ``dt`` (the FMU's ``dt``
 parameter; the exact model ignores it), n_freeze = 10, the force held over each communication step.
 Communication points are the stress run's sample steps, so the FMU's internal grid is the Python one.
 
-Each run ends as in :func:`harness.bench.stress.run_one` (stable, growing, unphysical, blow-up), with
+Each run ends as in :func:`harness.measure.stress.run_one` (stable, growing, unphysical, blow-up), with
 two more fields: ``fmu_error``, the FMU's logged error message when a call returned an error status
 (its blow-up time is read from that message), and ``silent_nan``, the number of communication points
 at which an output was non-finite without an error status: the contract is that this is always 0.
@@ -68,9 +68,9 @@ class FMUStress:
             return self._made[key]
         from fmpy import extract
 
-        from ..fmu.build import ensure_binaries
-        from ..fmu.describe import model_description
-        from ..fmu.package import operator_resource, write_fmu
+        from ..fmu.make.build import ensure_binaries
+        from ..fmu.make.describe import model_description
+        from ..fmu.make.package import operator_resource, write_fmu
         from .stress import fmu_operators
 
         scene, problem = ctx.scene, ctx.problem
@@ -86,10 +86,10 @@ class FMUStress:
         return self._made[key]
 
     def run(self, ctx, model, dt, amplitude=1.0, T=None, force=None, n_samples=200):
-        """One stress run of the FMU; the dict of :func:`harness.bench.stress.run_one` plus fmu_error, silent_nan."""
+        """One stress run of the FMU; the dict of :func:`harness.measure.stress.run_one` plus fmu_error, silent_nan."""
         from fmpy.fmi1 import FMICallException
 
-        from ..fmu.fmi import Slave
+        from ..fmu.run.driver import Slave
 
         scene, problem = ctx.scene, ctx.problem
         T = T or scene.T
@@ -129,7 +129,7 @@ class FMUStress:
 
 
 def stress_runners(stress: FMUStress):
-    """The ``extra`` methods of :mod:`harness.bench.stress`: name -> runner(ctx, dt, amplitude, T=None, force=None)."""
+    """The ``extra`` methods of :mod:`harness.measure.stress`: name -> runner(ctx, dt, amplitude, T=None, force=None)."""
     def runner(model):
         def go(ctx, dt, amplitude=1.0, T=None, force=None):
             return stress.run(ctx, model, dt, amplitude, T=T, force=force)

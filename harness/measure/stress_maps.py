@@ -2,9 +2,9 @@
 
 For each scene: every method (and the FMUs, when they can be built here) over
 Δt factors against amplitudes, long horizons, mode counts and random forces
-(:mod:`harness.bench.stress`, :mod:`harness.bench.stress_fmu`); a heat map per
+(:mod:`harness.measure.stress`, :mod:`harness.measure.stress_fmu`); a heat map per
 scene and four CSV files into the output folder.  The Markdown is
-:func:`harness.bench.report.stress_section`.
+:func:`harness.measure.markdown.stress_section`.
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ def fmu_stress(fmu=True, log=print):
     if not fmu:
         return None
     try:
-        from ..fmu.build import ensure_binaries
+        from ..fmu.make.build import ensure_binaries
         from .stress_fmu import FMUStress
         ensure_binaries(quiet=True)
     except Exception as exc:               # no compiler or cmake: say so, keep the Python columns
@@ -116,7 +116,7 @@ def stress_report(scenes, amps, horizons, ks, factors, out, no_fmu=False, quick=
     ``command`` is the command line quoted in the text (default the ``sphrom stress`` one); ``image_dir``
     the heat maps' folder as seen from the page ('' when the page sits in ``out``).
     """
-    from .report import stress_section
+    from .markdown import stress_section
     maps = stress_maps(scenes, amps, horizons, ks, factors, out, fmu=not no_fmu, progress=progress)
     command = command or (f"sphrom stress {' '.join(s.name for s in scenes)}" + (" --quick" if quick else ""))
     return "\n".join(stress_section(maps, command, image_dir, level=1)) + "\n", maps.wall

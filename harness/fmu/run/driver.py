@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .variables import vr
+from ..variables import vr
 
 # fmpy's FMU constructors chdir() into binaries/<platform> to load the library
 # and chdir() back: the working directory is per process, so two threads that
@@ -160,7 +160,7 @@ class Slave:
 
     def set_parameter(self, name, value):
         """Set the parameter ``name`` (its type from the variable table); FieldError when the FMU has none."""
-        from .variables import BY_NAME, absent
+        from ..variables import BY_NAME, absent
         if name not in self.vr:
             raise absent(name)
         if BY_NAME[name].type == "Int32":

@@ -21,13 +21,13 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..errors import UserError
-from ..paths import data_dir
+from ...errors import UserError
+from ...paths import data_dir
 
 BUILD_TYPE = "Release"
 
-# fmu_src/ files an FMU carries in sources/ (harness/fmu/package.py; its C files are the modelDescription's
-# <SourceFiles> in FMI 2 and buildDescription.xml's in FMI 3, harness/fmu/describe.py)
+# fmu_src/ files an FMU carries in sources/ (harness/fmu/make/package.py; its C files are the modelDescription's
+# <SourceFiles> in FMI 2 and buildDescription.xml's in FMI 3, harness/fmu/make/describe.py)
 CORE_SOURCES = ("rom.h", "rom_internal.h", "rom_frozen.h", "rom_exact.h", "rom.c", "rom_resources.c",
                 "rom_state_io.c", "rom_bytes.c", "rom_frozen.c", "rom_exact.c", "rom_fail.c", "rom_envelope.c")
 INSTANCE_SOURCES = ("instance.h", "fmu_variables.h", "instance.c")
@@ -180,7 +180,7 @@ def ensure_binaries(sanitize=False, cache_root=None, quiet=True) -> Binaries:
     quiet : bool
         Do not print that a build is running.
     """
-    from ..cache import cache_dir
+    from ...cache import cache_dir
     root = Path(cache_root) if cache_root else cache_dir() / "build"
     key = build_key(sanitize)
     folder = root / key

@@ -17,9 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import FieldError, SimulationError, UserError, exact
-from ..paths import is_file
-from .variables import absent, check_parameter
+from ...errors import FieldError, SimulationError, UserError, exact
+from ...paths import is_file
+from ..variables import absent, check_parameter
 
 
 @dataclass
@@ -108,7 +108,7 @@ def force_signal(force, t_end, step):
         check_coverage(signal, path, 0.0, t_end)
         input_samples(signal, signal["time"])          # f is interpolated between rows: finite slopes
         return signal
-    from ..expr import compile_expr
+    from ...expr import compile_expr
     try:
         expr = compile_expr(text, ("t", "T"), "force")
     except UserError as exc:             # "force: <what is wrong>"
@@ -169,7 +169,7 @@ def _run_with_derivatives(fmu, md, signal, t_end, step, start, outputs, warnings
     (0 on the first step).  Here f goes linearly between the samples at the
     communication points over each step, as ``run_exact(..., hold="linear")``.
     """
-    from .fmi import Slave
+    from .driver import Slave
     n = int(math.ceil(t_end / step - 1e-9))
     times = np.minimum(np.arange(n + 1) * step, t_end)
     f, rate = input_samples(signal, times)
@@ -365,7 +365,7 @@ def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None, hold_inputs
 
 def write_csv(path, result: CosimResult):
     """Write ``result`` as CSV (full double precision), atomically."""
-    from ..runio import atomic_path
+    from ...runio import atomic_path
     with atomic_path(path) as tmp:
         with open(tmp, "w", newline="") as fh:
             writer = csv.writer(fh)

@@ -41,7 +41,7 @@ port error 0.28 % unforced, 0.32 % at the port-coupling forces, 0.48 % at 12x th
 the trained, README "Training envelope").  Until then a port FMU is checked as one without ports.
 
 A parametric model's envelope (``--vary``) is the :func:`union` of the envelopes of the runs at all its
-sample points (:func:`harness.fmu.parametric.parametric_envelope`).
+sample points (:func:`harness.fmu.make.parametric.parametric_envelope`).
 
 At run time the frozen model is checked after every doStep (fmu_src/rom_envelope.c): a coordinate
 a_i whose distance from the centre c_i of its trained range [lo_i, hi_i] exceeds its half-width h_i plus
@@ -180,7 +180,7 @@ def force_band(f, dt, fraction=ENERGY_FRACTION):
 
 def training_force(scene):
     """(amplitude max|f| [m s^-2], band [Hz], mean [m s^-2]) of the scene's force at its SPH steps over [0, T]."""
-    from ..sph.solver import step_count
+    from ...sph.solver import step_count
     n = step_count(scene.T, scene.sph.dt)
     t = np.arange(n + 1) * scene.sph.dt
     f = scene.force(t)
@@ -192,7 +192,7 @@ def training_force(scene):
 
 def _probe_values(field, x, L, probes):
     """field (M, N) or (N,) interpolated linearly between particles at the probes (as probe_rows)."""
-    from .resources import probe_pairs
+    from ..resources import probe_pairs
     i0, i1, w = probe_pairs(x, L, probes)
     field = np.asarray(field, float)
     return (1.0 - w) * field[..., i0] + w * field[..., i1]

@@ -13,11 +13,11 @@ import datetime as _dt
 import re
 from xml.sax.saxutils import escape
 
-from .. import __version__
-from ..paths import data_dir
-from . import variables
+from ... import __version__
+from ...paths import data_dir
+from .. import variables
 from .build import fmu_sources
-from .variables import number
+from ..variables import number
 
 _BLOCK = re.compile(r"\{\{#(\w+)\}\}(.*?)\{\{/\1\}\}", re.S)
 _RAW = re.compile(r"\{\{\{(\w+)\}\}\}")
@@ -81,7 +81,7 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
     model : str
         The registered reduced model packaged (its title heads the description).
     envelope : Envelope, optional
-        What the basis was trained on (:mod:`harness.fmu.envelope`), appended to the description; the
+        What the basis was trained on (:mod:`harness.fmu.make.envelope`), appended to the description; the
         nominal values of f and the probe outputs.
     measured : str, optional
         The verification's sentence (errors against the full SPH, run times), appended to the description.
@@ -89,7 +89,7 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
         Linear models: the report of the certified error bounds (:func:`harness.rom.balanced.error_bounds`)
         whose values section BOUNDS holds (default ``data.bounds``), for the words of the description.
     """
-    from ..rom.registry import get_model
+    from ...rom.registry import get_model
 
     bounds = bounds if bounds is not None else getattr(data, "bounds", None)
     facts = variables.facts(data, fmi)
@@ -174,7 +174,7 @@ def variable_values(fmi, scene, data, envelope, bounds):
                       what=bound_text(bounds) if bounds is not None else "certified against the full linear SPH")
     params = getattr(data, "sections", {}).get("PARAMS")
     if params is not None:
-        from ..rom.parametric import PARAMETERS
+        from ...rom.parametric import PARAMETERS
         for i, name in enumerate(PARAMETERS):      # rows c, d: varied, start, min, max
             values.update({f"{name}.start": params[i, 1], f"{name}.min": params[i, 2], f"{name}.max": params[i, 3],
                            f"{name}.nominal": max(abs(params[i, 2]), abs(params[i, 3]))})
@@ -262,8 +262,8 @@ def type_definitions(declared, fmi):
 def build_description(blob) -> str:
     """sources/buildDescription.xml of the FMI 3 FMU whose resources/model.bin is ``blob``: its sources, and the
     model it holds (read from the resources) in its description."""
-    from ..rom.registry import get_model
-    from .resources import unpack
+    from ...rom.registry import get_model
+    from ..resources import unpack
     title = get_model(model_name(unpack(blob))).title
     return render(template("buildDescription.xml"), {"description": f"{title}, FMI 3.0 co-simulation"},
                   {"source_files": [{"name": name} for name in fmu_sources(3) if name.endswith(".c")]})
@@ -272,7 +272,7 @@ def build_description(blob) -> str:
 def model_name(data):
     """The registered model a packed model.bin holds: frozen (kind 1), balanced or exact (kind 2, section
     LINMODEL)."""
-    from .resources import LINEAR_BALANCED, ModelData
+    from ..resources import LINEAR_BALANCED, ModelData
     if isinstance(data, ModelData):
         return "frozen"
     linmodel = data.sections.get("LINMODEL")

@@ -60,7 +60,7 @@ def mutations(blob: bytes, rng, count):
 def _child_resources(core_path, cases, emit):
     import numpy as np
 
-    from ..fmu.core import Core, CoreError
+    from ..fmu.run.core import Core, CoreError
     core = Core(core_path)
     for i, (desc, hexblob, must_refuse) in enumerate(cases):
         emit({"i": i, "start": True})
@@ -106,7 +106,7 @@ def verdict(emit, i, messages, outputs=None, exc=None, done=""):
 
 
 def _slave(unzipdir, messages):
-    from ..fmu.fmi import Slave
+    from ..fmu.run.driver import Slave
     return Slave(unzipdir, messages=messages)
 
 
@@ -153,7 +153,7 @@ def _child_sequences(unzipdir, cases, emit):
     """Random FMI call sequences: an OK status must come with finite outputs; an error with a message."""
     import numpy as np
 
-    from ..fmu.fmi import VR_DT, VR_F, VR_INITIAL_STATE_SCALE, VR_N_FREEZE
+    from ..fmu.run.driver import VR_DT, VR_F, VR_INITIAL_STATE_SCALE, VR_N_FREEZE
     for i, (seed, length) in enumerate(cases):
         emit({"i": i, "start": True})
         rng = random.Random(seed)
@@ -346,8 +346,8 @@ def run_children(ws, kind, payload, cases, labels, category, per_case_timeout=20
 def fmu_cases(ws, rng, n_resources, n_states, n_sequences):
     from fmpy import extract
 
-    from ..fmu.build import ensure_binaries
-    from ..fmu.fmi import Slave
+    from ..fmu.make.build import ensure_binaries
+    from ..fmu.run.driver import Slave
     os.environ["SPHROM_CACHE"] = ws.env["SPHROM_CACHE"]          # the workspace's build of the binaries
     binaries = ensure_binaries(quiet=True)
     results = []

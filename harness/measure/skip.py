@@ -98,9 +98,9 @@ def _fmu_core_rows(scene, problem, k, n, repeats):
     import dataclasses
 
     try:
-        from ..fmu.build import ensure_binaries
-        from ..fmu.core import Core
-        from ..fmu.package import DEFAULT_PROBES, reduced_model
+        from ..fmu.make.build import ensure_binaries
+        from ..fmu.run.core import Core
+        from ..fmu.make.package import DEFAULT_PROBES, reduced_model
         from ..fmu.resources import pack
         core = Core(ensure_binaries(quiet=True).core)
     except Exception:                     # no compiler or cmake: the Python rows stand alone

@@ -36,14 +36,14 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import defaults
-from ..errors import FieldError, SimulationError
-from ..paths import data_dir
-from ..runio import atomic_path
+from ... import defaults
+from ...errors import FieldError, SimulationError
+from ...paths import data_dir
+from ...runio import atomic_path
 from .build import fmu_sources
-from .resources import (MAX_PROBES, MODEL_EXACT_LINEAR, MODEL_FROZEN, balanced_data, exact_data, model_data, pack,
+from ..resources import (MAX_PROBES, MODEL_EXACT_LINEAR, MODEL_FROZEN, balanced_data, exact_data, model_data, pack,
                         pack_exact)
-from .variables import check_parameter
+from ..variables import check_parameter
 
 DEFAULT_PROBES = defaults.PROBES
 DEFAULT_FREEZE = defaults.N_FREEZE
@@ -146,11 +146,11 @@ class FMUSummary:
     size: int
     timings: dict = field(default_factory=dict)
     model: str = "frozen"
-    envelope: object = None        # harness.fmu.envelope.Envelope: what the basis was trained on
-    verification: object = None      # harness.fmu.verify.Verification when measured, else None
+    envelope: object = None        # harness.fmu.make.envelope.Envelope: what the basis was trained on
+    verification: object = None      # harness.fmu.check.verify.Verification when measured, else None
     bounds: dict | None = None
     method: str = ""
-    parameters: list = field(default_factory=list)     # a parametric FMU's c, d rows (harness.fmu.parametric)
+    parameters: list = field(default_factory=list)     # a parametric FMU's c, d rows (harness.fmu.make.parametric)
     ports: list = field(default_factory=list)
     port_errors: list = field(default_factory=list)
 
@@ -158,7 +158,7 @@ class FMUSummary:
 def default_modes(scene):
     """K of the scene: max(rom.accel_modes), else rom.modes, else the automatic mode count of its POD
     (:func:`harness.pod.pipeline.scene_modes`: runs the full SPH when it is not cached)."""
-    from ..pod.pipeline import accel_modes
+    from ...pod.pipeline import accel_modes
     return int(max(accel_modes(scene)))
 
 
@@ -191,7 +191,7 @@ def check_options(scene, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_PROB
     Raises FieldError naming the field (``k``, ``n_freeze``, ``probes``, ``fmi``, ``model``, ``integrator``,
     ``tolerance``, ``order_tolerance``) and the allowed range; the command line shows the option that set it.
     """
-    from ..rom.registry import fmu_model_names, get_model, model_names
+    from ...rom.registry import fmu_model_names, get_model, model_names
     if model not in fmu_model_names():
         raise FieldError("model", f"{model!r} is out of range (allowed: {', '.join(fmu_model_names())})")
     spec = get_model(model)
@@ -232,8 +232,8 @@ def check_options(scene, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_PROB
 def check_ports(ports, model):
     """The port positions (a list, empty for None) of an FMU of ``model``; FieldError naming ``ports`` when bad
     or when the model takes no port forces (the registry's ``ports``)."""
-    from ..rom.registry import get_model, model_names
-    from ..sph.ports import parse_ports
+    from ...rom.registry import get_model, model_names
+    from ...sph.ports import parse_ports
     if ports is None or (not isinstance(ports, str) and len(ports) == 0):
         return []
     ports = parse_ports(ports)
@@ -246,9 +246,9 @@ def check_ports(ports, model):
 def model_basis(scene, spec, k, progress=True, problem=None):
     """(basis, problem) of ``scene`` for the model ``spec``: its POD basis, with k checked against the modes of the
     model's basis kind (FieldError naming the field ``k`` or ``model``)."""
-    from ..pod.pipeline import basis_for_scene
-    from ..rom.model import BASIS_KINDS
-    from ..sph.solver import build_problem
+    from ...pod.pipeline import basis_for_scene
+    from ...rom.model import BASIS_KINDS
+    from ...sph.solver import build_problem
 
     problem = problem or build_problem(scene)
     basis, _ = basis_for_scene(scene, progress=progress, problem=problem)
@@ -273,8 +273,8 @@ def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem
     ``tensor="always"``.  ``build_options`` go to the model's build (``{"b": "paper"}``: eq. 2.22's b, the
     paper's variant, :mod:`harness.bench.rest` compares them).
     """
-    from ..rom.registry import get_model
-    from ..rom.stepping import runaway_bound
+    from ...rom.registry import get_model
+    from ...rom.stepping import runaway_bound
 
     spec = get_model(model)
     basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem)
@@ -294,7 +294,7 @@ def exact_model(scene, k, n_freeze, probes, progress=True, problem=None, model="
     model's ``fmu_input_direction`` (the exact model: ``"always"``, the force profile is always in its
     velocity basis, so the input f is represented exactly) and ``build_options``.
     """
-    from ..rom.registry import get_model
+    from ...rom.registry import get_model
 
     spec = get_model(model)
     basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem)
@@ -306,9 +306,9 @@ def exact_model(scene, k, n_freeze, probes, progress=True, problem=None, model="
 
 
 def training_envelope(scene, ops, problem, probes, linear, progress=False):
-    """The :class:`~harness.fmu.envelope.Envelope` of the model ``ops``: its ranges over the scene's cached
-    full SPH training run (:mod:`harness.fmu.envelope`)."""
-    from ..pod.pipeline import basis_for_scene
+    """The :class:`~harness.fmu.make.envelope.Envelope` of the model ``ops``: its ranges over the scene's cached
+    full SPH training run (:mod:`harness.fmu.make.envelope`)."""
+    from ...pod.pipeline import basis_for_scene
     from .envelope import measure
     _, run = basis_for_scene(scene, progress=progress, problem=problem)
     return measure(scene, ops, problem, run, probes, linear)
@@ -322,8 +322,8 @@ def balanced_model(scene, k, n_freeze, probes, order_tolerance=None, problem=Non
     and truncated at order ``k`` (or the order ``order_tolerance`` gives; the default
     tolerance when both are None); :func:`harness.fmu.resources.balanced_data`.
     """
-    from ..rom.registry import get_model
-    from ..sph.solver import build_problem
+    from ...rom.registry import get_model
+    from ...sph.solver import build_problem
 
     problem = problem or build_problem(scene)
     try:
@@ -338,7 +338,7 @@ def balanced_model(scene, k, n_freeze, probes, order_tolerance=None, problem=Non
 def linear_bounds(ops, problem, probes, progress=True):
     """The certified error bounds of a linear reduced model at the velocity probes (the operators'
     ``error_bounds``, :func:`harness.rom.balanced.error_bounds`), with a progress bar over the probes."""
-    from ..progress import progress_bar
+    from ...progress import progress_bar
 
     with progress_bar(len(probes), "error bounds", unit="probe", enabled=progress) as bar:
         return ops.error_bounds(problem, probes, progress=bar)
@@ -352,7 +352,7 @@ def linear_bound(lin, scene, samples=4097):
     """
     import numpy as np
 
-    from ..rom.exact_linear import linear_runaway_bound
+    from ...rom.exact_linear import linear_runaway_bound
     t = np.linspace(0.0, float(scene.T), samples)
     f = np.abs(np.asarray(scene.force(t), float)) if lin.B is not None else np.zeros(samples)
     return linear_runaway_bound(lin, float(np.sum(0.5 * (f[1:] + f[:-1]) * np.diff(t))))
@@ -372,7 +372,7 @@ def _linear_resource(scene, model, k, n_freeze, probes, integrator, progress, pr
     both with the certified error bounds against the full linear SPH at the FMU's probes (the operators'
     ``error_bounds``; section BOUNDS: force, initial state), unless ``bounds`` is False (benchmarks that time
     the stepping only: the bounds take seconds to minutes at N = 400)."""
-    from ..rom.registry import get_model
+    from ...rom.registry import get_model
 
     if get_model(model).needs_basis:
         data, ops, problem, _ = exact_model(scene, k, n_freeze, probes, progress=progress, problem=problem,
@@ -398,7 +398,7 @@ def operator_resource(kind, ops, problem, *, dt, n_freeze=DEFAULT_FREEZE, probes
     :func:`exact_model` have it; the initial state is scaled at run time by the FMU's initial_state_scale.  The
     operators are packaged as they are: the frozen model's own (``get_model("frozen").build``, b about the
     projected rest density) give the FMU's frozen model, ``b="paper"`` ones eq. 2.22's variant."""
-    from ..rom.stepping import runaway_bound
+    from ...rom.stepping import runaway_bound
     if kind == MODEL_FROZEN:
         data = model_data(ops, problem, dt=dt, integrator=integrator, n_freeze=n_freeze, probes=probes,
                           bound=runaway_bound(ops))
@@ -480,7 +480,7 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
     step_size : float, optional
         DefaultExperiment stepSize [s] (default min(0.01, T/10)).
     binaries : Binaries, optional
-        Prebuilt binaries (default: :func:`harness.fmu.build.ensure_binaries`).
+        Prebuilt binaries (default: :func:`harness.fmu.make.build.ensure_binaries`).
     model : str
         The reduced model to ship: a registered one with an FMU resource kind
         (``frozen``, ``exact``, ``balanced``; module docstring).
@@ -499,7 +499,7 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
         More options of the model's build (:meth:`harness.rom.model.ReducedModel.build`; the frozen model's
         ``b="paper"``: eq. 2.22's b instead of the rest-consistent one).
     references : dict, optional
-        :func:`harness.fmu.verify.references` computed before (several models of one scene).
+        :func:`harness.fmu.check.verify.references` computed before (several models of one scene).
     bounds : bool
         Linear models: compute and declare the certified error bounds (default;
         seconds to minutes at N = 400).  False leaves them out (benchmarks that
@@ -520,7 +520,7 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
     ToleranceError
         ``verify`` with ``tolerance``: the measured training error is above it (nothing is written).
     """
-    from ..rom.registry import get_model
+    from ...rom.registry import get_model
     from .build import ensure_binaries
     from .describe import model_description
 
@@ -575,7 +575,7 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
         archive(tmp)
         timings["package"] = time.perf_counter() - t2
         if verify:
-            from .verify import verify_fmu
+            from ..check.verify import verify_fmu
             t3 = time.perf_counter()
             verification = verify_fmu(tmp, scene, probes, refs=references, problem=problem, progress=progress)
             timings["verify"] = time.perf_counter() - t3
@@ -594,7 +594,7 @@ def check_tolerance(verification, tolerance, out, model):
     training-force v error of ``verification`` is above ``tolerance`` (None: no check)."""
     if tolerance is None:
         return
-    from ..errors import ToleranceError
+    from ...errors import ToleranceError
     err = verification.training.err_v
     if not err <= tolerance:
         raise ToleranceError(f"the {model} FMU's probe v error on the training force, {err:.3g}, is above the "
@@ -609,7 +609,7 @@ def documentation_files(*, scene, spec, data, k, input_error, augmented, descrip
                                    augmented=augmented, description_xml=description_xml,
                                    verification=verification, tolerance=tolerance, envelope=envelope)}
     if verification is not None:
-        from .verify import probes_png
+        from ..check.verify import probes_png
         files[DOC_PLOT] = probes_png(verification, title=f"{scene.name}, {spec.name} FMU against the full SPH")
     return files
 
@@ -635,8 +635,8 @@ def package_auto(scene, out, *, tolerance, progress=True, integrator=None, **opt
     import shutil
     import tempfile
 
-    from ..errors import ToleranceError
-    from ..rom.registry import fmu_model_names, get_model
+    from ...errors import ToleranceError
+    from ...rom.registry import fmu_model_names, get_model
     out = Path(out)
     candidates = []
     refs = None

@@ -5,12 +5,12 @@ FMU's documentation (FMI 1.0 used ``_main.html``).  The page is self-contained
 (inline CSS, no script, no network resource; the one image, ``probes.png``,
 sits beside it) and holds: the scene, the model, every variable of the
 modelDescription.xml it is packed with (read from that XML, which
-:mod:`harness.fmu.describe` generated from the variable table
+:mod:`harness.fmu.make.describe` generated from the variable table
 :mod:`harness.fmu.variables`, so a row added to the table appears here
 without a change to this module; the table adds which FMUs have each), the
 training envelope in words (when the model carries one) and the tagged
 sections of ``resources/model.bin`` with their numbers, and the measured errors and run times of
-:mod:`harness.fmu.verify`.
+:mod:`harness.fmu.check.verify`.
 """
 
 from __future__ import annotations
@@ -112,7 +112,7 @@ def model_section(spec, data, k, input_error, augmented):
 
 
 def variables_section(description_xml):
-    from .variables import RULES, lookup
+    from ..variables import RULES, lookup
     rows = []
     for v in variables(description_xml):
         limits = " ".join(f"{k} {v[k]}" for k in ("min", "max", "nominal") if v[k])
@@ -135,7 +135,7 @@ def sections_section(sections):
         return []
     import numpy as np
 
-    from .resources import SECTION_TAGS
+    from ..resources import SECTION_TAGS
     sections = {tag: np.atleast_2d(np.asarray(values, dtype=float)) for tag, values in sections.items()}
     envelope = [tag for tag in sections if "envelope" in SECTION_TAGS.get(tag, "").lower()]
     lines = []
@@ -186,7 +186,7 @@ def verification_section(verification, tolerance=None):
 
 
 def envelope_section(envelope, linear):
-    """What the basis was trained on (:class:`harness.fmu.envelope.Envelope`) and what the FMU checks at run
+    """What the basis was trained on (:class:`harness.fmu.make.envelope.Envelope`) and what the FMU checks at run
     time; nothing when the FMU carries no envelope."""
     if envelope is None:
         return []
@@ -197,7 +197,7 @@ def envelope_section(envelope, linear):
 def index_html(*, scene, spec, data, k, input_error, augmented, description_xml, verification=None,
                tolerance=None, envelope=None):
     """The text of documentation/index.html (module docstring)."""
-    from .. import __version__
+    from ... import __version__
     title = f"sphrom FMU: {spec.name} model of scene {scene.name}"
     body = [f"<h1>{escape(title)}</h1>",
             f"<p>{escape(spec.title)} of the 1D SPH mass-spring-damper scene <code>{escape(scene.name)}</code>, "

@@ -136,7 +136,7 @@ def unseen_force(scene, step):
     if peak > 0:
         amplitude = peak
     else:
-        from ..sph.operator import particle_positions
+        from ...sph.operator import particle_positions
         v0 = scene.field("v0", particle_positions(scene.L, scene.sph.n_particles))
         amplitude = 2 * math.pi * UNSEEN_FREQUENCY * float(np.max(np.abs(v0)))
     return f"{amplitude:.4g}*sin(2*pi*{UNSEEN_FREQUENCY:g}*t)"
@@ -146,7 +146,7 @@ def communication_times(scene, step):
     """(times, SPH steps at them): t_j = j h for j = 0, 1, ... while t_j <= T (to 1e-9 relative), and the SPH
     step nearest to each (the same time when h is a whole number of the scene's dt, as in every built-in
     scene; else at most dt/2 away)."""
-    from ..sph.solver import step_count
+    from ...sph.solver import step_count
     n = int(math.floor(scene.T / step * (1 + 1e-9)))
     t = np.arange(n + 1) * step
     return t, np.minimum(np.round(t / scene.sph.dt).astype(np.int64), step_count(scene.T, scene.sph.dt))
@@ -154,7 +154,7 @@ def communication_times(scene, step):
 
 def probe_values(problem, L, probes, fields):
     """The fields (M, N) interpolated linearly at the probes x/L (as the FMU's probe rows)."""
-    from .resources import probe_pairs
+    from ..resources import probe_pairs
     i0, i1, w = probe_pairs(problem.x, L, np.asarray(probes, float))
     return [a[..., i0] * (1 - w) + a[..., i1] * w for a in fields]
 
@@ -165,8 +165,8 @@ def sph_reference(scene, force, scale, step, probes, problem=None):
     ``force`` is an expression in t (the scene's own when it equals its text); ``scale`` multiplies the
     initial velocity v0 (1: the scene's initial state, 0: rest; rho starts at rho0 either way).
     """
-    from ..scene import derive_scene
-    from ..sph.solver import build_problem, run_sph
+    from ...scene import derive_scene
+    from ...sph.solver import build_problem, run_sph
     problem = problem or build_problem(scene)
     run_scene = scene if force == scene.f.text else derive_scene(scene, {"force": {"f": force}})
     t, steps = communication_times(scene, step)
@@ -185,7 +185,7 @@ def fmu_run(path, force_values, t, scale=None, interpolate=False):
     """
     from fmpy import extract
 
-    from .fmi import Slave
+    from ..run.driver import Slave
     import shutil
     folder = extract(str(path))
     try:
@@ -219,7 +219,7 @@ def case_errors(fmu_v, fmu_rho, sph_v, sph_rho, rho0, t):
     """(err_v, err_rho, max_drho): eq. 3.4, square-root form, of the probe velocities and of rho - rho0 (nan
     when the full SPH's rho - rho0 is 0 at every probe and time), and the largest |rho_FMU - rho_SPH|
     [kg m^-3]."""
-    from ..norms import relative_l2
+    from ...norms import relative_l2
     flat = not np.any(sph_rho - rho0)
     err_rho = float("nan") if flat else relative_l2(fmu_rho, sph_rho, t, baseline=rho0)
     return relative_l2(fmu_v, sph_v, t), err_rho, float(np.max(np.abs(fmu_rho - sph_rho)))
@@ -229,7 +229,7 @@ def fmu_features(path):
     """(has initial_state_scale, declares canInterpolateInputs, step [s], probes x/L) of an FMU file."""
     from fmpy import read_model_description
 
-    from .cosim import can_interpolate_inputs
+    from ..run.cosim import can_interpolate_inputs
     md = read_model_description(str(path))
     names = {v.name for v in md.modelVariables}
     return SCALE_NAME in names, can_interpolate_inputs(md), float(md.defaultExperiment.stepSize)
@@ -238,8 +238,8 @@ def fmu_features(path):
 def references(scene, step, probes, has_scale, problem=None, progress=False):
     """The full SPH of both cases: {name: (force, scale, start, (t, v, rho, rho0, wall))} (shared by every model
     measured on the same scene, probes and step)."""
-    from ..progress import progress_bar
-    from ..sph.solver import build_problem
+    from ...progress import progress_bar
+    from ...sph.solver import build_problem
     problem = problem or build_problem(scene)
     unseen = unseen_force(scene, step)
     cases = {"training": (scene.f.text, 1.0, "the scene's initial state"),
@@ -270,7 +270,7 @@ def verify_fmu(path, scene, probes, refs=None, problem=None, progress=False):
     -------
     Verification
     """
-    from ..expr import compile_expr
+    from ...expr import compile_expr
     has_scale, interpolate, step = fmu_features(path)
     refs = refs or references(scene, step, probes, has_scale, problem=problem, progress=progress)
     result = Verification(step=step, T=scene.T, input="linear (df/dt)" if interpolate else "held",

@@ -30,7 +30,7 @@ class SphC:
     Parameters
     ----------
     path : Path
-        libsphrom_sph (see :class:`harness.fmu.build.Binaries`).
+        libsphrom_sph (see :class:`harness.fmu.make.build.Binaries`).
     """
 
     def __init__(self, path):

@@ -76,8 +76,8 @@ class FrozenCosim:
     """
 
     def __init__(self, data, n_freeze=None, dt=None, initial_state_scale=1.0):
-        from ..rom.stepping import initial_scale
-        from ..rom.frozen import loop_operators
+        from ...rom.stepping import initial_scale
+        from ...rom.frozen import loop_operators
         self.data = data
         self.n_freeze = int(data.n_freeze if n_freeze is None else n_freeze)
         self.dt = float(data.dt if dt is None else dt)
@@ -101,8 +101,8 @@ class FrozenCosim:
         self.area = 1.0
 
     def _advance(self, count, h, f, rate=0.0, tau0=0.0):
-        from ..errors import SimulationError
-        from ..rom.frozen import frozen_advance
+        from ...errors import SimulationError
+        from ...rom.frozen import frozen_advance
         if count <= 0:
             return
         # f at each step's time tau0 + j h after the communication point (fmu_src/rom_frozen.c run_steps_kernel)
@@ -193,7 +193,7 @@ def linear_output_rates(data, z, f=0.0):
     dz/dt = A z + B f; dv_j/dt = Pv[j] . (dz/dt)_a; ρ_j = Σ_m w_m ρ0_m / J_m with J_m = 1 + Pe[j][m] . b, so
     dρ_j/dt = -Σ_m w_m ρ0_m (Pe[j][m] . (db/dt)) / J_m².  Returns (dv/dt [m s^-2], dρ/dt [kg m^-3 s^-1]).
     """
-    from ..rom.exact_linear import state_rate
+    from ...rom.exact_linear import state_rate
     z = np.asarray(z, float)
     zdot = state_rate(data.A, data.B, z, f)
     kv = data.k_v

@@ -16,9 +16,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..rom import parametric as par
-from .resources import exact_data, model_data, pack, pack_exact
-from .variables import number, vr
+from ...rom import parametric as par
+from ..resources import exact_data, model_data, pack, pack_exact
+from ..variables import number, vr
 
 # How the force profile enters a parametric model's FMU (``input_direction`` of build_operators), by model.
 # Frozen: the input row p = U_vᵀ profile, never the residual appended.  The combined basis of several (c, d)
@@ -40,7 +40,7 @@ def params_section(space):
 
 def parameter_variables(space):
     """The varied parameters of a parametric FMU, for its summary: dicts name, vr, start, min, max (the
-    modelDescription takes them from section PARAMS, :mod:`harness.fmu.describe`)."""
+    modelDescription takes them from section PARAMS, :mod:`harness.fmu.make.describe`)."""
     out = []
     for name in par.PARAMETERS:
         if not space.varies(name):
@@ -58,10 +58,10 @@ def parametric_model(scene, ranges, k, *, model="frozen", progress=True, input_d
     ``input_direction`` (default :data:`PARAMETRIC_INPUT_DIRECTION`, else the model's FMU rule) as in
     :func:`harness.rom.operators.build_operators`.
     """
-    from ..errors import FieldError
-    from ..rom.model import basis_modes
-    from ..rom.registry import get_model
-    from ..sph.solver import build_problem
+    from ...errors import FieldError
+    from ...rom.model import basis_modes
+    from ...rom.registry import get_model
+    from ...sph.solver import build_problem
 
     spec = get_model(model)
     if not spec.needs_basis:
@@ -83,11 +83,11 @@ def parametric_model(scene, ranges, k, *, model="frozen", progress=True, input_d
 
 
 def parametric_envelope(scene, space, ops, probes, linear, progress=False):
-    """The training envelope (:mod:`harness.fmu.envelope`) of a parametric model: the union over the full SPH
+    """The training envelope (:mod:`harness.fmu.make.envelope`) of a parametric model: the union over the full SPH
     runs at every sample point (:func:`harness.rom.parametric.training_points`, the runs its basis was made of,
     cached), each projected on the model's basis as the ordinary FMU's (the exact model in the scene's c, in
     which its basis is orthonormal)."""
-    from ..sph.solver import build_problem
+    from ...sph.solver import build_problem
     from .envelope import measure, union
     problem = build_problem(scene)
     _, runs = par.training_basis(scene, par.training_points(space), progress=progress)
@@ -97,9 +97,9 @@ def parametric_envelope(scene, space, ops, probes, linear, progress=False):
 def parametric_resource(scene, model, k, n_freeze, probes, integrator, progress, ranges):
     """(data, ops at the start values, resource bytes, space) of a parametric FMU; its training envelope that of
     the runs at all sample points (:func:`parametric_envelope`)."""
-    from ..rom.registry import get_model
-    from ..rom.stepping import runaway_bound
-    from ..sph.solver import build_problem
+    from ...rom.registry import get_model
+    from ...rom.stepping import runaway_bound
+    from ...sph.solver import build_problem
 
     affine, space, _, _ = parametric_model(scene, ranges, k, model=model, progress=progress)
     c0, d0 = space.start("c"), space.start("d")

@@ -27,7 +27,7 @@
    the C full SPH step of fmu_src/sph.c at N = 400.
 
 ``bench_rows`` gives the FMU rows of ``sphrom bench``, :func:`fmu_measurements`
-its FMU section (the Markdown is :func:`harness.bench.report.fmu_tables`).
+its FMU section (the Markdown is :func:`harness.measure.markdown.fmu_tables`).
 Every figure is the median of ``repeats`` runs.
 """
 
@@ -73,9 +73,9 @@ def bench_scene(base, n):
 def core_rows(base, sizes, k=BENCH_K, n_freeze=BENCH_FREEZE, n_steps=200_000, repeats=5, core=None, progress=False,
               bar=None):
     """ns per internal step of the C core for each N in ``sizes`` (list of dicts)."""
-    from ..fmu.build import ensure_binaries
-    from ..fmu.core import Core
-    from ..fmu.package import reduced_model
+    from ..fmu.make.build import ensure_binaries
+    from ..fmu.run.core import Core
+    from ..fmu.make.package import reduced_model
     from ..fmu.resources import pack
 
     core = core or Core(ensure_binaries().core)
@@ -116,7 +116,7 @@ def _simulate(path, stop_time, step, keep=None):
 
 def _bare_calls(unzipdir, md, n_calls, h):
     """n_calls fmi2DoStep of length h on an extracted FMU, nothing else: the call cost through fmpy/ctypes."""
-    from ..fmu.fmi import load_fmu
+    from ..fmu.run.driver import load_fmu
     from ..fmu.variables import vr
     fmu = load_fmu(2, unzipdir, md.guid, "bench")
     fmu.instantiate()
@@ -189,9 +189,9 @@ def end_to_end(scene_name="tenmode", steps=(0.01, 0.001), repeats=5, k=None, pro
 
     from ..scene import load_scene
     from ..sph.solver import build_problem, run_sph, step_count
-    from ..fmu.build import ensure_binaries
-    from ..fmu.core import Core
-    from ..fmu.package import RESOURCES, package_fmu
+    from ..fmu.make.build import ensure_binaries
+    from ..fmu.run.core import Core
+    from ..fmu.make.package import RESOURCES, package_fmu
 
     scene = load_scene(scene_name)
     problem = build_problem(scene)
@@ -299,8 +299,8 @@ def prepared_fmu(scene, k, model="frozen", n_freeze=10, problem=None, probes=(0.
 
     from fmpy import extract, read_model_description
 
-    from ..fmu.build import ensure_binaries
-    from ..fmu.package import package_fmu
+    from ..fmu.make.build import ensure_binaries
+    from ..fmu.make.package import package_fmu
     key = (hashlib.sha256(scene.text.encode()).hexdigest() if getattr(scene, "text", None) else scene.name,
            int(k), model, int(n_freeze), tuple(probes))
     if key not in _PREPARED:
@@ -326,7 +326,7 @@ class LeanSlave:
     """
 
     def __init__(self, unzipdir, md, guid=None):
-        from ..fmu.fmi import load_fmu
+        from ..fmu.run.driver import load_fmu
         from ..fmu.variables import vr
         t0 = time.perf_counter()
         self.fmu = load_fmu(2, unzipdir, guid or md.guid, "lean")
@@ -380,7 +380,7 @@ class LeanSlave:
 
     def reduced_state(self, k_v, k_rho):
         """The FMU's reduced state (a^v, then a^rho or b) from its serialized FMU state."""
-        from ..fmu.fmi import state_coordinates
+        from ..fmu.run.driver import state_coordinates
         fmu = self.fmu
         state = fmu.getFMUstate()
         try:
@@ -451,7 +451,7 @@ def _fmu_states(unzipdir, md, summary, ops, steps, dt, force, n_freeze, h):
 
 
 def bench_rows(context):
-    """The FMU rows of ``sphrom bench`` (harness.bench.methods.bench_python's ``extra``).
+    """The FMU rows of ``sphrom bench`` (harness.measure.methods.bench_python's ``extra``).
 
     For each k of the study and each model that can be packaged as an FMU: the FMU through the lean fmpy
     loop at a 10 ms communication step (n_freeze 10 and 1 for the frozen model, the one refreshed every
@@ -462,9 +462,9 @@ def bench_rows(context):
     from .methods import bench_row
     from ..compare import error_table
     from ..sph.solver import force_values, step_count
-    from ..fmu.core import Core
-    from ..fmu.build import ensure_binaries
-    from ..fmu.package import RESOURCES
+    from ..fmu.run.core import Core
+    from ..fmu.make.build import ensure_binaries
+    from ..fmu.make.package import RESOURCES
 
     scene, run, steps = context["scene"], context["run"], np.asarray(context["steps"])
     repeats = max(1, int(context.get("repeats", 3)))
@@ -571,8 +571,8 @@ def bench_rows(context):
 def sph_step_rows(base="tenmode", n=400, k=BENCH_K, n_freeze=BENCH_FREEZE, n_steps=20_000, repeats=5, core=None):
     """The same-language ratio at N = n: ns per step of the C frozen core and of the C full SPH (sph.c)."""
     from ..sph.solver import build_problem
-    from ..fmu.build import ensure_binaries
-    from ..fmu.core import Core
+    from ..fmu.make.build import ensure_binaries
+    from ..fmu.run.core import Core
     core = core or Core(ensure_binaries().core)
     frozen = core_rows(base, [n], k=k, n_freeze=n_freeze, n_steps=max(n_steps, 100_000), repeats=repeats,
                        core=core)[0]
@@ -629,8 +629,8 @@ def main(argv=None):
     import time
     from pathlib import Path
 
-    from .fmu_verify import update_report
-    from .report import fmu_section, headline_section
+    from ..bench.fmu_verify import update_report
+    from .markdown import fmu_section, headline_section
 
     p = argparse.ArgumentParser(prog="python -m harness.bench.fmu", description=main.__doc__.split(":")[0])
     p.add_argument("--scene", default="tenmode")
