@@ -20,7 +20,7 @@ from fmpy.fmi1 import FMICallException
 from conftest import assert_units_through_declared_types, fmu_scene
 from harness.cli import main
 from harness.fmu.make.build import ensure_binaries
-from harness.fmu.run.driver import Slave
+from harness.fmu.run.driver import FMU
 from harness.fmu.make.package import package_fmu
 from harness.fmu.check.python_cosim import cosim_reference, probe_values, split_step
 from harness.fmu.resources import unpack
@@ -106,7 +106,7 @@ def test_fmi2_and_fmi3_agree_bitwise(fmus):
     steps = [0.01] * 40
     outs = []
     for fmi in (2, 3):
-        with Slave(fmus("forced", fmi)[0]) as s:
+        with FMU(fmus("forced", fmi)[0]) as s:
             s.initialize(initial_state_scale=1)
             outs.append(s.run(steps, inputs))
     assert np.array_equal(outs[0], outs[1])
@@ -139,7 +139,7 @@ def test_equals_python_frozen_model(fmus, case, integrator, record_property):
     Pr = probe_rows(ops.U_rho, problem.x, scene.L, PROBES)
     ref = np.hstack([np.array([probe_values(Pv, a) for a in res.a_v]),
                      np.array([probe_values(Pr, a) for a in res.a_rho])])
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize(initial_state_scale=1)
         out = s.run([H] * M, inputs)
     residual = relative_residual(out, ref)
@@ -166,7 +166,7 @@ def test_n_freeze_parameter(fmus):
     path, data = fmus("forced", 2)
     rng = np.random.default_rng(3)
     steps, inputs = [0.004] * 30, rng.normal(0, 0.05, 30)
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize(n_freeze=3, initial_state_scale=1)
         assert s.fmu.getInteger([vr("n_freeze")]) == [3]
         out = s.run(steps, inputs)
@@ -201,7 +201,7 @@ def test_non_multiple_steps_reach_points_exactly(fmus, fmi):
         list(rng.uniform(0.1, 20, 20) * dt)
     inputs = rng.normal(0, 0.05, len(steps))
     times, out = [], []
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize(n_freeze=4, initial_state_scale=1)
         t = 0.0
         out.append(s.output_values())
@@ -220,7 +220,7 @@ def test_non_multiple_steps_reach_points_exactly(fmus, fmi):
 def test_start_time_and_long_step(fmus):
     """A start time other than 0 and one communication step over the whole horizon."""
     path, data = fmus("forced", 3)
-    with Slave(path) as a, Slave(path) as b:
+    with FMU(path) as a, FMU(path) as b:
         a.initialize(start=1.25, f=0.01, initial_state_scale=1)
         b.initialize(start=0.0, f=0.01, initial_state_scale=1)
         a.do_step(1.25, 0.3)
@@ -240,7 +240,7 @@ def test_state_get_set_serialize_bitwise(fmus, fmi):
     rng = np.random.default_rng(11)
     steps = list(rng.uniform(0.5, 30, 30) * data.dt)
     inputs = rng.normal(0, 0.05, 30)
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize(n_freeze=7, initial_state_scale=1)
         s.run(steps[:12], inputs[:12])
         t1 = s.time()
@@ -256,7 +256,7 @@ def test_state_get_set_serialize_bitwise(fmus, fmi):
         s.free_state(restored)
     assert np.array_equal(a, b) and np.array_equal(a, c)
     # a serialized state restores in another instance of the same FMU
-    with Slave(path) as other:
+    with FMU(path) as other:
         other.set_state(other.deserialize(blob))
         d = other.run(steps[12:], inputs[12:], t0=t1)
     assert np.array_equal(a, d)
@@ -265,20 +265,20 @@ def test_state_get_set_serialize_bitwise(fmus, fmi):
 @pytest.mark.parametrize("fmi", [2, 3])
 def test_state_from_another_fmu_is_refused(fmus, fmi):
     path, data = fmus("forced", fmi)
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize(initial_state_scale=1)
         s.do_step(0.0, 0.01)
         blob = s.serialize(s.get_state())
     # same sizes, other token (other default n_freeze), and other sizes (k = 5)
     for other_path in (fmus("forced", fmi, n_freeze=7)[0], fmus("forced", fmi, k=5)[0]):
-        with Slave(other_path) as o:
+        with FMU(other_path) as o:
             o.initialize(initial_state_scale=1)
             with pytest.raises(FMICallException):
                 o.deserialize(blob)
             assert any("another FMU" in e for e in o.errors()), o.errors()
     # truncated and corrupted blobs
     for bad in (blob[:-9], blob[:50], blob[:100] + bytes([blob[100] ^ 1]) + blob[101:]):
-        with Slave(path) as o:
+        with FMU(path) as o:
             with pytest.raises(FMICallException):
                 o.deserialize(bad)
             assert o.errors()
@@ -292,7 +292,7 @@ def test_state_from_another_fmu_is_refused(fmus, fmi):
 def test_bad_input_values(fmus, fmi):
     path, _ = fmus("forced", fmi)
     for value in (math.nan, math.inf, -math.inf):
-        with Slave(path) as s:
+        with FMU(path) as s:
             s.initialize(initial_state_scale=1)
             with pytest.raises(FMICallException):
                 s.set_input(value)
@@ -305,11 +305,11 @@ def test_bad_input_values(fmus, fmi):
             s.initialize(f=0.01, initial_state_scale=1)
             s.do_step(0.0, 0.01)
             assert np.all(np.isfinite(s.output_values()))
-    with Slave(path) as s:
+    with FMU(path) as s:
         with pytest.raises(FMICallException):
             s.initialize(n_freeze=0, initial_state_scale=1)
         assert any("n_freeze" in e and ">= 1" in e for e in s.errors())
-    with Slave(path) as s:
+    with FMU(path) as s:
         with pytest.raises(FMICallException):
             s.initialize(dt=-1.0, initial_state_scale=1)
         assert any("dt" in e for e in s.errors())
@@ -318,13 +318,13 @@ def test_bad_input_values(fmus, fmi):
 @pytest.mark.parametrize("fmi", [2, 3])
 def test_runaway_is_an_error_naming_the_time(fmus, fmi):
     path, _ = fmus("forced", fmi)
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize(f=1e300, initial_state_scale=1)
         with pytest.raises(FMICallException):
             s.do_step(0.0, 0.01)
         assert any("ran away" in e or "non-finite" in e for e in s.errors())
         assert any("t = " in e for e in s.errors())
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize(dt=1e3, initial_state_scale=1)
         with pytest.raises(FMICallException):
             s.do_step(0.0, 1e6)
@@ -334,27 +334,27 @@ def test_runaway_is_an_error_naming_the_time(fmus, fmi):
 @pytest.mark.parametrize("fmi", [2, 3])
 def test_illegal_call_sequences(fmus, fmi):
     path, _ = fmus("forced", fmi)
-    with Slave(path) as s:                    # doStep before exitInitializationMode
+    with FMU(path) as s:                    # doStep before exitInitializationMode
         with pytest.raises(FMICallException):
             s.do_step(0.0, 0.01)
         assert any("illegal call sequence" in e for e in s.errors())
-    with Slave(path) as s:                    # a fixed parameter in step mode
+    with FMU(path) as s:                    # a fixed parameter in step mode
         s.initialize(initial_state_scale=1)
         with pytest.raises(FMICallException):
             s.set_real([vr("dt")], [1e-4])
         assert any("fixed parameter" in e for e in s.errors())
-    with Slave(path) as s:                    # the wrong communication point
+    with FMU(path) as s:                    # the wrong communication point
         s.initialize(initial_state_scale=1)
         with pytest.raises(FMICallException):
             s.do_step(0.5, 0.01)
         assert any("does not match" in e for e in s.errors())
     for h in (0.0, -0.01, math.nan):
-        with Slave(path) as s:
+        with FMU(path) as s:
             s.initialize(initial_state_scale=1)
             with pytest.raises(FMICallException):
                 s.do_step(0.0, h)
             assert s.errors()
-    with Slave(path) as s:                    # an unknown value reference
+    with FMU(path) as s:                    # an unknown value reference
         s.initialize(initial_state_scale=1)
         with pytest.raises(FMICallException):
             s.get_real([999])
@@ -384,21 +384,21 @@ def test_bad_resources_and_token(fmus, fmi, tmp_path):
             target.write_bytes(content)
         messages = []
         with pytest.raises(Exception, match="instantiate"):
-            Slave(folder, messages=messages)
+            FMU(folder, messages=messages)
         texts = " ".join(m[2] for m in messages)
         assert messages and messages[-1][0] >= 3, name
         assert expect.get(name, "not found") in texts, (name, texts)
         shutil.rmtree(folder)
     messages = []
     with pytest.raises(Exception, match="instantiate"):
-        Slave(path, token="{00000000-0000-0000-0000-000000000000}", messages=messages)
+        FMU(path, token="{00000000-0000-0000-0000-000000000000}", messages=messages)
     assert "does not match" in messages[-1][2]
 
 
 @pytest.mark.parametrize("fmi", [2, 3])
 def test_debug_logging_categories_are_honoured(fmus, fmi):
     path, _ = fmus("forced", fmi)
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize(initial_state_scale=1)
         s.do_step(0.0, 0.01)
         assert not any(cat == "logEvents" for _, cat, _ in s.messages)       # off by default
@@ -410,7 +410,7 @@ def test_debug_logging_categories_are_honoured(fmus, fmi):
         with pytest.raises(FMICallException):
             s.do_step(0.0, 0.01)
         assert len(s.messages) == count                                       # the error is silent now
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.fmu.setDebugLogging(True, ["logNoSuchCategory"])      # a warning (fmpy raises only on an error)
         assert not s.errors()
         assert any(status == 1 and "unknown log category 'logNoSuchCategory'" in text and "logEvents" in text
@@ -428,10 +428,10 @@ def test_many_instances_interleaved_and_threads(fmus):
     other, _ = fmus("unforced", 3)
     rng = np.random.default_rng(5)
     steps, inputs = [0.01] * 30, rng.normal(0, 0.05, 30)
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize(initial_state_scale=1)
         alone = s.run(steps, inputs)
-    instances = [Slave(path, name=f"i{i}") for i in range(3)] + [Slave(other, name="other")]
+    instances = [FMU(path, name=f"i{i}") for i in range(3)] + [FMU(other, name="other")]
     try:
         for s in instances:
             s.initialize(initial_state_scale=1)
@@ -450,7 +450,7 @@ def test_many_instances_interleaved_and_threads(fmus):
             s.close()
 
     def job(i):
-        with Slave(path, name=f"thread{i}") as s:
+        with FMU(path, name=f"thread{i}") as s:
             s.initialize(initial_state_scale=1)
             return s.run(steps, inputs)
 
@@ -578,7 +578,7 @@ def test_resources_in_a_folder_that_needs_escaping(fmus, tmp_path, fmi):
     path, _ = fmus("forced", fmi)
     folder = tmp_path / "a folder with space, 100% #1"
     fmpy.extract(str(path), unzipdir=str(folder))
-    with Slave(folder) as s:
+    with FMU(folder) as s:
         s.initialize(initial_state_scale=1)
         s.do_step(0.0, 0.01)
         assert np.all(np.isfinite(s.output_values()))

@@ -18,7 +18,7 @@ from scipy.integrate import simpson
 
 from conftest import assert_units_through_declared_types, fmu_scene, small_scene
 from harness.fmu.make.build import ensure_binaries
-from harness.fmu.run.driver import Slave
+from harness.fmu.run.driver import FMU
 from harness.fmu.make.package import balanced_model, exact_model, package_fmu
 from harness.fmu.resources import FLAG_OUTPUT_ROWS, probe_pairs, unpack
 from harness.fmu.variables import vr
@@ -105,12 +105,12 @@ def test_frozen_fmu_has_no_bounds_and_bounds_cannot_be_set(fmus, tmp_path):
     package_fmu(fmu_scene("forced"), path, k=K, fmi=2, probes=PROBES, progress=False, binaries=ensure_binaries())
     md = fmpy.read_model_description(str(path))
     assert not [v for v in md.modelVariables if "error_bound" in v.name]
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize(initial_state_scale=1)
         with pytest.raises(FMICallException):
             s.get_real([vr("force_error_bound")])
         assert any(f"unknown value reference {vr('force_error_bound')}" in e for e in s.errors())
-    with Slave(fmus("balanced", "forced", 2)[0]) as s:
+    with FMU(fmus("balanced", "forced", 2)[0]) as s:
         s.initialize(initial_state_scale=1)
         with pytest.raises(FMICallException):
             s.set_real([vr("force_error_bound_j", 1)], [1.0])
@@ -137,7 +137,7 @@ def test_balanced_fmu_equals_the_python_balanced_model(fmus, case, record_proper
     expected = np.hstack([ref.y[:, :len(PROBES)], (1.0 - w) * rho[:, i0] + w * rho[:, i1]])
     outs = []
     for fmi in (2, 3) if case == "forced" else (2,):
-        with Slave(fmus("balanced", case, fmi)[0]) as s:
+        with FMU(fmus("balanced", case, fmi)[0]) as s:
             s.initialize(initial_state_scale=1)
             outs.append(s.run([H] * M, inputs))
     assert np.array_equal(outs[0], outs[-1])
@@ -152,7 +152,7 @@ def test_balanced_fmu_state_round_trip_is_bitwise(fmus, fmi):
     path, data, _ = fmus("balanced", "forced", fmi)
     rng = np.random.default_rng(5)
     steps, inputs = list(rng.uniform(0.002, 0.03, 20)), rng.normal(0, 0.05, 20)
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize(initial_state_scale=1)
         s.run(steps[:8], inputs[:8])
         t1 = s.time()
@@ -172,10 +172,10 @@ def test_balanced_fmu_state_round_trip_is_bitwise(fmus, fmi):
 
 
 def test_balanced_fmu_refuses_a_state_of_the_exact_fmu(fmus):
-    with Slave(fmus("exact", "forced", 2)[0]) as s:
+    with FMU(fmus("exact", "forced", 2)[0]) as s:
         s.initialize(initial_state_scale=1)
         blob = s.serialize(s.get_state())
-    with Slave(fmus("balanced", "forced", 2)[0]) as s:
+    with FMU(fmus("balanced", "forced", 2)[0]) as s:
         s.initialize(initial_state_scale=1)
         with pytest.raises(FMICallException):
             s.deserialize(blob)
@@ -186,7 +186,7 @@ def test_balanced_fmu_conserves_energy_over_t_1000(fmus):
     """d = f = 0: the Galerkin model's Ar is skew; the FMU's state keeps ½|z|² to 1e-12 over 1000 s."""
     path, data, _ = fmus("balanced", "unforced", 2)
     e0 = float(data.z0 @ data.z0)
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize(initial_state_scale=1)
         t = 0.0
         for h in [0.7] * 500 + [1.3] * 500:
@@ -210,7 +210,7 @@ def test_the_fmu_bounds_are_the_python_bounds(fmus, model):
     ref = error_bounds(lti, reduced, outputs="v")
     for fmi in (2, 3) if model == "balanced" else (2,):
         path, data, _ = fmus(model, "forced", fmi)
-        with Slave(path) as s:
+        with FMU(path) as s:
             s.initialize(initial_state_scale=1)
             fmax, imax, fb, ib = bound_values(s, len(PROBES))
         np.testing.assert_allclose(fb, ref["force_error_bound"], rtol=1e-12)
@@ -244,7 +244,7 @@ def test_measured_fmu_error_stays_below_its_bounds(fmus, model, record_property)
     f = sum(rng.normal(0, 1) * np.sin(2 * np.pi * rng.uniform(0.5, 40) * t + rng.uniform(0, 6)) for _ in range(5))
 
     def fmu_run(force):
-        with Slave(path) as s:
+        with FMU(path) as s:
             s.initialize(initial_state_scale=1)
             out = [s.output_values()[:P]]
             for m in range(M):

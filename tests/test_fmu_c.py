@@ -21,7 +21,7 @@ import pytest
 from conftest import small_scene
 from harness.fmu.make.build import ensure_binaries
 from harness.fmu.run.core import Core, CoreError
-from harness.fmu.run.driver import Slave
+from harness.fmu.run.driver import FMU
 from harness.fmu.make.package import package_fmu
 from harness.fmu.resources import pack, unpack
 
@@ -278,7 +278,7 @@ def test_fmpy_compile_rebuilds_from_sources(packaged, tmp_path, fmi):
     steps, inputs = list(rng.uniform(0.3, 40, 25) * 2e-4), rng.normal(0, 0.05, 25)
     outs = []
     for path in (original, copy):
-        with Slave(path) as s:
+        with FMU(path) as s:
             s.initialize(initial_state_scale=1)
             outs.append(s.run(steps, inputs))
     scale = np.abs(outs[0]).max(axis=0)
@@ -315,7 +315,7 @@ def test_rebuild_from_sources_links_the_maths_library(packaged, tmp_path, fmi):
     copy.with_suffix(".zip").rename(copy)
     outs = []
     for path in (packaged[("forced", fmi)], copy):
-        with Slave(path) as s:
+        with FMU(path) as s:
             s.initialize(initial_state_scale=1)
             outs.append(s.run([0.01] * 20, np.linspace(-0.05, 0.05, 20)))
     scale = np.abs(outs[0]).max(axis=0)

@@ -12,7 +12,7 @@ from fmpy.fmi1 import FMICallException
 
 from conftest import fmu_scene
 from harness.fmu.make.build import ensure_binaries
-from harness.fmu.run.driver import Slave
+from harness.fmu.run.driver import FMU
 from harness.fmu.make.package import package_fmu
 
 H = 0.01
@@ -47,7 +47,7 @@ def test_dt_above_the_communication_step_is_one_step_of_h(edge_fmus, fmi, factor
     steps, inputs = [H] * 4, [0.0125, -0.005, 0.0075, 0.0025]   # inside the training envelope: only the dt warning
     runs = {}
     for name, dt in (("big", factor * H), ("same", H)):          # one after the other: fmpy's FMI 2 log proxy is
-        with Slave(path) as s:                                    # one per process
+        with FMU(path) as s:                                    # one per process
             s.initialize(dt=dt, initial_state_scale=1)
             runs[name] = (s.run(steps, inputs), s.time(), warnings_of(s), s.messages)
     (out_big, t_big, warn_big, messages), (out_same, _, warn_same, _) = runs["big"], runs["same"]
@@ -62,12 +62,12 @@ def test_dt_above_the_communication_step_is_one_step_of_h(edge_fmus, fmi, factor
 
 @pytest.mark.parametrize("fmi", [2, 3])
 def test_state_of_other_sizes_names_the_field(edge_fmus, fmi):
-    with Slave(edge_fmus(fmi, k=5)) as s:
+    with FMU(edge_fmus(fmi, k=5)) as s:
         s.initialize(initial_state_scale=1)
         s.do_step(0.0, H)
         blob = s.serialize(s.get_state())
     k_v_theirs = struct.unpack_from("<I", blob, 16)[0]
-    with Slave(edge_fmus(fmi)) as o:
+    with FMU(edge_fmus(fmi)) as o:
         o.initialize(initial_state_scale=1)
         k_v_mine = struct.unpack_from("<I", o.serialize(o.get_state()), 16)[0]
         assert k_v_mine != k_v_theirs
@@ -78,7 +78,7 @@ def test_state_of_other_sizes_names_the_field(edge_fmus, fmi):
 
 @pytest.mark.parametrize("fmi", [2, 3])
 def test_unknown_log_category_is_a_warning(edge_fmus, fmi):
-    with Slave(edge_fmus(fmi)) as s:
+    with FMU(edge_fmus(fmi)) as s:
         s.fmu.setDebugLogging(True, ["logBogus", "logEvents"])
         assert not s.errors()
         (text,) = warnings_of(s)

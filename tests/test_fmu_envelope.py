@@ -12,7 +12,7 @@ from conftest import fmu_scene
 from harness.fmu.make import envelope as E
 from harness.fmu.make.build import ensure_binaries
 from harness.fmu.run.core import Core
-from harness.fmu.run.driver import Slave
+from harness.fmu.run.driver import FMU
 from harness.fmu.make.package import package_fmu
 from harness.fmu.resources import ModelData, pack, pack_exact, unpack
 
@@ -72,7 +72,7 @@ def run_fmu(path, force, T=None, reset_and_repeat=False, scale=None):
     T = T or fmu_scene("forced").T
     n = int(round(T / H))
     t = np.arange(n) * H
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize(initial_state_scale=scale)
         s.run([H] * n, force(t))
         if reset_and_repeat:

@@ -11,7 +11,7 @@ import pytest
 from conftest import small_scene
 from harness.fmu.make import envelope as E
 from harness.fmu.make.build import ensure_binaries
-from harness.fmu.run.driver import Slave
+from harness.fmu.run.driver import FMU
 from harness.fmu.make.package import package_fmu
 from harness.fmu.resources import unpack
 from harness.fmu.variables import vr
@@ -76,7 +76,7 @@ def parametric_model_affine(sc):
 def run_at(path, c, d, scale):
     sc = scene()
     n = int(round(sc.T / H))
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.set_real([vr("c"), vr("d")], [c, d])
         s.initialize(initial_state_scale=scale)
         s.run([H] * n, sc.force(np.arange(n) * H))

@@ -16,11 +16,11 @@ import zipfile
 import numpy as np
 import pytest
 
-from harness.bench.port_coupling import PORTS, open_loop_forces
+from harness.measure.ports import PORTS, open_loop_forces
 from harness.fmu.make import envelope as E
 from harness.fmu.make.build import ensure_binaries
 from harness.fmu.run.core import Core
-from harness.fmu.run.driver import Slave
+from harness.fmu.run.driver import FMU
 from harness.fmu.make.package import package_fmu
 from harness.fmu.resources import unpack
 from harness.fmu.variables import vr
@@ -48,7 +48,7 @@ def run(path, scene, t_end, forces):
     f and the port forces ``forces(t) -> (P,)`` [N] held over each step."""
     n = int(round(t_end / H))
     strain = 0.0
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize(initial_state_scale=1)
         rho0 = E.Envelope.from_sections(unpack(zipfile.ZipFile(path).read("resources/model.bin")).sections,
                                         0).probe_rho0
@@ -66,10 +66,10 @@ def run(path, scene, t_end, forces):
 def coupled_run(path, scene, t_end):
     """(envelope warnings, errors) of the coupled example of harness.bench.port_coupling: a lumped mass-spring
     on port 1 (its spring force, up to 5e-3 N, held as F_port_1), port 2 open loop."""
-    from harness.bench.port_coupling import STIFFNESS, S0, mass_spring_step
+    from harness.measure.ports import STIFFNESS, S0, mass_spring_step
     n = int(round(t_end / H))
     y = np.array([S0, 0.0])
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize(initial_state_scale=1)
         for i in range(n):
             t = i * H
@@ -118,18 +118,18 @@ def test_the_training_envelope_still_guards_a_port_fmu_until_a_port_force_acts(p
     def warnings_of(s):
         return [text for status, _, text in s.messages if status == 1 and ENVELOPE_TEXT in text]
 
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize(initial_state_scale=10)
         for i in range(20):
             s.do_step(i * H, H)
         assert len(warnings_of(s)) == 1 and "reduced coordinate" in warnings_of(s)[0], warnings_of(s)
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize(initial_state_scale=1)
         s.set_real(F_PORT[:1], [1e-3])
         s.do_step(0.0, H)
         s.set_real(F_PORT[:1], [0.0])
         blob = s.serialize(s.get_state())
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize(initial_state_scale=1)
         s.set_state(s.deserialize(blob))
         for i in range(1, 200):

@@ -18,7 +18,7 @@ from fmpy.fmi1 import FMICallException
 
 from conftest import assert_units_through_declared_types, fmu_scene
 from harness.fmu.make.build import ensure_binaries
-from harness.fmu.run.driver import Slave
+from harness.fmu.run.driver import FMU
 from harness.fmu.make.package import exact_model, package_fmu
 from harness.fmu.resources import unpack
 from harness.rom.exact_linear import run_exact
@@ -97,7 +97,7 @@ def test_exact_fmu_equals_the_python_exact_model(exact_fmus, case, record_proper
     expected = probe_outputs(data, ref.z)
     outs = []
     for fmi in (2, 3):
-        with Slave(exact_fmus(case, fmi)[0]) as s:
+        with FMU(exact_fmus(case, fmi)[0]) as s:
             s.initialize(initial_state_scale=1)
             outs.append(s.run([H] * M, inputs))
     assert np.array_equal(outs[0], outs[1])
@@ -112,7 +112,7 @@ def test_exact_fmu_does_not_depend_on_the_communication_step(exact_fmus):
     path, data = exact_fmus("unforced", 2)
     finals = {}
     for steps in ([0.01] * 40, [0.05] * 8, [0.4], [0.03] * 13 + [0.4 - 13 * 0.03]):
-        with Slave(path) as s:
+        with FMU(path) as s:
             s.initialize(initial_state_scale=1)
             out = s.run(steps, [0.0] * len(steps))
             assert s.time() == pytest.approx(0.4, abs=1e-15)
@@ -127,7 +127,7 @@ def test_exact_fmu_conserves_energy_over_t_1000(exact_fmus):
     T = 1000 s, and the state equals the Schur-form free response there."""
     path, data = exact_fmus("unforced", 2)
     e0 = float(data.z0 @ data.z0)
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize(initial_state_scale=1)
         assert np.array_equal(s.reduced_state(data.k), data.z0)
         t, drift = 0.0, 0.0
@@ -148,7 +148,7 @@ def test_exact_fmu_state_round_trip_is_bitwise(exact_fmus, fmi):
     path, data = exact_fmus("forced", fmi)
     rng = np.random.default_rng(4)
     steps, inputs = list(rng.uniform(0.002, 0.03, 20)), rng.normal(0, 0.05, 20)
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize(initial_state_scale=1)
         s.run(steps[:8], inputs[:8])
         t1 = s.time()
@@ -168,12 +168,12 @@ def test_exact_fmu_state_round_trip_is_bitwise(exact_fmus, fmi):
 @pytest.mark.parametrize("fmi", [2, 3])
 def test_exact_fmu_bad_input_and_runaway_are_errors(exact_fmus, fmi):
     path, _ = exact_fmus("forced", fmi)
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize(initial_state_scale=1)
         with pytest.raises(FMICallException):
             s.set_input(math.nan)
         assert any("not finite" in e for e in s.errors())
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize(f=1e300, initial_state_scale=1)
         with pytest.raises(FMICallException):
             s.do_step(0.0, 0.01)
@@ -198,7 +198,7 @@ def _forced_response(path, steps, inputs):
     """Forced minus free run at the communication points (the model is linear): (v, rho) at the probes."""
     runs = []
     for f in (inputs, np.zeros_like(inputs)):
-        with Slave(path) as s:
+        with FMU(path) as s:
             s.initialize(initial_state_scale=1)
             runs.append(s.run(steps, f))
     d = runs[0] - runs[1]

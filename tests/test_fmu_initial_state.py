@@ -20,7 +20,7 @@ from fmpy.fmi1 import FMICallException
 from conftest import fmu_maker, fmu_scene
 from harness.fmu.make.build import ensure_binaries
 from harness.fmu.make.describe import model_description
-from harness.fmu.run.driver import Slave
+from harness.fmu.run.driver import FMU
 from harness.fmu.make.package import exact_model, reduced_model, write_fmu
 from harness.fmu.check.python_cosim import cosim_reference
 from harness.fmu.resources import probe_pairs, unpack
@@ -41,7 +41,7 @@ def fmus(tmp_path_factory):
 
 
 def _run(path, steps, inputs, scale=None):
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize(initial_state_scale=scale)
         return s.run(steps, inputs)
 
@@ -181,7 +181,7 @@ def test_declared_as_a_fixed_parameter_starting_at_rest(fmus, fmi):
 @pytest.mark.parametrize("fmi", [2, 3])
 def test_settable_before_initialization_refused_after_or_non_finite(fmus, fmi):
     path, _ = fmus("frozen", fmi)
-    with Slave(path) as s:                                 # settable in Instantiated and in InitializationMode
+    with FMU(path) as s:                                 # settable in Instantiated and in InitializationMode
         s.set_real([vr("initial_state_scale")], [0.25])
         if fmi == 2:
             s.fmu.setupExperiment(startTime=0.0)
@@ -195,7 +195,7 @@ def test_settable_before_initialization_refused_after_or_non_finite(fmus, fmi):
             s.set_real([vr("initial_state_scale")], [1.0])
         assert any("initial_state_scale is a fixed parameter" in e for e in s.errors())
     for bad in (math.nan, math.inf, -math.inf):
-        with Slave(path) as s:
+        with FMU(path) as s:
             with pytest.raises(FMICallException):
                 s.set_real([vr("initial_state_scale")], [bad])
             assert any("initial_state_scale" in e and "finite" in e for e in s.errors()), s.errors()
@@ -206,7 +206,7 @@ def test_settable_before_initialization_refused_after_or_non_finite(fmus, fmi):
 def test_states_carry_the_scale_and_reset_restores_the_start_value(fmus, fmi, model):
     path, _ = fmus(model, fmi)
     steps, inputs = [0.01] * 10, np.full(10, 0.01)
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize(initial_state_scale=0.75)
         state = s.get_state()
         blob = s.serialize(state)

@@ -20,7 +20,7 @@ from fmpy.fmi1 import FMICallException
 from conftest import fmu_scene
 from harness.fmu.make.build import ensure_binaries
 from harness.fmu.run.cosim import run_cosim
-from harness.fmu.run.driver import Slave
+from harness.fmu.run.driver import FMU
 from harness.fmu.make.package import exact_model, package_fmu
 from harness.fmu.resources import unpack
 from harness.fmu.variables import vr
@@ -88,10 +88,10 @@ def test_without_derivatives_outputs_are_bitwise_held(fmus):
     """Setting f resets the rate: a derivative set once and then f set again gives the held run bit for bit."""
     path = fmus("exact", 2)
     inputs = _force(np.arange(M) * H)
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize(initial_state_scale=1)
         held = s.run([H] * M, inputs)
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize(initial_state_scale=1)
         s.set_input_derivative(5.0)
         s.set_input(inputs[0])                      # a new value without a derivative: held again
@@ -110,7 +110,7 @@ def test_rate_continues_until_f_is_set(fmus):
     path = fmus("exact", 2)
     finals = []
     for steps in ([2 * H], [H, H]):
-        with Slave(path) as s:
+        with FMU(path) as s:
             s.initialize(initial_state_scale=1)
             s.set_input(1e-2)
             s.set_input_derivative(0.5)
@@ -129,7 +129,7 @@ def test_rate_continues_until_f_is_set(fmus):
 def test_refused_with_a_message(fmus, case, allowed):
     name, order, value = case
     ref = vr(name, 1 if name.endswith("_j") else None)
-    with Slave(fmus("exact", 2)) as s:
+    with FMU(fmus("exact", 2)) as s:
         s.initialize(initial_state_scale=1)
         with pytest.raises(FMICallException) as exc:
             from ctypes import c_double, c_int, c_uint32
@@ -153,7 +153,7 @@ def test_frozen_fmu_with_derivatives_equals_python_bitwise(fmus):
     inputs = _force(t[:-1])
     rates = np.diff(_force(t)) / np.diff(t)
     for n_freeze in (1, 4, 10):
-        with Slave(path) as s:
+        with FMU(path) as s:
             s.initialize(n_freeze=n_freeze, initial_state_scale=1)
             out = [s.output_values()]
             tc = 0.0
@@ -170,14 +170,14 @@ def test_frozen_fmu_with_derivatives_equals_python_bitwise(fmus):
         assert relative_residual(np.array(out), np.hstack([vh, rh])) > 1e-6
         _, v0, r0 = cosim_reference(data, steps, inputs, n_freeze=n_freeze, rates=np.zeros(len(steps)))
         assert np.array_equal(np.hstack([v0, r0]), np.hstack([vh, rh]))
-        with Slave(path) as s:
+        with FMU(path) as s:
             s.initialize(n_freeze=n_freeze, initial_state_scale=1)
             assert np.array_equal(s.run(steps, inputs), np.hstack([vh, rh]))
 
 
 def test_frozen_fmu_derivative_survives_a_saved_state(fmus):
     """The rate is part of the FMU state: restored, a step with it equals the step taken before saving."""
-    with Slave(fmus("frozen", 2)) as s:
+    with FMU(fmus("frozen", 2)) as s:
         s.initialize(initial_state_scale=1)
         s.set_input(1e-2)
         s.set_input_derivative(0.7)
@@ -193,7 +193,7 @@ def test_frozen_fmu_derivative_survives_a_saved_state(fmus):
 
 def test_not_allowed_before_initialization(fmus):
     """Like setting inputs in step mode: allowed in InitializationMode and StepComplete, not in Instantiated."""
-    with Slave(fmus("exact", 2)) as s:
+    with FMU(fmus("exact", 2)) as s:
         with pytest.raises(FMICallException):
             s.set_input_derivative(0.1)
         assert any("fmi2SetRealInputDerivatives" in text for text in s.errors())

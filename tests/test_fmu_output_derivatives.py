@@ -13,7 +13,7 @@ import pytest
 from fmpy.fmi1 import FMICallException
 
 from conftest import fmu_maker
-from harness.fmu.run.driver import Slave
+from harness.fmu.run.driver import FMU
 from harness.fmu.check.python_cosim import linear_output_rates
 from harness.fmu.variables import vr
 
@@ -46,7 +46,7 @@ def test_derivative_equals_centered_difference_and_python(fmus, fmi, case, recor
     rng = np.random.default_rng(11)
     inputs = rng.normal(0, 0.05, 20)
     f_hold = 0.03
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize(initial_state_scale=1)
         s.run([0.01] * 20, inputs)
         t = 0.2
@@ -75,7 +75,7 @@ def test_derivative_uses_the_input_now_with_its_rate(fmus):
     taken with that input; the centered difference runs with the rate still set (f linear over the window)."""
     path, data = fmus("exact", 2)
     f0, rate, h = 0.02, 0.5, 0.01
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize(initial_state_scale=1)
         s.set_input(f0)
         s.set_input_derivative(rate)
@@ -102,18 +102,18 @@ def test_bad_orders_variables_and_the_frozen_model_are_refused(fmus, fmi):
     path, _ = fmus("exact", fmi)
     for order, text in ((2, "order 2 of the derivative of v_probe_1 is not supported (maxOutputDerivativeOrder = 1"),
                         (0, "order 0 of the derivative")):
-        with Slave(path) as s:
+        with FMU(path) as s:
             s.initialize(initial_state_scale=1)
             with pytest.raises(FMICallException):
                 s.output_derivatives(order=order, names=["v_probe_1"])
             assert any(text in e for e in s.errors()), s.errors()
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize(initial_state_scale=1)
         with pytest.raises(FMICallException):
             s.output_derivatives(names=["f"])
         assert any("f is not an output" in e for e in s.errors()), s.errors()
     path, _ = fmus("frozen", fmi)
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize(initial_state_scale=1)
         with pytest.raises(FMICallException):
             s.output_derivatives(names=["v_probe_1"])
@@ -126,7 +126,7 @@ def test_balanced_fmu_derivative_equals_centered_difference(fmus):
     same formula, held against a centered difference of its own outputs (1e-6 relative)."""
     path, _ = fmus("balanced", 2)
     rng = np.random.default_rng(5)
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize(initial_state_scale=1)
         s.run([0.01] * 20, rng.normal(0, 0.05, 20))
         s.set_input(0.03)

@@ -15,7 +15,7 @@ import pytest
 
 from conftest import fmu_scene
 from harness.fmu.make.build import ensure_binaries
-from harness.fmu.run.driver import Slave
+from harness.fmu.run.driver import FMU
 from harness.fmu.make.package import package_fmu
 from harness.fmu.resources import unpack
 from harness.fmu.variables import vr
@@ -53,7 +53,7 @@ def run_fmu(path, steps, F, rates=None, f=None, f_rates=None, n_freeze=None):
     """(outputs (M+1, v_probe, rho_probe, v_port), F_port read back after each step) of the port FMU over ``steps``
     with the port forces F (M, 2) set before each step, their rates when given (else held), and f with its rate."""
     out, back = [], []
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.set_real([vr("area")], [AREA])
         s.initialize(n_freeze=n_freeze, initial_state_scale=1)
         assert s.outputs[-2:] == ["v_port_1", "v_port_2"]
@@ -123,7 +123,7 @@ def test_port_rate_survives_a_saved_state_and_setting_the_force_holds_it_again(f
     """The port rates are part of the FMU state (as f's): restored, a step equals the step taken before saving;
     setting F_port_j without a new derivative holds it again (the rate is reset to 0)."""
     path, _ = frozen_port_fmu
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize(initial_state_scale=1)
         s.set_real(VR_F_PORT, [1e-3, -2e-3])
         set_derivatives(s, VR_F_PORT, [0.05, 0.02])
@@ -137,7 +137,7 @@ def test_port_rate_survives_a_saved_state_and_setting_the_force_holds_it_again(f
         assert np.array_equal(s.get_real(VR_V_PORT), first)
         assert np.array_equal(s.get_real(VR_F_PORT), [1e-3 + 0.05 * 0.01, -2e-3 + 0.02 * 0.01])
         blob = s.serialize(s.get_state())
-    with Slave(path) as s:                                          # the serialized state carries the rates
+    with FMU(path) as s:                                          # the serialized state carries the rates
         s.initialize(initial_state_scale=1)
         s.set_state(s.deserialize(blob))
         s.do_step(0.01, 0.01)
@@ -151,7 +151,7 @@ def test_port_rate_survives_a_saved_state_and_setting_the_force_holds_it_again(f
 @pytest.mark.parametrize("bad", [float("nan"), float("inf"), -float("inf")])
 def test_non_finite_port_rate_is_refused_naming_the_variable(frozen_port_fmu, bad):
     path, _ = frozen_port_fmu
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize(initial_state_scale=1)
         with pytest.raises(Exception):
             set_derivatives(s, [3001], [bad])

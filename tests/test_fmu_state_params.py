@@ -19,7 +19,7 @@ from fmpy.fmi1 import FMICallException
 from conftest import fmu_scene
 from harness.fmu.make.build import ensure_binaries
 from harness.fmu.make.describe import model_description
-from harness.fmu.run.driver import Slave
+from harness.fmu.run.driver import FMU
 from harness.fmu.make.package import package_fmu, write_fmu
 from harness.fmu.resources import unpack
 from harness.fmu.variables import vr
@@ -90,7 +90,7 @@ def test_state_at_c1_d1_restored_at_c2_d2_continues_as_the_original(fmus, kind, 
     and continues bitwise as A.  A fresh, not yet initialized instance restoring it does the same."""
     path = fmus(kind, fmi)
     f = inputs(30)
-    with Slave(path) as a:
+    with FMU(path) as a:
         start(a, {VR_C: C1, VR_D: D1})
         a.run([H] * 15, f[:15])
         state = a.get_state()
@@ -100,7 +100,7 @@ def test_state_at_c1_d1_restored_at_c2_d2_continues_as_the_original(fmus, kind, 
     assert struct.unpack_from("<I", blob, 8)[0] == 3
     scale, c, d = struct.unpack_from("<3d", blob, param_offset(blob))
     assert (scale, c, d) == (1.0, C1, D1)
-    with Slave(path) as b:
+    with FMU(path) as b:
         start(b, {VR_C: C2, VR_D: D2})
         b.run([H] * 7, f[:7])
         restored = b.deserialize(blob)
@@ -110,11 +110,11 @@ def test_state_at_c1_d1_restored_at_c2_d2_continues_as_the_original(fmus, kind, 
         continued = b.run([H] * 15, f[15:], t0=15 * H)
         b.free_state(restored)
     assert np.array_equal(continued, original)
-    with Slave(path) as b:                                       # at B's own (c2, d2) it would have differed
+    with FMU(path) as b:                                       # at B's own (c2, d2) it would have differed
         start(b, {VR_C: C2, VR_D: D2})
         other = b.run([H] * 30, f)
     assert not np.allclose(other[15:], original, rtol=1e-6, atol=0)
-    with Slave(path) as fresh:                                   # never initialized: the state brings everything
+    with FMU(path) as fresh:                                   # never initialized: the state brings everything
         fresh.set_real([VR_C, VR_D], [C2, D2])
         fresh.set_state(fresh.deserialize(blob))
         assert np.array_equal(fresh.get_real([VR_C, VR_D]), [C1, D1])
@@ -128,7 +128,7 @@ def test_states_round_trip_bitwise_and_fmi2_and_fmi3_blobs_agree(fmus, kind):
     f = inputs(20, seed=5)
     blobs = {}
     for fmi in (2, 3):
-        with Slave(fmus(kind, fmi)) as s:
+        with FMU(fmus(kind, fmi)) as s:
             start(s, {VR_C: C1, VR_D: D1})
             s.run([H] * 10, f[:10])
             state = s.get_state()
@@ -151,19 +151,19 @@ def test_port_fmu_state_carries_the_area(fmus, fmi):
     reads the saved one and continues bitwise."""
     path = fmus("ports", fmi)
     f = inputs(20, seed=9)
-    with Slave(path) as a:
+    with FMU(path) as a:
         start(a, {VR_AREA: 2.5})
         a.set_real([VR_F_PORT], [0.05])
         a.run([H] * 10, f[:10])
         blob = a.serialize(a.get_state())
         original = a.run([H] * 10, f[10:], t0=10 * H)
-    with Slave(path) as b:
+    with FMU(path) as b:
         start(b, {VR_AREA: 0.4})
         b.run([H] * 3, f[:3])
         b.set_state(b.deserialize(blob))
         assert b.get_real([VR_AREA])[0] == 2.5 and b.get_real([VR_F_PORT])[0] == 0.05
         assert np.array_equal(b.run([H] * 10, f[10:], t0=10 * H), original)
-    with Slave(path) as b:                                        # the area matters for these outputs
+    with FMU(path) as b:                                        # the area matters for these outputs
         start(b, {VR_AREA: 0.4})
         b.set_real([VR_F_PORT], [0.05])
         assert not np.allclose(b.run([H] * 20, f)[10:], original, rtol=1e-6, atol=0)
@@ -194,7 +194,7 @@ def test_version_2_blobs_still_restore_and_continue_as_before(tmp_path, case, fm
     assert struct.unpack_from("<I", blob, 8)[0] == 2
     split, steps, f = int(ref["split"]), ref["steps"], ref["inputs"]
     values = dict(zip(ref[f"{case}/vrs"].tolist(), ref[f"{case}/values"].tolist()))
-    with Slave(path) as s:
+    with FMU(path) as s:
         start(s, values)
         state = s.deserialize(blob)
         assert s.serialize(state) == blob
@@ -202,7 +202,7 @@ def test_version_2_blobs_still_restore_and_continue_as_before(tmp_path, case, fm
         out = s.run(steps[split:], f[split:], t0=split * H)
     assert np.array_equal(out, ref[f"{case}/outputs"])
     if case != "ports":
-        with Slave(path) as s:
+        with FMU(path) as s:
             start(s, {VR_C: C2, VR_D: D2})
             s.set_state(s.deserialize(blob))
             assert np.array_equal(s.get_real([VR_C, VR_D]), [C2, D2])
@@ -210,14 +210,14 @@ def test_version_2_blobs_still_restore_and_continue_as_before(tmp_path, case, fm
 
 def refused(path, blob):
     """The FMU's error messages when deserializing ``blob``."""
-    with Slave(path) as s:
+    with FMU(path) as s:
         with pytest.raises(FMICallException):
             s.deserialize(blob)
         return " | ".join(s.errors())
 
 
 def saved(path, values, steps=5):
-    with Slave(path) as s:
+    with FMU(path) as s:
         start(s, values)
         s.run([H] * steps, inputs(steps))
         return s.serialize(s.get_state())

@@ -162,7 +162,7 @@ def test_exact_fmu_forced_from_rest_is_not_a_runaway(tmp_path):
     import zipfile
 
     from harness.fmu.make.build import ensure_binaries
-    from harness.fmu.run.driver import Slave
+    from harness.fmu.run.driver import FMU
     from harness.fmu.make.package import exact_model, package_fmu
     from harness.rom.exact_linear import run_exact
     from test_fmu_exact import probe_outputs, relative_residual
@@ -175,7 +175,7 @@ def test_exact_fmu_forced_from_rest_is_not_a_runaway(tmp_path):
     h, m = 0.01, 30
     t = np.arange(m + 1) * h
     f = 1e-2 * np.sin(2 * np.pi * 3 * t[:-1])
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize()
         out = s.run([h] * m, f)
     assert np.all(np.isfinite(out)) and np.max(np.abs(out[:, 0])) > 0

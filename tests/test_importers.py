@@ -4,7 +4,7 @@ container (FMI 3).
 libcosim loads the FMU with the FMI Library, runs its own instantiate/initialise/step sequence and reads the
 outputs; the container's own runtime loads, instantiates and steps the FMI 3 FMU (fmpy only drives the
 container), and sets the start values listed in the container's description (parameters before initialization,
-inputs it exposes).  The outputs must equal fmpy's (through :class:`harness.fmu.run.driver.Slave`) to round-off: the
+inputs it exposes).  The outputs must equal fmpy's (through :class:`harness.fmu.run.driver.FMU`) to round-off: the
 plain frozen, exact and balanced FMUs, a port FMU (constant port forces), a parametric FMU (c and d set before
 initialization), and each FMU left at its start values (initial_state_scale = 0: at rest).  Skips, with a message,
 where an importer is not installed.  libcosim imports FMI 2.0 only; fmi-sim (the Reference-FMUs' importer) is not
@@ -20,7 +20,7 @@ import pytest
 
 from conftest import fmu_scene
 from harness.fmu.make.build import ensure_binaries
-from harness.fmu.run.driver import Slave
+from harness.fmu.run.driver import FMU
 from harness.fmu.make.package import package_fmu
 from harness.rom.parametric import parse_vary
 
@@ -60,7 +60,7 @@ def fmpy_outputs(path, start=None, initial_state_scale=1.0):
     """fmpy's outputs (names, rows at 0, H, ..., N_STEPS H) with the start values ``start`` set before
     initialization and f = 0 held; ``initial_state_scale`` None leaves the FMU's start value (0: at rest)."""
     start = start or {}
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.set_real([s.vr[n] for n in start], list(start.values()))
         s.initialize(initial_state_scale=initial_state_scale)
         return list(s.outputs), s.run([H] * N_STEPS, np.zeros(N_STEPS))

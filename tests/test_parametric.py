@@ -17,7 +17,7 @@ from conftest import small_scene
 from harness.errors import FieldError
 from harness.fmu.make import parametric as fmu_par
 from harness.fmu.make.build import ensure_binaries
-from harness.fmu.run.driver import Slave
+from harness.fmu.run.driver import FMU
 from harness.fmu.make.package import package_fmu
 from harness.fmu.check.python_cosim import probe_values
 from harness.fmu.resources import unpack
@@ -194,7 +194,7 @@ def exact_reference(affine, scene, c, d, data, inputs, H, M, forced):
 
 
 def run_slave(path, c, d, inputs, H, M):
-    with Slave(path) as s:
+    with FMU(path) as s:
         vrs = [ref for ref in (vr("c"), vr("d")) if ref in s.vr.values()]
         s.set_real(vrs, [c, d][:len(vrs)])
         s.initialize(initial_state_scale=1)
@@ -251,11 +251,11 @@ def test_fmu_declares_c_and_d_and_refuses_values_outside(fmus, fmi):
     assert float(var["d"].start) == 0.0 and float(var["d"].min) == 0.0 and float(var["d"].max) == 5.0
     assert data.sections["PARAMS"].shape == (2, 4)
     from fmpy.fmi1 import FMICallException
-    with Slave(path) as s:
+    with FMU(path) as s:
         with pytest.raises(FMICallException):
             s.set_real([vr("c")], [0.3])
         assert any("c = 0.3 is outside the trained range [0.05, 0.2]" in m for m in s.errors())
-    with Slave(path) as s:                              # fixed: not settable after initialization
+    with FMU(path) as s:                              # fixed: not settable after initialization
         s.initialize(initial_state_scale=1)
         with pytest.raises(FMICallException):
             s.set_real([vr("d")], [1.0])
@@ -270,7 +270,7 @@ def test_ordinary_fmu_has_no_c_or_d(tmp_path):
     names = {v.name for v in fmpy.read_model_description(str(path)).modelVariables}
     assert "c" not in names and "d" not in names
     from fmpy.fmi1 import FMICallException
-    with Slave(path) as s:
+    with FMU(path) as s:
         with pytest.raises(FMICallException):
             s.set_real([vr("c")], [0.1])
         assert any(f"unknown value reference {vr('c')}" in m for m in s.errors())
@@ -321,7 +321,7 @@ def test_sweep_uses_one_parametric_fmu_for_its_d_grid(tmp_path):
     stats = {}
     for r in rows:
         assert r["status"] == "ok" and 0 < r["sph_err_v"] < 0.05
-        with Slave(sweep_dir() / f"fmu-{r['fmu']}.fmu") as s:
+        with FMU(sweep_dir() / f"fmu-{r['fmu']}.fmu") as s:
             s.set_real([vr("d")], [r["d"]])
             s.initialize(n_freeze=10, initial_state_scale=1)
             o = s.run([0.01] * 50, f)
@@ -342,7 +342,7 @@ def test_reset_reassembles_at_the_new_parameters(fmus, model):
     H, M = 0.01, 20
     inputs = scene.force(np.arange(M) * H)
     fresh = run_slave(path, 0.07, 13.0, inputs, H, M)
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.set_real([vr("c"), vr("d")], [0.18, 6.0])
         s.initialize(initial_state_scale=1)
         first = s.run([H] * M, inputs)

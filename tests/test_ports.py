@@ -96,9 +96,9 @@ def port_fmus(tmp_path_factory):
 def run_port_fmu(path, scene, steps=M, area=AREA, state_at=None):
     """v_port at the communication points of the FMU with port_forces held over steps of H and area set;
     ``state_at``: the step after which a state is taken and restored (the run goes on from the restored one)."""
-    from harness.fmu.run.driver import Slave
+    from harness.fmu.run.driver import FMU
     t = np.arange(steps + 1) * H
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.set_real([vr("area")], [area])
         s.initialize(initial_state_scale=1)
         out = [s.get_real(V_PORT)]
@@ -163,7 +163,7 @@ def test_area_and_port_inputs_refuse_bad_values(port_fmus, fmi):
     area (start 1, fixed), F_port_j and v_port_j with their value references, and an FMU without ports has none."""
     import fmpy
 
-    from harness.fmu.run.driver import Slave
+    from harness.fmu.run.driver import FMU
     path, _ = port_fmus("frozen", fmi)
     md = {v.name: v for v in fmpy.read_model_description(str(path)).modelVariables}
     assert md["area"].valueReference == vr("area") and md["area"].start in ("1", 1, 1.0) and md["area"].variability == "fixed"
@@ -171,16 +171,16 @@ def test_area_and_port_inputs_refuse_bad_values(port_fmus, fmi):
     assert [md[f"v_port_{j}"].valueReference for j in (1, 2)] == V_PORT
     assert md["F_port_1"].causality == "input" and md["v_port_2"].causality == "output"
     for bad in (0.0, -1.0, float("nan"), float("inf")):
-        with Slave(path) as s:
+        with FMU(path) as s:
             with pytest.raises(Exception):
                 s.set_real([vr("area")], [bad])
             assert any("area" in m and "allowed: a finite number > 0" in m for m in s.errors()), s.errors()
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize(initial_state_scale=1)
         with pytest.raises(Exception):
             s.set_real(F_PORT[1:], [float("nan")])
         assert any("F_port_2" in m and "not finite" in m for m in s.errors())
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize(initial_state_scale=1)
         with pytest.raises(Exception):
             s.set_real([vr("area")], [2.0])                                  # fixed: not in step mode
@@ -190,14 +190,14 @@ def test_area_and_port_inputs_refuse_bad_values(port_fmus, fmi):
 def test_fmu_without_ports_has_no_port_variables(port_fmus, tmp_path):
     from conftest import fmu_scene
     from harness.fmu.make.build import ensure_binaries
-    from harness.fmu.run.driver import Slave
+    from harness.fmu.run.driver import FMU
     from harness.fmu.make.package import package_fmu
     path = tmp_path / "plain.fmu"
     package_fmu(fmu_scene("forced"), path, k=6, progress=False, binaries=ensure_binaries())
-    with Slave(path) as s:
+    with FMU(path) as s:
         assert "v_port_1" not in s.outputs
         for ref in (vr("area"), F_PORT[0], V_PORT[0]):
-            with Slave(path) as t:
+            with FMU(path) as t:
                 t.initialize(initial_state_scale=1)
                 with pytest.raises(Exception):
                     t.get_real([ref])
@@ -239,7 +239,7 @@ def test_exact_port_fmu_takes_port_input_derivatives(port_fmus):
     from ctypes import c_double, c_int, c_uint32
 
     from conftest import fmu_scene
-    from harness.fmu.run.driver import Slave
+    from harness.fmu.run.driver import FMU
     from harness.fmu.make.package import exact_model
     from harness.rom.exact_linear import run_exact
     scene = fmu_scene("forced")
@@ -251,7 +251,7 @@ def test_exact_port_fmu_takes_port_input_derivatives(port_fmus):
         s.fmu.fmi2SetRealInputDerivatives(s.fmu.component, (c_uint32 * n)(*refs), n, (c_int * n)(*([1] * n)),
                                           (c_double * n)(*rates))
 
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.set_real([vr("area")], [AREA])
         s.initialize(initial_state_scale=1)
         out = [s.get_real(V_PORT)]
@@ -275,7 +275,7 @@ def test_exact_port_fmu_takes_port_input_derivatives(port_fmus):
                                        area=AREA).a_v)
     assert np.abs(out - ref).max() <= 1e-12 * np.abs(ref).max()
     assert np.abs(held - ref).max() > 1e-6 * np.abs(ref).max()            # the derivatives change the result
-    with Slave(port_fmus("frozen", 2)[0]) as s:                            # the frozen FMU takes them as well
+    with FMU(port_fmus("frozen", 2)[0]) as s:                            # the frozen FMU takes them as well
         s.initialize(initial_state_scale=1)
         derivatives(s, [3000], [1.0])
         s.do_step(0.0, H)

@@ -19,7 +19,7 @@ PUBLIC = {
                     "build_linear_operators", "run_reduced", "run_model", "fmu_model_names"],
     "harness.references": ["exact_solution", "is_available", "check_available", "ExactUnavailable",
                            "best_reference", "Reference", "study"],
-    "harness.fmu": ["package_fmu", "FMUSummary", "run_cosim", "CosimResult", "Slave", "load_fmu", "cosim_reference",
+    "harness.fmu": ["package_fmu", "FMUSummary", "run_cosim", "CosimResult", "FMU", "load_fmu", "cosim_reference",
                     "ensure_binaries", "Binaries", "model_data", "exact_data", "pack", "unpack", "ModelData",
                     "ExactData", "Core", "CoreModel"],
 }

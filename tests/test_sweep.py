@@ -1,5 +1,5 @@
 """sphrom sweep: a tiny study on a LocalCluster of 2 workers, failures
-recorded, resume, FMU once per worker, agreement with a direct Slave run and
+recorded, resume, FMU once per worker, agreement with a direct FMU run and
 with an independent full SPH comparison, bad specs.
 
 The study: the damped_forced scene shrunk to N = 32, T = 0.5; d in {5, 10}
@@ -207,8 +207,8 @@ def test_fmu_loaded_once_per_worker(first_run):
 
 
 def test_agrees_with_a_direct_slave_run(first_run):
-    """The study's probe statistics equal those of the same entry run by hand on a fresh Slave."""
-    from harness.fmu.run.driver import Slave
+    """The study's probe statistics equal those of the same entry run by hand on a fresh FMU."""
+    from harness.fmu.run.driver import FMU
     from harness.sweep.fmus import sweep_dir
     from harness.sweep.worker import probe_stats
     rows, _ = rows_by_index(first_run)
@@ -218,7 +218,7 @@ def test_agrees_with_a_direct_slave_run(first_run):
             continue
         t = np.arange(51) * 0.01
         f = 1e-2 * np.sin(2 * np.pi * 3.0 * t[:-1])
-        with Slave(sweep_dir() / f"fmu-{r['fmu']}.fmu") as s:
+        with FMU(sweep_dir() / f"fmu-{r['fmu']}.fmu") as s:
             s.initialize(n_freeze=10, initial_state_scale=1)
             out = s.run([0.01] * 50, f)
         stats = probe_stats(t, out[:, :2], (0.0, 0.5))
@@ -248,9 +248,9 @@ def test_sph_comparison_agrees_with_an_independent_run(first_run, study):
         v_sph = np.array([np.interp([0.25, 0.66], xp, np.append(v, v[0])) for v in sph.v])
         t = np.arange(51) * 0.01
         f = 1e-2 * np.sin(2 * np.pi * 1.0 * t[:-1])
-        from harness.fmu.run.driver import Slave
+        from harness.fmu.run.driver import FMU
         from harness.sweep.fmus import sweep_dir
-        with Slave(sweep_dir() / f"fmu-{r['fmu']}.fmu") as s:
+        with FMU(sweep_dir() / f"fmu-{r['fmu']}.fmu") as s:
             s.initialize(n_freeze=10, initial_state_scale=1)
             v_fmu = s.run([0.01] * 50, f)[:, :2]
         w = time_weights(t)[:, None]

@@ -12,7 +12,7 @@ import pytest
 
 from conftest import small_scene
 from harness.cli import main
-from harness.fmu.run.driver import Slave
+from harness.fmu.run.driver import FMU
 from harness.fmu.variables import vr
 from harness.norms import relative_l2
 from harness.sweep.fmus import sweep_dir
@@ -64,7 +64,7 @@ def direct(row, d=None):
     """The probe velocities of the row's FMU run by hand (d set when given), and their statistics."""
     t = np.arange(51) * 0.01
     f = 1e-2 * np.sin(2 * np.pi * 1.0 * t[:-1])
-    with Slave(sweep_dir() / f"fmu-{row['fmu']}.fmu") as s:
+    with FMU(sweep_dir() / f"fmu-{row['fmu']}.fmu") as s:
         if d is not None:
             s.set_real([vr("d")], [d])
         s.initialize(n_freeze=10, initial_state_scale=1)

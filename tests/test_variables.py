@@ -23,7 +23,7 @@ from harness.fmu import variables
 from harness.fmu.make.build import ensure_binaries
 from harness.fmu.run.core import Core, CoreError
 from harness.fmu.make.describe import model_description
-from harness.fmu.run.driver import Slave
+from harness.fmu.run.driver import FMU
 from harness.fmu.make.package import package_fmu, write_fmu
 from harness.fmu.resources import unpack
 from harness.rom.parametric import Range
@@ -158,7 +158,7 @@ def test_c_and_python_decide_presence_alike(fmus, case):
     path = fmus(case)
     assert validate_fmu(str(path)) == []
     data = unpack(zipfile.ZipFile(path).read("resources/model.bin"))
-    with Slave(path) as s:
+    with FMU(path) as s:
         f = variables.facts(data, s.fmi)
         enter_initialization(s, s.md)
         answered = probe_references(s, f)
@@ -200,7 +200,7 @@ def test_start_values_of_n_freeze_and_dt_come_from_the_resources(tmp_path):
     md = fmpy.read_model_description(str(path))
     start = {v.name: v.start for v in md.modelVariables}
     assert (int(start["n_freeze"]), float(start["dt"])) == (data.n_freeze, data.dt) == (7, data.dt)
-    with Slave(path) as s:
+    with FMU(path) as s:
         s.initialize()
         assert s.fmu.getInt32([variables.vr("n_freeze")]) == [7]
         assert s.get_real([variables.vr("dt")])[0] == data.dt
@@ -219,7 +219,7 @@ def test_cosim_n_freeze_on_a_linear_fmu_is_a_one_line_error(fmus, tmp_path, caps
 
 def test_a_parameter_the_fmu_lacks_is_an_error_naming_it(fmus):
     """The Python driver refuses n_freeze and dt for a linear FMU instead of losing them."""
-    with Slave(fmus("balanced-2")) as s:
+    with FMU(fmus("balanced-2")) as s:
         for name, value in (("n_freeze", 3), ("dt", 1e-3)):
             with pytest.raises(FieldError) as exc:
                 s.initialize(**{name: value})

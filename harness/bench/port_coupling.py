@@ -27,60 +27,35 @@ from pathlib import Path
 
 import numpy as np
 
-PORTS = (0.3, 0.7)
-MASS, STIFFNESS, S0 = 0.05, 5.0, 1e-3         # kg, N/m, m
-
-
-def open_loop_forces(t):
-    """F_1, F_2 [N] at times t: (len(t), 2)."""
-    t = np.atleast_1d(np.asarray(t, float))
-    return 1e-3 * np.stack([np.sin(5 * t + 0.3), np.cos(2 * t) ** 2], axis=-1)
-
-
-def mass_spring_step(y, v_port, h):
-    """The mass-spring (s, w) advanced exactly over h [s] with the port velocity held: s'' = -ω² s, w = s' + v_port."""
-    omega = np.sqrt(STIFFNESS / MASS)
-    s, w = y
-    c, sn = np.cos(omega * h), np.sin(omega * h)
-    s_new = s * c + (w - v_port) / omega * sn
-    ds = -s * omega * sn + (w - v_port) * c
-    return np.array([s_new, ds + v_port])
-
-
-def rel(a, b):
-    """Relative L² error of a against b."""
-    return float(np.linalg.norm(np.asarray(a) - np.asarray(b)) / np.linalg.norm(b))
+from ..measure.ports import MASS, PORTS, S0, STIFFNESS, mass_spring_step, open_loop_forces, rel
 
 
 def fmu_loop(path, scene, h, n, *, coupled, forced=True):
-    """Run the port FMU over n steps of h in an fmpy loop: (t, v_port (n+1, P), s (n+1,)).
+    """Run the port FMU over n steps of h on the FMU driver: (t, v_port (n+1, P), s (n+1,)).
 
     ``coupled``: port 1 is the mass-spring (module docstring), else F_1 open loop; port 2 is always open loop
     (zero when not ``forced``)."""
-    from ..fmu.run.driver import Slave
+    from ..fmu.run.driver import FMU
     P = len(PORTS)
-    vr_f = [3000 + j for j in range(P)]
-    vr_v = [4000 + j for j in range(P)]
-    y = np.array([S0, 0.0])
     t = np.arange(n + 1) * h
-    out_v, out_s = [], []
-    with Slave(path) as fmu:
+    F = np.array([open_loop_forces(x)[0] for x in t]) if forced else np.zeros((n + 1, P))
+    inputs = {"f": np.array([float(scene.force(x)) for x in t]), **{f"F_port_{j + 1}": F[:, j] for j in range(P)}}
+    y = np.array([S0, 0.0])
+    out_s = []
+
+    def spring(j, tj, v_port):
+        """The spring force k s at the step's start as F_port_1, then the mass-spring advanced over the step."""
+        nonlocal y
+        out_s.append(y[0])
+        force = STIFFNESS * y[0]                       # the spring pulls the port
+        y = mass_spring_step(y, v_port[0], h)
+        return {"F_port_1": force}
+    with FMU(path) as fmu:
         fmu.initialize(initial_state_scale=1)        # the scene's initial state, as the coupled full SPH
-        for i in range(n + 1):
-            v_port = fmu.get_real(vr_v)
-            out_v.append(v_port)
-            out_s.append(y[0])
-            if i == n:
-                break
-            F = open_loop_forces(t[i])[0] if forced else np.zeros(P)
-            if coupled:
-                F[0] = STIFFNESS * y[0]                       # the spring pulls the port
-            fmu.set_input(float(scene.force(t[i])))
-            fmu.set_real(vr_f, list(F))
-            fmu.do_step(t[i], h)
-            if coupled:
-                y = mass_spring_step(y, v_port[0], h)
-    return t, np.array(out_v), np.array(out_s)
+        v = fmu.simulate(t, inputs, outputs=[f"v_port_{j + 1}" for j in range(P)],
+                         feedback=spring if coupled else None)
+    out_s.append(y[0])
+    return t, v, np.array(out_s if coupled else np.full(n + 1, S0))
 
 
 def measure(scene_name="damped_forced", t_end=2.0, h=1e-3, k=12, models=("frozen", "exact"), progress=False):

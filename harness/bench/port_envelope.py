@@ -25,31 +25,26 @@ ENVELOPE_TEXT = "outside the training envelope"
 
 def fmu_run(path, scene, h, n, forces):
     """(v_port (m, P), largest probe strain, envelope warning or "", error or "") of the port FMU over n steps
-    of h [s] with the port forces ``forces(t) -> (P,)`` [N] held over each step (m < n + 1 after an error)."""
+    of h [s] on the FMU driver with the port forces ``forces(t) -> (P,)`` [N] held over each step (m < n + 1
+    after an error)."""
     from ..fmu.make.envelope import Envelope
-    from ..fmu.run.driver import Slave
     from ..fmu.resources import unpack
+    from ..fmu.run.driver import FMU
     data = unpack(zipfile.ZipFile(path).read("resources/model.bin"))
     rho0 = Envelope.from_sections(data.sections, data.k_v).probe_rho0
-    out, strain, error = [], 0.0, ""
-    with Slave(path) as s:
+    P = data.sections["PORTX"].shape[1]
+    t = np.arange(n + 1) * h
+    F = np.array([forces(x) for x in t], dtype=float).reshape(n + 1, P)
+    inputs = {"f": np.array([float(scene.force(x)) for x in t]), **{f"F_port_{j + 1}": F[:, j] for j in range(P)}}
+    with FMU(path) as s:
         s.initialize(initial_state_scale=1)
-        P = data.sections["PORTX"].shape[1]
-        vr_v = [4000 + j for j in range(P)]
-        rho_vr = [s.vr[name] for name in s.outputs if name.startswith("rho_probe_")]
-        out.append(s.get_real(vr_v))
-        try:
-            for i in range(n):
-                t = i * h
-                s.set_input(float(scene.force(t)))
-                s.set_real([3000 + j for j in range(P)], list(forces(t)))
-                s.do_step(t, h)
-                out.append(s.get_real(vr_v))
-                strain = max(strain, float(np.max(np.abs(rho0 / s.get_real(rho_vr) - 1.0))))
-        except Exception:                          # noqa: BLE001 - the FMU's own message is kept
-            error = (s.errors() or ["doStep failed"])[-1]
-        warnings = [text for status, _, text in s.messages if status == 1 and ENVELOPE_TEXT in text]
-    return np.array(out), strain, (warnings[0] if warnings else ""), error
+        rho_names = [name for name in s.outputs if name.startswith("rho_probe_")]
+        y = s.simulate(t, inputs, outputs=[f"v_port_{j + 1}" for j in range(P)] + rho_names, steps=np.full(n, h),
+                       stop_on_error=True)
+        error = "" if len(y) == n + 1 else (s.errors() or ["doStep failed"])[-1]
+        warnings = [text for text in s.warnings() if ENVELOPE_TEXT in text]
+    strain = float(np.max(np.abs(rho0 / y[1:, P:] - 1.0))) if len(y) > 1 else 0.0
+    return y[:, :P], strain, (warnings[0] if warnings else ""), error
 
 
 def measure(scene_name="damped_forced", scales=SCALES, t_end=1.0, h=1e-3, k=12, progress=True):
@@ -63,7 +58,7 @@ def measure(scene_name="damped_forced", scales=SCALES, t_end=1.0, h=1e-3, k=12, 
     from ..scene import load_scene
     from ..sph.ports import run_sph_ports
     from ..sph.solver import build_problem
-    from .port_coupling import PORTS, open_loop_forces, rel
+    from ..measure.ports import PORTS, open_loop_forces, rel
 
     scene = load_scene(scene_name)
     problem = build_problem(scene)

@@ -28,32 +28,18 @@ T_END = 2.0
 
 
 def port_loop(path, scene, h, n, forces, port_rates):
-    """v_port (n+1, P) of the port FMU at ``path`` over n steps of h [s]: f with df/dt, the port forces
-    ``forces(t) -> (len(t), P)`` [N] set at each communication point, with their rates (the chord to the next
-    point) when ``port_rates``, else held."""
-    from ctypes import c_double, c_int, c_uint32
-
-    from ..fmu.run.driver import Slave
+    """v_port (n+1, P) of the port FMU at ``path`` over n steps of h [s] on the FMU driver: f with df/dt, the
+    port forces ``forces(t) -> (len(t), P)`` [N] set at each communication point, with their rates (the chord to
+    the next point) when ``port_rates``, else held."""
+    from ..fmu.run.driver import FMU
     t = np.arange(n + 1) * h
     F = forces(t)
     P = F.shape[1]
-    refs = [1] + [3000 + j for j in range(P)]
-    f = np.asarray(scene.force(t), float)
-    out = []
-    with Slave(path) as s:
+    inputs = {"f": np.asarray(scene.force(t), float), **{f"F_port_{j + 1}": F[:, j] for j in range(P)}}
+    with FMU(path) as s:
         s.initialize(initial_state_scale=1)
-        vr_v = [4000 + j for j in range(P)]
-        out.append(s.get_real(vr_v))
-        for i in range(n):
-            s.set_input(float(f[i]))
-            s.set_real(refs[1:], list(F[i]))
-            rates = [(f[i + 1] - f[i]) / h] + (list((F[i + 1] - F[i]) / h) if port_rates else [0.0] * P)
-            m = len(refs)
-            s.fmu.fmi2SetRealInputDerivatives(s.fmu.component, (c_uint32 * m)(*refs), m, (c_int * m)(*([1] * m)),
-                                              (c_double * m)(*[float(r) for r in rates]))
-            s.do_step(t[i], h)
-            out.append(s.get_real(vr_v))
-    return np.array(out)
+        return s.simulate(t, inputs, rates=True if port_rates else {"f"},
+                          outputs=[f"v_port_{j + 1}" for j in range(P)], steps=np.full(n, h))
 
 
 def measure(scene_name="damped_forced", steps=STEPS, t_end=T_END, k=12, progress=True):
@@ -64,7 +50,7 @@ def measure(scene_name="damped_forced", steps=STEPS, t_end=T_END, k=12, progress
     from ..fmu.resources import unpack
     from ..progress import progress_bar
     from ..scene import load_scene
-    from .port_coupling import PORTS, open_loop_forces
+    from ..measure.ports import PORTS, open_loop_forces
 
     scene = load_scene(scene_name)
     with tempfile.TemporaryDirectory() as tmp:

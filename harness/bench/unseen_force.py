@@ -35,10 +35,10 @@ def forced_response(path, h, inputs):
     """(v, rho) at the probes: the run with ``inputs`` held over steps ``h`` minus the run without.
 
     Raises RuntimeError with the FMU's logged reason when a step ends in an error status."""
-    from ..fmu.run.driver import Slave
+    from ..fmu.run.driver import FMU
     runs = []
     for f in (inputs, np.zeros_like(inputs)):
-        with Slave(path) as s:
+        with FMU(path) as s:
             s.initialize(initial_state_scale=1)
             try:
                 runs.append(s.run([h] * len(f), f))
@@ -50,8 +50,8 @@ def forced_response(path, h, inputs):
 
 
 def _free_probe_velocities(path, h, n):
-    from ..fmu.run.driver import Slave
-    with Slave(path) as s:
+    from ..fmu.run.driver import FMU
+    with FMU(path) as s:
         s.initialize(initial_state_scale=1)
         out = s.run([h] * n, np.zeros(n))
     return out[:, :out.shape[1] // 2]

@@ -33,7 +33,7 @@ from ..lazy import lazy_exports
 EXPORTS = {
     "package_fmu": "make.package", "FMUSummary": "make.package", "package_auto": "make.package",
     "run_cosim": "run.cosim", "CosimResult": "run.cosim",
-    "Slave": "run.driver", "load_fmu": "run.driver",
+    "FMU": "run.driver", "load_fmu": "run.driver",
     "cosim_reference": "check.python_cosim", "verify_fmu": "check.verify",
     "ensure_binaries": "make.build", "Binaries": "make.build",
     "model_data": "resources", "exact_data": "resources", "balanced_data": "resources", "pack": "resources",

@@ -4,24 +4,20 @@
    the loop): ns per internal step at k = 12, n_freeze = 10 for several
    particle counts N.  The step costs O(k^2) plus the refresh's
    O(k^3 (k+1)/2) every n_freeze steps; N appears nowhere, which the rows show.
-2. End to end through fmpy: ``fmpy.simulate_fmu`` of the scene's FMU over its
-   horizon with 10 ms and 1 ms communication steps (extraction, loading,
-   instantiation, the loop, recording), beside the full SPH of the same scene
-   timed in the same run (:func:`harness.sph.solver.run_sph`), as ratios.
-3. Where the time goes: the fixed cost of simulate_fmu (a one-step run:
-   extraction, loading, instantiation, freeing), the core's own time for the
-   same internal steps, the rest per doStep (fmpy's loop: input, doStep,
-   recording), and of that the bare ``fmi2DoStep`` call through fmpy/ctypes
-   (doSteps of one internal step on FMU2Slave, minus the core's time).
+2. End to end through the FMU driver (:class:`harness.fmu.run.driver.FMU`, fmpy's FMI bindings): one
+   co-simulation of the scene's FMU over its horizon with 10 ms and 1 ms communication steps (extraction,
+   loading, instantiation, the loop reading every output, freeing), beside the full SPH of the same scene timed
+   in the same run (:func:`harness.sph.solver.run_sph`), as ratios.
+3. Where the time goes: the fixed cost (a one-step run: extraction, loading, instantiation, freeing), the
+   core's own time for the same internal steps, the rest per doStep (the driver's loop: input, doStep, outputs),
+   and of that the doStep call alone (doSteps of one internal step with no input and no output, minus the
+   core's time).
 
-4. The lean path (the FMU rows of ``sphrom bench``): a scripted fmpy loop on
-   a pre-extracted FMU - FMU2Slave instantiated once (timed separately), fmi2Reset,
-   setupExperiment and initialization per run, then per communication step
-   the input (when the scene has a force), fmi2DoStep and reading every
-   output, through fmpy's ctypes bindings with preallocated arrays.  Not
-   included: extraction, loading the shared library, instantiation (reported
-   beside), recording the outputs in Python lists.  Against the full SPH
-   (numba, the same run_sph call the rest of the tool uses, compiled before
+4. The lean path (the FMU rows of ``sphrom bench``): the driver's loop on a pre-extracted FMU instantiated
+   once (timed separately), fmi2Reset and initialization per run, then per communication step the input (when
+   the scene has a force), fmi2DoStep and reading every output, through fmpy's ctypes bindings with
+   preallocated arrays.  Not included: extraction, loading the shared library, instantiation (reported
+   beside).  Against the full SPH (numba, the same run_sph call the rest of the tool uses, compiled before
    the clock starts).
 5. The same-language ratio: the C frozen step (k = 12, n_freeze = 10) against
    the C full SPH step of fmu_src/sph.c at N = 400.
@@ -34,7 +30,7 @@ Every figure is the median of ``repeats`` runs.
 from __future__ import annotations
 
 import atexit
-import ctypes
+import math
 import shutil
 import statistics
 import tempfile
@@ -102,37 +98,34 @@ def core_rows(base, sizes, k=BENCH_K, n_freeze=BENCH_FREEZE, n_steps=200_000, re
 
 
 def _simulate(path, stop_time, step, keep=None):
-    """Wall time [s] of fmpy.simulate_fmu from the scene's initial state (initial_state_scale = 1, the training
-    run's; the FMU's own start is rest); the result goes into ``keep`` (a list) when given."""
-    import fmpy
+    """Wall time [s] of one co-simulation through the FMU driver, end to end: extract, load, instantiate,
+    initialize from the scene's initial state (initial_state_scale = 1, the training run's; the FMU's own start
+    is rest), the loop to ``stop_time`` reading every output at each step, free.  (times, outputs, names) go into
+    ``keep`` (a list) when given."""
+    from ..fmu.run.driver import FMU
+    n = int(math.ceil(stop_time / step - 1e-9))
+    times = np.minimum(np.arange(n + 1) * step, stop_time)
     t0 = time.perf_counter()
-    result = fmpy.simulate_fmu(str(path), stop_time=stop_time, output_interval=step,
-                               start_values={"initial_state_scale": 1.0})
+    with FMU(path, name="bench") as fmu:
+        fmu.initialize(initial_state_scale=1.0)
+        values = fmu.simulate(times)
+        names = fmu.outputs
     wall = time.perf_counter() - t0
     if keep is not None:
-        keep.append(result)
+        keep.append((times, values, names))
     return wall
 
 
 def _bare_calls(unzipdir, md, n_calls, h):
-    """n_calls fmi2DoStep of length h on an extracted FMU, nothing else: the call cost through fmpy/ctypes."""
-    from ..fmu.run.driver import load_fmu
-    from ..fmu.variables import vr
-    fmu = load_fmu(2, unzipdir, md.guid, "bench")
-    fmu.instantiate()
-    fmu.setupExperiment(startTime=0.0)
-    fmu.setReal([vr("initial_state_scale")], [1.0])       # the scene's initial state, as every bench run
-    fmu.enterInitializationMode()
-    fmu.exitInitializationMode()
-    t = 0.0
-    t0 = time.perf_counter()
-    for i in range(n_calls):
-        fmu.doStep(t, h)
-        t = (i + 1) * h
-    wall = time.perf_counter() - t0
-    fmu.terminate()
-    fmu.freeInstance()
-    return wall
+    """Wall time [s] of n_calls doSteps of length h on an extracted FMU through the driver's loop with no input
+    and no output: the cost of a doStep call through fmpy's ctypes binding and of the loop itself."""
+    from ..fmu.run.driver import FMU
+    with FMU(unzipdir, name="bench") as fmu:
+        fmu.initialize(initial_state_scale=1.0)        # the scene's initial state, as every bench run
+        times = np.arange(n_calls + 1) * h
+        t0 = time.perf_counter()
+        fmu.simulate(times, outputs=[])
+        return time.perf_counter() - t0
 
 
 def sph_at_probes(scene, problem, probes, step):
@@ -157,12 +150,12 @@ def sph_at_probes(scene, problem, probes, step):
 
 
 def probe_error(result, t, v_sph, scene):
-    """Relative L² error over the run of an FMU's probe velocities (a fmpy.simulate_fmu result) against
-    the full SPH at the probes (:func:`sph_at_probes`) at the same communication points."""
+    """Relative L² error over the run of an FMU's probe velocities (``result``: (times, outputs, names) of
+    :func:`_simulate`) against the full SPH at the probes (:func:`sph_at_probes`) at the same communication
+    points."""
     from ..norms import relative_l2
-    names = [f"v_probe_{j + 1}" for j in range(v_sph.shape[1])]
-    times = np.asarray(result["time"])
-    v_fmu = np.column_stack([result[name] for name in names])
+    times, values, names = result
+    v_fmu = values[:, [names.index(f"v_probe_{j + 1}") for j in range(v_sph.shape[1])]]
     rows = np.searchsorted(times, t - 1e-12 * max(1.0, scene.T))
     if np.any(np.abs(times[np.minimum(rows, times.size - 1)] - t) > 1e-9 * max(1.0, scene.T)):
         raise ValueError("the FMU's communication points are not the SPH samples")
@@ -171,11 +164,11 @@ def probe_error(result, t, v_sph, scene):
 
 def end_to_end(scene_name="tenmode", steps=(0.01, 0.001), repeats=5, k=None, progress=False, bar=None, workdir=None,
                models=None):
-    """End-to-end FMU time (fmpy.simulate_fmu) beside the full SPH of the same scene.
+    """End-to-end FMU time (the FMU driver, :func:`_simulate`) beside the full SPH of the same scene.
 
     For each model (default every model that can be packaged as an FMU: the frozen FMU, the product's
     default, and the exact linear one) and each communication step: the median wall time of
-    ``fmpy.simulate_fmu`` over the scene's horizon, the ratio to the full SPH (numba,
+    co-simulation over the scene's horizon, the ratio to the full SPH (numba,
     :func:`harness.sph.solver.run_sph`) timed in the same run, and, at the first step, the
     probe-velocity error against the full SPH (:func:`probe_error`).  For a time-stepped model (the
     frozen one) also where the time goes (fixed cost, the core's internal steps, per doStep); a linear
@@ -314,146 +307,48 @@ def prepared_fmu(scene, k, model="frozen", n_freeze=10, problem=None, probes=(0.
     return _PREPARED[key]
 
 
-class LeanSlave:
-    """A pre-extracted FMI 2 FMU driven through fmpy's FMU2Slave with preallocated ctypes arrays.
-
-    Parameters
-    ----------
-    unzipdir : str
-    md : fmpy ModelDescription
-    guid : str, optional
-        Token to pass (default the model description's).
-    """
-
-    def __init__(self, unzipdir, md, guid=None):
-        from ..fmu.run.driver import load_fmu
-        from ..fmu.variables import vr
-        t0 = time.perf_counter()
-        self.fmu = load_fmu(2, unzipdir, guid or md.guid, "lean")
-        self.messages = []
-        self.fmu.instantiate(loggingOn=False)
-        self.instantiate_s = time.perf_counter() - t0
-        outs = [v.valueReference for v in md.modelVariables if v.causality == "output"]
-        self.n_out = len(outs)
-        self.out_vr = (ctypes.c_uint * len(outs))(*outs)
-        self.out = (ctypes.c_double * len(outs))()
-        self.in_vr = (ctypes.c_uint * 1)(vr("f"))
-        self.in_val = (ctypes.c_double * 1)()
-        self.par_vr = (ctypes.c_uint * 1)(vr("dt"))
-        self.int_vr = (ctypes.c_uint * 1)(vr("n_freeze"))
-        self.scale_vr = (ctypes.c_uint * 1)(vr("initial_state_scale"))
-        self.int_val = (ctypes.c_int * 1)()
-
-    def start(self, dt=None, n_freeze=None, initial_state_scale=1.0):
-        """fmi2Reset, setupExperiment, parameters (initial_state_scale default 1: the scene's initial state, as
-        the training run and the Python models have it), initialization."""
-        fmu = self.fmu
-        fmu.reset()
-        fmu.setupExperiment(startTime=0.0)
-        self.in_val[0] = float(initial_state_scale)
-        fmu.fmi2SetReal(fmu.component, self.scale_vr, 1, self.in_val)
-        if dt is not None:
-            self.in_val[0] = dt
-            fmu.fmi2SetReal(fmu.component, self.par_vr, 1, self.in_val)
-        if n_freeze is not None:
-            self.int_val[0] = int(n_freeze)
-            fmu.fmi2SetInteger(fmu.component, self.int_vr, 1, self.int_val)
-        fmu.enterInitializationMode()
-        fmu.exitInitializationMode()
-
-    def loop(self, h, n_steps, f=None):
-        """n_steps communication steps of h: input (when f is given), doStep, all outputs."""
-        fmu = self.fmu
-        comp, do_step, get_real, set_real = fmu.component, fmu.fmi2DoStep, fmu.fmi2GetReal, fmu.fmi2SetReal
-        out_vr, out, n_out, in_vr, in_val = self.out_vr, self.out, self.n_out, self.in_vr, self.in_val
-        if f is None:
-            for i in range(n_steps):
-                do_step(comp, i * h, h, 1)
-                get_real(comp, out_vr, n_out, out)
-        else:
-            for i in range(n_steps):
-                in_val[0] = f[i]
-                set_real(comp, in_vr, 1, in_val)
-                do_step(comp, i * h, h, 1)
-                get_real(comp, out_vr, n_out, out)
-        return list(out)
-
-    def reduced_state(self, k_v, k_rho):
-        """The FMU's reduced state (a^v, then a^rho or b) from its serialized FMU state."""
-        from ..fmu.run.driver import state_coordinates
-        fmu = self.fmu
-        state = fmu.getFMUstate()
-        try:
-            return state_coordinates(bytes(fmu.serializeFMUstate(state)), k_v + k_rho)
-        finally:
-            fmu.freeFMUstate(state)
-
-    def close(self):
-        if self.fmu is not None:
-            try:
-                self.fmu.terminate()
-            except Exception:      # an instance in the error state cannot terminate
-                pass
-            self.fmu.freeInstance()
-            self.fmu = None
+def start(fmu, n_freeze=None, dt=None, initial_state_scale=1.0):
+    """fmi2Reset and initialization of an instantiated FMU (:class:`harness.fmu.run.driver.FMU`):
+    initial_state_scale 1 (the scene's initial state, as the training run and the Python models have it), and
+    the internal step ``dt`` and ``n_freeze`` where given."""
+    fmu.reset()
+    fmu.initialize(initial_state_scale=initial_state_scale, dt=dt, n_freeze=n_freeze)
 
 
-def lean_run(unzipdir, md, T, h, repeats=5, f=None):
-    """The lean fmpy loop over [0, T] with communication step h (module docstring, item 4).
-
-    Returns a dict: instantiate_s (once), start_s (reset + initialization, median), loop_s (median),
-    run_s = start_s + loop_s, doSteps, us_per_doStep.
-    """
-    n_comm = int(round(T / h))
-    slave = LeanSlave(unzipdir, md)
-    starts, loops = [], []
-    try:
-        for r in range(repeats + 1):                   # the first run warms up
-            t0 = time.perf_counter()
-            slave.start()
-            t1 = time.perf_counter()
-            slave.loop(h, n_comm, f)
-            t2 = time.perf_counter()
-            if r:
-                starts.append(t1 - t0)
-                loops.append(t2 - t1)
-    finally:
-        slave.close()
-    start, loop = _median(starts), _median(loops)
-    return {"instantiate_s": slave.instantiate_s, "start_s": start, "loop_s": loop, "run_s": start + loop,
-            "doSteps": n_comm, "us_per_doStep": loop / n_comm * 1e6, "step_s": h}
+def lean_loop(fmu, h, n_steps, f=None):
+    """n_steps communication steps of h through the driver: the input f[i] held (when given), doStep, every
+    output read."""
+    times = np.arange(n_steps + 1) * h
+    inputs = {} if f is None else {"f": np.append(np.asarray(f[:n_steps], float), 0.0)}
+    return fmu.simulate(times, inputs, steps=np.full(n_steps, h))
 
 
 def _fmu_states(unzipdir, md, summary, ops, steps, dt, force, n_freeze, h):
     """The FMU's fields at the error steps, from one untimed run on the timed configuration: communication
     points on the grid of h plus the error-step times, input held over each step at its start value."""
+    from ..fmu.run.driver import FMU
     t_samples = np.asarray(steps) * dt
     grid = np.arange(int(round(t_samples[-1] / h)) + 1) * h
     points = np.unique(np.concatenate([grid[grid < t_samples[-1]], t_samples]))
     wanted = set(np.searchsorted(points, t_samples).tolist())
-    slave = LeanSlave(unzipdir, md)
-    fmu = slave.fmu
+    k = summary.k_v + summary.k_rho
     zs = []
-    try:
-        slave.start(n_freeze=n_freeze)
-        if 0 in wanted:
-            zs.append(slave.reduced_state(summary.k_v, summary.k_rho))
-        for i in range(points.size - 1):
-            if force is not None:
-                slave.in_val[0] = float(force(points[i]))
-                fmu.fmi2SetReal(fmu.component, slave.in_vr, 1, slave.in_val)
-            fmu.fmi2DoStep(fmu.component, points[i], points[i + 1] - points[i], 1)
-            if i + 1 in wanted:
-                zs.append(slave.reduced_state(summary.k_v, summary.k_rho))
-    finally:
-        slave.close()
+
+    def keep_state(j, t):
+        if j in wanted:
+            zs.append(fmu.reduced_state(k))
+    with FMU(unzipdir, name="lean") as fmu:
+        start(fmu, n_freeze=n_freeze)
+        keep_state(0, points[0])
+        inputs = {} if force is None else {"f": np.array([float(force(p)) for p in points])}
+        fmu.simulate(points, inputs, outputs=[], on_step=keep_state)
     return ops.fields(np.array(zs))           # the operators' own reconstruction
 
 
 def bench_rows(context):
     """The FMU rows of ``sphrom bench`` (harness.measure.methods.bench_python's ``extra``).
 
-    For each k of the study and each model that can be packaged as an FMU: the FMU through the lean fmpy
+    For each k of the study and each model that can be packaged as an FMU: the FMU through the FMU driver's
     loop at a 10 ms communication step (n_freeze 10 and 1 for the frozen model, the one refreshed every
     n_freeze steps), and for that model the C core loop alone (rom_advance through ctypes, no fmpy); once
     the C full SPH (fmu_src/sph.c).  Errors against the full SPH (context v_sph/rho_sph at the
@@ -465,6 +360,7 @@ def bench_rows(context):
     from ..fmu.run.core import Core
     from ..fmu.make.build import ensure_binaries
     from ..fmu.make.package import RESOURCES
+    from ..fmu.run.driver import FMU
 
     scene, run, steps = context["scene"], context["run"], np.asarray(context["steps"])
     repeats = max(1, int(context.get("repeats", 3)))
@@ -502,23 +398,20 @@ def bench_rows(context):
             _, ops, blob = RESOURCES[spec.fmu_kind](scene, model, k, 10, summary.probes, summary.integrator,
                                                        False, problem, bounds=False)
             for nf in nfs:
-                slave = LeanSlave(unzipdir, md)
                 times = []
-                try:
+                with FMU(unzipdir, name="lean") as slave:
                     for r in range(repeats + 1):
-                        slave.start(n_freeze=nf if spec.uses_n_freeze else None)
+                        start(slave, n_freeze=nf if spec.uses_n_freeze else None)
                         t0 = time.perf_counter()
-                        slave.loop(h, n_comm, f_comm)
+                        lean_loop(slave, h, n_comm, f_comm)
                         if r:
                             times.append(time.perf_counter() - t0)
-                finally:
-                    slave.close()
                 v, rho = _fmu_states(unzipdir, md, summary, ops, steps, dt, force,
                                      nf if spec.uses_n_freeze else None, h)
                 e_s, e_r = errors(v, rho)
                 rows.append(bench_row(scene, method, k, nf if spec.uses_n_freeze else None, _median(times),
                                  summary.timings.get("model", 0.0), e_s, e_r,
-                                 f"lean fmpy loop, {h * 1e3:g} ms comm. step ({n_comm} doSteps, input + doStep + "
+                                 f"FMU driver loop, {h * 1e3:g} ms comm. step ({n_comm} doSteps, input + doStep + "
                                  f"all outputs), instantiate {slave.instantiate_s * 1e3:.1f} ms not included; "
                                  f"errors from the FMU's serialized state (input held over each step)"))
             if spec.uses_n_freeze:                      # the C core's internal steps, refreshed every 10
@@ -592,7 +485,7 @@ def sph_step_rows(base="tenmode", n=400, k=BENCH_K, n_freeze=BENCH_FREEZE, n_ste
 
 def fmu_measurements(scene_name="tenmode", repeats=5, sizes=(100, 400, 1600), steps=(0.01, 0.001),
                      progress=True):
-    """The FMU section of ``sphrom bench``: the C core against N, end to end through fmpy.simulate_fmu, and
+    """The FMU section of ``sphrom bench``: the C core against N, end to end through the FMU driver, and
     the same-language ratio at N = 400.
 
     Returns a dict: ``core`` (:func:`core_rows`), ``e2e`` (:func:`end_to_end`), ``same``

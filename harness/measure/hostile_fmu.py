@@ -93,7 +93,7 @@ def _child_resources(core_path, cases, emit):
 
 def verdict(emit, i, messages, outputs=None, exc=None, done=""):
     """Emit case ``i``'s outcome: OK with ``outputs`` all finite, a silent wrong result when some are not; after
-    ``exc`` a clean error when the FMU logged why (``messages``: the Slave's log), else an unclear one."""
+    ``exc`` a clean error when the FMU logged why (``messages``: the FMU's log), else an unclear one."""
     import numpy as np
     if exc is None:
         finite = bool(np.all(np.isfinite(outputs)))
@@ -106,8 +106,8 @@ def verdict(emit, i, messages, outputs=None, exc=None, done=""):
 
 
 def _slave(unzipdir, messages):
-    from ..fmu.run.driver import Slave
-    return Slave(unzipdir, messages=messages)
+    from ..fmu.run.driver import FMU
+    return FMU(unzipdir, messages=messages)
 
 
 def _child_states(unzipdir, base_hex, cases, emit):
@@ -153,7 +153,9 @@ def _child_sequences(unzipdir, cases, emit):
     """Random FMI call sequences: an OK status must come with finite outputs; an error with a message."""
     import numpy as np
 
-    from ..fmu.run.driver import VR_DT, VR_F, VR_INITIAL_STATE_SCALE, VR_N_FREEZE
+    from ..fmu.variables import vr
+    VR_DT, VR_F, VR_INITIAL_STATE_SCALE, VR_N_FREEZE = (vr(name) for name in ("dt", "f", "initial_state_scale",
+                                                                              "n_freeze"))
     for i, (seed, length) in enumerate(cases):
         emit({"i": i, "start": True})
         rng = random.Random(seed)
@@ -347,7 +349,7 @@ def fmu_cases(ws, rng, n_resources, n_states, n_sequences):
     from fmpy import extract
 
     from ..fmu.make.build import ensure_binaries
-    from ..fmu.run.driver import Slave
+    from ..fmu.run.driver import FMU
     os.environ["SPHROM_CACHE"] = ws.env["SPHROM_CACHE"]          # the workspace's build of the binaries
     binaries = ensure_binaries(quiet=True)
     results = []
@@ -359,7 +361,7 @@ def fmu_cases(ws, rng, n_resources, n_states, n_sequences):
                                 "resources")
     for fmu_name in ("fmu2", "fmu3", "exact2"):
         unzipdir = str(extract(str(ws[fmu_name]), unzipdir=str(ws.root / f"unzipped-{fmu_name}")))
-        with Slave(unzipdir) as slave:
+        with FMU(unzipdir) as slave:
             slave.initialize()
             for k in range(5):
                 slave.set_input(0.01)

@@ -1,6 +1,6 @@
 """The FMU in the stability stress maps (``sphrom stress``): does it report an error where it blows up?
 
-For each stress setting the FMU (FMI 2, through fmpy and :class:`harness.fmu.run.driver.Slave`) runs the same
+For each stress setting the FMU (FMI 2, through fmpy and :class:`harness.fmu.run.driver.FMU`) runs the same
 reduced model as the Python rows of :mod:`harness.measure.stress` (the frozen FMU with its own b, about the
 projected rest density, where the Python rows run the paper's: :func:`harness.measure.stress.fmu_operators`): the
 scene's x1 basis and operators,
@@ -89,7 +89,7 @@ class FMUStress:
         """One stress run of the FMU; the dict of :func:`harness.measure.stress.run_one` plus fmu_error, silent_nan."""
         from fmpy.fmi1 import FMICallException
 
-        from ..fmu.run.driver import Slave
+        from ..fmu.run.driver import FMU
 
         scene, problem = ctx.scene, ctx.problem
         T = T or scene.T
@@ -98,27 +98,30 @@ class FMUStress:
         steps = np.unique(np.linspace(0, n, min(n, n_samples) + 1).astype(np.int64))
         folder, fields, k = self.fmu(ctx, model)
         energies, rho_bad, silent_nan = [], None, 0
-        with Slave(folder, name="stress") as s:
+        times = steps * dt
+        f = np.array([float(np.asarray(force(np.array([float(x)])))[0]) for x in times])
+        linear = get_model(model).linear          # a linear FMU has no dt, no n_freeze
+        with FMU(folder, name="stress") as s:
+
+            def observe(i, t):
+                nonlocal rho_bad
+                v, rho = fields(s.reduced_state(k))
+                energies.append(float(energy(problem, v, rho)[0]))
+                if rho_bad is None and np.any(~(rho > 0)):
+                    rho_bad = float(steps[i] * dt)
             try:
-                linear = get_model(model).linear          # a linear FMU has no dt, no n_freeze
                 s.initialize(dt=None if linear else dt, n_freeze=None if linear else N_FREEZE,
                              initial_state_scale=amplitude)
-                for i in range(steps.size):
-                    z = s.reduced_state(k)
-                    v, rho = fields(z)
-                    energies.append(float(energy(problem, v, rho)[0]))
-                    if rho_bad is None and np.any(~(rho > 0)):
-                        rho_bad = float(steps[i] * dt)
-                    if not np.all(np.isfinite(s.output_values())):
-                        silent_nan += 1
-                    if i + 1 < steps.size:
-                        t = float(steps[i] * dt)
-                        s.set_input(float(np.asarray(force(np.array([t])))[0]))
-                        s.do_step(t, float((steps[i + 1] - steps[i]) * dt))
+                observe(0, times[0])
+                y = s.simulate(times, {"f": f}, steps=np.diff(steps) * dt, on_step=observe, stop_on_error=True)
+                silent_nan += int(np.sum(~np.all(np.isfinite(y), axis=1)))
+                failed = len(y) < len(times)
             except FMICallException:
+                failed = True
+            if failed:
                 message = "; ".join(s.errors()) or "error status"
-                times = [float(m) for m in _TIME.findall(message)]
-                return {"outcome": "blow-up", "blowup_time": times[0] if times else float("nan"),
+                found = [float(m) for m in _TIME.findall(message)]
+                return {"outcome": "blow-up", "blowup_time": found[0] if found else float("nan"),
                         "energy_growth": np.inf, "energy_drift": np.inf, "energy_end": np.inf,
                         "fmu_error": message, "silent_nan": silent_nan}
         e = np.asarray(energies)

@@ -2,7 +2,7 @@
 
 Worker-local FMU cache
 ----------------------
-Each worker keeps one instantiated :class:`~harness.fmu.run.driver.Slave` per FMU in
+Each worker keeps one instantiated :class:`~harness.fmu.run.driver.FMU` per FMU in
 the module-level dict ``_SLAVES`` and resets it between runs (fmi2Reset /
 fmi3Reset, then initialization with the run's n_freeze), so an FMU is loaded
 (extracted, its library opened, instantiated) once per worker, not once per
@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-_SLAVES = {}                        # (fmu key, thread id) -> Slave
+_SLAVES = {}                        # (fmu key, thread id) -> FMU
 _LOADS = collections.Counter()      # (fmu key, thread id) -> instantiations in this process
 _CALLS = collections.Counter()      # "runs", "sph" -> calls in this process
 _PROBLEMS = {}                      # fmu key -> (scene, SPHProblem), for the full SPH comparison
@@ -82,14 +82,14 @@ def extracted(bundle):
 
 
 def slave_for(bundle):
-    """(Slave, load time [s]) of ``bundle``'s FMU for this thread: cached, instantiated on first use."""
-    from ..fmu.run.driver import Slave
+    """(FMU, load time [s]) of ``bundle``'s FMU for this thread: cached, instantiated on first use."""
+    from ..fmu.run.driver import FMU
     key = (bundle["key"], threading.get_ident())
     slave = _SLAVES.get(key)
     if slave is not None:
         return slave, 0.0
     t0 = time.perf_counter()
-    slave = Slave(extracted(bundle), name=f"sweep-{worker_name()}")
+    slave = FMU(extracted(bundle), name=f"sweep-{worker_name()}")
     _SLAVES[key] = slave
     _LOADS[key] += 1
     return slave, time.perf_counter() - t0

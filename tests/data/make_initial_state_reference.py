@@ -34,7 +34,7 @@ def main():
     use_checkout(__doc__.splitlines()[0])
     from conftest import fmu_scene
     from harness.fmu.make.build import ensure_binaries
-    from harness.fmu.run.driver import Slave
+    from harness.fmu.run.driver import FMU
     from harness.fmu.make.package import package_fmu
 
     inputs = np.random.default_rng(SEED).normal(0.0, 0.02, STEPS)
@@ -50,7 +50,7 @@ def main():
                 arrays[f"{model}/model_bin"] = np.frombuffer(blob, dtype=np.uint8)
             else:
                 assert blob == arrays[f"{model}/model_bin"].tobytes()
-            with Slave(path) as s:
+            with FMU(path) as s:
                 s.initialize()                  # before initial_state_scale: the scene's initial state
                 arrays[f"{model}/fmi{fmi}"] = s.run([H] * STEPS, inputs)
     np.savez_compressed(OUT, **arrays)

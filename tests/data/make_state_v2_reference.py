@@ -38,7 +38,7 @@ def main():
     use_checkout(__doc__.splitlines()[0])
     from conftest import fmu_scene
     from harness.fmu.make.build import ensure_binaries
-    from harness.fmu.run.driver import Slave
+    from harness.fmu.run.driver import FMU
     from harness.fmu.make.package import package_fmu
     from harness.rom import parametric as par
 
@@ -58,7 +58,7 @@ def main():
                 arrays[f"{case}/model_bin"] = np.frombuffer(model_bin, dtype=np.uint8)
             else:
                 assert model_bin == arrays[f"{case}/model_bin"].tobytes()
-            with Slave(path) as s:
+            with FMU(path) as s:
                 vrs = sorted(spec["values"])
                 s.set_real(vrs, [spec["values"][vr] for vr in vrs])
                 s.initialize(initial_state_scale=1)

@@ -177,39 +177,25 @@ def sph_reference(scene, force, scale, step, probes, problem=None):
 
 
 def fmu_run(path, force_values, t, scale=None, interpolate=False):
-    """Run the FMU over the communication points ``t`` with f = ``force_values`` there.
+    """Run the FMU over the communication points ``t`` with f = ``force_values`` there (the FMU driver).
 
-    Returns (v (M, P), rho (M, P), wall time [s]).  ``scale`` sets ``initial_state_scale`` before
-    initialization (None: the FMU does not have it); ``interpolate`` passes df/dt to the next point
-    (fmi2SetRealInputDerivatives).  Raises RuntimeError with the FMU's logged reason when a call fails.
+    Returns (v (M, P), rho (M, P), wall time [s]).  ``scale`` sets ``initial_state_scale`` (None: the FMU does
+    not have it); ``interpolate`` passes df/dt to the next point (fmi2SetRealInputDerivatives).  The time is
+    initialization and the loop (every set input, doStep and output read).  Raises RuntimeError with the FMU's
+    logged reason when a call fails.
     """
-    from fmpy import extract
+    from fmpy.fmi1 import FMICallException
 
-    from ..run.driver import Slave
-    import shutil
-    folder = extract(str(path))
-    try:
-        rates = np.diff(force_values) / np.diff(t)
-        with Slave(folder) as s:
-            try:
-                if scale is not None:
-                    s.set_real([s.vr[SCALE_NAME]], [float(scale)])
-                t0 = time.perf_counter()
-                s.initialize(f=float(force_values[0]))
-                out = [s.output_values()]
-                for j in range(t.size - 1):
-                    s.set_input(force_values[j])
-                    if interpolate:
-                        s.set_input_derivative(rates[j])
-                    s.do_step(t[j], t[j + 1] - t[j])
-                    out.append(s.output_values())
-                wall = time.perf_counter() - t0
-            except Exception as exc:            # fmpy's FMICallException: the FMU logged why
-                raise RuntimeError("; ".join(s.errors()) or str(exc)) from None
-            names = s.outputs
-    finally:
-        shutil.rmtree(folder, ignore_errors=True)
-    out = np.array(out)
+    from ..run.driver import FMU
+    with FMU(path) as fmu:
+        try:
+            t0 = time.perf_counter()
+            fmu.initialize(parameters={SCALE_NAME: scale}, inputs={"f": float(force_values[0])})
+            out = fmu.simulate(t, {"f": force_values}, rates=interpolate)
+            wall = time.perf_counter() - t0
+        except FMICallException as exc:            # the FMU logged why
+            raise RuntimeError("; ".join(fmu.errors()) or str(exc)) from None
+        names = fmu.outputs
     iv = [i for i, n in enumerate(names) if n.startswith("v_probe_")]
     ir = [i for i, n in enumerate(names) if n.startswith("rho_probe_")]
     return out[:, iv], out[:, ir], wall
@@ -229,7 +215,7 @@ def fmu_features(path):
     """(has initial_state_scale, declares canInterpolateInputs, step [s], probes x/L) of an FMU file."""
     from fmpy import read_model_description
 
-    from ..run.cosim import can_interpolate_inputs
+    from ..run.driver import can_interpolate_inputs
     md = read_model_description(str(path))
     names = {v.name for v in md.modelVariables}
     return SCALE_NAME in names, can_interpolate_inputs(md), float(md.defaultExperiment.stepSize)

@@ -1,16 +1,21 @@
-"""Co-simulation of an sphrom FMU through ``fmpy.simulate_fmu`` (``sphrom cosim``).
+"""``sphrom cosim``: an sphrom FMU co-simulated on the one FMU driver (:mod:`harness.fmu.run.driver`).
 
 The input f(t) is an expression in t (and T, the end time) or a CSV file with
-columns ``time,f``; an expression is sampled at the communication points,
-where fmpy sets it and the FMU holds it over the step.  The result has the
-time and every output of the FMU at the communication points.
+columns ``time,f``, sampled at the communication points (a CSV interpolated
+linearly between its rows).  One rule (docs/fmu/cosim.md): f goes linearly
+over each step where the FMU declares it can take input derivatives (FMI 2
+``canInterpolateInputs``: f at the point and df/dt, the slope to the next
+one), and is held over each step otherwise or with ``hold_inputs``.  FMI 3.0
+co-simulation has no input derivatives (its intermediate update, which these
+FMUs do not provide, is the mechanism for inputs inside a step), so an FMI 3
+FMU holds f.  The result has the time and every output of the FMU at the
+communication points.
 """
 
 from __future__ import annotations
 
 import csv
 import math
-import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -20,6 +25,7 @@ import numpy as np
 from ...errors import FieldError, SimulationError, UserError, exact
 from ...paths import is_file
 from ..variables import absent, check_parameter
+from .driver import can_interpolate_inputs
 
 
 @dataclass
@@ -33,8 +39,7 @@ class CosimResult:
     values : ndarray (M, len(names))
         time [s], v_probe_* [m s^-1], rho_probe_* [kg m^-3].
     wall_time : float
-        Wall time of fmpy.simulate_fmu, or of the FMU2Slave loop with input derivatives [s]
-        (extraction, instantiation, loop).
+        Wall time of the co-simulation [s] (extraction, instantiation, the loop, freeing).
     steps : int
         Communication steps.
     input_derivatives : bool
@@ -49,29 +54,6 @@ class CosimResult:
     steps: int
     input_derivatives: bool = False
     warnings: list = field(default_factory=list)
-
-
-class LogCapture:
-    """fmpy logger callbacks that keep the FMU's messages (FMI 2 and FMI 3 signatures)."""
-
-    def __init__(self):
-        self.messages = []
-
-    def _keep(self, status, message):
-        text = message.decode("utf-8", "replace") if isinstance(message, bytes) else str(message)
-        self.messages.append((int(status), text))
-
-    def fmi2(self, component, instance_name, status, category, message):
-        self._keep(status, message)
-
-    def fmi3(self, environment, status, category, message):
-        self._keep(status, message)
-
-    def errors(self):
-        return [m for s, m in self.messages if s >= 3]
-
-    def warnings(self):
-        return [m for s, m in self.messages if s == 1]
 
 
 def read_fmu_description(path):
@@ -160,46 +142,6 @@ def _is_instantiate_failure(exc) -> bool:
     return type(exc) is Exception and "instantiate" in str(exc).lower()
 
 
-def _run_with_derivatives(fmu, md, signal, t_end, step, start, outputs, warnings=None):
-    """The co-simulation loop on fmpy's FMU2Slave, f and df/dt set before each step.
-
-    fmpy 0.3.32's ``simulate_fmu(set_input_derivatives=True)`` cannot be used: it
-    sizes its derivative buffer for 9 inputs (simulation.Input) and fails with
-    one, and at a sample time it passes the slope of the segment before it
-    (0 on the first step).  Here f goes linearly between the samples at the
-    communication points over each step, as ``run_exact(..., hold="linear")``.
-    """
-    from .driver import Slave
-    n = int(math.ceil(t_end / step - 1e-9))
-    times = np.minimum(np.arange(n + 1) * step, t_end)
-    f, rate = input_samples(signal, times)
-    vr = {v.name: v.valueReference for v in md.modelVariables}
-    out_vr = [vr[name] for name in outputs]
-    messages = []
-    try:
-        slave = Slave(fmu, messages=messages)
-    except Exception as exc:
-        if _is_instantiate_failure(exc):
-            raise _not_instantiable(fmu, exc, [text for status, _, text in messages if status >= 3]) from None
-        raise
-    with slave:
-        try:
-            slave.initialize(n_freeze=start.get("n_freeze"), f=float(f[0]),
-                             initial_state_scale=start.get("initial_state_scale"))
-            rows = [slave.get_real(out_vr)]
-            for j in range(n):
-                slave.set_input(f[j])
-                slave.set_input_derivative(rate[j])
-                slave.do_step(times[j], times[j + 1] - times[j])
-                rows.append(slave.get_real(out_vr))
-        except Exception as exc:
-            detail = "; ".join(slave.errors()) or str(exc)
-            raise SimulationError(f"the FMU failed: {detail}") from None
-    if warnings is not None:                 # (status, text) pairs, as LogCapture keeps them
-        warnings.extend((status, text) for status, _, text in messages if status == 1)
-    return np.column_stack([times, np.array(rows)])
-
-
 def _csv_signal(path):
     if not is_file(path):
         raise FieldError("force", f"CSV file '{path}' not found")
@@ -271,14 +213,9 @@ def has_parameter(md, fmu, name, why=None):
         raise absent(name, f"'{fmu}'", why)
 
 
-def can_interpolate_inputs(md) -> bool:
-    """Whether the FMU takes input derivatives: FMI 2 with canInterpolateInputs (FMI 3 has no such call)."""
-    return md.fmiVersion == "2.0" and bool(md.coSimulation.canInterpolateInputs)
-
-
 def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None, hold_inputs=False,
               initial_state_scale=None) -> CosimResult:
-    """Co-simulate ``fmu`` with fmpy.simulate_fmu.
+    """Co-simulate ``fmu`` on the FMU driver (module docstring: the input rule).
 
     Parameters
     ----------
@@ -294,8 +231,8 @@ def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None, hold_inputs
         The ``n_freeze`` parameter (default the packaged one); FieldError for an FMU without it (the linear
         models: no internal step).
     hold_inputs : bool
-        Hold f over each step even when the FMU can interpolate inputs (default: an FMU
-        that declares canInterpolateInputs gets df/dt, f going linearly between the samples).
+        Hold f over each step even when the FMU can take input derivatives (default: an FMU
+        that declares canInterpolateInputs, FMI 2, gets df/dt, f going linearly between the samples).
     initial_state_scale : float, optional
         The ``initial_state_scale`` parameter (default the FMU's start value: 0, at rest; 1 starts
         from the scene's initial state).
@@ -308,9 +245,6 @@ def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None, hold_inputs
     SimulationError
         The FMU reported an error (its message is included).
     """
-    import fmpy
-    from fmpy.fmi1 import FMICallException
-
     md = read_fmu_description(fmu)
     de = md.defaultExperiment
     t_end = _positive(t_end, "t_end") or float(de.stopTime)
@@ -336,31 +270,35 @@ def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None, hold_inputs
         start["initial_state_scale"] = float(initial_state_scale)
     signal = force_signal(force, t_end, step)
     derivatives = can_interpolate_inputs(md) and not hold_inputs and signal is not None
-    outputs = [v.name for v in md.modelVariables if v.causality == "output"]
-    capture = LogCapture()
-    logger = capture.fmi2 if md.fmiVersion == "2.0" else capture.fmi3
+    times = np.minimum(np.arange(steps + 1) * step, t_end)
+    inputs = {} if signal is None else {"f": input_samples(signal, times)[0]}
+    from fmpy.fmi1 import FMICallException
     t0 = time.perf_counter()
-    if derivatives:
-        values = _run_with_derivatives(fmu, md, signal, t_end, step, start, outputs, warnings=capture.messages)
-        return CosimResult(names=["time"] + outputs, values=values, wall_time=time.perf_counter() - t0,
-                           steps=steps, input_derivatives=True, warnings=capture.warnings())
+    fmu_ = _open(fmu)
+    with fmu_:
+        try:
+            fmu_.initialize(parameters=start, inputs={"f": inputs["f"][0]} if inputs else None)
+            values = fmu_.simulate(times, inputs, rates=derivatives)
+        except FMICallException as exc:
+            detail = "; ".join(fmu_.errors()) or str(exc)
+            raise SimulationError(f"the FMU failed: {detail}") from None
+        warnings = fmu_.warnings()
+    names = ["time"] + fmu_.outputs
+    return CosimResult(names=names, values=np.column_stack([times, values]), wall_time=time.perf_counter() - t0,
+                       steps=steps, input_derivatives=derivatives, warnings=warnings)
+
+
+def _open(path):
+    """The :class:`~harness.fmu.run.driver.FMU` of ``path``; FieldError ``fmu`` with the FMU's own logged reason
+    when it fails to instantiate (a bad file is the user's)."""
+    from .driver import FMU
+    messages = []
     try:
-        with tempfile.TemporaryDirectory(prefix="sphrom-cosim-") as unzipdir:   # removed also when it fails
-            fmpy.extract(str(fmu), unzipdir=unzipdir)
-            result = fmpy.simulate_fmu(unzipdir, start_time=0.0, stop_time=t_end, output_interval=step,
-                                       input=signal, start_values=start, output=outputs, logger=logger,
-                                       model_description=md)
-    except FMICallException as exc:
-        detail = "; ".join(capture.errors()) or str(exc)
-        raise SimulationError(f"the FMU failed: {detail}") from None
+        return FMU(path, messages=messages)
     except Exception as exc:
         if _is_instantiate_failure(exc):
-            raise _not_instantiable(fmu, exc, capture.errors()) from None
+            raise _not_instantiable(path, exc, [text for status, _, text in messages if status >= 3]) from None
         raise
-    wall = time.perf_counter() - t0
-    names = ["time"] + outputs
-    values = np.column_stack([result[n] for n in names])
-    return CosimResult(names=names, values=values, wall_time=wall, steps=steps, warnings=capture.warnings())
 
 
 def write_csv(path, result: CosimResult):

@@ -1,19 +1,39 @@
-"""One instance of an sphrom FMU through fmpy's FMI 2.0 / 3.0 classes.
+"""The one driver of an sphrom FMU from Python (FMI 2.0 and 3.0, through fmpy's classes).
 
-A uniform, explicit driver for scripts and tests that need more control than
-``fmpy.simulate_fmu``: the input held over each communication step, the
-time reached (FMI 3 ``time``; FMI 2 ``fmi2GetRealStatus(LastSuccessfulTime)``),
-FMU states, and the FMU's log messages (kept in ``messages``).
+Every loop in sphrom that steps an FMU goes through :class:`FMU` and its :meth:`FMU.simulate`: ``sphrom cosim``,
+the verification of ``sphrom fmu``, the sweeps' workers and every benchmark program.  (The tests also drive the
+FMUs through ``fmpy.simulate_fmu`` and fmpy's classes directly, as importers nobody here wrote.)
+
+What it does::
+
+    fmu = FMU(path)                              # extract (a .fmu) or use a folder, load, instantiate, capture the log
+    fmu.initialize(parameters={"initial_state_scale": 1.0}, inputs={"f": 0.0})
+    y = fmu.simulate(times, inputs={"f": f}, rates=True)   # outputs (M+1, n) at the communication points
+    fmu.close()
+
+Inputs: values at the communication points, held over each step (``rates`` False), or linear over each step
+(``rates`` True, or the names to interpolate): f(t_j + tau) = f_j + (f_{j+1} - f_j)/(t_{j+1} - t_j) tau, passed
+as input derivatives (fmi2SetRealInputDerivatives, order 1), which only an FMI 2 FMU that declares
+``canInterpolateInputs`` takes (:attr:`FMU.can_interpolate_inputs`).  FMI 3.0 co-simulation has no input
+derivatives: its mechanism for inputs inside a step is intermediate update (``providesIntermediateUpdate``),
+which these FMUs do not provide, so an FMI 3 FMU always holds its inputs (docs/fmu/cosim.md).  A closed loop
+(an input computed from the outputs, e.g. a coupled component) passes ``feedback(j, t_j, y_j) -> {name: value}``.
+
+The loop sets inputs, derivatives, steps and reads outputs through preallocated ctypes arrays and fmpy's raw
+function bindings (which still check every status), so its own cost per step is a few microseconds; a status
+above warning raises fmpy's ``FMICallException`` and :meth:`FMU.errors` holds the FMU's logged reason.
 """
 
 from __future__ import annotations
 
+import ctypes
+import shutil
 import threading
 from pathlib import Path
 
 import numpy as np
 
-from ..variables import vr
+from ..variables import absent, lookup, vr
 
 # fmpy's FMU constructors chdir() into binaries/<platform> to load the library
 # and chdir() back: the working directory is per process, so two threads that
@@ -41,8 +61,18 @@ def state_coordinates(blob: bytes, k: int):
     return np.frombuffer(blob, dtype="<f8", count=k, offset=STATE_HEADER_SIZE).copy()
 
 
-class Slave:
-    """An instantiated sphrom FMU.
+def can_interpolate_inputs(md) -> bool:
+    """Whether an FMU (its fmpy model description ``md``) takes input derivatives: FMI 2 with
+    canInterpolateInputs.  FMI 3.0 co-simulation has no input derivatives (module docstring)."""
+    return md.fmiVersion == "2.0" and bool(md.coSimulation.canInterpolateInputs)
+
+
+def _vrs(values):
+    return (ctypes.c_uint32 * len(values))(*values)
+
+
+class FMU:
+    """One instantiated sphrom FMU (module docstring).
 
     Parameters
     ----------
@@ -61,10 +91,15 @@ class Slave:
     ----------
     fmi : int
         2 or 3.
-    outputs : list of str
-        Output names (v_probe_*, then rho_probe_*).
+    md : fmpy ModelDescription
+    vr : dict
+        Value reference of each variable name of this FMU.
+    inputs, outputs : list of str
+        Input names (f, then F_port_*), output names (v_probe_*, rho_probe_*, then v_port_*).
     messages : list of (status, category, text)
         What the FMU logged.
+    instantiate_s : float
+        Wall time of loading the library and instantiating [s].
 
     Raises
     ------
@@ -73,24 +108,27 @@ class Slave:
     """
 
     def __init__(self, path, name="sphrom", logging=False, token=None, messages=None):
+        import time
+
         from fmpy import extract, read_model_description
         path = Path(path)
         self.md = read_model_description(str(path))
-        self.unzipdir = str(path) if path.is_dir() else extract(str(path))
         self._owns_dir = not path.is_dir()
+        self.unzipdir = str(path) if path.is_dir() else extract(str(path))
         self.fmi = 2 if self.md.fmiVersion == "2.0" else 3
         self.messages = [] if messages is None else messages
         self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
+        self.inputs = [v.name for v in self.md.modelVariables if v.causality == "input"]
         self.outputs = [v.name for v in self.md.modelVariables if v.causality == "output"]
-        self._out_vr = [self.vr[n] for n in self.outputs]
         token = token or (self.md.guid if self.fmi == 2 else self.md.instantiationToken)
+        t0 = time.perf_counter()
+        self.fmu = load_fmu(self.fmi, self.unzipdir, token, name)
         if self.fmi == 2:
             from ctypes import byref
 
+            from fmpy.fmi1 import calloc, free
             from fmpy.fmi2 import (fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
                                    fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
-            from fmpy.fmi1 import calloc, free
-            self.fmu = load_fmu(2, self.unzipdir, token, name)
             callbacks = fmi2CallbackFunctions()
             callbacks.logger = fmi2CallbackLoggerTYPE(self._log2)
             callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
@@ -103,8 +141,8 @@ class Slave:
             self._callbacks = callbacks
             self._instantiate(lambda: self.fmu.instantiate(callbacks=callbacks, loggingOn=logging))
         else:
-            self.fmu = load_fmu(3, self.unzipdir, token, name)
             self._instantiate(lambda: self.fmu.instantiate(loggingOn=logging, logMessage=self._log3))
+        self.instantiate_s = time.perf_counter() - t0
 
     def _instantiate(self, call):
         """Run the instantiate call; on failure remove the folder we extracted before re-raising."""
@@ -113,9 +151,18 @@ class Slave:
         except Exception:
             self.fmu = None
             if self._owns_dir:
-                import shutil
                 shutil.rmtree(self.unzipdir, ignore_errors=True)
             raise
+
+    # -- what the FMU declares ------------------------------------------------
+    @property
+    def can_interpolate_inputs(self) -> bool:
+        """Whether this FMU takes input derivatives (:func:`can_interpolate_inputs`)."""
+        return can_interpolate_inputs(self.md)
+
+    def has(self, name) -> bool:
+        """Whether the FMU declares the variable ``name``."""
+        return name in self.vr
 
     # -- logging ---------------------------------------------------------------
     def _keep(self, status, category, message):
@@ -133,46 +180,51 @@ class Slave:
         """Texts of the error messages logged so far."""
         return [text for status, _, text in self.messages if status >= 3]
 
-    # -- lifecycle -------------------------------------------------------------
-    def initialize(self, start=0.0, n_freeze=None, dt=None, f=None, initial_state_scale=None):
-        """Set up, set parameters/input, enter and exit initialization mode.
+    def warnings(self):
+        """Texts of the warnings logged so far (e.g. leaving the training envelope)."""
+        return [text for status, _, text in self.messages if status == 1]
 
-        A parameter left None keeps the FMU's start value (``initial_state_scale``: 0, the component at
-        rest; pass 1 for the scene's initial state, as the training run had it).  A parameter the FMU does
-        not have (``n_freeze`` and ``dt`` in a linear model) is a FieldError naming it."""
+    # -- lifecycle -------------------------------------------------------------
+    def initialize(self, start=0.0, parameters=None, inputs=None, **named):
+        """Set up, set the parameters and inputs, enter and exit initialization mode.
+
+        ``parameters`` (and keyword arguments, e.g. ``n_freeze=5``) map names to start values; a value None
+        keeps the FMU's start value (``initial_state_scale``: 0, the component at rest; pass 1 for the scene's
+        initial state, as the training run had it).  A parameter the FMU does not declare (``n_freeze`` and
+        ``dt`` in a linear model) is a FieldError naming it.  ``inputs`` maps input names to their values at
+        ``start`` [s]."""
+        values = {**(parameters or {}), **named}
+        inputs = {**(inputs or {}), **{n: values.pop(n) for n in list(values) if n in self.inputs}}
+        inputs = {n: x for n, x in inputs.items() if x is not None}
         fmu = self.fmu
         if self.fmi == 2:
             fmu.setupExperiment(startTime=start)
-            self._set_parameters(n_freeze, dt, initial_state_scale)
+        for name, value in values.items():
+            if value is not None:
+                self.set_parameter(name, value)
+        if self.fmi == 2:
             fmu.enterInitializationMode()
         else:
-            self._set_parameters(n_freeze, dt, initial_state_scale)
             fmu.enterInitializationMode(startTime=start)
-        if f is not None:
-            self.set_input(f)
+        if inputs:
+            self.set_real([self.vr[n] for n in inputs], list(inputs.values()))
         fmu.exitInitializationMode()
         return self
 
-    def _set_parameters(self, n_freeze, dt, initial_state_scale=None):
-        for name, value in (("initial_state_scale", initial_state_scale), ("n_freeze", n_freeze), ("dt", dt)):
-            if value is not None:
-                self.set_parameter(name, value)
-
     def set_parameter(self, name, value):
         """Set the parameter ``name`` (its type from the variable table); FieldError when the FMU has none."""
-        from ..variables import BY_NAME, absent
         if name not in self.vr:
             raise absent(name)
-        if BY_NAME[name].type == "Int32":
+        if lookup(name)[0].type == "Int32":
             (self.fmu.setInteger if self.fmi == 2 else self.fmu.setInt32)([self.vr[name]], [int(value)])
         else:
             self.set_real([self.vr[name]], [float(value)])
 
     def set_real(self, vrs, values):
         if self.fmi == 2:
-            self.fmu.setReal(list(vrs), list(values))
+            self.fmu.setReal(list(vrs), [float(v) for v in values])
         else:
-            self.fmu.setFloat64(list(vrs), list(values))
+            self.fmu.setFloat64(list(vrs), [float(v) for v in values])
 
     def get_real(self, vrs):
         if self.fmi == 2:
@@ -183,16 +235,23 @@ class Slave:
         """The input f [m s^-2], held over the next communication step."""
         self.set_real([vr("f")], [float(f)])
 
+    def set_input_derivatives(self, names, rates, order=1):
+        """fmi2SetRealInputDerivatives: d^order u/dt^order of the inputs ``names`` over the next steps (FMI 2)."""
+        if self.fmi != 2:
+            raise ValueError("FMI 3.0 co-simulation has no input derivatives (the FMU holds its inputs)")
+        n = len(names)
+        self.fmu.fmi2SetRealInputDerivatives(self.fmu.component, _vrs([self.vr[x] for x in names]), n,
+                                             (ctypes.c_int * n)(*([int(order)] * n)),
+                                             (ctypes.c_double * n)(*[float(r) for r in rates]))
+
     def set_input_derivative(self, rate, order=1):
-        """fmi2SetRealInputDerivatives on f: df/dt [m s^-3] over the next steps (FMI 2 only)."""
-        from ctypes import c_double, c_int, c_uint32
-        self.fmu.fmi2SetRealInputDerivatives(self.fmu.component, (c_uint32 * 1)(vr("f")), 1, (c_int * 1)(int(order)),
-                                             (c_double * 1)(float(rate)))
+        """df/dt [m s^-3] of the input f over the next steps (FMI 2)."""
+        self.set_input_derivatives(["f"], [rate], order)
 
     def output_derivatives(self, order=1, names=None):
         """d^order y/dt^order of the outputs ``names`` (default all, order of ``outputs``) at the FMU's time:
         fmi2GetRealOutputDerivatives / fmi3GetOutputDerivatives."""
-        vrs = self._out_vr if names is None else [self.vr[n] for n in names]
+        vrs = [self.vr[n] for n in (self.outputs if names is None else names)]
         orders = [int(order)] * len(vrs)
         if self.fmi == 2:
             return np.array(self.fmu.getRealOutputDerivatives(vrs, orders))
@@ -205,9 +264,9 @@ class Slave:
         else:
             self.fmu.doStep(t, h)
 
-    def output_values(self):
-        """All outputs (order of ``outputs``)."""
-        return self.get_real(self._out_vr)
+    def output_values(self, names=None):
+        """The outputs ``names`` (default all, order of ``outputs``)."""
+        return self.get_real([self.vr[n] for n in (self.outputs if names is None else names)])
 
     def time(self):
         """The FMU's time [s]: FMI 3 ``time``, FMI 2 the last successful time."""
@@ -216,16 +275,118 @@ class Slave:
         from fmpy.fmi2 import fmi2LastSuccessfulTime
         return float(self.fmu.getRealStatus(fmi2LastSuccessfulTime))
 
+    # -- the loop --------------------------------------------------------------
+    def simulate(self, times, inputs=None, rates=False, outputs=None, feedback=None, on_step=None, steps=None,
+                 stop_on_error=False):
+        """Step the FMU over the communication points ``times`` and read outputs at every one of them.
+
+        Parameters
+        ----------
+        times : array (M+1,)
+            Communication points [s]; the FMU is initialized at ``times[0]``.
+        inputs : dict, optional
+            {input name: values (M+1,) at the communication points}; set before each step (the last value is
+            only used for the slope of the last step).
+        rates : bool or collection of str
+            Hold the inputs over each step (False), or pass every input's slope to the next point as its
+            derivative (True), or only those of the names given: the FMU then sees each such input linear over
+            the step.  Needs :attr:`can_interpolate_inputs`.
+        outputs : list of str, optional
+            The outputs to read (default all, order of ``outputs``).
+        feedback : callable, optional
+            ``feedback(j, t_j, y_j) -> {input name: value}``: inputs computed from the outputs just read (a
+            closed loop), set after ``inputs`` (held over the step).
+        on_step : callable, optional
+            ``on_step(j, t_j)`` after the outputs at point j are read (e.g. to read a state); may return
+            True to stop (the result then ends at point j).
+        steps : array (M,), optional
+            The communication step lengths passed to doStep [s] (default ``diff(times)``; given, e.g., when
+            the points were accumulated from them).
+        stop_on_error : bool
+            A call that returns an error status ends the loop and the points read so far are returned (the
+            FMU's reason in :meth:`errors`) instead of raising fmpy's ``FMICallException``.
+
+        Returns
+        -------
+        ndarray (M+1, len(outputs))
+            The outputs at every communication point, the initial one included.
+        """
+        times = np.asarray(times, dtype=float)
+        inputs = {k: np.asarray(v, dtype=float) for k, v in (inputs or {}).items()}
+        names = list(self.outputs if outputs is None else outputs)
+        interpolate = list(inputs) if rates is True else [n for n in inputs if rates and n in rates]
+        if interpolate and not self.can_interpolate_inputs:
+            raise ValueError(f"this FMU (FMI {self.fmi}) takes no input derivatives: hold its inputs")
+        fmu, comp = self.fmu, self.fmu.component
+        out_vr, n_out = _vrs([self.vr[n] for n in names]), len(names)
+        out = (ctypes.c_double * n_out)()
+        in_names = list(inputs)
+        in_vr, n_in = _vrs([self.vr[n] for n in in_names]), len(in_names)
+        in_val = (ctypes.c_double * max(n_in, 1))()
+        in_values = np.column_stack([inputs[n] for n in in_names]) if n_in else None
+        d_vr = _vrs([self.vr[n] for n in interpolate])
+        d_order = (ctypes.c_int * max(len(interpolate), 1))(*([1] * len(interpolate)))
+        d_val = (ctypes.c_double * max(len(interpolate), 1))()
+        cols = [in_names.index(n) for n in interpolate]
+        fb_vr, fb_val = {}, (ctypes.c_double * 1)()
+        if self.fmi == 2:
+            get, set_ = fmu.fmi2GetReal, fmu.fmi2SetReal
+
+            def step(t, h):
+                fmu.fmi2DoStep(comp, t, h, 1)
+        else:
+            get, set_ = (lambda c, v, n, x: fmu.fmi3GetFloat64(c, v, n, x, n),
+                         lambda c, v, n, x: fmu.fmi3SetFloat64(c, v, n, x, n))
+            flags = [ctypes.c_bool() for _ in range(3)]
+            last = ctypes.c_double()
+            refs = [ctypes.byref(x) for x in flags] + [ctypes.byref(last)]
+
+            def step(t, h):
+                fmu.fmi3DoStep(comp, t, h, True, *refs)
+        m = times.size - 1
+        hs = np.diff(times) if steps is None else np.asarray(steps, dtype=float)
+        ys = np.empty((m + 1, n_out))
+        get(comp, out_vr, n_out, out)
+        ys[0] = out
+        reached = 0
+        from fmpy.fmi1 import FMICallException
+        try:
+            for j in range(m):
+                t, h = times[j], hs[j]
+                if n_in:
+                    in_val[:n_in] = in_values[j]
+                    set_(comp, in_vr, n_in, in_val)
+                if cols:
+                    d_val[:len(cols)] = (in_values[j + 1, cols] - in_values[j, cols]) / h
+                    fmu.fmi2SetRealInputDerivatives(comp, d_vr, len(cols), d_order, d_val)
+                if feedback is not None:
+                    for name, value in feedback(j, t, ys[j]).items():
+                        if name not in fb_vr:
+                            fb_vr[name] = _vrs([self.vr[name]])
+                        fb_val[0] = value
+                        set_(comp, fb_vr[name], 1, fb_val)
+                step(t, h)
+                get(comp, out_vr, n_out, out)
+                ys[j + 1] = out
+                reached = j + 1
+                if on_step is not None and on_step(j + 1, times[j + 1]):
+                    break
+        except FMICallException:
+            if not stop_on_error:
+                raise
+        return ys[:reached + 1]
+
     def run(self, steps, inputs, t0=0.0):
-        """Communication steps ``steps`` [s] with ``inputs`` held; outputs at every point (incl. t0)."""
-        out = [self.output_values()]
-        t = t0
-        for h, f in zip(steps, inputs):
-            self.set_input(f)
-            self.do_step(t, h)
+        """Communication steps of lengths ``steps`` [s] with the inputs f = ``inputs`` held; all outputs at every
+        point (incl. t0)."""
+        steps = np.asarray(steps, dtype=float)
+        times = np.empty(steps.size + 1)
+        times[0] = t = t0
+        for j, h in enumerate(steps):          # t + h, one step after the other
             t = t + h
-            out.append(self.output_values())
-        return np.array(out)
+            times[j + 1] = t
+        f = np.append(np.asarray(inputs, dtype=float), 0.0)
+        return self.simulate(times, {"f": f}, steps=steps)
 
     # -- FMU state -------------------------------------------------------------
     def get_state(self):
@@ -265,7 +426,6 @@ class Slave:
             finally:
                 self.fmu = None
                 if self._owns_dir:
-                    import shutil
                     shutil.rmtree(self.unzipdir, ignore_errors=True)
 
     def __enter__(self):
@@ -273,3 +433,8 @@ class Slave:
 
     def __exit__(self, *exc):
         self.close()
+
+
+def open_fmu(path, **options):
+    """:class:`FMU` of ``path`` (a context manager: ``with open_fmu(path) as fmu: ...``)."""
+    return FMU(path, **options)
