@@ -64,7 +64,12 @@ def build_parser():
 
 
 def parse(parser, argv=None):
-    """Parse ``argv``; an unknown argument is an error of the subcommand it was given to."""
+    """Parse ``argv``; an unknown argument is an error of the subcommand it was given to.  ``sphrom bench NAME
+    ...`` hands the arguments after NAME to the program NAME (:func:`harness.commands.bench.program_args`)."""
+    from .commands.bench import program_args
+    args = program_args(sys.argv[1:] if argv is None else list(argv))
+    if args is not None:
+        return args
     args, extra = parser.parse_known_args(argv)
     if extra:
         parser.commands[args.command].error(f"unrecognized arguments: {' '.join(extra)}")

@@ -1,12 +1,125 @@
-"""Benchmarks and stress maps: everything that measures, for commands of their own (never the test suite).
+"""The measurement programs: one module per program, reached through one entry point.
 
-``suite`` runs what ``sphrom bench`` reports (``methods``, ``scaling``, ``skip``,
-``input_direction``, ``sph_scaling``, ``fmu``), ``stress_maps`` the maps of
-``sphrom stress`` (``stress``, ``stress_fmu``); ``report`` writes their Markdown
-(BENCHMARKS.md, stress.md); ``timing`` and ``tables`` are the shared medians and
-CSV files.  ``fmu_verify`` (``python -m harness.bench.fmu_verify``) writes the
-section of BENCHMARKS.md on the packaged FMU against the full SPH, every scene;
-``sph_stencil`` (``python -m harness.bench.sph_stencil``, with its worker
-``sph_step_worker``) the section on the numba full SPH step against the C
-stencil and an older checkout.
+``sphrom bench NAME [options]`` runs the program NAME (``sphrom bench NAME --help`` lists its options);
+``sphrom bench --list`` prints one line per program: what it measures, how long it takes, what it writes.
+``python -m harness.bench.NAME`` runs the modules below as well.  The code they share is the library
+:mod:`harness.measure` (and :mod:`harness.fmu`, :mod:`harness.rom`, ...), never another program.
+
+:data:`PROGRAMS` is the one list.  A program is a module here with ``main(argv)``, or one of the commands that
+measure (``sphrom bench`` itself, ``bench-sph``, ``bench-fmu``, ``stress``), reached under its program name.
+Durations are the wall times the programs recorded in their own output (BENCHMARKS.md, validation/), or the
+command that measured them, on this project's shared 2-core machine.
 """
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Program:
+    """One measurement program of :data:`PROGRAMS`."""
+
+    target: str          # a module with main(argv) (harness.bench.X, harness.sweep.measure), or "command:NAME"
+    measures: str
+    takes: str           # how long, as measured (and where the figure comes from)
+    writes: str
+
+
+PROGRAMS = {
+    "suite": Program("command:bench", "run time against error of every method on the paper's scenes, cost against "
+                     "N and k, skipped terms, the force direction, the full SPH step, the FMU (and the stress maps "
+                     "with --report); also `sphrom bench [SCENE ...]`",
+                     "1290 s (BENCHMARKS.md, its first line)",
+                     "validation/benchmarks/*.csv, *.png; BENCHMARKS.md with --report"),
+    "sph-step": Program("command:bench-sph", "µs per full SPH step against N and the integrator (also "
+                        "`sphrom bench-sph`)", "not recorded", "sph_scaling.csv/png with --out; a BENCHMARKS.md "
+                        "section with --report"),
+    "fmu-speed": Program("command:bench-fmu", "ns per step of the FMU's C core against N, the FMU end to end beside "
+                         "the full SPH (also `sphrom bench-fmu`)", "not recorded",
+                         "bench_fmu_core.csv, bench_fmu_e2e.csv, bench_fmu.md with --out"),
+    "stress": Program("command:stress", "stability maps of every method over Δt, amplitude, horizon, k and random "
+                      "forces (also `sphrom stress`)", "not recorded", "validation/stress/: stress.md, CSV, PNG"),
+    "fmu": Program("harness.bench.fmu", "the FMU section of BENCHMARKS.md alone: C core, end to end, the "
+                   "same-language ratio", "not recorded", "fmu_core.csv, fmu_e2e.csv; BENCHMARKS.md's Headline and "
+                   "The FMU"),
+    "fmu_verify": Program("harness.bench.fmu_verify", "every built-in scene's packaged FMU against the full SPH "
+                          "(what `sphrom fmu` measures), medians of repeated timings",
+                          "230 s with --no-bounds (BENCHMARKS.md)", "fmu_verify.csv; a BENCHMARKS.md section"),
+    "envelope": Program("harness.bench.envelope", "where the frozen model leaves its training envelope: probe error "
+                        "against the amplitude", "not recorded", "envelope.csv, envelope.png; a BENCHMARKS.md "
+                        "section"),
+    "rest": Program("harness.bench.rest", "whether each packaged FMU stays at rest, and what the rest-consistent b "
+                    "costs", "847 s (BENCHMARKS.md)", "rest.csv, rest.png; a BENCHMARKS.md section"),
+    "linear_tradeoff": Program("harness.bench.linear_tradeoff", "time against error of the linear models (balanced, "
+                               "exact) beside the paper's, with the certified bounds", "787 s (BENCHMARKS.md)",
+                               "a BENCHMARKS.md section"),
+    "sph_stencil": Program("harness.bench.sph_stencil", "the numba full SPH step against a C stencil and an older "
+                           "checkout", "89 s with --repeats 9 (BENCHMARKS.md)", "sph_stencil.csv/png; a "
+                           "BENCHMARKS.md section"),
+    "balanced_measure": Program("harness.bench.balanced_measure", "the balanced models against the full linear SPH "
+                                "and the exact POD model, their bounds' effectivity", "not recorded",
+                                "CSV and PNG files into --out"),
+    "input_derivatives": Program("harness.bench.input_derivatives", "held against interpolated input: the FMUs' "
+                                 "probe error against the communication step", "measured: see the report",
+                                 "input_derivatives.csv"),
+    "port_rates": Program("harness.bench.port_rates", "held against interpolated port forces: the port FMU's error "
+                          "against the communication step", "measured: see the report", "port_rates.csv"),
+    "port_coupling": Program("harness.bench.port_coupling", "a port FMU against the full SPH with the same point "
+                             "forces, open loop and coupled to a mass-spring", "measured: see the report",
+                             "port_coupling.csv"),
+    "port_envelope": Program("harness.bench.port_envelope", "the port FMU's accuracy against the port-force "
+                             "amplitude", "measured: see the report", "port_envelope.csv"),
+    "unseen_force": Program("harness.bench.unseen_force", "the FMUs under forces their basis never saw, against "
+                            "the full SPH's forced response", "measured: see the report", "unseen_force.csv"),
+    "parametric": Program("harness.bench.parametric", "the parametric model at held-out (c, d) against the full SPH "
+                          "and a model trained there", "not recorded", "CSV and a PNG map into --out"),
+    "reduced_stability": Program("harness.bench.reduced_stability", "how close the reduced models' sound runs come "
+                                 "to their blow-up alarms", "measured: see the report", "reduced_stability.csv"),
+    "automatic_choices": Program("harness.bench.automatic_choices", "what the automatic rules of a scene choose on "
+                                 "each paper scene", "measured: see the report", "prints a table"),
+    "hostile": Program("harness.bench.hostile", "the hostile-input battery: options, paths, scenes, FMU resources "
+                       "and states, FMI call sequences, signals", "not recorded", "validation/hostile/"),
+    "sweep": Program("harness.sweep.measure", "the committed parameter sweep on dask (throughput, resume)",
+                     "not recorded", "validation/sweeps/"),
+}
+
+
+def list_lines():
+    """One line per program: name, what it measures, how long it takes, what it writes."""
+    width = max(map(len, PROGRAMS))
+    return [f"{name:<{width}}  {p.measures}; takes {p.takes}; writes {p.writes}" for name, p in PROGRAMS.items()]
+
+
+def program_parser(name, description=None, **options):
+    """The argument parser of program ``name``: one-line errors with exit status 2 (as every sphrom command),
+    named as it was called (``sphrom bench NAME`` or ``python -m harness.bench.NAME``)."""
+    from ..cli import Parser
+    prog = f"sphrom bench {name}" if _CALLED_AS_SPHROM else f"python -m {PROGRAMS[name].target}"
+    return Parser(prog=prog, description=description, **options)
+
+
+_CALLED_AS_SPHROM = False
+
+
+def run_program(name, argv):
+    """Run program ``name`` with the arguments ``argv``; its exit status (``--help``: 0, a bad option: 2)."""
+    global _CALLED_AS_SPHROM
+    target = PROGRAMS[name].target
+    if target.startswith("command:"):
+        from ..cli import build_parser
+        command = target.split(":", 1)[1]
+        parser = build_parser()
+        try:
+            args = parser.parse_args([command, *argv])
+        except SystemExit as exc:
+            return exc.code if isinstance(exc.code, int) else 0
+        return int(args.handler(args) or 0)
+    _CALLED_AS_SPHROM = True
+    try:
+        return int(importlib.import_module(target).main(list(argv)) or 0)
+    except SystemExit as exc:            # the program's --help, or a bad option (one line already printed)
+        return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+    finally:
+        _CALLED_AS_SPHROM = False

@@ -41,7 +41,8 @@ def table(progress=False):
 
 
 def main(argv=None):
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    from . import program_parser
+    p = program_parser("automatic_choices", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--out", metavar="FILE.csv", help="also write the rows as CSV")
     args = p.parse_args(argv)
     rows = table(progress=True)

@@ -291,7 +291,8 @@ def _sections(text):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(prog="python3 -m harness.bench.balanced_measure", description=__doc__.split("\n")[0])
+    from . import program_parser
+    ap = program_parser("balanced_measure", description=__doc__.split("\n")[0])
     ap.add_argument("--out", default=".", help="folder for balanced_orders.png (default .)")
     ap.add_argument("--sections", type=_sections, default=list(SECTIONS),
                     help=f"comma-separated subset of {','.join(SECTIONS)} (default all)")

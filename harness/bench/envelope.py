@@ -197,7 +197,8 @@ def _scales(text):
 
 def main(argv=None):
     from ..measure.markdown import envelope_section
-    p = argparse.ArgumentParser(prog="python -m harness.bench.envelope", description=__doc__.split("\n\n")[0])
+    from . import program_parser
+    p = program_parser("envelope", description=__doc__.split("\n\n")[0])
     p.add_argument("scenes", nargs="*", default=list(SCENES), metavar="SCENE")
     p.add_argument("--scales", type=_scales, default=list(SCALES), metavar="S1,S2,...")
     p.add_argument("--out", default="validation/benchmarks/envelope.csv", metavar="FILE.csv")
@@ -205,7 +206,7 @@ def main(argv=None):
     p.add_argument("--quiet", action="store_true")
     args = p.parse_args(argv)
     from ..report.markdown import write_text
-    from .fmu_verify import replace_section
+    from ..measure.markdown import replace_section
     result = run(args.out, args.scenes, args.scales, progress=not args.quiet)
     lines = envelope_section(result, image_dir=str(Path(args.out).parent))
     print("\n".join(lines))

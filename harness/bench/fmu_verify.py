@@ -81,38 +81,15 @@ def measure_scene(name, models, repeats, folder, fmi=2, progress=True, bounds=Tr
     return rows
 
 
-def replace_section(text, heading, lines, before="## Stability stress maps"):
-    """``text`` with the section ``heading`` (up to the next ``## ``) replaced by ``lines``, or inserted before
-    the section ``before`` (at the end when that is absent)."""
-    block = "\n".join(lines).rstrip("\n") + "\n\n"
-    start = text.find(heading + "\n")
-    if start >= 0:
-        end = text.find("\n## ", start + len(heading))
-        return text[:start] + block + (text[end + 1:] if end >= 0 else "")
-    at = text.find("\n" + before + "\n")
-    if at >= 0:
-        return text[:at + 1] + block + text[at + 1:]
-    return text.rstrip("\n") + "\n\n" + block
-
-
-def update_report(path, sections):
-    """Replace (or insert) the sections {heading: lines} of the Markdown report at ``path`` (atomically)."""
-    from ..report.markdown import write_text
-    report = Path(path)
-    text = report.read_text() if report.exists() else "# Benchmarks\n"
-    for heading, lines in sections.items():
-        text = replace_section(text, heading, lines)
-    write_text(report, text)
-    return report
-
-
 def main(argv=None):
+    from ..measure.markdown import update_report
     from ..rom.registry import fmu_model_names
     from ..scene import builtin_names
     from ..measure.markdown import packaged_fmu_section
     from ..measure.tables import write_csv
 
-    p = argparse.ArgumentParser(prog="python -m harness.bench.fmu_verify", description=__doc__.split("\n\n")[0])
+    from . import program_parser
+    p = program_parser("fmu_verify", description=__doc__.split("\n\n")[0])
     p.add_argument("scenes", nargs="*", metavar="SCENE", help="default: every built-in scene")
     p.add_argument("--models", default=",".join(fmu_model_names()), metavar="M1,M2")
     p.add_argument("--repeats", type=int, default=3, metavar="R")

@@ -738,7 +738,8 @@ def print_counts(results, wall, command):
 
 
 def main(argv=None):
-    p = argparse.ArgumentParser(prog="python3 -m harness.bench.hostile", description=__doc__.split("\n\n")[0])
+    from . import program_parser
+    p = program_parser("hostile", description=__doc__.split("\n\n")[0])
     p.add_argument("--out", default="validation/hostile", help="folder for hostile.csv and hostile_counts.csv")
     p.add_argument("--seed", type=int, default=25)
     p.add_argument("--jobs", type=int, default=2, help="command-line cases run at a time (default 2)")

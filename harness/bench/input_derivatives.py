@@ -93,7 +93,8 @@ def markdown(rows, model="exact"):
 
 
 def main(argv=None):
-    p = argparse.ArgumentParser(prog="python -m harness.bench.input_derivatives", description=__doc__.split("\n\n")[0])
+    from . import program_parser
+    p = program_parser("input_derivatives", description=__doc__.split("\n\n")[0])
     p.add_argument("--out", default="validation/benchmarks", metavar="FOLDER")
     p.add_argument("--scene", default="tenmode")
     p.add_argument("--model", choices=MODELS, action="append",

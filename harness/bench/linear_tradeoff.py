@@ -165,7 +165,8 @@ def write_section(path, text):
 def main(argv=None):
     from ..progress import progress_bar
     from ..measure.markdown import linear_tradeoff_section
-    p = argparse.ArgumentParser(prog="python -m harness.bench.linear_tradeoff", description=__doc__.split("\n")[0])
+    from . import program_parser
+    p = program_parser("linear_tradeoff", description=__doc__.split("\n")[0])
     p.add_argument("--scenes", default=",".join(DEFAULT_SCENES), help="NAME[@shaped],... (default %(default)s)")
     p.add_argument("--orders", default=",".join(map(str, ORDERS)), help="state dimensions r (default %(default)s)")
     p.add_argument("--repeats", type=int, default=3, help="timed runs per point, the median kept (default 3)")

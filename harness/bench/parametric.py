@@ -186,7 +186,8 @@ def markdown(rows, cost=None):
 def main(argv=None):
     from ..rom import parametric as par
     from ..scene import load_scene
-    p = argparse.ArgumentParser(prog="python -m harness.bench.parametric", description=__doc__.split("\n\n")[0])
+    from . import program_parser
+    p = program_parser("parametric", description=__doc__.split("\n\n")[0])
     p.add_argument("--scene", default="tenmode")
     p.add_argument("--vary", action="append", default=None, metavar="c=LO:HI|d=LO:HI",
                    help="parameter ranges (default c=0.05:0.2 and d=0:5)")

@@ -98,7 +98,8 @@ def measure(scene_name="damped_forced", t_end=2.0, h=1e-3, k=12, models=("frozen
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    from . import program_parser
+    ap = program_parser("port_coupling", description=__doc__.split("\n\n")[0])
     ap.add_argument("--t-end", type=float, default=2.0)
     ap.add_argument("--out", default="validation/benchmarks/port_coupling.csv")
     args = ap.parse_args(argv)

@@ -97,7 +97,8 @@ def markdown(rows):
 
 def main(argv=None):
     from ..measure.tables import write_csv
-    p = argparse.ArgumentParser(prog="python -m harness.bench.port_rates", description=__doc__.split("\n\n")[0])
+    from . import program_parser
+    p = program_parser("port_rates", description=__doc__.split("\n\n")[0])
     p.add_argument("--out", default="validation/benchmarks", metavar="FOLDER")
     p.add_argument("--scene", default="damped_forced")
     args = p.parse_args(argv)

@@ -80,8 +80,8 @@ def markdown(rows):
 
 def main(argv=None):
     from ..measure.tables import write_csv
-    p = argparse.ArgumentParser(prog="python -m harness.bench.reduced_stability",
-                                description=__doc__.split("\n\n")[0])
+    from . import program_parser
+    p = program_parser("reduced_stability", description=__doc__.split("\n\n")[0])
     p.add_argument("scenes", nargs="*", metavar="SCENE", help=f"default: {' '.join(SCENES)}")
     p.add_argument("--out", default="validation/benchmarks", metavar="FOLDER")
     args = p.parse_args(argv)

@@ -143,7 +143,7 @@ def rerender(csv_path, report):
     import re
 
     from ..measure.markdown import split_sections
-    from .fmu_verify import update_report
+    from ..measure.markdown import update_report
     with open(csv_path, newline="") as fh:
         rows = list(csv.DictReader(fh))
     old = "\n".join(split_sections(report.read_text()).get(SECTION_HEADING, []))
@@ -158,10 +158,11 @@ def rerender(csv_path, report):
 def main(argv=None):
     from ..runio import atomic_path
     from ..scene import builtin_names
-    from .fmu_verify import update_report
+    from ..measure.markdown import update_report
     from ..measure.tables import write_csv
 
-    p = argparse.ArgumentParser(prog="python -m harness.bench.rest", description=__doc__.split("\n\n")[0])
+    from . import program_parser
+    p = program_parser("rest", description=__doc__.split("\n\n")[0])
     p.add_argument("scenes", nargs="*", metavar="SCENE", help="default: every built-in scene")
     p.add_argument("--out", default="validation/benchmarks/rest.csv", metavar="FILE.csv")
     p.add_argument("--report", default="BENCHMARKS.md", metavar="FILE.md")

@@ -313,10 +313,11 @@ def _checkout(text):
 def main(argv=None):
     from ..progress import progress_bar
     from ..runio import atomic_path
-    from .fmu_verify import update_report
+    from ..measure.markdown import update_report
     from ..measure.tables import write_csv
 
-    p = argparse.ArgumentParser(prog="python -m harness.bench.sph_stencil", description=__doc__.split("\n\n")[0])
+    from . import program_parser
+    p = program_parser("sph_stencil", description=__doc__.split("\n\n")[0])
     p.add_argument("--scene", default="tenmode", help="scene whose fields, force and CFL number are used (default "
                                                       "%(default)s)")
     p.add_argument("--sizes", type=_int_list, default=[10_000, 100_000], metavar="N,...",

@@ -105,7 +105,8 @@ def measure(scene_name, models=None, folder=None):
 
 def main(argv=None):
     from ..measure.tables import write_csv
-    p = argparse.ArgumentParser(prog="python -m harness.bench.unseen_force", description=__doc__.split("\n\n")[0])
+    from . import program_parser
+    p = program_parser("unseen_force", description=__doc__.split("\n\n")[0])
     p.add_argument("scenes", nargs="*", default=["tenmode"], metavar="SCENE")
     p.add_argument("--out", default="validation/benchmarks/unseen_force.csv", metavar="FILE.csv")
     args = p.parse_args(argv)

@@ -1,11 +1,23 @@
-"""``sphrom bench``: run time against error for every method, cost scaling, skipped terms (BENCHMARKS.md)."""
+"""``sphrom bench``: every measurement program (``sphrom bench NAME``, ``--list``), and the whole report.
+
+``sphrom bench NAME [options]`` runs the program NAME of :data:`harness.bench.PROGRAMS` with its own options;
+``sphrom bench [SCENE ...] [options]`` (no program name first) is the program ``suite``: run time against error
+of every method, cost scaling, skipped terms (BENCHMARKS.md with ``--report``).  The first word decides: a
+program's name is a program (no built-in scene has one: tests/test_bench_programs.py), anything else a scene (a
+scene file named like a program is given as a path, ./NAME.toml).
+"""
 
 from .options import MAX_REPEATS, add_quiet, int_in, int_list, min_particles
 
 
 def add_parser(sub):
-    p = sub.add_parser("bench", help="run time against error of every method (writes BENCHMARKS.md with --report)",
-                       description="For each SCENE (default: the paper's acceleration scenes) time the full SPH and "
+    p = sub.add_parser("bench", help="the measurement programs (sphrom bench NAME, --list); without a NAME, run "
+                                     "time against error of every method (BENCHMARKS.md with --report)",
+                       usage="sphrom bench NAME [options] | sphrom bench --list | sphrom bench [SCENE ...] [options]",
+                       description="sphrom bench NAME [options] runs the measurement program NAME (sphrom bench "
+                                   "--list: one line each; sphrom bench NAME --help: its options). Without a program "
+                                   "name first (the program suite): for each SCENE (default: the paper's "
+                                   "acceleration scenes) time the full SPH and "
                                    "every reduced model (original, linearized, frozen for n_freeze in 1,2,5,10,20,50, "
                                    "exact), and the FMU when it can be built, in one run on one machine: medians of "
                                    "--repeats runs, speed-ups as ratios to the full SPH timed in the same run, offline "
@@ -34,8 +46,22 @@ def add_parser(sub):
                    help="only redraw the time-against-error plots from --out's bench.csv (no timing)")
     p.add_argument("--report", metavar="FILE.md", nargs="?", const="BENCHMARKS.md",
                    help="also write the Markdown report (default BENCHMARKS.md)")
+    p.add_argument("--list", action="store_true",
+                   help="list the measurement programs (what each measures, how long it takes, what it writes)")
     add_quiet(p)
     p.set_defaults(handler=run)
+
+
+def program_args(argv):
+    """``sphrom bench NAME ...`` with NAME a program of :data:`harness.bench.PROGRAMS` (module docstring): the
+    arguments that run it (command ``bench``, its handler), else None (every other command line)."""
+    import argparse
+
+    from ..bench import PROGRAMS, run_program
+    if len(argv) < 2 or argv[0] != "bench" or argv[1] not in PROGRAMS:
+        return None
+    name, rest = argv[1], list(argv[2:])
+    return argparse.Namespace(command="bench", handler=lambda args: run_program(name, rest))
 
 
 def run(args):
@@ -49,6 +75,10 @@ def run(args):
     from ..runio import check_output_dir, check_output_path, output_dir
     from ..scene import load_scene
 
+    if args.list:
+        from ..bench import list_lines
+        print("\n".join(list_lines()))
+        return 0
     out = Path(args.out)
     if args.replot:
         if not (out / "bench.csv").is_file():

@@ -62,7 +62,7 @@ def run(args):
             plot_scaling(rows, integrators, out / "sph_scaling.png", args.scene)
         print(f"wrote {out / 'sph_scaling.csv'} and {out / 'sph_scaling.png'}")
     if args.report:
-        from ..bench.fmu_verify import update_report
+        from ..measure.markdown import update_report
         from ..measure.markdown import SPH_STEP_HEADING, sph_step_section
         command = (f"sphrom bench-sph {args.scene} --n-particles {','.join(map(str, sizes))} --integrator "
                    f"{','.join(integrators)} --repeats {args.repeats} --layout {args.layout}"

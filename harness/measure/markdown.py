@@ -472,3 +472,34 @@ def packaged_fmu_section(rows, *, command, repeats, wall, machine):
     if notes:
         lines += ["", "FMU failures: " + "; ".join(notes) + "."]
     return lines + [""]
+
+
+# ---------------------------------------------------------------------------
+# Sections of BENCHMARKS.md replaced in place (the programs that rewrite one section)
+# ---------------------------------------------------------------------------
+
+def replace_section(text, heading, lines, before="## Stability stress maps"):
+    """``text`` with the section ``heading`` (up to the next ``## ``) replaced by ``lines``, or inserted before
+    the section ``before`` (at the end when that is absent)."""
+    block = "\n".join(lines).rstrip("\n") + "\n\n"
+    start = text.find(heading + "\n")
+    if start >= 0:
+        end = text.find("\n## ", start + len(heading))
+        return text[:start] + block + (text[end + 1:] if end >= 0 else "")
+    at = text.find("\n" + before + "\n")
+    if at >= 0:
+        return text[:at + 1] + block + text[at + 1:]
+    return text.rstrip("\n") + "\n\n" + block
+
+
+def update_report(path, sections):
+    """Replace (or insert) the sections {heading: lines} of the Markdown report at ``path`` (atomically)."""
+    from pathlib import Path
+
+    from ..report.markdown import write_text
+    report = Path(path)
+    text = report.read_text() if report.exists() else "# Benchmarks\n"
+    for heading, lines in sections.items():
+        text = replace_section(text, heading, lines)
+    write_text(report, text)
+    return report

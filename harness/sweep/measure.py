@@ -84,7 +84,8 @@ def _rel(path, base):
 
 def main(argv=None):
     root = Path(__file__).resolve().parents[2]
-    p = argparse.ArgumentParser(prog="python -m harness.sweep.measure", description=__doc__.split("\n\n")[0])
+    from ..bench import program_parser
+    p = program_parser("sweep", description=__doc__.split("\n\n")[0])
     p.add_argument("--spec", default=str(root / "validation/sweeps/tenmode_forces.toml"))
     p.add_argument("--sph-spec", default=str(root / "validation/sweeps/tenmode_forces_sph.toml"))
     p.add_argument("--workers", default="1,2")
