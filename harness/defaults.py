@@ -8,6 +8,7 @@ REFRESH = "tensor"              # the frozen model's refresh path: the exact ten
 HOLD = "linear"                 # a linear model's input over a communication step ("held": its start value)
 ORDER_TOLERANCE = 1e-3          # the balanced model's order criterion: Hankel-singular-value tail / total
 PROBES = (0.25, 0.5, 0.66)      # probe positions [x/L]; 0.66: the probe of the paper's Fig. C.6
+STEP = 0.01                     # an FMU's DefaultExperiment stepSize [s] (at most T/10), the benchmarks' step
 
 # The FMU's start values that are the same in every FMU (harness/fmu/variables.py declares them; the instance
 # layer, fmu_src/instance.c, applies them after every instantiation and reset).  The Python models keep their

@@ -19,7 +19,8 @@ from scipy.integrate import simpson
 from conftest import assert_units_through_declared_types, fmu_scene, small_scene
 from harness.fmu.make.build import ensure_binaries
 from harness.fmu.run.driver import FMU
-from harness.fmu.make.package import balanced_model, exact_model, package_fmu
+from harness.fmu.make.models import balanced_model, exact_model
+from harness.fmu.make.package import package_fmu
 from harness.fmu.resources import FLAG_OUTPUT_ROWS, probe_pairs, unpack
 from harness.fmu.variables import vr
 from harness.rom.balanced import error_bounds, reduced_from_exact

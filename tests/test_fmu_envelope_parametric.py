@@ -47,7 +47,7 @@ def test_envelope_is_the_union_over_the_sample_points(parametric_fmus):
     envelope on the FMU's basis), wider than the run at the start value alone; the exact parametric FMU
     records its envelope without run-time checks."""
     from harness.fmu.make.envelope import measure
-    from harness.fmu.make.package import DEFAULT_PROBES
+    from harness.defaults import PROBES as DEFAULT_PROBES
     sc = scene()
     path, data = parametric_fmus("frozen")
     env = E.Envelope.from_sections(data.sections, data.k_v)

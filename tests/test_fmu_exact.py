@@ -19,7 +19,8 @@ from fmpy.fmi1 import FMICallException
 from conftest import assert_units_through_declared_types, fmu_scene
 from harness.fmu.make.build import ensure_binaries
 from harness.fmu.run.driver import FMU
-from harness.fmu.make.package import exact_model, package_fmu
+from harness.fmu.make.models import exact_model
+from harness.fmu.make.package import package_fmu
 from harness.fmu.resources import unpack
 from harness.rom.exact_linear import run_exact
 

@@ -21,7 +21,8 @@ from conftest import fmu_maker, fmu_scene
 from harness.fmu.make.build import ensure_binaries
 from harness.fmu.make.describe import model_description
 from harness.fmu.run.driver import FMU
-from harness.fmu.make.package import exact_model, reduced_model, write_fmu
+from harness.fmu.make.models import exact_model, reduced_model
+from harness.fmu.make.archive import write_fmu
 from harness.fmu.check.python_cosim import cosim_reference
 from harness.fmu.resources import probe_pairs, unpack
 from harness.fmu.variables import vr

@@ -21,7 +21,8 @@ from conftest import fmu_scene
 from harness.fmu.make.build import ensure_binaries
 from harness.fmu.run.cosim import run_cosim
 from harness.fmu.run.driver import FMU
-from harness.fmu.make.package import exact_model, package_fmu
+from harness.fmu.make.models import exact_model
+from harness.fmu.make.package import package_fmu
 from harness.fmu.resources import unpack
 from harness.fmu.variables import vr
 from harness.rom.exact_linear import run_exact

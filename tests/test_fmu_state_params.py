@@ -20,7 +20,8 @@ from conftest import fmu_scene
 from harness.fmu.make.build import ensure_binaries
 from harness.fmu.make.describe import model_description
 from harness.fmu.run.driver import FMU
-from harness.fmu.make.package import package_fmu, write_fmu
+from harness.fmu.make.package import package_fmu
+from harness.fmu.make.archive import write_fmu
 from harness.fmu.resources import unpack
 from harness.fmu.variables import vr
 from harness.rom import parametric as par

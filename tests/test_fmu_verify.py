@@ -18,7 +18,8 @@ from harness.cli import main
 from harness.expr import compile_expr
 from harness.fmu.make.build import ensure_binaries
 from harness.fmu.run.cosim import run_cosim
-from harness.fmu.make.package import package_auto, package_fmu
+from harness.fmu.make.auto import package_auto
+from harness.fmu.make.package import package_fmu
 from harness.fmu.variables import lookup, vr
 from harness.rom.registry import fmu_model_names
 from harness.sph.solver import build_problem, run_sph

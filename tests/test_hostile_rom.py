@@ -163,7 +163,8 @@ def test_exact_fmu_forced_from_rest_is_not_a_runaway(tmp_path):
 
     from harness.fmu.make.build import ensure_binaries
     from harness.fmu.run.driver import FMU
-    from harness.fmu.make.package import exact_model, package_fmu
+    from harness.fmu.make.models import exact_model
+    from harness.fmu.make.package import package_fmu
     from harness.rom.exact_linear import run_exact
     from test_fmu_exact import probe_outputs, relative_residual
     from harness.fmu.resources import unpack

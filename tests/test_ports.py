@@ -120,7 +120,7 @@ def test_port_fmu_equals_the_python_reduced_models(port_fmus, fmi):
     """F_port_j in, v_port_j out, area dividing the inputs: the frozen FMU equals the Python frozen model stepped
     like the FMU bit for bit, the exact FMU equals run_exact (scipy's expm) to 1e-12; FMI 2 and 3 alike."""
     from conftest import assert_units_through_declared_types, fmu_scene
-    from harness.fmu.make.package import exact_model
+    from harness.fmu.make.models import exact_model
     from harness.fmu.check.python_cosim import FrozenCosim
     from harness.rom.exact_linear import run_exact
     scene = fmu_scene("forced")
@@ -240,7 +240,7 @@ def test_exact_port_fmu_takes_port_input_derivatives(port_fmus):
 
     from conftest import fmu_scene
     from harness.fmu.run.driver import FMU
-    from harness.fmu.make.package import exact_model
+    from harness.fmu.make.models import exact_model
     from harness.rom.exact_linear import run_exact
     scene = fmu_scene("forced")
     t = np.arange(M + 1) * H

@@ -24,7 +24,8 @@ from harness.fmu.make.build import ensure_binaries
 from harness.fmu.run.core import Core, CoreError
 from harness.fmu.make.describe import model_description
 from harness.fmu.run.driver import FMU
-from harness.fmu.make.package import package_fmu, write_fmu
+from harness.fmu.make.package import package_fmu
+from harness.fmu.make.archive import write_fmu
 from harness.fmu.resources import unpack
 from harness.rom.parametric import Range
 from harness.rom.registry import get_model
@@ -232,7 +233,7 @@ def test_n_freeze_has_one_range_and_one_message():
     row = variables.BY_NAME["n_freeze"]
     words = f"is out of range (allowed: {variables.allowed_words(row)})"
     core = Core(ensure_binaries().core)
-    from harness.fmu.make.package import reduced_model
+    from harness.fmu.make.models import reduced_model
     data, _, _, _ = reduced_model(fmu_scene("forced"), K, 10, (0.5,), "euler", progress=False)
     from harness.fmu.resources import pack
     model = core.load(pack(data))

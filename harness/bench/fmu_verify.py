@@ -15,7 +15,6 @@ of the report (replaced when present, else put before the stress maps or at the 
 
 from __future__ import annotations
 
-import argparse
 import platform
 import sys
 import tempfile

@@ -11,7 +11,6 @@ probes and time at the coarse communication points.  Writes
 ``input_derivatives.csv`` and prints a Markdown table per model.
 """
 
-import argparse
 import sys
 import tempfile
 from pathlib import Path

@@ -20,7 +20,6 @@ which prints the table and writes it as the section "Linear models: time against
 
 from __future__ import annotations
 
-import argparse
 import time
 from pathlib import Path
 

@@ -25,7 +25,6 @@ prints a markdown table.
 
 from __future__ import annotations
 
-import argparse
 import csv
 import tempfile
 import time
@@ -74,7 +73,7 @@ def measure(scene, vary, model="frozen", k=None, n_points=10, progress=True, inp
 
     Also returns (space, training points, held-out points).
     """
-    from ..fmu.make.package import default_modes
+    from ..fmu.make.options import default_modes
     from ..fmu.make.parametric import parametric_model
     from ..progress import progress_bar
     from ..rom import parametric as par
@@ -94,7 +93,7 @@ def measure(scene, vary, model="frozen", k=None, n_points=10, progress=True, inp
 def _held_out_row(scene, affine, model, k, c, d):
     """One held-out point: the full SPH there, the parametric model and a model trained there alone."""
     from ..cache import cached_sph
-    from ..fmu.make.package import exact_model, reduced_model
+    from ..fmu.make.models import exact_model, reduced_model
     from ..pod.pipeline import error_steps
     from ..rom import parametric as par
     from ..rom.registry import get_model

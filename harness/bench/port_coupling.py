@@ -21,7 +21,6 @@ Run as::
 
 from __future__ import annotations
 
-import argparse
 import tempfile
 from pathlib import Path
 

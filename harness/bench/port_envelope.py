@@ -11,7 +11,6 @@ multiple of the trained one), and the FMU's envelope warning (none, or the quant
 
 from __future__ import annotations
 
-import argparse
 import sys
 import tempfile
 import zipfile

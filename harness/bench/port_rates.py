@@ -15,7 +15,6 @@ port forces' effect on it (the reference minus the same run without port forces)
 
 from __future__ import annotations
 
-import argparse
 import sys
 import tempfile
 import zipfile

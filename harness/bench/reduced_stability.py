@@ -16,7 +16,6 @@ symplectic Euler, the scene's Δt and T, the scene's force) and reports
 Writes ``reduced_stability.csv`` and prints a Markdown table.
 """
 
-import argparse
 import sys
 from pathlib import Path
 

@@ -25,7 +25,6 @@ It writes the CSV, ``rest.png`` beside it (|v_probe|(t) at rest, multimode, ever
 
 from __future__ import annotations
 
-import argparse
 import platform
 import sys
 import tempfile

@@ -19,7 +19,6 @@ profile in the basis, each FMU's free response (the scene's own run, f = 0,
 
 from __future__ import annotations
 
-import argparse
 import tempfile
 from pathlib import Path
 

@@ -81,7 +81,8 @@ def run(args):
 
 def _run(args):
     from ..errors import UserError, exact
-    from ..fmu.make.package import check_options, package_fmu
+    from ..fmu.make.options import check_options
+    from ..fmu.make.package import package_fmu
     from ..runio import check_output_path
     from ..scene import automatic_lines, load_scene
 
@@ -118,7 +119,7 @@ def _run(args):
             check_options(scene, k=args.modes, n_freeze=args.n_freeze, probes=args.probes, fmi=fmi,
                           integrator=None if MODELS[model].linear else args.integrator, model=model,
                           tolerance=args.tolerance)
-        from ..fmu.make.package import package_auto
+        from ..fmu.make.auto import package_auto
         s, candidates = package_auto(scene, out, tolerance=args.tolerance, k=args.modes, n_freeze=args.n_freeze,
                                      probes=args.probes, fmi=fmi, integrator=args.integrator,
                                      progress=not args.quiet)
@@ -134,7 +135,7 @@ def _run(args):
                       integrator=args.integrator, model=args.model, tolerance=args.tolerance,
                       order_tolerance=args.order_tolerance)
         vary = check_vary(scene, args.vary, args.model)
-        from ..fmu.make.package import check_ports
+        from ..fmu.make.options import check_ports
         ports = check_port_spacing(scene, check_ports(args.ports, args.model))
         if vary and ports:
             raise UserError("--ports: not with --vary (a parametric FMU has no ports)")

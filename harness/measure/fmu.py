@@ -71,7 +71,7 @@ def core_rows(base, sizes, k=BENCH_K, n_freeze=BENCH_FREEZE, n_steps=200_000, re
     """ns per internal step of the C core for each N in ``sizes`` (list of dicts)."""
     from ..fmu.make.build import ensure_binaries
     from ..fmu.run.core import Core
-    from ..fmu.make.package import reduced_model
+    from ..fmu.make.models import reduced_model
     from ..fmu.resources import pack
 
     core = core or Core(ensure_binaries().core)
@@ -184,7 +184,8 @@ def end_to_end(scene_name="tenmode", steps=(0.01, 0.001), repeats=5, k=None, pro
     from ..sph.solver import build_problem, run_sph, step_count
     from ..fmu.make.build import ensure_binaries
     from ..fmu.run.core import Core
-    from ..fmu.make.package import RESOURCES, package_fmu
+    from ..fmu.make.models import RESOURCES
+    from ..fmu.make.package import package_fmu
 
     scene = load_scene(scene_name)
     problem = build_problem(scene)
@@ -359,7 +360,7 @@ def bench_rows(context):
     from ..sph.solver import force_values, step_count
     from ..fmu.run.core import Core
     from ..fmu.make.build import ensure_binaries
-    from ..fmu.make.package import RESOURCES
+    from ..fmu.make.models import RESOURCES
     from ..fmu.run.driver import FMU
 
     scene, run, steps = context["scene"], context["run"], np.asarray(context["steps"])

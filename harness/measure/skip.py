@@ -100,7 +100,8 @@ def _fmu_core_rows(scene, problem, k, n, repeats):
     try:
         from ..fmu.make.build import ensure_binaries
         from ..fmu.run.core import Core
-        from ..fmu.make.package import DEFAULT_PROBES, reduced_model
+        from ..defaults import PROBES as DEFAULT_PROBES
+        from ..fmu.make.models import reduced_model
         from ..fmu.resources import pack
         core = Core(ensure_binaries(quiet=True).core)
     except Exception:                     # no compiler or cmake: the Python rows stand alone

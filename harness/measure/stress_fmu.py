@@ -70,7 +70,8 @@ class FMUStress:
 
         from ..fmu.make.build import ensure_binaries
         from ..fmu.make.describe import model_description
-        from ..fmu.make.package import operator_resource, write_fmu
+        from ..fmu.make.models import operator_resource
+        from ..fmu.make.archive import write_fmu
         from .stress import fmu_operators
 
         scene, problem = ctx.scene, ctx.problem

@@ -20,7 +20,6 @@
 
 from __future__ import annotations
 
-import argparse
 import datetime as _dt
 import os
 import platform

@@ -80,7 +80,7 @@ GRIDS = SCENE_GRIDS + RUN_GRIDS
 TOP_KEYS = ("title", "scene", "t_end", "step", "window", "probes", "fmi", "compare_sph", "grid", "parametric")
 MAX_ENTRIES = 1_000_000
 MAX_STEPS = 10_000_000
-DEFAULT_STEP = 0.01
+DEFAULT_STEP = defaults.STEP
 DEFAULT_FREEZE = defaults.N_FREEZE
 UNITS = {"amplitude": "m s^-2", "frequency": "Hz", "c": "kg m^-1 s^-2", "d": "s^-1", "t_end": "s", "step": "s",
          "window": "s"}
@@ -377,7 +377,7 @@ def parse_spec(text, source="<spec>", spec_path=None) -> Spec:
     UserError
         Naming the file, the field and the allowed range.
     """
-    from ..fmu.make.package import default_modes
+    from ..fmu.make.options import default_modes
     from ..fmu.resources import MAX_PROBES
 
     try:

@@ -20,7 +20,7 @@ import numpy as np
 
 def capture():
     from harness.cache import run_key
-    from harness.fmu.make.package import default_modes
+    from harness.fmu.make.options import default_modes
     from harness.pod.pipeline import error_steps
     from harness.pod.snapshots import snapshot_steps
     from harness.scene import builtin_names, describe_terms, load_scene

@@ -1,0 +1,181 @@
+"""Step "model" of ``package_fmu``: the reduced model's numbers and operators per resource kind of
+``resources/model.bin`` (kind 1: the frozen model; kind 2: the exact model on its POD basis, the balanced model
+without one), with the training envelope (:mod:`.envelope`) and the certified error bounds of the linear models.
+
+:data:`RESOURCES` maps a model's ``fmu_kind`` to the function that makes them; :func:`operator_resource` packs
+operators built elsewhere (a benchmark's own).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ... import defaults
+from ...errors import FieldError
+from ..resources import MODEL_EXACT_LINEAR, MODEL_FROZEN, balanced_data, exact_data, model_data, pack, pack_exact
+
+
+def model_basis(scene, spec, k, progress=True, problem=None):
+    """(basis, problem) of ``scene`` for the model ``spec``: its POD basis, with k checked against the modes of the
+    model's basis kind (FieldError naming the field ``k`` or ``model``)."""
+    from ...pod.pipeline import basis_for_scene
+    from ...rom.model import BASIS_KINDS
+    from ...sph.solver import build_problem
+
+    problem = problem or build_problem(scene)
+    basis, _ = basis_for_scene(scene, progress=progress, problem=problem)
+    available = spec.available_modes(basis)
+    if available is None:
+        raise FieldError("model", f"{spec.name}: the basis of scene '{scene.name}' has no "
+                                  f"{' and '.join(BASIS_KINDS[spec.basis_kind][:2])} modes")
+    if k > min(available):
+        raise FieldError("k", f"{k} is out of range (allowed: 1 to {min(available)}, the POD modes of scene "
+                              f"'{scene.name}')")
+    return basis, problem
+
+
+def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem=None, model="frozen", ports=(),
+                  build_options=None):
+    """The FMU's numbers for a model of resource kind 1 (frozen coefficients): (ModelData, ops, problem, basis).
+
+    Runs (or reuses) the full SPH and the POD (harness.pod.pipeline), builds the model's operators
+    (``get_model(model).build``: the frozen model's own, b about the projected rest density so that the FMU
+    started at rest stays at rest, :func:`harness.rom.operators.rest_b`) with ``input_direction="needed"`` (an
+    input row always; the force profile appended to U_v only when the POD modes miss more than 1 % of it) and
+    ``tensor="always"``.  ``build_options`` go to the model's build (``{"b": "paper"}``: eq. 2.22's b, the
+    paper's variant, :mod:`harness.bench.rest` compares them).
+    """
+    from ...rom.registry import get_model
+    from ...rom.stepping import runaway_bound
+
+    spec = get_model(model)
+    basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem)
+    ops = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction, tensor="always",
+                     **({"ports": tuple(ports)} if ports else {}), **(build_options or {}))
+    data = model_data(ops, problem, dt=scene.sph.dt, integrator=integrator, n_freeze=n_freeze, probes=probes,
+                      bound=runaway_bound(ops))
+    return data, ops, problem, basis
+
+
+def exact_model(scene, k, n_freeze, probes, progress=True, problem=None, model="exact", ports=(),
+                build_options=None):
+    """The FMU's numbers for a model of resource kind 2 on a POD basis (the exact model):
+    (ExactData, lin, problem, basis).
+
+    The model's bases (the exact model: the energy-weighted ``Basis.U_ve``, ``U_e``), the operators with the
+    model's ``fmu_input_direction`` (the exact model: ``"always"``, the force profile is always in its
+    velocity basis, so the input f is represented exactly) and ``build_options``.
+    """
+    from ...rom.registry import get_model
+
+    spec = get_model(model)
+    basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem)
+    lin = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction,
+                     **({"ports": tuple(ports)} if ports else {}), **(build_options or {}))
+    data = exact_data(lin, problem, dt=scene.sph.dt, n_freeze=n_freeze, probes=probes,
+                      bound=linear_bound(lin, scene))
+    return data, lin, problem, basis
+
+
+def training_envelope(scene, ops, problem, probes, linear, progress=False):
+    """The :class:`~harness.fmu.make.envelope.Envelope` of the model ``ops``: its ranges over the scene's cached
+    full SPH training run (:mod:`harness.fmu.make.envelope`)."""
+    from ...pod.pipeline import basis_for_scene
+    from .envelope import measure
+    _, run = basis_for_scene(scene, progress=progress, problem=problem)
+    return measure(scene, ops, problem, run, probes, linear)
+
+
+def balanced_model(scene, k, n_freeze, probes, order_tolerance=None, problem=None, model="balanced",
+                   build_options=None):
+    """The FMU's numbers for a linear model without a POD basis (balanced): (ExactData, ops, problem).
+
+    The full linear SPH of the scene with the FMU's probes as outputs, balanced
+    and truncated at order ``k`` (or the order ``order_tolerance`` gives; the default
+    tolerance when both are None); :func:`harness.fmu.resources.balanced_data`.
+    """
+    from ...rom.registry import get_model
+    from ...sph.solver import build_problem
+
+    problem = problem or build_problem(scene)
+    try:
+        ops = get_model(model).build(problem, None, k, k, order_tolerance=None if k is not None else order_tolerance,
+                                     probes=probes, **(build_options or {}))
+    except ValueError as exc:
+        field_name, _, detail = str(exc).partition(": ")
+        raise FieldError("k" if field_name == "order" else field_name, detail) from None
+    return balanced_data(ops, problem, dt=scene.sph.dt, n_freeze=n_freeze), ops, problem
+
+
+def linear_bounds(ops, problem, probes, progress=True):
+    """The certified error bounds of a linear reduced model at the velocity probes (the operators'
+    ``error_bounds``, :func:`harness.rom.balanced.error_bounds`), with a progress bar over the probes."""
+    from ...progress import progress_bar
+
+    with progress_bar(len(probes), "error bounds", unit="probe", enabled=progress) as bar:
+        return ops.error_bounds(problem, probes, progress=bar)
+
+
+def linear_bound(lin, scene, samples=4097):
+    """The linear FMU's runaway bound on |z|: 10⁶ (|z0| + |B| ∫_0^T |f| dt) with the scene's force over its T
+    (:func:`harness.rom.exact_linear.linear_runaway_bound`; trapezoidal rule on ``samples`` points).
+
+    10⁶ |z0| alone is 0 for a scene at rest, and such an FMU stopped as a runaway at its first forced step.
+    """
+    import numpy as np
+
+    from ...rom.exact_linear import linear_runaway_bound
+    t = np.linspace(0.0, float(scene.T), samples)
+    f = np.abs(np.asarray(scene.force(t), float)) if lin.B is not None else np.zeros(samples)
+    return linear_runaway_bound(lin, float(np.sum(0.5 * (f[1:] + f[:-1]) * np.diff(t))))
+
+
+def _frozen_resource(scene, model, k, n_freeze, probes, integrator, progress, problem, order_tolerance=None,
+                     bounds=True, ports=(), build_options=None):
+    data, ops, problem, _ = reduced_model(scene, k, n_freeze, probes, integrator, progress=progress,
+                                          problem=problem, model=model, ports=ports, build_options=build_options)
+    data.sections.update(training_envelope(scene, ops, problem, probes, False, progress).sections())
+    return data, ops, pack(data)
+
+
+def _linear_resource(scene, model, k, n_freeze, probes, integrator, progress, problem, order_tolerance=None,
+                     bounds=True, ports=(), build_options=None):
+    """Kind 2: the exact POD model (on its basis, with its training envelope) or the balanced model (no basis);
+    both with the certified error bounds against the full linear SPH at the FMU's probes (the operators'
+    ``error_bounds``; section BOUNDS: force, initial state), unless ``bounds`` is False (benchmarks that time
+    the stepping only: the bounds take seconds to minutes at N = 400)."""
+    from ...rom.registry import get_model
+
+    if get_model(model).needs_basis:
+        data, ops, problem, _ = exact_model(scene, k, n_freeze, probes, progress=progress, problem=problem,
+                                            model=model, ports=ports, build_options=build_options)
+        data.sections.update(training_envelope(scene, ops, problem, probes, True, progress).sections())
+    else:
+        data, ops, problem = balanced_model(scene, k, n_freeze, probes, order_tolerance=order_tolerance,
+                                            problem=problem, model=model, build_options=build_options)
+    if not bounds:
+        return data, ops, pack_exact(data)
+    data.bounds = linear_bounds(ops, problem, probes, progress=progress)
+    data.sections["BOUNDS"] = np.vstack([data.bounds["force_error_bound"], data.bounds["initial_state_error_bound"]])
+    return data, ops, pack_exact(data)
+
+
+# model_kind of resources/model.bin (ReducedModel.fmu_kind) -> the FMU's numbers and their bytes
+RESOURCES = {MODEL_FROZEN: _frozen_resource, MODEL_EXACT_LINEAR: _linear_resource}
+
+
+def operator_resource(kind, ops, problem, *, dt, n_freeze=defaults.N_FREEZE, probes=defaults.PROBES, integrator="euler"):
+    """(data, bytes) of resources/model.bin of kind ``kind`` (ReducedModel.fmu_kind) from operators built
+    elsewhere (a benchmark's own), the runaway bound that of their initial state, as :func:`reduced_model` and
+    :func:`exact_model` have it; the initial state is scaled at run time by the FMU's initial_state_scale.  The
+    operators are packaged as they are: the frozen model's own (``get_model("frozen").build``, b about the
+    projected rest density) give the FMU's frozen model, ``b="paper"`` ones eq. 2.22's variant."""
+    from ...rom.stepping import runaway_bound
+    if kind == MODEL_FROZEN:
+        data = model_data(ops, problem, dt=dt, integrator=integrator, n_freeze=n_freeze, probes=probes,
+                          bound=runaway_bound(ops))
+        return data, pack(data)
+    if kind == MODEL_EXACT_LINEAR:
+        data = exact_data(ops, problem, dt=dt, n_freeze=n_freeze, probes=probes)
+        return data, pack_exact(data)
+    raise ValueError(f"resource kind {kind!r} (allowed: {MODEL_FROZEN}, {MODEL_EXACT_LINEAR})")

@@ -1,0 +1,101 @@
+"""Step "options" of ``package_fmu``: every packaging option checked before any work (one FieldError naming the
+field and the allowed range)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ... import defaults
+from ...errors import FieldError
+from ..resources import MAX_PROBES
+from ..variables import check_parameter
+
+
+def default_modes(scene):
+    """K of the scene: max(rom.accel_modes), else rom.modes, else the automatic mode count of its POD
+    (:func:`harness.pod.pipeline.scene_modes`: runs the full SPH when it is not cached)."""
+    from ...pod.pipeline import accel_modes
+    return int(max(accel_modes(scene)))
+
+
+def parse_probes(text):
+    """``0.25,0.5`` -> [0.25, 0.5]; FieldError naming the field ``probes`` when out of range."""
+    parts = [p.strip() for p in str(text).split(",")]
+    try:
+        values = [float(p) for p in parts]
+    except ValueError:
+        raise FieldError("probes", f"{text!r} is not a comma-separated list of numbers "
+                                   f"(allowed: 1 to {MAX_PROBES} positions x/L in [0, 1])") from None
+    if not values or len(values) > MAX_PROBES:
+        raise FieldError("probes", f"{len(values)} probes (allowed: 1 to {MAX_PROBES} positions x/L in [0, 1])")
+    for v in values:
+        if not (math.isfinite(v) and 0.0 <= v <= 1.0):
+            raise FieldError("probes", f"{v!r} is out of range (allowed: positions x/L in [0, 1])")
+    return values
+
+
+def check_options(scene, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaults.PROBES, fmi=2, integrator=None,
+                  model="frozen", tolerance=None, order_tolerance=None):
+    """Validate the packaging options before any work; returns (k, n_freeze, probes, fmi, integrator).
+
+    For a linear model (the exact one) the integrator is ``exponential`` (an ``integrator`` does not apply).
+    ``tolerance`` (0 < tolerance < 1) is the largest measured training error accepted (:func:`package_fmu`
+    with ``verify``), for every model.  ``order_tolerance`` (0 < order_tolerance < 1) applies to a model whose
+    order may come from a tolerance (``sized_by_tolerance``: balanced) given no order ``k`` (1 <= r < 2N); with
+    neither, k is returned as None (the order then comes from :data:`harness.defaults.ORDER_TOLERANCE`).
+
+    Raises FieldError naming the field (``k``, ``n_freeze``, ``probes``, ``fmi``, ``model``, ``integrator``,
+    ``tolerance``, ``order_tolerance``) and the allowed range; the command line shows the option that set it.
+    """
+    from ...rom.registry import fmu_model_names, get_model, model_names
+    if model not in fmu_model_names():
+        raise FieldError("model", f"{model!r} is out of range (allowed: {', '.join(fmu_model_names())})")
+    spec = get_model(model)
+    for name, value in (("tolerance", tolerance), ("order_tolerance", order_tolerance)):
+        if value is not None and (isinstance(value, bool) or not (isinstance(value, (int, float))
+                                                                  and math.isfinite(value) and 0 < value < 1)):
+            raise FieldError(name, f"{value!r} is out of range (allowed: 0 < {name} < 1)")
+    if order_tolerance is not None and not spec.sized_by_tolerance:
+        raise FieldError("order_tolerance", f"does not apply to the {model} model, whose size is its POD mode count "
+                                            f"k (allowed with: {', '.join(model_names(sized_by_tolerance=True))})")
+    if order_tolerance is not None and k is not None:
+        raise FieldError("order_tolerance", "give the order k or order_tolerance, not both")
+    k = default_modes(scene) if k is None and not spec.sized_by_tolerance else k
+    if k is not None and (isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1):
+        raise FieldError("k", f"{k!r} is out of range (allowed: an integer >= 1)")
+    limit = spec.max_modes(scene.sph.n_particles)
+    if k is not None and k > limit:
+        raise FieldError("k", f"{k} is out of range (allowed: " + (f"an order r from 1 to 2N - 1 = {limit})"
+                                                                    if spec.sized_by_tolerance else
+                                                                    f"1 to N = {limit})"))
+    n_freeze = check_parameter("n_freeze", n_freeze)      # the FMU's range and words (harness/fmu/variables.py)
+    probes = parse_probes(",".join(str(p) for p in probes)) if not isinstance(probes, str) else parse_probes(probes)
+    if fmi not in (2, 3):
+        raise FieldError("fmi", f"{fmi!r} is out of range (allowed: 2 or 3)")
+    if spec.linear:
+        if integrator is not None:
+            raise FieldError("integrator", f"{integrator!r} does not apply to the {model} model (it is advanced "
+                                           "by the matrix exponential)")
+        return None if k is None else int(k), int(n_freeze), probes, int(fmi), spec.integrators[0]
+    integrator = integrator or scene.sph.integrator
+    if integrator not in spec.integrators:
+        raise FieldError("integrator", f"{integrator!r} is not defined for the {model} model "
+                                       f"(allowed: {', '.join(spec.integrators)}; scene '{scene.name}' uses "
+                                       f"{scene.sph.integrator})")
+    return int(k), int(n_freeze), probes, int(fmi), integrator
+
+
+def check_ports(ports, model):
+    """The port positions (a list, empty for None) of an FMU of ``model``; FieldError naming ``ports`` when bad
+    or when the model takes no port forces (the registry's ``ports``)."""
+    from ...rom.registry import get_model, model_names
+    from ...sph.ports import parse_ports
+    if ports is None or (not isinstance(ports, str) and len(ports) == 0):
+        return []
+    ports = parse_ports(ports)
+    if not get_model(model).ports:
+        raise FieldError("ports", f"the {model} model takes no port forces (allowed with: "
+                                  f"{', '.join(n for n in model_names(ports=True) if get_model(n).fmu_kind)})")
+    return ports
