@@ -61,6 +61,9 @@ PROGRAMS = {
     "balanced_measure": Program("harness.bench.balanced_measure", "the balanced models against the full linear SPH "
                                 "and the exact POD model, their bounds' effectivity", "not recorded",
                                 "CSV and PNG files into --out"),
+    "cosim_fmi": Program("harness.bench.cosim_fmi", "FMI 2 against FMI 3 builds of the same model under sphrom "
+                         "cosim, with its defaults and with --hold-inputs", "measured: see the report",
+                         "prints a table; CSV with --out"),
     "input_derivatives": Program("harness.bench.input_derivatives", "held against interpolated input: the FMUs' "
                                  "probe error against the communication step", "measured: see the report",
                                  "input_derivatives.csv"),

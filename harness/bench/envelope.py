@@ -28,9 +28,11 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import defaults
+
 SCALES = (1.0, 1.25, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0)
-PROBES = (0.25, 0.5, 0.66)
-N_FREEZE = 10
+PROBES = defaults.PROBES
+N_FREEZE = defaults.N_FREEZE
 FAILURE_ERROR = 0.5      # the frozen model has failed where its probe error reaches this
 
 

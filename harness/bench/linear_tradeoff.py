@@ -25,11 +25,13 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import defaults
+
 DEFAULT_SCENES = ("damped_forced", "damped_forced@shaped")
 ORDERS = (4, 8, 12, 16, 20, 24)
 MODELS = ("balanced", "exact", "frozen", "original")
 UNSEEN_FORCE = "2e-2*sin(2*pi*3.7*t)*exp(-t/T) + 5e-3*sin(2*pi*0.37*t)"      # not the scene's three tones
-PROBES = (0.25, 0.5, 0.66)
+PROBES = defaults.PROBES
 SECTION_TITLE = "## Linear models: time against error"
 STRESS_TITLE = "## Stability stress maps"
 

@@ -32,7 +32,9 @@ from pathlib import Path
 
 import numpy as np
 
-PROBES = (0.25, 0.5, 0.66)
+from .. import defaults
+
+PROBES = defaults.PROBES
 DEFAULT_VARY = ("c=0.05:0.2", "d=0:5")
 
 

@@ -33,8 +33,10 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import defaults
+
 SECTION_HEADING = "## A component at rest"
-PROBES = (0.25, 0.5, 0.66)
+PROBES = defaults.PROBES
 REST_T = 100.0            # [s] the rest run's length
 PLOT_SCENE = "multimode"
 EQ222 = "frozen, eq. 2.22's b"      # the row label of the comparison FMU

@@ -24,6 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import defaults
+
 FORCES = (
     ("sine 3.7 Hz + mean 1e-3, 10 s", 0.01, 1000, lambda t: 2e-3 * np.sin(2 * np.pi * 3.7 * t) + 1e-3),
     ("constant 1e-3, 1000 s", 0.25, 4000, lambda t: np.full_like(t, 1e-3)),
@@ -56,7 +58,7 @@ def _free_probe_velocities(path, h, n):
     return out[:, :out.shape[1] // 2]
 
 
-def _sph_probe_velocities(scene, h, n, probes=(0.25, 0.5, 0.66)):
+def _sph_probe_velocities(scene, h, n, probes=defaults.PROBES):
     """The full SPH's velocity at the FMU's default probes (linear interpolation) every ``h`` [s]."""
     from ..fmu.resources import probe_pairs
     from ..sph.solver import build_problem, run_sph

@@ -14,9 +14,10 @@ def add_parser(sub):
                        description="(1) ns per internal step of the C model core at k = 12, n_freeze = 10 for "
                                    "several particle counts N (scenes derived from SCENE), showing the cost does "
                                    "not depend on N; (2) the end-to-end time of SCENE's FMU through "
-                                   "fmpy.simulate_fmu with 10 ms and 1 ms communication steps beside the Python "
+                                   "sphrom's FMU driver with 10 ms and 1 ms communication steps beside the Python "
                                    "full SPH of the same scene in the same run, as ratios, with the time split into "
-                                   "fmpy's fixed cost, its per-doStep cost and the core's. Medians of --repeats.")
+                                   "the fixed cost, the driver's per-doStep cost and the core's. Medians of --repeats."
+                                   " Also: sphrom bench fmu-speed.")
     add_scene(p, default="tenmode")
     p.add_argument("--n-particles", "--sizes", dest="n_particles", metavar="N,...", default="100,400,1600",
                    type=int_list(lo=_min_particles, hi=max_particles),
@@ -77,8 +78,8 @@ def run(args):
                   f"({r['speedup_vs_loop']:.1f}x vs its loop alone)"
                   + ("" if err is None else f"; probe v error against the full SPH {err:.3e}"))
             if not get_model(r["model"]).linear:        # a time-stepped model: the core's internal steps
-                print(f"    where the time goes: fixed cost of simulate_fmu (extract, load, instantiate, free) "
-                      f"{r['fixed_s']:.4f} s, core {r['core_s']:.4f} s, fmpy {r['us_per_doStep_fmpy']:.1f} us per "
+                print(f"    where the time goes: fixed cost (extract, load, instantiate, free) "
+                      f"{r['fixed_s']:.4f} s, core {r['core_s']:.4f} s, driver {r['us_per_doStep_fmpy']:.1f} us per "
                       f"doStep (of which the bare doStep call through ctypes {r['us_per_doStep_bare_call']:.1f} us)")
         for model in dict.fromkeys(r["model"] for r in e2e["rows"]):
             first = next(r for r in e2e["rows"] if r["model"] == model)

@@ -39,10 +39,11 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import defaults
 from ..rom.registry import fmu_model_names, get_model
 
 BENCH_K = 12
-BENCH_FREEZE = 10
+BENCH_FREEZE = defaults.N_FREEZE
 
 
 def _median(values):
@@ -286,7 +287,7 @@ def benched_fmu_models():
     return tuple(m for m in fmu_model_names() if get_model(m).needs_basis)
 
 
-def prepared_fmu(scene, k, model="frozen", n_freeze=10, problem=None, probes=(0.25, 0.5, 0.66)):
+def prepared_fmu(scene, k, model="frozen", n_freeze=defaults.N_FREEZE, problem=None, probes=defaults.PROBES):
     """(path, unzipdir, model description, summary) of the FMI 2 FMU of ``scene``: packaged and extracted
     once per process for each (scene text, k, model, n_freeze, probes)."""
     import hashlib
@@ -372,7 +373,7 @@ def bench_rows(context):
     v_sph, rho_sph, ref = context["v_sph"], context["rho_sph"], context["reference"]
     forced = bool(problem.terms["force_profile"]) and bool(np.any(scene.force(np.linspace(0, T, 1025)) != 0))
     force = scene.force if forced else None
-    h = min(0.01, T / 10)
+    h = min(defaults.STEP, T / 10)
     n_comm = int(round(T / h))
     f_comm = None if force is None else np.asarray(force(np.arange(n_comm) * h), float)
     core = Core(ensure_binaries().core)

@@ -56,7 +56,7 @@ def headline_section(fmu):
         cond = ("—" if err is None or sph_err is None else
                 f"probe v error against the full SPH {err:.2e}, "
                 f"{'below' if err < sph_err else '**above**'} the full SPH's own error against exact ({sph_err:.2e})")
-        lines.append(f"- {e2e['scene']}, FMU {r['model']} through `fmpy.simulate_fmu` at 10 ms: {r['fmu_e2e_s']:.4f} s "
+        lines.append(f"- {e2e['scene']}, FMU {r['model']} through sphrom's FMU driver at 10 ms: {r['fmu_e2e_s']:.4f} s "
                      f"for T = {e2e['T']:g} s against {e2e['sph']['call_s']:.3f} s for the Python full SPH (numba) "
                      f"in the same run: **{r['speedup']:.1f}×** (target ≥ 50×); {cond}.")
     lines.append(f"- C frozen step against the C full-SPH step at N = {same['n']}: **{same['ratio']:.1f}×** "
@@ -197,17 +197,18 @@ def fmu_tables(core, e2e, heading="##"):
                      f"{r['ns_max']:.1f} |")
     if e2e is not None:
         sph_err = e2e["sph"].get("probe_error_v_vs_exact")
-        lines += ["", f"{heading} End to end through fmpy.simulate_fmu: {e2e['scene']} (N = {e2e['n']}, "
+        lines += ["", f"{heading} End to end through sphrom's FMU driver: {e2e['scene']} (N = {e2e['n']}, "
                       f"T = {e2e['T']:g} s, {e2e['internal_steps']} internal steps, k_v = {e2e['k_v']}, "
                       f"k_rho = {e2e['k_rho']}, probes x/L = {', '.join(f'{p:g}' for p in e2e['probes'])})", "",
                   f"Full SPH (run_sph, numba, same run): {e2e['sph']['call_s']:.3f} s per run "
                   f"({e2e['sph']['loop_s']:.3f} s in its time loop); its probe-velocity error against the exact "
                   f"solution: {_fmt(sph_err)}. Each FMU time is the whole "
-                  "`fmpy.simulate_fmu` call (extract, load, instantiate, loop, record, free); the probe error is "
+                  "co-simulation through the FMU driver, harness/fmu/run/driver.py (extract, load, instantiate, "
+                  "initialize, the loop reading every output, free); the probe error is "
                   "the FMU's probe velocities against the full SPH interpolated at the probes (relative L² over "
                   "the run, input held), at the first communication step.", "",
                   "| model | comm. step | doSteps | FMU [s] | speed-up vs full SPH | probe v error vs SPH | "
-                  "fixed cost [s] | core [s] | fmpy per doStep [µs] | bare doStep call [µs] |",
+                  "fixed cost [s] | core [s] | driver per doStep [µs] | doStep call alone [µs] |",
                   "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
         for r in e2e["rows"]:
             lines.append(f"| {r.get('model', 'frozen')} | {r['step_s'] * 1e3:g} ms | {r['doSteps']} | "

@@ -159,7 +159,7 @@ def plot_time_error(rows, path, title):
         ax.set_title(f"{title}: {label}", fontsize=10)
     axes[0].legend(fontsize=7)
     fig.text(0.01, 0.01, "full SPH (numba, C): error vs reference; reduced models and FMUs: error vs full SPH "
-             "(frozen: n_freeze 1 → 50 right to left; FMUs through a scripted fmpy loop, 10 ms steps)", fontsize=7)
+             "(frozen: n_freeze 1 → 50 right to left; FMUs through the FMU driver's loop, 10 ms steps)", fontsize=7)
     fig.tight_layout(rect=(0, 0.04, 1, 1))
     fig.savefig(path, dpi=100)
     plt.close(fig)

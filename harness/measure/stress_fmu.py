@@ -24,12 +24,14 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import defaults
+
 from ..rom.registry import get_model
 from .fmu import benched_fmu_models
 from ..sph.diagnostics import energy
 from ..sph.solver import step_count
 
-N_FREEZE = 10
+N_FREEZE = defaults.N_FREEZE
 _TIME = re.compile(r"t = ([-+0-9.eE]+) s")
 
 
