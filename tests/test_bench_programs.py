@@ -55,3 +55,35 @@ def test_scenes_still_go_to_the_whole_report(capsys):
     """``sphrom bench SCENE ...`` (no program name first) is the report's command: a bad scene is its error."""
     assert main(["bench", "no_such_scene", "--replot", "--out", "/nonexistent-sphrom"]) == 2
     assert "sphrom bench" in capsys.readouterr().err
+
+
+def _imports(path):
+    """The harness modules a file imports (relative imports resolved)."""
+    import ast
+    mod = ".".join(path.relative_to(ROOT).with_suffix("").parts)
+    package = mod.rsplit(".", 1)[0]
+    out = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                parts = package.split(".")
+                base = ".".join(parts[:len(parts) - node.level + 1] + ([base] if base else []))
+            out |= {base} | {f"{base}.{a.name}" for a in node.names}
+        elif isinstance(node, ast.Import):
+            out |= {a.name for a in node.names}
+    return {m for m in out if m.startswith("harness")}
+
+
+def test_programs_apart_from_the_library():
+    """The validation report and the library import no measurement program; a program imports no other program
+    (what programs share lives in harness.measure)."""
+    programs = {p.target for p in PROGRAMS.values() if not p.target.startswith("command:")}
+    for folder in ("harness/report", "harness/measure", "harness/fmu", "harness/rom", "harness/sph", "harness/pod"):
+        for path in (ROOT / folder).rglob("*.py"):
+            bad = {m for m in _imports(path) if m.startswith("harness.bench")}
+            assert not bad, (path, bad)
+    for path in (ROOT / "harness/bench").glob("*.py"):
+        me = ".".join(path.relative_to(ROOT).with_suffix("").parts)
+        bad = {m for m in _imports(path) if m in programs and m != me}
+        assert not bad, (path, bad)

@@ -34,38 +34,14 @@ import scipy.linalg as sla
 from ..norms import relative_l2
 from ..progress import progress_bar
 from ..rom.balanced import balancing, error_bounds, reduced_from_exact, truncate
-from ..rom.lti import full_linear_system, input_norm, output_energy, sample_outputs
-from ..scene import derive_scene, load_scene
-from ..sph.solver import build_problem
+from ..rom.lti import input_norm, output_energy, sample_outputs
+from ..measure.linear_scenes import setup
 
 SECTIONS = ("headline", "orders", "forces", "cost")
 FORCE_STEP = 1e-3        # the scene's force: samples every 1 ms, linear between them [s]
 RANDOM_STEP = 1e-2       # random forces: samples every 10 ms [s]
 DEFAULT_FORCE_SCENES = ("damped_forced:12,damped_forced@shaped:12,damped@shaped:12,mild_damped_forced@shaped:12,"
                         "tenmode@shaped:24")
-
-
-SHAPED_PROFILE = "1 + sin(2*pi*x/L) + 0.5*cos(6*pi*x/L)"
-
-
-def setup(name, n=None):
-    """(scene, problem, lti) of a built-in scene, optionally with N particles.
-
-    ``NAME@shaped``: the scene with the force profile SHAPED_PROFILE instead of
-    its uniform one (a uniform profile drives only the mean velocity,
-    v̇ = f - d v, which every model holding the constant mode reproduces to
-    round-off, so random forces test nothing there).
-    """
-    name, _, variant = name.partition("@")
-    scene = load_scene(name)
-    if variant == "shaped":
-        scene = derive_scene(scene, {"force": {"profile": SHAPED_PROFILE}})
-    elif variant:
-        raise ValueError(f"scene variant {variant!r} (allowed: shaped)")
-    if n is not None:
-        scene = derive_scene(scene, {"sph": {"n_particles": int(n)}})
-    problem = build_problem(scene)
-    return scene, problem, full_linear_system(problem)
 
 
 def pod_model(scene, problem, lti, k):

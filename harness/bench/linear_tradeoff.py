@@ -39,7 +39,7 @@ STRESS_TITLE = "## Stability stress maps"
 def _scenes(name):
     """(training scene, unseen-force scene) of NAME or NAME@shaped (the shaped force profile)."""
     from ..scene import derive_scene
-    from .balanced_measure import setup
+    from ..measure.linear_scenes import setup
     scene, _, _ = setup(name)
     return scene, derive_scene(scene, {"force": {"f": UNSEEN_FORCE}})
 
