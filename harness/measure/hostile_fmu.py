@@ -130,13 +130,7 @@ def _child_states(unzipdir, base_hex, cases, emit):
                 continue
             try:
                 slave.set_state(state)
-                t = slave.time()
-                outs = []
-                for k in range(5):
-                    slave.set_input(0.01)
-                    slave.do_step(t, 0.01)
-                    t += 0.01
-                    outs.append(slave.output_values())
+                outs = slave.run([0.01] * 5, [0.01] * 5, t0=slave.time())[1:]
                 verdict(emit, i, messages, outputs=outs)
             except Exception as exc:
                 verdict(emit, i, messages, exc=exc)
@@ -346,6 +340,7 @@ def run_children(ws, kind, payload, cases, labels, category, per_case_timeout=20
 
 
 def fmu_cases(ws, rng, n_resources, n_states, n_sequences):
+    import numpy as np
     from fmpy import extract
 
     from ..fmu.make.build import ensure_binaries
@@ -363,9 +358,7 @@ def fmu_cases(ws, rng, n_resources, n_states, n_sequences):
         unzipdir = str(extract(str(ws[fmu_name]), unzipdir=str(ws.root / f"unzipped-{fmu_name}")))
         with FMU(unzipdir) as slave:
             slave.initialize()
-            for k in range(5):
-                slave.set_input(0.01)
-                slave.do_step(0.01 * k, 0.01)
+            slave.simulate(0.01 * np.arange(6), {"f": np.full(6, 0.01)}, outputs=[], steps=np.full(5, 0.01))
             state = slave.get_state()
             base = slave.serialize(state)
             slave.free_state(state)
