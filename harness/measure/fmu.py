@@ -356,111 +356,126 @@ def bench_rows(context):
     the C full SPH (fmu_src/sph.c).  Errors against the full SPH (context v_sph/rho_sph at the
     context steps) and the reference; times are medians of context["repeats"].
     """
-    from .methods import bench_row
     from ..compare import error_table
-    from ..sph.solver import force_values, step_count
-    from ..fmu.run.core import Core
     from ..fmu.make.build import ensure_binaries
-    from ..fmu.make.models import RESOURCES
-    from ..fmu.run.driver import FMU
+    from ..fmu.run.core import Core
+    from ..sph.solver import step_count
 
-    scene, run, steps = context["scene"], context["run"], np.asarray(context["steps"])
-    repeats = max(1, int(context.get("repeats", 3)))
+    scene, run = context["scene"], context["run"]
     problem = run.problem
-    dt, T = scene.sph.dt, scene.T
-    n = step_count(T, dt)
-    t = steps * dt
-    v_sph, rho_sph, ref = context["v_sph"], context["rho_sph"], context["reference"]
+    T = scene.T
     forced = bool(problem.terms["force_profile"]) and bool(np.any(scene.force(np.linspace(0, T, 1025)) != 0))
-    force = scene.force if forced else None
     h = min(defaults.STEP, T / 10)
     n_comm = int(round(T / h))
-    f_comm = None if force is None else np.asarray(force(np.arange(n_comm) * h), float)
-    core = Core(ensure_binaries().core)
-    rows = []
+    steps = np.asarray(context["steps"])
+    t = steps * scene.sph.dt
+    v_sph, rho_sph, ref = context["v_sph"], context["rho_sph"], context["reference"]
 
     def errors(v, rho):
         e_s = error_table(v, rho, v_sph, rho_sph, t, problem.rho0)
         e_r = None if ref is None else error_table(v, rho, ref[0], ref[1], t, problem.rho0)
         return e_s, e_r
 
+    bench = dict(scene=scene, problem=problem, steps=steps, repeats=max(1, int(context.get("repeats", 3))),
+                 n=step_count(T, scene.sph.dt), h=h, n_comm=n_comm, force=scene.force if forced else None,
+                 f_comm=np.asarray(scene.force(np.arange(n_comm) * h), float) if forced else None, errors=errors,
+                 core=Core(ensure_binaries().core))
+    rows = []
     for k in context["ks"]:
         for model in benched_fmu_models():
-            spec = get_model(model)
-            nfs = (10, 1) if spec.uses_n_freeze else (10,)
-            # the time-stepped FMU is "FMU (fmpy)", the product's default; the others are named
-            method = "FMU (fmpy)" if spec.uses_n_freeze else f"FMU {model} (fmpy)"
-            try:
-                path, unzipdir, md, summary = prepared_fmu(scene, k, model, problem=problem)
-            except Exception as exc:                    # e.g. no energy basis: say so, keep the others
-                rows.append(bench_row(scene, f"FMU {model} (fmpy)", k, None, float("nan"), 0.0, None, None,
-                                 f"not built: {exc}"))
-                continue
-            # the FMU's numbers and operators (the resources of its model_kind), as packaged, at n_freeze 10
-            _, ops, blob = RESOURCES[spec.fmu_kind](scene, model, k, 10, summary.probes, summary.integrator,
-                                                       False, problem, bounds=False)
-            for nf in nfs:
-                times = []
-                with FMU(unzipdir, name="lean") as slave:
-                    for r in range(repeats + 1):
-                        start(slave, n_freeze=nf if spec.uses_n_freeze else None)
-                        t0 = time.perf_counter()
-                        lean_loop(slave, h, n_comm, f_comm)
-                        if r:
-                            times.append(time.perf_counter() - t0)
-                v, rho = _fmu_states(unzipdir, md, summary, ops, steps, dt, force,
-                                     nf if spec.uses_n_freeze else None, h)
-                e_s, e_r = errors(v, rho)
-                rows.append(bench_row(scene, method, k, nf if spec.uses_n_freeze else None, _median(times),
-                                 summary.timings.get("model", 0.0), e_s, e_r,
-                                 f"FMU driver loop, {h * 1e3:g} ms comm. step ({n_comm} doSteps, input + doStep + "
-                                 f"all outputs), instantiate {slave.instantiate_s * 1e3:.1f} ms not included; "
-                                 f"errors from the FMU's serialized state (input held over each step)"))
-            if spec.uses_n_freeze:                      # the C core's internal steps, refreshed every 10
-                cm = core.load(blob)
-                try:
-                    cm.set_n_freeze(10)
-                    times = []
-                    for r in range(repeats + 1):
-                        cm.reset()
-                        cm.set_n_freeze(10)
-                        t0 = time.perf_counter()
-                        if force is None:
-                            cm.advance(n)
-                        else:
-                            for i in range(n_comm):
-                                cm.set_input(float(f_comm[i]))
-                                cm.do_step(i * h, h)
-                        if r:
-                            times.append(time.perf_counter() - t0)
-                finally:
-                    cm.close()
-                rows.append(bench_row(scene, "FMU core (C)", k, 10, _median(times), 0.0, None, None,
-                                 (f"rom_advance over {n} internal steps in one ctypes call, no fmpy"
-                                  if force is None else
-                                  f"rom_set_input + rom_do_step per {h * 1e3:g} ms step through ctypes, no fmpy")
-                                 + "; same arithmetic as the FMU"))
-    # the C full SPH, same scene and integrator
+            rows += _fmu_rows(k, model, **bench)
     if scene.sph.integrator in ("euler", "symplectic"):
-        runner = core.sph.runner(problem, scene.sph.integrator)
-        g = force_values(scene, problem, 0, n, dt, 0)[:, 0] if forced else None
+        rows.append(_c_sph_row(forced=forced, **bench))
+    return rows
+
+
+def _fmu_rows(k, model, *, scene, problem, steps, repeats, n, h, n_comm, force, f_comm, errors, core):
+    """bench_rows for one k and model: the FMU through the driver (n_freeze 10 and 1 where it has one), and the C
+    core alone for a time-stepped model."""
+    from ..fmu.make.models import RESOURCES
+    from ..fmu.run.driver import FMU
+    from .methods import bench_row
+    spec = get_model(model)
+    # the time-stepped FMU is "FMU (fmpy)", the product's default; the others are named
+    method = "FMU (fmpy)" if spec.uses_n_freeze else f"FMU {model} (fmpy)"
+    try:
+        path, unzipdir, md, summary = prepared_fmu(scene, k, model, problem=problem)
+    except Exception as exc:                    # e.g. no energy basis: say so, keep the others
+        return [bench_row(scene, f"FMU {model} (fmpy)", k, None, float("nan"), 0.0, None, None, f"not built: {exc}")]
+    # the FMU's numbers and operators (the resources of its model_kind), as packaged, at n_freeze 10
+    _, ops, blob = RESOURCES[spec.fmu_kind](scene, model, k, 10, summary.probes, summary.integrator,
+                                           False, problem, bounds=False)
+    rows = []
+    for nf in ((10, 1) if spec.uses_n_freeze else (None,)):
+        times = []
+        with FMU(unzipdir, name="lean") as slave:
+            for r in range(repeats + 1):
+                start(slave, n_freeze=nf)
+                t0 = time.perf_counter()
+                lean_loop(slave, h, n_comm, f_comm)
+                if r:
+                    times.append(time.perf_counter() - t0)
+        e_s, e_r = errors(*_fmu_states(unzipdir, md, summary, ops, steps, scene.sph.dt, force, nf, h))
+        rows.append(bench_row(scene, method, k, nf, _median(times), summary.timings.get("model", 0.0), e_s, e_r,
+                              f"FMU driver loop, {h * 1e3:g} ms comm. step ({n_comm} doSteps, input + doStep + "
+                              f"all outputs), instantiate {slave.instantiate_s * 1e3:.1f} ms not included; "
+                              f"errors from the FMU's serialized state (input held over each step)"))
+    if spec.uses_n_freeze:                      # the C core's internal steps, refreshed every 10
+        rows.append(bench_row(scene, "FMU core (C)", k, 10, _core_time(core, blob, repeats, n, h, n_comm, f_comm),
+                              0.0, None, None,
+                              (f"rom_advance over {n} internal steps in one ctypes call, no fmpy" if f_comm is None
+                               else f"rom_set_input + rom_do_step per {h * 1e3:g} ms step through ctypes, no fmpy")
+                              + "; same arithmetic as the FMU"))
+    return rows
+
+
+def _core_time(core, blob, repeats, n, h, n_comm, f_comm):
+    """Median time [s] of the C core alone (n_freeze 10): n internal steps in one call, or the forced
+    communication steps of h through rom_set_input and rom_do_step."""
+    cm = core.load(blob)
+    try:
+        cm.set_n_freeze(10)
         times = []
         for r in range(repeats + 1):
-            v, rho = problem.v0.copy(), problem.rho0.copy()
-            vs, rs = [v.copy()], [rho.copy()]
-            wall = 0.0
-            for a, b in zip(steps[:-1], steps[1:]):
-                wall += runner.advance(v, rho, int(b - a), dt, g=None if g is None else g[a:b])
-                if r == 0:
-                    vs.append(v.copy())
-                    rs.append(rho.copy())
-            if r == 0:
-                e_s, e_r = errors(np.array(vs), np.array(rs))
+            cm.reset()
+            cm.set_n_freeze(10)
+            t0 = time.perf_counter()
+            if f_comm is None:
+                cm.advance(n)
             else:
-                times.append(wall)
-        rows.append(bench_row(scene, "C full SPH", problem.n, None, _median(times), 0.0, e_s, e_r,
-                         f"fmu_src/sph.c, {scene.sph.integrator}, N = {problem.n} (time in the C calls)"))
-    return rows
+                for i in range(n_comm):
+                    cm.set_input(float(f_comm[i]))
+                    cm.do_step(i * h, h)
+            if r:
+                times.append(time.perf_counter() - t0)
+    finally:
+        cm.close()
+    return _median(times)
+
+
+def _c_sph_row(*, scene, problem, steps, repeats, n, errors, core, forced, **_):
+    """The C full SPH (fmu_src/sph.c), same scene and integrator: the bench row with its errors."""
+    from ..sph.solver import force_values
+    from .methods import bench_row
+    dt = scene.sph.dt
+    runner = core.sph.runner(problem, scene.sph.integrator)
+    g = force_values(scene, problem, 0, n, dt, 0)[:, 0] if forced else None
+    times = []
+    for r in range(repeats + 1):
+        v, rho = problem.v0.copy(), problem.rho0.copy()
+        vs, rs = [v.copy()], [rho.copy()]
+        wall = 0.0
+        for a, b in zip(steps[:-1], steps[1:]):
+            wall += runner.advance(v, rho, int(b - a), dt, g=None if g is None else g[a:b])
+            if r == 0:
+                vs.append(v.copy())
+                rs.append(rho.copy())
+        if r == 0:
+            e_s, e_r = errors(np.array(vs), np.array(rs))
+        else:
+            times.append(wall)
+    return bench_row(scene, "C full SPH", problem.n, None, _median(times), 0.0, e_s, e_r,
+                     f"fmu_src/sph.c, {scene.sph.integrator}, N = {problem.n} (time in the C calls)")
 
 
 def sph_step_rows(base="tenmode", n=400, k=BENCH_K, n_freeze=BENCH_FREEZE, n_steps=20_000, repeats=5, core=None):
