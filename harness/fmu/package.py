@@ -247,15 +247,16 @@ def check_ports(ports, model):
     return ports
 
 
-def model_basis(scene, spec, k, progress=True, problem=None):
+def model_basis(scene, spec, k, progress=True, problem=None, made=None):
     """(basis, problem) of ``scene`` for the model ``spec``: its POD basis, with k checked against the modes of the
-    model's basis kind (FieldError naming the field ``k`` or ``model``)."""
+    model's basis kind (FieldError naming the field ``k`` or ``model``).  ``made``: the (basis, run) of
+    :func:`harness.pod.pipeline.basis_for_scene` already made for this scene (not made again)."""
     from ..pod.pipeline import basis_for_scene
     from ..rom.model import BASIS_KINDS
     from ..sph.solver import build_problem
 
     problem = problem or build_problem(scene)
-    basis, _ = basis_for_scene(scene, progress=progress, problem=problem)
+    basis, _ = made or basis_for_scene(scene, progress=progress, problem=problem)
     available = spec.available_modes(basis)
     if available is None:
         raise FieldError("model", f"{spec.name}: the basis of scene '{scene.name}' has no "
@@ -267,7 +268,7 @@ def model_basis(scene, spec, k, progress=True, problem=None):
 
 
 def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem=None, model="frozen", ports=(),
-                  build_options=None):
+                  build_options=None, made=None):
     """The FMU's numbers for a model of resource kind 1 (frozen coefficients): (ModelData, ops, problem, basis).
 
     Runs (or reuses) the full SPH and the POD (harness.pod.pipeline), builds the model's operators
@@ -275,13 +276,13 @@ def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem
     started at rest stays at rest, :func:`harness.rom.operators.rest_b`) with ``input_direction="needed"`` (an
     input row always; the force profile appended to U_v only when the POD modes miss more than 1 % of it) and
     ``tensor="always"``.  ``build_options`` go to the model's build (``{"b": "paper"}``: eq. 2.22's b, the
-    paper's variant, :mod:`harness.bench.rest` compares them).
+    paper's variant, :mod:`harness.bench.rest` compares them).  ``made``: as :func:`model_basis`.
     """
     from ..rom.registry import get_model
     from ..rom.stepping import runaway_bound
 
     spec = get_model(model)
-    basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem)
+    basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem, made=made)
     ops = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction, tensor="always",
                      **({"ports": tuple(ports)} if ports else {}), **(build_options or {}))
     data = model_data(ops, problem, dt=scene.sph.dt, integrator=integrator, n_freeze=n_freeze, probes=probes,
@@ -290,18 +291,19 @@ def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem
 
 
 def exact_model(scene, k, n_freeze, probes, progress=True, problem=None, model="exact", ports=(),
-                build_options=None):
+                build_options=None, made=None):
     """The FMU's numbers for a model of resource kind 2 on a POD basis (the exact model):
     (ExactData, lin, problem, basis).
 
     The model's bases (the exact model: the energy-weighted ``Basis.U_ve``, ``U_e``), the operators with the
     model's ``fmu_input_direction`` (the exact model: ``"always"``, the force profile is always in its
-    velocity basis, so the input f is represented exactly) and ``build_options``.
+    velocity basis, so the input f is represented exactly) and ``build_options``.  ``made``: as
+    :func:`model_basis`.
     """
     from ..rom.registry import get_model
 
     spec = get_model(model)
-    basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem)
+    basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem, made=made)
     lin = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction,
                      **({"ports": tuple(ports)} if ports else {}), **(build_options or {}))
     data = exact_data(lin, problem, dt=scene.sph.dt, n_freeze=n_freeze, probes=probes,
@@ -309,13 +311,33 @@ def exact_model(scene, k, n_freeze, probes, progress=True, problem=None, model="
     return data, lin, problem, basis
 
 
-def training_envelope(scene, ops, problem, probes, linear, progress=False):
+def training_envelope(scene, ops, problem, probes, linear, progress=False, run=None):
     """The :class:`~harness.fmu.envelope.Envelope` of the model ``ops``: its ranges over the scene's cached
-    full SPH training run (:mod:`harness.fmu.envelope`)."""
+    full SPH training run (:mod:`harness.fmu.envelope`); ``run``: that run when already loaded."""
     from ..pod.pipeline import basis_for_scene
     from .envelope import measure
-    _, run = basis_for_scene(scene, progress=progress, problem=problem)
+    if run is None:
+        _, run = basis_for_scene(scene, progress=progress, problem=problem)
     return measure(scene, ops, problem, run, probes, linear)
+
+
+def training_basis(scene, progress, problem, extra_steps=()):
+    """(basis, run, problem): the scene's POD basis and its cached training run, made once for the model and its
+    training envelope (step "model" of the packaging: one SPH load and one POD).  ``extra_steps``: more samples
+    the same run stores (the communication points a verification reads: the training run is then not run
+    again for it)."""
+    import dataclasses
+
+    from ..pod.pipeline import basis_for_scene, error_steps
+    from ..sph.solver import build_problem
+    problem = problem or build_problem(scene)
+    basis, run = basis_for_scene(scene, progress=progress, problem=problem, extra_steps=extra_steps)
+    # the envelope is measured on the samples the model asks for (error and snapshot steps), not on whatever
+    # else the cache holds from other commands: the same resources whatever the cache's history
+    keep = np.isin(run.steps, np.union1d(error_steps(scene), np.union1d(basis.steps_v, basis.steps_rho)))
+    if not keep.all():
+        run = dataclasses.replace(run, t=run.t[keep], v=run.v[keep], rho=run.rho[keep], steps=run.steps[keep])
+    return basis, run, problem
 
 
 def balanced_model(scene, k, n_freeze, probes, order_tolerance=None, problem=None, model="balanced",
@@ -363,15 +385,17 @@ def linear_bound(lin, scene, samples=4097):
 
 
 def _frozen_resource(scene, model, k, n_freeze, probes, integrator, progress, problem, order_tolerance=None,
-                     bounds=True, ports=(), build_options=None):
+                     bounds=True, ports=(), build_options=None, extra_steps=()):
+    basis, run, problem = training_basis(scene, progress, problem, extra_steps)
     data, ops, problem, _ = reduced_model(scene, k, n_freeze, probes, integrator, progress=progress,
-                                          problem=problem, model=model, ports=ports, build_options=build_options)
-    data.sections.update(training_envelope(scene, ops, problem, probes, False, progress).sections())
+                                          problem=problem, model=model, ports=ports, build_options=build_options,
+                                          made=(basis, run))
+    data.sections.update(training_envelope(scene, ops, problem, probes, False, progress, run=run).sections())
     return data, ops, pack(data)
 
 
 def _linear_resource(scene, model, k, n_freeze, probes, integrator, progress, problem, order_tolerance=None,
-                     bounds=True, ports=(), build_options=None):
+                     bounds=True, ports=(), build_options=None, extra_steps=()):
     """Kind 2: the exact POD model (on its basis, with its training envelope) or the balanced model (no basis);
     both with the certified error bounds against the full linear SPH at the FMU's probes (the operators'
     ``error_bounds``; section BOUNDS: force, initial state), unless ``bounds`` is False (benchmarks that time
@@ -379,9 +403,11 @@ def _linear_resource(scene, model, k, n_freeze, probes, integrator, progress, pr
     from ..rom.registry import get_model
 
     if get_model(model).needs_basis:
+        basis, run, problem = training_basis(scene, progress, problem, extra_steps)
         data, ops, problem, _ = exact_model(scene, k, n_freeze, probes, progress=progress, problem=problem,
-                                            model=model, ports=ports, build_options=build_options)
-        data.sections.update(training_envelope(scene, ops, problem, probes, True, progress).sections())
+                                            model=model, ports=ports, build_options=build_options,
+                                            made=(basis, run))
+        data.sections.update(training_envelope(scene, ops, problem, probes, True, progress, run=run).sections())
     else:
         data, ops, problem = balanced_model(scene, k, n_freeze, probes, order_tolerance=order_tolerance,
                                             problem=problem, model=model, build_options=build_options)
@@ -535,6 +561,7 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
     timings = {}
     t0 = time.perf_counter()
     parameters = []
+    step = step_size if step_size is not None else min(DEFAULT_STEP, scene.T / 10)
     if vary:
         if build_options:
             raise FieldError("build_options", "not with vary (a parametric model has its own build)")
@@ -545,20 +572,23 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
         data, ops, blob = RESOURCES[get_model(model).fmu_kind](scene, model, k, n_freeze, probes, integrator,
                                                                   progress, problem, order_tolerance=order_tolerance,
                                                                   bounds=bounds, ports=ports,
-                                                                  build_options=build_options)
+                                                                  build_options=build_options,
+                                                                  extra_steps=verification_steps(scene, step, verify))
     bounds = data.bounds
     timings["model"] = time.perf_counter() - t0
+    stage_done(scene, "model", timings, progress)
     from .envelope import Envelope
     envelope = Envelope.from_sections(data.sections, data.k_v)
     t1 = time.perf_counter()
     binaries = binaries or ensure_binaries(quiet=not progress)
     timings["binaries"] = time.perf_counter() - t1
-    step = step_size if step_size is not None else min(DEFAULT_STEP, scene.T / 10)
+    stage_done(scene, "binaries", timings, progress)
     spec = get_model(model)
     k = data.k_v if k is None else k                 # the balanced model's order from its order tolerance
 
-    def archive(path, verification=None):
-        """Write and validate the FMU at ``path``; its description and documentation carry ``verification``."""
+    def archive(path, verification=None, check=True):
+        """Write the FMU at ``path`` and validate it (``check``); its description and documentation carry
+        ``verification``."""
         description = model_description(fmi, token=data.token, scene=scene, data=data, k_requested=k,
                                          step_size=step, stop_time=scene.T, input_error=ops.input_error,
                                          model=model, envelope=envelope, bounds=bounds,
@@ -568,7 +598,7 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
                                    tolerance=tolerance, envelope=envelope)
         write_fmu(path, fmi=fmi, blob=blob, description=description,
                   binary=binaries.fmi2 if fmi == 2 else binaries.fmi3, documentation=docs)
-        problems = validate(path)
+        problems = validate(path) if check else []
         if problems:
             raise SimulationError("the packaged FMU fails fmpy's validation: " + "; ".join(problems))
 
@@ -576,21 +606,39 @@ def package_fmu(scene, out, *, k=None, n_freeze=DEFAULT_FREEZE, probes=DEFAULT_P
     out = Path(out)
     verification = None
     with atomic_path(out) as tmp:
-        archive(tmp)
+        archive(tmp, check=not verify)           # verified: validated once, when written with its measurement
         timings["package"] = time.perf_counter() - t2
+        stage_done(scene, "package", timings, progress)
         if verify:
             from .verify import verify_fmu
             t3 = time.perf_counter()
             verification = verify_fmu(tmp, scene, probes, refs=references, problem=problem, progress=progress)
-            timings["verify"] = time.perf_counter() - t3
             check_tolerance(verification, tolerance, out, model)
             archive(tmp, verification)           # the same model and binary: only the texts change
+            timings["verify"] = time.perf_counter() - t3
+            stage_done(scene, "verify", timings, progress)
         size = tmp.stat().st_size
     return FMUSummary(path=out, fmi=fmi, scene=scene.name, k=k, k_v=data.k_v, k_rho=data.k_rho,
                       input_error=ops.input_error, augmented=ops.augmented, probes=list(probes), n_freeze=n_freeze,
                       integrator=integrator, dt=data.dt, token=data.token, size=size, timings=timings, model=model,
                       envelope=envelope, verification=verification, bounds=bounds,
                       method=ops.method, parameters=parameters, ports=list(ports), port_errors=list(ops.port_errors))
+
+
+def verification_steps(scene, step, verify):
+    """The SPH steps of the communication points at ``step`` [s] that a verification reads from the training run
+    (:func:`harness.fmu.verify.communication_times`); none without ``verify``."""
+    if not verify:
+        return ()
+    from .verify import communication_times
+    return communication_times(scene, step)[1]
+
+
+def stage_done(scene, stage, timings, progress):
+    """The progress line of a finished packaging stage and its time (stderr; nothing without ``progress``)."""
+    if progress:
+        import sys
+        print(f"fmu {scene.name}: {stage} {timings[stage]:.2f} s", file=sys.stderr, flush=True)
 
 
 def check_tolerance(verification, tolerance, out, model):
