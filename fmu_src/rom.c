@@ -111,11 +111,31 @@ RomStatus rom_set_input_rate(RomState *s, double rate, char *message, size_t mes
     return ROM_OK;
 }
 
+double rom_dt_floor(const RomModel *m) {
+    if (!m || !m->ops || !m->ops->step_exceeds) return 0.0;
+    return fmax(ROM_DT_MIN, m->dt * ROM_DT_FLOOR_RATIO);
+}
+
+double rom_step_work(const RomState *s) {
+    if (!s || !s->model->ops->step_work) return 0.0;
+    return s->model->ops->step_work(s) + ROM_STEP_OVERHEAD;
+}
+
+double rom_max_steps_per_call(const RomState *s) {
+    const double work = rom_step_work(s);
+    return work > 0.0 ? floor(ROM_MAX_WORK_PER_CALL / work) : 0.0;
+}
+
 RomStatus rom_set_dt(RomState *s, double dt, char *message, size_t message_size) {
     if (!s) return rom_fail(message, message_size, "no state");
     if (!(isfinite(dt) && dt > 0)) {
         return rom_fail(message, message_size, "parameter dt = %g s is out of range (allowed: a finite number > 0)",
                         dt);
+    }
+    const double floor_dt = rom_dt_floor(s->model);
+    if (dt < floor_dt) {                       /* the work of a doStep grows as 1/dt */
+        return rom_fail(message, message_size, "parameter dt = %g s is below its floor %g s (allowed: dt >= %g s, "
+                        "the model's dt %g s x %g)", dt, floor_dt, floor_dt, s->model->dt, ROM_DT_FLOOR_RATIO);
     }
     s->dt = dt;
     return ROM_OK;

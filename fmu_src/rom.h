@@ -137,6 +137,15 @@ extern "C" {
 #define ROM_TIME_TOLERANCE 1e-9       /* relative: currentCommunicationPoint must equal the FMU's time */
 #define ROM_STEP_ROUNDING 1e-9        /* relative: h/dt within this of an integer is that many whole steps */
 #define ROM_SHORT_STEP_MIN 1e-12      /* a remainder below this x dt is no step */
+/* The work of one doStep is bounded (a model with internal steps, the frozen one): its internal step dt is
+ * never below rom_dt_floor (the model's own dt x ROM_DT_FLOOR_RATIO, and never below ROM_DT_MIN: a resource
+ * file whose dt is below it is refused), and one doStep takes at most rom_max_steps_per_call internal steps
+ * (ROM_MAX_WORK_PER_CALL multiply-adds over the cost of one step at the state's k_v, k_rho, n_freeze and
+ * ports; about 0.3 s on one core of this project's 2-core machine, idle). */
+#define ROM_DT_MIN 1e-9               /* [s] the smallest internal step of a model's resources */
+#define ROM_DT_FLOOR_RATIO 1e-3       /* the parameter dt (and a state's) is at least this x the model's dt */
+#define ROM_MAX_WORK_PER_CALL 2e9     /* multiply-adds of the internal steps of one doStep */
+#define ROM_STEP_OVERHEAD 32.0        /* multiply-adds one internal step costs beyond its arithmetic (loop, check) */
 
 /* The FMU's value references and start values are not the core's: fmu_src/fmu_variables.h, generated from the
  * variable table harness/fmu/variables.py. */
@@ -259,6 +268,15 @@ ROM_API int rom_step_exceeds(const RomState *state, double h);
 ROM_API int rom_has_internal_step(const RomModel *model);
 /* One line describing the model (sizes and the kind's settings) into out[size] (empty for NULL) */
 ROM_API void rom_describe(const RomModel *model, char *out, size_t size);
+/* The smallest internal step dt the state accepts (parameter, serialized state) [s]: max(ROM_DT_MIN, model dt x
+ * ROM_DT_FLOOR_RATIO) for a model with internal steps, 0 for the linear models (one exact step over any h) */
+ROM_API double rom_dt_floor(const RomModel *model);
+/* The most internal steps one doStep takes at the state's settings (ROM_MAX_WORK_PER_CALL over the cost of one
+ * internal step, rom_step_work); a longer communication step is refused naming it.  0 for NULL. */
+ROM_API double rom_max_steps_per_call(const RomState *state);
+/* The multiply-adds of one internal step at the state's k_v, k_rho, n_freeze and ports, ROM_STEP_OVERHEAD
+ * included (0 for a model without internal steps) */
+ROM_API double rom_step_work(const RomState *state);
 /* n_steps whole internal steps with the runaway check (benchmark, tests) */
 ROM_API RomStatus rom_advance(RomState *state, int64_t n_steps, char *message, size_t message_size);
 /* The input goes linearly over each step, f(t_comm + tau) = f + rate tau (rate 0, the

@@ -15,7 +15,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 
-#define ROM_MAX_STEPS_PER_CALL 1e15            /* h/dt above this is refused */
 
 #if defined(__GNUC__)
 #define ROM_INLINE static inline __attribute__((always_inline))
@@ -231,9 +230,14 @@ static RomStatus frozen_step(RomState *s, double t_comm, double h, char *message
     if (!s || !s->body) return rom_fail(message, message_size, "no state");
     const double dt = s->dt;
     const double ratio = h / dt;
-    if (!(ratio < ROM_MAX_STEPS_PER_CALL) || s->n > INT64_MAX - (int64_t)ratio - 2) {
-        return rom_fail(message, message_size, "communicationStepSize = %g s at t = %.9g s is %g internal steps "
-                        "(allowed: fewer than %g)", h, t_comm, ratio, ROM_MAX_STEPS_PER_CALL);
+    /* the work of one doStep is bounded (rom.h): at most rom_max_steps_per_call internal steps */
+    const double cap = rom_max_steps_per_call(s);
+    if (!(ratio <= cap) || s->n > INT64_MAX - (int64_t)ratio - 2) {
+        return rom_fail(message, message_size, "communicationStepSize = %g s at t = %.9g s is %.3g internal steps "
+                        "of dt = %g s, above the cap of %.0f per doStep (the work bound %g multiply-adds over %.0f per "
+                        "step at k_v = %u, k_rho = %u, n_freeze = %d, %u ports; allowed: h <= %g s)", h, t_comm,
+                        ratio, dt, cap, ROM_MAX_WORK_PER_CALL, rom_step_work(s), s->model->k_v, s->model->k_rho,
+                        (int)s->n_freeze, s->model->n_ports, cap * dt);
     }
     /* whole steps of dt, then one shortened step to reach t_comm + h exactly */
     const double nearest = floor(ratio + 0.5);
@@ -253,6 +257,18 @@ static RomStatus frozen_step(RomState *s, double t_comm, double h, char *message
         status = run_steps(s, 1, rest, t_comm + (double)n_full * dt, (double)n_full * dt, message, message_size);
     }
     return status;     /* on failure the instance is unusable; the message names the time */
+}
+
+/* multiply-adds of one internal step: the density and velocity rates, the two updates, the runaway check,
+ * and 1/n_freeze of a refresh (the pair products, M from the tensor, the force term and the ports') */
+static double frozen_step_work(const RomState *s) {
+    if (!s || !s->model->body) return 0.0;
+    const RomModel *m = s->model;
+    const double kv = m->k_v, kr = m->k_rho, kvp = m->kv_pad, krp = m->kr_pad;
+    const double step = krp * kv + kvp * (kr + ((m->flags & ROM_FLAG_DAMPING) ? kv : 0.0)) + kvp + krp + kv + kr;
+    const double refresh = (double)m->n_pairs * (1.0 + ((const RomFrozenModel *)m->body)->nm) + kvp +
+                           (double)m->n_ports * kv;
+    return step + refresh / (double)(s->n_freeze > 0 ? s->n_freeze : 1);
 }
 
 static RomStatus frozen_advance(RomState *s, int64_t n_steps, char *message, size_t message_size) {
@@ -549,6 +565,7 @@ const RomKindOps *rom_frozen_kind(void) {
         .step = frozen_step,
         .advance = frozen_advance,
         .step_exceeds = frozen_step_exceeds,
+        .step_work = frozen_step_work,
         .v_probe = frozen_v_probe,
         .rho_probe = frozen_rho_probe,
         .check_probe = NULL,

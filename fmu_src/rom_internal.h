@@ -89,6 +89,7 @@ struct RomKindOps {
     RomStatus (*step)(RomState *s, double t_comm, double h, char *message, size_t message_size);
     RomStatus (*advance)(RomState *s, int64_t n_steps, char *message, size_t message_size);
     int (*step_exceeds)(const RomState *s, double h);  /* NULL: one step of any length h */
+    double (*step_work)(const RomState *s);            /* multiply-adds of one internal step (NULL: none) */
 
     /* ---- outputs and checks */
     double (*v_probe)(const RomState *s, uint32_t j);

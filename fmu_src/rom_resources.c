@@ -391,6 +391,10 @@ RomStatus rom_model_load_memory(const void *data, size_t size, RomModel **out, c
     if (!(isfinite(h.dt) && h.dt > 0)) {
         return rom_fail(message, message_size, "resources: dt = %g (must be finite and > 0)", h.dt);
     }
+    if (kind->step_exceeds && h.dt < ROM_DT_MIN) {          /* internal steps of dt: the work of a doStep (rom.h) */
+        return rom_fail(message, message_size, "resources: dt = %g s is below the smallest internal step %g s "
+                        "(ROM_DT_MIN; allowed: dt >= %g s)", h.dt, ROM_DT_MIN, ROM_DT_MIN);
+    }
     if (!(isfinite(h.bound) && h.bound > 0) || !(isfinite(h.L) && h.L > 0)) {
         return rom_fail(message, message_size, "resources: runaway bound %g and L %g must be finite and > 0", h.bound,
                         h.L);

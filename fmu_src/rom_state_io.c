@@ -204,6 +204,11 @@ RomStatus rom_state_check(const RomModel *m, const unsigned char *buffer, size_t
         return rom_fail(message, message_size, "serialized state: invalid values (step %lld, n_freeze %lld, t %g, "
                         "f %g, dt %g)", (long long)n, (long long)n_freeze, time, f, dt);
     }
+    const double floor_dt = rom_dt_floor(m);
+    if (dt < floor_dt) {                       /* the work of a doStep grows as 1/dt (rom.h) */
+        return rom_fail(message, message_size, "serialized state: dt = %g s is below its floor %g s (allowed: dt >= "
+                        "%g s, the model's dt %g s x %g)", dt, floor_dt, floor_dt, m->dt, ROM_DT_FLOOR_RATIO);
+    }
     const unsigned char *params = buffer + ROM_STATE_HEADER_SIZE + 8 * kind_doubles(m);
     if (check_params_in_state(m, version, params, message, message_size) != ROM_OK) return ROM_FAIL;
     const unsigned char *cursor = buffer + ROM_STATE_HEADER_SIZE;

@@ -38,7 +38,6 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import h5py
 import numpy as np
 
 from . import __version__
@@ -485,6 +484,7 @@ def write_run(path, t, x, v, rho, attrs, steps=None, extra=None):
         "command": " ".join(sys.argv),
     }
     with atomic_path(path) as tmp:
+        import h5py                           # here, not at the top: paths-only callers (cosim) stay light
         with h5py.File(tmp, "w") as h5:
             for key, value in {**base, **attrs}.items():
                 h5.attrs[key] = _clean(value)
@@ -508,6 +508,7 @@ def read_run(path) -> Run:
     if not path.is_file():
         raise FieldError("run", f"'{path}': not found")
     try:
+        import h5py
         with h5py.File(path, "r") as h5:
             if h5.attrs.get("format") != FORMAT:
                 raise FieldError("run", f"'{path}': not a sphrom run file (format attribute missing)")

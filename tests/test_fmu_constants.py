@@ -66,6 +66,10 @@ def test_constants_shared_by_c_and_python():
         # doStep: h/dt within this of a whole number is that many steps; remainders below this x dt are dropped
         "ROM_STEP_ROUNDING": python_cosim.STEP_ROUNDING,
         "ROM_SHORT_STEP_MIN": python_cosim.SHORT_STEP_MIN,
+        "ROM_DT_MIN": python_cosim.DT_MIN,
+        "ROM_DT_FLOOR_RATIO": python_cosim.DT_FLOOR_RATIO,
+        "ROM_MAX_WORK_PER_CALL": python_cosim.MAX_WORK_PER_CALL,
+        "ROM_STEP_OVERHEAD": python_cosim.STEP_OVERHEAD,
     }
     assert {name: rom.get(name) for name in shared} == shared
     # the value references are not here: fmu_src/fmu_variables.h is generated from harness/fmu/variables.py

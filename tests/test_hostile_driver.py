@@ -18,7 +18,7 @@ from harness.fmu.make.build import ensure_binaries
 from harness.fmu.make.package import package_fmu
 from harness.rom.parametric import parse_vary
 
-SCENARIOS = ["basic", "state", "bad", "resources", "cycles", "threads", "edge"]
+SCENARIOS = ["basic", "state", "bad", "resources", "cycles", "threads", "edge", "bound"]
 CASES = {"ports-exact": dict(model="exact", ports=[0.3, 0.7]), "ports-frozen": dict(model="frozen", ports=[0.3]),
          "parametric-frozen": dict(model="frozen", vary=["c=0.05:0.2"]),
          "parametric-exact": dict(model="exact", vary=["d=5:15", "c=0.05:0.2"])}

@@ -6,10 +6,11 @@
  *
  *   sphrom_driver RESOURCES_DIR SCRATCH_DIR [scenario ...]
  *
- * scenarios: basic, state, bad, resources, cycles, threads, edge (default: all).
+ * scenarios: basic, state, bad, resources, cycles, threads, edge, bound (default: all).
  * Every failed check prints a line; the exit status is the number of failed
  * checks (capped at 100).  Under AddressSanitizer, leaks fail the run at exit.
  */
+#define _POSIX_C_SOURCE 200809L     /* clock_gettime (the bound scenario times one doStep) */
 #include <math.h>
 #include <pthread.h>
 #include <stdarg.h>
@@ -17,6 +18,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <time.h>
 
 #include "fmi2Functions.h"
 #include "fmi3Functions.h"
@@ -94,6 +96,8 @@ typedef struct {
     uint32_t n_probes;
     uint32_t kind;          /* ROM_MODEL_FROZEN or ROM_MODEL_EXACT_LINEAR */
     double dt;
+    double dt_floor;        /* the smallest dt the FMU accepts (rom_dt_floor; 0: no internal step) */
+    double max_steps;       /* the most internal steps of one doStep at the default n_freeze and dt_floor */
     uint32_t n_ports;       /* 0: no ports */
     int has_params;         /* a parametric model (a PARAMS section): c and d rows below */
     double params[2][4];    /* per c, d: varied (0 or 1), start, min, max */
@@ -930,11 +934,199 @@ static void scenario_edge(void) {
     rom_model_free(model);
 }
 
+
+/* The work of one doStep is bounded (rom.h): a dt below the floor (parameter, serialized state, resources) is
+ * refused naming dt and the floor; a communication step above the cap is refused naming the cap; the smallest dt
+ * accepted with the largest step accepted answers within 10 s (SPHROM_DRIVER_NO_TIMING: not timed, e.g. under
+ * the sanitizers).  A linear model (no internal step) takes any of these. */
+static double seconds_now(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static int do_step_either(fmi2Component c2, fmi3Instance c3, double t, double h) {
+    if (c2) return fmi2DoStep(c2, t, h, fmi2True) == fmi2OK;
+    fmi3Boolean event, terminate, early;
+    fmi3Float64 last;
+    return fmi3DoStep(c3, t, h, fmi3True, &event, &terminate, &early, &last) == fmi3OK;
+}
+
+static void bound_version(int version) {
+    const int frozen = setup.kind == ROM_MODEL_FROZEN;
+    const int timed = getenv("SPHROM_DRIVER_NO_TIMING") == NULL;
+    const fmi2ValueReference vdt = ROM_VR_DT;
+    LogBook book = {0};
+    const fmi2CallbackFunctions f2 = callbacks2(&book);
+    fmi2Component c2 = NULL;
+    fmi3Instance c3 = NULL;
+    /* (1) dt below the floor in initialization mode: refused at once, naming dt, the value and the floor; the
+     * instance is usable after a reset */
+    if (frozen) {
+        const double tiny = 1e-12;
+        if (version == 2) {
+            c2 = instantiate2(&book, &f2, setup.uri, setup.token);
+            EXPECT(c2 && fmi2SetupExperiment(c2, fmi2False, 0.0, 0.0, fmi2False, 0.0) == fmi2OK &&
+                   fmi2EnterInitializationMode(c2) == fmi2OK, "FMI 2 init: %s", book.last);
+        } else {
+            c3 = instantiate3(&book, setup.path3, setup.token);
+            EXPECT(c3 && fmi3EnterInitializationMode(c3, fmi3False, 0.0, 0.0, fmi3False, 0.0) == fmi3OK,
+                   "FMI 3 init: %s", book.last);
+        }
+        if (!c2 && !c3) return;
+        const double t0 = seconds_now();
+        if (c2) EXPECT_ERROR(&book, fmi2SetReal(c2, &vdt, 1, &tiny), fmi2OK);
+        else EXPECT_ERROR(&book, fmi3SetFloat64(c3, &vdt, 1, &tiny, 1), fmi3OK);
+        const double took = seconds_now() - t0;
+        char want[96];
+        snprintf(want, sizeof want, "below its floor %g s", setup.dt_floor);
+        EXPECT(strstr(book.last, "dt = 1e-12 s") && strstr(book.last, want), "dt below the floor: %s", book.last);
+        EXPECT(!timed || took < 0.01, "refusing dt took %.3f s", took);
+        EXPECT(c2 ? fmi2Reset(c2) == fmi2OK : fmi3Reset(c3) == fmi3OK, "reset after the refused dt: %s", book.last);
+        if (c2) {
+            EXPECT(fmi2SetupExperiment(c2, fmi2False, 0.0, 0.0, fmi2False, 0.0) == fmi2OK &&
+                   fmi2EnterInitializationMode(c2) == fmi2OK && fmi2ExitInitializationMode(c2) == fmi2OK,
+                   "FMI 2 after reset: %s", book.last);
+        } else {
+            EXPECT(fmi3EnterInitializationMode(c3, fmi3False, 0.0, 0.0, fmi3False, 0.0) == fmi3OK &&
+                   fmi3ExitInitializationMode(c3) == fmi3OK, "FMI 3 after reset: %s", book.last);
+        }
+        EXPECT(do_step_either(c2, c3, 0.0, 3.0 * setup.dt), "a step after the reset: %s", book.last);
+        if (c2) fmi2FreeInstance(c2);
+        else fmi3FreeInstance(c3);
+        c2 = NULL;
+        c3 = NULL;
+    }
+    /* (2) a serialized state carrying dt = 1e-12 (checksum recomputed): refused on deserialize (frozen) */
+    if (version == 2) c2 = ready2(&book, &f2);
+    else c3 = ready3(&book);
+    EXPECT(c2 || c3, "instantiation: %s", book.last);
+    if (!c2 && !c3) return;
+    void *state = NULL;
+    size_t size = 0;
+    if (c2) {
+        EXPECT(fmi2GetFMUstate(c2, &state) == fmi2OK && fmi2SerializedFMUstateSize(c2, state, &size) == fmi2OK,
+               "state");
+    } else {
+        EXPECT(fmi3GetFMUState(c3, &state) == fmi3OK && fmi3SerializedFMUStateSize(c3, state, &size) == fmi3OK,
+               "state");
+    }
+    unsigned char *blob = calloc(size ? size : 1, 1);
+    if (c2) EXPECT(fmi2SerializeFMUstate(c2, state, (fmi2Byte *)blob, size) == fmi2OK, "serialize");
+    else EXPECT(fmi3SerializeFMUState(c3, state, blob, size) == fmi3OK, "serialize");
+    if (c2) fmi2FreeFMUstate(c2, &state);
+    else fmi3FreeFMUState(c3, &state);
+    EXPECT(blob_f64(blob + 104) == setup.dt, "dt at byte 104 of a state: %g", blob_f64(blob + 104));
+    blob_put_f64(blob + 104, 1e-12);
+    blob_seal(blob, size);
+    void *restored = NULL;
+    if (frozen) {
+        if (c2) EXPECT_ERROR(&book, fmi2DeSerializeFMUstate(c2, (const fmi2Byte *)blob, size, &restored), fmi2OK);
+        else EXPECT_ERROR(&book, fmi3DeserializeFMUState(c3, blob, size, &restored), fmi3OK);
+        EXPECT(restored == NULL && strstr(book.last, "dt = 1e-12 s") && strstr(book.last, "floor"),
+               "state dt below the floor: %s", book.last);
+    } else {                                            /* a linear model steps exactly over any h: no floor */
+        if (c2) EXPECT(fmi2DeSerializeFMUstate(c2, (const fmi2Byte *)blob, size, &restored) == fmi2OK, "exact");
+        else EXPECT(fmi3DeserializeFMUState(c3, blob, size, &restored) == fmi3OK, "exact");
+    }
+    if (restored) {
+        if (c2) fmi2FreeFMUstate(c2, &restored);
+        else fmi3FreeFMUState(c3, &restored);
+    }
+    free(blob);
+    if (c2) fmi2FreeInstance(c2);
+    else fmi3FreeInstance(c3);
+    c2 = NULL;
+    c3 = NULL;
+    /* (4) doStep with h = 1e4 s and 1e7 s at the model's dt: done or refused (naming the cap) within 10 s */
+    const double hs[2] = {1e4, 1e7};
+    for (int i = 0; i < 2; i++) {
+        if (version == 2) c2 = ready2(&book, &f2);
+        else c3 = ready3(&book);
+        if (!c2 && !c3) return;
+        const double t0 = seconds_now();
+        const int errors = book.errors;
+        const int ok = do_step_either(c2, c3, 0.0, hs[i]);
+        const double took = seconds_now() - t0;
+        EXPECT(!timed || took < 10.0, "doStep h = %g took %.1f s", hs[i], took);
+        if (frozen && hs[i] / setup.dt > setup.max_steps) {
+            EXPECT(!ok && book.errors > errors && strstr(book.last, "above the cap of") &&
+                   strstr(book.last, "per doStep"), "h = %g: expected the cap's refusal: %s", hs[i], book.last);
+        } else {
+            EXPECT(ok || strstr(book.last, "ran away") || strstr(book.last, "non-finite"), "h = %g: %s", hs[i],
+                   book.last);
+        }
+        if (c2) fmi2FreeInstance(c2);
+        else fmi3FreeInstance(c3);
+        c2 = NULL;
+        c3 = NULL;
+    }
+    /* (5) the smallest dt accepted and the largest communication step accepted: answered within 10 s */
+    if (frozen && timed) {
+        const double h = setup.max_steps * setup.dt_floor;
+        if (version == 2) {
+            c2 = instantiate2(&book, &f2, setup.uri, setup.token);
+            EXPECT(c2 && fmi2SetupExperiment(c2, fmi2False, 0.0, 0.0, fmi2False, 0.0) == fmi2OK &&
+                   fmi2EnterInitializationMode(c2) == fmi2OK && fmi2SetReal(c2, &vdt, 1, &setup.dt_floor) == fmi2OK &&
+                   fmi2ExitInitializationMode(c2) == fmi2OK, "FMI 2 dt at the floor: %s", book.last);
+        } else {
+            c3 = instantiate3(&book, setup.path3, setup.token);
+            EXPECT(c3 && fmi3EnterInitializationMode(c3, fmi3False, 0.0, 0.0, fmi3False, 0.0) == fmi3OK &&
+                   fmi3SetFloat64(c3, &vdt, 1, &setup.dt_floor, 1) == fmi3OK &&
+                   fmi3ExitInitializationMode(c3) == fmi3OK, "FMI 3 dt at the floor: %s", book.last);
+        }
+        if (c2 || c3) {
+            const double t0 = seconds_now();
+            const int ok = do_step_either(c2, c3, 0.0, h);
+            const double took = seconds_now() - t0;
+            printf("bound FMI %d: dt = %g s (the floor), h = %g s (%.0f internal steps, the cap): %s in %.3f s\n",
+                   version, setup.dt_floor, h, setup.max_steps, ok ? "done" : book.last, took);
+            EXPECT(ok || strstr(book.last, "ran away") || strstr(book.last, "non-finite"),
+                   "the largest step at the smallest dt was refused: %s", book.last);
+            EXPECT(took < 10.0, "the largest step at the smallest dt took %.1f s", took);
+            if (c2) fmi2FreeInstance(c2);
+            else fmi3FreeInstance(c3);
+        }
+    }
+}
+
+static void scenario_bound(void) {
+    bound_version(2);
+    bound_version(3);
+    /* (3) resources whose header dt is 1e-12 s (checksum recomputed): a model with internal steps refuses them
+     * at instantiation with the reason (below ROM_DT_MIN); a linear model loads them */
+    char source[4300];
+    snprintf(source, sizeof source, "%s/%s", setup.resources, ROM_RESOURCE_FILE);
+    size_t size = 0;
+    unsigned char *data = read_file(source, &size);
+    EXPECT(data != NULL, "cannot read %s", source);
+    if (!data) return;
+    char folder[4200], file[4300];
+    snprintf(folder, sizeof folder, "%s/bound", setup.scratch);
+    mkdir(folder, 0755);
+    snprintf(file, sizeof file, "%s/%s", folder, ROM_RESOURCE_FILE);
+    blob_put_f64(data + 48, 1e-12);
+    blob_seal(data, size);
+    EXPECT(write_file(file, data, size), "write %s", file);
+    RomModel *model = NULL;
+    char message[ROM_MESSAGE_SIZE];
+    const RomStatus status = rom_model_load_file(file, &model, message, sizeof message);
+    if (setup.kind == ROM_MODEL_FROZEN) {
+        EXPECT(status != ROM_OK && strstr(message, "dt = 1e-12 s is below the smallest internal step"),
+               "resources dt = 1e-12: %s", status == ROM_OK ? "accepted" : message);
+        expect_refused(folder, "dt = 1e-12 s");
+    } else {
+        EXPECT(status == ROM_OK, "linear model, resources dt = 1e-12: %s", message);
+    }
+    rom_model_free(model);
+    free(data);
+}
+
 /* ------------------------------------------------------------------------ */
 
 int main(int argc, char **argv) {
     if (argc < 3) {
-        fprintf(stderr, "usage: %s RESOURCES_DIR SCRATCH_DIR [basic|state|bad|resources|cycles|threads|edge ...]\n",
+        fprintf(stderr, "usage: %s RESOURCES_DIR SCRATCH_DIR [basic|state|bad|resources|cycles|threads|edge|bound ...]\n",
                 argv[0]);
         return 2;
     }
@@ -955,6 +1147,10 @@ int main(int argc, char **argv) {
     setup.kind = model->kind;
     setup.dt = model->dt;
     setup.n_ports = model->n_ports;
+    setup.dt_floor = rom_dt_floor(model);
+    RomState *probe_state = rom_state_new(model);
+    setup.max_steps = probe_state ? rom_max_steps_per_call(probe_state) : 0.0;
+    rom_state_free(probe_state);
     const RomSection *params = rom_model_section(model, "PARAMS");
     setup.has_params = params != NULL;
     for (int i = 0; params && i < 8 && (uint32_t)i < params->rows * params->cols; i++) {
@@ -962,9 +1158,9 @@ int main(int argc, char **argv) {
     }
     rom_model_free(model);
 
-    static const char *all[] = {"basic", "state", "bad", "resources", "cycles", "threads", "edge"};
+    static const char *all[] = {"basic", "state", "bad", "resources", "cycles", "threads", "edge", "bound"};
     const char **names = argc > 3 ? (const char **)(argv + 3) : all;
-    const int count = argc > 3 ? argc - 3 : 7;
+    const int count = argc > 3 ? argc - 3 : 8;
     for (int i = 0; i < count; i++) {
         const int before = failures, checks_before = checks;
         if (strcmp(names[i], "basic") == 0) scenario_basic();
@@ -974,6 +1170,7 @@ int main(int argc, char **argv) {
         else if (strcmp(names[i], "cycles") == 0) scenario_cycles();
         else if (strcmp(names[i], "threads") == 0) scenario_threads();
         else if (strcmp(names[i], "edge") == 0) scenario_edge();
+        else if (strcmp(names[i], "bound") == 0) scenario_bound();
         else {
             fprintf(stderr, "unknown scenario %s\n", names[i]);
             return 2;

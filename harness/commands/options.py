@@ -28,6 +28,41 @@ def max_probes():
     return MAX_PROBES
 
 
+class LazyChoices:
+    """argparse ``choices`` read on first use (a value's check, ``--help``, an error): building the parser imports
+    nothing heavy.  ``load()`` returns the choices (e.g. the model registry's names, which import numba)."""
+
+    def __init__(self, load):
+        self._load = load
+        self._values = None
+
+    def _get(self):
+        if self._values is None:
+            self._values = tuple(self._load())
+        return self._values
+
+    def __iter__(self):
+        return iter(self._get())
+
+    def __contains__(self, value):
+        return value in self._get()
+
+    def __len__(self):
+        return len(self._get())
+
+
+class LazyHelp(argparse._StoreAction):
+    """A stored option whose help text is ``help()`` (a callable), made when ``--help`` shows it."""
+
+    @property
+    def help(self):
+        return self._help() if callable(self._help) else self._help
+
+    @help.setter
+    def help(self, value):
+        self._help = value
+
+
 # The most timed repeats of a benchmark point: a median of 1000 is already exact enough; 1e18 would never end.
 MAX_REPEATS = 1000
 # The largest integer any option takes: a 64-bit signed integer (numba, HDF5 attributes, numpy indices).

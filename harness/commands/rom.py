@@ -3,7 +3,8 @@
 import sys
 
 from .. import defaults
-from .options import add_n_freeze, add_order_tolerance, add_quiet, add_scene, modes_pair, positive_float
+from .options import (LazyChoices, LazyHelp, add_n_freeze, add_order_tolerance, add_quiet, add_scene, modes_pair,
+                      positive_float)
 
 B_CHOICES = ("paper", "rest")    # the frozen model's b (harness.rom.operators.B_FORMS)
 BOUND_PROBE_SAMPLES = 4000      # at least T/4000 between samples of the measured errors (h |A|_1 <= 0.05 up to 40000)
@@ -23,9 +24,10 @@ def add_parser(sub):
     add_scene(p)
     p.add_argument("--basis", metavar="BASIS.h5",
                    help="POD basis from 'sphrom pod' (required by every model but balanced, which uses none)")
-    from ..rom.registry import MODELS
-    p.add_argument("--model", required=True, choices=tuple(MODELS),
-                   help="; ".join(f"{m.name}: {m.description}" for m in MODELS.values()))
+    # the registry (which imports numba and scipy) is read only when a value is checked or the help is shown
+    p.add_argument("--model", required=True, metavar="MODEL", action=LazyHelp,
+                   choices=LazyChoices(lambda: _models()), help=lambda: "; ".join(
+                       f"{m.name}: {m.description}" for m in _models().values()))
     add_n_freeze(p, default=defaults.N_FREEZE)
     p.add_argument("--modes", type=modes_pair, metavar="K|KV,KRHO",
                    help="mode counts (default: the basis file's); balanced: its order r, one number")
@@ -49,6 +51,11 @@ def add_parser(sub):
     p.add_argument("--out", required=True, metavar="RUN.h5")
     add_quiet(p)
     p.set_defaults(handler=run)
+
+
+def _models():
+    from ..rom.registry import MODELS
+    return MODELS
 
 
 def run(args):

@@ -32,7 +32,10 @@ def pod(snapshots):
     sigma : ndarray, shape (min(N, m),)
         Singular values, decreasing.
     """
-    u, s, _ = np.linalg.svd(np.asarray(snapshots, dtype=float), full_matrices=False)
+    from ..blas import sized, svd_flops
+    snapshots = np.asarray(snapshots, dtype=float)
+    with sized(svd_flops(*snapshots.shape)):            # one BLAS thread for a small SVD (harness.blas)
+        u, s, _ = np.linalg.svd(snapshots, full_matrices=False)
     # fix the sign of each mode (largest entry positive) so bases are reproducible
     signs = np.sign(u[np.argmax(np.abs(u), axis=0), np.arange(u.shape[1])])
     signs[signs == 0] = 1.0

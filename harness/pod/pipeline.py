@@ -16,11 +16,24 @@ def error_steps(scene):
     return default_sample_steps(step_count(scene.T, scene.sph.dt), scene.sph.every)
 
 
-def basis_for_scene(scene, spec=None, progress=True, problem=None):
+def training_steps(scene, spec=None):
+    """The steps :func:`basis_for_scene` asks the cached full SPH run for: the error steps and, unless the
+    strategy takes every stored sample, the snapshot steps of ``spec`` (default the scene's)."""
+    spec = dict(scene.snapshots if spec is None else spec)
+    steps = error_steps(scene)
+    if spec.get("all"):
+        return steps
+    n = step_count(scene.T, scene.sph.dt)
+    sv, sr = snapshot_steps(spec, scene.sph.dt, n, n_particles=scene.sph.n_particles)
+    return np.union1d(steps, np.union1d(sv, sr))
+
+
+def basis_for_scene(scene, spec=None, progress=True, problem=None, extra_steps=()):
     """POD basis of ``scene`` for the snapshot strategy ``spec`` (default the scene's).
 
     Returns (basis, run): the run is the cached full SPH solution, with samples
-    at the error steps and at the snapshot steps.
+    at the error steps and at the snapshot steps (and at ``extra_steps``, e.g. the
+    communication points a verification reads: stored by the same run).
     """
     spec = dict(scene.snapshots if spec is None else spec)
     problem = problem or build_problem(scene)
@@ -28,9 +41,11 @@ def basis_for_scene(scene, spec=None, progress=True, problem=None):
     steps = error_steps(scene)
     if not spec.get("all"):
         sv, sr = snapshot_steps(spec, scene.sph.dt, n, n_particles=scene.sph.n_particles)
-        run = cached_sph(scene, np.union1d(steps, np.union1d(sv, sr)), progress=progress, problem=problem)
+        run = cached_sph(scene, np.union1d(training_steps(scene, spec), np.asarray(extra_steps, np.int64)),
+                         progress=progress, problem=problem)
     else:
-        run = cached_sph(scene, steps, progress=progress, problem=problem)
+        run = cached_sph(scene, np.union1d(steps, np.asarray(extra_steps, np.int64)), progress=progress,
+                         problem=problem)
         sv, sr = snapshot_steps(spec, scene.sph.dt, n, stored_steps=run.steps)
     basis = build_basis(run.v, run.rho, run.steps, sv, sr, run.x, scene.sph.dt, scene.text, describe(spec),
                         weights=(problem.rho0, problem.c))

@@ -31,6 +31,33 @@ import numpy as np
 
 STEP_ROUNDING = 1e-9       # fmu_src/rom.h ROM_STEP_ROUNDING
 SHORT_STEP_MIN = 1e-12     # ROM_SHORT_STEP_MIN
+# The work of one doStep is bounded (fmu_src/rom.h): dt >= dt_floor, at most max_steps_per_call internal steps
+DT_MIN = 1e-9              # ROM_DT_MIN [s]: the smallest internal step of a frozen model's resources
+DT_FLOOR_RATIO = 1e-3      # ROM_DT_FLOOR_RATIO: the parameter dt is at least this x the model's dt
+MAX_WORK_PER_CALL = 2e9    # ROM_MAX_WORK_PER_CALL: multiply-adds of the internal steps of one doStep
+STEP_OVERHEAD = 32.0       # ROM_STEP_OVERHEAD: multiply-adds one internal step costs beyond its arithmetic
+
+
+def dt_floor(model_dt):
+    """The smallest internal step [s] a frozen FMU with internal step ``model_dt`` [s] accepts (rom_dt_floor)."""
+    return max(DT_MIN, model_dt * DT_FLOOR_RATIO)
+
+
+def step_work(k_v, k_rho, n_freeze, n_ports=0, damping=True):
+    """Multiply-adds of one internal step of the frozen model (rom_step_work, fmu_src/rom_frozen.c): the density
+    and velocity rates over the padded blocks, the two updates, the runaway check, and 1/n_freeze of a refresh."""
+    pad = lambda k: -(-k // 4) * 4                                      # noqa: E731
+    kvp, krp = pad(k_v), pad(k_rho)
+    n_pairs = k_rho * (k_rho + 1) // 2
+    nm = -(-(k_v * krp) // 32) * 32
+    step = krp * k_v + kvp * (k_rho + (k_v if damping else 0)) + kvp + krp + k_v + k_rho
+    refresh = n_pairs * (1.0 + nm) + kvp + n_ports * k_v
+    return step + refresh / max(int(n_freeze), 1) + STEP_OVERHEAD
+
+
+def max_steps_per_call(k_v, k_rho, n_freeze, n_ports=0, damping=True):
+    """The most internal steps one doStep of the frozen FMU takes (rom_max_steps_per_call)."""
+    return math.floor(MAX_WORK_PER_CALL / step_work(k_v, k_rho, n_freeze, n_ports, damping))
 
 
 def split_step(h, dt):

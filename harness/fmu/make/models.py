@@ -15,15 +15,16 @@ from ...errors import FieldError
 from ..resources import MODEL_EXACT_LINEAR, MODEL_FROZEN, balanced_data, exact_data, model_data, pack, pack_exact
 
 
-def model_basis(scene, spec, k, progress=True, problem=None):
+def model_basis(scene, spec, k, progress=True, problem=None, made=None):
     """(basis, problem) of ``scene`` for the model ``spec``: its POD basis, with k checked against the modes of the
-    model's basis kind (FieldError naming the field ``k`` or ``model``)."""
+    model's basis kind (FieldError naming the field ``k`` or ``model``).  ``made``: the (basis, run) of
+    :func:`harness.pod.pipeline.basis_for_scene` already made for this scene (not made again)."""
     from ...pod.pipeline import basis_for_scene
     from ...rom.model import BASIS_KINDS
     from ...sph.solver import build_problem
 
     problem = problem or build_problem(scene)
-    basis, _ = basis_for_scene(scene, progress=progress, problem=problem)
+    basis, _ = made or basis_for_scene(scene, progress=progress, problem=problem)
     available = spec.available_modes(basis)
     if available is None:
         raise FieldError("model", f"{spec.name}: the basis of scene '{scene.name}' has no "
@@ -35,7 +36,7 @@ def model_basis(scene, spec, k, progress=True, problem=None):
 
 
 def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem=None, model="frozen", ports=(),
-                  build_options=None):
+                  build_options=None, made=None):
     """The FMU's numbers for a model of resource kind 1 (frozen coefficients): (ModelData, ops, problem, basis).
 
     Runs (or reuses) the full SPH and the POD (harness.pod.pipeline), builds the model's operators
@@ -49,7 +50,7 @@ def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem
     from ...rom.stepping import runaway_bound
 
     spec = get_model(model)
-    basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem)
+    basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem, made=made)
     ops = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction, tensor="always",
                      **({"ports": tuple(ports)} if ports else {}), **(build_options or {}))
     data = model_data(ops, problem, dt=scene.sph.dt, integrator=integrator, n_freeze=n_freeze, probes=probes,
@@ -58,7 +59,7 @@ def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem
 
 
 def exact_model(scene, k, n_freeze, probes, progress=True, problem=None, model="exact", ports=(),
-                build_options=None):
+                build_options=None, made=None):
     """The FMU's numbers for a model of resource kind 2 on a POD basis (the exact model):
     (ExactData, lin, problem, basis).
 
@@ -69,7 +70,7 @@ def exact_model(scene, k, n_freeze, probes, progress=True, problem=None, model="
     from ...rom.registry import get_model
 
     spec = get_model(model)
-    basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem)
+    basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem, made=made)
     lin = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction,
                      **({"ports": tuple(ports)} if ports else {}), **(build_options or {}))
     data = exact_data(lin, problem, dt=scene.sph.dt, n_freeze=n_freeze, probes=probes,
@@ -77,13 +78,32 @@ def exact_model(scene, k, n_freeze, probes, progress=True, problem=None, model="
     return data, lin, problem, basis
 
 
-def training_envelope(scene, ops, problem, probes, linear, progress=False):
+def training_envelope(scene, ops, problem, probes, linear, progress=False, run=None):
     """The :class:`~harness.fmu.make.envelope.Envelope` of the model ``ops``: its ranges over the scene's cached
     full SPH training run (:mod:`harness.fmu.make.envelope`)."""
     from ...pod.pipeline import basis_for_scene
     from .envelope import measure
-    _, run = basis_for_scene(scene, progress=progress, problem=problem)
+    if run is None:
+        _, run = basis_for_scene(scene, progress=progress, problem=problem)
     return measure(scene, ops, problem, run, probes, linear)
+
+
+def training_basis(scene, progress, problem, extra_steps=()):
+    """(basis, run, problem): the scene's POD basis and its cached training run, made once for the model and its
+    training envelope (one SPH load and one POD).  ``extra_steps``: more samples the same run stores (the
+    communication points a verification reads: the training run is then not run again for it)."""
+    import dataclasses
+
+    from ...pod.pipeline import basis_for_scene, error_steps
+    from ...sph.solver import build_problem
+    problem = problem or build_problem(scene)
+    basis, run = basis_for_scene(scene, progress=progress, problem=problem, extra_steps=extra_steps)
+    # the envelope is measured on the samples the model asks for (error and snapshot steps), not on whatever
+    # else the cache holds from other commands: the same resources whatever the cache's history
+    keep = np.isin(run.steps, np.union1d(error_steps(scene), np.union1d(basis.steps_v, basis.steps_rho)))
+    if not keep.all():
+        run = dataclasses.replace(run, t=run.t[keep], v=run.v[keep], rho=run.rho[keep], steps=run.steps[keep])
+    return basis, run, problem
 
 
 def balanced_model(scene, k, n_freeze, probes, order_tolerance=None, problem=None, model="balanced",
@@ -131,15 +151,17 @@ def linear_bound(lin, scene, samples=4097):
 
 
 def _frozen_resource(scene, model, k, n_freeze, probes, integrator, progress, problem, order_tolerance=None,
-                     bounds=True, ports=(), build_options=None):
+                     bounds=True, ports=(), build_options=None, extra_steps=()):
+    basis, run, problem = training_basis(scene, progress, problem, extra_steps)
     data, ops, problem, _ = reduced_model(scene, k, n_freeze, probes, integrator, progress=progress,
-                                          problem=problem, model=model, ports=ports, build_options=build_options)
-    data.sections.update(training_envelope(scene, ops, problem, probes, False, progress).sections())
+                                          problem=problem, model=model, ports=ports, build_options=build_options,
+                                          made=(basis, run))
+    data.sections.update(training_envelope(scene, ops, problem, probes, False, progress, run=run).sections())
     return data, ops, pack(data)
 
 
 def _linear_resource(scene, model, k, n_freeze, probes, integrator, progress, problem, order_tolerance=None,
-                     bounds=True, ports=(), build_options=None):
+                     bounds=True, ports=(), build_options=None, extra_steps=()):
     """Kind 2: the exact POD model (on its basis, with its training envelope) or the balanced model (no basis);
     both with the certified error bounds against the full linear SPH at the FMU's probes (the operators'
     ``error_bounds``; section BOUNDS: force, initial state), unless ``bounds`` is False (benchmarks that time
@@ -147,9 +169,11 @@ def _linear_resource(scene, model, k, n_freeze, probes, integrator, progress, pr
     from ...rom.registry import get_model
 
     if get_model(model).needs_basis:
+        basis, run, problem = training_basis(scene, progress, problem, extra_steps)
         data, ops, problem, _ = exact_model(scene, k, n_freeze, probes, progress=progress, problem=problem,
-                                            model=model, ports=ports, build_options=build_options)
-        data.sections.update(training_envelope(scene, ops, problem, probes, True, progress).sections())
+                                            model=model, ports=ports, build_options=build_options,
+                                            made=(basis, run))
+        data.sections.update(training_envelope(scene, ops, problem, probes, True, progress, run=run).sections())
     else:
         data, ops, problem = balanced_model(scene, k, n_freeze, probes, order_tolerance=order_tolerance,
                                             problem=problem, model=model, build_options=build_options)

@@ -175,15 +175,18 @@ def package_fmu(scene, out, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaul
     ports = check_ports(ports, model)
     timings = {}
     t0 = time.perf_counter()
+    step = step_size if step_size is not None else min(defaults.STEP, scene.T / 10)
     data, ops, blob, parameters = model_step(scene, model, k, n_freeze, probes, integrator, progress, problem,
                                              vary=vary, ports=ports, bounds=bounds, order_tolerance=order_tolerance,
-                                             build_options=build_options)
+                                             build_options=build_options,
+                                             extra_steps=verification_steps(scene, step, verify))
     timings["model"] = time.perf_counter() - t0
+    stage_done(scene, "model", timings, progress)
     envelope = envelope_step(data)
     t1 = time.perf_counter()
     binary = binaries_step(binaries, fmi, progress)
     timings["binaries"] = time.perf_counter() - t1
-    step = step_size if step_size is not None else min(defaults.STEP, scene.T / 10)
+    stage_done(scene, "binaries", timings, progress)
     k = data.k_v if k is None else k                 # the balanced model's order from its order tolerance
     texts = dict(scene=scene, model=model, data=data, ops=ops, k=k, fmi=fmi, step=step, envelope=envelope,
                  tolerance=tolerance)
@@ -191,13 +194,15 @@ def package_fmu(scene, out, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaul
     out = Path(out)
     verification = None
     with atomic_path(out) as tmp:
-        archive_step(tmp, blob, binary, **texts)
+        archive_step(tmp, blob, binary, check=not verify, **texts)   # verified: validated once, when rewritten
         timings["package"] = time.perf_counter() - t2
+        stage_done(scene, "package", timings, progress)
         if verify:
             t3 = time.perf_counter()
             verification = verification_step(tmp, scene, probes, references, problem, progress, tolerance, out, model)
-            timings["verify"] = time.perf_counter() - t3
             archive_step(tmp, blob, binary, verification=verification, **texts)   # only the texts change
+            timings["verify"] = time.perf_counter() - t3
+            stage_done(scene, "verify", timings, progress)
         size = tmp.stat().st_size
     return FMUSummary(path=out, fmi=fmi, scene=scene.name, k=k, k_v=data.k_v, k_rho=data.k_rho,
                       input_error=ops.input_error, augmented=ops.augmented, probes=list(probes), n_freeze=n_freeze,
@@ -207,7 +212,7 @@ def package_fmu(scene, out, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaul
 
 
 def model_step(scene, model, k, n_freeze, probes, integrator, progress, problem, *, vary, ports, bounds,
-               order_tolerance, build_options):
+               order_tolerance, build_options, extra_steps=()):
     """Step 2: (data, operators, resources/model.bin bytes, the parametric FMU's parameter rows) of ``model``:
     the resource kind's function (:data:`.models.RESOURCES`), or the parametric model over ``vary``."""
     from ...rom.registry import get_model
@@ -215,7 +220,8 @@ def model_step(scene, model, k, n_freeze, probes, integrator, progress, problem,
         data, ops, blob = RESOURCES[get_model(model).fmu_kind](scene, model, k, n_freeze, probes, integrator,
                                                                   progress, problem, order_tolerance=order_tolerance,
                                                                   bounds=bounds, ports=ports,
-                                                                  build_options=build_options)
+                                                                  build_options=build_options,
+                                                                  extra_steps=extra_steps)
         return data, ops, blob, []
     if build_options:
         raise FieldError("build_options", "not with vary (a parametric model has its own build)")
@@ -245,9 +251,9 @@ def description_step(*, scene, model, data, ops, k, fmi, step, envelope, verific
                              bounds=data.bounds, measured=None if verification is None else verification.sentence())
 
 
-def archive_step(path, blob, binary, **texts):
+def archive_step(path, blob, binary, check=True, **texts):
     """Steps 5 to 7: description, documentation, the archive at ``path`` and fmpy's validation of it
-    (SimulationError listing the problems)."""
+    (``check``; SimulationError listing the problems)."""
     from ...rom.registry import get_model
     description = description_step(**texts)
     docs = documentation_files(scene=texts["scene"], spec=get_model(texts["model"]), data=texts["data"],
@@ -256,7 +262,7 @@ def archive_step(path, blob, binary, **texts):
                                verification=texts.get("verification"), tolerance=texts["tolerance"],
                                envelope=texts["envelope"])
     write_fmu(path, fmi=texts["fmi"], blob=blob, description=description, binary=binary, documentation=docs)
-    problems = validate(path)
+    problems = validate(path) if check else []
     if problems:
         raise SimulationError("the packaged FMU fails fmpy's validation: " + "; ".join(problems))
 
@@ -268,6 +274,22 @@ def verification_step(path, scene, probes, references, problem, progress, tolera
     verification = verify_fmu(path, scene, probes, refs=references, problem=problem, progress=progress)
     check_tolerance(verification, tolerance, out, model)
     return verification
+
+
+def verification_steps(scene, step, verify):
+    """The SPH steps of the communication points at ``step`` [s] that a verification reads from the training run
+    (:func:`harness.fmu.check.verify.communication_times`); none without ``verify``."""
+    if not verify:
+        return ()
+    from ..check.verify import communication_times
+    return communication_times(scene, step)[1]
+
+
+def stage_done(scene, stage, timings, progress):
+    """The progress line of a finished packaging stage and its time (stderr; nothing without ``progress``)."""
+    if progress:
+        import sys
+        print(f"fmu {scene.name}: {stage} {timings[stage]:.2f} s", file=sys.stderr, flush=True)
 
 
 def check_tolerance(verification, tolerance, out, model):

@@ -71,6 +71,12 @@ class Core:
         lib.rom_model_kind.restype = ctypes.c_uint32
         lib.rom_model_section.argtypes = [vp, cp]
         lib.rom_model_section.restype = ctypes.POINTER(_Section)
+        lib.rom_max_steps_per_call.argtypes = [vp]
+        lib.rom_max_steps_per_call.restype = ctypes.c_double
+        lib.rom_step_work.argtypes = [vp]
+        lib.rom_step_work.restype = ctypes.c_double
+        lib.rom_set_dt.argtypes = [vp, ctypes.c_double, cp, sz]
+        lib.rom_set_dt.restype = ctypes.c_int
         lib.rom_envelope_check.argtypes = [vp, cp, sz]
         lib.rom_envelope_check.restype = ctypes.c_int
         self.lib = lib
@@ -125,6 +131,17 @@ class CoreModel:
 
     def set_n_freeze(self, n_freeze):
         self._check(self.core.lib.rom_set_n_freeze(self.state, n_freeze, self._msg, MESSAGE_SIZE))
+
+    def set_dt(self, dt):
+        self._check(self.core.lib.rom_set_dt(self.state, dt, self._msg, MESSAGE_SIZE))
+
+    def max_steps_per_call(self):
+        """The most internal steps one doStep takes at the state's settings (fmu_src/rom.h)."""
+        return self.core.lib.rom_max_steps_per_call(self.state)
+
+    def step_work(self):
+        """Multiply-adds of one internal step at the state's settings (fmu_src/rom.h rom_step_work)."""
+        return self.core.lib.rom_step_work(self.state)
 
     def set_input(self, f):
         self._check(self.core.lib.rom_set_input(self.state, f, self._msg, MESSAGE_SIZE))
