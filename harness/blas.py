@@ -2,7 +2,7 @@
 
 A dense LAPACK call on a small matrix (the POD's thin SVD of a 400 x 100 snapshot matrix, a k x k solve) gains
 nothing from a second thread and loses much on a loaded machine: OpenBLAS's two threads took 147-2843 ms for an
-SVD that takes 5.5-9 ms on one thread (issue 24).  Below :data:`SERIAL_FLOPS` the call runs on one thread; above
+SVD that takes 5.5-9 ms on one thread.  Below :data:`SERIAL_FLOPS` the call runs on one thread; above
 it BLAS keeps its own setting (all cores).
 """
 

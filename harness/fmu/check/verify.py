@@ -174,8 +174,8 @@ def sph_reference(scene, force, scale, step, probes, problem=None):
         # the training run itself (the scene's force from its initial state): the cached run the model was
         # trained on, with the communication points stored (run once when they are not); its wall time is that
         # run's, as recorded when it was made
-        from ..cache import cached_sph
-        from ..pod.pipeline import on_steps
+        from ...cache import cached_sph
+        from ...pod.pipeline import on_steps
         run = cached_sph(scene, steps, progress=False, problem=problem)
         fields = on_steps(run, np.unique(steps))
         index = np.searchsorted(np.unique(steps), steps)
