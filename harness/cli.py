@@ -18,6 +18,7 @@ import sys
 
 from . import __version__
 from .errors import FieldError, Interrupted, SimulationError, UserError
+from .parser import Parser
 from .signals import Guard, interrupt_line
 
 # subcommand name -> module in harness.commands
@@ -39,16 +40,6 @@ COMMANDS = {
 }
 
 
-class Parser(argparse.ArgumentParser):
-    """An ArgumentParser (and, through ``add_subparsers``, its subcommands' parsers) whose errors are one line:
-    ``sphrom COMMAND: error: --option: what is allowed``, exit status 2, no usage block."""
-
-    def error(self, message):
-        if message.startswith("argument "):        # "argument --probes: ..." -> "--probes: ..."
-            message = message[len("argument "):]
-        self.exit(2, f"{self.prog}: error: {' '.join(message.split())}\n")
-
-
 def build_parser():
     parser = Parser(
         prog="sphrom",
@@ -67,7 +58,7 @@ def parse(parser, argv=None):
     """Parse ``argv``; an unknown argument is an error of the subcommand it was given to.  ``sphrom bench NAME
     ...`` hands the arguments after NAME to the program NAME (:func:`harness.commands.bench.program_args`)."""
     from .commands.bench import program_args
-    args = program_args(sys.argv[1:] if argv is None else list(argv))
+    args = program_args(sys.argv[1:] if argv is None else list(argv), build_parser)
     if args is not None:
         return args
     args, extra = parser.parse_known_args(argv)

@@ -98,7 +98,7 @@ def list_lines():
 def program_parser(name, description=None, **options):
     """The argument parser of program ``name``: one-line errors with exit status 2 (as every sphrom command),
     named as it was called (``sphrom bench NAME`` or ``python -m harness.bench.NAME``)."""
-    from ..cli import Parser
+    from ..parser import Parser
     prog = f"sphrom bench {name}" if _CALLED_AS_SPHROM else f"python -m {PROGRAMS[name].target}"
     return Parser(prog=prog, description=description, **options)
 
@@ -106,13 +106,16 @@ def program_parser(name, description=None, **options):
 _CALLED_AS_SPHROM = False
 
 
-def run_program(name, argv):
-    """Run program ``name`` with the arguments ``argv``; its exit status (``--help``: 0, a bad option: 2)."""
+def run_program(name, argv, build_parser=None):
+    """Run program ``name`` with the arguments ``argv``; its exit status (``--help``: 0, a bad option: 2).
+    ``build_parser``: sphrom's parser builder (:func:`harness.cli.build_parser`), needed by the programs that are
+    sphrom commands (target ``command:NAME``)."""
     global _CALLED_AS_SPHROM
     target = PROGRAMS[name].target
     if target.startswith("command:"):
-        from ..cli import build_parser
         command = target.split(":", 1)[1]
+        if build_parser is None:
+            raise ValueError(f"program {name!r} is the sphrom command {command!r}: run_program needs build_parser")
         parser = build_parser()
         try:
             args = parser.parse_args([command, *argv])

@@ -52,16 +52,17 @@ def add_parser(sub):
     p.set_defaults(handler=run)
 
 
-def program_args(argv):
+def program_args(argv, build_parser):
     """``sphrom bench NAME ...`` with NAME a program of :data:`harness.bench.PROGRAMS` (module docstring): the
-    arguments that run it (command ``bench``, its handler), else None (every other command line)."""
+    arguments that run it (command ``bench``, its handler), else None (every other command line).
+    ``build_parser``: sphrom's parser builder (:func:`harness.cli.build_parser`), for programs that are commands."""
     import argparse
 
     from ..bench import PROGRAMS, run_program
     if len(argv) < 2 or argv[0] != "bench" or argv[1] not in PROGRAMS:
         return None
     name, rest = argv[1], list(argv[2:])
-    return argparse.Namespace(command="bench", handler=lambda args: run_program(name, rest))
+    return argparse.Namespace(command="bench", handler=lambda args: run_program(name, rest, build_parser))
 
 
 def run(args):

@@ -17,7 +17,8 @@ Public names (imported from their modules on first use)::
     package_fmu, FMUSummary      sphrom fmu: scene -> validated .fmu               (make.package)
     package_auto                 sphrom fmu --model auto                           (make.auto)
     run_cosim, CosimResult       sphrom cosim                                      (run.cosim)
-    FMU, open_fmu                one FMU instance driven from Python               (run.driver)
+    FMU, load_fmu                one FMU instance driven from Python; fmpy's instance of an unpacked FMU
+                                                                                   (run.driver)
     cosim_reference              the FMU's co-simulation in Python                 (check.python_cosim)
     verify_fmu                   the FMU against the full SPH                      (check.verify)
     ensure_binaries, Binaries    the binaries from fmu_src/, built once and cached (make.build)
