@@ -179,11 +179,12 @@ def check_output_path(path, field="out"):
         raise FieldError(field, f"folder '{Path(text).parent}' does not exist")
     tmp = _temporary(target)
     try:
-        with contextlib.suppress(FileNotFoundError):
-            if tmp.is_symlink() or tmp.is_file():
-                tmp.unlink()                                   # this process's own, from an earlier write
-        os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), 0o600))
-        tmp.unlink()
+        with deferred():                # a signal between the create and the unlink would leave the probe behind
+            with contextlib.suppress(FileNotFoundError):
+                if tmp.is_symlink() or tmp.is_file():
+                    tmp.unlink()                               # this process's own, from an earlier write
+            os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), 0o600))
+            tmp.unlink()
     except OSError as exc:
         if exc.errno == errno.ENAMETOOLONG:
             raise FieldError(field, f"'{target.name[:40]}...' is too long a file name for this system (with its "

@@ -228,7 +228,7 @@ def step_bound_cases(ws, fmu_names):
     checksums recomputed) or a huge communication step must be answered (done, or refused naming the limit)
     within the child's per-case time (10 s), FMI 2 and 3, frozen and exact."""
     import shutil
-    from fmpy import extract
+    from fmpy import extract, read_model_description
     cases, labels = [], []
     for name in fmu_names:
         unzipdir = str(extract(str(ws[name]), unzipdir=str(ws.root / f"step-{name}")))
@@ -238,7 +238,10 @@ def step_bound_cases(ws, fmu_names):
         blob = bytearray((patched / "resources" / "model.bin").read_bytes())
         blob[RESOURCE_DT_AT:RESOURCE_DT_AT + 8] = struct.pack("<d", 1e-12)
         (patched / "resources" / "model.bin").write_bytes(_recrc(bytes(blob)))
+        has_dt = any(v.name == "dt" for v in read_model_description(unzipdir).modelVariables)
         for kind, dt, h in STEP_BOUND_CASES:
+            if kind == "dt parameter" and not has_dt:       # a linear FMU: no internal step to set
+                continue
             cases.append((kind, dt, h, str(patched) if kind == "resources dt" else unzipdir))
             labels.append(f"{name}: {kind}" + (f" dt = {dt:g} s" if dt else "") + f", doStep h = {h:g} s")
     return cases, labels

@@ -117,7 +117,9 @@ def connect(scheduler=None, workers=None):
         return client, None
     # dask's own logs stay quiet below CRITICAL: a worker's death (logged as an ERROR with a traceback) reaches
     # the study through its futures, which retry the lost tasks and report what stays lost in one line each
-    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+    # dashboard_address ":0": the scheduler's HTTP server on a free port (None still asks for 8787, and dask
+    # warns on stderr when another cluster holds it)
+    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
                            silence_logs=logging.CRITICAL)
     return Client(cluster), cluster
 
