@@ -87,6 +87,9 @@ class LinearOperators(Operators):
         Columns appended to U_v and U_e for the ports (after the force profile's: each port's profile and its
         Krylov directions, :func:`harness.rom.operators.port_directions`) and each port profile's
         ρ0-relative projection error before its column.
+    input_added, input_added_2 : int
+        Columns appended to U_v and U_e for the force profile's response at every frequency (build option
+        ``input_moments``, :func:`harness.rom.inputs.augment_channels`).
     """
 
     U_v: np.ndarray
@@ -109,6 +112,8 @@ class LinearOperators(Operators):
     port_added: int = 0
     port_errors: tuple = ()
     port_added_2: int = 0
+    input_added: int = 0
+    input_added_2: int = 0
 
     @property
     def k_v(self):
@@ -194,7 +199,8 @@ def augment_weighted(U, direction, weight, tol=1e-10):
     return np.column_stack([U, r / np.sqrt(r @ (w * r))]), error, True
 
 
-def build_linear_operators(problem, U_v, U_e, input_direction="auto", input_tolerance=None, ports=()):
+def build_linear_operators(problem, U_v, U_e, input_direction="auto", input_tolerance=None, ports=(),
+                           input_moments=True):
     """The exact linear model's operators from energy-weighted bases.
 
     Parameters
@@ -210,8 +216,11 @@ def build_linear_operators(problem, U_v, U_e, input_direction="auto", input_tole
     ports : sequence of float
         Port positions x/L: each port's acceleration profile W(x - x_j, h)/ρ0 is appended to U_v (its
         ρ0-orthogonal part outside the modes), so every port force enters exactly, as the force profile.
+    input_moments : bool
+        As in :func:`harness.rom.operators.build_operators`: with the profile appended, also its response at
+        every frequency (energy inner products).
     """
-    from .operators import augment_ports, port_rows
+    from .operators import augment_ports, port_rows, profile_moments
     t0 = time.perf_counter()
     rho0, c, d, profile = problem.rho0, problem.c, problem.d, problem.profile
     scene = problem.scene
@@ -224,6 +233,8 @@ def build_linear_operators(problem, U_v, U_e, input_direction="auto", input_tole
         U_aug, input_error, added = augment_weighted(U_v, profile, rho0, tol=tol)
         if mode == "augment":
             U_v, augmented = U_aug, added
+    U_v, U_e, input_added, input_added_2 = profile_moments(problem, U_v, np.asarray(U_e, float), want_input
+                                                           and input_moments and mode == "augment", energy=True)
     U_v, U_e, port_added, port_added_e, port_errors = augment_ports(problem, U_v, np.asarray(U_e, float), ports,
                                                                     energy=True)
     G = problem.neighbours.matrix()
@@ -244,7 +255,7 @@ def build_linear_operators(problem, U_v, U_e, input_direction="auto", input_tole
     return LinearOperators(U_v=U_v, U_e=np.asarray(U_e, float), A=A, B=B, z0=z0, rho0=rho0, skew=not damping,
                            schur_Q=Q, schur_T=T, input_error=input_error, augmented=augmented,
                            timings={"operators": time.perf_counter() - t0}, input_mode=mode, input_tolerance=tol,
-                           **extra)
+                           input_added=input_added, input_added_2=input_added_2, **extra)
 
 
 def port_weighted(problem, U_v, ports):
@@ -254,12 +265,13 @@ def port_weighted(problem, U_v, ports):
     return port_kernel(problem, ports) @ U_v
 
 
-def build_from_basis(problem, basis, k_v, k_rho, *, input_direction="auto", input_tolerance=None, ports=()):
+def build_from_basis(problem, basis, k_v, k_rho, *, input_direction="auto", input_tolerance=None, ports=(),
+                     input_moments=True):
     """:func:`build_linear_operators` on the first k_v, k_rho energy-weighted modes of ``basis``
     (``Basis.U_ve``, ``Basis.U_e``): the model's builder (:mod:`harness.rom.model`)."""
     U_v, U_e = basis_modes(basis, "energy", k_v, k_rho)
     return build_linear_operators(problem, U_v, U_e, input_direction=input_direction, input_tolerance=input_tolerance,
-                                  ports=ports)
+                                  ports=ports, input_moments=input_moments)
 
 
 def truncate_linear_operators(problem, ops: LinearOperators, k_v, k_e):
@@ -276,11 +288,11 @@ def truncate_linear_operators(problem, ops: LinearOperators, k_v, k_e):
     of them) with its rows of P, D̂, p̂ and z0, at O(N k).
     """
     t0 = time.perf_counter()
-    kv_pod = ops.k_v - int(ops.augmented) - ops.port_added
-    ke_pod = ops.k_e - ops.port_added_2
+    kv_pod = ops.k_v - int(ops.augmented) - ops.port_added - ops.input_added
+    ke_pod = ops.k_e - ops.port_added_2 - ops.input_added_2
     if not (1 <= k_v <= kv_pod and 1 <= k_e <= ke_pod):
         raise ValueError(f"k_v, k_e = {k_v}, {k_e} out of range (allowed: 1 to {kv_pod}, 1 to {ke_pod})")
-    if ops.ports:                                  # the port columns depend on every mode before them: rebuild
+    if ops.ports or ops.input_added or ops.input_added_2:    # input columns depend on every mode before them
         return build_linear_operators(problem, ops.U_v[:, :k_v], ops.U_e[:, :k_e],
                                       input_direction=ops.input_mode if ops.B is not None else "never",
                                       input_tolerance=ops.input_tolerance, ports=ops.ports)

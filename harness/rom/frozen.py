@@ -36,7 +36,7 @@ from .loops import FrozenOperators, _check, _velocity_rate
 from .model import FrozenOptions, ReducedModel
 from .operators import build_from_basis, pair_index, truncate_operators
 from .result import ReducedResult
-from .stepping import (drive, energy_guard, force_table, method_code, runaway_bound, sample_blocks, sample_grid,
+from .stepping import (drive, energy_guard, port_work, force_table, method_code, runaway_bound, sample_blocks, sample_grid,
                        start_arrays)
 
 
@@ -201,7 +201,9 @@ def run(ops, problem, *, dt, n_steps, sample_steps, every, force, state, initial
 
     wall = drive(MODEL.name, advance, lambda n0, n1: force_table(force, loop.has_f, method, n0, n1, dt),
                  n_steps=n_steps, dt=dt, cost=ops.k_v * ops.k_rho, bound=bound, progress=progress,
-                 guard=energy_guard(ops, problem, av, ar, dt=dt, name=MODEL.name, integrator=integrator))
+                 guard=energy_guard(ops, problem, av, ar, dt=dt, name=MODEL.name, integrator=integrator,
+                                    port_work=None if port_forces is None else
+                                    port_work(problem, ops.ports, port_forces, dt, area)))
     settings = {"model": MODEL.name, "integrator": integrator, "dt": dt, "k_v": ops.k_v, "k_rho": ops.k_rho,
                 "n_freeze": int(n_freeze), "refresh": refresh}
     return ReducedResult(model=MODEL.name, t=steps * dt, steps=steps, z=out_z, ops=ops, wall_time=wall,

@@ -96,6 +96,9 @@ class ReducedOperators(Operators):
         so a port force enters exactly and its local response is represented.
     port_errors : tuple of float
         Relative projection error of each port profile on the velocity modes before its column.
+    input_added, input_added_2 : int
+        Columns appended to U^v and U^ρ for the force profile's response at every frequency (after the profile's
+        own column; :func:`harness.rom.inputs.augment_channels`, build option ``input_moments``).
     """
 
     U_v: np.ndarray
@@ -122,6 +125,8 @@ class ReducedOperators(Operators):
     port_errors: tuple = ()
     port_added_2: int = 0
     b_form: str = "paper"
+    input_added: int = 0
+    input_added_2: int = 0
 
     def port_velocity(self, a_v):
         """v_port = Cp a^v [m s^-1], (M, P) from coordinates (M, k_v) (:mod:`harness.sph.ports`)."""
@@ -195,7 +200,7 @@ def augment_with(U, direction, tol=ROUNDOFF_TOLERANCE):
 
 
 def build_operators(problem: SPHProblem, U_v, U_rho, input_direction="auto", tensor="auto",
-                    input_tolerance=None, ports=(), b="paper"):
+                    input_tolerance=None, ports=(), b="paper", input_moments=True):
     """Reduced operators for bases ``U_v`` (N, k_v) and ``U_rho`` (N, k_rho).
 
     Parameters
@@ -228,6 +233,10 @@ def build_operators(problem: SPHProblem, U_v, U_rho, input_direction="auto", ten
     b : {"paper", "rest"}
         Eq. 2.22's b (the paper's), or b = K a^ρ_rest (:func:`rest_b`: the projected rest state is an
         equilibrium; the frozen FMU's).
+    input_moments : bool
+        When the force profile is appended (``augment``, ``always``, ``needed``): also its response at every
+        frequency, s = 0 through the band (:func:`harness.rom.inputs.augment_channels`), so that a constant or
+        slow force along a non-uniform profile is represented; ``project`` and ``never`` add nothing.
     """
     if b not in B_FORMS:
         raise ValueError(f"b: {b!r} is out of range (allowed: {', '.join(B_FORMS)})")
@@ -244,6 +253,8 @@ def build_operators(problem: SPHProblem, U_v, U_rho, input_direction="auto", ten
         U_aug, input_error, added = augment_with(U_v, profile, tol=tol)
         if mode == "augment":
             U_v, augmented = U_aug, added
+    U_v, U_rho, input_added, input_added_2 = profile_moments(problem, U_v, U_rho, want_input and input_moments
+                                                             and mode == "augment", energy=False)
     U_v, U_rho, port_added, port_added_rho, port_errors = augment_ports(problem, U_v, U_rho, ports)
     G = problem.neighbours.matrix()
     inv_rho0 = 1.0 / rho0
@@ -263,6 +274,7 @@ def build_operators(problem: SPHProblem, U_v, U_rho, input_direction="auto", ten
                             a_v0=U_v.T @ problem.v0, a_rho0=a_rho0, input_error=input_error,
                             augmented=augmented, timings={"operators": t1 - t0, "tensor": t2 - t1},
                             input_mode=mode, input_tolerance=tol, tensor_rule=tensor, b_form=b,
+                            input_added=input_added, input_added_2=input_added_2,
                             **port_rows(problem, U_v, ports, port_added, port_errors, port_added_rho))
 
 
@@ -314,15 +326,30 @@ def augment_ports(problem, U_v, U_2, ports, *, energy=False, levels=PORT_KRYLOV_
         U, error, added = augment_with(s[:, None] * U, s * d, tol=ROUNDOFF_TOLERANCE)
         return U / s[:, None], error, added
 
+    from ..sph.ports import port_accelerations
+    from .inputs import augment_channels, band
     n_v, n_2, errors = U_v.shape[1], U_2.shape[1], []
+    w_top = band(problem, U_v)[1]                    # the band of the modes, before the port columns
     for vs, es in port_directions(problem, ports, levels):
         U_v, error, _ = add(U_v, vs[0], problem.rho0)
         errors.append(error)
         for v, e in zip(vs[1:], es):
             U_2, _, _ = add(U_2, e if energy else problem.rho0 * e, problem.c)
             U_v, _, _ = add(U_v, v, problem.rho0)
+    # the response at every frequency, s = 0 (static, rigid) through the band (harness.rom.inputs)
+    U_v, U_2, _, _ = augment_channels(problem, U_v, U_2, port_accelerations(problem, ports), energy=energy,
+                                      w_top=w_top)
     return (np.ascontiguousarray(U_v), np.ascontiguousarray(U_2), U_v.shape[1] - n_v, U_2.shape[1] - n_2,
             tuple(errors))
+
+
+def profile_moments(problem, U_v, U_2, wanted, *, energy):
+    """(U_v, U_2, columns added to each) with the force profile's directions at every frequency
+    (:func:`harness.rom.inputs.augment_channels`), or the bases unchanged unless ``wanted``."""
+    if not wanted:
+        return U_v, U_2, 0, 0
+    from .inputs import augment_channels
+    return augment_channels(problem, U_v, U_2, [problem.profile], energy=energy)
 
 
 def port_rows(problem, U_v, ports, port_added, port_errors, port_added_2=0):
@@ -361,14 +388,14 @@ def wants_tensor(tensor, k_v, k_rho):
 
 
 def build_from_basis(problem: SPHProblem, basis, k_v, k_rho, *, input_direction="auto", input_tolerance=None,
-                     tensor="auto", ports=(), b="paper"):
+                     tensor="auto", ports=(), b="paper", input_moments=True):
     """:func:`build_operators` on the first k_v, k_rho POD modes of ``basis`` (``Basis.U_v``, ``Basis.U_rho``).
 
     The builder of the frozen model (:mod:`harness.rom.model`; its registry default ``b="rest"``).
     """
     U_v, U_rho = basis_modes(basis, "density", k_v, k_rho)
     return build_operators(problem, U_v, U_rho, input_direction=input_direction, tensor=tensor,
-                           input_tolerance=input_tolerance, ports=ports, b=b)
+                           input_tolerance=input_tolerance, ports=ports, b=b, input_moments=input_moments)
 
 
 def build_paper(problem: SPHProblem, basis, k_v, k_rho, *, input_direction="auto", input_tolerance=None,
@@ -405,11 +432,11 @@ def truncate_operators(problem: SPHProblem, ops: ReducedOperators, k_v, k_rho):
         Density modes to keep (at most ``ops.k_rho``).
     """
     t0 = time.perf_counter()
-    kv_pod = ops.k_v - int(ops.augmented) - ops.port_added
-    kr_pod = ops.k_rho - ops.port_added_2
+    kv_pod = ops.k_v - int(ops.augmented) - ops.port_added - ops.input_added
+    kr_pod = ops.k_rho - ops.port_added_2 - ops.input_added_2
     if not (1 <= k_v <= kv_pod and 1 <= k_rho <= kr_pod):
         raise ValueError(f"k_v, k_rho = {k_v}, {k_rho} out of range (allowed: 1 to {kv_pod}, 1 to {kr_pod})")
-    if ops.ports:                                   # the port columns depend on every mode before them: rebuild
+    if ops.ports or ops.input_added or ops.input_added_2:    # input columns depend on every mode before them
         return build_operators(problem, ops.U_v[:, :k_v], ops.U_rho[:, :k_rho],
                                input_direction=ops.input_mode if ops.p is not None else "never",
                                tensor=ops.tensor_rule, input_tolerance=ops.input_tolerance, ports=ops.ports,

@@ -155,7 +155,7 @@ def reduced_energy(ops, problem, a_v, a_rho):
     return strain_energy(problem, ops.velocity(np.asarray(a_v, float)), ops.strain(np.asarray(a_rho, float)))
 
 
-def energy_guard(ops, problem, a_v, a_rho, *, dt, name, integrator):
+def energy_guard(ops, problem, a_v, a_rho, *, dt, name, integrator, port_work=None):
     """The blow-up check of a time-stepped reduced run: ``guard(n1, g)`` for :func:`drive`.
 
     ``a_v``, ``a_rho`` are the run's state arrays (read, never written,
@@ -165,15 +165,20 @@ def energy_guard(ops, problem, a_v, a_rho, *, dt, name, integrator):
     keep √E(t) ≤ e^{λt} (√E0 + σ ∫|f| dt); the guard raises SimulationError
     naming the step and time when the reconstructed energy
     (:func:`reduced_energy`) exceeds :data:`~harness.sph.solver.BLOWUP_FACTOR`
-    times that bound (a factor 100 in amplitude) at the end of a chunk.
+    times that bound (a factor 100 in amplitude) at the end of a chunk.  ``port_work(n0, n1)``: the ports'
+    share of σ ∫|f| dt over steps n0..n1 (:func:`port_work`), for a run with port forces.
     """
     sqrt_e0 = float(np.sqrt(reduced_energy(ops, problem, a_v, a_rho)))
     sigma, lam = energy_bound_factors(problem)
     f_integral = [0.0]
+    last = [0]
 
     def guard(n1, g):
         if g.size:
             f_integral[0] += dt * float(np.sum(np.max(np.abs(g), axis=1)))
+        if port_work is not None:
+            f_integral[0] += port_work(last[0], n1) / max(sigma, 1e-300)
+        last[0] = n1
         bound = (np.exp(lam * n1 * dt) * (sqrt_e0 + sigma * f_integral[0])) ** 2
         if not bound > 0:
             return
@@ -185,6 +190,23 @@ def energy_guard(ops, problem, a_v, a_rho, *, dt, name, integrator):
                 f"initial energy and forcing allow (integrator {integrator}, dt = {dt:g} s)", step=n1, time=n1 * dt)
 
     return guard
+
+
+def port_work(problem, ports, port_forces, dt, area=1.0):
+    """``work(n0, n1)`` = Σ_j σ_j ∫|F_j/A| dt over steps n0..n1 (rectangle rule at the step times), σ_j =
+    (½ Σ ρ0 b_j² Δx)^½ with b_j = W(x - x_j, h)/ρ0 the port's acceleration per N (as σ of
+    :func:`~harness.sph.solver.energy_bound_factors` for the profile): the ports' term of the energy bound."""
+    from ..sph.ports import port_accelerations
+    b = port_accelerations(problem, ports)
+    sig = np.sqrt(0.5 * problem.neighbours.dx * np.sum(problem.rho0[None, :] * b * b, axis=1))
+
+    def work(n0, n1):
+        if n1 <= n0:
+            return 0.0
+        F = np.asarray(port_forces(np.arange(n0, n1) * dt), float).reshape(n1 - n0, sig.size)
+        return dt * float(np.sum(np.abs(F) @ sig)) / area
+
+    return work
 
 
 def linearized_jacobian(ops):
