@@ -145,7 +145,10 @@ def test_input_direction_augmentation():
     assert proj.k_v == 4 and not proj.augmented and proj.input_error > 1e-6
     np.testing.assert_allclose(proj.p, basis.U_v[:, :4].T @ prof)
     aug = build_operators(run.problem, basis.U_v[:, :4], basis.U_rho[:, :4], input_direction="augment")
-    assert aug.augmented and aug.k_v == 5 and aug.input_error == proj.input_error
+    assert aug.augmented and aug.k_v == 5 + aug.input_added and aug.input_error == proj.input_error
+    # a uniform force on a uniform bar only moves it rigidly: its directions at every frequency are the constant
+    # velocity at most (harness.rom.inputs), no strain
+    assert aug.input_added <= 1 and aug.input_added_2 == 0
     resid = prof - aug.U_v @ (aug.U_v.T @ prof)
     assert np.linalg.norm(resid) < 1e-12 * np.linalg.norm(prof)
     assert build_operators(run.problem, basis.U_v[:, :4], basis.U_rho[:, :4], input_direction="never").p is None
@@ -153,7 +156,7 @@ def test_input_direction_augmentation():
     for tol, appended in ((2 * proj.input_error, False), (0.5 * proj.input_error, True)):
         ops = build_operators(run.problem, basis.U_v[:, :4], basis.U_rho[:, :4], input_direction="needed",
                               input_tolerance=tol)
-        assert ops.augmented is appended and ops.k_v == 4 + appended and ops.p is not None
+        assert ops.augmented is appended and ops.k_v == 4 + appended + ops.input_added and ops.p is not None
         if not appended:
             np.testing.assert_array_equal(ops.p, proj.p)
 

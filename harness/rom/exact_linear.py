@@ -234,7 +234,8 @@ def build_linear_operators(problem, U_v, U_e, input_direction="auto", input_tole
         if mode == "augment":
             U_v, augmented = U_aug, added
     U_v, U_e, input_added, input_added_2 = profile_moments(problem, U_v, np.asarray(U_e, float), want_input
-                                                           and input_moments and mode == "augment", energy=True)
+                                                           and input_moments and mode == "augment", energy=True,
+                                                           tol=tol)
     U_v, U_e, port_added, port_added_e, port_errors = augment_ports(problem, U_v, np.asarray(U_e, float), ports,
                                                                     energy=True)
     G = problem.neighbours.matrix()

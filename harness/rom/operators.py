@@ -254,7 +254,7 @@ def build_operators(problem: SPHProblem, U_v, U_rho, input_direction="auto", ten
         if mode == "augment":
             U_v, augmented = U_aug, added
     U_v, U_rho, input_added, input_added_2 = profile_moments(problem, U_v, U_rho, want_input and input_moments
-                                                             and mode == "augment", energy=False)
+                                                             and mode == "augment", energy=False, tol=tol)
     U_v, U_rho, port_added, port_added_rho, port_errors = augment_ports(problem, U_v, U_rho, ports)
     G = problem.neighbours.matrix()
     inv_rho0 = 1.0 / rho0
@@ -343,13 +343,17 @@ def augment_ports(problem, U_v, U_2, ports, *, energy=False, levels=PORT_KRYLOV_
             tuple(errors))
 
 
-def profile_moments(problem, U_v, U_2, wanted, *, energy):
+def profile_moments(problem, U_v, U_2, wanted, *, energy, tol):
     """(U_v, U_2, columns added to each) with the force profile's directions at every frequency
-    (:func:`harness.rom.inputs.augment_channels`), or the bases unchanged unless ``wanted``."""
+    (:func:`harness.rom.inputs.augment_channels`), or the bases unchanged unless ``wanted``.  ``tol``: the input
+    mode's augmentation threshold; a direction is appended when the bases miss more than it or
+    :data:`harness.rom.inputs.INPUT_TOL`, whichever is larger (``needed``, the frozen FMU's: 1 %, as for the
+    profile itself: a small rough residual appended hurts the frozen model)."""
     if not wanted:
         return U_v, U_2, 0, 0
-    from .inputs import augment_channels
-    return augment_channels(problem, U_v, U_2, [problem.profile], energy=energy)
+    from . import inputs
+    return inputs.augment_channels(problem, U_v, U_2, [problem.profile], energy=energy,
+                                   tol=max(inputs.INPUT_TOL, tol))
 
 
 def port_rows(problem, U_v, ports, port_added, port_errors, port_added_2=0):

@@ -1,0 +1,74 @@
+"""The full SPH's equations linear in J with ports and the force along the profile, integrated exactly in time:
+the reference the reduced models' inputs are measured against (:mod:`harness.rom.inputs`; tests and the
+``inputs`` measurement)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def linear_reference(problem, ports, t_end, step, *, force=None, port_forces=None, hold="held", state=True,
+                     area=1.0):
+    """The full SPH's equations linear in J with ports, integrated exactly in time: the reference of the
+    reduced models' inputs (dense matrix exponential of the 2N-state system; tests and measurements, N <= ~1000).
+
+    Parameters
+    ----------
+    problem : SPHProblem
+    ports : sequence of float
+        Port positions x/L (may be empty).
+    t_end, step : float
+        Horizon and communication step H [s]: samples at t_n = n H, n = 0 .. round(t_end / H).
+    force : callable, optional
+        f(t) [m s^-2] along the scene's profile (vectorised); None: no force.
+    port_forces : callable, optional
+        F(t) -> (len(t), P) [N]; None: no port force.
+    hold : {"held", "linear"}
+        Inputs over a step: held at the start value, or linear between the end values.
+    state : bool
+        Start from the scene's initial state (True) or from rest.
+    area : float
+        Cross-section A [m^2]: the port accelerations are W/(ρ0 A).
+
+    Returns
+    -------
+    t (M,) [s], v (M, N) [m s^-1], v_port (M, P) [m s^-1].
+    """
+    from ..sph.ports import port_kernel, port_velocity_rows
+    from .exact_linear import propagators
+    from .lti import full_linear_system
+    lti = full_linear_system(problem, [0.5])
+    n = problem.n
+    cols = []
+    if force is not None:
+        cols.append(lti.B[:, 0])
+    P = len(ports)
+    if P:
+        Wk = port_kernel(problem, ports)
+        cols.extend(np.concatenate([w / lti.w_v / area, np.zeros(n)]) for w in Wk)
+    B = np.column_stack(cols) if cols else None
+    n_steps = int(round(t_end / step))
+    t = np.arange(n_steps + 1) * step
+
+    def inputs(tt):
+        parts = []
+        if force is not None:
+            parts.append(np.asarray(force(tt), float).reshape(tt.size, 1))
+        if P:
+            parts.append(np.asarray(port_forces(tt), float).reshape(tt.size, P) if port_forces is not None
+                         else np.zeros((tt.size, P)))
+        return np.hstack(parts)
+
+    phi, g0, g1 = propagators(lti.A.toarray(), B, step)
+    u = inputs(t) if B is not None else None
+    x = lti.x0.copy() if state else np.zeros(2 * n)
+    xs = np.empty((t.size, 2 * n))
+    xs[0] = x
+    for i in range(n_steps):
+        x = phi @ x
+        if B is not None:
+            x = x + g0 @ u[i] + (0.0 if hold == "held" else g1 @ (u[i + 1] - u[i]))
+        xs[i + 1] = x
+    v = xs[:, :n] / lti.w_v
+    v_port = v @ port_velocity_rows(problem, ports).T if P else np.zeros((t.size, 0))
+    return t, v, v_port

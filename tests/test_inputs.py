@@ -1,0 +1,182 @@
+"""Every input channel at every frequency (issue 22): the force along its profile and each port force, from a
+constant force (s = 0: the static deflection and the rigid motion) through the band, in the frozen and the exact
+model's bases (:mod:`harness.rom.inputs`), against the full SPH's equations linear in J integrated exactly in time
+(:func:`harness.rom.reference.linear_reference`) and against the full SPH.
+
+Each case also runs the bases as main had them (the port's short-time directions and the profile's own column
+only: ``augment_channels`` switched off) and checks that they miss by more than the tolerance, so the test
+would have failed before.
+"""
+
+import numpy as np
+import pytest
+
+from conftest import small_scene
+from harness.pod.pipeline import basis_for_scene
+from harness.rom import inputs
+from harness.rom.reference import linear_reference
+from harness.rom.registry import get_model
+from harness.scene import derive_scene
+from harness.sph.solver import build_problem
+
+H = 0.01                 # communication step [s]; inputs held over it, as an importer sets them
+TOL = 2e-2               # issue 22's "Must show": relative L² error of the port velocities (or the field)
+
+
+def slow_port_forces(t):
+    """Issue 22's slow port forces [N]: 2e-3 sin 1.3t and 1e-3 cos 3.1t + 5e-4 [t > 4 s]."""
+    t = np.atleast_1d(np.asarray(t, float))
+    return np.stack([2e-3 * np.sin(1.3 * t), 1e-3 * np.cos(3.1 * t) + 5e-4 * (t > 4)], axis=-1)
+
+
+def constant_port_force(t):
+    return 1e-3 * np.ones((np.size(t), 1))
+
+
+def held(fn):
+    """fn held over each communication step of H (its value at the step's start)."""
+    return lambda t: fn(np.floor(np.asarray(t, float) / H + 1e-9) * H)
+
+
+def setup(scene):
+    problem = build_problem(scene)
+    basis, _ = basis_for_scene(scene, progress=False, problem=problem)
+    return problem, basis
+
+
+def reduced_response(name, scene, problem, basis, k, *, ports=(), port_forces=None, force=None, state, T):
+    """(operators, v_port (M, P) or the velocity field (M, N)) of the model ``name`` as the FMU builds it, from the
+    scene's initial state (``state``) or from rest, inputs held over H; sampled every H."""
+    spec = get_model(name)
+    ops = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction,
+                     **({"tensor": "always"} if name == "frozen" else {}), **({"ports": tuple(ports)} if ports else {}))
+    kw = dict(port_forces=held(port_forces) if ports else None,
+              force=held(force) if force else (lambda t: 0.0 * np.asarray(t, float)))
+    if spec.linear:
+        res = spec.run(ops, problem, dt=H, n_steps=int(round(T / H)), options=spec.options(step=H, hold="held"),
+                       state=None if state else np.zeros(ops.order), **kw)
+    else:
+        dt = scene.sph.dt
+        res = spec.run(ops, problem, dt=dt, n_steps=int(round(T / dt)), every=int(round(H / dt)),
+                       state=None if state else np.concatenate([np.zeros(ops.k_v), ops.a_rho0]), **kw)
+    a_v = res.z[:, :ops.k_v]
+    return ops, (ops.port_velocity(a_v) if ports else ops.velocity(a_v))
+
+
+def rel(a, b):
+    return float(np.linalg.norm(a - b) / np.linalg.norm(b))
+
+
+@pytest.fixture
+def before(monkeypatch):
+    """Switch the directions at every frequency off: the bases main built."""
+    def switch():
+        monkeypatch.setattr(inputs, "augment_channels", lambda problem, U_v, U_2, profiles, **kw: (U_v, U_2, 0, 0))
+    return switch
+
+
+def test_slow_port_forces_on_a_damped_bar(before):
+    """damped_forced (N = 100) with ports at 0.3 and 0.7, from its initial state, the slow port forces held over
+    10 ms: the exact model's port velocities within 2e-2 of the linear SPH integrated exactly (measured 1.2e-5;
+    main's basis 7.7e-2) and of the full SPH (the nonlinear one, its own integrator)."""
+    from harness.sph.ports import run_sph_ports
+    T = 6.0
+    scene = small_scene("damped_forced", T=T, n=100)
+    problem, basis = setup(scene)
+    ports = (0.3, 0.7)
+    t, _, ref = linear_reference(problem, ports, T, H, port_forces=slow_port_forces, state=True)
+    ops, y = reduced_response("exact", scene, problem, basis, 8, ports=ports, port_forces=slow_port_forces,
+                              state=True, T=T)
+    assert rel(y, ref) < 1e-3
+    unforced = derive_scene(scene, {"force": {"f": "0"}})          # the port forces alone, as the models ran
+    full = run_sph_ports(unforced, ports, forces=lambda s: held(slow_port_forces)(s)[0],
+                         problem=build_problem(unforced), every=int(round(H / scene.sph.dt)))
+    assert rel(y, full.v_port) < TOL
+    before()
+    _, y_before = reduced_response("exact", scene, problem, basis, 8, ports=ports, port_forces=slow_port_forces,
+                                   state=True, T=T)
+    assert rel(y_before, ref) > TOL
+
+
+def test_constant_port_force_on_an_undamped_bar(before):
+    """tenmode (d = 0, N = 64) with a port at 0.5, from rest, a constant 1e-3 N: the bar accelerates without end.
+    v_port within 2e-2 for the frozen and the exact model (measured 1.5e-3 and 2.2e-4; main's bases 0.63 and 0.36),
+    and the exact model's momentum Σ m_i v_i grows exactly as the impulse F S t (the rigid mode in the basis)."""
+    from harness.sph.ports import momentum_weights
+    T = 4.0
+    scene = small_scene("tenmode", T=2.0, n=64)
+    problem, basis = setup(scene)
+    ports = (0.5,)
+    t, _, ref = linear_reference(problem, ports, T, H, port_forces=constant_port_force, state=False)
+    errors = {}
+    for name in ("exact", "frozen"):
+        ops, y = reduced_response(name, scene, problem, basis, 8, ports=ports, port_forces=constant_port_force,
+                                  state=False, T=T)
+        errors[name] = rel(y, ref)
+        if name == "exact":
+            z = get_model(name).run(ops, problem, dt=H, n_steps=int(round(T / H)), state=np.zeros(ops.order),
+                                    options=get_model(name).options(step=H, hold="held"),
+                                    port_forces=constant_port_force, force=lambda s: 0.0 * s).z
+            momentum = ops.velocity(z[:, :ops.k_v]) @ (problem.rho0 * problem.neighbours.dx)
+            impulse = 1e-3 * momentum_weights(problem, ports)[0] * t
+            np.testing.assert_allclose(momentum, impulse, rtol=0, atol=1e-9 * impulse[-1])
+    assert max(errors.values()) < TOL, errors
+    before()
+    _, y_before = reduced_response("exact", scene, problem, basis, 8, ports=ports, port_forces=constant_port_force,
+                                   state=False, T=T)
+    assert rel(y_before, ref) > TOL
+
+
+PROFILES = {
+    # damped_forced with issue 22's non-uniform profile; a constant force and a sine at 7 rad/s (the training
+    # force has 1, 3 and 10 rad/s)
+    "damped": (dict(base="damped_forced", profile="1 + sin(2*pi*x/L) + 0.5*cos(6*pi*x/L)"), 7.0),
+    # undamped with a shaped profile (its training force cos 2t); a sine at 5 rad/s
+    "undamped": (dict(base="tenmode", f="1e-2*cos(2*t)", profile="exp(-((x/L-0.3)/0.1)**2)"), 5.0),
+}
+
+
+@pytest.mark.parametrize("case", sorted(PROFILES))
+def test_force_along_a_non_uniform_profile(case, before):
+    """From rest, a constant force and a sine not in the training force along a non-uniform profile: the velocity
+    field within 2e-2 of the linear SPH for both models (measured at N = 32: exact <= 6e-5, frozen <= 1.5e-2);
+    main's exact basis missed the undamped constant force by 0.15."""
+    spec, w = PROFILES[case]
+    T = 4.0
+    scene = small_scene(T=2.0, n=32, **spec)
+    problem, basis = setup(scene)
+    forces = {"constant": lambda t: 1e-2 * np.ones(np.size(t)), "sine": lambda t: 1e-2 * np.sin(w * np.asarray(t))}
+    worst_before = 0.0
+    for label, f in forces.items():
+        t, ref, _ = linear_reference(problem, (), T, H, force=f, state=False)
+        for name in ("exact", "frozen"):
+            _, v = reduced_response(name, scene, problem, basis, 8, force=f, state=False, T=T)
+            assert rel(v, ref) < TOL, (label, name, rel(v, ref))
+    before()
+    for label, f in forces.items():
+        t, ref, _ = linear_reference(problem, (), T, H, force=f, state=False)
+        _, v = reduced_response("exact", scene, problem, basis, 8, force=f, state=False, T=T)
+        worst_before = max(worst_before, rel(v, ref))
+    if case == "undamped":
+        assert worst_before > TOL
+
+
+def test_static_directions_solve_the_static_problem():
+    """The s = 0 directions: the static deflection q solves K q = F less its rigid part, q ⊥ ker K; the rigid
+    modes K kills are the constant (and the alternating function for even N); a tighter tolerance keeps at least
+    as many directions (the count is measured, not fixed)."""
+    problem = build_problem(small_scene("damped_forced", T=0.5, n=40, profile="exp(-((x/L-0.3)/0.1)**2)"))
+    M, C, K, G = inputs.second_order(problem)
+    R = inputs.rigid_modes(G)
+    assert R.shape[1] == 2 and np.abs(K @ R).max() < 1e-12 * abs(K).max()
+    F = M @ problem.profile
+    cands = inputs.candidate_directions(problem, problem.profile)
+    q = next(c for c, _ in cands if np.linalg.norm(K @ c) > 1e-8 * abs(K).max() * np.linalg.norm(c))  # after
+    # the rigid modes the force moves, the static deflection
+    F_el = F - R @ np.linalg.lstsq(R, F, rcond=None)[0]
+    np.testing.assert_allclose(K @ q, F_el, atol=1e-10 * np.abs(F_el).max())
+    assert np.abs(R.T @ q).max() < 1e-10 * np.abs(q).max()
+    U = np.linalg.qr(np.random.default_rng(0).normal(size=(problem.n, 4)))[0]
+    counts = [inputs.augment_channels(problem, U, U, [problem.profile], energy=False, tol=tol)[2]
+              for tol in (1e-2, 1e-4, 1e-8)]
+    assert counts == sorted(counts) and counts[-1] > counts[0]
