@@ -177,14 +177,17 @@ def order_from_tolerance(hsv, tolerance):
 
 
 def _weights(lti, method, input_weights, output_weights):
-    wu = np.ones(2) if input_weights is None else np.asarray(input_weights, float)
+    m = lti.B.shape[1]                  # force, initial state (and the port forces of a model with ports)
+    wu = np.ones(m) if input_weights is None else np.asarray(input_weights, float)
     if output_weights is None:
         p = lti.n_probes
         wy = np.concatenate([np.ones(p), np.full(p, E_WEIGHT[method])])
     else:
         wy = np.asarray(output_weights, float)
-    if wu.shape != (2,) or wy.shape != (lti.C.shape[0],) or np.any(wu < 0) or np.any(wy < 0):
-        raise ValueError(f"input_weights: 2 numbers >= 0, output_weights: {lti.C.shape[0]} numbers >= 0")
+    if wy.shape[0] < lti.C.shape[0]:    # the port velocity rows after the probes' (weight 1)
+        wy = np.concatenate([wy, np.ones(lti.C.shape[0] - wy.shape[0])])
+    if wu.shape != (m,) or wy.shape != (lti.C.shape[0],) or np.any(wu < 0) or np.any(wy < 0):
+        raise ValueError(f"input_weights: {m} numbers >= 0, output_weights: {lti.C.shape[0]} numbers >= 0")
     return wu, wy
 
 

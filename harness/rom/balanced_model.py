@@ -95,6 +95,15 @@ class BalancedOperators(Operators):
     timings: dict = field(default_factory=dict)
     input_error: float = float("nan")        # no POD basis: the force column enters exactly (Br = Wᵀ B)
     augmented: bool = False
+    ports: tuple = ()
+    Bp: np.ndarray | None = None             # (P, r): Wᵀ of each port's input column (area 1)
+    Cp: np.ndarray | None = None             # (P, r): v_port_j = Cp[j] x_r
+    port_errors: tuple = ()
+    lti_ports: LTI | None = None             # the LTI balanced: lti with the port columns and rows appended
+
+    def port_velocity(self, z):
+        """v_port = Cp x_r [m s^-1], (M, P) from states (M, r) (:mod:`harness.sph.ports`)."""
+        return np.atleast_2d(z) @ self.Cp.T
 
     @property
     def slices(self):
@@ -151,19 +160,37 @@ class BalancedOperators(Operators):
 
 
 
-def _operators(lti, bal, reduced, rho0, t_setup):
+def _operators(lti, bal, reduced, rho0, t_setup, ports=(), lti_ports=None):
     t0 = time.perf_counter()
     Q = T = None
     if reduced.skew:
         T, Q = sla.schur(reduced.Ar, output="real")
     timings = dict(reduced.timings)
     timings["operators"] = t_setup + sum(timings.values()) + time.perf_counter() - t0
+    extra = {}
+    if ports:                       # the port columns of Br and rows of Cr, sliced off the model's own
+        n_out = lti.C.shape[0]
+        extra = dict(ports=tuple(float(x) for x in ports), Bp=np.ascontiguousarray(reduced.Br[:, 2:].T),
+                     Cp=np.ascontiguousarray(reduced.Cr[n_out:]), port_errors=tuple(0.0 for _ in ports),
+                     lti_ports=lti_ports)
+        reduced = dataclasses.replace(reduced, Br=reduced.Br[:, :2], Cr=reduced.Cr[:n_out])
     return BalancedOperators(reduced=reduced, lti=lti, bal=bal, A=reduced.Ar, B=reduced.Br[:, 0].copy(),
                              z0=reduced.x0.copy(), skew=reduced.skew, schur_Q=Q, schur_T=T, rho0=rho0,
-                             timings=timings)
+                             timings=timings, **extra)
 
 
-def build(problem, basis, k_v, k_rho, *, order_tolerance=None, method="auto", probes=DEFAULT_PROBES):
+def with_ports(lti, problem, ports):
+    """``lti`` with one input column per port force (energy coordinates, area 1: √ρ0 · W(x - x_j, h)/ρ0 per N) and
+    one output row per port velocity (v_port_j = Σ_i W(x_i - x_j, h) Δx v_i, v = x_v / √ρ0) appended: the port
+    forces are balanced as inputs and the port velocities as outputs (:mod:`harness.sph.ports`)."""
+    from ..sph.ports import port_kernel, port_velocity_rows
+    n = lti.n
+    cols = np.column_stack([np.concatenate([w / lti.w_v, np.zeros(n)]) for w in port_kernel(problem, ports)])
+    rows = np.hstack([port_velocity_rows(problem, ports) / lti.w_v[None, :], np.zeros((len(ports), n))])
+    return dataclasses.replace(lti, B=np.column_stack([lti.B, cols]), C=np.vstack([lti.C, rows]))
+
+
+def build(problem, basis, k_v, k_rho, *, order_tolerance=None, method="auto", probes=DEFAULT_PROBES, ports=()):
     """Balance the full linear SPH of ``problem`` and keep order r (the model's builder, :mod:`harness.rom.model`).
 
     Parameters
@@ -179,6 +206,9 @@ def build(problem, basis, k_v, k_rho, *, order_tolerance=None, method="auto", pr
     method : {"auto", "bt", "galerkin", "bt_shifted"}
     probes : sequence of float
         The output probes x/L.
+    ports : sequence of float
+        Port positions x/L: the port forces are inputs and the port velocities outputs of the balanced system
+        (:func:`with_ports`), so the reduction keeps what passes from each port force to each port velocity.
 
     Raises ValueError naming ``order`` or ``order_tolerance`` when out of range.
     """
@@ -188,24 +218,28 @@ def build(problem, basis, k_v, k_rho, *, order_tolerance=None, method="auto", pr
         raise ValueError(f"order_tolerance: {order_tolerance} is out of range (allowed: 0 < order_tolerance < 1)")
     if order_tolerance is None and k_v is not None and not 1 <= int(k_v) < lti.order:
         raise ValueError(f"order: {k_v} is out of range (allowed: 1 to {lti.order - 1}, below 2N)")
+    balanced = with_ports(lti, problem, ports) if len(ports) else lti
     t_setup = time.perf_counter() - t0
-    bal = balancing(lti, method=method)
+    bal = balancing(balanced, method=method)      # every input column per its unit (m s^-2 of f, N of F_port_j)
     if order_tolerance is not None or k_v is None:
         r = max(1, order_from_tolerance(bal.hsv, DEFAULT_TOLERANCE if order_tolerance is None else order_tolerance))
     else:
         r = int(k_v)
-    return _operators(lti, bal, truncate_balanced(lti, bal, r), problem.rho0, t_setup)
+    return _operators(lti, bal, truncate_balanced(balanced, bal, r), problem.rho0, t_setup, ports,
+                      balanced if len(ports) else None)
 
 
 def truncate(problem, ops: BalancedOperators, k_v, k_rho):
     """The model of order ``k_v`` (<= ops.order) from the same Gramians (equal to ``build`` at that order)."""
     if not 1 <= k_v <= ops.order:
         raise ValueError(f"order: {k_v} is out of range (allowed: 1 to {ops.order})")
-    return _operators(ops.lti, ops.bal, truncate_balanced(ops.lti, ops.bal, k_v), ops.rho0, 0.0)
+    balanced = ops.lti_ports if ops.ports else ops.lti
+    return _operators(ops.lti, ops.bal, truncate_balanced(balanced, ops.bal, k_v), ops.rho0, 0.0, ops.ports,
+                      ops.lti_ports)
 
 
 def run(ops: BalancedOperators, problem, *, dt, n_steps, sample_steps, every, force, state, initial_state_scale,
-        bound, progress, options):
+        bound, progress, options, port_forces=None, area=1.0):
     """Run the balanced model to ``n_steps * dt`` (the shared arguments of :mod:`harness.rom.model`;
     ``options`` a :class:`~harness.rom.model.LinearOptions`).
 
@@ -213,12 +247,15 @@ def run(ops: BalancedOperators, problem, *, dt, n_steps, sample_steps, every, fo
     ``options.step`` H [s] (default the sample spacing), input ``options.hold`` linear or held;
     ``state`` (x_r) replaces the initial state Wᵀ x0; ``initial_state_scale`` multiplies it
     (x_r = 0 is rest).  The result's ``y`` holds the probe outputs Cr x_r and ``probes`` their positions x/L.
+    ``port_forces``, ``area``: as :func:`harness.rom.exact_linear.run_exact` (operators built with ports).
     """
+    if port_forces is not None and ops.Bp is None:
+        raise ValueError("port_forces: the operators have no ports (build them with ports=...)")
     steps = sample_grid(n_steps, sample_steps, every)
     if state is not None:
         ops = dataclasses.replace(ops, z0=ops.as_state(state))
     z, wall, step = advance_linear(ops, steps * dt, options.step, force or problem.scene.force, options.hold, bound,
-                                   initial_state_scale)
+                                   initial_state_scale, port_forces=port_forces, area=area)
     return ReducedResult(model=NAME, t=steps * dt, steps=steps, z=z, ops=ops, wall_time=wall,
                          offline=dict(ops.timings),
                          settings={"model": NAME, "dt": dt, "step": step, "hold": options.hold, "order": ops.order,
@@ -230,7 +267,7 @@ MODEL = ReducedModel(
     description="beyond the paper: balanced reduction of the full linear SPH in J = ρ0/ρ (no POD basis; "
                 "--modes R is the order r), with certified error bounds at the probes",
     title="Balanced reduced model of the linear SPH in the specific volume J = rho0/rho (beyond Fang et al.)",
-    linear=True, integrators=INTEGRATORS,
+    linear=True, integrators=INTEGRATORS, ports=True,
     basis_kind=None,            # needs no POD basis: build ignores it
     fmu_kind=2,                 # resources/model.bin kind 2: the linear models' C path (its matrices, rows over z)
     builder=build, solver=run, truncate=truncate, options_type=LinearOptions)
