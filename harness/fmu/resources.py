@@ -440,7 +440,8 @@ def balanced_data(ops, problem, *, dt, n_freeze, bound=None):
                      S=np.asarray(ops.schur_T, float) if ops.skew else None,
                      Pv=np.asarray(red.Cr[:P], float), Pe=np.stack([Ve[i0], Ve[i1]], axis=1),
                      pw=np.stack([1.0 - w, w], axis=1), prho0=np.stack([rho0[i0], rho0[i1]], axis=1),
-                     probe_x=probes, output_rows=True, sections={"LINMODEL": np.array([[LINEAR_BALANCED]], float)})
+                     probe_x=probes, output_rows=True, sections={"LINMODEL": np.array([[LINEAR_BALANCED]], float),
+                                                                  **port_sections(ops)})
 
 
 def pack_exact(data: ExactData) -> bytes:

@@ -237,7 +237,7 @@ def build_linear_operators(problem, U_v, U_e, input_direction="auto", input_tole
                                                            and input_moments and mode == "augment", energy=True,
                                                            tol=tol)
     U_v, U_e, port_added, port_added_e, port_errors = augment_ports(problem, U_v, np.asarray(U_e, float), ports,
-                                                                    energy=True)
+                                                                    energy=True, moments=input_moments)
     G = problem.neighbours.matrix()
     P = U_v.T @ np.asarray(G @ (c[:, None] * U_e))
     k_v, k_e = U_v.shape[1], U_e.shape[1]

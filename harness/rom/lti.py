@@ -160,14 +160,9 @@ def null_modes(G, w_e, tol=1e-12):
     A candidate counts when |G k|_∞ <= tol · max|G|; on the periodic uniform
     lattice both are exact kernels (the alternating one for even N only).
     """
+    from .inputs import rigid_modes
     n = w_e.size
-    gmax = abs(G).max()
-    vecs = []
-    for k in (np.ones(n), (-1.0) ** np.arange(n)):
-        if n % 2 and k[0] * k[-1] < 0:
-            continue
-        if np.max(np.abs(G @ k)) <= tol * gmax:
-            vecs.append(np.concatenate([np.zeros(n), k / w_e]))
+    vecs = [np.concatenate([np.zeros(n), k / w_e]) for k in rigid_modes(G, tol).T]
     if not vecs:
         return np.zeros((2 * n, 0))
     Q, _ = np.linalg.qr(np.column_stack(vecs))

@@ -236,7 +236,8 @@ def build_operators(problem: SPHProblem, U_v, U_rho, input_direction="auto", ten
     input_moments : bool
         When the force profile is appended (``augment``, ``always``, ``needed``): also its response at every
         frequency, s = 0 through the band (:func:`harness.rom.inputs.augment_channels`), so that a constant or
-        slow force along a non-uniform profile is represented; ``project`` and ``never`` add nothing.
+        slow force along a non-uniform profile is represented; ``project`` and ``never`` add nothing.  The
+        same for each port (always).  False: the bases as before issue 22 (``sphrom bench inputs`` compares).
     """
     if b not in B_FORMS:
         raise ValueError(f"b: {b!r} is out of range (allowed: {', '.join(B_FORMS)})")
@@ -255,7 +256,8 @@ def build_operators(problem: SPHProblem, U_v, U_rho, input_direction="auto", ten
             U_v, augmented = U_aug, added
     U_v, U_rho, input_added, input_added_2 = profile_moments(problem, U_v, U_rho, want_input and input_moments
                                                              and mode == "augment", energy=False, tol=tol)
-    U_v, U_rho, port_added, port_added_rho, port_errors = augment_ports(problem, U_v, U_rho, ports)
+    U_v, U_rho, port_added, port_added_rho, port_errors = augment_ports(problem, U_v, U_rho, ports,
+                                                                        moments=input_moments)
     G = problem.neighbours.matrix()
     inv_rho0 = 1.0 / rho0
     GU_v = np.asarray(G @ U_v)
@@ -308,13 +310,15 @@ def port_directions(problem, ports, levels=PORT_KRYLOV_LEVELS):
     return out
 
 
-def augment_ports(problem, U_v, U_2, ports, *, energy=False, levels=PORT_KRYLOV_LEVELS):
+def augment_ports(problem, U_v, U_2, ports, *, energy=False, levels=PORT_KRYLOV_LEVELS, moments=True):
     """(U_v, U_2, velocity columns added, second columns added, projection errors) with the port directions.
 
     Each direction of :func:`port_directions` is appended (its part outside the span, unless below round-off):
     velocity directions to U_v, specific-volume directions to U_2 (``energy``: the exact model's ρ0- and
     c-weighted inner products and U_2 = U_e; else Euclidean and U_2 = U_ρ, which gets ρ0 G v: δρ = -ρ0 δe).
     The errors are each port profile's relative projection error on the velocity modes before its column.
+    ``moments``: then each port's response at every frequency (:func:`harness.rom.inputs.augment_channels`;
+    False: the short-time directions only, as before issue 22).
     """
     if not len(ports):
         return U_v, U_2, 0, 0, ()
@@ -337,8 +341,9 @@ def augment_ports(problem, U_v, U_2, ports, *, energy=False, levels=PORT_KRYLOV_
             U_2, _, _ = add(U_2, e if energy else problem.rho0 * e, problem.c)
             U_v, _, _ = add(U_v, v, problem.rho0)
     # the response at every frequency, s = 0 (static, rigid) through the band (harness.rom.inputs)
-    U_v, U_2, _, _ = augment_channels(problem, U_v, U_2, port_accelerations(problem, ports), energy=energy,
-                                      w_top=w_top)
+    if moments:
+        U_v, U_2, _, _ = augment_channels(problem, U_v, U_2, port_accelerations(problem, ports), energy=energy,
+                                          w_top=w_top)
     return (np.ascontiguousarray(U_v), np.ascontiguousarray(U_2), U_v.shape[1] - n_v, U_2.shape[1] - n_2,
             tuple(errors))
 

@@ -103,6 +103,7 @@ class Verification:
     probes: list                 # x/L
     cases: list = field(default_factory=list)
     refs: dict = field(default=None, repr=False)   # the full SPH runs (:func:`references`), to reuse
+    channels: list = field(default_factory=list)   # every input channel (:mod:`.channels`), when measured
 
     def case(self, name):
         return next(c for c in self.cases if c.name == name)
@@ -121,7 +122,16 @@ class Verification:
         return (f"Measured against the full SPH at the probes (h = {self.step:g} s, T = {self.T:g} s, eq. 3.4): "
                 f"v error {tr.err_v:.2g} on the training force, {un.err_v:.2g} on an unseen force "
                 f"({un.force}, from {un.start}); run time {tr.fmu_s:.3g} s against {tr.sph_s:.3g} s for the "
-                f"full SPH ({tr.speedup:.3g}x); see documentation/index.html.")
+                f"full SPH ({tr.speedup:.3g}x){self.channel_sentence()}; see documentation/index.html.")
+
+    def channel_sentence(self):
+        """'; input channels ...: largest error X (which)' when the channels were measured, else ''."""
+        if not self.channels:
+            return ""
+        worst = max(self.channels, key=lambda c: c.err)
+        names = ", ".join(dict.fromkeys(c.channel for c in self.channels))
+        return (f"; input channels {names} (a constant and a slow force each, from rest): largest error "
+                f"{worst.err:.2g} ({worst.case} {worst.channel}, {worst.output})")
 
     def as_rows(self):
         """One dict per case (no arrays), for tables and CSV files."""

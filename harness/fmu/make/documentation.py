@@ -178,11 +178,29 @@ def verification_section(verification, tolerance=None):
              *_table(("force", "f(t) [m s^-2]", "from", "v error", "rho - rho0 error", "max |rho - rho_SPH| "
                       "[kg m^-3]", "FMU [s]",
                       "full SPH [s]", "speed-up", "note"), rows, table_id="measured")]
+    lines += channel_lines(v)
     if tolerance is not None:
-        lines.append(f"<p>Tolerance on the training-force v error: {tolerance:g} (met).</p>")
+        lines.append(f"<p>Tolerance on the training-force v error and on every input channel's: {tolerance:g} "
+                     "(met).</p>")
     lines += ["<p><img src=\"probes.png\" alt=\"probe velocity of the FMU (dashed) and of the full SPH (solid) "
               "for the training and the unseen force\"></p>"]
     return lines
+
+
+def channel_lines(verification):
+    """The table of every input channel's measurement (:mod:`harness.fmu.check.channels`), none when not measured."""
+    if not getattr(verification, "channels", None):
+        return []
+    from ..check.channels import HORIZON
+    rows = [(escape(c.channel), escape(c.case), f"<code>{escape(c.force)}</code>", escape(c.output), _number(c.err),
+             _number(c.sph_s, ".4g"), escape(c.note or "")) for c in verification.channels]
+    return ["<h3>Every input channel</h3>",
+            f"<p>Each input alone from rest, held over each step, over min(T, {HORIZON:g} s), against the full SPH "
+            "with the same input (the scene's own force off): a constant (the static deflection and the rigid "
+            "motion) and a slow sine (a quarter of the bar's lowest elastic frequency). Error: eq. 3.4 of the "
+            "output named (f: the probe velocities; F_port_j: its own port velocity). See docs/fmu/ports.md.</p>",
+            *_table(("channel", "case", "input", "output", "error", "full SPH [s]", "note"), rows,
+                    table_id="channels")]
 
 
 def envelope_section(envelope, linear):

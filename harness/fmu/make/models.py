@@ -107,7 +107,7 @@ def training_basis(scene, progress, problem, extra_steps=()):
 
 
 def balanced_model(scene, k, n_freeze, probes, order_tolerance=None, problem=None, model="balanced",
-                   build_options=None):
+                   build_options=None, ports=()):
     """The FMU's numbers for a linear model without a POD basis (balanced): (ExactData, ops, problem).
 
     The full linear SPH of the scene with the FMU's probes as outputs, balanced
@@ -120,7 +120,8 @@ def balanced_model(scene, k, n_freeze, probes, order_tolerance=None, problem=Non
     problem = problem or build_problem(scene)
     try:
         ops = get_model(model).build(problem, None, k, k, order_tolerance=None if k is not None else order_tolerance,
-                                     probes=probes, **(build_options or {}))
+                                     probes=probes, **({"ports": tuple(ports)} if ports else {}),
+                                     **(build_options or {}))
     except ValueError as exc:
         field_name, _, detail = str(exc).partition(": ")
         raise FieldError("k" if field_name == "order" else field_name, detail) from None
@@ -176,7 +177,7 @@ def _linear_resource(scene, model, k, n_freeze, probes, integrator, progress, pr
         data.sections.update(training_envelope(scene, ops, problem, probes, True, progress, run=run).sections())
     else:
         data, ops, problem = balanced_model(scene, k, n_freeze, probes, order_tolerance=order_tolerance,
-                                            problem=problem, model=model, build_options=build_options)
+                                            problem=problem, model=model, build_options=build_options, ports=ports)
     if not bounds:
         return data, ops, pack_exact(data)
     data.bounds = linear_bounds(ops, problem, probes, progress=progress)

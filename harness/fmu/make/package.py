@@ -199,7 +199,8 @@ def package_fmu(scene, out, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaul
         stage_done(scene, "package", timings, progress)
         if verify:
             t3 = time.perf_counter()
-            verification = verification_step(tmp, scene, probes, references, problem, progress, tolerance, out, model)
+            verification = verification_step(tmp, scene, probes, references, problem, progress, tolerance, out, model,
+                                             ports=ports)
             archive_step(tmp, blob, binary, verification=verification, **texts)   # only the texts change
             timings["verify"] = time.perf_counter() - t3
             stage_done(scene, "verify", timings, progress)
@@ -267,11 +268,14 @@ def archive_step(path, blob, binary, check=True, **texts):
         raise SimulationError("the packaged FMU fails fmpy's validation: " + "; ".join(problems))
 
 
-def verification_step(path, scene, probes, references, problem, progress, tolerance, out, model):
-    """Step 8: the FMU at ``path`` measured against the full SPH (:func:`harness.fmu.check.verify.verify_fmu`);
-    ToleranceError when the training error is above ``tolerance``."""
+def verification_step(path, scene, probes, references, problem, progress, tolerance, out, model, ports=()):
+    """Step 8: the FMU at ``path`` measured against the full SPH (:func:`harness.fmu.check.verify.verify_fmu`),
+    and each input channel (f, each port force: :func:`harness.fmu.check.channels.measure_channels`);
+    ToleranceError when the training error or a channel's error is above ``tolerance``."""
+    from ..check.channels import measure_channels
     from ..check.verify import verify_fmu
     verification = verify_fmu(path, scene, probes, refs=references, problem=problem, progress=progress)
+    verification.channels = measure_channels(path, scene, ports=ports, problem=problem, progress=progress)
     check_tolerance(verification, tolerance, out, model)
     return verification
 
@@ -302,6 +306,11 @@ def check_tolerance(verification, tolerance, out, model):
     if not err <= tolerance:
         raise ToleranceError(f"the {model} FMU's probe v error on the training force, {err:.3g}, is above the "
                              f"tolerance {tolerance:g}; '{out}' was not written (an existing file is unchanged)")
+    for c in verification.channels:            # every input channel (harness.fmu.check.channels)
+        if not c.err <= tolerance:
+            raise ToleranceError(f"the {model} FMU's {c.output} error under a {c.case} {c.channel} from rest, "
+                                 f"{c.err:.3g}, is above the tolerance {tolerance:g}; '{out}' was not written (an "
+                                 "existing file is unchanged)")
 
 
 def documentation_files(*, scene, spec, data, k, input_error, augmented, description_xml, verification=None,

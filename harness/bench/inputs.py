@@ -1,0 +1,141 @@
+"""Every input at every frequency (issue 22): issue 22's cases, before and after the directions of
+:mod:`harness.rom.inputs`, for the exact, frozen and balanced models.
+
+Cases (each against the full SPH's equations linear in J integrated exactly in time,
+:func:`harness.rom.reference.linear_reference`, inputs held over H = 10 ms, sampled every H):
+
+* ``ports-slow``: damped_forced (N = 100) with ports at x/L = 0.3 and 0.7, from its initial state, port forces
+  2e-3 sin 1.3t and 1e-3 cos 3.1t + 5e-4 [t > 4 s], 10 s: the port velocities;
+* ``port-constant``: tenmode (d = 0, N = 400) with a port at 0.5, from rest, 1e-3 N for 10 s: the port velocity;
+* ``profile-constant`` / ``profile-sine``: damped_forced with the profile 1 + sin 2πx + ½ cos 6πx, from rest,
+  f = 1e-2 and 1e-2 sin 7t (10 s): the velocity field;
+* ``shaped-constant`` / ``shaped-sine``: tenmode with the profile exp(-((x - 0.3)/0.1)²) (trained on 1e-2 cos 2t),
+  from rest, f = 1e-2 and 1e-2 sin 5t: the velocity field.
+
+Models as the FMU builds them (k = 12, the model's ``fmu_input_direction``); ``before`` is the build option
+``input_moments=False`` (the bases main had: the port's short-time directions and the profile's own column), the
+balanced model at its default order tolerance (it has no "before": it had no ports).  Errors: relative L² over
+all samples.  The frozen model runs with the scene's dt (explicit Euler) and n_freeze = 10.
+
+Run as::
+
+    python -m harness.bench.inputs [--case NAME ...] [--out inputs.csv]
+
+It prints a Markdown table (docs/fmu/ports.md quotes it) and writes the CSV.  About 10 min on the shared
+2-core machine (the frozen model on tenmode at N = 400: 200 000 steps with k_v = 40).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import sys
+import time
+
+import numpy as np
+
+H = 0.01
+T = 10.0
+K = 12
+
+
+def _held(fn):
+    return lambda t: fn(np.floor(np.asarray(t, float) / H + 1e-9) * H)
+
+
+def cases():
+    """{name: (scene, ports, port forces, force, from the initial state?)}."""
+    from ..scene import derive_scene, load_scene
+    damped = load_scene("damped_forced")
+    profile = derive_scene(damped, {"force": {"profile": "1 + sin(2*pi*x/L) + 0.5*cos(6*pi*x/L)"}})
+    shaped = derive_scene(load_scene("tenmode"), {"force": {"f": "1e-2*cos(2*t)",
+                                                            "profile": "exp(-((x/L-0.3)/0.1)**2)"}})
+    slow = lambda t: np.stack([2e-3 * np.sin(1.3 * t), 1e-3 * np.cos(3.1 * t) + 5e-4 * (t > 4)], axis=-1)  # noqa: E731
+    const = lambda t: 1e-3 * np.ones((np.size(t), 1))                                                      # noqa: E731
+    f_const = lambda t: 1e-2 * np.ones(np.size(t))                                                         # noqa: E731
+    return {
+        "ports-slow": (damped, (0.3, 0.7), slow, None, True),
+        "port-constant": (load_scene("tenmode"), (0.5,), const, None, False),
+        "profile-constant": (profile, (), None, f_const, False),
+        "profile-sine": (profile, (), None, lambda t: 1e-2 * np.sin(7.0 * np.asarray(t)), False),
+        "shaped-constant": (shaped, (), None, f_const, False),
+        "shaped-sine": (shaped, (), None, lambda t: 1e-2 * np.sin(5.0 * np.asarray(t)), False),
+    }
+
+
+def measure(name, scene, ports, port_forces, force, state):
+    """Rows {case, model, variant, k_v, k_2, error, wall_s} of one case."""
+    from ..pod.pipeline import basis_for_scene
+    from ..rom.reference import linear_reference
+    from ..rom.registry import get_model
+    from ..sph.solver import build_problem
+    problem = build_problem(scene)
+    basis, _ = basis_for_scene(scene, progress=False, problem=problem)
+    _, v, vp = linear_reference(problem, ports, T, H, force=force, port_forces=port_forces, state=state)
+    ref = vp if ports else v
+    kw = dict(port_forces=_held(port_forces) if ports else None,
+              force=_held(force) if force else (lambda t: 0.0 * np.asarray(t, float)))
+    rows = []
+    runs = [("exact", "before"), ("exact", "after"), ("frozen", "before"), ("frozen", "after"), ("balanced", "after")]
+    for model, variant in runs:
+        spec = get_model(model)
+        t0 = time.perf_counter()
+        if model == "balanced":
+            ops = spec.build(problem, None, None, None, **({"ports": tuple(ports)} if ports else {}))
+        else:
+            ops = spec.build(problem, basis, K, K, input_direction=spec.fmu_input_direction,
+                             input_moments=variant == "after", **({"tensor": "always"} if model == "frozen" else {}),
+                             **({"ports": tuple(ports)} if ports else {}))
+        if spec.linear:
+            res = spec.run(ops, problem, dt=H, n_steps=int(round(T / H)), options=spec.options(step=H, hold="held"),
+                           state=None if state else np.zeros(ops.order), **kw)
+            z = res.z
+            y = (ops.port_velocity(z if model == "balanced" else z[:, :ops.k_v]) if ports else
+                 (ops.velocity(z) if model == "balanced" else ops.velocity(z[:, :ops.k_v])))
+            sizes = (ops.order, 0) if model == "balanced" else (ops.k_v, ops.k_e)
+        else:
+            dt = scene.sph.dt
+            res = spec.run(ops, problem, dt=dt, n_steps=int(round(T / dt)), every=int(round(H / dt)),
+                           state=None if state else np.concatenate([np.zeros(ops.k_v), ops.a_rho0]), **kw)
+            a_v = res.z[:, :ops.k_v]
+            y = ops.port_velocity(a_v) if ports else ops.velocity(a_v)
+            sizes = (ops.k_v, ops.k_rho)
+        err = float(np.linalg.norm(y - ref) / np.linalg.norm(ref))
+        rows.append({"case": name, "model": model, "variant": variant, "k_v": sizes[0], "k_2": sizes[1],
+                     "error": err, "wall_s": time.perf_counter() - t0})
+        print(f"{name} {model} {variant}: k = {sizes}, error {err:.3g}", file=sys.stderr, flush=True)
+    return rows
+
+
+def table(rows):
+    """The Markdown table: one line per case and model, the error before and after (and the basis sizes)."""
+    lines = ["| case | model | error before | basis before | error after | basis after |", "|---|---|---|---|---|---|"]
+    keys = dict.fromkeys((r["case"], r["model"]) for r in rows)
+    for case, model in keys:
+        by = {r["variant"]: r for r in rows if r["case"] == case and r["model"] == model}
+        b, a = by.get("before"), by["after"]
+        lines.append(f"| {case} | {model} | {'-' if b is None else format(b['error'], '.2g')} | "
+                     f"{'-' if b is None else (b['k_v'], b['k_2'])} | {a['error']:.2g} | {(a['k_v'], a['k_2'])} |")
+    return "\n".join(lines)
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(prog="sphrom bench inputs", description=__doc__.split("\n\n")[0])
+    parser.add_argument("--case", action="append", choices=sorted(cases()), help="a case (default all)")
+    parser.add_argument("--out", help="CSV file to write")
+    args = parser.parse_args(argv)
+    all_cases = cases()
+    rows = []
+    for name in args.case or list(all_cases):
+        rows += measure(name, *all_cases[name])
+    print(table(rows))
+    if args.out:
+        with open(args.out, "w", newline="") as fh:
+            writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+            writer.writeheader()
+            writer.writerows(rows)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,124 @@
+"""Every input channel of a packaged FMU measured against the full SPH (issue 22): the force f along the scene's
+profile and each port force F_port_j, each from rest under
+
+- ``constant``: a constant input (its response: the static deflection, and the rigid motion of the bar: an
+  undamped bar accelerates without end);
+- ``slow``: a sine at a quarter of the bar's lowest elastic frequency ω_1 (:func:`harness.rom.inputs.band`),
+  a spring attached to a port applies this kind of force;
+
+over ``horizon`` = min(T, :data:`HORIZON`) at the FMU's communication step, the input held over each step as an
+importer sets it.  Amplitudes: f the unseen force's (:func:`.verify.unseen_force`), F_port_j the force that gives
+the bar (area A = 1) the same mean acceleration, A_f Σ ρ0 Δx [N].  Output compared: the probe velocities for f,
+the channel's own port velocity for F_port_j (power-conjugate to it); the error is eq. 3.4's relative L2
+(square-root form, trapezoidal in time), as the verification's cases.
+
+The full SPH: :func:`harness.sph.solver.run_sph` for f (the scene with f replaced), :func:`harness.sph.ports.run_sph_ports`
+for the ports (with the scene's own force off, so the port force alone drives the bar), each from rest.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+HORIZON = 2.0        # [s] the longest run per case (the full SPH with ports is a Python loop over the steps)
+SLOW_FRACTION = 0.25  # the slow sine's frequency, in units of the lowest elastic frequency ω_1
+
+
+@dataclass
+class ChannelCase:
+    """One input channel under one force: channel (``f`` or ``F_port_j``), case (``constant``, ``slow``), the
+    input as an expression in t, the output compared, eq. 3.4's error of it, the full SPH's wall time [s]."""
+
+    channel: str
+    case: str
+    force: str
+    output: str
+    err: float
+    sph_s: float
+    note: str = ""
+
+    def as_row(self):
+        return {"channel": self.channel, "case": self.case, "force": self.force, "output": self.output,
+                "err": self.err, "sph_s": self.sph_s, "note": self.note}
+
+
+def channel_forces(scene, problem, step):
+    """{channel: {case: expression in t}} for f and, later, each port (module docstring)."""
+    from ...rom.inputs import band
+    from .verify import unseen_force
+    amplitude = float(unseen_force(scene, step).split("*")[0])
+    w = SLOW_FRACTION * band(problem)[0]
+    mass = float(np.sum(problem.rho0) * problem.neighbours.dx)       # Σ ρ0 Δx [kg m^-1 ... per m^2 of A]
+    return ({"constant": f"{amplitude:.4g}", "slow": f"{amplitude:.4g}*sin({w:.4g}*t)"},
+            {"constant": f"{amplitude * mass:.4g}", "slow": f"{amplitude * mass:.4g}*sin({w:.4g}*t)"})
+
+
+def measure_channels(path, scene, ports=(), problem=None, progress=False):
+    """[ChannelCase] of the FMU at ``path`` (module docstring); ``ports`` the FMU's port positions x/L."""
+    from ...expr import compile_expr
+    from ...norms import relative_l2
+    from ...progress import progress_bar
+    from ...scene import derive_scene
+    from ...sph.ports import run_sph_ports
+    from ...sph.solver import build_problem, run_sph
+    from ..run.driver import FMU
+    from .verify import SCALE_NAME, communication_times, fmu_features, probe_values
+
+    problem = problem or build_problem(scene)
+    has_scale, _, step = fmu_features(path)
+    horizon = min(float(scene.T), HORIZON)
+    short = derive_scene(scene, {"domain": {"T": horizon}})
+    t, steps = communication_times(short, step)
+    f_cases, port_cases = channel_forces(scene, problem, step)
+    channels = [("f", None, f_cases)] + [(f"F_port_{j + 1}", j, port_cases) for j in range(len(ports))]
+    out = []
+    with progress_bar(2 * len(channels), f"input channels of {scene.name}", unit="run", enabled=progress) as bar:
+        for name, j, cases in channels:
+            for case, force in cases.items():
+                values = np.broadcast_to(compile_expr(force, ("t", "L", "T"), "force")(t=t, L=scene.L, T=scene.T),
+                                         t.shape).astype(float)
+                t0 = time.perf_counter()
+                if j is None:
+                    run = run_sph(derive_scene(short, {"force": {"f": force}}), sample_steps=steps, progress=False,
+                                  problem=problem, state=(0.0 * problem.v0, problem.rho0.copy()))
+                    ref = probe_values(problem, scene.L, _probes(path), (run.v,))[0]
+                    output = "v at the probes"
+                else:
+                    quiet = derive_scene(short, {"force": {"f": "0"}})
+                    held = lambda s, j=j: np.eye(len(ports))[j] * values[min(int(s / step + 1e-9), t.size - 1)]
+                    run = run_sph_ports(quiet, ports, forces=held, problem=build_problem(quiet),
+                                        state=(0.0 * problem.v0, problem.rho0.copy()),
+                                        every=max(1, int(round(step / scene.sph.dt))))
+                    ref = run.v_port[:t.size, j:j + 1]
+                    output = f"v_port_{j + 1}"
+                sph_s = time.perf_counter() - t0
+                inputs = {name: values} if j is not None else {"f": values}
+                note = ""
+                with FMU(path) as fmu:
+                    fmu.initialize(parameters={SCALE_NAME: 0.0} if has_scale else {})
+                    y = fmu.simulate(t, inputs, stop_on_error=True)
+                    names = fmu.outputs
+                    errors = fmu.errors()
+                cols = ([i for i, n in enumerate(names) if n.startswith("v_probe_")] if j is None
+                        else [names.index(output)])
+                got = y[:, cols]
+                if got.shape[0] < t.size:
+                    err, note = float("inf"), "; ".join(errors) or "the FMU stopped"
+                else:
+                    err = relative_l2(got, ref, t)
+                out.append(ChannelCase(channel=name, case=case, force=force, output=output, err=float(err),
+                                       sph_s=sph_s, note=note))
+                bar.update(1)
+    return out
+
+
+def _probes(path):
+    """The FMU's probe positions x/L (its v_probe_j descriptions: resources/model.bin)."""
+    import zipfile
+
+    from ..resources import unpack
+    data = unpack(zipfile.ZipFile(path).read("resources/model.bin"))
+    return list(np.asarray(data.probe_x, float))
