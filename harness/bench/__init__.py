@@ -74,7 +74,7 @@ PROGRAMS = {
                              "port_coupling.csv"),
     "port_envelope": Program("harness.bench.port_envelope", "the port FMU's accuracy against the port-force "
                              "amplitude", "measured: see the report", "port_envelope.csv"),
-    "inputs": Program("harness.bench.inputs", "every input channel at every frequency (issue 22): ports under slow "
+    "inputs": Program("harness.bench.inputs", "every input channel at every frequency: ports under slow "
                       "and constant forces, forces along non-uniform profiles, before and after, against the "
                       "linear SPH exact in time", "measured: see the report", "prints a table; inputs.csv with --out"),
     "unseen_force": Program("harness.bench.unseen_force", "the FMUs under forces their basis never saw, against "

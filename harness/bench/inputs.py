@@ -1,4 +1,5 @@
-"""Every input at every frequency (issue 22): issue 22's cases, before and after the directions of
+"""Every input at every frequency: ports under slow and constant forces and forces along non-uniform
+profiles, before and after the directions of
 :mod:`harness.rom.inputs`, for the exact, frozen and balanced models.
 
 Cases (each against the full SPH's equations linear in J integrated exactly in time,
@@ -12,10 +13,12 @@ Cases (each against the full SPH's equations linear in J integrated exactly in t
 * ``shaped-constant`` / ``shaped-sine``: tenmode with the profile exp(-((x - 0.3)/0.1)²) (trained on 1e-2 cos 2t),
   from rest, f = 1e-2 and 1e-2 sin 5t: the velocity field.
 
-Models as the FMU builds them (k = 12, the model's ``fmu_input_direction``); ``before`` is the build option
-``input_moments=False`` (the bases main had: the port's short-time directions and the profile's own column), the
-balanced model at its default order tolerance (it has no "before": it had no ports).  Errors: relative L² over
-all samples.  The frozen model runs with the scene's dt (explicit Euler) and n_freeze = 10.
+The full SPH (nonlinear, the scene's integrator and dt) is a row of its own in the port cases, with the scene's
+own force off as in the reference. Models as the FMU builds them (k = 12, the model's ``fmu_input_direction``);
+``before`` is the build option ``input_moments=False`` (the bases main had: the port's short-time directions and
+the profile's own column), the balanced model at its default order tolerance (it has no "before": it had no
+ports). Errors: relative L² over all samples. The frozen model runs with the scene's dt (explicit Euler) and
+n_freeze = 10.
 
 Run as::
 
@@ -27,7 +30,6 @@ It prints a Markdown table (docs/fmu/ports.md quotes it) and writes the CSV.  Ab
 
 from __future__ import annotations
 
-import argparse
 import csv
 import sys
 import time
@@ -76,7 +78,8 @@ def measure(name, scene, ports, port_forces, force, state):
     kw = dict(port_forces=_held(port_forces) if ports else None,
               force=_held(force) if force else (lambda t: 0.0 * np.asarray(t, float)))
     rows = []
-    runs = [("exact", "before"), ("exact", "after"), ("frozen", "before"), ("frozen", "after"), ("balanced", "after")]
+    runs = [("exact", "before"), ("exact", "after"), ("frozen", "before"), ("frozen", "after"),
+            ("balanced", "after")]
     for model, variant in runs:
         spec = get_model(model)
         t0 = time.perf_counter()
@@ -104,6 +107,20 @@ def measure(name, scene, ports, port_forces, force, state):
         rows.append({"case": name, "model": model, "variant": variant, "k_v": sizes[0], "k_2": sizes[1],
                      "error": err, "wall_s": time.perf_counter() - t0})
         print(f"{name} {model} {variant}: k = {sizes}, error {err:.3g}", file=sys.stderr, flush=True)
+    if ports:                       # the full SPH itself (nonlinear, its own integrator) against the same reference
+        from ..sph.ports import run_sph_ports
+        t0 = time.perf_counter()
+        held = _held(port_forces)
+        from ..scene import derive_scene
+        from ..sph.solver import build_problem as problem_of
+        quiet = derive_scene(scene, {"force": {"f": "0"}})
+        full = run_sph_ports(quiet, ports, forces=lambda s: held(np.atleast_1d(s))[0], problem=problem_of(quiet),
+                             state=None if state else (0.0 * problem.v0, problem.rho0.copy()),
+                             every=int(round(H / scene.sph.dt)), t_end=T)
+        err = float(np.linalg.norm(full.v_port[:ref.shape[0]] - ref) / np.linalg.norm(ref))
+        rows.append({"case": name, "model": "full SPH", "variant": "after", "k_v": problem.n, "k_2": problem.n,
+                     "error": err, "wall_s": time.perf_counter() - t0})
+        print(f"{name} full SPH: error {err:.3g}", file=sys.stderr, flush=True)
     return rows
 
 
@@ -120,7 +137,8 @@ def table(rows):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(prog="sphrom bench inputs", description=__doc__.split("\n\n")[0])
+    from . import program_parser
+    parser = program_parser("inputs", description=__doc__.split("\n\n")[0])
     parser.add_argument("--case", action="append", choices=sorted(cases()), help="a case (default all)")
     parser.add_argument("--out", help="CSV file to write")
     args = parser.parse_args(argv)

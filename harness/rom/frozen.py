@@ -36,8 +36,8 @@ from .loops import FrozenOperators, _check, _velocity_rate
 from .model import FrozenOptions, ReducedModel
 from .operators import build_from_basis, pair_index, truncate_operators
 from .result import ReducedResult
-from .stepping import (drive, energy_guard, port_work, force_table, method_code, runaway_bound, sample_blocks, sample_grid,
-                       start_arrays)
+from .stepping import (drive, energy_guard, force_table, method_code, port_work, runaway_bound, sample_blocks,
+                       sample_grid, start_arrays)
 
 
 @njit(cache=True, nogil=True)

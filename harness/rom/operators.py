@@ -237,7 +237,7 @@ def build_operators(problem: SPHProblem, U_v, U_rho, input_direction="auto", ten
         When the force profile is appended (``augment``, ``always``, ``needed``): also its response at every
         frequency, s = 0 through the band (:func:`harness.rom.inputs.augment_channels`), so that a constant or
         slow force along a non-uniform profile is represented; ``project`` and ``never`` add nothing.  The
-        same for each port (always).  False: the bases as before issue 22 (``sphrom bench inputs`` compares).
+        same for each port (always).  False: the bases without them (``sphrom bench inputs`` compares).
     """
     if b not in B_FORMS:
         raise ValueError(f"b: {b!r} is out of range (allowed: {', '.join(B_FORMS)})")
@@ -310,7 +310,7 @@ def port_directions(problem, ports, levels=PORT_KRYLOV_LEVELS):
     return out
 
 
-def augment_ports(problem, U_v, U_2, ports, *, energy=False, levels=PORT_KRYLOV_LEVELS, moments=True):
+def augment_ports(problem, U_v, U_2, ports, *, energy=False, levels=PORT_KRYLOV_LEVELS, moments=True, tol=None):
     """(U_v, U_2, velocity columns added, second columns added, projection errors) with the port directions.
 
     Each direction of :func:`port_directions` is appended (its part outside the span, unless below round-off):
@@ -318,7 +318,7 @@ def augment_ports(problem, U_v, U_2, ports, *, energy=False, levels=PORT_KRYLOV_
     c-weighted inner products and U_2 = U_e; else Euclidean and U_2 = U_ρ, which gets ρ0 G v: δρ = -ρ0 δe).
     The errors are each port profile's relative projection error on the velocity modes before its column.
     ``moments``: then each port's response at every frequency (:func:`harness.rom.inputs.augment_channels`;
-    False: the short-time directions only, as before issue 22).
+    False: the short-time directions only).
     """
     if not len(ports):
         return U_v, U_2, 0, 0, ()
@@ -343,7 +343,7 @@ def augment_ports(problem, U_v, U_2, ports, *, energy=False, levels=PORT_KRYLOV_
     # the response at every frequency, s = 0 (static, rigid) through the band (harness.rom.inputs)
     if moments:
         U_v, U_2, _, _ = augment_channels(problem, U_v, U_2, port_accelerations(problem, ports), energy=energy,
-                                          w_top=w_top)
+                                          w_top=w_top, tol=tol)
     return (np.ascontiguousarray(U_v), np.ascontiguousarray(U_2), U_v.shape[1] - n_v, U_2.shape[1] - n_2,
             tuple(errors))
 

@@ -1,4 +1,4 @@
-"""Every input channel of a packaged FMU measured against the full SPH (issue 22): the force f along the scene's
+"""Every input channel of a packaged FMU measured against the full SPH: the force f along the scene's
 profile and each port force F_port_j, each from rest under
 
 - ``constant``: a constant input (its response: the static deflection, and the rigid motion of the bar: an
@@ -12,9 +12,9 @@ the bar (area A = 1) the same mean acceleration, A_f Σ ρ0 Δx [N].  Output com
 the channel's own port velocity for F_port_j (power-conjugate to it); the error is eq. 3.4's relative L2
 (square-root form, trapezoidal in time), as the verification's cases.
 
-The full SPH: :func:`harness.sph.solver.run_sph` for f (the scene with f replaced), :func:`harness.sph.ports.run_sph_ports`
-for the ports (with the scene's own force off, so the port force alone drives the bar), each from rest.
-"""
+The full SPH: :func:`harness.sph.solver.run_sph` for f (the scene with f replaced),
+:func:`harness.sph.ports.run_sph_ports` for the ports (with the scene's own force off, so the port force alone
+drives the bar), each from rest. """
 
 from __future__ import annotations
 
