@@ -7,7 +7,7 @@ import argparse
 
 class Parser(argparse.ArgumentParser):
     """An ArgumentParser (and, through ``add_subparsers``, its subcommands' parsers) whose errors are one line:
-    ``sphrom COMMAND: error: --option: what is allowed``, exit status 2, no usage block."""
+    ``sphrom COMMAND: error: OPTION: what is allowed`` (the option's name), exit status 2, no usage block."""
 
     def error(self, message):
         if message.startswith("argument "):        # "argument --probes: ..." -> "--probes: ..."

@@ -50,7 +50,7 @@ def reduced_response(name, scene, problem, basis, k, *, ports=(), port_forces=No
     scene's initial state (``state``) or from rest, inputs held over H; sampled every H."""
     spec = get_model(name)
     ops = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction, input_moments=moments,
-                     **({"tensor": "always"} if name == "frozen" else {}), **({"ports": tuple(ports)} if ports else {}))
+                     **({"tensor": "always"} if "tensor" in spec.build_options else {}), **({"ports": tuple(ports)} if ports else {}))
     kw = dict(port_forces=held(port_forces) if ports else None,
               force=held(force) if force else (lambda t: 0.0 * np.asarray(t, float)))
     if spec.linear:
@@ -199,6 +199,8 @@ def test_balanced_model_with_ports(tmp_path):
                 ports=(0.3, 0.7), bounds=False)
     fproblem = build_problem(fscene)
     fops = spec.build(fproblem, None, 12, 12, ports=(0.3, 0.7))
+    cut = spec.truncate(fproblem, spec.build(fproblem, None, 20, 20, ports=(0.3, 0.7)), 12, 12)   # the same model
+    assert np.array_equal(cut.Bp, fops.Bp) and np.array_equal(cut.Cp, fops.Cp) and cut.reduced.Br.shape == (12, 2)
     steps = 30
     expected = fops.port_velocity(spec.run(fops, fproblem, dt=H, n_steps=steps, state=np.zeros(fops.order),
                                            options=spec.options(step=H, hold="held"), force=lambda s: 0.0 * s,

@@ -83,19 +83,19 @@ def measure(name, scene, ports, port_forces, force, state):
     for model, variant in runs:
         spec = get_model(model)
         t0 = time.perf_counter()
-        if model == "balanced":
-            ops = spec.build(problem, None, None, None, **({"ports": tuple(ports)} if ports else {}))
+        port_option = {"ports": tuple(ports)} if ports else {}
+        if not spec.needs_basis:                        # the balanced model: its order from its tolerance
+            ops = spec.build(problem, None, None, None, **port_option)
         else:
             ops = spec.build(problem, basis, K, K, input_direction=spec.fmu_input_direction,
-                             input_moments=variant == "after", **({"tensor": "always"} if model == "frozen" else {}),
-                             **({"ports": tuple(ports)} if ports else {}))
+                             input_moments=variant == "after", **port_option,
+                             **({"tensor": "always"} if "tensor" in spec.build_options else {}))
         if spec.linear:
             res = spec.run(ops, problem, dt=H, n_steps=int(round(T / H)), options=spec.options(step=H, hold="held"),
                            state=None if state else np.zeros(ops.order), **kw)
-            z = res.z
-            y = (ops.port_velocity(z if model == "balanced" else z[:, :ops.k_v]) if ports else
-                 (ops.velocity(z) if model == "balanced" else ops.velocity(z[:, :ops.k_v])))
-            sizes = (ops.order, 0) if model == "balanced" else (ops.k_v, ops.k_e)
+            z = res.z if not spec.needs_basis else res.z[:, :ops.k_v]      # the velocity coordinates
+            y = ops.port_velocity(z) if ports else ops.velocity(z)
+            sizes = (ops.order, 0) if not spec.needs_basis else (ops.k_v, ops.k_e)
         else:
             dt = scene.sph.dt
             res = spec.run(ops, problem, dt=dt, n_steps=int(round(T / dt)), every=int(round(H / dt)),
