@@ -50,7 +50,8 @@ def reduced_response(name, scene, problem, basis, k, *, ports=(), port_forces=No
     scene's initial state (``state``) or from rest, inputs held over H; sampled every H."""
     spec = get_model(name)
     ops = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction, input_moments=moments,
-                     **({"tensor": "always"} if "tensor" in spec.build_options else {}), **({"ports": tuple(ports)} if ports else {}))
+                     **({"tensor": "always"} if "tensor" in spec.build_options else {}),
+                     **({"ports": tuple(ports)} if ports else {}))
     kw = dict(port_forces=held(port_forces) if ports else None,
               force=held(force) if force else (lambda t: 0.0 * np.asarray(t, float)))
     if spec.linear:
