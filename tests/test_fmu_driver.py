@@ -79,3 +79,26 @@ def test_cosim_fmi2_and_fmi3_agree(fmus, model, record_property):
     record_property("fmi2_linear_vs_fmi3_held", float(diff))
     # the input's interpolation: f moves by up to 0.03 * 2 pi * 3 * h = 5.7e-3 over a step
     assert 1e-9 < diff < 0.1, diff
+
+
+def test_fmpy_logs_safely_after_a_driver_instance_is_gone(fmus):
+    """fmpy's FMI 2 logger proxy keeps one logger per process: after our FMU is freed (and its Python objects
+    collected), an FMU run by fmpy.simulate_fmu that logs (a frozen FMU leaving its training envelope warns) must
+    reach a live logger, and our messages must still reach our instance while another FMU runs beside it."""
+    import gc
+    path = fmus("frozen", 2)
+    with FMU(path) as ours:
+        ours.initialize(initial_state_scale=1.0, f=0.0)
+    del ours
+    gc.collect()
+    times = np.arange(51) * STEP
+    big = np.zeros(times.size, dtype=[("time", np.float64), ("f", np.float64)])
+    big["time"], big["f"] = times, 50.0              # far outside the training envelope: the FMU warns
+    fmpy.simulate_fmu(str(path), stop_time=T_END, output_interval=STEP, input=big)   # fmpy's default logger
+    with FMU(path) as a, FMU(path) as b:
+        a.initialize(initial_state_scale=1.0, f=50.0)
+        b.initialize(initial_state_scale=1.0, f=0.0)
+        a.simulate(times, {"f": big["f"]})
+        b.simulate(times, {"f": np.zeros(times.size)})
+        assert any("training envelope" in w for w in a.warnings()), a.messages
+        assert not b.warnings(), b.messages                   # a's warning did not land in b

@@ -40,6 +40,37 @@ from ..variables import absent, lookup, vr
 # construct at once can leave the process in another instance's (later deleted)
 # folder.  Every construction of an fmpy FMU object in sphrom goes through this.
 FMPY_LOAD_LOCK = threading.Lock()
+# fmpy's FMI 2 logger proxy (fmpy/logging: it formats the variadic message, then calls the Python logger) keeps
+# ONE logger per process in a C global, the last one registered, and every FMI 2 instance of the process that
+# uses the proxy (fmpy.simulate_fmu's, fmpy's default callbacks) logs through it.  A per-instance Python callback
+# there dies with its instance and leaves the next FMU's log call jumping into freed memory.  So the callback
+# registered is one for the process (made once, never freed), and it dispatches each message by the instance's
+# componentEnvironment to the live FMU object, or to fmpy's own printer for instances that are not ours.
+_INSTANCES = {}
+_LOGGER = []
+
+
+def _register(fmu):
+    """The componentEnvironment of ``fmu``'s FMI 2 log messages (its id: unique among live instances)."""
+    key = id(fmu)
+    _INSTANCES[key] = fmu
+    return key
+
+
+def fmi2_logger(callback_type):
+    """The process's FMI 2 logger callback (made on first use and kept for the process: fmpy's proxy holds it)."""
+    if not _LOGGER:
+        def log(environment, instance_name, status, category, message):
+            fmu = _INSTANCES.get(environment)
+            if fmu is not None:
+                fmu._keep(status, category, message)
+                return
+            from fmpy.fmi2 import printLogMessage
+            printLogMessage(environment, instance_name, status, category, message)
+        _LOGGER.append(callback_type(log))
+    return _LOGGER[0]
+
+
 STATE_HEADER_SIZE = 112     # ROM_STATE_HEADER_SIZE of fmu_src/rom.h: magic, version, sizes, token, time, counters
 
 
@@ -130,9 +161,11 @@ class FMU:
             from fmpy.fmi2 import (fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
                                    fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
             callbacks = fmi2CallbackFunctions()
-            callbacks.logger = fmi2CallbackLoggerTYPE(self._log2)
+            callbacks.logger = fmi2_logger(fmi2CallbackLoggerTYPE)
             callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
             callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+            self._environment = _register(self)
+            callbacks.componentEnvironment = self._environment
             try:
                 from fmpy.logging import addLoggerProxy
                 addLoggerProxy(byref(callbacks))
@@ -150,6 +183,7 @@ class FMU:
             call()
         except Exception:
             self.fmu = None
+            _INSTANCES.pop(getattr(self, "_environment", None), None)
             if self._owns_dir:
                 shutil.rmtree(self.unzipdir, ignore_errors=True)
             raise
@@ -169,9 +203,6 @@ class FMU:
         text = message.decode("utf-8", "replace") if isinstance(message, bytes) else str(message)
         cat = category.decode() if isinstance(category, bytes) else str(category)
         self.messages.append((int(status), cat, text))
-
-    def _log2(self, component, instance_name, status, category, message):
-        self._keep(status, category, message)
 
     def _log3(self, environment, status, category, message):
         self._keep(status, category, message)
@@ -425,6 +456,7 @@ class FMU:
                 self.fmu.freeInstance()
             finally:
                 self.fmu = None
+                _INSTANCES.pop(getattr(self, "_environment", None), None)
                 if self._owns_dir:
                     shutil.rmtree(self.unzipdir, ignore_errors=True)
 
