@@ -7,8 +7,9 @@ import textwrap
 from .options import (add_n_freeze, add_order_tolerance, add_quiet, add_scene, float_list, int_at_least, max_probes,
                       one_of, positive_float)
 
-DESCRIPTION = ("Build the frozen-coefficient reduced model of SCENE (eqs. 2.19-2.24: full SPH "
-               "and POD reused from the cache or run now, the force profile as input direction), "
+DESCRIPTION = ("Build a reduced model of SCENE (--model: the frozen-coefficient model of eqs. 2.19-2.24 by "
+               "default, the exact linear or the balanced one; full SPH and POD reused from the cache or run now, "
+               "the force profile as input direction), "
                "write its numbers to resources/model.bin, build or reuse the binary with CMake, "
                "zip the FMU, validate it with fmpy, measure it against the full SPH (the training force and "
                "an unseen one, A sin(2 pi 0.7 t), from rest where the FMU can start at rest: probe errors of "
@@ -164,12 +165,17 @@ def _run(args):
                 f"at most {INPUT_TOLERANCE:g}: f projected on the modes (eq. 2.19)")
     if s.parameters and not s.augmented and not model.linear:
         decision = "f projected on the modes (eq. 2.19), as in every parametric frozen model"
+    elif model.fmu_input_direction == "always":
+        decision = (f"the {s.model} model appends the residual to the basis whatever its size, so a force along the "
+                    "profile is represented exactly" if s.augmented else
+                    "the profile lies in the modes' span: a force along it is represented exactly")
     if model.needs_basis:
         print(f"  input projection error of the force profile on the {s.k} POD velocity modes: {s.input_error:.3g} "
               f"({decision})")
     if model.linear:
-        print("  advanced by the matrix exponential over each communication step (input held; cached per step "
-              "length): no internal step, so no parameters dt and n_freeze")
+        print("  advanced by the matrix exponential over each communication step (input held, or linear over the "
+              "step with df/dt: FMI 2 input derivatives; cached per step length): no internal step, so no parameters "
+              "dt and n_freeze")
     else:
         print(f"  integrator {s.integrator}, dt = {s.dt:g} s, n_freeze = {s.n_freeze} (parameters dt, n_freeze)")
     print(f"  probes at x/L = {', '.join(exact(x) for x in s.probes)}: outputs v_probe_1..{len(s.probes)}, "
