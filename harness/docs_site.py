@@ -8,7 +8,7 @@ link of the Markdown sources, ``mkdocs build --strict`` (with the link validatio
 or an anchor that resolves to nothing, and :func:`build` runs it.  The navigation is built from the folders: a new
 page under ``docs/`` appears in it with its first heading as title, with nothing to register.
 
-    python3 -m harness.docs_site [--out DIR]        # build the site with warnings as errors (default: a temporary folder)
+    python3 -m harness.docs_site [--out DIR]    # build the site, warnings as errors (default: a temporary folder)
 """
 
 from __future__ import annotations
@@ -22,8 +22,10 @@ ROOT = Path(__file__).resolve().parents[1]
 SOURCES = [("README.md", None), ("BENCHMARKS.md", None), ("docs", ("**/*.md", "**/*.png")),
            ("validation", ("**/*.md", "**/*.png", "**/*.csv", "**/*.toml"))]
 
-# the order of docs/'s sections in the navigation; a folder not named here comes after them, by name
-SECTION_ORDER = ["user", "fmu", "science", "internals", "validation", "benchmarks"]
+# docs/'s sections in the navigation, in order, with their titles; a folder not named here comes after them, by
+# name, titled by its index.md's heading or its name
+SECTIONS = {"user": "User guide", "fmu": "The FMU", "science": "Science", "internals": "Internals",
+            "validation": "Validation", "benchmarks": "Benchmarks"}
 
 LINK = re.compile(r"(?<!!)\[[^\]]*\]\(([^)\s]+)(?:\s+\"[^\"]*\")?\)|!\[[^\]]*\]\(([^)\s]+)\)")
 FENCE = re.compile(r"^(```|~~~)")
@@ -103,7 +105,7 @@ def _root(config):
 def _page_title(path, root=ROOT):
     for line in (Path(root) / path).read_text(encoding="utf-8").splitlines():
         if line.startswith("# "):
-            return line[2:].strip().strip("`")
+            return line[2:].strip().replace("`", "")
     return Path(path).stem
 
 
@@ -121,7 +123,7 @@ def navigation(root=ROOT):
         parts = p.split("/")
         if parts[0] == "docs":
             sections.setdefault(parts[1] if len(parts) > 2 else "", []).append(p)
-    order = SECTION_ORDER + sorted(s for s in sections if s not in SECTION_ORDER and s)
+    order = list(SECTIONS) + sorted(s for s in sections if s not in SECTIONS and s)
     for page in sections.get("", []):
         nav.append({_title(page): page})
     for section in order:
@@ -130,7 +132,7 @@ def navigation(root=ROOT):
             continue
         index = [p for p in members if p.endswith("/index.md")]
         rest = sorted((p for p in members if p not in index), key=lambda p: _title(p).lower())
-        nav.append({_title(index[0]) if index else section.capitalize():
+        nav.append({SECTIONS.get(section) or (_title(index[0]) if index else section.capitalize()):
                     [{_title(p): p} for p in index + rest]})
     generated = [p for p in pages if p == "BENCHMARKS.md" or p.startswith("validation/")]
     nav.append({"Generated reports": [{_title(p): p} for p in generated]})

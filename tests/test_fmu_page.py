@@ -74,3 +74,14 @@ def test_the_browser_check_sees_an_overflowing_table(tmp_path):
                                         "</td></tr></table></body></html>")
     layout = page.layout(tmp_path / "wide.html", width=1280)
     assert any(e.startswith("table#t") for e in layout["over"]), layout
+
+
+def test_the_packaging_message_says_what_each_model_does_with_the_force_profile():
+    """The exact model appends the profile's residual whatever its size: never 'above 0.01' for it."""
+    from harness.commands.fmu import input_decision
+    from harness.rom.registry import get_model
+    exact, frozen = get_model("exact"), get_model("frozen")
+    assert "whatever its size" in input_decision(exact, augmented=True) and "0.01" not in input_decision(exact, True)
+    assert input_decision(frozen, augmented=True).startswith("above 0.01")
+    assert input_decision(frozen, augmented=False).startswith("at most 0.01")
+    assert "parametric" in input_decision(frozen, augmented=False, parametric=True)

@@ -116,7 +116,7 @@ def container_outputs(folder, path, names, start=None, initial_state_scale=1.0):
 
 def print_difference(importer, name, theirs, ours):
     """Print the largest |importer - fmpy| over the run, absolute and relative to the largest output (the figures
-    the README quotes: ``python3 -m pytest -s tests/test_importers.py -k libcosim``)."""
+    docs/fmu/importers.md quotes: ``python3 -m pytest -s tests/test_importers.py -k libcosim``)."""
     diff, scale = float(np.max(np.abs(theirs - ours))), float(np.max(np.abs(ours)))
     print(f"\n{importer} vs fmpy, {name}: max |difference| {diff:.2e} (largest output {scale:.3g}, "
           f"relative {diff / scale:.2e})")

@@ -33,7 +33,7 @@ from harness.rom.registry import get_model
 ROOT = Path(__file__).resolve().parents[1]
 K = 6
 
-# The contract (README, "The FMU"): every variable's value reference.  Deliberately typed here a second time:
+# The contract (docs/fmu/variables.md): every variable's value reference.  Deliberately typed here a second time:
 # a change of the table that changes a value reference fails this test.
 CONTRACT = {"time": 0, "f": 1, "n_freeze": 2, "dt": 3, "initial_state_scale": 4, "c": 5, "d": 6, "area": 7,
             "force_error_bound": 8, "initial_state_error_bound": 9, "v_probe_j": 1000, "rho_probe_j": 2000,

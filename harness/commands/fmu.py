@@ -144,7 +144,6 @@ def _run(args):
                         integrator=args.integrator, progress=not args.quiet, model=args.model, verify=args.verify,
                         tolerance=args.tolerance, vary=vary, ports=ports, bounds=args.bounds,
                         order_tolerance=args.order_tolerance)
-    from ..rom.operators import INPUT_TOLERANCE
     added = " (+ the force profile direction, not in the POD span)" if s.augmented else ""
     print(f"fmu {s.scene}: FMI {s.fmi}.0 co-simulation, {s.model} model, wrote {s.path} ({s.size / 1024:.1f} KiB)")
     model = MODELS[s.model]
@@ -161,14 +160,7 @@ def _run(args):
               f"(specific volume)")
     else:
         print(f"  modes: k = {s.k} POD modes -> k_v = {s.k_v}{added}, k_rho = {s.k_rho}")
-    decision = (f"above {INPUT_TOLERANCE:g}: its residual appended to the basis" if s.augmented else
-                f"at most {INPUT_TOLERANCE:g}: f projected on the modes (eq. 2.19)")
-    if s.parameters and not s.augmented and not model.linear:
-        decision = "f projected on the modes (eq. 2.19), as in every parametric frozen model"
-    elif model.fmu_input_direction == "always":
-        decision = (f"the {s.model} model appends the residual to the basis whatever its size, so a force along the "
-                    "profile is represented exactly" if s.augmented else
-                    "the profile lies in the modes' span: a force along it is represented exactly")
+    decision = input_decision(model, augmented=s.augmented, parametric=bool(s.parameters))
     if model.needs_basis:
         print(f"  input projection error of the force profile on the {s.k} POD velocity modes: {s.input_error:.3g} "
               f"({decision})")
@@ -280,3 +272,18 @@ def check_port_spacing(scene, ports):
                                           "particles, so the model cannot tell them apart (allowed: ports at least "
                                           "L/N apart)")
     return ports
+
+
+def input_decision(model, augmented, parametric=False):
+    """What packaging did with the force profile, in words: projected on the modes (eq. 2.19) or its residual
+    appended to the basis, and why (the model's ``fmu_input_direction``: the frozen model's 1 % rule, the exact
+    model's always, a parametric frozen model's never)."""
+    from ..rom.operators import INPUT_TOLERANCE
+    if parametric and not augmented and not model.linear:
+        return "f projected on the modes (eq. 2.19), as in every parametric frozen model"
+    if model.fmu_input_direction == "always":
+        return (f"the {model.name} model appends the residual to the basis whatever its size, so a force along the "
+                "profile is represented exactly" if augmented else
+                "the profile lies in the modes' span: a force along it is represented exactly")
+    return (f"above {INPUT_TOLERANCE:g}: its residual appended to the basis" if augmented else
+            f"at most {INPUT_TOLERANCE:g}: f projected on the modes (eq. 2.19)")

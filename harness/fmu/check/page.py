@@ -3,7 +3,8 @@
 A headless Chromium (Debian's ``chromium``, Google Chrome, or Playwright's build, whichever is installed) loads
 the page at a given window width with a small script appended that measures the layout, and prints the DOM, from
 which the measurements are read: the page's scroll width against the window's, and every element whose box
-reaches beyond the right edge of the body's content (or of the window, where that is nearer).  No browser library is needed.
+reaches beyond the right edge of the body's content (or of the window, where that is nearer).  No browser
+library is needed.
 
     python3 -m harness.fmu.check.page FILE.fmu [--width 1280] [--screenshot PAGE.png]
 

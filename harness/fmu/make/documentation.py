@@ -174,7 +174,8 @@ def usage_section(description_xml, linear, ports):
                 "<code>n_freeze</code> of them; any h &gt; 0 is accepted, the last internal step shortened to end "
                 "exactly at the communication point.")
     example = (f"from fmpy import simulate_fmu\n"
-               f"result = simulate_fmu('this.fmu', stop_time={_stop_time(description_xml)}, output_interval={_short(step) if step else '0.01'},\n"
+               f"result = simulate_fmu('this.fmu', stop_time={_stop_time(description_xml)}, "
+               f"output_interval={_short(step) if step else '0.01'},\n"
                f"                      start_values={{'initial_state_scale': 0.0}})\n"
                f"# or: sphrom cosim this.fmu --force '1e-3*sin(2*pi*t)' --out result.csv")
     return ["<h2>Using this FMU</h2>",
@@ -217,7 +218,8 @@ def _envelope_rows(sections, probe_x):
         rows += [("training force amplitude max |f| [m s^-2]", f"{amplitude:.4g}"),
                  ("training force mean [m s^-2]", _mean(mean, amplitude)),
                  ("frequency below which 99 % of the force's energy lies [Hz]", f"{band:.4g}"),
-                 ("largest strain |rho0/rho - 1| over the particles / at the probes", f"{strain:.4g} / {probe_strain:.4g}"),
+                 ("largest strain |rho0/rho - 1| over the particles / at the probes",
+                  f"{strain:.4g} / {probe_strain:.4g}"),
                  ("strain where the density linearization fails", f"{failure:.4g}"),
                  ("margin on the trained ranges", f"{margin:g}"),
                  ("run-time checks", "on" if int(checks) else "none")]
@@ -232,7 +234,8 @@ def _envelope_rows(sections, probe_x):
             rows.append((f"probe {j + 1}{x}: rho0 [kg m^-3], training max |v| [m s^-1]", f"{r:.4g}, {v:.4g}"))
     if "ENVPORT" in sections:
         pv, pr = np.ravel(sections["ENVPORT"])[:2]
-        rows.append(("port coordinates (exact input directions, not checked)", f"{int(pv)} velocity, {int(pr)} density"))
+        rows.append(("port coordinates (exact input directions, not checked)",
+                      f"{int(pv)} velocity, {int(pr)} density"))
     return rows
 
 
@@ -295,7 +298,8 @@ def verification_section(verification, tolerance=None):
              "internal step), at the probes. Errors: relative L2 of eq. 3.4 (square-root form, trapezoidal in "
              "time, over all probes) of the velocity and of rho - rho0 ('-' where the full SPH's rho - rho0 is 0, "
              "as under a uniform force from rest: then the largest density difference says it). Times: one run "
-             "each on the packaging machine, setup excluded: the FMU's is its run through fmpy on an instantiated FMU (initialize, "
+             "each on the packaging machine, setup excluded: the FMU's is its run through fmpy on an "
+             "instantiated FMU (initialize, "
              "inputs, doSteps, outputs), the full SPH's its compiled time loop.</p>",
              *_table(("force", "f(t) [m s^-2]", "from", "v error", "rho - rho0 error", "max |rho - rho_SPH| "
                       "[kg m^-3]", "FMU [s]",
