@@ -23,7 +23,7 @@ DOC_PLOT = "documentation/probes.png"
 
 _STYLE = """body{font-family:sans-serif;max-width:60em;margin:1em auto;padding:0 1em;color:#222}
 table{border-collapse:collapse;margin:0.5em 0 1em;max-width:100%}th,td{border:1px solid #bbb;padding:2px 6px;
-text-align:left;vertical-align:top;font-size:90%;overflow-wrap:anywhere}th{background:#eee}code{font-size:95%}
+text-align:left;vertical-align:top;font-size:90%;overflow-wrap:break-word}th{background:#eee}code{font-size:95%}
 table.wide{table-layout:fixed;width:100%}pre{background:#f4f4f4;padding:0.5em;white-space:pre-wrap;
 overflow-wrap:anywhere}img{max-width:100%}"""
 
@@ -128,17 +128,17 @@ def variables_section(description_xml):
     rows = []
     for v in variables(description_xml):
         limits = ", ".join(f"{k} {_short(v[k])}" for k in ("min", "max", "nominal") if v[k])
-        rows.append((f"<code>{escape(v['name'])}</code> [{v['value_reference']}]",
-                     escape(f"{v['causality']}, {v['variability']}"), escape(f"{v['type']}, {v['unit'] or '-'}"),
+        rows.append((f"<code>{escape(v['name'])}</code>", str(v["value_reference"]), escape(v["causality"]),
+                     escape(v["variability"]), escape(v["type"]), escape(v["unit"] or "-"),
                      escape(_short(v["start"]) if v["start"] else "-"), escape(limits or "-"),
                      escape(v["description"])))
     return ["<h2>Variables</h2>",
-            "<p>Every variable of this FMU's modelDescription.xml, with its value reference in brackets (value "
-            "references are the contract; sphrom's variable table, harness/fmu/variables.py, declares them). "
-            "Numbers are shown to 4 digits; the modelDescription holds them in full.</p>",
-            *_table(("name [value reference]", "causality, variability", "type, unit", "start",
+            "<p>Every variable of this FMU's modelDescription.xml (value references are the contract; sphrom's "
+            "variable table, harness/fmu/variables.py, declares them). Numbers are shown to 4 digits; the "
+            "modelDescription holds them in full.</p>",
+            *_table(("name", "value reference", "causality", "variability", "type", "unit", "start",
                      "min, max, nominal", "description"), rows, table_id="variables",
-                    widths=(19, 15, 10, 7, 14, 35))]
+                    widths=(16, 10, 11, 9, 6, 7, 6, 11, 24))]
 
 
 def _fmi(description_xml):
