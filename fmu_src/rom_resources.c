@@ -220,7 +220,7 @@ static RomStatus check_port_rows(const RomModel *m, const RomSection *s, char *m
 static const SectionRule SECTION_RULES[] = {
     {"ENVELOPE", "the training envelope's scalars", rom_envelope_check_scalars},
     {"ENVRANGE", "the training envelope's coordinate ranges", rom_envelope_check_range},
-    {"ENVPROBE", "rho0 at the probes (training envelope)", rom_envelope_check_probe},
+    {"ENVPROBE", "rho0 and the training run's max |v| at the probes (training envelope)", rom_envelope_check_probe},
     {"ENVPORT", "port coordinates at the end of each block (training envelope: not checked)",
      rom_envelope_check_ports},
     {"BOUNDS", "certified error bounds per probe (force, initial state)", check_bounds},

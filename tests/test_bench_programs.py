@@ -45,7 +45,7 @@ def test_help_and_bad_option_through_sphrom_bench(name, capsys):
 
 
 def test_python_m_alias_still_runs():
-    """``python -m harness.bench.NAME`` (named by README.md and BENCHMARKS.md) is the same program."""
+    """``python -m harness.bench.NAME`` (named by the docs and BENCHMARKS.md) is the same program."""
     done = subprocess.run([sys.executable, "-m", "harness.bench.port_rates", "--help"], cwd=ROOT, capture_output=True,
                           text=True)
     assert done.returncode == 0 and "python -m harness.bench.port_rates" in done.stdout

@@ -96,10 +96,11 @@ def test_every_previous_option_still_exists(command):
 
 
 def test_every_option_the_readme_names_parses():
-    """Each ``--option`` in a README line that starts with `sphrom COMMAND` is an option of that command."""
+    """Each ``--option`` in a README or docs line that starts with `sphrom COMMAND` is an option of that command."""
     parser = build_parser()
     seen = 0
-    for line in (ROOT / "README.md").read_text().splitlines():
+    texts = [ROOT / "README.md", *sorted((ROOT / "docs").glob("**/*.md"))]
+    for line in (line for t in texts for line in t.read_text().splitlines()):
         for m in re.finditer(r"`?sphrom ([a-z-]+)([^`]*)`?", line):
             command, rest = m.group(1), m.group(2)
             if command not in parser.commands:

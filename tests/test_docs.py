@@ -10,7 +10,8 @@ ISSUE = re.compile(r"\bissues? (#?\d|#)|\(#\d", re.IGNORECASE)
 
 def _prose_files():
     for folder, patterns in [("harness", ["**/*.py"]), ("fmu_src", ["**/*.c", "**/*.h", "**/*.txt"]),
-                             ("tests", ["*.py"]), ("modelDescription", ["*"]), ("validation", ["**/*.md"])]:
+                             ("tests", ["*.py"]), ("modelDescription", ["*"]), ("validation", ["**/*.md"]),
+                             ("docs", ["**/*.md"])]:
         for pattern in patterns:
             yield from (p for p in (ROOT / folder).glob(pattern) if p.is_file())
     yield from (ROOT / name for name in ("README.md", "BENCHMARKS.md") if (ROOT / name).exists())
@@ -38,8 +39,9 @@ def test_the_code_map_names_paths_that_exist():
     assert not missing, missing
 
 
-def test_every_harness_path_in_the_readme_exists():
-    readme = (ROOT / "README.md").read_text()
-    paths = set(re.findall(r"(?<![\w/.])((?:harness|fmu_src|validation|tests)/[\w./-]*[\w/])", readme))
-    missing = sorted(p for p in paths if "*" not in p and not (ROOT / p).exists())
-    assert not missing, missing
+def test_every_harness_path_in_the_readme_and_the_docs_exists():
+    texts = [ROOT / "README.md", *sorted((ROOT / "docs").glob("**/*.md"))]
+    paths = {(t.name, p) for t in texts
+             for p in re.findall(r"(?<![\w/.(])((?:harness|fmu_src|validation|tests)/[\w./-]*[\w/])", t.read_text())}
+    missing = sorted((name, p) for name, p in paths if "*" not in p and not (ROOT / p).exists())
+    assert len(paths) > 100 and not missing, missing

@@ -7,7 +7,7 @@ for the ports are exact input directions (each port's profile and its Krylov res
 harness.rom.operators.port_directions), not trained POD directions: they are never checked against that
 run's ranges (section ENVPORT names them).  Once a port force has acted the state holds a response the
 training run never saw, by design: from then on only |f| and the failure strain are checked (the frozen
-model's port error is measured to hold there: README, "Training envelope"); until then, and after a reset,
+model's port error is measured to hold there: docs/fmu/envelope.md); until then, and after a reset,
 a port FMU is checked as one without ports.
 """
 

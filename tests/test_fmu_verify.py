@@ -56,7 +56,7 @@ class _Tables(HTMLParser):
 
     def handle_starttag(self, tag, attrs):
         attrs = dict(attrs)
-        if tag not in ("meta", "img", "br"):
+        if tag not in ("meta", "img", "br", "col"):                  # void elements
             self.open.append(tag)
         self.links += [attrs[a] for a in ("src", "href") if a in attrs]
         if tag == "table":

@@ -1,5 +1,5 @@
-"""The FMU in importers nobody here wrote: libcosim (through libcosimpy, FMI 2) and fmu-manipulation-toolbox's
-container (FMI 3).
+"""The FMU in importers nobody here wrote: libcosim (through libcosimpy, FMI 2), fmu-manipulation-toolbox's
+container (FMI 3) and Ecos (through ecospy, FMI 2 and 3; it needs the system library libtbb12).
 
 libcosim loads the FMU with the FMI Library, runs its own instantiate/initialise/step sequence and reads the
 outputs; the container's own runtime loads, instantiates and steps the FMI 3 FMU (fmpy only drives the
@@ -116,7 +116,7 @@ def container_outputs(folder, path, names, start=None, initial_state_scale=1.0):
 
 def print_difference(importer, name, theirs, ours):
     """Print the largest |importer - fmpy| over the run, absolute and relative to the largest output (the figures
-    the README quotes: ``python3 -m pytest -s tests/test_importers.py -k libcosim``)."""
+    docs/fmu/importers.md quotes: ``python3 -m pytest -s tests/test_importers.py -k libcosim``)."""
     diff, scale = float(np.max(np.abs(theirs - ours))), float(np.max(np.abs(ours)))
     print(f"\n{importer} vs fmpy, {name}: max |difference| {diff:.2e} (largest output {scale:.3g}, "
           f"relative {diff / scale:.2e})")
@@ -132,6 +132,36 @@ def test_libcosim_runs_the_fmi2_fmu_as_fmpy_does(fmus, model):
     assert np.all(np.isfinite(theirs))
     print_difference("libcosim", model, theirs, ours)
     np.testing.assert_allclose(theirs, ours, rtol=RTOL, atol=ATOL)
+
+
+def ecos_outputs(path, names, initial_state_scale=1.0):
+    """Ecos's outputs ``names`` over N_STEPS steps of H (rows at H, ..., N_STEPS H): its own FMI 2 / 3 loader,
+    instantiate/initialise/step sequence, with ``initial_state_scale`` set by a parameter set at initialization."""
+    try:
+        from ecospy import EcosSimulation, EcosSimulationStructure
+    except (ImportError, OSError) as e:      # OSError: the package's library without libtbb12
+        pytest.skip(f"Ecos is not usable here (pip install ecospy; apt-get install libtbb12): {e}")
+    structure = EcosSimulationStructure()
+    structure.add_model("sphrom", str(path))
+    structure.add_parameter_set("start", {"sphrom::initial_state_scale": float(initial_state_scale)})
+    rows = []
+    with EcosSimulation(structure=structure, step_size=H) as sim:
+        sim.init(parameter_set="start")
+        for _ in range(N_STEPS):
+            sim.step()
+            rows.append([sim.get_real(f"sphrom::{n}") for n in names])
+    return np.array(rows)
+
+
+@pytest.mark.parametrize("fmi", [2, 3])
+@pytest.mark.parametrize("model", ["frozen", "exact", "balanced"])
+def test_ecos_runs_the_fmi2_and_fmi3_fmus_as_fmpy_does(fmus, model, fmi):
+    """Ecos (ecospy) loads, instantiates and steps the FMU with its own code, FMI 2 and FMI 3 alike."""
+    path = fmus(model, fmi)
+    names, ours = fmpy_outputs(path)
+    theirs = ecos_outputs(path, names)
+    assert theirs.shape == ours[1:].shape and np.ptp(ours[:, 0]) > 0     # a trajectory that moves
+    np.testing.assert_array_equal(theirs, ours[1:])                      # measured: bitwise
 
 
 @pytest.mark.parametrize("model", ["frozen", "exact", "balanced"])

@@ -33,7 +33,7 @@ from harness.rom.registry import get_model
 ROOT = Path(__file__).resolve().parents[1]
 K = 6
 
-# The contract (README, "The FMU"): every variable's value reference.  Deliberately typed here a second time:
+# The contract (docs/fmu/variables.md): every variable's value reference.  Deliberately typed here a second time:
 # a change of the table that changes a value reference fails this test.
 CONTRACT = {"time": 0, "f": 1, "n_freeze": 2, "dt": 3, "initial_state_scale": 4, "c": 5, "d": 6, "area": 7,
             "force_error_bound": 8, "initial_state_error_bound": 9, "v_probe_j": 1000, "rho_probe_j": 2000,
@@ -54,7 +54,7 @@ def test_a_changed_table_makes_the_generated_files_stale(tmp_path, monkeypatch):
     assert variables.stale(tmp_path) == []
     rows = tuple(dataclasses.replace(r, vr=r.vr + 10000) if r.name == "area" else r for r in variables.VARIABLES)
     monkeypatch.setattr(variables, "VARIABLES", rows)
-    assert sorted(variables.stale(tmp_path)) == sorted([variables.HEADER_FILE, variables.README_FILE])
+    assert sorted(variables.stale(tmp_path)) == sorted([variables.HEADER_FILE, variables.TABLE_FILE])
     assert variables.main(["--check"]) == 1
 
 
@@ -255,7 +255,7 @@ def test_n_freeze_has_one_range_and_one_message():
 def test_an_added_output_is_one_row(monkeypatch, tmp_path):
     """A new output row (here a per-probe one, its getter rom_v_probe standing in for its own) appears in both
     modelDescriptions with derived indices and in the model structure, in the C rows and defines, in the help
-    and in the README table; the FMUs validate."""
+    and in the docs page's table; the FMUs validate."""
     row = variables.Variable("v_probe_{j}_extra", 9000, "Float64", "output", "continuous", "calculated", "bounds",
                              "Velocity", "an added output at probe {j}, x/L = {x} [m s^-1]", "an added output",
                              family="probe", get="rom_v_probe", min=0)
@@ -265,7 +265,7 @@ def test_an_added_output_is_one_row(monkeypatch, tmp_path):
     assert "#define ROM_VR_V_PROBE_EXTRA                    9000u" in header
     assert '.name = "v_probe_", .name_tail = "_extra", .vr = ROM_VR_V_PROBE_EXTRA' in header
     assert "v_probe_j_extra [9000+j-1] output" in variables.help_text()
-    assert "| `v_probe_j_extra` [9000+j-1] |" in variables.readme_table()
+    assert "| `v_probe_j_extra` [9000+j-1] |" in variables.table_markdown()
     scene = fmu_scene("forced")
     path = tmp_path / "exact.fmu"
     package_fmu(scene, path, k=K, fmi=2, progress=False, model="exact")

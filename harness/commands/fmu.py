@@ -7,8 +7,9 @@ import textwrap
 from .options import (add_n_freeze, add_order_tolerance, add_quiet, add_scene, float_list, int_at_least, max_probes,
                       one_of, positive_float)
 
-DESCRIPTION = ("Build the frozen-coefficient reduced model of SCENE (eqs. 2.19-2.24: full SPH "
-               "and POD reused from the cache or run now, the force profile as input direction), "
+DESCRIPTION = ("Build a reduced model of SCENE (--model: the frozen-coefficient model of eqs. 2.19-2.24 by "
+               "default, the exact linear or the balanced one; full SPH and POD reused from the cache or run now, "
+               "the force profile as input direction), "
                "write its numbers to resources/model.bin, build or reuse the binary with CMake, "
                "zip the FMU, validate it with fmpy, measure it against the full SPH (the training force and "
                "an unseen one, A sin(2 pi 0.7 t), from rest where the FMU can start at rest: probe errors of "
@@ -143,7 +144,6 @@ def _run(args):
                         integrator=args.integrator, progress=not args.quiet, model=args.model, verify=args.verify,
                         tolerance=args.tolerance, vary=vary, ports=ports, bounds=args.bounds,
                         order_tolerance=args.order_tolerance)
-    from ..rom.operators import INPUT_TOLERANCE
     added = " (+ the force profile direction, not in the POD span)" if s.augmented else ""
     print(f"fmu {s.scene}: FMI {s.fmi}.0 co-simulation, {s.model} model, wrote {s.path} ({s.size / 1024:.1f} KiB)")
     model = MODELS[s.model]
@@ -160,16 +160,14 @@ def _run(args):
               f"(specific volume)")
     else:
         print(f"  modes: k = {s.k} POD modes -> k_v = {s.k_v}{added}, k_rho = {s.k_rho}")
-    decision = (f"above {INPUT_TOLERANCE:g}: its residual appended to the basis" if s.augmented else
-                f"at most {INPUT_TOLERANCE:g}: f projected on the modes (eq. 2.19)")
-    if s.parameters and not s.augmented and not model.linear:
-        decision = "f projected on the modes (eq. 2.19), as in every parametric frozen model"
+    decision = input_decision(model, augmented=s.augmented, parametric=bool(s.parameters))
     if model.needs_basis:
         print(f"  input projection error of the force profile on the {s.k} POD velocity modes: {s.input_error:.3g} "
               f"({decision})")
     if model.linear:
-        print("  advanced by the matrix exponential over each communication step (input held; cached per step "
-              "length): no internal step, so no parameters dt and n_freeze")
+        print("  advanced by the matrix exponential over each communication step (input held, or linear over the "
+              "step with df/dt: FMI 2 input derivatives; cached per step length): no internal step, so no parameters "
+              "dt and n_freeze")
     else:
         print(f"  integrator {s.integrator}, dt = {s.dt:g} s, n_freeze = {s.n_freeze} (parameters dt, n_freeze)")
     print(f"  probes at x/L = {', '.join(exact(x) for x in s.probes)}: outputs v_probe_1..{len(s.probes)}, "
@@ -274,3 +272,18 @@ def check_port_spacing(scene, ports):
                                           "particles, so the model cannot tell them apart (allowed: ports at least "
                                           "L/N apart)")
     return ports
+
+
+def input_decision(model, augmented, parametric=False):
+    """What packaging did with the force profile, in words: projected on the modes (eq. 2.19) or its residual
+    appended to the basis, and why (the model's ``fmu_input_direction``: the frozen model's 1 % rule, the exact
+    model's always, a parametric frozen model's never)."""
+    from ..rom.operators import INPUT_TOLERANCE
+    if parametric and not augmented and not model.linear:
+        return "f projected on the modes (eq. 2.19), as in every parametric frozen model"
+    if model.fmu_input_direction == "always":
+        return (f"the {model.name} model appends the residual to the basis whatever its size, so a force along the "
+                "profile is represented exactly" if augmented else
+                "the profile lies in the modes' span: a force along it is represented exactly")
+    return (f"above {INPUT_TOLERANCE:g}: its residual appended to the basis" if augmented else
+            f"at most {INPUT_TOLERANCE:g}: f projected on the modes (eq. 2.19)")

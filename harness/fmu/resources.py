@@ -70,7 +70,7 @@ SECTION_TAGS: dict[str, str] = {          # tag -> what it holds (the C loader's
     # the training envelope (harness/fmu/make/envelope.py, fmu_src/rom_envelope.c)
     "ENVELOPE": "the training envelope's scalars",
     "ENVRANGE": "the training envelope's coordinate ranges",
-    "ENVPROBE": "rho0 at the probes (training envelope)",
+    "ENVPROBE": "rho0 and the training run's max |v| at the probes (training envelope)",
     "ENVPORT": "port coordinates at the end of each block (training envelope: not checked)",
     # linear models (harness/rom/balanced.py)
     "BOUNDS": "certified error bounds per probe (force, initial state)",

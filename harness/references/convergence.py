@@ -8,7 +8,7 @@ particles and sample times, and the observed orders between successive
 resolutions, log(e_{k-1}/e_k) / log(N_k/N_{k-1}).
 
 :data:`PRODUCT_RESOLUTIONS` are sequences whose finest member reaches 1e-4
-in both at T = 10 (the product requirement; measured figures in the README
+in both at T = 10 (the product requirement; measured figures in docs/validation/index.md
 and the report that calls this).
 """
 

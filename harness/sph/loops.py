@@ -4,7 +4,7 @@ The SPH kernel itself (eqs. 2.6-2.7) is :mod:`.kernel`.
 
 numba is used because a step of the explicit schemes is ~20 vector
 operations of length N: in numpy each costs ~1 µs of call overhead at
-N = 400, in a compiled loop the whole step costs about that (README: "why
+N = 400, in a compiled loop the whole step costs about that (docs/internals/numerics.md: "why
 numba").  The loops read the neighbour lists of :mod:`.operator`.
 
 Which terms exist is passed as flags, and each flag removes its work from the

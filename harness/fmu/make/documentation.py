@@ -22,8 +22,13 @@ DOC_INDEX = "documentation/index.html"
 DOC_PLOT = "documentation/probes.png"
 
 _STYLE = """body{font-family:sans-serif;max-width:60em;margin:1em auto;padding:0 1em;color:#222}
-table{border-collapse:collapse;margin:0.5em 0 1em}th,td{border:1px solid #bbb;padding:2px 6px;text-align:left;
-vertical-align:top;font-size:90%}th{background:#eee}code{font-size:95%}img{max-width:100%}"""
+table{border-collapse:collapse;margin:0.5em 0 1em;max-width:100%}th,td{border:1px solid #bbb;padding:2px 6px;
+text-align:left;vertical-align:top;font-size:90%;overflow-wrap:break-word}th{background:#eee}code{font-size:95%}
+table.wide{table-layout:fixed;width:100%}pre{background:#f4f4f4;padding:0.5em;white-space:pre-wrap;
+overflow-wrap:anywhere}img{max-width:100%}"""
+
+# units of the scene's fields (the scene schema, docs/user/scenes.md)
+FIELD_UNITS = {"rho0": "kg m^-3", "v0": "m s^-1", "c": "Pa = kg m^-1 s^-2", "d": "s^-1", "profile": "1"}
 
 FMI2_TYPES = ("Real", "Integer", "Boolean", "String", "Enumeration")
 
@@ -56,9 +61,13 @@ def variables(description_xml):
     return out
 
 
-def _table(header, rows, table_id=None):
+def _table(header, rows, table_id=None, widths=None):
+    """An HTML table; ``widths`` (percent per column) makes it a fixed-layout table as wide as the page."""
     ident = f' id="{table_id}"' if table_id else ""
-    lines = [f"<table{ident}>", "<tr>" + "".join(f"<th>{escape(h)}</th>" for h in header) + "</tr>"]
+    lines = [f'<table{ident} class="wide">' if widths else f"<table{ident}>"]
+    if widths:
+        lines.append("<colgroup>" + "".join(f'<col style="width:{w}%">' for w in widths) + "</colgroup>")
+    lines += ["<tr>" + "".join(f"<th>{escape(h)}</th>" for h in header) + "</tr>"]
     for row in rows:
         lines.append("<tr>" + "".join(f"<td>{cell}</td>" for cell in row) + "</tr>")
     return lines + ["</table>"]
@@ -71,13 +80,17 @@ def _number(x, spec=".3g"):
         return escape(str(x))
 
 
-def _matrix(a, limit=24):
-    """A small array as text (its first ``limit`` numbers otherwise)."""
-    import numpy as np
-    a = np.asarray(a, float)
-    flat = a.ravel()
-    text = ", ".join(f"{x:.4g}" for x in flat[:limit])
-    return text + (f", ... ({flat.size} numbers)" if flat.size > limit else "")
+def _short(text, spec=".4g"):
+    """A number given as text (an XML attribute) with at most 4 significant digits; other text as it is."""
+    try:
+        return format(float(text), spec)
+    except (TypeError, ValueError):
+        return str(text)
+
+
+def _mean(mean, scale):
+    """A mean that is zero up to round-off (|mean| <= 1e-9 of the signal's scale) printed as 0."""
+    return "0" if abs(mean) <= 1e-9 * abs(scale) else f"{mean:.3g}"
 
 
 def scene_section(scene):
@@ -88,7 +101,7 @@ def scene_section(scene):
             ("SPH dt [s]", _number(scene.sph.dt, "g")), ("SPH integrator", escape(scene.sph.integrator))]
     for name in ("rho0", "v0", "c", "d", "profile"):
         if name in scene.fields:
-            rows.append((f"field {name}(x)", f"<code>{escape(scene.fields[name].text)}</code>"))
+            rows.append((f"field {name}(x) [{FIELD_UNITS[name]}]", f"<code>{escape(scene.fields[name].text)}</code>"))
     rows.append(("force f(t) of the training run [m s^-2]", f"<code>{escape(scene.f.text)}</code>"))
     return ["<h2>Scene</h2>", *_table(("quantity", "value"), rows)]
 
@@ -112,25 +125,139 @@ def model_section(spec, data, k, input_error, augmented):
 
 
 def variables_section(description_xml):
-    from ..variables import RULES, lookup
     rows = []
     for v in variables(description_xml):
-        limits = " ".join(f"{k} {v[k]}" for k in ("min", "max", "nominal") if v[k])
-        row, _ = lookup(v["name"])
+        limits = ", ".join(f"{k} {_short(v[k])}" for k in ("min", "max", "nominal") if v[k])
         rows.append((f"<code>{escape(v['name'])}</code>", str(v["value_reference"]), escape(v["causality"]),
                      escape(v["variability"]), escape(v["type"]), escape(v["unit"] or "-"),
-                     escape(v["start"] or "-"), escape(limits or "-"),
-                     escape(RULES[row.rule][1] if row is not None else "-"), escape(v["description"])))
+                     escape(_short(v["start"]) if v["start"] else "-"), escape(limits or "-"),
+                     escape(v["description"])))
     return ["<h2>Variables</h2>",
-            "<p>Every variable of this FMU's modelDescription.xml (value references are the contract; the "
-            "variable table of sphrom, harness/fmu/variables.py, declares them and which FMUs have each).</p>",
+            "<p>Every variable of this FMU's modelDescription.xml (value references are the contract; sphrom's "
+            "variable table, harness/fmu/variables.py, declares them). Numbers are shown to 4 digits; the "
+            "modelDescription holds them in full.</p>",
             *_table(("name", "value reference", "causality", "variability", "type", "unit", "start",
-                     "min / max / nominal", "in", "description"), rows, table_id="variables")]
+                     "min, max, nominal", "description"), rows, table_id="variables",
+                    widths=(16, 10, 11, 9, 6, 7, 6, 11, 24))]
 
 
-def sections_section(sections):
-    """The tagged sections of resources/model.bin with their numbers: the training envelope's (under an h3,
-    after the envelope in words of :func:`envelope_section`), then the others; [] without sections."""
+def _fmi(description_xml):
+    """(FMI version text, DefaultExperiment stepSize or None, canInterpolateInputs) of a modelDescription."""
+    root = ET.fromstring(description_xml)
+    version = root.get("fmiVersion", "")
+    cs = root.find("CoSimulation")
+    interpolate = cs is not None and cs.get("canInterpolateInputs", "false") == "true"
+    experiment = root.find("DefaultExperiment")
+    step = experiment.get("stepSize") if experiment is not None else None
+    return version, step, interpolate
+
+
+def _stop_time(description_xml):
+    experiment = ET.fromstring(description_xml).find("DefaultExperiment")
+    return _short(experiment.get("stopTime", "10")) if experiment is not None else "10"
+
+
+def usage_section(description_xml, linear, ports):
+    """How to use this FMU: its FMI version, start at rest, communication step, input derivatives, an example."""
+    version, step, interpolate = _fmi(description_xml)
+    major = version.split(".")[0]
+    step_text = f"its DefaultExperiment stepSize is {escape(_short(step))} s" if step else "any step"
+    rates = ("It declares <code>canInterpolateInputs</code>: give <code>fmi2SetRealInputDerivatives</code> of order "
+             "1 on its inputs and each input goes linearly over the step (the error is then second order in the "
+             "communication step instead of first); without derivatives the inputs are held."
+             if interpolate else
+             "FMI 3.0 co-simulation has no input derivatives: the inputs are held over each communication step "
+             "(for linear inputs inside a step use the FMI 2 FMU, <code>sphrom fmu --fmi 2</code>).")
+    stepping = ("It is exact in time over any communication step h &gt; 0 (the matrix exponential; no internal "
+                "step)." if linear else
+                "It takes internal steps of <code>dt</code> and refreshes its frozen coefficients every "
+                "<code>n_freeze</code> of them; any h &gt; 0 is accepted, the last internal step shortened to end "
+                "exactly at the communication point.")
+    example = (f"from fmpy import simulate_fmu\n"
+               f"result = simulate_fmu('this.fmu', stop_time={_stop_time(description_xml)}, "
+               f"output_interval={_short(step) if step else '0.01'},\n"
+               f"                      start_values={{'initial_state_scale': 0.0}})\n"
+               f"# or: sphrom cosim this.fmu --force '1e-3*sin(2*pi*t)' --out result.csv")
+    return ["<h2>Using this FMU</h2>",
+            f"<p>An <b>FMI {escape(version)} co-simulation</b> FMU (FMI {escape(major)}), for a system simulator "
+            "or a script. <b>It starts at rest</b>: <code>initial_state_scale</code> starts at 0, so it moves only "
+            "when its inputs move it; set it to 1 to replay the scene's initial velocity. Communication step: "
+            f"{step_text}. {stepping} {rates}</p>",
+            f"<pre>{escape(example)}</pre>",
+            "<p>Outputs are the velocity <code>v_probe_j</code> [m/s] and the density <code>rho_probe_j</code> "
+            "[kg/m3] at the probes; the input <code>f</code> [m/s2] is a force per unit mass along the scene's "
+            "force profile.</p>"]
+
+
+def ports_section(sections):
+    """The mechanical ports of this FMU and their sign convention, or how to get them."""
+    positions = sections.get("PORTX")
+    convention = ("<code>F_port_j</code> [N] is the force the connected component exerts <b>on the bar</b> at "
+                  "x_j, positive along +x; <code>v_port_j</code> [m/s] is the bar's velocity there, positive along "
+                  "+x; the power into the bar is the sum of F_port_j v_port_j. A spring (stiffness k) from port j "
+                  "to a mass m: with s the spring's elongation (mass position minus the bar's displacement at the "
+                  "port) and w the mass's velocity, set F_port_j = k s at each communication step, read "
+                  "v_port_j and advance s' = w - v_port_j, m w' = -k s. The parameter <code>area</code> [m2] is "
+                  "the cross-section that turns a force into an acceleration.")
+    if positions is None:
+        return ["<h2>Ports</h2>",
+                "<p>This FMU has no mechanical ports: its only input is <code>f</code>. <code>sphrom fmu SCENE "
+                "--ports X1,X2</code> adds ports at x/L = X1, X2 (inputs <code>F_port_j</code>, outputs "
+                f"<code>v_port_j</code>). The sign convention: {convention}</p>"]
+    import numpy as np
+    xs = ", ".join(f"{x:g}" for x in np.ravel(positions))
+    return ["<h2>Ports</h2>", f"<p>Mechanical ports at x/L = {xs}. {convention}</p>"]
+
+
+def _envelope_rows(sections, probe_x):
+    """The training envelope's sections as labelled rows (quantity, value)."""
+    import numpy as np
+    rows = []
+    if "ENVELOPE" in sections:
+        (amplitude, band, strain, probe_strain, failure, margin, checks, mean) = np.ravel(sections["ENVELOPE"])[:8]
+        rows += [("training force amplitude max |f| [m s^-2]", f"{amplitude:.4g}"),
+                 ("training force mean [m s^-2]", _mean(mean, amplitude)),
+                 ("frequency below which 99 % of the force's energy lies [Hz]", f"{band:.4g}"),
+                 ("largest strain |rho0/rho - 1| over the particles / at the probes",
+                  f"{strain:.4g} / {probe_strain:.4g}"),
+                 ("strain where the density linearization fails", f"{failure:.4g}"),
+                 ("margin on the trained ranges", f"{margin:g}"),
+                 ("run-time checks", "on" if int(checks) else "none")]
+    if "ENVRANGE" in sections:
+        rng = sections["ENVRANGE"]
+        rows.append((f"ranges of the {rng.shape[1]} reduced coordinates", f"from {rng[0].min():.4g} to "
+                     f"{rng[1].max():.4g}; largest half-width {0.5 * (rng[1] - rng[0]).max():.4g}"))
+    if "ENVPROBE" in sections:
+        rho0, vmax = sections["ENVPROBE"][0], sections["ENVPROBE"][1]
+        for j, (r, v) in enumerate(zip(rho0, vmax)):
+            x = f", x/L = {probe_x[j]:g}" if j < len(probe_x) else ""
+            rows.append((f"probe {j + 1}{x}: rho0 [kg m^-3], training max |v| [m s^-1]", f"{r:.4g}, {v:.4g}"))
+    if "ENVPORT" in sections:
+        pv, pr = np.ravel(sections["ENVPORT"])[:2]
+        rows.append(("port coordinates (exact input directions, not checked)",
+                      f"{int(pv)} velocity, {int(pr)} density"))
+    return rows
+
+
+def _other_rows(tag, values, probe_x):
+    """Labelled rows of a section that is not the envelope's."""
+    if tag == "BOUNDS":
+        return [(f"probe {j + 1}" + (f", x/L = {probe_x[j]:g}" if j < len(probe_x) else ""),
+                 f"force bound {f:.4g} s, initial-state bound {i:.4g} m s^-1 s^0.5")
+                for j, (f, i) in enumerate(zip(values[0], values[1]))]
+    if tag == "LINMODEL":
+        return [("linear model", {1: "exact POD", 2: "balanced"}.get(int(values.ravel()[0]), "?"))]
+    if tag == "PORTX":
+        return [("port positions x/L", ", ".join(f"{x:g}" for x in values.ravel()))]
+    if tag == "PARAMS":
+        return [(f"parameter row {j + 1} (varied, start, min, max)", ", ".join(f"{x:.4g}" for x in row))
+                for j, row in enumerate(values)]
+    return [(f"{'x'.join(map(str, values.shape))} numbers", f"largest magnitude {abs(values).max():.4g}")]
+
+
+def sections_section(sections, probe_x=(), linear=False):
+    """The tagged sections of resources/model.bin, labelled: the training envelope's (under an h3, after the
+    envelope in words of :func:`envelope_section`), then the others; [] without sections."""
     if not sections:
         return []
     import numpy as np
@@ -140,18 +267,16 @@ def sections_section(sections):
     envelope = [tag for tag in sections if "envelope" in SECTION_TAGS.get(tag, "").lower()]
     lines = []
     if envelope:
+        what = ("recorded for this description only: this FMU checks nothing at run time" if linear else
+                "the FMU logs one warning when a run leaves it")
         lines += ["<h3>The training envelope's numbers</h3>",
-                  "<p>What the model was trained on, as recorded at packaging (the FMU warns once when a run "
-                  "leaves it).</p>",
-                  *_table(("section", "what", "values"),
-                          [(f"<code>{escape(t)}</code>", escape(SECTION_TAGS.get(t, "")), _matrix(sections[t]))
-                           for t in envelope])]
+                  f"<p>What the model was trained on, as recorded at packaging in resources/model.bin ({what}).</p>",
+                  *_table(("quantity", "value"), _envelope_rows(sections, list(probe_x)))]
     rest = [t for t in sections if t not in envelope]
     if rest:
-        lines += ["<h2>Other numbers in resources/model.bin</h2>",
-                  *_table(("section", "what", "shape", "values"),
-                          [(f"<code>{escape(t)}</code>", escape(SECTION_TAGS.get(t, "")),
-                            "x".join(map(str, sections[t].shape)), _matrix(sections[t])) for t in rest])]
+        rows = [(f"<code>{escape(t)}</code>: {escape(SECTION_TAGS.get(t, ''))}", escape(q), escape(v))
+                for t in rest for q, v in _other_rows(t, sections[t], list(probe_x))]
+        lines += ["<h2>Other numbers in resources/model.bin</h2>", *_table(("section", "quantity", "value"), rows)]
     return lines
 
 
@@ -173,7 +298,8 @@ def verification_section(verification, tolerance=None):
              "internal step), at the probes. Errors: relative L2 of eq. 3.4 (square-root form, trapezoidal in "
              "time, over all probes) of the velocity and of rho - rho0 ('-' where the full SPH's rho - rho0 is 0, "
              "as under a uniform force from rest: then the largest density difference says it). Times: one run "
-             "each on the packaging machine, setup excluded: the FMU's is its run through fmpy on an instantiated FMU (initialize, "
+             "each on the packaging machine, setup excluded: the FMU's is its run through fmpy on an "
+             "instantiated FMU (initialize, "
              "inputs, doSteps, outputs), the full SPH's its compiled time loop.</p>",
              *_table(("force", "f(t) [m s^-2]", "from", "v error", "rho - rho0 error", "max |rho - rho_SPH| "
                       "[kg m^-3]", "FMU [s]",
@@ -217,15 +343,20 @@ def index_html(*, scene, spec, data, k, input_error, augmented, description_xml,
     """The text of documentation/index.html (module docstring)."""
     from ... import __version__
     title = f"sphrom FMU: {spec.name} model of scene {scene.name}"
+    version, _, _ = _fmi(description_xml)
+    sections = getattr(data, "sections", {}) or {}
     body = [f"<h1>{escape(title)}</h1>",
             f"<p>{escape(spec.title)} of the 1D SPH mass-spring-damper scene <code>{escape(scene.name)}</code>, "
-            f"packaged by sphrom {escape(__version__)}. Input <code>f</code> (force per mass along the force "
-            "profile), outputs the velocity and density at the probes.</p>"]
+            f"packaged by sphrom {escape(__version__)} as an FMI {escape(version)} co-simulation FMU. Input "
+            "<code>f</code> (force per mass along the force profile), outputs the velocity and density at the "
+            "probes.</p>"]
+    body += usage_section(description_xml, spec.linear, sections)
+    body += ports_section(sections)
     body += scene_section(scene)
     body += model_section(spec, data, k, input_error, augmented)
     body += variables_section(description_xml)
     body += envelope_section(envelope, spec.linear)
-    body += sections_section(getattr(data, "sections", {}))
+    body += sections_section(sections, probe_x=list(getattr(data, "probe_x", ())), linear=spec.linear)
     body += verification_section(verification, tolerance)
     return "\n".join(["<!DOCTYPE html>", '<html lang="en">', "<head>", '<meta charset="utf-8">',
                       f"<title>{escape(title)}</title>", f"<style>{_STYLE}</style>", "</head>", "<body>", *body,

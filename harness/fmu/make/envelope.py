@@ -38,7 +38,7 @@ state's ``port_driven``, kept in FMU states, cleared by reset) the state holds a
 saw, and only |f| and the failure strain are checked: a port force moves the POD coordinates and the
 probe strain beyond their trained ranges while the frozen model stays accurate (damped_forced, k = 12:
 port error 0.28 % unforced, 0.32 % at the port-coupling forces, 0.48 % at 12x them, probe strain 8.5x
-the trained, README "Training envelope").  Until then a port FMU is checked as one without ports.
+the trained, docs/fmu/envelope.md).  Until then a port FMU is checked as one without ports.
 
 A parametric model's envelope (``--vary``) is the :func:`union` of the envelopes of the runs at all its
 sample points (:func:`harness.fmu.make.parametric.parametric_envelope`).
