@@ -84,3 +84,13 @@ def test_modal_structure_choices():
         modal.applies(_lti("heterogeneous", T=1.0), "modal")          # a jump in c: not circulant
     with pytest.raises(ValueError, match="structure"):
         modal.applies(lti, "fft")
+
+
+@pytest.mark.parametrize("base", ["damped_forced", "multimode"])
+def test_free_outputs_through_every_mode_equal_the_dense_exponential(base):
+    from harness.rom.lti import sample_outputs
+    lti = _lti(base, T=1.0)
+    ms = modal.modal_system(lti, wavenumbers=4)
+    h, k = 1e-3, 1000
+    y = sample_outputs(lti.dense(), None, lti.C[:3], lti.x0, h, np.zeros(k + 1))
+    assert np.max(np.abs(modal.free_outputs(ms, np.arange(3), np.arange(k + 1) * h) - y)) <= 1e-12 * np.max(np.abs(y))
