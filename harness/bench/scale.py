@@ -64,8 +64,33 @@ def numerical_rank(L, tol=1e-12):
     return int(np.sum(lam > tol * lam.max())) if lam.size and lam.max() > 0 else 0
 
 
-def measure_one(scene_name, n, wavenumbers, repeats, samples, dense=False, progress=None):
-    """One row: the modal path (and the dense one when ``dense``) at N = ``n`` for the scene."""
+def exact_row(row, scene, problem, lti, ms, samples, repeats):
+    """The exact POD model's row beside the balanced one's: its POD basis from the scene's full SPH training run at
+    this N (cached; the run is timed as ``t_system``), k = the scene's ``rom.modes``, its bounds through the modes."""
+    from ..pod.pipeline import basis_for_scene
+    from ..rom import modal
+    from ..rom.balanced import reduced_from_exact
+    from ..rom.registry import get_model
+    spec = get_model("exact")
+    (basis, _), t_pod = _timed(lambda: basis_for_scene(scene, progress=False, problem=problem), 1)
+    k = int(scene.rom.get("modes", 12))
+    ops, t_build = _timed(lambda: spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction),
+                          repeats)
+    red = reduced_from_exact(lti, ops)
+    bounds, t_bounds = _timed(lambda: modal.error_bounds(lti, red, ms=ms), repeats)
+    err, _ = measured_free_error(ms, red, bounds["rows"], lti.T, samples)
+    init = bounds["initial_state_error_bound"]
+    return dict(row, path="modal", method="exact POD", order=red.order, rank_P="-", rank_Q="-", t_system=t_pod,
+                t_balancing=t_build, t_truncate=0.0, t_bounds=t_bounds,
+                t_total=t_pod + row["t_modal"] + t_build + t_bounds,
+                force_bound=float(np.max(bounds["force_error_bound"])), force_tail=float(np.max(bounds["force_tail"])),
+                initial_bound=float(np.max(init)), initial_tail=float(np.max(bounds["initial_state_tail"])),
+                measured_error=float(np.max(err)), effectivity=float(np.min(init / np.maximum(err, 1e-300))))
+
+
+def measure_one(scene_name, n, wavenumbers, repeats, samples, dense=False, exact=False, progress=None):
+    """The rows at N = ``n`` for the scene: the balanced model on the modal path, the dense path when ``dense``,
+    the exact POD model when ``exact`` (:func:`exact_row`)."""
     from ..rom import balanced as bl
     from ..rom import modal
     from ..rom.lti import full_linear_system
@@ -73,7 +98,8 @@ def measure_one(scene_name, n, wavenumbers, repeats, samples, dense=False, progr
     from ..sph.solver import build_problem
 
     scene = load_scene(scene_name).with_sph(n_particles=n)
-    lti, t_lti = _timed(lambda: full_linear_system(build_problem(scene)), repeats)
+    problem = build_problem(scene)
+    lti, t_lti = _timed(lambda: full_linear_system(problem), repeats)
     ms, t_modal = _timed(lambda: modal.modal_system(lti, wavenumbers), repeats)
     sub = ms.system
 
@@ -104,6 +130,8 @@ def measure_one(scene_name, n, wavenumbers, repeats, samples, dense=False, progr
     if progress is not None:
         progress.update(1)
     out = [row]
+    if exact:
+        out.append(exact_row(row, scene, problem, lti, ms, samples, repeats))
     if dense:
         dbal, t_dbal = _timed(lambda: bl.balancing(lti, structure="dense"), repeats)
         dorder = max(1, bl.order_from_tolerance(dbal.hsv, bl.DEFAULT_TOLERANCE))
@@ -132,8 +160,9 @@ def section(rows, info, command, wall, csv_path, image):
              f"{load(info['load_end'])} at the end (a shared machine: other work runs beside this, and the times "
              "follow its load). *Modal*: the full linear SPH projected on its Fourier modes |k| <= K "
              "(`harness/rom/modal.py`), balanced there (2m states), the model lifted back; the certified bounds "
-             "are the intermediate model's plus the dropped modes' tail. *Dense*: today's O(N³) path. Times in "
-             "seconds (median of the repeats): *system* builds the full LTI, *modes* projects it, *balancing* "
+             "are the intermediate model's plus the dropped modes' tail. *Dense*: today's O(N³) path. *exact "
+             "POD*: the exact model on the scene's POD basis (its *system* time is the full SPH training run and the "
+             "POD, *balancing* its operators). Times in seconds (median of the repeats): *system* builds the full LTI, *modes* projects it, *balancing* "
              "solves the Gramians of the intermediate model, *bounds* is the H∞ bisection, the initial-state "
              "energy and the tail. *Bound* columns: the largest over the velocity probes (force [s], initial "
              "state [m s⁻¹ s½]); *tail*: the dropped modes' share; *measured*: the model's L² error of the free "
@@ -208,6 +237,8 @@ def main(argv=None):
                    help="modes kept, |k| <= K (default harness.rom.modal.DEFAULT_WAVENUMBERS)")
     p.add_argument("--dense", type=int_list(lo=16), default=[], metavar="N,...",
                    help="also time the dense path at these N (of --sizes)")
+    p.add_argument("--exact", action="store_true", help="the exact POD model as well (a full SPH training run at "
+                                                        "each N, cached)")
     p.add_argument("--samples", type=int_at_least(3), default=4001, help="time samples of the measured error "
                                                                        "(default %(default)s)")
     p.add_argument("--repeats", type=int_at_least(1), default=1, help="repeats, the median kept (default %(default)s)")
@@ -229,7 +260,8 @@ def main(argv=None):
     with progress_bar(total=total, desc="scale", enabled=not args.quiet) as bar:
         for name in scenes:
             for n in args.sizes:
-                rows += measure_one(name, n, K, args.repeats, args.samples, dense=n in args.dense, progress=bar)
+                rows += measure_one(name, n, K, args.repeats, args.samples, dense=n in args.dense,
+                                    exact=args.exact, progress=bar)
     info["load_end"] = load_average()
     wall = time.perf_counter() - t0
     out = Path(args.out).resolve()
