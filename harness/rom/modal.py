@@ -47,6 +47,7 @@ DENSE_ORDER = 2000          # 2N above this (N > 1000) takes the modal path in "
 DEFAULT_WAVENUMBERS = 100   # K: the intermediate model keeps |k| <= K, 2(2K + 1) = 402 states (the dense N = 200)
 CIRCULANT_TOLERANCE = 1e-10  # max |G - circ(G[:, 0])| relative to max |G|: uniform lattice (round-off of positions)
 STRUCTURES = ("auto", "dense", "modal")
+NULL_TOLERANCE = 1e-9       # |g_k| <= this · max |g|: a null wavenumber (k = 0, N/2); the smallest other is ~π/N of it
 
 
 @dataclasses.dataclass
@@ -182,10 +183,10 @@ def modal_system(lti: LTI, wavenumbers=DEFAULT_WAVENUMBERS) -> ModalSystem:
     V = np.block([[F, np.zeros_like(F)], [np.zeros_like(F), F]])     # 2N × 2m, orthonormal
     Am = Jm - Rm
     B, C, x0 = V.T @ lti.B, lti.C @ V, V.T @ lti.x0
-    null = V.T @ lti.null
-    null = null[:, np.linalg.norm(null, axis=0) > 0.5]                 # the constant e-mode (k = 0) is kept
-    if null.shape[1]:
-        null, _ = np.linalg.qr(null)
+    # the null modes from the structure: the constant e-mode (k = 0, G's columns sum to zero) is kept (column m
+    # of V); lti.null's test |G 1| <= 1e-12 max|G| misses it at N = 10⁴, where the sums' round-off is 2e-12
+    null = np.zeros((2 * m, 1))
+    null[m, 0] = 1.0
     system = LTI(A=sp.csr_matrix(Am), J=sp.csr_matrix(Jm), R=sp.csr_matrix(Rm), B=B, C=C, x0=x0, w_v=np.ones(m), w_e=np.ones(m), null=null, probes=lti.probes,
                  damped=lti.damped, T=lti.T, info={"scene": lti.info.get("scene"), "modal_of": lti.order, "dropped_roundoff": roundoff / scale})
     g = np.fft.fft(np.asarray(G[:, [0]].todense()).ravel())           # G = Fᴴ diag(g) F (unitary DFT F)
@@ -204,7 +205,7 @@ def modal_system(lti: LTI, wavenumbers=DEFAULT_WAVENUMBERS) -> ModalSystem:
 def block_matrices(ms: ModalSystem, index, shift=0.0, deflate=0.0):
     """A_k - shift I for the DFT indices ``index``, (len, 2, 2) complex; a null e-mode (g_k = 0) gets -deflate on
     its diagonal as in :meth:`harness.rom.lti.LTI.dense` (it is uncontrollable: its term vanishes anyway)."""
-    null = np.abs(ms.g[index]) <= 1e-12 * np.max(np.abs(ms.g))        # g_k = 0 to round-off: decoupled
+    null = np.abs(ms.g[index]) <= NULL_TOLERANCE * np.max(np.abs(ms.g))   # g_k = 0 to round-off: decoupled
     sg = np.where(null, 0.0, ms.s * ms.g[index])
     A = np.zeros((len(index), 2, 2), complex)
     A[:, 0, 0] = -ms.d - shift
