@@ -62,7 +62,7 @@ def test_tail_bounds_hold_with_few_modes():
     red = truncate(lti, balancing(lti, structure="dense"), 6)
     dense = error_bounds(lti, red, structure="dense")
     ms = modal.modal_system(lti, wavenumbers=4)
-    b = modal.error_bounds(lti, red, ms=ms)
+    b = modal.error_bounds(lti, red, error_bounds, ms=ms)
     assert np.all(b["force_tail"] > 0) and np.all(b["initial_state_tail"] > 0)
     assert np.all(b["initial_state_error_bound"] >= dense["initial_state_error"])
     assert np.all(b["force_error_bound"] >= dense["hinf"][:, 0] * dense["factor"])

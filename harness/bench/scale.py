@@ -68,6 +68,7 @@ def exact_row(row, scene, problem, lti, ms, samples, repeats):
     """The exact POD model's row beside the balanced one's: its POD basis from the scene's full SPH training run at
     this N (cached; the run is timed as ``t_system``), k = the scene's ``rom.modes``, its bounds through the modes."""
     from ..pod.pipeline import basis_for_scene
+    from ..rom import balanced as bl
     from ..rom import modal
     from ..rom.balanced import reduced_from_exact
     from ..rom.registry import get_model
@@ -77,7 +78,7 @@ def exact_row(row, scene, problem, lti, ms, samples, repeats):
     ops, t_build = _timed(lambda: spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction),
                           repeats)
     red = reduced_from_exact(lti, ops)
-    bounds, t_bounds = _timed(lambda: modal.error_bounds(lti, red, ms=ms), repeats)
+    bounds, t_bounds = _timed(lambda: modal.error_bounds(lti, red, bl.error_bounds, ms=ms), repeats)
     err, _ = measured_free_error(ms, red, bounds["rows"], lti.T, samples)
     init = bounds["initial_state_error_bound"]
     return dict(row, path="modal", method="exact POD", order=red.order, rank_P="-", rank_Q="-", t_system=t_pod,
@@ -112,7 +113,7 @@ def measure_one(scene_name, n, wavenumbers, repeats, samples, dense=False, exact
     order = max(1, bl.order_from_tolerance(bal.hsv, bl.DEFAULT_TOLERANCE))
     rank_p, rank_q = (numerical_rank(L) for L in (bal.LP, bal.LQ))
     red, t_trunc = _timed(lambda: bl.truncate(lti, bal, order), repeats)
-    bounds, t_bounds = _timed(lambda: modal.error_bounds(lti, red, ms=ms), repeats)
+    bounds, t_bounds = _timed(lambda: modal.error_bounds(lti, red, bl.error_bounds, ms=ms), repeats)
     rows = bounds["rows"]
     err, norm = measured_free_error(ms, red, rows, lti.T, samples)
     init = bounds["initial_state_error_bound"]

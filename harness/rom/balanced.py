@@ -518,7 +518,7 @@ def error_bounds(lti: LTI, reduced: ReducedLTI, horizon=None, sigma=None, output
     """
     from . import modal
     if modal.applies(lti, structure):
-        return modal.error_bounds(lti, reduced, horizon=horizon, sigma=sigma, outputs=outputs, tol=tol,
+        return modal.error_bounds(lti, reduced, error_bounds, horizon=horizon, sigma=sigma, outputs=outputs, tol=tol,
                                   progress=progress)
     T = float(lti.T if horizon is None else horizon)
     rows = np.arange(lti.n_probes if outputs == "v" else lti.C.shape[0])

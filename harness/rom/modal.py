@@ -293,7 +293,7 @@ def restrict(reduced):
     return dataclasses.replace(reduced, V=None, W=None)
 
 
-def error_bounds(lti: LTI, reduced, horizon=None, sigma=None, outputs="v", tol=1e-4, progress=None,
+def error_bounds(lti: LTI, reduced, dense_bounds, horizon=None, sigma=None, outputs="v", tol=1e-4, progress=None,
                  wavenumbers=DEFAULT_WAVENUMBERS, ms: ModalSystem | None = None) -> dict:
     """The certified bounds of :func:`harness.rom.balanced.error_bounds` through the modes (module docstring): the
     intermediate model's bounds against ``reduced`` plus the dropped modes' tail, per velocity probe.
@@ -301,8 +301,9 @@ def error_bounds(lti: LTI, reduced, horizon=None, sigma=None, outputs="v", tol=1
     Returns the dict of :func:`harness.rom.balanced.error_bounds` (``force_error_bound`` and
     ``initial_state_error_bound`` with the tail added, ``hinf`` the intermediate's bisection ends) and
     ``force_tail`` [s], ``initial_state_tail`` [m s^-1 s^½], ``wavenumbers`` K, ``intermediate_order`` 2m.
+    ``dense_bounds`` is the dense bound function (:func:`harness.rom.balanced.error_bounds`, which passes
+    itself), applied to the intermediate model with ``structure="dense"``.
     """
-    from .balanced import error_bounds as dense_bounds
     t0 = time.perf_counter()
     T = float(lti.T if horizon is None else horizon)
     ms = ms or modal_system(lti, wavenumbers)
