@@ -58,6 +58,9 @@ PROGRAMS = {
     "sph_stencil": Program("harness.bench.sph_stencil", "the numba full SPH step against a C stencil and an older "
                            "checkout", "89 s with --repeats 9 (BENCHMARKS.md)", "sph_stencil.csv/png; a "
                            "BENCHMARKS.md section"),
+    "scale": Program("harness.bench.scale", "offline time and accuracy of the balanced model and its certified "
+                     "bounds from N = 400 to 10⁴ (through the Fourier modes; --dense times the O(N³) path)",
+                     "measured: see BENCHMARKS.md", "scale.csv, scale.png; a BENCHMARKS.md section"),
     "balanced_measure": Program("harness.bench.balanced_measure", "the balanced models against the full linear SPH "
                                 "and the exact POD model, their bounds' effectivity", "not recorded",
                                 "CSV and PNG files into --out"),

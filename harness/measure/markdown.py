@@ -504,3 +504,25 @@ def update_report(path, sections):
         text = replace_section(text, heading, lines)
     write_text(report, text)
     return report
+
+
+def program_outputs(name, argv, report, *paths):
+    """(command, relative paths) of a benchmark program's section: the command as it was run (``sphrom bench NAME``
+    and its arguments, ``argv`` None: the process's) and ``paths`` relative to the report's folder, as the
+    section links them."""
+    import os
+    import sys
+    from pathlib import Path
+    given = argv if argv is not None else sys.argv[1:]
+    here = Path(report).resolve().parent
+    return (f"sphrom bench {name}" + (" " + " ".join(given) if given else ""),
+            [Path(os.path.relpath(Path(p).resolve(), here)).as_posix() for p in paths])
+
+
+def publish(report, heading, lines, written, wall):
+    """Print a program's section, replace it in the report at ``report`` and say what was written (``written``:
+    the other files, ``wall`` [s] the program's wall time)."""
+    print("\n".join(lines))
+    path = update_report(report, {heading: lines})
+    print(f"wrote {', '.join(str(p) for p in written)} and the section of {path} ({wall:.0f} s)")
+    return path

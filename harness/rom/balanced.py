@@ -59,6 +59,7 @@ initial_state_error_bound[j] [m s^-1 s^½]
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 
@@ -206,12 +207,21 @@ class Balancing:
     input_weights: np.ndarray
     output_weights: np.ndarray
     timings: dict
+    basis: np.ndarray | None = None          # the modal path: V_m (2N, 2m), the Gramians are of ``system``
+    system: LTI | None = None                # the intermediate model (:func:`harness.rom.modal.modal_system`)
 
 
 def balancing(lti: LTI, method="auto", horizon=None, sigma=None, input_weights=None,
-              output_weights=None) -> Balancing:
+              output_weights=None, structure="auto") -> Balancing:
     """Gramians, their square-root factors and the Hankel singular values (the offline part of
-    :func:`balanced_reduce`, reusable for several orders; arguments as there)."""
+    :func:`balanced_reduce`, reusable for several orders; arguments as there).  ``structure``
+    (:func:`harness.rom.modal.applies`): "auto" balances a uniform scene above N = 1000 through its Fourier modes
+    (reduce-then-balance, :mod:`harness.rom.modal`), "dense" always densely, "modal" through the modes."""
+    from . import modal
+    if modal.applies(lti, structure):
+        ms = modal.modal_system(lti)
+        bal = balancing(ms.system, method, horizon, sigma, input_weights, output_weights, structure="dense")
+        return dataclasses.replace(bal, basis=ms.basis, system=ms.system, timings=dict(bal.timings, **ms.timings))
     if method not in METHODS:
         raise ValueError(f"method: {method!r} (allowed: {', '.join(METHODS)})")
     if method == "auto":
@@ -248,6 +258,10 @@ def truncate(lti: LTI, bal: Balancing, order) -> BalancedModel:
     r = int(order)
     if not (1 <= r < lti.order):
         raise ValueError(f"order: {order} is out of range (allowed: 1 to {lti.order - 1})")
+    if bal.basis is not None:                                      # the modal path: truncate there, lift V, W
+        from .modal import lift
+        return lift(truncate(bal.system, dataclasses.replace(bal, basis=None, system=None),
+                             min(r, bal.system.order - 1)), bal.basis)
     r = min(r, int(np.sum(bal.hsv > bal.hsv[0] * 1e-14)))          # never divide by a zero singular value
     t0 = time.perf_counter()
     s = np.sqrt(bal.hsv[:r])
@@ -476,7 +490,7 @@ def full_abscissa(lti: LTI):
 
 
 def error_bounds(lti: LTI, reduced: ReducedLTI, horizon=None, sigma=None, outputs="v", tol=1e-4,
-                 progress=None) -> dict:
+                 progress=None, structure="auto") -> dict:
     """Certified bounds on the probe errors of ``reduced`` against the full linear SPH (module docstring).
 
     Parameters
@@ -492,6 +506,9 @@ def error_bounds(lti: LTI, reduced: ReducedLTI, horizon=None, sigma=None, output
         The velocity probes, or the probe values of e as well.
     tol : float
         Relative accuracy of the H∞ bisection.
+    structure : {"auto", "dense", "modal"}
+        :func:`harness.rom.modal.applies`: "auto" bounds a uniform scene above N = 1000 through its Fourier modes
+        (:func:`harness.rom.modal.error_bounds`: the intermediate model's bounds plus the dropped modes' tail).
 
     Returns
     -------
@@ -502,6 +519,10 @@ def error_bounds(lti: LTI, reduced: ReducedLTI, horizon=None, sigma=None, output
         the bisection's lower and upper ends; ``sigma`` [s^-1], ``factor``
         e^{σT}, ``reduced_abscissa``, ``horizon``, ``timings``.
     """
+    from . import modal
+    if modal.applies(lti, structure):
+        return modal.error_bounds(lti, reduced, error_bounds, horizon=horizon, sigma=sigma, outputs=outputs, tol=tol,
+                                  progress=progress)
     T = float(lti.T if horizon is None else horizon)
     rows = np.arange(lti.n_probes if outputs == "v" else lti.C.shape[0])
     t0 = time.perf_counter()
