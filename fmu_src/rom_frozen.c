@@ -405,6 +405,7 @@ static size_t pair_number(size_t a, size_t b, size_t kr) {
 }
 
 static int tensor_symmetric(const unsigned char *t, size_t kr, size_t kv) {
+    if (!t || kr == 0 || kv == 0) return 0;
     for (size_t a = 0; a < kr; a++) {
         for (size_t b = a; b < kr; b++) {
             const double w_ab = a == b ? 1.0 : 2.0;
@@ -428,6 +429,7 @@ static int tensor_symmetric(const unsigned char *t, size_t kr, size_t kv) {
 /* W, its offsets and the pair scales from a symmetric tensor at t (tensor_symmetric) */
 static RomStatus symmetric_load(RomModel *m, RomFrozenModel *fm, const unsigned char *t, char *message,
                                 size_t message_size) {
+    if (!m || !fm || !t || !fm->W || !fm->pair_scale) return rom_fail(message, message_size, "resources: no tensor");
     const size_t kr = m->k_rho, kv = m->k_v, np = m->n_pairs, kvq = fm->kv_quad;
     const size_t n_tri = kr * (kr + 1) * (kr + 2) / 6;
     uint32_t *tri = (uint32_t *)calloc(kr * kr * kr, sizeof(uint32_t));
@@ -468,6 +470,7 @@ static RomStatus symmetric_load(RomModel *m, RomFrozenModel *fm, const unsigned 
 ROM_CLONES
 static double refresh_seconds(const RomModel *m, const RomFrozenModel *fm, int symmetric, double *S, double *Ms,
                               double *Mt, long reps) {
+    if (!m || !fm || !S || !Ms || !Mt || (symmetric && !fm->W)) return 0.0;
     const clock_t t0 = clock();
     for (long r = 0; r < reps; r++) {
         if (symmetric) {
@@ -483,6 +486,7 @@ static double refresh_seconds(const RomModel *m, const RomFrozenModel *fm, int s
  * choice moves only the time.  Each path is timed over about 3e5 multiply-adds, twice in turn; the faster
  * (the smaller of its two times) is kept.  Without memory for the scratch the tensor path stays. */
 static void choose_refresh(const RomModel *m, RomFrozenModel *fm) {
+    if (!m || !fm || !fm->W) return;
     const size_t np = m->n_pairs, kr = m->k_rho;
     double *S = NULL, *Ms = NULL, *Mt = NULL;           /* aligned as the state's (rom_alloc_arrays) */
     const size_t counts[3] = {np, kr * fm->kv_quad, fm->nm};
