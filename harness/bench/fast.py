@@ -1,4 +1,4 @@
-"""Fast end to end, before and after (issue 24): whole commands and the frozen core, this checkout against another.
+"""Fast end to end, before and after: whole commands and the frozen core, this checkout against another.
 
 ``python -m harness.bench.fast`` / ``sphrom bench fast [--before CHECKOUT] [--repeats R] [--no-cold]
 [--report BENCHMARKS.md]``

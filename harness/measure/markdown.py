@@ -395,7 +395,8 @@ CARRIED = ("## The full SPH step: numba against a hand-written C stencil",
            "## The training envelope of the frozen FMU",
            "## The packaged FMU against the full SPH, every scene",
            "## Linear models: time against error",
-           "## A component at rest")
+           "## A component at rest",
+           "## Fast end to end: before and after")
 PACKAGED_HEADING = "## The packaged FMU against the full SPH, every scene"
 
 
