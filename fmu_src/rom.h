@@ -292,6 +292,12 @@ ROM_API size_t rom_reduced_state(const RomState *state, double *out, size_t n);
 ROM_API int64_t rom_expm_count(const RomState *state);
 /* kind of a loaded model (ROM_MODEL_*), 0 for NULL */
 ROM_API uint32_t rom_model_kind(const RomModel *model);
+/* The frozen model's refresh (rom_frozen.c): *path 0 the tensor, 1 the tensor stored by its symmetry (the same
+ * bits; chosen at load by measured cost when the tensor has the symmetry); *skip 1: a refresh whose inputs equal
+ * the last one's is skipped (the same bits).  rom_frozen_set_refresh sets them (-1: unchanged), for tests and
+ * benchmarks; ROM_FAIL for another kind, or path 1 without the symmetry. */
+ROM_API RomStatus rom_frozen_refresh(const RomModel *model, int *path, int *skip);
+ROM_API RomStatus rom_frozen_set_refresh(RomModel *model, int path, int skip, char *message, size_t message_size);
 /* Probe outputs.  Frozen: v_j = sum_q Pv[j][q] a^v_q, rho_j = sum_q Prho[j][q] a^rho_q.
  * Linear: v_j = Pv[j] . z, rho_j = sum_m pw[j][m] prho0[j][m] / (1 + Pe[j][m] . z) (NaN when a J <= 0) */
 ROM_API double rom_v_probe(const RomState *state, uint32_t j);

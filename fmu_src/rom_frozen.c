@@ -14,6 +14,7 @@
 
 #include <stdio.h>
 #include <stdlib.h>
+#include <time.h>
 
 
 #if defined(__GNUC__)
@@ -37,49 +38,6 @@
 /* the step (harness/rom/frozen.py frozen_advance, same order of operations)  */
 /* ------------------------------------------------------------------------ */
 
-/* M(a^rho) = sum_{a<=b} a^rho_a a^rho_b T_ab (eq. 2.23 projected; exact) and
- * the frozen force term F = p f (eq. 2.19), every n_freeze steps.  Each entry
- * is 0.0 + s_0 T_0 + s_1 T_1 + ... in pair order, as in Python; the entries are
- * computed 32 at a time in registers.  f is the input at the step's time, tau
- * the step's time after the communication point [s] (for the port forces'
- * rates, as for f's: F_j + rate_j tau, F_j itself when the rate is 0). */
-ROM_INLINE void refresh(RomState *s, const RomFrozenModel *fm, RomFrozenState *fs, double f, double tau) {
-    const RomModel *m = s->model;
-    const size_t kr = m->k_rho, np = m->n_pairs, nm = fm->nm;
-    const double *restrict ar = s->ar;
-    double *restrict S = fs->S;
-    size_t k = 0;
-    for (size_t a = 0; a < kr; a++) {
-        for (size_t b = a; b < kr; b++) S[k++] = ar[a] * ar[b];
-    }
-    double *restrict Mt = fs->Mt;
-    for (size_t i = 0; i < nm; i += 32) {
-        double acc[32];
-        for (int j = 0; j < 32; j++) acc[j] = 0.0;
-        const double *restrict T = fm->Tt + i * np;
-        for (k = 0; k < np; k++, T += 32) {
-            const double sk = S[k];
-            for (int j = 0; j < 32; j++) acc[j] += sk * T[j];
-        }
-        for (int j = 0; j < 32; j++) Mt[i + j] = acc[j];
-    }
-    double *restrict F = fs->F;
-    const size_t kv = m->kv_pad;
-    if (fm->p) {
-        for (size_t p = 0; p < kv; p++) F[p] = fm->p[p] * f;
-    } else {
-        for (size_t p = 0; p < kv; p++) F[p] = 0.0;
-    }
-    /* port forces, frozen with f: F += port_B[j] (F_j(tau) / area), ports in order (harness/rom/frozen.py;
-     * F_j(tau) = F_j + rate_j tau as harness/fmu/check/python_cosim.py computes it) */
-    for (size_t j = 0; j < m->n_ports; j++) {
-        const double rate = s->port_rate[j];
-        const double u = (rate == 0.0 ? s->port_force[j] : s->port_force[j] + rate * tau) / s->area;
-        const double *restrict row = m->port_B + j * m->k_v;
-        for (size_t p = 0; p < m->k_v; p++) F[p] += row[p] * u;
-    }
-}
-
 /* Blocks of 4 lanes: GCC/Clang vector extensions (one AVX2 register, two SSE2
  * registers), plain arrays elsewhere.  Every lane does the scalar IEEE
  * operation, in the same order. */
@@ -90,6 +48,104 @@ typedef double v4d __attribute__((vector_size(32)));
 #define V4_ZERO ((v4d){0.0, 0.0, 0.0, 0.0})
 #define V4_SPLAT(x) ((v4d){(x), (x), (x), (x)})
 #endif
+
+/* M from the tensor in pair order: each entry 0.0 + s_0 T_0 + s_1 T_1 + ..., 32 entries in registers at a time */
+ROM_INLINE void refresh_tensor(const RomModel *m, const RomFrozenModel *fm, const double *restrict S,
+                               double *restrict Mt) {
+    const size_t np = m->n_pairs, nm = fm->nm;
+    for (size_t i = 0; i < nm; i += 32) {
+        double acc[32];
+        for (int j = 0; j < 32; j++) acc[j] = 0.0;
+        const double *restrict T = fm->Tt + i * np;
+        for (size_t k = 0; k < np; k++, T += 32) {
+            const double sk = S[k];
+            for (int j = 0; j < 32; j++) acc[j] += sk * T[j];
+        }
+        for (int j = 0; j < 32; j++) Mt[i + j] = acc[j];
+    }
+}
+
+/* M from the tensor stored by its symmetry: the entry (p, q) is 0.0 + s'_0 W[o_0p + q] + s'_1 W[o_1p + q] + ...
+ * in pair order, s'_k = (a^rho_a a^rho_b) w_ab.  As w_ab is 1 or 2, s'_k W = s_k (w_ab W) = s_k T[k][p][q]
+ * exactly (one rounding of the same product), so every entry has the tensor path's bits.  The rows of M
+ * (k_rho x kv_quad, in the scratch Ms) stay in L1 while W's rows stream, each about three times; W
+ * (k_rho^3 k_v / 6 values) is about a third of Tt. */
+ROM_INLINE void refresh_symmetric(const RomModel *m, const RomFrozenModel *fm, const double *restrict S,
+                                  double *restrict Ms, double *restrict Mt) {
+    const size_t np = m->n_pairs, kr = m->k_rho, kv = m->k_v, krp = m->kr_pad, kvq = fm->kv_quad;
+    const double *restrict W = fm->W;
+    for (size_t i = 0; i < kr * kvq; i++) Ms[i] = 0.0;
+    const uint32_t *restrict off = fm->sym_off;
+    for (size_t k = 0; k < np; k++, off += kr) {
+        const double sk = S[k];
+        for (size_t p = 0; p < kr; p++) {
+            double *restrict row = Ms + p * kvq;
+            const double *restrict w = W + off[p];
+            for (size_t q = 0; q < kvq; q += 4) {
+#if defined(__GNUC__)
+                V4_STORE(row + q, V4_LOAD(row + q) + V4_SPLAT(sk) * V4_LOAD(w + q));
+#else
+                for (int j = 0; j < 4; j++) row[q + j] += sk * w[q + j];
+#endif
+            }
+        }
+    }
+    for (size_t p = 0; p < kr; p++) {
+        for (size_t q = 0; q < kv; q++) Mt[q * krp + p] = Ms[p * kvq + q];
+    }
+}
+
+/* M(a^rho) = sum_{a<=b} a^rho_a a^rho_b T_ab (eq. 2.23 projected; exact) and
+ * the frozen force term F = p f (eq. 2.19), every n_freeze steps.  Each entry
+ * is 0.0 + s_0 T_0 + s_1 T_1 + ... in pair order, as in Python; the entries are
+ * computed 32 at a time in registers (or by refresh_symmetric).  f is the input at the step's time, tau
+ * the step's time after the communication point [s] (for the port forces'
+ * rates, as for f's: F_j + rate_j tau, F_j itself when the rate is 0).
+ * A refresh whose inputs (a^rho, f, the port inputs) equal the last one's bit for bit is skipped: M and F
+ * already hold its result (a component at rest). */
+ROM_INLINE void refresh(RomState *s, const RomFrozenModel *fm, RomFrozenState *fs, double f, double tau) {
+    const RomModel *m = s->model;
+    const size_t kr = m->k_rho, np = m->n_pairs, n_ports = m->n_ports;
+    const double *restrict ar = s->ar;
+    double *restrict last = fs->last_in;
+    double u[ROM_MAX_PORTS];
+    for (size_t j = 0; j < n_ports; j++) {
+        const double rate = s->port_rate[j];
+        u[j] = (rate == 0.0 ? s->port_force[j] : s->port_force[j] + rate * tau) / s->area;
+    }
+    if (fs->refreshed && fm->keep_skip && memcmp(last, ar, kr * sizeof(double)) == 0 && memcmp(last + kr, &f, sizeof(double)) == 0 &&
+        (n_ports == 0 || memcmp(last + kr + 1, u, n_ports * sizeof(double)) == 0)) {
+        return;
+    }
+    memcpy(last, ar, kr * sizeof(double));
+    memcpy(last + kr, &f, sizeof(double));
+    if (n_ports) memcpy(last + kr + 1, u, n_ports * sizeof(double));
+    fs->refreshed = 1;
+    double *restrict S = fs->S;
+    size_t k = 0;
+    for (size_t a = 0; a < kr; a++) {
+        for (size_t b = a; b < kr; b++) S[k++] = ar[a] * ar[b];
+    }
+    if (fm->symmetric) {
+        for (k = 0; k < np; k++) S[k] *= fm->pair_scale[k];          /* exact: w_ab is 1 or 2 */
+        refresh_symmetric(m, fm, S, fs->Ms, fs->Mt);
+    } else {
+        refresh_tensor(m, fm, S, fs->Mt);
+    }
+    double *restrict F = fs->F;
+    const size_t kv = m->kv_pad;
+    if (fm->p) {
+        for (size_t p = 0; p < kv; p++) F[p] = fm->p[p] * f;
+    } else {
+        for (size_t p = 0; p < kv; p++) F[p] = 0.0;
+    }
+    /* port forces, frozen with f: F += port_B[j] u_j, u_j = F_j(tau) / area, ports in order (harness/rom/frozen.py;
+     * F_j(tau) = F_j + rate_j tau as harness/fmu/check/python_cosim.py computes it) */
+    for (size_t j = 0; j < n_ports; j++) {
+        const double *restrict row = m->port_B + j * m->k_v;
+        for (size_t p = 0; p < m->k_v; p++) F[p] += row[p] * u[j];
+    }
+}
 
 /* da^rho/dt = -M a^v (eq. 2.20 with frozen M): dr[p] = 0.0 - M[p][0] av[0] - ... */
 ROM_INLINE void density_rate(const RomModel *m, double *restrict dr, const double *restrict av,
@@ -341,6 +397,121 @@ static uint64_t frozen_body_doubles(const RomHeader *h) {
            np * kr + np;
 }
 
+/* Whether the tensor T[k][p][q] at t (the resources' bytes, n_pairs x k_rho x k_v) is symmetric in (a, b, p) bit
+ * for bit, T[(a,b)][p] = w_ab W[{a, b, p}] with W's row of the sorted triple (i, j, l) T[(i,j)][l] / w_ij, every
+ * value finite (harness/rom/operators.py refresh_tensor builds it so). */
+static size_t pair_number(size_t a, size_t b, size_t kr) {
+    return a * (2 * kr - a + 1) / 2 + (b - a);          /* pairs a <= b in order: a = 0..kr-1, b = a..kr-1 */
+}
+
+static int tensor_symmetric(const unsigned char *t, size_t kr, size_t kv) {
+    if (!t || kr == 0 || kv == 0) return 0;
+    for (size_t a = 0; a < kr; a++) {
+        for (size_t b = a; b < kr; b++) {
+            const double w_ab = a == b ? 1.0 : 2.0;
+            for (size_t p = 0; p < kr; p++) {
+                size_t i = a, j = b, l = p;
+                if (l < j) { size_t x = j; j = l; l = x; }
+                if (j < i) { size_t x = i; i = j; j = x; }
+                const double w_ij = i == j ? 1.0 : 2.0;
+                const unsigned char *row = t + 8 * (pair_number(a, b, kr) * kr + p) * kv;
+                const unsigned char *ref = t + 8 * (pair_number(i, j, kr) * kr + l) * kv;
+                for (size_t q = 0; q < kv; q++) {
+                    const double value = rom_get_f64(row + 8 * q), want = w_ab * (rom_get_f64(ref + 8 * q) / w_ij);
+                    if (!isfinite(value) || memcmp(&value, &want, sizeof(double)) != 0) return 0;
+                }
+            }
+        }
+    }
+    return 1;
+}
+
+/* W, its offsets and the pair scales from a symmetric tensor at t (tensor_symmetric) */
+static RomStatus symmetric_load(RomModel *m, RomFrozenModel *fm, const unsigned char *t, char *message,
+                                size_t message_size) {
+    if (!m || !fm || !t || !fm->W || !fm->pair_scale) return rom_fail(message, message_size, "resources: no tensor");
+    const size_t kr = m->k_rho, kv = m->k_v, np = m->n_pairs, kvq = fm->kv_quad;
+    const size_t n_tri = kr * (kr + 1) * (kr + 2) / 6;
+    uint32_t *tri = (uint32_t *)calloc(kr * kr * kr, sizeof(uint32_t));
+    fm->sym_off = (uint32_t *)calloc(np * kr, sizeof(uint32_t));
+    if (!tri || !fm->sym_off || n_tri * kvq > UINT32_MAX) {
+        free(tri);
+        return rom_fail(message, message_size, "resources: out of memory (the symmetric refresh, k_rho = %u)",
+                        m->k_rho);
+    }
+    uint32_t n = 0;
+    for (size_t i = 0; i < kr; i++) {
+        for (size_t j = i; j < kr; j++) {
+            for (size_t l = j; l < kr; l++, n++) {
+                tri[(i * kr + j) * kr + l] = n;
+                const double w_ij = i == j ? 1.0 : 2.0;
+                const unsigned char *ref = t + 8 * (pair_number(i, j, kr) * kr + l) * kv;
+                for (size_t q = 0; q < kv; q++) fm->W[(size_t)n * kvq + q] = rom_get_f64(ref + 8 * q) / w_ij;
+            }
+        }
+    }
+    size_t k = 0;
+    for (size_t a = 0; a < kr; a++) {
+        for (size_t b = a; b < kr; b++, k++) {
+            fm->pair_scale[k] = a == b ? 1.0 : 2.0;
+            for (size_t p = 0; p < kr; p++) {
+                size_t i = a, j = b, l = p;
+                if (l < j) { size_t x = j; j = l; l = x; }
+                if (j < i) { size_t x = i; i = j; j = x; }
+                fm->sym_off[k * kr + p] = (uint32_t)(tri[(i * kr + j) * kr + l] * kvq);
+            }
+        }
+    }
+    free(tri);
+    return ROM_OK;
+}
+
+/* CPU seconds of `reps` refreshes of M by one path (symmetric or not) at a^rho = a_rho0 */
+ROM_CLONES
+static double refresh_seconds(const RomModel *m, const RomFrozenModel *fm, int symmetric, double *S, double *Ms,
+                              double *Mt, long reps) {
+    if (!m || !fm || !S || !Ms || !Mt || (symmetric && !fm->W)) return 0.0;
+    const clock_t t0 = clock();
+    for (long r = 0; r < reps; r++) {
+        if (symmetric) {
+            refresh_symmetric(m, fm, S, Ms, Mt);
+        } else {
+            refresh_tensor(m, fm, S, Mt);
+        }
+    }
+    return (double)(clock() - t0) / (double)CLOCKS_PER_SEC;
+}
+
+/* The refresh path of a symmetric tensor chosen by its measured cost: both paths give the same bits, so the
+ * choice moves only the time.  Each path is timed over about 3e5 multiply-adds, twice in turn; the faster
+ * (the smaller of its two times) is kept.  Without memory for the scratch the tensor path stays. */
+static void choose_refresh(const RomModel *m, RomFrozenModel *fm) {
+    if (!m || !fm || !fm->W) return;
+    const size_t np = m->n_pairs, kr = m->k_rho;
+    double *S = NULL, *Ms = NULL, *Mt = NULL;           /* aligned as the state's (rom_alloc_arrays) */
+    const size_t counts[3] = {np, kr * fm->kv_quad, fm->nm};
+    double **ptrs[3] = {&S, &Ms, &Mt};
+    void *scratch = rom_alloc_arrays(counts, ptrs, 3);
+    fm->symmetric = 0;
+    if (scratch) {
+        size_t k = 0;
+        for (size_t a = 0; a < kr; a++) {
+            for (size_t b = a; b < kr; b++) S[k++] = fm->a_rho0[a] * fm->a_rho0[b];
+        }
+        const double macs = (double)np * (double)fm->nm;
+        const long reps = macs >= 3e5 ? 1 : (long)(3e5 / macs);
+        double best[2] = {1e300, 1e300};
+        for (int round = 0; round < 2; round++) {
+            for (int path = 0; path < 2; path++) {
+                const double t = refresh_seconds(m, fm, path, S, Ms, Mt, reps);
+                if (t < best[path]) best[path] = t;
+            }
+        }
+        fm->symmetric = best[1] < best[0];
+    }
+    free(scratch);
+}
+
 /* The operators transposed, zero-padded and blocked as rom_frozen.h's RomFrozenModel describes. */
 static RomStatus frozen_load(RomModel *m, const unsigned char *cursor, uint64_t doubles, char *message,
                              size_t message_size) {
@@ -352,12 +523,19 @@ static RomStatus frozen_load(RomModel *m, const unsigned char *cursor, uint64_t 
     m->body = fm;
     const size_t kv = m->k_v, kr = m->k_rho, np = m->n_probes, npairs = m->n_pairs;
     fm->nm = (uint32_t)rom_round_up(kv * m->kr_pad, 32);
+    fm->kv_quad = (uint32_t)rom_round_up(kv, 4);
     const size_t kvp = m->kv_pad, krp = m->kr_pad;
-    const size_t counts[10] = {kv, kr, kr * kvp, kvp, (m->flags & ROM_FLAG_DAMPING) ? kv * kvp : 0,
-                               (m->flags & ROM_FLAG_INPUT) ? kvp : 0, npairs * fm->nm, np * kv, np * kr, np};
-    double **ptrs[10] = {&fm->a_v0, &fm->a_rho0, &fm->Kt, &fm->b, &fm->Dt, &fm->p, &fm->Tt, &fm->Pv, &fm->Prho,
-                         &fm->probe_x};
-    fm->storage_ = rom_alloc_arrays(counts, ptrs, 10);
+    const int damping = (m->flags & ROM_FLAG_DAMPING) != 0, input = (m->flags & ROM_FLAG_INPUT) != 0;
+    /* the tensor follows a_v0, a_rho0, K, b, D, p in the body; stored by its symmetry when it has it */
+    const unsigned char *tensor = cursor + 8 * (kv + kr + kv * kr + kv + (damping ? kv * kv : 0) + (input ? kv : 0));
+    const int symmetric = tensor_symmetric(tensor, kr, kv);
+    const size_t n_tri = kr * (kr + 1) * (kr + 2) / 6;
+    const size_t counts[12] = {kv, kr, kr * kvp, kvp, damping ? kv * kvp : 0, input ? kvp : 0,
+                               npairs * fm->nm, np * kv, np * kr, np,
+                               symmetric ? n_tri * fm->kv_quad : 0, symmetric ? npairs : 0};
+    double **ptrs[12] = {&fm->a_v0, &fm->a_rho0, &fm->Kt, &fm->b, &fm->Dt, &fm->p, &fm->Tt, &fm->Pv, &fm->Prho,
+                         &fm->probe_x, &fm->W, &fm->pair_scale};
+    fm->storage_ = rom_alloc_arrays(counts, ptrs, 12);
     if (!fm->storage_) {
         return rom_fail(message, message_size, "resources: out of memory (%llu values)", (unsigned long long)doubles);
     }
@@ -378,6 +556,10 @@ static RomStatus frozen_load(RomModel *m, const unsigned char *cursor, uint64_t 
     /* T[k][p][q] is entry i = q*kr_pad + p of pair k's M^T; entries are
      * stored in blocks of 32, each block's pairs contiguous:
      * Tt[(i/32)*n_pairs*32 + k*32 + i%32] */
+    if (symmetric) {
+        const RomStatus status = symmetric_load(m, fm, cursor, message, message_size);
+        if (status != ROM_OK) return status;
+    }
     for (size_t k = 0; k < npairs; k++) {
         for (size_t p = 0; p < kr; p++) {
             for (size_t q = 0; q < kv; q++, cursor += 8) {
@@ -389,7 +571,7 @@ static RomStatus frozen_load(RomModel *m, const unsigned char *cursor, uint64_t 
     cursor = rom_get_f64s(cursor, fm->Pv, np * kv);
     cursor = rom_get_f64s(cursor, fm->Prho, np * kr);
     rom_get_f64s(cursor, fm->probe_x, np);
-    if (!rom_arrays_finite(ptrs, counts, 10)) {
+    if (!rom_arrays_finite(ptrs, counts, 12)) {
         return rom_fail(message, message_size, "resources: non-finite numbers in the operators");
     }
     for (uint32_t j = 0; j < np; j++) {
@@ -398,12 +580,39 @@ static RomStatus frozen_load(RomModel *m, const unsigned char *cursor, uint64_t 
             return rom_fail(message, message_size, "resources: probe %u at x/L = %g is outside [0, 1]", j + 1, x);
         }
     }
+    fm->keep_skip = 1;
+    if (symmetric) choose_refresh(m, fm);
+    return ROM_OK;
+}
+
+RomStatus rom_frozen_refresh(const RomModel *model, int *path, int *skip) {
+    if (!model || !model->body || !model->ops || model->ops->kind != ROM_MODEL_FROZEN || !path || !skip) {
+        return ROM_FAIL;
+    }
+    const RomFrozenModel *fm = (const RomFrozenModel *)model->body;
+    *path = fm->symmetric;
+    *skip = fm->keep_skip;
+    return ROM_OK;
+}
+
+RomStatus rom_frozen_set_refresh(RomModel *model, int path, int skip, char *message, size_t message_size) {
+    if (!model || !model->body || !model->ops || model->ops->kind != ROM_MODEL_FROZEN) {
+        return rom_fail(message, message_size, "the refresh: not a frozen-coefficient model");
+    }
+    RomFrozenModel *fm = (RomFrozenModel *)model->body;
+    if (path < -1 || path > 1 || (path == 1 && !fm->W) || skip < -1 || skip > 1) {
+        return rom_fail(message, message_size, "the refresh: path %d, skip %d (allowed: path -1, 0%s; skip -1, 0, 1)",
+                        path, skip, fm->W ? ", 1" : " (the tensor has no symmetry)");
+    }
+    if (path >= 0) fm->symmetric = path;
+    if (skip >= 0) fm->keep_skip = skip;
     return ROM_OK;
 }
 
 static void frozen_model_free(RomModel *m) {
     if (!m || !m->body) return;
     free(((RomFrozenModel *)m->body)->storage_);
+    free(((RomFrozenModel *)m->body)->sym_off);
     free(m->body);
     m->body = NULL;
 }
@@ -474,9 +683,12 @@ static RomStatus frozen_state_new(RomState *s) {
     RomFrozenState *fs = (RomFrozenState *)calloc(1, sizeof(RomFrozenState));
     if (!fs) return ROM_FAIL;
     s->body = fs;
-    const size_t counts[5] = {((const RomFrozenModel *)m->body)->nm, m->kv_pad, m->kv_pad, m->kr_pad, m->n_pairs};
-    double **ptrs[5] = {&fs->Mt, &fs->F, &fs->dv, &fs->dr, &fs->S};
-    fs->storage_ = rom_alloc_arrays(counts, ptrs, 5);
+    const size_t counts[7] = {((const RomFrozenModel *)m->body)->nm, m->kv_pad, m->kv_pad, m->kr_pad, m->n_pairs,
+                              (size_t)m->k_rho + 1 + ROM_MAX_PORTS,
+                              ((const RomFrozenModel *)m->body)->W ? (size_t)m->k_rho * ((const RomFrozenModel *)
+                                                                                        m->body)->kv_quad : 0};
+    double **ptrs[7] = {&fs->Mt, &fs->F, &fs->dv, &fs->dr, &fs->S, &fs->last_in, &fs->Ms};
+    fs->storage_ = rom_alloc_arrays(counts, ptrs, 7);
     return fs->storage_ ? ROM_OK : ROM_FAIL;
 }
 
@@ -501,6 +713,7 @@ static void frozen_initial_state(RomState *s) {
 static void frozen_reset(RomState *s) {
     if (!s || !s->body) return;
     RomFrozenState *fs = (RomFrozenState *)s->body;
+    fs->refreshed = 0;
     memset(fs->Mt, 0, (size_t)((const RomFrozenModel *)s->model->body)->nm * sizeof(double));
     memset(fs->F, 0, s->model->kv_pad * sizeof(double));
 }
@@ -525,6 +738,7 @@ static const unsigned char *frozen_state_get(RomState *s, const unsigned char *c
     if (!s || !s->body || !cursor) return cursor;
     RomFrozenState *fs = (RomFrozenState *)s->body;
     const size_t kv = s->model->k_v, kr = s->model->k_rho, krp = s->model->kr_pad;
+    fs->refreshed = 0;                                 /* M and F are the state's, not a refresh of last_in */
     for (size_t r = 0; r < kv; r++) cursor = rom_get_f64s(cursor, fs->Mt + r * krp, kr);
     return rom_get_f64s(cursor, fs->F, kv);
 }

@@ -23,6 +23,15 @@ typedef struct {
     double *p;                 /* [kv_pad] input row U^vT profile, NULL without input */
     double *Tt;                /* the refresh tensor T[k][p][q] as entries i = q*kr_pad + p of M^T, in blocks
                                 * of 32 with each block's pairs contiguous: Tt[(i/32)*n_pairs*32 + k*32 + i%32] */
+    double *W;                 /* the symmetric refresh (T symmetric in (a, b, p) bit for bit, rom_frozen.c
+                                * frozen_symmetric): one row of k_v (stride kv_quad, zero-padded) per sorted
+                                * index triple, T[(a,b)][p] = w_ab W[{a, b, p}]; NULL
+                                * when T is not symmetric */
+    uint32_t *sym_off;         /* [n_pairs][k_rho]: offset in W of pair k's row p */
+    double *pair_scale;        /* [n_pairs] w_ab: 1 (a = b) or 2 */
+    uint32_t kv_quad;          /* k_v rounded up to 4: W's row stride */
+    int symmetric;             /* 1: the refresh reads W (chosen at load by measured cost; same bits as Tt's) */
+    int keep_skip;             /* 1 (the default): a refresh of unchanged inputs is skipped (rom_frozen_set_refresh) */
     double *Pv, *Prho;         /* probe rows [n_probes][k_v], [n_probes][k_rho] */
     double *probe_x;           /* [n_probes] probe positions in units of L (RomModel.probe_x) */
     void *storage_;            /* one allocation behind the arrays */
@@ -33,6 +42,9 @@ typedef struct {
     double *F;                 /* the force term p f (and the ports') [kv_pad] */
     double *dv, *dr;           /* scratch: rates [kv_pad], [kr_pad] */
     double *S;                 /* scratch: a^rho_a a^rho_b per pair [n_pairs] */
+    double *Ms;                /* scratch of the symmetric refresh: M [k_rho][kv_quad] (NULL without W) */
+    double *last_in;           /* the inputs of the last refresh: a^rho [k_rho], f, the port inputs u_j */
+    int refreshed;             /* M^T and F hold the refresh of last_in (0 after a reset or a state set) */
     void *storage_;            /* one allocation behind the arrays */
 } RomFrozenState;
 

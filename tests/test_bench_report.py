@@ -114,7 +114,7 @@ MAPS = StressMaps([_stress_scene("a", True), _stress_scene("b", False)], [1, 10]
     (rp.skip_section, (SKIPS,), [5]),
     (rp.input_direction_section, (DIRECTIONS, ["a", "b"], 0.01), [8]),
     (rp.sph_step_section, (SPH_STEPS, [100, 1000, 10000], 3), [5]),
-    (rp.fmu_section, (FMU,), [6, 10]),
+    (rp.fmu_section, (FMU,), [8, 11]),
     (lambda rows: rp.packaged_fmu_section(rows, **PACKAGED_META), (PACKAGED,), [14]),
     (rp.stress_section, (MAPS, "sphrom stress a b", "x/stress", 2), [3, 5, 4, 4] * 2),
 ])

@@ -1,7 +1,7 @@
 """Instant commands: building the command line's parsers imports nothing heavy (numpy, numba, scipy, h5py,
 matplotlib, dask, fmpy, the model registry), and a co-simulation imports only what it runs (numpy, fmpy): the
 time of ``sphrom --help`` is a bare Python start's, and ``sphrom cosim``'s is about that of importing numpy and
-fmpy (``python -m harness.bench.fast`` measures both)."""
+fmpy (``sphrom bench fast`` measures both)."""
 
 import json
 import subprocess

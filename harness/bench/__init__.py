@@ -44,6 +44,10 @@ PROGRAMS = {
     "fmu": Program("harness.bench.fmu", "the FMU section of BENCHMARKS.md alone: C core, end to end, the "
                    "same-language ratio", "not recorded", "fmu_core.csv, fmu_e2e.csv; BENCHMARKS.md's Headline and "
                    "The FMU"),
+    "fast": Program("harness.bench.fast", "fast end to end before and after: whole commands (`sphrom "
+                    "--help`, cosim, fmu warm and cold) against their yardsticks and another checkout, the frozen "
+                    "core per step (k = 12, ports, at rest)", "measured: see BENCHMARKS.md, its section",
+                    "a BENCHMARKS.md section with --report; JSON with --out"),
     "fmu_verify": Program("harness.bench.fmu_verify", "every built-in scene's packaged FMU against the full SPH "
                           "(what `sphrom fmu` measures), medians of repeated timings",
                           "230 s with --no-bounds (BENCHMARKS.md)", "fmu_verify.csv; a BENCHMARKS.md section"),

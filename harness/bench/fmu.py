@@ -26,6 +26,8 @@ def main(argv=None):
     p.add_argument("--report", default="BENCHMARKS.md", metavar="FILE.md")
     p.add_argument("--quiet", action="store_true")
     args = p.parse_args(argv)
+    from ..measure.timing import cpu_model, load_average
+    load_start = load_average()
     t0 = time.perf_counter()
     fmu = fmu_measurements(args.scene, repeats=args.repeats, progress=not args.quiet)
     wall = time.perf_counter() - t0
@@ -34,8 +36,10 @@ def main(argv=None):
     write_fmu_csv(out, fmu["core"], fmu["e2e"], prefix="fmu_")
     given = argv if argv is not None else sys.argv[1:]
     note = (f"Re-measured alone by `python -m harness.bench.fmu{' ' + ' '.join(given) if given else ''}` "
-            f"({platform.machine()}, Python {platform.python_version()}, {wall:.0f} s wall; medians of "
-            f"{args.repeats}), after the rest of this report.")
+            f"on {cpu_model()}, Python {platform.python_version()}, {wall:.0f} s wall, load average (1 / 5 / 15 "
+            f"min) {' / '.join(map(str, load_start or ()))} at the start, "
+            f"{' / '.join(map(str, load_average() or ()))} at the end; medians of {args.repeats}), after the rest "
+            "of this report.")
     head = headline_section(fmu)
     section = fmu_section(fmu)
     section[1:1] = ["", note]

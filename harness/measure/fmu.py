@@ -8,10 +8,11 @@
    co-simulation of the scene's FMU over its horizon with 10 ms and 1 ms communication steps (extraction,
    loading, instantiation, the loop reading every output, freeing), beside the full SPH of the same scene timed
    in the same run (:func:`harness.sph.solver.run_sph`), as ratios.
-3. Where the time goes: the fixed cost (a one-step run: extraction, loading, instantiation, freeing), the
-   core's own time for the same internal steps, the rest per doStep (the driver's loop: input, doStep, outputs),
-   and of that the doStep call alone (doSteps of one internal step with no input and no output, minus the
-   core's time).
+3. Where the time goes, every per-step figure a slope between two step counts measured in pairs (so the
+   fixed cost cancels; nothing timed apart is subtracted): per doStep through the driver (runs over T/2 and T),
+   the fixed cost (the intercept of those two runs: extraction, loading, instantiation, freeing), the core's
+   own time for the same internal steps (its slope), and a doStep call alone (doSteps of one internal step
+   with no input and no output: 10^4 against 2 10^4 calls, the step's own work included).
 
 4. The lean path (the FMU rows of ``sphrom bench``): the driver's loop on a pre-extracted FMU instantiated
    once (timed separately), fmi2Reset and initialization per run, then per communication step the input (when
@@ -69,7 +70,12 @@ def bench_scene(base, n):
 
 def core_rows(base, sizes, k=BENCH_K, n_freeze=BENCH_FREEZE, n_steps=200_000, repeats=5, core=None, progress=False,
               bar=None):
-    """ns per internal step of the C core for each N in ``sizes`` (list of dicts)."""
+    """ns per internal step of the C core for each N in ``sizes`` (list of dicts).
+
+    Each repeat times n_steps and 2 n_steps internal steps from the same start; the cost per step is the slope
+    (t(2M) - t(M)) / M, so that the call's fixed cost cancels: ``ns_per_step`` the median of the repeats' wall
+    slopes (min and max beside), ``ns_per_step_cpu`` the median of the same runs' thread CPU-time slopes (the
+    time the core itself ran, whatever else the machine ran meanwhile)."""
     from ..fmu.make.build import ensure_binaries
     from ..fmu.run.core import Core
     from ..fmu.make.models import reduced_model
@@ -83,19 +89,32 @@ def core_rows(base, sizes, k=BENCH_K, n_freeze=BENCH_FREEZE, n_steps=200_000, re
         model = core.load(pack(data))
         model.set_n_freeze(n_freeze)
         model.advance(1000)                      # warm up
-        times = []
-        for _ in range(repeats):
-            model.reset()
-            model.set_n_freeze(n_freeze)
-            t0 = time.perf_counter()
-            model.advance(n_steps)
-            times.append((time.perf_counter() - t0) / n_steps * 1e9)
+        wall, cpu = step_slopes(model, n_steps, repeats, n_freeze)
+        refresh = model.refresh
         model.close()
         rows.append({"n": int(n), "k": k, "k_v": data.k_v, "k_rho": data.k_rho, "n_freeze": n_freeze,
-                     "steps": n_steps, "ns_per_step": _median(times), "ns_min": min(times), "ns_max": max(times)})
+                     "steps": n_steps, "ns_per_step": _median(wall), "ns_min": min(wall), "ns_max": max(wall),
+                     "ns_per_step_cpu": _median(cpu), "refresh": refresh["path"]})
         if bar is not None:
             bar.update(1)
     return rows
+
+
+def step_slopes(model, n_steps, repeats, n_freeze):
+    """ns per internal step of a loaded core model (:class:`harness.fmu.run.core.CoreModel`) from ``repeats``
+    pairs of runs of n_steps and 2 n_steps from a reset: (wall slopes, thread CPU-time slopes), lists."""
+    wall, cpu = [], []
+    for _ in range(repeats):
+        pair = []
+        for count in (n_steps, 2 * n_steps):
+            model.reset()
+            model.set_n_freeze(n_freeze)
+            w0, c0 = time.perf_counter(), time.thread_time()
+            model.advance(count)
+            pair.append((time.perf_counter() - w0, time.thread_time() - c0))
+        wall.append((pair[1][0] - pair[0][0]) / n_steps * 1e9)
+        cpu.append((pair[1][1] - pair[0][1]) / n_steps * 1e9)
+    return wall, cpu
 
 
 def _simulate(path, stop_time, step, keep=None):
@@ -119,7 +138,8 @@ def _simulate(path, stop_time, step, keep=None):
 
 def _bare_calls(unzipdir, md, n_calls, h):
     """Wall time [s] of n_calls doSteps of length h on an extracted FMU through the driver's loop with no input
-    and no output: the cost of a doStep call through fmpy's ctypes binding and of the loop itself."""
+    and no output: the cost of a doStep call through fmpy's ctypes binding, of the loop itself and of the
+    step's own work; :func:`end_to_end` takes the slope between n_calls and 2 n_calls."""
     from ..fmu.run.driver import FMU
     with FMU(unzipdir, name="bench") as fmu:
         fmu.initialize(initial_state_scale=1.0)        # the scene's initial state, as every bench run
@@ -201,32 +221,33 @@ def end_to_end(scene_name="tenmode", steps=(0.01, 0.001), repeats=5, k=None, pro
             summary = package_fmu(scene, path, k=k, fmi=2, progress=progress, binaries=binaries, problem=problem,
                                   model=model, bounds=False)
             summaries[model] = summary
-            fixed = _median([_simulate(path, min(steps), min(steps)) for _ in range(repeats)])
             core_time = bare_us = float("nan")
             if not spec.linear:
                 md = read_model_description(str(path))
                 unzipdir = extract(str(path), unzipdir=str(Path(tmp) / f"unzipped-{model}"))
-                # the core alone, same model (the FMU's resources), same internal steps
+                # the core alone, same model (the FMU's resources): the slope between half and all of the
+                # scene's internal steps, times the internal steps
                 *_, blob = RESOURCES[spec.fmu_kind](scene, model, summary.k, summary.n_freeze, summary.probes,
                                                     summary.integrator, False, problem, bounds=False)
                 core_model = Core(binaries.core).load(blob)
-                core_times = []
-                for _ in range(repeats):
-                    core_model.reset()
-                    t0 = time.perf_counter()
-                    core_model.advance(n_internal)
-                    core_times.append(time.perf_counter() - t0)
+                half = n_internal // 2
+                wall, _ = step_slopes(core_model, half, repeats, summary.n_freeze)
                 core_model.close()
-                core_time = _median(core_times)
-                # the bare call: doSteps of one internal step each, minus the core's time for those steps
-                n_calls = 20_000
-                bare = _median([_bare_calls(unzipdir, md, n_calls, scene.sph.dt) for _ in range(repeats)])
-                bare_us = (bare - n_calls * core_time / n_internal) / n_calls * 1e6
+                core_time = _median(wall) * 1e-9 * n_internal
+                # the bare call: doSteps of one internal step each, no input, no output; slope per doStep
+                n_calls = 10_000
+                pairs = [(_bare_calls(unzipdir, md, n_calls, scene.sph.dt),
+                          _bare_calls(unzipdir, md, 2 * n_calls, scene.sph.dt)) for _ in range(repeats)]
+                bare_us = _median([(b - a) / n_calls * 1e6 for a, b in pairs])
             for j, h in enumerate(steps):
                 kept = []
                 _simulate(path, scene.T, h, keep=kept)                # warm (page cache, imports); kept for errors
-                e2e = [_simulate(path, scene.T, h) for _ in range(repeats)]
                 n_comm = int(round(scene.T / h))
+                half_T = (n_comm // 2) * h
+                pairs = [(_simulate(path, half_T, h), _simulate(path, scene.T, h)) for _ in range(repeats)]
+                e2e = [b for _, b in pairs]
+                slopes = [(b - a) / (n_comm - n_comm // 2) for a, b in pairs]        # [s] per doStep
+                per_step = _median(slopes)
                 e2e_m = _median(e2e)
                 err = None
                 if j == 0:
@@ -234,9 +255,10 @@ def end_to_end(scene_name="tenmode", steps=(0.01, 0.001), repeats=5, k=None, pro
                         sph_probes = sph_at_probes(scene, problem, summary.probes, h)
                     err = probe_error(kept[0], sph_probes[0], sph_probes[1], scene)
                 rows.append({"model": model, "step_s": h, "doSteps": n_comm, "internal_steps": n_internal,
-                             "fmu_e2e_s": e2e_m, "fmu_e2e_min_s": min(e2e), "fixed_s": fixed, "core_s": core_time,
-                             "us_per_doStep_fmpy": (e2e_m - fixed - (0.0 if spec.linear else core_time))
-                             / n_comm * 1e6,
+                             "fmu_e2e_s": e2e_m, "fmu_e2e_min_s": min(e2e),
+                             "fixed_s": _median([b - n_comm * d for (_, b), d in zip(pairs, slopes)]),
+                             "core_s": core_time, "us_per_doStep_fmpy": per_step * 1e6,
+                             "us_per_doStep_core": (core_time / n_comm * 1e6) if not spec.linear else float("nan"),
                              "us_per_doStep_bare_call": bare_us, "probe_error_v_vs_sph": err,
                              "k_v": summary.k_v, "k_rho": summary.k_rho})
                 if bar is not None:

@@ -191,10 +191,15 @@ def fmu_tables(core, e2e, heading="##"):
     :func:`harness.measure.fmu.end_to_end`, or None.
     """
     lines = [f"{heading} C core: ns per internal step (k = %d, n_freeze = %d)" % (core[0]["k"], core[0]["n_freeze"]),
-             "", "| N | k_v | k_rho | ns/step (median) | min | max |", "| ---: | ---: | ---: | ---: | ---: | ---: |"]
+             "", "Each figure the slope between runs of M and 2M internal steps from the same start (M = "
+             f"{core[0]['steps']}; the call's fixed cost cancels): wall time (median, min, max of the repeats) and "
+             "the thread's CPU time (median: the core's own time, whatever else the shared machine ran). Refresh: "
+             "the path the core chose at load by measured cost (fmu_src/rom_frozen.c; both give the same bits).",
+             "", "| N | k_v | k_rho | ns/step (median) | min | max | CPU ns/step | refresh |",
+             "| ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- |"]
     for r in core:
         lines.append(f"| {r['n']} | {r['k_v']} | {r['k_rho']} | {r['ns_per_step']:.1f} | {r['ns_min']:.1f} | "
-                     f"{r['ns_max']:.1f} |")
+                     f"{r['ns_max']:.1f} | {_fmt(r.get('ns_per_step_cpu'), '.1f')} | {r.get('refresh', '—')} |")
     if e2e is not None:
         sph_err = e2e["sph"].get("probe_error_v_vs_exact")
         lines += ["", f"{heading} End to end through sphrom's FMU driver: {e2e['scene']} (N = {e2e['n']}, "
@@ -206,15 +211,19 @@ def fmu_tables(core, e2e, heading="##"):
                   "co-simulation through the FMU driver, harness/fmu/run/driver.py (extract, load, instantiate, "
                   "initialize, the loop reading every output, free); the probe error is "
                   "the FMU's probe velocities against the full SPH interpolated at the probes (relative L² over "
-                  "the run, input held), at the first communication step.", "",
+                  "the run, input held), at the first communication step. Per doStep: the slope between runs over "
+                  "T/2 and T, paired (the fixed cost cancels), which includes the core's internal steps; fixed "
+                  "cost: the intercept of the same runs; core: the C core alone over the same internal steps (its "
+                  "slope), and per doStep; doStep call alone: the slope of 10^4 against 2·10^4 doSteps of one "
+                  "internal step with no input and no output (the step's own work included).", "",
                   "| model | comm. step | doSteps | FMU [s] | speed-up vs full SPH | probe v error vs SPH | "
-                  "fixed cost [s] | core [s] | driver per doStep [µs] | doStep call alone [µs] |",
-                  "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+                  "fixed cost [s] | core [s] | per doStep [µs] | core per doStep [µs] | doStep call alone [µs] |",
+                  "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
         for r in e2e["rows"]:
             lines.append(f"| {r.get('model', 'frozen')} | {r['step_s'] * 1e3:g} ms | {r['doSteps']} | "
                          f"{r['fmu_e2e_s']:.4f} | {r['speedup']:.1f}x | {_fmt(r.get('probe_error_v_vs_sph'))} | "
                          f"{r['fixed_s']:.4f} | {_fmt(r['core_s'], '.4f')} | {r['us_per_doStep_fmpy']:.1f} | "
-                         f"{_fmt(r['us_per_doStep_bare_call'], '.1f')} |")
+                         f"{_fmt(r.get('us_per_doStep_core'), '.1f')} | {_fmt(r['us_per_doStep_bare_call'], '.1f')} |")
     return "\n".join(lines) + "\n"
 
 
@@ -386,7 +395,9 @@ CARRIED = ("## The full SPH step: numba against a hand-written C stencil",
            "## The training envelope of the frozen FMU",
            "## The packaged FMU against the full SPH, every scene",
            "## Linear models: time against error",
-           "## A component at rest")
+           "## A component at rest",
+           "## Scale: the balanced model and its bounds to N = 10⁴",
+           "## Fast end to end: before and after")
 PACKAGED_HEADING = "## The packaged FMU against the full SPH, every scene"
 
 

@@ -503,14 +503,32 @@ def truncate_operators(problem: SPHProblem, ops: ReducedOperators, k_v, k_rho):
                             tensor_rule=ops.tensor_rule, b_form=ops.b_form)
 
 
+def triple_index(k):
+    """(i, j, l) for every triple i <= j <= l (lexicographic), shape (k(k+1)(k+2)/6, 3), and the (k, k, k) table
+    of each index triple's position among them (sorted first)."""
+    triples = np.array([(i, j, l) for i in range(k) for j in range(i, k) for l in range(j, k)],
+                       dtype=np.int64).reshape(-1, 3)
+    table = np.empty((k, k, k), dtype=np.int64)
+    for t, (i, j, l) in enumerate(triples):
+        for a, b, c in {(i, j, l), (i, l, j), (j, i, l), (j, l, i), (l, i, j), (l, j, i)}:
+            table[a, b, c] = t
+    return triples, table
+
+
 def refresh_tensor(U_rho, GU_v, inv_rho0):
-    """T[(a,b), p, q] of the module docstring, shape (k_rho(k_rho+1)/2, k_rho, k_v)."""
+    """T[(a,b), p, q] of the module docstring, shape (k_rho(k_rho+1)/2, k_rho, k_v).
+
+    T[(a,b), p] = w_ab W[{a, b, p}]: W (k_rho(k_rho+1)(k_rho+2)/6, k_v), one row per sorted index triple, is
+    computed once, so that T is symmetric in (a, b, p) bit for bit (w_ab = 2 scales exactly) and the C core
+    can keep W alone (fmu_src/rom_frozen.c, the symmetric refresh)."""
     k_r = U_rho.shape[1]
     pairs = pair_index(k_r)
+    triples, table = triple_index(k_r)
+    prods = U_rho[:, triples[:, 0]] * U_rho[:, triples[:, 1]] * U_rho[:, triples[:, 2]] * inv_rho0[:, None]
+    W = prods.T @ GU_v                                                         # (n_triples, k_v)
     weights = np.where(pairs[:, 0] == pairs[:, 1], 1.0, 2.0)
-    prods = U_rho[:, pairs[:, 0]] * U_rho[:, pairs[:, 1]] * (inv_rho0[:, None] * weights[None, :])  # (N, n_pairs)
-    scaled = U_rho.T[None, :, :] * prods.T[:, None, :]          # (n_pairs, k_r, N)
-    return np.ascontiguousarray(scaled @ GU_v)                   # (n_pairs, k_r, k_v)
+    rows = table[pairs[:, 0][:, None], pairs[:, 1][:, None], np.arange(k_r)[None, :]]   # (n_pairs, k_r)
+    return np.ascontiguousarray(W[rows] * weights[:, None, None])             # (n_pairs, k_r, k_v)
 
 
 def density_matrix(ops: ReducedOperators, a_rho):

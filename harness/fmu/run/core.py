@@ -75,6 +75,12 @@ class Core:
         lib.rom_max_steps_per_call.restype = ctypes.c_double
         lib.rom_step_work.argtypes = [vp]
         lib.rom_step_work.restype = ctypes.c_double
+        lib.rom_frozen_refresh.argtypes = [vp, ctypes.POINTER(ctypes.c_int), ctypes.POINTER(ctypes.c_int)]
+        lib.rom_frozen_refresh.restype = ctypes.c_int
+        lib.rom_frozen_set_refresh.argtypes = [vp, ctypes.c_int, ctypes.c_int, cp, sz]
+        lib.rom_frozen_set_refresh.restype = ctypes.c_int
+        lib.rom_set_initial_state_scale.argtypes = [vp, ctypes.c_double, cp, sz]
+        lib.rom_set_initial_state_scale.restype = ctypes.c_int
         lib.rom_set_dt.argtypes = [vp, ctypes.c_double, cp, sz]
         lib.rom_set_dt.restype = ctypes.c_int
         lib.rom_envelope_check.argtypes = [vp, cp, sz]
@@ -166,6 +172,26 @@ class CoreModel:
     @property
     def kind(self):
         return int(self.core.lib.rom_model_kind(self.model))
+
+    @property
+    def refresh(self):
+        """The frozen model's refresh (fmu_src/rom.h rom_frozen_refresh): ``path`` "tensor" or "symmetric" (the
+        tensor stored by its symmetry, the same bits; chosen at load by measured cost), ``skip`` whether a refresh
+        of unchanged inputs is skipped (the same bits)."""
+        path, skip = ctypes.c_int(), ctypes.c_int()
+        if self.core.lib.rom_frozen_refresh(self.model, ctypes.byref(path), ctypes.byref(skip)) != 0:
+            raise CoreError("the refresh: not a frozen-coefficient model")
+        return {"path": ("tensor", "symmetric")[path.value], "skip": bool(skip.value)}
+
+    def set_refresh(self, path=None, skip=None):
+        """Force the frozen model's refresh path ("tensor", "symmetric") and/or its skip (tests, benchmarks)."""
+        code = -1 if path is None else {"tensor": 0, "symmetric": 1}[path]
+        self._check(self.core.lib.rom_frozen_set_refresh(self.model, code, -1 if skip is None else int(bool(skip)),
+                                                         self._msg, MESSAGE_SIZE))
+
+    def set_initial_state_scale(self, scale):
+        """initial_state_scale (0: start at rest), before the first step (a reset sets it back to 1)."""
+        self._check(self.core.lib.rom_set_initial_state_scale(self.state, float(scale), self._msg, MESSAGE_SIZE))
 
     def advance(self, n_steps):
         """n_steps whole internal steps (with the runaway check)."""
