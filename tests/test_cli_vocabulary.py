@@ -12,6 +12,7 @@ import pytest
 from harness.cli import COMMANDS, build_parser, main, parse
 from harness.commands import options as opt
 from harness.errors import FieldError, UserError
+from harness.bench import PROGRAMS, run_program
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -95,6 +96,18 @@ def test_every_previous_option_still_exists(command):
     assert set(PREVIOUS_OPTIONS[command]) <= known, set(PREVIOUS_OPTIONS[command]) - known
 
 
+def _program_options(name, _cache={}):
+    """The options ``sphrom bench NAME --help`` lists (a program builds its parser inside its main)."""
+    if name not in _cache:
+        import contextlib
+        import io
+        out = io.StringIO()
+        with contextlib.redirect_stdout(out):
+            assert run_program(name, ["--help"], build_parser=build_parser) == 0
+        _cache[name] = set(re.findall(r"(?<![\w-])--[a-z][a-z-]*", out.getvalue()))
+    return _cache[name]
+
+
 def test_every_option_the_readme_names_parses():
     """Each ``--option`` in a README or docs line that starts with `sphrom COMMAND` is an option of that command."""
     parser = build_parser()
@@ -106,6 +119,9 @@ def test_every_option_the_readme_names_parses():
             if command not in parser.commands:
                 continue
             known = {o for a in parser.commands[command]._actions for o in a.option_strings}
+            program = re.match(r"\s+([a-z_]+)", rest)
+            if command == "bench" and program and program.group(1) in PROGRAMS:   # `sphrom bench NAME --option`
+                known |= _program_options(program.group(1))
             for option in re.findall(r"(?<![\w-])--[a-z][a-z-]*", re.split(r"&&|\s#\s", rest)[0]):
                 assert option in known, (command, option, line)
                 seen += 1
