@@ -95,7 +95,7 @@ static size_t kind_doubles(const RomModel *m) {
 }
 
 static size_t state_doubles(const RomModel *m, uint32_t version) {
-    return kind_doubles(m) + param_values(version) + port_values(m);
+    return kind_doubles(m) + param_values(version) + port_values(m) + rom_bound_state_doubles(m);
 }
 
 size_t rom_state_serialized_size_version(const RomModel *m, uint32_t version) {
@@ -129,6 +129,7 @@ void rom_state_serialize(const RomState *s, uint32_t tag, unsigned char *buffer)
     unsigned char *cursor = blocks_put(s, buffer + ROM_STATE_HEADER_SIZE);
     cursor = params_put(s, cursor);
     cursor = ports_put(s, cursor);
+    cursor = rom_bound_state_put(s, cursor);           /* the error bounds' shadow (rom_bound.c) */
     rom_put_u32(cursor, rom_crc32(buffer, size - 4));
 }
 
@@ -232,6 +233,7 @@ RomStatus rom_state_deserialize(RomState *s, const unsigned char *buffer, size_t
     s->dt = rom_get_f64(buffer + ST_DT);
     const unsigned char *cursor = blocks_get(s, buffer + ROM_STATE_HEADER_SIZE);
     cursor = params_get(s, rom_get_u32(buffer + 8), cursor);
-    (void)ports_get(s, cursor);
+    cursor = ports_get(s, cursor);
+    (void)rom_bound_state_get(s, cursor);
     return ROM_OK;
 }

@@ -209,6 +209,7 @@ def fmu_run(path, force_values, t, scale=None, interpolate=False):
     from fmpy.fmi1 import FMICallException
 
     from ..run.driver import FMU
+    from ..variables import members
     with FMU(path) as fmu:
         try:
             t0 = time.perf_counter()
@@ -218,8 +219,7 @@ def fmu_run(path, force_values, t, scale=None, interpolate=False):
         except FMICallException as exc:            # the FMU logged why
             raise RuntimeError("; ".join(fmu.errors()) or str(exc)) from None
         names = fmu.outputs
-    iv = [i for i, n in enumerate(names) if n.startswith("v_probe_")]
-    ir = [i for i, n in enumerate(names) if n.startswith("rho_probe_")]
+    iv, ir = members(names, "v_probe_j"), members(names, "rho_probe_j")
     return out[:, iv], out[:, ir], wall
 
 
