@@ -344,7 +344,8 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
     v_rows = list(range(P)) + list(range(3 * P, C.shape[0]))
     scale_v = float(scale_v) if scale_v is not None else float(np.max(np.abs(C[:P] @ x0)))
     allowed = target * max(scale_v, 1e-300)
-    training = np.max(G0[v_rows] + Hc[v_rows, :, 0] * variation, axis=0)            # (N + 1,)
+    forced = Hc[v_rows, :, 0] * variation if variation > 0 else 0.0                 # inf x 0: no force, no term
+    training = np.max(G0[v_rows] + forced, axis=0)                                  # (N + 1,)
     cuts = gap_cuts(sig)
     limit = max(1, max_order // 2)
     if order is not None:
