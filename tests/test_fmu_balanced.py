@@ -280,7 +280,7 @@ def test_fmu_balanced_command_prints_its_order_and_bounds(tmp_path, capsys):
     scene_file.write_text(dump_toml(scene_dict(scene_for("forced"))))
     out = tmp_path / "bal.fmu"
     assert main(["fmu", str(scene_file), "--model", "balanced", "--modes", str(R), "--out", str(out),
-                 "--quiet"]) == 0
+                 "--a-priori-bounds", "--quiet"]) == 0
     text = capsys.readouterr().out
     assert "balanced model" in text and f"order r = {R} (bt" in text
     assert "force_error_bound_j [s]" in text and "||f||_L2(0,T)" in text and "no shift" in text
