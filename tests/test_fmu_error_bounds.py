@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 
-from conftest import fmu_maker, fmu_scene
+from conftest import fmu_scene
 from harness.fmu.run.driver import FMU
 from harness.fmu.variables import members, vr
 
@@ -32,18 +32,25 @@ def forces(t):
 
 @pytest.fixture(scope="module")
 def make(tmp_path_factory):
-    return fmu_maker(tmp_path_factory.mktemp("bound-fmus"), "exact", k=6, probes=PROBES)
+    """make(model, fmi, case, ports) -> (path, data): the FMU of ``fmu_scene(case)`` (k = 6, without the a priori
+    bounds), packaged once."""
+    import zipfile
 
-
-@pytest.fixture(scope="module")
-def make_port(tmp_path_factory):
-    """A port FMU (exact, FMI 2) of the shrunk damped_forced scene."""
     from harness.fmu.make.build import ensure_binaries
     from harness.fmu.make.package import package_fmu
-    path = tmp_path_factory.mktemp("bound-port") / "exact-port.fmu"
-    package_fmu(fmu_scene("forced"), path, k=6, fmi=2, probes=PROBES, progress=False, binaries=ensure_binaries(),
-                model="exact", ports=PORTS)
-    return path
+    from harness.fmu.resources import unpack
+    folder, made = tmp_path_factory.mktemp("bound-fmus"), {}
+
+    def build(model="exact", fmi=2, case="forced", ports=None):
+        key = (model, fmi, case, ports)
+        if key not in made:
+            path = folder / f"{model}-{fmi}-{case}-{bool(ports)}.fmu"
+            package_fmu(fmu_scene(case), path, k=6, fmi=fmi, probes=PROBES, progress=False,
+                        binaries=ensure_binaries(), model=model, ports=ports, bounds=False)
+            made[key] = (path, unpack(zipfile.ZipFile(path).read("resources/model.bin")))
+        return made[key]
+
+    return build
 
 
 @functools.lru_cache(maxsize=None)
@@ -153,7 +160,7 @@ def test_bounds_undamped_and_fmi3(make):
     np.testing.assert_allclose(results[0], results[1], rtol=1e-12, atol=0)
 
 
-def test_bounds_port_spring(make_port):
+def test_bounds_port_spring(make):
     """A port closed by a spring (F = -k_s x_port, x_port integrated from v_port: a coupled component): the port
     velocity's bound and the probes' hold against the full SPH driven by the forces the FMU received."""
     case = "forced"
@@ -166,7 +173,7 @@ def test_bounds_port_spring(make_port):
         applied.append(-stiffness * position[0])
         return {"F_port_1": applied[-1]}
 
-    with FMU(make_port) as fmu:
+    with FMU(make(ports=PORTS)[0]) as fmu:
         names = fmu.outputs
         fmu.initialize(parameters={"initial_state_scale": 1.0}, inputs={"f": float(f[0])})
         out = fmu.simulate(t, {"f": f}, feedback=spring)
@@ -174,6 +181,29 @@ def test_bounds_port_spring(make_port):
     assert np.abs(F).max() > 0
     v, rho, v_port = truth(case, 1.0, f, ports=PORTS, port_forces=F)
     check(out, names, v, rho, v_port)
+
+
+def test_the_fmu_bounds_are_the_python_shadow(make):
+    """Two paths: the C core's bounds (fmu_src/rom_bound.c) equal harness/rom/bounds.py's run_shadow and
+    output_bounds on the same shadow, rebuilt from the scene (its sections equal the FMU's), to round-off."""
+    from harness.rom.bounds import fmu_shadow, output_bounds, run_shadow, sections
+    from harness.sph.solver import build_problem
+    path, data = make(model="exact")
+    shadow = fmu_shadow(build_problem(fmu_scene("forced")), PROBES, scale_v=float(np.max(data.sections["ENVPROBE"][1])))
+    for tag, value in sections(shadow).items():
+        np.testing.assert_allclose(data.sections[tag], value, rtol=1e-12, atol=1e-300, err_msg=tag)
+    t = np.arange(int(round(T / H)) + 1) * H
+    f = forces(t)["chirp"]
+    out, names, _ = run(path, 2.0, f, linear=True)
+    y, cert = run_shadow(shadow, np.full(t.size - 1, H), f[:-1, None], (np.diff(f) / H)[:, None], scale=2.0)
+    vb, rb, _ = output_bounds(shadow, y, cert, columns(out, names, "v_probe_j"), columns(out, names, "rho_probe_j"))
+    # the exponentials differ (C: Taylor, scipy: Pade) by round-off of the outputs (|model - shadow| is a
+    # difference of outputs), which the smallest bounds (1e-10) show
+    v, rho = columns(out, names, "v_probe_j"), columns(out, names, "rho_probe_j")
+    np.testing.assert_allclose(columns(out, names, "v_probe_j_error_bound"), vb, rtol=1e-9,
+                               atol=1e-13 * np.abs(v).max())
+    np.testing.assert_allclose(columns(out, names, "rho_probe_j_error_bound"), rb, rtol=1e-9,
+                               atol=1e-13 * np.abs(rho).max())
 
 
 def test_error_tolerance_warns_once_when_a_bound_exceeds_it(make):
@@ -217,22 +247,21 @@ def test_bounds_survive_a_state_round_trip(make):
     t = np.arange(int(round(T / H)) + 1) * H
     f = forces(t)["chirp"]
     refs = [vr("v_probe_j_error_bound", j) for j in (1, 2, 3)]
+
+    def steps(fmu, points):
+        bounds = []
+        for j in points:
+            fmu.set_input(f[j])
+            fmu.do_step(t[j], H)
+            bounds.append(fmu.get_real(refs))
+        return np.array(bounds)
+
     with FMU(path) as fmu:
         fmu.initialize(parameters={"initial_state_scale": 1.0})
-        for j in range(50):
-            fmu.set_input(f[j])
-            fmu.do_step(t[j], H)
+        steps(fmu, range(50))
         state = fmu.get_state()
-        first = []
-        for j in range(50, 80):
-            fmu.set_input(f[j])
-            fmu.do_step(t[j], H)
-            first.append(fmu.get_real(refs))
+        first = steps(fmu, range(50, 80))
         fmu.set_state(state)
-        second = []
-        for j in range(50, 80):
-            fmu.set_input(f[j])
-            fmu.do_step(t[j], H)
-            second.append(fmu.get_real(refs))
+        second = steps(fmu, range(50, 80))
         fmu.free_state(state)
-    np.testing.assert_array_equal(np.array(first), np.array(second))
+    np.testing.assert_array_equal(first, second)
