@@ -80,8 +80,8 @@ def test_fmpy_validates_and_simulates(fmus, fmi):
     md = fmpy.read_model_description(str(path))
     names = [v.name for v in md.modelVariables]
     assert names[:4 - (fmi == 2)] == (["f", "n_freeze", "dt"] if fmi == 2 else ["time", "f", "n_freeze", "dt"])
-    assert [n for n in names if "probe" in n] == ["v_probe_1", "v_probe_2", "v_probe_3",
-                                                  "rho_probe_1", "rho_probe_2", "rho_probe_3"]
+    assert [n for n in names if "probe" in n] == [f"{name}_{j}{bound}" for bound in ("", "_error_bound")
+                                                  for name in ("v_probe", "rho_probe") for j in (1, 2, 3)]
     assert md.coSimulation.modelIdentifier == "sphrom"
     assert md.coSimulation.canHandleVariableCommunicationStepSize
     assert md.coSimulation.canGetAndSetFMUstate and md.coSimulation.canSerializeFMUstate
