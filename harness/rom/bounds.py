@@ -580,14 +580,16 @@ def output_bounds(sh: Shadow, y, cert, v_model, rho_model, port_model=None):
 # ---------------------------------------------------------------------------------------------------------------
 
 TOLERANCE_FRACTION = 0.05   # error_tolerance's default: this x the training run's largest |v_probe| [m s^-1]
+FMU_MAX_PARTICLES = 2000    # above this N the FMU carries no shadow (its dense SVD would dominate the packaging)
 N_SCALARS = 12              # columns of section SHSCAL
 
 
 def fmu_shadow(problem, probes, ports=(), *, scale_v=None, force=None, T=None):
     """The shadow of an FMU's outputs, or None where the C core cannot certify it: a parametric model (not built
-    here) or a damping d that is not uniform (no invariant planes: the dense fallback is Python only)."""
+    here), a damping d that is not uniform (no invariant planes: the dense fallback is Python only), or more than
+    :data:`FMU_MAX_PARTICLES` particles (the dense singular value decomposition of the coupling)."""
     d = np.asarray(problem.d, float)
-    if not np.all(d == d[0]):
+    if not np.all(d == d[0]) or d.size > FMU_MAX_PARTICLES:
         return None
     return build_shadow(problem, probes, ports, scale_v=scale_v, force=force, T=T)
 
