@@ -152,18 +152,19 @@ def linear_bound(lin, scene, samples=4097):
 
 
 def _frozen_resource(scene, model, k, n_freeze, probes, integrator, progress, problem, order_tolerance=None,
-                     bounds=True, ports=(), build_options=None, extra_steps=()):
+                     bounds=True, ports=(), build_options=None, extra_steps=(), error_bounds=True):
     basis, run, problem = training_basis(scene, progress, problem, extra_steps)
     data, ops, problem, _ = reduced_model(scene, k, n_freeze, probes, integrator, progress=progress,
                                           problem=problem, model=model, ports=ports, build_options=build_options,
                                           made=(basis, run))
     data.sections.update(training_envelope(scene, ops, problem, probes, False, progress, run=run).sections())
-    shadow_step(data, problem, probes, ports)
+    if error_bounds:
+        shadow_step(data, problem, probes, ports)
     return data, ops, pack(data)
 
 
 def _linear_resource(scene, model, k, n_freeze, probes, integrator, progress, problem, order_tolerance=None,
-                     bounds=True, ports=(), build_options=None, extra_steps=()):
+                     bounds=True, ports=(), build_options=None, extra_steps=(), error_bounds=True):
     """Kind 2: the exact POD model (on its basis, with its training envelope) or the balanced model (no basis);
     both with the certified error bounds against the full linear SPH at the FMU's probes (the operators'
     ``error_bounds``; section BOUNDS: force, initial state), unless ``bounds`` is False (benchmarks that time
@@ -179,7 +180,8 @@ def _linear_resource(scene, model, k, n_freeze, probes, integrator, progress, pr
     else:
         data, ops, problem = balanced_model(scene, k, n_freeze, probes, order_tolerance=order_tolerance,
                                             problem=problem, model=model, build_options=build_options, ports=ports)
-    shadow_step(data, problem, probes, ports)
+    if error_bounds:
+        shadow_step(data, problem, probes, ports)
     if not bounds:
         return data, ops, pack_exact(data)
     data.bounds = linear_bounds(ops, problem, probes, progress=progress)
