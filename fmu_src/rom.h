@@ -73,15 +73,15 @@
  *   uint64   n (internal steps); uint32 n_freeze, 0; float64 time [s], f, dt [s]
  *            (112 bytes so far: ROM_STATE_HEADER_SIZE)
  *   float64  a_v[k_v], a_rho[k_rho] (kind 2: a, b), then the kind's block (kind 1: M^T rows [k_v][k_rho],
- *            F[k_v]; kind 2: X[k]), then t0 [s] and df/dt [m s^-3] (both kinds)
+ *            F[k_v]; kind 2: X[k]), then t0 [s] and df/dt [m s^-3] (both kinds), then with the error
+ *            bounds (sections SH*) the shadow w[k_s], the inputs' variation tv[m] and last values [m], the
+ *            integrals of |B_perp u| and |w|, the step count, started (0 or 1) (rom_bound.c)
  *   float64  the parameters a state carries: initial_state_scale (version 2: the exact model's
  *            free response is scaled by it at every step); version 3: then c [kg m^-1 s^-2] and
  *            d [s^-1] (a parametric model's values, restored with the state and the operators
  *            re-assembled from them; 0 and 0 in a model without section PARAMS)
  *   float64  with ports (both kinds): area, F_port[n_ports], port_driven (0 or 1; 0 in states written
  *            before it was kept, where the slot was reserved), dF_port/dt[n_ports]
- *   float64  with the error bounds (sections SH*): the shadow w[k_s], the inputs' variation tv[m] and last
- *            values [m], the integrals of |B_perp u| and |w|, the step count, started (0 or 1) (rom_bound.c)
  *   uint32   crc32 of every byte before it
  *
  * Version 2 (without c and d, 16 bytes shorter) is still read: such a state keeps the instance's own

@@ -26,7 +26,8 @@ static unsigned char *blocks_put(const RomState *s, unsigned char *cursor) {
     cursor = rom_put_f64s(cursor, s->ar, m->k_rho);
     cursor = m->ops->state_put(s, cursor);
     const double times[2] = {s->t0, s->f_rate};
-    return rom_put_f64s(cursor, times, 2);
+    cursor = rom_put_f64s(cursor, times, 2);
+    return rom_bound_state_put(s, cursor);             /* the error bounds' shadow (rom_bound.c) */
 }
 
 static const unsigned char *blocks_get(RomState *s, const unsigned char *cursor) {
@@ -38,7 +39,7 @@ static const unsigned char *blocks_get(RomState *s, const unsigned char *cursor)
     cursor = rom_get_f64s(cursor, times, 2);
     s->t0 = times[0];
     s->f_rate = times[1];
-    return cursor;
+    return rom_bound_state_get(s, cursor);
 }
 
 /* With ports, after the state's blocks: area, F_port[n_ports], port_driven (0 or 1; the slot was reserved and
@@ -91,11 +92,11 @@ static const unsigned char *params_get(RomState *s, uint32_t version, const unsi
 
 /* the blocks (blocks_put), in doubles */
 static size_t kind_doubles(const RomModel *m) {
-    return (size_t)m->k_v + m->k_rho + m->ops->state_doubles(m) + 2;
+    return (size_t)m->k_v + m->k_rho + m->ops->state_doubles(m) + 2 + rom_bound_state_doubles(m);
 }
 
 static size_t state_doubles(const RomModel *m, uint32_t version) {
-    return kind_doubles(m) + param_values(version) + port_values(m) + rom_bound_state_doubles(m);
+    return kind_doubles(m) + param_values(version) + port_values(m);
 }
 
 size_t rom_state_serialized_size_version(const RomModel *m, uint32_t version) {
@@ -129,7 +130,6 @@ void rom_state_serialize(const RomState *s, uint32_t tag, unsigned char *buffer)
     unsigned char *cursor = blocks_put(s, buffer + ROM_STATE_HEADER_SIZE);
     cursor = params_put(s, cursor);
     cursor = ports_put(s, cursor);
-    cursor = rom_bound_state_put(s, cursor);           /* the error bounds' shadow (rom_bound.c) */
     rom_put_u32(cursor, rom_crc32(buffer, size - 4));
 }
 
@@ -233,7 +233,6 @@ RomStatus rom_state_deserialize(RomState *s, const unsigned char *buffer, size_t
     s->dt = rom_get_f64(buffer + ST_DT);
     const unsigned char *cursor = blocks_get(s, buffer + ROM_STATE_HEADER_SIZE);
     cursor = params_get(s, rom_get_u32(buffer + 8), cursor);
-    cursor = ports_get(s, cursor);
-    (void)rom_bound_state_get(s, cursor);
+    (void)ports_get(s, cursor);
     return ROM_OK;
 }
