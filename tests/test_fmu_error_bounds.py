@@ -1,4 +1,4 @@
-"""The certified error-bound outputs (issue 23; harness/rom/bounds.py, fmu_src/rom_bound.c).
+"""The certified error-bound outputs (harness/rom/bounds.py, fmu_src/rom_bound.c): every output with its certified error at every step.
 
 The truth is computed here independently of every reduced model and of the shadow: the full SPH of eqs.
 2.10-2.11 as the linear system of :mod:`harness.rom.lti` (exactly linear in J), advanced exactly in time over each

@@ -268,18 +268,17 @@ def _quote(text):
 def main(argv=None):
     from ..measure.markdown import update_report
     from ..measure.tables import write_csv
+    from ..parser import positive_int
     from ..scene import builtin_names
     from . import program_parser
     p = program_parser("error_bounds", description=__doc__.split("\n\n")[0])
     p.add_argument("scenes", nargs="*", metavar="SCENE", help="default: every built-in scene")
     p.add_argument("--models", default="frozen,exact,balanced", metavar="M1,M2")
-    p.add_argument("--repeats", type=int, default=5, metavar="R")
+    p.add_argument("--repeats", type=positive_int, default=5, metavar="R")
     p.add_argument("--out", default="validation/benchmarks", metavar="FOLDER")
     p.add_argument("--report", default="BENCHMARKS.md", metavar="FILE.md")
     p.add_argument("--quiet", action="store_true")
     args = p.parse_args(argv)
-    if args.repeats < 1:
-        p.error(f"--repeats: {args.repeats} is out of range (allowed: an integer >= 1)")
     scenes = args.scenes or builtin_names()
     unknown = [s for s in scenes if s not in builtin_names()]
     if unknown:

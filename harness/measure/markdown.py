@@ -386,7 +386,8 @@ CARRIED = ("## The full SPH step: numba against a hand-written C stencil",
            "## The training envelope of the frozen FMU",
            "## The packaged FMU against the full SPH, every scene",
            "## Linear models: time against error",
-           "## A component at rest")
+           "## A component at rest",
+           "## Certified error bounds")        # sphrom bench error_bounds
 PACKAGED_HEADING = "## The packaged FMU against the full SPH, every scene"
 
 
