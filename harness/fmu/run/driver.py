@@ -251,9 +251,9 @@ class FMU:
         self.set_input_derivatives(["f"], [rate], order)
 
     def output_derivatives(self, order=1, names=None):
-        """d^order y/dt^order of the outputs ``names`` (default all, order of ``outputs``) at the FMU's time:
-        fmi2GetRealOutputDerivatives / fmi3GetOutputDerivatives."""
-        vrs = [self.vr[n] for n in (self.outputs if names is None else names)]
+        """d^order y/dt^order of the outputs ``names`` (default the model's outputs, :attr:`model_outputs`; the
+        error bounds have none) at the FMU's time: fmi2GetRealOutputDerivatives / fmi3GetOutputDerivatives."""
+        vrs = [self.vr[n] for n in (self.model_outputs if names is None else names)]
         orders = [int(order)] * len(vrs)
         if self.fmi == 2:
             return np.array(self.fmu.getRealOutputDerivatives(vrs, orders))
