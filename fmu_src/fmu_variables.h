@@ -24,6 +24,10 @@
 #define ROM_VR_AREA                             7u     /* parameter area [m2]; only with --ports */
 #define ROM_VR_F_PORT                           3000u  /* input F_port_j: 3000 + j - 1 [N]; only with --ports */
 #define ROM_VR_V_PORT                           4000u  /* output v_port_j: 4000 + j - 1 [m/s]; only with --ports */
+#define ROM_VR_ERROR_TOLERANCE                  10u    /* parameter error_tolerance [m/s]; FMUs with certified error bounds (uniform d, N <= 2000, not parametric) */
+#define ROM_VR_V_PROBE_ERROR_BOUND              7000u  /* output v_probe_j_error_bound: 7000 + j - 1 [m/s]; FMUs with certified error bounds (uniform d, N <= 2000, not parametric) */
+#define ROM_VR_RHO_PROBE_ERROR_BOUND            8000u  /* output rho_probe_j_error_bound: 8000 + j - 1 [kg/m3]; FMUs with certified error bounds (uniform d, N <= 2000, not parametric) */
+#define ROM_VR_V_PORT_ERROR_BOUND               9000u  /* output v_port_j_error_bound: 9000 + j - 1 [m/s]; with certified error bounds and --ports */
 
 /* constant start values (harness/defaults.py) */
 #define ROM_F_START 0.0   /* f */
@@ -52,6 +56,10 @@
     {.name = "d", .vr = ROM_VR_D, .count = COUNT_ONE, .type = TYPE_FLOAT64, .role = ROLE_FIXED, .present = rule_varied_d, .get_float64 = get_d, .set_float64 = set_d}, \
     {.name = "area", .vr = ROM_VR_AREA, .count = COUNT_ONE, .type = TYPE_FLOAT64, .role = ROLE_FIXED, .present = rule_ports, .get_float64 = get_area, .set_float64 = set_area, .has_start = 1, .start = ROM_AREA_START}, \
     {.name = "F_port_", .name_tail = "", .vr = ROM_VR_F_PORT, .count = COUNT_PER_PORT, .type = TYPE_FLOAT64, .role = ROLE_INPUT, .present = rule_ports, .get_float64 = get_port_force, .set_float64 = set_port_force, .set_rate = rom_set_port_rate, .has_start = 1, .start = ROM_F_PORT_START}, \
-    {.name = "v_port_", .name_tail = "", .vr = ROM_VR_V_PORT, .count = COUNT_PER_PORT, .type = TYPE_FLOAT64, .role = ROLE_OUTPUT, .present = rule_ports, .get_float64 = rom_v_port}
+    {.name = "v_port_", .name_tail = "", .vr = ROM_VR_V_PORT, .count = COUNT_PER_PORT, .type = TYPE_FLOAT64, .role = ROLE_OUTPUT, .present = rule_ports, .get_float64 = rom_v_port}, \
+    {.name = "error_tolerance", .vr = ROM_VR_ERROR_TOLERANCE, .count = COUNT_ONE, .type = TYPE_FLOAT64, .role = ROLE_FIXED, .present = rule_shadow, .get_float64 = get_error_tolerance, .set_float64 = set_error_tolerance}, \
+    {.name = "v_probe_", .name_tail = "_error_bound", .vr = ROM_VR_V_PROBE_ERROR_BOUND, .count = COUNT_PER_PROBE, .type = TYPE_FLOAT64, .role = ROLE_OUTPUT, .present = rule_shadow, .get_float64 = rom_v_probe_error_bound}, \
+    {.name = "rho_probe_", .name_tail = "_error_bound", .vr = ROM_VR_RHO_PROBE_ERROR_BOUND, .count = COUNT_PER_PROBE, .type = TYPE_FLOAT64, .role = ROLE_OUTPUT, .present = rule_shadow, .get_float64 = rom_rho_probe_error_bound}, \
+    {.name = "v_port_", .name_tail = "_error_bound", .vr = ROM_VR_V_PORT_ERROR_BOUND, .count = COUNT_PER_PORT, .type = TYPE_FLOAT64, .role = ROLE_OUTPUT, .present = rule_shadow_ports, .get_float64 = rom_v_port_error_bound}
 
 #endif /* SPHROM_FMU_VARIABLES_H */

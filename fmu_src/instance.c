@@ -368,6 +368,10 @@ static double get_initial_bound(const RomState *s, uint32_t j) { return bound_of
 SCALAR_GETTER(double, get_force_bound_max, largest_bound(s, 0))
 SCALAR_GETTER(double, get_initial_bound_max, largest_bound(s, 1))
 
+/* the certified error bounds (rom_bound.c): the warning's tolerance [m s^-1] */
+SCALAR_GETTER(double, get_error_tolerance, s->error_tolerance)
+SCALAR_SETTER(double, set_error_tolerance, rom_set_error_tolerance)
+
 /* parametric models: the stiffness c [kg m^-1 s^-2] and the damping d [s^-1], each only where it was varied */
 static RomStatus set_param_c(RomState *s, double value, char *message, size_t message_size) {
     return rom_set_param(s, ROM_PARAM_C, value, message, message_size);
@@ -397,6 +401,8 @@ static int rule_bounds(const Instance *inst) { return rom_model_section(inst->mo
 static int rule_varied_c(const Instance *inst) { return rom_varies(inst->model, ROM_PARAM_C); }
 static int rule_varied_d(const Instance *inst) { return rom_varies(inst->model, ROM_PARAM_D); }
 static int rule_ports(const Instance *inst) { return rom_n_ports(inst->model) > 0; }
+static int rule_shadow(const Instance *inst) { return rom_has_bounds(inst->model); }
+static int rule_shadow_ports(const Instance *inst) { return rule_shadow(inst) && rule_ports(inst); }
 
 /* The FMU's variables: the one place that maps value references onto the core, its rows generated into
  * fmu_variables.h from harness/fmu/variables.py (which also writes both modelDescriptions).  A family row
@@ -665,8 +671,15 @@ InstanceStatus instance_do_step(Instance *inst, const char *fn, double t_comm, d
     if (rom_do_step(inst->state, t_comm, h, inst->message, sizeof inst->message) != ROM_OK) {
         return instance_error(inst, fn, "%s", inst->message);
     }
-    /* the training envelope (rom_envelope.c): a warning, never an error, once per instance */
-    if (!inst->warned_envelope && rom_envelope_check(inst->state, inst->message, sizeof inst->message)) {
+    /* the error signal: with certified bounds, a bound above error_tolerance (rom_bound.c); without them, the
+     * training envelope (rom_envelope.c).  A warning, never an error, once per instance */
+    if (rom_has_bounds(inst->model)) {
+        if (!inst->warned_envelope && rom_bound_exceeded(inst->state, inst->message, sizeof inst->message)) {
+            inst->warned_envelope = 1;
+            instance_log(inst, INSTANCE_WARNING, INSTANCE_LOG_WARNING, "%s: %s (warned once per instance)", fn,
+                         inst->message);
+        }
+    } else if (!inst->warned_envelope && rom_envelope_check(inst->state, inst->message, sizeof inst->message)) {
         inst->warned_envelope = 1;
         instance_log(inst, INSTANCE_WARNING, INSTANCE_LOG_WARNING, "%s: %s; the frozen model may be inaccurate "
                      "there (warned once per instance)", fn, inst->message);

@@ -38,7 +38,7 @@ RomState *rom_state_new(const RomModel *model) {
     const size_t counts[2] = {model->kv_pad, model->kr_pad ? model->kr_pad : 1};
     double **ptrs[2] = {&s->av, &s->ar};
     s->storage_ = rom_alloc_arrays(counts, ptrs, 2);
-    if (!s->storage_ || model->ops->state_new(s) != ROM_OK) {
+    if (!s->storage_ || model->ops->state_new(s) != ROM_OK || rom_bound_state_new(s) != ROM_OK) {
         rom_state_free(s);
         return NULL;
     }
@@ -49,6 +49,7 @@ RomState *rom_state_new(const RomModel *model) {
 void rom_state_free(RomState *state) {
     if (!state) return;
     if (state->body && state->model->ops->state_free) state->model->ops->state_free(state);
+    rom_bound_state_free(state);
     free(state->storage_);
     free(state);
 }
@@ -81,6 +82,7 @@ void rom_state_reset(RomState *s, double t_start) {
     for (size_t j = 0; j < ROM_MAX_PORTS; j++) s->port_force[j] = s->port_rate[j] = 0.0;
     s->port_driven = 0.0;
     s->area = 1.0;                                             /* [m^2] */
+    rom_bound_reset(s);                                        /* the bounds' shadow, error_tolerance */
 }
 
 RomStatus rom_set_start_time(RomState *s, double t_start, char *message, size_t message_size) {
@@ -202,6 +204,7 @@ RomStatus rom_do_step(RomState *s, double t_comm, double h, char *message, size_
     }
     const RomStatus status = s->model->ops->step(s, t_comm, h, message, message_size);
     if (status != ROM_OK) return status;
+    rom_bound_step(s, h);                                           /* the bounds' shadow over the same inputs */
     s->time = t_comm + h;
     if (s->f_rate != 0.0) s->f = s->f + s->f_rate * h;              /* the input continues linearly */
     for (uint32_t j = 0; j < s->model->n_ports; j++) {              /* and the port forces */

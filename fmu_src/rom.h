@@ -18,6 +18,7 @@
  *   rom_resources.c resources/model.bin: the header, the tagged sections, the kind's body through its table
  *   rom_state_io.c  the serialized FMU state
  *   rom_envelope.c  the training envelope
+ *   rom_bound.c     the certified error bounds: the shadow of the full linear SPH, stepped with the model
  *   rom_bytes.c     little-endian numbers, CRC-32, the check both formats share, aligned arrays
  *   rom_fail.c      messages
  * What they share privately (the table of operations per model kind) is in rom_internal.h.
@@ -72,7 +73,9 @@
  *   uint64   n (internal steps); uint32 n_freeze, 0; float64 time [s], f, dt [s]
  *            (112 bytes so far: ROM_STATE_HEADER_SIZE)
  *   float64  a_v[k_v], a_rho[k_rho] (kind 2: a, b), then the kind's block (kind 1: M^T rows [k_v][k_rho],
- *            F[k_v]; kind 2: X[k]), then t0 [s] and df/dt [m s^-3] (both kinds)
+ *            F[k_v]; kind 2: X[k]), then t0 [s] and df/dt [m s^-3] (both kinds), then with the error
+ *            bounds (sections SH*) the shadow w[k_s], the inputs' variation tv[m] and last values [m], the
+ *            integrals of |B_perp u| and |w|, the step count, started (0 or 1) (rom_bound.c)
  *   float64  the parameters a state carries: initial_state_scale (version 2: the exact model's
  *            free response is scaled by it at every step); version 3: then c [kg m^-1 s^-2] and
  *            d [s^-1] (a parametric model's values, restored with the state and the operators
@@ -173,6 +176,27 @@ RomStatus rom_fail(char *message, size_t message_size, const char *format, ...)
 /* A model kind's table of operations (rom_internal.h): what the frozen and the linear models do differently */
 typedef struct RomKindOps RomKindOps;
 
+/* The certified error bounds' shadow (rom_bound.c; sections SHSCAL, SHLAM, SHB, SHC, SHW0, SHGRAM, SHROW,
+ * SHPROBE, written by harness/rom/bounds.py): the full linear SPH's lowest `planes` invariant planes, stepped
+ * exactly, and per output row r the certified bound of |row_r . (x - S w)| (docs/science/error-bounds.md).
+ * Rows: v at each probe, e at the two particles of each probe (P + 2 j + m), each port's velocity (3 P + j).
+ * Inputs: f [m s^-2], then F_j / area [N m^-2].  order 0: the model has no bounds. */
+typedef struct {
+    uint32_t order, planes, inputs, rows, n_tab;   /* k_s = 2 planes, m, 3 P + ports, table length */
+    double dt_tab;             /* [s] the envelope table's spacing: G(t_b), t_b = b dt_tab, valid for t >= t_b */
+    double y0_norm, x0_norm;   /* the initial state's part outside the shadow, the whole initial state */
+    double e_norm, b_norm;     /* the residual operator's norm (round-off), the shadow's input norm */
+    double mu;                 /* the largest growth rate of a plane (<= round-off: planes are dissipative) */
+    double tolerance;          /* error_tolerance's default [m s^-1] */
+    const double *lam;         /* [planes][4] each plane's 2 x 2 block */
+    const double *B;           /* [order][inputs] */
+    const double *C;           /* [rows][order] */
+    const double *w0;          /* [order] the shadow's initial state (initial_state_scale 1) */
+    const double *gram;        /* [inputs][inputs] B_perp^T B_perp */
+    const double *row;         /* [rows][1 + inputs + n_tab]: |c_r|, sup|H| per input (< 0: none), G(t_b) */
+    const double *probe;       /* [n_probes][4] the probe's weights and rho0 at its two particles */
+} RomBoundModel;
+
 /* The reduced model of one scene (immutable once loaded, but for rom_model_assemble).  What every kind has
  * is here; what one kind has is in its own struct behind body (rom_frozen.h RomFrozenModel, rom_exact.h
  * RomExactModel), reached through the kind's operations ops. */
@@ -198,6 +222,7 @@ typedef struct {
     const double *port_x;      /* [n_ports] positions x/L */
     const double *port_B;      /* [n_ports][input_width] */
     const double *port_C;      /* [n_ports][k_v] */
+    RomBoundModel bound;       /* the certified error bounds (order 0: none) */
 } RomModel;
 
 /* The mutable state of one instance: what every kind has, and the kind's own state behind body
@@ -229,6 +254,10 @@ typedef struct {
      * state holds a response the training run (without port forces) never saw, and the training
      * envelope checks only |f| and the failure strain (rom_envelope.c) */
     double port_driven;
+    /* the certified error bounds (rom_bound.c): the shadow's state (NULL without bounds), and the parameter
+     * error_tolerance [m s^-1] (0: no warning) */
+    void *bound;
+    double error_tolerance;
 } RomState;
 
 /* ---- resources ---------------------------------------------------------- */
@@ -377,6 +406,22 @@ ROM_API RomStatus rom_set_area(RomState *state, double area, char *message, size
 ROM_API RomStatus rom_set_port_rate(RomState *state, uint32_t j, double rate, char *message, size_t message_size);
 /* v_port_j = sum_q port_C[j][q] a^v_q [m s^-1] (NaN for a bad j) */
 ROM_API double rom_v_port(const RomState *state, uint32_t j);
+
+/* ---- certified error bounds (rom_bound.c) ----------------------------------- */
+/* 1 when the model carries the shadow of its error bounds (sections SH*), else 0 (NULL too) */
+ROM_API int rom_has_bounds(const RomModel *model);
+/* Certified upper bounds at the state's time of |output - truth|, the truth being the full linear SPH
+ * (eqs. 2.10-2.11 in J) integrated exactly from the same initial state with the same inputs (held, or linear
+ * with a rate): v_probe_j [m s^-1], rho_probe_j [kg m^-3] (INFINITY where the certified interval of J reaches 0),
+ * v_port_j [m s^-1].  NaN for a bad index or a model without bounds. */
+ROM_API double rom_v_probe_error_bound(const RomState *state, uint32_t j);
+ROM_API double rom_rho_probe_error_bound(const RomState *state, uint32_t j);
+ROM_API double rom_v_port_error_bound(const RomState *state, uint32_t j);
+/* error_tolerance [m s^-1]: finite and >= 0 (0: no warning) */
+ROM_API RomStatus rom_set_error_tolerance(RomState *state, double tolerance, char *message, size_t message_size);
+/* 1 when error_tolerance > 0 and the bound of a velocity output (v_probe_j, v_port_j) exceeds it; the message,
+ * when given, names the output, its bound, the tolerance and the time.  0 otherwise (no bounds too). */
+ROM_API int rom_bound_exceeded(const RomState *state, char *message, size_t message_size);
 
 ROM_API const char *rom_version(void);
 

@@ -43,7 +43,7 @@ static void matmul(size_t n, const double *restrict A, const double *restrict B,
 /* E = e^M (n x n, row-major) by scaling and squaring with a Taylor polynomial
  * (Horner form) on M / 2^s, ||M / 2^s||_1 <= 1/2.  X, T: n x n scratch.
  * Returns 0 when M or the result is not finite. */
-static int expm_taylor(size_t n, const double *M, double *E, double *X, double *T) {
+int rom_expm_taylor(size_t n, const double *M, double *E, double *X, double *T) {
     const double nrm = norm1(n, M);
     if (!isfinite(nrm)) return 0;
     int squarings = 0;
@@ -100,7 +100,7 @@ static RomExpCache *exact_maps(RomState *s, double h, char *message, size_t mess
     }
     for (size_t c = 0; c < ni; c++) M[(k + c) * n + k + ni + c] = 1.0;
     slot->h = 0.0;
-    if (!expm_taylor(n, M, E, X, T)) {
+    if (!rom_expm_taylor(n, M, E, X, T)) {
         rom_fail(message, message_size, "the matrix exponential for the step %g s is not finite (step too long for "
                  "this model)", h);
         return NULL;

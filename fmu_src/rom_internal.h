@@ -189,4 +189,19 @@ RomStatus rom_envelope_check_range(const RomModel *m, const RomSection *s, char 
 RomStatus rom_envelope_check_probe(const RomModel *m, const RomSection *s, char *message, size_t message_size);
 RomStatus rom_envelope_check_ports(const RomModel *m, const RomSection *s, char *message, size_t message_size);
 
+/* ---- rom_exact.c: the matrix exponential E = e^M (n x n; X, T scratch n x n); 0 when not finite ---- */
+int rom_expm_taylor(size_t n, const double *M, double *E, double *X, double *T);
+
+/* ---- rom_bound.c: the certified error bounds (rom.h) ---- */
+RomStatus rom_bound_check_section(const RomModel *m, const RomSection *s, char *message, size_t message_size);
+RomStatus rom_bound_prepare(RomModel *m, char *message, size_t message_size);   /* sizes of the SH* sections */
+RomStatus rom_bound_state_new(RomState *s);        /* s->bound (NULL without bounds) */
+void rom_bound_state_free(RomState *s);
+void rom_bound_reset(RomState *s);
+/* advance the shadow over the step from the state's inputs (before rom.c continues them) */
+void rom_bound_step(RomState *s, double h);
+size_t rom_bound_state_doubles(const RomModel *m);  /* in the serialized state, after the ports */
+unsigned char *rom_bound_state_put(const RomState *s, unsigned char *cursor);
+const unsigned char *rom_bound_state_get(RomState *s, const unsigned char *cursor);
+
 #endif /* SPHROM_ROM_INTERNAL_H */

@@ -235,6 +235,15 @@ static const SectionRule SECTION_RULES[] = {
     {"PORTX", "port positions x/L", check_port_x},
     {"PORTB", "port input rows (area 1)", check_port_rows},
     {"PORTC", "port velocity rows", check_port_rows},
+    {"SHSCAL", "error bounds: the shadow's sizes and scalars", rom_bound_check_section},
+    {"SHLAM", "error bounds: the shadow's planes", rom_bound_check_section},
+    {"SHB", "error bounds: the shadow's input columns", rom_bound_check_section},
+    {"SHC", "error bounds: the shadow's output rows", rom_bound_check_section},
+    {"SHW0", "error bounds: the shadow's initial state", rom_bound_check_section},
+    {"SHGRAM", "error bounds: the inputs' Gram matrix outside the shadow", rom_bound_check_section},
+    {"SHROW", "error bounds: per output row, its norm, input gains and initial-state envelope",
+     rom_bound_check_section},
+    {"SHPROBE", "error bounds: the probes' weights and rho0", rom_bound_check_section},
     {NULL, NULL, NULL},        /* end of the table */
 };
 
@@ -421,6 +430,7 @@ RomStatus rom_model_load_memory(const void *data, size_t size, RomModel **out, c
     RomStatus status = kind->load(m, payload, doubles, message, message_size);
     if (status == ROM_OK) status = read_sections(m, bytes, sections_start, n_sections, message, message_size);
     if (status == ROM_OK) status = ports_prepare(m, message, message_size);
+    if (status == ROM_OK) status = rom_bound_prepare(m, message, message_size);
     if (status != ROM_OK) {
         rom_model_free(m);
         return ROM_FAIL;

@@ -26,7 +26,8 @@ static unsigned char *blocks_put(const RomState *s, unsigned char *cursor) {
     cursor = rom_put_f64s(cursor, s->ar, m->k_rho);
     cursor = m->ops->state_put(s, cursor);
     const double times[2] = {s->t0, s->f_rate};
-    return rom_put_f64s(cursor, times, 2);
+    cursor = rom_put_f64s(cursor, times, 2);
+    return rom_bound_state_put(s, cursor);             /* the error bounds' shadow (rom_bound.c) */
 }
 
 static const unsigned char *blocks_get(RomState *s, const unsigned char *cursor) {
@@ -38,7 +39,7 @@ static const unsigned char *blocks_get(RomState *s, const unsigned char *cursor)
     cursor = rom_get_f64s(cursor, times, 2);
     s->t0 = times[0];
     s->f_rate = times[1];
-    return cursor;
+    return rom_bound_state_get(s, cursor);
 }
 
 /* With ports, after the state's blocks: area, F_port[n_ports], port_driven (0 or 1; the slot was reserved and
@@ -91,7 +92,7 @@ static const unsigned char *params_get(RomState *s, uint32_t version, const unsi
 
 /* the blocks (blocks_put), in doubles */
 static size_t kind_doubles(const RomModel *m) {
-    return (size_t)m->k_v + m->k_rho + m->ops->state_doubles(m) + 2;
+    return (size_t)m->k_v + m->k_rho + m->ops->state_doubles(m) + 2 + rom_bound_state_doubles(m);
 }
 
 static size_t state_doubles(const RomModel *m, uint32_t version) {

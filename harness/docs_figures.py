@@ -29,13 +29,13 @@ MODELS = {
     "frozen": ("POD-Galerkin with the density linearised (eq. 2.17) and the ρ² coefficient frozen between "
                "refreshes (eqs. 2.19-2.24): the paper's model",
                "explicit internal steps dt; the linearisation fails beyond a probe strain of about 0.04 "
-               "(the FMU warns); no error bound",
+               "(the FMU warns); its certified error bound includes the linearisation's",
                "you want the paper's model, or its `n_freeze` / `dt` knobs"),
     "exact": ("POD-Galerkin of the full SPH written in the specific volume, where it is exactly linear (eq. A.9): "
-              "no linearisation, exact in time (matrix exponential), any force along the profile kept exactly",
+              "no linearisation, exact in time (matrix exponential); each input's directions (rigid motion, static "
+              "deflection, in-band moments) in the basis",
               "linear in the specific volume only; error = the POD span's",
-              "a component in a system simulation: no internal step, input derivatives integrated exactly, "
-              "certified error bounds"),
+              "a component in a system simulation: no internal step, input derivatives integrated exactly"),
     "balanced": ("balanced truncation of the full linear SPH (2N states) for the FMU's probes; no POD basis",
                  "its default order serves a component at rest, not the training run's initial state "
                  "(see the training column)",

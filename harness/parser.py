@@ -13,3 +13,14 @@ class Parser(argparse.ArgumentParser):
         if message.startswith("argument "):        # "argument --probes: ..." -> "--probes: ..."
             message = message[len("argument "):]
         self.exit(2, f"{self.prog}: error: {' '.join(message.split())}\n")
+
+
+def positive_int(text):
+    """An option's value that must be an integer >= 1 (argparse names the option in its one-line error)."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} is out of range (allowed: an integer >= 1)")
+    return value

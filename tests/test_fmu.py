@@ -80,8 +80,8 @@ def test_fmpy_validates_and_simulates(fmus, fmi):
     md = fmpy.read_model_description(str(path))
     names = [v.name for v in md.modelVariables]
     assert names[:4 - (fmi == 2)] == (["f", "n_freeze", "dt"] if fmi == 2 else ["time", "f", "n_freeze", "dt"])
-    assert [n for n in names if "probe" in n] == ["v_probe_1", "v_probe_2", "v_probe_3",
-                                                  "rho_probe_1", "rho_probe_2", "rho_probe_3"]
+    assert [n for n in names if "probe" in n] == [f"{name}_{j}{bound}" for bound in ("", "_error_bound")
+                                                  for name in ("v_probe", "rho_probe") for j in (1, 2, 3)]
     assert md.coSimulation.modelIdentifier == "sphrom"
     assert md.coSimulation.canHandleVariableCommunicationStepSize
     assert md.coSimulation.canGetAndSetFMUstate and md.coSimulation.canSerializeFMUstate
@@ -511,11 +511,13 @@ def test_fmu_and_cosim_commands(scene_file, tmp_path, capsys):
                  "--initial-state-scale", "1", "--out", str(csv_out)]) == 0
     assert "wall time" in capsys.readouterr().out
     table = np.genfromtxt(csv_out, delimiter=",", names=True)
-    assert table.dtype.names == ("time", "v_probe_1", "v_probe_2", "rho_probe_1", "rho_probe_2")
+    model_names = ("v_probe_1", "v_probe_2", "rho_probe_1", "rho_probe_2")
+    assert table.dtype.names == ("time", *model_names, *(n + "_error_bound" for n in model_names))
+    assert all(np.all(table[n + "_error_bound"] >= 0) for n in model_names)
     assert table.shape[0] == 21 and table["time"][-1] == pytest.approx(0.2)
     t = np.arange(20) * 0.01
     tr, v, r = cosim_reference(data, [0.01] * 20, 0.02 * np.sin(2 * np.pi * t / 0.2))
-    got = np.column_stack([table[n] for n in table.dtype.names[1:]])
+    got = np.column_stack([table[n] for n in model_names])
     assert relative_residual(got, np.hstack([v, r])) <= RTOL
     # cosim with a CSV force and --n-freeze
     force_csv = tmp_path / "force.csv"

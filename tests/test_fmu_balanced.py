@@ -105,7 +105,7 @@ def test_frozen_fmu_has_no_bounds_and_bounds_cannot_be_set(fmus, tmp_path):
     path = tmp_path / "frozen.fmu"
     package_fmu(fmu_scene("forced"), path, k=K, fmi=2, probes=PROBES, progress=False, binaries=ensure_binaries())
     md = fmpy.read_model_description(str(path))
-    assert not [v for v in md.modelVariables if "error_bound" in v.name]
+    assert not [v for v in md.modelVariables if v.name.startswith(("force_error_bound", "initial_state_error_bound"))]
     with FMU(path) as s:
         s.initialize(initial_state_scale=1)
         with pytest.raises(FMICallException):
@@ -280,7 +280,7 @@ def test_fmu_balanced_command_prints_its_order_and_bounds(tmp_path, capsys):
     scene_file.write_text(dump_toml(scene_dict(scene_for("forced"))))
     out = tmp_path / "bal.fmu"
     assert main(["fmu", str(scene_file), "--model", "balanced", "--modes", str(R), "--out", str(out),
-                 "--quiet"]) == 0
+                 "--a-priori-bounds", "--quiet"]) == 0
     text = capsys.readouterr().out
     assert "balanced model" in text and f"order r = {R} (bt" in text
     assert "force_error_bound_j [s]" in text and "||f||_L2(0,T)" in text and "no shift" in text
@@ -357,5 +357,6 @@ def test_fmu_no_bounds_leaves_the_bound_variables_out(tmp_path, capsys):
     data = unpack(zipfile.ZipFile(out).read("resources/model.bin"))
     assert "BOUNDS" not in data.sections
     names = {v.name for v in fmpy.read_model_description(str(out)).modelVariables}
-    assert not any("error_bound" in n for n in names) and "v_probe_1" in names
+    assert not any(n.startswith(("force_error_bound", "initial_state_error_bound")) for n in names)
+    assert "v_probe_1" in names and "v_probe_1_error_bound" in names      # the per-step bounds stay
     assert "error bounds" not in capsys.readouterr().out

@@ -79,7 +79,7 @@ def test_exact_fmu_validates_and_declares_the_model(exact_fmus, fmi):
     assert b"fixedInternalStepSize" not in zipfile.ZipFile(path).read("modelDescription.xml")
     assert fmi == 2 or md.coSimulation.fixedInternalStepSize is None
     assert [v.name for v in md.modelVariables if v.causality == "output"] == \
-        [f"v_probe_{j}" for j in (1, 2, 3)] + [f"rho_probe_{j}" for j in (1, 2, 3)]
+        [f"{name}_{j}{bound}" for bound in ("", "_error_bound") for name in ("v_probe", "rho_probe") for j in (1, 2, 3)]
     _, unforced = exact_fmus("unforced", fmi)
     assert unforced.Q is not None and not unforced.damping       # d = 0: the Schur path
 

@@ -56,7 +56,7 @@ def run_fmu(path, steps, F, rates=None, f=None, f_rates=None, n_freeze=None):
     with FMU(path) as s:
         s.set_real([vr("area")], [AREA])
         s.initialize(n_freeze=n_freeze, initial_state_scale=1)
-        assert s.outputs[-2:] == ["v_port_1", "v_port_2"]
+        assert s.model_outputs[-2:] == ["v_port_1", "v_port_2"]
         out.append(s.output_values())
         tc = 0.0
         for n, h in enumerate(steps):

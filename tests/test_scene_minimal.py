@@ -44,7 +44,7 @@ def minimal(tmp_path_factory):
 
 def _csv(path):
     data = np.genfromtxt(path, delimiter=",", names=True)
-    probes = sorted(n for n in data.dtype.names if n.startswith("v_probe_"))
+    probes = sorted(n for n in data.dtype.names if n.startswith("v_probe_") and not n.endswith("_error_bound"))
     v = np.column_stack([data[n] for n in probes])
     rho = np.column_stack([data[n.replace("v_", "rho_")] for n in probes])
     return data["time"], v, rho

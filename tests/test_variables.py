@@ -37,7 +37,9 @@ K = 6
 # a change of the table that changes a value reference fails this test.
 CONTRACT = {"time": 0, "f": 1, "n_freeze": 2, "dt": 3, "initial_state_scale": 4, "c": 5, "d": 6, "area": 7,
             "force_error_bound": 8, "initial_state_error_bound": 9, "v_probe_j": 1000, "rho_probe_j": 2000,
-            "F_port_j": 3000, "v_port_j": 4000, "force_error_bound_j": 5000, "initial_state_error_bound_j": 6000}
+            "F_port_j": 3000, "v_port_j": 4000, "force_error_bound_j": 5000, "initial_state_error_bound_j": 6000,
+            "error_tolerance": 10, "v_probe_j_error_bound": 7000, "rho_probe_j_error_bound": 8000,
+            "v_port_j_error_bound": 9000}
 
 
 def test_generated_files_are_current():

@@ -86,6 +86,10 @@ PROGRAMS = {
                       "linear SPH exact in time", "measured: see the report", "prints a table; inputs.csv with --out"),
     "unseen_force": Program("harness.bench.unseen_force", "the FMUs under forces their basis never saw, against "
                             "the full SPH's forced response", "measured: see the report", "unseen_force.csv"),
+    "error_bounds": Program("harness.bench.error_bounds", "the certified error-bound outputs on every built-in "
+                            "scene: bound >= true error at every point, effectivity, doStep cost with and without "
+                            "them", "measured: see the report", "error_bounds.csv, error_bounds.png; a "
+                            "BENCHMARKS.md section"),
     "parametric": Program("harness.bench.parametric", "the parametric model at held-out (c, d) against the full SPH "
                           "and a model trained there", "not recorded", "CSV and a PNG map into --out"),
     "reduced_stability": Program("harness.bench.reduced_stability", "how close the reduced models' sound runs come "

@@ -25,7 +25,8 @@ REFERENCE_STEP = 1e-4
 
 def velocity_columns(result):
     """The v_probe_* columns of a CosimResult, (M, n_probes) [m s^-1]."""
-    cols = [i for i, name in enumerate(result.names) if name.startswith("v_probe_")]
+    from ..fmu.variables import members
+    cols = members(result.names, "v_probe_j")
     return result.values[:, cols]
 
 

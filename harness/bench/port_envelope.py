@@ -29,6 +29,7 @@ def fmu_run(path, scene, h, n, forces):
     from ..fmu.make.envelope import Envelope
     from ..fmu.resources import unpack
     from ..fmu.run.driver import FMU
+    from ..fmu.variables import members
     data = unpack(zipfile.ZipFile(path).read("resources/model.bin"))
     rho0 = Envelope.from_sections(data.sections, data.k_v).probe_rho0
     P = data.sections["PORTX"].shape[1]
@@ -37,7 +38,7 @@ def fmu_run(path, scene, h, n, forces):
     inputs = {"f": np.array([float(scene.force(x)) for x in t]), **{f"F_port_{j + 1}": F[:, j] for j in range(P)}}
     with FMU(path) as s:
         s.initialize(initial_state_scale=1)
-        rho_names = [name for name in s.outputs if name.startswith("rho_probe_")]
+        rho_names = [s.outputs[i] for i in members(s.outputs, "rho_probe_j")]
         y = s.simulate(t, inputs, outputs=[f"v_port_{j + 1}" for j in range(P)] + rho_names, steps=np.full(n, h),
                        stop_on_error=True)
         error = "" if len(y) == n + 1 else (s.errors() or ["doStep failed"])[-1]

@@ -293,16 +293,6 @@ def _integrators(text):
     return out
 
 
-def _positive_int(text):
-    try:
-        value = int(text)
-    except ValueError:
-        value = 0
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"{text!r} is out of range (allowed: an integer >= 1)")
-    return value
-
-
 def _checkout(text):
     if not (Path(text) / "harness" / "sph" / "loops.py").is_file():
         raise argparse.ArgumentTypeError(f"{text!r} is not a sphrom checkout (allowed: a folder with "
@@ -316,6 +306,7 @@ def main(argv=None):
     from ..measure.markdown import update_report
     from ..measure.tables import write_csv
 
+    from ..parser import positive_int
     from . import program_parser
     p = program_parser("sph_stencil", description=__doc__.split("\n\n")[0])
     p.add_argument("--scene", default="tenmode", help="scene whose fields, force and CFL number are used (default "
@@ -324,7 +315,7 @@ def main(argv=None):
                    help="particle counts (default 10000,100000)")
     p.add_argument("--integrators", type=_integrators, default=["euler", "symplectic", "rk4"], metavar="NAME,...",
                    help="out of euler, symplectic, rk4 (default all; the C step has the first two)")
-    p.add_argument("--repeats", type=_positive_int, default=7, help="repeats, the median kept (default %(default)s)")
+    p.add_argument("--repeats", type=positive_int, default=7, help="repeats, the median kept (default %(default)s)")
     p.add_argument("--before", type=_checkout, metavar="DIR", help="a checkout whose own step is timed in the same "
                                                                    "run")
     p.add_argument("--no-training", action="store_true", help="skip the training runs (run_sph of the scene)")

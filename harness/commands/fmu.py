@@ -48,13 +48,18 @@ def add_parser(sub):
                    help="reduced model: frozen (eqs. 2.19-2.24, internal dt; default), exact (the exact linear "
                         "model in the specific volume, advanced by the matrix exponential over each "
                         "communication step) or balanced (balanced reduction of the full linear SPH, no POD basis, "
-                        "the same C code as exact); the linear models carry certified error bounds; auto (needs "
+                        "the same C code as exact); every model reports a certified error bound per output at each "
+                        "communication step (docs/science/error-bounds.md); auto (needs "
                         "--tolerance) packages and measures every model and keeps the fastest whose "
                         "training-force error meets the tolerance")
+    p.add_argument("--a-priori-bounds", dest="bounds", action="store_true", default=False,
+                   help="linear models: also compute the a priori bounds (calculated parameters "
+                        "force_error_bound[_j], initial_state_error_bound[_j]: an H-infinity gain of the force "
+                        "channel from rest and the L2 error of the free response; dense solves of the full 2N "
+                        "linear system, growing about as N^3; sphrom fmu prints the time).  Off by default: every "
+                        "FMU already reports a certified bound of each output at every step")
     p.add_argument("--no-bounds", dest="bounds", action="store_false",
-                   help="linear models: do not compute the certified error bounds (they need the full 2N linear "
-                        "system, dense solves of 2N states: 2 s at N = 100 on damped_forced on an idle machine, "
-                        "growing about as N^3; sphrom fmu prints the time); the bound variables are then absent")
+                   help="without the a priori bounds (the default; kept for scripts that pass it)")
     p.add_argument("--no-verify", dest="verify", action="store_false",
                    help="skip the measurement against the full SPH (the documentation then says 'not measured')")
     p.add_argument("--vary", action="append", default=[], metavar="c=LO:HI|d=LO:HI",

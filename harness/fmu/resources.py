@@ -87,6 +87,15 @@ SECTION_TAGS: dict[str, str] = {          # tag -> what it holds (the C loader's
     "PORTX": "port positions x/L (1 x P)",
     "PORTB": "port input rows at area 1 (P x k_v frozen, P x k linear)",
     "PORTC": "port velocity rows (P x k_v)",
+    # the certified error bounds' shadow (harness/rom/bounds.py sections, fmu_src/rom_bound.c), all or none
+    "SHSCAL": "error bounds: the shadow's sizes and scalars",
+    "SHLAM": "error bounds: the shadow's planes",
+    "SHB": "error bounds: the shadow's input columns",
+    "SHC": "error bounds: the shadow's output rows",
+    "SHW0": "error bounds: the shadow's initial state",
+    "SHGRAM": "error bounds: the inputs' Gram matrix outside the shadow",
+    "SHROW": "error bounds: per output row, its norm, input gains and initial-state envelope",
+    "SHPROBE": "error bounds: the probes' weights and rho0",
 }
 MAX_PORTS = 4                              # fmu_src/rom.h ROM_MAX_PORTS
 _HEADER = struct.Struct("<8s10I3d")

@@ -89,6 +89,9 @@ RULES = {
     "varied_c": (lambda f: "c" in f.varied, "parametric FMU only, --vary c"),
     "varied_d": (lambda f: "d" in f.varied, "parametric FMU only, --vary d"),
     "ports": (lambda f: bool(f.positions.get("port")), "only with --ports"),
+    "shadow": (lambda f: "SHSCAL" in f.sections, "FMUs with certified error bounds (uniform d, N <= 2000, not parametric)"),
+    "shadow_ports": (lambda f: "SHSCAL" in f.sections and bool(f.positions.get("port")),
+                     "with certified error bounds and --ports"),
 }
 
 # families: name -> (what j counts, the C count)
@@ -232,6 +235,28 @@ VARIABLES = (
              "[m s^-1]",
              "sum_i W(x_i - x_j, h) v_i dx, power-conjugate to F_port_j",
              family="port", get="rom_v_port"),
+    Variable("error_tolerance", 10, "Float64", "parameter", "fixed", "exact", "shadow", "Velocity",
+             "a logStatusWarning (once) when the certified error bound of a velocity output (v_probe_j, v_port_j) "
+             "first exceeds this; 0: no warning (default: 5 % of the training run's largest |v_probe|) [m s^-1]",
+             "warn once when a velocity output's certified error bound exceeds this; 0: never",
+             get="get_error_tolerance", set="set_error_tolerance", min=0,
+             start=From("error_tolerance", "5 % of the training run's largest |v_probe|")),
+    Variable("v_probe_{j}_error_bound", 7000, "Float64", "output", "continuous", "calculated", "shadow", "Velocity",
+             "certified upper bound of |v_probe_{j} - v_true| now (x/L = {x}), v_true the full linear SPH "
+             "(eqs. 2.10-2.11 in J) integrated exactly from the same initial state with the same inputs [m s^-1]",
+             "certified bound of |v_probe_j - truth|, the truth the full linear SPH run exactly on the same inputs",
+             family="probe", get="rom_v_probe_error_bound", min=0),
+    Variable("rho_probe_{j}_error_bound", 8000, "Float64", "output", "continuous", "calculated", "shadow",
+             "Density",
+             "certified upper bound of |rho_probe_{j} - rho_true| now (x/L = {x}), likewise; infinite where the "
+             "certified interval of J reaches 0 [kg m^-3]",
+             "certified bound of |rho_probe_j - truth|, likewise",
+             family="probe", get="rom_rho_probe_error_bound", min=0),
+    Variable("v_port_{j}_error_bound", 9000, "Float64", "output", "continuous", "calculated", "shadow_ports",
+             "Velocity",
+             "certified upper bound of |v_port_{j} - v_port_true| now (x/L = {x}), likewise [m s^-1]",
+             "certified bound of |v_port_j - truth|, likewise",
+             family="port", get="rom_v_port_error_bound", min=0),
 )
 
 BY_NAME = {v.display: v for v in VARIABLES}
@@ -277,6 +302,13 @@ def lookup(name):
         if m:
             return row, int(m.group(1))
     return None, None
+
+
+def members(names, name):
+    """The indices of ``names`` (FMI names) that are members of the family ``name`` (as documented: ``v_probe_j``
+    holds v_probe_2, not v_probe_2_error_bound), in their order."""
+    row = BY_NAME[name]
+    return [i for i, n in enumerate(names) if lookup(n)[0] is row]
 
 
 def vr_text(row):
@@ -520,7 +552,7 @@ def table_markdown():
              "| --- | --- | --- | --- | --- | --- |"]
     for row in VARIABLES:
         what = ", ".join(w for w in (row.causality, row.variability if row.causality != "independent" else "",
-                                     row.initial, _start_words(row)) if w)
+                                     row.initial, _start_words(row)) if w).replace("|", chr(92) + "|")
         unit = UNITS[row.unit][1] if row.unit else "–"
         lines.append(f"| `{row.display}` [{vr_text(row)}] | {what} | {_fmi_types(row)} | {unit} | "
                      f"{RULES[row.rule][1]} | {row.summary.replace('|', chr(92) + '|')} |")

@@ -397,7 +397,8 @@ CARRIED = ("## The full SPH step: numba against a hand-written C stencil",
            "## Linear models: time against error",
            "## A component at rest",
            "## Scale: the balanced model and its bounds to N = 10⁴",
-           "## Fast end to end: before and after")
+           "## Fast end to end: before and after",
+           "## Certified error bounds")        # sphrom bench error_bounds
 PACKAGED_HEADING = "## The packaged FMU against the full SPH, every scene"
 
 

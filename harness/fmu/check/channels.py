@@ -61,6 +61,7 @@ def measure_channels(path, scene, ports=(), problem=None, progress=False):
     from ...expr import compile_expr
     from ...norms import relative_l2
     from ...progress import progress_bar
+    from ..variables import members
     from ...scene import derive_scene
     from ...sph.ports import run_sph_ports
     from ...sph.solver import build_problem, run_sph
@@ -102,8 +103,7 @@ def measure_channels(path, scene, ports=(), problem=None, progress=False):
                     y = fmu.simulate(t, inputs, stop_on_error=True)
                     names = fmu.outputs
                     errors = fmu.errors()
-                cols = ([i for i, n in enumerate(names) if n.startswith("v_probe_")] if j is None
-                        else [names.index(output)])
+                cols = members(names, "v_probe_j") if j is None else [names.index(output)]
                 got = y[:, cols]
                 if got.shape[0] < t.size:
                     err, note = float("inf"), "; ".join(errors) or "the FMU stopped"

@@ -69,6 +69,8 @@ class CaseResult:
         Wall times [s] of one FMU run and one full SPH run over T.
     note : str
         The FMU's error message when it failed, else ''.
+    fmu_v_bound : ndarray (M, P) or None
+        The FMU's certified bounds of its probe velocities (``v_probe_j_error_bound``; None without them).
     """
 
     name: str
@@ -86,6 +88,7 @@ class CaseResult:
     sph_s: float
     note: str = ""
     max_drho: float = float("nan")
+    fmu_v_bound: np.ndarray | None = None
 
     @property
     def speedup(self):
@@ -198,17 +201,19 @@ def sph_reference(scene, force, scale, step, probes, problem=None):
     return t, v, rho, rho0, run.wall_time
 
 
-def fmu_run(path, force_values, t, scale=None, interpolate=False):
+def fmu_run(path, force_values, t, scale=None, interpolate=False, bounds=False):
     """Run the FMU over the communication points ``t`` with f = ``force_values`` there (the FMU driver).
 
     Returns (v (M, P), rho (M, P), wall time [s]).  ``scale`` sets ``initial_state_scale`` (None: the FMU does
     not have it); ``interpolate`` passes df/dt to the next point (fmi2SetRealInputDerivatives).  The time is
     initialization and the loop (every set input, doStep and output read).  Raises RuntimeError with the FMU's
-    logged reason when a call fails.
+    logged reason when a call fails.  ``bounds``: a fourth element, the FMU's v_probe_j_error_bound (M, P), or None
+    when it has none.
     """
     from fmpy.fmi1 import FMICallException
 
     from ..run.driver import FMU
+    from ..variables import members
     with FMU(path) as fmu:
         try:
             t0 = time.perf_counter()
@@ -218,8 +223,9 @@ def fmu_run(path, force_values, t, scale=None, interpolate=False):
         except FMICallException as exc:            # the FMU logged why
             raise RuntimeError("; ".join(fmu.errors()) or str(exc)) from None
         names = fmu.outputs
-    iv = [i for i, n in enumerate(names) if n.startswith("v_probe_")]
-    ir = [i for i, n in enumerate(names) if n.startswith("rho_probe_")]
+    iv, ir, ib = members(names, "v_probe_j"), members(names, "rho_probe_j"), members(names, "v_probe_j_error_bound")
+    if bounds:
+        return out[:, iv], out[:, ir], wall, (out[:, ib] if ib else None)
     return out[:, iv], out[:, ir], wall
 
 
@@ -286,9 +292,10 @@ def verify_fmu(path, scene, probes, refs=None, problem=None, progress=False):
     for name, (force, scale, start, (t, sph_v, sph_rho, rho0, sph_s)) in refs.items():
         expr = compile_expr(force, ("t", "L", "T"), "force")
         f = np.broadcast_to(expr(t=t, L=scene.L, T=scene.T), t.shape).astype(float)
-        note = ""
+        note, v_bound = "", None
         try:
-            v, rho, fmu_s = fmu_run(path, f, t, scale=scale if has_scale else None, interpolate=interpolate)
+            v, rho, fmu_s, v_bound = fmu_run(path, f, t, scale=scale if has_scale else None, interpolate=interpolate,
+                                             bounds=True)
             err_v, err_rho, max_drho = case_errors(v, rho, sph_v, sph_rho, rho0, t)
         except RuntimeError as exc:
             v = rho = np.full_like(sph_v, np.nan)
@@ -296,7 +303,8 @@ def verify_fmu(path, scene, probes, refs=None, problem=None, progress=False):
             fmu_s, note = float("nan"), f"the FMU failed: {exc}"
         result.cases.append(CaseResult(name=name, force=_readable(force), start=start, t=t, fmu_v=v, fmu_rho=rho,
                                        sph_v=sph_v, sph_rho=sph_rho, rho0=rho0, err_v=err_v, err_rho=err_rho,
-                                       fmu_s=fmu_s, sph_s=sph_s, note=note, max_drho=max_drho))
+                                       fmu_s=fmu_s, sph_s=sph_s, note=note, max_drho=max_drho,
+                                       fmu_v_bound=v_bound))
     return result
 
 
@@ -305,7 +313,8 @@ def _readable(force):
 
 
 def probes_png(verification, title="") -> bytes:
-    """documentation/probes.png: FMU (dashed) against the full SPH (solid) probe velocity, one panel per case."""
+    """documentation/probes.png: FMU (dashed) against the full SPH (solid) probe velocity, one panel per case; with
+    the FMU's certified bounds, the band FMU ± bound (against the full linear SPH: docs/science/error-bounds.md)."""
     import io
 
     import matplotlib
@@ -320,6 +329,9 @@ def probes_png(verification, title="") -> bytes:
             colour = colours[j % len(colours)]
             ax.plot(c.t, c.sph_v[:, j], color=colour, lw=1.2, label=f"full SPH, x/L = {x:g}")
             ax.plot(c.t, c.fmu_v[:, j], color=colour, lw=1.2, ls="--", label=f"FMU, x/L = {x:g}")
+            if c.fmu_v_bound is not None:
+                ax.fill_between(c.t, c.fmu_v[:, j] - c.fmu_v_bound[:, j], c.fmu_v[:, j] + c.fmu_v_bound[:, j],
+                                color=colour, alpha=0.2, lw=0, label="FMU ± certified bound" if j == 0 else None)
         ax.set_ylabel("v [m/s]")
         ax.set_title(f"{c.name} force: f = {c.force} from {c.start}; v error {c.err_v:.2g}", fontsize=9)
         ax.grid(alpha=0.3)

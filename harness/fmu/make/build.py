@@ -29,7 +29,8 @@ BUILD_TYPE = "Release"
 # fmu_src/ files an FMU carries in sources/ (harness/fmu/make/package.py; its C files are the modelDescription's
 # <SourceFiles> in FMI 2 and buildDescription.xml's in FMI 3, harness/fmu/make/describe.py)
 CORE_SOURCES = ("rom.h", "rom_internal.h", "rom_frozen.h", "rom_exact.h", "rom.c", "rom_resources.c",
-                "rom_state_io.c", "rom_bytes.c", "rom_frozen.c", "rom_exact.c", "rom_fail.c", "rom_envelope.c")
+                "rom_state_io.c", "rom_bytes.c", "rom_frozen.c", "rom_exact.c", "rom_fail.c", "rom_envelope.c",
+                "rom_bound.c")
 INSTANCE_SOURCES = ("instance.h", "fmu_variables.h", "instance.c")
 
 

@@ -172,6 +172,9 @@ def variable_values(fmi, scene, data, envelope, bounds):
         values["probe"].update(fb=[f"{x:.6g}" for x in fb], ib=[f"{x:.6g}" for x in ib])
         values.update(fb_max=f"{max(fb):.6g}", ib_max=f"{max(ib):.6g}",
                       what=bound_text(bounds) if bounds is not None else "certified against the full linear SPH")
+    shadow = getattr(data, "sections", {}).get("SHSCAL")
+    if shadow is not None:                        # error_tolerance's default (harness/rom/bounds.py sections)
+        values["error_tolerance"] = float(shadow[0, 10])
     params = getattr(data, "sections", {}).get("PARAMS")
     if params is not None:
         from ...rom.parametric import PARAMETERS

@@ -152,17 +152,19 @@ def linear_bound(lin, scene, samples=4097):
 
 
 def _frozen_resource(scene, model, k, n_freeze, probes, integrator, progress, problem, order_tolerance=None,
-                     bounds=True, ports=(), build_options=None, extra_steps=()):
+                     bounds=True, ports=(), build_options=None, extra_steps=(), error_bounds=True):
     basis, run, problem = training_basis(scene, progress, problem, extra_steps)
     data, ops, problem, _ = reduced_model(scene, k, n_freeze, probes, integrator, progress=progress,
                                           problem=problem, model=model, ports=ports, build_options=build_options,
                                           made=(basis, run))
     data.sections.update(training_envelope(scene, ops, problem, probes, False, progress, run=run).sections())
+    if error_bounds:
+        shadow_step(data, problem, probes, ports)
     return data, ops, pack(data)
 
 
 def _linear_resource(scene, model, k, n_freeze, probes, integrator, progress, problem, order_tolerance=None,
-                     bounds=True, ports=(), build_options=None, extra_steps=()):
+                     bounds=True, ports=(), build_options=None, extra_steps=(), error_bounds=True):
     """Kind 2: the exact POD model (on its basis, with its training envelope) or the balanced model (no basis);
     both with the certified error bounds against the full linear SPH at the FMU's probes (the operators'
     ``error_bounds``; section BOUNDS: force, initial state), unless ``bounds`` is False (benchmarks that time
@@ -178,11 +180,26 @@ def _linear_resource(scene, model, k, n_freeze, probes, integrator, progress, pr
     else:
         data, ops, problem = balanced_model(scene, k, n_freeze, probes, order_tolerance=order_tolerance,
                                             problem=problem, model=model, build_options=build_options, ports=ports)
+    if error_bounds:
+        shadow_step(data, problem, probes, ports)
     if not bounds:
         return data, ops, pack_exact(data)
     data.bounds = linear_bounds(ops, problem, probes, progress=progress)
     data.sections["BOUNDS"] = np.vstack([data.bounds["force_error_bound"], data.bounds["initial_state_error_bound"]])
     return data, ops, pack_exact(data)
+
+
+def shadow_step(data, problem, probes, ports=()):
+    """The certified error bounds' shadow of every output into ``data.sections`` (SH*, :mod:`harness.rom.bounds`;
+    the FMU's outputs ``*_error_bound`` and parameter ``error_tolerance``), its default tolerance from the training
+    run's largest |v_probe| (section ENVPROBE; without it the initial state's); nothing where the C core cannot
+    certify (a damping d that is not uniform)."""
+    from ...rom.bounds import fmu_shadow, sections
+    envelope = data.sections.get("ENVPROBE")
+    scale_v = float(np.max(envelope[1])) if envelope is not None else None
+    shadow = fmu_shadow(problem, probes, tuple(ports or ()), scale_v=scale_v)
+    if shadow is not None:
+        data.sections.update(sections(shadow))
 
 
 # model_kind of resources/model.bin (ReducedModel.fmu_kind) -> the FMU's numbers and their bytes

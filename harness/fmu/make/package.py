@@ -108,7 +108,7 @@ class FMUSummary:
 def package_fmu(scene, out, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaults.PROBES, fmi=2, integrator=None,
                 step_size=None, progress=True, binaries=None, problem=None, model="frozen", verify=False,
                 tolerance=None, references=None, bounds=True, vary=(), ports=None, order_tolerance=None,
-                build_options=None) -> FMUSummary:
+                build_options=None, error_bounds=True) -> FMUSummary:
     """Build the FMU of ``scene`` at ``out`` (atomically) and validate it.
 
     Parameters
@@ -149,8 +149,12 @@ def package_fmu(scene, out, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaul
         ``b="paper"``: eq. 2.22's b instead of the rest-consistent one).
     references : dict, optional
         :func:`harness.fmu.check.verify.references` computed before (several models of one scene).
+    error_bounds : bool
+        Every model: the certified error bound of each output at every step (default; sections SH*,
+        :mod:`harness.rom.bounds`, docs/science/error-bounds.md).  False leaves them out: the FMU then warns on
+        leaving its training envelope instead (tests of that envelope, cost comparisons).
     bounds : bool
-        Linear models: compute and declare the certified error bounds (default;
+        Linear models: compute and declare the a priori error bounds (default;
         seconds to minutes at N = 400).  False leaves them out (benchmarks that
         time the stepping only).
     vary : sequence of harness.rom.parametric.Range
@@ -178,6 +182,7 @@ def package_fmu(scene, out, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaul
     step = step_size if step_size is not None else min(defaults.STEP, scene.T / 10)
     data, ops, blob, parameters = model_step(scene, model, k, n_freeze, probes, integrator, progress, problem,
                                              vary=vary, ports=ports, bounds=bounds, order_tolerance=order_tolerance,
+                                             error_bounds=error_bounds,
                                              build_options=build_options,
                                              extra_steps=verification_steps(scene, step, verify))
     timings["model"] = time.perf_counter() - t0
@@ -213,7 +218,7 @@ def package_fmu(scene, out, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaul
 
 
 def model_step(scene, model, k, n_freeze, probes, integrator, progress, problem, *, vary, ports, bounds,
-               order_tolerance, build_options, extra_steps=()):
+               order_tolerance, build_options, extra_steps=(), error_bounds=True):
     """Step 2: (data, operators, resources/model.bin bytes, the parametric FMU's parameter rows) of ``model``:
     the resource kind's function (:data:`.models.RESOURCES`), or the parametric model over ``vary``."""
     from ...rom.registry import get_model
@@ -221,6 +226,7 @@ def model_step(scene, model, k, n_freeze, probes, integrator, progress, problem,
         data, ops, blob = RESOURCES[get_model(model).fmu_kind](scene, model, k, n_freeze, probes, integrator,
                                                                   progress, problem, order_tolerance=order_tolerance,
                                                                   bounds=bounds, ports=ports,
+                                                                  error_bounds=error_bounds,
                                                                   build_options=build_options,
                                                                   extra_steps=extra_steps)
         return data, ops, blob, []

@@ -151,6 +151,8 @@ class FMU:
         self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
         self.inputs = [v.name for v in self.md.modelVariables if v.causality == "input"]
         self.outputs = [v.name for v in self.md.modelVariables if v.causality == "output"]
+        # the model's outputs (v_probe_j, rho_probe_j, v_port_j): every output but the certified error bounds
+        self.model_outputs = [n for n in self.outputs if not n.endswith("_error_bound")]
         token = token or (self.md.guid if self.fmi == 2 else self.md.instantiationToken)
         t0 = time.perf_counter()
         self.fmu = load_fmu(self.fmi, self.unzipdir, token, name)
@@ -280,9 +282,9 @@ class FMU:
         self.set_input_derivatives(["f"], [rate], order)
 
     def output_derivatives(self, order=1, names=None):
-        """d^order y/dt^order of the outputs ``names`` (default all, order of ``outputs``) at the FMU's time:
-        fmi2GetRealOutputDerivatives / fmi3GetOutputDerivatives."""
-        vrs = [self.vr[n] for n in (self.outputs if names is None else names)]
+        """d^order y/dt^order of the outputs ``names`` (default the model's outputs, :attr:`model_outputs`; the
+        error bounds have none) at the FMU's time: fmi2GetRealOutputDerivatives / fmi3GetOutputDerivatives."""
+        vrs = [self.vr[n] for n in (self.model_outputs if names is None else names)]
         orders = [int(order)] * len(vrs)
         if self.fmi == 2:
             return np.array(self.fmu.getRealOutputDerivatives(vrs, orders))
@@ -296,8 +298,8 @@ class FMU:
             self.fmu.doStep(t, h)
 
     def output_values(self, names=None):
-        """The outputs ``names`` (default all, order of ``outputs``)."""
-        return self.get_real([self.vr[n] for n in (self.outputs if names is None else names)])
+        """The outputs ``names`` (default the model's outputs, :attr:`model_outputs`, in their order)."""
+        return self.get_real([self.vr[n] for n in (self.model_outputs if names is None else names)])
 
     def time(self):
         """The FMU's time [s]: FMI 3 ``time``, FMI 2 the last successful time."""
@@ -408,8 +410,9 @@ class FMU:
         return ys[:reached + 1]
 
     def run(self, steps, inputs, t0=0.0):
-        """Communication steps of lengths ``steps`` [s] with the inputs f = ``inputs`` held; all outputs at every
-        point (incl. t0)."""
+        """Communication steps of lengths ``steps`` [s] with the inputs f = ``inputs`` held; the model's outputs
+        (:attr:`model_outputs`: v_probe_j, rho_probe_j, v_port_j, not their error bounds) at every point (incl.
+        t0)."""
         steps = np.asarray(steps, dtype=float)
         times = np.empty(steps.size + 1)
         times[0] = t = t0
@@ -417,7 +420,7 @@ class FMU:
             t = t + h
             times[j + 1] = t
         f = np.append(np.asarray(inputs, dtype=float), 0.0)
-        return self.simulate(times, {"f": f}, steps=steps)
+        return self.simulate(times, {"f": f}, steps=steps, outputs=self.model_outputs)
 
     # -- FMU state -------------------------------------------------------------
     def get_state(self):

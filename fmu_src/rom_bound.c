@@ -1,0 +1,397 @@
+/*
+ * The certified error bounds of every output (harness/rom/bounds.py builds the data; docs/science/error-bounds.md
+ * derives them).  The truth is the full SPH of eqs. 2.10-2.11, exactly linear in J, in energy coordinates
+ * x' = A x + B u from x(0) = s x0 (s = initial_state_scale).  With uniform damping A has invariant planes (one
+ * per singular triplet of the coupling); the shadow keeps the lowest ones, w' = Lambda w + S^T B u, stepped here
+ * exactly (each plane by the exponential of its augmented matrix, cached per step length), and per output row r
+ *
+ *   |row_r . x(t) - C_r . w(t)| <= |s| min(G_r(t_b), |c_r| |y0|)                    (the rest's free response)
+ *                                 + min(sum_i sup|H_ri| V_i(u), |c_r| int |B_perp u|)  (the rest's forced response)
+ *                                 + |c_r| |E| int |w|                                (round-off of the planes)
+ *                                 + |c_r| (1e-9 + 1e-15 n) (|w| + |s| |x0|)         (floating point)
+ *
+ * V_i(u) = |u_i(0)| + the total variation of u_i.  An output's bound is |model - shadow| + that (the density
+ * through rho = sum_m pw rho0 / (1 + e_m), harness/rom/bounds.py output_bounds).  O(k_s (m + 1)) per doStep,
+ * no N.  The same arithmetic as harness/rom/bounds.py run_shadow (not bit for bit: a bound, compared within
+ * tolerances).
+ */
+#include "rom_internal.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+
+#define BOUND_ROUNDOFF 1e-9            /* harness/rom/bounds.py ROUNDOFF */
+#define BOUND_ROUNDOFF_STEP 1e-15      /* ... ROUNDOFF_STEP */
+#define BOUND_CACHE 2                  /* step lengths whose plane maps are kept */
+#define BOUND_MAX_INPUTS (1u + ROM_MAX_PORTS)
+#define BOUND_SCALARS 12u              /* columns of SHSCAL (harness/rom/bounds.py N_SCALARS) */
+
+typedef struct {
+    double h;                  /* 0: empty */
+    int64_t used;
+    double *Phi;               /* [planes][4] */
+    double *G0, *G1;           /* [order][inputs] */
+} BoundCache;
+
+typedef struct {
+    double *w, *w_new;         /* [order] the shadow's state, scratch */
+    double tv[BOUND_MAX_INPUTS];       /* |u(0)| + total variation of each input so far */
+    double u_prev[BOUND_MAX_INPUTS];   /* the input at the end of the last step */
+    double p_int;              /* int |B_perp u| dt so far (Cauchy-Schwarz per step) */
+    double w_int;              /* int |w| dt so far (a bound) */
+    double steps;              /* steps taken (the round-off allowance) */
+    double started;            /* 1 once w holds s w0 and its steps (the first doStep), 0 before */
+    BoundCache cache[BOUND_CACHE];
+    int64_t clock;
+    double work[4 * (2 + 2 * BOUND_MAX_INPUTS) * (2 + 2 * BOUND_MAX_INPUTS)];
+    void *storage_;
+} BoundState;
+
+static const char *const TAGS[] = {"SHSCAL", "SHLAM", "SHB", "SHC", "SHW0", "SHGRAM", "SHROW", "SHPROBE"};
+#define N_TAGS (sizeof TAGS / sizeof TAGS[0])
+
+RomStatus rom_bound_check_section(const RomModel *m, const RomSection *s, char *message, size_t message_size) {
+    (void)m;
+    if (!s || s->rows == 0 || s->cols == 0) return rom_fail(message, message_size, "resources: an empty section");
+    return ROM_OK;      /* the sizes against each other: rom_bound_prepare, once every section is read */
+}
+
+static RomStatus shape(const RomSection *s, uint32_t rows, uint32_t cols, char *message, size_t message_size) {
+    if (s->rows != rows || s->cols != cols) {
+        return rom_fail(message, message_size, "resources: section %s is %u x %u, expected %u x %u (the error "
+                        "bounds' shadow)", s->tag, s->rows, s->cols, rows, cols);
+    }
+    return ROM_OK;
+}
+
+static int whole(double x, double lo, double hi) {
+    return x >= lo && x <= hi && x == floor(x);
+}
+
+RomStatus rom_bound_prepare(RomModel *m, char *message, size_t message_size) {
+    memset(&m->bound, 0, sizeof m->bound);
+    const RomSection *sec[N_TAGS];
+    size_t found = 0;
+    for (size_t i = 0; i < N_TAGS; i++) {
+        sec[i] = rom_section(m, TAGS[i]);
+        found += sec[i] != NULL;
+    }
+    if (found == 0) return ROM_OK;
+    if (found != N_TAGS) {
+        return rom_fail(message, message_size, "resources: the error bounds' sections SHSCAL, SHLAM, SHB, SHC, SHW0, "
+                        "SHGRAM, SHROW, SHPROBE come together (%zu of %zu present)", found, (size_t)N_TAGS);
+    }
+    const RomSection *scal = sec[0];
+    if (shape(scal, 1, BOUND_SCALARS, message, message_size) != ROM_OK) return ROM_FAIL;
+    const double *v = scal->data;
+    const uint32_t inputs = 1u + m->n_ports, rows = 3u * m->n_probes + m->n_ports;
+    if (!whole(v[1], 1, ROM_MAX_MODES) || v[0] != 2.0 * v[1] || v[2] != (double)inputs || v[3] != (double)rows ||
+        !whole(v[4], 1, 1e6) || !(v[5] > 0) || v[6] < 0 || v[7] < 0 || v[8] < 0 || v[9] < 0 || v[10] < 0) {
+        return rom_fail(message, message_size, "resources: section SHSCAL (the error bounds' sizes) does not fit the "
+                        "model (%u inputs, %u output rows expected; planes 1 to %u)", inputs, rows, ROM_MAX_MODES);
+    }
+    RomBoundModel *b = &m->bound;
+    const uint32_t planes = (uint32_t)v[1], order = 2u * planes, n_tab = (uint32_t)v[4];
+    if (shape(sec[1], planes, 4, message, message_size) != ROM_OK ||
+        shape(sec[2], order, inputs, message, message_size) != ROM_OK ||
+        shape(sec[3], rows, order, message, message_size) != ROM_OK ||
+        shape(sec[4], 1, order, message, message_size) != ROM_OK ||
+        shape(sec[5], inputs, inputs, message, message_size) != ROM_OK ||
+        shape(sec[6], rows, 1 + inputs + n_tab, message, message_size) != ROM_OK ||
+        shape(sec[7], m->n_probes, 4, message, message_size) != ROM_OK) return ROM_FAIL;
+    double mu = 0.0;              /* the largest eigenvalue of a plane's symmetric part */
+    for (uint32_t p = 0; p < planes; p++) {
+        const double *L = sec[1]->data + 4 * (size_t)p;
+        const double a = L[0], c = 0.5 * (L[1] + L[2]), d = L[3];
+        const double top = 0.5 * (a + d) + sqrt(0.25 * (a - d) * (a - d) + c * c);
+        if (top > mu) mu = top;
+    }
+    b->order = order;
+    b->planes = planes;
+    b->inputs = inputs;
+    b->rows = rows;
+    b->n_tab = n_tab;
+    b->dt_tab = v[5];
+    b->y0_norm = v[6];
+    b->x0_norm = v[7];
+    b->e_norm = v[8];
+    b->b_norm = v[9];
+    b->tolerance = v[10];
+    b->mu = mu;
+    b->lam = sec[1]->data;
+    b->B = sec[2]->data;
+    b->C = sec[3]->data;
+    b->w0 = sec[4]->data;
+    b->gram = sec[5]->data;
+    b->row = sec[6]->data;
+    b->probe = sec[7]->data;
+    return ROM_OK;
+}
+
+int rom_has_bounds(const RomModel *m) {
+    return m && m->bound.order > 0;
+}
+
+RomStatus rom_bound_state_new(RomState *s) {
+    const RomBoundModel *b = &s->model->bound;
+    s->bound = NULL;
+    if (!b->order) return ROM_OK;
+    BoundState *bs = (BoundState *)calloc(1, sizeof(BoundState));
+    if (!bs) return ROM_FAIL;
+    const size_t k = b->order, m = b->inputs;
+    size_t counts[2 + 3 * BOUND_CACHE] = {k, k};
+    double **ptrs[2 + 3 * BOUND_CACHE] = {&bs->w, &bs->w_new};
+    for (int c = 0; c < BOUND_CACHE; c++) {
+        counts[2 + 3 * c] = 4 * (size_t)b->planes;
+        counts[3 + 3 * c] = k * m;
+        counts[4 + 3 * c] = k * m;
+        ptrs[2 + 3 * c] = &bs->cache[c].Phi;
+        ptrs[3 + 3 * c] = &bs->cache[c].G0;
+        ptrs[4 + 3 * c] = &bs->cache[c].G1;
+    }
+    bs->storage_ = rom_alloc_arrays(counts, ptrs, 2 + 3 * BOUND_CACHE);
+    if (!bs->storage_) {
+        free(bs);
+        return ROM_FAIL;
+    }
+    s->bound = bs;
+    return ROM_OK;
+}
+
+void rom_bound_state_free(RomState *s) {
+    BoundState *bs = (BoundState *)s->bound;
+    if (!bs) return;
+    free(bs->storage_);
+    free(bs);
+    s->bound = NULL;
+}
+
+void rom_bound_reset(RomState *s) {
+    s->error_tolerance = s->model->bound.tolerance;
+    BoundState *bs = (BoundState *)s->bound;
+    if (!bs) return;
+    const size_t k = s->model->bound.order;
+    memset(bs->w, 0, k * sizeof(double));
+    for (uint32_t i = 0; i < BOUND_MAX_INPUTS; i++) bs->tv[i] = bs->u_prev[i] = 0.0;
+    bs->p_int = bs->w_int = bs->steps = bs->started = 0.0;
+    for (int c = 0; c < BOUND_CACHE; c++) bs->cache[c].h = 0.0;      /* the maps stay valid; kept empty anyway */
+}
+
+/* the plane maps of a step h: per plane the exponential of [[L h, B_p h, 0], [0, 0, I], [0, 0, 0]] */
+static const BoundCache *plane_maps(BoundState *bs, const RomBoundModel *b, double h) {
+    bs->clock++;
+    for (int c = 0; c < BOUND_CACHE; c++) {
+        if (bs->cache[c].h == h) {
+            bs->cache[c].used = bs->clock;
+            return &bs->cache[c];
+        }
+    }
+    BoundCache *slot = &bs->cache[0];
+    for (int c = 1; c < BOUND_CACHE; c++) {
+        if (bs->cache[c].used < slot->used) slot = &bs->cache[c];
+    }
+    const size_t m = b->inputs, n = 2 + 2 * m;
+    double *M = bs->work, *E = M + n * n, *X = E + n * n, *T = X + n * n;
+    for (uint32_t p = 0; p < b->planes; p++) {
+        memset(M, 0, n * n * sizeof(double));
+        for (size_t i = 0; i < 2; i++) {
+            for (size_t j = 0; j < 2; j++) M[i * n + j] = b->lam[4 * p + 2 * i + j] * h;
+            for (size_t c = 0; c < m; c++) M[i * n + 2 + c] = b->B[(2 * p + i) * m + c] * h;
+        }
+        for (size_t c = 0; c < m; c++) M[(2 + c) * n + 2 + m + c] = 1.0;
+        if (!rom_expm_taylor(n, M, E, X, T)) {
+            for (size_t i = 0; i < 4; i++) slot->Phi[4 * p + i] = NAN;      /* the bounds become NaN: visible */
+            continue;
+        }
+        for (size_t i = 0; i < 2; i++) {
+            for (size_t j = 0; j < 2; j++) slot->Phi[4 * p + 2 * i + j] = E[i * n + j];
+            for (size_t c = 0; c < m; c++) {
+                slot->G0[(2 * p + i) * m + c] = E[i * n + 2 + c];
+                slot->G1[(2 * p + i) * m + c] = E[i * n + 2 + m + c];
+            }
+        }
+    }
+    slot->h = h;
+    slot->used = bs->clock;
+    return slot;
+}
+
+static double norm2(const double *x, size_t n) {
+    double acc = 0.0;
+    for (size_t i = 0; i < n; i++) acc += x[i] * x[i];
+    return sqrt(acc);
+}
+
+/* the inputs over the step: u (its value at the step's start) and du (its change over the step) */
+static void step_inputs(const RomState *s, double h, double *u, double *du) {
+    u[0] = s->f;
+    du[0] = s->f_rate * h;
+    for (uint32_t j = 0; j < s->model->n_ports; j++) {
+        u[1 + j] = s->port_force[j] / s->area;
+        du[1 + j] = s->port_rate[j] * h / s->area;
+    }
+}
+
+void rom_bound_step(RomState *s, double h) {
+    BoundState *bs = (BoundState *)s->bound;
+    if (!bs) return;
+    const RomBoundModel *b = &s->model->bound;
+    const size_t k = b->order, m = b->inputs;
+    if (bs->started == 0.0) {
+        for (size_t i = 0; i < k; i++) bs->w[i] = s->initial_state_scale * b->w0[i];
+        bs->started = 1.0;
+    }
+    double u[BOUND_MAX_INPUTS], du[BOUND_MAX_INPUTS], end[BOUND_MAX_INPUTS];
+    step_inputs(s, h, u, du);
+    double q = 0.0;                     /* int_0^h |B_perp u|^2 / h for u linear over the step */
+    for (size_t i = 0; i < m; i++) {
+        bs->tv[i] += fabs(u[i] - bs->u_prev[i]) + fabs(du[i]);
+        end[i] = u[i] + du[i];
+        bs->u_prev[i] = end[i];
+        for (size_t j = 0; j < m; j++) {
+            q += b->gram[i * m + j] * (u[i] * u[j] + u[i] * du[j] + du[i] * du[j] / 3.0);
+        }
+    }
+    bs->p_int += sqrt(fmax(h * h * q, 0.0));
+    const double u_big = fmax(norm2(u, m), norm2(end, m));
+    bs->w_int += h * exp(b->mu * h) * (norm2(bs->w, k) + h * b->b_norm * u_big);
+    const BoundCache *c = plane_maps(bs, b, h);
+    for (uint32_t p = 0; p < b->planes; p++) {
+        const double *Phi = c->Phi + 4 * (size_t)p;
+        const double w0 = bs->w[2 * p], w1 = bs->w[2 * p + 1];
+        for (size_t i = 0; i < 2; i++) {
+            double acc = Phi[2 * i] * w0 + Phi[2 * i + 1] * w1;
+            const size_t r = (2 * p + i) * m;
+            for (size_t j = 0; j < m; j++) acc += c->G0[r + j] * u[j] + c->G1[r + j] * du[j];
+            bs->w_new[2 * p + i] = acc;
+        }
+    }
+    memcpy(bs->w, bs->w_new, k * sizeof(double));
+    bs->steps += 1.0;
+}
+
+/* the shadow's state now (s w0 before the first step) into out[order] */
+static const double *shadow_state(const RomState *s, double *scratch) {
+    const BoundState *bs = (const BoundState *)s->bound;
+    if (bs->started != 0.0) return bs->w;
+    const RomBoundModel *b = &s->model->bound;
+    for (size_t i = 0; i < b->order; i++) scratch[i] = s->initial_state_scale * b->w0[i];
+    return scratch;
+}
+
+/* (the shadow's row r, its certified error) at the state's time */
+static void shadow_row(const RomState *s, uint32_t r, double *value, double *cert) {
+    const RomBoundModel *b = &s->model->bound;
+    const BoundState *bs = (const BoundState *)s->bound;
+    double scratch[2 * ROM_MAX_MODES];
+    const double *w = shadow_state(s, scratch);
+    const size_t k = b->order, m = b->inputs;
+    const double *Cr = b->C + (size_t)r * k;
+    double y = 0.0;
+    for (size_t i = 0; i < k; i++) y += Cr[i] * w[i];
+    const double *row = b->row + (size_t)r * (1 + m + b->n_tab);
+    const double cn = row[0], scale = fabs(s->initial_state_scale);
+    const double tau = s->time - s->t0;
+    double at = tau > 0 ? floor(tau / b->dt_tab) : 0.0;       /* t_b <= tau: G(t_b) holds for every t >= t_b */
+    if (!(at < (double)b->n_tab - 1)) at = (double)b->n_tab - 1;
+    const double g_init = scale * fmin(row[1 + m + (size_t)at], cn * b->y0_norm);
+    double g_hold = 0.0;
+    for (size_t i = 0; i < m; i++) {
+        if (bs->tv[i] > 0) g_hold += row[1 + i] < 0 ? INFINITY : row[1 + i] * bs->tv[i];
+    }
+    const double g_input = fmin(g_hold, cn * bs->p_int);
+    const double allow = cn * (BOUND_ROUNDOFF + BOUND_ROUNDOFF_STEP * bs->steps) * (norm2(w, k) + scale * b->x0_norm);
+    *value = y;
+    *cert = g_init + g_input + cn * b->e_norm * bs->w_int + allow;
+}
+
+double rom_v_probe_error_bound(const RomState *s, uint32_t j) {
+    if (!s || !s->bound || j >= s->model->n_probes) return NAN;
+    double y, cert;
+    shadow_row(s, j, &y, &cert);
+    return fabs(rom_v_probe(s, j) - y) + cert;
+}
+
+double rom_rho_probe_error_bound(const RomState *s, uint32_t j) {
+    if (!s || !s->bound || j >= s->model->n_probes) return NAN;
+    const uint32_t P = s->model->n_probes;
+    const double *pr = s->model->bound.probe + 4 * (size_t)j;     /* pw0, pw1, rho0_0, rho0_1 */
+    double rho_s = 0.0, part = 0.0;
+    for (uint32_t side = 0; side < 2; side++) {
+        double e, beta;
+        shadow_row(s, P + 2 * j + side, &e, &beta);
+        const double J = 1.0 + e, low = J - beta;
+        if (!(low > 0)) return INFINITY;        /* the certified interval of J reaches 0: no density bound */
+        rho_s += pr[side] * pr[2 + side] / J;
+        part += pr[side] * pr[2 + side] * beta / (J * low);
+    }
+    return fabs(rom_rho_probe(s, j) - rho_s) + part + 1e-15 * (pr[0] * pr[2] + pr[1] * pr[3]);
+}
+
+double rom_v_port_error_bound(const RomState *s, uint32_t j) {
+    if (!s || !s->bound || j >= s->model->n_ports) return NAN;
+    double y, cert;
+    shadow_row(s, 3 * s->model->n_probes + j, &y, &cert);
+    return fabs(rom_v_port(s, j) - y) + cert;
+}
+
+RomStatus rom_set_error_tolerance(RomState *s, double tolerance, char *message, size_t message_size) {
+    if (!s) return rom_fail(message, message_size, "no state");
+    if (!(isfinite(tolerance) && tolerance >= 0)) {
+        return rom_fail(message, message_size, "error_tolerance = %g is out of range (allowed: a finite number >= 0 "
+                        "[m s^-1]; 0: no warning)", tolerance);
+    }
+    s->error_tolerance = tolerance;
+    return ROM_OK;
+}
+
+int rom_bound_exceeded(const RomState *s, char *message, size_t message_size) {
+    if (!s || !s->bound || !(s->error_tolerance > 0)) return 0;
+    for (uint32_t port = 0; port < 2; port++) {
+        const uint32_t n = port ? s->model->n_ports : s->model->n_probes;
+        for (uint32_t j = 0; j < n; j++) {
+            const double bound = port ? rom_v_port_error_bound(s, j) : rom_v_probe_error_bound(s, j);
+            if (!(bound <= s->error_tolerance)) {
+                if (message && message_size) {
+                    snprintf(message, message_size, "%s_%u's certified error bound %.3g m s^-1 exceeds "
+                             "error_tolerance = %.3g m s^-1 at t = %.9g s", port ? "v_port" : "v_probe", j + 1, bound,
+                             s->error_tolerance, s->time);
+                }
+                return 1;
+            }
+        }
+    }
+    return 0;
+}
+
+size_t rom_bound_state_doubles(const RomModel *m) {
+    const RomBoundModel *b = &m->bound;
+    return b->order ? b->order + 2 * (size_t)b->inputs + 4 : 0;
+}
+
+unsigned char *rom_bound_state_put(const RomState *s, unsigned char *cursor) {
+    const BoundState *bs = (const BoundState *)s->bound;
+    if (!bs) return cursor;
+    const RomBoundModel *b = &s->model->bound;
+    cursor = rom_put_f64s(cursor, bs->w, b->order);
+    cursor = rom_put_f64s(cursor, bs->tv, b->inputs);
+    cursor = rom_put_f64s(cursor, bs->u_prev, b->inputs);
+    const double scalars[4] = {bs->p_int, bs->w_int, bs->steps, bs->started};
+    return rom_put_f64s(cursor, scalars, 4);
+}
+
+const unsigned char *rom_bound_state_get(RomState *s, const unsigned char *cursor) {
+    BoundState *bs = (BoundState *)s->bound;
+    if (!bs) return cursor;
+    const RomBoundModel *b = &s->model->bound;
+    cursor = rom_get_f64s(cursor, bs->w, b->order);
+    cursor = rom_get_f64s(cursor, bs->tv, b->inputs);
+    cursor = rom_get_f64s(cursor, bs->u_prev, b->inputs);
+    double scalars[4];
+    cursor = rom_get_f64s(cursor, scalars, 4);
+    bs->p_int = scalars[0];
+    bs->w_int = scalars[1];
+    bs->steps = scalars[2];
+    bs->started = scalars[3] != 0.0 ? 1.0 : 0.0;
+    return cursor;
+}

@@ -1,0 +1,267 @@
+"""The certified error-bound outputs (harness/rom/bounds.py, fmu_src/rom_bound.c): every output with its certified error at every step.
+
+The truth is computed here independently of every reduced model and of the shadow: the full SPH of eqs.
+2.10-2.11 as the linear system of :mod:`harness.rom.lti` (exactly linear in J), advanced exactly in time over each
+communication step (the matrix exponential of the system augmented with the input and its slope), from the FMU's
+initial state, with the very inputs the FMU received (held, or linear with input derivatives; the port forces of
+a closed loop as the FMU read them).  Every bound must be >= |output - truth| at every communication point, on
+forces and initial-state scales the bases never saw, for the frozen, exact and balanced FMUs, FMI 2 and 3.
+"""
+
+import functools
+
+import numpy as np
+import pytest
+import scipy.linalg as sla
+
+from conftest import fmu_scene
+from harness.fmu.run.driver import FMU
+from harness.fmu.variables import members, vr
+
+PROBES = (0.25, 0.5, 0.66)
+PORTS = (0.3,)
+H = 0.01
+T = 1.0
+
+
+def forces(t):
+    """Forces the bases never saw [m s^-2]: a constant, a slow sine, a step, a fast chirp."""
+    return {"constant": 3e-3 * np.ones_like(t), "slow sine": 1e-2 * np.sin(2 * np.pi * 0.3 * t),
+            "step": 4e-3 * (t > 0.37), "chirp": 5e-3 * np.sin(2 * np.pi * (1.0 + 3.0 * t) * t)}
+
+
+@pytest.fixture(scope="module")
+def make(tmp_path_factory):
+    """make(model, fmi, case, ports) -> (path, data): the FMU of ``fmu_scene(case)`` (k = 6, without the a priori
+    bounds), packaged once."""
+    import zipfile
+
+    from harness.fmu.make.build import ensure_binaries
+    from harness.fmu.make.package import package_fmu
+    from harness.fmu.resources import unpack
+    folder, made = tmp_path_factory.mktemp("bound-fmus"), {}
+
+    def build(model="exact", fmi=2, case="forced", ports=None):
+        key = (model, fmi, case, ports)
+        if key not in made:
+            path = folder / f"{model}-{fmi}-{case}-{bool(ports)}.fmu"
+            package_fmu(fmu_scene(case), path, k=6, fmi=fmi, probes=PROBES, progress=False,
+                        binaries=ensure_binaries(), model=model, ports=ports, bounds=False)
+            made[key] = (path, unpack(zipfile.ZipFile(path).read("resources/model.bin")))
+        return made[key]
+
+    return build
+
+
+@functools.lru_cache(maxsize=None)
+def full_system(case, ports=(), area=1.0):
+    """(problem, lti, Phi, G0, G1, input columns' count) of the shrunk scene ``case``: the exact maps of one step H
+    of the full linear SPH with the inputs f and the port forces [N], held (G0) and their change (G1)."""
+    from harness.rom.lti import full_linear_system
+    from harness.sph.ports import port_accelerations
+    from harness.sph.solver import build_problem
+    problem = build_problem(fmu_scene(case))
+    lti = full_linear_system(problem, PROBES)
+    n = problem.rho0.size
+    cols = [lti.B[:, 0]]
+    if ports:
+        acc = port_accelerations(problem, ports, area)                  # per N
+        cols += [np.concatenate([np.sqrt(problem.rho0) * a, np.zeros(n)]) for a in acc]
+    Bm = np.column_stack(cols)
+    m = Bm.shape[1]
+    M = np.zeros((2 * n + 2 * m,) * 2)
+    M[:2 * n, :2 * n] = lti.A.toarray() * H
+    M[:2 * n, 2 * n:2 * n + m] = Bm * H
+    M[2 * n:2 * n + m, 2 * n + m:] = np.eye(m)
+    E = sla.expm(M)
+    return problem, lti, E[:2 * n, :2 * n], E[:2 * n, 2 * n:2 * n + m], E[:2 * n, 2 * n + m:], m
+
+
+def truth(case, scale, f, ports=(), port_forces=None, linear=False):
+    """(v (M+1, P), rho (M+1, P), v_port (M+1, ports)) of the full linear SPH at the communication points t = j H,
+    from scale x the scene's initial state, f (and the port forces [N]) held over each step or linear."""
+    from harness.rom.lti import probe_matrix
+    from harness.sph.ports import port_velocity_rows
+    problem, lti, Phi, G0, G1, m = full_system(case, tuple(ports))
+    n = problem.rho0.size
+    u = np.column_stack([f] + ([port_forces[:, j] for j in range(len(ports))] if ports else []))
+    x = scale * lti.x0
+    X = [x]
+    for j in range(len(f) - 1):
+        du = (u[j + 1] - u[j]) if linear else np.zeros(m)
+        x = Phi @ x + G0 @ u[j] + G1 @ du
+        X.append(x)
+    X = np.array(X)
+    v = X[:, :n] / np.sqrt(problem.rho0)
+    rho = problem.rho0 / (1.0 + X[:, n:] / np.sqrt(problem.c))
+    interp = probe_matrix(problem.x, problem.scene.L, PROBES, np.ones(n))
+    v_port = v @ port_velocity_rows(problem, ports).T if ports else np.zeros((len(f), 0))
+    return v @ interp.T, rho @ interp.T, v_port
+
+
+def run(path, scale, f, linear=False, parameters=None, feedback=None):
+    with FMU(path) as fmu:
+        fmu.initialize(parameters={"initial_state_scale": scale, **(parameters or {})}, inputs={"f": float(f[0])})
+        out = fmu.simulate(np.arange(len(f)) * H, {"f": f}, rates=linear, feedback=feedback)
+        return out, fmu.outputs, fmu.warnings()
+
+
+def columns(out, names, name):
+    return out[:, members(names, name)]
+
+
+def check(out, names, v, rho, v_port=None):
+    """Every bound >= |output - truth| at every communication point; returns the velocity effectivities
+    (bound / error where the error exceeds 1e-3 of its largest)."""
+    ev = np.abs(columns(out, names, "v_probe_j") - v)
+    er = np.abs(columns(out, names, "rho_probe_j") - rho)
+    vb, rb = columns(out, names, "v_probe_j_error_bound"), columns(out, names, "rho_probe_j_error_bound")
+    assert vb.shape == ev.shape and rb.shape == er.shape
+    assert np.all(vb >= ev) and np.all(rb >= er), (np.max(ev - vb), np.max(er - rb))
+    if v_port is not None:
+        ep = np.abs(columns(out, names, "v_port_j") - v_port)
+        assert np.all(columns(out, names, "v_port_j_error_bound") >= ep)
+    mask = ev > 1e-3 * ev.max()
+    return vb[mask] / ev[mask]
+
+
+@pytest.mark.parametrize("model", ["exact", "balanced", "frozen"])
+def test_bounds_hold_on_unseen_forces(make, model):
+    """frozen, exact, balanced (FMI 2): five forces never trained (held, and one linear with input derivatives)
+    at initial_state_scale 0, 1, 3: certified at every point; the exact model's effectivity near 1."""
+    case = "forced"
+    path, _ = make(model=model)
+    t = np.arange(int(round(T / H)) + 1) * H
+    effs = []
+    for scale in (0.0, 1.0, 3.0):
+        for name, f in forces(t).items():
+            out, names, _ = run(path, scale, f)
+            v, rho, _ = truth(case, scale, f)
+            effs.append(check(out, names, v, rho))
+    f = forces(t)["chirp"]
+    out, names, _ = run(path, 1.0, f, linear=True)
+    effs.append(check(out, names, *truth(case, 1.0, f, linear=True)[:2]))
+    eff = np.concatenate(effs)
+    assert np.median(eff) < 10, np.median(eff)
+
+
+def test_bounds_undamped_and_fmi3(make):
+    """The undamped scene (d = 0, the a priori force bound there is vacuous): certified on FMI 2 and 3, whose
+    bound outputs agree (held inputs: the same arithmetic)."""
+    case = "unforced"
+    t = np.arange(int(round(T / H)) + 1) * H
+    f = forces(t)["slow sine"]
+    results = []
+    for fmi in (2, 3):
+        path, _ = make(model="exact", fmi=fmi, case="unforced")
+        out, names, _ = run(path, 1.0, f)
+        check(out, names, *truth(case, 1.0, f)[:2])
+        results.append(columns(out, names, "v_probe_j_error_bound"))
+    np.testing.assert_allclose(results[0], results[1], rtol=1e-12, atol=0)
+
+
+def test_bounds_port_spring(make):
+    """A port closed by a spring (F = -k_s x_port, x_port integrated from v_port: a coupled component): the port
+    velocity's bound and the probes' hold against the full SPH driven by the forces the FMU received."""
+    case = "forced"
+    t = np.arange(int(round(T / H)) + 1) * H
+    f = forces(t)["constant"]
+    stiffness, position, applied = 5.0, [0.0], []
+
+    def spring(j, tj, y):
+        position[0] += H * y[names.index("v_port_1")] if j else 0.0
+        applied.append(-stiffness * position[0])
+        return {"F_port_1": applied[-1]}
+
+    with FMU(make(ports=PORTS)[0]) as fmu:
+        names = fmu.outputs
+        fmu.initialize(parameters={"initial_state_scale": 1.0}, inputs={"f": float(f[0])})
+        out = fmu.simulate(t, {"f": f}, feedback=spring)
+    F = np.array(applied + applied[-1:])[:, None]          # the last point's value is never applied (held)
+    assert np.abs(F).max() > 0
+    v, rho, v_port = truth(case, 1.0, f, ports=PORTS, port_forces=F)
+    check(out, names, v, rho, v_port)
+
+
+def test_the_fmu_bounds_are_the_python_shadow(make):
+    """Two paths: the C core's bounds (fmu_src/rom_bound.c) equal harness/rom/bounds.py's run_shadow and
+    output_bounds on the same shadow, rebuilt from the scene (its sections equal the FMU's), to round-off."""
+    from harness.rom.bounds import fmu_shadow, output_bounds, run_shadow, sections
+    from harness.sph.solver import build_problem
+    path, data = make(model="exact")
+    shadow = fmu_shadow(build_problem(fmu_scene("forced")), PROBES, scale_v=float(np.max(data.sections["ENVPROBE"][1])))
+    for tag, value in sections(shadow).items():
+        np.testing.assert_allclose(data.sections[tag], value, rtol=1e-12, atol=1e-300, err_msg=tag)
+    t = np.arange(int(round(T / H)) + 1) * H
+    f = forces(t)["chirp"]
+    out, names, _ = run(path, 2.0, f, linear=True)
+    y, cert = run_shadow(shadow, np.full(t.size - 1, H), f[:-1, None], (np.diff(f) / H)[:, None], scale=2.0)
+    vb, rb, _ = output_bounds(shadow, y, cert, columns(out, names, "v_probe_j"), columns(out, names, "rho_probe_j"))
+    # the exponentials differ (C: Taylor, scipy: Pade) by round-off of the outputs (|model - shadow| is a
+    # difference of outputs), which the smallest bounds (1e-10) show
+    v, rho = columns(out, names, "v_probe_j"), columns(out, names, "rho_probe_j")
+    np.testing.assert_allclose(columns(out, names, "v_probe_j_error_bound"), vb, rtol=1e-9,
+                               atol=1e-13 * np.abs(v).max())
+    np.testing.assert_allclose(columns(out, names, "rho_probe_j_error_bound"), rb, rtol=1e-9,
+                               atol=1e-13 * np.abs(rho).max())
+
+
+def test_error_tolerance_warns_once_when_a_bound_exceeds_it(make):
+    """error_tolerance: a bound above it warns once (naming the output, the bound, the tolerance, the time); the
+    bound is certified, so a true error above the tolerance always warns, and a tolerance above every bound never
+    does; 0 disables; a negative one is refused naming the parameter."""
+    case = "forced"
+    path, _ = make(model="frozen")
+    t = np.arange(int(round(T / H)) + 1) * H
+    f = forces(t)["step"]
+    v, _, _ = truth(case, 1.0, f)
+    out, names, warnings = run(path, 1.0, f)
+    err = np.abs(columns(out, names, "v_probe_j") - v).max()
+    bound = columns(out, names, "v_probe_j_error_bound").max()
+    _, _, warned = run(path, 1.0, f, parameters={"error_tolerance": 0.5 * err})
+    assert len(warned) == 1 and "error_tolerance" in warned[0] and "v_probe_" in warned[0] and "t = " in warned[0]
+    assert run(path, 1.0, f, parameters={"error_tolerance": 1.01 * bound})[2] == []
+    assert run(path, 1.0, f, parameters={"error_tolerance": 0.0})[2] == []
+    with FMU(path) as fmu:
+        with pytest.raises(Exception):
+            fmu.initialize(parameters={"error_tolerance": -1.0})
+        assert any("error_tolerance" in e for e in fmu.errors())
+
+
+def test_no_false_alarm_at_the_default_tolerance(make):
+    """The quickstart's case (a small constant force from rest, errors far below the response): the default
+    tolerance (5 % of the training run's largest |v_probe|, the description says so) stays silent, where the
+    training envelope warned."""
+    case = "forced"
+    path, _ = make(model="frozen")
+    t = np.arange(int(round(T / H)) + 1) * H
+    f = 1e-3 * np.ones_like(t)
+    out, names, warnings = run(path, 0.0, f)
+    assert warnings == []
+    check(out, names, *truth(case, 0.0, f)[:2])
+
+
+def test_bounds_survive_a_state_round_trip(make):
+    """getFMUState / setFMUState carry the shadow: the bounds after a restore equal those of the first pass."""
+    path, _ = make(model="exact")
+    t = np.arange(int(round(T / H)) + 1) * H
+    f = forces(t)["chirp"]
+    refs = [vr("v_probe_j_error_bound", j) for j in (1, 2, 3)]
+
+    def steps(fmu, points):
+        bounds = []
+        for j in points:
+            fmu.set_input(f[j])
+            fmu.do_step(t[j], H)
+            bounds.append(fmu.get_real(refs))
+        return np.array(bounds)
+
+    with FMU(path) as fmu:
+        fmu.initialize(parameters={"initial_state_scale": 1.0})
+        steps(fmu, range(50))
+        state = fmu.get_state()
+        first = steps(fmu, range(50, 80))
+        fmu.set_state(state)
+        second = steps(fmu, range(50, 80))
+        fmu.free_state(state)
+    np.testing.assert_array_equal(first, second)
