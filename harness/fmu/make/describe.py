@@ -115,7 +115,8 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
                    + (f"; input projection error {input_error:.3g}" if input_error == input_error else "")
                    + (f"; error bounds {bound_text(bounds)}" if bounds is not None else "") + ".")
     if envelope is not None:
-        description += " Training envelope: " + "; ".join(envelope.lines(linear=spec.linear)) + "."
+        bounded = "SHSCAL" in (getattr(data, "sections", None) or {})
+        description += " Training envelope: " + "; ".join(envelope.lines(linear=spec.linear, bounded=bounded)) + "."
     if measured:
         description += " " + measured
     ports = facts.positions["port"]

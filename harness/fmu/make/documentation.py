@@ -252,10 +252,12 @@ def _other_rows(tag, values, probe_x):
     if tag == "PARAMS":
         return [(f"parameter row {j + 1} (varied, start, min, max)", ", ".join(f"{x:.4g}" for x in row))
                 for j, row in enumerate(values)]
-    return [(f"{'x'.join(map(str, values.shape))} numbers", f"largest magnitude {abs(values).max():.4g}")]
+    largest = float(abs(values).max()) if values.size else 0.0
+    size = f"largest magnitude {largest:.4g}" if largest >= 1e-12 or largest == 0 else "all below 1e-12 (round-off)"
+    return [(f"{'x'.join(map(str, values.shape))} numbers", size)]
 
 
-def sections_section(sections, probe_x=(), linear=False):
+def sections_section(sections, probe_x=(), linear=False, bounded=False):
     """The tagged sections of resources/model.bin, labelled: the training envelope's (under an h3, after the
     envelope in words of :func:`envelope_section`), then the others; [] without sections."""
     if not sections:
@@ -267,8 +269,9 @@ def sections_section(sections, probe_x=(), linear=False):
     envelope = [tag for tag in sections if "envelope" in SECTION_TAGS.get(tag, "").lower()]
     lines = []
     if envelope:
-        what = ("recorded for this description only: this FMU checks nothing at run time" if linear else
-                "the FMU logs one warning when a run leaves it")
+        what = ("recorded for this description only: this FMU's run-time signal is its certified error bound"
+                if bounded else "recorded for this description only: this FMU checks nothing at run time" if linear
+                else "the FMU logs one warning when a run leaves it")
         lines += ["<h3>The training envelope's numbers</h3>",
                   f"<p>What the model was trained on, as recorded at packaging in resources/model.bin ({what}).</p>",
                   *_table(("quantity", "value"), _envelope_rows(sections, list(probe_x)))]
@@ -329,12 +332,12 @@ def channel_lines(verification):
                     table_id="channels")]
 
 
-def envelope_section(envelope, linear):
+def envelope_section(envelope, linear, bounded=False):
     """What the basis was trained on (:class:`harness.fmu.make.envelope.Envelope`) and what the FMU checks at run
-    time; nothing when the FMU carries no envelope."""
+    time (``bounded``: its certified error bounds); nothing when the FMU carries no envelope."""
     if envelope is None:
         return []
-    items = "".join(f"<li>{escape(line)}</li>" for line in envelope.lines(linear=linear))
+    items = "".join(f"<li>{escape(line)}</li>" for line in envelope.lines(linear=linear, bounded=bounded))
     return ["<h2>Training envelope</h2>", f"<ul>{items}</ul>"]
 
 
@@ -355,8 +358,10 @@ def index_html(*, scene, spec, data, k, input_error, augmented, description_xml,
     body += scene_section(scene)
     body += model_section(spec, data, k, input_error, augmented)
     body += variables_section(description_xml)
-    body += envelope_section(envelope, spec.linear)
-    body += sections_section(sections, probe_x=list(getattr(data, "probe_x", ())), linear=spec.linear)
+    bounded = "SHSCAL" in sections
+    body += envelope_section(envelope, spec.linear, bounded)
+    body += sections_section(sections, probe_x=list(getattr(data, "probe_x", ())), linear=spec.linear,
+                             bounded=bounded)
     body += verification_section(verification, tolerance)
     return "\n".join(["<!DOCTYPE html>", '<html lang="en">', "<head>", '<meta charset="utf-8">',
                       f"<title>{escape(title)}</title>", f"<style>{_STYLE}</style>", "</head>", "<body>", *body,

@@ -131,8 +131,9 @@ class Envelope:
                    probe_v_max=np.asarray(sections["ENVPROBE"], float)[1], k_v=int(k_v), port_v=int(ports[0]),
                    port_rho=int(ports[1]))
 
-    def lines(self, linear=False):
-        """Human-readable lines (the ``sphrom fmu`` summary and the model description)."""
+    def lines(self, linear=False, bounded=False):
+        """Human-readable lines (the ``sphrom fmu`` summary and the model description); ``bounded``: the FMU
+        carries certified error bounds, whose warning (error_tolerance) replaces the envelope's."""
         if self.force_amplitude == 0.0:
             force = ("training force f = 0 (a free response: no force amplitude or band was trained; a force "
                      "is judged by the response it makes)")
@@ -145,7 +146,11 @@ class Envelope:
                f"largest strain |rho0/rho - 1| in training {self.max_strain:.3g} (at the probes "
                f"{self.max_probe_strain:.3g}); ranges of the {self.lo.size} reduced coordinates stored, largest "
                f"half-width {names[0]} {half[:self.k_v].max():.3g}, {names[1]} {half[self.k_v:].max():.3g}"]
-        if linear:
+        if bounded:
+            out.append("run-time signal: the certified error bound of every output at every step (one warning "
+                       "when a velocity output's bound first exceeds error_tolerance); this envelope is "
+                       "information, not checked")
+        elif linear:
             out.append("run-time checks: none (the linear model is exact in its state: amplitude does not "
                        "change its accuracy)")
         elif self.port_v or self.port_rho:

@@ -103,6 +103,8 @@ class FMUSummary:
     parameters: list = field(default_factory=list)     # a parametric FMU's c, d rows (harness.fmu.make.parametric)
     ports: list = field(default_factory=list)
     port_errors: list = field(default_factory=list)
+    shadow_order: int = 0              # the certified error bounds' shadow: its coordinates (0: no bound outputs)
+    error_tolerance: float = float("nan")   # error_tolerance's default [m s^-1] (nan: no bound outputs)
 
 
 def package_fmu(scene, out, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaults.PROBES, fmi=2, integrator=None,
@@ -214,7 +216,16 @@ def package_fmu(scene, out, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaul
                       input_error=ops.input_error, augmented=ops.augmented, probes=list(probes), n_freeze=n_freeze,
                       integrator=integrator, dt=data.dt, token=data.token, size=size, timings=timings, model=model,
                       envelope=envelope, verification=verification, bounds=data.bounds,
-                      method=ops.method, parameters=parameters, ports=list(ports), port_errors=list(ops.port_errors))
+                      method=ops.method, parameters=parameters, ports=list(ports), port_errors=list(ops.port_errors),
+                      **_shadow_facts(data.sections))
+
+
+def _shadow_facts(sections):
+    """The summary's shadow_order and error_tolerance from section SHSCAL (:func:`harness.rom.bounds.sections`)."""
+    scal = sections.get("SHSCAL")
+    if scal is None:
+        return {}
+    return {"shadow_order": int(scal[0][0]), "error_tolerance": float(scal[0][10])}
 
 
 def model_step(scene, model, k, n_freeze, probes, integrator, progress, problem, *, vary, ports, bounds,

@@ -1,0 +1,105 @@
+"""Passive ports (harness/rom/passivity.py): the reduced port maps keep the full SPH's passivity.
+
+The full SPH's port map (force F_j at port j to the velocity v_port_j there, the same kernel both ways) is
+passive.  The exact POD model and the balanced model's structure-preserving (Galerkin) projection keep it by
+structure: a storage ½ α |z|² with α B = Cᵀ and A + Aᵀ <= 0, both at round-off.  Balanced truncation of a damped
+scene (a Petrov-Galerkin projection) has no such structure: its port map is checked positive real by the
+Hamiltonian test (H + εI, ε = 1e-6 ‖H‖∞) and on a frequency grid (a sign-flipped port map must fail both
+checks), and coupled to a stiff spring and a heavy mass its poles stay in the left half-plane.  Coupled to a stiff spring and a heavy mass, the models' total energy is conserved (undamped bar, no
+damper) or never grows (damped), integrated exactly in time over 200 s.
+"""
+
+import functools
+
+import numpy as np
+import pytest
+
+from conftest import small_scene
+from harness.pod.pipeline import basis_for_scene
+from harness.rom import passivity as pv
+from harness.rom.registry import get_model
+from harness.sph.solver import build_problem
+
+PORTS = (0.3, 0.7)
+N = 48
+
+
+@functools.lru_cache(maxsize=None)
+def port_model(base, name):
+    scene = small_scene(base, T=1.0, n=N)
+    problem = build_problem(scene)
+    if name == "exact":
+        basis, _ = basis_for_scene(scene, progress=False, problem=problem)
+        ops = get_model("exact").build(problem, basis, 8, 8, ports=PORTS)
+    else:
+        ops = get_model("balanced").build(problem, None, None, None, ports=PORTS)
+    return problem, ops, pv.port_system(ops)
+
+
+def h_infinity(system):
+    eye = np.eye(system.A.shape[0])
+    return max(np.linalg.norm(system.C @ np.linalg.solve(1j * w * eye - system.A, system.B), 2)
+               for w in pv.frequency_grid(system.A))
+
+
+@pytest.mark.parametrize("base, name", [("damped_forced", "exact"), ("tenmode", "exact"),
+                                        ("heterogeneous", "exact"), ("tenmode", "balanced"),
+                                        ("heterogeneous", "balanced")])
+def test_galerkin_port_maps_are_passive_by_structure(base, name):
+    """Q = Δx I is a storage: α = Δx (U_v ρ0-orthonormal without Δx), C = α Bᵀ and A dissipative at round-off."""
+    problem, ops, system = port_model(base, name)
+    if name == "balanced":
+        assert ops.reduced.method == "galerkin"             # undamped scenes: the structure-preserving projection
+    alpha, collocation, dissipation = pv.storage_certificate(system)
+    assert alpha == pytest.approx(problem.neighbours.dx, rel=1e-12)
+    assert collocation < 1e-13, collocation
+    assert dissipation < 1e-14, dissipation
+    # hence positive real: on the grid, H + Hᴴ >= 0 up to the round-off of solves next to the poles
+    margin, _ = pv.positive_real_margin(system)
+    assert margin > -1e-4, margin
+
+
+@pytest.mark.parametrize("base", ["damped_forced", "mild_damped_forced"])
+def test_balanced_truncation_port_map_is_positive_real(base):
+    """Balanced truncation (damped scenes) is not collocated, but its port map is positive real: the Hamiltonian
+    test of H + εI passes at ε = 1e-6 ‖H‖∞ and the grid margin is positive; the sign-flipped map fails both."""
+    _, ops, system = port_model(base, "balanced")
+    assert ops.reduced.method == "bt"
+    assert pv.storage_certificate(system)[1] > 0.1          # no Q = αI storage: the check below is needed
+    eps = 1e-6 * h_infinity(system)
+    passes, closest, stable = pv.hamiltonian_test(system, eps)
+    assert passes and stable < 0, (closest, stable)
+    margin, _ = pv.positive_real_margin(system)
+    assert margin > 1e-4, margin
+    flipped = pv.PortSystem(A=system.A, B=system.B, C=-system.C)
+    assert not pv.hamiltonian_test(flipped, eps)[0]
+    assert pv.positive_real_margin(flipped)[0] < -1.0
+    # coupled to a heavy mass on a stiff spring (and to a damper), every pole stays in the left half-plane
+    problem = port_model(base, "balanced")[0]
+    bar_mass = float(np.sum(problem.rho0) * problem.neighbours.dx)
+    for damping in (0.0, 1.0):
+        M = pv.coupled_matrix(system, mass=10 * bar_mass, stiffness=1e4 * bar_mass, damping=damping)
+        assert np.max(np.linalg.eigvals(M).real) < 1e-9
+
+
+@pytest.mark.parametrize("base, name", [("tenmode", "exact"), ("tenmode", "balanced"), ("damped_forced", "exact")])
+def test_coupled_to_a_stiff_spring_and_a_heavy_mass(base, name):
+    """Each port coupled to a heavy mass (10x the bar's) on a stiff spring (its frequency 10x the bar's first
+    mode), the bar starting from its training state: 200 s exactly in time.  Undamped bar (tenmode): the total
+    energy stays at its start to 1e-8; damped: it never grows (1e-10 of round-off) and decays."""
+    problem, ops, system = port_model(base, name)
+    bar_mass = float(np.sum(problem.rho0) * problem.neighbours.dx)          # [kg] at area 1
+    mass = 10.0 * bar_mass
+    first = np.min(np.abs(np.linalg.eigvals(system.A).imag)[np.abs(np.linalg.eigvals(system.A).imag) > 1e-9])
+    stiffness = mass * (10.0 * first) ** 2
+    t = np.linspace(0.0, 200.0, 401)
+    bar, lumped = pv.coupled_energy(system, ops.z0, t, mass=mass, stiffness=stiffness,
+                                    s0=np.full(len(PORTS), 1e-4))
+    total = bar + lumped
+    assert np.all(np.isfinite(total)) and total[0] > 0
+    assert np.max(lumped) > 1e-3 * total[0]                 # the coupling does exchange energy
+    if problem.terms.get("damping"):
+        assert np.all(np.diff(total) <= 1e-10 * total[0]), np.max(np.diff(total)) / total[0]
+        assert total[-1] < 0.5 * total[0]
+    else:
+        assert np.max(np.abs(total - total[0])) <= 1e-8 * total[0], np.max(np.abs(total / total[0] - 1))
