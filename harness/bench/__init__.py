@@ -90,6 +90,10 @@ PROGRAMS = {
                             "scene: bound >= true error at every point, effectivity, doStep cost with and without "
                             "them", "measured: see the report", "error_bounds.csv, error_bounds.png; a "
                             "BENCHMARKS.md section"),
+    "error_bounds_ports": Program("harness.bench.error_bounds_ports", "the certified error bounds of port FMUs: "
+                                  "open-loop port forces, a coupled mass-spring, f with port forces, against the "
+                                  "linear SPH exact in time", "measured: see the report", "error_bounds_ports.csv; "
+                                  "a BENCHMARKS.md section"),
     "parametric": Program("harness.bench.parametric", "the parametric model at held-out (c, d) against the full SPH "
                           "and a model trained there", "not recorded", "CSV and a PNG map into --out"),
     "reduced_stability": Program("harness.bench.reduced_stability", "how close the reduced models' sound runs come "

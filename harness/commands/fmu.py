@@ -181,11 +181,11 @@ def _run(args):
         for line in s.envelope.lines(linear=model.linear, bounded=s.shadow_order > 0):
             print(f"  envelope: {line}")
     if s.shadow_order:
-        print(f"  certified error bounds: every output at every step (outputs *_error_bound, a shadow of "
+        print(f"  certified bounds: every output's error at every step (outputs *_error_bound, a shadow of "
               f"{s.shadow_order} coordinates); error_tolerance = {s.error_tolerance:.3g} m s^-1 by default (5 % of "
               "the training run's largest |v_probe|): one warning when a velocity output's bound first exceeds it")
     else:
-        print("  certified error bounds: none in this FMU (docs/science/error-bounds.md, 'Not covered', says "
+        print("  certified bounds: none in this FMU (docs/science/error-bounds.md, 'Not covered', says "
               "which FMUs have none); its run-time signal is the training envelope")
     if s.bounds is not None:
         print_bounds(s)

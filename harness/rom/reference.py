@@ -8,7 +8,7 @@ import numpy as np
 
 
 def linear_reference(problem, ports, t_end, step, *, force=None, port_forces=None, hold="held", state=True,
-                     area=1.0):
+                     area=1.0, specific_volume=False):
     """The full SPH's equations linear in J with ports, integrated exactly in time: the reference of the
     reduced models' inputs (dense matrix exponential of the 2N-state system; tests and measurements, N <= ~1000).
 
@@ -29,10 +29,12 @@ def linear_reference(problem, ports, t_end, step, *, force=None, port_forces=Non
         Start from the scene's initial state (True) or from rest.
     area : float
         Cross-section A [m^2]: the port accelerations are W/(ρ0 A).
+    specific_volume : bool
+        Also return e = J - 1 = ρ0/ρ - 1 at the particles (M, N) [1].
 
     Returns
     -------
-    t (M,) [s], v (M, N) [m s^-1], v_port (M, P) [m s^-1].
+    t (M,) [s], v (M, N) [m s^-1], v_port (M, P) [m s^-1] (and e (M, N) with ``specific_volume``).
     """
     from ..sph.ports import port_kernel, port_velocity_rows
     from .exact_linear import propagators
@@ -71,4 +73,6 @@ def linear_reference(problem, ports, t_end, step, *, force=None, port_forces=Non
         xs[i + 1] = x
     v = xs[:, :n] / lti.w_v
     v_port = v @ port_velocity_rows(problem, ports).T if P else np.zeros((t.size, 0))
+    if specific_volume:
+        return t, v, v_port, xs[:, n:] / lti.w_e
     return t, v, v_port

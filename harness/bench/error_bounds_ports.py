@@ -1,0 +1,213 @@
+"""The certified error bounds of port FMUs, measured: open-loop port forces, a coupled mass-spring, f and ports.
+
+``sphrom bench error_bounds_ports [SCENE ...] [--models frozen,exact,balanced] [--out FOLDER]
+[--report BENCHMARKS.md]`` packages each scene's FMU with ports at x/L = 0.3 and 0.7 (FMI 2, the scene's
+defaults, without the a priori bounds) for each model and drives it over the scene's T (at most 10 s) at 10 ms
+communication steps, inputs held, from rest and from the scene's initial state, in four cases no basis saw
+(:func:`cases`): slow port forces (2e-3 sin 1.3t N at port 1, 1e-3 cos 3.1t + 5e-4·[t > T/2] N at port 2), a
+constant 1e-3 N at port 1, port 1 coupled to a mass-spring (0.05 kg, 5 N/m, stretched 1 mm at t = 0; the spring
+force at the start of a step held over it, :mod:`harness.measure.ports`), and f = 2e-3 m s^-2 with the slow
+port forces.  The truth is the full SPH of eqs. 2.10-2.11 as the linear system in J with the port forces
+(:func:`harness.rom.reference.linear_reference`), advanced exactly in time with the very inputs the FMU received
+(the coupled case's port forces as the FMU read them), independent of the reduced models and of the bounds.
+
+Per scene, model, start and case: the communication points where a bound of v_probe_j, rho_probe_j or v_port_j is
+below the true error (must be 0), the effectivity bound / |error| of v_port_j where the error exceeds 10⁻³ of its
+largest in the run (median, max), the largest port error and bound.  Writes ``error_bounds_ports.csv`` into
+FOLDER and the section "Certified error bounds: ports and coupled components" of the report.
+"""
+
+from __future__ import annotations
+
+import platform
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+SECTION_HEADING = "## Certified error bounds: ports and coupled components"
+PORTS = (0.3, 0.7)
+STEP = 0.01             # [s]
+T_MAX = 10.0            # [s] the horizon: the scene's T, at most this
+FLOOR = 1e-3            # effectivity where |error| > FLOOR x its largest in the run
+STARTS = (("rest", 0.0), ("initial state", 1.0))
+
+
+def cases(t, T):
+    """{case: (f (M,) [m s^-2], port forces (M, 2) [N] or None for the coupled mass-spring on port 1)}."""
+    slow = np.stack([2e-3 * np.sin(1.3 * t), 1e-3 * np.cos(3.1 * t) + 5e-4 * (t > T / 2)], axis=1)
+    constant = np.stack([np.full_like(t, 1e-3), np.zeros_like(t)], axis=1)
+    zero = np.zeros_like(t)
+    return {"slow port forces": (zero, slow), "constant 1e-3 N at port 1": (zero, constant),
+            "port 1 coupled to a mass-spring": (zero, None), "f = 2e-3 and slow port forces": (zero + 2e-3, slow)}
+
+
+def run_fmu(path, t, scale, f, F):
+    """(outputs (M, n), names, the port forces applied (M, 2) [N]) of the FMU at ``path`` driven over ``t``;
+    ``F`` None: port 1 coupled to the mass-spring, port 2 free."""
+    from ..fmu.run.driver import FMU
+    from ..measure.ports import S0, STIFFNESS, mass_spring_step
+    applied = np.zeros((t.size, len(PORTS)))
+    with FMU(path) as fmu:
+        names = fmu.outputs
+        fmu.initialize(parameters={"initial_state_scale": scale}, inputs={"f": float(f[0])})
+        if F is not None:
+            applied[:] = F
+            y = fmu.simulate(t, {"f": f, **{f"F_port_{j + 1}": F[:, j] for j in range(len(PORTS))}})
+        else:
+            lumped = [np.array([S0, 0.0])]
+            at = names.index("v_port_1")
+
+            def spring(j, tj, y):
+                if j:
+                    lumped[0] = mass_spring_step(lumped[0], feedback_v[0], STEP)
+                feedback_v[0] = y[at]
+                applied[j, 0] = STIFFNESS * lumped[0][0]
+                return {"F_port_1": applied[j, 0]}
+
+            feedback_v = [0.0]
+            y = fmu.simulate(t, {"f": f}, feedback=spring)
+    return y, names, applied
+
+
+def truth(problem, t, scale, f, applied):
+    """(v at the probes (M, P), ρ at the probes (M, P), v_port (M, 2)) of the full linear SPH with the inputs held
+    over each step from ``scale`` x the scene's initial state (scale 0 or 1)."""
+    from .. import defaults
+    from ..rom.lti import probe_matrix
+    from ..rom.reference import linear_reference
+    index = lambda tt: np.minimum(np.floor(np.asarray(tt, float) / STEP + 1e-9).astype(int), t.size - 1)
+    _, v, v_port, e = linear_reference(problem, PORTS, t[-1], STEP, force=lambda tt: f[index(tt)],
+                                       port_forces=lambda tt: applied[index(tt)], state=bool(scale),
+                                       specific_volume=True)
+    rows = probe_matrix(problem.x, problem.scene.L, defaults.PROBES, np.ones(problem.n))
+    return v @ rows.T, (problem.rho0 / (1.0 + e)) @ rows.T, v_port
+
+
+def compare(y, names, v, rho, v_port):
+    """(violations, points, port effectivities, max port error, max port bound)."""
+    from ..fmu.variables import members
+    col = lambda name: y[:, members(names, name)]
+    errors = [np.abs(col("v_probe_j") - v), np.abs(col("rho_probe_j") - rho), np.abs(col("v_port_j") - v_port)]
+    bounds = [col("v_probe_j_error_bound"), col("rho_probe_j_error_bound"), col("v_port_j_error_bound")]
+    bad = np.zeros(y.shape[0], bool)
+    for e, b in zip(errors, bounds):
+        bad |= np.any(b < e, axis=1)
+    ep, bp = errors[2], bounds[2]
+    mask = ep > FLOOR * ep.max() if ep.max() > 0 else np.zeros(ep.shape, bool)
+    return int(bad.sum()), y.shape[0], bp[mask] / ep[mask], float(ep.max()), float(bp.max())
+
+
+def measure_scene(name, models, folder, progress=True):
+    from ..fmu.make.build import ensure_binaries
+    from ..fmu.make.package import package_fmu
+    from ..scene import load_scene
+    from ..sph.solver import build_problem
+    scene = load_scene(name)
+    problem = build_problem(scene)
+    T = min(scene.T, T_MAX)
+    t = np.arange(int(round(T / STEP)) + 1) * STEP
+    binaries = ensure_binaries(quiet=True)
+    rows = []
+    for model in models:
+        path = Path(folder) / f"{name}-{model}-ports.fmu"
+        try:
+            s = package_fmu(scene, path, model=model, fmi=2, progress=progress, binaries=binaries, problem=problem,
+                            bounds=False, ports=list(PORTS))
+        except Exception as exc:                     # a model that does not build on this scene: say so
+            rows.append({"scene": name, "model": model, "note": str(exc).splitlines()[0]})
+            continue
+        for start, scale in STARTS:
+            for case, (f, F) in cases(t, T).items():
+                y, names, applied = run_fmu(path, t, scale, f, F)
+                bad, points, eff, max_err, max_bound = compare(y, names, *truth(problem, t, scale, f, applied))
+                rows.append({"scene": name, "model": model, "N": problem.n, "k_v": s.k_v, "k_rho": s.k_rho,
+                             "start": start, "case": case, "violations": bad, "points": points,
+                             "eff_median": float(np.median(eff)) if eff.size else float("nan"),
+                             "eff_max": float(eff.max()) if eff.size else float("nan"),
+                             "max_port_err": max_err, "max_port_bound": max_bound, "note": ""})
+    return rows
+
+
+def _g(x, spec=".3g"):
+    return "—" if x is None or (isinstance(x, float) and not np.isfinite(x)) else format(x, spec)
+
+
+def section(rows, *, command, wall, machine):
+    lines = [SECTION_HEADING, "",
+             f"Produced by `{command}` ({machine}, {wall:.0f} s wall; `validation/benchmarks/error_bounds_ports.csv`). "
+             f"Each scene's FMU with ports at x/L = {', '.join(f'{x:g}' for x in PORTS)} (FMI 2, the scene's "
+             f"defaults) over min(T, {T_MAX:g} s) at {STEP * 1e3:g} ms steps, inputs held, from rest and from the "
+             "scene's initial state, in four cases no basis saw (harness/bench/error_bounds_ports.py `cases`: slow "
+             "port forces, a constant port force, port 1 coupled to a mass-spring, f with slow port forces). Truth: "
+             "the full SPH of eqs. 2.10-2.11, linear in J, with the port forces the FMU received, exact in time. "
+             "Violations: points where a bound of v_probe_j, rho_probe_j or v_port_j is below its true error. "
+             f"Effectivity: v_port_j's bound / |error| where the error exceeds {FLOOR:g} of its largest.", "",
+             "| scene | model | N | k_v, k_ρ | start | case | violations | v_port effectivity median | max | "
+             "max v_port error [m/s] | max v_port bound [m/s] |",
+             "| --- | --- | ---: | --- | --- | --- | ---: | ---: | ---: | ---: | ---: |"]
+    for r in rows:
+        if r.get("note"):
+            lines.append(f"| {r['scene']} | {r['model']} | | | | | not built: {r['note'].replace('|', '/')} | | | | |")
+            continue
+        lines.append(f"| {r['scene']} | {r['model']} | {r['N']} | {r['k_v']}, {r['k_rho']} | {r['start']} | "
+                     f"{r['case']} | {r['violations']} / {r['points']} | {_g(r['eff_median'])} | "
+                     f"{_g(r['eff_max'])} | {_g(r['max_port_err'], '.2e')} | {_g(r['max_port_bound'], '.2e')} |")
+    built = [r for r in rows if not r.get("note")]
+    if built:
+        lines += ["", f"Violations in all: {sum(r['violations'] for r in built)} of "
+                      f"{sum(r['points'] for r in built)} communication points."]
+    return lines + [""]
+
+
+def main(argv=None):
+    from ..measure.markdown import update_report
+    from ..measure.tables import write_csv
+    from ..scene import builtin_names
+    from . import program_parser
+    p = program_parser("error_bounds_ports", description=__doc__.split("\n\n")[0])
+    p.add_argument("scenes", nargs="*", metavar="SCENE", help="default: damped_forced tenmode")
+    p.add_argument("--models", default="frozen,exact,balanced", metavar="M1,M2")
+    p.add_argument("--out", default="validation/benchmarks", metavar="FOLDER")
+    p.add_argument("--report", default="BENCHMARKS.md", metavar="FILE.md")
+    p.add_argument("--quiet", action="store_true")
+    args = p.parse_args(argv)
+    scenes = args.scenes or ["damped_forced", "tenmode"]
+    unknown = [s for s in scenes if s not in builtin_names()]
+    if unknown:
+        p.error(f"SCENE: {unknown[0]!r} is not a built-in scene (allowed: {', '.join(builtin_names())})")
+    from ..rom.registry import fmu_model_names
+    models = [m for m in args.models.split(",") if m]
+    bad = [m for m in models if m not in fmu_model_names()]
+    if bad:
+        p.error(f"--models: {bad[0]!r} is not a model with an FMU (allowed: {', '.join(fmu_model_names())})")
+    t0 = time.perf_counter()
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="sphrom-error-bounds-ports-") as folder:
+        for name in scenes:
+            got = measure_scene(name, models, folder, progress=not args.quiet)
+            rows += got
+            for r in got:
+                if r.get("note"):
+                    print(f"{r['scene']:14s} {r['model']:9s} not built: {r['note']}", flush=True)
+                    continue
+                print(f"{r['scene']:14s} {r['model']:9s} {r['start']:14s} {r['case']:32s} violations "
+                      f"{r['violations']}, v_port effectivity median {r['eff_median']:.3g} max {r['eff_max']:.3g}",
+                      flush=True)
+    wall = time.perf_counter() - t0
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    write_csv(out / "error_bounds_ports.csv", rows)
+    given = argv if argv is not None else sys.argv[1:]
+    command = "sphrom bench error_bounds_ports" + (" " + " ".join(given) if given else "")
+    update_report(args.report, {SECTION_HEADING: section(rows, command=command, wall=wall,
+                                                         machine=f"{platform.machine()}, Python "
+                                                                 f"{platform.python_version()}")})
+    print(f"wrote {out / 'error_bounds_ports.csv'} and the section of {args.report}")
+    return 0 if all(r.get("note") or r["violations"] == 0 for r in rows) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
