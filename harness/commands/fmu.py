@@ -36,7 +36,9 @@ def add_parser(sub):
                         "with --model balanced but neither --modes nor --order-tolerance, where it set the order "
                         "before, is refused)")
     add_order_tolerance(p, note=" (not with --model auto)")
-    add_n_freeze(p, default=10, help="default refresh period n_freeze of the frozen coefficients")
+    add_n_freeze(p, help="default refresh period n_freeze of the frozen coefficients (the FMU's parameter's start "
+                         "value; default: chosen per scene, the largest of 1, 2, 5, 10, 20, 50, 100 whose training "
+                         "error is within 5 %% of n_freeze = 1's)")
     p.add_argument("--probes", type=float_list(1, max_probes, lo=0.0, hi=1.0, hi_open=True, distinct=True),
                    metavar="X1,X2,...", default="0.25,0.5,0.66",
                    help="distinct probe positions in units of L, in [0, 1) (the bar is periodic: 1 is 0; default "
@@ -175,6 +177,10 @@ def _run(args):
               "dt and n_freeze")
     else:
         print(f"  integrator {s.integrator}, dt = {s.dt:g} s, n_freeze = {s.n_freeze} (parameters dt, n_freeze)")
+        if s.n_freeze_errors:
+            tried = ", ".join(f"{nf}: {err:.3g}" for nf, err in sorted(s.n_freeze_errors.items()))
+            print(f"  n_freeze = {s.n_freeze} chosen: the largest whose training error is within 5 % of n_freeze "
+                  f"= 1's (velocity, eq. 3.4; tried {tried})")
     print(f"  probes at x/L = {', '.join(exact(x) for x in s.probes)}: outputs v_probe_1..{len(s.probes)}, "
           f"rho_probe_1..{len(s.probes)}; input f")
     if s.envelope is not None:

@@ -144,6 +144,7 @@ class ModelData:
     probe_x: np.ndarray
     token: str = ""
     sections: dict = field(default_factory=dict)
+    n_freeze_errors: dict = field(default_factory=dict)   # packaging only: choose_n_freeze's measurements
     bounds = None                # the frozen model has no certified error bounds (ExactData.bounds)
 
     @property

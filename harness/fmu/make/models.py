@@ -151,12 +151,56 @@ def linear_bound(lin, scene, samples=4097):
     return linear_runaway_bound(lin, float(np.sum(0.5 * (f[1:] + f[:-1]) * np.diff(t))))
 
 
+N_FREEZE_CANDIDATES = (1, 2, 5, 10, 20, 50, 100)   # refresh periods tried when the user gives none
+N_FREEZE_SLACK = 0.05       # ... the largest whose training error is within this of n_freeze = 1's (relative)
+
+
+def choose_n_freeze(scene, ops, problem, run, model="frozen", integrator=None, candidates=N_FREEZE_CANDIDATES,
+                    slack=N_FREEZE_SLACK):
+    """The refresh period n_freeze of a frozen FMU whose user gave none: the largest of ``candidates`` whose
+    training error (the frozen model of ``ops`` over the scene's T, relative L² of eq. 3.4 of the velocity field
+    against the full SPH training run ``run`` at its samples) is within ``slack`` of n_freeze = 1's.  A larger
+    n_freeze refreshes the frozen coefficients (eq. 2.23) less often: cheaper per step; the force and the port
+    forces are frozen with them, which is where it costs accuracy (damped_forced's time-varying force).
+
+    Returns (n_freeze, {n_freeze: error} of the candidates run): n_freeze = 1 first, then from the largest down,
+    stopping at the first within the slack (a run that blows up counts as not within).
+    """
+    from ...errors import SimulationError
+    from ...rom.registry import get_model
+    from ...sph.solver import step_count
+    spec = get_model(model)
+    n_steps = step_count(scene.T, scene.sph.dt)
+    ref = np.linalg.norm(run.v)
+
+    def error(nf):
+        try:
+            res = spec.run(ops, problem, dt=scene.sph.dt, n_steps=n_steps, sample_steps=run.steps,
+                           options=spec.options(n_freeze=nf, integrator=integrator))
+        except SimulationError:
+            return float("inf")
+        return float(np.linalg.norm(ops.velocity(res.z[:, :ops.k_v]) - run.v) / ref)
+
+    errors = {1: error(1)}
+    for nf in sorted(candidates, reverse=True):
+        if nf == 1:
+            break
+        errors[nf] = error(nf)
+        if errors[nf] <= (1.0 + slack) * errors[1]:
+            return nf, errors
+    return 1, errors
+
+
 def _frozen_resource(scene, model, k, n_freeze, probes, integrator, progress, problem, order_tolerance=None,
                      bounds=True, ports=(), build_options=None, extra_steps=(), error_bounds=True):
+    """Kind 1: the frozen model with its training envelope and error bounds; ``n_freeze`` None: chosen per scene
+    (:func:`choose_n_freeze`, the errors it measured in ``data.n_freeze_errors``)."""
     basis, run, problem = training_basis(scene, progress, problem, extra_steps)
-    data, ops, problem, _ = reduced_model(scene, k, n_freeze, probes, integrator, progress=progress,
-                                          problem=problem, model=model, ports=ports, build_options=build_options,
-                                          made=(basis, run))
+    data, ops, problem, _ = reduced_model(scene, k, n_freeze or defaults.N_FREEZE, probes, integrator,
+                                          progress=progress, problem=problem, model=model, ports=ports,
+                                          build_options=build_options, made=(basis, run))
+    if n_freeze is None:
+        data.n_freeze, data.n_freeze_errors = choose_n_freeze(scene, ops, problem, run, model, integrator)
     data.sections.update(training_envelope(scene, ops, problem, probes, False, progress, run=run).sections())
     if error_bounds:
         shadow_step(data, problem, probes, ports)
@@ -173,12 +217,14 @@ def _linear_resource(scene, model, k, n_freeze, probes, integrator, progress, pr
 
     if get_model(model).needs_basis:
         basis, run, problem = training_basis(scene, progress, problem, extra_steps)
-        data, ops, problem, _ = exact_model(scene, k, n_freeze, probes, progress=progress, problem=problem,
+        data, ops, problem, _ = exact_model(scene, k, n_freeze or defaults.N_FREEZE, probes, progress=progress,
+                                            problem=problem,
                                             model=model, ports=ports, build_options=build_options,
                                             made=(basis, run))
         data.sections.update(training_envelope(scene, ops, problem, probes, True, progress, run=run).sections())
     else:
-        data, ops, problem = balanced_model(scene, k, n_freeze, probes, order_tolerance=order_tolerance,
+        data, ops, problem = balanced_model(scene, k, n_freeze or defaults.N_FREEZE, probes,
+                                            order_tolerance=order_tolerance,
                                             problem=problem, model=model, build_options=build_options, ports=ports)
     if error_bounds:
         shadow_step(data, problem, probes, ports)

@@ -70,7 +70,8 @@ def check_options(scene, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaults.
         raise FieldError("k", f"{k} is out of range (allowed: " + (f"an order r from 1 to 2N - 1 = {limit})"
                                                                     if spec.sized_by_tolerance else
                                                                     f"1 to N = {limit})"))
-    n_freeze = check_parameter("n_freeze", n_freeze)      # the FMU's range and words (harness/fmu/variables.py)
+    # None: chosen per scene at packaging (harness/fmu/make/models.py choose_n_freeze); else the FMU's range
+    n_freeze = None if n_freeze is None else int(check_parameter("n_freeze", n_freeze))
     probes = parse_probes(",".join(str(p) for p in probes)) if not isinstance(probes, str) else parse_probes(probes)
     if fmi not in (2, 3):
         raise FieldError("fmi", f"{fmi!r} is out of range (allowed: 2 or 3)")
@@ -78,7 +79,7 @@ def check_options(scene, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaults.
         if integrator is not None:
             raise FieldError("integrator", f"{integrator!r} does not apply to the {model} model (it is advanced "
                                            "by the matrix exponential)")
-        return None if k is None else int(k), int(n_freeze), probes, int(fmi), spec.integrators[0]
+        return None if k is None else int(k), n_freeze, probes, int(fmi), spec.integrators[0]
     integrator = integrator or scene.sph.integrator
     if integrator not in spec.integrators:
         raise FieldError("integrator", f"{integrator!r} is not defined for the {model} model "
@@ -88,7 +89,7 @@ def check_options(scene, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaults.
     if scene.sph.dt < DT_MIN:              # the C core refuses it: the work of a doStep grows as 1/dt (rom.h)
         raise FieldError("dt", f"the scene's dt = {scene.sph.dt!r} s is below the smallest internal step a "
                                f"{model} FMU takes, {DT_MIN:g} s (allowed: dt >= {DT_MIN:g} s)")
-    return int(k), int(n_freeze), probes, int(fmi), integrator
+    return int(k), n_freeze, probes, int(fmi), integrator
 
 
 def check_ports(ports, model):

@@ -103,6 +103,7 @@ class FMUSummary:
     parameters: list = field(default_factory=list)     # a parametric FMU's c, d rows (harness.fmu.make.parametric)
     ports: list = field(default_factory=list)
     port_errors: list = field(default_factory=list)
+    n_freeze_errors: dict = field(default_factory=dict)   # n_freeze chosen per scene: {candidate: training error}
     shadow_order: int = 0              # the certified error bounds' shadow: its coordinates (0: no bound outputs)
     error_tolerance: float = float("nan")   # error_tolerance's default [m s^-1] (nan: no bound outputs)
 
@@ -121,8 +122,9 @@ def package_fmu(scene, out, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaul
     k : int, optional
         POD modes (default :func:`default_modes`); for the balanced model its
         order r (default: from ``order_tolerance``).
-    n_freeze : int
-        Default refresh period (the ``n_freeze`` parameter's start value).
+    n_freeze : int or None
+        Default refresh period (the ``n_freeze`` parameter's start value); None: chosen per scene from the measured
+        training error (:func:`harness.fmu.make.models.choose_n_freeze`; the frozen model only, else the default).
     probes : sequence of float
         Probe positions in units of L.
     fmi : {2, 3}
@@ -213,7 +215,9 @@ def package_fmu(scene, out, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaul
             stage_done(scene, "verify", timings, progress)
         size = tmp.stat().st_size
     return FMUSummary(path=out, fmi=fmi, scene=scene.name, k=k, k_v=data.k_v, k_rho=data.k_rho,
-                      input_error=ops.input_error, augmented=ops.augmented, probes=list(probes), n_freeze=n_freeze,
+                      input_error=ops.input_error, augmented=ops.augmented, probes=list(probes),
+                      n_freeze=data.n_freeze if n_freeze is None else n_freeze,
+                      n_freeze_errors=dict(getattr(data, "n_freeze_errors", {}) or {}),
                       integrator=integrator, dt=data.dt, token=data.token, size=size, timings=timings, model=model,
                       envelope=envelope, verification=verification, bounds=data.bounds,
                       method=ops.method, parameters=parameters, ports=list(ports), port_errors=list(ops.port_errors),
@@ -244,7 +248,8 @@ def model_step(scene, model, k, n_freeze, probes, integrator, progress, problem,
     if build_options:
         raise FieldError("build_options", "not with vary (a parametric model has its own build)")
     from .parametric import parameter_variables, parametric_resource
-    data, ops, blob, space = parametric_resource(scene, model, k, n_freeze, probes, integrator, progress, vary)
+    data, ops, blob, space = parametric_resource(scene, model, k, n_freeze or defaults.N_FREEZE, probes, integrator,
+                                                 progress, vary)
     return data, ops, blob, parameter_variables(space)
 
 
