@@ -162,6 +162,19 @@ def section(rows, *, command, wall, machine):
     return lines + [""]
 
 
+def _fmu_models(text):
+    """--models' value: FMU models, comma-separated (argparse names the option in its message)."""
+    import argparse
+
+    from ..rom.registry import fmu_model_names
+    models = [m for m in str(text).split(",") if m]
+    bad = [m for m in models if m not in fmu_model_names()] or ([] if models else [text])
+    if bad:
+        raise argparse.ArgumentTypeError(f"{bad[0]!r} is not a model with an FMU (allowed: "
+                                         f"{', '.join(fmu_model_names())})")
+    return models
+
+
 def main(argv=None):
     from ..measure.markdown import update_report
     from ..measure.tables import write_csv
@@ -169,7 +182,7 @@ def main(argv=None):
     from . import program_parser
     p = program_parser("error_bounds_ports", description=__doc__.split("\n\n")[0])
     p.add_argument("scenes", nargs="*", metavar="SCENE", help="default: damped_forced tenmode")
-    p.add_argument("--models", default="frozen,exact,balanced", metavar="M1,M2")
+    p.add_argument("--models", type=_fmu_models, default="frozen,exact,balanced", metavar="M1,M2")
     p.add_argument("--out", default="validation/benchmarks", metavar="FOLDER")
     p.add_argument("--report", default="BENCHMARKS.md", metavar="FILE.md")
     p.add_argument("--quiet", action="store_true")
@@ -178,11 +191,7 @@ def main(argv=None):
     unknown = [s for s in scenes if s not in builtin_names()]
     if unknown:
         p.error(f"SCENE: {unknown[0]!r} is not a built-in scene (allowed: {', '.join(builtin_names())})")
-    from ..rom.registry import fmu_model_names
-    models = [m for m in args.models.split(",") if m]
-    bad = [m for m in models if m not in fmu_model_names()]
-    if bad:
-        p.error(f"--models: {bad[0]!r} is not a model with an FMU (allowed: {', '.join(fmu_model_names())})")
+    models = args.models
     t0 = time.perf_counter()
     rows = []
     with tempfile.TemporaryDirectory(prefix="sphrom-error-bounds-ports-") as folder:
