@@ -177,7 +177,7 @@ RomStatus rom_fail(char *message, size_t message_size, const char *format, ...)
 typedef struct RomKindOps RomKindOps;
 
 /* The certified error bounds' shadow (rom_bound.c; sections SHSCAL, SHLAM, SHB, SHC, SHW0, SHGRAM, SHROW,
- * SHPROBE, written by harness/rom/bounds.py): the full linear SPH's lowest `planes` invariant planes, stepped
+ * SHPROBE, and SHPIECE, SHPARAM of a parametric model, written by harness/rom/bounds.py): the full linear SPH's lowest `planes` invariant planes, stepped
  * exactly, and per output row r the certified bound of |row_r . (x - S w)| (docs/science/error-bounds.md).
  * Rows: v at each probe, e at the two particles of each probe (P + 2 j + m), each port's velocity (3 P + j).
  * Inputs: f [m s^-2], then F_j / area [N m^-2].  order 0: the model has no bounds. */
@@ -195,6 +195,14 @@ typedef struct {
     const double *gram;        /* [inputs][inputs] B_perp^T B_perp */
     const double *row;         /* [rows][1 + inputs + n_tab]: |c_r|, sup|H| per input (< 0: none), G(t_b) */
     const double *probe;       /* [n_probes][4] the probe's weights and rho0 at its two particles */
+    /* a parametric shadow (sections SHPIECE, SHPARAM, with PARAMS; NULL piece: none): lam = SHLAM + c piece[0:4]
+     * + d piece[4:8] per plane, assembled at the state's c and d (rom_model_assemble) into storage_, with mu,
+     * e_norm and e_scale = sqrt(c_ref / c), the factor of |c_r| and G of the e rows (rows P .. 3P - 1) */
+    const double *piece;       /* [planes][8] */
+    double c_ref;              /* [kg m^-1 s^-2] the c of the shadow's energy coordinates */
+    double e_piece[6];         /* |E_p| of the pieces (const, c, d), their v rows and e rows */
+    double e_scale;            /* 1 without pieces */
+    double *storage_;          /* [planes][4] the assembled planes (NULL without pieces), owned by the model */
 } RomBoundModel;
 
 /* The reduced model of one scene (immutable once loaded, but for rom_model_assemble).  What every kind has

@@ -14,6 +14,12 @@
  * through rho = sum_m pw rho0 / (1 + e_m), harness/rom/bounds.py output_bounds).  O(k_s (m + 1)) per doStep,
  * no N.  The same arithmetic as harness/rom/bounds.py run_shadow (not bit for bit: a bound, compared within
  * tolerances).
+ *
+ * A parametric model (sections SHPIECE, SHPARAM): the planes are affine in c and d about the scene's c_ref,
+ * Lambda_i(c, d) = [[-d, (c / c_ref) sigma_i], [-sigma_i, 0]], assembled with the model's operators once c and d
+ * are fixed (rom_bound_assemble); |c_r| and G of the e rows scale with sqrt(c_ref / c) (the energy norm at c),
+ * |E| is the sum of its pieces' norms at (c, d), G is one all-time value and there is no sup|H| (the energy
+ * alternative bounds the forced part).
  */
 #include "rom_internal.h"
 
@@ -68,6 +74,90 @@ static int whole(double x, double lo, double hi) {
     return x >= lo && x <= hi && x == floor(x);
 }
 
+/* the largest eigenvalue of a plane's symmetric part, over the planes (0 at least) */
+static double plane_growth(const double *lam, uint32_t planes) {
+    double mu = 0.0;
+    for (uint32_t p = 0; p < planes; p++) {
+        const double *L = lam + 4 * (size_t)p;
+        const double a = L[0], c = 0.5 * (L[1] + L[2]), d = L[3];
+        const double top = 0.5 * (a + d) + sqrt(0.25 * (a - d) * (a - d) + c * c);
+        if (top > mu) mu = top;
+    }
+    return mu;
+}
+
+/* a parametric shadow at (c, d): Lambda_i = SHLAM_i + c piece_i[0:4] + d piece_i[4:8] (harness/rom/bounds.py
+ * Shadow.blocks, the same order), mu, |E(c, d)| = sum_p coef_p (E_p,v + sqrt(c / c_ref) E_p,e) (coef 1, c, d:
+ * Shadow.residual_norm) and the e rows' scale sqrt(c_ref / c) (Shadow.dual_norms) */
+static RomStatus assemble_planes(RomBoundModel *b, const double *lam0, double c, double d, char *message,
+                                 size_t message_size) {
+    if (!b->piece || !b->storage_) return rom_fail(message, message_size, "the error bounds' shadow is not parametric");
+    if (!(isfinite(c) && c > 0) || !(isfinite(d) && d >= 0)) {
+        return rom_fail(message, message_size, "the error bounds' shadow at c = %g, d = %g (allowed: c > 0, d >= 0, "
+                        "finite)", c, d);
+    }
+    for (uint32_t p = 0; p < b->planes; p++) {
+        for (size_t i = 0; i < 4; i++) {
+            b->storage_[4 * (size_t)p + i] = lam0[4 * (size_t)p + i] + c * b->piece[8 * (size_t)p + i] +
+                                             d * b->piece[8 * (size_t)p + 4 + i];
+        }
+    }
+    const double coef[3] = {1.0, c, d}, ratio = sqrt(c / b->c_ref);
+    double e_norm = 0.0;
+    for (size_t p = 0; p < 3; p++) e_norm += coef[p] * (b->e_piece[2 * p] + ratio * b->e_piece[2 * p + 1]);
+    b->lam = b->storage_;
+    b->mu = plane_growth(b->storage_, b->planes);
+    b->e_norm = e_norm;
+    b->e_scale = sqrt(b->c_ref / c);
+    return ROM_OK;
+}
+
+/* sections SHPIECE and SHPARAM (a parametric shadow: both, with PARAMS, or neither); assembled at PARAMS' start */
+static RomStatus prepare_pieces(RomModel *m, char *message, size_t message_size) {
+    RomBoundModel *b = &m->bound;
+    const RomSection *piece = rom_section(m, "SHPIECE"), *parm = rom_section(m, "SHPARAM");
+    const RomSection *params = rom_section(m, "PARAMS");
+    b->e_scale = 1.0;
+    if (!piece && !parm) return ROM_OK;
+    if (!piece || !parm || !params || !b->order) {
+        return rom_fail(message, message_size, "resources: the error bounds' sections SHPIECE and SHPARAM come "
+                        "together, with the sections SH* and PARAMS (a parametric model)");
+    }
+    if (shape(piece, b->planes, 8, message, message_size) != ROM_OK ||
+        shape(parm, 1, 7, message, message_size) != ROM_OK) return ROM_FAIL;
+    const double *v = parm->data;
+    if (!(v[0] > 0)) {
+        return rom_fail(message, message_size, "resources: section SHPARAM's c_ref = %g (allowed: > 0)", v[0]);
+    }
+    for (size_t i = 0; i < 6; i++) {
+        if (!(v[1 + i] >= 0)) {
+            return rom_fail(message, message_size, "resources: section SHPARAM's residual norm %g (allowed: >= 0)",
+                            v[1 + i]);
+        }
+    }
+    b->storage_ = (double *)calloc(4 * (size_t)b->planes, sizeof(double));
+    if (!b->storage_) return rom_fail(message, message_size, "resources: out of memory (the error bounds' planes)");
+    b->piece = piece->data;
+    b->c_ref = v[0];
+    for (size_t i = 0; i < 6; i++) b->e_piece[i] = v[1 + i];
+    return assemble_planes(b, rom_section(m, "SHLAM")->data, params->data[1], params->data[4 + 1], message,
+                           message_size);
+}
+
+RomStatus rom_bound_assemble(RomModel *m, RomState *s, char *message, size_t message_size) {
+    if (!m || !s || s->model != m) return rom_fail(message, message_size, "assemble: no model or a foreign state");
+    RomBoundModel *b = &m->bound;
+    if (!b->piece) return ROM_OK;
+    if (assemble_planes(b, rom_section(m, "SHLAM")->data, s->c, s->d, message, message_size) != ROM_OK) {
+        return ROM_FAIL;
+    }
+    BoundState *bs = (BoundState *)s->bound;
+    if (bs) {
+        for (int c = 0; c < BOUND_CACHE; c++) bs->cache[c].h = 0.0;     /* the plane maps of the old planes */
+    }
+    return ROM_OK;
+}
+
 RomStatus rom_bound_prepare(RomModel *m, char *message, size_t message_size) {
     memset(&m->bound, 0, sizeof m->bound);
     const RomSection *sec[N_TAGS];
@@ -76,7 +166,13 @@ RomStatus rom_bound_prepare(RomModel *m, char *message, size_t message_size) {
         sec[i] = rom_section(m, TAGS[i]);
         found += sec[i] != NULL;
     }
-    if (found == 0) return ROM_OK;
+    if (found == 0) {
+        if (rom_section(m, "SHPIECE") || rom_section(m, "SHPARAM")) {
+            return rom_fail(message, message_size, "resources: the error bounds' sections SHPIECE and SHPARAM "
+                            "without the sections SH*");
+        }
+        return ROM_OK;
+    }
     if (found != N_TAGS) {
         return rom_fail(message, message_size, "resources: the error bounds' sections SHSCAL, SHLAM, SHB, SHC, SHW0, "
                         "SHGRAM, SHROW, SHPROBE come together (%zu of %zu present)", found, (size_t)N_TAGS);
@@ -99,13 +195,7 @@ RomStatus rom_bound_prepare(RomModel *m, char *message, size_t message_size) {
         shape(sec[5], inputs, inputs, message, message_size) != ROM_OK ||
         shape(sec[6], rows, 1 + inputs + n_tab, message, message_size) != ROM_OK ||
         shape(sec[7], m->n_probes, 4, message, message_size) != ROM_OK) return ROM_FAIL;
-    double mu = 0.0;              /* the largest eigenvalue of a plane's symmetric part */
-    for (uint32_t p = 0; p < planes; p++) {
-        const double *L = sec[1]->data + 4 * (size_t)p;
-        const double a = L[0], c = 0.5 * (L[1] + L[2]), d = L[3];
-        const double top = 0.5 * (a + d) + sqrt(0.25 * (a - d) * (a - d) + c * c);
-        if (top > mu) mu = top;
-    }
+    const double mu = plane_growth(sec[1]->data, planes);   /* the largest eigenvalue of a plane's symmetric part */
     b->order = order;
     b->planes = planes;
     b->inputs = inputs;
@@ -125,7 +215,7 @@ RomStatus rom_bound_prepare(RomModel *m, char *message, size_t message_size) {
     b->gram = sec[5]->data;
     b->row = sec[6]->data;
     b->probe = sec[7]->data;
-    return ROM_OK;
+    return prepare_pieces(m, message, message_size);
 }
 
 int rom_has_bounds(const RomModel *m) {
@@ -290,11 +380,13 @@ static void shadow_row(const RomState *s, uint32_t r, double *value, double *cer
     double y = 0.0;
     for (size_t i = 0; i < k; i++) y += Cr[i] * w[i];
     const double *row = b->row + (size_t)r * (1 + m + b->n_tab);
-    const double cn = row[0], scale = fabs(s->initial_state_scale);
+    const uint32_t P = s->model->n_probes;
+    const double row_scale = r >= P && r < 3 * P ? b->e_scale : 1.0;     /* e rows of a parametric shadow */
+    const double cn = row[0] * row_scale, scale = fabs(s->initial_state_scale);
     const double tau = s->time - s->t0;
     double at = tau > 0 ? floor(tau / b->dt_tab) : 0.0;       /* t_b <= tau: G(t_b) holds for every t >= t_b */
     if (!(at < (double)b->n_tab - 1)) at = (double)b->n_tab - 1;
-    const double g_init = scale * fmin(row[1 + m + (size_t)at], cn * b->y0_norm);
+    const double g_init = scale * fmin(row[1 + m + (size_t)at] * row_scale, cn * b->y0_norm);
     double g_hold = 0.0;
     for (size_t i = 0; i < m; i++) {
         if (bs->tv[i] > 0) g_hold += row[1 + i] < 0 ? INFINITY : row[1 + i] * bs->tv[i];

@@ -552,7 +552,8 @@ def run_shadow(sh: Shadow, h, u, rate, *, scale=1.0, c=None, d=None):
 
 def hoelder_input(H, tv):
     """Σ_i H[r, i] tv[i] per row, an input whose variation is 0 adding nothing (also where H is inf)."""
-    return np.where(np.asarray(tv)[None, :] > 0, H * np.asarray(tv)[None, :], 0.0).sum(axis=1)
+    with np.errstate(invalid="ignore"):                 # inf x 0 of an unused input: masked here
+        return np.where(np.asarray(tv)[None, :] > 0, H * np.asarray(tv)[None, :], 0.0).sum(axis=1)
 
 
 def output_bounds(sh: Shadow, y, cert, v_model, rho_model, port_model=None):
@@ -584,14 +585,18 @@ FMU_MAX_PARTICLES = 2000    # above this N the FMU carries no shadow (its dense 
 N_SCALARS = 12              # columns of section SHSCAL
 
 
-def fmu_shadow(problem, probes, ports=(), *, scale_v=None, force=None, T=None):
-    """The shadow of an FMU's outputs, or None where the C core cannot certify it: a parametric model (not built
-    here), a damping d that is not uniform (no invariant planes: the dense fallback is Python only), or more than
-    :data:`FMU_MAX_PARTICLES` particles (the dense singular value decomposition of the coupling)."""
+def fmu_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, force=None, T=None):
+    """The shadow of an FMU's outputs, or None where the C core cannot certify it: a damping d that is not uniform
+    (no invariant planes: the dense fallback is Python only), or more than :data:`FMU_MAX_PARTICLES` particles (the
+    dense singular value decomposition of the coupling).  ``parametric``: the shadow of a parametric FMU
+    (:mod:`harness.rom.parametric`, uniform c and d), its planes in pieces about the scene's c (c_ref); None when
+    c is not uniform either."""
     d = np.asarray(problem.d, float)
     if not np.all(d == d[0]) or d.size > FMU_MAX_PARTICLES:
         return None
-    return build_shadow(problem, probes, ports, scale_v=scale_v, force=force, T=T)
+    if parametric and not problem.terms["uniform_c"]:
+        return None
+    return build_shadow(problem, probes, ports, parametric=parametric, scale_v=scale_v, force=force, T=T)
 
 
 def sections(sh: Shadow):
@@ -599,23 +604,39 @@ def sections(sh: Shadow):
 
     SHSCAL (1, 12)   k_s, planes, inputs m, rows, table length, dt_tab [s], ‖y0‖, ‖x0‖, ‖E‖, ‖B‖,
                      error_tolerance's default [m s^-1], 0
-    SHLAM (planes, 4)  each plane's Λ_i row-major [s^-1]
+    SHLAM (planes, 4)  each plane's Λ_i row-major [s^-1] (parametric: its constant piece)
     SHB (k_s, m), SHC (rows, k_s), SHW0 (1, k_s), SHGRAM (m, m)
     SHROW (rows, 1 + m + table)  per row: ‖c_r‖, sup|H| per input (-1: none), the envelope G(t_b)
     SHPROBE (P, 4)   per probe: the weights and ρ0 of its two particles [kg m^-3]
+
+    A parametric shadow (``sh.parametric``: Λ_i(c, d) = SHLAM_i + c SHPIECE_i[0:4] + d SHPIECE_i[4:8], in this
+    order, as :meth:`Shadow.blocks`) adds two sections, and its file needs section PARAMS (the model's c and d):
+
+    SHPIECE (planes, 8)  each plane's piece per unit c [kg^-1 m s], then per unit d [1], row-major
+    SHPARAM (1, 7)       c_ref [kg m^-1 s^-2] (the c of the energy coordinates: ‖c_r‖ and G of the e rows at c
+                         are SHROW's x sqrt(c_ref / c)), then ‖E_p‖ of the pieces (const, c, d) row-major, of their
+                         v rows and e rows (‖E(c, d)‖ = Σ_p coef_p (E_p,v + sqrt(c / c_ref) E_p,e), coef = 1, c, d)
+
+    its SHSCAL's ‖E‖ is 0 (the C core computes it at (c, d)), its table one column (G for all t, dt_tab = T) and
+    sup|H| -1 (none).  A non-parametric shadow has exactly the first eight sections.
     """
-    if sh.parametric or not sh.info.get("invariant") or np.any(sh.sizes != 2):
-        raise ValueError("the FMU's shadow needs invariant planes and fixed parameters")
+    if not sh.info.get("invariant") or np.any(sh.sizes != 2):
+        raise ValueError("the FMU's shadow needs invariant planes")
     m = sh.n_inputs
     H = np.where(np.isfinite(sh.H), sh.H, -1.0)
     tol = TOLERANCE_FRACTION * float(sh.info.get("scale_v", 0.0))
     scal = [sh.order, sh.sizes.size, m, sh.n_rows, sh.G.shape[1], sh.dt_tab, sh.y0_norm, sh.x0_norm,
-            sh.residual_norm(), sh.B_norm, tol, 0.0]
-    return {"SHSCAL": np.array([scal], float),
-            "SHLAM": np.asarray(sh.A[0], float).reshape(-1, 4),
-            "SHB": np.asarray(sh.B, float).reshape(sh.order, m),
-            "SHC": np.asarray(sh.C, float),
-            "SHW0": np.asarray(sh.w0, float)[None, :],
-            "SHGRAM": np.asarray(sh.gram, float).reshape(m, m),
-            "SHROW": np.column_stack([sh.row_norm, H, sh.G]),
-            "SHPROBE": np.column_stack([sh.pw, sh.prho0])}
+            0.0 if sh.parametric else sh.residual_norm(), sh.B_norm, tol, 0.0]
+    out = {"SHSCAL": np.array([scal], float),
+           "SHLAM": np.asarray(sh.A[0], float).reshape(-1, 4),
+           "SHB": np.asarray(sh.B, float).reshape(sh.order, m),
+           "SHC": np.asarray(sh.C, float),
+           "SHW0": np.asarray(sh.w0, float)[None, :],
+           "SHGRAM": np.asarray(sh.gram, float).reshape(m, m),
+           "SHROW": np.column_stack([sh.row_norm, H, sh.G]),
+           "SHPROBE": np.column_stack([sh.pw, sh.prho0])}
+    if sh.parametric:
+        out["SHPIECE"] = np.column_stack([np.asarray(sh.A[1], float).reshape(-1, 4),
+                                          np.asarray(sh.A[2], float).reshape(-1, 4)])
+        out["SHPARAM"] = np.concatenate([[sh.c_ref], np.asarray(sh.E, float).ravel()])[None, :]
+    return out

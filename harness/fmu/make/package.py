@@ -233,7 +233,8 @@ def model_step(scene, model, k, n_freeze, probes, integrator, progress, problem,
     if build_options:
         raise FieldError("build_options", "not with vary (a parametric model has its own build)")
     from .parametric import parameter_variables, parametric_resource
-    data, ops, blob, space = parametric_resource(scene, model, k, n_freeze, probes, integrator, progress, vary)
+    data, ops, blob, space = parametric_resource(scene, model, k, n_freeze, probes, integrator, progress, vary,
+                                                error_bounds=error_bounds)
     return data, ops, blob, parameter_variables(space)
 
 
