@@ -126,3 +126,30 @@ def test_ordinary_sections_unchanged():
     from harness.sph.solver import build_problem
     tags = sorted(sections(fmu_shadow(build_problem(fmu_scene(CASE)), base.PROBES)))
     assert tags == sorted(["SHSCAL", "SHLAM", "SHB", "SHC", "SHW0", "SHGRAM", "SHROW", "SHPROBE"])
+
+
+def test_core_refuses_a_malformed_parametric_shadow(fmus):
+    """The loader names the problem: SHPIECE without SHPARAM (and the reverse), the pieces without section PARAMS,
+    a c_ref <= 0, a negative residual norm, SHPIECE of the wrong shape; the packaged file itself loads."""
+    from harness.fmu.make.build import ensure_binaries
+    from harness.fmu.resources import pack_exact
+    from harness.fmu.run.core import Core, CoreError
+    core = Core(ensure_binaries().core)
+    _, data = fmus("exact")
+
+    def load(change):
+        import copy
+        bad = copy.deepcopy(data)
+        change(bad.sections)
+        return core.load(pack_exact(bad))
+
+    assert load(lambda s: None) is not None
+    cases = [(lambda s: s.pop("SHPARAM"), "SHPIECE and SHPARAM come together"),
+             (lambda s: s.pop("SHPIECE"), "SHPIECE and SHPARAM come together"),
+             (lambda s: [s.pop(t) for t in ("PARAMS", "A0", "AC", "AD")], "SHPIECE and SHPARAM come together"),
+             (lambda s: s["SHPARAM"].__setitem__((0, 0), -1.0), "c_ref = -1"),
+             (lambda s: s["SHPARAM"].__setitem__((0, 3), -1.0), "residual norm -1"),
+             (lambda s: s.__setitem__("SHPIECE", s["SHPIECE"][:, :4]), "section SHPIECE is")]
+    for change, text in cases:
+        with pytest.raises(CoreError, match=text):
+            load(change)
