@@ -246,6 +246,8 @@ static const SectionRule SECTION_RULES[] = {
     {"SHPROBE", "error bounds: the probes' weights and rho0", rom_bound_check_section},
     {"SHPIECE", "error bounds: the planes' pieces per unit c and per unit d", rom_bound_check_section},
     {"SHPARAM", "error bounds: c_ref and the residual pieces' norms", rom_bound_check_section},
+    {"SHDENSE", "error bounds: the dense block's growth rate", rom_bound_check_section},
+    {"SHEGRAM", "error bounds: the dense block's coupling residual's Gram matrix", rom_bound_check_section},
     {NULL, NULL, NULL},        /* end of the table */
 };
 

@@ -54,9 +54,10 @@ def make(tmp_path_factory):
 
 
 def scene_of(case, fields=()):
-    """The shrunk scene ``case`` with the fields ``fields`` ((name, value) pairs: c, d) replaced."""
-    from harness.scene import derive_scene
-    scene = fmu_scene(case)
+    """The shrunk scene ``case`` (or the scene file ``case``, a path ending in .toml) with the fields ``fields``
+    ((name, value) pairs: c, d) replaced."""
+    from harness.scene import derive_scene, load_scene
+    scene = load_scene(case) if str(case).endswith(".toml") else fmu_scene(case)
     return derive_scene(scene, {"fields": {name: str(value) for name, value in fields}}) if fields else scene
 
 

@@ -193,9 +193,10 @@ def shadow_step(data, problem, probes, ports=(), parametric=False):
     """The certified error bounds' shadow of every output into ``data.sections`` (SH*, :mod:`harness.rom.bounds`;
     the FMU's outputs ``*_error_bound`` and parameter ``error_tolerance``), its default tolerance from the training
     run's largest |v_probe| (section ENVPROBE; without it the initial state's); nothing where the C core cannot
-    certify (a damping d that is not uniform, more than FMU_MAX_PARTICLES particles).  ``parametric``: the shadow
-    of a parametric FMU (its planes in pieces of c and d, sections SHPIECE and SHPARAM; the C core assembles them
-    at the FMU's c and d)."""
+    certify (more than FMU_MAX_PARTICLES particles, a parametric model whose d is not uniform).  A damping d that
+    is not uniform gives one dense block (sections SHDENSE, SHEGRAM).  ``parametric``: the shadow of a parametric
+    FMU (its planes in pieces of c and d, sections SHPIECE and SHPARAM; the C core assembles them at the FMU's c
+    and d)."""
     from ...rom.bounds import fmu_shadow, sections
     envelope = data.sections.get("ENVPROBE")
     scale_v = float(np.max(envelope[1])) if envelope is not None else None
