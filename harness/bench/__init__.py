@@ -88,7 +88,8 @@ PROGRAMS = {
                             "the full SPH's forced response", "measured: see the report", "unseen_force.csv"),
     "error_bounds": Program("harness.bench.error_bounds", "the certified error-bound outputs on every built-in "
                             "scene: bound >= true error at every point, effectivity, doStep cost with and without "
-                            "them", "measured: see the report", "error_bounds.csv, error_bounds.png; a "
+                            "them (--parametric: the parametric FMUs at held-out (c, d))", "measured: see the report",
+                            "error_bounds.csv, error_bounds.png (--parametric: error_bounds_parametric.csv); a "
                             "BENCHMARKS.md section"),
     "parametric": Program("harness.bench.parametric", "the parametric model at held-out (c, d) against the full SPH "
                           "and a model trained there", "not recorded", "CSV and a PNG map into --out"),
