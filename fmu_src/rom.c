@@ -320,7 +320,7 @@ RomStatus rom_model_assemble(RomModel *m, RomState *s, char *message, size_t mes
     if (!m || !s || s->model != m) return rom_fail(message, message_size, "assemble: no model or a foreign state");
     if (!rom_section(m, "PARAMS")) return ROM_OK;
     m->ops->assemble(m, s);
-    return ROM_OK;
+    return rom_bound_assemble(m, s, message, message_size);      /* a parametric shadow's planes at (c, d) */
 }
 
 /* ------------------------------------------------------------------------ */

@@ -14,6 +14,19 @@
  * through rho = sum_m pw rho0 / (1 + e_m), harness/rom/bounds.py output_bounds).  O(k_s (m + 1)) per doStep,
  * no N.  The same arithmetic as harness/rom/bounds.py run_shadow (not bit for bit: a bound, compared within
  * tolerances).
+ *
+ * Without a uniform damping (section SHDENSE) the planes are not invariant: the shadow is one dense block (the
+ * Galerkin model on them, SHLAM k_s x k_s), stepped by the exponential of its augmented matrix, O(k_s^2) per
+ * doStep; G is |c_r| |y0| for all t, there is no sup|H|, mu comes from the file, and the residual term is
+ * |c_r| int |E w| with E the true coupling residual (section SHEGRAM: E^T E), over each step h sqrt(Y^T Q Y)
+ * (plus its round-off allowance), Q the exact quadratic form of the step (Van Loan's exponential, once per step
+ * length, O(k_s^3)).
+ *
+ * A parametric model (sections SHPIECE, SHPARAM): the planes are affine in c and d about the scene's c_ref,
+ * Lambda_i(c, d) = [[-d, (c / c_ref) sigma_i], [-sigma_i, 0]], assembled with the model's operators once c and d
+ * are fixed (rom_bound_assemble); |c_r| and G of the e rows scale with sqrt(c_ref / c) (the energy norm at c),
+ * |E| is the sum of its pieces' norms at (c, d), G is one all-time value and there is no sup|H| (the energy
+ * alternative bounds the forced part).
  */
 #include "rom_internal.h"
 
@@ -25,12 +38,15 @@
 #define BOUND_CACHE 2                  /* step lengths whose plane maps are kept */
 #define BOUND_MAX_INPUTS (1u + ROM_MAX_PORTS)
 #define BOUND_SCALARS 12u              /* columns of SHSCAL (harness/rom/bounds.py N_SCALARS) */
+#define BOUND_QUAD_ROUNDOFF 1e-14      /* harness/rom/bounds.py QUAD_ROUNDOFF */
 
 typedef struct {
     double h;                  /* 0: empty */
     int64_t used;
-    double *Phi;               /* [planes][4] */
+    double *Phi;               /* [planes][4], or [k_s][k_s] for one dense block */
     double *G0, *G1;           /* [order][inputs] */
+    double *Q;                 /* dense: [n][n], n = order + 2 inputs: int_0^h |E w|^2 = h Y^T Q Y, Y = (w, u, du) */
+    double q_allow;            /* dense: the form's round-off per |Y|^2, 1e-14 (trace(Q) + |F12|_1 |F22|_1) */
 } BoundCache;
 
 typedef struct {
@@ -38,12 +54,13 @@ typedef struct {
     double tv[BOUND_MAX_INPUTS];       /* |u(0)| + total variation of each input so far */
     double u_prev[BOUND_MAX_INPUTS];   /* the input at the end of the last step */
     double p_int;              /* int |B_perp u| dt so far (Cauchy-Schwarz per step) */
-    double w_int;              /* int |w| dt so far (a bound) */
+    double w_int;              /* int |w| dt so far (a bound); dense: int |E w| dt */
     double steps;              /* steps taken (the round-off allowance) */
     double started;            /* 1 once w holds s w0 and its steps (the first doStep), 0 before */
     BoundCache cache[BOUND_CACHE];
     int64_t clock;
-    double work[4 * (2 + 2 * BOUND_MAX_INPUTS) * (2 + 2 * BOUND_MAX_INPUTS)];
+    double *work;              /* planes: [4][n][n], n = 2 + 2 inputs (the exponential's matrices); dense:
+                                * n = k_s + 2 inputs, M [n][n] then [4][2n][2n] (the residual's Van Loan) */
     void *storage_;
 } BoundState;
 
@@ -68,6 +85,90 @@ static int whole(double x, double lo, double hi) {
     return x >= lo && x <= hi && x == floor(x);
 }
 
+/* the largest eigenvalue of a plane's symmetric part, over the planes (0 at least) */
+static double plane_growth(const double *lam, uint32_t planes) {
+    double mu = 0.0;
+    for (uint32_t p = 0; p < planes; p++) {
+        const double *L = lam + 4 * (size_t)p;
+        const double a = L[0], c = 0.5 * (L[1] + L[2]), d = L[3];
+        const double top = 0.5 * (a + d) + sqrt(0.25 * (a - d) * (a - d) + c * c);
+        if (top > mu) mu = top;
+    }
+    return mu;
+}
+
+/* a parametric shadow at (c, d): Lambda_i = SHLAM_i + c piece_i[0:4] + d piece_i[4:8] (harness/rom/bounds.py
+ * Shadow.blocks, the same order), mu, |E(c, d)| = sum_p coef_p (E_p,v + sqrt(c / c_ref) E_p,e) (coef 1, c, d:
+ * Shadow.residual_norm) and the e rows' scale sqrt(c_ref / c) (Shadow.dual_norms) */
+static RomStatus assemble_planes(RomBoundModel *b, const double *lam0, double c, double d, char *message,
+                                 size_t message_size) {
+    if (!b->piece || !b->storage_) return rom_fail(message, message_size, "the error bounds' shadow is not parametric");
+    if (!(isfinite(c) && c > 0) || !(isfinite(d) && d >= 0)) {
+        return rom_fail(message, message_size, "the error bounds' shadow at c = %g, d = %g (allowed: c > 0, d >= 0, "
+                        "finite)", c, d);
+    }
+    for (uint32_t p = 0; p < b->planes; p++) {
+        for (size_t i = 0; i < 4; i++) {
+            b->storage_[4 * (size_t)p + i] = lam0[4 * (size_t)p + i] + c * b->piece[8 * (size_t)p + i] +
+                                             d * b->piece[8 * (size_t)p + 4 + i];
+        }
+    }
+    const double coef[3] = {1.0, c, d}, ratio = sqrt(c / b->c_ref);
+    double e_norm = 0.0;
+    for (size_t p = 0; p < 3; p++) e_norm += coef[p] * (b->e_piece[2 * p] + ratio * b->e_piece[2 * p + 1]);
+    b->lam = b->storage_;
+    b->mu = plane_growth(b->storage_, b->planes);
+    b->e_norm = e_norm;
+    b->e_scale = sqrt(b->c_ref / c);
+    return ROM_OK;
+}
+
+/* sections SHPIECE and SHPARAM (a parametric shadow: both, with PARAMS, or neither); assembled at PARAMS' start */
+static RomStatus prepare_pieces(RomModel *m, char *message, size_t message_size) {
+    RomBoundModel *b = &m->bound;
+    const RomSection *piece = rom_section(m, "SHPIECE"), *parm = rom_section(m, "SHPARAM");
+    const RomSection *params = rom_section(m, "PARAMS");
+    b->e_scale = 1.0;
+    if (!piece && !parm) return ROM_OK;
+    if (!piece || !parm || !params || !b->order || b->dense) {
+        return rom_fail(message, message_size, "resources: the error bounds' sections SHPIECE and SHPARAM come "
+                        "together, with the sections SH* and PARAMS (a parametric model), without SHDENSE");
+    }
+    if (shape(piece, b->planes, 8, message, message_size) != ROM_OK ||
+        shape(parm, 1, 7, message, message_size) != ROM_OK) return ROM_FAIL;
+    const double *v = parm->data;
+    if (!(v[0] > 0)) {
+        return rom_fail(message, message_size, "resources: section SHPARAM's c_ref = %g (allowed: > 0)", v[0]);
+    }
+    for (size_t i = 0; i < 6; i++) {
+        if (!(v[1 + i] >= 0)) {
+            return rom_fail(message, message_size, "resources: section SHPARAM's residual norm %g (allowed: >= 0)",
+                            v[1 + i]);
+        }
+    }
+    b->storage_ = (double *)calloc(4 * (size_t)b->planes, sizeof(double));
+    if (!b->storage_) return rom_fail(message, message_size, "resources: out of memory (the error bounds' planes)");
+    b->piece = piece->data;
+    b->c_ref = v[0];
+    for (size_t i = 0; i < 6; i++) b->e_piece[i] = v[1 + i];
+    return assemble_planes(b, rom_section(m, "SHLAM")->data, params->data[1], params->data[4 + 1], message,
+                           message_size);
+}
+
+RomStatus rom_bound_assemble(RomModel *m, RomState *s, char *message, size_t message_size) {
+    if (!m || !s || s->model != m) return rom_fail(message, message_size, "assemble: no model or a foreign state");
+    RomBoundModel *b = &m->bound;
+    if (!b->piece) return ROM_OK;
+    if (assemble_planes(b, rom_section(m, "SHLAM")->data, s->c, s->d, message, message_size) != ROM_OK) {
+        return ROM_FAIL;
+    }
+    BoundState *bs = (BoundState *)s->bound;
+    if (bs) {
+        for (int c = 0; c < BOUND_CACHE; c++) bs->cache[c].h = 0.0;     /* the plane maps of the old planes */
+    }
+    return ROM_OK;
+}
+
 RomStatus rom_bound_prepare(RomModel *m, char *message, size_t message_size) {
     memset(&m->bound, 0, sizeof m->bound);
     const RomSection *sec[N_TAGS];
@@ -76,12 +177,19 @@ RomStatus rom_bound_prepare(RomModel *m, char *message, size_t message_size) {
         sec[i] = rom_section(m, TAGS[i]);
         found += sec[i] != NULL;
     }
-    if (found == 0) return ROM_OK;
+    if (found == 0) {
+        if (rom_section(m, "SHPIECE") || rom_section(m, "SHPARAM") || rom_section(m, "SHDENSE") ||
+            rom_section(m, "SHEGRAM")) {
+            return rom_fail(message, message_size, "resources: the error bounds' sections SHPIECE, SHPARAM, "
+                            "SHDENSE or SHEGRAM without the sections SH*");
+        }
+        return ROM_OK;
+    }
     if (found != N_TAGS) {
         return rom_fail(message, message_size, "resources: the error bounds' sections SHSCAL, SHLAM, SHB, SHC, SHW0, "
                         "SHGRAM, SHROW, SHPROBE come together (%zu of %zu present)", found, (size_t)N_TAGS);
     }
-    const RomSection *scal = sec[0];
+    const RomSection *scal = sec[0], *dense = rom_section(m, "SHDENSE");
     if (shape(scal, 1, BOUND_SCALARS, message, message_size) != ROM_OK) return ROM_FAIL;
     const double *v = scal->data;
     const uint32_t inputs = 1u + m->n_ports, rows = 3u * m->n_probes + m->n_ports;
@@ -92,22 +200,30 @@ RomStatus rom_bound_prepare(RomModel *m, char *message, size_t message_size) {
     }
     RomBoundModel *b = &m->bound;
     const uint32_t planes = (uint32_t)v[1], order = 2u * planes, n_tab = (uint32_t)v[4];
-    if (shape(sec[1], planes, 4, message, message_size) != ROM_OK ||
+    const RomSection *egram = rom_section(m, "SHEGRAM");
+    if ((dense == NULL) != (egram == NULL)) {
+        return rom_fail(message, message_size, "resources: the error bounds' sections SHDENSE and SHEGRAM come "
+                        "together (one dense block)");
+    }
+    if (dense && (shape(dense, 1, 1, message, message_size) != ROM_OK || !(dense->data[0] >= 0))) {
+        return rom_fail(message, message_size, "resources: section SHDENSE (the error bounds' dense block's growth "
+                        "rate mu = %g s^-1) must be one number >= 0", dense->rows == 1 && dense->cols == 1 ?
+                        dense->data[0] : NAN);
+    }
+    if (egram && shape(egram, order, order, message, message_size) != ROM_OK) return ROM_FAIL;
+    if (shape(sec[1], dense ? order : planes, dense ? order : 4, message, message_size) != ROM_OK ||
         shape(sec[2], order, inputs, message, message_size) != ROM_OK ||
         shape(sec[3], rows, order, message, message_size) != ROM_OK ||
         shape(sec[4], 1, order, message, message_size) != ROM_OK ||
         shape(sec[5], inputs, inputs, message, message_size) != ROM_OK ||
         shape(sec[6], rows, 1 + inputs + n_tab, message, message_size) != ROM_OK ||
         shape(sec[7], m->n_probes, 4, message, message_size) != ROM_OK) return ROM_FAIL;
-    double mu = 0.0;              /* the largest eigenvalue of a plane's symmetric part */
-    for (uint32_t p = 0; p < planes; p++) {
-        const double *L = sec[1]->data + 4 * (size_t)p;
-        const double a = L[0], c = 0.5 * (L[1] + L[2]), d = L[3];
-        const double top = 0.5 * (a + d) + sqrt(0.25 * (a - d) * (a - d) + c * c);
-        if (top > mu) mu = top;
-    }
+    /* the largest eigenvalue of a block's symmetric part: the planes' here, the dense block's from the file */
+    const double mu = dense ? dense->data[0] : plane_growth(sec[1]->data, planes);
     b->order = order;
     b->planes = planes;
+    b->dense = dense != NULL;
+    b->egram = egram ? egram->data : NULL;
     b->inputs = inputs;
     b->rows = rows;
     b->n_tab = n_tab;
@@ -125,7 +241,7 @@ RomStatus rom_bound_prepare(RomModel *m, char *message, size_t message_size) {
     b->gram = sec[5]->data;
     b->row = sec[6]->data;
     b->probe = sec[7]->data;
-    return ROM_OK;
+    return prepare_pieces(m, message, message_size);
 }
 
 int rom_has_bounds(const RomModel *m) {
@@ -138,18 +254,21 @@ RomStatus rom_bound_state_new(RomState *s) {
     if (!b->order) return ROM_OK;
     BoundState *bs = (BoundState *)calloc(1, sizeof(BoundState));
     if (!bs) return ROM_FAIL;
-    const size_t k = b->order, m = b->inputs;
-    size_t counts[2 + 3 * BOUND_CACHE] = {k, k};
-    double **ptrs[2 + 3 * BOUND_CACHE] = {&bs->w, &bs->w_new};
+    const size_t k = b->order, m = b->inputs, n = (b->dense ? k : 2) + 2 * m;   /* the augmented matrix's size */
+    const size_t nw = b->dense ? 2 * n : n;                                      /* the largest exponential */
+    size_t counts[3 + 4 * BOUND_CACHE] = {k, k, 4 * nw * nw + (b->dense ? n * n : 0)};   /* dense: M, then 4 (2n)^2 */
+    double **ptrs[3 + 4 * BOUND_CACHE] = {&bs->w, &bs->w_new, &bs->work};
     for (int c = 0; c < BOUND_CACHE; c++) {
-        counts[2 + 3 * c] = 4 * (size_t)b->planes;
-        counts[3 + 3 * c] = k * m;
-        counts[4 + 3 * c] = k * m;
-        ptrs[2 + 3 * c] = &bs->cache[c].Phi;
-        ptrs[3 + 3 * c] = &bs->cache[c].G0;
-        ptrs[4 + 3 * c] = &bs->cache[c].G1;
+        counts[3 + 4 * c] = b->dense ? k * k : 4 * (size_t)b->planes;
+        counts[4 + 4 * c] = k * m;
+        counts[5 + 4 * c] = k * m;
+        counts[6 + 4 * c] = b->dense ? n * n : 1;
+        ptrs[3 + 4 * c] = &bs->cache[c].Phi;
+        ptrs[4 + 4 * c] = &bs->cache[c].G0;
+        ptrs[5 + 4 * c] = &bs->cache[c].G1;
+        ptrs[6 + 4 * c] = &bs->cache[c].Q;
     }
-    bs->storage_ = rom_alloc_arrays(counts, ptrs, 2 + 3 * BOUND_CACHE);
+    bs->storage_ = rom_alloc_arrays(counts, ptrs, 3 + 4 * BOUND_CACHE);
     if (!bs->storage_) {
         free(bs);
         return ROM_FAIL;
@@ -177,6 +296,83 @@ void rom_bound_reset(RomState *s) {
     for (int c = 0; c < BOUND_CACHE; c++) bs->cache[c].h = 0.0;      /* the maps stay valid; kept empty anyway */
 }
 
+/* the residual's quadratic form of a step (harness/rom/bounds.py residual_gram): with M the block's augmented
+ * matrix (n = k_s + 2 m square, in the work buffer's first n x n), Q = int_0^1 e^{M^T s} diag(E^T E, 0, 0)
+ * e^{M s} ds = F22^T F12 of the exponential F of [[-M^T, diag(E^T E, 0, 0)], [0, M]] (Van Loan), symmetrised */
+static void residual_gram(BoundState *bs, const RomBoundModel *b, const double *M, BoundCache *slot) {
+    const size_t k = b->order, m = b->inputs, n = k + 2 * m, nn = 2 * n;
+    double *V = bs->work + n * n, *F = V + nn * nn, *X = F + nn * nn, *T = X + nn * nn;   /* after M */
+    memset(V, 0, nn * nn * sizeof(double));
+    for (size_t i = 0; i < n; i++) {
+        for (size_t j = 0; j < n; j++) {
+            V[i * nn + j] = -M[j * n + i];
+            V[(n + i) * nn + n + j] = M[i * n + j];
+        }
+    }
+    for (size_t i = 0; i < k; i++) {
+        for (size_t j = 0; j < k; j++) V[i * nn + n + j] = b->egram[i * k + j];
+    }
+    double trace = 0.0;
+    if (!rom_expm_taylor(nn, V, F, X, T)) {
+        for (size_t i = 0; i < n * n; i++) slot->Q[i] = NAN;            /* the bounds become NaN: visible */
+        slot->q_allow = NAN;
+        return;
+    }
+    double f12 = 0.0, f22 = 0.0;                                          /* 1-norms: the largest column sums */
+    for (size_t j = 0; j < n; j++) {
+        double a12 = 0.0, a22 = 0.0;
+        for (size_t i = 0; i < n; i++) {
+            a12 += fabs(F[i * nn + n + j]);
+            a22 += fabs(F[(n + i) * nn + n + j]);
+        }
+        f12 = fmax(f12, a12);
+        f22 = fmax(f22, a22);
+    }
+    for (size_t i = 0; i < n; i++) {                                      /* (F22^T F12)[i][j] */
+        for (size_t j = 0; j < n; j++) {
+            double acc = 0.0;
+            for (size_t l = 0; l < n; l++) acc += F[(n + l) * nn + n + i] * F[l * nn + n + j];
+            slot->Q[i * n + j] = acc;
+        }
+    }
+    for (size_t i = 0; i < n; i++) {
+        for (size_t j = 0; j < i; j++) {
+            const double q = 0.5 * (slot->Q[i * n + j] + slot->Q[j * n + i]);
+            slot->Q[i * n + j] = slot->Q[j * n + i] = q;
+        }
+        trace += slot->Q[i * n + i];
+    }
+    slot->q_allow = BOUND_QUAD_ROUNDOFF * (trace + f12 * f22);
+}
+
+/* the dense block's maps of a step h into slot: the exponential of [[L h, B h, 0], [0, 0, I], [0, 0, 0]]
+ * (k_s + 2 m square, O(k_s^3) once per step length; harness/rom/bounds.py block_maps) */
+static const BoundCache *dense_maps(BoundState *bs, const RomBoundModel *b, double h, BoundCache *slot) {
+    const size_t k = b->order, m = b->inputs, n = k + 2 * m;
+    double *M = bs->work, *E = M + n * n, *X = E + n * n, *T = X + n * n;
+    memset(M, 0, n * n * sizeof(double));
+    for (size_t i = 0; i < k; i++) {
+        for (size_t j = 0; j < k; j++) M[i * n + j] = b->lam[i * k + j] * h;
+        for (size_t c = 0; c < m; c++) M[i * n + k + c] = b->B[i * m + c] * h;
+    }
+    for (size_t c = 0; c < m; c++) M[(k + c) * n + k + m + c] = 1.0;
+    if (!rom_expm_taylor(n, M, E, X, T)) {
+        for (size_t i = 0; i < k * k; i++) slot->Phi[i] = NAN;          /* the bounds become NaN: visible */
+    } else {
+        for (size_t i = 0; i < k; i++) {
+            for (size_t j = 0; j < k; j++) slot->Phi[i * k + j] = E[i * n + j];
+            for (size_t c = 0; c < m; c++) {
+                slot->G0[i * m + c] = E[i * n + k + c];
+                slot->G1[i * m + c] = E[i * n + k + m + c];
+            }
+        }
+    }
+    residual_gram(bs, b, M, slot);
+    slot->h = h;
+    slot->used = bs->clock;
+    return slot;
+}
+
 /* the plane maps of a step h: per plane the exponential of [[L h, B_p h, 0], [0, 0, I], [0, 0, 0]] */
 static const BoundCache *plane_maps(BoundState *bs, const RomBoundModel *b, double h) {
     bs->clock++;
@@ -190,6 +386,7 @@ static const BoundCache *plane_maps(BoundState *bs, const RomBoundModel *b, doub
     for (int c = 1; c < BOUND_CACHE; c++) {
         if (bs->cache[c].used < slot->used) slot = &bs->cache[c];
     }
+    if (b->dense) return dense_maps(bs, b, h, slot);
     const size_t m = b->inputs, n = 2 + 2 * m;
     double *M = bs->work, *E = M + n * n, *X = E + n * n, *T = X + n * n;
     for (uint32_t p = 0; p < b->planes; p++) {
@@ -253,10 +450,35 @@ void rom_bound_step(RomState *s, double h) {
         }
     }
     bs->p_int += sqrt(fmax(h * h * q, 0.0));
-    const double u_big = fmax(norm2(u, m), norm2(end, m));
-    bs->w_int += h * exp(b->mu * h) * (norm2(bs->w, k) + h * b->b_norm * u_big);
     const BoundCache *c = plane_maps(bs, b, h);
-    for (uint32_t p = 0; p < b->planes; p++) {
+    if (b->dense) {                     /* int |E w| <= h sqrt(Y^T Q Y) over the step, Y = (w, u, du) */
+        const size_t n = k + 2 * m;
+        double quad = 0.0, y2 = 0.0;
+        for (size_t i = 0; i < n; i++) {
+            const double yi = i < k ? bs->w[i] : i < k + m ? u[i - k] : du[i - k - m];
+            double acc = 0.0;
+            for (size_t j = 0; j < n; j++) {
+                const double yj = j < k ? bs->w[j] : j < k + m ? u[j - k] : du[j - k - m];
+                acc += c->Q[i * n + j] * yj;
+            }
+            quad += yi * acc;
+            y2 += yi * yi;
+        }
+        bs->w_int += h * sqrt(fmax(quad + c->q_allow * y2, 0.0));
+    } else {                            /* int |w| (a bound), for |c_r| |E| int |w| */
+        const double u_big = fmax(norm2(u, m), norm2(end, m));
+        bs->w_int += h * exp(b->mu * h) * (norm2(bs->w, k) + h * b->b_norm * u_big);
+    }
+    if (b->dense) {                     /* one dense block: O(k_s^2) */
+        for (size_t i = 0; i < k; i++) {
+            double acc = 0.0;
+            const double *Phi = c->Phi + i * k;
+            for (size_t j = 0; j < k; j++) acc += Phi[j] * bs->w[j];
+            for (size_t j = 0; j < m; j++) acc += c->G0[i * m + j] * u[j] + c->G1[i * m + j] * du[j];
+            bs->w_new[i] = acc;
+        }
+    }
+    for (uint32_t p = 0; p < (b->dense ? 0u : b->planes); p++) {
         const double *Phi = c->Phi + 4 * (size_t)p;
         const double w0 = bs->w[2 * p], w1 = bs->w[2 * p + 1];
         for (size_t i = 0; i < 2; i++) {
@@ -290,11 +512,13 @@ static void shadow_row(const RomState *s, uint32_t r, double *value, double *cer
     double y = 0.0;
     for (size_t i = 0; i < k; i++) y += Cr[i] * w[i];
     const double *row = b->row + (size_t)r * (1 + m + b->n_tab);
-    const double cn = row[0], scale = fabs(s->initial_state_scale);
+    const uint32_t P = s->model->n_probes;
+    const double row_scale = r >= P && r < 3 * P ? b->e_scale : 1.0;     /* e rows of a parametric shadow */
+    const double cn = row[0] * row_scale, scale = fabs(s->initial_state_scale);
     const double tau = s->time - s->t0;
     double at = tau > 0 ? floor(tau / b->dt_tab) : 0.0;       /* t_b <= tau: G(t_b) holds for every t >= t_b */
     if (!(at < (double)b->n_tab - 1)) at = (double)b->n_tab - 1;
-    const double g_init = scale * fmin(row[1 + m + (size_t)at], cn * b->y0_norm);
+    const double g_init = scale * fmin(row[1 + m + (size_t)at] * row_scale, cn * b->y0_norm);
     double g_hold = 0.0;
     for (size_t i = 0; i < m; i++) {
         if (bs->tv[i] > 0) g_hold += row[1 + i] < 0 ? INFINITY : row[1 + i] * bs->tv[i];
@@ -302,7 +526,8 @@ static void shadow_row(const RomState *s, uint32_t r, double *value, double *cer
     const double g_input = fmin(g_hold, cn * bs->p_int);
     const double allow = cn * (BOUND_ROUNDOFF + BOUND_ROUNDOFF_STEP * bs->steps) * (norm2(w, k) + scale * b->x0_norm);
     *value = y;
-    *cert = g_init + g_input + cn * b->e_norm * bs->w_int + allow;
+    const double residual = b->dense ? cn * bs->w_int : cn * b->e_norm * bs->w_int;   /* dense: int |E w| */
+    *cert = g_init + g_input + residual + allow;
 }
 
 double rom_v_probe_error_bound(const RomState *s, uint32_t j) {

@@ -195,6 +195,9 @@ int rom_expm_taylor(size_t n, const double *M, double *E, double *X, double *T);
 /* ---- rom_bound.c: the certified error bounds (rom.h) ---- */
 RomStatus rom_bound_check_section(const RomModel *m, const RomSection *s, char *message, size_t message_size);
 RomStatus rom_bound_prepare(RomModel *m, char *message, size_t message_size);   /* sizes of the SH* sections */
+/* a parametric shadow (SHPIECE, SHPARAM): its planes, growth rate, residual norm and the e rows' scale at the
+ * state's c and d into the model, the state's plane maps emptied (rom_model_assemble; nothing without pieces) */
+RomStatus rom_bound_assemble(RomModel *m, RomState *s, char *message, size_t message_size);
 RomStatus rom_bound_state_new(RomState *s);        /* s->bound (NULL without bounds) */
 void rom_bound_state_free(RomState *s);
 void rom_bound_reset(RomState *s);

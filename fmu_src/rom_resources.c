@@ -244,6 +244,10 @@ static const SectionRule SECTION_RULES[] = {
     {"SHROW", "error bounds: per output row, its norm, input gains and initial-state envelope",
      rom_bound_check_section},
     {"SHPROBE", "error bounds: the probes' weights and rho0", rom_bound_check_section},
+    {"SHPIECE", "error bounds: the planes' pieces per unit c and per unit d", rom_bound_check_section},
+    {"SHPARAM", "error bounds: c_ref and the residual pieces' norms", rom_bound_check_section},
+    {"SHDENSE", "error bounds: the dense block's growth rate", rom_bound_check_section},
+    {"SHEGRAM", "error bounds: the dense block's coupling residual's Gram matrix", rom_bound_check_section},
     {NULL, NULL, NULL},        /* end of the table */
 };
 
@@ -491,6 +495,7 @@ RomStatus rom_model_load_file(const char *path, RomModel **out, char *message, s
 void rom_model_free(RomModel *model) {
     if (!model) return;
     if (model->ops && model->ops->model_free) model->ops->model_free(model);
+    free(model->bound.storage_);
     free(model->sections_storage_);
     free(model);
 }

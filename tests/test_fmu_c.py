@@ -36,16 +36,22 @@ def binaries():
 @pytest.fixture(scope="session")
 def packaged(binaries, tmp_path_factory):
     """FMI 2 and 3 FMUs of a forced damped scene and an unforced undamped one, with their resources folders;
-    ``exact-forced`` and ``exact-unforced``: the same scenes with the exact linear model (FMI 2 and resources)."""
+    ``exact-forced`` and ``exact-unforced``: the same scenes with the exact linear model (FMI 2 and resources);
+    ``parametric``: the exact model of the unforced scene over c and d (its error bounds' planes assembled at
+    the parameters)."""
+    from harness.rom.parametric import Range
     folder = tmp_path_factory.mktemp("c-fmus")
     out = {}
     forced, unforced = small_scene("damped_forced", T=0.5, n=32), small_scene("multimode", T=0.5, n=32)
+    vary = [Range("c", 0.05, 0.2), Range("d", 0.0, 5.0)]
     for case, scene, model, versions in (("forced", forced, "frozen", (2, 3)), ("unforced", unforced, "frozen", (2, 3)),
                                          ("exact-forced", forced, "exact", (2,)),
-                                         ("exact-unforced", unforced, "exact", (2,))):
+                                         ("exact-unforced", unforced, "exact", (2,)),
+                                         ("parametric", unforced, "exact", (2,))):
         for fmi in versions:
             path = folder / f"{case}{fmi}.fmu"
-            package_fmu(scene, path, k=6, fmi=fmi, progress=False, binaries=binaries, model=model)
+            package_fmu(scene, path, k=6, fmi=fmi, progress=False, binaries=binaries, model=model,
+                        vary=vary if case == "parametric" else ())
             out[(case, fmi)] = path
         resources = folder / f"{case}-resources"
         resources.mkdir()
@@ -103,7 +109,7 @@ def run_driver(driver, resources, scratch, env=None, scenarios=SCENARIOS):
     return proc.returncode, proc.stdout + proc.stderr
 
 
-@pytest.mark.parametrize("case", ["forced", "unforced", "exact-forced", "exact-unforced"])
+@pytest.mark.parametrize("case", ["forced", "unforced", "exact-forced", "exact-unforced", "parametric"])
 def test_c_driver_release(binaries, packaged, tmp_path, case):
     assert binaries.driver is not None
     rc, output = run_driver(binaries.driver, packaged[(case, "resources")], tmp_path / "scratch")
@@ -114,7 +120,8 @@ def test_c_driver_release(binaries, packaged, tmp_path, case):
 
 def test_c_driver_under_address_and_undefined_sanitizers(packaged, tmp_path):
     """All scenarios, the bad-input ones and 1000 instantiate/free cycles included, clean under ASan+UBSan+LSan,
-    for both models (the exact one's exponentials and their cache included)."""
+    for both models (the exact one's exponentials and their cache included) and a parametric one (its operators
+    and its error bounds' planes assembled)."""
     if not sanitizers_available(tmp_path):
         pytest.skip("the C compiler cannot build and run -fsanitize=address,undefined programs")
     san = ensure_binaries(sanitize=True)
@@ -122,7 +129,7 @@ def test_c_driver_under_address_and_undefined_sanitizers(packaged, tmp_path):
     env = {"ASAN_OPTIONS": "detect_leaks=1:abort_on_error=0:halt_on_error=1:detect_stack_use_after_return=1",
            "UBSAN_OPTIONS": "halt_on_error=1:print_stacktrace=1",
            "SPHROM_DRIVER_NO_TIMING": "1"}      # the bound scenario's 10 s answer is timed in the release run
-    for case in ("forced", "unforced", "exact-forced", "exact-unforced"):
+    for case in ("forced", "unforced", "exact-forced", "exact-unforced", "parametric"):
         rc, output = run_driver(san.driver, packaged[(case, "resources")], tmp_path / f"scratch-{case}", env=env)
         assert rc == 0, output
         assert "AddressSanitizer" not in output and "LeakSanitizer" not in output and "runtime error" not in output

@@ -53,14 +53,23 @@ def make(tmp_path_factory):
     return build
 
 
+def scene_of(case, fields=()):
+    """The shrunk scene ``case`` (or the scene file ``case``, a path ending in .toml) with the fields ``fields``
+    ((name, value) pairs: c, d) replaced."""
+    from harness.scene import derive_scene, load_scene
+    scene = load_scene(case) if str(case).endswith(".toml") else fmu_scene(case)
+    return derive_scene(scene, {"fields": {name: str(value) for name, value in fields}}) if fields else scene
+
+
 @functools.lru_cache(maxsize=None)
-def full_system(case, ports=(), area=1.0):
-    """(problem, lti, Phi, G0, G1, input columns' count) of the shrunk scene ``case``: the exact maps of one step H
-    of the full linear SPH with the inputs f and the port forces [N], held (G0) and their change (G1)."""
+def full_system(case, ports=(), area=1.0, fields=()):
+    """(problem, lti, Phi, G0, G1, input columns' count) of the shrunk scene ``case`` (its ``fields`` replaced,
+    :func:`scene_of`): the exact maps of one step H of the full linear SPH (eqs. 2.10-2.11 in J) with the inputs f
+    and the port forces [N], held (G0) and their change (G1)."""
     from harness.rom.lti import full_linear_system
     from harness.sph.ports import port_accelerations
     from harness.sph.solver import build_problem
-    problem = build_problem(fmu_scene(case))
+    problem = build_problem(scene_of(case, fields))
     lti = full_linear_system(problem, PROBES)
     n = problem.rho0.size
     cols = [lti.B[:, 0]]
@@ -77,12 +86,13 @@ def full_system(case, ports=(), area=1.0):
     return problem, lti, E[:2 * n, :2 * n], E[:2 * n, 2 * n:2 * n + m], E[:2 * n, 2 * n + m:], m
 
 
-def truth(case, scale, f, ports=(), port_forces=None, linear=False):
+def truth(case, scale, f, ports=(), port_forces=None, linear=False, fields=()):
     """(v (M+1, P), rho (M+1, P), v_port (M+1, ports)) of the full linear SPH at the communication points t = j H,
-    from scale x the scene's initial state, f (and the port forces [N]) held over each step or linear."""
+    from scale x the scene's initial state, f (and the port forces [N]) held over each step or linear; ``fields``
+    replaced in the scene (:func:`scene_of`)."""
     from harness.rom.lti import probe_matrix
     from harness.sph.ports import port_velocity_rows
-    problem, lti, Phi, G0, G1, m = full_system(case, tuple(ports))
+    problem, lti, Phi, G0, G1, m = full_system(case, tuple(ports), fields=tuple(fields))
     n = problem.rho0.size
     u = np.column_stack([f] + ([port_forces[:, j] for j in range(len(ports))] if ports else []))
     x = scale * lti.x0

@@ -33,6 +33,7 @@ RANGES = [par.Range("c", 0.05, 0.2), par.Range("d", 5.0, 15.0)]
 VR_C, VR_D, VR_AREA, VR_F_PORT = vr("c"), vr("d"), vr("area"), vr("F_port_j", 1)
 H = 0.01
 C1, D1, C2, D2 = 0.13, 7.5, 0.06, 14.0
+BOUND_VRS = [vr(name, j) for name in ("v_probe_j_error_bound", "rho_probe_j_error_bound") for j in (1, 2, 3)]
 
 
 @pytest.fixture(scope="module")
@@ -88,7 +89,8 @@ def param_offset(blob: bytes, n_ports=0) -> int:
 def test_state_at_c1_d1_restored_at_c2_d2_continues_as_the_original(fmus, kind, fmi):
     """Instance A runs at (c1, d1) and saves its state; B, set to (c2, d2) and run (its operators and, exact
     model, its exponential cache at (c2, d2)), restores A's state, through a serialized blob too: it reads c1, d1
-    and continues bitwise as A.  A fresh, not yet initialized instance restoring it does the same."""
+    and continues bitwise as A, its certified error bounds too.  A fresh, not yet initialized instance restoring
+    it does the same."""
     path = fmus(kind, fmi)
     f = inputs(30)
     with FMU(path) as a:
@@ -98,6 +100,7 @@ def test_state_at_c1_d1_restored_at_c2_d2_continues_as_the_original(fmus, kind, 
         blob = a.serialize(state)
         a.free_state(state)
         original = a.run([H] * 15, f[15:], t0=15 * H)
+        bounds = a.get_real(BOUND_VRS)              # the certified bounds' shadow, assembled at (c1, d1)
     assert struct.unpack_from("<I", blob, 8)[0] == 3
     scale, c, d = struct.unpack_from("<3d", blob, param_offset(blob))
     assert (scale, c, d) == (1.0, C1, D1)
@@ -109,6 +112,7 @@ def test_state_at_c1_d1_restored_at_c2_d2_continues_as_the_original(fmus, kind, 
         b.set_state(restored)
         assert np.array_equal(b.get_real([VR_C, VR_D]), [C1, D1])
         continued = b.run([H] * 15, f[15:], t0=15 * H)
+        assert np.array_equal(b.get_real(BOUND_VRS), bounds)   # its planes re-assembled at (c1, d1) too
         b.free_state(restored)
     assert np.array_equal(continued, original)
     with FMU(path) as b:                                       # at B's own (c2, d2) it would have differed

@@ -96,6 +96,12 @@ SECTION_TAGS: dict[str, str] = {          # tag -> what it holds (the C loader's
     "SHGRAM": "error bounds: the inputs' Gram matrix outside the shadow",
     "SHROW": "error bounds: per output row, its norm, input gains and initial-state envelope",
     "SHPROBE": "error bounds: the probes' weights and rho0",
+    # ... a parametric FMU's shadow adds these two (with section PARAMS)
+    "SHPIECE": "error bounds: the planes' pieces per unit c and per unit d",
+    "SHPARAM": "error bounds: c_ref and the residual pieces' norms",
+    # ... a shadow of one dense block (a damping d that is not uniform) adds these two
+    "SHDENSE": "error bounds: the dense block's growth rate",
+    "SHEGRAM": "error bounds: the dense block's coupling residual's Gram matrix",
 }
 MAX_PORTS = 4                              # fmu_src/rom.h ROM_MAX_PORTS
 _HEADER = struct.Struct("<8s10I3d")

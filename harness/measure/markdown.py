@@ -399,7 +399,8 @@ CARRIED = ("## The full SPH step: numba against a hand-written C stencil",
            "## Scale: the balanced model and its bounds to N = 10⁴",
            "## Fast end to end: before and after",
            "## Certified error bounds",        # sphrom bench error_bounds
-           "## Certified error bounds: ports and coupled components")     # sphrom bench error_bounds_ports
+           "## Certified error bounds: ports and coupled components",     # sphrom bench error_bounds_ports
+           "## Certified error bounds of parametric FMUs")   # sphrom bench error_bounds --parametric
 PACKAGED_HEADING = "## The packaged FMU against the full SPH, every scene"
 
 

@@ -35,8 +35,10 @@ of J reaches 0: the density is not bounded there).
 The shadow's size n is measured: the smallest n (at a gap of the singular values) whose own certified error
 on the training run (the scene's initial state and force over T) is at most :data:`SHADOW_TARGET` of the
 training run's largest probe velocity, at most :data:`MAX_ORDER` coordinates.  Without a uniform d the planes
-are not invariant: the shadow is the Galerkin model on them (one dense block) and the complement terms fall back
-to the energy (‖c‖ ‖y0‖, ‖c‖ ∫‖B_⊥ u‖; certified, looser).  docs/science/error-bounds.md has the derivation.
+are not invariant: the shadow is the Galerkin model on them (one dense block, stepped by the exponential of its
+augmented matrix, O(k_s²) per step) and the complement terms fall back to the energy (‖c‖ ‖y0‖, ‖c‖ ∫‖B_⊥ u‖,
+and ‖c‖ ∫‖E w‖ with E the true coupling residual, from the exact quadratic form of each step by Van Loan's
+exponential: :func:`residual_gram`; certified, looser).  docs/science/error-bounds.md has the derivation.
 """
 
 from __future__ import annotations
@@ -96,6 +98,9 @@ class Shadow:
     parametric : bool
     c_ref : float
         The reference c of a parametric model [kg m^-1 s^-2] (nan otherwise).
+    E_gram : ndarray (k_s, k_s) or None
+        A dense shadow at fixed parameters (no invariant planes): Eᵀ E of its coupling residual E = A S - S Λ
+        (energy coordinates): the residual term is ‖c‖ ∫‖E w‖ (:func:`residual_gram`), not ‖c‖ ‖E‖ ∫‖w‖.
     info : dict
         How it was chosen: order, target, its certified training error, invariance, timings.
     """
@@ -120,6 +125,7 @@ class Shadow:
     n_ports: int
     parametric: bool = False
     c_ref: float = float("nan")
+    E_gram: np.ndarray | None = None
     info: dict = field(default_factory=dict)
 
     @property
@@ -352,7 +358,7 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
     limit = max(1, max_order // 2)
     if order is not None:
         chosen = int(order)
-    elif len(ports) and n <= PORT_ALL_PLANES:
+    elif len(ports) and n <= PORT_ALL_PLANES and invariant:      # (a dense shadow keeps its own cap)
         # a port's force and velocity are kernel-localized: their complement terms fall only like log(N / k_s)
         # (sup|H| of a port row 4.7, 2.5, 0.63 m s^-1 per N m^-2 at k_s = 40, 80, 160 of damped_forced's N = 100,
         # measured), far above any port response; every plane makes the complement empty and the bound
@@ -422,11 +428,14 @@ def _assemble(problem, pieces, full_blocks, keep, U, W, C, Bcols, x0, c_hat, y_h
         A = np.array([m.ravel() for m in lam])
     # residual pieces E_p = A_p S - S Λ_p: norms of their v rows and e rows
     E = np.zeros((3, 2))
+    E_gram = None
     for p, piece in enumerate(pieces):
         if piece is None or ks == 0:
             continue
         Ep = piece(S) - S @ lam[p]
         E[p] = [np.linalg.norm(Ep[:n], 2), np.linalg.norm(Ep[n:], 2)]
+        if p == 0 and not invariant and not parametric:
+            E_gram = Ep.T @ Ep
     B = S.T @ Bcols
     Bperp = Bcols - S @ B
     w0 = S.T @ x0
@@ -464,7 +473,7 @@ def _assemble(problem, pieces, full_blocks, keep, U, W, C, Bcols, x0, c_hat, y_h
                   dt_tab=float(dt_tab), H=H * (1.0 + 1e-12), gram=Bperp.T @ Bperp, y0_norm=float(np.linalg.norm(y0)),
                   x0_norm=float(np.linalg.norm(x0)), E=E, B_norm=float(np.linalg.norm(B, 2)) if B.size else 0.0,
                   pw=pw, prho0=prho0, n_ports=int(n_ports), parametric=bool(parametric),
-                  c_ref=float(problem.c[0]) if parametric else float("nan"),
+                  c_ref=float(problem.c[0]) if parametric else float("nan"), E_gram=E_gram,
                   info={"invariant": invariant})
 
 
@@ -487,6 +496,33 @@ def block_maps(blocks, B, h):
         out.append((E[:b, :b], E[:b, b:b + m], E[:b, b + m:]))
         at += b
     return out
+
+
+QUAD_ROUNDOFF = 1e-14       # the residual's quadratic form: + this x (trace(Q) + ‖F12‖₁ ‖F22‖₁) |Y|^2 (its round-off)
+
+
+def residual_gram(L, B, E_gram, h):
+    """Q of a step h of one dense block: ∫_0^h ‖E w(τ)‖² dτ = h Yᵀ Q Y, Y = (w, u, du) at the step's start (u the
+    input there, du its change over the step), w' = L w + B u: with M = [[L h, B h, 0], [0, 0, I], [0, 0, 0]] (the
+    block's augmented matrix, :func:`block_maps`) Q = ∫_0^1 e^{Mᵀs} diag(EᵀE, 0, 0) e^{Ms} ds, by Van Loan's
+    exponential of [[-Mᵀ, diag(EᵀE, 0, 0)], [0, M]] (Q = F22ᵀ F12), symmetrised.  Returns (Q, allowance): the
+    form's round-off allowance per |Y|², QUAD_ROUNDOFF (trace(Q) + ‖F12‖₁ ‖F22‖₁) (the product's scale: F12 grows
+    with e^{-Mᵀ} where the block is damped, and Q is its cancellation with F22)."""
+    b, m = L.shape[0], B.shape[1]
+    n = b + 2 * m
+    M = np.zeros((n, n))
+    M[:b, :b] = L * h
+    M[:b, b:b + m] = B * h
+    M[b:b + m, b + m:] = np.eye(m)
+    V = np.zeros((2 * n, 2 * n))
+    V[:n, :n] = -M.T
+    V[:b, n:n + b] = E_gram
+    V[n:, n:] = M
+    F = sla.expm(V)
+    Q = F[n:, n:].T @ F[:n, n:]
+    Q = 0.5 * (Q + Q.T)
+    scale = float(np.trace(Q)) + np.linalg.norm(F[:n, n:], 1) * np.linalg.norm(F[n:, n:], 1)
+    return Q, QUAD_ROUNDOFF * scale
 
 
 def run_shadow(sh: Shadow, h, u, rate, *, scale=1.0, c=None, d=None):
@@ -512,7 +548,7 @@ def run_shadow(sh: Shadow, h, u, rate, *, scale=1.0, c=None, d=None):
     u = np.atleast_2d(np.asarray(u, float)).reshape(h.size, sh.n_inputs)
     rate = np.atleast_2d(np.asarray(rate, float)).reshape(h.size, sh.n_inputs)
     blocks = sh.blocks(c, d)
-    mu = max([0.0] + [float(np.max(np.linalg.eigvalsh(0.5 * (L + L.T)))) for L in blocks])
+    mu = growth_rate(blocks)
     cn = sh.dual_norms(c)
     enorm = sh.residual_norm(c, d)
     gram = sh.gram
@@ -520,7 +556,8 @@ def run_shadow(sh: Shadow, h, u, rate, *, scale=1.0, c=None, d=None):
     tv = np.zeros(sh.n_inputs)
     uprev = np.zeros(sh.n_inputs)
     p_int = w_int = 0.0
-    cache = {}
+    cache, grams = {}, {}
+    dense = sh.E_gram is not None
     Y, CERT = [], []
     tau = 0.0
 
@@ -530,7 +567,8 @@ def run_shadow(sh: Shadow, h, u, rate, *, scale=1.0, c=None, d=None):
         ginit = abs(scale) * np.minimum(gtab, cn * sh.y0_norm)
         gin = np.minimum(hoelder_input(sh.H, tv), cn * p_int)
         allow = cn * (ROUNDOFF + ROUNDOFF_STEP * n) * (np.linalg.norm(w) + abs(scale) * sh.x0_norm)
-        return ginit + gin + cn * enorm * w_int + allow
+        residual = cn * w_int if dense else cn * enorm * w_int      # dense: w_int is ∫‖E w‖
+        return ginit + gin + residual + allow
 
     Y.append(sh.C @ w)
     CERT.append(cert(0.0, 0))
@@ -544,8 +582,15 @@ def run_shadow(sh: Shadow, h, u, rate, *, scale=1.0, c=None, d=None):
         uprev = u0 + du
         q = hk * (u0 @ gram @ u0) + hk * (u0 @ gram @ du) + hk / 3.0 * (du @ gram @ du)
         p_int += math.sqrt(max(hk * q, 0.0))
-        w_int += hk * math.exp(mu * hk) * (np.linalg.norm(w) + hk * sh.B_norm * max(np.linalg.norm(u0),
-                                                                                      np.linalg.norm(u0 + du)))
+        if dense:                       # ∫‖E w‖ <= sqrt(h ∫‖E w‖²) = h sqrt(Yᵀ Q Y) over the step
+            if hk not in grams:
+                grams[hk] = residual_gram(blocks[0], sh.B, sh.E_gram, hk)
+            (Q, allowance), aug = grams[hk], np.concatenate([w, u0, du])
+            quad = aug @ Q @ aug + allowance * (aug @ aug)
+            w_int += hk * math.sqrt(max(quad, 0.0))
+        else:
+            w_int += hk * math.exp(mu * hk) * (np.linalg.norm(w) + hk * sh.B_norm * max(np.linalg.norm(u0),
+                                                                                          np.linalg.norm(u0 + du)))
         new, at = np.empty_like(w), 0
         for (phi, g0, g1), L in zip(cache[hk], blocks):
             b = L.shape[0]
@@ -560,7 +605,8 @@ def run_shadow(sh: Shadow, h, u, rate, *, scale=1.0, c=None, d=None):
 
 def hoelder_input(H, tv):
     """Σ_i H[r, i] tv[i] per row, an input whose variation is 0 adding nothing (also where H is inf)."""
-    return np.where(np.asarray(tv)[None, :] > 0, H * np.asarray(tv)[None, :], 0.0).sum(axis=1)
+    with np.errstate(invalid="ignore"):                 # inf x 0 of an unused input: masked here
+        return np.where(np.asarray(tv)[None, :] > 0, H * np.asarray(tv)[None, :], 0.0).sum(axis=1)
 
 
 def output_bounds(sh: Shadow, y, cert, v_model, rho_model, port_model=None):
@@ -589,41 +635,83 @@ def output_bounds(sh: Shadow, y, cert, v_model, rho_model, port_model=None):
 
 TOLERANCE_FRACTION = 0.05   # error_tolerance's default: this x the training run's largest |v_probe| [m s^-1]
 FMU_MAX_PARTICLES = 2000    # above this N the FMU carries no shadow (its dense SVD would dominate the packaging)
+DENSE_MAX_ORDER = 160       # the largest k_s of an FMU's dense shadow (its residual's exponential is 2 (k_s + 2 m) square)
 N_SCALARS = 12              # columns of section SHSCAL
 
 
-def fmu_shadow(problem, probes, ports=(), *, scale_v=None, force=None, T=None):
-    """The shadow of an FMU's outputs, or None where the C core cannot certify it: a parametric model (not built
-    here), a damping d that is not uniform (no invariant planes: the dense fallback is Python only), or more than
-    :data:`FMU_MAX_PARTICLES` particles (the dense singular value decomposition of the coupling)."""
+def fmu_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, force=None, T=None):
+    """The shadow of an FMU's outputs, or None where the C core cannot certify it: more than
+    :data:`FMU_MAX_PARTICLES` particles (the dense singular value decomposition of the coupling), or a parametric
+    model whose c or d is not uniform.  ``parametric``: the shadow of a parametric FMU (:mod:`harness.rom.parametric`,
+    uniform c and d), its planes in pieces about the scene's c (c_ref).  A damping d that is not uniform gives the
+    dense fallback (one Galerkin block on the planes, the complement by the energy; module docstring)."""
     d = np.asarray(problem.d, float)
-    if not np.all(d == d[0]) or d.size > FMU_MAX_PARTICLES:
+    if d.size > FMU_MAX_PARTICLES:
         return None
-    return build_shadow(problem, probes, ports, scale_v=scale_v, force=force, T=T)
+    if parametric and not (problem.terms["uniform_c"] and np.all(d == d[0])):
+        return None
+    uniform_d = bool(np.all(d == d[0]))
+    return build_shadow(problem, probes, ports, parametric=parametric, scale_v=scale_v, force=force, T=T,
+                        max_order=MAX_ORDER if uniform_d else DENSE_MAX_ORDER)
+
+
+def growth_rate(blocks):
+    """mu: the largest eigenvalue of a block's symmetric part over the blocks, 0 at least (:func:`run_shadow`)."""
+    return max([0.0] + [float(np.max(np.linalg.eigvalsh(0.5 * (L + L.T)))) for L in blocks])
 
 
 def sections(sh: Shadow):
     """{tag: 2-D float64 array} of the shadow for resources/model.bin (fmu_src/rom.h, section SH*):
 
-    SHSCAL (1, 12)   k_s, planes, inputs m, rows, table length, dt_tab [s], ‖y0‖, ‖x0‖, ‖E‖, ‖B‖,
+    SHSCAL (1, 12)   k_s, planes (k_s / 2), inputs m, rows, table length, dt_tab [s], ‖y0‖, ‖x0‖, ‖E‖, ‖B‖,
                      error_tolerance's default [m s^-1], 0
-    SHLAM (planes, 4)  each plane's Λ_i row-major [s^-1]
+    SHLAM (planes, 4)  each plane's Λ_i row-major [s^-1] (parametric: its constant piece; dense: below)
     SHB (k_s, m), SHC (rows, k_s), SHW0 (1, k_s), SHGRAM (m, m)
     SHROW (rows, 1 + m + table)  per row: ‖c_r‖, sup|H| per input (-1: none), the envelope G(t_b)
     SHPROBE (P, 4)   per probe: the weights and ρ0 of its two particles [kg m^-3]
+
+    A parametric shadow (``sh.parametric``: Λ_i(c, d) = SHLAM_i + c SHPIECE_i[0:4] + d SHPIECE_i[4:8], in this
+    order, as :meth:`Shadow.blocks`) adds two sections, and its file needs section PARAMS (the model's c and d):
+
+    SHPIECE (planes, 8)  each plane's piece per unit c [kg^-1 m s], then per unit d [1], row-major
+    SHPARAM (1, 7)       c_ref [kg m^-1 s^-2] (the c of the energy coordinates: ‖c_r‖ and G of the e rows at c
+                         are SHROW's x sqrt(c_ref / c)), then ‖E_p‖ of the pieces (const, c, d) row-major, of their
+                         v rows and e rows (‖E(c, d)‖ = Σ_p coef_p (E_p,v + sqrt(c / c_ref) E_p,e), coef = 1, c, d)
+
+    its SHSCAL's ‖E‖ is 0 (the C core computes it at (c, d)), its table one column (G for all t, dt_tab = T) and
+    sup|H| -1 (none).  A shadow without invariant planes (a damping d that is not uniform: one dense block, the
+    Galerkin model on the planes) has SHLAM (k_s, k_s), that block row-major, and adds
+
+    SHDENSE (1, 1)   mu [s^-1]: the largest eigenvalue of the block's symmetric part, 0 at least (:func:`growth_rate`)
+    SHEGRAM (k_s, k_s)  Eᵀ E of the coupling residual E = A S - S Λ [s^-2] (the residual term ‖c‖ ∫‖E w‖,
+                     :func:`residual_gram`)
+
+    its table one column (‖c_r‖ ‖y0‖), sup|H| -1 and ‖E‖ the norm of the coupling residual (information).  A shadow of invariant planes
+    at fixed parameters has exactly the first eight sections.
     """
-    if sh.parametric or not sh.info.get("invariant") or np.any(sh.sizes != 2):
-        raise ValueError("the FMU's shadow needs invariant planes and fixed parameters")
+    dense = not sh.info.get("invariant")
+    if dense and (sh.parametric or sh.sizes.size != 1):
+        raise ValueError("the FMU's dense shadow is one block at fixed parameters")
+    if not dense and np.any(sh.sizes != 2):
+        raise ValueError("the FMU's shadow needs invariant planes or one dense block")
     m = sh.n_inputs
     H = np.where(np.isfinite(sh.H), sh.H, -1.0)
     tol = TOLERANCE_FRACTION * float(sh.info.get("scale_v", 0.0))
-    scal = [sh.order, sh.sizes.size, m, sh.n_rows, sh.G.shape[1], sh.dt_tab, sh.y0_norm, sh.x0_norm,
-            sh.residual_norm(), sh.B_norm, tol, 0.0]
-    return {"SHSCAL": np.array([scal], float),
-            "SHLAM": np.asarray(sh.A[0], float).reshape(-1, 4),
-            "SHB": np.asarray(sh.B, float).reshape(sh.order, m),
-            "SHC": np.asarray(sh.C, float),
-            "SHW0": np.asarray(sh.w0, float)[None, :],
-            "SHGRAM": np.asarray(sh.gram, float).reshape(m, m),
-            "SHROW": np.column_stack([sh.row_norm, H, sh.G]),
-            "SHPROBE": np.column_stack([sh.pw, sh.prho0])}
+    scal = [sh.order, sh.order // 2, m, sh.n_rows, sh.G.shape[1], sh.dt_tab, sh.y0_norm, sh.x0_norm,
+            0.0 if sh.parametric else sh.residual_norm(), sh.B_norm, tol, 0.0]
+    out = {"SHSCAL": np.array([scal], float),
+           "SHLAM": np.asarray(sh.A[0], float).reshape(-1, sh.order if dense else 4),
+           "SHB": np.asarray(sh.B, float).reshape(sh.order, m),
+           "SHC": np.asarray(sh.C, float),
+           "SHW0": np.asarray(sh.w0, float)[None, :],
+           "SHGRAM": np.asarray(sh.gram, float).reshape(m, m),
+           "SHROW": np.column_stack([sh.row_norm, H, sh.G]),
+           "SHPROBE": np.column_stack([sh.pw, sh.prho0])}
+    if sh.parametric:
+        out["SHPIECE"] = np.column_stack([np.asarray(sh.A[1], float).reshape(-1, 4),
+                                          np.asarray(sh.A[2], float).reshape(-1, 4)])
+        out["SHPARAM"] = np.concatenate([[sh.c_ref], np.asarray(sh.E, float).ravel()])[None, :]
+    if dense:
+        out["SHDENSE"] = np.array([[growth_rate(sh.blocks())]])
+        out["SHEGRAM"] = np.asarray(sh.E_gram, float)
+    return out

@@ -235,15 +235,18 @@ def _linear_resource(scene, model, k, n_freeze, probes, integrator, progress, pr
     return data, ops, pack_exact(data)
 
 
-def shadow_step(data, problem, probes, ports=()):
+def shadow_step(data, problem, probes, ports=(), parametric=False):
     """The certified error bounds' shadow of every output into ``data.sections`` (SH*, :mod:`harness.rom.bounds`;
     the FMU's outputs ``*_error_bound`` and parameter ``error_tolerance``), its default tolerance from the training
     run's largest |v_probe| (section ENVPROBE; without it the initial state's); nothing where the C core cannot
-    certify (a damping d that is not uniform)."""
+    certify (more than FMU_MAX_PARTICLES particles, a parametric model whose d is not uniform).  A damping d that
+    is not uniform gives one dense block (sections SHDENSE, SHEGRAM).  ``parametric``: the shadow of a parametric
+    FMU (its planes in pieces of c and d, sections SHPIECE and SHPARAM; the C core assembles them at the FMU's c
+    and d)."""
     from ...rom.bounds import fmu_shadow, sections
     envelope = data.sections.get("ENVPROBE")
     scale_v = float(np.max(envelope[1])) if envelope is not None else None
-    shadow = fmu_shadow(problem, probes, tuple(ports or ()), scale_v=scale_v)
+    shadow = fmu_shadow(problem, probes, tuple(ports or ()), parametric=parametric, scale_v=scale_v)
     if shadow is not None:
         data.sections.update(sections(shadow))
 

@@ -249,7 +249,7 @@ def model_step(scene, model, k, n_freeze, probes, integrator, progress, problem,
         raise FieldError("build_options", "not with vary (a parametric model has its own build)")
     from .parametric import parameter_variables, parametric_resource
     data, ops, blob, space = parametric_resource(scene, model, k, n_freeze or defaults.N_FREEZE, probes, integrator,
-                                                 progress, vary)
+                                                 progress, vary, error_bounds=error_bounds)
     return data, ops, blob, parameter_variables(space)
 
 

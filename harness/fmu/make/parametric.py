@@ -94,9 +94,12 @@ def parametric_envelope(scene, space, ops, probes, linear, progress=False):
     return union([measure(scene, ops, problem, run, probes, linear) for run in runs])
 
 
-def parametric_resource(scene, model, k, n_freeze, probes, integrator, progress, ranges):
+def parametric_resource(scene, model, k, n_freeze, probes, integrator, progress, ranges, error_bounds=True):
     """(data, ops at the start values, resource bytes, space) of a parametric FMU; its training envelope that of
-    the runs at all sample points (:func:`parametric_envelope`)."""
+    the runs at all sample points (:func:`parametric_envelope`); with ``error_bounds`` the certified error bounds'
+    parametric shadow about the scene's (c, d) (:func:`harness.fmu.make.models.shadow_step`; the C core
+    assembles its planes at the FMU's c and d)."""
+    from .models import shadow_step
     from ...rom.registry import get_model
     from ...rom.stepping import runaway_bound
     from ...sph.solver import build_problem
@@ -111,6 +114,8 @@ def parametric_resource(scene, model, k, n_freeze, probes, integrator, progress,
         sections.update({"A0": affine.A0, "AC": affine.Ac, "AD": affine.Ad})
         sections.update(parametric_envelope(scene, space, lin, probes, True, progress).sections())
         data.sections.update(sections)
+        if error_bounds:
+            shadow_step(data, problem, probes, parametric=True)
         return data, lin, pack_exact(data), space
     ops = par.frozen_at(affine, c0, d0)
     data = model_data(ops, problem, dt=scene.sph.dt, integrator=integrator, n_freeze=n_freeze, probes=probes,
@@ -120,4 +125,6 @@ def parametric_resource(scene, model, k, n_freeze, probes, integrator, progress,
         sections["DD"] = affine.unit.D
     sections.update(parametric_envelope(scene, space, ops, probes, False, progress).sections())
     data.sections.update(sections)
+    if error_bounds:
+        shadow_step(data, problem, probes, parametric=True)
     return data, ops, pack(data), space

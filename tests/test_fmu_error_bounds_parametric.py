@@ -1,0 +1,155 @@
+"""The certified error-bound outputs of a parametric FMU (``--vary c --vary d``; harness/rom/bounds.py with
+``parametric=True``, fmu_src/rom_bound.c assembling the shadow's planes at the FMU's c and d).
+
+The truth is that of tests/test_fmu_error_bounds.py: the full SPH of eqs. 2.10-2.11, exactly linear in J,
+integrated exactly in time with the inputs the FMU received, here of the scene with c and d replaced by the
+FMU's held-out values (neither the scene's nor a training point), from the FMU's initial state
+(initial_state_scale 1) under forces no basis saw.  The scene is multimode shrunk (N = 32, d = 0, unforced):
+its shadow keeps 14 of the 32 planes, so the complement's terms (the all-time G, the energy bound of the
+inputs, the residual pieces) are exercised, not only |model - shadow|.
+"""
+
+import zipfile
+
+import numpy as np
+import pytest
+
+import test_fmu_error_bounds as base
+from conftest import fmu_scene
+from harness.fmu.resources import unpack
+from harness.rom import parametric as par
+
+CASE = "unforced"
+RANGES = [par.Range("c", 0.05, 0.2), par.Range("d", 0.0, 5.0)]
+
+
+@pytest.fixture(scope="module")
+def fmus(tmp_path_factory):
+    """make(model, fmi) -> (path, data): the parametric FMU of fmu_scene("unforced") over RANGES (k = 6), once."""
+    from harness.fmu.make.build import ensure_binaries
+    from harness.fmu.make.package import package_fmu
+    folder, made = tmp_path_factory.mktemp("bound-parametric"), {}
+
+    def make(model, fmi=2):
+        if (model, fmi) not in made:
+            path = folder / f"{model}-{fmi}.fmu"
+            package_fmu(fmu_scene(CASE), path, k=6, fmi=fmi, probes=base.PROBES, progress=False,
+                        binaries=ensure_binaries(), model=model, vary=RANGES)
+            made[model, fmi] = (path, unpack(zipfile.ZipFile(path).read("resources/model.bin")))
+        return made[model, fmi]
+
+    return make
+
+
+def held_out():
+    """The first held-out (c, d) of the trained box (Halton; neither the scene's (0.1, 0) nor a training point)."""
+    from harness.sph.solver import build_problem
+    space = par.parameter_space(build_problem(fmu_scene(CASE)), RANGES)
+    c, d = par.held_out_points(space, 1)[0]
+    assert (c, d) != (0.1, 0.0) and not any(np.allclose((c, d), p) for p in par.training_points(space))
+    return float(c), float(d)
+
+
+def times():
+    return np.arange(int(round(base.T / base.H)) + 1) * base.H
+
+
+@pytest.mark.parametrize("model", ["exact", "frozen"])
+def test_parametric_bounds_hold_at_a_held_out_point(fmus, model):
+    """At a held-out (c, d), under three forces no basis saw (held, and the chirp linear with input derivatives),
+    initial_state_scale 1: every bound >= |output - truth| at every communication point, the truth the full
+    linear SPH with that c and d; and the bound is not vacuous: within 2x of the true velocity error where that
+    error is above 1e-3 of its largest (measured: at most 1.51 exact, 1.00002 frozen)."""
+    path, data = fmus(model)
+    assert "SHPIECE" in data.sections and "SHPARAM" in data.sections
+    c, d = held_out()
+    fields = (("c", c), ("d", d))
+    t = times()
+    effs = []
+    for name in ("constant", "step", "chirp"):
+        f = base.forces(t)[name]
+        out, names, _ = base.run(path, 1.0, f, parameters={"c": c, "d": d})
+        v, rho, _ = base.truth(CASE, 1.0, f, fields=fields)
+        effs.append(base.check(out, names, v, rho))
+    f = base.forces(t)["chirp"]
+    out, names, _ = base.run(path, 1.0, f, linear=True, parameters={"c": c, "d": d})
+    v, rho, _ = base.truth(CASE, 1.0, f, linear=True, fields=fields)
+    effs.append(base.check(out, names, v, rho))
+    eff = np.concatenate(effs)
+    # the velocity error is far above round-off (|v| ~ 1e-2 m s^-1): the exact model's ~3e-8, the frozen's ~1e-3
+    assert np.max(np.abs(base.columns(out, names, "v_probe_j") - v)) > 1e-9
+    assert eff.size and np.max(eff) < 2.0, np.max(eff)
+
+
+def test_parametric_bounds_are_the_python_shadow_fmi2_and_3(fmus):
+    """Two paths: the C core's bounds at the held-out (c, d) (its planes, residual norm and e-row scale assembled
+    at ExitInitializationMode) equal harness/rom/bounds.py's run_shadow + output_bounds at that (c, d) on the
+    shadow rebuilt from the scene (its sections equal the FMU's), within rtol 1e-9 (plus 1e-13 of the outputs'
+    largest: |model - shadow| differs by the C Taylor vs scipy Pade exponentials' round-off); FMI 3 gives the
+    bounds of FMI 2 (held inputs, rtol 1e-12), certified."""
+    from harness.rom.bounds import fmu_shadow, output_bounds, run_shadow, sections
+    from harness.sph.solver import build_problem
+    path, data = fmus("exact")
+    shadow = fmu_shadow(build_problem(fmu_scene(CASE)), base.PROBES, parametric=True,
+                        scale_v=float(np.max(data.sections["ENVPROBE"][1])))
+    assert shadow.parametric and shadow.order < 2 * 32          # a complement left: its terms are exercised
+    for tag, value in sections(shadow).items():
+        np.testing.assert_allclose(data.sections[tag], value, rtol=1e-12, atol=1e-300, err_msg=tag)
+    c, d = held_out()
+    t = times()
+    f = base.forces(t)["chirp"]
+    out, names, _ = base.run(path, 1.0, f, linear=True, parameters={"c": c, "d": d})
+    y, cert = run_shadow(shadow, np.full(t.size - 1, base.H), f[:-1, None], (np.diff(f) / base.H)[:, None],
+                         scale=1.0, c=c, d=d)
+    v, rho = base.columns(out, names, "v_probe_j"), base.columns(out, names, "rho_probe_j")
+    vb, rb, _ = output_bounds(shadow, y, cert, v, rho)
+    np.testing.assert_allclose(base.columns(out, names, "v_probe_j_error_bound"), vb, rtol=1e-9,
+                               atol=1e-13 * np.abs(v).max())
+    np.testing.assert_allclose(base.columns(out, names, "rho_probe_j_error_bound"), rb, rtol=1e-9,
+                               atol=1e-13 * np.abs(rho).max())
+    # and (c, d) matter: the Python shadow at the scene's own (c, d) gives other bounds
+    y0, cert0 = run_shadow(shadow, np.full(t.size - 1, base.H), f[:-1, None], (np.diff(f) / base.H)[:, None],
+                           scale=1.0, c=0.1, d=0.0)
+    assert np.max(np.abs(output_bounds(shadow, y0, cert0, v, rho)[0] - vb)) > 1e3 * 1e-13 * np.abs(v).max()
+    # FMI 3 (held inputs: it takes no input derivatives) gives FMI 2's bounds, certified
+    results = []
+    for fmi in (2, 3):
+        out, names, _ = base.run(fmus("exact", fmi)[0], 1.0, f, parameters={"c": c, "d": d})
+        base.check(out, names, *base.truth(CASE, 1.0, f, fields=(("c", c), ("d", d)))[:2])
+        results.append(base.columns(out, names, "v_probe_j_error_bound"))
+    np.testing.assert_allclose(results[1], results[0], rtol=1e-12, atol=0)
+
+
+def test_ordinary_sections_unchanged():
+    """A non-parametric FMU's shadow has exactly the eight sections SH* it had (no SHPIECE, SHPARAM)."""
+    from harness.rom.bounds import fmu_shadow, sections
+    from harness.sph.solver import build_problem
+    tags = sorted(sections(fmu_shadow(build_problem(fmu_scene(CASE)), base.PROBES)))
+    assert tags == sorted(["SHSCAL", "SHLAM", "SHB", "SHC", "SHW0", "SHGRAM", "SHROW", "SHPROBE"])
+
+
+def test_core_refuses_a_malformed_parametric_shadow(fmus):
+    """The loader names the problem: SHPIECE without SHPARAM (and the reverse), the pieces without section PARAMS,
+    a c_ref <= 0, a negative residual norm, SHPIECE of the wrong shape; the packaged file itself loads."""
+    from harness.fmu.make.build import ensure_binaries
+    from harness.fmu.resources import pack_exact
+    from harness.fmu.run.core import Core, CoreError
+    core = Core(ensure_binaries().core)
+    _, data = fmus("exact")
+
+    def load(change):
+        import copy
+        bad = copy.deepcopy(data)
+        change(bad.sections)
+        return core.load(pack_exact(bad))
+
+    assert load(lambda s: None) is not None
+    cases = [(lambda s: s.pop("SHPARAM"), "SHPIECE and SHPARAM come together"),
+             (lambda s: s.pop("SHPIECE"), "SHPIECE and SHPARAM come together"),
+             (lambda s: [s.pop(t) for t in ("PARAMS", "A0", "AC", "AD")], "SHPIECE and SHPARAM come together"),
+             (lambda s: s["SHPARAM"].__setitem__((0, 0), -1.0), "c_ref = -1"),
+             (lambda s: s["SHPARAM"].__setitem__((0, 3), -1.0), "residual norm -1"),
+             (lambda s: s.__setitem__("SHPIECE", s["SHPIECE"][:, :4]), "section SHPIECE is")]
+    for change, text in cases:
+        with pytest.raises(CoreError, match=text):
+            load(change)
