@@ -88,9 +88,9 @@ PROGRAMS = {
                             "the full SPH's forced response", "measured: see the report", "unseen_force.csv"),
     "error_bounds": Program("harness.bench.error_bounds", "the certified error-bound outputs on every built-in "
                             "scene: bound >= true error at every point, effectivity, doStep cost with and without "
-                            "them (--parametric: the parametric FMUs at held-out (c, d))", "measured: see the report",
-                            "error_bounds.csv, error_bounds.png (--parametric: error_bounds_parametric.csv); a "
-                            "BENCHMARKS.md section"),
+                            "them (with --parametric, the parametric FMUs at held-out (c, d))", "measured: see the "
+                            "report", "error_bounds.csv, error_bounds.png (with --parametric, "
+                            "error_bounds_parametric.csv); a BENCHMARKS.md section"),
     "error_bounds_ports": Program("harness.bench.error_bounds_ports", "the certified error bounds of port FMUs: "
                                   "open-loop port forces, a coupled mass-spring, f with port forces, against the "
                                   "linear SPH exact in time", "measured: see the report", "error_bounds_ports.csv; "

@@ -375,7 +375,7 @@ def main(argv=None):
     p.add_argument("--parametric", action="store_true",
                    help="the parametric FMUs (frozen, exact) at held-out (c, d): their own section")
     p.add_argument("--points", type=positive_int, default=2, metavar="P",
-                   help="--parametric: held-out (c, d) per scene (default 2)")
+                   help="held-out (c, d) per scene with --parametric (default 2)")
     args = p.parse_args(argv)
     scenes = args.scenes or builtin_names()
     unknown = [s for s in scenes if s not in builtin_names()]
@@ -383,7 +383,8 @@ def main(argv=None):
         p.error(f"SCENE: {unknown[0]!r} is not a built-in scene (allowed: {', '.join(builtin_names())})")
     models = [m for m in args.models.split(",") if m]
     if args.parametric:
-        return main_parametric(args, scenes, [m for m in models if m != "balanced"], argv)
+        from ..rom.registry import get_model            # a parametric model is built on a POD basis
+        return main_parametric(args, scenes, [m for m in models if get_model(m).needs_basis], argv)
     t0 = time.perf_counter()
     rows, kept = [], {}
     with tempfile.TemporaryDirectory(prefix="sphrom-error-bounds-") as folder:
