@@ -155,6 +155,7 @@ extern "C" {
 #define ROM_LINEAR_EXACT_POD 1u      /* section LINMODEL: which linear model (messages only) */
 #define ROM_LINEAR_BALANCED 2u
 #define ROM_MAX_PORTS 4u             /* mechanical ports of one FMU */
+#define ROM_MAX_PARTICLES 1000000u   /* particles of a frozen model's particle refresh (sections PART*) */
 
 typedef enum { ROM_OK = 0, ROM_FAIL = 1 } RomStatus;
 

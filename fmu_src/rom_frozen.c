@@ -95,6 +95,37 @@ ROM_INLINE void refresh_symmetric(const RomModel *m, const RomFrozenModel *fm, c
     }
 }
 
+/* M from the particles (eq. 2.23 projected, harness/rom/frozen.py refresh_direct_path in its order):
+ * rho_i = 0.0 + U_i0 a_0 + U_i1 a_1 + ..., w_i = rho_i rho_i / rho0_i, M[p][q] = 0.0 + (w_0 U_0p) GU_0q +
+ * (w_1 U_1p) GU_1q + ..., particles in order; O(N k_rho k_v) with U^rho and G U^v in cache, where the tensor
+ * (n_pairs k_rho k_v values) would stream from memory.  Four rows p at a time: each lane the scalar sum. */
+ROM_INLINE void refresh_particles(const RomModel *m, const RomFrozenModel *fm, const double *restrict ar,
+                                  double *restrict Mt) {
+    const size_t n = fm->n_particles, kr = m->k_rho, kv = m->k_v, krp = m->kr_pad;
+    double up[ROM_MAX_MODES + 4] __attribute__((aligned(32)));
+    for (size_t i = 0; i < fm->nm; i++) Mt[i] = 0.0;
+    for (size_t p = kr; p < krp; p++) up[p] = 0.0;
+    for (size_t i = 0; i < n; i++) {
+        const double *restrict u = fm->Ur + i * kr;
+        double rho = 0.0;
+        for (size_t a = 0; a < kr; a++) rho += u[a] * ar[a];
+        const double w = rho * rho * fm->inv_rho0[i];
+        for (size_t p = 0; p < kr; p++) up[p] = w * u[p];
+        const double *restrict g = fm->GUv + i * kv;
+        for (size_t q = 0; q < kv; q++) {
+            double *restrict col = Mt + q * krp;
+            const double gq = g[q];
+            for (size_t p = 0; p < krp; p += 4) {
+#if defined(__GNUC__)
+                V4_STORE(col + p, V4_LOAD(col + p) + V4_LOAD(up + p) * V4_SPLAT(gq));
+#else
+                for (int j = 0; j < 4; j++) col[p + j] += up[p + j] * gq;
+#endif
+            }
+        }
+    }
+}
+
 /* M(a^rho) = sum_{a<=b} a^rho_a a^rho_b T_ab (eq. 2.23 projected; exact) and
  * the frozen force term F = p f (eq. 2.19), every n_freeze steps.  Each entry
  * is 0.0 + s_0 T_0 + s_1 T_1 + ... in pair order, as in Python; the entries are
@@ -121,16 +152,20 @@ ROM_INLINE void refresh(RomState *s, const RomFrozenModel *fm, RomFrozenState *f
     memcpy(last + kr, &f, sizeof(double));
     if (n_ports) memcpy(last + kr + 1, u, n_ports * sizeof(double));
     fs->refreshed = 1;
-    double *restrict S = fs->S;
-    size_t k = 0;
-    for (size_t a = 0; a < kr; a++) {
-        for (size_t b = a; b < kr; b++) S[k++] = ar[a] * ar[b];
-    }
-    if (fm->symmetric) {
-        for (k = 0; k < np; k++) S[k] *= fm->pair_scale[k];          /* exact: w_ab is 1 or 2 */
-        refresh_symmetric(m, fm, S, fs->Ms, fs->Mt);
+    if (fm->particles) {
+        refresh_particles(m, fm, ar, fs->Mt);
     } else {
-        refresh_tensor(m, fm, S, fs->Mt);
+        double *restrict S = fs->S;
+        size_t k = 0;
+        for (size_t a = 0; a < kr; a++) {
+            for (size_t b = a; b < kr; b++) S[k++] = ar[a] * ar[b];
+        }
+        if (fm->symmetric) {
+            for (k = 0; k < np; k++) S[k] *= fm->pair_scale[k];          /* exact: w_ab is 1 or 2 */
+            refresh_symmetric(m, fm, S, fs->Ms, fs->Mt);
+        } else {
+            refresh_tensor(m, fm, S, fs->Mt);
+        }
     }
     double *restrict F = fs->F;
     const size_t kv = m->kv_pad;
@@ -316,14 +351,17 @@ static RomStatus frozen_step(RomState *s, double t_comm, double h, char *message
 }
 
 /* multiply-adds of one internal step: the density and velocity rates, the two updates, the runaway check,
- * and 1/n_freeze of a refresh (the pair products, M from the tensor, the force term and the ports') */
+ * and 1/n_freeze of a refresh (the pair products and M from the tensor, or M from the particles; the force
+ * term and the ports') */
 static double frozen_step_work(const RomState *s) {
     if (!s || !s->model->body) return 0.0;
     const RomModel *m = s->model;
     const double kv = m->k_v, kr = m->k_rho, kvp = m->kv_pad, krp = m->kr_pad;
     const double step = krp * kv + kvp * (kr + ((m->flags & ROM_FLAG_DAMPING) ? kv : 0.0)) + kvp + krp + kv + kr;
-    const double refresh = (double)m->n_pairs * (1.0 + ((const RomFrozenModel *)m->body)->nm) + kvp +
-                           (double)m->n_ports * kv;
+    const RomFrozenModel *fm = (const RomFrozenModel *)m->body;
+    const double matrix = fm->particles ? (double)fm->n_particles * (kr + krp + kv * krp) + fm->nm
+                                        : (double)m->n_pairs * (1.0 + fm->nm);
+    const double refresh = matrix + kvp + (double)m->n_ports * kv;
     return step + refresh / (double)(s->n_freeze > 0 ? s->n_freeze : 1);
 }
 
@@ -590,7 +628,7 @@ RomStatus rom_frozen_refresh(const RomModel *model, int *path, int *skip) {
         return ROM_FAIL;
     }
     const RomFrozenModel *fm = (const RomFrozenModel *)model->body;
-    *path = fm->symmetric;
+    *path = fm->particles ? 2 : fm->symmetric;
     *skip = fm->keep_skip;
     return ROM_OK;
 }
@@ -600,12 +638,36 @@ RomStatus rom_frozen_set_refresh(RomModel *model, int path, int skip, char *mess
         return rom_fail(message, message_size, "the refresh: not a frozen-coefficient model");
     }
     RomFrozenModel *fm = (RomFrozenModel *)model->body;
-    if (path < -1 || path > 1 || (path == 1 && !fm->W) || skip < -1 || skip > 1) {
-        return rom_fail(message, message_size, "the refresh: path %d, skip %d (allowed: path -1, 0%s; skip -1, 0, 1)",
-                        path, skip, fm->W ? ", 1" : " (the tensor has no symmetry)");
+    if (path < -1 || path > 2 || (path == 1 && !fm->W) || (path == 2 && !fm->Ur) || skip < -1 || skip > 1) {
+        return rom_fail(message, message_size, "the refresh: path %d, skip %d (allowed: path -1, 0%s%s; skip -1, 0, "
+                        "1)", path, skip, fm->W ? ", 1" : " (the tensor has no symmetry)",
+                        fm->Ur ? ", 2" : " (no particle sections)");
     }
-    if (path >= 0) fm->symmetric = path;
+    if (path >= 0) {
+        fm->particles = path == 2;
+        if (path < 2) fm->symmetric = path;
+    }
     if (skip >= 0) fm->keep_skip = skip;
+    return ROM_OK;
+}
+
+/* The particle refresh from sections PARTUR, PARTGUV, PARTIR0 (all three or none; shapes checked by the loader):
+ * when present, the refresh path (packaging put them there where they cost less than the tensor). */
+static RomStatus frozen_sections_ready(RomModel *m, char *message, size_t message_size) {
+    if (!m || !m->body) return rom_fail(message, message_size, "resources: no model");
+    RomFrozenModel *fm = (RomFrozenModel *)m->body;
+    const RomSection *ur = rom_section(m, "PARTUR"), *guv = rom_section(m, "PARTGUV"), *ir = rom_section(m, "PARTIR0");
+    const int found = (ur != NULL) + (guv != NULL) + (ir != NULL);
+    if (found == 0) return ROM_OK;
+    if (found != 3) {
+        return rom_fail(message, message_size, "resources: the particle refresh's sections PARTUR, PARTGUV, PARTIR0 "
+                        "come together (%d of 3 present)", found);
+    }
+    fm->Ur = ur->data;
+    fm->GUv = guv->data;
+    fm->inv_rho0 = ir->data;
+    fm->n_particles = ir->cols;
+    fm->particles = 1;
     return ROM_OK;
 }
 
@@ -621,7 +683,7 @@ static void frozen_model_free(RomModel *m) {
 /* parametric models: K = c K_c, b = c b_c, D = d D_d (sections KC, BC, DD)  */
 /* ------------------------------------------------------------------------ */
 
-static const char *const FROZEN_SECTIONS[] = {"KC", "BC", "DD", NULL};
+static const char *const FROZEN_SECTIONS[] = {"KC", "BC", "DD", "PARTUR", "PARTGUV", "PARTIR0", NULL};
 static const char *const FROZEN_PARAM_SECTIONS[] = {"KC", "BC", NULL};
 
 static void frozen_affine_shape(const RomModel *m, const char *tag, uint32_t *rows, uint32_t *cols) {
@@ -768,6 +830,7 @@ const RomKindOps *rom_frozen_kind(void) {
         .body_doubles = frozen_body_doubles,
         .load = frozen_load,
         .model_free = frozen_model_free,
+        .sections_ready = frozen_sections_ready,
         .sections = FROZEN_SECTIONS,
         .param_sections = FROZEN_PARAM_SECTIONS,
         .affine_shape = frozen_affine_shape,

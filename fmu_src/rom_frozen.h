@@ -32,6 +32,12 @@ typedef struct {
     uint32_t kv_quad;          /* k_v rounded up to 4: W's row stride */
     int symmetric;             /* 1: the refresh reads W (chosen at load by measured cost; same bits as Tt's) */
     int keep_skip;             /* 1 (the default): a refresh of unchanged inputs is skipped (rom_frozen_set_refresh) */
+    const double *Ur;          /* the particle refresh (sections PARTUR, PARTGUV, PARTIR0; decided at packaging where
+                                * it costs less than the tensor): U^rho [N][k_rho], G U^v [N][k_v], 1/rho0 [N] */
+    const double *GUv;
+    const double *inv_rho0;
+    uint32_t n_particles;      /* N (0 without the sections) */
+    int particles;             /* 1: M from the particles (rom_frozen.c refresh_particles), the default with them */
     double *Pv, *Prho;         /* probe rows [n_probes][k_v], [n_probes][k_rho] */
     double *probe_x;           /* [n_probes] probe positions in units of L (RomModel.probe_x) */
     void *storage_;            /* one allocation behind the arrays */

@@ -68,6 +68,8 @@ struct RomKindOps {
      * m->input_width; m's common fields are set */
     RomStatus (*load)(RomModel *m, const unsigned char *body, uint64_t doubles, char *message,
                       size_t message_size);
+    /* once the tagged sections are read and checked: the kind's use of its own sections (NULL: none) */
+    RomStatus (*sections_ready)(RomModel *m, char *message, size_t message_size);
     void (*model_free)(RomModel *m);                   /* frees m->body (NULL: nothing) */
     const char *const *sections;       /* the tagged sections only this kind reads (NULL-terminated) */
     const char *const *param_sections; /* the sections PARAMS needs: the kind's affine pieces */

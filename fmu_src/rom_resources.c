@@ -189,6 +189,30 @@ static RomStatus check_affine(const RomModel *m, const RomSection *s, char *mess
     return check_shape(s, rows, cols, message, message_size);
 }
 
+/* the frozen model's particle refresh: PARTUR (N x k_rho), PARTGUV (N x k_v), PARTIR0 (1 x N, > 0), N from
+ * PARTIR0; all three or none (rom_frozen.c frozen_sections_ready) */
+static RomStatus check_particles(const RomModel *m, const RomSection *s, char *message, size_t message_size) {
+    if (!kind_reads(m, s->tag)) {
+        return rom_fail(message, message_size, "resources: section '%s' does not belong to a %s model", s->tag,
+                        m->ops->short_name);
+    }
+    const RomSection *ir = rom_section(m, "PARTIR0");
+    if (!ir || ir->rows != 1 || ir->cols < 1 || ir->cols > ROM_MAX_PARTICLES) {
+        return rom_fail(message, message_size, "resources: section '%s' needs 'PARTIR0' of 1 x N, N from 1 to %u",
+                        s->tag, ROM_MAX_PARTICLES);
+    }
+    const uint32_t n = ir->cols;
+    if (strcmp(s->tag, "PARTUR") == 0) return check_shape(s, n, m->k_rho, message, message_size);
+    if (strcmp(s->tag, "PARTGUV") == 0) return check_shape(s, n, m->k_v, message, message_size);
+    for (uint32_t i = 0; i < n; i++) {
+        if (!(s->data[i] > 0)) {
+            return rom_fail(message, message_size, "resources: section 'PARTIR0' holds %g (1/rho0 is > 0)",
+                            s->data[i]);
+        }
+    }
+    return ROM_OK;
+}
+
 /* mechanical ports: PORTX (1 x P positions x/L in [0, 1)), PORTB (P input rows of the kind's input_width:
  * over a^v, or over z for a linear model), PORTC (P rows over a^v); all three or none (ports_prepare) */
 static RomStatus check_port_x(const RomModel *m, const RomSection *s, char *message, size_t message_size) {
@@ -232,6 +256,9 @@ static const SectionRule SECTION_RULES[] = {
     {"A0", "linear model: the part of A without c or d", check_affine},
     {"AC", "linear model: the part of A per unit c", check_affine},
     {"AD", "linear model: the part of A per unit d", check_affine},
+    {"PARTUR", "frozen model: U^rho at the particles (the particle refresh)", check_particles},
+    {"PARTGUV", "frozen model: G U^v at the particles (the particle refresh)", check_particles},
+    {"PARTIR0", "frozen model: 1/rho0 at the particles (the particle refresh)", check_particles},
     {"PORTX", "port positions x/L", check_port_x},
     {"PORTB", "port input rows (area 1)", check_port_rows},
     {"PORTC", "port velocity rows", check_port_rows},
@@ -434,6 +461,7 @@ RomStatus rom_model_load_memory(const void *data, size_t size, RomModel **out, c
     RomStatus status = kind->load(m, payload, doubles, message, message_size);
     if (status == ROM_OK) status = read_sections(m, bytes, sections_start, n_sections, message, message_size);
     if (status == ROM_OK) status = ports_prepare(m, message, message_size);
+    if (status == ROM_OK && kind->sections_ready) status = kind->sections_ready(m, message, message_size);
     if (status == ROM_OK) status = rom_bound_prepare(m, message, message_size);
     if (status != ROM_OK) {
         rom_model_free(m);

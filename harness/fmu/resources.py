@@ -80,6 +80,10 @@ SECTION_TAGS: dict[str, str] = {          # tag -> what it holds (the C loader's
     "KC": "frozen model: K per unit c",
     "BC": "frozen model: b per unit c",
     "DD": "frozen model: D per unit d",
+    # the frozen model's particle refresh (harness/fmu/make/models.py particle_sections)
+    "PARTUR": "frozen model: U^rho at the particles (the particle refresh)",
+    "PARTGUV": "frozen model: G U^v at the particles (the particle refresh)",
+    "PARTIR0": "frozen model: 1/rho0 at the particles (the particle refresh)",
     "A0": "linear model: the part of A without c or d",
     "AC": "linear model: the part of A per unit c",
     "AD": "linear model: the part of A per unit d",

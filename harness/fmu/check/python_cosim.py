@@ -43,21 +43,23 @@ def dt_floor(model_dt):
     return max(DT_MIN, model_dt * DT_FLOOR_RATIO)
 
 
-def step_work(k_v, k_rho, n_freeze, n_ports=0, damping=True):
+def step_work(k_v, k_rho, n_freeze, n_ports=0, damping=True, particles=0):
     """Multiply-adds of one internal step of the frozen model (rom_step_work, fmu_src/rom_frozen.c): the density
-    and velocity rates over the padded blocks, the two updates, the runaway check, and 1/n_freeze of a refresh."""
+    and velocity rates over the padded blocks, the two updates, the runaway check, and 1/n_freeze of a refresh
+    (from the tensor, or from ``particles`` particles where the model has the particle refresh)."""
     pad = lambda k: -(-k // 4) * 4                                      # noqa: E731
     kvp, krp = pad(k_v), pad(k_rho)
     n_pairs = k_rho * (k_rho + 1) // 2
     nm = -(-(k_v * krp) // 32) * 32
     step = krp * k_v + kvp * (k_rho + (k_v if damping else 0)) + kvp + krp + k_v + k_rho
-    refresh = n_pairs * (1.0 + nm) + kvp + n_ports * k_v
+    matrix = particles * (k_rho + krp + k_v * krp) + nm if particles else n_pairs * (1.0 + nm)
+    refresh = matrix + kvp + n_ports * k_v
     return step + refresh / max(int(n_freeze), 1) + STEP_OVERHEAD
 
 
-def max_steps_per_call(k_v, k_rho, n_freeze, n_ports=0, damping=True):
+def max_steps_per_call(k_v, k_rho, n_freeze, n_ports=0, damping=True, particles=0):
     """The most internal steps one doStep of the frozen FMU takes (rom_max_steps_per_call)."""
-    return math.floor(MAX_WORK_PER_CALL / step_work(k_v, k_rho, n_freeze, n_ports, damping))
+    return math.floor(MAX_WORK_PER_CALL / step_work(k_v, k_rho, n_freeze, n_ports, damping, particles))
 
 
 def split_step(h, dt):
@@ -115,7 +117,13 @@ class FrozenCosim:
         self.F = np.zeros(data.k_v)
         self.n = 0
         self.t = 0.0
-        self._ops = loop_operators(data.K, data.b, data.D, data.p, self.n_freeze, T=data.T, refresh="tensor")
+        part = data.sections.get("PARTUR")
+        if part is None:
+            self._ops = loop_operators(data.K, data.b, data.D, data.p, self.n_freeze, T=data.T, refresh="tensor")
+        else:                   # the particle refresh (sections PART*), as the FMU's core takes it
+            self._ops = loop_operators(data.K, data.b, data.D, data.p, self.n_freeze, T=data.T, U_rho=part,
+                                       GU_v=data.sections["PARTGUV"], inv_rho0=data.sections["PARTIR0"][0],
+                                       refresh="direct")
         self._no_samples = np.zeros(0, dtype=np.int64)
         self._out = np.zeros((0, 1))
         # mechanical ports (resources sections PORTB, PORTC): F_port [N] held over a step, or going as

@@ -155,8 +155,28 @@ N_FREEZE_CANDIDATES = (1, 2, 5, 10, 20, 50, 100)   # refresh periods tried when 
 N_FREEZE_SLACK = 0.05       # ... the largest whose training error is within this of n_freeze = 1's (relative)
 
 
+def particle_sections(ops, problem):
+    """The sections of the frozen model's particle refresh (PARTUR, PARTGUV, PARTIR0: U^rho, G U^v, 1/rho0 at the
+    N particles), or {} where the tensor costs less.  The refresh of M (eq. 2.23 projected) from the tensor takes
+    n_pairs (1 + nm) multiply-adds and streams its n_pairs k_rho k_v values from memory; from the particles it
+    takes N (k_rho + kr_pad + k_v kr_pad) + nm on arrays that stay in cache (fmu_src/rom_frozen.c
+    frozen_step_work: the same counts).  A port model's larger basis (k_v, k_rho = 48, 47 on damped_forced, whose
+    tensor is 20 MB) is where the particles win; k = 12 on N = 400 keeps the tensor.  The particle path sums in
+    another order than the tensor: the FMU then equals the Python model run with ``refresh="direct"``."""
+    pad = lambda k, m: -(-k // m) * m                                       # noqa: E731
+    kv, kr, n = ops.k_v, ops.k_rho, problem.n
+    krp = pad(kr, 4)
+    nm = pad(kv * krp, 32)
+    tensor = kr * (kr + 1) // 2 * (1.0 + nm)
+    particles = n * (kr + krp + kv * krp) + nm
+    if particles >= tensor:
+        return {}
+    return {"PARTUR": np.asarray(ops.U_rho, float), "PARTGUV": np.asarray(ops.GU_v, float),
+            "PARTIR0": np.asarray(ops.inv_rho0, float)[None, :]}
+
+
 def choose_n_freeze(scene, ops, problem, run, model="frozen", integrator=None, candidates=N_FREEZE_CANDIDATES,
-                    slack=N_FREEZE_SLACK):
+                    slack=N_FREEZE_SLACK, refresh="tensor"):
     """The refresh period n_freeze of a frozen FMU whose user gave none: the largest of ``candidates`` whose
     training error (the frozen model of ``ops`` over the scene's T, relative L² of eq. 3.4 of the velocity field
     against the full SPH training run ``run`` at its samples) is within ``slack`` of n_freeze = 1's.  A larger
@@ -176,7 +196,7 @@ def choose_n_freeze(scene, ops, problem, run, model="frozen", integrator=None, c
     def error(nf):
         try:
             res = spec.run(ops, problem, dt=scene.sph.dt, n_steps=n_steps, sample_steps=run.steps,
-                           options=spec.options(n_freeze=nf, integrator=integrator))
+                           options=spec.options(n_freeze=nf, integrator=integrator, refresh=refresh))
         except SimulationError:
             return float("inf")
         return float(np.linalg.norm(ops.velocity(res.z[:, :ops.k_v]) - run.v) / ref)
@@ -199,8 +219,11 @@ def _frozen_resource(scene, model, k, n_freeze, probes, integrator, progress, pr
     data, ops, problem, _ = reduced_model(scene, k, n_freeze or defaults.N_FREEZE, probes, integrator,
                                           progress=progress, problem=problem, model=model, ports=ports,
                                           build_options=build_options, made=(basis, run))
+    data.sections.update(particle_sections(ops, problem))
     if n_freeze is None:
-        data.n_freeze, data.n_freeze_errors = choose_n_freeze(scene, ops, problem, run, model, integrator)
+        data.n_freeze, data.n_freeze_errors = choose_n_freeze(scene, ops, problem, run, model, integrator,
+                                                              refresh="direct" if "PARTUR" in data.sections
+                                                              else "tensor")
     data.sections.update(training_envelope(scene, ops, problem, probes, False, progress, run=run).sections())
     if error_bounds:
         shadow_step(data, problem, probes, ports)

@@ -176,16 +176,18 @@ class CoreModel:
     @property
     def refresh(self):
         """The frozen model's refresh (fmu_src/rom.h rom_frozen_refresh): ``path`` "tensor" or "symmetric" (the
-        tensor stored by its symmetry, the same bits; chosen at load by measured cost), ``skip`` whether a refresh
-        of unchanged inputs is skipped (the same bits)."""
+        tensor stored by its symmetry, the same bits; chosen at load by measured cost) or "particles" (sections
+        PART*, decided at packaging: other bits, the Python model's ``refresh="direct"``), ``skip`` whether a
+        refresh of unchanged inputs is skipped (the same bits)."""
         path, skip = ctypes.c_int(), ctypes.c_int()
         if self.core.lib.rom_frozen_refresh(self.model, ctypes.byref(path), ctypes.byref(skip)) != 0:
             raise CoreError("the refresh: not a frozen-coefficient model")
-        return {"path": ("tensor", "symmetric")[path.value], "skip": bool(skip.value)}
+        return {"path": ("tensor", "symmetric", "particles")[path.value], "skip": bool(skip.value)}
 
     def set_refresh(self, path=None, skip=None):
-        """Force the frozen model's refresh path ("tensor", "symmetric") and/or its skip (tests, benchmarks)."""
-        code = -1 if path is None else {"tensor": 0, "symmetric": 1}[path]
+        """Force the frozen model's refresh path ("tensor", "symmetric", "particles") and/or its skip (tests,
+        benchmarks)."""
+        code = -1 if path is None else {"tensor": 0, "symmetric": 1, "particles": 2}[path]
         self._check(self.core.lib.rom_frozen_set_refresh(self.model, code, -1 if skip is None else int(bool(skip)),
                                                          self._msg, MESSAGE_SIZE))
 

@@ -1,0 +1,116 @@
+"""The frozen model's particle refresh (fmu_src/rom_frozen.c refresh_particles, sections PART*).
+
+Where the refresh tensor costs more than the particles (a port model's larger basis), packaging stores U^rho,
+G U^v and 1/ρ0 and the core refreshes M from them.  Checked: the choice (particles for a port model on a small
+scene, the tensor for k = 12 on N = 400); the FMU's core against the Python frozen model with
+``refresh="direct"`` bit for bit; the particle path against the tensor path on the same model: other bits, the
+difference measured and bounded; the loader's refusals of incomplete or wrong sections.
+"""
+
+import zipfile
+
+import numpy as np
+import pytest
+
+from conftest import fmu_scene
+from harness.fmu.make.build import ensure_binaries
+from harness.fmu.make.models import particle_sections, reduced_model
+from harness.fmu.make.package import package_fmu
+from harness.fmu.resources import pack, unpack
+from harness.fmu.run.core import Core, CoreError
+from harness.rom.registry import get_model
+from harness.scene import load_scene
+from harness.sph.solver import build_problem
+
+PORTS = (0.3, 0.7)
+
+
+@pytest.fixture(scope="module")
+def port_model(tmp_path_factory):
+    """(model.bin bytes, its ModelData) of the small forced scene's frozen FMU with two ports (k = 6)."""
+    path = tmp_path_factory.mktemp("particles") / "ports.fmu"
+    package_fmu(fmu_scene("forced"), path, k=6, progress=False, ports=list(PORTS), bounds=False,
+                error_bounds=False)
+    blob = zipfile.ZipFile(path).read("resources/model.bin")
+    return blob, unpack(blob)
+
+
+def test_packaging_chooses_the_particles_where_they_cost_less(port_model):
+    _, data = port_model
+    assert {"PARTUR", "PARTGUV", "PARTIR0"} <= set(data.sections)
+    scene = load_scene("tenmode")
+    data12, ops, problem, _ = reduced_model(scene, 12, 10, [0.5], "euler", progress=False)
+    assert particle_sections(ops, problem) == {}                    # k = 12, N = 400: the tensor
+
+
+def test_the_core_equals_the_python_direct_refresh_bitwise(port_model):
+    """The core's particle refresh sums in refresh_direct_path's order: 2000 internal steps (n_freeze 1 and 7)
+    from the scene's initial state give the Python model's (refresh="direct") reduced state bit for bit."""
+    from harness.fmu.check.python_cosim import FrozenCosim
+    blob, data = port_model
+    core = Core(ensure_binaries().core)
+    for n_freeze in (1, 7):
+        model = core.load(blob)
+        try:
+            assert model.refresh["path"] == "particles"
+            model.set_n_freeze(n_freeze)
+            model.advance(2000)
+            ref = FrozenCosim(data, n_freeze=n_freeze)
+            ref.do_step(2000 * data.dt, 0.0)
+            v, rho = ref.outputs()
+            got = model.outputs(data.n_probes)
+            np.testing.assert_array_equal(got[0], v)
+            np.testing.assert_array_equal(got[1], rho)
+        finally:
+            model.close()
+
+
+def test_particles_against_the_tensor_path(port_model):
+    """The same model refreshed from the tensor: other bits (another order of the sums), the same run to 1e-12
+    of the outputs' swing over 20 000 internal steps."""
+    blob, data = port_model
+    core = Core(ensure_binaries().core)
+    runs = {}
+    for path in ("particles", "tensor"):
+        model = core.load(blob)
+        try:
+            model.set_refresh(path=path)
+            rows = []
+            for _ in range(20):
+                model.advance(1000)
+                rows.append(np.concatenate(model.outputs(data.n_probes)))
+            runs[path] = np.array(rows)
+        finally:
+            model.close()
+    P = data.n_probes
+    for part in (slice(0, P), slice(P, 2 * P)):                      # v, then rho
+        diff = np.max(np.abs(runs["particles"][:, part] - runs["tensor"][:, part]))
+        swing = np.ptp(runs["tensor"][:, part])
+        assert diff <= 1e-12 * swing, (diff, swing)
+    assert not np.array_equal(runs["particles"], runs["tensor"])
+
+
+@pytest.mark.parametrize("change, words", [
+    (lambda s: s.pop("PARTGUV"), "come together"),
+    (lambda s: s.__setitem__("PARTIR0", -s["PARTIR0"]), "1/rho0 is > 0"),
+    (lambda s: s.__setitem__("PARTUR", s["PARTUR"][:-1]), "PARTUR"),
+])
+def test_the_loader_refuses_wrong_particle_sections(port_model, change, words):
+    _, data = port_model
+    import copy
+    bad = copy.deepcopy(data)
+    change(bad.sections)
+    with pytest.raises(CoreError, match=words):
+        Core(ensure_binaries().core).load(pack(bad))
+
+
+def test_the_python_models_paths_agree():
+    """The registry's frozen model, refresh "direct" and "tensor", on the port model: the same run to 1e-12."""
+    scene = fmu_scene("forced")
+    problem = build_problem(scene)
+    data, ops, problem, _ = reduced_model(scene, 6, 10, [0.5], "euler", progress=False, problem=problem,
+                                          ports=PORTS)
+    spec = get_model("frozen")
+    z = {r: spec.run(ops, problem, dt=scene.sph.dt, n_steps=2000, every=100,
+                     options=spec.options(refresh=r)).z for r in ("direct", "tensor")}
+    assert np.max(np.abs(z["direct"] - z["tensor"])) <= 1e-12 * np.max(np.abs(z["tensor"]))
