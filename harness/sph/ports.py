@@ -106,7 +106,7 @@ def momentum_weights(problem, ports):
 
 @dataclass
 class Lumped:
-    """A lumped component coupled to the ports: y' = rates(y, v_port) with port forces forces(y) [N].
+    """A lumped component coupled to the ports: y' = rates(y, v_port) with port forces forces(y, v_port) [N].
 
     Attributes
     ----------
@@ -115,7 +115,8 @@ class Lumped:
     rates : callable
         ``rates(y, v_port) -> dy/dt``.
     forces : callable
-        ``forces(y) -> F`` (P,) [N], the forces the component applies to the ports.
+        ``forces(y, v_port) -> F`` (P,) [N], the forces the component applies to the ports (a damper's depends
+        on the port velocities).
     """
 
     y0: np.ndarray
@@ -123,16 +124,18 @@ class Lumped:
     forces: object
 
 
-def mass_spring(mass, stiffness, port=0, n_ports=1, s0=0.0):
-    """A mass on a spring whose other end is port ``port``: y = (s, w), s the spring elongation [m] (mass position
-    minus port displacement), w the mass velocity [m s^-1]; s' = w - v_port, w' = -k s / m, and the spring pulls the
-    port with F = k s [N].  Starts with elongation ``s0`` [m] and the mass at rest."""
+def mass_spring(mass, stiffness, port=0, n_ports=1, s0=0.0, damping=0.0):
+    """A mass on a spring (and a damper ``damping`` [N s m^-1] beside it) whose other end is port ``port``:
+    y = (s, w), s the elongation [m] (mass position minus port displacement), w the mass velocity [m s^-1];
+    s' = w - v_port, w' = -(k s + c (w - v_port)) / m, and the pair pulls the port with F = k s + c (w - v_port)
+    [N].  Starts with elongation ``s0`` [m] and the mass at rest."""
     def rates(y, v_port):
-        return np.array([y[1] - v_port[port], -stiffness * y[0] / mass])
+        rel = y[1] - v_port[port]
+        return np.array([rel, -(stiffness * y[0] + damping * rel) / mass])
 
-    def forces(y):
+    def forces(y, v_port):
         out = np.zeros(n_ports)
-        out[port] = stiffness * y[0]
+        out[port] = stiffness * y[0] + damping * (y[1] - v_port[port])
         return out
 
     return Lumped(y0=np.array([float(s0), 0.0]), rates=rates, forces=forces)
@@ -205,18 +208,18 @@ def run_sph_ports(scene, ports, *, forces=None, lumped=None, area=1.0, t_end=Non
     g_all = force_values(scene, problem, 0, n_steps, dt, method)
     flags = problem.flags(bool(np.any(g_all != 0))) | layout_bit
 
-    def port_forces(t, y):
+    def port_forces(t, y, v):
         out = np.zeros(len(ports))
         if forces is not None:
             out = out + np.asarray(forces(t), float).reshape(len(ports))
         if lumped is not None:
-            out = out + np.asarray(lumped.forces(y), float)
+            out = out + np.asarray(lumped.forces(y, rows @ v), float)
         return out
 
     def rates(t, g, v, rho, y):
         """(dv, drho, dy) of the coupled system at one stage."""
         loops.rates(v, rho, g, *args, flags, dv, drho, p)
-        F = port_forces(t, y)
+        F = port_forces(t, y, v)
         a = dv + F @ acc
         dy = lumped.rates(y, rows @ v) if lumped is not None else np.zeros(0)
         return a, drho.copy(), np.asarray(dy, float)
@@ -230,7 +233,7 @@ def run_sph_ports(scene, ports, *, forces=None, lumped=None, area=1.0, t_end=Non
         out_v.append(v.copy())
         out_rho.append(rho.copy())
         out_vp.append(rows @ v)
-        out_F.append(port_forces(t, y))
+        out_F.append(port_forces(t, y, v))
         out_y.append(y.copy())
 
     ptr = 0

@@ -5,6 +5,14 @@ profile and each port force F_port_j, each from rest under
   undamped bar accelerates without end);
 - ``slow``: a sine at a quarter of the bar's lowest elastic frequency ω_1 (:func:`harness.rom.inputs.band`),
   a spring attached to a port applies this kind of force;
+- ``in band``: a sine at 1.5 ω_1, between the bar's two lowest elastic frequencies (in the band the basis
+  must hold, off its resonances);
+- ``coupled`` (each port): the port closed by a spring-mass-damper (:func:`smd_parameters`: a mass a tenth of
+  the bar's, its spring tuned to ω_1 / 2, 10 % of critical damping, the spring stretched at t = 0 to give the
+  port force amplitude), the FMU coupled through the driver (the port velocity held over a step while the
+  spring-mass-damper is advanced exactly, its force at the step's start held over it) against the full SPH
+  integrated together with the spring-mass-damper (:func:`harness.sph.ports.run_sph_ports`): the error of the
+  port velocity then includes the coupling's own, of order of the communication step;
 
 over ``horizon`` = min(T, :data:`HORIZON`) at the FMU's communication step, the input held over each step as an
 importer sets it.  Amplitudes: f the unseen force's (:func:`.verify.unseen_force`), F_port_j the force that gives
@@ -25,6 +33,8 @@ import numpy as np
 
 HORIZON = 2.0        # [s] the longest run per case (the full SPH with ports is a Python loop over the steps)
 SLOW_FRACTION = 0.25  # the slow sine's frequency, in units of the lowest elastic frequency ω_1
+IN_BAND = 1.5         # the in-band sine's, likewise
+SMD_MASS, SMD_TUNING, SMD_ZETA = 0.1, 0.5, 0.1   # the coupled spring-mass-damper: of the bar's mass, of ω_1, ζ
 
 
 @dataclass
@@ -50,10 +60,37 @@ def channel_forces(scene, problem, step):
     from ...rom.inputs import band
     from .verify import unseen_force
     amplitude = float(unseen_force(scene, step).split("*")[0])
-    w = SLOW_FRACTION * band(problem)[0]
+    w1 = band(problem)[0]
+    w, w_in = SLOW_FRACTION * w1, IN_BAND * w1
     mass = float(np.sum(problem.rho0) * problem.neighbours.dx)       # Σ ρ0 Δx [kg m^-1 ... per m^2 of A]
-    return ({"constant": f"{amplitude:.4g}", "slow": f"{amplitude:.4g}*sin({w:.4g}*t)"},
-            {"constant": f"{amplitude * mass:.4g}", "slow": f"{amplitude * mass:.4g}*sin({w:.4g}*t)"})
+    F = amplitude * mass
+    return ({"constant": f"{amplitude:.4g}", "slow": f"{amplitude:.4g}*sin({w:.4g}*t)",
+             "in band": f"{amplitude:.4g}*sin({w_in:.4g}*t)"},
+            {"constant": f"{F:.4g}", "slow": f"{F:.4g}*sin({w:.4g}*t)", "in band": f"{F:.4g}*sin({w_in:.4g}*t)",
+             "coupled": "spring-mass-damper"})
+
+
+def smd_parameters(scene, problem, step):
+    """(mass [kg], stiffness [N m^-1], damping [N s m^-1], initial elongation [m]) of the coupled case (module
+    docstring), for a bar of cross-section 1 m²."""
+    from ...rom.inputs import band
+    from .verify import unseen_force
+    bar = float(np.sum(problem.rho0) * problem.neighbours.dx)
+    m = SMD_MASS * bar
+    k = m * (SMD_TUNING * band(problem)[0]) ** 2
+    c = 2.0 * SMD_ZETA * np.sqrt(k * m)
+    F = float(unseen_force(scene, step).split("*")[0]) * bar
+    return m, k, c, F / k
+
+
+def smd_step(y, v_port, h, mass, stiffness, damping):
+    """The spring-mass-damper (s, w) advanced exactly over h [s] with the port velocity held (s' = w - v_port,
+    m w' = -k s - c (w - v_port)): the exponential of its affine system."""
+    import scipy.linalg as sla
+    M = np.zeros((3, 3))
+    M[0, 1], M[0, 2] = 1.0, -v_port
+    M[1, 0], M[1, 1], M[1, 2] = -stiffness / mass, -damping / mass, damping * v_port / mass
+    return (sla.expm(M * h) @ np.array([y[0], y[1], 1.0]))[:2]
 
 
 def measure_channels(path, scene, ports=(), problem=None, progress=False):
@@ -76,9 +113,14 @@ def measure_channels(path, scene, ports=(), problem=None, progress=False):
     f_cases, port_cases = channel_forces(scene, problem, step)
     channels = [("f", None, f_cases)] + [(f"F_port_{j + 1}", j, port_cases) for j in range(len(ports))]
     out = []
-    with progress_bar(2 * len(channels), f"input channels of {scene.name}", unit="run", enabled=progress) as bar:
+    runs = sum(len(cases) for _, _, cases in channels)
+    with progress_bar(runs, f"input channels of {scene.name}", unit="run", enabled=progress) as bar:
         for name, j, cases in channels:
             for case, force in cases.items():
+                if case == "coupled":
+                    out.append(_coupled(path, scene, short, problem, ports, j, t, step, has_scale))
+                    bar.update(1)
+                    continue
                 values = np.broadcast_to(compile_expr(force, ("t", "L", "T"), "force")(t=t, L=scene.L, T=scene.T),
                                          t.shape).astype(float)
                 t0 = time.perf_counter()
@@ -113,6 +155,47 @@ def measure_channels(path, scene, ports=(), problem=None, progress=False):
                                        sph_s=sph_s, note=note))
                 bar.update(1)
     return out
+
+
+def _coupled(path, scene, short, problem, ports, j, t, step, has_scale):
+    """The ChannelCase of port j closed by the spring-mass-damper (module docstring)."""
+    from ...norms import relative_l2
+    from ...scene import derive_scene
+    from ...sph.ports import mass_spring, run_sph_ports
+    from ...sph.solver import build_problem
+    from ..run.driver import FMU
+    from .verify import SCALE_NAME
+    m, k, c, s0 = smd_parameters(scene, problem, step)
+    quiet = derive_scene(short, {"force": {"f": "0"}})
+    t0 = time.perf_counter()
+    run = run_sph_ports(quiet, ports, lumped=mass_spring(m, k, port=j, n_ports=len(ports), s0=s0, damping=c),
+                        problem=build_problem(quiet), state=(0.0 * problem.v0, problem.rho0.copy()),
+                        every=max(1, int(round(step / scene.sph.dt))))
+    sph_s = time.perf_counter() - t0
+    ref = run.v_port[:t.size, j:j + 1]
+    output = f"v_port_{j + 1}"
+    lumped, last_v = [np.array([s0, 0.0])], [0.0]
+    with FMU(path) as fmu:
+        names = fmu.outputs
+        at = names.index(output)
+
+        def feedback(n, tn, y):
+            if n:
+                lumped[0] = smd_step(lumped[0], last_v[0], step, m, k, c)
+            last_v[0] = y[at]
+            return {f"F_port_{j + 1}": k * lumped[0][0] + c * (lumped[0][1] - y[at])}
+
+        fmu.initialize(parameters={SCALE_NAME: 0.0} if has_scale else {})
+        y = fmu.simulate(t, {}, feedback=feedback, stop_on_error=True)
+        errors = fmu.errors()
+    note = ""
+    if y.shape[0] < t.size:
+        err, note = float("inf"), "; ".join(errors) or "the FMU stopped"
+    else:
+        err = relative_l2(y[:, [at]], ref, t)
+    force = f"m = {m:.3g} kg, k = {k:.3g} N/m, c = {c:.3g} N s/m, s0 = {s0:.3g} m"
+    return ChannelCase(channel=f"F_port_{j + 1}", case="coupled", force=force, output=output, err=float(err),
+                       sph_s=sph_s, note=note)
 
 
 def _probes(path):

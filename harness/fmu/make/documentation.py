@@ -326,8 +326,10 @@ def channel_lines(verification):
     return ["<h3>Every input channel</h3>",
             f"<p>Each input alone from rest, held over each step, over min(T, {HORIZON:g} s), against the full SPH "
             "with the same input (the scene's own force off): a constant (the static deflection and the rigid "
-            "motion) and a slow sine (a quarter of the bar's lowest elastic frequency). Error: eq. 3.4 of the "
-            "output named (f: the probe velocities; F_port_j: its own port velocity). See docs/fmu/ports.md.</p>",
+            "motion), a slow sine (a quarter of the bar's lowest elastic frequency) and an in-band sine (1.5 times "
+            "it); each port also closed by a spring-mass-damper, coupled step by step, against the full SPH "
+            "integrated together with it (its error includes the coupling's own). Error: eq. 3.4 of the output "
+            "named (f: the probe velocities; F_port_j: its own port velocity). See docs/fmu/ports.md.</p>",
             *_table(("channel", "case", "input", "output", "error", "full SPH [s]", "note"), rows,
                     table_id="channels")]
 
