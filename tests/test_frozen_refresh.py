@@ -65,7 +65,10 @@ def test_c_refresh_paths_and_skip_give_the_same_bits(model, scale):
 
 
 def test_refresh_setter_names_the_problem(model):
+    from harness.fmu.run.core import CoreError
     with pytest.raises(KeyError):
+        model.set_refresh(path="sideways")
+    with pytest.raises(CoreError, match="no particle sections"):      # this model keeps the tensor
         model.set_refresh(path="particles")
     assert model.core.lib.rom_frozen_set_refresh(model.model, 0, 2, model._msg, 1024) != 0
-    assert b"allowed: path -1, 0, 1; skip -1, 0, 1" in model._msg.value
+    assert b"allowed: path -1, 0, 1 (no particle sections); skip -1, 0, 1" in model._msg.value
