@@ -34,7 +34,8 @@
  *            integrator (0 euler, 1 symplectic; kind 2: 0), k_v, k_rho, n_probes,
  *            n_pairs, flags, n_freeze_default, reserved (0)
  *   float64  dt [s], runaway_bound, L [m]
- * kind 1 (frozen; n_pairs = k_rho (k_rho + 1)/2; flags bit0: damping D
+ * kind 1 (frozen; n_pairs = k_rho (k_rho + 1)/2, or 0 without the tensor T when the sections PART* carry
+ *            the particle refresh; flags bit0: damping D
  * present, bit1: input row p present):
  *   float64  a_v0[k_v], a_rho0[k_rho], K[k_v][k_rho], b[k_v], D[k_v][k_v] (bit0),
  *            p[k_v] (bit1), T[n_pairs][k_rho][k_v], Pv[n_probes][k_v],

@@ -419,9 +419,10 @@ static uint32_t frozen_min_k_rho(const RomHeader *h) {
 static RomStatus frozen_check_pairs(const RomHeader *h, char *message, size_t message_size) {
     if (!h) return rom_fail(message, message_size, "resources: no header");
     const uint64_t kr = h->k_rho;
-    if ((uint64_t)h->n_pairs != kr * (kr + 1) / 2) {
-        return rom_fail(message, message_size, "resources: n_pairs = %u, expected k_rho (k_rho + 1)/2 = %u",
-                        h->n_pairs, h->k_rho * (h->k_rho + 1) / 2);
+    /* 0: no refresh tensor; then the particle refresh's sections must be there (frozen_sections_ready) */
+    if (h->n_pairs != 0 && (uint64_t)h->n_pairs != kr * (kr + 1) / 2) {
+        return rom_fail(message, message_size, "resources: n_pairs = %u, expected k_rho (k_rho + 1)/2 = %u (or 0 "
+                        "with the particle refresh's sections)", h->n_pairs, h->k_rho * (h->k_rho + 1) / 2);
     }
     return ROM_OK;
 }
@@ -566,7 +567,7 @@ static RomStatus frozen_load(RomModel *m, const unsigned char *cursor, uint64_t 
     const int damping = (m->flags & ROM_FLAG_DAMPING) != 0, input = (m->flags & ROM_FLAG_INPUT) != 0;
     /* the tensor follows a_v0, a_rho0, K, b, D, p in the body; stored by its symmetry when it has it */
     const unsigned char *tensor = cursor + 8 * (kv + kr + kv * kr + kv + (damping ? kv * kv : 0) + (input ? kv : 0));
-    const int symmetric = tensor_symmetric(tensor, kr, kv);
+    const int symmetric = npairs ? tensor_symmetric(tensor, kr, kv) : 0;
     const size_t n_tri = kr * (kr + 1) * (kr + 2) / 6;
     const size_t counts[12] = {kv, kr, kr * kvp, kvp, damping ? kv * kvp : 0, input ? kvp : 0,
                                npairs * fm->nm, np * kv, np * kr, np,
@@ -638,10 +639,11 @@ RomStatus rom_frozen_set_refresh(RomModel *model, int path, int skip, char *mess
         return rom_fail(message, message_size, "the refresh: not a frozen-coefficient model");
     }
     RomFrozenModel *fm = (RomFrozenModel *)model->body;
-    if (path < -1 || path > 2 || (path == 1 && !fm->W) || (path == 2 && !fm->Ur) || skip < -1 || skip > 1) {
-        return rom_fail(message, message_size, "the refresh: path %d, skip %d (allowed: path -1, 0%s%s; skip -1, 0, "
-                        "1)", path, skip, fm->W ? ", 1" : " (the tensor has no symmetry)",
-                        fm->Ur ? ", 2" : " (no particle sections)");
+    if (path < -1 || path > 2 || (path == 1 && !fm->W) || (path == 2 && !fm->Ur) || (path == 0 && !model->n_pairs) ||
+        skip < -1 || skip > 1) {
+        return rom_fail(message, message_size, "the refresh: path %d, skip %d (allowed: path -1, %s%s%s; skip -1, 0, "
+                        "1)", path, skip, model->n_pairs ? "0" : "(no tensor)", fm->W ? ", 1" : " (the tensor has no "
+                        "symmetry)", fm->Ur ? ", 2" : " (no particle sections)");
     }
     if (path >= 0) {
         fm->particles = path == 2;
@@ -658,6 +660,10 @@ static RomStatus frozen_sections_ready(RomModel *m, char *message, size_t messag
     RomFrozenModel *fm = (RomFrozenModel *)m->body;
     const RomSection *ur = rom_section(m, "PARTUR"), *guv = rom_section(m, "PARTGUV"), *ir = rom_section(m, "PARTIR0");
     const int found = (ur != NULL) + (guv != NULL) + (ir != NULL);
+    if (found == 0 && m->n_pairs == 0) {
+        return rom_fail(message, message_size, "resources: a frozen model without its refresh tensor (n_pairs = 0) "
+                        "needs the particle refresh's sections PARTUR, PARTGUV, PARTIR0");
+    }
     if (found == 0) return ROM_OK;
     if (found != 3) {
         return rom_fail(message, message_size, "resources: the particle refresh's sections PARTUR, PARTGUV, PARTIR0 "

@@ -37,7 +37,7 @@ def port_model(tmp_path_factory):
 
 def test_packaging_chooses_the_particles_where_they_cost_less(port_model):
     _, data = port_model
-    assert {"PARTUR", "PARTGUV", "PARTIR0"} <= set(data.sections)
+    assert {"PARTUR", "PARTGUV", "PARTIR0"} <= set(data.sections) and data.T is None
     scene = load_scene("tenmode")
     data12, ops, problem, _ = reduced_model(scene, 12, 10, [0.5], "euler", progress=False)
     assert particle_sections(ops, problem) == {}                    # k = 12, N = 400: the tensor
@@ -66,15 +66,19 @@ def test_the_core_equals_the_python_direct_refresh_bitwise(port_model):
 
 
 def test_particles_against_the_tensor_path(port_model):
-    """The same model refreshed from the tensor: other bits (another order of the sums), the same run to 1e-12
-    of the outputs' swing over 20 000 internal steps."""
+    """The same model packed with its refresh tensor (and without the particle sections): other bits (another
+    order of the sums), the same run to 1e-12 of the outputs' swing over 20 000 internal steps."""
+    from harness import defaults
     blob, data = port_model
+    with_tensor, *_ = reduced_model(fmu_scene("forced"), 6, 10, defaults.PROBES, "euler", progress=False,
+                                    ports=PORTS)
+    assert with_tensor.T is not None and "PARTUR" not in with_tensor.sections
     core = Core(ensure_binaries().core)
     runs = {}
-    for path in ("particles", "tensor"):
-        model = core.load(blob)
+    for path, bytes_ in (("particles", blob), ("tensor", pack(with_tensor))):
+        model = core.load(bytes_)
         try:
-            model.set_refresh(path=path)
+            assert model.refresh["path"] == path
             rows = []
             for _ in range(20):
                 model.advance(1000)
@@ -88,6 +92,28 @@ def test_particles_against_the_tensor_path(port_model):
         swing = np.ptp(runs["tensor"][:, part])
         assert diff <= 1e-12 * swing, (diff, swing)
     assert not np.array_equal(runs["particles"], runs["tensor"])
+
+
+def test_the_fmu_carries_no_tensor_where_the_particles_replace_it(port_model):
+    """n_pairs = 0 in the header, no tensor bytes: the file is smaller than the tensor alone would be; the core
+    refuses the tensor paths on it, naming why; packing a model without the tensor and without the particles
+    is refused."""
+    import copy
+    blob, data = port_model
+    assert data.T is None
+    n_pairs = data.k_rho * (data.k_rho + 1) // 2
+    assert len(blob) < 8 * n_pairs * data.k_rho * data.k_v
+    model = Core(ensure_binaries().core).load(blob)
+    try:
+        with pytest.raises(CoreError, match="no tensor"):
+            model.set_refresh(path="tensor")
+    finally:
+        model.close()
+    bare = copy.deepcopy(data)
+    for tag in ("PARTUR", "PARTGUV", "PARTIR0"):
+        bare.sections.pop(tag)
+    with pytest.raises(ValueError, match="particle sections"):
+        pack(bare)
 
 
 @pytest.mark.parametrize("change, words", [

@@ -148,7 +148,7 @@ class ModelData:
     b: np.ndarray
     D: np.ndarray | None
     p: np.ndarray | None
-    T: np.ndarray
+    T: np.ndarray | None      # None: no tensor, the particle sections PART* carry the refresh
     Pv: np.ndarray
     Prho: np.ndarray
     probe_x: np.ndarray
@@ -274,15 +274,21 @@ def _finish(body: bytes, data) -> bytes:
 
 
 def pack(data: ModelData) -> bytes:
-    """The bytes of model.bin; sets ``data.token``."""
+    """The bytes of model.bin; sets ``data.token``.  ``data.T`` None: no refresh tensor (n_pairs = 0), which the
+    particle refresh's sections (PARTUR, PARTGUV, PARTIR0) then replace."""
     kv, kr, npr = data.k_v, data.k_rho, data.n_probes
-    n_pairs = kr * (kr + 1) // 2
+    if data.T is None and "PARTUR" not in data.sections:
+        raise ValueError("T: a frozen model without its refresh tensor needs the particle sections PARTUR, PARTGUV, "
+                         "PARTIR0")
+    n_pairs = 0 if data.T is None else kr * (kr + 1) // 2
     if not (1 <= kv <= MAX_MODES and 1 <= kr <= MAX_MODES):
         raise ValueError(f"mode counts {kv}, {kr} out of range")
     if not 1 <= npr <= MAX_PROBES:
         raise ValueError(f"{npr} probes (allowed: 1 to {MAX_PROBES})")
     shapes = {"K": (kv, kr), "b": (kv,), "T": (n_pairs, kr, kv), "Pv": (npr, kv), "Prho": (npr, kr)}
     for name, shape in shapes.items():
+        if name == "T" and data.T is None:
+            continue
         if getattr(data, name).shape != shape:
             raise ValueError(f"{name} has shape {getattr(data, name).shape}, expected {shape}")
     flags = (FLAG_DAMPING if data.D is not None else 0) | (FLAG_INPUT if data.p is not None else 0)
@@ -293,7 +299,7 @@ def pack(data: ModelData) -> bytes:
         arrays.append(data.D)
     if data.p is not None:
         arrays.append(data.p)
-    arrays += [data.T, data.Pv, data.Prho, data.probe_x]
+    arrays += ([] if data.T is None else [data.T]) + [data.Pv, data.Prho, data.probe_x]
     body = header + b"".join(np.ascontiguousarray(a, dtype="<f8").tobytes() for a in arrays)
     return _finish(body, data)
 
@@ -308,7 +314,7 @@ def unpack(blob: bytes):
         return _unpack_exact(blob)
     if magic != MAGIC or version != FORMAT_VERSION or kind != MODEL_FROZEN or reserved != 0:
         raise ValueError(f"not a version-{FORMAT_VERSION} sphrom model.bin")
-    if n_pairs != kr * (kr + 1) // 2:
+    if n_pairs not in (0, kr * (kr + 1) // 2):                # 0: no tensor (the particle sections replace it)
         raise ValueError("n_pairs")
     if struct.unpack("<I", blob[-4:])[0] != zlib.crc32(blob[:-4]) & 0xFFFFFFFF:
         raise ValueError("crc mismatch")
@@ -324,7 +330,8 @@ def unpack(blob: bytes):
     a_v0, a_rho0, K, b = take(kv), take(kr), take(kv, kr), take(kv)
     D = take(kv, kv) if flags & FLAG_DAMPING else None
     p = take(kv) if flags & FLAG_INPUT else None
-    T, Pv, Prho, probe_x = take(n_pairs, kr, kv), take(npr, kv), take(npr, kr), take(npr)
+    T = take(n_pairs, kr, kv) if n_pairs else None
+    Pv, Prho, probe_x = take(npr, kv), take(npr, kr), take(npr)
     sections, cursor = unpack_sections(blob, cursor)
     token = blob[cursor:cursor + TOKEN_SIZE].rstrip(b"\0").decode("ascii")
     if cursor + TOKEN_SIZE + 4 != len(blob):

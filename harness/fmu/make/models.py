@@ -220,6 +220,8 @@ def _frozen_resource(scene, model, k, n_freeze, probes, integrator, progress, pr
                                           progress=progress, problem=problem, model=model, ports=ports,
                                           build_options=build_options, made=(basis, run))
     data.sections.update(particle_sections(ops, problem))
+    if "PARTUR" in data.sections:
+        data.T = None                     # the particles replace the tensor: its bytes stay out of the FMU
     if n_freeze is None:
         data.n_freeze, data.n_freeze_errors = choose_n_freeze(scene, ops, problem, run, model, integrator,
                                                               refresh="direct" if "PARTUR" in data.sections
