@@ -85,9 +85,11 @@ def assert_units_through_declared_types(path):
             assert unit is None and v.declaredType is None, v.name
 
 
-def fmu_maker(folder, default_model="frozen", k=6, probes=(0.25, 0.5, 0.66)):
-    """make(model, fmi, case) -> (path, ModelData or ExactData): the FMU of ``fmu_scene(case)`` packaged into
-    ``folder`` once per (model, fmi, case) and its resources read back."""
+def fmu_maker(folder, default_model="frozen", k=6, probes=(0.25, 0.5, 0.66), scene_of=None, default_case="forced",
+              **options):
+    """make(model, fmi, case) -> (path, ModelData or ExactData): the FMU of ``scene_of(case)`` (default
+    ``fmu_scene(case)``) packaged into ``folder`` with package_fmu's ``options`` once per (model, fmi, case) and its
+    resources read back."""
     import zipfile
 
     from harness.fmu.make.build import ensure_binaries
@@ -96,12 +98,12 @@ def fmu_maker(folder, default_model="frozen", k=6, probes=(0.25, 0.5, 0.66)):
     binaries = ensure_binaries()
     made = {}
 
-    def make(model=default_model, fmi=2, case="forced"):
+    def make(model=default_model, fmi=2, case=default_case):
         key = (model, fmi, case)
         if key not in made:
             path = folder / f"{model}-{fmi}-{case}.fmu"
-            package_fmu(fmu_scene(case), path, k=k, fmi=fmi, probes=probes, progress=False, binaries=binaries,
-                        model=model)
+            package_fmu((scene_of or fmu_scene)(case), path, k=k, fmi=fmi, probes=probes, progress=False,
+                        binaries=binaries, model=model, **options)
             made[key] = (path, unpack(zipfile.ZipFile(path).read("resources/model.bin")))
         return made[key]
 

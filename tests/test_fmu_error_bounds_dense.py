@@ -9,14 +9,12 @@ from the FMU's initial state, of the user scene tests/data/graded_damping.toml (
 N = 64, T = 0.5 s; its shadow keeps 56 of the 64 planes).
 """
 
-import zipfile
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 import test_fmu_error_bounds as base
-from harness.fmu.resources import unpack
 
 SCENE = str(Path(__file__).resolve().parent / "data" / "graded_damping.toml")
 
@@ -24,20 +22,10 @@ SCENE = str(Path(__file__).resolve().parent / "data" / "graded_damping.toml")
 @pytest.fixture(scope="module")
 def fmus(tmp_path_factory):
     """make(model, fmi) -> (path, data): the FMU of the scene (k = 6), packaged once."""
-    from harness.fmu.make.build import ensure_binaries
-    from harness.fmu.make.package import package_fmu
+    from conftest import fmu_maker
     from harness.scene import load_scene
-    folder, made = tmp_path_factory.mktemp("bound-dense"), {}
-
-    def make(model, fmi=2):
-        if (model, fmi) not in made:
-            path = folder / f"{model}-{fmi}.fmu"
-            package_fmu(load_scene(SCENE), path, k=6, fmi=fmi, probes=base.PROBES, progress=False,
-                        binaries=ensure_binaries(), model=model, bounds=False)
-            made[model, fmi] = (path, unpack(zipfile.ZipFile(path).read("resources/model.bin")))
-        return made[model, fmi]
-
-    return make
+    return fmu_maker(tmp_path_factory.mktemp("bound-dense"), probes=base.PROBES, scene_of=lambda _: load_scene(SCENE),
+                     bounds=False)
 
 
 def times():

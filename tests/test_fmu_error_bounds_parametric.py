@@ -9,14 +9,12 @@ its shadow keeps 14 of the 32 planes, so the complement's terms (the all-time G,
 inputs, the residual pieces) are exercised, not only |model - shadow|.
 """
 
-import zipfile
 
 import numpy as np
 import pytest
 
 import test_fmu_error_bounds as base
 from conftest import fmu_scene
-from harness.fmu.resources import unpack
 from harness.rom import parametric as par
 
 CASE = "unforced"
@@ -26,19 +24,8 @@ RANGES = [par.Range("c", 0.05, 0.2), par.Range("d", 0.0, 5.0)]
 @pytest.fixture(scope="module")
 def fmus(tmp_path_factory):
     """make(model, fmi) -> (path, data): the parametric FMU of fmu_scene("unforced") over RANGES (k = 6), once."""
-    from harness.fmu.make.build import ensure_binaries
-    from harness.fmu.make.package import package_fmu
-    folder, made = tmp_path_factory.mktemp("bound-parametric"), {}
-
-    def make(model, fmi=2):
-        if (model, fmi) not in made:
-            path = folder / f"{model}-{fmi}.fmu"
-            package_fmu(fmu_scene(CASE), path, k=6, fmi=fmi, probes=base.PROBES, progress=False,
-                        binaries=ensure_binaries(), model=model, vary=RANGES)
-            made[model, fmi] = (path, unpack(zipfile.ZipFile(path).read("resources/model.bin")))
-        return made[model, fmi]
-
-    return make
+    from conftest import fmu_maker
+    return fmu_maker(tmp_path_factory.mktemp("bound-parametric"), probes=base.PROBES, default_case=CASE, vary=RANGES)
 
 
 def held_out():
