@@ -57,6 +57,8 @@ WORKER_TIMEOUT = 60.0      # s, to see a first worker of an existing cluster
 CHECKPOINT_S = 30.0        # s between partial writes
 POLL_S = 0.05              # s between looks at the results (and at a held signal)
 LOST_RETRIES = 2           # resubmissions of a task whose worker died, before the entry is recorded as failed
+SCATTER_TIMEOUT = 30.0     # s, for one scatter of an FMU to the workers (a worker dying meanwhile can stall it)
+SCATTER_ATTEMPTS = 3       # scatters tried, each after a worker is there, before giving up
 
 
 @dataclass
@@ -314,6 +316,19 @@ def _completed(pending_futures, held):
         raise Interrupted(held.pop(0))
 
 
+def _scatter(client, value):
+    """``value`` scattered to every worker, in bounded time: a scatter started while a worker dies (the nanny
+    restarting it) can wait for it forever, so each of :data:`SCATTER_ATTEMPTS` attempts waits for a worker (at
+    most :data:`WORKER_TIMEOUT`) and then scatters (at most :data:`SCATTER_TIMEOUT`); TimeoutError after the last."""
+    for attempt in range(SCATTER_ATTEMPTS):
+        try:
+            client.wait_for_workers(1, timeout=WORKER_TIMEOUT)
+            return client.scatter([value], hash=False, broadcast=True, timeout=SCATTER_TIMEOUT)[0]
+        except (TimeoutError, OSError):
+            if attempt == SCATTER_ATTEMPTS - 1:
+                raise
+
+
 def _compute(client, spec, todo, variants, by_id, session, new_rows, state, progress, checkpoint_s, checkpoint,
              bundle, run_entry, progress_bar, held=()):
     """Submit ``todo`` and collect rows into ``new_rows`` (state updated as they come); ``held``: the signals
@@ -322,7 +337,11 @@ def _compute(client, spec, todo, variants, by_id, session, new_rows, state, prog
 
     order = {vin: i for i, vin in enumerate(variants)}
     # on every worker: one worker's death does not lose the FMU the other tasks need
-    scattered = {vin: client.scatter([bundle(v)], hash=False, broadcast=True)[0] for vin, v in variants.items()}
+    try:
+        scattered = {vin: _scatter(client, bundle(v)) for vin, v in variants.items()}
+    except (TimeoutError, OSError):
+        raise FieldError("scheduler", f"the FMUs could not be sent to the workers ({SCATTER_ATTEMPTS} attempts of "
+                                      f"{SCATTER_TIMEOUT:g} s each after a worker was there)") from None
     tag = uuid.uuid4().hex[:8]
     t0 = time.perf_counter()
     futures = {}
@@ -348,9 +367,7 @@ def _compute(client, spec, todo, variants, by_id, session, new_rows, state, prog
                         try:
                             # the worker that died may have held the scattered FMU: scatter it again, once a
                             # worker is back (the nanny restarts a dead one)
-                            client.wait_for_workers(1, timeout=WORKER_TIMEOUT)
-                            scattered[vin] = client.scatter([bundle(variants[vin])], hash=False,
-                                                            broadcast=True)[0]
+                            scattered[vin] = _scatter(client, bundle(variants[vin]))
                             retry = client.submit(run_entry, scattered[vin], entry, pure=False,
                                                   key=f"sweep-{entry.id}-{tag}-retry{losses[entry.id]}")
                         except (TimeoutError, OSError) as again:       # no worker came back
