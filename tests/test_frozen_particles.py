@@ -78,7 +78,9 @@ def test_particles_against_the_tensor_path(port_model):
     for path, bytes_ in (("particles", blob), ("tensor", pack(with_tensor))):
         model = core.load(bytes_)
         try:
-            assert model.refresh["path"] == path
+            # the tensor model refreshes from the tensor or its symmetric storage (chosen at load by measured
+            # cost: the same bits either way)
+            assert model.refresh["path"] in ({"particles"} if path == "particles" else {"tensor", "symmetric"})
             rows = []
             for _ in range(20):
                 model.advance(1000)

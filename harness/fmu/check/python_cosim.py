@@ -43,17 +43,24 @@ def dt_floor(model_dt):
     return max(DT_MIN, model_dt * DT_FLOOR_RATIO)
 
 
+def refresh_matrix_work(k_v, k_rho, particles=0):
+    """Multiply-adds of M's refresh (fmu_src/rom_frozen.c frozen_step_work): from the tensor, n_pairs (1 + nm), or
+    from ``particles`` particles (the particle refresh), N (k_rho + kr_pad + k_v kr_pad) + nm."""
+    krp = -(-k_rho // 4) * 4
+    nm = -(-(k_v * krp) // 32) * 32
+    if particles:
+        return particles * (k_rho + krp + k_v * krp) + nm
+    return k_rho * (k_rho + 1) // 2 * (1.0 + nm)
+
+
 def step_work(k_v, k_rho, n_freeze, n_ports=0, damping=True, particles=0):
     """Multiply-adds of one internal step of the frozen model (rom_step_work, fmu_src/rom_frozen.c): the density
     and velocity rates over the padded blocks, the two updates, the runaway check, and 1/n_freeze of a refresh
     (from the tensor, or from ``particles`` particles where the model has the particle refresh)."""
     pad = lambda k: -(-k // 4) * 4                                      # noqa: E731
     kvp, krp = pad(k_v), pad(k_rho)
-    n_pairs = k_rho * (k_rho + 1) // 2
-    nm = -(-(k_v * krp) // 32) * 32
     step = krp * k_v + kvp * (k_rho + (k_v if damping else 0)) + kvp + krp + k_v + k_rho
-    matrix = particles * (k_rho + krp + k_v * krp) + nm if particles else n_pairs * (1.0 + nm)
-    refresh = matrix + kvp + n_ports * k_v
+    refresh = refresh_matrix_work(k_v, k_rho, particles) + kvp + n_ports * k_v
     return step + refresh / max(int(n_freeze), 1) + STEP_OVERHEAD
 
 

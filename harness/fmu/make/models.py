@@ -159,17 +159,12 @@ def particle_sections(ops, problem):
     """The sections of the frozen model's particle refresh (PARTUR, PARTGUV, PARTIR0: U^rho, G U^v, 1/rho0 at the
     N particles), or {} where the tensor costs less.  The refresh of M (eq. 2.23 projected) from the tensor takes
     n_pairs (1 + nm) multiply-adds and streams its n_pairs k_rho k_v values from memory; from the particles it
-    takes N (k_rho + kr_pad + k_v kr_pad) + nm on arrays that stay in cache (fmu_src/rom_frozen.c
-    frozen_step_work: the same counts).  A port model's larger basis (k_v, k_rho = 48, 47 on damped_forced, whose
+    takes N (k_rho + kr_pad + k_v kr_pad) + nm on arrays that stay in cache (the core's counts,
+    :func:`harness.fmu.check.python_cosim.refresh_matrix_work`).  A port model's larger basis (k_v, k_rho = 48, 47 on damped_forced, whose
     tensor is 20 MB) is where the particles win; k = 12 on N = 400 keeps the tensor.  The particle path sums in
     another order than the tensor: the FMU then equals the Python model run with ``refresh="direct"``."""
-    pad = lambda k, m: -(-k // m) * m                                       # noqa: E731
-    kv, kr, n = ops.k_v, ops.k_rho, problem.n
-    krp = pad(kr, 4)
-    nm = pad(kv * krp, 32)
-    tensor = kr * (kr + 1) // 2 * (1.0 + nm)
-    particles = n * (kr + krp + kv * krp) + nm
-    if particles >= tensor:
+    from ..check.python_cosim import refresh_matrix_work
+    if refresh_matrix_work(ops.k_v, ops.k_rho, problem.n) >= refresh_matrix_work(ops.k_v, ops.k_rho):
         return {}
     return {"PARTUR": np.asarray(ops.U_rho, float), "PARTGUV": np.asarray(ops.GU_v, float),
             "PARTIR0": np.asarray(ops.inv_rho0, float)[None, :]}
