@@ -15,6 +15,17 @@ class Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {' '.join(message.split())}\n")
 
 
+def fmu_models(text):
+    """An option's value that lists models with an FMU, comma-separated (argparse names the option in its error)."""
+    from .rom.registry import fmu_model_names
+    models = [m for m in str(text).split(",") if m]
+    bad = [m for m in models if m not in fmu_model_names()] or ([] if models else [text])
+    if bad:
+        raise argparse.ArgumentTypeError(f"{bad[0]!r} is not a model with an FMU (allowed: "
+                                         f"{', '.join(fmu_model_names())})")
+    return models
+
+
 def positive_int(text):
     """An option's value that must be an integer >= 1 (argparse names the option in its one-line error)."""
     try:

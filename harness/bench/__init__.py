@@ -125,6 +125,21 @@ def program_parser(name, description=None, **options):
 _CALLED_AS_SPHROM = False
 
 
+def program_command(name, argv=None):
+    """The command line that ran program ``name``, as it was called (``sphrom bench NAME`` or ``python -m ...``)
+    with its arguments (``argv``, default the process's): the reports' "Produced by"."""
+    import sys
+    given = list(sys.argv[1:] if argv is None else argv)
+    prog = f"sphrom bench {name}" if _CALLED_AS_SPHROM else f"python -m {PROGRAMS[name].target}"
+    return " ".join([prog, *given])
+
+
+def machine_text():
+    """The machine and Python a report's figures were measured on, in a few words."""
+    import platform
+    return f"{platform.machine()}, Python {platform.python_version()}"
+
+
 def run_program(name, argv, build_parser=None):
     """Run program ``name`` with the arguments ``argv``; its exit status (``--help``: 0, a bad option: 2).
     ``build_parser``: sphrom's parser builder (:func:`harness.cli.build_parser`), needed by the programs that are

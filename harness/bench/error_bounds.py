@@ -27,7 +27,6 @@ assembled once at initialization).
 
 from __future__ import annotations
 
-import platform
 import sys
 import tempfile
 import time
@@ -362,12 +361,12 @@ def _quote(text):
 def main(argv=None):
     from ..measure.markdown import update_report
     from ..measure.tables import write_csv
-    from ..parser import positive_int
+    from ..parser import fmu_models, positive_int
     from ..scene import builtin_names
-    from . import program_parser
+    from . import machine_text, program_command, program_parser
     p = program_parser("error_bounds", description=__doc__.split("\n\n")[0])
     p.add_argument("scenes", nargs="*", metavar="SCENE", help="default: every built-in scene")
-    p.add_argument("--models", default="frozen,exact,balanced", metavar="M1,M2")
+    p.add_argument("--models", type=fmu_models, default="frozen,exact,balanced", metavar="M1,M2")
     p.add_argument("--repeats", type=positive_int, default=5, metavar="R")
     p.add_argument("--out", default="validation/benchmarks", metavar="FOLDER")
     p.add_argument("--report", default="BENCHMARKS.md", metavar="FILE.md")
@@ -381,7 +380,7 @@ def main(argv=None):
     unknown = [s for s in scenes if s not in builtin_names()]
     if unknown:
         p.error(f"SCENE: {unknown[0]!r} is not a built-in scene (allowed: {', '.join(builtin_names())})")
-    models = [m for m in args.models.split(",") if m]
+    models = args.models
     if args.parametric:
         from ..rom.registry import get_model            # a parametric model is built on a POD basis
         return main_parametric(args, scenes, [m for m in models if get_model(m).needs_basis], argv)
@@ -407,10 +406,7 @@ def main(argv=None):
     image = out / "error_bounds.png"
     if key is not None:
         plot(kept, key, image)
-    given = argv if argv is not None else sys.argv[1:]
-    command = "sphrom bench error_bounds" + (" " + " ".join(given) if given else "")
-    lines = section(rows, command=command, wall=wall,
-                    machine=f"{platform.machine()}, Python {platform.python_version()}",
+    lines = section(rows, command=program_command("error_bounds", argv), wall=wall, machine=machine_text(),
                     image=str(image))
     update_report(args.report, {SECTION_HEADING: lines})
     print(f"wrote {out / 'error_bounds.csv'}, {image} and the section of {args.report}")
@@ -419,6 +415,7 @@ def main(argv=None):
 
 def main_parametric(args, scenes, models, argv):
     """``--parametric``: the rows of :func:`measure_parametric`, their CSV and section."""
+    from . import machine_text, program_command
     from ..measure.markdown import update_report
     from ..measure.tables import write_csv
     t0 = time.perf_counter()
@@ -438,10 +435,8 @@ def main_parametric(args, scenes, models, argv):
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     write_csv(out / "error_bounds_parametric.csv", rows)
-    given = argv if argv is not None else sys.argv[1:]
-    command = "sphrom bench error_bounds" + (" " + " ".join(given) if given else "")
-    lines = parametric_section(rows, command=command, wall=wall,
-                               machine=f"{platform.machine()}, Python {platform.python_version()}")
+    lines = parametric_section(rows, command=program_command("error_bounds", argv), wall=wall,
+                               machine=machine_text())
     update_report(args.report, {PARAMETRIC_HEADING: lines})
     print(f"wrote {out / 'error_bounds_parametric.csv'} and the section of {args.report}")
     return 0

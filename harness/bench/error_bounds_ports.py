@@ -19,7 +19,6 @@ FOLDER and the section "Certified error bounds: ports and coupled components" of
 
 from __future__ import annotations
 
-import platform
 import sys
 import tempfile
 import time
@@ -162,27 +161,15 @@ def section(rows, *, command, wall, machine):
     return lines + [""]
 
 
-def _fmu_models(text):
-    """--models' value: FMU models, comma-separated (argparse names the option in its message)."""
-    import argparse
-
-    from ..rom.registry import fmu_model_names
-    models = [m for m in str(text).split(",") if m]
-    bad = [m for m in models if m not in fmu_model_names()] or ([] if models else [text])
-    if bad:
-        raise argparse.ArgumentTypeError(f"{bad[0]!r} is not a model with an FMU (allowed: "
-                                         f"{', '.join(fmu_model_names())})")
-    return models
-
-
 def main(argv=None):
     from ..measure.markdown import update_report
     from ..measure.tables import write_csv
     from ..scene import builtin_names
-    from . import program_parser
+    from ..parser import fmu_models
+    from . import machine_text, program_command, program_parser
     p = program_parser("error_bounds_ports", description=__doc__.split("\n\n")[0])
     p.add_argument("scenes", nargs="*", metavar="SCENE", help="default: damped_forced tenmode")
-    p.add_argument("--models", type=_fmu_models, default="frozen,exact,balanced", metavar="M1,M2")
+    p.add_argument("--models", type=fmu_models, default="frozen,exact,balanced", metavar="M1,M2")
     p.add_argument("--out", default="validation/benchmarks", metavar="FOLDER")
     p.add_argument("--report", default="BENCHMARKS.md", metavar="FILE.md")
     p.add_argument("--quiet", action="store_true")
@@ -209,11 +196,8 @@ def main(argv=None):
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     write_csv(out / "error_bounds_ports.csv", rows)
-    given = argv if argv is not None else sys.argv[1:]
-    command = "sphrom bench error_bounds_ports" + (" " + " ".join(given) if given else "")
-    update_report(args.report, {SECTION_HEADING: section(rows, command=command, wall=wall,
-                                                         machine=f"{platform.machine()}, Python "
-                                                                 f"{platform.python_version()}")})
+    update_report(args.report, {SECTION_HEADING: section(rows, command=program_command("error_bounds_ports", argv),
+                                                         wall=wall, machine=machine_text())})
     print(f"wrote {out / 'error_bounds_ports.csv'} and the section of {args.report}")
     return 0 if all(r.get("note") or r["violations"] == 0 for r in rows) else 1
 

@@ -15,7 +15,6 @@ of the report (replaced when present, else put before the stress maps or at the 
 
 from __future__ import annotations
 
-import platform
 import sys
 import tempfile
 import time
@@ -114,10 +113,9 @@ def main(argv=None):
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     write_csv(out / "fmu_verify.csv", rows)
-    command = "python -m harness.bench.fmu_verify" + (" " + " ".join(argv if argv is not None else sys.argv[1:])
-                                                      if (argv if argv is not None else sys.argv[1:]) else "")
-    lines = packaged_fmu_section(rows, command=command, repeats=args.repeats, wall=wall,
-                                 machine=f"{platform.machine()}, Python {platform.python_version()}")
+    from . import machine_text, program_command
+    lines = packaged_fmu_section(rows, command=program_command("fmu_verify", argv), repeats=args.repeats, wall=wall,
+                                 machine=machine_text())
     report = update_report(args.report, {SECTION_HEADING: lines})
     print(f"wrote {out / 'fmu_verify.csv'} and the section of {report} ({wall:.0f} s)")
     return 0
