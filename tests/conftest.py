@@ -85,6 +85,19 @@ def assert_units_through_declared_types(path):
             assert unit is None and v.declaredType is None, v.name
 
 
+def load_changed(data, change):
+    """The C core's load of ``data`` (ModelData or ExactData) packed after ``change(sections)`` edited a copy of its
+    sections: the loader tests' one way to hand the core a malformed file (raises CoreError naming the problem)."""
+    import copy
+
+    from harness.fmu.make.build import ensure_binaries
+    from harness.fmu.resources import ModelData, pack, pack_exact
+    from harness.fmu.run.core import Core
+    bad = copy.deepcopy(data)
+    change(bad.sections)
+    return Core(ensure_binaries().core).load((pack if isinstance(bad, ModelData) else pack_exact)(bad))
+
+
 def fmu_maker(folder, default_model="frozen", k=6, probes=(0.25, 0.5, 0.66), scene_of=None, default_case="forced",
               **options):
     """make(model, fmi, case) -> (path, ModelData or ExactData): the FMU of ``scene_of(case)`` (default

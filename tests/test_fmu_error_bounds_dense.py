@@ -91,18 +91,12 @@ def test_dense_bounds_are_the_python_shadow_fmi2_and_3(fmus):
 def test_core_refuses_a_malformed_dense_shadow(fmus):
     """The loader names the problem: SHDENSE with SHLAM of planes, a negative mu, SHDENSE without SHEGRAM (and the
     reverse), SHLAM of one block without them, SHEGRAM of the wrong shape."""
-    import copy
-
-    from harness.fmu.make.build import ensure_binaries
-    from harness.fmu.resources import pack_exact
-    from harness.fmu.run.core import Core, CoreError
-    core = Core(ensure_binaries().core)
+    from conftest import load_changed
+    from harness.fmu.run.core import CoreError
     _, data = fmus("exact")
 
     def load(change):
-        bad = copy.deepcopy(data)
-        change(bad.sections)
-        return core.load(pack_exact(bad))
+        return load_changed(data, change)
 
     assert load(lambda s: None) is not None
     k = data.sections["SHLAM"].shape[0]

@@ -118,17 +118,12 @@ def test_ordinary_sections_unchanged():
 def test_core_refuses_a_malformed_parametric_shadow(fmus):
     """The loader names the problem: SHPIECE without SHPARAM (and the reverse), the pieces without section PARAMS,
     a c_ref <= 0, a negative residual norm, SHPIECE of the wrong shape; the packaged file itself loads."""
-    from harness.fmu.make.build import ensure_binaries
-    from harness.fmu.resources import pack_exact
-    from harness.fmu.run.core import Core, CoreError
-    core = Core(ensure_binaries().core)
+    from conftest import load_changed
+    from harness.fmu.run.core import CoreError
     _, data = fmus("exact")
 
     def load(change):
-        import copy
-        bad = copy.deepcopy(data)
-        change(bad.sections)
-        return core.load(pack_exact(bad))
+        return load_changed(data, change)
 
     assert load(lambda s: None) is not None
     cases = [(lambda s: s.pop("SHPARAM"), "SHPIECE and SHPARAM come together"),

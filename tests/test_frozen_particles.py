@@ -124,12 +124,9 @@ def test_the_fmu_carries_no_tensor_where_the_particles_replace_it(port_model):
     (lambda s: s.__setitem__("PARTUR", s["PARTUR"][:-1]), "PARTUR"),
 ])
 def test_the_loader_refuses_wrong_particle_sections(port_model, change, words):
-    _, data = port_model
-    import copy
-    bad = copy.deepcopy(data)
-    change(bad.sections)
+    from conftest import load_changed
     with pytest.raises(CoreError, match=words):
-        Core(ensure_binaries().core).load(pack(bad))
+        load_changed(port_model[1], change)
 
 
 def test_the_python_models_paths_agree():
