@@ -328,8 +328,8 @@ def fmi_sim_outputs(tmp_path, path, fmi, start):
 @pytest.mark.parametrize("fmi", [2, 3])
 def test_fmi_sim_runs_the_fmus_as_fmpy_does(fmus, tmp_path, name, fmi):
     """fmi-sim (Rust, its own FMI 2 and FMI 3 bindings) steps the plain and the port FMUs from the scene's initial
-    state (port forces held at their start values): every output, the error bounds too, as fmpy gives it (measured:
-    FMI 3 bitwise, FMI 2 within 4.4e-16 through fmi-sim's CSV)."""
+    state (port forces held at their start values): every output, the error bounds too, as fmpy gives it (the
+    differences: ``python3 -m pytest -s tests/test_importers.py -k fmi_sim``)."""
     if fmi_sim_executable() is None:
         pytest.skip("fmi-sim is not installed (cargo install fmi-sim; its build needs libclang: "
                     "LIBCLANG_PATH and BINDGEN_EXTRA_CLANG_ARGS=-I<gcc include>)")
@@ -340,4 +340,5 @@ def test_fmi_sim_runs_the_fmus_as_fmpy_does(fmus, tmp_path, name, fmi):
     assert set(their_names) == set(names), (their_names, names)
     theirs = theirs[:, [their_names.index(n) for n in names]]
     assert theirs.shape == ours.shape, name
+    print_difference(f"fmi-sim FMI {fmi}", name, theirs, ours)
     assert_outputs_close(theirs, ours, names, name)
