@@ -33,7 +33,7 @@ MODELS = {
                "you want the paper's model, or its `n_freeze` / `dt` knobs"),
     "exact": ("POD-Galerkin of the full SPH written in the specific volume, where it is exactly linear (eq. A.9): "
               "no linearisation, exact in time (matrix exponential); each input's directions (rigid motion, static "
-              "deflection, in-band moments) in the basis",
+              "deflection, in-band moments, the modes a step rings) in the basis",
               "linear in the specific volume only; error = the POD span's",
               "a component in a system simulation: no internal step, input derivatives integrated exactly"),
     "balanced": ("balanced truncation of the full linear SPH (2N states) for the FMU's probes; no POD basis",

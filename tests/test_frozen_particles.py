@@ -70,8 +70,8 @@ def test_particles_against_the_tensor_path(port_model):
     order of the sums), the same run to 1e-12 of the outputs' swing over 20 000 internal steps."""
     from harness import defaults
     blob, data = port_model
-    with_tensor, *_ = reduced_model(fmu_scene("forced"), 6, 10, defaults.PROBES, "euler", progress=False,
-                                    ports=PORTS)
+    with_tensor, *_ = reduced_model(fmu_scene("forced"), 6, data.n_freeze, defaults.PROBES, data.integrator,
+                                    progress=False, ports=PORTS)
     assert with_tensor.T is not None and "PARTUR" not in with_tensor.sections
     core = Core(ensure_binaries().core)
     runs = {}

@@ -65,3 +65,30 @@ def test_the_cli_chooses_unless_told(tmp_path, capsys):
         assert ("chosen: the largest whose training error" in text) == (given is None), text
         chosen[given] = unpack(zipfile.ZipFile(out).read("resources/model.bin")).n_freeze
     assert chosen[10] == 10 and chosen[None] in N_FREEZE_CANDIDATES
+
+
+def test_a_costly_model_is_tried_on_the_first_part_of_the_training_run(monkeypatch):
+    """Where one trial at n_freeze = 1 would cost more than N_FREEZE_BUDGET multiply-adds (a port model's large
+    basis refreshed from the particles), the candidates run over the training run's first samples only (at least
+    N_FREEZE_MIN_SAMPLES): each error equals the one computed here independently over those samples, and the rule
+    is the same."""
+    from harness.fmu.make import models
+    scene = small_scene("damped_forced", T=2.0, n=48)
+    ops, problem, run = _setup(scene)
+    monkeypatch.setattr(models, "N_FREEZE_BUDGET", 1.0)              # every run is over budget
+    chosen, errors = choose_n_freeze(scene, ops, problem, run)
+    m = models.N_FREEZE_MIN_SAMPLES
+    assert m < len(run.steps)
+    steps = np.asarray(run.steps)[:m]
+    spec = get_model("frozen")
+
+    def first_part(nf):
+        res = spec.run(ops, problem, dt=scene.sph.dt, n_steps=int(steps[-1]), sample_steps=steps,
+                       options=spec.options(n_freeze=nf))
+        v_ref = np.asarray(run.v)[:m]
+        return float(np.linalg.norm(ops.velocity(res.z[:, :ops.k_v]) - v_ref) / np.linalg.norm(v_ref))
+
+    for nf, err in errors.items():
+        assert err == pytest.approx(first_part(nf), rel=1e-12), nf
+    within = [nf for nf in errors if errors[nf] <= (1 + N_FREEZE_SLACK) * errors[1]]
+    assert chosen == max(within)

@@ -11,14 +11,18 @@ Cases (each against the full SPH's equations linear in J integrated exactly in t
 * ``profile-constant`` / ``profile-sine``: damped_forced with the profile 1 + sin 2πx + ½ cos 6πx, from rest,
   f = 1e-2 and 1e-2 sin 7t (10 s): the velocity field;
 * ``shaped-constant`` / ``shaped-sine``: tenmode with the profile exp(-((x - 0.3)/0.1)²) (trained on 1e-2 cos 2t),
-  from rest, f = 1e-2 and 1e-2 sin 5t: the velocity field.
+  from rest, f = 1e-2 and 1e-2 sin 5t: the velocity field; ``shaped-sine-3e-3`` the sine at 3e-3 (a third of
+  the strain: the frozen model's density linearisation errs in proportion to it).
 
-The full SPH (nonlinear, the scene's integrator and dt) is a row of its own in the port cases, with the scene's
-own force off as in the reference. Models as the FMU builds them (k = 12, the model's ``fmu_input_direction``);
-``before`` is the build option ``input_moments=False`` (the bases main had: the port's short-time directions and
-the profile's own column), the balanced model at its default order tolerance (it has no "before": it had no
-ports). Errors: relative L² over all samples. The frozen model runs with the scene's dt (explicit Euler) and
-n_freeze = 10.
+The full SPH (nonlinear, the scene's dt) is a row of its own in the port cases, with the scene's own force off
+as in the reference, once with the integrator a port FMU takes (symplectic Euler,
+:func:`harness.fmu.make.options.default_integrator`) and once with the scene's (explicit Euler: ``full SPH
+(euler)``). Models as the FMU builds them (k = 12, the model's ``fmu_input_direction``); ``before`` is the build
+option ``input_moments=False`` (the bases main had: the port's short-time directions and the profile's own
+column), the balanced model at its default order tolerance (it has no "before": it had no ports). Errors:
+relative L² over all samples. The frozen model runs with the scene's dt, n_freeze = 10, the integrator its FMU
+takes (with ports symplectic Euler, else the scene's) and the refresh its FMU takes (the particles where they
+cost less than the tensor, :func:`harness.fmu.make.models.particle_sections`).
 
 Run as::
 
@@ -62,11 +66,14 @@ def cases():
         "profile-sine": (profile, (), None, lambda t: 1e-2 * np.sin(7.0 * np.asarray(t)), False),
         "shaped-constant": (shaped, (), None, f_const, False),
         "shaped-sine": (shaped, (), None, lambda t: 1e-2 * np.sin(5.0 * np.asarray(t)), False),
+        "shaped-sine-3e-3": (shaped, (), None, lambda t: 3e-3 * np.sin(5.0 * np.asarray(t)), False),
     }
 
 
 def measure(name, scene, ports, port_forces, force, state):
     """Rows {case, model, variant, k_v, k_2, error, wall_s} of one case."""
+    from ..fmu.make.models import particle_sections
+    from ..fmu.make.options import default_integrator
     from ..pod.pipeline import basis_for_scene
     from ..rom.reference import linear_reference
     from ..rom.registry import get_model
@@ -88,8 +95,7 @@ def measure(name, scene, ports, port_forces, force, state):
             ops = spec.build(problem, None, None, None, **port_option)
         else:
             ops = spec.build(problem, basis, K, K, input_direction=spec.fmu_input_direction,
-                             input_moments=variant == "after", **port_option,
-                             **({"tensor": "always"} if "tensor" in spec.build_options else {}))
+                             input_moments=variant == "after", **port_option)
         if spec.linear:
             res = spec.run(ops, problem, dt=H, n_steps=int(round(T / H)), options=spec.options(step=H, hold="held"),
                            state=None if state else np.zeros(ops.order), **kw)
@@ -99,7 +105,10 @@ def measure(name, scene, ports, port_forces, force, state):
         else:
             dt = scene.sph.dt
             res = spec.run(ops, problem, dt=dt, n_steps=int(round(T / dt)), every=int(round(H / dt)),
-                           state=None if state else np.concatenate([np.zeros(ops.k_v), ops.a_rho0]), **kw)
+                           state=None if state else np.concatenate([np.zeros(ops.k_v), ops.a_rho0]),
+                           options=spec.options(integrator=default_integrator(scene, ports),
+                                                refresh="direct" if particle_sections(ops, problem) else "tensor"),
+                           **kw)
             a_v = res.z[:, :ops.k_v]
             y = ops.port_velocity(a_v) if ports else ops.velocity(a_v)
             sizes = (ops.k_v, ops.k_rho)
@@ -107,20 +116,24 @@ def measure(name, scene, ports, port_forces, force, state):
         rows.append({"case": name, "model": model, "variant": variant, "k_v": sizes[0], "k_2": sizes[1],
                      "error": err, "wall_s": time.perf_counter() - t0})
         print(f"{name} {model} {variant}: k = {sizes}, error {err:.3g}", file=sys.stderr, flush=True)
-    if ports:                       # the full SPH itself (nonlinear, its own integrator) against the same reference
+    for integrator in (default_integrator(scene, ports), scene.sph.integrator)[:2 if ports else 0]:
+        # the full SPH itself (nonlinear) against the same reference: the port FMU's integrator, the scene's
         from ..sph.ports import run_sph_ports
         t0 = time.perf_counter()
         held = _held(port_forces)
         from ..scene import derive_scene
         from ..sph.solver import build_problem as problem_of
-        quiet = derive_scene(scene, {"force": {"f": "0"}})
+        quiet = derive_scene(scene, {"force": {"f": "0"}, "sph": {"integrator": integrator}})
         full = run_sph_ports(quiet, ports, forces=lambda s: held(np.atleast_1d(s))[0], problem=problem_of(quiet),
                              state=None if state else (0.0 * problem.v0, problem.rho0.copy()),
                              every=int(round(H / scene.sph.dt)), t_end=T)
         err = float(np.linalg.norm(full.v_port[:ref.shape[0]] - ref) / np.linalg.norm(ref))
-        rows.append({"case": name, "model": "full SPH", "variant": "after", "k_v": problem.n, "k_2": problem.n,
+        label = "full SPH" if integrator == default_integrator(scene, ports) else f"full SPH ({integrator})"
+        rows.append({"case": name, "model": label, "variant": "after", "k_v": problem.n, "k_2": problem.n,
                      "error": err, "wall_s": time.perf_counter() - t0})
-        print(f"{name} full SPH: error {err:.3g}", file=sys.stderr, flush=True)
+        print(f"{name} {label}: error {err:.3g}", file=sys.stderr, flush=True)
+        if integrator == scene.sph.integrator:
+            break
     return rows
 
 

@@ -45,7 +45,8 @@ def add_parser(sub):
                         "0.25,0.5,0.66)")
     p.add_argument("--fmi", type=one_of("2", "3"), metavar="2|3", default="2", help="FMI version (default 2)")
     p.add_argument("--integrator", type=one_of("euler", "symplectic"), metavar="euler|symplectic",
-                   help="time integrator of the frozen model (default: the scene's)")
+                   help="time integrator of the frozen model (default: the scene's; with --ports symplectic, "
+                        "which adds no energy to the bar)")
     p.add_argument("--model", metavar="frozen|exact|balanced|auto", default="frozen",
                    help="reduced model: frozen (eqs. 2.19-2.24, internal dt; default), exact (the exact linear "
                         "model in the specific volume, advanced by the matrix exponential over each "
@@ -141,7 +142,7 @@ def _run(args):
     else:
         check_options(scene, k=args.modes, n_freeze=args.n_freeze, probes=args.probes, fmi=fmi,
                       integrator=args.integrator, model=args.model, tolerance=args.tolerance,
-                      order_tolerance=args.order_tolerance)
+                      order_tolerance=args.order_tolerance, ports=args.ports or ())
         vary = check_vary(scene, args.vary, args.model)
         from ..fmu.make.options import check_ports
         ports = check_port_spacing(scene, check_ports(args.ports, args.model))
@@ -223,8 +224,17 @@ def print_verification(v, tolerance=None):
         print(f"    {c.name:8s} f = {c.force} from {c.start}: v error {c.err_v:.3e}, {rho}, max |rho - rho_SPH| "
               f"{c.max_drho:.2e} kg/m^3; FMU {c.fmu_s:.4f} s, full SPH {c.sph_s:.4f} s ({c.speedup:.3g}x)"
               + (f"; {c.note}" if c.note else ""))
+    if v.channels:
+        from ..fmu.check.channels import HORIZON
+        print(f"  every input channel from rest against the full SPH (over min(T, {HORIZON:g} s); relative L2 of "
+              "eq. 3.4):")
+        for c in v.channels:
+            print(f"    {c.channel:10s} {c.case:9s} {c.force}: {c.output} error {c.err:.3e}"
+                  + (f"; {c.note}" if c.note else ""))
     if tolerance is not None:
-        print(f"  tolerance {tolerance:g} on the training-force v error: met ({v.training.err_v:.3e})")
+        print(f"  tolerance {tolerance:g} on the training-force v error: met ({v.training.err_v:.3e})"
+              + (f"; on every input channel: met (at most {max(c.err for c in v.channels):.3e})" if v.channels
+                 else ""))
     slow = [c.name for c in v.cases if c.speedup < 1]
     if slow:
         print(f"sphrom fmu: warning: the FMU is slower than the full SPH on the {' and '.join(slow)} force "

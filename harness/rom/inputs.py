@@ -26,6 +26,12 @@ Directions, in this order (each kept only if the basis before it misses more tha
 * in-band shifts s_k = ω_k (η + i), ω_k log-spaced over the band [ω_1, 2 ω_top] (ω_1 the lowest elastic
   frequency of the bar, ω_top the top frequency of the POD modes), η = 0.2: (s_k² M + s_k C + K) is then
   nonsingular for any d >= 0; the real and imaginary parts of q(s_k) are the directions.
+* the channel's dominant modes (:func:`dominant_modes`): the rational moments hold the response's envelope,
+  not the ringing after a step.  A port is a kernel-wide point force and excites every mode of the bar about
+  equally; without damping each rings for ever, at (φᵢᵀ F)²/ωᵢ in the collocated velocity.  The modes
+  K φ = ω² M φ are taken greedily, each the one that removes most of what the basis misses of the channel's
+  step response over the scene's horizon (L² in time, with the modal damping φᵀCφ), until the rest is below
+  ``modal_tol`` of the whole response (:func:`channel_modes`, :func:`dominant_modes`).
 
 Each solve is a sparse LU of an N x N banded matrix (periodic wrap): O(N) per shift.  The count of directions
 per channel is set by ``tol`` (measured: the relative part of each candidate outside the span before it), not
@@ -39,6 +45,11 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 INPUT_TOL = 1e-4            # a candidate direction is appended when the basis misses more than this of it
+MODAL_TOL = 5e-3            # the dominant modes: until the rest of the step response is below this of it
+MODAL_APPEND = 1e-7         # a taken mode is appended unless the basis holds it to this (a large, slow mode
+                            # nearly in the span can still carry much of what is missed)
+MODAL_DENSE_N = 2000        # dense generalized eigensolve up to this N; above it the lowest MODAL_SPARSE modes
+MODAL_SPARSE = 300
 BAND_SHIFTS = 8             # candidate shifts over the band (each gives up to two directions)
 SHIFT_DAMPING = 0.2         # η of s_k = ω_k (η + i)
 
@@ -76,6 +87,133 @@ def band(problem, U_v=None):
     num = np.einsum("ik,ik->k", U_v, np.asarray(K @ U_v))
     den = np.einsum("ik,ik->k", U_v, np.asarray(M @ U_v))
     return w1, float(max(w1, np.sqrt(np.max(num / den))))
+
+
+def bar_modes(problem):
+    """(ω (m,) [rad s^-1] ascending, Φ (N, m) M-orthonormal): the modes K φ = ω² M φ of the module's second-order
+    form; dense up to :data:`MODAL_DENSE_N` particles, else the lowest :data:`MODAL_SPARSE` (shift-invert
+    Lanczos)."""
+    import scipy.linalg as sla
+    M, _, K, _ = second_order(problem)
+    n = K.shape[0]
+    if n <= MODAL_DENSE_N:
+        w2, Phi = sla.eigh(K.toarray(), M.toarray())
+    else:
+        shift = -1e-6 * abs(K).max()
+        w2, Phi = spla.eigsh(K.tocsc(), k=min(MODAL_SPARSE, n - 2), M=M.tocsc(), sigma=shift, which="LM")
+    order = np.argsort(w2)
+    w2 = w2[order]
+    w2[w2 <= 1e-10 * max(float(w2[-1]), 1e-300)] = 0.0        # the rigid modes (ker K), round-off removed
+    return np.sqrt(w2), Phi[:, order]
+
+
+def channel_modes(problem, b, *, horizon=None, modes=None, samples=None):
+    """The channel's step response in its modes: (Q, g, rigid).
+
+    From rest, a unit step of the channel (F = M b) moves mode i as (φᵢᵀ F) φᵢ ηᵢ(t), ηᵢ the displacement of
+    η'' + φᵢᵀCφᵢ η' + ωᵢ² η = u; the velocity v(t) = Σᵢ qᵢ gᵢ(t), qᵢ = Φᵢ Φᵢᵀ F over the eigenspace of ωᵢ (the
+    sine-cosine pairs of a uniform bar are one: one direction), gᵢ = η̇ᵢ = (e^{λ1 t} - e^{λ2 t})/(λ1 - λ2).
+
+    Parameters
+    ----------
+    b : (N,) array
+        The channel's acceleration per unit input.
+    horizon : float, optional
+        T [s] of the response (default the scene's T).
+    modes : (ω, Φ), optional
+        :func:`bar_modes` of the problem, if already at hand.
+    samples : int, optional
+        Time samples of g over [0, T] (default: 16 per period of the top mode, 2000 to 8000).
+
+    Returns
+    -------
+    Q : (N, m) array
+        The elastic eigenspaces' directions qᵢ [m s^-2 per unit input, as F].
+    g : (m, S) array
+        Their step responses gᵢ at S samples, times the square root of the trapezoid weights (so that
+        Σₛ gᵢ gⱼ = ∫₀ᵀ gᵢ gⱼ dt).
+    rigid : float
+        ∫₀ᵀ |v_rigid|²_M dt of the rigid modes' part (the constant's drift, growing without damping).
+    """
+    horizon = float(problem.scene.T if horizon is None else horizon)
+    M, C, _, _ = second_order(problem)
+    F = M @ np.asarray(b, float)
+    n = F.size
+    w, Phi = bar_modes(problem) if modes is None else modes
+    top = max(float(w[-1]), 1e-300)
+    groups = np.split(np.arange(w.size), np.flatnonzero(np.diff(w) > 1e-8 * top) + 1)   # eigenspaces
+    parts = [Phi[:, g].T @ F for g in groups]
+    sigma = np.array([0.5 * np.mean(np.einsum("ij,ij->j", Phi[:, g], np.asarray(C @ Phi[:, g]))) for g in groups])
+    omega = np.array([w[g].mean() for g in groups])
+    if samples is None:
+        samples = int(np.clip(16 * top * horizon / (2 * np.pi), 2000, 8000))
+    t = np.linspace(0.0, horizon, samples)
+    quad = np.full(samples, horizon / (samples - 1))
+    quad[[0, -1]] *= 0.5
+    root = np.sqrt((sigma ** 2 - omega ** 2).astype(complex))[:, None]
+    lam1, lam2 = -sigma[:, None] + root, -sigma[:, None] - root
+    d = lam1 - lam2
+    close = np.abs(d) * horizon < 1e-6                             # a double root: g = t e^{λ t}
+    with np.errstate(all="ignore"):
+        g = np.where(close, t * np.exp(lam1 * t), (np.exp(lam1 * t) - np.exp(lam2 * t)) / np.where(close, 1, d))
+    g = np.real(g) * np.sqrt(quad)
+    rigid_i = [i for i in range(len(groups)) if omega[i] == 0.0]
+    elastic = [i for i in range(len(groups)) if omega[i] > 0.0]
+    rigid = float(sum((parts[i] @ parts[i]) * (g[i] @ g[i]) for i in rigid_i))
+    Q = np.column_stack([Phi[:, groups[i]] @ parts[i] for i in elastic]) if elastic else np.zeros((n, 0))
+    return Q, g[elastic], rigid
+
+
+def dominant_modes(U, Q, g, rigid, weight, tol):
+    """The columns of ``Q`` (the channel's modes, :func:`channel_modes`) that the basis ``U`` (``weight``-orthonormal
+    columns) must take so that it misses at most ``tol`` of the step response v(t) = Q g(t), relative L² in time
+    of the ``weight`` norm (the rigid part ``rigid`` counted in the whole, and held by U).
+
+    Greedy: each step takes the mode whose part outside the basis removes most of the response's residual
+    ∫|v - P v|² dt (modes that move together, as a damped bar's quasi-static ones do, count together: the
+    residual is computed with the Gram matrix of their time functions, not mode by mode).  Returns the indices in
+    the order taken.
+    """
+    m = Q.shape[1]
+    if not m:
+        return []
+    w = np.asarray(weight, float)
+    norms = np.sqrt(np.einsum("ij,ij->j", Q, w[:, None] * Q))
+    ok = norms > 0
+    Qh = Q[:, ok] / norms[ok]
+    A = g[ok] * norms[ok, None]                                  # v(t) = Qh A(t)
+    idx_ok = np.flatnonzero(ok)
+    S = Qh.T @ (w[:, None] * Qh)
+    B = U.T @ (w[:, None] * Qh) if U.shape[1] else np.zeros((0, Qh.shape[1]))
+    Gam = A @ A.T
+    total2 = float(np.trace(S @ Gam)) + rigid
+    D = S - B.T @ B                                              # the modes' Gram outside span(U)
+    H = D @ Gam @ D
+    E = float(np.trace(D @ Gam))
+    taken = []
+    floor = 1e-12 * np.max(np.diag(S))                           # ν > 1e-6 > MODAL_APPEND
+    while E > tol ** 2 * total2 and len(taken) < Qh.shape[1]:
+        dd = np.diag(D).copy()
+        gain = np.where(dd > floor, np.diag(H) / np.where(dd > floor, dd, 1.0), -np.inf)
+        gain[taken] = -np.inf
+        k = int(np.argmax(gain))
+        if not np.isfinite(gain[k]) or gain[k] <= 0:
+            break
+        c = D[k] / np.sqrt(dd[k])                                  # the new direction's products with the modes
+        y = D @ (Gam @ c)
+        cgc = float(c @ Gam @ c)
+        H = H - np.outer(c, y) - np.outer(y, c) + cgc * np.outer(c, c)
+        D = D - np.outer(c, c)
+        E -= gain[k]
+        taken.append(k)
+    return [int(idx_ok[k]) for k in taken]
+
+
+def dominant_modes_after(U, cands, Q, g, rigid, weight, tol, modal_tol):
+    """:func:`dominant_modes` against U with the candidates ``cands`` appended first (as they will be)."""
+    for q, ref in cands:
+        U, _ = append_direction(U, q, weight, tol, ref)
+    return dominant_modes(U, Q, g, rigid, weight, modal_tol)
 
 
 def candidate_directions(problem, b, *, w_top=None, shifts=None, eta=None):
@@ -152,14 +290,15 @@ def append_direction(U, d, weight, tol, reference=None):
     return np.column_stack([U, r / np.sqrt(r @ (w * r))]), True
 
 
-def augment_channels(problem, U_v, U_2, profiles, *, energy, tol=None, w_top=None):
+def augment_channels(problem, U_v, U_2, profiles, *, energy, tol=None, w_top=None, modal_tol=None, horizon=None):
     """(U_v, U_2, columns added to U_v, columns added to U_2): every candidate direction of each channel
     (:func:`candidate_directions`; ``profiles`` a list of acceleration profiles b) that the bases miss by more
     than ``tol``, with its specific-volume direction G q.
 
     ``energy``: the exact model's weights (ρ0 for U_v, c for U_2 = U_e); else Euclidean, U_2 = U^ρ and the
     density direction ρ0 G q (δρ = -ρ0 δe).  ``w_top``: the top of the band (default that of ``U_v``,
-    :func:`band`).
+    :func:`band`).  Then the channel's dominant modes that the bases miss (:func:`dominant_modes`, to
+    ``modal_tol`` of the step response over ``horizon``, default :data:`MODAL_TOL` and the scene's T).
     """
     tol = INPUT_TOL if tol is None else float(tol)
     G = problem.neighbours.matrix()
@@ -167,15 +306,21 @@ def augment_channels(problem, U_v, U_2, profiles, *, energy, tol=None, w_top=Non
     we = problem.c if energy else np.ones(problem.n)
     if w_top is None:
         w_top = band(problem, U_v if not energy else U_v)[1]
+    modal_tol = MODAL_TOL if modal_tol is None else float(modal_tol)
     n_v, n_2 = U_v.shape[1], U_2.shape[1]
     gmax = abs(G).max()
+    modes = None
     for b in profiles:
-        for q, ref in candidate_directions(problem, b, w_top=w_top):
-            U_v, _ = append_direction(U_v, q, wv, tol, ref)
+        cands = candidate_directions(problem, b, w_top=w_top)
+        modes = bar_modes(problem) if modes is None else modes
+        Q, g, rigid = channel_modes(problem, b, horizon=horizon, modes=modes)
+        taken = dominant_modes_after(U_v, cands, Q, g, rigid, wv, tol, modal_tol)
+        for q, ref, tol_q in [(q, ref, tol) for q, ref in cands] + [(Q[:, i], Q[:, i], MODAL_APPEND) for i in taken]:
+            U_v, _ = append_direction(U_v, q, wv, tol_q, ref)
             e, e_ref = np.asarray(G @ q), np.asarray(G @ ref)
             if not np.max(np.abs(e_ref)) > 1e-10 * gmax * np.max(np.abs(ref)):
                 continue                          # G q is round-off (q rigid): no specific-volume direction
             if not energy:
                 e, e_ref = problem.rho0 * e, problem.rho0 * e_ref
-            U_2, _ = append_direction(U_2, e, we, tol, e_ref)
+            U_2, _ = append_direction(U_2, e, we, tol_q, e_ref)
     return U_v, U_2, U_v.shape[1] - n_v, U_2.shape[1] - n_2

@@ -22,7 +22,7 @@ the channel's own port velocity for F_port_j (power-conjugate to it); the error 
 
 The full SPH: :func:`harness.sph.solver.run_sph` for f (the scene with f replaced),
 :func:`harness.sph.ports.run_sph_ports` for the ports (with the scene's own force off, so the port force alone
-drives the bar), each from rest. """
+drives the bar), each from rest, with the FMU's integrator (:func:`reference_scene`). """
 
 from __future__ import annotations
 
@@ -93,6 +93,22 @@ def smd_step(y, v_port, h, mass, stiffness, damping):
     return (sla.expm(M * h) @ np.array([y[0], y[1], 1.0]))[:2]
 
 
+def reference_scene(path, scene, ports=()):
+    """``scene`` with the integrator the FMU at ``path`` reduces: a time-stepped FMU's own, an FMU integrated
+    exactly in time (exact, balanced) the default one for its ports (:func:`harness.fmu.make.options.
+    default_integrator`: symplectic with ports, the scene's without)."""
+    import zipfile
+
+    from ...scene import derive_scene
+    from ..make.options import default_integrator
+    from ..resources import ModelData, unpack
+    data = unpack(zipfile.ZipFile(path).read("resources/model.bin"))
+    integrator = data.integrator if isinstance(data, ModelData) else default_integrator(scene, ports)
+    if integrator == scene.sph.integrator:
+        return scene
+    return derive_scene(scene, {"sph": {"integrator": integrator}})
+
+
 def measure_channels(path, scene, ports=(), problem=None, progress=False):
     """[ChannelCase] of the FMU at ``path`` (module docstring); ``ports`` the FMU's port positions x/L."""
     from ...expr import compile_expr
@@ -105,6 +121,7 @@ def measure_channels(path, scene, ports=(), problem=None, progress=False):
     from ..run.driver import FMU
     from .verify import SCALE_NAME, communication_times, fmu_features, probe_values
 
+    scene = reference_scene(path, scene, ports)
     problem = problem or build_problem(scene)
     has_scale, _, step = fmu_features(path)
     horizon = min(float(scene.T), HORIZON)

@@ -189,8 +189,9 @@ def usage_section(description_xml, linear, ports):
             "force profile.</p>"]
 
 
-def ports_section(sections):
-    """The mechanical ports of this FMU and their sign convention, or how to get them."""
+def ports_section(sections, model=None):
+    """The mechanical ports of this FMU, their sign convention and what the ``model`` represents of them exactly,
+    or how to get them."""
     positions = sections.get("PORTX")
     convention = ("<code>F_port_j</code> [N] is the force the connected component exerts <b>on the bar</b> at "
                   "x_j, positive along +x; <code>v_port_j</code> [m/s] is the bar's velocity there, positive along "
@@ -206,7 +207,27 @@ def ports_section(sections):
                 f"<code>v_port_j</code>). The sign convention: {convention}</p>"]
     import numpy as np
     xs = ", ".join(f"{x:g}" for x in np.ravel(positions))
-    return ["<h2>Ports</h2>", f"<p>Mechanical ports at x/L = {xs}. {convention}</p>"]
+    represents = PORT_MODELS.get(model, "")
+    return ["<h2>Ports</h2>", f"<p>Mechanical ports at x/L = {xs}. {convention}</p>"] + (
+        [f"<p>{represents} The table of input channels below measures each port (a constant, a slow and an in-band "
+         "force from rest, and the port closed by a spring-mass-damper) against the full SPH.</p>"]
+        if represents else [])
+
+
+# what each model represents of a port exactly, and what it approximates (docs/fmu/ports.md)
+PORT_MODELS = {
+    "exact": ("Each port's directions are in the basis: the rigid motion and the static deflection under a constant "
+              "force exactly, the in-band response (rational moments) and the modes a step makes ring, until the "
+              "basis misses at most 0.5 % of the port's step response over the scene's T; what it approximates is "
+              "the ringing of the modes left out (larger in a shorter run: the rigid drift grows, the ringing "
+              "does not)."),
+    "frozen": ("Each port's directions are in the basis as the exact model's (rigid motion, static deflection, "
+               "in-band moments, the ringing modes); on top, the density linearisation (eq. 2.17) errs in proportion "
+               "to the strain. A port FMU steps with symplectic Euler unless packaged with --integrator (this one's: "
+               "the model section): explicit Euler grows an undamped bar's ringing modes."),
+    "balanced": ("The port forces are inputs and the port velocities outputs of the balanced system: what it "
+                 "approximates is the Hankel-singular-value tail its order tolerance drops."),
+}
 
 
 def _envelope_rows(sections, probe_x):
@@ -356,7 +377,7 @@ def index_html(*, scene, spec, data, k, input_error, augmented, description_xml,
             "<code>f</code> (force per mass along the force profile), outputs the velocity and density at the "
             "probes.</p>"]
     body += usage_section(description_xml, spec.linear, sections)
-    body += ports_section(sections)
+    body += ports_section(sections, spec.name)
     body += scene_section(scene)
     body += model_section(spec, data, k, input_error, augmented)
     body += variables_section(description_xml)

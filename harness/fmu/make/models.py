@@ -153,6 +153,8 @@ def linear_bound(lin, scene, samples=4097):
 
 N_FREEZE_CANDIDATES = (1, 2, 5, 10, 20, 50, 100)   # refresh periods tried when the user gives none
 N_FREEZE_SLACK = 0.05       # ... the largest whose training error is within this of n_freeze = 1's (relative)
+N_FREEZE_BUDGET = 4e9       # multiply-adds of one trial run at n_freeze = 1 (about 2 s here); beyond, a shorter run
+N_FREEZE_MIN_SAMPLES = 10   # ... of at least this many of the training run's samples
 
 
 def particle_sections(ops, problem):
@@ -179,22 +181,33 @@ def choose_n_freeze(scene, ops, problem, run, model="frozen", integrator=None, c
     forces are frozen with them, which is where it costs accuracy (damped_forced's time-varying force).
 
     Returns (n_freeze, {n_freeze: error} of the candidates run): n_freeze = 1 first, then from the largest down,
-    stopping at the first within the slack (a run that blows up counts as not within).
+    stopping at the first within the slack (a run that blows up counts as not within).  The trial runs stop
+    early when the scene's T would cost more than :data:`N_FREEZE_BUDGET` multiply-adds at n_freeze = 1 (a port
+    model's large basis: each refresh then costs O(N k²)); the errors are then those of the training run's
+    first part (at least its first :data:`N_FREEZE_MIN_SAMPLES` samples).
     """
     from ...errors import SimulationError
     from ...rom.registry import get_model
     from ...sph.solver import step_count
+    from ..check.python_cosim import step_work
     spec = get_model(model)
     n_steps = step_count(scene.T, scene.sph.dt)
-    ref = np.linalg.norm(run.v)
+    per_step = step_work(ops.k_v, ops.k_rho, 1, particles=problem.n if refresh == "direct" else 0)
+    steps = np.asarray(run.steps)
+    if per_step * n_steps > N_FREEZE_BUDGET:              # the first part of the training run only
+        keep = max(N_FREEZE_MIN_SAMPLES, int(np.count_nonzero(steps <= N_FREEZE_BUDGET / per_step)))
+        steps = steps[:min(keep, steps.size)]
+        n_steps = int(steps[-1])
+    v_ref = np.asarray(run.v)[:steps.size]
+    ref = np.linalg.norm(v_ref)
 
     def error(nf):
         try:
-            res = spec.run(ops, problem, dt=scene.sph.dt, n_steps=n_steps, sample_steps=run.steps,
+            res = spec.run(ops, problem, dt=scene.sph.dt, n_steps=n_steps, sample_steps=steps,
                            options=spec.options(n_freeze=nf, integrator=integrator, refresh=refresh))
         except SimulationError:
             return float("inf")
-        return float(np.linalg.norm(ops.velocity(res.z[:, :ops.k_v]) - run.v) / ref)
+        return float(np.linalg.norm(ops.velocity(res.z[:, :ops.k_v]) - v_ref) / ref)
 
     errors = {1: error(1)}
     for nf in sorted(candidates, reverse=True):

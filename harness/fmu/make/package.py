@@ -179,7 +179,8 @@ def package_fmu(scene, out, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaul
     """
     k, n_freeze, probes, fmi, integrator = check_options(scene, k=k, n_freeze=n_freeze, probes=probes, fmi=fmi,
                                                          integrator=integrator, model=model,
-                                                         tolerance=tolerance, order_tolerance=order_tolerance)
+                                                         tolerance=tolerance, order_tolerance=order_tolerance,
+                                                         ports=ports or ())
     ports = check_ports(ports, model)
     timings = {}
     t0 = time.perf_counter()
@@ -291,12 +292,15 @@ def archive_step(path, blob, binary, check=True, **texts):
 
 
 def verification_step(path, scene, probes, references, problem, progress, tolerance, out, model, ports=()):
-    """Step 8: the FMU at ``path`` measured against the full SPH (:func:`harness.fmu.check.verify.verify_fmu`),
-    and each input channel (f, each port force: :func:`harness.fmu.check.channels.measure_channels`);
+    """Step 8: the FMU at ``path`` measured against the full SPH (:func:`harness.fmu.check.verify.verify_fmu`)
+    with the FMU's integrator (:func:`harness.fmu.check.channels.reference_scene`), and each input channel (f, each port force: :func:`harness.fmu.check.channels.measure_channels`);
     ToleranceError when the training error or a channel's error is above ``tolerance``."""
-    from ..check.channels import measure_channels
+    from ..check.channels import measure_channels, reference_scene
     from ..check.verify import verify_fmu
-    verification = verify_fmu(path, scene, probes, refs=references, problem=problem, progress=progress)
+    # against the full SPH with the integrator the FMU reduces (a port FMU's symplectic Euler: its own runs)
+    ref_scene = reference_scene(path, scene, ports)
+    verification = verify_fmu(path, ref_scene, probes, refs=references if ref_scene is scene else None,
+                              problem=problem, progress=progress)
     verification.channels = measure_channels(path, scene, ports=ports, problem=problem, progress=progress)
     check_tolerance(verification, tolerance, out, model)
     return verification
