@@ -18,7 +18,8 @@ system whose total energy never grows.  Two checks:
   of the symmetric part of A; both at round-off is a proof of passivity up to round-off.
 - :func:`positive_real_margin` checks H(iω) + H(iω)ᴴ >= 0 on a frequency grid (log-spaced, plus each pole's
   frequency from both sides): the test for a model without that structure (balanced truncation on a damped
-  scene, a Petrov-Galerkin projection), necessary, not a proof between grid points.
+  scene, a Petrov-Galerkin projection; the frozen model linearised at rest, :func:`frozen_port_system`),
+  necessary, not a proof between grid points.
 
 :func:`coupled_energy` integrates a model coupled at each port to a lumped mass-spring-damper exactly in time
 (the matrix exponential of the coupled linear system) and returns the total energy over time.
@@ -53,6 +54,23 @@ def port_system(ops):
     C = np.zeros((B.shape[1], A.shape[0]))
     Cp = np.asarray(ops.Cp, float)
     C[:, :Cp.shape[1]] = Cp
+    return PortSystem(A=A, B=B, C=C)
+
+
+def frozen_port_system(ops):
+    """The :class:`PortSystem` of the frozen model (eqs. 2.19-2.20 with ports) linearised at rest: z = (a^v,
+    δa^ρ), ȧ^v = -D̂ a^v - K δa^ρ + Bp u, δȧ^ρ = -M(a^ρ_0) a^v, y = Cp a^v, M at the rest density ρ0 (the
+    frozen coefficient a component at rest starts with).  Not passive by construction (a Euclidean Galerkin
+    projection, M not K's adjoint): :func:`positive_real_margin` checks it."""
+    if ops.Bp is None or ops.Cp is None:
+        raise ValueError("the model has no ports (build it with ports=(x/L, ...))")
+    kv, kr = ops.k_v, ops.k_rho
+    rho = np.asarray(ops.U_rho) @ np.asarray(ops.a_rho0)
+    M0 = np.asarray(ops.U_rho).T @ ((rho ** 2 * np.asarray(ops.inv_rho0))[:, None] * np.asarray(ops.GU_v))
+    D = np.zeros((kv, kv)) if ops.D is None else np.asarray(ops.D, float).reshape(kv, kv)
+    A = np.block([[-D, -np.asarray(ops.K, float)], [-M0, np.zeros((kr, kr))]])
+    B = np.vstack([np.asarray(ops.Bp, float).T, np.zeros((kr, ops.Bp.shape[0]))])
+    C = np.hstack([np.asarray(ops.Cp, float), np.zeros((ops.Cp.shape[0], kr))])
     return PortSystem(A=A, B=B, C=C)
 
 
