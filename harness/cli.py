@@ -80,6 +80,11 @@ def main(argv=None, restore_signals=None):
     guard = Guard()
     with guard.installed(restore=restore):
         code = _guarded(guard, argv)
+    if guard.pending:         # a signal between the command's last check and the guard's `finished` (recorded only)
+        signum = guard.pending[0]
+        guard.acknowledge()
+        print(interrupt_line(guard.command, signum, guard.written_text()), file=sys.stderr)
+        code = 128 + int(signum)
     if not restore:
         _leave(code)
     return code
@@ -103,12 +108,14 @@ def _guarded(guard, argv):
         guard.raising = False                # from here a signal is only recorded
     except KeyboardInterrupt as exc:
         guard.raising = False
+        guard.acknowledge()                  # this signal's line is printed here
         signum = exc.signum if isinstance(exc, Interrupted) else signal.SIGINT
         note = getattr(exc, "note", None) or guard.written_text()
         print(interrupt_line(guard.command, signum, note), file=sys.stderr)
         return 128 + int(signum)
     if guard.pending:                        # a signal whose exception was lost (a finaliser swallowed it)
         signum = guard.pending[0]
+        guard.acknowledge()
         print(interrupt_line(guard.command, signum, guard.written_text()), file=sys.stderr)
         return 128 + int(signum)
     return code
