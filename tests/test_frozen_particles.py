@@ -71,7 +71,7 @@ def test_particles_against_the_tensor_path(port_model):
     from harness import defaults
     blob, data = port_model
     with_tensor, *_ = reduced_model(fmu_scene("forced"), 6, data.n_freeze, defaults.PROBES, data.integrator,
-                                    progress=False, ports=PORTS)
+                                    progress=False, ports=PORTS, tensor="always")
     assert with_tensor.T is not None and "PARTUR" not in with_tensor.sections
     core = Core(ensure_binaries().core)
     runs = {}
@@ -134,7 +134,7 @@ def test_the_python_models_paths_agree():
     scene = fmu_scene("forced")
     problem = build_problem(scene)
     data, ops, problem, _ = reduced_model(scene, 6, 10, [0.5], "euler", progress=False, problem=problem,
-                                          ports=PORTS)
+                                          ports=PORTS, tensor="always")
     spec = get_model("frozen")
     z = {r: spec.run(ops, problem, dt=scene.sph.dt, n_steps=2000, every=100,
                      options=spec.options(refresh=r)).z for r in ("direct", "tensor")}

@@ -176,8 +176,9 @@ def model_data(ops, problem, *, dt, integrator, n_freeze, probes, bound):
     Parameters
     ----------
     ops : ReducedOperators
-        Built with ``tensor="always"`` (and ``input_direction="needed"`` for an
-        input row).
+        With the refresh tensor, or without it (``T`` None: the particle refresh's sections must then be added
+        to the data's sections before :func:`pack`, :func:`harness.fmu.make.models.particle_sections`); built
+        with ``input_direction="needed"`` for an input row.
     problem : SPHProblem
         The full problem (particle positions, L).
     dt : float
@@ -192,8 +193,6 @@ def model_data(ops, problem, *, dt, integrator, n_freeze, probes, bound):
     """
     from ..rom.operators import probe_rows
 
-    if ops.T is None:
-        raise ValueError("the FMU needs the refresh tensor (build_operators(..., tensor='always'))")
     probes = np.asarray(probes, dtype=float)
     L = problem.scene.L
     return ModelData(integrator=integrator, n_freeze=int(n_freeze), dt=float(dt), bound=float(bound), L=float(L),
@@ -201,7 +200,7 @@ def model_data(ops, problem, *, dt, integrator, n_freeze, probes, bound):
                      K=np.asarray(ops.K, float), b=np.asarray(ops.b, float),
                      D=None if ops.D is None else np.asarray(ops.D, float),
                      p=None if ops.p is None else np.asarray(ops.p, float),
-                     T=np.asarray(ops.T, float),
+                     T=None if ops.T is None else np.asarray(ops.T, float),
                      Pv=probe_rows(ops.U_v, problem.x, L, probes), Prho=probe_rows(ops.U_rho, problem.x, L, probes),
                      probe_x=probes, sections=port_sections(ops))
 

@@ -8,6 +8,8 @@ operators built elsewhere (a benchmark's own).
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 from ... import defaults
@@ -36,25 +38,36 @@ def model_basis(scene, spec, k, progress=True, problem=None, made=None):
 
 
 def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem=None, model="frozen", ports=(),
-                  build_options=None, made=None):
+                  build_options=None, made=None, tensor=None):
     """The FMU's numbers for a model of resource kind 1 (frozen coefficients): (ModelData, ops, problem, basis).
 
     Runs (or reuses) the full SPH and the POD (harness.pod.pipeline), builds the model's operators
     (``get_model(model).build``: the frozen model's own, b about the projected rest density so that the FMU
     started at rest stays at rest, :func:`harness.rom.operators.rest_b`) with ``input_direction="needed"`` (an
     input row always; the force profile appended to U_v only when the POD modes miss more than 1 % of it) and
-    ``tensor="always"``.  ``build_options`` go to the model's build (``{"b": "paper"}``: eq. 2.22's b, the
-    paper's variant, :mod:`harness.bench.rest` compares them).
+    the refresh tensor where the FMU keeps it (``tensor`` None: where it costs less than the particle refresh,
+    :func:`particle_sections`; a port model's larger basis, whose tensor grows as k⁴ (6 GiB at k = 230), is not
+    built; ``"always"``: built anyway).  ``build_options`` go to the model's build (``{"b": "paper"}``: eq.
+    2.22's b, the paper's variant, :mod:`harness.bench.rest` compares them).
     """
     from ...rom.registry import get_model
     from ...rom.stepping import runaway_bound
 
     spec = get_model(model)
     basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem, made=made)
-    ops = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction, tensor="always",
+    ops = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction,
+                     tensor="always" if tensor == "always" else "never",
                      **({"ports": tuple(ports)} if ports else {}), **(build_options or {}))
+    if ops.T is None and not particle_sections(ops, problem):          # the FMU refreshes from the tensor
+        from ...rom.operators import refresh_tensor
+        t0 = time.perf_counter()
+        ops.T = refresh_tensor(ops.U_rho, ops.GU_v, ops.inv_rho0)
+        ops.timings["tensor"] = time.perf_counter() - t0
+        ops.tensor_rule = "always"
     data = model_data(ops, problem, dt=scene.sph.dt, integrator=integrator, n_freeze=n_freeze, probes=probes,
                       bound=runaway_bound(ops))
+    if ops.T is None:                                                   # the particle refresh replaces it
+        data.sections.update(particle_sections(ops, problem))
     return data, ops, problem, basis
 
 
