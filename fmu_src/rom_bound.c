@@ -373,11 +373,11 @@ static const BoundCache *dense_maps(BoundState *bs, const RomBoundModel *b, doub
     return slot;
 }
 
-/* the plane maps of a step h: per plane the exponential of [[L h, B_p h, 0], [0, 0, I], [0, 0, 0]] */
-static const BoundCache *plane_maps(BoundState *bs, const RomBoundModel *b, double h) {
+/* the plane maps of a step h (from time t): per plane the exponential of [[L h, B_p h, 0], [0, 0, I], [0, 0, 0]] */
+static const BoundCache *plane_maps(BoundState *bs, const RomBoundModel *b, double h, double t) {
     bs->clock++;
     for (int c = 0; c < BOUND_CACHE; c++) {
-        if (bs->cache[c].h == h) {
+        if (rom_same_step(h, bs->cache[c].h, t)) {     /* (an importer's jitter of a few ulps: the same step) */
             bs->cache[c].used = bs->clock;
             return &bs->cache[c];
         }
@@ -450,7 +450,7 @@ void rom_bound_step(RomState *s, double h) {
         }
     }
     bs->p_int += sqrt(fmax(h * h * q, 0.0));
-    const BoundCache *c = plane_maps(bs, b, h);
+    const BoundCache *c = plane_maps(bs, b, h, s->time);
     if (b->dense) {                     /* int |E w| <= h sqrt(Y^T Q Y) over the step, Y = (w, u, du) */
         const size_t n = k + 2 * m;
         double quad = 0.0, y2 = 0.0;

@@ -131,6 +131,19 @@ static inline int rom_all_finite(const double *x, size_t n) {
     return 1;
 }
 
+/* Whether a step of length h from time t is the cached step h_cached: equal, or within ROM_STEP_ULPS units in
+ * the last place of the times it spans.  An importer's step t[n+1] - t[n] is only known to the rounding of its
+ * times (t = n H jitters by a few ulps of t), and each new length costs a matrix exponential (an exact model of
+ * order 282: 80 ms); the cached maps then integrate over h_cached, which differs from h by less than the
+ * times' own rounding. */
+#define ROM_STEP_ULPS 8.0
+static inline int rom_same_step(double h, double h_cached, double t) {
+    if (h == h_cached) return 1;
+    if (!(h_cached > 0.0)) return 0;
+    const double scale = fmax(fmax(fabs(t), fabs(t + h)), fabs(h));
+    return fabs(h - h_cached) <= ROM_STEP_ULPS * 2.220446049250313e-16 * scale;
+}
+
 static inline size_t rom_round_up(size_t n, size_t m) {
     return (n + m - 1) / m * m;
 }
