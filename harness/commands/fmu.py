@@ -201,8 +201,9 @@ def _run(args):
               f"[{row['min']}, {row['max']}]")
     if s.ports:
         print(f"  ports at x/L = {', '.join(exact(x) for x in s.ports)}: inputs F_port_1..{len(s.ports)} [N], outputs "
-              f"v_port_1..{len(s.ports)} [m s^-1], parameter area [m^2] (start 1); each port's profile and its "
-              f"Krylov directions appended to the basis (profile projection errors on the modes: "
+              f"v_port_1..{len(s.ports)} [m s^-1], parameter area [m^2] (start 1); each port's profile, its "
+              f"short-time, static and in-band directions and the modes a step rings appended to the basis "
+              f"(docs/fmu/ports.md; profile projection errors on the modes: "
               f"{', '.join(f'{e:.3g}' for e in s.port_errors)})")
     t = s.timings
     print(f"  token {s.token}; fmpy validation: no problems; times: model {t['model']:.2f} s, "
