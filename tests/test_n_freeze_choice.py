@@ -24,7 +24,7 @@ from harness.sph.solver import step_count
 def _setup(scene):
     basis, run, problem = training_basis(scene, False, None)
     _, ops, problem, _ = reduced_model(scene, default_modes(scene), 10, (0.25, 0.5, 0.66), "euler", progress=False,
-                                       problem=problem, made=(basis, run))
+                                       problem=problem, made=(basis, run), tensor="always")
     return ops, problem, run
 
 

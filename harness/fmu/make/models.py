@@ -45,9 +45,9 @@ def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem
     (``get_model(model).build``: the frozen model's own, b about the projected rest density so that the FMU
     started at rest stays at rest, :func:`harness.rom.operators.rest_b`) with ``input_direction="needed"`` (an
     input row always; the force profile appended to U_v only when the POD modes miss more than 1 % of it) and
-    the refresh tensor where the FMU keeps it (``tensor`` None: where it costs less than the particle refresh,
-    :func:`particle_sections`; a port model's larger basis, whose tensor grows as k⁴ (6 GiB at k = 230), is not
-    built; ``"always"``: built anyway).  ``build_options`` go to the model's build (``{"b": "paper"}``: eq.
+    the refresh tensor where the FMU keeps it or it is small (``tensor`` None: where it costs less than the
+    particle refresh, :func:`particle_sections`, or has at most ``TENSOR_MAX_ENTRIES`` entries; a port model's
+    larger basis, whose tensor grows as k⁴ (6 GiB at k = 230), is not built; ``"always"``: built anyway).  ``build_options`` go to the model's build (``{"b": "paper"}``: eq.
     2.22's b, the paper's variant, :mod:`harness.bench.rest` compares them).
     """
     from ...rom.registry import get_model
@@ -58,8 +58,9 @@ def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem
     ops = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction,
                      tensor="always" if tensor == "always" else "never",
                      **({"ports": tuple(ports)} if ports else {}), **(build_options or {}))
-    if ops.T is None and not particle_sections(ops, problem):          # the FMU refreshes from the tensor
-        from ...rom.operators import refresh_tensor
+    from ...rom.operators import wants_tensor
+    if ops.T is None and (not particle_sections(ops, problem) or wants_tensor("auto", ops.k_v, ops.k_rho)):
+        from ...rom.operators import refresh_tensor                     # the FMU's, or small enough to keep
         t0 = time.perf_counter()
         ops.T = refresh_tensor(ops.U_rho, ops.GU_v, ops.inv_rho0)
         ops.timings["tensor"] = time.perf_counter() - t0
@@ -186,7 +187,7 @@ def particle_sections(ops, problem):
 
 
 def choose_n_freeze(scene, ops, problem, run, model="frozen", integrator=None, candidates=N_FREEZE_CANDIDATES,
-                    slack=N_FREEZE_SLACK, refresh="tensor"):
+                    slack=N_FREEZE_SLACK, refresh=None):
     """The refresh period n_freeze of a frozen FMU whose user gave none: the largest of ``candidates`` whose
     training error (the frozen model of ``ops`` over the scene's T, relative L² of eq. 3.4 of the velocity field
     against the full SPH training run ``run`` at its samples) is within ``slack`` of n_freeze = 1's.  A larger
@@ -197,13 +198,15 @@ def choose_n_freeze(scene, ops, problem, run, model="frozen", integrator=None, c
     stopping at the first within the slack (a run that blows up counts as not within).  The trial runs stop
     early when the scene's T would cost more than :data:`N_FREEZE_BUDGET` multiply-adds at n_freeze = 1 (a port
     model's large basis: each refresh then costs O(N k²)); the errors are then those of the training run's
-    first part (at least its first :data:`N_FREEZE_MIN_SAMPLES` samples).
+    first part (at least its first :data:`N_FREEZE_MIN_SAMPLES` samples).  ``refresh``: the frozen model's
+    refresh path (default the tensor where ``ops`` has it, else the particles, ``"direct"``).
     """
     from ...errors import SimulationError
     from ...rom.registry import get_model
     from ...sph.solver import step_count
     from ..check.python_cosim import step_work
     spec = get_model(model)
+    refresh = refresh or ("tensor" if ops.T is not None else "direct")
     n_steps = step_count(scene.T, scene.sph.dt)
     per_step = step_work(ops.k_v, ops.k_rho, 1, particles=problem.n if refresh == "direct" else 0)
     steps = np.asarray(run.steps)
