@@ -323,7 +323,11 @@ def _scatter(client, value):
     for attempt in range(SCATTER_ATTEMPTS):
         try:
             client.wait_for_workers(1, timeout=WORKER_TIMEOUT)
-            return client.scatter([value], hash=False, broadcast=True, timeout=SCATTER_TIMEOUT)[0]
+            # Client.scatter's own timeout did not end a broadcast to a worker that died meanwhile (seen stalled
+            # for minutes under load); the client's sync bounds the whole call (callback_timeout: asyncio's
+            # wait_for around it)
+            return client.sync(client._scatter, [value], hash=False, broadcast=True, timeout=SCATTER_TIMEOUT,
+                               callback_timeout=SCATTER_TIMEOUT)[0]
         except (TimeoutError, OSError):
             if attempt == SCATTER_ATTEMPTS - 1:
                 raise
