@@ -19,7 +19,7 @@ import sys
 from . import __version__
 from .errors import FieldError, Interrupted, SimulationError, UserError
 from .parser import Parser
-from .signals import Guard, interrupt_line
+from .signals import SIGNALS, Guard, current_guard, interrupt_line
 
 # subcommand name -> module in harness.commands
 COMMANDS = {
@@ -136,6 +136,18 @@ def _leave(code):
     for stream in (sys.stdout, sys.stderr):
         with contextlib.suppress(Exception):
             stream.flush()
+    # a signal that reached the process but not yet its Python handler (run between bytecodes) would die with
+    # os._exit unseen: hold both signals at the C level, then act on one already there
+    with contextlib.suppress(Exception):
+        signal.pthread_sigmask(signal.SIG_BLOCK, SIGNALS)
+        waiting = [sig for sig in SIGNALS if sig in signal.sigpending()]
+        if waiting:
+            guard = current_guard()
+            with contextlib.suppress(Exception):
+                sys.stderr.write(interrupt_line(getattr(guard, "command", None), waiting[0],
+                                                guard.written_text() if guard else "no output written") + "\n")
+                sys.stderr.flush()
+            os._exit(128 + int(waiting[0]))
     os._exit(code)
 
 
