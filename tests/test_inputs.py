@@ -246,11 +246,12 @@ def test_dominant_modes_hold_the_step_response(base, d):
     for tol in tols:
         cands = inputs.candidate_directions(problem, b)
         Q, g, rigid = inputs.channel_modes(problem, b, horizon=T)
-        taken = inputs.dominant_modes_after(U0, cands, Q, g, rigid, np.ones(problem.n), inputs.INPUT_TOL, tol)
         U = U0
-        for q, ref, tol_q in ([(q, ref, inputs.INPUT_TOL) for q, ref in cands]
-                              + [(Q[:, i], Q[:, i], inputs.MODAL_APPEND) for i in taken]):
-            U, _ = inputs.append_direction(U, q, np.ones(problem.n), tol_q, ref)
+        for q, ref in cands:
+            U, _ = inputs.append_direction(U, q, np.ones(problem.n), inputs.INPUT_TOL, ref)
+        taken = inputs.dominant_modes(U, Q, g, rigid, np.ones(problem.n), tol)
+        for i in taken:
+            U, _ = inputs.append_direction(U, Q[:, i], np.ones(problem.n), inputs.MODAL_APPEND, Q[:, i])
         assert missed(U) <= 1.05 * tol, (tol, missed(U))
         counts[tol] = len(taken)
         if base == "tenmode":

@@ -209,13 +209,6 @@ def dominant_modes(U, Q, g, rigid, weight, tol):
     return [int(idx_ok[k]) for k in taken]
 
 
-def dominant_modes_after(U, cands, Q, g, rigid, weight, tol, modal_tol):
-    """:func:`dominant_modes` against U with the candidates ``cands`` appended first (as they will be)."""
-    for q, ref in cands:
-        U, _ = append_direction(U, q, weight, tol, ref)
-    return dominant_modes(U, Q, g, rigid, weight, modal_tol)
-
-
 def candidate_directions(problem, b, *, w_top=None, shifts=None, eta=None):
     """Candidate velocity directions of one channel with acceleration profile ``b`` (N,), in the order of the
     module docstring (rigid, static and its moments, then the in-band shifts low to high): pairs (q, reference),
@@ -305,22 +298,28 @@ def augment_channels(problem, U_v, U_2, profiles, *, energy, tol=None, w_top=Non
     wv = problem.rho0 if energy else np.ones(problem.n)
     we = problem.c if energy else np.ones(problem.n)
     if w_top is None:
-        w_top = band(problem, U_v if not energy else U_v)[1]
+        w_top = band(problem, U_v)[1]
     modal_tol = MODAL_TOL if modal_tol is None else float(modal_tol)
     n_v, n_2 = U_v.shape[1], U_2.shape[1]
     gmax = abs(G).max()
     modes = None
+
+    def add(U_v, U_2, q, ref, tol_q):
+        """U_v and U_2 with the velocity direction q and its specific-volume direction G q appended."""
+        U_v, _ = append_direction(U_v, q, wv, tol_q, ref)
+        e, e_ref = np.asarray(G @ q), np.asarray(G @ ref)
+        if not np.max(np.abs(e_ref)) > 1e-10 * gmax * np.max(np.abs(ref)):
+            return U_v, U_2                       # G q is round-off (q rigid): no specific-volume direction
+        if not energy:
+            e, e_ref = problem.rho0 * e, problem.rho0 * e_ref
+        U_2, _ = append_direction(U_2, e, we, tol_q, e_ref)
+        return U_v, U_2
+
     for b in profiles:
-        cands = candidate_directions(problem, b, w_top=w_top)
+        for q, ref in candidate_directions(problem, b, w_top=w_top):
+            U_v, U_2 = add(U_v, U_2, q, ref, tol)
         modes = bar_modes(problem) if modes is None else modes
         Q, g, rigid = channel_modes(problem, b, horizon=horizon, modes=modes)
-        taken = dominant_modes_after(U_v, cands, Q, g, rigid, wv, tol, modal_tol)
-        for q, ref, tol_q in [(q, ref, tol) for q, ref in cands] + [(Q[:, i], Q[:, i], MODAL_APPEND) for i in taken]:
-            U_v, _ = append_direction(U_v, q, wv, tol_q, ref)
-            e, e_ref = np.asarray(G @ q), np.asarray(G @ ref)
-            if not np.max(np.abs(e_ref)) > 1e-10 * gmax * np.max(np.abs(ref)):
-                continue                          # G q is round-off (q rigid): no specific-volume direction
-            if not energy:
-                e, e_ref = problem.rho0 * e, problem.rho0 * e_ref
-            U_2, _ = append_direction(U_2, e, we, tol_q, e_ref)
+        for i in dominant_modes(U_v, Q, g, rigid, wv, modal_tol):      # against the basis with the candidates
+            U_v, U_2 = add(U_v, U_2, Q[:, i], Q[:, i], MODAL_APPEND)
     return U_v, U_2, U_v.shape[1] - n_v, U_2.shape[1] - n_2

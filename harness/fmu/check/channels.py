@@ -94,15 +94,13 @@ def smd_step(y, v_port, h, mass, stiffness, damping):
 
 
 def reference_scene(path, scene, ports=()):
-    """``scene`` with the integrator the FMU at ``path`` reduces: a time-stepped FMU's own, an FMU integrated
+    """``scene`` with the integrator the FMU at ``path`` (or its unpacked model.bin) reduces: a time-stepped FMU's own, an FMU integrated
     exactly in time (exact, balanced) the default one for its ports (:func:`harness.fmu.make.options.
     default_integrator`: symplectic with ports, the scene's without)."""
-    import zipfile
-
     from ...scene import derive_scene
     from ..make.options import default_integrator
-    from ..resources import ModelData, unpack
-    data = unpack(zipfile.ZipFile(path).read("resources/model.bin"))
+    from ..resources import ModelData
+    data = _model(path) if not hasattr(path, "probe_x") else path        # the FMU, or its model.bin already read
     integrator = data.integrator if isinstance(data, ModelData) else default_integrator(scene, ports)
     if integrator == scene.sph.integrator:
         return scene
@@ -121,7 +119,8 @@ def measure_channels(path, scene, ports=(), problem=None, progress=False):
     from ..run.driver import FMU
     from .verify import SCALE_NAME, communication_times, fmu_features, probe_values
 
-    scene = reference_scene(path, scene, ports)
+    model = _model(path)                                   # read once: the integrator and the probes
+    scene = reference_scene(model, scene, ports)
     problem = problem or build_problem(scene)
     has_scale, _, step = fmu_features(path)
     horizon = min(float(scene.T), HORIZON)
@@ -144,7 +143,7 @@ def measure_channels(path, scene, ports=(), problem=None, progress=False):
                 if j is None:
                     run = run_sph(derive_scene(short, {"force": {"f": force}}), sample_steps=steps, progress=False,
                                   problem=problem, state=(0.0 * problem.v0, problem.rho0.copy()))
-                    ref = probe_values(problem, scene.L, _probes(path), (run.v,))[0]
+                    ref = probe_values(problem, scene.L, list(np.asarray(model.probe_x, float)), (run.v,))[0]
                     output = "v at the probes"
                 else:
                     quiet = derive_scene(short, {"force": {"f": "0"}})
@@ -215,10 +214,9 @@ def _coupled(path, scene, short, problem, ports, j, t, step, has_scale):
                        sph_s=sph_s, note=note)
 
 
-def _probes(path):
-    """The FMU's probe positions x/L (its v_probe_j descriptions: resources/model.bin)."""
+def _model(path):
+    """The FMU's model.bin, unpacked (its probes, its integrator)."""
     import zipfile
 
     from ..resources import unpack
-    data = unpack(zipfile.ZipFile(path).read("resources/model.bin"))
-    return list(np.asarray(data.probe_x, float))
+    return unpack(zipfile.ZipFile(path).read("resources/model.bin"))
