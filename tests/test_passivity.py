@@ -109,7 +109,7 @@ def test_coupled_to_a_stiff_spring_and_a_heavy_mass(base, name):
 def test_frozen_port_map_at_rest_is_positive_real_on_the_grid(base):
     """The frozen model (its FMU's basis, with the ports' directions) linearised at rest is collocated (C = αBᵀ)
     but has no Q = αI storage (a Euclidean Galerkin projection: M is not K's adjoint, A + Aᵀ is indefinite); its
-    port map on the damped bar passes the grid check: H + Hᴴ > 0 (margin 1.4e-2 of ‖H‖ here) and its poles lie
+    port map on the damped bar passes the grid check: H + Hᴴ > 0 (a margin above 1e-3 of ‖H‖) and its poles lie
     in the left half-plane; the sign-flipped map fails.  (On an undamped bar the full map is lossless, H + Hᴴ = 0
     between the poles, and the frozen one's non-adjoint coupling leaves small negative margins on the grid: not
     shown passive there, docs/fmu/ports.md.)"""
