@@ -85,11 +85,13 @@ def port_fmus(tmp_path_factory):
     def make(model="frozen", fmi=2):
         if (model, fmi) not in made:
             path = folder / f"{model}-{fmi}.fmu"
-            package_fmu(fmu_scene("forced"), path, k=6, fmi=fmi, probes=(0.25, 0.5), progress=False,
-                        binaries=binaries, model=model, ports=FMU_PORTS)
+            summary = package_fmu(fmu_scene("forced"), path, k=6, fmi=fmi, probes=(0.25, 0.5), progress=False,
+                                  binaries=binaries, model=model, ports=FMU_PORTS)
+            make.summaries[model, fmi] = summary
             made[model, fmi] = (path, unpack(zipfile.ZipFile(path).read("resources/model.bin")))
         return made[model, fmi]
 
+    make.summaries = {}
     return make
 
 
@@ -280,3 +282,18 @@ def test_exact_port_fmu_takes_port_input_derivatives(port_fmus):
         derivatives(s, [3000], [1.0])
         s.do_step(0.0, H)
         assert s.get_real([3000])[0] == 1.0 * H and not s.errors()
+
+
+@pytest.mark.parametrize("model", ["frozen", "exact"])
+def test_packaging_checks_the_port_maps_passivity_and_says_it_on_the_page(port_fmus, model):
+    """A port FMU's packaging runs the passivity check of its port map (harness.rom.passivity.port_passivity): on
+    this uniform damped bar both the exact model (storage ½ α |z|²) and the frozen one linearised at rest (the
+    block storage, β = c/ρ0³) are passive by structure, and the FMU's page says so."""
+    import zipfile
+    path, _ = port_fmus(model)
+    found = port_fmus.summaries[model, 2].port_passivity
+    assert found.verdict == "structure", found
+    alpha, beta, collocation, dissipation = found.storage
+    assert alpha > 0 and beta > 0 and collocation < 1e-12 and dissipation < 1e-12, found
+    page = zipfile.ZipFile(path).read("documentation/index.html").decode()
+    assert "Passivity of the port map" in page and "passive by structure" in page

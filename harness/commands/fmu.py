@@ -205,6 +205,13 @@ def _run(args):
               f"short-time, static and in-band directions and the modes a step rings appended to the basis "
               f"(docs/fmu/ports.md; profile projection errors on the modes: "
               f"{', '.join(f'{e:.3g}' for e in s.port_errors)})")
+        if s.port_passivity is not None:
+            print(f"  port map (F_port to v_port): {s.port_passivity.line()}")
+            if s.port_passivity.verdict == "not passive":
+                print(f"sphrom fmu: warning: the {s.model} model's port map is not passive (min λ(H + Hᴴ)/‖H‖ = "
+                      f"{s.port_passivity.margin:.2e} at {s.port_passivity.at:.3g} rad/s): coupled through its ports "
+                      "to a passive component it can gain energy; --model exact is passive by structure",
+                      file=sys.stderr)
     t = s.timings
     print(f"  token {s.token}; fmpy validation: no problems; times: model {t['model']:.2f} s, "
           f"binaries {t['binaries']:.2f} s, package {t['package']:.2f} s"

@@ -16,10 +16,14 @@ system whose total energy never grows.  Two checks:
   U_v is ρ0-orthonormal and U_e c-orthonormal, and the balanced model's structure-preserving projection):
   α from least squares on Q B = Cᵀ, then the collocation residual ‖C − α Bᵀ‖ / ‖C‖ and the largest eigenvalue
   of the symmetric part of A; both at round-off is a proof of passivity up to round-off.
+- :func:`block_storage_certificate` tries Q = α diag(I, βI) over two blocks: the frozen model linearised at rest
+  (:func:`frozen_port_system`), passive by structure with β = c/ρ0³ where ρ0 and c are uniform.
 - :func:`positive_real_margin` checks H(iω) + H(iω)ᴴ >= 0 on a frequency grid (log-spaced, plus each pole's
   frequency from both sides): the test for a model without that structure (balanced truncation on a damped
-  scene, a Petrov-Galerkin projection; the frozen model linearised at rest, :func:`frozen_port_system`),
-  necessary, not a proof between grid points.
+  scene, a Petrov-Galerkin projection; the frozen model on a scene with non-uniform c or ρ0), necessary, not a
+  proof between grid points.
+
+:func:`port_passivity` runs them in that order on a model with ports (packaging: every port FMU's line).
 
 :func:`coupled_energy` integrates a model coupled at each port to a lumped mass-spring-damper exactly in time
 (the matrix exponential of the coupled linear system) and returns the total energy over time.
@@ -59,9 +63,10 @@ def port_system(ops):
 
 def frozen_port_system(ops):
     """The :class:`PortSystem` of the frozen model (eqs. 2.19-2.20 with ports) linearised at rest: z = (a^v,
-    δa^ρ), ȧ^v = -D̂ a^v - K δa^ρ + Bp u, δȧ^ρ = -M(a^ρ_0) a^v, y = Cp a^v, M at the rest density ρ0 (the
-    frozen coefficient a component at rest starts with).  Not passive by construction (a Euclidean Galerkin
-    projection, M not K's adjoint): :func:`positive_real_margin` checks it."""
+    δa^ρ), ȧ^v = -D̂ a^v - K δa^ρ + Bp u, δȧ^ρ = -M(a^ρ_0) a^v, y = Cp a^v, M at the projected rest density
+    U^ρ a^ρ_0 (the frozen coefficient a component at rest starts with).  Passive by structure where ρ0 and c are
+    uniform (:func:`block_storage_certificate`); a Euclidean Galerkin projection otherwise, whose M is not K's
+    adjoint in any diagonal weight: :func:`positive_real_margin` checks it."""
     if ops.Bp is None or ops.Cp is None:
         raise ValueError("the model has no ports (build it with ports=(x/L, ...))")
     kv, kr = ops.k_v, ops.k_rho
@@ -86,13 +91,44 @@ def storage_certificate(system: PortSystem):
     return alpha, collocation, dissipation
 
 
+def block_storage_certificate(system: PortSystem, k1):
+    """(α, β, collocation, dissipation) of the storage ½ α (|z₁|² + β |z₂|²) [J m^-2], z₁ the first ``k1``
+    coordinates (the frozen model's a^v), z₂ the rest (its δa^ρ).
+
+    β from least squares on the coupling's skew symmetry, A₁₂ + β A₂₁ᵀ = 0 (the part of A between the blocks
+    then stores no energy), α from least squares on α diag(I, βI) B = Cᵀ (the KYP lemma's Q B = Cᵀ).  ``collocation`` = ‖C − α Bᵀ diag(I, βI)‖_F / ‖C‖_F, ``dissipation`` the
+    largest eigenvalue of the symmetric part of diag(I, βI) A over its norm.  β > 0, α > 0 with both at
+    round-off proves the port map passive.
+
+    The frozen model linearised at rest (:func:`frozen_port_system`) has ȧ^v = -D̂ a^v - K δa^ρ, δȧ^ρ = -M₀ a^v
+    with K = U^vᵀ ρ0⁻¹ G diag(c/ρ0) U^ρ (eq. 2.21) and M₀ = U^ρᵀ diag(ρ0) G U^v (eq. 2.23 at ρ = ρ0).  Where
+    ρ0 and c are uniform and G is skew (periodic particles at a uniform spacing), M₀ᵀ = -(ρ0³/c) K: β = c/ρ0³
+    makes the coupling lossless whatever the bases, and the collocated ports (Bp and Cp both the port's kernel
+    on U^v) make the map passive by structure.  Non-uniform ρ0 or c put different diagonal weights inside K and
+    M₀: no such β, and :func:`positive_real_margin` is the check.
+    """
+    A, B, C = system.A, system.B, system.C
+    k1 = int(k1)
+    A12, A21 = A[:k1, k1:], A[k1:, :k1]
+    den = float(np.sum(A21 * A21))
+    beta = float(-np.sum(A12 * A21.T) / den) if den > 0 else 1.0
+    q = np.concatenate([np.ones(k1), np.full(A.shape[0] - k1, beta)])
+    QB = q[:, None] * B
+    alpha = float(np.sum(C.T * QB) / np.sum(QB * QB))
+    collocation = float(np.linalg.norm(C - alpha * QB.T) / np.linalg.norm(C))
+    QA = q[:, None] * A
+    dissipation = float(np.max(np.linalg.eigvalsh(0.5 * (QA + QA.T))) / max(np.linalg.norm(QA, 2), 1e-300))
+    return alpha, beta, collocation, dissipation
+
+
 def frequency_grid(A, points=400, decades=(-3.0, 2.0)):
     """Angular frequencies [rad s^-1]: log-spaced from 10^decades[0] to 10^decades[1] times the largest pole
-    frequency (at least 1), plus each pole's frequency at ±1e-6 relative (where H peaks)."""
+    frequency (at least 1), plus each pole's frequency at ±1e-6 relative (where H peaks); a pole at ω = 0 (a
+    rigid motion: its imaginary part round-off) adds no point, H is singular there."""
     poles = np.abs(np.linalg.eigvals(A).imag)
     top = max(float(poles.max(initial=0.0)), 1.0)
     grid = np.logspace(decades[0], np.log10(top) + decades[1], points)
-    peaks = poles[poles > 0]
+    peaks = poles[poles > 1e-9 * top]
     return np.unique(np.concatenate([grid, peaks * (1 - 1e-6), peaks * (1 + 1e-6)]))
 
 
@@ -197,3 +233,58 @@ def hamiltonian_test(system: PortSystem, feedthrough):
     closest = float(np.min(np.abs(lam.real)) / np.linalg.norm(N, 2))
     stable = float(np.max(np.linalg.eigvals(A).real))
     return bool(closest > 1e-12 and stable < 0), closest, stable
+
+
+PASSIVE_ROUNDOFF = 1e-10     # a storage certificate's residuals at round-off: passive by structure
+MARGIN_ROUNDOFF = -1e-8      # a positive-real margin above this: passes the grid check
+MARGIN_WARN = -1e-3          # below this the packaging warns: coupled to a passive part the model can gain energy
+
+
+@dataclass(frozen=True)
+class PortPassivity:
+    """What a port model's passivity check found (:func:`port_passivity`).
+
+    ``verdict``: ``"structure"`` (a storage with residuals at round-off: passive by structure), ``"grid"``
+    (no such storage, positive real on the frequency grid), ``"near"`` (a negative margin above
+    :data:`MARGIN_WARN`), ``"not passive"``; ``margin`` the grid's min λ(H + Hᴴ)/‖H‖ and ``at`` its frequency
+    [rad s^-1]; ``storage`` the certificate's numbers (α, β, collocation, dissipation; β = 1 for Q = α I)."""
+
+    verdict: str
+    margin: float
+    at: float
+    storage: tuple
+
+    def line(self):
+        """One line for ``sphrom fmu``."""
+        a, b, coll, diss = self.storage
+        if self.verdict == "structure":
+            form = "½ α |z|²" if b == 1.0 else f"½ α (|a_v|² + β |δa_ρ|²), β = {b:.4g}"
+            return (f"passive by structure (storage {form}: its collocation and dissipation residuals below "
+                    f"{PASSIVE_ROUNDOFF:g}, round-off)")
+        where = f"min λ(H + Hᴴ)/‖H‖ = {self.margin:.2e} at ω = {self.at:.3g} rad/s"
+        if self.verdict == "grid":
+            return f"positive real on the frequency grid ({where}); no storage of the simple form"
+        if self.verdict == "near":
+            return f"passive to {abs(self.margin):.1e} of ‖H‖ ({where})"
+        return (f"NOT passive ({where}): coupled to a passive component (a spring, a mass) it can return more "
+                "energy than it took")
+
+
+def port_passivity(ops, linear):
+    """:class:`PortPassivity` of a model with ports: the linear models' :func:`port_system` with the storage
+    Q = α I (:func:`storage_certificate`), the frozen model linearised at rest (:func:`frozen_port_system`) with
+    the block storage (:func:`block_storage_certificate`); when the storage's residuals are not at round-off,
+    the frequency-grid margin (:func:`positive_real_margin`)."""
+    if linear:
+        system = port_system(ops)
+        alpha, coll, diss = storage_certificate(system)
+        storage = (alpha, 1.0, coll, diss)
+    else:
+        system = frozen_port_system(ops)
+        storage = block_storage_certificate(system, ops.k_v)
+    alpha, beta, coll, diss = storage
+    if alpha > 0 and beta > 0 and coll < PASSIVE_ROUNDOFF and diss < PASSIVE_ROUNDOFF:
+        return PortPassivity("structure", float("nan"), float("nan"), storage)
+    margin, at = positive_real_margin(system)
+    verdict = "grid" if margin >= MARGIN_ROUNDOFF else "near" if margin >= MARGIN_WARN else "not passive"
+    return PortPassivity(verdict, margin, at, storage)

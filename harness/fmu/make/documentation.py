@@ -189,9 +189,10 @@ def usage_section(description_xml, linear, ports):
             "force profile.</p>"]
 
 
-def ports_section(sections, model=None):
-    """The mechanical ports of this FMU, their sign convention and what the ``model`` represents of them exactly,
-    or how to get them."""
+def ports_section(sections, model=None, passivity=None):
+    """The mechanical ports of this FMU, their sign convention, what the ``model`` represents of them exactly and
+    what its port map's passivity check found (``passivity``, :class:`harness.rom.passivity.PortPassivity`), or
+    how to get them."""
     positions = sections.get("PORTX")
     convention = ("<code>F_port_j</code> [N] is the force the connected component exerts <b>on the bar</b> at "
                   "x_j, positive along +x; <code>v_port_j</code> [m/s] is the bar's velocity there, positive along "
@@ -211,7 +212,9 @@ def ports_section(sections, model=None):
     return ["<h2>Ports</h2>", f"<p>Mechanical ports at x/L = {xs}. {convention}</p>"] + (
         [f"<p>{represents} The table of input channels below measures each port (a constant, a slow and an in-band "
          "force from rest, and the port closed by a spring-mass-damper) against the full SPH.</p>"]
-        if represents else [])
+        if represents else []) + (
+        [f"<p>Passivity of the port map (F_port to v_port; <code>harness.rom.passivity.port_passivity</code>, "
+         f"docs/fmu/ports.md): {escape(passivity.line())}.</p>"] if passivity is not None else [])
 
 
 # what each model represents of a port exactly, and what it approximates (docs/fmu/ports.md)
@@ -365,7 +368,7 @@ def envelope_section(envelope, linear, bounded=False):
 
 
 def index_html(*, scene, spec, data, k, input_error, augmented, description_xml, verification=None,
-               tolerance=None, envelope=None):
+               tolerance=None, envelope=None, passivity=None):
     """The text of documentation/index.html (module docstring)."""
     from ... import __version__
     title = f"sphrom FMU: {spec.name} model of scene {scene.name}"
@@ -377,7 +380,7 @@ def index_html(*, scene, spec, data, k, input_error, augmented, description_xml,
             "<code>f</code> (force per mass along the force profile), outputs the velocity and density at the "
             "probes.</p>"]
     body += usage_section(description_xml, spec.linear, sections)
-    body += ports_section(sections, spec.name)
+    body += ports_section(sections, spec.name, passivity)
     body += scene_section(scene)
     body += model_section(spec, data, k, input_error, augmented)
     body += variables_section(description_xml)

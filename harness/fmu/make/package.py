@@ -103,6 +103,7 @@ class FMUSummary:
     parameters: list = field(default_factory=list)     # a parametric FMU's c, d rows (harness.fmu.make.parametric)
     ports: list = field(default_factory=list)
     port_errors: list = field(default_factory=list)
+    port_passivity: object = None      # harness.rom.passivity.PortPassivity of a port FMU, else None
     n_freeze_errors: dict = field(default_factory=dict)   # n_freeze chosen per scene: {candidate: training error}
     shadow_order: int = 0              # the certified error bounds' shadow: its coordinates (0: no bound outputs)
     error_tolerance: float = float("nan")   # error_tolerance's default [m s^-1] (nan: no bound outputs)
@@ -198,8 +199,9 @@ def package_fmu(scene, out, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaul
     timings["binaries"] = time.perf_counter() - t1
     stage_done(scene, "binaries", timings, progress)
     k = data.k_v if k is None else k                 # the balanced model's order from its order tolerance
+    passivity = passivity_step(ops, model, ports)
     texts = dict(scene=scene, model=model, data=data, ops=ops, k=k, fmi=fmi, step=step, envelope=envelope,
-                 tolerance=tolerance)
+                 tolerance=tolerance, passivity=passivity)
     t2 = time.perf_counter()
     out = Path(out)
     verification = None
@@ -222,6 +224,7 @@ def package_fmu(scene, out, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaul
                       integrator=integrator, dt=data.dt, token=data.token, size=size, timings=timings, model=model,
                       envelope=envelope, verification=verification, bounds=data.bounds,
                       method=ops.method, parameters=parameters, ports=list(ports), port_errors=list(ops.port_errors),
+                      port_passivity=passivity,
                       **_shadow_facts(data.sections))
 
 
@@ -284,11 +287,22 @@ def archive_step(path, blob, binary, check=True, **texts):
                                k=texts["k"], input_error=texts["ops"].input_error,
                                augmented=texts["ops"].augmented, description_xml=description,
                                verification=texts.get("verification"), tolerance=texts["tolerance"],
-                               envelope=texts["envelope"])
+                               envelope=texts["envelope"], passivity=texts.get("passivity"))
     write_fmu(path, fmi=texts["fmi"], blob=blob, description=description, binary=binary, documentation=docs)
     problems = validate(path) if check else []
     if problems:
         raise SimulationError("the packaged FMU fails fmpy's validation: " + "; ".join(problems))
+
+
+def passivity_step(ops, model, ports):
+    """The port map's passivity check of a port FMU's model (:func:`harness.rom.passivity.port_passivity`: the
+    storage certificate, else the positive-real margin on a frequency grid; a second or less at k = 233), or
+    None without ports."""
+    if not len(ports):
+        return None
+    from ...rom.passivity import port_passivity
+    from ...rom.registry import get_model
+    return port_passivity(ops, get_model(model).linear)
 
 
 def verification_step(path, scene, probes, references, problem, progress, tolerance, out, model, ports=()):
@@ -340,12 +354,13 @@ def check_tolerance(verification, tolerance, out, model):
 
 
 def documentation_files(*, scene, spec, data, k, input_error, augmented, description_xml, verification=None,
-                        tolerance=None, envelope=None):
+                        tolerance=None, envelope=None, passivity=None):
     """{archive name: content} of the FMU's documentation/ folder: index.html, and probes.png when measured."""
     from .documentation import DOC_INDEX, DOC_PLOT, index_html
     files = {DOC_INDEX: index_html(scene=scene, spec=spec, data=data, k=k, input_error=input_error,
                                    augmented=augmented, description_xml=description_xml,
-                                   verification=verification, tolerance=tolerance, envelope=envelope)}
+                                   verification=verification, tolerance=tolerance, envelope=envelope,
+                                   passivity=passivity)}
     if verification is not None:
         from ..check.verify import probes_png
         files[DOC_PLOT] = probes_png(verification, title=f"{scene.name}, {spec.name} FMU against the full SPH")
