@@ -109,7 +109,8 @@ def test_coupled_to_a_stiff_spring_and_a_heavy_mass(base, name):
 
 @pytest.mark.parametrize("base", ["damped_forced"])
 def test_frozen_port_map_at_rest_is_positive_real_on_the_grid(base):
-    """The frozen model (its FMU's basis, with the ports' directions) linearised at rest is collocated (C = αBᵀ)
+    """The frozen model in the paper's Euclidean projection (``inner="euclid"``; its FMU's basis, with the ports'
+    directions) linearised at rest is collocated (C = αBᵀ)
     but has no Q = αI storage (a Euclidean Galerkin projection: M is not K's adjoint, A + Aᵀ is indefinite); its
     port map on the damped bar passes the grid check: H + Hᴴ > 0 (a margin above 1e-3 of ‖H‖) and its poles lie
     in the left half-plane; the sign-flipped map fails.  (On an undamped bar the full map is lossless, H + Hᴴ = 0
@@ -119,7 +120,8 @@ def test_frozen_port_map_at_rest_is_positive_real_on_the_grid(base):
     problem = build_problem(scene)
     basis, _ = basis_for_scene(scene, progress=False, problem=problem)
     spec = get_model("frozen")
-    ops = spec.build(problem, basis, 8, 8, input_direction=spec.fmu_input_direction, ports=PORTS, tensor="never")
+    ops = spec.build(problem, basis, 8, 8, input_direction=spec.fmu_input_direction, ports=PORTS, tensor="never",
+                     inner="euclid")
     system = pv.frozen_port_system(ops)
     _, collocation, dissipation = pv.storage_certificate(system)
     assert collocation < 1e-12 and dissipation > 1e-3, (collocation, dissipation)   # so the check below is needed
@@ -132,7 +134,8 @@ def test_frozen_port_map_at_rest_is_positive_real_on_the_grid(base):
 
 @pytest.mark.parametrize("base", ["damped_forced", "tenmode"])
 def test_frozen_port_map_on_a_uniform_bar_is_passive_by_structure(base):
-    """Where ρ0 and c are uniform and G is skew, the frozen model linearised at rest has M₀ᵀ = -(ρ0³/c) K: the
+    """In the paper's Euclidean projection (``inner="euclid"``): where ρ0 and c are uniform and G is skew, the
+    frozen model linearised at rest has M₀ᵀ = -(ρ0³/c) K: the
     storage ½ α (|a^v|² + β |δa^ρ|²) with β = c/ρ0³ makes its coupling lossless whatever the bases
     (:func:`harness.rom.passivity.block_storage_certificate`), where the storage α I of the energy-coordinate
     models fails (so the block form is what proves it).  On the damped bar the residuals are round-off; on the
@@ -142,7 +145,8 @@ def test_frozen_port_map_on_a_uniform_bar_is_passive_by_structure(base):
     problem = build_problem(scene)
     basis, _ = basis_for_scene(scene, progress=False, problem=problem)
     spec = get_model("frozen")
-    ops = spec.build(problem, basis, 8, 8, input_direction=spec.fmu_input_direction, ports=PORTS, tensor="never")
+    ops = spec.build(problem, basis, 8, 8, input_direction=spec.fmu_input_direction, ports=PORTS, tensor="never",
+                     inner="euclid")
     system = pv.frozen_port_system(ops)
     assert pv.storage_certificate(system)[2] > 1e-3                     # Q = α I does not prove it
     alpha, beta, collocation, dissipation = pv.block_storage_certificate(system, ops.k_v)
@@ -159,23 +163,67 @@ def test_frozen_port_map_on_a_uniform_bar_is_passive_by_structure(base):
 
 
 def test_frozen_port_map_with_a_non_uniform_c_is_found_not_passive():
-    """With a non-uniform c (the heterogeneous scene) the Euclidean Galerkin projection puts different diagonal
-    weights inside K and M₀: no storage of the block form, and the grid check finds H + Hᴴ indefinite
-    (:func:`harness.rom.passivity.port_passivity` says "not passive", and ``sphrom fmu`` warns).  It is real:
-    coupled to a spring and a heavy mass (all passive) the frozen model has a growing mode, while the exact
-    model of the same scene and ports is passive by structure and its coupled poles stay in the closed left
-    half-plane."""
+    """With a non-uniform c (the heterogeneous scene) the Euclidean Galerkin projection (``inner="euclid"``, the
+    paper's) puts different diagonal weights inside K and M₀: no storage of the block form, and the grid check
+    finds H + Hᴴ indefinite (:func:`harness.rom.passivity.port_passivity` says "not passive", and ``sphrom
+    fmu`` would warn).  It is real: coupled to a spring and a heavy mass (all passive) that frozen model has a
+    growing mode, while the frozen model a port FMU builds (the energy inner products, the default with ports)
+    and the exact model of the same scene and ports are passive by structure and their coupled poles stay in the
+    closed left half-plane."""
     scene = small_scene("heterogeneous", T=1.0, n=N)
     problem = build_problem(scene)
     assert np.ptp(problem.c) > 0
     basis, _ = basis_for_scene(scene, progress=False, problem=problem)
-    frozen = get_model("frozen").build(problem, basis, 8, 8, input_direction="needed", ports=PORTS, tensor="never")
+    frozen = get_model("frozen").build(problem, basis, 8, 8, input_direction="needed", ports=PORTS, tensor="never",
+                                       inner="euclid")
+    fmus = get_model("frozen").build(problem, basis, 8, 8, input_direction="needed", ports=PORTS, tensor="never")
     exact = get_model("exact").build(problem, basis, 8, 8, ports=PORTS)
     found = pv.port_passivity(frozen, linear=False)
     assert found.verdict == "not passive" and found.margin < pv.MARGIN_WARN, found
+    assert fmus.inner == "energy" and pv.port_passivity(fmus, linear=False).verdict == "structure"
     assert pv.port_passivity(exact, linear=True).verdict == "structure"
     bar = float(np.sum(problem.rho0) * problem.neighbours.dx)
-    for system, grows in ((pv.frozen_port_system(frozen), True), (pv.port_system(exact), False)):
+    for system, grows in ((pv.frozen_port_system(frozen), True), (pv.frozen_port_system(fmus), False),
+                          (pv.port_system(exact), False)):
         M = pv.coupled_matrix(system, mass=10 * bar, stiffness=1e4)
         top = float(np.max(np.linalg.eigvals(M).real))
         assert (top > 1e-3) if grows else (top < 1e-9 * np.linalg.norm(M, 2)), top
+
+
+@pytest.mark.parametrize("base", ["damped_forced", "tenmode", "heterogeneous", "gaussian"])
+def test_frozen_port_model_in_the_energy_inner_products_is_passive_on_every_scene(base):
+    """The frozen model a port FMU builds (``inner="energy"``, the default with ports: bases orthonormal in the
+    energy inner products, ρ0 in span(U^ρ), each equation tested with them) linearised at rest has M₀ᵀ = -K for
+    any ρ0(x), c(x): the storage ½ α |z|² proves its port map passive (collocation and dissipation at
+    round-off), on uniform and non-uniform scenes alike; coupled to a stiff spring and a heavy mass its poles
+    stay in the closed left half-plane.  Its port velocities under a constant port force from rest agree with
+    the Euclidean projection's on a uniform bar (there the two are one model up to a scaling of the
+    coordinates, less ρ0's own column)."""
+    scene = small_scene(base, T=1.0, n=N)
+    problem = build_problem(scene)
+    basis, _ = basis_for_scene(scene, progress=False, problem=problem)
+    spec = get_model("frozen")
+    ops = spec.build(problem, basis, 8, 8, input_direction=spec.fmu_input_direction, ports=PORTS, tensor="never")
+    assert ops.inner == "energy" and ops.rest_added in (0, 1)
+    assert np.allclose(ops.U_v.T @ (problem.rho0[:, None] * ops.U_v), np.eye(ops.k_v), atol=1e-10)
+    system = pv.frozen_port_system(ops)
+    alpha, collocation, dissipation = pv.storage_certificate(system)
+    assert alpha > 0 and collocation < 1e-12 and dissipation < 1e-12, (alpha, collocation, dissipation)
+    bar = float(np.sum(problem.rho0) * problem.neighbours.dx)
+    M = pv.coupled_matrix(system, mass=10 * bar, stiffness=1e4, damping=0.0)
+    assert float(np.max(np.linalg.eigvals(M).real)) < 1e-9 * np.linalg.norm(M, 2)
+    if np.ptp(problem.rho0) == 0 and np.ptp(problem.c) == 0:
+        euclid = spec.build(problem, basis, 8, 8, input_direction=spec.fmu_input_direction, ports=PORTS,
+                            tensor="never", inner="euclid")
+        t = np.linspace(0.0, 1.0, 51)
+        step = [unit_step_response(s, t) for s in (system, pv.frozen_port_system(euclid))]
+        assert np.max(np.abs(step[0] - step[1])) <= 1e-3 * np.max(np.abs(step[1])), base
+
+
+def unit_step_response(system, t):
+    """y(t) (len(t), P) of dz/dt = A z + B u from rest under u = (1, 0, ...), exactly (the augmented exponential)."""
+    import scipy.linalg as sla
+    k = system.A.shape[0]
+    aug = np.zeros((k + 1, k + 1))
+    aug[:k, :k], aug[:k, k] = system.A, system.B[:, 0]
+    return np.array([system.C @ sla.expm(aug * ti)[:k, k] for ti in t])

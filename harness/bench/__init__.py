@@ -84,6 +84,9 @@ PROGRAMS = {
     "inputs": Program("harness.bench.inputs", "every input channel at every frequency: ports under slow "
                       "and constant forces, forces along non-uniform profiles, before and after, against the "
                       "linear SPH exact in time", "measured: see the report", "prints a table; inputs.csv with --out"),
+    "passivity": Program("harness.bench.passivity", "passive ports on every built-in scene: each port model's "
+                         "passivity check (frozen Euclidean and energy, exact) and its poles coupled to a spring and a "
+                         "heavy mass", "measured: see the report", "prints a table; passivity.csv with --out"),
     "unseen_force": Program("harness.bench.unseen_force", "the FMUs under forces their basis never saw, against "
                             "the full SPH's forced response", "measured: see the report", "unseen_force.csv"),
     "error_bounds": Program("harness.bench.error_bounds", "the certified error-bound outputs on every built-in "

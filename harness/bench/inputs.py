@@ -19,7 +19,7 @@ as in the reference, once with the integrator a port FMU takes (symplectic Euler
 :func:`harness.fmu.make.options.default_integrator`) and once with the scene's (explicit Euler: ``full SPH
 (euler)``). Models as the FMU builds them (k = 12, the model's ``fmu_input_direction``); ``before`` is the build
 option ``input_moments=False`` (the bases main had: the port's short-time directions and the profile's own
-column), the balanced model at its default order tolerance (it has no "before": it had no ports). Errors:
+column; the frozen model in the Euclidean projection it had, ``inner="euclid"``), the balanced model at its default order tolerance (it has no "before": it had no ports). Errors:
 relative L² over all samples. The frozen model runs with the scene's dt, n_freeze = 10, the integrator its FMU
 takes (with ports symplectic Euler, else the scene's) and the refresh its FMU takes (the particles where they
 cost less than the tensor, :func:`harness.fmu.make.models.particle_sections`).
@@ -94,8 +94,9 @@ def measure(name, scene, ports, port_forces, force, state):
         if not spec.needs_basis:                        # the balanced model: its order from its tolerance
             ops = spec.build(problem, None, None, None, **port_option)
         else:
+            before = {"inner": "euclid"} if variant == "before" and "inner" in spec.build_options else {}
             ops = spec.build(problem, basis, K, K, input_direction=spec.fmu_input_direction,
-                             input_moments=variant == "after", **port_option)
+                             input_moments=variant == "after", **port_option, **before)
         if spec.linear:
             res = spec.run(ops, problem, dt=H, n_steps=int(round(T / H)), options=spec.options(step=H, hold="held"),
                            state=None if state else np.zeros(ops.order), **kw)

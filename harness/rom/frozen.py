@@ -27,6 +27,10 @@ the FMU's model; ``b="paper"``, eq. 2.22's b, is the model's ``paper_build``.  W
            (``sphrom modes``), the benchmarks' Python rows (methods, scaling, skip, stress, reduced stability,
            linear models' trade-off): the reproduced figures stay the paper's model bit for bit
     both   ``python -m harness.bench.rest`` (the FMU of each, through the option)
+
+The projection is a build option too (``inner``, :func:`harness.rom.operators.build_operators`): the paper's
+Euclidean Galerkin projection (eq. 2.16, Φ = U) without ports, the energy inner products with ports (a passive
+port map on every scene, :mod:`harness.rom.passivity`); the step above is the same, the weights are in the numbers.
 """
 
 import numpy as np
@@ -219,4 +223,4 @@ MODEL = ReducedModel(
     builder=build_from_basis, solver=run, truncate=truncate_operators, options_type=FrozenOptions,
     # the registry's frozen model is the FMU's: b about the projected rest density, so rest is an equilibrium;
     # the paper's eq. 2.22 b where the paper is reproduced
-    build_defaults={"b": "rest"}, paper_build={"b": "paper"})
+    build_defaults={"b": "rest"}, paper_build={"b": "paper", "inner": "euclid"})

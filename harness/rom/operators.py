@@ -37,6 +37,7 @@ TENSOR_MAX_ENTRIES = 20_000_000
 INPUT_TOLERANCE = 1e-2      # "needed": append the input direction when the modes miss more than 1 % of it
 ROUNDOFF_TOLERANCE = 1e-10  # "augment": append unless the modes hold the direction to round-off
 B_FORMS = ("paper", "rest")  # b of eq. 2.19: eq. 2.22's, or K a^ρ_rest (rest an equilibrium, :func:`rest_b`)
+INNERS = ("euclid", "energy")  # the projection: eq. 2.16's Φ = U, or the energy inner products (test_weights)
 
 
 def pair_index(k):
@@ -99,6 +100,11 @@ class ReducedOperators(Operators):
     input_added, input_added_2 : int
         Columns appended to U^v and U^ρ for the force profile's response at every frequency (after the profile's
         own column; :func:`harness.rom.inputs.augment_channels`, build option ``input_moments``).
+    inner : {"euclid", "energy"}
+        The projection (build option ``inner``, :func:`test_weights`): Euclidean (eq. 2.16, Φ = U), or the energy
+        inner products, whose K, b, D̂, p̂, Bp carry ρ0 and whose ``GU_v`` is diag(c/ρ0²) G U^v.
+    rest_added : int
+        1 when ρ0's part outside the density modes was appended to U^ρ (``inner`` "energy"), else 0.
     """
 
     U_v: np.ndarray
@@ -127,6 +133,8 @@ class ReducedOperators(Operators):
     b_form: str = "paper"
     input_added: int = 0
     input_added_2: int = 0
+    inner: str = "euclid"
+    rest_added: int = 0
 
     def port_velocity(self, a_v):
         """v_port = Cp a^v [m s^-1], (M, P) from coordinates (M, k_v) (:mod:`harness.sph.ports`)."""
@@ -154,8 +162,10 @@ class ReducedOperators(Operators):
         return self.velocity(z[:, :self.k_v]), self.density(z[:, self.k_v:])
 
     def project(self, v, rho, problem):
-        """[U^vᵀ v, U^ρᵀ ρ] per sample (eq. 2.16's projection), (M, k_v + k_rho)."""
-        return np.hstack([v @ self.U_v, rho @ self.U_rho])
+        """[U^vᵀ v, U^ρᵀ ρ] per sample (eq. 2.16's projection), (M, k_v + k_rho); with ``inner`` "energy" the
+        weighted projections [U^vᵀ ρ0 v, U^ρᵀ (c/ρ0²) ρ] (:func:`test_weights`)."""
+        w_v, w_rho = test_weights(problem, self.inner)
+        return np.hstack([v @ (w_v[:, None] * self.U_v), rho @ (w_rho[:, None] * self.U_rho)])
 
     def velocity(self, a_v):
         """v = U^v a^v at the particles, (M, N) [m s^-1] from coordinates (M, k_v)."""
@@ -199,8 +209,25 @@ def augment_with(U, direction, tol=ROUNDOFF_TOLERANCE):
     return np.column_stack([U, r / np.linalg.norm(r)]), error, True
 
 
+def test_weights(problem, inner):
+    """(w_v, w_ρ) (N,) of the projection ``inner``: ones for "euclid" (eq. 2.16, Φ = U); ρ0 and c/ρ0² for
+    "energy", the weights of the energy ½ Σ ρ0 v² Δx + ½ Σ (c/ρ0²) δρ² Δx of the linearised eqs. 2.10-2.11
+    (e = -δρ/ρ0 to first order)."""
+    if inner == "energy":
+        return problem.rho0, problem.c / problem.rho0 ** 2
+    if inner == "euclid":
+        return np.ones(problem.n), np.ones(problem.n)
+    raise ValueError(f"inner: {inner!r} is out of range (allowed: {', '.join(INNERS)})")
+
+
+def weighted_orthonormal(U, w):
+    """U L⁻ᵀ with L Lᵀ = Uᵀ diag(w) U: the same span, w-orthonormal columns, the first j spanning U's first j."""
+    L = np.linalg.cholesky(U.T @ (w[:, None] * U))
+    return np.ascontiguousarray(np.linalg.solve(L, U.T).T)
+
+
 def build_operators(problem: SPHProblem, U_v, U_rho, input_direction="auto", tensor="auto",
-                    input_tolerance=None, ports=(), b="paper", input_moments=True):
+                    input_tolerance=None, ports=(), b="paper", input_moments=True, inner="euclid"):
     """Reduced operators for bases ``U_v`` (N, k_v) and ``U_rho`` (N, k_rho).
 
     Parameters
@@ -233,6 +260,16 @@ def build_operators(problem: SPHProblem, U_v, U_rho, input_direction="auto", ten
     b : {"paper", "rest"}
         Eq. 2.22's b (the paper's), or b = K a^ρ_rest (:func:`rest_b`: the projected rest state is an
         equilibrium; the frozen FMU's).
+    inner : {"euclid", "energy"}
+        The projection.  ``euclid``: the paper's Galerkin projection (eq. 2.16, Φ = U) with Euclidean-orthonormal
+        bases.  ``energy``: the bases (after every appended direction) made orthonormal in the energy inner
+        products (:func:`test_weights`: ρ0 for U^v, c/ρ0² for U^ρ) and each equation tested with them:
+        K = U^vᵀ G diag(c/ρ0) U^ρ, b = U^vᵀ G c, D̂ = U^vᵀ diag(ρ0 d) U^v, p̂ = U^vᵀ ρ0 profile, Bp = U^vᵀ W, and
+        M(a^ρ) = U^ρᵀ diag(ρ² c/ρ0³) G U^v (the stored ``GU_v`` is diag(c/ρ0²) G U^v, so the refresh code is the
+        same).  Linearised at rest, M₀ᵀ = -K exactly for any ρ0(x), c(x): the port map is passive by structure
+        (:func:`harness.rom.passivity.block_storage_certificate` with β = 1), which the Euclidean projection is only
+        where ρ0 and c are uniform (there the two are the same model up to a scaling of the coordinates).  The
+        frozen model's default for a model with ports (:func:`build_from_basis`).
     input_moments : bool
         When the force profile is appended (``augment``, ``always``, ``needed``): also its response at every
         frequency, s = 0 through the band (:func:`harness.rom.inputs.augment_channels`), so that a constant or
@@ -241,6 +278,7 @@ def build_operators(problem: SPHProblem, U_v, U_rho, input_direction="auto", ten
     """
     if b not in B_FORMS:
         raise ValueError(f"b: {b!r} is out of range (allowed: {', '.join(B_FORMS)})")
+    w_v, w_rho = test_weights(problem, inner)
     t0 = time.perf_counter()
     U_v = np.ascontiguousarray(U_v, dtype=float)
     U_rho = np.ascontiguousarray(U_rho, dtype=float)
@@ -258,26 +296,33 @@ def build_operators(problem: SPHProblem, U_v, U_rho, input_direction="auto", ten
                                                              and mode == "augment", energy=False, tol=tol)
     U_v, U_rho, port_added, port_added_rho, port_errors = augment_ports(problem, U_v, U_rho, ports,
                                                                         moments=input_moments)
+    rest_added = 0
+    if inner == "energy":
+        # ρ0 itself in span(U^ρ): M₀ is then taken at ρ0 exactly, and the structure holds to round-off
+        U_rho, _, rest_added = augment_with(U_rho, rho0, tol=ROUNDOFF_TOLERANCE)
+        U_v, U_rho = weighted_orthonormal(U_v, w_v), weighted_orthonormal(U_rho, w_rho)
+    V = w_v[:, None] * U_v                                     # the test functions: U^v, or ρ0 U^v
     G = problem.neighbours.matrix()
     inv_rho0 = 1.0 / rho0
-    GU_v = np.asarray(G @ U_v)
-    K = U_v.T @ (inv_rho0[:, None] * np.asarray(G @ ((c * inv_rho0)[:, None] * U_rho)))     # eq. 2.21
+    GU_v = w_rho[:, None] * np.asarray(G @ U_v)                # (c/ρ0²) G U^v with the energy inner products
+    K = V.T @ (inv_rho0[:, None] * np.asarray(G @ ((c * inv_rho0)[:, None] * U_rho)))       # eq. 2.21
     K = np.ascontiguousarray(K)
-    a_rho0 = U_rho.T @ rho0
-    b_vec = U_v.T @ (inv_rho0 * (G @ c)) if b == "paper" else rest_b(K, a_rho0)          # eq. 2.22
-    D = U_v.T @ (d[:, None] * U_v) if problem.terms["damping"] else None                  # eq. 2.24
-    p = U_v.T @ profile if want_input else None
+    a_rho0 = U_rho.T @ (w_rho * rho0)
+    b_vec = V.T @ (inv_rho0 * (G @ c)) if b == "paper" else rest_b(K, a_rho0)            # eq. 2.22
+    D = V.T @ (d[:, None] * U_v) if problem.terms["damping"] else None                    # eq. 2.24
+    p = V.T @ profile if want_input else None
     t1 = time.perf_counter()
     T = refresh_tensor(U_rho, GU_v, inv_rho0) if wants_tensor(tensor, U_v.shape[1], U_rho.shape[1]) else None
     t2 = time.perf_counter()
     return ReducedOperators(U_v=U_v, U_rho=U_rho, K=K, b=b_vec,
                             D=None if D is None else np.ascontiguousarray(D), p=p,
                             GU_v=np.ascontiguousarray(GU_v), inv_rho0=inv_rho0, T=T,
-                            a_v0=U_v.T @ problem.v0, a_rho0=a_rho0, input_error=input_error,
+                            a_v0=V.T @ problem.v0, a_rho0=a_rho0, input_error=input_error,
                             augmented=augmented, timings={"operators": t1 - t0, "tensor": t2 - t1},
                             input_mode=mode, input_tolerance=tol, tensor_rule=tensor, b_form=b,
-                            input_added=input_added, input_added_2=input_added_2,
-                            **port_rows(problem, U_v, ports, port_added, port_errors, port_added_rho))
+                            input_added=input_added, input_added_2=input_added_2, inner=inner,
+                            rest_added=int(rest_added),
+                            **port_rows(problem, U_v, ports, port_added, port_errors, port_added_rho, V))
 
 
 # Krylov levels of each port's directions appended to the bases: the POD modes (trained on the scene's own
@@ -361,12 +406,14 @@ def profile_moments(problem, U_v, U_2, wanted, *, energy, tol):
                                    tol=max(inputs.INPUT_TOL, tol))
 
 
-def port_rows(problem, U_v, ports, port_added, port_errors, port_added_2=0):
-    """The port fields of :class:`ReducedOperators`: Bp = (U^vᵀ W/ρ0)ᵀ (area 1) and Cp = (W Δx) U^v."""
+def port_rows(problem, U_v, ports, port_added, port_errors, port_added_2=0, V=None):
+    """The port fields of :class:`ReducedOperators`: Bp = (Vᵀ W/ρ0)ᵀ (area 1; V the test functions, default U^v)
+    and Cp = (W Δx) U^v."""
     from ..sph.ports import port_accelerations, port_velocity_rows
     if not len(ports):
         return {}
-    return {"ports": tuple(float(x) for x in ports), "Bp": np.ascontiguousarray(port_accelerations(problem, ports) @ U_v),
+    V = U_v if V is None else V
+    return {"ports": tuple(float(x) for x in ports), "Bp": np.ascontiguousarray(port_accelerations(problem, ports) @ V),
             "Cp": np.ascontiguousarray(port_velocity_rows(problem, ports) @ U_v), "port_added": port_added,
             "port_added_2": port_added_2, "port_errors": port_errors}
 
@@ -397,14 +444,19 @@ def wants_tensor(tensor, k_v, k_rho):
 
 
 def build_from_basis(problem: SPHProblem, basis, k_v, k_rho, *, input_direction="auto", input_tolerance=None,
-                     tensor="auto", ports=(), b="paper", input_moments=True):
+                     tensor="auto", ports=(), b="paper", input_moments=True, inner="auto"):
     """:func:`build_operators` on the first k_v, k_rho POD modes of ``basis`` (``Basis.U_v``, ``Basis.U_rho``).
 
-    The builder of the frozen model (:mod:`harness.rom.model`; its registry default ``b="rest"``).
+    The builder of the frozen model (:mod:`harness.rom.model`; its registry default ``b="rest"``).  ``inner``
+    "auto": the energy inner products with ports (a passive port map on every scene), else eq. 2.16's Euclidean
+    projection (the paper's model).
     """
     U_v, U_rho = basis_modes(basis, "density", k_v, k_rho)
+    if inner == "auto":
+        inner = "energy" if len(ports) else "euclid"
     return build_operators(problem, U_v, U_rho, input_direction=input_direction, tensor=tensor,
-                           input_tolerance=input_tolerance, ports=ports, b=b, input_moments=input_moments)
+                           input_tolerance=input_tolerance, ports=ports, b=b, input_moments=input_moments,
+                           inner=inner)
 
 
 def build_paper(problem: SPHProblem, basis, k_v, k_rho, *, input_direction="auto", input_tolerance=None,
@@ -412,7 +464,7 @@ def build_paper(problem: SPHProblem, basis, k_v, k_rho, *, input_direction="auto
     """:func:`build_from_basis` with eq. 2.22's b: the builder of the paper's original and density-linearised
     models (:mod:`harness.rom.model`)."""
     return build_from_basis(problem, basis, k_v, k_rho, input_direction=input_direction,
-                            input_tolerance=input_tolerance, tensor=tensor, ports=ports, b="paper")
+                            input_tolerance=input_tolerance, tensor=tensor, ports=ports, b="paper", inner="euclid")
 
 
 def truncate_operators(problem: SPHProblem, ops: ReducedOperators, k_v, k_rho):
@@ -442,14 +494,19 @@ def truncate_operators(problem: SPHProblem, ops: ReducedOperators, k_v, k_rho):
     """
     t0 = time.perf_counter()
     kv_pod = ops.k_v - int(ops.augmented) - ops.port_added - ops.input_added
-    kr_pod = ops.k_rho - ops.port_added_2 - ops.input_added_2
+    kr_pod = ops.k_rho - ops.port_added_2 - ops.input_added_2 - ops.rest_added
     if not (1 <= k_v <= kv_pod and 1 <= k_rho <= kr_pod):
         raise ValueError(f"k_v, k_rho = {k_v}, {k_rho} out of range (allowed: 1 to {kv_pod}, 1 to {kr_pod})")
-    if ops.ports or ops.input_added or ops.input_added_2:    # input columns depend on every mode before them
-        return build_operators(problem, ops.U_v[:, :k_v], ops.U_rho[:, :k_rho],
+    if ops.ports or ops.input_added or ops.input_added_2 or ops.inner != "euclid":
+        # input columns depend on every mode before them; weighted bases are re-orthonormalised as a whole
+        # (from Euclidean-orthonormal columns of the same nested spans, which the appending expects)
+        U_v, U_rho = ops.U_v[:, :k_v], ops.U_rho[:, :k_rho]
+        if ops.inner != "euclid":
+            U_v, U_rho = np.linalg.qr(U_v)[0], np.linalg.qr(U_rho)[0]
+        return build_operators(problem, U_v, U_rho,
                                input_direction=ops.input_mode if ops.p is not None else "never",
                                tensor=ops.tensor_rule, input_tolerance=ops.input_tolerance, ports=ops.ports,
-                               b=ops.b_form)
+                               b=ops.b_form, inner=ops.inner)
     rho0, c, d, profile = problem.rho0, problem.c, problem.d, problem.profile
     inv_rho0 = ops.inv_rho0
     U_pod = ops.U_v[:, :k_v]
