@@ -27,7 +27,8 @@ END = "<!-- end model table -->"
 DEFAULT = "frozen"
 MODELS = {
     "frozen": ("POD-Galerkin with the density linearised (eq. 2.17) and the ρ² coefficient frozen between "
-               "refreshes (eqs. 2.19-2.24): the paper's model",
+               "refreshes (eqs. 2.19-2.24): the paper's model (with ports: projected in the energy inner products, "
+               "so its ports are passive)",
                "explicit internal steps dt; the linearisation fails beyond a probe strain of about 0.04 "
                "(the FMU warns); its certified error bound includes the linearisation's",
                "you want the paper's model, or its `n_freeze` / `dt` knobs"),
