@@ -38,6 +38,19 @@ def port_model(base, name):
     return problem, ops, pv.port_system(ops)
 
 
+@functools.lru_cache(maxsize=None)
+def frozen_port_model(base, inner=None):
+    """(problem, ops) of the frozen model with ports at PORTS as its FMU builds it (k = 8, small N); ``inner`` None:
+    the build's default with ports (the energy inner products), else "euclid" or "energy"."""
+    scene = small_scene(base, T=1.0, n=N)
+    problem = build_problem(scene)
+    basis, _ = basis_for_scene(scene, progress=False, problem=problem)
+    spec = get_model("frozen")
+    ops = spec.build(problem, basis, 8, 8, input_direction=spec.fmu_input_direction, ports=PORTS, tensor="never",
+                     **({} if inner is None else {"inner": inner}))
+    return problem, ops
+
+
 def h_infinity(system):
     eye = np.eye(system.A.shape[0])
     return max(np.linalg.norm(system.C @ np.linalg.solve(1j * w * eye - system.A, system.B), 2)
@@ -113,15 +126,8 @@ def test_frozen_port_map_at_rest_is_positive_real_on_the_grid(base):
     directions) linearised at rest is collocated (C = αBᵀ)
     but has no Q = αI storage (a Euclidean Galerkin projection: M is not K's adjoint, A + Aᵀ is indefinite); its
     port map on the damped bar passes the grid check: H + Hᴴ > 0 (a margin above 1e-3 of ‖H‖) and its poles lie
-    in the left half-plane; the sign-flipped map fails.  (On an undamped bar the full map is lossless, H + Hᴴ = 0
-    between the poles, and the frozen one's non-adjoint coupling leaves small negative margins on the grid: not
-    shown passive there, docs/fmu/ports.md.)"""
-    scene = small_scene(base, T=1.0, n=N)
-    problem = build_problem(scene)
-    basis, _ = basis_for_scene(scene, progress=False, problem=problem)
-    spec = get_model("frozen")
-    ops = spec.build(problem, basis, 8, 8, input_direction=spec.fmu_input_direction, ports=PORTS, tensor="never",
-                     inner="euclid")
+    in the left half-plane; the sign-flipped map fails.  (Its storage of the block form is the next test.)"""
+    _, ops = frozen_port_model(base, "euclid")
     system = pv.frozen_port_system(ops)
     _, collocation, dissipation = pv.storage_certificate(system)
     assert collocation < 1e-12 and dissipation > 1e-3, (collocation, dissipation)   # so the check below is needed
@@ -141,12 +147,7 @@ def test_frozen_port_map_on_a_uniform_bar_is_passive_by_structure(base):
     models fails (so the block form is what proves it).  On the damped bar the residuals are round-off; on the
     undamped one M₀ is taken at the projected rest density U^ρ a^ρ_0 (what the model refreshes from), whose
     projection error of ρ0 leaves a small dissipation residual and a margin within :data:`MARGIN_WARN`."""
-    scene = small_scene(base, T=1.0, n=N)
-    problem = build_problem(scene)
-    basis, _ = basis_for_scene(scene, progress=False, problem=problem)
-    spec = get_model("frozen")
-    ops = spec.build(problem, basis, 8, 8, input_direction=spec.fmu_input_direction, ports=PORTS, tensor="never",
-                     inner="euclid")
+    problem, ops = frozen_port_model(base, "euclid")
     system = pv.frozen_port_system(ops)
     assert pv.storage_certificate(system)[2] > 1e-3                     # Q = α I does not prove it
     alpha, beta, collocation, dissipation = pv.block_storage_certificate(system, ops.k_v)
@@ -170,14 +171,10 @@ def test_frozen_port_map_with_a_non_uniform_c_is_found_not_passive():
     growing mode, while the frozen model a port FMU builds (the energy inner products, the default with ports)
     and the exact model of the same scene and ports are passive by structure and their coupled poles stay in the
     closed left half-plane."""
-    scene = small_scene("heterogeneous", T=1.0, n=N)
-    problem = build_problem(scene)
+    problem, frozen = frozen_port_model("heterogeneous", "euclid")
     assert np.ptp(problem.c) > 0
-    basis, _ = basis_for_scene(scene, progress=False, problem=problem)
-    frozen = get_model("frozen").build(problem, basis, 8, 8, input_direction="needed", ports=PORTS, tensor="never",
-                                       inner="euclid")
-    fmus = get_model("frozen").build(problem, basis, 8, 8, input_direction="needed", ports=PORTS, tensor="never")
-    exact = get_model("exact").build(problem, basis, 8, 8, ports=PORTS)
+    _, fmus = frozen_port_model("heterogeneous")
+    _, exact, _ = port_model("heterogeneous", "exact")
     found = pv.port_passivity(frozen, linear=False)
     assert found.verdict == "not passive" and found.margin < pv.MARGIN_WARN, found
     assert fmus.inner == "energy" and pv.port_passivity(fmus, linear=False).verdict == "structure"
@@ -199,11 +196,7 @@ def test_frozen_port_model_in_the_energy_inner_products_is_passive_on_every_scen
     stay in the closed left half-plane.  Its port velocities under a constant port force from rest agree with
     the Euclidean projection's on a uniform bar (there the two are one model up to a scaling of the
     coordinates, less ρ0's own column)."""
-    scene = small_scene(base, T=1.0, n=N)
-    problem = build_problem(scene)
-    basis, _ = basis_for_scene(scene, progress=False, problem=problem)
-    spec = get_model("frozen")
-    ops = spec.build(problem, basis, 8, 8, input_direction=spec.fmu_input_direction, ports=PORTS, tensor="never")
+    problem, ops = frozen_port_model(base)
     assert ops.inner == "energy" and ops.rest_added in (0, 1)
     assert np.allclose(ops.U_v.T @ (problem.rho0[:, None] * ops.U_v), np.eye(ops.k_v), atol=1e-10)
     system = pv.frozen_port_system(ops)
@@ -213,8 +206,7 @@ def test_frozen_port_model_in_the_energy_inner_products_is_passive_on_every_scen
     M = pv.coupled_matrix(system, mass=10 * bar, stiffness=1e4, damping=0.0)
     assert float(np.max(np.linalg.eigvals(M).real)) < 1e-9 * np.linalg.norm(M, 2)
     if np.ptp(problem.rho0) == 0 and np.ptp(problem.c) == 0:
-        euclid = spec.build(problem, basis, 8, 8, input_direction=spec.fmu_input_direction, ports=PORTS,
-                            tensor="never", inner="euclid")
+        _, euclid = frozen_port_model(base, "euclid")
         t = np.linspace(0.0, 1.0, 51)
         step = [unit_step_response(s, t) for s in (system, pv.frozen_port_system(euclid))]
         assert np.max(np.abs(step[0] - step[1])) <= 1e-3 * np.max(np.abs(step[1])), base

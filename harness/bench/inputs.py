@@ -10,6 +10,12 @@ Cases (each against the full SPH's equations linear in J integrated exactly in t
 * ``port-constant``: tenmode (d = 0, N = 400) with a port at 0.5, from rest, 1e-3 N for 10 s: the port velocity;
 * ``profile-constant`` / ``profile-sine``: damped_forced with the profile 1 + sin 2πx + ½ cos 6πx, from rest,
   f = 1e-2 and 1e-2 sin 7t (10 s): the velocity field;
+* ``parametric-profile-constant`` / ``parametric-profile-sine`` (tenmode) and ``parametric-damped-profile-sine``
+  (damped_forced): the frozen parametric model (``--vary c=c/2:2c``, and ``d=0:2d`` on a damped scene) with the profile 1 + sin 2πx + ½ cos 6πx, from
+  rest, f = 1e-2 and 1e-2 sin 7t, at c = 0.6, 1 and 1.8 times the scene's (the worst of the three); before: the
+  profile projected (``input_direction="project"``), after: the parametric FMU's rule (``moments``,
+  :data:`harness.fmu.make.parametric.PARAMETRIC_INPUT_DIRECTION`); and the exact parametric model (its FMU's rule,
+  the profile and its directions computed at c = 1, d = 1);
 * ``shaped-constant`` / ``shaped-sine``: tenmode with the profile exp(-((x - 0.3)/0.1)²) (trained on 1e-2 cos 2t),
   from rest, f = 1e-2 and 1e-2 sin 5t: the velocity field; ``shaped-sine-3e-3`` the sine at 3e-3 (a third of
   the strain: the frozen model's density linearisation errs in proportion to it).
@@ -34,7 +40,6 @@ It prints a Markdown table (docs/fmu/ports.md quotes it) and writes the CSV.  Ab
 
 from __future__ import annotations
 
-import csv
 import sys
 import time
 
@@ -138,6 +143,65 @@ def measure(name, scene, ports, port_forces, force, state):
     return rows
 
 
+PROFILE = "1 + sin(2*pi*x/L) + 0.5*cos(6*pi*x/L)"
+
+
+def parametric_cases():
+    """{name: (scene, force)} of the parametric frozen model's profile cases."""
+    from ..scene import derive_scene, load_scene
+    f_const = lambda t: 1e-2 * np.ones(np.size(t))                                                         # noqa: E731
+    f_sine = lambda t: 1e-2 * np.sin(7.0 * np.asarray(t))                                                  # noqa: E731
+    tenmode = derive_scene(load_scene("tenmode"), {"force": {"profile": PROFILE}})
+    damped = derive_scene(load_scene("damped_forced"), {"force": {"profile": PROFILE}})
+    return {"parametric-profile-constant": (tenmode, f_const), "parametric-profile-sine": (tenmode, f_sine),
+            "parametric-damped-profile-sine": (damped, f_sine)}
+
+
+def measure_parametric(name, scene, force):
+    """Rows of one parametric case: the frozen parametric model before ("project") and after (the FMU's rule),
+    and the exact parametric model (its FMU's rule, after only): the worst relative L² error of the velocity field
+    over c = 0.6, 1, 1.8 times the scene's c (at the scene's d)."""
+    from ..fmu.make.parametric import PARAMETRIC_INPUT_DIRECTION, parametric_model
+    from ..rom import parametric as par
+    from ..rom.reference import linear_reference
+    from ..rom.registry import get_model
+    from ..sph.solver import build_problem
+    c0, d0 = float(build_problem(scene).c[0]), float(build_problem(scene).d[0])
+    ranges = [par.Range("c", 0.5 * c0, 2.0 * c0)] + ([par.Range("d", 0.0, 2.0 * d0)] if d0 > 0 else [])
+    rows = []
+    for model, variant, direction in (("frozen", "before", "project"),
+                                      ("frozen", "after", PARAMETRIC_INPUT_DIRECTION["frozen"]),
+                                      ("exact", "after", None)):
+        spec = get_model(model)
+        t0 = time.perf_counter()
+        affine, _, _, _ = parametric_model(scene, ranges, K, model=model, progress=False, input_direction=direction)
+        worst = 0.0
+        for c in (0.6 * c0, c0, 1.8 * c0):
+            problem = build_problem(par.scene_at(scene, c, d0))
+            _, v, _ = linear_reference(problem, (), T, H, force=force, state=False)
+            if spec.linear:
+                ops = par.linear_at(affine, c, d0)
+                res = spec.run(ops, problem, dt=H, n_steps=int(round(T / H)),
+                               options=spec.options(step=H, hold="held"), state=np.zeros(ops.order),
+                               force=_held(force))
+            else:
+                ops = par.frozen_at(affine, c, d0)
+                dt = scene.sph.dt
+                res = spec.run(ops, problem, dt=dt, n_steps=int(round(T / dt)), every=int(round(H / dt)),
+                               state=np.concatenate([np.zeros(ops.k_v), ops.a_rho0]),
+                               options=spec.options(integrator=scene.sph.integrator, refresh="tensor"),
+                               force=_held(force))
+            y = ops.velocity(res.z[:, :ops.k_v])
+            worst = max(worst, float(np.linalg.norm(y - v) / np.linalg.norm(v)))
+        unit = affine.unit
+        sizes = (unit.k_v, unit.k_rho if spec.basis_kind == "density" else unit.k_e)
+        rows.append({"case": name, "model": f"{model} (parametric)", "variant": variant, "k_v": sizes[0],
+                     "k_2": sizes[1], "error": worst, "wall_s": time.perf_counter() - t0})
+        print(f"{name} {model} (parametric) {variant}: k = {sizes}, worst error {worst:.3g}",
+              file=sys.stderr, flush=True)
+    return rows
+
+
 def table(rows):
     """The Markdown table: one line per case and model, the error before and after (and the basis sizes)."""
     lines = ["| case | model | error before | basis before | error after | basis after |", "|---|---|---|---|---|---|"]
@@ -153,19 +217,18 @@ def table(rows):
 def main(argv=None):
     from . import program_parser
     parser = program_parser("inputs", description=__doc__.split("\n\n")[0])
-    parser.add_argument("--case", action="append", choices=sorted(cases()), help="a case (default all)")
+    all_cases, parametric = cases(), parametric_cases()
+    parser.add_argument("--case", action="append", choices=sorted([*all_cases, *parametric]),
+                        help="a case (default all)")
     parser.add_argument("--out", help="CSV file to write")
     args = parser.parse_args(argv)
-    all_cases = cases()
     rows = []
-    for name in args.case or list(all_cases):
-        rows += measure(name, *all_cases[name])
+    for name in args.case or [*all_cases, *parametric]:
+        rows += measure(name, *all_cases[name]) if name in all_cases else measure_parametric(name, *parametric[name])
     print(table(rows))
     if args.out:
-        with open(args.out, "w", newline="") as fh:
-            writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
-            writer.writeheader()
-            writer.writerows(rows)
+        from ..measure.tables import write_csv
+        write_csv(args.out, rows)
     return 0
 
 

@@ -195,7 +195,7 @@ def main(argv=None):
     p.add_argument("--model", default="frozen", choices=("frozen", "exact"))
     p.add_argument("--modes", type=int, default=None, help="POD modes k (default: the scene's)")
     p.add_argument("--points", type=int, default=10, help="held-out points (default 10)")
-    p.add_argument("--input-direction", default=None, choices=("needed", "project", "augment"),
+    p.add_argument("--input-direction", default=None, choices=("needed", "project", "augment", "moments"),
                    help="how the force profile enters the parametric model (default: the FMU's rule)")
     p.add_argument("--no-fmu", action="store_true", help="skip the doStep timing of the FMUs")
     p.add_argument("--out", default="validation/benchmarks/parametric")

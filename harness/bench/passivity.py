@@ -19,7 +19,6 @@ machine (tenmode's bases reach k_v = 233).
 
 from __future__ import annotations
 
-import csv
 import sys
 
 import numpy as np
@@ -86,11 +85,8 @@ def main(argv=None):
             bar.update(1)
     print(table(rows))
     if args.out:
-        from ..runio import atomic_path
-        with atomic_path(args.out) as tmp, open(tmp, "w", newline="") as fh:
-            writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
-            writer.writeheader()
-            writer.writerows(rows)
+        from ..measure.tables import write_csv
+        write_csv(args.out, rows)
     return 0
 
 

@@ -327,12 +327,16 @@ def affine_linear(scene, space, U_v, U_e, *, input_direction="auto", input_toler
     from ..sph.solver import build_problem
     from .exact_linear import build_linear_operators
 
-    unit_problem = build_problem(scene_at(scene, 1.0, 1.0))
+    # built at c = c_ref (d = 1): the input directions it appends to U_e are then c_ref-orthonormal, as U_e is
+    # (at c = 1 they were Euclidean-normalised beside c_ref-orthonormal columns, and the affine A below, which
+    # takes U_eᵀ c_ref U_e = I, was wrong along a non-uniform profile: 1.89 where it is 1e-12 now, python -m
+    # harness.bench.inputs --case parametric-profile-sine)
+    unit_problem = build_problem(scene_at(scene, space.c_ref, 1.0))
     unit = build_linear_operators(unit_problem, U_v, U_e, input_direction=input_direction,
                                   input_tolerance=input_tolerance)
     kv, ke = unit.k_v, unit.k_e
     k = kv + ke
-    P1 = unit.A[:kv, kv:]                                  # U_vᵀ G (1 · U_e)
+    P1 = unit.A[:kv, kv:] / space.c_ref                    # U_vᵀ G (1 · U_e)
     D1 = -unit.A[:kv, :kv]                                 # U_vᵀ diag(ρ0 · 1) U_v
     A0, Ac, Ad = np.zeros((k, k)), np.zeros((k, k)), np.zeros((k, k))
     A0[kv:, :kv] = -(space.c_ref * P1.T)

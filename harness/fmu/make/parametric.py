@@ -21,12 +21,18 @@ from ..resources import exact_data, model_data, pack, pack_exact
 from ..variables import number, vr
 
 # How the force profile enters a parametric model's FMU (``input_direction`` of build_operators), by model.
-# Frozen: the input row p = U_vᵀ profile, never the residual appended.  The combined basis of several (c, d)
-# misses a little more of the profile than a one-point basis (tenmode, c in [0.05, 0.2], d in [0, 5], k = 12:
-# 1.2 %, above the 1 % of the ordinary FMU's "needed" rule), and appending that rough residual raised the
-# probe-velocity error at held-out points from at most 0.09 to up to 0.36 (python -m harness.bench.parametric
-# --input-direction needed).  The exact model keeps its rule (the profile always in the basis).
-PARAMETRIC_INPUT_DIRECTION = {"frozen": "project"}
+# Frozen: the input row p = U_vᵀ profile, never the profile's residual appended, and the profile's response at
+# every frequency (static deflection, in-band moments: "moments") where the modes miss more than 1 % of it,
+# except for a rigid profile (harness.rom.operators.rigid_profile).  The combined basis of several (c, d) misses
+# a little more of the profile than a one-point basis (tenmode, c in [0.05, 0.2], d in [0, 5], k = 12: 1.2 %,
+# above the 1 % of the ordinary FMU's "needed" rule), and appending that rough residual raised the probe-velocity
+# error at held-out points from at most 0.09 to up to 0.36 (python -m harness.bench.parametric --input-direction
+# needed).  Along a non-uniform profile the moments are what a constant or an in-band force needs: the profile
+# 1 + sin 2πx + ½ cos 6πx, c in [c/2, 2c], a 1e-2 sin 7t force from rest, 10 s, against the linear SPH exact in
+# time: worst 0.52 ("project") against 0.024 on tenmode, 0.056 against 0.002 on damped_forced with d in [0, 2d]
+# (python -m harness.bench.inputs --case parametric-profile-sine --case parametric-damped-profile-sine;
+# tests/test_parametric.py checks it at small N).  The exact model keeps its rule (the profile always in the basis).
+PARAMETRIC_INPUT_DIRECTION = {"frozen": "moments"}
 
 
 def params_section(space):
