@@ -258,7 +258,7 @@ class PortPassivity:
         """One line for ``sphrom fmu``."""
         a, b, coll, diss = self.storage
         if self.verdict == "structure":
-            form = "½ α |z|²" if b == 1.0 else f"½ α (|a_v|² + β |δa_ρ|²), β = {b:.4g}"
+            form = "½ α |z|²" if abs(b - 1.0) <= 1e-8 else f"½ α (|a_v|² + β |δa_ρ|²), β = {b:.4g}"
             return (f"passive by structure (storage {form}: its collocation and dissipation residuals below "
                     f"{PASSIVE_ROUNDOFF:g}, round-off)")
         where = f"min λ(H + Hᴴ)/‖H‖ = {self.margin:.2e} at ω = {self.at:.3g} rad/s"
