@@ -151,16 +151,18 @@ def test_libcosim_runs_the_fmi2_fmu_as_fmpy_does(fmus, model):
     assert_outputs_close(theirs, ours, names, model)
 
 
-def ecos_outputs(path, names, initial_state_scale=1.0):
+def ecos_outputs(path, names, initial_state_scale=1.0, values=None):
     """Ecos's outputs ``names`` over N_STEPS steps of H (rows at H, ..., N_STEPS H): its own FMI 2 / 3 loader,
-    instantiate/initialise/step sequence, with ``initial_state_scale`` set by a parameter set at initialization."""
+    instantiate/initialise/step sequence, with ``initial_state_scale`` and ``values`` (port forces, c, d) set by
+    a parameter set at initialization."""
     try:
         from ecospy import EcosSimulation, EcosSimulationStructure
     except (ImportError, OSError) as e:      # OSError: the package's library without libtbb12
         pytest.skip(f"Ecos is not usable here (pip install ecospy; apt-get install libtbb12): {e}")
     structure = EcosSimulationStructure()
     structure.add_model("sphrom", str(path))
-    structure.add_parameter_set("start", {"sphrom::initial_state_scale": float(initial_state_scale)})
+    structure.add_parameter_set("start", {"sphrom::initial_state_scale": float(initial_state_scale),
+                                          **{f"sphrom::{k}": float(v) for k, v in (values or {}).items()}})
     rows = []
     with EcosSimulation(structure=structure, step_size=H) as sim:
         sim.init(parameter_set="start")
@@ -179,6 +181,20 @@ def test_ecos_runs_the_fmi2_and_fmi3_fmus_as_fmpy_does(fmus, model, fmi):
     theirs = ecos_outputs(path, names)
     assert theirs.shape == ours[1:].shape and np.ptp(ours[:, 0]) > 0     # a trajectory that moves
     np.testing.assert_array_equal(theirs, ours[1:])                      # measured: bitwise
+
+
+@pytest.mark.parametrize("fmi", [2, 3])
+@pytest.mark.parametrize("name", sorted(FEATURES))
+def test_ecos_runs_port_and_parametric_fmus_as_fmpy_does(fmus, name, fmi):
+    """The component features in Ecos, FMI 2 and FMI 3: port FMUs (exact, balanced, frozen in the energy inner
+    products; constant port forces set by a parameter set at initialization) and a parametric FMU (c and d
+    inside their trained ranges) give fmpy's outputs, port velocities included."""
+    path = fmus(name, fmi)
+    names, ours = feature_run(path, name)
+    theirs = ecos_outputs(path, names, values=FEATURES[name][1])
+    assert theirs.shape == ours[1:].shape, name
+    print_difference(f"Ecos FMI {fmi}", name, theirs, ours[1:])
+    assert_outputs_close(theirs, ours[1:], names, name)
 
 
 @pytest.mark.parametrize("model", ["frozen", "exact", "balanced"])
