@@ -13,6 +13,7 @@ import pytest
 
 from conftest import small_scene
 from harness.pod.pipeline import basis_for_scene
+from harness.measure.responses import held as held_over, held_response
 from harness.rom import inputs
 from harness.rom.reference import linear_reference
 from harness.rom.registry import get_model
@@ -35,7 +36,7 @@ def constant_port_force(t):
 
 def held(fn):
     """fn held over each communication step of H (its value at the step's start)."""
-    return lambda t: fn(np.floor(np.asarray(t, float) / H + 1e-9) * H)
+    return held_over(fn, H)
 
 
 def setup(scene):
@@ -52,16 +53,8 @@ def reduced_response(name, scene, problem, basis, k, *, ports=(), port_forces=No
     ops = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction, input_moments=moments,
                      **({"tensor": "always"} if "tensor" in spec.build_options else {}),
                      **({"ports": tuple(ports)} if ports else {}))
-    kw = dict(port_forces=held(port_forces) if ports else None,
-              force=held(force) if force else (lambda t: 0.0 * np.asarray(t, float)))
-    if spec.linear:
-        res = spec.run(ops, problem, dt=H, n_steps=int(round(T / H)), options=spec.options(step=H, hold="held"),
-                       state=None if state else np.zeros(ops.order), **kw)
-    else:
-        dt = scene.sph.dt
-        res = spec.run(ops, problem, dt=dt, n_steps=int(round(T / dt)), every=int(round(H / dt)),
-                       state=None if state else np.concatenate([np.zeros(ops.k_v), ops.a_rho0]), **kw)
-    a_v = res.z[:, :ops.k_v]
+    a_v = held_response(spec, ops, problem, t_end=T, step=H, force=force, port_forces=port_forces if ports else None,
+                        from_state=state)
     return ops, (ops.port_velocity(a_v) if ports else ops.velocity(a_v))
 
 

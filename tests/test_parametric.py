@@ -21,6 +21,7 @@ from harness.fmu.run.driver import FMU
 from harness.fmu.make.package import package_fmu
 from harness.fmu.check.python_cosim import probe_values
 from harness.fmu.resources import unpack
+from harness.measure.responses import held_response
 from harness.fmu.variables import vr
 from harness.rom import parametric as par
 from harness.rom.common import run_reduced
@@ -373,10 +374,6 @@ def test_frozen_parametric_model_holds_a_non_uniform_profile_at_every_frequency(
     problem0 = build_problem(scene)
     c0, d0 = float(problem0.c[0]), float(problem0.d[0])
     spec = get_model("frozen")
-
-    def held(fn):
-        return lambda t: fn(np.floor(np.asarray(t, float) / H + 1e-9) * H)
-
     forces = (lambda t: 1e-2 * np.ones(np.size(t)), lambda t: 1e-2 * np.sin(7.0 * np.asarray(t)))
     worst = {}
     for direction in ("project", fmu_par.PARAMETRIC_INPUT_DIRECTION["frozen"]):
@@ -388,12 +385,8 @@ def test_frozen_parametric_model_holds_a_non_uniform_profile_at_every_frequency(
             problem = build_problem(par.scene_at(scene, c, d0))
             for f in forces:
                 _, v, _ = linear_reference(problem, (), T, H, force=f, state=False)
-                dt = scene.sph.dt
-                res = spec.run(ops, problem, dt=dt, n_steps=int(round(T / dt)), every=int(round(H / dt)),
-                               state=np.concatenate([np.zeros(ops.k_v), ops.a_rho0]),
-                               options=spec.options(integrator=scene.sph.integrator, refresh="tensor"),
-                               force=held(f))
-                y = ops.velocity(res.z[:, :ops.k_v])
+                y = ops.velocity(held_response(spec, ops, problem, t_end=T, step=H, force=f,
+                                               options={"refresh": "tensor"}))
                 errors.append(float(np.linalg.norm(y - v) / np.linalg.norm(v)))
         worst[direction] = max(errors)
     assert worst["moments"] < 2e-2, worst
@@ -437,8 +430,5 @@ def test_exact_parametric_model_along_a_non_uniform_profile_is_exact():
         problem = build_problem(par.scene_at(scene, c, d))
         for f in (lambda t: 1e-2 * np.ones(np.size(t)), lambda t: 1e-2 * np.sin(7.0 * np.asarray(t))):
             _, v, _ = linear_reference(problem, (), T, H, force=f, state=False)
-            res = spec.run(ops, problem, dt=H, n_steps=int(round(T / H)), options=spec.options(step=H, hold="held"),
-                           state=np.zeros(ops.order),
-                           force=lambda t, f=f: f(np.floor(np.asarray(t, float) / H + 1e-9) * H))
-            y = ops.velocity(res.z[:, :ops.k_v])
+            y = ops.velocity(held_response(spec, ops, problem, t_end=T, step=H, force=f))
             assert np.linalg.norm(y - v) <= 1e-8 * np.linalg.norm(v), (c, d, np.linalg.norm(y - v) / np.linalg.norm(v))

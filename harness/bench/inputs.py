@@ -45,13 +45,18 @@ import time
 
 import numpy as np
 
+from ..measure.responses import held, held_response
+
 H = 0.01
 T = 10.0
 K = 12
 
 
-def _held(fn):
-    return lambda t: fn(np.floor(np.asarray(t, float) / H + 1e-9) * H)
+def basis_sizes(spec, ops):
+    """(k_v, k_e or k_ρ) of a POD model's operators, (r, 0) of the balanced model's."""
+    if not spec.needs_basis:
+        return ops.order, 0
+    return ops.k_v, ops.k_rho if spec.basis_kind == "density" else ops.k_e
 
 
 def cases():
@@ -87,8 +92,6 @@ def measure(name, scene, ports, port_forces, force, state):
     basis, _ = basis_for_scene(scene, progress=False, problem=problem)
     _, v, vp = linear_reference(problem, ports, T, H, force=force, port_forces=port_forces, state=state)
     ref = vp if ports else v
-    kw = dict(port_forces=_held(port_forces) if ports else None,
-              force=_held(force) if force else (lambda t: 0.0 * np.asarray(t, float)))
     rows = []
     runs = [("exact", "before"), ("exact", "after"), ("frozen", "before"), ("frozen", "after"),
             ("balanced", "after")]
@@ -102,22 +105,12 @@ def measure(name, scene, ports, port_forces, force, state):
             before = {"inner": "euclid"} if variant == "before" and "inner" in spec.build_options else {}
             ops = spec.build(problem, basis, K, K, input_direction=spec.fmu_input_direction,
                              input_moments=variant == "after", **port_option, **before)
-        if spec.linear:
-            res = spec.run(ops, problem, dt=H, n_steps=int(round(T / H)), options=spec.options(step=H, hold="held"),
-                           state=None if state else np.zeros(ops.order), **kw)
-            z = res.z if not spec.needs_basis else res.z[:, :ops.k_v]      # the velocity coordinates
-            y = ops.port_velocity(z) if ports else ops.velocity(z)
-            sizes = (ops.order, 0) if not spec.needs_basis else (ops.k_v, ops.k_e)
-        else:
-            dt = scene.sph.dt
-            res = spec.run(ops, problem, dt=dt, n_steps=int(round(T / dt)), every=int(round(H / dt)),
-                           state=None if state else np.concatenate([np.zeros(ops.k_v), ops.a_rho0]),
-                           options=spec.options(integrator=default_integrator(scene, ports),
-                                                refresh="direct" if particle_sections(ops, problem) else "tensor"),
-                           **kw)
-            a_v = res.z[:, :ops.k_v]
-            y = ops.port_velocity(a_v) if ports else ops.velocity(a_v)
-            sizes = (ops.k_v, ops.k_rho)
+        options = None if spec.linear else {"integrator": default_integrator(scene, ports),
+                                            "refresh": "direct" if particle_sections(ops, problem) else "tensor"}
+        z = held_response(spec, ops, problem, t_end=T, step=H, force=force, port_forces=port_forces if ports else None,
+                          from_state=state, options=options)
+        y = ops.port_velocity(z) if ports else ops.velocity(z)
+        sizes = basis_sizes(spec, ops)
         err = float(np.linalg.norm(y - ref) / np.linalg.norm(ref))
         rows.append({"case": name, "model": model, "variant": variant, "k_v": sizes[0], "k_2": sizes[1],
                      "error": err, "wall_s": time.perf_counter() - t0})
@@ -126,11 +119,11 @@ def measure(name, scene, ports, port_forces, force, state):
         # the full SPH itself (nonlinear) against the same reference: the port FMU's integrator, the scene's
         from ..sph.ports import run_sph_ports
         t0 = time.perf_counter()
-        held = _held(port_forces)
+        forces = held(port_forces, H)
         from ..scene import derive_scene
         from ..sph.solver import build_problem as problem_of
         quiet = derive_scene(scene, {"force": {"f": "0"}, "sph": {"integrator": integrator}})
-        full = run_sph_ports(quiet, ports, forces=lambda s: held(np.atleast_1d(s))[0], problem=problem_of(quiet),
+        full = run_sph_ports(quiet, ports, forces=lambda s: forces(np.atleast_1d(s))[0], problem=problem_of(quiet),
                              state=None if state else (0.0 * problem.v0, problem.rho0.copy()),
                              every=int(round(H / scene.sph.dt)), t_end=T)
         err = float(np.linalg.norm(full.v_port[:ref.shape[0]] - ref) / np.linalg.norm(ref))
@@ -179,22 +172,11 @@ def measure_parametric(name, scene, force):
         for c in (0.6 * c0, c0, 1.8 * c0):
             problem = build_problem(par.scene_at(scene, c, d0))
             _, v, _ = linear_reference(problem, (), T, H, force=force, state=False)
-            if spec.linear:
-                ops = par.linear_at(affine, c, d0)
-                res = spec.run(ops, problem, dt=H, n_steps=int(round(T / H)),
-                               options=spec.options(step=H, hold="held"), state=np.zeros(ops.order),
-                               force=_held(force))
-            else:
-                ops = par.frozen_at(affine, c, d0)
-                dt = scene.sph.dt
-                res = spec.run(ops, problem, dt=dt, n_steps=int(round(T / dt)), every=int(round(H / dt)),
-                               state=np.concatenate([np.zeros(ops.k_v), ops.a_rho0]),
-                               options=spec.options(integrator=scene.sph.integrator, refresh="tensor"),
-                               force=_held(force))
-            y = ops.velocity(res.z[:, :ops.k_v])
-            worst = max(worst, float(np.linalg.norm(y - v) / np.linalg.norm(v)))
-        unit = affine.unit
-        sizes = (unit.k_v, unit.k_rho if spec.basis_kind == "density" else unit.k_e)
+            ops = par.linear_at(affine, c, d0) if spec.linear else par.frozen_at(affine, c, d0)
+            z = held_response(spec, ops, problem, t_end=T, step=H, force=force,
+                              options=None if spec.linear else {"refresh": "tensor"})
+            worst = max(worst, float(np.linalg.norm(ops.velocity(z) - v) / np.linalg.norm(v)))
+        sizes = basis_sizes(spec, affine.unit)
         rows.append({"case": name, "model": f"{model} (parametric)", "variant": variant, "k_v": sizes[0],
                      "k_2": sizes[1], "error": worst, "wall_s": time.perf_counter() - t0})
         print(f"{name} {model} (parametric) {variant}: k = {sizes}, worst error {worst:.3g}",
