@@ -84,10 +84,19 @@ def storage_certificate(system: PortSystem):
     α B = Cᵀ (for the exact POD model the particle spacing Δx [m]: its U_v is ρ0-orthonormal without Δx),
     ``collocation`` = ‖C − α Bᵀ‖_F / ‖C‖_F, ``dissipation`` = the largest eigenvalue of (A + Aᵀ)/2 over ‖A‖₂
     (<= 0 for a dissipative A).  α > 0 with both at round-off (say below 1e-10) proves the port map passive."""
+    return _certificate(system, np.ones(system.A.shape[0]))
+
+
+def _certificate(system, q):
+    """(α, collocation, dissipation) of the storage ½ α zᵀ diag(q) z: α from least squares on α diag(q) B = Cᵀ,
+    the collocation residual over ‖C‖_F and the largest eigenvalue of the symmetric part of diag(q) A over its
+    norm."""
     B, C, A = system.B, system.C, system.A
-    alpha = float(np.sum(C.T * B) / np.sum(B * B))
-    collocation = float(np.linalg.norm(C - alpha * B.T) / np.linalg.norm(C))
-    dissipation = float(np.max(np.linalg.eigvalsh(0.5 * (A + A.T))) / max(np.linalg.norm(A, 2), 1e-300))
+    QB = q[:, None] * B
+    alpha = float(np.sum(C.T * QB) / np.sum(QB * QB))
+    collocation = float(np.linalg.norm(C - alpha * QB.T) / np.linalg.norm(C))
+    QA = q[:, None] * A
+    dissipation = float(np.max(np.linalg.eigvalsh(0.5 * (QA + QA.T))) / max(np.linalg.norm(QA, 2), 1e-300))
     return alpha, collocation, dissipation
 
 
@@ -96,28 +105,25 @@ def block_storage_certificate(system: PortSystem, k1):
     coordinates (the frozen model's a^v), z₂ the rest (its δa^ρ).
 
     β from least squares on the coupling's skew symmetry, A₁₂ + β A₂₁ᵀ = 0 (the part of A between the blocks
-    then stores no energy), α from least squares on α diag(I, βI) B = Cᵀ (the KYP lemma's Q B = Cᵀ).  ``collocation`` = ‖C − α Bᵀ diag(I, βI)‖_F / ‖C‖_F, ``dissipation`` the
-    largest eigenvalue of the symmetric part of diag(I, βI) A over its norm.  β > 0, α > 0 with both at
-    round-off proves the port map passive.
+    then stores no energy), α from least squares on α diag(I, βI) B = Cᵀ (the KYP lemma's Q B = Cᵀ).
+    ``collocation`` = ‖C − α Bᵀ diag(I, βI)‖_F / ‖C‖_F, ``dissipation`` the largest eigenvalue of the symmetric
+    part of diag(I, βI) A over its norm.  β > 0, α > 0 with both at round-off proves the port map passive.
 
     The frozen model linearised at rest (:func:`frozen_port_system`) has ȧ^v = -D̂ a^v - K δa^ρ, δȧ^ρ = -M₀ a^v
     with K = U^vᵀ ρ0⁻¹ G diag(c/ρ0) U^ρ (eq. 2.21) and M₀ = U^ρᵀ diag(ρ0) G U^v (eq. 2.23 at ρ = ρ0).  Where
     ρ0 and c are uniform and G is skew (periodic particles at a uniform spacing), M₀ᵀ = -(ρ0³/c) K: β = c/ρ0³
     makes the coupling lossless whatever the bases, and the collocated ports (Bp and Cp both the port's kernel
     on U^v) make the map passive by structure.  Non-uniform ρ0 or c put different diagonal weights inside K and
-    M₀: no such β, and :func:`positive_real_margin` is the check.
+    M₀: no such β, and :func:`positive_real_margin` is the check.  The energy inner products (the build option
+    ``inner="energy"``, a port FMU's frozen model) make M₀ᵀ = -K on every scene: β = 1.
     """
-    A, B, C = system.A, system.B, system.C
+    A = system.A
     k1 = int(k1)
     A12, A21 = A[:k1, k1:], A[k1:, :k1]
     den = float(np.sum(A21 * A21))
     beta = float(-np.sum(A12 * A21.T) / den) if den > 0 else 1.0
-    q = np.concatenate([np.ones(k1), np.full(A.shape[0] - k1, beta)])
-    QB = q[:, None] * B
-    alpha = float(np.sum(C.T * QB) / np.sum(QB * QB))
-    collocation = float(np.linalg.norm(C - alpha * QB.T) / np.linalg.norm(C))
-    QA = q[:, None] * A
-    dissipation = float(np.max(np.linalg.eigvalsh(0.5 * (QA + QA.T))) / max(np.linalg.norm(QA, 2), 1e-300))
+    alpha, collocation, dissipation = _certificate(system, np.concatenate([np.ones(k1),
+                                                                          np.full(A.shape[0] - k1, beta)]))
     return alpha, beta, collocation, dissipation
 
 
