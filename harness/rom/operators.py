@@ -37,7 +37,7 @@ TENSOR_MAX_ENTRIES = 20_000_000
 INPUT_TOLERANCE = 1e-2      # "needed": append the input direction when the modes miss more than 1 % of it
 ROUNDOFF_TOLERANCE = 1e-10  # "augment": append unless the modes hold the direction to round-off
 B_FORMS = ("paper", "rest")  # b of eq. 2.19: eq. 2.22's, or K a^ρ_rest (rest an equilibrium, :func:`rest_b`)
-INNERS = ("euclid", "energy")  # the projection: eq. 2.16's Φ = U, or the energy inner products (test_weights)
+INNERS = ("euclid", "energy")  # the projection: eq. 2.16's Φ = U, or the energy inner products (projection_weights)
 
 
 def pair_index(k):
@@ -101,7 +101,7 @@ class ReducedOperators(Operators):
         Columns appended to U^v and U^ρ for the force profile's response at every frequency (after the profile's
         own column; :func:`harness.rom.inputs.augment_channels`, build option ``input_moments``).
     inner : {"euclid", "energy"}
-        The projection (build option ``inner``, :func:`test_weights`): Euclidean (eq. 2.16, Φ = U), or the energy
+        The projection (build option ``inner``, :func:`projection_weights`): Euclidean (eq. 2.16, Φ = U), or the energy
         inner products, whose K, b, D̂, p̂, Bp carry ρ0 and whose ``GU_v`` is diag(c/ρ0²) G U^v.
     rest_added : int
         1 when ρ0's part outside the density modes was appended to U^ρ (``inner`` "energy"), else 0.
@@ -163,8 +163,8 @@ class ReducedOperators(Operators):
 
     def project(self, v, rho, problem):
         """[U^vᵀ v, U^ρᵀ ρ] per sample (eq. 2.16's projection), (M, k_v + k_rho); with ``inner`` "energy" the
-        weighted projections [U^vᵀ ρ0 v, U^ρᵀ (c/ρ0²) ρ] (:func:`test_weights`)."""
-        w_v, w_rho = test_weights(problem, self.inner)
+        weighted projections [U^vᵀ ρ0 v, U^ρᵀ (c/ρ0²) ρ] (:func:`projection_weights`)."""
+        w_v, w_rho = projection_weights(problem, self.inner)
         return np.hstack([v @ (w_v[:, None] * self.U_v), rho @ (w_rho[:, None] * self.U_rho)])
 
     def velocity(self, a_v):
@@ -210,7 +210,7 @@ def augment_with(U, direction, tol=ROUNDOFF_TOLERANCE):
     return np.column_stack([U, r / np.linalg.norm(r)]), error, True
 
 
-def test_weights(problem, inner):
+def projection_weights(problem, inner):
     """(w_v, w_ρ) (N,) of the projection ``inner``: ones for "euclid" (eq. 2.16, Φ = U); ρ0 and c/ρ0² for
     "energy", the weights of the energy ½ Σ ρ0 v² Δx + ½ Σ (c/ρ0²) δρ² Δx of the linearised eqs. 2.10-2.11
     (e = -δρ/ρ0 to first order)."""
@@ -267,7 +267,7 @@ def build_operators(problem: SPHProblem, U_v, U_rho, input_direction="auto", ten
     inner : {"euclid", "energy"}
         The projection.  ``euclid``: the paper's Galerkin projection (eq. 2.16, Φ = U) with Euclidean-orthonormal
         bases.  ``energy``: the bases (after every appended direction) made orthonormal in the energy inner
-        products (:func:`test_weights`: ρ0 for U^v, c/ρ0² for U^ρ) and each equation tested with them:
+        products (:func:`projection_weights`: ρ0 for U^v, c/ρ0² for U^ρ) and each equation tested with them:
         K = U^vᵀ G diag(c/ρ0) U^ρ, b = U^vᵀ G c, D̂ = U^vᵀ diag(ρ0 d) U^v, p̂ = U^vᵀ ρ0 profile, Bp = U^vᵀ W, and
         M(a^ρ) = U^ρᵀ diag(ρ² c/ρ0³) G U^v (the stored ``GU_v`` is diag(c/ρ0²) G U^v, so the refresh code is the
         same).  Linearised at rest, M₀ᵀ = -K exactly for any ρ0(x), c(x): the port map is passive by structure
@@ -282,7 +282,7 @@ def build_operators(problem: SPHProblem, U_v, U_rho, input_direction="auto", ten
     """
     if b not in B_FORMS:
         raise ValueError(f"b: {b!r} is out of range (allowed: {', '.join(B_FORMS)})")
-    w_v, w_rho = test_weights(problem, inner)
+    w_v, w_rho = projection_weights(problem, inner)
     t0 = time.perf_counter()
     U_v = np.ascontiguousarray(U_v, dtype=float)
     U_rho = np.ascontiguousarray(U_rho, dtype=float)
