@@ -220,7 +220,7 @@ def build_linear_operators(problem, U_v, U_e, input_direction="auto", input_tole
         As in :func:`harness.rom.operators.build_operators`: with the profile appended, also its response at
         every frequency (energy inner products).
     """
-    from .operators import augment_ports, port_rows, profile_moments
+    from .operators import augment_ports, port_rows, profile_moments, shared_modes
     t0 = time.perf_counter()
     rho0, c, d, profile = problem.rho0, problem.c, problem.d, problem.profile
     scene = problem.scene
@@ -233,11 +233,12 @@ def build_linear_operators(problem, U_v, U_e, input_direction="auto", input_tole
         U_aug, input_error, added = augment_weighted(U_v, profile, rho0, tol=tol)
         if mode == "augment":
             U_v, augmented = U_aug, added
-    U_v, U_e, input_added, input_added_2 = profile_moments(problem, U_v, np.asarray(U_e, float), want_input
-                                                           and input_moments and mode == "augment", energy=True,
-                                                           tol=tol)
+    wanted = want_input and input_moments and mode == "augment"
+    modes = shared_modes(problem, wanted, ports, input_moments)
+    U_v, U_e, input_added, input_added_2 = profile_moments(problem, U_v, np.asarray(U_e, float), wanted,
+                                                           energy=True, tol=tol, modes=modes)
     U_v, U_e, port_added, port_added_e, port_errors = augment_ports(problem, U_v, np.asarray(U_e, float), ports,
-                                                                    energy=True, moments=input_moments)
+                                                                    energy=True, moments=input_moments, modes=modes)
     G = problem.neighbours.matrix()
     P = U_v.T @ np.asarray(G @ (c[:, None] * U_e))
     k_v, k_e = U_v.shape[1], U_e.shape[1]

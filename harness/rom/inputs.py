@@ -283,7 +283,8 @@ def append_direction(U, d, weight, tol, reference=None):
     return np.column_stack([U, r / np.sqrt(r @ (w * r))]), True
 
 
-def augment_channels(problem, U_v, U_2, profiles, *, energy, tol=None, w_top=None, modal_tol=None, horizon=None):
+def augment_channels(problem, U_v, U_2, profiles, *, energy, tol=None, w_top=None, modal_tol=None, horizon=None,
+                     modes=None):
     """(U_v, U_2, columns added to U_v, columns added to U_2): every candidate direction of each channel
     (:func:`candidate_directions`; ``profiles`` a list of acceleration profiles b) that the bases miss by more
     than ``tol``, with its specific-volume direction G q.
@@ -292,6 +293,8 @@ def augment_channels(problem, U_v, U_2, profiles, *, energy, tol=None, w_top=Non
     density direction ρ0 G q (δρ = -ρ0 δe).  ``w_top``: the top of the band (default that of ``U_v``,
     :func:`band`).  Then the channel's dominant modes that the bases miss (:func:`dominant_modes`, to
     ``modal_tol`` of the step response over ``horizon``, default :data:`MODAL_TOL` and the scene's T).
+    ``modes``: :func:`bar_modes` of the problem when the caller has them (a build with the profile's and the
+    ports' channels solves the eigenproblem once).
     """
     tol = INPUT_TOL if tol is None else float(tol)
     G = problem.neighbours.matrix()
@@ -302,7 +305,6 @@ def augment_channels(problem, U_v, U_2, profiles, *, energy, tol=None, w_top=Non
     modal_tol = MODAL_TOL if modal_tol is None else float(modal_tol)
     n_v, n_2 = U_v.shape[1], U_2.shape[1]
     gmax = abs(G).max()
-    modes = None
 
     def add(U_v, U_2, q, ref, tol_q):
         """U_v and U_2 with the velocity direction q and its specific-volume direction G q appended."""

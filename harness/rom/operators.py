@@ -298,9 +298,11 @@ def build_operators(problem: SPHProblem, U_v, U_rho, input_direction="auto", ten
             U_v, augmented = U_aug, added
     wanted = want_input and input_moments and (mode == "augment" or (mode == "moments"
                                                                     and not rigid_profile(problem)))
-    U_v, U_rho, input_added, input_added_2 = profile_moments(problem, U_v, U_rho, wanted, energy=False, tol=tol)
+    modes = shared_modes(problem, wanted, ports, input_moments)
+    U_v, U_rho, input_added, input_added_2 = profile_moments(problem, U_v, U_rho, wanted, energy=False, tol=tol,
+                                                             modes=modes)
     U_v, U_rho, port_added, port_added_rho, port_errors = augment_ports(problem, U_v, U_rho, ports,
-                                                                        moments=input_moments)
+                                                                        moments=input_moments, modes=modes)
     rest_added = 0
     if inner == "energy":
         # ρ0 itself in span(U^ρ): M₀ is then taken at ρ0 exactly, and the structure holds to round-off
@@ -360,7 +362,8 @@ def port_directions(problem, ports, levels=PORT_KRYLOV_LEVELS):
     return out
 
 
-def augment_ports(problem, U_v, U_2, ports, *, energy=False, levels=PORT_KRYLOV_LEVELS, moments=True, tol=None):
+def augment_ports(problem, U_v, U_2, ports, *, energy=False, levels=PORT_KRYLOV_LEVELS, moments=True, tol=None,
+                  modes=None):
     """(U_v, U_2, velocity columns added, second columns added, projection errors) with the port directions.
 
     Each direction of :func:`port_directions` is appended (its part outside the span, unless below round-off):
@@ -368,7 +371,7 @@ def augment_ports(problem, U_v, U_2, ports, *, energy=False, levels=PORT_KRYLOV_
     c-weighted inner products and U_2 = U_e; else Euclidean and U_2 = U_ρ, which gets ρ0 G v: δρ = -ρ0 δe).
     The errors are each port profile's relative projection error on the velocity modes before its column.
     ``moments``: then each port's response at every frequency (:func:`harness.rom.inputs.augment_channels`;
-    False: the short-time directions only).
+    False: the short-time directions only); ``modes`` the bar's modes if already solved for.
     """
     if not len(ports):
         return U_v, U_2, 0, 0, ()
@@ -393,7 +396,7 @@ def augment_ports(problem, U_v, U_2, ports, *, energy=False, levels=PORT_KRYLOV_
     # the response at every frequency, s = 0 (static, rigid) through the band (harness.rom.inputs)
     if moments:
         U_v, U_2, _, _ = augment_channels(problem, U_v, U_2, port_accelerations(problem, ports), energy=energy,
-                                          w_top=w_top, tol=tol)
+                                          w_top=w_top, tol=tol, modes=modes)
     return (np.ascontiguousarray(U_v), np.ascontiguousarray(U_2), U_v.shape[1] - n_v, U_2.shape[1] - n_2,
             tuple(errors))
 
@@ -418,17 +421,28 @@ def rigid_profile(problem):
     return bool(np.linalg.norm(profile - Q @ (Q.T @ profile)) <= 1e-12 * norm)
 
 
-def profile_moments(problem, U_v, U_2, wanted, *, energy, tol):
+def profile_moments(problem, U_v, U_2, wanted, *, energy, tol, modes=None):
     """(U_v, U_2, columns added to each) with the force profile's directions at every frequency
     (:func:`harness.rom.inputs.augment_channels`), or the bases unchanged unless ``wanted``.  ``tol``: the input
     mode's augmentation threshold; a direction is appended when the bases miss more than it or
     :data:`harness.rom.inputs.INPUT_TOL`, whichever is larger (``needed``, the frozen FMU's: 1 %, as for the
-    profile itself: a small rough residual appended hurts the frozen model)."""
+    profile itself: a small rough residual appended hurts the frozen model).  ``modes``: the bar's modes if
+    already solved for."""
     if not wanted:
         return U_v, U_2, 0, 0
     from . import inputs
     return inputs.augment_channels(problem, U_v, U_2, [problem.profile], energy=energy,
-                                   tol=max(inputs.INPUT_TOL, tol))
+                                   tol=max(inputs.INPUT_TOL, tol), modes=modes)
+
+
+def shared_modes(problem, profile_wanted, ports, moments):
+    """:func:`harness.rom.inputs.bar_modes` when both the profile's and the ports' channels will take modes (one
+    eigensolve for both; a dense one at N = 2000 takes seconds), else None (each computes its own if it needs
+    them)."""
+    if not (profile_wanted and len(ports) and moments):
+        return None
+    from .inputs import bar_modes
+    return bar_modes(problem)
 
 
 def port_rows(problem, U_v, ports, port_added, port_errors, port_added_2=0, V=None):
