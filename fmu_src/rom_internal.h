@@ -133,9 +133,9 @@ static inline int rom_all_finite(const double *x, size_t n) {
 
 /* Whether a step of length h from time t is the cached step h_cached: equal, or within ROM_STEP_ULPS units in
  * the last place of the times it spans.  An importer's step t[n+1] - t[n] is only known to the rounding of its
- * times (t = n H jitters by a few ulps of t), and each new length costs a matrix exponential (an exact model of
- * order 282: 80 ms); the cached maps then integrate over h_cached, which differs from h by less than the
- * times' own rounding. */
+ * times (t = n H jitters by a few ulps of t), and each new length costs a matrix exponential, O(k^3) in the
+ * model's order; the cached maps then integrate over h_cached, which differs from h by less than the times' own
+ * rounding. */
 #define ROM_STEP_ULPS 8.0
 static inline int rom_same_step(double h, double h_cached, double t) {
     if (h == h_cached) return 1;

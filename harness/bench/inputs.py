@@ -11,11 +11,11 @@ Cases (each against the full SPH's equations linear in J integrated exactly in t
 * ``profile-constant`` / ``profile-sine``: damped_forced with the profile 1 + sin 2πx + ½ cos 6πx, from rest,
   f = 1e-2 and 1e-2 sin 7t (10 s): the velocity field;
 * ``parametric-profile-constant`` / ``parametric-profile-sine`` (tenmode) and ``parametric-damped-profile-sine``
-  (damped_forced): the frozen parametric model (``--vary c=c/2:2c``, and ``d=0:2d`` on a damped scene) with the profile 1 + sin 2πx + ½ cos 6πx, from
-  rest, f = 1e-2 and 1e-2 sin 7t, at c = 0.6, 1 and 1.8 times the scene's (the worst of the three); before: the
-  profile projected (``input_direction="project"``), after: the parametric FMU's rule (``moments``,
-  :data:`harness.fmu.make.parametric.PARAMETRIC_INPUT_DIRECTION`); and the exact parametric model (its FMU's rule,
-  the profile and its directions computed at c = 1, d = 1);
+  (damped_forced): the frozen parametric model (``--vary c=c/2:2c``, and ``d=0:2d`` on a damped scene) with the
+  profile 1 + sin 2πx + ½ cos 6πx, from rest, f = 1e-2 and 1e-2 sin 7t, at c = 0.6, 1 and 1.8 times the scene's
+  (the worst of the three); before: the profile projected (``input_direction="project"``), after: the parametric
+  FMU's rule (``moments``, :data:`harness.fmu.make.parametric.PARAMETRIC_INPUT_DIRECTION`); and the exact
+  parametric model (its FMU's rule, the profile and its directions computed at the scene's c, d = 1);
 * ``shaped-constant`` / ``shaped-sine``: tenmode with the profile exp(-((x - 0.3)/0.1)²) (trained on 1e-2 cos 2t),
   from rest, f = 1e-2 and 1e-2 sin 5t: the velocity field; ``shaped-sine-3e-3`` the sine at 3e-3 (a third of
   the strain: the frozen model's density linearisation errs in proportion to it).
@@ -25,8 +25,8 @@ as in the reference, once with the integrator a port FMU takes (symplectic Euler
 :func:`harness.fmu.make.options.default_integrator`) and once with the scene's (explicit Euler: ``full SPH
 (euler)``). Models as the FMU builds them (k = 12, the model's ``fmu_input_direction``); ``before`` is the build
 option ``input_moments=False`` (the bases main had: the port's short-time directions and the profile's own
-column; the frozen model in the Euclidean projection it had, ``inner="euclid"``), the balanced model at its default order tolerance (it has no "before": it had no ports). Errors:
-relative L² over all samples. The frozen model runs with the scene's dt, n_freeze = 10, the integrator its FMU
+column; the frozen model in the Euclidean projection it had, ``inner="euclid"``), the balanced model at its
+default order tolerance (it has no "before": it had no ports). Errors: relative L² over all samples. The frozen model runs with the scene's dt, n_freeze = 10, the integrator its FMU
 takes (with ports symplectic Euler, else the scene's) and the refresh its FMU takes (the particles where they
 cost less than the tensor, :func:`harness.fmu.make.models.particle_sections`).
 

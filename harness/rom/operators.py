@@ -407,8 +407,8 @@ def rigid_profile(problem):
     to their projection error.  ``input_direction="moments"`` appends nothing for it: the rigid direction's
     residual outside a parametric basis is rough (tenmode, c in [0.05, 0.2], d in [0, 5], k = 12: 1.2 % of the
     constant), and appending it raised the held-out probe-velocity error from at most 1.12x to 1.66x that of a
-    model trained at the point (``python -m harness.bench.parametric --input-direction moments``, before this
-    rule)."""
+    model trained at the point (measured once by ``python -m harness.bench.parametric --input-direction
+    moments`` before this rule; with the rule that command gives the "project" model's figures again)."""
     from .inputs import rigid_modes
     profile = np.asarray(problem.profile, float)
     norm = float(np.linalg.norm(profile))

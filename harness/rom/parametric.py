@@ -329,7 +329,7 @@ def affine_linear(scene, space, U_v, U_e, *, input_direction="auto", input_toler
 
     # built at c = c_ref (d = 1): the input directions it appends to U_e are then c_ref-orthonormal, as U_e is
     # (at c = 1 they were Euclidean-normalised beside c_ref-orthonormal columns, and the affine A below, which
-    # takes U_eᵀ c_ref U_e = I, was wrong along a non-uniform profile: 1.89 where it is 1e-12 now, python -m
+    # takes U_eᵀ c_ref U_e = I, was wrong along a non-uniform profile: of order 1 where it is 1e-12 now, python -m
     # harness.bench.inputs --case parametric-profile-sine)
     unit_problem = build_problem(scene_at(scene, space.c_ref, 1.0))
     unit = build_linear_operators(unit_problem, U_v, U_e, input_direction=input_direction,

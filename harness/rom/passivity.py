@@ -64,9 +64,10 @@ def port_system(ops):
 def frozen_port_system(ops):
     """The :class:`PortSystem` of the frozen model (eqs. 2.19-2.20 with ports) linearised at rest: z = (a^v,
     δa^ρ), ȧ^v = -D̂ a^v - K δa^ρ + Bp u, δȧ^ρ = -M(a^ρ_0) a^v, y = Cp a^v, M at the projected rest density
-    U^ρ a^ρ_0 (the frozen coefficient a component at rest starts with).  Passive by structure where ρ0 and c are
-    uniform (:func:`block_storage_certificate`); a Euclidean Galerkin projection otherwise, whose M is not K's
-    adjoint in any diagonal weight: :func:`positive_real_margin` checks it."""
+    U^ρ a^ρ_0 (the frozen coefficient a component at rest starts with).  In the energy inner products (a port
+    FMU's, build option ``inner``) passive by structure on every scene; in the paper's Euclidean projection only
+    where ρ0 and c are uniform (:func:`block_storage_certificate`), elsewhere its M is not K's adjoint in any
+    diagonal weight and :func:`positive_real_margin` checks it."""
     if ops.Bp is None or ops.Cp is None:
         raise ValueError("the model has no ports (build it with ports=(x/L, ...))")
     kv, kr = ops.k_v, ops.k_rho

@@ -94,9 +94,9 @@ def smd_step(y, v_port, h, mass, stiffness, damping):
 
 
 def reference_scene(path, scene, ports=()):
-    """``scene`` with the integrator the FMU at ``path`` (or its unpacked model.bin) reduces: a time-stepped FMU's own, an FMU integrated
-    exactly in time (exact, balanced) the default one for its ports (:func:`harness.fmu.make.options.
-    default_integrator`: symplectic with ports, the scene's without)."""
+    """``scene`` with the integrator the FMU at ``path`` (or its unpacked model.bin) reduces: a time-stepped FMU's
+    own, an FMU integrated exactly in time (exact, balanced) the default one for its ports
+    (:func:`harness.fmu.make.options.default_integrator`: symplectic with ports, the scene's without)."""
     from ...scene import derive_scene
     from ..make.options import default_integrator
     from ..resources import ModelData

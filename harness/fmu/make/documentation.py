@@ -227,8 +227,9 @@ PORT_MODELS = {
     "frozen": ("Each port's directions are in the basis as the exact model's (rigid motion, static deflection, "
                "in-band moments, the ringing modes), and the model is projected in the energy inner products, "
                "which keeps its port map passive on every scene; on top, the density linearisation (eq. 2.17) errs "
-               "in proportion to the strain. A port FMU steps with symplectic Euler unless packaged with --integrator (this one's: "
-               "the model section): explicit Euler grows an undamped bar's ringing modes."),
+               "in proportion to the strain. A port FMU steps with symplectic Euler unless packaged with "
+               "--integrator (this one's: the model section): explicit Euler grows an undamped bar's ringing "
+               "modes."),
     "balanced": ("The port forces are inputs and the port velocities outputs of the balanced system: what it "
                  "approximates is the Hankel-singular-value tail its order tolerance drops."),
 }

@@ -47,8 +47,9 @@ def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem
     input row always; the force profile appended to U_v only when the POD modes miss more than 1 % of it) and
     the refresh tensor where the FMU keeps it or it is small (``tensor`` None: where it costs less than the
     particle refresh, :func:`particle_sections`, or has at most ``TENSOR_MAX_ENTRIES`` entries; a port model's
-    larger basis, whose tensor grows as k⁴ (6 GiB at k = 230), is not built; ``"always"``: built anyway).  ``build_options`` go to the model's build (``{"b": "paper"}``: eq.
-    2.22's b, the paper's variant, :mod:`harness.bench.rest` compares them).
+    larger basis, whose tensor grows as k⁴, is not built; ``"always"``: built anyway).  ``build_options`` go to
+    the model's build (``{"b": "paper"}``: eq. 2.22's b, the paper's variant, :mod:`harness.bench.rest` compares
+    them).
     """
     from ...rom.registry import get_model
     from ...rom.stepping import runaway_bound

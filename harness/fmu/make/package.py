@@ -307,8 +307,9 @@ def passivity_step(ops, model, ports):
 
 def verification_step(path, scene, probes, references, problem, progress, tolerance, out, model, ports=()):
     """Step 8: the FMU at ``path`` measured against the full SPH (:func:`harness.fmu.check.verify.verify_fmu`)
-    with the FMU's integrator (:func:`harness.fmu.check.channels.reference_scene`), and each input channel (f, each port force: :func:`harness.fmu.check.channels.measure_channels`);
-    ToleranceError when the training error or a channel's error is above ``tolerance``."""
+    with the FMU's integrator (:func:`harness.fmu.check.channels.reference_scene`), and each input channel (f,
+    each port force: :func:`harness.fmu.check.channels.measure_channels`); ToleranceError when the training error
+    or a channel's error is above ``tolerance``."""
     from ..check.channels import measure_channels, reference_scene
     from ..check.verify import verify_fmu
     # against the full SPH with the integrator the FMU reduces (a port FMU's symplectic Euler: its own runs)
