@@ -94,13 +94,17 @@ def smd_step(y, v_port, h, mass, stiffness, damping):
 
 
 def reference_scene(path, scene, ports=()):
-    """``scene`` with the integrator the FMU at ``path`` (or its unpacked model.bin) reduces: a time-stepped FMU's
-    own, an FMU integrated exactly in time (exact, balanced) the default one for its ports
+    """``scene`` with the integrator the FMU at ``path`` reduces (:func:`model_scene`)."""
+    return model_scene(_model(path), scene, ports)
+
+
+def model_scene(data, scene, ports=()):
+    """``scene`` with the integrator of the FMU whose model.bin is ``data`` (unpacked): a time-stepped FMU's own,
+    an FMU integrated exactly in time (exact, balanced) the default one for its ports
     (:func:`harness.fmu.make.options.default_integrator`: symplectic with ports, the scene's without)."""
     from ...scene import derive_scene
     from ..make.options import default_integrator
     from ..resources import ModelData
-    data = _model(path) if not hasattr(path, "probe_x") else path        # the FMU, or its model.bin already read
     integrator = data.integrator if isinstance(data, ModelData) else default_integrator(scene, ports)
     if integrator == scene.sph.integrator:
         return scene
@@ -120,7 +124,7 @@ def measure_channels(path, scene, ports=(), problem=None, progress=False):
     from .verify import SCALE_NAME, communication_times, fmu_features, probe_values
 
     model = _model(path)                                   # read once: the integrator and the probes
-    scene = reference_scene(model, scene, ports)
+    scene = model_scene(model, scene, ports)
     problem = problem or build_problem(scene)
     has_scale, _, step = fmu_features(path)
     horizon = min(float(scene.T), HORIZON)
