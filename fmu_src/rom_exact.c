@@ -72,7 +72,7 @@ static size_t exact_inputs(const RomModel *m) {
 }
 
 /* The maps of a step of length h: Phi = e^{A h}, G0, G1 from the exponential
- * of [[A h, B h, 0], [0, 0, 1], [0, 0, 0]] (as harness.rom.exact_linear.propagators),
+ * of [[A h, B h, 0], [0, 0, 1], [0, 0, 0]] (as sphrom.rom.exact_linear.propagators),
  * cached per step length (two slots, the least recently used replaced; rom_same_step). */
 static RomExpCache *exact_maps(RomState *s, double t, double h, char *message, size_t message_size) {
     const RomModel *m = s->model;
@@ -448,7 +448,7 @@ static RomStatus exact_check_params(const RomModel *m, const RomSection *params,
     return ROM_OK;
 }
 
-/* A = A_0 + c A_c + d A_d, entry by entry (harness.rom.parametric); the cached exponentials are emptied */
+/* A = A_0 + c A_c + d A_d, entry by entry (sphrom.rom.parametric); the cached exponentials are emptied */
 static void exact_assemble(RomModel *m, RomState *s) {
     if (!m || !s || !m->body || !s->body) return;
     RomExactModel *em = (RomExactModel *)m->body;

@@ -721,7 +721,7 @@ static RomStatus frozen_check_params(const RomModel *m, const RomSection *params
     return ROM_OK;
 }
 
-/* K = c K_c, b = c b_c, D = d D_d (eqs. 2.21, 2.22, 2.24), entry by entry (harness.rom.parametric) */
+/* K = c K_c, b = c b_c, D = d D_d (eqs. 2.21, 2.22, 2.24), entry by entry (sphrom.rom.parametric) */
 static void frozen_assemble(RomModel *m, RomState *s) {
     if (!m || !s || !m->body) return;
     RomFrozenModel *fm = (RomFrozenModel *)m->body;

@@ -7,7 +7,7 @@
  * and the fixed-offset stencil (SPH_STENCIL) with the weights by offset,
  * contiguous in i, no index loads, the periodic wrap-around only in the
  * first and last rows.  The stencil is the hand-written reference of the
- * numba loop's speed (python -m harness.measure.sph_scaling): on x86-64 Linux
+ * numba loop's speed (python -m sphrom.measure.sph_scaling): on x86-64 Linux
  * with GCC or Clang its step loop is compiled three times (AVX-512, AVX2,
  * baseline) and the loader picks the one the CPU runs (target_clones), as
  * numba compiles for the CPU it runs on.  Vector instructions change no bit:

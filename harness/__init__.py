@@ -9,16 +9,16 @@ __version__ = "0.1.0"
 
 
 def _take_signals_when_run():
-    """When this package is the program (``python -m harness``, the ``sphrom`` script), SIGINT and SIGTERM end
+    """When this package is the program (``python -m sphrom``, the ``sphrom`` script), SIGINT and SIGTERM end
     it with the command line's one line ("sphrom: interrupted (SIGINT); no output written", exit 128 + the
-    signal) until :func:`harness.cli.main` installs its own handler: without this, a signal while Python
+    signal) until :func:`sphrom.cli.main` installs its own handler: without this, a signal while Python
     imports the command line was a KeyboardInterrupt traceback (SIGINT) or a silent death (SIGTERM).
     Imported as a library, nothing changes."""
     import os
     import signal
     import sys
     argv = getattr(sys, "orig_argv", [])
-    if argv[1:3] != ["-m", "harness"] and not (len(argv) > 1 and os.path.basename(argv[1]) == "sphrom"):
+    if argv[1:3] != ["-m", "sphrom"] and not (len(argv) > 1 and os.path.basename(argv[1]) == "sphrom"):
         return
 
     def leave(signum, frame):

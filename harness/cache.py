@@ -34,7 +34,7 @@ def run_key(scene):
 
 def run_file_name(scene):
     """``sph-<name>-<key>.h5``: the key (:func:`run_key`) decides which run it is; the name, for people reading
-    the folder, keeps only the characters a scene name may have (A-Z a-z 0-9 _ . -, harness.scene_schema), each
+    the folder, keeps only the characters a scene name may have (A-Z a-z 0-9 _ . -, sphrom.scene_schema), each
     other character replaced by ``_`` and a leading ``.`` too, so that no name reaches outside the folder."""
     name = re.sub(r"[^A-Za-z0-9_.-]", "_", str(scene.name))[:64]
     if name.startswith("."):

@@ -1,11 +1,11 @@
-"""The ``sphrom`` command line (also ``python -m harness``).
+"""The ``sphrom`` command line (also ``python -m sphrom``).
 
 A user's mistake (a bad scene, option or path) is one line on stderr and exit
 status 2 (``sphrom COMMAND: error: --option: what is allowed``, argparse's
 errors included); a run that fails on its own terms (non-finite state) is one
 line and exit status 3; SIGINT and SIGTERM are one line "interrupted" and exit
 status 128 + the signal (130, 143), saying what was written before them ("no
-output written" only when nothing was; :mod:`harness.signals`).  None leaves a
+output written" only when nothing was; :mod:`sphrom.signals`).  None leaves a
 partial output file.
 """
 
@@ -21,7 +21,7 @@ from .errors import FieldError, Interrupted, SimulationError, UserError
 from .parser import Parser
 from .signals import SIGNALS, Guard, current_guard, interrupt_line
 
-# subcommand name -> module in harness.commands
+# subcommand name -> module in sphrom.commands
 COMMANDS = {
     "scenes": "scenes",
     "sph": "sph",
@@ -56,7 +56,7 @@ def build_parser():
 
 def parse(parser, argv=None):
     """Parse ``argv``; an unknown argument is an error of the subcommand it was given to.  ``sphrom bench NAME
-    ...`` hands the arguments after NAME to the program NAME (:func:`harness.commands.bench.program_args`)."""
+    ...`` hands the arguments after NAME to the program NAME (:func:`sphrom.commands.bench.program_args`)."""
     from .commands.bench import program_args
     args = program_args(sys.argv[1:] if argv is None else list(argv), build_parser)
     if args is not None:
@@ -70,7 +70,7 @@ def parse(parser, argv=None):
 def main(argv=None, restore_signals=None):
     """Run ``sphrom`` with ``argv`` (default ``sys.argv[1:]``); returns the exit status.
 
-    SIGINT and SIGTERM are taken over first (:class:`harness.signals.Guard`): importing the commands takes
+    SIGINT and SIGTERM are taken over first (:class:`sphrom.signals.Guard`): importing the commands takes
     a second.  ``restore_signals`` (default: when ``argv`` is given, i.e. called from Python) puts the
     previous handlers back at the end and returns.  The program itself (``argv`` None) keeps the guard to
     the end and does not return: once the command is done it runs the exit hooks and leaves

@@ -41,7 +41,7 @@ def reference_fields(scene, x, t):
     """The reference solution (v, rho, label) at positions x and times t.
 
     The exact solution when the scene has one; otherwise the continuum
-    reference of :mod:`harness.references.continuum`, or None when no
+    reference of :mod:`sphrom.references.continuum`, or None when no
     reference can be computed.
     """
     from .references.exact import exact_solution, is_available

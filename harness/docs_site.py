@@ -8,7 +8,7 @@ link of the Markdown sources, ``mkdocs build --strict`` (with the link validatio
 or an anchor that resolves to nothing, and :func:`build` runs it.  The navigation is built from the folders: a new
 page under ``docs/`` appears in it with its first heading as title, with nothing to register.
 
-    python3 -m harness.docs_site [--out DIR]    # build the site, warnings as errors (default: a temporary folder)
+    python3 -m sphrom.docs_site [--out DIR]    # build the site, warnings as errors (default: a temporary folder)
 """
 
 from __future__ import annotations
@@ -167,7 +167,7 @@ def main(argv=None):
     import argparse
     import tempfile
 
-    parser = argparse.ArgumentParser(prog="python3 -m harness.docs_site",
+    parser = argparse.ArgumentParser(prog="python3 -m sphrom.docs_site",
                                      description="Build the documentation site (mkdocs.yml) with warnings as "
                                                  "errors and every relative link checked.")
     parser.add_argument("--out", metavar="DIR", help="site folder (default: a temporary folder, removed after)")

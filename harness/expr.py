@@ -28,7 +28,7 @@ The language
 The sandbox
 -----------
 Everything else is refused when the expression is compiled, as a
-:class:`~harness.errors.UserError` of one line naming the field: strings,
+:class:`~sphrom.errors.UserError` of one line naming the field: strings,
 attributes, subscripts, lambdas, comprehensions other than ``sum``'s, keyword
 arguments (``out=``, ``where=``, ``dtype=`` ...), starred arguments, a
 function called with other than its number of arguments, unknown names.
@@ -52,7 +52,7 @@ copied first (arrays to new float64 arrays, scalars to Python floats), every
 function allocates its result, and the result is a fresh float64 array.  Every number is a float, so ``10**10**10``
 gives ``inf`` instead of a huge integer; division by zero and overflow give
 inf or NaN, which the caller reports as a non-finite field with its name
-(:meth:`harness.scene.Scene.field`, :meth:`~harness.scene.Scene.force`, the
+(:meth:`sphrom.scene.Scene.field`, :meth:`~sphrom.scene.Scene.force`, the
 cosim force, the sweep entry's force).
 """
 

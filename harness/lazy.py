@@ -1,7 +1,7 @@
 """Lazy re-exports for the packages' ``__init__``: a public name is imported from its module on first use.
 
-A package's ``__init__`` lists ``{name: submodule}``; ``from harness.sph import run_sph`` then imports
-``harness.sph.solver`` only then, so importing a package stays light (no numba, fmpy, scikit-fem, py-pde) and
+A package's ``__init__`` lists ``{name: submodule}``; ``from sphrom.sph import run_sph`` then imports
+``sphrom.sph.solver`` only then, so importing a package stays light (no numba, fmpy, scikit-fem, py-pde) and
 no package import can close an import cycle.
 """
 

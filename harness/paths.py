@@ -2,18 +2,19 @@
 
 In a checkout (and an editable install) they are the top-level folders
 ``validation/scenes``, ``fmu_src`` and ``modelDescription``; a wheel ships them
-as the packages ``harness.scenes``, ``harness.fmu_src`` and
-``harness.model_description`` (see pyproject.toml).
+as the packages ``sphrom.scenes``, ``sphrom.fmu_src`` and
+``sphrom.model_description`` (see pyproject.toml).
 """
 
-from importlib import resources
+import importlib.util
 from pathlib import Path
 
 _REPO = Path(__file__).resolve().parents[1]
+_CHECKOUT = Path(__file__).resolve().parent.name == "harness"     # installed, the package's folder is sphrom/
 _LAYOUT = {
-    "scenes": ("validation/scenes", "harness.scenes"),
-    "fmu_src": ("fmu_src", "harness.fmu_src"),
-    "model_description": ("modelDescription", "harness.model_description"),
+    "scenes": ("validation/scenes", "sphrom.scenes"),
+    "fmu_src": ("fmu_src", "sphrom.fmu_src"),
+    "model_description": ("modelDescription", "sphrom.model_description"),
 }
 
 
@@ -21,9 +22,15 @@ def data_dir(kind: str) -> Path:
     """The folder of ``kind`` (scenes, fmu_src, model_description)."""
     rel, package = _LAYOUT[kind]
     candidate = _REPO / rel
-    if candidate.is_dir():
+    if _CHECKOUT and candidate.is_dir():
         return candidate
-    return Path(str(resources.files(package)))
+    # An installed data folder is a namespace package (no __init__.py): importlib.resources.files() gives a
+    # MultiplexedPath whose str() is no path, so take the folder from the package's search locations.
+    spec = importlib.util.find_spec(package)
+    for location in (spec.submodule_search_locations or []) if spec else []:
+        if Path(location).is_dir():
+            return Path(location)
+    raise FileNotFoundError(f"sphrom's {kind} folder is missing from this installation (package {package})")
 
 
 def repo_root() -> Path:
@@ -46,3 +53,26 @@ def exists(path) -> bool:
         return Path(path).exists()
     except (OSError, ValueError):
         return False
+
+
+def import_path(checkout) -> str:
+    """A folder in which ``sphrom`` is a link to ``checkout/harness``: first on ``PYTHONPATH`` (or sys.path), a
+    process imports that checkout's code as ``sphrom`` whatever is installed (the import package lives in the
+    folder harness/, pyproject.toml maps it).  One folder per checkout in the temporary folder, made once and
+    reused, so that repeated calls leave nothing more behind."""
+    import hashlib
+    import os
+    import tempfile
+    target = (Path(checkout).resolve() / "harness")
+    if not (target / "__init__.py").is_file():
+        raise FileNotFoundError(f"{checkout}: not a sphrom checkout (no harness/__init__.py)")
+    key = hashlib.sha256(str(target).encode()).hexdigest()[:16]
+    folder = Path(tempfile.gettempdir()) / f"sphrom-import-{os.getuid() if hasattr(os, 'getuid') else 0}-{key}"
+    link = folder / "sphrom"
+    if not link.is_symlink():
+        folder.mkdir(parents=True, exist_ok=True)
+        try:
+            link.symlink_to(target, target_is_directory=True)
+        except FileExistsError:            # another process made it meanwhile
+            pass
+    return str(folder)

@@ -301,7 +301,7 @@ def sweep_stale_temporaries(path):
 def _commit(items):
     """Rename each (temporary, target, shown) whose temporary exists, all or none as far as signals go: a
     signal arriving meanwhile is held until every rename is done (and then reported as after the write); a
-    signal received earlier whose exception was lost (:func:`harness.signals.pending`) stops them all."""
+    signal received earlier whose exception was lost (:func:`sphrom.signals.pending`) stops them all."""
     with deferred():
         signum = pending()
         if signum is not None:
@@ -379,7 +379,7 @@ def atomic_path(path):
     a node (a FIFO waits up to :data:`FIFO_WAIT_S` for a reader).  On any exception (including
     KeyboardInterrupt) the temporary is removed and ``path`` is left as it was.  SIGINT and SIGTERM arriving
     while the block writes are held until it ends and then delivered before the rename (never swallowed); a
-    signal whose exception was lost earlier stops the rename (:func:`harness.signals.pending`).  Temporaries
+    signal whose exception was lost earlier stops the rename (:func:`sphrom.signals.pending`).  Temporaries
     of ``path`` left by killed processes are removed first (:func:`sweep_stale_temporaries`).
     """
     path = Path(path)

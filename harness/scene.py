@@ -5,12 +5,12 @@ A scene holds the domain (L, T), the fields of eqs. 2.2-2.4 as expressions
 profile), the SPH settings of the paper, the paper's POD snapshot settings and
 the figures the paper reports, so that reports can quote them.
 
-Every key is checked against the schema, one table (:mod:`harness.scene_schema`,
+Every key is checked against the schema, one table (:mod:`sphrom.scene_schema`,
 documented in ``docs/user/scenes.md``): an unknown or missing key, a wrong type
-or a value out of range is a :class:`~harness.errors.UserError` naming the
+or a value out of range is a :class:`~sphrom.errors.UserError` naming the
 file, the field and what is allowed.  A scene needs only its physics
 ([domain], [fields], [force] and [sph] n_particles, dt); the rest has a default
-or is chosen by a stated rule (:mod:`harness.pod.automatic`), and
+or is chosen by a stated rule (:mod:`sphrom.pod.automatic`), and
 :func:`automatic_lines` says what was chosen.
 
 Units (SI, cross-section a = 1 m^2): x, L in m; t, T, dt in s; ρ0 in kg m^-3;
@@ -72,7 +72,7 @@ class Scene:
     """A validated scene.  See the module docstring for units.
 
     ``automatic`` names what the scene file left to a rule (``name``, ``sph.every``, ``snapshots``,
-    ``rom.modes``; :func:`harness.pod.automatic.automatic_rules`); :func:`automatic_lines` says what the rules
+    ``rom.modes``; :func:`sphrom.pod.automatic.automatic_rules`); :func:`automatic_lines` says what the rules
     chose.
     """
 
@@ -226,10 +226,10 @@ def _check_dt(dt, T, fail):
 
 
 # --------------------------------------------------------------------------
-# automatic choices (the rules: harness.pod.automatic)
+# automatic choices (the rules: sphrom.pod.automatic)
 # --------------------------------------------------------------------------
 def run_steps(T, dt):
-    """The steps of a run to T [s] by dt [s]: harness.sph.solver.step_count's rule (n with n dt = T to 1e-9
+    """The steps of a run to T [s] by dt [s]: sphrom.sph.solver.step_count's rule (n with n dt = T to 1e-9
     relative, else floor(T/dt)), here because the solver imports this module
     (tests/test_scene_minimal.py checks that the two agree)."""
     ratio = T / dt
@@ -238,20 +238,20 @@ def run_steps(T, dt):
 
 
 def automatic_every(T, period, sph):
-    """``sph.every`` when the scene leaves it out (:data:`harness.pod.automatic.AUTO_EVERY_RULE`)."""
+    """``sph.every`` when the scene leaves it out (:data:`sphrom.pod.automatic.AUTO_EVERY_RULE`)."""
     from .pod.automatic import automatic_every as rule
     return rule(T, period, sph.dt, run_steps(T, sph.dt), sph.n_particles)
 
 
 def automatic_snapshots(T, period, sph):
-    """``[snapshots]`` when the scene leaves it out (:data:`harness.pod.automatic.AUTO_SNAPSHOTS_RULE`)."""
+    """``[snapshots]`` when the scene leaves it out (:data:`sphrom.pod.automatic.AUTO_SNAPSHOTS_RULE`)."""
     from .pod.automatic import automatic_snapshots as rule
     return rule(T, period, sph.dt, run_steps(T, sph.dt), sph.n_particles)
 
 
 def automatic_lines(scene):
     """One line per choice the loader made for ``scene`` by a rule (nothing for a scene that gives them all,
-    as every built-in scene does); the mode count is chosen later, by the POD (harness.pod.pipeline)."""
+    as every built-in scene does); the mode count is chosen later, by the POD (sphrom.pod.pipeline)."""
     from .pod.snapshots import describe
     lines = []
     if "name" in scene.automatic:

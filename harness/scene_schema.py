@@ -1,11 +1,11 @@
 """The scene schema as data: every key a scene file may hold, with its type, unit, default and allowed range.
 
 :data:`TABLES` and :data:`KEYS` are the one description of a scene file.  The loader
-(:func:`harness.scene.parse_scene`) checks every key, type and static range against them through
+(:func:`sphrom.scene.parse_scene`) checks every key, type and static range against them through
 :func:`check_scene_tables`, and the user documentation's page is generated from them
-(:mod:`harness.scene_page`, ``docs/user/scenes.md``).  Bounds that depend on
+(:mod:`sphrom.scene_page`, ``docs/user/scenes.md``).  Bounds that depend on
 other keys (alpha < N/4, dt <= T, at most 1e9 steps, modes <= N) are checked by the loader in
-:mod:`harness.scene` and stated in the ``also`` column of the same rows.
+:mod:`sphrom.scene` and stated in the ``also`` column of the same rows.
 
 Units (SI, cross-section a = 1 m^2): x, L in m; t, T, dt in s; rho0 in kg m^-3; v0 in m s^-1; c in
 kg m^-1 s^-2 (Young's modulus, Pa); d in s^-1; f in m s^-2 (force per unit mass).
@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 from .errors import UserError
 
-AUTO = "automatic"      # a default chosen by a stated rule from the rest of the scene (see harness.scene)
+AUTO = "automatic"      # a default chosen by a stated rule from the rest of the scene (see sphrom.scene)
 
 # Physical quantities: 15 decades either side of 1 in SI units.  Wider than any bar's physics (steel: rho0 =
 # 7.8e3 kg m^-3, c = 2e11 Pa; the paper's normalised scenes: rho0 = 1, c = 0.1, L = 1, T = 10), narrow enough
@@ -132,7 +132,7 @@ class Key:
     kind: ``name``, ``text``, ``choice``, ``number``, ``integer``, ``expression`` (a string or number over
     the variables in ``unit``'s row; ``range`` bounds its values), ``numbers`` / ``integers`` (a non-empty
     list, ``range`` bounds each item), ``window`` ([t0, t1]).  ``default``: the value used when the key is
-    absent (None: stays absent; :data:`AUTO`: a rule of :mod:`harness.scene` chooses it, ``default_text``
+    absent (None: stays absent; :data:`AUTO`: a rule of :mod:`sphrom.scene` chooses it, ``default_text``
     says which).  ``also``: the bounds that depend on other keys, checked by the loader.  ``why``: the
     reason of the bounds.  ``example``: a valid value (the tests load a scene with every key at its example).
     """
@@ -500,5 +500,5 @@ def _check_one(table_name, raw, source, where):
 
 def check_scene_tables(raw, source):
     """Every key of a parsed scene checked against :data:`KEYS` (names, types, static ranges), as nested dicts
-    of the values given (defaults are the loader's: :mod:`harness.scene`)."""
+    of the values given (defaults are the loader's: :mod:`sphrom.scene`)."""
     return _check_one("", raw, source, "")

@@ -1,11 +1,11 @@
 """SIGINT and SIGTERM on the command line: one line, exit status 128 + the signal, and a true account of what
 was written.
 
-The command line (:func:`harness.cli.main`) installs a :class:`Guard` as the handler of both signals before
-anything else.  The guard raises :class:`~harness.errors.Interrupted` in the main thread and remembers the
+The command line (:func:`sphrom.cli.main`) installs a :class:`Guard` as the handler of both signals before
+anything else.  The guard raises :class:`~sphrom.errors.Interrupted` in the main thread and remembers the
 signal: an exception raised inside a finaliser or a callback (h5py, dask, zipfile) is lost (Python would print
 it as "Exception ignored"; the guard keeps that report quiet), but the guard still knows, so the next output is
-not committed (:func:`harness.runio.atomic_path` checks :func:`pending` before its rename) and the command
+not committed (:func:`sphrom.runio.atomic_path` checks :func:`pending` before its rename) and the command
 exits 128 + the signal when it returns.  Raised inside an import, the exception would break the import (numpy's
 C extension reports a failed import): there the guard delivers the signal again once the import is done.  The
 guard also lists the outputs committed, so the one-line message says what was written before the signal ("no
@@ -40,7 +40,7 @@ class Guard:
     handled : int
         How many of ``received`` were handled on purpose (:meth:`acknowledge`); the rest are :attr:`pending`.
     written : list of Path
-        Outputs committed by :func:`harness.runio.atomic_path` while the guard was installed.
+        Outputs committed by :func:`sphrom.runio.atomic_path` while the guard was installed.
     raising : bool
         Raise :class:`Interrupted` (while the command runs); False: only record (its message is printed).
     finished : bool

@@ -3,7 +3,7 @@ import os
 import numpy as np
 import pytest
 
-from harness.scene import derive_scene, load_scene
+from sphrom.scene import derive_scene, load_scene
 
 os.environ.setdefault("MPLBACKEND", "Agg")
 
@@ -59,7 +59,7 @@ def assert_units_through_declared_types(path):
 
     import fmpy
 
-    from harness.fmu.variables import lookup
+    from sphrom.fmu.variables import lookup
     root = ET.fromstring(zipfile.ZipFile(path).read("modelDescription.xml"))
     fmi3 = root.get("fmiVersion").startswith("3")
     tags = [child.tag for child in root]
@@ -90,9 +90,9 @@ def load_changed(data, change):
     sections: the loader tests' one way to hand the core a malformed file (raises CoreError naming the problem)."""
     import copy
 
-    from harness.fmu.make.build import ensure_binaries
-    from harness.fmu.resources import ModelData, pack, pack_exact
-    from harness.fmu.run.core import Core
+    from sphrom.fmu.make.build import ensure_binaries
+    from sphrom.fmu.resources import ModelData, pack, pack_exact
+    from sphrom.fmu.run.core import Core
     bad = copy.deepcopy(data)
     change(bad.sections)
     return Core(ensure_binaries().core).load((pack if isinstance(bad, ModelData) else pack_exact)(bad))
@@ -105,9 +105,9 @@ def fmu_maker(folder, default_model="frozen", k=6, probes=(0.25, 0.5, 0.66), sce
     resources read back."""
     import zipfile
 
-    from harness.fmu.make.build import ensure_binaries
-    from harness.fmu.make.package import package_fmu
-    from harness.fmu.resources import unpack
+    from sphrom.fmu.make.build import ensure_binaries
+    from sphrom.fmu.make.package import package_fmu
+    from sphrom.fmu.resources import unpack
     binaries = ensure_binaries()
     made = {}
 
@@ -134,7 +134,7 @@ def hostile_scene(tmp_path_factory):
 
 @pytest.fixture(scope="session")
 def hostile_basis(hostile_scene, tmp_path_factory):
-    from harness.cli import main
+    from sphrom.cli import main
     out = tmp_path_factory.mktemp("basis") / "b.h5"
     assert main(["pod", str(hostile_scene), "--out", str(out), "--quiet"]) == 0
     return out
@@ -142,7 +142,7 @@ def hostile_basis(hostile_scene, tmp_path_factory):
 
 @pytest.fixture(scope="session")
 def hostile_fmu(hostile_scene, tmp_path_factory):
-    from harness.cli import main
+    from sphrom.cli import main
     out = tmp_path_factory.mktemp("fmu") / "f.fmu"
     assert main(["fmu", str(hostile_scene), "--modes", "4", "--no-verify", "--out", str(out), "--quiet"]) == 0
     return out

@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 
-from harness.rom.balanced import (balanced_reduce, balancing, error_bounds, hinf_norm, order_from_tolerance,
+from sphrom.rom.balanced import (balanced_reduce, balancing, error_bounds, hinf_norm, order_from_tolerance,
                                   reduced_from_exact, truncate)
-from harness.rom.lti import full_linear_system, input_norm, output_energy, sample_outputs, sph_rates
-from harness.rom.operators import probe_rows
-from harness.sph.solver import build_problem, run_sph
+from sphrom.rom.lti import full_linear_system, input_norm, output_energy, sample_outputs, sph_rates
+from sphrom.rom.operators import probe_rows
+from sphrom.sph.solver import build_problem, run_sph
 
 from conftest import small_scene
 
@@ -199,8 +199,8 @@ def test_galerkin_undamped_conserves_energy_and_is_within_its_bounds():
 # --------------------------------------------------------------------------- the exact POD model
 @pytest.mark.parametrize("base", ["damped_forced", "multimode"])
 def test_exact_pod_model_is_a_galerkin_model_within_its_bound(base):
-    from harness.pod.pipeline import basis_for_scene
-    from harness.rom.exact_linear import build_linear_operators
+    from sphrom.pod.pipeline import basis_for_scene
+    from sphrom.rom.exact_linear import build_linear_operators
     scene = small_scene(base, T=1.0)
     problem = build_problem(scene)
     lti = full_linear_system(problem)
@@ -223,8 +223,8 @@ def test_bounds_are_finite_at_a_probe_the_motion_does_not_reach():
     """multimode's initial velocity is antisymmetric about x/L = 0.5, so the probe there sees no free response:
     its output energies are 0 computed as about -1e-20.  The bounds stay finite (they were NaN, and packaging
     the exact FMU of multimode failed), and the measured errors stay below them."""
-    from harness.pod.pipeline import basis_for_scene
-    from harness.rom.exact_linear import build_linear_operators
+    from sphrom.pod.pipeline import basis_for_scene
+    from sphrom.rom.exact_linear import build_linear_operators
     scene = small_scene("multimode", T=1.0)
     problem = build_problem(scene)
     lti = full_linear_system(problem, probes=(0.25, 0.5))
@@ -242,7 +242,7 @@ def test_bounds_are_finite_at_a_probe_the_motion_does_not_reach():
 # --------------------------------------------------------------------------- the registry's model and the CLI
 def _small_toml(tmp_path):
     """damped_forced shrunk (N = 32, T = 0.5 s, RK4 at dt = 1e-4) as a scene file."""
-    from harness.scene import dump_toml, scene_dict
+    from sphrom.scene import dump_toml, scene_dict
     path = tmp_path / "small.toml"
     path.write_text(dump_toml(scene_dict(small_scene("damped_forced", T=0.5, n=32, dt=1e-4, integrator="rk4",
                                                      every=20))))
@@ -264,8 +264,8 @@ def _table(text):
 
 def test_rom_balanced_command_prints_its_bounds_and_the_errors_stay_below_them(tmp_path, capsys):
     import h5py
-    from harness.cli import main
-    from harness.rom import get_model
+    from sphrom.cli import main
+    from sphrom.rom import get_model
     scene_file = _small_toml(tmp_path)
     out = tmp_path / "bal.h5"
     assert main(["rom", str(scene_file), "--model", "balanced", "--modes", "6", "--out", str(out), "--quiet"]) == 0
@@ -295,8 +295,8 @@ def test_rom_balanced_command_prints_its_bounds_and_the_errors_stay_below_them(t
 
 
 def test_rom_balanced_needs_no_basis_and_the_others_do(tmp_path, capsys):
-    from harness.cli import main
-    from harness.rom import MODELS
+    from sphrom.cli import main
+    from sphrom.rom import MODELS
     scene_file = _small_toml(tmp_path)
     out = tmp_path / "r.h5"
     assert main(["rom", str(scene_file), "--model", "balanced", "--order-tolerance", "1e-2", "--out", str(out),

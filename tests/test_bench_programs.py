@@ -8,15 +8,15 @@ from pathlib import Path
 
 import pytest
 
-from harness.bench import PROGRAMS, list_lines
-from harness.cli import main
+from sphrom.bench import PROGRAMS, list_lines
+from sphrom.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_program_names_are_no_scene_names():
     """The first word of ``sphrom bench WORD`` decides: a program's name is never a built-in scene's."""
-    from harness.scene import builtin_names
+    from sphrom.scene import builtin_names
     assert not set(PROGRAMS) & set(builtin_names())
 
 
@@ -45,10 +45,10 @@ def test_help_and_bad_option_through_sphrom_bench(name, capsys):
 
 
 def test_python_m_alias_still_runs():
-    """``python -m harness.bench.NAME`` (named by the docs and BENCHMARKS.md) is the same program."""
-    done = subprocess.run([sys.executable, "-m", "harness.bench.port_rates", "--help"], cwd=ROOT, capture_output=True,
+    """``python -m sphrom.bench.NAME`` (named by the docs and BENCHMARKS.md) is the same program."""
+    done = subprocess.run([sys.executable, "-m", "sphrom.bench.port_rates", "--help"], cwd=ROOT, capture_output=True,
                           text=True)
-    assert done.returncode == 0 and "python -m harness.bench.port_rates" in done.stdout
+    assert done.returncode == 0 and "python -m sphrom.bench.port_rates" in done.stdout
 
 
 def test_scenes_still_go_to_the_whole_report(capsys):
@@ -58,9 +58,9 @@ def test_scenes_still_go_to_the_whole_report(capsys):
 
 
 def _imports(path):
-    """The harness modules a file imports (relative imports resolved)."""
+    """The sphrom modules a file imports (relative imports resolved)."""
     import ast
-    mod = ".".join(path.relative_to(ROOT).with_suffix("").parts)
+    mod = ".".join(("sphrom", *path.relative_to(ROOT / "harness").with_suffix("").parts))
     package = mod.rsplit(".", 1)[0]
     out = set()
     for node in ast.walk(ast.parse(path.read_text())):
@@ -72,18 +72,18 @@ def _imports(path):
             out |= {base} | {f"{base}.{a.name}" for a in node.names}
         elif isinstance(node, ast.Import):
             out |= {a.name for a in node.names}
-    return {m for m in out if m.startswith("harness")}
+    return {m for m in out if m.startswith("sphrom")}
 
 
 def test_programs_apart_from_the_library():
     """The validation report and the library import no measurement program; a program imports no other program
-    (what programs share lives in harness.measure)."""
+    (what programs share lives in sphrom.measure)."""
     programs = {p.target for p in PROGRAMS.values() if not p.target.startswith("command:")}
     for folder in ("harness/report", "harness/measure", "harness/fmu", "harness/rom", "harness/sph", "harness/pod"):
         for path in (ROOT / folder).rglob("*.py"):
-            bad = {m for m in _imports(path) if m.startswith("harness.bench")}
+            bad = {m for m in _imports(path) if m.startswith("sphrom.bench")}
             assert not bad, (path, bad)
     for path in (ROOT / "harness/bench").glob("*.py"):
-        me = ".".join(path.relative_to(ROOT).with_suffix("").parts)
+        me = ".".join(("sphrom", *path.relative_to(ROOT / "harness").with_suffix("").parts))
         bad = {m for m in _imports(path) if m in programs and m != me}
         assert not bad, (path, bad)

@@ -1,4 +1,4 @@
-"""The BENCHMARKS.md writer (harness.measure.markdown): each section on small inputs is well-formed Markdown, and the
+"""The BENCHMARKS.md writer (sphrom.measure.markdown): each section on small inputs is well-formed Markdown, and the
 assembled document has the sections of the committed BENCHMARKS.md in its order."""
 
 import math
@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from harness.measure import markdown as rp
-from harness.measure.stress_maps import StressMaps
-from harness.measure.suite import BenchResults
+from sphrom.measure import markdown as rp
+from sphrom.measure.stress_maps import StressMaps
+from sphrom.measure.suite import BenchResults
 
 ROOT = Path(__file__).resolve().parents[1]
 NAN = float("nan")
@@ -100,7 +100,7 @@ PACKAGED = [{"scene": sc, "model": m, "k": 12, "k_v": 12, "k_rho": 12, "train_er
              "unseen_err_v": 3e-2, "unseen_err_rho": NAN, "unseen_max_drho": 1e-9, "unseen_start": "rest", "fmu_s": 0.05, "sph_s": 0.7,
              "speedup": 14.0, "tolerance": tol, "meets": None if tol is None else True, "note": ""}
             for sc, tol in (("a", 0.08), ("b", None)) for m in ("frozen", "exact")]
-PACKAGED_META = {"command": "python -m harness.bench.fmu_verify a b", "repeats": 3, "wall": 60.0, "machine": "m"}
+PACKAGED_META = {"command": "python -m sphrom.bench.fmu_verify a b", "repeats": 3, "wall": 60.0, "machine": "m"}
 
 MAPS = StressMaps([_stress_scene("a", True), _stress_scene("b", False)], [1, 10], 12.0)
 
@@ -167,10 +167,10 @@ def test_the_report_has_the_committed_documents_sections_in_order(tmp_path):
 
 
 def test_linear_tradeoff_section_replaces_its_own_section_only(tmp_path):
-    """python -m harness.bench.linear_tradeoff writes its section into BENCHMARKS.md, before the stress maps: a
+    """python -m sphrom.bench.linear_tradeoff writes its section into BENCHMARKS.md, before the stress maps: a
     second run replaces it, the other sections stay; the bound's ratio to the measured error is shown where
     there is a bound; sphrom bench --report carries it over."""
-    from harness.bench.linear_tradeoff import SECTION_TITLE, write_section
+    from sphrom.bench.linear_tradeoff import SECTION_TITLE, write_section
     rows = [{"scene": "s", "force": f, "order": 4, "model": m, "state": 4, "online_s": 0.5, "err_sph": 1e-2,
              "err_linear": 2e-5 if m == "balanced" else NAN, "bound": 3e-5 if m == "balanced" else NAN, "note": ""}
             for f in ("training", "unseen") for m in ("balanced", "frozen")]

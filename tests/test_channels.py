@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from conftest import small_scene
-from harness.fmu.check.channels import measure_channels, smd_parameters, smd_step
-from harness.fmu.make.package import package_fmu
-from harness.sph.solver import build_problem
+from sphrom.fmu.check.channels import measure_channels, smd_parameters, smd_step
+from sphrom.fmu.make.package import package_fmu
+from sphrom.sph.solver import build_problem
 
 PORTS = (0.3, 0.7)
 

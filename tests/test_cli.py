@@ -9,9 +9,9 @@ import h5py
 import numpy as np
 import pytest
 
-from harness.cli import main
-from harness.runio import atomic_path, read_run
-from harness.scene import builtin_names, dump_toml, load_scene, scene_dict
+from sphrom.cli import main
+from sphrom.runio import atomic_path, read_run
+from sphrom.scene import builtin_names, dump_toml, load_scene, scene_dict
 
 PAPER_SCENES = ["damped", "damped_forced", "gaussian", "heterogeneous", "high_frequency",
                 "mild_damped_forced", "multimode", "tenmode"]
@@ -127,7 +127,7 @@ def console_script():
     import importlib.metadata
     import sysconfig
     (entry,) = [e for e in importlib.metadata.entry_points(group="console_scripts") if e.name == "sphrom"]
-    assert entry.value == "harness.cli:main"
+    assert entry.value == "sphrom.cli:main"
     for scheme in (None, f"{os.name}_user"):
         try:
             folder = sysconfig.get_path("scripts", scheme) if scheme else sysconfig.get_path("scripts")
@@ -141,7 +141,7 @@ def console_script():
 
 def test_console_script_and_module_entry_points():
     sphrom = console_script()
-    for cmd in (sphrom + ["scenes"], [sys.executable, "-m", "harness", "scenes"]):
+    for cmd in (sphrom + ["scenes"], [sys.executable, "-m", "sphrom", "scenes"]):
         done = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
         assert done.returncode == 0 and "tenmode" in done.stdout
     done = subprocess.run(sphrom + ["sph", "multimode", "--dt", "-1", "--out", "x.h5"],
@@ -150,10 +150,22 @@ def test_console_script_and_module_entry_points():
 
 
 def test_every_subpackage_is_installed():
-    """pyproject lists every harness package: a non-editable install must not lose a module."""
+    """pyproject lists every package of sphrom (the folder harness/): a non-editable install must not lose a module."""
     import tomllib
     from pathlib import Path
     root = Path(__file__).resolve().parents[1]
     listed = set(tomllib.loads((root / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
-    found = {".".join(p.parent.relative_to(root).parts) for p in (root / "harness").rglob("__init__.py")}
+    found = {".".join(("sphrom",) + p.parent.relative_to(root / "harness").parts)
+             for p in (root / "harness").rglob("__init__.py")}
     assert found <= listed, f"missing from pyproject packages: {sorted(found - listed)}"
+
+
+def test_the_import_package_is_sphrom(tmp_path):
+    """The code imports as ``sphrom`` from anywhere (its folder is harness/, pyproject maps it); no module named
+    ``harness`` is ever imported, even by the whole command line and packaging."""
+    code = ("import sys, sphrom, sphrom.cli, sphrom.fmu.make.package, sphrom.bench; "
+            "print(sphrom.__version__, sorted(m for m in sys.modules if m.split('.')[0] == 'harness'))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    version, loaded = done.stdout.split(" ", 1)
+    assert version.count(".") >= 1 and loaded.strip() == "[]"

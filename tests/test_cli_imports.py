@@ -9,10 +9,10 @@ import sys
 
 import pytest
 
-from harness.cli import COMMANDS
+from sphrom.cli import COMMANDS
 
 HEAVY = ("numpy", "numba", "scipy", "h5py", "matplotlib", "dask", "distributed", "fmpy", "skfem", "pde", "tqdm",
-         "threadpoolctl", "harness.rom.registry", "harness.sph.solver")
+         "threadpoolctl", "sphrom.rom.registry", "sphrom.sph.solver")
 
 
 def imported_after(code):
@@ -26,33 +26,33 @@ def imported_after(code):
 
 
 def test_building_the_parser_imports_nothing_heavy():
-    assert imported_after("from harness.cli import build_parser\nbuild_parser()") == []
+    assert imported_after("from sphrom.cli import build_parser\nbuild_parser()") == []
 
 
 @pytest.mark.parametrize("command", sorted(COMMANDS))
 def test_each_command_help_imports_nothing_heavy(command):
     """``sphrom COMMAND --help`` (the parser built and its help formatted) but the one that must show the model
     registry's descriptions (rom: its --model help reads them, and imports them only then)."""
-    heavy = imported_after("from harness.cli import main\n"
+    heavy = imported_after("from sphrom.cli import main\n"
                            "import contextlib, io\n"
                            "with contextlib.redirect_stdout(io.StringIO()):\n"
                            f"    main([{command!r}, '--help'])")
     if command == "rom":
-        assert "harness.rom.registry" in heavy            # the lazy help reads the registry when it is shown
+        assert "sphrom.rom.registry" in heavy            # the lazy help reads the registry when it is shown
     else:
         assert heavy == [], heavy
 
 
 def test_a_bad_option_imports_nothing_heavy():
     """An option error (argparse's one line, exit 2) is given before any heavy import."""
-    assert imported_after("from harness.cli import main\n"
+    assert imported_after("from sphrom.cli import main\n"
                           "import contextlib, io\n"
                           "with contextlib.redirect_stderr(io.StringIO()):\n"
                           "    assert main(['sph', 'tenmode', '--every', 'x', '--out', 'x.h5']) == 2") == []
 
 
 def test_cosim_imports_only_numpy_and_fmpy(hostile_fmu, tmp_path):
-    heavy = imported_after("from harness.cli import main\n"
+    heavy = imported_after("from sphrom.cli import main\n"
                            "import contextlib, io\n"
                            "with contextlib.redirect_stdout(io.StringIO()):\n"
                            f"    assert main(['cosim', {str(hostile_fmu)!r}, '--t-end', '0.1', '--out', "

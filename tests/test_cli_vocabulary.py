@@ -9,10 +9,10 @@ from pathlib import Path
 
 import pytest
 
-from harness.cli import COMMANDS, build_parser, main, parse
-from harness.commands import options as opt
-from harness.errors import FieldError, UserError
-from harness.bench import PROGRAMS, run_program
+from sphrom.cli import COMMANDS, build_parser, main, parse
+from sphrom.commands import options as opt
+from sphrom.errors import FieldError, UserError
+from sphrom.bench import PROGRAMS, run_program
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -239,12 +239,12 @@ def test_field_errors_show_the_option_that_set_the_field():
 
 def test_the_library_names_fields_not_options(tmp_path):
     """The library's errors name the field and what is allowed; no option name."""
-    from harness.fmu.run.cosim import force_signal
-    from harness.pod.io import read_basis
-    from harness.references.common import check_dt, check_resolution
-    from harness.runio import check_output_path, read_run
-    from harness.scene import load_scene
-    from harness.sweep.table import read_results
+    from sphrom.fmu.run.cosim import force_signal
+    from sphrom.pod.io import read_basis
+    from sphrom.references.common import check_dt, check_resolution
+    from sphrom.runio import check_output_path, read_run
+    from sphrom.scene import load_scene
+    from sphrom.sweep.table import read_results
 
     (tmp_path / "junk.h5").write_bytes(b"junk")
     cases = [

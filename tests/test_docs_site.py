@@ -5,7 +5,7 @@ from pathlib import Path
 
 import pytest
 
-from harness import docs_figures, docs_site
+from sphrom import docs_figures, docs_site
 
 ROOT = Path(__file__).resolve().parents[1]
 README_MAX_LINES = 300

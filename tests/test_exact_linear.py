@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 
 from conftest import small_scene
-from harness.cli import main
-from harness.compare import error_table
-from harness.pod.pipeline import basis_for_scene, error_steps, on_steps
-from harness.rom.exact_linear import build_linear_operators, propagators, run_exact
-from harness.sph.solver import run_sph
+from sphrom.cli import main
+from sphrom.compare import error_table
+from sphrom.pod.pipeline import basis_for_scene, error_steps, on_steps
+from sphrom.rom.exact_linear import build_linear_operators, propagators, run_exact
+from sphrom.sph.solver import run_sph
 
 
 def _ops(scene, k, spec=None):
@@ -92,7 +92,7 @@ def test_sph_exact_in_time_and_the_pod_error_split():
     """The full SPH solved exactly in time (every particle a mode) is what a fine RK4 SPH converges to; against
     it the exact model's error is a POD error like the original's (undamped scene), while against the Euler SPH
     it also carries the SPH's time error."""
-    from harness.report.exact_model import compare_exact_and_original, sph_exact_in_time
+    from sphrom.report.exact_model import compare_exact_and_original, sph_exact_in_time
     scene = small_scene("multimode", T=1.0, n=32, every=25)
     fine = run_sph(scene.with_sph(dt=scene.sph.dt / 4, integrator="rk4"), progress=False)
     v, rho = sph_exact_in_time(fine.problem, fine.t)

@@ -10,10 +10,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from harness.errors import UserError
-from harness.cli import main
-from harness.expr import FUNCTIONS, MAX_DEPTH, MAX_INT, MAX_LENGTH, MAX_OPERATIONS, MAX_TERMS, compile_expr
-from harness.scene import dump_toml, load_scene, scene_dict
+from sphrom.errors import UserError
+from sphrom.cli import main
+from sphrom.expr import FUNCTIONS, MAX_DEPTH, MAX_INT, MAX_LENGTH, MAX_OPERATIONS, MAX_TERMS, compile_expr
+from sphrom.scene import dump_toml, load_scene, scene_dict
 
 
 def ev(text, **values):
@@ -362,7 +362,7 @@ def test_scene_file_with_a_hostile_v0_is_exit_2_one_line_no_output(tmp_path, cap
 
 
 def test_cosim_force_longer_than_a_file_name_is_an_expression(tmp_path):
-    from harness.fmu.run.cosim import force_signal
+    from sphrom.fmu.run.cosim import force_signal
     term = "1e-3*sin(2*pi*t)"
     long = " + ".join([term] * 16)                      # 300 characters: no possible file name
     assert len(long) > 255
@@ -412,7 +412,7 @@ frequency = [1.0]
 @pytest.mark.parametrize("key", ["shape", "profile"])
 @pytest.mark.parametrize("text, what", [(t, w) for t, w in HOSTILE if w != "non-finite value"])
 def test_sweep_spec_with_a_hostile_expression_is_one_line(tmp_path, capsys, key, text, what):
-    from harness.sweep.spec import parse_spec
+    from sphrom.sweep.spec import parse_spec
     text = re.sub(r"\bx\b", "t", text) if key == "shape" else text
     spec = tmp_path / "spec.toml"
     spec.write_text(SWEEP.format(key=key, value=json.dumps(text)))
@@ -428,7 +428,7 @@ def test_sweep_spec_with_a_hostile_expression_is_one_line(tmp_path, capsys, key,
 
 
 def test_sweep_profile_that_is_not_finite_is_named():
-    from harness.sweep.spec import parse_spec
+    from sphrom.sweep.spec import parse_spec
     with pytest.raises(UserError, match=r"force.profile: non-finite value"):
         parse_spec(SWEEP.format(key="profile", value='"1/(x - x)"'), "spec.toml")
 
@@ -480,10 +480,10 @@ def _sample(value):
 
 def reference_values(keep=_sample):
     """{key: keep(array)} of everything the language is used for in the repository."""
-    from harness.fmu.run.cosim import force_signal
-    from harness.scene import builtin_dir, builtin_names
-    from harness.sph.operator import particle_positions
-    from harness.sweep.spec import force_at, load_spec
+    from sphrom.fmu.run.cosim import force_signal
+    from sphrom.scene import builtin_dir, builtin_names
+    from sphrom.sph.operator import particle_positions
+    from sphrom.sweep.spec import force_at, load_spec
 
     out = {}
     for name in builtin_names():

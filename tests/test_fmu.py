@@ -18,18 +18,18 @@ import pytest
 from fmpy.fmi1 import FMICallException
 
 from conftest import assert_units_through_declared_types, fmu_scene
-from harness.cli import main
-from harness.fmu.make.build import ensure_binaries
-from harness.fmu.run.driver import FMU
-from harness.fmu.make.package import package_fmu
-from harness.fmu.check.python_cosim import cosim_reference, probe_values, split_step
-from harness.fmu.resources import unpack
-from harness.fmu.variables import vr
-from harness.pod.pipeline import basis_for_scene
-from harness.rom.common import run_reduced
-from harness.rom.operators import probe_rows
-from harness.rom.registry import get_model
-from harness.sph.solver import build_problem
+from sphrom.cli import main
+from sphrom.fmu.make.build import ensure_binaries
+from sphrom.fmu.run.driver import FMU
+from sphrom.fmu.make.package import package_fmu
+from sphrom.fmu.check.python_cosim import cosim_reference, probe_values, split_step
+from sphrom.fmu.resources import unpack
+from sphrom.fmu.variables import vr
+from sphrom.pod.pipeline import basis_for_scene
+from sphrom.rom.common import run_reduced
+from sphrom.rom.operators import probe_rows
+from sphrom.rom.registry import get_model
+from sphrom.sph.solver import build_problem
 
 K = 6
 PROBES = (0.25, 0.5, 0.66)

@@ -3,8 +3,8 @@ the linear FMUs (balanced and exact).
 
 The balanced FMU runs the exact model's C code (resource kind 2): only its matrices differ, and its probe rows
 act on the whole state (flags bit3).  These tests hold it against the Python balanced model
-(:mod:`harness.rom.balanced_model`, scipy's expm: an independent implementation of the same exact stepping),
-check FMU states, the bounds the FMU declares (equal to :func:`harness.rom.balanced.error_bounds`) and the
+(:mod:`sphrom.rom.balanced_model`, scipy's expm: an independent implementation of the same exact stepping),
+check FMU states, the bounds the FMU declares (equal to :func:`sphrom.rom.balanced.error_bounds`) and the
 measured error of the FMU against the full linear SPH (exact in time), which must stay below them.
 """
 
@@ -17,15 +17,15 @@ from fmpy.fmi1 import FMICallException
 from scipy.integrate import simpson
 
 from conftest import assert_units_through_declared_types, fmu_scene, small_scene
-from harness.fmu.make.build import ensure_binaries
-from harness.fmu.run.driver import FMU
-from harness.fmu.make.models import balanced_model, exact_model
-from harness.fmu.make.package import package_fmu
-from harness.fmu.resources import FLAG_OUTPUT_ROWS, probe_pairs, unpack
-from harness.fmu.variables import vr
-from harness.rom.balanced import error_bounds, reduced_from_exact
-from harness.rom.lti import full_linear_system, input_norm, sample_outputs
-from harness.rom.registry import get_model
+from sphrom.fmu.make.build import ensure_binaries
+from sphrom.fmu.run.driver import FMU
+from sphrom.fmu.make.models import balanced_model, exact_model
+from sphrom.fmu.make.package import package_fmu
+from sphrom.fmu.resources import FLAG_OUTPUT_ROWS, probe_pairs, unpack
+from sphrom.fmu.variables import vr
+from sphrom.rom.balanced import error_bounds, reduced_from_exact
+from sphrom.rom.lti import full_linear_system, input_norm, sample_outputs
+from sphrom.rom.registry import get_model
 
 R = 12                      # balanced order
 K = 6                       # exact model: POD modes
@@ -235,7 +235,7 @@ def test_measured_fmu_error_stays_below_its_bounds(fmus, model, record_property)
     as for the full model.  The ratios measured/bound are recorded."""
     path, data, _ = fmus(model, "forced", 2)
     scene = scene_for("forced")
-    from harness.sph.solver import build_problem
+    from sphrom.sph.solver import build_problem
     lti = full_linear_system(build_problem(scene), PROBES)
     P, T = len(PROBES), scene.T
     M = 2000                                              # samples: h = T/2000, Simpson + Richardson
@@ -273,9 +273,9 @@ def test_measured_fmu_error_stays_below_its_bounds(fmus, model, record_property)
 def test_fmu_balanced_command_prints_its_order_and_bounds(tmp_path, capsys):
     """`sphrom fmu --model balanced --modes R`: the order, the bounds as stored and what they bound; an order
     or an order tolerance out of range names the option, and --tolerance keeps one meaning (the accepted error)."""
-    from harness.cli import main
-    from harness.scene import dump_toml, scene_dict
-    from harness.sph.solver import build_problem
+    from sphrom.cli import main
+    from sphrom.scene import dump_toml, scene_dict
+    from sphrom.sph.solver import build_problem
     scene_file = tmp_path / "small.toml"
     scene_file.write_text(dump_toml(scene_dict(scene_for("forced"))))
     out = tmp_path / "bal.fmu"
@@ -318,8 +318,8 @@ def test_loader_checks_the_output_rows_and_the_bounds_section(fmus):
     LINMODEL one known value; each refusal names the field."""
     import dataclasses
 
-    from harness.fmu.run.core import Core, CoreError
-    from harness.fmu.resources import pack_exact
+    from sphrom.fmu.run.core import Core, CoreError
+    from sphrom.fmu.resources import pack_exact
     _, data, _ = fmus("balanced", "forced", 2)
     core = Core(ensure_binaries().core)
 
@@ -348,7 +348,7 @@ def test_fmu_no_bounds_leaves_the_bound_variables_out(tmp_path, capsys):
     calculated parameters (the option for large N, where the bounds cost minutes)."""
     import fmpy
 
-    from harness.cli import main
+    from sphrom.cli import main
     scene_file = tmp_path / "small.toml"
     scene_file.write_text(scene_for("forced").text)
     out = tmp_path / "exact.fmu"

@@ -19,11 +19,11 @@ import numpy as np
 import pytest
 
 from conftest import small_scene
-from harness.fmu.make.build import ensure_binaries
-from harness.fmu.run.core import Core, CoreError
-from harness.fmu.run.driver import FMU
-from harness.fmu.make.package import package_fmu
-from harness.fmu.resources import pack, unpack
+from sphrom.fmu.make.build import ensure_binaries
+from sphrom.fmu.run.core import Core, CoreError
+from sphrom.fmu.run.driver import FMU
+from sphrom.fmu.make.package import package_fmu
+from sphrom.fmu.resources import pack, unpack
 
 SCENARIOS = ["basic", "state", "bad", "resources", "cycles", "threads", "edge", "bound"]
 
@@ -39,7 +39,7 @@ def packaged(binaries, tmp_path_factory):
     ``exact-forced`` and ``exact-unforced``: the same scenes with the exact linear model (FMI 2 and resources);
     ``parametric``: the exact model of the unforced scene over c and d (its error bounds' planes assembled at
     the parameters)."""
-    from harness.rom.parametric import Range
+    from sphrom.rom.parametric import Range
     folder = tmp_path_factory.mktemp("c-fmus")
     out = {}
     forced, unforced = small_scene("damped_forced", T=0.5, n=32), small_scene("multimode", T=0.5, n=32)
@@ -214,7 +214,7 @@ def test_core_loader_names_the_problem(packaged, binaries):
 def test_core_loader_checks_the_tagged_sections(packaged, binaries):
     """Sections are read by tag: a model written without any loads; an unknown, repeated, malformed or oversized
     section, a count above the limit, and a section cut short are each refused with a message naming it."""
-    from harness.fmu.resources import pack, unpack
+    from sphrom.fmu.resources import pack, unpack
     data = unpack(zipfile.ZipFile(packaged[("forced", 2)]).read("resources/model.bin"))
     data.sections.clear()                       # the packaged envelope's sections removed: a model without any
     blob = pack(data)
@@ -254,7 +254,7 @@ def test_core_loader_checks_the_tagged_sections(packaged, binaries):
 def test_sources_lists_agree(packaged, fmi):
     """sources/ holds the files of build.fmu_sources, and the build description fmpy compile reads
     (FMI 2: <SourceFiles> of modelDescription.xml, FMI 3: sources/buildDescription.xml) names its C files."""
-    from harness.fmu.make.build import fmu_sources
+    from sphrom.fmu.make.build import fmu_sources
     files = fmu_sources(fmi)
     assert all((Path(__file__).parents[1] / "fmu_src" / name).is_file() for name in files)
     zf = zipfile.ZipFile(packaged[("forced", fmi)])
@@ -335,7 +335,7 @@ def test_rebuild_from_sources_links_the_maths_library(packaged, tmp_path, fmi):
 # ---------------------------------------------------------------------------
 
 def test_core_benchmark_rows_do_not_depend_on_n(binaries):
-    from harness.measure.fmu import core_rows
+    from sphrom.measure.fmu import core_rows
     rows = core_rows("multimode", [48, 96], k=8, n_steps=20_000, repeats=5, core=Core(binaries.core))
     assert [r["n"] for r in rows] == [48, 96]
     for r in rows:
@@ -357,7 +357,7 @@ def test_density_at_a_probe_must_stay_positive(packaged, binaries):
 
 def test_exact_model_names_a_specific_volume_at_or_below_zero(packaged, binaries):
     """J = 1 + e <= 0 at a probe (compression through zero volume) is named as such, not as a NaN density."""
-    from harness.fmu.resources import pack_exact
+    from sphrom.fmu.resources import pack_exact
     data = unpack(zipfile.ZipFile(packaged[("exact-unforced", 2)]).read("resources/model.bin"))
     row = data.Pe[0, 0]
     data.z0 = data.z0.copy()
@@ -384,8 +384,8 @@ def test_c_full_sph_repeats_numba_bit_for_bit(binaries, case, integrator):
     """sph.c repeats harness/sph/loops.py operation for operation: the same scene, initial state and
     force values, 2000 steps in C (harness/fmu/run/sph_c.py) and in numba (run_sph) end in the same bits.  Cases:
     damping and force with uniform fields, every field non-uniform (rho0, c, d, profile), and f = d = 0."""
-    from harness.fmu.run.sph_c import SphC
-    from harness.sph.solver import METHODS, build_problem, force_values, run_sph, step_count
+    from sphrom.fmu.run.sph_c import SphC
+    from sphrom.sph.solver import METHODS, build_problem, force_values, run_sph, step_count
     if case == "unforced":
         scene = small_scene("multimode", T=0.4, n=48, integrator=integrator)
     else:

@@ -6,14 +6,14 @@ is generated (tests/test_variables.py)."""
 import re
 from pathlib import Path
 
-import harness.fmu.run.core as core
-import harness.fmu.make.envelope as envelope
-import harness.fmu.run.driver as fmi
-import harness.fmu.check.python_cosim as python_cosim
-import harness.fmu.resources as resources
-import harness.fmu.run.sph_c as sph_c
-import harness.sph.loops as sph_loops
-import harness.sph.solver as solver
+import sphrom.fmu.run.core as core
+import sphrom.fmu.make.envelope as envelope
+import sphrom.fmu.run.driver as fmi
+import sphrom.fmu.check.python_cosim as python_cosim
+import sphrom.fmu.resources as resources
+import sphrom.fmu.run.sph_c as sph_c
+import sphrom.sph.loops as sph_loops
+import sphrom.sph.solver as solver
 
 ROOT = Path(__file__).parents[1]
 _DEFINE = re.compile(r'^#define\s+(\w+)\s+("[^"]*"|[-+0-9.eE]+u?)\s*(?:/\*.*)?$', re.M)

@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 
 from conftest import fmu_scene
-from harness.fmu.make.build import ensure_binaries
-from harness.fmu.make.package import package_fmu
-from harness.fmu.run.cosim import run_cosim
-from harness.fmu.run.driver import FMU
+from sphrom.fmu.make.build import ensure_binaries
+from sphrom.fmu.make.package import package_fmu
+from sphrom.fmu.run.cosim import run_cosim
+from sphrom.fmu.run.driver import FMU
 
 K = 6
 FORCE = "3e-2*sin(2*pi*3*t) + 1e-2"

@@ -11,9 +11,9 @@ import pytest
 from fmpy.fmi1 import FMICallException
 
 from conftest import fmu_scene
-from harness.fmu.make.build import ensure_binaries
-from harness.fmu.run.driver import FMU
-from harness.fmu.make.package import package_fmu
+from sphrom.fmu.make.build import ensure_binaries
+from sphrom.fmu.run.driver import FMU
+from sphrom.fmu.make.package import package_fmu
 
 H = 0.01
 
@@ -116,7 +116,7 @@ def one_error_line(capsys):
 
 @pytest.mark.parametrize("fmi", [2, 3])
 def test_cosim_fmu_that_fails_to_instantiate(edge_fmus, tmp_path, capsys, fmi):
-    from harness.cli import main
+    from sphrom.cli import main
     bad, out = corrupted_copy(edge_fmus(fmi), tmp_path), tmp_path / "result.csv"
     for extra in ([], ["--force", "0.01*t"]):
         assert main(["cosim", str(bad), "--t-end", "0.05", "--out", str(out)] + extra) == 2
@@ -131,7 +131,7 @@ def test_cosim_fmu_that_fails_to_instantiate(edge_fmus, tmp_path, capsys, fmi):
 
 
 def test_cosim_force_csv_must_cover_the_run(edge_fmus, tmp_path, capsys):
-    from harness.cli import main
+    from sphrom.cli import main
     out = tmp_path / "result.csv"
     cases = {
         "one row": ("time,f\n0,0.01\n", "has 1 row"),

@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 
 from conftest import fmu_scene
-from harness.fmu.make import envelope as E
-from harness.fmu.make.build import ensure_binaries
-from harness.fmu.run.core import Core
-from harness.fmu.run.driver import FMU
-from harness.fmu.make.package import package_fmu
-from harness.fmu.resources import ModelData, pack, pack_exact, unpack
+from sphrom.fmu.make import envelope as E
+from sphrom.fmu.make.build import ensure_binaries
+from sphrom.fmu.run.core import Core
+from sphrom.fmu.run.driver import FMU
+from sphrom.fmu.make.package import package_fmu
+from sphrom.fmu.resources import ModelData, pack, pack_exact, unpack
 
 H = 0.01
 ENVELOPE_TEXT = "outside the training envelope"
@@ -180,7 +180,7 @@ def test_force_band_of_known_signals():
 @pytest.mark.parametrize("fmi", [2, 3])
 def test_cosim_shows_the_envelope_warning(envelope_fmus, tmp_path, capsys, fmi):
     """``sphrom cosim`` prints the FMU's envelope warning (once) at 10x, nothing at the training amplitude."""
-    from harness.cli import main
+    from sphrom.cli import main
     scene = fmu_scene("forced")
     for scale, expected in ((1.0, 0), (10.0, 1)):
         out = tmp_path / f"x{scale:g}.csv"
@@ -221,7 +221,7 @@ def test_amplitude_sweep_measures_where_the_frozen_model_fails():
     linear in J (up to its time stepping of ρ), so the exact model's error hardly moves with the scale, while
     the frozen model's error and the strain grow in proportion to it, and its coordinates leave the trained
     ranges (excess above margin - 1)."""
-    from harness.bench.envelope import failure_strain, measure
+    from sphrom.bench.envelope import failure_strain, measure
     rows = measure(fmu_scene("unforced"), scales=(1.0, 2.0, 10.0), progress=False)
     one, two, ten = rows
     assert ten["exact_v_error"] == pytest.approx(one["exact_v_error"], rel=0.05)

@@ -9,14 +9,14 @@ import numpy as np
 import pytest
 
 from conftest import small_scene
-from harness.fmu.make import envelope as E
-from harness.fmu.make.build import ensure_binaries
-from harness.fmu.run.driver import FMU
-from harness.fmu.make.package import package_fmu
-from harness.fmu.resources import unpack
-from harness.fmu.variables import vr
-from harness.rom import parametric as par
-from harness.sph.solver import build_problem
+from sphrom.fmu.make import envelope as E
+from sphrom.fmu.make.build import ensure_binaries
+from sphrom.fmu.run.driver import FMU
+from sphrom.fmu.make.package import package_fmu
+from sphrom.fmu.resources import unpack
+from sphrom.fmu.variables import vr
+from sphrom.rom import parametric as par
+from sphrom.sph.solver import build_problem
 
 RANGES = [par.Range("c", 0.05, 0.2), par.Range("d", 5.0, 15.0)]
 H = 0.01
@@ -48,8 +48,8 @@ def test_envelope_is_the_union_over_the_sample_points(parametric_fmus):
     """ENVRANGE and the strains are those of the runs at every sample point (envelope.union of each run's
     envelope on the FMU's basis), wider than the run at the start value alone; the exact parametric FMU
     records its envelope without run-time checks."""
-    from harness.fmu.make.envelope import measure
-    from harness.defaults import PROBES as DEFAULT_PROBES
+    from sphrom.fmu.make.envelope import measure
+    from sphrom.defaults import PROBES as DEFAULT_PROBES
     sc = scene()
     path, data = parametric_fmus("frozen")
     env = E.Envelope.from_sections(data.sections, data.k_v)
@@ -70,7 +70,7 @@ def test_envelope_is_the_union_over_the_sample_points(parametric_fmus):
 
 
 def parametric_model_affine(sc):
-    from harness.fmu.make.parametric import parametric_model
+    from sphrom.fmu.make.parametric import parametric_model
     affine, _, _, _ = parametric_model(sc, RANGES, 6, model="frozen", progress=False)
     return affine
 

@@ -1,10 +1,10 @@
 """The training envelope of a frozen port FMU: port forces at the level its accuracy was measured at (open loop
-and coupled, harness.bench.port_coupling) do not warn; a port force that drives the probe strain beyond the
+and coupled, sphrom.bench.port_coupling) do not warn; a port force that drives the probe strain beyond the
 failure strain (0.04) does.
 
 The envelope is recorded from the scene's training run, which has no port force.  The coordinates appended
 for the ports are exact input directions (each port's profile and its Krylov response,
-harness.rom.operators.port_directions), not trained POD directions: they are never checked against that
+sphrom.rom.operators.port_directions), not trained POD directions: they are never checked against that
 run's ranges (section ENVPORT names them).  Once a port force has acted the state holds a response the
 training run never saw, by design: from then on only |f| and the failure strain are checked (the frozen
 model's port error is measured to hold there: docs/fmu/envelope.md); until then, and after a reset,
@@ -16,15 +16,15 @@ import zipfile
 import numpy as np
 import pytest
 
-from harness.measure.ports import PORTS, open_loop_forces
-from harness.fmu.make import envelope as E
-from harness.fmu.make.build import ensure_binaries
-from harness.fmu.run.core import Core
-from harness.fmu.run.driver import FMU
-from harness.fmu.make.package import package_fmu
-from harness.fmu.resources import unpack
-from harness.fmu.variables import vr
-from harness.scene import load_scene
+from sphrom.measure.ports import PORTS, open_loop_forces
+from sphrom.fmu.make import envelope as E
+from sphrom.fmu.make.build import ensure_binaries
+from sphrom.fmu.run.core import Core
+from sphrom.fmu.run.driver import FMU
+from sphrom.fmu.make.package import package_fmu
+from sphrom.fmu.resources import unpack
+from sphrom.fmu.variables import vr
+from sphrom.scene import load_scene
 
 F_PORT = [vr("F_port_j", j) for j in (1, 2)]
 V_PORT = [vr("v_port_j", j) for j in (1, 2)]
@@ -35,7 +35,7 @@ H = 1e-3
 
 @pytest.fixture(scope="module")
 def port_fmu(tmp_path_factory):
-    """(path, data, scene): damped_forced's frozen port FMU as harness.bench.port_coupling measures it (k = 12,
+    """(path, data, scene): damped_forced's frozen port FMU as sphrom.bench.port_coupling measures it (k = 12,
     ports at x/L = 0.3 and 0.7, FMI 2)."""
     scene = load_scene("damped_forced")
     path = tmp_path_factory.mktemp("envelope-port-fmu") / "frozen-ports.fmu"
@@ -65,9 +65,9 @@ def run(path, scene, t_end, forces):
 
 
 def coupled_run(path, scene, t_end):
-    """(envelope warnings, errors) of the coupled example of harness.bench.port_coupling: a lumped mass-spring
+    """(envelope warnings, errors) of the coupled example of sphrom.bench.port_coupling: a lumped mass-spring
     on port 1 (its spring force, up to 5e-3 N, held as F_port_1), port 2 open loop."""
-    from harness.measure.ports import STIFFNESS, S0, mass_spring_step
+    from sphrom.measure.ports import STIFFNESS, S0, mass_spring_step
     n = int(round(t_end / H))
     y = np.array([S0, 0.0])
     with FMU(path) as s:
@@ -85,7 +85,7 @@ def coupled_run(path, scene, t_end):
 
 
 def test_port_forces_at_the_measured_level_do_not_warn(port_fmu):
-    """The open-loop port forces of harness.bench.port_coupling (1e-3 N, which move the port velocities by 47 %
+    """The open-loop port forces of sphrom.bench.port_coupling (1e-3 N, which move the port velocities by 47 %
     and at which the FMU's port error was measured, 5.2e-3), the coupled mass-spring (up to 5e-3 N on port 1,
     port error 1.0e-2) and 5x the open-loop forces (port error 0.47 % over 1 s, probe strain 3.7x the trained):
     no warning; the same FMU without port forces: none either.  (Before port forces were judged apart from
@@ -146,10 +146,10 @@ def test_the_training_envelope_still_guards_a_port_fmu_until_a_port_force_acts(p
 
 def test_port_directions_are_named_and_c_agrees_with_python(port_fmu):
     """ENVPORT holds the numbers of trailing port coordinates of a^v and a^rho (the columns
-    harness.rom.operators appended for the ports), read back by the C core bitwise; the relative probe-strain
+    sphrom.rom.operators appended for the ports), read back by the C core bitwise; the relative probe-strain
     check is off with ports; after a step from a start pushed along a port direction the C check and
     envelope.check find nothing, from one pushed along a POD direction both name that coordinate."""
-    from harness.fmu.resources import pack
+    from sphrom.fmu.resources import pack
     path, data, _ = port_fmu
     env = E.Envelope.from_sections(data.sections, data.k_v)
     assert 0 < env.port_v < data.k_v and 0 < env.port_rho < data.k_rho
@@ -181,8 +181,8 @@ def test_port_directions_are_named_and_c_agrees_with_python(port_fmu):
     (np.array([[0.0, -1.0]]), "'ENVPORT': -1 port coordinates in block 2"),
     (np.array([[1e6, 0.0]]), "'ENVPORT': 1e+06 port coordinates in block 1")])
 def test_a_bad_envport_section_is_refused_naming_it(port_fmu, value, message):
-    from harness.fmu.run.core import CoreError
-    from harness.fmu.resources import pack
+    from sphrom.fmu.run.core import CoreError
+    from sphrom.fmu.resources import pack
     _, data, _ = port_fmu
     bad = unpack(pack(data))
     bad.sections["ENVPORT"] = value

@@ -1,7 +1,7 @@
 """The certified error-bound outputs (harness/rom/bounds.py, fmu_src/rom_bound.c): every output with its certified error at every step.
 
 The truth is computed here independently of every reduced model and of the shadow: the full SPH of eqs.
-2.10-2.11 as the linear system of :mod:`harness.rom.lti` (exactly linear in J), advanced exactly in time over each
+2.10-2.11 as the linear system of :mod:`sphrom.rom.lti` (exactly linear in J), advanced exactly in time over each
 communication step (the matrix exponential of the system augmented with the input and its slope), from the FMU's
 initial state, with the very inputs the FMU received (held, or linear with input derivatives; the port forces of
 a closed loop as the FMU read them).  Every bound must be >= |output - truth| at every communication point, on
@@ -15,8 +15,8 @@ import pytest
 import scipy.linalg as sla
 
 from conftest import fmu_scene
-from harness.fmu.run.driver import FMU
-from harness.fmu.variables import members, vr
+from sphrom.fmu.run.driver import FMU
+from sphrom.fmu.variables import members, vr
 
 PROBES = (0.25, 0.5, 0.66)
 PORTS = (0.3,)
@@ -36,9 +36,9 @@ def make(tmp_path_factory):
     bounds), packaged once."""
     import zipfile
 
-    from harness.fmu.make.build import ensure_binaries
-    from harness.fmu.make.package import package_fmu
-    from harness.fmu.resources import unpack
+    from sphrom.fmu.make.build import ensure_binaries
+    from sphrom.fmu.make.package import package_fmu
+    from sphrom.fmu.resources import unpack
     folder, made = tmp_path_factory.mktemp("bound-fmus"), {}
 
     def build(model="exact", fmi=2, case="forced", ports=None):
@@ -56,7 +56,7 @@ def make(tmp_path_factory):
 def scene_of(case, fields=()):
     """The shrunk scene ``case`` (or the scene file ``case``, a path ending in .toml) with the fields ``fields``
     ((name, value) pairs: c, d) replaced."""
-    from harness.scene import derive_scene, load_scene
+    from sphrom.scene import derive_scene, load_scene
     scene = load_scene(case) if str(case).endswith(".toml") else fmu_scene(case)
     return derive_scene(scene, {"fields": {name: str(value) for name, value in fields}}) if fields else scene
 
@@ -66,9 +66,9 @@ def full_system(case, ports=(), area=1.0, fields=()):
     """(problem, lti, Phi, G0, G1, input columns' count) of the shrunk scene ``case`` (its ``fields`` replaced,
     :func:`scene_of`): the exact maps of one step H of the full linear SPH (eqs. 2.10-2.11 in J) with the inputs f
     and the port forces [N], held (G0) and their change (G1)."""
-    from harness.rom.lti import full_linear_system
-    from harness.sph.ports import port_accelerations
-    from harness.sph.solver import build_problem
+    from sphrom.rom.lti import full_linear_system
+    from sphrom.sph.ports import port_accelerations
+    from sphrom.sph.solver import build_problem
     problem = build_problem(scene_of(case, fields))
     lti = full_linear_system(problem, PROBES)
     n = problem.rho0.size
@@ -90,8 +90,8 @@ def truth(case, scale, f, ports=(), port_forces=None, linear=False, fields=()):
     """(v (M+1, P), rho (M+1, P), v_port (M+1, ports)) of the full linear SPH at the communication points t = j H,
     from scale x the scene's initial state, f (and the port forces [N]) held over each step or linear; ``fields``
     replaced in the scene (:func:`scene_of`)."""
-    from harness.rom.lti import probe_matrix
-    from harness.sph.ports import port_velocity_rows
+    from sphrom.rom.lti import probe_matrix
+    from sphrom.sph.ports import port_velocity_rows
     problem, lti, Phi, G0, G1, m = full_system(case, tuple(ports), fields=tuple(fields))
     n = problem.rho0.size
     u = np.column_stack([f] + ([port_forces[:, j] for j in range(len(ports))] if ports else []))
@@ -202,8 +202,8 @@ def test_bounds_port_spring(make):
 def test_the_fmu_bounds_are_the_python_shadow(make):
     """Two paths: the C core's bounds (fmu_src/rom_bound.c) equal harness/rom/bounds.py's run_shadow and
     output_bounds on the same shadow, rebuilt from the scene (its sections equal the FMU's), to round-off."""
-    from harness.rom.bounds import fmu_shadow, output_bounds, run_shadow, sections
-    from harness.sph.solver import build_problem
+    from sphrom.rom.bounds import fmu_shadow, output_bounds, run_shadow, sections
+    from sphrom.sph.solver import build_problem
     path, data = make(model="exact")
     shadow = fmu_shadow(build_problem(fmu_scene("forced")), PROBES, scale_v=float(np.max(data.sections["ENVPROBE"][1])))
     for tag, value in sections(shadow).items():
@@ -287,9 +287,9 @@ def test_port_complement_terms_fall_slowly_so_port_shadows_keep_every_plane():
     """Why a port FMU's shadow keeps every plane (harness/rom/bounds.py PORT_ALL_PLANES): a port's force and velocity
     are kernel-localized, so the port rows' step-response bound sup|H| of the planes left out falls by less than
     a factor 10 from k_s = 40 to 160 coordinates on damped_forced (N = 100); with every plane it is 0."""
-    from harness.rom.bounds import build_shadow
-    from harness.scene import load_scene
-    from harness.sph.solver import build_problem
+    from sphrom.rom.bounds import build_shadow
+    from sphrom.scene import load_scene
+    from sphrom.sph.solver import build_problem
     problem = build_problem(load_scene("damped_forced"))
     P = len(PROBES)
     h = {}

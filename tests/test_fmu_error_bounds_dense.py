@@ -23,7 +23,7 @@ SCENE = str(Path(__file__).resolve().parent / "data" / "graded_damping.toml")
 def fmus(tmp_path_factory):
     """make(model, fmi) -> (path, data): the FMU of the scene (k = 6), packaged once."""
     from conftest import fmu_maker
-    from harness.scene import load_scene
+    from sphrom.scene import load_scene
     return fmu_maker(tmp_path_factory.mktemp("bound-dense"), probes=base.PROBES, scene_of=lambda _: load_scene(SCENE),
                      bounds=False)
 
@@ -61,9 +61,9 @@ def test_dense_bounds_are_the_python_shadow_fmi2_and_3(fmus):
     """The C core's dense block (fmu_src/rom_bound.c) gives harness/rom/bounds.py's run_shadow + output_bounds on
     the shadow rebuilt from the scene (its sections equal the FMU's) within rtol 1e-9 (plus 1e-13 of the
     outputs' largest); FMI 3 gives FMI 2's bounds (held inputs, rtol 1e-12)."""
-    from harness.rom.bounds import fmu_shadow, output_bounds, run_shadow, sections
-    from harness.scene import load_scene
-    from harness.sph.solver import build_problem
+    from sphrom.rom.bounds import fmu_shadow, output_bounds, run_shadow, sections
+    from sphrom.scene import load_scene
+    from sphrom.sph.solver import build_problem
     path, data = fmus("exact")
     shadow = fmu_shadow(build_problem(load_scene(SCENE)), base.PROBES,
                         scale_v=float(np.max(data.sections["ENVPROBE"][1])))
@@ -92,7 +92,7 @@ def test_core_refuses_a_malformed_dense_shadow(fmus):
     """The loader names the problem: SHDENSE with SHLAM of planes, a negative mu, SHDENSE without SHEGRAM (and the
     reverse), SHLAM of one block without them, SHEGRAM of the wrong shape."""
     from conftest import load_changed
-    from harness.fmu.run.core import CoreError
+    from sphrom.fmu.run.core import CoreError
     _, data = fmus("exact")
 
     def load(change):

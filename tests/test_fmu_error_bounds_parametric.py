@@ -15,7 +15,7 @@ import pytest
 
 import test_fmu_error_bounds as base
 from conftest import fmu_scene
-from harness.rom import parametric as par
+from sphrom.rom import parametric as par
 
 CASE = "unforced"
 RANGES = [par.Range("c", 0.05, 0.2), par.Range("d", 0.0, 5.0)]
@@ -30,7 +30,7 @@ def fmus(tmp_path_factory):
 
 def held_out():
     """The first held-out (c, d) of the trained box (Halton; neither the scene's (0.1, 0) nor a training point)."""
-    from harness.sph.solver import build_problem
+    from sphrom.sph.solver import build_problem
     space = par.parameter_space(build_problem(fmu_scene(CASE)), RANGES)
     c, d = par.held_out_points(space, 1)[0]
     assert (c, d) != (0.1, 0.0) and not any(np.allclose((c, d), p) for p in par.training_points(space))
@@ -74,8 +74,8 @@ def test_parametric_bounds_are_the_python_shadow_fmi2_and_3(fmus):
     shadow rebuilt from the scene (its sections equal the FMU's), within rtol 1e-9 (plus 1e-13 of the outputs'
     largest: |model - shadow| differs by the C Taylor vs scipy Pade exponentials' round-off); FMI 3 gives the
     bounds of FMI 2 (held inputs, rtol 1e-12), certified."""
-    from harness.rom.bounds import fmu_shadow, output_bounds, run_shadow, sections
-    from harness.sph.solver import build_problem
+    from sphrom.rom.bounds import fmu_shadow, output_bounds, run_shadow, sections
+    from sphrom.sph.solver import build_problem
     path, data = fmus("exact")
     shadow = fmu_shadow(build_problem(fmu_scene(CASE)), base.PROBES, parametric=True,
                         scale_v=float(np.max(data.sections["ENVPROBE"][1])))
@@ -109,8 +109,8 @@ def test_parametric_bounds_are_the_python_shadow_fmi2_and_3(fmus):
 
 def test_ordinary_sections_unchanged():
     """A non-parametric FMU's shadow has exactly the eight sections SH* it had (no SHPIECE, SHPARAM)."""
-    from harness.rom.bounds import fmu_shadow, sections
-    from harness.sph.solver import build_problem
+    from sphrom.rom.bounds import fmu_shadow, sections
+    from sphrom.sph.solver import build_problem
     tags = sorted(sections(fmu_shadow(build_problem(fmu_scene(CASE)), base.PROBES)))
     assert tags == sorted(["SHSCAL", "SHLAM", "SHB", "SHC", "SHW0", "SHGRAM", "SHROW", "SHPROBE"])
 
@@ -119,7 +119,7 @@ def test_core_refuses_a_malformed_parametric_shadow(fmus):
     """The loader names the problem: SHPIECE without SHPARAM (and the reverse), the pieces without section PARAMS,
     a c_ref <= 0, a negative residual norm, SHPIECE of the wrong shape; the packaged file itself loads."""
     from conftest import load_changed
-    from harness.fmu.run.core import CoreError
+    from sphrom.fmu.run.core import CoreError
     _, data = fmus("exact")
 
     def load(change):

@@ -3,7 +3,7 @@
 The C core advances z = [a; b] over each communication step by its own matrix
 exponential (scaling and squaring, cached per step length) and, without
 damping, evaluates the free response from the real Schur form.  These tests
-hold it against the Python model of :mod:`harness.rom.exact_linear` (scipy's
+hold it against the Python model of :mod:`sphrom.rom.exact_linear` (scipy's
 expm, an independent implementation), against itself at other communication
 steps, and check the energy over T = 1000, states and bad input.
 """
@@ -17,12 +17,12 @@ import pytest
 from fmpy.fmi1 import FMICallException
 
 from conftest import assert_units_through_declared_types, fmu_scene
-from harness.fmu.make.build import ensure_binaries
-from harness.fmu.run.driver import FMU
-from harness.fmu.make.models import exact_model
-from harness.fmu.make.package import package_fmu
-from harness.fmu.resources import unpack
-from harness.rom.exact_linear import run_exact
+from sphrom.fmu.make.build import ensure_binaries
+from sphrom.fmu.run.driver import FMU
+from sphrom.fmu.make.models import exact_model
+from sphrom.fmu.make.package import package_fmu
+from sphrom.fmu.resources import unpack
+from sphrom.rom.exact_linear import run_exact
 
 K = 6
 PROBES = (0.25, 0.5, 0.66)
@@ -128,7 +128,7 @@ def test_an_importers_jittered_step_is_one_exponential(exact_fmus):
     of 10 ms); each new length would cost a matrix exponential (80 ms at order 282).  The core takes a step within
     8 ulps of its times as the cached one (rom_same_step): one exponential for the whole run, and the outputs equal
     the run at exactly H to 1e-12 of their range."""
-    from harness.fmu.run.core import Core
+    from sphrom.fmu.run.core import Core
     path, data = exact_fmus("forced", 2)
     blob = zipfile.ZipFile(path).read("resources/model.bin")
     core = Core(ensure_binaries().core)
@@ -243,7 +243,7 @@ def test_exact_fmu_reproduces_a_force_it_was_never_trained_on(unforced_exact_fmu
     v(t) = the integral of the (held) input at every particle and no density change, because the SPH
     gradient of a constant vanishes (G 1 = 0).  The exact FMU, whose velocity basis always contains the
     force profile, gives that response to round-off although its POD modes come from a free vibration."""
-    from harness.sph.solver import build_problem
+    from sphrom.sph.solver import build_problem
     scene, path, data = unforced_exact_fmu
     G = build_problem(scene).neighbours.matrix()
     assert np.abs(G @ np.ones(G.shape[1])).max() < 1e-12 * np.abs(G).max()    # the full SPH's rigid response

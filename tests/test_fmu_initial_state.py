@@ -18,16 +18,16 @@ import pytest
 from fmpy.fmi1 import FMICallException
 
 from conftest import fmu_maker, fmu_scene
-from harness.fmu.make.build import ensure_binaries
-from harness.fmu.make.describe import model_description
-from harness.fmu.run.driver import FMU
-from harness.fmu.make.models import exact_model, reduced_model
-from harness.fmu.make.archive import write_fmu
-from harness.fmu.check.python_cosim import cosim_reference
-from harness.fmu.resources import probe_pairs, unpack
-from harness.fmu.variables import vr
-from harness.rom.exact_linear import run_exact
-from harness.sph.solver import build_problem
+from sphrom.fmu.make.build import ensure_binaries
+from sphrom.fmu.make.describe import model_description
+from sphrom.fmu.run.driver import FMU
+from sphrom.fmu.make.models import exact_model, reduced_model
+from sphrom.fmu.make.archive import write_fmu
+from sphrom.fmu.check.python_cosim import cosim_reference
+from sphrom.fmu.resources import probe_pairs, unpack
+from sphrom.fmu.variables import vr
+from sphrom.rom.exact_linear import run_exact
+from sphrom.sph.solver import build_problem
 
 DATA = Path(__file__).parent / "data"
 K = 6
@@ -80,7 +80,7 @@ def test_scale_zero_without_force_stays_at_rest_for_100_s(fmus, model, fmi, case
     round-off too, because its b is taken about the projected rest density (the frozen model's build option
     b="rest": b = K a_rho_rest).  With eq. 2.22's b (b="paper") the FMU drifts at the level of ρ0's projection
     error (test_the_frozen_models_b_option_gives_the_rest_benchs_eq_2_22_fmu; every scene: python -m
-    harness.bench.rest).
+    sphrom.bench.rest).
     Its density outputs stay constant at ρ0 as the density modes represent it (off ρ0 by ρ0's projection error
     at the probes, asserted below 1e-6 of ρ0)."""
     path, data = fmus(model, fmi, case)
@@ -138,7 +138,7 @@ def test_any_finite_scale_scales_the_initial_state(fmus):
 
 
 def test_python_models_scale_one_is_bitwise_and_rest_stays_at_rest():
-    from harness.rom.registry import get_model
+    from sphrom.rom.registry import get_model
     scene = fmu_scene("unforced")
     _, lin, problem, _ = exact_model(scene, K, 10, PROBES, progress=False)
     _, ops, _, _ = reduced_model(scene, K, 10, PROBES, "euler", progress=False)
@@ -224,12 +224,12 @@ def test_states_carry_the_scale_and_reset_restores_the_start_value(fmus, fmi, mo
 
 
 def test_the_frozen_models_b_option_gives_the_rest_benchs_eq_2_22_fmu(fmus, tmp_path):
-    """The frozen model's build option b (harness.bench.rest compares its two values): the FMU packaged with
+    """The frozen model's build option b (sphrom.bench.rest compares its two values): the FMU packaged with
     b="paper" holds eq. 2.22's b = U^vᵀ ρ0⁻¹ G c and otherwise the numbers of the registry's (b="rest") FMU; it
     equals the Python mirror of its resources bit for bit, and left at rest it drifts where the packaged one
     does not."""
-    from harness.bench.rest import rest_run
-    from harness.fmu.make.package import package_fmu
+    from sphrom.bench.rest import rest_run
+    from sphrom.fmu.make.package import package_fmu
     scene = fmu_scene("unforced")
     path, data = fmus("frozen", 2, "unforced")
     _, ops, problem, _ = reduced_model(scene, K, 10, PROBES, "euler", progress=False)

@@ -7,7 +7,7 @@ differ from the held-input run, and without derivatives give exactly today's
 held outputs.  Order 2 and another value reference are refused with fmi2Error
 and a message naming what is allowed.  The frozen FMU takes the derivative
 too: f + (df/dt) tau evaluated at each refresh of its force term, equal bit for
-bit to the Python mirror (harness.fmu.check.python_cosim with ``rates``).
+bit to the Python mirror (sphrom.fmu.check.python_cosim with ``rates``).
 """
 
 import zipfile
@@ -18,14 +18,14 @@ import pytest
 from fmpy.fmi1 import FMICallException
 
 from conftest import fmu_scene
-from harness.fmu.make.build import ensure_binaries
-from harness.fmu.run.cosim import run_cosim
-from harness.fmu.run.driver import FMU
-from harness.fmu.make.models import exact_model
-from harness.fmu.make.package import package_fmu
-from harness.fmu.resources import unpack
-from harness.fmu.variables import vr
-from harness.rom.exact_linear import run_exact
+from sphrom.fmu.make.build import ensure_binaries
+from sphrom.fmu.run.cosim import run_cosim
+from sphrom.fmu.run.driver import FMU
+from sphrom.fmu.make.models import exact_model
+from sphrom.fmu.make.package import package_fmu
+from sphrom.fmu.resources import unpack
+from sphrom.fmu.variables import vr
+from sphrom.rom.exact_linear import run_exact
 from test_fmu_exact import probe_outputs, relative_residual
 
 K = 6
@@ -78,7 +78,7 @@ def test_exact_fmu_with_derivatives_equals_linear_input_model(fmus, tmp_path, re
     scene_force = lambda s: _force(np.asarray(s, float))                 # noqa: E731
     ref_lin = probe_outputs(data, run_exact(lin, t, step=H, force=scene_force, hold="linear").z)
     ref_held = probe_outputs(data, run_exact(lin, t, step=H, force=scene_force, hold="held").z)
-    from harness.fmu.variables import members
+    from sphrom.fmu.variables import members
     model = members(lin_run.names, "v_probe_j") + members(lin_run.names, "rho_probe_j")   # not the error bounds
     residual = relative_residual(lin_run.values[:, model], ref_lin)
     record_property("relative_residual", residual)
@@ -146,7 +146,7 @@ def test_frozen_fmu_with_derivatives_equals_python_bitwise(fmus):
     """The frozen FMU with f and df/dt at every point, over whole, shortened and sub-dt steps, equals the
     Python mirror (cosim_reference with rates) bit for bit; a zero rate gives the held run bit for bit; the
     rate changes the outputs; and f reads back as f + rate h after a step."""
-    from harness.fmu.check.python_cosim import cosim_reference
+    from sphrom.fmu.check.python_cosim import cosim_reference
     path = fmus("frozen", 2)
     data = unpack(zipfile.ZipFile(path).read("resources/model.bin"))
     dt = data.dt
@@ -204,8 +204,8 @@ def test_not_allowed_before_initialization(fmus):
 
 def test_linear_input_converges_at_second_order_held_at_first(fmus):
     """Against the same FMU at 1 ms with df/dt: halving the step divides the held-input error by ~2 and the
-    linear-input error by ~4 (harness.bench.input_derivatives measures tenmode the same way)."""
-    from harness.bench.input_derivatives import relative_l2, velocity_columns
+    linear-input error by ~4 (sphrom.bench.input_derivatives measures tenmode the same way)."""
+    from sphrom.bench.input_derivatives import relative_l2, velocity_columns
     path = fmus("exact", 2)
     force = "3e-2*sin(2*pi*3*t) + 1e-2"
     ref = velocity_columns(run_cosim(path, force=force, t_end=0.5, step=1e-3, initial_state_scale=1))

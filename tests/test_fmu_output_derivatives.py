@@ -13,9 +13,9 @@ import pytest
 from fmpy.fmi1 import FMICallException
 
 from conftest import fmu_maker
-from harness.fmu.run.driver import FMU
-from harness.fmu.check.python_cosim import linear_output_rates
-from harness.fmu.variables import vr
+from sphrom.fmu.run.driver import FMU
+from sphrom.fmu.check.python_cosim import linear_output_rates
+from sphrom.fmu.variables import vr
 
 K = 6
 PROBES = (0.25, 0.5, 0.66)

@@ -6,8 +6,8 @@ import zipfile
 import pytest
 
 from conftest import fmu_scene
-from harness.fmu.check import page
-from harness.fmu.make.package import package_fmu
+from sphrom.fmu.check import page
+from sphrom.fmu.make.package import package_fmu
 
 
 @pytest.fixture(scope="module")
@@ -83,8 +83,8 @@ def test_the_browser_check_sees_an_overflowing_table(tmp_path):
 
 def test_the_packaging_message_says_what_each_model_does_with_the_force_profile():
     """The exact model appends the profile's residual whatever its size: never 'above 0.01' for it."""
-    from harness.commands.fmu import input_decision
-    from harness.rom.registry import get_model
+    from sphrom.commands.fmu import input_decision
+    from sphrom.rom.registry import get_model
     exact, frozen = get_model("exact"), get_model("frozen")
     assert "whatever its size" in input_decision(exact, augmented=True) and "0.01" not in input_decision(exact, True)
     assert input_decision(frozen, augmented=True).startswith("above 0.01")

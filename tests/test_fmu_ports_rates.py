@@ -2,7 +2,7 @@
 
 The frozen FMU evaluates F_j + (dF_j/dt) τ at each refresh of its force term (τ the internal step's time after
 the communication point), ports in order, divided by the area after; the Python mirror
-(:class:`harness.fmu.check.python_cosim.FrozenCosim` with ``port_rates``) computes the same bits.  With rates the
+(:class:`sphrom.fmu.check.python_cosim.FrozenCosim` with ``port_rates``) computes the same bits.  With rates the
 port force follows a smooth time history to second order in the communication step, where a held force is
 first order: against the same FMU fed the exact force at every refresh, the rate run is much closer.
 """
@@ -14,11 +14,11 @@ import numpy as np
 import pytest
 
 from conftest import fmu_scene
-from harness.fmu.make.build import ensure_binaries
-from harness.fmu.run.driver import FMU
-from harness.fmu.make.package import package_fmu
-from harness.fmu.resources import unpack
-from harness.fmu.variables import vr
+from sphrom.fmu.make.build import ensure_binaries
+from sphrom.fmu.run.driver import FMU
+from sphrom.fmu.make.package import package_fmu
+from sphrom.fmu.resources import unpack
+from sphrom.fmu.variables import vr
 
 PORTS = (0.3, 0.7)
 PROBES = (0.25, 0.5)
@@ -38,7 +38,7 @@ def frozen_port_fmu(tmp_path_factory):
 
 def forces(t):
     """Two smooth port forces [N] (a sine and a ramp), (len(t), 2): inside the level of
-    harness.bench.port_coupling (1e-3 N)."""
+    sphrom.bench.port_coupling (1e-3 N)."""
     t = np.atleast_1d(np.asarray(t, float))
     return np.stack([1e-3 * np.sin(2 * np.pi * 4 * t + 0.3), 2e-3 * t], axis=-1)
 
@@ -76,7 +76,7 @@ def run_fmu(path, steps, F, rates=None, f=None, f_rates=None, n_freeze=None):
 
 def run_mirror(data, steps, F, rates=None, f=None, f_rates=None, n_freeze=None):
     """The same run through the Python mirror (FrozenCosim)."""
-    from harness.fmu.check.python_cosim import FrozenCosim
+    from sphrom.fmu.check.python_cosim import FrozenCosim
     ref = FrozenCosim(data, n_freeze=n_freeze)
     ref.area = AREA
 

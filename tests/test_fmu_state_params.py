@@ -17,14 +17,14 @@ import pytest
 from fmpy.fmi1 import FMICallException
 
 from conftest import fmu_scene
-from harness.fmu.make.build import ensure_binaries
-from harness.fmu.make.describe import model_description
-from harness.fmu.run.driver import FMU
-from harness.fmu.make.package import package_fmu
-from harness.fmu.make.archive import write_fmu
-from harness.fmu.resources import unpack
-from harness.fmu.variables import vr
-from harness.rom import parametric as par
+from sphrom.fmu.make.build import ensure_binaries
+from sphrom.fmu.make.describe import model_description
+from sphrom.fmu.run.driver import FMU
+from sphrom.fmu.make.package import package_fmu
+from sphrom.fmu.make.archive import write_fmu
+from sphrom.fmu.resources import unpack
+from sphrom.fmu.variables import vr
+from sphrom.rom import parametric as par
 
 DATA = Path(__file__).resolve().parent / "data"
 K = 6

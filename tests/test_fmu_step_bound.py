@@ -11,12 +11,12 @@ import zipfile
 import pytest
 
 from conftest import fmu_scene
-from harness.errors import FieldError
-from harness.fmu.check import python_cosim as pc
-from harness.fmu.make.build import ensure_binaries
-from harness.fmu.run.core import Core, CoreError
-from harness.fmu.run.driver import FMU as Slave
-from harness.fmu.make.package import check_options, package_fmu
+from sphrom.errors import FieldError
+from sphrom.fmu.check import python_cosim as pc
+from sphrom.fmu.make.build import ensure_binaries
+from sphrom.fmu.run.core import Core, CoreError
+from sphrom.fmu.run.driver import FMU as Slave
+from sphrom.fmu.make.package import check_options, package_fmu
 
 
 @pytest.fixture(scope="module")
@@ -33,7 +33,7 @@ def frozen_fmus(tmp_path_factory):
 
 def test_limits_equal_the_c_core(frozen_fmus):
     """rom_step_work, rom_max_steps_per_call and the dt floor: the Python twin's numbers, at several n_freeze."""
-    from harness.fmu.resources import unpack
+    from sphrom.fmu.resources import unpack
     blob = zipfile.ZipFile(frozen_fmus[2]).read("resources/model.bin")
     data = unpack(blob)
     model = Core(ensure_binaries().core).load(blob)
@@ -60,7 +60,7 @@ def test_limits_equal_the_c_core(frozen_fmus):
 def test_importer_gets_the_limits(frozen_fmus, fmi):
     """Through fmpy: dt below the floor in initialization mode refused at once naming dt and the floor (the
     instance usable after a reset); doStep h = 1e4 s and 1e7 s at the model's dt refused naming the cap, at once."""
-    from harness.fmu.resources import unpack
+    from sphrom.fmu.resources import unpack
     dt = unpack(zipfile.ZipFile(frozen_fmus[fmi]).read("resources/model.bin")).dt
     with Slave(str(frozen_fmus[fmi])) as slave:
         fmu = slave.fmu
@@ -88,7 +88,7 @@ def test_importer_gets_the_limits(frozen_fmus, fmi):
 
 def test_packaging_refuses_a_dt_below_the_absolute_floor():
     from test_scene_minimal import MINIMAL_SCENE
-    from harness.scene import parse_scene
+    from sphrom.scene import parse_scene
     scene = parse_scene(MINIMAL_SCENE, "my_bar.toml", name="my_bar")
     scene = dataclasses.replace(scene, sph=dataclasses.replace(scene.sph, dt=1e-10))     # the run is never made
     with pytest.raises(FieldError, match=r"dt = 1e-10 s is below the smallest internal step"):

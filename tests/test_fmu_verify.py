@@ -14,15 +14,15 @@ import numpy as np
 import pytest
 
 from conftest import fmu_scene
-from harness.cli import main
-from harness.expr import compile_expr
-from harness.fmu.make.build import ensure_binaries
-from harness.fmu.run.cosim import run_cosim
-from harness.fmu.make.auto import package_auto
-from harness.fmu.make.package import package_fmu
-from harness.fmu.variables import lookup, vr
-from harness.rom.registry import fmu_model_names
-from harness.sph.solver import build_problem, run_sph
+from sphrom.cli import main
+from sphrom.expr import compile_expr
+from sphrom.fmu.make.build import ensure_binaries
+from sphrom.fmu.run.cosim import run_cosim
+from sphrom.fmu.make.auto import package_auto
+from sphrom.fmu.make.package import package_fmu
+from sphrom.fmu.variables import lookup, vr
+from sphrom.rom.registry import fmu_model_names
+from sphrom.sph.solver import build_problem, run_sph
 
 K = 6
 
@@ -103,7 +103,7 @@ def l2(u, ref, t, base=0.0):
 
 
 def independent_fmu_run(path, md, force, T, step, scale):
-    """The FMU's probe outputs at the communication points, (v, rho), without harness.fmu.check.verify: sphrom cosim's
+    """The FMU's probe outputs at the communication points, (v, rho), without sphrom.fmu.check.verify: sphrom cosim's
     loop (f linear with df/dt) where the FMU declares canInterpolateInputs, else fmpy.simulate_fmu (f held)."""
     t = np.arange(int(round(T / step)) + 1) * step
     names = {x.name for x in md.modelVariables}
@@ -249,8 +249,8 @@ def test_every_variable_of_packaged_fmus_is_a_row_of_the_table(packaged):
 
 
 def test_the_benchmark_section_is_replaced_in_place_or_put_before_the_stress_maps():
-    from harness.bench.fmu_verify import SECTION_HEADING
-    from harness.measure.markdown import replace_section
+    from sphrom.bench.fmu_verify import SECTION_HEADING
+    from sphrom.measure.markdown import replace_section
     doc = "# Benchmarks\n\n## The FMU\n\ntext\n\n## Stability stress maps\n\nmaps\n"
     first = replace_section(doc, SECTION_HEADING, [SECTION_HEADING, "", "| a |", ""])
     assert first == ("# Benchmarks\n\n## The FMU\n\ntext\n\n" + SECTION_HEADING + "\n\n| a |\n\n"
@@ -261,12 +261,12 @@ def test_the_benchmark_section_is_replaced_in_place_or_put_before_the_stress_map
 
 
 def test_the_benchmark_writes_its_table_from_the_measurement(tmp_path):
-    """python -m harness.bench.fmu_verify on a small scene: the CSV rows and the section of the report carry
+    """python -m sphrom.bench.fmu_verify on a small scene: the CSV rows and the section of the report carry
     the verification's errors; the speed-up is the ratio of the medians."""
     import csv
 
-    from harness.bench.fmu_verify import SECTION_HEADING
-    from harness.bench.fmu_verify import main as bench_main
+    from sphrom.bench.fmu_verify import SECTION_HEADING
+    from sphrom.bench.fmu_verify import main as bench_main
     scene_file = tmp_path / "small.toml"
     scene_file.write_text(fmu_scene("forced").text)
     report = tmp_path / "B.md"

@@ -13,14 +13,14 @@ import numpy as np
 import pytest
 
 from conftest import fmu_scene
-from harness.fmu.make.build import ensure_binaries
-from harness.fmu.make.models import particle_sections, reduced_model
-from harness.fmu.make.package import package_fmu
-from harness.fmu.resources import pack, unpack
-from harness.fmu.run.core import Core, CoreError
-from harness.rom.registry import get_model
-from harness.scene import load_scene
-from harness.sph.solver import build_problem
+from sphrom.fmu.make.build import ensure_binaries
+from sphrom.fmu.make.models import particle_sections, reduced_model
+from sphrom.fmu.make.package import package_fmu
+from sphrom.fmu.resources import pack, unpack
+from sphrom.fmu.run.core import Core, CoreError
+from sphrom.rom.registry import get_model
+from sphrom.scene import load_scene
+from sphrom.sph.solver import build_problem
 
 PORTS = (0.3, 0.7)
 
@@ -46,7 +46,7 @@ def test_packaging_chooses_the_particles_where_they_cost_less(port_model):
 def test_the_core_equals_the_python_direct_refresh_bitwise(port_model):
     """The core's particle refresh sums in refresh_direct_path's order: 2000 internal steps (n_freeze 1 and 7)
     from the scene's initial state give the Python model's (refresh="direct") reduced state bit for bit."""
-    from harness.fmu.check.python_cosim import FrozenCosim
+    from sphrom.fmu.check.python_cosim import FrozenCosim
     blob, data = port_model
     core = Core(ensure_binaries().core)
     for n_freeze in (1, 7):
@@ -68,7 +68,7 @@ def test_the_core_equals_the_python_direct_refresh_bitwise(port_model):
 def test_particles_against_the_tensor_path(port_model):
     """The same model packed with its refresh tensor (and without the particle sections): other bits (another
     order of the sums), the same run to 1e-12 of the outputs' swing over 20 000 internal steps."""
-    from harness import defaults
+    from sphrom import defaults
     blob, data = port_model
     with_tensor, *_ = reduced_model(fmu_scene("forced"), 6, data.n_freeze, defaults.PROBES, data.integrator,
                                     progress=False, ports=PORTS, tensor="always")

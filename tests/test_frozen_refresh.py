@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 
 from conftest import small_scene
-from harness.fmu.make.build import ensure_binaries
-from harness.fmu.make.models import reduced_model
-from harness.fmu.resources import pack
-from harness.fmu.run.core import Core
-from harness.rom.operators import pair_index, refresh_tensor
+from sphrom.fmu.make.build import ensure_binaries
+from sphrom.fmu.make.models import reduced_model
+from sphrom.fmu.resources import pack
+from sphrom.fmu.run.core import Core
+from sphrom.rom.operators import pair_index, refresh_tensor
 
 
 def test_tensor_is_symmetric_bit_for_bit_and_equals_the_particle_product():
@@ -65,7 +65,7 @@ def test_c_refresh_paths_and_skip_give_the_same_bits(model, scale):
 
 
 def test_refresh_setter_names_the_problem(model):
-    from harness.fmu.run.core import CoreError
+    from sphrom.fmu.run.core import CoreError
     with pytest.raises(KeyError):
         model.set_refresh(path="sideways")
     with pytest.raises(CoreError, match="no particle sections"):      # this model keeps the tensor

@@ -7,9 +7,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from harness.cli import main
-from harness.scene import dump_toml, load_scene, scene_dict
-from harness.sph.solver import (BLOWUP_FACTOR, GROWTH_WARN, build_problem, energy, run_sph, stability,
+from sphrom.cli import main
+from sphrom.scene import dump_toml, load_scene, scene_dict
+from sphrom.sph.solver import (BLOWUP_FACTOR, GROWTH_WARN, build_problem, energy, run_sph, stability,
                                 step_count)
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -131,7 +131,7 @@ def gaussian_force_scene(tmp_path_factory):
 
 
 def test_jump_detector_smooth_localised_fields_and_real_jumps(gaussian_force_scene):
-    from harness.references.common import coefficient_breaks, field_jumps
+    from sphrom.references.common import coefficient_breaks, field_jumps
     assert coefficient_breaks(gaussian_force_scene).size == 0        # the old detector found ~1000 here
     np.testing.assert_allclose(coefficient_breaks(load_scene("heterogeneous")), [0.0, 0.5], atol=1e-12)
     for name in ("multimode", "tenmode", "gaussian", "high_frequency"):
@@ -146,8 +146,8 @@ def test_jump_detector_smooth_localised_fields_and_real_jumps(gaussian_force_sce
 
 
 def test_scene_without_paper_table_is_a_normal_scene(gaussian_force_scene, tmp_path, capsys):
-    from harness.report.accuracy import AGREEMENT_TARGET, AGREEMENT_TARGET_JUMP, agreement_target
-    from harness.report.convergence import _order_reason
+    from sphrom.report.accuracy import AGREEMENT_TARGET, AGREEMENT_TARGET_JUMP, agreement_target
+    from sphrom.report.convergence import _order_reason
     assert gaussian_force_scene.paper == {}
     out = tmp_path / "run.h5"
     assert main(["sph", str(gaussian_force_scene.source), "--out", str(out), "--quiet"]) == 0
@@ -178,11 +178,11 @@ def test_continuum_references_agree_on_an_unseen_smooth_scene(gaussian_force_sce
     error at that N (multimode at N = 100: ~1e-1 against the exact solution), more than 1000x the
     references' disagreement.
     """
-    from harness.norms import relative_l2
-    from harness.references import fd, pypde_ref, skfem_ref
-    from harness.references.common import output_times
-    from harness.report.accuracy import AGREEMENT_TARGET
-    from harness.sph.operator import particle_positions
+    from sphrom.norms import relative_l2
+    from sphrom.references import fd, pypde_ref, skfem_ref
+    from sphrom.references.common import output_times
+    from sphrom.report.accuracy import AGREEMENT_TARGET
+    from sphrom.sph.operator import particle_positions
     scene = gaussian_force_scene
     x = particle_positions(scene.L, scene.sph.n_particles)
     t = output_times(scene)
@@ -226,7 +226,7 @@ def _spawn_sph(scene_path, out, *extra):
     import signal
     import subprocess
     import sys
-    return subprocess.Popen([sys.executable, "-m", "harness", "sph", str(scene_path), "--out", str(out), "--quiet",
+    return subprocess.Popen([sys.executable, "-m", "sphrom", "sph", str(scene_path), "--out", str(out), "--quiet",
                              *extra], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
 
@@ -237,7 +237,7 @@ def _temporaries(folder):
 
 def _writing(folder):
     """Temporaries the run has begun to write into.  The run's start probes its folder by creating and
-    removing the very same temporary, empty (:func:`harness.runio.check_output_path`): a test that took that
+    removing the very same temporary, empty (:func:`sphrom.runio.check_output_path`): a test that took that
     probe for the write killed the run before it computed anything, and found nothing left behind."""
     found = []
     for p in _temporaries(folder):
@@ -304,7 +304,7 @@ def test_sigterm_during_the_run(tmp_path):
     path = tmp_path / "long.toml"
     path.write_text(dump_toml(data))
     start = time.monotonic()
-    subprocess.run([sys.executable, "-m", "harness", "sph", str(path), "--t-end", "0.01", "--every", "1",
+    subprocess.run([sys.executable, "-m", "sphrom", "sph", str(path), "--t-end", "0.01", "--every", "1",
                     "--out", str(tmp_path / "tiny.h5"), "--quiet"], check=True, capture_output=True,
                    cwd=ROOT)
     startup = time.monotonic() - start
@@ -322,7 +322,7 @@ def test_sigterm_during_the_run(tmp_path):
 
 def test_stale_temporaries_of_dead_processes_only(tmp_path):
     import subprocess
-    from harness.runio import atomic_path
+    from sphrom.runio import atomic_path
     dead = subprocess.Popen(["true"])
     dead.wait()
     live = subprocess.Popen(["sleep", "60"])
@@ -344,7 +344,7 @@ def test_stale_temporaries_of_dead_processes_only(tmp_path):
 
 def test_interpolation_with_breaks_closer_than_the_samples():
     """Two breaks with no sample between them (a narrow step in a coefficient) used to crash the references."""
-    from harness.references.common import interpolate
+    from sphrom.references.common import interpolate
     xs = (np.arange(16) + 0.5) / 16
     ys = np.stack([np.sin(2 * np.pi * xs), np.cos(2 * np.pi * xs)])
     xq = np.array([0.2, 0.5, 0.505, 0.52, 0.9])

@@ -14,9 +14,9 @@ import zipfile
 import pytest
 
 from conftest import small_scene
-from harness.fmu.make.build import ensure_binaries
-from harness.fmu.make.package import package_fmu
-from harness.rom.parametric import parse_vary
+from sphrom.fmu.make.build import ensure_binaries
+from sphrom.fmu.make.package import package_fmu
+from sphrom.rom.parametric import parse_vary
 
 SCENARIOS = ["basic", "state", "bad", "resources", "cycles", "threads", "edge", "bound"]
 CASES = {"ports-exact": dict(model="exact", ports=[0.3, 0.7]), "ports-frozen": dict(model="frozen", ports=[0.3]),

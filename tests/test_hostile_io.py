@@ -17,8 +17,8 @@ from pathlib import Path
 
 import pytest
 
-from harness.cli import main
-from harness.runio import atomic_path, check_output_path
+from sphrom.cli import main
+from sphrom.runio import atomic_path, check_output_path
 
 ROOT = os.geteuid() == 0 if hasattr(os, "geteuid") else False
 
@@ -72,7 +72,7 @@ def test_a_fifo_gets_the_output_and_stays_a_fifo(command, hostile_scene, hostile
 
 
 def test_a_fifo_nobody_reads_is_refused_after_a_bounded_wait(hostile_scene, tmp_path, capsys, monkeypatch):
-    import harness.runio as runio
+    import sphrom.runio as runio
     monkeypatch.setattr(runio, "FIFO_WAIT_S", 0.3)
     fifo = tmp_path / "out.h5"
     os.mkfifo(fifo)
@@ -187,7 +187,7 @@ def test_the_check_creates_the_very_temporary(tmp_path):
         if ROOT:                       # root writes anyway: the check agrees with what the write would do
             assert check_output_path(locked / "x.h5")
         else:
-            from harness.errors import FieldError
+            from sphrom.errors import FieldError
             with pytest.raises(FieldError, match="cannot create a file in folder"):
                 check_output_path(locked / "x.h5")
     finally:

@@ -11,8 +11,8 @@ import warnings
 
 import pytest
 
-from harness.cli import main
-from harness.errors import exact
+from sphrom.cli import main
+from sphrom.errors import exact
 
 
 def refused(capsys, argv, *words, out=None):

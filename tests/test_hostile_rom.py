@@ -8,15 +8,15 @@ import numpy as np
 import pytest
 
 from conftest import small_scene
-from harness.cli import main
-from harness.errors import SimulationError
-from harness.pod.io import read_basis
-from harness.pod.pipeline import basis_for_scene
-from harness.rom.registry import get_model
-from harness.rom.stepping import (linearized_jacobian, reduced_amplification, reduced_energy,
+from sphrom.cli import main
+from sphrom.errors import SimulationError
+from sphrom.pod.io import read_basis
+from sphrom.pod.pipeline import basis_for_scene
+from sphrom.rom.registry import get_model
+from sphrom.rom.stepping import (linearized_jacobian, reduced_amplification, reduced_energy,
                                   reduced_stability_warnings, reduced_step_matrix)
-from harness.scene import dump_toml, load_scene, scene_dict
-from harness.sph.solver import BLOWUP_FACTOR, GROWTH_WARN, build_problem, energy_bound_factors, step_count
+from sphrom.scene import dump_toml, load_scene, scene_dict
+from sphrom.sph.solver import BLOWUP_FACTOR, GROWTH_WARN, build_problem, energy_bound_factors, step_count
 
 
 def _stiff_scene(tmp_path, T=0.5, name="stiff_rom"):
@@ -140,7 +140,7 @@ def test_no_false_alarm_on_training_scenes(base):
 def test_forced_run_from_rest_is_not_a_runaway(name):
     """A scene starting at rest under a force: the linear models' runaway bound was 1e6 |z0| = 0 and stopped
     the run at its first sample; now it counts the forcing (|z| <= |z0| + |B| int |f| for the exact model)."""
-    from harness.rom.exact_linear import linear_runaway_bound
+    from sphrom.rom.exact_linear import linear_runaway_bound
     scene = small_scene("damped_forced", T=0.5, n=32, v0="0")
     problem = build_problem(scene)
     model = get_model(name)
@@ -161,13 +161,13 @@ def test_exact_fmu_forced_from_rest_is_not_a_runaway(tmp_path):
     and equals the Python exact model (held input)."""
     import zipfile
 
-    from harness.fmu.make.build import ensure_binaries
-    from harness.fmu.run.driver import FMU
-    from harness.fmu.make.models import exact_model
-    from harness.fmu.make.package import package_fmu
-    from harness.rom.exact_linear import run_exact
+    from sphrom.fmu.make.build import ensure_binaries
+    from sphrom.fmu.run.driver import FMU
+    from sphrom.fmu.make.models import exact_model
+    from sphrom.fmu.make.package import package_fmu
+    from sphrom.rom.exact_linear import run_exact
     from test_fmu_exact import probe_outputs, relative_residual
-    from harness.fmu.resources import unpack
+    from sphrom.fmu.resources import unpack
     scene = small_scene("damped_forced", T=0.5, n=32, v0="0")
     path = tmp_path / "rest.fmu"
     package_fmu(scene, path, k=4, fmi=2, progress=False, binaries=ensure_binaries(), model="exact")

@@ -20,19 +20,20 @@ from pathlib import Path
 import pytest
 
 from conftest import small_scene
-from harness.cli import main
-from harness.bench.hostile import sphrom_catches_sigterm
-from harness.errors import Interrupted
-from harness.runio import atomic_path, atomic_paths
-from harness.signals import Guard, deferred, pending
-from harness.sweep.table import read_results
+from sphrom.cli import main
+from sphrom.paths import import_path
+from sphrom.bench.hostile import sphrom_catches_sigterm
+from sphrom.errors import Interrupted
+from sphrom.runio import atomic_path, atomic_paths
+from sphrom.signals import Guard, deferred, pending
+from sphrom.sweep.table import read_results
 
 ROOT = Path(__file__).resolve().parents[1]
-ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
+ENV = {**os.environ, "PYTHONPATH": import_path(ROOT)}
 
 
 def spawn(args, cwd=ROOT):
-    return subprocess.Popen([sys.executable, "-m", "harness", *args], cwd=cwd, env=ENV, stdout=subprocess.PIPE,
+    return subprocess.Popen([sys.executable, "-m", "sphrom", *args], cwd=cwd, env=ENV, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True,
                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
 
@@ -131,7 +132,7 @@ def test_outputs_written_together_are_renamed_together(tmp_path):
 
 def test_main_reports_a_lost_signal_and_what_was_written(tmp_path, capsys, monkeypatch):
     """A command that returns normally after its signal was lost exits 128 + the signal, saying what it wrote."""
-    import harness.commands.scenes as scenes
+    import sphrom.commands.scenes as scenes
     out = tmp_path / "x.txt"
 
     class Finaliser:
@@ -242,7 +243,7 @@ def test_a_signal_at_a_moment_of_a_sweep(sweep_folder, tmp_path, sig, delay):
 def test_a_signal_while_the_cluster_starts_is_held(sweep_folder, tmp_path, capsys, monkeypatch):
     """The LocalCluster's start is not interrupted half-way (it printed a 28-line atexit traceback): the signal
     is held, the cluster closed, then the sweep ends with one line and writes nothing."""
-    import harness.sweep.study as study
+    import sphrom.sweep.study as study
     real = study.connect
 
     def connect(*args):
@@ -255,8 +256,8 @@ def test_a_signal_while_the_cluster_starts_is_held(sweep_folder, tmp_path, capsy
 def test_a_second_signal_during_the_final_write_leaves_no_half(sweep_folder, tmp_path, capsys, monkeypatch):
     """Interrupted after some runs, the sweep writes them; a second signal during that write stops both renames
     and the line says so (nothing of this session was written)."""
-    import harness.sweep.study as study
-    import harness.sweep.table as table
+    import sphrom.sweep.study as study
+    import sphrom.sweep.table as table
     real_row, real_h5 = study.input_row, table._write_h5
     calls = []
 
@@ -279,7 +280,7 @@ def test_a_signal_after_the_commands_last_check_is_not_lost(monkeypatch, capsys)
     """A signal between the command's last look at the guard and the guard's `finished` state is only recorded
     (raising off, not yet finished): main still ends with one line and 128 + the signal, once.  Seen under load
     as a lost SIGTERM at the end of a sweep (exit 0, no line)."""
-    import harness.cli as cli
+    import sphrom.cli as cli
 
     def guarded(guard, argv):
         guard.command = "scenes"

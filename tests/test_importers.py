@@ -4,7 +4,7 @@ container (FMI 3) and Ecos (through ecospy, FMI 2 and 3; it needs the system lib
 libcosim loads the FMU with the FMI Library, runs its own instantiate/initialise/step sequence and reads the
 outputs; the container's own runtime loads, instantiates and steps the FMI 3 FMU (fmpy only drives the
 container), and sets the start values listed in the container's description (parameters before initialization,
-inputs it exposes).  The outputs must equal fmpy's (through :class:`harness.fmu.run.driver.FMU`) to round-off: the
+inputs it exposes).  The outputs must equal fmpy's (through :class:`sphrom.fmu.run.driver.FMU`) to round-off: the
 plain frozen, exact and balanced FMUs, a port FMU (constant port forces), a parametric FMU (c and d set before
 initialization), and each FMU left at its start values (initial_state_scale = 0: at rest).  Skips, with a message,
 where an importer is not installed.  libcosim imports FMI 2.0 only; fmi-sim (``cargo install fmi-sim``, a Rust
@@ -20,10 +20,10 @@ import numpy as np
 import pytest
 
 from conftest import fmu_scene
-from harness.fmu.make.build import ensure_binaries
-from harness.fmu.run.driver import FMU
-from harness.fmu.make.package import package_fmu
-from harness.rom.parametric import parse_vary
+from sphrom.fmu.make.build import ensure_binaries
+from sphrom.fmu.run.driver import FMU
+from sphrom.fmu.make.package import package_fmu
+from sphrom.rom.parametric import parse_vary
 
 H, N_STEPS = 0.01, 50
 # libcosim against fmpy: measured differences up to 2.2e-16 on the O(1) outputs of the exact and balanced FMUs and

@@ -1,7 +1,7 @@
 """Every input channel at every frequency: the force along its profile and each port force, from a
 constant force (s = 0: the static deflection and the rigid motion) through the band, in the frozen and the exact
-model's bases (:mod:`harness.rom.inputs`), against the full SPH's equations linear in J integrated exactly in time
-(:func:`harness.rom.reference.linear_reference`) and against the full SPH.
+model's bases (:mod:`sphrom.rom.inputs`), against the full SPH's equations linear in J integrated exactly in time
+(:func:`sphrom.rom.reference.linear_reference`) and against the full SPH.
 
 Each case also runs the bases as main had them (the build option ``input_moments=False``: the port's short-time
 directions and the profile's own column only) and checks that they miss by more than the tolerance, so the
@@ -12,13 +12,13 @@ import numpy as np
 import pytest
 
 from conftest import small_scene
-from harness.pod.pipeline import basis_for_scene
-from harness.measure.responses import held as held_over, held_response
-from harness.rom import inputs
-from harness.rom.reference import linear_reference
-from harness.rom.registry import get_model
-from harness.scene import derive_scene
-from harness.sph.solver import build_problem
+from sphrom.pod.pipeline import basis_for_scene
+from sphrom.measure.responses import held as held_over, held_response
+from sphrom.rom import inputs
+from sphrom.rom.reference import linear_reference
+from sphrom.rom.registry import get_model
+from sphrom.scene import derive_scene
+from sphrom.sph.solver import build_problem
 
 H = 0.01                 # communication step [s]; inputs held over it, as an importer sets them
 TOL = 2e-2               # the accuracy asked of every input: relative L² error of the port velocities (or the field)
@@ -67,7 +67,7 @@ def test_slow_port_forces_on_a_damped_bar():
     10 ms: the exact model's port velocities within 2e-2 of the linear SPH integrated exactly, where the bases
     without these directions miss by more, and of the full SPH (the nonlinear one, its own integrator); the
     errors show in a failing assertion (``sphrom bench inputs`` measures the same cases at full size)."""
-    from harness.sph.ports import run_sph_ports
+    from sphrom.sph.ports import run_sph_ports
     T = 6.0
     scene = small_scene("damped_forced", T=T, n=100)
     problem, basis = setup(scene)
@@ -89,7 +89,7 @@ def test_constant_port_force_on_an_undamped_bar():
     """tenmode (d = 0, N = 64) with a port at 0.5, from rest, a constant 1e-3 N: the bar accelerates without end.
     v_port within 2e-2 for the frozen and the exact model, where the exact model's bases without these directions
     miss by more, and the exact model's momentum Σ m_i v_i grows exactly as the impulse F S t (the rigid mode in the basis)."""
-    from harness.sph.ports import momentum_weights
+    from sphrom.sph.ports import momentum_weights
     T = 4.0
     scene = small_scene("tenmode", T=2.0, n=64)
     problem, basis = setup(scene)
@@ -172,10 +172,10 @@ def test_balanced_model_with_ports(tmp_path):
     (N = 48) with a port at 0.5 from rest under a constant 1e-3 N, v_port within 2e-2 of the linear SPH at the
     default order tolerance; its FMU (FMI 2) equals the Python model (the same
     propagators) to 1e-12 with the port forces held over each step."""
-    from harness.fmu.make.build import ensure_binaries
-    from harness.fmu.make.package import package_fmu
-    from harness.fmu.run.driver import FMU
-    from harness.fmu.variables import vr
+    from sphrom.fmu.make.build import ensure_binaries
+    from sphrom.fmu.make.package import package_fmu
+    from sphrom.fmu.run.driver import FMU
+    from sphrom.fmu.variables import vr
     T = 4.0
     scene = small_scene("tenmode", T=2.0, n=48)
     problem = build_problem(scene)
@@ -215,13 +215,13 @@ def test_balanced_model_with_ports(tmp_path):
 
 @pytest.mark.parametrize("base, d", [("tenmode", 0.0), ("damped_forced", None)])
 def test_dominant_modes_hold_the_step_response(base, d):
-    """The channel's dominant modes (:func:`harness.rom.inputs.dominant_modes`): the basis they complete misses at
+    """The channel's dominant modes (:func:`sphrom.rom.inputs.dominant_modes`): the basis they complete misses at
     most ``modal_tol`` of the port's step response over the horizon, measured independently on the full linear
     SPH integrated exactly in time (relative L² in time of the velocity field, Euclidean as the frozen model's
     basis); a looser tolerance takes no more modes. On the undamped bar the POD basis and the s = 0 and in-band
     directions alone miss more than the tolerance (the ringing), so modes are taken; on the damped bar
     (d = 10) the static deflection already holds the quasi-static response and none are.  (At this small N the
-    tolerances are tighter than the default :data:`harness.rom.inputs.MODAL_TOL`.)"""
+    tolerances are tighter than the default :data:`sphrom.rom.inputs.MODAL_TOL`.)"""
     T = 2.0
     scene = small_scene(base, T=T, n=48)
     problem, basis = setup(scene)
@@ -264,8 +264,8 @@ def test_a_port_fmu_steps_with_symplectic_euler_unless_told():
     symplectic Euler it does not: asserted below a fifth of explicit Euler's drift, both printed on
     failure); without ports the scene's integrator; a given
     --integrator is kept; a linear model has none."""
-    from harness.fmu.make.options import check_options, default_integrator
-    from harness.sph.ports import run_sph_ports
+    from sphrom.fmu.make.options import check_options, default_integrator
+    from sphrom.sph.ports import run_sph_ports
     scene = small_scene("tenmode", T=4.0, n=64, dt=2e-3)         # a long step: explicit Euler's growth shows
     assert scene.sph.integrator == "euler"
     assert default_integrator(scene, (0.5,)) == "symplectic" and default_integrator(scene) == "euler"
@@ -286,8 +286,8 @@ def test_a_port_fmu_steps_with_symplectic_euler_unless_told():
 
 
 def test_modes_above_the_dense_limit_are_the_lowest_dense_ones(monkeypatch):
-    """Above :data:`harness.rom.inputs.MODAL_DENSE_N` particles the candidates are the lowest
-    :data:`~harness.rom.inputs.MODAL_SPARSE` modes by shift-invert Lanczos (the rigid mode included): the same
+    """Above :data:`sphrom.rom.inputs.MODAL_DENSE_N` particles the candidates are the lowest
+    :data:`~sphrom.rom.inputs.MODAL_SPARSE` modes by shift-invert Lanczos (the rigid mode included): the same
     frequencies, the same per-eigenspace directions qᵢ = Φᵢ Φᵢᵀ F (independent of the basis chosen inside a
     degenerate pair) and step responses as the dense solve's lowest ones, so the greedy choice over them takes the
     same modes.  (Its tolerance is then relative to the response in those modes only: the closing note of issue

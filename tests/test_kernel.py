@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from harness.sph.kernel import cubic_spline, cubic_spline_gradient
-from harness.sph.operator import build_neighbours, derivative_factor, gradient_symbol, particle_positions
+from sphrom.sph.kernel import cubic_spline, cubic_spline_gradient
+from sphrom.sph.operator import build_neighbours, derivative_factor, gradient_symbol, particle_positions
 
 
 @pytest.mark.parametrize("h", [0.013, 0.5, 2.0])

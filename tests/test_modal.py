@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from harness.rom import modal
-from harness.rom.balanced import balancing, error_bounds, truncate
-from harness.rom.lti import full_linear_system
-from harness.sph.solver import build_problem
+from sphrom.rom import modal
+from sphrom.rom.balanced import balancing, error_bounds, truncate
+from sphrom.rom.lti import full_linear_system
+from sphrom.sph.solver import build_problem
 
 from conftest import small_scene
 
@@ -88,7 +88,7 @@ def test_modal_structure_choices():
 
 @pytest.mark.parametrize("base", ["damped_forced", "multimode"])
 def test_free_outputs_through_every_mode_equal_the_dense_exponential(base):
-    from harness.rom.lti import sample_outputs
+    from sphrom.rom.lti import sample_outputs
     lti = _lti(base, T=1.0)
     ms = modal.modal_system(lti, wavenumbers=4)
     h, k = 1e-3, 1000

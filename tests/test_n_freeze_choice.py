@@ -13,12 +13,12 @@ import numpy as np
 import pytest
 
 from conftest import small_scene
-from harness.cli import main
-from harness.fmu.make.models import (N_FREEZE_CANDIDATES, N_FREEZE_SLACK, choose_n_freeze, reduced_model,
+from sphrom.cli import main
+from sphrom.fmu.make.models import (N_FREEZE_CANDIDATES, N_FREEZE_SLACK, choose_n_freeze, reduced_model,
                                      training_basis)
-from harness.fmu.make.options import default_modes
-from harness.rom.registry import get_model
-from harness.sph.solver import step_count
+from sphrom.fmu.make.options import default_modes
+from sphrom.rom.registry import get_model
+from sphrom.sph.solver import step_count
 
 
 def _setup(scene):
@@ -52,8 +52,8 @@ def test_the_largest_candidate_within_the_slack(base):
 
 
 def test_the_cli_chooses_unless_told(tmp_path, capsys):
-    from harness.fmu.resources import unpack
-    from harness.scene import dump_toml, scene_dict
+    from sphrom.fmu.resources import unpack
+    from sphrom.scene import dump_toml, scene_dict
     path = tmp_path / "scene.toml"
     path.write_text(dump_toml(scene_dict(small_scene("damped_forced", T=1.0, n=48))))
     chosen = {}
@@ -72,7 +72,7 @@ def test_a_costly_model_is_tried_on_the_first_part_of_the_training_run(monkeypat
     basis refreshed from the particles), the candidates run over the training run's first samples only (at least
     N_FREEZE_MIN_SAMPLES): each error equals the one computed here independently over those samples, and the rule
     is the same."""
-    from harness.fmu.make import models
+    from sphrom.fmu.make import models
     scene = small_scene("damped_forced", T=2.0, n=48)
     ops, problem, run = _setup(scene)
     monkeypatch.setattr(models, "N_FREEZE_BUDGET", 1.0)              # every run is over budget

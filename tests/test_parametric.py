@@ -1,4 +1,4 @@
-"""The parametric reduced model (harness.rom.parametric) and its FMU (parameters c, d).
+"""The parametric reduced model (sphrom.rom.parametric) and its FMU (parameters c, d).
 
 The operators are affine in c and d, so the parametric model assembled at (c, d) must be the ordinary reduced
 model built at (c, d) on the same basis, to round-off, at training and held-out points; the FMU must be the
@@ -14,20 +14,20 @@ import numpy as np
 import pytest
 
 from conftest import small_scene
-from harness.errors import FieldError
-from harness.fmu.make import parametric as fmu_par
-from harness.fmu.make.build import ensure_binaries
-from harness.fmu.run.driver import FMU
-from harness.fmu.make.package import package_fmu
-from harness.fmu.check.python_cosim import probe_values
-from harness.fmu.resources import unpack
-from harness.measure.responses import held_response
-from harness.fmu.variables import vr
-from harness.rom import parametric as par
-from harness.rom.common import run_reduced
-from harness.rom.exact_linear import build_linear_operators, run_exact
-from harness.rom.operators import build_operators, probe_rows
-from harness.sph.solver import build_problem
+from sphrom.errors import FieldError
+from sphrom.fmu.make import parametric as fmu_par
+from sphrom.fmu.make.build import ensure_binaries
+from sphrom.fmu.run.driver import FMU
+from sphrom.fmu.make.package import package_fmu
+from sphrom.fmu.check.python_cosim import probe_values
+from sphrom.fmu.resources import unpack
+from sphrom.measure.responses import held_response
+from sphrom.fmu.variables import vr
+from sphrom.rom import parametric as par
+from sphrom.rom.common import run_reduced
+from sphrom.rom.exact_linear import build_linear_operators, run_exact
+from sphrom.rom.operators import build_operators, probe_rows
+from sphrom.sph.solver import build_problem
 
 K = 6
 PROBES = (0.25, 0.5, 0.66)
@@ -133,14 +133,14 @@ def test_outside_the_trained_range_is_refused(models):
 def test_non_uniform_scene_is_refused_in_one_line(tmp_path):
     """heterogeneous has c(x) with a jump: --vary c is refused before any run, one line naming fields.c."""
     out = tmp_path / "h.fmu"
-    proc = subprocess.run([sys.executable, "-m", "harness", "fmu", "heterogeneous", "--vary", "c=0.05:0.2",
+    proc = subprocess.run([sys.executable, "-m", "sphrom", "fmu", "heterogeneous", "--vary", "c=0.05:0.2",
                            "--out", str(out)], capture_output=True, text=True)
     assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "fields.c" in lines[0] and "non-uniform" in lines[0] and "Traceback" not in proc.stderr
     assert not out.exists()
     for bad in ("c=0.2:0.05", "e=1:2", "c=0:1", "d=x:1"):
-        proc = subprocess.run([sys.executable, "-m", "harness", "fmu", "multimode", "--vary", bad, "--out",
+        proc = subprocess.run([sys.executable, "-m", "sphrom", "fmu", "multimode", "--vary", bad, "--out",
                                str(out)], capture_output=True, text=True)
         assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1 and "vary" in proc.stderr
 
@@ -304,11 +304,11 @@ def test_sweep_uses_one_parametric_fmu_for_its_d_grid(tmp_path):
     """Two values of d inside [parametric] run on ONE FMU (one packaging), each with its d set as the FMU
     parameter: its probe statistics equal a direct run of that FMU at that d (bitwise), and its error against the
     full SPH at that d is small; a grid value outside the range is one line naming the field."""
-    from harness.cli import main
-    from harness.sweep.fmus import sweep_dir
-    from harness.sweep.spec import load_spec
-    from harness.sweep.table import read_results
-    from harness.sweep.worker import probe_stats
+    from sphrom.cli import main
+    from sphrom.sweep.fmus import sweep_dir
+    from sphrom.sweep.spec import load_spec
+    from sphrom.sweep.table import read_results
+    from sphrom.sweep.worker import probe_stats
     (tmp_path / "scene.toml").write_text(scene_for("forced").text)
     (tmp_path / "spec.toml").write_text(SWEEP_SPEC)
     spec = load_spec(tmp_path / "spec.toml")
@@ -359,15 +359,15 @@ PROFILE = "1 + sin(2*pi*x/L) + 0.5*cos(6*pi*x/L)"
 
 @pytest.mark.parametrize("base", ["damped_forced", "tenmode"])
 def test_frozen_parametric_model_holds_a_non_uniform_profile_at_every_frequency(base):
-    """The frozen parametric FMU's rule (:data:`harness.fmu.make.parametric.PARAMETRIC_INPUT_DIRECTION`,
+    """The frozen parametric FMU's rule (:data:`sphrom.fmu.make.parametric.PARAMETRIC_INPUT_DIRECTION`,
     ``moments``): the input row as before plus the profile's response at every frequency (static deflection,
     in-band moments, computed at c = 1, d = 1).  Along the profile 1 + sin 2πx + ½ cos 6πx, from rest, a constant
     force and a 1e-2 sin 7t (not the training force) at c = 0.6 and 1.8 times the scene's follow the full SPH's
     equations linear in J integrated exactly in time within 2e-2 over 4 s; with the profile only projected
     (``project``, the rule before) the worst case misses by more (on the undamped bar by about 100 %)."""
-    from harness.rom.reference import linear_reference
-    from harness.rom.registry import get_model
-    from harness.scene import derive_scene
+    from sphrom.rom.reference import linear_reference
+    from sphrom.rom.registry import get_model
+    from sphrom.scene import derive_scene
     H = 0.01
     T = 4.0
     scene = derive_scene(small_scene(base, T=2.0, n=48), {"force": {"profile": PROFILE}})
@@ -395,9 +395,9 @@ def test_frozen_parametric_model_holds_a_non_uniform_profile_at_every_frequency(
 
 def test_a_rigid_profile_gets_no_moments_in_a_parametric_frozen_model(models):
     """A uniform profile's response at every frequency is the rigid motion: the ``moments`` rule appends nothing
-    (the constant's rough residual outside a parametric basis hurts: harness.rom.operators.rigid_profile), so the
+    (the constant's rough residual outside a parametric basis hurts: sphrom.rom.operators.rigid_profile), so the
     parametric frozen model of a uniform-profile scene is the one the ``project`` rule gave."""
-    from harness.rom.operators import rigid_profile
+    from sphrom.rom.operators import rigid_profile
     scene = scene_for("forced")
     assert rigid_profile(build_problem(scene))
     affine, _, _ = models("forced", "frozen")
@@ -411,9 +411,9 @@ def test_exact_parametric_model_along_a_non_uniform_profile_is_exact():
     profile); then a constant force and a sine along the profile 1 + sin 2πx + ½ cos 6πx from rest, at c = 0.6
     and 1.8 times the scene's and a d of its range, equal the full SPH's equations linear in J integrated exactly
     in time to 1e-8."""
-    from harness.rom.reference import linear_reference
-    from harness.rom.registry import get_model
-    from harness.scene import derive_scene
+    from sphrom.rom.reference import linear_reference
+    from sphrom.rom.registry import get_model
+    from sphrom.scene import derive_scene
     H, T = 0.01, 2.0
     scene = derive_scene(small_scene("damped_forced", T=2.0, n=48), {"force": {"profile": PROFILE}})
     problem0 = build_problem(scene)

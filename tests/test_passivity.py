@@ -17,10 +17,10 @@ import numpy as np
 import pytest
 
 from conftest import small_scene
-from harness.pod.pipeline import basis_for_scene
-from harness.rom import passivity as pv
-from harness.rom.registry import get_model
-from harness.sph.solver import build_problem
+from sphrom.pod.pipeline import basis_for_scene
+from sphrom.rom import passivity as pv
+from sphrom.rom.registry import get_model
+from sphrom.sph.solver import build_problem
 
 PORTS = (0.3, 0.7)
 N = 48
@@ -143,7 +143,7 @@ def test_frozen_port_map_on_a_uniform_bar_is_passive_by_structure(base):
     """In the paper's Euclidean projection (``inner="euclid"``): where ρ0 and c are uniform and G is skew, the
     frozen model linearised at rest has M₀ᵀ = -(ρ0³/c) K: the
     storage ½ α (|a^v|² + β |δa^ρ|²) with β = c/ρ0³ makes its coupling lossless whatever the bases
-    (:func:`harness.rom.passivity.block_storage_certificate`), where the storage α I of the energy-coordinate
+    (:func:`sphrom.rom.passivity.block_storage_certificate`), where the storage α I of the energy-coordinate
     models fails (so the block form is what proves it).  On the damped bar the residuals are round-off; on the
     undamped one M₀ is taken at the projected rest density U^ρ a^ρ_0 (what the model refreshes from), whose
     projection error of ρ0 leaves a small dissipation residual and a margin within :data:`MARGIN_WARN`."""
@@ -166,7 +166,7 @@ def test_frozen_port_map_on_a_uniform_bar_is_passive_by_structure(base):
 def test_frozen_port_map_with_a_non_uniform_c_is_found_not_passive():
     """With a non-uniform c (the heterogeneous scene) the Euclidean Galerkin projection (``inner="euclid"``, the
     paper's) puts different diagonal weights inside K and M₀: no storage of the block form, and the grid check
-    finds H + Hᴴ indefinite (:func:`harness.rom.passivity.port_passivity` says "not passive", and ``sphrom
+    finds H + Hᴴ indefinite (:func:`sphrom.rom.passivity.port_passivity` says "not passive", and ``sphrom
     fmu`` would warn).  It is real: coupled to a spring and a heavy mass (all passive) that frozen model has a
     growing mode, while the frozen model a port FMU builds (the energy inner products, the default with ports)
     and the exact model of the same scene and ports are passive by structure and their coupled poles stay in the

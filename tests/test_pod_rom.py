@@ -5,19 +5,19 @@ import numpy as np
 import pytest
 
 from conftest import small_scene
-from harness.cli import main
-from harness.errors import SimulationError, UserError
-from harness.norms import relative_l2
-from harness.pod.basis import modes_for_energy, pod
-from harness.pod.io import read_basis
-from harness.pod.pipeline import basis_for_scene, error_steps, on_steps
-from harness.pod.snapshots import snapshot_steps
-from harness.rom.common import run_reduced
-from harness.rom.frozen import frozen_advance, refresh_direct_path, refresh_tensor_path
-from harness.rom.loops import FrozenOperators
-from harness.rom.operators import augment_with, build_operators, density_matrix, pair_index, probe_rows
-from harness.scene import load_scene
-from harness.sph.solver import build_problem, run_sph, step_count
+from sphrom.cli import main
+from sphrom.errors import SimulationError, UserError
+from sphrom.norms import relative_l2
+from sphrom.pod.basis import modes_for_energy, pod
+from sphrom.pod.io import read_basis
+from sphrom.pod.pipeline import basis_for_scene, error_steps, on_steps
+from sphrom.pod.snapshots import snapshot_steps
+from sphrom.rom.common import run_reduced
+from sphrom.rom.frozen import frozen_advance, refresh_direct_path, refresh_tensor_path
+from sphrom.rom.loops import FrozenOperators
+from sphrom.rom.operators import augment_with, build_operators, density_matrix, pair_index, probe_rows
+from sphrom.scene import load_scene
+from sphrom.sph.solver import build_problem, run_sph, step_count
 
 
 def test_snapshot_strategies_are_the_papers():
@@ -147,7 +147,7 @@ def test_input_direction_augmentation():
     aug = build_operators(run.problem, basis.U_v[:, :4], basis.U_rho[:, :4], input_direction="augment")
     assert aug.augmented and aug.k_v == 5 + aug.input_added and aug.input_error == proj.input_error
     # a uniform force on a uniform bar only moves it rigidly: its directions at every frequency are the constant
-    # velocity at most (harness.rom.inputs), no strain
+    # velocity at most (sphrom.rom.inputs), no strain
     assert aug.input_added <= 1 and aug.input_added_2 == 0
     resid = prof - aug.U_v @ (aug.U_v.T @ prof)
     assert np.linalg.norm(resid) < 1e-12 * np.linalg.norm(prof)

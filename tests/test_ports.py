@@ -1,6 +1,6 @@
 """Mechanical ports: point forces F_j [N] spread by the SPH kernel, port velocities Σ_i W(x_i - x_j, h) v_i Δx.
 
-The full SPH with port forces (:mod:`harness.sph.ports`), the reduced models that take them as inputs (frozen,
+The full SPH with port forces (:mod:`sphrom.sph.ports`), the reduced models that take them as inputs (frozen,
 exact), the FMU's F_port_j / v_port_j / area against those models, and a coupled example (the FMU and a lumped
 mass-spring exchanging force and velocity each communication step) against one full SPH of the coupled system.
 """
@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 from conftest import small_scene
-from harness.errors import FieldError
-from harness.fmu.variables import vr
-from harness.sph.ports import momentum_weights, parse_ports, port_accelerations, port_velocity_rows, run_sph_ports
-from harness.sph.solver import build_problem
+from sphrom.errors import FieldError
+from sphrom.fmu.variables import vr
+from sphrom.sph.ports import momentum_weights, parse_ports, port_accelerations, port_velocity_rows, run_sph_ports
+from sphrom.sph.solver import build_problem
 
 F_PORT = [vr("F_port_j", j) for j in (1, 2)]
 V_PORT = [vr("v_port_j", j) for j in (1, 2)]
@@ -75,9 +75,9 @@ def port_fmus(tmp_path_factory):
     import zipfile
 
     from conftest import fmu_scene
-    from harness.fmu.make.build import ensure_binaries
-    from harness.fmu.make.package import package_fmu
-    from harness.fmu.resources import unpack
+    from sphrom.fmu.make.build import ensure_binaries
+    from sphrom.fmu.make.package import package_fmu
+    from sphrom.fmu.resources import unpack
     folder = tmp_path_factory.mktemp("port-fmus")
     binaries = ensure_binaries()
     made = {}
@@ -98,7 +98,7 @@ def port_fmus(tmp_path_factory):
 def run_port_fmu(path, scene, steps=M, area=AREA, state_at=None):
     """v_port at the communication points of the FMU with port_forces held over steps of H and area set;
     ``state_at``: the step after which a state is taken and restored (the run goes on from the restored one)."""
-    from harness.fmu.run.driver import FMU
+    from sphrom.fmu.run.driver import FMU
     t = np.arange(steps + 1) * H
     with FMU(path) as s:
         s.set_real([vr("area")], [area])
@@ -122,9 +122,9 @@ def test_port_fmu_equals_the_python_reduced_models(port_fmus, fmi):
     """F_port_j in, v_port_j out, area dividing the inputs: the frozen FMU equals the Python frozen model stepped
     like the FMU bit for bit, the exact FMU equals run_exact (scipy's expm) to 1e-12; FMI 2 and 3 alike."""
     from conftest import assert_units_through_declared_types, fmu_scene
-    from harness.fmu.make.models import exact_model
-    from harness.fmu.check.python_cosim import FrozenCosim
-    from harness.rom.exact_linear import run_exact
+    from sphrom.fmu.make.models import exact_model
+    from sphrom.fmu.check.python_cosim import FrozenCosim
+    from sphrom.rom.exact_linear import run_exact
     scene = fmu_scene("forced")
     t = np.arange(M + 1) * H
     path, data = port_fmus("frozen", fmi)
@@ -165,7 +165,7 @@ def test_area_and_port_inputs_refuse_bad_values(port_fmus, fmi):
     area (start 1, fixed), F_port_j and v_port_j with their value references, and an FMU without ports has none."""
     import fmpy
 
-    from harness.fmu.run.driver import FMU
+    from sphrom.fmu.run.driver import FMU
     path, _ = port_fmus("frozen", fmi)
     md = {v.name: v for v in fmpy.read_model_description(str(path)).modelVariables}
     assert md["area"].valueReference == vr("area") and md["area"].start in ("1", 1, 1.0) and md["area"].variability == "fixed"
@@ -191,9 +191,9 @@ def test_area_and_port_inputs_refuse_bad_values(port_fmus, fmi):
 
 def test_fmu_without_ports_has_no_port_variables(port_fmus, tmp_path):
     from conftest import fmu_scene
-    from harness.fmu.make.build import ensure_binaries
-    from harness.fmu.run.driver import FMU
-    from harness.fmu.make.package import package_fmu
+    from sphrom.fmu.make.build import ensure_binaries
+    from sphrom.fmu.run.driver import FMU
+    from sphrom.fmu.make.package import package_fmu
     path = tmp_path / "plain.fmu"
     package_fmu(fmu_scene("forced"), path, k=6, progress=False, binaries=ensure_binaries())
     with FMU(path) as s:
@@ -209,7 +209,7 @@ def test_fmu_without_ports_has_no_port_variables(port_fmus, tmp_path):
 @pytest.mark.parametrize("ports, detail", [("1.5", "out of range"), ("0.2,0.2", "same position"),
                                            ("a", "comma-separated"), ("0.1,0.2,0.3,0.4,0.5", "5 ports")])
 def test_fmu_command_refuses_bad_ports(ports, detail, tmp_path, capsys):
-    from harness.cli import main
+    from sphrom.cli import main
     out = tmp_path / "x.fmu"
     assert main(["fmu", "damped_forced", "--ports", ports, "--out", str(out), "--quiet"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
@@ -224,7 +224,7 @@ def test_coupled_example_against_one_full_sph_of_the_coupled_system():
     error below 2 % and within 4x the scene's POD error level (the same FMU without port forces against the
     full SPH, read through the same port rows: 0.28 %; measured 0.32 % open loop, 0.89 % coupled at port 1,
     0.92 % in the spring's elongation), while the coupling itself changes the port velocity by more than 100 %."""
-    from harness.bench.port_coupling import measure
+    from sphrom.bench.port_coupling import measure
     row = measure(t_end=1.0, models=("frozen",))[0]
     level = row["pod_level"]
     assert 1e-3 < level < 1e-2
@@ -241,9 +241,9 @@ def test_exact_port_fmu_takes_port_input_derivatives(port_fmus):
     from ctypes import c_double, c_int, c_uint32
 
     from conftest import fmu_scene
-    from harness.fmu.run.driver import FMU
-    from harness.fmu.make.models import exact_model
-    from harness.rom.exact_linear import run_exact
+    from sphrom.fmu.run.driver import FMU
+    from sphrom.fmu.make.models import exact_model
+    from sphrom.rom.exact_linear import run_exact
     scene = fmu_scene("forced")
     t = np.arange(M + 1) * H
     path, _ = port_fmus("exact", 2)
@@ -286,7 +286,7 @@ def test_exact_port_fmu_takes_port_input_derivatives(port_fmus):
 
 @pytest.mark.parametrize("model", ["frozen", "exact"])
 def test_packaging_checks_the_port_maps_passivity_and_says_it_on_the_page(port_fmus, model):
-    """A port FMU's packaging runs the passivity check of its port map (harness.rom.passivity.port_passivity): on
+    """A port FMU's packaging runs the passivity check of its port map (sphrom.rom.passivity.port_passivity): on
     this uniform damped bar both the exact model (storage ½ α |z|²) and the frozen one linearised at rest (the
     block storage, β = c/ρ0³) are passive by structure, and the FMU's page says so."""
     import zipfile

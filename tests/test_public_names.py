@@ -10,16 +10,16 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 
 PUBLIC = {
-    "harness.sph": ["build_problem", "run_sph", "SPHProblem", "SPHResult", "step_count", "stability",
+    "sphrom.sph": ["build_problem", "run_sph", "SPHProblem", "SPHResult", "step_count", "stability",
                     "stability_warnings", "energy_bound_factors", "energy", "momentum", "total_length",
                     "cubic_spline", "cubic_spline_gradient", "build_neighbours", "Neighbours", "particle_positions"],
-    "harness.pod": ["basis_for_scene", "pod", "weighted_pod", "build_basis", "Basis", "read_basis", "write_basis",
+    "sphrom.pod": ["basis_for_scene", "pod", "weighted_pod", "build_basis", "Basis", "read_basis", "write_basis",
                     "snapshot_steps"],
-    "harness.rom": ["get_model", "MODELS", "MODEL_NAMES", "ReducedModel", "ReducedResult", "build_operators",
+    "sphrom.rom": ["get_model", "MODELS", "MODEL_NAMES", "ReducedModel", "ReducedResult", "build_operators",
                     "build_linear_operators", "run_reduced", "run_model", "fmu_model_names"],
-    "harness.references": ["exact_solution", "is_available", "check_available", "ExactUnavailable",
+    "sphrom.references": ["exact_solution", "is_available", "check_available", "ExactUnavailable",
                            "best_reference", "Reference", "study"],
-    "harness.fmu": ["package_fmu", "FMUSummary", "run_cosim", "CosimResult", "FMU", "load_fmu", "cosim_reference",
+    "sphrom.fmu": ["package_fmu", "FMUSummary", "run_cosim", "CosimResult", "FMU", "load_fmu", "cosim_reference",
                     "ensure_binaries", "Binaries", "model_data", "exact_data", "pack", "unpack", "ModelData",
                     "ExactData", "Core", "CoreModel"],
 }
@@ -44,13 +44,13 @@ def test_public_names_import_from_their_package(package):
 
 
 def test_the_solver_modules_import_from_the_references_package():
-    from harness.references import fd, pypde_ref, skfem_ref
+    from sphrom.references import fd, pypde_ref, skfem_ref
     assert all(callable(m.solve) for m in (fd, pypde_ref, skfem_ref))
 
 
 def test_importing_a_package_stays_light():
     """The lazy re-exports import nothing heavy until a name is used: fmpy, numba, scikit-fem, py-pde stay out."""
-    code = ("import sys, harness.sph, harness.references, harness.fmu; "
+    code = ("import sys, sphrom.sph, sphrom.references, sphrom.fmu; "
             "print(sorted(m for m in ('fmpy', 'numba', 'skfem', 'pde') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]", out.stdout

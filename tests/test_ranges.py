@@ -9,8 +9,8 @@ import zipfile
 import pytest
 
 from conftest import small_scene
-from harness.cli import main
-from harness.scene import dump_toml, scene_dict
+from sphrom.cli import main
+from sphrom.scene import dump_toml, scene_dict
 
 DUMMY = b"an earlier result, not to be touched\n"
 
@@ -123,7 +123,7 @@ def test_pod_snapshots_beyond_memory(tmp_path, capsys):
 
 @pytest.fixture(scope="module")
 def fmu_file(tmp_path_factory):
-    from harness.fmu.make.package import package_fmu
+    from sphrom.fmu.make.package import package_fmu
     path = tmp_path_factory.mktemp("fmu") / "tiny.fmu"
     package_fmu(small_scene("multimode", T=0.1, n=16, dt=1e-3, every=10), path, k=4, fmi=2, n_freeze=10,
                 probes=(0.5,), progress=False)

@@ -5,15 +5,15 @@ import numpy as np
 import pytest
 
 from conftest import small_scene
-from harness.cli import main
-from harness.compare import error_table
-from harness.norms import relative_l2
-from harness.references import fd, pypde_ref, skfem_ref
-from harness.references.common import coefficient_breaks, interpolate, step_plan
-from harness.references.convergence import observed_orders
-from harness.references.exact import exact_solution
-from harness.runio import read_run
-from harness.sph.operator import particle_positions
+from sphrom.cli import main
+from sphrom.compare import error_table
+from sphrom.norms import relative_l2
+from sphrom.references import fd, pypde_ref, skfem_ref
+from sphrom.references.common import coefficient_breaks, interpolate, step_plan
+from sphrom.references.convergence import observed_orders
+from sphrom.references.exact import exact_solution
+from sphrom.runio import read_run
+from sphrom.sph.operator import particle_positions
 
 T = 1.0
 TIMES = np.arange(51) * 0.02              # every 0.02 s to T = 1 s
@@ -194,7 +194,7 @@ def test_reference_cli_exact(tmp_path):
 
 
 def load_short(name, T):
-    from harness.scene import load_scene
+    from sphrom.scene import load_scene
     return load_scene(name).with_T(T)
 
 

@@ -11,13 +11,13 @@ import numpy as np
 import pytest
 
 from conftest import small_scene
-from harness.cli import main
-from harness.errors import UserError
-from harness.norms import relative_l2
-from harness.pod import basis_for_scene, read_basis
-from harness.rom import MODEL_NAMES, MODELS, ReducedResult, get_model, model_names, probe_rows, run_model
-from harness.rom.registry import fmu_model_names
-from harness.sph.solver import build_problem, step_count
+from sphrom.cli import main
+from sphrom.errors import UserError
+from sphrom.norms import relative_l2
+from sphrom.pod import basis_for_scene, read_basis
+from sphrom.rom import MODEL_NAMES, MODELS, ReducedResult, get_model, model_names, probe_rows, run_model
+from sphrom.rom.registry import fmu_model_names
+from sphrom.sph.solver import build_problem, step_count
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = Path(__file__).resolve().parent / "data"
@@ -260,8 +260,8 @@ def test_registry_runs_equal_the_code_before_the_registry():
 
 def test_the_old_entry_points_are_the_registry():
     """run_reduced(name, ...) and run_exact are the registry's runs (one result type)."""
-    from harness.rom.common import run_reduced
-    from harness.rom.exact_linear import run_exact
+    from sphrom.rom.common import run_reduced
+    from sphrom.rom.exact_linear import run_exact
     scene = small_scene("multimode", T=0.2, n=24)
     problem = build_problem(scene)
     basis, _ = basis_for_scene(scene, {"count": 8, "window": [0, 0.2]}, progress=False, problem=problem)
@@ -353,9 +353,9 @@ def test_compiled_loops_load_from_the_cache():
     """The loops take a namedtuple of operators; numba's cache still holds them (a second process loads them)."""
     code = textwrap.dedent("""
         import numpy as np
-        from harness.rom.frozen import frozen_advance, loop_operators
-        from harness.rom.galerkin import galerkin_advance
-        from harness.rom.loops import GalerkinOperators
+        from sphrom.rom.frozen import frozen_advance, loop_operators
+        from sphrom.rom.galerkin import galerkin_advance
+        from sphrom.rom.loops import GalerkinOperators
         K = np.eye(2) * 0.1
         ops = loop_operators(K, np.zeros(2), None, None, 3, T=np.zeros((3, 2, 2)))
         av, ar = np.ones(2), np.ones(2)
@@ -451,7 +451,7 @@ def test_no_model_name_comparisons_outside_the_registry():
 
 def test_operators_are_read_through_the_protocol_only():
     """No getattr duck typing on operators or on a basis outside the protocol (harness/rom/model.py): every
-    operators type answers the protocol of harness.rom.protocol, every model its properties."""
+    operators type answers the protocol of sphrom.rom.protocol, every model its properties."""
     suspects = {"ops", "lin", "operators", "basis"}
     offenders = []
     for path in sorted((ROOT / "harness").rglob("*.py")):
@@ -471,7 +471,7 @@ def _import_graph():
     """{module: modules it imports} over harness/**/*.py: absolute, relative and function-level imports."""
     files = {}
     for path in (ROOT / "harness").rglob("*.py"):
-        parts = list(path.relative_to(ROOT).with_suffix("").parts)
+        parts = ["sphrom", *path.relative_to(ROOT / "harness").with_suffix("").parts]
         files[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
     edges = {m: set() for m in files}
     for mod, path in files.items():
@@ -526,12 +526,12 @@ def _cycles(edges):
 
 
 # core.py <-> sph_c.py: another change removes this cycle; then this list is emptied.
-ALLOWED_CYCLES = [["harness.fmu.run.core", "harness.fmu.run.sph_c"]]
+ALLOWED_CYCLES = [["sphrom.fmu.run.core", "sphrom.fmu.run.sph_c"]]
 
 
 def test_no_import_cycles_inside_harness():
     edges = _import_graph()
-    assert "harness.rom.loops" in edges and not any(e.startswith("harness.rom") for e in edges["harness.rom.loops"])
+    assert "sphrom.rom.loops" in edges and not any(e.startswith("sphrom.rom") for e in edges["sphrom.rom.loops"])
     assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]     # the finder finds one
     cycles = [c for c in _cycles(edges) if c not in ALLOWED_CYCLES]
     assert not cycles, f"import cycles: {cycles}"

@@ -10,12 +10,12 @@ import h5py
 import numpy as np
 import pytest
 
-from harness.errors import UserError
-from harness.pod.automatic import (ENERGY_LEFT_OUT, MAX_AUTO_MODES, MAX_AUTO_SNAPSHOTS, MIN_AUTO_SNAPSHOTS,
+from sphrom.errors import UserError
+from sphrom.pod.automatic import (ENERGY_LEFT_OUT, MAX_AUTO_MODES, MAX_AUTO_SNAPSHOTS, MIN_AUTO_SNAPSHOTS,
                                    automatic_count, automatic_modes)
-from harness.pod.pipeline import basis_for_scene, scene_modes
-from harness.scene import automatic_lines, load_scene, parse_scene, run_steps
-from harness.scene_page import MINIMAL_SCENE
+from sphrom.pod.pipeline import basis_for_scene, scene_modes
+from sphrom.scene import automatic_lines, load_scene, parse_scene, run_steps
+from sphrom.scene_page import MINIMAL_SCENE
 
 # The FMU against the full SPH of the scene, at its probes (eq. 3.4, square-root form, over probes and time): at
 # most the automatic mode rule's own target, a projection error of sqrt(ENERGY_LEFT_OUT) = 3.2 %
@@ -25,7 +25,7 @@ FORCE = "1e-3*cos(2*pi*t)"              # the minimal scene's f
 
 
 def _harness(*args, cwd):
-    r = subprocess.run([sys.executable, "-m", "harness", *map(str, args)], capture_output=True, text=True, cwd=cwd,
+    r = subprocess.run([sys.executable, "-m", "sphrom", *map(str, args)], capture_output=True, text=True, cwd=cwd,
                        timeout=900)
     assert r.returncode == 0 and "Traceback" not in r.stderr, r.stdout + r.stderr
     return r.stdout
@@ -51,8 +51,8 @@ def _csv(path):
 
 
 def test_the_minimal_scene_builds_an_fmu_and_cosimulates_at_the_first_try(minimal):
-    from harness.fmu.check.verify import case_errors, probe_values
-    from harness.sph.solver import build_problem, run_sph
+    from sphrom.fmu.check.verify import case_errors, probe_values
+    from sphrom.sph.solver import build_problem, run_sph
 
     folder = minimal.parent
     out = _harness("fmu", minimal.name, "--out", "X.fmu", "--quiet", cwd=folder)
@@ -126,7 +126,7 @@ def test_the_automatic_snapshot_count_follows_its_rule():
 
 
 def test_the_steps_of_a_run_as_the_solver_counts_them():
-    from harness.sph.solver import step_count
+    from sphrom.sph.solver import step_count
     rng = np.random.default_rng(0)
     cases = [(10.0, 2e-4), (0.5, 1e-3), (1.6, 0.016), (0.1, 0.03), (1.0, 1 / 3), (1e-15, 1e-24), (1e15, 1e6)]
     cases += [(float(T), float(T / n * (1 + e))) for T, n, e in zip(10 ** rng.uniform(-15, 15, 2000),
@@ -169,7 +169,7 @@ def test_the_automatic_mode_count_on_three_sine_modes():
 
 
 def test_a_scene_without_motion_has_no_automatic_modes(tmp_path, capsys):
-    from harness.cli import main
+    from sphrom.cli import main
     text = MINIMAL_SCENE.replace('v0 = "1e-3*sin(2*pi*x/L)"', 'v0 = "0"').replace('f = "1e-3*cos(2*pi*t)"', 'f = "0"')
     path = tmp_path / "still.toml"
     path.write_text(text)

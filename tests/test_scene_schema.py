@@ -11,15 +11,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from harness.cli import main
-from harness.errors import UserError
-from harness.scene import automatic_lines, builtin_names, load_scene, parse_scene
-from harness.scene_page import MINIMAL_SCENE, markdown
-from harness.scene_schema import KEYS, MAX_DEPTH, SCALE, TABLES, accepted_keys, check_nesting
+from sphrom.cli import main
+from sphrom.errors import UserError
+from sphrom.scene import automatic_lines, builtin_names, load_scene, parse_scene
+from sphrom.scene_page import MINIMAL_SCENE, markdown
+from sphrom.scene_schema import KEYS, MAX_DEPTH, SCALE, TABLES, accepted_keys, check_nesting
 
 ROOT = Path(__file__).resolve().parents[1]
 PAGE = ROOT / "docs" / "user" / "scenes.md"
-REGENERATE = "python3 -m harness.scene_page --write docs/user/scenes.md"
+REGENERATE = "python3 -m sphrom.scene_page --write docs/user/scenes.md"
 REFERENCE = Path(__file__).parent / "data" / "scenes_reference.npz"
 
 
@@ -63,7 +63,7 @@ def test_builtin_scenes_load_exactly_as_before_the_schema():
 # ---------------------------------------------------------------------------------------------------------------
 
 def test_the_schema_page_is_generated_from_the_table():
-    from harness.pod.automatic import automatic_rules
+    from sphrom.pod.automatic import automatic_rules
     assert PAGE.read_text(encoding="utf-8") == markdown(automatic_rules()), \
         f"docs/user/scenes.md is stale: regenerate it with `{REGENERATE}`"
 
@@ -88,7 +88,7 @@ def _scene_with(path, value):
     """The minimal scene with the key ``path`` (``paper.runs.dt``) set to ``value`` (and what it needs)."""
     import tomllib
 
-    from harness.scene import dump_toml
+    from sphrom.scene import dump_toml
     data = tomllib.loads(MINIMAL_SCENE)
     examples = {k.path: k.example for k in KEYS}
     table, _, name = path.rpartition(".")
@@ -232,7 +232,7 @@ def test_hostile_scene_through_the_interpreter_no_traceback(tmp_path):
     """The 2,000-deep value through a fresh interpreter (the recursion limit is the interpreter's own)."""
     path = tmp_path / "deep.toml"
     path.write_text(HOSTILE["deep_array"][0])
-    r = subprocess.run([sys.executable, "-m", "harness", "pod", str(path), "--out", str(tmp_path / "b.h5")],
+    r = subprocess.run([sys.executable, "-m", "sphrom", "pod", str(path), "--out", str(tmp_path / "b.h5")],
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "Traceback" not in r.stderr, r.stderr
     assert f"nested more than {MAX_DEPTH} levels deep (allowed: at most {MAX_DEPTH} levels" in r.stderr
@@ -248,7 +248,7 @@ def test_nesting_scan_skips_strings_and_comments():
 
 
 def test_a_name_is_safe_in_the_cache_path(tmp_path):
-    from harness.cache import run_file_name, run_key
+    from sphrom.cache import run_file_name, run_key
     scene = load_scene("multimode")
     assert run_file_name(scene) == f"sph-multimode-{run_key(scene)}.h5"
     import dataclasses
@@ -286,7 +286,7 @@ def test_the_ends_of_the_ranges_run_the_same_physics(s, r):
     """At L = 1e-14 m or 1e14 m with rho0 and c 1e14 times larger or smaller (inside the bounds of 1e-15 and 1e15)
     the full SPH gives the same velocities (and densities times r) as at L = 1 m, to 1e-9 relative: no overflow,
     no underflow, no division by an underflowed h^2 (L = 1e-300 raised ZeroDivisionError)."""
-    from harness.sph.solver import run_sph
+    from sphrom.sph.solver import run_sph
     base, scene = _scaled(1.0, 1.0), _scaled(s, r)
     assert scene.sph.every == base.sph.every and scene.snapshots["count"] == base.snapshots["count"]
     a, b = run_sph(base, progress=False), run_sph(scene, progress=False)

@@ -4,13 +4,13 @@ import numpy as np
 import pytest
 
 from conftest import small_scene
-from harness.compare import error_table
-from harness.references.exact import exact_solution
-from harness.scene import load_scene
-from harness.sph import loops
-from harness.sph.diagnostics import energy, momentum, total_length
-from harness.sph.operator import gradient_symbol
-from harness.sph.solver import build_problem, run_sph
+from sphrom.compare import error_table
+from sphrom.references.exact import exact_solution
+from sphrom.scene import load_scene
+from sphrom.sph import loops
+from sphrom.sph.diagnostics import energy, momentum, total_length
+from sphrom.sph.operator import gradient_symbol
+from sphrom.sph.solver import build_problem, run_sph
 
 
 def final_state(scene):

@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 
 from conftest import small_scene
-from harness.fmu.make.build import ensure_binaries
-from harness.scene import builtin_names, load_scene
-from harness.sph import loops
-from harness.sph.operator import build_neighbours, fixed_offsets, particle_positions
-from harness.sph.ports import mass_spring, run_sph_ports
-from harness.sph.solver import METHODS, build_problem, force_values, run_sph, step_count
+from sphrom.fmu.make.build import ensure_binaries
+from sphrom.scene import builtin_names, load_scene
+from sphrom.sph import loops
+from sphrom.sph.operator import build_neighbours, fixed_offsets, particle_positions
+from sphrom.sph.ports import mass_spring, run_sph_ports
+from sphrom.sph.solver import METHODS, build_problem, force_values, run_sph, step_count
 
 # every field per particle (ρ0, c, d and the force profile not uniform): the loops' per-particle branches
 NONUNIFORM = {"rho0": "1 + 0.3*sin(2*pi*x/L)", "c": "where(x/L <= 0.5, 0.1, 0.2)", "d": "10*(1 + x/L)",
@@ -149,7 +149,7 @@ def test_ports_same_bits(integrator):
 # ---------------------------------------------------------------- the same bits: the C step
 @pytest.fixture(scope="module")
 def sph_c():
-    from harness.fmu.run.sph_c import SphC
+    from sphrom.fmu.run.sph_c import SphC
     return SphC(ensure_binaries().sph)
 
 
@@ -181,7 +181,7 @@ def test_c_stencil_same_bits_as_lists_and_numba(sph_c, integrator, case):
 
 def test_c_stencil_rejects_bad_offsets(sph_c):
     """An offset outside (-N, N) is a one-line error from the C side's check, not a read out of bounds."""
-    from harness.fmu.run.sph_c import SphError
+    from sphrom.fmu.run.sph_c import SphError
     problem = build_problem(small_scene(n=16))
     runner = sph_c.runner(problem, "euler")
     runner.index = np.array([[-2, -1, 1, 16]], dtype=np.int64)

@@ -16,10 +16,10 @@ import numpy as np
 import pytest
 
 from conftest import small_scene
-from harness.cli import main
-from harness.scene import derive_scene
-from harness.sweep.spec import load_spec, parse_spec
-from harness.sweep.table import read_results
+from sphrom.cli import main
+from sphrom.scene import derive_scene
+from sphrom.sweep.spec import load_spec, parse_spec
+from sphrom.sweep.table import read_results
 
 FAILING = "A*sin(2*pi*F*t)*(1 + 1e300*(F > 2))"
 SPEC = f"""
@@ -60,7 +60,7 @@ def cluster():
 
 
 def worker_stats(client):
-    from harness.sweep.worker import cache_stats
+    from sphrom.sweep.worker import cache_stats
     return client.run(cache_stats)
 
 
@@ -155,7 +155,7 @@ def test_bad_options(study, tmp_path, capsys, argv, expect):
 
 
 def test_unreachable_scheduler_is_exit_2(study, tmp_path, capsys, monkeypatch):
-    import harness.sweep.study as st
+    import sphrom.sweep.study as st
     monkeypatch.setattr(st, "CONNECT_TIMEOUT", 1.0)
     out = tmp_path / "r.h5"
     assert main(["sweep", str(study / "spec.toml"), "--scheduler", "tcp://127.0.0.1:9", "--out", str(out),
@@ -208,9 +208,9 @@ def test_fmu_loaded_once_per_worker(first_run):
 
 def test_agrees_with_a_direct_slave_run(first_run):
     """The study's probe statistics equal those of the same entry run by hand on a fresh FMU."""
-    from harness.fmu.run.driver import FMU
-    from harness.sweep.fmus import sweep_dir
-    from harness.sweep.worker import probe_stats
+    from sphrom.fmu.run.driver import FMU
+    from sphrom.sweep.fmus import sweep_dir
+    from sphrom.sweep.worker import probe_stats
     rows, _ = rows_by_index(first_run)
     checked = 0
     for r in rows.values():
@@ -232,9 +232,9 @@ def test_agrees_with_a_direct_slave_run(first_run):
 
 def test_sph_comparison_agrees_with_an_independent_run(first_run, study):
     """sph_err_v: the full SPH run here with the held force written as a scene expression."""
-    from harness.norms import time_weights
-    from harness.sph.solver import run_sph
-    from harness.scene import load_scene
+    from sphrom.norms import time_weights
+    from sphrom.sph.solver import run_sph
+    from sphrom.scene import load_scene
     rows, _ = rows_by_index(first_run)
     compared = [r for r in rows.values() if r["compare_sph"]]
     assert len(compared) == 2
@@ -248,8 +248,8 @@ def test_sph_comparison_agrees_with_an_independent_run(first_run, study):
         v_sph = np.array([np.interp([0.25, 0.66], xp, np.append(v, v[0])) for v in sph.v])
         t = np.arange(51) * 0.01
         f = 1e-2 * np.sin(2 * np.pi * 1.0 * t[:-1])
-        from harness.fmu.run.driver import FMU
-        from harness.sweep.fmus import sweep_dir
+        from sphrom.fmu.run.driver import FMU
+        from sphrom.sweep.fmus import sweep_dir
         with FMU(sweep_dir() / f"fmu-{r['fmu']}.fmu") as s:
             s.initialize(n_freeze=10, initial_state_scale=1)
             v_fmu = s.run([0.01] * 50, f)[:, :2]
@@ -297,7 +297,7 @@ def test_resume_on_an_existing_cluster_skips_done_entries(study, first_run, clus
 
 def test_interrupted_study_keeps_finished_entries(study, cluster, tmp_path, capsys, monkeypatch):
     """KeyboardInterrupt after 3 results: those 3 are written; a rerun does the other 5."""
-    import harness.sweep.study as st
+    import sphrom.sweep.study as st
     cl, client = cluster
     real = st.input_row
     calls = []

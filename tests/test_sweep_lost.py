@@ -1,7 +1,7 @@
 """sphrom sweep when workers die: a task whose worker process dies is submitted again (a bounded number of
 times), then the sweep fails with one line naming the grid point, and the finished entries are kept.
 
-The dying task is the real one (harness.sweep.worker.run_entry) behind a wrapper that kills its worker process
+The dying task is the real one (sphrom.sweep.worker.run_entry) behind a wrapper that kills its worker process
 (os._exit) while a counter file allows it; the wrapper travels to the workers by value (cloudpickle).  The
 scheduler's own rescheduling of a task whose worker died (distributed.scheduler.allowed-failures) is set to 0
 here, so each death reaches the client at once as KilledWorker.
@@ -14,9 +14,9 @@ import cloudpickle
 import pytest
 
 from conftest import small_scene
-from harness.cli import main
-from harness.sweep import study as study_module
-from harness.sweep.table import read_results
+from sphrom.cli import main
+from sphrom.sweep import study as study_module
+from sphrom.sweep.table import read_results
 
 SPEC = """
 title = "lost workers"
@@ -40,7 +40,7 @@ def dying_task(bundle, entry, counter=None, deaths=1, frequency=2.0):
     import os
     from pathlib import Path
 
-    from harness.sweep.worker import run_entry
+    from sphrom.sweep.worker import run_entry
     if entry.frequency == frequency:
         path = Path(counter)
         done = int(path.read_text()) if path.exists() else 0
@@ -61,7 +61,7 @@ def _sweep(spec, out, monkeypatch, deaths):
     import dask
     import distributed  # noqa: F401  (its config defaults loaded first: the context below must not drop them)
 
-    import harness.sweep.worker as worker
+    import sphrom.sweep.worker as worker
     counter = out.parent / "deaths.txt"
     monkeypatch.setattr(worker, "run_entry", functools.partial(dying_task, counter=str(counter), deaths=deaths))
     with dask.config.set({"distributed.scheduler.allowed-failures": 0}):

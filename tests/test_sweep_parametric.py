@@ -11,14 +11,14 @@ import numpy as np
 import pytest
 
 from conftest import small_scene
-from harness.cli import main
-from harness.fmu.run.driver import FMU
-from harness.fmu.variables import vr
-from harness.norms import relative_l2
-from harness.sweep.fmus import sweep_dir
-from harness.sweep.spec import load_spec
-from harness.sweep.table import read_results
-from harness.sweep.worker import probe_stats
+from sphrom.cli import main
+from sphrom.fmu.run.driver import FMU
+from sphrom.fmu.variables import vr
+from sphrom.norms import relative_l2
+from sphrom.sweep.fmus import sweep_dir
+from sphrom.sweep.spec import load_spec
+from sphrom.sweep.table import read_results
+from sphrom.sweep.worker import probe_stats
 
 D_VALUES = (6.0, 9.0, 12.0)
 SPEC = """
@@ -40,7 +40,7 @@ k = [4]
 @pytest.fixture
 def packaging(monkeypatch):
     """Every call of package_fmu during the test: a list of its ``vary`` arguments."""
-    import harness.fmu.make.package as package
+    import sphrom.fmu.make.package as package
     calls = []
     real = package.package_fmu
 

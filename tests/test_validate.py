@@ -3,12 +3,12 @@
 import numpy as np
 import pytest
 
-from harness.cli import main
-from harness.compare import exact_errors
-from harness.norms import relative_l2, relative_l2_history
-from harness.report import accuracy
-from harness.report.pages import scene_page
-from harness.sph.solver import run_sph
+from sphrom.cli import main
+from sphrom.compare import exact_errors
+from sphrom.norms import relative_l2, relative_l2_history
+from sphrom.report import accuracy
+from sphrom.report.pages import scene_page
+from sphrom.sph.solver import run_sph
 
 from conftest import small_scene
 
@@ -60,7 +60,7 @@ def test_scene_page_quotes_the_errors_of_independent_paths(tmp_path):
 
 def test_references_converge_towards_each_other_on_the_jump(tmp_path):
     """heterogeneous: scikit-fem and py-pde differ less as both are refined (order > 0.5)."""
-    from harness.report.convergence import agreement_section
+    from sphrom.report.convergence import agreement_section
     scene = small_scene("heterogeneous", T=1.0, n=32, every=50)
     (tmp_path / "h").mkdir()
     _, (dv, drho, order_v, order_rho) = agreement_section(scene, tmp_path / "h", "h", resolutions=(64, 128, 256))

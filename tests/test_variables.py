@@ -17,18 +17,18 @@ import pytest
 from fmpy.validation import validate_fmu
 
 from conftest import fmu_scene
-from harness.cli import main
-from harness.errors import FieldError
-from harness.fmu import variables
-from harness.fmu.make.build import ensure_binaries
-from harness.fmu.run.core import Core, CoreError
-from harness.fmu.make.describe import model_description
-from harness.fmu.run.driver import FMU
-from harness.fmu.make.package import package_fmu
-from harness.fmu.make.archive import write_fmu
-from harness.fmu.resources import unpack
-from harness.rom.parametric import Range
-from harness.rom.registry import get_model
+from sphrom.cli import main
+from sphrom.errors import FieldError
+from sphrom.fmu import variables
+from sphrom.fmu.make.build import ensure_binaries
+from sphrom.fmu.run.core import Core, CoreError
+from sphrom.fmu.make.describe import model_description
+from sphrom.fmu.run.driver import FMU
+from sphrom.fmu.make.package import package_fmu
+from sphrom.fmu.make.archive import write_fmu
+from sphrom.fmu.resources import unpack
+from sphrom.rom.parametric import Range
+from sphrom.rom.registry import get_model
 
 ROOT = Path(__file__).resolve().parents[1]
 K = 6
@@ -235,9 +235,9 @@ def test_n_freeze_has_one_range_and_one_message():
     row = variables.BY_NAME["n_freeze"]
     words = f"is out of range (allowed: {variables.allowed_words(row)})"
     core = Core(ensure_binaries().core)
-    from harness.fmu.make.models import reduced_model
+    from sphrom.fmu.make.models import reduced_model
     data, _, _, _ = reduced_model(fmu_scene("forced"), K, 10, (0.5,), "euler", progress=False)
-    from harness.fmu.resources import pack
+    from sphrom.fmu.resources import pack
     model = core.load(pack(data))
     for bad in (0, -3, variables.INT32_MAX + 1):
         with pytest.raises(CoreError) as c_error:

@@ -2,8 +2,8 @@
 
 ``sphrom bench NAME [options]`` runs the program NAME (``sphrom bench NAME --help`` lists its options);
 ``sphrom bench --list`` prints one line per program: what it measures, how long it takes, what it writes.
-``python -m harness.bench.NAME`` runs the modules below as well.  The code they share is the library
-:mod:`harness.measure` (and :mod:`harness.fmu`, :mod:`harness.rom`, ...), never another program.
+``python -m sphrom.bench.NAME`` runs the modules below as well.  The code they share is the library
+:mod:`sphrom.measure` (and :mod:`sphrom.fmu`, :mod:`sphrom.rom`, ...), never another program.
 
 :data:`PROGRAMS` is the one list.  A program is a module here with ``main(argv)``, or one of the commands that
 measure (``sphrom bench`` itself, ``bench-sph``, ``bench-fmu``, ``stress``), reached under its program name.
@@ -21,7 +21,7 @@ from dataclasses import dataclass
 class Program:
     """One measurement program of :data:`PROGRAMS`."""
 
-    target: str          # a module with main(argv) (harness.bench.X, harness.sweep.measure), or "command:NAME"
+    target: str          # a module with main(argv) (sphrom.bench.X, sphrom.sweep.measure), or "command:NAME"
     measures: str
     takes: str           # how long, as measured (and where the figure comes from)
     writes: str
@@ -41,72 +41,72 @@ PROGRAMS = {
                          "bench_fmu_core.csv, bench_fmu_e2e.csv, bench_fmu.md with --out"),
     "stress": Program("command:stress", "stability maps of every method over Δt, amplitude, horizon, k and random "
                       "forces (also `sphrom stress`)", "not recorded", "validation/stress/: stress.md, CSV, PNG"),
-    "fmu": Program("harness.bench.fmu", "the FMU section of BENCHMARKS.md alone: C core, end to end, the "
+    "fmu": Program("sphrom.bench.fmu", "the FMU section of BENCHMARKS.md alone: C core, end to end, the "
                    "same-language ratio", "not recorded", "fmu_core.csv, fmu_e2e.csv; BENCHMARKS.md's Headline and "
                    "The FMU"),
-    "fast": Program("harness.bench.fast", "fast end to end before and after: whole commands (`sphrom "
+    "fast": Program("sphrom.bench.fast", "fast end to end before and after: whole commands (`sphrom "
                     "--help`, cosim, fmu warm and cold) against their yardsticks and another checkout, the frozen "
                     "core per step (k = 12, ports, at rest)", "measured: see BENCHMARKS.md, its section",
                     "a BENCHMARKS.md section with --report; JSON with --out"),
-    "fmu_verify": Program("harness.bench.fmu_verify", "every built-in scene's packaged FMU against the full SPH "
+    "fmu_verify": Program("sphrom.bench.fmu_verify", "every built-in scene's packaged FMU against the full SPH "
                           "(what `sphrom fmu` measures), medians of repeated timings",
                           "230 s with --no-bounds (BENCHMARKS.md)", "fmu_verify.csv; a BENCHMARKS.md section"),
-    "envelope": Program("harness.bench.envelope", "where the frozen model leaves its training envelope: probe error "
+    "envelope": Program("sphrom.bench.envelope", "where the frozen model leaves its training envelope: probe error "
                         "against the amplitude", "not recorded", "envelope.csv, envelope.png; a BENCHMARKS.md "
                         "section"),
-    "rest": Program("harness.bench.rest", "whether each packaged FMU stays at rest, and what the rest-consistent b "
+    "rest": Program("sphrom.bench.rest", "whether each packaged FMU stays at rest, and what the rest-consistent b "
                     "costs", "847 s (BENCHMARKS.md)", "rest.csv, rest.png; a BENCHMARKS.md section"),
-    "linear_tradeoff": Program("harness.bench.linear_tradeoff", "time against error of the linear models (balanced, "
+    "linear_tradeoff": Program("sphrom.bench.linear_tradeoff", "time against error of the linear models (balanced, "
                                "exact) beside the paper's, with the certified bounds", "787 s (BENCHMARKS.md)",
                                "a BENCHMARKS.md section"),
-    "sph_stencil": Program("harness.bench.sph_stencil", "the numba full SPH step against a C stencil and an older "
+    "sph_stencil": Program("sphrom.bench.sph_stencil", "the numba full SPH step against a C stencil and an older "
                            "checkout", "89 s with --repeats 9 (BENCHMARKS.md)", "sph_stencil.csv/png; a "
                            "BENCHMARKS.md section"),
-    "scale": Program("harness.bench.scale", "offline time and accuracy of the balanced model and its certified "
+    "scale": Program("sphrom.bench.scale", "offline time and accuracy of the balanced model and its certified "
                      "bounds from N = 400 to 10⁴ (through the Fourier modes; --dense times the O(N³) path)",
                      "measured: see BENCHMARKS.md", "scale.csv, scale.png; a BENCHMARKS.md section"),
-    "balanced_measure": Program("harness.bench.balanced_measure", "the balanced models against the full linear SPH "
+    "balanced_measure": Program("sphrom.bench.balanced_measure", "the balanced models against the full linear SPH "
                                 "and the exact POD model, their bounds' effectivity", "not recorded",
                                 "CSV and PNG files into --out"),
-    "cosim_fmi": Program("harness.bench.cosim_fmi", "FMI 2 against FMI 3 builds of the same model under sphrom "
+    "cosim_fmi": Program("sphrom.bench.cosim_fmi", "FMI 2 against FMI 3 builds of the same model under sphrom "
                          "cosim, with its defaults and with --hold-inputs", "measured: see the report",
                          "prints a table; CSV with --out"),
-    "input_derivatives": Program("harness.bench.input_derivatives", "held against interpolated input: the FMUs' "
+    "input_derivatives": Program("sphrom.bench.input_derivatives", "held against interpolated input: the FMUs' "
                                  "probe error against the communication step", "measured: see the report",
                                  "input_derivatives.csv"),
-    "port_rates": Program("harness.bench.port_rates", "held against interpolated port forces: the port FMU's error "
+    "port_rates": Program("sphrom.bench.port_rates", "held against interpolated port forces: the port FMU's error "
                           "against the communication step", "measured: see the report", "port_rates.csv"),
-    "port_coupling": Program("harness.bench.port_coupling", "a port FMU against the full SPH with the same point "
+    "port_coupling": Program("sphrom.bench.port_coupling", "a port FMU against the full SPH with the same point "
                              "forces, open loop and coupled to a mass-spring", "measured: see the report",
                              "port_coupling.csv"),
-    "port_envelope": Program("harness.bench.port_envelope", "the port FMU's accuracy against the port-force "
+    "port_envelope": Program("sphrom.bench.port_envelope", "the port FMU's accuracy against the port-force "
                              "amplitude", "measured: see the report", "port_envelope.csv"),
-    "inputs": Program("harness.bench.inputs", "every input channel at every frequency: ports under slow "
+    "inputs": Program("sphrom.bench.inputs", "every input channel at every frequency: ports under slow "
                       "and constant forces, forces along non-uniform profiles, before and after, against the "
                       "linear SPH exact in time", "measured: see the report", "prints a table; inputs.csv with --out"),
-    "passivity": Program("harness.bench.passivity", "passive ports on every built-in scene: each port model's "
+    "passivity": Program("sphrom.bench.passivity", "passive ports on every built-in scene: each port model's "
                          "passivity check (frozen Euclidean and energy, exact) and its poles coupled to a spring and a "
                          "heavy mass", "measured: see the report", "prints a table; passivity.csv with --out"),
-    "unseen_force": Program("harness.bench.unseen_force", "the FMUs under forces their basis never saw, against "
+    "unseen_force": Program("sphrom.bench.unseen_force", "the FMUs under forces their basis never saw, against "
                             "the full SPH's forced response", "measured: see the report", "unseen_force.csv"),
-    "error_bounds": Program("harness.bench.error_bounds", "the certified error-bound outputs on every built-in "
+    "error_bounds": Program("sphrom.bench.error_bounds", "the certified error-bound outputs on every built-in "
                             "scene: bound >= true error at every point, effectivity, doStep cost with and without "
                             "them (with --parametric, the parametric FMUs at held-out (c, d))", "measured: see the "
                             "report", "error_bounds.csv, error_bounds.png (with --parametric, "
                             "error_bounds_parametric.csv); a BENCHMARKS.md section"),
-    "error_bounds_ports": Program("harness.bench.error_bounds_ports", "the certified error bounds of port FMUs: "
+    "error_bounds_ports": Program("sphrom.bench.error_bounds_ports", "the certified error bounds of port FMUs: "
                                   "open-loop port forces, a coupled mass-spring, f with port forces, against the "
                                   "linear SPH exact in time", "measured: see the report", "error_bounds_ports.csv; "
                                   "a BENCHMARKS.md section"),
-    "parametric": Program("harness.bench.parametric", "the parametric model at held-out (c, d) against the full SPH "
+    "parametric": Program("sphrom.bench.parametric", "the parametric model at held-out (c, d) against the full SPH "
                           "and a model trained there", "not recorded", "CSV and a PNG map into --out"),
-    "reduced_stability": Program("harness.bench.reduced_stability", "how close the reduced models' sound runs come "
+    "reduced_stability": Program("sphrom.bench.reduced_stability", "how close the reduced models' sound runs come "
                                  "to their blow-up alarms", "measured: see the report", "reduced_stability.csv"),
-    "automatic_choices": Program("harness.bench.automatic_choices", "what the automatic rules of a scene choose on "
+    "automatic_choices": Program("sphrom.bench.automatic_choices", "what the automatic rules of a scene choose on "
                                  "each paper scene", "measured: see the report", "prints a table"),
-    "hostile": Program("harness.bench.hostile", "the hostile-input battery: options, paths, scenes, FMU resources "
+    "hostile": Program("sphrom.bench.hostile", "the hostile-input battery: options, paths, scenes, FMU resources "
                        "and states, FMI call sequences, signals", "not recorded", "validation/hostile/"),
-    "sweep": Program("harness.sweep.measure", "the committed parameter sweep on dask (throughput, resume)",
+    "sweep": Program("sphrom.sweep.measure", "the committed parameter sweep on dask (throughput, resume)",
                      "not recorded", "validation/sweeps/"),
 }
 
@@ -119,7 +119,7 @@ def list_lines():
 
 def program_parser(name, description=None, **options):
     """The argument parser of program ``name``: one-line errors with exit status 2 (as every sphrom command),
-    named as it was called (``sphrom bench NAME`` or ``python -m harness.bench.NAME``)."""
+    named as it was called (``sphrom bench NAME`` or ``python -m sphrom.bench.NAME``)."""
     from ..parser import Parser
     prog = f"sphrom bench {name}" if _CALLED_AS_SPHROM else f"python -m {PROGRAMS[name].target}"
     return Parser(prog=prog, description=description, **options)
@@ -145,7 +145,7 @@ def machine_text():
 
 def run_program(name, argv, build_parser=None):
     """Run program ``name`` with the arguments ``argv``; its exit status (``--help``: 0, a bad option: 2).
-    ``build_parser``: sphrom's parser builder (:func:`harness.cli.build_parser`), needed by the programs that are
+    ``build_parser``: sphrom's parser builder (:func:`sphrom.cli.build_parser`), needed by the programs that are
     sphrom commands (target ``command:NAME``)."""
     global _CALLED_AS_SPHROM
     target = PROGRAMS[name].target

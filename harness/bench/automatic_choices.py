@@ -1,6 +1,6 @@
-"""What the automatic rules of a scene (harness.pod.automatic) choose on the physics of each paper scene.
+"""What the automatic rules of a scene (sphrom.pod.automatic) choose on the physics of each paper scene.
 
-    python -m harness.bench.automatic_choices [--out validation/benchmarks/automatic_choices.csv]
+    python -m sphrom.bench.automatic_choices [--out validation/benchmarks/automatic_choices.csv]
 
 Each built-in scene with its [snapshots], [rom], [paper] and sph.every removed (what a user's own scene of the
 same physics would give), loaded and taken through its full SPH and POD: T', the automatic sph.every, the

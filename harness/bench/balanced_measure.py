@@ -1,6 +1,6 @@
 """Measure the balanced reduced models against the full linear SPH and the exact POD model.
 
-    python3 -m harness.bench.balanced_measure --out DIR [--sections headline,orders,forces,cost]
+    python3 -m sphrom.bench.balanced_measure --out DIR [--sections headline,orders,forces,cost]
 
 Sections (tables on stdout, ``balanced_orders.png`` in DIR):
 

@@ -1,9 +1,9 @@
 """FMI 2 against FMI 3 under ``sphrom cosim``: the same model built for both, co-simulated with the same force.
 
-``python -m harness.bench.cosim_fmi [SCENE] [--models frozen,exact,balanced] [--force EXPR] [--out FILE.csv]``
+``python -m sphrom.bench.cosim_fmi [SCENE] [--models frozen,exact,balanced] [--force EXPR] [--out FILE.csv]``
 packages SCENE's FMU of each model for FMI 2 and FMI 3 (the scene's defaults, as ``sphrom fmu SCENE --model
 MODEL --fmi 2|3``; the linear ones without bounds, which change no output) and co-simulates both through
-:func:`harness.fmu.run.cosim.run_cosim` at their default step over T, with the quickstart's force, twice: with
+:func:`sphrom.fmu.run.cosim.run_cosim` at their default step over T, with the quickstart's force, twice: with
 ``sphrom cosim``'s defaults (FMI 2: f linear over each step with df/dt; FMI 3: held, docs/fmu/cosim.md) and with
 ``--hold-inputs`` (both held).  Per model and input rule: the largest |y_FMI3 - y_FMI2| over every output and
 point, relative to the largest |y_FMI2| of that output, and whether the outputs are bitwise equal.

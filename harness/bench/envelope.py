@@ -8,9 +8,9 @@ integrator and Δt; exact: the exact linear model, scale invariant, whose error 
 full SPH's departure from linearity in J, its time stepping of ρ), the peak strain |ρ0/ρ - 1| of the full SPH at the particles and at the
 probes, and the frozen run's largest coordinate excess beyond the trained ranges in units of its
 block's largest half-width (the quantity the FMU's coordinate check compares with margin - 1,
-:mod:`harness.fmu.make.envelope`).  Run as::
+:mod:`sphrom.fmu.make.envelope`).  Run as::
 
-    python -m harness.bench.envelope [SCENE ...] [--scales 1,1.5,...] [--out validation/benchmarks/envelope.csv]
+    python -m sphrom.bench.envelope [SCENE ...] [--scales 1,1.5,...] [--out validation/benchmarks/envelope.csv]
                                      [--report BENCHMARKS.md]
 
 It writes the CSV and a PNG of error against peak probe strain beside it, and its section of
@@ -168,7 +168,7 @@ SCENES = ("tenmode", "multimode", "damped")
 def run(out, scenes=SCENES, scales=SCALES, progress=True):
     """The sweep of ``scenes`` and the training headroom of every built-in scene: rows written to ``out``
     (envelope.csv), envelope.png and envelope_training.csv beside it; returns
-    {"rows", "training", "command"} for the report (:func:`harness.measure.markdown.envelope_section`)."""
+    {"rows", "training", "command"} for the report (:func:`sphrom.measure.markdown.envelope_section`)."""
     from ..runio import atomic_path
     from ..scene import builtin_names
     from ..measure.tables import write_csv
@@ -179,7 +179,7 @@ def run(out, scenes=SCENES, scales=SCALES, progress=True):
         plot(rows, tmp)
     training = [training_headroom(name) for name in builtin_names()]
     write_csv(out.with_name("envelope_training.csv"), training)
-    command = "python -m harness.bench.envelope " + " ".join(scenes)
+    command = "python -m sphrom.bench.envelope " + " ".join(scenes)
     if tuple(scales) != SCALES:
         command += " --scales " + ",".join(f"{s:g}" for s in scales)
     failure = {s: failure_strain(rows, s) for s in dict.fromkeys(r["scene"] for r in rows)}

@@ -4,7 +4,7 @@
 [--report BENCHMARKS.md]`` packages each scene's FMU of each model (FMI 2, the scene's defaults, without the a
 priori bounds) and drives it, its inputs held over 10 ms steps over the scene's T, with five forces no basis saw
 (:data:`FORCES`) from initial_state_scale 0, 1 and 3.  The truth is the full SPH of eqs. 2.10-2.11 as the linear
-system in J (:mod:`harness.rom.lti`), advanced exactly over each step (the matrix exponential of the system
+system in J (:mod:`sphrom.rom.lti`), advanced exactly over each step (the matrix exponential of the system
 augmented with the held input), independent of every reduced model and of the bounds' shadow: v at the probes,
 and ρ = ρ0 / (1 + e) at the particles, both interpolated linearly at the probes as the FMU does.
 
@@ -19,7 +19,7 @@ and the section "Certified error bounds" of the report.
 
 ``--parametric`` measures the parametric FMUs instead (frozen and exact, ``--vary`` c over [c/2, 2c] and d over
 [d/2, 3d/2], [0, 5] s⁻¹ for an undamped scene, about the scene's c and d; :data:`PARAMETRIC_SPAN`): the same
-forces and scales at ``--points`` held-out (c, d) of the box (:func:`harness.rom.parametric.held_out_points`),
+forces and scales at ``--points`` held-out (c, d) of the box (:func:`sphrom.rom.parametric.held_out_points`),
 the truth the full linear SPH with that c and d; writes ``error_bounds_parametric.csv`` and the section
 "Certified error bounds of parametric FMUs" (no cost columns: the doStep is the ordinary one's, the planes
 assembled once at initialization).

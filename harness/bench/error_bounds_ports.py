@@ -6,9 +6,9 @@ defaults, without the a priori bounds) for each model and drives it over the sce
 communication steps, inputs held, from rest and from the scene's initial state, in four cases no basis saw
 (:func:`cases`): slow port forces (2e-3 sin 1.3t N at port 1, 1e-3 cos 3.1t + 5e-4·[t > T/2] N at port 2), a
 constant 1e-3 N at port 1, port 1 coupled to a mass-spring (0.05 kg, 5 N/m, stretched 1 mm at t = 0; the spring
-force at the start of a step held over it, :mod:`harness.measure.ports`), and f = 2e-3 m s^-2 with the slow
+force at the start of a step held over it, :mod:`sphrom.measure.ports`), and f = 2e-3 m s^-2 with the slow
 port forces.  The truth is the full SPH of eqs. 2.10-2.11 as the linear system in J with the port forces
-(:func:`harness.rom.reference.linear_reference`), advanced exactly in time with the very inputs the FMU received
+(:func:`sphrom.rom.reference.linear_reference`), advanced exactly in time with the very inputs the FMU received
 (the coupled case's port forces as the FMU read them), independent of the reduced models and of the bounds.
 
 Per scene, model, start and case: the communication points where a bound of v_probe_j, rho_probe_j or v_port_j is

@@ -1,6 +1,6 @@
 """Fast end to end, before and after: whole commands and the frozen core, this checkout against another.
 
-``python -m harness.bench.fast`` / ``sphrom bench fast [--before CHECKOUT] [--repeats R] [--no-cold]
+``python -m sphrom.bench.fast`` / ``sphrom bench fast [--before CHECKOUT] [--repeats R] [--no-cold]
 [--report BENCHMARKS.md]``
 
 Whole processes, each a fresh interpreter (its start-up and imports included), timed from outside: a bare Python
@@ -30,21 +30,23 @@ import tempfile
 import time
 from pathlib import Path
 
+from ..paths import import_path
+
 HERE = Path(__file__).resolve().parents[2]          # this checkout
 
-# the core measurement, run by each checkout's own Python code (either layout: harness.fmu.make/run or older)
+# the core measurement, run by each checkout's own Python code (either layout: sphrom.fmu.make/run or older)
 CORE_SCRIPT = r"""
 import ctypes, json, statistics, sys, time
 try:
-    from harness.fmu.make.build import ensure_binaries
-    from harness.fmu.make.models import reduced_model
-    from harness.fmu.run.core import Core
+    from sphrom.fmu.make.build import ensure_binaries
+    from sphrom.fmu.make.models import reduced_model
+    from sphrom.fmu.run.core import Core
 except ImportError:
-    from harness.fmu.build import ensure_binaries
-    from harness.fmu.package import reduced_model
-    from harness.fmu.core import Core
-from harness.fmu.resources import pack
-from harness.scene import derive_scene, load_scene
+    from sphrom.fmu.build import ensure_binaries
+    from sphrom.fmu.package import reduced_model
+    from sphrom.fmu.core import Core
+from sphrom.fmu.resources import pack
+from sphrom.scene import derive_scene, load_scene
 
 repeats = int(sys.argv[1])
 core = Core(ensure_binaries().core)
@@ -58,7 +60,7 @@ def model_of(scene, ports=()):
     data, ops, problem, _ = reduced_model(scene, 12, 10, [0.5], "euler", progress=False,
                                           **({"ports": ports} if ports else {}), **always)
     try:                    # the particle refresh where packaging puts it (a checkout that has it)
-        from harness.fmu.make.models import particle_sections
+        from sphrom.fmu.make.models import particle_sections
         data.sections.update(particle_sections(ops, problem))
     except ImportError:
         pass
@@ -115,7 +117,7 @@ print("CORE-JSON " + json.dumps(out))
 
 def _env(checkout, cache):
     env = dict(os.environ)
-    env["PYTHONPATH"] = str(checkout)
+    env["PYTHONPATH"] = import_path(checkout)
     env["SPHROM_CACHE"] = str(cache)
     env.pop("PYTHONSTARTUP", None)
     return env
@@ -182,7 +184,7 @@ def measure(before=None, repeats=5, cold=True, progress=True, workdir=None):
         caches = {"after": Path(os.environ.get("SPHROM_CACHE") or tmp / "cache-after"),
                   "before": tmp / "cache-before"}
         fmu = tmp / "tenmode-exact.fmu"
-        _run([py, "-m", "harness", "fmu", "tenmode", "--model", "exact", "--no-bounds", "--out", str(fmu), "--quiet"],
+        _run([py, "-m", "sphrom", "fmu", "tenmode", "--model", "exact", "--no-bounds", "--out", str(fmu), "--quiet"],
              _env(HERE, caches["after"]), str(tmp))
 
         def cmd(*argv):
@@ -190,10 +192,10 @@ def measure(before=None, repeats=5, cold=True, progress=True, workdir=None):
 
         rows_plan = [("bare Python start (`python -c pass`)", cmd("-c", "pass")),
                      ("`python -c 'import numpy, fmpy'`", cmd("-c", "import numpy, fmpy")),
-                     ("`sphrom --help`", cmd("-m", "harness", "--help")),
-                     ("`sphrom cosim` tenmode's exact FMU, 10 s", cmd("-m", "harness", "cosim", str(fmu), "--out",
+                     ("`sphrom --help`", cmd("-m", "sphrom", "--help")),
+                     ("`sphrom cosim` tenmode's exact FMU, 10 s", cmd("-m", "sphrom", "cosim", str(fmu), "--out",
                                                                       str(tmp / "cosim.csv"))),
-                     ("`sphrom fmu tenmode`, warm cache", cmd("-m", "harness", "fmu", "tenmode", "--out",
+                     ("`sphrom fmu tenmode`, warm cache", cmd("-m", "sphrom", "fmu", "tenmode", "--out",
                                                               str(tmp / "warm.fmu"), "--quiet"))]
         total = len(rows_plan) * repeats + (repeats if cold else 0) + 2
         rows = []
@@ -208,7 +210,7 @@ def measure(before=None, repeats=5, cold=True, progress=True, workdir=None):
                     shutil.rmtree(colds[name], ignore_errors=True)
                     colds[name].mkdir()
                     shutil.copytree(builds[name], colds[name] / "build", symlinks=True)
-                commands = {name: ([py, "-m", "harness", "fmu", "tenmode", "--out", str(tmp / f"cold-{name}.fmu"),
+                commands = {name: ([py, "-m", "sphrom", "fmu", "tenmode", "--out", str(tmp / f"cold-{name}.fmu"),
                                     "--quiet"], _env(checkouts[name], colds[name]), str(tmp))
                             for name in checkouts}
                 rows.append(paired("`sphrom fmu tenmode`, cold SPH/POD cache (binaries built)", commands, repeats,

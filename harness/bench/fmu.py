@@ -1,7 +1,7 @@
-"""The FMU section of BENCHMARKS.md alone: ``python -m harness.bench.fmu`` / ``sphrom bench fmu``.
+"""The FMU section of BENCHMARKS.md alone: ``python -m sphrom.bench.fmu`` / ``sphrom bench fmu``.
 
 ``[--scene S] [--repeats R] [--out FOLDER] [--report BENCHMARKS.md]``: the FMU measurements of ``sphrom bench``
-(:func:`harness.measure.fmu.fmu_measurements`: the C core against N, end to end through the FMU driver, the
+(:func:`sphrom.measure.fmu.fmu_measurements`: the C core against N, end to end through the FMU driver, the
 same-language ratio); replaces the report's "Headline" and "The FMU" sections (the figures of the rest of
 ``sphrom bench`` do not depend on the FMU) and writes fmu_core.csv, fmu_e2e.csv.
 """
@@ -35,7 +35,7 @@ def main(argv=None):
     out.mkdir(parents=True, exist_ok=True)
     write_fmu_csv(out, fmu["core"], fmu["e2e"], prefix="fmu_")
     given = argv if argv is not None else sys.argv[1:]
-    note = (f"Re-measured alone by `python -m harness.bench.fmu{' ' + ' '.join(given) if given else ''}` "
+    note = (f"Re-measured alone by `python -m sphrom.bench.fmu{' ' + ' '.join(given) if given else ''}` "
             f"on {cpu_model()}, Python {platform.python_version()}, {wall:.0f} s wall, load average (1 / 5 / 15 "
             f"min) {' / '.join(map(str, load_start or ()))} at the start, "
             f"{' / '.join(map(str, load_average() or ()))} at the end; medians of {args.repeats}), after the rest "

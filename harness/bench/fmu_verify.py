@@ -1,8 +1,8 @@
 """What ``sphrom fmu`` measures, for every built-in scene: the packaged FMU against the full SPH.
 
-``python -m harness.bench.fmu_verify [SCENE ...] [--models frozen,exact] [--repeats R] [--out FOLDER]
+``python -m sphrom.bench.fmu_verify [SCENE ...] [--models frozen,exact] [--repeats R] [--out FOLDER]
 [--report BENCHMARKS.md]`` packages each scene's FMU of each model (FMI 2, the scene's default settings, as
-``sphrom fmu SCENE --model MODEL``), with the verification of :mod:`harness.fmu.check.verify` (training force and
+``sphrom fmu SCENE --model MODEL``), with the verification of :mod:`sphrom.fmu.check.verify` (training force and
 the unseen force A sin(2 pi 0.7 t); errors of eq. 3.4 at the probes), then times the training run of the
 full SPH (its compiled loop) and of every model's FMU (fmpy on an instantiated FMU) in turn, ``repeats``
 times (medians; the speed-up is the ratio of the medians taken in the same run).  The tolerance column

@@ -1,11 +1,11 @@
 """A battery of hostile inputs: every command's options, scenes, output paths, mutated FMU resources
 and states, FMI calls out of order, and signals at random moments of every long command.
 
-    python3 -m harness.bench.hostile [--out validation/hostile] [--seed 25] [--jobs 2] [--quick]
+    python3 -m sphrom.bench.hostile [--out validation/hostile] [--seed 25] [--jobs 2] [--quick]
 
-Each case runs in a process of its own (the command line through ``python -m harness`` of this checkout; the
+Each case runs in a process of its own (the command line through ``python -m sphrom`` of this checkout; the
 FMU cases in a child that loads the binaries through ctypes / fmpy, restarted after a crash:
-:mod:`harness.measure.hostile_fmu`) and gets one outcome.  The category "step bound" asks one doStep for the
+:mod:`sphrom.measure.hostile_fmu`) and gets one outcome.  The category "step bound" asks one doStep for the
 most work it can be given (an internal dt of 1e-12 s set as the parameter, carried by a state or by the
 resources, checksums recomputed; a communication step of 1e7 s): it must answer within 10 s, done or refused
 naming the limit.
@@ -53,6 +53,8 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..paths import import_path
+
 REPO = Path(__file__).resolve().parents[2]
 OUTCOMES = ("ok", "clean error", "clean interrupt", "traceback", "hang", "silent wrong result", "replaced file",
             "left behind", "unclear error", "outside sphrom")
@@ -91,14 +93,14 @@ class Workspace:
 
 
 def run_cli(args, env, cwd, timeout=600):
-    return subprocess.run([sys.executable, "-m", "harness", *args], cwd=cwd, env=env, capture_output=True, text=True,
+    return subprocess.run([sys.executable, "-m", "sphrom", *args], cwd=cwd, env=env, capture_output=True, text=True,
                           timeout=timeout)
 
 
 def prepare(root: Path) -> Workspace:
     """Scenes, a basis, FMUs (frozen FMI 2 and 3, exact FMI 2), a force CSV and sweep specs under ``root``."""
     root.mkdir(parents=True, exist_ok=True)
-    env = {**os.environ, "PYTHONPATH": str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", ""),
+    env = {**os.environ, "PYTHONPATH": import_path(REPO) + os.pathsep + os.environ.get("PYTHONPATH", ""),
            "SPHROM_CACHE": str(root / "cache")}
     ws = Workspace(root, env)
     (root / "s.toml").write_text(small_scene_text())
@@ -275,7 +277,7 @@ def run_case(case: Case, ws: Workspace, index: int) -> Result:
     guarded.update({rel + ".target": _snapshot(folder / (rel + ".target")) for rel, kind in case.make
                     if kind == "link-file"})
     before = {p.name for p in folder.iterdir()}
-    argv = [sys.executable, "-m", "harness", case.command, *case.args]
+    argv = [sys.executable, "-m", "sphrom", case.command, *case.args]
     t0 = time.monotonic()
     proc = subprocess.Popen(argv, cwd=folder, env=ws.env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
@@ -319,7 +321,7 @@ def classify(case, folder, guarded, before, code, lines, out, sent_alive, early)
     if code is None:
         return "hang", f"no answer within {case.timeout:g} s"
     if early and ("Traceback" in text or code in (-signal.SIGINT, -signal.SIGTERM)) \
-            and "harness" not in text.replace("-m harness", ""):
+            and "harness" not in text.replace("-m sphrom", ""):
         return "outside sphrom", "signal before sphrom's first line (interpreter start-up)"
     if "Traceback" in text:
         raised = [line for line in lines if line and not line.startswith((" ", "Traceback"))]
@@ -560,7 +562,7 @@ def running_span(ws, command, args):
     random moment inside it lands while the command works)."""
     folder = Path(tempfile.mkdtemp(prefix="span-", dir=ws.root))
     (folder / "a").mkdir()
-    proc = subprocess.Popen([sys.executable, "-m", "harness", command, *args], cwd=folder / "a", env=ws.env,
+    proc = subprocess.Popen([sys.executable, "-m", "sphrom", command, *args], cwd=folder / "a", env=ws.env,
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     while not sphrom_catches_sigterm(proc.pid) and proc.poll() is None:
         time.sleep(0.001)
@@ -616,7 +618,7 @@ def signal_cases(ws, rng, sweeps, per_command):
 # ---------------------------------------------------------------------------
 
 def run_battery(out: Path, seed=25, jobs=2, quick=False, workdir=None, log=print,
-                command="python3 -m harness.bench.hostile"):
+                command="python3 -m sphrom.bench.hostile"):
     rng = random.Random(seed)
     root = Path(workdir or tempfile.mkdtemp(prefix="sphrom-hostile-"))
     t0 = time.monotonic()
@@ -664,7 +666,7 @@ def counts(results):
     return table
 
 
-def write_results(out: Path, results, wall, seed, command="python3 -m harness.bench.hostile"):
+def write_results(out: Path, results, wall, seed, command="python3 -m sphrom.bench.hostile"):
     from ..measure.tables import write_csv
     out.mkdir(parents=True, exist_ok=True)
     rows = [{"category": r.case.category, "command": r.case.command, "args": " ".join(r.case.args)[:400],
@@ -751,7 +753,7 @@ def main(argv=None):
         from ..measure.hostile_fmu import child_main
         child_main(args.child)
         return 0
-    command = "python3 -m harness.bench.hostile " + " ".join(argv if argv is not None else sys.argv[1:])
+    command = "python3 -m sphrom.bench.hostile " + " ".join(argv if argv is not None else sys.argv[1:])
     results, wall, root = run_battery(Path(args.out), seed=args.seed, jobs=args.jobs, quick=args.quick,
                                       workdir=args.workdir, command=command.strip())
     print_counts(results, wall, command.strip())

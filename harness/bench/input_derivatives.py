@@ -1,6 +1,6 @@
 """Held against interpolated inputs: the FMUs' probe-velocity error against the communication step.
 
-``python -m harness.bench.input_derivatives [--out FOLDER]`` packages tenmode's
+``python -m sphrom.bench.input_derivatives [--out FOLDER]`` packages tenmode's
 exact linear FMU and its frozen-coefficient FMU (FMI 2), co-simulates each with
 f = 1e-2 sin(2 pi t) at communication steps of 1, 5, 10, 20, 50 ms with the
 input held over each step and with df/dt (fmi2SetRealInputDerivatives, f

@@ -1,9 +1,9 @@
 """Every input at every frequency: ports under slow and constant forces and forces along non-uniform
 profiles, before and after the directions of
-:mod:`harness.rom.inputs`, for the exact, frozen and balanced models.
+:mod:`sphrom.rom.inputs`, for the exact, frozen and balanced models.
 
 Cases (each against the full SPH's equations linear in J integrated exactly in time,
-:func:`harness.rom.reference.linear_reference`, inputs held over H = 10 ms, sampled every H):
+:func:`sphrom.rom.reference.linear_reference`, inputs held over H = 10 ms, sampled every H):
 
 * ``ports-slow``: damped_forced (N = 100) with ports at x/L = 0.3 and 0.7, from its initial state, port forces
   2e-3 sin 1.3t and 1e-3 cos 3.1t + 5e-4 [t > 4 s], 10 s: the port velocities;
@@ -14,7 +14,7 @@ Cases (each against the full SPH's equations linear in J integrated exactly in t
   (damped_forced): the frozen parametric model (``--vary c=c/2:2c``, and ``d=0:2d`` on a damped scene) with the
   profile 1 + sin 2πx + ½ cos 6πx, from rest, f = 1e-2 and 1e-2 sin 7t, at c = 0.6, 1 and 1.8 times the scene's
   (the worst of the three); before: the profile projected (``input_direction="project"``), after: the parametric
-  FMU's rule (``moments``, :data:`harness.fmu.make.parametric.PARAMETRIC_INPUT_DIRECTION`); and the exact
+  FMU's rule (``moments``, :data:`sphrom.fmu.make.parametric.PARAMETRIC_INPUT_DIRECTION`); and the exact
   parametric model (its FMU's rule, the profile and its directions computed at the scene's c, d = 1);
 * ``shaped-constant`` / ``shaped-sine``: tenmode with the profile exp(-((x - 0.3)/0.1)²) (trained on 1e-2 cos 2t),
   from rest, f = 1e-2 and 1e-2 sin 5t: the velocity field; ``shaped-sine-3e-3`` the sine at 3e-3 (a third of
@@ -22,17 +22,17 @@ Cases (each against the full SPH's equations linear in J integrated exactly in t
 
 The full SPH (nonlinear, the scene's dt) is a row of its own in the port cases, with the scene's own force off
 as in the reference, once with the integrator a port FMU takes (symplectic Euler,
-:func:`harness.fmu.make.options.default_integrator`) and once with the scene's (explicit Euler: ``full SPH
+:func:`sphrom.fmu.make.options.default_integrator`) and once with the scene's (explicit Euler: ``full SPH
 (euler)``). Models as the FMU builds them (k = 12, the model's ``fmu_input_direction``); ``before`` is the build
 option ``input_moments=False`` (the bases main had: the port's short-time directions and the profile's own
 column; the frozen model in the Euclidean projection it had, ``inner="euclid"``), the balanced model at its
 default order tolerance (it has no "before": it had no ports). Errors: relative L² over all samples. The frozen model runs with the scene's dt, n_freeze = 10, the integrator its FMU
 takes (with ports symplectic Euler, else the scene's) and the refresh its FMU takes (the particles where they
-cost less than the tensor, :func:`harness.fmu.make.models.particle_sections`).
+cost less than the tensor, :func:`sphrom.fmu.make.models.particle_sections`).
 
 Run as::
 
-    python -m harness.bench.inputs [--case NAME ...] [--out inputs.csv]
+    python -m sphrom.bench.inputs [--case NAME ...] [--out inputs.csv]
 
 It prints a Markdown table (docs/fmu/ports.md quotes it) and writes the CSV.  About 10 min on the shared
 2-core machine (the frozen model on tenmode at N = 400: 200 000 steps with k_v = 40).

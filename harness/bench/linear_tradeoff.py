@@ -8,14 +8,14 @@ x/L = 0.25, 0.5, 0.66) against the full SPH, on the scene's own force (the train
 saw it) and on UNSEEN_FORCE (another time history along the same profile, the POD basis unchanged).  For the
 linear models, the absolute error against the full linear SPH (exact in time, the input linear between
 samples as in the models) stands beside its certified bound force_error_bound ||f||_L2 +
-initial_state_error_bound (the largest over the probes; :func:`harness.rom.balanced.error_bounds`).  Online
+initial_state_error_bound (the largest over the probes; :func:`sphrom.rom.balanced.error_bounds`).  Online
 times are medians of ``repeats`` runs.  Run as::
 
-    python -m harness.bench.linear_tradeoff [--scenes damped_forced,damped_forced@shaped] [--orders 4,8,...]
+    python -m sphrom.bench.linear_tradeoff [--scenes damped_forced,damped_forced@shaped] [--orders 4,8,...]
         [--repeats 3] [--benchmarks BENCHMARKS.md]
 
 which prints the table and writes it as the section "Linear models: time against error" of BENCHMARKS.md
-(:func:`harness.measure.markdown.linear_tradeoff_section`), replacing an earlier one.
+(:func:`sphrom.measure.markdown.linear_tradeoff_section`), replacing an earlier one.
 """
 
 from __future__ import annotations
@@ -143,7 +143,7 @@ def _l2(e, h):
 
 def write_section(path, text):
     """Replace the section SECTION_TITLE of the Markdown file ``path`` with ``text``; a new one goes before the
-    stress maps (where ``sphrom bench --report`` carries it over, :data:`harness.measure.markdown.CARRIED`), else at
+    stress maps (where ``sphrom bench --report`` carries it over, :data:`sphrom.measure.markdown.CARRIED`), else at
     the end."""
     path = Path(path)
     old = path.read_text(encoding="utf-8") if path.exists() else ""
@@ -183,7 +183,7 @@ def main(argv=None):
     with progress_bar(len(scenes) * len(orders) * len(MODELS), "tradeoff", enabled=not args.quiet) as bar:
         for name in scenes:
             rows += measure_scene(name, orders, args.repeats, progress=bar)
-    command = ("python -m harness.bench.linear_tradeoff --scenes " + ",".join(scenes) + " --orders "
+    command = ("python -m sphrom.bench.linear_tradeoff --scenes " + ",".join(scenes) + " --orders "
                + ",".join(map(str, orders)) + f" --repeats {args.repeats}")
     text = "\n".join(linear_tradeoff_section(rows, command, time.perf_counter() - t0)) + "\n"
     print(text)

@@ -2,7 +2,7 @@
 
 One parametric model is trained over the range (full SPH at the corners and
 the centre, one POD of all their snapshots, operators affine in c and d:
-:mod:`harness.rom.parametric`).  At held-out points (the Halton sequence in
+:mod:`sphrom.rom.parametric`).  At held-out points (the Halton sequence in
 the box, none a training point) the full SPH is run, and the probe-velocity
 error (relative L² over the probes and the scene's error samples, eq. 3.4's
 norm) is measured for
@@ -16,7 +16,7 @@ tests/test_parametric.py).  With ``--fmu`` (the default) it also times
 doStep of the parametric FMU against the fixed one (the scene's values).
 Run as::
 
-    python -m harness.bench.parametric [--scene tenmode] [--vary c=0.05:0.2 --vary d=0:5] [--model frozen]
+    python -m sphrom.bench.parametric [--scene tenmode] [--vary c=0.05:0.2 --vary d=0:5] [--model frozen]
         [--points 10] [--out validation/benchmarks/parametric]
 
 It writes ``<scene>_<model>.csv`` (one row per held-out point), ``<scene>_<model>.png`` (the map) and

@@ -3,7 +3,7 @@
 For each scene (the built-in ones, at their own N) with ports at x/L = 0.3 and 0.7, k = 12, the port map (F_port
 to v_port) of: the frozen model in the paper's Euclidean projection (``inner="euclid"``), the frozen model as a
 port FMU builds it (the energy inner products, the default with ports), and the exact model.  Per model:
-the verdict of :func:`harness.rom.passivity.port_passivity` (passive by structure, positive real on the grid,
+the verdict of :func:`sphrom.rom.passivity.port_passivity` (passive by structure, positive real on the grid,
 passive to within 1e-3 of ‖H‖, or not passive), the grid's min λ(H + Hᴴ)/‖H‖ where no storage proves it, the
 largest real part of the eigenvalues of the model linearised at rest [s^-1], and of the model coupled at each
 port to a spring and a mass ten times the bar's (stiffness 1e4 N/m, no damper: every part passive, so a
@@ -11,7 +11,7 @@ passive model keeps every pole in the closed left half-plane) [s^-1].
 
 Run as::
 
-    python -m harness.bench.passivity [--scene NAME ...] [--out passivity.csv]
+    python -m sphrom.bench.passivity [--scene NAME ...] [--out passivity.csv]
 
 It prints a Markdown table (docs/fmu/ports.md quotes it) and writes the CSV.  About a minute on the shared 2-core
 machine (tenmode's bases reach k_v = 233).

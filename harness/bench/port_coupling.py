@@ -4,7 +4,7 @@ Two measurements on a scene (default damped_forced, two ports at x/L = 0.3 and 0
 
 * **open loop**: the FMU (frozen and exact) under port forces no model was trained on (F_1 = 1e-3 sin(5t + 0.3),
   F_2 = 1e-3 cos²(2t) N, held over 1 ms communication steps, the scene's own f as usual), its port velocities
-  against the full SPH with the same forces spread by the same kernel (:func:`harness.sph.ports.run_sph_ports`);
+  against the full SPH with the same forces spread by the same kernel (:func:`sphrom.sph.ports.run_sph_ports`);
   beside it the scene's POD error level: the same FMU without port forces against the full SPH without them,
   read through the same port rows.
 * **coupled**: the FMU and a lumped mass-spring (mass 0.05 kg, spring 5 N/m, stretched 1 mm at t = 0) on port 1,
@@ -16,7 +16,7 @@ Two measurements on a scene (default damped_forced, two ports at x/L = 0.3 and 0
 
 Run as::
 
-    python -m harness.bench.port_coupling [--t-end T] [--out validation/benchmarks/port_coupling.csv]
+    python -m sphrom.bench.port_coupling [--t-end T] [--out validation/benchmarks/port_coupling.csv]
 """
 
 from __future__ import annotations

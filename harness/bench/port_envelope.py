@@ -1,9 +1,9 @@
 """The frozen port FMU's accuracy against the port-force amplitude: what the training envelope with ports rests on.
 
-``python -m harness.bench.port_envelope [--out FOLDER] [--t-end T]`` packages damped_forced's frozen
-port FMU (k = 12, ports at x/L = 0.3 and 0.7, FMI 2, as :mod:`harness.bench.port_coupling`) and
+``python -m sphrom.bench.port_envelope [--out FOLDER] [--t-end T]`` packages damped_forced's frozen
+port FMU (k = 12, ports at x/L = 0.3 and 0.7, FMI 2, as :mod:`sphrom.bench.port_coupling`) and
 drives it with the open-loop port forces of that benchmark scaled by 0, 1, 2, 5, 12, 20 (1 ms steps,
-the scene's f as usual), against the full SPH with the same forces (:func:`harness.sph.ports.run_sph_ports`).
+the scene's f as usual), against the full SPH with the same forces (:func:`sphrom.sph.ports.run_sph_ports`).
 Per scale: the relative L² error of v_port, the largest probe strain |ρ0/ρ - 1| of the FMU (and as a
 multiple of the trained one), and the FMU's envelope warning (none, or the quantity it names).  Writes
 ``port_envelope.csv`` and prints a Markdown table.
@@ -106,7 +106,7 @@ def main(argv=None):
     out = Path(args.out) / "port_envelope.csv"
     out.parent.mkdir(parents=True, exist_ok=True)
     write_csv(out, rows)
-    print(f"damped_forced, frozen port FMU (k = 12), open-loop port forces of harness.bench.port_coupling scaled, "
+    print(f"damped_forced, frozen port FMU (k = 12), open-loop port forces of sphrom.bench.port_coupling scaled, "
           f"over {args.t_end:g} s, against the full SPH")
     print(markdown(rows))
     print(f"wrote {out}")

@@ -1,9 +1,9 @@
 """Held against interpolated port forces: the frozen port FMU's port-velocity error against the communication step.
 
-The companion of :mod:`harness.bench.input_derivatives` for the mechanical ports.
-``python -m harness.bench.port_rates [--out FOLDER]`` packages the frozen port FMU of
+The companion of :mod:`sphrom.bench.input_derivatives` for the mechanical ports.
+``python -m sphrom.bench.port_rates [--out FOLDER]`` packages the frozen port FMU of
 damped_forced (k = 12, ports at x/L = 0.3 and 0.7, FMI 2), drives its ports with the open-loop
-forces of :mod:`harness.bench.port_coupling` (F_1 = 1e-3 sin(5t + 0.3), F_2 = 1e-3 cos²(2t) N) and
+forces of :mod:`sphrom.bench.port_coupling` (F_1 = 1e-3 sin(5t + 0.3), F_2 = 1e-3 cos²(2t) N) and
 the scene's f with its derivative, at communication steps of 4, 10, 20, 50 ms with the port forces
 held over each step and with dF/dt (fmi2SetRealInputDerivatives: F_j + (dF_j/dt) τ at each refresh
 of the force term), over 2 s.  Reference: the same FMU stepped one refresh period (n_freeze Δt) at a

@@ -1,17 +1,17 @@
 """The reduced models' blow-up guard on the paper's scenes: how close a sound run comes to its alarms.
 
-``python -m harness.bench.reduced_stability [SCENE ...] [--out FOLDER]`` runs
+``python -m sphrom.bench.reduced_stability [SCENE ...] [--out FOLDER]`` runs
 the frozen and the density-linearised models of each scene (every k of
 ``rom.accel_modes`` and ``rom.modes``, explicit Euler and, for the frozen model,
 symplectic Euler, the scene's Δt and T, the scene's force) and reports
 
 * ``growth``: the factor by which the integrator amplifies the worst reduced
-  mode over the run (:func:`harness.rom.stepping.reduced_amplification`;
-  ``sphrom rom`` warns above :data:`harness.sph.solver.GROWTH_WARN`);
+  mode over the run (:func:`sphrom.rom.stepping.reduced_amplification`;
+  ``sphrom rom`` warns above :data:`sphrom.sph.solver.GROWTH_WARN`);
 * ``energy_ratio``: the largest ratio, over the samples, of the energy of the
-  reconstructed fields (:func:`harness.rom.stepping.reduced_energy`) to the bound
+  reconstructed fields (:func:`sphrom.rom.stepping.reduced_energy`) to the bound
   the scene's initial energy and forcing allow (the run stops at
-  :data:`harness.sph.solver.BLOWUP_FACTOR` times it).
+  :data:`sphrom.sph.solver.BLOWUP_FACTOR` times it).
 
 Writes ``reduced_stability.csv`` and prints a Markdown table.
 """
@@ -27,7 +27,7 @@ RUNS = (("frozen", "euler"), ("frozen", "symplectic"), ("linearized", "euler"))
 
 
 def energy_ratio(result, ops, problem, scene):
-    """max over the samples of E(t) / (e^{λt} (√E0 + σ ∫_0^t |f| ds))² (:func:`harness.sph.solver.energy_bound_factors`)."""
+    """max over the samples of E(t) / (e^{λt} (√E0 + σ ∫_0^t |f| ds))² (:func:`sphrom.sph.solver.energy_bound_factors`)."""
     from ..rom.stepping import reduced_energy
     from ..sph.solver import energy_bound_factors, step_count
     e = np.array([reduced_energy(ops, problem, av, ar) for av, ar in zip(result.a_v, result.a_rho)])

@@ -1,7 +1,7 @@
 """A component at rest: does the packaged FMU stay at rest, and what does the rest-consistent b cost?
 
 The frozen FMU takes b about the projected rest density (b = K a^ρ_rest, the frozen model's build option
-``b="rest"``, :func:`harness.rom.operators.rest_b`) instead of eq. 2.22's b = U^vᵀ ρ0⁻¹ G c (``b="paper"``),
+``b="rest"``, :func:`sphrom.rom.operators.rest_b`) instead of eq. 2.22's b = U^vᵀ ρ0⁻¹ G c (``b="paper"``),
 which leaves the constant force of ρ0's projection error in every run.  For every built-in scene this packages
 the FMUs as ``sphrom fmu SCENE --model frozen|exact`` does (FMI 2, the scene's default k, n_freeze = 10, probes
 x/L = 0.25, 0.5, 0.66) and, for comparison, the frozen FMU of the paper's variant (``package_fmu`` with
@@ -11,13 +11,13 @@ on it), and measures through fmpy:
 * **rest**: ``initial_state_scale`` = 0 and f = 0 for T = 100 s at the FMU's default communication step:
   the largest |v_probe| over the run, relative to the largest |v_probe| of the scene's own full SPH training
   run, and the largest change of ρ_probe from its start, relative to ρ0;
-* **training** and **unseen**: the verification of ``sphrom fmu`` (:mod:`harness.fmu.check.verify`): the relative
+* **training** and **unseen**: the verification of ``sphrom fmu`` (:mod:`sphrom.fmu.check.verify`): the relative
   L² errors (eq. 3.4) of the probe velocities against the full SPH on the scene's force and initial state,
   and on A sin(2π·0.7 t) from rest.
 
 Run as::
 
-    python -m harness.bench.rest [SCENE ...] [--out validation/benchmarks/rest.csv] [--report BENCHMARKS.md]
+    python -m sphrom.bench.rest [SCENE ...] [--out validation/benchmarks/rest.csv] [--report BENCHMARKS.md]
 
 It writes the CSV, ``rest.png`` beside it (|v_probe|(t) at rest, multimode, every model) and the section
 "A component at rest" of the report.
@@ -193,7 +193,7 @@ def main(argv=None):
     with atomic_path(out.with_suffix(".png")) as tmp:
         plot(traces[1], tmp, traces[0])
     given = argv if argv is not None else sys.argv[1:]
-    command = "python -m harness.bench.rest" + (" " + " ".join(given) if given else "")
+    command = "python -m sphrom.bench.rest" + (" " + " ".join(given) if given else "")
     lines = section(rows, command, wall, f"{platform.machine()}, Python {platform.python_version()}", args.out)
     report = update_report(args.report, {SECTION_HEADING: lines})
     print(f"wrote {out}, {out.with_suffix('.png')} and the section of {report} ({wall:.0f} s)")

@@ -1,21 +1,21 @@
 """Offline time and accuracy of the balanced model and its certified bounds from N = 400 to 10⁴ particles.
 
-For each scene and particle count N this builds the full linear SPH (:func:`harness.rom.lti.full_linear_system`),
-balances it through its Fourier modes (:mod:`harness.rom.modal`: the Galerkin projection on the modes |k| <= K,
+For each scene and particle count N this builds the full linear SPH (:func:`sphrom.rom.lti.full_linear_system`),
+balances it through its Fourier modes (:mod:`sphrom.rom.modal`: the Galerkin projection on the modes |k| <= K,
 dense balancing there, the model lifted back; ``structure="modal"`` at every N so that the rows compare one path),
 keeps the order the default tolerance gives, and computes the certified bounds (the intermediate model's plus the
 dropped modes' tail).  Accuracy: the bounds, the tail's share of them, and the model's measured L² error of the
 free response from the scene's initial state against the full system's, computed exactly through every one of
-its N modes (:func:`harness.rom.modal.free_outputs`, Simpson's rule on ``--samples`` points) - the effectivity
-is bound / measured.  With ``--dense N,...`` the dense path (:func:`harness.rom.balanced.balancing` and
-:func:`harness.rom.balanced.error_bounds`, ``structure="dense"``) is timed at those N as well and its bounds
+its N modes (:func:`sphrom.rom.modal.free_outputs`, Simpson's rule on ``--samples`` points) - the effectivity
+is bound / measured.  With ``--dense N,...`` the dense path (:func:`sphrom.rom.balanced.balancing` and
+:func:`sphrom.rom.balanced.error_bounds`, ``structure="dense"``) is timed at those N as well and its bounds
 compared (it is O(N³): minutes at N = 400 on a loaded 2-core machine).
 
 Times are wall seconds, the median of ``--repeats`` (default 1: the steps take seconds to minutes).
 
 Run as::
 
-    python -m harness.bench.scale [--scenes tenmode,damped_forced] [--sizes 400,1000,2000,5000,10000]
+    python -m sphrom.bench.scale [--scenes tenmode,damped_forced] [--sizes 400,1000,2000,5000,10000]
         [--wavenumbers 100] [--dense 400] [--repeats 1] [--out validation/benchmarks] [--report BENCHMARKS.md]
 
 It writes ``scale.csv`` and ``scale.png`` into ``--out`` and the section "Scale: the balanced model and its bounds
@@ -59,7 +59,7 @@ def measured_free_error(ms, reduced, rows, horizon, samples):
 
 def numerical_rank(L, tol=1e-12):
     """The numerical rank of the Gramian L Lᵀ: its eigenvalues (the squared column norms of the factor
-    :func:`harness.rom.balanced._factor` returns) above ``tol`` times the largest."""
+    :func:`sphrom.rom.balanced._factor` returns) above ``tol`` times the largest."""
     lam = np.sum(np.asarray(L) ** 2, axis=0)
     return int(np.sum(lam > tol * lam.max())) if lam.size and lam.max() > 0 else 0
 
@@ -235,7 +235,7 @@ def main(argv=None):
     p.add_argument("--sizes", type=int_list(lo=16), default=[400, 1000, 2000, 5000, 10_000], metavar="N,...",
                    help="particle counts (default 400,1000,2000,5000,10000)")
     p.add_argument("--wavenumbers", type=int_at_least(1), default=None, metavar="K",
-                   help="modes kept, |k| <= K (default harness.rom.modal.DEFAULT_WAVENUMBERS)")
+                   help="modes kept, |k| <= K (default sphrom.rom.modal.DEFAULT_WAVENUMBERS)")
     p.add_argument("--dense", type=int_list(lo=16), default=[], metavar="N,...",
                    help="also time the dense path at these N (of --sizes)")
     p.add_argument("--exact", action="store_true", help="the exact POD model as well (a full SPH training run at "

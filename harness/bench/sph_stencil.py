@@ -2,12 +2,12 @@
 
 In one run, on one machine, this times per step:
 
-* the numba loop of :mod:`harness.sph.loops` in the fixed-offset layout (what ``run_sph`` takes where the
+* the numba loop of :mod:`sphrom.sph.loops` in the fixed-offset layout (what ``run_sph`` takes where the
   neighbour lists allow it) and in the neighbour-list layout;
-* the C step of ``fmu_src/sph.c`` (:mod:`harness.fmu.run.sph_c`) in the same two layouts: its fixed-offset stencil
+* the C step of ``fmu_src/sph.c`` (:mod:`sphrom.fmu.run.sph_c`) in the same two layouts: its fixed-offset stencil
   is the hand-written reference of the machine's speed for this step;
 * with ``--before DIR``, the numba and the C step of the checkout in DIR (the code before a change), through a
-  second worker process (:mod:`harness.bench.sph_step_worker`), interleaved with the others;
+  second worker process (:mod:`sphrom.bench.sph_step_worker`), interleaved with the others;
 * the tenmode training run, ``run_sph`` of the scene as it is (N = 400, 200 000 steps), this checkout
   against ``--before``.
 
@@ -20,7 +20,7 @@ at its start and end.
 
 Run as::
 
-    python -m harness.bench.sph_stencil [--sizes 10000,100000] [--integrators euler,symplectic,rk4]
+    python -m sphrom.bench.sph_stencil [--sizes 10000,100000] [--integrators euler,symplectic,rk4]
         [--repeats 7] [--before /work/main] [--out validation/benchmarks] [--report BENCHMARKS.md]
 
 It writes ``sph_stencil.csv`` and ``sph_stencil.png`` into ``--out`` and the section "The full SPH step:
@@ -38,6 +38,8 @@ import sys
 import time
 from pathlib import Path
 
+from ..paths import import_path
+
 SECTION_HEADING = "## The full SPH step: numba against a hand-written C stencil"
 STEP_WORK = 1e7            # particle-steps in the shorter of the two timed runs (M = STEP_WORK / N steps)
 TARGET = 2.0               # the target: the numba step within this factor of the C stencil
@@ -46,12 +48,12 @@ WORKER = Path(__file__).with_name("sph_step_worker.py")
 
 
 class Worker:
-    """A :mod:`harness.bench.sph_step_worker` process over the checkout ``code`` (None: this one)."""
+    """A :mod:`sphrom.bench.sph_step_worker` process over the checkout ``code`` (None: this one)."""
 
     def __init__(self, code=None):
         env = dict(os.environ)
         root = Path(code).resolve() if code else Path(__file__).resolve().parents[2]
-        env["PYTHONPATH"] = str(root)
+        env["PYTHONPATH"] = import_path(root)
         env.setdefault("OPENBLAS_NUM_THREADS", "1")
         self.proc = subprocess.Popen([sys.executable, str(WORKER)], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                      text=True, env=env, cwd=str(root))
@@ -342,7 +344,7 @@ def main(argv=None):
     with atomic_path(out / "sph_stencil.png") as tmp:
         plot(rows, tmp)
     given = argv if argv is not None else sys.argv[1:]
-    command = "python -m harness.bench.sph_stencil" + (" " + " ".join(given) if given else "")
+    command = "python -m sphrom.bench.sph_stencil" + (" " + " ".join(given) if given else "")
     here = Path(args.report).resolve().parent
     image, shown_csv = (Path(os.path.relpath(path, here)).as_posix() for path in (out / "sph_stencil.png", csv_path))
     lines = section(rows, train, info, command, wall, shown_csv, image)

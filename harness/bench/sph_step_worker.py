@@ -1,10 +1,10 @@
-"""A worker process that times full SPH steps for :mod:`harness.bench.sph_stencil`, in whichever checkout
+"""A worker process that times full SPH steps for :mod:`sphrom.bench.sph_stencil`, in whichever checkout
 ``PYTHONPATH`` names.
 
 Run as a script by its path (``python .../harness/bench/sph_step_worker.py``) so that ``import harness`` loads
 the checkout on ``PYTHONPATH``: the same file times this checkout and an older one (``--before DIR``) in one run.
 It uses only what both have (``loops.advance``, ``run_sph``, ``SphC``), and the fixed-offset layout where the
-checkout has it (:meth:`harness.sph.solver.SPHProblem.loop_args`).
+checkout has it (:meth:`sphrom.sph.solver.SPHProblem.loop_args`).
 
 Protocol: one JSON object per line on stdin, one JSON answer per line on stdout.
 
@@ -31,8 +31,8 @@ def _setup(cache, scene_name, n, integrator):
     """(scene, problem, dt) for N = n at the scene's CFL number, built once per key."""
     key = (scene_name, n, integrator)
     if key not in cache:
-        from harness.scene import load_scene
-        from harness.sph.solver import build_problem
+        from sphrom.scene import load_scene
+        from sphrom.sph.solver import build_problem
         base = load_scene(scene_name)
         scene = base.with_sph(n_particles=n, integrator=integrator)
         dt = base.sph.dt * base.sph.n_particles / n
@@ -57,14 +57,14 @@ def _digest(v, rho):
 def time_steps(cache, req):
     """The answer to one ``time`` request (module docstring)."""
     import numpy as np
-    from harness.sph import loops
-    from harness.sph.solver import METHODS, force_values, run_sph, step_count
+    from sphrom.sph import loops
+    from sphrom.sph.solver import METHODS, force_values, run_sph, step_count
     if req["solver"] == "run_sph":
-        from harness.scene import load_scene
+        from sphrom.scene import load_scene
         scene = load_scene(req["scene"])
         problem = cache.setdefault(("run_sph", req["scene"]), None)
         if problem is None:
-            from harness.sph.solver import build_problem
+            from sphrom.sph.solver import build_problem
             problem = cache[("run_sph", req["scene"])] = build_problem(scene)
         kw = {} if req["layout"] == "auto" or not hasattr(problem, "loop_args") else {"layout": req["layout"]}
         t0 = time.perf_counter()
@@ -82,8 +82,8 @@ def time_steps(cache, req):
     if req["solver"] == "c":
         key = ("c", req["layout"], req["integrator"], req["n"])
         if key not in cache:
-            from harness.fmu.make.build import ensure_binaries
-            from harness.fmu.run.sph_c import SphC
+            from sphrom.fmu.make.build import ensure_binaries
+            from sphrom.fmu.run.sph_c import SphC
             if "sphc" not in cache:
                 cache["sphc"] = SphC(ensure_binaries().sph)
             kw = {"layout": req["layout"]} if hasattr(problem, "loop_args") else {}
@@ -116,9 +116,9 @@ def main():
         req = json.loads(line)
         try:
             if req["op"] == "info":
-                import harness
-                from harness.sph import solver
-                ans = {"code": os.path.dirname(os.path.dirname(os.path.abspath(harness.__file__))),
+                import sphrom
+                from sphrom.sph import solver
+                ans = {"code": os.path.dirname(os.path.dirname(os.path.abspath(sphrom.__file__))),
                        "layouts": hasattr(solver.SPHProblem, "loop_args")}
             else:
                 ans = time_steps(cache, req)

@@ -8,7 +8,7 @@ input (the exact one exactly, the frozen one to its linearisation), so the
 forced response is the forced run minus the free run at the communication
 points.  Run as::
 
-    python -m harness.bench.unseen_force [SCENE ...] [--out validation/benchmarks/unseen_force.csv]
+    python -m sphrom.bench.unseen_force [SCENE ...] [--out validation/benchmarks/unseen_force.csv]
 
 and it prints, per model and force, the relative L² error of the forced probe
 velocity against the held input's integral and the largest forced density

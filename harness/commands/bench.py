@@ -1,6 +1,6 @@
 """``sphrom bench``: every measurement program (``sphrom bench NAME``, ``--list``), and the whole report.
 
-``sphrom bench NAME [options]`` runs the program NAME of :data:`harness.bench.PROGRAMS` with its own options;
+``sphrom bench NAME [options]`` runs the program NAME of :data:`sphrom.bench.PROGRAMS` with its own options;
 ``sphrom bench [SCENE ...] [options]`` (no program name first) is the program ``suite``: run time against error
 of every method, cost scaling, skipped terms (BENCHMARKS.md with ``--report``).  The first word decides: a
 program's name is a program (no built-in scene has one: tests/test_bench_programs.py), anything else a scene (a
@@ -53,9 +53,9 @@ def add_parser(sub):
 
 
 def program_args(argv, build_parser):
-    """``sphrom bench NAME ...`` with NAME a program of :data:`harness.bench.PROGRAMS` (module docstring): the
+    """``sphrom bench NAME ...`` with NAME a program of :data:`sphrom.bench.PROGRAMS` (module docstring): the
     arguments that run it (command ``bench``, its handler), else None (every other command line).
-    ``build_parser``: sphrom's parser builder (:func:`harness.cli.build_parser`), for programs that are commands."""
+    ``build_parser``: sphrom's parser builder (:func:`sphrom.cli.build_parser`), for programs that are commands."""
     import argparse
 
     from ..bench import PROGRAMS, run_program

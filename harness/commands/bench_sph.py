@@ -12,7 +12,7 @@ def add_parser(sub):
                                    "(1 = linear). Each figure is a slope: runs of M and 2M steps timed back to back "
                                    "give (t(2M) - t(M)) / M, so the call's fixed cost cancels. Names the CPU and the "
                                    "load average. Writes CSV and a PNG plot when --out is given. The numba step "
-                                   "against the C stencil and an older checkout: python -m harness.bench.sph_stencil.")
+                                   "against the C stencil and an older checkout: python -m sphrom.bench.sph_stencil.")
     add_scene(p, default="tenmode", option_alias=True, help="scene whose fields are used")
     p.add_argument("--n-particles", "--sizes", dest="n_particles", type=int_list(lo=min_particles),
                    default="100,400,10000,100000", metavar="N,...",

@@ -264,7 +264,7 @@ def print_bounds(s):
 
 
 def check_vary(scene, texts, model):
-    """The parameter ranges of ``--vary`` (harness.rom.parametric.Range), checked before any run.
+    """The parameter ranges of ``--vary`` (sphrom.rom.parametric.Range), checked before any run.
 
     FieldError naming ``vary`` for a bad text, ``model`` for a model without a POD basis, and
     ``fields.c`` / ``fields.d`` when the scene's field is not uniform.

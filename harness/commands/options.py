@@ -11,19 +11,19 @@ import math
 
 
 def min_particles():
-    """``harness.scene.MIN_PARTICLES``, imported when a value is parsed (``--help`` stays light)."""
+    """``sphrom.scene.MIN_PARTICLES``, imported when a value is parsed (``--help`` stays light)."""
     from ..scene import MIN_PARTICLES
     return MIN_PARTICLES
 
 
 def max_particles():
-    """``harness.scene.MAX_PARTICLES``, imported when a value is parsed."""
+    """``sphrom.scene.MAX_PARTICLES``, imported when a value is parsed."""
     from ..scene import MAX_PARTICLES
     return MAX_PARTICLES
 
 
 def max_probes():
-    """``harness.fmu.resources.MAX_PROBES``, imported when a value is parsed."""
+    """``sphrom.fmu.resources.MAX_PROBES``, imported when a value is parsed."""
     from ..fmu.resources import MAX_PROBES
     return MAX_PROBES
 

@@ -6,7 +6,7 @@ from .. import defaults
 from .options import (LazyChoices, LazyHelp, add_n_freeze, add_order_tolerance, add_quiet, add_scene, modes_pair,
                       positive_float)
 
-B_CHOICES = ("paper", "rest")    # the frozen model's b (harness.rom.operators.B_FORMS)
+B_CHOICES = ("paper", "rest")    # the frozen model's b (sphrom.rom.operators.B_FORMS)
 BOUND_PROBE_SAMPLES = 4000      # at least T/4000 between samples of the measured errors (h |A|_1 <= 0.05 up to 40000)
 # At most this many communication steps H in one run of a linear model (a Python loop of one k x k product
 # each, and the input sampled at every step): 1e6 steps take seconds, 1e12 would take days and terabytes.

@@ -26,7 +26,7 @@ Public names (imported from their modules on first use)::
                                  resources/model.bin: frozen (kind 1), exact and balanced (kind 2) (resources)
     Core, CoreModel              ctypes access to the C core                       (run.core)
 
-The measurements that run FMUs are programs of :mod:`harness.bench` (``sphrom bench --list``).
+The measurements that run FMUs are programs of :mod:`sphrom.bench` (``sphrom bench --list``).
 """
 
 from ..lazy import lazy_exports

@@ -28,10 +28,10 @@ repeated here)::
     uint32   crc32 (zlib) of every byte before it
 
 Kind 1: K, b, D, p and T are the projected operators of eqs. 2.19-2.24
-(:func:`harness.rom.operators.build_operators`); Pv, Prho interpolate the
+(:func:`sphrom.rom.operators.build_operators`); Pv, Prho interpolate the
 reconstructed fields linearly between particles at the probes
-(:func:`harness.rom.operators.probe_rows`).  Kind 2: the exact linear model of
-:mod:`harness.rom.exact_linear` (A, B, z0 and the real Schur form of a skew A);
+(:func:`sphrom.rom.operators.probe_rows`).  Kind 2: the exact linear model of
+:mod:`sphrom.rom.exact_linear` (A, B, z0 and the real Schur form of a skew A);
 the density at a probe interpolates ρ = ρ0/J linearly between the two
 particles around it, J = 1 + e with e = U_e b.
 
@@ -75,7 +75,7 @@ SECTION_TAGS: dict[str, str] = {          # tag -> what it holds (the C loader's
     # linear models (harness/rom/balanced.py)
     "BOUNDS": "certified error bounds per probe (force, initial state)",
     "LINMODEL": "which linear model: 1 exact POD, 2 balanced",
-    # parametric models (harness.rom.parametric)
+    # parametric models (sphrom.rom.parametric)
     "PARAMS": "parametric model: c and d (varied, start, min, max)",
     "KC": "frozen model: K per unit c",
     "BC": "frozen model: b per unit c",
@@ -87,7 +87,7 @@ SECTION_TAGS: dict[str, str] = {          # tag -> what it holds (the C loader's
     "A0": "linear model: the part of A without c or d",
     "AC": "linear model: the part of A per unit c",
     "AD": "linear model: the part of A per unit d",
-    # mechanical ports (harness.sph.ports), all three or none
+    # mechanical ports (sphrom.sph.ports), all three or none
     "PORTX": "port positions x/L (1 x P)",
     "PORTB": "port input rows at area 1 (P x k_v frozen, P x k linear)",
     "PORTC": "port velocity rows (P x k_v)",
@@ -126,7 +126,7 @@ class ModelData:
     dt : float
         Internal step [s].
     bound : float
-        Runaway bound on |a| (:func:`harness.rom.common.runaway_bound`).
+        Runaway bound on |a| (:func:`sphrom.rom.common.runaway_bound`).
     L : float
         Period [m].
     a_v0, a_rho0, K, b, D, p, T, Pv, Prho, probe_x : ndarray
@@ -177,7 +177,7 @@ def model_data(ops, problem, *, dt, integrator, n_freeze, probes, bound):
     ----------
     ops : ReducedOperators
         With the refresh tensor, or without it (``T`` None: the particle refresh's sections must then be added
-        to the data's sections before :func:`pack`, :func:`harness.fmu.make.models.particle_sections`); built
+        to the data's sections before :func:`pack`, :func:`sphrom.fmu.make.models.particle_sections`); built
         with ``input_direction="needed"`` for an input row.
     problem : SPHProblem
         The full problem (particle positions, L).
@@ -351,7 +351,7 @@ class ExactData:
     n_freeze : int
         Start value of the ``n_freeze`` parameter (unused by the model).
     bound : float
-        Runaway bound on |z| (as :func:`harness.rom.exact_linear.run_exact`: 10⁶ max|z0|).
+        Runaway bound on |z| (as :func:`sphrom.rom.exact_linear.run_exact`: 10⁶ max|z0|).
     L : float
     k_v : int
     z0, A : ndarray
@@ -373,7 +373,7 @@ class ExactData:
         the balanced model, whose state does not split: k_v = k, k_e = 0).
     bounds : dict or None
         The full report of the certified error bounds computed at packaging
-        (:func:`harness.rom.balanced.error_bounds`: shift, factor, horizon,
+        (:func:`sphrom.rom.balanced.error_bounds`: shift, factor, horizon,
         timings); only their values are stored, in section BOUNDS.
     """
 
@@ -424,7 +424,7 @@ def probe_pairs(x, L, probes):
 
 
 def exact_data(lin, problem, *, dt, n_freeze, probes, bound=None):
-    """Collect the exact model's numbers from :class:`harness.rom.exact_linear.LinearOperators`."""
+    """Collect the exact model's numbers from :class:`sphrom.rom.exact_linear.LinearOperators`."""
     from ..rom.operators import probe_rows
     probes = np.asarray(probes, dtype=float)
     L = problem.scene.L
@@ -444,7 +444,7 @@ def exact_data(lin, problem, *, dt, n_freeze, probes, bound=None):
 
 
 def balanced_data(ops, problem, *, dt, n_freeze, bound=None):
-    """The numbers of a kind-2 model.bin for the balanced model (:class:`harness.rom.balanced_model.BalancedOperators`).
+    """The numbers of a kind-2 model.bin for the balanced model (:class:`sphrom.rom.balanced_model.BalancedOperators`).
 
     The state x_r (r numbers) does not split: k_v = r, k_e = 0 and the probe rows
     are over the whole state (``output_rows``).  Velocity rows: Cr's probe

@@ -1,4 +1,4 @@
-"""The measurement library that the benchmark programs (:mod:`harness.bench`) and the commands share.
+"""The measurement library that the benchmark programs (:mod:`sphrom.bench`) and the commands share.
 
 Nothing here is a program.  ``timing`` (medians on a noisy machine), ``tables`` (CSV), ``markdown`` (the sections
 of BENCHMARKS.md and stress.md), ``methods`` (run time against error of every method), ``scaling``, ``skip``,

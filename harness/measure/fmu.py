@@ -4,10 +4,10 @@
    the loop): ns per internal step at k = 12, n_freeze = 10 for several
    particle counts N.  The step costs O(k^2) plus the refresh's
    O(k^3 (k+1)/2) every n_freeze steps; N appears nowhere, which the rows show.
-2. End to end through the FMU driver (:class:`harness.fmu.run.driver.FMU`, fmpy's FMI bindings): one
+2. End to end through the FMU driver (:class:`sphrom.fmu.run.driver.FMU`, fmpy's FMI bindings): one
    co-simulation of the scene's FMU over its horizon with 10 ms and 1 ms communication steps (extraction,
    loading, instantiation, the loop reading every output, freeing), beside the full SPH of the same scene timed
-   in the same run (:func:`harness.sph.solver.run_sph`), as ratios.
+   in the same run (:func:`sphrom.sph.solver.run_sph`), as ratios.
 3. Where the time goes, every per-step figure a slope between two step counts measured in pairs (so the
    fixed cost cancels; nothing timed apart is subtracted): per doStep through the driver (runs over T/2 and T),
    the fixed cost (the intercept of those two runs: extraction, loading, instantiation, freeing), the core's
@@ -24,7 +24,7 @@
    the C full SPH step of fmu_src/sph.c at N = 400.
 
 ``bench_rows`` gives the FMU rows of ``sphrom bench``, :func:`fmu_measurements`
-its FMU section (the Markdown is :func:`harness.measure.markdown.fmu_tables`).
+its FMU section (the Markdown is :func:`sphrom.measure.markdown.fmu_tables`).
 Every figure is the median of ``repeats`` runs.
 """
 
@@ -101,7 +101,7 @@ def core_rows(base, sizes, k=BENCH_K, n_freeze=BENCH_FREEZE, n_steps=200_000, re
 
 
 def step_slopes(model, n_steps, repeats, n_freeze):
-    """ns per internal step of a loaded core model (:class:`harness.fmu.run.core.CoreModel`) from ``repeats``
+    """ns per internal step of a loaded core model (:class:`sphrom.fmu.run.core.CoreModel`) from ``repeats``
     pairs of runs of n_steps and 2 n_steps from a reset: (wall slopes, thread CPU-time slopes), lists."""
     wall, cpu = [], []
     for _ in range(repeats):
@@ -190,7 +190,7 @@ def end_to_end(scene_name="tenmode", steps=(0.01, 0.001), repeats=5, k=None, pro
     For each model (default every model that can be packaged as an FMU: the frozen FMU, the product's
     default, and the exact linear one) and each communication step: the median wall time of
     co-simulation over the scene's horizon, the ratio to the full SPH (numba,
-    :func:`harness.sph.solver.run_sph`) timed in the same run, and, at the first step, the
+    :func:`sphrom.sph.solver.run_sph`) timed in the same run, and, at the first step, the
     probe-velocity error against the full SPH (:func:`probe_error`).  For a time-stepped model (the
     frozen one) also where the time goes (fixed cost, the core's internal steps, per doStep); a linear
     model has no internal steps.
@@ -305,7 +305,7 @@ def _workdir():
 def benched_fmu_models():
     """The FMU models these benchmarks time, per POD mode count k: those on a POD basis (frozen, exact).  The
     balanced model has no POD basis (its order is not k) and its own measurement,
-    ``python -m harness.bench.balanced_measure``."""
+    ``python -m sphrom.bench.balanced_measure``."""
     return tuple(m for m in fmu_model_names() if get_model(m).needs_basis)
 
 
@@ -332,7 +332,7 @@ def prepared_fmu(scene, k, model="frozen", n_freeze=defaults.N_FREEZE, problem=N
 
 
 def start(fmu, n_freeze=None, dt=None, initial_state_scale=1.0):
-    """fmi2Reset and initialization of an instantiated FMU (:class:`harness.fmu.run.driver.FMU`):
+    """fmi2Reset and initialization of an instantiated FMU (:class:`sphrom.fmu.run.driver.FMU`):
     initial_state_scale 1 (the scene's initial state, as the training run and the Python models have it), and
     the internal step ``dt`` and ``n_freeze`` where given."""
     fmu.reset()
@@ -370,7 +370,7 @@ def _fmu_states(unzipdir, md, summary, ops, steps, dt, force, n_freeze, h):
 
 
 def bench_rows(context):
-    """The FMU rows of ``sphrom bench`` (harness.measure.methods.bench_python's ``extra``).
+    """The FMU rows of ``sphrom bench`` (sphrom.measure.methods.bench_python's ``extra``).
 
     For each k of the study and each model that can be packaged as an FMU: the FMU through the FMU driver's
     loop at a 10 ms communication step (n_freeze 10 and 1 for the frozen model, the one refreshed every

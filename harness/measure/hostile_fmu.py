@@ -1,8 +1,8 @@
-"""The battery's FMU cases (:mod:`harness.bench.hostile`): mutated resources through the C core, mutated
+"""The battery's FMU cases (:mod:`sphrom.bench.hostile`): mutated resources through the C core, mutated
 serialized states and FMI call sequences through fmpy, each in a child process that is restarted after a crash
 or a stall.
 
-Outcomes as in :mod:`harness.bench.hostile`: a refusal with the FMU's message is a clean error; an OK status
+Outcomes as in :mod:`sphrom.bench.hostile`: a refusal with the FMU's message is a clean error; an OK status
 with non-finite outputs, or a corrupted file or state accepted, is a silent wrong result; a child that dies in a
 case (SIGSEGV, SIGABRT) is a traceback; one that does not answer within 20 s is a hang.
 """
@@ -301,7 +301,7 @@ def run_children(ws, kind, payload, cases, labels, category, per_case_timeout=20
     while start < len(cases):
         spec_file = ws.root / f"child-{kind}.json"
         spec_file.write_text(json.dumps({"kind": kind, **payload, "cases": cases[start:]}))
-        proc = subprocess.Popen([sys.executable, "-m", "harness.bench.hostile", "--child", str(spec_file)],
+        proc = subprocess.Popen([sys.executable, "-m", "sphrom.bench.hostile", "--child", str(spec_file)],
                                 cwd=ws.root, env=ws.env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         current, done = None, {}
         timer_state = {"last": time.monotonic()}

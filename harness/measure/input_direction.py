@@ -5,7 +5,7 @@ constant vector).  When the POD velocity modes miss part of that direction,
 two choices exist: project f on the modes as the paper does (eq. 2.19; the
 missed part is lost) or append the normalised residual to U_v (f enters
 exactly).  This measures both on a scene, against the full SPH, so that the
-FMU's rule (:data:`harness.rom.operators.INPUT_TOLERANCE`) rests on numbers.
+FMU's rule (:data:`sphrom.rom.operators.INPUT_TOLERANCE`) rests on numbers.
 
 Errors: relative L² (square-root form of eq. 3.4) of v and ρ − ρ0 against the
 full SPH at the scene's error steps, frozen model, n_freeze = 10.

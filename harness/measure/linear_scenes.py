@@ -1,5 +1,5 @@
-"""The scenes the linear-model measurements share (:mod:`harness.bench.balanced_measure`,
-:mod:`harness.bench.linear_tradeoff`): a built-in scene, its ``@shaped`` variant, its full linear SPH."""
+"""The scenes the linear-model measurements share (:mod:`sphrom.bench.balanced_measure`,
+:mod:`sphrom.bench.linear_tradeoff`): a built-in scene, its ``@shaped`` variant, its full linear SPH."""
 
 from __future__ import annotations
 

@@ -1,7 +1,7 @@
 """The Markdown of BENCHMARKS.md (``sphrom bench --report``) and of the stress maps (``sphrom stress``).
 
 One function per section, each taking measured rows (plain dicts, as
-:mod:`harness.measure.suite` and :mod:`harness.measure.stress_maps` produce them)
+:mod:`sphrom.measure.suite` and :mod:`sphrom.measure.stress_maps` produce them)
 and returning a list of Markdown lines that ends with a blank line;
 :func:`report` assembles them.  Nothing here measures or reads a file.
 
@@ -42,7 +42,7 @@ def intro_section(command, version, python, machine, wall, repeats):
 def headline_section(fmu):
     """The FMU's headline sentences (end to end at 10 ms, the same-language ratio, the core); [] without FMU.
 
-    ``fmu`` is the dict of :func:`harness.measure.fmu.fmu_measurements` (``e2e``, ``core``, ``same``).
+    ``fmu`` is the dict of :func:`sphrom.measure.fmu.fmu_measurements` (``e2e``, ``core``, ``same``).
     """
     if not fmu:
         return []
@@ -128,7 +128,7 @@ def cost_k_section(scaling_k, ks, image):
 
 
 def skip_section(skips):
-    """What skipping absent terms saves (rows of :func:`harness.measure.skip.skip_savings`)."""
+    """What skipping absent terms saves (rows of :func:`sphrom.measure.skip.skip_savings`)."""
     lines = ["## Skipping what a scene doesn't need", "",
              "The same loop on the same inputs with the scene's own terms (specialised) and with every term forced "
              "on (zero damping and force evaluated, per-particle arrays); the results are identical.", "",
@@ -143,7 +143,7 @@ def skip_section(skips):
 def input_direction_section(directions, scene_names, tolerance):
     """Projected against appended force direction per scene; [] without rows.
 
-    ``tolerance`` is the FMU's rule (``harness.rom.operators.INPUT_TOLERANCE``).
+    ``tolerance`` is the FMU's rule (``sphrom.rom.operators.INPUT_TOLERANCE``).
     """
     if not directions:
         return []
@@ -164,7 +164,7 @@ def input_direction_section(directions, scene_names, tolerance):
 
 
 def sph_step_section(sph_steps, sizes, repeats, integrators=SPH_INTEGRATORS, produced=None, image=None):
-    """The full SPH step against N per integrator (rows of :func:`harness.measure.sph_scaling.scaling_table`);
+    """The full SPH step against N per integrator (rows of :func:`sphrom.measure.sph_scaling.scaling_table`);
     ``produced``: a sentence naming the command, the machine and its load, ``image``: the plot's path from the
     report (``sphrom bench-sph --report``)."""
     from .sph_scaling import growth_exponent
@@ -187,8 +187,8 @@ def sph_step_section(sph_steps, sizes, repeats, integrators=SPH_INTEGRATORS, pro
 def fmu_tables(core, e2e, heading="##"):
     """The C core table and the end-to-end table (``sphrom bench-fmu``) as Markdown text.
 
-    ``core``: rows of :func:`harness.measure.fmu.core_rows`; ``e2e``: the dict of
-    :func:`harness.measure.fmu.end_to_end`, or None.
+    ``core``: rows of :func:`sphrom.measure.fmu.core_rows`; ``e2e``: the dict of
+    :func:`sphrom.measure.fmu.end_to_end`, or None.
     """
     lines = [f"{heading} C core: ns per internal step (k = %d, n_freeze = %d)" % (core[0]["k"], core[0]["n_freeze"]),
              "", "Each figure the slope between runs of M and 2M internal steps from the same start (M = "
@@ -251,7 +251,7 @@ def _within_margin(rows, scenes, margin):
 
 
 def envelope_section(envelope, image_dir=""):
-    """The frozen FMU's training envelope (:func:`harness.bench.envelope.run`: rows, training, command, and
+    """The frozen FMU's training envelope (:func:`sphrom.bench.envelope.run`: rows, training, command, and
     failure, the probe strain per scene where the frozen error reaches failure_error): error against
     amplitude and strain, the margin's headroom on the training runs; [] without it."""
     if not envelope:
@@ -292,7 +292,7 @@ def envelope_section(envelope, image_dir=""):
 
 
 def stress_section(maps, command, image_dir="", level=1):
-    """The stability stress maps (:class:`harness.measure.stress_maps.StressMaps`) as Markdown lines.
+    """The stability stress maps (:class:`sphrom.measure.stress_maps.StressMaps`) as Markdown lines.
 
     ``level`` 1 gives a page of its own (``stress.md``), 2 the section of BENCHMARKS.md; ``image_dir`` is
     the heat maps' folder as seen from the page ('' when they sit beside it).
@@ -357,7 +357,7 @@ def _stress_scene(s, amplitude, h, prefix):
 
 def linear_tradeoff_section(rows, command, wall):
     """Time against error of balanced, exact, frozen and original at equal state dimension, per scene and force,
-    with the linear models' certified bounds beside their measured errors (:mod:`harness.bench.linear_tradeoff`)."""
+    with the linear models' certified bounds beside their measured errors (:mod:`sphrom.bench.linear_tradeoff`)."""
     lines = ["## Linear models: time against error", "",
              f"Produced by `{command}` ({wall:.0f} s wall; online times are medians of repeated runs on a shared "
              "2-core machine). State dimension r for every model: the balanced model's order, k = r/2 POD modes "
@@ -417,7 +417,7 @@ def split_sections(text):
 
 
 def report(results, image_dir, stress_image_dir=None, existing=None):
-    """BENCHMARKS.md from :class:`harness.measure.suite.BenchResults` (text ending in a newline).
+    """BENCHMARKS.md from :class:`sphrom.measure.suite.BenchResults` (text ending in a newline).
 
     ``image_dir`` is the folder of the PNG files as seen from the report; ``stress_image_dir`` that of the
     heat maps (default ``image_dir``/stress); ``existing`` the document being replaced, whose
@@ -454,12 +454,12 @@ def report(results, image_dir, stress_image_dir=None, existing=None):
 
 
 # ---------------------------------------------------------------------------
-# written by python -m harness.bench.fmu_verify into BENCHMARKS.md
+# written by python -m sphrom.bench.fmu_verify into BENCHMARKS.md
 # ---------------------------------------------------------------------------
 
 def packaged_fmu_section(rows, *, command, repeats, wall, machine):
     """The packaged FMU against the full SPH for every scene and model (rows of
-    :func:`harness.bench.fmu_verify.measure_scene`): what ``sphrom fmu`` measures and stores in each FMU."""
+    :func:`sphrom.bench.fmu_verify.measure_scene`): what ``sphrom fmu`` measures and stores in each FMU."""
     lines = ["## The packaged FMU against the full SPH, every scene", "",
              f"Produced by `{command}` ({machine}, {wall:.0f} s wall). Each scene's FMU (FMI 2, the scene's "
              "default k, n_freeze = 10, probes x/L = 0.25, 0.5, 0.66), as `sphrom fmu SCENE --model MODEL` "

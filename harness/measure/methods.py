@@ -24,7 +24,7 @@ N_FREEZE = (1, 2, 5, 10, 20, 50)
 
 
 def bench_row(scene, method, k, n_freeze, online, offline, err_sph, err_ref, note=""):
-    """One row of the time-against-error table: times [s], errors (dicts of :func:`harness.compare.error_table`
+    """One row of the time-against-error table: times [s], errors (dicts of :func:`sphrom.compare.error_table`
     against the full SPH and the reference, or None) flattened to v and ρ − ρ0."""
     return {"scene": scene.name, "method": method, "k": k, "n_freeze": n_freeze, "online_s": online,
             "offline_s": offline,

@@ -1,5 +1,5 @@
-"""What the port benchmarks share (:mod:`harness.bench.port_coupling`, :mod:`harness.bench.port_envelope`,
-:mod:`harness.bench.port_rates`): the ports, the open-loop port forces, the lumped mass-spring, the error."""
+"""What the port benchmarks share (:mod:`sphrom.bench.port_coupling`, :mod:`sphrom.bench.port_envelope`,
+:mod:`sphrom.bench.port_rates`): the ports, the open-loop port forces, the lumped mass-spring, the error."""
 
 import numpy as np
 

@@ -1,6 +1,6 @@
 """A reduced model's response to inputs held over communication steps, as an importer drives its FMU: the run
-that the input benchmarks (:mod:`harness.bench.inputs`) and the tests of every input channel compare with the
-full SPH's equations integrated exactly in time (:func:`harness.rom.reference.linear_reference`)."""
+that the input benchmarks (:mod:`sphrom.bench.inputs`) and the tests of every input channel compare with the
+full SPH's equations integrated exactly in time (:func:`sphrom.rom.reference.linear_reference`)."""
 
 from __future__ import annotations
 
@@ -21,7 +21,7 @@ def held_response(spec, ops, problem, *, t_end, step, force=None, port_forces=No
     Parameters
     ----------
     spec : ReducedModel
-        The model (:func:`harness.rom.registry.get_model`).
+        The model (:func:`sphrom.rom.registry.get_model`).
     t_end, step : float
         Horizon and communication step [s].
     force : callable, optional

@@ -43,7 +43,7 @@ def slope_per_step(run, steps, repeats):
 def time_per_step(scene_name, n, integrator, repeats=5, target_seconds=0.05, layout="auto"):
     """Median µs per step of ``integrator`` at N = n particles (scene's fields), a slope (module docstring).
 
-    ``layout``: the operator's layout in the loop (:meth:`harness.sph.solver.SPHProblem.loop_args`).
+    ``layout``: the operator's layout in the loop (:meth:`sphrom.sph.solver.SPHProblem.loop_args`).
     Returns (µs per step, M, the per-repeat slopes in µs).
     """
     base = load_scene(scene_name)

@@ -3,7 +3,7 @@
 Settings swept per scene:
 
 * Δt from 0.1x to 2x the explicit limit Δt* = 2/ω_max of the full SPH
-  operator (:func:`harness.sph.solver.stability`), plus the paper's Δt;
+  operator (:func:`sphrom.sph.solver.stability`), plus the paper's Δt;
 * the initial amplitude x1 ... x1000 (v0 scaled; up to compression where
   ρ -> 0 or J -> 0);
 * horizons up to T = 1000 at the paper's settings;

@@ -1,15 +1,15 @@
 """The FMU in the stability stress maps (``sphrom stress``): does it report an error where it blows up?
 
-For each stress setting the FMU (FMI 2, through fmpy and :class:`harness.fmu.run.driver.FMU`) runs the same
-reduced model as the Python rows of :mod:`harness.measure.stress` (the frozen FMU with its own b, about the
-projected rest density, where the Python rows run the paper's: :func:`harness.measure.stress.fmu_operators`): the
+For each stress setting the FMU (FMI 2, through fmpy and :class:`sphrom.fmu.run.driver.FMU`) runs the same
+reduced model as the Python rows of :mod:`sphrom.measure.stress` (the frozen FMU with its own b, about the
+projected rest density, where the Python rows run the paper's: :func:`sphrom.measure.stress.fmu_operators`): the
 scene's x1 basis and operators,
 the initial velocity coordinates scaled by the amplitude (the FMU's ``initial_state_scale``, so one FMU per
 scene and model serves every amplitude), the internal step ``dt`` (the FMU's ``dt``
 parameter; the exact model ignores it), n_freeze = 10, the force held over each communication step.
 Communication points are the stress run's sample steps, so the FMU's internal grid is the Python one.
 
-Each run ends as in :func:`harness.measure.stress.run_one` (stable, growing, unphysical, blow-up), with
+Each run ends as in :func:`sphrom.measure.stress.run_one` (stable, growing, unphysical, blow-up), with
 two more fields: ``fmu_error``, the FMU's logged error message when a call returned an error status
 (its blow-up time is read from that message), and ``silent_nan``, the number of communication points
 at which an output was non-finite without an error status: the contract is that this is always 0.
@@ -89,7 +89,7 @@ class FMUStress:
         return self._made[key]
 
     def run(self, ctx, model, dt, amplitude=1.0, T=None, force=None, n_samples=200):
-        """One stress run of the FMU; the dict of :func:`harness.measure.stress.run_one` plus fmu_error, silent_nan."""
+        """One stress run of the FMU; the dict of :func:`sphrom.measure.stress.run_one` plus fmu_error, silent_nan."""
         from fmpy.fmi1 import FMICallException
 
         from ..fmu.run.driver import FMU
@@ -135,7 +135,7 @@ class FMUStress:
 
 
 def stress_runners(stress: FMUStress):
-    """The ``extra`` methods of :mod:`harness.measure.stress`: name -> runner(ctx, dt, amplitude, T=None, force=None)."""
+    """The ``extra`` methods of :mod:`sphrom.measure.stress`: name -> runner(ctx, dt, amplitude, T=None, force=None)."""
     def runner(model):
         def go(ctx, dt, amplitude=1.0, T=None, force=None):
             return stress.run(ctx, model, dt, amplitude, T=T, force=force)

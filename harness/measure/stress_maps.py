@@ -2,9 +2,9 @@
 
 For each scene: every method (and the FMUs, when they can be built here) over
 Δt factors against amplitudes, long horizons, mode counts and random forces
-(:mod:`harness.measure.stress`, :mod:`harness.measure.stress_fmu`); a heat map per
+(:mod:`sphrom.measure.stress`, :mod:`sphrom.measure.stress_fmu`); a heat map per
 scene and four CSV files into the output folder.  The Markdown is
-:func:`harness.measure.markdown.stress_section`.
+:func:`sphrom.measure.markdown.stress_section`.
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
 :func:`run_benchmarks` measures (run time against error per scene, cost
 against N and k, skipped terms, the force direction, the full SPH step, the
 FMU, optionally the stress maps), writes the CSV and PNG files into one
-folder and returns a :class:`BenchResults`; :func:`harness.measure.markdown.report`
+folder and returns a :class:`BenchResults`; :func:`sphrom.measure.markdown.report`
 turns that into the Markdown.  Times are medians of ``repeats`` runs, ratios
 are taken within the run.
 """
@@ -50,11 +50,11 @@ class BenchResults:
     input_tolerance: float
     sph_sizes: list
     sph_steps: list               # sph_scaling.csv
-    fmu: dict | None = None       # harness.measure.fmu.fmu_measurements, None without the FMU
-    stress: object = None         # harness.measure.stress_maps.StressMaps, None without the maps
+    fmu: dict | None = None       # sphrom.measure.fmu.fmu_measurements, None without the FMU
+    stress: object = None         # sphrom.measure.stress_maps.StressMaps, None without the maps
     stress_command: str = ""
     wall: float = 0.0             # [s]
-    packaged: list | None = None  # rows of harness.bench.fmu_verify (python -m harness.bench.fmu_verify), or None
+    packaged: list | None = None  # rows of sphrom.bench.fmu_verify (python -m sphrom.bench.fmu_verify), or None
     packaged_meta: dict | None = None   # its command, repeats, wall, machine
 
 
@@ -79,7 +79,7 @@ def run_benchmarks(scenes, out, *, ks=None, repeats=5, sizes=SIZES, ks_scaling=K
     fmu_scene : str
         Scene of the FMU's end-to-end table.
     stress : bool
-        Also the stress maps of :data:`harness.measure.stress_settings.DEFAULT_SCENES`.
+        Also the stress maps of :data:`sphrom.measure.stress_settings.DEFAULT_SCENES`.
     progress : bool
         Progress bars.
 

@@ -1,8 +1,8 @@
 """The automatic choices of a scene that leaves them out: the stored samples (``sph.every``), the POD snapshots
 (``[snapshots]``) and the POD mode count (``rom.modes``), each by a stated rule.
 
-Plain functions of numbers (and, for the modes, of a :class:`~harness.pod.basis.Basis`); :mod:`harness.scene`
-applies the first two when it loads a scene, :mod:`harness.pod.pipeline` the third when it builds the POD, and
+Plain functions of numbers (and, for the modes, of a :class:`~sphrom.pod.basis.Basis`); :mod:`sphrom.scene`
+applies the first two when it loads a scene, :mod:`sphrom.pod.pipeline` the third when it builds the POD, and
 the rules' texts go to the schema page (``docs/user/scenes.md``) and the commands' messages.
 """
 
@@ -17,7 +17,7 @@ from .snapshots import MAX_SNAPSHOT_BYTES
 
 # Snapshots: uniform over the training run [0, T], at the paper's spacing T'/200 (section 3.1.1: 100 snapshots
 # over T'/2 = 1.58 s, spacing 0.016 s), where T' is the time a wave takes once around the periodic bar
-# (harness.scene.Scene.period); at least MIN_AUTO_SNAPSHOTS for short runs, at most MAX_AUTO_SNAPSHOTS for long.
+# (sphrom.scene.Scene.period); at least MIN_AUTO_SNAPSHOTS for short runs, at most MAX_AUTO_SNAPSHOTS for long.
 SNAPSHOTS_PER_PERIOD = 200
 MIN_AUTO_SNAPSHOTS = 20
 MAX_AUTO_SNAPSHOTS = 1000

@@ -6,7 +6,7 @@ Velocity and density get separate bases (U^v, U^ρ of eq. 2.18), with their
 own counts k_v, k_ρ.  The snapshots are not centred (the paper's POD), so the
 first density mode is the near-uniform ρ ≈ ρ0.
 
-Basis files are read and written by :mod:`harness.pod.io`.
+Basis files are read and written by :mod:`sphrom.pod.io`.
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ def pod(snapshots):
     """
     from ..blas import sized, svd_flops
     snapshots = np.asarray(snapshots, dtype=float)
-    with sized(svd_flops(*snapshots.shape)):            # one BLAS thread for a small SVD (harness.blas)
+    with sized(svd_flops(*snapshots.shape)):            # one BLAS thread for a small SVD (sphrom.blas)
         u, s, _ = np.linalg.svd(snapshots, full_matrices=False)
     # fix the sign of each mode (largest entry positive) so bases are reproducible
     signs = np.sign(u[np.argmax(np.abs(u), axis=0), np.arange(u.shape[1])])
@@ -85,7 +85,7 @@ class Basis:
     strategy: str
     timings: dict = field(default_factory=dict)
     attrs: dict = field(default_factory=dict)
-    # Energy-weighted bases of the exact linear model (harness.rom.exact_linear):
+    # Energy-weighted bases of the exact linear model (sphrom.rom.exact_linear):
     # velocity modes orthonormal in Σ ρ0 u w, specific-volume modes (e = ρ0/ρ - 1)
     # orthonormal in Σ c u w.
     U_ve: np.ndarray | None = None

@@ -31,7 +31,7 @@ OPTIONAL = ("U_ve", "sigma_ve", "U_e", "sigma_e")
 def operators_group(ops):
     """The ``operators`` group of a basis file from reduced operators (``extra`` of :func:`write_basis`).
 
-    K, b, D, p, a_v0, a_rho0 of :class:`harness.rom.operators.ReducedOperators`, the appended input mode when
+    K, b, D, p, a_v0, a_rho0 of :class:`sphrom.rom.operators.ReducedOperators`, the appended input mode when
     the force direction was appended, and the mode counts, input error and offline time as attributes.
     """
     group = {"K": ops.K, "b": ops.b, "D": ops.D, "p": ops.p, "a_v0": ops.a_v0, "a_rho0": ops.a_rho0,

@@ -9,7 +9,7 @@ Public names (imported from their modules on first use)::
 
 The three discretisations are modules with one ``solve(scene, resolution, dt,
 x, t, ...)`` each: ``skfem_ref`` (scikit-fem), ``pypde_ref`` (py-pde), ``fd``
-(the paper's finite differences); ``from harness.references import fd`` then
+(the paper's finite differences); ``from sphrom.references import fd`` then
 ``fd.solve(...)``.
 """
 

@@ -369,13 +369,13 @@ def resolution_from(scene: Scene, resolution=None, dx=None, default=None):
 
 
 def check_dt(dt, T):
-    """dt as a float in (0, T] with at most harness.scene.MAX_STEPS steps T/dt, else FieldError ``dt``."""
+    """dt as a float in (0, T] with at most sphrom.scene.MAX_STEPS steps T/dt, else FieldError ``dt``."""
     if dt is None or not (np.isfinite(dt) and dt > 0):
         raise FieldError("dt", f"{dt!r} is out of range (allowed: a number > 0)")
     if dt > T:
         raise FieldError("dt", f"{dt:g} is out of range (allowed: 0 < dt <= T = {T:g})")
     from ..scene import MAX_STEPS, MAX_STEPS_TEXT
-    if T / dt > MAX_STEPS:              # the same bound as the SPH's steps (harness.scene.MAX_STEPS)
+    if T / dt > MAX_STEPS:              # the same bound as the SPH's steps (sphrom.scene.MAX_STEPS)
         raise FieldError("dt", f"{dt:g} is out of range (allowed: dt >= T / {MAX_STEPS_TEXT} = {T / MAX_STEPS:g} s "
                                f"for T = {T:g} s, at most {MAX_STEPS_TEXT} steps)")
     return float(dt)

@@ -9,7 +9,7 @@ first order and scikit-fem and py-pde agree to ~3e-4 at this resolution
 (``sphrom validate heterogeneous`` measures it), far below the SPH error
 (~6e-2) that the reduced models are compared with.
 
-The samples are cached beside the SPH runs (:mod:`harness.cache`), keyed by
+The samples are cached beside the SPH runs (:mod:`sphrom.cache`), keyed by
 the scene, the resolution and the requested points and times.
 """
 

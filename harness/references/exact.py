@@ -207,7 +207,7 @@ def exact_solution(scene: Scene, x, t, method="auto", symbol=None):
         Replace the derivative's symbol iκ by i symbol(κ) (real, odd in κ):
         the *modified* reference of eq. C.5 (``lambda k: beta * k``) or the
         linearised SPH operator's own dispersion
-        (:func:`harness.sph.operator.gradient_symbol`).  Fourier path only.
+        (:func:`sphrom.sph.operator.gradient_symbol`).  Fourier path only.
 
     Returns
     -------

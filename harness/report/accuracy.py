@@ -39,7 +39,7 @@ def continuum_plan(scene, level=0):
     """scikit-fem P2 and py-pde at ``FE_ELEMENTS·2^level`` elements and ``PDE_CELLS·2^level`` cells.
 
     Returns [(name, label, callable(x, t) -> (v, rho, settings))], with the
-    convergence study's time steps (:func:`harness.references.convergence.study_dt`).
+    convergence study's time steps (:func:`sphrom.references.convergence.study_dt`).
     """
     n_fe, n_pp = FE_ELEMENTS << level, PDE_CELLS << level
     dt_fe, dt_pp = study_dt(scene, "skfem2", n_fe, scene.T), study_dt(scene, "pypde", n_pp, scene.T)
@@ -53,7 +53,7 @@ def reference_plan(scene, level=0):
     """The references run for ``scene``: (name, label, callable(x, t) -> (v, rho, settings)).
 
     The exact solution where there is one; scikit-fem and py-pde at the
-    finest resolutions of the convergence study (:mod:`harness.references.convergence`),
+    finest resolutions of the convergence study (:mod:`sphrom.references.convergence`),
     refined ``level`` times; the paper's finite differences at the paper's
     Δx, Δt when the scene states them.
     """
@@ -88,7 +88,7 @@ def _run(plan, x, t, progress=None):
 def agreement_target(scene):
     """The target of scikit-fem against py-pde: 1e-4 with smooth coefficients, 1e-3 where one jumps.
 
-    A jump of c, ρ0, d or the force profile (:func:`~harness.references.common.coefficient_breaks`)
+    A jump of c, ρ0, d or the force profile (:func:`~sphrom.references.common.coefficient_breaks`)
     sends kinks along the characteristics and the references converge at first order there.
     """
     from ..references.common import coefficient_breaks

@@ -1,7 +1,7 @@
 """Convergence of the continuum references, for the validation report.
 
 * :func:`convergence_section`: each reference against the exact solution at
-  increasing resolution (:func:`harness.references.convergence.study`), with
+  increasing resolution (:func:`sphrom.references.convergence.study`), with
   the observed orders, on a scene with an exact solution;
 * :func:`agreement_section`: scikit-fem against py-pde at increasing
   resolution on a scene without one (``heterogeneous``): the difference and
@@ -43,7 +43,7 @@ def convergence_section(scene_name, out_dir, stem, solvers=SOLVERS, progress=Non
     """Markdown lines and {solver: (finest v, finest ρ−ρ0, passes)} for one scene."""
     lines = ["## Convergence of the references against the exact solution", "",
              "Each reference at increasing resolution (Δt refined with the mesh, "
-             "`harness.references.convergence.study_dt`), T = 10 s, errors on the SPH particles and sample times; "
+             "`sphrom.references.convergence.study_dt`), T = 10 s, errors on the SPH particles and sample times; "
              "observed order log(e_{k−1}/e_k)/log(N_k/N_{k−1}).", ""]
     rows, series, summary = [], [], {}
     for solver in solvers:

@@ -2,7 +2,7 @@
 
 The original POD-MOR is integrated with the full SPH's own scheme (explicit
 Euler at the scene's Δt), so its error against the full SPH is the POD error
-alone.  The exact model (:mod:`harness.rom.exact_linear`) is exact in time, so
+alone.  The exact model (:mod:`sphrom.rom.exact_linear`) is exact in time, so
 against the Euler SPH its error also holds the SPH's time-discretisation
 error.  The semi-discrete SPH system is linear in J = ρ0/ρ, so it too can be
 solved exactly in time: the exact model with every particle as a mode (bases

@@ -1,7 +1,7 @@
 """Beyond the paper: balanced reduced models of the full linear SPH, with certified error bounds.
 
 The full SPH in the specific volume is the LTI system of
-:mod:`harness.rom.lti` (ẋ = (J - R) x + B u, y = C x, energy coordinates,
+:mod:`sphrom.rom.lti` (ẋ = (J - R) x + B u, y = C x, energy coordinates,
 inputs: the force f and the initial-state excitation).  Two reductions:
 
 ``bt`` - square-root balanced truncation (damped scenes, d > 0 everywhere).
@@ -81,7 +81,7 @@ E_WEIGHT = {"bt": 0.1, "bt_shifted": 0.1, "galerkin": 1.0}
 
 @dataclass
 class ReducedLTI:
-    """A reduced linear model ẋ_r = Ar x_r + Br u, y_r = Cr x_r of an :class:`~harness.rom.lti.LTI`.
+    """A reduced linear model ẋ_r = Ar x_r + Br u, y_r = Cr x_r of an :class:`~sphrom.rom.lti.LTI`.
 
     Attributes
     ----------
@@ -208,15 +208,15 @@ class Balancing:
     output_weights: np.ndarray
     timings: dict
     basis: np.ndarray | None = None          # the modal path: V_m (2N, 2m), the Gramians are of ``system``
-    system: LTI | None = None                # the intermediate model (:func:`harness.rom.modal.modal_system`)
+    system: LTI | None = None                # the intermediate model (:func:`sphrom.rom.modal.modal_system`)
 
 
 def balancing(lti: LTI, method="auto", horizon=None, sigma=None, input_weights=None,
               output_weights=None, structure="auto") -> Balancing:
     """Gramians, their square-root factors and the Hankel singular values (the offline part of
     :func:`balanced_reduce`, reusable for several orders; arguments as there).  ``structure``
-    (:func:`harness.rom.modal.applies`): "auto" balances a uniform scene above N = 1000 through its Fourier modes
-    (reduce-then-balance, :mod:`harness.rom.modal`), "dense" always densely, "modal" through the modes."""
+    (:func:`sphrom.rom.modal.applies`): "auto" balances a uniform scene above N = 1000 through its Fourier modes
+    (reduce-then-balance, :mod:`sphrom.rom.modal`), "dense" always densely, "modal" through the modes."""
     from . import modal
     if modal.applies(lti, structure):
         ms = modal.modal_system(lti)
@@ -297,7 +297,7 @@ def balanced_reduce(lti: LTI, order=None, tolerance=None, method="auto", horizon
     Parameters
     ----------
     lti : LTI
-        From :func:`harness.rom.lti.full_linear_system`.
+        From :func:`sphrom.rom.lti.full_linear_system`.
     order : int, optional
         r, the dimension of the reduced state (1 <= r < 2N).
     tolerance : float, optional
@@ -331,7 +331,7 @@ def balanced_reduce(lti: LTI, order=None, tolerance=None, method="auto", horizon
 
 
 def reduced_from_exact(lti: LTI, ops) -> ReducedLTI:
-    """The exact POD model (:class:`harness.rom.exact_linear.LinearOperators`) as a Galerkin model of ``lti``.
+    """The exact POD model (:class:`sphrom.rom.exact_linear.LinearOperators`) as a Galerkin model of ``lti``.
 
     V = blockdiag(√ρ0 U_v, √c U_e) is orthonormal (the modes are ρ0- and
     c-orthonormal) and ops.A = Vᵀ A V, ops.z0 = Vᵀ x0; Br = Vᵀ B, Cr = C V.
@@ -507,8 +507,8 @@ def error_bounds(lti: LTI, reduced: ReducedLTI, horizon=None, sigma=None, output
     tol : float
         Relative accuracy of the H∞ bisection.
     structure : {"auto", "dense", "modal"}
-        :func:`harness.rom.modal.applies`: "auto" bounds a uniform scene above N = 1000 through its Fourier modes
-        (:func:`harness.rom.modal.error_bounds`: the intermediate model's bounds plus the dropped modes' tail).
+        :func:`sphrom.rom.modal.applies`: "auto" bounds a uniform scene above N = 1000 through its Fourier modes
+        (:func:`sphrom.rom.modal.error_bounds`: the intermediate model's bounds plus the dropped modes' tail).
 
     Returns
     -------

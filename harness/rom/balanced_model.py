@@ -1,17 +1,17 @@
-"""The balanced reduced model (:mod:`harness.rom.balanced`) as an entry of the registry.
+"""The balanced reduced model (:mod:`sphrom.rom.balanced`) as an entry of the registry.
 
 It needs no POD basis: ``build`` takes the full linear SPH of the problem
-(:func:`harness.rom.lti.full_linear_system`, probes at
-:data:`harness.rom.lti.DEFAULT_PROBES`), balances it and keeps the order r
+(:func:`sphrom.rom.lti.full_linear_system`, probes at
+:data:`sphrom.rom.lti.DEFAULT_PROBES`), balances it and keeps the order r
 (the mode-count argument ``k_v``, i.e. ``sphrom rom --modes R``, or the
 smallest r meeting ``order_tolerance``); the ``basis`` argument is ignored.
 Balanced truncation on damped scenes (d > 0 everywhere), the
 structure-preserving Galerkin projection on the Gramian trial space otherwise
-(:func:`harness.rom.balanced.balanced_reduce`, method ``auto``).
+(:func:`sphrom.rom.balanced.balanced_reduce`, method ``auto``).
 
 The state x_r (r numbers) does not split into a velocity and a second block:
 every balanced coordinate mixes v and e, so its operators name one block of
-z, ``state`` (:mod:`harness.rom.protocol`), and the run's :class:`ReducedResult`
+z, ``state`` (:mod:`sphrom.rom.protocol`), and the run's :class:`ReducedResult`
 holds it as ``z`` (M, r).  The fields are the reconstruction through the trial
 basis, x ≈ V x_r in energy coordinates, v = (V x_r)_v / √ρ0, e = (V x_r)_e / √c,
 ρ = ρ0 / (1 + e).  BT
@@ -19,12 +19,12 @@ balances the probe outputs, not the fields, so the fields away from the
 probes are only as good as V's span; the model's own outputs are the probe
 values ``y = Cr x_r`` (``ReducedResult.y``, the operators' ``outputs``), equal to the reconstruction
 interpolated at the probes to round-off.  Time: exact, by the matrix
-exponential of :mod:`harness.rom.exact_linear` (any communication step, input
+exponential of :mod:`sphrom.rom.exact_linear` (any communication step, input
 held or linear over a step); undamped, the free response is evaluated from
 the real Schur form of the skew Ar at each sample time.
 
 As an FMU (``sphrom fmu --model balanced``) it is resource kind 2, the exact
-model's C code with these matrices (:func:`harness.fmu.resources.balanced_data`:
+model's C code with these matrices (:func:`sphrom.fmu.resources.balanced_data`:
 probe rows over the whole state, k_v = r, k_e = 0), with its certified error
 bounds as calculated parameters (the operators' ``error_bounds``).
 """
@@ -55,7 +55,7 @@ METHOD_TITLES = {"bt": "square-root balanced truncation",
 
 @dataclass
 class BalancedOperators(Operators):
-    """A balanced reduced model ready to run (module docstring; the protocol of :mod:`harness.rom.protocol`:
+    """A balanced reduced model ready to run (module docstring; the protocol of :mod:`sphrom.rom.protocol`:
     one block ``state``, x_r).
 
     Attributes
@@ -102,7 +102,7 @@ class BalancedOperators(Operators):
     lti_ports: LTI | None = None             # the LTI balanced: lti with the port columns and rows appended
 
     def port_velocity(self, z):
-        """v_port = Cp x_r [m s^-1], (M, P) from states (M, r) (:mod:`harness.sph.ports`)."""
+        """v_port = Cp x_r [m s^-1], (M, P) from states (M, r) (:mod:`sphrom.sph.ports`)."""
         return np.atleast_2d(z) @ self.Cp.T
 
     @property
@@ -129,13 +129,13 @@ class BalancedOperators(Operators):
 
     def outputs(self, z, problem, probes):
         """y = Cr x_r at the model's own probes (``problem`` not needed), else the fields interpolated
-        (:class:`~harness.rom.protocol.Operators`)."""
+        (:class:`~sphrom.rom.protocol.Operators`)."""
         if np.array_equal(np.asarray(probes, float), self.lti.probes):
             return np.atleast_2d(z) @ self.reduced.Cr.T
         return super().outputs(z, problem, probes)
 
     def error_bounds(self, problem, probes, progress=None):
-        """The certified bounds at the probes the model was balanced for (:func:`harness.rom.balanced.error_bounds`);
+        """The certified bounds at the probes the model was balanced for (:func:`sphrom.rom.balanced.error_bounds`);
         ValueError for other ``probes``."""
         from .balanced import error_bounds
         if not np.array_equal(np.asarray(probes, float), self.lti.probes):
@@ -182,7 +182,7 @@ def _operators(lti, bal, reduced, rho0, t_setup, ports=(), lti_ports=None):
 def with_ports(lti, problem, ports):
     """``lti`` with one input column per port force (energy coordinates, area 1: √ρ0 · W(x - x_j, h)/ρ0 per N) and
     one output row per port velocity (v_port_j = Σ_i W(x_i - x_j, h) Δx v_i, v = x_v / √ρ0) appended: the port
-    forces are balanced as inputs and the port velocities as outputs (:mod:`harness.sph.ports`)."""
+    forces are balanced as inputs and the port velocities as outputs (:mod:`sphrom.sph.ports`)."""
     from ..sph.ports import port_kernel, port_velocity_rows
     n = lti.n
     cols = np.column_stack([np.concatenate([w / lti.w_v, np.zeros(n)]) for w in port_kernel(problem, ports)])
@@ -191,7 +191,7 @@ def with_ports(lti, problem, ports):
 
 
 def build(problem, basis, k_v, k_rho, *, order_tolerance=None, method="auto", probes=DEFAULT_PROBES, ports=()):
-    """Balance the full linear SPH of ``problem`` and keep order r (the model's builder, :mod:`harness.rom.model`).
+    """Balance the full linear SPH of ``problem`` and keep order r (the model's builder, :mod:`sphrom.rom.model`).
 
     Parameters
     ----------
@@ -202,7 +202,7 @@ def build(problem, basis, k_v, k_rho, *, order_tolerance=None, method="auto", pr
         The order r (1 <= r < 2N); ``k_rho`` is ignored.
     order_tolerance : float, optional
         Instead of ``k_v``: the smallest r with 2 Σ_{i>r} σ_i <= order_tolerance · 2 Σ σ_i
-        (0 < order_tolerance < 1; default :data:`harness.defaults.ORDER_TOLERANCE` when neither is given).
+        (0 < order_tolerance < 1; default :data:`sphrom.defaults.ORDER_TOLERANCE` when neither is given).
     method : {"auto", "bt", "galerkin", "bt_shifted"}
     probes : sequence of float
         The output probes x/L.
@@ -240,14 +240,14 @@ def truncate(problem, ops: BalancedOperators, k_v, k_rho):
 
 def run(ops: BalancedOperators, problem, *, dt, n_steps, sample_steps, every, force, state, initial_state_scale,
         bound, progress, options, port_forces=None, area=1.0):
-    """Run the balanced model to ``n_steps * dt`` (the shared arguments of :mod:`harness.rom.model`;
-    ``options`` a :class:`~harness.rom.model.LinearOptions`).
+    """Run the balanced model to ``n_steps * dt`` (the shared arguments of :mod:`sphrom.rom.model`;
+    ``options`` a :class:`~sphrom.rom.model.LinearOptions`).
 
-    As :func:`harness.rom.exact_linear.run`: exact in time, communication step
+    As :func:`sphrom.rom.exact_linear.run`: exact in time, communication step
     ``options.step`` H [s] (default the sample spacing), input ``options.hold`` linear or held;
     ``state`` (x_r) replaces the initial state Wᵀ x0; ``initial_state_scale`` multiplies it
     (x_r = 0 is rest).  The result's ``y`` holds the probe outputs Cr x_r and ``probes`` their positions x/L.
-    ``port_forces``, ``area``: as :func:`harness.rom.exact_linear.run_exact` (operators built with ports).
+    ``port_forces``, ``area``: as :func:`sphrom.rom.exact_linear.run_exact` (operators built with ports).
     """
     if port_forces is not None and ops.Bp is None:
         raise ValueError("port_forces: the operators have no ports (build them with ports=...)")

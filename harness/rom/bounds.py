@@ -210,7 +210,7 @@ def output_rows(problem, probes, ports=()):
 
 def input_columns(problem, ports=()):
     """(2N, 1 + P) input columns over energy coordinates: the force profile √ρ0 profile (per m s^-2), each port's
-    W(x - x_j, h)/√ρ0 (per N m^-2, i.e. per unit F_j / area; :mod:`harness.sph.ports`)."""
+    W(x - x_j, h)/√ρ0 (per N m^-2, i.e. per unit F_j / area; :mod:`sphrom.sph.ports`)."""
     from ..sph.ports import port_kernel
     n = problem.rho0.size
     w_v = np.sqrt(problem.rho0)
@@ -294,7 +294,7 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
     probes, ports : sequence of float
         Positions x/L.
     parametric : bool
-        A(c, d) affine for uniform c and d (:mod:`harness.rom.parametric`): the blocks and norms in pieces.
+        A(c, d) affine for uniform c and d (:mod:`sphrom.rom.parametric`): the blocks and norms in pieces.
     scale_v : float
         The training run's largest |v_probe| [m s^-1] (the size criterion's scale).
     force : callable, optional
@@ -483,7 +483,7 @@ def _assemble(problem, pieces, full_blocks, keep, U, W, C, Bcols, x0, c_hat, y_h
 
 def block_maps(blocks, B, h):
     """Per block (Φ, Γ0, Γ1) of a step h: the exponential of [[Λ h, B_b h, 0], [0, 0, I], [0, 0, 0]]
-    (:func:`harness.rom.exact_linear.propagators`; Γ1 multiplies the input's change over the step)."""
+    (:func:`sphrom.rom.exact_linear.propagators`; Γ1 multiplies the input's change over the step)."""
     out, at = [], 0
     m = B.shape[1]
     for L in blocks:
@@ -642,7 +642,7 @@ N_SCALARS = 12              # columns of section SHSCAL
 def fmu_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, force=None, T=None):
     """The shadow of an FMU's outputs, or None where the C core cannot certify it: more than
     :data:`FMU_MAX_PARTICLES` particles (the dense singular value decomposition of the coupling), or a parametric
-    model whose c or d is not uniform.  ``parametric``: the shadow of a parametric FMU (:mod:`harness.rom.parametric`,
+    model whose c or d is not uniform.  ``parametric``: the shadow of a parametric FMU (:mod:`sphrom.rom.parametric`,
     uniform c and d), its planes in pieces about the scene's c (c_ref).  A damping d that is not uniform gives the
     dense fallback (one Galerkin block on the planes, the complement by the energy; module docstring)."""
     d = np.asarray(problem.d, float)

@@ -1,7 +1,7 @@
 """The reduced models' earlier entry point, kept for the callers that name a model by string.
 
 ``run_reduced(model, ops, problem, ...)`` is ``get_model(model).run(ops,
-problem, ...)`` (:mod:`harness.rom.registry`); new code asks the registry.
+problem, ...)`` (:mod:`sphrom.rom.registry`); new code asks the registry.
 """
 
 from __future__ import annotations
@@ -18,9 +18,9 @@ __all__ = ["METHODS", "RUNAWAY_FACTOR", "ROMResult", "run_reduced", "runaway_bou
 def run_reduced(model, ops, problem, *, n_steps, dt, **keywords):
     """Run the registered model ``model`` from step 0 to ``n_steps`` -> ReducedResult.
 
-    The shared arguments of :mod:`harness.rom.model` (sample_steps, every, force, bound, progress, state ...)
+    The shared arguments of :mod:`sphrom.rom.model` (sample_steps, every, force, bound, progress, state ...)
     and the model's options as keywords (integrator; n_freeze, refresh; step, hold), as
-    :func:`harness.rom.registry.run_model`.  Raises ValueError for an unknown model or an option of another
+    :func:`sphrom.rom.registry.run_model`.  Raises ValueError for an unknown model or an option of another
     model, SimulationError for a non-finite or runaway state, naming the step and time.
     """
     return get_model(model).run_keywords(ops, problem, n_steps=n_steps, dt=dt, **keywords)

@@ -49,7 +49,7 @@ NAME = "exact"
 
 @dataclass
 class LinearOperators(Operators):
-    """The exact linear reduced model (module docstring; the protocol of :mod:`harness.rom.protocol`:
+    """The exact linear reduced model (module docstring; the protocol of :mod:`sphrom.rom.protocol`:
     z = [a, b], blocks ``velocity`` and ``specific_volume``).
 
     Attributes
@@ -77,7 +77,7 @@ class LinearOperators(Operators):
         How the force entered, and ``input_tolerance`` the augmentation
         threshold (repeated by :func:`truncate_linear_operators`).
     ports : tuple of float
-        Port positions x/L (:mod:`harness.sph.ports`); empty without ports.
+        Port positions x/L (:mod:`sphrom.sph.ports`); empty without ports.
     Bp : ndarray (P, k) or None
         The port forces' input columns (as rows) at area A = 1: [U_vᵀ W(x - x_j, h); 0] (ρ0 cancels in the ρ0
         inner product); dz/dt = A z + B f + Σ_j Bp[j] F_j / A.
@@ -85,11 +85,11 @@ class LinearOperators(Operators):
         v_port_j = Cp[j] a.
     port_added, port_added_2, port_errors
         Columns appended to U_v and U_e for the ports (after the force profile's: each port's profile and its
-        Krylov directions, :func:`harness.rom.operators.port_directions`) and each port profile's
+        Krylov directions, :func:`sphrom.rom.operators.port_directions`) and each port profile's
         ρ0-relative projection error before its column.
     input_added, input_added_2 : int
         Columns appended to U_v and U_e for the force profile's response at every frequency (build option
-        ``input_moments``, :func:`harness.rom.inputs.augment_channels`).
+        ``input_moments``, :func:`sphrom.rom.inputs.augment_channels`).
     """
 
     U_v: np.ndarray
@@ -120,7 +120,7 @@ class LinearOperators(Operators):
         return self.U_v.shape[1]
 
     def port_velocity(self, a_v):
-        """v_port = Cp a [m s^-1], (M, P) from velocity coordinates (M, k_v) (:mod:`harness.sph.ports`)."""
+        """v_port = Cp a [m s^-1], (M, P) from velocity coordinates (M, k_v) (:mod:`sphrom.sph.ports`)."""
         return np.atleast_2d(a_v) @ self.Cp.T
 
     @property
@@ -134,7 +134,7 @@ class LinearOperators(Operators):
 
     @property
     def a_v0(self):
-        """Initial velocity coordinates (k_v,), as :class:`~harness.rom.operators.ReducedOperators` has them."""
+        """Initial velocity coordinates (k_v,), as :class:`~sphrom.rom.operators.ReducedOperators` has them."""
         return self.z0[:self.k_v]
 
     @property
@@ -172,7 +172,7 @@ class LinearOperators(Operators):
 
     def error_bounds(self, problem, probes, progress=None):
         """The certified bounds of the model as a Galerkin model of the full linear SPH with outputs at
-        ``probes`` (:func:`harness.rom.balanced.reduced_from_exact`, :func:`harness.rom.balanced.error_bounds`)."""
+        ``probes`` (:func:`sphrom.rom.balanced.reduced_from_exact`, :func:`sphrom.rom.balanced.error_bounds`)."""
         from .balanced import error_bounds, reduced_from_exact
         from .lti import full_linear_system
         lti = full_linear_system(problem, probes)
@@ -212,12 +212,12 @@ def build_linear_operators(problem, U_v, U_e, input_direction="auto", input_tole
         c-orthonormal specific-volume modes (``Basis.U_e[:, :k]``).
     input_direction : {"auto", "project", "augment", "always", "needed", "never"}
     input_tolerance : float, optional
-        As in :func:`harness.rom.operators.build_operators` (W_v-weighted).
+        As in :func:`sphrom.rom.operators.build_operators` (W_v-weighted).
     ports : sequence of float
         Port positions x/L: each port's acceleration profile W(x - x_j, h)/ρ0 is appended to U_v (its
         ρ0-orthogonal part outside the modes), so every port force enters exactly, as the force profile.
     input_moments : bool
-        As in :func:`harness.rom.operators.build_operators`: with the profile appended, also its response at
+        As in :func:`sphrom.rom.operators.build_operators`: with the profile appended, also its response at
         every frequency (energy inner products).
     """
     from .operators import augment_ports, port_rows, profile_moments, shared_modes
@@ -270,7 +270,7 @@ def port_weighted(problem, U_v, ports):
 def build_from_basis(problem, basis, k_v, k_rho, *, input_direction="auto", input_tolerance=None, ports=(),
                      input_moments=True):
     """:func:`build_linear_operators` on the first k_v, k_rho energy-weighted modes of ``basis``
-    (``Basis.U_ve``, ``Basis.U_e``): the model's builder (:mod:`harness.rom.model`)."""
+    (``Basis.U_ve``, ``Basis.U_e``): the model's builder (:mod:`sphrom.rom.model`)."""
     U_v, U_e = basis_modes(basis, "energy", k_v, k_rho)
     return build_linear_operators(problem, U_v, U_e, input_direction=input_direction, input_tolerance=input_tolerance,
                                   ports=ports, input_moments=input_moments)
@@ -531,8 +531,8 @@ INTEGRATORS = ("exponential",)
 
 def run(ops, problem, *, dt, n_steps, sample_steps, every, force, state, initial_state_scale, bound, progress,
         options, port_forces=None, area=1.0):
-    """Run the exact linear model to ``n_steps * dt`` (the shared arguments of :mod:`harness.rom.model`;
-    ``options`` a :class:`~harness.rom.model.LinearOptions`).
+    """Run the exact linear model to ``n_steps * dt`` (the shared arguments of :mod:`sphrom.rom.model`;
+    ``options`` a :class:`~sphrom.rom.model.LinearOptions`).
 
     Samples at ``sample_steps * dt``; the communication step ``options.step`` H [s] (default the smallest sample
     spacing) and the input ``options.hold`` as in :func:`run_exact`; ``state`` (z) replaces z0;
@@ -559,7 +559,7 @@ MODEL = ReducedModel(
     title="Exact linear POD reduced model in the specific volume J = rho0/rho (energy inner product; beyond "
           "Fang et al.)",
     linear=True, integrators=INTEGRATORS, basis_kind="energy", ports=True,
-    fmu_kind=2,                 # resources/model.bin kind 2 (harness.fmu.resources.MODEL_EXACT_LINEAR)
+    fmu_kind=2,                 # resources/model.bin kind 2 (sphrom.fmu.resources.MODEL_EXACT_LINEAR)
     builder=build_from_basis, solver=run, truncate=truncate_linear_operators, options_type=LinearOptions,
     # the force profile is always part of the velocity basis: for a linear model a projected input is a real
     # error (tenmode: the modes miss 0.39 % of the uniform profile and the forced response came out 10 % low)

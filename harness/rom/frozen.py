@@ -3,7 +3,7 @@
 M(a^ρ) = U^ρᵀ diag(ρ²/ρ0) G U^v (eq. 2.23 projected) and the force
 projection p̂ f(t) are refreshed every ``n_freeze`` steps; between refreshes a
 step costs O(k²).  The refresh uses the exact tensor of
-:mod:`harness.rom.operators` (O(k_ρ³ k_v / 2), no N) or, as the reference, the
+:mod:`sphrom.rom.operators` (O(k_ρ³ k_v / 2), no N) or, as the reference, the
 straightforward O(N k²) product.
 
 The step is written with plain loops in a fixed order, which the C model core
@@ -17,8 +17,8 @@ The step is written with plain loops in a fixed order, which the C model core
     euler:      av += h*dv;  ar += h*dr              (dv, dr from the old state)
     symplectic: ar += h*dr, then dv with the new ar, av += h*dv
 
-b of eq. 2.19 is a build option (:func:`harness.rom.operators.build_operators`): ``b="rest"``, b = K a^ρ_rest
-(:func:`harness.rom.operators.rest_b`, the projected rest state an equilibrium), is the registry's default and
+b of eq. 2.19 is a build option (:func:`sphrom.rom.operators.build_operators`): ``b="rest"``, b = K a^ρ_rest
+(:func:`sphrom.rom.operators.rest_b`, the projected rest state an equilibrium), is the registry's default and
 the FMU's model; ``b="paper"``, eq. 2.22's b, is the model's ``paper_build``.  Which each entry point uses:
 
     rest   ``get_model("frozen").build``, ``sphrom fmu`` (and every FMU: ``sphrom cosim``, ``sphrom sweep``,
@@ -26,11 +26,11 @@ the FMU's model; ``b="paper"``, eq. 2.22's b, is the model's ``paper_build``.  W
     paper  ``sphrom rom --model frozen`` (``--b rest`` for the FMU's), the validation report, the mode sweeps
            (``sphrom modes``), the benchmarks' Python rows (methods, scaling, skip, stress, reduced stability,
            linear models' trade-off): the reproduced figures stay the paper's model bit for bit
-    both   ``python -m harness.bench.rest`` (the FMU of each, through the option)
+    both   ``python -m sphrom.bench.rest`` (the FMU of each, through the option)
 
-The projection is a build option too (``inner``, :func:`harness.rom.operators.build_operators`): the paper's
+The projection is a build option too (``inner``, :func:`sphrom.rom.operators.build_operators`): the paper's
 Euclidean Galerkin projection (eq. 2.16, Φ = U) without ports, the energy inner products with ports (a passive
-port map on every scene, :mod:`harness.rom.passivity`); the step above is the same, the weights are in the numbers.
+port map on every scene, :mod:`sphrom.rom.passivity`); the step above is the same, the weights are in the numbers.
 """
 
 import numpy as np
@@ -94,9 +94,9 @@ def frozen_advance(method, av, ar, M, F, n0, n1, dt, g, ops, sample_steps, ptr, 
 
     ``av``, ``ar`` are the reduced state and ``M``, ``F`` the frozen
     coefficients, carried between calls; ``g[row]`` is f at step n0 + row;
-    ``ops`` a :data:`~harness.rom.loops.FrozenOperators`.  States at the
+    ``ops`` a :data:`~sphrom.rom.loops.FrozenOperators`.  States at the
     ``sample_steps`` from ``ptr`` on go to ``out_av``, ``out_ar``.  Returns
-    (status, ptr, step).  Ports (:mod:`harness.sph.ports`): ``Bp`` (P, k_v) the
+    (status, ptr, step).  Ports (:mod:`sphrom.sph.ports`): ``Bp`` (P, k_v) the
     input rows, ``gp[row, j]`` the port force F_j / A at step n0 + row [N m^-2],
     frozen with f at each refresh.
     """
@@ -146,7 +146,7 @@ def frozen_advance(method, av, ar, M, F, n0, n1, dt, g, ops, sample_steps, ptr, 
 
 
 def loop_operators(K, b, D, p, n_freeze, *, T=None, U_rho=None, GU_v=None, inv_rho0=None, refresh="tensor"):
-    """The :data:`~harness.rom.loops.FrozenOperators` of one run (built once per run).
+    """The :data:`~sphrom.rom.loops.FrozenOperators` of one run (built once per run).
 
     ``D`` or ``p`` None: no damping / no input (a dummy array in the tuple).
     ``refresh="tensor"`` needs ``T``; ``"direct"`` needs ``U_rho``, ``GU_v``, ``inv_rho0``.
@@ -172,10 +172,10 @@ INTEGRATORS = ("euler", "symplectic")
 
 def run(ops, problem, *, dt, n_steps, sample_steps, every, force, state, initial_state_scale, bound, progress,
         options, port_forces=None, area=1.0):
-    """Run the frozen-coefficient model (the shared arguments of :mod:`harness.rom.model`;
-    ``options`` a :class:`~harness.rom.model.FrozenOptions`).
+    """Run the frozen-coefficient model (the shared arguments of :mod:`sphrom.rom.model`;
+    ``options`` a :class:`~sphrom.rom.model.FrozenOptions`).
 
-    ``ops`` are :class:`~harness.rom.operators.ReducedOperators`; ``options.refresh``
+    ``ops`` are :class:`~sphrom.rom.operators.ReducedOperators`; ``options.refresh``
     ``tensor`` (exact, no N) or ``direct`` (the O(N k²) reference path).  ``port_forces(t) -> (len(t), P)`` [N]
     at the step times (operators built with ports), divided by the cross-section ``area`` [m^2]; like f they
     are sampled at each refresh.
@@ -219,7 +219,7 @@ MODEL = ReducedModel(
     description="accelerated POD-MOR with frozen coefficients (eqs. 2.19-2.24): O(k²) per step between refreshes",
     title="Frozen-coefficient POD reduced model (Fang et al., eqs. 2.19-2.24)",
     linear=False, integrators=INTEGRATORS, basis_kind="density", ports=True,
-    fmu_kind=1,                 # resources/model.bin kind 1 (harness.fmu.resources.MODEL_FROZEN)
+    fmu_kind=1,                 # resources/model.bin kind 1 (sphrom.fmu.resources.MODEL_FROZEN)
     builder=build_from_basis, solver=run, truncate=truncate_operators, options_type=FrozenOptions,
     # the registry's frozen model is the FMU's: b about the projected rest density, so rest is an equilibrium;
     # the paper's eq. 2.22 b where the paper is reproduced

@@ -78,7 +78,7 @@ def galerkin_advance(method, av, ar, n0, n1, dt, g, ops, sample_steps, ptr, out_
 
     method 0 Euler, 1 symplectic Euler (ρ then v), 2 RK4; g[row] holds f at
     the stage times t_n, t_n + dt/2, t_n + dt; ``ops`` a
-    :data:`~harness.rom.loops.GalerkinOperators`.  Returns (status, ptr, step).
+    :data:`~sphrom.rom.loops.GalerkinOperators`.  Returns (status, ptr, step).
     """
     full = ops.full_rhs
     n = ops.U_v.shape[0]
@@ -156,7 +156,7 @@ def galerkin_advance(method, av, ar, n0, n1, dt, g, ops, sample_steps, ptr, out_
 
 
 def loop_operators(ops, problem, full_rhs):
-    """The :data:`~harness.rom.loops.GalerkinOperators` of one run.
+    """The :data:`~sphrom.rom.loops.GalerkinOperators` of one run.
 
     The original model (``full_rhs``) applies the scene's force through the
     full right-hand side (the profile, eqs. 2.10-2.11); the linearised one
@@ -176,8 +176,8 @@ def loop_operators(ops, problem, full_rhs):
 
 def run_galerkin(name, full_rhs, ops, problem, *, dt, n_steps, sample_steps, every, force, state,
                  initial_state_scale, bound, progress, options):
-    """Run the original (``full_rhs``) or the linearised model (the shared arguments of :mod:`harness.rom.model`;
-    ``options`` a :class:`~harness.rom.model.GalerkinOptions`)."""
+    """Run the original (``full_rhs``) or the linearised model (the shared arguments of :mod:`sphrom.rom.model`;
+    ``options`` a :class:`~sphrom.rom.model.GalerkinOptions`)."""
     integrator = options.integrator or INTEGRATORS[0]
     method = method_code(integrator, INTEGRATORS, f"{name} POD-MOR integrators")
     steps = sample_grid(n_steps, sample_steps, every)

@@ -8,7 +8,7 @@ channel, the directions of that response at every frequency from s = 0 up throug
 matching of the full linear SPH (rational Krylov).
 
 Second-order form.  From rest (e(0) = 0) the specific volume is e = G q with q = ∫ v dt the displacement, and
-eqs. 2.10-2.11 in J (the exact model's form, :mod:`harness.rom.exact_linear`) read
+eqs. 2.10-2.11 in J (the exact model's form, :mod:`sphrom.rom.exact_linear`) read
 
     M q̈ + C q̇ + K q = M b u(t),    M = diag(ρ0),  C = diag(ρ0 d),  K = -G diag(c) G  (= Gᵀ c G >= 0),
 
@@ -257,7 +257,7 @@ def candidate_directions(problem, b, *, w_top=None, shifts=None, eta=None):
 
 def channel_profiles(problem, ports=(), profile=True):
     """[(name, b)] of the input channels: ``f`` along the scene's profile (if ``profile`` and it is nonzero), then
-    ``F_port_j`` with b = W(x - x_j, h)/ρ0 (area 1) per port (:mod:`harness.sph.ports`)."""
+    ``F_port_j`` with b = W(x - x_j, h)/ρ0 (area 1) per port (:mod:`sphrom.sph.ports`)."""
     from ..sph.ports import port_accelerations
     out = []
     if profile and np.any(problem.profile != 0):

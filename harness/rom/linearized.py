@@ -4,7 +4,7 @@ Eq. 2.19 for the velocity with the precomputed K, b, D̂, p̂, and eq. 2.20 for
 the density with ρ² recomputed from the reconstruction ρ = U^ρ a^ρ at every
 evaluation: O(N k) per step.  The frozen model with n_freeze = 1 is this model.
 
-The compiled rate is :func:`harness.rom.galerkin._linearized_rates`, on the
+The compiled rate is :func:`sphrom.rom.galerkin._linearized_rates`, on the
 Galerkin loop it shares with the original model.
 """
 

@@ -1,6 +1,6 @@
 """Compiled pieces shared by the reduced models' loops, and the structures the loops take.
 
-A leaf module: it imports nothing from :mod:`harness.rom`, so the loops of
+A leaf module: it imports nothing from :mod:`sphrom.rom`, so the loops of
 :mod:`.frozen` and :mod:`.galerkin` and the rates of :mod:`.linearized` build
 on it without import cycles.
 
@@ -27,7 +27,7 @@ FrozenOperators = namedtuple("FrozenOperators", ["K", "b", "D", "has_d", "p", "h
 
 # The Galerkin loop of the original (full_rhs: the full SPH right-hand side at the reconstruction,
 # eq. 2.16) and the density-linearised model (eqs. 2.17, 2.19-2.20): the reduced operators, the bases,
-# and the SPH operator and fields of :mod:`harness.sph.loops` (index, weight, packed fields, flags).
+# and the SPH operator and fields of :mod:`sphrom.sph.loops` (index, weight, packed fields, flags).
 GalerkinOperators = namedtuple("GalerkinOperators", ["full_rhs", "K", "b", "D", "has_d", "p", "has_f", "GU_v",
                                                      "inv_rho0", "U_v", "U_rho", "index", "weight", "rho0", "c",
                                                      "d", "profile", "flags"])

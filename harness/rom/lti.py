@@ -18,7 +18,7 @@ column 0 of B is the force profile √ρ0 profile (per m s^-2 of f(t)); column 1
 is the scene's initial state x0 = [√ρ0 v0; 0], so that the free response from
 x0 equals the impulse response of that column.  Outputs y = C x: the probe
 velocities, linear between the two particles around each probe exactly as
-the FMU does (:func:`harness.rom.operators.probe_rows`), then the probe
+the FMU does (:func:`sphrom.rom.operators.probe_rows`), then the probe
 values of e.
 
 Null modes.  G kills the constant and, for even N, the alternating
@@ -136,7 +136,7 @@ class LTI:
 
 
 def probe_matrix(x, L, probes, w):
-    """Rows interpolating a particle field linearly at the probes, as harness.rom.operators.probe_rows.
+    """Rows interpolating a particle field linearly at the probes, as sphrom.rom.operators.probe_rows.
 
     Returns a (P, N) sparse matrix M with M (x_field / w) = probe values, i.e.
     the rows act on energy coordinates scaled by 1/w.
@@ -174,7 +174,7 @@ def full_linear_system(problem, probes=DEFAULT_PROBES) -> LTI:
 
     Parameters
     ----------
-    problem : harness.sph.solver.SPHProblem
+    problem : sphrom.sph.solver.SPHProblem
     probes : sequence of float
         Probe positions x/L in [0, 1].
 

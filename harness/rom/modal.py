@@ -1,7 +1,7 @@
 """Beyond the paper: the full linear SPH of a uniform scene in its Fourier modes (the scalable Gramian layer).
 
 On the uniform periodic lattice with constant ρ0, c and d, the SPH gradient G of eq. 2.9 is circulant, so the
-discrete Fourier transform splits the full linear system of :mod:`harness.rom.lti` (ẋ_v = s G x_e - d x_v + b u,
+discrete Fourier transform splits the full linear system of :mod:`sphrom.rom.lti` (ẋ_v = s G x_e - d x_v + b u,
 ẋ_e = s G x_v, s = √(c/ρ0), energy coordinates) into N decoupled 2 × 2 systems, one per wavenumber k:
 
     d/dt [x̂_v; x̂_e]_k = A_k [x̂_v; x̂_e]_k + b̂_k u,   A_k = [[-d, s g_k], [s g_k, 0]],
@@ -13,7 +13,7 @@ intermediate model (:func:`modal_system`)
     The Galerkin projection of the full LTI on the real Fourier modes of wavenumbers |k| <= K (cosines and
     sines, orthonormal; V_m = blockdiag(F, F), 2m = 2(2K + 1) states), computed with the sparse A (O(N m)), so
     it keeps the port-Hamiltonian structure (J_m skew, R_m >= 0) and is an exact sub-sum of the modal
-    decomposition up to round-off.  The dense balancing of :mod:`harness.rom.balanced` runs on it at the cost
+    decomposition up to round-off.  The dense balancing of :mod:`sphrom.rom.balanced` runs on it at the cost
     of a 2m-state system, whatever N; the reduced model is lifted back (V = V_m V_b, W = V_m W_b), so it is a
     (Petrov-)Galerkin model of the full system.
 tail bounds (:func:`tail_bounds`)
@@ -22,7 +22,7 @@ tail bounds (:func:`tail_bounds`)
     form from its two poles (partial fractions); the free responses' L² error likewise gets
     Σ_k ‖ĉ_kᴴ e^{A_k t} x̂0_k‖_L2(0,T) <= Σ_k √T |ĉ_k| |x̂0_k| (e^{A_k t} is a contraction in energy
     coordinates).  :func:`error_bounds` adds them to the certified bounds of the intermediate model
-    (:func:`harness.rom.balanced.error_bounds` at 2m states): certified bounds against the full system at
+    (:func:`sphrom.rom.balanced.error_bounds` at 2m states): certified bounds against the full system at
     N = 10⁴ in the time the dense path takes at N ≈ m.
 
 Why not low-rank Gramians (pyMOR's ADI): the outputs are point probes, whose rows reach every Fourier mode with
@@ -204,7 +204,7 @@ def modal_system(lti: LTI, wavenumbers=DEFAULT_WAVENUMBERS) -> ModalSystem:
 
 def block_matrices(ms: ModalSystem, index, shift=0.0, deflate=0.0):
     """A_k - shift I for the DFT indices ``index``, (len, 2, 2) complex; a null e-mode (g_k = 0) gets -deflate on
-    its diagonal as in :meth:`harness.rom.lti.LTI.dense` (it is uncontrollable: its term vanishes anyway)."""
+    its diagonal as in :meth:`sphrom.rom.lti.LTI.dense` (it is uncontrollable: its term vanishes anyway)."""
     null = np.abs(ms.g[index]) <= NULL_TOLERANCE * np.max(np.abs(ms.g))   # g_k = 0 to round-off: decoupled
     sg = np.where(null, 0.0, ms.s * ms.g[index])
     A = np.zeros((len(index), 2, 2), complex)
@@ -295,13 +295,13 @@ def restrict(reduced):
 
 def error_bounds(lti: LTI, reduced, dense_bounds, horizon=None, sigma=None, outputs="v", tol=1e-4, progress=None,
                  wavenumbers=DEFAULT_WAVENUMBERS, ms: ModalSystem | None = None) -> dict:
-    """The certified bounds of :func:`harness.rom.balanced.error_bounds` through the modes (module docstring): the
+    """The certified bounds of :func:`sphrom.rom.balanced.error_bounds` through the modes (module docstring): the
     intermediate model's bounds against ``reduced`` plus the dropped modes' tail, per velocity probe.
 
-    Returns the dict of :func:`harness.rom.balanced.error_bounds` (``force_error_bound`` and
+    Returns the dict of :func:`sphrom.rom.balanced.error_bounds` (``force_error_bound`` and
     ``initial_state_error_bound`` with the tail added, ``hinf`` the intermediate's bisection ends) and
     ``force_tail`` [s], ``initial_state_tail`` [m s^-1 s^½], ``wavenumbers`` K, ``intermediate_order`` 2m.
-    ``dense_bounds`` is the dense bound function (:func:`harness.rom.balanced.error_bounds`, which passes
+    ``dense_bounds`` is the dense bound function (:func:`sphrom.rom.balanced.error_bounds`, which passes
     itself), applied to the intermediate model with ``structure="dense"``.
     """
     t0 = time.perf_counter()

@@ -1,15 +1,15 @@
 """What a reduced model is to the rest of sphrom: its properties as data, one way to build and one way to run it.
 
 Every model module defines one :class:`ReducedModel` (``MODEL``) and
-:mod:`harness.rom.registry` lists them.  Code outside the registry asks a
+:mod:`sphrom.rom.registry` lists them.  Code outside the registry asks a
 model's properties (``linear``, ``uses_n_freeze``, ``needs_basis`` ...) instead
 of comparing model names, and the operators a model builds answer the protocol
-of :mod:`harness.rom.protocol` (order, named slices of the state z, fields,
+of :mod:`sphrom.rom.protocol` (order, named slices of the state z, fields,
 outputs, error bounds).
 
 ``model.build(problem, basis, k_v, k_rho, **options) -> operators``
     The model's operators from the first k_v, k_rho modes of a POD basis
-    (:class:`harness.pod.basis.Basis`) of the kind ``basis_kind`` names (a
+    (:class:`sphrom.pod.basis.Basis`) of the kind ``basis_kind`` names (a
     model that ``needs_basis`` False ignores ``basis`` and takes its order from
     ``k_v`` or from an ``order_tolerance``).  ``options`` are the model's build
     options (``build_options``: its builder's keyword arguments, with the
@@ -135,7 +135,7 @@ class ReducedModel:
         needs no POD basis (``needs_basis`` False).
     fmu_kind : int or None
         The ``model_kind`` of the FMU's ``resources/model.bin`` the model is
-        packaged as (:mod:`harness.fmu.resources`: 1 the frozen-coefficient
+        packaged as (:mod:`sphrom.fmu.resources`: 1 the frozen-coefficient
         layout K, b, D̂, p̂, T; 2 the linear layout A, B, z0 and a Schur form);
         None when it cannot be packaged as an FMU.
     builder : callable
@@ -163,7 +163,7 @@ class ReducedModel:
         (a linear model: the input is then represented exactly).
     ports : bool
         The model takes mechanical port forces as inputs and gives port velocities (``build(..., ports=X)``,
-        ``run(..., port_forces=F, area=A)``; :mod:`harness.sph.ports`), so its FMU can have ports.
+        ``run(..., port_forces=F, area=A)``; :mod:`sphrom.sph.ports`), so its FMU can have ports.
     """
 
     name: str
@@ -248,7 +248,7 @@ class ReducedModel:
 
     def run(self, ops, problem, *, dt, n_steps, sample_steps=None, every=1, force=None, state=None,
             initial_state_scale=1.0, bound=None, progress=False, options=None, port_forces=None, area=1.0):
-        """Run the model (module docstring) -> :class:`~harness.rom.result.ReducedResult`."""
+        """Run the model (module docstring) -> :class:`~sphrom.rom.result.ReducedResult`."""
         if options is None:
             options = self.options_type()
         elif not isinstance(options, self.options_type):
@@ -264,7 +264,7 @@ class ReducedModel:
 
     def run_keywords(self, ops, problem, **keywords):
         """:meth:`run` with the options given as keywords among the shared arguments (the earlier form of a
-        run, :func:`harness.rom.registry.run_model`); ValueError naming a keyword that is neither."""
+        run, :func:`sphrom.rom.registry.run_model`); ValueError naming a keyword that is neither."""
         shared = [p.name for p in inspect.signature(ReducedModel.run).parameters.values()
                   if p.kind is inspect.Parameter.KEYWORD_ONLY and p.name != "options"]
         own = {k: keywords.pop(k) for k in list(keywords) if k not in shared}

@@ -47,7 +47,7 @@ def pair_index(k):
 
 @dataclass
 class ReducedOperators(Operators):
-    """Everything the density-linearised and frozen models need (the protocol of :mod:`harness.rom.protocol`:
+    """Everything the density-linearised and frozen models need (the protocol of :mod:`sphrom.rom.protocol`:
     z = [a^v, a^ρ], blocks ``velocity`` and ``density``).
 
     Attributes
@@ -86,7 +86,7 @@ class ReducedOperators(Operators):
     b_form : {"paper", "rest"}
         Which b the operators hold (:data:`B_FORMS`); :func:`truncate_operators` keeps it.
     ports : tuple of float
-        Port positions x/L (:mod:`harness.sph.ports`); empty without ports.
+        Port positions x/L (:mod:`sphrom.sph.ports`); empty without ports.
     Bp : ndarray (P, k_v) or None
         Input rows of the port forces at area A = 1: U^vᵀ W(x - x_j, h)/ρ0 [per N]; the run divides the forces by A.
     Cp : ndarray (P, k_v) or None
@@ -99,7 +99,7 @@ class ReducedOperators(Operators):
         Relative projection error of each port profile on the velocity modes before its column.
     input_added, input_added_2 : int
         Columns appended to U^v and U^ρ for the force profile's response at every frequency (after the profile's
-        own column; :func:`harness.rom.inputs.augment_channels`, build option ``input_moments``).
+        own column; :func:`sphrom.rom.inputs.augment_channels`, build option ``input_moments``).
     inner : {"euclid", "energy"}
         The projection (build option ``inner``, :func:`projection_weights`): Euclidean (eq. 2.16, Φ = U), or the energy
         inner products, whose K, b, D̂, p̂, Bp carry ρ0 and whose ``GU_v`` is diag(c/ρ0²) G U^v.
@@ -137,7 +137,7 @@ class ReducedOperators(Operators):
     rest_added: int = 0
 
     def port_velocity(self, a_v):
-        """v_port = Cp a^v [m s^-1], (M, P) from coordinates (M, k_v) (:mod:`harness.sph.ports`)."""
+        """v_port = Cp a^v [m s^-1], (M, P) from coordinates (M, k_v) (:mod:`sphrom.sph.ports`)."""
         return np.atleast_2d(a_v) @ self.Cp.T
 
     @property
@@ -257,7 +257,7 @@ def build_operators(problem: SPHProblem, U_v, U_rho, input_direction="auto", ten
     tensor : {"auto", "always", "never"}
         Whether to build the refresh tensor T.
     ports : sequence of float
-        Port positions x/L (:mod:`harness.sph.ports`): each port's acceleration profile W(x - x_j, h)/ρ0 is
+        Port positions x/L (:mod:`sphrom.sph.ports`): each port's acceleration profile W(x - x_j, h)/ρ0 is
         appended to U^v (its part outside the modes, always: the port force is an input of any size and shape
         in time, so its direction is kept exactly, as the exact model keeps the force profile), and the input
         rows Bp and output rows Cp are built.
@@ -271,12 +271,12 @@ def build_operators(problem: SPHProblem, U_v, U_rho, input_direction="auto", ten
         K = U^vᵀ G diag(c/ρ0) U^ρ, b = U^vᵀ G c, D̂ = U^vᵀ diag(ρ0 d) U^v, p̂ = U^vᵀ ρ0 profile, Bp = U^vᵀ W, and
         M(a^ρ) = U^ρᵀ diag(ρ² c/ρ0³) G U^v (the stored ``GU_v`` is diag(c/ρ0²) G U^v, so the refresh code is the
         same).  Linearised at rest, M₀ᵀ = -K exactly for any ρ0(x), c(x): the port map is passive by structure
-        (:func:`harness.rom.passivity.block_storage_certificate` with β = 1), which the Euclidean projection is only
+        (:func:`sphrom.rom.passivity.block_storage_certificate` with β = 1), which the Euclidean projection is only
         where ρ0 and c are uniform (there the two are the same model up to a scaling of the coordinates).  The
         frozen model's default for a model with ports (:func:`build_from_basis`).
     input_moments : bool
         When the force profile is appended (``augment``, ``always``, ``needed``): also its response at every
-        frequency, s = 0 through the band (:func:`harness.rom.inputs.augment_channels`), so that a constant or
+        frequency, s = 0 through the band (:func:`sphrom.rom.inputs.augment_channels`), so that a constant or
         slow force along a non-uniform profile is represented; ``project`` and ``never`` add nothing.  The
         same for each port (always).  False: the bases without them (``sphrom bench inputs`` compares).
     """
@@ -337,7 +337,7 @@ def build_operators(problem: SPHProblem, U_v, U_rho, input_direction="auto", ten
 # the specific-volume direction G (ρ0⁻¹ G c G)^(l-1) b of the port's profile b (the short-time response).
 # damped_forced, two ports, exact model, k = 12, port velocity error against the full SPH over 2 s:
 # 1.56 (level 0: the profile alone), 0.34, 0.17, 0.093, 0.041, 0.023, 0.013 (levels 1-6); with the FMU
-# (python -m harness.bench.port_coupling, 1 ms steps) 0.0119 at 6 levels, 0.0040 at 8, 0.0028 at 10, against
+# (python -m sphrom.bench.port_coupling, 1 ms steps) 0.0119 at 6 levels, 0.0040 at 8, 0.0028 at 10, against
 # 0.0021 for the same FMU's free response.  Each level adds one velocity and one specific-volume column per
 # port, and the frozen model's refresh tensor grows as k_ρ³ k_v / 2: 8 levels.
 PORT_KRYLOV_LEVELS = 8
@@ -346,7 +346,7 @@ PORT_KRYLOV_LEVELS = 8
 def port_directions(problem, ports, levels=PORT_KRYLOV_LEVELS):
     """Per port: (velocity directions [b, (ρ0⁻¹ G c G) b, ...], specific-volume directions [G b, ...]).
 
-    b = W(x - x_j, h)/ρ0 (:func:`harness.sph.ports.port_accelerations`, area 1): the first velocity direction is
+    b = W(x - x_j, h)/ρ0 (:func:`sphrom.sph.ports.port_accelerations`, area 1): the first velocity direction is
     the port's profile itself; each further level follows ė = G v, ρ0 v̇ = G (c e) (eqs. 2.10-2.11 in the
     specific volume, eq. A.9).
     """
@@ -370,7 +370,7 @@ def augment_ports(problem, U_v, U_2, ports, *, energy=False, levels=PORT_KRYLOV_
     velocity directions to U_v, specific-volume directions to U_2 (``energy``: the exact model's ρ0- and
     c-weighted inner products and U_2 = U_e; else Euclidean and U_2 = U_ρ, which gets ρ0 G v: δρ = -ρ0 δe).
     The errors are each port profile's relative projection error on the velocity modes before its column.
-    ``moments``: then each port's response at every frequency (:func:`harness.rom.inputs.augment_channels`;
+    ``moments``: then each port's response at every frequency (:func:`sphrom.rom.inputs.augment_channels`;
     False: the short-time directions only); ``modes`` the bar's modes if already solved for.
     """
     if not len(ports):
@@ -393,7 +393,7 @@ def augment_ports(problem, U_v, U_2, ports, *, energy=False, levels=PORT_KRYLOV_
         for v, e in zip(vs[1:], es):
             U_2, _, _ = add(U_2, e if energy else problem.rho0 * e, problem.c)
             U_v, _, _ = add(U_v, v, problem.rho0)
-    # the response at every frequency, s = 0 (static, rigid) through the band (harness.rom.inputs)
+    # the response at every frequency, s = 0 (static, rigid) through the band (sphrom.rom.inputs)
     if moments:
         U_v, U_2, _, _ = augment_channels(problem, U_v, U_2, port_accelerations(problem, ports), energy=energy,
                                           w_top=w_top, tol=tol, modes=modes)
@@ -407,7 +407,7 @@ def rigid_profile(problem):
     to their projection error.  ``input_direction="moments"`` appends nothing for it: the rigid direction's
     residual outside a parametric basis is rough (tenmode, c in [0.05, 0.2], d in [0, 5], k = 12: 1.2 % of the
     constant), and appending it raised the held-out probe-velocity error from at most 1.12x to 1.66x that of a
-    model trained at the point (measured once by ``python -m harness.bench.parametric --input-direction
+    model trained at the point (measured once by ``python -m sphrom.bench.parametric --input-direction
     moments`` before this rule; with the rule that command gives the "project" model's figures again)."""
     from .inputs import rigid_modes
     profile = np.asarray(problem.profile, float)
@@ -423,9 +423,9 @@ def rigid_profile(problem):
 
 def profile_moments(problem, U_v, U_2, wanted, *, energy, tol, modes=None):
     """(U_v, U_2, columns added to each) with the force profile's directions at every frequency
-    (:func:`harness.rom.inputs.augment_channels`), or the bases unchanged unless ``wanted``.  ``tol``: the input
+    (:func:`sphrom.rom.inputs.augment_channels`), or the bases unchanged unless ``wanted``.  ``tol``: the input
     mode's augmentation threshold; a direction is appended when the bases miss more than it or
-    :data:`harness.rom.inputs.INPUT_TOL`, whichever is larger (``needed``, the frozen FMU's: 1 %, as for the
+    :data:`sphrom.rom.inputs.INPUT_TOL`, whichever is larger (``needed``, the frozen FMU's: 1 %, as for the
     profile itself: a small rough residual appended hurts the frozen model).  ``modes``: the bar's modes if
     already solved for."""
     if not wanted:
@@ -436,7 +436,7 @@ def profile_moments(problem, U_v, U_2, wanted, *, energy, tol, modes=None):
 
 
 def shared_modes(problem, profile_wanted, ports, moments):
-    """:func:`harness.rom.inputs.bar_modes` when both the profile's and the ports' channels will take modes (one
+    """:func:`sphrom.rom.inputs.bar_modes` when both the profile's and the ports' channels will take modes (one
     eigensolve for both; a dense one at N = 2000 takes seconds), else None (each computes its own if it needs
     them)."""
     if not (profile_wanted and len(ports) and moments):
@@ -470,7 +470,7 @@ def rest_b(K, a_rho_rest):
     velocity rate b - K a^ρ_rest is then zero up to the round-off of the k_ρ products.
 
     ``a_rho_rest`` is U^ρᵀ ρ0, the operators' a^ρ(0) (every scene starts at ρ = ρ0).  For the model affine in
-    c (:mod:`harness.rom.parametric`) the unit operators' b_c = K_c a^ρ_rest keeps b = c b_c = K a^ρ_rest at
+    c (:mod:`sphrom.rom.parametric`) the unit operators' b_c = K_c a^ρ_rest keeps b = c b_c = K a^ρ_rest at
     every c.
     """
     return np.ascontiguousarray(K @ a_rho_rest)          # eq. 2.22 about the projected rest density
@@ -486,7 +486,7 @@ def build_from_basis(problem: SPHProblem, basis, k_v, k_rho, *, input_direction=
                      tensor="auto", ports=(), b="paper", input_moments=True, inner="auto"):
     """:func:`build_operators` on the first k_v, k_rho POD modes of ``basis`` (``Basis.U_v``, ``Basis.U_rho``).
 
-    The builder of the frozen model (:mod:`harness.rom.model`; its registry default ``b="rest"``).  ``inner``
+    The builder of the frozen model (:mod:`sphrom.rom.model`; its registry default ``b="rest"``).  ``inner``
     "auto": the energy inner products with ports (a passive port map on every scene), else eq. 2.16's Euclidean
     projection (the paper's model).
     """
@@ -501,7 +501,7 @@ def build_from_basis(problem: SPHProblem, basis, k_v, k_rho, *, input_direction=
 def build_paper(problem: SPHProblem, basis, k_v, k_rho, *, input_direction="auto", input_tolerance=None,
                 tensor="auto", ports=()):
     """:func:`build_from_basis` with eq. 2.22's b: the builder of the paper's original and density-linearised
-    models (:mod:`harness.rom.model`)."""
+    models (:mod:`sphrom.rom.model`)."""
     return build_from_basis(problem, basis, k_v, k_rho, input_direction=input_direction,
                             input_tolerance=input_tolerance, tensor=tensor, ports=ports, b="paper", inner="euclid")
 

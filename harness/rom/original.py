@@ -2,7 +2,7 @@
 right-hand side (eqs. 2.10-2.11), evaluated at the reconstructed state
 v = U^v a^v, ρ = U^ρ a^ρ: O(N k) per step, exact for k = N.
 
-The compiled rate is :func:`harness.rom.galerkin._original_rates`, on the
+The compiled rate is :func:`sphrom.rom.galerkin._original_rates`, on the
 Galerkin loop it shares with the density-linearised model.
 """
 

@@ -196,7 +196,7 @@ def scene_at(scene, c, d):
 
 
 def training_basis(scene, points, progress=True):
-    """One POD basis (:class:`harness.pod.basis.Basis`) of the snapshots of full SPH runs at ``points``.
+    """One POD basis (:class:`sphrom.pod.basis.Basis`) of the snapshots of full SPH runs at ``points``.
 
     Each run (cached like every SPH run) gives its snapshots at the scene's
     snapshot steps; the columns of all runs are put side by side and one SVD
@@ -272,7 +272,7 @@ def affine_frozen(scene, space, U_v, U_rho, *, input_direction="auto", input_tol
     """K_c, b_c, D_d, T, p̂ of the bases ``U_v`` (N, k_v), ``U_rho`` (N, k_rho): :class:`AffineFrozen`.
 
     ``input_direction``, ``input_tolerance``, ``tensor`` as in
-    :func:`harness.rom.operators.build_operators` (the profile does not depend on c, d).
+    :func:`sphrom.rom.operators.build_operators` (the profile does not depend on c, d).
     """
     from ..sph.solver import build_problem
     from .operators import build_operators
@@ -330,7 +330,7 @@ def affine_linear(scene, space, U_v, U_e, *, input_direction="auto", input_toler
     # built at c = c_ref (d = 1): the input directions it appends to U_e are then c_ref-orthonormal, as U_e is
     # (at c = 1 they were Euclidean-normalised beside c_ref-orthonormal columns, and the affine A below, which
     # takes U_eᵀ c_ref U_e = I, was wrong along a non-uniform profile: of order 1 where it is 1e-12 now, python -m
-    # harness.bench.inputs --case parametric-profile-sine)
+    # sphrom.bench.inputs --case parametric-profile-sine)
     unit_problem = build_problem(scene_at(scene, space.c_ref, 1.0))
     unit = build_linear_operators(unit_problem, U_v, U_e, input_direction=input_direction,
                                   input_tolerance=input_tolerance)

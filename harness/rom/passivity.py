@@ -1,8 +1,8 @@
 """Passive ports: the reduced models' maps from port forces to port velocities, checked.
 
-The full SPH, linear in J (eqs. 2.10-2.11 as :mod:`harness.rom.lti` writes them), stores energy
+The full SPH, linear in J (eqs. 2.10-2.11 as :mod:`sphrom.rom.lti` writes them), stores energy
 E = ½ Σ_i ρ0_i Δx v_i² + ½ Σ_i c_i Δx e_i² per unit area, dissipates it through the damping d >= 0, and a point
-force F_j at port j (spread by the kernel, :mod:`harness.sph.ports`) does the work F_j v_port_j on it, v_port_j
+force F_j at port j (spread by the kernel, :mod:`sphrom.sph.ports`) does the work F_j v_port_j on it, v_port_j
 being the same kernel's average of v: the port input and output are collocated, so the port map is passive,
 dE/dt <= Σ_j F_j v_port_j / area.  A reduced model (A, B, C) of the port map (dz/dt = A z + B u, y = C z,
 u_j = F_j / area, y_j = v_port_j) is passive when it has a storage function ½ zᵀ Q z, Q > 0, with
@@ -49,7 +49,7 @@ class PortSystem:
 
 def port_system(ops):
     """The :class:`PortSystem` of linear operators with ports (the exact POD model's
-    :class:`~harness.rom.exact_linear.LinearOperators`, the balanced model's operators): A, the port columns
+    :class:`~sphrom.rom.exact_linear.LinearOperators`, the balanced model's operators): A, the port columns
     ``ops.Bp`` (stored as rows) and the port rows ``ops.Cp`` (the velocity block only, for the exact model)."""
     if ops.Bp is None or ops.Cp is None:
         raise ValueError("the model has no ports (build it with ports=(x/L, ...))")

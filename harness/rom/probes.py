@@ -1,6 +1,6 @@
 """Values of fields at probe positions, linear between the particles around each probe as the FMU interpolates.
 
-A leaf module of :mod:`harness.rom` (numpy only), so the protocol, the operators and the result share it.
+A leaf module of :mod:`sphrom.rom` (numpy only), so the protocol, the operators and the result share it.
 """
 
 from __future__ import annotations
@@ -38,6 +38,6 @@ def probe_rows(U, x, L, probes):
 
 def probe_values(v, rho, rho0, x, L, probes):
     """Fields (M, N) at ``probes`` (x/L), linear between particles as the FMU does, (M, 2P): v [m s^-1], then
-    e = ρ0/ρ - 1 (the rows of :func:`harness.rom.lti.full_linear_system`'s C)."""
+    e = ρ0/ρ - 1 (the rows of :func:`sphrom.rom.lti.full_linear_system`'s C)."""
     e = np.asarray(rho0)[None, :] / np.asarray(rho) - 1.0
     return np.concatenate([probe_rows(np.asarray(v).T, x, L, probes).T, probe_rows(e.T, x, L, probes).T], axis=1)

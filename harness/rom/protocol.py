@@ -23,17 +23,17 @@ model, they describe its state the same way:
     outputs y = Cr x_r, which equal its fields at those probes to round-off), None when any probe will do.
 ``error_bounds(problem, probes, progress=None)``
     Certified bounds on the probe velocity errors against the full linear SPH
-    (:func:`harness.rom.balanced.error_bounds`), or None for a model without them.
+    (:func:`sphrom.rom.balanced.error_bounds`), or None for a model without them.
 ``ports``, ``port_errors``, ``Bp``
     Mechanical port positions x/L (empty without ports), each port profile's projection error, and the port
-    input rows (None without ports; :mod:`harness.sph.ports`).
+    input rows (None without ports; :mod:`sphrom.sph.ports`).
 ``method``
     The reduction method where a model has a choice (balanced: ``bt``, ``galerkin`` ...), else "".
 
 :class:`Operators` gives the defaults (no bounds, no ports, outputs from the fields); each operators type
-(:class:`~harness.rom.operators.ReducedOperators`, :class:`~harness.rom.exact_linear.LinearOperators`,
-:class:`~harness.rom.balanced_model.BalancedOperators`) derives from it and overrides what it has.  Code
-outside :mod:`harness.rom` asks these, never the type of the operators or whether an attribute exists.
+(:class:`~sphrom.rom.operators.ReducedOperators`, :class:`~sphrom.rom.exact_linear.LinearOperators`,
+:class:`~sphrom.rom.balanced_model.BalancedOperators`) derives from it and overrides what it has.  Code
+outside :mod:`sphrom.rom` asks these, never the type of the operators or whether an attribute exists.
 
 Where the next additions go: error-bound outputs computed from the residual of the reduced state are an
 ``error_bounds`` (or a per-sample ``error_estimate(z, ...)``) of each operators type, the frozen model's from
@@ -94,7 +94,7 @@ class Operators:
         return probe_values(v, rho, problem.rho0, problem.x, problem.scene.L, probes)
 
     def error_bounds(self, problem, probes, progress=None):
-        """Certified error bounds at ``probes`` (:func:`harness.rom.balanced.error_bounds`), None: the model has
+        """Certified error bounds at ``probes`` (:func:`sphrom.rom.balanced.error_bounds`), None: the model has
         none.  ``progress``: an object with ``update(1)``, called once per probe."""
         return None
 

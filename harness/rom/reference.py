@@ -1,5 +1,5 @@
 """The full SPH's equations linear in J with ports and the force along the profile, integrated exactly in time:
-the reference the reduced models' inputs are measured against (:mod:`harness.rom.inputs`; tests and the
+the reference the reduced models' inputs are measured against (:mod:`sphrom.rom.inputs`; tests and the
 ``inputs`` measurement)."""
 
 from __future__ import annotations

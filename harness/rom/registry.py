@@ -1,13 +1,13 @@
 """The registry of the reduced models: one entry per model, looked up by name.
 
-Each model module defines its :class:`~harness.rom.model.ReducedModel`
+Each model module defines its :class:`~sphrom.rom.model.ReducedModel`
 (``MODEL``: name, description, properties, builder, solver, options type,
 truncate); this module lists them, one line per model.  A new model is one new
 module and one line here.  Code elsewhere asks a model's properties
 (``get_model(name).linear``, ``.uses_n_freeze``, ``.needs_basis``,
 ``.fmu_kind``), runs it through ``.build`` / ``.run`` (with ``.options(...)``) /
 ``.truncate``, and reads its operators through the protocol of
-:mod:`harness.rom.protocol`; it never compares model names.
+:mod:`sphrom.rom.protocol`; it never compares model names.
 """
 
 from __future__ import annotations
@@ -45,7 +45,7 @@ def model_names(**properties):
 def pod_model_names(**properties):
     """Names of the models built on a POD basis (``needs_basis``), filtered by ``properties`` as
     :func:`model_names`: the models the POD benchmarks and stress maps compare (the balanced model needs no
-    basis and has its own measurement, ``python -m harness.bench.balanced_measure``)."""
+    basis and has its own measurement, ``python -m sphrom.bench.balanced_measure``)."""
     return model_names(needs_basis=True, **properties)
 
 
@@ -55,17 +55,17 @@ def fmu_model_names():
 
 
 def build_model(name, problem, basis, k_v, k_rho, **options):
-    """``get_model(name).build(problem, basis, k_v, k_rho, **options)`` (:mod:`harness.rom.model`)."""
+    """``get_model(name).build(problem, basis, k_v, k_rho, **options)`` (:mod:`sphrom.rom.model`)."""
     return get_model(name).build(problem, basis, k_v, k_rho, **options)
 
 
 def run_model(name, operators, problem, **keywords):
     """Run the model ``name`` with its options given as keywords among the shared arguments -> ReducedResult
-    (:meth:`harness.rom.model.ReducedModel.run_keywords`): ``run_model("frozen", ops, problem, dt=dt,
+    (:meth:`sphrom.rom.model.ReducedModel.run_keywords`): ``run_model("frozen", ops, problem, dt=dt,
     n_steps=n, n_freeze=5)``; an option of another model is a ValueError naming it."""
     return get_model(name).run_keywords(operators, problem, **keywords)
 
 
 def truncate_model(name, problem, operators, k_v, k_rho):
-    """``get_model(name).truncate(problem, operators, k_v, k_rho)`` (:mod:`harness.rom.model`)."""
+    """``get_model(name).truncate(problem, operators, k_v, k_rho)`` (:mod:`sphrom.rom.model`)."""
     return get_model(name).truncate(problem, operators, k_v, k_rho)

@@ -17,15 +17,15 @@ class ReducedResult:
     Attributes
     ----------
     model : str
-        The model's registry name (:mod:`harness.rom.registry`).
+        The model's registry name (:mod:`sphrom.rom.registry`).
     t : ndarray (M,)
         Sample times [s].
     steps : ndarray of int (M,) or None
         Sample indices on the run's time grid, ``t = steps * dt``; None for a
-        run sampled at arbitrary times (:func:`harness.rom.exact_linear.run_exact`).
+        run sampled at arbitrary times (:func:`sphrom.rom.exact_linear.run_exact`).
     z : ndarray (M, order)
         The reduced state at the samples; ``ops.slices`` name its blocks
-        (:mod:`harness.rom.protocol`).
+        (:mod:`sphrom.rom.protocol`).
     ops : object
         The operators the run used: they name the blocks of z and reconstruct the fields.
     wall_time : float

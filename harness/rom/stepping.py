@@ -6,14 +6,14 @@ from step 0 to ``n_steps``, times the loop alone and turns a bad status
 (:mod:`.loops`) into a SimulationError naming the step and time.
 
 Numerical blow-ups of the explicit integrators, as for the full SPH
-(:mod:`harness.sph.solver`): before a run, :func:`reduced_stability_warnings`
+(:mod:`sphrom.sph.solver`): before a run, :func:`reduced_stability_warnings`
 estimates the factor by which the integrator amplifies the fastest reduced
 mode over the run, from the eigenvalues of the reduced operator linearised
 about rest (explicit Euler, undamped: |1 + iωΔt|^n); during a run,
 :func:`energy_guard` stops it (SimulationError, exit status 3 on the command
 line) when the energy of the reconstructed fields exceeds
-:data:`~harness.sph.solver.BLOWUP_FACTOR` times the bound that the scene's
-initial energy and forcing allow (:func:`~harness.sph.solver.energy_bound_factors`),
+:data:`~sphrom.sph.solver.BLOWUP_FACTOR` times the bound that the scene's
+initial energy and forcing allow (:func:`~sphrom.sph.solver.energy_bound_factors`),
 even while the state is finite.
 """
 
@@ -146,7 +146,7 @@ def drive(name, advance, forces, *, n_steps, dt, cost, bound, progress=False, gu
 
 
 def reduced_energy(ops, problem, a_v, a_rho):
-    """The energy [J per m²] of the fields a reduced state reconstructs (:func:`~harness.sph.solver.strain_energy`).
+    """The energy [J per m²] of the fields a reduced state reconstructs (:func:`~sphrom.sph.solver.strain_energy`).
 
     ``ops.velocity`` gives v, ``ops.strain`` the specific-volume strain e
     (the density models: its linearisation 1 − ρ/ρ0, eq. 2.17, finite for
@@ -160,11 +160,11 @@ def energy_guard(ops, problem, a_v, a_rho, *, dt, name, integrator, port_work=No
 
     ``a_v``, ``a_rho`` are the run's state arrays (read, never written,
     after each chunk); ``g`` the chunk's force table (:func:`force_table`).
-    As for the full SPH (:func:`harness.sph.solver.run_sph`): with (σ, λ) of
-    :func:`~harness.sph.solver.energy_bound_factors`, the exact dynamics
+    As for the full SPH (:func:`sphrom.sph.solver.run_sph`): with (σ, λ) of
+    :func:`~sphrom.sph.solver.energy_bound_factors`, the exact dynamics
     keep √E(t) ≤ e^{λt} (√E0 + σ ∫|f| dt); the guard raises SimulationError
     naming the step and time when the reconstructed energy
-    (:func:`reduced_energy`) exceeds :data:`~harness.sph.solver.BLOWUP_FACTOR`
+    (:func:`reduced_energy`) exceeds :data:`~sphrom.sph.solver.BLOWUP_FACTOR`
     times that bound (a factor 100 in amplitude) at the end of a chunk.  ``port_work(n0, n1)``: the ports'
     share of σ ∫|f| dt over steps n0..n1 (:func:`port_work`), for a run with port forces.
     """
@@ -195,7 +195,7 @@ def energy_guard(ops, problem, a_v, a_rho, *, dt, name, integrator, port_work=No
 def port_work(problem, ports, port_forces, dt, area=1.0):
     """``work(n0, n1)`` = Σ_j σ_j ∫|F_j/A| dt over steps n0..n1 (rectangle rule at the step times), σ_j =
     (½ Σ ρ0 b_j² Δx)^½ with b_j = W(x - x_j, h)/ρ0 the port's acceleration per N (as σ of
-    :func:`~harness.sph.solver.energy_bound_factors` for the profile): the ports' term of the energy bound."""
+    :func:`~sphrom.sph.solver.energy_bound_factors` for the profile): the ports' term of the energy bound."""
     from ..sph.ports import port_accelerations
     b = port_accelerations(problem, ports)
     sig = np.sqrt(0.5 * problem.neighbours.dx * np.sum(problem.rho0[None, :] * b * b, axis=1))
@@ -249,7 +249,7 @@ def reduced_amplification(ops, dt, integrator, T):
 
     The spectral radius r of :func:`reduced_step_matrix` on
     :func:`linearized_jacobian` to the power of the run's steps n (capped at
-    exp(700), as :func:`harness.sph.solver.amplification`); ω [rad s^-1] is
+    exp(700), as :func:`sphrom.sph.solver.amplification`); ω [rad s^-1] is
     the angle of that eigenvalue per step.  Explicit Euler on an undamped mode
     of frequency ω: r = |1 + iωΔt|.
     """
@@ -265,7 +265,7 @@ def reduced_stability_warnings(model, ops, dt, integrator, T):
     """One-line warnings (no prefix) about the time step of a reduced run of ``model``, maybe none.
 
     Warns with the figure when ``integrator`` amplifies the fastest reduced
-    mode by more than :data:`~harness.sph.solver.GROWTH_WARN` over the run
+    mode by more than :data:`~sphrom.sph.solver.GROWTH_WARN` over the run
     (:func:`reduced_amplification`).  Linear models are advanced exactly in
     time (no integrator): none.
     """

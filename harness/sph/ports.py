@@ -41,8 +41,8 @@ from . import loops
 from .kernel import cubic_spline
 
 # fmu_src/rom.h ROM_MAX_PORTS: F_port_1..4 [VR 3000..3003], v_port_1..4 [VR 4000..4003].  Each port adds
-# 2 x PORT_KRYLOV_LEVELS + 1 reduced coordinates (harness.rom.operators) and its directions at every frequency
-# (harness.rom.inputs, as many as its tolerance keeps), and the frozen model's refresh tensor grows as k^4
+# 2 x PORT_KRYLOV_LEVELS + 1 reduced coordinates (sphrom.rom.operators) and its directions at every frequency
+# (sphrom.rom.inputs, as many as its tolerance keeps), and the frozen model's refresh tensor grows as k^4
 # (docs/fmu/ports.md, "Not done yet": the frozen port FMU's cost).
 MAX_PORTS = 4
 

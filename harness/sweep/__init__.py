@@ -12,5 +12,5 @@ Modules (plain functions, small):
 * :mod:`.table`   -- the result table (HDF5 columns + CSV), merge for resume;
 * :mod:`.plot`    -- the summary PNG (a response surface when it can be one);
 * :mod:`.study`   -- the client: cluster, tasks, progress bar, checkpoints;
-* :mod:`.measure` -- the committed measurement (``python -m harness.sweep.measure``).
+* :mod:`.measure` -- the committed measurement (``python -m sphrom.sweep.measure``).
 """

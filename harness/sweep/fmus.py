@@ -2,14 +2,14 @@
 
 A variant is (scene text, c, d, profile, k, model, fmi, probes): a new
 material or force profile is a new scene, so it gets its own full SPH
-training run and POD basis (both cached by :mod:`harness.cache` and the
+training run and POD basis (both cached by :mod:`sphrom.cache` and the
 pipeline) and its own FMU.  The FMU is kept as
 ``$SPHROM_CACHE/sweep/fmu-<key>.fmu``; the key hashes the variant, the sphrom
 version and the binaries' build key (a change of the C sources makes new
 FMUs).  Forces and n_freeze change per run on the same FMU.  Entries with
 parametric ranges (by default the grid's [min, max] of c and d when they
-vary, or a ``[parametric]`` table; :mod:`harness.sweep.spec`) share ONE
-parametric FMU (:mod:`harness.fmu.make.parametric`: trained at the corners and
+vary, or a ``[parametric]`` table; :mod:`sphrom.sweep.spec`) share ONE
+parametric FMU (:mod:`sphrom.fmu.make.parametric`: trained at the corners and
 centre of the ranges), and each run sets c and d as FMU parameters.
 
 Packaging happens on the client, before any task: it needs CMake once (the
@@ -72,7 +72,7 @@ def variant_key(entry, binaries_key):
 def ensure_fmus(spec, entries, progress=True, log=None):
     """The FMU of every variant ``entries`` use: {variant_inputs: Variant}.
 
-    Packages (with :func:`harness.fmu.make.package.package_fmu`) the ones not in
+    Packages (with :func:`sphrom.fmu.make.package.package_fmu`) the ones not in
     the cache.  ``log(text)`` is told about each packaging.
 
     Raises

@@ -1,6 +1,6 @@
 """The committed measurement of ``sphrom sweep`` (validation/sweeps/README.md).
 
-    python -m harness.sweep.measure [--spec validation/sweeps/tenmode_forces.toml]
+    python -m sphrom.sweep.measure [--spec validation/sweeps/tenmode_forces.toml]
         [--sph-spec validation/sweeps/tenmode_forces_sph.toml] [--workers 1,2] [--repeats 3]
         [--work DIR] [--out validation/sweeps]
 
@@ -63,7 +63,7 @@ def _children_cpu():
 
 
 def _sweep(spec, workers, out):
-    cmd = [sys.executable, "-m", "harness", "sweep", str(spec), "--workers", str(workers), "--out", str(out), "--quiet"]
+    cmd = [sys.executable, "-m", "sphrom", "sweep", str(spec), "--workers", str(workers), "--out", str(out), "--quiet"]
     busy, mine, t0 = _busy(), _children_cpu(), time.perf_counter()
     done = subprocess.run(cmd, capture_output=True, text=True)
     # the CPU the rest of the machine used meanwhile, in cores: busy time less this run's own processes
@@ -159,7 +159,7 @@ def report(spec, sph_spec, runs, commands, sph_rows, sph_attrs, sph_cmd, started
     n = len(spec.entries)
     add("# Parameter sweeps: measured throughput of `sphrom sweep`")
     add("")
-    add("Written by `python -m harness.sweep.measure "
+    add("Written by `python -m sphrom.sweep.measure "
         f"--workers {','.join(map(str, workers))} --repeats {args.repeats}` (harness/sweep/measure.py); "
         "do not edit by hand.")
     add("")

@@ -32,7 +32,7 @@ def _log_axis(values):
 
 def summary_plot(rows, path, probe=1, title="", atomic=True):
     """Write the summary PNG of ``rows`` (table dicts) to ``path`` (atomically unless ``atomic`` is False:
-    ``path`` is then a temporary of :func:`harness.runio.atomic_paths`); returns its kind.
+    ``path`` is then a temporary of :func:`sphrom.runio.atomic_paths`); returns its kind.
 
     Returns ``"surface"``, ``"scatter"`` or ``None`` (no row to plot, nothing written).
     """

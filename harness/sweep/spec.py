@@ -44,7 +44,7 @@ linearly from 0 to F at T), step A.
 Every entry has an id: a hash of its inputs (and of the scene's text), so
 that a rerun recognises finished entries whatever the order of the grids.
 
-Every mistake is a :class:`~harness.errors.UserError` naming the file, the
+Every mistake is a :class:`~sphrom.errors.UserError` naming the file, the
 field and the allowed range, raised before any work.
 """
 
@@ -74,7 +74,7 @@ SHAPES = {
 }
 SCENE_GRIDS = ("c", "d", "profile", "k", "model")       # one FMU per combination
 PARAMETER_GRIDS = ("c", "d")                             # ... or one parametric FMU over their values
-PARAMETRIC_MODELS = ("frozen", "exact")                  # the POD models harness.fmu.make.parametric can make
+PARAMETRIC_MODELS = ("frozen", "exact")                  # the POD models sphrom.fmu.make.parametric can make
 RUN_GRIDS = ("shape", "amplitude", "frequency", "n_freeze")
 GRIDS = SCENE_GRIDS + RUN_GRIDS
 TOP_KEYS = ("title", "scene", "t_end", "step", "window", "probes", "fmi", "compare_sph", "grid", "parametric")
@@ -304,7 +304,7 @@ def _grid_values(raw, name, where, scene):
 
 
 def shape_expr(shape):
-    """The compiled force shape (an :class:`~harness.expr.Expr` in t, T, A, F)."""
+    """The compiled force shape (an :class:`~sphrom.expr.Expr` in t, T, A, F)."""
     from ..expr import compile_expr, shown
     return compile_expr(SHAPES.get(shape, shape), ("t", "T", "A", "F"), f"shape {shown(shape)}")
 
@@ -532,7 +532,7 @@ def _parametric_ranges(raw, grids, scene, source, notes):
 
 def _automatic_ranges(grids, scene, source, notes):
     """((name, min, max), ...) of grid.c / grid.d with two or more values, when the scene's c and d are uniform
-    (a parametric model needs both: :func:`harness.rom.parametric.parameter_space`); else () with a note."""
+    (a parametric model needs both: :func:`sphrom.rom.parametric.parameter_space`); else () with a note."""
     varied = [name for name in PARAMETER_GRIDS if len(grids[name]) > 1]
     if not varied:
         return ()

@@ -23,7 +23,7 @@ Steps of :func:`run_study`:
    renamed into place, or none).
 
 Signals: while the cluster starts, runs and closes, SIGINT and SIGTERM are held
-(:func:`harness.signals.deferred`) and acted on between results: raised as an
+(:func:`sphrom.signals.deferred`) and acted on between results: raised as an
 exception inside dask's finalisers they were lost ("Exception ignored", exit 0
 with the full output) or left a half-started cluster to print a traceback at
 exit.  An interrupted study writes the finished runs (when there are any) and
@@ -143,7 +143,7 @@ def run_study(spec, out, *, scheduler=None, workers=None, progress=True, checkpo
 
     Parameters
     ----------
-    spec : harness.sweep.spec.Spec
+    spec : sphrom.sweep.spec.Spec
     out : Path
         RESULTS.h5 (RESULTS.csv and RESULTS.png beside it).
     scheduler : str, optional
@@ -336,7 +336,7 @@ def _scatter(client, value):
 def _compute(client, spec, todo, variants, by_id, session, new_rows, state, progress, checkpoint_s, checkpoint,
              bundle, run_entry, progress_bar, held=()):
     """Submit ``todo`` and collect rows into ``new_rows`` (state updated as they come); ``held``: the signals
-    held while it runs (:func:`harness.signals.deferred`), acted on between results."""
+    held while it runs (:func:`sphrom.signals.deferred`), acted on between results."""
     from distributed import as_completed
 
     order = {vin: i for i, vin in enumerate(variants)}

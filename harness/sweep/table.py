@@ -14,7 +14,7 @@ Layout of RESULTS.h5::
 
 RESULTS.csv has the same columns and rows (full double precision).  Both (and
 the summary plot RESULTS.png, when drawn) are written to temporary names and
-renamed together (:func:`harness.runio.atomic_paths`), so an interrupted write
+renamed together (:func:`sphrom.runio.atomic_paths`), so an interrupted write
 leaves the previous versions of all of them.  A row per entry: inputs, status (``ok`` | ``failed``) and
 error, attempts, probe statistics, errors against the full SPH (nan when not
 run), timings, worker.

@@ -2,7 +2,7 @@
 
 Worker-local FMU cache
 ----------------------
-Each worker keeps one instantiated :class:`~harness.fmu.run.driver.FMU` per FMU in
+Each worker keeps one instantiated :class:`~sphrom.fmu.run.driver.FMU` per FMU in
 the module-level dict ``_SLAVES`` and resets it between runs (fmi2Reset /
 fmi3Reset, then initialization with the run's n_freeze), so an FMU is loaded
 (extracted, its library opened, instantiated) once per worker, not once per
@@ -201,7 +201,7 @@ def run_entry(bundle, entry):
     ----------
     bundle : dict
         ``key``, ``fmu`` (bytes), ``scene_text`` of the entry's variant.
-    entry : harness.sweep.spec.Entry
+    entry : sphrom.sweep.spec.Entry
 
     Returns
     -------

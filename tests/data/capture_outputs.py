@@ -6,8 +6,8 @@ A refactoring that claims to change no number runs this once on the code before 
     python3 tests/data/capture_outputs.py --code NEW_CHECKOUT --out /tmp/after.npz
     python3 tests/data/capture_outputs.py --compare /tmp/before.npz /tmp/after.npz
 
-It drives only the command line (``python -m harness fmu|pod|rom``, the contract both checkouts keep) and runs
-the FMUs with fmpy's FMU2Slave / FMU3Slave directly (not the harness's co-simulation), so what is compared is
+It drives only the command line (``python -m sphrom fmu|pod|rom``, the contract both checkouts keep) and runs
+the FMUs with fmpy's FMU2Slave / FMU3Slave directly (not sphrom's co-simulation), so what is compared is
 what a user gets.  Per FMU: every output and calculated parameter at each of 150 communication points (10 ms,
 inputs held; FMI 2 FMUs that can interpolate inputs once more with input derivatives), the sha256 of
 resources/model.bin and the declared variables.  Per Python run: every dataset of the run file.  Each checkout
@@ -67,7 +67,7 @@ def python_runs(scenes):
 
 
 def sphrom(code, args, env):
-    done = subprocess.run([sys.executable, "-m", "harness", *args, "--quiet"], cwd=code, env=env,
+    done = subprocess.run([sys.executable, "-m", "sphrom", *args, "--quiet"], cwd=code, env=env,
                           capture_output=True, text=True)
     if done.returncode != 0:
         raise RuntimeError(f"{' '.join(args)}: exit {done.returncode}\n{done.stderr[-2000:]}")
@@ -136,7 +136,9 @@ def capture(code, out, scenes):
     from fmpy import read_model_description  # noqa: F401  (fail early without fmpy)
     code = Path(code).resolve()
     work = Path(tempfile.mkdtemp(prefix="sphrom-capture-"))
-    env = dict(os.environ, SPHROM_CACHE=str(work / "cache"), PYTHONPATH=str(code))
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from checkout import import_path
+    env = dict(os.environ, SPHROM_CACHE=str(work / "cache"), PYTHONPATH=import_path(code))
     arrays = {}
     for label, scene, options in variants(scenes):
         path = work / (label.replace("/", "_") + ".fmu")

@@ -19,13 +19,13 @@ import numpy as np
 
 
 def capture():
-    from harness.cache import run_key
-    from harness.fmu.make.options import default_modes
-    from harness.pod.pipeline import error_steps
-    from harness.pod.snapshots import snapshot_steps
-    from harness.scene import builtin_names, describe_terms, load_scene
-    from harness.sph.operator import particle_positions
-    from harness.sph.solver import step_count
+    from sphrom.cache import run_key
+    from sphrom.fmu.make.options import default_modes
+    from sphrom.pod.pipeline import error_steps
+    from sphrom.pod.snapshots import snapshot_steps
+    from sphrom.scene import builtin_names, describe_terms, load_scene
+    from sphrom.sph.operator import particle_positions
+    from sphrom.sph.solver import step_count
 
     meta, arrays = {}, {}
     for name in builtin_names():

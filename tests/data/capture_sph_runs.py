@@ -30,9 +30,9 @@ INTEGRATORS = ("euler", "symplectic", "rk4")
 
 
 def capture(quick=False):
-    from harness.scene import builtin_names, derive_scene, load_scene
-    from harness.sph.ports import mass_spring, run_sph_ports
-    from harness.sph.solver import build_problem, run_sph
+    from sphrom.scene import builtin_names, derive_scene, load_scene
+    from sphrom.sph.ports import mass_spring, run_sph_ports
+    from sphrom.sph.solver import build_problem, run_sph
     out = {}
     for name in builtin_names():
         base = load_scene(name)
@@ -85,11 +85,11 @@ def main(argv=None):
         return compare(*args.compare)
     if not args.out:
         p.error("--out or --compare is needed")
-    import harness
+    import sphrom
     t0 = time.perf_counter()
     data = capture(args.quick)
     np.savez(args.out, **data)
-    print(f"{harness.__file__}: {len(data)} arrays in {time.perf_counter() - t0:.0f} s -> {args.out}")
+    print(f"{sphrom.__file__}: {len(data)} arrays in {time.perf_counter() - t0:.0f} s -> {args.out}")
     return 0
 
 

@@ -40,8 +40,8 @@ MS = 1024                                   # ROM_MESSAGE_SIZE
 def make_resources(folder):
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
     from conftest import small_scene
-    from harness.fmu.make.package import package_fmu
-    from harness.rom.parametric import parse_vary
+    from sphrom.fmu.make.package import package_fmu
+    from sphrom.rom.parametric import parse_vary
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     forced, unforced = small_scene("damped_forced", T=0.5, n=32), small_scene("multimode", T=0.5, n=32)
@@ -341,7 +341,7 @@ def library(path, folder):
     path = Path(path)
     if path.is_file():
         return path
-    from harness.fmu.make.build import configure_and_build
+    from sphrom.fmu.make.build import configure_and_build
     configure_and_build(path / "fmu_src", folder, tests=False)
     found = sorted(folder.glob("libsphrom_core.*")) + sorted(folder.glob("sphrom_core.dll"))
     if not found:

@@ -33,9 +33,9 @@ def main():
     from checkout import use_checkout
     use_checkout(__doc__.splitlines()[0])
     from conftest import fmu_scene
-    from harness.fmu.make.build import ensure_binaries
-    from harness.fmu.run.driver import FMU
-    from harness.fmu.make.package import package_fmu
+    from sphrom.fmu.make.build import ensure_binaries
+    from sphrom.fmu.run.driver import FMU
+    from sphrom.fmu.make.package import package_fmu
 
     inputs = np.random.default_rng(SEED).normal(0.0, 0.02, STEPS)
     arrays = {"inputs": inputs, "steps": np.full(STEPS, H)}

@@ -1,7 +1,7 @@
 """Write tests/data/registry_reference.npz: reduced-model runs of the code before the registry.
 
 Run from the repository root (``python3 tests/data/make_registry_reference.py``).  It was run once on the
-code before the reduced models went behind one interface (harness.rom.registry); tests/test_registry.py
+code before the reduced models went behind one interface (sphrom.rom.registry); tests/test_registry.py
 holds the registry's runs bitwise equal to these arrays, so the refactoring changed no number.
 
 Stored per case: the bases the operators were built from (so the test needs no SPH run or SVD), the
@@ -21,8 +21,8 @@ sys.path[:0] = [str(ROOT), str(ROOT / "tests")]
 os.environ.setdefault("SPHROM_CACHE", tempfile.mkdtemp(prefix="sphrom-cache-"))   # the full SPH runs afresh
 
 from conftest import small_scene  # noqa: E402
-from harness.pod.pipeline import basis_for_scene  # noqa: E402
-from harness.sph.solver import build_problem, step_count  # noqa: E402
+from sphrom.pod.pipeline import basis_for_scene  # noqa: E402
+from sphrom.sph.solver import build_problem, step_count  # noqa: E402
 
 
 def scenes():
@@ -49,9 +49,9 @@ RUNS = [
 
 
 def main(out=ROOT / "tests" / "data" / "registry_reference.npz"):
-    from harness.rom.common import run_reduced
-    from harness.rom.exact_linear import build_linear_operators, run_exact
-    from harness.rom.operators import build_operators
+    from sphrom.rom.common import run_reduced
+    from sphrom.rom.exact_linear import build_linear_operators, run_exact
+    from sphrom.rom.operators import build_operators
 
     arrays = {}
     for tag, scene in scenes():

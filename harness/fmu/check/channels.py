@@ -3,7 +3,7 @@ profile and each port force F_port_j, each from rest under
 
 - ``constant``: a constant input (its response: the static deflection, and the rigid motion of the bar: an
   undamped bar accelerates without end);
-- ``slow``: a sine at a quarter of the bar's lowest elastic frequency ω_1 (:func:`harness.rom.inputs.band`),
+- ``slow``: a sine at a quarter of the bar's lowest elastic frequency ω_1 (:func:`sphrom.rom.inputs.band`),
   a spring attached to a port applies this kind of force;
 - ``in band``: a sine at 1.5 ω_1, between the bar's two lowest elastic frequencies (in the band the basis
   must hold, off its resonances);
@@ -11,7 +11,7 @@ profile and each port force F_port_j, each from rest under
   the bar's, its spring tuned to ω_1 / 2, 10 % of critical damping, the spring stretched at t = 0 to give the
   port force amplitude), the FMU coupled through the driver (the port velocity held over a step while the
   spring-mass-damper is advanced exactly, its force at the step's start held over it) against the full SPH
-  integrated together with the spring-mass-damper (:func:`harness.sph.ports.run_sph_ports`): the error of the
+  integrated together with the spring-mass-damper (:func:`sphrom.sph.ports.run_sph_ports`): the error of the
   port velocity then includes the coupling's own, of order of the communication step;
 
 over ``horizon`` = min(T, :data:`HORIZON`) at the FMU's communication step, the input held over each step as an
@@ -20,8 +20,8 @@ the bar (area A = 1) the same mean acceleration, A_f Σ ρ0 Δx [N].  Output com
 the channel's own port velocity for F_port_j (power-conjugate to it); the error is eq. 3.4's relative L2
 (square-root form, trapezoidal in time), as the verification's cases.
 
-The full SPH: :func:`harness.sph.solver.run_sph` for f (the scene with f replaced),
-:func:`harness.sph.ports.run_sph_ports` for the ports (with the scene's own force off, so the port force alone
+The full SPH: :func:`sphrom.sph.solver.run_sph` for f (the scene with f replaced),
+:func:`sphrom.sph.ports.run_sph_ports` for the ports (with the scene's own force off, so the port force alone
 drives the bar), each from rest, with the FMU's integrator (:func:`reference_scene`). """
 
 from __future__ import annotations
@@ -101,7 +101,7 @@ def reference_scene(path, scene, ports=()):
 def model_scene(data, scene, ports=()):
     """``scene`` with the integrator of the FMU whose model.bin is ``data`` (unpacked): a time-stepped FMU's own,
     an FMU integrated exactly in time (exact, balanced) the default one for its ports
-    (:func:`harness.fmu.make.options.default_integrator`: symplectic with ports, the scene's without)."""
+    (:func:`sphrom.fmu.make.options.default_integrator`: symplectic with ports, the scene's without)."""
     from ...scene import derive_scene
     from ..make.options import default_integrator
     from ..resources import ModelData

@@ -6,7 +6,7 @@ which the measurements are read: the page's scroll width against the window's, a
 reaches beyond the right edge of the body's content (or of the window, where that is nearer).  No browser
 library is needed.
 
-    python3 -m harness.fmu.check.page FILE.fmu [--width 1280] [--screenshot PAGE.png]
+    python3 -m sphrom.fmu.check.page FILE.fmu [--width 1280] [--screenshot PAGE.png]
 
 exits 1 when the page overflows horizontally (and says which elements), 2 when no headless Chromium is found.
 """
@@ -122,7 +122,7 @@ def extract_page(fmu, folder):
 
 def main(argv=None):
     import argparse
-    parser = argparse.ArgumentParser(prog="python3 -m harness.fmu.check.page",
+    parser = argparse.ArgumentParser(prog="python3 -m sphrom.fmu.check.page",
                                      description="Load an FMU's documentation/index.html in a headless Chromium: "
                                                  "no element may reach beyond the window's width (exit 1 if one "
                                                  "does; 2 without a browser); optionally save a screenshot.")

@@ -1,7 +1,7 @@
 """The FMU's co-simulation, in Python: the reference its outputs must equal.
 
 :func:`cosim_reference` drives the compiled loop of the frozen model
-(:func:`harness.rom.frozen.frozen_advance`, the same loop as
+(:func:`sphrom.rom.frozen.frozen_advance`, the same loop as
 ``get_model("frozen").run``) communication step by communication step,
 with the FMU's rules (fmu_src/rom.c ``rom_do_step``):
 
@@ -100,7 +100,7 @@ class FrozenCosim:
 
     Parameters
     ----------
-    data : harness.fmu.resources.ModelData
+    data : sphrom.fmu.resources.ModelData
         The FMU's model (what model.bin holds).
     n_freeze : int, optional
         Refresh period (default the packaged one).

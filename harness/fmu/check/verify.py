@@ -18,7 +18,7 @@ h (its DefaultExperiment stepSize):
 The FMU gets f at each communication point, held over the step, or with df/dt
 (the slope to the next point) when it declares ``canInterpolateInputs`` (FMI 2,
 linear models): what ``sphrom cosim`` does by default.  The full SPH is the
-compiled loop of :func:`harness.sph.solver.run_sph` with f(t) at every internal
+compiled loop of :func:`sphrom.sph.solver.run_sph` with f(t) at every internal
 step.  Errors: the relative L2 error of eq. 3.4 (square-root form, trapezoidal
 in time, summed over the probes) of the probe velocities, and of the probe
 densities as rho - rho0.  Times: one run each, setup excluded on both sides:

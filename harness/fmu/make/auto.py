@@ -11,7 +11,7 @@ from .package import package_fmu
 def package_auto(scene, out, *, tolerance, progress=True, integrator=None, **options):
     """``sphrom fmu --model auto``: the fastest FMU model whose measured error meets ``tolerance``.
 
-    Every model that can be packaged (:func:`harness.rom.registry.fmu_model_names`) is packaged with the same
+    Every model that can be packaged (:func:`sphrom.rom.registry.fmu_model_names`) is packaged with the same
     options into a temporary folder and measured (:func:`package_fmu` with ``verify``; the full SPH runs are
     made once and shared); the candidates whose v error on the training force is at most ``tolerance`` are
     kept, and of those the one with the smallest FMU run time on the training force (one run each) is

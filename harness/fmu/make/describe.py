@@ -3,7 +3,7 @@
 The templates hold the XML around the variables; ``{{name}}`` takes one (XML-escaped) value,
 ``{{{name}}}`` one piece of XML, and ``{{#list}} ... {{/list}}`` repeats its body once per item of a list.
 The variables, their units and declared types and the ModelStructure come from
-:mod:`harness.fmu.variables`: the rows the FMU has (its presence rules on the packed resources), FMI 2
+:mod:`sphrom.fmu.variables`: the rows the FMU has (its presence rules on the packed resources), FMI 2
 indices counted from them, the Outputs and InitialUnknowns listed from their causalities.
 """
 
@@ -81,12 +81,12 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
     model : str
         The registered reduced model packaged (its title heads the description).
     envelope : Envelope, optional
-        What the basis was trained on (:mod:`harness.fmu.make.envelope`), appended to the description; the
+        What the basis was trained on (:mod:`sphrom.fmu.make.envelope`), appended to the description; the
         nominal values of f and the probe outputs.
     measured : str, optional
         The verification's sentence (errors against the full SPH, run times), appended to the description.
     bounds : dict, optional
-        Linear models: the report of the certified error bounds (:func:`harness.rom.balanced.error_bounds`)
+        Linear models: the report of the certified error bounds (:func:`sphrom.rom.balanced.error_bounds`)
         whose values section BOUNDS holds (default ``data.bounds``), for the words of the description.
     """
     from ...rom.registry import get_model
@@ -148,7 +148,7 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
 
 
 def variable_values(fmi, scene, data, envelope, bounds):
-    """The FMU's values the variable table's descriptions and :class:`~harness.fmu.variables.From` cells name
+    """The FMU's values the variable table's descriptions and :class:`~sphrom.fmu.variables.From` cells name
     (under ``probe``: one value per probe)."""
     values = {
         "profile": scene.fields["profile"].text,

@@ -5,12 +5,12 @@ FMU's documentation (FMI 1.0 used ``_main.html``).  The page is self-contained
 (inline CSS, no script, no network resource; the one image, ``probes.png``,
 sits beside it) and holds: the scene, the model, every variable of the
 modelDescription.xml it is packed with (read from that XML, which
-:mod:`harness.fmu.make.describe` generated from the variable table
-:mod:`harness.fmu.variables`, so a row added to the table appears here
+:mod:`sphrom.fmu.make.describe` generated from the variable table
+:mod:`sphrom.fmu.variables`, so a row added to the table appears here
 without a change to this module; the table adds which FMUs have each), the
 training envelope in words (when the model carries one) and the tagged
 sections of ``resources/model.bin`` with their numbers, and the measured errors and run times of
-:mod:`harness.fmu.check.verify`.
+:mod:`sphrom.fmu.check.verify`.
 """
 
 from __future__ import annotations
@@ -191,7 +191,7 @@ def usage_section(description_xml, linear, ports):
 
 def ports_section(sections, model=None, passivity=None):
     """The mechanical ports of this FMU, their sign convention, what the ``model`` represents of them exactly and
-    what its port map's passivity check found (``passivity``, :class:`harness.rom.passivity.PortPassivity`), or
+    what its port map's passivity check found (``passivity``, :class:`sphrom.rom.passivity.PortPassivity`), or
     how to get them."""
     positions = sections.get("PORTX")
     convention = ("<code>F_port_j</code> [N] is the force the connected component exerts <b>on the bar</b> at "
@@ -213,7 +213,7 @@ def ports_section(sections, model=None, passivity=None):
         [f"<p>{represents} The table of input channels below measures each port (a constant, a slow and an in-band "
          "force from rest, and the port closed by a spring-mass-damper) against the full SPH.</p>"]
         if represents else []) + (
-        [f"<p>Passivity of the port map (F_port to v_port; <code>harness.rom.passivity.port_passivity</code>, "
+        [f"<p>Passivity of the port map (F_port to v_port; <code>sphrom.rom.passivity.port_passivity</code>, "
          f"docs/fmu/ports.md): {escape(passivity.line())}.</p>"] if passivity is not None else [])
 
 
@@ -343,7 +343,7 @@ def verification_section(verification, tolerance=None):
 
 
 def channel_lines(verification):
-    """The table of every input channel's measurement (:mod:`harness.fmu.check.channels`), none when not measured."""
+    """The table of every input channel's measurement (:mod:`sphrom.fmu.check.channels`), none when not measured."""
     if not getattr(verification, "channels", None):
         return []
     from ..check.channels import HORIZON
@@ -361,7 +361,7 @@ def channel_lines(verification):
 
 
 def envelope_section(envelope, linear, bounded=False):
-    """What the basis was trained on (:class:`harness.fmu.make.envelope.Envelope`) and what the FMU checks at run
+    """What the basis was trained on (:class:`sphrom.fmu.make.envelope.Envelope`) and what the FMU checks at run
     time (``bounded``: its certified error bounds); nothing when the FMU carries no envelope."""
     if envelope is None:
         return []

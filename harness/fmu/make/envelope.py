@@ -1,7 +1,7 @@
 """The training envelope of an FMU: what its basis was trained on, and the margins the C core checks.
 
 Recorded at packaging (``sphrom fmu``) in three tagged sections of ``resources/model.bin``
-(:data:`harness.fmu.resources.SECTION_TAGS`) and printed in the summary and the model description:
+(:data:`sphrom.fmu.resources.SECTION_TAGS`) and printed in the summary and the model description:
 
 ``ENVELOPE`` (1 x :data:`N_SCALARS`), in this order
     0 ``force_amplitude``    max |f(t)| over the training run, t = n dt in [0, T] [m s^-2]
@@ -27,11 +27,11 @@ Recorded at packaging (``sphrom fmu``) in three tagged sections of ``resources/m
     ``nominal`` in modelDescription.xml).
 ``ENVPORT`` (1 x 2, only with mechanical ports)
     the numbers of trailing coordinates of the first block (a^v, or a) and of the second (a^ρ, or b) that
-    are the ports' directions (:func:`harness.rom.operators.port_directions`), not POD modes.
+    are the ports' directions (:func:`sphrom.rom.operators.port_directions`), not POD modes.
 
 With ports the training run is the scene's own, without port forces: port forces are untrained inputs by
 design (the basis carries their exact input directions instead, each port's profile and its Krylov
-response, :func:`harness.rom.operators.port_directions`).  So (1) the port coordinates are never checked
+response, :func:`sphrom.rom.operators.port_directions`).  So (1) the port coordinates are never checked
 against the training run's ranges, which leave them at ~0 (its POD residual), nor do they count in a
 block's largest half-width; (2) once a step has been taken with a nonzero port force or rate (the C
 state's ``port_driven``, kept in FMU states, cleared by reset) the state holds a response that run never
@@ -41,7 +41,7 @@ port error 0.28 % unforced, 0.32 % at the port-coupling forces, 0.48 % at 12x th
 the trained, docs/fmu/envelope.md).  Until then a port FMU is checked as one without ports.
 
 A parametric model's envelope (``--vary``) is the :func:`union` of the envelopes of the runs at all its
-sample points (:func:`harness.fmu.make.parametric.parametric_envelope`).
+sample points (:func:`sphrom.fmu.make.parametric.parametric_envelope`).
 
 At run time the frozen model is checked after every doStep (fmu_src/rom_envelope.c): a coordinate
 a_i whose distance from the centre c_i of its trained range [lo_i, hi_i] exceeds its half-width h_i plus
@@ -68,7 +68,7 @@ CHECK_STRAIN = 4
 CHECK_FAILURE = 8
 ENERGY_FRACTION = 0.99       # the band that holds this fraction of the training force's energy
 # Factor on the trained ranges (coordinates, |f|, probe strain) before a warning, from
-# `python -m harness.bench.envelope` (validation/benchmarks/envelope.csv, BENCHMARKS.md "The training
+# `python -m sphrom.bench.envelope` (validation/benchmarks/envelope.csv, BENCHMARKS.md "The training
 # envelope"): with the initial state scaled by s the frozen model's probe error against the full SPH
 # grows about linearly in s (tenmode 0.128 at s = 1, 0.185 at 1.5, 0.243 at 2); within 1.5x the
 # trained amplitude it stays within 1.5x its trained value, and the reduced model's own run of its
@@ -102,7 +102,7 @@ class Envelope:
     port_rho: int = 0            # and of the second block
 
     def sections(self):
-        """The tagged sections (tag -> 2-D array) of :mod:`harness.fmu.resources`."""
+        """The tagged sections (tag -> 2-D array) of :mod:`sphrom.fmu.resources`."""
         scalars = [self.force_amplitude, self.force_band, self.max_strain, self.max_probe_strain,
                    self.failure_strain, self.margin, float(self.checks), self.force_mean]
         out = {"ENVELOPE": np.array([scalars]), "ENVRANGE": np.vstack([self.lo, self.hi]),
@@ -215,7 +215,7 @@ def measure(scene, ops, problem, run, probes, linear):
         a^ρ = U_ρᵀ ρ, eq. 2.16; exact a = U_vᵀ diag(ρ0) v, b = U_eᵀ diag(c) e, its energy inner products).
     problem : SPHProblem
     run : Run
-        The cached full SPH training run (:func:`harness.pod.pipeline.basis_for_scene`).
+        The cached full SPH training run (:func:`sphrom.pod.pipeline.basis_for_scene`).
     probes : sequence of float
         Probe positions in units of L.
     linear : bool

@@ -20,7 +20,7 @@ from ..resources import MODEL_EXACT_LINEAR, MODEL_FROZEN, balanced_data, exact_d
 def model_basis(scene, spec, k, progress=True, problem=None, made=None):
     """(basis, problem) of ``scene`` for the model ``spec``: its POD basis, with k checked against the modes of the
     model's basis kind (FieldError naming the field ``k`` or ``model``).  ``made``: the (basis, run) of
-    :func:`harness.pod.pipeline.basis_for_scene` already made for this scene (not made again)."""
+    :func:`sphrom.pod.pipeline.basis_for_scene` already made for this scene (not made again)."""
     from ...pod.pipeline import basis_for_scene
     from ...rom.model import BASIS_KINDS
     from ...sph.solver import build_problem
@@ -41,14 +41,14 @@ def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem
                   build_options=None, made=None, tensor=None):
     """The FMU's numbers for a model of resource kind 1 (frozen coefficients): (ModelData, ops, problem, basis).
 
-    Runs (or reuses) the full SPH and the POD (harness.pod.pipeline), builds the model's operators
+    Runs (or reuses) the full SPH and the POD (sphrom.pod.pipeline), builds the model's operators
     (``get_model(model).build``: the frozen model's own, b about the projected rest density so that the FMU
-    started at rest stays at rest, :func:`harness.rom.operators.rest_b`) with ``input_direction="needed"`` (an
+    started at rest stays at rest, :func:`sphrom.rom.operators.rest_b`) with ``input_direction="needed"`` (an
     input row always; the force profile appended to U_v only when the POD modes miss more than 1 % of it) and
     the refresh tensor where the FMU keeps it or it is small (``tensor`` None: where it costs less than the
     particle refresh, :func:`particle_sections`, or has at most ``TENSOR_MAX_ENTRIES`` entries; a port model's
     larger basis, whose tensor grows as k⁴, is not built; ``"always"``: built anyway).  ``build_options`` go to
-    the model's build (``{"b": "paper"}``: eq. 2.22's b, the paper's variant, :mod:`harness.bench.rest` compares
+    the model's build (``{"b": "paper"}``: eq. 2.22's b, the paper's variant, :mod:`sphrom.bench.rest` compares
     them).
     """
     from ...rom.registry import get_model
@@ -94,8 +94,8 @@ def exact_model(scene, k, n_freeze, probes, progress=True, problem=None, model="
 
 
 def training_envelope(scene, ops, problem, probes, linear, progress=False, run=None):
-    """The :class:`~harness.fmu.make.envelope.Envelope` of the model ``ops``: its ranges over the scene's cached
-    full SPH training run (:mod:`harness.fmu.make.envelope`)."""
+    """The :class:`~sphrom.fmu.make.envelope.Envelope` of the model ``ops``: its ranges over the scene's cached
+    full SPH training run (:mod:`sphrom.fmu.make.envelope`)."""
     from ...pod.pipeline import basis_for_scene
     from .envelope import measure
     if run is None:
@@ -127,7 +127,7 @@ def balanced_model(scene, k, n_freeze, probes, order_tolerance=None, problem=Non
 
     The full linear SPH of the scene with the FMU's probes as outputs, balanced
     and truncated at order ``k`` (or the order ``order_tolerance`` gives; the default
-    tolerance when both are None); :func:`harness.fmu.resources.balanced_data`.
+    tolerance when both are None); :func:`sphrom.fmu.resources.balanced_data`.
     """
     from ...rom.registry import get_model
     from ...sph.solver import build_problem
@@ -145,7 +145,7 @@ def balanced_model(scene, k, n_freeze, probes, order_tolerance=None, problem=Non
 
 def linear_bounds(ops, problem, probes, progress=True):
     """The certified error bounds of a linear reduced model at the velocity probes (the operators'
-    ``error_bounds``, :func:`harness.rom.balanced.error_bounds`), with a progress bar over the probes."""
+    ``error_bounds``, :func:`sphrom.rom.balanced.error_bounds`), with a progress bar over the probes."""
     from ...progress import progress_bar
 
     with progress_bar(len(probes), "error bounds", unit="probe", enabled=progress) as bar:
@@ -154,7 +154,7 @@ def linear_bounds(ops, problem, probes, progress=True):
 
 def linear_bound(lin, scene, samples=4097):
     """The linear FMU's runaway bound on |z|: 10⁶ (|z0| + |B| ∫_0^T |f| dt) with the scene's force over its T
-    (:func:`harness.rom.exact_linear.linear_runaway_bound`; trapezoidal rule on ``samples`` points).
+    (:func:`sphrom.rom.exact_linear.linear_runaway_bound`; trapezoidal rule on ``samples`` points).
 
     10⁶ |z0| alone is 0 for a scene at rest, and such an FMU stopped as a runaway at its first forced step.
     """
@@ -177,7 +177,7 @@ def particle_sections(ops, problem):
     N particles), or {} where the tensor costs less.  The refresh of M (eq. 2.23 projected) from the tensor takes
     n_pairs (1 + nm) multiply-adds and streams its n_pairs k_rho k_v values from memory; from the particles it
     takes N (k_rho + kr_pad + k_v kr_pad) + nm on arrays that stay in cache (the core's counts,
-    :func:`harness.fmu.check.python_cosim.refresh_matrix_work`).  A port model's larger basis (k_v, k_rho = 48, 47 on damped_forced, whose
+    :func:`sphrom.fmu.check.python_cosim.refresh_matrix_work`).  A port model's larger basis (k_v, k_rho = 48, 47 on damped_forced, whose
     tensor is 20 MB) is where the particles win; k = 12 on N = 400 keeps the tensor.  The particle path sums in
     another order than the tensor: the FMU then equals the Python model run with ``refresh="direct"``."""
     from ..check.python_cosim import refresh_matrix_work
@@ -286,7 +286,7 @@ def _linear_resource(scene, model, k, n_freeze, probes, integrator, progress, pr
 
 
 def shadow_step(data, problem, probes, ports=(), parametric=False):
-    """The certified error bounds' shadow of every output into ``data.sections`` (SH*, :mod:`harness.rom.bounds`;
+    """The certified error bounds' shadow of every output into ``data.sections`` (SH*, :mod:`sphrom.rom.bounds`;
     the FMU's outputs ``*_error_bound`` and parameter ``error_tolerance``), its default tolerance from the training
     run's largest |v_probe| (section ENVPROBE; without it the initial state's); nothing where the C core cannot
     certify (more than FMU_MAX_PARTICLES particles, a parametric model whose d is not uniform).  A damping d that

@@ -15,7 +15,7 @@ from ..variables import check_parameter
 
 def default_modes(scene):
     """K of the scene: max(rom.accel_modes), else rom.modes, else the automatic mode count of its POD
-    (:func:`harness.pod.pipeline.scene_modes`: runs the full SPH when it is not cached)."""
+    (:func:`sphrom.pod.pipeline.scene_modes`: runs the full SPH when it is not cached)."""
     from ...pod.pipeline import accel_modes
     return int(max(accel_modes(scene)))
 
@@ -58,7 +58,7 @@ def check_options(scene, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaults.
     ``tolerance`` (0 < tolerance < 1) is the largest measured training error accepted (:func:`package_fmu`
     with ``verify``), for every model.  ``order_tolerance`` (0 < order_tolerance < 1) applies to a model whose
     order may come from a tolerance (``sized_by_tolerance``: balanced) given no order ``k`` (1 <= r < 2N); with
-    neither, k is returned as None (the order then comes from :data:`harness.defaults.ORDER_TOLERANCE`).
+    neither, k is returned as None (the order then comes from :data:`sphrom.defaults.ORDER_TOLERANCE`).
 
     Raises FieldError naming the field (``k``, ``n_freeze``, ``probes``, ``fmi``, ``model``, ``integrator``,
     ``tolerance``, ``order_tolerance``) and the allowed range; the command line shows the option that set it.

@@ -2,10 +2,10 @@
 
 Three models (``model=``): ``frozen``, the frozen-coefficient model of eqs.
 2.19-2.24 (the default), stepped with the internal dt; ``exact``, the
-exact linear model in the specific volume (:mod:`harness.rom.exact_linear`),
+exact linear model in the specific volume (:mod:`sphrom.rom.exact_linear`),
 advanced over each communication step by the matrix exponential (cached per
 step length in the C core), whatever dt; and ``balanced``, the balanced
-reduction of the full linear SPH (:mod:`harness.rom.balanced_model`), which
+reduction of the full linear SPH (:mod:`sphrom.rom.balanced_model`), which
 runs through the same C code as ``exact`` (resource kind 2; only its matrices
 differ).  The linear models carry certified error bounds against the full
 linear SPH at their probes (section BOUNDS; calculated parameters
@@ -22,7 +22,7 @@ Steps of :func:`package_fmu` (``sphrom fmu``), each a function of its own, each 
 6. documentation  documentation/index.html (and probes.png)          (:mod:`.documentation`)
 7. archive        the zip and fmpy's validation, at a temporary name  (:mod:`.archive`)
 8. verification   measured against the full SPH, the tolerance checked, the texts rewritten
-                                                                      (:mod:`harness.fmu.check.verify`)
+                                                                      (:mod:`sphrom.fmu.check.verify`)
 
 and the rename into place.  ``--model auto`` is a step of its own around these (:mod:`.auto`).
 """
@@ -73,7 +73,7 @@ class FMUSummary:
         The registered reduced model packaged (one with an FMU resource kind).
     bounds : dict or None
         Linear models: the certified error bounds stored in the FMU
-        (:func:`harness.rom.balanced.error_bounds`: ``force_error_bound``,
+        (:func:`sphrom.rom.balanced.error_bounds`: ``force_error_bound``,
         ``initial_state_error_bound`` per probe, ``sigma``, ``factor``,
         ``horizon``, ...); None for the frozen model.
     method : str
@@ -96,14 +96,14 @@ class FMUSummary:
     size: int
     timings: dict = field(default_factory=dict)
     model: str = "frozen"
-    envelope: object = None        # harness.fmu.make.envelope.Envelope: what the basis was trained on
-    verification: object = None      # harness.fmu.check.verify.Verification when measured, else None
+    envelope: object = None        # sphrom.fmu.make.envelope.Envelope: what the basis was trained on
+    verification: object = None      # sphrom.fmu.check.verify.Verification when measured, else None
     bounds: dict | None = None
     method: str = ""
-    parameters: list = field(default_factory=list)     # a parametric FMU's c, d rows (harness.fmu.make.parametric)
+    parameters: list = field(default_factory=list)     # a parametric FMU's c, d rows (sphrom.fmu.make.parametric)
     ports: list = field(default_factory=list)
     port_errors: list = field(default_factory=list)
-    port_passivity: object = None      # harness.rom.passivity.PortPassivity of a port FMU, else None
+    port_passivity: object = None      # sphrom.rom.passivity.PortPassivity of a port FMU, else None
     n_freeze_errors: dict = field(default_factory=dict)   # n_freeze chosen per scene: {candidate: training error}
     shadow_order: int = 0              # the certified error bounds' shadow: its coordinates (0: no bound outputs)
     error_tolerance: float = float("nan")   # error_tolerance's default [m s^-1] (nan: no bound outputs)
@@ -125,7 +125,7 @@ def package_fmu(scene, out, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaul
         order r (default: from ``order_tolerance``).
     n_freeze : int or None
         Default refresh period (the ``n_freeze`` parameter's start value); None: chosen per scene from the measured
-        training error (:func:`harness.fmu.make.models.choose_n_freeze`; the frozen model only, else the default).
+        training error (:func:`sphrom.fmu.make.models.choose_n_freeze`; the frozen model only, else the default).
     probes : sequence of float
         Probe positions in units of L.
     fmi : {2, 3}
@@ -134,7 +134,7 @@ def package_fmu(scene, out, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaul
     step_size : float, optional
         DefaultExperiment stepSize [s] (default min(0.01, T/10)).
     binaries : Binaries, optional
-        Prebuilt binaries (default: :func:`harness.fmu.make.build.ensure_binaries`).
+        Prebuilt binaries (default: :func:`sphrom.fmu.make.build.ensure_binaries`).
     model : str
         The reduced model to ship: a registered one with an FMU resource kind
         (``frozen``, ``exact``, ``balanced``; module docstring).
@@ -144,29 +144,29 @@ def package_fmu(scene, out, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaul
         ``documentation/`` (with the plot ``probes.png``).  Without it the documentation says "not measured".
     tolerance : float, optional
         With ``verify``: the largest v error on the training force accepted; above it
-        :class:`harness.errors.ToleranceError` is raised and nothing is written (an existing ``out`` is left
+        :class:`sphrom.errors.ToleranceError` is raised and nothing is written (an existing ``out`` is left
         as it was).
     order_tolerance : float, optional
         Balanced model without ``k``: its order is the smallest r with 2 Σ_{i>r} σ_i <= order_tolerance · 2 Σ σ_i
-        (default :data:`harness.defaults.ORDER_TOLERANCE`).
+        (default :data:`sphrom.defaults.ORDER_TOLERANCE`).
     build_options : dict, optional
-        More options of the model's build (:meth:`harness.rom.model.ReducedModel.build`; the frozen model's
+        More options of the model's build (:meth:`sphrom.rom.model.ReducedModel.build`; the frozen model's
         ``b="paper"``: eq. 2.22's b instead of the rest-consistent one).
     references : dict, optional
-        :func:`harness.fmu.check.verify.references` computed before (several models of one scene).
+        :func:`sphrom.fmu.check.verify.references` computed before (several models of one scene).
     error_bounds : bool
         Every model: the certified error bound of each output at every step (default; sections SH*,
-        :mod:`harness.rom.bounds`, docs/science/error-bounds.md).  False leaves them out: the FMU then warns on
+        :mod:`sphrom.rom.bounds`, docs/science/error-bounds.md).  False leaves them out: the FMU then warns on
         leaving its training envelope instead (tests of that envelope, cost comparisons).
     bounds : bool
         Linear models: compute and declare the a priori error bounds (default;
         seconds to minutes at N = 400).  False leaves them out (benchmarks that
         time the stepping only).
-    vary : sequence of harness.rom.parametric.Range
+    vary : sequence of sphrom.rom.parametric.Range
         Parameter ranges of c and/or d: a parametric FMU (:mod:`.parametric`) trained over them, with
         parameters ``c``, ``d``; empty (default): the scene's fixed c and d.
     ports : sequence of float or str, optional
-        Mechanical port positions x/L (:mod:`harness.sph.ports`): inputs F_port_j [N], outputs v_port_j
+        Mechanical port positions x/L (:mod:`sphrom.sph.ports`): inputs F_port_j [N], outputs v_port_j
         [m s^-1], parameter area [m^2]; the model must take ports (``ports`` in the registry).
 
     Raises
@@ -229,7 +229,7 @@ def package_fmu(scene, out, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaul
 
 
 def _shadow_facts(sections):
-    """The summary's shadow_order and error_tolerance from section SHSCAL (:func:`harness.rom.bounds.sections`)."""
+    """The summary's shadow_order and error_tolerance from section SHSCAL (:func:`sphrom.rom.bounds.sections`)."""
     scal = sections.get("SHSCAL")
     if scal is None:
         return {}
@@ -295,7 +295,7 @@ def archive_step(path, blob, binary, check=True, **texts):
 
 
 def passivity_step(ops, model, ports):
-    """The port map's passivity check of a port FMU's model (:func:`harness.rom.passivity.port_passivity`: the
+    """The port map's passivity check of a port FMU's model (:func:`sphrom.rom.passivity.port_passivity`: the
     storage certificate, else the positive-real margin on a frequency grid; a second or less at k = 233), or
     None without ports."""
     if not len(ports):
@@ -306,9 +306,9 @@ def passivity_step(ops, model, ports):
 
 
 def verification_step(path, scene, probes, references, problem, progress, tolerance, out, model, ports=()):
-    """Step 8: the FMU at ``path`` measured against the full SPH (:func:`harness.fmu.check.verify.verify_fmu`)
-    with the FMU's integrator (:func:`harness.fmu.check.channels.reference_scene`), and each input channel (f,
-    each port force: :func:`harness.fmu.check.channels.measure_channels`); ToleranceError when the training error
+    """Step 8: the FMU at ``path`` measured against the full SPH (:func:`sphrom.fmu.check.verify.verify_fmu`)
+    with the FMU's integrator (:func:`sphrom.fmu.check.channels.reference_scene`), and each input channel (f,
+    each port force: :func:`sphrom.fmu.check.channels.measure_channels`); ToleranceError when the training error
     or a channel's error is above ``tolerance``."""
     from ..check.channels import measure_channels, reference_scene
     from ..check.verify import verify_fmu
@@ -323,7 +323,7 @@ def verification_step(path, scene, probes, references, problem, progress, tolera
 
 def verification_steps(scene, step, verify):
     """The SPH steps of the communication points at ``step`` [s] that a verification reads from the training run
-    (:func:`harness.fmu.check.verify.communication_times`); none without ``verify``."""
+    (:func:`sphrom.fmu.check.verify.communication_times`); none without ``verify``."""
     if not verify:
         return ()
     from ..check.verify import communication_times
@@ -347,7 +347,7 @@ def check_tolerance(verification, tolerance, out, model):
     if not err <= tolerance:
         raise ToleranceError(f"the {model} FMU's probe v error on the training force, {err:.3g}, is above the "
                              f"tolerance {tolerance:g}; '{out}' was not written (an existing file is unchanged)")
-    for c in verification.channels:            # every input channel (harness.fmu.check.channels)
+    for c in verification.channels:            # every input channel (sphrom.fmu.check.channels)
         if not c.err <= tolerance:
             raise ToleranceError(f"the {model} FMU's {c.output} error under a {c.case} {c.channel} from rest, "
                                  f"{c.err:.3g}, is above the tolerance {tolerance:g}; '{out}' was not written (an "

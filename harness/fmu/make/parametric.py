@@ -1,13 +1,13 @@
 """The resources of a parametric FMU (``sphrom fmu SCENE --vary c=LO:HI [--vary d=LO:HI]``).
 
-The model of :mod:`harness.rom.parametric` is stored as the ordinary kind's
+The model of :mod:`sphrom.rom.parametric` is stored as the ordinary kind's
 arrays at the start values of c and d (the scene's values, or a range's
 midpoint when the scene's value lies outside it) plus tagged sections:
 ``PARAMS`` (rows c, d: varied 0/1, start, min, max) and the affine pieces,
 ``KC``, ``BC``, ``DD`` (frozen: K per unit c, b per unit c, D̂ per unit d) or
 ``A0``, ``AC``, ``AD`` (linear).  The C core assembles K, b, D̂ or A from them
-at ExitInitializationMode in the order of :func:`harness.rom.parametric.frozen_at`
-and :func:`~harness.rom.parametric.linear_at`, so that at equal (c, d) the FMU
+at ExitInitializationMode in the order of :func:`sphrom.rom.parametric.frozen_at`
+and :func:`~sphrom.rom.parametric.linear_at`, so that at equal (c, d) the FMU
 and the Python model agree bitwise (frozen) or to round-off (exact: the C and
 the scipy matrix exponentials differ in the last bits).
 """
@@ -23,14 +23,14 @@ from ..variables import number, vr
 # How the force profile enters a parametric model's FMU (``input_direction`` of build_operators), by model.
 # Frozen: the input row p = U_vᵀ profile, never the profile's residual appended, and the profile's response at
 # every frequency (static deflection, in-band moments: "moments") where the modes miss more than 1 % of it,
-# except for a rigid profile (harness.rom.operators.rigid_profile).  The combined basis of several (c, d) misses
+# except for a rigid profile (sphrom.rom.operators.rigid_profile).  The combined basis of several (c, d) misses
 # a little more of the profile than a one-point basis (tenmode, c in [0.05, 0.2], d in [0, 5], k = 12: 1.2 %,
 # above the 1 % of the ordinary FMU's "needed" rule), and appending that rough residual raised the probe-velocity
-# error at held-out points from at most 0.09 to up to 0.36 (python -m harness.bench.parametric --input-direction
+# error at held-out points from at most 0.09 to up to 0.36 (python -m sphrom.bench.parametric --input-direction
 # needed).  Along a non-uniform profile the moments are what a constant or an in-band force needs: the profile
 # 1 + sin 2πx + ½ cos 6πx, c in [c/2, 2c], a 1e-2 sin 7t force from rest, 10 s, against the linear SPH exact in
 # time: worst 0.52 ("project") against 0.024 on tenmode, 0.056 against 0.002 on damped_forced with d in [0, 2d]
-# (python -m harness.bench.inputs --case parametric-profile-sine --case parametric-damped-profile-sine;
+# (python -m sphrom.bench.inputs --case parametric-profile-sine --case parametric-damped-profile-sine;
 # tests/test_parametric.py checks it at small N).  The exact model keeps its rule (the profile always in the basis).
 PARAMETRIC_INPUT_DIRECTION = {"frozen": "moments"}
 
@@ -46,7 +46,7 @@ def params_section(space):
 
 def parameter_variables(space):
     """The varied parameters of a parametric FMU, for its summary: dicts name, vr, start, min, max (the
-    modelDescription takes them from section PARAMS, :mod:`harness.fmu.make.describe`)."""
+    modelDescription takes them from section PARAMS, :mod:`sphrom.fmu.make.describe`)."""
     out = []
     for name in par.PARAMETERS:
         if not space.varies(name):
@@ -60,9 +60,9 @@ def parameter_variables(space):
 def parametric_model(scene, ranges, k, *, model="frozen", progress=True, input_direction=None):
     """The affine model of ``scene`` over ``ranges`` with k modes: (affine, space, basis, points).
 
-    ``affine`` is :class:`~harness.rom.parametric.AffineFrozen` or :class:`~harness.rom.parametric.AffineLinear`;
+    ``affine`` is :class:`~sphrom.rom.parametric.AffineFrozen` or :class:`~sphrom.rom.parametric.AffineLinear`;
     ``input_direction`` (default :data:`PARAMETRIC_INPUT_DIRECTION`, else the model's FMU rule) as in
-    :func:`harness.rom.operators.build_operators`.
+    :func:`sphrom.rom.operators.build_operators`.
     """
     from ...errors import FieldError
     from ...rom.model import basis_modes
@@ -89,8 +89,8 @@ def parametric_model(scene, ranges, k, *, model="frozen", progress=True, input_d
 
 
 def parametric_envelope(scene, space, ops, probes, linear, progress=False):
-    """The training envelope (:mod:`harness.fmu.make.envelope`) of a parametric model: the union over the full SPH
-    runs at every sample point (:func:`harness.rom.parametric.training_points`, the runs its basis was made of,
+    """The training envelope (:mod:`sphrom.fmu.make.envelope`) of a parametric model: the union over the full SPH
+    runs at every sample point (:func:`sphrom.rom.parametric.training_points`, the runs its basis was made of,
     cached), each projected on the model's basis as the ordinary FMU's (the exact model in the scene's c, in
     which its basis is orthonormal)."""
     from ...sph.solver import build_problem
@@ -103,7 +103,7 @@ def parametric_envelope(scene, space, ops, probes, linear, progress=False):
 def parametric_resource(scene, model, k, n_freeze, probes, integrator, progress, ranges, error_bounds=True):
     """(data, ops at the start values, resource bytes, space) of a parametric FMU; its training envelope that of
     the runs at all sample points (:func:`parametric_envelope`); with ``error_bounds`` the certified error bounds'
-    parametric shadow about the scene's (c, d) (:func:`harness.fmu.make.models.shadow_step`; the C core
+    parametric shadow about the scene's (c, d) (:func:`sphrom.fmu.make.models.shadow_step`; the C core
     assembles its planes at the FMU's c and d)."""
     from .models import shadow_step
     from ...rom.registry import get_model

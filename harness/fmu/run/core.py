@@ -30,7 +30,7 @@ class Core:
     Parameters
     ----------
     path : Path
-        libsphrom_core (see :class:`harness.fmu.make.build.Binaries`).
+        libsphrom_core (see :class:`sphrom.fmu.make.build.Binaries`).
     """
 
     def __init__(self, path):
@@ -90,7 +90,7 @@ class Core:
 
     @property
     def sph(self):
-        """The C full SPH (:class:`harness.fmu.run.sph_c.SphC`) of the same build: libsphrom_sph beside this library."""
+        """The C full SPH (:class:`sphrom.fmu.run.sph_c.SphC`) of the same build: libsphrom_sph beside this library."""
         if self._sph is None:
             self._sph = SphC(self.path.with_name(self.path.name.replace("sphrom_core", "sphrom_sph")))
         return self._sph

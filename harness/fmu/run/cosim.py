@@ -1,4 +1,4 @@
-"""``sphrom cosim``: an sphrom FMU co-simulated on the one FMU driver (:mod:`harness.fmu.run.driver`).
+"""``sphrom cosim``: an sphrom FMU co-simulated on the one FMU driver (:mod:`sphrom.fmu.run.driver`).
 
 The input f(t) is an expression in t (and T, the end time) or a CSV file with
 columns ``time,f``, sampled at the communication points (a CSV interpolated
@@ -208,7 +208,7 @@ def _positive(value, field):
 
 def has_parameter(md, fmu, name, why=None):
     """FieldError naming ``name`` when the FMU ``fmu`` (its model description ``md``) has no such parameter: a
-    start value for it would be ignored (:func:`harness.fmu.variables.absent`)."""
+    start value for it would be ignored (:func:`sphrom.fmu.variables.absent`)."""
     if not any(v.name == name for v in md.modelVariables):
         raise absent(name, f"'{fmu}'", why)
 
@@ -289,7 +289,7 @@ def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None, hold_inputs
 
 
 def _open(path):
-    """The :class:`~harness.fmu.run.driver.FMU` of ``path``; FieldError ``fmu`` with the FMU's own logged reason
+    """The :class:`~sphrom.fmu.run.driver.FMU` of ``path``; FieldError ``fmu`` with the FMU's own logged reason
     when it fails to instantiate (a bad file is the user's)."""
     from .driver import FMU
     messages = []

@@ -1,7 +1,7 @@
 """ctypes access to the full SPH step in C (fmu_src/sph.c, library ``libsphrom_sph``).
 
-The C step repeats :mod:`harness.sph.loops` (eqs. 2.10-2.11 with the
-neighbour lists of :mod:`harness.sph.operator`, or their fixed-offset stencil)
+The C step repeats :mod:`sphrom.sph.loops` (eqs. 2.10-2.11 with the
+neighbour lists of :mod:`sphrom.sph.operator`, or their fixed-offset stencil)
 operation for operation, bit for bit (tests/test_fmu_c.py,
 tests/test_sph_stencil.py).  It exists for the same-language benchmark: a C
 frozen reduced step against a C full SPH step (``sphrom bench``,
@@ -30,7 +30,7 @@ class SphC:
     Parameters
     ----------
     path : Path
-        libsphrom_sph (see :class:`harness.fmu.make.build.Binaries`).
+        libsphrom_sph (see :class:`sphrom.fmu.make.build.Binaries`).
     """
 
     def __init__(self, path):
@@ -55,7 +55,7 @@ class SphRunner:
     problem : SPHProblem
     method : {"euler", "symplectic"}
     layout : {"auto", "general"}
-        The operator's layout (:meth:`harness.sph.operator.Neighbours.loop_arrays`): "auto" the fixed-offset
+        The operator's layout (:meth:`sphrom.sph.operator.Neighbours.loop_arrays`): "auto" the fixed-offset
         stencil where the neighbour lists allow it (flag SPH_STENCIL), "general" the lists; the same bits.
     """
 
