@@ -22,7 +22,7 @@ import pytest
 from conftest import small_scene
 from sphrom.cli import main
 from sphrom.paths import import_path
-from sphrom.bench.hostile import sphrom_catches_sigterm
+from hostile.battery import sphrom_catches_sigterm
 from sphrom.errors import Interrupted
 from sphrom.runio import atomic_path, atomic_paths
 from sphrom.signals import Guard, deferred, pending

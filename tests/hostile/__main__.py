@@ -1,0 +1,5 @@
+import sys
+
+from tests.hostile.battery import main
+
+sys.exit(main())
