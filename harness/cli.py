@@ -148,6 +148,10 @@ def _leave(code):
                                                 guard.written_text() if guard else "no output written") + "\n")
                 sys.stderr.flush()
             os._exit(128 + int(waiting[0]))
+        # one more look at a signal another thread (a BLAS or dask thread, which the mask above does not cover)
+        # took and Python has not yet handed to the guard: pthread_sigmask runs the pending handlers (the guard,
+        # `finished`, prints the line and leaves with 128 + the signal)
+        signal.pthread_sigmask(signal.SIG_BLOCK, SIGNALS)
     os._exit(code)
 
 

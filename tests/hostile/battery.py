@@ -231,6 +231,23 @@ def sphrom_catches_sigterm(pid):
     return False
 
 
+PF_EXITING = 0x4          # the kernel's task flag of a process inside exit (linux/sched.h)
+
+
+def still_running(proc):
+    """Whether ``proc`` (a Popen) still runs its program: not reaped, not a zombie, not inside the kernel's exit
+    (Linux /proc; elsewhere: not reaped).  ``Popen.poll() is None`` also holds for a process that has already
+    called exit and is being torn down (a few ms for an interpreter with numpy loaded) or waits as a zombie: a
+    signal sent then reaches no program, and its exit 0 is no lost signal (issue 36, case 10)."""
+    if proc.poll() is not None:
+        return False
+    try:
+        fields = Path(f"/proc/{proc.pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except (OSError, IndexError):
+        return proc.poll() is None
+    return fields[0] not in ("Z", "X", "x") and not int(fields[6]) & PF_EXITING
+
+
 def _nan_in_output(path: Path):
     """Whether an output file holds NaN/inf data (HDF5 datasets, CSV cells); None when it cannot tell."""
     try:
@@ -291,7 +308,7 @@ def run_case(case: Case, ws: Workspace, index: int) -> Result:
             while not sphrom_catches_sigterm(proc.pid) and proc.poll() is None and time.monotonic() < deadline:
                 time.sleep(0.001)
             time.sleep(case.delay)
-        if proc.poll() is None:
+        if still_running(proc):
             proc.send_signal(case.signal)
             sent_alive = True
     try:
