@@ -157,6 +157,9 @@ def _leave(code):
 
 def _run(parser, args):
     try:
+        if args.command in parser.commands and "handler" in vars(args):
+            from .commands.options import check_outputs_spare_inputs
+            check_outputs_spare_inputs(parser.commands[args.command], args, args.command)
         return int(args.handler(args) or 0)
     except FieldError as exc:                    # the library names the field; show the option that set it
         from .commands.options import option_message
