@@ -63,6 +63,8 @@ def read_fmu_description(path):
     path = Path(path)
     if not is_file(path):
         raise FieldError("fmu", f"'{path}': {not_a_file(path)}")
+    from .driver import check_archive
+    check_archive(path)                 # names, sizes (a zip bomb's modelDescription.xml is not read)
     try:
         md = read_model_description(str(path))
     except Exception as exc:            # fmpy raises plain exceptions for bad archives
