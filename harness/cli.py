@@ -172,6 +172,14 @@ def _run(parser, args):
     except SimulationError as exc:
         print(f"sphrom {args.command}: failed: {exc}", file=sys.stderr)
         return exc.exit_code
+    except MemoryError as exc:      # a run larger than this machine: one line, what failed and what is available
+        from .runio import available_memory, format_bytes
+        free = available_memory()
+        what = " ".join(str(exc).split())[:160] or "an allocation failed"
+        print(f"sphrom {args.command}: failed: out of memory ({what}); this machine has "
+              f"{format_bytes(free) if free is not None else 'less'} available: a smaller run fits (fewer "
+              "particles, modes or steps)", file=sys.stderr)
+        return 3
     except BrokenPipeError:         # e.g. piped into `head`
         import os
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())

@@ -778,7 +778,7 @@ def main(argv=None):
     p.add_argument("--child", help=argparse.SUPPRESS)
     args = p.parse_args(argv)
     if args.child:
-        from tests.hostile.fmu_cases import child_main
+        from .fmu_cases import child_main
         child_main(args.child)
         return 0
     command = "python3 -m tests.hostile " + " ".join(argv if argv is not None else sys.argv[1:])

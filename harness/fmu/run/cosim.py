@@ -24,7 +24,7 @@ import numpy as np
 
 from ... import defaults
 from ...errors import FieldError, SimulationError, UserError, exact
-from ...paths import is_file, not_a_file
+from ...paths import exists, is_file, not_a_file
 from ..variables import absent, check_parameter
 from .driver import can_interpolate_inputs
 
@@ -79,7 +79,7 @@ def force_signal(force, t_end, step):
 
     ``force`` is an expression in t and T (T = t_end), sampled at the
     communication points, or the path of a CSV file with columns time,f: a
-    CSV when it ends in ``.csv`` or names an existing file, else an
+    CSV when it ends in ``.csv`` or names an existing path, else an
     expression (also when it is no possible file name: too long, a NUL).
     Raises FieldError ``force`` when it cannot be read or evaluated or is not finite, or
     when a CSV has fewer than two rows or its times do not cover [0, t_end].
@@ -88,7 +88,7 @@ def force_signal(force, t_end, step):
         return None
     text = str(force).strip()
     path = Path(text)
-    if text.lower().endswith(".csv") or is_file(path):
+    if text.lower().endswith(".csv") or exists(path):      # a folder or FIFO by that name: said so, not parsed
         signal = _csv_signal(path)
         check_coverage(signal, path, 0.0, t_end)
         input_samples(signal, signal["time"])          # f is interpolated between rows: finite slopes
