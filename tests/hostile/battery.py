@@ -184,8 +184,32 @@ def _make_node(path: Path, kind: str, keep: list):
         path.symlink_to(target.name)
     elif kind == "link-loop":
         path.symlink_to(path.name)
+    elif kind.startswith("copy:"):
+        path.write_bytes(Path(kind[5:]).read_bytes())
+    elif kind == "tmpfs":                      # a real full file system: a 64 KiB tmpfs, 40 KiB of it taken
+        path.mkdir()
+        if os.geteuid() != 0 or subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(path)],
+                                                capture_output=True).returncode != 0:
+            path.rmdir()
+            raise PermissionError("mounting a tmpfs needs root")
+        (path / "pad").write_bytes(bytes(40 * 1024))
+        keep.append(_Mount(path))
     else:
         raise ValueError(kind)
+
+
+class _Mount:
+    """A tmpfs mounted for a case: unmounted after the run, a marker left in the case's folder for each temporary
+    the run left on it (the case's 'left behind' check cannot see inside once it is unmounted)."""
+
+    def __init__(self, path):
+        self.path = path
+
+    def close(self):
+        left = [p.name for p in self.path.iterdir() if p.name != "pad"]
+        subprocess.run(["umount", "-l", str(self.path)], capture_output=True)
+        for name in left:
+            (self.path.parent / f"on-tmpfs-{name}.tmp-left").write_text(name)
 
 
 class _FifoReader(threading.Thread):
@@ -574,6 +598,48 @@ def scene_cases(ws, rng, count):
     return cases
 
 
+def round_four_cases(ws):
+    """Issue 36's cases that live on the command line: damaged FMUs, an output that names an input, a full file
+    system, byte-order marks, inputs that are folders or FIFOs, negative numbers, initial_state_scale, a scene dt
+    longer than the FMU's step, a co-simulation table beyond memory."""
+    from .damaged import damaged_fmus
+    root = ws.root
+    cases = []
+    for name, path in damaged_fmus(ws["fmu2"], root / "damaged").items():
+        cases.append(Case("round four", "cosim", [str(path), "--out", "o.csv"], [], note=f"damaged FMU: {name}"))
+    s, f2, force = str(ws["scene"]), str(ws["fmu2"]), str(ws["force"])
+    for command, args, make, note in (
+            ("sph", ["in.toml", "--out", "in.toml"], [("in.toml", f"copy:{s}")], "--out names the scene"),
+            ("pod", ["in.toml", "--out", "./in.toml"], [("in.toml", f"copy:{s}")], "--out names the scene (./)"),
+            ("cosim", ["in.fmu", "--out", "in.fmu"], [("in.fmu", f"copy:{f2}")], "--out names the FMU"),
+            ("cosim", [f2, "--force", "in.csv", "--out", "in.csv"], [("in.csv", f"copy:{force}")],
+             "--out names the --force CSV"),
+            ("sph", ["in.toml", "--out", "small/o.h5", "--quiet"], [("in.toml", f"copy:{s}"), ("small", "tmpfs")],
+             "--out on a full 64 KiB tmpfs"),
+            ("fmu", [s, "--modes", "4", "--no-verify", "--out", "small/o.fmu", "--quiet"], [("small", "tmpfs")],
+             "--out on a full 64 KiB tmpfs"),
+            ("cosim", [f2, "--t-end", "20", "--out", "small/o.csv"], [("small", "tmpfs")],
+             "--out on a full 64 KiB tmpfs"),
+            ("sph", ["in.toml", "--out", "o.h5"], [("in.toml", "dir")], "the scene is a folder"),
+            ("cosim", [f2, "--force", "in.csv", "--out", "o.csv"], [("in.csv", "fifo")], "--force is a FIFO"),
+            ("cosim", [f2, "--initial-state-scale", "1e308", "--out", "o.csv"], [], "initial_state_scale 1e308"),
+            ("cosim", [f2, "--t-end", "1e6", "--step", "0.01", "--out", "o.csv"], [], "1e8 steps: memory")):
+        cases.append(Case("round four", command, args, [], make=make, note=note, timeout=180.0))
+    (root / "bom.csv").write_bytes(b"\xef\xbb\xbf" + ws["force"].read_bytes())
+    (root / "bom.toml").write_bytes(b"\xef\xbb\xbf" + ws["scene"].read_bytes())
+    (root / "dt.toml").write_text(small_scene_text(T=0.4, n=32, dt=0.02))
+    for command, args, outputs, note in (
+            ("cosim", [f2, "--force", "../../bom.csv", "--out", "o.csv"], ["o.csv"], "a CSV with a byte-order mark"),
+            ("sph", ["../../bom.toml", "--out", "o.h5", "--quiet"], ["o.h5"], "a TOML with a byte-order mark"),
+            ("cosim", [f2, "--initial-state-scale", "-1e-3", "--out", "o.csv"], ["o.csv"], "a value -1e-3"),
+            ("fmu", ["../../dt.toml", "--modes", "4", "--out", "o.fmu", "--quiet"], ["o.fmu"],
+             "dt 0.02 s > the FMU's 0.01 s step, verified"),
+            ("fmu", ["../../dt.toml", "--modes", "4", "--model", "exact", "--out", "o.fmu", "--quiet"], ["o.fmu"],
+             "dt 0.02 s > the FMU's 0.01 s step, exact, verified")):
+        cases.append(Case("round four", command, args, outputs, note=note, timeout=300.0))
+    return cases
+
+
 def running_span(ws, command, args):
     """Seconds from sphrom's handler being up to the end of an undisturbed run of ``command`` (a signal at a
     random moment inside it lands while the command works)."""
@@ -645,6 +711,7 @@ def run_battery(out: Path, seed=25, jobs=2, quick=False, workdir=None, log=print
     cases = (option_cases(ws, rng, per_option=max(1, int(3 * scale)))
              + path_cases(ws, rng)
              + scene_cases(ws, rng, int(60 * scale))
+             + round_four_cases(ws)
              + signal_cases(ws, rng, sweeps=int(20 * scale) or 1, per_command=max(2, int(6 * scale))))
     log(f"{len(cases)} command-line cases ({jobs} at a time) ...")
     results = []
