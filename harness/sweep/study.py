@@ -363,13 +363,17 @@ def _close(client, cluster):
     for name in quiet:
         logging.getLogger(name).setLevel(logging.CRITICAL + 1)
     try:
+        # a close that does not finish in time (workers still starting when a Ctrl-C came) is left: the workers
+        # end with their parent (dask's parent-alive pipe); its TimeoutError must not replace the command's end
         try:
             if client is not None:
-                client.close(timeout=CLOSE_TIMEOUT)
+                with contextlib.suppress(Exception):
+                    client.close(timeout=CLOSE_TIMEOUT)
         finally:
             if cluster is not None:
                 try:
-                    cluster.close(timeout=CLOSE_TIMEOUT)
+                    with contextlib.suppress(Exception):
+                        cluster.close(timeout=CLOSE_TIMEOUT)
                 finally:
                     if getattr(cluster, "ignoring", None) is not None:
                         cluster.ignoring.__exit__(None, None, None)
