@@ -4,7 +4,7 @@ Nothing here is a program.  ``timing`` (medians on a noisy machine), ``tables`` 
 of BENCHMARKS.md and stress.md), ``methods`` (run time against error of every method), ``scaling``, ``skip``,
 ``sph_scaling``, ``input_direction`` (the tables of ``sphrom bench``), ``suite`` (all of them in one run),
 ``fmu`` (the FMU's timings: the C core, end to end, the FMU rows), ``stress``, ``stress_fmu``, ``stress_maps``,
-``stress_settings`` (the stability maps), ``hostile_fmu`` (the hostile battery's FMU cases), ``ports`` (the
+``stress_settings`` (the stability maps), ``ports`` (the
 port forces and lumped component the port benchmarks share), ``responses`` (a reduced model under inputs held
 over communication steps: the input benchmarks' and tests' run).
 """
