@@ -376,7 +376,7 @@ def h5_create(path):
     to ``path`` by Python when the block ends.
 
     HDF5 writing to a full file system failed inside h5py's finalisers (tracebacks printed as "Exception
-    ignored", then SIGSEGV, the temporary left behind: issue 36); in memory, the only write to the disk is
+    ignored", then SIGSEGV, the temporary left behind); in memory, the only write to the disk is
     Python's, whose ENOSPC is an OSError that :func:`atomic_paths` turns into one line.  The file's bytes are
     held twice for a moment (the image and its copy), as large as the arrays the command already holds.
     """

@@ -1,4 +1,4 @@
-"""Hostile input, round four (issue 36): the cases an outside battery found, each a contract here.
+"""Hostile input, round four: the cases an outside battery found, each a contract here.
 
 1 a sweep ends within seconds of a Ctrl-C to its process group, one line, exit 130, nothing left (dask's scratch
   included); 2 verification follows a scene dt longer than the FMU's step; 4 an output that names an input is

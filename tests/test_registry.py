@@ -397,7 +397,7 @@ def test_basis_io_is_one_module_and_names_the_file(tmp_path, capsys):
     with pytest.raises(UserError, match="cannot be read as HDF5"):
         read_basis(not_basis)
     assert main(["rom", "multimode", "--basis", str(missing), "--model", "exact", "--out", str(tmp_path / "r.h5")]) == 2
-    assert f"--basis: '{missing}' not found" in capsys.readouterr().err
+    assert f"--basis: '{missing}': not found" in capsys.readouterr().err
 
 
 # ---------------------------------------------------------------------------

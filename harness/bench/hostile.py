@@ -24,12 +24,10 @@ def main(argv=None):
               "tests/hostile/ (python3 -m tests.hostile from the checkout); this installation has none",
               file=sys.stderr)
         return 2
-    print(f"sphrom bench hostile: the battery lives in {root / 'tests' / 'hostile'} "
-          f"(python3 -m tests.hostile from {root}); running it", file=sys.stderr)
     if str(root) not in sys.path:
         sys.path.insert(0, str(root))
     from tests.hostile.battery import main as battery_main
-    return battery_main(argv)
+    return battery_main(argv, prog="sphrom bench hostile")
 
 
 if __name__ == "__main__":

@@ -372,7 +372,7 @@ def check_outputs_spare_inputs(parser, args, command):
     """``UserError`` (one line, exit 2) when an output path of the command (``--out``, ``--report``, and the
     files written beside ``--out``: a sweep's .csv and .png) names one of its input files, given by any
     argument: ``sphrom sph s.toml --out s.toml`` turned the scene into HDF5, ``sphrom cosim X.fmu --force f.csv
-    --out f.csv`` replaced the force it read (issue 36).  Checked before any work; an input is any argument
+    --out f.csv`` replaced the force it read.  Checked before any work; an input is any argument
     value that names an existing regular file."""
     from pathlib import Path
 

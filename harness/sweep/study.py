@@ -106,7 +106,7 @@ def input_row(spec, entry, fmu_key):
 def wait_for_workers(client, n, timeout, held=()):
     """Wait until ``client`` sees ``n`` workers, at most ``timeout`` s, looking at ``held`` (the signals held
     meanwhile, :func:`sphrom.signals.deferred`) every :data:`POLL_S`: Interrupted for the first one (one long
-    ``Client.wait_for_workers`` kept a Ctrl-C waiting for minutes: issue 36).  TimeoutError after ``timeout``."""
+    ``Client.wait_for_workers`` kept a Ctrl-C waiting for minutes).  TimeoutError after ``timeout``."""
     deadline = time.monotonic() + timeout
     while True:
         if held:
@@ -124,7 +124,7 @@ def workers_ignore_sigint(folder):
     """While the block runs (the LocalCluster's life), the processes multiprocessing spawns (dask's workers)
     start with SIGINT ignored: a Ctrl-C, which a terminal sends to its whole foreground process group, then
     reaches only the command, which closes the cluster itself; each worker printed a KeyboardInterrupt
-    traceback and died (issue 36).  A disposition SIG_IGN survives exec and Python keeps it (a blocked mask
+    traceback and died.  A disposition SIG_IGN survives exec and Python keeps it (a blocked mask
     does not: the spawn clears it), so the spawn runs a two-line shell script in ``folder`` that ignores SIGINT
     and execs this Python.  The workers still end on SIGTERM (how their nanny stops them) and with their
     parent.  Nothing changes where the script cannot be made or run (no /bin/sh, a folder mounted noexec)."""
@@ -162,7 +162,7 @@ def subprocess_ok(script):
 def scratch_folder():
     """A new private folder for dask's scratch space (its workers' folders and lock files), removed by
     :func:`_close`: dask's default, ``dask-scratch-space`` in the temporary folder, kept ``*.lock`` files after
-    every sweep (issue 36)."""
+    every sweep."""
     return tempfile.mkdtemp(prefix="sphrom-dask-scratch-space-")
 
 

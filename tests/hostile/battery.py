@@ -262,7 +262,7 @@ def still_running(proc):
     """Whether ``proc`` (a Popen) still runs its program: not reaped, not a zombie, not inside the kernel's exit
     (Linux /proc; elsewhere: not reaped).  ``Popen.poll() is None`` also holds for a process that has already
     called exit and is being torn down (a few ms for an interpreter with numpy loaded) or waits as a zombie: a
-    signal sent then reaches no program, and its exit 0 is no lost signal (issue 36, case 10)."""
+    signal sent then reaches no program, and its exit 0 is no lost signal."""
     if proc.poll() is not None:
         return False
     try:
@@ -599,7 +599,7 @@ def scene_cases(ws, rng, count):
 
 
 def round_four_cases(ws):
-    """Issue 36's cases that live on the command line: damaged FMUs, an output that names an input, a full file
+    """The round-four cases that live on the command line: damaged FMUs, an output that names an input, a full file
     system, byte-order marks, inputs that are folders or FIFOs, negative numbers, initial_state_scale, a scene dt
     longer than the FMU's step, a co-simulation table beyond memory."""
     from .damaged import damaged_fmus
@@ -835,8 +835,9 @@ def print_counts(results, wall, command):
         print(f"  {r.outcome}: {r.case.category} {r.case.command} {r.case.note}: {r.detail}")
 
 
-def main(argv=None):
-    p = argparse.ArgumentParser(prog="python3 -m tests.hostile", description=__doc__.split("\n\n")[0])
+def main(argv=None, prog="python3 -m tests.hostile"):
+    from sphrom.parser import Parser              # one-line errors, as every sphrom program
+    p = Parser(prog=prog, description=__doc__.split("\n\n")[0])
     p.add_argument("--out", default="validation/hostile", help="folder for hostile.csv and hostile_counts.csv")
     p.add_argument("--seed", type=int, default=25)
     p.add_argument("--jobs", type=int, default=2, help="command-line cases run at a time (default 2)")

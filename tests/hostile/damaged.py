@@ -1,4 +1,4 @@
-"""Damaged copies of an sphrom FMU (issue 36, case 6), for the battery and the tests: each a file a user might be
+"""Damaged copies of an sphrom FMU, for the battery and the tests: each a file a user might be
 handed, and each must be one line from ``sphrom cosim``, exit 2, with no extraction folder left behind."""
 
 from __future__ import annotations

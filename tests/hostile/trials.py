@@ -1,5 +1,5 @@
 """Signal trials: Ctrl-C (SIGINT to the whole process group, as a terminal sends it) at random moments of
-``sphrom sweep``, and SIGTERM at random moments of ``sphrom --help`` and ``sphrom cosim`` (issue 36).
+``sphrom sweep``, and SIGTERM at random moments of ``sphrom --help`` and ``sphrom cosim``.
 
     python3 -m tests.hostile signals [--sweeps 50] [--terms 200] [--seed 36] [--out validation/hostile]
 

@@ -209,9 +209,9 @@ def _positive(value, field):
     return float(value)
 
 
-def _experiment(md, fmu, attribute, option):
+def _experiment(md, fmu, attribute, field):
     """The FMU's DefaultExperiment ``attribute`` (stopTime, stepSize) [s]: FieldError ``fmu`` naming it and the
-    option that replaces it when it is missing, not a number, not finite or not > 0."""
+    field (``t_end``, ``step``) that replaces it when it is missing, not a number, not finite or not > 0."""
     value = getattr(md.defaultExperiment, attribute, None) if md.defaultExperiment is not None else None
     try:
         number = float(value)
@@ -220,7 +220,7 @@ def _experiment(md, fmu, attribute, option):
     if not (math.isfinite(number) and number > 0):
         shown = "missing" if value is None else f"{value!r}" if isinstance(value, str) else exact(number)
         raise FieldError("fmu", f"'{fmu}': its DefaultExperiment {attribute} is {shown} (allowed: a finite number "
-                                f"> 0 [s]; or give --{option.replace('_', '-')})")
+                                f"> 0 [s]; or give {field})")
     return number
 
 
@@ -284,14 +284,18 @@ def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None, hold_inputs
         The FMU reported an error (its message is included).
     """
     md = read_fmu_description(fmu)
+    given_end, given = t_end is not None, step is not None
     t_end = _positive(t_end, "t_end") or _experiment(md, fmu, "stopTime", "t_end")
-    given = step is not None
     step = _positive(step, "step") or _experiment(md, fmu, "stepSize", "step")
     # a step that came from the FMU is named as the FMU's, never as an option the user did not give
     field, what = ("step", exact(step)) if given else ("fmu", f"'{fmu}': its DefaultExperiment stepSize {exact(step)}")
     if step > t_end:
         raise FieldError(field, f"{what} is out of range (allowed: 0 < step <= t_end = {exact(t_end)})")
     ratio = t_end / step                # may be inf (t_end 1e308, step tiny): compared before int()
+    if ratio > MAX_COMM_STEPS and given_end and not given:     # the end the user gave, at the FMU's own step
+        raise FieldError("t_end", f"{exact(t_end)} gives {ratio:.3g} communication steps of the FMU's "
+                                  f"DefaultExperiment stepSize {exact(step)} s (allowed: t_end <= 1e8 x step = "
+                                  f"{step * MAX_COMM_STEPS:g} s, at most 1e8 steps; or a longer step)")
     if ratio > MAX_COMM_STEPS:
         raise FieldError(field, f"{what} gives {ratio:.3g} communication steps to t_end = {t_end:g} s "
                                 f"(allowed: step >= t_end / 1e8 = {t_end / MAX_COMM_STEPS:g} s, at most 1e8 steps)")

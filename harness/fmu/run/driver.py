@@ -92,7 +92,7 @@ def state_coordinates(blob: bytes, k: int):
     return np.frombuffer(blob, dtype="<f8", count=k, offset=STATE_HEADER_SIZE).copy()
 
 
-# An FMU archive is checked before anything of it is read or extracted (issue 36, case 6): a zip bomb (2 MB that
+# An FMU archive is checked before anything of it is read or extracted: a zip bomb (2 MB that
 # unpack to 2 GiB) was extracted in full, an absolute or '..' member name wrote outside the folder, a member
 # whose CRC is wrong or a truncated binary (SIGBUS once mapped) killed the process.  sphrom's FMUs unpack to a
 # few MiB; the limits leave room for far larger models.
