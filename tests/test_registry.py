@@ -548,6 +548,16 @@ def test_no_operator_internals_outside_rom():
     assert not offenders, "operator internals read outside sphrom.rom (ask the protocol):\n" + "\n".join(offenders)
 
 
+def test_a_basis_is_data_the_models_take():
+    """One arrow between the POD and the reduced models: sphrom.rom imports sphrom.pod, sphrom.pod nothing of
+    sphrom.rom (at module level or in a function)."""
+    edges = _import_graph()
+    back = sorted(f"{m} -> {t}" for m, ts in edges.items() if m.startswith("sphrom.pod") for t in ts
+                  if t.startswith("sphrom.rom"))
+    assert not back, back
+    assert any(t.startswith("sphrom.pod") for m, ts in edges.items() if m.startswith("sphrom.rom") for t in ts)
+
+
 def _import_graph():
     """{module: modules it imports} over harness/**/*.py: absolute, relative and function-level imports."""
     files = {}
