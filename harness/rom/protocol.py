@@ -40,7 +40,8 @@ model, they describe its state the same way:
     outputs are computed from at run time, at ``probes`` and the model's ports; None where it cannot be
     certified.
 ``has_force_input``
-    The model takes the scene's force f(t) along its profile (False: the scene has no force profile).
+    The model takes the scene's force f(t) along its profile (False: the scene has none, or the operators were
+    built without its input, ``input_direction="never"``).
 ``ports``, ``port_errors``, ``Bp``, ``Cp``
     Mechanical port positions x/L (empty without ports), each port profile's projection error, the port input
     rows and the port velocity rows (None without ports; :mod:`sphrom.sph.ports`).
@@ -94,7 +95,7 @@ class Operators:
 
     @property
     def has_force_input(self):
-        """The model takes the scene's force f(t) along its profile."""
+        """The model takes the scene's force f(t) along its profile (module docstring)."""
         raise NotImplementedError
 
     def as_state(self, state):
