@@ -26,7 +26,6 @@ from sphrom.fmu.check.python_cosim import cosim_reference, probe_values, split_s
 from sphrom.fmu.resources import unpack
 from sphrom.fmu.variables import vr
 from sphrom.pod.pipeline import basis_for_scene
-from sphrom.rom.common import run_reduced
 from sphrom.rom.operators import probe_rows
 from sphrom.rom.registry import get_model
 from sphrom.sph.solver import build_problem
@@ -133,8 +132,9 @@ def test_equals_python_frozen_model(fmus, case, integrator, record_property):
     def held(tn):
         return inputs[np.minimum(np.rint(np.asarray(tn) / dt).astype(int) // m, M - 1)]
 
-    res = run_reduced("frozen", ops, problem, n_steps=M * m, dt=dt, integrator=integrator, n_freeze=10,
-                      force=held, sample_steps=np.arange(0, M * m + 1, m))
+    frozen = get_model("frozen")
+    res = frozen.run(ops, problem, n_steps=M * m, dt=dt, force=held, sample_steps=np.arange(0, M * m + 1, m),
+                     options=frozen.options(integrator=integrator, n_freeze=10))
     Pv = probe_rows(ops.U_v, problem.x, scene.L, PROBES)
     Pr = probe_rows(ops.U_rho, problem.x, scene.L, PROBES)
     ref = np.hstack([np.array([probe_values(Pv, a) for a in res.a_v]),

@@ -24,9 +24,9 @@ from sphrom.fmu.resources import unpack
 from sphrom.measure.responses import held_response
 from sphrom.fmu.variables import vr
 from sphrom.rom import parametric as par
-from sphrom.rom.common import run_reduced
 from sphrom.rom.exact_linear import build_linear_operators, run_exact
 from sphrom.rom.operators import build_operators, probe_rows
+from sphrom.rom.registry import get_model
 from sphrom.sph.solver import build_problem
 
 K = 6
@@ -90,8 +90,7 @@ def test_frozen_parametric_equals_ordinary_on_the_same_basis(models, case):
         if ordinary.D is not None:
             assert relative(ops.D, ordinary.D) < 1e-13
         assert np.array_equal(ops.T, ordinary.T) and np.array_equal(ops.p, ordinary.p)
-        a = run_reduced("frozen", ops, problem, n_steps=n, dt=dt, every=50)
-        b = run_reduced("frozen", ordinary, problem, n_steps=n, dt=dt, every=50)
+        a, b = (get_model("frozen").run(o, problem, n_steps=n, dt=dt, every=50) for o in (ops, ordinary))
         assert relative(a.a_v, b.a_v) < 1e-10 and relative(a.a_rho, b.a_rho) < 1e-12
         assert np.ptp(a.a_v[:, 0]) > 0
 
@@ -177,8 +176,9 @@ def frozen_reference(affine, scene, c, d, inputs, H, M):
     def held(tn):
         return inputs[np.minimum(np.rint(np.asarray(tn) / dt).astype(int) // m, M - 1)]
 
-    res = run_reduced("frozen", ops, problem, n_steps=M * m, dt=dt, n_freeze=10, force=held,
-                      sample_steps=np.arange(0, M * m + 1, m))
+    frozen = get_model("frozen")
+    res = frozen.run(ops, problem, n_steps=M * m, dt=dt, force=held, sample_steps=np.arange(0, M * m + 1, m),
+                     options=frozen.options(n_freeze=10))
     Pv = probe_rows(ops.U_v, problem.x, scene.L, PROBES)
     Pr = probe_rows(ops.U_rho, problem.x, scene.L, PROBES)
     return np.hstack([np.array([probe_values(Pv, a) for a in res.a_v]),

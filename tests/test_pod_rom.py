@@ -8,16 +8,18 @@ from conftest import small_scene
 from sphrom.cli import main
 from sphrom.errors import SimulationError, UserError
 from sphrom.norms import relative_l2
-from sphrom.pod.basis import modes_for_energy, pod
+from sphrom.pod.basis import modes_for_energy
 from sphrom.pod.io import read_basis
 from sphrom.pod.pipeline import basis_for_scene, error_steps, on_steps
 from sphrom.pod.snapshots import snapshot_steps
-from sphrom.rom.common import run_reduced
 from sphrom.rom.frozen import frozen_advance, refresh_direct_path, refresh_tensor_path
 from sphrom.rom.loops import FrozenOperators
 from sphrom.rom.operators import augment_with, build_operators, density_matrix, pair_index, probe_rows
+from sphrom.rom.registry import get_model
 from sphrom.scene import load_scene
 from sphrom.sph.solver import build_problem, run_sph, step_count
+
+ORIGINAL, LINEARIZED, FROZEN = (get_model(name) for name in ("original", "linearized", "frozen"))
 
 
 def test_snapshot_strategies_are_the_papers():
@@ -47,16 +49,6 @@ def test_pod_is_orthonormal_and_ordered():
     assert modes_for_energy(s, 0.02) == 1 and modes_for_energy(s, 1e-3) == 2
 
 
-def _run_models(scene, k, models, **kw):
-    basis, run = basis_for_scene(scene, progress=False)
-    problem = run.problem
-    ops = build_operators(problem, basis.U_v[:, :k], basis.U_rho[:, :k])
-    steps = error_steps(scene)
-    n = step_count(scene.T, scene.sph.dt)
-    out = {m: run_reduced(m, ops, problem, n_steps=n, dt=scene.sph.dt, sample_steps=steps, **kw) for m in models}
-    return out, on_steps(run, steps), steps * scene.sph.dt
-
-
 @pytest.mark.parametrize("integrator", ["euler", "symplectic", "rk4"])
 def test_original_with_k_equal_n_is_the_full_sph(integrator):
     scene = small_scene("damped_forced", T=0.5, n=20, every=25, integrator=integrator, d="2")
@@ -66,7 +58,8 @@ def test_original_with_k_equal_n_is_the_full_sph(integrator):
     problem = build_problem(scene)
     ops = build_operators(problem, basis.U_v, basis.U_rho, input_direction="never")
     n = step_count(scene.T, scene.sph.dt)
-    res = run_reduced("original", ops, problem, n_steps=n, dt=scene.sph.dt, integrator=integrator, every=25)
+    res = ORIGINAL.run(ops, problem, n_steps=n, dt=scene.sph.dt, every=25,
+                       options=ORIGINAL.options(integrator=integrator))
     full = run_sph(scene, progress=False, sample_steps=res.steps, problem=problem)
     assert np.max(np.abs(res.v - full.v)) <= 1e-12 * np.max(np.abs(full.v))     # round-off over 2500 steps
     assert np.max(np.abs(res.rho - full.rho)) <= 1e-13
@@ -78,9 +71,10 @@ def test_frozen_with_nfreeze_1_is_the_linearized_model(integrator):
     basis, run = basis_for_scene(scene, {"count": 20, "window": [0, 1.0]}, progress=False)
     ops = build_operators(run.problem, basis.U_v[:, :8], basis.U_rho[:, :8])
     n = step_count(scene.T, scene.sph.dt)
-    lin = run_reduced("linearized", ops, run.problem, n_steps=n, dt=scene.sph.dt, integrator=integrator, every=50)
-    fro = run_reduced("frozen", ops, run.problem, n_steps=n, dt=scene.sph.dt, integrator=integrator, every=50,
-                      n_freeze=1)
+    lin = LINEARIZED.run(ops, run.problem, n_steps=n, dt=scene.sph.dt, every=50,
+                         options=LINEARIZED.options(integrator=integrator))
+    fro = FROZEN.run(ops, run.problem, n_steps=n, dt=scene.sph.dt, every=50,
+                     options=FROZEN.options(integrator=integrator, n_freeze=1))
     scale = np.max(np.abs(lin.a_v))
     assert np.max(np.abs(lin.a_v - fro.a_v)) <= 1e-12 * scale
     assert np.max(np.abs(lin.a_rho - fro.a_rho)) <= 1e-12 * np.max(np.abs(lin.a_rho))
@@ -100,8 +94,8 @@ def test_tensor_refresh_equals_direct_refresh():
         np.testing.assert_allclose(m_t, ref, rtol=0, atol=1e-13 * np.abs(ref).max())
         np.testing.assert_allclose(m_d, ref, rtol=0, atol=1e-13 * np.abs(ref).max())
     n = step_count(scene.T, scene.sph.dt)
-    a = run_reduced("frozen", ops, run.problem, n_steps=n, dt=scene.sph.dt, every=100, n_freeze=7, refresh="tensor")
-    b = run_reduced("frozen", ops, run.problem, n_steps=n, dt=scene.sph.dt, every=100, n_freeze=7, refresh="direct")
+    a, b = (FROZEN.run(ops, run.problem, n_steps=n, dt=scene.sph.dt, every=100,
+                       options=FROZEN.options(n_freeze=7, refresh=refresh)) for refresh in ("tensor", "direct"))
     assert np.max(np.abs(a.a_v - b.a_v)) <= 1e-11 * np.max(np.abs(a.a_v))
 
 
@@ -111,7 +105,7 @@ def test_frozen_online_loop_touches_no_particle_array():
     basis, run = basis_for_scene(scene, {"count": 10, "window": [0, 0.5]}, progress=False)
     ops = build_operators(run.problem, basis.U_v[:, :6], basis.U_rho[:, :6])
     n = step_count(scene.T, scene.sph.dt)
-    ref = run_reduced("frozen", ops, run.problem, n_steps=n, dt=scene.sph.dt, sample_steps=[n], n_freeze=5)
+    ref = FROZEN.run(ops, run.problem, n_steps=n, dt=scene.sph.dt, sample_steps=[n], options=FROZEN.options(n_freeze=5))
     av, ar = ops.a_v0.copy(), ops.a_rho0.copy()
     out_v, out_r = np.empty((1, ops.k_v)), np.empty((1, ops.k_rho))
     g = scene.force(np.arange(n) * scene.sph.dt)
@@ -180,7 +174,7 @@ def test_errors_decrease_with_modes_and_models_report_times():
     errs = []
     for k in (2, 4, 8):
         ops = build_operators(run.problem, basis.U_v[:, :k], basis.U_rho[:, :k])
-        res = run_reduced("original", ops, run.problem, n_steps=n, dt=scene.sph.dt, sample_steps=steps)
+        res = ORIGINAL.run(ops, run.problem, n_steps=n, dt=scene.sph.dt, sample_steps=steps)
         errs.append(relative_l2(res.v, v_sph, res.t))
         assert res.wall_time > 0 and res.offline["operators"] > 0
     assert errs[0] > errs[1] > errs[2] and errs[2] < 1e-2
@@ -193,8 +187,8 @@ def test_minimal_snapshots_of_section_312_already_work():
     basis, run = basis_for_scene(scene, {"times_v": spec["times_v"], "times_rho": spec["times_rho"]}, progress=False)
     ops = build_operators(run.problem, basis.U_v[:, :3], basis.U_rho[:, :4])
     steps = error_steps(scene)
-    res = run_reduced("original", ops, run.problem, n_steps=step_count(scene.T, scene.sph.dt),
-                      dt=scene.sph.dt, sample_steps=steps)
+    res = ORIGINAL.run(ops, run.problem, n_steps=step_count(scene.T, scene.sph.dt), dt=scene.sph.dt,
+                       sample_steps=steps)
     v_sph, _ = on_steps(run, steps)
     assert relative_l2(res.v, v_sph, res.t) < 0.1 * scene.paper["sph_error_v"]
 
@@ -204,7 +198,7 @@ def test_blow_up_is_reported_with_step_and_time():
     basis, run = basis_for_scene(scene, {"count": 10, "window": [0, 1]}, progress=False)
     ops = build_operators(run.problem, basis.U_v[:, :4], basis.U_rho[:, :4])
     with pytest.raises(SimulationError, match=r"by step \d+ \(t = "):
-        run_reduced("frozen", ops, run.problem, n_steps=2000, dt=0.5, n_freeze=1)
+        FROZEN.run(ops, run.problem, n_steps=2000, dt=0.5, options=FROZEN.options(n_freeze=1))
 
 
 def test_pod_and_rom_commands(tmp_path, capsys):

@@ -16,7 +16,7 @@ PUBLIC = {
     "sphrom.pod": ["basis_for_scene", "pod", "weighted_pod", "build_basis", "Basis", "read_basis", "write_basis",
                     "snapshot_steps"],
     "sphrom.rom": ["get_model", "MODELS", "MODEL_NAMES", "ReducedModel", "ReducedResult", "build_operators",
-                    "build_linear_operators", "run_reduced", "run_model", "fmu_model_names"],
+                    "build_linear_operators", "Operators", "fmu_model_names"],
     "sphrom.references": ["exact_solution", "is_available", "check_available", "ExactUnavailable",
                            "best_reference", "Reference", "study"],
     "sphrom.fmu": ["package_fmu", "FMUSummary", "run_cosim", "CosimResult", "FMU", "load_fmu", "cosim_reference",

@@ -10,12 +10,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import sphrom.rom as rom
 from conftest import small_scene
 from sphrom.cli import main
 from sphrom.errors import UserError
 from sphrom.norms import relative_l2
 from sphrom.pod import basis_for_scene, read_basis
-from sphrom.rom import MODEL_NAMES, MODELS, ReducedResult, get_model, model_names, probe_rows, run_model
+from sphrom.rom import MODEL_NAMES, MODELS, ReducedResult, get_model, model_names, probe_rows
+from sphrom.rom.exact_linear import run_exact
+from sphrom.rom.model import ReducedModel
 from sphrom.rom.registry import fmu_model_names
 from sphrom.sph.solver import build_problem, step_count
 
@@ -109,6 +112,51 @@ def test_every_model_runs_through_the_one_interface(forced, name):
     assert relative_l2(res.rho - problem.rho0, rho_sph - problem.rho0, res.t) < 0.05
 
 
+@pytest.mark.parametrize("name", MODEL_NAMES)
+def test_the_protocol_gives_what_code_outside_rom_asks(forced, name):
+    """The members that code outside sphrom.rom reads instead of the operators' own fields: block sizes by name,
+    z0 with its velocity scaled (a run from it is the run with that initial_state_scale, bit for bit), the force
+    input, the velocity from the velocity coordinates (at the particles, the probes and the ports), and the
+    certified shadow of the model's outputs (its probes and its ports)."""
+    scene, problem, basis, _ = forced
+    model = get_model(name)
+    ports = {"ports": (0.3,)} if model.ports else {}
+    ops = (model.build(problem, basis, 5, 4, **ports) if model.needs_basis
+           else model.build(problem, None, 9, None, **ports))
+    assert list(ops.sizes) == list(ops.slices) and sum(ops.sizes.values()) == ops.order
+    assert all(ops.sizes[k] == len(range(ops.order)[s]) for k, s in ops.slices.items())
+    assert ops.has_force_input                                  # the scene has a force profile
+    n = step_count(scene.T, scene.sph.dt)
+    steps = np.arange(0, n + 1, 10)
+    res = model.run(ops, problem, dt=scene.sph.dt, n_steps=n, sample_steps=steps)
+    coords = res.z if "velocity" not in ops.slices else res.block("velocity")
+    np.testing.assert_array_equal(ops.velocity(coords), res.v)
+    probes = [0.25, 0.5, 0.66]
+    rows = ops.velocity_probe_rows(problem, probes)
+    at = ops.outputs(res.z, problem, probes)[:, :len(probes)]
+    np.testing.assert_allclose(coords @ rows.T, at, rtol=0, atol=1e-12 * np.max(np.abs(at)))
+    if model.ports:
+        assert ops.port_velocity(coords).shape == (steps.size, 1)
+    else:
+        with pytest.raises(ValueError, match="no ports"):
+            ops.port_velocity(coords)
+    shadow = ops.bound_shadow(problem, probes)
+    assert (shadow.n_probes, shadow.n_ports) == (len(probes), len(ops.ports))
+    if "velocity" not in ops.slices:
+        with pytest.raises(ValueError, match="velocity_scale: .*no velocity block"):
+            ops.initial_state(0.5)
+        return
+    v = ops.slices["velocity"]
+    np.testing.assert_array_equal(ops.initial_state(), ops.z0)
+    still = ops.initial_state(0.0)
+    assert not np.any(still[v]) and np.array_equal(np.delete(still, np.arange(ops.order)[v]),
+                                                   np.delete(ops.z0, np.arange(ops.order)[v]))
+    for s in (0.0, 2.5):
+        a = model.run(ops, problem, dt=scene.sph.dt, n_steps=n, sample_steps=steps, state=ops.initial_state(s))
+        b = model.run(ops, problem, dt=scene.sph.dt, n_steps=n, sample_steps=steps, initial_state_scale=s)
+        np.testing.assert_array_equal(a.z, b.z)
+
+
 def test_properties_are_what_the_models_do(forced):
     """uses_n_freeze: n_freeze changes the run exactly for those models, and is refused by the others; linear: the
     free response does not depend on the communication step; integrators: the ones accepted, others refused."""
@@ -158,7 +206,7 @@ def test_an_option_of_another_model_is_an_error_naming_it(forced):
     lin = exact.build(problem, basis, 4, 4)
     common = dict(dt=scene.sph.dt, n_steps=20)
     with pytest.raises(ValueError, match="n_freeze: not an option of the exact model .its options: step, hold"):
-        run_model("exact", lin, problem, n_freeze=5, **common)
+        exact.run(lin, problem, options=exact.options(n_freeze=5), **common)
     with pytest.raises(ValueError, match="options: a FrozenOptions is not the exact model's"):
         exact.run(lin, problem, options=frozen.options(), **common)
     with pytest.raises(ValueError, match="tensor: not a build option of the exact model"):
@@ -246,10 +294,12 @@ def test_registry_runs_equal_the_code_before_the_registry():
                 assert_within_ulps(getattr(built[parts[1]], parts[2]), ref[key], ulps, err_msg=key)
         for label, name, opts in reference.RUNS:
             opts = dict(opts)
-            if "force" in opts:                               # the old run without an input: a zero force
-                opts["force"] = lambda t: np.zeros_like(t)
+            # the old run without an input: a zero force; the others the scene's (force None)
+            force = (lambda t: np.zeros_like(t)) if opts.pop("force", 0) is None else None
             ops = built["aug" if label == "frozen-augmented" else "lin" if name == "exact" else "ops"]
-            res = run_model(name, ops, problem, dt=scene.sph.dt, n_steps=n, sample_steps=steps, **opts)
+            model = get_model(name)
+            res = model.run(ops, problem, dt=scene.sph.dt, n_steps=n, sample_steps=steps, force=force,
+                            options=model.options(**opts))
             for field in ("a_v", "a_rho"):
                 assert_within_ulps(getattr(res, field), ref[f"{tag}/{label}/{field}"], ULPS_RUN,
                                    err_msg=f"{tag} {label} {field}")
@@ -258,19 +308,15 @@ def test_registry_runs_equal_the_code_before_the_registry():
                                    err_msg=f"{tag} {label} {field}")
 
 
-def test_the_old_entry_points_are_the_registry():
-    """run_reduced(name, ...) and run_exact are the registry's runs (one result type)."""
-    from sphrom.rom.common import run_reduced
-    from sphrom.rom.exact_linear import run_exact
+def test_run_exact_at_the_grid_times_is_the_exact_models_run():
+    """run_exact, the exact model at any sample times, gives at the step grid's times what the one entry
+    ``get_model("exact").run`` gives (one result type); the earlier by-name entries are gone."""
+    assert not any(hasattr(rom, name) for name in ("run_reduced", "run_model", "build_model", "truncate_model"))
+    assert not hasattr(ReducedModel, "run_keywords")
     scene = small_scene("multimode", T=0.2, n=24)
     problem = build_problem(scene)
     basis, _ = basis_for_scene(scene, {"count": 8, "window": [0, 0.2]}, progress=False, problem=problem)
     n = step_count(scene.T, scene.sph.dt)
-    for name in ("original", "frozen"):
-        ops = get_model(name).build(problem, basis, 4, 4)
-        a = run_reduced(name, ops, problem, n_steps=n, dt=scene.sph.dt, every=20)
-        b = get_model(name).run(ops, problem, n_steps=n, dt=scene.sph.dt, every=20)
-        assert type(a) is ReducedResult and np.array_equal(a.a_v, b.a_v) and np.array_equal(a.a_rho, b.a_rho)
     lin = get_model("exact").build(problem, basis, 4, 4)
     steps = np.arange(0, n + 1, 20)
     a = run_exact(lin, steps * scene.sph.dt)
@@ -465,6 +511,51 @@ def test_operators_are_read_through_the_protocol_only():
                 if name in suspects:
                     offenders.append(f"{path.relative_to(ROOT)}:{node.lineno}")
     assert not offenders, "duck typing on operators or a basis (ask the protocol instead):\n" + "\n".join(offenders)
+
+
+# the protocol (sphrom.rom.protocol) and what every operators type has; the rest of their fields are internals
+PROTOCOL = {"order", "slices", "sizes", "z0", "initial_state", "as_state", "block", "fields", "velocity",
+            "port_velocity", "velocity_probe_rows", "project", "outputs", "output_probes", "error_bounds",
+            "bound_shadow", "has_force_input", "ports", "port_errors", "Bp", "Cp", "input_error", "augmented",
+            "timings", "method"}
+# one type's own methods, called by code that built that type: the density operators' basis file group (sphrom
+# pod) and their every-term twin (the skip measurement), the balanced model's Hankel singular values (sphrom rom)
+TYPE_METHODS = {"basis_file_group", "with_every_term", "hsv"}
+# a model's packaging reads its own numbers (the FMU's model.bin of its kind: sphrom.fmu); the operators' own
+# module reads them
+OWN_NUMBERS = ("harness/rom/", "harness/fmu/")
+
+
+def test_no_operator_internals_outside_rom():
+    """Code outside sphrom.rom reads operators through the protocol: no field of an operators type that is not a
+    protocol member is read on operators (ops, lin, operators ...) outside sphrom.rom and the packaging."""
+    from dataclasses import fields
+    from sphrom.rom import LinearOperators, ReducedOperators
+    from sphrom.rom.balanced_model import BalancedOperators
+    types = (ReducedOperators, LinearOperators, BalancedOperators)
+    internals = ({f.name for t in types for f in fields(t)} | {n for t in types for n in vars(t) if n[0] != "_"}
+                 ) - PROTOCOL - TYPE_METHODS
+    assert {"k_v", "k_rho", "k_e", "U_v", "a_v0", "a_rho0", "lti", "reduced"} <= internals
+    receivers = {"ops", "lin", "operators", "ops_p", "ops_1", "unit"}
+    offenders = []
+    for path in sorted((ROOT / "harness").rglob("*.py")):
+        if str(path.relative_to(ROOT)).startswith(OWN_NUMBERS):
+            continue
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if (isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and node.value.id in receivers
+                    and node.attr in internals):
+                offenders.append(f"{path.relative_to(ROOT)}:{node.lineno}: {node.value.id}.{node.attr}")
+    assert not offenders, "operator internals read outside sphrom.rom (ask the protocol):\n" + "\n".join(offenders)
+
+
+def test_a_basis_is_data_the_models_take():
+    """One arrow between the POD and the reduced models: sphrom.rom imports sphrom.pod, sphrom.pod nothing of
+    sphrom.rom (at module level or in a function)."""
+    edges = _import_graph()
+    back = sorted(f"{m} -> {t}" for m, ts in edges.items() if m.startswith("sphrom.pod") for t in ts
+                  if t.startswith("sphrom.rom"))
+    assert not back, back
+    assert any(t.startswith("sphrom.pod") for m, ts in edges.items() if m.startswith("sphrom.rom") for t in ts)
 
 
 def _import_graph():

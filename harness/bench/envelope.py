@@ -86,13 +86,13 @@ def measure(scene_name, scales=SCALES, progress=True):
                    "peak_probe_strain": float(probe_strain.max())}
             fr = frozen.run(ops, problem, dt=scene.sph.dt, n_steps=n, sample_steps=steps,
                             options=frozen.options(n_freeze=N_FREEZE, integrator=scene.sph.integrator),
-                            state=np.concatenate([ops.a_v0 * s, ops.a_rho0]))
+                            state=ops.initial_state(s))
             row["frozen_v_error"] = relative_l2(_probe(fr.v, problem.x, scene.L), v_ref, fr.t)
             fr_rho = _probe(fr.rho, problem.x, scene.L)
             row["frozen_peak_probe_strain"] = float(np.max(np.abs(_probe(rho0, problem.x, scene.L) / fr_rho - 1)))
-            row["frozen_coordinate_excess"] = coordinate_excess(env, fr.z, ops.k_v)
+            row["frozen_coordinate_excess"] = coordinate_excess(env, fr.z, ops.sizes["velocity"])
             ex = exact.run(lin, problem, dt=scene.sph.dt, n_steps=n, sample_steps=steps,
-                           state=np.concatenate([lin.a_v0 * s, lin.a_rho0]),
+                           state=lin.initial_state(s),
                            options=exact.options(step=scene.sph.dt * scene.sph.every))
             row["exact_v_error"] = relative_l2(_probe(ex.v, problem.x, scene.L), v_ref, ex.t)
             rows.append(row)
@@ -121,7 +121,8 @@ def training_headroom(scene_name):
                     options=frozen.options(n_freeze=N_FREEZE, integrator=scene.sph.integrator))
     rho0 = _probe(np.asarray(problem.rho0, float), problem.x, scene.L)
     strain = float(np.max(np.abs(rho0 / _probe(fr.rho, problem.x, scene.L) - 1.0)))
-    return {"scene": scene.name, "k_v": ops.k_v, "coordinate_excess": coordinate_excess(env, fr.z, ops.k_v),
+    return {"scene": scene.name, "k_v": ops.sizes["velocity"],
+            "coordinate_excess": coordinate_excess(env, fr.z, ops.sizes["velocity"]),
             "probe_strain_ratio": strain / env.max_probe_strain, "max_probe_strain": env.max_probe_strain,
             "allowed_excess": env.margin - 1.0, "allowed_ratio": env.margin}
 

@@ -46,20 +46,19 @@ def probe_velocity_error(v_red, v_ref, t):
 
 def reduced_probe_velocity(model_name, ops, problem, scene, steps, n_freeze=10):
     """Probe velocities (M, P) [m s^-1] of reduced operators run over the scene at ``steps`` (f = the scene's)."""
-    from ..rom.common import run_reduced
     from ..rom.exact_linear import run_exact
-    from ..rom.operators import probe_rows
     from ..rom.registry import get_model
     dt = scene.sph.dt
     if get_model(model_name).linear:
         t = steps * dt
-        res = run_exact(ops, t, step=float(np.min(np.diff(t))), force=scene.force if ops.B is not None else None)
+        res = run_exact(ops, t, step=float(np.min(np.diff(t))), force=scene.force if ops.has_force_input else None)
         a_v = res.a_v
     else:
-        res = run_reduced("frozen", ops, problem, n_steps=int(steps[-1]), dt=dt, n_freeze=n_freeze,
-                          sample_steps=steps)
+        frozen = get_model("frozen")
+        res = frozen.run(ops, problem, n_steps=int(steps[-1]), dt=dt, sample_steps=steps,
+                         options=frozen.options(n_freeze=n_freeze))
         a_v = res.a_v
-    return a_v @ probe_rows(ops.U_v, problem.x, scene.L, PROBES).T
+    return a_v @ ops.velocity_probe_rows(problem, PROBES).T
 
 
 def sph_probe_velocity(run, problem, scene, steps):

@@ -3,6 +3,8 @@
 from .options import add_n_freeze, add_quiet, choice_list, int_at_least
 from .snapshot_options import add_snapshot_options
 
+# deferred imports below (inside the handlers): start-up time, the parsers of every command import nothing heavy
+
 
 def add_parser(sub):
     p = sub.add_parser("modes", help="singular values and reduced-model error against the number of modes",
@@ -46,7 +48,7 @@ def _write_csv(path, sweep):
 
 
 def _one(scene, spec, args, out, tag, models):
-    from ..pod.study import mode_sweep, plot_sweep, threshold
+    from ..rom.study import mode_sweep, plot_sweep, threshold
     sweep = mode_sweep(scene, spec, kmax=args.max_modes, models=models, n_freeze=args.n_freeze,
                        progress=not args.quiet)
     _write_csv(out / f"{tag}.csv", sweep)
@@ -87,7 +89,7 @@ def run(args):
 
 
 def _print_sweep(scene, sweep, ths, paper):
-    from ..pod.study import PAPER_MODEL
+    from ..rom.study import PAPER_MODEL
     e = sweep["sph_error"]
     sph = "no reference" if e is None else f"SPH error vs {sweep['reference']}: v {e['v']:.3e}, rho-rho0 {e['rho_var']:.3e}"
     print(f"modes {scene.name}: {sweep['strategy']}; {sph}")
@@ -97,7 +99,7 @@ def _print_sweep(scene, sweep, ths, paper):
 
 
 def _run_all(args, out, models, scenes):
-    from ..pod.study import PAPER_MODEL, snapshot_study
+    from ..rom.study import PAPER_MODEL, snapshot_study
 
     lines = ["# Mode thresholds and snapshot studies", "",
              "Produced by `sphrom modes --all`. Threshold: the smallest k from which the original POD-MOR error "

@@ -3,6 +3,8 @@
 from .options import add_quiet, add_scene, modes_pair, positive_float
 from .snapshot_options import add_snapshot_options
 
+# deferred imports below (inside the handlers): start-up time, the parsers of every command import nothing heavy
+
 
 def add_parser(sub):
     p = sub.add_parser("pod", help="POD bases of velocity and density snapshots",
@@ -30,7 +32,7 @@ def run(args):
 
     from ..errors import UserError, exact
     from ..pod.basis import modes_for_energy
-    from ..pod.io import operators_group, write_basis
+    from ..pod.io import write_basis
     from ..pod.pipeline import automatic_modes, basis_for_scene
     from ..rom.operators import build_operators
     from ..runio import check_output_path
@@ -59,7 +61,7 @@ def run(args):
     ops = build_operators(run_.problem, basis.U_v[:, :k_v], basis.U_rho[:, :k_r],
                           input_direction="augment" if args.augment_input else "auto")
     basis.attrs.update({"default_modes_v": k_v, "default_modes_rho": k_r})
-    write_basis(out, basis, scene, extra={"operators": operators_group(ops)})
+    write_basis(out, basis, scene, extra={"operators": ops.basis_file_group()})
     energy_left = lambda s, k: float(1 - np.sum(s[:k] ** 2) / np.sum(s**2))
     print(f"pod {scene.name}: {basis.strategy}; {basis.steps_v.size} velocity and {basis.steps_rho.size} "
           f"density snapshots; rank {rv}, {rr}")

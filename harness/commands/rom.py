@@ -6,8 +6,9 @@ from .. import defaults
 from .options import (LazyChoices, LazyHelp, add_n_freeze, add_order_tolerance, add_quiet, add_scene, modes_pair,
                       positive_float)
 
+# deferred imports below (inside the handlers): start-up time, the parsers of every command import nothing heavy
+
 B_CHOICES = ("paper", "rest")    # the frozen model's b (sphrom.rom.operators.B_FORMS)
-BOUND_PROBE_SAMPLES = 4000      # at least T/4000 between samples of the measured errors (h |A|_1 <= 0.05 up to 40000)
 # At most this many communication steps H in one run of a linear model (a Python loop of one k x k product
 # each, and the input sampled at every step): 1e6 steps take seconds, 1e12 would take days and terabytes.
 MAX_ROM_STEPS = 1_000_000
@@ -126,8 +127,8 @@ def run(args):
     offline = {"svd": basis.timings.get("svd", 0.0), "tensor": 0.0, **ops.timings}
     label = (f"{args.model}" + (f", n_freeze = {args.n_freeze}, {args.refresh} refresh" if model.uses_n_freeze else "")
              + (", b = K a_rho_rest" if build.get("b") == "rest" else ""))
-    k_second = ops.k_rho
-    print(f"rom {scene.name}: {label}, k_v = {ops.k_v}, k_{model.second_symbol} = {k_second}, "
+    k_first, k_second = ops.sizes.values()
+    print(f"rom {scene.name}: {label}, k_v = {k_first}, k_{model.second_symbol} = {k_second}, "
           f"{integrator}, to t = {n * scene.sph.dt:g} s")
     print(format_errors(vs_sph, "  relative L2 error vs full SPH"))
     if vs_exact is not None:
@@ -136,7 +137,7 @@ def run(args):
           f"{offline['operators'] * 1e3:.2f} ms, tensor {offline['tensor'] * 1e3:.2f} ms; full SPH "
           f"{sph.wall_time:.4f} s ({'cached run, timed earlier' if sph.reused else 'timed now'})")
     attrs = {**scene_attrs(scene), "solver": f"rom-{args.model}", "solver.model": args.model,
-             "solver.integrator": integrator, "solver.k_v": ops.k_v, "solver.k_rho": k_second,
+             "solver.integrator": integrator, "solver.k_v": k_first, "solver.k_rho": k_second,
              "solver.basis": str(args.basis), "solver.augmented_input": int(ops.augmented),
              "solver.input_error": ops.input_error, "wall_time_s": result.wall_time,
              **{f"offline_time.{k}": v for k, v in offline.items()},
@@ -185,7 +186,6 @@ def run_without_basis(args, model):
     import time
 
     import numpy as np
-    from scipy.integrate import simpson
 
     from ..cache import cached_sph
     from ..compare import error_table, exact_errors, format_errors
@@ -194,8 +194,7 @@ def run_without_basis(args, model):
     from ..pod.pipeline import error_steps, on_steps
     from ..progress import progress_bar
     from ..references.exact import exact_solution, is_available
-    from ..rom.balanced_model import METHOD_TITLES
-    from ..rom.lti import input_norm, sample_outputs
+    from ..rom.balanced_model import METHOD_TITLES, measured_errors
     from ..rom.result import probe_values
     from ..runio import check_output_path, scene_attrs, write_run
     from ..scene import load_scene
@@ -232,51 +231,32 @@ def run_without_basis(args, model):
     if not (np.all(np.isfinite(v)) and np.all(np.isfinite(rho)) and np.all(rho > 0)):
         raise UserError(f"--modes: the fields reconstructed at order {ops.order} are not finite and positive; "
                         "raise the order")
-    lti, red = ops.lti, ops.reduced
-    P = lti.n_probes
+    probes = ops.output_probes
+    P = probes.size
     y = result.y
-    y_sph = probe_values(v_sph, rho_sph, rho0, x, L, lti.probes)
+    y_sph = probe_values(v_sph, rho_sph, rho0, x, L, probes)
     probe_err = {"v": relative_l2(y[:, :P], y_sph[:, :P], t), "e": relative_l2(y[:, P:], y_sph[:, P:], t)}
     vs_sph = error_table(v, rho, v_sph, rho_sph, t, rho0)
     vs_exact = exact_errors(scene, t, x, v, rho, rho0)
     probe_exact = None
     if is_available(scene):
-        y_ex = probe_values(*exact_solution(scene, x, t), rho0, x, L, lti.probes)
+        y_ex = probe_values(*exact_solution(scene, x, t), rho0, x, L, probes)
         probe_exact = {"v": relative_l2(y[:, :P], y_ex[:, :P], t), "e": relative_l2(y[:, P:], y_ex[:, P:], t)}
-    # certified bounds, and the initial-state error measured apart: free responses sampled exactly in time,
-    # Simpson's rule on a grid fine against the fastest rate of A (|A|_1)
+    # certified bounds, and what they bound measured apart (both models exact in time)
     t0 = time.perf_counter()
     with progress_bar(P, "bounds", unit="probe", enabled=not args.quiet) as bar:
-        bounds = ops.error_bounds(problem, lti.probes, progress=bar)
+        bounds = ops.error_bounds(problem, probes, progress=bar)
     t_bounds = time.perf_counter() - t0
-    A = lti.dense()
-    k = int(min(40000, max(BOUND_PROBE_SAMPLES, np.ceil(scene.T * np.max(np.sum(np.abs(A), axis=0)) / 0.05))))
-    k += -k % 4                                                   # Simpson at h and 2h on the same samples
-    h = scene.T / k
-    zero = np.zeros(k + 1)
-
-    def l2(full, reduced):
-        """‖full - reduced‖_L2(0,T) per probe: Simpson's rule at h and 2h, extrapolated (Romberg, O(h^6))."""
-        e2 = (full - reduced) ** 2
-        fine, coarse = simpson(e2, dx=h, axis=0), simpson(e2[::2], dx=2 * h, axis=0)
-        return np.sqrt(np.maximum(fine + (fine - coarse) / 15.0, 0.0))
-
-    measured = l2(sample_outputs(A, None, lti.C[:P], lti.x0, h, zero),
-                  sample_outputs(red.Ar, None, red.Cr[:P], red.x0, h, zero))
-    f = np.asarray(scene.force(np.arange(k + 1) * h), float)
-    gain = np.full(P, np.nan)
-    if np.any(f):                   # the scene's force from rest, linear between the samples: the same input to both
-        gain = l2(sample_outputs(A, lti.B[:, 0], lti.C[:P], np.zeros(lti.order), h, f),
-                  sample_outputs(red.Ar, red.Br[:, 0], red.Cr[:P], np.zeros(red.order), h, f)) / input_norm(h, f)
+    h, measured, gain = measured_errors(ops, scene.T, scene.force)
     fb, ib = bounds["force_error_bound"], bounds["initial_state_error_bound"]
     offline = dict(ops.timings)
-    probes = ", ".join(f"{p:g}" for p in lti.probes)
+    probe_list = ", ".join(f"{p:g}" for p in probes)
     print(f"rom {scene.name}: {model.name}, order r = {ops.order} ({ops.method}: {METHOD_TITLES[ops.method]}), "
           f"{integrator}, to t = {n * scene.sph.dt:g} s")
-    print(f"  relative L2 error at the probes x/L = {probes} vs full SPH: v {probe_err['v']:.4e}   "
+    print(f"  relative L2 error at the probes x/L = {probe_list} vs full SPH: v {probe_err['v']:.4e}   "
           f"e {probe_err['e']:.4e}")
     if probe_exact is not None:
-        print(f"  relative L2 error at the probes x/L = {probes} vs exact   : v {probe_exact['v']:.4e}   "
+        print(f"  relative L2 error at the probes x/L = {probe_list} vs exact   : v {probe_exact['v']:.4e}   "
               f"e {probe_exact['e']:.4e}")
     print(format_errors(vs_sph, "  fields reconstructed through V, vs full SPH"))
     if vs_exact is not None:
@@ -292,12 +272,12 @@ def run_without_basis(args, model):
     print("  probe x/L | force_error_bound [s] | measured, scene's force from rest [s] | "
           "initial_state_error_bound [m s^-1 s^1/2] | measured initial-state error | measured/bound")
     for j in range(P):
-        print(f"  {lti.probes[j]:9.4g} | {fb[j]:21.4e} | {'-' if np.isnan(gain[j]) else f'{gain[j]:.4e}':>37} | "
+        print(f"  {probes[j]:9.4g} | {fb[j]:21.4e} | {'-' if np.isnan(gain[j]) else f'{gain[j]:.4e}':>37} | "
               f"{ib[j]:40.4e} | {measured[j]:28.4e} | {measured[j] / ib[j] if ib[j] else float('nan'):.6f}")
     attrs = {**scene_attrs(scene), "solver": f"rom-{args.model}", "solver.model": args.model,
              "solver.integrator": integrator, "solver.order": ops.order, "solver.method": ops.method,
              "solver.k_v": ops.order, "solver.k_rho": 0, "solver.basis": "", "wall_time_s": result.wall_time,
-             "probes": lti.probes, **{f"offline_time.{k}": v for k, v in offline.items()},
+             "probes": probes, **{f"offline_time.{k}": v for k, v in offline.items()},
              "offline_time.bounds": t_bounds,
              **{f"error.sph.{k}": v for k, v in vs_sph.items()},
              **{f"error.sph.probes.{k}": v for k, v in probe_err.items()},
@@ -310,6 +290,6 @@ def run_without_basis(args, model):
         attrs.update({f"error.exact.{k}": v for k, v in vs_exact.items()})
         attrs.update({f"error.exact.probes.{k}": v for k, v in probe_exact.items()})
     write_run(out, t, x, v, rho, attrs, steps=result.steps,
-              extra={"x_r": result.z, "y": y, "hsv": red.hsv})
+              extra={"x_r": result.z, "y": y, "hsv": ops.hsv})
     print(f"wrote {out}")
     return 0

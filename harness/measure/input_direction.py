@@ -15,8 +15,8 @@ from __future__ import annotations
 
 from ..compare import error_table
 from ..pod.pipeline import accel_modes, basis_for_scene, error_steps, on_steps
-from ..rom.common import run_reduced
 from ..rom.operators import INPUT_TOLERANCE, build_operators
+from ..rom.registry import get_model
 from ..sph.solver import step_count
 
 
@@ -41,12 +41,14 @@ def input_direction_rows(scene, k=None, n_freeze=10):
     for choice in ("project", "augment"):
         ops = build_operators(problem, basis.U_v[:, :k], basis.U_rho[:, :k], input_direction=choice,
                               input_tolerance=0.0 if choice == "augment" else None)
-        if ops.p is None:                       # no force profile at all
+        if not ops.has_force_input:             # no force profile at all
             return []
-        r = run_reduced("frozen", ops, problem, n_steps=step_count(scene.T, scene.sph.dt), dt=scene.sph.dt,
-                        integrator=scene.sph.integrator, sample_steps=steps, n_freeze=n_freeze)
+        frozen = get_model("frozen")
+        r = frozen.run(ops, problem, n_steps=step_count(scene.T, scene.sph.dt), dt=scene.sph.dt, sample_steps=steps,
+                       options=frozen.options(integrator=scene.sph.integrator, n_freeze=n_freeze))
         e = error_table(r.v, r.rho, v_sph, rho_sph, t, problem.rho0)
-        rows.append({"scene": scene.name, "k": k, "input_error": ops.input_error, "choice": choice, "k_v": ops.k_v,
+        rows.append({"scene": scene.name, "k": k, "input_error": ops.input_error, "choice": choice,
+                     "k_v": ops.sizes["velocity"],
                      "err_v": e["v"], "err_rho": e["rho_var"],
                      "fmu_rule": ("augment" if ops.input_error > INPUT_TOLERANCE else "project")})
     return rows

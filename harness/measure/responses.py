@@ -49,6 +49,6 @@ def held_response(spec, ops, problem, *, t_end, step, force=None, port_forces=No
     else:
         dt = problem.scene.sph.dt
         res = spec.run(ops, problem, dt=dt, n_steps=int(round(t_end / dt)), every=int(round(step / dt)),
-                       state=None if from_state else np.concatenate([np.zeros(ops.k_v), ops.a_rho0]),
+                       state=None if from_state else ops.initial_state(0.0),
                        options=spec.options(**options), **inputs)
     return ops.block(res.z, "velocity") if "velocity" in ops.slices else np.atleast_2d(res.z)

@@ -58,15 +58,13 @@ def skip_savings(scene, steps=20000, k=None, repeats=5, fmu=True, reduced_factor
 
     basis, run = basis_for_scene(scene, progress=False, problem=problem)
     k = k or max(accel_modes(scene, basis))
-    import dataclasses
     built = {}                                  # one set of operators per basis kind, shared by its models
     for model in SKIP_MODELS:
         spec = get_model(model)
         if spec.basis_kind not in built:
             ops = spec.build(problem, basis, k, k, input_direction="never", **spec.paper_build)
             # the general path: a zero damping matrix and a zero-force input row, evaluated every step
-            general = dataclasses.replace(ops, D=ops.D if ops.D is not None else np.zeros((ops.k_v, ops.k_v)),
-                                          p=np.zeros(ops.k_v))
+            general = ops.with_every_term()
             built[spec.basis_kind] = ops, general
         ops, general = built[spec.basis_kind]
         res = {}

@@ -6,7 +6,7 @@ Layout: attributes ``format``, ``format_version``, ``sphrom_version``,
 U_rho, sigma_v, sigma_rho, steps_v, steps_rho, x [m], the energy-weighted
 U_ve, sigma_ve, U_e, sigma_e when present, snapshot_times_v/_rho [s]; and the
 group ``operators`` (the reduced operators at the stored mode counts,
-:func:`operators_group`).
+:meth:`sphrom.rom.operators.ReducedOperators.basis_file_group`).
 
 Errors name the file; the command layer adds the option that named it.
 """
@@ -29,25 +29,11 @@ BASIS_VERSION = 1
 OPTIONAL = ("U_ve", "sigma_ve", "U_e", "sigma_e")
 
 
-def operators_group(ops):
-    """The ``operators`` group of a basis file from reduced operators (``extra`` of :func:`write_basis`).
-
-    K, b, D, p, a_v0, a_rho0 of :class:`sphrom.rom.operators.ReducedOperators`, the appended input mode when
-    the force direction was appended, and the mode counts, input error and offline time as attributes.
-    """
-    group = {"K": ops.K, "b": ops.b, "D": ops.D, "p": ops.p, "a_v0": ops.a_v0, "a_rho0": ops.a_rho0,
-             "attrs": {"k_v": ops.k_v, "k_rho": ops.k_rho, "augmented": int(ops.augmented),
-                       "input_error": ops.input_error, "offline_time.operators": ops.timings["operators"]}}
-    if ops.augmented:
-        group["input_mode"] = ops.U_v[:, -1]
-    return group
-
-
 def write_basis(path, basis: Basis, scene, extra=None):
     """Write a basis file atomically (nothing is left behind on failure).
 
     ``extra`` maps group paths to dicts of arrays (None entries skipped) and
-    an optional ``attrs`` dict, e.g. ``{"operators": operators_group(ops)}``.
+    an optional ``attrs`` dict, e.g. ``{"operators": ops.basis_file_group()}``.
     """
     with atomic_path(path) as tmp:
         with h5_create(tmp) as h5:

@@ -37,12 +37,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg as sla
+from scipy.integrate import simpson
 
-from .balanced import BalancedModel, Balancing, balancing, order_from_tolerance, truncate as truncate_balanced
-from .balanced import DEFAULT_TOLERANCE
+from ..sph.ports import port_kernel, port_velocity_rows
+from .balanced import BalancedModel, Balancing, balancing, error_bounds, order_from_tolerance
+from .balanced import DEFAULT_TOLERANCE, truncate as truncate_balanced
 from .exact_linear import INTEGRATORS, advance_linear
-from .lti import DEFAULT_PROBES, LTI, full_linear_system
+from .lti import DEFAULT_PROBES, LTI, full_linear_system, input_norm, sample_outputs
 from .model import LinearOptions, ReducedModel
+from .probes import probe_rows
 from .protocol import Operators
 from .result import ReducedResult
 from .stepping import sample_grid
@@ -101,9 +104,9 @@ class BalancedOperators(Operators):
     port_errors: tuple = ()
     lti_ports: LTI | None = None             # the LTI balanced: lti with the port columns and rows appended
 
-    def port_velocity(self, z):
-        """v_port = Cp x_r [m s^-1], (M, P) from states (M, r) (:mod:`sphrom.sph.ports`)."""
-        return np.atleast_2d(z) @ self.Cp.T
+    @property
+    def has_force_input(self):
+        return self.B is not None
 
     @property
     def slices(self):
@@ -117,6 +120,11 @@ class BalancedOperators(Operators):
     def output_probes(self):
         """The probes x/L the model was balanced for: its outputs y = Cr x_r."""
         return self.lti.probes.copy()
+
+    @property
+    def hsv(self):
+        """The Hankel singular values of the balancing, largest first (the order's choice)."""
+        return self.reduced.hsv
 
     def fields(self, z):
         """(v, ρ) at the particles from states (M, r): the reconstruction through V."""
@@ -137,11 +145,14 @@ class BalancedOperators(Operators):
     def error_bounds(self, problem, probes, progress=None):
         """The certified bounds at the probes the model was balanced for (:func:`sphrom.rom.balanced.error_bounds`);
         ValueError for other ``probes``."""
-        from .balanced import error_bounds
         if not np.array_equal(np.asarray(probes, float), self.lti.probes):
             raise ValueError(f"probes: {list(probes)} (allowed: {list(self.lti.probes)}, the probes the model was "
                              "balanced for)")
         return error_bounds(self.lti, self.reduced, outputs="v", progress=progress)
+
+    def velocity_probe_rows(self, problem, probes):
+        """Rows (P, r): v at ``probes`` (x/L) = rows @ x_r, through the reconstruction V (as :meth:`velocity`)."""
+        return probe_rows(self.reduced.V[:self.lti.n] / self.lti.w_v[:, None], problem.x, problem.scene.L, probes)
 
     def _x(self, z):
         return np.atleast_2d(z) @ self.reduced.V.T
@@ -158,6 +169,52 @@ class BalancedOperators(Operators):
         """ρ = ρ0 / (1 + e) at the particles, (M, N) [kg m^-3] from states (M, r)."""
         return self.rho0[None, :] / (1.0 + self.specific_volume(z))
 
+
+
+MEASURE_SAMPLES = 4000      # at least T/4000 between samples of the measured errors (h |A|_1 <= 0.05 up to 40000)
+
+
+def measured_errors(ops: BalancedOperators, T, force, samples=MEASURE_SAMPLES):
+    """What the certified bounds bound (:meth:`BalancedOperators.error_bounds`), measured at the model's probes.
+
+    The full linear SPH and the model are both sampled exactly in time on a grid of step h fine against the
+    fastest rate of A (h |A|_1 <= 0.05, at least ``samples`` and at most 40000 steps over [0, T] [s]); the L²
+    norms over [0, T] by Simpson's rule at h and 2h on the same samples, extrapolated (Romberg, O(h^6)).
+
+    Returns
+    -------
+    h : float
+        The grid step [s].
+    measured : ndarray (P,)
+        The L² error of each probe velocity in the free responses from the initial state [m s^-1 s^1/2] (what
+        ``initial_state_error_bound`` bounds).
+    gain : ndarray (P,)
+        The L² error of each probe velocity in the responses from rest to ``force`` (f(t) [m s^-2], linear
+        between the samples, the same input to both) per unit of the input's L² norm [s] (what
+        ``force_error_bound`` bounds); nan where f is 0 on every sample.
+    """
+    lti, red = ops.lti, ops.reduced
+    P = lti.n_probes
+    A = lti.dense()
+    k = int(min(40000, max(samples, np.ceil(T * np.max(np.sum(np.abs(A), axis=0)) / 0.05))))
+    k += -k % 4                                                   # Simpson at h and 2h on the same samples
+    h = T / k
+    zero = np.zeros(k + 1)
+
+    def l2(full, reduced):
+        """‖full - reduced‖_L2(0,T) per probe: Simpson's rule at h and 2h, extrapolated (Romberg, O(h^6))."""
+        e2 = (full - reduced) ** 2
+        fine, coarse = simpson(e2, dx=h, axis=0), simpson(e2[::2], dx=2 * h, axis=0)
+        return np.sqrt(np.maximum(fine + (fine - coarse) / 15.0, 0.0))
+
+    measured = l2(sample_outputs(A, None, lti.C[:P], lti.x0, h, zero),
+                  sample_outputs(red.Ar, None, red.Cr[:P], red.x0, h, zero))
+    f = np.asarray(force(np.arange(k + 1) * h), float)
+    gain = np.full(P, np.nan)
+    if np.any(f):                   # the scene's force from rest, linear between the samples: the same input to both
+        gain = l2(sample_outputs(A, lti.B[:, 0], lti.C[:P], np.zeros(lti.order), h, f),
+                  sample_outputs(red.Ar, red.Br[:, 0], red.Cr[:P], np.zeros(red.order), h, f)) / input_norm(h, f)
+    return h, measured, gain
 
 
 def _operators(lti, bal, reduced, rho0, t_setup, ports=(), lti_ports=None):
@@ -183,7 +240,6 @@ def with_ports(lti, problem, ports):
     """``lti`` with one input column per port force (energy coordinates, area 1: √ρ0 · W(x - x_j, h)/ρ0 per N) and
     one output row per port velocity (v_port_j = Σ_i W(x_i - x_j, h) Δx v_i, v = x_v / √ρ0) appended: the port
     forces are balanced as inputs and the port velocities as outputs (:mod:`sphrom.sph.ports`)."""
-    from ..sph.ports import port_kernel, port_velocity_rows
     n = lti.n
     cols = np.column_stack([np.concatenate([w / lti.w_v, np.zeros(n)]) for w in port_kernel(problem, ports)])
     rows = np.hstack([port_velocity_rows(problem, ports) / lti.w_v[None, :], np.zeros((len(ports), n))])

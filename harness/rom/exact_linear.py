@@ -38,8 +38,12 @@ import numpy as np
 import scipy.linalg as sla
 
 from ..errors import SimulationError
+from ..sph.ports import port_kernel
+from .balanced import error_bounds, reduced_from_exact
+from .lti import full_linear_system
 from .model import LinearOptions, ReducedModel, basis_modes
-from .operators import ROUNDOFF_TOLERANCE, input_mode
+from .operators import (ROUNDOFF_TOLERANCE, augment_ports, input_mode, port_rows, profile_moments,
+                        shared_modes)
 from .protocol import Operators, two_blocks
 from .result import ReducedResult
 from .stepping import RUNAWAY_FACTOR, initial_scale, sample_grid
@@ -119,9 +123,9 @@ class LinearOperators(Operators):
     def k_v(self):
         return self.U_v.shape[1]
 
-    def port_velocity(self, a_v):
-        """v_port = Cp a [m s^-1], (M, P) from velocity coordinates (M, k_v) (:mod:`sphrom.sph.ports`)."""
-        return np.atleast_2d(a_v) @ self.Cp.T
+    @property
+    def has_force_input(self):
+        return self.B is not None
 
     @property
     def k_e(self):
@@ -173,8 +177,6 @@ class LinearOperators(Operators):
     def error_bounds(self, problem, probes, progress=None):
         """The certified bounds of the model as a Galerkin model of the full linear SPH with outputs at
         ``probes`` (:func:`sphrom.rom.balanced.reduced_from_exact`, :func:`sphrom.rom.balanced.error_bounds`)."""
-        from .balanced import error_bounds, reduced_from_exact
-        from .lti import full_linear_system
         lti = full_linear_system(problem, probes)
         return error_bounds(lti, reduced_from_exact(lti, self), outputs="v", progress=progress)
 
@@ -220,7 +222,6 @@ def build_linear_operators(problem, U_v, U_e, input_direction="auto", input_tole
         As in :func:`sphrom.rom.operators.build_operators`: with the profile appended, also its response at
         every frequency (energy inner products).
     """
-    from .operators import augment_ports, port_rows, profile_moments, shared_modes
     t0 = time.perf_counter()
     rho0, c, d, profile = problem.rho0, problem.c, problem.d, problem.profile
     scene = problem.scene
@@ -263,7 +264,6 @@ def build_linear_operators(problem, U_v, U_e, input_direction="auto", input_tole
 def port_weighted(problem, U_v, ports):
     """U_vᵀ W_v (W(x - x_j, h)/ρ0) = U_vᵀ W(x - x_j, h), one row per port (P, k_v): the port input in the ρ0
     inner product (area 1)."""
-    from ..sph.ports import port_kernel
     return port_kernel(problem, ports) @ U_v
 
 
@@ -405,6 +405,10 @@ def free_response(ops: LinearOperators, t):
 def run_exact(ops: LinearOperators, t_samples, step=None, force=None, hold="linear", bound=None,
               initial_state_scale=1.0, port_forces=None, area=1.0):
     """Advance the exact linear model and sample it at any times (a ReducedResult with ``steps`` None).
+
+    The exact model's own kernel for samples off a step grid (an importer's communication points, as the FMU
+    takes them); a run on the step grid, of this model or any other, is ``get_model(name).run``
+    (:mod:`sphrom.rom.model`), which shares its stepping (:func:`advance_linear`).
 
     Parameters
     ----------

@@ -5,7 +5,7 @@ Every model module defines one :class:`ReducedModel` (``MODEL``) and
 model's properties (``linear``, ``uses_n_freeze``, ``needs_basis`` ...) instead
 of comparing model names, and the operators a model builds answer the protocol
 of :mod:`sphrom.rom.protocol` (order, named slices of the state z, fields,
-outputs, error bounds).
+outputs, error bounds and their shadow).
 
 ``model.build(problem, basis, k_v, k_rho, **options) -> operators``
     The model's operators from the first k_v, k_rho modes of a POD basis
@@ -16,7 +16,9 @@ outputs, error bounds).
     model's ``build_defaults``); any other is a ValueError naming it.
 ``model.run(ops, problem, *, dt, n_steps, sample_steps=None, every=1, force=None, state=None,
 initial_state_scale=1.0, bound=None, progress=False, options=None, port_forces=None, area=1.0) -> ReducedResult``
-    The arguments every model shares: from t = 0 to ``n_steps * dt`` [s],
+    The one way to run any reduced model: ``get_model(name).run(ops, problem,
+    ..., options=get_model(name).options(...))``.  The arguments every model
+    shares: from t = 0 to ``n_steps * dt`` [s],
     sampled at ``sample_steps`` (default every ``every`` steps and the last);
     ``force`` f(t) [m s^-2] (default the scene's); ``state`` the initial reduced
     state z (default the operators' ``z0``); ``initial_state_scale`` multiplies
@@ -261,14 +263,6 @@ class ReducedModel:
         elif port_forces is not None:
             raise ValueError(f"port_forces: the {self.name} model takes no port forces")
         return self.solver(ops, problem, **shared)
-
-    def run_keywords(self, ops, problem, **keywords):
-        """:meth:`run` with the options given as keywords among the shared arguments (the earlier form of a
-        run, :func:`sphrom.rom.registry.run_model`); ValueError naming a keyword that is neither."""
-        shared = [p.name for p in inspect.signature(ReducedModel.run).parameters.values()
-                  if p.kind is inspect.Parameter.KEYWORD_ONLY and p.name != "options"]
-        own = {k: keywords.pop(k) for k in list(keywords) if k not in shared}
-        return self.run(ops, problem, options=self.options(**own), **keywords)
 
     def _check_names(self, given, allowed, what):
         for name in given:

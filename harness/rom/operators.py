@@ -22,12 +22,16 @@ independent of N, and is exact.  Pairs are ordered a = 0..k_ρ-1, b = a..k_ρ-1.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..sph.ports import port_accelerations, port_velocity_rows
 from ..sph.solver import SPHProblem
+from . import inputs
+from .inputs import augment_channels, band, bar_modes, rigid_modes
 from .model import basis_modes
 from .probes import probe_rows  # noqa: F401  (its earlier home: callers import it from here)
 from .protocol import Operators, two_blocks
@@ -136,9 +140,9 @@ class ReducedOperators(Operators):
     inner: str = "euclid"
     rest_added: int = 0
 
-    def port_velocity(self, a_v):
-        """v_port = Cp a^v [m s^-1], (M, P) from coordinates (M, k_v) (:mod:`sphrom.sph.ports`)."""
-        return np.atleast_2d(a_v) @ self.Cp.T
+    @property
+    def has_force_input(self):
+        return self.p is not None
 
     @property
     def k_v(self):
@@ -179,6 +183,24 @@ class ReducedOperators(Operators):
         """The specific-volume strain ρ0/ρ − 1 in its linearisation 1 − ρ/ρ0 (eq. 2.17) at the particles,
         (M, N) from coordinates (M, k_rho): finite for any reconstructed ρ (the blow-up check's energy)."""
         return 1.0 - self.density(a_rho) * self.inv_rho0
+
+    def with_every_term(self):
+        """The same operators with a zero damping matrix where they have none and a zero force row: the loops then
+        evaluate every term, for the same numbers (what skipping the absent terms saves,
+        :mod:`sphrom.measure.skip`)."""
+        D = self.D if self.D is not None else np.zeros((self.k_v, self.k_v))
+        return dataclasses.replace(self, D=D, p=np.zeros(self.k_v))
+
+    def basis_file_group(self):
+        """The ``operators`` group of a basis file (``extra`` of :func:`sphrom.pod.io.write_basis`): K, b, D, p,
+        a_v0, a_rho0, the appended input mode when the force direction was appended, and the mode counts, input
+        error and offline time as attributes."""
+        group = {"K": self.K, "b": self.b, "D": self.D, "p": self.p, "a_v0": self.a_v0, "a_rho0": self.a_rho0,
+                 "attrs": {"k_v": self.k_v, "k_rho": self.k_rho, "augmented": int(self.augmented),
+                           "input_error": self.input_error, "offline_time.operators": self.timings["operators"]}}
+        if self.augmented:
+            group["input_mode"] = self.U_v[:, -1]
+        return group
 
 
 def input_mode(input_direction, has_force, input_tolerance=None):
@@ -350,7 +372,6 @@ def port_directions(problem, ports, levels=PORT_KRYLOV_LEVELS):
     the port's profile itself; each further level follows ė = G v, ρ0 v̇ = G (c e) (eqs. 2.10-2.11 in the
     specific volume, eq. A.9).
     """
-    from ..sph.ports import port_accelerations
     G = problem.neighbours.matrix()
     out = []
     for b in port_accelerations(problem, ports):
@@ -383,8 +404,6 @@ def augment_ports(problem, U_v, U_2, ports, *, energy=False, levels=PORT_KRYLOV_
         U, error, added = augment_with(s[:, None] * U, s * d, tol=ROUNDOFF_TOLERANCE)
         return U / s[:, None], error, added
 
-    from ..sph.ports import port_accelerations
-    from .inputs import augment_channels, band
     n_v, n_2, errors = U_v.shape[1], U_2.shape[1], []
     w_top = band(problem, U_v)[1]                    # the band of the modes, before the port columns
     for vs, es in port_directions(problem, ports, levels):
@@ -409,7 +428,6 @@ def rigid_profile(problem):
     constant), and appending it raised the held-out probe-velocity error from at most 1.12x to 1.66x that of a
     model trained at the point (measured once by ``python -m sphrom.bench.parametric --input-direction
     moments`` before this rule; with the rule that command gives the "project" model's figures again)."""
-    from .inputs import rigid_modes
     profile = np.asarray(problem.profile, float)
     norm = float(np.linalg.norm(profile))
     if norm == 0:
@@ -430,7 +448,6 @@ def profile_moments(problem, U_v, U_2, wanted, *, energy, tol, modes=None):
     already solved for."""
     if not wanted:
         return U_v, U_2, 0, 0
-    from . import inputs
     return inputs.augment_channels(problem, U_v, U_2, [problem.profile], energy=energy,
                                    tol=max(inputs.INPUT_TOL, tol), modes=modes)
 
@@ -441,14 +458,12 @@ def shared_modes(problem, profile_wanted, ports, moments):
     them)."""
     if not (profile_wanted and len(ports) and moments):
         return None
-    from .inputs import bar_modes
     return bar_modes(problem)
 
 
 def port_rows(problem, U_v, ports, port_added, port_errors, port_added_2=0, V=None):
     """The port fields of :class:`ReducedOperators`: Bp = (Vᵀ W/ρ0)ᵀ (area 1; V the test functions, default U^v)
     and Cp = (W Δx) U^v."""
-    from ..sph.ports import port_accelerations, port_velocity_rows
     if not len(ports):
         return {}
     V = U_v if V is None else V

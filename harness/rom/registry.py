@@ -52,20 +52,3 @@ def pod_model_names(**properties):
 def fmu_model_names():
     """The models that can be packaged as an FMU (``fmu_kind`` set)."""
     return tuple(name for name, m in MODELS.items() if m.fmu_kind is not None)
-
-
-def build_model(name, problem, basis, k_v, k_rho, **options):
-    """``get_model(name).build(problem, basis, k_v, k_rho, **options)`` (:mod:`sphrom.rom.model`)."""
-    return get_model(name).build(problem, basis, k_v, k_rho, **options)
-
-
-def run_model(name, operators, problem, **keywords):
-    """Run the model ``name`` with its options given as keywords among the shared arguments -> ReducedResult
-    (:meth:`sphrom.rom.model.ReducedModel.run_keywords`): ``run_model("frozen", ops, problem, dt=dt,
-    n_steps=n, n_freeze=5)``; an option of another model is a ValueError naming it."""
-    return get_model(name).run_keywords(operators, problem, **keywords)
-
-
-def truncate_model(name, problem, operators, k_v, k_rho):
-    """``get_model(name).truncate(problem, operators, k_v, k_rho)`` (:mod:`sphrom.rom.model`)."""
-    return get_model(name).truncate(problem, operators, k_v, k_rho)

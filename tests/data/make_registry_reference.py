@@ -49,9 +49,9 @@ RUNS = [
 
 
 def main(out=ROOT / "tests" / "data" / "registry_reference.npz"):
-    from sphrom.rom.common import run_reduced
     from sphrom.rom.exact_linear import build_linear_operators, run_exact
     from sphrom.rom.operators import build_operators
+    from sphrom.rom.registry import get_model
 
     arrays = {}
     for tag, scene in scenes():
@@ -79,7 +79,8 @@ def main(out=ROOT / "tests" / "data" / "registry_reference.npz"):
                 a_v, a_rho = res.z[:, :lin.k_v], res.z[:, lin.k_v:]
             else:
                 o = aug if label == "frozen-augmented" else ops
-                res = run_reduced(model, o, problem, n_steps=n, dt=scene.sph.dt, sample_steps=steps, **opts)
+                spec = get_model(model)
+                res = spec.run(o, problem, n_steps=n, dt=scene.sph.dt, sample_steps=steps, options=spec.options(**opts))
                 a_v, a_rho = res.a_v, res.a_rho
             arrays[f"{tag}/{label}/a_v"] = a_v
             arrays[f"{tag}/{label}/a_rho"] = a_rho

@@ -253,7 +253,7 @@ def _frozen_resource(scene, model, k, n_freeze, probes, integrator, progress, pr
                                                               else "tensor")
     data.sections.update(training_envelope(scene, ops, problem, probes, False, progress, run=run).sections())
     if error_bounds:
-        shadow_step(data, problem, probes, ports)
+        shadow_step(data, ops, problem, probes)
     return data, ops, pack(data)
 
 
@@ -277,7 +277,7 @@ def _linear_resource(scene, model, k, n_freeze, probes, integrator, progress, pr
                                             order_tolerance=order_tolerance,
                                             problem=problem, model=model, build_options=build_options, ports=ports)
     if error_bounds:
-        shadow_step(data, problem, probes, ports)
+        shadow_step(data, ops, problem, probes)
     if not bounds:
         return data, ops, pack_exact(data)
     data.bounds = linear_bounds(ops, problem, probes, progress=progress)
@@ -285,18 +285,19 @@ def _linear_resource(scene, model, k, n_freeze, probes, integrator, progress, pr
     return data, ops, pack_exact(data)
 
 
-def shadow_step(data, problem, probes, ports=(), parametric=False):
-    """The certified error bounds' shadow of every output into ``data.sections`` (SH*, :mod:`sphrom.rom.bounds`;
+def shadow_step(data, ops, problem, probes, parametric=False):
+    """The certified error bounds' shadow of every output of the model ``ops`` (its probes and ports, the
+    operators' ``bound_shadow``) into ``data.sections`` (SH*, :mod:`sphrom.rom.bounds`;
     the FMU's outputs ``*_error_bound`` and parameter ``error_tolerance``), its default tolerance from the training
     run's largest |v_probe| (section ENVPROBE; without it the initial state's); nothing where the C core cannot
     certify (more than FMU_MAX_PARTICLES particles, a parametric model whose d is not uniform).  A damping d that
     is not uniform gives one dense block (sections SHDENSE, SHEGRAM).  ``parametric``: the shadow of a parametric
     FMU (its planes in pieces of c and d, sections SHPIECE and SHPARAM; the C core assembles them at the FMU's c
     and d)."""
-    from ...rom.bounds import fmu_shadow, sections
+    from ...rom.bounds import sections
     envelope = data.sections.get("ENVPROBE")
     scale_v = float(np.max(envelope[1])) if envelope is not None else None
-    shadow = fmu_shadow(problem, probes, tuple(ports or ()), parametric=parametric, scale_v=scale_v)
+    shadow = ops.bound_shadow(problem, probes, parametric=parametric, scale_v=scale_v)
     if shadow is not None:
         data.sections.update(sections(shadow))
 

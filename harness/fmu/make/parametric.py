@@ -121,7 +121,7 @@ def parametric_resource(scene, model, k, n_freeze, probes, integrator, progress,
         sections.update(parametric_envelope(scene, space, lin, probes, True, progress).sections())
         data.sections.update(sections)
         if error_bounds:
-            shadow_step(data, problem, probes, parametric=True)
+            shadow_step(data, lin, problem, probes, parametric=True)
         return data, lin, pack_exact(data), space
     ops = par.frozen_at(affine, c0, d0)
     data = model_data(ops, problem, dt=scene.sph.dt, integrator=integrator, n_freeze=n_freeze, probes=probes,
@@ -132,5 +132,5 @@ def parametric_resource(scene, model, k, n_freeze, probes, integrator, progress,
     sections.update(parametric_envelope(scene, space, ops, probes, False, progress).sections())
     data.sections.update(sections)
     if error_bounds:
-        shadow_step(data, problem, probes, parametric=True)
+        shadow_step(data, ops, problem, probes, parametric=True)
     return data, ops, pack(data), space
