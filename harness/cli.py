@@ -155,7 +155,7 @@ def _run(parser, args):
     try:
         return int(args.handler(args) or 0)
     except FieldError as exc:                    # the library names the field; show the option that set it
-        from .commands.options import option_message
+        from .options import option_message
         print(f"sphrom {args.command}: error: {option_message(parser.commands[args.command], exc)}",
               file=sys.stderr)
         return exc.exit_code

@@ -227,7 +227,7 @@ def main(argv=None):
     from ..runio import atomic_path
     from ..scene import load_scene
 
-    from ..commands.options import int_at_least, int_list
+    from ..options import int_at_least, int_list
     from . import program_parser
     p = program_parser("scale", description=__doc__.split("\n\n")[0])
     p.add_argument("--scenes", default="tenmode,damped_forced", help="uniform scenes, comma-separated (default "

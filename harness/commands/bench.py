@@ -7,7 +7,7 @@ program's name is a program (no built-in scene has one: tests/test_bench_program
 scene file named like a program is given as a path, ./NAME.toml).
 """
 
-from .options import MAX_REPEATS, add_quiet, int_in, int_list, min_particles
+from ..options import MAX_REPEATS, add_quiet, int_in, int_list, min_particles
 
 
 def add_parser(sub):

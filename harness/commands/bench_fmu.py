@@ -1,6 +1,6 @@
 """``sphrom bench-fmu``: ns per internal step of the C core, and the FMU end to end beside the full SPH."""
 
-from .options import MAX_REPEATS, add_quiet, add_scene, float_list, int_in, int_list, max_particles
+from ..options import MAX_REPEATS, add_quiet, add_scene, float_list, int_in, int_list, max_particles
 
 
 def _min_particles():

@@ -1,6 +1,6 @@
 """``sphrom bench-sph``: µs per step of the full SPH model against N."""
 
-from .options import MAX_REPEATS, add_quiet, add_scene, choice_list, int_in, int_list, min_particles
+from ..options import MAX_REPEATS, add_quiet, add_scene, choice_list, int_in, int_list, min_particles
 
 INTEGRATORS = ("euler", "symplectic", "rk4")
 

@@ -1,6 +1,6 @@
 """``sphrom modes``: the mode sweeps of the paper (singular values, error against k)."""
 
-from .options import add_n_freeze, add_quiet, choice_list, int_at_least
+from ..options import add_n_freeze, add_quiet, choice_list, int_at_least
 from .snapshot_options import add_snapshot_options
 
 

@@ -3,7 +3,7 @@
 import sys
 
 from .. import defaults
-from .options import (LazyChoices, LazyHelp, add_n_freeze, add_order_tolerance, add_quiet, add_scene, modes_pair,
+from ..options import (LazyChoices, LazyHelp, add_n_freeze, add_order_tolerance, add_quiet, add_scene, modes_pair,
                       positive_float)
 
 B_CHOICES = ("paper", "rest")    # the frozen model's b (sphrom.rom.operators.B_FORMS)

@@ -1,6 +1,6 @@
 """``sphrom stress``: numerical-stability maps of every method."""
 
-from .options import add_quiet, float_list, int_list
+from ..options import add_quiet, float_list, int_list
 
 
 def add_parser(sub):
