@@ -207,7 +207,7 @@ def main(argv=None):
     p.add_argument("--report", default="BENCHMARKS.md", metavar="FILE.md")
     p.add_argument("--quiet", action="store_true")
     args = p.parse_args(argv)
-    from ..report.markdown import write_text
+    from ..markdown import write_text
     from ..measure.markdown import replace_section
     result = run(args.out, args.scenes, args.scales, progress=not args.quiet)
     lines = envelope_section(result, image_dir=str(Path(args.out).parent))

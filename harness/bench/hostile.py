@@ -686,8 +686,8 @@ def write_results(out: Path, results, wall, seed, command="python3 -m sphrom.ben
 
 def write_readme(out, results, table, total, wall, seed, command):
     """README.md beside the CSV files: what the battery does, its counts and every case off target."""
-    from ..report.markdown import table as md_table
-    from ..report.markdown import write_text
+    from ..markdown import table as md_table
+    from ..markdown import write_text
     lines = ["# Hostile-input battery", "",
              f"Written by `{command}` (seed {seed}, {len(results)} cases, {wall / 60:.0f} min on the machine "
              "that ran it); every case and its outcome: `hostile.csv`.  What each outcome means: the docstring of "

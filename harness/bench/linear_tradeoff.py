@@ -159,7 +159,7 @@ def write_section(path, text):
     else:
         new_lines = lines + ([""] if lines else []) + body
     new = "\n".join(new_lines) + "\n"
-    from ..report.markdown import write_text
+    from ..markdown import write_text
     write_text(path, new if new.endswith("\n") else new + "\n")
 
 

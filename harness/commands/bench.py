@@ -72,7 +72,7 @@ def run(args):
     from ..measure.markdown import report
     from ..measure.suite import DEFAULT_SCENES, replot, run_benchmarks
     from ..errors import UserError
-    from ..report.markdown import write_text
+    from ..markdown import write_text
     from ..runio import check_output_dir, check_output_path, output_dir
     from ..scene import load_scene
 

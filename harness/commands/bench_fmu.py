@@ -36,7 +36,7 @@ def run(args):
     from ..measure.fmu import benched_fmu_models, core_rows, end_to_end, write_fmu_csv
     from ..measure.markdown import fmu_tables
     from ..progress import progress_bar
-    from ..report.markdown import write_text
+    from ..markdown import write_text
     from ..rom.registry import fmu_model_names, get_model
     from ..scene import load_scene
 

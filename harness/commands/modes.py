@@ -30,7 +30,7 @@ def _write_csv(path, sweep):
     import csv
     import io
 
-    from ..report.markdown import write_text
+    from ..markdown import write_text
     fh = io.StringIO(newline="")
     w = csv.writer(fh)
     w.writerow(["k", "model", "err_v", "err_rho", "err_rho_var", "online_s"])
@@ -126,7 +126,7 @@ def _run_all(args, out, models, scenes):
         r = snapshot_study(scene, study, base, sweep_fn)
         lines.append(f"| {scene.name} | {r['figure']} | {r['snapshots']} | {r['paper']} | {r['ours']} | {r['detail']} |")
         print(f"  study {scene.name} {r['snapshots']}: paper {r['paper']}, ours {r['ours']} ({r['detail']})")
-    from ..report.markdown import write_text
+    from ..markdown import write_text
     write_text(out / "summary.md", "\n".join(lines) + "\n")
     print(f"wrote {out / 'summary.md'}")
     return 0

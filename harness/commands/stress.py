@@ -31,7 +31,7 @@ def run(args):
 
     from ..measure.stress_maps import stress_report
     from ..measure.stress_settings import DEFAULT_SCENES, DT_FACTORS, QUICK_DT_FACTORS
-    from ..report.markdown import write_text
+    from ..markdown import write_text
     from ..runio import check_output_dir, output_dir
     from ..scene import load_scene
 

@@ -511,7 +511,7 @@ def update_report(path, sections):
     """Replace (or insert) the sections {heading: lines} of the Markdown report at ``path`` (atomically)."""
     from pathlib import Path
 
-    from ..report.markdown import write_text
+    from ..markdown import write_text
     report = Path(path)
     text = report.read_text() if report.exists() else "# Benchmarks\n"
     for heading, lines in sections.items():

@@ -137,7 +137,7 @@ def run_benchmarks(scenes, out, *, ks=None, repeats=5, sizes=SIZES, ks_scaling=K
         from .stress_maps import stress_maps
         from .stress_settings import AMPLITUDES, DT_FACTORS, HORIZONS, MODE_COUNTS
         from .stress_settings import DEFAULT_SCENES as STRESS_SCENES
-        from ..report.markdown import write_text
+        from ..markdown import write_text
         stress_command = "sphrom bench --report (the stress maps of sphrom stress)"
         maps = stress_maps([load_scene(s) for s in STRESS_SCENES], list(AMPLITUDES), list(HORIZONS),
                            list(MODE_COUNTS), DT_FACTORS, out / "stress", fmu=fmu, progress=progress)
