@@ -1,4 +1,4 @@
-"""The BENCHMARKS.md writer (sphrom.measure.markdown): each section on small inputs is well-formed Markdown, and the
+"""The BENCHMARKS.md writer (sphrom.bench.lib.document): each section on small inputs is well-formed Markdown, and the
 assembled document has the sections of the committed BENCHMARKS.md in its order."""
 
 import math
@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from sphrom.measure import markdown as rp
-from sphrom.measure.stress_maps import StressMaps
-from sphrom.measure.suite import BenchResults
+from sphrom.bench.lib import document as rp
+from sphrom.bench.lib.stress_maps import StressMaps
+from sphrom.bench.suite import BenchResults
 
 ROOT = Path(__file__).resolve().parents[1]
 NAN = float("nan")

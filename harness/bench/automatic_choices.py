@@ -52,7 +52,7 @@ def main(argv=None):
         print(f"| {r['scene']} | {r['period_s']:.4g} | {r['every']} ({r['file_every']}) | {r['snapshots']} "
               f"({r['file_snapshots']}) | {r['k']} ({r['file_modes']}; {r['paper_threshold'] or '-'}) |")
     if args.out:
-        from ..measure.tables import write_csv
+        from .lib.tables import write_csv
         write_csv(args.out, rows, COLUMNS)
         print(f"wrote {args.out}")
     return 0

@@ -35,7 +35,7 @@ from ..norms import relative_l2
 from ..progress import progress_bar
 from ..rom.balanced import balancing, error_bounds, reduced_from_exact, truncate
 from ..rom.lti import input_norm, output_energy, sample_outputs
-from ..measure.linear_scenes import setup
+from .lib.linear_scenes import setup
 
 SECTIONS = ("headline", "orders", "forces", "cost")
 FORCE_STEP = 1e-3        # the scene's force: samples every 1 ms, linear between them [s]

@@ -48,7 +48,7 @@ def measure(scene_name="tenmode", models=("frozen", "exact", "balanced"), force=
 
 
 def main(argv=None):
-    from ..measure.tables import write_csv
+    from .lib.tables import write_csv
     from . import program_parser
     p = program_parser("cosim_fmi", description=__doc__.split("\n\n")[0])
     p.add_argument("scene", nargs="?", default="tenmode")

@@ -171,7 +171,7 @@ def run(out, scenes=SCENES, scales=SCALES, progress=True):
     {"rows", "training", "command"} for the report (:func:`sphrom.measure.markdown.envelope_section`)."""
     from ..runio import atomic_path
     from ..scene import builtin_names
-    from ..measure.tables import write_csv
+    from .lib.tables import write_csv
     out = Path(out)
     rows = [r for s in scenes for r in measure(s, scales, progress=progress)]
     write_csv(out, rows)
@@ -198,7 +198,7 @@ def _scales(text):
 
 
 def main(argv=None):
-    from ..measure.markdown import envelope_section
+    from .lib.document import envelope_section
     from . import program_parser
     p = program_parser("envelope", description=__doc__.split("\n\n")[0])
     p.add_argument("scenes", nargs="*", default=list(SCENES), metavar="SCENE")
@@ -208,7 +208,7 @@ def main(argv=None):
     p.add_argument("--quiet", action="store_true")
     args = p.parse_args(argv)
     from ..markdown import write_text
-    from ..measure.markdown import replace_section
+    from .lib.document import replace_section
     result = run(args.out, args.scenes, args.scales, progress=not args.quiet)
     lines = envelope_section(result, image_dir=str(Path(args.out).parent))
     print("\n".join(lines))

@@ -6,7 +6,7 @@ defaults, without the a priori bounds) for each model and drives it over the sce
 communication steps, inputs held, from rest and from the scene's initial state, in four cases no basis saw
 (:func:`cases`): slow port forces (2e-3 sin 1.3t N at port 1, 1e-3 cos 3.1t + 5e-4·[t > T/2] N at port 2), a
 constant 1e-3 N at port 1, port 1 coupled to a mass-spring (0.05 kg, 5 N/m, stretched 1 mm at t = 0; the spring
-force at the start of a step held over it, :mod:`sphrom.measure.ports`), and f = 2e-3 m s^-2 with the slow
+force at the start of a step held over it, :mod:`sphrom.bench.lib.ports`), and f = 2e-3 m s^-2 with the slow
 port forces.  The truth is the full SPH of eqs. 2.10-2.11 as the linear system in J with the port forces
 (:func:`sphrom.rom.reference.linear_reference`), advanced exactly in time with the very inputs the FMU received
 (the coupled case's port forces as the FMU read them), independent of the reduced models and of the bounds.
@@ -47,7 +47,7 @@ def run_fmu(path, t, scale, f, F):
     """(outputs (M, n), names, the port forces applied (M, 2) [N]) of the FMU at ``path`` driven over ``t``;
     ``F`` None: port 1 coupled to the mass-spring, port 2 free."""
     from ..fmu.run.driver import FMU
-    from ..measure.ports import S0, STIFFNESS, mass_spring_step
+    from .lib.ports import S0, STIFFNESS, mass_spring_step
     applied = np.zeros((t.size, len(PORTS)))
     with FMU(path) as fmu:
         names = fmu.outputs
@@ -162,8 +162,8 @@ def section(rows, *, command, wall, machine):
 
 
 def main(argv=None):
-    from ..measure.markdown import update_report
-    from ..measure.tables import write_csv
+    from .lib.document import update_report
+    from .lib.tables import write_csv
     from ..scene import builtin_names
     from ..parser import fmu_models
     from . import machine_text, program_command, program_parser

@@ -174,7 +174,7 @@ def core_figures(checkout, cache, repeats):
 
 def measure(before=None, repeats=5, cold=True, progress=True, workdir=None):
     """Every row of the module docstring: {"commands": [...], "core": {"after": ..., "before": ...}}."""
-    from ..measure.timing import cpu_model, load_average
+    from .lib.timing import cpu_model, load_average
     from ..progress import progress_bar
     checkouts = {"after": HERE, **({"before": Path(before).resolve()} if before else {})}
     py = sys.executable
@@ -285,7 +285,7 @@ def section(result, command):
 
 
 def main(argv=None):
-    from ..measure.markdown import update_report
+    from .lib.document import update_report
     from . import program_parser
     p = program_parser("fast", description=__doc__.split("\n\n")[0])
     p.add_argument("--before", metavar="CHECKOUT", help="another checkout of sphrom, timed in turn with this one")

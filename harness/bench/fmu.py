@@ -1,7 +1,7 @@
 """The FMU section of BENCHMARKS.md alone: ``python -m sphrom.bench.fmu`` / ``sphrom bench fmu``.
 
 ``[--scene S] [--repeats R] [--out FOLDER] [--report BENCHMARKS.md]``: the FMU measurements of ``sphrom bench``
-(:func:`sphrom.measure.fmu.fmu_measurements`: the C core against N, end to end through the FMU driver, the
+(:func:`sphrom.bench.lib.fmu.fmu_measurements`: the C core against N, end to end through the FMU driver, the
 same-language ratio); replaces the report's "Headline" and "The FMU" sections (the figures of the rest of
 ``sphrom bench`` do not depend on the FMU) and writes fmu_core.csv, fmu_e2e.csv.
 """
@@ -15,8 +15,8 @@ def main(argv=None):
     import time
     from pathlib import Path
 
-    from ..measure.fmu import fmu_measurements, write_fmu_csv
-    from ..measure.markdown import fmu_section, headline_section, update_report
+    from .lib.fmu import fmu_measurements, write_fmu_csv
+    from .lib.document import fmu_section, headline_section, update_report
     from . import program_parser
 
     p = program_parser("fmu", description=__doc__.split("\n\n")[0])
@@ -26,7 +26,7 @@ def main(argv=None):
     p.add_argument("--report", default="BENCHMARKS.md", metavar="FILE.md")
     p.add_argument("--quiet", action="store_true")
     args = p.parse_args(argv)
-    from ..measure.timing import cpu_model, load_average
+    from .lib.timing import cpu_model, load_average
     load_start = load_average()
     t0 = time.perf_counter()
     fmu = fmu_measurements(args.scene, repeats=args.repeats, progress=not args.quiet)

@@ -35,7 +35,7 @@ def measure_scene(name, models, repeats, folder, fmi=2, progress=True, bounds=Tr
     from ..fmu.check.verify import fmu_features, fmu_run, sph_reference
     from ..scene import load_scene
     from ..sph.solver import build_problem
-    from ..measure.timing import median_times_interleaved
+    from .lib.timing import median_times_interleaved
 
     scene = load_scene(name)
     problem = build_problem(scene)
@@ -80,11 +80,11 @@ def measure_scene(name, models, repeats, folder, fmi=2, progress=True, bounds=Tr
 
 
 def main(argv=None):
-    from ..measure.markdown import update_report
+    from .lib.document import update_report
     from ..rom.registry import fmu_model_names
     from ..scene import builtin_names
-    from ..measure.markdown import packaged_fmu_section
-    from ..measure.tables import write_csv
+    from .lib.document import packaged_fmu_section
+    from .lib.tables import write_csv
 
     from . import program_parser
     p = program_parser("fmu_verify", description=__doc__.split("\n\n")[0])

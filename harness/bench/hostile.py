@@ -667,7 +667,7 @@ def counts(results):
 
 
 def write_results(out: Path, results, wall, seed, command="python3 -m sphrom.bench.hostile"):
-    from ..measure.tables import write_csv
+    from .lib.tables import write_csv
     out.mkdir(parents=True, exist_ok=True)
     rows = [{"category": r.case.category, "command": r.case.command, "args": " ".join(r.case.args)[:400],
              "case": r.case.note, "signal": signal.Signals(r.case.signal).name if r.case.signal else "",

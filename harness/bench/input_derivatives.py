@@ -100,7 +100,7 @@ def main(argv=None):
     p.add_argument("--model", choices=MODELS, action="append",
                    help="measure this model's FMU (repeat for several; default both)")
     args = p.parse_args(argv)
-    from ..measure.tables import write_csv
+    from .lib.tables import write_csv
     models = tuple(args.model or MODELS)
     rows = measure(args.scene, models=models)
     out = Path(args.out) / "input_derivatives.csv"

@@ -39,7 +39,7 @@ STRESS_TITLE = "## Stability stress maps"
 def _scenes(name):
     """(training scene, unseen-force scene) of NAME or NAME@shaped (the shaped force profile)."""
     from ..scene import derive_scene
-    from ..measure.linear_scenes import setup
+    from .lib.linear_scenes import setup
     scene, _, _ = setup(name)
     return scene, derive_scene(scene, {"force": {"f": UNSEEN_FORCE}})
 
@@ -59,7 +59,7 @@ def measure_scene(name, orders=ORDERS, repeats=3, progress=None):
     from ..rom.registry import get_model
     from ..rom.result import probe_values
     from ..sph.solver import build_problem, step_count
-    from ..measure.timing import median_time
+    from .lib.timing import median_time
 
     scene, unseen = _scenes(name)
     problem = build_problem(scene)
@@ -165,7 +165,7 @@ def write_section(path, text):
 
 def main(argv=None):
     from ..progress import progress_bar
-    from ..measure.markdown import linear_tradeoff_section
+    from .lib.document import linear_tradeoff_section
     from . import program_parser
     p = program_parser("linear_tradeoff", description=__doc__.split("\n")[0])
     p.add_argument("--scenes", default=",".join(DEFAULT_SCENES), help="NAME[@shaped],... (default %(default)s)")

@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..measure.ports import MASS, PORTS, S0, STIFFNESS, mass_spring_step, open_loop_forces, rel
+from .lib.ports import MASS, PORTS, S0, STIFFNESS, mass_spring_step, open_loop_forces, rel
 
 
 def fmu_loop(path, scene, h, n, *, coupled, forced=True):

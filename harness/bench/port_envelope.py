@@ -58,7 +58,7 @@ def measure(scene_name="damped_forced", scales=SCALES, t_end=1.0, h=1e-3, k=12, 
     from ..scene import load_scene
     from ..sph.ports import run_sph_ports
     from ..sph.solver import build_problem
-    from ..measure.ports import PORTS, open_loop_forces, rel
+    from .lib.ports import PORTS, open_loop_forces, rel
 
     scene = load_scene(scene_name)
     problem = build_problem(scene)
@@ -96,7 +96,7 @@ def markdown(rows):
 
 
 def main(argv=None):
-    from ..measure.tables import write_csv
+    from .lib.tables import write_csv
     from . import program_parser
     p = program_parser("port_envelope", description=__doc__.split("\n\n")[0])
     p.add_argument("--out", default="validation/benchmarks", metavar="FOLDER")

@@ -49,7 +49,7 @@ def measure(scene_name="damped_forced", steps=STEPS, t_end=T_END, k=12, progress
     from ..fmu.resources import unpack
     from ..progress import progress_bar
     from ..scene import load_scene
-    from ..measure.ports import PORTS, open_loop_forces
+    from .lib.ports import PORTS, open_loop_forces
 
     scene = load_scene(scene_name)
     with tempfile.TemporaryDirectory() as tmp:
@@ -95,7 +95,7 @@ def markdown(rows):
 
 
 def main(argv=None):
-    from ..measure.tables import write_csv
+    from .lib.tables import write_csv
     from . import program_parser
     p = program_parser("port_rates", description=__doc__.split("\n\n")[0])
     p.add_argument("--out", default="validation/benchmarks", metavar="FOLDER")

@@ -78,7 +78,7 @@ def markdown(rows):
 
 
 def main(argv=None):
-    from ..measure.tables import write_csv
+    from .lib.tables import write_csv
     from . import program_parser
     p = program_parser("reduced_stability", description=__doc__.split("\n\n")[0])
     p.add_argument("scenes", nargs="*", metavar="SCENE", help=f"default: {' '.join(SCENES)}")

@@ -143,8 +143,8 @@ def rerender(csv_path, report):
     import csv
     import re
 
-    from ..measure.markdown import split_sections
-    from ..measure.markdown import update_report
+    from .lib.document import split_sections
+    from .lib.document import update_report
     with open(csv_path, newline="") as fh:
         rows = list(csv.DictReader(fh))
     old = "\n".join(split_sections(report.read_text()).get(SECTION_HEADING, []))
@@ -159,8 +159,8 @@ def rerender(csv_path, report):
 def main(argv=None):
     from ..runio import atomic_path
     from ..scene import builtin_names
-    from ..measure.markdown import update_report
-    from ..measure.tables import write_csv
+    from .lib.document import update_report
+    from .lib.tables import write_csv
 
     from . import program_parser
     p = program_parser("rest", description=__doc__.split("\n\n")[0])

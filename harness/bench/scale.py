@@ -220,9 +220,9 @@ def plot(rows, path):
 
 
 def main(argv=None):
-    from ..measure.markdown import program_outputs, publish
-    from ..measure.tables import write_csv
-    from ..measure.timing import cpu_model, load_average
+    from .lib.document import program_outputs, publish
+    from .lib.tables import write_csv
+    from .lib.timing import cpu_model, load_average
     from ..progress import progress_bar
     from ..runio import atomic_path
     from ..scene import load_scene

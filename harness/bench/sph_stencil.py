@@ -98,7 +98,7 @@ def measure(scene, sizes, integrators, repeats, before=None, training=True, prog
     (M), us_per_step (median slope), us_min, us_max, repeats, and the per-repeat slopes ``slopes``.
     Raises RuntimeError when two solvers end one size's run in different bits.
     """
-    from ..measure.timing import cpu_model, load_average
+    from .lib.timing import cpu_model, load_average
     workers = {"after": Worker()}
     if before:
         workers["before"] = Worker(before)
@@ -305,8 +305,8 @@ def _checkout(text):
 def main(argv=None):
     from ..progress import progress_bar
     from ..runio import atomic_path
-    from ..measure.markdown import update_report
-    from ..measure.tables import write_csv
+    from .lib.document import update_report
+    from .lib.tables import write_csv
 
     from ..parser import positive_int
     from . import program_parser

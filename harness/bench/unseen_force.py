@@ -105,7 +105,7 @@ def measure(scene_name, models=None, folder=None):
 
 
 def main(argv=None):
-    from ..measure.tables import write_csv
+    from .lib.tables import write_csv
     from . import program_parser
     p = program_parser("unseen_force", description=__doc__.split("\n\n")[0])
     p.add_argument("scenes", nargs="*", default=["tenmode"], metavar="SCENE")

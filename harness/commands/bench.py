@@ -23,7 +23,7 @@ def add_parser(sub):
                                    "--repeats runs, speed-ups as ratios to the full SPH timed in the same run, offline "
                                    "and online time apart. Also the cost per step against N and the saving of the "
                                    "specialised right-hand sides. Writes CSV, PNG plots and a Markdown report.")
-    from ..measure.suite import KS_SCALING, SIZES, SPH_SIZES
+    from ..bench.suite import KS_SCALING, SIZES, SPH_SIZES
     p.add_argument("scenes", nargs="*", metavar="SCENE")
     p.add_argument("--repeats", type=int_in(1, MAX_REPEATS), default=5, help="timed runs per point (median; default 5)")
     p.add_argument("--modes", "--ks", dest="modes", type=int_list(lo=1), metavar="K,...",
@@ -69,8 +69,8 @@ def run(args):
     import os
     from pathlib import Path
 
-    from ..measure.markdown import report
-    from ..measure.suite import DEFAULT_SCENES, replot, run_benchmarks
+    from ..bench.lib.document import report
+    from ..bench.suite import DEFAULT_SCENES, replot, run_benchmarks
     from ..errors import UserError
     from ..markdown import write_text
     from ..runio import check_output_dir, check_output_path, output_dir

@@ -5,7 +5,7 @@ from ..options import MAX_REPEATS, add_quiet, add_scene, float_list, int_in, int
 
 def _min_particles():
     """Enough particles for the benchmark's k modes: 4 k."""
-    from ..measure.fmu import BENCH_K
+    from ..bench.lib.fmu import BENCH_K
     return 4 * BENCH_K
 
 
@@ -33,8 +33,8 @@ def add_parser(sub):
 
 def run(args):
 
-    from ..measure.fmu import benched_fmu_models, core_rows, end_to_end, write_fmu_csv
-    from ..measure.markdown import fmu_tables
+    from ..bench.lib.fmu import benched_fmu_models, core_rows, end_to_end, write_fmu_csv
+    from ..bench.lib.document import fmu_tables
     from ..progress import progress_bar
     from ..markdown import write_text
     from ..rom.registry import fmu_model_names, get_model

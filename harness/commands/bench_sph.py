@@ -33,9 +33,9 @@ def add_parser(sub):
 
 
 def run(args):
-    from ..measure.sph_scaling import growth_exponent, plot_scaling, scaling_table
-    from ..measure.tables import write_csv
-    from ..measure.timing import cpu_model, load_average
+    from ..bench.lib.sph_scaling import growth_exponent, plot_scaling, scaling_table
+    from ..bench.lib.tables import write_csv
+    from ..bench.lib.timing import cpu_model, load_average
     from ..progress import progress_bar
     from ..runio import check_output_dir, output_dir
     from ..scene import load_scene
@@ -62,8 +62,8 @@ def run(args):
             plot_scaling(rows, integrators, out / "sph_scaling.png", args.scene)
         print(f"wrote {out / 'sph_scaling.csv'} and {out / 'sph_scaling.png'}")
     if args.report:
-        from ..measure.markdown import update_report
-        from ..measure.markdown import SPH_STEP_HEADING, sph_step_section
+        from ..bench.lib.document import update_report
+        from ..bench.lib.document import SPH_STEP_HEADING, sph_step_section
         command = (f"sphrom bench-sph {args.scene} --n-particles {','.join(map(str, sizes))} --integrator "
                    f"{','.join(integrators)} --repeats {args.repeats} --layout {args.layout}"
                    + (f" --out {args.out}" if args.out else "") + f" --report {args.report}")

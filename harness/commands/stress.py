@@ -11,7 +11,7 @@ def add_parser(sub):
                                    "snapshots, and under large random forces; record stable / growing / unphysical / "
                                    "blow-up, the time of blow-up and the energy drift. Writes a heat-map PNG per scene, "
                                    "CSV files and stress.md.")
-    from ..measure.stress_settings import AMPLITUDES, HORIZONS, MODE_COUNTS
+    from ..bench.lib.stress_settings import AMPLITUDES, HORIZONS, MODE_COUNTS
     p.add_argument("scenes", nargs="*", metavar="SCENE")
     p.add_argument("--amplitudes", type=float_list(lo=0, lo_open=True, integral_as_int=True), metavar="A,...",
                    default=",".join(map(str, AMPLITUDES)), help="initial-amplitude factors (default %(default)s)")
@@ -29,8 +29,8 @@ def add_parser(sub):
 
 def run(args):
 
-    from ..measure.stress_maps import stress_report
-    from ..measure.stress_settings import DEFAULT_SCENES, DT_FACTORS, QUICK_DT_FACTORS
+    from ..bench.lib.stress_maps import stress_report
+    from ..bench.lib.stress_settings import DEFAULT_SCENES, DT_FACTORS, QUICK_DT_FACTORS
     from ..markdown import write_text
     from ..runio import check_output_dir, output_dir
     from ..scene import load_scene

@@ -2,7 +2,7 @@
 
 For each scene: every method (and the FMUs, when they can be built here) over
 Δt factors against amplitudes, long horizons, mode counts and random forces
-(:mod:`sphrom.measure.stress`, :mod:`sphrom.measure.stress_fmu`); a heat map per
+(:mod:`sphrom.bench.lib.stress`, :mod:`sphrom.bench.lib.stress_fmu`); a heat map per
 scene and four CSV files into the output folder.  The Markdown is
 :func:`sphrom.measure.markdown.stress_section`.
 """
@@ -39,7 +39,7 @@ def fmu_stress(fmu=True, log=print):
     if not fmu:
         return None
     try:
-        from ..fmu.make.build import ensure_binaries
+        from ...fmu.make.build import ensure_binaries
         from .stress_fmu import FMUStress
         ensure_binaries(quiet=True)
     except Exception as exc:               # no compiler or cmake: say so, keep the Python columns
@@ -81,7 +81,7 @@ def stress_maps(scenes, amplitudes, horizons, ks, dt_factors, out, fmu=True, pro
 
 
 def _measure(scenes, amps, horizons, ks, factors, out, fmu, progress):
-    from ..progress import progress_bar
+    from ...progress import progress_bar
     from . import stress as st
 
     extra = None
@@ -116,7 +116,7 @@ def stress_report(scenes, amps, horizons, ks, factors, out, no_fmu=False, quick=
     ``command`` is the command line quoted in the text (default the ``sphrom stress`` one); ``image_dir``
     the heat maps' folder as seen from the page ('' when the page sits in ``out``).
     """
-    from .markdown import stress_section
+    from .document import stress_section
     maps = stress_maps(scenes, amps, horizons, ks, factors, out, fmu=not no_fmu, progress=progress)
     command = command or (f"sphrom stress {' '.join(s.name for s in scenes)}" + (" --quick" if quick else ""))
     return "\n".join(stress_section(maps, command, image_dir, level=1)) + "\n", maps.wall

@@ -14,10 +14,10 @@ import time
 
 import numpy as np
 
-from ..scene import derive_scene, load_scene
-from ..sph import loops
-from ..errors import SimulationError
-from ..sph.solver import METHODS, build_problem, step_count
+from ...scene import derive_scene, load_scene
+from ...sph import loops
+from ...errors import SimulationError
+from ...sph.solver import METHODS, build_problem, step_count
 
 
 def chunks(steps, horizon):
@@ -119,6 +119,6 @@ def plot_scaling(rows, integrators, path, scene_name):
     ax.set_title(f"full SPH step, scene {scene_name}")
     ax.legend()
     fig.tight_layout()
-    from ..runio import save_figure
+    from ...runio import save_figure
     save_figure(fig, path, dpi=110)
     plt.close(fig)

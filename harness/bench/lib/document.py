@@ -1,7 +1,7 @@
 """The Markdown of BENCHMARKS.md (``sphrom bench --report``) and of the stress maps (``sphrom stress``).
 
 One function per section, each taking measured rows (plain dicts, as
-:mod:`sphrom.measure.suite` and :mod:`sphrom.measure.stress_maps` produce them)
+:mod:`sphrom.bench.suite` and :mod:`sphrom.bench.lib.stress_maps` produce them)
 and returning a list of Markdown lines that ends with a blank line;
 :func:`report` assembles them.  Nothing here measures or reads a file.
 
@@ -42,7 +42,7 @@ def intro_section(command, version, python, machine, wall, repeats):
 def headline_section(fmu):
     """The FMU's headline sentences (end to end at 10 ms, the same-language ratio, the core); [] without FMU.
 
-    ``fmu`` is the dict of :func:`sphrom.measure.fmu.fmu_measurements` (``e2e``, ``core``, ``same``).
+    ``fmu`` is the dict of :func:`sphrom.bench.lib.fmu.fmu_measurements` (``e2e``, ``core``, ``same``).
     """
     if not fmu:
         return []
@@ -128,7 +128,7 @@ def cost_k_section(scaling_k, ks, image):
 
 
 def skip_section(skips):
-    """What skipping absent terms saves (rows of :func:`sphrom.measure.skip.skip_savings`)."""
+    """What skipping absent terms saves (rows of :func:`sphrom.bench.lib.skip.skip_savings`)."""
     lines = ["## Skipping what a scene doesn't need", "",
              "The same loop on the same inputs with the scene's own terms (specialised) and with every term forced "
              "on (zero damping and force evaluated, per-particle arrays); the results are identical.", "",
@@ -164,7 +164,7 @@ def input_direction_section(directions, scene_names, tolerance):
 
 
 def sph_step_section(sph_steps, sizes, repeats, integrators=SPH_INTEGRATORS, produced=None, image=None):
-    """The full SPH step against N per integrator (rows of :func:`sphrom.measure.sph_scaling.scaling_table`);
+    """The full SPH step against N per integrator (rows of :func:`sphrom.bench.lib.sph_scaling.scaling_table`);
     ``produced``: a sentence naming the command, the machine and its load, ``image``: the plot's path from the
     report (``sphrom bench-sph --report``)."""
     from .sph_scaling import growth_exponent
@@ -187,8 +187,8 @@ def sph_step_section(sph_steps, sizes, repeats, integrators=SPH_INTEGRATORS, pro
 def fmu_tables(core, e2e, heading="##"):
     """The C core table and the end-to-end table (``sphrom bench-fmu``) as Markdown text.
 
-    ``core``: rows of :func:`sphrom.measure.fmu.core_rows`; ``e2e``: the dict of
-    :func:`sphrom.measure.fmu.end_to_end`, or None.
+    ``core``: rows of :func:`sphrom.bench.lib.fmu.core_rows`; ``e2e``: the dict of
+    :func:`sphrom.bench.lib.fmu.end_to_end`, or None.
     """
     lines = [f"{heading} C core: ns per internal step (k = %d, n_freeze = %d)" % (core[0]["k"], core[0]["n_freeze"]),
              "", "Each figure the slope between runs of M and 2M internal steps from the same start (M = "
@@ -256,7 +256,7 @@ def envelope_section(envelope, image_dir=""):
     amplitude and strain, the margin's headroom on the training runs; [] without it."""
     if not envelope:
         return []
-    from ..fmu.make.envelope import FAILURE_STRAIN, MARGIN
+    from ...fmu.make.envelope import FAILURE_STRAIN, MARGIN
     rows, d = envelope["rows"], image_dir.rstrip("/") + "/" if image_dir else ""
     scenes = list(dict.fromkeys(r["scene"] for r in rows))
     lines = ["## The training envelope of the frozen FMU", "",
@@ -292,7 +292,7 @@ def envelope_section(envelope, image_dir=""):
 
 
 def stress_section(maps, command, image_dir="", level=1):
-    """The stability stress maps (:class:`sphrom.measure.stress_maps.StressMaps`) as Markdown lines.
+    """The stability stress maps (:class:`sphrom.bench.lib.stress_maps.StressMaps`) as Markdown lines.
 
     ``level`` 1 gives a page of its own (``stress.md``), 2 the section of BENCHMARKS.md; ``image_dir`` is
     the heat maps' folder as seen from the page ('' when they sit beside it).
@@ -417,7 +417,7 @@ def split_sections(text):
 
 
 def report(results, image_dir, stress_image_dir=None, existing=None):
-    """BENCHMARKS.md from :class:`sphrom.measure.suite.BenchResults` (text ending in a newline).
+    """BENCHMARKS.md from :class:`sphrom.bench.suite.BenchResults` (text ending in a newline).
 
     ``image_dir`` is the folder of the PNG files as seen from the report; ``stress_image_dir`` that of the
     heat maps (default ``image_dir``/stress); ``existing`` the document being replaced, whose
@@ -511,7 +511,7 @@ def update_report(path, sections):
     """Replace (or insert) the sections {heading: lines} of the Markdown report at ``path`` (atomically)."""
     from pathlib import Path
 
-    from ..markdown import write_text
+    from ...markdown import write_text
     report = Path(path)
     text = report.read_text() if report.exists() else "# Benchmarks\n"
     for heading, lines in sections.items():

@@ -16,7 +16,7 @@ import platform
 import time
 from pathlib import Path
 
-from .tables import write_csv
+from .lib.tables import write_csv
 
 DEFAULT_SCENES = ("tenmode", "damped", "damped_forced", "heterogeneous", "mild_damped_forced")
 SIZES = (100, 400, 1600, 6400, 10000)          # N of the cost-against-N table
@@ -50,8 +50,8 @@ class BenchResults:
     input_tolerance: float
     sph_sizes: list
     sph_steps: list               # sph_scaling.csv
-    fmu: dict | None = None       # sphrom.measure.fmu.fmu_measurements, None without the FMU
-    stress: object = None         # sphrom.measure.stress_maps.StressMaps, None without the maps
+    fmu: dict | None = None       # sphrom.bench.lib.fmu.fmu_measurements, None without the FMU
+    stress: object = None         # sphrom.bench.lib.stress_maps.StressMaps, None without the maps
     stress_command: str = ""
     wall: float = 0.0             # [s]
     packaged: list | None = None  # rows of sphrom.bench.fmu_verify (python -m sphrom.bench.fmu_verify), or None
@@ -79,7 +79,7 @@ def run_benchmarks(scenes, out, *, ks=None, repeats=5, sizes=SIZES, ks_scaling=K
     fmu_scene : str
         Scene of the FMU's end-to-end table.
     stress : bool
-        Also the stress maps of :data:`sphrom.measure.stress_settings.DEFAULT_SCENES`.
+        Also the stress maps of :data:`sphrom.bench.lib.stress_settings.DEFAULT_SCENES`.
     progress : bool
         Progress bars.
 
@@ -91,18 +91,18 @@ def run_benchmarks(scenes, out, *, ks=None, repeats=5, sizes=SIZES, ks_scaling=K
     from ..progress import progress_bar
     from ..rom.operators import INPUT_TOLERANCE
     from ..scene import load_scene
-    from .input_direction import input_direction_rows
-    from .methods import bench_python, plot_time_error, savings_by_k
-    from .scaling import per_step_costs, plot_costs
-    from .skip import skip_savings
-    from .sph_scaling import scaling_table
+    from .lib.input_direction import input_direction_rows
+    from .lib.methods import bench_python, plot_time_error, savings_by_k
+    from .lib.scaling import per_step_costs, plot_costs
+    from .lib.skip import skip_savings
+    from .lib.sph_scaling import scaling_table
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
     extra = None
     if fmu:
-        from .fmu import bench_rows as extra
+        from .lib.fmu import bench_rows as extra
     all_rows, savings = [], []
     total = sum(1 + len(ks or s.rom.get("accel_modes", [1])) * 9 for s in scenes)
     with progress_bar(total=total, desc="bench", enabled=progress) as bar:
@@ -128,15 +128,15 @@ def run_benchmarks(scenes, out, *, ks=None, repeats=5, sizes=SIZES, ks_scaling=K
     write_csv(out / "sph_scaling.csv", sph_steps)
     fmu_results = None
     if fmu:
-        from .fmu import fmu_measurements, write_fmu_csv
+        from .lib.fmu import fmu_measurements, write_fmu_csv
         fmu_results = fmu_measurements(fmu_scene, repeats=max(5, repeats), progress=progress)
         write_fmu_csv(out, fmu_results["core"], fmu_results["e2e"], prefix="fmu_")
     maps, stress_command = None, ""
     if stress:
-        from .markdown import stress_section
-        from .stress_maps import stress_maps
-        from .stress_settings import AMPLITUDES, DT_FACTORS, HORIZONS, MODE_COUNTS
-        from .stress_settings import DEFAULT_SCENES as STRESS_SCENES
+        from .lib.document import stress_section
+        from .lib.stress_maps import stress_maps
+        from .lib.stress_settings import AMPLITUDES, DT_FACTORS, HORIZONS, MODE_COUNTS
+        from .lib.stress_settings import DEFAULT_SCENES as STRESS_SCENES
         from ..markdown import write_text
         stress_command = "sphrom bench --report (the stress maps of sphrom stress)"
         maps = stress_maps([load_scene(s) for s in STRESS_SCENES], list(AMPLITUDES), list(HORIZONS),
@@ -176,7 +176,7 @@ def replot(out):
 
     Returns the scene names redrawn.
     """
-    from .methods import plot_time_error
+    from .lib.methods import plot_time_error
     out = Path(out)
     rows = read_bench_csv(out / "bench.csv")
     scenes = list(dict.fromkeys(r["scene"] for r in rows))
