@@ -103,7 +103,7 @@ def _program_options(name, _cache={}):
         import io
         out = io.StringIO()
         with contextlib.redirect_stdout(out):
-            assert run_program(name, ["--help"], build_parser=build_parser) == 0
+            assert run_program(name, ["--help"]) == 0
         _cache[name] = set(re.findall(r"(?<![\w-])--[a-z][a-z-]*", out.getvalue()))
     return _cache[name]
 
@@ -142,7 +142,15 @@ def test_scene_is_positional_everywhere():
 
 
 def _sources(command):
-    return (ROOT / "harness" / "commands" / f"{COMMANDS[command]}.py").read_text()
+    """The source of what runs ``command``: its module in sphrom.commands and the code of its handler (a measurement
+    program for the aliases of programs; sphrom bench runs the program suite)."""
+    import inspect
+    from sphrom.bench import suite
+    paths = {ROOT / "harness" / "commands" / f"{COMMANDS[command]}.py",
+             Path(inspect.getsourcefile(_subparser(command).get_default("handler")))}
+    if command == "bench":
+        paths.add(Path(inspect.getsourcefile(suite)))
+    return "".join(p.read_text() for p in sorted(paths))
 
 
 def test_quiet_is_accepted_by_every_command_that_shows_progress():

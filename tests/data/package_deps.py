@@ -59,14 +59,14 @@ def dependencies(checkout=ROOT):
 
 
 def two_way(deps, packages=None):
-    """The pairs (a, b), a < b, of packages that import each other (``packages``: only pairs within these),
-    the top package ``sphrom`` left out."""
+    """The pairs (a, b), a < b, of packages that import each other, the top package ``sphrom`` left out;
+    ``packages``: only the pairs with one of these."""
     pairs = set()
     for a, targets in deps.items():
         for b in targets:
             if "sphrom" in (a, b) or a >= b or a not in deps.get(b, {}):
                 continue
-            if packages is None or (a in packages and b in packages):
+            if packages is None or a in packages or b in packages:
                 pairs.add((a, b))
     return sorted(pairs)
 

@@ -1,4 +1,4 @@
-"""Benchmarks of the FMU (``sphrom bench-fmu``, the FMU rows and section of ``sphrom bench``).
+"""Benchmarks of the FMU (``sphrom bench fmu``, the FMU rows and section of ``sphrom bench``).
 
 1. The C core alone (``libsphrom_core`` through ctypes, no FMI, no Python in
    the loop): ns per internal step at k = 12, n_freeze = 10 for several
@@ -24,7 +24,7 @@
    the C full SPH step of fmu_src/sph.c at N = 400.
 
 ``bench_rows`` gives the FMU rows of ``sphrom bench``, :func:`fmu_measurements`
-its FMU section (the Markdown is :func:`sphrom.measure.markdown.fmu_tables`).
+its FMU section (the Markdown is :mod:`.fmu_sections`).
 Every figure is the median of ``repeats`` runs.
 """
 
@@ -523,19 +523,19 @@ def sph_step_rows(base="tenmode", n=400, k=BENCH_K, n_freeze=BENCH_FREEZE, n_ste
 
 
 def fmu_measurements(scene_name="tenmode", repeats=5, sizes=(100, 400, 1600), steps=(0.01, 0.001),
-                     progress=True):
-    """The FMU section of ``sphrom bench``: the C core against N, end to end through the FMU driver, and
-    the same-language ratio at N = 400.
+                     progress=True, with_end_to_end=True, with_same=True):
+    """The FMU section of ``sphrom bench`` (and ``sphrom bench fmu``): the C core against N, end to end through the
+    FMU driver (``with_end_to_end``), and the same-language ratio at N = 400 (``with_same``).
 
-    Returns a dict: ``core`` (:func:`core_rows`), ``e2e`` (:func:`end_to_end`), ``same``
-    (:func:`sph_step_rows`), ``repeats``.
+    Returns a dict: ``core`` (:func:`core_rows`), ``e2e`` (:func:`end_to_end`, or None), ``same``
+    (:func:`sph_step_rows`, or None), ``repeats``.
     """
     from ...progress import progress_bar
-    with progress_bar(total=len(sizes) + len(steps) * len(benched_fmu_models()) + repeats + 1, desc="FMU",
-                      enabled=progress) as bar:
-        e2e = end_to_end(scene_name, steps=steps, repeats=repeats, bar=bar)
+    total = len(sizes) + (len(steps) * len(benched_fmu_models()) + repeats if with_end_to_end else 0) + 1
+    with progress_bar(total=total, desc="FMU", enabled=progress) as bar:
+        e2e = end_to_end(scene_name, steps=steps, repeats=repeats, bar=bar) if with_end_to_end else None
         core = core_rows(scene_name, list(sizes), repeats=repeats, bar=bar)
-        same = sph_step_rows(scene_name, n=400, repeats=repeats)
+        same = sph_step_rows(scene_name, n=400, repeats=repeats) if with_same else None
         bar.update(1)
     return {"core": core, "e2e": e2e, "same": same, "repeats": repeats}
 

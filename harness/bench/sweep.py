@@ -1,8 +1,10 @@
-"""The committed measurement of ``sphrom sweep`` (validation/sweeps/README.md).
+"""``sphrom bench sweep``: the committed measurement of ``sphrom sweep`` (validation/sweeps/README.md).
 
-    python -m sphrom.sweep.measure [--spec validation/sweeps/tenmode_forces.toml]
+    sphrom bench sweep [--spec validation/sweeps/tenmode_forces.toml]
         [--sph-spec validation/sweeps/tenmode_forces_sph.toml] [--workers 1,2] [--repeats 3]
         [--work DIR] [--out validation/sweeps]
+
+(also ``python -m sphrom.bench.sweep``, and its old name ``python -m sphrom.sweep.measure``)
 
 1. packages the study's FMUs (cached), so that no timed run packages;
 2. runs ``sphrom sweep SPEC --workers W --out ...`` (a fresh LocalCluster, a
@@ -23,6 +25,7 @@ from __future__ import annotations
 import datetime as _dt
 import os
 import platform
+import resource
 import shutil
 import statistics
 import subprocess
@@ -32,7 +35,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .table import finite, read_results
+from .. import __version__
+from ..markdown import write_text
+from ..sweep.fmus import ensure_fmus
+from ..sweep.spec import load_spec
+from ..sweep.table import finite, read_results
+from . import program_parser
 
 LOADS = []       # CPU used by other processes during each sweep run [cores]
 
@@ -57,7 +65,6 @@ def _busy():
 
 
 def _children_cpu():
-    import resource
     ru = resource.getrusage(resource.RUSAGE_CHILDREN)
     return ru.ru_utime + ru.ru_stime
 
@@ -83,7 +90,6 @@ def _rel(path, base):
 
 def main(argv=None):
     root = Path(__file__).resolve().parents[2]
-    from ..bench import program_parser
     p = program_parser("sweep", description=__doc__.split("\n\n")[0])
     p.add_argument("--spec", default=str(root / "validation/sweeps/tenmode_forces.toml"))
     p.add_argument("--sph-spec", default=str(root / "validation/sweeps/tenmode_forces_sph.toml"))
@@ -92,9 +98,6 @@ def main(argv=None):
     p.add_argument("--work", default=None, help="folder for the result files (default: a temporary one)")
     p.add_argument("--out", default=str(root / "validation/sweeps"))
     args = p.parse_args(argv)
-    from .fmus import ensure_fmus
-    from .spec import load_spec
-
     workers = [int(w) for w in args.workers.split(",")]
     out = Path(args.out)
     work = Path(args.work) if args.work else Path(out / ".measure-work")
@@ -129,7 +132,7 @@ def main(argv=None):
     shutil.copyfile(runs[wmax][0]["path"].with_suffix(".png"), out / "tenmode_forces.png")
     shutil.copyfile(sph_path.with_suffix(".png"), out / "tenmode_forces_sph.png")
     text = report(spec, sph_spec, runs, commands, sph_rows, sph_attrs, sph_cmd, started, finished, args, root)
-    (out / "README.md").write_text(text)
+    write_text(out / "README.md", text)
     print(f"wrote {out / 'README.md'}, {out / 'tenmode_forces.png'}, {out / 'tenmode_forces_sph.png'}")
     if not args.work:
         shutil.rmtree(work, ignore_errors=True)
@@ -151,7 +154,6 @@ def _compare_text(spec):
 
 def report(spec, sph_spec, runs, commands, sph_rows, sph_attrs, sph_cmd, started, finished, args, root):
     """The Markdown of the measurement."""
-    from .. import __version__
     lines = []
     add = lines.append
     workers = sorted(runs)
@@ -159,8 +161,8 @@ def report(spec, sph_spec, runs, commands, sph_rows, sph_attrs, sph_cmd, started
     n = len(spec.entries)
     add("# Parameter sweeps: measured throughput of `sphrom sweep`")
     add("")
-    add("Written by `python -m sphrom.sweep.measure "
-        f"--workers {','.join(map(str, workers))} --repeats {args.repeats}` (harness/sweep/measure.py); "
+    add("Written by `sphrom bench sweep "
+        f"--workers {','.join(map(str, workers))} --repeats {args.repeats}` (harness/bench/sweep.py); "
         "do not edit by hand.")
     add("")
     add(f"Study: `{_rel(args.spec, root)}`: {spec.title}. {n} FMU co-simulations of the built-in scene "
