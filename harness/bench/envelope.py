@@ -30,6 +30,20 @@ from pathlib import Path
 import numpy as np
 
 from .. import defaults
+from ..fmu.make import envelope as E
+from ..fmu.make.envelope import FAILURE_STRAIN, MARGIN
+from ..fmu.resources import probe_pairs
+from ..markdown import write_text
+from ..norms import relative_l2
+from ..progress import progress_bar
+from ..runio import atomic_path
+from ..scene import builtin_names, derive_scene, load_scene
+from . import program_parser
+from .lib.document import replace_section
+from .lib.tables import write_csv
+
+# Imported inside the functions: the modules that load numba, scipy or matplotlib (--help answers before they
+# load: tests/test_bench_programs.py).
 
 SCALES = (1.0, 1.25, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0)
 PROBES = defaults.PROBES
@@ -38,7 +52,6 @@ FAILURE_ERROR = 0.5      # the frozen model has failed where its probe error rea
 
 
 def _probe(field, x, L):
-    from ..fmu.resources import probe_pairs
     i0, i1, w = probe_pairs(x, L, PROBES)
     return (1.0 - w) * field[..., i0] + w * field[..., i1]
 
@@ -55,12 +68,8 @@ def coordinate_excess(env, z, k_v):
 
 def measure(scene_name, scales=SCALES, progress=True):
     """Rows (dicts) of the amplitude sweep of one scene (a name, a path or a Scene; module docstring)."""
-    from ..fmu.make import envelope as E
-    from ..norms import relative_l2
     from ..pod.pipeline import accel_modes, basis_for_scene
-    from ..progress import progress_bar
     from ..rom.registry import get_model
-    from ..scene import derive_scene, load_scene
     from ..sph.solver import build_problem, run_sph, step_count
 
     scene = load_scene(scene_name) if isinstance(scene_name, str) else scene_name
@@ -103,10 +112,8 @@ def measure(scene_name, scales=SCALES, progress=True):
 
 def training_headroom(scene_name):
     """One row: the frozen model's run of its own training scene against its recorded envelope."""
-    from ..fmu.make import envelope as E
     from ..pod.pipeline import accel_modes, basis_for_scene
     from ..rom.registry import get_model
-    from ..scene import load_scene
     from ..sph.solver import build_problem, step_count
 
     scene = load_scene(scene_name)
@@ -142,7 +149,6 @@ def failure_strain(rows, scene, error=None):
 def plot(rows, path):
     """Probe velocity error against the full SPH's peak probe strain, one line per scene and model."""
     import matplotlib.pyplot as plt
-    from ..fmu.make.envelope import FAILURE_STRAIN
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     for scene in dict.fromkeys(r["scene"] for r in rows):
         rs = [r for r in rows if r["scene"] == scene]
@@ -170,9 +176,6 @@ def run(out, scenes=SCENES, scales=SCALES, progress=True):
     """The sweep of ``scenes`` and the training headroom of every built-in scene: rows written to ``out``
     (envelope.csv), envelope.png and envelope_training.csv beside it; returns
     {"rows", "training", "command"} for the report (:func:`envelope_section`)."""
-    from ..runio import atomic_path
-    from ..scene import builtin_names
-    from .lib.tables import write_csv
     out = Path(out)
     rows = [r for s in scenes for r in measure(s, scales, progress=progress)]
     write_csv(out, rows)
@@ -204,7 +207,6 @@ def envelope_section(envelope, image_dir=""):
     amplitude and strain, the margin's headroom on the training runs; [] without it."""
     if not envelope:
         return []
-    from ...fmu.make.envelope import FAILURE_STRAIN, MARGIN
     rows, d = envelope["rows"], image_dir.rstrip("/") + "/" if image_dir else ""
     scenes = list(dict.fromkeys(r["scene"] for r in rows))
     lines = ["## The training envelope of the frozen FMU", "",
@@ -250,7 +252,6 @@ def _scales(text):
 
 
 def main(argv=None):
-    from . import program_parser
     p = program_parser("envelope", description=__doc__.split("\n\n")[0])
     p.add_argument("scenes", nargs="*", default=list(SCENES), metavar="SCENE")
     p.add_argument("--scales", type=_scales, default=list(SCALES), metavar="S1,S2,...")
@@ -258,8 +259,6 @@ def main(argv=None):
     p.add_argument("--report", default="BENCHMARKS.md", metavar="FILE.md")
     p.add_argument("--quiet", action="store_true")
     args = p.parse_args(argv)
-    from ..markdown import write_text
-    from .lib.document import replace_section
     result = run(args.out, args.scenes, args.scales, progress=not args.quiet)
     lines = envelope_section(result, image_dir=str(Path(args.out).parent))
     print("\n".join(lines))

@@ -26,6 +26,21 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import defaults
+from ..fmu.make.build import ensure_binaries
+from ..fmu.make.package import package_fmu
+from ..fmu.run.driver import FMU
+from ..fmu.variables import members
+from ..parser import fmu_models
+from ..scene import builtin_names, load_scene
+from . import machine_text, program_command, program_parser
+from .lib.document import update_report
+from .lib.ports import S0, STIFFNESS, mass_spring_step
+from .lib.tables import write_csv
+
+# Imported inside the functions: the modules that load numba, scipy or matplotlib (--help answers before they
+# load: tests/test_bench_programs.py).
+
 SECTION_HEADING = "## Certified error bounds: ports and coupled components"
 PORTS = (0.3, 0.7)
 STEP = 0.01             # [s]
@@ -46,8 +61,6 @@ def cases(t, T):
 def run_fmu(path, t, scale, f, F):
     """(outputs (M, n), names, the port forces applied (M, 2) [N]) of the FMU at ``path`` driven over ``t``;
     ``F`` None: port 1 coupled to the mass-spring, port 2 free."""
-    from ..fmu.run.driver import FMU
-    from .lib.ports import S0, STIFFNESS, mass_spring_step
     applied = np.zeros((t.size, len(PORTS)))
     with FMU(path) as fmu:
         names = fmu.outputs
@@ -74,7 +87,6 @@ def run_fmu(path, t, scale, f, F):
 def truth(problem, t, scale, f, applied):
     """(v at the probes (M, P), ρ at the probes (M, P), v_port (M, 2)) of the full linear SPH with the inputs held
     over each step from ``scale`` x the scene's initial state (scale 0 or 1)."""
-    from .. import defaults
     from ..rom.lti import probe_matrix
     from ..rom.reference import linear_reference
     index = lambda tt: np.minimum(np.floor(np.asarray(tt, float) / STEP + 1e-9).astype(int), t.size - 1)
@@ -87,7 +99,6 @@ def truth(problem, t, scale, f, applied):
 
 def compare(y, names, v, rho, v_port):
     """(violations, points, port effectivities, max port error, max port bound)."""
-    from ..fmu.variables import members
     col = lambda name: y[:, members(names, name)]
     errors = [np.abs(col("v_probe_j") - v), np.abs(col("rho_probe_j") - rho), np.abs(col("v_port_j") - v_port)]
     bounds = [col("v_probe_j_error_bound"), col("rho_probe_j_error_bound"), col("v_port_j_error_bound")]
@@ -100,9 +111,6 @@ def compare(y, names, v, rho, v_port):
 
 
 def measure_scene(name, models, folder, progress=True):
-    from ..fmu.make.build import ensure_binaries
-    from ..fmu.make.package import package_fmu
-    from ..scene import load_scene
     from ..sph.solver import build_problem
     scene = load_scene(name)
     problem = build_problem(scene)
@@ -162,11 +170,6 @@ def section(rows, *, command, wall, machine):
 
 
 def main(argv=None):
-    from .lib.document import update_report
-    from .lib.tables import write_csv
-    from ..scene import builtin_names
-    from ..parser import fmu_models
-    from . import machine_text, program_command, program_parser
     p = program_parser("error_bounds_ports", description=__doc__.split("\n\n")[0])
     p.add_argument("scenes", nargs="*", metavar="SCENE", help="default: damped_forced tenmode")
     p.add_argument("--models", type=fmu_models, default="frozen,exact,balanced", metavar="M1,M2")

@@ -75,7 +75,8 @@ def _print_tables(scene, core, e2e, repeats):
     from ..rom.registry import get_model
     print(f"C core (libsphrom_core, no FMI), k = 12, n_freeze = 10, scenes like {scene.name} at several N; "
           f"median of {repeats}")
-    print(f"{'N':>7} {'k_v':>4} {'k_rho':>5} {'ns/step':>9} {'min':>7} {'max':>7} {'CPU ns':>7}  (slopes M -> 2M steps)")
+    print(f"{'N':>7} {'k_v':>4} {'k_rho':>5} {'ns/step':>9} {'min':>7} {'max':>7} {'CPU ns':>7}  "
+          "(slopes M -> 2M steps)")
     for r in core:
         print(f"{r['n']:>7} {r['k_v']:>4} {r['k_rho']:>5} {r['ns_per_step']:>9.1f} {r['ns_min']:>7.1f} "
               f"{r['ns_max']:>7.1f} {r['ns_per_step_cpu']:>7.1f}")

@@ -15,12 +15,23 @@ of the report (replaced when present, else put before the stress maps or at the 
 
 from __future__ import annotations
 
+import statistics
 import sys
 import tempfile
 import time
 from pathlib import Path
 
-from .lib.document import fmt
+from ..fmu.check.verify import fmu_features, fmu_run, sph_reference
+from ..fmu.make.build import ensure_binaries
+from ..fmu.make.package import package_fmu
+from ..scene import builtin_names, load_scene
+from . import machine_text, program_command, program_parser
+from .lib.document import fmt, update_report
+from .lib.tables import write_csv
+from .lib.timing import median_times_interleaved
+
+# Imported inside the functions: the modules that load numba, scipy or matplotlib (--help answers before they
+# load: tests/test_bench_programs.py).
 
 SECTION_HEADING = "## The packaged FMU against the full SPH, every scene"
 
@@ -30,14 +41,8 @@ def measure_scene(name, models, repeats, folder, fmi=2, progress=True, bounds=Tr
 
     ``bounds=False`` packages the linear FMUs without their certified error bounds (``sphrom fmu --no-bounds``:
     they cost the full 2N linear system, minutes at N = 1000; the outputs do not depend on them)."""
-    import statistics
 
-    from ..fmu.make.build import ensure_binaries
-    from ..fmu.make.package import package_fmu
-    from ..fmu.check.verify import fmu_features, fmu_run, sph_reference
-    from ..scene import load_scene
     from ..sph.solver import build_problem
-    from .lib.timing import median_times_interleaved
 
     scene = load_scene(name)
     problem = build_problem(scene)
@@ -114,15 +119,9 @@ def packaged_fmu_section(rows, *, command, repeats, wall, machine):
 
 
 def main(argv=None):
-    from .lib.document import update_report
-    from ..rom.registry import fmu_model_names
-    from ..scene import builtin_names
-    from .lib.tables import write_csv
-
-    from . import program_parser
     p = program_parser("fmu_verify", description=__doc__.split("\n\n")[0])
     p.add_argument("scenes", nargs="*", metavar="SCENE", help="default: every built-in scene")
-    p.add_argument("--models", default=",".join(fmu_model_names()), metavar="M1,M2")
+    p.add_argument("--models", metavar="M1,M2", help="default: every model with an FMU")
     p.add_argument("--repeats", type=int, default=3, metavar="R")
     p.add_argument("--out", default="validation/benchmarks", metavar="FOLDER")
     p.add_argument("--report", default="BENCHMARKS.md", metavar="FILE.md")
@@ -131,7 +130,8 @@ def main(argv=None):
     p.add_argument("--quiet", action="store_true")
     args = p.parse_args(argv)
     scenes = args.scenes or builtin_names()
-    models = [m for m in args.models.split(",") if m]
+    from ..rom.registry import fmu_model_names
+    models = [m for m in (args.models or ",".join(fmu_model_names())).split(",") if m]
     t0 = time.perf_counter()
     rows = []
     with tempfile.TemporaryDirectory(prefix="sphrom-fmu-verify-") as folder:
@@ -146,7 +146,6 @@ def main(argv=None):
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     write_csv(out / "fmu_verify.csv", rows)
-    from . import machine_text, program_command
     lines = packaged_fmu_section(rows, command=program_command("fmu_verify", argv), repeats=args.repeats, wall=wall,
                                  machine=machine_text())
     report = update_report(args.report, {SECTION_HEADING: lines})

@@ -27,7 +27,17 @@ from pathlib import Path
 import numpy as np
 
 from .. import defaults
+from ..cache import cached_sph
+from ..markdown import write_text
+from ..norms import relative_l2
+from ..progress import progress_bar
+from ..scene import derive_scene
+from . import program_parser
 from .lib.document import fmt
+from .lib.timing import median_time
+
+# Imported inside the functions: the modules that load numba, scipy or matplotlib (--help answers before they
+# load: tests/test_bench_programs.py).
 
 DEFAULT_SCENES = ("damped_forced", "damped_forced@shaped")
 ORDERS = (4, 8, 12, 16, 20, 24)
@@ -40,7 +50,6 @@ STRESS_TITLE = "## Stability stress maps"
 
 def _scenes(name):
     """(training scene, unseen-force scene) of NAME or NAME@shaped (the shaped force profile)."""
-    from ..scene import derive_scene
     from .lib.linear_scenes import setup
     scene, _, _ = setup(name)
     return scene, derive_scene(scene, {"force": {"f": UNSEEN_FORCE}})
@@ -54,14 +63,11 @@ def _probe_v(result, problem, scene):
 def measure_scene(name, orders=ORDERS, repeats=3, progress=None):
     """Rows (dict) of one scene: per force, order and model the online time, the probe velocity error against
     the full SPH and, for the linear models, the error against the full linear SPH and its bound."""
-    from ..cache import cached_sph
-    from ..norms import relative_l2
     from ..pod.pipeline import basis_for_scene, on_steps
     from ..rom.lti import full_linear_system, input_norm, sample_outputs
     from ..rom.registry import get_model
     from ..rom.result import probe_values
     from ..sph.solver import build_problem, step_count
-    from .lib.timing import median_time
 
     scene, unseen = _scenes(name)
     problem = build_problem(scene)
@@ -194,13 +200,10 @@ def write_section(path, text):
     else:
         new_lines = lines + ([""] if lines else []) + body
     new = "\n".join(new_lines) + "\n"
-    from ..markdown import write_text
     write_text(path, new if new.endswith("\n") else new + "\n")
 
 
 def main(argv=None):
-    from ..progress import progress_bar
-    from . import program_parser
     p = program_parser("linear_tradeoff", description=__doc__.split("\n")[0])
     p.add_argument("--scenes", default=",".join(DEFAULT_SCENES), help="NAME[@shaped],... (default %(default)s)")
     p.add_argument("--orders", default=",".join(map(str, ORDERS)), help="state dimensions r (default %(default)s)")

@@ -26,7 +26,8 @@ def add_parser(sub):
                        usage=USAGE,
                        description="sphrom bench NAME [options] runs the measurement program NAME (sphrom bench "
                                    "--list: one line each; sphrom bench NAME --help: its options). Without a program "
-                                   "name first (the program suite): " + suite.DESCRIPTION[0].lower() + suite.DESCRIPTION[1:])
+                                   "name first (the program suite): "
+                                   + suite.DESCRIPTION[0].lower() + suite.DESCRIPTION[1:])
     suite.add_arguments(p)
     p.add_argument("--list", action="store_true",
                    help="list the measurement programs (what each measures, how long it takes, what it writes)")

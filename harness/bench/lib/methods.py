@@ -132,7 +132,7 @@ def paper_saving(rows, scene):
 
 def plot_time_error(rows, path, title):
     """Log-log error against online time, v (left) and ρ - ρ0 (right), as in Figs. 3.17/3.21."""
-    import matplotlib
+    import matplotlib          # deferred: only a plot loads matplotlib, the measurements never do
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 

@@ -71,7 +71,7 @@ def growth(rows, method, key="n"):
 
 
 def plot_costs(rows, path, key="n"):
-    import matplotlib
+    import matplotlib          # deferred: only a plot loads matplotlib, the measurements never do
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, ax = plt.subplots(figsize=(5.5, 3.8))

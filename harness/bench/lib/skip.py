@@ -10,8 +10,15 @@ saves.  Medians of repeats, ratios from the same run.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
+from ...defaults import PROBES as DEFAULT_PROBES
+from ...fmu.make.build import ensure_binaries
+from ...fmu.make.models import reduced_model
+from ...fmu.resources import pack
+from ...fmu.run.core import Core
 from ...pod.pipeline import accel_modes, basis_for_scene
 from ...rom.registry import get_model
 from ...sph import loops
@@ -58,7 +65,6 @@ def skip_savings(scene, steps=20000, k=None, repeats=5, fmu=True, reduced_factor
 
     basis, run = basis_for_scene(scene, progress=False, problem=problem)
     k = k or max(accel_modes(scene, basis))
-    import dataclasses
     built = {}                                  # one set of operators per basis kind, shared by its models
     for model in SKIP_MODELS:
         spec = get_model(model)
@@ -95,14 +101,7 @@ def _fmu_core_rows(scene, problem, k, n, repeats):
 
     Returns (label, specialised µs/step, general µs/step), or None when the core cannot be built here.
     """
-    import dataclasses
-
     try:
-        from ...fmu.make.build import ensure_binaries
-        from ...fmu.run.core import Core
-        from ...defaults import PROBES as DEFAULT_PROBES
-        from ...fmu.make.models import reduced_model
-        from ...fmu.resources import pack
         core = Core(ensure_binaries(quiet=True).core)
     except Exception:                     # no compiler or cmake: the Python rows stand alone
         return None

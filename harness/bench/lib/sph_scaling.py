@@ -14,10 +14,11 @@ import time
 
 import numpy as np
 
+from ...errors import SimulationError
+from ...runio import save_figure
 from ...scene import derive_scene, load_scene
 from ...scene_schema import key
 from ...sph import loops
-from ...errors import SimulationError
 from ...sph.solver import METHODS, build_problem, step_count
 
 INTEGRATORS = key("sph.integrator").range.choices      # the table's integrators: every one the full SPH has
@@ -108,7 +109,7 @@ def growth_exponent(rows, integrator, n_min=1000):
 
 def plot_scaling(rows, integrators, path, scene_name):
     """µs per step against N per integrator (log-log) with a linear guide, as PNG at ``path``."""
-    import matplotlib
+    import matplotlib          # deferred: only a plot loads matplotlib, the measurements never do
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, ax = plt.subplots(figsize=(5, 3.6))
@@ -123,7 +124,6 @@ def plot_scaling(rows, integrators, path, scene_name):
     ax.set_title(f"full SPH step, scene {scene_name}")
     ax.legend()
     fig.tight_layout()
-    from ...runio import save_figure
     save_figure(fig, path, dpi=110)
     plt.close(fig)
 

@@ -225,7 +225,7 @@ def force_rows(ctx: Context, amplitudes=(1e-2, 1.0, 100.0),
 
 def plot_map(rows, path, title, dt_limit):
     """One heat map per method: x = Δt factor, y = amplitude; colour = log10 energy growth, ✕ = blow-up."""
-    import matplotlib
+    import matplotlib          # deferred: only a plot loads matplotlib, the measurements never do
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.colors import Normalize

@@ -12,6 +12,10 @@ from __future__ import annotations
 import dataclasses
 import time
 
+from ...fmu.make.build import ensure_binaries
+from ...progress import progress_bar
+from . import stress as st
+from .stress_fmu import FMUStress, stress_runners
 from .stress_settings import HORIZON_METHODS, SHORT_HORIZON, SHORT_HORIZON_METHODS
 from .tables import write_csv
 
@@ -39,8 +43,6 @@ def fmu_stress(fmu=True, log=print):
     if not fmu:
         return None
     try:
-        from ...fmu.make.build import ensure_binaries
-        from .stress_fmu import FMUStress
         ensure_binaries(quiet=True)
     except Exception as exc:               # no compiler or cmake: say so, keep the Python columns
         log(f"stress: the FMU columns are skipped ({exc})")
@@ -81,12 +83,8 @@ def stress_maps(scenes, amplitudes, horizons, ks, dt_factors, out, fmu=True, pro
 
 
 def _measure(scenes, amps, horizons, ks, factors, out, fmu, progress):
-    from ...progress import progress_bar
-    from . import stress as st
-
     extra = None
     if fmu is not None:
-        from .stress_fmu import stress_runners
         extra = stress_runners(fmu)
     started = time.perf_counter()
     results = []
