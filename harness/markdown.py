@@ -29,7 +29,7 @@ def image(path, alt):
 
 def write_text(path, text):
     """Write a page atomically (a temporary file, then rename): never half a page."""
-    from .runio import atomic_path
+    from .runio import atomic_path           # deferred: runio loads numpy, which making a page's text never needs
     with atomic_path(path) as tmp:
         with open(tmp, "w", encoding="utf-8") as fh:
             fh.write(text)

@@ -138,8 +138,8 @@ def test_scenes_still_go_to_the_whole_report(capsys):
     assert "sphrom bench" in capsys.readouterr().err
 
 
-# inputs builds its --case choices from derived scenes (scipy) before it parses: a follow-up, the module being
-# edited by another change of this round (issue 31, item 4)
+# inputs builds its --case choices from derived scenes (scipy) before it parses: a follow-up, left while another
+# change edits that module's calls into the models
 HELP_LOADS_SCIPY = {"inputs"}
 
 

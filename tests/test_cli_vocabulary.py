@@ -12,7 +12,7 @@ import pytest
 from sphrom.cli import COMMANDS, build_parser, main, parse
 from sphrom import options as opt
 from sphrom.errors import FieldError, UserError
-from sphrom.bench import PROGRAMS, run_program
+from sphrom.bench import ALIASES, PROGRAMS, run_program
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -119,8 +119,8 @@ def test_every_option_the_readme_names_parses():
             if command not in parser.commands:
                 continue
             known = {o for a in parser.commands[command]._actions for o in a.option_strings}
-            program = re.match(r"\s+([a-z_]+)", rest)
-            if command == "bench" and program and program.group(1) in PROGRAMS:   # `sphrom bench NAME --option`
+            program = re.match(r"\s+([a-z_-]+)", rest)
+            if command == "bench" and program and program.group(1) in (*PROGRAMS, *ALIASES):   # sphrom bench NAME
                 known |= _program_options(program.group(1))
             for option in re.findall(r"(?<![\w-])--[a-z][a-z-]*", re.split(r"&&|\s#\s", rest)[0]):
                 assert option in known, (command, option, line)
