@@ -17,12 +17,13 @@ bench_fmu.md.
 
 from __future__ import annotations
 
+import platform
 import time
 
 from ..errors import FieldError, exact
 from ..markdown import write_text
 from ..options import MAX_REPEATS, add_quiet, add_scene, float_list, int_in, int_list, max_particles
-from . import machine_text, program_command, program_main
+from . import program_main
 from .lib.document import update_report
 from .lib.fmu_sections import fmu_section, fmu_tables, headline_section
 from .lib.timing import cpu_model, load_average
@@ -147,7 +148,10 @@ def run(args):
                 write_text(written[-1], fmu_tables(fmu["core"], fmu["e2e"]))
         print("wrote " + ", ".join(str(p) for p in written))
     if args.report:
-        note = (f"Re-measured alone by `{program_command(args.called_as)}` on {cpu_model()}, {machine_text()}, "
+        command = (f"sphrom bench {args.called_as} {args.scene} --n-particles {','.join(map(str, args.n_particles))} "
+                   f"--step {','.join(f'{h:g}' for h in args.step)} --repeats {args.repeats}"
+                   + (f" --out {args.out}" if args.out else "") + f" --report {args.report}")
+        note = (f"Re-measured alone by `{command}` on {cpu_model()}, Python {platform.python_version()}, "
                 f"{wall:.0f} s wall, load average (1 / 5 / 15 min) {' / '.join(map(str, load_start or ()))} at the "
                 f"start, {' / '.join(map(str, load_average() or ()))} at the end; medians of {args.repeats}), after "
                 "the rest of this report.")
