@@ -27,6 +27,8 @@ from ..options import MAX_REPEATS, add_quiet, int_in, int_list, min_particles
 from . import program_main
 from .lib.document import fmt, split_sections
 from .lib.fmu_sections import fmu_section, headline_section
+from .lib.stress_settings import AMPLITUDES, DT_FACTORS, HORIZONS, MODE_COUNTS
+from .lib.stress_settings import DEFAULT_SCENES as STRESS_SCENES
 from .lib.tables import write_csv
 
 # The measuring modules (numpy, numba, fmpy) are imported inside the functions: `sphrom --help` builds this
@@ -101,18 +103,18 @@ def run_benchmarks(scenes, out, *, ks=None, repeats=5, sizes=SIZES, ks_scaling=K
     from ..progress import progress_bar
     from ..rom.operators import INPUT_TOLERANCE
     from ..scene import load_scene
+    from .lib.fmu import bench_rows, fmu_measurements, write_fmu_csv
     from .lib.input_direction import input_direction_rows
     from .lib.methods import bench_python, plot_time_error, savings_by_k
     from .lib.scaling import per_step_costs, plot_costs
     from .lib.skip import skip_savings
     from .lib.sph_scaling import INTEGRATORS, scaling_table
+    from .lib.stress_maps import stress_maps, stress_section
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
-    extra = None
-    if fmu:
-        from .lib.fmu import bench_rows as extra
+    extra = bench_rows if fmu else None
     all_rows, savings = [], []
     total = sum(1 + len(ks or s.rom.get("accel_modes", [1])) * 9 for s in scenes)
     with progress_bar(total=total, desc="bench", enabled=progress) as bar:
@@ -138,14 +140,10 @@ def run_benchmarks(scenes, out, *, ks=None, repeats=5, sizes=SIZES, ks_scaling=K
     write_csv(out / "sph_scaling.csv", sph_steps)
     fmu_results = None
     if fmu:
-        from .lib.fmu import fmu_measurements, write_fmu_csv
         fmu_results = fmu_measurements(fmu_scene, repeats=max(5, repeats), progress=progress)
         write_fmu_csv(out, fmu_results["core"], fmu_results["e2e"], prefix="fmu_")
     maps, stress_command = None, ""
     if stress:
-        from .lib.stress_maps import stress_maps, stress_section
-        from .lib.stress_settings import AMPLITUDES, DT_FACTORS, HORIZONS, MODE_COUNTS
-        from .lib.stress_settings import DEFAULT_SCENES as STRESS_SCENES
         stress_command = "sphrom bench --report (the stress maps of sphrom stress)"
         maps = stress_maps([load_scene(s) for s in STRESS_SCENES], list(AMPLITUDES), list(HORIZONS),
                            list(MODE_COUNTS), DT_FACTORS, out / "stress", fmu=fmu, progress=progress)
