@@ -18,7 +18,7 @@ import h5py
 import numpy as np
 
 from . import __version__
-from .runio import atomic_path
+from .runio import atomic_path, h5_create
 
 
 def cache_dir() -> Path:
@@ -79,7 +79,7 @@ def cached_sph(scene, sample_steps, progress=True, problem=None):
     steps = want if have is None else np.union1d(want, have)
     result = run_sph(scene, sample_steps=steps, progress=progress, problem=problem)
     with atomic_path(path) as tmp:
-        with h5py.File(tmp, "w") as h5:
+        with h5_create(tmp) as h5:
             for name in ("t", "x", "v", "rho", "steps"):
                 h5.create_dataset(name, data=getattr(result, name))
             h5.attrs["wall_time_s"] = result.wall_time

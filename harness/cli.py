@@ -148,11 +148,18 @@ def _leave(code):
                                                 guard.written_text() if guard else "no output written") + "\n")
                 sys.stderr.flush()
             os._exit(128 + int(waiting[0]))
+        # one more look at a signal another thread (a BLAS or dask thread, which the mask above does not cover)
+        # took and Python has not yet handed to the guard: pthread_sigmask runs the pending handlers (the guard,
+        # `finished`, prints the line and leaves with 128 + the signal)
+        signal.pthread_sigmask(signal.SIG_BLOCK, SIGNALS)
     os._exit(code)
 
 
 def _run(parser, args):
     try:
+        if args.command in parser.commands and "handler" in vars(args):
+            from .options import check_outputs_spare_inputs
+            check_outputs_spare_inputs(parser.commands[args.command], args, args.command)
         return int(args.handler(args) or 0)
     except FieldError as exc:                    # the library names the field; show the option that set it
         from .options import option_message
@@ -165,6 +172,14 @@ def _run(parser, args):
     except SimulationError as exc:
         print(f"sphrom {args.command}: failed: {exc}", file=sys.stderr)
         return exc.exit_code
+    except MemoryError as exc:      # a run larger than this machine: one line, what failed and what is available
+        from .runio import available_memory, format_bytes
+        free = available_memory()
+        what = " ".join(str(exc).split())[:160] or "an allocation failed"
+        print(f"sphrom {args.command}: failed: out of memory ({what}); this machine has "
+              f"{format_bytes(free) if free is not None else 'less'} available: a smaller run fits (fewer "
+              "particles, modes or steps)", file=sys.stderr)
+        return 3
     except BrokenPipeError:         # e.g. piped into `head`
         import os
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())

@@ -14,5 +14,8 @@ STEP = 0.01                     # an FMU's DefaultExperiment stepSize [s] (at mo
 # layer, fmu_src/instance.c, applies them after every instantiation and reset).  The Python models keep their
 # own defaults (harness/rom/: initial state scale 1, the scene's initial state).
 FMU_INITIAL_STATE_SCALE = 0     # the FMU starts at rest: initial state = this x the scene's deviation from rest [1]
+# |initial_state_scale| allowed by sphrom cosim [1]: the reduced models were built on the scene's own deviation
+# (scale 1); a thousand times it is far past what they represent, and 1e308 overflowed the outputs (issue 36)
+MAX_INITIAL_STATE_SCALE = 1e3
 FMU_INPUT = 0                   # the inputs f [m s^-2] and F_port_j [N] before the importer sets them
 FMU_AREA = 1                    # the cross-section A of an FMU with ports [m^2]

@@ -346,3 +346,61 @@ def option_message(parser, exc):
     if not option.startswith("-") or option.lstrip("-").replace("-", "_") == exc.field:
         return f"{option}: {exc.detail}"
     return f"{option} ({exc.field}): {exc.detail}"
+
+
+# output options (dest) and, per command, the files written beside an output file (its suffix replaced)
+OUTPUTS = ("out", "report")
+COMPANIONS = {"sweep": (".csv", ".png")}
+
+
+def _same_file(a, b):
+    """Whether paths ``a`` and ``b`` name one file: the same inode where both exist (links, ``./x``, hard
+    links), else the same resolved path."""
+    import os
+    try:
+        return os.path.samefile(a, b)
+    except (OSError, ValueError):
+        try:
+            return os.path.realpath(a) == os.path.realpath(b)
+        except (OSError, ValueError):
+            return False
+
+
+def _argument_name(action):
+    return action.option_strings[0] if action.option_strings else (action.metavar or action.dest)
+
+
+def check_outputs_spare_inputs(parser, args, command):
+    """``UserError`` (one line, exit 2) when an output path of the command (``--out``, ``--report``, and the
+    files written beside ``--out``: a sweep's .csv and .png) names one of its input files, given by any
+    argument: ``sphrom sph s.toml --out s.toml`` turned the scene into HDF5, ``sphrom cosim X.fmu --force f.csv
+    --out f.csv`` replaced the force it read (issue 36).  Checked before any work; an input is any argument
+    value that names an existing regular file."""
+    from pathlib import Path
+
+    from .errors import UserError
+    from .paths import is_file
+    actions = [a for a in parser._actions if a.dest not in ("help", "version")]
+    outputs = []
+    for action in actions:
+        value = getattr(args, action.dest, None)
+        if action.dest in OUTPUTS and isinstance(value, str) and value:
+            outputs.append((action, value))
+            if action.dest == "out":
+                outputs += [(action, str(Path(value).with_suffix(s))) for s in COMPANIONS.get(command, ())
+                            if Path(value).suffix]
+    if not outputs:
+        return
+    for action in actions:
+        if action.dest in OUTPUTS:
+            continue
+        value = getattr(args, action.dest, None)
+        for text in (value if isinstance(value, (list, tuple)) else [value]):
+            if not isinstance(text, (str, Path)) or not str(text) or not is_file(text):
+                continue
+            for out_action, out in outputs:
+                if _same_file(out, text):
+                    shown = "" if out == getattr(args, out_action.dest) else f" (written beside '{getattr(args, out_action.dest)}')"
+                    raise UserError(f"{_argument_name(out_action)}: '{out}'{shown} is the input "
+                                    f"{_argument_name(action)} '{text}' of this command: writing it would destroy "
+                                    "that input (allowed: an output path that names no input)")

@@ -3,11 +3,22 @@
 from __future__ import annotations
 
 import argparse
+import re
 
 
 class Parser(argparse.ArgumentParser):
     """An ArgumentParser (and, through ``add_subparsers``, its subcommands' parsers) whose errors are one line:
-    ``sphrom COMMAND: error: OPTION: what is allowed`` (the option's name), exit status 2, no usage block."""
+    ``sphrom COMMAND: error: OPTION: what is allowed`` (the option's name), exit status 2, no usage block.
+
+    A value that reads as a negative number is a value, in every form float() reads: argparse's own test takes
+    only ``-1`` and ``-0.001``, so ``--initial-state-scale -1e-3`` (or ``-inf``) was "expected one argument"."""
+
+    # argparse's pattern (an instance attribute) widened to exponents, inf and nan; no sphrom option looks so
+    NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|infinity|nan)$", re.IGNORECASE)
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = self.NEGATIVE_NUMBER
 
     def error(self, message):
         if message.startswith("argument "):        # "argument --probes: ..." -> "--probes: ..."

@@ -6,7 +6,9 @@ as the packages ``sphrom.scenes``, ``sphrom.fmu_src`` and
 ``sphrom.model_description`` (see pyproject.toml).
 """
 
+import errno
 import importlib.util
+import os
 from pathlib import Path
 
 _REPO = Path(__file__).resolve().parents[1]
@@ -45,6 +47,23 @@ def is_file(path) -> bool:
         return Path(path).is_file()
     except (OSError, ValueError):
         return False
+
+
+def not_a_file(path) -> str:
+    """Why ``path`` cannot be read as an input file, for a one-line error: "not found", or what it is instead
+    ("is a folder", "is a FIFO", ...: a path that exists but is no regular file is no "not found")."""
+    import stat
+    try:
+        mode = os.stat(path).st_mode
+    except ValueError:
+        return "not a possible file name"
+    except OSError as exc:
+        return "not found" if exc.errno in (errno.ENOENT, errno.ENOTDIR) else f"cannot be read ({exc.strerror})"
+    for test, what in ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"),
+                       (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket")):
+        if test(mode):
+            return f"is {what} (allowed: a regular file)"
+    return "not a regular file"
 
 
 def exists(path) -> bool:

@@ -42,6 +42,7 @@ import numpy as np
 
 from . import __version__
 from .errors import FieldError, Interrupted
+from .paths import not_a_file
 from .signals import deferred, pending, record_written
 
 FORMAT = "sphrom-run"
@@ -370,6 +371,83 @@ def _write_into(node, tmp, kind, field):
 
 
 @contextlib.contextmanager
+def h5_create(path):
+    """A new HDF5 file for writing at ``path`` (a temporary of :func:`atomic_path`), built in memory and written
+    to ``path`` by Python when the block ends.
+
+    HDF5 writing to a full file system failed inside h5py's finalisers (tracebacks printed as "Exception
+    ignored", then SIGSEGV, the temporary left behind: issue 36); in memory, the only write to the disk is
+    Python's, whose ENOSPC is an OSError that :func:`atomic_paths` turns into one line.  The file's bytes are
+    held twice for a moment (the image and its copy), as large as the arrays the command already holds.
+    """
+    import h5py
+    h5 = h5py.File(f"sphrom-memory-{id(path)}.h5", "w", driver="core", backing_store=False)
+    try:
+        yield h5
+        h5.flush()
+        image = h5.id.get_file_image()
+    finally:
+        h5.close()
+    with open(path, "wb") as fh:
+        fh.write(image)
+
+
+NO_SPACE = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
+
+
+def _no_space(exc, path, field):
+    """FieldError ``field`` for a write that found the file system full (ENOSPC, a quota, a size limit)."""
+    try:
+        st = os.statvfs(Path(path).parent)
+        free = f" (a file system of {format_bytes(st.f_blocks * st.f_frsize)})"
+    except OSError:
+        free = ""
+    return FieldError(field, f"cannot write '{path}': {os.strerror(exc.errno).lower()}{free}; nothing was "
+                             "written (free some space or choose another folder)")
+
+
+def format_bytes(n):
+    """``n`` bytes as text in binary units: 512 B, 64 KiB, 8.9 GiB."""
+    n = float(n)
+    for unit in ("B", "KiB", "MiB", "GiB", "TiB"):
+        if n < 1024 or unit == "TiB":
+            return f"{n:.0f} {unit}" if unit == "B" else f"{n:.3g} {unit}"
+        n /= 1024
+
+
+def available_memory():
+    """Bytes this process may still allocate, the least of what the system has available (MemAvailable),
+    what its address-space limit leaves (RLIMIT_AS less the current size) and what its cgroup's memory.max
+    leaves; None where none can be read (not Linux)."""
+    import resource
+    limits = []
+    with contextlib.suppress(OSError, ValueError, IndexError):
+        for line in Path("/proc/meminfo").read_text().splitlines():
+            if line.startswith("MemAvailable:"):
+                limits.append(int(line.split()[1]) * 1024)
+    with contextlib.suppress(OSError, ValueError, IndexError):
+        soft = resource.getrlimit(resource.RLIMIT_AS)[0]
+        if soft != resource.RLIM_INFINITY:
+            size = next(int(line.split()[1]) * 1024 for line in Path("/proc/self/status").read_text().splitlines()
+                        if line.startswith("VmSize:"))
+            limits.append(max(soft - size, 0))
+    with contextlib.suppress(OSError, ValueError):
+        top = Path("/sys/fs/cgroup/memory.max").read_text().strip()
+        if top != "max":
+            limits.append(max(int(top) - int(Path("/sys/fs/cgroup/memory.current").read_text()), 0))
+    return min(limits) if limits else None
+
+
+def check_memory(field, need, what):
+    """FieldError ``field`` when ``need`` bytes (``what``: the text that says what they hold and why) exceed
+    :func:`available_memory`, before the work starts."""
+    free = available_memory()
+    if free is not None and need > free:
+        raise FieldError(field, f"{what} needs about {format_bytes(need)} of memory, and this machine has "
+                                f"{format_bytes(free)} available (allowed: a run that fits)")
+
+
+@contextlib.contextmanager
 def atomic_path(path):
     """Yield a temporary path; on success it becomes ``path``, else nothing is left.
 
@@ -388,8 +466,13 @@ def atomic_path(path):
     if how == "into":
         with tempfile.TemporaryDirectory(prefix="sphrom-out-") as folder:
             tmp = Path(folder) / (path.name or "out")
-            with deferred():
-                yield tmp
+            try:
+                with deferred():
+                    yield tmp
+            except OSError as exc:
+                if exc.errno in NO_SPACE:
+                    raise _no_space(exc, tmp, field) from None
+                raise
             _write_into(path, tmp, target, field)
         return
     with atomic_paths([path]) as (tmp,):
@@ -413,8 +496,13 @@ def atomic_paths(paths):
         sweep_stale_temporaries(target)
         items.append((_temporary(target), target, path))
     try:
-        with deferred():
-            yield [tmp for tmp, _, _ in items]
+        try:
+            with deferred():
+                yield [tmp for tmp, _, _ in items]
+        except OSError as exc:
+            if exc.errno in NO_SPACE:
+                raise _no_space(exc, items[0][2], _field_of(items[0][2])) from None
+            raise
         _commit(items)
     finally:
         for tmp, _, _ in items:
@@ -486,7 +574,7 @@ def write_run(path, t, x, v, rho, attrs, steps=None, extra=None):
     }
     with atomic_path(path) as tmp:
         import h5py                           # here, not at the top: paths-only callers (cosim) stay light
-        with h5py.File(tmp, "w") as h5:
+        with h5_create(tmp) as h5:
             for key, value in {**base, **attrs}.items():
                 h5.attrs[key] = _clean(value)
             data = {"t": t, "x": x, "v": v, "rho": rho}
@@ -507,7 +595,7 @@ def read_run(path) -> Run:
     """
     path = Path(path)
     if not path.is_file():
-        raise FieldError("run", f"'{path}': not found")
+        raise FieldError("run", f"'{path}': {not_a_file(path)}")
     try:
         import h5py
         with h5py.File(path, "r") as h5:

@@ -29,7 +29,7 @@ import numpy as np
 from . import defaults
 from .errors import FieldError, UserError
 from .expr import Expr, compile_expr
-from .paths import data_dir, exists, is_file
+from .paths import data_dir, exists, is_file, not_a_file
 from .scene_schema import (MAX_ALPHA, MAX_DEPTH, MAX_PARTICLES, MAX_REFERENCE_CELLS, MAX_SAMPLE_BYTES, MAX_STEPS,
                            MAX_STEPS_TEXT, MIN_PARTICLES, NAME_PATTERN, NAME_TEXT, SCALE, check_nesting,
                            check_scene_tables, check_text_size, fmt, key, least_every, shown)
@@ -303,11 +303,11 @@ def load_scene(spec) -> Scene:
                             f"(built-in: {', '.join(builtin_names())})")
         path = candidate
     if not is_file(path):
-        raise UserError(f"scene file '{shown_spec}': not found")
+        raise UserError(f"scene file '{shown_spec}': {not_a_file(path)}")
     source = _printable(str(path))
     try:
         check_text_size(path.stat().st_size, source)
-        text = path.read_text(encoding="utf-8")
+        text = path.read_text(encoding="utf-8-sig")        # a byte-order mark is no TOML statement
     except (OSError, UnicodeDecodeError) as exc:
         raise UserError(f"scene file '{shown_spec}': cannot be read ({exc})") from None
     return parse_scene(text, source, name=path.stem)
@@ -319,6 +319,7 @@ DEFAULT_NAME = "scene"      # the name of a scene text without one that is not r
 def parse_scene(text: str, source: str = "<scene>", name: str | None = None) -> Scene:
     """Parse and validate scene TOML ``text``; ``source`` names it in errors, ``name`` is the name when the
     text has none (:func:`load_scene`: the file name; else :data:`DEFAULT_NAME`)."""
+    text = text.removeprefix("\ufeff")           # a byte-order mark (an editor's) is no TOML statement
     check_text_size(len(text.encode("utf-8", "surrogatepass")), source)
     check_nesting(text, source)
     try:

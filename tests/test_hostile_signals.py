@@ -22,7 +22,7 @@ import pytest
 from conftest import small_scene
 from sphrom.cli import main
 from sphrom.paths import import_path
-from sphrom.bench.hostile import sphrom_catches_sigterm
+from hostile.battery import sphrom_catches_sigterm, still_running
 from sphrom.errors import Interrupted
 from sphrom.runio import atomic_path, atomic_paths
 from sphrom.signals import Guard, deferred, pending
@@ -44,7 +44,7 @@ def signal_after(proc, sig, delay, limit=60):
     while not sphrom_catches_sigterm(proc.pid) and proc.poll() is None and time.monotonic() < deadline:
         time.sleep(0.001)
     time.sleep(delay)
-    alive = proc.poll() is None
+    alive = still_running(proc)             # a process already inside its exit (poll() still None) is no target
     if alive:
         proc.send_signal(sig)
     _, err = proc.communicate(timeout=limit)

@@ -109,8 +109,8 @@ PROGRAMS = {
                                  "to their blow-up alarms", "measured: see the report", "reduced_stability.csv"),
     "automatic_choices": Program("sphrom.bench.automatic_choices", "what the automatic rules of a scene choose on "
                                  "each paper scene", "measured: see the report", "prints a table"),
-    "hostile": Program("sphrom.bench.hostile", "the hostile-input battery: options, paths, scenes, FMU resources "
-                       "and states, FMI call sequences, signals", "not recorded", "validation/hostile/"),
+    "hostile": Program("sphrom.bench.hostile", "an alias: the hostile-input battery is a test-side tool, "
+                       "python3 -m tests.hostile in a checkout", "not recorded", "validation/hostile/"),
     "sweep": Program("sphrom.bench.sweep", "the committed parameter sweep on dask (throughput, resume)",
                      "not recorded", "validation/sweeps/"),
 }

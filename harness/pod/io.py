@@ -20,7 +20,8 @@ import numpy as np
 
 from .. import __version__
 from ..errors import FieldError
-from ..runio import atomic_path, scene_attrs
+from ..paths import not_a_file
+from ..runio import atomic_path, h5_create, scene_attrs
 from .basis import Basis
 
 BASIS_FORMAT = "sphrom-basis"
@@ -49,7 +50,7 @@ def write_basis(path, basis: Basis, scene, extra=None):
     an optional ``attrs`` dict, e.g. ``{"operators": operators_group(ops)}``.
     """
     with atomic_path(path) as tmp:
-        with h5py.File(tmp, "w") as h5:
+        with h5_create(tmp) as h5:
             h5.attrs["format"] = BASIS_FORMAT
             h5.attrs["format_version"] = BASIS_VERSION
             h5.attrs["sphrom_version"] = __version__
@@ -81,7 +82,7 @@ def read_basis(path) -> Basis:
     """Read a basis file; FieldError ``basis`` naming the file when it is missing, unreadable or not a basis."""
     path = Path(path)
     if not path.is_file():
-        raise FieldError("basis", f"'{path}' not found")
+        raise FieldError("basis", f"'{path}': {not_a_file(path)}")
     try:
         with h5py.File(path, "r") as h5:
             if h5.attrs.get("format") != BASIS_FORMAT:

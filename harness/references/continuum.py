@@ -22,7 +22,7 @@ import numpy as np
 
 from .. import __version__
 from ..cache import cache_dir
-from ..runio import atomic_path
+from ..runio import atomic_path, h5_create
 
 RESOLUTION = 1024        # P2 elements
 DT = 1.25e-4             # s, Newmark average acceleration
@@ -70,7 +70,7 @@ def best_reference(scene, x, t, resolution=RESOLUTION, dt=DT, progress=True):
     ref = skfem_ref.solve(scene, resolution, dt, x, t, order=2, progress=progress)
     label = f"scikit-fem P2, N = {resolution}, dt = {dt:g} s"
     with atomic_path(path) as tmp:
-        with h5py.File(tmp, "w") as h5:
+        with h5_create(tmp) as h5:
             h5.create_dataset("v", data=ref.v)
             h5.create_dataset("rho", data=ref.rho)
             h5.attrs["label"] = label

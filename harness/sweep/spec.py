@@ -63,7 +63,7 @@ import numpy as np
 
 from .. import defaults
 from ..errors import UserError, exact
-from ..paths import exists, is_file
+from ..paths import exists, is_file, not_a_file
 
 SHAPES = {
     "sine": "A*sin(2*pi*F*t)",
@@ -586,9 +586,9 @@ def load_spec(path) -> Spec:
     """Read and validate SPEC.toml at ``path`` (UserError when missing or invalid)."""
     path = Path(path)
     if not is_file(path):
-        raise UserError(f"SPEC.toml '{path}': not found")
+        raise UserError(f"SPEC.toml '{path}': {not_a_file(path)}")
     try:
-        text = path.read_text(encoding="utf-8")
+        text = path.read_text(encoding="utf-8-sig")        # a byte-order mark is no TOML statement
     except (OSError, UnicodeDecodeError) as exc:
         raise UserError(f"SPEC.toml '{path}': cannot be read ({exc})") from None
     return parse_spec(text, str(path), spec_path=path)

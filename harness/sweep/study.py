@@ -37,11 +37,15 @@ timed apart).
 
 from __future__ import annotations
 
+import contextlib
 import datetime as _dt
 import json
 import logging
 import math
+import shutil
+import signal
 import sys
+import tempfile
 import time
 import uuid
 from dataclasses import dataclass, field
@@ -59,6 +63,7 @@ POLL_S = 0.05              # s between looks at the results (and at a held signa
 LOST_RETRIES = 2           # resubmissions of a task whose worker died, before the entry is recorded as failed
 SCATTER_TIMEOUT = 30.0     # s, for one scatter of an FMU to the workers (a worker dying meanwhile can stall it)
 SCATTER_ATTEMPTS = 3       # scatters tried, each after a worker is there, before giving up
+CLOSE_TIMEOUT = 5.0        # s, for the client and the LocalCluster to close (after a Ctrl-C: the sweep's last act)
 
 
 @dataclass
@@ -98,10 +103,76 @@ def input_row(spec, entry, fmu_key):
     }
 
 
-def connect(scheduler=None, workers=None):
+def wait_for_workers(client, n, timeout, held=()):
+    """Wait until ``client`` sees ``n`` workers, at most ``timeout`` s, looking at ``held`` (the signals held
+    meanwhile, :func:`sphrom.signals.deferred`) every :data:`POLL_S`: Interrupted for the first one (one long
+    ``Client.wait_for_workers`` kept a Ctrl-C waiting for minutes: issue 36).  TimeoutError after ``timeout``."""
+    deadline = time.monotonic() + timeout
+    while True:
+        if held:
+            raise Interrupted(held.pop(0))
+        try:
+            client.wait_for_workers(n, timeout=min(POLL_S * 4, max(deadline - time.monotonic(), 0.01)))
+            return
+        except TimeoutError:
+            if time.monotonic() >= deadline:
+                raise
+
+
+@contextlib.contextmanager
+def workers_ignore_sigint(folder):
+    """While the block runs (the LocalCluster's life), the processes multiprocessing spawns (dask's workers)
+    start with SIGINT ignored: a Ctrl-C, which a terminal sends to its whole foreground process group, then
+    reaches only the command, which closes the cluster itself; each worker printed a KeyboardInterrupt
+    traceback and died (issue 36).  A disposition SIG_IGN survives exec and Python keeps it (a blocked mask
+    does not: the spawn clears it), so the spawn runs a two-line shell script in ``folder`` that ignores SIGINT
+    and execs this Python.  The workers still end on SIGTERM (how their nanny stops them) and with their
+    parent.  Nothing changes where the script cannot be made or run (no /bin/sh, a folder mounted noexec)."""
+    import multiprocessing.spawn as spawn
+    import os
+    import shlex
+    script = Path(folder) / "python-ignoring-sigint"
+    try:
+        script.write_text(f"#!/bin/sh\ntrap '' INT\nexec {shlex.quote(sys.executable)} \"$@\"\n")
+        script.chmod(0o700)
+        usable = Path("/bin/sh").exists() and os.access(script, os.X_OK) and \
+            subprocess_ok(script)
+    except OSError:
+        usable = False
+    if not usable:
+        yield
+        return
+    previous = spawn.get_executable()
+    spawn.set_executable(str(script))
+    try:
+        yield
+    finally:
+        spawn.set_executable(previous)
+
+
+def subprocess_ok(script):
+    """Whether ``script`` runs (a folder mounted noexec refuses it)."""
+    import subprocess
+    try:
+        return subprocess.run([str(script), "-c", "pass"], timeout=30).returncode == 0
+    except (OSError, subprocess.SubprocessError):
+        return False
+
+
+def scratch_folder():
+    """A new private folder for dask's scratch space (its workers' folders and lock files), removed by
+    :func:`_close`: dask's default, ``dask-scratch-space`` in the temporary folder, kept ``*.lock`` files after
+    every sweep (issue 36)."""
+    return tempfile.mkdtemp(prefix="sphrom-dask-scratch-space-")
+
+
+def connect(scheduler=None, workers=None, held=()):
     """(client, cluster): the scheduler at ``scheduler``, else a new LocalCluster (cluster None otherwise).
 
-    Raises FieldError ``scheduler`` when the scheduler cannot be reached or has no worker.
+    The LocalCluster starts with no worker and then asks for ``workers``, waiting for them in steps that look at
+    ``held`` (a Ctrl-C while they start ends the wait at once); its scratch space is a folder of its own
+    (``cluster.scratch``, removed when it closes).  Raises FieldError ``scheduler`` when the scheduler cannot
+    be reached or has no worker.
     """
     from distributed import Client, LocalCluster
     if scheduler:
@@ -111,7 +182,7 @@ def connect(scheduler=None, workers=None):
             raise FieldError("scheduler", f"cannot connect to {scheduler!r} within {CONNECT_TIMEOUT:g} s "
                                           f"({str(exc).splitlines()[0] if str(exc) else type(exc).__name__})") from None
         try:
-            client.wait_for_workers(1, timeout=WORKER_TIMEOUT)
+            wait_for_workers(client, 1, WORKER_TIMEOUT, held)
         except (TimeoutError, OSError):
             client.close()
             raise FieldError("scheduler", f"the cluster at {scheduler!r} has no worker after "
@@ -121,9 +192,27 @@ def connect(scheduler=None, workers=None):
     # the study through its futures, which retry the lost tasks and report what stays lost in one line each
     # dashboard_address ":0": the scheduler's HTTP server on a free port (None still asks for 8787, and dask
     # warns on stderr when another cluster holds it)
-    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
-                           silence_logs=logging.CRITICAL)
-    return Client(cluster), cluster
+    import dask
+    scratch = scratch_folder()
+    client = cluster = None
+    try:
+        ignoring = workers_ignore_sigint(scratch)
+        ignoring.__enter__()
+        with dask.config.set({"temporary-directory": scratch}):
+            cluster = LocalCluster(n_workers=0, threads_per_worker=1, processes=True, dashboard_address=":0",
+                                   silence_logs=logging.CRITICAL, local_directory=scratch)
+            cluster.scratch, cluster.ignoring = scratch, ignoring
+            client = Client(cluster)
+            cluster.scale(workers or 1)
+        wait_for_workers(client, workers or 1, WORKER_TIMEOUT, held)
+    except BaseException:
+        if client is not None or cluster is not None:
+            _close(client, cluster)
+        if cluster is None and "ignoring" in locals():
+            ignoring.__exit__(None, None, None)
+        shutil.rmtree(scratch, ignore_errors=True)
+        raise
+    return client, cluster
 
 
 def _versions():
@@ -213,7 +302,7 @@ def run_study(spec, out, *, scheduler=None, workers=None, progress=True, checkpo
         log(f"connecting to {scheduler}" if scheduler else f"starting a LocalCluster of {workers} workers")
         try:
             with deferred() as held:                 # a signal is acted on between results, never inside dask
-                client, cluster = connect(scheduler, workers)
+                client, cluster = connect(scheduler, workers, held)
                 state["start"] = time.perf_counter() - t0
                 state["scheduler"] = scheduler if scheduler else f"LocalCluster {client.scheduler.address}"
                 state["workers"] = len(client.scheduler_info()["workers"])
@@ -274,11 +363,21 @@ def _close(client, cluster):
     for name in quiet:
         logging.getLogger(name).setLevel(logging.CRITICAL + 1)
     try:
+        # a close that does not finish in time (workers still starting when a Ctrl-C came) is left: the workers
+        # end with their parent (dask's parent-alive pipe); its TimeoutError must not replace the command's end
         try:
-            client.close()
+            if client is not None:
+                with contextlib.suppress(Exception):
+                    client.close(timeout=CLOSE_TIMEOUT)
         finally:
             if cluster is not None:
-                cluster.close()
+                try:
+                    with contextlib.suppress(Exception):
+                        cluster.close(timeout=CLOSE_TIMEOUT)
+                finally:
+                    if getattr(cluster, "ignoring", None) is not None:
+                        cluster.ignoring.__exit__(None, None, None)
+                    shutil.rmtree(getattr(cluster, "scratch", None) or "", ignore_errors=True)
     finally:
         for name, level in quiet.items():
             logging.getLogger(name).setLevel(level)
@@ -316,13 +415,13 @@ def _completed(pending_futures, held):
         raise Interrupted(held.pop(0))
 
 
-def _scatter(client, value):
+def _scatter(client, value, held=()):
     """``value`` scattered to every worker, in bounded time: a scatter started while a worker dies (the nanny
     restarting it) can wait for it forever, so each of :data:`SCATTER_ATTEMPTS` attempts waits for a worker (at
     most :data:`WORKER_TIMEOUT`) and then scatters (at most :data:`SCATTER_TIMEOUT`); TimeoutError after the last."""
     for attempt in range(SCATTER_ATTEMPTS):
         try:
-            client.wait_for_workers(1, timeout=WORKER_TIMEOUT)
+            wait_for_workers(client, 1, WORKER_TIMEOUT, held)
             # Client.scatter's own timeout did not end a broadcast to a worker that died meanwhile (seen stalled
             # for minutes under load); the client's sync bounds the whole call (callback_timeout: asyncio's
             # wait_for around it)
@@ -342,7 +441,7 @@ def _compute(client, spec, todo, variants, by_id, session, new_rows, state, prog
     order = {vin: i for i, vin in enumerate(variants)}
     # on every worker: one worker's death does not lose the FMU the other tasks need
     try:
-        scattered = {vin: _scatter(client, bundle(v)) for vin, v in variants.items()}
+        scattered = {vin: _scatter(client, bundle(v), held) for vin, v in variants.items()}
     except (TimeoutError, OSError):
         raise FieldError("scheduler", f"the FMUs could not be sent to the workers ({SCATTER_ATTEMPTS} attempts of "
                                       f"{SCATTER_TIMEOUT:g} s each after a worker was there)") from None
@@ -371,7 +470,7 @@ def _compute(client, spec, todo, variants, by_id, session, new_rows, state, prog
                         try:
                             # the worker that died may have held the scattered FMU: scatter it again, once a
                             # worker is back (the nanny restarts a dead one)
-                            scattered[vin] = _scatter(client, bundle(variants[vin]))
+                            scattered[vin] = _scatter(client, bundle(variants[vin]), held)
                             retry = client.submit(run_entry, scattered[vin], entry, pure=False,
                                                   key=f"sweep-{entry.id}-{tag}-retry{losses[entry.id]}")
                         except (TimeoutError, OSError) as again:       # no worker came back

@@ -30,7 +30,7 @@ import h5py
 import numpy as np
 
 from ..errors import FieldError
-from ..runio import atomic_paths
+from ..runio import atomic_paths, h5_create
 
 FORMAT = "sphrom-sweep"
 FORMAT_VERSION = 1
@@ -150,7 +150,7 @@ def _table(rows, n_probes):
 def _write_h5(tmp, table, attrs):
     from .. import __version__
     rows, cols, arrays = table
-    with h5py.File(tmp, "w") as h5:
+    with h5_create(tmp) as h5:
         h5.attrs["format"] = FORMAT
         h5.attrs["format_version"] = FORMAT_VERSION
         h5.attrs["sphrom_version"] = __version__

@@ -121,7 +121,7 @@ def measure_channels(path, scene, ports=(), problem=None, progress=False):
     from ...sph.ports import run_sph_ports
     from ...sph.solver import build_problem, run_sph
     from ..run.driver import FMU
-    from .verify import SCALE_NAME, communication_times, fmu_features, probe_values
+    from .verify import SCALE_NAME, communication_times, fmu_features, probe_values, rows_at
 
     model = _model(path)                                   # read once: the integrator and the probes
     scene = model_scene(model, scene, ports)
@@ -145,17 +145,18 @@ def measure_channels(path, scene, ports=(), problem=None, progress=False):
                                          t.shape).astype(float)
                 t0 = time.perf_counter()
                 if j is None:
-                    run = run_sph(derive_scene(short, {"force": {"f": force}}), sample_steps=steps, progress=False,
+                    unique, index = np.unique(steps, return_inverse=True)    # h < dt: a step named twice
+                    run = run_sph(derive_scene(short, {"force": {"f": force}}), sample_steps=unique, progress=False,
                                   problem=problem, state=(0.0 * problem.v0, problem.rho0.copy()))
-                    ref = probe_values(problem, scene.L, list(np.asarray(model.probe_x, float)), (run.v,))[0]
+                    ref = probe_values(problem, scene.L, list(np.asarray(model.probe_x, float)), (run.v,))[0][index]
                     output = "v at the probes"
                 else:
                     quiet = derive_scene(short, {"force": {"f": "0"}})
                     held = lambda s, j=j: np.eye(len(ports))[j] * values[min(int(s / step + 1e-9), t.size - 1)]
+                    every = max(1, int(round(step / scene.sph.dt)))
                     run = run_sph_ports(quiet, ports, forces=held, problem=build_problem(quiet),
-                                        state=(0.0 * problem.v0, problem.rho0.copy()),
-                                        every=max(1, int(round(step / scene.sph.dt))))
-                    ref = run.v_port[:t.size, j:j + 1]
+                                        state=(0.0 * problem.v0, problem.rho0.copy()), every=every)
+                    ref = run.v_port[rows_at(t, every * scene.sph.dt, run.v_port.shape[0]), j:j + 1]
                     output = f"v_port_{j + 1}"
                 sph_s = time.perf_counter() - t0
                 inputs = {name: values} if j is not None else {"f": values}
@@ -184,15 +185,15 @@ def _coupled(path, scene, short, problem, ports, j, t, step, has_scale):
     from ...sph.ports import mass_spring, run_sph_ports
     from ...sph.solver import build_problem
     from ..run.driver import FMU
-    from .verify import SCALE_NAME
+    from .verify import SCALE_NAME, rows_at
     m, k, c, s0 = smd_parameters(scene, problem, step)
     quiet = derive_scene(short, {"force": {"f": "0"}})
     t0 = time.perf_counter()
+    every = max(1, int(round(step / scene.sph.dt)))
     run = run_sph_ports(quiet, ports, lumped=mass_spring(m, k, port=j, n_ports=len(ports), s0=s0, damping=c),
-                        problem=build_problem(quiet), state=(0.0 * problem.v0, problem.rho0.copy()),
-                        every=max(1, int(round(step / scene.sph.dt))))
+                        problem=build_problem(quiet), state=(0.0 * problem.v0, problem.rho0.copy()), every=every)
     sph_s = time.perf_counter() - t0
-    ref = run.v_port[:t.size, j:j + 1]
+    ref = run.v_port[rows_at(t, every * scene.sph.dt, run.v_port.shape[0]), j:j + 1]
     output = f"v_port_{j + 1}"
     lumped, last_v = [np.array([s0, 0.0])], [0.0]
     with FMU(path) as fmu:

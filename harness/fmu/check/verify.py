@@ -165,6 +165,13 @@ def communication_times(scene, step):
     return t, np.minimum(np.round(t / scene.sph.dt).astype(np.int64), step_count(scene.T, scene.sph.dt))
 
 
+def rows_at(t, sample_dt, rows):
+    """The index of the sample nearest each communication point ``t`` [s] among ``rows`` samples taken every
+    ``sample_dt`` [s] from 0: a step h shorter than the sampling (a scene's dt longer than the FMU's step)
+    names a sample more than once, one longer skips some; never more rows than there are points."""
+    return np.minimum(np.round(np.asarray(t, float) / sample_dt).astype(np.int64), rows - 1)
+
+
 def probe_values(problem, L, probes, fields):
     """The fields (M, N) interpolated linearly at the probes x/L (as the FMU's probe rows)."""
     from ..resources import probe_pairs
@@ -183,6 +190,9 @@ def sph_reference(scene, force, scale, step, probes, problem=None):
     problem = problem or build_problem(scene)
     run_scene = scene if force == scene.f.text else derive_scene(scene, {"force": {"f": force}})
     t, steps = communication_times(scene, step)
+    # the SPH's samples are its steps, each once: a communication step shorter than the scene's dt names some
+    # step twice (dt = 0.02 s, h = 0.01 s: steps 0, 0, 1, 1, 2, ...), and the rows follow the points again below
+    unique, index = np.unique(steps, return_inverse=True)
     if run_scene is scene and scale == 1.0:
         # the training run itself (the scene's force from its initial state): the cached run the model was
         # trained on, with the communication points stored (run once when they are not); its wall time is that
@@ -190,13 +200,12 @@ def sph_reference(scene, force, scale, step, probes, problem=None):
         from ...cache import cached_sph
         from ...pod.pipeline import on_steps
         run = cached_sph(scene, steps, progress=False, problem=problem)
-        fields = on_steps(run, np.unique(steps))
-        index = np.searchsorted(np.unique(steps), steps)
-        v_all, rho_all = fields[0][index], fields[1][index]
+        v_all, rho_all = on_steps(run, unique)
     else:
-        run = run_sph(run_scene, sample_steps=steps, progress=False, problem=problem,
+        run = run_sph(run_scene, sample_steps=unique, progress=False, problem=problem,
                       state=(scale * problem.v0, problem.rho0.copy()))
         v_all, rho_all = run.v, run.rho
+    v_all, rho_all = v_all[index], rho_all[index]
     v, rho, rho0 = probe_values(problem, scene.L, probes, (v_all, rho_all, problem.rho0))
     return t, v, rho, rho0, run.wall_time
 

@@ -22,8 +22,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ... import defaults
 from ...errors import FieldError, SimulationError, UserError, exact
-from ...paths import is_file
+from ...paths import exists, is_file, not_a_file
 from ..variables import absent, check_parameter
 from .driver import can_interpolate_inputs
 
@@ -61,7 +62,9 @@ def read_fmu_description(path):
     from fmpy import read_model_description
     path = Path(path)
     if not is_file(path):
-        raise FieldError("fmu", f"'{path}': not found")
+        raise FieldError("fmu", f"'{path}': {not_a_file(path)}")
+    from .driver import check_archive
+    check_archive(path)                 # names, sizes (a zip bomb's modelDescription.xml is not read)
     try:
         md = read_model_description(str(path))
     except Exception as exc:            # fmpy raises plain exceptions for bad archives
@@ -76,7 +79,7 @@ def force_signal(force, t_end, step):
 
     ``force`` is an expression in t and T (T = t_end), sampled at the
     communication points, or the path of a CSV file with columns time,f: a
-    CSV when it ends in ``.csv`` or names an existing file, else an
+    CSV when it ends in ``.csv`` or names an existing path, else an
     expression (also when it is no possible file name: too long, a NUL).
     Raises FieldError ``force`` when it cannot be read or evaluated or is not finite, or
     when a CSV has fewer than two rows or its times do not cover [0, t_end].
@@ -85,7 +88,7 @@ def force_signal(force, t_end, step):
         return None
     text = str(force).strip()
     path = Path(text)
-    if text.lower().endswith(".csv") or is_file(path):
+    if text.lower().endswith(".csv") or exists(path):      # a folder or FIFO by that name: said so, not parsed
         signal = _csv_signal(path)
         check_coverage(signal, path, 0.0, t_end)
         input_samples(signal, signal["time"])          # f is interpolated between rows: finite slopes
@@ -144,9 +147,9 @@ def _is_instantiate_failure(exc) -> bool:
 
 def _csv_signal(path):
     if not is_file(path):
-        raise FieldError("force", f"CSV file '{path}' not found")
+        raise FieldError("force", f"CSV file '{path}': {not_a_file(path)}")
     try:
-        with open(path, newline="") as fh:
+        with open(path, newline="", encoding="utf-8-sig") as fh:        # a byte-order mark is no column name
             reader = csv.reader(fh)
             header = [h.strip() for h in next(reader)]
             rows = [row for row in reader if row and any(c.strip() for c in row)]
@@ -206,6 +209,41 @@ def _positive(value, field):
     return float(value)
 
 
+def _experiment(md, fmu, attribute, option):
+    """The FMU's DefaultExperiment ``attribute`` (stopTime, stepSize) [s]: FieldError ``fmu`` naming it and the
+    option that replaces it when it is missing, not a number, not finite or not > 0."""
+    value = getattr(md.defaultExperiment, attribute, None) if md.defaultExperiment is not None else None
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        number = math.nan
+    if not (math.isfinite(number) and number > 0):
+        shown = "missing" if value is None else f"{value!r}" if isinstance(value, str) else exact(number)
+        raise FieldError("fmu", f"'{fmu}': its DefaultExperiment {attribute} is {shown} (allowed: a finite number "
+                                f"> 0 [s]; or give --{option.replace('_', '-')})")
+    return number
+
+
+# bytes per value of the output table over its life: the times, the outputs fmpy collects, the table with the
+# time column, and the CSV writer's row (measured: a 1e6-step run of a 7-output FMU peaks at ~3.5 x its table)
+TABLE_COPIES = 4
+
+
+def check_table_memory(md, fmu, steps, field, what):
+    """FieldError ``field`` when the run's output table (``steps`` + 1 rows of time and every output, float64,
+    :data:`TABLE_COPIES` times over) would not fit in the memory this machine has available
+    (:func:`sphrom.runio.available_memory`), before any step is taken."""
+    from ...runio import available_memory, format_bytes
+    outputs = sum(1 for v in md.modelVariables if v.causality == "output")
+    need = (steps + 1) * (outputs + 1) * 8 * TABLE_COPIES
+    free = available_memory()
+    if free is not None and need > free:
+        raise FieldError(field, f"{what} gives {steps + 1:.3g} rows of {outputs + 1} columns, about "
+                                f"{format_bytes(need)} of memory, and this machine has {format_bytes(free)} "
+                                f"available (allowed: at most {max(free // ((outputs + 1) * 8 * TABLE_COPIES) - 1, 1):.3g} "
+                                "communication steps here)")
+
+
 def has_parameter(md, fmu, name, why=None):
     """FieldError naming ``name`` when the FMU ``fmu`` (its model description ``md``) has no such parameter: a
     start value for it would be ignored (:func:`sphrom.fmu.variables.absent`)."""
@@ -246,25 +284,29 @@ def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None, hold_inputs
         The FMU reported an error (its message is included).
     """
     md = read_fmu_description(fmu)
-    de = md.defaultExperiment
-    t_end = _positive(t_end, "t_end") or float(de.stopTime)
-    step = _positive(step, "step") or float(de.stepSize)
+    t_end = _positive(t_end, "t_end") or _experiment(md, fmu, "stopTime", "t_end")
+    given = step is not None
+    step = _positive(step, "step") or _experiment(md, fmu, "stepSize", "step")
+    # a step that came from the FMU is named as the FMU's, never as an option the user did not give
+    field, what = ("step", exact(step)) if given else ("fmu", f"'{fmu}': its DefaultExperiment stepSize {exact(step)}")
     if step > t_end:
-        raise FieldError("step", f"{exact(step)} is out of range (allowed: 0 < step <= t_end = {exact(t_end)})")
+        raise FieldError(field, f"{what} is out of range (allowed: 0 < step <= t_end = {exact(t_end)})")
     ratio = t_end / step                # may be inf (t_end 1e308, step tiny): compared before int()
     if ratio > MAX_COMM_STEPS:
-        raise FieldError("step", f"{step:g} gives {ratio:.3g} communication steps to t_end = {t_end:g} s "
-                                 f"(allowed: step >= t_end / 1e8 = {t_end / MAX_COMM_STEPS:g} s, at most 1e8 steps)")
+        raise FieldError(field, f"{what} gives {ratio:.3g} communication steps to t_end = {t_end:g} s "
+                                f"(allowed: step >= t_end / 1e8 = {t_end / MAX_COMM_STEPS:g} s, at most 1e8 steps)")
     steps = int(math.ceil(ratio - 1e-9))
+    check_table_memory(md, fmu, steps, field, what)
     start = {}
     if n_freeze is not None:
         has_parameter(md, fmu, "n_freeze")
         start["n_freeze"] = check_parameter("n_freeze", n_freeze)
     if initial_state_scale is not None:
         if isinstance(initial_state_scale, bool) or not isinstance(initial_state_scale, (int, float)) \
-                or not math.isfinite(initial_state_scale):
-            raise FieldError("initial_state_scale", f"{initial_state_scale!r} is out of range (allowed: a finite "
-                             "real number; 1 the scene's initial state, 0 at rest)")
+                or not abs(initial_state_scale) <= defaults.MAX_INITIAL_STATE_SCALE:
+            raise FieldError("initial_state_scale", f"{exact(initial_state_scale)} is out of range (allowed: "
+                             f"[-{defaults.MAX_INITIAL_STATE_SCALE:g}, {defaults.MAX_INITIAL_STATE_SCALE:g}]; 1 the "
+                             "scene's initial state, 0 at rest)")
         has_parameter(md, fmu, "initial_state_scale", "an FMU made by an older sphrom: it always starts from the "
                                                       "scene's initial state")
         start["initial_state_scale"] = float(initial_state_scale)

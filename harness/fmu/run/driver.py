@@ -92,6 +92,115 @@ def state_coordinates(blob: bytes, k: int):
     return np.frombuffer(blob, dtype="<f8", count=k, offset=STATE_HEADER_SIZE).copy()
 
 
+# An FMU archive is checked before anything of it is read or extracted (issue 36, case 6): a zip bomb (2 MB that
+# unpack to 2 GiB) was extracted in full, an absolute or '..' member name wrote outside the folder, a member
+# whose CRC is wrong or a truncated binary (SIGBUS once mapped) killed the process.  sphrom's FMUs unpack to a
+# few MiB; the limits leave room for far larger models.
+MAX_UNPACKED = 512 * 2**20            # bytes, all members together
+MAX_MEMBERS = 10_000
+BINARY = {2: "binaries/linux64/sphrom.so", 3: "binaries/x86_64-linux/sphrom.so"}
+
+
+def _fmu_error(path, detail):
+    from ...errors import FieldError
+    return FieldError("fmu", f"'{path}': {detail}")
+
+
+def check_archive(path):
+    """The members of the FMU archive ``path`` (zipfile infos), after checking every name (relative, inside
+    the archive's folder), the count and the total unpacked size (at most :data:`MAX_UNPACKED`); FieldError
+    ``fmu`` naming the problem.  Sizes are the archive's declared ones: :func:`extract_fmu` holds each member
+    to its declared size and CRC while it unpacks."""
+    import posixpath
+    import zipfile
+    try:
+        with zipfile.ZipFile(path) as zf:
+            infos = zf.infolist()
+    except (zipfile.BadZipFile, OSError, ValueError, EOFError) as exc:
+        raise _fmu_error(path, f"not a readable FMU (a zip archive: {exc})") from None
+    if len(infos) > MAX_MEMBERS:
+        raise _fmu_error(path, f"has {len(infos)} members (allowed: at most {MAX_MEMBERS})")
+    total = 0
+    for info in infos:
+        name = info.filename
+        norm = posixpath.normpath(name.replace("\\", "/"))
+        if (name.startswith(("/", "\\")) or (len(name) > 1 and name[1] == ":") or norm == ".."
+                or norm.startswith("../") or "\0" in name):
+            raise _fmu_error(path, f"member {name[:80]!r} would be unpacked outside its folder (allowed: relative "
+                                   "names inside the archive)")
+        total += info.file_size
+    if total > MAX_UNPACKED:
+        raise _fmu_error(path, f"unpacks to {total / 2**20:.4g} MiB (allowed: at most {MAX_UNPACKED // 2**20} MiB: "
+                               "an sphrom FMU is a few MiB; this looks like a zip bomb)")
+    return infos
+
+
+def extract_fmu(path):
+    """Unpack the FMU archive ``path`` into a new temporary folder (its path) after :func:`check_archive`,
+    each member held to its declared size and CRC; on any problem the folder is removed and FieldError ``fmu``
+    says what was wrong."""
+    import tempfile
+    import zipfile
+    infos = check_archive(path)
+    folder = tempfile.mkdtemp(prefix="sphrom-fmu-")
+    try:
+        with zipfile.ZipFile(path) as zf:
+            for info in infos:
+                target = Path(folder, info.filename)
+                if info.is_dir():
+                    target.mkdir(parents=True, exist_ok=True)
+                    continue
+                target.parent.mkdir(parents=True, exist_ok=True)
+                written = 0
+                with zf.open(info) as src, open(target, "wb") as dst:
+                    while chunk := src.read(1 << 20):
+                        written += len(chunk)
+                        if written > info.file_size:
+                            raise _fmu_error(path, f"member {info.filename!r} unpacks to more than its declared "
+                                                   f"{info.file_size} bytes")
+                        dst.write(chunk)
+    except (zipfile.BadZipFile, zipfile.LargeZipFile, EOFError, NotImplementedError, ValueError) as exc:
+        shutil.rmtree(folder, ignore_errors=True)
+        raise _fmu_error(path, f"a damaged archive ({exc})") from None
+    except OSError as exc:
+        shutil.rmtree(folder, ignore_errors=True)
+        raise _fmu_error(path, f"cannot be unpacked ({exc.strerror or exc})") from None
+    except BaseException:
+        shutil.rmtree(folder, ignore_errors=True)
+        raise
+    return folder
+
+
+def check_binary(path, unzipdir, fmi):
+    """FieldError ``fmu`` unless the FMU's binary for this platform is there and is a whole x86-64 ELF shared
+    library: its header, and every segment to be mapped, inside the file (a truncated library is refused
+    before it is mapped; mapped, its missing pages were SIGBUS)."""
+    import struct
+    rel = BINARY[fmi]
+    lib = Path(unzipdir, rel)
+    if not lib.is_file():
+        raise _fmu_error(path, f"has no binary for this platform ({rel} missing)")
+    data = lib.read_bytes()
+    size = len(data)
+    if size < 64 or data[:4] != b"\x7fELF":
+        raise _fmu_error(path, f"{rel} is not a shared library ({size} bytes, no ELF header)")
+    if data[4] != 2 or data[5] != 1:
+        raise _fmu_error(path, f"{rel} is not a 64-bit little-endian library")
+    e_type, e_machine = struct.unpack_from("<HH", data, 16)
+    if e_type != 3 or e_machine != 62:
+        raise _fmu_error(path, f"{rel} is not an x86-64 shared library (ELF type {e_type}, machine {e_machine})")
+    e_phoff, e_shoff = struct.unpack_from("<QQ", data, 32)
+    e_phentsize, e_phnum, e_shentsize, e_shnum = struct.unpack_from("<HHHH", data, 54)
+    if e_phoff + e_phnum * e_phentsize > size or e_shoff + e_shnum * e_shentsize > size or e_phentsize < 56:
+        raise _fmu_error(path, f"{rel} is truncated or damaged (its headers reach past its {size} bytes)")
+    for i in range(e_phnum):
+        p_type, _, p_offset, _, _, p_filesz = struct.unpack_from("<IIQQQQ", data, e_phoff + i * e_phentsize)
+        if p_type == 1 and p_offset + p_filesz > size:          # PT_LOAD
+            raise _fmu_error(path, f"{rel} is truncated ({size} bytes; a segment to be loaded reaches to byte "
+                                   f"{p_offset + p_filesz})")
+    return lib
+
+
 def can_interpolate_inputs(md) -> bool:
     """Whether an FMU (its fmpy model description ``md``) takes input derivatives: FMI 2 with
     canInterpolateInputs.  FMI 3.0 co-simulation has no input derivatives (module docstring)."""
@@ -141,11 +250,13 @@ class FMU:
     def __init__(self, path, name="sphrom", logging=False, token=None, messages=None):
         import time
 
-        from fmpy import extract, read_model_description
+        from fmpy import read_model_description
         path = Path(path)
+        if not path.is_dir():
+            check_archive(path)
         self.md = read_model_description(str(path))
         self._owns_dir = not path.is_dir()
-        self.unzipdir = str(path) if path.is_dir() else extract(str(path))
+        self.unzipdir = str(path) if path.is_dir() else extract_fmu(path)
         self.fmi = 2 if self.md.fmiVersion == "2.0" else 3
         self.messages = [] if messages is None else messages
         self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
@@ -155,7 +266,21 @@ class FMU:
         self.model_outputs = [n for n in self.outputs if not n.endswith("_error_bound")]
         token = token or (self.md.guid if self.fmi == 2 else self.md.instantiationToken)
         t0 = time.perf_counter()
-        self.fmu = load_fmu(self.fmi, self.unzipdir, token, name)
+        self.fmu = None
+        try:
+            check_binary(path, self.unzipdir, self.fmi)
+            self.fmu = load_fmu(self.fmi, self.unzipdir, token, name)
+        except Exception as exc:
+            if self._owns_dir:
+                shutil.rmtree(self.unzipdir, ignore_errors=True)
+            if getattr(exc, "field", None) == "fmu":
+                raise
+            # a library the loader refuses, or one without the FMI functions (another version's, another FMI's)
+            raise _fmu_error(path, f"its binary cannot be loaded ({' '.join(str(exc).split())[:200]})") from None
+        except BaseException:
+            if self._owns_dir:
+                shutil.rmtree(self.unzipdir, ignore_errors=True)
+            raise
         if self.fmi == 2:
             from ctypes import byref
 

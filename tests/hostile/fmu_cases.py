@@ -1,8 +1,8 @@
-"""The battery's FMU cases (:mod:`sphrom.bench.hostile`): mutated resources through the C core, mutated
+"""The battery's FMU cases (:mod:`tests.hostile.battery`): mutated resources through the C core, mutated
 serialized states and FMI call sequences through fmpy, each in a child process that is restarted after a crash
 or a stall.
 
-Outcomes as in :mod:`sphrom.bench.hostile`: a refusal with the FMU's message is a clean error; an OK status
+Outcomes as in :mod:`tests.hostile.battery`: a refusal with the FMU's message is a clean error; an OK status
 with non-finite outputs, or a corrupted file or state accepted, is a silent wrong result; a child that dies in a
 case (SIGSEGV, SIGABRT) is a traceback; one that does not answer within 20 s is a hang.
 """
@@ -21,6 +21,8 @@ import threading
 import time
 import zlib
 from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[2]
 
 
 def _recrc(blob: bytes) -> bytes:
@@ -60,7 +62,7 @@ def mutations(blob: bytes, rng, count):
 def _child_resources(core_path, cases, emit):
     import numpy as np
 
-    from ..fmu.run.core import Core, CoreError
+    from sphrom.fmu.run.core import Core, CoreError
     core = Core(core_path)
     for i, (desc, hexblob, must_refuse) in enumerate(cases):
         emit({"i": i, "start": True})
@@ -106,7 +108,7 @@ def verdict(emit, i, messages, outputs=None, exc=None, done=""):
 
 
 def _slave(unzipdir, messages):
-    from ..fmu.run.driver import FMU
+    from sphrom.fmu.run.driver import FMU
     return FMU(unzipdir, messages=messages)
 
 
@@ -147,7 +149,7 @@ def _child_sequences(unzipdir, cases, emit):
     """Random FMI call sequences: an OK status must come with finite outputs; an error with a message."""
     import numpy as np
 
-    from ..fmu.variables import vr
+    from sphrom.fmu.variables import vr
     VR_DT, VR_F, VR_INITIAL_STATE_SCALE, VR_N_FREEZE = (vr(name) for name in ("dt", "f", "initial_state_scale",
                                                                               "n_freeze"))
     for i, (seed, length) in enumerate(cases):
@@ -301,7 +303,9 @@ def run_children(ws, kind, payload, cases, labels, category, per_case_timeout=20
     while start < len(cases):
         spec_file = ws.root / f"child-{kind}.json"
         spec_file.write_text(json.dumps({"kind": kind, **payload, "cases": cases[start:]}))
-        proc = subprocess.Popen([sys.executable, "-m", "sphrom.bench.hostile", "--child", str(spec_file)],
+        proc = subprocess.Popen([sys.executable, "-c", "import sys; sys.path.insert(0, sys.argv[1]); "
+                                 "from tests.hostile.fmu_cases import child_main; child_main(sys.argv[2])",
+                                 str(REPO), str(spec_file)],
                                 cwd=ws.root, env=ws.env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         current, done = None, {}
         timer_state = {"last": time.monotonic()}
@@ -346,8 +350,8 @@ def fmu_cases(ws, rng, n_resources, n_states, n_sequences):
     import numpy as np
     from fmpy import extract
 
-    from ..fmu.make.build import ensure_binaries
-    from ..fmu.run.driver import FMU
+    from sphrom.fmu.make.build import ensure_binaries
+    from sphrom.fmu.run.driver import FMU
     os.environ["SPHROM_CACHE"] = ws.env["SPHROM_CACHE"]          # the workspace's build of the binaries
     binaries = ensure_binaries(quiet=True)
     results = []

@@ -1,0 +1,226 @@
+"""Hostile input, round four (issue 36): the cases an outside battery found, each a contract here.
+
+1 a sweep ends within seconds of a Ctrl-C to its process group, one line, exit 130, nothing left (dask's scratch
+  included); 2 verification follows a scene dt longer than the FMU's step; 4 an output that names an input is
+  refused before any work; 5 a full file system is one line, nothing left; 6 damaged FMUs are one line, no folder
+  left; 7 a run beyond the machine's memory is refused first (cosim) or one line (MemoryError); 9 messages name
+  what is wrong (a byte-order mark, a FIFO or folder for a file, the FMU's stepSize, negative numbers); 10 a
+  signal sent to a process already inside its exit is no lost signal; 11 initial_state_scale is bounded.
+"""
+
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import pytest
+
+from conftest import small_scene
+from hostile.battery import still_running
+from hostile.damaged import damaged_fmus
+from sphrom.cli import main
+from sphrom.paths import import_path
+
+ROOT = Path(__file__).resolve().parents[1]
+ENV = {**os.environ, "PYTHONPATH": import_path(ROOT)}
+
+
+def one_line(capsys, code, expect_code=2, *words):
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == expect_code and len(err) == 1, err
+    assert "Traceback" not in err[0] and all(w in err[0] for w in words), err
+    return err[0]
+
+
+# -- case 9: messages that name what is wrong --------------------------------------------------------------------
+
+@pytest.mark.parametrize("value", ["-1e-3", "-1E-3", "-.5", "-inf", "-1e308"])
+def test_a_negative_number_in_any_float_form_is_an_option_value(value, hostile_fmu, tmp_path, capsys):
+    """'--initial-state-scale -1e-3' was "expected one argument" while -0.001 worked (argparse's own pattern)."""
+    code = main(["cosim", str(hostile_fmu), "--t-end", value, "--out", str(tmp_path / "o.csv")])
+    line = one_line(capsys, code, 2, "--t-end", value)
+    assert "expected one argument" not in line
+
+
+def test_a_byte_order_mark_is_no_column_and_no_statement(hostile_scene, hostile_fmu, tmp_path, capsys):
+    csv = tmp_path / "f.csv"
+    csv.write_bytes(b"\xef\xbb\xbftime,f\n0,0\n0.2,0.01\n")
+    assert main(["cosim", str(hostile_fmu), "--force", str(csv), "--out", str(tmp_path / "o.csv")]) == 0
+    scene = tmp_path / "bom.toml"
+    scene.write_bytes(b"\xef\xbb\xbf" + hostile_scene.read_bytes())
+    assert main(["sph", str(scene), "--out", str(tmp_path / "o.h5"), "--quiet"]) == 0, capsys.readouterr().err
+
+
+@pytest.mark.parametrize("kind", ["folder", "fifo"])
+def test_an_input_that_is_no_regular_file_says_what_it_is(kind, hostile_fmu, tmp_path, capsys):
+    node = tmp_path / "in.toml"
+    node.mkdir() if kind == "folder" else os.mkfifo(node)
+    what = "a folder" if kind == "folder" else "a FIFO"
+    one_line(capsys, main(["sph", str(node), "--out", str(tmp_path / "o.h5")]), 2, what)
+    one_line(capsys, main(["cosim", str(hostile_fmu), "--force", str(node), "--out", str(tmp_path / "o.csv")]),
+             2, what)
+    one_line(capsys, main(["cosim", str(node), "--out", str(tmp_path / "o.csv")]), 2, what)
+
+
+# -- case 6 (and 9: a bad DefaultExperiment is the FMU's, not --step's) -------------------------------------------
+
+@pytest.fixture(scope="module")
+def damaged(hostile_fmu, tmp_path_factory):
+    return damaged_fmus(hostile_fmu, tmp_path_factory.mktemp("damaged"), bomb_mib=600)
+
+
+def test_damaged_fmus_are_one_line_and_leave_no_folder(damaged, tmp_path, capsys, monkeypatch):
+    scratch = tmp_path / "tmp"
+    scratch.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(scratch))
+    for name, path in damaged.items():
+        out = tmp_path / "o.csv"
+        line = one_line(capsys, main(["cosim", str(path), "--out", str(out)]), 2, "FILE.fmu")
+        assert not out.exists() and list(scratch.iterdir()) == [], (name, list(scratch.iterdir()))
+        if "stepSize" in name or "stopTime" in name:
+            assert "--step:" not in line and "DefaultExperiment" in line, line
+    assert not Path("/tmp/sphrom-hostile-absolute.txt").exists()
+
+
+def test_a_truncated_binary_is_refused_in_a_process_that_lives(damaged, tmp_path):
+    """Mapped, a truncated library was SIGBUS (fmpy and the command died without a word)."""
+    proc = subprocess.run([sys.executable, "-m", "sphrom", "cosim", str(damaged["truncated binary, one page"]),
+                           "--out", str(tmp_path / "o.csv")], env=ENV, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+
+
+# -- case 4: no input overwritten -------------------------------------------------------------------------------
+
+def test_an_output_that_names_an_input_is_refused_before_any_work(hostile_scene, hostile_fmu, tmp_path, capsys):
+    scene = tmp_path / "s.toml"
+    scene.write_bytes(hostile_scene.read_bytes())
+    fmu = tmp_path / "x.fmu"
+    fmu.write_bytes(hostile_fmu.read_bytes())
+    force = tmp_path / "f.csv"
+    force.write_text("time,f\n0,0\n0.2,0\n")
+    before = {p: p.read_bytes() for p in (scene, fmu, force)}
+    for argv in (["sph", str(scene), "--out", str(scene)],
+                 ["pod", str(scene), "--out", f"{tmp_path}/./s.toml"],
+                 ["cosim", str(fmu), "--out", str(fmu)],
+                 ["cosim", str(fmu), "--force", str(force), "--out", str(force)]):
+        one_line(capsys, main(argv), 2, "--out", "input")
+    link = tmp_path / "link.toml"
+    link.symlink_to(scene)
+    one_line(capsys, main(["sph", str(link), "--out", str(scene)]), 2, "--out", "input")
+    assert {p: p.read_bytes() for p in before} == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["f.csv", "link.toml", "s.toml", "x.fmu"]
+
+
+# -- case 11 and case 7 -----------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("scale", ["1e308", "-1e4", "1001"])
+def test_initial_state_scale_is_bounded(scale, hostile_fmu, tmp_path, capsys):
+    """1e308 was accepted: outputs of 4e305 m/s read back with OK until the first doStep failed."""
+    one_line(capsys, main(["cosim", str(hostile_fmu), "--initial-state-scale", scale, "--out",
+                           str(tmp_path / "o.csv")]), 2, "--initial-state-scale", "[-1000, 1000]")
+
+
+def test_a_cosim_table_beyond_the_memory_available_is_refused_first(hostile_fmu, tmp_path, capsys, monkeypatch):
+    import sphrom.runio as runio
+    monkeypatch.setattr(runio, "available_memory", lambda: 64 * 2**20)
+    line = one_line(capsys, main(["cosim", str(hostile_fmu), "--t-end", "100", "--step", "0.0001", "--out",
+                                  str(tmp_path / "o.csv")]), 2, "--step", "available")
+    assert "64 MiB" in line and not (tmp_path / "o.csv").exists()
+
+
+def test_out_of_memory_is_one_line(hostile_scene, tmp_path, capsys, monkeypatch):
+    import sphrom.sph.solver as solver
+
+    def no_memory(*args, **kwargs):
+        raise MemoryError("Unable to allocate 8.9 GiB for an array with shape (400000, 3000)")
+    monkeypatch.setattr(solver, "run_sph", no_memory)
+    line = one_line(capsys, main(["sph", str(hostile_scene), "--out", str(tmp_path / "o.h5"), "--quiet"]), 3,
+                    "out of memory", "8.9 GiB")
+    assert not list(tmp_path.iterdir()), line
+
+
+# -- case 2: verification at any dt -----------------------------------------------------------------------------
+
+@pytest.mark.parametrize("model", ["frozen", "exact"])
+def test_verification_follows_a_dt_longer_than_the_step(model, tmp_path, capsys):
+    """dt = 0.02 s against the FMU's 0.01 s step: ValueError 'shapes differ: (201, 3) vs (101, 3)'."""
+    scene = tmp_path / "dt.toml"
+    scene.write_text(small_scene("damped_forced", T=0.4, n=32, dt=0.02).text)
+    out = tmp_path / "dt.fmu"
+    code = main(["fmu", str(scene), "--modes", "4", "--model", model, "--out", str(out), "--quiet"])
+    assert code == 0 and out.exists(), capsys.readouterr().err
+
+
+# -- case 5: a real full file system ----------------------------------------------------------------------------
+
+@pytest.fixture
+def full_tmpfs(tmp_path):
+    folder = tmp_path / "small"
+    folder.mkdir()
+    proc = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(folder)], capture_output=True)
+    if proc.returncode != 0:
+        pytest.skip(f"cannot mount a 64 KiB tmpfs here (needs root): {proc.stderr.decode().strip()[:100]}")
+    try:
+        yield folder
+    finally:
+        subprocess.run(["umount", "-l", str(folder)], capture_output=True)
+
+
+def test_a_full_file_system_is_one_line_and_nothing_left(full_tmpfs, hostile_scene, hostile_fmu, tmp_path):
+    """On a 64 KiB tmpfs, sph died with SIGSEGV after h5py's tracebacks and left .o.h5.tmp-PID; fmu and cosim
+    gave an ENOSPC traceback."""
+    big = tmp_path / "big.toml"
+    big.write_text(small_scene("damped_forced", T=1.0, n=64).text)
+    (full_tmpfs / "pad").write_bytes(bytes(40 * 1024))
+    for argv in (["sph", str(big), "--out", str(full_tmpfs / "o.h5"), "--quiet"],
+                 ["fmu", str(hostile_scene), "--modes", "4", "--no-verify", "--out", str(full_tmpfs / "o.fmu"),
+                  "--quiet"],
+                 ["cosim", str(hostile_fmu), "--t-end", "20", "--out", str(full_tmpfs / "o.csv")]):
+        proc = subprocess.run([sys.executable, "-m", "sphrom", *argv], env=ENV, capture_output=True, text=True,
+                              timeout=300)
+        lines = proc.stderr.strip().splitlines()
+        assert proc.returncode == 2 and len(lines) == 1 and "no space left" in lines[0], (argv[0], proc.stderr)
+        assert sorted(p.name for p in full_tmpfs.iterdir()) == ["pad"], argv[0]
+
+
+# -- case 10 ----------------------------------------------------------------------------------------------------
+
+def test_a_process_inside_its_exit_is_not_running():
+    """poll() is None for a zombie not yet reaped: a signal sent to it reached no program, and its exit 0 was
+    counted as a lost SIGTERM."""
+    import time
+    proc = subprocess.Popen([sys.executable, "-c", "pass"])
+    deadline = time.monotonic() + 30
+    while Path(f"/proc/{proc.pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z":
+        assert time.monotonic() < deadline
+        time.sleep(0.01)
+    assert proc.returncode is None and not still_running(proc)
+    proc.wait()
+
+
+# -- case 1: a sample of the Ctrl-C trials ----------------------------------------------------------------------
+
+def test_ctrl_c_to_a_sweep_process_group(hostile_scene, tmp_path):
+    """A few of ``python3 -m tests.hostile signals``: SIGINT to the process group at moments across the run."""
+    import random
+
+    from hostile.trials import span, trial
+    spec = tmp_path / "spec.toml"
+    spec.write_text(f'title = "t"\nscene = "{hostile_scene}"\nt_end = 4.0\nstep = 0.001\nprobes = [0.25]\n'
+                    'parametric = false\n\n[grid]\nshape = ["sine"]\namplitude = [1e-2]\n'
+                    'frequency = [0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0]\nk = [4]\n')
+    work = tmp_path / "w"
+    work.mkdir()
+    env = {**ENV, "SPHROM_CACHE": os.environ.get("SPHROM_CACHE", str(tmp_path / "cache"))}
+    argv = ["sweep", str(spec), "--workers", "2", "--out", "r.h5", "--quiet"]
+    length = span(argv, work, env)
+    for p in work.iterdir():
+        p.unlink()
+    rng = random.Random(1)
+    for delay in (0.3 * length * rng.random(), 0.3 * length + 0.6 * length * rng.random()):
+        row = trial(argv, work, env, signal.SIGINT, delay, to_group=True)
+        assert row["outcome"] in ("clean", "ended before the signal"), row
+        for p in work.iterdir():
+            p.unlink()
