@@ -21,7 +21,7 @@ from .errors import FieldError, Interrupted, SimulationError, UserError
 from .parser import Parser
 from .signals import SIGNALS, Guard, current_guard, interrupt_line
 
-# subcommand name -> module in sphrom.commands
+# subcommand name -> the module in sphrom.commands that adds it (a module may add several)
 COMMANDS = {
     "scenes": "scenes",
     "sph": "sph",
@@ -29,11 +29,11 @@ COMMANDS = {
     "rom": "rom",
     "modes": "modes",
     "bench": "bench",
-    "bench-sph": "bench_sph",
-    "stress": "stress",
+    "bench-sph": "bench",         # bench-sph, bench-fmu, stress: aliases of measurement programs (sphrom bench NAME)
+    "bench-fmu": "bench",
+    "stress": "bench",
     "fmu": "fmu",
     "cosim": "cosim",
-    "bench-fmu": "bench_fmu",
     "reference": "reference",
     "validate": "validate",
     "sweep": "sweep",
@@ -48,7 +48,7 @@ def build_parser():
     parser.add_argument("--version", action="version", version=f"sphrom {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
-    for name, module in COMMANDS.items():
+    for module in dict.fromkeys(COMMANDS.values()):
         importlib.import_module(f".commands.{module}", __package__).add_parser(sub)
     parser.commands = dict(sub.choices)          # name -> its parser (errors, option names)
     return parser
@@ -58,7 +58,7 @@ def parse(parser, argv=None):
     """Parse ``argv``; an unknown argument is an error of the subcommand it was given to.  ``sphrom bench NAME
     ...`` hands the arguments after NAME to the program NAME (:func:`sphrom.commands.bench.program_args`)."""
     from .commands.bench import program_args
-    args = program_args(sys.argv[1:] if argv is None else list(argv), build_parser)
+    args = program_args(sys.argv[1:] if argv is None else list(argv))
     if args is not None:
         return args
     args, extra = parser.parse_known_args(argv)
@@ -158,11 +158,11 @@ def _leave(code):
 def _run(parser, args):
     try:
         if args.command in parser.commands and "handler" in vars(args):
-            from .commands.options import check_outputs_spare_inputs
+            from .options import check_outputs_spare_inputs
             check_outputs_spare_inputs(parser.commands[args.command], args, args.command)
         return int(args.handler(args) or 0)
     except FieldError as exc:                    # the library names the field; show the option that set it
-        from .commands.options import option_message
+        from .options import option_message
         print(f"sphrom {args.command}: error: {option_message(parser.commands[args.command], exc)}",
               file=sys.stderr)
         return exc.exit_code

@@ -17,7 +17,7 @@ class FieldError(UserError):
 
     The library names the field and what is allowed; the command line, which
     alone knows option names, may show the option that set the field instead
-    (``sphrom.commands.options.option_message``).  ``str(exc)`` is
+    (``sphrom.options.option_message``).  ``str(exc)`` is
     ``"<field>: <detail>"``.
     """
 

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from conftest import small_scene
-from sphrom.measure.methods import bench_python
-from sphrom.measure.scaling import growth
+from sphrom.bench.lib.methods import bench_python
+from sphrom.bench.lib.scaling import growth
 from sphrom.cli import main
 
 
@@ -55,7 +55,7 @@ def test_bench_command_smoke(tmp_path, monkeypatch):
 
 
 def test_stress_smoke_and_physics(tmp_path):
-    from sphrom.measure import stress as st
+    from sphrom.bench.lib import stress as st
     scene = small_scene("multimode", T=2.0, n=32, every=25)
     ctx = st.context(scene, k=6)
     # far below the limit everything that should hold holds; the exact model holds at 2x
@@ -71,7 +71,7 @@ def test_stress_smoke_and_physics(tmp_path):
                  str(_scene_file(tmp_path, scene))]) == 0
     assert "Largest Δt" in (tmp_path / "stress.md").read_text()
     # as `sphrom bench --report` calls it: into a folder that does not exist yet
-    from sphrom.measure.stress_maps import stress_report
+    from sphrom.bench.lib.stress_maps import stress_report
     text, _ = stress_report([scene], [1], [2.0], [4], (0.5,), tmp_path / "new" / "stress", no_fmu=True)
     assert "Largest Δt" in text and (tmp_path / "new" / "stress" / f"{scene.name}_stress.png").is_file()
 
@@ -79,7 +79,7 @@ def test_stress_smoke_and_physics(tmp_path):
 def test_skipped_terms_give_identical_results_in_every_solver():
     """multimode has d = 0 and f = 0: every solver (full SPH, linearized and frozen POD-MOR, the FMU's C core)
     gives bitwise the same state with the terms skipped and with them evaluated (asserted inside)."""
-    from sphrom.measure.skip import skip_savings
+    from sphrom.bench.lib.skip import skip_savings
     rows = skip_savings(small_scene("multimode", T=0.5, n=32, every=25), steps=500, k=4, repeats=1)
     assert [r["solver"].split(" (")[0].split(",")[0] for r in rows] == \
         ["full SPH", "linearized POD-MOR", "frozen POD-MOR", "FMU core"]
@@ -90,8 +90,8 @@ def test_skipped_terms_give_identical_results_in_every_solver():
 def test_stress_fmu_columns_report_errors_never_nan():
     """The FMU in the stress maps: the same outcome as the Python model it packages, an error status naming the
     time where the state runs away or the density leaves (0, ∞), and never a silent NaN."""
-    from sphrom.measure import stress as st
-    from sphrom.measure.stress_fmu import FMUStress, stress_runners
+    from sphrom.bench.lib import stress as st
+    from sphrom.bench.lib.stress_fmu import FMUStress, stress_runners
     scene = small_scene("multimode", T=1.0, n=32, every=25)
     ctx = st.context(scene, k=6)
     # the Python models the FMUs package: the registry's, the frozen one with b about the rest density

@@ -1,4 +1,5 @@
-"""The BENCHMARKS.md writer (sphrom.measure.markdown): each section on small inputs is well-formed Markdown, and the
+"""The BENCHMARKS.md writers (the sections beside what measures them: sphrom.bench.suite, the library's fmu_sections,
+sph_scaling and stress_maps, the programs' own): each section on small inputs is well-formed Markdown, and the
 assembled document has the sections of the committed BENCHMARKS.md in its order."""
 
 import math
@@ -7,9 +8,13 @@ from pathlib import Path
 
 import pytest
 
-from sphrom.measure import markdown as rp
-from sphrom.measure.stress_maps import StressMaps
-from sphrom.measure.suite import BenchResults
+from sphrom.bench import suite
+from sphrom.bench.fmu_verify import packaged_fmu_section
+from sphrom.bench.lib.fmu_sections import fmu_section, headline_section
+from sphrom.bench.lib.sph_scaling import INTEGRATORS, sph_step_section
+from sphrom.bench.lib.stress_maps import StressMaps, stress_section
+from sphrom.bench.linear_tradeoff import linear_tradeoff_section
+from sphrom.bench.suite import BenchResults
 
 ROOT = Path(__file__).resolve().parents[1]
 NAN = float("nan")
@@ -67,7 +72,7 @@ SKIPS = [{"scene": "a", "solver": "full SPH", "specialised_us": 3.4, "general_us
 DIRECTIONS = [{"scene": "a", "k": 8, "input_error": 0.004, "choice": c, "k_v": 8 + (c == "augment"), "err_v": 0.1,
                "err_rho": NAN, "fmu_rule": "project"} for c in ("project", "augment")]
 SPH_STEPS = [{"integrator": i, "n": n, "us_per_step": 0.01 * n * (j + 1), "ns_per_particle_step": 10.0, "steps": 9}
-             for j, i in enumerate(rp.SPH_INTEGRATORS) for n in (100, 1000, 10000)]
+             for j, i in enumerate(INTEGRATORS) for n in (100, 1000, 10000)]
 CORE = [{"n": n, "k": 12, "k_v": 12, "k_rho": 12, "n_freeze": 10, "steps": 9, "ns_per_step": 180.0, "ns_min": 170.0,
          "ns_max": 190.0} for n in (100, 400)]
 E2E = {"rows": [{"model": m, "step_s": h, "doSteps": round(10 / h), "fmu_e2e_s": 0.06, "fixed_s": 0.01,
@@ -106,17 +111,17 @@ MAPS = StressMaps([_stress_scene("a", True), _stress_scene("b", False)], [1, 10]
 
 
 @pytest.mark.parametrize("section, args, columns", [
-    (rp.headline_section, (FMU,), []),
-    (rp.savings_section, ([("a", {8: 0.8, 12: 0.6}, 0.95), ("b", {8: 0.75}, None)],), [3]),
-    (rp.scene_section, ("a", ROWS[:4], "x/a_time_error.png"), [10]),
-    (rp.cost_n_section, (SCALING, [100, 400, 1600], "x/scaling_n.png"), [5]),
-    (rp.cost_k_section, (SCALING_K, [4, 8], "x/scaling_k.png"), [4]),
-    (rp.skip_section, (SKIPS,), [5]),
-    (rp.input_direction_section, (DIRECTIONS, ["a", "b"], 0.01), [8]),
-    (rp.sph_step_section, (SPH_STEPS, [100, 1000, 10000], 3), [5]),
-    (rp.fmu_section, (FMU,), [8, 11]),
-    (lambda rows: rp.packaged_fmu_section(rows, **PACKAGED_META), (PACKAGED,), [14]),
-    (rp.stress_section, (MAPS, "sphrom stress a b", "x/stress", 2), [3, 5, 4, 4] * 2),
+    (headline_section, (FMU,), []),
+    (suite.savings_section, ([("a", {8: 0.8, 12: 0.6}, 0.95), ("b", {8: 0.75}, None)],), [3]),
+    (suite.scene_section, ("a", ROWS[:4], "x/a_time_error.png"), [10]),
+    (suite.cost_n_section, (SCALING, [100, 400, 1600], "x/scaling_n.png"), [5]),
+    (suite.cost_k_section, (SCALING_K, [4, 8], "x/scaling_k.png"), [4]),
+    (suite.skip_section, (SKIPS,), [5]),
+    (suite.input_direction_section, (DIRECTIONS, ["a", "b"], 0.01), [8]),
+    (sph_step_section, (SPH_STEPS, [100, 1000, 10000], 3), [5]),
+    (fmu_section, (FMU,), [8, 11]),
+    (lambda rows: packaged_fmu_section(rows, **PACKAGED_META), (PACKAGED,), [14]),
+    (stress_section, (MAPS, "sphrom stress a b", "x/stress", 2), [3, 5, 4, 4] * 2),
 ])
 def test_each_section_is_well_formed_markdown(section, args, columns):
     lines = section(*args)
@@ -126,10 +131,10 @@ def test_each_section_is_well_formed_markdown(section, args, columns):
 
 
 def test_sections_without_data_are_empty_and_images_are_given_paths():
-    assert rp.headline_section(None) == [] and rp.fmu_section(None) == []
-    assert rp.input_direction_section([], ["a"], 0.01) == []
-    assert "![time against error](x/a_time_error.png)" in rp.scene_section("a", ROWS[:2], "x/a_time_error.png")
-    page = rp.stress_section(MAPS, "sphrom stress a b", "", level=1)
+    assert headline_section(None) == [] and fmu_section(None) == []
+    assert suite.input_direction_section([], ["a"], 0.01) == []
+    assert "![time against error](x/a_time_error.png)" in suite.scene_section("a", ROWS[:2], "x/a_time_error.png")
+    page = stress_section(MAPS, "sphrom stress a b", "", level=1)
     assert page[0] == "# Stability stress maps" and "## a" in page and "![stress map](a_stress.png)" in page
     assert "Wall time 12 s." in page[2]
     # the FMU paragraph only where the FMU ran, counting its runs and naming the error's time
@@ -142,9 +147,8 @@ def test_the_report_has_the_committed_documents_sections_in_order(tmp_path):
                            repeats=3, scene_names=["a", "b"], rows=ROWS, savings=[("a", {8: 0.8}, 0.95)],
                            sizes=[100, 400], scaling=SCALING, ks_scaling=[4, 8], scaling_k=SCALING_K, skips=SKIPS,
                            directions=DIRECTIONS, input_tolerance=0.01, sph_sizes=[100, 1000, 10000],
-                           sph_steps=SPH_STEPS, fmu=FMU, stress=MAPS, stress_command="sphrom bench --report", wall=3,
-                           packaged=PACKAGED, packaged_meta=PACKAGED_META)
-    text = rp.report(results, "validation/benchmarks", existing=(ROOT / "BENCHMARKS.md").read_text())
+                           sph_steps=SPH_STEPS, fmu=FMU, stress=MAPS, stress_command="sphrom bench --report", wall=3)
+    text = suite.report(results, "validation/benchmarks", existing=(ROOT / "BENCHMARKS.md").read_text())
     assert text.endswith("|\n") and "\n\n\n" not in text
     assert_well_formed(text.splitlines() + [""])
 
@@ -174,11 +178,11 @@ def test_linear_tradeoff_section_replaces_its_own_section_only(tmp_path):
     rows = [{"scene": "s", "force": f, "order": 4, "model": m, "state": 4, "online_s": 0.5, "err_sph": 1e-2,
              "err_linear": 2e-5 if m == "balanced" else NAN, "bound": 3e-5 if m == "balanced" else NAN, "note": ""}
             for f in ("training", "unseen") for m in ("balanced", "frozen")]
-    text = "\n".join(rp.linear_tradeoff_section(rows, "cmd", 1.0)) + "\n"
+    text = "\n".join(linear_tradeoff_section(rows, "cmd", 1.0)) + "\n"
     assert text.startswith(SECTION_TITLE) and "### s, training force" in text and "### s, unseen force" in text
     assert "| 4 | balanced | 4 | 0.5000 | 1.000e-02 | 2.000e-05 | 3.000e-05 | 1.50000 |  |" in text
     assert "| 4 | frozen | 4 | 0.5000 | 1.000e-02 | — | — | — |  |" in text
-    assert SECTION_TITLE in rp.CARRIED
+    assert SECTION_TITLE in suite.CARRIED
     page = tmp_path / "B.md"
     page.write_text("# Benchmarks\n\n## A\n\na\n\n## Stability stress maps\n\nz\n")
     write_section(page, text)

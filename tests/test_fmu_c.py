@@ -335,7 +335,7 @@ def test_rebuild_from_sources_links_the_maths_library(packaged, tmp_path, fmi):
 # ---------------------------------------------------------------------------
 
 def test_core_benchmark_rows_do_not_depend_on_n(binaries):
-    from sphrom.measure.fmu import core_rows
+    from sphrom.bench.lib.fmu import core_rows
     rows = core_rows("multimode", [48, 96], k=8, n_steps=20_000, repeats=5, core=Core(binaries.core))
     assert [r["n"] for r in rows] == [48, 96]
     for r in rows:

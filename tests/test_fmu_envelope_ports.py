@@ -16,7 +16,7 @@ import zipfile
 import numpy as np
 import pytest
 
-from sphrom.measure.ports import PORTS, open_loop_forces
+from sphrom.bench.lib.ports import PORTS, open_loop_forces
 from sphrom.fmu.make import envelope as E
 from sphrom.fmu.make.build import ensure_binaries
 from sphrom.fmu.run.core import Core
@@ -67,7 +67,7 @@ def run(path, scene, t_end, forces):
 def coupled_run(path, scene, t_end):
     """(envelope warnings, errors) of the coupled example of sphrom.bench.port_coupling: a lumped mass-spring
     on port 1 (its spring force, up to 5e-3 N, held as F_port_1), port 2 open loop."""
-    from sphrom.measure.ports import STIFFNESS, S0, mass_spring_step
+    from sphrom.bench.lib.ports import STIFFNESS, S0, mass_spring_step
     n = int(round(t_end / H))
     y = np.array([S0, 0.0])
     with FMU(path) as s:

@@ -250,7 +250,7 @@ def test_every_variable_of_packaged_fmus_is_a_row_of_the_table(packaged):
 
 def test_the_benchmark_section_is_replaced_in_place_or_put_before_the_stress_maps():
     from sphrom.bench.fmu_verify import SECTION_HEADING
-    from sphrom.measure.markdown import replace_section
+    from sphrom.bench.lib.document import replace_section
     doc = "# Benchmarks\n\n## The FMU\n\ntext\n\n## Stability stress maps\n\nmaps\n"
     first = replace_section(doc, SECTION_HEADING, [SECTION_HEADING, "", "| a |", ""])
     assert first == ("# Benchmarks\n\n## The FMU\n\ntext\n\n" + SECTION_HEADING + "\n\n| a |\n\n"

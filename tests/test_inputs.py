@@ -13,7 +13,7 @@ import pytest
 
 from conftest import small_scene
 from sphrom.pod.pipeline import basis_for_scene
-from sphrom.measure.responses import held as held_over, held_response
+from sphrom.bench.lib.responses import held as held_over, held_response
 from sphrom.rom import inputs
 from sphrom.rom.reference import linear_reference
 from sphrom.rom.registry import get_model

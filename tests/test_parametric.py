@@ -21,7 +21,7 @@ from sphrom.fmu.run.driver import FMU
 from sphrom.fmu.make.package import package_fmu
 from sphrom.fmu.check.python_cosim import probe_values
 from sphrom.fmu.resources import unpack
-from sphrom.measure.responses import held_response
+from sphrom.bench.lib.responses import held_response
 from sphrom.fmu.variables import vr
 from sphrom.rom import parametric as par
 from sphrom.rom.exact_linear import build_linear_operators, run_exact

@@ -1,12 +1,14 @@
-"""The measurement programs: one module per program, reached through one entry point.
+"""The measurement programs and the library they share: measurement's one home.
 
-``sphrom bench NAME [options]`` runs the program NAME (``sphrom bench NAME --help`` lists its options);
-``sphrom bench --list`` prints one line per program: what it measures, how long it takes, what it writes.
-``python -m sphrom.bench.NAME`` runs the modules below as well.  The code they share is the library
-:mod:`sphrom.measure` (and :mod:`sphrom.fmu`, :mod:`sphrom.rom`, ...), never another program.
+``sphrom bench NAME [options]`` runs the program NAME (``sphrom bench NAME --help``: its options);
+``sphrom bench --list`` prints one line per program: what it measures, how long it takes, what it writes;
+``sphrom bench [SCENE ...]`` is the program ``suite`` (BENCHMARKS.md).  A program is a module here with
+``main(argv)`` (``python -m sphrom.bench.MODULE`` runs it as well) that holds its measurement and the report
+section it writes.  What programs share is the library :mod:`sphrom.bench.lib` (with :mod:`sphrom.fmu`,
+:mod:`sphrom.rom`, ...), never another program: tests/test_bench_programs.py.
 
-:data:`PROGRAMS` is the one list.  A program is a module here with ``main(argv)``, or one of the commands that
-measure (``sphrom bench`` itself, ``bench-sph``, ``bench-fmu``, ``stress``), reached under its program name.
+:data:`PROGRAMS` is the one list; :data:`ALIASES` gives a program's other names under ``sphrom bench``, and
+:data:`COMMANDS` the sphrom commands that are aliases of a program (the commands these programs once were).
 Durations are the wall times the programs recorded in their own output (BENCHMARKS.md, validation/), or the
 command that measured them, on this project's shared 2-core machine.
 """
@@ -14,36 +16,39 @@ command that measured them, on this project's shared 2-core machine.
 from __future__ import annotations
 
 import importlib
+import platform
+import sys
 from dataclasses import dataclass
+
+from ..options import option_message
+from ..errors import FieldError
+from ..parser import Parser
 
 
 @dataclass(frozen=True)
 class Program:
     """One measurement program of :data:`PROGRAMS`."""
 
-    target: str          # a module with main(argv) (sphrom.bench.X, sphrom.sweep.measure), or "command:NAME"
+    module: str          # the module with main(argv): sphrom.bench.NAME
     measures: str
     takes: str           # how long, as measured (and where the figure comes from)
     writes: str
 
 
 PROGRAMS = {
-    "suite": Program("command:bench", "run time against error of every method on the paper's scenes, cost against "
-                     "N and k, skipped terms, the force direction, the full SPH step, the FMU (and the stress maps "
-                     "with --report); also `sphrom bench [SCENE ...]`",
+    "suite": Program("sphrom.bench.suite", "run time against error of every method on the paper's scenes, cost "
+                     "against N and k, skipped terms, the force direction, the full SPH step, the FMU (and the stress "
+                     "maps with --report); also `sphrom bench [SCENE ...]`",
                      "1290 s (BENCHMARKS.md, its first line)",
                      "validation/benchmarks/*.csv, *.png; BENCHMARKS.md with --report"),
-    "sph-step": Program("command:bench-sph", "µs per full SPH step against N and the integrator (also "
-                        "`sphrom bench-sph`)", "not recorded", "sph_scaling.csv/png with --out; a BENCHMARKS.md "
-                        "section with --report"),
-    "fmu-speed": Program("command:bench-fmu", "ns per step of the FMU's C core against N, the FMU end to end beside "
-                         "the full SPH (also `sphrom bench-fmu`)", "not recorded",
-                         "bench_fmu_core.csv, bench_fmu_e2e.csv, bench_fmu.md with --out"),
-    "stress": Program("command:stress", "stability maps of every method over Δt, amplitude, horizon, k and random "
-                      "forces (also `sphrom stress`)", "not recorded", "validation/stress/: stress.md, CSV, PNG"),
-    "fmu": Program("sphrom.bench.fmu", "the FMU section of BENCHMARKS.md alone: C core, end to end, the "
-                   "same-language ratio", "not recorded", "fmu_core.csv, fmu_e2e.csv; BENCHMARKS.md's Headline and "
-                   "The FMU"),
+    "sph-step": Program("sphrom.bench.sph_step", "µs per full SPH step against N and the integrator", "not recorded",
+                        "sph_scaling.csv/png with --out; a BENCHMARKS.md section with --report"),
+    "stress": Program("sphrom.bench.stress", "stability maps of every method over Δt, amplitude, horizon, k and "
+                      "random forces", "not recorded", "validation/stress/: stress.md, CSV, PNG"),
+    "fmu": Program("sphrom.bench.fmu", "the FMU's speed: ns per step of its C core against N, the FMU end to end "
+                   "beside the full SPH, the same-language ratio (BENCHMARKS.md's Headline and The FMU)",
+                   "not recorded", "fmu_core.csv, fmu_e2e.csv, BENCHMARKS.md's two sections; as fmu-speed "
+                   "bench_fmu_core.csv, bench_fmu_e2e.csv, bench_fmu.md with --out"),
     "fast": Program("sphrom.bench.fast", "fast end to end before and after: whole commands (`sphrom "
                     "--help`, cosim, fmu warm and cold) against their yardsticks and another checkout, the frozen "
                     "core per step (k = 12, ports, at rest)", "measured: see BENCHMARKS.md, its section",
@@ -106,62 +111,108 @@ PROGRAMS = {
                                  "each paper scene", "measured: see the report", "prints a table"),
     "hostile": Program("sphrom.bench.hostile", "an alias: the hostile-input battery is a test-side tool, "
                        "python3 -m tests.hostile in a checkout", "not recorded", "validation/hostile/"),
-    "sweep": Program("sphrom.sweep.measure", "the committed parameter sweep on dask (throughput, resume)",
+    "sweep": Program("sphrom.bench.sweep", "the committed parameter sweep on dask (throughput, resume)",
                      "not recorded", "validation/sweeps/"),
 }
 
+@dataclass(frozen=True)
+class Alias:
+    """Another name of a program under ``sphrom bench`` (:data:`ALIASES`)."""
+
+    program: str         # the program it runs, a key of PROGRAMS
+    differs: str = ""    # what differs from the program under its own name, in words (its defaults)
+
+
+# Other names of a program under `sphrom bench`.  fmu-speed is `sphrom bench fmu` keeping the defaults and files of the
+# command it was (sphrom bench-fmu).
+ALIASES = {"fmu-speed": Alias("fmu", "its defaults: the tables printed, files only with --out (bench_fmu_core.csv, "
+                                     "bench_fmu_e2e.csv, bench_fmu.md), a report only with --report")}
+
+# sphrom commands that are aliases of `sphrom bench NAME` (the commands these programs were before they joined
+# sphrom bench): command -> NAME.  Each keeps its options; its help says whose alias it is.
+COMMANDS = {"bench-sph": "sph-step", "bench-fmu": "fmu-speed", "stress": "stress"}
+
+
+def program_of(name):
+    """The program (a key of :data:`PROGRAMS`) that ``name`` (a program's name or an alias) runs."""
+    return ALIASES[name].program if name in ALIASES else name
+
+
+def also_called(program):
+    """The other names of ``program``: its aliases (``sphrom bench NAME``) and the commands that run it."""
+    names = [n for n, a in ALIASES.items() if a.program == program]
+    return [f"sphrom bench {n}" for n in names] + [f"sphrom {c}" for c, n in COMMANDS.items()
+                                                     if program_of(n) == program]
+
 
 def list_lines():
-    """One line per program: name, what it measures, how long it takes, what it writes."""
+    """One line per program: name, what it measures (and its other names), how long it takes, what it writes."""
     width = max(map(len, PROGRAMS))
-    return [f"{name:<{width}}  {p.measures}; takes {p.takes}; writes {p.writes}" for name, p in PROGRAMS.items()]
+    lines = []
+    for name, p in PROGRAMS.items():
+        also = also_called(name)
+        lines.append(f"{name:<{width}}  {p.measures}" + (f" (also {', '.join(also)})" if also else "")
+                     + f"; takes {p.takes}; writes {p.writes}")
+    return lines
+
+
+def alias_note(name, command=None):
+    """The sentence that opens the help of an alias: of ``name`` under ``sphrom bench`` when it is an alias, of the
+    command ``command`` (a key of :data:`COMMANDS`) that runs ``name``; '' for a program under its own name."""
+    alias = ALIASES.get(name)
+    also = f"`sphrom bench {alias.program}` with {alias.differs}" if alias else ""
+    if command is not None:
+        return (f"An alias of `sphrom bench {name}`" + (f" (itself {also})" if alias else "")
+                + ": the same program, options and files. ")
+    return f"An alias of {also}. " if alias else ""
 
 
 def program_parser(name, description=None, **options):
-    """The argument parser of program ``name``: one-line errors with exit status 2 (as every sphrom command),
-    named as it was called (``sphrom bench NAME`` or ``python -m sphrom.bench.NAME``)."""
-    from ..parser import Parser
-    prog = f"sphrom bench {name}" if _CALLED_AS_SPHROM else f"python -m {PROGRAMS[name].target}"
+    """The argument parser of program ``name`` (or of an alias of it): one-line errors with exit status 2 (as every
+    sphrom command), named as it was called (``sphrom bench NAME`` or ``python -m sphrom.bench.MODULE``)."""
+    prog = (f"sphrom bench {name}" if _CALLED_AS_SPHROM else
+            f"python -m {PROGRAMS[program_of(name)].module}")
     return Parser(prog=prog, description=description, **options)
 
 
 _CALLED_AS_SPHROM = False
 
 
+def program_main(name, description, add_arguments, run, argv=None):
+    """``main`` of a program that is also a sphrom command (its options in ``add_arguments(parser)``, its body in
+    ``run(args)``): parse ``argv`` (default the process's), run, the exit status.  A library error that names a
+    field is the option's one-line error (exit status 2), as under the command."""
+    p = program_parser(name, description=alias_note(name) + description)
+    add_arguments(p)
+    args = p.parse_args(argv)
+    try:
+        return int(run(args) or 0)
+    except FieldError as exc:
+        p.error(option_message(p, exc))
+
+
 def program_command(name, argv=None):
     """The command line that ran program ``name``, as it was called (``sphrom bench NAME`` or ``python -m ...``)
     with its arguments (``argv``, default the process's): the reports' "Produced by"."""
-    import sys
     given = list(sys.argv[1:] if argv is None else argv)
-    prog = f"sphrom bench {name}" if _CALLED_AS_SPHROM else f"python -m {PROGRAMS[name].target}"
+    prog = f"sphrom bench {name}" if _CALLED_AS_SPHROM else f"python -m {PROGRAMS[program_of(name)].module}"
     return " ".join([prog, *given])
 
 
 def machine_text():
     """The machine and Python a report's figures were measured on, in a few words."""
-    import platform
     return f"{platform.machine()}, Python {platform.python_version()}"
 
 
-def run_program(name, argv, build_parser=None):
-    """Run program ``name`` with the arguments ``argv``; its exit status (``--help``: 0, a bad option: 2).
-    ``build_parser``: sphrom's parser builder (:func:`sphrom.cli.build_parser`), needed by the programs that are
-    sphrom commands (target ``command:NAME``)."""
+def run_program(name, argv):
+    """Run program ``name`` (a program's name or an alias) with the arguments ``argv``; its exit status
+    (``--help``: 0, a bad option: 2)."""
     global _CALLED_AS_SPHROM
-    target = PROGRAMS[name].target
-    if target.startswith("command:"):
-        command = target.split(":", 1)[1]
-        if build_parser is None:
-            raise ValueError(f"program {name!r} is the sphrom command {command!r}: run_program needs build_parser")
-        parser = build_parser()
-        try:
-            args = parser.parse_args([command, *argv])
-        except SystemExit as exc:
-            return exc.code if isinstance(exc.code, int) else 0
-        return int(args.handler(args) or 0)
+    program = program_of(name)
     _CALLED_AS_SPHROM = True
     try:
-        return int(importlib.import_module(target).main(list(argv)) or 0)
+        main = importlib.import_module(PROGRAMS[program].module).main
+        return int((main(list(argv), name=name) if name != program else main(list(argv))) or 0)
     except SystemExit as exc:            # the program's --help, or a bad option (one line already printed)
         return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
     finally:

@@ -13,6 +13,12 @@ from __future__ import annotations
 
 import argparse
 
+from ..scene import builtin_names, dump_toml, load_scene, parse_scene, scene_dict
+from . import program_parser
+
+# Imported inside the functions: the modules that load numba, scipy or matplotlib (--help answers before they
+# load: tests/test_bench_programs.py).
+
 COLUMNS = ["scene", "period_s", "every", "snapshots", "k", "file_every", "file_snapshots", "file_modes",
            "paper_threshold", "why"]
 
@@ -22,7 +28,6 @@ def table(progress=False):
     from ..pod.automatic import automatic_modes
     from ..pod.pipeline import basis_for_scene
     from ..pod.snapshots import describe
-    from ..scene import builtin_names, dump_toml, load_scene, parse_scene, scene_dict
     rows = []
     for name in builtin_names():
         given = load_scene(name)
@@ -41,7 +46,6 @@ def table(progress=False):
 
 
 def main(argv=None):
-    from . import program_parser
     p = program_parser("automatic_choices", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--out", metavar="FILE.csv", help="also write the rows as CSV")
     args = p.parse_args(argv)
@@ -52,7 +56,7 @@ def main(argv=None):
         print(f"| {r['scene']} | {r['period_s']:.4g} | {r['every']} ({r['file_every']}) | {r['snapshots']} "
               f"({r['file_snapshots']}) | {r['k']} ({r['file_modes']}; {r['paper_threshold'] or '-'}) |")
     if args.out:
-        from ..measure.tables import write_csv
+        from .lib.tables import write_csv
         write_csv(args.out, rows, COLUMNS)
         print(f"wrote {args.out}")
     return 0

@@ -16,16 +16,22 @@ from pathlib import Path
 
 import numpy as np
 
+from ..fmu.make.build import ensure_binaries
+from ..fmu.make.package import package_fmu
+from ..fmu.run.cosim import run_cosim
+from ..scene import load_scene
+from . import program_parser
+from .lib.tables import write_csv
+
+# Imported inside the functions: the modules that load numba, scipy or matplotlib (--help answers before they
+# load: tests/test_bench_programs.py).
+
 FORCE = "1e-3*sin(2*pi*t)"          # the quickstart's (README.md)
 
 
 def measure(scene_name="tenmode", models=("frozen", "exact", "balanced"), force=FORCE, progress=False):
     """Rows (scene, model, input rule, largest relative difference, bitwise equal, communication steps)."""
-    from ..fmu.make.build import ensure_binaries
-    from ..fmu.make.package import package_fmu
-    from ..fmu.run.cosim import run_cosim
     from ..rom.registry import get_model
-    from ..scene import load_scene
     scene = load_scene(scene_name)
     binaries = ensure_binaries(quiet=not progress)
     rows = []
@@ -48,8 +54,6 @@ def measure(scene_name="tenmode", models=("frozen", "exact", "balanced"), force=
 
 
 def main(argv=None):
-    from ..measure.tables import write_csv
-    from . import program_parser
     p = program_parser("cosim_fmi", description=__doc__.split("\n\n")[0])
     p.add_argument("scene", nargs="?", default="tenmode")
     p.add_argument("--models", default="frozen,exact,balanced", metavar="M,...")

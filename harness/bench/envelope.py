@@ -24,11 +24,26 @@ check allows the margin), in ``envelope_training.csv`` beside the CSV.
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
 import numpy as np
 
 from .. import defaults
+from ..fmu.make import envelope as E
+from ..fmu.make.envelope import FAILURE_STRAIN, MARGIN
+from ..fmu.resources import probe_pairs
+from ..markdown import write_text
+from ..norms import relative_l2
+from ..progress import progress_bar
+from ..runio import atomic_path
+from ..scene import builtin_names, derive_scene, load_scene
+from . import program_parser
+from .lib.document import replace_section
+from .lib.tables import write_csv
+
+# Imported inside the functions: the modules that load numba, scipy or matplotlib (--help answers before they
+# load: tests/test_bench_programs.py).
 
 SCALES = (1.0, 1.25, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0)
 PROBES = defaults.PROBES
@@ -37,7 +52,6 @@ FAILURE_ERROR = 0.5      # the frozen model has failed where its probe error rea
 
 
 def _probe(field, x, L):
-    from ..fmu.resources import probe_pairs
     i0, i1, w = probe_pairs(x, L, PROBES)
     return (1.0 - w) * field[..., i0] + w * field[..., i1]
 
@@ -54,12 +68,8 @@ def coordinate_excess(env, z, k_v):
 
 def measure(scene_name, scales=SCALES, progress=True):
     """Rows (dicts) of the amplitude sweep of one scene (a name, a path or a Scene; module docstring)."""
-    from ..fmu.make import envelope as E
-    from ..norms import relative_l2
     from ..pod.pipeline import accel_modes, basis_for_scene
-    from ..progress import progress_bar
     from ..rom.registry import get_model
-    from ..scene import derive_scene, load_scene
     from ..sph.solver import build_problem, run_sph, step_count
 
     scene = load_scene(scene_name) if isinstance(scene_name, str) else scene_name
@@ -102,10 +112,8 @@ def measure(scene_name, scales=SCALES, progress=True):
 
 def training_headroom(scene_name):
     """One row: the frozen model's run of its own training scene against its recorded envelope."""
-    from ..fmu.make import envelope as E
     from ..pod.pipeline import accel_modes, basis_for_scene
     from ..rom.registry import get_model
-    from ..scene import load_scene
     from ..sph.solver import build_problem, step_count
 
     scene = load_scene(scene_name)
@@ -142,7 +150,6 @@ def failure_strain(rows, scene, error=None):
 def plot(rows, path):
     """Probe velocity error against the full SPH's peak probe strain, one line per scene and model."""
     import matplotlib.pyplot as plt
-    from ..fmu.make.envelope import FAILURE_STRAIN
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     for scene in dict.fromkeys(r["scene"] for r in rows):
         rs = [r for r in rows if r["scene"] == scene]
@@ -169,10 +176,7 @@ SCENES = ("tenmode", "multimode", "damped")
 def run(out, scenes=SCENES, scales=SCALES, progress=True):
     """The sweep of ``scenes`` and the training headroom of every built-in scene: rows written to ``out``
     (envelope.csv), envelope.png and envelope_training.csv beside it; returns
-    {"rows", "training", "command"} for the report (:func:`sphrom.measure.markdown.envelope_section`)."""
-    from ..runio import atomic_path
-    from ..scene import builtin_names
-    from ..measure.tables import write_csv
+    {"rows", "training", "command"} for the report (:func:`envelope_section`)."""
     out = Path(out)
     rows = [r for s in scenes for r in measure(s, scales, progress=progress)]
     write_csv(out, rows)
@@ -188,6 +192,56 @@ def run(out, scenes=SCENES, scales=SCALES, progress=True):
             "failure_error": FAILURE_ERROR}
 
 
+def _within_margin(rows, scenes, margin):
+    """", at s = margin the frozen error is r × its value at s = 1 (scene, ...)" from the rows that have both."""
+    ratios = []
+    for s in scenes:
+        at = {r["scale"]: r["frozen_v_error"] for r in rows if r["scene"] == s}
+        if 1.0 in at and margin in at and at[1.0] > 0:
+            ratios.append(f"{at[margin] / at[1.0]:.2g}× ({s})")
+    return f": at s = {margin:g} the frozen error is {', '.join(ratios)} its value at s = 1" if ratios else ""
+
+
+def envelope_section(envelope, image_dir=""):
+    """The frozen FMU's training envelope (:func:`run`: rows, training, command, and
+    failure, the probe strain per scene where the frozen error reaches failure_error): error against
+    amplitude and strain, the margin's headroom on the training runs; [] without it."""
+    if not envelope:
+        return []
+    rows, d = envelope["rows"], image_dir.rstrip("/") + "/" if image_dir else ""
+    scenes = list(dict.fromkeys(r["scene"] for r in rows))
+    lines = ["## The training envelope of the frozen FMU", "",
+             f"`{envelope['command']}` (`{d}envelope.csv`): the initial velocity scaled by s, the density at ρ0; "
+             "the full SPH runs the scaled scene, the reduced models start from the scaled coordinates on the x1 "
+             "basis (the FMU's: k = the scene's largest `rom.accel_modes`, n_freeze = 10). Relative L² error of "
+             "the probe velocities (x/L = 0.25, 0.5, 0.66) against the full SPH; peak strain |ρ0/ρ − 1| of the "
+             "full SPH over the particles and at the probes; the frozen run's largest coordinate excess beyond "
+             "its trained ranges in units of its block's largest half-width (the FMU warns above margin − 1 = "
+             f"{MARGIN - 1:g}).", "",
+             f"![error against strain]({d}envelope.png)", "",
+             "| scene | s | peak strain | peak probe strain | frozen v error | coordinate excess | exact v error |",
+             "| --- | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    for r in rows:
+        lines.append(f"| {r['scene']} | {r['scale']:g} | {r['peak_strain']:.3g} | {r['peak_probe_strain']:.3g} | "
+                     f"{r['frozen_v_error']:.3g} | {r['frozen_coordinate_excess']:.3g} | {r['exact_v_error']:.3g} |")
+    reached = envelope["failure"]              # scene -> probe strain at the failure error (nan: not reached)
+    where = ", ".join(f"{v:.3g} ({s})" for s, v in reached.items() if not math.isnan(v)) or "never in this range"
+    exact = "; ".join(f"{s} {min(r['exact_v_error'] for r in rows if r['scene'] == s):.4g} to "
+                      f"{max(r['exact_v_error'] for r in rows if r['scene'] == s):.4g}" for s in scenes)
+    lines += ["", "The full SPH is linear in J = ρ0/ρ (up to its time stepping of ρ), so a scaled initial state "
+              f"scales its solution and the exact model's error hardly moves with s ({exact}); the frozen "
+              "model's error grows about linearly with the strain (the density linearization of eq. 2.17 and the "
+              f"ρ² coefficient): it reaches {envelope['failure_error']:.0%} at a probe strain of {where}. The FMU's failure "
+              f"strain is {FAILURE_STRAIN:g}, its margin {MARGIN:g}{_within_margin(rows, scenes, MARGIN)}.", "",
+              "Headroom on the training runs (every built-in scene's frozen model on its own scene, "
+              f"`{d}envelope_training.csv`): the FMU warns above a coordinate excess of {MARGIN - 1:g} or a probe "
+              f"strain of {MARGIN:g}× the trained one.", "",
+              "| scene | largest coordinate excess | probe strain / trained |", "| --- | ---: | ---: |"]
+    for r in envelope["training"]:
+        lines.append(f"| {r['scene']} | {r['coordinate_excess']:.3g} | {r['probe_strain_ratio']:.3g} |")
+    return lines + [""]
+
+
 def _scales(text):
     try:
         scales = [float(s) for s in text.split(",")]
@@ -199,8 +253,6 @@ def _scales(text):
 
 
 def main(argv=None):
-    from ..measure.markdown import envelope_section
-    from . import program_parser
     p = program_parser("envelope", description=__doc__.split("\n\n")[0])
     p.add_argument("scenes", nargs="*", default=list(SCENES), metavar="SCENE")
     p.add_argument("--scales", type=_scales, default=list(SCALES), metavar="S1,S2,...")
@@ -208,8 +260,6 @@ def main(argv=None):
     p.add_argument("--report", default="BENCHMARKS.md", metavar="FILE.md")
     p.add_argument("--quiet", action="store_true")
     args = p.parse_args(argv)
-    from ..report.markdown import write_text
-    from ..measure.markdown import replace_section
     result = run(args.out, args.scenes, args.scales, progress=not args.quiet)
     lines = envelope_section(result, image_dir=str(Path(args.out).parent))
     print("\n".join(lines))

@@ -359,8 +359,8 @@ def _quote(text):
 
 
 def main(argv=None):
-    from ..measure.markdown import update_report
-    from ..measure.tables import write_csv
+    from .lib.document import update_report
+    from .lib.tables import write_csv
     from ..parser import fmu_models, positive_int
     from ..scene import builtin_names
     from . import machine_text, program_command, program_parser
@@ -416,8 +416,8 @@ def main(argv=None):
 def main_parametric(args, scenes, models, argv):
     """``--parametric``: the rows of :func:`measure_parametric`, their CSV and section."""
     from . import machine_text, program_command
-    from ..measure.markdown import update_report
-    from ..measure.tables import write_csv
+    from .lib.document import update_report
+    from .lib.tables import write_csv
     t0 = time.perf_counter()
     rows = []
     with tempfile.TemporaryDirectory(prefix="sphrom-error-bounds-") as folder:

@@ -6,7 +6,7 @@ defaults, without the a priori bounds) for each model and drives it over the sce
 communication steps, inputs held, from rest and from the scene's initial state, in four cases no basis saw
 (:func:`cases`): slow port forces (2e-3 sin 1.3t N at port 1, 1e-3 cos 3.1t + 5e-4·[t > T/2] N at port 2), a
 constant 1e-3 N at port 1, port 1 coupled to a mass-spring (0.05 kg, 5 N/m, stretched 1 mm at t = 0; the spring
-force at the start of a step held over it, :mod:`sphrom.measure.ports`), and f = 2e-3 m s^-2 with the slow
+force at the start of a step held over it, :mod:`sphrom.bench.lib.ports`), and f = 2e-3 m s^-2 with the slow
 port forces.  The truth is the full SPH of eqs. 2.10-2.11 as the linear system in J with the port forces
 (:func:`sphrom.rom.reference.linear_reference`), advanced exactly in time with the very inputs the FMU received
 (the coupled case's port forces as the FMU read them), independent of the reduced models and of the bounds.
@@ -25,6 +25,21 @@ import time
 from pathlib import Path
 
 import numpy as np
+
+from .. import defaults
+from ..fmu.make.build import ensure_binaries
+from ..fmu.make.package import package_fmu
+from ..fmu.run.driver import FMU
+from ..fmu.variables import members
+from ..parser import fmu_models
+from ..scene import builtin_names, load_scene
+from . import machine_text, program_command, program_parser
+from .lib.document import update_report
+from .lib.ports import S0, STIFFNESS, mass_spring_step
+from .lib.tables import write_csv
+
+# Imported inside the functions: the modules that load numba, scipy or matplotlib (--help answers before they
+# load: tests/test_bench_programs.py).
 
 SECTION_HEADING = "## Certified error bounds: ports and coupled components"
 PORTS = (0.3, 0.7)
@@ -46,8 +61,6 @@ def cases(t, T):
 def run_fmu(path, t, scale, f, F):
     """(outputs (M, n), names, the port forces applied (M, 2) [N]) of the FMU at ``path`` driven over ``t``;
     ``F`` None: port 1 coupled to the mass-spring, port 2 free."""
-    from ..fmu.run.driver import FMU
-    from ..measure.ports import S0, STIFFNESS, mass_spring_step
     applied = np.zeros((t.size, len(PORTS)))
     with FMU(path) as fmu:
         names = fmu.outputs
@@ -74,7 +87,6 @@ def run_fmu(path, t, scale, f, F):
 def truth(problem, t, scale, f, applied):
     """(v at the probes (M, P), ρ at the probes (M, P), v_port (M, 2)) of the full linear SPH with the inputs held
     over each step from ``scale`` x the scene's initial state (scale 0 or 1)."""
-    from .. import defaults
     from ..rom.lti import probe_matrix
     from ..rom.reference import linear_reference
     index = lambda tt: np.minimum(np.floor(np.asarray(tt, float) / STEP + 1e-9).astype(int), t.size - 1)
@@ -87,7 +99,6 @@ def truth(problem, t, scale, f, applied):
 
 def compare(y, names, v, rho, v_port):
     """(violations, points, port effectivities, max port error, max port bound)."""
-    from ..fmu.variables import members
     col = lambda name: y[:, members(names, name)]
     errors = [np.abs(col("v_probe_j") - v), np.abs(col("rho_probe_j") - rho), np.abs(col("v_port_j") - v_port)]
     bounds = [col("v_probe_j_error_bound"), col("rho_probe_j_error_bound"), col("v_port_j_error_bound")]
@@ -100,9 +111,6 @@ def compare(y, names, v, rho, v_port):
 
 
 def measure_scene(name, models, folder, progress=True):
-    from ..fmu.make.build import ensure_binaries
-    from ..fmu.make.package import package_fmu
-    from ..scene import load_scene
     from ..sph.solver import build_problem
     scene = load_scene(name)
     problem = build_problem(scene)
@@ -162,11 +170,6 @@ def section(rows, *, command, wall, machine):
 
 
 def main(argv=None):
-    from ..measure.markdown import update_report
-    from ..measure.tables import write_csv
-    from ..scene import builtin_names
-    from ..parser import fmu_models
-    from . import machine_text, program_command, program_parser
     p = program_parser("error_bounds_ports", description=__doc__.split("\n\n")[0])
     p.add_argument("scenes", nargs="*", metavar="SCENE", help="default: damped_forced tenmode")
     p.add_argument("--models", type=fmu_models, default="frozen,exact,balanced", metavar="M1,M2")

@@ -31,6 +31,11 @@ import time
 from pathlib import Path
 
 from ..paths import import_path
+from ..progress import progress_bar
+from ..runio import atomic_path
+from . import program_parser
+from .lib.document import update_report
+from .lib.timing import cpu_model, load_average
 
 HERE = Path(__file__).resolve().parents[2]          # this checkout
 
@@ -174,8 +179,6 @@ def core_figures(checkout, cache, repeats):
 
 def measure(before=None, repeats=5, cold=True, progress=True, workdir=None):
     """Every row of the module docstring: {"commands": [...], "core": {"after": ..., "before": ...}}."""
-    from ..measure.timing import cpu_model, load_average
-    from ..progress import progress_bar
     checkouts = {"after": HERE, **({"before": Path(before).resolve()} if before else {})}
     py = sys.executable
     load_start = load_average()
@@ -285,8 +288,6 @@ def section(result, command):
 
 
 def main(argv=None):
-    from ..measure.markdown import update_report
-    from . import program_parser
     p = program_parser("fast", description=__doc__.split("\n\n")[0])
     p.add_argument("--before", metavar="CHECKOUT", help="another checkout of sphrom, timed in turn with this one")
     p.add_argument("--repeats", type=int, default=5, metavar="R")
@@ -303,7 +304,6 @@ def main(argv=None):
     given = argv if argv is not None else sys.argv[1:]
     lines = section(result, "sphrom bench fast" + (" " + " ".join(given) if given else ""))
     if args.out:
-        from ..runio import atomic_path
         with atomic_path(args.out) as tmp:
             Path(tmp).write_text(json.dumps(result, indent=1))
     if args.report:

@@ -17,6 +17,15 @@ from pathlib import Path
 
 import numpy as np
 
+from ..fmu.make.build import ensure_binaries
+from ..fmu.make.package import package_fmu
+from ..fmu.run.cosim import run_cosim
+from ..fmu.variables import members
+from ..progress import progress_bar
+from ..scene import load_scene
+from . import program_parser
+from .lib.tables import write_csv
+
 FORCE = "1e-2*sin(2*pi*t)"
 MODELS = ("exact", "frozen")
 STEPS = (1e-3, 5e-3, 1e-2, 2e-2, 5e-2)
@@ -25,7 +34,6 @@ REFERENCE_STEP = 1e-4
 
 def velocity_columns(result):
     """The v_probe_* columns of a CosimResult, (M, n_probes) [m s^-1]."""
-    from ..fmu.variables import members
     cols = members(result.names, "v_probe_j")
     return result.values[:, cols]
 
@@ -48,11 +56,6 @@ def measure(scene_name="tenmode", steps=STEPS, reference_step=REFERENCE_STEP, fo
 
 def _measure_model(model, scene_name, steps, reference_step, force, workdir, progress):
     """:func:`measure` for one model's FMU."""
-    from ..fmu.make.build import ensure_binaries
-    from ..fmu.run.cosim import run_cosim
-    from ..fmu.make.package import package_fmu
-    from ..progress import progress_bar
-    from ..scene import load_scene
 
     scene = load_scene(scene_name)
     with tempfile.TemporaryDirectory(dir=workdir) as tmp:
@@ -93,14 +96,12 @@ def markdown(rows, model="exact"):
 
 
 def main(argv=None):
-    from . import program_parser
     p = program_parser("input_derivatives", description=__doc__.split("\n\n")[0])
     p.add_argument("--out", default="validation/benchmarks", metavar="FOLDER")
     p.add_argument("--scene", default="tenmode")
     p.add_argument("--model", choices=MODELS, action="append",
                    help="measure this model's FMU (repeat for several; default both)")
     args = p.parse_args(argv)
-    from ..measure.tables import write_csv
     models = tuple(args.model or MODELS)
     rows = measure(args.scene, models=models)
     out = Path(args.out) / "input_derivatives.csv"

@@ -45,7 +45,7 @@ import time
 
 import numpy as np
 
-from ..measure.responses import held, held_response
+from .lib.responses import held, held_response
 
 H = 0.01
 T = 10.0
@@ -207,7 +207,7 @@ def main(argv=None):
         rows += measure(name, *all_cases[name]) if name in all_cases else measure_parametric(name, *parametric[name])
     print(table(rows))
     if args.out:
-        from ..measure.tables import write_csv
+        from .lib.tables import write_csv
         write_csv(args.out, rows)
     return 0
 

@@ -15,17 +15,29 @@ times are medians of ``repeats`` runs.  Run as::
         [--repeats 3] [--benchmarks BENCHMARKS.md]
 
 which prints the table and writes it as the section "Linear models: time against error" of BENCHMARKS.md
-(:func:`sphrom.measure.markdown.linear_tradeoff_section`), replacing an earlier one.
+(:func:`linear_tradeoff_section`), replacing an earlier one.
 """
 
 from __future__ import annotations
 
+import math
 import time
 from pathlib import Path
 
 import numpy as np
 
 from .. import defaults
+from ..cache import cached_sph
+from ..markdown import write_text
+from ..norms import relative_l2
+from ..progress import progress_bar
+from ..scene import derive_scene
+from . import program_parser
+from .lib.document import fmt
+from .lib.timing import median_time
+
+# Imported inside the functions: the modules that load numba, scipy or matplotlib (--help answers before they
+# load: tests/test_bench_programs.py).
 
 DEFAULT_SCENES = ("damped_forced", "damped_forced@shaped")
 ORDERS = (4, 8, 12, 16, 20, 24)
@@ -38,8 +50,7 @@ STRESS_TITLE = "## Stability stress maps"
 
 def _scenes(name):
     """(training scene, unseen-force scene) of NAME or NAME@shaped (the shaped force profile)."""
-    from ..scene import derive_scene
-    from ..measure.linear_scenes import setup
+    from .lib.linear_scenes import setup
     scene, _, _ = setup(name)
     return scene, derive_scene(scene, {"force": {"f": UNSEEN_FORCE}})
 
@@ -52,14 +63,11 @@ def _probe_v(result, problem, scene):
 def measure_scene(name, orders=ORDERS, repeats=3, progress=None):
     """Rows (dict) of one scene: per force, order and model the online time, the probe velocity error against
     the full SPH and, for the linear models, the error against the full linear SPH and its bound."""
-    from ..cache import cached_sph
-    from ..norms import relative_l2
     from ..pod.pipeline import basis_for_scene, on_steps
     from ..rom.lti import full_linear_system, input_norm, sample_outputs
     from ..rom.registry import get_model
     from ..rom.result import probe_values
     from ..sph.solver import build_problem, step_count
-    from ..measure.timing import median_time
 
     scene, unseen = _scenes(name)
     problem = build_problem(scene)
@@ -141,9 +149,42 @@ def _l2(e, h):
     return np.sqrt(np.maximum(fine + (fine - coarse) / 15.0, 0.0))
 
 
+def linear_tradeoff_section(rows, command, wall):
+    """Time against error of balanced, exact, frozen and original at equal state dimension, per scene and force,
+    with the linear models' certified bounds beside their measured errors ."""
+    lines = ["## Linear models: time against error", "",
+             f"Produced by `{command}` ({wall:.0f} s wall; online times are medians of repeated runs on a shared "
+             "2-core machine). State dimension r for every model: the balanced model's order, k = r/2 POD modes "
+             "of each kind for the others (one more velocity mode where the force profile is appended, as in each "
+             "model's FMU; the column *state* gives the count). "
+             "Errors: probe velocities at x/L = 0.25, 0.5, 0.66; *vs SPH* the relative L² error (eq. 3.4) against "
+             "the full SPH run; *vs linear* the absolute ‖y − y_full‖_L2(0,T) [m s⁻¹ s^½] against the full "
+             "linear SPH exact in time (largest over the probes), beside its certified *bound* "
+             "force_error_bound ‖f‖_L2 + initial_state_error_bound (what `sphrom fmu` stores in the FMU). "
+             "*training*: the scene's own force; *unseen*: another time history along the same profile "
+             "(`UNSEEN_FORCE` of the module), the POD basis unchanged. Where *vs linear* lies far below "
+             "*vs SPH*, the rest is the difference between the time-stepped full SPH run and the linear SPH exact "
+             "in time (the linear models have no time-step error).", ""]
+    for scene in dict.fromkeys(r["scene"] for r in rows):
+        for force in ("training", "unseen"):
+            sub = [r for r in rows if r["scene"] == scene and r["force"] == force]
+            if not sub:
+                continue
+            lines += [f"### {scene}, {force} force", "",
+                      "| r | model | state | online [s] | v error vs SPH | vs linear | bound | bound / measured | note |",
+                      "| -- | ----- | ----- | ---------- | -------------- | --------- | ----- | ---------------- | ---- |"]
+            for r in sub:
+                ratio = r["bound"] / r["err_linear"] if r["err_linear"] and not math.isnan(r["err_linear"]) else None
+                lines.append(f"| {r['order']} | {r['model']} | {r['state']} | {fmt(r['online_s'], '.4f')} | "
+                             f"{fmt(r['err_sph'])} | {fmt(r['err_linear'])} | {fmt(r['bound'])} | "
+                             f"{fmt(ratio, '.5f')} | {r['note']} |")
+            lines.append("")
+    return lines
+
+
 def write_section(path, text):
     """Replace the section SECTION_TITLE of the Markdown file ``path`` with ``text``; a new one goes before the
-    stress maps (where ``sphrom bench --report`` carries it over, :data:`sphrom.measure.markdown.CARRIED`), else at
+    stress maps (where ``sphrom bench --report`` carries it over, :data:`sphrom.bench.suite.CARRIED`), else at
     the end."""
     path = Path(path)
     old = path.read_text(encoding="utf-8") if path.exists() else ""
@@ -159,14 +200,10 @@ def write_section(path, text):
     else:
         new_lines = lines + ([""] if lines else []) + body
     new = "\n".join(new_lines) + "\n"
-    from ..report.markdown import write_text
     write_text(path, new if new.endswith("\n") else new + "\n")
 
 
 def main(argv=None):
-    from ..progress import progress_bar
-    from ..measure.markdown import linear_tradeoff_section
-    from . import program_parser
     p = program_parser("linear_tradeoff", description=__doc__.split("\n")[0])
     p.add_argument("--scenes", default=",".join(DEFAULT_SCENES), help="NAME[@shaped],... (default %(default)s)")
     p.add_argument("--orders", default=",".join(map(str, ORDERS)), help="state dimensions r (default %(default)s)")

@@ -184,8 +184,6 @@ def markdown(rows, cost=None):
 
 
 def main(argv=None):
-    from ..rom import parametric as par
-    from ..scene import load_scene
     from . import program_parser
     p = program_parser("parametric", description=__doc__.split("\n\n")[0])
     p.add_argument("--scene", default="tenmode")
@@ -199,6 +197,8 @@ def main(argv=None):
     p.add_argument("--no-fmu", action="store_true", help="skip the doStep timing of the FMUs")
     p.add_argument("--out", default="validation/benchmarks/parametric")
     args = p.parse_args(argv)
+    from ..rom import parametric as par           # after the options: --help answers before numba loads
+    from ..scene import load_scene
     scene = load_scene(args.scene)
     vary = [par.parse_vary(text) for text in (args.vary or DEFAULT_VARY)]
     rows, space, train, _ = measure(scene, vary, model=args.model, k=args.modes, n_points=args.points,

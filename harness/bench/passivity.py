@@ -85,7 +85,7 @@ def main(argv=None):
             bar.update(1)
     print(table(rows))
     if args.out:
-        from ..measure.tables import write_csv
+        from .lib.tables import write_csv
         write_csv(args.out, rows)
     return 0
 

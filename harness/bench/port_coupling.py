@@ -26,7 +26,15 @@ from pathlib import Path
 
 import numpy as np
 
-from ..measure.ports import MASS, PORTS, S0, STIFFNESS, mass_spring_step, open_loop_forces, rel
+from ..fmu.make.build import ensure_binaries
+from ..fmu.make.package import package_fmu
+from ..fmu.run.driver import FMU
+from ..scene import load_scene
+from . import program_parser
+from .lib.ports import MASS, PORTS, S0, STIFFNESS, mass_spring_step, open_loop_forces, rel
+
+# Imported inside the functions: the modules that load numba, scipy or matplotlib (--help answers before they
+# load: tests/test_bench_programs.py).
 
 
 def fmu_loop(path, scene, h, n, *, coupled, forced=True):
@@ -34,7 +42,6 @@ def fmu_loop(path, scene, h, n, *, coupled, forced=True):
 
     ``coupled``: port 1 is the mass-spring (module docstring), else F_1 open loop; port 2 is always open loop
     (zero when not ``forced``)."""
-    from ..fmu.run.driver import FMU
     P = len(PORTS)
     t = np.arange(n + 1) * h
     F = np.array([open_loop_forces(x)[0] for x in t]) if forced else np.zeros((n + 1, P))
@@ -59,9 +66,6 @@ def fmu_loop(path, scene, h, n, *, coupled, forced=True):
 
 def measure(scene_name="damped_forced", t_end=2.0, h=1e-3, k=12, models=("frozen", "exact"), progress=False):
     """Rows (dict) of the open-loop and coupled errors per model (module docstring)."""
-    from ..fmu.make.build import ensure_binaries
-    from ..fmu.make.package import package_fmu
-    from ..scene import load_scene
     from ..sph.ports import mass_spring, run_sph_ports
     from ..sph.solver import build_problem
 
@@ -97,7 +101,6 @@ def measure(scene_name="damped_forced", t_end=2.0, h=1e-3, k=12, models=("frozen
 
 
 def main(argv=None):
-    from . import program_parser
     ap = program_parser("port_coupling", description=__doc__.split("\n\n")[0])
     ap.add_argument("--t-end", type=float, default=2.0)
     ap.add_argument("--out", default="validation/benchmarks/port_coupling.csv")

@@ -18,6 +18,21 @@ from pathlib import Path
 
 import numpy as np
 
+from ..fmu.make.build import ensure_binaries
+from ..fmu.make.envelope import Envelope
+from ..fmu.make.package import package_fmu
+from ..fmu.resources import unpack
+from ..fmu.run.driver import FMU
+from ..fmu.variables import members
+from ..progress import progress_bar
+from ..scene import load_scene
+from . import program_parser
+from .lib.ports import PORTS, open_loop_forces, rel
+from .lib.tables import write_csv
+
+# Imported inside the functions: the modules that load numba, scipy or matplotlib (--help answers before they
+# load: tests/test_bench_programs.py).
+
 SCALES = (0.0, 1.0, 2.0, 5.0, 12.0, 20.0)
 ENVELOPE_TEXT = "outside the training envelope"
 
@@ -26,10 +41,6 @@ def fmu_run(path, scene, h, n, forces):
     """(v_port (m, P), largest probe strain, envelope warning or "", error or "") of the port FMU over n steps
     of h [s] on the FMU driver with the port forces ``forces(t) -> (P,)`` [N] held over each step (m < n + 1
     after an error)."""
-    from ..fmu.make.envelope import Envelope
-    from ..fmu.resources import unpack
-    from ..fmu.run.driver import FMU
-    from ..fmu.variables import members
     data = unpack(zipfile.ZipFile(path).read("resources/model.bin"))
     rho0 = Envelope.from_sections(data.sections, data.k_v).probe_rho0
     P = data.sections["PORTX"].shape[1]
@@ -50,15 +61,8 @@ def fmu_run(path, scene, h, n, forces):
 def measure(scene_name="damped_forced", scales=SCALES, t_end=1.0, h=1e-3, k=12, progress=True):
     """Rows (scale, port force amplitude [N], v_port error, probe strain, its multiple of the trained one,
     warning, error) of the frozen port FMU (module docstring)."""
-    from ..fmu.make.build import ensure_binaries
-    from ..fmu.make.envelope import Envelope
-    from ..fmu.make.package import package_fmu
-    from ..fmu.resources import unpack
-    from ..progress import progress_bar
-    from ..scene import load_scene
     from ..sph.ports import run_sph_ports
     from ..sph.solver import build_problem
-    from ..measure.ports import PORTS, open_loop_forces, rel
 
     scene = load_scene(scene_name)
     problem = build_problem(scene)
@@ -96,8 +100,6 @@ def markdown(rows):
 
 
 def main(argv=None):
-    from ..measure.tables import write_csv
-    from . import program_parser
     p = program_parser("port_envelope", description=__doc__.split("\n\n")[0])
     p.add_argument("--out", default="validation/benchmarks", metavar="FOLDER")
     p.add_argument("--t-end", type=float, default=1.0)

@@ -22,6 +22,16 @@ from pathlib import Path
 
 import numpy as np
 
+from ..fmu.make.build import ensure_binaries
+from ..fmu.make.package import package_fmu
+from ..fmu.resources import unpack
+from ..fmu.run.driver import FMU
+from ..progress import progress_bar
+from ..scene import load_scene
+from . import program_parser
+from .lib.ports import PORTS, open_loop_forces
+from .lib.tables import write_csv
+
 STEPS = (4e-3, 1e-2, 2e-2, 5e-2)
 T_END = 2.0
 
@@ -30,7 +40,6 @@ def port_loop(path, scene, h, n, forces, port_rates):
     """v_port (n+1, P) of the port FMU at ``path`` over n steps of h [s] on the FMU driver: f with df/dt, the
     port forces ``forces(t) -> (len(t), P)`` [N] set at each communication point, with their rates (the chord to
     the next point) when ``port_rates``, else held."""
-    from ..fmu.run.driver import FMU
     t = np.arange(n + 1) * h
     F = forces(t)
     P = F.shape[1]
@@ -44,12 +53,6 @@ def port_loop(path, scene, h, n, forces, port_rates):
 def measure(scene_name="damped_forced", steps=STEPS, t_end=T_END, k=12, progress=True):
     """Rows (model, step_ms, input, v_port error against the reference, against the port forces' effect,
     communication steps) of the frozen port FMU (module docstring)."""
-    from ..fmu.make.build import ensure_binaries
-    from ..fmu.make.package import package_fmu
-    from ..fmu.resources import unpack
-    from ..progress import progress_bar
-    from ..scene import load_scene
-    from ..measure.ports import PORTS, open_loop_forces
 
     scene = load_scene(scene_name)
     with tempfile.TemporaryDirectory() as tmp:
@@ -95,8 +98,6 @@ def markdown(rows):
 
 
 def main(argv=None):
-    from ..measure.tables import write_csv
-    from . import program_parser
     p = program_parser("port_rates", description=__doc__.split("\n\n")[0])
     p.add_argument("--out", default="validation/benchmarks", metavar="FOLDER")
     p.add_argument("--scene", default="damped_forced")

@@ -17,9 +17,17 @@ Writes ``reduced_stability.csv`` and prints a Markdown table.
 """
 
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
+
+from ..scene import load_scene
+from . import program_parser
+from .lib.tables import write_csv
+
+# Imported inside the functions: the modules that load numba, scipy or matplotlib (--help answers before they
+# load: tests/test_bench_programs.py).
 
 SCENES = ("multimode", "tenmode", "damped", "damped_forced", "heterogeneous", "mild_damped_forced", "gaussian",
           "high_frequency")
@@ -40,12 +48,10 @@ def energy_ratio(result, ops, problem, scene):
 
 def measure(scenes=SCENES, progress=True):
     """Rows (scene, model, integrator, k, growth, energy_ratio, wall_s)."""
-    import time
 
     from ..pod.pipeline import basis_for_scene, scene_modes
     from ..rom.registry import get_model
     from ..rom.stepping import reduced_amplification
-    from ..scene import load_scene
     from ..sph.solver import build_problem, step_count
 
     rows = []
@@ -78,8 +84,6 @@ def markdown(rows):
 
 
 def main(argv=None):
-    from ..measure.tables import write_csv
-    from . import program_parser
     p = program_parser("reduced_stability", description=__doc__.split("\n\n")[0])
     p.add_argument("scenes", nargs="*", metavar="SCENE", help=f"default: {' '.join(SCENES)}")
     p.add_argument("--out", default="validation/benchmarks", metavar="FOLDER")

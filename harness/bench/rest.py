@@ -25,7 +25,9 @@ It writes the CSV, ``rest.png`` beside it (|v_probe|(t) at rest, multimode, ever
 
 from __future__ import annotations
 
+import csv
 import platform
+import re
 import sys
 import tempfile
 import time
@@ -34,6 +36,17 @@ from pathlib import Path
 import numpy as np
 
 from .. import defaults
+from ..fmu.check.verify import fmu_features, fmu_run
+from ..fmu.make.build import ensure_binaries
+from ..fmu.make.package import package_fmu
+from ..runio import atomic_path
+from ..scene import builtin_names, load_scene
+from . import program_parser
+from .lib.document import split_sections, update_report
+from .lib.tables import write_csv
+
+# Imported inside the functions: the modules that load numba, scipy or matplotlib (--help answers before they
+# load: tests/test_bench_programs.py).
 
 SECTION_HEADING = "## A component at rest"
 PROBES = defaults.PROBES
@@ -44,7 +57,6 @@ EQ222 = "frozen, eq. 2.22's b"      # the row label of the comparison FMU
 
 def rest_run(path, step, T=REST_T):
     """(t, v (M, P), rho (M, P)) of the FMU at ``path`` left at rest (initial_state_scale 0), f = 0."""
-    from ..fmu.check.verify import fmu_run
     t = np.arange(int(round(T / step)) + 1) * step
     v, rho, _ = fmu_run(path, np.zeros_like(t), t, scale=0.0)
     return t, v, rho
@@ -52,10 +64,6 @@ def rest_run(path, step, T=REST_T):
 
 def measure_scene(name, folder, progress=True):
     """Rows (frozen with eq. 2.22's b, frozen, exact) of scene ``name`` and the rest runs {model: (t, v)}."""
-    from ..fmu.make.build import ensure_binaries
-    from ..fmu.make.package import package_fmu
-    from ..fmu.check.verify import fmu_features
-    from ..scene import load_scene
     from ..sph.solver import build_problem
 
     scene = load_scene(name)
@@ -140,11 +148,7 @@ def section(rows, command, wall, machine, out="validation/benchmarks/rest.csv"):
 def rerender(csv_path, report):
     """Rewrite the section of ``report`` from the rows of ``csv_path``, keeping its "Produced by" command and
     wall time (the measurement is the CSV's; only the table's layout changes)."""
-    import csv
-    import re
 
-    from ..measure.markdown import split_sections
-    from ..measure.markdown import update_report
     with open(csv_path, newline="") as fh:
         rows = list(csv.DictReader(fh))
     old = "\n".join(split_sections(report.read_text()).get(SECTION_HEADING, []))
@@ -157,12 +161,6 @@ def rerender(csv_path, report):
 
 
 def main(argv=None):
-    from ..runio import atomic_path
-    from ..scene import builtin_names
-    from ..measure.markdown import update_report
-    from ..measure.tables import write_csv
-
-    from . import program_parser
     p = program_parser("rest", description=__doc__.split("\n\n")[0])
     p.add_argument("scenes", nargs="*", metavar="SCENE", help="default: every built-in scene")
     p.add_argument("--out", default="validation/benchmarks/rest.csv", metavar="FILE.csv")

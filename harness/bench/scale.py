@@ -24,12 +24,25 @@ to N = 10⁴" of the report.
 
 from __future__ import annotations
 
+import dataclasses
 import statistics
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
+
+from ..options import int_at_least, int_list
+from ..progress import progress_bar
+from ..runio import atomic_path
+from ..scene import load_scene
+from . import program_parser
+from .lib.document import program_outputs, publish
+from .lib.tables import write_csv
+from .lib.timing import cpu_model, load_average
+
+# Imported inside the functions: the modules that load numba, scipy or matplotlib (--help answers before they
+# load: tests/test_bench_programs.py).
 
 SECTION_HEADING = "## Scale: the balanced model and its bounds to N = 10⁴"
 
@@ -95,7 +108,6 @@ def measure_one(scene_name, n, wavenumbers, repeats, samples, dense=False, exact
     from ..rom import balanced as bl
     from ..rom import modal
     from ..rom.lti import full_linear_system
-    from ..scene import load_scene
     from ..sph.solver import build_problem
 
     scene = load_scene(scene_name).with_sph(n_particles=n)
@@ -105,7 +117,6 @@ def measure_one(scene_name, n, wavenumbers, repeats, samples, dense=False, exact
     sub = ms.system
 
     def balance():
-        import dataclasses
         bal = bl.balancing(sub, structure="dense")
         return dataclasses.replace(bal, basis=ms.basis, system=sub)
 
@@ -220,15 +231,6 @@ def plot(rows, path):
 
 
 def main(argv=None):
-    from ..measure.markdown import program_outputs, publish
-    from ..measure.tables import write_csv
-    from ..measure.timing import cpu_model, load_average
-    from ..progress import progress_bar
-    from ..runio import atomic_path
-    from ..scene import load_scene
-
-    from ..commands.options import int_at_least, int_list
-    from . import program_parser
     p = program_parser("scale", description=__doc__.split("\n\n")[0])
     p.add_argument("--scenes", default="tenmode,damped_forced", help="uniform scenes, comma-separated (default "
                                                                      "%(default)s)")

@@ -38,7 +38,18 @@ import sys
 import time
 from pathlib import Path
 
+from ..parser import positive_int
 from ..paths import import_path
+from ..progress import progress_bar
+from ..runio import atomic_path
+from ..scene import load_scene
+from . import program_parser
+from .lib.document import update_report
+from .lib.tables import write_csv
+from .lib.timing import cpu_model, load_average
+
+# Imported inside the functions: the modules that load numba, scipy or matplotlib (--help answers before they
+# load: tests/test_bench_programs.py).
 
 SECTION_HEADING = "## The full SPH step: numba against a hand-written C stencil"
 STEP_WORK = 1e7            # particle-steps in the shorter of the two timed runs (M = STEP_WORK / N steps)
@@ -98,7 +109,6 @@ def measure(scene, sizes, integrators, repeats, before=None, training=True, prog
     (M), us_per_step (median slope), us_min, us_max, repeats, and the per-repeat slopes ``slopes``.
     Raises RuntimeError when two solvers end one size's run in different bits.
     """
-    from ..measure.timing import cpu_model, load_average
     workers = {"after": Worker()}
     if before:
         workers["before"] = Worker(before)
@@ -303,13 +313,6 @@ def _checkout(text):
 
 
 def main(argv=None):
-    from ..progress import progress_bar
-    from ..runio import atomic_path
-    from ..measure.markdown import update_report
-    from ..measure.tables import write_csv
-
-    from ..parser import positive_int
-    from . import program_parser
     p = program_parser("sph_stencil", description=__doc__.split("\n\n")[0])
     p.add_argument("--scene", default="tenmode", help="scene whose fields, force and CFL number are used (default "
                                                       "%(default)s)")
@@ -326,7 +329,6 @@ def main(argv=None):
     p.add_argument("--report", default="BENCHMARKS.md", help="the Markdown report whose section is replaced")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     args = p.parse_args(argv)
-    from ..scene import load_scene
     load_scene(args.scene)                          # a bad name: one line, before any work
     t0 = time.perf_counter()
     total = args.repeats * (len(args.sizes) * len(args.integrators) + (0 if args.no_training else 1))

@@ -25,6 +25,15 @@ from pathlib import Path
 import numpy as np
 
 from .. import defaults
+from ..fmu.make.package import package_fmu
+from ..fmu.resources import probe_pairs
+from ..fmu.run.driver import FMU
+from ..scene import load_scene
+from . import program_parser
+from .lib.tables import write_csv
+
+# Imported inside the functions: the modules that load numba, scipy or matplotlib (--help answers before they
+# load: tests/test_bench_programs.py).
 
 FORCES = (
     ("sine 3.7 Hz + mean 1e-3, 10 s", 0.01, 1000, lambda t: 2e-3 * np.sin(2 * np.pi * 3.7 * t) + 1e-3),
@@ -36,7 +45,6 @@ def forced_response(path, h, inputs):
     """(v, rho) at the probes: the run with ``inputs`` held over steps ``h`` minus the run without.
 
     Raises RuntimeError with the FMU's logged reason when a step ends in an error status."""
-    from ..fmu.run.driver import FMU
     runs = []
     for f in (inputs, np.zeros_like(inputs)):
         with FMU(path) as s:
@@ -51,7 +59,6 @@ def forced_response(path, h, inputs):
 
 
 def _free_probe_velocities(path, h, n):
-    from ..fmu.run.driver import FMU
     with FMU(path) as s:
         s.initialize(initial_state_scale=1)
         out = s.run([h] * n, np.zeros(n))
@@ -60,7 +67,6 @@ def _free_probe_velocities(path, h, n):
 
 def _sph_probe_velocities(scene, h, n, probes=defaults.PROBES):
     """The full SPH's velocity at the FMU's default probes (linear interpolation) every ``h`` [s]."""
-    from ..fmu.resources import probe_pairs
     from ..sph.solver import build_problem, run_sph
     problem = build_problem(scene)
     steps = np.round(np.arange(n + 1) * h / scene.sph.dt).astype(int)
@@ -71,9 +77,7 @@ def _sph_probe_velocities(scene, h, n, probes=defaults.PROBES):
 
 def measure(scene_name, models=None, folder=None):
     """Rows (scene, model, force, err_v, max_drho) for the FMU of each model of ``scene_name``."""
-    from ..fmu.make.package import package_fmu
     from ..rom.registry import fmu_model_names
-    from ..scene import load_scene
     scene = load_scene(scene_name)
     folder = Path(folder or tempfile.mkdtemp(prefix="sphrom-unseen-"))
     rows = []
@@ -105,8 +109,6 @@ def measure(scene_name, models=None, folder=None):
 
 
 def main(argv=None):
-    from ..measure.tables import write_csv
-    from . import program_parser
     p = program_parser("unseen_force", description=__doc__.split("\n\n")[0])
     p.add_argument("scenes", nargs="*", default=["tenmode"], metavar="SCENE")
     p.add_argument("--out", default="validation/benchmarks/unseen_force.csv", metavar="FILE.csv")

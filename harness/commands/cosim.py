@@ -1,6 +1,6 @@
 """``sphrom cosim``: co-simulate an sphrom FMU on sphrom's FMU driver (harness/fmu/run/driver.py)."""
 
-from .options import add_n_freeze, number, positive_float
+from ..options import add_n_freeze, number, positive_float
 
 
 def add_parser(sub):

@@ -4,7 +4,7 @@ import argparse
 import sys
 import textwrap
 
-from .options import (add_n_freeze, add_order_tolerance, add_quiet, add_scene, float_list, int_at_least, max_probes,
+from ..options import (add_n_freeze, add_order_tolerance, add_quiet, add_scene, float_list, int_at_least, max_probes,
                       one_of, positive_float)
 
 DESCRIPTION = ("Build a reduced model of SCENE (--model: the frozen-coefficient model of eqs. 2.19-2.24 by "

@@ -1,6 +1,6 @@
 """``sphrom modes``: the mode sweeps of the paper (singular values, error against k)."""
 
-from .options import add_n_freeze, add_quiet, choice_list, int_at_least
+from ..options import add_n_freeze, add_quiet, choice_list, int_at_least
 from .snapshot_options import add_snapshot_options
 
 # deferred imports below (inside the handlers): start-up time, the parsers of every command import nothing heavy
@@ -32,7 +32,7 @@ def _write_csv(path, sweep):
     import csv
     import io
 
-    from ..report.markdown import write_text
+    from ..markdown import write_text
     fh = io.StringIO(newline="")
     w = csv.writer(fh)
     w.writerow(["k", "model", "err_v", "err_rho", "err_rho_var", "online_s"])
@@ -128,7 +128,7 @@ def _run_all(args, out, models, scenes):
         r = snapshot_study(scene, study, base, sweep_fn)
         lines.append(f"| {scene.name} | {r['figure']} | {r['snapshots']} | {r['paper']} | {r['ours']} | {r['detail']} |")
         print(f"  study {scene.name} {r['snapshots']}: paper {r['paper']}, ours {r['ours']} ({r['detail']})")
-    from ..report.markdown import write_text
+    from ..markdown import write_text
     write_text(out / "summary.md", "\n".join(lines) + "\n")
     print(f"wrote {out / 'summary.md'}")
     return 0

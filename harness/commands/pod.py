@@ -1,6 +1,6 @@
 """``sphrom pod``: POD bases of a scene (eq. 2.15) from the full SPH (cached)."""
 
-from .options import add_quiet, add_scene, modes_pair, positive_float
+from ..options import add_quiet, add_scene, modes_pair, positive_float
 from .snapshot_options import add_snapshot_options
 
 # deferred imports below (inside the handlers): start-up time, the parsers of every command import nothing heavy

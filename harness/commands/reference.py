@@ -2,7 +2,7 @@
 
 import argparse
 
-from .options import add_quiet, add_scene, integer, number
+from ..options import add_quiet, add_scene, integer, number
 
 SOLVERS = ("skfem", "pypde", "fd", "exact")
 LAYOUTS = ("staggered", "collocated")

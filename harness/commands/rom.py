@@ -3,7 +3,7 @@
 import sys
 
 from .. import defaults
-from .options import (LazyChoices, LazyHelp, add_n_freeze, add_order_tolerance, add_quiet, add_scene, modes_pair,
+from ..options import (LazyChoices, LazyHelp, add_n_freeze, add_order_tolerance, add_quiet, add_scene, modes_pair,
                       positive_float)
 
 # deferred imports below (inside the handlers): start-up time, the parsers of every command import nothing heavy

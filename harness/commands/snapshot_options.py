@@ -1,7 +1,7 @@
 """CLI options that choose a snapshot strategy (shared by pod, modes, fmu)."""
 
 from ..errors import UserError
-from .options import float_list, int_at_least
+from ..options import float_list, int_at_least
 
 
 def add_snapshot_options(p):

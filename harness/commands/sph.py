@@ -2,7 +2,7 @@
 
 import sys
 
-from .options import add_quiet, add_scene, int_at_least, positive_float
+from ..options import add_quiet, add_scene, int_at_least, positive_float
 
 
 def add_parser(sub):

@@ -1,6 +1,6 @@
 """``sphrom sweep``: a parameter study of FMU co-simulations (and full SPH runs) on dask.distributed."""
 
-from .options import add_quiet, int_in
+from ..options import add_quiet, int_in
 
 
 def add_parser(sub):

@@ -1,6 +1,6 @@
 """``sphrom validate``: the validation report of one scene or of every paper scene."""
 
-from .options import MAX_REPEATS, add_quiet, int_in
+from ..options import MAX_REPEATS, add_quiet, int_in
 
 
 def add_parser(sub):

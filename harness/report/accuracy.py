@@ -23,7 +23,7 @@ from ..references.convergence import study_dt
 from ..references.exact import exact_solution, is_available
 from ..sph.operator import gradient_symbol
 from ..sph.solver import run_sph
-from .markdown import image, num, table
+from ..markdown import image, num, table
 
 DEVIATION = 0.25          # |ours / paper's - 1| above which a figure "differs from the paper"
 FE_ELEMENTS = 1024        # scikit-fem P2 elements

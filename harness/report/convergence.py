@@ -14,7 +14,7 @@ from ..compare import error_table
 from ..references import pypde_ref, skfem_ref
 from ..references.common import output_points, output_times
 from ..references.convergence import SOLVERS, observed_orders, study
-from .markdown import image, num, table
+from ..markdown import image, num, table
 
 TARGET = 1e-4                 # the product requirement at the finest resolution
 LABELS = {"skfem1": "scikit-fem P1", "skfem2": "scikit-fem P2", "pypde": "py-pde RK4", "fd": "paper's FD (staggered)"}

@@ -22,7 +22,7 @@ from ..pod.pipeline import accel_modes, basis_for_scene, error_steps, on_steps
 from ..rom.exact_linear import build_linear_operators, run_exact
 from ..rom.registry import get_model
 from ..sph.solver import step_count
-from .markdown import num, table
+from ..markdown import num, table
 
 MAX_EXACT_IN_TIME = 500      # particles: above, the 2N x 2N exponential of the full system costs minutes
 

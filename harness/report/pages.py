@@ -14,7 +14,7 @@ from ..sph.solver import build_problem, run_sph
 from . import accuracy
 from .convergence import agreement_section, convergence_section
 from .exact_model import exact_section
-from .markdown import image, num, table, write_text
+from ..markdown import image, num, table, write_text
 from .reduced import pod_section
 
 CONVERGENCE_SCENES = ("multimode", "damped_forced")     # the convergence studies: undamped, damped and forced

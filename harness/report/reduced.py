@@ -3,10 +3,10 @@ the paper's snapshot studies and the time against error of the accelerated model
 
 from __future__ import annotations
 
-from ..measure.methods import bench_python, paper_saving, plot_time_error, savings_by_k
+from ..bench.lib.methods import bench_python, paper_saving, plot_time_error, savings_by_k
 from ..pod.pipeline import accel_modes, basis_for_scene
+from ..markdown import image, num, table
 from ..rom.study import PAPER_MODEL, mode_sweep, plot_sweep, snapshot_study, threshold
-from .markdown import image, num, table
 
 
 def plot_modes(basis, path, title, n_modes=4):

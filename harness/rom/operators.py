@@ -187,7 +187,7 @@ class ReducedOperators(Operators):
     def with_every_term(self):
         """The same operators with a zero damping matrix where they have none and a zero force row: the loops then
         evaluate every term, for the same numbers (what skipping the absent terms saves,
-        :mod:`sphrom.measure.skip`)."""
+        :mod:`sphrom.bench.lib.skip`)."""
         D = self.D if self.D is not None else np.zeros((self.k_v, self.k_v))
         return dataclasses.replace(self, D=D, p=np.zeros(self.k_v))
 

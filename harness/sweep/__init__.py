@@ -11,6 +11,7 @@ Modules (plain functions, small):
   SPH run and its error;
 * :mod:`.table`   -- the result table (HDF5 columns + CSV), merge for resume;
 * :mod:`.plot`    -- the summary PNG (a response surface when it can be one);
-* :mod:`.study`   -- the client: cluster, tasks, progress bar, checkpoints;
-* :mod:`.measure` -- the committed measurement (``python -m sphrom.sweep.measure``).
+* :mod:`.study`   -- the client: cluster, tasks, progress bar, checkpoints.
+
+The committed measurement of sweeps is a measurement program, ``sphrom bench sweep`` (:mod:`sphrom.bench.sweep`).
 """

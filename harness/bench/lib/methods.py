@@ -14,10 +14,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..compare import error_table, reference_fields
-from ..pod.pipeline import accel_modes, basis_for_scene, error_steps, on_steps
-from ..rom.registry import MODEL_NAMES, get_model, model_names, pod_model_names
-from ..sph.solver import run_sph, step_count
+from ...compare import error_table, reference_fields
+from ...pod.pipeline import accel_modes, basis_for_scene, error_steps, on_steps
+from ...rom.registry import MODEL_NAMES, get_model, model_names, pod_model_names
+from ...sph.solver import run_sph, step_count
 from .timing import median_time
 
 N_FREEZE = (1, 2, 5, 10, 20, 50)
@@ -132,7 +132,7 @@ def paper_saving(rows, scene):
 
 def plot_time_error(rows, path, title):
     """Log-log error against online time, v (left) and ρ - ρ0 (right), as in Figs. 3.17/3.21."""
-    import matplotlib
+    import matplotlib          # deferred: only a plot loads matplotlib, the measurements never do
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 

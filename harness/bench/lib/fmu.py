@@ -1,4 +1,4 @@
-"""Benchmarks of the FMU (``sphrom bench-fmu``, the FMU rows and section of ``sphrom bench``).
+"""Benchmarks of the FMU (``sphrom bench fmu``, the FMU rows and section of ``sphrom bench``).
 
 1. The C core alone (``libsphrom_core`` through ctypes, no FMI, no Python in
    the loop): ns per internal step at k = 12, n_freeze = 10 for several
@@ -24,7 +24,7 @@
    the C full SPH step of fmu_src/sph.c at N = 400.
 
 ``bench_rows`` gives the FMU rows of ``sphrom bench``, :func:`fmu_measurements`
-its FMU section (the Markdown is :func:`sphrom.measure.markdown.fmu_tables`).
+its FMU section (the Markdown is :mod:`.fmu_sections`).
 Every figure is the median of ``repeats`` runs.
 """
 
@@ -40,8 +40,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import defaults
-from ..rom.registry import fmu_model_names, get_model
+from ... import defaults
+from ...rom.registry import fmu_model_names, get_model
 
 BENCH_K = 12
 BENCH_FREEZE = defaults.N_FREEZE
@@ -59,7 +59,7 @@ def bench_scene(base, n):
     Euler amplifies the fastest SPH mode without bound at large N); neither
     changes the cost of a reduced step, which depends on k only.
     """
-    from ..scene import derive_scene, load_scene
+    from ...scene import derive_scene, load_scene
     scene = load_scene(base)
     window = scene.snapshots.get("window")
     T = float(window[1]) if window else scene.T
@@ -76,10 +76,10 @@ def core_rows(base, sizes, k=BENCH_K, n_freeze=BENCH_FREEZE, n_steps=200_000, re
     (t(2M) - t(M)) / M, so that the call's fixed cost cancels: ``ns_per_step`` the median of the repeats' wall
     slopes (min and max beside), ``ns_per_step_cpu`` the median of the same runs' thread CPU-time slopes (the
     time the core itself ran, whatever else the machine ran meanwhile)."""
-    from ..fmu.make.build import ensure_binaries
-    from ..fmu.run.core import Core
-    from ..fmu.make.models import reduced_model
-    from ..fmu.resources import pack
+    from ...fmu.make.build import ensure_binaries
+    from ...fmu.run.core import Core
+    from ...fmu.make.models import reduced_model
+    from ...fmu.resources import pack
 
     core = core or Core(ensure_binaries().core)
     rows = []
@@ -122,7 +122,7 @@ def _simulate(path, stop_time, step, keep=None):
     initialize from the scene's initial state (initial_state_scale = 1, the training run's; the FMU's own start
     is rest), the loop to ``stop_time`` reading every output at each step, free.  (times, outputs, names) go into
     ``keep`` (a list) when given."""
-    from ..fmu.run.driver import FMU
+    from ...fmu.run.driver import FMU
     n = int(math.ceil(stop_time / step - 1e-9))
     times = np.minimum(np.arange(n + 1) * step, stop_time)
     t0 = time.perf_counter()
@@ -140,7 +140,7 @@ def _bare_calls(unzipdir, md, n_calls, h):
     """Wall time [s] of n_calls doSteps of length h on an extracted FMU through the driver's loop with no input
     and no output: the cost of a doStep call through fmpy's ctypes binding, of the loop itself and of the
     step's own work; :func:`end_to_end` takes the slope between n_calls and 2 n_calls."""
-    from ..fmu.run.driver import FMU
+    from ...fmu.run.driver import FMU
     with FMU(unzipdir, name="bench") as fmu:
         fmu.initialize(initial_state_scale=1.0)        # the scene's initial state, as every bench run
         times = np.arange(n_calls + 1) * h
@@ -153,10 +153,10 @@ def sph_at_probes(scene, problem, probes, step):
     """The full SPH sampled every ``step`` [s] and interpolated linearly at the probes (as the FMU interpolates
     its reduced field): (t, v (M, P)), and the relative L² error of that v against the exact solution at the
     probes when the scene has one (else None)."""
-    from ..norms import relative_l2
-    from ..references.exact import exact_solution, is_available
-    from ..sph.solver import run_sph, step_count
-    from ..fmu.resources import probe_pairs
+    from ...norms import relative_l2
+    from ...references.exact import exact_solution, is_available
+    from ...sph.solver import run_sph, step_count
+    from ...fmu.resources import probe_pairs
 
     n = step_count(scene.T, scene.sph.dt)
     m = int(round(step / scene.sph.dt))
@@ -174,7 +174,7 @@ def probe_error(result, t, v_sph, scene):
     """Relative L² error over the run of an FMU's probe velocities (``result``: (times, outputs, names) of
     :func:`_simulate`) against the full SPH at the probes (:func:`sph_at_probes`) at the same communication
     points."""
-    from ..norms import relative_l2
+    from ...norms import relative_l2
     times, values, names = result
     v_fmu = values[:, [names.index(f"v_probe_{j + 1}") for j in range(v_sph.shape[1])]]
     rows = np.searchsorted(times, t - 1e-12 * max(1.0, scene.T))
@@ -201,12 +201,12 @@ def end_to_end(scene_name="tenmode", steps=(0.01, 0.001), repeats=5, k=None, pro
     import fmpy
     from fmpy import extract, read_model_description
 
-    from ..scene import load_scene
-    from ..sph.solver import build_problem, run_sph, step_count
-    from ..fmu.make.build import ensure_binaries
-    from ..fmu.run.core import Core
-    from ..fmu.make.models import RESOURCES
-    from ..fmu.make.package import package_fmu
+    from ...scene import load_scene
+    from ...sph.solver import build_problem, run_sph, step_count
+    from ...fmu.make.build import ensure_binaries
+    from ...fmu.run.core import Core
+    from ...fmu.make.models import RESOURCES
+    from ...fmu.make.package import package_fmu
 
     scene = load_scene(scene_name)
     problem = build_problem(scene)
@@ -316,8 +316,8 @@ def prepared_fmu(scene, k, model="frozen", n_freeze=defaults.N_FREEZE, problem=N
 
     from fmpy import extract, read_model_description
 
-    from ..fmu.make.build import ensure_binaries
-    from ..fmu.make.package import package_fmu
+    from ...fmu.make.build import ensure_binaries
+    from ...fmu.make.package import package_fmu
     key = (hashlib.sha256(scene.text.encode()).hexdigest() if getattr(scene, "text", None) else scene.name,
            int(k), model, int(n_freeze), tuple(probes))
     if key not in _PREPARED:
@@ -350,7 +350,7 @@ def lean_loop(fmu, h, n_steps, f=None):
 def _fmu_states(unzipdir, md, summary, ops, steps, dt, force, n_freeze, h):
     """The FMU's fields at the error steps, from one untimed run on the timed configuration: communication
     points on the grid of h plus the error-step times, input held over each step at its start value."""
-    from ..fmu.run.driver import FMU
+    from ...fmu.run.driver import FMU
     t_samples = np.asarray(steps) * dt
     grid = np.arange(int(round(t_samples[-1] / h)) + 1) * h
     points = np.unique(np.concatenate([grid[grid < t_samples[-1]], t_samples]))
@@ -370,7 +370,7 @@ def _fmu_states(unzipdir, md, summary, ops, steps, dt, force, n_freeze, h):
 
 
 def bench_rows(context):
-    """The FMU rows of ``sphrom bench`` (sphrom.measure.methods.bench_python's ``extra``).
+    """The FMU rows of ``sphrom bench`` (sphrom.bench.lib.methods.bench_python's ``extra``).
 
     For each k of the study and each model that can be packaged as an FMU: the FMU through the FMU driver's
     loop at a 10 ms communication step (n_freeze 10 and 1 for the frozen model, the one refreshed every
@@ -378,10 +378,10 @@ def bench_rows(context):
     the C full SPH (fmu_src/sph.c).  Errors against the full SPH (context v_sph/rho_sph at the
     context steps) and the reference; times are medians of context["repeats"].
     """
-    from ..compare import error_table
-    from ..fmu.make.build import ensure_binaries
-    from ..fmu.run.core import Core
-    from ..sph.solver import step_count
+    from ...compare import error_table
+    from ...fmu.make.build import ensure_binaries
+    from ...fmu.run.core import Core
+    from ...sph.solver import step_count
 
     scene, run = context["scene"], context["run"]
     problem = run.problem
@@ -414,8 +414,8 @@ def bench_rows(context):
 def _fmu_rows(k, model, *, scene, problem, steps, repeats, n, h, n_comm, force, f_comm, errors, core):
     """bench_rows for one k and model: the FMU through the driver (n_freeze 10 and 1 where it has one), and the C
     core alone for a time-stepped model."""
-    from ..fmu.make.models import RESOURCES
-    from ..fmu.run.driver import FMU
+    from ...fmu.make.models import RESOURCES
+    from ...fmu.run.driver import FMU
     from .methods import bench_row
     spec = get_model(model)
     # the time-stepped FMU is "FMU (fmpy)", the product's default; the others are named
@@ -477,7 +477,7 @@ def _core_time(core, blob, repeats, n, h, n_comm, f_comm):
 
 def _c_sph_row(*, scene, problem, steps, repeats, n, errors, core, forced, **_):
     """The C full SPH (fmu_src/sph.c), same scene and integrator: the bench row with its errors."""
-    from ..sph.solver import force_values
+    from ...sph.solver import force_values
     from .methods import bench_row
     dt = scene.sph.dt
     runner = core.sph.runner(problem, scene.sph.integrator)
@@ -502,9 +502,9 @@ def _c_sph_row(*, scene, problem, steps, repeats, n, errors, core, forced, **_):
 
 def sph_step_rows(base="tenmode", n=400, k=BENCH_K, n_freeze=BENCH_FREEZE, n_steps=20_000, repeats=5, core=None):
     """The same-language ratio at N = n: ns per step of the C frozen core and of the C full SPH (sph.c)."""
-    from ..sph.solver import build_problem
-    from ..fmu.make.build import ensure_binaries
-    from ..fmu.run.core import Core
+    from ...sph.solver import build_problem
+    from ...fmu.make.build import ensure_binaries
+    from ...fmu.run.core import Core
     core = core or Core(ensure_binaries().core)
     frozen = core_rows(base, [n], k=k, n_freeze=n_freeze, n_steps=max(n_steps, 100_000), repeats=repeats,
                        core=core)[0]
@@ -523,19 +523,19 @@ def sph_step_rows(base="tenmode", n=400, k=BENCH_K, n_freeze=BENCH_FREEZE, n_ste
 
 
 def fmu_measurements(scene_name="tenmode", repeats=5, sizes=(100, 400, 1600), steps=(0.01, 0.001),
-                     progress=True):
-    """The FMU section of ``sphrom bench``: the C core against N, end to end through the FMU driver, and
-    the same-language ratio at N = 400.
+                     progress=True, with_end_to_end=True, with_same=True):
+    """The FMU section of ``sphrom bench`` (and ``sphrom bench fmu``): the C core against N, end to end through the
+    FMU driver (``with_end_to_end``), and the same-language ratio at N = 400 (``with_same``).
 
-    Returns a dict: ``core`` (:func:`core_rows`), ``e2e`` (:func:`end_to_end`), ``same``
-    (:func:`sph_step_rows`), ``repeats``.
+    Returns a dict: ``core`` (:func:`core_rows`), ``e2e`` (:func:`end_to_end`, or None), ``same``
+    (:func:`sph_step_rows`, or None), ``repeats``.
     """
-    from ..progress import progress_bar
-    with progress_bar(total=len(sizes) + len(steps) * len(benched_fmu_models()) + repeats + 1, desc="FMU",
-                      enabled=progress) as bar:
-        e2e = end_to_end(scene_name, steps=steps, repeats=repeats, bar=bar)
+    from ...progress import progress_bar
+    total = len(sizes) + (len(steps) * len(benched_fmu_models()) + repeats if with_end_to_end else 0) + 1
+    with progress_bar(total=total, desc="FMU", enabled=progress) as bar:
+        e2e = end_to_end(scene_name, steps=steps, repeats=repeats, bar=bar) if with_end_to_end else None
         core = core_rows(scene_name, list(sizes), repeats=repeats, bar=bar)
-        same = sph_step_rows(scene_name, n=400, repeats=repeats)
+        same = sph_step_rows(scene_name, n=400, repeats=repeats) if with_same else None
         bar.update(1)
     return {"core": core, "e2e": e2e, "same": same, "repeats": repeats}
 

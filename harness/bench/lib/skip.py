@@ -10,12 +10,19 @@ saves.  Medians of repeats, ratios from the same run.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
-from ..pod.pipeline import accel_modes, basis_for_scene
-from ..rom.registry import get_model
-from ..sph import loops
-from ..sph.solver import METHODS, build_problem, step_count
+from ...defaults import PROBES as DEFAULT_PROBES
+from ...fmu.make.build import ensure_binaries
+from ...fmu.make.models import reduced_model
+from ...fmu.resources import pack
+from ...fmu.run.core import Core
+from ...pod.pipeline import accel_modes, basis_for_scene
+from ...rom.registry import get_model
+from ...sph import loops
+from ...sph.solver import METHODS, build_problem, step_count
 from .timing import median_times_interleaved
 
 # the reduced models timed: the ones on density modes whose loop has the specialised damping and force terms
@@ -93,14 +100,7 @@ def _fmu_core_rows(scene, problem, k, n, repeats):
 
     Returns (label, specialised µs/step, general µs/step), or None when the core cannot be built here.
     """
-    import dataclasses
-
     try:
-        from ..fmu.make.build import ensure_binaries
-        from ..fmu.run.core import Core
-        from ..defaults import PROBES as DEFAULT_PROBES
-        from ..fmu.make.models import reduced_model
-        from ..fmu.resources import pack
         core = Core(ensure_binaries(quiet=True).core)
     except Exception:                     # no compiler or cmake: the Python rows stand alone
         return None

@@ -11,10 +11,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..pod.pipeline import basis_for_scene
-from ..rom.registry import get_model, pod_model_names
-from ..scene import derive_scene, load_scene
-from ..sph.solver import run_sph
+from ...pod.pipeline import basis_for_scene
+from ...rom.registry import get_model, pod_model_names
+from ...scene import derive_scene, load_scene
+from ...sph.solver import run_sph
 from .timing import median_time
 
 
@@ -71,7 +71,7 @@ def growth(rows, method, key="n"):
 
 
 def plot_costs(rows, path, key="n"):
-    import matplotlib
+    import matplotlib          # deferred: only a plot loads matplotlib, the measurements never do
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, ax = plt.subplots(figsize=(5.5, 3.8))

@@ -1,5 +1,7 @@
 """Timing helpers: medians of repeats, on a shared and noisy machine."""
 
+import os
+import platform
 import statistics
 import time
 
@@ -37,8 +39,6 @@ def median_times_interleaved(fns, repeats=5, warmup=1):
 def cpu_model():
     """The CPU's model name (``/proc/cpuinfo``, else :func:`platform.processor`), its logical core count and
     the architecture, as one string: ``AMD EPYC, 2 cores, x86_64``."""
-    import os
-    import platform
     name = ""
     try:
         with open("/proc/cpuinfo", encoding="utf-8", errors="replace") as fh:
@@ -50,7 +50,6 @@ def cpu_model():
 
 def load_average():
     """The 1, 5 and 15 minute load averages (:func:`os.getloadavg`), or None where the system has none."""
-    import os
     try:
         return tuple(round(x, 2) for x in os.getloadavg())
     except (AttributeError, OSError):

@@ -1,4 +1,5 @@
-"""Small Markdown helpers for the reports: tables and numbers."""
+"""Small Markdown helpers for the pages sphrom writes (the validation report, BENCHMARKS.md, stress.md): tables,
+numbers, images, and a page written atomically."""
 
 from __future__ import annotations
 
@@ -28,7 +29,7 @@ def image(path, alt):
 
 def write_text(path, text):
     """Write a page atomically (a temporary file, then rename): never half a page."""
-    from ..runio import atomic_path
+    from .runio import atomic_path           # deferred: runio loads numpy, which making a page's text never needs
     with atomic_path(path) as tmp:
         with open(tmp, "w", encoding="utf-8") as fh:
             fh.write(text)

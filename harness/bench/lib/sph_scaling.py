@@ -14,10 +14,15 @@ import time
 
 import numpy as np
 
-from ..scene import derive_scene, load_scene
-from ..sph import loops
-from ..errors import SimulationError
-from ..sph.solver import METHODS, build_problem, step_count
+from ...errors import SimulationError
+from ...runio import save_figure
+from ...scene import derive_scene, load_scene
+from ...scene_schema import key
+from ...sph import loops
+from ...sph.solver import METHODS, build_problem, step_count
+
+INTEGRATORS = key("sph.integrator").range.choices      # the table's integrators: every one the full SPH has
+SPH_STEP_HEADING = "## The full SPH step against N (as `sphrom bench-sph`)"
 
 
 def chunks(steps, horizon):
@@ -104,7 +109,7 @@ def growth_exponent(rows, integrator, n_min=1000):
 
 def plot_scaling(rows, integrators, path, scene_name):
     """µs per step against N per integrator (log-log) with a linear guide, as PNG at ``path``."""
-    import matplotlib
+    import matplotlib          # deferred: only a plot loads matplotlib, the measurements never do
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, ax = plt.subplots(figsize=(5, 3.6))
@@ -119,6 +124,25 @@ def plot_scaling(rows, integrators, path, scene_name):
     ax.set_title(f"full SPH step, scene {scene_name}")
     ax.legend()
     fig.tight_layout()
-    from ..runio import save_figure
     save_figure(fig, path, dpi=110)
     plt.close(fig)
+
+
+def sph_step_section(sph_steps, sizes, repeats, integrators=INTEGRATORS, produced=None, image=None):
+    """The full SPH step against N per integrator (rows of :func:`scaling_table`);
+    ``produced``: a sentence naming the command, the machine and its load, ``image``: the plot's path from the
+    report (``sphrom bench sph-step --report``)."""
+    lines = [SPH_STEP_HEADING, "",
+             (produced + " " if produced else "")
+             + "µs per step of the numba loop (one thread) in the layout `sphrom sph` takes (the fixed-offset "
+             "stencil where the neighbour lists allow it, as in every built-in scene), tenmode's fields at the "
+             "scene's CFL number; each figure the slope between runs of M and 2M steps (the call's fixed cost "
+             f"cancels), the median of {repeats} repeats; growth exponent of time against N for N ≥ 1000 "
+             "(1 = linear). Target: ≤ 10 µs per step at N = 400 (explicit Euler).", "",
+             "| integrator | " + " | ".join(f"N = {n}" for n in sizes) + " | growth exponent |",
+             "| --- |" + " ---: |" * (len(sizes) + 1)]
+    for integrator in integrators:
+        cells = [next(f"{r['us_per_step']:.3g} µs" for r in sph_steps if r["integrator"] == integrator and r["n"] == n)
+                 for n in sizes]
+        lines.append(f"| {integrator} | " + " | ".join(cells) + f" | {growth_exponent(sph_steps, integrator):.2f} |")
+    return lines + [""] + ([f"![full SPH step against N]({image})", ""] if image else [])

@@ -13,11 +13,11 @@ full SPH at the scene's error steps, frozen model, n_freeze = 10.
 
 from __future__ import annotations
 
-from ..compare import error_table
-from ..pod.pipeline import accel_modes, basis_for_scene, error_steps, on_steps
-from ..rom.operators import INPUT_TOLERANCE, build_operators
-from ..rom.registry import get_model
-from ..sph.solver import step_count
+from ...compare import error_table
+from ...pod.pipeline import accel_modes, basis_for_scene, error_steps, on_steps
+from ...rom.operators import INPUT_TOLERANCE, build_operators
+from ...rom.registry import get_model
+from ...sph.solver import step_count
 
 
 def input_direction_rows(scene, k=None, n_freeze=10):

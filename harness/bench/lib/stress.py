@@ -31,12 +31,12 @@ import dataclasses
 
 import numpy as np
 
-from ..errors import SimulationError
-from ..pod.pipeline import accel_modes, basis_for_scene
-from ..rom.registry import MODELS, get_model, pod_model_names
-from ..scene import derive_scene
-from ..sph.diagnostics import energy
-from ..sph.solver import build_problem, run_sph, stability, step_count
+from ...errors import SimulationError
+from ...pod.pipeline import accel_modes, basis_for_scene
+from ...rom.registry import MODELS, get_model, pod_model_names
+from ...scene import derive_scene
+from ...sph.diagnostics import energy
+from ...sph.solver import build_problem, run_sph, stability, step_count
 
 from .stress_settings import AMPLITUDES, DT_FACTORS, HORIZONS, MODE_COUNTS
 METHODS = ("sph-euler", "sph-symplectic", "sph-rk4") + pod_model_names()  # the full SPH, then every POD model
@@ -225,7 +225,7 @@ def force_rows(ctx: Context, amplitudes=(1e-2, 1.0, 100.0),
 
 def plot_map(rows, path, title, dt_limit):
     """One heat map per method: x = Δt factor, y = amplitude; colour = log10 energy growth, ✕ = blow-up."""
-    import matplotlib
+    import matplotlib          # deferred: only a plot loads matplotlib, the measurements never do
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.colors import Normalize

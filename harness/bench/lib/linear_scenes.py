@@ -3,9 +3,9 @@
 
 from __future__ import annotations
 
-from ..rom.lti import full_linear_system
-from ..scene import derive_scene, load_scene
-from ..sph.solver import build_problem
+from ...rom.lti import full_linear_system
+from ...scene import derive_scene, load_scene
+from ...sph.solver import build_problem
 
 SHAPED_PROFILE = "1 + sin(2*pi*x/L) + 0.5*cos(6*pi*x/L)"
 

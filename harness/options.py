@@ -1,5 +1,7 @@
 """The command line's vocabulary: argparse types, shared arguments, and option names for library fields.
 
+Shared by the commands (:mod:`sphrom.commands`) and the measurement programs (:mod:`sphrom.bench`), below both.
+
 Every type raises ``argparse.ArgumentTypeError`` with what is allowed, so a bad
 value is argparse's own one-line error naming the option (exit status 2).
 The library names fields (``n_freeze``, ``dt``, ``out``); only this layer
@@ -12,19 +14,19 @@ import math
 
 def min_particles():
     """``sphrom.scene.MIN_PARTICLES``, imported when a value is parsed (``--help`` stays light)."""
-    from ..scene import MIN_PARTICLES
+    from .scene import MIN_PARTICLES
     return MIN_PARTICLES
 
 
 def max_particles():
     """``sphrom.scene.MAX_PARTICLES``, imported when a value is parsed."""
-    from ..scene import MAX_PARTICLES
+    from .scene import MAX_PARTICLES
     return MAX_PARTICLES
 
 
 def max_probes():
     """``sphrom.fmu.resources.MAX_PROBES``, imported when a value is parsed."""
-    from ..fmu.resources import MAX_PROBES
+    from .fmu.resources import MAX_PROBES
     return MAX_PROBES
 
 
@@ -267,7 +269,7 @@ def add_n_freeze(p, default=None, help="refresh period n_freeze of the frozen co
 def add_order_tolerance(p, *aliases, note=""):
     """``--order-tolerance TOL``: the balanced model's order criterion, its one meaning (``aliases``: the earlier
     names of the option where they meant only this; ``note`` ends the help)."""
-    from ..defaults import ORDER_TOLERANCE
+    from .defaults import ORDER_TOLERANCE
     p.add_argument("--order-tolerance", *aliases, dest="order_tolerance", type=positive_float, metavar="TOL",
                    help="balanced model: instead of --modes R, its order is the smallest r with 2 sum_{i>r} sigma_i "
                         f"<= TOL 2 sum sigma_i (0 < TOL < 1; default {ORDER_TOLERANCE:g} when neither is given)"
@@ -376,8 +378,8 @@ def check_outputs_spare_inputs(parser, args, command):
     value that names an existing regular file."""
     from pathlib import Path
 
-    from ..errors import UserError
-    from ..paths import is_file
+    from .errors import UserError
+    from .paths import is_file
     actions = [a for a in parser._actions if a.dest not in ("help", "version")]
     outputs = []
     for action in actions:

@@ -1,5 +1,5 @@
 """The stress maps' grid and scene list (``sphrom stress``): plain constants, imported by the command's parser,
-:mod:`sphrom.measure.stress` and :mod:`sphrom.measure.stress_maps` (a leaf: it imports nothing of sphrom)."""
+:mod:`sphrom.bench.lib.stress` and :mod:`sphrom.bench.lib.stress_maps` (a leaf: it imports nothing of sphrom)."""
 
 DEFAULT_SCENES = ("tenmode", "damped_forced", "heterogeneous")
 DT_FACTORS = (0.1, 0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 2.0)    # Δt / Δt*

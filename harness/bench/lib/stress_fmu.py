@@ -1,15 +1,15 @@
 """The FMU in the stability stress maps (``sphrom stress``): does it report an error where it blows up?
 
 For each stress setting the FMU (FMI 2, through fmpy and :class:`sphrom.fmu.run.driver.FMU`) runs the same
-reduced model as the Python rows of :mod:`sphrom.measure.stress` (the frozen FMU with its own b, about the
-projected rest density, where the Python rows run the paper's: :func:`sphrom.measure.stress.fmu_operators`): the
+reduced model as the Python rows of :mod:`sphrom.bench.lib.stress` (the frozen FMU with its own b, about the
+projected rest density, where the Python rows run the paper's: :func:`sphrom.bench.lib.stress.fmu_operators`): the
 scene's x1 basis and operators,
 the initial velocity coordinates scaled by the amplitude (the FMU's ``initial_state_scale``, so one FMU per
 scene and model serves every amplitude), the internal step ``dt`` (the FMU's ``dt``
 parameter; the exact model ignores it), n_freeze = 10, the force held over each communication step.
 Communication points are the stress run's sample steps, so the FMU's internal grid is the Python one.
 
-Each run ends as in :func:`sphrom.measure.stress.run_one` (stable, growing, unphysical, blow-up), with
+Each run ends as in :func:`sphrom.bench.lib.stress.run_one` (stable, growing, unphysical, blow-up), with
 two more fields: ``fmu_error``, the FMU's logged error message when a call returned an error status
 (its blow-up time is read from that message), and ``silent_nan``, the number of communication points
 at which an output was non-finite without an error status: the contract is that this is always 0.
@@ -24,12 +24,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import defaults
+from ... import defaults
 
-from ..rom.registry import get_model
+from ...rom.registry import get_model
 from .fmu import benched_fmu_models
-from ..sph.diagnostics import energy
-from ..sph.solver import step_count
+from ...sph.diagnostics import energy
+from ...sph.solver import step_count
 
 N_FREEZE = defaults.N_FREEZE
 _TIME = re.compile(r"t = ([-+0-9.eE]+) s")
@@ -70,10 +70,10 @@ class FMUStress:
             return self._made[key]
         from fmpy import extract
 
-        from ..fmu.make.build import ensure_binaries
-        from ..fmu.make.describe import model_description
-        from ..fmu.make.models import operator_resource
-        from ..fmu.make.archive import write_fmu
+        from ...fmu.make.build import ensure_binaries
+        from ...fmu.make.describe import model_description
+        from ...fmu.make.models import operator_resource
+        from ...fmu.make.archive import write_fmu
         from .stress import fmu_operators
 
         scene, problem = ctx.scene, ctx.problem
@@ -89,10 +89,10 @@ class FMUStress:
         return self._made[key]
 
     def run(self, ctx, model, dt, amplitude=1.0, T=None, force=None, n_samples=200):
-        """One stress run of the FMU; the dict of :func:`sphrom.measure.stress.run_one` plus fmu_error, silent_nan."""
+        """One stress run of the FMU; the dict of :func:`sphrom.bench.lib.stress.run_one` plus fmu_error, silent_nan."""
         from fmpy.fmi1 import FMICallException
 
-        from ..fmu.run.driver import FMU
+        from ...fmu.run.driver import FMU
 
         scene, problem = ctx.scene, ctx.problem
         T = T or scene.T
@@ -135,7 +135,7 @@ class FMUStress:
 
 
 def stress_runners(stress: FMUStress):
-    """The ``extra`` methods of :mod:`sphrom.measure.stress`: name -> runner(ctx, dt, amplitude, T=None, force=None)."""
+    """The ``extra`` methods of :mod:`sphrom.bench.lib.stress`: name -> runner(ctx, dt, amplitude, T=None, force=None)."""
     def runner(model):
         def go(ctx, dt, amplitude=1.0, T=None, force=None):
             return stress.run(ctx, model, dt, amplitude, T=T, force=force)

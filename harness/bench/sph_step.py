@@ -1,18 +1,35 @@
-"""``sphrom bench-sph``: µs per step of the full SPH model against N."""
+"""``sphrom bench sph-step`` (also the command ``sphrom bench-sph``): µs per step of the full SPH model against N.
 
-from .options import MAX_REPEATS, add_quiet, add_scene, choice_list, int_in, int_list, min_particles
+Each figure a slope between runs of M and 2M steps (:mod:`sphrom.bench.lib.sph_scaling`, which the whole report
+``sphrom bench`` shares); with ``--report`` the section "The full SPH step against N" of BENCHMARKS.md, naming the
+command, the CPU and the load.
+"""
 
-INTEGRATORS = ("euler", "symplectic", "rk4")
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from ..options import MAX_REPEATS, add_quiet, add_scene, choice_list, int_in, int_list, min_particles
+from ..scene_schema import key
+from . import program_main
+from .lib.tables import write_csv
+from .lib.timing import cpu_model, load_average
+
+# The measuring modules (numpy, numba) are imported inside run: `sphrom --help` builds this program's options (the
+# command sphrom bench-sph), which must not load them (tests/test_cli_imports.py).
+
+INTEGRATORS = key("sph.integrator").range.choices      # every integrator the full SPH has
+HELP = "time the full SPH step against the particle count"
+DESCRIPTION = ("Median microseconds per step of the full SPH loop (numba) for several particle counts and "
+               "integrators, and the growth exponent of time against N (1 = linear). Each figure is a slope: runs of "
+               "M and 2M steps timed back to back give (t(2M) - t(M)) / M, so the call's fixed cost cancels. Names "
+               "the CPU and the load average. Writes CSV and a PNG plot when --out is given. The numba step against "
+               "the C stencil and an older checkout: sphrom bench sph_stencil.")
 
 
-def add_parser(sub):
-    p = sub.add_parser("bench-sph", help="time the full SPH step against the particle count",
-                       description="Median microseconds per step of the full SPH loop (numba) for several particle "
-                                   "counts and integrators, and the growth exponent of time against N "
-                                   "(1 = linear). Each figure is a slope: runs of M and 2M steps timed back to back "
-                                   "give (t(2M) - t(M)) / M, so the call's fixed cost cancels. Names the CPU and the "
-                                   "load average. Writes CSV and a PNG plot when --out is given. The numba step "
-                                   "against the C stencil and an older checkout: python -m sphrom.bench.sph_stencil.")
+def add_arguments(p):
+    """The program's options on the parser ``p`` (``sphrom bench sph-step``'s, ``sphrom bench-sph``'s)."""
     add_scene(p, default="tenmode", option_alias=True, help="scene whose fields are used")
     p.add_argument("--n-particles", "--sizes", dest="n_particles", type=int_list(lo=min_particles),
                    default="100,400,10000,100000", metavar="N,...",
@@ -29,16 +46,15 @@ def add_parser(sub):
                    help="replace the section 'The full SPH step against N' of this Markdown report (BENCHMARKS.md) "
                         "with the table, naming this command, the CPU and the load")
     add_quiet(p)
-    p.set_defaults(handler=run)
 
 
 def run(args):
-    from ..measure.sph_scaling import growth_exponent, plot_scaling, scaling_table
-    from ..measure.tables import write_csv
-    from ..measure.timing import cpu_model, load_average
+    """Run the program with the parsed options ``args``; its exit status."""
     from ..progress import progress_bar
     from ..runio import check_output_dir, output_dir
     from ..scene import load_scene
+    from .lib.document import update_report
+    from .lib.sph_scaling import SPH_STEP_HEADING, growth_exponent, plot_scaling, scaling_table, sph_step_section
 
     load_scene(args.scene)                       # a bad name is a one-line error before any work
     sizes, integrators = args.n_particles, args.integrator
@@ -62,8 +78,6 @@ def run(args):
             plot_scaling(rows, integrators, out / "sph_scaling.png", args.scene)
         print(f"wrote {out / 'sph_scaling.csv'} and {out / 'sph_scaling.png'}")
     if args.report:
-        from ..measure.markdown import update_report
-        from ..measure.markdown import SPH_STEP_HEADING, sph_step_section
         command = (f"sphrom bench-sph {args.scene} --n-particles {','.join(map(str, sizes))} --integrator "
                    f"{','.join(integrators)} --repeats {args.repeats} --layout {args.layout}"
                    + (f" --out {args.out}" if args.out else "") + f" --report {args.report}")
@@ -71,10 +85,17 @@ def run(args):
                     f"{load(load_start)} at the start, {load(load_average())} at the end.")
         image = None
         if out is not None:
-            import os
-            from pathlib import Path
             image = Path(os.path.relpath(out.resolve() / "sph_scaling.png", Path(args.report).resolve().parent))
         lines = sph_step_section(rows, sizes, args.repeats, integrators, produced=produced,
                                  image=image and image.as_posix())
         print(f"wrote the section of {update_report(args.report, {SPH_STEP_HEADING: lines})}")
     return 0
+
+
+def main(argv=None):
+    """``sphrom bench sph-step [SCENE] [options]`` (``python -m sphrom.bench.sph_step``); its exit status."""
+    return program_main("sph-step", DESCRIPTION, add_arguments, run, argv)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
