@@ -124,8 +124,7 @@ double rom_step_work(const RomState *s) {
 }
 
 double rom_max_steps_per_call(const RomState *s) {
-    const double work = rom_step_work(s);
-    return work > 0.0 ? floor(ROM_MAX_WORK_PER_CALL / work) : 0.0;
+    return rom_steps_per_call(rom_step_work(s));
 }
 
 RomStatus rom_set_dt(RomState *s, double dt, char *message, size_t message_size) {
@@ -379,9 +378,5 @@ RomStatus rom_set_port_rate(RomState *s, uint32_t j, double rate, char *message,
 
 double rom_v_port(const RomState *s, uint32_t j) {
     if (!s || j >= s->model->n_ports) return NAN;
-    const size_t kv = s->model->k_v;
-    const double *row = s->model->port_C + (size_t)j * kv;
-    double v = 0.0;
-    for (size_t q = 0; q < kv; q++) v += row[q] * s->av[q];
-    return v;
+    return rom_port_velocity(s, j);
 }

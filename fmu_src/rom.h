@@ -15,6 +15,7 @@
  *   rom.c           the state API, dispatched through the model kind's table of operations
  *   rom_frozen.c/h  kind 1, the frozen-coefficient model: its data, load, state, step, outputs
  *   rom_exact.c/h   kind 2, the exact linear model (every linear model): the same, by the matrix exponential
+ *   rom_numerics.c/h the matrix exponential (the exact model's step maps, the error bounds' plane maps)
  *   rom_resources.c resources/model.bin: the header, the tagged sections, the kind's body through its table
  *   rom_state_io.c  the serialized FMU state
  *   rom_envelope.c  the training envelope

@@ -29,6 +29,7 @@
  * alternative bounds the forced part).
  */
 #include "rom_internal.h"
+#include "rom_numerics.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -534,7 +535,7 @@ double rom_v_probe_error_bound(const RomState *s, uint32_t j) {
     if (!s || !s->bound || j >= s->model->n_probes) return NAN;
     double y, cert;
     shadow_row(s, j, &y, &cert);
-    return fabs(rom_v_probe(s, j) - y) + cert;
+    return fabs(s->model->ops->v_probe(s, j) - y) + cert;      /* the model's output (rom.c rom_v_probe) */
 }
 
 double rom_rho_probe_error_bound(const RomState *s, uint32_t j) {
@@ -550,14 +551,14 @@ double rom_rho_probe_error_bound(const RomState *s, uint32_t j) {
         rho_s += pr[side] * pr[2 + side] / J;
         part += pr[side] * pr[2 + side] * beta / (J * low);
     }
-    return fabs(rom_rho_probe(s, j) - rho_s) + part + 1e-15 * (pr[0] * pr[2] + pr[1] * pr[3]);
+    return fabs(s->model->ops->rho_probe(s, j) - rho_s) + part + 1e-15 * (pr[0] * pr[2] + pr[1] * pr[3]);
 }
 
 double rom_v_port_error_bound(const RomState *s, uint32_t j) {
     if (!s || !s->bound || j >= s->model->n_ports) return NAN;
     double y, cert;
     shadow_row(s, 3 * s->model->n_probes + j, &y, &cert);
-    return fabs(rom_v_port(s, j) - y) + cert;
+    return fabs(rom_port_velocity(s, j) - y) + cert;
 }
 
 RomStatus rom_set_error_tolerance(RomState *s, double tolerance, char *message, size_t message_size) {

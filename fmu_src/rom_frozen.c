@@ -317,17 +317,20 @@ static int frozen_step_exceeds(const RomState *s, double h) {
     return ratio < 1.0 && !(fabs(ratio - 1.0) <= ROM_STEP_ROUNDING);
 }
 
+static double frozen_step_work(const RomState *s);
+
 static RomStatus frozen_step(RomState *s, double t_comm, double h, char *message, size_t message_size) {
     if (!s || !s->body) return rom_fail(message, message_size, "no state");
     const double dt = s->dt;
     const double ratio = h / dt;
     /* the work of one doStep is bounded (rom.h): at most rom_max_steps_per_call internal steps */
-    const double cap = rom_max_steps_per_call(s);
+    const double work = frozen_step_work(s) + ROM_STEP_OVERHEAD;          /* rom.c rom_step_work */
+    const double cap = rom_steps_per_call(work);
     if (!(ratio <= cap) || s->n > INT64_MAX - (int64_t)ratio - 2) {
         return rom_fail(message, message_size, "communicationStepSize = %g s at t = %.9g s is %.3g internal steps "
                         "of dt = %g s, above the cap of %.0f per doStep (the work bound %g multiply-adds over %.0f per "
                         "step at k_v = %u, k_rho = %u, n_freeze = %d, %u ports; allowed: h <= %g s)", h, t_comm,
-                        ratio, dt, cap, ROM_MAX_WORK_PER_CALL, rom_step_work(s), s->model->k_v, s->model->k_rho,
+                        ratio, dt, cap, ROM_MAX_WORK_PER_CALL, work, s->model->k_v, s->model->k_rho,
                         (int)s->n_freeze, s->model->n_ports, cap * dt);
     }
     /* whole steps of dt, then one shortened step to reach t_comm + h exactly */

@@ -10,17 +10,19 @@
  * model_kind to a table is rom_resources.c (kind_ops); adding a kind is one
  * table in a file of its own and one entry in that list.
  *
- * Who calls whom (calls through a table count; no circle: a kind file calls
- * only the helpers at the bottom, never rom.c, rom_resources.c or
- * rom_state_io.c):
+ * Who calls whom (calls through a table count; no circle, tests/test_fmu_sources.py proves it from the
+ * objects' symbols: a kind file calls only the files at the bottom, never rom.c, rom_resources.c,
+ * rom_state_io.c or rom_bound.c):
  *
- *   instance.c -> rom.c, rom_resources.c, rom_state_io.c, rom_envelope.c   (rom.h's API)
+ *   instance.c -> rom.c, rom_resources.c, rom_state_io.c, rom_envelope.c, rom_bound.c   (rom.h's API)
  *   rom.c ----------+
- *   rom_resources.c +-> the model's table: rom_frozen.c | rom_exact.c -+
+ *   rom_resources.c +-> the model's table: rom_frozen.c | rom_exact.c --+
  *   rom_state_io.c  |   (rom_resources.c also chooses it)               |
- *   rom_envelope.c -+                                                   v
- *   rom_resources.c -> rom_envelope.c (its sections' checks)     rom_bytes.c -> rom_fail.c
- *   rom.c, rom_resources.c, rom_state_io.c ---------------------------^
+ *   rom_bound.c ----+                                                   v
+ *   rom.c, rom_resources.c, rom_state_io.c -> rom_bound.c     rom_numerics.c, rom_bytes.c -> rom_fail.c
+ *   rom_resources.c -> rom_envelope.c (its sections' checks)
+ *   rom_bound.c -> rom_numerics.c (the matrix exponential), rom_bytes.c
+ *   rom_state_io.c -> rom.c (rom_dt_floor)
  *   (and every file: rom_internal.h's inline helpers, rom_fail.c)
  *
  * Include this header first: the pragmas below keep the arithmetic free of
@@ -156,6 +158,21 @@ static inline const RomSection *rom_section(const RomModel *m, const char *tag) 
     return NULL;
 }
 
+/* v_port_j = sum_q port_C[j][q] a^v_q from 0.0 in q order (rom.h rom_v_port; the error bounds' too) */
+static inline double rom_port_velocity(const RomState *s, uint32_t j) {
+    const size_t kv = s->model->k_v;
+    const double *row = s->model->port_C + (size_t)j * kv;
+    double v = 0.0;
+    for (size_t q = 0; q < kv; q++) v += row[q] * s->av[q];
+    return v;
+}
+
+/* The most internal steps one doStep takes when one step costs `work` multiply-adds, ROM_STEP_OVERHEAD included
+ * (rom.h rom_max_steps_per_call: ROM_MAX_WORK_PER_CALL over it; 0 for no work) */
+static inline double rom_steps_per_call(double work) {
+    return work > 0.0 ? floor(ROM_MAX_WORK_PER_CALL / work) : 0.0;
+}
+
 /* ---- rom_bytes.c: little-endian numbers, the check both blob formats share, arrays ---- */
 
 uint32_t rom_get_u32(const unsigned char *p);
@@ -203,9 +220,6 @@ RomStatus rom_envelope_check_scalars(const RomModel *m, const RomSection *s, cha
 RomStatus rom_envelope_check_range(const RomModel *m, const RomSection *s, char *message, size_t message_size);
 RomStatus rom_envelope_check_probe(const RomModel *m, const RomSection *s, char *message, size_t message_size);
 RomStatus rom_envelope_check_ports(const RomModel *m, const RomSection *s, char *message, size_t message_size);
-
-/* ---- rom_exact.c: the matrix exponential E = e^M (n x n; X, T scratch n x n); 0 when not finite ---- */
-int rom_expm_taylor(size_t n, const double *M, double *E, double *X, double *T);
 
 /* ---- rom_bound.c: the certified error bounds (rom.h) ---- */
 RomStatus rom_bound_check_section(const RomModel *m, const RomSection *s, char *message, size_t message_size);
