@@ -151,14 +151,6 @@ static RomStatus exact_step_over(RomState *s, double t_comm, double h, char *mes
     return exact_step(s, t_comm, h, message, message_size);
 }
 
-static RomStatus exact_advance(RomState *s, int64_t n_steps, char *message, size_t message_size) {
-    if (!s || !s->body) return rom_fail(message, message_size, "no state");
-    for (int64_t j = 0; j < n_steps; j++) {
-        if (exact_step(s, s->time, s->dt, message, message_size) != ROM_OK) return ROM_FAIL;
-    }
-    return ROM_OK;
-}
-
 /* ------------------------------------------------------------------------ */
 /* outputs and their rates                                                   */
 /* ------------------------------------------------------------------------ */
@@ -267,36 +259,22 @@ static double exact_rho_rate(const RomState *s, uint32_t j) {
 /* resources: the header's rules, the body                                   */
 /* ------------------------------------------------------------------------ */
 
-static RomStatus exact_check_integrator(const RomHeader *h, char *message, size_t message_size) {
-    if (!h) return rom_fail(message, message_size, "resources: no header");
-    if (h->integrator != 0) {
-        return rom_fail(message, message_size, "resources: integrator %u given for the exact model (must be 0: it "
-                        "is advanced by the matrix exponential)", h->integrator);
-    }
-    return ROM_OK;
-}
-
 /* with output rows over z the state need not split: k_e may be 0 (the balanced model's k_v = k) */
 static uint32_t exact_min_k_rho(const RomHeader *h) {
     return (h && (h->flags & ROM_FLAG_OUTPUT_ROWS)) ? 0u : 1u;
 }
 
-static RomStatus exact_check_pairs(const RomHeader *h, char *message, size_t message_size) {
-    if (!h) return rom_fail(message, message_size, "resources: no header");
-    if (h->n_pairs != 0) {
-        return rom_fail(message, message_size, "resources: n_pairs = %u, must be 0 for the exact model", h->n_pairs);
-    }
-    return ROM_OK;
-}
-
-/* z0, A, B, Q, S, Pv, Pe, pw, prho0, probe_x */
-static uint64_t exact_body_doubles(const RomHeader *h) {
-    if (!h) return 0;
+/* no header of its own: z0, A, B, Q, S, Pv, Pe, pw, prho0, probe_x follow the shared header */
+static RomStatus exact_read_head(const RomHeader *h, const unsigned char *head, uint64_t *doubles, char *message,
+                                 size_t message_size) {
+    (void)head;
+    if (!h || !doubles) return rom_fail(message, message_size, "resources: no header");
     const uint64_t kv = h->k_v, kr = h->k_rho, np = h->n_probes;
     const uint64_t k = kv + kr, schur = (h->flags & ROM_FLAG_SCHUR) ? k * k : 0;
     const int input = (h->flags & ROM_FLAG_INPUT) != 0;
     const int rows = (h->flags & ROM_FLAG_OUTPUT_ROWS) != 0;       /* Pv, Pe over z, or over a, b */
-    return k + k * k + (input ? k : 0) + 2 * schur + np * (rows ? k : kv) + np * 2 * (rows ? k : kr) + 4 * np + np;
+    *doubles = k + k * k + (input ? k : 0) + 2 * schur + np * (rows ? k : kv) + np * 2 * (rows ? k : kr) + 4 * np + np;
+    return ROM_OK;
 }
 
 /* The arrays as stored (row-major); the probe rows over z (rom.h's format, bit3) */
@@ -501,10 +479,9 @@ const RomKindOps *rom_exact_kind(void) {
         .k_rho_name = "k_e",
         .length_subject = "the exact model with ",
         .flags = ROM_FLAG_DAMPING | ROM_FLAG_INPUT | ROM_FLAG_SCHUR | ROM_FLAG_OUTPUT_ROWS,
-        .check_integrator = exact_check_integrator,
         .min_k_rho = exact_min_k_rho,
-        .check_pairs = exact_check_pairs,
-        .body_doubles = exact_body_doubles,
+        .head_size = 0,
+        .read_head = exact_read_head,
         .load = exact_load,
         .model_free = exact_model_free,
         .sections = EXACT_SECTIONS,
@@ -516,8 +493,14 @@ const RomKindOps *rom_exact_kind(void) {
         .initial_state = exact_initial_state,
         .reset = exact_reset,
         .step = exact_step_over,
-        .advance = exact_advance,
+        .advance = NULL,                 /* no internal step: exact over any communication step */
         .step_exceeds = NULL,
+        .step_work = NULL,
+        .dt_floor = NULL,
+        .set_dt = NULL,
+        .set_n_freeze = NULL,
+        .dt = NULL,
+        .n_freeze = NULL,
         .v_probe = exact_v_probe,
         .rho_probe = exact_rho_probe,
         .check_probe = exact_check_probe,
@@ -527,6 +510,7 @@ const RomKindOps *rom_exact_kind(void) {
         .envelope = 0,
         .assemble = exact_assemble,
         .state_doubles = exact_state_doubles,
+        .state_check = NULL,
         .state_put = exact_state_put,
         .state_get = exact_state_get,
         .expm_count = exact_expm_count,

@@ -45,10 +45,10 @@
 #include <stdint.h>
 #include <string.h>
 
-/* The resource header after magic and version, in the order of rom.h's format */
+/* The shared resource header after magic and version (rom_layout.h ROM_HEADER_*) */
 typedef struct {
-    uint32_t kind, integrator, k_v, k_rho, n_probes, n_pairs, flags, n_freeze, reserved;
-    double dt, bound, L;
+    uint32_t kind, k_v, k_rho, n_probes, flags;
+    double bound, L;
 } RomHeader;
 
 /* The operations of one model kind.  Every pointer is set unless its comment says "NULL:"; the common code
@@ -62,12 +62,14 @@ struct RomKindOps {
     const char *k_rho_name;        /* the header's k_rho in messages: "k_rho", "k_e" */
     const char *length_subject;    /* what the length check names before k_v: "", "the exact model with " */
     uint32_t flags;                /* the flag bits the kind reads */
-    RomStatus (*check_integrator)(const RomHeader *h, char *message, size_t message_size);
     uint32_t (*min_k_rho)(const RomHeader *h);         /* the smallest k_rho the kind accepts */
-    RomStatus (*check_pairs)(const RomHeader *h, char *message, size_t message_size);
-    uint64_t (*body_doubles)(const RomHeader *h);      /* float64 values of the kind's body after the header */
-    /* read the kind's body (doubles values at body, the length checked) into m->body; sets m->probe_x and
-     * m->input_width; m's common fields are set */
+    size_t head_size;              /* bytes of the kind's own header at the start of its body (0: none) */
+    /* the kind's own header (head_size bytes at head, present) checked against the shared header h: *doubles
+     * receives the float64 values of its arrays after it */
+    RomStatus (*read_head)(const RomHeader *h, const unsigned char *head, uint64_t *doubles, char *message,
+                           size_t message_size);
+    /* read the kind's body (its header, then doubles values; the length checked) into m->body; sets m->probe_x
+     * and m->input_width; m's common fields are set */
     RomStatus (*load)(RomModel *m, const unsigned char *body, uint64_t doubles, char *message,
                       size_t message_size);
     /* once the tagged sections are read and checked: the kind's use of its own sections (NULL: none) */
@@ -91,9 +93,15 @@ struct RomKindOps {
     /* advance from t_comm over h > 0 (the internal steps of doStep; rom.c then sets the time, continues the
      * inputs and checks the outputs) */
     RomStatus (*step)(RomState *s, double t_comm, double h, char *message, size_t message_size);
+    /* ---- internal steps (NULL, every one: the kind has none, it advances over any step exactly) */
     RomStatus (*advance)(RomState *s, int64_t n_steps, char *message, size_t message_size);
-    int (*step_exceeds)(const RomState *s, double h);  /* NULL: one step of any length h */
-    double (*step_work)(const RomState *s);            /* multiply-adds of one internal step (NULL: none) */
+    int (*step_exceeds)(const RomState *s, double h);  /* dt exceeds the step h */
+    double (*step_work)(const RomState *s);            /* multiply-adds of one internal step */
+    double (*dt_floor)(const RomModel *m);             /* the smallest dt the state accepts [s] */
+    RomStatus (*set_dt)(RomState *s, double dt, char *message, size_t message_size);          /* checked: > 0 */
+    RomStatus (*set_n_freeze)(RomState *s, int32_t n_freeze, char *message, size_t message_size); /* >= 1 */
+    double (*dt)(const RomState *s);
+    int32_t (*n_freeze)(const RomState *s);
 
     /* ---- outputs and checks */
     double (*v_probe)(const RomState *s, uint32_t j);
@@ -108,8 +116,11 @@ struct RomKindOps {
     /* ---- parametric models: the operators at the state's c and d into the model (PARAMS present) */
     void (*assemble)(RomModel *m, RomState *s);
 
-    /* ---- the serialized state: the kind's block between a^v, a^rho and (t0, df/dt) (rom.h) */
+    /* ---- the serialized state: the kind's block between a^v, a^rho and (t0, df/dt) (rom_layout.h) */
     size_t (*state_doubles)(const RomModel *m);
+    /* the kind's rules on its block at cursor (state_doubles values) of a serialized state (NULL: none beyond
+     * the finite values every block has) */
+    RomStatus (*state_check)(const RomModel *m, const unsigned char *cursor, char *message, size_t message_size);
     unsigned char *(*state_put)(const RomState *s, unsigned char *cursor);            /* returns the end */
     const unsigned char *(*state_get)(RomState *s, const unsigned char *cursor);      /* returns the end */
 
@@ -120,9 +131,11 @@ struct RomKindOps {
     void (*describe)(const RomModel *m, char *out, size_t size);
 };
 
-/* the kinds (rom_frozen.c, rom_exact.c) */
-const RomKindOps *rom_frozen_kind(void);
-const RomKindOps *rom_exact_kind(void);
+/* the kinds (rom_frozen.c, rom_exact.c): one function per kind returns its table (rom_layout.h ROM_KIND_TABLES,
+ * generated from harness/fmu/layout.py KINDS, lists them) */
+#define ROM_DECLARE_KIND(table) const RomKindOps *table(void);
+ROM_KIND_TABLES(ROM_DECLARE_KIND)
+#undef ROM_DECLARE_KIND
 
 /* ---- helpers shared by every file (inline: no file depends on another for them) ---- */
 
@@ -195,9 +208,9 @@ typedef struct {
     const char *empty;         /* what the smallest valid blob is */
     const char *one;           /* one such blob, in messages */
     const char *damaged;       /* what is truncated or corrupt when a check fails */
-    uint32_t version;          /* the version written */
+    uint32_t version;          /* the version written and read */
     size_t min_size;           /* bytes needed before the header can be read */
-    uint32_t oldest;           /* the oldest version read */
+    const char *older;         /* why an older version is not read, in messages */
 } RomBlob;
 
 /* Size, magic and version: then the header can be read */

@@ -86,21 +86,21 @@ def assert_units_through_declared_types(path):
 
 
 def load_changed(data, change):
-    """The C core's load of ``data`` (ModelData or ExactData) packed after ``change(sections)`` edited a copy of its
+    """The C core's load of ``data`` (a model kind's data) packed after ``change(sections)`` edited a copy of its
     sections: the loader tests' one way to hand the core a malformed file (raises CoreError naming the problem)."""
     import copy
 
     from sphrom.fmu.make.build import ensure_binaries
-    from sphrom.fmu.resources import ModelData, pack, pack_exact
+    from sphrom.fmu.resources import pack
     from sphrom.fmu.run.core import Core
     bad = copy.deepcopy(data)
     change(bad.sections)
-    return Core(ensure_binaries().core).load((pack if isinstance(bad, ModelData) else pack_exact)(bad))
+    return Core(ensure_binaries().core).load(pack(bad))
 
 
 def fmu_maker(folder, default_model="frozen", k=6, probes=(0.25, 0.5, 0.66), scene_of=None, default_case="forced",
               **options):
-    """make(model, fmi, case) -> (path, ModelData or ExactData): the FMU of ``scene_of(case)`` (default
+    """make(model, fmi, case) -> (path, the model kind's data): the FMU of ``scene_of(case)`` (default
     ``fmu_scene(case)``) packaged into ``folder`` with package_fmu's ``options`` once per (model, fmi, case) and its
     resources read back."""
     import zipfile

@@ -14,7 +14,8 @@ from sphrom.fmu.make.build import ensure_binaries
 from sphrom.fmu.run.core import Core
 from sphrom.fmu.run.driver import FMU
 from sphrom.fmu.make.package import package_fmu
-from sphrom.fmu.resources import ModelData, pack, pack_exact, unpack
+from sphrom.fmu.kinds import kind_of
+from sphrom.fmu.resources import pack, unpack
 
 H = 0.01
 ENVELOPE_TEXT = "outside the training envelope"
@@ -46,12 +47,9 @@ def scaled_copy(path, out, scale):
     with zipfile.ZipFile(path) as z:
         data = unpack(z.read("resources/model.bin"))
         old = data.token
-        if isinstance(data, ModelData):
-            data.a_v0 = data.a_v0 * scale
-            blob = pack(data)
-        else:
-            data.z0 = data.z0 * scale
-            blob = pack_exact(data)
+        name = kind_of(data).INITIAL_STATE           # what initial_state_scale multiplies: a_v0, or z0
+        setattr(data, name, getattr(data, name) * scale)
+        blob = pack(data)
         with zipfile.ZipFile(out, "w") as o:
             for item in z.infolist():
                 content = z.read(item.filename)

@@ -117,7 +117,7 @@ def test_any_finite_scale_scales_the_initial_state(fmus):
     P = len(PROBES)
     v = {s: o[:, :P] for s, o in outs.items()}
     np.testing.assert_allclose(v[-2.5] - v[0.0], -2.5 * (v[1.0] - v[0.0]), rtol=0, atol=1e-12 * np.abs(v[1.0]).max())
-    _, lin, _, _ = exact_model(fmu_scene("forced"), K, 10, PROBES, progress=False)
+    _, lin, _, _ = exact_model(fmu_scene("forced"), K, PROBES, progress=False)
     t = np.arange(31) * 0.01
     held = {round(ti, 9): f for ti, f in zip(t, inputs)}
 
@@ -140,7 +140,7 @@ def test_any_finite_scale_scales_the_initial_state(fmus):
 def test_python_models_scale_one_is_bitwise_and_rest_stays_at_rest():
     from sphrom.rom.registry import get_model
     scene = fmu_scene("unforced")
-    _, lin, problem, _ = exact_model(scene, K, 10, PROBES, progress=False)
+    _, lin, problem, _ = exact_model(scene, K, PROBES, progress=False)
     _, ops, _, _ = reduced_model(scene, K, 10, PROBES, "euler", progress=False)
     n = 200
     for name, operators in (("exact", lin), ("frozen", ops)):

@@ -1,8 +1,8 @@
-"""Step "model" of ``package_fmu``: the reduced model's numbers and operators per resource kind of
-``resources/model.bin`` (kind 1: the frozen model; kind 2: the exact model on its POD basis, the balanced model
-without one), with the training envelope (:mod:`.envelope`) and the certified error bounds of the linear models.
+"""Step "model" of ``package_fmu``: the builders of the reduced models' numbers and operators that the model kinds'
+packaging steps use (:mod:`sphrom.fmu.kinds`: kind 1 the frozen model, kind 2 the exact model on its POD basis and
+the balanced model without one), the training envelope (:mod:`.envelope`) and the certified error bounds.
 
-:data:`RESOURCES` maps a model's ``fmu_kind`` to the function that makes them; :func:`operator_resource` packs
+:func:`resources` maps a model's ``fmu_kind`` to its kind's packaging step; :func:`operator_resource` packs
 operators built elsewhere (a benchmark's own).
 """
 
@@ -14,7 +14,10 @@ import numpy as np
 
 from ... import defaults
 from ...errors import FieldError
-from ..resources import MODEL_EXACT_LINEAR, MODEL_FROZEN, balanced_data, exact_data, model_data, pack, pack_exact
+from ..kinds import by_number, kinds
+from ..kinds.frozen import model_data
+from ..kinds.linear import balanced_data, exact_data
+from ..resources import pack
 
 
 def model_basis(scene, spec, k, progress=True, problem=None, made=None):
@@ -73,7 +76,7 @@ def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem
     return data, ops, problem, basis
 
 
-def exact_model(scene, k, n_freeze, probes, progress=True, problem=None, model="exact", ports=(),
+def exact_model(scene, k, probes, progress=True, problem=None, model="exact", ports=(),
                 build_options=None, made=None):
     """The FMU's numbers for a model of resource kind 2 on a POD basis (the exact model):
     (ExactData, lin, problem, basis).
@@ -88,8 +91,7 @@ def exact_model(scene, k, n_freeze, probes, progress=True, problem=None, model="
     basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem, made=made)
     lin = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction,
                      **({"ports": tuple(ports)} if ports else {}), **(build_options or {}))
-    data = exact_data(lin, problem, dt=scene.sph.dt, n_freeze=n_freeze, probes=probes,
-                      bound=linear_bound(lin, scene))
+    data = exact_data(lin, problem, probes=probes, bound=linear_bound(lin, scene))
     return data, lin, problem, basis
 
 
@@ -121,7 +123,7 @@ def training_basis(scene, progress, problem, extra_steps=()):
     return basis, run, problem
 
 
-def balanced_model(scene, k, n_freeze, probes, order_tolerance=None, problem=None, model="balanced",
+def balanced_model(scene, k, probes, order_tolerance=None, problem=None, model="balanced",
                    build_options=None, ports=()):
     """The FMU's numbers for a linear model without a POD basis (balanced): (ExactData, ops, problem).
 
@@ -140,7 +142,7 @@ def balanced_model(scene, k, n_freeze, probes, order_tolerance=None, problem=Non
     except ValueError as exc:
         field_name, _, detail = str(exc).partition(": ")
         raise FieldError("k" if field_name == "order" else field_name, detail) from None
-    return balanced_data(ops, problem, dt=scene.sph.dt, n_freeze=n_freeze), ops, problem
+    return balanced_data(ops, problem), ops, problem
 
 
 def linear_bounds(ops, problem, probes, progress=True):
@@ -177,10 +179,10 @@ def particle_sections(ops, problem):
     N particles), or {} where the tensor costs less.  The refresh of M (eq. 2.23 projected) from the tensor takes
     n_pairs (1 + nm) multiply-adds and streams its n_pairs k_rho k_v values from memory; from the particles it
     takes N (k_rho + kr_pad + k_v kr_pad) + nm on arrays that stay in cache (the core's counts,
-    :func:`sphrom.fmu.check.python_cosim.refresh_matrix_work`).  A port model's larger basis (k_v, k_rho = 48, 47 on damped_forced, whose
+    :func:`sphrom.fmu.kinds.frozen.refresh_matrix_work`).  A port model's larger basis (k_v, k_rho = 48, 47 on damped_forced, whose
     tensor is 20 MB) is where the particles win; k = 12 on N = 400 keeps the tensor.  The particle path sums in
     another order than the tensor: the FMU then equals the Python model run with ``refresh="direct"``."""
-    from ..check.python_cosim import refresh_matrix_work
+    from ..kinds.frozen import refresh_matrix_work
     if refresh_matrix_work(ops.k_v, ops.k_rho, problem.n) >= refresh_matrix_work(ops.k_v, ops.k_rho):
         return {}
     return {"PARTUR": np.asarray(ops.U_rho, float), "PARTGUV": np.asarray(ops.GU_v, float),
@@ -205,7 +207,7 @@ def choose_n_freeze(scene, ops, problem, run, model="frozen", integrator=None, c
     from ...errors import SimulationError
     from ...rom.registry import get_model
     from ...sph.solver import step_count
-    from ..check.python_cosim import step_work
+    from ..kinds.frozen import step_work
     spec = get_model(model)
     refresh = refresh or ("tensor" if ops.T is not None else "direct")
     n_steps = step_count(scene.T, scene.sph.dt)
@@ -236,55 +238,6 @@ def choose_n_freeze(scene, ops, problem, run, model="frozen", integrator=None, c
     return 1, errors
 
 
-def _frozen_resource(scene, model, k, n_freeze, probes, integrator, progress, problem, order_tolerance=None,
-                     bounds=True, ports=(), build_options=None, extra_steps=(), error_bounds=True):
-    """Kind 1: the frozen model with its training envelope and error bounds; ``n_freeze`` None: chosen per scene
-    (:func:`choose_n_freeze`, the errors it measured in ``data.n_freeze_errors``)."""
-    basis, run, problem = training_basis(scene, progress, problem, extra_steps)
-    data, ops, problem, _ = reduced_model(scene, k, n_freeze or defaults.N_FREEZE, probes, integrator,
-                                          progress=progress, problem=problem, model=model, ports=ports,
-                                          build_options=build_options, made=(basis, run))
-    data.sections.update(particle_sections(ops, problem))
-    if "PARTUR" in data.sections:
-        data.T = None                     # the particles replace the tensor: its bytes stay out of the FMU
-    if n_freeze is None:
-        data.n_freeze, data.n_freeze_errors = choose_n_freeze(scene, ops, problem, run, model, integrator,
-                                                              refresh="direct" if "PARTUR" in data.sections
-                                                              else "tensor")
-    data.sections.update(training_envelope(scene, ops, problem, probes, False, progress, run=run).sections())
-    if error_bounds:
-        shadow_step(data, problem, probes, ports)
-    return data, ops, pack(data)
-
-
-def _linear_resource(scene, model, k, n_freeze, probes, integrator, progress, problem, order_tolerance=None,
-                     bounds=True, ports=(), build_options=None, extra_steps=(), error_bounds=True):
-    """Kind 2: the exact POD model (on its basis, with its training envelope) or the balanced model (no basis);
-    both with the certified error bounds against the full linear SPH at the FMU's probes (the operators'
-    ``error_bounds``; section BOUNDS: force, initial state), unless ``bounds`` is False (benchmarks that time
-    the stepping only: the bounds take seconds to minutes at N = 400)."""
-    from ...rom.registry import get_model
-
-    if get_model(model).needs_basis:
-        basis, run, problem = training_basis(scene, progress, problem, extra_steps)
-        data, ops, problem, _ = exact_model(scene, k, n_freeze or defaults.N_FREEZE, probes, progress=progress,
-                                            problem=problem,
-                                            model=model, ports=ports, build_options=build_options,
-                                            made=(basis, run))
-        data.sections.update(training_envelope(scene, ops, problem, probes, True, progress, run=run).sections())
-    else:
-        data, ops, problem = balanced_model(scene, k, n_freeze or defaults.N_FREEZE, probes,
-                                            order_tolerance=order_tolerance,
-                                            problem=problem, model=model, build_options=build_options, ports=ports)
-    if error_bounds:
-        shadow_step(data, problem, probes, ports)
-    if not bounds:
-        return data, ops, pack_exact(data)
-    data.bounds = linear_bounds(ops, problem, probes, progress=progress)
-    data.sections["BOUNDS"] = np.vstack([data.bounds["force_error_bound"], data.bounds["initial_state_error_bound"]])
-    return data, ops, pack_exact(data)
-
-
 def shadow_step(data, problem, probes, ports=(), parametric=False):
     """The certified error bounds' shadow of every output into ``data.sections`` (SH*, :mod:`sphrom.rom.bounds`;
     the FMU's outputs ``*_error_bound`` and parameter ``error_tolerance``), its default tolerance from the training
@@ -301,22 +254,28 @@ def shadow_step(data, problem, probes, ports=(), parametric=False):
         data.sections.update(sections(shadow))
 
 
-# model_kind of resources/model.bin (ReducedModel.fmu_kind) -> the FMU's numbers and their bytes
-RESOURCES = {MODEL_FROZEN: _frozen_resource, MODEL_EXACT_LINEAR: _linear_resource}
+def resources():
+    """{model_kind (ReducedModel.fmu_kind): the kind's packaging step} (:mod:`sphrom.fmu.kinds`: each kind's
+    ``resource``, which makes the FMU's numbers and their bytes)."""
+    return {number: kind.resource for number, kind in kinds().items()}
 
 
-def operator_resource(kind, ops, problem, *, dt, n_freeze=defaults.N_FREEZE, probes=defaults.PROBES, integrator="euler"):
+def __getattr__(name):
+    if name == "RESOURCES":           # the table's former name: resources()
+        return resources()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def operator_resource(kind, ops, problem, *, dt, n_freeze=defaults.N_FREEZE, probes=defaults.PROBES,
+                      integrator="euler"):
     """(data, bytes) of resources/model.bin of kind ``kind`` (ReducedModel.fmu_kind) from operators built
     elsewhere (a benchmark's own), the runaway bound that of their initial state, as :func:`reduced_model` and
     :func:`exact_model` have it; the initial state is scaled at run time by the FMU's initial_state_scale.  The
     operators are packaged as they are: the frozen model's own (``get_model("frozen").build``, b about the
-    projected rest density) give the FMU's frozen model, ``b="paper"`` ones eq. 2.22's variant."""
-    from ...rom.stepping import runaway_bound
-    if kind == MODEL_FROZEN:
-        data = model_data(ops, problem, dt=dt, integrator=integrator, n_freeze=n_freeze, probes=probes,
-                          bound=runaway_bound(ops))
-        return data, pack(data)
-    if kind == MODEL_EXACT_LINEAR:
-        data = exact_data(ops, problem, dt=dt, n_freeze=n_freeze, probes=probes)
-        return data, pack_exact(data)
-    raise ValueError(f"resource kind {kind!r} (allowed: {MODEL_FROZEN}, {MODEL_EXACT_LINEAR})")
+    projected rest density) give the FMU's frozen model, ``b="paper"`` ones eq. 2.22's variant.  ``dt``,
+    ``n_freeze``, ``integrator`` go to a kind that takes them (its ``BUILD_OPTIONS``: the frozen kind)."""
+    module = by_number(kind)
+    given = {"dt": dt, "n_freeze": n_freeze, "integrator": integrator}
+    data = module.from_operators(ops, problem, probes=probes,
+                                 **{name: given[name] for name in module.BUILD_OPTIONS})
+    return data, pack(data)

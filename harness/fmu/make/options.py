@@ -99,7 +99,7 @@ def check_options(scene, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaults.
         raise FieldError("integrator", f"{integrator!r} is not defined for the {model} model "
                                        f"(allowed: {', '.join(spec.integrators)}; scene '{scene.name}' uses "
                                        f"{scene.sph.integrator})")
-    from ..check.python_cosim import DT_MIN
+    from ..kinds.frozen import DT_MIN
     if scene.sph.dt < DT_MIN:              # the C core refuses it: the work of a doStep grows as 1/dt (rom.h)
         raise FieldError("dt", f"the scene's dt = {scene.sph.dt!r} s is below the smallest internal step a "
                                f"{model} FMU takes, {DT_MIN:g} s (allowed: dt >= {DT_MIN:g} s)")
