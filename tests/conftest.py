@@ -8,6 +8,27 @@ from sphrom.scene import derive_scene, load_scene
 os.environ.setdefault("MPLBACKEND", "Agg")
 
 
+def fmu_models():
+    """Every registered reduced model that can be packaged as an FMU (the registry's, in its order): what a test of
+    "every model's FMU" iterates over, instead of typing their names."""
+    from sphrom.rom.registry import fmu_model_names
+    return list(fmu_model_names())
+
+
+def model_per_kind(**properties):
+    """One registered model per FMU model kind (sphrom.fmu.kinds), the first of the registry's models of that kind
+    whose properties equal ``properties`` (``needs_basis=True``: the models on a POD basis, which have a training
+    envelope and a parametric form): what a test of "every kind" iterates over."""
+    from sphrom.fmu import layout
+    from sphrom.rom.registry import MODELS
+    out = []
+    for kind in layout.KINDS:
+        names = [name for name, m in MODELS.items() if m.fmu_kind == kind.number
+                 and all(getattr(m, k) == v for k, v in properties.items())]
+        out += names[:1]
+    return out
+
+
 def small_scene(base="multimode", T=0.5, n=32, dt=None, integrator="euler", every=None, **fields):
     """A built-in scene shrunk for tests: N particles, horizon T."""
     changes = {"domain": {"T": T}, "sph": {"n_particles": n, "integrator": integrator}}

@@ -8,7 +8,7 @@ mass-spring exchanging force and velocity each communication step) against one f
 import numpy as np
 import pytest
 
-from conftest import small_scene
+from conftest import small_scene, model_per_kind
 from sphrom.errors import FieldError
 from sphrom.fmu.variables import vr
 from sphrom.sph.ports import momentum_weights, parse_ports, port_accelerations, port_velocity_rows, run_sph_ports
@@ -284,7 +284,7 @@ def test_exact_port_fmu_takes_port_input_derivatives(port_fmus):
         assert s.get_real([3000])[0] == 1.0 * H and not s.errors()
 
 
-@pytest.mark.parametrize("model", ["frozen", "exact"])
+@pytest.mark.parametrize("model", model_per_kind(needs_basis=True))
 def test_packaging_checks_the_port_maps_passivity_and_says_it_on_the_page(port_fmus, model):
     """A port FMU's packaging runs the passivity check of its port map (sphrom.rom.passivity.port_passivity): on
     this uniform damped bar both the exact model (storage ½ α |z|²) and the frozen one linearised at rest (the
