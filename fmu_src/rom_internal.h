@@ -7,8 +7,9 @@
  * RomModel.body and RomState.body), how it is loaded, laid out, reset, stepped,
  * observed, checked, assembled and serialized.  The common code never asks
  * which kind a model is: it calls the model's table.  The one place that maps
- * model_kind to a table is rom_resources.c (kind_ops); adding a kind is one
- * table in a file of its own and one entry in that list.
+ * model_kind to a table is rom_resources.c (kind_ops) over rom_layout.h's
+ * ROM_KIND_TABLES, generated from harness/fmu/layout.py KINDS: adding a kind is
+ * one table in a file of its own (and a row there, a line of CMakeLists.txt).
  *
  * Who calls whom (calls through a table count; no circle, tests/test_fmu_sources.py proves it from the
  * objects' symbols: a kind file calls only the files at the bottom, never rom.c, rom_resources.c,
@@ -22,7 +23,6 @@
  *   rom.c, rom_resources.c, rom_state_io.c -> rom_bound.c     rom_numerics.c, rom_bytes.c -> rom_fail.c
  *   rom_resources.c -> rom_envelope.c (its sections' checks)
  *   rom_bound.c -> rom_numerics.c (the matrix exponential), rom_bytes.c
- *   rom_state_io.c -> rom.c (rom_dt_floor)
  *   (and every file: rom_internal.h's inline helpers, rom_fail.c)
  *
  * Include this header first: the pragmas below keep the arithmetic free of

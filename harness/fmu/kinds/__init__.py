@@ -17,15 +17,19 @@ Each kind module defines::
     Data                    its data class (class attribute KIND = NUMBER)
     BUILD_OPTIONS           the packaging options it takes (frozen: n_freeze, dt, integrator)
     INTERNAL_STEP           it advances by internal steps of dt (the FMU parameters n_freeze, dt: the variable
-                            table's rule ``frozen``, sphrom.fmu.variables.facts)
+                            table's rule ``frozen``, sphrom.fmu.variables.facts; C rom_has_internal_step)
+    INITIAL_STATE           the array initial_state_scale multiplies (a_v0, z0)
+    OUTPUT_DERIVATIVE_ORDER the output derivatives it gives (maxOutputDerivativeOrder)
     MODELS                  {registry model name: ModelWords}: the words of each model of this kind
     file_fields(data)       (shared header fields, its own header or None, {array name: array}) for pack
     from_file(header, head, arrays, token, sections) -> Data
     min_k_rho(flags)        the smallest k_rho its header may have
     from_operators(ops, problem, *, probes, **build options) -> Data
     resource(scene, model, k, n_freeze, probes, integrator, progress, problem, **options) -> (data, ops, blob)
+    parametric(affine, c, d, problem, *, probes, **build options) -> (data, ops, its affine sections)
     model_name(data)        the registry model the data holds
     integrator(data)        the name of its time integrator where it has one (None: exact in time)
+    parameter_starts(data)  the start values of its own FMU parameters (frozen: n_freeze, dt)
     stepping(data)          modelDescription's words on its time stepping
     model_rows(data)        the documentation page's rows on it
     usage(data)             the documentation page's sentence on how it steps
