@@ -34,28 +34,12 @@ def test_records_add_up():
     assert layout.HEADER.unpack(layout.HEADER.pack(values)) == values
 
 
-def small_data(number, rng):
-    """A small model of kind ``number`` with random numbers (shapes as the spec's), no sections."""
-    kv, kr, npr = 3, 2, 2
-    if number == 1:
-        return by_number(1).Data(integrator="symplectic", n_freeze=7, dt=2.5e-4, bound=1e6, L=0.5,
-                                 a_v0=rng.normal(size=kv), a_rho0=rng.normal(size=kr), K=rng.normal(size=(kv, kr)),
-                                 b=rng.normal(size=kv), D=rng.normal(size=(kv, kv)), p=None,
-                                 T=rng.normal(size=(kr * (kr + 1) // 2, kr, kv)), Pv=rng.normal(size=(npr, kv)),
-                                 Prho=rng.normal(size=(npr, kr)), probe_x=np.array([0.25, 0.5]))
-    k = kv + kr
-    return by_number(2).Data(bound=1e6, L=0.5, k_v=kv, z0=rng.normal(size=k), A=rng.normal(size=(k, k)),
-                             B=rng.normal(size=k), damping=True, Q=None, S=None, Pv=rng.normal(size=(npr, kv)),
-                             Pe=rng.normal(size=(npr, 2, kr)), pw=np.full((npr, 2), 0.5),
-                             prho0=np.ones((npr, 2)), probe_x=np.array([0.25, 0.5]))
-
-
 @pytest.mark.parametrize("number", [k.number for k in layout.KINDS])
 def test_pack_follows_the_spec(number):
     """model.bin of every kind: the shared header's fields at the spec's offsets, the kind's own header after it,
     the arrays in the spec's order, and unpack gives the same numbers back (the same bytes again)."""
     import struct
-    data = small_data(number, np.random.default_rng(number))
+    data = by_number(number).example(np.random.default_rng(number))
     blob = pack(data)
     header = layout.HEADER.unpack(blob)
     assert header["model_kind"] == number and header["format_version"] == layout.FORMAT_VERSION
@@ -70,8 +54,29 @@ def test_pack_follows_the_spec(number):
     for array in spec.body:
         mine, theirs = getattr(data, array.name), getattr(back, array.name)
         assert (mine is None and theirs is None) or np.array_equal(mine, theirs), array.name
-    if number == 1:
-        assert struct.unpack_from("<d", blob, layout.resource_offset("frozen", "dt"))[0] == data.dt
+    if spec.head is not None:                     # the kind's own header's fields at the spec's offsets
+        for f in spec.head.fields:
+            stored = struct.unpack_from("<" + layout.TYPES[f.type][0], blob, layout.resource_offset(spec.name, f.name))
+            assert stored[0] == spec.head.unpack(blob, layout.HEADER.size)[f.name]
+
+
+@pytest.mark.parametrize("number", [k.number for k in layout.KINDS])
+def test_the_core_runs_every_kind(number):
+    """The C core loads each kind's example, steps it (held input) and gives finite outputs, through its kind's
+    table (the same file the Python reader reads back)."""
+    from sphrom.fmu.make.build import ensure_binaries
+    from sphrom.fmu.run.core import Core
+    data = by_number(number).example(np.random.default_rng(number))
+    model = Core(ensure_binaries().core).load(pack(data))
+    try:
+        assert model.kind == number
+        model.set_input(1e-3)
+        for i in range(3):
+            model.do_step(i * 1e-3, 1e-3)
+        v, rho = model.outputs(data.n_probes)
+        assert np.all(np.isfinite(v)) and np.all(np.isfinite(rho))
+    finally:
+        model.close()
 
 
 def test_every_kind_is_one_unit():
@@ -80,7 +85,7 @@ def test_every_kind_is_one_unit():
     from sphrom.rom.registry import MODELS
     needed = ("NUMBER", "Data", "BUILD_OPTIONS", "INTERNAL_STEP", "INITIAL_STATE", "OUTPUT_DERIVATIVE_ORDER", "MODELS",
               "file_fields", "from_file", "min_k_rho", "from_operators", "resource", "parametric", "model_name",
-              "integrator", "parameter_starts", "stepping", "model_rows", "usage")
+              "integrator", "parameter_starts", "stepping", "model_rows", "usage", "example")
     sources = {p.name: p.read_text() for p in (ROOT / "fmu_src").glob("*.c")}
     for number, module in kinds().items():
         assert [name for name in needed if not hasattr(module, name)] == [], module.__name__

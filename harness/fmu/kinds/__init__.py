@@ -33,6 +33,7 @@ Each kind module defines::
     stepping(data)          modelDescription's words on its time stepping
     model_rows(data)        the documentation page's rows on it
     usage(data)             the documentation page's sentence on how it steps
+    example(rng)            a small model of the kind with random numbers (tests of the file and the core)
 """
 
 from __future__ import annotations

@@ -31,6 +31,7 @@ with the FMU can be checked bit for bit.
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, field
 from typing import ClassVar
 
@@ -127,7 +128,7 @@ def model_data(ops, problem, *, dt, integrator, n_freeze, probes, bound):
     ops : ReducedOperators
         With the refresh tensor, or without it (``T`` None: the particle refresh's sections must then be added
         to the data's sections before :func:`sphrom.fmu.resources.pack`,
-        :func:`sphrom.fmu.make.models.particle_sections`); built
+        :func:`particle_sections`); built
         with ``input_direction="needed"`` for an input row.
     problem : SPHProblem
         The full problem (particle positions, L).
@@ -178,6 +179,16 @@ def parametric(affine, c, d, problem, *, probes, dt, n_freeze, integrator="euler
         sections["DD"] = affine.unit.D
     return data, ops, sections
 
+def example(rng):
+    """A small frozen model with random numbers in the layout's shapes (k_v = 3, k_rho = 2, two probes, damping,
+    no input, the tensor), for tests of the file and the core: its numbers are not a physical model's."""
+    kv, kr, npr = 3, 2, 2
+    return ModelData(integrator="symplectic", n_freeze=7, dt=2.5e-4, bound=1e6, L=0.5, a_v0=rng.normal(size=kv),
+                     a_rho0=1.0 + 0.01 * rng.normal(size=kr), K=0.1 * rng.normal(size=(kv, kr)),
+                     b=0.1 * rng.normal(size=kv), D=0.01 * rng.normal(size=(kv, kv)), p=None,
+                     T=0.01 * rng.normal(size=(kr * (kr + 1) // 2, kr, kv)), Pv=rng.normal(size=(npr, kv)),
+                     Prho=np.abs(rng.normal(size=(npr, kr))) + 1.0, probe_x=np.array([0.25, 0.5]))
+
 # ---------------------------------------------------------------------------------------------------------------
 # its part of model.bin (sphrom.fmu.resources pack, unpack)
 # ---------------------------------------------------------------------------------------------------------------
@@ -227,10 +238,9 @@ def resource(scene, model, k, n_freeze, probes, integrator, progress, problem, o
              bounds=True, ports=(), build_options=None, extra_steps=(), error_bounds=True):
     """The packaging step of kind 1 (``sphrom.fmu.make.package.model_step``): the frozen model with its training
     envelope and error bounds, (data, operators, model.bin bytes); ``n_freeze`` None: chosen per scene
-    (:func:`sphrom.fmu.make.models.choose_n_freeze`, the errors it measured in ``data.n_freeze_errors``)."""
+    (:func:`choose_n_freeze`, the errors it measured in ``data.n_freeze_errors``)."""
     from ... import defaults
-    from ..make.models import (choose_n_freeze, particle_sections, reduced_model, shadow_step, training_basis,
-                               training_envelope)
+    from ..make.steps import shadow_step, training_basis, training_envelope
     from ..resources import pack
     basis, run, problem = training_basis(scene, progress, problem, extra_steps)
     data, ops, problem, _ = reduced_model(scene, k, n_freeze or defaults.N_FREEZE, probes, integrator,
@@ -253,6 +263,110 @@ def parameter_starts(data):
     """The start values of the kind's own FMU parameters (the variable table's From cells n_freeze and dt)."""
     return {"n_freeze": int(data.n_freeze), "dt": float(data.dt)}
 
+
+def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem=None, model="frozen", ports=(),
+                  build_options=None, made=None, tensor=None):
+    """The FMU's numbers for a model of resource kind 1 (frozen coefficients): (ModelData, ops, problem, basis).
+
+    Runs (or reuses) the full SPH and the POD (sphrom.pod.pipeline), builds the model's operators
+    (``get_model(model).build``: the frozen model's own, b about the projected rest density so that the FMU
+    started at rest stays at rest, :func:`sphrom.rom.operators.rest_b`) with ``input_direction="needed"`` (an
+    input row always; the force profile appended to U_v only when the POD modes miss more than 1 % of it) and
+    the refresh tensor where the FMU keeps it or it is small (``tensor`` None: where it costs less than the
+    particle refresh, :func:`particle_sections`, or has at most ``TENSOR_MAX_ENTRIES`` entries; a port model's
+    larger basis, whose tensor grows as k⁴, is not built; ``"always"``: built anyway).  ``build_options`` go to
+    the model's build (``{"b": "paper"}``: eq. 2.22's b, the paper's variant, :mod:`sphrom.bench.rest` compares
+    them).
+    """
+    from ...rom.registry import get_model
+    from ..make.steps import model_basis
+
+    spec = get_model(model)
+    basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem, made=made)
+    ops = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction,
+                     tensor="always" if tensor == "always" else "never",
+                     **({"ports": tuple(ports)} if ports else {}), **(build_options or {}))
+    from ...rom.operators import wants_tensor
+    if ops.T is None and (not particle_sections(ops, problem) or wants_tensor("auto", ops.k_v, ops.k_rho)):
+        from ...rom.operators import refresh_tensor                     # the FMU's, or small enough to keep
+        t0 = time.perf_counter()
+        ops.T = refresh_tensor(ops.U_rho, ops.GU_v, ops.inv_rho0)
+        ops.timings["tensor"] = time.perf_counter() - t0
+        ops.tensor_rule = "always"
+    from ...rom.stepping import runaway_bound
+    data = model_data(ops, problem, dt=scene.sph.dt, integrator=integrator, n_freeze=n_freeze, probes=probes,
+                      bound=runaway_bound(ops))
+    if ops.T is None:                                                   # the particle refresh replaces it
+        data.sections.update(particle_sections(ops, problem))
+    return data, ops, problem, basis
+
+
+N_FREEZE_CANDIDATES = (1, 2, 5, 10, 20, 50, 100)   # refresh periods tried when the user gives none
+N_FREEZE_SLACK = 0.05       # ... the largest whose training error is within this of n_freeze = 1's (relative)
+N_FREEZE_BUDGET = 4e9       # multiply-adds of one trial run at n_freeze = 1 (about 2 s here); beyond, a shorter run
+N_FREEZE_MIN_SAMPLES = 10   # ... of at least this many of the training run's samples
+
+
+def particle_sections(ops, problem):
+    """The sections of the frozen model's particle refresh (PARTUR, PARTGUV, PARTIR0: U^rho, G U^v, 1/rho0 at the
+    N particles), or {} where the tensor costs less.  The refresh of M (eq. 2.23 projected) from the tensor takes
+    n_pairs (1 + nm) multiply-adds and streams its n_pairs k_rho k_v values from memory; from the particles it
+    takes N (k_rho + kr_pad + k_v kr_pad) + nm on arrays that stay in cache (the core's counts,
+    :func:`refresh_matrix_work`).  A port model's larger basis (k_v, k_rho = 48, 47 on damped_forced, whose
+    tensor is 20 MB) is where the particles win; k = 12 on N = 400 keeps the tensor.  The particle path sums in
+    another order than the tensor: the FMU then equals the Python model run with ``refresh="direct"``."""
+    if refresh_matrix_work(ops.k_v, ops.k_rho, problem.n) >= refresh_matrix_work(ops.k_v, ops.k_rho):
+        return {}
+    return {"PARTUR": np.asarray(ops.U_rho, float), "PARTGUV": np.asarray(ops.GU_v, float),
+            "PARTIR0": np.asarray(ops.inv_rho0, float)[None, :]}
+
+
+def choose_n_freeze(scene, ops, problem, run, model="frozen", integrator=None, candidates=N_FREEZE_CANDIDATES,
+                    slack=N_FREEZE_SLACK, refresh=None):
+    """The refresh period n_freeze of a frozen FMU whose user gave none: the largest of ``candidates`` whose
+    training error (the frozen model of ``ops`` over the scene's T, relative L² of eq. 3.4 of the velocity field
+    against the full SPH training run ``run`` at its samples) is within ``slack`` of n_freeze = 1's.  A larger
+    n_freeze refreshes the frozen coefficients (eq. 2.23) less often: cheaper per step; the force and the port
+    forces are frozen with them, which is where it costs accuracy (damped_forced's time-varying force).
+
+    Returns (n_freeze, {n_freeze: error} of the candidates run): n_freeze = 1 first, then from the largest down,
+    stopping at the first within the slack (a run that blows up counts as not within).  The trial runs stop
+    early when the scene's T would cost more than :data:`N_FREEZE_BUDGET` multiply-adds at n_freeze = 1 (a port
+    model's large basis: each refresh then costs O(N k²)); the errors are then those of the training run's
+    first part (at least its first :data:`N_FREEZE_MIN_SAMPLES` samples).  ``refresh``: the frozen model's
+    refresh path (default the tensor where ``ops`` has it, else the particles, ``"direct"``).
+    """
+    from ...errors import SimulationError
+    from ...rom.registry import get_model
+    from ...sph.solver import step_count
+    spec = get_model(model)
+    refresh = refresh or ("tensor" if ops.T is not None else "direct")
+    n_steps = step_count(scene.T, scene.sph.dt)
+    per_step = step_work(ops.k_v, ops.k_rho, 1, particles=problem.n if refresh == "direct" else 0)
+    steps = np.asarray(run.steps)
+    if per_step * n_steps > N_FREEZE_BUDGET:              # the first part of the training run only
+        keep = max(N_FREEZE_MIN_SAMPLES, int(np.count_nonzero(steps <= N_FREEZE_BUDGET / per_step)))
+        steps = steps[:min(keep, steps.size)]
+        n_steps = int(steps[-1])
+    v_ref = np.asarray(run.v)[:steps.size]
+    ref = np.linalg.norm(v_ref)
+
+    def error(nf):
+        try:
+            res = spec.run(ops, problem, dt=scene.sph.dt, n_steps=n_steps, sample_steps=steps,
+                           options=spec.options(n_freeze=nf, integrator=integrator, refresh=refresh))
+        except SimulationError:
+            return float("inf")
+        return float(np.linalg.norm(ops.velocity(res.z[:, :ops.k_v]) - v_ref) / ref)
+
+    errors = {1: error(1)}
+    for nf in sorted(candidates, reverse=True):
+        if nf == 1:
+            break
+        errors[nf] = error(nf)
+        if errors[nf] <= (1.0 + slack) * errors[1]:
+            return nf, errors
+    return 1, errors
 
 def model_name(data):
     """The registered reduced model a frozen model.bin holds."""

@@ -186,6 +186,16 @@ def parametric(affine, c, d, problem, *, probes):
     lin = par.linear_at(affine, c, d)
     return exact_data(lin, problem, probes=probes), lin, {"A0": affine.A0, "AC": affine.Ac, "AD": affine.Ad}
 
+def example(rng):
+    """A small linear model with random numbers in the layout's shapes (k_v = 3, k_e = 2, two probes, damping,
+    an input), for tests of the file and the core: its numbers are not a physical model's."""
+    kv, ke, npr = 3, 2, 2
+    k = kv + ke
+    return ExactData(bound=1e6, L=0.5, k_v=kv, z0=0.01 * rng.normal(size=k), A=-np.eye(k) + 0.1 * rng.normal(size=(k, k)),
+                     B=rng.normal(size=k), damping=True, Q=None, S=None, Pv=rng.normal(size=(npr, kv)),
+                     Pe=0.01 * rng.normal(size=(npr, 2, ke)), pw=np.full((npr, 2), 0.5), prho0=np.ones((npr, 2)),
+                     probe_x=np.array([0.25, 0.5]))
+
 # ---------------------------------------------------------------------------------------------------------------
 # its part of model.bin (sphrom.fmu.resources pack, unpack)
 # ---------------------------------------------------------------------------------------------------------------
@@ -234,7 +244,7 @@ def resource(scene, model, k, n_freeze, probes, integrator, progress, problem, o
     the stepping only: the bounds take seconds to minutes at N = 400).  ``n_freeze`` and ``integrator`` are not
     this kind's options (a linear model has no internal step): the caller's values are ignored."""
     from ...rom.registry import get_model
-    from ..make.models import balanced_model, exact_model, linear_bounds, shadow_step, training_basis, training_envelope
+    from ..make.steps import shadow_step, training_basis, training_envelope
     from ..resources import pack
 
     if get_model(model).needs_basis:
@@ -261,6 +271,71 @@ def parameter_starts(data):
     """None of the kind's own FMU parameters: a linear model has no n_freeze and no dt."""
     return {}
 
+
+def exact_model(scene, k, probes, progress=True, problem=None, model="exact", ports=(),
+                build_options=None, made=None):
+    """The FMU's numbers for a model of resource kind 2 on a POD basis (the exact model):
+    (ExactData, lin, problem, basis).
+
+    The model's bases (the exact model: the energy-weighted ``Basis.U_ve``, ``U_e``), the operators with the
+    model's ``fmu_input_direction`` (the exact model: ``"always"``, the force profile is always in its
+    velocity basis, so the input f is represented exactly) and ``build_options``.
+    """
+    from ...rom.registry import get_model
+    from ..make.steps import model_basis
+
+    spec = get_model(model)
+    basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem, made=made)
+    lin = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction,
+                     **({"ports": tuple(ports)} if ports else {}), **(build_options or {}))
+    data = exact_data(lin, problem, probes=probes, bound=linear_bound(lin, scene))
+    return data, lin, problem, basis
+
+
+def balanced_model(scene, k, probes, order_tolerance=None, problem=None, model="balanced",
+                   build_options=None, ports=()):
+    """The FMU's numbers for a linear model without a POD basis (balanced): (ExactData, ops, problem).
+
+    The full linear SPH of the scene with the FMU's probes as outputs, balanced
+    and truncated at order ``k`` (or the order ``order_tolerance`` gives; the default
+    tolerance when both are None); :func:`sphrom.fmu.resources.balanced_data`.
+    """
+    from ...rom.registry import get_model
+    from ...sph.solver import build_problem
+
+    problem = problem or build_problem(scene)
+    try:
+        ops = get_model(model).build(problem, None, k, k, order_tolerance=None if k is not None else order_tolerance,
+                                     probes=probes, **({"ports": tuple(ports)} if ports else {}),
+                                     **(build_options or {}))
+    except ValueError as exc:
+        field_name, _, detail = str(exc).partition(": ")
+        from ...errors import FieldError
+        raise FieldError("k" if field_name == "order" else field_name, detail) from None
+    return balanced_data(ops, problem), ops, problem
+
+
+def linear_bounds(ops, problem, probes, progress=True):
+    """The certified error bounds of a linear reduced model at the velocity probes (the operators'
+    ``error_bounds``, :func:`sphrom.rom.balanced.error_bounds`), with a progress bar over the probes."""
+    from ...progress import progress_bar
+
+    with progress_bar(len(probes), "error bounds", unit="probe", enabled=progress) as bar:
+        return ops.error_bounds(problem, probes, progress=bar)
+
+
+def linear_bound(lin, scene, samples=4097):
+    """The linear FMU's runaway bound on |z|: 10⁶ (|z0| + |B| ∫_0^T |f| dt) with the scene's force over its T
+    (:func:`sphrom.rom.exact_linear.linear_runaway_bound`; trapezoidal rule on ``samples`` points).
+
+    10⁶ |z0| alone is 0 for a scene at rest, and such an FMU stopped as a runaway at its first forced step.
+    """
+    import numpy as np
+
+    from ...rom.exact_linear import linear_runaway_bound
+    t = np.linspace(0.0, float(scene.T), samples)
+    f = np.abs(np.asarray(scene.force(t), float)) if lin.B is not None else np.zeros(samples)
+    return linear_runaway_bound(lin, float(np.sum(0.5 * (f[1:] + f[:-1]) * np.diff(t))))
 
 def model_name(data):
     """The registered reduced model a linear model.bin holds: section LINMODEL's (the exact model without it)."""
