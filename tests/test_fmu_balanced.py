@@ -318,6 +318,7 @@ def test_loader_checks_the_output_rows_and_the_bounds_section(fmus):
     LINMODEL one known value; each refusal names the field."""
     import dataclasses
 
+    from sphrom.fmu import layout
     from sphrom.fmu.run.core import Core, CoreError
     from sphrom.fmu.resources import pack_exact
     _, data, _ = fmus("balanced", "forced", 2)
@@ -337,7 +338,7 @@ def test_loader_checks_the_output_rows_and_the_bounds_section(fmus):
     with pytest.raises(ValueError, match="mode counts"):
         load(output_rows=False)
     blob = bytearray(pack_exact(data))
-    flags_at = 8 + 7 * 4                                     # after magic, version, kind, integrator, k_v, k_e, P, pairs
+    flags_at = layout.HEADER.offset("flags")                 # the shared header's flags (harness/fmu/layout.py)
     blob[flags_at] &= ~8 & 0xFF
     with pytest.raises(CoreError, match=r"k_e = 0 out of range \[1"):
         core.load(bytes(blob))
