@@ -25,34 +25,24 @@ OUTPUT_DERIVATIVE_ORDER = 1      # dy/dt = C (A z + B f) exactly (rom.h rom_max_
 # the registry models of this kind: name -> the value of section LINMODEL that names it in model.bin
 VARIANTS = {"exact": LINEAR_EXACT_POD, "balanced": LINEAR_BALANCED}
 MODELS = {
-    "exact": ModelWords(ports=("Each port's directions are in the basis: the rigid motion and the static deflection under a constant "
-              "force exactly, the in-band response (rational moments) and the modes a step makes ring, until the "
-              "basis misses at most 0.5 % of the port's step response over the scene's T; what it approximates is "
-              "the ringing of the modes left out (larger in a shorter run: the rigid drift grows, the ringing "
-              "does not)."), what=("POD-Galerkin of the full SPH written in the specific volume, where it is exactly linear (eq. A.9): "
+    "exact": ModelWords(
+        ports=("Each port's directions are in the basis: the rigid motion and the static deflection under a constant "
+               "force exactly, the in-band response (rational moments) and the modes a step makes ring, until the "
+               "basis misses at most 0.5 % of the port's step response over the scene's T; what it approximates is "
+               "the ringing of the modes left out (larger in a shorter run: the rigid drift grows, the ringing "
+               "does not)."),
+        what=("POD-Galerkin of the full SPH written in the specific volume, where it is exactly linear (eq. A.9): "
               "no linearisation, exact in time (matrix exponential); each input's directions (rigid motion, static "
-              "deflection, in-band moments, the modes a step rings) in the basis",
-              "linear in the specific volume only; error = the POD span's",
-              "a component in a system simulation: no internal step, input derivatives integrated exactly")[0], limits=("POD-Galerkin of the full SPH written in the specific volume, where it is exactly linear (eq. A.9): "
-              "no linearisation, exact in time (matrix exponential); each input's directions (rigid motion, static "
-              "deflection, in-band moments, the modes a step rings) in the basis",
-              "linear in the specific volume only; error = the POD span's",
-              "a component in a system simulation: no internal step, input derivatives integrated exactly")[1], when=("POD-Galerkin of the full SPH written in the specific volume, where it is exactly linear (eq. A.9): "
-              "no linearisation, exact in time (matrix exponential); each input's directions (rigid motion, static "
-              "deflection, in-band moments, the modes a step rings) in the basis",
-              "linear in the specific volume only; error = the POD span's",
-              "a component in a system simulation: no internal step, input derivatives integrated exactly")[2]),
-    "balanced": ModelWords(ports=("The port forces are inputs and the port velocities outputs of the balanced system: what it "
-                 "approximates is the Hankel-singular-value tail its order tolerance drops."), what=("balanced truncation of the full linear SPH (2N states) for the FMU's probes; no POD basis",
-                 "its default order serves a component at rest, not the training run's initial state "
-                 "(see the training column)",
-                 "forced response from rest at the smallest order; give `--modes` for an initial state")[0], limits=("balanced truncation of the full linear SPH (2N states) for the FMU's probes; no POD basis",
-                 "its default order serves a component at rest, not the training run's initial state "
-                 "(see the training column)",
-                 "forced response from rest at the smallest order; give `--modes` for an initial state")[1], when=("balanced truncation of the full linear SPH (2N states) for the FMU's probes; no POD basis",
-                 "its default order serves a component at rest, not the training run's initial state "
-                 "(see the training column)",
-                 "forced response from rest at the smallest order; give `--modes` for an initial state")[2]),
+              "deflection, in-band moments, the modes a step rings) in the basis"),
+        limits="linear in the specific volume only; error = the POD span's",
+        when="a component in a system simulation: no internal step, input derivatives integrated exactly"),
+    "balanced": ModelWords(
+        ports=("The port forces are inputs and the port velocities outputs of the balanced system: what it "
+               "approximates is the Hankel-singular-value tail its order tolerance drops."),
+        what="balanced truncation of the full linear SPH (2N states) for the FMU's probes; no POD basis",
+        limits=("its default order serves a component at rest, not the training run's initial state "
+                "(see the training column)"),
+        when="forced response from rest at the smallest order; give `--modes` for an initial state"),
 }
 
 
