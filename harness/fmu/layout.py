@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import struct
 import sys
+from pathlib import Path
 from dataclasses import dataclass
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -503,8 +504,6 @@ def doc_text(text):
 
 def generated(root=None):
     """{path relative to the checkout: its text as generated now} of every generated file."""
-    from pathlib import Path
-
     from ..paths import repo_root
     root = Path(root or repo_root())
     return {HEADER_FILE: c_header(), DOC_FILE: doc_text((root / DOC_FILE).read_text(encoding="utf-8"))}
@@ -512,38 +511,16 @@ def generated(root=None):
 
 def stale(root=None):
     """The generated files whose committed text differs from the spec's."""
-    from pathlib import Path
-
     from ..paths import repo_root
+    from .generated import stale as stale_files
     root = Path(root or repo_root())
-    return [path for path, text in generated(root).items()
-            if not (root / path).is_file() or (root / path).read_text(encoding="utf-8") != text]
+    return stale_files(generated(root), root)
 
 
 def main(argv=None):
-    import argparse
-
-    from ..paths import repo_root
-    parser = argparse.ArgumentParser(prog="python3 -m sphrom.fmu.layout",
-                                     description="Regenerate (--write) or check (--check) the files generated from "
-                                                 "the binary layout (harness/fmu/layout.py).")
-    group = parser.add_mutually_exclusive_group(required=True)
-    group.add_argument("--write", action="store_true", help="write every stale generated file")
-    group.add_argument("--check", action="store_true", help="list the stale generated files (exit status 1)")
-    args = parser.parse_args(argv)
-    root = repo_root()
-    paths = stale(root)
-    if args.check:
-        for path in paths:
-            print(f"stale: {path} (run {COMMAND})")
-        return 1 if paths else 0
-    texts = generated(root)
-    for path in paths:
-        (root / path).write_text(texts[path], encoding="utf-8")
-        print(f"wrote {path}")
-    if not paths:
-        print("every generated file is up to date")
-    return 0
+    from .generated import main as command_line
+    return command_line(argv, prog="python3 -m sphrom.fmu.layout", source="the binary layout (harness/fmu/layout.py)",
+                        command=COMMAND, generated=generated)
 
 
 if __name__ == "__main__":

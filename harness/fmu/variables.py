@@ -581,34 +581,16 @@ def generated(root=None):
 def stale(root=None):
     """The generated files whose committed text differs from the table's."""
     from ..paths import repo_root
+    from .generated import stale as stale_files
     root = Path(root or repo_root())
-    return [path for path, text in generated(root).items()
-            if not (root / path).is_file() or (root / path).read_text(encoding="utf-8") != text]
+    return stale_files(generated(root), root)
 
 
 def main(argv=None):
-    import argparse
-    parser = argparse.ArgumentParser(prog="python3 -m sphrom.fmu.variables",
-                                     description="Regenerate (--write) or check (--check) the files generated from "
-                                                 "the FMU's variable table (harness/fmu/variables.py).")
-    group = parser.add_mutually_exclusive_group(required=True)
-    group.add_argument("--write", action="store_true", help="write every stale generated file")
-    group.add_argument("--check", action="store_true", help="list the stale generated files (exit status 1)")
-    args = parser.parse_args(argv)
-    from ..paths import repo_root
-    root = repo_root()
-    paths = stale(root)
-    if args.check:
-        for path in paths:
-            print(f"stale: {path} (run {COMMAND})")
-        return 1 if paths else 0
-    texts = generated(root)
-    for path in paths:
-        (root / path).write_text(texts[path], encoding="utf-8")
-        print(f"wrote {path}")
-    if not paths:
-        print("every generated file is up to date")
-    return 0
+    from .generated import main as command_line
+    return command_line(argv, prog="python3 -m sphrom.fmu.variables",
+                        source="the FMU's variable table (harness/fmu/variables.py)", command=COMMAND,
+                        generated=generated)
 
 
 if __name__ == "__main__":
