@@ -22,6 +22,7 @@
  *   rom_bound.c     the certified error bounds: the shadow of the full linear SPH, stepped with the model
  *   rom_bytes.c     little-endian numbers, CRC-32, the check both formats share, aligned arrays
  *   rom_fail.c      messages
+ *   rom_layout.h    generated from harness/fmu/layout.py: every number of the two binary formats
  * What they share privately (the table of operations per model kind) is in rom_internal.h.
  *
  * The scene's numbers come from resources/model.bin, written by the harness (harness/fmu/resources.py, for every
