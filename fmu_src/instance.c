@@ -345,9 +345,9 @@ static RomStatus set_f(RomState *s, uint32_t j, double value, char *message, siz
     return status == ROM_OK ? rom_set_input_rate(s, 0.0, message, message_size) : status;
 }
 SCALAR_SETTER(double, set_f_rate, rom_set_input_rate)
-SCALAR_GETTER(int32_t, get_n_freeze, s->n_freeze)
+SCALAR_GETTER(int32_t, get_n_freeze, rom_n_freeze(s))
 SCALAR_SETTER(int64_t, set_n_freeze, rom_set_n_freeze)
-SCALAR_GETTER(double, get_dt, s->dt)
+SCALAR_GETTER(double, get_dt, rom_dt(s))
 SCALAR_SETTER(double, set_dt, rom_set_dt)
 SCALAR_GETTER(double, get_initial_state_scale, s->initial_state_scale)
 SCALAR_SETTER(double, set_initial_state_scale, rom_set_initial_state_scale)
@@ -666,7 +666,7 @@ InstanceStatus instance_do_step(Instance *inst, const char *fn, double t_comm, d
         inst->warned_long_dt = 1;
         instance_log(inst, INSTANCE_WARNING, INSTANCE_LOG_WARNING, "%s: dt = %g s is larger than the communication "
                      "step h = %g s at t = %.9g s: such a step is one internal step of length h (warned once per "
-                     "instance)", fn, inst->state->dt, h, t_comm);
+                     "instance)", fn, rom_dt(inst->state), h, t_comm);
     }
     if (rom_do_step(inst->state, t_comm, h, inst->message, sizeof inst->message) != ROM_OK) {
         return instance_error(inst, fn, "%s", inst->message);

@@ -74,11 +74,9 @@ void rom_state_reset(RomState *s, double t_start) {
     s->n = 0;
     s->time = t_start;
     s->f = 0.0;
-    s->dt = m->dt;
-    s->n_freeze = (int32_t)m->n_freeze_default;
-    const RomSection *params = rom_section(m, "PARAMS");
-    s->c = params ? params->data[1] : 0.0;
-    s->d = params ? params->data[4 + 1] : 0.0;
+    const RomSection *params = rom_section(m, "PARAMS");       /* rows c, d: their start values */
+    s->c = params ? params->data[ROM_PARAMS_COLUMNS * ROM_PARAMS_ROW_C + ROM_PARAMS_START] : 0.0;
+    s->d = params ? params->data[ROM_PARAMS_COLUMNS * ROM_PARAMS_ROW_D + ROM_PARAMS_START] : 0.0;
     for (size_t j = 0; j < ROM_MAX_PORTS; j++) s->port_force[j] = s->port_rate[j] = 0.0;
     s->port_driven = 0.0;
     s->area = 1.0;                                             /* [m^2] */
@@ -114,8 +112,8 @@ RomStatus rom_set_input_rate(RomState *s, double rate, char *message, size_t mes
 }
 
 double rom_dt_floor(const RomModel *m) {
-    if (!m || !m->ops || !m->ops->step_exceeds) return 0.0;
-    return fmax(ROM_DT_MIN, m->dt * ROM_DT_FLOOR_RATIO);
+    if (!m || !m->ops || !m->ops->dt_floor) return 0.0;
+    return m->ops->dt_floor(m);
 }
 
 double rom_step_work(const RomState *s) {
@@ -124,33 +122,42 @@ double rom_step_work(const RomState *s) {
 }
 
 double rom_max_steps_per_call(const RomState *s) {
-    const double work = rom_step_work(s);
-    return work > 0.0 ? floor(ROM_MAX_WORK_PER_CALL / work) : 0.0;
+    return rom_steps_per_call(rom_step_work(s));
 }
 
+/* the parameters of the internal step (the kind's table; a kind without internal steps has neither) */
 RomStatus rom_set_dt(RomState *s, double dt, char *message, size_t message_size) {
     if (!s) return rom_fail(message, message_size, "no state");
+    if (!s->model->ops->set_dt) {
+        return rom_fail(message, message_size, "parameter dt: %s has no internal step (it is exact over any "
+                        "communication step)", s->model->ops->name);
+    }
     if (!(isfinite(dt) && dt > 0)) {
         return rom_fail(message, message_size, "parameter dt = %g s is out of range (allowed: a finite number > 0)",
                         dt);
     }
-    const double floor_dt = rom_dt_floor(s->model);
-    if (dt < floor_dt) {                       /* the work of a doStep grows as 1/dt */
-        return rom_fail(message, message_size, "parameter dt = %g s is below its floor %g s (allowed: dt >= %g s, "
-                        "the model's dt %g s x %g)", dt, floor_dt, floor_dt, s->model->dt, ROM_DT_FLOOR_RATIO);
-    }
-    s->dt = dt;
-    return ROM_OK;
+    return s->model->ops->set_dt(s, dt, message, message_size);     /* and its floor (the work of a doStep) */
 }
 
 RomStatus rom_set_n_freeze(RomState *s, int64_t n_freeze, char *message, size_t message_size) {
     if (!s) return rom_fail(message, message_size, "no state");
+    if (!s->model->ops->set_n_freeze) {
+        return rom_fail(message, message_size, "parameter n_freeze: %s has no internal step (it is exact over any "
+                        "communication step)", s->model->ops->name);
+    }
     if (n_freeze < 1 || n_freeze > INT32_MAX) {
         return rom_fail(message, message_size, "parameter n_freeze = %lld is out of range (allowed: an integer >= 1)",
                         (long long)n_freeze);
     }
-    s->n_freeze = (int32_t)n_freeze;
-    return ROM_OK;
+    return s->model->ops->set_n_freeze(s, (int32_t)n_freeze, message, message_size);
+}
+
+double rom_dt(const RomState *s) {
+    return s && s->model->ops->dt ? s->model->ops->dt(s) : NAN;
+}
+
+int32_t rom_n_freeze(const RomState *s) {
+    return s && s->model->ops->n_freeze ? s->model->ops->n_freeze(s) : 0;
 }
 
 RomStatus rom_set_initial_state_scale(RomState *s, double scale, char *message, size_t message_size) {
@@ -231,6 +238,10 @@ int rom_step_exceeds(const RomState *s, double h) {
 RomStatus rom_advance(RomState *s, int64_t n_steps, char *message, size_t message_size) {
     if (!s) return rom_fail(message, message_size, "no state");
     if (n_steps < 0) return rom_fail(message, message_size, "negative step count %lld", (long long)n_steps);
+    if (!s->model->ops->advance) {
+        return rom_fail(message, message_size, "%s has no internal step (rom_do_step advances it over any step)",
+                        s->model->ops->name);
+    }
     return s->model->ops->advance(s, n_steps, message, message_size);
 }
 
@@ -294,17 +305,17 @@ RomStatus rom_check_outputs(const RomState *s, char *message, size_t message_siz
 int rom_varies(const RomModel *m, int which) {
     const RomSection *params = m ? rom_section(m, "PARAMS") : NULL;
     if (!params || (which != ROM_PARAM_C && which != ROM_PARAM_D)) return 0;
-    return params->data[4 * which] != 0.0;
+    return params->data[ROM_PARAMS_COLUMNS * which + ROM_PARAMS_VARIED] != 0.0;
 }
 
 RomStatus rom_set_param(RomState *s, int which, double value, char *message, size_t message_size) {
     if (!s) return rom_fail(message, message_size, "no state");
     if (!rom_varies(s->model, which)) return rom_fail(message, message_size, "the model has no parameter %d", which);
-    const double *row = rom_section(s->model, "PARAMS")->data + 4 * which;
+    const double *row = rom_section(s->model, "PARAMS")->data + ROM_PARAMS_COLUMNS * which;
     const char *name = which == ROM_PARAM_C ? "c" : "d";
-    if (!(isfinite(value) && value >= row[2] && value <= row[3])) {
-        return rom_fail(message, message_size, "%s = %g is outside the trained range [%g, %g]", name, value, row[2],
-                        row[3]);
+    const double lo = row[ROM_PARAMS_MIN], hi = row[ROM_PARAMS_MAX];
+    if (!(isfinite(value) && value >= lo && value <= hi)) {
+        return rom_fail(message, message_size, "%s = %g is outside the trained range [%g, %g]", name, value, lo, hi);
     }
     if (which == ROM_PARAM_C) s->c = value;
     else s->d = value;
@@ -379,9 +390,5 @@ RomStatus rom_set_port_rate(RomState *s, uint32_t j, double rate, char *message,
 
 double rom_v_port(const RomState *s, uint32_t j) {
     if (!s || j >= s->model->n_ports) return NAN;
-    const size_t kv = s->model->k_v;
-    const double *row = s->model->port_C + (size_t)j * kv;
-    double v = 0.0;
-    for (size_t q = 0; q < kv; q++) v += row[q] * s->av[q];
-    return v;
+    return rom_port_velocity(s, j);
 }

@@ -15,78 +15,31 @@
  *   rom.c           the state API, dispatched through the model kind's table of operations
  *   rom_frozen.c/h  kind 1, the frozen-coefficient model: its data, load, state, step, outputs
  *   rom_exact.c/h   kind 2, the exact linear model (every linear model): the same, by the matrix exponential
+ *   rom_numerics.c/h the matrix exponential (the exact model's step maps, the error bounds' plane maps)
  *   rom_resources.c resources/model.bin: the header, the tagged sections, the kind's body through its table
  *   rom_state_io.c  the serialized FMU state
  *   rom_envelope.c  the training envelope
  *   rom_bound.c     the certified error bounds: the shadow of the full linear SPH, stepped with the model
  *   rom_bytes.c     little-endian numbers, CRC-32, the check both formats share, aligned arrays
  *   rom_fail.c      messages
+ *   rom_layout.h    generated from harness/fmu/layout.py: every number of the two binary formats
  * What they share privately (the table of operations per model kind) is in rom_internal.h.
  *
- * The scene's numbers come from resources/model.bin (format below), written by
- * the harness (harness/fmu/resources.py).  Units: time [s], velocity [m s^-1],
- * density [kg m^-3], force per mass [m s^-2].
+ * The scene's numbers come from resources/model.bin, written by the harness (harness/fmu/resources.py, for every
+ * model kind of harness/fmu/kinds/).  Its layout and that of the serialized FMU state are written once, in
+ * harness/fmu/layout.py, from which rom_layout.h (included below) is generated: every size, byte offset,
+ * version, flag, kind number and named section column, and both formats in words in its opening comment.  In
+ * short: a shared header (magic, version, model kind, k_v, k_rho, n_probes, flags, runaway bound, L), the
+ * kind's body (the frozen kind's own header: integrator, n_pairs, the default n_freeze, dt; then its arrays),
+ * tagged sections, the token and a CRC-32; the state: a header (magic, version, mode tag, sizes, token, step
+ * count, time, f), then a^v, a^rho, the kind's block (the frozen kind's starts with its parameters n_freeze and
+ * dt), t0, df/dt, the error bounds' shadow, the parameters (initial_state_scale, c, d), the ports, a CRC-32.
+ * Units: time [s], velocity [m s^-1], density [kg m^-3], force per mass [m s^-2].
  *
- * Resource format, version 3 (all little-endian):
- *
- *   char[8]  magic "SPHROMRS"
- *   uint32   format_version (3), model_kind (1 frozen, 2 exact linear),
- *            integrator (0 euler, 1 symplectic; kind 2: 0), k_v, k_rho, n_probes,
- *            n_pairs, flags, n_freeze_default, reserved (0)
- *   float64  dt [s], runaway_bound, L [m]
- * kind 1 (frozen; n_pairs = k_rho (k_rho + 1)/2, or 0 without the tensor T when the sections PART* carry
- *            the particle refresh; flags bit0: damping D
- * present, bit1: input row p present):
- *   float64  a_v0[k_v], a_rho0[k_rho], K[k_v][k_rho], b[k_v], D[k_v][k_v] (bit0),
- *            p[k_v] (bit1), T[n_pairs][k_rho][k_v], Pv[n_probes][k_v],
- *            Prho[n_probes][k_rho], probe_x[n_probes] (units of L)
- * kind 2 (exact linear; k_rho = k_e specific-volume modes, k = k_v + k_e,
- * n_pairs = 0; flags bit0: damping (A not skew), bit1: input column B present,
- * bit2: real Schur form Q, S of A present (only without damping)):
- *   float64  z0[k], A[k][k], B[k] (bit1), Q[k][k] (bit2), S[k][k] (bit2),
- *            Pv[n_probes][k_v], Pe[n_probes][2][k_e], pw[n_probes][2],
- *            prho0[n_probes][2], probe_x[n_probes]
- *            (probe j lies between two particles: e = J - 1 there is Pe[j][m] . b,
- *            weights pw[j][m], rho0 there prho0[j][m]; rho_j = sum_m pw rho0/(1 + e))
- * kind 2 with flags bit3 (output rows): the probe rows act on the whole state
- *   z = (a; b), Pv[n_probes][k] and Pe[n_probes][2][k] in place of the two
- *   arrays above (v_j = Pv[j] . z, e = Pe[j][m] . z); the loader stores the
- *   rows of a file without bit3 the same way, zero over the block they skip,
- *   so one output code serves every linear model.  With bit3, k_v + k_e = k
- *   only sizes the serialized state's blocks a, b (a model whose state does not
- *   split into velocity and specific-volume coordinates, the balanced one,
- *   writes k_v = k, k_e = 0).
- * both kinds, then tagged sections (what later features add, each optional;
- * the loader knows every tag it accepts, checks each one's shape, and rejects
- * unknown or repeated tags):
- *   uint32   n_sections (at most ROM_MAX_SECTIONS)
- *   n_sections x { char[8] tag (ASCII, NUL padded), uint32 rows, cols,
- *                  float64 data[rows][cols] (finite) }
- * both kinds:
- *   char[40] token "{xxxxxxxx-xxxx-xxxx-xxxx-xxxxxxxxxxxx}", NUL padded
- *   uint32   crc32 (zlib's) of every byte before it
- *
- * Serialized FMU state, version 3 (little-endian; rom_state_serialize):
- *
- *   char[8]  magic "SPHROMST"
- *   uint32   state_version (3), tag (the instance's mode), k_v, k_rho, n_probes, n_pairs
- *   char[40] token of the model
- *   uint64   n (internal steps); uint32 n_freeze, 0; float64 time [s], f, dt [s]
- *            (112 bytes so far: ROM_STATE_HEADER_SIZE)
- *   float64  a_v[k_v], a_rho[k_rho] (kind 2: a, b), then the kind's block (kind 1: M^T rows [k_v][k_rho],
- *            F[k_v]; kind 2: X[k]), then t0 [s] and df/dt [m s^-3] (both kinds), then with the error
- *            bounds (sections SH*) the shadow w[k_s], the inputs' variation tv[m] and last values [m], the
- *            integrals of |B_perp u| and |w|, the step count, started (0 or 1) (rom_bound.c)
- *   float64  the parameters a state carries: initial_state_scale (version 2: the exact model's
- *            free response is scaled by it at every step); version 3: then c [kg m^-1 s^-2] and
- *            d [s^-1] (a parametric model's values, restored with the state and the operators
- *            re-assembled from them; 0 and 0 in a model without section PARAMS)
- *   float64  with ports (both kinds): area, F_port[n_ports], port_driven (0 or 1; 0 in states written
- *            before it was kept, where the slot was reserved), dF_port/dt[n_ports]
- *   uint32   crc32 of every byte before it
- *
- * Version 2 (without c and d, 16 bytes shorter) is still read: such a state keeps the instance's own
- * c and d.  Versions below ROM_STATE_VERSION_OLDEST or above ROM_STATE_VERSION are refused, naming them.
+ * Versions: this binary reads model.bin format ROM_FORMAT_VERSION and serialized states of ROM_STATE_VERSION
+ * only.  A state restores only into the FMU whose token it carries, and the token hashes the model.bin bytes: a
+ * state of an older format was written by an FMU of an older model.bin format, which no FMU of this binary
+ * has, so it could never be restored here; such a state is refused naming its version and saying so.
  *
  * Both are read through one envelope check (rom_bytes.c): size, magic, version,
  * sizes, token, checksum.
@@ -96,6 +49,8 @@
 
 #include <stddef.h>
 #include <stdint.h>
+
+#include "rom_layout.h"      /* the formats: generated from harness/fmu/layout.py */
 
 #ifdef __cplusplus
 extern "C" {
@@ -113,29 +68,8 @@ extern "C" {
 #  define ROM_API
 #endif
 
-#define ROM_FORMAT_VERSION 3u
-#define ROM_STATE_VERSION 3u          /* 2: the parameter block (initial_state_scale); 3: c and d in it */
-#define ROM_STATE_VERSION_OLDEST 2u   /* the oldest serialized state version this binary reads */
-#define ROM_MODEL_FROZEN 1u
-#define ROM_MODEL_EXACT_LINEAR 2u
-#define ROM_INTEGRATOR_EULER 0u
-#define ROM_INTEGRATOR_SYMPLECTIC 1u
-#define ROM_FLAG_DAMPING 1u
-#define ROM_FLAG_INPUT 2u
-#define ROM_FLAG_SCHUR 4u            /* kind 2 only */
-#define ROM_FLAG_OUTPUT_ROWS 8u      /* kind 2 only: probe rows over the whole state z */
-#define ROM_TOKEN_SIZE 40
-#define ROM_HEADER_SIZE 72            /* resource header: magic to L */
-#define ROM_STATE_HEADER_SIZE 112     /* serialized state header: magic to dt */
-#define ROM_RESOURCE_MAGIC "SPHROMRS"
-#define ROM_STATE_MAGIC "SPHROMST"
-#define ROM_MAX_MODES 1024u
-#define ROM_MAX_PROBES 100u
 #define ROM_MESSAGE_SIZE 1024
 #define ROM_RESOURCE_FILE "model.bin"
-#define ROM_SECTION_TAG_SIZE 8
-#define ROM_MAX_SECTIONS 32u
-#define ROM_MAX_SECTION_VALUES 67108864u  /* rows x cols of one section (2^26) */
 
 /* doStep's rules (harness/fmu/check/python_cosim.py repeats them) */
 #define ROM_TIME_TOLERANCE 1e-9       /* relative: currentCommunicationPoint must equal the FMU's time */
@@ -153,9 +87,6 @@ extern "C" {
 
 /* The FMU's value references and start values are not the core's: fmu_src/fmu_variables.h, generated from the
  * variable table harness/fmu/variables.py. */
-#define ROM_LINEAR_EXACT_POD 1u      /* section LINMODEL: which linear model (messages only) */
-#define ROM_LINEAR_BALANCED 2u
-#define ROM_MAX_PORTS 4u             /* mechanical ports of one FMU */
 #define ROM_MAX_PARTICLES 1000000u   /* particles of a frozen model's particle refresh (sections PART*) */
 
 typedef enum { ROM_OK = 0, ROM_FAIL = 1 } RomStatus;
@@ -216,11 +147,11 @@ typedef struct {
 typedef struct {
     uint32_t kind;             /* ROM_MODEL_FROZEN or ROM_MODEL_EXACT_LINEAR (the header's model_kind) */
     const RomKindOps *ops;     /* the kind's operations, chosen from kind when the resources are read */
-    void *body;                /* the kind's own data (operators, probe rows), owned by the kind */
-    uint32_t integrator, k_v, k_rho, n_probes, n_pairs, flags, n_freeze_default;
+    void *body;                /* the kind's own data (operators, probe rows; the frozen kind's integrator, n_pairs,
+                                * default n_freeze and dt), owned by the kind */
+    uint32_t k_v, k_rho, n_probes, flags;
     uint32_t kv_pad, kr_pad;   /* k_v, k_rho rounded up to a multiple of 4: the lengths of a state's av, ar */
     uint32_t input_width;      /* entries of one input row (port_B): k_v (frozen), k = k_v + k_rho (linear) */
-    double dt;                 /* internal step of the scene [s] */
     double runaway_bound;      /* |a| above this is a runaway */
     double L;                  /* period [m] */
     const double *probe_x;     /* [n_probes] probe positions in units of L (in the kind's storage) */
@@ -242,14 +173,12 @@ typedef struct {
  * (rom_frozen.h RomFrozenState, rom_exact.h RomExactState). */
 typedef struct {
     const RomModel *model;
-    void *body;             /* the kind's own state (the frozen M^T and F; the exact model's forced part and
-                             * exponentials), owned by the kind */
+    void *body;             /* the kind's own state (the frozen M^T and F and its parameters n_freeze and dt; the
+                             * exact model's forced part and exponentials), owned by the kind */
     double *av, *ar;        /* reduced coordinates a^v [kv_pad], a^rho (linear: b = e coordinates) [kr_pad] */
     int64_t n;              /* internal steps since reset (shortened ones too) */
     double time;            /* time of the state [s] */
     double f;               /* input, held over a communication step [m s^-2] */
-    double dt;              /* internal step [s] (parameter) */
-    int32_t n_freeze;       /* refresh period (parameter) */
     double initial_state_scale;  /* the initial velocity coordinates (frozen) or z (linear) are this times the
                                   * model's; the density coordinates of the frozen model stay (rho0 is rest) */
     double t0;              /* the start time [s] (of the exact model's free response) */
@@ -291,8 +220,13 @@ ROM_API void rom_state_free(RomState *state);
 ROM_API void rom_state_reset(RomState *state, double t_start);
 ROM_API RomStatus rom_set_start_time(RomState *state, double t_start, char *message, size_t message_size);
 ROM_API RomStatus rom_set_input(RomState *state, double f, char *message, size_t message_size);
+/* The parameters of a model with internal steps (the frozen kind's; the linear models have neither: ROM_FAIL
+ * naming the parameter): the internal step dt [s] (finite, >= rom_dt_floor) and the refresh period n_freeze */
 ROM_API RomStatus rom_set_dt(RomState *state, double dt, char *message, size_t message_size);
 ROM_API RomStatus rom_set_n_freeze(RomState *state, int64_t n_freeze, char *message, size_t message_size);
+/* their values: dt [s] (NaN without internal steps or for NULL), n_freeze (0 likewise) */
+ROM_API double rom_dt(const RomState *state);
+ROM_API int32_t rom_n_freeze(const RomState *state);
 /* Any finite real, before the first step: the initial state becomes scale x the model's deviation from rest
  * (frozen: a^v(0) = scale a_v0, a^rho(0) = a_rho0; linear: z(0) = scale z0, z = 0 being rest) */
 ROM_API RomStatus rom_set_initial_state_scale(RomState *state, double scale, char *message, size_t message_size);
@@ -319,7 +253,8 @@ ROM_API double rom_max_steps_per_call(const RomState *state);
 /* The multiply-adds of one internal step at the state's k_v, k_rho, n_freeze and ports, ROM_STEP_OVERHEAD
  * included (0 for a model without internal steps) */
 ROM_API double rom_step_work(const RomState *state);
-/* n_steps whole internal steps with the runaway check (benchmark, tests) */
+/* n_steps whole internal steps of dt with the runaway check (benchmark, tests; a model with internal steps:
+ * the linear models, exact over any step, refuse it) */
 ROM_API RomStatus rom_advance(RomState *state, int64_t n_steps, char *message, size_t message_size);
 /* The input goes linearly over each step, f(t_comm + tau) = f + rate tau (rate 0, the
  * default, holds it), and after the step f = f + rate h, so that the input continues linearly
@@ -362,14 +297,13 @@ ROM_API RomStatus rom_rho_probe_rate(const RomState *state, uint32_t j, double *
 ROM_API RomStatus rom_check_outputs(const RomState *state, char *message, size_t message_size);
 
 /* ---- serialized state (magic, version, sizes, token, crc) ------------------ */
-/* the size of a state of the current version (ROM_STATE_VERSION) */
+/* the size of a serialized state (ROM_STATE_VERSION) of this model; 0 for NULL */
 ROM_API size_t rom_state_serialized_size(const RomModel *model);
-/* the size of a state of format version (ROM_STATE_VERSION_OLDEST .. ROM_STATE_VERSION; 0 for another) */
-ROM_API size_t rom_state_serialized_size_version(const RomModel *model, uint32_t version);
 ROM_API void rom_state_serialize(const RomState *state, uint32_t tag, unsigned char *buffer);
 /* Checks a blob against this model (magic, version, sizes, token, crc), then the parameters it carries, each
- * named when refused: initial_state_scale finite, c and d (version 3) within the trained range of a varied
- * parameter, equal to the model's value of a fixed one, 0 without section PARAMS; area finite and > 0. */
+ * named when refused: the kind's (frozen: n_freeze an integer >= 1, dt at least its floor), initial_state_scale
+ * finite, c and d within the trained range of a varied parameter, equal to the model's value of a fixed one, 0
+ * without section PARAMS; area finite and > 0. */
 ROM_API RomStatus rom_state_check(const RomModel *model, const unsigned char *buffer, size_t size,
                                   char *message, size_t message_size);
 /* Restores the state (a checked blob) with its parameters; a parametric model then needs its operators
@@ -378,12 +312,7 @@ ROM_API RomStatus rom_state_deserialize(RomState *state, const unsigned char *bu
                                         uint32_t *tag, char *message, size_t message_size);
 
 /* ---- the training envelope (rom_envelope.c; sections ENVELOPE, ENVRANGE, ENVPROBE) ---- */
-#define ROM_ENVELOPE_SCALARS 8u          /* columns of ENVELOPE (harness/fmu/make/envelope.py N_SCALARS) */
-#define ROM_ENVELOPE_CHECK_COORDINATES 1u
-#define ROM_ENVELOPE_CHECK_FORCE 2u
-#define ROM_ENVELOPE_CHECK_STRAIN 4u
-#define ROM_ENVELOPE_CHECK_FAILURE 8u
-#define ROM_ENVELOPE_CHECK_ALL 15u
+/* (the columns of ENVELOPE and its check bits ROM_ENVELOPE_CHECK_*: rom_layout.h) */
 /* 1 when the state or the input is outside the model's training envelope widened by its margin (the
  * message, when given, names the quantity, its value, the trained range and the time); 0 inside it, for
  * a model without an envelope, and for a linear model (no run-time checks) */
@@ -393,8 +322,8 @@ ROM_API int rom_envelope_check(const RomState *state, char *message, size_t mess
  * The operators are affine in c and d: frozen K = c K_c, b = c b_c, D = d D_d; linear
  * A = A_0 + c A_c + d A_d (harness/rom/parametric.py).  PARAMS row 0 is c, row 1 is d:
  * (varied 0/1, start, min, max). */
-#define ROM_PARAM_C 0
-#define ROM_PARAM_D 1
+#define ROM_PARAM_C ROM_PARAMS_ROW_C
+#define ROM_PARAM_D ROM_PARAMS_ROW_D
 /* 1 when the model exposes parameter which (ROM_PARAM_C or ROM_PARAM_D), else 0 */
 ROM_API int rom_varies(const RomModel *model, int which);
 /* Set c or d of a parametric model; fails, naming the value and the trained range, outside it */

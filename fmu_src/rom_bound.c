@@ -29,6 +29,7 @@
  * alternative bounds the forced part).
  */
 #include "rom_internal.h"
+#include "rom_numerics.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -37,7 +38,6 @@
 #define BOUND_ROUNDOFF_STEP 1e-15      /* ... ROUNDOFF_STEP */
 #define BOUND_CACHE 2                  /* step lengths whose plane maps are kept */
 #define BOUND_MAX_INPUTS (1u + ROM_MAX_PORTS)
-#define BOUND_SCALARS 12u              /* columns of SHSCAL (harness/rom/bounds.py N_SCALARS) */
 #define BOUND_QUAD_ROUNDOFF 1e-14      /* harness/rom/bounds.py QUAD_ROUNDOFF */
 
 typedef struct {
@@ -135,22 +135,23 @@ static RomStatus prepare_pieces(RomModel *m, char *message, size_t message_size)
                         "together, with the sections SH* and PARAMS (a parametric model), without SHDENSE");
     }
     if (shape(piece, b->planes, 8, message, message_size) != ROM_OK ||
-        shape(parm, 1, 7, message, message_size) != ROM_OK) return ROM_FAIL;
+        shape(parm, 1, ROM_SHPARAM_COLUMNS, message, message_size) != ROM_OK) return ROM_FAIL;
     const double *v = parm->data;
-    if (!(v[0] > 0)) {
-        return rom_fail(message, message_size, "resources: section SHPARAM's c_ref = %g (allowed: > 0)", v[0]);
+    if (!(v[ROM_SHPARAM_C_REF] > 0)) {
+        return rom_fail(message, message_size, "resources: section SHPARAM's c_ref = %g (allowed: > 0)",
+                        v[ROM_SHPARAM_C_REF]);
     }
-    for (size_t i = 0; i < 6; i++) {
-        if (!(v[1 + i] >= 0)) {
+    for (size_t i = 0; i < 6; i++) {                  /* the six norms after c_ref */
+        if (!(v[ROM_SHPARAM_E_CONST_V + i] >= 0)) {
             return rom_fail(message, message_size, "resources: section SHPARAM's residual norm %g (allowed: >= 0)",
-                            v[1 + i]);
+                            v[ROM_SHPARAM_E_CONST_V + i]);
         }
     }
     b->storage_ = (double *)calloc(4 * (size_t)b->planes, sizeof(double));
     if (!b->storage_) return rom_fail(message, message_size, "resources: out of memory (the error bounds' planes)");
     b->piece = piece->data;
-    b->c_ref = v[0];
-    for (size_t i = 0; i < 6; i++) b->e_piece[i] = v[1 + i];
+    b->c_ref = v[ROM_SHPARAM_C_REF];
+    for (size_t i = 0; i < 6; i++) b->e_piece[i] = v[ROM_SHPARAM_E_CONST_V + i];
     return assemble_planes(b, rom_section(m, "SHLAM")->data, params->data[1], params->data[4 + 1], message,
                            message_size);
 }
@@ -190,16 +191,20 @@ RomStatus rom_bound_prepare(RomModel *m, char *message, size_t message_size) {
                         "SHGRAM, SHROW, SHPROBE come together (%zu of %zu present)", found, (size_t)N_TAGS);
     }
     const RomSection *scal = sec[0], *dense = rom_section(m, "SHDENSE");
-    if (shape(scal, 1, BOUND_SCALARS, message, message_size) != ROM_OK) return ROM_FAIL;
+    if (shape(scal, 1, ROM_SHSCAL_COLUMNS, message, message_size) != ROM_OK) return ROM_FAIL;
     const double *v = scal->data;
     const uint32_t inputs = 1u + m->n_ports, rows = 3u * m->n_probes + m->n_ports;
-    if (!whole(v[1], 1, ROM_MAX_MODES) || v[0] != 2.0 * v[1] || v[2] != (double)inputs || v[3] != (double)rows ||
-        !whole(v[4], 1, 1e6) || !(v[5] > 0) || v[6] < 0 || v[7] < 0 || v[8] < 0 || v[9] < 0 || v[10] < 0) {
+    if (!whole(v[ROM_SHSCAL_PLANES], 1, ROM_MAX_MODES) || v[ROM_SHSCAL_ORDER] != 2.0 * v[ROM_SHSCAL_PLANES] ||
+        v[ROM_SHSCAL_INPUTS] != (double)inputs || v[ROM_SHSCAL_ROWS] != (double)rows ||
+        !whole(v[ROM_SHSCAL_N_TAB], 1, 1e6) || !(v[ROM_SHSCAL_DT_TAB] > 0) || v[ROM_SHSCAL_Y0_NORM] < 0 ||
+        v[ROM_SHSCAL_X0_NORM] < 0 || v[ROM_SHSCAL_E_NORM] < 0 || v[ROM_SHSCAL_B_NORM] < 0 ||
+        v[ROM_SHSCAL_TOLERANCE] < 0) {
         return rom_fail(message, message_size, "resources: section SHSCAL (the error bounds' sizes) does not fit the "
                         "model (%u inputs, %u output rows expected; planes 1 to %u)", inputs, rows, ROM_MAX_MODES);
     }
     RomBoundModel *b = &m->bound;
-    const uint32_t planes = (uint32_t)v[1], order = 2u * planes, n_tab = (uint32_t)v[4];
+    const uint32_t planes = (uint32_t)v[ROM_SHSCAL_PLANES], order = 2u * planes;
+    const uint32_t n_tab = (uint32_t)v[ROM_SHSCAL_N_TAB];
     const RomSection *egram = rom_section(m, "SHEGRAM");
     if ((dense == NULL) != (egram == NULL)) {
         return rom_fail(message, message_size, "resources: the error bounds' sections SHDENSE and SHEGRAM come "
@@ -227,12 +232,12 @@ RomStatus rom_bound_prepare(RomModel *m, char *message, size_t message_size) {
     b->inputs = inputs;
     b->rows = rows;
     b->n_tab = n_tab;
-    b->dt_tab = v[5];
-    b->y0_norm = v[6];
-    b->x0_norm = v[7];
-    b->e_norm = v[8];
-    b->b_norm = v[9];
-    b->tolerance = v[10];
+    b->dt_tab = v[ROM_SHSCAL_DT_TAB];
+    b->y0_norm = v[ROM_SHSCAL_Y0_NORM];
+    b->x0_norm = v[ROM_SHSCAL_X0_NORM];
+    b->e_norm = v[ROM_SHSCAL_E_NORM];
+    b->b_norm = v[ROM_SHSCAL_B_NORM];
+    b->tolerance = v[ROM_SHSCAL_TOLERANCE];
     b->mu = mu;
     b->lam = sec[1]->data;
     b->B = sec[2]->data;
@@ -534,7 +539,7 @@ double rom_v_probe_error_bound(const RomState *s, uint32_t j) {
     if (!s || !s->bound || j >= s->model->n_probes) return NAN;
     double y, cert;
     shadow_row(s, j, &y, &cert);
-    return fabs(rom_v_probe(s, j) - y) + cert;
+    return fabs(s->model->ops->v_probe(s, j) - y) + cert;      /* the model's output (rom.c rom_v_probe) */
 }
 
 double rom_rho_probe_error_bound(const RomState *s, uint32_t j) {
@@ -550,14 +555,14 @@ double rom_rho_probe_error_bound(const RomState *s, uint32_t j) {
         rho_s += pr[side] * pr[2 + side] / J;
         part += pr[side] * pr[2 + side] * beta / (J * low);
     }
-    return fabs(rom_rho_probe(s, j) - rho_s) + part + 1e-15 * (pr[0] * pr[2] + pr[1] * pr[3]);
+    return fabs(s->model->ops->rho_probe(s, j) - rho_s) + part + 1e-15 * (pr[0] * pr[2] + pr[1] * pr[3]);
 }
 
 double rom_v_port_error_bound(const RomState *s, uint32_t j) {
     if (!s || !s->bound || j >= s->model->n_ports) return NAN;
     double y, cert;
     shadow_row(s, 3 * s->model->n_probes + j, &y, &cert);
-    return fabs(rom_v_port(s, j) - y) + cert;
+    return fabs(rom_port_velocity(s, j) - y) + cert;
 }
 
 RomStatus rom_set_error_tolerance(RomState *s, double tolerance, char *message, size_t message_size) {

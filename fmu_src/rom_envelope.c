@@ -3,7 +3,7 @@
  * trained on, stored in three tagged sections, and the run-time check of the
  * state and the input against it widened by a margin.
  *
- *   ENVELOPE [1][ROM_ENVELOPE_SCALARS]: force amplitude max|f| [m s^-2], force band [Hz],
+ *   ENVELOPE [1][ROM_ENVELOPE_COLUMNS]: force amplitude max|f| [m s^-2], force band [Hz],
  *            max strain |rho0/rho - 1| (particles), max probe strain, failure strain,
  *            margin (>= 1), checks (bit mask ROM_ENVELOPE_CHECK_*), force mean [m s^-2]
  *   ENVRANGE [2][k_v + k_rho]: min (row 0) and max (row 1) of each reduced coordinate
@@ -29,22 +29,22 @@
 
 #include <stdio.h>
 
-/* the scalars of ENVELOPE */
+/* the scalars of ENVELOPE: its named columns (rom_layout.h, from harness/fmu/layout.py) */
 enum {
-    ENV_FORCE_AMPLITUDE = 0,
-    ENV_FORCE_BAND = 1,
-    ENV_MAX_STRAIN = 2,
-    ENV_MAX_PROBE_STRAIN = 3,
-    ENV_FAILURE_STRAIN = 4,
-    ENV_MARGIN = 5,
-    ENV_CHECKS = 6,
-    ENV_FORCE_MEAN = 7
+    ENV_FORCE_AMPLITUDE = ROM_ENVELOPE_FORCE_AMPLITUDE,
+    ENV_FORCE_BAND = ROM_ENVELOPE_FORCE_BAND,
+    ENV_MAX_STRAIN = ROM_ENVELOPE_MAX_STRAIN,
+    ENV_MAX_PROBE_STRAIN = ROM_ENVELOPE_MAX_PROBE_STRAIN,
+    ENV_FAILURE_STRAIN = ROM_ENVELOPE_FAILURE_STRAIN,
+    ENV_MARGIN = ROM_ENVELOPE_MARGIN,
+    ENV_CHECKS = ROM_ENVELOPE_CHECKS,
+    ENV_FORCE_MEAN = ROM_ENVELOPE_FORCE_MEAN
 };
 
 RomStatus rom_envelope_check_scalars(const RomModel *m, const RomSection *s, char *message, size_t message_size) {
-    if (s->rows != 1 || s->cols != ROM_ENVELOPE_SCALARS) {
+    if (s->rows != 1 || s->cols != ROM_ENVELOPE_COLUMNS) {
         return rom_fail(message, message_size, "resources: section 'ENVELOPE' is %u x %u, expected 1 x %u", s->rows,
-                        s->cols, ROM_ENVELOPE_SCALARS);
+                        s->cols, ROM_ENVELOPE_COLUMNS);
     }
     const double *e = s->data;
     const double checks = e[ENV_CHECKS];
@@ -170,7 +170,8 @@ int rom_envelope_check(const RomState *state, char *message, size_t message_size
         const double *lo = range->data, *hi = range->data + k;
         const uint32_t blocks[3] = {0, m->k_v, k};
         const RomSection *ports = rom_section(m, "ENVPORT");        /* trailing port coordinates: skipped */
-        const uint32_t skip[2] = {ports ? (uint32_t)ports->data[0] : 0u, ports ? (uint32_t)ports->data[1] : 0u};
+        const uint32_t skip[2] = {ports ? (uint32_t)ports->data[ROM_ENVPORT_PORT_V] : 0u,
+                                ports ? (uint32_t)ports->data[ROM_ENVPORT_PORT_RHO] : 0u};
         for (int b = 0; b < 2; b++) {
             const uint32_t last = blocks[b + 1] - skip[b];
             const double widen = (margin - 1.0) * block_half(lo, hi, blocks[b], last);

@@ -9,62 +9,10 @@
  * (rom_exact_kind, at the end).
  */
 #include "rom_exact.h"
+#include "rom_numerics.h"
 
 #include <stdio.h>
 #include <stdlib.h>
-
-#define ROM_TAYLOR_DEGREE 16            /* ||X||_1 <= 1/2: remainder < 0.5^17/17! ~ 2e-20 */
-#define ROM_TAYLOR_NORM 0.5
-#define ROM_MAX_SQUARINGS 1100
-
-static double norm1(size_t n, const double *M) {
-    double best = 0.0;
-    for (size_t j = 0; j < n; j++) {
-        double sum = 0.0;
-        for (size_t i = 0; i < n; i++) sum += fabs(M[i * n + j]);
-        if (!(sum <= best)) best = sum;          /* NaN propagates */
-    }
-    return best;
-}
-
-static void matmul(size_t n, const double *restrict A, const double *restrict B, double *restrict C) {
-    for (size_t i = 0; i < n * n; i++) C[i] = 0.0;
-    for (size_t i = 0; i < n; i++) {
-        for (size_t l = 0; l < n; l++) {
-            const double a = A[i * n + l];
-            if (a == 0.0) continue;
-            const double *restrict row = B + l * n;
-            double *restrict out = C + i * n;
-            for (size_t j = 0; j < n; j++) out[j] += a * row[j];
-        }
-    }
-}
-
-/* E = e^M (n x n, row-major) by scaling and squaring with a Taylor polynomial
- * (Horner form) on M / 2^s, ||M / 2^s||_1 <= 1/2.  X, T: n x n scratch.
- * Returns 0 when M or the result is not finite. */
-int rom_expm_taylor(size_t n, const double *M, double *E, double *X, double *T) {
-    const double nrm = norm1(n, M);
-    if (!isfinite(nrm)) return 0;
-    int squarings = 0;
-    if (nrm > ROM_TAYLOR_NORM) squarings = (int)ceil(log2(nrm / ROM_TAYLOR_NORM));
-    if (squarings > ROM_MAX_SQUARINGS) return 0;
-    const double scale = ldexp(1.0, -squarings);
-    for (size_t i = 0; i < n * n; i++) X[i] = M[i] * scale;
-    for (size_t i = 0; i < n * n; i++) E[i] = 0.0;
-    for (size_t i = 0; i < n; i++) E[i * n + i] = 1.0;
-    for (int j = ROM_TAYLOR_DEGREE; j >= 1; j--) {      /* E = I + X E / j */
-        matmul(n, X, E, T);
-        const double inv = 1.0 / (double)j;
-        for (size_t i = 0; i < n * n; i++) E[i] = T[i] * inv;
-        for (size_t i = 0; i < n; i++) E[i * n + i] += 1.0;
-    }
-    for (int q = 0; q < squarings; q++) {
-        matmul(n, E, E, T);
-        memcpy(E, T, n * n * sizeof(double));
-    }
-    return rom_all_finite(E, n * n);
-}
 
 /* inputs of the model: f (when B is present), then the port forces */
 static size_t exact_inputs(const RomModel *m) {
@@ -203,14 +151,6 @@ static RomStatus exact_step_over(RomState *s, double t_comm, double h, char *mes
     return exact_step(s, t_comm, h, message, message_size);
 }
 
-static RomStatus exact_advance(RomState *s, int64_t n_steps, char *message, size_t message_size) {
-    if (!s || !s->body) return rom_fail(message, message_size, "no state");
-    for (int64_t j = 0; j < n_steps; j++) {
-        if (exact_step(s, s->time, s->dt, message, message_size) != ROM_OK) return ROM_FAIL;
-    }
-    return ROM_OK;
-}
-
 /* ------------------------------------------------------------------------ */
 /* outputs and their rates                                                   */
 /* ------------------------------------------------------------------------ */
@@ -319,36 +259,22 @@ static double exact_rho_rate(const RomState *s, uint32_t j) {
 /* resources: the header's rules, the body                                   */
 /* ------------------------------------------------------------------------ */
 
-static RomStatus exact_check_integrator(const RomHeader *h, char *message, size_t message_size) {
-    if (!h) return rom_fail(message, message_size, "resources: no header");
-    if (h->integrator != 0) {
-        return rom_fail(message, message_size, "resources: integrator %u given for the exact model (must be 0: it "
-                        "is advanced by the matrix exponential)", h->integrator);
-    }
-    return ROM_OK;
-}
-
 /* with output rows over z the state need not split: k_e may be 0 (the balanced model's k_v = k) */
 static uint32_t exact_min_k_rho(const RomHeader *h) {
     return (h && (h->flags & ROM_FLAG_OUTPUT_ROWS)) ? 0u : 1u;
 }
 
-static RomStatus exact_check_pairs(const RomHeader *h, char *message, size_t message_size) {
-    if (!h) return rom_fail(message, message_size, "resources: no header");
-    if (h->n_pairs != 0) {
-        return rom_fail(message, message_size, "resources: n_pairs = %u, must be 0 for the exact model", h->n_pairs);
-    }
-    return ROM_OK;
-}
-
-/* z0, A, B, Q, S, Pv, Pe, pw, prho0, probe_x */
-static uint64_t exact_body_doubles(const RomHeader *h) {
-    if (!h) return 0;
+/* no header of its own: z0, A, B, Q, S, Pv, Pe, pw, prho0, probe_x follow the shared header */
+static RomStatus exact_read_head(const RomHeader *h, const unsigned char *head, uint64_t *doubles, char *message,
+                                 size_t message_size) {
+    (void)head;
+    if (!h || !doubles) return rom_fail(message, message_size, "resources: no header");
     const uint64_t kv = h->k_v, kr = h->k_rho, np = h->n_probes;
     const uint64_t k = kv + kr, schur = (h->flags & ROM_FLAG_SCHUR) ? k * k : 0;
     const int input = (h->flags & ROM_FLAG_INPUT) != 0;
     const int rows = (h->flags & ROM_FLAG_OUTPUT_ROWS) != 0;       /* Pv, Pe over z, or over a, b */
-    return k + k * k + (input ? k : 0) + 2 * schur + np * (rows ? k : kv) + np * 2 * (rows ? k : kr) + 4 * np + np;
+    *doubles = k + k * k + (input ? k : 0) + 2 * schur + np * (rows ? k : kv) + np * 2 * (rows ? k : kr) + 4 * np + np;
+    return ROM_OK;
 }
 
 /* The arrays as stored (row-major); the probe rows over z (rom.h's format, bit3) */
@@ -540,7 +466,7 @@ static int64_t exact_expm_count(const RomState *s) {
 static void exact_describe(const RomModel *m, char *out, size_t size) {
     snprintf(out, size, "k_v = %u, k_rho = %u, %u probes; the %s model (linear, %u states, advanced by the "
              "matrix exponential%s)", m->k_v, m->k_rho, m->n_probes, exact_linear_name(m), m->k_v + m->k_rho,
-             rom_model_section(m, "BOUNDS") ? "; certified error bounds force_error_bound, initial_state_error_bound"
+             rom_section(m, "BOUNDS") ? "; certified error bounds force_error_bound, initial_state_error_bound"
                                             : "");
 }
 
@@ -553,10 +479,9 @@ const RomKindOps *rom_exact_kind(void) {
         .k_rho_name = "k_e",
         .length_subject = "the exact model with ",
         .flags = ROM_FLAG_DAMPING | ROM_FLAG_INPUT | ROM_FLAG_SCHUR | ROM_FLAG_OUTPUT_ROWS,
-        .check_integrator = exact_check_integrator,
         .min_k_rho = exact_min_k_rho,
-        .check_pairs = exact_check_pairs,
-        .body_doubles = exact_body_doubles,
+        .head_size = 0,
+        .read_head = exact_read_head,
         .load = exact_load,
         .model_free = exact_model_free,
         .sections = EXACT_SECTIONS,
@@ -568,8 +493,14 @@ const RomKindOps *rom_exact_kind(void) {
         .initial_state = exact_initial_state,
         .reset = exact_reset,
         .step = exact_step_over,
-        .advance = exact_advance,
+        .advance = NULL,                 /* no internal step: exact over any communication step */
         .step_exceeds = NULL,
+        .step_work = NULL,
+        .dt_floor = NULL,
+        .set_dt = NULL,
+        .set_n_freeze = NULL,
+        .dt = NULL,
+        .n_freeze = NULL,
         .v_probe = exact_v_probe,
         .rho_probe = exact_rho_probe,
         .check_probe = exact_check_probe,
@@ -579,6 +510,7 @@ const RomKindOps *rom_exact_kind(void) {
         .envelope = 0,
         .assemble = exact_assemble,
         .state_doubles = exact_state_doubles,
+        .state_check = NULL,
         .state_put = exact_state_put,
         .state_get = exact_state_get,
         .expm_count = exact_expm_count,

@@ -50,9 +50,9 @@ typedef double v4d __attribute__((vector_size(32)));
 #endif
 
 /* M from the tensor in pair order: each entry 0.0 + s_0 T_0 + s_1 T_1 + ..., 32 entries in registers at a time */
-ROM_INLINE void refresh_tensor(const RomModel *m, const RomFrozenModel *fm, const double *restrict S,
+ROM_INLINE void refresh_tensor(const RomFrozenModel *fm, const double *restrict S,
                                double *restrict Mt) {
-    const size_t np = m->n_pairs, nm = fm->nm;
+    const size_t np = fm->n_pairs, nm = fm->nm;
     for (size_t i = 0; i < nm; i += 32) {
         double acc[32];
         for (int j = 0; j < 32; j++) acc[j] = 0.0;
@@ -72,7 +72,7 @@ ROM_INLINE void refresh_tensor(const RomModel *m, const RomFrozenModel *fm, cons
  * (k_rho^3 k_v / 6 values) is about a third of Tt. */
 ROM_INLINE void refresh_symmetric(const RomModel *m, const RomFrozenModel *fm, const double *restrict S,
                                   double *restrict Ms, double *restrict Mt) {
-    const size_t np = m->n_pairs, kr = m->k_rho, kv = m->k_v, krp = m->kr_pad, kvq = fm->kv_quad;
+    const size_t np = fm->n_pairs, kr = m->k_rho, kv = m->k_v, krp = m->kr_pad, kvq = fm->kv_quad;
     const double *restrict W = fm->W;
     for (size_t i = 0; i < kr * kvq; i++) Ms[i] = 0.0;
     const uint32_t *restrict off = fm->sym_off;
@@ -136,7 +136,7 @@ ROM_INLINE void refresh_particles(const RomModel *m, const RomFrozenModel *fm, c
  * already hold its result (a component at rest). */
 ROM_INLINE void refresh(RomState *s, const RomFrozenModel *fm, RomFrozenState *fs, double f, double tau) {
     const RomModel *m = s->model;
-    const size_t kr = m->k_rho, np = m->n_pairs, n_ports = m->n_ports;
+    const size_t kr = m->k_rho, np = fm->n_pairs, n_ports = m->n_ports;
     const double *restrict ar = s->ar;
     double *restrict last = fs->last_in;
     double u[ROM_MAX_PORTS];
@@ -164,7 +164,7 @@ ROM_INLINE void refresh(RomState *s, const RomFrozenModel *fm, RomFrozenState *f
             for (k = 0; k < np; k++) S[k] *= fm->pair_scale[k];          /* exact: w_ab is 1 or 2 */
             refresh_symmetric(m, fm, S, fs->Ms, fs->Mt);
         } else {
-            refresh_tensor(m, fm, S, fs->Mt);
+            refresh_tensor(fm, S, fs->Mt);
         }
     }
     double *restrict F = fs->F;
@@ -274,9 +274,9 @@ static int64_t run_steps_kernel(RomState *s, int64_t count, double h, double tau
     const RomModel *m = s->model;
     const RomFrozenModel *fm = (const RomFrozenModel *)m->body;
     RomFrozenState *fs = (RomFrozenState *)s->body;
-    const int64_t nf = s->n_freeze;
+    const int64_t nf = fs->n_freeze;
     int64_t phase = s->n % nf;
-    const int symplectic = m->integrator == ROM_INTEGRATOR_SYMPLECTIC;
+    const int symplectic = fm->integrator == ROM_INTEGRATOR_SYMPLECTIC;
     double *restrict av = s->av;
     double *restrict ar = s->ar;
     double *restrict dv = fs->dv;
@@ -312,23 +312,27 @@ static RomStatus run_steps(RomState *s, int64_t count, double h, double t0, doub
 
 /* dt exceeds the communication step h (beyond ROM_STEP_ROUNDING): frozen_step takes one step of length h */
 static int frozen_step_exceeds(const RomState *s, double h) {
-    if (!s) return 0;
-    const double ratio = h / s->dt;
+    if (!s || !s->body) return 0;
+    const double ratio = h / ((const RomFrozenState *)s->body)->dt;
     return ratio < 1.0 && !(fabs(ratio - 1.0) <= ROM_STEP_ROUNDING);
 }
 
+static double frozen_step_work(const RomState *s);
+
 static RomStatus frozen_step(RomState *s, double t_comm, double h, char *message, size_t message_size) {
     if (!s || !s->body) return rom_fail(message, message_size, "no state");
-    const double dt = s->dt;
+    const RomFrozenState *fs = (const RomFrozenState *)s->body;
+    const double dt = fs->dt;
     const double ratio = h / dt;
     /* the work of one doStep is bounded (rom.h): at most rom_max_steps_per_call internal steps */
-    const double cap = rom_max_steps_per_call(s);
+    const double work = frozen_step_work(s) + ROM_STEP_OVERHEAD;          /* rom.c rom_step_work */
+    const double cap = rom_steps_per_call(work);
     if (!(ratio <= cap) || s->n > INT64_MAX - (int64_t)ratio - 2) {
         return rom_fail(message, message_size, "communicationStepSize = %g s at t = %.9g s is %.3g internal steps "
                         "of dt = %g s, above the cap of %.0f per doStep (the work bound %g multiply-adds over %.0f per "
                         "step at k_v = %u, k_rho = %u, n_freeze = %d, %u ports; allowed: h <= %g s)", h, t_comm,
-                        ratio, dt, cap, ROM_MAX_WORK_PER_CALL, rom_step_work(s), s->model->k_v, s->model->k_rho,
-                        (int)s->n_freeze, s->model->n_ports, cap * dt);
+                        ratio, dt, cap, ROM_MAX_WORK_PER_CALL, work, s->model->k_v, s->model->k_rho,
+                        (int)fs->n_freeze, s->model->n_ports, cap * dt);
     }
     /* whole steps of dt, then one shortened step to reach t_comm + h exactly */
     const double nearest = floor(ratio + 0.5);
@@ -354,22 +358,23 @@ static RomStatus frozen_step(RomState *s, double t_comm, double h, char *message
  * and 1/n_freeze of a refresh (the pair products and M from the tensor, or M from the particles; the force
  * term and the ports') */
 static double frozen_step_work(const RomState *s) {
-    if (!s || !s->model->body) return 0.0;
+    if (!s || !s->model->body || !s->body) return 0.0;
+    const int32_t n_freeze = ((const RomFrozenState *)s->body)->n_freeze;
     const RomModel *m = s->model;
     const double kv = m->k_v, kr = m->k_rho, kvp = m->kv_pad, krp = m->kr_pad;
     const double step = krp * kv + kvp * (kr + ((m->flags & ROM_FLAG_DAMPING) ? kv : 0.0)) + kvp + krp + kv + kr;
     const RomFrozenModel *fm = (const RomFrozenModel *)m->body;
     const double matrix = fm->particles ? (double)fm->n_particles * (kr + krp + kv * krp) + fm->nm
-                                        : (double)m->n_pairs * (1.0 + fm->nm);
+                                        : (double)fm->n_pairs * (1.0 + fm->nm);
     const double refresh = matrix + kvp + (double)m->n_ports * kv;
-    return step + refresh / (double)(s->n_freeze > 0 ? s->n_freeze : 1);
+    return step + refresh / (double)(n_freeze > 0 ? n_freeze : 1);
 }
 
 static RomStatus frozen_advance(RomState *s, int64_t n_steps, char *message, size_t message_size) {
     if (!s || !s->body) return rom_fail(message, message_size, "no state");
-    const double t0 = s->time;
-    const RomStatus status = run_steps(s, n_steps, s->dt, t0, 0.0, message, message_size);
-    s->time = t0 + (double)n_steps * s->dt;
+    const double t0 = s->time, dt = ((const RomFrozenState *)s->body)->dt;
+    const RomStatus status = run_steps(s, n_steps, dt, t0, 0.0, message, message_size);
+    s->time = t0 + (double)n_steps * dt;
     return status;
 }
 
@@ -402,38 +407,46 @@ static double frozen_rho_probe(const RomState *s, uint32_t j) {
 /* resources: the header's rules, the body                                   */
 /* ------------------------------------------------------------------------ */
 
-static RomStatus frozen_check_integrator(const RomHeader *h, char *message, size_t message_size) {
-    if (!h) return rom_fail(message, message_size, "resources: no header");
-    if (h->integrator != ROM_INTEGRATOR_EULER && h->integrator != ROM_INTEGRATOR_SYMPLECTIC) {
+/* the kind's own header (rom_layout.h ROM_FROZEN_HEAD_*): integrator, n_pairs, n_freeze_default, reserved, dt */
+static RomStatus frozen_read_head(const RomHeader *h, const unsigned char *head, uint64_t *doubles, char *message,
+                                  size_t message_size) {
+    if (!h || !head || !doubles) return rom_fail(message, message_size, "resources: no header");
+    const uint32_t integrator = rom_get_u32(head + ROM_FROZEN_HEAD_INTEGRATOR);
+    const uint32_t n_pairs = rom_get_u32(head + ROM_FROZEN_HEAD_N_PAIRS);
+    const uint32_t n_freeze = rom_get_u32(head + ROM_FROZEN_HEAD_N_FREEZE_DEFAULT);
+    const uint32_t reserved = rom_get_u32(head + ROM_FROZEN_HEAD_RESERVED);
+    const double dt = rom_get_f64(head + ROM_FROZEN_HEAD_DT);
+    if (integrator != ROM_INTEGRATOR_EULER && integrator != ROM_INTEGRATOR_SYMPLECTIC) {
         return rom_fail(message, message_size, "resources: integrator %u is not one of 0 (euler), 1 (symplectic)",
-                        h->integrator);
+                        integrator);
     }
+    const uint64_t kv = h->k_v, kr = h->k_rho, np = h->n_probes;
+    /* 0: no refresh tensor; then the particle refresh's sections must be there (frozen_sections_ready) */
+    if (n_pairs != 0 && (uint64_t)n_pairs != kr * (kr + 1) / 2) {
+        return rom_fail(message, message_size, "resources: n_pairs = %u, expected k_rho (k_rho + 1)/2 = %u (or 0 "
+                        "with the particle refresh's sections)", n_pairs, h->k_rho * (h->k_rho + 1) / 2);
+    }
+    if (n_freeze < 1 || n_freeze > INT32_MAX || reserved != 0) {
+        return rom_fail(message, message_size, "resources: n_freeze_default = %u (must be >= 1) or reserved = %u "
+                        "(must be 0)", n_freeze, reserved);
+    }
+    if (!(isfinite(dt) && dt > 0)) {
+        return rom_fail(message, message_size, "resources: dt = %g (must be finite and > 0)", dt);
+    }
+    if (dt < ROM_DT_MIN) {                                 /* internal steps of dt: the work of a doStep (rom.h) */
+        return rom_fail(message, message_size, "resources: dt = %g s is below the smallest internal step %g s "
+                        "(ROM_DT_MIN; allowed: dt >= %g s)", dt, ROM_DT_MIN, ROM_DT_MIN);
+    }
+    /* a_v0, a_rho0, K, b, D, p, T, Pv, Prho, probe_x */
+    const int damping = (h->flags & ROM_FLAG_DAMPING) != 0, input = (h->flags & ROM_FLAG_INPUT) != 0;
+    *doubles = kv + kr + kv * kr + kv + (damping ? kv * kv : 0) + (input ? kv : 0) + (uint64_t)n_pairs * kr * kv +
+               np * kv + np * kr + np;
     return ROM_OK;
 }
 
 static uint32_t frozen_min_k_rho(const RomHeader *h) {
     (void)h;
     return 1u;
-}
-
-static RomStatus frozen_check_pairs(const RomHeader *h, char *message, size_t message_size) {
-    if (!h) return rom_fail(message, message_size, "resources: no header");
-    const uint64_t kr = h->k_rho;
-    /* 0: no refresh tensor; then the particle refresh's sections must be there (frozen_sections_ready) */
-    if (h->n_pairs != 0 && (uint64_t)h->n_pairs != kr * (kr + 1) / 2) {
-        return rom_fail(message, message_size, "resources: n_pairs = %u, expected k_rho (k_rho + 1)/2 = %u (or 0 "
-                        "with the particle refresh's sections)", h->n_pairs, h->k_rho * (h->k_rho + 1) / 2);
-    }
-    return ROM_OK;
-}
-
-/* a_v0, a_rho0, K, b, D, p, T, Pv, Prho, probe_x */
-static uint64_t frozen_body_doubles(const RomHeader *h) {
-    if (!h) return 0;
-    const uint64_t kv = h->k_v, kr = h->k_rho, np = h->n_probes;
-    const int damping = (h->flags & ROM_FLAG_DAMPING) != 0, input = (h->flags & ROM_FLAG_INPUT) != 0;
-    return kv + kr + kv * kr + kv + (damping ? kv * kv : 0) + (input ? kv : 0) + h->n_pairs * kr * kv + np * kv +
-           np * kr + np;
 }
 
 /* Whether the tensor T[k][p][q] at t (the resources' bytes, n_pairs x k_rho x k_v) is symmetric in (a, b, p) bit
@@ -469,7 +482,7 @@ static int tensor_symmetric(const unsigned char *t, size_t kr, size_t kv) {
 static RomStatus symmetric_load(RomModel *m, RomFrozenModel *fm, const unsigned char *t, char *message,
                                 size_t message_size) {
     if (!m || !fm || !t || !fm->W || !fm->pair_scale) return rom_fail(message, message_size, "resources: no tensor");
-    const size_t kr = m->k_rho, kv = m->k_v, np = m->n_pairs, kvq = fm->kv_quad;
+    const size_t kr = m->k_rho, kv = m->k_v, np = fm->n_pairs, kvq = fm->kv_quad;
     const size_t n_tri = kr * (kr + 1) * (kr + 2) / 6;
     uint32_t *tri = (uint32_t *)calloc(kr * kr * kr, sizeof(uint32_t));
     fm->sym_off = (uint32_t *)calloc(np * kr, sizeof(uint32_t));
@@ -515,7 +528,7 @@ static double refresh_seconds(const RomModel *m, const RomFrozenModel *fm, int s
         if (symmetric) {
             refresh_symmetric(m, fm, S, Ms, Mt);
         } else {
-            refresh_tensor(m, fm, S, Mt);
+            refresh_tensor(fm, S, Mt);
         }
     }
     return (double)(clock() - t0) / (double)CLOCKS_PER_SEC;
@@ -526,7 +539,7 @@ static double refresh_seconds(const RomModel *m, const RomFrozenModel *fm, int s
  * (the smaller of its two times) is kept.  Without memory for the scratch the tensor path stays. */
 static void choose_refresh(const RomModel *m, RomFrozenModel *fm) {
     if (!m || !fm || !fm->W) return;
-    const size_t np = m->n_pairs, kr = m->k_rho;
+    const size_t np = fm->n_pairs, kr = m->k_rho;
     double *S = NULL, *Ms = NULL, *Mt = NULL;           /* aligned as the state's (rom_alloc_arrays) */
     const size_t counts[3] = {np, kr * fm->kv_quad, fm->nm};
     double **ptrs[3] = {&S, &Ms, &Mt};
@@ -560,7 +573,12 @@ static RomStatus frozen_load(RomModel *m, const unsigned char *cursor, uint64_t 
         return rom_fail(message, message_size, "resources: out of memory (%llu values)", (unsigned long long)doubles);
     }
     m->body = fm;
-    const size_t kv = m->k_v, kr = m->k_rho, np = m->n_probes, npairs = m->n_pairs;
+    fm->integrator = rom_get_u32(cursor + ROM_FROZEN_HEAD_INTEGRATOR);        /* checked by frozen_read_head */
+    fm->n_pairs = rom_get_u32(cursor + ROM_FROZEN_HEAD_N_PAIRS);
+    fm->n_freeze_default = rom_get_u32(cursor + ROM_FROZEN_HEAD_N_FREEZE_DEFAULT);
+    fm->dt = rom_get_f64(cursor + ROM_FROZEN_HEAD_DT);
+    cursor += ROM_FROZEN_HEAD_SIZE;
+    const size_t kv = m->k_v, kr = m->k_rho, np = m->n_probes, npairs = fm->n_pairs;
     fm->nm = (uint32_t)rom_round_up(kv * m->kr_pad, 32);
     fm->kv_quad = (uint32_t)rom_round_up(kv, 4);
     const size_t kvp = m->kv_pad, krp = m->kr_pad;
@@ -639,10 +657,10 @@ RomStatus rom_frozen_set_refresh(RomModel *model, int path, int skip, char *mess
         return rom_fail(message, message_size, "the refresh: not a frozen-coefficient model");
     }
     RomFrozenModel *fm = (RomFrozenModel *)model->body;
-    if (path < -1 || path > 2 || (path == 1 && !fm->W) || (path == 2 && !fm->Ur) || (path == 0 && !model->n_pairs) ||
+    if (path < -1 || path > 2 || (path == 1 && !fm->W) || (path == 2 && !fm->Ur) || (path == 0 && !fm->n_pairs) ||
         skip < -1 || skip > 1) {
         return rom_fail(message, message_size, "the refresh: path %d, skip %d (allowed: path -1, %s%s%s; skip -1, 0, "
-                        "1)", path, skip, model->n_pairs ? "0" : "(no tensor)", fm->W ? ", 1" : " (the tensor has no "
+                        "1)", path, skip, fm->n_pairs ? "0" : "(no tensor)", fm->W ? ", 1" : " (the tensor has no "
                         "symmetry)", fm->Ur ? ", 2" : " (no particle sections)");
     }
     if (path >= 0) {
@@ -660,7 +678,7 @@ static RomStatus frozen_sections_ready(RomModel *m, char *message, size_t messag
     RomFrozenModel *fm = (RomFrozenModel *)m->body;
     const RomSection *ur = rom_section(m, "PARTUR"), *guv = rom_section(m, "PARTGUV"), *ir = rom_section(m, "PARTIR0");
     const int found = (ur != NULL) + (guv != NULL) + (ir != NULL);
-    if (found == 0 && m->n_pairs == 0) {
+    if (found == 0 && fm->n_pairs == 0) {
         return rom_fail(message, message_size, "resources: a frozen model without its refresh tensor (n_pairs = 0) "
                         "needs the particle refresh's sections PARTUR, PARTGUV, PARTIR0");
     }
@@ -751,7 +769,8 @@ static RomStatus frozen_state_new(RomState *s) {
     RomFrozenState *fs = (RomFrozenState *)calloc(1, sizeof(RomFrozenState));
     if (!fs) return ROM_FAIL;
     s->body = fs;
-    const size_t counts[7] = {((const RomFrozenModel *)m->body)->nm, m->kv_pad, m->kv_pad, m->kr_pad, m->n_pairs,
+    const size_t counts[7] = {((const RomFrozenModel *)m->body)->nm, m->kv_pad, m->kv_pad, m->kr_pad,
+                              ((const RomFrozenModel *)m->body)->n_pairs,
                               (size_t)m->k_rho + 1 + ROM_MAX_PORTS,
                               ((const RomFrozenModel *)m->body)->W ? (size_t)m->k_rho * ((const RomFrozenModel *)
                                                                                         m->body)->kv_quad : 0};
@@ -777,27 +796,69 @@ static void frozen_initial_state(RomState *s) {
     memcpy(s->ar, fm->a_rho0, s->model->k_rho * sizeof(double));
 }
 
-/* M^T and F are refreshed at the first step */
+/* the parameters dt and n_freeze at the model's values; M^T and F are refreshed at the first step */
 static void frozen_reset(RomState *s) {
-    if (!s || !s->body) return;
+    if (!s || !s->body || !s->model->body) return;
     RomFrozenState *fs = (RomFrozenState *)s->body;
+    const RomFrozenModel *fm = (const RomFrozenModel *)s->model->body;
+    fs->dt = fm->dt;
+    fs->n_freeze = (int32_t)fm->n_freeze_default;
     fs->refreshed = 0;
     memset(fs->Mt, 0, (size_t)((const RomFrozenModel *)s->model->body)->nm * sizeof(double));
     memset(fs->F, 0, s->model->kv_pad * sizeof(double));
 }
 
 /* ------------------------------------------------------------------------ */
-/* the serialized state: M^T (k_v rows of k_rho), F[k_v]                     */
+/* the parameters of the internal step: dt, n_freeze                         */
+/* ------------------------------------------------------------------------ */
+
+/* The smallest internal step the state accepts: the model's dt x ROM_DT_FLOOR_RATIO, never below ROM_DT_MIN
+ * (the work of a doStep grows as 1/dt, rom.h) */
+static double frozen_dt_floor(const RomModel *m) {
+    if (!m || !m->body) return ROM_DT_MIN;
+    return fmax(ROM_DT_MIN, ((const RomFrozenModel *)m->body)->dt * ROM_DT_FLOOR_RATIO);
+}
+
+static RomStatus frozen_set_dt(RomState *s, double dt, char *message, size_t message_size) {
+    if (!s || !s->body) return rom_fail(message, message_size, "no state");
+    const double floor_dt = frozen_dt_floor(s->model);
+    if (dt < floor_dt) {
+        return rom_fail(message, message_size, "parameter dt = %g s is below its floor %g s (allowed: dt >= %g s, "
+                        "the model's dt %g s x %g)", dt, floor_dt, floor_dt,
+                        ((const RomFrozenModel *)s->model->body)->dt, ROM_DT_FLOOR_RATIO);
+    }
+    ((RomFrozenState *)s->body)->dt = dt;
+    return ROM_OK;
+}
+
+static RomStatus frozen_set_n_freeze(RomState *s, int32_t n_freeze, char *message, size_t message_size) {
+    if (!s || !s->body) return rom_fail(message, message_size, "no state");
+    ((RomFrozenState *)s->body)->n_freeze = n_freeze;
+    return ROM_OK;
+}
+
+static double frozen_dt(const RomState *s) {
+    return s && s->body ? ((const RomFrozenState *)s->body)->dt : NAN;
+}
+
+static int32_t frozen_n_freeze(const RomState *s) {
+    return s && s->body ? ((const RomFrozenState *)s->body)->n_freeze : 0;
+}
+
+/* ------------------------------------------------------------------------ */
+/* the serialized state: n_freeze, dt, M^T (k_v rows of k_rho), F[k_v]       */
 /* ------------------------------------------------------------------------ */
 
 static size_t frozen_state_doubles(const RomModel *m) {
-    return m ? (size_t)m->k_rho * m->k_v + m->k_v : 0;
+    return m ? 2 + (size_t)m->k_rho * m->k_v + m->k_v : 0;
 }
 
 static unsigned char *frozen_state_put(const RomState *s, unsigned char *cursor) {
     if (!s || !s->body || !cursor) return cursor;
     const RomFrozenState *fs = (const RomFrozenState *)s->body;
     const size_t kv = s->model->k_v, kr = s->model->k_rho, krp = s->model->kr_pad;
+    const double parameters[2] = {(double)fs->n_freeze, fs->dt};
+    cursor = rom_put_f64s(cursor, parameters, 2);
     for (size_t r = 0; r < kv; r++) cursor = rom_put_f64s(cursor, fs->Mt + r * krp, kr);
     return rom_put_f64s(cursor, fs->F, kv);
 }
@@ -806,9 +867,31 @@ static const unsigned char *frozen_state_get(RomState *s, const unsigned char *c
     if (!s || !s->body || !cursor) return cursor;
     RomFrozenState *fs = (RomFrozenState *)s->body;
     const size_t kv = s->model->k_v, kr = s->model->k_rho, krp = s->model->kr_pad;
+    double parameters[2];
+    cursor = rom_get_f64s(cursor, parameters, 2);      /* checked by frozen_state_check */
+    fs->n_freeze = (int32_t)parameters[0];
+    fs->dt = parameters[1];
     fs->refreshed = 0;                                 /* M and F are the state's, not a refresh of last_in */
     for (size_t r = 0; r < kv; r++) cursor = rom_get_f64s(cursor, fs->Mt + r * krp, kr);
     return rom_get_f64s(cursor, fs->F, kv);
+}
+
+/* n_freeze a whole number in [1, INT32_MAX], dt finite and at least its floor */
+static RomStatus frozen_state_check(const RomModel *m, const unsigned char *cursor, char *message,
+                                    size_t message_size) {
+    if (!m || !m->body || !cursor) return rom_fail(message, message_size, "serialized state: no data");
+    const double n_freeze = rom_get_f64(cursor), dt = rom_get_f64(cursor + 8);
+    if (!(n_freeze >= 1.0 && n_freeze <= (double)INT32_MAX && n_freeze == floor(n_freeze))) {
+        return rom_fail(message, message_size, "serialized state: parameter n_freeze = %g is out of range (allowed: "
+                        "an integer >= 1)", n_freeze);
+    }
+    const double floor_dt = frozen_dt_floor(m);
+    if (!(isfinite(dt) && dt >= floor_dt)) {          /* the work of a doStep grows as 1/dt (rom.h) */
+        return rom_fail(message, message_size, "serialized state: dt = %g s is below its floor %g s or not finite "
+                        "(allowed: dt >= %g s, the model's dt %g s x %g)", dt, floor_dt, floor_dt,
+                        ((const RomFrozenModel *)m->body)->dt, ROM_DT_FLOOR_RATIO);
+    }
+    return ROM_OK;
 }
 
 /* ------------------------------------------------------------------------ */
@@ -816,9 +899,11 @@ static const unsigned char *frozen_state_get(RomState *s, const unsigned char *c
 /* ------------------------------------------------------------------------ */
 
 static void frozen_describe(const RomModel *m, char *out, size_t size) {
+    if (!m || !m->body || !out) return;
+    const RomFrozenModel *fm = (const RomFrozenModel *)m->body;
     snprintf(out, size, "k_v = %u, k_rho = %u, %u probes, dt = %g s, n_freeze = %u, %s", m->k_v, m->k_rho,
-             m->n_probes, m->dt, m->n_freeze_default,
-             m->integrator == ROM_INTEGRATOR_SYMPLECTIC ? "symplectic" : "euler");
+             m->n_probes, fm->dt, fm->n_freeze_default,
+             fm->integrator == ROM_INTEGRATOR_SYMPLECTIC ? "symplectic" : "euler");
 }
 
 const RomKindOps *rom_frozen_kind(void) {
@@ -830,10 +915,9 @@ const RomKindOps *rom_frozen_kind(void) {
         .k_rho_name = "k_rho",
         .length_subject = "",
         .flags = ROM_FLAG_DAMPING | ROM_FLAG_INPUT,
-        .check_integrator = frozen_check_integrator,
         .min_k_rho = frozen_min_k_rho,
-        .check_pairs = frozen_check_pairs,
-        .body_doubles = frozen_body_doubles,
+        .head_size = ROM_FROZEN_HEAD_SIZE,
+        .read_head = frozen_read_head,
         .load = frozen_load,
         .model_free = frozen_model_free,
         .sections_ready = frozen_sections_ready,
@@ -849,6 +933,11 @@ const RomKindOps *rom_frozen_kind(void) {
         .advance = frozen_advance,
         .step_exceeds = frozen_step_exceeds,
         .step_work = frozen_step_work,
+        .dt_floor = frozen_dt_floor,
+        .set_dt = frozen_set_dt,
+        .set_n_freeze = frozen_set_n_freeze,
+        .dt = frozen_dt,
+        .n_freeze = frozen_n_freeze,
         .v_probe = frozen_v_probe,
         .rho_probe = frozen_rho_probe,
         .check_probe = NULL,
@@ -859,6 +948,7 @@ const RomKindOps *rom_frozen_kind(void) {
         .envelope = 1,
         .assemble = frozen_assemble,
         .state_doubles = frozen_state_doubles,
+        .state_check = frozen_state_check,
         .state_put = frozen_state_put,
         .state_get = frozen_state_get,
         .expm_count = NULL,

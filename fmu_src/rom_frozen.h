@@ -15,6 +15,11 @@
 #include "rom_internal.h"
 
 typedef struct {
+    /* the kind's own header (rom_layout.h ROM_FROZEN_HEAD_*) */
+    uint32_t integrator;       /* ROM_INTEGRATOR_EULER or ROM_INTEGRATOR_SYMPLECTIC */
+    uint32_t n_pairs;          /* k_rho (k_rho + 1)/2, or 0 without the tensor (the particle refresh) */
+    uint32_t n_freeze_default; /* the parameter n_freeze's start value */
+    double dt;                 /* the internal step of the scene [s], the parameter dt's start value */
     uint32_t nm;               /* length of a padded M^T block: k_v kr_pad rounded up to 32 */
     double *a_v0, *a_rho0;     /* initial reduced coordinates [k_v], [k_rho] */
     double *Kt;                /* K^T: Kt[q*kv_pad + p] = K[p][q] (eq. 2.21 projected) */
@@ -44,6 +49,8 @@ typedef struct {
 } RomFrozenModel;
 
 typedef struct {
+    double dt;                 /* internal step [s] (parameter) */
+    int32_t n_freeze;          /* refresh period (parameter) */
     double *Mt;                /* M(a^rho)^T: Mt[q*kr_pad + p] = M[p][q], [nm] */
     double *F;                 /* the force term p f (and the ports') [kv_pad] */
     double *dv, *dr;           /* scratch: rates [kv_pad], [kr_pad] */

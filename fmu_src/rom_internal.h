@@ -7,20 +7,22 @@
  * RomModel.body and RomState.body), how it is loaded, laid out, reset, stepped,
  * observed, checked, assembled and serialized.  The common code never asks
  * which kind a model is: it calls the model's table.  The one place that maps
- * model_kind to a table is rom_resources.c (kind_ops); adding a kind is one
- * table in a file of its own and one entry in that list.
+ * model_kind to a table is rom_resources.c (kind_ops) over rom_layout.h's
+ * ROM_KIND_TABLES, generated from harness/fmu/layout.py KINDS: adding a kind is
+ * one table in a file of its own (and a row there, a line of CMakeLists.txt).
  *
- * Who calls whom (calls through a table count; no circle: a kind file calls
- * only the helpers at the bottom, never rom.c, rom_resources.c or
- * rom_state_io.c):
+ * Who calls whom (calls through a table count; no circle, tests/test_fmu_sources.py proves it from the
+ * objects' symbols: a kind file calls only the files at the bottom, never rom.c, rom_resources.c,
+ * rom_state_io.c or rom_bound.c):
  *
- *   instance.c -> rom.c, rom_resources.c, rom_state_io.c, rom_envelope.c   (rom.h's API)
+ *   instance.c -> rom.c, rom_resources.c, rom_state_io.c, rom_envelope.c, rom_bound.c   (rom.h's API)
  *   rom.c ----------+
- *   rom_resources.c +-> the model's table: rom_frozen.c | rom_exact.c -+
+ *   rom_resources.c +-> the model's table: rom_frozen.c | rom_exact.c --+
  *   rom_state_io.c  |   (rom_resources.c also chooses it)               |
- *   rom_envelope.c -+                                                   v
- *   rom_resources.c -> rom_envelope.c (its sections' checks)     rom_bytes.c -> rom_fail.c
- *   rom.c, rom_resources.c, rom_state_io.c ---------------------------^
+ *   rom_bound.c ----+                                                   v
+ *   rom.c, rom_resources.c, rom_state_io.c -> rom_bound.c     rom_numerics.c, rom_bytes.c -> rom_fail.c
+ *   rom_resources.c -> rom_envelope.c (its sections' checks)
+ *   rom_bound.c -> rom_numerics.c (the matrix exponential), rom_bytes.c
  *   (and every file: rom_internal.h's inline helpers, rom_fail.c)
  *
  * Include this header first: the pragmas below keep the arithmetic free of
@@ -43,10 +45,10 @@
 #include <stdint.h>
 #include <string.h>
 
-/* The resource header after magic and version, in the order of rom.h's format */
+/* The shared resource header after magic and version (rom_layout.h ROM_HEADER_*) */
 typedef struct {
-    uint32_t kind, integrator, k_v, k_rho, n_probes, n_pairs, flags, n_freeze, reserved;
-    double dt, bound, L;
+    uint32_t kind, k_v, k_rho, n_probes, flags;
+    double bound, L;
 } RomHeader;
 
 /* The operations of one model kind.  Every pointer is set unless its comment says "NULL:"; the common code
@@ -60,12 +62,14 @@ struct RomKindOps {
     const char *k_rho_name;        /* the header's k_rho in messages: "k_rho", "k_e" */
     const char *length_subject;    /* what the length check names before k_v: "", "the exact model with " */
     uint32_t flags;                /* the flag bits the kind reads */
-    RomStatus (*check_integrator)(const RomHeader *h, char *message, size_t message_size);
     uint32_t (*min_k_rho)(const RomHeader *h);         /* the smallest k_rho the kind accepts */
-    RomStatus (*check_pairs)(const RomHeader *h, char *message, size_t message_size);
-    uint64_t (*body_doubles)(const RomHeader *h);      /* float64 values of the kind's body after the header */
-    /* read the kind's body (doubles values at body, the length checked) into m->body; sets m->probe_x and
-     * m->input_width; m's common fields are set */
+    size_t head_size;              /* bytes of the kind's own header at the start of its body (0: none) */
+    /* the kind's own header (head_size bytes at head, present) checked against the shared header h: *doubles
+     * receives the float64 values of its arrays after it */
+    RomStatus (*read_head)(const RomHeader *h, const unsigned char *head, uint64_t *doubles, char *message,
+                           size_t message_size);
+    /* read the kind's body (its header, then doubles values; the length checked) into m->body; sets m->probe_x
+     * and m->input_width; m's common fields are set */
     RomStatus (*load)(RomModel *m, const unsigned char *body, uint64_t doubles, char *message,
                       size_t message_size);
     /* once the tagged sections are read and checked: the kind's use of its own sections (NULL: none) */
@@ -89,9 +93,15 @@ struct RomKindOps {
     /* advance from t_comm over h > 0 (the internal steps of doStep; rom.c then sets the time, continues the
      * inputs and checks the outputs) */
     RomStatus (*step)(RomState *s, double t_comm, double h, char *message, size_t message_size);
+    /* ---- internal steps (NULL, every one: the kind has none, it advances over any step exactly) */
     RomStatus (*advance)(RomState *s, int64_t n_steps, char *message, size_t message_size);
-    int (*step_exceeds)(const RomState *s, double h);  /* NULL: one step of any length h */
-    double (*step_work)(const RomState *s);            /* multiply-adds of one internal step (NULL: none) */
+    int (*step_exceeds)(const RomState *s, double h);  /* dt exceeds the step h */
+    double (*step_work)(const RomState *s);            /* multiply-adds of one internal step */
+    double (*dt_floor)(const RomModel *m);             /* the smallest dt the state accepts [s] */
+    RomStatus (*set_dt)(RomState *s, double dt, char *message, size_t message_size);          /* checked: > 0 */
+    RomStatus (*set_n_freeze)(RomState *s, int32_t n_freeze, char *message, size_t message_size); /* >= 1 */
+    double (*dt)(const RomState *s);
+    int32_t (*n_freeze)(const RomState *s);
 
     /* ---- outputs and checks */
     double (*v_probe)(const RomState *s, uint32_t j);
@@ -106,8 +116,11 @@ struct RomKindOps {
     /* ---- parametric models: the operators at the state's c and d into the model (PARAMS present) */
     void (*assemble)(RomModel *m, RomState *s);
 
-    /* ---- the serialized state: the kind's block between a^v, a^rho and (t0, df/dt) (rom.h) */
+    /* ---- the serialized state: the kind's block between a^v, a^rho and (t0, df/dt) (rom_layout.h) */
     size_t (*state_doubles)(const RomModel *m);
+    /* the kind's rules on its block at cursor (state_doubles values) of a serialized state (NULL: none beyond
+     * the finite values every block has) */
+    RomStatus (*state_check)(const RomModel *m, const unsigned char *cursor, char *message, size_t message_size);
     unsigned char *(*state_put)(const RomState *s, unsigned char *cursor);            /* returns the end */
     const unsigned char *(*state_get)(RomState *s, const unsigned char *cursor);      /* returns the end */
 
@@ -118,9 +131,11 @@ struct RomKindOps {
     void (*describe)(const RomModel *m, char *out, size_t size);
 };
 
-/* the kinds (rom_frozen.c, rom_exact.c) */
-const RomKindOps *rom_frozen_kind(void);
-const RomKindOps *rom_exact_kind(void);
+/* the kinds (rom_frozen.c, rom_exact.c): one function per kind returns its table (rom_layout.h ROM_KIND_TABLES,
+ * generated from harness/fmu/layout.py KINDS, lists them) */
+#define ROM_DECLARE_KIND(table) const RomKindOps *table(void);
+ROM_KIND_TABLES(ROM_DECLARE_KIND)
+#undef ROM_DECLARE_KIND
 
 /* ---- helpers shared by every file (inline: no file depends on another for them) ---- */
 
@@ -156,6 +171,21 @@ static inline const RomSection *rom_section(const RomModel *m, const char *tag) 
     return NULL;
 }
 
+/* v_port_j = sum_q port_C[j][q] a^v_q from 0.0 in q order (rom.h rom_v_port; the error bounds' too) */
+static inline double rom_port_velocity(const RomState *s, uint32_t j) {
+    const size_t kv = s->model->k_v;
+    const double *row = s->model->port_C + (size_t)j * kv;
+    double v = 0.0;
+    for (size_t q = 0; q < kv; q++) v += row[q] * s->av[q];
+    return v;
+}
+
+/* The most internal steps one doStep takes when one step costs `work` multiply-adds, ROM_STEP_OVERHEAD included
+ * (rom.h rom_max_steps_per_call: ROM_MAX_WORK_PER_CALL over it; 0 for no work) */
+static inline double rom_steps_per_call(double work) {
+    return work > 0.0 ? floor(ROM_MAX_WORK_PER_CALL / work) : 0.0;
+}
+
 /* ---- rom_bytes.c: little-endian numbers, the check both blob formats share, arrays ---- */
 
 uint32_t rom_get_u32(const unsigned char *p);
@@ -178,9 +208,9 @@ typedef struct {
     const char *empty;         /* what the smallest valid blob is */
     const char *one;           /* one such blob, in messages */
     const char *damaged;       /* what is truncated or corrupt when a check fails */
-    uint32_t version;          /* the version written */
+    uint32_t version;          /* the version written and read */
     size_t min_size;           /* bytes needed before the header can be read */
-    uint32_t oldest;           /* the oldest version read */
+    const char *older;         /* why an older version is not read, in messages */
 } RomBlob;
 
 /* Size, magic and version: then the header can be read */
@@ -203,9 +233,6 @@ RomStatus rom_envelope_check_scalars(const RomModel *m, const RomSection *s, cha
 RomStatus rom_envelope_check_range(const RomModel *m, const RomSection *s, char *message, size_t message_size);
 RomStatus rom_envelope_check_probe(const RomModel *m, const RomSection *s, char *message, size_t message_size);
 RomStatus rom_envelope_check_ports(const RomModel *m, const RomSection *s, char *message, size_t message_size);
-
-/* ---- rom_exact.c: the matrix exponential E = e^M (n x n; X, T scratch n x n); 0 when not finite ---- */
-int rom_expm_taylor(size_t n, const double *M, double *E, double *X, double *T);
 
 /* ---- rom_bound.c: the certified error bounds (rom.h) ---- */
 RomStatus rom_bound_check_section(const RomModel *m, const RomSection *s, char *message, size_t message_size);

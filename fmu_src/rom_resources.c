@@ -16,7 +16,7 @@
 
 static const RomBlob RESOURCES = {"resources", ROM_RESOURCE_MAGIC, "an sphrom model.bin", "an empty model",
                                   "a model", "file ", ROM_FORMAT_VERSION, ROM_HEADER_SIZE + ROM_TOKEN_SIZE + 4,
-                                  ROM_FORMAT_VERSION};
+                                  "; the file was written by an older sphrom: package the FMU again"};
 
 /* ------------------------------------------------------------------------ */
 /* the model kinds                                                           */
@@ -24,7 +24,9 @@ static const RomBlob RESOURCES = {"resources", ROM_RESOURCE_MAGIC, "an sphrom mo
 
 /* the kinds this binary runs, in the order the messages name them */
 typedef const RomKindOps *(*KindTable)(void);
-static const KindTable KINDS[] = {rom_frozen_kind, rom_exact_kind};
+#define ROM_KIND_ENTRY(table) table,
+static const KindTable KINDS[] = {ROM_KIND_TABLES(ROM_KIND_ENTRY)};     /* rom_layout.h, from layout.py KINDS */
+#undef ROM_KIND_ENTRY
 #define N_KINDS (sizeof KINDS / sizeof KINDS[0])
 
 /* the table of the header's model_kind, NULL for a kind this binary does not run */
@@ -55,24 +57,22 @@ static RomStatus unsupported_kind(uint32_t kind, char *message, size_t message_s
 /* the header                                                                */
 /* ------------------------------------------------------------------------ */
 
-/* the fields after magic and version, in the order of rom.h */
+/* the shared header's fields after magic and version (rom_layout.h ROM_HEADER_*) */
 static RomHeader read_header(const unsigned char *bytes) {
     RomHeader h;
-    uint32_t *const words[9] = {&h.kind, &h.integrator, &h.k_v, &h.k_rho, &h.n_probes, &h.n_pairs, &h.flags,
-                                 &h.n_freeze, &h.reserved};
-    double *const numbers[3] = {&h.dt, &h.bound, &h.L};
-    const unsigned char *cursor = bytes + 12;
-    for (int i = 0; i < 9; i++, cursor += 4) *words[i] = rom_get_u32(cursor);
-    for (int i = 0; i < 3; i++, cursor += 8) *numbers[i] = rom_get_f64(cursor);
+    h.kind = rom_get_u32(bytes + ROM_HEADER_MODEL_KIND);
+    h.k_v = rom_get_u32(bytes + ROM_HEADER_K_V);
+    h.k_rho = rom_get_u32(bytes + ROM_HEADER_K_RHO);
+    h.n_probes = rom_get_u32(bytes + ROM_HEADER_N_PROBES);
+    h.flags = rom_get_u32(bytes + ROM_HEADER_FLAGS);
+    h.bound = rom_get_f64(bytes + ROM_HEADER_RUNAWAY_BOUND);
+    h.L = rom_get_f64(bytes + ROM_HEADER_L);
     return h;
 }
 
-/* The header's rules in the order of rom.h, the kind's among them; *doubles receives the count of float64
- * values of the kind's body after it. */
-static RomStatus check_header(const RomKindOps *kind, const RomHeader *h, uint64_t *doubles, char *message,
-                              size_t message_size) {
+/* The shared header's rules (sizes, flags), the kind's among them. */
+static RomStatus check_header(const RomKindOps *kind, const RomHeader *h, char *message, size_t message_size) {
     const uint64_t kv = h->k_v, kr = h->k_rho, np = h->n_probes;
-    if (kind->check_integrator(h, message, message_size) != ROM_OK) return ROM_FAIL;
     const uint64_t kr_min = kind->min_k_rho(h);
     if (kv < 1 || kv > ROM_MAX_MODES || kr < kr_min || kr > ROM_MAX_MODES) {
         return rom_fail(message, message_size, "resources: mode counts k_v = %u, %s = %u out of range [1, %u]%s",
@@ -82,17 +82,11 @@ static RomStatus check_header(const RomKindOps *kind, const RomHeader *h, uint64
         return rom_fail(message, message_size, "resources: %u probes, out of range [1, %u]", h->n_probes,
                         ROM_MAX_PROBES);
     }
-    if (kind->check_pairs(h, message, message_size) != ROM_OK) return ROM_FAIL;
     if (h->flags & ~kind->flags) return rom_fail(message, message_size, "resources: unknown flag bits 0x%x", h->flags);
     if ((h->flags & ROM_FLAG_SCHUR) && (h->flags & ROM_FLAG_DAMPING)) {
         return rom_fail(message, message_size, "resources: flag bits 0x%x: a Schur form with damping (the free "
                         "response by rotations needs a skew operator)", h->flags);
     }
-    if (h->n_freeze < 1 || h->n_freeze > INT32_MAX || h->reserved != 0) {
-        return rom_fail(message, message_size, "resources: n_freeze_default = %u (must be >= 1) or reserved = %u "
-                        "(must be 0)", h->n_freeze, h->reserved);
-    }
-    *doubles = kind->body_doubles(h);
     return ROM_OK;
 }
 
@@ -138,8 +132,8 @@ static RomStatus check_bounds(const RomModel *m, const RomSection *s, char *mess
 
 /* LINMODEL: which linear model the matrices are (1 exact POD, 2 balanced), 1 x 1; for messages only */
 static RomStatus check_linear_model(const RomModel *m, const RomSection *s, char *message, size_t message_size) {
-    if (!kind_reads(m, s->tag) || s->rows != 1 || s->cols != 1 ||
-        !(s->data[0] == ROM_LINEAR_EXACT_POD || s->data[0] == ROM_LINEAR_BALANCED)) {
+    if (!kind_reads(m, s->tag) || s->rows != 1 || s->cols != ROM_LINMODEL_COLUMNS ||
+        !(s->data[ROM_LINMODEL_MODEL] == ROM_LINEAR_EXACT_POD || s->data[ROM_LINMODEL_MODEL] == ROM_LINEAR_BALANCED)) {
         return rom_fail(message, message_size, "resources: section 'LINMODEL' must be one value, %u (exact POD) or "
                         "%u (balanced), in a linear model", ROM_LINEAR_EXACT_POD, ROM_LINEAR_BALANCED);
     }
@@ -155,17 +149,19 @@ static RomStatus check_shape(const RomSection *s, uint32_t rows, uint32_t cols, 
 }
 
 static RomStatus check_params(const RomModel *m, const RomSection *s, char *message, size_t message_size) {
-    if (check_shape(s, 2, 4, message, message_size) != ROM_OK) return ROM_FAIL;
+    if (check_shape(s, 2, ROM_PARAMS_COLUMNS, message, message_size) != ROM_OK) return ROM_FAIL;
     int varied = 0;
-    for (int r = 0; r < 2; r++) {
-        const double *row = s->data + 4 * r;
-        if ((row[0] != 0.0 && row[0] != 1.0) || !(row[2] <= row[1] && row[1] <= row[3]) ||
-            !(row[2] > 0.0 || (r == 1 && row[2] == 0.0))) {
+    for (int r = ROM_PARAMS_ROW_C; r <= ROM_PARAMS_ROW_D; r++) {
+        const double *row = s->data + ROM_PARAMS_COLUMNS * r;
+        const double on = row[ROM_PARAMS_VARIED], start = row[ROM_PARAMS_START];
+        const double lo = row[ROM_PARAMS_MIN], hi = row[ROM_PARAMS_MAX];
+        if ((on != 0.0 && on != 1.0) || !(lo <= start && start <= hi) ||
+            !(lo > 0.0 || (r == ROM_PARAMS_ROW_D && lo == 0.0))) {
             return rom_fail(message, message_size, "resources: section 'PARAMS' row %d: varied %g, start %g, range "
-                            "[%g, %g] (expected 0 or 1 and min <= start <= max, c > 0, d >= 0)", r + 1, row[0], row[1],
-                            row[2], row[3]);
+                            "[%g, %g] (expected 0 or 1 and min <= start <= max, c > 0, d >= 0)", r + 1, on, start,
+                            lo, hi);
         }
-        varied |= row[0] != 0.0;
+        varied |= on != 0.0;
     }
     if (!varied) return rom_fail(message, message_size, "resources: section 'PARAMS' varies neither c nor d");
     for (const char *const *tag = m->ops->param_sections; *tag; tag++) {
@@ -277,6 +273,9 @@ static const SectionRule SECTION_RULES[] = {
     {"SHEGRAM", "error bounds: the dense block's coupling residual's Gram matrix", rom_bound_check_section},
     {NULL, NULL, NULL},        /* end of the table */
 };
+/* one rule per tag of the layout (harness/fmu/layout.py SECTIONS; tests/test_fmu_constants.py compares the tags) */
+typedef char section_rules_cover_the_layout[sizeof SECTION_RULES / sizeof SECTION_RULES[0] == ROM_N_SECTION_TAGS + 1
+                                            ? 1 : -1];
 
 /* the model's ports from its sections: all three sections or none */
 static RomStatus ports_prepare(RomModel *m, char *message, size_t message_size) {
@@ -411,9 +410,20 @@ RomStatus rom_model_load_memory(const void *data, size_t size, RomModel **out, c
     const RomHeader h = read_header(bytes);
     const RomKindOps *kind = kind_ops(h.kind);
     if (!kind) return unsupported_kind(h.kind, message, message_size);
+    if (check_header(kind, &h, message, message_size) != ROM_OK) return ROM_FAIL;
+    /* the kind's own header, when the bytes before token and checksum hold it (else the length check names the
+     * file as truncated) */
+    const uint64_t head_end = (uint64_t)ROM_HEADER_SIZE + kind->head_size;
     uint64_t doubles = 0;
-    if (check_header(kind, &h, &doubles, message, message_size) != ROM_OK) return ROM_FAIL;
-    const uint64_t sections_start = (uint64_t)ROM_HEADER_SIZE + 8u * doubles;
+    if (head_end + ROM_TOKEN_SIZE + 4u > (uint64_t)size) {
+        (void)rom_blob_close(&RESOURCES, bytes, size, head_end + 4u + ROM_TOKEN_SIZE + 4u, " for the model kind's "
+                             "header", 0, NULL, message, message_size);       /* fails: the length */
+        return ROM_FAIL;
+    }
+    if (kind->read_head && kind->read_head(&h, bytes + ROM_HEADER_SIZE, &doubles, message, message_size) != ROM_OK) {
+        return ROM_FAIL;
+    }
+    const uint64_t sections_start = head_end + 8u * doubles;
     uint32_t n_sections = 0;
     uint64_t sections_end = 0;
     if (scan_sections(bytes, size, sections_start, &n_sections, &sections_end, message, message_size) != ROM_OK) {
@@ -428,13 +438,6 @@ RomStatus rom_model_load_memory(const void *data, size_t size, RomModel **out, c
         ROM_OK) {
         return ROM_FAIL;
     }
-    if (!(isfinite(h.dt) && h.dt > 0)) {
-        return rom_fail(message, message_size, "resources: dt = %g (must be finite and > 0)", h.dt);
-    }
-    if (kind->step_exceeds && h.dt < ROM_DT_MIN) {          /* internal steps of dt: the work of a doStep (rom.h) */
-        return rom_fail(message, message_size, "resources: dt = %g s is below the smallest internal step %g s "
-                        "(ROM_DT_MIN; allowed: dt >= %g s)", h.dt, ROM_DT_MIN, ROM_DT_MIN);
-    }
     if (!(isfinite(h.bound) && h.bound > 0) || !(isfinite(h.L) && h.L > 0)) {
         return rom_fail(message, message_size, "resources: runaway bound %g and L %g must be finite and > 0", h.bound,
                         h.L);
@@ -443,14 +446,10 @@ RomStatus rom_model_load_memory(const void *data, size_t size, RomModel **out, c
     if (!m) return rom_fail(message, message_size, "resources: out of memory");
     m->kind = h.kind;
     m->ops = kind;
-    m->integrator = h.integrator;
     m->k_v = h.k_v;
     m->k_rho = h.k_rho;
     m->n_probes = h.n_probes;
-    m->n_pairs = h.n_pairs;
     m->flags = h.flags;
-    m->n_freeze_default = h.n_freeze;
-    m->dt = h.dt;
     m->runaway_bound = h.bound;
     m->L = h.L;
     m->kv_pad = (uint32_t)rom_round_up(h.k_v, 4);

@@ -8,6 +8,27 @@ from sphrom.scene import derive_scene, load_scene
 os.environ.setdefault("MPLBACKEND", "Agg")
 
 
+def fmu_models():
+    """Every registered reduced model that can be packaged as an FMU (the registry's, in its order): what a test of
+    "every model's FMU" iterates over, instead of typing their names."""
+    from sphrom.rom.registry import fmu_model_names
+    return list(fmu_model_names())
+
+
+def model_per_kind(**properties):
+    """One registered model per FMU model kind (sphrom.fmu.kinds), the first of the registry's models of that kind
+    whose properties equal ``properties`` (``needs_basis=True``: the models on a POD basis, which have a training
+    envelope and a parametric form): what a test of "every kind" iterates over."""
+    from sphrom.fmu import layout
+    from sphrom.rom.registry import MODELS
+    out = []
+    for kind in layout.KINDS:
+        names = [name for name, m in MODELS.items() if m.fmu_kind == kind.number
+                 and all(getattr(m, k) == v for k, v in properties.items())]
+        out += names[:1]
+    return out
+
+
 def small_scene(base="multimode", T=0.5, n=32, dt=None, integrator="euler", every=None, **fields):
     """A built-in scene shrunk for tests: N particles, horizon T."""
     changes = {"domain": {"T": T}, "sph": {"n_particles": n, "integrator": integrator}}
@@ -86,21 +107,21 @@ def assert_units_through_declared_types(path):
 
 
 def load_changed(data, change):
-    """The C core's load of ``data`` (ModelData or ExactData) packed after ``change(sections)`` edited a copy of its
+    """The C core's load of ``data`` (a model kind's data) packed after ``change(sections)`` edited a copy of its
     sections: the loader tests' one way to hand the core a malformed file (raises CoreError naming the problem)."""
     import copy
 
     from sphrom.fmu.make.build import ensure_binaries
-    from sphrom.fmu.resources import ModelData, pack, pack_exact
+    from sphrom.fmu.resources import pack
     from sphrom.fmu.run.core import Core
     bad = copy.deepcopy(data)
     change(bad.sections)
-    return Core(ensure_binaries().core).load((pack if isinstance(bad, ModelData) else pack_exact)(bad))
+    return Core(ensure_binaries().core).load(pack(bad))
 
 
 def fmu_maker(folder, default_model="frozen", k=6, probes=(0.25, 0.5, 0.66), scene_of=None, default_case="forced",
               **options):
-    """make(model, fmi, case) -> (path, ModelData or ExactData): the FMU of ``scene_of(case)`` (default
+    """make(model, fmi, case) -> (path, the model kind's data): the FMU of ``scene_of(case)`` (default
     ``fmu_scene(case)``) packaged into ``folder`` with package_fmu's ``options`` once per (model, fmi, case) and its
     resources read back."""
     import zipfile

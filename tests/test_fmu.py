@@ -370,10 +370,10 @@ def test_bad_resources_and_token(fmus, fmi, tmp_path):
         "truncated": blob[: len(blob) // 2],
         "empty": b"",
         "header": blob[:80],
-        "version": blob[:8] + (4).to_bytes(4, "little") + blob[12:],
+        "version": blob[:8] + (5).to_bytes(4, "little") + blob[12:],
     }
     expect = {"flipped": "checksum", "truncated": "bytes", "empty": "truncated", "header": "bytes",
-              "version": "version 4"}
+              "version": "version 5"}
     for name, content in list(cases.items()) + [("missing", None)]:
         folder = tmp_path / f"{name}-{fmi}"
         fmpy.extract(str(path), unzipdir=str(folder))

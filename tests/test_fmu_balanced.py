@@ -124,7 +124,7 @@ def test_balanced_fmu_equals_the_python_balanced_model(fmus, case, record_proper
     relative, FMI 2 and 3 bitwise alike; the densities from the Python model's own reconstruction."""
     path, data, _ = fmus("balanced", case, 2)
     scene = scene_for(case)
-    _, ops, problem = balanced_model(scene, R, 10, PROBES)
+    _, ops, problem = balanced_model(scene, R, PROBES)
     assert np.array_equal(ops.A, data.A) and np.array_equal(ops.z0, data.z0)
     assert (case == "unforced") == (data.Q is not None)                # d = 0: Galerkin, skew, the Schur path
     H, M = 0.01, 50
@@ -202,10 +202,10 @@ def test_the_fmu_bounds_are_the_python_bounds(fmus, model):
     """The calculated parameters equal :func:`error_bounds` recomputed from a freshly built model, FMI 2 and 3."""
     scene = scene_for("forced")
     if model == "balanced":
-        _, ops, _ = balanced_model(scene, R, 10, PROBES)
+        _, ops, _ = balanced_model(scene, R, PROBES)
         lti, reduced = ops.lti, ops.reduced
     else:
-        _, lin, problem, _ = exact_model(scene, K, 10, PROBES, progress=False)
+        _, lin, problem, _ = exact_model(scene, K, PROBES, progress=False)
         lti = full_linear_system(problem, PROBES)
         reduced = reduced_from_exact(lti, lin)
     ref = error_bounds(lti, reduced, outputs="v")
@@ -318,6 +318,7 @@ def test_loader_checks_the_output_rows_and_the_bounds_section(fmus):
     LINMODEL one known value; each refusal names the field."""
     import dataclasses
 
+    from sphrom.fmu import layout
     from sphrom.fmu.run.core import Core, CoreError
     from sphrom.fmu.resources import pack_exact
     _, data, _ = fmus("balanced", "forced", 2)
@@ -337,7 +338,7 @@ def test_loader_checks_the_output_rows_and_the_bounds_section(fmus):
     with pytest.raises(ValueError, match="mode counts"):
         load(output_rows=False)
     blob = bytearray(pack_exact(data))
-    flags_at = 8 + 7 * 4                                     # after magic, version, kind, integrator, k_v, k_e, P, pairs
+    flags_at = layout.HEADER.offset("flags")                 # the shared header's flags (harness/fmu/layout.py)
     blob[flags_at] &= ~8 & 0xFF
     with pytest.raises(CoreError, match=r"k_e = 0 out of range \[1"):
         core.load(bytes(blob))

@@ -23,6 +23,7 @@ from sphrom.fmu.make.build import ensure_binaries
 from sphrom.fmu.run.core import Core, CoreError
 from sphrom.fmu.run.driver import FMU
 from sphrom.fmu.make.package import package_fmu
+from sphrom.fmu import layout
 from sphrom.fmu.resources import pack, unpack
 
 SCENARIOS = ["basic", "state", "bad", "resources", "cycles", "threads", "edge", "bound"]
@@ -187,20 +188,26 @@ def test_core_loader_names_the_problem(packaged, binaries):
     def f64(offset, value, source=body):
         return source[:offset] + struct.pack("<d", value) + source[offset + 8:]
 
+    at = layout.HEADER.offset
+    frozen = lambda name: layout.resource_offset("frozen", name)      # noqa: E731 (the frozen kind's header)
     cases = [
         (b"XXXXXXXX" + blob[8:], "bad magic"),
-        (with_crc(u32(8, 4)), "format version 4"),
-        (with_crc(u32(8, 2)), "format version 2"),
+        (with_crc(u32(8, 5)), "format version 5"),
+        (with_crc(u32(8, 3)), "format version 3 is not supported (this binary reads 4; the file was written by an "
+                              "older sphrom: package the FMU again)"),
         (with_crc(u32(8, 1)), "format version 1"),
-        (with_crc(u32(12, 3)), "model kind 3"),
-        (with_crc(u32(12, 2)), "must be 0 for the exact model"),
-        (with_crc(u32(16, 7)), "integrator 7"),
-        (with_crc(u32(32, 20)), "n_pairs"),
-        (with_crc(u32(36, 8)), "flag"),
-        (with_crc(u32(40, 0)), "n_freeze"),
-        (with_crc(f64(48, -1.0)), "dt = -1"),
-        (with_crc(f64(48, float("nan"))), "dt = nan"),
-        (with_crc(f64(72, float("inf"))), "non-finite"),
+        (with_crc(u32(at("model_kind"), 3)), "model kind 3"),
+        (with_crc(u32(at("model_kind"), 2)), "tagged sections"),    # read as the linear kind's body: refused
+        (with_crc(u32(frozen("integrator"), 7)), "integrator 7"),
+        (with_crc(u32(frozen("n_pairs"), 20)), "n_pairs"),
+        (with_crc(u32(at("flags"), 8)), "flag"),
+        (with_crc(u32(frozen("n_freeze_default"), 0)), "n_freeze"),
+        (with_crc(u32(frozen("reserved"), 1)), "reserved = 1"),
+        (with_crc(f64(frozen("dt"), -1.0)), "dt = -1"),
+        (with_crc(f64(frozen("dt"), float("nan"))), "dt = nan"),
+        (with_crc(f64(frozen("dt"), 1e-12)), "below the smallest internal step"),
+        (with_crc(f64(layout.HEADER.size + layout.FROZEN_HEAD.size, float("inf"))), "non-finite"),
+        (blob[:layout.HEADER.size + 10] + blob[-44:], "for the model kind's header"),
         (blob[:-1], "bytes"),
         (blob + b"\0", "bytes"),
         (blob[:-5] + bytes([blob[-5] ^ 1]) + blob[-4:], "checksum"),

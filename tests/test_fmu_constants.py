@@ -1,7 +1,9 @@
-"""The numbers the C sources and the Python side share (format sizes and versions, model kinds, flags, doStep's
-rounding rule, the full SPH's flag bits) are the same on both sides: parsed from the C headers, compared with the
-Python constants.  The value references have one home, harness/fmu/variables.py, from which fmu_src/fmu_variables.h
-is generated (tests/test_variables.py)."""
+"""The numbers the C sources and the Python side share are the same on both sides: parsed from the C headers,
+compared with the Python constants.  The binary formats' numbers (sizes, offsets, versions, kinds, flags, named
+columns) have one home, harness/fmu/layout.py, from which fmu_src/rom_layout.h is generated (tests/test_fmu_layout.py
+checks it is current); here the hand-written rest (doStep's rounding rule, the work bound, the full SPH's flag bits)
+and the names the rest of sphrom reads them by.  The value references have one home too, harness/fmu/variables.py,
+from which fmu_src/fmu_variables.h is generated (tests/test_variables.py)."""
 
 import re
 from pathlib import Path
@@ -11,6 +13,8 @@ import sphrom.fmu.make.envelope as envelope
 import sphrom.fmu.run.driver as fmi
 import sphrom.fmu.check.python_cosim as python_cosim
 import sphrom.fmu.resources as resources
+import sphrom.fmu.layout as layout
+import sphrom.rom.bounds as bounds
 import sphrom.fmu.run.sph_c as sph_c
 import sphrom.sph.loops as sph_loops
 import sphrom.sph.solver as solver
@@ -32,9 +36,9 @@ def header_constants(name):
 
 
 def test_constants_shared_by_c_and_python():
-    rom, sph = header_constants("rom.h"), header_constants("sph.h")
+    rom, sph = {**header_constants("rom.h"), **header_constants("rom_layout.h")}, header_constants("sph.h")
     shared = {
-        # resources/model.bin
+        # resources/model.bin (generated from the layout: the names sphrom reads them by)
         "ROM_RESOURCE_MAGIC": resources.MAGIC.decode(),
         "ROM_FORMAT_VERSION": resources.FORMAT_VERSION,
         "ROM_HEADER_SIZE": resources.HEADER_SIZE,
@@ -54,12 +58,15 @@ def test_constants_shared_by_c_and_python():
         "ROM_SECTION_TAG_SIZE": resources.SECTION_TAG_SIZE,
         "ROM_MAX_SECTIONS": resources.MAX_SECTIONS,
         "ROM_MAX_SECTION_VALUES": resources.MAX_SECTION_VALUES,
+        "ROM_MAX_PORTS": resources.MAX_PORTS,
         # the training envelope (harness/fmu/make/envelope.py, fmu_src/rom_envelope.c)
-        "ROM_ENVELOPE_SCALARS": envelope.N_SCALARS,
+        "ROM_ENVELOPE_COLUMNS": envelope.N_SCALARS,
         "ROM_ENVELOPE_CHECK_COORDINATES": envelope.CHECK_COORDINATES,
         "ROM_ENVELOPE_CHECK_FORCE": envelope.CHECK_FORCE,
         "ROM_ENVELOPE_CHECK_STRAIN": envelope.CHECK_STRAIN,
         "ROM_ENVELOPE_CHECK_FAILURE": envelope.CHECK_FAILURE,
+        # the certified error bounds' scalars (harness/rom/bounds.py writes SHSCAL in the layout's column order)
+        "ROM_SHSCAL_COLUMNS": bounds.N_SCALARS,
         # the serialized FMU state and the core's messages
         "ROM_STATE_HEADER_SIZE": fmi.STATE_HEADER_SIZE,
         "ROM_MESSAGE_SIZE": core.MESSAGE_SIZE,
@@ -75,10 +82,13 @@ def test_constants_shared_by_c_and_python():
     # the value references are not here: fmu_src/fmu_variables.h is generated from harness/fmu/variables.py
     # (tests/test_variables.py)
     assert not any(name.startswith("ROM_VR_") for name in rom)
-    # the header sizes are what the layouts add up to (rom.h): 8 magic + 10 uint32 + 3 float64; 8 magic + 6 uint32
-    # + token + uint64 + 2 uint32 + 3 float64
-    assert rom["ROM_HEADER_SIZE"] == 8 + 10 * 4 + 3 * 8
-    assert rom["ROM_STATE_HEADER_SIZE"] == 8 + 6 * 4 + rom["ROM_TOKEN_SIZE"] + 8 + 2 * 4 + 3 * 8
+    # the header sizes are what the layouts add up to: 8 magic + 6 uint32 + 2 float64; 8 magic + 6 uint32 + token
+    # + uint64 + 2 float64; the frozen kind's own header 4 uint32 + 1 float64
+    assert rom["ROM_HEADER_SIZE"] == 8 + 6 * 4 + 2 * 8
+    assert rom["ROM_STATE_HEADER_SIZE"] == 8 + 6 * 4 + rom["ROM_TOKEN_SIZE"] + 8 + 2 * 8
+    assert rom["ROM_FROZEN_HEAD_SIZE"] == 4 * 4 + 8
+    # no format number is spelled by hand in rom.h: it includes the generated header
+    assert not {name for name in header_constants("rom.h") if name in header_constants("rom_layout.h")}
     # the C full SPH's flag bits and methods (fmu_src/sph.h) are the compiled loops'
     sph_shared = {"SPH_DAMPING": sph_loops.DAMPING, "SPH_FORCE": sph_loops.FORCE, "SPH_UNIFORM_C": sph_loops.UNIFORM_C,
                   "SPH_UNIFORM_RHO0": sph_loops.UNIFORM_RHO0, "SPH_UNIFORM_D": sph_loops.UNIFORM_D,
@@ -89,8 +99,10 @@ def test_constants_shared_by_c_and_python():
 
 
 def test_section_tags_shared_by_c_and_python():
-    """The tags the C loader accepts (rom_resources.c's SECTION_RULES) are the tags the Python writer may write."""
+    """The tags the C loader accepts (rom_resources.c's SECTION_RULES) are the layout's, which the Python writer may
+    write, one rule each (rom_resources.c also checks the count against rom_layout.h's at compile time)."""
     text = (ROOT / "fmu_src" / "rom_resources.c").read_text()
     table = text[text.index("SECTION_RULES[] = {"):]
     table = table[:table.index("};")]
-    assert set(re.findall(r'\{"([^"]+)",', table)) == set(resources.SECTION_TAGS)
+    tags = re.findall(r'\{"([^"]+)",', table)
+    assert sorted(tags) == sorted(resources.SECTION_TAGS) == sorted(layout.SECTIONS)

@@ -13,7 +13,7 @@ import fmpy
 import numpy as np
 import pytest
 
-from conftest import fmu_scene
+from conftest import fmu_scene, fmu_models, model_per_kind
 from sphrom.fmu.make.build import ensure_binaries
 from sphrom.fmu.make.package import package_fmu
 from sphrom.fmu.run.cosim import run_cosim
@@ -46,7 +46,7 @@ def _signal(times):
     return sig
 
 
-@pytest.mark.parametrize("model", ["frozen", "exact"])
+@pytest.mark.parametrize("model", model_per_kind())
 @pytest.mark.parametrize("fmi", [2, 3])
 def test_driver_equals_fmpy_simulate_fmu_bitwise(fmus, model, fmi):
     path = fmus(model, fmi)
@@ -64,7 +64,7 @@ def test_driver_equals_fmpy_simulate_fmu_bitwise(fmus, model, fmi):
         assert np.array_equal(y[:, j], np.asarray(ref[name])), (model, fmi, name)
 
 
-@pytest.mark.parametrize("model", ["frozen", "exact", "balanced"])
+@pytest.mark.parametrize("model", fmu_models())
 def test_cosim_fmi2_and_fmi3_agree(fmus, model, record_property):
     p2, p3 = fmus(model, 2), fmus(model, 3)
     held2, held3 = (run_cosim(p, force=FORCE, t_end=T_END, step=STEP, hold_inputs=True, initial_state_scale=1)

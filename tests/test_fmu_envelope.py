@@ -8,13 +8,15 @@ import zipfile
 import numpy as np
 import pytest
 
-from conftest import fmu_scene
+from conftest import fmu_scene, model_per_kind
 from sphrom.fmu.make import envelope as E
 from sphrom.fmu.make.build import ensure_binaries
 from sphrom.fmu.run.core import Core
 from sphrom.fmu.run.driver import FMU
 from sphrom.fmu.make.package import package_fmu
-from sphrom.fmu.resources import ModelData, pack, pack_exact, unpack
+from sphrom.fmu.kinds import kind_of
+from sphrom.rom.registry import get_model
+from sphrom.fmu.resources import pack, unpack
 
 H = 0.01
 ENVELOPE_TEXT = "outside the training envelope"
@@ -46,12 +48,9 @@ def scaled_copy(path, out, scale):
     with zipfile.ZipFile(path) as z:
         data = unpack(z.read("resources/model.bin"))
         old = data.token
-        if isinstance(data, ModelData):
-            data.a_v0 = data.a_v0 * scale
-            blob = pack(data)
-        else:
-            data.z0 = data.z0 * scale
-            blob = pack_exact(data)
+        name = kind_of(data).INITIAL_STATE           # what initial_state_scale multiplies: a_v0, or z0
+        setattr(data, name, getattr(data, name) * scale)
+        blob = pack(data)
         with zipfile.ZipFile(out, "w") as o:
             for item in z.infolist():
                 content = z.read(item.filename)
@@ -89,7 +88,8 @@ def test_envelope_sections_round_trip_python_and_c(envelope_fmus):
     quantity out of range at 10x the initial state."""
     core = Core(ensure_binaries().core)
     scene = fmu_scene("forced")
-    for model in ("frozen", "exact"):
+    for model in model_per_kind(needs_basis=True):
+        linear = get_model(model).linear                          # no run-time checks
         blob = zipfile.ZipFile(envelope_fmus(model, 2)).read("resources/model.bin")
         data = unpack(blob)
         env = E.Envelope.from_sections(data.sections, data.k_v)
@@ -97,7 +97,7 @@ def test_envelope_sections_round_trip_python_and_c(envelope_fmus):
         assert data.sections["ENVRANGE"].shape == (2, data.k_v + data.k_rho)
         assert env.force_amplitude == pytest.approx(np.max(np.abs(scene.force(np.arange(2501) * scene.sph.dt))))
         assert 0 < env.max_probe_strain <= env.max_strain
-        assert (env.checks == 0) == (model == "exact")
+        assert (env.checks == 0) == linear
         cm = core.load(blob)
         for tag, values in data.sections.items():
             assert np.array_equal(cm.section(tag), values), tag
@@ -112,7 +112,7 @@ def test_envelope_sections_round_trip_python_and_c(envelope_fmus):
         rho = cm10.outputs(data10.n_probes)[1]
         expected = E.check(env, z, 0.0, rho, data10.k_v)
         message = cm10.envelope_check()
-        if model == "exact":
+        if linear:
             assert expected is None and message is None
         else:
             assert expected is not None and message is not None
@@ -120,7 +120,7 @@ def test_envelope_sections_round_trip_python_and_c(envelope_fmus):
 
 
 @pytest.mark.parametrize("fmi", [2, 3])
-@pytest.mark.parametrize("model", ["frozen", "exact"])
+@pytest.mark.parametrize("model", model_per_kind(needs_basis=True))
 def test_training_run_never_warns(envelope_fmus, fmi, model):
     """The scene's own run (its initial state, its force at the communication points, held) stays inside
     the envelope."""
@@ -158,7 +158,7 @@ def test_force_above_the_trained_amplitude_warns_once(envelope_fmus, fmi):
 
 
 @pytest.mark.parametrize("fmi", [2, 3])
-@pytest.mark.parametrize("model", ["frozen", "exact"])
+@pytest.mark.parametrize("model", model_per_kind(needs_basis=True))
 def test_unseen_force_inside_the_envelope_gives_no_warning(envelope_fmus, fmi, model):
     """A force the basis never saw (one tone at another frequency, 0.6x the trained amplitude), from rest
     (initial_state_scale 0, the FMU's start value): no warning."""
@@ -192,7 +192,7 @@ def test_cosim_shows_the_envelope_warning(envelope_fmus, tmp_path, capsys, fmi):
 
 
 @pytest.mark.parametrize("fmi", [2, 3])
-@pytest.mark.parametrize("model", ["frozen", "exact"])
+@pytest.mark.parametrize("model", model_per_kind(needs_basis=True))
 def test_description_states_the_envelope_and_nominal_values(envelope_fmus, fmi, model):
     """The model description carries the envelope, and the variables' nominal values are the envelope's
     (f: the training amplitude; v_probe_j: max |v| at probe j in training; rho_probe_j: rho0 there); dt > 0,

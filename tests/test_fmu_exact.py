@@ -89,7 +89,7 @@ def test_exact_fmu_equals_the_python_exact_model(exact_fmus, case, record_proper
     """FMU (C expm) = run_exact (scipy expm) with the input held over each step, FMI 2 and 3 bitwise alike."""
     path, data = exact_fmus(case, 2)
     scene = scene_for(case)
-    _, lin, _, _ = exact_model(scene, K, 10, PROBES, progress=False)
+    _, lin, _, _ = exact_model(scene, K, PROBES, progress=False)
     assert np.array_equal(lin.A, data.A) and np.array_equal(lin.z0, data.z0)
     H, M = 0.01, 50
     t = np.arange(M + 1) * H
@@ -170,7 +170,7 @@ def test_exact_fmu_conserves_energy_over_t_1000(exact_fmus):
         drift = abs(float(z @ z) - e0) / e0
     assert t == pytest.approx(1000.0, rel=1e-12)
     assert drift <= 1e-12, drift
-    _, lin, _, _ = exact_model(scene_for("unforced"), K, 10, PROBES, progress=False)
+    _, lin, _, _ = exact_model(scene_for("unforced"), K, PROBES, progress=False)
     free = run_exact(lin, np.array([0.0, t]), step=t).z[-1]
     assert np.max(np.abs(z - free)) <= 1e-12 * np.max(np.abs(free))
 

@@ -66,7 +66,7 @@ def test_exact_fmu_with_derivatives_equals_linear_input_model(fmus, tmp_path, re
     """fmpy with set_input_derivatives = run_exact(hold="linear") to 1e-11; held inputs differ by far more."""
     path = fmus("exact", 2)
     scene = fmu_scene("forced")
-    _, lin, _, _ = exact_model(scene, K, 10, PROBES, progress=False)
+    _, lin, _, _ = exact_model(scene, K, PROBES, progress=False)
     data = unpack(zipfile.ZipFile(path).read("resources/model.bin"))
     t = np.arange(M + 1) * H
     csv = tmp_path / "f.csv"

@@ -1,10 +1,12 @@
-"""FMU states carry the parameters an instance can differ in (state format 3).
+"""FMU states carry the parameters an instance can differ in (state format 4, harness/fmu/layout.py).
 
 A state saved at (c1, d1) and restored in an instance set to (c2, d2) must continue bitwise as the instance that
 saved it (the parameters come back and the operators are assembled again), likewise the area of a port FMU;
-get/set and serialize/deserialize round trips are bitwise, FMI 2 and 3; blobs of state format 2 (stored from the
-code before, tests/data/make_state_v2_reference.py) still restore and continue as they did then; corrupted
-parameter fields and unknown versions are refused with a message naming them.
+get/set and serialize/deserialize round trips are bitwise, FMI 2 and 3; blobs of an older state format (format 2,
+stored from the code then, tests/data/make_state_v2_reference.py) can never be restored: a state restores only
+into the FMU whose token it carries, the token hashes model.bin, and an FMU of today's model.bin format has another
+token than the FMU that wrote it; they are refused naming their version and why; corrupted parameter fields and
+unknown versions are refused with a message naming them.
 """
 
 import struct
@@ -17,6 +19,8 @@ import pytest
 from fmpy.fmi1 import FMICallException
 
 from conftest import fmu_scene
+from old_formats import from_format_3
+from sphrom.fmu import layout
 from sphrom.fmu.make.build import ensure_binaries
 from sphrom.fmu.make.describe import model_description
 from sphrom.fmu.run.driver import FMU
@@ -80,7 +84,7 @@ def put_double(blob: bytes, offset: int, value: float) -> bytes:
 
 
 def param_offset(blob: bytes, n_ports=0) -> int:
-    """Byte offset of initial_state_scale in a version 3 blob (then c, d; then the ports' block)."""
+    """Byte offset of initial_state_scale in a state blob (then c, d; then the ports' block)."""
     return len(blob) - 4 - 8 * (2 * (1 + n_ports) if n_ports else 0) - 24
 
 
@@ -101,7 +105,7 @@ def test_state_at_c1_d1_restored_at_c2_d2_continues_as_the_original(fmus, kind, 
         a.free_state(state)
         original = a.run([H] * 15, f[15:], t0=15 * H)
         bounds = a.get_real(BOUND_VRS)              # the certified bounds' shadow, assembled at (c1, d1)
-    assert struct.unpack_from("<I", blob, 8)[0] == 3
+    assert struct.unpack_from("<I", blob, 8)[0] == layout.STATE_VERSION
     scale, c, d = struct.unpack_from("<3d", blob, param_offset(blob))
     assert (scale, c, d) == (1.0, C1, D1)
     with FMU(path) as b:
@@ -175,8 +179,9 @@ def test_port_fmu_state_carries_the_area(fmus, fmi):
 
 
 def stored_fmu(ref, case, fmi, tmp_path):
-    """The stored resources of ``case`` packaged with today's binaries."""
-    blob = ref[f"{case}/model_bin"].tobytes()
+    """The stored resources of ``case`` (model.bin format 3) rewritten as today's format (the same numbers,
+    tests/old_formats.py) and packaged with today's binaries."""
+    blob = from_format_3(ref[f"{case}/model_bin"].tobytes())
     data = unpack(blob)
     description = model_description(fmi, token=data.token, scene=fmu_scene("forced"), data=data, k_requested=K,
                                      step_size=H, stop_time=0.5, input_error=float("nan"),
@@ -184,33 +189,27 @@ def stored_fmu(ref, case, fmi, tmp_path):
     binaries = ensure_binaries()
     path = tmp_path / f"{case}-{fmi}.fmu"
     write_fmu(path, fmi=fmi, blob=blob, description=description, binary=binaries.fmi2 if fmi == 2 else binaries.fmi3)
-    return path
+    return path, data.token
 
 
 @pytest.mark.parametrize("fmi", [2, 3])
 @pytest.mark.parametrize("case", ["frozen", "exact", "ports"])
-def test_version_2_blobs_still_restore_and_continue_as_before(tmp_path, case, fmi):
-    """A state of format 2 (no c, d) written by the code before, restored in an instance with the parameters it
-    was saved at, continues bitwise as the stored outputs of then; serialized again it is the same bytes; it keeps
-    the instance's own c and d (it does not carry them)."""
+def test_states_of_an_older_format_are_refused_saying_why(tmp_path, case, fmi):
+    """A state of format 2 written by the code then carries the token of its FMU, whose model.bin was of an older
+    format: the FMU of the same numbers in today's format has another token, so the state can never be its own.
+    It is refused naming its version and why, not half-read; a state of today's layout announcing format 3 too."""
     ref = np.load(DATA / "state_v2_reference.npz")
-    path = stored_fmu(ref, case, fmi, tmp_path)
+    path, token = stored_fmu(ref, case, fmi, tmp_path)
     blob = ref[f"{case}/state"].tobytes()
     assert struct.unpack_from("<I", blob, 8)[0] == 2
-    split, steps, f = int(ref["split"]), ref["steps"], ref["inputs"]
+    assert blob[32:72].rstrip(b"\0").decode() != token                  # the token it carries is another FMU's
+    why = "a state restores only into the FMU that wrote it"
+    text = refused(path, blob)
+    assert f"format version 2 is not supported (this binary reads {layout.STATE_VERSION}" in text and why in text
     values = dict(zip(ref[f"{case}/vrs"].tolist(), ref[f"{case}/values"].tolist()))
-    with FMU(path) as s:
-        start(s, values)
-        state = s.deserialize(blob)
-        assert s.serialize(state) == blob
-        s.set_state(state)
-        out = s.run(steps[split:], f[split:], t0=split * H)
-    assert np.array_equal(out, ref[f"{case}/outputs"])
-    if case != "ports":
-        with FMU(path) as s:
-            start(s, {VR_C: C2, VR_D: D2})
-            s.set_state(s.deserialize(blob))
-            assert np.array_equal(s.get_real([VR_C, VR_D]), [C2, D2])
+    current = saved(path, values)
+    text = refused(path, with_crc(current[:8] + struct.pack("<I", 3) + current[12:]))
+    assert f"format version 3 is not supported (this binary reads {layout.STATE_VERSION}" in text and why in text
 
 
 def refused(path, blob):
@@ -242,12 +241,10 @@ def test_corrupted_parameter_fields_are_refused_naming_them(fmus, kind):
             (at + 16, 4.0, "parameter d = 4 is outside the trained range [5, 15]"),
             (at, float("nan"), "parameter initial_state_scale = nan is out of range")):
         assert text in refused(path, put_double(blob, offset, value)), text
-    for version in (1, 4, 99):
+    for version in (1, 3, 5, 99):
         bad = with_crc(blob[:8] + struct.pack("<I", version) + blob[12:])
-        assert f"format version {version} is not supported (this binary reads 2 to 3)" in refused(path, bad)
-    # a version 2 header on a version 3 blob: the length is wrong for version 2
-    bad = with_crc(blob[:8] + struct.pack("<I", 2) + blob[12:])
-    assert f"expected {len(blob) - 16} for state version 2" in refused(path, bad)
+        assert f"format version {version} is not supported (this binary reads {layout.STATE_VERSION}" in \
+            refused(path, bad)
 
 
 def test_parameters_a_model_does_not_have_are_refused(fmus):

@@ -19,7 +19,7 @@ import subprocess
 import numpy as np
 import pytest
 
-from conftest import fmu_scene
+from conftest import fmu_scene, fmu_models
 from sphrom.fmu.make.build import ensure_binaries
 from sphrom.fmu.run.driver import FMU
 from sphrom.fmu.make.package import package_fmu
@@ -32,7 +32,7 @@ H, N_STEPS = 0.01, 50
 RTOL, ATOL = 1e-12, 1e-15
 
 # name -> (package_fmu options, start values of the feature: inputs held, parameters set before initialization)
-PLAIN = {model: (dict(model=model), {}) for model in ("frozen", "exact", "balanced")}
+PLAIN = {model: (dict(model=model), {}) for model in fmu_models()}
 FEATURES = {"ports": (dict(model="exact", ports=[0.3, 0.7]), {"F_port_1": 0.5, "F_port_2": -0.2}),
             # (0.5 N compresses the balanced model's probe J below 0 within 0.43 s: an error status, by design)
             "ports_balanced": (dict(model="balanced", ports=[0.3, 0.7]), {"F_port_1": 0.05, "F_port_2": -0.02}),
@@ -139,7 +139,7 @@ def print_difference(importer, name, theirs, ours):
           f"relative {diff / scale:.2e})")
 
 
-@pytest.mark.parametrize("model", ["frozen", "exact", "balanced"])
+@pytest.mark.parametrize("model", fmu_models())
 def test_libcosim_runs_the_fmi2_fmu_as_fmpy_does(fmus, model):
     path = fmus(model, 2)
     names, ours = fmpy_outputs(path)
@@ -173,7 +173,7 @@ def ecos_outputs(path, names, initial_state_scale=1.0, values=None):
 
 
 @pytest.mark.parametrize("fmi", [2, 3])
-@pytest.mark.parametrize("model", ["frozen", "exact", "balanced"])
+@pytest.mark.parametrize("model", fmu_models())
 def test_ecos_runs_the_fmi2_and_fmi3_fmus_as_fmpy_does(fmus, model, fmi):
     """Ecos (ecospy) loads, instantiates and steps the FMU with its own code, FMI 2 and FMI 3 alike."""
     path = fmus(model, fmi)
@@ -197,7 +197,7 @@ def test_ecos_runs_port_and_parametric_fmus_as_fmpy_does(fmus, name, fmi):
     assert_outputs_close(theirs, ours[1:], names, name)
 
 
-@pytest.mark.parametrize("model", ["frozen", "exact", "balanced"])
+@pytest.mark.parametrize("model", fmu_models())
 def test_fmu_manipulation_toolbox_container_runs_the_fmi3_fmu_as_fmpy_does(fmus, tmp_path, model):
     """fmu-manipulation-toolbox's container wraps the FMI 3 FMU: its own runtime (not ours, not fmpy's)
     loads, instantiates and steps it; fmpy only drives the container."""

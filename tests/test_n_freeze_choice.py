@@ -72,12 +72,12 @@ def test_a_costly_model_is_tried_on_the_first_part_of_the_training_run(monkeypat
     basis refreshed from the particles), the candidates run over the training run's first samples only (at least
     N_FREEZE_MIN_SAMPLES): each error equals the one computed here independently over those samples, and the rule
     is the same."""
-    from sphrom.fmu.make import models
+    from sphrom.fmu.kinds import frozen                               # the frozen kind chooses n_freeze
     scene = small_scene("damped_forced", T=2.0, n=48)
     ops, problem, run = _setup(scene)
-    monkeypatch.setattr(models, "N_FREEZE_BUDGET", 1.0)              # every run is over budget
+    monkeypatch.setattr(frozen, "N_FREEZE_BUDGET", 1.0)              # every run is over budget
     chosen, errors = choose_n_freeze(scene, ops, problem, run)
-    m = models.N_FREEZE_MIN_SAMPLES
+    m = frozen.N_FREEZE_MIN_SAMPLES
     assert m < len(run.steps)
     steps = np.asarray(run.steps)[:m]
     spec = get_model("frozen")

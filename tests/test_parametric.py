@@ -13,7 +13,7 @@ import zipfile
 import numpy as np
 import pytest
 
-from conftest import small_scene
+from conftest import small_scene, model_per_kind
 from sphrom.errors import FieldError
 from sphrom.fmu.make import parametric as fmu_par
 from sphrom.fmu.make.build import ensure_binaries
@@ -209,7 +209,7 @@ def relative_residual(out, ref):
     return float((np.abs(out - ref) / np.maximum(scale, 1e-300)).max())
 
 
-@pytest.mark.parametrize("model", ["frozen", "exact"])
+@pytest.mark.parametrize("model", model_per_kind(needs_basis=True))
 def test_fmu_equals_python_parametric_at_a_held_out_point(models, fmus, model, record_property):
     """At a held-out (c, d) FMI 2 and 3 agree bitwise and equal the Python parametric model: frozen bitwise (the C
     assembly makes the same products, the step the same operations), exact to 1e-11 (C Taylor vs scipy Padé
@@ -334,7 +334,7 @@ def test_sweep_uses_one_parametric_fmu_for_its_d_grid(tmp_path):
         load_spec(tmp_path / "bad.toml")
 
 
-@pytest.mark.parametrize("model", ["frozen", "exact"])
+@pytest.mark.parametrize("model", model_per_kind(needs_basis=True))
 def test_reset_reassembles_at_the_new_parameters(fmus, model):
     """After a run at one (c, d), fmi2Reset, new values and a new initialization give bitwise the outputs of a
     fresh instance at those values (the operators and the exponential cache follow the parameters)."""

@@ -8,7 +8,7 @@ mass-spring exchanging force and velocity each communication step) against one f
 import numpy as np
 import pytest
 
-from conftest import small_scene
+from conftest import small_scene, model_per_kind
 from sphrom.errors import FieldError
 from sphrom.fmu.variables import vr
 from sphrom.sph.ports import momentum_weights, parse_ports, port_accelerations, port_velocity_rows, run_sph_ports
@@ -140,7 +140,7 @@ def test_port_fmu_equals_the_python_reduced_models(port_fmus, fmi):
     assert np.array_equal(out, np.array(expected))
     assert np.ptp(out[:, 0]) > 0
     path, data = port_fmus("exact", fmi)
-    _, lin, _, _ = exact_model(scene, 6, 10, (0.25, 0.5), progress=False, ports=FMU_PORTS)
+    _, lin, _, _ = exact_model(scene, 6, (0.25, 0.5), progress=False, ports=FMU_PORTS)
     ref = lin.port_velocity(run_exact(lin, t, step=H, force=scene.force, hold="held", port_forces=port_forces,
                                       area=AREA).a_v)
     out = run_port_fmu(path, scene)
@@ -270,7 +270,7 @@ def test_exact_port_fmu_takes_port_input_derivatives(port_fmus):
             derivatives(s, [F_PORT[-1] + 1], [1.0])          # one past the last port
         assert any(f"value reference {F_PORT[-1] + 1} is not a real input" in m and f"{F_PORT[0]} to {F_PORT[1]}" in m
                    for m in s.errors())
-    _, lin, _, _ = exact_model(scene, 6, 10, (0.25, 0.5), progress=False, ports=FMU_PORTS)
+    _, lin, _, _ = exact_model(scene, 6, (0.25, 0.5), progress=False, ports=FMU_PORTS)
     ref = lin.port_velocity(run_exact(lin, t, step=H, force=scene.force, hold="linear", port_forces=port_forces,
                                       area=AREA).a_v)
     held = lin.port_velocity(run_exact(lin, t, step=H, force=scene.force, hold="held", port_forces=port_forces,
@@ -284,7 +284,7 @@ def test_exact_port_fmu_takes_port_input_derivatives(port_fmus):
         assert s.get_real([3000])[0] == 1.0 * H and not s.errors()
 
 
-@pytest.mark.parametrize("model", ["frozen", "exact"])
+@pytest.mark.parametrize("model", model_per_kind(needs_basis=True))
 def test_packaging_checks_the_port_maps_passivity_and_says_it_on_the_page(port_fmus, model):
     """A port FMU's packaging runs the passivity check of its port map (sphrom.rom.passivity.port_passivity): on
     this uniform damped bar both the exact model (storage ½ α |z|²) and the frozen one linearised at rest (the

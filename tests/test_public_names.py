@@ -21,7 +21,7 @@ PUBLIC = {
                            "best_reference", "Reference", "study"],
     "sphrom.fmu": ["package_fmu", "FMUSummary", "run_cosim", "CosimResult", "FMU", "load_fmu", "cosim_reference",
                     "ensure_binaries", "Binaries", "model_data", "exact_data", "pack", "unpack", "ModelData",
-                    "ExactData", "Core", "CoreModel"],
+                    "ExactData", "kind_of", "Core", "CoreModel"],
 }
 
 

@@ -134,12 +134,12 @@ def step_cost(path, repeats, n_steps):
     import zipfile
 
     from ..fmu.make.build import ensure_binaries
-    from ..fmu.resources import ModelData, pack, pack_exact, unpack
+    from ..fmu.resources import pack, unpack
     from ..fmu.run.core import Core
     blob = zipfile.ZipFile(path).read("resources/model.bin")
     data = unpack(blob)
     data.sections = {k: v for k, v in data.sections.items() if not k.startswith("SH")}
-    bare = (pack if isinstance(data, ModelData) else pack_exact)(data)
+    bare = pack(data)                                # any model kind
     core = Core(ensure_binaries(quiet=True).core)
     models = [core.load(blob), core.load(bare)]
     times = [[], [], []]

@@ -111,7 +111,7 @@ def _held_out_row(scene, affine, model, k, c, d):
     t0 = time.perf_counter()
     e_par = probe_velocity_error(reduced_probe_velocity(model, ops_p, problem, s, steps), ref, t)
     if linear:
-        _, ops_1, _, _ = exact_model(s, k, 10, PROBES, progress=False, problem=problem)
+        _, ops_1, _, _ = exact_model(s, k, PROBES, progress=False, problem=problem)
     else:
         _, ops_1, _, _ = reduced_model(s, k, 10, PROBES, s.sph.integrator, progress=False, problem=problem)
     e_one = probe_velocity_error(reduced_probe_velocity(model, ops_1, problem, s, steps), ref, t)

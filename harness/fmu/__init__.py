@@ -3,7 +3,11 @@
 One job per folder::
 
     variables.py   the one declaration of every FMU variable, and the files generated from it (the contract)
-    resources.py   resources/model.bin: its format, pack and unpack (the contract between Python and C)
+    layout.py      the binary contract written once: model.bin's and the serialized state's layout, from which
+                   fmu_src/rom_layout.h is generated (python3 -m sphrom.fmu.layout --write)
+    kinds/         one module per model kind of model.bin (frozen, linear): its data, its part of the file, its
+                   build options and packaging step, its words, its Python co-simulation (the C core's RomKindOps)
+    resources.py   resources/model.bin: pack and unpack for every kind (the shared header, sections, token, crc)
     make/          making an FMU: option checks, per-kind resources, training envelope, parametric models,
                    modelDescription.xml, documentation page, binaries (CMake), the archive, package_fmu's
                    steps, --model auto
@@ -23,7 +27,9 @@ Public names (imported from their modules on first use)::
     verify_fmu                   the FMU against the full SPH                      (check.verify)
     ensure_binaries, Binaries    the binaries from fmu_src/, built once and cached (make.build)
     model_data, exact_data, balanced_data, pack, pack_exact, unpack, ModelData, ExactData
-                                 resources/model.bin: frozen (kind 1), exact and balanced (kind 2) (resources)
+                                 resources/model.bin: frozen (kind 1), exact and balanced (kind 2) (resources;
+                                 the data classes and builders are the kinds', kinds.frozen and kinds.linear)
+    kind_of                      the model kind module of a model's data                  (kinds)
     Core, CoreModel              ctypes access to the C core                       (run.core)
 
 The measurements that run FMUs are programs of :mod:`sphrom.bench` (``sphrom bench --list``).
@@ -39,7 +45,7 @@ EXPORTS = {
     "ensure_binaries": "make.build", "Binaries": "make.build",
     "model_data": "resources", "exact_data": "resources", "balanced_data": "resources", "pack": "resources",
     "pack_exact": "resources", "unpack": "resources",
-    "ModelData": "resources", "ExactData": "resources",
+    "ModelData": "resources", "ExactData": "resources", "kind_of": "kinds",
     "Core": "run.core", "CoreModel": "run.core",
 }
 __all__ = sorted(EXPORTS)

@@ -84,7 +84,7 @@ TYPES = {
 RULES = {
     "always": (lambda f: True, "every FMU"),
     "fmi3": (lambda f: f.fmi == 3, "FMI 3 only"),
-    "frozen": (lambda f: f.frozen, "frozen model only"),
+    "frozen": (lambda f: f.internal_step, "frozen model only"),      # a kind with internal steps (rom.h)
     "bounds": (lambda f: "BOUNDS" in f.sections, "linear models with certified bounds only"),
     "varied_c": (lambda f: "c" in f.varied, "parametric FMU only, --vary c"),
     "varied_d": (lambda f: "d" in f.varied, "parametric FMU only, --vary d"),
@@ -362,11 +362,13 @@ def absent(name, fmu="this FMU", why=None):
 
 @dataclass(frozen=True)
 class Facts:
-    """What decides an FMU's variables: the FMI version, the model kind, the sections of its resources, the
-    varied parameters and the positions x/L of the probes and ports (the families' counts)."""
+    """What decides an FMU's variables: the FMI version, whether its model kind advances by internal steps of dt
+    (the kind's ``INTERNAL_STEP``: it then has the parameters n_freeze and dt; C rom_has_internal_step), the
+    sections of its resources, the varied parameters and the positions x/L of the probes and ports (the families'
+    counts)."""
 
     fmi: int
-    frozen: bool
+    internal_step: bool
     sections: frozenset
     varied: frozenset
     positions: dict
@@ -376,19 +378,21 @@ class Facts:
 
 
 def facts(data, fmi):
-    """The :class:`Facts` of an FMU of FMI version ``fmi`` packed from ``data`` (ModelData or ExactData, as
-    written to or read from resources/model.bin): what the C instance reads from the same file."""
+    """The :class:`Facts` of an FMU of FMI version ``fmi`` packed from ``data`` (a model kind's data, as written
+    to or read from resources/model.bin): what the C instance reads from the same file."""
     import numpy as np
 
     from ..rom.parametric import PARAMETERS
-    from .resources import ModelData
+    from .kinds import kind_of
+    from .layout import column, row
     sections = dict(getattr(data, "sections", {}) or {})
     params = sections.get("PARAMS")
-    varied = frozenset(name for i, name in enumerate(PARAMETERS) if params is not None and params[i, 0] != 0)
+    varied = frozenset(name for name in PARAMETERS
+                       if params is not None and params[row("PARAMS", name), column("PARAMS", "varied")] != 0)
     ports = sections.get("PORTX")
     positions = {"probe": tuple(float(x) for x in np.asarray(data.probe_x)),
                  "port": tuple(float(x) for x in ports[0]) if ports is not None else ()}
-    return Facts(fmi=int(fmi), frozen=isinstance(data, ModelData), sections=frozenset(sections), varied=varied,
+    return Facts(fmi=int(fmi), internal_step=kind_of(data).INTERNAL_STEP, sections=frozenset(sections), varied=varied,
                  positions=positions)
 
 
@@ -577,34 +581,16 @@ def generated(root=None):
 def stale(root=None):
     """The generated files whose committed text differs from the table's."""
     from ..paths import repo_root
+    from .generated import stale as stale_files
     root = Path(root or repo_root())
-    return [path for path, text in generated(root).items()
-            if not (root / path).is_file() or (root / path).read_text(encoding="utf-8") != text]
+    return stale_files(generated(root), root)
 
 
 def main(argv=None):
-    import argparse
-    parser = argparse.ArgumentParser(prog="python3 -m sphrom.fmu.variables",
-                                     description="Regenerate (--write) or check (--check) the files generated from "
-                                                 "the FMU's variable table (harness/fmu/variables.py).")
-    group = parser.add_mutually_exclusive_group(required=True)
-    group.add_argument("--write", action="store_true", help="write every stale generated file")
-    group.add_argument("--check", action="store_true", help="list the stale generated files (exit status 1)")
-    args = parser.parse_args(argv)
-    from ..paths import repo_root
-    root = repo_root()
-    paths = stale(root)
-    if args.check:
-        for path in paths:
-            print(f"stale: {path} (run {COMMAND})")
-        return 1 if paths else 0
-    texts = generated(root)
-    for path in paths:
-        (root / path).write_text(texts[path], encoding="utf-8")
-        print(f"wrote {path}")
-    if not paths:
-        print("every generated file is up to date")
-    return 0
+    from .generated import main as command_line
+    return command_line(argv, prog="python3 -m sphrom.fmu.variables",
+                        source="the FMU's variable table (harness/fmu/variables.py)", command=COMMAND,
+                        generated=generated)
 
 
 if __name__ == "__main__":

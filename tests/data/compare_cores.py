@@ -95,7 +95,7 @@ def bind(path):
         "rom_v_probe": (d, vp, u32), "rom_rho_probe": (d, vp, u32), "rom_linear_model_name": (cp, vp),
         "rom_max_output_derivative_order": (st, vp), "rom_v_probe_rate": (st, vp, u32, pd, cp, sz),
         "rom_rho_probe_rate": (st, vp, u32, pd, cp, sz), "rom_check_outputs": (st, vp, cp, sz),
-        "rom_state_serialized_size": (sz, vp), "rom_state_serialized_size_version": (sz, vp, u32),
+        "rom_state_serialized_size": (sz, vp),
         "rom_state_serialize": (None, vp, u32, cp), "rom_state_check": (st, vp, cp, sz, cp, sz),
         "rom_state_deserialize": (st, vp, cp, sz, pu, cp, sz), "rom_envelope_check": (st, vp, cp, sz),
         "rom_varies": (st, vp, st), "rom_set_param": (st, vp, st, d, cp, sz), "rom_get_param": (d, vp, st),
@@ -155,13 +155,20 @@ def damaged_resources(name, blob):
         flipped[offset] ^= 0x5A
         yield f"byte {offset} flipped", bytes(flipped)
         yield f"byte {offset} flipped, checksum fixed", fix_crc(bytes(flipped))
-    fields = ("version", "kind", "integrator", "k_v", "k_rho", "n_probes", "n_pairs", "flags", "n_freeze", "reserved")
-    for i, field in enumerate(fields):
+    # model.bin format 4 (harness/fmu/layout.py): the shared header's uint32 fields from byte 8, its float64 fields
+    # from 32; the frozen kind's own header at 48 (4 uint32, then dt at 64)
+    frozen = struct.unpack_from("<I", blob, 12)[0] == 1
+    words = [(8 + 4 * i, f) for i, f in enumerate(("version", "kind", "k_v", "k_rho", "n_probes", "flags"))]
+    numbers = [(32, "bound"), (40, "L")]
+    if frozen:
+        words += [(48 + 4 * i, f) for i, f in enumerate(("integrator", "n_pairs", "n_freeze", "reserved"))]
+        numbers += [(64, "dt")]
+    for at, field in words:
         for value in (0, 1, 2, 3, 4, 8, 15, 100, 1025, 0xffffffff):
-            yield f"{field} = {value}", fix_crc(blob[:8 + 4 * i] + struct.pack("<I", value) + blob[12 + 4 * i:])
-    for i, field in enumerate(("dt", "bound", "L")):
+            yield f"{field} = {value}", fix_crc(blob[:at] + struct.pack("<I", value) + blob[at + 4:])
+    for at, field in numbers:
         for value in (0.0, -1.0, float("nan"), float("inf"), 1e-300):
-            yield f"{field} = {value}", fix_crc(blob[:48 + 8 * i] + struct.pack("<d", value) + blob[56 + 8 * i:])
+            yield f"{field} = {value}", fix_crc(blob[:at] + struct.pack("<d", value) + blob[at + 8:])
     start, sections, token = sections_of(blob)
     for offset in (72, 80, (72 + start) // 16 * 8, start - 8):
         for value in (float("nan"), 7.0):
@@ -180,7 +187,7 @@ def damaged_resources(name, blob):
                 changed = [list(s) for s in sections]
                 changed[i][3] = data[:8 * at] + struct.pack("<d", value) + data[8 * at + 8:]
                 yield f"section {i} value {at} = {value}", with_sections(blob, start, changed, token)
-    kv, kr, n_probes = struct.unpack_from("<3I", blob, 20)
+    kv, kr, n_probes = struct.unpack_from("<3I", blob, 16)
     tags = ("BOUNDS", "LINMODEL", "PARAMS", "KC", "BC", "DD", "A0", "AC", "AD", "PORTX", "PORTB", "PORTC", "ENVELOPE",
             "ENVRANGE", "ENVPROBE", "ENVPORT", "XYZ", "", "a b")
     shapes = ((1, 1), (2, n_probes), (2, 4), (kv, kr), (1, kv), (kv, kv), (kv + kr, kv + kr), (1, 2), (1, 8),
@@ -285,7 +292,7 @@ class Recorder:
     def states(self, where, h, s, n_probes, short):
         lib, m = self.lib, self.msg
         size = lib.rom_state_serialized_size(h)
-        self.record(where, "state sizes", size, *[lib.rom_state_serialized_size_version(h, v) for v in range(1, 5)])
+        self.record(where, "state sizes", size)
         buffer = ctypes.create_string_buffer(size)
         lib.rom_state_serialize(s, 7, buffer)
         blob = buffer.raw

@@ -7,8 +7,9 @@ Run from the repository root::
 ``--code`` names the checkout whose ``harness`` (and fmu_src/) runs (default this repository).  It was run
 once with ``--code`` on the commit before the FMU parameter ``initial_state_scale`` existed (57f8748), when
 every FMU started from the scene's initial state; tests/test_fmu_initial_state.py packages the stored
-resources with today's binaries and holds their outputs at ``initial_state_scale = 1`` bitwise equal to
-these, FMI 2 and 3, frozen and exact.
+resources (model.bin format 3, rewritten in today's format by tests/old_formats.py: the same numbers) with
+today's binaries and holds their outputs at ``initial_state_scale = 1`` bitwise equal to these, FMI 2 and 3,
+frozen and exact.
 
 Stored per model (frozen, exact): the resources/model.bin bytes of damped_forced shrunk (the FMU tests'
 "forced" scene, k = 6, probes 0.25, 0.5, 0.66), the inputs f held over 60 steps of 10 ms (seeded), and the

@@ -6,8 +6,10 @@ Run from the repository root::
 
 ``--code`` names the checkout whose ``harness`` (and fmu_src/) runs (default this repository).  It was run once
 with ``--code`` on main at fe3c0da, the last code writing state format 2 (magic, header, the kind's blocks,
-initial_state_scale, ports' block; no c and d).  tests/test_fmu_state_params.py packages the stored resources
-with today's binaries and checks that these blobs still restore and continue bitwise as they did then.
+initial_state_scale, ports' block; no c and d; its model.bin format 3).  Since model.bin format 4 (the frozen
+kind's numbers in its own header) such a state can never be restored: tests/test_fmu_state_params.py packages the
+stored resources, rewritten in today's format (tests/old_formats.py: the same numbers, another token), and checks
+that these blobs are refused naming their version and why (their token is not the FMU's).
 
 Stored per case (parametric frozen and exact: damped_forced shrunk, k = 6, probes 0.25, 0.5, 0.66, c in
 [0.05, 0.2], d in [5, 15]; a frozen FMU with a port at 0.3, F_port_1 = 0.05 N): the model.bin bytes, the parameters set before

@@ -22,6 +22,8 @@ import time
 import zlib
 from pathlib import Path
 
+from sphrom.fmu import layout
+
 REPO = Path(__file__).resolve().parents[2]
 
 
@@ -217,9 +219,9 @@ def _child_sequences(unzipdir, cases, emit):
                 slave.close()
 
 
-# Byte offsets of the internal step dt: in a serialized state (fmu_src/rom_io.c ST_DT) and in resources/model.bin
-# (the header's first double, harness/fmu/resources.py).
-STATE_DT_AT, RESOURCE_DT_AT = 104, 48
+# Byte offset of the internal step dt in resources/model.bin: the frozen kind's header (harness/fmu/layout.py; in a
+# serialized state, layout.state_offset)
+RESOURCE_DT_AT = layout.resource_offset("frozen", "dt")
 # The largest communication step tried and the time one doStep must answer in [s]
 STEP_BOUND_CASES = (("dt parameter", 1e-12, 0.01), ("dt parameter", 1e-9, 1.0), ("state dt", 1e-12, 0.01),
                     ("resources dt", 1e-12, 0.01), ("communication step", None, 1e4), ("communication step", None, 1e7))
@@ -237,12 +239,13 @@ def step_bound_cases(ws, fmu_names):
         patched = ws.root / f"step-{name}-dt"
         shutil.rmtree(patched, ignore_errors=True)
         shutil.copytree(unzipdir, patched)
-        blob = bytearray((patched / "resources" / "model.bin").read_bytes())
-        blob[RESOURCE_DT_AT:RESOURCE_DT_AT + 8] = struct.pack("<d", 1e-12)
-        (patched / "resources" / "model.bin").write_bytes(_recrc(bytes(blob)))
         has_dt = any(v.name == "dt" for v in read_model_description(unzipdir).modelVariables)
+        if has_dt:                                          # the frozen kind's resources carry dt
+            blob = bytearray((patched / "resources" / "model.bin").read_bytes())
+            blob[RESOURCE_DT_AT:RESOURCE_DT_AT + 8] = struct.pack("<d", 1e-12)
+            (patched / "resources" / "model.bin").write_bytes(_recrc(bytes(blob)))
         for kind, dt, h in STEP_BOUND_CASES:
-            if kind == "dt parameter" and not has_dt:       # a linear FMU: no internal step to set
+            if "dt" in kind.split() and not has_dt:         # a linear FMU: no internal step, no dt anywhere
                 continue
             cases.append((kind, dt, h, str(patched) if kind == "resources dt" else unzipdir))
             labels.append(f"{name}: {kind}" + (f" dt = {dt:g} s" if dt else "") + f", doStep h = {h:g} s")
@@ -266,7 +269,8 @@ def _child_step_bound(cases, emit):
                 state = slave.get_state()
                 blob = bytearray(slave.serialize(state))
                 slave.free_state(state)
-                blob[STATE_DT_AT:STATE_DT_AT + 8] = struct.pack("<d", dt)
+                at = layout.state_offset(blob, "frozen", "dt")
+                blob[at:at + 8] = struct.pack("<d", dt)
                 slave.set_state(slave.deserialize(_recrc(bytes(blob))))
             slave.set_input(0.01)
             slave.do_step(slave.time(), h)

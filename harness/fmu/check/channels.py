@@ -104,8 +104,8 @@ def model_scene(data, scene, ports=()):
     (:func:`sphrom.fmu.make.options.default_integrator`: symplectic with ports, the scene's without)."""
     from ...scene import derive_scene
     from ..make.options import default_integrator
-    from ..resources import ModelData
-    integrator = data.integrator if isinstance(data, ModelData) else default_integrator(scene, ports)
+    from ..kinds import kind_of
+    integrator = kind_of(data).integrator(data) or default_integrator(scene, ports)
     if integrator == scene.sph.integrator:
         return scene
     return derive_scene(scene, {"sph": {"integrator": integrator}})

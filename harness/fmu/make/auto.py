@@ -30,13 +30,14 @@ def package_auto(scene, out, *, tolerance, progress=True, integrator=None, **opt
     import tempfile
 
     from ...errors import ToleranceError
-    from ...rom.registry import fmu_model_names, get_model
+    from ...rom.registry import fmu_model_names
+    from ..kinds import for_model
     out = Path(out)
     candidates = []
     refs = None
     with tempfile.TemporaryDirectory(prefix="sphrom-auto-") as tmp:
         for model in fmu_model_names():
-            own = None if get_model(model).linear else integrator
+            own = integrator if "integrator" in for_model(model).BUILD_OPTIONS else None     # its kind's option
             s = package_fmu(scene, Path(tmp) / f"{model}.fmu", model=model, integrator=own, verify=True,
                             references=refs, progress=progress, **options)
             refs = s.verification.refs

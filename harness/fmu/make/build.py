@@ -15,6 +15,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -26,18 +27,24 @@ from ...paths import data_dir
 
 BUILD_TYPE = "Release"
 
-# fmu_src/ files an FMU carries in sources/ (harness/fmu/make/package.py; its C files are the modelDescription's
-# <SourceFiles> in FMI 2 and buildDescription.xml's in FMI 3, harness/fmu/make/describe.py)
-CORE_SOURCES = ("rom.h", "rom_internal.h", "rom_frozen.h", "rom_exact.h", "rom.c", "rom_resources.c",
-                "rom_state_io.c", "rom_bytes.c", "rom_frozen.c", "rom_exact.c", "rom_fail.c", "rom_envelope.c",
-                "rom_bound.c")
-INSTANCE_SOURCES = ("instance.h", "fmu_variables.h", "instance.c")
+CMAKE_LISTS = "CMakeLists.txt"
+_SET = re.compile(r"^set\((SPHROM_\w+_SOURCES)\s+([^)]*)\)", re.M)
+
+
+def cmake_sources(root=None):
+    """{list name: file names} of the ``set(SPHROM_..._SOURCES ...)`` commands of fmu_src/CMakeLists.txt, the one
+    place that lists the C sources (SPHROM_CORE_SOURCES: the model core; SPHROM_INSTANCE_SOURCES: the FMU
+    instance)."""
+    text = (Path(root or data_dir("fmu_src")) / CMAKE_LISTS).read_text(encoding="utf-8")
+    return {name: tuple(body.split()) for name, body in _SET.findall(text)}
 
 
 def fmu_sources(fmi):
-    """The fmu_src/ files of the FMI ``fmi`` FMU's sources/ folder: the model core, the instance layer and
-    the FMI adapter."""
-    return [*CORE_SOURCES, *INSTANCE_SOURCES, f"fmi{fmi}_cs.c"]
+    """The fmu_src/ files of the FMI ``fmi`` FMU's sources/ folder: the model core and the instance layer (as
+    CMakeLists.txt lists them) and the FMI adapter.  Their C files are the modelDescription's <SourceFiles> in
+    FMI 2 and buildDescription.xml's in FMI 3 (:mod:`sphrom.fmu.make.describe`)."""
+    lists = cmake_sources()
+    return [*lists["SPHROM_CORE_SOURCES"], *lists["SPHROM_INSTANCE_SOURCES"], f"fmi{fmi}_cs.c"]
 
 
 @dataclass(frozen=True)

@@ -15,7 +15,7 @@ from xml.sax.saxutils import escape
 
 from ... import __version__
 from ...paths import data_dir
-from .. import variables
+from .. import layout, variables
 from .build import fmu_sources
 from ..variables import number
 
@@ -90,7 +90,9 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
         whose values section BOUNDS holds (default ``data.bounds``), for the words of the description.
     """
     from ...rom.registry import get_model
+    from ..kinds import kind_of
 
+    kind = kind_of(data)
     bounds = bounds if bounds is not None else getattr(data, "bounds", None)
     facts = variables.facts(data, fmi)
     declared = variables.declared(facts, variable_values(fmi, scene, data, envelope, bounds))
@@ -104,12 +106,7 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
     if spec.basis_kind is None:
         modes = (f"order r = {data.k} (its state mixes velocity and specific volume: the probe outputs are rows "
                  f"over the whole state)")
-    if spec.linear:
-        stepping = ("advanced over each communication step by the matrix exponential (input held, or linear "
-                    "with fmi2SetRealInputDerivatives in FMI 2): no internal step, so no parameters dt and n_freeze")
-    else:
-        stepping = (f"{data.integrator} integrator, internal dt = {data.dt:g} s, n_freeze = {data.n_freeze} by "
-                    "default")
+    stepping = kind.stepping(data)
     description = (f"{spec.title} of the SPH mass-spring-damper scene '{scene.name}' ({scene.title}; "
                    f"N = {scene.sph.n_particles}, L = {scene.L:g} m): {modes}; {stepping}; probes at x/L = {where}"
                    + (f"; input projection error {input_error:.3g}" if input_error == input_error else "")
@@ -132,14 +129,14 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
         "date": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
         "stop_time": number(stop_time),
         "step_size": number(step_size),
-        "dt": number(data.dt),
+        **{name: number(v) for name, v in kind.parameter_starts(data).items()},
         # the linear models give dy/dt = C (A z + B f) exactly (fmu_src/rom.h rom_max_output_derivative_order);
         # the frozen model's trajectory is a discrete map of internal steps: none
-        "max_output_derivative_order": 1 if spec.linear else 0,
+        "max_output_derivative_order": kind.OUTPUT_DERIVATIVE_ORDER,
     }
     lists = {
         # FMI 3 fixedInternalStepSize only where there is one: the linear model steps by the matrix exponential
-        "internal_step": [] if spec.linear else [{}],
+        "internal_step": [{}] if kind.INTERNAL_STEP else [],
         "source_files": [{"name": name} for name in fmu_sources(fmi) if name.endswith(".c")],
     }
     raw = {"unit_definitions": unit_definitions(declared), "type_definitions": type_definitions(declared, fmi),
@@ -150,14 +147,14 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
 def variable_values(fmi, scene, data, envelope, bounds):
     """The FMU's values the variable table's descriptions and :class:`~sphrom.fmu.variables.From` cells name
     (under ``probe``: one value per probe)."""
+    from ..kinds import kind_of
     values = {
         "profile": scene.fields["profile"].text,
         # FMI 2 only: the linear models integrate f + (df/dt) tau over a step exactly, the frozen model
         # evaluates it at each refresh of its force term
         "input_hold": ("held over each communication step, or linear with the derivative of "
                        "fmi2SetRealInputDerivatives" if fmi == 2 else "held over each communication step"),
-        "n_freeze": int(data.n_freeze),
-        "dt": float(data.dt),
+        **kind_of(data).parameter_starts(data),        # the start values of the kind's own parameters
         # nominal values from the training envelope: max |v| and rho0 at each probe, the training force amplitude
         # (none for f = 0: a free response trained no force scale)
         "f_nominal": (envelope.force_amplitude if envelope is not None and envelope.force_amplitude > 0
@@ -173,15 +170,16 @@ def variable_values(fmi, scene, data, envelope, bounds):
         values["probe"].update(fb=[f"{x:.6g}" for x in fb], ib=[f"{x:.6g}" for x in ib])
         values.update(fb_max=f"{max(fb):.6g}", ib_max=f"{max(ib):.6g}",
                       what=bound_text(bounds) if bounds is not None else "certified against the full linear SPH")
-    shadow = getattr(data, "sections", {}).get("SHSCAL")
-    if shadow is not None:                        # error_tolerance's default (harness/rom/bounds.py sections)
-        values["error_tolerance"] = float(shadow[0, 10])
+    if "SHSCAL" in getattr(data, "sections", {}):   # error_tolerance's default (harness/rom/bounds.py sections)
+        values["error_tolerance"] = layout.value(data.sections, "SHSCAL", "tolerance")
     params = getattr(data, "sections", {}).get("PARAMS")
     if params is not None:
         from ...rom.parametric import PARAMETERS
-        for i, name in enumerate(PARAMETERS):      # rows c, d: varied, start, min, max
-            values.update({f"{name}.start": params[i, 1], f"{name}.min": params[i, 2], f"{name}.max": params[i, 3],
-                           f"{name}.nominal": max(abs(params[i, 2]), abs(params[i, 3]))})
+        for name in PARAMETERS:                     # rows c, d: varied, start, min, max
+            i = layout.row("PARAMS", name)
+            start, low, high = (layout.value(data.sections, "PARAMS", column, i) for column in ("start", "min", "max"))
+            values.update({f"{name}.start": start, f"{name}.min": low, f"{name}.max": high,
+                           f"{name}.nominal": max(abs(low), abs(high))})
     return values
 
 
@@ -274,10 +272,7 @@ def build_description(blob) -> str:
 
 
 def model_name(data):
-    """The registered model a packed model.bin holds: frozen (kind 1), balanced or exact (kind 2, section
-    LINMODEL)."""
-    from ..resources import LINEAR_BALANCED, ModelData
-    if isinstance(data, ModelData):
-        return "frozen"
-    linmodel = data.sections.get("LINMODEL")
-    return "balanced" if linmodel is not None and int(linmodel[0, 0]) == LINEAR_BALANCED else "exact"
+    """The registered model a packed model.bin holds (its kind's answer: frozen for kind 1; exact or balanced for
+    kind 2, from section LINMODEL)."""
+    from ..kinds import kind_of
+    return kind_of(data).model_name(data)

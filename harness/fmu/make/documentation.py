@@ -18,6 +18,9 @@ from __future__ import annotations
 import xml.etree.ElementTree as ET
 from html import escape
 
+from .. import layout
+from ..kinds import kind_of
+
 DOC_INDEX = "documentation/index.html"
 DOC_PLOT = "documentation/probes.png"
 
@@ -114,12 +117,7 @@ def model_section(spec, data, k, input_error, augmented):
             (f"{basis} coordinates", str(data.k_rho)),
             ("input projection error of the force profile", _number(input_error)),
             ("probes x/L", ", ".join(f"{x:g}" for x in data.probe_x))]
-    if spec.linear:
-        rows.append(("time stepping", "the matrix exponential over each communication step (exact in time; no "
-                                      "internal step, so no parameters dt and n_freeze)"))
-    else:
-        rows += [("integrator", escape(data.integrator)), ("default n_freeze", str(data.n_freeze)),
-                 ("default internal dt [s]", _number(data.dt, "g"))]
+    rows += kind_of(data).model_rows(data)          # the kind's time stepping
     rows.append(("instantiation token", f"<code>{escape(data.token)}</code>"))
     return ["<h2>Model</h2>", *_table(("quantity", "value"), rows)]
 
@@ -157,8 +155,9 @@ def _stop_time(description_xml):
     return _short(experiment.get("stopTime", "10")) if experiment is not None else "10"
 
 
-def usage_section(description_xml, linear, ports):
-    """How to use this FMU: its FMI version, start at rest, communication step, input derivatives, an example."""
+def usage_section(description_xml, stepping, ports):
+    """How to use this FMU: its FMI version, start at rest, communication step, ``stepping`` (its model kind's
+    sentence on how it steps, HTML), input derivatives, an example."""
     version, step, interpolate = _fmi(description_xml)
     major = version.split(".")[0]
     step_text = f"its DefaultExperiment stepSize is {escape(_short(step))} s" if step else "any step"
@@ -168,11 +167,6 @@ def usage_section(description_xml, linear, ports):
              if interpolate else
              "FMI 3.0 co-simulation has no input derivatives: the inputs are held over each communication step "
              "(for linear inputs inside a step use the FMI 2 FMU, <code>sphrom fmu --fmi 2</code>).")
-    stepping = ("It is exact in time over any communication step h &gt; 0 (the matrix exponential; no internal "
-                "step)." if linear else
-                "It takes internal steps of <code>dt</code> and refreshes its frozen coefficients every "
-                "<code>n_freeze</code> of them; any h &gt; 0 is accepted, the last internal step shortened to end "
-                "exactly at the communication point.")
     example = (f"from fmpy import simulate_fmu\n"
                f"result = simulate_fmu('this.fmu', stop_time={_stop_time(description_xml)}, "
                f"output_interval={_short(step) if step else '0.01'},\n"
@@ -208,7 +202,9 @@ def ports_section(sections, model=None, passivity=None):
                 f"<code>v_port_j</code>). The sign convention: {convention}</p>"]
     import numpy as np
     xs = ", ".join(f"{x:g}" for x in np.ravel(positions))
-    represents = PORT_MODELS.get(model, "")
+    from ..kinds import model_words
+    words = model_words().get(model)
+    represents = words.ports if words else ""
     return ["<h2>Ports</h2>", f"<p>Mechanical ports at x/L = {xs}. {convention}</p>"] + (
         [f"<p>{represents} The table of input channels below measures each port (a constant, a slow and an in-band "
          "force from rest, and the port closed by a spring-mass-damper) against the full SPH.</p>"]
@@ -217,30 +213,15 @@ def ports_section(sections, model=None, passivity=None):
          f"docs/fmu/ports.md): {escape(passivity.line())}.</p>"] if passivity is not None else [])
 
 
-# what each model represents of a port exactly, and what it approximates (docs/fmu/ports.md)
-PORT_MODELS = {
-    "exact": ("Each port's directions are in the basis: the rigid motion and the static deflection under a constant "
-              "force exactly, the in-band response (rational moments) and the modes a step makes ring, until the "
-              "basis misses at most 0.5 % of the port's step response over the scene's T; what it approximates is "
-              "the ringing of the modes left out (larger in a shorter run: the rigid drift grows, the ringing "
-              "does not)."),
-    "frozen": ("Each port's directions are in the basis as the exact model's (rigid motion, static deflection, "
-               "in-band moments, the ringing modes), and the model is projected in the energy inner products, "
-               "which keeps its port map passive on every scene; on top, the density linearisation (eq. 2.17) errs "
-               "in proportion to the strain. A port FMU steps with symplectic Euler unless packaged with "
-               "--integrator (this one's: the model section): explicit Euler grows an undamped bar's ringing "
-               "modes."),
-    "balanced": ("The port forces are inputs and the port velocities outputs of the balanced system: what it "
-                 "approximates is the Hankel-singular-value tail its order tolerance drops."),
-}
-
-
 def _envelope_rows(sections, probe_x):
     """The training envelope's sections as labelled rows (quantity, value)."""
     import numpy as np
     rows = []
     if "ENVELOPE" in sections:
-        (amplitude, band, strain, probe_strain, failure, margin, checks, mean) = np.ravel(sections["ENVELOPE"])[:8]
+        amplitude, band, strain, probe_strain, failure, margin, checks, mean = (
+            layout.value(sections, "ENVELOPE", name) for name in ("force_amplitude", "force_band", "max_strain",
+                                                                  "max_probe_strain", "failure_strain", "margin",
+                                                                  "checks", "force_mean"))
         rows += [("training force amplitude max |f| [m s^-2]", f"{amplitude:.4g}"),
                  ("training force mean [m s^-2]", _mean(mean, amplitude)),
                  ("frequency below which 99 % of the force's energy lies [Hz]", f"{band:.4g}"),
@@ -259,7 +240,7 @@ def _envelope_rows(sections, probe_x):
             x = f", x/L = {probe_x[j]:g}" if j < len(probe_x) else ""
             rows.append((f"probe {j + 1}{x}: rho0 [kg m^-3], training max |v| [m s^-1]", f"{r:.4g}, {v:.4g}"))
     if "ENVPORT" in sections:
-        pv, pr = np.ravel(sections["ENVPORT"])[:2]
+        pv, pr = (layout.value(sections, "ENVPORT", name) for name in ("port_v", "port_rho"))
         rows.append(("port coordinates (exact input directions, not checked)",
                       f"{int(pv)} velocity, {int(pr)} density"))
     return rows
@@ -381,7 +362,7 @@ def index_html(*, scene, spec, data, k, input_error, augmented, description_xml,
             f"packaged by sphrom {escape(__version__)} as an FMI {escape(version)} co-simulation FMU. Input "
             "<code>f</code> (force per mass along the force profile), outputs the velocity and density at the "
             "probes.</p>"]
-    body += usage_section(description_xml, spec.linear, sections)
+    body += usage_section(description_xml, kind_of(data).usage(data), sections)
     body += ports_section(sections, spec.name, passivity)
     body += scene_section(scene)
     body += model_section(spec, data, k, input_error, augmented)

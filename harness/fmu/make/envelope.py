@@ -61,11 +61,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-N_SCALARS = 8
-CHECK_COORDINATES = 1
-CHECK_FORCE = 2
-CHECK_STRAIN = 4
-CHECK_FAILURE = 8
+from .. import layout
+
+SCALARS = layout.SECTIONS["ENVELOPE"].columns    # the named columns of ENVELOPE (sphrom.fmu.layout)
+N_SCALARS = len(SCALARS)
+CHECK_COORDINATES, CHECK_FORCE, CHECK_STRAIN, CHECK_FAILURE = (layout.ENVELOPE_CHECKS[name] for name in
+                                                                ("coordinates", "force", "strain", "failure"))
 ENERGY_FRACTION = 0.99       # the band that holds this fraction of the training force's energy
 # Factor on the trained ranges (coordinates, |f|, probe strain) before a warning, from
 # `python -m sphrom.bench.envelope` (validation/benchmarks/envelope.csv, BENCHMARKS.md "The training
@@ -103,12 +104,11 @@ class Envelope:
 
     def sections(self):
         """The tagged sections (tag -> 2-D array) of :mod:`sphrom.fmu.resources`."""
-        scalars = [self.force_amplitude, self.force_band, self.max_strain, self.max_probe_strain,
-                   self.failure_strain, self.margin, float(self.checks), self.force_mean]
-        out = {"ENVELOPE": np.array([scalars]), "ENVRANGE": np.vstack([self.lo, self.hi]),
-               "ENVPROBE": np.vstack([self.probe_rho0, self.probe_v_max])}
+        scalars = [float(getattr(self, name)) for name in SCALARS]       # the columns, by name
+        out = {"ENVELOPE": np.array([scalars]), "ENVRANGE": np.vstack([self.lo, self.hi]),       # rows min, max
+               "ENVPROBE": np.vstack([self.probe_rho0, self.probe_v_max])}                  # rows rho0, v_max
         if self.port_v or self.port_rho:
-            out["ENVPORT"] = np.array([[float(self.port_v), float(self.port_rho)]])
+            out["ENVPORT"] = np.array([[float(getattr(self, name)) for name in layout.SECTIONS["ENVPORT"].columns]])
         return out
 
     def checked(self, k_v):
@@ -122,14 +122,15 @@ class Envelope:
         """The envelope of a model.bin's sections (None without them); k_v from its header."""
         if "ENVELOPE" not in sections:
             return None
-        s = np.asarray(sections["ENVELOPE"], float)[0]
+        scalars = {name: layout.value(sections, "ENVELOPE", name) for name in SCALARS}
+        scalars["checks"] = int(scalars["checks"])
         rng = np.asarray(sections["ENVRANGE"], float)
-        ports = np.asarray(sections.get("ENVPORT", np.zeros((1, 2))), float)[0]
-        return cls(force_amplitude=s[0], force_band=s[1], max_strain=s[2], max_probe_strain=s[3],
-                   failure_strain=s[4], margin=s[5], checks=int(s[6]), force_mean=s[7], lo=rng[0], hi=rng[1],
-                   probe_rho0=np.asarray(sections["ENVPROBE"], float)[0],
-                   probe_v_max=np.asarray(sections["ENVPROBE"], float)[1], k_v=int(k_v), port_v=int(ports[0]),
-                   port_rho=int(ports[1]))
+        probe = np.asarray(sections["ENVPROBE"], float)
+        ports = {name: int(layout.value(sections, "ENVPORT", name)) if "ENVPORT" in sections else 0
+                 for name in ("port_v", "port_rho")}
+        return cls(**scalars, lo=rng[layout.row("ENVRANGE", "min")], hi=rng[layout.row("ENVRANGE", "max")],
+                   probe_rho0=probe[layout.row("ENVPROBE", "rho0")], probe_v_max=probe[layout.row("ENVPROBE", "v_max")],
+                   k_v=int(k_v), **ports)
 
     def lines(self, linear=False, bounded=False):
         """Human-readable lines (the ``sphrom fmu`` summary and the model description); ``bounded``: the FMU

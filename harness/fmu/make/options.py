@@ -89,7 +89,9 @@ def check_options(scene, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaults.
     probes = parse_probes(",".join(str(p) for p in probes)) if not isinstance(probes, str) else parse_probes(probes)
     if fmi not in (2, 3):
         raise FieldError("fmi", f"{fmi!r} is out of range (allowed: 2 or 3)")
-    if spec.linear:
+    from ..kinds import for_model
+    kind = for_model(model)                 # the options its model kind takes (its BUILD_OPTIONS)
+    if "integrator" not in kind.BUILD_OPTIONS:
         if integrator is not None:
             raise FieldError("integrator", f"{integrator!r} does not apply to the {model} model (it is advanced "
                                            "by the matrix exponential)")
@@ -99,10 +101,10 @@ def check_options(scene, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaults.
         raise FieldError("integrator", f"{integrator!r} is not defined for the {model} model "
                                        f"(allowed: {', '.join(spec.integrators)}; scene '{scene.name}' uses "
                                        f"{scene.sph.integrator})")
-    from ..check.python_cosim import DT_MIN
-    if scene.sph.dt < DT_MIN:              # the C core refuses it: the work of a doStep grows as 1/dt (rom.h)
+    # the C core refuses a dt below the smallest internal step: the work of a doStep grows as 1/dt (rom.h)
+    if "dt" in kind.BUILD_OPTIONS and scene.sph.dt < kind.DT_MIN:
         raise FieldError("dt", f"the scene's dt = {scene.sph.dt!r} s is below the smallest internal step a "
-                               f"{model} FMU takes, {DT_MIN:g} s (allowed: dt >= {DT_MIN:g} s)")
+                               f"{model} FMU takes, {kind.DT_MIN:g} s (allowed: dt >= {kind.DT_MIN:g} s)")
     return int(k), n_freeze, probes, int(fmi), integrator
 
 

@@ -36,8 +36,9 @@ from pathlib import Path
 from ... import defaults
 from ...errors import FieldError, SimulationError
 from ...runio import atomic_path
+from .. import layout
+from ..kinds import kind_of
 from .archive import validate, write_fmu
-from .models import RESOURCES
 from .options import check_options, check_ports
 
 
@@ -61,9 +62,10 @@ class FMUSummary:
     probes : list of float
         Probe positions, units of L.
     n_freeze : int
+        The parameter n_freeze's start value (a linear model, which has none: the option given).
     integrator : str
     dt : float
-        Internal step [s].
+        Internal step [s] (a linear model, which has none: the scene's).
     token : str
     size : int
         Bytes of the .fmu.
@@ -217,11 +219,13 @@ def package_fmu(scene, out, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaul
             timings["verify"] = time.perf_counter() - t3
             stage_done(scene, "verify", timings, progress)
         size = tmp.stat().st_size
+    # the kind's own parameters (the frozen kind's n_freeze and dt); a kind without them reports the options given
+    starts = kind_of(data).parameter_starts(data)
     return FMUSummary(path=out, fmi=fmi, scene=scene.name, k=k, k_v=data.k_v, k_rho=data.k_rho,
                       input_error=ops.input_error, augmented=ops.augmented, probes=list(probes),
-                      n_freeze=data.n_freeze if n_freeze is None else n_freeze,
+                      n_freeze=starts.get("n_freeze", n_freeze or defaults.N_FREEZE),
                       n_freeze_errors=dict(getattr(data, "n_freeze_errors", {}) or {}),
-                      integrator=integrator, dt=data.dt, token=data.token, size=size, timings=timings, model=model,
+                      integrator=integrator, dt=starts.get("dt", scene.sph.dt), token=data.token, size=size, timings=timings, model=model,
                       envelope=envelope, verification=verification, bounds=data.bounds,
                       method=ops.method, parameters=parameters, ports=list(ports), port_errors=list(ops.port_errors),
                       port_passivity=passivity,
@@ -233,21 +237,21 @@ def _shadow_facts(sections):
     scal = sections.get("SHSCAL")
     if scal is None:
         return {}
-    return {"shadow_order": int(scal[0][0]), "error_tolerance": float(scal[0][10])}
+    return {"shadow_order": int(layout.value(sections, "SHSCAL", "order")),
+            "error_tolerance": layout.value(sections, "SHSCAL", "tolerance")}
 
 
 def model_step(scene, model, k, n_freeze, probes, integrator, progress, problem, *, vary, ports, bounds,
                order_tolerance, build_options, extra_steps=(), error_bounds=True):
     """Step 2: (data, operators, resources/model.bin bytes, the parametric FMU's parameter rows) of ``model``:
-    the resource kind's function (:data:`.models.RESOURCES`), or the parametric model over ``vary``."""
-    from ...rom.registry import get_model
+    the model kind's packaging step (:mod:`sphrom.fmu.kinds`, ``resource``), or the parametric model over
+    ``vary``."""
+    from ..kinds import for_model
     if not vary:
-        data, ops, blob = RESOURCES[get_model(model).fmu_kind](scene, model, k, n_freeze, probes, integrator,
-                                                                  progress, problem, order_tolerance=order_tolerance,
-                                                                  bounds=bounds, ports=ports,
-                                                                  error_bounds=error_bounds,
-                                                                  build_options=build_options,
-                                                                  extra_steps=extra_steps)
+        data, ops, blob = for_model(model).resource(scene, model, k, n_freeze, probes, integrator, progress, problem,
+                                                    order_tolerance=order_tolerance, bounds=bounds, ports=ports,
+                                                    error_bounds=error_bounds, build_options=build_options,
+                                                    extra_steps=extra_steps)
         return data, ops, blob, []
     if build_options:
         raise FieldError("build_options", "not with vary (a parametric model has its own build)")

@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...rom import parametric as par
-from ..resources import exact_data, model_data, pack, pack_exact
+from ..resources import pack
 from ..variables import number, vr
 
 # How the force profile enters a parametric model's FMU (``input_direction`` of build_operators), by model.
@@ -105,31 +105,21 @@ def parametric_resource(scene, model, k, n_freeze, probes, integrator, progress,
     the runs at all sample points (:func:`parametric_envelope`); with ``error_bounds`` the certified error bounds'
     parametric shadow about the scene's (c, d) (:func:`sphrom.fmu.make.models.shadow_step`; the C core
     assembles its planes at the FMU's c and d)."""
+    from ..kinds import for_model
     from .models import shadow_step
     from ...rom.registry import get_model
-    from ...rom.stepping import runaway_bound
     from ...sph.solver import build_problem
 
     affine, space, _, _ = parametric_model(scene, ranges, k, model=model, progress=progress)
     c0, d0 = space.start("c"), space.start("d")
     problem = build_problem(scene)
     sections = {"PARAMS": params_section(space)}
-    if get_model(model).linear:
-        lin = par.linear_at(affine, c0, d0)
-        data = exact_data(lin, problem, dt=scene.sph.dt, n_freeze=n_freeze, probes=probes)
-        sections.update({"A0": affine.A0, "AC": affine.Ac, "AD": affine.Ad})
-        sections.update(parametric_envelope(scene, space, lin, probes, True, progress).sections())
-        data.sections.update(sections)
-        if error_bounds:
-            shadow_step(data, lin, problem, probes, parametric=True)
-        return data, lin, pack_exact(data), space
-    ops = par.frozen_at(affine, c0, d0)
-    data = model_data(ops, problem, dt=scene.sph.dt, integrator=integrator, n_freeze=n_freeze, probes=probes,
-                      bound=runaway_bound(ops))
-    sections.update({"KC": affine.unit.K, "BC": affine.unit.b[None, :]})
-    if affine.damping:
-        sections["DD"] = affine.unit.D
-    sections.update(parametric_envelope(scene, space, ops, probes, False, progress).sections())
+    kind = for_model(model)                  # its operators at (c0, d0) and its affine pieces (KC, BC, DD or A0, AC, AD)
+    given = {"dt": scene.sph.dt, "n_freeze": n_freeze, "integrator": integrator}
+    data, ops, pieces = kind.parametric(affine, c0, d0, problem, probes=probes,
+                                        **{name: given[name] for name in kind.BUILD_OPTIONS})
+    sections.update(pieces)
+    sections.update(parametric_envelope(scene, space, ops, probes, get_model(model).linear, progress).sections())
     data.sections.update(sections)
     if error_bounds:
         shadow_step(data, ops, problem, probes, parametric=True)

@@ -33,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import layout
 from ..variables import absent, lookup, vr
 
 # fmpy's FMU constructors chdir() into binaries/<platform> to load the library
@@ -71,7 +72,7 @@ def fmi2_logger(callback_type):
     return _LOGGER[0]
 
 
-STATE_HEADER_SIZE = 112     # ROM_STATE_HEADER_SIZE of fmu_src/rom.h: magic, version, sizes, token, time, counters
+STATE_HEADER_SIZE = layout.STATE_HEADER.size   # ROM_STATE_HEADER_SIZE (harness/fmu/layout.py): magic to f
 
 
 def load_fmu(fmi, unzipdir, token, name):

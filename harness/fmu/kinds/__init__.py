@@ -1,0 +1,93 @@
+"""The FMU's model kinds: one module per kind of ``resources/model.bin``, as the C core has one table of operations
+per kind (fmu_src/rom_internal.h ``RomKindOps``; fmu_src/rom_frozen.c, rom_exact.c).
+
+A kind module owns everything that differs between kinds on the Python side: its data class (what its model.bin
+holds), its part of the file (:func:`file_fields`, :func:`from_file`; the shared header, sections, token and checksum
+are :mod:`sphrom.fmu.resources`'), its build options and its packaging step (``resource``), its co-simulation in
+Python that the C core must equal, its words on the FMU's pages and the facts the variable table needs.  Code
+elsewhere asks the kind of a model (:func:`kind_of` its data, :func:`by_number` the header's model_kind,
+:func:`for_model` a registry model's ``fmu_kind``), never the data's class.
+
+The table is :data:`sphrom.fmu.layout.KINDS` (the bytes' spec): kind ``name`` is the module ``sphrom.fmu.kinds.<name>``.
+A new kind is a row there, its module here and its C file (docs/internals/c-code.md).
+
+Each kind module defines::
+
+    NUMBER                  the header's model_kind
+    Data                    its data class (class attribute KIND = NUMBER)
+    BUILD_OPTIONS           the packaging options it takes (frozen: n_freeze, dt, integrator)
+    INTERNAL_STEP           it advances by internal steps of dt (the FMU parameters n_freeze, dt: the variable
+                            table's rule ``frozen``, sphrom.fmu.variables.facts; C rom_has_internal_step)
+    INITIAL_STATE           the array initial_state_scale multiplies (a_v0, z0)
+    OUTPUT_DERIVATIVE_ORDER the output derivatives it gives (maxOutputDerivativeOrder)
+    MODELS                  {registry model name: ModelWords}: the words of each model of this kind
+    file_fields(data)       (shared header fields, its own header or None, {array name: array}) for pack
+    from_file(header, head, arrays, token, sections) -> Data
+    min_k_rho(flags)        the smallest k_rho its header may have
+    from_operators(ops, problem, *, probes, **build options) -> Data
+    resource(scene, model, k, n_freeze, probes, integrator, progress, problem, **options) -> (data, ops, blob)
+    parametric(affine, c, d, problem, *, probes, **build options) -> (data, ops, its affine sections)
+    model_name(data)        the registry model the data holds
+    integrator(data)        the name of its time integrator where it has one (None: exact in time)
+    parameter_starts(data)  the start values of its own FMU parameters (frozen: n_freeze, dt)
+    stepping(data)          modelDescription's words on its time stepping
+    model_rows(data)        the documentation page's rows on it
+    usage(data)             the documentation page's sentence on how it steps
+    example(rng)            a small model of the kind with random numbers (tests of the file and the core)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from importlib import import_module
+
+from .. import layout
+
+
+@dataclass(frozen=True)
+class ModelWords:
+    """What one registry model of a kind is, in words (the FMU's page, the README's model table).
+
+    ports : str
+        What it represents of a mechanical port exactly, and what it approximates (docs/fmu/ports.md).
+    what, limits, when : str
+        The README model table's columns (:mod:`sphrom.docs_figures`): what it represents exactly, its limits,
+        when to use it.
+    """
+
+    ports: str
+    what: str
+    limits: str
+    when: str
+
+
+def kinds():
+    """{model_kind: kind module} in the order of ``layout.KINDS``."""
+    return {k.number: import_module(f"{__name__}.{k.name}") for k in layout.KINDS}
+
+
+def by_number(number):
+    """The kind module of the header's model_kind ``number`` (ValueError naming the known ones)."""
+    spec = layout.KIND_BY_NUMBER.get(number)
+    if spec is None:
+        raise ValueError(f"model kind {number!r} (allowed: {', '.join(str(k.number) for k in layout.KINDS)})")
+    return import_module(f"{__name__}.{spec.name}")
+
+
+def kind_of(data):
+    """The kind module of ``data`` (a kind's data class: its KIND)."""
+    return by_number(type(data).KIND)
+
+
+def for_model(name):
+    """The kind module of the registered reduced model ``name`` (its ``fmu_kind``); ValueError when it has none."""
+    from ...rom.registry import get_model
+    spec = get_model(name)
+    if spec.fmu_kind is None:
+        raise ValueError(f"reduced model {name!r} cannot be packaged as an FMU")
+    return by_number(spec.fmu_kind)
+
+
+def model_words():
+    """{registry model name: ModelWords} of every kind's models, in the kinds' order."""
+    return {name: words for kind in kinds().values() for name, words in kind.MODELS.items()}

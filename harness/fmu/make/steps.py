@@ -1,0 +1,77 @@
+"""The packaging steps every model kind shares (:mod:`sphrom.fmu.kinds`' ``resource`` calls them): the scene's POD
+basis and its training run, the training envelope (:mod:`.envelope`) and the certified error bounds' shadow.
+
+They ask nothing of a kind (the kinds build on them, never the other way round).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...errors import FieldError
+from .. import layout
+
+
+def model_basis(scene, spec, k, progress=True, problem=None, made=None):
+    """(basis, problem) of ``scene`` for the model ``spec``: its POD basis, with k checked against the modes of the
+    model's basis kind (FieldError naming the field ``k`` or ``model``).  ``made``: the (basis, run) of
+    :func:`sphrom.pod.pipeline.basis_for_scene` already made for this scene (not made again)."""
+    from ...pod.pipeline import basis_for_scene
+    from ...rom.model import BASIS_KINDS
+    from ...sph.solver import build_problem
+
+    problem = problem or build_problem(scene)
+    basis, _ = made or basis_for_scene(scene, progress=progress, problem=problem)
+    available = spec.available_modes(basis)
+    if available is None:
+        raise FieldError("model", f"{spec.name}: the basis of scene '{scene.name}' has no "
+                                  f"{' and '.join(BASIS_KINDS[spec.basis_kind][:2])} modes")
+    if k > min(available):
+        raise FieldError("k", f"{k} is out of range (allowed: 1 to {min(available)}, the POD modes of scene "
+                              f"'{scene.name}')")
+    return basis, problem
+
+
+def training_envelope(scene, ops, problem, probes, linear, progress=False, run=None):
+    """The :class:`~sphrom.fmu.make.envelope.Envelope` of the model ``ops``: its ranges over the scene's cached
+    full SPH training run (:mod:`sphrom.fmu.make.envelope`)."""
+    from ...pod.pipeline import basis_for_scene
+    from .envelope import measure
+    if run is None:
+        _, run = basis_for_scene(scene, progress=progress, problem=problem)
+    return measure(scene, ops, problem, run, probes, linear)
+
+
+def training_basis(scene, progress, problem, extra_steps=()):
+    """(basis, run, problem): the scene's POD basis and its cached training run, made once for the model and its
+    training envelope (one SPH load and one POD).  ``extra_steps``: more samples the same run stores (the
+    communication points a verification reads: the training run is then not run again for it)."""
+    import dataclasses
+
+    from ...pod.pipeline import basis_for_scene, error_steps
+    from ...sph.solver import build_problem
+    problem = problem or build_problem(scene)
+    basis, run = basis_for_scene(scene, progress=progress, problem=problem, extra_steps=extra_steps)
+    # the envelope is measured on the samples the model asks for (error and snapshot steps), not on whatever
+    # else the cache holds from other commands: the same resources whatever the cache's history
+    keep = np.isin(run.steps, np.union1d(error_steps(scene), np.union1d(basis.steps_v, basis.steps_rho)))
+    if not keep.all():
+        run = dataclasses.replace(run, t=run.t[keep], v=run.v[keep], rho=run.rho[keep], steps=run.steps[keep])
+    return basis, run, problem
+
+
+def shadow_step(data, ops, problem, probes, parametric=False):
+    """The certified error bounds' shadow of every output of the model ``ops`` (its probes and ports, the
+    operators' ``bound_shadow``) into ``data.sections`` (SH*, :mod:`sphrom.rom.bounds`;
+    the FMU's outputs ``*_error_bound`` and parameter ``error_tolerance``), its default tolerance from the training
+    run's largest |v_probe| (section ENVPROBE; without it the initial state's); nothing where the C core cannot
+    certify (more than FMU_MAX_PARTICLES particles, a parametric model whose d is not uniform).  A damping d that
+    is not uniform gives one dense block (sections SHDENSE, SHEGRAM).  ``parametric``: the shadow of a parametric
+    FMU (its planes in pieces of c and d, sections SHPIECE and SHPARAM; the C core assembles them at the FMU's c
+    and d)."""
+    from ...rom.bounds import sections
+    envelope = data.sections.get("ENVPROBE")
+    scale_v = float(np.max(envelope[layout.row("ENVPROBE", "v_max")])) if envelope is not None else None
+    shadow = ops.bound_shadow(problem, probes, parametric=parametric, scale_v=scale_v)
+    if shadow is not None:
+        data.sections.update(sections(shadow))
