@@ -52,6 +52,18 @@
 
 #include "rom_layout.h"      /* the formats: generated from harness/fmu/layout.py */
 
+/* The printf dialect the message functions below are checked against: a MinGW-w64 build uses MinGW's C99 printf
+ * (CMakeLists.txt defines __USE_MINGW_ANSI_STDIO: %zu, %lld, %a as on Linux), which its <stdio.h> names
+ * __MINGW_PRINTF_FORMAT; GCC's "printf" there would mean the Microsoft runtime's. */
+#if defined(__MINGW32__)
+#include <stdio.h>
+#endif
+#if defined(__MINGW_PRINTF_FORMAT)
+#define ROM_PRINTF_FORMAT __MINGW_PRINTF_FORMAT
+#else
+#define ROM_PRINTF_FORMAT printf
+#endif
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -102,7 +114,7 @@ typedef struct {
  * (rom_fail.c: the core, the instance layer and sph.c report failures through it; never exported) */
 RomStatus rom_fail(char *message, size_t message_size, const char *format, ...)
 #if defined(__GNUC__)
-    __attribute__((format(printf, 3, 4)))
+    __attribute__((format(ROM_PRINTF_FORMAT, 3, 4)))
 #endif
     ;
 

@@ -154,6 +154,9 @@ def _run(args):
                         order_tolerance=args.order_tolerance)
     added = " (+ the force profile direction, not in the POD span)" if s.augmented else ""
     print(f"fmu {s.scene}: FMI {s.fmi}.0 co-simulation, {s.model} model, wrote {s.path} ({s.size / 1024:.1f} KiB)")
+    print(f"  binaries for {s.platforms}")
+    for line in s.missing_platforms:         # a platform left out, in one line (sphrom.fmu.make.build.fmu_binaries)
+        print(f"sphrom fmu: note: {line}; the FMU carries the others", file=sys.stderr)
     model = MODELS[s.model]
     if not model.needs_basis:
         from ..defaults import ORDER_TOLERANCE

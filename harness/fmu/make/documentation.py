@@ -3,7 +3,7 @@
 FMI 2.0 and 3.0 both name ``documentation/index.html`` the entry point of an
 FMU's documentation (FMI 1.0 used ``_main.html``).  The page is self-contained
 (inline CSS, no script, no network resource; the one image, ``probes.png``,
-sits beside it) and holds: the scene, the model, every variable of the
+sits beside it) and holds: how to use it, the platforms whose binaries it carries, the scene, the model, every variable of the
 modelDescription.xml it is packed with (read from that XML, which
 :mod:`sphrom.fmu.make.describe` generated from the variable table
 :mod:`sphrom.fmu.variables`, so a row added to the table appears here
@@ -183,6 +183,20 @@ def usage_section(description_xml, stepping, ports):
             "force profile.</p>"]
 
 
+def platforms_section(platforms, fmi):
+    """The platforms whose binaries this FMU carries and the binaries/ folders (``platforms``:
+    :class:`sphrom.fmu.make.build.FMUBinaries`), the ones left out and why, and how to build for another."""
+    if platforms is None:
+        return []
+    folders = ", ".join(f"<code>binaries/{escape(b.platform.folder(fmi))}</code>" for b in platforms.builds)
+    lines = ["<h2>Platforms</h2>",
+             f"<p>Binaries for {escape(platforms.words())}: {folders}. For another platform, rebuild the binary from "
+             "<code>sources/</code> (<code>sources/README.txt</code>; <code>fmpy compile this.fmu</code>).</p>"]
+    for line in platforms.missing_lines():
+        lines.append(f"<p>Packaged without: {escape(line)}.</p>")
+    return lines
+
+
 def ports_section(sections, model=None, passivity=None):
     """The mechanical ports of this FMU, their sign convention, what the ``model`` represents of them exactly and
     what its port map's passivity check found (``passivity``, :class:`sphrom.rom.passivity.PortPassivity`), or
@@ -351,8 +365,9 @@ def envelope_section(envelope, linear, bounded=False):
 
 
 def index_html(*, scene, spec, data, k, input_error, augmented, description_xml, verification=None,
-               tolerance=None, envelope=None, passivity=None):
-    """The text of documentation/index.html (module docstring)."""
+               tolerance=None, envelope=None, passivity=None, platforms=None):
+    """The text of documentation/index.html (module docstring); ``platforms``: the binaries it carries
+    (:class:`sphrom.fmu.make.build.FMUBinaries`)."""
     from ... import __version__
     title = f"sphrom FMU: {spec.name} model of scene {scene.name}"
     version, _, _ = _fmi(description_xml)
@@ -363,6 +378,7 @@ def index_html(*, scene, spec, data, k, input_error, augmented, description_xml,
             "<code>f</code> (force per mass along the force profile), outputs the velocity and density at the "
             "probes.</p>"]
     body += usage_section(description_xml, kind_of(data).usage(data), sections)
+    body += platforms_section(platforms, int(version.split(".")[0] or 2))
     body += ports_section(sections, spec.name, passivity)
     body += scene_section(scene)
     body += model_section(spec, data, k, input_error, augmented)

@@ -109,6 +109,8 @@ class FMUSummary:
     n_freeze_errors: dict = field(default_factory=dict)   # n_freeze chosen per scene: {candidate: training error}
     shadow_order: int = 0              # the certified error bounds' shadow: its coordinates (0: no bound outputs)
     error_tolerance: float = float("nan")   # error_tolerance's default [m s^-1] (nan: no bound outputs)
+    platforms: str = ""                # the platforms whose binaries it carries, in words (build.FMUBinaries.words)
+    missing_platforms: list = field(default_factory=list)   # one line per platform left out, with why
 
 
 def package_fmu(scene, out, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaults.PROBES, fmi=2, integrator=None,
@@ -197,13 +199,14 @@ def package_fmu(scene, out, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaul
     stage_done(scene, "model", timings, progress)
     envelope = envelope_step(data)
     t1 = time.perf_counter()
-    binary = binaries_step(binaries, fmi, progress)
+    carried = binaries_step(binaries, fmi, progress)
+    binary = carried.for_fmi(fmi)
     timings["binaries"] = time.perf_counter() - t1
     stage_done(scene, "binaries", timings, progress)
     k = data.k_v if k is None else k                 # the balanced model's order from its order tolerance
     passivity = passivity_step(ops, model, ports)
     texts = dict(scene=scene, model=model, data=data, ops=ops, k=k, fmi=fmi, step=step, envelope=envelope,
-                 tolerance=tolerance, passivity=passivity)
+                 tolerance=tolerance, passivity=passivity, platforms=carried)
     t2 = time.perf_counter()
     out = Path(out)
     verification = None
@@ -228,7 +231,7 @@ def package_fmu(scene, out, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaul
                       integrator=integrator, dt=starts.get("dt", scene.sph.dt), token=data.token, size=size, timings=timings, model=model,
                       envelope=envelope, verification=verification, bounds=data.bounds,
                       method=ops.method, parameters=parameters, ports=list(ports), port_errors=list(ops.port_errors),
-                      port_passivity=passivity,
+                      port_passivity=passivity, platforms=carried.words(), missing_platforms=carried.missing_lines(),
                       **_shadow_facts(data.sections))
 
 
@@ -268,10 +271,11 @@ def envelope_step(data):
 
 
 def binaries_step(binaries, fmi, progress):
-    """Step 4: the FMI ``fmi`` binary (``binaries`` given, or built once and cached: :func:`.build.ensure_binaries`)."""
-    from .build import ensure_binaries
-    binaries = binaries or ensure_binaries(quiet=not progress)
-    return binaries.fmi2 if fmi == 2 else binaries.fmi3
+    """Step 4: the binaries the FMU carries (:class:`.build.FMUBinaries`): this platform's (``binaries`` given, or
+    built once and cached: :func:`.build.ensure_binaries`) and the cross-compiled ones (:func:`.build.fmu_binaries`:
+    win64 where MinGW-w64 is installed)."""
+    from .build import fmu_binaries
+    return fmu_binaries(binaries, quiet=not progress)
 
 
 def description_step(*, scene, model, data, ops, k, fmi, step, envelope, verification=None, **_):
@@ -291,7 +295,8 @@ def archive_step(path, blob, binary, check=True, **texts):
                                k=texts["k"], input_error=texts["ops"].input_error,
                                augmented=texts["ops"].augmented, description_xml=description,
                                verification=texts.get("verification"), tolerance=texts["tolerance"],
-                               envelope=texts["envelope"], passivity=texts.get("passivity"))
+                               envelope=texts["envelope"], passivity=texts.get("passivity"),
+                               platforms=texts.get("platforms"))
     write_fmu(path, fmi=texts["fmi"], blob=blob, description=description, binary=binary, documentation=docs)
     problems = validate(path) if check else []
     if problems:
@@ -359,13 +364,13 @@ def check_tolerance(verification, tolerance, out, model):
 
 
 def documentation_files(*, scene, spec, data, k, input_error, augmented, description_xml, verification=None,
-                        tolerance=None, envelope=None, passivity=None):
+                        tolerance=None, envelope=None, passivity=None, platforms=None):
     """{archive name: content} of the FMU's documentation/ folder: index.html, and probes.png when measured."""
     from .documentation import DOC_INDEX, DOC_PLOT, index_html
     files = {DOC_INDEX: index_html(scene=scene, spec=spec, data=data, k=k, input_error=input_error,
                                    augmented=augmented, description_xml=description_xml,
                                    verification=verification, tolerance=tolerance, envelope=envelope,
-                                   passivity=passivity)}
+                                   passivity=passivity, platforms=platforms)}
     if verification is not None:
         from ..check.verify import probes_png
         files[DOC_PLOT] = probes_png(verification, title=f"{scene.name}, {spec.name} FMU against the full SPH")
