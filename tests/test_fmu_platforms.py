@@ -53,6 +53,19 @@ def wine(win64, tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
+def tally():
+    """The comparisons of the module, summed up at its end (shown with ``pytest -s``)."""
+    results = []
+    yield results
+    if results:
+        worst = max(r.max_relative() for r in results)
+        print(f"\nwin64 under wine against linux64: {sum(r.n_values for r in results)} output values of "
+              f"{len(results)} FMUs, {sum(r.n_different for r in results)} differ in their bits, largest relative "
+              f"difference {worst:.3g}; serialized states equal in "
+              f"{sum(r.linux.state == r.windows.state for r in results)} of {len(results)}")
+
+
+@pytest.fixture(scope="module")
 def fmus(tmp_path_factory):
     folder = tmp_path_factory.mktemp("platform-fmus")
     made = {}
@@ -69,7 +82,7 @@ def fmus(tmp_path_factory):
 
 
 @pytest.mark.parametrize("name, fmi", RUNS)
-def test_win64_binary_under_wine_equals_linux64(win64, wine, fmus, tmp_path, name, fmi):
+def test_win64_binary_under_wine_equals_linux64(win64, wine, fmus, tally, tmp_path, name, fmi):
     summary = fmus(name, fmi)
     names = zipfile.ZipFile(summary.path).namelist()
     folders = ("linux64", "win64") if fmi == 2 else ("x86_64-linux", "x86_64-windows")
@@ -78,6 +91,7 @@ def test_win64_binary_under_wine_equals_linux64(win64, wine, fmus, tmp_path, nam
     assert summary.missing_platforms == []
     result = compare(summary.path, ensure_binaries().loader, win64.loader, tmp_path, wine)
     print(result.line())
+    tally.append(result)
     assert len(result.linux.words) == len(result.windows.words) > 0
     # both ran the same steps (the time column is bitwise the same sum)
     assert (result.linux.words[:, 0] == result.windows.words[:, 0]).all()
