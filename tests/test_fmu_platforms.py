@@ -3,7 +3,7 @@ cross-compiled with MinGW-w64 and run under wine by the C loader fmu_src/tests/l
 outputs bit for bit (tests/platforms.py drives both alike: a seeded input sequence, the scene's initial state).
 
 Tolerance: bitwise (0 differing bits) is what is measured on every FMU here, and asserted for the serialized FMU
-state; the outputs are asserted within TOLERANCE relative to each output's largest |value| (the issue's bound; the
+state; the outputs are asserted within TOLERANCE relative to each output's largest |value| (the bound asked for; the
 C maths library's sin, cos, exp may differ by an ulp between glibc and MinGW's runtime), and the count of
 differing output values is printed.  Skipped, saying what to install, where MinGW-w64 or wine is missing.
 """

@@ -411,7 +411,7 @@ def ensure_cross_binaries(platform: Platform = WIN64, cache_root=None, quiet=Tru
         raise PlatformUnavailable(f"{platform.compiler} not found on PATH (install {platform.install})")
     version = compiler_version(compiler)
     if not version:
-        raise PlatformUnavailable(f"{compiler} --version fails: the compiler does not run")
+        raise PlatformUnavailable(f"{compiler} does not run (its version query fails)")
     root = _build_root(cache_root)
     key = f"{platform.name}-{cross_key(platform, version)}"
     folder = root / key
