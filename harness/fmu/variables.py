@@ -11,7 +11,8 @@ nominal, the modelDescription's description, a one-line summary, and the C funct
   hand-written C functions in instance.c, and each presence rule is a C predicate ``rule_<name>`` there);
 - both modelDescription variable lists and their ModelStructure (:mod:`sphrom.fmu.make.describe`, at packaging:
   the rows present in the FMU, FMI 2 indices counted from them);
-- the Python value references (:func:`vr`; :mod:`.fmi`, :mod:`.verify`, :mod:`.cosim`, :mod:`.parametric`);
+- the Python value references (:func:`vr`; the FMU driver :mod:`sphrom.fmu.run.driver`, the parametric FMU
+  :mod:`sphrom.fmu.make.parametric`, the sweep's worker :mod:`sphrom.sweep.worker`);
 - the variables section of ``sphrom fmu --help`` (:func:`help_text`), of docs/fmu/variables.md (between the generated
   markers) and, through the modelDescription it is rendered from, of the FMU's documentation page.
 

@@ -75,7 +75,7 @@ class ModelData:
     dt : float
         Internal step [s].
     bound : float
-        Runaway bound on |a| (:func:`sphrom.rom.common.runaway_bound`).
+        Runaway bound on |a| (:func:`sphrom.rom.stepping.runaway_bound`).
     L : float
         Period [m].
     a_v0, a_rho0, K, b, D, p, T, Pv, Prho, probe_x : ndarray

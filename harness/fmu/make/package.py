@@ -143,7 +143,7 @@ def package_fmu(scene, out, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaul
         The reduced model to ship: a registered one with an FMU resource kind
         (``frozen``, ``exact``, ``balanced``; module docstring).
     verify : bool
-        Measure the FMU against the full SPH before it is moved into place (:mod:`.verify`: the training
+        Measure the FMU against the full SPH before it is moved into place (:mod:`sphrom.fmu.check.verify`: the training
         force and an unseen one, errors and run times), and store the figures in its description and in
         ``documentation/`` (with the plot ``probes.png``).  Without it the documentation says "not measured".
     tolerance : float, optional
