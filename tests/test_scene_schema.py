@@ -148,8 +148,8 @@ def test_the_minimal_scene_of_the_page_is_the_one_that_loads():
     assert block == MINIMAL_SCENE
     assert re.findall(r"^\[(\w+)\]", block, re.M) == ["domain", "fields", "force", "sph"]
     scene = parse_scene(block, "my_bar.toml", name="my_bar")
-    assert scene.name == "my_bar" and scene.sph.alpha == 1.04 and scene.sph.integrator == "euler"
-    assert scene.automatic == ("name", "sph.every", "snapshots", "rom.modes") and scene.paper == {}
+    assert scene.name == "my_bar" and scene.sph.alpha == 1.04 and scene.sph.integrator == "symplectic"
+    assert scene.automatic == ("name", "sph.integrator", "sph.every", "snapshots", "rom.modes") and scene.paper == {}
 
 
 # ---------------------------------------------------------------------------------------------------------------

@@ -93,7 +93,7 @@ def _run(args):
     from ..fmu.make.options import check_options
     from ..fmu.make.package import package_fmu
     from ..runio import check_output_path
-    from ..scene import automatic_lines, load_scene
+    from ..scene import announce, load_scene
 
     out = check_output_path(args.out)
     if out.suffix.lower() != ".fmu":
@@ -110,8 +110,7 @@ def _run(args):
     if args.tolerance is not None and not args.verify:
         raise UserError("--tolerance: needs the measurement (drop --no-verify)")
     scene = load_scene(args.scene)
-    for line in automatic_lines(scene):
-        print(line)
+    announce(scene, "fmu")
     if args.modes is None and (args.model == "auto" or MODELS[args.model].basis_kind is not None):
         from ..pod.pipeline import modes_line
         line = modes_line(scene, progress=not args.quiet)    # runs the full SPH and the POD now (cached)
