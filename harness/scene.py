@@ -562,8 +562,10 @@ _TOML_ESCAPES = {"\\": "\\\\", '"': '\\"', "\n": "\\n", "\t": "\\t"}
 def _toml_value(value):
     if isinstance(value, bool):
         return "true" if value else "false"
-    if isinstance(value, (int, float)):
-        return repr(value)
+    if isinstance(value, int):
+        return repr(int(value))
+    if isinstance(value, float):
+        return repr(float(value))           # a numpy float's repr is not TOML (np.float64(...))
     if isinstance(value, str):
         return '"' + "".join(_TOML_ESCAPES.get(ch, ch if ch.isprintable() else f"\\u{ord(ch):04x}" if ord(ch) < 0x10000
                                  else f"\\U{ord(ch):08x}") for ch in value) + '"'

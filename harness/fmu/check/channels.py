@@ -14,7 +14,7 @@ profile and each port force F_port_j, each from rest under
   integrated together with the spring-mass-damper (:func:`sphrom.sph.ports.run_sph_ports`): the error of the
   port velocity then includes the coupling's own, of order of the communication step;
 
-over ``horizon`` = min(T, :data:`HORIZON`) at the FMU's communication step, the input held over each step as an
+over :func:`horizon` = min(T, :data:`HORIZON_PERIODS` T') at the FMU's communication step, the input held over each step as an
 importer sets it.  Amplitudes: f the unseen force's (:func:`.verify.unseen_force`), F_port_j the force that gives
 the bar (area A = 1) the same mean acceleration, A_f Σ ρ0 Δx [N].  Output compared: the probe velocities for f,
 the channel's own port velocity for F_port_j (power-conjugate to it); the error is eq. 3.4's relative L2
@@ -31,7 +31,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-HORIZON = 2.0        # [s] the longest run per case (the full SPH with ports is a Python loop over the steps)
+# the longest run per case, in units of the wave's time once around the bar T' (the full SPH with ports is a Python
+# loop over the steps): 2 s on the paper's bars (c = 0.1, rho0 = 1, L = 1: T' = sqrt(10) s), the same fraction of
+# any bar's own time scale (a steel bar's T' is a fifth of a millisecond)
+HORIZON_PERIODS = 2.0 / np.sqrt(10.0)
 SLOW_FRACTION = 0.25  # the slow sine's frequency, in units of the lowest elastic frequency ω_1
 IN_BAND = 1.5         # the in-band sine's, likewise
 SMD_MASS, SMD_TUNING, SMD_ZETA = 0.1, 0.5, 0.1   # the coupled spring-mass-damper: of the bar's mass, of ω_1, ζ
@@ -53,6 +56,12 @@ class ChannelCase:
     def as_row(self):
         return {"channel": self.channel, "case": self.case, "force": self.force, "output": self.output,
                 "err": self.err, "sph_s": self.sph_s, "note": self.note}
+
+
+def horizon(scene):
+    """The channels' horizon [s]: min(T, :data:`HORIZON_PERIODS` T'), T' the wave's time once around the bar
+    (:meth:`sphrom.scene.Scene.period`)."""
+    return float(min(float(scene.T), HORIZON_PERIODS * scene.period()))
 
 
 def channel_forces(scene, problem, step):
@@ -127,8 +136,8 @@ def measure_channels(path, scene, ports=(), problem=None, progress=False):
     scene = model_scene(model, scene, ports)
     problem = problem or build_problem(scene)
     has_scale, _, step = fmu_features(path)
-    horizon = min(float(scene.T), HORIZON)
-    short = derive_scene(scene, {"domain": {"T": horizon}})
+    horizon_ = horizon(scene)
+    short = derive_scene(scene, {"domain": {"T": horizon_}})
     t, steps = communication_times(short, step)
     f_cases, port_cases = channel_forces(scene, problem, step)
     channels = [("f", None, f_cases)] + [(f"F_port_{j + 1}", j, port_cases) for j in range(len(ports))]

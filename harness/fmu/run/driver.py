@@ -257,6 +257,7 @@ class FMU:
             check_archive(path)
         self.md = read_model_description(str(path))
         self._owns_dir = not path.is_dir()
+        self.step_seconds = 0.0          # the wall time inside the doStep calls of the last simulate() [s]
         self.unzipdir = str(path) if path.is_dir() else extract_fmu(path)
         self.fmi = 2 if self.md.fmiVersion == "2.0" else 3
         self.messages = [] if messages is None else messages
@@ -468,7 +469,8 @@ class FMU:
         Returns
         -------
         ndarray (M+1, len(outputs))
-            The outputs at every communication point, the initial one included.
+            The outputs at every communication point, the initial one included.  :attr:`step_seconds` is then
+            the wall time spent inside the doStep calls [s] (the FMU's own work, without this loop's).
         """
         times = np.asarray(times, dtype=float)
         inputs = {k: np.asarray(v, dtype=float) for k, v in (inputs or {}).items()}
@@ -509,6 +511,8 @@ class FMU:
         ys[0] = out
         reached = 0
         from fmpy.fmi1 import FMICallException
+        from time import perf_counter as perf
+        stepping = 0.0
         try:
             for j in range(m):
                 t, h = times[j], hs[j]
@@ -524,7 +528,9 @@ class FMU:
                             fb_vr[name] = _vrs([self.vr[name]])
                         fb_val[0] = value
                         set_(comp, fb_vr[name], 1, fb_val)
+                c0 = perf()
                 step(t, h)
+                stepping += perf() - c0
                 get(comp, out_vr, n_out, out)
                 ys[j + 1] = out
                 reached = j + 1
@@ -533,6 +539,8 @@ class FMU:
         except FMICallException:
             if not stop_on_error:
                 raise
+        finally:
+            self.step_seconds = stepping        # the wall time inside the doStep calls of this loop [s]
         return ys[:reached + 1]
 
     def run(self, steps, inputs, t0=0.0):
