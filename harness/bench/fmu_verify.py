@@ -50,7 +50,8 @@ def measure_scene(name, models, repeats, folder, fmi=2, progress=True, bounds=Tr
     summaries, refs = [], None
     for model in models:
         s = package_fmu(scene, Path(folder) / f"{name}-{model}.fmu", model=model, fmi=fmi, progress=progress,
-                        binaries=binaries, problem=problem, verify=True, references=refs, bounds=bounds)
+                        binaries=binaries, problem=problem, verify=True, accept=False, references=refs,
+                        bounds=bounds)
         refs = s.verification.refs
         summaries.append(s)
     first = summaries[0].verification

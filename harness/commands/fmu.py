@@ -108,6 +108,7 @@ def _run(args):
         raise UserError(f"--out: '{out}' must end in .fmu")
     fmi = int(args.fmi)
     from ..rom.registry import MODELS, fmu_model_names
+    from ..fmu.make.auto import DEFAULT_MODEL
     chosen_by_default = args.model is None and args.verify and args.n_freeze is None and args.integrator is None
     args.model = DEFAULT_MODEL if args.model is None else args.model
     if args.model not in fmu_model_names() + ("auto",):
@@ -165,7 +166,10 @@ def _run(args):
                        tolerance=args.tolerance, vary=vary, ports=ports, bounds=args.bounds,
                        order_tolerance=args.order_tolerance)
         if chosen_by_default:
-            s = package_default(scene, out, options)
+            from ..fmu.make.auto import package_default
+            s, note = package_default(scene, out, options)
+            if note:
+                print(f"sphrom fmu: note: {note}", file=sys.stderr)
         else:
             s = package_fmu(scene, out, model=args.model, **options)
     added = " (+ the force profile direction, not in the POD span)" if s.augmented else ""
@@ -234,56 +238,6 @@ def _run(args):
           + (f", verification {t['verify']:.2f} s" if "verify" in t else ""))
     print_verification(s.verification, args.tolerance)
     return 0
-
-
-DEFAULT_MODEL = "frozen"        # sphrom fmu without --model
-FALLBACK_MODEL = "exact"        # ... where the default model's FMU misses the accuracy or is slower than the full SPH
-
-
-def package_default(scene, out, options):
-    """``sphrom fmu`` without ``--model`` (nor the frozen model's own options): the :data:`DEFAULT_MODEL`'s FMU,
-    measured; where it misses the accuracy (:func:`sphrom.fmu.check.verify.acceptance`) or its own work per
-    simulated second is above the full SPH's, the :data:`FALLBACK_MODEL`'s too, and the one that meets the accuracy
-    at the lower cost is written to ``out`` (the choice said on stderr, one line); neither meets it: ToleranceError
-    naming both, nothing written."""
-    import shutil
-    import tempfile
-    from pathlib import Path
-
-    from ..errors import ToleranceError
-    from ..fmu.check.verify import acceptance
-    from ..fmu.make.package import package_fmu
-    from ..runio import atomic_path
-    tried = []
-    refs = None
-    with tempfile.TemporaryDirectory(prefix="sphrom-fmu-") as tmp:
-        for model in (DEFAULT_MODEL, FALLBACK_MODEL):
-            s = package_fmu(scene, Path(tmp) / f"{model}.fmu", model=model, accept=False, references=refs,
-                            **{**options, "n_freeze": options["n_freeze"] if model == DEFAULT_MODEL else None,
-                               "integrator": None})
-            refs = s.verification.refs
-            verdict = acceptance(s.verification, options["tolerance"], model)
-            tried.append((s, verdict))
-            if verdict is None and s.verification.training.cost_ratio <= 1:
-                break
-        good = [(s, v) for s, v in tried if v is None]
-        if not good:
-            raise ToleranceError(f"{tried[0][1]}; the {FALLBACK_MODEL} model too: {tried[-1][1].split('; remedy')[0]}"
-                                 f"; '{out}' was not written (an existing file is unchanged)")
-        best = min(good, key=lambda sv: sv[0].verification.training.cost_ratio)[0]
-        with atomic_path(out) as final:
-            shutil.copyfile(best.path, final)
-        best.path = out
-    first, why = tried[0]
-    if best is not first:
-        reason = (why.split("; remedy")[0] if why else f"the {DEFAULT_MODEL} FMU's own work per simulated second is "
-                  f"{first.verification.training.cost_ratio:.3g}x the full SPH's")
-        keep = (f"--model {DEFAULT_MODEL}" if why is None else
-                f"--model {DEFAULT_MODEL} --tolerance above its error")
-        print(f"sphrom fmu: note: {reason}; wrote the {best.model} model's FMU, which meets the accuracy at "
-              f"{best.verification.training.cost_ratio:.3g}x the full SPH's cost ({keep} keeps the {DEFAULT_MODEL} "
-              "one)", file=sys.stderr)
-    return best
 
 
 def print_verification(v, tolerance=None):

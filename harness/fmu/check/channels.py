@@ -111,13 +111,12 @@ def model_scene(data, scene, ports=()):
     """``scene`` with the integrator of the FMU whose model.bin is ``data`` (unpacked): a time-stepped FMU's own,
     an FMU integrated exactly in time (exact, balanced) the default one for its ports
     (:func:`sphrom.fmu.make.options.default_integrator`: symplectic with ports, the scene's without)."""
-    from ...scene import derive_scene
-    from ..make.options import default_integrator
+    from ..make.options import PORT_INTEGRATOR
     from ..kinds import kind_of
-    integrator = kind_of(data).integrator(data) or default_integrator(scene, ports)
+    integrator = kind_of(data).integrator(data) or (PORT_INTEGRATOR if len(ports) else scene.sph.integrator)
     if integrator == scene.sph.integrator:
         return scene
-    return derive_scene(scene, {"sph": {"integrator": integrator}})
+    return scene.with_sph(integrator=integrator, stable=False)      # an RK4 scene's frozen FMU: symplectic
 
 
 def measure_channels(path, scene, ports=(), problem=None, progress=False):

@@ -7,12 +7,12 @@ own band, :func:`band`):
 
 - ``training``: the scene's own force f(t) from its initial state (the FMU's ``initial_state_scale`` set to 1 where
   it has that parameter): the run the POD basis was made from;
-- ``step``: a constant force A from rest (a force switched on at t = 0: every mode the force profile reaches rings);
+- ``step``: a constant force A_s from rest (a force switched on at t = 0: every mode the force profile reaches rings);
 - ``unseen``: f_u(t) = A sin(2 pi nu_u t) from rest, nu_u = :data:`UNSEEN_RATIO` x the bar's lowest elastic
   frequency nu_1 (between its second and third resonance on a uniform bar), at most half the top of the band;
 
-with A = the training force's peak |f| on [0, T] (forced scenes), else 2 pi nu_u max|v0| (free scenes: the forced
-velocity swing of a uniform force is then of the initial velocity's size).  An FMU without ``initial_state_scale``
+with A = the training force's peak |f| on [0, T] (forced scenes), else, for the sine, 2 pi nu_u max|v0| and, for the
+step, max|v0| / T (free scenes: the velocity swing of a uniform force is then of the initial velocity's size).  An FMU without ``initial_state_scale``
 starts every case from the scene's initial state, in the truth too.
 
 The FMU gets f at each communication point, held over the step, or with df/dt (the slope to the next point) when it
@@ -21,8 +21,9 @@ same.  Errors: the relative L2 error of eq. 3.4 (square-root form, trapezoidal i
 the probe velocities, and of the probe densities as rho - rho0.  With its certified bounds the FMU's
 ``v_probe_j_error_bound`` is recorded against the true error (does it hold, how tight), and the warnings it logged
 (:attr:`CaseResult.warnings`).  Times: the FMU's inside its doStep calls and its whole run through fmpy (Python's
-per-step overhead included), the full SPH's compiled time loop of the scene's training run (its cost per simulated
-second is that of every case: the full SPH's work does not depend on the force).
+per-step overhead included), the full SPH's compiled time loop of the scene's own run, timed in the same process
+(:func:`sph_cost`; its cost per simulated second is that of every case: the full SPH's work does not depend on the
+force).
 
 :func:`acceptance` is packaging's verdict: the FMU failed, ran away, or missed the accuracy (:data:`ACCURACY` by
 default, ``--tolerance``) on a case, named in one line with the remedy.
@@ -292,8 +293,16 @@ def unseen_force(scene, step=None, problem=None, nu=None):
 
 
 def step_force(scene, problem=None, nu=None):
-    """The step force's expression: the constant A of the unseen sine (module docstring)."""
-    return f"{force_amplitude(scene, unseen_frequency(scene, problem, nu)):.4g}"
+    """The step force's expression, a constant A_s (module docstring): the training force's peak |f| (forced scenes),
+    else max|v0| / T (a free scene: a uniform step then moves the bar rigidly to the initial velocity's size by T).
+    ``problem`` and ``nu`` are not used (the unseen force's signature)."""
+    from ...sph.operator import particle_positions
+    from ..make.envelope import training_force
+    peak, _, _ = training_force(scene)
+    if peak > 0:
+        return f"{peak:.4g}"
+    v0 = scene.field("v0", particle_positions(scene.L, scene.sph.n_particles))
+    return f"{float(np.max(np.abs(v0))) / scene.T:.4g}"
 
 
 def communication_times(scene, step):
@@ -428,7 +437,7 @@ def case_forces(scene, problem=None):
 def references(scene, step, probes, has_scale, problem=None, progress=False, interpolate=False):
     """The truth of every case: {name: (force, scale, start, (t, v, rho, rho0, sph wall time))} (shared by every
     model measured on the same scene, probes, step and input mode; ``interpolate``: f linear between the points).
-    The wall time is the full SPH's compiled loop over T of the scene's training run (cached)."""
+    The wall time is the full SPH's compiled loop over T of the scene's own run, timed now (:func:`sph_cost`)."""
     from ...expr import compile_expr
     from ...pod.pipeline import basis_for_scene
     from ...progress import progress_bar
@@ -447,9 +456,28 @@ def references(scene, step, probes, has_scale, problem=None, progress=False, int
                                      interpolate=interpolate)
         bar.update(1)
     _, run = basis_for_scene(scene, progress=progress, problem=problem)
+    sph_s = sph_cost(scene, problem, run.wall_time)
     rho0 = probe_values(problem, scene.L, probes, (problem.rho0,))[0]
-    return {name: (force, scale, start, (t, v[:, :, i], rho[:, :, i], rho0, run.wall_time))
+    return {name: (force, scale, start, (t, v[:, :, i], rho[:, :, i], rho0, sph_s))
             for i, (name, (force, scale, start)) in enumerate(cases.items())} | {"_interpolate": interpolate}
+
+
+SPH_TIMING = 0.3     # [s] the least wall time of the full SPH's timed run (shorter than T when T takes longer)
+
+
+def sph_cost(scene, problem, recorded):
+    """The full SPH's compiled time loop over the scene's T [s], timed now (in the same run as the FMU's, so that
+    their ratio is measured under one load): the scene's own run (its force, integrator and dt) over T, or over
+    the first steps that take about :data:`SPH_TIMING` s (``recorded``: the training run's recorded wall time over
+    T, which sets how many), scaled to T (the loop's cost per step does not change along the run)."""
+    import dataclasses
+
+    from ...sph.solver import run_sph, step_count
+    n = step_count(scene.T, scene.sph.dt)
+    m = n if not recorded > SPH_TIMING else max(1, int(n * SPH_TIMING / recorded))
+    short = scene if m == n else dataclasses.replace(scene, T=m * scene.sph.dt)
+    run = run_sph(short, sample_steps=[m], progress=False, problem=problem)
+    return run.wall_time * n / m
 
 
 def verify_fmu(path, scene, probes, refs=None, problem=None, progress=False):

@@ -61,3 +61,73 @@ def package_auto(scene, out, *, tolerance, progress=True, integrator=None, bound
 def _cost(case):
     """The FMU's own work on a case [s] (its doStep calls), its whole run through fmpy where that was not timed."""
     return case.step_s if case.step_s == case.step_s else case.fmu_s
+
+
+DEFAULT_MODEL = "frozen"        # sphrom fmu without --model
+FALLBACK_MODEL = "exact"        # ... where the default model's FMU misses the accuracy or is slower than the full SPH
+
+
+def default_candidates(scene, folder, options):
+    """[(FMUSummary or None, verdict or None)]: the :data:`DEFAULT_MODEL`'s FMU packaged into ``folder`` and measured
+    (``options``: :func:`package_fmu`'s, ``tolerance`` the accuracy), then, where it misses the accuracy
+    (:func:`sphrom.fmu.check.verify.acceptance`, the verdict) or its own work per simulated second is above the full
+    SPH's, the :data:`FALLBACK_MODEL`'s (measured on the same truth).  A default model that cannot be packaged for the
+    scene (a FieldError: the frozen model's dt floor) is (None, why)."""
+    from pathlib import Path
+
+    from ...errors import FieldError
+    from ..check.verify import acceptance
+    tried, refs = [], None
+    for model in (DEFAULT_MODEL, FALLBACK_MODEL):
+        try:
+            s = package_fmu(scene, Path(folder) / f"{model}.fmu", model=model, accept=False, references=refs,
+                            **{**options, "n_freeze": options.get("n_freeze") if model == DEFAULT_MODEL else None,
+                               "integrator": None})
+        except FieldError as exc:           # a setting this model cannot take (the frozen model's dt floor)
+            if model != DEFAULT_MODEL:
+                raise
+            tried.append((None, f"the {model} model cannot be packaged for this scene ({exc})"))
+            continue
+        refs = s.verification.refs
+        verdict = acceptance(s.verification, options.get("tolerance"), model)
+        tried.append((s, verdict))
+        if verdict is None and s.verification.training.cost_ratio <= 1:
+            break
+    return tried
+
+
+def choose_default(tried, out):
+    """(the chosen FMUSummary, a one-line note or '') of :func:`default_candidates`: the candidate that meets the
+    accuracy at the lowest cost per simulated second; the note says why it is not the default model.
+    ToleranceError naming both verdicts when none meets it."""
+    from ...errors import ToleranceError
+    good = [s for s, verdict in tried if verdict is None]
+    if not good:
+        raise ToleranceError(f"{tried[0][1]}; the {FALLBACK_MODEL} model too: {tried[-1][1].split('; remedy')[0]}; "
+                             f"'{out}' was not written (an existing file is unchanged)")
+    best = min(good, key=lambda s: s.verification.training.cost_ratio)
+    first, why = tried[0]
+    if best is first:
+        return best, ""
+    reason = (why.split("; remedy")[0] if why else f"the {DEFAULT_MODEL} FMU's own work per simulated second is "
+              f"{first.verification.training.cost_ratio:.3g}x the full SPH's")
+    keep = f"--model {DEFAULT_MODEL}" if not why else f"--model {DEFAULT_MODEL} --tolerance above its error"
+    return best, (f"{reason}; wrote the {best.model} model's FMU, which meets the accuracy at "
+                  f"{best.verification.training.cost_ratio:.3g}x the full SPH's cost ({keep} keeps the "
+                  f"{DEFAULT_MODEL} one)")
+
+
+def package_default(scene, out, options):
+    """``sphrom fmu`` without ``--model`` (nor the frozen model's own options): (FMUSummary at ``out``, note) of
+    :func:`choose_default` over :func:`default_candidates`; nothing is written when no candidate meets the
+    accuracy."""
+    import shutil
+    import tempfile
+
+    out = Path(out)
+    with tempfile.TemporaryDirectory(prefix="sphrom-fmu-") as tmp:
+        best, note = choose_default(default_candidates(scene, tmp, options), out)
+        with atomic_path(out) as final:
+            shutil.copyfile(best.path, final)
+        best.path = out
+    return best, note
