@@ -68,7 +68,7 @@ def channel_forces(scene, problem, step):
     """{channel: {case: expression in t}} for f and, later, each port (module docstring)."""
     from ...rom.inputs import band
     from .verify import unseen_force
-    amplitude = float(unseen_force(scene, step).split("*")[0])
+    amplitude = float(unseen_force(scene, step, problem).split("*")[0])
     w1 = band(problem)[0]
     w, w_in = SLOW_FRACTION * w1, IN_BAND * w1
     mass = float(np.sum(problem.rho0) * problem.neighbours.dx)       # Σ ρ0 Δx [kg m^-1 ... per m^2 of A]
@@ -88,7 +88,7 @@ def smd_parameters(scene, problem, step):
     m = SMD_MASS * bar
     k = m * (SMD_TUNING * band(problem)[0]) ** 2
     c = 2.0 * SMD_ZETA * np.sqrt(k * m)
-    F = float(unseen_force(scene, step).split("*")[0]) * bar
+    F = float(unseen_force(scene, step, problem).split("*")[0]) * bar
     return m, k, c, F / k
 
 

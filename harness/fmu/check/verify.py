@@ -3,13 +3,14 @@
 The truth is the full SPH linear in J, integrated exactly in time (:mod:`.truth`; the certified bounds' truth,
 docs/science/error-bounds.md), driven by the very input the FMU gets.  Three cases over the scene's T at the FMU's
 default communication step h (its DefaultExperiment stepSize, :func:`communication_step`: it resolves the scene's
-own band, :func:`band`):
+own band, :func:`top_frequency`):
 
 - ``training``: the scene's own force f(t) from its initial state (the FMU's ``initial_state_scale`` set to 1 where
   it has that parameter): the run the POD basis was made from;
 - ``step``: a constant force A_s from rest (a force switched on at t = 0: every mode the force profile reaches rings);
 - ``unseen``: f_u(t) = A sin(2 pi nu_u t) from rest, nu_u = :data:`UNSEEN_RATIO` x the bar's lowest elastic
-  frequency nu_1 (between its second and third resonance on a uniform bar), at most half the top of the band;
+  frequency nu_1 (between its second and third resonance on a uniform bar), at most half the top of the band h
+  resolves;
 
 with A = the training force's peak |f| on [0, T] (forced scenes), else, for the sine, 2 pi nu_u max|v0| and, for the
 step, max|v0| / T (free scenes: the velocity swing of a uniform force is then of the initial velocity's size).  An FMU without ``initial_state_scale``
@@ -208,21 +209,25 @@ def _ratio(r):
 # --------------------------------------------------------------------------------------------------------------
 # the scene's band, the communication step and the forces
 # --------------------------------------------------------------------------------------------------------------
-def band(scene, problem=None, k=None):
-    """(nu_1, nu_top) [Hz]: the bar's lowest elastic frequency (the Rayleigh quotient of sin 2 pi x/L) and the top of
-    the scene's own band: the larger of the highest Rayleigh frequency of the first k POD velocity modes (the motion
-    a reduced model of k modes holds; default k the FMU's default, :func:`sphrom.fmu.make.options.default_modes`)
-    and the frequency below which 99 % of the training force's energy lies (:func:`sphrom.fmu.make.envelope.
-    training_force`).  Runs the scene's full SPH when it is not cached."""
-    from ...pod.pipeline import basis_for_scene
+def lowest_frequency(problem):
+    """nu_1 [Hz]: the bar's lowest elastic frequency, the Rayleigh quotient of sin 2 pi x/L
+    (:func:`sphrom.rom.inputs.band`)."""
     from ...rom.inputs import band as rayleigh
-    from ...sph.solver import build_problem
-    from ..make.options import default_modes
-    problem = problem or build_problem(scene)
-    basis, _ = basis_for_scene(scene, progress=False, problem=problem)
-    k = max(1, min(int(k or default_modes(scene)), basis.U_v.shape[1]))
-    w1, w_top = rayleigh(problem, basis.U_v[:, :k])
-    return w1 / (2 * math.pi), max(w_top / (2 * math.pi), force_top(scene))
+    return rayleigh(problem)[0] / (2 * math.pi)
+
+
+def top_frequency(scene, problem, ops, k):
+    """nu_top [Hz]: the top of the scene's own band as the reduced model ``ops`` holds it: the larger of the highest
+    Rayleigh frequency of its first ``k`` velocity modes (a POD model: its POD modes, before any appended input
+    direction; a model without a POD basis, the balanced one: the largest |Im lambda| of its state matrix) and the
+    frequency below which 99 % of the training force's energy lies (:func:`force_top`)."""
+    from ...rom.inputs import band as rayleigh
+    U = getattr(ops, "U_v", None)
+    if U is not None and U.shape[1]:
+        w_top = rayleigh(problem, U[:, :max(1, min(int(k), U.shape[1]))])[1]
+    else:
+        w_top = float(np.max(np.abs(np.linalg.eigvals(np.asarray(ops.A, float)).imag), initial=0.0))
+    return max(w_top / (2 * math.pi), force_top(scene))
 
 
 def force_top(scene, fraction=0.99):
@@ -242,27 +247,25 @@ def force_top(scene, fraction=0.99):
     return float(np.fft.rfftfreq(f.size, scene.sph.dt)[min(k, power.size - 1)])
 
 
-def nice_floor(x):
-    """The largest of 1, 2, 5 x 10^n at most x (x > 0)."""
+def nice_ceil(x):
+    """The smallest of 1, 2, 5 x 10^n at least x (x > 0)."""
     e = math.floor(math.log10(x))
-    for m in (5.0, 2.0, 1.0):
-        if m * 10.0 ** e <= x * (1 + 1e-12):
-            return m * 10.0 ** e
-    return 10.0 ** (e - 1) * 5.0
+    for m in (1.0, 2.0, 5.0, 10.0):
+        if m * 10.0 ** e >= x * (1 - 1e-12):
+            return int(round(m * 10.0 ** e)) if e >= 0 else m * 10.0 ** e
+    return 10.0 ** (e + 1)
 
 
 def communication_step(scene, nu_top, dt=None):
-    """The FMU's DefaultExperiment stepSize and its verification's step h [s]: :data:`POINTS_PER_PERIOD` points per
-    period of the top of the scene's band ``nu_top`` [Hz] and at least 10 points over T, as the largest 1, 2, 5 x 10^n
-    that divides T into whole steps (else T over the fewest whole steps), and at least ``dt`` (a model's own internal
-    step: a communication step shorter than it takes one shortened internal step)."""
-    limit = scene.T / 10.0
+    """The FMU's DefaultExperiment stepSize and its verification's step h [s]: T / n with n the smallest of 1, 2,
+    5 x 10^m that gives at least :data:`POINTS_PER_PERIOD` points per period of the top of the scene's band
+    ``nu_top`` [Hz] and at least 10 steps over T (a whole number of steps, and the same fraction of T for a bar
+    and the same bar in other units), and at least ``dt`` (a model's own internal step: a communication step
+    shorter than it takes one shortened internal step)."""
+    steps = 10.0
     if nu_top > 0:
-        limit = min(limit, 1.0 / (POINTS_PER_PERIOD * nu_top))
-    h = nice_floor(limit)
-    ratio = scene.T / h
-    if abs(ratio - round(ratio)) > 1e-9 * ratio:
-        h = scene.T / math.ceil(scene.T / limit * (1 - 1e-12))
+        steps = max(steps, POINTS_PER_PERIOD * nu_top * scene.T)
+    h = scene.T / max(1, int(nice_ceil(steps)))
     return float(max(h, dt) if dt is not None else h)
 
 
@@ -278,24 +281,23 @@ def force_amplitude(scene, nu):
     return 2 * math.pi * nu * float(np.max(np.abs(v0)))
 
 
-def unseen_frequency(scene, problem=None, nu=None):
-    """nu_u [Hz] of the unseen sine: :data:`UNSEEN_RATIO` nu_1, at most half the top of the band (``nu``: (nu_1,
-    nu_top) of :func:`band`, computed when not given)."""
-    nu_1, nu_top = nu or band(scene, problem)
-    return float(f"{min(UNSEEN_RATIO * nu_1, 0.5 * nu_top):.3g}")
+def unseen_frequency(scene, step, problem=None):
+    """nu_u [Hz] of the unseen sine: :data:`UNSEEN_RATIO` nu_1, and in the band the communication step ``step`` [s]
+    resolves (at most 1/(2 POINTS_PER_PERIOD h), half the top of the band it was chosen for); 3 digits."""
+    from ...sph.solver import build_problem
+    nu_1 = lowest_frequency(problem or build_problem(scene))
+    return float(f"{min(UNSEEN_RATIO * nu_1, 1.0 / (2 * POINTS_PER_PERIOD * step)):.3g}")
 
 
-def unseen_force(scene, step=None, problem=None, nu=None):
-    """The unseen force's expression in t (module docstring): A sin(2 pi nu_u t).  ``step`` is not used (kept for
-    callers that passed the communication step)."""
-    freq = unseen_frequency(scene, problem, nu)
+def unseen_force(scene, step, problem=None):
+    """The unseen force's expression in t (module docstring): A sin(2 pi nu_u t) at the communication step ``step``."""
+    freq = unseen_frequency(scene, step, problem)
     return f"{force_amplitude(scene, freq):.4g}*sin(2*pi*{freq:g}*t)"
 
 
-def step_force(scene, problem=None, nu=None):
+def step_force(scene):
     """The step force's expression, a constant A_s (module docstring): the training force's peak |f| (forced scenes),
-    else max|v0| / T (a free scene: a uniform step then moves the bar rigidly to the initial velocity's size by T).
-    ``problem`` and ``nu`` are not used (the unseen force's signature)."""
+    else max|v0| / T (a free scene: a uniform step then moves the bar rigidly to the initial velocity's size by T)."""
     from ...sph.operator import particle_positions
     from ..make.envelope import training_force
     peak, _, _ = training_force(scene)
@@ -425,26 +427,27 @@ def fmu_facts(path):
 # --------------------------------------------------------------------------------------------------------------
 # the truth and the verification
 # --------------------------------------------------------------------------------------------------------------
-def case_forces(scene, problem=None):
-    """{case: (force expression, initial state scale, start)} of the three cases (module docstring), when the FMU
-    starts from rest; :func:`references` puts the scene's initial state where it cannot."""
-    nu = band(scene, problem)
+def case_forces(scene, step, problem=None):
+    """{case: (force expression, initial state scale, start)} of the three cases (module docstring) at the
+    communication step ``step`` [s], when the FMU starts from rest; :func:`references` puts the scene's initial
+    state where it cannot."""
     return {"training": (scene.f.text, 1.0, "the scene's initial state"),
-            "step": (step_force(scene, problem, nu), 0.0, "rest"),
-            "unseen": (unseen_force(scene, problem=problem, nu=nu), 0.0, "rest")}
+            "step": (step_force(scene), 0.0, "rest"),
+            "unseen": (unseen_force(scene, step, problem), 0.0, "rest")}
 
 
 def references(scene, step, probes, has_scale, problem=None, progress=False, interpolate=False):
     """The truth of every case: {name: (force, scale, start, (t, v, rho, rho0, sph wall time))} (shared by every
     model measured on the same scene, probes, step and input mode; ``interpolate``: f linear between the points).
     The wall time is the full SPH's compiled loop over T of the scene's own run, timed now (:func:`sph_cost`)."""
+    from ...cache import cached_sph
     from ...expr import compile_expr
-    from ...pod.pipeline import basis_for_scene
+    from ...pod.pipeline import error_steps
     from ...progress import progress_bar
     from ...sph.solver import build_problem
     from .truth import exact_probe_outputs
     problem = problem or build_problem(scene)
-    cases = case_forces(scene, problem)
+    cases = case_forces(scene, step, problem)
     if not has_scale:
         cases = {name: (force, 1.0, "the scene's initial state") for name, (force, _, _) in cases.items()}
     t, _ = communication_times(scene, step)
@@ -455,7 +458,7 @@ def references(scene, step, probes, has_scale, problem=None, progress=False, int
         v, rho = exact_probe_outputs(problem, probes, t, forces, [s for _, s, _ in cases.values()],
                                      interpolate=interpolate)
         bar.update(1)
-    _, run = basis_for_scene(scene, progress=progress, problem=problem)
+    run = cached_sph(scene, error_steps(scene), progress=progress, problem=problem)   # the training run, cached
     sph_s = sph_cost(scene, problem, run.wall_time)
     rho0 = probe_values(problem, scene.L, probes, (problem.rho0,))[0]
     return {name: (force, scale, start, (t, v[:, :, i], rho[:, :, i], rho0, sph_s))

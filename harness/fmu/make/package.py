@@ -196,7 +196,7 @@ def package_fmu(scene, out, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaul
                                              vary=vary, ports=ports, bounds=bounds, order_tolerance=order_tolerance,
                                              error_bounds=error_bounds,
                                              build_options=build_options)
-    step = step_size if step_size is not None else default_step(scene, data, k, problem)
+    step = step_size if step_size is not None else default_step(scene, data, ops, k, problem)
     timings["model"] = time.perf_counter() - t0
     stage_done(scene, "model", timings, progress)
     envelope = envelope_step(data)
@@ -332,12 +332,14 @@ def verification_step(path, scene, probes, references, problem, progress, tolera
     return verification
 
 
-def default_step(scene, data, k, problem=None):
+def default_step(scene, data, ops, k, problem=None):
     """The FMU's DefaultExperiment stepSize [s]: :func:`sphrom.fmu.check.verify.communication_step` of the top of
-    the scene's band (:func:`sphrom.fmu.check.verify.band` at the model's k), at least the model's internal dt."""
-    from ..check.verify import band, communication_step
+    the scene's band as the model holds it (:func:`sphrom.fmu.check.verify.top_frequency` of its first k modes; k
+    None: all its coordinates), at least the model's internal dt."""
+    from ...sph.solver import build_problem
+    from ..check.verify import communication_step, top_frequency
     from ..kinds import kind_of
-    _, nu_top = band(scene, problem, k if k is not None else None)
+    nu_top = top_frequency(scene, problem or build_problem(scene), ops, data.k_v if k is None else k)
     return communication_step(scene, nu_top, kind_of(data).parameter_starts(data).get("dt"))
 
 
