@@ -10,6 +10,10 @@ from sphrom.scene import automatic_lines, parse_scene, run_steps
 import sphrom.sph.timestep as st
 from sphrom.sph.solver import build_problem, run_sph, spectral_radius
 
+# CPU- and version-sensitive (eigen and singular value decisions): .ci/run runs it on Python 3.11 and 3.12 with the
+# oldest and the newest numpy and scipy that pyproject.toml allows, and on the baseline CPU paths
+pytestmark = pytest.mark.cpu_sensitive
+
 # a user's bar: graded modulus (1 to 10), non-uniform density, graded damping, a local force; no integrator
 USER_BAR = """\
 [domain]

@@ -111,6 +111,26 @@ def _radius(integrator, omega_dt, d_dt):
     return float(np.max(np.abs(np.linalg.eigvals(step_matrix(integrator, omega_dt, d_dt)))))
 
 
+def _radii(integrator, omega_dt, d_dt):
+    """The spectral radius of :func:`step_matrix` at each ω Δt of the array ``omega_dt`` (one d Δt), vectorised."""
+    w = np.asarray(omega_dt, float)
+    a = np.zeros(w.shape + (2, 2))
+    a[..., 0, 1], a[..., 1, 0], a[..., 1, 1] = w, -w, -float(d_dt)
+    eye = np.broadcast_to(np.eye(2), a.shape)
+    if integrator == "euler":
+        m = eye + a
+    elif integrator == "symplectic":
+        e_step = eye.copy()
+        e_step[..., 0, 1] = w
+        v_step = eye.copy()
+        v_step[..., 1, 0], v_step[..., 1, 1] = -w, 1.0 - float(d_dt)
+        m = v_step @ e_step
+    else:
+        a2 = a @ a
+        m = eye + a + a2 / 2.0 + a2 @ a / 6.0 + a2 @ a2 / 24.0
+    return np.max(np.abs(np.linalg.eigvals(m)), axis=-1)
+
+
 def dt_limit(integrator, omega, d_max=0.0, d_min=0.0):
     """The largest dt [s] at which ``integrator`` amplifies no mode of frequency up to ``omega`` [rad s^-1] with a
     damping between ``d_min`` and ``d_max`` [s^-1].
@@ -128,7 +148,7 @@ def dt_limit(integrator, omega, d_max=0.0, d_min=0.0):
     freqs = np.linspace(0.0, omega, 257)
 
     def stable(dt):
-        return all(_radius("rk4", w * dt, d * dt) <= 1.0 + 1e-12 for w in freqs for d in {d_min, d_max})
+        return all(np.all(_radii("rk4", freqs * dt, d * dt) <= 1.0 + 1e-12) for d in {d_min, d_max})
     lo, hi = 0.0, STABILITY_BOUND["rk4"] / max(omega, 0.5 * d_max)
     while stable(hi):                   # damping widens the region beside the imaginary axis
         lo, hi = hi, 1.5 * hi
@@ -143,13 +163,12 @@ def growth(integrator, omega, d_min, dt, T, samples=257):
     [0, T] at the smallest damping ``d_min``, r(ω)^n with n = T/dt steps and r the spectral radius of
     :func:`step_matrix` (a float capped at exp(700)), and the ω that attains it."""
     n = T / dt
-    best, best_w = -np.inf, 0.0
-    for w in np.linspace(0.0, omega, samples)[1:]:
-        r = _radius(integrator, w * dt, d_min * dt)
-        log_growth = n * np.log(r) if r > 0 else -np.inf
-        if log_growth > best:
-            best, best_w = log_growth, w
-    return float(np.exp(min(700.0, best))), float(best_w)
+    freqs = np.linspace(0.0, omega, samples)[1:]
+    r = _radii(integrator, freqs * dt, d_min * dt)
+    with np.errstate(divide="ignore"):
+        log_growth = np.where(r > 0, n * np.log(np.where(r > 0, r, 1.0)), -np.inf)
+    i = int(np.argmax(log_growth))              # the first of equal maxima, as the loop over ω took it
+    return float(np.exp(min(700.0, float(log_growth[i])))), float(freqs[i])
 
 
 def automatic_dt(integrator, omega, d_min, d_max, T, max_steps):

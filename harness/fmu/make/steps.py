@@ -83,9 +83,12 @@ def training_probe_speed(problem, probes):
     """The training run's largest |v| at the probes [m s^-1] (the scene's cached full SPH run, on its stored samples,
     the probes linear between particles as the envelope's ENVPROBE): what a model without a training envelope (the
     balanced model) scales its default error_tolerance by, as every other model does."""
-    from ...pod.pipeline import basis_for_scene
+    from ...cache import cached_sph
+    from ...pod.pipeline import training_steps
     from ..resources import probe_pairs
-    _, run = basis_for_scene(problem.scene, progress=False, problem=problem)
+    steps = training_steps(problem.scene)          # the samples the envelope is measured on (training_basis)
+    run = cached_sph(problem.scene, steps, progress=False, problem=problem)
     i0, i1, w = probe_pairs(problem.x, problem.scene.L, np.asarray(probes, float))
-    v = run.v[:, i0] * (1.0 - w) + run.v[:, i1] * w
+    keep = np.isin(run.steps, steps)
+    v = run.v[keep][:, i0] * (1.0 - w) + run.v[keep][:, i1] * w
     return float(np.max(np.abs(v)))
