@@ -266,7 +266,10 @@ class FMU:
         self.outputs = [v.name for v in self.md.modelVariables if v.causality == "output"]
         # the model's outputs (v_probe_j, rho_probe_j, v_port_j): every output but the certified error bounds
         self.model_outputs = [n for n in self.outputs if not n.endswith("_error_bound")]
-        token = token or (self.md.guid if self.fmi == 2 else self.md.instantiationToken)
+        # fmpy before 0.3.23 (the newest that installs with numpy 1.26, the oldest pyproject.toml allows) keeps an FMI 3
+        # instantiationToken in guid
+        token = token or (self.md.guid if self.fmi == 2 else getattr(self.md, "instantiationToken", None)
+                          or self.md.guid)
         t0 = time.perf_counter()
         self.fmu = None
         try:
