@@ -16,6 +16,10 @@ import pytest
 
 import test_fmu_error_bounds as base
 
+# CPU- and version-sensitive (eigen and singular value decisions): .ci/run runs it on Python 3.11 and 3.12 with the
+# oldest and the newest numpy and scipy that pyproject.toml allows, and on the baseline CPU paths
+pytestmark = pytest.mark.cpu_sensitive
+
 SCENE = str(Path(__file__).resolve().parent / "data" / "graded_damping.toml")
 
 

@@ -36,14 +36,13 @@ def run(args):
     from ..pod.pipeline import automatic_modes, basis_for_scene
     from ..rom.operators import build_operators
     from ..runio import check_output_path
-    from ..scene import automatic_lines, load_scene
+    from ..scene import announce, load_scene
     from .snapshot_options import strategy_from_args
 
     out = check_output_path(args.out)
     scene = load_scene(args.scene)
     spec = strategy_from_args(args, scene)
-    for line in automatic_lines(scene):
-        print(line)
+    announce(scene, "pod")
     basis, run_ = basis_for_scene(scene, spec, progress=not args.quiet)
     rv, rr = basis.max_modes
     if args.energy is not None:

@@ -47,6 +47,8 @@ def run(args):
         raise UserError("--scheduler: empty address (allowed: a scheduler address such as tcp://host:8786)")
     workers = args.workers if args.workers is not None else (os.cpu_count() or 1)
     spec = load_spec(args.spec)
+    from ..scene import announce
+    announce(spec.scene, "sweep")
     for note in spec.notes:         # what the spec decided (one parametric FMU, or why not): shown even --quiet
         print(f"sphrom sweep: {note}", file=sys.stderr)
     if out.exists():        # a file that is not ours is refused before any work
