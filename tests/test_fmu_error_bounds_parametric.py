@@ -108,11 +108,15 @@ def test_parametric_bounds_are_the_python_shadow_fmi2_and_3(fmus):
 
 
 def test_ordinary_sections_unchanged():
-    """A non-parametric FMU's shadow has exactly the eight sections SH* it had (no SHPIECE, SHPARAM)."""
+    """A non-parametric FMU's shadow has the eight sections SH* of every shadow and the free response table (no
+    SHPIECE, SHPARAM, SHCPL); a parametric one has no table and the three parametric sections."""
     from sphrom.rom.bounds import fmu_shadow, sections
     from sphrom.sph.solver import build_problem
-    tags = sorted(sections(fmu_shadow(build_problem(fmu_scene(CASE)), base.PROBES)))
-    assert tags == sorted(["SHSCAL", "SHLAM", "SHB", "SHC", "SHW0", "SHGRAM", "SHROW", "SHPROBE"])
+    every = ["SHSCAL", "SHLAM", "SHB", "SHC", "SHW0", "SHROW", "SHRATE", "SHPROBE"]
+    problem = build_problem(fmu_scene(CASE))
+    assert sorted(sections(fmu_shadow(problem, base.PROBES))) == sorted(every + ["SHTAB", "SHTERR"])
+    assert sorted(sections(fmu_shadow(problem, base.PROBES, parametric=True))) == sorted(
+        every + ["SHPIECE", "SHPARAM", "SHCPL"])
 
 
 def test_core_refuses_a_malformed_parametric_shadow(fmus):

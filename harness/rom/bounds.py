@@ -706,6 +706,8 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
     # planes that must be kept: a mode an input reaches with λ = 0 or without a decay bound (the rigid motion)
     gains = mode_gains(modes_all)
     must = modes_all.plane[np.any(~np.isfinite(gains), axis=(0, 2)) | ~np.isfinite(modes_all.scale)]
+    if parametric:                      # the null planes (σ = 0): unbounded where d may be 0
+        must = np.concatenate([must, np.flatnonzero(planes.key <= 1e-9 * max(float(planes.key[-1]), 1e-300))])
     at_least = int(must.max()) + 1 if must.size else 1
     P = len(probes)
     if order is not None:
