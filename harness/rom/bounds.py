@@ -48,7 +48,10 @@ initial state at the model's (c, d) once, when c and d are fixed (no table).
 The shadow's size is chosen per input channel (:func:`choose_planes`): the force profile and each port with a
 reference step and an in-band sine over REFERENCE_SPAN x T, and the initial state; the smallest number of planes
 whose certified complement stays below :data:`SHADOW_TARGET` of each channel's response, at most
-:data:`MAX_PLANES`.  docs/science/error-bounds.md has the derivation.
+:data:`MAX_PLANES`.  Port forces as inputs of the shadow (no port channel exact on its own) with N <=
+:data:`PORT_ALL_PLANES`: every plane, since a port's force and velocity are spread and read by the kernel over a
+few particles and reach every plane alike (the complement is then empty and the port bounds |model - truth| up to
+round-off, at O(N) per step).  docs/science/error-bounds.md has the derivation.
 """
 
 from __future__ import annotations
@@ -64,7 +67,8 @@ from .planes import Modes, eigen_planes, plane_modes, singular_planes
 
 SHADOW_TARGET = 1e-4        # the complement's certified part / the channel's response, per reference input
 MAX_PLANES = 96             # the largest shadow (planes; k_s = 2 x this)
-SPARSE_PLANES = 192         # planes computed above DENSE_LIMIT particles (the shadow's and a buffer of exact ones)
+PORT_ALL_PLANES = 500       # port forces as the shadow's inputs and N <= this: every plane (build_shadow)
+SPARSE_PLANES = 96          # planes computed above DENSE_LIMIT particles (the shadow's and a buffer of exact ones)
 ROUNDOFF = 1e-11            # relative round-off allowance
 ROUNDOFF_STEP = 1e-15       # ... plus this per step
 SUM_ROUNDOFF = 1e-12        # the complement's sums: times (1 + this)
@@ -691,7 +695,7 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
     d = np.asarray(problem.d, float)
     if parametric and not (problem.terms["uniform_c"] and np.all(d == d[0])):
         raise ValueError("a parametric shadow needs uniform c and d")
-    planes = decompose(problem, parametric=parametric, count=count or max(SPARSE_PLANES, 2 * max_planes))
+    planes = decompose(problem, parametric=parametric, count=count or SPARSE_PLANES)
     t_planes = time.perf_counter() - t_start
     C, row_e, pw, prho0 = output_rows(problem, probes, ports)
     Bcols = input_columns(problem, ports if port_inputs else ())
@@ -710,6 +714,8 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
         must = np.concatenate([must, np.flatnonzero(planes.key <= 1e-9 * max(float(planes.key[-1]), 1e-300))])
     at_least = int(must.max()) + 1 if must.size else 1
     P = len(probes)
+    if order is None and len(ports) and port_inputs and planes.complete and n <= PORT_ALL_PLANES:
+        order = planes.count            # (module docstring: a port's force and velocity reach every plane)
     if order is not None:
         chosen, values, ref = int(order), {}, {}
     else:
