@@ -97,13 +97,14 @@ static double plane_growth(const double *lam, uint32_t planes) {
 
 /* ---- a parametric shadow's complement at (c, d) (harness/rom/bounds.py parametric_complement) ---- */
 
-/* one mode's contribution: its transient gains into gain[r][j] (times |b_j|: gain_b[j] holds |beta'_j| / |lambda|
- * per unit |b_j|... passed as the mode's per-input factors) and its free response's size into tail[r] */
+/* the rows' sums of a parametric shadow's complement (the row terms of SHROW's layout, rom.h RomBoundModel) */
 typedef struct {
     double *row;               /* [rows][row_len] being summed */
     uint32_t rows, inputs, groups, row_len;
 } RowSums;
 
+/* one mode of group `group`: its transient gains |gamma'_r| bet_over_l[j] (bet_over_l[j] = |beta'_j| / |lambda|)
+ * into H_rjg and its free response's size |gamma'_r| eta (eta = |eta'|) into the tail G_rg */
 static void add_mode(RowSums *rs, uint32_t group, const double *gam, const double *bet_over_l, double eta) {
     const uint32_t m = rs->inputs, G = rs->groups;
     for (uint32_t r = 0; r < rs->rows; r++) {

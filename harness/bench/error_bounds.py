@@ -457,6 +457,97 @@ def parametric_section(rows, notes, *, command, wall, machine, span):
     return lines + [""]
 
 
+LARGE_HEADING = "## Certified error bounds at large N"
+LARGE_T = 0.5            # [s] the large scenes' horizon (their training run)
+LARGE_STEPS = 30         # communication steps of the certification run at large N
+
+
+def large_scene(n):
+    """damped_forced with ``n`` particles over LARGE_T, the symplectic integrator at a quarter of its stability
+    limit 2 / ω_max (ω_max = π c^½ n / L estimated from the scene: the largest σ of K)."""
+    from ..scene import derive_scene, load_scene
+    base = load_scene("damped_forced")
+    omega = np.pi * np.sqrt(0.1) * n / base.L * 1.2
+    dt = 0.5 / omega
+    steps = int(round(LARGE_T / dt))
+    return derive_scene(base, {"name": f"damped_forced_n{n}", "domain": {"T": LARGE_T},
+                               "sph": {"n_particles": n, "dt": LARGE_T / steps, "integrator": "symplectic",
+                                       "every": max(1, steps // 50)},
+                               "snapshots": {"count": 20, "window": [0.0, 0.8 * LARGE_T]}})
+
+
+def measure_large(sizes, folder, probes, repeats, progress=True):
+    """Rows (one per N) of the exact FMU of :func:`large_scene`: its packaging time (all of it, and the shadow's
+    own: :func:`sphrom.rom.bounds.build_shadow` timed apart), the shadow's size and how many planes were computed,
+    the doStep cost with and without the bounds, and a certification run (LARGE_STEPS steps of STEP from the
+    initial state under the chirp, held) against :func:`sphrom.rom.reference.exact_probe_reference` (the sparse
+    exponential's action above 1500 particles): violations and effectivities."""
+    from ..fmu.make.build import ensure_binaries
+    from ..fmu.make.package import package_fmu
+    from ..rom.bounds import build_shadow
+    from ..rom.reference import exact_probe_reference
+    from ..sph.solver import build_problem
+    out = []
+    for n in sizes:
+        scene = large_scene(n)
+        problem = build_problem(scene)
+        t0 = time.perf_counter()
+        shadow = build_shadow(problem, probes)
+        shadow_s = time.perf_counter() - t0
+        path = Path(folder) / f"large-{n}.fmu"
+        t0 = time.perf_counter()
+        s = package_fmu(scene, path, model="exact", fmi=2, progress=progress, binaries=ensure_binaries(quiet=True),
+                        problem=problem, bounds=False)
+        package_s = time.perf_counter() - t0
+        with_ns, without_ns, _ = step_cost(path, repeats)
+        t = np.arange(LARGE_STEPS + 1) * STEP
+        f = forces(t, t[-1])["chirp"]
+        t0 = time.perf_counter()
+        v_t, rho_t = exact_probe_reference(problem, probes, t, f, 1.0)
+        truth_s = time.perf_counter() - t0
+        y, names, warned, tol = run_fmu(path, t, 1.0, f, False)
+        metrics, bad, alarm = run_metrics(y, names, v_t, rho_t, None, warned, tol)
+        eff = np.array([m[1] for m in metrics])
+        eff = eff[np.isfinite(eff)]
+        out.append({"N": n, "dt": scene.sph.dt, "package_s": package_s, "shadow_s": shadow_s,
+                    "planes_s": shadow.info["timings"]["planes"], "method": shadow.info["method"],
+                    "computed": shadow.info["computed_planes"], "shadow_order": s.shadow_order, "k_v": s.k_v,
+                    "k_rho": s.k_rho, "step_ns_bounds": with_ns, "step_ns_plain": without_ns,
+                    "cost_ratio": with_ns / without_ns, "violations": bad, "points": t.size, "false_alarm": alarm,
+                    "eff_median": float(np.median(eff)) if eff.size else float("nan"),
+                    "eff_max": float(eff.max()) if eff.size else float("nan"), "counted": int(eff.size),
+                    "outputs": len(metrics), "truth_s": truth_s,
+                    "max_err": max(m[2] for m in metrics if m[0].startswith("v_")),
+                    "max_bound": max(m[3] for m in metrics if m[0].startswith("v_"))})
+        print(f"N {n}: packaging {package_s:.1f} s (shadow {shadow_s:.1f} s), doStep {with_ns:.0f}/{without_ns:.0f} "
+              f"ns, violations {bad}, effectivity max {out[-1]['eff_max']:.3g}", flush=True)
+    return out
+
+
+def large_section(rows, *, command, wall, machine):
+    lines = [LARGE_HEADING, "",
+             f"Produced by `{command}` ({machine}, {wall:.0f} s wall). The exact FMU of damped_forced with N "
+             f"particles over T = {LARGE_T:g} s (symplectic SPH at a quarter of its stability limit; "
+             "harness/bench/error_bounds.py `large_scene`). Packaging: `sphrom fmu`'s whole packaging with the "
+             "bounds (the full SPH training run, the POD, the model, the shadow), one run; the shadow: "
+             "`build_shadow` timed apart (its planes: the dense SVD up to 2500 particles, the sparse shift-invert "
+             f"Lanczos solver above). Certification: {LARGE_STEPS} steps of {STEP * 1e3:g} ms from the initial "
+             "state under the chirp, held, against the full linear SPH integrated exactly in time "
+             "(`sphrom.rom.reference.exact_probe_reference`: the sparse exponential's action above 1500 "
+             "particles). doStep: the C core's rom_do_step with and without the bounds' sections.", "",
+             "| N | dt [s] | packaging [s] | shadow [s] (planes) | planes computed, method | k_v, k_ρ | shadow order | "
+             "doStep ns with / without | ratio | violations | effectivity median | max | max v error [m/s] | "
+             "max v bound [m/s] |",
+             "| ---: | ---: | ---: | ---: | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    for r in rows:
+        lines.append(f"| {r['N']} | {r['dt']:.3g} | {r['package_s']:.1f} | {r['shadow_s']:.1f} "
+                     f"({r['planes_s']:.1f}) | {r['computed']}, {r['method']} | {r['k_v']}, {r['k_rho']} | "
+                     f"{r['shadow_order']} | {r['step_ns_bounds']:.0f} / {r['step_ns_plain']:.0f} | "
+                     f"{r['cost_ratio']:.2f} | {r['violations']} / {r['points']} | {_g(r['eff_median'])} | "
+                     f"{_g(r['eff_max'])} | {_g(r['max_err'], '.2e')} | {_g(r['max_bound'], '.2e')} |")
+    return lines + [""]
+
+
 def main(argv=None):
     from . import machine_text, program_command, program_parser
     from .lib.document import update_report
@@ -477,7 +568,17 @@ def main(argv=None):
                    help="the parametric FMUs (frozen, exact) at held-out (c, d): their own section")
     p.add_argument("--points", type=positive_int, default=2, metavar="P",
                    help="held-out (c, d) per scene with --parametric (default 2)")
+    p.add_argument("--sizes", default=None, metavar="N1,N2",
+                   help="instead: the bounds at large N (e.g. 10000,100000): packaging time, cost, certification")
     args = p.parse_args(argv)
+    if args.sizes is not None:
+        try:
+            sizes = [int(x) for x in args.sizes.split(",")]
+        except ValueError:
+            sizes = []
+        if not sizes or min(sizes) < 16:
+            p.error(f"--sizes: {args.sizes!r} is out of range (allowed: whole numbers >= 16, comma-separated)")
+        return main_large(args, sizes, argv)
     if not (args.span > 0 and np.isfinite(args.span)):
         p.error(f"--span: {args.span} is out of range (allowed: a number > 0)")
     if args.corpus < 0:
@@ -532,6 +633,25 @@ def main(argv=None):
         update_report(args.report, {SECTION_HEADING: lines})
         print(f"wrote {out / 'error_bounds.csv'}, {image} and the section of {args.report}")
     return 0 if all(r["violations"] == 0 for r in done) else 1
+
+
+def main_large(args, sizes, argv):
+    """``--sizes``: the rows of :func:`measure_large`, their CSV and section."""
+    from . import machine_text, program_command
+    from .lib.document import update_report
+    from .lib.tables import write_csv
+    from .. import defaults
+    t0 = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="sphrom-error-bounds-large-") as folder:
+        rows = measure_large(sizes, folder, defaults.PROBES, args.repeats, progress=not args.quiet)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    write_csv(out / "error_bounds_large.csv", rows)
+    update_report(args.report, {LARGE_HEADING: large_section(rows, command=program_command("error_bounds", argv),
+                                                             wall=time.perf_counter() - t0,
+                                                             machine=machine_text())})
+    print(f"wrote {out / 'error_bounds_large.csv'} and the section of {args.report}")
+    return 0 if all(r["violations"] == 0 for r in rows) else 1
 
 
 if __name__ == "__main__":

@@ -122,9 +122,10 @@ def exact_probe_reference(problem, probes, t, force, scale=1.0, hold="held"):
     lti = full_linear_system(problem, probes)
     n = problem.n
     h = float(t[1] - t[0]) if t.size > 1 else 0.0
-    M = sp.bmat([[lti.A, sp.csr_matrix(lti.B[:, :1]), None],
+    # [[A h, b h, 0], [0, 0, 1], [0, 0, 0]] acting on (x, u at the step's start, its change over the step)
+    M = sp.bmat([[lti.A * h, sp.csr_matrix(lti.B[:, :1] * h), None],
                  [None, None, sp.csr_matrix(np.ones((1, 1)))],
-                 [None, None, sp.csr_matrix((1, 1))]], format="csc") * h if t.size > 1 else None
+                 [None, None, sp.csr_matrix((1, 1))]], format="csc") if t.size > 1 else None
     if M is not None and n <= EXACT_DENSE_LIMIT:
         E = sla.expm(M.toarray())
 
