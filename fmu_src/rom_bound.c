@@ -56,6 +56,8 @@ typedef struct {
     double w_int;              /* int |w| dt so far (a bound) */
     double steps;              /* steps taken (the round-off allowance) */
     double started;            /* 1 once w holds s w0 and its steps (the first doStep), 0 before */
+    double tail_tau;           /* the time since the start at which tail_decay holds (NaN: none) */
+    double tail_decay[BOUND_MAX_GROUPS];   /* exp(-alpha_g (tau - t_end)) there: the rows' tails after the table */
     BoundCache cache[BOUND_CACHE];
     int64_t clock;
     double *work;              /* [4][n][n], n = 2 + 2 inputs (the exponential's matrices) */
@@ -420,6 +422,7 @@ RomStatus rom_bound_state_new(RomState *s) {
         free(bs);
         return ROM_FAIL;
     }
+    bs->tail_tau = NAN;
     s->bound = bs;
     return ROM_OK;
 }
@@ -441,7 +444,19 @@ void rom_bound_reset(RomState *s) {
     for (uint32_t i = 0; i < BOUND_MAX_INPUTS * BOUND_MAX_GROUPS; i++) bs->V[i] = 0.0;
     for (uint32_t i = 0; i < BOUND_MAX_INPUTS; i++) bs->u_prev[i] = 0.0;
     bs->w_int = bs->steps = bs->started = 0.0;
+    bs->tail_tau = NAN;
     for (int c = 0; c < BOUND_CACHE; c++) bs->cache[c].h = 0.0;      /* the maps stay valid; kept empty anyway */
+}
+
+static double table_end(const RomBoundModel *b) {
+    return b->nodes ? b->h_tab * (double)(b->nodes - 1) : 0.0;
+}
+
+/* the groups' decay of the rows' tails at tau after the table's end, once for every row (rom_bound_step) */
+static void tail_decays(BoundState *bs, const RomBoundModel *b, double tau) {
+    const double over = tau - table_end(b);
+    bs->tail_tau = tau;
+    for (uint32_t g = 0; g < b->groups; g++) bs->tail_decay[g] = over > 0 ? exp(-b->rates[g] * over) : 1.0;
 }
 
 /* the plane maps of a step h (from time t): per plane the exponential of [[L h, B_p h, 0], [0, 0, I], [0, 0, 0]],
@@ -542,6 +557,8 @@ void rom_bound_step(RomState *s, double h) {
     memcpy(bs->w, bs->w_new, k * sizeof(double));
     for (size_t j = 0; j < m; j++) bs->u_prev[j] = u[j] + du[j];
     bs->steps += 1.0;
+    const double tau = s->time + h - s->t0;             /* the time since the start after this step */
+    if (tau > table_end(b)) tail_decays(bs, b, tau);
 }
 
 /* the shadow's state now (s w0 before the first step) into out[order] */
@@ -556,10 +573,11 @@ static const double *shadow_state(const RomState *s, double *scratch) {
 /* the complement's free response of row r at tau since the start (per unit initial_state_scale): the table's
  * Hermite interpolation into *value and its certified error into *error; after the table (or without one) 0 and
  * the decaying tail (harness/rom/bounds.py free_part) */
-static void free_part(const RomBoundModel *b, uint32_t r, double tau, double *value, double *error) {
+static void free_part(const RomBoundModel *b, const BoundState *bs, uint32_t r, double tau, double *value,
+                      double *error) {
     const double *row = b->row + (size_t)r * b->row_len;
     const uint32_t m = b->inputs, G = b->groups;
-    const double t_end = b->nodes ? b->h_tab * (double)(b->nodes - 1) : 0.0;
+    const double t_end = table_end(b);
     if (b->nodes && tau <= t_end) {
         const double x = (tau > 0 ? tau : 0.0) / b->h_tab;
         uint32_t k = (uint32_t)floor(x);
@@ -572,8 +590,11 @@ static void free_part(const RomBoundModel *b, uint32_t r, double tau, double *va
         return;
     }
     const double over = tau > t_end ? tau - t_end : 0.0;
+    const int cached = tau == bs->tail_tau;              /* the step's decays (rom_bound_step), else computed */
     double acc = 0.0;
-    for (uint32_t g = 0; g < G; g++) acc += row[1 + 2 * m + m * G + g] * exp(-b->rates[g] * over);
+    for (uint32_t g = 0; g < G; g++) {
+        acc += row[1 + 2 * m + m * G + g] * (cached ? bs->tail_decay[g] : exp(-b->rates[g] * over));
+    }
     *value = 0.0;
     *error = acc;
 }
@@ -605,7 +626,7 @@ static void shadow_row(const RomState *s, uint32_t r, double *value, double *cer
     const double row_scale = r >= P && r < 3 * P ? b->e_scale : 1.0;     /* e rows of a parametric shadow */
     const double cn = row[0] * row_scale, scale = fabs(s->initial_state_scale);
     double g_value, g_error;
-    free_part(b, r, s->time - s->t0, &g_value, &g_error);
+    free_part(b, bs, r, s->time - s->t0, &g_value, &g_error);
     y += s->initial_state_scale * g_value;
     const double allow = cn * (BOUND_ROUNDOFF + BOUND_ROUNDOFF_STEP * bs->steps) * (sqrt(w2) + scale * b->x0_norm);
     *value = y;
@@ -699,6 +720,7 @@ const unsigned char *rom_bound_state_get(RomState *s, const unsigned char *curso
     bs->w_int = scalars[0];
     bs->steps = scalars[1];
     bs->started = scalars[2] != 0.0 ? 1.0 : 0.0;
+    bs->tail_tau = NAN;                                  /* recomputed at the next row */
     for (size_t i = 0; i < (size_t)b->inputs * b->groups; i++) {
         if (!(bs->V[i] >= 0)) bs->V[i] = INFINITY;       /* a damaged variation: no bound, visibly */
     }

@@ -373,3 +373,27 @@ def test_the_bounds_truth_two_ways(monkeypatch):
     v2, rho2 = reference.exact_probe_reference(problem, PROBES, t, f, 1.0, hold="linear")
     np.testing.assert_allclose(v2, v, rtol=0, atol=1e-12 * np.abs(v).max())
     np.testing.assert_allclose(rho2, rho, rtol=1e-13, atol=0)
+
+
+def test_bounds_past_the_free_response_table(make):
+    """A run longer than the free response table (on the undamped scene it spans 20 T): the C core's bounds equal
+    run_shadow's there too (the tail's Hölder sums, their decay cached once per step), and they hold against the
+    truth at every point."""
+    from sphrom.rom.bounds import fmu_shadow, output_bounds, run_shadow
+    from sphrom.sph.solver import build_problem
+    path, data = make(model="exact", case="unforced")
+    shadow = fmu_shadow(build_problem(fmu_scene("unforced")), PROBES,
+                        scale_v=float(np.max(data.sections["ENVPROBE"][1])))
+    steps = int(round(shadow.comp.t_end / H)) + 60
+    assert shadow.comp.values is not None
+    t = np.arange(steps + 1) * H
+    f = 3e-3 * np.sin(1.7 * t)
+    out, names, _ = run(path, 1.0, f)
+    check(out, names, *truth("unforced", 1.0, f)[:2])
+    y, cert = run_shadow(shadow, np.full(steps, H), f[:-1, None], np.zeros((steps, 1)), scale=1.0)
+    v, rho = columns(out, names, "v_probe_j"), columns(out, names, "rho_probe_j")
+    vb, rb, _ = output_bounds(shadow, y, cert, v, rho)
+    late = t > shadow.comp.t_end
+    assert late.sum() > 50
+    np.testing.assert_allclose(columns(out, names, "v_probe_j_error_bound")[late], vb[late], rtol=1e-9,
+                               atol=1e-13 * np.abs(v).max())

@@ -577,13 +577,14 @@ def _row_classes(P, n_ports):
 
 
 def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *, target=SHADOW_TARGET,
-                  max_planes=MAX_PLANES, at_least=1):
+                  max_planes=MAX_PLANES, at_least=1, table=True):
     """The smallest number of planes (a gap cut, >= ``at_least``) whose certified complement stays below
     ``target`` of each channel's response (module docstring): per input j, a unit step (the transient's gains,
     its variation 1) and a unit sine at half the first elastic frequency over REFERENCE_SPAN x T (the gains times
     its weighted variation ω min(span, 1/α) + 1, plus the quasi-static tail), each against the largest response
-    of its row class; the initial state: its complement's envelope (sampled) against the largest free response.
-    Returns (planes, criterion value per cut, the responses)."""
+    of its row class; the initial state: its free response table's error at t = 0 (``table``; else, a parametric
+    shadow's, the complement's Hölder sum) against the largest free response.  Returns (planes, criterion value
+    per cut, the responses)."""
     L = planes.blocks[0]
     n = planes.count
     rows, m = chat.shape[0], bhat.shape[2]
@@ -625,7 +626,8 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
                         worst = max(worst, float(val[cls].max()) / scale)
         if np.any(eta):                                        # the free response table's error at t = 0
             size = np.abs(modes_all.P[:, rest])
-            interp = (modes_all.exact & (np.abs(modes_all.mu) * h_tab <= INTERPOLATED))[rest]
+            interp = (modes_all.exact & (np.abs(modes_all.mu) * h_tab <= INTERPOLATED))[rest] if table else \
+                np.zeros(int(rest.sum()), bool)
             err = size[:, ~interp].sum(axis=1) + size[:, interp] @ ((np.abs(modes_all.mu[rest][interp]) * h_tab)
                                                                      ** 4 / 384.0)
             for c, cls in enumerate(classes):
@@ -720,7 +722,8 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
         chosen, values, ref = int(order), {}, {}
     else:
         chosen, values, ref = choose_planes(planes, modes_all, chat, bhat, eta, lambda: tail, T, P, len(ports),
-                                            target=target, max_planes=max_planes, at_least=at_least)
+                                            target=target, max_planes=max_planes, at_least=at_least,
+                                            table=not parametric)
     chosen = min(chosen, planes.count)
     keep = np.arange(chosen)
     S = planes.basis(keep)
