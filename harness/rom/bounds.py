@@ -65,7 +65,7 @@ import scipy.linalg as sla
 
 from .planes import Modes, eigen_planes, plane_modes, singular_planes
 
-SHADOW_TARGET = 1e-4        # the complement's certified part / the channel's response, per reference input
+SHADOW_TARGET = 1e-6        # the complement's certified part / the channel's response, per reference input
 MAX_PLANES = 96             # the largest shadow (planes; k_s = 2 x this)
 PORT_ALL_PLANES = 500       # port forces as the shadow's inputs and N <= this: every plane (build_shadow)
 SPARSE_PLANES = 96          # planes computed above DENSE_LIMIT particles (the shadow's and a buffer of exact ones)
@@ -74,13 +74,13 @@ ROUNDOFF_STEP = 1e-15       # ... plus this per step
 SUM_ROUNDOFF = 1e-12        # the complement's sums: times (1 + this)
 TABLE_SPAN = 20.0           # the initial state's free response table covers this x the scene's T (at most)
 MAX_NODES = 4096            # its nodes at most
-NODE_RESOLUTION = 0.5       # its spacing h: |μ| h <= this for every mode that matters (within MAX_NODES)
+NODE_RESOLUTION = 0.1       # its spacing h: |μ| h <= this for every mode that matters (within MAX_NODES)
 INTERPOLATED = 3.7          # a mode with |μ| h above this counts by its size, not interpolated ((3.7)^4/384 = 0.49)
 PLATEAU = 2.0               # no cut meets the target: the smallest within this factor of the largest cut's value
 N_BLOCKS = 256              # its error bounds: one per block of intervals
 MAX_GROUPS = 4              # decay-rate groups of the complement's transient
 REFERENCE_SPAN = 20.0       # the reference sine's run: this x T (its weighted variation)
-FLOOR = 1e-9                # a channel's response below this x its row class's largest is not judged
+FLOOR = 1e-6                # a channel's response below this x its row class's largest is not judged (round-off)
 PIECES = ("const", "c", "d")   # A(c, d) = A_const + c A_c + d A_d
 TOLERANCE_FRACTION = 0.05   # error_tolerance's default: this x the training run's largest |v_probe| [m s^-1]
 FMU_MAX_PARTICLES = 200000  # above this N the FMU carries no shadow
@@ -595,7 +595,6 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
     classes = _row_classes(P, n_ports)
     span = REFERENCE_SPAN * T
     t = np.linspace(0.0, TABLE_SPAN * T, 4001)
-    h_tab = table_step(modes_all, T)[1]                        # the finest table any shadow gets
     mg = mode_gains(modes_all)                                 # (rows, M, m)
     free_all = np.real(modes_all.P @ np.exp(np.outer(modes_all.mu, t)))   # the whole free response (all modes)
     free_scale = np.abs(free_all).max(axis=1)
@@ -625,6 +624,7 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
                     if scale > FLOOR * big[c]:
                         worst = max(worst, float(val[cls].max()) / scale)
         if np.any(eta):                                        # the free response table's error at t = 0
+            h_tab = table_step(_select(modes_all, rest), T, tl.alpha if tl is not None else None)[1]
             size = np.abs(modes_all.P[:, rest])
             interp = (modes_all.exact & (np.abs(modes_all.mu) * h_tab <= INTERPOLATED))[rest] if table else \
                 np.zeros(int(rest.sum()), bool)
