@@ -121,36 +121,43 @@ RomStatus rom_fail(char *message, size_t message_size, const char *format, ...)
 /* A model kind's table of operations (rom_internal.h): what the frozen and the linear models do differently */
 typedef struct RomKindOps RomKindOps;
 
-/* The certified error bounds' shadow (rom_bound.c; sections SHSCAL, SHLAM, SHB, SHC, SHW0, SHGRAM, SHROW,
- * SHPROBE, and SHPIECE, SHPARAM of a parametric model, SHDENSE, SHEGRAM of one dense block, written by
- * harness/rom/bounds.py): the full linear SPH's lowest `planes` invariant planes, stepped
- * exactly, and per output row r the certified bound of |row_r . (x - S w)| (docs/science/error-bounds.md).
+/* The certified error bounds' shadow (rom_bound.c; sections SHSCAL, SHLAM, SHB, SHC, SHW0, SHROW, SHRATE, SHPROBE,
+ * SHTAB and SHTERR with an initial state outside the shadow, SHPIECE, SHPARAM, SHCPL of a parametric model, written
+ * by harness/rom/bounds.py): the full linear SPH's lowest `planes` invariant planes, stepped exactly, and per
+ * output row r the shadow's value (with the complement's quasi-static feedthrough and its tabulated free response)
+ * and the certified bound of the rest (docs/science/error-bounds.md).
  * Rows: v at each probe, e at the two particles of each probe (P + 2 j + m), each port's velocity (3 P + j).
- * Inputs: f [m s^-2], then F_j / area [N m^-2].  order 0: the model has no bounds. */
+ * Inputs: f [m s^-2], then F_j / area [N m^-2] (f alone with a port channel).  order 0: the model has no bounds. */
 typedef struct {
-    uint32_t order, planes, inputs, rows, n_tab;   /* k_s = 2 planes, m, 3 P + ports, table length */
-    uint32_t dense;            /* 1: one dense block (sections SHDENSE, SHEGRAM: a damping d that is not uniform) */
-    const double *egram;       /* dense: [order][order] E^T E of the coupling residual */
-    double dt_tab;             /* [s] the envelope table's spacing: G(t_b), t_b = b dt_tab, valid for t >= t_b */
-    double y0_norm, x0_norm;   /* the initial state's part outside the shadow, the whole initial state */
-    double e_norm, b_norm;     /* the residual operator's norm (round-off), the shadow's input norm */
-    double mu;                 /* the largest growth rate of a plane (<= round-off: planes are dissipative) */
+    uint32_t order, planes, inputs, rows;  /* k_s = 2 planes, m, 3 P + ports */
+    uint32_t groups;           /* G: decay-rate groups of the complement's transient */
+    uint32_t nodes, q, blocks; /* the free response table: nodes (0: none), intervals per error block, blocks */
+    uint32_t row_len;          /* 1 + 2 m + m G + G: |c_r|, D_r, static gains, transient gains, tail */
+    uint32_t n_cpl;            /* a parametric shadow's complement planes */
+    double h_tab;              /* [s] the table's node spacing */
+    double x0_norm;            /* the whole initial state's norm */
+    double e_norm, b_norm;     /* the planes' residual norm (round-off), the shadow's input norm */
+    double mu;                 /* the largest growth rate of a plane's symmetric part (0 at least) */
     double tolerance;          /* error_tolerance's default [m s^-1] */
-    const double *lam;         /* [planes][4] each plane's 2 x 2 block; dense: [order][order] the block */
+    const double *lam;         /* [planes][4] each plane's 2 x 2 block */
     const double *B;           /* [order][inputs] */
     const double *C;           /* [rows][order] */
     const double *w0;          /* [order] the shadow's initial state (initial_state_scale 1) */
-    const double *gram;        /* [inputs][inputs] B_perp^T B_perp */
-    const double *row;         /* [rows][1 + inputs + n_tab]: |c_r|, sup|H| per input (< 0: none), G(t_b) */
+    const double *row;         /* [rows][row_len] */
+    const double *rates;       /* [groups] [s^-1] */
+    const double *tab;         /* [2 rows][nodes]: g_r at the nodes, then g_r' */
+    const double *terr;        /* [rows][blocks] */
     const double *probe;       /* [n_probes][4] the probe's weights and rho0 at its two particles */
-    /* a parametric shadow (sections SHPIECE, SHPARAM, with PARAMS; NULL piece: none): lam = SHLAM + c piece[0:4]
-     * + d piece[4:8] per plane, assembled at the state's c and d (rom_model_assemble) into storage_, with mu,
-     * e_norm and e_scale = sqrt(c_ref / c), the factor of |c_r| and G of the e rows (rows P .. 3P - 1) */
+    /* a parametric shadow (sections SHPIECE, SHPARAM, SHCPL, with PARAMS; NULL piece: none): lam = SHLAM + c
+     * piece[0:4] + d piece[4:8] per plane, and the rows' terms and rates computed from the complement planes, at the
+     * state's c and d (rom_model_assemble) into storage_, with mu, e_norm and e_scale = sqrt(c_ref / c), the
+     * factor of |c_r| of the e rows (rows P .. 3P - 1) */
     const double *piece;       /* [planes][8] */
+    const double *cpl;         /* [n_cpl][2 + 2 rows + inputs]: sigma, eta, c_hat (rows x 2), b (inputs) */
     double c_ref;              /* [kg m^-1 s^-2] the c of the shadow's energy coordinates */
     double e_piece[6];         /* |E_p| of the pieces (const, c, d), their v rows and e rows */
     double e_scale;            /* 1 without pieces */
-    double *storage_;          /* [planes][4] the assembled planes (NULL without pieces), owned by the model */
+    double *storage_;          /* [planes][4] planes, [rows][row_len] row terms, [groups] rates; owned by the model */
 } RomBoundModel;
 
 /* The reduced model of one scene (immutable once loaded, but for rom_model_assemble).  What every kind has

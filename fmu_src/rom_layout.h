@@ -82,20 +82,21 @@
  *     PORTX: port positions x/L (1 x P)
  *     PORTB: port input rows at area 1 (P x k_v frozen, P x k linear)
  *     PORTC: port velocity rows (P x k_v)
- *     SHSCAL: error bounds: the shadow's sizes and scalars; columns order, planes, inputs, rows, n_tab, dt_tab,
- *         y0_norm, x0_norm, e_norm, b_norm, tolerance, reserved
+ *     SHSCAL: error bounds: the shadow's sizes and scalars; columns order, planes, inputs, rows, nodes, groups,
+ *         h_tab, q_tab, x0_norm, e_norm, b_norm, tolerance, cplanes, reserved
  *     SHLAM: error bounds: the shadow's planes
  *     SHB: error bounds: the shadow's input columns
  *     SHC: error bounds: the shadow's output rows
  *     SHW0: error bounds: the shadow's initial state
- *     SHGRAM: error bounds: the inputs' Gram matrix outside the shadow
- *     SHROW: error bounds: per output row, its norm, input gains and initial-state envelope
+ *     SHROW: error bounds: per output row, its norm, feedthrough, gains and tail
+ *     SHRATE: error bounds: the complement's decay rates
  *     SHPROBE: error bounds: the probes' weights and rho0; columns pw0, pw1, rho0_0, rho0_1
+ *     SHTAB: error bounds: the complement's free response and its slope at the table's nodes
+ *     SHTERR: error bounds: the free response table's error per block of intervals
  *     SHPIECE: error bounds: the planes' pieces per unit c and per unit d
  *     SHPARAM: error bounds: c_ref and the residual pieces' norms; columns c_ref, e_const_v, e_const_e, e_c_v,
  *         e_c_e, e_d_v, e_d_e
- *     SHDENSE: error bounds: the dense block's growth rate; columns mu
- *     SHEGRAM: error bounds: the dense block's coupling residual's Gram matrix
+ *     SHCPL: error bounds: the complement's planes (parametric)
  *
  * then the trailer:
  *      0  char[40] token: "{xxxxxxxx-xxxx-xxxx-xxxx-xxxxxxxxxxxx}", NUL padded: the FMI guid / instantiationToken,
@@ -122,8 +123,8 @@
  *     kind [the kind's block]: KINDS' state_block
  *     t0 [1]: the start time [s] (of the exact model's free response)
  *     f_rate [1]: df/dt over a step [m s^-3] (0: held)
- *     bounds [with the error bounds (sections SH*)]: the shadow w[k_s], the inputs' variation tv[m] and last
- *         values u[m], the integrals of |B_perp u| and |w|, the step count, started (0 or 1) (rom_bound.c)
+ *     bounds [with the error bounds (sections SH*)]: the shadow w[k_s], the inputs' weighted variations V[m
+ *         groups] and last values u[m], the integral of |w|, the step count, started (0 or 1) (rom_bound.c)
  *     initial_state_scale [1]: the parameter
  *     c [1]: the parameter c [kg m^-1 s^-2] (0 without section PARAMS)
  *     d [1]: the parameter d [s^-1] (0 without section PARAMS)
@@ -199,19 +200,21 @@
 #define ROM_PARAMS_MAX                       3
 #define ROM_PARAMS_ROW_C                     0
 #define ROM_PARAMS_ROW_D                     1
-#define ROM_SHSCAL_COLUMNS                   12u
+#define ROM_SHSCAL_COLUMNS                   14u
 #define ROM_SHSCAL_ORDER                     0
 #define ROM_SHSCAL_PLANES                    1
 #define ROM_SHSCAL_INPUTS                    2
 #define ROM_SHSCAL_ROWS                      3
-#define ROM_SHSCAL_N_TAB                     4
-#define ROM_SHSCAL_DT_TAB                    5
-#define ROM_SHSCAL_Y0_NORM                   6
-#define ROM_SHSCAL_X0_NORM                   7
-#define ROM_SHSCAL_E_NORM                    8
-#define ROM_SHSCAL_B_NORM                    9
-#define ROM_SHSCAL_TOLERANCE                 10
-#define ROM_SHSCAL_RESERVED                  11
+#define ROM_SHSCAL_NODES                     4
+#define ROM_SHSCAL_GROUPS                    5
+#define ROM_SHSCAL_H_TAB                     6
+#define ROM_SHSCAL_Q_TAB                     7
+#define ROM_SHSCAL_X0_NORM                   8
+#define ROM_SHSCAL_E_NORM                    9
+#define ROM_SHSCAL_B_NORM                    10
+#define ROM_SHSCAL_TOLERANCE                 11
+#define ROM_SHSCAL_CPLANES                   12
+#define ROM_SHSCAL_RESERVED                  13
 #define ROM_SHPROBE_COLUMNS                  4u
 #define ROM_SHPROBE_PW0                      0
 #define ROM_SHPROBE_PW1                      1
@@ -225,8 +228,6 @@
 #define ROM_SHPARAM_E_C_E                    4
 #define ROM_SHPARAM_E_D_V                    5
 #define ROM_SHPARAM_E_D_E                    6
-#define ROM_SHDENSE_COLUMNS                  1u
-#define ROM_SHDENSE_MU                       0
 #define ROM_ENVELOPE_CHECK_COORDINATES       1u
 #define ROM_ENVELOPE_CHECK_FORCE             2u
 #define ROM_ENVELOPE_CHECK_STRAIN            4u
@@ -234,7 +235,7 @@
 #define ROM_ENVELOPE_CHECK_ALL               15u
 #define ROM_LINEAR_EXACT_POD                 1u   /* section LINMODEL */
 #define ROM_LINEAR_BALANCED                  2u   /* section LINMODEL */
-#define ROM_N_SECTION_TAGS                   31u   /* rom_resources.c's SECTION_RULES has one row each */
+#define ROM_N_SECTION_TAGS                   32u   /* rom_resources.c's SECTION_RULES has one row each */
 /* the model kinds' tables of operations (rom_internal.h RomKindOps; rom_resources.c's list of kinds) */
 #define ROM_KIND_TABLES(X) X(rom_frozen_kind) X(rom_exact_kind)
 

@@ -263,14 +263,15 @@ static const SectionRule SECTION_RULES[] = {
     {"SHB", "error bounds: the shadow's input columns", rom_bound_check_section},
     {"SHC", "error bounds: the shadow's output rows", rom_bound_check_section},
     {"SHW0", "error bounds: the shadow's initial state", rom_bound_check_section},
-    {"SHGRAM", "error bounds: the inputs' Gram matrix outside the shadow", rom_bound_check_section},
-    {"SHROW", "error bounds: per output row, its norm, input gains and initial-state envelope",
-     rom_bound_check_section},
+    {"SHROW", "error bounds: per output row, its norm, feedthrough, gains and tail", rom_bound_check_section},
+    {"SHRATE", "error bounds: the complement's decay rates", rom_bound_check_section},
     {"SHPROBE", "error bounds: the probes' weights and rho0", rom_bound_check_section},
+    {"SHTAB", "error bounds: the complement's free response and its slope at the table's nodes",
+     rom_bound_check_section},
+    {"SHTERR", "error bounds: the free response table's error per block of intervals", rom_bound_check_section},
     {"SHPIECE", "error bounds: the planes' pieces per unit c and per unit d", rom_bound_check_section},
     {"SHPARAM", "error bounds: c_ref and the residual pieces' norms", rom_bound_check_section},
-    {"SHDENSE", "error bounds: the dense block's growth rate", rom_bound_check_section},
-    {"SHEGRAM", "error bounds: the dense block's coupling residual's Gram matrix", rom_bound_check_section},
+    {"SHCPL", "error bounds: the complement's planes (parametric)", rom_bound_check_section},
     {NULL, NULL, NULL},        /* end of the table */
 };
 /* one rule per tag of the layout (harness/fmu/layout.py SECTIONS; tests/test_fmu_constants.py compares the tags) */

@@ -287,22 +287,23 @@ SECTIONS: dict[str, Section] = {
     "PORTC": Section("port velocity rows (P x k_v)"),
     # the certified error bounds' shadow (harness/rom/bounds.py sections, fmu_src/rom_bound.c), all or none
     "SHSCAL": Section("error bounds: the shadow's sizes and scalars",
-                      columns=("order", "planes", "inputs", "rows", "n_tab", "dt_tab", "y0_norm", "x0_norm", "e_norm",
-                               "b_norm", "tolerance", "reserved")),
+                      columns=("order", "planes", "inputs", "rows", "nodes", "groups", "h_tab", "q_tab", "x0_norm",
+                               "e_norm", "b_norm", "tolerance", "cplanes", "reserved")),
     "SHLAM": Section("error bounds: the shadow's planes"),
     "SHB": Section("error bounds: the shadow's input columns"),
     "SHC": Section("error bounds: the shadow's output rows"),
     "SHW0": Section("error bounds: the shadow's initial state"),
-    "SHGRAM": Section("error bounds: the inputs' Gram matrix outside the shadow"),
-    "SHROW": Section("error bounds: per output row, its norm, input gains and initial-state envelope"),
+    "SHROW": Section("error bounds: per output row, its norm, feedthrough, gains and tail"),
+    "SHRATE": Section("error bounds: the complement's decay rates"),
     "SHPROBE": Section("error bounds: the probes' weights and rho0", columns=("pw0", "pw1", "rho0_0", "rho0_1")),
-    # ... a parametric FMU's shadow adds these two (with section PARAMS)
+    # ... with an initial state outside the shadow, these two (the complement's free response)
+    "SHTAB": Section("error bounds: the complement's free response and its slope at the table's nodes"),
+    "SHTERR": Section("error bounds: the free response table's error per block of intervals"),
+    # ... a parametric FMU's shadow adds these three (with section PARAMS)
     "SHPIECE": Section("error bounds: the planes' pieces per unit c and per unit d"),
     "SHPARAM": Section("error bounds: c_ref and the residual pieces' norms",
                        columns=("c_ref", "e_const_v", "e_const_e", "e_c_v", "e_c_e", "e_d_v", "e_d_e")),
-    # ... a shadow of one dense block (a damping d that is not uniform) adds these two
-    "SHDENSE": Section("error bounds: the dense block's growth rate", columns=("mu",)),
-    "SHEGRAM": Section("error bounds: the dense block's coupling residual's Gram matrix"),
+    "SHCPL": Section("error bounds: the complement's planes (parametric)"),
 }
 # bits of ENVELOPE's column checks: the run-time checks of the training envelope (fmu_src/rom_envelope.c)
 ENVELOPE_CHECKS = {"coordinates": 1, "force": 2, "strain": 4, "failure": 8}
@@ -350,8 +351,8 @@ STATE_BLOCKS = (
     ("kind", "the kind's block", "KINDS' state_block"),
     ("t0", "1", "the start time [s] (of the exact model's free response)"),
     ("f_rate", "1", "df/dt over a step [m s^-3] (0: held)"),
-    ("bounds", "with the error bounds (sections SH*)", "the shadow w[k_s], the inputs' variation tv[m] and last "
-     "values u[m], the integrals of |B_perp u| and |w|, the step count, started (0 or 1) (rom_bound.c)"),
+    ("bounds", "with the error bounds (sections SH*)", "the shadow w[k_s], the inputs' weighted variations V[m groups] "
+     "and last values u[m], the integral of |w|, the step count, started (0 or 1) (rom_bound.c)"),
     ("initial_state_scale", "1", "the parameter"),
     ("c", "1", "the parameter c [kg m^-1 s^-2] (0 without section PARAMS)"),
     ("d", "1", "the parameter d [s^-1] (0 without section PARAMS)"),
