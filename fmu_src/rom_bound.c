@@ -378,11 +378,11 @@ static const BoundCache *dense_maps(BoundState *bs, const RomBoundModel *b, doub
     return slot;
 }
 
-/* the plane maps of a step h (from time t): per plane the exponential of [[L h, B_p h, 0], [0, 0, I], [0, 0, 0]] */
-static const BoundCache *plane_maps(BoundState *bs, const RomBoundModel *b, double h, double t) {
+/* the plane maps of a step h: per plane the exponential of [[L h, B_p h, 0], [0, 0, I], [0, 0, 0]] */
+static const BoundCache *plane_maps(BoundState *bs, const RomBoundModel *b, double h) {
     bs->clock++;
     for (int c = 0; c < BOUND_CACHE; c++) {
-        if (rom_same_step(h, bs->cache[c].h, t)) {     /* (an importer's jitter of a few ulps: the same step) */
+        if (rom_same_step(h, bs->cache[c].h)) {     /* (an importer's jitter of a few ulps: the same step) */
             bs->cache[c].used = bs->clock;
             return &bs->cache[c];
         }
@@ -455,7 +455,7 @@ void rom_bound_step(RomState *s, double h) {
         }
     }
     bs->p_int += sqrt(fmax(h * h * q, 0.0));
-    const BoundCache *c = plane_maps(bs, b, h, s->time);
+    const BoundCache *c = plane_maps(bs, b, h);
     if (b->dense) {                     /* int |E w| <= h sqrt(Y^T Q Y) over the step, Y = (w, u, du) */
         const size_t n = k + 2 * m;
         double quad = 0.0, y2 = 0.0;
@@ -520,7 +520,7 @@ static void shadow_row(const RomState *s, uint32_t r, double *value, double *cer
     const uint32_t P = s->model->n_probes;
     const double row_scale = r >= P && r < 3 * P ? b->e_scale : 1.0;     /* e rows of a parametric shadow */
     const double cn = row[0] * row_scale, scale = fabs(s->initial_state_scale);
-    const double tau = s->time - s->t0;
+    const double tau = s->elapsed;                           /* the time since the start */
     double at = tau > 0 ? floor(tau / b->dt_tab) : 0.0;       /* t_b <= tau: G(t_b) holds for every t >= t_b */
     if (!(at < (double)b->n_tab - 1)) at = (double)b->n_tab - 1;
     const double g_init = scale * fmin(row[1 + m + (size_t)at] * row_scale, cn * b->y0_norm);

@@ -102,11 +102,11 @@
  *          from the first 16 bytes of the sha256 of every byte before it
  *     40  uint32   crc32: zlib's CRC-32 of every byte before it
  *
- * The serialized FMU state, format 4 (little-endian):
+ * The serialized FMU state, format 5 (little-endian):
  *
  * header (96 bytes):
  *      0  char[8]  magic: "SPHROMST"
- *      8  uint32   state_version: 4
+ *      8  uint32   state_version: 5
  *     12  uint32   tag: the instance's mode when the state was taken
  *     16  uint32   k_v: as the model's header
  *     20  uint32   k_rho: as the model's header
@@ -120,7 +120,8 @@
  *     a_v [k_v]: the velocity coordinates (linear: a)
  *     a_rho [k_rho]: the density coordinates (linear: b)
  *     kind [the kind's block]: KINDS' state_block
- *     t0 [1]: the start time [s] (of the exact model's free response)
+ *     elapsed [1]: the time since the start [s]: the sum of the steps taken (the exact model's free response, the
+ *         error bounds' table; format 4 held the start time t0 here, read as time - t0)
  *     f_rate [1]: df/dt over a step [m s^-3] (0: held)
  *     bounds [with the error bounds (sections SH*)]: the shadow w[k_s], the inputs' variation tv[m] and last
  *         values u[m], the integrals of |B_perp u| and |w|, the step count, started (0 or 1) (rom_bound.c)
@@ -240,7 +241,8 @@
 
 /* the serialized FMU state */
 #define ROM_STATE_MAGIC                      "SPHROMST"
-#define ROM_STATE_VERSION                    4u
+#define ROM_STATE_VERSION                    5u
+#define ROM_STATE_OLDEST_VERSION             4u   /* read too (its t0 converted) */
 #define ROM_STATE_HEADER_SIZE                96   /* magic to f */
 #define ROM_STATE_STATE_VERSION              8
 #define ROM_STATE_TAG                        12

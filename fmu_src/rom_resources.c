@@ -15,7 +15,8 @@
 #define ROM_MAX_FILE_SIZE ((size_t)1 << 30)    /* 1 GiB: far above any k <= 100 model */
 
 static const RomBlob RESOURCES = {"resources", ROM_RESOURCE_MAGIC, "an sphrom model.bin", "an empty model",
-                                  "a model", "file ", ROM_FORMAT_VERSION, ROM_HEADER_SIZE + ROM_TOKEN_SIZE + 4,
+                                  "a model", "file ", ROM_FORMAT_VERSION, ROM_FORMAT_VERSION,
+                                  ROM_HEADER_SIZE + ROM_TOKEN_SIZE + 4,
                                   "; the file was written by an older sphrom: package the FMU again"};
 
 /* ------------------------------------------------------------------------ */

@@ -19,10 +19,12 @@ column is one row here, then ``--write``.
 
 Versions.  model.bin format 4 keeps the frozen kind's own numbers (integrator, n_pairs, the default n_freeze, dt)
 in that kind's header at the start of its body; format 3 had them in the shared header (and every kind carried
-them).  The serialized state's format 4 likewise keeps n_freeze and dt in the frozen kind's block.  A serialized
-state restores only into the FMU whose token it carries, and the token hashes the model.bin bytes, so a state of an
-older format (written by an FMU of an older model.bin format) can never match an FMU of this one: the C core reads
-only format 4 of both and refuses others, naming the version and saying why.
+them).  The serialized state's format 4 likewise keeps n_freeze and dt in the frozen kind's block; format 5 holds
+the time since the start (the sum of the steps, exact at any start time) where format 4 held the start time t0, and
+the core reads format 4 too (time - t0).  A serialized state restores only into the FMU whose token it carries, and
+the token hashes the model.bin bytes, so a state of a format before 4 (written by an FMU of an older model.bin
+format) can never match an FMU of this one: the C core reads model.bin format 4 and states of formats 4 and 5, and
+refuses others, naming the version and saying why.
 """
 
 from __future__ import annotations
@@ -91,7 +93,8 @@ class Record:
 RESOURCE_MAGIC = "SPHROMRS"
 FORMAT_VERSION = 4
 STATE_MAGIC = "SPHROMST"
-STATE_VERSION = 4
+STATE_VERSION = 5
+STATE_OLDEST_VERSION = 4         # the oldest state format the core reads (format 4: t0 for elapsed)
 
 # the shared header of model.bin (every kind)
 HEADER = Record("header", (
@@ -348,7 +351,8 @@ STATE_BLOCKS = (
     ("a_v", "k_v", "the velocity coordinates (linear: a)"),
     ("a_rho", "k_rho", "the density coordinates (linear: b)"),
     ("kind", "the kind's block", "KINDS' state_block"),
-    ("t0", "1", "the start time [s] (of the exact model's free response)"),
+    ("elapsed", "1", "the time since the start [s]: the sum of the steps taken (the exact model's free response, "
+     "the error bounds' table; format 4 held the start time t0 here, read as time - t0)"),
     ("f_rate", "1", "df/dt over a step [m s^-3] (0: held)"),
     ("bounds", "with the error bounds (sections SH*)", "the shadow w[k_s], the inputs' variation tv[m] and last "
      "values u[m], the integrals of |B_perp u| and |w|, the step count, started (0 or 1) (rom_bound.c)"),
@@ -483,6 +487,7 @@ def c_header():
             "", "/* the serialized FMU state */",
             define("ROM_STATE_MAGIC", f'"{STATE_MAGIC}"'),
             define("ROM_STATE_VERSION", f"{STATE_VERSION}u"),
+            define("ROM_STATE_OLDEST_VERSION", f"{STATE_OLDEST_VERSION}u", "read too (its t0 converted)"),
             define("ROM_STATE_HEADER_SIZE", STATE_HEADER.size, "magic to f")]
     out += [define(_macro("ROM_STATE", f.name), STATE_HEADER.offset(f.name)) for f in STATE_HEADER.fields[1:]]
     out += ["", "#endif /* SPHROM_ROM_LAYOUT_H */", ""]
