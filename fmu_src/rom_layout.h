@@ -67,7 +67,7 @@
  *     ENVPORT: port coordinates at the end of each block (training envelope: not checked); columns port_v,
  *         port_rho
  *     BOUNDS: certified error bounds per probe (force, initial state); rows force, initial_state (linear kind
- *         only)
+ *         only); values: a certified error bound (columns 0:) >= 0
  *     LINMODEL: which linear model: 1 exact POD, 2 balanced; columns model (linear kind only)
  *     PARAMS: parametric model: c and d (varied, start, min, max); rows c, d; columns varied, start, min, max
  *     KC: frozen model: K per unit c (frozen kind only)
@@ -75,27 +75,40 @@
  *     DD: frozen model: D per unit d (frozen kind only)
  *     PARTUR: frozen model: U^rho at the particles (the particle refresh) (frozen kind only)
  *     PARTGUV: frozen model: G U^v at the particles (the particle refresh) (frozen kind only)
- *     PARTIR0: frozen model: 1/rho0 at the particles (the particle refresh) (frozen kind only)
+ *     PARTIR0: frozen model: 1/rho0 at the particles (the particle refresh) (frozen kind only); values: 1/rho0
+ *         [m^3 kg^-1] (columns 0:) > 0
  *     A0: linear model: the part of A without c or d (linear kind only)
  *     AC: linear model: the part of A per unit c (linear kind only)
  *     AD: linear model: the part of A per unit d (linear kind only)
- *     PORTX: port positions x/L (1 x P)
+ *     PORTX: port positions x/L (1 x P); values: a port position x/L (columns 0:) in [0, 1)
  *     PORTB: port input rows at area 1 (P x k_v frozen, P x k linear)
  *     PORTC: port velocity rows (P x k_v)
  *     SHSCAL: error bounds: the shadow's sizes and scalars; columns order, planes, inputs, rows, n_tab, dt_tab,
- *         y0_norm, x0_norm, e_norm, b_norm, tolerance, reserved
+ *         y0_norm, x0_norm, e_norm, b_norm, tolerance, reserved; values: the envelope table's spacing [s] (columns
+ *         dt_tab) > 0; a norm (columns y0_norm, x0_norm, e_norm, b_norm) >= 0; error_tolerance's default [m s^-1]
+ *         (columns tolerance) >= 0
  *     SHLAM: error bounds: the shadow's planes
  *     SHB: error bounds: the shadow's input columns
- *     SHC: error bounds: the shadow's output rows
- *     SHW0: error bounds: the shadow's initial state
- *     SHGRAM: error bounds: the inputs' Gram matrix outside the shadow
- *     SHROW: error bounds: per output row, its norm, input gains and initial-state envelope
- *     SHPROBE: error bounds: the probes' weights and rho0; columns pw0, pw1, rho0_0, rho0_1
+ *     SHC: error bounds: the shadow's output rows; values: each row's norm at most SHROW's column 0 (the shadow's
+ *         output row (the projection of the row whose norm SHROW holds))
+ *     SHW0: error bounds: the shadow's initial state; values: each row's norm at most SHSCAL's column x0_norm (the
+ *         shadow's initial state (the projection of the initial state whose norm is SHSCAL's x0_norm))
+ *     SHGRAM: error bounds: the inputs' Gram matrix outside the shadow; values: the inputs' Gram matrix B_perp^T
+ *         B_perp is a Gram matrix (symmetric, |g_ij| <= sqrt(g_ii g_jj))
+ *     SHROW: error bounds: per output row, its norm, input gains and initial-state envelope; values: the output
+ *         row's norm |c_r| (columns 0:1) >= 0; an input gain sup|H| (-1: none) (columns 1:1+inputs) >= 0 or -1;
+ *         the initial-state envelope G(t_b) (columns 1+inputs:) >= 0
+ *     SHPROBE: error bounds: the probes' weights and rho0; columns pw0, pw1, rho0_0, rho0_1; values: an
+ *         interpolation weight (columns pw0, pw1) in [0, 1]; rho0 [kg m^-3] (columns rho0_0, rho0_1) > 0; the
+ *         probe's two weights sum to 1 per row
  *     SHPIECE: error bounds: the planes' pieces per unit c and per unit d
  *     SHPARAM: error bounds: c_ref and the residual pieces' norms; columns c_ref, e_const_v, e_const_e, e_c_v,
- *         e_c_e, e_d_v, e_d_e
- *     SHDENSE: error bounds: the dense block's growth rate; columns mu
- *     SHEGRAM: error bounds: the dense block's coupling residual's Gram matrix
+ *         e_c_e, e_d_v, e_d_e; values: the shadow's reference stiffness c_ref [kg m^-1 s^-2] (columns c_ref) > 0;
+ *         a residual piece's norm (columns e_const_v, e_const_e, e_c_v, e_c_e, e_d_v, e_d_e) >= 0
+ *     SHDENSE: error bounds: the dense block's growth rate; columns mu; values: the growth rate mu [s^-1] (columns
+ *         mu) >= 0
+ *     SHEGRAM: error bounds: the dense block's coupling residual's Gram matrix; values: the coupling residual's
+ *         Gram matrix E^T E is a Gram matrix (symmetric, |g_ij| <= sqrt(g_ii g_jj))
  *
  * then the trailer:
  *      0  char[40] token: "{xxxxxxxx-xxxx-xxxx-xxxx-xxxxxxxxxxxx}", NUL padded: the FMI guid / instantiationToken,
@@ -235,6 +248,47 @@
 #define ROM_ENVELOPE_CHECK_ALL               15u
 #define ROM_LINEAR_EXACT_POD                 1u   /* section LINMODEL */
 #define ROM_LINEAR_BALANCED                  2u   /* section LINMODEL */
+
+/* the sections' value rules (layout.py SECTIONS' values; rom_resources.c check_values): columns [first, end) as
+ * c + i x inputs (the shadow's inputs: 1 + ports; end c = -1: to the last column) */
+/* X(tag, first c, first i, end c, end i, low, high, low open, high open, has also, also, what, allowed) */
+#define ROM_RANGE_RULES(X) \
+    X("BOUNDS", 0, 0, -1, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "a certified error bound", ">= 0") \
+    X("PARTIR0", 0, 0, -1, 0, 0.0, INFINITY, 1, 0, 0, 0.0, "1/rho0 [m^3 kg^-1]", "> 0") \
+    X("PORTX", 0, 0, -1, 0, 0.0, 1.0, 0, 1, 0, 0.0, "a port position x/L", "in [0, 1)") \
+    X("SHSCAL", 5, 0, 6, 0, 0.0, INFINITY, 1, 0, 0, 0.0, "the envelope table's spacing [s]", "> 0") \
+    X("SHSCAL", 6, 0, 7, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "a norm", ">= 0") \
+    X("SHSCAL", 7, 0, 8, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "a norm", ">= 0") \
+    X("SHSCAL", 8, 0, 9, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "a norm", ">= 0") \
+    X("SHSCAL", 9, 0, 10, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "a norm", ">= 0") \
+    X("SHSCAL", 10, 0, 11, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "error_tolerance's default [m s^-1]", ">= 0") \
+    X("SHROW", 0, 0, 1, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "the output row's norm |c_r|", ">= 0") \
+    X("SHROW", 1, 0, 1, 1, 0.0, INFINITY, 0, 0, 1, -1.0, "an input gain sup|H| (-1: none)", ">= 0 or -1") \
+    X("SHROW", 1, 1, -1, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "the initial-state envelope G(t_b)", ">= 0") \
+    X("SHPROBE", 0, 0, 1, 0, 0.0, 1.0, 0, 0, 0, 0.0, "an interpolation weight", "in [0, 1]") \
+    X("SHPROBE", 1, 0, 2, 0, 0.0, 1.0, 0, 0, 0, 0.0, "an interpolation weight", "in [0, 1]") \
+    X("SHPROBE", 2, 0, 3, 0, 0.0, INFINITY, 1, 0, 0, 0.0, "rho0 [kg m^-3]", "> 0") \
+    X("SHPROBE", 3, 0, 4, 0, 0.0, INFINITY, 1, 0, 0, 0.0, "rho0 [kg m^-3]", "> 0") \
+    X("SHPARAM", 0, 0, 1, 0, 0.0, INFINITY, 1, 0, 0, 0.0, "the shadow's reference stiffness c_ref [kg m^-1 s^-2]", "> 0") \
+    X("SHPARAM", 1, 0, 2, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "a residual piece's norm", ">= 0") \
+    X("SHPARAM", 2, 0, 3, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "a residual piece's norm", ">= 0") \
+    X("SHPARAM", 3, 0, 4, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "a residual piece's norm", ">= 0") \
+    X("SHPARAM", 4, 0, 5, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "a residual piece's norm", ">= 0") \
+    X("SHPARAM", 5, 0, 6, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "a residual piece's norm", ">= 0") \
+    X("SHPARAM", 6, 0, 7, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "a residual piece's norm", ">= 0") \
+    X("SHDENSE", 0, 0, 1, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "the growth rate mu [s^-1]", ">= 0")
+/* X(tag, first c, first i, end c, end i, total, tolerance, what): each row's sum */
+#define ROM_ROW_SUM_RULES(X) \
+    X("SHPROBE", 0, 0, 2, 0, 1.0, 1e-12, "the probe's two weights")
+/* X(tag, what): a Gram matrix */
+#define ROM_GRAM_RULES(X) \
+    X("SHGRAM", "the inputs' Gram matrix B_perp^T B_perp") \
+    X("SHEGRAM", "the coupling residual's Gram matrix E^T E")
+/* X(tag, other tag, its column, what): each row's norm at most (1 + slack) x the other's value */
+#define ROM_ROW_NORM_RULES(X) \
+    X("SHC", "SHROW", 0, "the shadow's output row (the projection of the row whose norm SHROW holds)") \
+    X("SHW0", "SHSCAL", 7, "the shadow's initial state (the projection of the initial state whose norm is SHSCAL's x0_norm)")
+#define ROM_NORM_SLACK 1e-09
 #define ROM_N_SECTION_TAGS                   31u   /* rom_resources.c's SECTION_RULES has one row each */
 /* the model kinds' tables of operations (rom_internal.h RomKindOps; rom_resources.c's list of kinds) */
 #define ROM_KIND_TABLES(X) X(rom_frozen_kind) X(rom_exact_kind)

@@ -29,6 +29,7 @@ refuses others, naming the version and saying why.
 
 from __future__ import annotations
 
+import math
 import struct
 import sys
 from pathlib import Path
@@ -247,14 +248,76 @@ def shape(array, sizes):
 # ---------------------------------------------------------------------------------------------------------------
 
 @dataclass(frozen=True)
+class Range:
+    """A sign or range rule on some of a section's values, which the code reading them relies on (a certified bound
+    is >= 0 only if the norms it adds are): ``columns`` a named column, a tuple of them, or a span "a:b" of column
+    indices where a and b are integers, "inputs" offsets (``1+inputs``: the shadow's inputs, f and each port force)
+    or empty (the last column); ``low`` <= value <= ``high`` (``low_open``, ``high_open``: strictly), or exactly
+    ``also`` (a sentinel value, e.g. SHROW's -1: no input gain); ``what`` the values, in messages."""
+
+    columns: object
+    what: str
+    low: float = -math.inf
+    high: float = math.inf
+    low_open: bool = False
+    high_open: bool = False
+    also: float | None = None
+
+    @property
+    def allowed(self):
+        """The rule in words ("> 0", "in [0, 1]", ">= 0 or -1")."""
+        if math.isfinite(self.low) and math.isfinite(self.high):
+            text = f"in {'(' if self.low_open else '['}{self.low:g}, {self.high:g}{')' if self.high_open else ']'}"
+        elif math.isfinite(self.low):
+            text = f"{'>' if self.low_open else '>='} {self.low:g}"
+        else:
+            text = f"{'<' if self.high_open else '<='} {self.high:g}"
+        return text + (f" or {self.also:g}" if self.also is not None else "")
+
+
+@dataclass(frozen=True)
+class RowSum:
+    """Each row's values in ``columns`` sum to ``total`` within ``tolerance`` (interpolation weights)."""
+
+    columns: object
+    what: str
+    total: float = 1.0
+    tolerance: float = 1e-12
+
+
+@dataclass(frozen=True)
+class Gram:
+    """The section is a Gram matrix B^T B: square, symmetric (to 1e-9 of its diagonal), its diagonal >= 0 and each
+    |g_ij| <= sqrt(g_ii g_jj) (1 + 1e-9) (a Gram matrix's; a negative one made the bounds' integrals shrink)."""
+
+    what: str
+
+
+@dataclass(frozen=True)
+class RowNormAtMost:
+    """Each row's Euclidean norm is at most (1 + 1e-9) x the value in column ``column`` of section ``tag`` (its row
+    of the same index, or its only row): a projection onto the shadow is no longer than what it projects."""
+
+    tag: str
+    column: object
+    what: str
+
+
+NORM_SLACK = 1e-9                    # RowNormAtMost's and Gram's relative round-off allowance
+
+
+@dataclass(frozen=True)
 class Section:
     """A tagged section: what it holds, and the names of its rows or columns where they have fixed meanings
-    (read and written by name, never by position)."""
+    (read and written by name, never by position), and the rules its values obey (``values``: :class:`Range`,
+    :class:`RowSum`, :class:`Gram`, :class:`RowNormAtMost`, checked when the file is read by the C core,
+    fmu_src/rom_resources.c check_values, and by :func:`check_values`)."""
 
     what: str
     columns: tuple = ()
     rows: tuple = ()
     kind: str | None = None          # only this model kind reads it
+    values: tuple = ()
 
 
 SECTIONS: dict[str, Section] = {
@@ -269,7 +332,7 @@ SECTIONS: dict[str, Section] = {
                        columns=("port_v", "port_rho")),
     # linear models (harness/rom/balanced.py)
     "BOUNDS": Section("certified error bounds per probe (force, initial state)", rows=("force", "initial_state"),
-                      kind="linear"),
+                      kind="linear", values=(Range("0:", "a certified error bound", low=0.0),)),
     "LINMODEL": Section("which linear model: 1 exact POD, 2 balanced", columns=("model",), kind="linear"),
     # parametric models (sphrom.rom.parametric)
     "PARAMS": Section("parametric model: c and d (varied, start, min, max)", rows=("c", "d"),
@@ -280,37 +343,171 @@ SECTIONS: dict[str, Section] = {
     # the frozen model's particle refresh (harness/fmu/kinds/frozen.py particle_sections)
     "PARTUR": Section("frozen model: U^rho at the particles (the particle refresh)", kind="frozen"),
     "PARTGUV": Section("frozen model: G U^v at the particles (the particle refresh)", kind="frozen"),
-    "PARTIR0": Section("frozen model: 1/rho0 at the particles (the particle refresh)", kind="frozen"),
+    "PARTIR0": Section("frozen model: 1/rho0 at the particles (the particle refresh)", kind="frozen",
+                       values=(Range("0:", "1/rho0 [m^3 kg^-1]", low=0.0, low_open=True),)),
     "A0": Section("linear model: the part of A without c or d", kind="linear"),
     "AC": Section("linear model: the part of A per unit c", kind="linear"),
     "AD": Section("linear model: the part of A per unit d", kind="linear"),
     # mechanical ports (sphrom.sph.ports), all three or none
-    "PORTX": Section("port positions x/L (1 x P)"),
+    "PORTX": Section("port positions x/L (1 x P)",
+                     values=(Range("0:", "a port position x/L", low=0.0, high=1.0, high_open=True),)),
     "PORTB": Section("port input rows at area 1 (P x k_v frozen, P x k linear)"),
     "PORTC": Section("port velocity rows (P x k_v)"),
     # the certified error bounds' shadow (harness/rom/bounds.py sections, fmu_src/rom_bound.c), all or none
     "SHSCAL": Section("error bounds: the shadow's sizes and scalars",
                       columns=("order", "planes", "inputs", "rows", "n_tab", "dt_tab", "y0_norm", "x0_norm", "e_norm",
-                               "b_norm", "tolerance", "reserved")),
+                               "b_norm", "tolerance", "reserved"),
+                      values=(Range("dt_tab", "the envelope table's spacing [s]", low=0.0, low_open=True),
+                              Range(("y0_norm", "x0_norm", "e_norm", "b_norm"), "a norm", low=0.0),
+                              Range("tolerance", "error_tolerance's default [m s^-1]", low=0.0))),
     "SHLAM": Section("error bounds: the shadow's planes"),
     "SHB": Section("error bounds: the shadow's input columns"),
-    "SHC": Section("error bounds: the shadow's output rows"),
-    "SHW0": Section("error bounds: the shadow's initial state"),
-    "SHGRAM": Section("error bounds: the inputs' Gram matrix outside the shadow"),
-    "SHROW": Section("error bounds: per output row, its norm, input gains and initial-state envelope"),
-    "SHPROBE": Section("error bounds: the probes' weights and rho0", columns=("pw0", "pw1", "rho0_0", "rho0_1")),
+    "SHC": Section("error bounds: the shadow's output rows",
+                   values=(RowNormAtMost("SHROW", "0", "the shadow's output row (the projection of the row whose "
+                                                       "norm SHROW holds)"),)),
+    "SHW0": Section("error bounds: the shadow's initial state",
+                    values=(RowNormAtMost("SHSCAL", "x0_norm", "the shadow's initial state (the projection of the "
+                                                               "initial state whose norm is SHSCAL's x0_norm)"),)),
+    "SHGRAM": Section("error bounds: the inputs' Gram matrix outside the shadow",
+                      values=(Gram("the inputs' Gram matrix B_perp^T B_perp"),)),
+    "SHROW": Section("error bounds: per output row, its norm, input gains and initial-state envelope",
+                     values=(Range("0:1", "the output row's norm |c_r|", low=0.0),
+                             Range("1:1+inputs", "an input gain sup|H| (-1: none)", low=0.0, also=-1.0),
+                             Range("1+inputs:", "the initial-state envelope G(t_b)", low=0.0))),
+    "SHPROBE": Section("error bounds: the probes' weights and rho0", columns=("pw0", "pw1", "rho0_0", "rho0_1"),
+                       values=(Range(("pw0", "pw1"), "an interpolation weight", low=0.0, high=1.0),
+                               Range(("rho0_0", "rho0_1"), "rho0 [kg m^-3]", low=0.0, low_open=True),
+                               RowSum(("pw0", "pw1"), "the probe's two weights"))),
     # ... a parametric FMU's shadow adds these two (with section PARAMS)
     "SHPIECE": Section("error bounds: the planes' pieces per unit c and per unit d"),
     "SHPARAM": Section("error bounds: c_ref and the residual pieces' norms",
-                       columns=("c_ref", "e_const_v", "e_const_e", "e_c_v", "e_c_e", "e_d_v", "e_d_e")),
+                       columns=("c_ref", "e_const_v", "e_const_e", "e_c_v", "e_c_e", "e_d_v", "e_d_e"),
+                       values=(Range("c_ref", "the shadow's reference stiffness c_ref [kg m^-1 s^-2]", low=0.0,
+                                     low_open=True),
+                               Range(("e_const_v", "e_const_e", "e_c_v", "e_c_e", "e_d_v", "e_d_e"),
+                                     "a residual piece's norm", low=0.0))),
     # ... a shadow of one dense block (a damping d that is not uniform) adds these two
-    "SHDENSE": Section("error bounds: the dense block's growth rate", columns=("mu",)),
-    "SHEGRAM": Section("error bounds: the dense block's coupling residual's Gram matrix"),
+    "SHDENSE": Section("error bounds: the dense block's growth rate", columns=("mu",),
+                       values=(Range("mu", "the growth rate mu [s^-1]", low=0.0),)),
+    "SHEGRAM": Section("error bounds: the dense block's coupling residual's Gram matrix",
+                       values=(Gram("the coupling residual's Gram matrix E^T E"),)),
 }
 # bits of ENVELOPE's column checks: the run-time checks of the training envelope (fmu_src/rom_envelope.c)
 ENVELOPE_CHECKS = {"coordinates": 1, "force": 2, "strain": 4, "failure": 8}
 # LINMODEL's column model: which linear model (messages only; sphrom.fmu.kinds.linear VARIANTS)
 LINEAR_MODELS = {"exact_pod": 1, "balanced": 2}
+
+
+def value_columns(tag, columns, n_cols, inputs):
+    """The column indices [first, end) a rule's ``columns`` cover in section ``tag`` of ``n_cols`` columns, the
+    shadow having ``inputs`` inputs (1 + ports): a named column (or a tuple of them: their list), or a span."""
+    if isinstance(columns, tuple):
+        return [c for name in columns for c in value_columns(tag, name, n_cols, inputs)]
+    if ":" not in columns:
+        index = column(tag, columns) if columns in SECTIONS[tag].columns else int(columns)
+        return [index] if index < n_cols else []
+    first, end = (_offset(text, inputs, n_cols) for text in columns.split(":"))
+    return list(range(min(first, n_cols), min(end, n_cols)))
+
+
+def _offset(text, inputs, n_cols):
+    """A span's end as a column index: "" the end, "3", "inputs", "1+inputs"."""
+    if not text:
+        return n_cols
+    return sum(inputs if part == "inputs" else int(part) for part in text.split("+"))
+
+
+def _span(tag, columns):
+    """((c0, i0), (c1, i1)) of a rule's columns for C: first = c0 + i0 inputs, end = c1 + i1 inputs (c1 = -1: the
+    last column); one pair per named column of a tuple."""
+    if isinstance(columns, tuple):
+        return [pair for name in columns for pair in _span(tag, name)]
+    if ":" not in columns:
+        index = column(tag, columns) if columns in SECTIONS[tag].columns else int(columns)
+        return [((index, 0), (index + 1, 0))]
+
+    def pair(text, end):
+        if not text:
+            return (-1, 0) if end else (0, 0)
+        parts = text.split("+")
+        return (sum(int(x) for x in parts if x != "inputs"), parts.count("inputs"))
+    first, end = columns.split(":")
+    return [(pair(first, False), pair(end, True))]
+
+
+def check_values(sections, n_ports=0):
+    """The value rules of every section of ``sections`` (tag -> 2-D array) that has them (:class:`Section`'s
+    ``values``), in the C loader's order (fmu_src/rom_resources.c check_values: every range, then the row sums, the
+    Gram matrices, the row norms, each in the layout's order of sections): ValueError naming the section, the
+    place, the value and the rule, in the C core's words.  ``n_ports``: the model's ports (the shadow's inputs are
+    1 + n_ports)."""
+    import numpy as np
+    inputs = 1 + int(n_ports)
+    present = {tag: np.atleast_2d(np.asarray(sections[tag], dtype=float)) for tag in SECTIONS if tag in sections}
+    for kind in (Range, RowSum, Gram, RowNormAtMost):
+        for tag, a in present.items():
+            for rule in SECTIONS[tag].values:
+                if isinstance(rule, kind):
+                    _check_rule(tag, rule, a, present, inputs)
+
+
+def _check_rule(tag, rule, a, present, inputs):
+    where = f"resources: section '{tag}'"
+    if isinstance(rule, Range):
+        spans = rule.columns if isinstance(rule.columns, tuple) else (rule.columns,)   # one C rule per named column
+        places = [(row, col) for span in spans for row in range(a.shape[0])
+                  for col in value_columns(tag, span, a.shape[1], inputs)]
+        for row, col in places:
+            x = a[row, col]
+            ok = ((x > rule.low if rule.low_open else x >= rule.low)
+                  and (x < rule.high if rule.high_open else x <= rule.high))
+            if not ok and not (rule.also is not None and x == rule.also):
+                raise ValueError(f"{where} row {row + 1}, column {col + 1} holds {x:g}: {rule.what} is "
+                                 f"{rule.allowed}")
+    elif isinstance(rule, RowSum):
+        cols = value_columns(tag, rule.columns, a.shape[1], inputs)
+        for row in range(a.shape[0]):
+            total = 0.0
+            for col in cols:                 # in column order, as the C loader adds them
+                total += float(a[row, col])
+            if not abs(total - rule.total) <= rule.tolerance:
+                raise ValueError(f"{where} row {row + 1}: {rule.what} sum to {total:.17g} (allowed: "
+                                 f"{rule.total:g} to {rule.tolerance:g})")
+    elif isinstance(rule, Gram):
+        _check_gram(where, rule, a)
+    else:
+        other = present.get(rule.tag)
+        if other is None:
+            return
+        col = value_columns(rule.tag, rule.column, other.shape[1], inputs)
+        if not col or other.shape[0] not in (1, a.shape[0]):
+            return                           # the shapes' checks name that
+        for row in range(a.shape[0]):
+            total = 0.0
+            for x in a[row]:
+                total += float(x) * float(x)
+            norm = math.sqrt(total)
+            limit = float(other[row if other.shape[0] > 1 else 0, col[0]])
+            if not norm <= (1.0 + NORM_SLACK) * limit:
+                raise ValueError(f"{where} row {row + 1}: {rule.what} has the norm {norm:g}, more than {limit:g} "
+                                 f"(section '{rule.tag}', column {col[0] + 1})")
+
+
+def _check_gram(where, rule, a):
+    import numpy as np
+    n = a.shape[0]
+    if a.shape[1] != n:
+        return                            # the shapes' checks name that
+    d = np.diag(a)
+    for i in range(n):
+        if not d[i] >= 0:
+            raise ValueError(f"{where} row {i + 1}, column {i + 1} holds {d[i]:g}: {rule.what} has a diagonal >= 0")
+        for j in range(i):
+            scale = np.sqrt(d[i] * d[j])
+            if not (abs(a[i, j] - a[j, i]) <= NORM_SLACK * max(d[i], d[j])
+                    and abs(a[i, j]) <= (1.0 + NORM_SLACK) * scale):
+                raise ValueError(f"{where} row {i + 1}, column {j + 1} holds {a[i, j]:g} ({a[j, i]:g} across the "
+                                 f"diagonal): {rule.what} is symmetric with |g_ij| <= sqrt(g_ii g_jj) = {scale:g}")
 
 
 def column(tag, name):
@@ -419,7 +616,8 @@ def format_text():
     for tag, s in SECTIONS.items():
         named = (f"; rows {', '.join(s.rows)}" if s.rows else "") + (
             f"; columns {', '.join(s.columns)}" if s.columns else "")
-        lines.append(f"    {tag}: {s.what}{named}" + (f" ({s.kind} kind only)" if s.kind else ""))
+        lines.append(f"    {tag}: {s.what}{named}" + (f" ({s.kind} kind only)" if s.kind else "")
+                     + (f"; values: {'; '.join(_rule_words(r) for r in s.values)}" if s.values else ""))
     lines += ["", "then the trailer:"]
     lines += _record_lines(TRAILER, "  ")
     lines += ["", f"The serialized FMU state, format {STATE_VERSION} (little-endian):", "",
@@ -433,6 +631,18 @@ def format_text():
                                                                 for n, length, what in k.state_block))
     lines += ["then uint32 crc32: zlib's CRC-32 of every byte before it"]
     return "\n".join(_wrap(line) for line in lines)
+
+
+def _rule_words(rule):
+    """A value rule in words, for the format's text."""
+    if isinstance(rule, Range):
+        cols = rule.columns if isinstance(rule.columns, str) else ", ".join(rule.columns)
+        return f"{rule.what} (columns {cols}) {rule.allowed}"
+    if isinstance(rule, RowSum):
+        return f"{rule.what} sum to {rule.total:g} per row"
+    if isinstance(rule, Gram):
+        return f"{rule.what} is a Gram matrix (symmetric, |g_ij| <= sqrt(g_ii g_jj))"
+    return f"each row's norm at most {rule.tag}'s column {rule.column} ({rule.what})"
 
 
 def _wrap(line, width=112):
@@ -481,6 +691,7 @@ def c_header():
     out.append(define("ROM_ENVELOPE_CHECK_ALL", f"{sum(ENVELOPE_CHECKS.values())}u"))
     out += [define(_macro("ROM_LINEAR", name), f"{number}u", "section LINMODEL") for name, number in
             LINEAR_MODELS.items()]
+    out += _value_rules()
     out += [            define("ROM_N_SECTION_TAGS", f"{len(SECTIONS)}u", "rom_resources.c's SECTION_RULES has one row each"),
             "/* the model kinds' tables of operations (rom_internal.h RomKindOps; rom_resources.c's list of kinds) */",
             "#define ROM_KIND_TABLES(X) " + " ".join(f"X({k.c_table})" for k in KINDS),
@@ -492,6 +703,51 @@ def c_header():
     out += [define(_macro("ROM_STATE", f.name), STATE_HEADER.offset(f.name)) for f in STATE_HEADER.fields[1:]]
     out += ["", "#endif /* SPHROM_ROM_LAYOUT_H */", ""]
     return "\n".join(out)
+
+
+def _c_number(x):
+    return ("INFINITY" if x > 0 else "-INFINITY") if math.isinf(x) else repr(float(x))
+
+
+def _value_rules():
+    """rom_layout.h's tables of the sections' value rules (X-macros over SECTIONS' ``values``)."""
+    ranges, sums, grams, norms = [], [], [], []
+    for tag, s in SECTIONS.items():
+        for rule in s.values:
+            if isinstance(rule, Range):
+                for (c0, i0), (c1, i1) in _span(tag, rule.columns):
+                    ranges.append(f'X("{tag}", {c0}, {i0}, {c1}, {i1}, {_c_number(rule.low)}, '
+                                  f'{_c_number(rule.high)}, {int(rule.low_open)}, {int(rule.high_open)}, '
+                                  f'{int(rule.also is not None)}, {_c_number(rule.also or 0.0)}, "{rule.what}", '
+                                  f'"{rule.allowed}")')
+            elif isinstance(rule, RowSum):
+                spans = _span(tag, rule.columns)
+                first, end = spans[0][0], spans[-1][1]
+                if any(b[0] != a[1] for a, b in zip(spans, spans[1:])):
+                    raise ValueError(f"{tag}: a RowSum's columns must be adjacent")
+                sums.append(f'X("{tag}", {first[0]}, {first[1]}, {end[0]}, {end[1]}, {_c_number(rule.total)}, '
+                            f'{_c_number(rule.tolerance)}, "{rule.what}")')
+            elif isinstance(rule, Gram):
+                grams.append(f'X("{tag}", "{rule.what}")')
+            else:
+                index = column(rule.tag, rule.column) if rule.column in SECTIONS[rule.tag].columns \
+                    else int(rule.column)
+                norms.append(f'X("{tag}", "{rule.tag}", {index}, "{rule.what}")')
+
+    def table(name, rows):
+        return [f"#define {name}(X) \\"] + [f"    {r} \\" for r in rows[:-1]] + [f"    {rows[-1]}"]
+    return (["", "/* the sections' value rules (layout.py SECTIONS' values; rom_resources.c check_values): columns "
+             "[first, end) as", " * c + i x inputs (the shadow's inputs: 1 + ports; end c = -1: to the last "
+             "column) */",
+             "/* X(tag, first c, first i, end c, end i, low, high, low open, high open, has also, also, what, "
+             "allowed) */"]
+            + table("ROM_RANGE_RULES", ranges)
+            + ["/* X(tag, first c, first i, end c, end i, total, tolerance, what): each row's sum */"]
+            + table("ROM_ROW_SUM_RULES", sums)
+            + ["/* X(tag, what): a Gram matrix */"] + table("ROM_GRAM_RULES", grams)
+            + ["/* X(tag, other tag, its column, what): each row's norm at most (1 + slack) x the other's value */"]
+            + table("ROM_ROW_NORM_RULES", norms)
+            + [f"#define ROM_NORM_SLACK {_c_number(NORM_SLACK)}"])
 
 
 COMMAND = "python3 -m sphrom.fmu.layout --write"
