@@ -24,7 +24,7 @@ def add_parser(sub):
 
 def run(args):
     from ..compare import exact_errors, format_errors
-    from ..runio import check_output_path, scene_attrs, write_run
+    from ..runio import check_output_path, check_run_memory, scene_attrs, write_run
     from ..scene import automatic_lines, load_scene
     from ..sph.solver import build_problem, run_sph, stability, stability_warnings, step_count
 
@@ -34,6 +34,7 @@ def run(args):
                            integrator=args.integrator, every=args.every)
     for line in automatic_lines(scene):
         print(line)
+    check_run_memory(scene, "sph")                 # a run beyond this machine's memory: refused before the work
     sph = scene.sph
     problem = build_problem(scene)
     stab = stability(problem, sph.dt, sph.integrator, scene.T)
