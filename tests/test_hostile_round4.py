@@ -1,7 +1,7 @@
 """Hostile input, round four: the cases an outside battery found, each a contract here.
 
-1 a sweep ends within seconds of a Ctrl-C to its process group, one line, exit 130, nothing left (dask's scratch
-  included); 2 verification follows a scene dt longer than the FMU's step; 4 an output that names an input is
+1 a sweep ends within seconds of a Ctrl-C (or a SIGTERM) to its process group, one line, exit 130 (143), the
+  finished runs kept, nothing left (dask's scratch included), and writes no file its spec reads; 2 verification follows a scene dt longer than the FMU's step; 4 an output that names an input is
   refused before any work; 5 a full file system is one line, nothing left; 6 damaged FMUs are one line, no folder
   left; 7 a run beyond the machine's memory is refused before the work (cosim's table; sph, pod and fmu from
   their memory estimate, naming n_particles and the N that fits) or one line (MemoryError); 9 messages name
@@ -115,6 +115,20 @@ def test_an_output_that_names_an_input_is_refused_before_any_work(hostile_scene,
     assert sorted(p.name for p in tmp_path.iterdir()) == ["f.csv", "link.toml", "s.toml", "x.fmu"]
 
 
+def test_a_sweep_writes_no_file_its_spec_reads(hostile_scene, tmp_path, capsys):
+    """The command line's inputs were checked, but not the scene the spec names: a scene file r.csv beside
+    --out r.h5 was replaced by the results' CSV."""
+    scene = tmp_path / "r.csv"
+    scene.write_bytes(hostile_scene.read_bytes())
+    spec = tmp_path / "spec.toml"
+    spec.write_text('title = "t"\nscene = "r.csv"\nt_end = 0.1\nstep = 0.001\nprobes = [0.25]\nparametric = false'
+                    '\n\n[grid]\nshape = ["sine"]\namplitude = [1e-2]\nfrequency = [1.0]\nk = [4]\n')
+    before = scene.read_bytes()
+    line = one_line(capsys, main(["sweep", str(spec), "--out", str(tmp_path / "r.h5"), "--quiet"]), 2, "--out",
+                    "is the scene", "spec")
+    assert scene.read_bytes() == before and sorted(p.name for p in tmp_path.iterdir()) == ["r.csv", "spec.toml"], line
+
+
 # -- case 11 and case 7 -----------------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("scale", ["1e308", "-1e4", "1001"])
@@ -226,6 +240,22 @@ def test_ctrl_c_to_a_sweep_process_group(hostile_scene, tmp_path):
         assert row["outcome"] in ("clean", "ended before the signal"), row
         for p in work.iterdir():
             p.unlink()
+    # SIGTERM to the group (kill -TERM -PGID) is a Ctrl-C's equal: the workers, which died on it with the results
+    # they had not handed over ("no output written" at 85 % of the run), leave the closing to the command, and
+    # the finished runs are kept
+    kept, length = [], span(argv, work, env)          # the FMU packaged now: the run's own span
+    for delay in (0.75 * length, 0.85 * length):
+        for _ in range(4):
+            row = trial(argv, work, env, signal.SIGTERM, delay, to_group=True)
+            if row["outcome"] != "ended before the signal":
+                break
+            delay /= 2
+        assert row["outcome"] in ("clean", "ended before the signal"), row
+        if row["outcome"] == "clean":
+            kept.append("finished runs kept" in row["last_line"])
+        for p in work.iterdir():
+            p.unlink()
+    assert any(kept), kept
 
 
 # -- case 7: a run beyond the machine's memory is refused before the work ----------------------------------------
