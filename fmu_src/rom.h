@@ -33,13 +33,15 @@
  * kind's body (the frozen kind's own header: integrator, n_pairs, the default n_freeze, dt; then its arrays),
  * tagged sections, the token and a CRC-32; the state: a header (magic, version, mode tag, sizes, token, step
  * count, time, f), then a^v, a^rho, the kind's block (the frozen kind's starts with its parameters n_freeze and
- * dt), t0, df/dt, the error bounds' shadow, the parameters (initial_state_scale, c, d), the ports, a CRC-32.
+ * dt), elapsed, df/dt, the error bounds' shadow, the parameters (initial_state_scale, c, d), the ports, a CRC-32.
  * Units: time [s], velocity [m s^-1], density [kg m^-3], force per mass [m s^-2].
  *
- * Versions: this binary reads model.bin format ROM_FORMAT_VERSION and serialized states of ROM_STATE_VERSION
- * only.  A state restores only into the FMU whose token it carries, and the token hashes the model.bin bytes: a
- * state of an older format was written by an FMU of an older model.bin format, which no FMU of this binary
- * has, so it could never be restored here; such a state is refused naming its version and saying so.
+ * Versions: this binary reads model.bin format ROM_FORMAT_VERSION and serialized states of ROM_STATE_VERSION and
+ * ROM_STATE_OLDEST_VERSION (format 4, of the same model.bin format: it held the start time t0 where format 5 holds
+ * the time since the start, read as time - t0).  A state restores only into the FMU whose token it carries, and
+ * the token hashes the model.bin bytes: a state of a format older than that was written by an FMU of an older
+ * model.bin format, which no FMU of this binary has, so it could never be restored here; such a state is refused
+ * naming its version and saying so.
  *
  * Both are read through one envelope check (rom_bytes.c): size, magic, version,
  * sizes, token, checksum.
@@ -83,8 +85,14 @@ extern "C" {
 #define ROM_MESSAGE_SIZE 1024
 #define ROM_RESOURCE_FILE "model.bin"
 
-/* doStep's rules (harness/fmu/check/python_cosim.py repeats them) */
-#define ROM_TIME_TOLERANCE 1e-9       /* relative: currentCommunicationPoint must equal the FMU's time */
+/* doStep's rules (harness/fmu/kinds/__init__.py step_error and same_step, harness/fmu/kinds/frozen.py split_step
+ * repeat them).  Time is exact at any start: every comparison of a step is relative to the step, never to |t|.
+ * currentCommunicationPoint must equal the FMU's time to the time's own rounding: within ROM_TIME_ULPS units in the
+ * last place of the larger |t| (an importer's t = n H against the FMU's t + H) plus ROM_TIME_STEP_TOLERANCE x h;
+ * t + h must be finite and later than t (a step below the time's resolution would leave the time where it is). */
+#define ROM_TIME_ULPS 16.0
+#define ROM_TIME_STEP_TOLERANCE 1e-9  /* relative to the step h */
+#define ROM_SAME_STEP 1e-9            /* relative to the step: two step lengths this close are one (the cached maps) */
 #define ROM_STEP_ROUNDING 1e-9        /* relative: h/dt within this of an integer is that many whole steps */
 #define ROM_SHORT_STEP_MIN 1e-12      /* a remainder below this x dt is no step */
 /* The work of one doStep is bounded (a model with internal steps, the frozen one): its internal step dt is
@@ -99,6 +107,9 @@ extern "C" {
 
 /* The FMU's value references and start values are not the core's: fmu_src/fmu_variables.h, generated from the
  * variable table harness/fmu/variables.py. */
+/* |initial_state_scale| at most (harness/defaults.py MAX_INITIAL_STATE_SCALE, the variable table's min and max): the
+ * reduced models are built on the scene's own deviation from rest (scale 1); 1e308 overflowed the outputs */
+#define ROM_MAX_INITIAL_STATE_SCALE 1e3
 #define ROM_MAX_PARTICLES 1000000u   /* particles of a frozen model's particle refresh (sections PART*) */
 
 typedef enum { ROM_OK = 0, ROM_FAIL = 1 } RomStatus;
@@ -200,7 +211,8 @@ typedef struct {
     double f;               /* input, held over a communication step [m s^-2] */
     double initial_state_scale;  /* the initial velocity coordinates (frozen) or z (linear) are this times the
                                   * model's; the density coordinates of the frozen model stay (rho0 is rest) */
-    double t0;              /* the start time [s] (of the exact model's free response) */
+    double elapsed;         /* the time since the start [s]: the sum of the steps taken, exact at any start time
+                             * (the exact model's free response, the error bounds' table) */
     double f_rate;          /* the input rate df/dt over a step [m s^-3] (0: input held) */
     void *storage_;         /* one allocation behind av, ar */
     /* parametric models (section PARAMS): the chosen stiffness c [kg m^-1 s^-2] and damping d [s^-1],
@@ -246,14 +258,16 @@ ROM_API RomStatus rom_set_n_freeze(RomState *state, int64_t n_freeze, char *mess
 /* their values: dt [s] (NaN without internal steps or for NULL), n_freeze (0 likewise) */
 ROM_API double rom_dt(const RomState *state);
 ROM_API int32_t rom_n_freeze(const RomState *state);
-/* Any finite real, before the first step: the initial state becomes scale x the model's deviation from rest
+/* Any real in [-ROM_MAX_INITIAL_STATE_SCALE, ROM_MAX_INITIAL_STATE_SCALE], before the first step: the initial
+ * state becomes scale x the model's deviation from rest
  * (frozen: a^v(0) = scale a_v0, a^rho(0) = a_rho0; linear: z(0) = scale z0, z = 0 being rest) */
 ROM_API RomStatus rom_set_initial_state_scale(RomState *state, double scale, char *message, size_t message_size);
 
 /* Advance from t_comm by h > 0, reaching t_comm + h exactly: whole internal
  * steps of dt and one shortened last step.  Fails (message names the time) on
- * a time mismatch, a bad h, a non-finite or runaway state, or a density <= 0
- * at a probe. */
+ * a time mismatch (ROM_TIME_ULPS), a bad h (not finite and > 0, t_comm + h not
+ * finite or not later than t_comm), a non-finite or runaway state, or a
+ * density <= 0 at a probe. */
 ROM_API RomStatus rom_do_step(RomState *state, double t_comm, double h, char *message, size_t message_size);
 /* 1 when the frozen model's internal step dt exceeds the communication step h (beyond
  * ROM_STEP_ROUNDING): rom_do_step then takes one internal step of length h */

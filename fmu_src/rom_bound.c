@@ -370,13 +370,7 @@ RomStatus rom_bound_prepare(RomModel *m, char *message, size_t message_size) {
         memset(&m->bound, 0, sizeof m->bound);
         return ROM_FAIL;
     }
-    for (uint32_t g = 0; g < groups; g++) {
-        if (!(sec[6]->data[g] >= 0) || !isfinite(sec[6]->data[g])) {
-            memset(&m->bound, 0, sizeof m->bound);
-            return rom_fail(message, message_size, "resources: section SHRATE's decay rate %g s^-1 (allowed: finite, "
-                            ">= 0)", sec[6]->data[g]);
-        }
-    }
+    /* SHRATE's rates are >= 0 (a value rule of the layout, rom_resources.c check_values) */
     b->x0_norm = v[ROM_SHSCAL_X0_NORM];
     b->e_norm = v[ROM_SHSCAL_E_NORM];
     b->b_norm = v[ROM_SHSCAL_B_NORM];
@@ -459,12 +453,12 @@ static void tail_decays(BoundState *bs, const RomBoundModel *b, double tau) {
     for (uint32_t g = 0; g < b->groups; g++) bs->tail_decay[g] = over > 0 ? exp(-b->rates[g] * over) : 1.0;
 }
 
-/* the plane maps of a step h (from time t): per plane the exponential of [[L h, B_p h, 0], [0, 0, I], [0, 0, 0]],
+/* the plane maps of a step h: per plane the exponential of [[L h, B_p h, 0], [0, 0, I], [0, 0, 0]],
  * and the groups' weights of a jump at the step's start and of a slope over it */
-static const BoundCache *plane_maps(BoundState *bs, const RomBoundModel *b, double h, double t) {
+static const BoundCache *plane_maps(BoundState *bs, const RomBoundModel *b, double h) {
     bs->clock++;
     for (int c = 0; c < BOUND_CACHE; c++) {
-        if (rom_same_step(h, bs->cache[c].h, t)) {     /* (an importer's jitter of a few ulps: the same step) */
+        if (rom_same_step(h, bs->cache[c].h)) {     /* (an importer's jitter of a few ulps: the same step) */
             bs->cache[c].used = bs->clock;
             return &bs->cache[c];
         }
@@ -532,7 +526,7 @@ void rom_bound_step(RomState *s, double h) {
     }
     double u[BOUND_MAX_INPUTS], du[BOUND_MAX_INPUTS];
     step_inputs(s, h, u, du);
-    const BoundCache *c = plane_maps(bs, b, h, s->time);
+    const BoundCache *c = plane_maps(bs, b, h);
     double u2 = 0.0, e2 = 0.0;
     for (size_t j = 0; j < m; j++) {    /* the weighted variations: the jump at the step's start, the slope over it */
         const double jump = fabs(u[j] - bs->u_prev[j]), slope = fabs(du[j]);
@@ -557,7 +551,7 @@ void rom_bound_step(RomState *s, double h) {
     memcpy(bs->w, bs->w_new, k * sizeof(double));
     for (size_t j = 0; j < m; j++) bs->u_prev[j] = u[j] + du[j];
     bs->steps += 1.0;
-    const double tau = s->time + h - s->t0;             /* the time since the start after this step */
+    const double tau = s->elapsed + h;                  /* the time since the start after this step */
     if (tau > table_end(b)) tail_decays(bs, b, tau);
 }
 
@@ -626,7 +620,7 @@ static void shadow_row(const RomState *s, uint32_t r, double *value, double *cer
     const double row_scale = r >= P && r < 3 * P ? b->e_scale : 1.0;     /* e rows of a parametric shadow */
     const double cn = row[0] * row_scale, scale = fabs(s->initial_state_scale);
     double g_value, g_error;
-    free_part(b, bs, r, s->time - s->t0, &g_value, &g_error);
+    free_part(b, bs, r, s->elapsed, &g_value, &g_error);
     y += s->initial_state_scale * g_value;
     const double allow = cn * (BOUND_ROUNDOFF + BOUND_ROUNDOFF_STEP * bs->steps) * (sqrt(w2) + scale * b->x0_norm);
     *value = y;

@@ -133,8 +133,8 @@ def test_core_refuses_a_malformed_parametric_shadow(fmus):
     cases = [(lambda s: s.pop("SHPARAM"), "SHPIECE and SHPARAM come together"),
              (lambda s: s.pop("SHPIECE"), "SHPIECE and SHPARAM come together"),
              (lambda s: [s.pop(t) for t in ("PARAMS", "A0", "AC", "AD")], "SHPIECE and SHPARAM come together"),
-             (lambda s: s["SHPARAM"].__setitem__((0, 0), -1.0), "c_ref = -1"),
-             (lambda s: s["SHPARAM"].__setitem__((0, 3), -1.0), "residual norm -1"),
+             (lambda s: s["SHPARAM"].__setitem__((0, 0), -1.0), "section 'SHPARAM' row 1, column 1 holds -1: the shadow's reference stiffness"),
+             (lambda s: s["SHPARAM"].__setitem__((0, 3), -1.0), "section 'SHPARAM' row 1, column 4 holds -1: a residual piece's norm is >= 0"),
              (lambda s: s.__setitem__("SHPIECE", s["SHPIECE"][:, :4]), "section SHPIECE is")]
     for change, text in cases:
         with pytest.raises(CoreError, match=text):

@@ -39,6 +39,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..options import int_at_least, int_list, positive_float
+
 SECTION_HEADING = "## Certified error bounds"
 PARAMETRIC_HEADING = "## Certified error bounds of parametric FMUs"
 PARAMETRIC_SPAN = {"c": (0.5, 2.0), "d": (0.5, 1.5)}   # the trained box: these x the scene's c and d
@@ -603,8 +605,8 @@ def main(argv=None):
     p = program_parser("error_bounds", description=__doc__.split("\n\n")[0])
     p.add_argument("scenes", nargs="*", metavar="SCENE", help="default: every built-in scene")
     p.add_argument("--models", type=fmu_models, default="frozen,exact,balanced", metavar="M1,M2")
-    p.add_argument("--corpus", type=int, default=4, metavar="N", help="generated user scenes (default 4; 0: none)")
-    p.add_argument("--span", type=float, default=SPAN, metavar="S", help="runs over S x the scene's T (default 20)")
+    p.add_argument("--corpus", type=int_at_least(0), default=4, metavar="N", help="generated user scenes (default 4; 0: none)")
+    p.add_argument("--span", type=positive_float, default=SPAN, metavar="S", help="runs over S x the scene's T (default 20)")
     p.add_argument("--repeats", type=positive_int, default=5, metavar="R")
     p.add_argument("--out", default="validation/benchmarks", metavar="FOLDER")
     p.add_argument("--report", default="BENCHMARKS.md", metavar="FILE.md")
@@ -613,21 +615,11 @@ def main(argv=None):
                    help="the parametric FMUs (frozen, exact) at held-out (c, d): their own section")
     p.add_argument("--points", type=positive_int, default=2, metavar="P",
                    help="held-out (c, d) per scene with --parametric (default 2)")
-    p.add_argument("--sizes", default=None, metavar="N1,N2",
+    p.add_argument("--sizes", type=int_list(lo=16), default=None, metavar="N1,N2",
                    help="instead: the bounds at large N (e.g. 10000,100000): packaging time, cost, certification")
     args = p.parse_args(argv)
     if args.sizes is not None:
-        try:
-            sizes = [int(x) for x in args.sizes.split(",")]
-        except ValueError:
-            sizes = []
-        if not sizes or min(sizes) < 16:
-            p.error(f"--sizes: {args.sizes!r} is out of range (allowed: whole numbers >= 16, comma-separated)")
-        return main_large(args, sizes, argv)
-    if not (args.span > 0 and np.isfinite(args.span)):
-        p.error(f"--span: {args.span} is out of range (allowed: a number > 0)")
-    if args.corpus < 0:
-        p.error(f"--corpus: {args.corpus} is out of range (allowed: 0 or more)")
+        return main_large(args, list(args.sizes), argv)
     names = args.scenes or builtin_names()
     unknown = [s for s in names if s not in builtin_names()]
     if unknown:

@@ -35,6 +35,7 @@ from ..fmu.make.build import ensure_binaries
 from ..fmu.make.package import package_fmu
 from ..fmu.run.driver import FMU
 from ..fmu.variables import members
+from ..options import positive_float
 from ..parser import fmu_models
 from ..scene import builtin_names, load_scene
 from . import machine_text, program_command, program_parser
@@ -200,14 +201,12 @@ def main(argv=None):
     p = program_parser("error_bounds_ports", description=__doc__.split("\n\n")[0])
     p.add_argument("scenes", nargs="*", metavar="SCENE", help="default: damped_forced tenmode high_frequency")
     p.add_argument("--models", type=fmu_models, default="frozen,exact,balanced", metavar="M1,M2")
-    p.add_argument("--span", type=float, default=SPAN, metavar="S", help="runs over S x the scene's T (default 20, "
+    p.add_argument("--span", type=positive_float, default=SPAN, metavar="S", help="runs over S x the scene's T (default 20, "
                    f"at most {T_MAX:g} s)")
     p.add_argument("--out", default="validation/benchmarks", metavar="FOLDER")
     p.add_argument("--report", default="BENCHMARKS.md", metavar="FILE.md")
     p.add_argument("--quiet", action="store_true")
     args = p.parse_args(argv)
-    if not (args.span > 0 and np.isfinite(args.span)):
-        p.error(f"--span: {args.span} is out of range (allowed: a number > 0)")
     scenes = args.scenes or ["damped_forced", "tenmode", "high_frequency"]
     unknown = [s for s in scenes if s not in builtin_names()]
     if unknown:

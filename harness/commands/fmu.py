@@ -100,7 +100,7 @@ def _run(args):
     from ..errors import UserError, exact
     from ..fmu.make.options import check_options
     from ..fmu.make.package import package_fmu
-    from ..runio import check_output_path
+    from ..runio import check_output_path, check_run_memory
     from ..scene import announce, load_scene
 
     out = check_output_path(args.out)
@@ -122,6 +122,7 @@ def _run(args):
         raise UserError("--tolerance: needs the measurement (drop --no-verify)")
     scene = load_scene(args.scene)
     announce(scene, "fmu")
+    check_run_memory(scene, "fmu", args.model, args.modes)   # beyond this machine's memory: refused before the work
     if args.modes is None and (args.model == "auto" or MODELS[args.model].basis_kind is not None):
         from ..pod.pipeline import modes_line
         line = modes_line(scene, progress=not args.quiet)    # runs the full SPH and the POD now (cached)

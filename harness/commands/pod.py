@@ -35,7 +35,7 @@ def run(args):
     from ..pod.io import write_basis
     from ..pod.pipeline import automatic_modes, basis_for_scene
     from ..rom.operators import build_operators
-    from ..runio import check_output_path
+    from ..runio import check_output_path, check_run_memory
     from ..scene import announce, load_scene
     from .snapshot_options import strategy_from_args
 
@@ -43,6 +43,7 @@ def run(args):
     scene = load_scene(args.scene)
     spec = strategy_from_args(args, scene)
     announce(scene, "pod")
+    check_run_memory(scene, "pod", modes=max(args.modes) if args.modes else None)   # beyond the memory: refused
     basis, run_ = basis_for_scene(scene, spec, progress=not args.quiet)
     rv, rr = basis.max_modes
     if args.energy is not None:

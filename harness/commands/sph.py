@@ -24,7 +24,7 @@ def add_parser(sub):
 
 def run(args):
     from ..compare import exact_errors, format_errors
-    from ..runio import check_output_path, scene_attrs, write_run
+    from ..runio import check_output_path, check_run_memory, scene_attrs, write_run
     from ..scene import announce, load_scene
     from ..sph.solver import build_problem, run_sph, stability, step_count
 
@@ -33,6 +33,7 @@ def run(args):
     scene = base.with_T(args.t_end).with_sph(n_particles=args.n_particles, alpha=args.alpha, dt=args.dt,
                            integrator=args.integrator, every=args.every)
     announce(scene, "sph")
+    check_run_memory(scene, "sph")                 # a run beyond this machine's memory: refused before the work
     sph = scene.sph
     problem = build_problem(scene)
     stab = stability(problem, sph.dt, sph.integrator, scene.T)

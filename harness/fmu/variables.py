@@ -170,11 +170,12 @@ VARIABLES = (
              nominal=From("dt", "the scene's dt")),
     Variable("initial_state_scale", 4, "Float64", "parameter", "fixed", "exact", "always", "Scale",
              "initial state = this x the scene's initial deviation from rest (0: the component starts at rest, "
-             "1: the scene's initial velocity v0; any finite real) [1]",
+             f"1: the scene's initial velocity v0; -{defaults.MAX_INITIAL_STATE_SCALE:g} to "
+             f"{defaults.MAX_INITIAL_STATE_SCALE:g}) [1]",
              "the initial state is this multiple of the scene's deviation from rest: 0 (start) at rest, 1 the "
-             "scene's v0, any finite real",
+             f"scene's v0, at most {defaults.MAX_INITIAL_STATE_SCALE:g} in size",
              get="get_initial_state_scale", set="set_initial_state_scale", start=defaults.FMU_INITIAL_STATE_SCALE,
-             nominal=1),
+             min=-defaults.MAX_INITIAL_STATE_SCALE, max=defaults.MAX_INITIAL_STATE_SCALE, nominal=1),
     Variable("v_probe_{j}", 1000, "Float64", "output", "continuous", "calculated", "always", "Velocity",
              "velocity at probe {j}, x/L = {x}, interpolated linearly between particles [m s^-1]",
              "velocity at probe j (x_j/L), interpolated linearly between particles",

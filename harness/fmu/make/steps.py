@@ -67,7 +67,7 @@ def shadow_step(data, ops, problem, probes, parametric=False):
     run's largest |v_probe| (section ENVPROBE; a model without a training envelope, the balanced one: the same
     figure from the scene's cached training run, :func:`training_probe_speed`); nothing where the C core cannot
     certify (more than FMU_MAX_PARTICLES particles, a parametric model whose d is not uniform).  A damping d that
-    is not uniform gives one dense block (sections SHDENSE, SHEGRAM).  ``parametric``: the shadow of a parametric
+    is not uniform gives the eigen-planes of A (:mod:`sphrom.rom.bounds`).  ``parametric``: the shadow of a parametric
     FMU (its planes in pieces of c and d, sections SHPIECE and SHPARAM; the C core assembles them at the FMU's c
     and d)."""
     from ...rom.bounds import sections
