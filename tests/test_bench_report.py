@@ -102,7 +102,7 @@ def _stress_scene(name, fmu):
 
 
 PACKAGED = [{"scene": sc, "model": m, "k": 12, "k_v": 12, "k_rho": 12, "train_err_v": 1e-2, "train_err_rho": 2e-3,
-             "unseen_err_v": 3e-2, "unseen_err_rho": NAN, "unseen_max_drho": 1e-9, "unseen_start": "rest", "fmu_s": 0.05, "sph_s": 0.7,
+             "step": 0.01, "step_err_v": 2e-2, "accepted": True, "unseen_err_v": 3e-2, "unseen_err_rho": NAN, "unseen_max_drho": 1e-9, "unseen_start": "rest", "fmu_s": 0.05, "sph_s": 0.7,
              "speedup": 14.0, "tolerance": tol, "meets": None if tol is None else True, "note": ""}
             for sc, tol in (("a", 0.08), ("b", None)) for m in ("frozen", "exact")]
 PACKAGED_META = {"command": "python -m sphrom.bench.fmu_verify a b", "repeats": 3, "wall": 60.0, "machine": "m"}
@@ -120,7 +120,7 @@ MAPS = StressMaps([_stress_scene("a", True), _stress_scene("b", False)], [1, 10]
     (suite.input_direction_section, (DIRECTIONS, ["a", "b"], 0.01), [8]),
     (sph_step_section, (SPH_STEPS, [100, 1000, 10000], 3), [5]),
     (fmu_section, (FMU,), [8, 11]),
-    (lambda rows: packaged_fmu_section(rows, **PACKAGED_META), (PACKAGED,), [14]),
+    (lambda rows: packaged_fmu_section(rows, **PACKAGED_META), (PACKAGED,), [17]),
     (stress_section, (MAPS, "sphrom stress a b", "x/stress", 2), [3, 5, 4, 4] * 2),
 ])
 def test_each_section_is_well_formed_markdown(section, args, columns):
