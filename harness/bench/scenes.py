@@ -3,8 +3,8 @@
 ``sphrom bench scenes [--seed S] [--count C] [--n-min N] [--n-max N] [--out FILE.csv] [--report FILE.md]`` writes
 each scene of the corpus to a TOML file and does what a user does with it: loads it (the loader's automatic
 integrator and dt, or a refusal in one line), packages the default FMU (``sphrom fmu SCENE``: the frozen model, or
-the exact one where the frozen misses the accuracy or is slower than the full SPH, :func:`sphrom.fmu.make.auto.
-package_default`) and the exact FMU (``sphrom fmu SCENE --model exact``), each measured by packaging's own check
+the exact one where the frozen misses the accuracy or is slower than the full SPH,
+:func:`sphrom.fmu.make.auto.package_default`) and the exact FMU (``sphrom fmu SCENE --model exact``), each measured by packaging's own check
 (:mod:`sphrom.fmu.check.verify`: the training force from the scene's initial state, a step and an in-band sine
 from rest, against the full SPH linear in J integrated exactly in time, at the communication step that resolves the
 scene's band).  Per scene and FMU:
@@ -21,7 +21,7 @@ scene's band).  Per scene and FMU:
   force.
 
 Writes the CSV, a PNG beside it (the errors and the cost ratios of every scene against the thresholds) and the
-section "User scenes at the first try" of the report, with a summary against each of issue 32's "Must show" lines.
+section "User scenes at the first try" of the report, with a summary against each acceptance criterion of a user's first try.
 """
 
 from __future__ import annotations
@@ -141,7 +141,7 @@ def measure_scene(name, text, facts, folder, progress=False):
 
 
 def summary_lines(rows):
-    """The section's summary: each "Must show" line of issue 32 against the corpus."""
+    """The section's summary: each acceptance criterion of a user's first try against the corpus."""
     n = len(rows)
     loaded = [r for r in rows if r.get("loaded")]
 
@@ -277,7 +277,7 @@ def main(argv=None):
              "given to `sphrom fmu` as a user would (the default FMU) and to `sphrom fmu --model exact`; every FMU "
              "measured by packaging's own check against the full SPH linear in J, integrated exactly in time (the "
              "training force from the scene's initial state, a step and an in-band sine from rest, at the "
-             "communication step that resolves the scene's band). Against issue 32's *Must show*:", "",
+             "communication step that resolves the scene's band). Against the criteria of a user's first try:", "",
              *summary_lines(rows), "",
              "Per scene: *default* the model `sphrom fmu` wrote (or refused); *v*: the largest error over the three "
              "cases; *bound / allowed*: max bound / max(100 max error, 1 % max |v|), largest over the cases (useful "
