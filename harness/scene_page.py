@@ -88,7 +88,10 @@ def markdown(automatic_rules) -> str:
              "the scene is loaded, in one line naming the limit and the remedy, before any work; every command "
              "that runs the SPH warns before the run when its integrator would amplify the worst mode more than "
              "100-fold over the run (the paper's explicit Euler, named by every built-in scene; a scene that "
-             "names no integrator gets symplectic Euler, under whose limit no mode grows).  Everything else "
+             "names no integrator gets symplectic Euler, under whose limit no mode grows).  A run whose largest "
+             "arrays would not fit this machine's memory (N too large for its steps, samples or modes) is refused "
+             "the same way by `sphrom sph`, `pod` and `fmu`, naming `n_particles` and the N that fits.  "
+             "Everything else "
              "has a default or is chosen automatically, and the commands print what they chose.", "",
              "```toml", MINIMAL_SCENE.rstrip("\n"), "```", "",
              "```sh",

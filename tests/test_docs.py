@@ -84,3 +84,16 @@ def test_every_cross_reference_in_a_docstring_resolves():
             if target.split(".")[0] == "sphrom" and not _resolves(target):
                 bad.append(f"{path.relative_to(ROOT)}:{text[:m.start()].count(chr(10)) + 1}: {m.group(0)}")
     assert not bad, bad
+
+
+def test_the_cosim_page_shows_only_measured_text():
+    """docs/fmu/cosim.md's FMI 2 / FMI 3 table is written by `sphrom bench cosim_fmi --write` between its markers
+    (no placeholder left in the page); the replacement keeps the rest of the page."""
+    from sphrom.bench import cosim_fmi
+    page = (ROOT / cosim_fmi.DOC_FILE).read_text()
+    assert "MEASURED_TABLE" not in page
+    start, end = page.index(cosim_fmi.TABLE_BEGIN), page.index(cosim_fmi.TABLE_END)
+    assert "Measured by `" in page[start:end] and "| model | inputs |" in page[start:end]
+    swapped = cosim_fmi.doc_text(page, ["| x |"])
+    assert swapped.startswith(page[:start]) and swapped.endswith(page[end:])
+    assert swapped[start:].startswith(cosim_fmi.TABLE_BEGIN + "\n| x |\n" + cosim_fmi.TABLE_END)

@@ -1,4 +1,4 @@
-"""Hostile input, round four: the FMU's C side (issue 36), each case a contract here.
+"""Hostile input, round four: the FMU's C side, each case a contract here.
 
 3 time is exact at any start: step lengths are compared relative to the step (the exact model's and the error
   bounds' caches), a communication point against the FMU's own time to the time's rounding, a time that would
@@ -65,7 +65,7 @@ def run_from(path, start, steps=STEPS, f=0.02, outputs=None):
 @pytest.mark.parametrize("case", ["damped", "undamped"])
 @pytest.mark.parametrize("fmi", [2, 3])
 def test_an_exact_fmu_started_at_an_epoch_time_gives_the_outputs_of_one_started_at_zero(exact_fmus, case, fmi):
-    """Must show (issue 36): started at 1.7e9 s, the same steps give the same outputs, error bounds included, to
+    """Started at 1.7e9 s, the same steps give the same outputs, error bounds included, to
     1e-12 relative.  Before, steps of 1 us then 3.5 us were one cached step (rho - 1 = 8.5e-8 instead of 2.4e-7)
     and the Schur form's free response took the rounded t - t0 (0.65 relative off)."""
     path, _ = exact_fmus("exact", fmi, case)

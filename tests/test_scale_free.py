@@ -1,4 +1,4 @@
-"""Scale-free numerics (issue 32, item 2): a steel-like bar in SI units and the same bar in unit scaling get the same
+"""Scale-free numerics: a steel-like bar in SI units and the same bar in unit scaling get the same
 automatic choices relative to their own scales, the same relative accuracy, bounds and warnings, and both FMUs stay at
 rest to round-off.
 

@@ -1,4 +1,4 @@
-"""Defaults that work on any bar (issue 32, item 1): a scene that names no integrator gets one stable at its step,
+"""Defaults that work on any bar: a scene that names no integrator gets one stable at its step,
 a scene without dt gets one from the stability limit (printed), and a dt above the limit of the integrator is
 refused in one line before any work."""
 

@@ -1,4 +1,4 @@
-"""User scenes at the first try (issue 32): a few small scenes of the corpus (sphrom.bench.lib.corpus; the larger set
+"""User scenes at the first try: a few small scenes of the corpus (sphrom.bench.lib.corpus; the larger set
 is `sphrom bench scenes`) written to files and given to `sphrom fmu` as a user would: each loads, the default and the
 exact FMU are written, within 0.1 and 0.05 of the full SPH linear in J integrated exactly in time on the training
 force, a step and an unseen sine, and their certified bounds hold at every point."""

@@ -1,13 +1,13 @@
 """User scenes at the first try: a corpus of plausible bars (:mod:`sphrom.bench.lib.corpus`) through ``sphrom fmu``.
 
-``sphrom bench scenes [--seed S] [--count C] [--n-min N] [--n-max N] [--out FILE.csv] [--report FILE.md]`` writes
-each scene of the corpus to a TOML file and does what a user does with it: loads it (the loader's automatic
-integrator and dt, or a refusal in one line), packages the default FMU (``sphrom fmu SCENE``: the frozen model, or
-the exact one where the frozen misses the accuracy or is slower than the full SPH, :func:`sphrom.fmu.make.auto.
-package_default`) and the exact FMU (``sphrom fmu SCENE --model exact``), each measured by packaging's own check
-(:mod:`sphrom.fmu.check.verify`: the training force from the scene's initial state, a step and an in-band sine
-from rest, against the full SPH linear in J integrated exactly in time, at the communication step that resolves the
-scene's band).  Per scene and FMU:
+``sphrom bench scenes [--seed S] [--count C] [--n-min N] [--n-max N] [--out FILE.csv] [--report FILE.md]
+[--resume]`` writes each scene of the corpus to a TOML file and does what a user does with it: loads it (the
+loader's automatic integrator and dt, or a refusal in one line), packages the default FMU (``sphrom fmu SCENE``: the
+frozen model, or the exact one where the frozen misses the accuracy or is slower than the full SPH,
+:func:`sphrom.fmu.make.auto.package_default`) and the exact FMU (``sphrom fmu SCENE --model exact``), each measured
+by packaging's own check (:mod:`sphrom.fmu.check.verify`: the training force from the scene's initial state, a step
+and an in-band sine from rest, against the full SPH linear in J integrated exactly in time, at the communication
+step that resolves the scene's band).  Per scene and FMU:
 
 - built at the first try: the FMU was written (packaging's verdict: no failure, no runaway, v error at most 0.1 on
   every case);
@@ -21,7 +21,13 @@ scene's band).  Per scene and FMU:
   force.
 
 Writes the CSV, a PNG beside it (the errors and the cost ratios of every scene against the thresholds) and the
-section "User scenes at the first try" of the report, with a summary against each of issue 32's "Must show" lines.
+section "User scenes at the first try" of the report, with a summary against each acceptance criterion of a
+user's first try.
+
+The outputs are rewritten after every scene, so a run stopped part way leaves the table of the scenes it measured
+(saying how many); ``--resume`` keeps the rows of ``--out`` that a run of the same corpus (seed, index and N)
+measured and measures the rest, so the corpus can be measured over several sittings.  The wall time reported is
+the sum of every scene's.
 """
 
 from __future__ import annotations
@@ -36,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from . import machine_text, program_command, program_parser
-from .lib.document import fmt, program_outputs, publish
+from .lib.document import fmt, program_outputs, publish, update_report
 from .lib.tables import write_csv
 
 # Imported inside the functions: the modules that load numba, scipy or matplotlib (--help answers before they
@@ -141,7 +147,7 @@ def measure_scene(name, text, facts, folder, progress=False):
 
 
 def summary_lines(rows):
-    """The section's summary: each "Must show" line of issue 32 against the corpus."""
+    """The section's summary: each acceptance criterion of a user's first try against the corpus."""
     n = len(rows)
     loaded = [r for r in rows if r.get("loaded")]
 
@@ -235,8 +241,72 @@ def plot(rows, path):
     plt.close(fig)
 
 
-def main(argv=None):
+def csv_value(text):
+    """A CSV cell as :func:`measure_scene` wrote it: bool, None (empty), int, float or the text."""
+    if text in ("True", "False"):
+        return text == "True"
+    if text == "":
+        return None
+    for kind in (int, float):
+        try:
+            return kind(text)
+        except ValueError:
+            pass
+    return text
+
+
+def read_rows(path, scenes):
+    """{name: row} of the CSV at ``path`` (a previous run's) for the scenes of ``scenes`` it measured: the same name
+    and N (the corpus's seed, index and N range); {} when the file is absent."""
+    import csv
+    path = Path(path)
+    if not path.is_file():
+        return {}
+    wanted = {name: facts["n"] for name, _, facts in scenes}
+    with path.open(newline="") as fh:
+        rows = [{k: csv_value(v) for k, v in r.items()} for r in csv.DictReader(fh)]
+    return {r["name"]: r for r in rows if wanted.get(r.get("name")) == r.get("n")}
+
+
+def write_outputs(args, argv, rows, wall, count):
+    """The CSV, the PNG and the report's section of the scenes measured so far (``count``: the corpus's size); the
+    section is printed once all are measured."""
     from ..runio import atomic_path
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    write_csv(out, rows)
+    png = out.with_suffix(".png")
+    with atomic_path(png) as tmp:
+        plot(rows, tmp)
+    csv_rel, png_rel = program_outputs("scenes", argv, args.report, out, png)[1]
+    command = program_command("scenes", argv)
+    done = "" if len(rows) == count else (f" **{len(rows)} of the {count} scenes measured** (a run stopped part "
+                                          "way; `--resume` measures the rest).")
+    lines = [SECTION_HEADING, "",
+             f"Produced by `{command}` ({machine_text()}, {wall:.0f} s wall, the sum of every scene's; "
+             f"`{csv_rel}`, `{png_rel}`).{done} "
+             f"{count} scenes of the corpus of seed {args.seed} (`sphrom.bench.lib.corpus`: unit, rubber-like "
+             "and steel-like magnitudes, two materials or a graded modulus up to 20x, uniform, graded, local or no "
+             f"damping, non-uniform density, a uniform or a local force, N from {args.n_min} to {args.n_max}, dt at "
+             "0.2 of the stability limit or left out, the integrator named or not), each written to a file and "
+             "given to `sphrom fmu` as a user would (the default FMU) and to `sphrom fmu --model exact`; every FMU "
+             "measured by packaging's own check against the full SPH linear in J, integrated exactly in time (the "
+             "training force from the scene's initial state, a step and an in-band sine from rest, at the "
+             "communication step that resolves the scene's band). Against the criteria of a user's first try:", "",
+             *summary_lines(rows), "",
+             "Per scene: *default* the model `sphrom fmu` wrote (or refused); *v*: the largest error over the three "
+             "cases; *bound / allowed*: max bound / max(100 max error, 1 % max |v|), largest over the cases (useful "
+             "when <= 1), default/exact; *warnings (false)*: logged by both FMUs (those while the true error was "
+             "below a tenth of error_tolerance); *cost*: the FMU's doStep time / the full SPH's compiled loop per "
+             "simulated second; *SPH time error*: the scene's full SPH against the same truth (training force).",
+             "", *table_lines(rows), "", f"![errors and costs of the corpus]({png_rel})", ""]
+    if len(rows) == count:
+        publish(args.report, SECTION_HEADING, lines, [out, png], wall)
+    else:
+        update_report(args.report, {SECTION_HEADING: lines})
+
+
+def main(argv=None):
     from .lib.corpus import corpus
     p = program_parser("scenes", description=__doc__.split("\n\n")[0])
     p.add_argument("--seed", type=int, default=0, help="the corpus's seed (default 0)")
@@ -245,12 +315,18 @@ def main(argv=None):
     p.add_argument("--n-max", type=int, default=2000, help="most particles (default 2000)")
     p.add_argument("--out", default="validation/benchmarks/scenes.csv", metavar="FILE.csv")
     p.add_argument("--report", default="BENCHMARKS.md", metavar="FILE.md")
+    p.add_argument("--resume", action="store_true",
+                   help="keep the rows of --out that a previous run of the same corpus measured; measure the rest")
     p.add_argument("--quiet", action="store_true")
     args = p.parse_args(argv)
-    t0 = time.perf_counter()
-    rows = []
     scenes = corpus(args.seed, args.count, args.n_min, args.n_max)
+    kept = read_rows(args.out, scenes) if args.resume else {}
+    rows = []
+    # the outputs are rewritten after every scene: a run stopped part way leaves the table of what it measured
     for name, text, facts in scenes:
+        if name in kept:
+            rows.append(kept[name])
+            continue
         with tempfile.TemporaryDirectory(prefix="sphrom-scenes-") as folder:
             row = measure_scene(name, text, facts, folder, progress=False)
         rows.append(row)
@@ -259,33 +335,9 @@ def main(argv=None):
               f"{fmt(row.get('default_cost_ratio'), '.3g')}/{fmt(row.get('exact_cost_ratio'), '.3g')} "
               f"({row['wall_s']:.0f} s)" + (f"; {row['note']}" if row.get("note") else ""),
               file=sys.stderr if args.quiet else sys.stdout, flush=True)
-    wall = time.perf_counter() - t0
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    write_csv(out, rows)
-    png = out.with_suffix(".png")
-    with atomic_path(png) as tmp:
-        plot(rows, tmp)
-    command, (csv_rel, png_rel) = program_outputs("scenes", argv, args.report, out, png)
-    command = program_command("scenes", argv)
-    lines = [SECTION_HEADING, "",
-             f"Produced by `{command}` ({machine_text()}, {wall:.0f} s wall; `{csv_rel}`, `{png_rel}`). "
-             f"{args.count} scenes of the corpus of seed {args.seed} (`sphrom.bench.lib.corpus`: unit, rubber-like "
-             "and steel-like magnitudes, two materials or a graded modulus up to 20x, uniform, graded, local or no "
-             f"damping, non-uniform density, a uniform or a local force, N from {args.n_min} to {args.n_max}, dt at "
-             "0.2 of the stability limit or left out, the integrator named or not), each written to a file and "
-             "given to `sphrom fmu` as a user would (the default FMU) and to `sphrom fmu --model exact`; every FMU "
-             "measured by packaging's own check against the full SPH linear in J, integrated exactly in time (the "
-             "training force from the scene's initial state, a step and an in-band sine from rest, at the "
-             "communication step that resolves the scene's band). Against issue 32's *Must show*:", "",
-             *summary_lines(rows), "",
-             "Per scene: *default* the model `sphrom fmu` wrote (or refused); *v*: the largest error over the three "
-             "cases; *bound / allowed*: max bound / max(100 max error, 1 % max |v|), largest over the cases (useful "
-             "when <= 1), default/exact; *warnings (false)*: logged by both FMUs (those while the true error was "
-             "below a tenth of error_tolerance); *cost*: the FMU's doStep time / the full SPH's compiled loop per "
-             "simulated second; *SPH time error*: the scene's full SPH against the same truth (training force).",
-             "", *table_lines(rows), "", f"![errors and costs of the corpus]({png_rel})", ""]
-    publish(args.report, SECTION_HEADING, lines, [out, png], wall)
+        if len(rows) < len(scenes):
+            write_outputs(args, argv, rows, sum(float(r.get("wall_s") or 0.0) for r in rows), len(scenes))
+    write_outputs(args, argv, rows, sum(float(r.get("wall_s") or 0.0) for r in rows), len(scenes))
     return 0
 
 

@@ -252,7 +252,7 @@ def run_sph(scene: Scene, *, sample_steps=None, progress=True, problem=None, chu
 
 
 def spectral_radius(problem: SPHProblem):
-    """An upper bound of the fastest angular frequency ω_max [rad s^-1] (:func:`.stability.omega_max`).
+    """An upper bound of the fastest angular frequency ω_max [rad s^-1] (:func:`.timestep.omega_max`).
 
     Linearised about rest, the scheme is J̇ = G v, v̇ = ρ0^-1 G c J (J the
     specific volume): ω_max <= sqrt(max c / min ρ0) ||G||, and on a uniform
@@ -264,7 +264,7 @@ def spectral_radius(problem: SPHProblem):
 
 def amplification(problem: SPHProblem, dt, integrator, T, samples=257):
     """The largest factor by which the scheme amplifies a mode over [0, T], and that mode's ω
-    (:func:`.stability.growth` at ω_max of :func:`spectral_radius` and the scene's smallest damping; explicit
+    (:func:`.timestep.growth` at ω_max of :func:`spectral_radius` and the scene's smallest damping; explicit
     Euler, undamped: r = |1 + i ω Δt| = (1 + ω²Δt²)^½ per step)."""
     return growth(integrator, spectral_radius(problem), float(np.min(problem.d)), dt, T, samples)
 
@@ -272,7 +272,7 @@ def amplification(problem: SPHProblem, dt, integrator, T, samples=257):
 def stability(problem: SPHProblem, dt, integrator, T):
     """The explicit stability limit and CFL numbers of a run.
 
-    Returns a dict with ``omega_max`` [rad/s], ``dt_limit`` [s] (:func:`.stability.dt_limit` of
+    Returns a dict with ``omega_max`` [rad/s], ``dt_limit`` [s] (:func:`.timestep.dt_limit` of
     ``integrator`` with the scene's largest damping: ω_max Δt below 2 for the Euler schemes, 2√2 for RK4
     when undamped), ``cfl`` (c_s Δt / Δx with the largest sound speed of eq. 2.5 at rest),
     ``omega_dt``, ``euler_growth`` (the factor by which explicit Euler amplifies the fastest mode over T when
@@ -295,7 +295,7 @@ def stability_warnings(problem: SPHProblem, dt, integrator, T):
     Warns when Δt exceeds the stability limit of the integrator (a scene refuses that when it is loaded;
     settings changed in code may still ask for it), and when the integrator amplifies some mode by more than
     :data:`GROWTH_WARN` over the run even below that limit (explicit Euler on an undamped scene over a long
-    horizon), with the figure (:func:`.stability.warnings`).
+    horizon), with the figure (:func:`.timestep.warnings`).
     """
     stab = stability(problem, dt, integrator, T)
     out = []

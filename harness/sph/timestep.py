@@ -29,7 +29,7 @@ from .kernel import cubic_spline_gradient
 # every undamped mode by (1 + ω² dt²)^½ per step at any dt.
 DEFAULT_INTEGRATOR = "symplectic"
 # The automatic dt as a fraction of the integrator's limit.  Measured on a graded user scene (c 1 to 10, a local
-# force; /work's corpus, `sphrom bench scenes`): symplectic Euler at 0.5, 0.2 and 0.05 of its limit is 4.9e-2,
+# force; a scene of `sphrom bench scenes`' corpus): symplectic Euler at 0.5, 0.2 and 0.05 of its limit is 4.9e-2,
 # 1.5e-2 and 2.1e-3 (relative L2 at the probes) off the same SPH integrated exactly in time; 0.2 keeps the time
 # error well below the 1e-1 a reduced model is allowed, at 2.5x the cost of 0.5.
 DT_FRACTION = 0.2

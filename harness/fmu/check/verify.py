@@ -40,7 +40,7 @@ import numpy as np
 
 SCALE_NAME = "initial_state_scale"     # the FMU's parameter (harness/fmu/variables.py)
 TOLERANCE_NAME = "error_tolerance"     # the FMU's parameter of its bounds' warning
-ACCURACY = 0.1          # the largest probe v error (eq. 3.4) packaging accepts on any case by default (issue 32)
+ACCURACY = 0.1          # the largest probe v error (eq. 3.4) packaging accepts on any case by default
 POINTS_PER_PERIOD = 25  # communication points per period of the top of the scene's band
 UNSEEN_RATIO = 2.2      # nu_u / nu_1: the unseen sine between a uniform bar's 2nd and 3rd resonance
 CASES = ("training", "step", "unseen")
