@@ -263,8 +263,8 @@ def print_verification(v, tolerance=None):
     print(f"  cost per simulated T: the FMU's own work (doStep) {tr.step_s:.4g} s, through fmpy {tr.fmu_s:.4g} s; "
           f"the full SPH's compiled loop {tr.sph_s:.4g} s (FMU / full SPH = {tr.cost_ratio:.3g})")
     if v.channels:
-        print(f"  every input channel from rest against the full SPH (over {v.channel_horizon:.4g} s; relative L2 "
-              "of eq. 3.4):")
+        print(f"  every input channel from rest against the full SPH stepped in time (the integrator the FMU "
+              f"reduces; over {v.channel_horizon:.4g} s; relative L2 of eq. 3.4):")
         for c in v.channels:
             print(f"    {c.channel:10s} {c.case:9s} {c.force}: {c.output} error {c.err:.3e}"
                   + (f"; {c.note}" if c.note else ""))
