@@ -581,8 +581,9 @@ def large_section(rows, *, command, wall, machine):
              "`build_shadow` timed apart (its planes: the dense SVD up to 2500 particles, the sparse shift-invert "
              f"Lanczos solver above). Certification: {LARGE_STEPS} steps of {STEP * 1e3:g} ms from the initial "
              "state under the chirp, held, against the full linear SPH integrated exactly in time "
-             "(`sphrom.fmu.check.truth`, the truth packaging measures every FMU against: above 500 particles a Taylor "
-             "series of the sparse operator to round-off). doStep: the C core's rom_do_step with and without the bounds' sections.", "",
+             "(`sphrom.fmu.check.truth`, the truth packaging measures every FMU against: above 500 particles a "
+             "Taylor series of the sparse operator to round-off). doStep: the C core's rom_do_step with and without "
+             "the bounds' sections.", "",
              "| N | dt [s] | packaging [s] | shadow [s] (planes) | planes computed, method | k_v, k_ρ | shadow order | "
              "doStep ns with / without | ratio | violations | effectivity median | max | max v error [m/s] | "
              "max v bound [m/s] |",
