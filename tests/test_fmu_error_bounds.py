@@ -399,3 +399,17 @@ def test_bounds_past_the_free_response_table(make):
     assert late.sum() > 50
     np.testing.assert_allclose(columns(out, names, "v_probe_j_error_bound")[late], vb[late], rtol=1e-9,
                                atol=1e-13 * np.abs(v).max())
+
+
+@pytest.mark.parametrize("n", [64, 20000])
+def test_rigid_motion_is_in_the_planes_kernel_at_any_n(n):
+    """The uniform velocity (rigid motion, no strain) is in ker Kᵀ at any N: null_rows finds it also where G 1's
+    round-off (eps N of max|G|) is above a fixed 1e-12 (at N = 1e4 the kernel was missed and the sparse planes'
+    null triplets got arbitrary left vectors: ‖Kᵀu − σw‖ = 729, bounds of 3 m/s on a bar moving at 4e-3 m/s)."""
+    from sphrom.bench.error_bounds import large_scene
+    from sphrom.rom.planes import null_rows
+    from sphrom.sph.solver import build_problem
+    problem = build_problem(large_scene(n))
+    u_null, _ = null_rows(problem)
+    rigid = np.sqrt(problem.rho0) / np.linalg.norm(np.sqrt(problem.rho0))
+    assert np.linalg.norm(u_null.T @ rigid) == pytest.approx(1.0, abs=1e-12)
