@@ -24,9 +24,9 @@
 #define ROM_VR_AREA                             7u     /* parameter area [m2]; only with --ports */
 #define ROM_VR_F_PORT                           3000u  /* input F_port_j: 3000 + j - 1 [N]; only with --ports */
 #define ROM_VR_V_PORT                           4000u  /* output v_port_j: 4000 + j - 1 [m/s]; only with --ports */
-#define ROM_VR_ERROR_TOLERANCE                  10u    /* parameter error_tolerance [m/s]; FMUs with certified error bounds (N <= 2000) */
-#define ROM_VR_V_PROBE_ERROR_BOUND              7000u  /* output v_probe_j_error_bound: 7000 + j - 1 [m/s]; FMUs with certified error bounds (N <= 2000) */
-#define ROM_VR_RHO_PROBE_ERROR_BOUND            8000u  /* output rho_probe_j_error_bound: 8000 + j - 1 [kg/m3]; FMUs with certified error bounds (N <= 2000) */
+#define ROM_VR_ERROR_TOLERANCE                  10u    /* parameter error_tolerance [m/s]; FMUs with certified error bounds (N <= 200000; 1500 where d varies) */
+#define ROM_VR_V_PROBE_ERROR_BOUND              7000u  /* output v_probe_j_error_bound: 7000 + j - 1 [m/s]; FMUs with certified error bounds (N <= 200000; 1500 where d varies) */
+#define ROM_VR_RHO_PROBE_ERROR_BOUND            8000u  /* output rho_probe_j_error_bound: 8000 + j - 1 [kg/m3]; FMUs with certified error bounds (N <= 200000; 1500 where d varies) */
 #define ROM_VR_V_PORT_ERROR_BOUND               9000u  /* output v_port_j_error_bound: 9000 + j - 1 [m/s]; with certified error bounds and --ports */
 
 /* constant start values (harness/defaults.py) */

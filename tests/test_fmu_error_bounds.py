@@ -356,9 +356,11 @@ def test_sparse_planes_match_the_dense_ones(monkeypatch):
 
 
 def test_the_bounds_truth_two_ways(monkeypatch):
-    """sphrom.rom.reference.exact_probe_reference (the truth the bounds are of, for verify.py to name) equals this
-    file's truth (the dense step map of the augmented system), held and linear, and its sparse path (the
-    exponential's action, above EXACT_DENSE_LIMIT particles) equals its dense one to 1e-12 of the signal."""
+    """sphrom.rom.reference.exact_probe_reference (the truth the bounds are of; one case of sphrom.fmu.check.truth,
+    which packaging's verification measures every FMU against) equals this file's truth (the dense step map of the
+    augmented system), held and linear, and its sparse path (a Taylor series of the sparse operator, above
+    truth.DENSE_MAX particles) equals its dense one to 1e-12 of the signal."""
+    import sphrom.fmu.check.truth as truth_module
     import sphrom.rom.reference as reference
     from sphrom.sph.solver import build_problem
     problem = build_problem(fmu_scene("forced"))
@@ -369,7 +371,7 @@ def test_the_bounds_truth_two_ways(monkeypatch):
         v_ref, rho_ref, _ = truth("forced", 1.0, f, linear=linear)
         np.testing.assert_allclose(v, v_ref, rtol=0, atol=1e-12 * np.abs(v_ref).max())
         np.testing.assert_allclose(rho, rho_ref, rtol=1e-13, atol=0)
-    monkeypatch.setattr(reference, "EXACT_DENSE_LIMIT", 8)
+    monkeypatch.setattr(truth_module, "DENSE_MAX", 8)
     v2, rho2 = reference.exact_probe_reference(problem, PROBES, t, f, 1.0, hold="linear")
     np.testing.assert_allclose(v2, v, rtol=0, atol=1e-12 * np.abs(v).max())
     np.testing.assert_allclose(rho2, rho, rtol=1e-13, atol=0)
@@ -397,3 +399,17 @@ def test_bounds_past_the_free_response_table(make):
     assert late.sum() > 50
     np.testing.assert_allclose(columns(out, names, "v_probe_j_error_bound")[late], vb[late], rtol=1e-9,
                                atol=1e-13 * np.abs(v).max())
+
+
+@pytest.mark.parametrize("n", [64, 20000])
+def test_rigid_motion_is_in_the_planes_kernel_at_any_n(n):
+    """The uniform velocity (rigid motion, no strain) is in ker Kᵀ at any N: null_rows finds it also where G 1's
+    round-off (eps N of max|G|) is above a fixed 1e-12 (at N = 1e4 the kernel was missed and the sparse planes'
+    null triplets got arbitrary left vectors: ‖Kᵀu − σw‖ = 729, bounds of 3 m/s on a bar moving at 4e-3 m/s)."""
+    from sphrom.bench.error_bounds import large_scene
+    from sphrom.rom.planes import null_rows
+    from sphrom.sph.solver import build_problem
+    problem = build_problem(large_scene(n))
+    u_null, _ = null_rows(problem)
+    rigid = np.sqrt(problem.rho0) / np.linalg.norm(np.sqrt(problem.rho0))
+    assert np.linalg.norm(u_null.T @ rigid) == pytest.approx(1.0, abs=1e-12)

@@ -309,3 +309,29 @@ def test_the_benchmark_writes_its_table_from_the_measurement(tmp_path):
         assert float(r["speedup"]) == pytest.approx(float(r["sph_s"]) / float(r["fmu_s"]))
         assert f"| {r['model']} |" in text and f"{float(r['train_err_v']):.3e}" in text
         assert float(r["tolerance"]) == fmu_scene("forced").paper["sph_error_v"]
+
+
+@pytest.mark.parametrize("case", ["forced", "unforced"])
+def test_stepped_sph_error_against_the_truth_equals_an_independent_run(case):
+    """The stepped full SPH's own error against the truth (what `sphrom fmu` prints beside the FMU's) equals the
+    error of an independent stepped run sampled at the communication points (verify.sph_reference) against the
+    same truth at the same points, and without a force it shrinks with the SPH's dt (the time-step error)."""
+    from sphrom.cache import cached_sph
+    from sphrom.fmu.check import verify
+    from sphrom.pod.pipeline import error_steps
+    from sphrom.scene import derive_scene
+    from sphrom import defaults
+    scene = fmu_scene(case)
+    step = 0.01
+    refs = verify.references(scene, step, defaults.PROBES, True)
+    err_v, _, points = refs["_stepped_error"]
+    _, _, _, (t, v_true, rho_true, rho0, _) = refs["training"]
+    _, v, rho, _, _ = verify.sph_reference(scene, scene.f.text, 1.0, step, defaults.PROBES)
+    stored = cached_sph(scene, error_steps(scene), progress=False).steps   # the run references() reads
+    at = np.flatnonzero(np.isin(np.round(t / scene.sph.dt).astype(np.int64), stored))
+    assert points == at.size >= 2
+    again, _, _ = verify.case_errors(v[at], rho[at], v_true[at], rho_true[at], rho0, t[at])
+    assert math.isclose(err_v, again, rel_tol=1e-9)
+    if case == "unforced":        # f = 0: no input sampling in the truth, the difference is the time-step error
+        finer = derive_scene(scene, {"sph": {"dt": scene.sph.dt / 4, "every": 4 * scene.sph.every}})
+        assert verify.references(finer, step, defaults.PROBES, True)["_stepped_error"][0] < err_v / 2

@@ -527,8 +527,9 @@ def measure_large(sizes, folder, probes, repeats, progress=True):
     """Rows (one per N) of the exact FMU of :func:`large_scene`: its packaging time (all of it, and the shadow's
     own: :func:`sphrom.rom.bounds.build_shadow` timed apart), the shadow's size and how many planes were computed,
     the doStep cost with and without the bounds, and a certification run (LARGE_STEPS steps of STEP from the
-    initial state under the chirp, held) against :func:`sphrom.rom.reference.exact_probe_reference` (the sparse
-    exponential's action above 1500 particles): violations and effectivities."""
+    initial state under the chirp, held) against :func:`sphrom.rom.reference.exact_probe_reference` (one case of
+    :mod:`sphrom.fmu.check.truth`: a Taylor series of the sparse operator above 500 particles): violations and
+    effectivities."""
     from ..fmu.make.build import ensure_binaries
     from ..fmu.make.package import package_fmu
     from ..rom.bounds import build_shadow
@@ -580,8 +581,9 @@ def large_section(rows, *, command, wall, machine):
              "`build_shadow` timed apart (its planes: the dense SVD up to 2500 particles, the sparse shift-invert "
              f"Lanczos solver above). Certification: {LARGE_STEPS} steps of {STEP * 1e3:g} ms from the initial "
              "state under the chirp, held, against the full linear SPH integrated exactly in time "
-             "(`sphrom.rom.reference.exact_probe_reference`: the sparse exponential's action above 1500 "
-             "particles). doStep: the C core's rom_do_step with and without the bounds' sections.", "",
+             "(`sphrom.fmu.check.truth`, the truth packaging measures every FMU against: above 500 particles a "
+             "Taylor series of the sparse operator to round-off). doStep: the C core's rom_do_step with and without "
+             "the bounds' sections.", "",
              "| N | dt [s] | packaging [s] | shadow [s] (planes) | planes computed, method | k_v, k_ρ | shadow order | "
              "doStep ns with / without | ratio | violations | effectivity median | max | max v error [m/s] | "
              "max v bound [m/s] |",

@@ -152,6 +152,7 @@ class Verification:
     channels: list = field(default_factory=list)   # every input channel (:mod:`.channels`), when measured
     truth: str = ""              # what the FMU was measured against
     error_tolerance: float = float("nan")          # the FMU's error_tolerance start value (nan without bounds)
+    stepped_error: tuple = (float("nan"), float("nan"), 0)   # the stepped SPH's (v, rho) error vs the truth, points
     channel_horizon: float = float("nan")          # the channels' horizon [s] (:func:`.channels.horizon`)
 
     def case(self, name):
@@ -461,8 +462,29 @@ def references(scene, step, probes, has_scale, problem=None, progress=False, int
     run = cached_sph(scene, error_steps(scene), progress=progress, problem=problem)   # the training run, cached
     sph_s = sph_cost(scene, problem, run.wall_time)
     rho0 = probe_values(problem, scene.L, probes, (problem.rho0,))[0]
+    i = list(cases).index("training")
+    stepped = stepped_error(scene, problem, probes, run, t, v[:, :, i], rho[:, :, i], rho0)
     return {name: (force, scale, start, (t, v[:, :, i], rho[:, :, i], rho0, sph_s))
-            for i, (name, (force, scale, start)) in enumerate(cases.items())} | {"_interpolate": interpolate}
+            for i, (name, (force, scale, start)) in enumerate(cases.items())} | {"_interpolate": interpolate,
+                                                                                 "_stepped_error": stepped}
+
+
+def stepped_error(scene, problem, probes, run, t, v_true, rho_true, rho0):
+    """The full SPH stepped in time (the scene's own run: its integrator and dt, f at every internal step) against
+    the truth of the training case: (err_v, err_rho, points) of eq. 3.4 over the communication points ``t`` where
+    the cached run holds a sample at that very time (``points`` of them; nan when fewer than two do: no new run).
+    What the FMU's error against the truth leaves out: the stepped SPH's own time-step error, and its f at every
+    step against the truth's f held or linear between the points (dominant where f is fast against the points)."""
+    steps = np.round(t / scene.sph.dt).astype(np.int64)
+    exact = np.abs(steps * scene.sph.dt - t) <= 1e-9 * np.maximum(t, scene.sph.dt)
+    where = {int(s): j for j, s in enumerate(np.asarray(run.steps, np.int64))}
+    keep = np.flatnonzero(exact & np.isin(steps, list(where)))
+    if keep.size < 2:
+        return float("nan"), float("nan"), int(keep.size)
+    rows = [where[int(s)] for s in steps[keep]]
+    v, rho = probe_values(problem, scene.L, probes, (run.v[rows], run.rho[rows]))
+    err_v, err_rho, _ = case_errors(v, rho, v_true[keep], rho_true[keep], rho0, t[keep])
+    return err_v, err_rho, int(keep.size)
 
 
 SPH_TIMING = 0.3     # [s] the least wall time of the full SPH's timed run (shorter than T when T takes longer)
@@ -507,7 +529,8 @@ def verify_fmu(path, scene, probes, refs=None, problem=None, progress=False):
     if refs is None or refs.get("_interpolate") != interpolate:
         refs = references(scene, step, probes, has_scale, problem=problem, progress=progress, interpolate=interpolate)
     result = Verification(step=step, T=scene.T, input="linear (df/dt)" if interpolate else "held",
-                          probes=list(probes), refs=refs, truth=TRUTH_NAME, error_tolerance=tolerance)
+                          probes=list(probes), refs=refs, truth=TRUTH_NAME, error_tolerance=tolerance,
+                          stepped_error=refs.get("_stepped_error", (float("nan"), float("nan"), 0)))
     for name in CASES:
         force, scale, start, (t, sph_v, sph_rho, rho0, sph_s) = refs[name]
         expr = compile_expr(force, ("t", "L", "T"), "force")
