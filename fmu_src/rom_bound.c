@@ -193,7 +193,9 @@ RomStatus rom_bound_prepare(RomModel *m, char *message, size_t message_size) {
     const RomSection *scal = sec[0], *dense = rom_section(m, "SHDENSE");
     if (shape(scal, 1, ROM_SHSCAL_COLUMNS, message, message_size) != ROM_OK) return ROM_FAIL;
     const double *v = scal->data;
-    const uint32_t inputs = 1u + m->n_ports, rows = 3u * m->n_probes + m->n_ports;
+    /* inputs: f and the port forces the kind takes (none with the port channel, which is exact for them and adds
+     * its own part and bound to each row: shadow_row) */
+    const uint32_t inputs = 1u + rom_port_inputs(m), rows = 3u * m->n_probes + m->n_ports;
     if (!whole(v[ROM_SHSCAL_PLANES], 1, ROM_MAX_MODES) || v[ROM_SHSCAL_ORDER] != 2.0 * v[ROM_SHSCAL_PLANES] ||
         v[ROM_SHSCAL_INPUTS] != (double)inputs || v[ROM_SHSCAL_ROWS] != (double)rows ||
         !whole(v[ROM_SHSCAL_N_TAB], 1, 1e6) || !(v[ROM_SHSCAL_DT_TAB] > 0) || v[ROM_SHSCAL_Y0_NORM] < 0 ||
@@ -428,7 +430,7 @@ static double norm2(const double *x, size_t n) {
 static void step_inputs(const RomState *s, double h, double *u, double *du) {
     u[0] = s->f;
     du[0] = s->f_rate * h;
-    for (uint32_t j = 0; j < s->model->n_ports; j++) {
+    for (uint32_t j = 0; j < rom_port_inputs(s->model); j++) {
         u[1 + j] = s->port_force[j] / s->area;
         du[1 + j] = s->port_rate[j] * h / s->area;
     }
@@ -530,16 +532,18 @@ static void shadow_row(const RomState *s, uint32_t r, double *value, double *cer
     }
     const double g_input = fmin(g_hold, cn * bs->p_int);
     const double allow = cn * (BOUND_ROUNDOFF + BOUND_ROUNDOFF_STEP * bs->steps) * (norm2(w, k) + scale * b->x0_norm);
-    *value = y;
     const double residual = b->dense ? cn * bs->w_int : cn * b->e_norm * bs->w_int;   /* dense: int |E w| */
-    *cert = g_init + g_input + residual + allow;
+    double channel_cert;                    /* the port channel's part of the row and its own bound (rom_port.c) */
+    *value = y + rom_channel_row(s, r, &channel_cert);
+    *cert = g_init + g_input + residual + allow + channel_cert;
 }
 
 double rom_v_probe_error_bound(const RomState *s, uint32_t j) {
     if (!s || !s->bound || j >= s->model->n_probes) return NAN;
     double y, cert;
     shadow_row(s, j, &y, &cert);
-    return fabs(s->model->ops->v_probe(s, j) - y) + cert;      /* the model's output (rom.c rom_v_probe) */
+    /* the model's output as rom.c rom_v_probe gives it: the kind's and the port channel's */
+    return fabs(s->model->ops->v_probe(s, j) + rom_channel_row(s, j, NULL) - y) + cert;
 }
 
 double rom_rho_probe_error_bound(const RomState *s, uint32_t j) {
@@ -555,14 +559,16 @@ double rom_rho_probe_error_bound(const RomState *s, uint32_t j) {
         rho_s += pr[side] * pr[2 + side] / J;
         part += pr[side] * pr[2 + side] * beta / (J * low);
     }
-    return fabs(s->model->ops->rho_probe(s, j) - rho_s) + part + 1e-15 * (pr[0] * pr[2] + pr[1] * pr[3]);
+    const double rho = s->model->ops->rho_probe(s, j) +       /* as rom.c rom_rho_probe: with the channel's part */
+                       (s->model->ops->density_with_channel ? 0.0 : rom_channel_density_shift(s, j));
+    return fabs(rho - rho_s) + part + 1e-15 * (pr[0] * pr[2] + pr[1] * pr[3]);
 }
 
 double rom_v_port_error_bound(const RomState *s, uint32_t j) {
     if (!s || !s->bound || j >= s->model->n_ports) return NAN;
     double y, cert;
     shadow_row(s, 3 * s->model->n_probes + j, &y, &cert);
-    return fabs(rom_port_velocity(s, j) - y) + cert;
+    return fabs(rom_port_velocity(s, j) + rom_channel_row(s, 3 * s->model->n_probes + j, NULL) - y) + cert;
 }
 
 RomStatus rom_set_error_tolerance(RomState *s, double tolerance, char *message, size_t message_size) {

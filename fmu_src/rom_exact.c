@@ -14,9 +14,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 
-/* inputs of the model: f (when B is present), then the port forces */
+/* inputs of the model: f (when B is present), then the port forces (none with the port channel, which takes them) */
 static size_t exact_inputs(const RomModel *m) {
-    return (((const RomExactModel *)m->body)->B ? 1u : 0u) + m->n_ports;
+    return (((const RomExactModel *)m->body)->B ? 1u : 0u) + rom_port_inputs(m);
 }
 
 /* The maps of a step of length h: Phi = e^{A h}, G0, G1 from the exponential
@@ -44,7 +44,7 @@ static RomExpCache *exact_maps(RomState *s, double t, double h, char *message, s
     for (size_t i = 0; i < k; i++) {
         for (size_t j = 0; j < k; j++) M[i * n + j] = em->A[i * k + j] * h;
         if (em->B) M[i * n + k] = em->B[i] * h;
-        for (size_t j = 0; j < m->n_ports; j++) M[i * n + k + (em->B ? 1 : 0) + j] = m->port_B[j * k + i] * h;
+        for (size_t j = 0; j < rom_port_inputs(m); j++) M[i * n + k + (em->B ? 1 : 0) + j] = m->port_B[j * k + i] * h;
     }
     for (size_t c = 0; c < ni; c++) M[(k + c) * n + k + ni + c] = 1.0;
     slot->h = 0.0;
@@ -113,7 +113,7 @@ static RomStatus exact_step(RomState *s, double t_comm, double h, char *message,
         const double *row = c->Phi + i * k;
         for (size_t j = 0; j < k; j++) acc += row[j] * es->X[j];
         if (em->B) acc = acc + c->G0[i * ni] * f + c->G1[i * ni] * df;
-        for (size_t j = 0; j < m->n_ports; j++) {    /* port forces, held or linear (rate) over the step */
+        for (size_t j = 0; j < rom_port_inputs(m); j++) {    /* port forces, held or linear (rate) over the step */
             const size_t col = i * ni + (em->B ? 1 : 0) + j;
             acc = acc + c->G0[col] * (s->port_force[j] / s->area) + c->G1[col] * (s->port_rate[j] * h / s->area);
         }
@@ -176,13 +176,18 @@ static double exact_v_probe(const RomState *s, uint32_t j) {
     return exact_output(s, em->Pv + (size_t)j * em->k);
 }
 
-/* rho = sum_m pw[j][m] rho0[j][m] / J_m, J = 1 + e at the probe's two particles */
+/* the port channel's e at side m of probe j (rom_port.c; 0 without the channel): the linear model superposes it */
+static double channel_e(const RomState *s, uint32_t j, int side) {
+    return s->channel ? rom_channel_row(s, s->model->n_probes + 2 * j + (uint32_t)side, NULL) : 0.0;
+}
+
+/* rho = sum_m pw[j][m] rho0[j][m] / J_m, J = 1 + e at the probe's two particles (e with the port channel's) */
 static double exact_rho_probe(const RomState *s, uint32_t j) {
     if (!s || !s->model->body) return NAN;
     const RomExactModel *em = (const RomExactModel *)s->model->body;
     double rho = 0.0;
     for (int side = 0; side < 2; side++) {
-        const double e = exact_output(s, e_row(em, j, side));
+        const double e = exact_output(s, e_row(em, j, side)) + channel_e(s, j, side);
         const double J = 1.0 + e;
         if (!(J > 0)) return NAN;                     /* compressed through J = 0: no density */
         rho += em->pw[2 * j + side] * (em->prho0[2 * j + side] / J);
@@ -195,7 +200,7 @@ static double probe_J(const RomState *s, uint32_t j) {
     const RomExactModel *em = (const RomExactModel *)s->model->body;
     double smallest = INFINITY;
     for (int side = 0; side < 2; side++) {
-        const double J = 1.0 + exact_output(s, e_row(em, j, side));
+        const double J = 1.0 + exact_output(s, e_row(em, j, side)) + channel_e(s, j, side);
         if (!isfinite(J)) return NAN;
         if (J < smallest) smallest = J;
     }
@@ -248,9 +253,11 @@ static double exact_rho_rate(const RomState *s, uint32_t j) {
     double rate = 0.0;
     for (int side = 0; side < 2; side++) {
         const double *row = e_row(em, j, side);
-        const double J = 1.0 + exact_output(s, row);
+        const double J = 1.0 + exact_output(s, row) + channel_e(s, j, side);
         if (!(J > 0)) return NAN;
-        rate -= em->pw[2 * j + side] * em->prho0[2 * j + side] * row_rate(s, row) / (J * J);
+        const double dJ = row_rate(s, row) +
+                          (s->channel ? rom_channel_row_rate(s, s->model->n_probes + 2 * j + (uint32_t)side) : 0.0);
+        rate -= em->pw[2 * j + side] * em->prho0[2 * j + side] * dJ / (J * J);
     }
     return rate;
 }
@@ -503,6 +510,7 @@ const RomKindOps *rom_exact_kind(void) {
         .n_freeze = NULL,
         .v_probe = exact_v_probe,
         .rho_probe = exact_rho_probe,
+        .density_with_channel = 1,          /* J = 1 + e + the port channel's e */
         .check_probe = exact_check_probe,
         .v_rate = exact_v_rate,
         .rho_rate = exact_rho_rate,

@@ -80,7 +80,7 @@
  *     AC: linear model: the part of A per unit c (linear kind only)
  *     AD: linear model: the part of A per unit d (linear kind only)
  *     PORTX: port positions x/L (1 x P)
- *     PORTB: port input rows at area 1 (P x k_v frozen, P x k linear)
+ *     PORTB: port input rows at area 1 (P x k_v frozen, P x k linear); absent with the port channel
  *     PORTC: port velocity rows (P x k_v)
  *     SHSCAL: error bounds: the shadow's sizes and scalars; columns order, planes, inputs, rows, n_tab, dt_tab,
  *         y0_norm, x0_norm, e_norm, b_norm, tolerance, reserved
@@ -94,6 +94,13 @@
  *     SHPIECE: error bounds: the planes' pieces per unit c and per unit d
  *     SHPARAM: error bounds: c_ref and the residual pieces' norms; columns c_ref, e_const_v, e_const_e, e_c_v,
  *         e_c_e, e_d_v, e_d_e
+ *     PCSCAL: port channel: its sizes and scalars; columns planes, ports, rows, truncated, dx
+ *     PCLAM: port channel: each plane's 2 x 2 block [[-d, s], [-s, 0]] (planes x 4)
+ *     PCB: port channel: each plane's input gains per unit F_j / area (planes x P)
+ *     PCC: port channel: the output rows over the planes (3 n_probes + P rows: v probes, e at their particles, v
+ *         ports)
+ *     PCD: port channel: per row the truncated planes' static correction, then their bound's gains (rows x 2P)
+ *     PCPROBE: port channel: the probes' weights and rho0; columns pw0, pw1, rho0_0, rho0_1
  *     SHDENSE: error bounds: the dense block's growth rate; columns mu
  *     SHEGRAM: error bounds: the dense block's coupling residual's Gram matrix
  *
@@ -128,6 +135,9 @@
  *     c [1]: the parameter c [kg m^-1 s^-2] (0 without section PARAMS)
  *     d [1]: the parameter d [s^-1] (0 without section PARAMS)
  *     ports [with ports]: area [m^2], F_port[P] [N], port_driven (0 or 1), dF_port/dt[P] [N s^-1]
+ *     channel [with the port channel (sections PC*)]: its planes p[n], q[n], the inputs' variation tv[P] and last
+ *         values u[P], the step count, port_impedance [N s m^-1], a_port[P] [N], b_port[P] [N], the force held
+ *         over the last step of the wave form[P] [N] (rom_port.c)
  *   the frozen kind's block: n_freeze[1] (the parameter n_freeze (a whole number >= 1)), dt[1] (the parameter dt
  *       [s] (>= its floor)), Mt[k_v k_rho] (M(a^rho)^T, k_v rows of k_rho), F[k_v] (the frozen force term)
  *   the linear kind's block: X[k] (the forced part of z (the whole z without the Schur form))
@@ -225,6 +235,17 @@
 #define ROM_SHPARAM_E_C_E                    4
 #define ROM_SHPARAM_E_D_V                    5
 #define ROM_SHPARAM_E_D_E                    6
+#define ROM_PCSCAL_COLUMNS                   5u
+#define ROM_PCSCAL_PLANES                    0
+#define ROM_PCSCAL_PORTS                     1
+#define ROM_PCSCAL_ROWS                      2
+#define ROM_PCSCAL_TRUNCATED                 3
+#define ROM_PCSCAL_DX                        4
+#define ROM_PCPROBE_COLUMNS                  4u
+#define ROM_PCPROBE_PW0                      0
+#define ROM_PCPROBE_PW1                      1
+#define ROM_PCPROBE_RHO0_0                   2
+#define ROM_PCPROBE_RHO0_1                   3
 #define ROM_SHDENSE_COLUMNS                  1u
 #define ROM_SHDENSE_MU                       0
 #define ROM_ENVELOPE_CHECK_COORDINATES       1u
@@ -234,7 +255,7 @@
 #define ROM_ENVELOPE_CHECK_ALL               15u
 #define ROM_LINEAR_EXACT_POD                 1u   /* section LINMODEL */
 #define ROM_LINEAR_BALANCED                  2u   /* section LINMODEL */
-#define ROM_N_SECTION_TAGS                   31u   /* rom_resources.c's SECTION_RULES has one row each */
+#define ROM_N_SECTION_TAGS                   37u   /* rom_resources.c's SECTION_RULES has one row each */
 /* the model kinds' tables of operations (rom_internal.h RomKindOps; rom_resources.c's list of kinds) */
 #define ROM_KIND_TABLES(X) X(rom_frozen_kind) X(rom_exact_kind)
 

@@ -271,23 +271,31 @@ static const SectionRule SECTION_RULES[] = {
     {"SHPARAM", "error bounds: c_ref and the residual pieces' norms", rom_bound_check_section},
     {"SHDENSE", "error bounds: the dense block's growth rate", rom_bound_check_section},
     {"SHEGRAM", "error bounds: the dense block's coupling residual's Gram matrix", rom_bound_check_section},
+    {"PCSCAL", "port channel: its sizes and scalars", rom_channel_check_section},
+    {"PCLAM", "port channel: each plane's block", rom_channel_check_section},
+    {"PCB", "port channel: each plane's input gains", rom_channel_check_section},
+    {"PCC", "port channel: the output rows over the planes", rom_channel_check_section},
+    {"PCD", "port channel: the static correction and the bound's gains", rom_channel_check_section},
+    {"PCPROBE", "port channel: the probes' weights and rho0", rom_channel_check_section},
     {NULL, NULL, NULL},        /* end of the table */
 };
 /* one rule per tag of the layout (harness/fmu/layout.py SECTIONS; tests/test_fmu_constants.py compares the tags) */
 typedef char section_rules_cover_the_layout[sizeof SECTION_RULES / sizeof SECTION_RULES[0] == ROM_N_SECTION_TAGS + 1
                                             ? 1 : -1];
 
-/* the model's ports from its sections: all three sections or none */
+/* the model's ports from its sections: all three sections or none, PORTB none with the port channel (section
+ * PCSCAL: the channel takes every port force, the kind none) */
 static RomStatus ports_prepare(RomModel *m, char *message, size_t message_size) {
     const RomSection *x = rom_section(m, "PORTX"), *b = rom_section(m, "PORTB"), *c = rom_section(m, "PORTC");
     if (!x && !b && !c) return ROM_OK;
-    if (!x || !b || !c) {
+    if (!b && x && c && rom_section(m, "PCSCAL")) b = NULL;
+    else if (!x || !b || !c) {
         return rom_fail(message, message_size, "resources: the port sections PORTX, PORTB, PORTC come together "
                         "(%s missing)", !x ? "PORTX" : (!b ? "PORTB" : "PORTC"));
     }
     m->n_ports = x->cols;
     m->port_x = x->data;
-    m->port_B = b->data;
+    m->port_B = b ? b->data : NULL;
     m->port_C = c->data;
     return ROM_OK;
 }
@@ -460,6 +468,7 @@ RomStatus rom_model_load_memory(const void *data, size_t size, RomModel **out, c
     RomStatus status = kind->load(m, payload, doubles, message, message_size);
     if (status == ROM_OK) status = read_sections(m, bytes, sections_start, n_sections, message, message_size);
     if (status == ROM_OK) status = ports_prepare(m, message, message_size);
+    if (status == ROM_OK) status = rom_channel_prepare(m, message, message_size);
     if (status == ROM_OK && kind->sections_ready) status = kind->sections_ready(m, message, message_size);
     if (status == ROM_OK) status = rom_bound_prepare(m, message, message_size);
     if (status != ROM_OK) {
@@ -523,6 +532,7 @@ void rom_model_free(RomModel *model) {
     if (!model) return;
     if (model->ops && model->ops->model_free) model->ops->model_free(model);
     free(model->bound.storage_);
+    free(model->channel.storage_);
     free(model->sections_storage_);
     free(model);
 }

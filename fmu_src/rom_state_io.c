@@ -92,8 +92,9 @@ static size_t kind_doubles(const RomModel *m) {
     return (size_t)m->k_v + m->k_rho + m->ops->state_doubles(m) + 2 + rom_bound_state_doubles(m);
 }
 
+/* after the ports: the port channel's block (rom_port.c; none without it) */
 static size_t state_doubles(const RomModel *m) {
-    return kind_doubles(m) + PARAM_VALUES + port_values(m);
+    return kind_doubles(m) + PARAM_VALUES + port_values(m) + rom_channel_state_doubles(m);
 }
 
 size_t rom_state_serialized_size(const RomModel *m) {
@@ -120,6 +121,7 @@ void rom_state_serialize(const RomState *s, uint32_t tag, unsigned char *buffer)
     unsigned char *cursor = blocks_put(s, buffer + ROM_STATE_HEADER_SIZE);
     cursor = params_put(s, cursor);
     cursor = ports_put(s, cursor);
+    cursor = rom_channel_state_put(s, cursor);
     rom_put_u32(cursor, rom_crc32(buffer, size - 4));
 }
 
@@ -195,6 +197,9 @@ RomStatus rom_state_check(const RomModel *m, const unsigned char *buffer, size_t
     if (m->ops->state_check && m->ops->state_check(m, block, message, message_size) != ROM_OK) return ROM_FAIL;
     const unsigned char *params = buffer + ROM_STATE_HEADER_SIZE + 8 * kind_doubles(m);
     if (check_params_in_state(m, params, message, message_size) != ROM_OK) return ROM_FAIL;
+    if (rom_channel_state_check(m, params + 8 * (PARAM_VALUES + port_values(m)), message, message_size) != ROM_OK) {
+        return ROM_FAIL;
+    }
     const unsigned char *cursor = buffer + ROM_STATE_HEADER_SIZE;
     for (size_t i = 0; i < state_doubles(m); i++, cursor += 8) {
         if (!isfinite(rom_get_f64(cursor))) {
@@ -214,6 +219,7 @@ RomStatus rom_state_deserialize(RomState *s, const unsigned char *buffer, size_t
     s->f = rom_get_f64(buffer + ROM_STATE_F);
     const unsigned char *cursor = blocks_get(s, buffer + ROM_STATE_HEADER_SIZE);
     cursor = params_get(s, cursor);
-    (void)ports_get(s, cursor);
+    cursor = ports_get(s, cursor);
+    (void)rom_channel_state_get(s, cursor);
     return ROM_OK;
 }

@@ -281,9 +281,9 @@ SECTIONS: dict[str, Section] = {
     "A0": Section("linear model: the part of A without c or d", kind="linear"),
     "AC": Section("linear model: the part of A per unit c", kind="linear"),
     "AD": Section("linear model: the part of A per unit d", kind="linear"),
-    # mechanical ports (sphrom.sph.ports), all three or none
+    # mechanical ports (sphrom.sph.ports), all three or none (PORTB none with the port channel, sections PC*)
     "PORTX": Section("port positions x/L (1 x P)"),
-    "PORTB": Section("port input rows at area 1 (P x k_v frozen, P x k linear)"),
+    "PORTB": Section("port input rows at area 1 (P x k_v frozen, P x k linear); absent with the port channel"),
     "PORTC": Section("port velocity rows (P x k_v)"),
     # the certified error bounds' shadow (harness/rom/bounds.py sections, fmu_src/rom_bound.c), all or none
     "SHSCAL": Section("error bounds: the shadow's sizes and scalars",
@@ -300,6 +300,15 @@ SECTIONS: dict[str, Section] = {
     "SHPIECE": Section("error bounds: the planes' pieces per unit c and per unit d"),
     "SHPARAM": Section("error bounds: c_ref and the residual pieces' norms",
                        columns=("c_ref", "e_const_v", "e_const_e", "e_c_v", "e_c_e", "e_d_v", "e_d_e")),
+    # the port channel (harness/rom/port_channel.py, fmu_src/rom_port.c), all or none; with it no PORTB
+    "PCSCAL": Section("port channel: its sizes and scalars", columns=("planes", "ports", "rows", "truncated", "dx")),
+    "PCLAM": Section("port channel: each plane's 2 x 2 block [[-d, s], [-s, 0]] (planes x 4)"),
+    "PCB": Section("port channel: each plane's input gains per unit F_j / area (planes x P)"),
+    "PCC": Section("port channel: the output rows over the planes (3 n_probes + P rows: v probes, e at their "
+                   "particles, v ports)"),
+    "PCD": Section("port channel: per row the truncated planes' static correction, then their bound's gains "
+                   "(rows x 2P)"),
+    "PCPROBE": Section("port channel: the probes' weights and rho0", columns=("pw0", "pw1", "rho0_0", "rho0_1")),
     # ... a shadow of one dense block (a damping d that is not uniform) adds these two
     "SHDENSE": Section("error bounds: the dense block's growth rate", columns=("mu",)),
     "SHEGRAM": Section("error bounds: the dense block's coupling residual's Gram matrix"),
@@ -356,6 +365,9 @@ STATE_BLOCKS = (
     ("c", "1", "the parameter c [kg m^-1 s^-2] (0 without section PARAMS)"),
     ("d", "1", "the parameter d [s^-1] (0 without section PARAMS)"),
     ("ports", "with ports", "area [m^2], F_port[P] [N], port_driven (0 or 1), dF_port/dt[P] [N s^-1]"),
+    ("channel", "with the port channel (sections PC*)", "its planes p[n], q[n], the inputs' variation tv[P] and "
+     "last values u[P], the step count, port_impedance [N s m^-1], a_port[P] [N], b_port[P] [N], the force held "
+     "over the last step of the wave form[P] [N] (rom_port.c)"),
 )
 def resource_offset(kind, field):
     """The byte offset in model.bin of ``field`` of the own header of ``kind`` (a kind's name)."""

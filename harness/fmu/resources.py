@@ -53,9 +53,15 @@ def __getattr__(name):
 
 
 def port_sections(ops):
-    """The tagged sections of a model with ports (PORTX, PORTB, PORTC; module docstring), {} without."""
+    """The tagged sections of a model with ports (PORTX, PORTB, PORTC; module docstring), {} without; with the port
+    channel (``ops.channel``, :mod:`sphrom.rom.port_channel`) PORTX, PORTC (the model's own part of v_port) and the
+    channel's sections PC*, no PORTB (the channel takes every port force)."""
     if not ops.ports:
         return {}
+    if ops.channel is not None:
+        from ..rom.port_channel import sections
+        return {"PORTX": np.asarray(ops.ports, float)[None, :], "PORTC": np.asarray(ops.Cp, float),
+                **sections(ops.channel)}
     return {"PORTX": np.asarray(ops.ports, float)[None, :], "PORTB": np.asarray(ops.Bp, float),
             "PORTC": np.asarray(ops.Cp, float)}
 

@@ -284,7 +284,7 @@ def gap_cuts(sig, rel=1e-9):
 
 
 def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, force=None, T=None,
-                 target=SHADOW_TARGET, order=None, max_order=MAX_ORDER):
+                 target=SHADOW_TARGET, order=None, max_order=MAX_ORDER, port_inputs=True):
     """The certified shadow of the FMUs of ``problem`` at ``probes`` (and ``ports``) (module docstring).
 
     Parameters
@@ -308,6 +308,9 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
     max_order : int
         The largest k_s (without ports, or with ports and N > :data:`PORT_ALL_PLANES`; with ports and N <= that,
         every plane: k_s = 2N).
+    port_inputs : bool
+        False: the port velocity rows without the port input columns (an FMU whose port channel takes the port
+        forces, :mod:`sphrom.rom.port_channel`; the shadow then certifies the response to f and the initial state).
 
     Returns
     -------
@@ -320,7 +323,7 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
     K, U, sig, W = _coupling(problem)
     t_svd = time.perf_counter() - t_start
     C, row_e, pw, prho0 = output_rows(problem, probes, ports)
-    Bcols = input_columns(problem, ports)
+    Bcols = input_columns(problem, ports if port_inputs else ())
     x0 = np.concatenate([np.sqrt(problem.rho0) * problem.v0, np.zeros(n)])
     d = np.asarray(problem.d, float)
     uniform_d = bool(np.all(d == d[0]))
@@ -358,7 +361,7 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
     limit = max(1, max_order // 2)
     if order is not None:
         chosen = int(order)
-    elif len(ports) and n <= PORT_ALL_PLANES and invariant:      # (a dense shadow keeps its own cap)
+    elif len(ports) and port_inputs and n <= PORT_ALL_PLANES and invariant:   # (a dense shadow keeps its own cap)
         # a port's force and velocity are kernel-localized: their complement terms fall only like log(N / k_s)
         # (less than 10x from k_s = 40 to 160 on damped_forced: tests/test_fmu_error_bounds.py), far above any port
         # response; every plane makes the complement empty and the bound |model - truth| up to round-off, at O(N)
@@ -639,12 +642,14 @@ DENSE_MAX_ORDER = 160       # the largest k_s of an FMU's dense shadow (its resi
 N_SCALARS = 12              # columns of section SHSCAL
 
 
-def fmu_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, force=None, T=None):
+def fmu_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, force=None, T=None, port_inputs=True):
     """The shadow of an FMU's outputs, or None where the C core cannot certify it: more than
     :data:`FMU_MAX_PARTICLES` particles (the dense singular value decomposition of the coupling), or a parametric
     model whose c or d is not uniform.  ``parametric``: the shadow of a parametric FMU (:mod:`sphrom.rom.parametric`,
     uniform c and d), its planes in pieces about the scene's c (c_ref).  A damping d that is not uniform gives the
-    dense fallback (one Galerkin block on the planes, the complement by the energy; module docstring)."""
+    dense fallback (one Galerkin block on the planes, the complement by the energy; module docstring).
+    ``port_inputs`` False: the port rows without the port input columns (the port channel takes the port forces,
+    :mod:`sphrom.rom.port_channel`)."""
     d = np.asarray(problem.d, float)
     if d.size > FMU_MAX_PARTICLES:
         return None
@@ -652,7 +657,7 @@ def fmu_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, for
         return None
     uniform_d = bool(np.all(d == d[0]))
     return build_shadow(problem, probes, ports, parametric=parametric, scale_v=scale_v, force=force, T=T,
-                        max_order=MAX_ORDER if uniform_d else DENSE_MAX_ORDER)
+                        max_order=MAX_ORDER if uniform_d else DENSE_MAX_ORDER, port_inputs=port_inputs)
 
 
 def growth_rate(blocks):

@@ -274,10 +274,14 @@ def exact_model(scene, k, probes, progress=True, problem=None, model="exact", po
     from ...rom.registry import get_model
     from ..make.steps import model_basis
 
+    from ...rom.port_channel import attach, model_ports
     spec = get_model(model)
     basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem, made=made)
+    own_ports, options, channel = model_ports(problem, ports, build_options)
     lin = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction,
-                     **({"ports": tuple(ports)} if ports else {}), **(build_options or {}))
+                     **({"ports": own_ports} if own_ports else {}), **options)
+    if channel:                     # the portless model and the port channel, which takes every port force
+        lin = attach(lin, problem, ports, probes)
     data = exact_data(lin, problem, probes=probes, bound=linear_bound(lin, scene))
     return data, lin, problem, basis
 
@@ -290,18 +294,24 @@ def balanced_model(scene, k, probes, order_tolerance=None, problem=None, model="
     and truncated at order ``k`` (or the order ``order_tolerance`` gives; the default
     tolerance when both are None); :func:`sphrom.fmu.resources.balanced_data`.
     """
+    from ...rom.port_channel import attach, model_ports
     from ...rom.registry import get_model
     from ...sph.solver import build_problem
 
     problem = problem or build_problem(scene)
+    own_ports, options, channel = model_ports(problem, ports, build_options)
+    if channel:                     # balanced for the port velocities as outputs; the channel takes the port forces
+        options["port_outputs"] = tuple(ports)
     try:
         ops = get_model(model).build(problem, None, k, k, order_tolerance=None if k is not None else order_tolerance,
-                                     probes=probes, **({"ports": tuple(ports)} if ports else {}),
-                                     **(build_options or {}))
+                                     probes=probes, **({"ports": own_ports} if own_ports else {}),
+                                     **options)
     except ValueError as exc:
         field_name, _, detail = str(exc).partition(": ")
         from ...errors import FieldError
         raise FieldError("k" if field_name == "order" else field_name, detail) from None
+    if channel:
+        ops = attach(ops, problem, ports, probes)
     return balanced_data(ops, problem), ops, problem
 
 

@@ -41,12 +41,16 @@ PORT_INTEGRATOR = "symplectic"
 
 def default_integrator(scene, ports=()):
     """The time integrator of a time-stepped FMU given none: the scene's, but :data:`PORT_INTEGRATOR` (ρ then v)
-    for an FMU with ports.  A port couples the bar to components outside, and the coupled system is stable when
-    the FMU adds no energy (passivity, docs/fmu/ports.md); explicit Euler multiplies each mode's energy by
-    1 + (ω dt)² a step, symplectic Euler keeps a modified energy of the undamped bar.  Measured (``sphrom bench
+    for an FMU with ports whose port forces enter its basis (a damping that varies along the bar: no port channel,
+    :mod:`sphrom.rom.port_channel`).  A port couples the bar to components outside, and the coupled system is
+    stable when the FMU adds no energy (passivity, docs/fmu/ports.md); explicit Euler multiplies each mode's energy
+    by 1 + (ω dt)² a step, symplectic Euler keeps a modified energy of the undamped bar.  Measured (``sphrom bench
     inputs``, tenmode with a constant port force for 10 s): the full SPH with explicit Euler is 0.1 off the
-    linear SPH integrated exactly in time, with symplectic Euler 9e-6."""
-    return PORT_INTEGRATOR if len(ports) else scene.sph.integrator
+    linear SPH integrated exactly in time, with symplectic Euler 9e-6.  With the port channel the port forces never
+    reach the model's own state (the channel, exact in time, takes them): the model is the portless one, with the
+    scene's integrator."""
+    from ...rom.port_channel import scene_applies
+    return PORT_INTEGRATOR if len(ports) and not scene_applies(scene) else scene.sph.integrator
 
 
 def check_options(scene, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaults.PROBES, fmi=2, integrator=None,
