@@ -16,7 +16,8 @@ static const RomBlob STATE = {"serialized state", ROM_STATE_MAGIC, "an sphrom FM
 
 /* The state's values in the order they are serialized: a^v [k_v], a^rho [k_rho] (linear: a, b), the kind's
  * block (state_put: frozen n_freeze, dt, M^T (k_v rows of k_rho) and F [k_v]; linear the forced part X [k]), then
- * t0 and the input rate.  The parameters a state carries follow them (params_put, params_get). */
+ * t0 and the input rate, the error bounds' shadow and the port channel.  The parameters a state carries follow them
+ * (params_put, params_get). */
 static unsigned char *blocks_put(const RomState *s, unsigned char *cursor) {
     const RomModel *m = s->model;
     cursor = rom_put_f64s(cursor, s->av, m->k_v);
@@ -24,7 +25,8 @@ static unsigned char *blocks_put(const RomState *s, unsigned char *cursor) {
     cursor = m->ops->state_put(s, cursor);
     const double times[2] = {s->t0, s->f_rate};
     cursor = rom_put_f64s(cursor, times, 2);
-    return rom_bound_state_put(s, cursor);             /* the error bounds' shadow (rom_bound.c) */
+    cursor = rom_bound_state_put(s, cursor);           /* the error bounds' shadow (rom_bound.c) */
+    return rom_channel_state_put(s, cursor);           /* the port channel (rom_port.c) */
 }
 
 static const unsigned char *blocks_get(RomState *s, const unsigned char *cursor) {
@@ -36,7 +38,8 @@ static const unsigned char *blocks_get(RomState *s, const unsigned char *cursor)
     cursor = rom_get_f64s(cursor, times, 2);
     s->t0 = times[0];
     s->f_rate = times[1];
-    return rom_bound_state_get(s, cursor);
+    cursor = rom_bound_state_get(s, cursor);
+    return rom_channel_state_get(s, cursor);
 }
 
 /* With ports, after the state's blocks: area, F_port[n_ports], port_driven (0 or 1; the slot was reserved and
@@ -87,14 +90,14 @@ static const unsigned char *params_get(RomState *s, const unsigned char *cursor)
     return cursor;
 }
 
-/* the blocks (blocks_put), in doubles */
+/* the blocks (blocks_put), in doubles: the last is the port channel's (rom_port.c; none without it) */
 static size_t kind_doubles(const RomModel *m) {
-    return (size_t)m->k_v + m->k_rho + m->ops->state_doubles(m) + 2 + rom_bound_state_doubles(m);
+    return (size_t)m->k_v + m->k_rho + m->ops->state_doubles(m) + 2 + rom_bound_state_doubles(m) +
+           rom_channel_state_doubles(m);
 }
 
-/* after the ports: the port channel's block (rom_port.c; none without it) */
 static size_t state_doubles(const RomModel *m) {
-    return kind_doubles(m) + PARAM_VALUES + port_values(m) + rom_channel_state_doubles(m);
+    return kind_doubles(m) + PARAM_VALUES + port_values(m);
 }
 
 size_t rom_state_serialized_size(const RomModel *m) {
@@ -121,7 +124,6 @@ void rom_state_serialize(const RomState *s, uint32_t tag, unsigned char *buffer)
     unsigned char *cursor = blocks_put(s, buffer + ROM_STATE_HEADER_SIZE);
     cursor = params_put(s, cursor);
     cursor = ports_put(s, cursor);
-    cursor = rom_channel_state_put(s, cursor);
     rom_put_u32(cursor, rom_crc32(buffer, size - 4));
 }
 
@@ -197,7 +199,7 @@ RomStatus rom_state_check(const RomModel *m, const unsigned char *buffer, size_t
     if (m->ops->state_check && m->ops->state_check(m, block, message, message_size) != ROM_OK) return ROM_FAIL;
     const unsigned char *params = buffer + ROM_STATE_HEADER_SIZE + 8 * kind_doubles(m);
     if (check_params_in_state(m, params, message, message_size) != ROM_OK) return ROM_FAIL;
-    if (rom_channel_state_check(m, params + 8 * (PARAM_VALUES + port_values(m)), message, message_size) != ROM_OK) {
+    if (rom_channel_state_check(m, params - 8 * rom_channel_state_doubles(m), message, message_size) != ROM_OK) {
         return ROM_FAIL;
     }
     const unsigned char *cursor = buffer + ROM_STATE_HEADER_SIZE;
@@ -219,7 +221,6 @@ RomStatus rom_state_deserialize(RomState *s, const unsigned char *buffer, size_t
     s->f = rom_get_f64(buffer + ROM_STATE_F);
     const unsigned char *cursor = blocks_get(s, buffer + ROM_STATE_HEADER_SIZE);
     cursor = params_get(s, cursor);
-    cursor = ports_get(s, cursor);
-    (void)rom_channel_state_get(s, cursor);
+    (void)ports_get(s, cursor);
     return ROM_OK;
 }

@@ -361,13 +361,13 @@ STATE_BLOCKS = (
     ("f_rate", "1", "df/dt over a step [m s^-3] (0: held)"),
     ("bounds", "with the error bounds (sections SH*)", "the shadow w[k_s], the inputs' variation tv[m] and last "
      "values u[m], the integrals of |B_perp u| and |w|, the step count, started (0 or 1) (rom_bound.c)"),
+    ("channel", "with the port channel (sections PC*)", "its planes p[n], q[n], the inputs' variation tv[P] and "
+     "last values u[P], the step count, port_impedance [N s m^-1], a_port[P] [N], b_port[P] [N], the force held "
+     "over the last step of the wave form[P] [N] (rom_port.c)"),
     ("initial_state_scale", "1", "the parameter"),
     ("c", "1", "the parameter c [kg m^-1 s^-2] (0 without section PARAMS)"),
     ("d", "1", "the parameter d [s^-1] (0 without section PARAMS)"),
     ("ports", "with ports", "area [m^2], F_port[P] [N], port_driven (0 or 1), dF_port/dt[P] [N s^-1]"),
-    ("channel", "with the port channel (sections PC*)", "its planes p[n], q[n], the inputs' variation tv[P] and "
-     "last values u[P], the step count, port_impedance [N s m^-1], a_port[P] [N], b_port[P] [N], the force held "
-     "over the last step of the wave form[P] [N] (rom_port.c)"),
 )
 def resource_offset(kind, field):
     """The byte offset in model.bin of ``field`` of the own header of ``kind`` (a kind's name)."""
