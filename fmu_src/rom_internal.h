@@ -180,13 +180,16 @@ static inline uint32_t rom_port_inputs(const RomModel *m) {
     return m->port_B ? m->n_ports : 0u;
 }
 
-/* the kind's part of v_port_j: sum_q port_C[j][q] a^v_q from 0.0 in q order (rom.h rom_v_port adds the port
- * channel's part) */
+/* the kind's part of v_port_j: sum_q port_C[j][q] a^v_q from 0.0 in q order, and on over a^rho for a linear
+ * model whose rows act on the whole state (flag output_rows: PORTC is P x (k_v + k_rho)); rom.h rom_v_port adds
+ * the port channel's part */
 static inline double rom_port_velocity(const RomState *s, uint32_t j) {
-    const size_t kv = s->model->k_v;
-    const double *row = s->model->port_C + (size_t)j * kv;
+    const RomModel *m = s->model;
+    const size_t kv = m->k_v, kr = (m->flags & ROM_FLAG_OUTPUT_ROWS) ? m->k_rho : 0;
+    const double *row = m->port_C + (size_t)j * (kv + kr);
     double v = 0.0;
     for (size_t q = 0; q < kv; q++) v += row[q] * s->av[q];
+    for (size_t q = 0; q < kr; q++) v += row[kv + q] * s->ar[q];
     return v;
 }
 

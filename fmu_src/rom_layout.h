@@ -16,7 +16,9 @@
  * flags: bit 0 damping (a damping term: frozen D present; linear A not skew); bit 1 input (an input: frozen row p,
  *     linear column B present); bit 2 schur (linear only: the real Schur form Q, S of a skew A present (never with
  *     damping)); bit 3 output_rows (linear only: the probe rows Pv, Pe act on the whole state z (the balanced
- *     model: k_e = 0))
+ *     model: k_e = 0)); bit 4 blocks (linear only: A is block diagonal, the model in its real eigen-coordinates (1
+ *     x 1 blocks and 2 x 2 blocks [[a, w], [-w, a]], A[i+1][i] != 0 starting one; with output_rows, never with
+ *     schur))
  *
  * kind 1, frozen: the frozen-coefficient model (eqs. 2.19-2.24); reads the flags damping, input
  *   its header (24 bytes, at the start of its body):
@@ -38,7 +40,7 @@
  *     probe_x[n_probes]: the probe positions x/L in [0, 1]
  *
  * kind 2, linear: the linear models (exact POD, balanced): dz/dt = A z + B f, exact in time; reads the flags
- *     damping, input, schur, output_rows
+ *     damping, input, schur, output_rows, blocks
  *   its float64 arrays, row-major, in this order:
  *     z0[k]: the initial state z = (a; b), k = k_v + k_rho
  *     A[k][k]: dz/dt = A z + B f
@@ -81,7 +83,7 @@
  *     AD: linear model: the part of A per unit d (linear kind only)
  *     PORTX: port positions x/L (1 x P)
  *     PORTB: port input rows at area 1 (P x k_v frozen, P x k linear); absent with the port channel
- *     PORTC: port velocity rows (P x k_v)
+ *     PORTC: port velocity rows (P x k_v; P x k over the whole state with output_rows)
  *     SHSCAL: error bounds: the shadow's sizes and scalars; columns order, planes, inputs, rows, n_tab, dt_tab,
  *         y0_norm, x0_norm, e_norm, b_norm, tolerance, reserved
  *     SHLAM: error bounds: the shadow's planes
@@ -162,6 +164,7 @@
 #define ROM_FLAG_INPUT                       2u   /* an input */
 #define ROM_FLAG_SCHUR                       4u   /* linear only */
 #define ROM_FLAG_OUTPUT_ROWS                 8u   /* linear only */
+#define ROM_FLAG_BLOCKS                      16u   /* linear only */
 #define ROM_MODEL_FROZEN                     1u   /* frozen */
 #define ROM_MODEL_EXACT_LINEAR               2u   /* linear */
 #define ROM_FROZEN_HEAD_SIZE                 24   /* the frozen kind's own header */

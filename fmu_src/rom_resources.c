@@ -228,7 +228,9 @@ static RomStatus check_port_x(const RomModel *m, const RomSection *s, char *mess
 
 static RomStatus check_port_rows(const RomModel *m, const RomSection *s, char *message, size_t message_size) {
     const RomSection *x = rom_section(m, "PORTX");
-    const uint32_t cols = strcmp(s->tag, "PORTB") == 0 ? m->input_width : m->k_v;
+    /* PORTC: over a^v, or over the whole state of a linear model with output rows (k_v + k_e) */
+    const uint32_t cols = strcmp(s->tag, "PORTB") == 0 ? m->input_width
+                          : m->k_v + ((m->flags & ROM_FLAG_OUTPUT_ROWS) ? m->k_rho : 0u);
     if (!x) return rom_fail(message, message_size, "resources: section '%s' without 'PORTX'", s->tag);
     if (s->rows != x->cols || s->cols != cols) {
         return rom_fail(message, message_size, "resources: section '%s' is %u x %u, expected %u x %u (ports x "

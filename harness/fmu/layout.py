@@ -134,6 +134,8 @@ FLAGS = {
     "input": (2, "an input: frozen row p, linear column B present"),
     "schur": (4, "linear only: the real Schur form Q, S of a skew A present (never with damping)"),
     "output_rows": (8, "linear only: the probe rows Pv, Pe act on the whole state z (the balanced model: k_e = 0)"),
+    "blocks": (16, "linear only: A is block diagonal, the model in its real eigen-coordinates (1 x 1 blocks and 2 x 2 "
+                   "blocks [[a, w], [-w, a]], A[i+1][i] != 0 starting one; with output_rows, never with schur)"),
 }
 
 
@@ -207,7 +209,7 @@ KINDS = (
          Array("pw", ("n_probes", 2), None, "the interpolation weights of the two particles"),
          Array("prho0", ("n_probes", 2), None, "rho0 at the two particles [kg m^-3]"),
          Array("probe_x", ("n_probes",), None, "the probe positions x/L in [0, 1]")),
-        ("damping", "input", "schur", "output_rows"),
+        ("damping", "input", "schur", "output_rows", "blocks"),
         (("X", "k", "the forced part of z (the whole z without the Schur form)"),),
         "rho_j = sum_m pw[j][m] prho0[j][m] / (1 + e_m); a file without output_rows is read as rows over z that are "
         "zero over the block they skip"),
@@ -284,7 +286,7 @@ SECTIONS: dict[str, Section] = {
     # mechanical ports (sphrom.sph.ports), all three or none (PORTB none with the port channel, sections PC*)
     "PORTX": Section("port positions x/L (1 x P)"),
     "PORTB": Section("port input rows at area 1 (P x k_v frozen, P x k linear); absent with the port channel"),
-    "PORTC": Section("port velocity rows (P x k_v)"),
+    "PORTC": Section("port velocity rows (P x k_v; P x k over the whole state with output_rows)"),
     # the certified error bounds' shadow (harness/rom/bounds.py sections, fmu_src/rom_bound.c), all or none
     "SHSCAL": Section("error bounds: the shadow's sizes and scalars",
                       columns=("order", "planes", "inputs", "rows", "n_tab", "dt_tab", "y0_norm", "x0_norm", "e_norm",

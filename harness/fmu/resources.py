@@ -30,8 +30,8 @@ FORMAT_VERSION = layout.FORMAT_VERSION
 MODEL_FROZEN = layout.KIND_BY_NAME["frozen"].number
 MODEL_EXACT_LINEAR = layout.KIND_BY_NAME["linear"].number
 INTEGRATORS = dict(layout.INTEGRATORS)
-FLAG_DAMPING, FLAG_INPUT, FLAG_SCHUR, FLAG_OUTPUT_ROWS = (layout.FLAGS[n][0] for n in
-                                                           ("damping", "input", "schur", "output_rows"))
+FLAG_DAMPING, FLAG_INPUT, FLAG_SCHUR, FLAG_OUTPUT_ROWS, FLAG_BLOCKS = (
+    layout.FLAGS[n][0] for n in ("damping", "input", "schur", "output_rows", "blocks"))
 LINEAR_EXACT_POD, LINEAR_BALANCED = layout.LINEAR_MODELS["exact_pod"], layout.LINEAR_MODELS["balanced"]
 TOKEN_SIZE = layout.TOKEN_SIZE
 SECTION_TAG_SIZE = layout.SECTION_TAG_SIZE
