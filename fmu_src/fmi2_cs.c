@@ -5,7 +5,9 @@
  * What is FMI 2 here: the table of the modes in which each function may be
  * called (Instantiated -> InitializationMode -> StepComplete -> Terminated, and
  * Error, from which only fmi2Reset, fmi2FreeInstance and fmi2SetFMUstate lead
- * out), the types and statuses, the logger (messages are printf formats with
+ * out; there, as the standard's table allows, the values, the output
+ * derivatives and the FMU state may still be read, for debugging), the types
+ * and statuses, the logger (messages are printf formats with
  * '#' starting a value reference: '%' and '#' are escaped), the file URI of the
  * resources, and the status queries.
  */
@@ -14,25 +16,27 @@
 #include "fmi2Functions.h"
 #include "instance.h"
 
-/* Where each function may be called: the whole state machine.  Functions not
- * listed take no instance (version, platform, instantiate, free). */
+/* Where each function may be called: the whole state machine (FMI 2.0.4, section 4.2.4's table of calling
+ * sequences: fmi2Get<type>, fmi2GetRealOutputDerivatives, fmi2GetFMUstate and its serialization are allowed in the
+ * Error state, their values "usable for debugging only").  Functions not listed take no instance (version,
+ * platform, instantiate, free). */
 #define FMI2_CALLS(X) \
-    X(SetDebugLogging,          MODES_NOT_ERROR) \
+    X(SetDebugLogging,          MODES_ANY) \
     X(SetupExperiment,          MODE_INSTANTIATED) \
     X(EnterInitializationMode,  MODE_INSTANTIATED) \
     X(ExitInitializationMode,   MODE_INITIALIZATION) \
     X(Terminate,                MODE_STEP) \
     X(Reset,                    MODES_ANY) \
-    X(GetValues,                MODES_READABLE)                  /* fmi2GetReal, Integer, Boolean, String */ \
+    X(GetValues,                MODES_READABLE | MODE_ERROR)     /* fmi2GetReal, Integer, Boolean, String */ \
     X(SetValues,                MODES_SETTABLE)                  /* fmi2SetReal, Integer, Boolean, String */ \
-    X(GetFMUstate,              MODES_NOT_ERROR) \
+    X(GetFMUstate,              MODES_ANY) \
     X(SetFMUstate,              MODES_ANY) \
     X(FreeFMUstate,             MODES_ANY) \
-    X(SerializedFMUstateSize,   MODES_NOT_ERROR) \
-    X(SerializeFMUstate,        MODES_NOT_ERROR) \
+    X(SerializedFMUstateSize,   MODES_ANY) \
+    X(SerializeFMUstate,        MODES_ANY) \
     X(DeSerializeFMUstate,      MODES_ANY) \
     X(SetRealInputDerivatives,  MODE_INITIALIZATION | MODE_STEP) \
-    X(GetRealOutputDerivatives, MODES_READABLE) \
+    X(GetRealOutputDerivatives, MODES_READABLE | MODE_ERROR) \
     X(DoStep,                   MODE_STEP) \
     X(GetStatus,                MODE_STEP | MODE_TERMINATED)     /* and fmi2Get<type>Status */ \
     X(NotProvided,              MODES_NOT_ERROR)                 /* derivatives, fmi2CancelStep */
@@ -62,7 +66,8 @@ static void emit2(InstanceCallback logger, void *environment, const char *name, 
 }
 
 static const InstanceVersion FMI2 = {
-    "StepComplete", "fmi2Reset, fmi2FreeInstance, fmi2SetFMUstate", "fmi2ExitInitializationMode", "fmuGUID",
+    "StepComplete", "fmi2Reset, fmi2FreeInstance, fmi2SetFMUstate; for debugging fmi2Get<type>, "
+    "fmi2GetRealOutputDerivatives, fmi2GetFMUstate and its serialization", "fmi2ExitInitializationMode", "fmuGUID",
     1 /* file URI */, 0 /* no time variable */, emit2};
 
 /* ------------------------------------------------------------------------ */

@@ -15,26 +15,29 @@
 #include "fmi3Functions.h"
 #include "instance.h"
 
-/* Where each function may be called: the whole state machine.  Functions not
- * listed take no instance (version, instantiate, free). */
+/* Where each function may be called: the whole state machine.  FMI 3.0 (section 2.3.1): a function that returns
+ * fmi3Error in the super state FMU State Setable takes the FMU to Terminated, where the values, the output
+ * derivatives and the FMU state may be read ("for debugging purposes" after an error); the instance keeps its
+ * Error mode (its messages say why), which allows what Terminated allows, and leaves it by fmi3Reset,
+ * fmi3FreeInstance or fmi3SetFMUState.  Functions not listed take no instance (version, instantiate, free). */
 #define FMI3_CALLS(X) \
-    X(SetDebugLogging,                  MODES_NOT_ERROR) \
+    X(SetDebugLogging,                  MODES_ANY) \
     X(EnterInitializationMode,          MODE_INSTANTIATED) \
     X(ExitInitializationMode,           MODE_INITIALIZATION) \
     X(Terminate,                        MODE_STEP) \
     X(Reset,                            MODES_ANY) \
-    X(GetValues,                        MODES_READABLE)      /* fmi3Get<type> */ \
+    X(GetValues,                        MODES_READABLE | MODE_ERROR)      /* fmi3Get<type> */ \
     X(SetValues,                        MODES_SETTABLE)      /* fmi3Set<type> */ \
-    X(GetNumberOfVariableDependencies,  MODES_NOT_ERROR) \
-    X(GetVariableDependencies,          MODES_NOT_ERROR) \
-    X(GetFMUState,                      MODES_NOT_ERROR) \
+    X(GetNumberOfVariableDependencies,  MODES_ANY) \
+    X(GetVariableDependencies,          MODES_ANY) \
+    X(GetFMUState,                      MODES_ANY) \
     X(SetFMUState,                      MODES_ANY) \
     X(FreeFMUState,                     MODES_ANY) \
-    X(SerializedFMUStateSize,           MODES_NOT_ERROR) \
-    X(SerializeFMUState,                MODES_NOT_ERROR) \
+    X(SerializedFMUStateSize,           MODES_ANY) \
+    X(SerializeFMUState,                MODES_ANY) \
     X(DeserializeFMUState,              MODES_ANY) \
     X(DoStep,                           MODE_STEP) \
-    X(GetOutputDerivatives,             MODES_READABLE) \
+    X(GetOutputDerivatives,             MODES_READABLE | MODE_ERROR) \
     X(NotProvided,                      MODES_NOT_ERROR)     /* events, clocks, derivatives, model exchange */
 
 INSTANCE_CALL_TABLE(FMI3_CALLS);
@@ -64,7 +67,9 @@ static void emit3(InstanceCallback logger, void *environment, const char *name, 
 }
 
 static const InstanceVersion FMI3 = {
-    "StepMode", "fmi3Reset, fmi3FreeInstance, fmi3SetFMUState", "fmi3ExitInitializationMode", "instantiationToken",
+    "StepMode", "fmi3Reset, fmi3FreeInstance, fmi3SetFMUState; for debugging, as in Terminated, fmi3Get<type>, "
+    "fmi3GetOutputDerivatives, fmi3GetFMUState and its serialization", "fmi3ExitInitializationMode",
+    "instantiationToken",
     0 /* folder path */, 1 /* time variable */, emit3};
 
 /* ------------------------------------------------------------------------ */

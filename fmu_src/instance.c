@@ -16,6 +16,7 @@
 #define TAG_INITIALIZATION 2u
 #define TAG_STEP 3u
 #define TAG_TERMINATED 4u
+#define TAG_ERROR 5u            /* taken in the Error state (for debugging): restored, the instance is in it again */
 
 /* ------------------------------------------------------------------------ */
 /* logging                                                                   */
@@ -718,6 +719,7 @@ static uint32_t mode_tag(InstanceMode mode) {
         case MODE_INITIALIZATION: return TAG_INITIALIZATION;
         case MODE_STEP: return TAG_STEP;
         case MODE_TERMINATED: return TAG_TERMINATED;
+        case MODE_ERROR: return TAG_ERROR;
         default: return TAG_INSTANTIATED;
     }
 }
@@ -727,6 +729,7 @@ static InstanceMode tag_mode(uint32_t tag) {
         case TAG_INITIALIZATION: return MODE_INITIALIZATION;
         case TAG_STEP: return MODE_STEP;
         case TAG_TERMINATED: return MODE_TERMINATED;
+        case TAG_ERROR: return MODE_ERROR;
         default: return MODE_INSTANTIATED;
     }
 }

@@ -119,7 +119,7 @@ void instance_free(Instance *inst);
 void instance_report(const InstanceVersion *version, InstanceCallback logger, void *environment, const char *name,
                      const char *format, ...)
 #if defined(__GNUC__)
-    __attribute__((format(printf, 5, 6)))
+    __attribute__((format(ROM_PRINTF_FORMAT, 5, 6)))
 #endif
     ;
 
@@ -131,13 +131,13 @@ int instance_allowed(Instance *inst, const char *fn, unsigned modes);
 /* Log "fn: message" as an error, enter the Error state, return INSTANCE_ERROR */
 InstanceStatus instance_error(Instance *inst, const char *fn, const char *format, ...)
 #if defined(__GNUC__)
-    __attribute__((format(printf, 3, 4)))
+    __attribute__((format(ROM_PRINTF_FORMAT, 3, 4)))
 #endif
     ;
 /* Log a message of a category when the category is enabled */
 void instance_log(Instance *inst, InstanceStatus status, uint32_t category, const char *format, ...)
 #if defined(__GNUC__)
-    __attribute__((format(printf, 4, 5)))
+    __attribute__((format(ROM_PRINTF_FORMAT, 4, 5)))
 #endif
     ;
 InstanceStatus instance_set_debug_logging(Instance *inst, const char *fn, int logging_on, size_t n_categories,

@@ -71,7 +71,7 @@ void rom_state_reset(RomState *s, double t_start) {
     s->initial_state_scale = 1.0;
     apply_initial_state(s);
     m->ops->reset(s);
-    s->t0 = t_start;          /* the start time and the input rate (0: f held) */
+    s->elapsed = 0.0;         /* the time since the start and the input rate (0: f held) */
     s->f_rate = 0.0;
     s->n = 0;
     s->time = t_start;
@@ -88,10 +88,12 @@ void rom_state_reset(RomState *s, double t_start) {
 
 RomStatus rom_set_start_time(RomState *s, double t_start, char *message, size_t message_size) {
     if (!s) return rom_fail(message, message_size, "no state");
-    if (!isfinite(t_start)) return rom_fail(message, message_size, "start time %g is not finite", t_start);
+    if (!isfinite(t_start)) {
+        return rom_fail(message, message_size, "startTime = %g s is out of range (allowed: a finite number)", t_start);
+    }
     if (s->n != 0) return rom_fail(message, message_size, "the start time can be set only before the first step");
     s->time = t_start;
-    s->t0 = t_start;
+    s->elapsed = 0.0;
     return ROM_OK;
 }
 
@@ -165,9 +167,10 @@ int32_t rom_n_freeze(const RomState *s) {
 
 RomStatus rom_set_initial_state_scale(RomState *s, double scale, char *message, size_t message_size) {
     if (!s) return rom_fail(message, message_size, "no state");
-    if (!isfinite(scale)) {
-        return rom_fail(message, message_size, "parameter initial_state_scale = %g is out of range (allowed: a "
-                        "finite real number; 1 the scene's initial state, 0 at rest)", scale);
+    if (!(fabs(scale) <= ROM_MAX_INITIAL_STATE_SCALE)) {
+        return rom_fail(message, message_size, "parameter initial_state_scale = %g is out of range (allowed: "
+                        "[-%g, %g]; 1 the scene's initial state, 0 at rest)", scale, ROM_MAX_INITIAL_STATE_SCALE,
+                        ROM_MAX_INITIAL_STATE_SCALE);
     }
     if (s->n != 0) {
         return rom_fail(message, message_size, "parameter initial_state_scale can be set only before the first step");
@@ -195,20 +198,40 @@ int64_t rom_expm_count(const RomState *s) {
 /* stepping, outputs                                                         */
 /* ------------------------------------------------------------------------ */
 
-RomStatus rom_do_step(RomState *s, double t_comm, double h, char *message, size_t message_size) {
-    if (!s) return rom_fail(message, message_size, "no state");
+/* doStep's rules on the time (rom.h ROM_TIME_ULPS; harness/fmu/kinds/__init__.py step_error repeats them): ROM_OK,
+ * or ROM_FAIL with the message naming the rule.  Every tolerance is the time's own rounding or the step's, so the
+ * rules are the same at any start time. */
+static RomStatus check_step(const RomState *s, double t_comm, double h, char *message, size_t message_size) {
     if (!isfinite(t_comm)) {
         return rom_fail(message, message_size, "currentCommunicationPoint = %g is not finite", t_comm);
     }
-    if (fabs(t_comm - s->time) > ROM_TIME_TOLERANCE * fmax(1.0, fabs(s->time))) {
-        return rom_fail(message, message_size,
-                        "currentCommunicationPoint = %.17g s does not match the FMU's time %.17g s", t_comm, s->time);
-    }
     if (!(isfinite(h) && h > 0)) {
         return rom_fail(message, message_size,
-                        "communicationStepSize = %g s at t = %.9g s is out of range (allowed: a finite number > 0)",
+                        "communicationStepSize = %g s at t = %.17g s is out of range (allowed: a finite number > 0)",
                         h, t_comm);
     }
+    const double ulps = ROM_TIME_ULPS * 2.220446049250313e-16 * fmax(fabs(t_comm), fabs(s->time));
+    if (!(fabs(t_comm - s->time) <= ulps + ROM_TIME_STEP_TOLERANCE * h)) {
+        return rom_fail(message, message_size, "currentCommunicationPoint = %.17g s does not match the FMU's time "
+                        "%.17g s (allowed: equal to within %.0f units in the last place, plus %g of the step)", t_comm,
+                        s->time, ROM_TIME_ULPS, ROM_TIME_STEP_TOLERANCE);
+    }
+    const double t_new = t_comm + h;
+    if (!isfinite(t_new) || !isfinite(s->elapsed + h)) {
+        return rom_fail(message, message_size, "communicationStepSize = %g s at t = %.17g s takes the time beyond "
+                        "the largest number (t + h is not finite)", h, t_comm);
+    }
+    if (!(t_new > t_comm)) {
+        return rom_fail(message, message_size, "communicationStepSize = %g s at t = %.17g s is below the time's "
+                        "resolution there (%g s): t + h would equal t", h, t_comm,
+                        nextafter(fabs(t_comm), INFINITY) - fabs(t_comm));
+    }
+    return ROM_OK;
+}
+
+RomStatus rom_do_step(RomState *s, double t_comm, double h, char *message, size_t message_size) {
+    if (!s || !s->body) return rom_fail(message, message_size, "no state");
+    if (check_step(s, t_comm, h, message, message_size) != ROM_OK) return ROM_FAIL;
     for (uint32_t j = 0; j < rom_port_inputs(s->model); j++) {     /* a port force acts on the kind's state (never
                                                                      * with the port channel, which takes them) */
         if (s->port_force[j] != 0.0 || s->port_rate[j] != 0.0) s->port_driven = 1.0;
@@ -223,6 +246,7 @@ RomStatus rom_do_step(RomState *s, double t_comm, double h, char *message, size_
     if (status != ROM_OK) return status;
     rom_bound_step(s, h);                                           /* the bounds' shadow over the same inputs */
     s->time = t_comm + h;
+    s->elapsed = s->elapsed + h;                                    /* the steps' sum: exact at any start time */
     if (s->f_rate != 0.0) s->f = s->f + s->f_rate * h;              /* the input continues linearly */
     for (uint32_t j = 0; j < s->model->n_ports; j++) {              /* and the port forces */
         if (s->port_rate[j] != 0.0) s->port_force[j] = s->port_force[j] + s->port_rate[j] * h;
@@ -252,7 +276,9 @@ RomStatus rom_advance(RomState *s, int64_t n_steps, char *message, size_t messag
         return rom_fail(message, message_size, "%s has no internal step (rom_do_step advances it over any step)",
                         s->model->ops->name);
     }
-    return s->model->ops->advance(s, n_steps, message, message_size);
+    const RomStatus status = s->model->ops->advance(s, n_steps, message, message_size);
+    if (status == ROM_OK) s->elapsed = s->elapsed + (double)n_steps * rom_dt(s);     /* as the kind's time */
+    return status;
 }
 
 /* the kind's output plus the port channel's part (rom_port.c; without the channel the kind's own bits) */

@@ -34,13 +34,15 @@
  * kind's body (the frozen kind's own header: integrator, n_pairs, the default n_freeze, dt; then its arrays),
  * tagged sections, the token and a CRC-32; the state: a header (magic, version, mode tag, sizes, token, step
  * count, time, f), then a^v, a^rho, the kind's block (the frozen kind's starts with its parameters n_freeze and
- * dt), t0, df/dt, the error bounds' shadow, the parameters (initial_state_scale, c, d), the ports, a CRC-32.
+ * dt), elapsed, df/dt, the error bounds' shadow, the parameters (initial_state_scale, c, d), the ports, a CRC-32.
  * Units: time [s], velocity [m s^-1], density [kg m^-3], force per mass [m s^-2].
  *
- * Versions: this binary reads model.bin format ROM_FORMAT_VERSION and serialized states of ROM_STATE_VERSION
- * only.  A state restores only into the FMU whose token it carries, and the token hashes the model.bin bytes: a
- * state of an older format was written by an FMU of an older model.bin format, which no FMU of this binary
- * has, so it could never be restored here; such a state is refused naming its version and saying so.
+ * Versions: this binary reads model.bin format ROM_FORMAT_VERSION and serialized states of ROM_STATE_VERSION and
+ * ROM_STATE_OLDEST_VERSION (format 4, of the same model.bin format: it held the start time t0 where format 5 holds
+ * the time since the start, read as time - t0).  A state restores only into the FMU whose token it carries, and
+ * the token hashes the model.bin bytes: a state of a format older than that was written by an FMU of an older
+ * model.bin format, which no FMU of this binary has, so it could never be restored here; such a state is refused
+ * naming its version and saying so.
  *
  * Both are read through one envelope check (rom_bytes.c): size, magic, version,
  * sizes, token, checksum.
@@ -52,6 +54,18 @@
 #include <stdint.h>
 
 #include "rom_layout.h"      /* the formats: generated from harness/fmu/layout.py */
+
+/* The printf dialect the message functions below are checked against: a MinGW-w64 build uses MinGW's C99 printf
+ * (CMakeLists.txt defines __USE_MINGW_ANSI_STDIO: %zu, %lld, %a as on Linux), which its <stdio.h> names
+ * __MINGW_PRINTF_FORMAT; GCC's "printf" there would mean the Microsoft runtime's. */
+#if defined(__MINGW32__)
+#include <stdio.h>
+#endif
+#if defined(__MINGW_PRINTF_FORMAT)
+#define ROM_PRINTF_FORMAT __MINGW_PRINTF_FORMAT
+#else
+#define ROM_PRINTF_FORMAT printf
+#endif
 
 #ifdef __cplusplus
 extern "C" {
@@ -72,8 +86,14 @@ extern "C" {
 #define ROM_MESSAGE_SIZE 1024
 #define ROM_RESOURCE_FILE "model.bin"
 
-/* doStep's rules (harness/fmu/check/python_cosim.py repeats them) */
-#define ROM_TIME_TOLERANCE 1e-9       /* relative: currentCommunicationPoint must equal the FMU's time */
+/* doStep's rules (harness/fmu/kinds/__init__.py step_error and same_step, harness/fmu/kinds/frozen.py split_step
+ * repeat them).  Time is exact at any start: every comparison of a step is relative to the step, never to |t|.
+ * currentCommunicationPoint must equal the FMU's time to the time's own rounding: within ROM_TIME_ULPS units in the
+ * last place of the larger |t| (an importer's t = n H against the FMU's t + H) plus ROM_TIME_STEP_TOLERANCE x h;
+ * t + h must be finite and later than t (a step below the time's resolution would leave the time where it is). */
+#define ROM_TIME_ULPS 16.0
+#define ROM_TIME_STEP_TOLERANCE 1e-9  /* relative to the step h */
+#define ROM_SAME_STEP 1e-9            /* relative to the step: two step lengths this close are one (the cached maps) */
 #define ROM_STEP_ROUNDING 1e-9        /* relative: h/dt within this of an integer is that many whole steps */
 #define ROM_SHORT_STEP_MIN 1e-12      /* a remainder below this x dt is no step */
 /* The work of one doStep is bounded (a model with internal steps, the frozen one): its internal step dt is
@@ -88,6 +108,9 @@ extern "C" {
 
 /* The FMU's value references and start values are not the core's: fmu_src/fmu_variables.h, generated from the
  * variable table harness/fmu/variables.py. */
+/* |initial_state_scale| at most (harness/defaults.py MAX_INITIAL_STATE_SCALE, the variable table's min and max): the
+ * reduced models are built on the scene's own deviation from rest (scale 1); 1e308 overflowed the outputs */
+#define ROM_MAX_INITIAL_STATE_SCALE 1e3
 #define ROM_MAX_PARTICLES 1000000u   /* particles of a frozen model's particle refresh (sections PART*) */
 
 typedef enum { ROM_OK = 0, ROM_FAIL = 1 } RomStatus;
@@ -103,43 +126,50 @@ typedef struct {
  * (rom_fail.c: the core, the instance layer and sph.c report failures through it; never exported) */
 RomStatus rom_fail(char *message, size_t message_size, const char *format, ...)
 #if defined(__GNUC__)
-    __attribute__((format(printf, 3, 4)))
+    __attribute__((format(ROM_PRINTF_FORMAT, 3, 4)))
 #endif
     ;
 
 /* A model kind's table of operations (rom_internal.h): what the frozen and the linear models do differently */
 typedef struct RomKindOps RomKindOps;
 
-/* The certified error bounds' shadow (rom_bound.c; sections SHSCAL, SHLAM, SHB, SHC, SHW0, SHGRAM, SHROW,
- * SHPROBE, and SHPIECE, SHPARAM of a parametric model, SHDENSE, SHEGRAM of one dense block, written by
- * harness/rom/bounds.py): the full linear SPH's lowest `planes` invariant planes, stepped
- * exactly, and per output row r the certified bound of |row_r . (x - S w)| (docs/science/error-bounds.md).
+/* The certified error bounds' shadow (rom_bound.c; sections SHSCAL, SHLAM, SHB, SHC, SHW0, SHROW, SHRATE, SHPROBE,
+ * SHTAB and SHTERR with an initial state outside the shadow, SHPIECE, SHPARAM, SHCPL of a parametric model, written
+ * by harness/rom/bounds.py): the full linear SPH's lowest `planes` invariant planes, stepped exactly, and per
+ * output row r the shadow's value (with the complement's quasi-static feedthrough and its tabulated free response)
+ * and the certified bound of the rest (docs/science/error-bounds.md).
  * Rows: v at each probe, e at the two particles of each probe (P + 2 j + m), each port's velocity (3 P + j).
- * Inputs: f [m s^-2], then F_j / area [N m^-2].  order 0: the model has no bounds. */
+ * Inputs: f [m s^-2], then F_j / area [N m^-2] (f alone with a port channel).  order 0: the model has no bounds. */
 typedef struct {
-    uint32_t order, planes, inputs, rows, n_tab;   /* k_s = 2 planes, m, 3 P + ports, table length */
-    uint32_t dense;            /* 1: one dense block (sections SHDENSE, SHEGRAM: a damping d that is not uniform) */
-    const double *egram;       /* dense: [order][order] E^T E of the coupling residual */
-    double dt_tab;             /* [s] the envelope table's spacing: G(t_b), t_b = b dt_tab, valid for t >= t_b */
-    double y0_norm, x0_norm;   /* the initial state's part outside the shadow, the whole initial state */
-    double e_norm, b_norm;     /* the residual operator's norm (round-off), the shadow's input norm */
-    double mu;                 /* the largest growth rate of a plane (<= round-off: planes are dissipative) */
+    uint32_t order, planes, inputs, rows;  /* k_s = 2 planes, m, 3 P + ports */
+    uint32_t groups;           /* G: decay-rate groups of the complement's transient */
+    uint32_t nodes, q, blocks; /* the free response table: nodes (0: none), intervals per error block, blocks */
+    uint32_t row_len;          /* 1 + 2 m + m G + G: |c_r|, D_r, static gains, transient gains, tail */
+    uint32_t n_cpl;            /* a parametric shadow's complement planes */
+    double h_tab;              /* [s] the table's node spacing */
+    double x0_norm;            /* the whole initial state's norm */
+    double e_norm, b_norm;     /* the planes' residual norm (round-off), the shadow's input norm */
+    double mu;                 /* the largest growth rate of a plane's symmetric part (0 at least) */
     double tolerance;          /* error_tolerance's default [m s^-1] */
-    const double *lam;         /* [planes][4] each plane's 2 x 2 block; dense: [order][order] the block */
+    const double *lam;         /* [planes][4] each plane's 2 x 2 block */
     const double *B;           /* [order][inputs] */
     const double *C;           /* [rows][order] */
     const double *w0;          /* [order] the shadow's initial state (initial_state_scale 1) */
-    const double *gram;        /* [inputs][inputs] B_perp^T B_perp */
-    const double *row;         /* [rows][1 + inputs + n_tab]: |c_r|, sup|H| per input (< 0: none), G(t_b) */
+    const double *row;         /* [rows][row_len] */
+    const double *rates;       /* [groups] [s^-1] */
+    const double *tab;         /* [2 rows][nodes]: g_r at the nodes, then g_r' */
+    const double *terr;        /* [rows][blocks] */
     const double *probe;       /* [n_probes][4] the probe's weights and rho0 at its two particles */
-    /* a parametric shadow (sections SHPIECE, SHPARAM, with PARAMS; NULL piece: none): lam = SHLAM + c piece[0:4]
-     * + d piece[4:8] per plane, assembled at the state's c and d (rom_model_assemble) into storage_, with mu,
-     * e_norm and e_scale = sqrt(c_ref / c), the factor of |c_r| and G of the e rows (rows P .. 3P - 1) */
+    /* a parametric shadow (sections SHPIECE, SHPARAM, SHCPL, with PARAMS; NULL piece: none): lam = SHLAM + c
+     * piece[0:4] + d piece[4:8] per plane, and the rows' terms and rates computed from the complement planes, at the
+     * state's c and d (rom_model_assemble) into storage_, with mu, e_norm and e_scale = sqrt(c_ref / c), the
+     * factor of |c_r| of the e rows (rows P .. 3P - 1) */
     const double *piece;       /* [planes][8] */
+    const double *cpl;         /* [n_cpl][2 + 2 rows + inputs]: sigma, eta, c_hat (rows x 2), b (inputs) */
     double c_ref;              /* [kg m^-1 s^-2] the c of the shadow's energy coordinates */
     double e_piece[6];         /* |E_p| of the pieces (const, c, d), their v rows and e rows */
     double e_scale;            /* 1 without pieces */
-    double *storage_;          /* [planes][4] the assembled planes (NULL without pieces), owned by the model */
+    double *storage_;          /* [planes][4] planes, [rows][row_len] row terms, [groups] rates; owned by the model */
 } RomBoundModel;
 
 /* The port channel (rom_port.c; sections PCSCAL, PCLAM, PCB, PCC, PCD, PCPROBE, written by
@@ -202,7 +232,8 @@ typedef struct {
     double f;               /* input, held over a communication step [m s^-2] */
     double initial_state_scale;  /* the initial velocity coordinates (frozen) or z (linear) are this times the
                                   * model's; the density coordinates of the frozen model stay (rho0 is rest) */
-    double t0;              /* the start time [s] (of the exact model's free response) */
+    double elapsed;         /* the time since the start [s]: the sum of the steps taken, exact at any start time
+                             * (the exact model's free response, the error bounds' table) */
     double f_rate;          /* the input rate df/dt over a step [m s^-3] (0: input held) */
     void *storage_;         /* one allocation behind av, ar */
     /* parametric models (section PARAMS): the chosen stiffness c [kg m^-1 s^-2] and damping d [s^-1],
@@ -250,14 +281,16 @@ ROM_API RomStatus rom_set_n_freeze(RomState *state, int64_t n_freeze, char *mess
 /* their values: dt [s] (NaN without internal steps or for NULL), n_freeze (0 likewise) */
 ROM_API double rom_dt(const RomState *state);
 ROM_API int32_t rom_n_freeze(const RomState *state);
-/* Any finite real, before the first step: the initial state becomes scale x the model's deviation from rest
+/* Any real in [-ROM_MAX_INITIAL_STATE_SCALE, ROM_MAX_INITIAL_STATE_SCALE], before the first step: the initial
+ * state becomes scale x the model's deviation from rest
  * (frozen: a^v(0) = scale a_v0, a^rho(0) = a_rho0; linear: z(0) = scale z0, z = 0 being rest) */
 ROM_API RomStatus rom_set_initial_state_scale(RomState *state, double scale, char *message, size_t message_size);
 
 /* Advance from t_comm by h > 0, reaching t_comm + h exactly: whole internal
  * steps of dt and one shortened last step.  Fails (message names the time) on
- * a time mismatch, a bad h, a non-finite or runaway state, or a density <= 0
- * at a probe. */
+ * a time mismatch (ROM_TIME_ULPS), a bad h (not finite and > 0, t_comm + h not
+ * finite or not later than t_comm), a non-finite or runaway state, or a
+ * density <= 0 at a probe. */
 ROM_API RomStatus rom_do_step(RomState *state, double t_comm, double h, char *message, size_t message_size);
 /* 1 when the frozen model's internal step dt exceeds the communication step h (beyond
  * ROM_STEP_ROUNDING): rom_do_step then takes one internal step of length h */

@@ -1,32 +1,31 @@
 /*
  * The certified error bounds of every output (harness/rom/bounds.py builds the data; docs/science/error-bounds.md
  * derives them).  The truth is the full SPH of eqs. 2.10-2.11, exactly linear in J, in energy coordinates
- * x' = A x + B u from x(0) = s x0 (s = initial_state_scale).  With uniform damping A has invariant planes (one
- * per singular triplet of the coupling); the shadow keeps the lowest ones, w' = Lambda w + S^T B u, stepped here
- * exactly (each plane by the exponential of its augmented matrix, cached per step length), and per output row r
+ * x' = A x + B u from x(0) = s x0 (s = initial_state_scale), integrated exactly in time.  A is block diagonal in
+ * invariant planes; the shadow keeps the lowest ones, w' = Lambda w + B_s u, stepped here exactly (each plane by the
+ * exponential of its augmented matrix, cached per step length).  The planes it leaves out (the complement) add to
+ * output row r
  *
- *   |row_r . x(t) - C_r . w(t)| <= |s| min(G_r(t_b), |c_r| |y0|)                    (the rest's free response)
- *                                 + min(sum_i sup|H_ri| V_i(u), |c_r| int |B_perp u|)  (the rest's forced response)
- *                                 + |c_r| |E| int |w|                                (round-off of the planes)
- *                                 + |c_r| (1e-9 + 1e-15 n) (|w| + |s| |x0|)         (floating point)
+ *   s g_r(t) + D_r u(t-) + R_r(t):
  *
- * V_i(u) = |u_i(0)| + the total variation of u_i.  An output's bound is |model - shadow| + that (the density
- * through rho = sum_m pw rho0 / (1 + e_m), harness/rom/bounds.py output_bounds).  O(k_s (m + 1)) per doStep,
- * no N.  The same arithmetic as harness/rom/bounds.py run_shadow (not bit for bit: a bound, compared within
- * tolerances).
+ *   D_r u(t-)    their quasi-static response, exact: added to the shadow's row (SHROW's D);
+ *   g_r(t)       their free response from the initial state, a fixed function of time: tabulated (SHTAB, cubic
+ *                Hermite between nodes k h) with a certified error per block of intervals (SHTERR); after the
+ *                table (or without one) bounded by sum_g tail_rg exp(-alpha_g (t - t_end));
+ *   |R_r(t)|  <= sum_j static_rj |u_j(t-)| + sum_jg H_rjg V_jg(t), V_jg = int exp(-alpha_g (t - tau)) |du_j(tau)|
+ *                (the input's jumps and slopes weighted by the decay of group g, SHRATE): it saturates under a
+ *                persistent input;
  *
- * Without a uniform damping (section SHDENSE) the planes are not invariant: the shadow is one dense block (the
- * Galerkin model on them, SHLAM k_s x k_s), stepped by the exponential of its augmented matrix, O(k_s^2) per
- * doStep; G is |c_r| |y0| for all t, there is no sup|H|, mu comes from the file, and the residual term is
- * |c_r| int |E w| with E the true coupling residual (section SHEGRAM: E^T E), over each step h sqrt(Y^T Q Y)
- * (plus its round-off allowance), Q the exact quadratic form of the step (Van Loan's exponential, once per step
- * length, O(k_s^3)).
+ * plus |c_r| |E| int |w| (the planes' round-off) and |c_r| (1e-11 + 1e-15 n) (|w| + |s| |x0|) (floating point).
+ * An output's bound is |model - (shadow + feedthrough + table)| + that (the density through
+ * rho = sum_m pw rho0 / (1 + e_m), harness/rom/bounds.py output_bounds).  O(k_s m + m G) per doStep, no N.  The
+ * same arithmetic as harness/rom/bounds.py run_shadow (not bit for bit: a bound, compared within tolerances).
  *
- * A parametric model (sections SHPIECE, SHPARAM): the planes are affine in c and d about the scene's c_ref,
+ * A parametric model (sections SHPIECE, SHPARAM, SHCPL): the planes are affine in c and d about the scene's c_ref,
  * Lambda_i(c, d) = [[-d, (c / c_ref) sigma_i], [-sigma_i, 0]], assembled with the model's operators once c and d
- * are fixed (rom_bound_assemble); |c_r| and G of the e rows scale with sqrt(c_ref / c) (the energy norm at c),
- * |E| is the sum of its pieces' norms at (c, d), G is one all-time value and there is no sup|H| (the energy
- * alternative bounds the forced part).
+ * are fixed (rom_bound_assemble), and the complement's terms (D, the gains, two groups: the underdamped planes at
+ * d / 2, the others at the slowest rate among them, and the initial state's decaying Hoelder sums, no table) are
+ * computed there from the complement planes (harness/rom/bounds.py parametric_complement, the same formulas).
  */
 #include "rom_internal.h"
 #include "rom_numerics.h"
@@ -34,37 +33,38 @@
 #include <stdio.h>
 #include <stdlib.h>
 
-#define BOUND_ROUNDOFF 1e-9            /* harness/rom/bounds.py ROUNDOFF */
+#define BOUND_ROUNDOFF 1e-11           /* harness/rom/bounds.py ROUNDOFF */
 #define BOUND_ROUNDOFF_STEP 1e-15      /* ... ROUNDOFF_STEP */
+#define BOUND_SUM_ROUNDOFF 1e-12       /* ... SUM_ROUNDOFF */
+#define BOUND_DEFECT 1e-7              /* harness/rom/planes.py DEFECT */
 #define BOUND_CACHE 2                  /* step lengths whose plane maps are kept */
 #define BOUND_MAX_INPUTS (1u + ROM_MAX_PORTS)
-#define BOUND_QUAD_ROUNDOFF 1e-14      /* harness/rom/bounds.py QUAD_ROUNDOFF */
+#define BOUND_MAX_GROUPS 8u
 
 typedef struct {
     double h;                  /* 0: empty */
     int64_t used;
-    double *Phi;               /* [planes][4], or [k_s][k_s] for one dense block */
+    double *Phi;               /* [planes][4] */
     double *G0, *G1;           /* [order][inputs] */
-    double *Q;                 /* dense: [n][n], n = order + 2 inputs: int_0^h |E w|^2 = h Y^T Q Y, Y = (w, u, du) */
-    double q_allow;            /* dense: the form's round-off per |Y|^2, 1e-14 (trace(Q) + |F12|_1 |F22|_1) */
+    double decay[BOUND_MAX_GROUPS], slope[BOUND_MAX_GROUPS];   /* exp(-alpha h), (1 - exp(-alpha h)) / (alpha h) */
 } BoundCache;
 
 typedef struct {
     double *w, *w_new;         /* [order] the shadow's state, scratch */
-    double tv[BOUND_MAX_INPUTS];       /* |u(0)| + total variation of each input so far */
+    double V[BOUND_MAX_INPUTS * BOUND_MAX_GROUPS];    /* [inputs][groups] the weighted variations */
     double u_prev[BOUND_MAX_INPUTS];   /* the input at the end of the last step */
-    double p_int;              /* int |B_perp u| dt so far (Cauchy-Schwarz per step) */
-    double w_int;              /* int |w| dt so far (a bound); dense: int |E w| dt */
+    double w_int;              /* int |w| dt so far (a bound) */
     double steps;              /* steps taken (the round-off allowance) */
     double started;            /* 1 once w holds s w0 and its steps (the first doStep), 0 before */
+    double tail_tau;           /* the time since the start at which tail_decay holds (NaN: none) */
+    double tail_decay[BOUND_MAX_GROUPS];   /* exp(-alpha_g (tau - t_end)) there: the rows' tails after the table */
     BoundCache cache[BOUND_CACHE];
     int64_t clock;
-    double *work;              /* planes: [4][n][n], n = 2 + 2 inputs (the exponential's matrices); dense:
-                                * n = k_s + 2 inputs, M [n][n] then [4][2n][2n] (the residual's Van Loan) */
+    double *work;              /* [4][n][n], n = 2 + 2 inputs (the exponential's matrices) */
     void *storage_;
 } BoundState;
 
-static const char *const TAGS[] = {"SHSCAL", "SHLAM", "SHB", "SHC", "SHW0", "SHGRAM", "SHROW", "SHPROBE"};
+static const char *const TAGS[] = {"SHSCAL", "SHLAM", "SHB", "SHC", "SHW0", "SHROW", "SHRATE", "SHPROBE"};
 #define N_TAGS (sizeof TAGS / sizeof TAGS[0])
 
 RomStatus rom_bound_check_section(const RomModel *m, const RomSection *s, char *message, size_t message_size) {
@@ -97,9 +97,107 @@ static double plane_growth(const double *lam, uint32_t planes) {
     return mu;
 }
 
+/* ---- a parametric shadow's complement at (c, d) (harness/rom/bounds.py parametric_complement) ---- */
+
+/* the rows' sums of a parametric shadow's complement (the row terms of SHROW's layout, rom.h RomBoundModel) */
+typedef struct {
+    double *row;               /* [rows][row_len] being summed */
+    uint32_t rows, inputs, groups, row_len;
+} RowSums;
+
+/* one mode of group `group`: its transient gains |gamma'_r| bet_over_l[j] (bet_over_l[j] = |beta'_j| / |lambda|)
+ * into H_rjg and its free response's size |gamma'_r| eta (eta = |eta'|) into the tail G_rg */
+static void add_mode(RowSums *rs, uint32_t group, const double *gam, const double *bet_over_l, double eta) {
+    const uint32_t m = rs->inputs, G = rs->groups;
+    for (uint32_t r = 0; r < rs->rows; r++) {
+        double *row = rs->row + (size_t)r * rs->row_len;
+        for (uint32_t j = 0; j < m; j++) {
+            const double gj = gam[r] * bet_over_l[j];
+            if (gj > 0) row[1 + 2 * m + j * G + group] += gj;       /* inf stays inf: an unbounded transient */
+        }
+        row[1 + 2 * m + m * G + group] += gam[r] * eta;
+    }
+}
+
+/* the complement planes' terms at (c, d) into b->storage_'s rows and rates: per plane the block
+ * [[-d, st], [-st, 0]] in the energy coordinates of c (st = sqrt(c / c_ref) sigma, e coefficients times
+ * sqrt(c_ref / c)), its modes in normal form (harness/rom/planes.py plane_modes), group 0 the underdamped ones at
+ * d / 2, group 1 the others at the slowest of their rates */
+static RomStatus assemble_complement(RomBoundModel *b, double c, double d, char *message, size_t message_size) {
+    const uint32_t R = b->rows, m = b->inputs, G = 2, len = b->row_len, width = 2 + 2 * R + m;
+    double *rows = b->storage_ + 4 * (size_t)b->planes, *rates = rows + (size_t)R * len;
+    if (b->groups != G) return rom_fail(message, message_size, "resources: a parametric shadow has 2 groups");
+    for (uint32_t r = 0; r < R; r++) {
+        for (uint32_t k = 1; k < len; k++) rows[(size_t)r * len + k] = 0.0;
+    }
+    const double cs = sqrt(c / b->c_ref), es = sqrt(b->c_ref / c);
+    double slow = INFINITY;
+    RowSums rs = {rows, R, m, G, len};
+    double gam[2 * (3 * ROM_MAX_PROBES + ROM_MAX_PORTS)], bet[BOUND_MAX_INPUTS];
+    double *g2 = gam + R;
+    for (uint32_t i = 0; i < b->n_cpl; i++) {
+        const double *pl = b->cpl + (size_t)i * width;
+        const double st = cs * pl[0], eta = pl[1];
+        const double *ch = pl + 2, *bv = pl + 2 + 2 * R;
+        /* D: c^T (-L^-1) (b, 0) = -c_e b / st (any d) */
+        for (uint32_t r = 0; r < R; r++) {
+            for (uint32_t j = 0; j < m; j++) rows[(size_t)r * len + 1 + j] += -(es * ch[2 * r + 1]) * bv[j] / st;
+        }
+        const double half = -0.5 * d, disc = 0.25 * d * d - st * st, size = fmax(d, st);
+        if (fabs(disc) <= (BOUND_DEFECT * size) * (BOUND_DEFECT * size)) {      /* defective: no transform */
+            const double N0 = 0.5 * d + st, alpha = 0.25 * d;
+            const double scale = alpha > 0 && N0 > alpha ? (N0 / alpha) * exp(alpha / N0 - 1.0) :
+                                 (alpha > 0 ? 1.0 : INFINITY);
+            const double f2 = d * d + 2.0 * st * st, smin2 = 0.5 * (f2 - sqrt(fmax(f2 * f2 - 4.0 * pow(st, 4), 0.0)));
+            const double smin = sqrt(fmax(smin2, 0.0));
+            for (uint32_t r = 0; r < R; r++) gam[r] = hypot(ch[2 * r], es * ch[2 * r + 1]);
+            for (uint32_t j = 0; j < m; j++) bet[j] = fabs(bv[j]) > 0 ? fabs(bv[j]) * scale / smin : 0.0;
+            add_mode(&rs, 1, gam, bet, fabs(eta) * scale);
+            slow = fmin(slow, alpha);
+            continue;
+        }
+        if (disc < 0) {                 /* underdamped: T = [[st, 0], [d/2, w]], T^-1 = [[w, 0], [-d/2, st]] / (st w) */
+            const double w = sqrt(-disc);
+            for (uint32_t r = 0; r < R; r++) {
+                const double cv = ch[2 * r], ce = es * ch[2 * r + 1];
+                gam[r] = hypot(st * cv + 0.5 * d * ce, w * ce);                  /* |T^T c| */
+            }
+            for (uint32_t j = 0; j < m; j++) bet[j] = fabs(bv[j]) / (w * st);    /* |T^-1 (b, 0)| / |lambda| */
+            add_mode(&rs, 0, gam, bet, fabs(eta) / w);
+            continue;
+        }
+        /* overdamped: lambda_k = -d/2 +- sqrt(disc), v_k = (st, lambda_k + d) / |.|, two real modes */
+        const double r0 = sqrt(disc), lam[2] = {half + r0, half - r0};
+        double T[2][2];
+        for (int k = 0; k < 2; k++) {
+            const double n = hypot(st, lam[k] + d);
+            T[0][k] = st / n;
+            T[1][k] = (lam[k] + d) / n;
+        }
+        const double det = T[0][0] * T[1][1] - T[0][1] * T[1][0];
+        const double Ti[2][2] = {{T[1][1] / det, -T[0][1] / det}, {-T[1][0] / det, T[0][0] / det}};
+        for (int k = 0; k < 2; k++) {
+            for (uint32_t r = 0; r < R; r++) {
+                const double cv = ch[2 * r], ce = es * ch[2 * r + 1];
+                g2[r] = fabs(T[0][k] * cv + T[1][k] * ce);
+            }
+            for (uint32_t j = 0; j < m; j++) bet[j] = fabs(Ti[k][0] * bv[j]) / fabs(lam[k]);
+            add_mode(&rs, 1, g2, bet, fabs(Ti[k][0] * eta));
+            slow = fmin(slow, -lam[k]);
+        }
+    }
+    rates[0] = 0.5 * d;
+    rates[1] = fmin(isfinite(slow) ? slow : 0.5 * d, 0.5 * d);
+    for (uint32_t r = 0; r < R; r++) {
+        double *row = rows + (size_t)r * len;
+        for (uint32_t k = 1 + 2 * m; k < len; k++) row[k] *= 1.0 + BOUND_SUM_ROUNDOFF;
+    }
+    return ROM_OK;
+}
+
 /* a parametric shadow at (c, d): Lambda_i = SHLAM_i + c piece_i[0:4] + d piece_i[4:8] (harness/rom/bounds.py
  * Shadow.blocks, the same order), mu, |E(c, d)| = sum_p coef_p (E_p,v + sqrt(c / c_ref) E_p,e) (coef 1, c, d:
- * Shadow.residual_norm) and the e rows' scale sqrt(c_ref / c) (Shadow.dual_norms) */
+ * Shadow.residual_norm), the e rows' scale sqrt(c_ref / c) (Shadow.dual_norms) and the complement's terms */
 static RomStatus assemble_planes(RomBoundModel *b, const double *lam0, double c, double d, char *message,
                                  size_t message_size) {
     if (!b->piece || !b->storage_) return rom_fail(message, message_size, "the error bounds' shadow is not parametric");
@@ -120,22 +218,32 @@ static RomStatus assemble_planes(RomBoundModel *b, const double *lam0, double c,
     b->mu = plane_growth(b->storage_, b->planes);
     b->e_norm = e_norm;
     b->e_scale = sqrt(b->c_ref / c);
-    return ROM_OK;
+    return assemble_complement(b, c, d, message, message_size);
 }
 
-/* sections SHPIECE and SHPARAM (a parametric shadow: both, with PARAMS, or neither); assembled at PARAMS' start */
-static RomStatus prepare_pieces(RomModel *m, char *message, size_t message_size) {
+/* sections SHPIECE, SHPARAM, SHCPL (a parametric shadow: all three with PARAMS (SHCPL absent when every plane is
+ * kept), or none); assembled at PARAMS' start */
+static RomStatus prepare_pieces(RomModel *m, const RomSection *row_sec, const RomSection *rate_sec, char *message,
+                                size_t message_size) {
     RomBoundModel *b = &m->bound;
     const RomSection *piece = rom_section(m, "SHPIECE"), *parm = rom_section(m, "SHPARAM");
-    const RomSection *params = rom_section(m, "PARAMS");
+    const RomSection *cpl = rom_section(m, "SHCPL"), *params = rom_section(m, "PARAMS");
     b->e_scale = 1.0;
-    if (!piece && !parm) return ROM_OK;
-    if (!piece || !parm || !params || !b->order || b->dense) {
+    b->row = row_sec->data;
+    b->rates = rate_sec->data;
+    if (!piece && !parm && !cpl) {
+        if (b->n_cpl) return rom_fail(message, message_size, "resources: SHSCAL counts complement planes without "
+                                      "the parametric sections SHPIECE, SHPARAM, SHCPL");
+        return ROM_OK;
+    }
+    if (!piece || !parm || !params || (b->n_cpl > 0) != (cpl != NULL) || b->nodes) {
         return rom_fail(message, message_size, "resources: the error bounds' sections SHPIECE and SHPARAM come "
-                        "together, with the sections SH* and PARAMS (a parametric model), without SHDENSE");
+                        "together, with the sections SH*, PARAMS and SHCPL when SHSCAL counts complement planes, "
+                        "without SHTAB (a parametric model)");
     }
     if (shape(piece, b->planes, 8, message, message_size) != ROM_OK ||
-        shape(parm, 1, ROM_SHPARAM_COLUMNS, message, message_size) != ROM_OK) return ROM_FAIL;
+        shape(parm, 1, ROM_SHPARAM_COLUMNS, message, message_size) != ROM_OK ||
+        (cpl && shape(cpl, b->n_cpl, 2 + 2 * b->rows + b->inputs, message, message_size) != ROM_OK)) return ROM_FAIL;
     const double *v = parm->data;
     if (!(v[ROM_SHPARAM_C_REF] > 0)) {
         return rom_fail(message, message_size, "resources: section SHPARAM's c_ref = %g (allowed: > 0)",
@@ -147,9 +255,21 @@ static RomStatus prepare_pieces(RomModel *m, char *message, size_t message_size)
                             v[ROM_SHPARAM_E_CONST_V + i]);
         }
     }
-    b->storage_ = (double *)calloc(4 * (size_t)b->planes, sizeof(double));
+    for (uint32_t i = 0; cpl && i < b->n_cpl; i++) {
+        if (!(cpl->data[(size_t)i * cpl->cols] > 0)) {
+            return rom_fail(message, message_size, "resources: section SHCPL's sigma = %g (allowed: > 0: the null "
+                            "planes stay in the shadow)", cpl->data[(size_t)i * cpl->cols]);
+        }
+    }
+    const size_t count = 4 * (size_t)b->planes + (size_t)b->rows * b->row_len + b->groups;
+    b->storage_ = (double *)calloc(count, sizeof(double));
     if (!b->storage_) return rom_fail(message, message_size, "resources: out of memory (the error bounds' planes)");
+    double *rows = b->storage_ + 4 * (size_t)b->planes;
+    for (uint32_t r = 0; r < b->rows; r++) rows[(size_t)r * b->row_len] = row_sec->data[(size_t)r * b->row_len];
+    b->row = rows;
+    b->rates = rows + (size_t)b->rows * b->row_len;
     b->piece = piece->data;
+    b->cpl = cpl ? cpl->data : NULL;
     b->c_ref = v[ROM_SHPARAM_C_REF];
     for (size_t i = 0; i < 6; i++) b->e_piece[i] = v[ROM_SHPARAM_E_CONST_V + i];
     return assemble_planes(b, rom_section(m, "SHLAM")->data, params->data[1], params->data[4 + 1], message,
@@ -170,6 +290,27 @@ RomStatus rom_bound_assemble(RomModel *m, RomState *s, char *message, size_t mes
     return ROM_OK;
 }
 
+/* sections SHTAB and SHTERR (both or neither; SHSCAL's nodes > 0 with them) */
+static RomStatus prepare_table(RomModel *m, char *message, size_t message_size) {
+    RomBoundModel *b = &m->bound;
+    const RomSection *tab = rom_section(m, "SHTAB"), *terr = rom_section(m, "SHTERR");
+    if ((tab == NULL) != (terr == NULL) || (tab == NULL) != (b->nodes == 0)) {
+        return rom_fail(message, message_size, "resources: the error bounds' sections SHTAB and SHTERR come "
+                        "together, when SHSCAL's nodes > 0");
+    }
+    if (!tab) return ROM_OK;
+    if (!(b->h_tab > 0) || b->nodes < 2 || b->q < 1) {
+        return rom_fail(message, message_size, "resources: section SHSCAL's table (nodes %u, h %g s, q %u; allowed: "
+                        "nodes >= 2, h > 0, q >= 1)", b->nodes, b->h_tab, b->q);
+    }
+    b->blocks = (b->nodes - 1 + b->q - 1) / b->q;
+    if (shape(tab, 2 * b->rows, b->nodes, message, message_size) != ROM_OK ||
+        shape(terr, b->rows, b->blocks, message, message_size) != ROM_OK) return ROM_FAIL;
+    b->tab = tab->data;
+    b->terr = terr->data;
+    return ROM_OK;
+}
+
 RomStatus rom_bound_prepare(RomModel *m, char *message, size_t message_size) {
     memset(&m->bound, 0, sizeof m->bound);
     const RomSection *sec[N_TAGS];
@@ -179,76 +320,74 @@ RomStatus rom_bound_prepare(RomModel *m, char *message, size_t message_size) {
         found += sec[i] != NULL;
     }
     if (found == 0) {
-        if (rom_section(m, "SHPIECE") || rom_section(m, "SHPARAM") || rom_section(m, "SHDENSE") ||
-            rom_section(m, "SHEGRAM")) {
-            return rom_fail(message, message_size, "resources: the error bounds' sections SHPIECE, SHPARAM, "
-                            "SHDENSE or SHEGRAM without the sections SH*");
+        if (rom_section(m, "SHPIECE") || rom_section(m, "SHPARAM") || rom_section(m, "SHCPL") ||
+            rom_section(m, "SHTAB") || rom_section(m, "SHTERR")) {
+            return rom_fail(message, message_size, "resources: the error bounds' sections SHPIECE, SHPARAM, SHCPL, "
+                            "SHTAB or SHTERR without the sections SH*");
         }
         return ROM_OK;
     }
     if (found != N_TAGS) {
         return rom_fail(message, message_size, "resources: the error bounds' sections SHSCAL, SHLAM, SHB, SHC, SHW0, "
-                        "SHGRAM, SHROW, SHPROBE come together (%zu of %zu present)", found, (size_t)N_TAGS);
+                        "SHROW, SHRATE, SHPROBE come together (%zu of %zu present)", found, (size_t)N_TAGS);
     }
-    const RomSection *scal = sec[0], *dense = rom_section(m, "SHDENSE");
+    const RomSection *scal = sec[0];
     if (shape(scal, 1, ROM_SHSCAL_COLUMNS, message, message_size) != ROM_OK) return ROM_FAIL;
     const double *v = scal->data;
-    /* inputs: f and the port forces the kind takes (none with the port channel, which is exact for them and adds
-     * its own part and bound to each row: shadow_row) */
-    const uint32_t inputs = 1u + rom_port_inputs(m), rows = 3u * m->n_probes + m->n_ports;
+    /* the shadow's inputs: f and each port force, or f alone where a port channel carries the ports exactly */
+    const uint32_t all = 1u + m->n_ports, rows = 3u * m->n_probes + m->n_ports;
+    const int channel = rom_section(m, "PCSCAL") != NULL;
+    const int inputs_ok = v[ROM_SHSCAL_INPUTS] == (double)all || (channel && v[ROM_SHSCAL_INPUTS] == 1.0);
     if (!whole(v[ROM_SHSCAL_PLANES], 1, ROM_MAX_MODES) || v[ROM_SHSCAL_ORDER] != 2.0 * v[ROM_SHSCAL_PLANES] ||
-        v[ROM_SHSCAL_INPUTS] != (double)inputs || v[ROM_SHSCAL_ROWS] != (double)rows ||
-        !whole(v[ROM_SHSCAL_N_TAB], 1, 1e6) || !(v[ROM_SHSCAL_DT_TAB] > 0) || v[ROM_SHSCAL_Y0_NORM] < 0 ||
-        v[ROM_SHSCAL_X0_NORM] < 0 || v[ROM_SHSCAL_E_NORM] < 0 || v[ROM_SHSCAL_B_NORM] < 0 ||
-        v[ROM_SHSCAL_TOLERANCE] < 0) {
+        !inputs_ok || v[ROM_SHSCAL_ROWS] != (double)rows || !whole(v[ROM_SHSCAL_NODES], 0, 1e7) ||
+        !whole(v[ROM_SHSCAL_GROUPS], 1, BOUND_MAX_GROUPS) || !(v[ROM_SHSCAL_H_TAB] >= 0) ||
+        !whole(v[ROM_SHSCAL_Q_TAB], 1, 1e7) || !(v[ROM_SHSCAL_X0_NORM] >= 0) || !(v[ROM_SHSCAL_E_NORM] >= 0) ||
+        !(v[ROM_SHSCAL_B_NORM] >= 0) || !(v[ROM_SHSCAL_TOLERANCE] >= 0) || !whole(v[ROM_SHSCAL_CPLANES], 0, 1e7)) {
         return rom_fail(message, message_size, "resources: section SHSCAL (the error bounds' sizes) does not fit the "
-                        "model (%u inputs, %u output rows expected; planes 1 to %u)", inputs, rows, ROM_MAX_MODES);
+                        "model (%u inputs%s, %u output rows expected; planes 1 to %u, groups 1 to %u)", all,
+                        channel ? " or 1" : "", rows, ROM_MAX_MODES, BOUND_MAX_GROUPS);
     }
     RomBoundModel *b = &m->bound;
     const uint32_t planes = (uint32_t)v[ROM_SHSCAL_PLANES], order = 2u * planes;
-    const uint32_t n_tab = (uint32_t)v[ROM_SHSCAL_N_TAB];
-    const RomSection *egram = rom_section(m, "SHEGRAM");
-    if ((dense == NULL) != (egram == NULL)) {
-        return rom_fail(message, message_size, "resources: the error bounds' sections SHDENSE and SHEGRAM come "
-                        "together (one dense block)");
-    }
-    if (dense && (shape(dense, 1, 1, message, message_size) != ROM_OK || !(dense->data[0] >= 0))) {
-        return rom_fail(message, message_size, "resources: section SHDENSE (the error bounds' dense block's growth "
-                        "rate mu = %g s^-1) must be one number >= 0", dense->rows == 1 && dense->cols == 1 ?
-                        dense->data[0] : NAN);
-    }
-    if (egram && shape(egram, order, order, message, message_size) != ROM_OK) return ROM_FAIL;
-    if (shape(sec[1], dense ? order : planes, dense ? order : 4, message, message_size) != ROM_OK ||
+    const uint32_t inputs = (uint32_t)v[ROM_SHSCAL_INPUTS], groups = (uint32_t)v[ROM_SHSCAL_GROUPS];
+    b->order = order;
+    b->planes = planes;
+    b->inputs = inputs;
+    b->rows = rows;
+    b->groups = groups;
+    b->row_len = 1 + 2 * inputs + inputs * groups + groups;
+    b->nodes = (uint32_t)v[ROM_SHSCAL_NODES];
+    b->q = (uint32_t)v[ROM_SHSCAL_Q_TAB];
+    b->n_cpl = (uint32_t)v[ROM_SHSCAL_CPLANES];
+    b->h_tab = v[ROM_SHSCAL_H_TAB];
+    if (shape(sec[1], planes, 4, message, message_size) != ROM_OK ||
         shape(sec[2], order, inputs, message, message_size) != ROM_OK ||
         shape(sec[3], rows, order, message, message_size) != ROM_OK ||
         shape(sec[4], 1, order, message, message_size) != ROM_OK ||
-        shape(sec[5], inputs, inputs, message, message_size) != ROM_OK ||
-        shape(sec[6], rows, 1 + inputs + n_tab, message, message_size) != ROM_OK ||
-        shape(sec[7], m->n_probes, 4, message, message_size) != ROM_OK) return ROM_FAIL;
-    /* the largest eigenvalue of a block's symmetric part: the planes' here, the dense block's from the file */
-    const double mu = dense ? dense->data[0] : plane_growth(sec[1]->data, planes);
-    b->order = order;
-    b->planes = planes;
-    b->dense = dense != NULL;
-    b->egram = egram ? egram->data : NULL;
-    b->inputs = inputs;
-    b->rows = rows;
-    b->n_tab = n_tab;
-    b->dt_tab = v[ROM_SHSCAL_DT_TAB];
-    b->y0_norm = v[ROM_SHSCAL_Y0_NORM];
+        shape(sec[5], rows, b->row_len, message, message_size) != ROM_OK ||
+        shape(sec[6], 1, groups, message, message_size) != ROM_OK ||
+        shape(sec[7], m->n_probes, 4, message, message_size) != ROM_OK) {
+        memset(&m->bound, 0, sizeof m->bound);
+        return ROM_FAIL;
+    }
+    /* SHRATE's rates are >= 0 (a value rule of the layout, rom_resources.c check_values) */
     b->x0_norm = v[ROM_SHSCAL_X0_NORM];
     b->e_norm = v[ROM_SHSCAL_E_NORM];
     b->b_norm = v[ROM_SHSCAL_B_NORM];
     b->tolerance = v[ROM_SHSCAL_TOLERANCE];
-    b->mu = mu;
+    b->mu = plane_growth(sec[1]->data, planes);
     b->lam = sec[1]->data;
     b->B = sec[2]->data;
     b->C = sec[3]->data;
     b->w0 = sec[4]->data;
-    b->gram = sec[5]->data;
-    b->row = sec[6]->data;
     b->probe = sec[7]->data;
-    return prepare_pieces(m, message, message_size);
+    if (prepare_table(m, message, message_size) != ROM_OK ||
+        prepare_pieces(m, sec[5], sec[6], message, message_size) != ROM_OK) {
+        free(b->storage_);
+        memset(&m->bound, 0, sizeof m->bound);
+        return ROM_FAIL;
+    }
+    return ROM_OK;
 }
 
 int rom_has_bounds(const RomModel *m) {
@@ -261,25 +400,23 @@ RomStatus rom_bound_state_new(RomState *s) {
     if (!b->order) return ROM_OK;
     BoundState *bs = (BoundState *)calloc(1, sizeof(BoundState));
     if (!bs) return ROM_FAIL;
-    const size_t k = b->order, m = b->inputs, n = (b->dense ? k : 2) + 2 * m;   /* the augmented matrix's size */
-    const size_t nw = b->dense ? 2 * n : n;                                      /* the largest exponential */
-    size_t counts[3 + 4 * BOUND_CACHE] = {k, k, 4 * nw * nw + (b->dense ? n * n : 0)};   /* dense: M, then 4 (2n)^2 */
-    double **ptrs[3 + 4 * BOUND_CACHE] = {&bs->w, &bs->w_new, &bs->work};
+    const size_t k = b->order, m = b->inputs, n = 2 + 2 * m;   /* a plane's augmented matrix's size */
+    size_t counts[3 + 3 * BOUND_CACHE] = {k, k, 4 * n * n};
+    double **ptrs[3 + 3 * BOUND_CACHE] = {&bs->w, &bs->w_new, &bs->work};
     for (int c = 0; c < BOUND_CACHE; c++) {
-        counts[3 + 4 * c] = b->dense ? k * k : 4 * (size_t)b->planes;
-        counts[4 + 4 * c] = k * m;
-        counts[5 + 4 * c] = k * m;
-        counts[6 + 4 * c] = b->dense ? n * n : 1;
-        ptrs[3 + 4 * c] = &bs->cache[c].Phi;
-        ptrs[4 + 4 * c] = &bs->cache[c].G0;
-        ptrs[5 + 4 * c] = &bs->cache[c].G1;
-        ptrs[6 + 4 * c] = &bs->cache[c].Q;
+        counts[3 + 3 * c] = 4 * (size_t)b->planes;
+        counts[4 + 3 * c] = k * m;
+        counts[5 + 3 * c] = k * m;
+        ptrs[3 + 3 * c] = &bs->cache[c].Phi;
+        ptrs[4 + 3 * c] = &bs->cache[c].G0;
+        ptrs[5 + 3 * c] = &bs->cache[c].G1;
     }
-    bs->storage_ = rom_alloc_arrays(counts, ptrs, 3 + 4 * BOUND_CACHE);
+    bs->storage_ = rom_alloc_arrays(counts, ptrs, 3 + 3 * BOUND_CACHE);
     if (!bs->storage_) {
         free(bs);
         return ROM_FAIL;
     }
+    bs->tail_tau = NAN;
     s->bound = bs;
     return ROM_OK;
 }
@@ -298,93 +435,30 @@ void rom_bound_reset(RomState *s) {
     if (!bs) return;
     const size_t k = s->model->bound.order;
     memset(bs->w, 0, k * sizeof(double));
-    for (uint32_t i = 0; i < BOUND_MAX_INPUTS; i++) bs->tv[i] = bs->u_prev[i] = 0.0;
-    bs->p_int = bs->w_int = bs->steps = bs->started = 0.0;
+    for (uint32_t i = 0; i < BOUND_MAX_INPUTS * BOUND_MAX_GROUPS; i++) bs->V[i] = 0.0;
+    for (uint32_t i = 0; i < BOUND_MAX_INPUTS; i++) bs->u_prev[i] = 0.0;
+    bs->w_int = bs->steps = bs->started = 0.0;
+    bs->tail_tau = NAN;
     for (int c = 0; c < BOUND_CACHE; c++) bs->cache[c].h = 0.0;      /* the maps stay valid; kept empty anyway */
 }
 
-/* the residual's quadratic form of a step (harness/rom/bounds.py residual_gram): with M the block's augmented
- * matrix (n = k_s + 2 m square, in the work buffer's first n x n), Q = int_0^1 e^{M^T s} diag(E^T E, 0, 0)
- * e^{M s} ds = F22^T F12 of the exponential F of [[-M^T, diag(E^T E, 0, 0)], [0, M]] (Van Loan), symmetrised */
-static void residual_gram(BoundState *bs, const RomBoundModel *b, const double *M, BoundCache *slot) {
-    const size_t k = b->order, m = b->inputs, n = k + 2 * m, nn = 2 * n;
-    double *V = bs->work + n * n, *F = V + nn * nn, *X = F + nn * nn, *T = X + nn * nn;   /* after M */
-    memset(V, 0, nn * nn * sizeof(double));
-    for (size_t i = 0; i < n; i++) {
-        for (size_t j = 0; j < n; j++) {
-            V[i * nn + j] = -M[j * n + i];
-            V[(n + i) * nn + n + j] = M[i * n + j];
-        }
-    }
-    for (size_t i = 0; i < k; i++) {
-        for (size_t j = 0; j < k; j++) V[i * nn + n + j] = b->egram[i * k + j];
-    }
-    double trace = 0.0;
-    if (!rom_expm_taylor(nn, V, F, X, T)) {
-        for (size_t i = 0; i < n * n; i++) slot->Q[i] = NAN;            /* the bounds become NaN: visible */
-        slot->q_allow = NAN;
-        return;
-    }
-    double f12 = 0.0, f22 = 0.0;                                          /* 1-norms: the largest column sums */
-    for (size_t j = 0; j < n; j++) {
-        double a12 = 0.0, a22 = 0.0;
-        for (size_t i = 0; i < n; i++) {
-            a12 += fabs(F[i * nn + n + j]);
-            a22 += fabs(F[(n + i) * nn + n + j]);
-        }
-        f12 = fmax(f12, a12);
-        f22 = fmax(f22, a22);
-    }
-    for (size_t i = 0; i < n; i++) {                                      /* (F22^T F12)[i][j] */
-        for (size_t j = 0; j < n; j++) {
-            double acc = 0.0;
-            for (size_t l = 0; l < n; l++) acc += F[(n + l) * nn + n + i] * F[l * nn + n + j];
-            slot->Q[i * n + j] = acc;
-        }
-    }
-    for (size_t i = 0; i < n; i++) {
-        for (size_t j = 0; j < i; j++) {
-            const double q = 0.5 * (slot->Q[i * n + j] + slot->Q[j * n + i]);
-            slot->Q[i * n + j] = slot->Q[j * n + i] = q;
-        }
-        trace += slot->Q[i * n + i];
-    }
-    slot->q_allow = BOUND_QUAD_ROUNDOFF * (trace + f12 * f22);
+static double table_end(const RomBoundModel *b) {
+    return b->nodes ? b->h_tab * (double)(b->nodes - 1) : 0.0;
 }
 
-/* the dense block's maps of a step h into slot: the exponential of [[L h, B h, 0], [0, 0, I], [0, 0, 0]]
- * (k_s + 2 m square, O(k_s^3) once per step length; harness/rom/bounds.py block_maps) */
-static const BoundCache *dense_maps(BoundState *bs, const RomBoundModel *b, double h, BoundCache *slot) {
-    const size_t k = b->order, m = b->inputs, n = k + 2 * m;
-    double *M = bs->work, *E = M + n * n, *X = E + n * n, *T = X + n * n;
-    memset(M, 0, n * n * sizeof(double));
-    for (size_t i = 0; i < k; i++) {
-        for (size_t j = 0; j < k; j++) M[i * n + j] = b->lam[i * k + j] * h;
-        for (size_t c = 0; c < m; c++) M[i * n + k + c] = b->B[i * m + c] * h;
-    }
-    for (size_t c = 0; c < m; c++) M[(k + c) * n + k + m + c] = 1.0;
-    if (!rom_expm_taylor(n, M, E, X, T)) {
-        for (size_t i = 0; i < k * k; i++) slot->Phi[i] = NAN;          /* the bounds become NaN: visible */
-    } else {
-        for (size_t i = 0; i < k; i++) {
-            for (size_t j = 0; j < k; j++) slot->Phi[i * k + j] = E[i * n + j];
-            for (size_t c = 0; c < m; c++) {
-                slot->G0[i * m + c] = E[i * n + k + c];
-                slot->G1[i * m + c] = E[i * n + k + m + c];
-            }
-        }
-    }
-    residual_gram(bs, b, M, slot);
-    slot->h = h;
-    slot->used = bs->clock;
-    return slot;
+/* the groups' decay of the rows' tails at tau after the table's end, once for every row (rom_bound_step) */
+static void tail_decays(BoundState *bs, const RomBoundModel *b, double tau) {
+    const double over = tau - table_end(b);
+    bs->tail_tau = tau;
+    for (uint32_t g = 0; g < b->groups; g++) bs->tail_decay[g] = over > 0 ? exp(-b->rates[g] * over) : 1.0;
 }
 
-/* the plane maps of a step h (from time t): per plane the exponential of [[L h, B_p h, 0], [0, 0, I], [0, 0, 0]] */
-static const BoundCache *plane_maps(BoundState *bs, const RomBoundModel *b, double h, double t) {
+/* the plane maps of a step h: per plane the exponential of [[L h, B_p h, 0], [0, 0, I], [0, 0, 0]],
+ * and the groups' weights of a jump at the step's start and of a slope over it */
+static const BoundCache *plane_maps(BoundState *bs, const RomBoundModel *b, double h) {
     bs->clock++;
     for (int c = 0; c < BOUND_CACHE; c++) {
-        if (rom_same_step(h, bs->cache[c].h, t)) {     /* (an importer's jitter of a few ulps: the same step) */
+        if (rom_same_step(h, bs->cache[c].h)) {     /* (an importer's jitter of a few ulps: the same step) */
             bs->cache[c].used = bs->clock;
             return &bs->cache[c];
         }
@@ -393,7 +467,6 @@ static const BoundCache *plane_maps(BoundState *bs, const RomBoundModel *b, doub
     for (int c = 1; c < BOUND_CACHE; c++) {
         if (bs->cache[c].used < slot->used) slot = &bs->cache[c];
     }
-    if (b->dense) return dense_maps(bs, b, h, slot);
     const size_t m = b->inputs, n = 2 + 2 * m;
     double *M = bs->work, *E = M + n * n, *X = E + n * n, *T = X + n * n;
     for (uint32_t p = 0; p < b->planes; p++) {
@@ -415,6 +488,11 @@ static const BoundCache *plane_maps(BoundState *bs, const RomBoundModel *b, doub
             }
         }
     }
+    for (uint32_t g = 0; g < b->groups; g++) {          /* harness/rom/bounds.py step_weights */
+        const double x = b->rates[g] * h;
+        slot->decay[g] = exp(-x);
+        slot->slope[g] = x > 1e-8 ? -expm1(-x) / x : 1.0 - 0.5 * x;
+    }
     slot->h = h;
     slot->used = bs->clock;
     return slot;
@@ -426,11 +504,12 @@ static double norm2(const double *x, size_t n) {
     return sqrt(acc);
 }
 
-/* the inputs over the step: u (its value at the step's start) and du (its change over the step) */
+/* the inputs over the step: u (its value at the step's start) and du (its change over the step); the shadow's
+ * first `inputs` of f, F_j / area */
 static void step_inputs(const RomState *s, double h, double *u, double *du) {
     u[0] = s->f;
     du[0] = s->f_rate * h;
-    for (uint32_t j = 0; j < rom_port_inputs(s->model); j++) {
+    for (uint32_t j = 0; j + 1 < s->model->bound.inputs; j++) {
         u[1 + j] = s->port_force[j] / s->area;
         du[1 + j] = s->port_rate[j] * h / s->area;
     }
@@ -440,52 +519,26 @@ void rom_bound_step(RomState *s, double h) {
     BoundState *bs = (BoundState *)s->bound;
     if (!bs) return;
     const RomBoundModel *b = &s->model->bound;
-    const size_t k = b->order, m = b->inputs;
+    const size_t k = b->order, m = b->inputs, G = b->groups;
     if (bs->started == 0.0) {
         for (size_t i = 0; i < k; i++) bs->w[i] = s->initial_state_scale * b->w0[i];
         bs->started = 1.0;
     }
-    double u[BOUND_MAX_INPUTS], du[BOUND_MAX_INPUTS], end[BOUND_MAX_INPUTS];
+    double u[BOUND_MAX_INPUTS], du[BOUND_MAX_INPUTS];
     step_inputs(s, h, u, du);
-    double q = 0.0;                     /* int_0^h |B_perp u|^2 / h for u linear over the step */
-    for (size_t i = 0; i < m; i++) {
-        bs->tv[i] += fabs(u[i] - bs->u_prev[i]) + fabs(du[i]);
-        end[i] = u[i] + du[i];
-        bs->u_prev[i] = end[i];
-        for (size_t j = 0; j < m; j++) {
-            q += b->gram[i * m + j] * (u[i] * u[j] + u[i] * du[j] + du[i] * du[j] / 3.0);
+    const BoundCache *c = plane_maps(bs, b, h);
+    double u2 = 0.0, e2 = 0.0;
+    for (size_t j = 0; j < m; j++) {    /* the weighted variations: the jump at the step's start, the slope over it */
+        const double jump = fabs(u[j] - bs->u_prev[j]), slope = fabs(du[j]);
+        for (size_t g = 0; g < G; g++) {
+            double *V = &bs->V[j * G + g];
+            *V = c->decay[g] * (*V + jump) + c->slope[g] * slope;
         }
+        u2 += u[j] * u[j];
+        e2 += (u[j] + du[j]) * (u[j] + du[j]);
     }
-    bs->p_int += sqrt(fmax(h * h * q, 0.0));
-    const BoundCache *c = plane_maps(bs, b, h, s->time);
-    if (b->dense) {                     /* int |E w| <= h sqrt(Y^T Q Y) over the step, Y = (w, u, du) */
-        const size_t n = k + 2 * m;
-        double quad = 0.0, y2 = 0.0;
-        for (size_t i = 0; i < n; i++) {
-            const double yi = i < k ? bs->w[i] : i < k + m ? u[i - k] : du[i - k - m];
-            double acc = 0.0;
-            for (size_t j = 0; j < n; j++) {
-                const double yj = j < k ? bs->w[j] : j < k + m ? u[j - k] : du[j - k - m];
-                acc += c->Q[i * n + j] * yj;
-            }
-            quad += yi * acc;
-            y2 += yi * yi;
-        }
-        bs->w_int += h * sqrt(fmax(quad + c->q_allow * y2, 0.0));
-    } else {                            /* int |w| (a bound), for |c_r| |E| int |w| */
-        const double u_big = fmax(norm2(u, m), norm2(end, m));
-        bs->w_int += h * exp(b->mu * h) * (norm2(bs->w, k) + h * b->b_norm * u_big);
-    }
-    if (b->dense) {                     /* one dense block: O(k_s^2) */
-        for (size_t i = 0; i < k; i++) {
-            double acc = 0.0;
-            const double *Phi = c->Phi + i * k;
-            for (size_t j = 0; j < k; j++) acc += Phi[j] * bs->w[j];
-            for (size_t j = 0; j < m; j++) acc += c->G0[i * m + j] * u[j] + c->G1[i * m + j] * du[j];
-            bs->w_new[i] = acc;
-        }
-    }
-    for (uint32_t p = 0; p < (b->dense ? 0u : b->planes); p++) {
+    bs->w_int += h * exp(b->mu * h) * (norm2(bs->w, k) + h * b->b_norm * sqrt(fmax(u2, e2)));
+    for (uint32_t p = 0; p < b->planes; p++) {
         const double *Phi = c->Phi + 4 * (size_t)p;
         const double w0 = bs->w[2 * p], w1 = bs->w[2 * p + 1];
         for (size_t i = 0; i < 2; i++) {
@@ -496,7 +549,10 @@ void rom_bound_step(RomState *s, double h) {
         }
     }
     memcpy(bs->w, bs->w_new, k * sizeof(double));
+    for (size_t j = 0; j < m; j++) bs->u_prev[j] = u[j] + du[j];
     bs->steps += 1.0;
+    const double tau = s->elapsed + h;                  /* the time since the start after this step */
+    if (tau > table_end(b)) tail_decays(bs, b, tau);
 }
 
 /* the shadow's state now (s w0 before the first step) into out[order] */
@@ -508,34 +564,68 @@ static const double *shadow_state(const RomState *s, double *scratch) {
     return scratch;
 }
 
+/* the complement's free response of row r at tau since the start (per unit initial_state_scale): the table's
+ * Hermite interpolation into *value and its certified error into *error; after the table (or without one) 0 and
+ * the decaying tail (harness/rom/bounds.py free_part) */
+static void free_part(const RomBoundModel *b, const BoundState *bs, uint32_t r, double tau, double *value,
+                      double *error) {
+    const double *row = b->row + (size_t)r * b->row_len;
+    const uint32_t m = b->inputs, G = b->groups;
+    const double t_end = table_end(b);
+    if (b->nodes && tau <= t_end) {
+        const double x = (tau > 0 ? tau : 0.0) / b->h_tab;
+        uint32_t k = (uint32_t)floor(x);
+        if (k > b->nodes - 2) k = b->nodes - 2;
+        const double t = x - (double)k, u = 1.0 - t;
+        const double *g = b->tab + (size_t)r * b->nodes, *dg = b->tab + (size_t)(b->rows + r) * b->nodes;
+        *value = (1.0 + 2.0 * t) * u * u * g[k] + t * t * (3.0 - 2.0 * t) * g[k + 1] +
+                 b->h_tab * (t * u * u * dg[k] + t * t * (t - 1.0) * dg[k + 1]);
+        *error = b->terr[(size_t)r * b->blocks + k / b->q];
+        return;
+    }
+    const double over = tau > t_end ? tau - t_end : 0.0;
+    const int cached = tau == bs->tail_tau;              /* the step's decays (rom_bound_step), else computed */
+    double acc = 0.0;
+    for (uint32_t g = 0; g < G; g++) {
+        acc += row[1 + 2 * m + m * G + g] * (cached ? bs->tail_decay[g] : exp(-b->rates[g] * over));
+    }
+    *value = 0.0;
+    *error = acc;
+}
+
 /* (the shadow's row r, its certified error) at the state's time */
 static void shadow_row(const RomState *s, uint32_t r, double *value, double *cert) {
     const RomBoundModel *b = &s->model->bound;
     const BoundState *bs = (const BoundState *)s->bound;
     double scratch[2 * ROM_MAX_MODES];
     const double *w = shadow_state(s, scratch);
-    const size_t k = b->order, m = b->inputs;
+    const size_t k = b->order, m = b->inputs, G = b->groups;
     const double *Cr = b->C + (size_t)r * k;
-    double y = 0.0;
-    for (size_t i = 0; i < k; i++) y += Cr[i] * w[i];
-    const double *row = b->row + (size_t)r * (1 + m + b->n_tab);
+    const double *row = b->row + (size_t)r * b->row_len;
+    double y = 0.0, w2 = 0.0;
+    for (size_t i = 0; i < k; i++) {
+        y += Cr[i] * w[i];
+        w2 += w[i] * w[i];
+    }
+    double quasi = 0.0, trans = 0.0;
+    for (size_t j = 0; j < m; j++) {
+        y += row[1 + j] * bs->u_prev[j];                      /* the complement's quasi-static response */
+        quasi += row[1 + m + j] * fabs(bs->u_prev[j]);
+        for (size_t g = 0; g < G; g++) {
+            const double H = row[1 + 2 * m + j * G + g], V = bs->V[j * G + g];
+            if (V > 0) trans += H < 0 ? INFINITY : H * V;
+        }
+    }
     const uint32_t P = s->model->n_probes;
     const double row_scale = r >= P && r < 3 * P ? b->e_scale : 1.0;     /* e rows of a parametric shadow */
     const double cn = row[0] * row_scale, scale = fabs(s->initial_state_scale);
-    const double tau = s->time - s->t0;
-    double at = tau > 0 ? floor(tau / b->dt_tab) : 0.0;       /* t_b <= tau: G(t_b) holds for every t >= t_b */
-    if (!(at < (double)b->n_tab - 1)) at = (double)b->n_tab - 1;
-    const double g_init = scale * fmin(row[1 + m + (size_t)at] * row_scale, cn * b->y0_norm);
-    double g_hold = 0.0;
-    for (size_t i = 0; i < m; i++) {
-        if (bs->tv[i] > 0) g_hold += row[1 + i] < 0 ? INFINITY : row[1 + i] * bs->tv[i];
-    }
-    const double g_input = fmin(g_hold, cn * bs->p_int);
-    const double allow = cn * (BOUND_ROUNDOFF + BOUND_ROUNDOFF_STEP * bs->steps) * (norm2(w, k) + scale * b->x0_norm);
-    const double residual = b->dense ? cn * bs->w_int : cn * b->e_norm * bs->w_int;   /* dense: int |E w| */
+    double g_value, g_error;
+    free_part(b, bs, r, s->elapsed, &g_value, &g_error);
+    y += s->initial_state_scale * g_value;
+    const double allow = cn * (BOUND_ROUNDOFF + BOUND_ROUNDOFF_STEP * bs->steps) * (sqrt(w2) + scale * b->x0_norm);
     double channel_cert;                    /* the port channel's part of the row and its own bound (rom_port.c) */
     *value = y + rom_channel_row(s, r, &channel_cert);
-    *cert = g_init + g_input + residual + allow + channel_cert;
+    *cert = scale * g_error + quasi + trans + cn * b->e_norm * bs->w_int + allow + channel_cert;
 }
 
 double rom_v_probe_error_bound(const RomState *s, uint32_t j) {
@@ -602,7 +692,7 @@ int rom_bound_exceeded(const RomState *s, char *message, size_t message_size) {
 
 size_t rom_bound_state_doubles(const RomModel *m) {
     const RomBoundModel *b = &m->bound;
-    return b->order ? b->order + 2 * (size_t)b->inputs + 4 : 0;
+    return b->order ? b->order + (size_t)b->inputs * (b->groups + 1) + 3 : 0;
 }
 
 unsigned char *rom_bound_state_put(const RomState *s, unsigned char *cursor) {
@@ -610,10 +700,10 @@ unsigned char *rom_bound_state_put(const RomState *s, unsigned char *cursor) {
     if (!bs) return cursor;
     const RomBoundModel *b = &s->model->bound;
     cursor = rom_put_f64s(cursor, bs->w, b->order);
-    cursor = rom_put_f64s(cursor, bs->tv, b->inputs);
+    cursor = rom_put_f64s(cursor, bs->V, (size_t)b->inputs * b->groups);
     cursor = rom_put_f64s(cursor, bs->u_prev, b->inputs);
-    const double scalars[4] = {bs->p_int, bs->w_int, bs->steps, bs->started};
-    return rom_put_f64s(cursor, scalars, 4);
+    const double scalars[3] = {bs->w_int, bs->steps, bs->started};
+    return rom_put_f64s(cursor, scalars, 3);
 }
 
 const unsigned char *rom_bound_state_get(RomState *s, const unsigned char *cursor) {
@@ -621,13 +711,16 @@ const unsigned char *rom_bound_state_get(RomState *s, const unsigned char *curso
     if (!bs) return cursor;
     const RomBoundModel *b = &s->model->bound;
     cursor = rom_get_f64s(cursor, bs->w, b->order);
-    cursor = rom_get_f64s(cursor, bs->tv, b->inputs);
+    cursor = rom_get_f64s(cursor, bs->V, (size_t)b->inputs * b->groups);
     cursor = rom_get_f64s(cursor, bs->u_prev, b->inputs);
-    double scalars[4];
-    cursor = rom_get_f64s(cursor, scalars, 4);
-    bs->p_int = scalars[0];
-    bs->w_int = scalars[1];
-    bs->steps = scalars[2];
-    bs->started = scalars[3] != 0.0 ? 1.0 : 0.0;
+    double scalars[3];
+    cursor = rom_get_f64s(cursor, scalars, 3);
+    bs->w_int = scalars[0];
+    bs->steps = scalars[1];
+    bs->started = scalars[2] != 0.0 ? 1.0 : 0.0;
+    bs->tail_tau = NAN;                                  /* recomputed at the next row */
+    for (size_t i = 0; i < (size_t)b->inputs * b->groups; i++) {
+        if (!(bs->V[i] >= 0)) bs->V[i] = INFINITY;       /* a damaged variation: no bound, visibly */
+    }
     return cursor;
 }

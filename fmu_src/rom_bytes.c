@@ -115,9 +115,13 @@ RomStatus rom_blob_open(const RomBlob *e, const unsigned char *bytes, size_t siz
         return rom_fail(message, message_size, "%s: bad magic (not %s)", e->what, e->contents);
     }
     const uint32_t version = rom_get_u32(bytes + 8);
-    if (version != e->version) {
-        return rom_fail(message, message_size, "%s: format version %u is not supported (this binary reads %u%s)",
-                        e->what, version, e->version, version < e->version ? e->older : "");
+    if (version < e->oldest || version > e->version) {
+        if (e->oldest == e->version) {
+            return rom_fail(message, message_size, "%s: format version %u is not supported (this binary reads %u%s)",
+                            e->what, version, e->version, version < e->version ? e->older : "");
+        }
+        return rom_fail(message, message_size, "%s: format version %u is not supported (this binary reads %u and "
+                        "%u%s)", e->what, version, e->version, e->oldest, version < e->oldest ? e->older : "");
     }
     return ROM_OK;
 }

@@ -52,13 +52,13 @@ static int block_maps(const RomModel *m, const RomExactModel *em, RomExpCache *s
  * of [[A h, B h, 0], [0, 0, 1], [0, 0, 0]] (as sphrom.rom.exact_linear.propagators),
  * cached per step length (two slots, the least recently used replaced; rom_same_step); a block-diagonal A
  * block by block. */
-static RomExpCache *exact_maps(RomState *s, double t, double h, char *message, size_t message_size) {
+static RomExpCache *exact_maps(RomState *s, double h, char *message, size_t message_size) {
     const RomModel *m = s->model;
     const RomExactModel *em = (const RomExactModel *)m->body;
     RomExactState *es = (RomExactState *)s->body;
     es->clock++;
     for (int c = 0; c < ROM_EXACT_CACHE; c++) {
-        if (rom_same_step(h, es->cache[c].h, t)) {     /* (an importer's jitter of a few ulps: the same step) */
+        if (rom_same_step(h, es->cache[c].h)) {     /* (an importer's jitter of a few ulps: the same step) */
             es->cache[c].used = es->clock;
             return &es->cache[c];
         }
@@ -153,14 +153,15 @@ static void free_response(const RomExactModel *em, double t, double *restrict y,
     }
 }
 
-/* One exact step from t_comm over h: X <- Phi X + G0 f + G1 (rate h); z = free(t - t0) + X
- * (or X).  On failure the state keeps its last good values (the time stays t_comm). */
+/* One exact step from t_comm over h: X <- Phi X + G0 f + G1 (rate h); z = free(elapsed + h) + X
+ * (or X), the free response at the time since the start (exact at any start time).  On failure the state keeps
+ * its last good values (the time stays t_comm). */
 static RomStatus exact_step(RomState *s, double t_comm, double h, char *message, size_t message_size) {
     const RomModel *m = s->model;
     const RomExactModel *em = (const RomExactModel *)m->body;
     RomExactState *es = (RomExactState *)s->body;
     const size_t k = em->k, kv = m->k_v;
-    const RomExpCache *c = exact_maps(s, t_comm, h, message, message_size);
+    const RomExpCache *c = exact_maps(s, h, message, message_size);
     if (!c) return ROM_FAIL;
     const size_t ni = exact_inputs(m), n = k + 2 * (ni > 1 ? ni : 1);
     double *xn = es->work + 4 * n * n, *z = xn + k;
@@ -182,7 +183,7 @@ static RomStatus exact_step(RomState *s, double t_comm, double h, char *message,
     const double t_new = t_comm + h;
     if (em->free_path) {
         double *y = es->work;            /* the exponential's scratch is free again */
-        free_response(em, t_new - s->t0, y, z);
+        free_response(em, s->elapsed + h, y, z);
         const double scale = s->initial_state_scale;     /* the free response of scale z0 */
         for (size_t i = 0; i < k; i++) z[i] = scale * z[i] + xn[i];
     } else {

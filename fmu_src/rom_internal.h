@@ -150,17 +150,15 @@ static inline int rom_all_finite(const double *x, size_t n) {
     return 1;
 }
 
-/* Whether a step of length h from time t is the cached step h_cached: equal, or within ROM_STEP_ULPS units in
- * the last place of the times it spans.  An importer's step t[n+1] - t[n] is only known to the rounding of its
- * times (t = n H jitters by a few ulps of t), and each new length costs a matrix exponential, O(k^3) in the
- * model's order; the cached maps then integrate over h_cached, which differs from h by less than the times' own
- * rounding. */
-#define ROM_STEP_ULPS 8.0
-static inline int rom_same_step(double h, double h_cached, double t) {
+/* Whether a step of length h is the cached step h_cached: equal, or within ROM_SAME_STEP of it relative to the
+ * step (rom.h).  An importer's step t[n+1] - t[n] of t = n H jitters by a few ulps of t, and each new length costs
+ * a matrix exponential, O(k^3) in the model's order; the cached maps then integrate over h_cached, which differs
+ * from h by less than 1e-9 of the step.  The tolerance is the step's, never the time's: at a start of 1.7e9 s
+ * (an ulp of 2.4e-7 s) steps of 1e-6 s and 3.5e-6 s stay two steps. */
+static inline int rom_same_step(double h, double h_cached) {
     if (h == h_cached) return 1;
     if (!(h_cached > 0.0)) return 0;
-    const double scale = fmax(fmax(fabs(t), fabs(t + h)), fabs(h));
-    return fabs(h - h_cached) <= ROM_STEP_ULPS * 2.220446049250313e-16 * scale;
+    return fabs(h - h_cached) <= ROM_SAME_STEP * h_cached;
 }
 
 static inline size_t rom_round_up(size_t n, size_t m) {
@@ -245,6 +243,7 @@ typedef struct {
     const char *one;           /* one such blob, in messages */
     const char *damaged;       /* what is truncated or corrupt when a check fails */
     uint32_t version;          /* the version written and read */
+    uint32_t oldest;           /* the oldest version read (the reader converts it; = version: none older) */
     size_t min_size;           /* bytes needed before the header can be read */
     const char *older;         /* why an older version is not read, in messages */
 } RomBlob;

@@ -69,7 +69,7 @@
  *     ENVPORT: port coordinates at the end of each block (training envelope: not checked); columns port_v,
  *         port_rho
  *     BOUNDS: certified error bounds per probe (force, initial state); rows force, initial_state (linear kind
- *         only)
+ *         only); values: a certified error bound (columns 0:) >= 0
  *     LINMODEL: which linear model: 1 exact POD, 2 balanced; columns model (linear kind only)
  *     PARAMS: parametric model: c and d (varied, start, min, max); rows c, d; columns varied, start, min, max
  *     KC: frozen model: K per unit c (frozen kind only)
@@ -77,45 +77,57 @@
  *     DD: frozen model: D per unit d (frozen kind only)
  *     PARTUR: frozen model: U^rho at the particles (the particle refresh) (frozen kind only)
  *     PARTGUV: frozen model: G U^v at the particles (the particle refresh) (frozen kind only)
- *     PARTIR0: frozen model: 1/rho0 at the particles (the particle refresh) (frozen kind only)
+ *     PARTIR0: frozen model: 1/rho0 at the particles (the particle refresh) (frozen kind only); values: 1/rho0
+ *         [m^3 kg^-1] (columns 0:) > 0
  *     A0: linear model: the part of A without c or d (linear kind only)
  *     AC: linear model: the part of A per unit c (linear kind only)
  *     AD: linear model: the part of A per unit d (linear kind only)
- *     PORTX: port positions x/L (1 x P)
+ *     PORTX: port positions x/L (1 x P); values: a port position x/L (columns 0:) in [0, 1)
  *     PORTB: port input rows at area 1 (P x k_v frozen, P x k linear); absent with the port channel
  *     PORTC: port velocity rows (P x k_v; P x k over the whole state with output_rows)
- *     SHSCAL: error bounds: the shadow's sizes and scalars; columns order, planes, inputs, rows, n_tab, dt_tab,
- *         y0_norm, x0_norm, e_norm, b_norm, tolerance, reserved
+ *     SHSCAL: error bounds: the shadow's sizes and scalars; columns order, planes, inputs, rows, nodes, groups,
+ *         h_tab, q_tab, x0_norm, e_norm, b_norm, tolerance, cplanes, reserved; values: the free response table's
+ *         node spacing [s] (columns h_tab) >= 0; a norm (columns x0_norm, e_norm, b_norm) >= 0; error_tolerance's
+ *         default [m s^-1] (columns tolerance) >= 0
  *     SHLAM: error bounds: the shadow's planes
  *     SHB: error bounds: the shadow's input columns
  *     SHC: error bounds: the shadow's output rows
  *     SHW0: error bounds: the shadow's initial state
- *     SHGRAM: error bounds: the inputs' Gram matrix outside the shadow
- *     SHROW: error bounds: per output row, its norm, input gains and initial-state envelope
- *     SHPROBE: error bounds: the probes' weights and rho0; columns pw0, pw1, rho0_0, rho0_1
+ *     SHROW: error bounds: per output row, its norm, feedthrough, gains and tail; values: the output row's norm
+ *         |c_r| (columns 0:1) >= 0; a gain or a tail of the complement (-1: infinite) (columns 1+inputs:) >= 0 or
+ *         -1
+ *     SHRATE: error bounds: the complement's decay rates; values: a decay rate [s^-1] (columns 0:) >= 0
+ *     SHPROBE: error bounds: the probes' weights and rho0; columns pw0, pw1, rho0_0, rho0_1; values: an
+ *         interpolation weight (columns pw0, pw1) in [0, 1]; rho0 [kg m^-3] (columns rho0_0, rho0_1) > 0; the
+ *         probe's two weights sum to 1 per row
+ *     SHTAB: error bounds: the complement's free response and its slope at the table's nodes
+ *     SHTERR: error bounds: the free response table's error per block of intervals; values: a certified
+ *         interpolation error (columns 0:) >= 0
  *     SHPIECE: error bounds: the planes' pieces per unit c and per unit d
  *     SHPARAM: error bounds: c_ref and the residual pieces' norms; columns c_ref, e_const_v, e_const_e, e_c_v,
- *         e_c_e, e_d_v, e_d_e
+ *         e_c_e, e_d_v, e_d_e; values: the shadow's reference stiffness c_ref [kg m^-1 s^-2] (columns c_ref) > 0;
+ *         a residual piece's norm (columns e_const_v, e_const_e, e_c_v, e_c_e, e_d_v, e_d_e) >= 0
+ *     SHCPL: error bounds: the complement's planes (parametric)
  *     PCSCAL: port channel: its sizes and scalars; columns planes, ports, rows, truncated, dx
  *     PCLAM: port channel: each plane's 2 x 2 block [[-d, s], [-s, 0]] (planes x 4)
  *     PCB: port channel: each plane's input gains per unit F_j / area (planes x P)
  *     PCC: port channel: the output rows over the planes (3 n_probes + P rows: v probes, e at their particles, v
  *         ports)
  *     PCD: port channel: per row the truncated planes' static correction, then their bound's gains (rows x 2P)
- *     PCPROBE: port channel: the probes' weights and rho0; columns pw0, pw1, rho0_0, rho0_1
- *     SHDENSE: error bounds: the dense block's growth rate; columns mu
- *     SHEGRAM: error bounds: the dense block's coupling residual's Gram matrix
+ *     PCPROBE: port channel: the probes' weights and rho0; columns pw0, pw1, rho0_0, rho0_1; values: an
+ *         interpolation weight (columns pw0, pw1) in [0, 1]; rho0 [kg m^-3] (columns rho0_0, rho0_1) > 0; the
+ *         probe's two weights sum to 1 per row
  *
  * then the trailer:
  *      0  char[40] token: "{xxxxxxxx-xxxx-xxxx-xxxx-xxxxxxxxxxxx}", NUL padded: the FMI guid / instantiationToken,
  *          from the first 16 bytes of the sha256 of every byte before it
  *     40  uint32   crc32: zlib's CRC-32 of every byte before it
  *
- * The serialized FMU state, format 4 (little-endian):
+ * The serialized FMU state, format 5 (little-endian):
  *
  * header (96 bytes):
  *      0  char[8]  magic: "SPHROMST"
- *      8  uint32   state_version: 4
+ *      8  uint32   state_version: 5
  *     12  uint32   tag: the instance's mode when the state was taken
  *     16  uint32   k_v: as the model's header
  *     20  uint32   k_rho: as the model's header
@@ -129,10 +141,11 @@
  *     a_v [k_v]: the velocity coordinates (linear: a)
  *     a_rho [k_rho]: the density coordinates (linear: b)
  *     kind [the kind's block]: KINDS' state_block
- *     t0 [1]: the start time [s] (of the exact model's free response)
+ *     elapsed [1]: the time since the start [s]: the sum of the steps taken (the exact model's free response, the
+ *         error bounds' table; format 4 held the start time t0 here, read as time - t0)
  *     f_rate [1]: df/dt over a step [m s^-3] (0: held)
- *     bounds [with the error bounds (sections SH*)]: the shadow w[k_s], the inputs' variation tv[m] and last
- *         values u[m], the integrals of |B_perp u| and |w|, the step count, started (0 or 1) (rom_bound.c)
+ *     bounds [with the error bounds (sections SH*)]: the shadow w[k_s], the inputs' weighted variations V[m
+ *         groups] and last values u[m], the integral of |w|, the step count, started (0 or 1) (rom_bound.c)
  *     channel [with the port channel (sections PC*)]: its planes p[n], q[n], the inputs' variation tv[P] and last
  *         values u[P], the step count, port_impedance [N s m^-1], a_port[P] [N], b_port[P] [N], the force held
  *         over the last step of the wave form[P] [N] (rom_port.c)
@@ -212,19 +225,21 @@
 #define ROM_PARAMS_MAX                       3
 #define ROM_PARAMS_ROW_C                     0
 #define ROM_PARAMS_ROW_D                     1
-#define ROM_SHSCAL_COLUMNS                   12u
+#define ROM_SHSCAL_COLUMNS                   14u
 #define ROM_SHSCAL_ORDER                     0
 #define ROM_SHSCAL_PLANES                    1
 #define ROM_SHSCAL_INPUTS                    2
 #define ROM_SHSCAL_ROWS                      3
-#define ROM_SHSCAL_N_TAB                     4
-#define ROM_SHSCAL_DT_TAB                    5
-#define ROM_SHSCAL_Y0_NORM                   6
-#define ROM_SHSCAL_X0_NORM                   7
-#define ROM_SHSCAL_E_NORM                    8
-#define ROM_SHSCAL_B_NORM                    9
-#define ROM_SHSCAL_TOLERANCE                 10
-#define ROM_SHSCAL_RESERVED                  11
+#define ROM_SHSCAL_NODES                     4
+#define ROM_SHSCAL_GROUPS                    5
+#define ROM_SHSCAL_H_TAB                     6
+#define ROM_SHSCAL_Q_TAB                     7
+#define ROM_SHSCAL_X0_NORM                   8
+#define ROM_SHSCAL_E_NORM                    9
+#define ROM_SHSCAL_B_NORM                    10
+#define ROM_SHSCAL_TOLERANCE                 11
+#define ROM_SHSCAL_CPLANES                   12
+#define ROM_SHSCAL_RESERVED                  13
 #define ROM_SHPROBE_COLUMNS                  4u
 #define ROM_SHPROBE_PW0                      0
 #define ROM_SHPROBE_PW1                      1
@@ -249,8 +264,6 @@
 #define ROM_PCPROBE_PW1                      1
 #define ROM_PCPROBE_RHO0_0                   2
 #define ROM_PCPROBE_RHO0_1                   3
-#define ROM_SHDENSE_COLUMNS                  1u
-#define ROM_SHDENSE_MU                       0
 #define ROM_ENVELOPE_CHECK_COORDINATES       1u
 #define ROM_ENVELOPE_CHECK_FORCE             2u
 #define ROM_ENVELOPE_CHECK_STRAIN            4u
@@ -258,13 +271,50 @@
 #define ROM_ENVELOPE_CHECK_ALL               15u
 #define ROM_LINEAR_EXACT_POD                 1u   /* section LINMODEL */
 #define ROM_LINEAR_BALANCED                  2u   /* section LINMODEL */
-#define ROM_N_SECTION_TAGS                   37u   /* rom_resources.c's SECTION_RULES has one row each */
+
+/* the sections' value rules (layout.py SECTIONS' values; rom_resources.c check_values): columns [first, end) as
+ * c + i x inputs (the shadow's inputs: 1 + ports; end c = -1: to the last column) */
+/* X(tag, first c, first i, end c, end i, low, high, low open, high open, has also, also, what, allowed) */
+#define ROM_RANGE_RULES(X) \
+    X("BOUNDS", 0, 0, -1, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "a certified error bound", ">= 0") \
+    X("PARTIR0", 0, 0, -1, 0, 0.0, INFINITY, 1, 0, 0, 0.0, "1/rho0 [m^3 kg^-1]", "> 0") \
+    X("PORTX", 0, 0, -1, 0, 0.0, 1.0, 0, 1, 0, 0.0, "a port position x/L", "in [0, 1)") \
+    X("SHSCAL", 6, 0, 7, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "the free response table's node spacing [s]", ">= 0") \
+    X("SHSCAL", 8, 0, 9, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "a norm", ">= 0") \
+    X("SHSCAL", 9, 0, 10, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "a norm", ">= 0") \
+    X("SHSCAL", 10, 0, 11, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "a norm", ">= 0") \
+    X("SHSCAL", 11, 0, 12, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "error_tolerance's default [m s^-1]", ">= 0") \
+    X("SHROW", 0, 0, 1, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "the output row's norm |c_r|", ">= 0") \
+    X("SHROW", 1, 1, -1, 0, 0.0, INFINITY, 0, 0, 1, -1.0, "a gain or a tail of the complement (-1: infinite)", ">= 0 or -1") \
+    X("SHRATE", 0, 0, -1, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "a decay rate [s^-1]", ">= 0") \
+    X("SHPROBE", 0, 0, 1, 0, 0.0, 1.0, 0, 0, 0, 0.0, "an interpolation weight", "in [0, 1]") \
+    X("SHPROBE", 1, 0, 2, 0, 0.0, 1.0, 0, 0, 0, 0.0, "an interpolation weight", "in [0, 1]") \
+    X("SHPROBE", 2, 0, 3, 0, 0.0, INFINITY, 1, 0, 0, 0.0, "rho0 [kg m^-3]", "> 0") \
+    X("SHPROBE", 3, 0, 4, 0, 0.0, INFINITY, 1, 0, 0, 0.0, "rho0 [kg m^-3]", "> 0") \
+    X("SHTERR", 0, 0, -1, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "a certified interpolation error", ">= 0") \
+    X("SHPARAM", 0, 0, 1, 0, 0.0, INFINITY, 1, 0, 0, 0.0, "the shadow's reference stiffness c_ref [kg m^-1 s^-2]", "> 0") \
+    X("SHPARAM", 1, 0, 2, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "a residual piece's norm", ">= 0") \
+    X("SHPARAM", 2, 0, 3, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "a residual piece's norm", ">= 0") \
+    X("SHPARAM", 3, 0, 4, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "a residual piece's norm", ">= 0") \
+    X("SHPARAM", 4, 0, 5, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "a residual piece's norm", ">= 0") \
+    X("SHPARAM", 5, 0, 6, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "a residual piece's norm", ">= 0") \
+    X("SHPARAM", 6, 0, 7, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "a residual piece's norm", ">= 0") \
+    X("PCPROBE", 0, 0, 1, 0, 0.0, 1.0, 0, 0, 0, 0.0, "an interpolation weight", "in [0, 1]") \
+    X("PCPROBE", 1, 0, 2, 0, 0.0, 1.0, 0, 0, 0, 0.0, "an interpolation weight", "in [0, 1]") \
+    X("PCPROBE", 2, 0, 3, 0, 0.0, INFINITY, 1, 0, 0, 0.0, "rho0 [kg m^-3]", "> 0") \
+    X("PCPROBE", 3, 0, 4, 0, 0.0, INFINITY, 1, 0, 0, 0.0, "rho0 [kg m^-3]", "> 0")
+/* X(tag, first c, first i, end c, end i, total, tolerance, what): each row's sum */
+#define ROM_ROW_SUM_RULES(X) \
+    X("SHPROBE", 0, 0, 2, 0, 1.0, 1e-12, "the probe's two weights") \
+    X("PCPROBE", 0, 0, 2, 0, 1.0, 1e-12, "the probe's two weights")
+#define ROM_N_SECTION_TAGS                   38u   /* rom_resources.c's SECTION_RULES has one row each */
 /* the model kinds' tables of operations (rom_internal.h RomKindOps; rom_resources.c's list of kinds) */
 #define ROM_KIND_TABLES(X) X(rom_frozen_kind) X(rom_exact_kind)
 
 /* the serialized FMU state */
 #define ROM_STATE_MAGIC                      "SPHROMST"
-#define ROM_STATE_VERSION                    4u
+#define ROM_STATE_VERSION                    5u
+#define ROM_STATE_OLDEST_VERSION             4u   /* read too (its t0 converted) */
 #define ROM_STATE_HEADER_SIZE                96   /* magic to f */
 #define ROM_STATE_STATE_VERSION              8
 #define ROM_STATE_TAG                        12

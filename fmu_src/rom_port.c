@@ -238,11 +238,11 @@ void rom_channel_reset(RomState *s) {
 
 /* The maps of a step h, cached per step length (rom_same_step): per plane the exponential of the augmented matrix
  * over (p, q, mean p, mean q, u0, du) (harness/rom/port_channel.py step_maps), and the wave form's M. */
-static const ChannelCache *channel_maps(ChannelState *cs, const RomModel *m, double h, double t) {
+static const ChannelCache *channel_maps(ChannelState *cs, const RomModel *m, double h) {
     const RomChannelModel *c = &m->channel;
     cs->clock++;
     for (int k = 0; k < CHANNEL_CACHE; k++) {
-        if (rom_same_step(h, cs->cache[k].h, t)) {
+        if (rom_same_step(h, cs->cache[k].h)) {
             cs->cache[k].used = cs->clock;
             return &cs->cache[k];
         }
@@ -403,7 +403,7 @@ RomStatus rom_channel_step(RomState *s, double h, const double *v_own, char *mes
     const RomModel *m = s->model;
     const RomChannelModel *c = &m->channel;
     const uint32_t P = c->ports;
-    const ChannelCache *k = channel_maps(cs, m, h, s->time);
+    const ChannelCache *k = channel_maps(cs, m, h);
     double u[ROM_MAX_PORTS], du[ROM_MAX_PORTS];
     if (cs->impedance > 0.0) {             /* the wave form: F held, F = 2 a - Z vbar, solved exactly */
         const double Z = cs->impedance;

@@ -15,7 +15,8 @@
 #define ROM_MAX_FILE_SIZE ((size_t)1 << 30)    /* 1 GiB: far above any k <= 100 model */
 
 static const RomBlob RESOURCES = {"resources", ROM_RESOURCE_MAGIC, "an sphrom model.bin", "an empty model",
-                                  "a model", "file ", ROM_FORMAT_VERSION, ROM_HEADER_SIZE + ROM_TOKEN_SIZE + 4,
+                                  "a model", "file ", ROM_FORMAT_VERSION, ROM_FORMAT_VERSION,
+                                  ROM_HEADER_SIZE + ROM_TOKEN_SIZE + 4,
                                   "; the file was written by an older sphrom: package the FMU again"};
 
 /* ------------------------------------------------------------------------ */
@@ -265,14 +266,15 @@ static const SectionRule SECTION_RULES[] = {
     {"SHB", "error bounds: the shadow's input columns", rom_bound_check_section},
     {"SHC", "error bounds: the shadow's output rows", rom_bound_check_section},
     {"SHW0", "error bounds: the shadow's initial state", rom_bound_check_section},
-    {"SHGRAM", "error bounds: the inputs' Gram matrix outside the shadow", rom_bound_check_section},
-    {"SHROW", "error bounds: per output row, its norm, input gains and initial-state envelope",
-     rom_bound_check_section},
+    {"SHROW", "error bounds: per output row, its norm, feedthrough, gains and tail", rom_bound_check_section},
+    {"SHRATE", "error bounds: the complement's decay rates", rom_bound_check_section},
     {"SHPROBE", "error bounds: the probes' weights and rho0", rom_bound_check_section},
+    {"SHTAB", "error bounds: the complement's free response and its slope at the table's nodes",
+     rom_bound_check_section},
+    {"SHTERR", "error bounds: the free response table's error per block of intervals", rom_bound_check_section},
     {"SHPIECE", "error bounds: the planes' pieces per unit c and per unit d", rom_bound_check_section},
     {"SHPARAM", "error bounds: c_ref and the residual pieces' norms", rom_bound_check_section},
-    {"SHDENSE", "error bounds: the dense block's growth rate", rom_bound_check_section},
-    {"SHEGRAM", "error bounds: the dense block's coupling residual's Gram matrix", rom_bound_check_section},
+    {"SHCPL", "error bounds: the complement's planes (parametric)", rom_bound_check_section},
     {"PCSCAL", "port channel: its sizes and scalars", rom_channel_check_section},
     {"PCLAM", "port channel: each plane's block", rom_channel_check_section},
     {"PCB", "port channel: each plane's input gains", rom_channel_check_section},
@@ -284,6 +286,98 @@ static const SectionRule SECTION_RULES[] = {
 /* one rule per tag of the layout (harness/fmu/layout.py SECTIONS; tests/test_fmu_constants.py compares the tags) */
 typedef char section_rules_cover_the_layout[sizeof SECTION_RULES / sizeof SECTION_RULES[0] == ROM_N_SECTION_TAGS + 1
                                             ? 1 : -1];
+
+/* ------------------------------------------------------------------------ */
+/* the sections' value rules (rom_layout.h, from harness/fmu/layout.py)      */
+/* ------------------------------------------------------------------------ */
+
+/* Each rule of harness/fmu/layout.py SECTIONS' values, generated into rom_layout.h: the signs and ranges the code
+ * reading a section relies on (a certified bound is >= 0 only if the norms it adds are), checked as soon as the sections
+ * are read, before any use (a file edited after packaging with its checksum recomputed is refused naming the section, the place,
+ * the value and the rule).  Columns [first, end) are c + i x inputs, the shadow's inputs (1 + ports, or 1
+ * where SHSCAL says so); end c < 0: to the last column. */
+typedef struct {
+    const char *tag;
+    int first_c, first_i, end_c, end_i;
+    double low, high;
+    int low_open, high_open, has_also;
+    double also;
+    const char *what, *allowed;
+} RangeRule;
+typedef struct {
+    const char *tag;
+    int first_c, first_i, end_c, end_i;
+    double total, tolerance;
+    const char *what;
+} RowSumRule;
+
+#define RANGE_ROW(tag, c0, i0, c1, i1, low, high, lo_open, hi_open, has_also, also, what, allowed) \
+    {tag, c0, i0, c1, i1, low, high, lo_open, hi_open, has_also, also, what, allowed},
+#define SUM_ROW(tag, c0, i0, c1, i1, total, tolerance, what) {tag, c0, i0, c1, i1, total, tolerance, what},
+static const RangeRule RANGE_RULES[] = {ROM_RANGE_RULES(RANGE_ROW)};
+static const RowSumRule ROW_SUM_RULES[] = {ROM_ROW_SUM_RULES(SUM_ROW)};
+#undef RANGE_ROW
+#undef SUM_ROW
+#define N_RULES(table) (sizeof table / sizeof table[0])
+
+/* the column span [*first, *end) of a rule in a section of cols columns */
+static void rule_columns(int first_c, int first_i, int end_c, int end_i, uint32_t inputs, uint32_t cols,
+                         uint32_t *first, uint32_t *end) {
+    const int64_t a = (int64_t)first_c + (int64_t)first_i * inputs;
+    const int64_t b = end_c < 0 ? (int64_t)cols : (int64_t)end_c + (int64_t)end_i * inputs;
+    *first = a < 0 ? 0u : (a > (int64_t)cols ? cols : (uint32_t)a);
+    *end = b < (int64_t)*first ? *first : (b > (int64_t)cols ? cols : (uint32_t)b);
+}
+
+static RomStatus check_ranges(const RomModel *m, uint32_t inputs, char *message, size_t message_size) {
+    for (size_t r = 0; r < N_RULES(RANGE_RULES); r++) {
+        const RangeRule *rule = &RANGE_RULES[r];
+        const RomSection *s = rom_section(m, rule->tag);
+        if (!s) continue;
+        uint32_t first, end;
+        rule_columns(rule->first_c, rule->first_i, rule->end_c, rule->end_i, inputs, s->cols, &first, &end);
+        for (uint32_t i = 0; i < s->rows; i++) {
+            for (uint32_t j = first; j < end; j++) {
+                const double x = s->data[(size_t)i * s->cols + j];
+                const int ok = (rule->low_open ? x > rule->low : x >= rule->low) &&
+                               (rule->high_open ? x < rule->high : x <= rule->high);
+                if (!ok && !(rule->has_also && x == rule->also)) {
+                    return rom_fail(message, message_size, "resources: section '%s' row %u, column %u holds %g: %s "
+                                    "is %s", s->tag, i + 1, j + 1, x, rule->what, rule->allowed);
+                }
+            }
+        }
+    }
+    return ROM_OK;
+}
+
+static RomStatus check_row_sums(const RomModel *m, uint32_t inputs, char *message, size_t message_size) {
+    for (size_t r = 0; r < N_RULES(ROW_SUM_RULES); r++) {
+        const RowSumRule *rule = &ROW_SUM_RULES[r];
+        const RomSection *s = rom_section(m, rule->tag);
+        if (!s) continue;
+        uint32_t first, end;
+        rule_columns(rule->first_c, rule->first_i, rule->end_c, rule->end_i, inputs, s->cols, &first, &end);
+        for (uint32_t i = 0; i < s->rows; i++) {
+            double total = 0.0;
+            for (uint32_t j = first; j < end; j++) total += s->data[(size_t)i * s->cols + j];
+            if (!(fabs(total - rule->total) <= rule->tolerance)) {
+                return rom_fail(message, message_size, "resources: section '%s' row %u: %s sum to %.17g (allowed: "
+                                "%g to %g)", s->tag, i + 1, rule->what, total, rule->total, rule->tolerance);
+            }
+        }
+    }
+    return ROM_OK;
+}
+
+/* every value rule of the model's sections (once their shapes are checked) */
+static RomStatus check_values(const RomModel *m, char *message, size_t message_size) {
+    uint32_t inputs = 1u + m->n_ports;        /* the shadow's inputs: f and each port force, or f alone (SHSCAL) */
+    const RomSection *scal = rom_section(m, "SHSCAL");
+    if (scal && scal->rows == 1 && scal->cols == ROM_SHSCAL_COLUMNS && scal->data[ROM_SHSCAL_INPUTS] == 1.0) inputs = 1u;
+    if (check_ranges(m, inputs, message, message_size) != ROM_OK) return ROM_FAIL;
+    return check_row_sums(m, inputs, message, message_size);
+}
 
 /* the model's ports from its sections: all three sections or none, PORTB none with the port channel (section
  * PCSCAL: the channel takes every port force, the kind none) */
@@ -469,6 +563,7 @@ RomStatus rom_model_load_memory(const void *data, size_t size, RomModel **out, c
     const unsigned char *payload = bytes + ROM_HEADER_SIZE;
     RomStatus status = kind->load(m, payload, doubles, message, message_size);
     if (status == ROM_OK) status = read_sections(m, bytes, sections_start, n_sections, message, message_size);
+    if (status == ROM_OK) status = check_values(m, message, message_size);     /* before any use of the values */
     if (status == ROM_OK) status = ports_prepare(m, message, message_size);
     if (status == ROM_OK) status = rom_channel_prepare(m, message, message_size);
     if (status == ROM_OK && kind->sections_ready) status = kind->sections_ready(m, message, message_size);

@@ -1,7 +1,7 @@
 /*
  * The serialized FMU state (rom_layout.h's format, generated from harness/fmu/layout.py): the header, a^v and
  * a^rho, the kind's block (asked of the model's table: state_doubles, state_check, state_put, state_get; the
- * frozen kind's holds its parameters n_freeze and dt), t0 and df/dt, the parameters a state carries, the ports;
+ * frozen kind's holds its parameters n_freeze and dt), the time since the start and df/dt, the parameters a state carries, the ports;
  * read through the envelope check rom_bytes.c shares with the resources.
  */
 #include "rom_internal.h"
@@ -9,34 +9,34 @@
 #include <stdio.h>
 
 static const RomBlob STATE = {"serialized state", ROM_STATE_MAGIC, "an sphrom FMU state", "an empty state",
-                              "a state", "", ROM_STATE_VERSION, ROM_STATE_HEADER_SIZE + 4,
+                              "a state", "", ROM_STATE_VERSION, ROM_STATE_OLDEST_VERSION, ROM_STATE_HEADER_SIZE + 4,
                               "; a state restores only into the FMU that wrote it, whose token hashes its model.bin, "
                               "and a state of an older format comes from an FMU of an older model.bin format, which "
                               "no FMU of this binary has"};
 
 /* The state's values in the order they are serialized: a^v [k_v], a^rho [k_rho] (linear: a, b), the kind's
  * block (state_put: frozen n_freeze, dt, M^T (k_v rows of k_rho) and F [k_v]; linear the forced part X [k]), then
- * t0 and the input rate, the error bounds' shadow and the port channel.  The parameters a state carries follow them
- * (params_put, params_get). */
+ * the time since the start (format 4: the start time t0) and the input rate, the error bounds' shadow and the port
+ * channel.  The parameters a state carries follow them (params_put, params_get). */
 static unsigned char *blocks_put(const RomState *s, unsigned char *cursor) {
     const RomModel *m = s->model;
     cursor = rom_put_f64s(cursor, s->av, m->k_v);
     cursor = rom_put_f64s(cursor, s->ar, m->k_rho);
     cursor = m->ops->state_put(s, cursor);
-    const double times[2] = {s->t0, s->f_rate};
+    const double times[2] = {s->elapsed, s->f_rate};
     cursor = rom_put_f64s(cursor, times, 2);
     cursor = rom_bound_state_put(s, cursor);           /* the error bounds' shadow (rom_bound.c) */
     return rom_channel_state_put(s, cursor);           /* the port channel (rom_port.c) */
 }
 
-static const unsigned char *blocks_get(RomState *s, const unsigned char *cursor) {
+static const unsigned char *blocks_get(RomState *s, const unsigned char *cursor, uint32_t version) {
     const RomModel *m = s->model;
     cursor = rom_get_f64s(cursor, s->av, m->k_v);
     cursor = rom_get_f64s(cursor, s->ar, m->k_rho);
     cursor = m->ops->state_get(s, cursor);
     double times[2];
     cursor = rom_get_f64s(cursor, times, 2);
-    s->t0 = times[0];
+    s->elapsed = version == ROM_STATE_VERSION ? times[0] : s->time - times[0];     /* format 4: t0 */
     s->f_rate = times[1];
     cursor = rom_bound_state_get(s, cursor);
     return rom_channel_state_get(s, cursor);
@@ -133,9 +133,9 @@ void rom_state_serialize(const RomState *s, uint32_t tag, unsigned char *buffer)
 static RomStatus check_params_in_state(const RomModel *m, const unsigned char *params, char *message,
                                        size_t message_size) {
     const double scale = rom_get_f64(params);
-    if (!isfinite(scale)) {
+    if (!(fabs(scale) <= ROM_MAX_INITIAL_STATE_SCALE)) {
         return rom_fail(message, message_size, "serialized state: parameter initial_state_scale = %g is out of range "
-                        "(allowed: a finite real number)", scale);
+                        "(allowed: [-%g, %g])", scale, ROM_MAX_INITIAL_STATE_SCALE, ROM_MAX_INITIAL_STATE_SCALE);
     }
     const RomSection *section = rom_section(m, "PARAMS");
     for (int which = ROM_PARAM_C; which <= ROM_PARAM_D; which++) {
@@ -197,6 +197,13 @@ RomStatus rom_state_check(const RomModel *m, const unsigned char *buffer, size_t
     /* the kind's rules on its block (the frozen kind's n_freeze and dt), the parameters, then every value finite */
     const unsigned char *block = buffer + ROM_STATE_HEADER_SIZE + 8 * ((size_t)m->k_v + m->k_rho);
     if (m->ops->state_check && m->ops->state_check(m, block, message, message_size) != ROM_OK) return ROM_FAIL;
+    /* the time since the start (format 5; format 4's start time t0 is any finite time): the sum of the steps */
+    const double since = rom_get_f64(block + 8 * m->ops->state_doubles(m));
+    const double elapsed = rom_get_u32(buffer + 8) == ROM_STATE_VERSION ? since : time - since;
+    if (!(isfinite(elapsed) && elapsed >= 0)) {
+        return rom_fail(message, message_size, "serialized state: the time since the start %g s is out of range "
+                        "(allowed: a finite number >= 0)", elapsed);
+    }
     const unsigned char *params = buffer + ROM_STATE_HEADER_SIZE + 8 * kind_doubles(m);
     if (check_params_in_state(m, params, message, message_size) != ROM_OK) return ROM_FAIL;
     if (rom_channel_state_check(m, params - 8 * rom_channel_state_doubles(m), message, message_size) != ROM_OK) {
@@ -219,7 +226,7 @@ RomStatus rom_state_deserialize(RomState *s, const unsigned char *buffer, size_t
     s->n = (int64_t)rom_get_u64(buffer + ROM_STATE_N);
     s->time = rom_get_f64(buffer + ROM_STATE_TIME);
     s->f = rom_get_f64(buffer + ROM_STATE_F);
-    const unsigned char *cursor = blocks_get(s, buffer + ROM_STATE_HEADER_SIZE);
+    const unsigned char *cursor = blocks_get(s, buffer + ROM_STATE_HEADER_SIZE, rom_get_u32(buffer + 8));
     cursor = params_get(s, cursor);
     (void)ports_get(s, cursor);
     return ROM_OK;

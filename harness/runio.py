@@ -447,6 +447,102 @@ def check_memory(field, need, what):
                                 f"{format_bytes(free)} available (allowed: a run that fits)")
 
 
+# Bytes per particle and stored sample of a run's samples: v and rho, float64 (sphrom.sph.solver.run_sph)
+SAMPLE_BYTES = 16
+# The comparison with the exact solution (sphrom sph, scenes with uniform c, rho0, d): the reference's v and rho, the
+# complex synthesis of each (bins, inverse FFT) and the error's differences, float64 per particle and sample
+EXACT_BYTES = 96
+# The POD of the snapshots (sphrom.pod): the snapshot matrices of v and rho, the SVD's copies and its left
+# vectors, float64 per particle and snapshot
+POD_BYTES = 64
+# The bar's lowest modes above MODAL_DENSE_N particles (sphrom.rom.inputs.bar_modes: shift-invert Lanczos of
+# MODAL_SPARSE modes): ARPACK's 2 MODAL_SPARSE + 1 Lanczos vectors, the modes, and the channel's modal responses
+# and their copies (sphrom.rom.inputs.channel_modes), float64 per particle: 601 + 3 x 300 vectors
+MODAL_VECTORS = 2 * 300 + 1 + 3 * 300
+# The frozen model's refresh tensor (sphrom.rom.operators.refresh_tensor): the products of U^rho over every sorted
+# index triple at every particle, k(k+1)(k+2)/6 columns, and the two temporaries of the product, float64
+TENSOR_COPIES = 3
+# At most MODAL_DENSE_N particles the modes and the error bounds' shadow are dense: about six matrices of (2N)^2
+DENSE_BYTES = 6 * 4 * 8
+# The need against what is available: an address-space limit counts what the allocator reserves, not only what a
+# run touches, and a sparse LU (SuperLU, in the modes' shift-invert) that cannot allocate ends the process
+# (SIGSEGV) instead of raising MemoryError: a quarter more is asked than the arrays hold
+MEMORY_MARGIN = 1.25
+
+
+def run_memory(scene, command, model=None, modes=None):
+    """The largest allocations that grow with the particles N of ``command`` (``sph``, ``pod``, ``fmu``) on
+    ``scene``, before any of its work: a list of (bytes, what they hold).  An estimate from the arrays' sizes
+    (float64): the run's stored samples, the exact solution they are compared with (``sph``), the POD of the
+    snapshots and the frozen model's refresh tensor (``pod``, ``fmu`` with a model that has one; ``modes`` the k
+    asked for, else the scene's or the automatic rule's largest), the bar's modes and the error bounds' shadow
+    (``fmu``); the interpreter and the
+    libraries (about 0.3 GiB) are not in it.  ``tests/test_hostile_round4.py`` checks it against the peak
+    measured."""
+    from .sph.solver import default_sample_steps, step_count
+    n = int(scene.sph.n_particles)
+    samples = int(default_sample_steps(step_count(scene.T, scene.sph.dt), scene.sph.every).size)
+    needs = [(SAMPLE_BYTES * samples * n, f"the run's {samples} samples of v and rho")]
+    if command == "sph":
+        from .references.exact import is_available
+        if is_available(scene):
+            needs.append((EXACT_BYTES * samples * n, "the exact solution they are compared with"))
+    if command in ("pod", "fmu"):
+        count = int(scene.snapshots.get("count", 0)) or samples
+        needs.append((POD_BYTES * count * n, f"the POD of {count} snapshots"))
+    if command in ("pod", "fmu") and not (model and _linear(model)):
+        from .pod.automatic import MAX_AUTO_MODES
+        count = int(scene.snapshots.get("count", 0)) or samples
+        k = int(modes or scene.rom.get("modes") or min(MAX_AUTO_MODES, count)) + 1     # + 1: an appended direction
+        needs.append((8 * TENSOR_COPIES * n * (k * (k + 1) * (k + 2) // 6),
+                      f"the frozen model's refresh tensor of {k} density modes"))
+    if command == "fmu":
+        from .rom.inputs import MODAL_DENSE_N
+        if n <= MODAL_DENSE_N:
+            needs.append((DENSE_BYTES * n * n, "the dense modes and error bounds' shadow of 2N states"))
+        else:
+            needs.append((8 * MODAL_VECTORS * n, "the bar's lowest 300 modes (shift-invert Lanczos)"))
+    return needs
+
+
+def _linear(model):
+    """Whether the registered reduced model ``model`` is a linear one (no refresh tensor); False for "auto"."""
+    from .rom.registry import MODELS
+    spec = MODELS.get(model)
+    return bool(spec and spec.linear)
+
+
+def check_run_memory(scene, command, model=None, modes=None, field="n_particles"):
+    """FieldError ``field`` (the scene's sph.n_particles) when :func:`run_memory` of ``command`` on ``scene`` exceeds
+    what this machine has available (:func:`available_memory`) with :data:`MEMORY_MARGIN`, before the work
+    starts: one line with the need, what holds most of it, what is available and the largest N that fits here.
+    ``sphrom sph``, ``pod`` and ``fmu`` call it once their scene is known."""
+    free = available_memory()
+    if free is None:
+        return
+    needs = run_memory(scene, command, model, modes)
+    total = MEMORY_MARGIN * sum(b for b, _ in needs)
+    if total <= free:
+        return
+    n = int(scene.sph.n_particles)
+    low, high = 0, n                                 # the largest N whose need fits (the need grows with N)
+    while high - low > 1:
+        mid = (low + high) // 2
+        if MEMORY_MARGIN * sum(b for b, _ in run_memory(_with_particles(scene, mid), command, model, modes)) <= free:
+            low = mid
+        else:
+            high = mid
+    biggest = max(needs)[1]
+    raise FieldError(field, f"N = {n} particles need about {format_bytes(total)} of memory (most of it {biggest}), "
+                            f"and this machine has {format_bytes(free)} available (allowed: N up to {low} here, with "
+                            "these steps and samples)")
+
+
+def _with_particles(scene, n):
+    import dataclasses
+    return dataclasses.replace(scene, sph=dataclasses.replace(scene.sph, n_particles=max(int(n), 1)))
+
+
 @contextlib.contextmanager
 def atomic_path(path):
     """Yield a temporary path; on success it becomes ``path``, else nothing is left.

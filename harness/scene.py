@@ -91,6 +91,7 @@ class Scene:
     source: str           # file path, for messages and provenance
     text: str             # the TOML text, stored in every output file
     automatic: tuple = ()
+    spectrum: tuple = ()  # (omega_max [rad s^-1], min d, max d [s^-1]) at the particles: the step's stability
 
     # -- fields ------------------------------------------------------------
     def field(self, name, x):
@@ -120,21 +121,32 @@ class Scene:
         x = particle_positions(self.L, self.sph.n_particles)
         return float(np.sum(np.sqrt(self.field("rho0", x) / self.field("c", x))) * (self.L / self.sph.n_particles))
 
-    def with_sph(self, source=CLI, **changes):
+    def with_sph(self, source=CLI, stable=True, **changes):
         """A copy with SPH settings changed (``None`` values are ignored), re-validated.
 
         Errors name the field: the setting (FieldError ``dt``) for settings given on their own
         (``source`` = ``CLI``), else the file and its key (``sph.dt``).  Automatic settings
-        (``sph.every``, ``snapshots``) not given here follow the new settings.
+        (``sph.every``, ``sph.dt``, ``snapshots``) not given here follow the new settings.  A dt above the
+        stability limit of the integrator is refused (:func:`sphrom.sph.timestep.refusal`) unless ``stable`` is
+        False (the stability benchmarks, which run beyond the limit on purpose).
         """
         changes = {k: v for k, v in changes.items() if v is not None}
         automatic = tuple(a for a in self.automatic if not (a.startswith("sph.") and a[4:] in changes))
         sph = dataclasses.replace(self.sph, **changes)
+        placeholder = {"every": MAX_STEPS} if "sph.every" in automatic else {}
+        if "sph.dt" in automatic:
+            placeholder["dt"] = self.T
+        _check_sph(dataclasses.replace(sph, **placeholder), source, self.T)
+        scene = dataclasses.replace(self, sph=sph, automatic=automatic)
+        if {"n_particles", "alpha"} & set(changes):
+            scene = dataclasses.replace(scene, spectrum=_spectrum(scene))
+        blame = "integrator" if "integrator" in changes and "dt" not in changes else "dt"
+        scene = _stable(scene, source, check=stable, blame=blame)
         if "sph.every" in automatic:
-            _check_sph(dataclasses.replace(sph, every=MAX_STEPS), source, self.T)
-            sph = dataclasses.replace(sph, every=automatic_every(self.T, self._period_at(sph), sph))
-        _check_sph(sph, source, self.T)
-        return _follow(dataclasses.replace(self, sph=sph, automatic=automatic))
+            scene = dataclasses.replace(scene, sph=dataclasses.replace(
+                scene.sph, every=automatic_every(scene.T, scene.period(), scene.sph)))
+        _check_sph(scene.sph, source, scene.T)
+        return _follow(scene)
 
     def with_T(self, T):
         """A copy with a different horizon T [s] (``None``: unchanged); automatic settings follow it."""
@@ -142,6 +154,8 @@ class Scene:
             return self
         if not (np.isfinite(T) and T > 0):
             raise FieldError("t_end", f"{T!r} is out of range (allowed: a number > 0)")
+        if "sph.dt" in self.automatic and 1 / SCALE <= T <= SCALE:          # the dt follows T
+            return _follow(_every(_stable(dataclasses.replace(self, T=float(T)), CLI, blame="t_end")))
         if self.sph.dt > T:
             raise FieldError("t_end", f"{T:g} is out of range (allowed: T >= dt = {self.sph.dt:g})")
         if T / self.sph.dt > MAX_STEPS:
@@ -150,14 +164,7 @@ class Scene:
         if not 1 / SCALE <= T <= SCALE:
             raise FieldError("t_end", f"{T!r} is out of range (allowed: a number in [{fmt(1 / SCALE)}, {fmt(SCALE)}] "
                                       "s, as domain.T)")
-        scene = dataclasses.replace(self, T=float(T))
-        if "sph.every" in scene.automatic:
-            scene = dataclasses.replace(scene, sph=dataclasses.replace(
-                scene.sph, every=automatic_every(scene.T, scene.period(), scene.sph)))
-        return _follow(scene)
-
-    def _period_at(self, sph):
-        return dataclasses.replace(self, sph=sph).period()
+        return _follow(_every(dataclasses.replace(self, T=float(T))))
 
 
 def _check_values(value, at, k, where, var, unit):
@@ -173,6 +180,51 @@ def _check_values(value, at, k, where, var, unit):
         i = int(np.argmax(outside))
         raise UserError(f"{where}: {shown(float(value.flat[i]))} at {var} = {float(at.flat[i]):g} {unit} is out of "
                         f"range (allowed: {k.range.text()} {k.unit}".rstrip() + " everywhere)")
+
+
+def _every(scene):
+    """``scene`` with its automatic ``sph.every`` recomputed for its T and SPH settings."""
+    if "sph.every" not in scene.automatic:
+        return scene
+    return dataclasses.replace(scene, sph=dataclasses.replace(
+        scene.sph, every=automatic_every(scene.T, scene.period(), scene.sph)))
+
+
+def _spectrum(scene):
+    """(ω_max [rad s^-1], min d, max d [s^-1]) of ``scene``'s particles (:func:`sphrom.sph.timestep.omega_max`)."""
+    from .sph.operator import particle_positions
+    from .sph.timestep import omega_max
+    n = scene.sph.n_particles
+    x = particle_positions(scene.L, n)
+    c, rho0, d = (scene.field(name, x) for name in ("c", "rho0", "d"))
+    return (omega_max(float(c.max()), float(rho0.min()), scene.L, n, scene.sph.alpha), float(d.min()),
+            float(d.max()))
+
+
+def _stable(scene, source, check=True, blame="dt"):
+    """``scene`` with its automatic dt chosen (``sph.dt`` in ``scene.automatic``: :func:`automatic_dt`), or its dt
+    checked against the stability limit of its integrator (``check``): one line naming the field (``blame``; the
+    file's ``sph.dt`` for a scene file) with the limit and the remedy, before any work."""
+    from .sph.timestep import automatic_dt, refusal
+    w, d_min, d_max = scene.spectrum
+    sph = scene.sph
+
+    def fail(detail):
+        if source == CLI:
+            raise FieldError(blame, detail)
+        raise UserError(f"{source}: sph.dt: {detail}")
+    if "sph.dt" in scene.automatic:
+        dt, limit = automatic_dt(sph.integrator, w, d_min, d_max, scene.T, MAX_STEPS)
+        if dt is None:
+            fail(f"no step leaves T = {scene.T:g} s within {MAX_STEPS_TEXT} steps of the {sph.integrator} integrator "
+                 f"(its stability limit is {limit:.3g} s, omega_max = {w:.4g} rad/s); remedy: a shorter T, fewer "
+                 "particles or a softer bar")
+        return dataclasses.replace(scene, sph=dataclasses.replace(sph, dt=dt))
+    if check:
+        reason = refusal(sph.integrator, sph.dt, w, d_min, d_max)
+        if reason is not None:
+            fail(reason)
+    return scene
 
 
 def _follow(scene):
@@ -257,6 +309,17 @@ def automatic_lines(scene):
     if "name" in scene.automatic:
         origin = "the file name" if scene.source.endswith(f"{scene.name}.toml") else "no name in the scene text"
         lines.append(f"scene {scene.name}: name from {origin} ({scene.source})")
+    from .sph.timestep import DT_FRACTION, dt_limit
+    if "sph.integrator" in scene.automatic:
+        lines.append(f"scene {scene.name}: sph.integrator = {scene.sph.integrator} (the default: below its stability "
+                     "limit no mode grows; the paper's euler where a scene names it)")
+    if "sph.dt" in scene.automatic:
+        w, d_min, d_max = scene.spectrum
+        limit = dt_limit(scene.sph.integrator, w, d_max, d_min)
+        lines.append(f"scene {scene.name}: sph.dt = {scene.sph.dt:.4g} s (automatic: {scene.sph.dt / limit:.3g} of the "
+                     f"stability limit {limit:.3g} s of {scene.sph.integrator}, omega_max = {w:.4g} rad/s; "
+                     f"{run_steps(scene.T, scene.sph.dt)} steps to T; rule: {DT_FRACTION:g} of the limit, T a whole "
+                     "number of steps)")
     if "sph.every" in scene.automatic:
         lines.append(f"scene {scene.name}: sph.every = {scene.sph.every} (automatic: a sample every "
                      f"{scene.sph.every * scene.sph.dt:.4g} s; T' = {scene.period():.4g} s, the wave's time once "
@@ -266,6 +329,26 @@ def automatic_lines(scene):
                      f"training run, count = 200 T/T' = {200 * scene.T / scene.period():.4g} within [20, 1000], "
                      "the run's steps and 4 GiB)")
     return lines
+
+
+def stability_lines(scene):
+    """The warnings (one line each, no prefix) every command that runs the full SPH of ``scene`` says before it:
+    its integrator amplifying some mode more than 100-fold over the run (explicit Euler on a lightly damped bar,
+    :func:`sphrom.sph.timestep.warnings`), with the remedy.  A dt above the stability limit never gets here: the
+    loader refuses it."""
+    from .sph.timestep import warnings
+    w, d_min, _ = scene.spectrum
+    return warnings(scene.sph.integrator, scene.sph.dt, w, d_min, scene.T)
+
+
+def announce(scene, command):
+    """What a command says about ``scene`` before any work: the automatic choices (stdout, :func:`automatic_lines`)
+    and the stability warnings (stderr, ``sphrom COMMAND: warning: ...``, :func:`stability_lines`)."""
+    import sys
+    for line in automatic_lines(scene):
+        print(line)
+    for line in stability_lines(scene):
+        print(f"sphrom {command}: warning: {line}", file=sys.stderr)
 
 
 # --------------------------------------------------------------------------
@@ -345,8 +428,14 @@ def parse_scene(text: str, source: str = "<scene>", name: str | None = None) -> 
     fields_data = {name_: data["fields"].get(name_, key(f"fields.{name_}").default) for name_ in X_FIELDS}
     force = data.get("force", {})
     sph_data = data["sph"]
-    for k in ("alpha", "integrator"):
-        sph_data.setdefault(k, key(f"sph.{k}").default)
+    sph_data.setdefault("alpha", key("sph.alpha").default)
+    if "integrator" not in sph_data:
+        from .sph.timestep import DEFAULT_INTEGRATOR
+        automatic.append("sph.integrator")
+        sph_data["integrator"] = DEFAULT_INTEGRATOR
+    if "dt" not in sph_data:
+        automatic.append("sph.dt")
+        sph_data["dt"] = domain["T"]            # replaced below, once the fields give the stability limit
     if "every" not in sph_data:
         automatic.append("sph.every")
         sph_data["every"] = MAX_STEPS            # replaced below, once the fields give T'
@@ -389,10 +478,8 @@ def parse_scene(text: str, source: str = "<scene>", name: str | None = None) -> 
     for name_ in fields:
         scene.field(name_, x)
     scene.force(np.linspace(0.0, scene.T, 257))
-    if "sph.every" in scene.automatic:
-        sph = dataclasses.replace(sph, every=automatic_every(scene.T, scene.period(), sph))
-        scene = dataclasses.replace(scene, sph=sph)
-    return _follow(scene)
+    scene = _stable(dataclasses.replace(scene, spectrum=_spectrum(scene)), source)
+    return _follow(_every(scene))
 
 
 def _check_paper(paper, source, L, T, n):
@@ -475,8 +562,10 @@ _TOML_ESCAPES = {"\\": "\\\\", '"': '\\"', "\n": "\\n", "\t": "\\t"}
 def _toml_value(value):
     if isinstance(value, bool):
         return "true" if value else "false"
-    if isinstance(value, (int, float)):
-        return repr(value)
+    if isinstance(value, int):
+        return repr(int(value))
+    if isinstance(value, float):
+        return repr(float(value))           # a numpy float's repr is not TOML (np.float64(...))
     if isinstance(value, str):
         return '"' + "".join(_TOML_ESCAPES.get(ch, ch if ch.isprintable() else f"\\u{ord(ch):04x}" if ord(ch) < 0x10000
                                  else f"\\U{ord(ch):08x}") for ch in value) + '"'

@@ -81,11 +81,15 @@ def markdown(automatic_rules) -> str:
              "`validation/scenes/*.toml`) are complete examples.", "",
              "## A minimal scene", "",
              "Only the physics and the two settings that decide the SPH's accuracy and cost: the particle "
-             "count and the time step.  They have no default because no value suits every scene: the SPH "
-             "error falls with N and dt, the cost grows with N/dt, and an explicit step is stable only below a "
-             "limit set by c, rho0, d and N (`sphrom sph` warns before the run when its integrator would "
-             "amplify the worst mode more than 100-fold over the run).  Everything else has a default or is "
-             "chosen automatically, and the commands print what they chose.", "",
+             "count and the time step.  N has no default because no value suits every scene: the SPH error "
+             "falls with N, the cost grows with N/dt.  The time step may be left out: an explicit step is "
+             "stable only below a limit set by c, rho0, d and N, and without `dt` the loader takes a fraction "
+             "of that limit (below) and prints it.  A `dt` above the limit of its integrator is refused when "
+             "the scene is loaded, in one line naming the limit and the remedy, before any work; every command "
+             "that runs the SPH warns before the run when its integrator would amplify the worst mode more than "
+             "100-fold over the run (the paper's explicit Euler, named by every built-in scene; a scene that "
+             "names no integrator gets symplectic Euler, under whose limit no mode grows).  Everything else "
+             "has a default or is chosen automatically, and the commands print what they chose.", "",
              "```toml", MINIMAL_SCENE.rstrip("\n"), "```", "",
              "```sh",
              "sphrom fmu my_bar.toml --out my_bar.fmu           # full SPH, POD, the reduced model as an FMU",

@@ -248,12 +248,14 @@ KEYS = [
         why="above 0.5 each particle has neighbours; below N/4 the kernel support 2h stays below L/2 (the "
             f"minimum image); at most {MAX_ALPHA:g}: the operator stores 4 alpha + 1 neighbours per particle, "
             "2.7 GB at N = 1e7 and alpha = 4 (the paper uses 1.04 to 1.2)", example=1.04),
-    Key("sph", "dt", "number", True, "s", None, POSITIVE, "time step", also=f"dt <= T and T/dt <= {MAX_STEPS_TEXT} "
-        "steps (so dt >= 1e-24 s)", why=f"at most {MAX_STEPS_TEXT} steps: at the cheapest step (N = 8, about a "
-        "microsecond) 1e9 steps take the better part of an hour", example=1e-3),
-    Key("sph", "integrator", "choice", False, "", "euler", Range(choices=("euler", "symplectic", "rk4")),
+    Key("sph", "dt", "number", False, "s", AUTO, POSITIVE, "time step", also=f"dt <= T and T/dt <= {MAX_STEPS_TEXT} "
+        "steps (so dt >= 1e-24 s); at most the stability limit of the integrator (refused above it, naming the "
+        "limit)", why=f"at most {MAX_STEPS_TEXT} steps: at the cheapest step (N = 8, about a "
+        "microsecond) 1e9 steps take the better part of an hour; above the stability limit the fastest mode grows "
+        "at every step", example=1e-3, default_text="automatic (below)"),
+    Key("sph", "integrator", "choice", False, "", "symplectic", Range(choices=("euler", "symplectic", "rk4")),
         "time integrator: euler (the paper's explicit Euler), symplectic (rho then v), rk4",
-        why="the integrators the SPH has", example="euler"),
+        why="the integrators the SPH has", example="euler", default_text="symplectic (below)"),
     Key("sph", "every", "integer", False, "", AUTO, Range(1, MAX_STEPS), "store a sample every `every` steps "
         "(the errors are measured on the samples)", also="at most 4 GiB of stored samples (v and rho)",
         why=f"at most the steps of the longest run, {MAX_STEPS_TEXT} (a larger every keeps only the first and the "

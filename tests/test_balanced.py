@@ -45,6 +45,7 @@ def _measured_force_gain(lti, red, h, U, hold="linear"):
     return np.sqrt(np.maximum(E, 0.0)) / input_norm(h, U, hold)
 
 
+@pytest.mark.cpu_sensitive
 # --------------------------------------------------------------------------- the LTI system
 @pytest.mark.parametrize("base,fields", [
     ("damped_forced", {}),

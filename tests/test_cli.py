@@ -59,7 +59,8 @@ def _write_variant(tmp_path, mutate):
 
 @pytest.mark.parametrize("mutate, expect", [
     (lambda d: d["sph"].update(foo=1), "sph.foo"),
-    (lambda d: d["sph"].pop("dt"), "sph.dt: missing key"),
+    (lambda d: d["sph"].update(dt=0.1), "sph.dt: 0.1 s is above the stability limit 0.0638 s of the euler integrator"),
+    (lambda d: d["sph"].update(dt=0.07, integrator="symplectic"), "sph.dt: 0.07 s is above the stability limit"),
     (lambda d: d["sph"].update(n_particles="100"), "sph.n_particles: expected an integer"),
     (lambda d: d["sph"].update(n_particles=4), "sph.n_particles: 4 is out of range"),
     (lambda d: d["sph"].update(alpha=0.4), "sph.alpha: 0.4 is out of range (allowed: 0.5 < alpha"),
@@ -101,15 +102,27 @@ def test_unknown_scene_and_bad_out(tmp_path, capsys):
     assert "does not exist" in capsys.readouterr().err
 
 
-def test_blow_up_names_step_and_time_and_keeps_nothing(tmp_path, capsys):
+def test_a_step_above_the_stability_limit_is_refused_before_any_work(tmp_path, capsys):
+    """An impossible request (a dt above the limit of the integrator) is one line naming the option, the limit and
+    the remedy, exit 2, before any run; the blow-up of a run below the limit is tests/test_hostile.py's."""
     out = tmp_path / "out.h5"
     code = main(["sph", "multimode", "--dt", "0.1", "--t-end", "5", "--out", str(out), "--quiet"])
-    captured = capsys.readouterr()
-    assert code == 3
-    assert "warning: dt = 0.1 s exceeds the explicit stability limit" in captured.err
-    assert "CFL number" in captured.err
-    assert "by step" in captured.err and "t = " in captured.err
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1, err
+    assert "--dt: 0.1 s is above the stability limit 0.0638 s of the euler integrator" in err[0]
+    assert "remedy: dt <= 0.0638 s" in err[0] and "another integrator" not in err[0], err
+    assert main(["sph", "multimode", "--dt", "0.07", "--out", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "or another integrator (rk4 up to 0.0902 s)" in err[0], err
     assert not out.exists() and list(tmp_path.iterdir()) == []
+    # below RK4's limit RK4 runs; the integrator changed on the command line alone is checked too, and named
+    assert main(["sph", "multimode", "--dt", "0.08", "--integrator", "rk4", "--t-end", "1", "--out", str(out),
+                 "--quiet"]) == 0
+    path = _write_variant(tmp_path, lambda d: d["sph"].update(dt=0.08, integrator="rk4"))
+    assert main(["sph", str(path), "--integrator", "symplectic", "--t-end", "1", "--out", str(tmp_path / "b.h5"),
+                 "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "error: --integrator: 0.08 s is above the stability limit" in err[0], err
 
 
 def test_interrupted_write_leaves_nothing(tmp_path):

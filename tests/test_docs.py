@@ -1,5 +1,6 @@
 """The prose of the tree: comments, help and documents state claims rather than cite issue numbers."""
 
+import importlib
 import re
 from pathlib import Path
 
@@ -45,3 +46,41 @@ def test_every_harness_path_in_the_readme_and_the_docs_exists():
              for p in re.findall(r"(?<![\w/.(])((?:harness|fmu_src|validation|tests)/[\w./-]*[\w/])", t.read_text())}
     missing = sorted((name, p) for name, p in paths if "*" not in p and not (ROOT / p).exists())
     assert len(paths) > 100 and not missing, missing
+
+
+ROLE = re.compile(r":(mod|func|class|meth|data|attr|exc):`~?([^`<>]+?)`")
+
+
+def _resolves(target):
+    """Whether a dotted name of sphrom (a module, then attributes) exists."""
+    bits = target.split(".")
+    for i in range(len(bits), 0, -1):
+        try:
+            obj = importlib.import_module(".".join(bits[:i]))
+        except ImportError:
+            continue
+        for name in bits[i:]:
+            if not hasattr(obj, name):
+                return False
+            obj = getattr(obj, name)
+        return True
+    return False
+
+
+def test_every_cross_reference_in_a_docstring_resolves():
+    """Every :mod:/:func:/:class:/... reference to sphrom in the code's docstrings names something that exists,
+    relative ones (``:mod:`.verify```) resolved against the module's package as Sphinx would."""
+    bad = []
+    for path in sorted((ROOT / "harness").rglob("*.py")):
+        parts = ["sphrom", *path.relative_to(ROOT / "harness").with_suffix("").parts]
+        package = parts[:-1] if parts[-1] == "__init__" else parts[:-1]
+        text = path.read_text()
+        for m in ROLE.finditer(text):
+            target = m.group(2).strip()
+            if target.startswith("."):
+                level = len(target) - len(target.lstrip("."))
+                base = package[:len(package) - level + 1]
+                target = ".".join(base + ([target.lstrip(".")] if target.lstrip(".") else []))
+            if target.split(".")[0] == "sphrom" and not _resolves(target):
+                bad.append(f"{path.relative_to(ROOT)}:{text[:m.start()].count(chr(10)) + 1}: {m.group(0)}")
+    assert not bad, bad

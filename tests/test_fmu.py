@@ -602,3 +602,16 @@ def test_bench_fmu_command_smoke(scene_file, tmp_path, capsys):
     assert {r["model"] for r in rows} == {"frozen", "exact"}
     for r in rows:
         assert 0 < float(r["probe_error_v_vs_sph"]) < 1
+
+
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_no_template_or_repository_text_ships_in_the_fmu(fmus, fmi):
+    """The modelDescription (and FMI 3's buildDescription) inside an FMU are filled templates: no placeholder left,
+    and none of the template's own comment (it explains this repository's placeholders and names its files)."""
+    path, _ = fmus(fmi=fmi)
+    with zipfile.ZipFile(path) as z:
+        names = ["modelDescription.xml"] + (["sources/buildDescription.xml"] if fmi == 3 else [])
+        for name in names:
+            text = z.read(name).decode("utf-8")
+            assert "{{" not in text and "}}" not in text, name
+            assert "harness/" not in text and "double braces" not in text, name

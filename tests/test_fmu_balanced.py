@@ -361,3 +361,16 @@ def test_fmu_no_bounds_leaves_the_bound_variables_out(tmp_path, capsys):
     assert not any(n.startswith(("force_error_bound", "initial_state_error_bound")) for n in names)
     assert "v_probe_1" in names and "v_probe_1_error_bound" in names      # the per-step bounds stay
     assert "error bounds" not in capsys.readouterr().out
+
+
+def test_every_model_takes_the_same_default_error_tolerance(fmus):
+    """error_tolerance's default is 5 % of the training run's largest |v_probe| for every model (the modelDescription
+    says so): the balanced model, which has no training envelope, reads it from the scene's training run as the
+    others read it from theirs (it took the initial state's instead, 4.5e-5 against 1.53e-4 on a forced scene)."""
+    from sphrom.fmu.make.steps import training_probe_speed
+    from sphrom.rom.bounds import TOLERANCE_FRACTION
+    from sphrom.sph.solver import build_problem
+    tolerances = {model: fmus(model)[2].error_tolerance for model in ("balanced", "exact", "frozen")}
+    speed = training_probe_speed(build_problem(scene_for("forced")), PROBES)
+    for model, tol in tolerances.items():
+        assert tol == pytest.approx(TOLERANCE_FRACTION * speed, rel=1e-12), (model, tolerances)

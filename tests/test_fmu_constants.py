@@ -8,6 +8,8 @@ from which fmu_src/fmu_variables.h is generated (tests/test_variables.py)."""
 import re
 from pathlib import Path
 
+import sphrom.defaults as defaults
+import sphrom.fmu.kinds as kinds
 import sphrom.fmu.run.core as core
 import sphrom.fmu.make.envelope as envelope
 import sphrom.fmu.run.driver as fmi
@@ -77,6 +79,12 @@ def test_constants_shared_by_c_and_python():
         "ROM_DT_FLOOR_RATIO": python_cosim.DT_FLOOR_RATIO,
         "ROM_MAX_WORK_PER_CALL": python_cosim.MAX_WORK_PER_CALL,
         "ROM_STEP_OVERHEAD": python_cosim.STEP_OVERHEAD,
+        # doStep's rules on the time (fmu_src/rom.c check_step, rom_internal.h rom_same_step; sphrom.fmu.kinds)
+        "ROM_TIME_ULPS": kinds.TIME_ULPS,
+        "ROM_TIME_STEP_TOLERANCE": kinds.TIME_STEP_TOLERANCE,
+        "ROM_SAME_STEP": kinds.SAME_STEP,
+        # |initial_state_scale| at most (the variable table's min and max, sphrom cosim's range)
+        "ROM_MAX_INITIAL_STATE_SCALE": defaults.MAX_INITIAL_STATE_SCALE,
     }
     assert {name: rom.get(name) for name in shared} == shared
     # the value references are not here: fmu_src/fmu_variables.h is generated from harness/fmu/variables.py

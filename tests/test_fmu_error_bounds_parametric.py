@@ -108,11 +108,15 @@ def test_parametric_bounds_are_the_python_shadow_fmi2_and_3(fmus):
 
 
 def test_ordinary_sections_unchanged():
-    """A non-parametric FMU's shadow has exactly the eight sections SH* it had (no SHPIECE, SHPARAM)."""
+    """A non-parametric FMU's shadow has the eight sections SH* of every shadow and the free response table (no
+    SHPIECE, SHPARAM, SHCPL); a parametric one has no table and the three parametric sections."""
     from sphrom.rom.bounds import fmu_shadow, sections
     from sphrom.sph.solver import build_problem
-    tags = sorted(sections(fmu_shadow(build_problem(fmu_scene(CASE)), base.PROBES)))
-    assert tags == sorted(["SHSCAL", "SHLAM", "SHB", "SHC", "SHW0", "SHGRAM", "SHROW", "SHPROBE"])
+    every = ["SHSCAL", "SHLAM", "SHB", "SHC", "SHW0", "SHROW", "SHRATE", "SHPROBE"]
+    problem = build_problem(fmu_scene(CASE))
+    assert sorted(sections(fmu_shadow(problem, base.PROBES))) == sorted(every + ["SHTAB", "SHTERR"])
+    assert sorted(sections(fmu_shadow(problem, base.PROBES, parametric=True))) == sorted(
+        every + ["SHPIECE", "SHPARAM", "SHCPL"])
 
 
 def test_core_refuses_a_malformed_parametric_shadow(fmus):
@@ -129,9 +133,47 @@ def test_core_refuses_a_malformed_parametric_shadow(fmus):
     cases = [(lambda s: s.pop("SHPARAM"), "SHPIECE and SHPARAM come together"),
              (lambda s: s.pop("SHPIECE"), "SHPIECE and SHPARAM come together"),
              (lambda s: [s.pop(t) for t in ("PARAMS", "A0", "AC", "AD")], "SHPIECE and SHPARAM come together"),
-             (lambda s: s["SHPARAM"].__setitem__((0, 0), -1.0), "c_ref = -1"),
-             (lambda s: s["SHPARAM"].__setitem__((0, 3), -1.0), "residual norm -1"),
+             (lambda s: s["SHPARAM"].__setitem__((0, 0), -1.0), "section 'SHPARAM' row 1, column 1 holds -1: the shadow's reference stiffness"),
+             (lambda s: s["SHPARAM"].__setitem__((0, 3), -1.0), "section 'SHPARAM' row 1, column 4 holds -1: a residual piece's norm is >= 0"),
              (lambda s: s.__setitem__("SHPIECE", s["SHPIECE"][:, :4]), "section SHPIECE is")]
     for change, text in cases:
         with pytest.raises(CoreError, match=text):
             load(change)
+
+
+@pytest.fixture(scope="module")
+def strongly_damped(tmp_path_factory):
+    """The parametric exact FMU of fmu_scene("unforced") over c in [0.05, 0.2], d in [0, 40] (k = 6): at d = 36 the
+    lower planes of the complement are overdamped (two real modes each), the others underdamped."""
+    from conftest import fmu_maker
+    make = fmu_maker(tmp_path_factory.mktemp("bound-overdamped"), probes=base.PROBES, default_case=CASE,
+                     vary=[par.Range("c", 0.05, 0.2), par.Range("d", 0.0, 40.0)])
+    return make("exact")
+
+
+def test_parametric_overdamped_complement(strongly_damped):
+    """At (c, d) = (0.13, 36) the C core's complement terms (fmu_src/rom_bound.c assemble_complement: underdamped,
+    overdamped and their two groups) give run_shadow's bounds (harness/rom/bounds.py parametric_complement) within
+    rtol 1e-9, and they hold against the full linear SPH with that c and d from the initial state and under a
+    force."""
+    from sphrom.rom.bounds import fmu_shadow, output_bounds, run_shadow
+    from sphrom.sph.solver import build_problem
+    path, data = strongly_damped
+    c, d = 0.13, 36.0
+    shadow = fmu_shadow(build_problem(fmu_scene(CASE)), base.PROBES, parametric=True,
+                        scale_v=float(np.max(data.sections["ENVPROBE"][1])))
+    comp = shadow.at(c, d)
+    assert comp.rates[1] < comp.rates[0] and np.max(comp.gain[:, :, 1]) > 0      # overdamped modes left out
+    t = times()
+    f = base.forces(t)["step"]
+    out, names, _ = base.run(path, 1.0, f, parameters={"c": c, "d": d})
+    v, rho, _ = base.truth(CASE, 1.0, f, fields=(("c", c), ("d", d)))
+    base.check(out, names, v, rho)
+    y, cert = run_shadow(shadow, np.full(t.size - 1, base.H), f[:-1, None], np.zeros((t.size - 1, 1)), scale=1.0,
+                         c=c, d=d)
+    vm, rm = base.columns(out, names, "v_probe_j"), base.columns(out, names, "rho_probe_j")
+    vb, rb, _ = output_bounds(shadow, y, cert, vm, rm)
+    np.testing.assert_allclose(base.columns(out, names, "v_probe_j_error_bound"), vb, rtol=1e-9,
+                               atol=1e-13 * np.abs(vm).max())
+    np.testing.assert_allclose(base.columns(out, names, "rho_probe_j_error_bound"), rb, rtol=1e-9,
+                               atol=1e-13 * np.abs(rm).max())

@@ -10,6 +10,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 
 PUBLIC = {
+    "sphrom": ["load_scene", "package_fmu", "FMU", "run_cosim", "verify_fmu"],
     "sphrom.sph": ["build_problem", "run_sph", "SPHProblem", "SPHResult", "step_count", "stability",
                     "stability_warnings", "energy_bound_factors", "energy", "momentum", "total_length",
                     "cubic_spline", "cubic_spline_gradient", "build_neighbours", "Neighbours", "particle_positions"],

@@ -122,6 +122,10 @@ PROGRAMS = {
                        "python3 -m tests.hostile in a checkout", "not recorded", "validation/hostile/"),
     "sweep": Program("sphrom.bench.sweep", "the committed parameter sweep on dask (throughput, resume)",
                      "not recorded", "validation/sweeps/"),
+    "scenes": Program("sphrom.bench.scenes", "a corpus of plausible user scenes through `sphrom fmu` at the first "
+                      "try: built or refused, v errors of the default and the exact FMU against the linear SPH exact "
+                      "in time, bounds, warnings, cost against the full SPH", "measured: see BENCHMARKS.md, its "
+                      "section", "scenes.csv, scenes.png; a BENCHMARKS.md section"),
 }
 
 @dataclass(frozen=True)

@@ -1,28 +1,33 @@
-"""The certified error bounds of the FMUs' outputs, measured: effectivity (bound / true error) and cost.
+"""The certified error bounds of the FMUs' outputs, measured: effectivity (bound / true error), false alarms, cost.
 
-``sphrom bench error_bounds [SCENE ...] [--models frozen,exact,balanced] [--repeats R] [--out FOLDER]
-[--report BENCHMARKS.md]`` packages each scene's FMU of each model (FMI 2, the scene's defaults, without the a
-priori bounds) and drives it, its inputs held over 10 ms steps over the scene's T, with five forces no basis saw
-(:data:`FORCES`) from initial_state_scale 0, 1 and 3.  The truth is the full SPH of eqs. 2.10-2.11 as the linear
-system in J (:mod:`sphrom.rom.lti`), advanced exactly over each step (the matrix exponential of the system
-augmented with the held input), independent of every reduced model and of the bounds' shadow: v at the probes,
-and ρ = ρ0 / (1 + e) at the particles, both interpolated linearly at the probes as the FMU does.
+``sphrom bench error_bounds [SCENE ...] [--models frozen,exact,balanced] [--corpus N] [--span S] [--repeats R]
+[--out FOLDER] [--report BENCHMARKS.md]`` packages each scene's FMU of each model (FMI 2, the scene's defaults,
+without the a priori bounds) and drives it over S x the scene's T (default 20) at 10 ms communication steps, from
+rest and from the scene's initial state, under five forces no basis saw (:func:`forces`), held over each step, and
+two of them linear over each step (FMI 2 input derivatives).  The scenes: every built-in scene and ``--corpus`` N
+generated user scenes (:func:`user_scenes`: damping that varies along the bar, force profiles that are not uniform,
+c and ρ0 that vary, rough initial states; default 4).
 
-Per scene, model and scale: the communication points where a bound is below the true error (certification:
-must be 0), and the effectivity bound / |error| of v_probe_j over every point where the error exceeds 10⁻³ of
-its largest in that run (median, 90th percentile, max over the runs of the five forces), the largest error and
-bound.  Cost: the C core's doStep (``rom_do_step`` through ctypes, no FMI or Python in the loop) on the same model
-with and without the bounds' sections, median of ``repeats`` runs of the scene's 1000 steps, timed in turn.
+The truth is the full SPH of eqs. 2.10-2.11 as the linear system in J (:mod:`sphrom.rom.lti`) integrated exactly in
+time: the matrix exponential of the system augmented with the input and its slope, one dense step map applied to
+every run at once, independent of every reduced model and of the bounds' shadow.  v at the probes, and ρ = ρ0 /
+(1 + e) at the particles, both interpolated linearly at the probes as the FMU does.
 
-Writes ``error_bounds.csv`` and ``error_bounds.png`` (bound and true error against time of one run) into FOLDER,
-and the section "Certified error bounds" of the report.
+Per run and output (v_probe_j, rho_probe_j): the effectivity is the largest bound over the run / the largest true
+error over the run, counted where that error is above :data:`FLOOR` of the output's signal (|v| or |ρ|);
+violations: communication points where a bound is below the true error (must be 0); a false alarm: a run that
+warned (a velocity bound above error_tolerance) while its true velocity error stayed below a tenth of
+error_tolerance.  Cost: the C core's doStep (``rom_do_step`` through ctypes, no FMI or Python in the loop) on the
+same model with and without the bounds' sections, median of ``repeats`` runs of 1000 steps, timed in turn.
+
+Writes ``error_bounds.csv`` (one row per run and output), ``error_bounds.png`` (bound and true error against time
+of a few runs) into FOLDER, and the section "Certified error bounds" of the report.
 
 ``--parametric`` measures the parametric FMUs instead (frozen and exact, ``--vary`` c over [c/2, 2c] and d over
-[d/2, 3d/2], [0, 5] s⁻¹ for an undamped scene, about the scene's c and d; :data:`PARAMETRIC_SPAN`): the same
-forces and scales at ``--points`` held-out (c, d) of the box (:func:`sphrom.rom.parametric.held_out_points`),
-the truth the full linear SPH with that c and d; writes ``error_bounds_parametric.csv`` and the section
-"Certified error bounds of parametric FMUs" (no cost columns: the doStep is the ordinary one's, the planes
-assembled once at initialization).
+[d/2, 3d/2], [0, 5] s⁻¹ for an undamped scene, about the scene's c and d; :data:`PARAMETRIC_SPAN`): the same runs at
+``--points`` held-out (c, d) of the box (:func:`sphrom.rom.parametric.held_out_points`), the truth the full linear
+SPH with that c and d; writes ``error_bounds_parametric.csv`` and the section "Certified error bounds of parametric
+FMUs".
 """
 
 from __future__ import annotations
@@ -34,99 +39,190 @@ from pathlib import Path
 
 import numpy as np
 
+from ..options import int_at_least, int_list, positive_float
+
 SECTION_HEADING = "## Certified error bounds"
 PARAMETRIC_HEADING = "## Certified error bounds of parametric FMUs"
 PARAMETRIC_SPAN = {"c": (0.5, 2.0), "d": (0.5, 1.5)}   # the trained box: these x the scene's c and d
 UNDAMPED_D_RANGE = (0.0, 5.0)                           # [s^-1] d's range of an undamped scene
 STEP = 0.01             # [s] communication step
-SCALES = (0.0, 1.0, 3.0)
-FLOOR = 1e-3            # effectivity where |error| > FLOOR x its largest in the run
+SPAN = 20.0             # runs over this x the scene's T
+STARTS = (("rest", 0.0), ("initial state", 1.0))
+LINEAR = ("slow sine", "chirp")                         # the forces also run linear over each step
+FLOOR = 1e-9            # effectivity counted where the run's largest error exceeds this x its output's signal
 CHUNK = 20              # doStep calls timed together (the cost's medians are over such chunks)
+COST_STEPS = 1000
 
 
-def forces(t, T):
-    """Five forces no basis saw [m s^-2] (a constant, a slow sine, a step, a chirp, two tones)."""
+def forces(t, T_run):
+    """Five forces no basis saw [m s^-2] over a run of T_run [s]: a constant, a slow sine, a step at a third, a chirp
+    from 0.5 to 5 Hz, two tones."""
     return {"constant 2e-3": 2e-3 * np.ones_like(t),
             "slow sine": 1e-2 * np.sin(2 * np.pi * 0.3 * t),
-            "step at T/3": 3e-3 * (t > T / 3),
-            "chirp": 5e-3 * np.sin(2 * np.pi * (0.5 + 0.2 * t) * t),
+            "step at a third": 3e-3 * (t > T_run / 3),
+            "chirp": 5e-3 * np.sin(2 * np.pi * (0.5 * t + 4.5 / (2 * T_run) * t * t)),
             "two tones": 4e-3 * (np.sin(2 * np.pi * 1.3 * t) + 0.5 * np.sin(2 * np.pi * 4.1 * t + 1.0))}
 
 
-def truth_runs(problem, probes, t, fs):
-    """{name: (v (M+1, P), e at the particles (M+1, N))} of the full linear SPH from rest under each force of
-    ``fs`` (held over the steps), and "free": the free response from the scene's initial state; exact in time."""
+# the menu of the generated user scenes (fields as expressions of x, L, t, T)
+CORPUS_MENU = {
+    "d": ("0", "1", "2 + 1.5*sin(2*pi*x/L)", "4 + 3*sin(2*pi*x/L + 1)", "6*exp(-((x/L - 0.5)/0.2)**2) + 0.5"),
+    "c": ("0.1", "0.1*(1 + 0.4*sin(2*pi*x/L))"),
+    "rho0": ("1", "1 + 0.3*cos(2*pi*x/L)"),
+    "profile": ("1", "cos(8*pi*x/L)", "1 + 0.5*cos(2*pi*x/L)", "exp(-((x/L - 0.3)/0.08)**2)"),
+    "v0": ("4e-3*sin(2*pi*x/L)", "4e-3*(x/L)*(1 - x/L)*sum(sin(2*pi*l*x/L + l**2) for l in range(1, 6))",
+           "2e-3*exp(-((x/L - 0.5)/0.1)**2)"),
+    "f": ("0", "2e-3*sin(3*t)", "1e-3"),
+}
+
+
+def user_scenes(count, seed=33):
+    """``count`` generated user scenes (seeded): fields drawn from :data:`CORPUS_MENU` over the scene
+    mild_damped_forced's settings, N in {64, 96, 128}, T in {2, 3} s; every other one with a damping that varies
+    along the bar.  (A stand-in for the project's generator of user scenes.)"""
+    from ..scene import derive_scene, load_scene
+    rng = np.random.default_rng(seed)
+    base = load_scene("mild_damped_forced")
+    out = []
+    for i in range(count):
+        pick = {k: v[int(rng.integers(len(v)))] for k, v in CORPUS_MENU.items()}
+        if i % 2 == 0:                                   # every other scene: a damping that varies
+            pick["d"] = CORPUS_MENU["d"][2 + int(rng.integers(3))]
+        n = int(rng.choice([64, 96, 128]))
+        T = float(rng.choice([2.0, 3.0]))
+        changes = {"name": f"user_{i + 1}", "title": f"generated user scene {i + 1}", "domain": {"T": T},
+                   "fields": {k: pick[k] for k in ("rho0", "v0", "c", "d")},
+                   "force": {"f": pick["f"], "profile": pick["profile"]},
+                   "sph": {"n_particles": n, "dt": 2e-4 * 64 / n, "every": max(1, int(round(0.01 / (2e-4 * 64 / n))))},
+                   "snapshots": {"count": 20, "window": [0.0, 0.8 * T]}}
+        out.append(derive_scene(base, changes))
+    return out
+
+
+def scene_note(scene, problem):
+    """The scene's fields in a few words (the report's scene column)."""
+    d = problem.d
+    return (f"N {problem.n}, T {scene.T:g} s, d {'uniform ' + format(d[0], 'g') if np.all(d == d[0]) else 'varies'}"
+            f", profile {'uniform' if np.all(problem.profile == problem.profile[0]) else 'varies'}")
+
+
+def exact_truth(problem, probes, t, cases):
+    """{case: (v (M, P), ρ (M, P))} of the full linear SPH at the times ``t`` (uniform steps), exact in time: every
+    case (scale, f (M,), linear) at once, x(0) = scale x0, f held over each step or linear between the samples."""
     import scipy.linalg as sla
 
     from ..rom.lti import full_linear_system, probe_matrix
     lti = full_linear_system(problem, probes)
     n = problem.rho0.size
+    h = float(t[1] - t[0])
     A = lti.A.toarray()
-    M = np.zeros((2 * n + 1, 2 * n + 1))
-    M[:2 * n, :2 * n] = A * STEP
-    M[:2 * n, 2 * n] = lti.B[:, 0] * STEP
+    names = list(cases)
+    if n > DENSE_TRUTH:
+        return modal_truth(problem, probes, t, cases, lti)
+    M = np.zeros((2 * n + 2, 2 * n + 2))
+    M[:2 * n, :2 * n] = A * h
+    M[:2 * n, 2 * n] = lti.B[:, 0] * h
+    M[2 * n, 2 * n + 1] = 1.0
     E = sla.expm(M)
-    Phi, g = E[:2 * n, :2 * n], E[:2 * n, 2 * n]
+    Phi, g0, g1 = E[:2 * n, :2 * n], E[:2 * n, 2 * n], E[:2 * n, 2 * n + 1]
+    U = np.column_stack([cases[c][1] for c in names])                 # (M, R)
+    lin = np.array([cases[c][2] for c in names], float)
+    X = np.column_stack([cases[c][0] * lti.x0 for c in names])       # (2N, R)
     rows = probe_matrix(problem.x, problem.scene.L, probes, np.ones(n))
-    out = {}
-    for name, (x0, f) in {"free": (lti.x0, np.zeros_like(t)), **{k: (0 * lti.x0, f) for k, f in fs.items()}}.items():
-        X = np.empty((t.size, 2 * n))
-        X[0] = x0
-        for j in range(t.size - 1):
-            X[j + 1] = Phi @ X[j] + g * f[j]
-        out[name] = ((X[:, :n] / np.sqrt(problem.rho0)) @ rows.T, X[:, n:] / np.sqrt(problem.c))
-    return out, rows
+    Rv = rows / np.sqrt(problem.rho0)[None, :]
+    v = np.empty((t.size, len(names), len(probes)))
+    e = np.empty((t.size, len(names), 2 * len(probes)))
+    # e at the two particles of each probe (the density is interpolated from them as the FMU does)
+    L = problem.scene.L
+    s = np.mod(np.asarray(probes) * L - problem.x[0], L) / (L / n)
+    i0 = np.floor(s).astype(np.int64) % n
+    i1 = (i0 + 1) % n
+    wt = s - np.floor(s)
+    parts = np.concatenate([i0, i1])
+    for k in range(t.size):
+        v[k] = (Rv @ X[:n]).T
+        e[k] = (X[n + parts] / np.sqrt(problem.c)[parts][:, None]).T
+        if k + 1 < t.size:
+            X = Phi @ X + np.outer(g0, U[k]) + np.outer(g1, lin * (U[k + 1] - U[k]))
+    P = len(probes)
+    rho = ((1 - wt) * problem.rho0[i0] / (1 + e[:, :, :P]) + wt * problem.rho0[i1] / (1 + e[:, :, P:]))
+    return {c: (v[:, r], rho[:, r]) for r, c in enumerate(names)}
 
 
-def effectivities(bound, err):
-    mask = err > FLOOR * err.max() if err.max() > 0 else np.zeros(err.shape, bool)
-    return bound[mask] / err[mask]
+DENSE_TRUTH = 400        # particles: the truth's dense step map up to here, A's eigenvectors above
 
 
-def measure_model(path, problem, scale, fs, truths, rows, t, parameters=None):
-    """Per force: (violations, points, effectivities, max error, max bound, the run's v, bound, truth);
-    ``parameters``: more start values (a parametric FMU's c and d)."""
+def probe_parts(problem, probes):
+    """(i0, i1, w): the particles around each probe and the weight of i1 (the FMU's interpolation)."""
+    from ..fmu.resources import probe_pairs
+    return probe_pairs(problem.x, problem.scene.L, probes)
+
+
+def modal_truth(problem, probes, t, cases, lti):
+    """:func:`exact_truth` through A's eigenvectors (A = V Λ V^-1, LAPACK's geev, not the bounds' planes): each
+    step multiplies the modal coordinates by e^{λ h} and adds the held input's (e^{λh} - 1)/λ and the slope's
+    (e^{λh} - 1 - λh)/(λ² h) times V^-1 b (their limits h and h/2 at λ = 0): O(N) per step and run."""
+    import scipy.linalg as sla
+    n = problem.rho0.size
+    h = float(t[1] - t[0])
+    lam, V = sla.eig(lti.A.toarray())
+    Vi = np.linalg.inv(V)
+    bz = Vi @ lti.B[:, 0]
+    x = lam * h
+    small = np.abs(x) < 1e-8
+    e = np.exp(x)
+    g0 = np.where(small, h * (1 + x / 2), (e - 1) / np.where(small, 1, lam)) * bz
+    g1 = np.where(small, h / 2 * (1 + x / 3), (e - 1 - x) / np.where(small, 1, lam * x)) * bz
+    i0, i1, w = probe_parts(problem, probes)
+    P = len(probes)
+    Cv = ((1 - w)[:, None] * V[i0] / lti.w_v[i0][:, None] + w[:, None] * V[i1] / lti.w_v[i1][:, None])
+    Ce = np.vstack([V[n + i0] / lti.w_e[i0][:, None], V[n + i1] / lti.w_e[i1][:, None]])
+    names = list(cases)
+    U = np.column_stack([cases[c][1] for c in names])
+    lin = np.array([cases[c][2] for c in names], float)
+    Z = Vi @ np.column_stack([cases[c][0] * lti.x0 for c in names])
+    v = np.empty((t.size, len(names), P))
+    ee = np.empty((t.size, len(names), 2 * P))
+    for k in range(t.size):
+        v[k] = np.real(Cv @ Z).T
+        ee[k] = np.real(Ce @ Z).T
+        if k + 1 < t.size:
+            Z = e[:, None] * Z + np.outer(g0, U[k]) + np.outer(g1, lin * (U[k + 1] - U[k]))
+    rho = ((1 - w) * problem.rho0[i0] / (1 + ee[:, :, :P]) + w * problem.rho0[i1] / (1 + ee[:, :, P:]))
+    return {c: (v[:, r], rho[:, r]) for r, c in enumerate(names)}
+
+
+def run_fmu(path, t, scale, f, linear, parameters=None):
+    """(outputs (M, n), names, warnings, error_tolerance) of the FMU driven over ``t``."""
     from ..fmu.run.driver import FMU
+    with FMU(path) as fmu:
+        fmu.initialize(parameters={"initial_state_scale": scale, **(parameters or {})}, inputs={"f": float(f[0])})
+        y = fmu.simulate(t, {"f": f}, rates=linear)
+        tol = fmu.get_real([fmu.vr["error_tolerance"]])[0]
+        return y, fmu.outputs, fmu.warnings(), tol
+
+
+def run_metrics(y, names, v_t, rho_t, rho0_probe, warned, tol):
+    """Per output (name, effectivity or nan, largest error, largest bound), the run's violations, its false alarm."""
     from ..fmu.variables import members
-    out = []
-    v_free, e_free = truths["free"]
-    for name, f in fs.items():
-        with FMU(path) as fmu:
-            fmu.initialize(parameters={"initial_state_scale": scale, **(parameters or {})}, inputs={"f": float(f[0])})
-            y = fmu.simulate(t, {"f": f})
-            names = fmu.outputs
-        v_t = scale * v_free + truths[name][0]
-        rho_t = (problem.rho0 / (1.0 + scale * e_free + truths[name][1])) @ rows.T
-        v, vb = y[:, members(names, "v_probe_j")], y[:, members(names, "v_probe_j_error_bound")]
-        rho, rb = y[:, members(names, "rho_probe_j")], y[:, members(names, "rho_probe_j_error_bound")]
-        ev, er = np.abs(v - v_t), np.abs(rho - rho_t)
-        bad = int(np.sum(np.any(vb < ev, axis=1) | np.any(rb < er, axis=1)))
-        out.append((name, bad, t.size, effectivities(vb, ev), float(ev.max()), float(vb.max()), (v, vb, v_t)))
-    return out
+    out, bad = [], np.zeros(y.shape[0], bool)
+    max_v_err = 0.0
+    for kind, truth, signal in (("v_probe_j", v_t, np.abs(v_t)), ("rho_probe_j", rho_t, np.abs(rho_t))):
+        value = y[:, members(names, kind)]
+        bound = y[:, members(names, kind.replace("_j", "_j_error_bound"))]
+        err = np.abs(value - truth)
+        bad |= np.any(bound < err, axis=1)
+        for j in range(err.shape[1]):
+            e_max, b_max, s_max = float(err[:, j].max()), float(bound[:, j].max()), float(signal[:, j].max())
+            eff = b_max / e_max if e_max > FLOOR * s_max and e_max > 0 else float("nan")
+            out.append((kind.replace("_j", f"_{j + 1}"), eff, e_max, b_max))
+        if kind == "v_probe_j":
+            max_v_err = float(err.max())
+    false_alarm = bool(warned) and max_v_err < 0.1 * tol
+    return out, int(bad.sum()), false_alarm
 
 
-def warning_cases(path, problem, t, training, truths, rows):
-    """The error signal at the default error_tolerance: the training run (the scene's force from its initial
-    state; its largest true v error relative to the largest |v|) and f = 1e-3 from rest: the warnings logged."""
-    from ..fmu.run.driver import FMU
-    from ..fmu.variables import members
-    out = {}
-    for case, scale, f in (("training", 1.0, training), ("small", 0.0, np.full_like(t, 1e-3))):
-        with FMU(path) as fmu:
-            fmu.initialize(parameters={"initial_state_scale": scale}, inputs={"f": float(f[0])})
-            y = fmu.simulate(t, {"f": f})
-            tolerance = fmu.get_real([fmu.vr["error_tolerance"]])[0]
-            warned = fmu.warnings()
-            names = fmu.outputs
-        v_t = scale * truths["free"][0] + truths[case][0]
-        out[f"{case}_rel_err"] = float(np.abs(y[:, members(names, "v_probe_j")] - v_t).max()
-                                       / max(np.abs(v_t).max(), 1e-300))
-        out[f"{case}_warning"] = warned[0] if warned else ""
-        out["tolerance"] = tolerance
-    return out
-
-
-def step_cost(path, repeats, n_steps):
+def step_cost(path, repeats, n_steps=COST_STEPS):
     """(ns per doStep with the bounds, without, the loop's own ns per step) of the FMU's model in the C core:
     ``repeats`` runs of ``n_steps`` steps of STEP at f = 1e-3, timed in chunks of CHUNK steps, the models' chunks
     in turn; medians over the chunks (a chunk the OS descheduled is an outlier, not the cost)."""
@@ -162,47 +258,168 @@ def step_cost(path, repeats, n_steps):
     return tuple(statistics.median(x) for x in times)
 
 
-def measure_scene(name, models, repeats, folder, progress=True):
-    """Rows (one per model and scale) of scene ``name`` and the runs kept for the plot."""
+def run_cases(t, T_run):
+    """{case: (start name, scale, force name, f, linear)} of one scene: every force held from each start, the
+    :data:`LINEAR` ones linear too."""
+    fs = forces(t, T_run)
+    out = {}
+    for start, scale in STARTS:
+        for name, f in fs.items():
+            out[f"{name}, held, {start}"] = (start, scale, name, f, False)
+            if name in LINEAR:
+                out[f"{name}, linear, {start}"] = (start, scale, name, f, True)
+    return out
+
+
+def measure_fmu(path, problem, probes, t, cases, truths, parameters=None):
+    """Rows (one per run and output) of the FMU at ``path`` over ``cases``."""
+    from ..rom.lti import probe_matrix
+    rho0_probe = probe_matrix(problem.x, problem.scene.L, probes, np.ones(problem.n)) @ problem.rho0
+    rows, kept = [], {}
+    for case, (start, scale, fname, f, linear) in cases.items():
+        y, names, warned, tol = run_fmu(path, t, scale, f, linear, parameters)
+        v_t, rho_t = truths[case]
+        outputs, bad, alarm = run_metrics(y, names, v_t, rho_t, rho0_probe[None, :], warned, tol)
+        for name, eff, e_max, b_max in outputs:
+            rows.append({"case": case, "start": start, "force": fname, "hold": "linear" if linear else "held",
+                         "output": name, "effectivity": eff, "max_err": e_max, "max_bound": b_max,
+                         "violations": bad, "points": t.size, "false_alarm": alarm, "warned": bool(warned),
+                         "tolerance": tol})
+        kept[case] = (y, names, v_t)
+    return rows, kept
+
+
+def measure_scene(scene, models, repeats, folder, probes, span, progress=True):
+    """Rows (one per model, run and output) of ``scene`` and the runs kept for the plot."""
     from ..fmu.make.build import ensure_binaries
     from ..fmu.make.package import package_fmu
-    from ..scene import load_scene
     from ..sph.solver import build_problem
-    from .. import defaults
-    scene = load_scene(name)
     problem = build_problem(scene)
-    probes = defaults.PROBES
-    t = np.arange(int(round(scene.T / STEP)) + 1) * STEP
-    fs = forces(t, scene.T)
-    training = np.broadcast_to(np.asarray(scene.force(t), float), t.shape).copy()
-    truths, rows = truth_runs(problem, probes, t, {**fs, "training": training, "small": np.full_like(t, 1e-3)})
+    T_run = span * scene.T
+    t = np.arange(int(round(T_run / STEP)) + 1) * STEP
+    cases = run_cases(t, T_run)
+    truths = exact_truth(problem, probes, t, {c: (v[1], v[3], v[4]) for c, v in cases.items()})
     binaries = ensure_binaries(quiet=True)
     out, kept = [], {}
+    note = scene_note(scene, problem)
     for model in models:
-        path = Path(folder) / f"{name}-{model}.fmu"
+        path = Path(folder) / f"{scene.name}-{model}.fmu"
+        t0 = time.perf_counter()
         try:
             s = package_fmu(scene, path, model=model, fmi=2, progress=progress, binaries=binaries,
                             problem=problem, bounds=False)
         except Exception as exc:                     # a model that does not build on this scene: say so
-            out.append({"scene": name, "model": model, "note": str(exc).splitlines()[0]})
+            out.append({"scene": scene.name, "model": model, "note": str(exc).splitlines()[0], "about": note})
             continue
-        with_ns, without_ns, loop_ns = step_cost(path, repeats, t.size - 1)
-        signal = warning_cases(path, problem, t, training, truths, rows)
-        for scale in SCALES:
-            runs = measure_model(path, problem, scale, fs, truths, rows, t)
-            eff = np.concatenate([r[3] for r in runs])
-            out.append({"scene": name, "model": model, "k_v": s.k_v, "k_rho": s.k_rho, "N": problem.rho0.size,
-                        "scale": scale, "violations": sum(r[1] for r in runs), "points": sum(r[2] for r in runs),
-                        "eff_median": float(np.median(eff)) if eff.size else float("nan"),
-                        "eff_p90": float(np.percentile(eff, 90)) if eff.size else float("nan"),
-                        "eff_max": float(eff.max()) if eff.size else float("nan"),
-                        "max_err": max(r[4] for r in runs), "max_bound": max(r[5] for r in runs),
-                        "step_ns_bounds": with_ns, "step_ns_plain": without_ns, "loop_ns": loop_ns,
-                        "cost_ratio": with_ns / without_ns,
-                        "cost_ratio_core": (with_ns - loop_ns) / max(without_ns - loop_ns, 1e-9), **signal,
-                        "note": ""})
-            kept[(name, model, scale)] = runs
+        seconds = time.perf_counter() - t0
+        with_ns, without_ns, loop_ns = step_cost(path, repeats)
+        rows, runs = measure_fmu(path, problem, probes, t, cases, truths)
+        for r in rows:
+            r.update({"scene": scene.name, "model": model, "about": note, "N": problem.n, "k_v": s.k_v,
+                      "k_rho": s.k_rho, "shadow_order": s.shadow_order, "package_s": seconds,
+                      "step_ns_bounds": with_ns, "step_ns_plain": without_ns, "loop_ns": loop_ns,
+                      "cost_ratio": with_ns / without_ns, "note": ""})
+        out += rows
+        kept.update({(scene.name, model, c): v for c, v in runs.items()})
     return out, kept
+
+
+def summarise(rows, keys):
+    """Aggregate rows by ``keys``: runs, violations, points, effectivity median and max (of the counted ones),
+    the largest error and bound, false alarms."""
+    groups = {}
+    for r in rows:
+        if r.get("note"):
+            continue
+        groups.setdefault(tuple(r[k] for k in keys), []).append(r)
+    out = []
+    for key, rs in groups.items():
+        eff = np.array([r["effectivity"] for r in rs], float)
+        counted = eff[np.isfinite(eff)]
+        runs = {r["case"] for r in rs}
+        per_run = {r["case"]: (r["violations"], r["points"], r["false_alarm"]) for r in rs}
+        out.append({**dict(zip(keys, key)), "runs": len(runs),
+                    "violations": sum(v[0] for v in per_run.values()), "points": sum(v[1] for v in per_run.values()),
+                    "false_alarms": sum(v[2] for v in per_run.values()), "counted": int(counted.size),
+                    "outputs": int(eff.size),
+                    "eff_median": float(np.median(counted)) if counted.size else float("nan"),
+                    "eff_max": float(counted.max()) if counted.size else float("nan"),
+                    "max_err": max(r["max_err"] for r in rs if r["output"].startswith("v_")),
+                    "max_bound": max(r["max_bound"] for r in rs if r["output"].startswith("v_")),
+                    **{k: rs[0][k] for k in ("N", "k_v", "k_rho", "shadow_order", "step_ns_bounds", "step_ns_plain",
+                                             "cost_ratio", "about", "package_s") if k in rs[0]}})
+    return out
+
+
+def plot(kept, keys, path):
+    """Bound (dashed) and true error (solid) of v_probe_1 against time for the runs ``keys``."""
+    from matplotlib.figure import Figure
+
+    from ..fmu.variables import members
+    fig = Figure(figsize=(8, 4.5))
+    ax = fig.add_subplot(1, 1, 1)
+    for key, color in zip(keys, ("C0", "C1", "C2", "C3", "C4", "C5")):
+        y, names, v_t = kept[key]
+        t = np.arange(y.shape[0]) * STEP
+        v, vb = y[:, members(names, "v_probe_j")][:, 0], y[:, members(names, "v_probe_j_error_bound")][:, 0]
+        ax.semilogy(t, np.maximum(np.abs(v - v_t[:, 0]), 1e-18), color=color, lw=0.8, label=f"{key[0]} {key[1]}: "
+                    f"{key[2]}")
+        ax.semilogy(t, vb, color=color, lw=0.8, ls="--")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("v_probe_1: |error| (solid), certified bound (dashed) [m/s]")
+    ax.legend(fontsize=6)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
+def _g(x, spec=".3g"):
+    return "—" if x is None or (isinstance(x, float) and not np.isfinite(x)) else format(x, spec)
+
+
+def section(rows, notes, *, command, wall, machine, image, span):
+    per_model = summarise(rows, ("model",))
+    table = summarise(rows, ("scene", "model", "hold", "start"))
+    lines = [SECTION_HEADING, "",
+             f"Produced by `{command}` ({machine}, {wall:.0f} s wall; every run and output in "
+             "`validation/benchmarks/error_bounds.csv`). Each scene's FMU (FMI 2, the scene's defaults) over "
+             f"{span:g} x its T at {STEP * 1e3:g} ms steps, from rest and from the scene's initial state, under five "
+             "forces no basis saw (a constant, a slow sine, a step, a chirp from 0.5 to 5 Hz, two tones; "
+             "harness/bench/error_bounds.py `forces`), held over each step, and the slow sine and the chirp also "
+             "linear over each step (input derivatives). Scenes: the built-in ones and generated user scenes "
+             "(`user_*`: damping that varies, profiles that are not uniform, c and ρ0 that vary). **Truth: the full "
+             "SPH of eqs. 2.10-2.11, linear in J, integrated exactly in time** with the same inputs (independent of "
+             "every reduced model and of the bounds). Effectivity: per run and output (v_probe_j, rho_probe_j), the "
+             "largest bound over the run / the largest true error over the run, where that error exceeds "
+             f"{FLOOR:g} of the output's signal (|v|, |ρ|). Violations: communication points where a bound is "
+             "below the true error. False alarms: runs that warned (a velocity bound above error_tolerance) while "
+             "their true velocity error stayed below a tenth of error_tolerance. doStep cost: the C core's "
+             "rom_do_step through ctypes on the same model with and without the bounds' sections (ns per step, "
+             f"medians over chunks of {CHUNK} steps timed in turn; no FMI).", "",
+             "All scenes together, per model:", "",
+             "| model | runs | outputs counted / all | effectivity median | max | violations | false alarms |",
+             "| --- | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    for r in sorted(per_model, key=lambda r: r["model"]):
+        lines.append(f"| {r['model']} | {r['runs']} | {r['counted']} / {r['outputs']} | {_g(r['eff_median'])} | "
+                     f"{_g(r['eff_max'])} | {r['violations']} / {r['points']} | {r['false_alarms']} |")
+    lines += ["", f"![bound and error]({image})", "",
+              "| scene | model | N, k_v, k_ρ, shadow | inputs | start | runs | effectivity median | max | "
+              "violations | false alarms | max v error [m/s] | max v bound [m/s] | doStep ns with / without | "
+              "ratio |",
+              "| --- | --- | --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    for r in table:
+        lines.append(f"| {r['scene']} | {r['model']} | {r['N']}, {r['k_v']}, {r['k_rho']}, {r['shadow_order']} | "
+                     f"{r['hold']} | {r['start']} | {r['runs']} | {_g(r['eff_median'])} | {_g(r['eff_max'])} | "
+                     f"{r['violations']} / {r['points']} | {r['false_alarms']} | {_g(r['max_err'], '.2e')} | "
+                     f"{_g(r['max_bound'], '.2e')} | {r['step_ns_bounds']:.0f} / {r['step_ns_plain']:.0f} | "
+                     f"{r['cost_ratio']:.2f} |")
+    for n in notes:
+        lines.append(f"| {n['scene']} | {n['model']} | | | | | | | not built: {n['note'].replace('|', '/')} | | | "
+                     "| | |")
+    scenes = {}
+    for r in rows:
+        scenes.setdefault(r["scene"], r.get("about", ""))
+    lines += ["", "Scenes: " + "; ".join(f"{k} ({v})" for k, v in scenes.items()) + ".", ""]
+    return lines
 
 
 def parametric_ranges(problem):
@@ -216,157 +433,180 @@ def parametric_ranges(problem):
     return out
 
 
-def measure_parametric(name, models, points, folder, progress=True):
-    """Rows (one per model, held-out point and scale) of the parametric FMUs of scene ``name``: certification and
-    effectivity against the full linear SPH with the point's c and d."""
+def measure_parametric(scene, models, points, folder, probes, span, progress=True):
+    """Rows (one per model, held-out point, run and output) of the parametric FMUs of ``scene``: against the full
+    linear SPH with the point's c and d, exact in time."""
     from ..fmu.make.build import ensure_binaries
     from ..fmu.make.package import package_fmu
     from ..rom import parametric as par
-    from ..scene import derive_scene, load_scene
+    from ..scene import derive_scene
     from ..sph.solver import build_problem
-    from .. import defaults
-    scene = load_scene(name)
     problem = build_problem(scene)
-    probes = defaults.PROBES
-    t = np.arange(int(round(scene.T / STEP)) + 1) * STEP
-    fs = forces(t, scene.T)
+    T_run = span * scene.T
+    t = np.arange(int(round(T_run / STEP)) + 1) * STEP
+    cases = run_cases(t, T_run)
     ranges = parametric_ranges(problem)
     try:
         held = par.held_out_points(par.parameter_space(problem, ranges), points)
     except Exception as exc:                         # a scene that cannot be parametric (c not uniform): say so
-        return [{"scene": name, "model": ", ".join(models), "note": str(exc).splitlines()[0]}]
+        return [{"scene": scene.name, "model": ", ".join(models), "note": str(exc).splitlines()[0]}]
     at = {}
     for c, d in held:
         problem_cd = build_problem(derive_scene(scene, {"fields": {"c": repr(float(c)), "d": repr(float(d))}}))
-        at[(c, d)] = (problem_cd, *truth_runs(problem_cd, probes, t, fs))
+        at[(c, d)] = (problem_cd, exact_truth(problem_cd, probes, t, {k: (v[1], v[3], v[4]) for k, v in
+                                                                        cases.items()}))
     binaries = ensure_binaries(quiet=True)
     out = []
     for model in models:
-        path = Path(folder) / f"{name}-{model}-parametric.fmu"
+        path = Path(folder) / f"{scene.name}-{model}-parametric.fmu"
         try:
             s = package_fmu(scene, path, model=model, fmi=2, progress=progress, binaries=binaries, vary=ranges)
         except Exception as exc:                     # a model that does not build on this scene: say so
-            out.append({"scene": name, "model": model, "note": str(exc).splitlines()[0]})
+            out.append({"scene": scene.name, "model": model, "note": str(exc).splitlines()[0]})
             continue
-        for (c, d), (problem_cd, truths, rows) in at.items():
-            for scale in SCALES:
-                runs = measure_model(path, problem_cd, scale, fs, truths, rows, t, parameters={"c": c, "d": d})
-                eff = np.concatenate([r[3] for r in runs])
-                out.append({"scene": name, "model": model, "k_v": s.k_v, "k_rho": s.k_rho, "N": problem.rho0.size,
-                            "c_range": f"{ranges[0].lo:g}:{ranges[0].hi:g}",
-                            "d_range": f"{ranges[1].lo:g}:{ranges[1].hi:g}", "c": float(c), "d": float(d),
-                            "scale": scale, "violations": sum(r[1] for r in runs),
-                            "points": sum(r[2] for r in runs),
-                            "eff_median": float(np.median(eff)) if eff.size else float("nan"),
-                            "eff_p90": float(np.percentile(eff, 90)) if eff.size else float("nan"),
-                            "eff_max": float(eff.max()) if eff.size else float("nan"),
-                            "max_err": max(r[4] for r in runs), "max_bound": max(r[5] for r in runs), "note": ""})
+        for (c, d), (problem_cd, truths) in at.items():
+            rows, _ = measure_fmu(path, problem_cd, probes, t, cases, truths, parameters={"c": c, "d": d})
+            for r in rows:
+                r.update({"scene": scene.name, "model": model, "N": problem.n, "k_v": s.k_v, "k_rho": s.k_rho,
+                          "shadow_order": s.shadow_order, "c": float(c), "d": float(d), "point": f"{c:.4g}, {d:.4g}",
+                          "c_range": f"{ranges[0].lo:g}:{ranges[0].hi:g}",
+                          "d_range": f"{ranges[1].lo:g}:{ranges[1].hi:g}", "note": ""})
+            out += rows
     return out
 
 
-def parametric_section(rows, *, command, wall, machine):
+def parametric_section(rows, notes, *, command, wall, machine, span):
+    per_model = summarise(rows, ("model",))
+    table = summarise(rows, ("scene", "model", "point", "start"))
     lines = [PARAMETRIC_HEADING, "",
-             f"Produced by `{command}` ({machine}, {wall:.0f} s wall). Each scene's parametric FMU (FMI 2, "
-             "`--vary c=c/2:2c --vary d=d/2:3d/2`, d in [0, 5] s⁻¹ for an undamped scene) at held-out (c, d) of its "
-             "box (Halton points, neither the scene's nor a training point), under the five forces and the three "
-             "initial_state_scales of the section above. Truth: the full linear SPH (eqs. 2.10-2.11 in J) with that c "
-             "and d, exact in time. The parametric bound is looser by construction: the complement's initial state "
-             "is bounded for all time (one Hölder value, no decay table) and its forced part by the energy "
-             "(no step-response gains), both valid for every (c, d) of the box.", "",
-             "| scene | model | N | k_v, k_ρ | c | d | scale | violations | effectivity median | p90 | max | "
-             "max error [m/s] | max bound [m/s] |",
-             "| --- | --- | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
-    for r in rows:
-        if r.get("note"):
-            lines.append(f"| {r['scene']} | {r['model']} | — | — | — | — | — | not built: "
-                         f"{r['note'].replace('|', '/')} | — | — | — | — | — |")
-            continue
-        lines.append(f"| {r['scene']} | {r['model']} | {r['N']} | {r['k_v']}, {r['k_rho']} | {r['c']:.4g} | "
-                     f"{r['d']:.4g} | {r['scale']:g} | {r['violations']} / {r['points']} | {_g(r['eff_median'])} | "
-                     f"{_g(r['eff_p90'])} | {_g(r['eff_max'])} | {_g(r['max_err'], '.2e')} | "
+             f"Produced by `{command}` ({machine}, {wall:.0f} s wall; `validation/benchmarks/"
+             "error_bounds_parametric.csv`). Each scene's parametric FMU (FMI 2, `--vary c=c/2:2c --vary d=d/2:3d/2`, "
+             "d in [0, 5] s⁻¹ for an undamped scene) at held-out (c, d) of its box (Halton points, neither the scene's "
+             "nor a training point), under the runs of the section above (over "
+             f"{span:g} x T). **Truth: the full linear SPH (eqs. 2.10-2.11 in J) with that c and d, integrated "
+             "exactly in time.** The complement's terms are computed by the FMU at its (c, d) (decaying at the "
+             "planes' own rates); its initial state is bounded by decaying Hölder sums (no table).", "",
+             "| model | runs | outputs counted / all | effectivity median | max | violations | false alarms |",
+             "| --- | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    for r in sorted(per_model, key=lambda r: r["model"]):
+        lines.append(f"| {r['model']} | {r['runs']} | {r['counted']} / {r['outputs']} | {_g(r['eff_median'])} | "
+                     f"{_g(r['eff_max'])} | {r['violations']} / {r['points']} | {r['false_alarms']} |")
+    lines += ["", "| scene | model | N, k_v, k_ρ, shadow | c, d | start | runs | effectivity median | max | "
+              "violations | false alarms | max v error [m/s] | max v bound [m/s] |",
+              "| --- | --- | --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    for r in table:
+        lines.append(f"| {r['scene']} | {r['model']} | {r['N']}, {r['k_v']}, {r['k_rho']}, {r['shadow_order']} | "
+                     f"{r['point']} | {r['start']} | {r['runs']} | {_g(r['eff_median'])} | {_g(r['eff_max'])} | "
+                     f"{r['violations']} / {r['points']} | {r['false_alarms']} | {_g(r['max_err'], '.2e')} | "
                      f"{_g(r['max_bound'], '.2e')} |")
+    for n in notes:
+        lines.append(f"| {n['scene']} | {n['model']} | | | | | | | not built: {n['note'].replace('|', '/')} | | | |")
     return lines + [""]
 
 
-def plot(kept, key, path):
-    """Bound and true error of v_probe_1 against time for the runs of ``key`` (scene, model, scale)."""
-    from matplotlib.figure import Figure
-    runs = kept[key]
-    fig = Figure(figsize=(8, 4.5))
-    ax = fig.add_subplot(1, 1, 1)
-    t = np.arange(runs[0][6][0].shape[0]) * STEP
-    for (name, *_, (v, vb, v_t)), color in zip(runs, ("C0", "C1", "C2", "C3", "C4")):
-        ax.semilogy(t, np.abs(v[:, 0] - v_t[:, 0]), color=color, lw=1, label=f"|error| {name}")
-        ax.semilogy(t, vb[:, 0], color=color, lw=1, ls="--")
-    ax.set_xlabel("t [s]")
-    ax.set_ylabel("v_probe_1: |error| (solid), certified bound (dashed) [m/s]")
-    ax.set_title(f"{key[0]}, {key[1]} FMU, initial_state_scale {key[2]:g}")
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
+LARGE_HEADING = "## Certified error bounds at large N"
+LARGE_T = 0.5            # [s] the large scenes' horizon (their training run)
+LARGE_STEPS = 30         # communication steps of the certification run at large N
 
 
-def _g(x, spec=".3g"):
-    return "—" if x is None or (isinstance(x, float) and not np.isfinite(x)) else format(x, spec)
+def large_scene(n):
+    """damped_forced with ``n`` particles over LARGE_T, the symplectic integrator at a quarter of its stability
+    limit 2 / ω_max (ω_max = π c^½ n / L estimated from the scene: the largest σ of K)."""
+    from ..scene import derive_scene, load_scene
+    base = load_scene("damped_forced")
+    omega = np.pi * np.sqrt(0.1) * n / base.L * 1.2
+    dt = 0.5 / omega
+    steps = int(round(LARGE_T / dt))
+    return derive_scene(base, {"name": f"damped_forced_n{n}", "domain": {"T": LARGE_T},
+                               "sph": {"n_particles": n, "dt": LARGE_T / steps, "integrator": "symplectic",
+                                       "every": max(1, steps // 50)},
+                               "snapshots": {"count": 20, "window": [0.0, 0.8 * LARGE_T]}})
 
 
-def section(rows, *, command, wall, machine, image):
-    lines = [SECTION_HEADING, "",
-             f"Produced by `{command}` ({machine}, {wall:.0f} s wall). Each scene's FMU (FMI 2, the scene's "
-             f"defaults) over its T at communication steps of {STEP * 1e3:g} ms, inputs held, under five forces "
-             "no basis saw (a constant, a slow sine, a step, a chirp, two tones; harness/bench/error_bounds.py "
-             "FORCES) from initial_state_scale 0, 1 and 3. Truth: the full SPH of eqs. 2.10-2.11, linear in J, "
-             "advanced exactly in time with the same held inputs (independent of every reduced model and of the "
-             "bounds). Violations: communication points where a v or ρ bound is below the true error (of all "
-             "points of the five runs). Effectivity: v_probe_j's bound / |error| at the points where the error "
-             f"exceeds {FLOOR:g} of its largest in the run (median, 90th percentile, max over the five runs). "
-             "doStep cost: the C core's rom_do_step called through ctypes on the same model with and without the "
-             f"bounds' sections (ns per step: medians over chunks of {CHUNK} steps, the two models' chunks timed in "
-             "turn; no FMI); the ratio, and the ratio with the loop's own cost (a trivial core call per step, "
-             "measured in the same run) taken out of both.", "",
-             f"![bound and error]({image})", "",
-             "| scene | model | N | k_v, k_ρ | scale | violations | effectivity median | p90 | max | max error "
-             "[m/s] | max bound [m/s] | doStep ns with / without | cost ratio | without the loop |",
-             "| --- | --- | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+def measure_large(sizes, folder, probes, repeats, progress=True):
+    """Rows (one per N) of the exact FMU of :func:`large_scene`: its packaging time (all of it, and the shadow's
+    own: :func:`sphrom.rom.bounds.build_shadow` timed apart), the shadow's size and how many planes were computed,
+    the doStep cost with and without the bounds, and a certification run (LARGE_STEPS steps of STEP from the
+    initial state under the chirp, held) against :func:`sphrom.rom.reference.exact_probe_reference` (the sparse
+    exponential's action above 1500 particles): violations and effectivities."""
+    from ..fmu.make.build import ensure_binaries
+    from ..fmu.make.package import package_fmu
+    from ..rom.bounds import build_shadow
+    from ..rom.reference import exact_probe_reference
+    from ..sph.solver import build_problem
+    out = []
+    for n in sizes:
+        scene = large_scene(n)
+        problem = build_problem(scene)
+        t0 = time.perf_counter()
+        shadow = build_shadow(problem, probes)
+        shadow_s = time.perf_counter() - t0
+        path = Path(folder) / f"large-{n}.fmu"
+        t0 = time.perf_counter()
+        s = package_fmu(scene, path, model="exact", fmi=2, progress=progress, binaries=ensure_binaries(quiet=True),
+                        problem=problem, bounds=False)
+        package_s = time.perf_counter() - t0
+        with_ns, without_ns, _ = step_cost(path, repeats)
+        t = np.arange(LARGE_STEPS + 1) * STEP
+        f = forces(t, t[-1])["chirp"]
+        t0 = time.perf_counter()
+        v_t, rho_t = exact_probe_reference(problem, probes, t, f, 1.0)
+        truth_s = time.perf_counter() - t0
+        y, names, warned, tol = run_fmu(path, t, 1.0, f, False)
+        metrics, bad, alarm = run_metrics(y, names, v_t, rho_t, None, warned, tol)
+        eff = np.array([m[1] for m in metrics])
+        eff = eff[np.isfinite(eff)]
+        out.append({"N": n, "dt": scene.sph.dt, "package_s": package_s, "shadow_s": shadow_s,
+                    "planes_s": shadow.info["timings"]["planes"], "method": shadow.info["method"],
+                    "computed": shadow.info["computed_planes"], "shadow_order": s.shadow_order, "k_v": s.k_v,
+                    "k_rho": s.k_rho, "step_ns_bounds": with_ns, "step_ns_plain": without_ns,
+                    "cost_ratio": with_ns / without_ns, "violations": bad, "points": t.size, "false_alarm": alarm,
+                    "eff_median": float(np.median(eff)) if eff.size else float("nan"),
+                    "eff_max": float(eff.max()) if eff.size else float("nan"), "counted": int(eff.size),
+                    "outputs": len(metrics), "truth_s": truth_s,
+                    "max_err": max(m[2] for m in metrics if m[0].startswith("v_")),
+                    "max_bound": max(m[3] for m in metrics if m[0].startswith("v_"))})
+        print(f"N {n}: packaging {package_s:.1f} s (shadow {shadow_s:.1f} s), doStep {with_ns:.0f}/{without_ns:.0f} "
+              f"ns, violations {bad}, effectivity max {out[-1]['eff_max']:.3g}", flush=True)
+    return out
+
+
+def large_section(rows, *, command, wall, machine):
+    lines = [LARGE_HEADING, "",
+             f"Produced by `{command}` ({machine}, {wall:.0f} s wall). The exact FMU of damped_forced with N "
+             f"particles over T = {LARGE_T:g} s (symplectic SPH at a quarter of its stability limit; "
+             "harness/bench/error_bounds.py `large_scene`). Packaging: `sphrom fmu`'s whole packaging with the "
+             "bounds (the full SPH training run, the POD, the model, the shadow), one run; the shadow: "
+             "`build_shadow` timed apart (its planes: the dense SVD up to 2500 particles, the sparse shift-invert "
+             f"Lanczos solver above). Certification: {LARGE_STEPS} steps of {STEP * 1e3:g} ms from the initial "
+             "state under the chirp, held, against the full linear SPH integrated exactly in time "
+             "(`sphrom.rom.reference.exact_probe_reference`: the sparse exponential's action above 1500 "
+             "particles). doStep: the C core's rom_do_step with and without the bounds' sections.", "",
+             "| N | dt [s] | packaging [s] | shadow [s] (planes) | planes computed, method | k_v, k_ρ | shadow order | "
+             "doStep ns with / without | ratio | violations | effectivity median | max | max v error [m/s] | "
+             "max v bound [m/s] |",
+             "| ---: | ---: | ---: | ---: | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
     for r in rows:
-        if r.get("note"):
-            lines.append(f"| {r['scene']} | {r['model']} | | | | not built: {r['note'].replace('|', '/')} "
-                         "| | | | | | | | |")
-            continue
-        lines.append(f"| {r['scene']} | {r['model']} | {r['N']} | {r['k_v']}, {r['k_rho']} | {r['scale']:g} | "
-                     f"{r['violations']} / {r['points']} | {_g(r['eff_median'])} | {_g(r['eff_p90'])} | "
-                     f"{_g(r['eff_max'])} | {_g(r['max_err'], '.2e')} | {_g(r['max_bound'], '.2e')} | "
-                     f"{r['step_ns_bounds']:.0f} / {r['step_ns_plain']:.0f} | {r['cost_ratio']:.2f} | "
-                     f"{r['cost_ratio_core']:.2f} |")
-    lines += ["", "The error signal at the default `error_tolerance` (5 % of the training run's largest |v_probe|): the "
-              "training run (the scene's force from its initial state; its largest true v error relative to the "
-              "largest |v|) and f = 1e-3 from rest (the quickstart's `sphrom cosim FMU --force 1e-3`): the warning "
-              "logged, or none.", "",
-              "| scene | model | error_tolerance [m/s] | training: max error / max abs(v) | training: warning | "
-              "f = 1e-3 from rest: max error / max abs(v) | warning |",
-              "| --- | --- | ---: | ---: | --- | ---: | --- |"]
-    for r in rows:
-        if r.get("note") or r.get("scale") != 1.0:
-            continue
-        lines.append(f"| {r['scene']} | {r['model']} | {r['tolerance']:.3g} | {r['training_rel_err']:.3g} | "
-                     f"{_quote(r['training_warning'])} | {r['small_rel_err']:.3g} | {_quote(r['small_warning'])} |")
+        lines.append(f"| {r['N']} | {r['dt']:.3g} | {r['package_s']:.1f} | {r['shadow_s']:.1f} "
+                     f"({r['planes_s']:.1f}) | {r['computed']}, {r['method']} | {r['k_v']}, {r['k_rho']} | "
+                     f"{r['shadow_order']} | {r['step_ns_bounds']:.0f} / {r['step_ns_plain']:.0f} | "
+                     f"{r['cost_ratio']:.2f} | {r['violations']} / {r['points']} | {_g(r['eff_median'])} | "
+                     f"{_g(r['eff_max'])} | {_g(r['max_err'], '.2e')} | {_g(r['max_bound'], '.2e')} |")
     return lines + [""]
-
-
-def _quote(text):
-    """A warning in a table cell: its substance after the function name, or 'none'."""
-    return text.split(": ", 1)[-1].replace("|", "/") if text else "none"
 
 
 def main(argv=None):
+    from . import machine_text, program_command, program_parser
     from .lib.document import update_report
     from .lib.tables import write_csv
+    from .. import defaults
     from ..parser import fmu_models, positive_int
-    from ..scene import builtin_names
-    from . import machine_text, program_command, program_parser
+    from ..scene import builtin_names, load_scene
     p = program_parser("error_bounds", description=__doc__.split("\n\n")[0])
     p.add_argument("scenes", nargs="*", metavar="SCENE", help="default: every built-in scene")
     p.add_argument("--models", type=fmu_models, default="frozen,exact,balanced", metavar="M1,M2")
+    p.add_argument("--corpus", type=int_at_least(0), default=4, metavar="N", help="generated user scenes (default 4; 0: none)")
+    p.add_argument("--span", type=positive_float, default=SPAN, metavar="S", help="runs over S x the scene's T (default 20)")
     p.add_argument("--repeats", type=positive_int, default=5, metavar="R")
     p.add_argument("--out", default="validation/benchmarks", metavar="FOLDER")
     p.add_argument("--report", default="BENCHMARKS.md", metavar="FILE.md")
@@ -375,71 +615,80 @@ def main(argv=None):
                    help="the parametric FMUs (frozen, exact) at held-out (c, d): their own section")
     p.add_argument("--points", type=positive_int, default=2, metavar="P",
                    help="held-out (c, d) per scene with --parametric (default 2)")
+    p.add_argument("--sizes", type=int_list(lo=16), default=None, metavar="N1,N2",
+                   help="instead: the bounds at large N (e.g. 10000,100000): packaging time, cost, certification")
     args = p.parse_args(argv)
-    scenes = args.scenes or builtin_names()
-    unknown = [s for s in scenes if s not in builtin_names()]
+    if args.sizes is not None:
+        return main_large(args, list(args.sizes), argv)
+    names = args.scenes or builtin_names()
+    unknown = [s for s in names if s not in builtin_names()]
     if unknown:
         p.error(f"SCENE: {unknown[0]!r} is not a built-in scene (allowed: {', '.join(builtin_names())})")
-    models = args.models
-    if args.parametric:
-        from ..rom.registry import get_model            # a parametric model is built on a POD basis
-        return main_parametric(args, scenes, [m for m in models if get_model(m).needs_basis], argv)
+    scenes = [load_scene(s) for s in names] + (user_scenes(args.corpus) if not args.parametric else [])
+    probes = defaults.PROBES
     t0 = time.perf_counter()
     rows, kept = [], {}
+    measure = measure_parametric if args.parametric else measure_scene
+    models = args.models
+    if args.parametric:
+        from ..rom.registry import get_model             # a parametric model is built on a POD basis
+        models = [m for m in models if get_model(m).needs_basis]
     with tempfile.TemporaryDirectory(prefix="sphrom-error-bounds-") as folder:
-        for name in scenes:
-            got, runs = measure_scene(name, models, args.repeats, folder, progress=not args.quiet)
+        for scene in scenes:
+            if args.parametric:
+                got = measure(scene, models, args.points, folder, probes, args.span, progress=not args.quiet)
+            else:
+                got, runs = measure(scene, models, args.repeats, folder, probes, args.span, progress=not args.quiet)
+                kept.update(runs)
             rows += got
-            kept.update(runs)
+            for r in summarise(got, ("scene", "model")):
+                print(f"{r['scene']:20s} {r['model']:9s} effectivity median {_g(r['eff_median'])} max "
+                      f"{_g(r['eff_max'])} ({r['counted']} of {r['outputs']} outputs), violations {r['violations']}, "
+                      f"false alarms {r['false_alarms']}", flush=True)
             for r in got:
                 if r.get("note"):
                     print(f"{r['scene']:20s} {r['model']:9s} not built: {r['note']}", flush=True)
-                    continue
-                print(f"{r['scene']:20s} {r['model']:9s} scale {r['scale']:g}: violations {r['violations']}, "
-                      f"effectivity median {r['eff_median']:.3g} max {r['eff_max']:.3g}, max error "
-                      f"{r['max_err']:.2e}, doStep {r['step_ns_bounds']:.0f}/{r['step_ns_plain']:.0f} ns", flush=True)
     wall = time.perf_counter() - t0
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    write_csv(out / "error_bounds.csv", rows)
-    key = next((k for k in [("tenmode", "frozen", 1.0)] + list(kept) if k in kept), None)
-    image = out / "error_bounds.png"
-    if key is not None:
-        plot(kept, key, image)
-    lines = section(rows, command=program_command("error_bounds", argv), wall=wall, machine=machine_text(),
-                    image=str(image))
-    update_report(args.report, {SECTION_HEADING: lines})
-    print(f"wrote {out / 'error_bounds.csv'}, {image} and the section of {args.report}")
-    return 0
+    notes = [r for r in rows if r.get("note")]
+    done = [r for r in rows if not r.get("note")]
+    command = program_command("error_bounds", argv)
+    if args.parametric:
+        write_csv(out / "error_bounds_parametric.csv", done)
+        lines = parametric_section(done, notes, command=command, wall=wall, machine=machine_text(), span=args.span)
+        update_report(args.report, {PARAMETRIC_HEADING: lines})
+        print(f"wrote {out / 'error_bounds_parametric.csv'} and the section of {args.report}")
+    else:
+        write_csv(out / "error_bounds.csv", done)
+        image = out / "error_bounds.png"
+        keys = [k for k in kept if k[2] in ("two tones, held, initial state", "chirp, linear, rest")][:6]
+        if keys:
+            plot(kept, keys, image)
+        lines = section(done, notes, command=command, wall=wall, machine=machine_text(), image=str(image),
+                        span=args.span)
+        update_report(args.report, {SECTION_HEADING: lines})
+        print(f"wrote {out / 'error_bounds.csv'}, {image} and the section of {args.report}")
+    return 0 if all(r["violations"] == 0 for r in done) else 1
 
 
-def main_parametric(args, scenes, models, argv):
-    """``--parametric``: the rows of :func:`measure_parametric`, their CSV and section."""
+def main_large(args, sizes, argv):
+    """``--sizes``: the rows of :func:`measure_large`, their CSV and section."""
     from . import machine_text, program_command
     from .lib.document import update_report
     from .lib.tables import write_csv
+    from .. import defaults
     t0 = time.perf_counter()
-    rows = []
-    with tempfile.TemporaryDirectory(prefix="sphrom-error-bounds-") as folder:
-        for name in scenes:
-            got = measure_parametric(name, models, args.points, folder, progress=not args.quiet)
-            rows += got
-            for r in got:
-                if r.get("note"):
-                    print(f"{r['scene']:20s} {r['model']:9s} not built: {r['note']}", flush=True)
-                    continue
-                print(f"{r['scene']:20s} {r['model']:9s} c {r['c']:.4g} d {r['d']:.4g} scale {r['scale']:g}: "
-                      f"violations {r['violations']}, effectivity median {r['eff_median']:.3g} max "
-                      f"{r['eff_max']:.3g}, max error {r['max_err']:.2e}", flush=True)
-    wall = time.perf_counter() - t0
+    with tempfile.TemporaryDirectory(prefix="sphrom-error-bounds-large-") as folder:
+        rows = measure_large(sizes, folder, defaults.PROBES, args.repeats, progress=not args.quiet)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    write_csv(out / "error_bounds_parametric.csv", rows)
-    lines = parametric_section(rows, command=program_command("error_bounds", argv), wall=wall,
-                               machine=machine_text())
-    update_report(args.report, {PARAMETRIC_HEADING: lines})
-    print(f"wrote {out / 'error_bounds_parametric.csv'} and the section of {args.report}")
-    return 0
+    write_csv(out / "error_bounds_large.csv", rows)
+    update_report(args.report, {LARGE_HEADING: large_section(rows, command=program_command("error_bounds", argv),
+                                                             wall=time.perf_counter() - t0,
+                                                             machine=machine_text())})
+    print(f"wrote {out / 'error_bounds_large.csv'} and the section of {args.report}")
+    return 0 if all(r["violations"] == 0 for r in rows) else 1
 
 
 if __name__ == "__main__":

@@ -76,7 +76,8 @@ def measure_scene(name, folder, progress=True):
                                   ("exact", "exact", None)):
         summaries[label] = package_fmu(scene, folder / f"{name}-{len(summaries)}.fmu",
                                        model=model, fmi=2, probes=PROBES, progress=progress, binaries=binaries,
-                                       problem=problem, verify=True, references=refs, build_options=options)
+                                       problem=problem, verify=True, accept=False, references=refs,
+                                       build_options=options)
         refs = summaries[label].verification.refs
     paths = {label: (s.path, s.verification) for label, s in summaries.items()}
     _, _, _, (t_train, sph_v, _, rho0, _) = refs["training"]

@@ -61,7 +61,7 @@ def run(args):
     from ..errors import UserError
     from ..rom.registry import model_names
     from ..runio import check_output_dir, output_dir
-    from ..scene import automatic_lines, builtin_names, load_scene
+    from ..scene import announce, builtin_names, load_scene
     from .snapshot_options import strategy_from_args
 
     models = tuple(args.model)
@@ -75,8 +75,7 @@ def run(args):
     if not args.all:
         scene = load_scene(args.scene)
         spec = strategy_from_args(args, scene)
-        for line in automatic_lines(scene):
-            print(line)
+        announce(scene, "modes")
         custom = spec != dict(scene.snapshots)
         with output_dir(out):
             sweep, ths = _one(scene, spec if custom else None, args, out, scene.name, models)

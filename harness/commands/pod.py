@@ -35,15 +35,15 @@ def run(args):
     from ..pod.io import write_basis
     from ..pod.pipeline import automatic_modes, basis_for_scene
     from ..rom.operators import build_operators
-    from ..runio import check_output_path
-    from ..scene import automatic_lines, load_scene
+    from ..runio import check_output_path, check_run_memory
+    from ..scene import announce, load_scene
     from .snapshot_options import strategy_from_args
 
     out = check_output_path(args.out)
     scene = load_scene(args.scene)
     spec = strategy_from_args(args, scene)
-    for line in automatic_lines(scene):
-        print(line)
+    announce(scene, "pod")
+    check_run_memory(scene, "pod", modes=max(args.modes) if args.modes else None)   # beyond the memory: refused
     basis, run_ = basis_for_scene(scene, spec, progress=not args.quiet)
     rv, rr = basis.max_modes
     if args.energy is not None:

@@ -68,7 +68,7 @@ def run(args):
     from ..rom.registry import get_model
     from ..rom.stepping import reduced_stability_warnings
     from ..runio import check_output_path, scene_attrs, write_run
-    from ..scene import automatic_lines, load_scene
+    from ..scene import announce, load_scene
     from ..sph.solver import build_problem, step_count
 
     model = get_model(args.model)
@@ -83,8 +83,7 @@ def run(args):
     out = check_output_path(args.out)
     scene = load_scene(args.scene)
     basis = read_basis(args.basis)              # FieldError "basis": the CLI names --basis
-    for line in automatic_lines(scene):
-        print(line)
+    announce(scene, "rom")
     if basis.U_v.shape[0] != scene.sph.n_particles:
         raise UserError(f"--basis: '{args.basis}' has {basis.U_v.shape[0]} particles, the scene "
                         f"{scene.sph.n_particles}")

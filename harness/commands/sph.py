@@ -15,7 +15,7 @@ def add_parser(sub):
     p.add_argument("--alpha", type=positive_float, metavar="A", help="h / dx (scene default)")
     p.add_argument("--dt", type=positive_float, metavar="DT", help="time step [s] (scene default)")
     p.add_argument("--t-end", type=positive_float, metavar="T", help="final time [s] (scene default)")
-    p.add_argument("--integrator", choices=("euler", "symplectic", "rk4"), help="time integrator (scene default: euler)")
+    p.add_argument("--integrator", choices=("euler", "symplectic", "rk4"), help="time integrator (default: the scene's; a scene that names none: symplectic)")
     p.add_argument("--every", type=int_at_least(1), metavar="K", help="store a sample every K steps (scene default)")
     p.add_argument("--out", required=True, metavar="FILE.h5", help="output HDF5 run file")
     add_quiet(p)
@@ -24,21 +24,19 @@ def add_parser(sub):
 
 def run(args):
     from ..compare import exact_errors, format_errors
-    from ..runio import check_output_path, scene_attrs, write_run
-    from ..scene import automatic_lines, load_scene
-    from ..sph.solver import build_problem, run_sph, stability, stability_warnings, step_count
+    from ..runio import check_output_path, check_run_memory, scene_attrs, write_run
+    from ..scene import announce, load_scene
+    from ..sph.solver import build_problem, run_sph, stability, step_count
 
     out = check_output_path(args.out)
     base = load_scene(args.scene)
     scene = base.with_T(args.t_end).with_sph(n_particles=args.n_particles, alpha=args.alpha, dt=args.dt,
                            integrator=args.integrator, every=args.every)
-    for line in automatic_lines(scene):
-        print(line)
+    announce(scene, "sph")
+    check_run_memory(scene, "sph")                 # a run beyond this machine's memory: refused before the work
     sph = scene.sph
     problem = build_problem(scene)
     stab = stability(problem, sph.dt, sph.integrator, scene.T)
-    for line in stability_warnings(problem, sph.dt, sph.integrator, scene.T):
-        print(f"sphrom sph: warning: {line}", file=sys.stderr)
     n_steps = step_count(scene.T, sph.dt)
     if args.every is not None and args.every > max(n_steps, 1):
         from ..errors import FieldError

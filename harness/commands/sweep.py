@@ -23,6 +23,26 @@ def add_parser(sub):
     p.set_defaults(handler=run)
 
 
+def spare_spec_inputs(spec, out):
+    """UserError (before any work) when one of the files the sweep writes (RESULTS.h5 and the .csv, .png beside it)
+    is a file the spec reads: its scene TOML (the command line's own inputs are checked by
+    sphrom.options.check_outputs_spare_inputs; the scene is named inside the spec)."""
+    from pathlib import Path
+
+    from ..errors import UserError
+    from ..options import _same_file
+    from ..paths import is_file
+    from ..sweep.table import output_paths
+    scene = Path(spec.scene.source) if spec.scene.source else None
+    if scene is None or not is_file(scene):
+        return                                  # a built-in scene: no file of the user's
+    for path in output_paths(out):
+        if _same_file(path, scene):
+            shown = "" if Path(path) == Path(out) else f" (written beside '{out}')"
+            raise UserError(f"--out: '{path}'{shown} is the scene '{scene}' the spec '{spec.source}' reads: writing "
+                            "it would destroy that input (allowed: an output path that names no input)")
+
+
 def run(args):
     import os
     import sys
@@ -47,6 +67,9 @@ def run(args):
         raise UserError("--scheduler: empty address (allowed: a scheduler address such as tcp://host:8786)")
     workers = args.workers if args.workers is not None else (os.cpu_count() or 1)
     spec = load_spec(args.spec)
+    from ..scene import announce
+    announce(spec.scene, "sweep")
+    spare_spec_inputs(spec, out)
     for note in spec.notes:         # what the spec decided (one parametric FMU, or why not): shown even --quiet
         print(f"sphrom sweep: {note}", file=sys.stderr)
     if out.exists():        # a file that is not ours is refused before any work

@@ -30,15 +30,14 @@ def run(args):
     from ..report.pages import index_page, scene_page
     from ..pod.pipeline import modes_line
     from ..runio import check_output_dir, output_dir
-    from ..scene import automatic_lines, builtin_names, load_scene
+    from ..scene import announce, builtin_names, load_scene
 
     if args.all == (args.scene is not None):
         raise UserError("give a SCENE or --all")
     scenes = [load_scene(n) for n in builtin_names()] if args.all else [load_scene(args.scene)]
     out = check_output_dir(args.out)
     for scene in scenes:
-        for line in automatic_lines(scene):
-            print(line)
+        announce(scene, "validate")
     started = time.perf_counter()
     summaries = []
     with output_dir(out), progress_bar(total=len(scenes), desc="validate", enabled=not args.quiet) as bar:

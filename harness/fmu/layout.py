@@ -19,14 +19,17 @@ column is one row here, then ``--write``.
 
 Versions.  model.bin format 4 keeps the frozen kind's own numbers (integrator, n_pairs, the default n_freeze, dt)
 in that kind's header at the start of its body; format 3 had them in the shared header (and every kind carried
-them).  The serialized state's format 4 likewise keeps n_freeze and dt in the frozen kind's block.  A serialized
-state restores only into the FMU whose token it carries, and the token hashes the model.bin bytes, so a state of an
-older format (written by an FMU of an older model.bin format) can never match an FMU of this one: the C core reads
-only format 4 of both and refuses others, naming the version and saying why.
+them).  The serialized state's format 4 likewise keeps n_freeze and dt in the frozen kind's block; format 5 holds
+the time since the start (the sum of the steps, exact at any start time) where format 4 held the start time t0, and
+the core reads format 4 too (time - t0).  A serialized state restores only into the FMU whose token it carries, and
+the token hashes the model.bin bytes, so a state of a format before 4 (written by an FMU of an older model.bin
+format) can never match an FMU of this one: the C core reads model.bin format 4 and states of formats 4 and 5, and
+refuses others, naming the version and saying why.
 """
 
 from __future__ import annotations
 
+import math
 import struct
 import sys
 from pathlib import Path
@@ -91,7 +94,8 @@ class Record:
 RESOURCE_MAGIC = "SPHROMRS"
 FORMAT_VERSION = 4
 STATE_MAGIC = "SPHROMST"
-STATE_VERSION = 4
+STATE_VERSION = 5
+STATE_OLDEST_VERSION = 4         # the oldest state format the core reads (format 4: t0 for elapsed)
 
 # the shared header of model.bin (every kind)
 HEADER = Record("header", (
@@ -246,14 +250,55 @@ def shape(array, sizes):
 # ---------------------------------------------------------------------------------------------------------------
 
 @dataclass(frozen=True)
+class Range:
+    """A sign or range rule on some of a section's values, which the code reading them relies on (a certified bound
+    is >= 0 only if the norms it adds are): ``columns`` a named column, a tuple of them, or a span "a:b" of column
+    indices where a and b are integers, "inputs" offsets (``1+inputs``: the shadow's inputs, f and each port force)
+    or empty (the last column); ``low`` <= value <= ``high`` (``low_open``, ``high_open``: strictly), or exactly
+    ``also`` (a sentinel value, e.g. SHROW's -1: no input gain); ``what`` the values, in messages."""
+
+    columns: object
+    what: str
+    low: float = -math.inf
+    high: float = math.inf
+    low_open: bool = False
+    high_open: bool = False
+    also: float | None = None
+
+    @property
+    def allowed(self):
+        """The rule in words ("> 0", "in [0, 1]", ">= 0 or -1")."""
+        if math.isfinite(self.low) and math.isfinite(self.high):
+            text = f"in {'(' if self.low_open else '['}{self.low:g}, {self.high:g}{')' if self.high_open else ']'}"
+        elif math.isfinite(self.low):
+            text = f"{'>' if self.low_open else '>='} {self.low:g}"
+        else:
+            text = f"{'<' if self.high_open else '<='} {self.high:g}"
+        return text + (f" or {self.also:g}" if self.also is not None else "")
+
+
+@dataclass(frozen=True)
+class RowSum:
+    """Each row's values in ``columns`` sum to ``total`` within ``tolerance`` (interpolation weights)."""
+
+    columns: object
+    what: str
+    total: float = 1.0
+    tolerance: float = 1e-12
+
+
+@dataclass(frozen=True)
 class Section:
     """A tagged section: what it holds, and the names of its rows or columns where they have fixed meanings
-    (read and written by name, never by position)."""
+    (read and written by name, never by position), and the rules its values obey (``values``: :class:`Range`,
+    :class:`RowSum`, checked when the file is read by the C core,
+    fmu_src/rom_resources.c check_values, and by :func:`check_values`)."""
 
     what: str
     columns: tuple = ()
     rows: tuple = ()
     kind: str | None = None          # only this model kind reads it
+    values: tuple = ()
 
 
 SECTIONS: dict[str, Section] = {
@@ -268,7 +313,7 @@ SECTIONS: dict[str, Section] = {
                        columns=("port_v", "port_rho")),
     # linear models (harness/rom/balanced.py)
     "BOUNDS": Section("certified error bounds per probe (force, initial state)", rows=("force", "initial_state"),
-                      kind="linear"),
+                      kind="linear", values=(Range("0:", "a certified error bound", low=0.0),)),
     "LINMODEL": Section("which linear model: 1 exact POD, 2 balanced", columns=("model",), kind="linear"),
     # parametric models (sphrom.rom.parametric)
     "PARAMS": Section("parametric model: c and d (varied, start, min, max)", rows=("c", "d"),
@@ -279,29 +324,50 @@ SECTIONS: dict[str, Section] = {
     # the frozen model's particle refresh (harness/fmu/kinds/frozen.py particle_sections)
     "PARTUR": Section("frozen model: U^rho at the particles (the particle refresh)", kind="frozen"),
     "PARTGUV": Section("frozen model: G U^v at the particles (the particle refresh)", kind="frozen"),
-    "PARTIR0": Section("frozen model: 1/rho0 at the particles (the particle refresh)", kind="frozen"),
+    "PARTIR0": Section("frozen model: 1/rho0 at the particles (the particle refresh)", kind="frozen",
+                       values=(Range("0:", "1/rho0 [m^3 kg^-1]", low=0.0, low_open=True),)),
     "A0": Section("linear model: the part of A without c or d", kind="linear"),
     "AC": Section("linear model: the part of A per unit c", kind="linear"),
     "AD": Section("linear model: the part of A per unit d", kind="linear"),
     # mechanical ports (sphrom.sph.ports), all three or none (PORTB none with the port channel, sections PC*)
-    "PORTX": Section("port positions x/L (1 x P)"),
+    "PORTX": Section("port positions x/L (1 x P)",
+                     values=(Range("0:", "a port position x/L", low=0.0, high=1.0, high_open=True),)),
     "PORTB": Section("port input rows at area 1 (P x k_v frozen, P x k linear); absent with the port channel"),
     "PORTC": Section("port velocity rows (P x k_v; P x k over the whole state with output_rows)"),
     # the certified error bounds' shadow (harness/rom/bounds.py sections, fmu_src/rom_bound.c), all or none
     "SHSCAL": Section("error bounds: the shadow's sizes and scalars",
-                      columns=("order", "planes", "inputs", "rows", "n_tab", "dt_tab", "y0_norm", "x0_norm", "e_norm",
-                               "b_norm", "tolerance", "reserved")),
+                      columns=("order", "planes", "inputs", "rows", "nodes", "groups", "h_tab", "q_tab", "x0_norm",
+                               "e_norm", "b_norm", "tolerance", "cplanes", "reserved"),
+                      values=(Range("h_tab", "the free response table's node spacing [s]", low=0.0),
+                              Range(("x0_norm", "e_norm", "b_norm"), "a norm", low=0.0),
+                              Range("tolerance", "error_tolerance's default [m s^-1]", low=0.0))),
     "SHLAM": Section("error bounds: the shadow's planes"),
     "SHB": Section("error bounds: the shadow's input columns"),
     "SHC": Section("error bounds: the shadow's output rows"),
     "SHW0": Section("error bounds: the shadow's initial state"),
-    "SHGRAM": Section("error bounds: the inputs' Gram matrix outside the shadow"),
-    "SHROW": Section("error bounds: per output row, its norm, input gains and initial-state envelope"),
-    "SHPROBE": Section("error bounds: the probes' weights and rho0", columns=("pw0", "pw1", "rho0_0", "rho0_1")),
-    # ... a parametric FMU's shadow adds these two (with section PARAMS)
+    "SHROW": Section("error bounds: per output row, its norm, feedthrough, gains and tail",
+                     values=(Range("0:1", "the output row's norm |c_r|", low=0.0),
+                             Range("1+inputs:", "a gain or a tail of the complement (-1: infinite)", low=0.0,
+                                   also=-1.0))),
+    "SHRATE": Section("error bounds: the complement's decay rates",
+                      values=(Range("0:", "a decay rate [s^-1]", low=0.0),)),
+    "SHPROBE": Section("error bounds: the probes' weights and rho0", columns=("pw0", "pw1", "rho0_0", "rho0_1"),
+                       values=(Range(("pw0", "pw1"), "an interpolation weight", low=0.0, high=1.0),
+                               Range(("rho0_0", "rho0_1"), "rho0 [kg m^-3]", low=0.0, low_open=True),
+                               RowSum(("pw0", "pw1"), "the probe's two weights"))),
+    # ... with an initial state outside the shadow, these two (the complement's free response)
+    "SHTAB": Section("error bounds: the complement's free response and its slope at the table's nodes"),
+    "SHTERR": Section("error bounds: the free response table's error per block of intervals",
+                      values=(Range("0:", "a certified interpolation error", low=0.0),)),
+    # ... a parametric FMU's shadow adds these three (with section PARAMS)
     "SHPIECE": Section("error bounds: the planes' pieces per unit c and per unit d"),
     "SHPARAM": Section("error bounds: c_ref and the residual pieces' norms",
-                       columns=("c_ref", "e_const_v", "e_const_e", "e_c_v", "e_c_e", "e_d_v", "e_d_e")),
+                       columns=("c_ref", "e_const_v", "e_const_e", "e_c_v", "e_c_e", "e_d_v", "e_d_e"),
+                       values=(Range("c_ref", "the shadow's reference stiffness c_ref [kg m^-1 s^-2]", low=0.0,
+                                     low_open=True),
+                               Range(("e_const_v", "e_const_e", "e_c_v", "e_c_e", "e_d_v", "e_d_e"),
+                                     "a residual piece's norm", low=0.0))),
+    "SHCPL": Section("error bounds: the complement's planes (parametric)"),
     # the port channel (harness/rom/port_channel.py, fmu_src/rom_port.c), all or none; with it no PORTB
     "PCSCAL": Section("port channel: its sizes and scalars", columns=("planes", "ports", "rows", "truncated", "dx")),
     "PCLAM": Section("port channel: each plane's 2 x 2 block [[-d, s], [-s, 0]] (planes x 4)"),
@@ -310,15 +376,96 @@ SECTIONS: dict[str, Section] = {
                    "particles, v ports)"),
     "PCD": Section("port channel: per row the truncated planes' static correction, then their bound's gains "
                    "(rows x 2P)"),
-    "PCPROBE": Section("port channel: the probes' weights and rho0", columns=("pw0", "pw1", "rho0_0", "rho0_1")),
-    # ... a shadow of one dense block (a damping d that is not uniform) adds these two
-    "SHDENSE": Section("error bounds: the dense block's growth rate", columns=("mu",)),
-    "SHEGRAM": Section("error bounds: the dense block's coupling residual's Gram matrix"),
+    "PCPROBE": Section("port channel: the probes' weights and rho0", columns=("pw0", "pw1", "rho0_0", "rho0_1"),
+                       values=(Range(("pw0", "pw1"), "an interpolation weight", low=0.0, high=1.0),
+                               Range(("rho0_0", "rho0_1"), "rho0 [kg m^-3]", low=0.0, low_open=True),
+                               RowSum(("pw0", "pw1"), "the probe's two weights"))),
 }
 # bits of ENVELOPE's column checks: the run-time checks of the training envelope (fmu_src/rom_envelope.c)
 ENVELOPE_CHECKS = {"coordinates": 1, "force": 2, "strain": 4, "failure": 8}
 # LINMODEL's column model: which linear model (messages only; sphrom.fmu.kinds.linear VARIANTS)
 LINEAR_MODELS = {"exact_pod": 1, "balanced": 2}
+
+
+def value_columns(tag, columns, n_cols, inputs):
+    """The column indices [first, end) a rule's ``columns`` cover in section ``tag`` of ``n_cols`` columns, the
+    shadow having ``inputs`` inputs (1 + ports): a named column (or a tuple of them: their list), or a span."""
+    if isinstance(columns, tuple):
+        return [c for name in columns for c in value_columns(tag, name, n_cols, inputs)]
+    if ":" not in columns:
+        index = column(tag, columns) if columns in SECTIONS[tag].columns else int(columns)
+        return [index] if index < n_cols else []
+    first, end = (_offset(text, inputs, n_cols) for text in columns.split(":"))
+    return list(range(min(first, n_cols), min(end, n_cols)))
+
+
+def _offset(text, inputs, n_cols):
+    """A span's end as a column index: "" the end, "3", "inputs", "1+inputs"."""
+    if not text:
+        return n_cols
+    return sum(inputs if part == "inputs" else int(part) for part in text.split("+"))
+
+
+def _span(tag, columns):
+    """((c0, i0), (c1, i1)) of a rule's columns for C: first = c0 + i0 inputs, end = c1 + i1 inputs (c1 = -1: the
+    last column); one pair per named column of a tuple."""
+    if isinstance(columns, tuple):
+        return [pair for name in columns for pair in _span(tag, name)]
+    if ":" not in columns:
+        index = column(tag, columns) if columns in SECTIONS[tag].columns else int(columns)
+        return [((index, 0), (index + 1, 0))]
+
+    def pair(text, end):
+        if not text:
+            return (-1, 0) if end else (0, 0)
+        parts = text.split("+")
+        return (sum(int(x) for x in parts if x != "inputs"), parts.count("inputs"))
+    first, end = columns.split(":")
+    return [(pair(first, False), pair(end, True))]
+
+
+def check_values(sections, n_ports=0):
+    """The value rules of every section of ``sections`` (tag -> 2-D array) that has them (:class:`Section`'s
+    ``values``), in the C loader's order (fmu_src/rom_resources.c check_values: every range, then the row sums, each in
+    the layout's order of sections): ValueError naming the section, the place, the value and the rule, in the C
+    core's words.  ``n_ports``: the model's ports (the shadow's inputs are 1 + n_ports, or 1 where SHSCAL says so: a
+    port channel carries the ports)."""
+    import numpy as np
+    inputs = 1 + int(n_ports)
+    present = {tag: np.atleast_2d(np.asarray(sections[tag], dtype=float)) for tag in SECTIONS if tag in sections}
+    scal = present.get("SHSCAL")
+    if scal is not None and scal.shape == (1, len(SECTIONS["SHSCAL"].columns)) \
+            and scal[0, column("SHSCAL", "inputs")] == 1.0:
+        inputs = 1                      # the shadow's inputs: f alone (a port channel carries the ports exactly)
+    for kind in (Range, RowSum):
+        for tag, a in present.items():
+            for rule in SECTIONS[tag].values:
+                if isinstance(rule, kind):
+                    _check_rule(tag, rule, a, present, inputs)
+
+
+def _check_rule(tag, rule, a, present, inputs):
+    where = f"resources: section '{tag}'"
+    if isinstance(rule, Range):
+        spans = rule.columns if isinstance(rule.columns, tuple) else (rule.columns,)   # one C rule per named column
+        places = [(row, col) for span in spans for row in range(a.shape[0])
+                  for col in value_columns(tag, span, a.shape[1], inputs)]
+        for row, col in places:
+            x = a[row, col]
+            ok = ((x > rule.low if rule.low_open else x >= rule.low)
+                  and (x < rule.high if rule.high_open else x <= rule.high))
+            if not ok and not (rule.also is not None and x == rule.also):
+                raise ValueError(f"{where} row {row + 1}, column {col + 1} holds {x:g}: {rule.what} is "
+                                 f"{rule.allowed}")
+    elif isinstance(rule, RowSum):
+        cols = value_columns(tag, rule.columns, a.shape[1], inputs)
+        for row in range(a.shape[0]):
+            total = 0.0
+            for col in cols:                 # in column order, as the C loader adds them
+                total += float(a[row, col])
+            if not abs(total - rule.total) <= rule.tolerance:
+                raise ValueError(f"{where} row {row + 1}: {rule.what} sum to {total:.17g} (allowed: "
+                                 f"{rule.total:g} to {rule.tolerance:g})")
 
 
 def column(tag, name):
@@ -359,10 +506,11 @@ STATE_BLOCKS = (
     ("a_v", "k_v", "the velocity coordinates (linear: a)"),
     ("a_rho", "k_rho", "the density coordinates (linear: b)"),
     ("kind", "the kind's block", "KINDS' state_block"),
-    ("t0", "1", "the start time [s] (of the exact model's free response)"),
+    ("elapsed", "1", "the time since the start [s]: the sum of the steps taken (the exact model's free response, "
+     "the error bounds' table; format 4 held the start time t0 here, read as time - t0)"),
     ("f_rate", "1", "df/dt over a step [m s^-3] (0: held)"),
-    ("bounds", "with the error bounds (sections SH*)", "the shadow w[k_s], the inputs' variation tv[m] and last "
-     "values u[m], the integrals of |B_perp u| and |w|, the step count, started (0 or 1) (rom_bound.c)"),
+    ("bounds", "with the error bounds (sections SH*)", "the shadow w[k_s], the inputs' weighted variations V[m groups] "
+     "and last values u[m], the integral of |w|, the step count, started (0 or 1) (rom_bound.c)"),
     ("channel", "with the port channel (sections PC*)", "its planes p[n], q[n], the inputs' variation tv[P] and "
      "last values u[P], the step count, port_impedance [N s m^-1], a_port[P] [N], b_port[P] [N], the force held "
      "over the last step of the wave form[P] [N] (rom_port.c)"),
@@ -429,7 +577,8 @@ def format_text():
     for tag, s in SECTIONS.items():
         named = (f"; rows {', '.join(s.rows)}" if s.rows else "") + (
             f"; columns {', '.join(s.columns)}" if s.columns else "")
-        lines.append(f"    {tag}: {s.what}{named}" + (f" ({s.kind} kind only)" if s.kind else ""))
+        lines.append(f"    {tag}: {s.what}{named}" + (f" ({s.kind} kind only)" if s.kind else "")
+                     + (f"; values: {'; '.join(_rule_words(r) for r in s.values)}" if s.values else ""))
     lines += ["", "then the trailer:"]
     lines += _record_lines(TRAILER, "  ")
     lines += ["", f"The serialized FMU state, format {STATE_VERSION} (little-endian):", "",
@@ -443,6 +592,16 @@ def format_text():
                                                                 for n, length, what in k.state_block))
     lines += ["then uint32 crc32: zlib's CRC-32 of every byte before it"]
     return "\n".join(_wrap(line) for line in lines)
+
+
+def _rule_words(rule):
+    """A value rule in words, for the format's text."""
+    if isinstance(rule, Range):
+        cols = rule.columns if isinstance(rule.columns, str) else ", ".join(rule.columns)
+        return f"{rule.what} (columns {cols}) {rule.allowed}"
+    if isinstance(rule, RowSum):
+        return f"{rule.what} sum to {rule.total:g} per row"
+    return f"each row's norm at most {rule.tag}'s column {rule.column} ({rule.what})"
 
 
 def _wrap(line, width=112):
@@ -491,16 +650,53 @@ def c_header():
     out.append(define("ROM_ENVELOPE_CHECK_ALL", f"{sum(ENVELOPE_CHECKS.values())}u"))
     out += [define(_macro("ROM_LINEAR", name), f"{number}u", "section LINMODEL") for name, number in
             LINEAR_MODELS.items()]
+    out += _value_rules()
     out += [            define("ROM_N_SECTION_TAGS", f"{len(SECTIONS)}u", "rom_resources.c's SECTION_RULES has one row each"),
             "/* the model kinds' tables of operations (rom_internal.h RomKindOps; rom_resources.c's list of kinds) */",
             "#define ROM_KIND_TABLES(X) " + " ".join(f"X({k.c_table})" for k in KINDS),
             "", "/* the serialized FMU state */",
             define("ROM_STATE_MAGIC", f'"{STATE_MAGIC}"'),
             define("ROM_STATE_VERSION", f"{STATE_VERSION}u"),
+            define("ROM_STATE_OLDEST_VERSION", f"{STATE_OLDEST_VERSION}u", "read too (its t0 converted)"),
             define("ROM_STATE_HEADER_SIZE", STATE_HEADER.size, "magic to f")]
     out += [define(_macro("ROM_STATE", f.name), STATE_HEADER.offset(f.name)) for f in STATE_HEADER.fields[1:]]
     out += ["", "#endif /* SPHROM_ROM_LAYOUT_H */", ""]
     return "\n".join(out)
+
+
+def _c_number(x):
+    return ("INFINITY" if x > 0 else "-INFINITY") if math.isinf(x) else repr(float(x))
+
+
+def _value_rules():
+    """rom_layout.h's tables of the sections' value rules (X-macros over SECTIONS' ``values``)."""
+    ranges, sums = [], []
+    for tag, s in SECTIONS.items():
+        for rule in s.values:
+            if isinstance(rule, Range):
+                for (c0, i0), (c1, i1) in _span(tag, rule.columns):
+                    ranges.append(f'X("{tag}", {c0}, {i0}, {c1}, {i1}, {_c_number(rule.low)}, '
+                                  f'{_c_number(rule.high)}, {int(rule.low_open)}, {int(rule.high_open)}, '
+                                  f'{int(rule.also is not None)}, {_c_number(rule.also or 0.0)}, "{rule.what}", '
+                                  f'"{rule.allowed}")')
+            elif isinstance(rule, RowSum):
+                spans = _span(tag, rule.columns)
+                first, end = spans[0][0], spans[-1][1]
+                if any(b[0] != a[1] for a, b in zip(spans, spans[1:])):
+                    raise ValueError(f"{tag}: a RowSum's columns must be adjacent")
+                sums.append(f'X("{tag}", {first[0]}, {first[1]}, {end[0]}, {end[1]}, {_c_number(rule.total)}, '
+                            f'{_c_number(rule.tolerance)}, "{rule.what}")')
+
+    def table(name, rows):
+        return [f"#define {name}(X) \\"] + [f"    {r} \\" for r in rows[:-1]] + [f"    {rows[-1]}"]
+    return (["", "/* the sections' value rules (layout.py SECTIONS' values; rom_resources.c check_values): columns "
+             "[first, end) as", " * c + i x inputs (the shadow's inputs: 1 + ports; end c = -1: to the last "
+             "column) */",
+             "/* X(tag, first c, first i, end c, end i, low, high, low open, high open, has also, also, what, "
+             "allowed) */"]
+            + table("ROM_RANGE_RULES", ranges)
+            + ["/* X(tag, first c, first i, end c, end i, total, tolerance, what): each row's sum */"]
+            + table("ROM_ROW_SUM_RULES", sums))
 
 
 COMMAND = "python3 -m sphrom.fmu.layout --write"

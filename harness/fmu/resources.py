@@ -197,10 +197,17 @@ def unpack(blob: bytes):
         arrays[array.name] = np.frombuffer(blob, dtype="<f8", count=n, offset=cursor).reshape(shape).astype(float)
         cursor += 8 * n
     sections, cursor = unpack_sections(blob, cursor)
+    layout.check_values(sections, _ports(sections))          # the sections' sign and range rules, as the C loader
     token = blob[cursor:cursor + TOKEN_SIZE].rstrip(b"\0").decode("ascii")
     if cursor + TOKEN_SIZE + 4 != len(blob):
         raise ValueError("size mismatch")
     return kind.from_file(header, head, arrays, token, sections)
+
+
+def _ports(sections):
+    """The ports a file's sections describe (section PORTX's columns; 0 without it)."""
+    x = sections.get("PORTX")
+    return 0 if x is None else int(np.shape(x)[-1])
 
 
 def pack_exact(data) -> bytes:

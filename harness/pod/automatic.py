@@ -12,6 +12,7 @@ import numpy as np
 
 from ..errors import UserError
 from ..scene_schema import MAX_SAMPLE_BYTES, least_every
+from ..sph.timestep import AUTO_DT_RULE, DEFAULT_INTEGRATOR_RULE
 from .basis import modes_for_energy
 from .snapshots import MAX_SNAPSHOT_BYTES
 
@@ -92,6 +93,8 @@ def automatic_rules():
     """(what, rule) of every automatic choice, for the schema page."""
     return [("name", "the file name without `.toml` (it must then be a valid name)"),
             ("title", "the name"),
+            ("sph.integrator", DEFAULT_INTEGRATOR_RULE),
+            ("sph.dt", AUTO_DT_RULE),
             ("sph.every", AUTO_EVERY_RULE),
             ("snapshots", AUTO_SNAPSHOTS_RULE),
             ("rom.modes", AUTO_MODES_RULE),

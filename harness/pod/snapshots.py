@@ -74,7 +74,7 @@ def snapshot_steps(spec, dt, n_steps, stored_steps=None, where="snapshots", n_pa
         if stored_steps is None:
             raise UserError(f"{where}: 'all' needs a stored run")
         s = np.asarray(stored_steps)
-        s = s[(s * dt >= t0 - 1e-12) & (s * dt <= t1 + 1e-12)]
+        s = s[(s * dt >= t0 - 1e-9 * dt) & (s * dt <= t1 + 1e-9 * dt)]      # a billionth of a step
         return s.copy(), s.copy()
     if "times_v" in spec:
         sv = _to_steps(spec["times_v"], dt, n_steps, f"{where}.times_v")
@@ -85,7 +85,7 @@ def snapshot_steps(spec, dt, n_steps, stored_steps=None, where="snapshots", n_pa
         return s, s.copy()
     count = int(spec["count"])
     t0, t1 = (float(a) for a in spec["window"])
-    if t1 > n_steps * dt + 1e-12:
+    if t1 > n_steps * dt * (1 + 1e-12):
         raise UserError(f"{where}.window: [{t0:g}, {t1:g}] exceeds the run's end {n_steps * dt:g} s")
     lo, hi = int(np.ceil(t0 / dt - 1e-9)), int(np.floor(t1 / dt + 1e-9))
     available = hi - lo + 1             # the distinct steps of the run in the window

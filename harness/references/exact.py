@@ -114,7 +114,9 @@ def _synthesize(coef, k, x, L):
     """
     x = np.asarray(x, dtype=float)
     n = x.size
-    uniform = n > 1 and np.allclose(np.diff(x), L / n, rtol=1e-12, atol=0)
+    # uniform to the lattice's own rounding (a few ulps of L: relative to L/N that grows with N, and at N = 32000
+    # the direct sum took an array of (modes, N) = 31 GiB)
+    uniform = n > 1 and np.allclose(np.diff(x), L / n, rtol=0, atol=1e-12 * L)
     if not uniform:
         return np.real(coef @ np.exp(2j * np.pi * np.outer(k, x) / L))
     phase = np.exp(2j * np.pi * k * x[0] / L)

@@ -1,44 +1,57 @@
-"""Certified a posteriori error bounds of every reduced model's outputs: the modal shadow.
+"""Certified a posteriori error bounds of every reduced model's outputs: the modal shadow and its decaying complement.
 
 The truth is the full SPH of eqs. 2.10-2.11, exactly linear in the specific volume (:mod:`.lti`): in energy
-coordinates x = [√ρ0 v; √c e] it is ẋ = A x + B u, A = J - R, ‖e^{At}‖ <= 1, with the input u the FMU
-received (the force f and each port force F_j / area, held or linear over each communication step) from
-x(0) = s x0 (s = initial_state_scale).  Every output is a row over x: the probe velocity (v_probe_j), e at
-the two particles around each probe (the density), the port velocity (v_port_j).
+coordinates x = [√ρ0 v; √c e] it is ẋ = A x + B u, with the input u the FMU received (the force f and each port
+force F_j / area, held or linear over each communication step) from x(0) = s x0 (s = initial_state_scale),
+integrated exactly in time.  Every output is a row over x: the probe velocity (v_probe_j), e at the two particles
+around each probe (the density), the port velocity (v_port_j).
 
-The shadow.  Let K = ρ0^-½ G c^½ (ẋ_v = K x_e - d x_v + ..., ẋ_e = -Kᵀ x_v) and K = U Σ Wᵀ its singular value
-decomposition.  When d is uniform, each singular triplet (σ_i, u_i, w_i) spans an invariant plane of A:
-A [u_i; 0] = -d [u_i; 0] - σ_i [0; w_i], A [0; w_i] = σ_i [u_i; 0], so that A is block diagonal with the 2 x 2
-blocks Λ_i = [[-d, σ_i], [-σ_i, 0]] in the orthonormal basis S_i = [[u_i, 0], [0, w_i]] (any ρ0(x), c(x);
-for a parametric model with uniform c and d the block at (c, d) is [[-d, (c/c_ref) σ_i], [-σ_i, 0]], affine).
-The shadow keeps the n lowest-frequency triplets: w' = Λ w + S_sᵀ B u, w(0) = s S_sᵀ x0, stepped exactly
-(each block by the exponential of its augmented matrix), O(k_s) per step, no N.
+The planes (:mod:`.planes`).  A is block diagonal in invariant planes: the singular triplets of K for a uniform d
+(orthonormal), the eigenvectors of A for a damping that varies (with their conditioning).  In each plane i the
+state z_i = W_iᵀ x obeys z_i' = Λ_i z_i + b̂_i u, and an output is y_r = Σ_i ĉ_riᵀ z_i (ĉ_ri = V_iᵀ c_r).
 
-The bound of a row c (an output y = cᵀx) at time t:
+The shadow keeps the lowest planes s: w' = Λ_s w + b̂_s u, w(0) = s W_sᵀ x0, stepped exactly (each plane by the
+exponential of its augmented matrix), O(k_s) per step, no N.  What it leaves out, the complement, is written
+with one integration by parts per plane (u(τ) = 0 before the start, dμ its jumps and slopes):
 
-    |y_model - y_true| <= |y_model - cᵀ S_s w| + |cᵀ e_s(t)|,   e_s = x - S_s w,
-    e_s(t) = s e^{At} y0 + ∫ e^{A(t-τ)} [E w(τ) + B_⊥ u(τ)] dτ,   y0 = x0 - S_s w(0)/s,
+    z_i(t) = e^{Λ_i t} s η_i  -  Λ_i^-1 b̂_i u(t⁻)  +  Λ_i^-1 ∫_[0,t] e^{Λ_i (t-τ)} b̂_i dμ(τ),
 
-with E = A S_s - S_s Λ (round-off for a uniform d) and B_⊥ = B - S_s S_sᵀ B.  The complement of the shadow is
-invariant and block diagonal too, so the first term is Σ_{i∉s} ĉ_iᵀ e^{Λ_i t} ŷ_i, bounded (Hölder) by
-G(t) = Σ_{i∉s} |ĉ_i| |e^{Λ_i t} ŷ_i|, non-increasing in t (each block is dissipative): a table G(t_b), valid
-for t >= t_b.  The input term: with H(τ) = ∫_0^τ cᵀ e^{Aσ} b_⊥ dσ (the complement's step response),
-∫_0^t h(t-τ) u(τ) dτ = u(0) H(t) + ∫ H(t-τ) du(τ), so it is at most sup|H| · V(u), V(u) = |u(0)| plus the total
-variation of u (the jumps of a held input and ∫|du/dt| of a linear one), and sup|H| <= Σ_{i∉s} |ĉ_i| 2‖Λ_i^-1‖
-|b̂_i|; or, by the energy, at most ‖c‖ ∫‖B_⊥ u‖ (the smaller is used).  The residual term is at most
-‖c‖ ‖E‖ ∫‖w‖.  A round-off allowance (1e-9 + 1e-15 n) ‖c‖ (‖w‖ + |s| ‖x0‖) covers the floating-point
-arithmetic of the shadow and of an exact-in-time reference.  The density ρ = Σ_m pw_m ρ0_m / (1 + e_m) at a
-probe follows from the bounds β_m of e at its two particles: |ρ_model - ρ_true| <= |ρ_model - ρ_s| +
-Σ_m pw_m ρ0_m β_m / ((1 + e_s,m)(1 + e_s,m - β_m)), infinite when 1 + e_s,m - β_m <= 0 (the certified interval
-of J reaches 0: the density is not bounded there).
+so that the complement's part of row r is s g_r(t) + D_r u(t⁻) + R_r(t):
 
-The shadow's size n is measured: the smallest n (at a gap of the singular values) whose own certified error
-on the training run (the scene's initial state and force over T) is at most :data:`SHADOW_TARGET` of the
-training run's largest probe velocity, at most :data:`MAX_ORDER` coordinates.  Without a uniform d the planes
-are not invariant: the shadow is the Galerkin model on them (one dense block, stepped by the exponential of its
-augmented matrix, O(k_s²) per step) and the complement terms fall back to the energy (‖c‖ ‖y0‖, ‖c‖ ∫‖B_⊥ u‖,
-and ‖c‖ ∫‖E w‖ with E the true coupling residual, from the exact quadratic form of each step by Van Loan's
-exponential: :func:`residual_gram`; certified, looser).  docs/science/error-bounds.md has the derivation.
+- D_r = Σ_{i∉s} ĉ_riᵀ (-Λ_i^-1) b̂_i, the complement's quasi-static response, exact: it is added to the shadow's
+  row (zero on a velocity row of a uniform d: a slow force strains, it does not move);
+- R_r, the complement's transient, bounded per mode in normal form (‖N^-1 e^{N τ}‖ = e^{-α τ} / |λ|,
+  :func:`sphrom.rom.planes.plane_modes`) by Σ_g Σ_j H_rjg V_jg(t), V_jg = ∫ e^{-α_g (t-τ)} |dμ_j(τ)| the j-th
+  input's variation weighted by the decay of group g (modes of equal decay rate share it: every underdamped plane
+  of a uniform d decays at d/2): under a persistent input it saturates at a level set by the input's size and
+  rate, not its history;
+- g_r(t) = Σ_{i∉s} ĉ_riᵀ e^{Λ_i t} η_i, the complement's free response from the initial state: a fixed function
+  of time, tabulated as a certified envelope (the largest |g_r| over each interval of a table up to TABLE_SPAN x
+  the scene's T, from its exact values on a fine grid plus the modes' variation between them), and beyond the
+  table the modes' decaying Hölder sum Σ_g G_rg e^{-α_g (t - t_tab)}.
+
+The round-off of the planes (E = A V_s - V_s Λ_s) adds ‖c_r‖ ‖E‖ ∫‖w‖, and an allowance (1e-9 + 1e-15 n) ‖c_r‖
+(‖w‖ + |s| ‖x0‖) covers the floating-point arithmetic of the shadow and of an exact-in-time reference.  The density
+ρ = Σ_m pw_m ρ0_m / (1 + e_m) at a probe follows from the bounds β_m of e at its two particles: |ρ_model -
+ρ_true| <= |ρ_model - ρ_s| + Σ_m pw_m ρ0_m β_m / ((1 + e_s,m)(1 + e_s,m - β_m)), infinite when 1 + e_s,m - β_m
+<= 0.
+
+Any N: above :data:`sphrom.rom.planes.DENSE_LIMIT` particles only the lowest planes are computed (a sparse
+eigensolver, K is banded) and the planes never computed (σ >= σ_cut) are bounded through norms, never formed:
+Σ |γ'||β'| / |λ| <= κ(σ_cut) ‖c_tail‖ ‖b_tail‖ / σ_cut and likewise for the free response and the quasi-static
+part, ‖c_tail‖ = ‖c - V Vᵀ c‖ over the computed planes.
+
+Parametric models (uniform c and d, :mod:`.parametric`): the planes are affine in (c, d) about c_ref; the complement
+planes are stored and the C core (and :meth:`Shadow.at`) computes D, the gains and the decaying Hölder sums of the
+initial state at the model's (c, d) once, when c and d are fixed (no table).
+
+The shadow's size is chosen per input channel (:func:`choose_planes`): the force profile and each port with a
+reference step and an in-band sine over REFERENCE_SPAN x T, and the initial state; the smallest number of planes
+whose certified complement stays below :data:`SHADOW_TARGET` of each channel's response, at most
+:data:`MAX_PLANES`.  Port forces as inputs of the shadow (no port channel exact on its own) with N <=
+:data:`PORT_ALL_PLANES`: every plane, since a port's force and velocity are spread and read by the kernel over a
+few particles and reach every plane alike (the complement is then empty and the port bounds |model - truth| up to
+round-off, at O(N) per step).  docs/science/error-bounds.md has the derivation.
 """
 
 from __future__ import annotations
@@ -50,87 +63,133 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg as sla
 
-SHADOW_TARGET = 1e-2        # the shadow's own certified error on the training run / the largest |v_probe| there
-MAX_ORDER = 320             # the largest shadow k_s (coordinates)
-PORT_ALL_PLANES = 500       # with ports and N <= this, the shadow keeps every plane (build_shadow's docstring)
-DENSE_LIMIT = 4000          # N above this: no dense SVD (not supported: ValueError)
-N_TABLE = 64                # table times of the damped envelope G(t_b), over [0, T]
-ROUNDOFF = 1e-9             # relative round-off allowance
+from .planes import Modes, eigen_planes, plane_modes, singular_planes
+
+SHADOW_TARGET = 1e-6        # the complement's certified part / the channel's response, per reference input
+MAX_PLANES = 96             # the largest shadow (planes; k_s = 2 x this)
+PORT_ALL_PLANES = 500       # port forces as the shadow's inputs and N <= this: every plane (build_shadow)
+SPARSE_PLANES = 96          # planes computed above DENSE_LIMIT particles (the shadow's and a buffer of exact ones)
+ROUNDOFF = 1e-11            # relative round-off allowance
 ROUNDOFF_STEP = 1e-15       # ... plus this per step
+SUM_ROUNDOFF = 1e-12        # the complement's sums: times (1 + this)
+TABLE_SPAN = 20.0           # the initial state's free response table covers this x the scene's T (at most)
+MAX_NODES = 4096            # its nodes at most
+NODE_RESOLUTION = 0.1       # its spacing h: |μ| h <= this for every mode that matters (within MAX_NODES)
+INTERPOLATED = 3.7          # a mode with |μ| h above this counts by its size, not interpolated ((3.7)^4/384 = 0.49)
+PLATEAU = 2.0               # no cut meets the target: the smallest within this factor of the largest cut's value
+N_BLOCKS = 256              # its error bounds: one per block of intervals
+MAX_GROUPS = 4              # decay-rate groups of the complement's transient
+REFERENCE_SPAN = 20.0       # the reference sine's run: this x T (its weighted variation)
+FLOOR = 1e-6                # a channel's response below this x its row class's largest is not judged (round-off)
 PIECES = ("const", "c", "d")   # A(c, d) = A_const + c A_c + d A_d
+TOLERANCE_FRACTION = 0.05   # error_tolerance's default: this x the training run's largest |v_probe| [m s^-1]
+FMU_MAX_PARTICLES = 200000  # above this N the FMU carries no shadow
+N_SCALARS = 14              # columns of section SHSCAL
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# the shadow
+# ---------------------------------------------------------------------------------------------------------------
+
+@dataclass
+class Complement:
+    """The complement's terms at fixed parameters (module docstring).  Rows r, inputs j, groups g.
+
+    Attributes
+    ----------
+    D : ndarray (rows, m)
+        Quasi-static feedthrough, added to the shadow's rows [row units per input unit].
+    static : ndarray (rows, m)
+        Bound of the uncomputed planes' quasi-static part, times |u_j(t⁻)|.
+    rates : ndarray (G,)
+        Decay rate of each group [s^-1] (>= 0).
+    gain : ndarray (rows, m, G)
+        H_rjg: the transient's gain per unit weighted variation.
+    h : float
+        The free response table's node spacing [s] (0: no table, the tail from t = 0).
+    values, slopes : ndarray (rows, n) or None
+        g_r and g_r' at the nodes t_k = k h (per unit initial_state_scale; slopes per s), added to the shadow's
+        rows by cubic Hermite interpolation (:func:`free_table`).
+    errors : ndarray (rows, n_blocks) or None
+        The interpolation's certified error over the intervals k of block k // q.
+    q : int
+    t_end : float
+        The table's end [s] ((n - 1) h).
+    tail : ndarray (rows, G)
+        |g_r(t)| <= Σ_g tail_rg e^{-α_g (t - t_end)} for t >= t_end.
+    """
+
+    D: np.ndarray
+    static: np.ndarray
+    rates: np.ndarray
+    gain: np.ndarray
+    h: float
+    values: np.ndarray | None
+    slopes: np.ndarray | None
+    errors: np.ndarray | None
+    q: int
+    t_end: float
+    tail: np.ndarray
 
 
 @dataclass
 class Shadow:
     """The certified shadow of one FMU (module docstring).  Rows: P v probes, then e at the particles of probe j
     (rows P + 2 j, P + 2 j + 1), then the ports.  Inputs: column 0 the force f [m s^-2], column 1 + j the port
-    force F_j / area [N m^-2].
+    force F_j / area [N m^-2] (without ``port_inputs``: f only).
 
     Attributes
     ----------
-    sizes : ndarray (n_blocks,) of int
-        Block sizes of Λ (2: one plane each; one dense block without invariant planes).
-    A : ndarray (3, Σ b²)
-        Λ(c, d) = A[0] + c A[1] + d A[2], the blocks packed row-major one after the other [s^-1].
-    B : ndarray (k_s, m)
-    C : ndarray (n_rows, k_s)
-    w0 : ndarray (k_s,)
-        The shadow's state for initial_state_scale 1.
-    row_e : ndarray (n_rows,) of bool
+    A : ndarray (3, planes, 2, 2)
+        Each plane's block in pieces: Λ(c, d) = A[0] + c A[1] + d A[2] (A[1], A[2] zero unless parametric) [s^-1].
+    B : ndarray (k_s, m), C : ndarray (rows, k_s), w0 : ndarray (k_s,)
+        The shadow's inputs, rows and initial state (initial_state_scale 1).
+    comp : Complement or None
+        The complement's terms at fixed parameters (None: parametric, see ``cplanes``).
+    row_norm : ndarray (rows,)
+        ‖c_r‖ in the energy coordinates (at c_ref).
+    row_e : ndarray (rows,) of bool
         e rows (their dual norm scales with sqrt(c_ref / c) in a parametric model).
-    row_norm : ndarray (n_rows,)
-        ‖c_r‖ in the energy coordinates at c_ref.
-    G : ndarray (n_rows, n_tab)
-        The complement's initial-state envelope at t_b = b dt_tab (for t >= t_b; the last for all later t).
-    dt_tab : float
-    H : ndarray (n_rows, m)
-        sup|H| of each input's complement (inf: not available).
-    gram : ndarray (m, m)
-        B_⊥ᵀ B_⊥.
-    y0_norm, x0_norm : float
-        ‖y0‖, ‖x0‖.
-    E : ndarray (3, 2)
-        ‖E_p‖ of each piece, its v rows and its e rows.
-    B_norm : float
-        ‖B‖₂ of the shadow's inputs.
+    x0_norm, e_norm, b_norm : float
+        ‖x0‖, the planes' residual norm ‖A V_s - V_s Λ_s‖ [s^-1], ‖B_s‖.
     pw, prho0 : ndarray (P, 2)
         Each probe's interpolation weights and ρ0 at its two particles.
+    n_ports : int
     parametric : bool
     c_ref : float
-        The reference c of a parametric model [kg m^-1 s^-2] (nan otherwise).
-    E_gram : ndarray (k_s, k_s) or None
-        A dense shadow at fixed parameters (no invariant planes): Eᵀ E of its coupling residual E = A S - S Λ
-        (energy coordinates): the residual term is ‖c‖ ∫‖E w‖ (:func:`residual_gram`), not ‖c‖ ‖E‖ ∫‖w‖.
+    E : ndarray (3, 2)
+        A parametric shadow's residual pieces' norms (v rows, e rows).
+    cplanes : dict or None
+        A parametric shadow's complement planes: sigma (n,), chat (rows, n, 2), bv (n, m), eta (n,).
     info : dict
-        How it was chosen: order, target, its certified training error, invariance, timings.
     """
 
-    sizes: np.ndarray
     A: np.ndarray
     B: np.ndarray
     C: np.ndarray
     w0: np.ndarray
-    row_e: np.ndarray
+    comp: Complement | None
     row_norm: np.ndarray
-    G: np.ndarray
-    dt_tab: float
-    H: np.ndarray
-    gram: np.ndarray
-    y0_norm: float
+    row_e: np.ndarray
     x0_norm: float
-    E: np.ndarray
-    B_norm: float
+    e_norm: float
+    b_norm: float
     pw: np.ndarray
     prho0: np.ndarray
     n_ports: int
     parametric: bool = False
     c_ref: float = float("nan")
-    E_gram: np.ndarray | None = None
+    E: np.ndarray = field(default_factory=lambda: np.zeros((3, 2)))
+    cplanes: dict | None = None
     info: dict = field(default_factory=dict)
 
     @property
     def order(self):
         return int(self.w0.size)
+
+    @property
+    def planes(self):
+        return int(self.A.shape[1])
 
     @property
     def n_probes(self):
@@ -145,19 +204,10 @@ class Shadow:
         return int(self.B.shape[1])
 
     def blocks(self, c=None, d=None):
-        """The blocks Λ_i(c, d) (list of (b, b) arrays); c, d None: the start (the non-parametric shadow)."""
-        c, d = self._cd(c, d)
-        packed = self.A[0] + c * self.A[1] + d * self.A[2]
-        out, at = [], 0
-        for b in self.sizes:
-            out.append(packed[at:at + b * b].reshape(b, b))
-            at += b * b
-        return out
-
-    def _cd(self, c, d):
+        """The blocks Λ_i(c, d) (planes, 2, 2); c, d None: the non-parametric shadow's."""
         if not self.parametric:
-            return 0.0, 0.0
-        return float(c), float(d)
+            return self.A[0].copy()
+        return self.A[0] + float(c) * self.A[1] + float(d) * self.A[2]
 
     def dual_norms(self, c=None):
         """‖c_r‖ in the energy norm of the model's c (e rows scale with sqrt(c_ref / c))."""
@@ -168,14 +218,21 @@ class Shadow:
     def residual_norm(self, c=None, d=None):
         """‖E(c, d)‖ in the energy norm at c (a bound: the pieces' norms summed)."""
         if not self.parametric:
-            return float(self.E[0, 0] + self.E[0, 1])
+            return float(self.e_norm)
         coef = (1.0, float(c), float(d))
         ratio = math.sqrt(float(c) / self.c_ref)
         return float(sum(coef[p] * (self.E[p, 0] + ratio * self.E[p, 1]) for p in range(3)))
 
+    def at(self, c=None, d=None):
+        """The complement's terms at (c, d) (:class:`Complement`): the stored ones, or a parametric shadow's
+        computed from its complement planes (:func:`parametric_complement`, as the C core does)."""
+        if not self.parametric:
+            return self.comp
+        return parametric_complement(self.cplanes, self.c_ref, float(c), float(d))
+
 
 # ---------------------------------------------------------------------------------------------------------------
-# construction
+# rows, inputs, initial state
 # ---------------------------------------------------------------------------------------------------------------
 
 def output_rows(problem, probes, ports=()):
@@ -221,70 +278,386 @@ def input_columns(problem, ports=()):
     return np.column_stack(cols)
 
 
-def _coupling(problem):
-    """K = ρ0^-½ G c^½ (dense, N x N) and its singular triplets sorted by σ ascending (U, σ, W)."""
-    n = problem.rho0.size
-    if n > DENSE_LIMIT:
-        raise ValueError(f"n_particles: {n} is out of range for the error bounds (allowed: up to {DENSE_LIMIT}; "
-                         "the shadow's singular value decomposition is dense)")
-    G = problem.neighbours.matrix().tocsr()
-    w_v, w_e = np.sqrt(problem.rho0), np.sqrt(problem.c)
-    K = (G.multiply(1.0 / w_v[:, None]).multiply(w_e[None, :])).toarray()
-    U, sig, Wt = np.linalg.svd(K)
-    order = np.argsort(sig, kind="stable")
-    return K, U[:, order], sig[order], Wt.T[:, order]
-
-
-def operator_pieces(problem, K, parametric):
-    """The pieces (const, per c, per d) of A over energy coordinates at c_ref, as functions x -> A_p x on (2N, m)
-    arrays: the full A = [[-D, K], [-Kᵀ, 0]] (non-parametric) or, with uniform c and d, A(c, d) =
-    [[-d I, (c/c_ref) K], [-Kᵀ, 0]]."""
-    n = K.shape[0]
-    d = np.asarray(problem.d, float)
-    if not parametric:
-        def a0(X):
-            return np.vstack([-d[:, None] * X[:n] + K @ X[n:], -K.T @ X[:n]])
-        return (a0, None, None)
-    c_ref = float(problem.c[0])
-
-    def const(X):
-        return np.vstack([np.zeros_like(X[:n]), -K.T @ X[:n]])
-
-    def per_c(X):
-        return np.vstack([K @ X[n:] / c_ref, np.zeros_like(X[n:])])
-
-    def per_d(X):
-        return np.vstack([-X[:n], np.zeros_like(X[n:])])
-    return (const, per_c, per_d)
-
-
-def _expm2(M):
-    """e^M of 2 x 2 matrices M (..., 2, 2), vectorised (e^{tr/2} (cosh Δ I + sinh Δ / Δ (M - tr/2 I)))."""
-    M = np.asarray(M, float)
-    a, b, c, d = M[..., 0, 0], M[..., 0, 1], M[..., 1, 0], M[..., 1, 1]
-    half = 0.5 * (a + d)
-    delta = np.sqrt(((0.5 * (a - d)) ** 2 + b * c).astype(complex))
-    small = np.abs(delta) < 1e-8
-    ratio = np.where(small, 1.0 + delta ** 2 / 6.0, np.sinh(delta) / np.where(small, 1.0, delta))
-    ch = np.cosh(delta)
-    e = np.exp(half)
-    out = np.empty(M.shape)
-    out[..., 0, 0] = np.real(e * (ch + ratio * (a - half)))
-    out[..., 0, 1] = np.real(e * ratio * b)
-    out[..., 1, 0] = np.real(e * ratio * c)
-    out[..., 1, 1] = np.real(e * (ch + ratio * (d - half)))
-    return out
-
-
 def gap_cuts(sig, rel=1e-9):
-    """The counts n at which the singular values have a gap (σ_n > σ_{n-1} (1 + rel) + rel σ_max): a degenerate
-    pair (a cos and a sin of one wavenumber) is kept or left together."""
+    """The counts n at which the ordering frequencies have a gap (σ_n > σ_{n-1} (1 + rel) + rel σ_max): a
+    degenerate pair (a cos and a sin of one wavenumber) is kept or left together."""
     top = float(sig[-1]) if sig.size else 0.0
     return [n for n in range(1, sig.size + 1) if n == sig.size or sig[n] > sig[n - 1] * (1 + rel) + rel * top]
 
 
+# ---------------------------------------------------------------------------------------------------------------
+# the complement's terms
+# ---------------------------------------------------------------------------------------------------------------
+
+def feedthrough(L, chat, bhat):
+    """D = Σ_i ĉ_iᵀ (-L_i^-1) b̂_i over the planes (L (n, 2, 2), chat (rows, n, 2), bhat (n, 2, m)): (rows, m);
+    a singular block contributes where its input reaches only its invertible part (else inf)."""
+    rows, m = chat.shape[0], bhat.shape[2]
+    out = np.zeros((rows, m))
+    for i in range(L.shape[0]):
+        b = bhat[i]
+        if not np.any(b):
+            continue
+        try:
+            x = np.linalg.solve(L[i], -b)
+        except np.linalg.LinAlgError:
+            x, res, rank, _ = np.linalg.lstsq(L[i], -b, rcond=None)
+            if not np.allclose(L[i] @ x, -b, rtol=1e-12, atol=1e-300):
+                out[:] = np.inf
+                continue
+        out += chat[:, i] @ x
+    return out
+
+
+def group_rates(alpha, max_groups=MAX_GROUPS):
+    """(rates (G,), group of each α): the distinct decay rates (to 1e-9 relative), merged down to at most
+    ``max_groups`` (a group's rate is the smallest of its members: each mode decays at least that fast)."""
+    alpha = np.asarray(alpha, float)
+    if alpha.size == 0:
+        return np.zeros(0), np.zeros(0, np.int64)
+    uniq = np.sort(np.unique(alpha))
+    rates = [uniq[0]]
+    for a in uniq[1:]:
+        if a > rates[-1] * (1 + 1e-9) + 1e-300:
+            rates.append(a)
+    rates = np.asarray(rates)
+    while rates.size > max_groups:                       # merge the closest pair (in log) into the lower rate
+        lg = np.log(np.maximum(rates, 1e-300))
+        k = int(np.argmin(np.diff(lg)))
+        rates = np.delete(rates, k + 1)
+    group = np.searchsorted(rates, alpha * (1 + 1e-9) + 1e-300, side="right") - 1
+    return rates, np.clip(group, 0, rates.size - 1)
+
+
+def mode_gains(modes: Modes):
+    """(rows, M, m): each mode's transient gain |γ'| |β'_j| scale / |λ| (0 where no input reaches it, inf where an
+    input reaches a mode with λ = 0 or no decay bound)."""
+    num = modes.gamma[:, :, None] * (modes.beta * modes.scale[:, None])[None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        g = num / modes.absl[None, :, None]
+    return np.where(num > 0, g, 0.0)
+
+
+@dataclass
+class Tail:
+    """The planes never computed (σ >= sigma_cut), bounded through norms (module docstring)."""
+
+    sigma_cut: float
+    kappa: float              # the normal forms' condition number at sigma_cut (an upper bound beyond)
+    alpha: float              # their decay rate
+    inv_norm: float           # ‖Λ^-1‖ <= this for every tail plane
+    c_norm: np.ndarray        # (rows,) ‖c_tail‖
+    b_norm: np.ndarray        # (m,) ‖b_tail‖
+    x0_norm: float            # ‖x0_tail‖
+
+
+def tail_of(planes, C, Bcols, x0, d):
+    """The uncomputed planes' norms (:class:`Tail`), or None when every plane is computed.  Needs σ_cut > d / 2
+    (every uncomputed plane underdamped, decaying at d / 2)."""
+    if planes.complete:
+        return None
+    sc = float(planes.info["sigma_cut"])
+    if not sc > d / 2:
+        raise ValueError(f"the computed planes end at sigma = {sc:g} s^-1, not above d / 2 = {d / 2:g} s^-1")
+    S = planes.basis(np.arange(planes.count))
+
+    def rest(X):
+        R = X - S @ (S.T @ X)
+        return np.linalg.norm(R, axis=0) * (1 + 1e-12) + 1e-15 * np.linalg.norm(X, axis=0)
+    kappa = math.sqrt((sc + d / 2) / (sc - d / 2)) if d > 0 else 1.0
+    return Tail(sigma_cut=sc, kappa=kappa, alpha=d / 2, inv_norm=(1.0 + d / sc) / sc, c_norm=rest(C.T),
+                b_norm=rest(Bcols), x0_norm=float(rest(x0[:, None])[0]))
+
+
+def complement(modes: Modes, planes_L, chat, bhat, tail: Tail | None, T, *, table=True):
+    """The complement's terms (:class:`Complement`) of the modes ``modes`` (the complement's, every computed plane
+    not in the shadow), their blocks ``planes_L`` with coefficients ``chat``, ``bhat`` (for D), the uncomputed
+    planes ``tail``; ``T`` the scene's horizon [s] (the table spans TABLE_SPAN x T)."""
+    rows, m = chat.shape[0], bhat.shape[2]
+    D = feedthrough(planes_L, chat, bhat) if planes_L.shape[0] else np.zeros((rows, m))
+    alphas = list(modes.alpha) + ([tail.alpha] if tail is not None else [])
+    rates, group = group_rates(np.asarray(alphas))
+    G = max(rates.size, 1)
+    if rates.size == 0:
+        rates = np.zeros(1)
+    gain = np.zeros((rows, m, G))
+    mg = mode_gains(modes)                                      # (rows, M, m)
+    for g in range(G):
+        sel = group[:modes.alpha.size] == g
+        if np.any(sel):
+            gain[:, :, g] = mg[:, sel].sum(axis=1)
+    static = np.zeros((rows, m))
+    tail_free = np.zeros(rows)
+    if tail is not None:
+        gt = group[-1]
+        gain[:, :, gt] += tail.kappa / tail.sigma_cut * np.outer(tail.c_norm, tail.b_norm)
+        static += tail.inv_norm * np.outer(tail.c_norm, tail.b_norm)
+        tail_free = tail.kappa * tail.c_norm * tail.x0_norm
+    gain = np.where(np.isfinite(gain), gain * (1 + SUM_ROUNDOFF), np.inf)
+    if table and (np.any(np.abs(modes.P)) or np.any(tail_free)):
+        t_end, h, values, slopes, errors, q, tl = free_table(modes, group[:modes.alpha.size], rates, T, tail_free,
+                                                             tail.alpha if tail is not None else 0.0)
+    else:
+        t_end, h, values, slopes, errors, q = 0.0, 0.0, None, None, None, 1
+        tl = np.zeros((rows, G))
+        hold = np.abs(modes.P)
+        for g in range(G):
+            sel = group[:modes.alpha.size] == g
+            tl[:, g] = hold[:, sel].sum(axis=1)
+        if tail is not None:
+            tl[:, group[-1]] += tail_free
+    return Complement(D=D, static=static * (1 + SUM_ROUNDOFF), rates=rates, gain=gain, h=float(h), values=values,
+                      slopes=slopes, errors=errors, q=int(q), t_end=float(t_end), tail=tl * (1 + SUM_ROUNDOFF))
+
+
+def table_step(modes: Modes, T, tail_alpha=None):
+    """(t_end, h, nodes): the free response table's span and node spacing.  The span: TABLE_SPAN x T, shorter where
+    every mode (and the uncomputed planes) has decayed below 1e-14 of its start; the spacing resolves the modes
+    that matter (|μ| h <= 1 for every mode above 1e-12 of the largest) with at most MAX_NODES nodes."""
+    size = np.abs(modes.P).max(axis=0) if modes.P.size else np.zeros(0)
+    t_end = TABLE_SPAN * float(T)
+    alphas = list(modes.alpha[size > 0]) + ([tail_alpha] if tail_alpha is not None else [])
+    if alphas and min(alphas) > 0:
+        t_end = min(t_end, math.log(1e14) / min(alphas))
+    big = size > 1e-12 * max(float(size.max()), 1e-300) if size.size else size.astype(bool)
+    omega = float(np.max(np.abs(modes.mu[big]))) if np.any(big) else 0.0
+    nodes = int(min(MAX_NODES, max(2, math.ceil(t_end * omega / NODE_RESOLUTION) + 1)))
+    return t_end, t_end / (nodes - 1), nodes
+
+
+def free_table(modes: Modes, group, rates, T, tail_free, tail_alpha):
+    """The complement's free response g_r(t) = Re Σ_M P_rM e^{μ_M t} (per unit initial_state_scale, module
+    docstring), tabulated for a cubic Hermite interpolation with a certified error: (t_end, h, values (rows, n),
+    slopes (rows, n) [per s], errors (rows, n_blocks), q, tail (rows, G)).
+
+    Nodes t_k = k h over [0, t_end] (:func:`table_step`).  The exact normal modes with |μ| h <= 1 are summed at the
+    nodes (value and slope); on [t_k, t_k+1] the Hermite cubic of a sum of such modes is within Σ |P| e^{-α t_k}
+    (|μ| h)^4 / 384 of it (h^4 / 384 times the sup of the fourth derivative) where |μ| h <= INTERPOLATED; every
+    other mode (faster, or
+    defective) counts by its size |P| e^{-α t_k}, the planes never computed by κ ‖c_tail‖ ‖x0_tail‖
+    e^{-α_tail t_k}, and 1e-13 of the modes' sizes covers the nodes' round-off.  errors[r, B]: the largest over the
+    intervals k of block B (k // q == B).  Beyond t_end: |g_r(t)| <= Σ_g tail_rg e^{-α_g (t - t_end)}."""
+    rows = modes.P.shape[0]
+    t_end, h, nodes = table_step(modes, T, tail_alpha if np.any(tail_free) else None)
+    t = np.arange(nodes) * h
+    ex = modes.exact & (np.abs(modes.mu) * h <= INTERPOLATED)
+    lo, rest = np.flatnonzero(ex), np.flatnonzero(~ex)
+    mu_lo, P_lo = modes.mu[lo], modes.P[:, lo]
+    values = np.zeros((rows, nodes))
+    slopes = np.zeros((rows, nodes))
+    bound = np.zeros((rows, nodes - 1))
+    size_lo, size_rest = np.abs(P_lo), np.abs(modes.P[:, rest])
+    size_all = np.abs(modes.P)
+    for start in range(0, nodes, 2048):
+        tt = t[start:start + 2048]
+        if lo.size:
+            E = np.exp(np.outer(mu_lo, tt))
+            values[:, start:start + tt.size] = np.real(P_lo @ E)
+            slopes[:, start:start + tt.size] = np.real((P_lo * mu_lo[None, :]) @ E)
+        tk = tt[:min(tt.size, nodes - 1 - start)]
+        if tk.size == 0:
+            continue
+        err = np.zeros((rows, tk.size))
+        if lo.size:
+            err += size_lo @ (np.exp(-np.outer(modes.alpha[lo], tk)) * ((np.abs(mu_lo) * h) ** 4 / 384.0)[:, None])
+        if rest.size:
+            err += size_rest @ np.exp(-np.outer(modes.alpha[rest], tk))
+        if size_all.size:
+            err += 1e-13 * (size_all @ np.exp(-np.outer(modes.alpha, tk)))
+        if np.any(tail_free):
+            err += np.outer(tail_free, np.exp(-tail_alpha * tk))
+        bound[:, start:start + tk.size] = err
+    q = max(1, int(math.ceil((nodes - 1) / N_BLOCKS)))
+    blocks = int(math.ceil((nodes - 1) / q))
+    errors = np.zeros((rows, blocks))
+    for B in range(blocks):
+        errors[:, B] = bound[:, B * q:(B + 1) * q].max(axis=1)
+    G = rates.size
+    tail = np.zeros((rows, G))
+    decayed = np.abs(modes.P) * np.exp(-modes.alpha * t_end)[None, :]
+    for g in range(G):
+        tail[:, g] = decayed[:, group == g].sum(axis=1)
+    if np.any(tail_free):
+        gt = int(np.searchsorted(rates, tail_alpha * (1 + 1e-9) + 1e-300, side="right") - 1)
+        tail[:, max(gt, 0)] += tail_free * math.exp(-tail_alpha * t_end)
+    return t_end, h, values, slopes, errors * (1 + SUM_ROUNDOFF), q, tail * (1 + SUM_ROUNDOFF)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# a parametric shadow's complement at (c, d)
+# ---------------------------------------------------------------------------------------------------------------
+
+def parametric_complement(cp, c_ref, c, d):
+    """The complement's terms at (c, d) of a parametric shadow's complement planes ``cp`` (sigma (n,), chat
+    (rows, n, 2) at c_ref, bv (n, m), eta (n,)): per plane the block [[-d, σ̃], [-σ̃, 0]] in the energy
+    coordinates of c (σ̃ = sqrt(c / c_ref) σ, the e coefficients of a row times sqrt(c_ref / c)), its modes in
+    normal form (:func:`sphrom.rom.planes.plane_modes`), two groups (the underdamped planes at d / 2, the others at
+    the slowest rate among them), the initial state by the modes' decaying Hölder sums (no table).  The C core
+    (fmu_src/rom_bound.c) does the same arithmetic."""
+    sig = np.asarray(cp["sigma"], float)
+    chat = np.array(cp["chat"], float)
+    bv = np.asarray(cp["bv"], float)
+    eta = np.asarray(cp["eta"], float)
+    rows, n, m = chat.shape[0], sig.size, bv.shape[1]
+    st = math.sqrt(c / c_ref) * sig
+    chat[:, :, 1] *= math.sqrt(c_ref / c)
+    L = np.zeros((n, 2, 2))
+    L[:, 0, 0], L[:, 0, 1], L[:, 1, 0] = -d, st, -st
+    bhat = np.zeros((n, 2, m))
+    bhat[:, 0, :] = bv
+    et = np.zeros((n, 2))
+    et[:, 0] = eta
+    modes = plane_modes(L, chat, bhat, et)
+    D = feedthrough(L, chat, bhat) if n else np.zeros((rows, m))
+    under = (modes.alpha >= d / 2 * (1 - 1e-12)) & modes.exact & (np.imag(modes.mu) != 0)
+    slow = float(np.min(modes.alpha[~under])) if np.any(~under) else d / 2
+    rates = np.array([d / 2, min(slow, d / 2)])
+    gain = np.zeros((rows, m, 2))
+    mg = mode_gains(modes)
+    gain[:, :, 0] = mg[:, under].sum(axis=1)
+    gain[:, :, 1] = mg[:, ~under].sum(axis=1)
+    tail = np.zeros((rows, 2))
+    tail[:, 0] = np.abs(modes.P[:, under]).sum(axis=1)
+    tail[:, 1] = np.abs(modes.P[:, ~under]).sum(axis=1)
+    return Complement(D=D, static=np.zeros((rows, m)), rates=rates,
+                      gain=np.where(np.isfinite(gain), gain * (1 + SUM_ROUNDOFF), np.inf), h=0.0, values=None,
+                      slopes=None, errors=None, q=1, t_end=0.0, tail=tail * (1 + SUM_ROUNDOFF))
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# construction
+# ---------------------------------------------------------------------------------------------------------------
+
+def decompose(problem, parametric=False, count=None):
+    """The planes of ``problem`` (:mod:`.planes`): singular planes for a uniform d, eigen-planes otherwise."""
+    d = np.asarray(problem.d, float)
+    if np.all(d == d[0]):
+        return singular_planes(problem, count=count or SPARSE_PLANES, parametric=parametric)
+    if parametric:
+        raise ValueError("a parametric shadow needs uniform c and d")
+    return eigen_planes(problem)
+
+
+def reference_responses(L, chat, bhat, T, omega):
+    """(step (rows, m), sine (rows, m)): the largest |y_r| of the response to a unit step and to a unit sine of
+    ``omega`` [s^-1] on input j over [0, T] (held at T / 2000; every computed plane, exact in time), the channel
+    scales of :func:`choose_planes`."""
+    n, m = L.shape[0], bhat.shape[2]
+    rows = chat.shape[0]
+    steps = 2000
+    h = T / steps
+    t = np.arange(steps) * h
+    out = []
+    for u in (np.ones(steps), np.sin(omega * t)):
+        M = np.zeros((n, 4, 4))
+        M[:, :2, :2] = L * h
+        M[:, 3, 3] = 0.0
+        M[:, 2, 3] = 0.0
+        res = np.zeros((rows, m))
+        for j in range(m):
+            M[:, :2, 2] = bhat[:, :, j] * h
+            E = sla.expm(M)
+            Phi, g0 = E[:, :2, :2], E[:, :2, 2]
+            z = np.zeros((n, 2))
+            peak = np.zeros(rows)
+            for k in range(steps):
+                z = np.einsum("nij,nj->ni", Phi, z) + g0 * u[k]
+                peak = np.maximum(peak, np.abs(np.einsum("rni,ni->r", chat, z)))
+            res[:, j] = peak
+        out.append(res)
+    return out[0], out[1]
+
+
+def _row_classes(P, n_ports):
+    """The row classes a criterion compares within: v probes, e rows, ports."""
+    out = [np.arange(P), np.arange(P, 3 * P)]
+    if n_ports:
+        out.append(np.arange(3 * P, 3 * P + n_ports))
+    return out
+
+
+def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *, target=SHADOW_TARGET,
+                  max_planes=MAX_PLANES, at_least=1, table=True):
+    """The smallest number of planes (a gap cut, >= ``at_least``) whose certified complement stays below
+    ``target`` of each channel's response (module docstring): per input j, a unit step (the transient's gains,
+    its variation 1) and a unit sine at half the first elastic frequency over REFERENCE_SPAN x T (the gains times
+    its weighted variation ω min(span, 1/α) + 1, plus the quasi-static tail), each against the largest response
+    of its row class; the initial state: its free response table's error at t = 0 (``table``; else, a parametric
+    shadow's, the complement's Hölder sum) against the largest free response.  Returns (planes, criterion value
+    per cut, the responses)."""
+    L = planes.blocks[0]
+    n = planes.count
+    rows, m = chat.shape[0], bhat.shape[2]
+    key = planes.key
+    elastic = key[key > 1e-9 * max(float(key[-1]), 1e-300)]
+    omega = 0.5 * float(elastic[0]) if elastic.size else 1.0
+    step_r, sine_r = reference_responses(L, chat, bhat, T, omega)
+    classes = _row_classes(P, n_ports)
+    span = REFERENCE_SPAN * T
+    t = np.linspace(0.0, TABLE_SPAN * T, 4001)
+    mg = mode_gains(modes_all)                                 # (rows, M, m)
+    free_all = np.real(modes_all.P @ np.exp(np.outer(modes_all.mu, t)))   # the whole free response (all modes)
+    free_scale = np.abs(free_all).max(axis=1)
+    big = [max(float(step_r[cls].max()), float(sine_r[cls].max()), float(free_scale[cls].max()) if np.any(eta)
+               else 0.0) for cls in classes]             # a channel this far below a class's largest: not judged
+    cuts = [c for c in gap_cuts(key) if at_least <= c <= min(max_planes, n)]
+    if not cuts:
+        cuts = [min(n, max(at_least, 1))]
+
+    def value(k):
+        rest = modes_all.plane >= k
+        tl = tail_fn()
+        worst = 0.0
+        for j in range(m):
+            g = mg[:, rest, j]
+            trans = g.sum(axis=1)
+            vs = omega * np.minimum(span, np.where(modes_all.alpha[rest] > 0, 1.0 / np.maximum(
+                modes_all.alpha[rest], 1e-300), np.inf)) + 1.0
+            sine = (g * vs[None, :]).sum(axis=1)
+            if tl is not None:
+                extra = tl.kappa / tl.sigma_cut * tl.c_norm * tl.b_norm[j]
+                trans = trans + extra
+                vt = omega * min(span, 1.0 / tl.alpha if tl.alpha > 0 else np.inf) + 1.0
+                sine = sine + extra * vt + tl.inv_norm * tl.c_norm * tl.b_norm[j]
+            for c, cls in enumerate(classes):
+                for val, scale in ((trans, step_r[cls, j].max()), (sine, sine_r[cls, j].max())):
+                    if scale > FLOOR * big[c]:
+                        worst = max(worst, float(val[cls].max()) / scale)
+        if np.any(eta):                                        # the free response table's error at t = 0
+            h_tab = table_step(_select(modes_all, rest), T, tl.alpha if tl is not None else None)[1]
+            size = np.abs(modes_all.P[:, rest])
+            interp = (modes_all.exact & (np.abs(modes_all.mu) * h_tab <= INTERPOLATED))[rest] if table else \
+                np.zeros(int(rest.sum()), bool)
+            err = size[:, ~interp].sum(axis=1) + size[:, interp] @ ((np.abs(modes_all.mu[rest][interp]) * h_tab)
+                                                                     ** 4 / 384.0)
+            for c, cls in enumerate(classes):
+                scale = free_scale[cls].max()
+                if scale > FLOOR * big[c]:
+                    worst = max(worst, float(err[cls].max()) / scale)
+        return worst
+
+    values = {}
+    lo, hi = 0, len(cuts) - 1
+    best = values.setdefault(cuts[hi], value(cuts[hi]))
+    if best > target:                                          # the target is out of reach: where it levels off
+        target = PLATEAU * best
+    if value(cuts[0]) <= target:
+        chosen = cuts[0]
+    else:
+        while lo < hi:                                         # bisection: the criterion falls with k
+            mid = (lo + hi) // 2
+            v = values.setdefault(cuts[mid], value(cuts[mid]))
+            if v <= target:
+                hi = mid
+            else:
+                lo = mid + 1
+        chosen = cuts[lo]
+    values.setdefault(chosen, value(chosen))
+    return chosen, values, {"omega_ref": omega}
+
+
 def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, force=None, T=None,
-                 target=SHADOW_TARGET, order=None, max_order=MAX_ORDER, port_inputs=True):
+                 target=SHADOW_TARGET, order=None, max_planes=MAX_PLANES, port_inputs=True, count=None):
     """The certified shadow of the FMUs of ``problem`` at ``probes`` (and ``ports``) (module docstring).
 
     Parameters
@@ -294,23 +667,25 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
     probes, ports : sequence of float
         Positions x/L.
     parametric : bool
-        A(c, d) affine for uniform c and d (:mod:`sphrom.rom.parametric`): the blocks and norms in pieces.
+        A(c, d) affine for uniform c and d (:mod:`sphrom.rom.parametric`): the planes in pieces, the complement
+        planes stored.
     scale_v : float
-        The training run's largest |v_probe| [m s^-1] (the size criterion's scale).
+        The training run's largest |v_probe| [m s^-1] (error_tolerance's default).
     force : callable, optional
-        The training force f(t) [m s^-2] (its total variation enters the criterion); default the scene's.
+        Unused (kept for callers of the former criterion).
     T : float, optional
-        The training horizon [s] (default the scene's T): the envelope table's span.
+        The scene's horizon [s] (default the scene's T): the reference runs' and the table's span.
     target : float
-        The criterion: the shadow's certified training error <= target · scale_v.
+        The criterion (:func:`choose_planes`).
     order : int, optional
-        Force the number of singular triplets (tests); default the criterion's.
-    max_order : int
-        The largest k_s (without ports, or with ports and N > :data:`PORT_ALL_PLANES`; with ports and N <= that,
-        every plane: k_s = 2N).
+        Force the number of planes (tests); default the criterion's.
+    max_planes : int
+        The largest shadow, in planes.
     port_inputs : bool
-        False: the port velocity rows without the port input columns (an FMU whose port channel takes the port
-        forces, :mod:`sphrom.rom.port_channel`; the shadow then certifies the response to f and the initial state).
+        The ports' forces are inputs of the shadow (False: a model whose port channel is exact on its own,
+        :mod:`sphrom.rom.port_channel`: f alone; the port rows stay).
+    count : int, optional
+        Planes to compute above DENSE_LIMIT particles (default :data:`SPARSE_PLANES`).
 
     Returns
     -------
@@ -319,165 +694,110 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
     t_start = time.perf_counter()
     n = problem.rho0.size
     T = float(problem.scene.T if T is None else T)
-    force = problem.scene.force if force is None else force
-    K, U, sig, W = _coupling(problem)
-    t_svd = time.perf_counter() - t_start
+    d = np.asarray(problem.d, float)
+    if parametric and not (problem.terms["uniform_c"] and np.all(d == d[0])):
+        raise ValueError("a parametric shadow needs uniform c and d")
+    planes = decompose(problem, parametric=parametric, count=count or SPARSE_PLANES)
+    t_planes = time.perf_counter() - t_start
     C, row_e, pw, prho0 = output_rows(problem, probes, ports)
     Bcols = input_columns(problem, ports if port_inputs else ())
     x0 = np.concatenate([np.sqrt(problem.rho0) * problem.v0, np.zeros(n)])
-    d = np.asarray(problem.d, float)
-    uniform_d = bool(np.all(d == d[0]))
-    if parametric and not (problem.terms["uniform_c"] and uniform_d):
-        raise ValueError("a parametric shadow needs uniform c and d")
-    # modal coefficients: rows ĉ (n_rows, N, 2), x0 and inputs on u_i (x0 and B have no e part)
-    c_hat = np.stack([C[:, :n] @ U, C[:, n:] @ W], axis=2)
-    y_hat = U.T @ x0[:n]
-    b_hat = U.T @ Bcols[:n]                                     # (N, m)
-    pieces = operator_pieces(problem, K, parametric)
-    full_blocks = _plane_blocks(pieces, U, W, sig)              # (3, N, 2, 2) pieces of every plane's block
-    invariant = uniform_d
-    # the criterion: Hölder sums of the complement from index n on (cumulative from the end)
-    cn = np.linalg.norm(c_hat, axis=2)                          # (n_rows, N)
-    lam0 = full_blocks[0] + (float(problem.c[0]) * full_blocks[1] + float(d[0]) * full_blocks[2]
+    chat = np.moveaxis(planes.right(C.T), 2, 0)                 # (rows, n, 2)
+    bhat = planes.left(Bcols)                                    # (n, 2, m)
+    eta = planes.left(x0)                                        # (n, 2)
+    L0 = planes.blocks[0] + ((float(problem.c[0]) * planes.blocks[1] + float(d[0]) * planes.blocks[2])
                              if parametric else 0.0)
-    inv_norm = _inverse_norms(lam0)                             # (N,) 2‖Λ_i^-1‖ (inf when singular)
-    tail = lambda a: np.concatenate([np.cumsum(a[..., ::-1], axis=-1)[..., ::-1], np.zeros(a.shape[:-1] + (1,))],
-                                    axis=-1)
-    G0 = tail(cn * np.abs(y_hat)[None, :])                      # (n_rows, N + 1)
-    h_terms = cn[:, :, None] * (inv_norm[:, None] * np.abs(b_hat))[None, :, :]
-    with np.errstate(invalid="ignore"):
-        h_terms = np.where(np.abs(b_hat)[None] > 0, h_terms, 0.0)
-    Hc = np.stack([tail(h_terms[:, :, i]) for i in range(Bcols.shape[1])], axis=2)   # (n_rows, N + 1, m)
-    grid = np.linspace(0.0, T, 4097)
-    f_train = np.asarray(force(grid), float) * np.ones_like(grid)
-    variation = abs(f_train[0]) + float(np.sum(np.abs(np.diff(f_train))))
+    modes_all = plane_modes(L0, chat, bhat, eta)
+    tail = tail_of(planes, C, Bcols, x0, float(d[0])) if not planes.complete else None
+    # planes that must be kept: a mode an input reaches with λ = 0 or without a decay bound (the rigid motion)
+    gains = mode_gains(modes_all)
+    must = modes_all.plane[np.any(~np.isfinite(gains), axis=(0, 2)) | ~np.isfinite(modes_all.scale)]
+    if parametric:                      # the null planes (σ = 0): unbounded where d may be 0
+        must = np.concatenate([must, np.flatnonzero(planes.key <= 1e-9 * max(float(planes.key[-1]), 1e-300))])
+    at_least = int(must.max()) + 1 if must.size else 1
     P = len(probes)
-    v_rows = list(range(P)) + list(range(3 * P, C.shape[0]))
-    scale_v = float(scale_v) if scale_v is not None else float(np.max(np.abs(C[:P] @ x0)))
-    allowed = target * max(scale_v, 1e-300)
-    forced = Hc[v_rows, :, 0] * variation if variation > 0 else 0.0                 # inf x 0: no force, no term
-    training = np.max(G0[v_rows] + forced, axis=0)                                  # (N + 1,)
-    cuts = gap_cuts(sig)
-    limit = max(1, max_order // 2)
+    if order is None and len(ports) and port_inputs and planes.complete and n <= PORT_ALL_PLANES:
+        order = planes.count            # (module docstring: a port's force and velocity reach every plane)
     if order is not None:
-        chosen = int(order)
-    elif len(ports) and port_inputs and n <= PORT_ALL_PLANES and invariant:   # (a dense shadow keeps its own cap)
-        # a port's force and velocity are kernel-localized: their complement terms fall only like log(N / k_s)
-        # (less than 10x from k_s = 40 to 160 on damped_forced: tests/test_fmu_error_bounds.py), far above any port
-        # response; every plane makes the complement empty and the bound |model - truth| up to round-off, at O(N)
-        # per step
-        chosen = n
+        chosen, values, ref = int(order), {}, {}
     else:
-        fits = [c for c in cuts if c <= limit and training[c] <= allowed]
-        within = [c for c in cuts if c <= limit] or [cuts[0]]
-        chosen = fits[0] if fits else within[-1]
+        chosen, values, ref = choose_planes(planes, modes_all, chat, bhat, eta, lambda: tail, T, P, len(ports),
+                                            target=target, max_planes=max_planes, at_least=at_least,
+                                            table=not parametric)
+    chosen = min(chosen, planes.count)
     keep = np.arange(chosen)
-    rest = np.arange(chosen, n)
-    shadow = _assemble(problem, pieces, full_blocks, keep, U, W, C, Bcols, x0, c_hat, y_hat, b_hat, row_e, pw,
-                       prho0, invariant, parametric, T, len(ports), inv_norm)
-    shadow.info.update({
-        "triplets": int(chosen), "order": shadow.order, "target": float(target), "scale_v": scale_v,
-        "training_bound": float(training[chosen]), "training_variation": variation, "invariant": invariant,
-        "met": bool(training[chosen] <= allowed), "sigma_cut": float(sig[chosen - 1]) if chosen else 0.0,
-        "sigma_next": float(sig[chosen]) if rest.size else float("inf"),
-        "timings": {"svd": t_svd, "shadow": time.perf_counter() - t_start}})
+    S = planes.basis(keep)
+    Sl = planes.left_basis(keep)
+    B = Sl.T @ Bcols
+    w0 = Sl.T @ x0
+    Cs = C @ S
+    A = np.zeros((3, chosen, 2, 2))
+    A[:] = planes.blocks[:, :chosen]
+    # the planes' residual (round-off of the decomposition): E = A S - S Λ, per piece for a parametric shadow
+    E = np.zeros((3, 2))
+    e_norm = 0.0
+    if chosen:
+        from .lti import full_linear_system
+        lti = full_linear_system(problem, [0.5])
+        if parametric:
+            import scipy.sparse as sp
+            c_ref = float(problem.c[0])
+            K = lti.A[:n, n:]
+            pieces = [lambda X: np.vstack([np.zeros_like(X[:n]), -(K.T @ X[:n]) * 1.0]),
+                      lambda X: np.vstack([K @ X[n:] / c_ref, np.zeros_like(X[n:])]),
+                      lambda X: np.vstack([-X[:n], np.zeros_like(X[n:])])]
+            del sp
+            for p, piece in enumerate(pieces):
+                Ep = piece(S) - S @ sla.block_diag(*A[p])
+                E[p] = [np.linalg.norm(Ep[:n], 2), np.linalg.norm(Ep[n:], 2)]
+        else:
+            R = lti.A @ S - S @ sla.block_diag(*A[0])
+            e_norm = float(np.linalg.norm(R, 2)) * 2.0 + 1e-15 * float(abs(lti.A).sum(axis=1).max()) * \
+                float(np.linalg.norm(S, 2))
+    rest_modes = _select(modes_all, modes_all.plane >= chosen)
+    restp = np.arange(chosen, planes.count)
+    comp, cplanes = None, None
+    if parametric:
+        cplanes = {"sigma": planes.key[restp].copy(), "chat": chat[:, restp].copy(),
+                   "bv": bhat[restp, 0, :].copy(), "eta": eta[restp, 0].copy()}
+    else:
+        comp = complement(rest_modes, L0[restp], chat[:, restp], bhat[restp], tail, T)
+    row_norm = np.linalg.norm(C, axis=1)
+    scale_v = float(scale_v) if scale_v is not None else float(np.max(np.abs(C[:P] @ x0)))
+    shadow = Shadow(A=A, B=B, C=Cs, w0=w0, comp=comp, row_norm=row_norm, row_e=row_e,
+                    x0_norm=float(np.linalg.norm(x0)), e_norm=e_norm,
+                    b_norm=float(np.linalg.norm(B, 2)) if B.size else 0.0, pw=pw, prho0=prho0,
+                    n_ports=len(ports), parametric=bool(parametric),
+                    c_ref=float(problem.c[0]) if parametric else float("nan"), E=E, cplanes=cplanes)
+    shadow.info.update({"planes": int(chosen), "order": shadow.order, "target": float(target), "scale_v": scale_v,
+                        "criterion": {int(k): float(v) for k, v in values.items()}, **ref,
+                        "computed_planes": planes.count, "complete": planes.complete,
+                        "method": planes.info.get("method"), "invariant": True,
+                        "timings": {"planes": t_planes, "shadow": time.perf_counter() - t_start}})
     return shadow
 
 
-def _plane_blocks(pieces, U, W, sig):
-    """(3, N, 2, 2): each plane's block of each piece of A, Λ_{p,i} = S_iᵀ A_p S_i (S_i = [[u_i, 0], [0, w_i]])."""
-    n = U.shape[0]
-    out = np.zeros((3, n, 2, 2))
-    Sv = np.vstack([U, np.zeros_like(U)])
-    Se = np.vstack([np.zeros_like(W), W])
-    for p, piece in enumerate(pieces):
-        if piece is None:
-            continue
-        AV, AE = piece(Sv), piece(Se)
-        out[p, :, 0, 0] = np.einsum("ij,ij->j", Sv, AV)
-        out[p, :, 0, 1] = np.einsum("ij,ij->j", Sv, AE)
-        out[p, :, 1, 0] = np.einsum("ij,ij->j", Se, AV)
-        out[p, :, 1, 1] = np.einsum("ij,ij->j", Se, AE)
-    return out
+def _select(modes: Modes, sel):
+    return Modes(plane=modes.plane[sel], alpha=modes.alpha[sel], mu=modes.mu[sel], absl=modes.absl[sel],
+                 gamma=modes.gamma[:, sel], beta=modes.beta[sel], P=modes.P[:, sel], scale=modes.scale[sel],
+                 eta=modes.eta[sel], exact=modes.exact[sel])
 
 
-def _inverse_norms(blocks):
-    """2‖Λ_i^-1‖₂ of 2 x 2 blocks (N, 2, 2): sup_τ ‖Λ^-1 (e^{Λτ} - I)‖ for a dissipative block; inf if singular."""
-    s = np.linalg.svd(blocks, compute_uv=False)                  # (N, 2)
-    smallest = s[:, -1]
-    with np.errstate(divide="ignore"):
-        return np.where(smallest > 1e-12 * max(float(np.max(s)), 1e-300), 2.0 / smallest, np.inf)
-
-
-def _assemble(problem, pieces, full_blocks, keep, U, W, C, Bcols, x0, c_hat, y_hat, b_hat, row_e, pw, prho0,
-              invariant, parametric, T, n_ports, inv_norm):
-    """The Shadow of the planes ``keep`` (module docstring)."""
-    n = U.shape[0]
-    ks = 2 * keep.size
-    S = np.zeros((2 * n, ks))
-    S[:n, 0::2] = U[:, keep]
-    S[n:, 1::2] = W[:, keep]
-    rest = np.setdiff1d(np.arange(n), keep)
-    if invariant:
-        # one 2 x 2 block per plane, split into two 1 x 1 blocks where every piece's coupling is zero
-        # one 2 x 2 block per plane (the C core steps planes: fmu_src/rom_bound.c)
-        sizes = [2] * keep.size
-        A = np.array([full_blocks[p, keep].reshape(-1) for p in range(3)], float).reshape(3, -1)
-        lam = [sla.block_diag(*[np.asarray(full_blocks[p, i]) for i in keep]) if keep.size else np.zeros((0, 0))
-               for p in range(3)]
-    else:
-        lam = [S.T @ piece(S) if piece is not None else np.zeros((ks, ks)) for piece in pieces]
-        sizes = [ks]
-        A = np.array([m.ravel() for m in lam])
-    # residual pieces E_p = A_p S - S Λ_p: norms of their v rows and e rows
-    E = np.zeros((3, 2))
-    E_gram = None
-    for p, piece in enumerate(pieces):
-        if piece is None or ks == 0:
-            continue
-        Ep = piece(S) - S @ lam[p]
-        E[p] = [np.linalg.norm(Ep[:n], 2), np.linalg.norm(Ep[n:], 2)]
-        if p == 0 and not invariant and not parametric:
-            E_gram = Ep.T @ Ep
-    B = S.T @ Bcols
-    Bperp = Bcols - S @ B
-    w0 = S.T @ x0
-    y0 = x0 - S @ w0
-    row_norm = np.linalg.norm(C, axis=1)
-    Cs = C @ S
-    m = Bcols.shape[1]
-    if invariant:
-        cn = np.linalg.norm(c_hat[:, rest], axis=2)                # (n_rows, rest)
-        lam_rest = full_blocks[0, rest] + (0.0 if not parametric else
-                                           float(problem.c[0]) * full_blocks[1, rest] +
-                                           float(problem.d[0]) * full_blocks[2, rest])
-        if parametric:
-            G = (cn @ np.abs(y_hat[rest]))[:, None]                 # all-time Hölder bound (any c, d)
-            dt_tab = T
-            H = np.full((C.shape[0], m), np.inf)
-        else:
-            dt_tab = T / N_TABLE
-            times = np.arange(N_TABLE) * dt_tab
-            ystart = np.stack([y_hat[rest], np.zeros(rest.size)], axis=1)        # (rest, 2)
-            G = np.empty((C.shape[0], N_TABLE))
-            for b, tb in enumerate(times):
-                decayed = np.einsum("kij,kj->ki", _expm2(lam_rest * tb), ystart)
-                G[:, b] = cn @ np.linalg.norm(decayed, axis=1)
-            G = np.minimum.accumulate(G, axis=1)
-            contrib = cn[:, :, None] * (inv_norm[rest][:, None] * np.abs(b_hat[rest]))[None]
-            contrib = np.where(np.abs(b_hat[rest])[None] > 0, contrib, 0.0)
-            H = contrib.sum(axis=1)
-    else:
-        G = (row_norm * np.linalg.norm(y0))[:, None]
-        dt_tab = T
-        H = np.full((C.shape[0], m), np.inf)
-    G = G * (1.0 + 1e-12)                                          # the sums' own round-off
-    return Shadow(sizes=np.array(sizes, np.int64), A=A, B=B, C=Cs, w0=w0, row_e=row_e, row_norm=row_norm, G=G,
-                  dt_tab=float(dt_tab), H=H * (1.0 + 1e-12), gram=Bperp.T @ Bperp, y0_norm=float(np.linalg.norm(y0)),
-                  x0_norm=float(np.linalg.norm(x0)), E=E, B_norm=float(np.linalg.norm(B, 2)) if B.size else 0.0,
-                  pw=pw, prho0=prho0, n_ports=int(n_ports), parametric=bool(parametric),
-                  c_ref=float(problem.c[0]) if parametric else float("nan"), E_gram=E_gram,
-                  info={"invariant": invariant})
+def fmu_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, force=None, T=None, port_inputs=True):
+    """The shadow of an FMU's outputs, or None where the C core cannot certify it: more than
+    :data:`FMU_MAX_PARTICLES` particles, a damping that varies on more than
+    :data:`sphrom.rom.planes.EIGEN_LIMIT` particles, or a parametric model whose c or d is not uniform."""
+    from .planes import EIGEN_LIMIT
+    d = np.asarray(problem.d, float)
+    if d.size > FMU_MAX_PARTICLES:
+        return None
+    uniform = bool(np.all(d == d[0]))
+    if parametric and not (problem.terms["uniform_c"] and uniform):
+        return None
+    if not uniform and d.size > EIGEN_LIMIT:
+        return None
+    return build_shadow(problem, probes, ports, parametric=parametric, scale_v=scale_v, T=T,
+                        port_inputs=port_inputs)
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -485,47 +805,49 @@ def _assemble(problem, pieces, full_blocks, keep, U, W, C, Bcols, x0, c_hat, y_h
 # ---------------------------------------------------------------------------------------------------------------
 
 def block_maps(blocks, B, h):
-    """Per block (Φ, Γ0, Γ1) of a step h: the exponential of [[Λ h, B_b h, 0], [0, 0, I], [0, 0, 0]]
+    """Per plane (Φ, Γ0, Γ1) of a step h: the exponential of [[Λ h, B_p h, 0], [0, 0, I], [0, 0, 0]]
     (:func:`sphrom.rom.exact_linear.propagators`; Γ1 multiplies the input's change over the step)."""
-    out, at = [], 0
+    out = []
     m = B.shape[1]
-    for L in blocks:
-        b = L.shape[0]
-        M = np.zeros((b + 2 * m, b + 2 * m))
-        M[:b, :b] = L * h
-        M[:b, b:b + m] = B[at:at + b] * h
-        M[b:b + m, b + m:] = np.eye(m)
+    for p, L in enumerate(blocks):
+        M = np.zeros((2 + 2 * m, 2 + 2 * m))
+        M[:2, :2] = L * h
+        M[:2, 2:2 + m] = B[2 * p:2 * p + 2] * h
+        M[2:2 + m, 2 + m:] = np.eye(m)
         E = sla.expm(M)
-        out.append((E[:b, :b], E[:b, b:b + m], E[:b, b + m:]))
-        at += b
+        out.append((E[:2, :2], E[:2, 2:2 + m], E[:2, 2 + m:]))
     return out
 
 
-QUAD_ROUNDOFF = 1e-14       # the residual's quadratic form: + this x (trace(Q) + ‖F12‖₁ ‖F22‖₁) |Y|^2 (its round-off)
+def growth_rate(blocks):
+    """mu: the largest eigenvalue of a block's symmetric part over the blocks, 0 at least (:func:`run_shadow`)."""
+    return max([0.0] + [float(np.max(np.linalg.eigvalsh(0.5 * (L + L.T)))) for L in blocks])
 
 
-def residual_gram(L, B, E_gram, h):
-    """Q of a step h of one dense block: ∫_0^h ‖E w(τ)‖² dτ = h Yᵀ Q Y, Y = (w, u, du) at the step's start (u the
-    input there, du its change over the step), w' = L w + B u: with M = [[L h, B h, 0], [0, 0, I], [0, 0, 0]] (the
-    block's augmented matrix, :func:`block_maps`) Q = ∫_0^1 e^{Mᵀs} diag(EᵀE, 0, 0) e^{Ms} ds, by Van Loan's
-    exponential of [[-Mᵀ, diag(EᵀE, 0, 0)], [0, M]] (Q = F22ᵀ F12), symmetrised.  Returns (Q, allowance): the
-    form's round-off allowance per |Y|², QUAD_ROUNDOFF (trace(Q) + ‖F12‖₁ ‖F22‖₁) (the product's scale: F12 grows
-    with e^{-Mᵀ} where the block is damped, and Q is its cancellation with F22)."""
-    b, m = L.shape[0], B.shape[1]
-    n = b + 2 * m
-    M = np.zeros((n, n))
-    M[:b, :b] = L * h
-    M[:b, b:b + m] = B * h
-    M[b:b + m, b + m:] = np.eye(m)
-    V = np.zeros((2 * n, 2 * n))
-    V[:n, :n] = -M.T
-    V[:b, n:n + b] = E_gram
-    V[n:, n:] = M
-    F = sla.expm(V)
-    Q = F[n:, n:].T @ F[:n, n:]
-    Q = 0.5 * (Q + Q.T)
-    scale = float(np.trace(Q)) + np.linalg.norm(F[:n, n:], 1) * np.linalg.norm(F[n:, n:], 1)
-    return Q, QUAD_ROUNDOFF * scale
+def free_part(comp: Complement, tau):
+    """(value, error) (rows,) of the complement's free response at time ``tau`` since the start (per unit
+    initial_state_scale): the table's Hermite interpolation and its certified error, or beyond the table (or
+    without one) 0 and the decaying tail."""
+    if comp.values is not None and tau <= comp.t_end:
+        x = tau / comp.h
+        k = min(int(math.floor(x)), comp.values.shape[1] - 2)
+        s = x - k
+        h00, h10 = (1 + 2 * s) * (1 - s) ** 2, s * (1 - s) ** 2
+        h01, h11 = s * s * (3 - 2 * s), s * s * (s - 1)
+        v = (h00 * comp.values[:, k] + h01 * comp.values[:, k + 1] +
+             comp.h * (h10 * comp.slopes[:, k] + h11 * comp.slopes[:, k + 1]))
+        return v, comp.errors[:, k // comp.q]
+    over = max(tau - comp.t_end, 0.0)
+    return np.zeros(comp.tail.shape[0]), comp.tail @ np.exp(-comp.rates * over)
+
+
+def step_weights(rates, h):
+    """(e^{-α h}, (1 - e^{-α h}) / (α h)) per group: a jump's weight at the step's end, a slope's over it."""
+    rates = np.asarray(rates, float)
+    decay = np.exp(-rates * h)
+    x = rates * h
+    slope = np.where(x > 1e-8, -np.expm1(-x) / np.where(x > 1e-8, x, 1.0), 1.0 - 0.5 * x)
+    return decay, slope
 
 
 def run_shadow(sh: Shadow, h, u, rate, *, scale=1.0, c=None, d=None):
@@ -545,7 +867,8 @@ def run_shadow(sh: Shadow, h, u, rate, *, scale=1.0, c=None, d=None):
 
     Returns
     -------
-    (y (M+1, n_rows), cert (M+1, n_rows), norms dict): the shadow's rows and the bound of |row·(x - S w)|.
+    (y (M+1, n_rows), cert (M+1, n_rows)): the shadow's rows (with the quasi-static feedthrough) and the bound of
+    |row·x - y|.
     """
     h = np.asarray(h, float)
     u = np.atleast_2d(np.asarray(u, float)).reshape(h.size, sh.n_inputs)
@@ -554,62 +877,47 @@ def run_shadow(sh: Shadow, h, u, rate, *, scale=1.0, c=None, d=None):
     mu = growth_rate(blocks)
     cn = sh.dual_norms(c)
     enorm = sh.residual_norm(c, d)
-    gram = sh.gram
+    comp = sh.at(c, d)
+    m = sh.n_inputs
+    G = comp.rates.size
     w = float(scale) * sh.w0.copy()
-    tv = np.zeros(sh.n_inputs)
-    uprev = np.zeros(sh.n_inputs)
-    p_int = w_int = 0.0
-    cache, grams = {}, {}
-    dense = sh.E_gram is not None
+    V = np.zeros((m, G))
+    uprev = np.zeros(m)
+    w_int = 0.0
+    cache = {}
     Y, CERT = [], []
     tau = 0.0
 
     def cert(tau, n):
-        b = min(int(math.floor(tau / sh.dt_tab)), sh.G.shape[1] - 1) if sh.dt_tab > 0 else 0
-        gtab = sh.G[:, b] * (np.where(sh.row_e, math.sqrt(sh.c_ref / float(c)), 1.0) if sh.parametric else 1.0)
-        ginit = abs(scale) * np.minimum(gtab, cn * sh.y0_norm)
-        gin = np.minimum(hoelder_input(sh.H, tv), cn * p_int)
+        init = abs(scale) * free_part(comp, tau)[1]
+        static = comp.static @ np.abs(uprev)
+        trans = np.einsum("rjg,jg->r", np.where(np.isfinite(comp.gain), comp.gain, 0.0), V)
+        if np.any(~np.isfinite(comp.gain) & (V[None] > 0)):
+            trans = np.where(np.any(~np.isfinite(comp.gain) & (V[None] > 0), axis=(1, 2)), np.inf, trans)
         allow = cn * (ROUNDOFF + ROUNDOFF_STEP * n) * (np.linalg.norm(w) + abs(scale) * sh.x0_norm)
-        residual = cn * w_int if dense else cn * enorm * w_int      # dense: w_int is ∫‖E w‖
-        return ginit + gin + residual + allow
+        return init + static + trans + cn * enorm * w_int + allow
 
-    Y.append(sh.C @ w)
+    Y.append(sh.C @ w + comp.D @ uprev + scale * free_part(comp, 0.0)[0])
     CERT.append(cert(0.0, 0))
     for k in range(h.size):
         hk = float(h[k])
         if hk not in cache:
-            cache[hk] = block_maps(blocks, sh.B, hk)
+            cache[hk] = (block_maps(blocks, sh.B, hk), step_weights(comp.rates, hk))
+        maps, (decay, slope) = cache[hk]
         u0, r = u[k], rate[k]
         du = r * hk
-        tv += np.abs(u0 - uprev) + np.abs(du)
-        uprev = u0 + du
-        q = hk * (u0 @ gram @ u0) + hk * (u0 @ gram @ du) + hk / 3.0 * (du @ gram @ du)
-        p_int += math.sqrt(max(hk * q, 0.0))
-        if dense:                       # ∫‖E w‖ <= sqrt(h ∫‖E w‖²) = h sqrt(Yᵀ Q Y) over the step
-            if hk not in grams:
-                grams[hk] = residual_gram(blocks[0], sh.B, sh.E_gram, hk)
-            (Q, allowance), aug = grams[hk], np.concatenate([w, u0, du])
-            quad = aug @ Q @ aug + allowance * (aug @ aug)
-            w_int += hk * math.sqrt(max(quad, 0.0))
-        else:
-            w_int += hk * math.exp(mu * hk) * (np.linalg.norm(w) + hk * sh.B_norm * max(np.linalg.norm(u0),
-                                                                                          np.linalg.norm(u0 + du)))
-        new, at = np.empty_like(w), 0
-        for (phi, g0, g1), L in zip(cache[hk], blocks):
-            b = L.shape[0]
-            new[at:at + b] = phi @ w[at:at + b] + g0 @ u0 + g1 @ du
-            at += b
+        V = decay[None, :] * (V + np.abs(u0 - uprev)[:, None]) + slope[None, :] * np.abs(du)[:, None]
+        w_int += hk * math.exp(mu * hk) * (np.linalg.norm(w) + hk * sh.b_norm * max(np.linalg.norm(u0),
+                                                                                    np.linalg.norm(u0 + du)))
+        new = np.empty_like(w)
+        for p, (phi, g0, g1) in enumerate(maps):
+            new[2 * p:2 * p + 2] = phi @ w[2 * p:2 * p + 2] + g0 @ u0 + g1 @ du
         w = new
+        uprev = u0 + du
         tau += hk
-        Y.append(sh.C @ w)
+        Y.append(sh.C @ w + comp.D @ uprev + scale * free_part(comp, tau)[0])
         CERT.append(cert(tau, k + 1))
     return np.array(Y), np.array(CERT)
-
-
-def hoelder_input(H, tv):
-    """Σ_i H[r, i] tv[i] per row, an input whose variation is 0 adding nothing (also where H is inf)."""
-    with np.errstate(invalid="ignore"):                 # inf x 0 of an unused input: masked here
-        return np.where(np.asarray(tv)[None, :] > 0, H * np.asarray(tv)[None, :], 0.0).sum(axis=1)
 
 
 def output_bounds(sh: Shadow, y, cert, v_model, rho_model, port_model=None):
@@ -636,87 +944,69 @@ def output_bounds(sh: Shadow, y, cert, v_model, rho_model, port_model=None):
 # the FMU's sections (resources/model.bin; fmu_src/rom_bound.c reads them)
 # ---------------------------------------------------------------------------------------------------------------
 
-TOLERANCE_FRACTION = 0.05   # error_tolerance's default: this x the training run's largest |v_probe| [m s^-1]
-FMU_MAX_PARTICLES = 2000    # above this N the FMU carries no shadow (its dense SVD would dominate the packaging)
-DENSE_MAX_ORDER = 160       # the largest k_s of an FMU's dense shadow (its residual's exponential is 2 (k_s + 2 m) square)
-N_SCALARS = 12              # columns of section SHSCAL
-
-
-def fmu_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, force=None, T=None, port_inputs=True):
-    """The shadow of an FMU's outputs, or None where the C core cannot certify it: more than
-    :data:`FMU_MAX_PARTICLES` particles (the dense singular value decomposition of the coupling), or a parametric
-    model whose c or d is not uniform.  ``parametric``: the shadow of a parametric FMU (:mod:`sphrom.rom.parametric`,
-    uniform c and d), its planes in pieces about the scene's c (c_ref).  A damping d that is not uniform gives the
-    dense fallback (one Galerkin block on the planes, the complement by the energy; module docstring).
-    ``port_inputs`` False: the port rows without the port input columns (the port channel takes the port forces,
-    :mod:`sphrom.rom.port_channel`)."""
-    d = np.asarray(problem.d, float)
-    if d.size > FMU_MAX_PARTICLES:
-        return None
-    if parametric and not (problem.terms["uniform_c"] and np.all(d == d[0])):
-        return None
-    uniform_d = bool(np.all(d == d[0]))
-    return build_shadow(problem, probes, ports, parametric=parametric, scale_v=scale_v, force=force, T=T,
-                        max_order=MAX_ORDER if uniform_d else DENSE_MAX_ORDER, port_inputs=port_inputs)
-
-
-def growth_rate(blocks):
-    """mu: the largest eigenvalue of a block's symmetric part over the blocks, 0 at least (:func:`run_shadow`)."""
-    return max([0.0] + [float(np.max(np.linalg.eigvalsh(0.5 * (L + L.T)))) for L in blocks])
-
-
 def sections(sh: Shadow):
-    """{tag: 2-D float64 array} of the shadow for resources/model.bin (fmu_src/rom.h, section SH*):
+    """{tag: 2-D float64 array} of the shadow for resources/model.bin (fmu_src/rom_bound.c, section SH*):
 
-    SHSCAL (1, 12)   k_s, planes (k_s / 2), inputs m, rows, table length, dt_tab [s], ‖y0‖, ‖x0‖, ‖E‖, ‖B‖,
-                     error_tolerance's default [m s^-1], 0
-    SHLAM (planes, 4)  each plane's Λ_i row-major [s^-1] (parametric: its constant piece; dense: below)
-    SHB (k_s, m), SHC (rows, k_s), SHW0 (1, k_s), SHGRAM (m, m)
-    SHROW (rows, 1 + m + table)  per row: ‖c_r‖, sup|H| per input (-1: none), the envelope G(t_b)
+    SHSCAL (1, 14)   k_s, planes, inputs m, rows, the table's nodes n, groups G, its node spacing h [s], its error
+                     blocks' length q (intervals), ‖x0‖, ‖E‖ [s^-1], ‖B_s‖, error_tolerance's default [m s^-1],
+                     complement planes n_c (a parametric shadow; else 0), 0
+    SHLAM (planes, 4)  each plane's Λ_i row-major [s^-1] (parametric: its constant piece)
+    SHB (k_s, m), SHC (rows, k_s), SHW0 (1, k_s)
+    SHROW (rows, 1 + 2m + m G + G)  per row: ‖c_r‖, the feedthrough D_r (m), the uncomputed planes' quasi-static
+                     gains (m, times |u_j|), the transient gains H_rjg (m x G, j-major; -1: infinite), the tail
+                     beyond the table (G: |g_r| <= Σ_g tail_g e^{-α_g (t - (n - 1) h)})
+    SHRATE (1, G)    the groups' decay rates [s^-1]
+    SHTAB (2 rows, n)  the complement's free response g_r at the nodes t_k = k h, then its slopes [per s] (per unit
+                     initial_state_scale; cubic Hermite between nodes)
+    SHTERR (rows, ceil((n - 1) / q))  the interpolation's certified error over the intervals of each block
     SHPROBE (P, 4)   per probe: the weights and ρ0 of its two particles [kg m^-3]
 
-    A parametric shadow (``sh.parametric``: Λ_i(c, d) = SHLAM_i + c SHPIECE_i[0:4] + d SHPIECE_i[4:8], in this
-    order, as :meth:`Shadow.blocks`) adds two sections, and its file needs section PARAMS (the model's c and d):
+    Without an initial state outside the shadow: n = 0, no SHTAB, SHTERR.  A parametric shadow (Λ_i(c, d) = SHLAM_i
+    + c SHPIECE_i[0:4] + d SHPIECE_i[4:8]) has n = 0, SHROW's terms after ‖c_r‖ zero and G = 2 (the C core computes
+    them at (c, d) from the complement planes), and adds
 
     SHPIECE (planes, 8)  each plane's piece per unit c [kg^-1 m s], then per unit d [1], row-major
-    SHPARAM (1, 7)       c_ref [kg m^-1 s^-2] (the c of the energy coordinates: ‖c_r‖ and G of the e rows at c
-                         are SHROW's x sqrt(c_ref / c)), then ‖E_p‖ of the pieces (const, c, d) row-major, of their
-                         v rows and e rows (‖E(c, d)‖ = Σ_p coef_p (E_p,v + sqrt(c / c_ref) E_p,e), coef = 1, c, d)
-
-    its SHSCAL's ‖E‖ is 0 (the C core computes it at (c, d)), its table one column (G for all t, dt_tab = T) and
-    sup|H| -1 (none).  A shadow without invariant planes (a damping d that is not uniform: one dense block, the
-    Galerkin model on the planes) has SHLAM (k_s, k_s), that block row-major, and adds
-
-    SHDENSE (1, 1)   mu [s^-1]: the largest eigenvalue of the block's symmetric part, 0 at least (:func:`growth_rate`)
-    SHEGRAM (k_s, k_s)  Eᵀ E of the coupling residual E = A S - S Λ [s^-2] (the residual term ‖c‖ ∫‖E w‖,
-                     :func:`residual_gram`)
-
-    its table one column (‖c_r‖ ‖y0‖), sup|H| -1 and ‖E‖ the norm of the coupling residual (information).  A shadow of invariant planes
-    at fixed parameters has exactly the first eight sections.
+    SHPARAM (1, 7)       c_ref [kg m^-1 s^-2], then ‖E_p‖ of the pieces (const, c, d) row-major, v rows and e rows
+    SHCPL (n_c, 2 + 2 rows + m)  per complement plane: σ_i [s^-1], η_i (its initial state's v coefficient), ĉ_ri
+                     (rows x 2, at c_ref), the inputs' v coefficients b_ij (m)
     """
-    dense = not sh.info.get("invariant")
-    if dense and (sh.parametric or sh.sizes.size != 1):
-        raise ValueError("the FMU's dense shadow is one block at fixed parameters")
-    if not dense and np.any(sh.sizes != 2):
-        raise ValueError("the FMU's shadow needs invariant planes or one dense block")
     m = sh.n_inputs
-    H = np.where(np.isfinite(sh.H), sh.H, -1.0)
+    rows = sh.n_rows
+    comp = sh.comp
     tol = TOLERANCE_FRACTION * float(sh.info.get("scale_v", 0.0))
-    scal = [sh.order, sh.order // 2, m, sh.n_rows, sh.G.shape[1], sh.dt_tab, sh.y0_norm, sh.x0_norm,
-            0.0 if sh.parametric else sh.residual_norm(), sh.B_norm, tol, 0.0]
+    n_c, nodes, h, q = 0, 0, 0.0, 1
+    if sh.parametric:
+        G = 2
+        rates = np.zeros(2)
+        row = np.zeros((rows, 1 + 2 * m + m * G + G))
+        n_c = int(sh.cplanes["sigma"].size)
+    else:
+        G = comp.rates.size
+        rates = comp.rates
+        row = np.column_stack([np.zeros((rows, 1)), comp.D, comp.static, comp.gain.reshape(rows, m * G), comp.tail])
+        row = np.where(np.isfinite(row), row, -1.0)          # inf gains: -1 (the C core: infinite)
+        if comp.values is not None:
+            nodes, h, q = comp.values.shape[1], comp.h, comp.q
+    row[:, 0] = sh.row_norm
+    scal = [sh.order, sh.planes, m, rows, nodes, G, h, q, sh.x0_norm,
+            0.0 if sh.parametric else sh.residual_norm(), sh.b_norm, tol, n_c, 0.0]
     out = {"SHSCAL": np.array([scal], float),
-           "SHLAM": np.asarray(sh.A[0], float).reshape(-1, sh.order if dense else 4),
+           "SHLAM": np.asarray(sh.A[0], float).reshape(-1, 4),
            "SHB": np.asarray(sh.B, float).reshape(sh.order, m),
-           "SHC": np.asarray(sh.C, float),
+           "SHC": np.asarray(sh.C, float).reshape(rows, sh.order),
            "SHW0": np.asarray(sh.w0, float)[None, :],
-           "SHGRAM": np.asarray(sh.gram, float).reshape(m, m),
-           "SHROW": np.column_stack([sh.row_norm, H, sh.G]),
+           "SHROW": row,
+           "SHRATE": np.asarray(rates, float)[None, :],
            "SHPROBE": np.column_stack([sh.pw, sh.prho0])}
+    if nodes:
+        out["SHTAB"] = np.vstack([comp.values, comp.slopes])
+        out["SHTERR"] = np.asarray(comp.errors, float)
     if sh.parametric:
         out["SHPIECE"] = np.column_stack([np.asarray(sh.A[1], float).reshape(-1, 4),
                                           np.asarray(sh.A[2], float).reshape(-1, 4)])
         out["SHPARAM"] = np.concatenate([[sh.c_ref], np.asarray(sh.E, float).ravel()])[None, :]
-    if dense:
-        out["SHDENSE"] = np.array([[growth_rate(sh.blocks())]])
-        out["SHEGRAM"] = np.asarray(sh.E_gram, float)
+        cp = sh.cplanes
+        if n_c:
+            out["SHCPL"] = np.column_stack([cp["sigma"], cp["eta"], cp["chat"].transpose(1, 0, 2).reshape(n_c, -1),
+                                            cp["bv"]])
     return out

@@ -107,7 +107,7 @@ def bar_modes(problem):
     return np.sqrt(w2), Phi[:, order]
 
 
-def channel_modes(problem, b, *, horizon=None, modes=None, samples=None):
+def channel_modes(problem, b, *, horizon=None, modes=None, samples=None, weight=None):
     """The channel's step response in its modes: (Q, g, rigid).
 
     From rest, a unit step of the channel (F = M b) moves mode i as (φᵢᵀ F) φᵢ ηᵢ(t), ηᵢ the displacement of
@@ -133,7 +133,10 @@ def channel_modes(problem, b, *, horizon=None, modes=None, samples=None):
         Their step responses gᵢ at S samples, times the square root of the trapezoid weights (so that
         Σₛ gᵢ gⱼ = ∫₀ᵀ gᵢ gⱼ dt).
     rigid : float
-        ∫₀ᵀ |v_rigid|²_M dt of the rigid modes' part (the constant's drift, growing without damping).
+        ∫₀ᵀ |v_rigid|²_W dt of the rigid modes' part (the constant's drift, growing without damping), in the norm of
+        ``weight`` W (N,) (default M = ρ0): the norm the elastic part is measured in by :func:`dominant_modes`, so
+        that the two add up whatever the units (a Euclidean basis against the M norm weighed the rigid part by ρ0:
+        a steel bar, ρ0 = 7850, took other modes than the same bar in unit scaling).
     """
     horizon = float(problem.scene.T if horizon is None else horizon)
     M, C, _, _ = second_order(problem)
@@ -159,7 +162,9 @@ def channel_modes(problem, b, *, horizon=None, modes=None, samples=None):
     g = np.real(g) * np.sqrt(quad)
     rigid_i = [i for i in range(len(groups)) if omega[i] == 0.0]
     elastic = [i for i in range(len(groups)) if omega[i] > 0.0]
-    rigid = float(sum((parts[i] @ parts[i]) * (g[i] @ g[i]) for i in rigid_i))
+    W = problem.rho0 if weight is None else np.asarray(weight, float)
+    rigid = float(sum(((Phi[:, groups[i]] @ parts[i]) @ (W * (Phi[:, groups[i]] @ parts[i]))) * (g[i] @ g[i])
+                      for i in rigid_i))
     Q = np.column_stack([Phi[:, groups[i]] @ parts[i] for i in elastic]) if elastic else np.zeros((n, 0))
     return Q, g[elastic], rigid
 
@@ -321,7 +326,7 @@ def augment_channels(problem, U_v, U_2, profiles, *, energy, tol=None, w_top=Non
         for q, ref in candidate_directions(problem, b, w_top=w_top):
             U_v, U_2 = add(U_v, U_2, q, ref, tol)
         modes = bar_modes(problem) if modes is None else modes
-        Q, g, rigid = channel_modes(problem, b, horizon=horizon, modes=modes)
+        Q, g, rigid = channel_modes(problem, b, horizon=horizon, modes=modes, weight=wv)
         for i in dominant_modes(U_v, Q, g, rigid, wv, modal_tol):      # against the basis with the candidates
             U_v, U_2 = add(U_v, U_2, Q[:, i], Q[:, i], MODAL_APPEND)
     return U_v, U_2, U_v.shape[1] - n_v, U_2.shape[1] - n_2

@@ -76,3 +76,77 @@ def linear_reference(problem, ports, t_end, step, *, force=None, port_forces=Non
     if specific_volume:
         return t, v, v_port, xs[:, n:] / lti.w_e
     return t, v, v_port
+
+
+EXACT_DENSE_LIMIT = 1500        # particles: a dense step map up to here, a sparse exponential's action above
+
+
+def exact_probe_reference(problem, probes, t, force, scale=1.0, hold="held"):
+    """The truth of the FMUs' certified error bounds at the probes: the full SPH of eqs. 2.10-2.11, exactly linear in
+    J (:mod:`.lti`), integrated exactly in time (docs/science/error-bounds.md).
+
+    Parameters
+    ----------
+    problem : SPHProblem
+    probes : sequence of float
+        Probe positions x/L.
+    t : ndarray (M,)
+        Communication points [s], uniformly spaced from 0.
+    force : ndarray (M,)
+        f at the points [m s^-2], along the scene's profile.
+    scale : float
+        The initial state: scale x the scene's (v = scale v0, ρ = ρ0).
+    hold : {"held", "linear"}
+        f held over each step at its start value, or linear between the points (input derivatives).
+
+    Returns
+    -------
+    (v (M, P) [m s^-1], ρ (M, P) [kg m^-3]): at the probes, interpolated linearly between the two particles around
+    each (v as the FMU does; ρ = Σ_m w_m ρ0_m / (1 + e_m)).
+
+    Notes
+    -----
+    Up to :data:`EXACT_DENSE_LIMIT` particles the step map is the dense exponential of the system augmented with the
+    input and its slope; above it, each step applies the sparse exponential of that augmented system to the state
+    (:func:`scipy.sparse.linalg.expm_multiply`).  The explicit-Euler SPH the validation and ``sphrom fmu`` also run
+    differs from it by its own time-step error (and its nonlinearity in ρ, eqs. 2.10-2.11 are exactly linear in J).
+    """
+    import scipy.linalg as sla
+    import scipy.sparse as sp
+
+    from .lti import full_linear_system
+    if hold not in ("held", "linear"):
+        raise ValueError(f"hold: {hold!r} (allowed: held, linear)")
+    t = np.asarray(t, float)
+    f = np.broadcast_to(np.asarray(force, float), t.shape)
+    lti = full_linear_system(problem, probes)
+    n = problem.n
+    h = float(t[1] - t[0]) if t.size > 1 else 0.0
+    # [[A h, b h, 0], [0, 0, 1], [0, 0, 0]] acting on (x, u at the step's start, its change over the step)
+    M = sp.bmat([[lti.A * h, sp.csr_matrix(lti.B[:, :1] * h), None],
+                 [None, None, sp.csr_matrix(np.ones((1, 1)))],
+                 [None, None, sp.csr_matrix((1, 1))]], format="csc") if t.size > 1 else None
+    if M is not None and n <= EXACT_DENSE_LIMIT:
+        E = sla.expm(M.toarray())
+
+        def advance(z):
+            return E @ z
+    elif M is not None:
+        import scipy.sparse.linalg as spl
+
+        def advance(z):
+            return spl.expm_multiply(M, z)
+    z = np.concatenate([scale * lti.x0, [0.0, 0.0]])
+    states = np.empty((t.size, 2 * n))
+    for k in range(t.size):
+        states[k] = z[:2 * n]
+        if k + 1 < t.size:
+            z[2 * n] = f[k]
+            z[2 * n + 1] = f[k + 1] - f[k] if hold == "linear" else 0.0
+            z = advance(z)
+    from ..fmu.resources import probe_pairs
+    i0, i1, w = probe_pairs(problem.x, problem.scene.L, probes)
+    v = states[:, :n] / lti.w_v
+    e = states[:, n:] / lti.w_e
+    rho = (1 - w) * problem.rho0[i0] / (1 + e[:, i0]) + w * problem.rho0[i1] / (1 + e[:, i1])
+    return v[:, i0] * (1 - w) + v[:, i1] * w, rho

@@ -20,6 +20,8 @@ from ..progress import progress_bar
 from ..scene import Scene
 from . import loops
 from .operator import Neighbours, build_neighbours, particle_positions
+from .timestep import GROWTH_WARN, STABILITY_BOUND, dt_limit, growth, growth_figure, omega_max, step_matrix  # noqa: F401
+from .timestep import warnings as growth_warnings
 
 METHODS = {"euler": 0, "symplectic": 1, "rk4": 2}
 
@@ -250,112 +252,50 @@ def run_sph(scene: Scene, *, sample_steps=None, progress=True, problem=None, chu
 
 
 def spectral_radius(problem: SPHProblem):
-    """An upper bound of the fastest angular frequency ω_max [rad s^-1].
+    """An upper bound of the fastest angular frequency ω_max [rad s^-1] (:func:`.stability.omega_max`).
 
     Linearised about rest, the scheme is J̇ = G v, v̇ = ρ0^-1 G c J (J the
     specific volume): ω_max <= sqrt(max c / min ρ0) ||G||, and on a uniform
     lattice ||G|| is the maximum over wavenumbers of the stencil's symbol.
     """
-    nb = problem.neighbours
-    n = problem.n
-    kk = np.arange(n // 2 + 1)
-    # symbol of row 0 of G (a circulant on a uniform lattice)
-    j = nb.index[0]
-    offs = (j - 0) % n
-    sym = np.abs(np.sum(nb.weight[0][None, :] * np.exp(2j * np.pi * kk[:, None] * offs[None, :] / n), axis=1))
-    return float(np.sqrt(problem.c.max() / problem.rho0.min()) * sym.max())
-
-
-STABILITY_BOUND = {"euler": 2.0, "symplectic": 2.0, "rk4": 2.0 * np.sqrt(2.0)}
-
-# Amplification over a run above which `sph` warns.  The paper's own settings
-# (explicit Euler) amplify the fastest mode by up to 51 (tenmode; 48.6 for
-# high_frequency) while their fast modes hold only rounding error and the
-# discrete energy stays within 7 % of the exact dynamics' bound (measured with
-# :func:`energy`); above 100 the factor is no longer harmless.
-GROWTH_WARN = 100.0
-
-
-def step_matrix(integrator, omega_dt, d_dt):
-    """One step of ``integrator`` on the mode (e, v) with ė = ω v, v̇ = -ω e - d v.
-
-    Parameters
-    ----------
-    integrator : str
-        "euler", "symplectic" (e then v, as in :func:`.loops.advance`)
-        or "rk4".
-    omega_dt, d_dt : float
-        ω Δt and d Δt (dimensionless).
-
-    Returns
-    -------
-    ndarray (2, 2)
-        The amplification matrix of one step.  This is the linearisation of
-        eqs. 2.10-2.11 about rest in the specific volume (eq. A.9), one
-        eigen-pair of the SPH operator at a time.
-    """
-    a = np.array([[0.0, omega_dt], [-omega_dt, -d_dt]])
-    eye = np.eye(2)
-    if integrator == "euler":
-        return eye + a
-    if integrator == "symplectic":
-        e_step = np.array([[1.0, omega_dt], [0.0, 1.0]])
-        v_step = np.array([[1.0, 0.0], [-omega_dt, 1.0 - d_dt]])
-        return v_step @ e_step
-    a2 = a @ a
-    return eye + a + a2 / 2.0 + a2 @ a / 6.0 + a2 @ a2 / 24.0
+    scene = problem.scene
+    return omega_max(float(problem.c.max()), float(problem.rho0.min()), scene.L, problem.n, scene.sph.alpha)
 
 
 def amplification(problem: SPHProblem, dt, integrator, T, samples=257):
-    """The largest factor by which the scheme amplifies a mode over [0, T].
-
-    Every linear mode of the SPH operator has a frequency ω in [0, ω_max]
-    (:func:`spectral_radius`); with the smallest damping of the scene, a step
-    multiplies the mode by the spectral radius r(ω) of :func:`step_matrix`
-    (explicit Euler, undamped: r = |1 + i ω Δt| = (1 + ω²Δt²)^½), so n steps
-    multiply it by r^n.  Returns the largest r(ω)^n over ``samples``
-    frequencies (a float, capped at exp(700)) and the ω that attains it.
-    """
-    w_max = spectral_radius(problem)
-    n = step_count(T, dt)
-    d = float(np.min(problem.d))          # negative damping (if a scene has it) amplifies too
-    best, best_w = -np.inf, 0.0
-    for w in np.linspace(0.0, w_max, samples)[1:]:
-        r = float(np.max(np.abs(np.linalg.eigvals(step_matrix(integrator, w * dt, d * dt)))))
-        log_growth = n * np.log(r) if r > 0 else -np.inf
-        if log_growth > best:
-            best, best_w = log_growth, w
-    return float(np.exp(min(700.0, best))), best_w
+    """The largest factor by which the scheme amplifies a mode over [0, T], and that mode's ω
+    (:func:`.stability.growth` at ω_max of :func:`spectral_radius` and the scene's smallest damping; explicit
+    Euler, undamped: r = |1 + i ω Δt| = (1 + ω²Δt²)^½ per step)."""
+    return growth(integrator, spectral_radius(problem), float(np.min(problem.d)), dt, T, samples)
 
 
 def stability(problem: SPHProblem, dt, integrator, T):
     """The explicit stability limit and CFL numbers of a run.
 
-    Returns a dict with ``omega_max`` [rad/s], ``dt_limit`` [s] (ω_max Δt
-    below 2 for the Euler schemes, 2√2 for RK4: the imaginary-axis limits),
-    ``cfl`` (c_s Δt / Δx with the largest sound speed of eq. 2.5 at rest),
-    ``omega_dt``, ``euler_growth`` (the factor by which explicit Euler
-    amplifies the fastest mode over T when d = 0; Euler has no strict
-    stability on the imaginary axis), ``growth`` and ``growth_omega`` (the
-    factor by which ``integrator`` amplifies its worst mode over T with the
-    scene's smallest damping, and that mode's ω: :func:`amplification`).
+    Returns a dict with ``omega_max`` [rad/s], ``dt_limit`` [s] (:func:`.stability.dt_limit` of
+    ``integrator`` with the scene's largest damping: ω_max Δt below 2 for the Euler schemes, 2√2 for RK4
+    when undamped), ``cfl`` (c_s Δt / Δx with the largest sound speed of eq. 2.5 at rest),
+    ``omega_dt``, ``euler_growth`` (the factor by which explicit Euler amplifies the fastest mode over T when
+    d = 0; Euler has no strict stability on the imaginary axis), ``growth`` and ``growth_omega`` (the
+    factor by which ``integrator`` amplifies its worst mode over T with the scene's smallest damping, and that
+    mode's ω: :func:`amplification`).
     """
     w = spectral_radius(problem)
     cs = float(np.sqrt(np.max(problem.c / problem.rho0)))
-    lim = STABILITY_BOUND[integrator] / w
-    growth = float(np.exp(min(700.0, 0.5 * (T / dt) * np.log1p((w * dt) ** 2))))
-    amp, amp_w = amplification(problem, dt, integrator, T)
+    lim = dt_limit(integrator, w, float(np.max(problem.d)), float(np.min(problem.d)))
+    euler = float(np.exp(min(700.0, 0.5 * (T / dt) * np.log1p((w * dt) ** 2))))
+    amp, amp_w = growth(integrator, w, float(np.min(problem.d)), dt, T)
     return {"omega_max": w, "dt_limit": lim, "cfl": cs * dt / problem.neighbours.dx,
-            "omega_dt": w * dt, "euler_growth": growth, "growth": amp, "growth_omega": amp_w}
+            "omega_dt": w * dt, "euler_growth": euler, "growth": amp, "growth_omega": amp_w}
 
 
 def stability_warnings(problem: SPHProblem, dt, integrator, T):
     """One-line warnings (no prefix) about the time step of a run, maybe none.
 
-    Warns when Δt exceeds the imaginary-axis limit of the integrator, and when
-    the integrator amplifies some mode by more than :data:`GROWTH_WARN` over
-    the run even below that limit (explicit Euler on an undamped scene over a
-    long horizon), with the figure.
+    Warns when Δt exceeds the stability limit of the integrator (a scene refuses that when it is loaded;
+    settings changed in code may still ask for it), and when the integrator amplifies some mode by more than
+    :data:`GROWTH_WARN` over the run even below that limit (explicit Euler on an undamped scene over a long
+    horizon), with the figure (:func:`.stability.warnings`).
     """
     stab = stability(problem, dt, integrator, T)
     out = []
@@ -363,20 +303,7 @@ def stability_warnings(problem: SPHProblem, dt, integrator, T):
         out.append(f"dt = {dt:g} s exceeds the explicit stability limit {stab['dt_limit']:.3g} s of "
                    f"'{integrator}' (CFL number c_s dt/dx = {stab['cfl']:.3g}, "
                    f"omega_max dt = {stab['omega_dt']:.3g})")
-    if stab["growth"] > GROWTH_WARN:
-        n = step_count(T, dt)
-        fig = growth_figure(stab["growth"])
-        out.append(f"'{integrator}' amplifies the mode at omega = {stab['growth_omega']:.4g} rad/s "
-                   f"(omega dt = {stab['growth_omega'] * dt:.3g}, smallest damping d = "
-                   f"{float(np.min(problem.d)):g} 1/s) by a factor {fig} over the run "
-                   f"({n} steps to T = {T:g} s); rounding errors in that mode grow with it: use a smaller "
-                   f"dt, a shorter T or --integrator symplectic/rk4")
-    return out
-
-
-def growth_figure(growth):
-    """An amplification factor as printed in a warning: 3 digits, or "more than 1e+304" at the exp(700) cap."""
-    return "more than 1e+304" if growth >= np.exp(700.0) * (1 - 1e-12) else f"{growth:.3g}"
+    return out + growth_warnings(integrator, dt, stab["omega_max"], float(np.min(problem.d)), T)
 
 
 def energy(problem: SPHProblem, v, rho):

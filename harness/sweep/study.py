@@ -122,18 +122,20 @@ def wait_for_workers(client, n, timeout, held=()):
 @contextlib.contextmanager
 def workers_ignore_sigint(folder):
     """While the block runs (the LocalCluster's life), the processes multiprocessing spawns (dask's workers)
-    start with SIGINT ignored: a Ctrl-C, which a terminal sends to its whole foreground process group, then
-    reaches only the command, which closes the cluster itself; each worker printed a KeyboardInterrupt
-    traceback and died.  A disposition SIG_IGN survives exec and Python keeps it (a blocked mask
-    does not: the spawn clears it), so the spawn runs a two-line shell script in ``folder`` that ignores SIGINT
-    and execs this Python.  The workers still end on SIGTERM (how their nanny stops them) and with their
+    start with SIGINT and SIGTERM ignored: a Ctrl-C, which a terminal sends to its whole foreground process
+    group, or a SIGTERM sent to the group (``kill -TERM -PGID``, a service manager stopping the command), then
+    reaches only the command, which closes the cluster itself and keeps the finished runs; each worker printed a
+    KeyboardInterrupt traceback and died, and on SIGTERM died with the results it had not handed over yet.  A
+    disposition SIG_IGN survives exec and Python keeps it (a blocked mask does not: the spawn clears it), so the
+    spawn runs a two-line shell script in ``folder`` that ignores both and execs this Python.  The workers still
+    end when their nanny stops them (a message on its queue, then SIGKILL after a timeout) and with their
     parent.  Nothing changes where the script cannot be made or run (no /bin/sh, a folder mounted noexec)."""
     import multiprocessing.spawn as spawn
     import os
     import shlex
     script = Path(folder) / "python-ignoring-sigint"
     try:
-        script.write_text(f"#!/bin/sh\ntrap '' INT\nexec {shlex.quote(sys.executable)} \"$@\"\n")
+        script.write_text(f"#!/bin/sh\ntrap '' INT TERM\nexec {shlex.quote(sys.executable)} \"$@\"\n")
         script.chmod(0o700)
         usable = Path("/bin/sh").exists() and os.access(script, os.X_OK) and \
             subprocess_ok(script)

@@ -131,7 +131,7 @@ def probe_stats(times, v, window):
         ``v_max`` max |v|, ``v_rms`` sqrt(mean v^2) (points equally weighted),
         ``v_final`` v at the last point [m s^-1].
     """
-    slack = 1e-9 * max(1.0, float(times[-1]))
+    slack = 1e-9 * abs(float(times[-1]))            # relative: a bar's times may be microseconds
     inside = (times >= window[0] - slack) & (times <= window[1] + slack)
     w = v[inside]
     return {"v_max": np.max(np.abs(w), axis=0), "v_rms": np.sqrt(np.mean(w**2, axis=0)), "v_final": v[-1]}

@@ -146,6 +146,7 @@ class Case:
     delay: float = 0.0              # s after sphrom's handler is up (negative: before it, from the start)
     timeout: float = 240.0
     note: str = ""
+    address_space: int = 0          # bytes: the process's RLIMIT_AS (0: none), a machine of that memory
 
 
 @dataclass
@@ -320,8 +321,13 @@ def run_case(case: Case, ws: Workspace, index: int) -> Result:
     before = {p.name for p in folder.iterdir()}
     argv = [sys.executable, "-m", "sphrom", case.command, *case.args]
     t0 = time.monotonic()
+    def child_setup():
+        signal.signal(signal.SIGINT, signal.SIG_DFL)
+        if case.address_space:
+            import resource
+            resource.setrlimit(resource.RLIMIT_AS, (case.address_space, case.address_space))
     proc = subprocess.Popen(argv, cwd=folder, env=ws.env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+                            preexec_fn=child_setup)
     sent_alive, early = False, False
     if case.signal:
         if case.delay < 0:
@@ -599,9 +605,10 @@ def scene_cases(ws, rng, count):
 
 
 def round_four_cases(ws):
-    """The round-four cases that live on the command line: damaged FMUs, an output that names an input, a full file
-    system, byte-order marks, inputs that are folders or FIFOs, negative numbers, initial_state_scale, a scene dt
-    longer than the FMU's step, a co-simulation table beyond memory."""
+    """The round-four cases that live on the command line: damaged FMUs, an output that names an input (on the
+    command line or in a sweep's spec), a full file system, byte-order marks, inputs that are folders or FIFOs,
+    negative numbers, initial_state_scale, a scene dt longer than the FMU's step, a co-simulation table beyond
+    memory, runs of 4e5 and 1e6 particles under a 6 GiB address-space limit."""
     from .damaged import damaged_fmus
     root = ws.root
     cases = []
@@ -625,6 +632,24 @@ def round_four_cases(ws):
             ("cosim", [f2, "--initial-state-scale", "1e308", "--out", "o.csv"], [], "initial_state_scale 1e308"),
             ("cosim", [f2, "--t-end", "1e6", "--step", "0.01", "--out", "o.csv"], [], "1e8 steps: memory")):
         cases.append(Case("round four", command, args, [], make=make, note=note, timeout=180.0))
+    # case 7: N = 4e5 (its own stable dt) and 1e6 under a 6 GiB address-space limit: refused before the work from
+    # the memory estimate (the eigensolver's MemoryError, SuperLU's SIGSEGV before), or one line if an allocation
+    # still fails
+    for n in (400_000, 1_000_000):
+        dt = 2e-4 * 100 / n
+        (root / f"n{n}.toml").write_text(small_scene_text(T=max(2e-4, 50 * dt), n=n, dt=dt))
+        for command, extra in (("fmu", ["--modes", "4", "--no-verify"]), ("sph", []), ("pod", [])):
+            out = "o.fmu" if command == "fmu" else "o.h5"
+            cases.append(Case("round four", command, [f"../../n{n}.toml", *extra, "--out", out, "--quiet"], [out],
+                              note=f"N = {n:g} under a 6 GiB address-space limit", timeout=900.0,
+                              address_space=6 << 30))
+    # a sweep's output beside it that is the scene its spec names
+    (root / "spec_scene.toml").write_text('title = "t"\nscene = "r.csv"\nt_end = 0.1\nstep = 0.001\nprobes = '
+                                          '[0.25]\nparametric = false\n\n[grid]\nshape = ["sine"]\namplitude = '
+                                          '[1e-2]\nfrequency = [1.0]\nk = [4]\n')
+    cases.append(Case("round four", "sweep", ["spec.toml", "--workers", "1", "--out", "r.h5", "--quiet"], [],
+                      make=[("r.csv", f"copy:{s}"), ("spec.toml", f"copy:{root / 'spec_scene.toml'}")],
+                      note="--out r.h5 writes r.csv beside it, the scene the spec names", timeout=240.0))
     (root / "bom.csv").write_bytes(b"\xef\xbb\xbf" + ws["force"].read_bytes())
     (root / "bom.toml").write_bytes(b"\xef\xbb\xbf" + ws["scene"].read_bytes())
     (root / "dt.toml").write_text(small_scene_text(T=0.4, n=32, dt=0.02))

@@ -1,6 +1,7 @@
 """The battery's FMU cases (:mod:`tests.hostile.battery`): mutated resources through the C core, mutated
-serialized states and FMI call sequences through fmpy, each in a child process that is restarted after a crash
-or a stall.
+serialized states and FMI call sequences through fmpy, the round-four cases of the C side (time at any start, the
+shadow's sections edited, initial_state_scale, the Error state), each in a child process that is restarted after a
+crash or a stall.
 
 Outcomes as in :mod:`tests.hostile.battery`: a refusal with the FMU's message is a clean error; an OK status
 with non-finite outputs, or a corrupted file or state accepted, is a silent wrong result; a child that dies in a
@@ -87,12 +88,33 @@ def _child_resources(core_path, cases, emit):
                 t += 0.01
             v, rho = model.outputs(1)
             finite = bool(np.all(np.isfinite(v)) and np.all(np.isfinite(rho)))
-            emit({"i": i, "outcome": "ok" if finite else "silent wrong result",
-                  "detail": "" if finite else f"status OK, outputs {v} {rho}"})
+            bounds = _error_bounds(core, model)
+            signed = bool(np.all(bounds >= 0))              # certified bounds: >= 0 (+inf allowed), never NaN
+            emit({"i": i, "outcome": "ok" if finite and signed else "silent wrong result",
+                  "detail": "" if finite and signed else f"status OK, outputs {v} {rho}, bounds {bounds}"})
         except CoreError as exc:
             emit({"i": i, "outcome": "clean error", "detail": str(exc)[:200]})
         finally:
             model.close()
+
+
+def _error_bounds(core, model):
+    """The certified bounds of v and rho at the first probe of a model the core holds (empty without bounds)."""
+    import ctypes
+
+    import numpy as np
+    lib = core.lib
+    lib.rom_has_bounds.argtypes = [ctypes.c_void_p]
+    lib.rom_has_bounds.restype = ctypes.c_int
+    if not lib.rom_has_bounds(model.model):
+        return np.zeros(0)
+    values = []
+    for name in ("rom_v_probe_error_bound", "rom_rho_probe_error_bound"):
+        fn = getattr(lib, name)
+        fn.argtypes = [ctypes.c_void_p, ctypes.c_uint32]
+        fn.restype = ctypes.c_double
+        values.append(fn(model.state, 0))
+    return np.array(values)
 
 
 def verdict(emit, i, messages, outputs=None, exc=None, done=""):
@@ -282,6 +304,145 @@ def _child_step_bound(cases, emit):
                 slave.close()
 
 
+# Round four on the FMU's C side (issue 36): 3 time exact at any start, 8 resources validated for their signs and
+# ranges, 11 initial_state_scale bounded and the getters allowed in the Error state.  Each case: (kind, FMU name,
+# arguments); run by _child_round_four.
+EPOCH = 1.7e9
+EPOCH_STEPS = [1e-6, 3.5e-6, 3.5e-6, 3.5e-6] + [0.01] * 10 + [0.01, 0.013] * 5
+EDITS = {"negated": -1.0, "x 1e6": 1e6, "x 1e-6": 1e-6}
+SHADOW_TAGS = ("SHLAM", "SHB", "SHC", "SHW0", "SHROW", "SHRATE", "SHTAB", "SHTERR", "SHPROBE", "SHSCAL")
+
+
+def round_four_cases(ws, fmu_names):
+    """(cases, labels) of the round-four FMU cases: the epoch start, a communication point ahead, a time that
+    overflows or does not advance, initial_state_scale out of range, reading in the Error state, and every section
+    of the error bounds' shadow negated or scaled by 1e6 or 1e-6 (checksum recomputed)."""
+    import shutil
+    from fmpy import extract
+    cases, labels = [], []
+    for name in fmu_names:
+        unzipdir = str(extract(str(ws[name]), unzipdir=str(ws.root / f"round4-{name}")))
+        for kind, args, label in (("epoch", [], f"started at {EPOCH:g} s: the outputs of a start at 0"),
+                                  ("ahead", [], f"at {EPOCH:g} s a communication point 1 s ahead"),
+                                  ("overflow", [1e308, 1e308], "started at 1e308 s, doStep(h = 1e308)"),
+                                  ("overflow", [1e308, 0.01], "started at 1e308 s, doStep(h = 0.01)"),
+                                  ("overflow", [EPOCH, 1e-8], f"at {EPOCH:g} s, doStep(h = 1e-8)"),
+                                  ("scale", [1e308], "initial_state_scale = 1e308"),
+                                  ("scale", [-1e4], "initial_state_scale = -1e4"),
+                                  ("scale", [1000.0], "initial_state_scale = 1000 (the largest)"),
+                                  ("error state", [], "getters and getFMUstate in the Error state")):
+            cases.append((kind, unzipdir, args))
+            labels.append(f"{name}: {label}")
+        blob = (Path(unzipdir) / "resources" / "model.bin").read_bytes()
+        for tag in SHADOW_TAGS:
+            if tag.encode("ascii").ljust(8, b"\0") not in blob:
+                continue                                  # (SHTAB, SHTERR: only with a free response outside)
+            for how, factor in EDITS.items():
+                folder = ws.root / f"round4-{name}-{tag}-{how.replace(' ', '')}"
+                shutil.rmtree(folder, ignore_errors=True)
+                shutil.copytree(unzipdir, folder)
+                (folder / "resources" / "model.bin").write_bytes(scaled_section(blob, tag, factor))
+                cases.append(("section", str(folder), [tag, how]))
+                labels.append(f"{name}: section {tag} {how}, checksum recomputed")
+    return cases, labels
+
+
+def scaled_section(blob, tag, factor):
+    """``blob`` with section ``tag``'s values times ``factor`` in place, the checksum recomputed."""
+    import numpy as np
+    at = blob.index(tag.encode("ascii").ljust(8, b"\0"))
+    rows, cols = struct.unpack_from("<II", blob, at + 8)
+    start = at + layout.SECTION.size
+    values = np.frombuffer(blob, "<f8", rows * cols, start) * factor
+    return _recrc(blob[:start] + values.astype("<f8").tobytes() + blob[start + 8 * rows * cols:])
+
+
+def _run_steps(slave, start, steps, f=0.02):
+    import numpy as np
+    t, rows = start, [slave.get_real([slave.vr[n] for n in slave.outputs])]
+    for h in steps:
+        slave.do_step(t, h)
+        t = t + h
+        rows.append(slave.get_real([slave.vr[n] for n in slave.outputs]))
+    return np.array(rows)
+
+
+def _child_round_four(cases, emit):
+    import numpy as np
+    for i, (kind, unzipdir, args) in enumerate(cases):
+        emit({"i": i, "start": True})
+        messages = []
+        try:
+            slave = _slave(unzipdir, messages)
+        except Exception as exc:
+            verdict(emit, i, messages, exc=exc)
+            continue
+        try:
+            if kind == "epoch":
+                slave.initialize(start=0.0, initial_state_scale=1, f=0.02)
+                at_zero = _run_steps(slave, 0.0, EPOCH_STEPS)
+                slave.fmu.reset()
+                slave.initialize(start=EPOCH, initial_state_scale=1, f=0.02)
+                later = _run_steps(slave, EPOCH, EPOCH_STEPS)
+                worst = float(np.max(np.abs(later - at_zero) / (np.abs(at_zero) + 1e-300)))
+                emit({"i": i, "outcome": "ok" if worst <= 1e-12 else "silent wrong result",
+                      "detail": f"largest relative difference {worst:.3g}"})
+            elif kind in ("ahead", "overflow"):
+                start, h = (EPOCH, 0.01) if kind == "ahead" else args
+                slave.initialize(start=start, initial_state_scale=1)
+                try:
+                    slave.do_step(start + (1.0 if kind == "ahead" else 0.0), h)
+                except Exception as exc:
+                    verdict(emit, i, messages, exc=exc)
+                    continue
+                emit({"i": i, "outcome": "silent wrong result", "detail": f"accepted with OK, time {slave.time()}"})
+            elif kind == "scale":
+                try:
+                    slave.initialize(initial_state_scale=args[0])
+                    slave.do_step(0.0, 0.01)
+                except Exception as exc:
+                    verdict(emit, i, messages, exc=exc)
+                    continue
+                ok = abs(args[0]) <= 1000 and np.all(np.isfinite(slave.output_values()))
+                emit({"i": i, "outcome": "ok" if ok else "silent wrong result",
+                      "detail": "" if ok else f"initial_state_scale {args[0]:g} accepted"})
+            elif kind == "error state":
+                slave.initialize(initial_state_scale=1, f=0.01)
+                slave.do_step(0.0, 0.01)
+                good = slave.output_values()
+                try:
+                    slave.do_step(5.0, 0.01)
+                    emit({"i": i, "outcome": "silent wrong result", "detail": "a wrong point accepted"})
+                    continue
+                except Exception:
+                    pass
+                same = np.array_equal(slave.output_values(), good)
+                state = slave.get_state()
+                slave.serialize(state)
+                slave.free_state(state)
+                try:
+                    slave.do_step(0.01, 0.01)
+                    emit({"i": i, "outcome": "silent wrong result", "detail": "doStep accepted in the Error state"})
+                    continue
+                except Exception:
+                    pass
+                emit({"i": i, "outcome": "ok" if same else "silent wrong result",
+                      "detail": "read the last good values, the state; doStep refused" if same else "values changed"})
+            else:                                          # section edits: refused at instantiation, or bounds >= 0
+                slave.initialize(initial_state_scale=1, f=0.02)
+                names = [n for n in slave.outputs if n.endswith("_error_bound")]
+                y = slave.simulate(0.01 * np.arange(21), {"f": np.full(21, 0.02)}, outputs=names)
+                bad = (~(y >= 0)).sum()
+                emit({"i": i, "outcome": "ok" if bad == 0 else "silent wrong result",
+                      "detail": "bounds finite or +inf and >= 0" if bad == 0 else f"{bad} bounds negative or NaN "
+                                                                                      f"(least {np.nanmin(y):.3g})"})
+        except Exception as exc:
+            verdict(emit, i, messages, exc=exc)
+        finally:
+            with contextlib.suppress(Exception):
+                slave.close()
+
+
 def child_main(spec_path):
     spec = json.loads(Path(spec_path).read_text())
 
@@ -291,6 +452,8 @@ def child_main(spec_path):
     kind = spec["kind"]
     if kind == "step bound":
         _child_step_bound(spec["cases"], emit)
+    elif kind == "round four":
+        _child_round_four(spec["cases"], emit)
     elif kind == "resources":
         _child_resources(spec["core"], spec["cases"], emit)
     elif kind == "states":
@@ -382,6 +545,8 @@ def fmu_cases(ws, rng, n_resources, n_states, n_sequences):
                                 [f"{fmu_name}: seed {s}, {n} calls" for s, n in seqs], "call sequences")
     cases, labels = step_bound_cases(ws, ("fmu2", "fmu3", "exact2"))
     results += run_children(ws, "step bound", {}, cases, labels, "step bound", per_case_timeout=10.0)
+    cases, labels = round_four_cases(ws, ("fmu2", "fmu3", "exact2"))
+    results += run_children(ws, "round four", {}, cases, labels, "round four FMU")
     return results
 
 

@@ -1,7 +1,9 @@
-"""Signal trials: Ctrl-C (SIGINT to the whole process group, as a terminal sends it) at random moments of
-``sphrom sweep``, and SIGTERM at random moments of ``sphrom --help`` and ``sphrom cosim``.
+"""Signal trials: Ctrl-C (SIGINT to the whole process group, as a terminal sends it) and SIGTERM to the whole
+process group (``kill -TERM -PGID``, a service manager stopping it) at random moments of ``sphrom sweep``, and
+SIGTERM at random moments of ``sphrom --help`` and ``sphrom cosim``.
 
-    python3 -m tests.hostile signals [--sweeps 50] [--terms 200] [--seed 36] [--out validation/hostile]
+    python3 -m tests.hostile signals [--sweeps 50] [--sweep-terms 20] [--terms 200] [--seed 36]
+                                     [--out validation/hostile]
 
 Each trial starts the command in a session of its own with a private temporary folder (TMPDIR), sends the
 signal at a moment uniform over the command's running span (measured once on an undisturbed run, from sphrom's
@@ -118,7 +120,7 @@ def span(argv, cwd, env):
     return length
 
 
-def run_trials(root, sweeps=50, terms=200, seed=36, log=print):
+def run_trials(root, sweeps=50, terms=200, seed=36, log=print, sweep_terms=20):
     """The trials in workspace ``root`` (scenes, an FMU and a sweep spec: :func:`tests.hostile.battery.prepare`);
     a list of row dicts."""
     from .battery import prepare
@@ -127,8 +129,9 @@ def run_trials(root, sweeps=50, terms=200, seed=36, log=print):
     spec = Path(root) / "spec_trials.toml"            # about 10 s on 2 workers: moments through start, runs, close
     spec.write_text(ws["spec_long"].read_text().replace("t_end = 20.0", "t_end = 5.0").split("frequency")[0]
                     + "frequency = [" + ", ".join(f"{0.5 + 0.25 * i}" for i in range(16)) + "]\nk = [4]\n")
-    plans = [("sweep", ["sweep", str(spec), "--workers", "2", "--out", "r.h5", "--quiet"],
-              signal.SIGINT, sweeps, True),
+    sweep = ["sweep", str(spec), "--workers", "2", "--out", "r.h5", "--quiet"]
+    plans = [("sweep", sweep, signal.SIGINT, sweeps, True),
+             ("sweep", sweep, signal.SIGTERM, sweep_terms, True),
              ("--help", ["--help"], signal.SIGTERM, terms // 2, False),
              ("cosim", ["cosim", str(ws["fmu2"]), "--t-end", "20", "--step", "0.001", "--out", "o.csv"],
               signal.SIGTERM, terms - terms // 2, False)]
@@ -173,6 +176,8 @@ def main(argv=None):
     import argparse
     p = argparse.ArgumentParser(prog="python3 -m tests.hostile signals", description=__doc__.split("\n\n")[0])
     p.add_argument("--sweeps", type=int, default=50, help="Ctrl-Cs of sphrom sweep (default 50)")
+    p.add_argument("--sweep-terms", type=int, default=20,
+                   help="SIGTERMs to the process group of sphrom sweep (default 20)")
     p.add_argument("--terms", type=int, default=200, help="SIGTERMs, half to sphrom --help, half to sphrom cosim")
     p.add_argument("--seed", type=int, default=36)
     p.add_argument("--out", default="validation/hostile", help="folder for signal_trials.csv")
@@ -180,7 +185,7 @@ def main(argv=None):
     args = p.parse_args(argv)
     root = Path(args.workdir or tempfile.mkdtemp(prefix="sphrom-trials-"))
     t0 = time.monotonic()
-    rows = run_trials(root, args.sweeps, args.terms, args.seed)
+    rows = run_trials(root, args.sweeps, args.terms, args.seed, sweep_terms=args.sweep_terms)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     with open(out / "signal_trials.csv", "w", newline="") as fh:

@@ -14,7 +14,7 @@ profile and each port force F_port_j, each from rest under
   integrated together with the spring-mass-damper (:func:`sphrom.sph.ports.run_sph_ports`): the error of the
   port velocity then includes the coupling's own, of order of the communication step;
 
-over ``horizon`` = min(T, :data:`HORIZON`) at the FMU's communication step, the input held over each step as an
+over :func:`horizon` = min(T, :data:`HORIZON_PERIODS` T') at the FMU's communication step, the input held over each step as an
 importer sets it.  Amplitudes: f the unseen force's (:func:`.verify.unseen_force`), F_port_j the force that gives
 the bar (area A = 1) the same mean acceleration, A_f Σ ρ0 Δx [N].  Output compared: the probe velocities for f,
 the channel's own port velocity for F_port_j (power-conjugate to it); the error is eq. 3.4's relative L2
@@ -31,7 +31,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-HORIZON = 2.0        # [s] the longest run per case (the full SPH with ports is a Python loop over the steps)
+# the longest run per case, in units of the wave's time once around the bar T' (the full SPH with ports is a Python
+# loop over the steps): 2 s on the paper's bars (c = 0.1, rho0 = 1, L = 1: T' = sqrt(10) s), the same fraction of
+# any bar's own time scale (a steel bar's T' is a fifth of a millisecond)
+HORIZON_PERIODS = 2.0 / np.sqrt(10.0)
 SLOW_FRACTION = 0.25  # the slow sine's frequency, in units of the lowest elastic frequency ω_1
 IN_BAND = 1.5         # the in-band sine's, likewise
 SMD_MASS, SMD_TUNING, SMD_ZETA = 0.1, 0.5, 0.1   # the coupled spring-mass-damper: of the bar's mass, of ω_1, ζ
@@ -55,11 +58,17 @@ class ChannelCase:
                 "err": self.err, "sph_s": self.sph_s, "note": self.note}
 
 
+def horizon(scene):
+    """The channels' horizon [s]: min(T, :data:`HORIZON_PERIODS` T'), T' the wave's time once around the bar
+    (:meth:`sphrom.scene.Scene.period`)."""
+    return float(min(float(scene.T), HORIZON_PERIODS * scene.period()))
+
+
 def channel_forces(scene, problem, step):
     """{channel: {case: expression in t}} for f and, later, each port (module docstring)."""
     from ...rom.inputs import band
     from .verify import unseen_force
-    amplitude = float(unseen_force(scene, step).split("*")[0])
+    amplitude = float(unseen_force(scene, step, problem).split("*")[0])
     w1 = band(problem)[0]
     w, w_in = SLOW_FRACTION * w1, IN_BAND * w1
     mass = float(np.sum(problem.rho0) * problem.neighbours.dx)       # Σ ρ0 Δx [kg m^-1 ... per m^2 of A]
@@ -79,7 +88,7 @@ def smd_parameters(scene, problem, step):
     m = SMD_MASS * bar
     k = m * (SMD_TUNING * band(problem)[0]) ** 2
     c = 2.0 * SMD_ZETA * np.sqrt(k * m)
-    F = float(unseen_force(scene, step).split("*")[0]) * bar
+    F = float(unseen_force(scene, step, problem).split("*")[0]) * bar
     return m, k, c, F / k
 
 
@@ -102,13 +111,12 @@ def model_scene(data, scene, ports=()):
     """``scene`` with the integrator of the FMU whose model.bin is ``data`` (unpacked): a time-stepped FMU's own,
     an FMU integrated exactly in time (exact, balanced) the default one for its ports
     (:func:`sphrom.fmu.make.options.default_integrator`: symplectic with ports, the scene's without)."""
-    from ...scene import derive_scene
-    from ..make.options import default_integrator
+    from ..make.options import PORT_INTEGRATOR
     from ..kinds import kind_of
-    integrator = kind_of(data).integrator(data) or default_integrator(scene, ports)
+    integrator = kind_of(data).integrator(data) or (PORT_INTEGRATOR if len(ports) else scene.sph.integrator)
     if integrator == scene.sph.integrator:
         return scene
-    return derive_scene(scene, {"sph": {"integrator": integrator}})
+    return scene.with_sph(integrator=integrator, stable=False)      # an RK4 scene's frozen FMU: symplectic
 
 
 def measure_channels(path, scene, ports=(), problem=None, progress=False):
@@ -127,8 +135,8 @@ def measure_channels(path, scene, ports=(), problem=None, progress=False):
     scene = model_scene(model, scene, ports)
     problem = problem or build_problem(scene)
     has_scale, _, step = fmu_features(path)
-    horizon = min(float(scene.T), HORIZON)
-    short = derive_scene(scene, {"domain": {"T": horizon}})
+    horizon_ = horizon(scene)
+    short = derive_scene(scene, {"domain": {"T": horizon_}})
     t, steps = communication_times(short, step)
     f_cases, port_cases = channel_forces(scene, problem, step)
     channels = [("f", None, f_cases)] + [(f"F_port_{j + 1}", j, port_cases) for j in range(len(ports))]

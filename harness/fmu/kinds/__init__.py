@@ -38,10 +38,59 @@ Each kind module defines::
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from importlib import import_module
 
 from .. import layout
+
+# doStep's rules on the time, the same for every kind (fmu_src/rom.h, rom.c check_step, rom_internal.h
+# rom_same_step): every tolerance is the time's own rounding or the step's, never one that grows with |t|, so an
+# FMU started at 1.7e9 s steps as one started at 0.
+TIME_ULPS = 16.0                # ROM_TIME_ULPS: currentCommunicationPoint equals the FMU's time to this many ulps ...
+TIME_STEP_TOLERANCE = 1e-9      # ROM_TIME_STEP_TOLERANCE: ... plus this x the step h
+SAME_STEP = 1e-9                # ROM_SAME_STEP: two step lengths within this x the step are one (the cached maps)
+_EPS = 2.220446049250313e-16    # the double's machine epsilon (C's DBL_EPSILON)
+
+
+def step_error(time, t_comm, h, elapsed=0.0):
+    """The rule ``doStep(t_comm, h)`` breaks at the FMU's time ``time`` [s] (``elapsed`` [s] since its start), in
+    the C core's words (fmu_src/rom.c check_step), or None when the step is taken.
+
+    t_comm finite; h finite and > 0; |t_comm - time| within TIME_ULPS units in the last place of the larger |t|
+    plus TIME_STEP_TOLERANCE h; t_comm + h (and elapsed + h) finite and later than t_comm.
+    """
+    if not math.isfinite(t_comm):
+        return f"currentCommunicationPoint = {_g(t_comm)} is not finite"
+    if not (math.isfinite(h) and h > 0):
+        return (f"communicationStepSize = {_g(h)} s at t = {t_comm:.17g} s is out of range (allowed: a finite number "
+                "> 0)")
+    ulps = TIME_ULPS * _EPS * max(abs(t_comm), abs(time))
+    if not abs(t_comm - time) <= ulps + TIME_STEP_TOLERANCE * h:
+        return (f"currentCommunicationPoint = {t_comm:.17g} s does not match the FMU's time {time:.17g} s (allowed: "
+                f"equal to within {TIME_ULPS:.0f} units in the last place, plus {_g(TIME_STEP_TOLERANCE)} of the "
+                "step)")
+    t_new = t_comm + h
+    if not (math.isfinite(t_new) and math.isfinite(elapsed + h)):
+        return (f"communicationStepSize = {_g(h)} s at t = {t_comm:.17g} s takes the time beyond the largest number "
+                "(t + h is not finite)")
+    if not t_new > t_comm:
+        return (f"communicationStepSize = {_g(h)} s at t = {t_comm:.17g} s is below the time's resolution there "
+                f"({_g(math.nextafter(abs(t_comm), math.inf) - abs(t_comm))} s): t + h would equal t")
+    return None
+
+
+def same_step(h, h_cached):
+    """Whether a step of length ``h`` [s] is the cached one ``h_cached`` (fmu_src/rom_internal.h rom_same_step):
+    equal, or within SAME_STEP of it relative to the step."""
+    if h == h_cached:
+        return True
+    return h_cached > 0.0 and abs(h - h_cached) <= SAME_STEP * h_cached
+
+
+def _g(x):
+    """``x`` as C's %g prints it (inf, nan as C does)."""
+    return "%g" % x if math.isfinite(x) else ("nan" if math.isnan(x) else ("inf" if x > 0 else "-inf"))
 
 
 @dataclass(frozen=True)

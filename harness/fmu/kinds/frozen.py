@@ -75,7 +75,7 @@ class ModelData:
     dt : float
         Internal step [s].
     bound : float
-        Runaway bound on |a| (:func:`sphrom.rom.common.runaway_bound`).
+        Runaway bound on |a| (:func:`sphrom.rom.stepping.runaway_bound`).
     L : float
         Period [m].
     a_v0, a_rho0, K, b, D, p, T, Pv, Prho, probe_x : ndarray
@@ -489,9 +489,11 @@ class FrozenCosim:
     initial_state_scale : float
         a^v(0) = this x a_v0, a^rho(0) = a_rho0 (the FMU parameter; default 1, the scene's initial state,
         where the FMU's own start value is 0, at rest).
+    start : float
+        The start time [s] (the FMU's startTime): doStep's rules are checked against the time reached.
     """
 
-    def __init__(self, data, n_freeze=None, dt=None, initial_state_scale=1.0):
+    def __init__(self, data, n_freeze=None, dt=None, initial_state_scale=1.0, start=0.0):
         from ...rom.stepping import initial_scale
         from ...rom.frozen import loop_operators
         self.data = data
@@ -503,7 +505,8 @@ class FrozenCosim:
         self.M = np.zeros((data.k_rho, data.k_v))
         self.F = np.zeros(data.k_v)
         self.n = 0
-        self.t = 0.0
+        self.t = float(start)
+        self.elapsed = 0.0           # the time since the start [s] (the C state's elapsed)
         part = data.sections.get("PARTUR")
         if part is None:
             self._ops = loop_operators(data.K, data.b, data.D, data.p, self.n_freeze, T=data.T, refresh="tensor")
@@ -544,9 +547,15 @@ class FrozenCosim:
                                   step=bad)
         self.n += count
 
-    def do_step(self, h, f, rate=0.0):
+    def do_step(self, h, f, rate=0.0, t_comm=None):
         """One communication step of length ``h`` [s] with input ``f`` [m s^-2] held, or going as
-        f + ``rate`` τ over the step (``rate`` df/dt [m s^-3], an input derivative)."""
+        f + ``rate`` τ over the step (``rate`` df/dt [m s^-3], an input derivative), from ``t_comm`` [s] (default
+        the time reached): a step doStep refuses is a ValueError in the core's words
+        (:func:`sphrom.fmu.kinds.step_error`)."""
+        from . import step_error
+        problem = step_error(self.t, self.t if t_comm is None else t_comm, h, self.elapsed)
+        if problem:
+            raise ValueError(problem)
         v_own = self.own_port_velocities() if self.channel is not None else None
         n_full, rest = split_step(h, self.dt)
         self._advance(n_full, self.dt, f, rate, 0.0)
@@ -555,7 +564,8 @@ class FrozenCosim:
         if self.channel is not None:                       # the port forces' response (fmu_src/rom.c's order)
             self.channel.fmu_step(h, self.port_forces, self.port_rates, self.area, self.impedance, self.waves,
                                   0.5 * (v_own + self.own_port_velocities()))
-        self.t = self.t + h
+        self.t = (self.t if t_comm is None else t_comm) + h
+        self.elapsed = self.elapsed + h
         if self.n_ports:                                   # a port force with a rate goes on linearly (rom_do_step)
             rates = np.asarray(self.port_rates, float)
             self.port_forces = np.where(rates != 0.0, self.port_forces + rates * h, self.port_forces)

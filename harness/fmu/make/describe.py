@@ -41,8 +41,10 @@ def render(template: str, values: dict, lists: dict, raw=None) -> str:
 
 
 def template(name: str) -> str:
-    """The text of ``modelDescription/<name>``."""
-    return (data_dir("model_description") / name).read_text(encoding="utf-8")
+    """The text of ``modelDescription/<name>`` without its leading comment, which explains the template's
+    placeholders to this repository's readers and means nothing inside an FMU."""
+    text = (data_dir("model_description") / name).read_text(encoding="utf-8")
+    return re.sub(r"\A(<\?xml[^>]*\?>\s*)<!--.*?-->\s*", r"\1", text, count=1, flags=re.S)
 
 
 def bound_text(bounds):

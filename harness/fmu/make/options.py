@@ -37,6 +37,7 @@ def parse_probes(text):
 
 
 PORT_INTEGRATOR = "symplectic"
+FROZEN_INTEGRATORS = ("euler", "symplectic")      # the time-stepped model's own (the full SPH also has rk4)
 
 
 def default_integrator(scene, ports=()):
@@ -48,9 +49,12 @@ def default_integrator(scene, ports=()):
     inputs``, tenmode with a constant port force for 10 s): the full SPH with explicit Euler is 0.1 off the
     linear SPH integrated exactly in time, with symplectic Euler 9e-6.  With the port channel the port forces never
     reach the model's own state (the channel, exact in time, takes them): the model is the portless one, with the
-    scene's integrator."""
+    scene's integrator.  A scene whose full SPH steps with RK4 (which the frozen model does not have): symplectic
+    Euler too (the scene's step is within its limit on the reduced model's lower frequencies)."""
     from ...rom.port_channel import scene_applies
-    return PORT_INTEGRATOR if len(ports) and not scene_applies(scene) else scene.sph.integrator
+    if len(ports) and not scene_applies(scene):
+        return PORT_INTEGRATOR
+    return scene.sph.integrator if scene.sph.integrator in FROZEN_INTEGRATORS else PORT_INTEGRATOR
 
 
 def check_options(scene, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaults.PROBES, fmi=2, integrator=None,

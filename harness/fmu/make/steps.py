@@ -64,14 +64,31 @@ def shadow_step(data, ops, problem, probes, parametric=False):
     """The certified error bounds' shadow of every output of the model ``ops`` (its probes and ports, the
     operators' ``bound_shadow``) into ``data.sections`` (SH*, :mod:`sphrom.rom.bounds`;
     the FMU's outputs ``*_error_bound`` and parameter ``error_tolerance``), its default tolerance from the training
-    run's largest |v_probe| (section ENVPROBE; without it the initial state's); nothing where the C core cannot
+    run's largest |v_probe| (section ENVPROBE; a model without a training envelope, the balanced one: the same
+    figure from the scene's cached training run, :func:`training_probe_speed`); nothing where the C core cannot
     certify (more than FMU_MAX_PARTICLES particles, a parametric model whose d is not uniform).  A damping d that
-    is not uniform gives one dense block (sections SHDENSE, SHEGRAM).  ``parametric``: the shadow of a parametric
+    is not uniform gives the eigen-planes of A (:mod:`sphrom.rom.bounds`).  ``parametric``: the shadow of a parametric
     FMU (its planes in pieces of c and d, sections SHPIECE and SHPARAM; the C core assembles them at the FMU's c
     and d)."""
     from ...rom.bounds import sections
     envelope = data.sections.get("ENVPROBE")
-    scale_v = float(np.max(envelope[layout.row("ENVPROBE", "v_max")])) if envelope is not None else None
+    scale_v = (float(np.max(envelope[layout.row("ENVPROBE", "v_max")])) if envelope is not None else
+               training_probe_speed(problem, probes))
     shadow = ops.bound_shadow(problem, probes, parametric=parametric, scale_v=scale_v)
     if shadow is not None:
         data.sections.update(sections(shadow))
+
+
+def training_probe_speed(problem, probes):
+    """The training run's largest |v| at the probes [m s^-1] (the scene's cached full SPH run, on its stored samples,
+    the probes linear between particles as the envelope's ENVPROBE): what a model without a training envelope (the
+    balanced model) scales its default error_tolerance by, as every other model does."""
+    from ...cache import cached_sph
+    from ...pod.pipeline import training_steps
+    from ..resources import probe_pairs
+    steps = training_steps(problem.scene)          # the samples the envelope is measured on (training_basis)
+    run = cached_sph(problem.scene, steps, progress=False, problem=problem)
+    i0, i1, w = probe_pairs(problem.x, problem.scene.L, np.asarray(probes, float))
+    keep = np.isin(run.steps, steps)
+    v = run.v[keep][:, i0] * (1.0 - w) + run.v[keep][:, i1] * w
+    return float(np.max(np.abs(v)))

@@ -100,7 +100,7 @@ def force_signal(force, t_end, step):
         raise FieldError("force", str(exc).split(": ", 1)[-1]) from None
     n = int(round(t_end / step))
     times = np.arange(n + 1) * step
-    if times[-1] < t_end - 1e-12 * max(1.0, t_end):
+    if times[-1] < t_end - 1e-9 * step:                  # a remainder of a billionth of a step is none
         times = np.append(times, t_end)
     times[-1] = min(times[-1], t_end)
     try:
@@ -189,7 +189,7 @@ def check_coverage(signal, path, start, t_end):
         raise FieldError("force", f"'{path}' has {times.size} row {allowed}")
     if times[-1] < 0:
         raise FieldError("force", f"'{path}' has only negative times (last {times[-1]:g} s) {allowed}")
-    tol = 1e-12 * max(1.0, abs(t_end))
+    tol = 1e-12 * max(abs(t_end), abs(start))            # relative: a bar's times may be microseconds
     if times[0] > start + tol or times[-1] < t_end - tol:
         raise FieldError("force", f"'{path}' covers [{exact(times[0])}, {exact(times[-1])}] s, not [{exact(start)}, "
                                   f"{exact(t_end)}] s "

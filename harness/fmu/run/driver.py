@@ -257,6 +257,7 @@ class FMU:
             check_archive(path)
         self.md = read_model_description(str(path))
         self._owns_dir = not path.is_dir()
+        self.step_seconds = 0.0          # the wall time inside the doStep calls of the last simulate() [s]
         self.unzipdir = str(path) if path.is_dir() else extract_fmu(path)
         self.fmi = 2 if self.md.fmiVersion == "2.0" else 3
         self.messages = [] if messages is None else messages
@@ -265,7 +266,10 @@ class FMU:
         self.outputs = [v.name for v in self.md.modelVariables if v.causality == "output"]
         # the model's outputs (v_probe_j, rho_probe_j, v_port_j): every output but the certified error bounds
         self.model_outputs = [n for n in self.outputs if not n.endswith("_error_bound")]
-        token = token or (self.md.guid if self.fmi == 2 else self.md.instantiationToken)
+        # fmpy before 0.3.23 (the newest that installs with numpy 1.26, the oldest pyproject.toml allows) keeps an FMI 3
+        # instantiationToken in guid
+        token = token or (self.md.guid if self.fmi == 2 else getattr(self.md, "instantiationToken", None)
+                          or self.md.guid)
         t0 = time.perf_counter()
         self.fmu = None
         try:
@@ -468,7 +472,8 @@ class FMU:
         Returns
         -------
         ndarray (M+1, len(outputs))
-            The outputs at every communication point, the initial one included.
+            The outputs at every communication point, the initial one included.  :attr:`step_seconds` is then
+            the wall time spent inside the doStep calls [s] (the FMU's own work, without this loop's).
         """
         times = np.asarray(times, dtype=float)
         inputs = {k: np.asarray(v, dtype=float) for k, v in (inputs or {}).items()}
@@ -509,6 +514,8 @@ class FMU:
         ys[0] = out
         reached = 0
         from fmpy.fmi1 import FMICallException
+        from time import perf_counter as perf
+        stepping = 0.0
         try:
             for j in range(m):
                 t, h = times[j], hs[j]
@@ -524,7 +531,9 @@ class FMU:
                             fb_vr[name] = _vrs([self.vr[name]])
                         fb_val[0] = value
                         set_(comp, fb_vr[name], 1, fb_val)
+                c0 = perf()
                 step(t, h)
+                stepping += perf() - c0
                 get(comp, out_vr, n_out, out)
                 ys[j + 1] = out
                 reached = j + 1
@@ -533,6 +542,8 @@ class FMU:
         except FMICallException:
             if not stop_on_error:
                 raise
+        finally:
+            self.step_seconds = stepping        # the wall time inside the doStep calls of this loop [s]
         return ys[:reached + 1]
 
     def run(self, steps, inputs, t0=0.0):
