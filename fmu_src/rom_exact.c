@@ -34,7 +34,9 @@ static int block_maps(const RomModel *m, const RomExactModel *em, RomExpCache *s
     for (size_t i = 0; i < b; i++) {
         for (size_t j = 0; j < b; j++) M[i * n + j] = em->A[(lo + i) * k + lo + j] * h;
         if (em->B) M[i * n + b] = em->B[lo + i] * h;
-        for (size_t j = 0; j < rom_port_inputs(m); j++) M[i * n + b + (em->B ? 1 : 0) + j] = m->port_B[j * k + lo + i] * h;
+        for (size_t j = 0; j < rom_port_inputs(m); j++) {
+            M[i * n + b + (em->B ? 1 : 0) + j] = m->port_B[j * k + lo + i] * h;
+        }
     }
     for (size_t c = 0; c < ni; c++) M[(b + c) * n + b + ni + c] = 1.0;
     if (!rom_expm_taylor(n, M, E, X, T)) return 0;
@@ -408,7 +410,7 @@ static RomStatus exact_load(RomModel *m, const unsigned char *cursor, uint64_t d
             em->y0[i] = acc;
         }
     }
-    if (blocks) {                 /* A block diagonal: zero outside its 1 x 1 and 2 x 2 blocks (a skew one: rotations) */
+    if (blocks) {           /* A block diagonal: zero outside its 1 x 1 and 2 x 2 blocks (a skew one: rotations) */
         for (size_t lo = 0; lo < k;) {
             const size_t b = block_size(em, lo);
             for (size_t i = lo; i < lo + b; i++) {

@@ -9,10 +9,10 @@ monolithic coupled system integrated exactly.
 0.05 kg on a spring of 5 N/m stretched by +1 mm and -1 mm at t = 0; 1 ms steps over ``--t-end``, default 20 s): the
 master loops of :mod:`sphrom.fmu.run.master` around the full SPH (symplectic Euler at the scene's dt, the port
 forces held over each step), the frozen and the exact port FMU (FMI 2 through fmpy, the port channel), and with
-``--before`` the same FMUs with their ports in the basis as before the channel (build option ``port_channel=False``, the frozen one with
-symplectic Euler); relative L² of v_port over the run against the full SPH in the same loop and against the monolithic
-system (the full linear SPH and the masses on their springs as one linear system, exact in time: what every loop
-approximates), and the coupled energy's largest growth where the bar's energy is known (the full SPH: ½ Σ (ρ0 v² +
+``--before`` the same FMUs with their ports in the basis as before the channel (build option
+``port_channel=False``, the frozen one with symplectic Euler); relative L² of v_port over the run against the full
+SPH in the same loop and against the monolithic system (the full linear SPH and the masses on their springs as one
+linear system, exact in time: what every loop approximates), and the coupled energy's largest growth where the bar's energy is known (the full SPH: ½ Σ (ρ0 v² +
 c e²) Δx, e = ρ0/ρ - 1).
 
 **Passivity** (tenmode and damped_forced, the frozen and the exact model through their C core, from rest with f = 0,
@@ -137,8 +137,8 @@ def passivity(steps=PASSIVITY_STEPS, scenes=PASSIVITY_SCENES, t_end=20.0, progre
 
 
 def accuracy_table(rows):
-    out = ["| bar | master | v_port vs the full SPH in the same loop | v_port vs the monolithic system | coupled energy "
-           "max / start |", "| --- | --- | ---: | ---: | ---: |"]
+    out = ["| bar | master | v_port vs the full SPH in the same loop | v_port vs the monolithic system | coupled "
+           "energy max / start |", "| --- | --- | ---: | ---: | ---: |"]
     for r in rows:
         tail = f"failed: {r['failed']}" if r["failed"] else fmt(r["vs_sph"], ".2e")
         out.append(f"| {r['bar']} | {r['master']} | {tail} | {fmt(r['vs_monolithic'], '.2e')} | "
