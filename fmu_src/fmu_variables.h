@@ -24,6 +24,9 @@
 #define ROM_VR_AREA                             7u     /* parameter area [m2]; only with --ports */
 #define ROM_VR_F_PORT                           3000u  /* input F_port_j: 3000 + j - 1 [N]; only with --ports */
 #define ROM_VR_V_PORT                           4000u  /* output v_port_j: 4000 + j - 1 [m/s]; only with --ports */
+#define ROM_VR_PORT_IMPEDANCE                   11u    /* parameter port_impedance [N.s/m]; with --ports and the port channel (a uniform damping d) */
+#define ROM_VR_A_PORT                           3100u  /* input a_port_j: 3100 + j - 1 [N]; with --ports and the port channel (a uniform damping d) */
+#define ROM_VR_B_PORT                           4100u  /* output b_port_j: 4100 + j - 1 [N]; with --ports and the port channel (a uniform damping d) */
 #define ROM_VR_ERROR_TOLERANCE                  10u    /* parameter error_tolerance [m/s]; FMUs with certified error bounds (N <= 200000; 1500 where d varies) */
 #define ROM_VR_V_PROBE_ERROR_BOUND              7000u  /* output v_probe_j_error_bound: 7000 + j - 1 [m/s]; FMUs with certified error bounds (N <= 200000; 1500 where d varies) */
 #define ROM_VR_RHO_PROBE_ERROR_BOUND            8000u  /* output rho_probe_j_error_bound: 8000 + j - 1 [kg/m3]; FMUs with certified error bounds (N <= 200000; 1500 where d varies) */
@@ -34,6 +37,8 @@
 #define ROM_INITIAL_STATE_SCALE_START 0.0   /* initial_state_scale */
 #define ROM_AREA_START 1.0   /* area */
 #define ROM_F_PORT_START 0.0   /* F_port_j */
+#define ROM_PORT_IMPEDANCE_START 0.0   /* port_impedance */
+#define ROM_A_PORT_START 0.0   /* a_port_j */
 
 /* the outputs whose time derivatives the FMU gives (messages) */
 #define FMU_OUTPUTS_WITH_RATES "v_probe_j and rho_probe_j"
@@ -57,6 +62,9 @@
     {.name = "area", .vr = ROM_VR_AREA, .count = COUNT_ONE, .type = TYPE_FLOAT64, .role = ROLE_FIXED, .present = rule_ports, .get_float64 = get_area, .set_float64 = set_area, .has_start = 1, .start = ROM_AREA_START}, \
     {.name = "F_port_", .name_tail = "", .vr = ROM_VR_F_PORT, .count = COUNT_PER_PORT, .type = TYPE_FLOAT64, .role = ROLE_INPUT, .present = rule_ports, .get_float64 = get_port_force, .set_float64 = set_port_force, .set_rate = rom_set_port_rate, .has_start = 1, .start = ROM_F_PORT_START}, \
     {.name = "v_port_", .name_tail = "", .vr = ROM_VR_V_PORT, .count = COUNT_PER_PORT, .type = TYPE_FLOAT64, .role = ROLE_OUTPUT, .present = rule_ports, .get_float64 = rom_v_port}, \
+    {.name = "port_impedance", .vr = ROM_VR_PORT_IMPEDANCE, .count = COUNT_ONE, .type = TYPE_FLOAT64, .role = ROLE_FIXED, .present = rule_channel, .get_float64 = get_port_impedance, .set_float64 = set_port_impedance, .has_start = 1, .start = ROM_PORT_IMPEDANCE_START}, \
+    {.name = "a_port_", .name_tail = "", .vr = ROM_VR_A_PORT, .count = COUNT_PER_PORT, .type = TYPE_FLOAT64, .role = ROLE_INPUT, .present = rule_channel, .get_float64 = rom_port_wave, .set_float64 = rom_set_port_wave, .has_start = 1, .start = ROM_A_PORT_START}, \
+    {.name = "b_port_", .name_tail = "", .vr = ROM_VR_B_PORT, .count = COUNT_PER_PORT, .type = TYPE_FLOAT64, .role = ROLE_OUTPUT, .present = rule_channel, .get_float64 = rom_port_reflected}, \
     {.name = "error_tolerance", .vr = ROM_VR_ERROR_TOLERANCE, .count = COUNT_ONE, .type = TYPE_FLOAT64, .role = ROLE_FIXED, .present = rule_shadow, .get_float64 = get_error_tolerance, .set_float64 = set_error_tolerance}, \
     {.name = "v_probe_", .name_tail = "_error_bound", .vr = ROM_VR_V_PROBE_ERROR_BOUND, .count = COUNT_PER_PROBE, .type = TYPE_FLOAT64, .role = ROLE_OUTPUT, .present = rule_shadow, .get_float64 = rom_v_probe_error_bound}, \
     {.name = "rho_probe_", .name_tail = "_error_bound", .vr = ROM_VR_RHO_PROBE_ERROR_BOUND, .count = COUNT_PER_PROBE, .type = TYPE_FLOAT64, .role = ROLE_OUTPUT, .present = rule_shadow, .get_float64 = rom_rho_probe_error_bound}, \

@@ -389,6 +389,9 @@ SCALAR_SETTER(double, set_d, set_param_d)
 SCALAR_GETTER(double, get_area, s->area)
 SCALAR_SETTER(double, set_area, rom_set_area)
 static double get_port_force(const RomState *s, uint32_t j) { return rom_port_force(s, j); }
+/* the wave form of the ports (rom_port.c): the line impedance Z */
+SCALAR_GETTER(double, get_port_impedance, rom_port_impedance(s))
+SCALAR_SETTER(double, set_port_impedance, rom_set_port_impedance)
 static RomStatus set_port_force(RomState *s, uint32_t j, double value, char *message, size_t message_size) {
     const RomStatus status = rom_set_port_force(s, j, value, message, message_size);
     return status == ROM_OK ? rom_set_port_rate(s, j, 0.0, message, message_size) : status;
@@ -404,6 +407,7 @@ static int rule_varied_d(const Instance *inst) { return rom_varies(inst->model, 
 static int rule_ports(const Instance *inst) { return rom_n_ports(inst->model) > 0; }
 static int rule_shadow(const Instance *inst) { return rom_has_bounds(inst->model); }
 static int rule_shadow_ports(const Instance *inst) { return rule_shadow(inst) && rule_ports(inst); }
+static int rule_channel(const Instance *inst) { return rom_has_channel(inst->model); }
 
 /* The FMU's variables: the one place that maps value references onto the core, its rows generated into
  * fmu_variables.h from harness/fmu/variables.py (which also writes both modelDescriptions).  A family row
@@ -461,11 +465,18 @@ static void apply_start_values(Instance *inst) {
     }
 }
 
-/* the variable of value reference ref in this FMU, or NULL; *j: the member of a family */
+/* the most value references var can stand for in any FMU (the presence rule and the model's counts not asked) */
+static uint32_t variable_span(const Variable *var) {
+    return var->count == COUNT_PER_PROBE ? ROM_MAX_PROBES : var->count == COUNT_PER_PORT ? ROM_MAX_PORTS : 1u;
+}
+
+/* the variable of value reference ref in this FMU, or NULL; *j: the member of a family (a row whose span cannot
+ * hold ref is passed over before its presence rule, which may search the model's sections, is asked) */
 static const Variable *lookup(const Instance *inst, uint32_t ref, uint32_t *j) {
     for (size_t i = 0; i < N_VARIABLES; i++) {
         const Variable *var = &VARIABLES[i];
-        if (ref >= var->vr && ref - var->vr < variable_count(inst, var)) {
+        if (ref < var->vr || ref - var->vr >= variable_span(var)) continue;
+        if (ref - var->vr < variable_count(inst, var)) {
             *j = ref - var->vr;
             return var;
         }

@@ -38,7 +38,8 @@ RomState *rom_state_new(const RomModel *model) {
     const size_t counts[2] = {model->kv_pad, model->kr_pad ? model->kr_pad : 1};
     double **ptrs[2] = {&s->av, &s->ar};
     s->storage_ = rom_alloc_arrays(counts, ptrs, 2);
-    if (!s->storage_ || model->ops->state_new(s) != ROM_OK || rom_bound_state_new(s) != ROM_OK) {
+    if (!s->storage_ || model->ops->state_new(s) != ROM_OK || rom_bound_state_new(s) != ROM_OK ||
+        rom_channel_state_new(s) != ROM_OK) {
         rom_state_free(s);
         return NULL;
     }
@@ -50,6 +51,7 @@ void rom_state_free(RomState *state) {
     if (!state) return;
     if (state->body && state->model->ops->state_free) state->model->ops->state_free(state);
     rom_bound_state_free(state);
+    rom_channel_state_free(state);
     free(state->storage_);
     free(state);
 }
@@ -81,6 +83,7 @@ void rom_state_reset(RomState *s, double t_start) {
     s->port_driven = 0.0;
     s->area = 1.0;                                             /* [m^2] */
     rom_bound_reset(s);                                        /* the bounds' shadow, error_tolerance */
+    rom_channel_reset(s);                                      /* the port channel at rest, the force form */
 }
 
 RomStatus rom_set_start_time(RomState *s, double t_start, char *message, size_t message_size) {
@@ -229,10 +232,17 @@ static RomStatus check_step(const RomState *s, double t_comm, double h, char *me
 RomStatus rom_do_step(RomState *s, double t_comm, double h, char *message, size_t message_size) {
     if (!s || !s->body) return rom_fail(message, message_size, "no state");
     if (check_step(s, t_comm, h, message, message_size) != ROM_OK) return ROM_FAIL;
-    for (uint32_t j = 0; j < s->model->n_ports; j++) {              /* a port force acts over this step */
+    for (uint32_t j = 0; j < rom_port_inputs(s->model); j++) {     /* a port force acts on the kind's state (never
+                                                                     * with the port channel, which takes them) */
         if (s->port_force[j] != 0.0 || s->port_rate[j] != 0.0) s->port_driven = 1.0;
     }
-    const RomStatus status = s->model->ops->step(s, t_comm, h, message, message_size);
+    double v_own[ROM_MAX_PORTS];                                    /* the kind's v_port at the step's two ends */
+    const uint32_t own = s->channel ? s->model->n_ports : 0u;
+    for (uint32_t j = 0; j < own; j++) v_own[j] = rom_port_velocity(s, j);
+    RomStatus status = s->model->ops->step(s, t_comm, h, message, message_size);
+    if (status != ROM_OK) return status;
+    for (uint32_t j = 0; j < own; j++) v_own[j] = 0.5 * (v_own[j] + rom_port_velocity(s, j));
+    status = rom_channel_step(s, h, v_own, message, message_size);   /* the port forces' response (rom_port.c) */
     if (status != ROM_OK) return status;
     rom_bound_step(s, h);                                           /* the bounds' shadow over the same inputs */
     s->time = t_comm + h;
@@ -271,14 +281,20 @@ RomStatus rom_advance(RomState *s, int64_t n_steps, char *message, size_t messag
     return status;
 }
 
+/* the kind's output plus the port channel's part (rom_port.c; without the channel the kind's own bits) */
 double rom_v_probe(const RomState *s, uint32_t j) {
     if (!s || j >= s->model->n_probes) return NAN;
-    return s->model->ops->v_probe(s, j);
+    const double v = s->model->ops->v_probe(s, j);
+    return s->channel ? v + rom_channel_row(s, j, NULL) : v;
 }
 
+/* the linear kinds superpose the channel's e in J themselves; to the frozen kind's density the linear SPH's
+ * shift of the channel's e at the probe's two particles is added, sum_m pw_m rho0_m (1 / (1 + e_m) - 1) */
 double rom_rho_probe(const RomState *s, uint32_t j) {
     if (!s || j >= s->model->n_probes) return NAN;
-    return s->model->ops->rho_probe(s, j);
+    const double rho = s->model->ops->rho_probe(s, j);
+    if (!s->channel || s->model->ops->density_with_channel) return rho;
+    return rho + rom_channel_density_shift(s, j);
 }
 
 int rom_max_output_derivative_order(const RomModel *m) {
@@ -303,7 +319,9 @@ static RomStatus probe_rate(const RomState *s, uint32_t j, double *rate, double 
 }
 
 RomStatus rom_v_probe_rate(const RomState *s, uint32_t j, double *rate, char *message, size_t message_size) {
-    return probe_rate(s, j, rate, s ? s->model->ops->v_rate : NULL, "v", message, message_size);
+    const RomStatus status = probe_rate(s, j, rate, s ? s->model->ops->v_rate : NULL, "v", message, message_size);
+    if (status == ROM_OK && s->channel) *rate += rom_channel_row_rate(s, j);       /* the port channel's part */
+    return status;
 }
 
 RomStatus rom_rho_probe_rate(const RomState *s, uint32_t j, double *rate, char *message, size_t message_size) {
@@ -416,5 +434,6 @@ RomStatus rom_set_port_rate(RomState *s, uint32_t j, double rate, char *message,
 
 double rom_v_port(const RomState *s, uint32_t j) {
     if (!s || j >= s->model->n_ports) return NAN;
-    return rom_port_velocity(s, j);
+    const double v = rom_port_velocity(s, j);
+    return s->channel ? v + rom_channel_row(s, 3 * s->model->n_probes + j, NULL) : v;
 }

@@ -20,6 +20,7 @@
  *   rom_state_io.c  the serialized FMU state
  *   rom_envelope.c  the training envelope
  *   rom_bound.c     the certified error bounds: the shadow of the full linear SPH, stepped with the model
+ *   rom_port.c      the port channel: the full linear SPH's response to the port forces, superposed on the kind's
  *   rom_bytes.c     little-endian numbers, CRC-32, the check both formats share, aligned arrays
  *   rom_fail.c      messages
  *   rom_layout.h    generated from harness/fmu/layout.py: every number of the two binary formats
@@ -171,6 +172,25 @@ typedef struct {
     double *storage_;          /* [planes][4] planes, [rows][row_len] row terms, [groups] rates; owned by the model */
 } RomBoundModel;
 
+/* The port channel (rom_port.c; sections PCSCAL, PCLAM, PCB, PCC, PCD, PCPROBE, written by
+ * harness/rom/port_channel.py): the full linear SPH's response to the port forces alone, in the singular planes of
+ * its coupling that the ports excite, exact in time; superposed on the kind's outputs (the kind then takes no port
+ * input: no section PORTB).  Rows in the order of the error bounds' shadow: v at each probe (over p), e at the two
+ * particles of each probe (over q), v at each port (over p).  planes 0: no channel. */
+typedef struct {
+    uint32_t planes, ports, rows;  /* kept planes n, ports P, rows R = 3 n_probes + P */
+    uint32_t pad;              /* planes rounded up to 16: the length of the state's and the maps' arrays */
+    int truncated;             /* 1: excited planes were left out (the static correction and the gains apply) */
+    double dx;                 /* [m] the particle spacing (the energy: 1/2 |w|^2 dx area) */
+    const double *lam;         /* [planes][4] each plane's block [s^-1] */
+    const double *beta;        /* [planes][ports] the input gains per unit F_j / area */
+    const double *C;           /* [rows][planes] */
+    const double *D;           /* [rows][2 ports]: the static correction per unit u, then the remainder's gains */
+    const double *probe;       /* [n_probes][4] the probe's weights and rho0 at its two particles */
+    void *storage_;            /* beta^T [ports][pad], C [rows][pad] zero-padded, the row norms [rows] */
+    const double *beta_t, *C_pad, *row_norm;
+} RomChannelModel;
+
 /* The reduced model of one scene (immutable once loaded, but for rom_model_assemble).  What every kind has
  * is here; what one kind has is in its own struct behind body (rom_frozen.h RomFrozenModel, rom_exact.h
  * RomExactModel), reached through the kind's operations ops. */
@@ -197,6 +217,7 @@ typedef struct {
     const double *port_B;      /* [n_ports][input_width] */
     const double *port_C;      /* [n_ports][k_v] */
     RomBoundModel bound;       /* the certified error bounds (order 0: none) */
+    RomChannelModel channel;   /* the port channel (planes 0: none) */
 } RomModel;
 
 /* The mutable state of one instance: what every kind has, and the kind's own state behind body
@@ -231,6 +252,8 @@ typedef struct {
      * error_tolerance [m s^-1] (0: no warning) */
     void *bound;
     double error_tolerance;
+    /* the port channel's state (rom_port.c; NULL without it): its planes, maps, the wave form's waves */
+    void *channel;
 } RomState;
 
 /* ---- resources ---------------------------------------------------------- */
@@ -379,8 +402,30 @@ ROM_API RomStatus rom_set_area(RomState *state, double area, char *message, size
  * after it; setting F_j through rom_set_port_force keeps the rate (the instance layer resets it).  The
  * linear model integrates it exactly; the frozen model takes F_j + rate tau at each refresh, as f. */
 ROM_API RomStatus rom_set_port_rate(RomState *state, uint32_t j, double rate, char *message, size_t message_size);
-/* v_port_j = sum_q port_C[j][q] a^v_q [m s^-1] (NaN for a bad j) */
+/* v_port_j = sum_q port_C[j][q] a^v_q [m s^-1], plus the port channel's part (NaN for a bad j) */
 ROM_API double rom_v_port(const RomState *state, uint32_t j);
+
+/* ---- the port channel (rom_port.c) ----------------------------------------------- */
+/* 1 when the model carries the port channel (sections PC*), else 0 (NULL too) */
+ROM_API int rom_has_channel(const RomModel *model);
+/* The wave (transmission-line) form of the ports: the parameter port_impedance Z [N s m^-1] (finite, >= 0; 0, the
+ * start: the force form, F_port_j are the inputs), and with Z > 0 the incident waves a_j [N] (inputs, held over a
+ * step): over each step the port force is held at F_j = 2 a_j - Z vbar_j, vbar_j the mean port velocity over the
+ * step (solved exactly: the channel's mean is linear in F), and the reflected wave b_j = a_j - F_j = Z vbar_j - a_j
+ * (output), which a master passes on, one step later, as the incident wave of the component at the line's other end
+ * (the same form there).  The power over a step is F vbar = (a^2 - b^2) / Z: coupled through such lines the system's
+ * energy (the components' and the waves' in the lines, h / Z per wave) never grows, at any communication step
+ * (docs/fmu/coupling.md).  The model's own part of
+ * vbar (its response to f and its initial state, which no port force moves) is the mean of its port velocity at the
+ * step's two ends. */
+ROM_API RomStatus rom_set_port_impedance(RomState *state, double impedance, char *message, size_t message_size);
+ROM_API double rom_port_impedance(const RomState *state);
+ROM_API RomStatus rom_set_port_wave(RomState *state, uint32_t j, double wave, char *message, size_t message_size);
+ROM_API double rom_port_wave(const RomState *state, uint32_t j);
+/* b_j [N] after the last step (0 before the first, and in the force form) */
+ROM_API double rom_port_reflected(const RomState *state, uint32_t j);
+/* the channel's energy 1/2 |w|^2 dx area [J] (0 without the channel) */
+ROM_API double rom_channel_energy(const RomState *state);
 
 /* ---- certified error bounds (rom_bound.c) ----------------------------------- */
 /* 1 when the model carries the shadow of its error bounds (sections SH*), else 0 (NULL too) */

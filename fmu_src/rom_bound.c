@@ -623,15 +623,17 @@ static void shadow_row(const RomState *s, uint32_t r, double *value, double *cer
     free_part(b, bs, r, s->elapsed, &g_value, &g_error);
     y += s->initial_state_scale * g_value;
     const double allow = cn * (BOUND_ROUNDOFF + BOUND_ROUNDOFF_STEP * bs->steps) * (sqrt(w2) + scale * b->x0_norm);
-    *value = y;
-    *cert = scale * g_error + quasi + trans + cn * b->e_norm * bs->w_int + allow;
+    double channel_cert;                    /* the port channel's part of the row and its own bound (rom_port.c) */
+    *value = y + rom_channel_row(s, r, &channel_cert);
+    *cert = scale * g_error + quasi + trans + cn * b->e_norm * bs->w_int + allow + channel_cert;
 }
 
 double rom_v_probe_error_bound(const RomState *s, uint32_t j) {
     if (!s || !s->bound || j >= s->model->n_probes) return NAN;
     double y, cert;
     shadow_row(s, j, &y, &cert);
-    return fabs(s->model->ops->v_probe(s, j) - y) + cert;      /* the model's output (rom.c rom_v_probe) */
+    /* the model's output as rom.c rom_v_probe gives it: the kind's and the port channel's */
+    return fabs(s->model->ops->v_probe(s, j) + rom_channel_row(s, j, NULL) - y) + cert;
 }
 
 double rom_rho_probe_error_bound(const RomState *s, uint32_t j) {
@@ -647,14 +649,16 @@ double rom_rho_probe_error_bound(const RomState *s, uint32_t j) {
         rho_s += pr[side] * pr[2 + side] / J;
         part += pr[side] * pr[2 + side] * beta / (J * low);
     }
-    return fabs(s->model->ops->rho_probe(s, j) - rho_s) + part + 1e-15 * (pr[0] * pr[2] + pr[1] * pr[3]);
+    const double rho = s->model->ops->rho_probe(s, j) +       /* as rom.c rom_rho_probe: with the channel's part */
+                       (s->model->ops->density_with_channel ? 0.0 : rom_channel_density_shift(s, j));
+    return fabs(rho - rho_s) + part + 1e-15 * (pr[0] * pr[2] + pr[1] * pr[3]);
 }
 
 double rom_v_port_error_bound(const RomState *s, uint32_t j) {
     if (!s || !s->bound || j >= s->model->n_ports) return NAN;
     double y, cert;
     shadow_row(s, 3 * s->model->n_probes + j, &y, &cert);
-    return fabs(rom_port_velocity(s, j) - y) + cert;
+    return fabs(rom_port_velocity(s, j) + rom_channel_row(s, 3 * s->model->n_probes + j, NULL) - y) + cert;
 }
 
 RomStatus rom_set_error_tolerance(RomState *s, double tolerance, char *message, size_t message_size) {

@@ -14,14 +14,46 @@
 #include <stdio.h>
 #include <stdlib.h>
 
-/* inputs of the model: f (when B is present), then the port forces */
+/* inputs of the model: f (when B is present), then the port forces (none with the port channel, which takes them) */
 static size_t exact_inputs(const RomModel *m) {
-    return (((const RomExactModel *)m->body)->B ? 1u : 0u) + m->n_ports;
+    return (((const RomExactModel *)m->body)->B ? 1u : 0u) + rom_port_inputs(m);
+}
+
+/* The size of the block of a block-diagonal A starting at row i: 2 where A[i+1][i] != 0, else 1 */
+static size_t block_size(const RomExactModel *em, size_t i) {
+    return (i + 1 < em->k && em->A[(i + 1) * em->k + i] != 0.0) ? 2 : 1;
+}
+
+/* The maps of one block (rows and columns lo .. lo + b - 1) of a block-diagonal A: the exponential of its own
+ * augmented matrix [[A_b h, B_b h, 0], [0, 0, I], [0, 0, 0]] (the rest of Phi is zero) */
+static int block_maps(const RomModel *m, const RomExactModel *em, RomExpCache *slot, size_t lo, size_t b, double h,
+                      double *work) {
+    const size_t k = em->k, ni = exact_inputs(m), n = b + 2 * ni;
+    double *M = work, *E = M + n * n, *X = E + n * n, *T = X + n * n;
+    memset(M, 0, n * n * sizeof(double));
+    for (size_t i = 0; i < b; i++) {
+        for (size_t j = 0; j < b; j++) M[i * n + j] = em->A[(lo + i) * k + lo + j] * h;
+        if (em->B) M[i * n + b] = em->B[lo + i] * h;
+        for (size_t j = 0; j < rom_port_inputs(m); j++) {
+            M[i * n + b + (em->B ? 1 : 0) + j] = m->port_B[j * k + lo + i] * h;
+        }
+    }
+    for (size_t c = 0; c < ni; c++) M[(b + c) * n + b + ni + c] = 1.0;
+    if (!rom_expm_taylor(n, M, E, X, T)) return 0;
+    for (size_t i = 0; i < b; i++) {
+        for (size_t j = 0; j < b; j++) slot->Phi[(lo + i) * k + lo + j] = E[i * n + j];
+        for (size_t c = 0; c < ni; c++) {
+            slot->G0[(lo + i) * ni + c] = E[i * n + b + c];
+            slot->G1[(lo + i) * ni + c] = E[i * n + b + ni + c];
+        }
+    }
+    return 1;
 }
 
 /* The maps of a step of length h: Phi = e^{A h}, G0, G1 from the exponential
  * of [[A h, B h, 0], [0, 0, 1], [0, 0, 0]] (as sphrom.rom.exact_linear.propagators),
- * cached per step length (two slots, the least recently used replaced; rom_same_step). */
+ * cached per step length (two slots, the least recently used replaced; rom_same_step); a block-diagonal A
+ * block by block. */
 static RomExpCache *exact_maps(RomState *s, double h, char *message, size_t message_size) {
     const RomModel *m = s->model;
     const RomExactModel *em = (const RomExactModel *)m->body;
@@ -39,12 +71,33 @@ static RomExpCache *exact_maps(RomState *s, double h, char *message, size_t mess
     }
     /* inputs u = (f if B, F_1/area, ..., F_P/area): columns B, port_B[0], ... */
     const size_t ni = exact_inputs(m), k = em->k, n = k + 2 * ni;
+    if (em->blocks) {
+        slot->h = 0.0;
+        memset(slot->Phi, 0, k * k * sizeof(double));
+        if (ni == 0) {
+            memset(slot->G0, 0, k * sizeof(double));
+            memset(slot->G1, 0, k * sizeof(double));
+        }
+        for (size_t lo = 0; lo < k;) {
+            const size_t b = block_size(em, lo);
+            if (!block_maps(m, em, slot, lo, b, h, es->work)) {
+                rom_fail(message, message_size, "the matrix exponential for the step %g s is not finite (step too "
+                         "long for this model)", h);
+                return NULL;
+            }
+            lo += b;
+        }
+        es->n_expm++;
+        slot->h = h;
+        slot->used = es->clock;
+        return slot;
+    }
     double *M = es->work, *E = M + n * n, *X = E + n * n, *T = X + n * n;
     memset(M, 0, n * n * sizeof(double));
     for (size_t i = 0; i < k; i++) {
         for (size_t j = 0; j < k; j++) M[i * n + j] = em->A[i * k + j] * h;
         if (em->B) M[i * n + k] = em->B[i] * h;
-        for (size_t j = 0; j < m->n_ports; j++) M[i * n + k + (em->B ? 1 : 0) + j] = m->port_B[j * k + i] * h;
+        for (size_t j = 0; j < rom_port_inputs(m); j++) M[i * n + k + (em->B ? 1 : 0) + j] = m->port_B[j * k + i] * h;
     }
     for (size_t c = 0; c < ni; c++) M[(k + c) * n + k + ni + c] = 1.0;
     slot->h = 0.0;
@@ -71,13 +124,15 @@ static RomExpCache *exact_maps(RomState *s, double h, char *message, size_t mess
 }
 
 /* z = e^{A t} z0 from the real Schur form A = Q S Q^T (skew A: S has 2x2
- * rotation blocks [[0, w], [-w, 0]] and zeros), evaluated at t directly. */
+ * rotation blocks [[0, w], [-w, 0]] and zeros), evaluated at t directly; a skew block-diagonal A is its own S
+ * (Q = I: z = y). */
 static void free_response(const RomExactModel *em, double t, double *restrict y, double *restrict z) {
     const size_t k = em->k;
+    const double *S = em->Q ? em->S : em->A;
     size_t i = 0;
     while (i < k) {
-        if (i + 1 < k && em->S[(i + 1) * k + i] != 0.0) {
-            const double w = em->S[i * k + i + 1];
+        if (i + 1 < k && S[(i + 1) * k + i] != 0.0) {
+            const double w = S[i * k + i + 1];
             const double cs = cos(w * t), sn = sin(w * t);
             const double a = em->y0[i], b = em->y0[i + 1];
             y[i] = cs * a + sn * b;
@@ -87,6 +142,10 @@ static void free_response(const RomExactModel *em, double t, double *restrict y,
             y[i] = em->y0[i];
             i += 1;
         }
+    }
+    if (!em->Q) {
+        memcpy(z, y, k * sizeof(double));
+        return;
     }
     for (size_t r = 0; r < k; r++) {
         double acc = 0.0;
@@ -109,19 +168,22 @@ static RomStatus exact_step(RomState *s, double t_comm, double h, char *message,
     const size_t ni = exact_inputs(m), n = k + 2 * (ni > 1 ? ni : 1);
     double *xn = es->work + 4 * n * n, *z = xn + k;
     const double f = s->f, df = s->f_rate * h;
+    size_t lo = 0, hi = k;                           /* the columns of row i's block (all of them when dense) */
     for (size_t i = 0; i < k; i++) {
+        if (em->blocks && i == hi) lo = hi;
+        if (em->blocks && i == lo) hi = lo + block_size(em, lo);
         double acc = 0.0;
         const double *row = c->Phi + i * k;
-        for (size_t j = 0; j < k; j++) acc += row[j] * es->X[j];
+        for (size_t j = lo; j < hi; j++) acc += row[j] * es->X[j];
         if (em->B) acc = acc + c->G0[i * ni] * f + c->G1[i * ni] * df;
-        for (size_t j = 0; j < m->n_ports; j++) {    /* port forces, held or linear (rate) over the step */
+        for (size_t j = 0; j < rom_port_inputs(m); j++) {    /* port forces, held or linear (rate) over the step */
             const size_t col = i * ni + (em->B ? 1 : 0) + j;
             acc = acc + c->G0[col] * (s->port_force[j] / s->area) + c->G1[col] * (s->port_rate[j] * h / s->area);
         }
         xn[i] = acc;
     }
     const double t_new = t_comm + h;
-    if (em->Q) {
+    if (em->free_path) {
         double *y = es->work;            /* the exponential's scratch is free again */
         free_response(em, s->elapsed + h, y, z);
         const double scale = s->initial_state_scale;     /* the free response of scale z0 */
@@ -177,13 +239,18 @@ static double exact_v_probe(const RomState *s, uint32_t j) {
     return exact_output(s, em->Pv + (size_t)j * em->k);
 }
 
-/* rho = sum_m pw[j][m] rho0[j][m] / J_m, J = 1 + e at the probe's two particles */
+/* the port channel's e at side m of probe j (rom_port.c; 0 without the channel): the linear model superposes it */
+static double channel_e(const RomState *s, uint32_t j, int side) {
+    return s->channel ? rom_channel_row(s, s->model->n_probes + 2 * j + (uint32_t)side, NULL) : 0.0;
+}
+
+/* rho = sum_m pw[j][m] rho0[j][m] / J_m, J = 1 + e at the probe's two particles (e with the port channel's) */
 static double exact_rho_probe(const RomState *s, uint32_t j) {
     if (!s || !s->model->body) return NAN;
     const RomExactModel *em = (const RomExactModel *)s->model->body;
     double rho = 0.0;
     for (int side = 0; side < 2; side++) {
-        const double e = exact_output(s, e_row(em, j, side));
+        const double e = exact_output(s, e_row(em, j, side)) + channel_e(s, j, side);
         const double J = 1.0 + e;
         if (!(J > 0)) return NAN;                     /* compressed through J = 0: no density */
         rho += em->pw[2 * j + side] * (em->prho0[2 * j + side] / J);
@@ -196,7 +263,7 @@ static double probe_J(const RomState *s, uint32_t j) {
     const RomExactModel *em = (const RomExactModel *)s->model->body;
     double smallest = INFINITY;
     for (int side = 0; side < 2; side++) {
-        const double J = 1.0 + exact_output(s, e_row(em, j, side));
+        const double J = 1.0 + exact_output(s, e_row(em, j, side)) + channel_e(s, j, side);
         if (!isfinite(J)) return NAN;
         if (J < smallest) smallest = J;
     }
@@ -249,9 +316,11 @@ static double exact_rho_rate(const RomState *s, uint32_t j) {
     double rate = 0.0;
     for (int side = 0; side < 2; side++) {
         const double *row = e_row(em, j, side);
-        const double J = 1.0 + exact_output(s, row);
+        const double J = 1.0 + exact_output(s, row) + channel_e(s, j, side);
         if (!(J > 0)) return NAN;
-        rate -= em->pw[2 * j + side] * em->prho0[2 * j + side] * row_rate(s, row) / (J * J);
+        const double dJ = row_rate(s, row) +
+                          (s->channel ? rom_channel_row_rate(s, s->model->n_probes + 2 * j + (uint32_t)side) : 0.0);
+        rate -= em->pw[2 * j + side] * em->prho0[2 * j + side] * dJ / (J * J);
     }
     return rate;
 }
@@ -290,7 +359,14 @@ static RomStatus exact_load(RomModel *m, const unsigned char *cursor, uint64_t d
     const size_t kv = m->k_v, ke = m->k_rho, np = m->n_probes, k = (size_t)kv + ke;
     em->k = (uint32_t)k;
     const size_t cB = (m->flags & ROM_FLAG_INPUT) ? k : 0, cQ = (m->flags & ROM_FLAG_SCHUR) ? k * k : 0;
-    const size_t counts[11] = {k, k * k, cB, cQ, cQ, cQ ? k : 0, np * k, np * 2 * k, 2 * np, 2 * np, np};
+    const int blocks = (m->flags & ROM_FLAG_BLOCKS) != 0, skew = !(m->flags & ROM_FLAG_DAMPING);
+    if (blocks && (cQ || !(m->flags & ROM_FLAG_OUTPUT_ROWS))) {
+        return rom_fail(message, message_size, "resources: a block-diagonal linear model (flag blocks) has output "
+                        "rows over z and no Schur form");
+    }
+    em->blocks = blocks;
+    em->free_path = cQ != 0 || (blocks && skew);
+    const size_t counts[11] = {k, k * k, cB, cQ, cQ, em->free_path ? k : 0, np * k, np * 2 * k, 2 * np, 2 * np, np};
     double **ptrs[11] = {&em->z0, &em->A, &em->B, &em->Q, &em->S, &em->y0, &em->Pv, &em->Pe, &em->pw, &em->prho0,
                          &em->probe_x};
     em->storage_ = rom_alloc_arrays(counts, ptrs, 11);
@@ -334,6 +410,26 @@ static RomStatus exact_load(RomModel *m, const unsigned char *cursor, uint64_t d
             em->y0[i] = acc;
         }
     }
+    if (blocks) {           /* A block diagonal: zero outside its 1 x 1 and 2 x 2 blocks (a skew one: rotations) */
+        for (size_t lo = 0; lo < k;) {
+            const size_t b = block_size(em, lo);
+            for (size_t i = lo; i < lo + b; i++) {
+                for (size_t j = 0; j < k; j++) {
+                    if ((j < lo || j >= lo + b) && em->A[i * k + j] != 0.0) {
+                        return rom_fail(message, message_size, "resources: A[%zu][%zu] = %g outside the blocks of a "
+                                        "block-diagonal linear model (flag blocks)", i, j, em->A[i * k + j]);
+                    }
+                }
+            }
+            const double *a = em->A + lo * k + lo;
+            if (skew && (a[0] != 0.0 || (b == 2 && (a[k + 1] != 0.0 || a[1] != -a[k])))) {
+                return rom_fail(message, message_size, "resources: block %zu of an undamped block-diagonal linear "
+                                "model is not a rotation [[0, w], [-w, 0]]", lo + 1);
+            }
+            lo += b;
+        }
+        if (em->free_path) memcpy(em->y0, em->z0, k * sizeof(double));   /* the model's own coordinates: Q = I */
+    }
     return ROM_OK;
 }
 
@@ -368,9 +464,9 @@ static void exact_affine_shape(const RomModel *m, const char *tag, uint32_t *row
 static RomStatus exact_check_params(const RomModel *m, const RomSection *params, char *message,
                                     size_t message_size) {
     if (!m || !params) return rom_fail(message, message_size, "resources: no model or no section PARAMS");
-    if (m->flags & ROM_FLAG_SCHUR) {
-        return rom_fail(message, message_size, "resources: a parametric linear model with a Schur form (A changes "
-                        "with c and d)");
+    if (m->flags & (ROM_FLAG_SCHUR | ROM_FLAG_BLOCKS)) {
+        return rom_fail(message, message_size, "resources: a parametric linear model with a Schur form or in blocks "
+                        "(A changes with c and d)");
     }
     return ROM_OK;
 }
@@ -426,7 +522,7 @@ static void exact_initial_state(RomState *s) {
     const double scale = s->initial_state_scale;
     for (size_t i = 0; i < m->k_v; i++) s->av[i] = scale * em->z0[i];
     for (size_t i = 0; i < m->k_rho; i++) s->ar[i] = scale * em->z0[m->k_v + i];
-    if (em->Q) {
+    if (em->free_path) {
         memset(es->X, 0, em->k * sizeof(double));           /* forced part; the free response is e^{At} z0 */
     } else {
         for (size_t i = 0; i < em->k; i++) es->X[i] = scale * em->z0[i];
@@ -466,7 +562,8 @@ static int64_t exact_expm_count(const RomState *s) {
 
 static void exact_describe(const RomModel *m, char *out, size_t size) {
     snprintf(out, size, "k_v = %u, k_rho = %u, %u probes; the %s model (linear, %u states, advanced by the "
-             "matrix exponential%s)", m->k_v, m->k_rho, m->n_probes, exact_linear_name(m), m->k_v + m->k_rho,
+             "matrix exponential%s%s)", m->k_v, m->k_rho, m->n_probes, exact_linear_name(m), m->k_v + m->k_rho,
+             (m->flags & ROM_FLAG_BLOCKS) ? ", block by block in its real eigen-coordinates" : "",
              rom_section(m, "BOUNDS") ? "; certified error bounds force_error_bound, initial_state_error_bound"
                                             : "");
 }
@@ -479,7 +576,7 @@ const RomKindOps *rom_exact_kind(void) {
         .short_name = "linear",
         .k_rho_name = "k_e",
         .length_subject = "the exact model with ",
-        .flags = ROM_FLAG_DAMPING | ROM_FLAG_INPUT | ROM_FLAG_SCHUR | ROM_FLAG_OUTPUT_ROWS,
+        .flags = ROM_FLAG_DAMPING | ROM_FLAG_INPUT | ROM_FLAG_SCHUR | ROM_FLAG_OUTPUT_ROWS | ROM_FLAG_BLOCKS,
         .min_k_rho = exact_min_k_rho,
         .head_size = 0,
         .read_head = exact_read_head,
@@ -504,6 +601,7 @@ const RomKindOps *rom_exact_kind(void) {
         .n_freeze = NULL,
         .v_probe = exact_v_probe,
         .rho_probe = exact_rho_probe,
+        .density_with_channel = 1,          /* J = 1 + e + the port channel's e */
         .check_probe = exact_check_probe,
         .v_rate = exact_v_rate,
         .rho_rate = exact_rho_rate,

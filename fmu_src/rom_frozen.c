@@ -136,7 +136,7 @@ ROM_INLINE void refresh_particles(const RomModel *m, const RomFrozenModel *fm, c
  * already hold its result (a component at rest). */
 ROM_INLINE void refresh(RomState *s, const RomFrozenModel *fm, RomFrozenState *fs, double f, double tau) {
     const RomModel *m = s->model;
-    const size_t kr = m->k_rho, np = fm->n_pairs, n_ports = m->n_ports;
+    const size_t kr = m->k_rho, np = fm->n_pairs, n_ports = rom_port_inputs(m);   /* none with the port channel */
     const double *restrict ar = s->ar;
     double *restrict last = fs->last_in;
     double u[ROM_MAX_PORTS];
@@ -940,6 +940,7 @@ const RomKindOps *rom_frozen_kind(void) {
         .n_freeze = frozen_n_freeze,
         .v_probe = frozen_v_probe,
         .rho_probe = frozen_rho_probe,
+        .density_with_channel = 0,          /* rom.c adds the port channel's density shift */
         .check_probe = NULL,
         .v_rate = NULL,
         .rho_rate = NULL,

@@ -21,8 +21,9 @@
  *   rom_state_io.c  |   (rom_resources.c also chooses it)               |
  *   rom_bound.c ----+                                                   v
  *   rom.c, rom_resources.c, rom_state_io.c -> rom_bound.c     rom_numerics.c, rom_bytes.c -> rom_fail.c
+ *   rom.c, rom_resources.c, rom_state_io.c, rom_bound.c, rom_exact.c -> rom_port.c (the port channel)
  *   rom_resources.c -> rom_envelope.c (its sections' checks)
- *   rom_bound.c -> rom_numerics.c (the matrix exponential), rom_bytes.c
+ *   rom_bound.c, rom_port.c -> rom_numerics.c (the matrix exponential), rom_bytes.c
  *   (and every file: rom_internal.h's inline helpers, rom_fail.c)
  *
  * Include this header first: the pragmas below keep the arithmetic free of
@@ -106,6 +107,9 @@ struct RomKindOps {
     /* ---- outputs and checks */
     double (*v_probe)(const RomState *s, uint32_t j);
     double (*rho_probe)(const RomState *s, uint32_t j);
+    /* 1: rho_probe and rho_rate include the port channel's part (the linear kinds superpose its e in J); 0: rom.c
+     * adds the linear SPH's density shift of the channel's e to the kind's density (the frozen kind) */
+    int density_with_channel;
     /* the kind's check at probe j before the density's (NULL: none) */
     RomStatus (*check_probe)(const RomState *s, uint32_t j, char *message, size_t message_size);
     double (*v_rate)(const RomState *s, uint32_t j);   /* NULL: no output derivatives, no_rates says why */
@@ -169,12 +173,21 @@ static inline const RomSection *rom_section(const RomModel *m, const char *tag) 
     return NULL;
 }
 
-/* v_port_j = sum_q port_C[j][q] a^v_q from 0.0 in q order (rom.h rom_v_port; the error bounds' too) */
+/* the port inputs the kind itself takes: every port without the port channel, none with it (no PORTB) */
+static inline uint32_t rom_port_inputs(const RomModel *m) {
+    return m->port_B ? m->n_ports : 0u;
+}
+
+/* the kind's part of v_port_j: sum_q port_C[j][q] a^v_q from 0.0 in q order, and on over a^rho for a linear
+ * model whose rows act on the whole state (flag output_rows: PORTC is P x (k_v + k_rho)); rom.h rom_v_port adds
+ * the port channel's part */
 static inline double rom_port_velocity(const RomState *s, uint32_t j) {
-    const size_t kv = s->model->k_v;
-    const double *row = s->model->port_C + (size_t)j * kv;
+    const RomModel *m = s->model;
+    const size_t kv = m->k_v, kr = (m->flags & ROM_FLAG_OUTPUT_ROWS) ? m->k_rho : 0;
+    const double *row = m->port_C + (size_t)j * (kv + kr);
     double v = 0.0;
     for (size_t q = 0; q < kv; q++) v += row[q] * s->av[q];
+    for (size_t q = 0; q < kr; q++) v += row[kv + q] * s->ar[q];
     return v;
 }
 
@@ -183,6 +196,29 @@ static inline double rom_port_velocity(const RomState *s, uint32_t j) {
 static inline double rom_steps_per_call(double work) {
     return work > 0.0 ? floor(ROM_MAX_WORK_PER_CALL / work) : 0.0;
 }
+
+/* ---- rom_port.c: the port channel (rom.h RomChannelModel) ---- */
+RomStatus rom_channel_check_section(const RomModel *m, const RomSection *s, char *message, size_t message_size);
+RomStatus rom_channel_prepare(RomModel *m, char *message, size_t message_size);   /* sizes of the PC* sections */
+RomStatus rom_channel_state_new(RomState *s);     /* s->channel (NULL without the channel) */
+void rom_channel_state_free(RomState *s);
+void rom_channel_reset(RomState *s);
+/* advance the channel over the step from the state's port inputs (before rom.c continues them); v_own[j] the
+ * kind's v_port_j at the step's start and end averaged (the wave form's part of the mean port velocity) */
+RomStatus rom_channel_step(RomState *s, double h, const double *v_own, char *message, size_t message_size);
+/* the channel's part of output row r (the shadow's order: P v probes, 2P e rows, the ports) with its certified
+ * bound against the full linear SPH's port response in *cert (0 and 0 without the channel) */
+double rom_channel_row(const RomState *s, uint32_t r, double *cert);
+/* the time derivative of that part now (the exact model's output derivatives) */
+double rom_channel_row_rate(const RomState *s, uint32_t r);
+/* the linear SPH's density shift of the channel's e at probe j's two particles, sum_m pw_m rho0_m (1 / (1 + e_m) -
+ * 1) [kg m^-3], added to a kind's density that does not hold it (the frozen kind's); NaN where 1 + e <= 0, 0
+ * without the channel */
+double rom_channel_density_shift(const RomState *s, uint32_t j);
+size_t rom_channel_state_doubles(const RomModel *m);   /* in the serialized state, after the ports */
+RomStatus rom_channel_state_check(const RomModel *m, const unsigned char *cursor, char *message, size_t message_size);
+unsigned char *rom_channel_state_put(const RomState *s, unsigned char *cursor);
+const unsigned char *rom_channel_state_get(RomState *s, const unsigned char *cursor);
 
 /* ---- rom_bytes.c: little-endian numbers, the check both blob formats share, arrays ---- */
 

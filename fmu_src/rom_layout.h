@@ -16,7 +16,9 @@
  * flags: bit 0 damping (a damping term: frozen D present; linear A not skew); bit 1 input (an input: frozen row p,
  *     linear column B present); bit 2 schur (linear only: the real Schur form Q, S of a skew A present (never with
  *     damping)); bit 3 output_rows (linear only: the probe rows Pv, Pe act on the whole state z (the balanced
- *     model: k_e = 0))
+ *     model: k_e = 0)); bit 4 blocks (linear only: A is block diagonal, the model in its real eigen-coordinates (1
+ *     x 1 blocks and 2 x 2 blocks [[a, w], [-w, a]], A[i+1][i] != 0 starting one; with output_rows, never with
+ *     schur))
  *
  * kind 1, frozen: the frozen-coefficient model (eqs. 2.19-2.24); reads the flags damping, input
  *   its header (24 bytes, at the start of its body):
@@ -38,7 +40,7 @@
  *     probe_x[n_probes]: the probe positions x/L in [0, 1]
  *
  * kind 2, linear: the linear models (exact POD, balanced): dz/dt = A z + B f, exact in time; reads the flags
- *     damping, input, schur, output_rows
+ *     damping, input, schur, output_rows, blocks
  *   its float64 arrays, row-major, in this order:
  *     z0[k]: the initial state z = (a; b), k = k_v + k_rho
  *     A[k][k]: dz/dt = A z + B f
@@ -81,8 +83,8 @@
  *     AC: linear model: the part of A per unit c (linear kind only)
  *     AD: linear model: the part of A per unit d (linear kind only)
  *     PORTX: port positions x/L (1 x P); values: a port position x/L (columns 0:) in [0, 1)
- *     PORTB: port input rows at area 1 (P x k_v frozen, P x k linear)
- *     PORTC: port velocity rows (P x k_v)
+ *     PORTB: port input rows at area 1 (P x k_v frozen, P x k linear); absent with the port channel
+ *     PORTC: port velocity rows (P x k_v; P x k over the whole state with output_rows)
  *     SHSCAL: error bounds: the shadow's sizes and scalars; columns order, planes, inputs, rows, nodes, groups,
  *         h_tab, q_tab, x0_norm, e_norm, b_norm, tolerance, cplanes, reserved; values: the free response table's
  *         node spacing [s] (columns h_tab) >= 0; a norm (columns x0_norm, e_norm, b_norm) >= 0; error_tolerance's
@@ -106,6 +108,15 @@
  *         e_c_e, e_d_v, e_d_e; values: the shadow's reference stiffness c_ref [kg m^-1 s^-2] (columns c_ref) > 0;
  *         a residual piece's norm (columns e_const_v, e_const_e, e_c_v, e_c_e, e_d_v, e_d_e) >= 0
  *     SHCPL: error bounds: the complement's planes (parametric)
+ *     PCSCAL: port channel: its sizes and scalars; columns planes, ports, rows, truncated, dx
+ *     PCLAM: port channel: each plane's 2 x 2 block [[-d, s], [-s, 0]] (planes x 4)
+ *     PCB: port channel: each plane's input gains per unit F_j / area (planes x P)
+ *     PCC: port channel: the output rows over the planes (3 n_probes + P rows: v probes, e at their particles, v
+ *         ports)
+ *     PCD: port channel: per row the truncated planes' static correction, then their bound's gains (rows x 2P)
+ *     PCPROBE: port channel: the probes' weights and rho0; columns pw0, pw1, rho0_0, rho0_1; values: an
+ *         interpolation weight (columns pw0, pw1) in [0, 1]; rho0 [kg m^-3] (columns rho0_0, rho0_1) > 0; the
+ *         probe's two weights sum to 1 per row
  *
  * then the trailer:
  *      0  char[40] token: "{xxxxxxxx-xxxx-xxxx-xxxx-xxxxxxxxxxxx}", NUL padded: the FMI guid / instantiationToken,
@@ -135,6 +146,9 @@
  *     f_rate [1]: df/dt over a step [m s^-3] (0: held)
  *     bounds [with the error bounds (sections SH*)]: the shadow w[k_s], the inputs' weighted variations V[m
  *         groups] and last values u[m], the integral of |w|, the step count, started (0 or 1) (rom_bound.c)
+ *     channel [with the port channel (sections PC*)]: its planes p[n], q[n], the inputs' variation tv[P] and last
+ *         values u[P], the step count, port_impedance [N s m^-1], a_port[P] [N], b_port[P] [N], the force held
+ *         over the last step of the wave form[P] [N] (rom_port.c)
  *     initial_state_scale [1]: the parameter
  *     c [1]: the parameter c [kg m^-1 s^-2] (0 without section PARAMS)
  *     d [1]: the parameter d [s^-1] (0 without section PARAMS)
@@ -163,6 +177,7 @@
 #define ROM_FLAG_INPUT                       2u   /* an input */
 #define ROM_FLAG_SCHUR                       4u   /* linear only */
 #define ROM_FLAG_OUTPUT_ROWS                 8u   /* linear only */
+#define ROM_FLAG_BLOCKS                      16u   /* linear only */
 #define ROM_MODEL_FROZEN                     1u   /* frozen */
 #define ROM_MODEL_EXACT_LINEAR               2u   /* linear */
 #define ROM_FROZEN_HEAD_SIZE                 24   /* the frozen kind's own header */
@@ -238,6 +253,17 @@
 #define ROM_SHPARAM_E_C_E                    4
 #define ROM_SHPARAM_E_D_V                    5
 #define ROM_SHPARAM_E_D_E                    6
+#define ROM_PCSCAL_COLUMNS                   5u
+#define ROM_PCSCAL_PLANES                    0
+#define ROM_PCSCAL_PORTS                     1
+#define ROM_PCSCAL_ROWS                      2
+#define ROM_PCSCAL_TRUNCATED                 3
+#define ROM_PCSCAL_DX                        4
+#define ROM_PCPROBE_COLUMNS                  4u
+#define ROM_PCPROBE_PW0                      0
+#define ROM_PCPROBE_PW1                      1
+#define ROM_PCPROBE_RHO0_0                   2
+#define ROM_PCPROBE_RHO0_1                   3
 #define ROM_ENVELOPE_CHECK_COORDINATES       1u
 #define ROM_ENVELOPE_CHECK_FORCE             2u
 #define ROM_ENVELOPE_CHECK_STRAIN            4u
@@ -272,11 +298,16 @@
     X("SHPARAM", 3, 0, 4, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "a residual piece's norm", ">= 0") \
     X("SHPARAM", 4, 0, 5, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "a residual piece's norm", ">= 0") \
     X("SHPARAM", 5, 0, 6, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "a residual piece's norm", ">= 0") \
-    X("SHPARAM", 6, 0, 7, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "a residual piece's norm", ">= 0")
+    X("SHPARAM", 6, 0, 7, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "a residual piece's norm", ">= 0") \
+    X("PCPROBE", 0, 0, 1, 0, 0.0, 1.0, 0, 0, 0, 0.0, "an interpolation weight", "in [0, 1]") \
+    X("PCPROBE", 1, 0, 2, 0, 0.0, 1.0, 0, 0, 0, 0.0, "an interpolation weight", "in [0, 1]") \
+    X("PCPROBE", 2, 0, 3, 0, 0.0, INFINITY, 1, 0, 0, 0.0, "rho0 [kg m^-3]", "> 0") \
+    X("PCPROBE", 3, 0, 4, 0, 0.0, INFINITY, 1, 0, 0, 0.0, "rho0 [kg m^-3]", "> 0")
 /* X(tag, first c, first i, end c, end i, total, tolerance, what): each row's sum */
 #define ROM_ROW_SUM_RULES(X) \
-    X("SHPROBE", 0, 0, 2, 0, 1.0, 1e-12, "the probe's two weights")
-#define ROM_N_SECTION_TAGS                   32u   /* rom_resources.c's SECTION_RULES has one row each */
+    X("SHPROBE", 0, 0, 2, 0, 1.0, 1e-12, "the probe's two weights") \
+    X("PCPROBE", 0, 0, 2, 0, 1.0, 1e-12, "the probe's two weights")
+#define ROM_N_SECTION_TAGS                   38u   /* rom_resources.c's SECTION_RULES has one row each */
 /* the model kinds' tables of operations (rom_internal.h RomKindOps; rom_resources.c's list of kinds) */
 #define ROM_KIND_TABLES(X) X(rom_frozen_kind) X(rom_exact_kind)
 

@@ -229,7 +229,9 @@ static RomStatus check_port_x(const RomModel *m, const RomSection *s, char *mess
 
 static RomStatus check_port_rows(const RomModel *m, const RomSection *s, char *message, size_t message_size) {
     const RomSection *x = rom_section(m, "PORTX");
-    const uint32_t cols = strcmp(s->tag, "PORTB") == 0 ? m->input_width : m->k_v;
+    /* PORTC: over a^v, or over the whole state of a linear model with output rows (k_v + k_e) */
+    const uint32_t cols = strcmp(s->tag, "PORTB") == 0 ? m->input_width
+                          : m->k_v + ((m->flags & ROM_FLAG_OUTPUT_ROWS) ? m->k_rho : 0u);
     if (!x) return rom_fail(message, message_size, "resources: section '%s' without 'PORTX'", s->tag);
     if (s->rows != x->cols || s->cols != cols) {
         return rom_fail(message, message_size, "resources: section '%s' is %u x %u, expected %u x %u (ports x "
@@ -273,6 +275,12 @@ static const SectionRule SECTION_RULES[] = {
     {"SHPIECE", "error bounds: the planes' pieces per unit c and per unit d", rom_bound_check_section},
     {"SHPARAM", "error bounds: c_ref and the residual pieces' norms", rom_bound_check_section},
     {"SHCPL", "error bounds: the complement's planes (parametric)", rom_bound_check_section},
+    {"PCSCAL", "port channel: its sizes and scalars", rom_channel_check_section},
+    {"PCLAM", "port channel: each plane's block", rom_channel_check_section},
+    {"PCB", "port channel: each plane's input gains", rom_channel_check_section},
+    {"PCC", "port channel: the output rows over the planes", rom_channel_check_section},
+    {"PCD", "port channel: the static correction and the bound's gains", rom_channel_check_section},
+    {"PCPROBE", "port channel: the probes' weights and rho0", rom_channel_check_section},
     {NULL, NULL, NULL},        /* end of the table */
 };
 /* one rule per tag of the layout (harness/fmu/layout.py SECTIONS; tests/test_fmu_constants.py compares the tags) */
@@ -371,17 +379,19 @@ static RomStatus check_values(const RomModel *m, char *message, size_t message_s
     return check_row_sums(m, inputs, message, message_size);
 }
 
-/* the model's ports from its sections: all three sections or none */
+/* the model's ports from its sections: all three sections or none, PORTB none with the port channel (section
+ * PCSCAL: the channel takes every port force, the kind none) */
 static RomStatus ports_prepare(RomModel *m, char *message, size_t message_size) {
     const RomSection *x = rom_section(m, "PORTX"), *b = rom_section(m, "PORTB"), *c = rom_section(m, "PORTC");
     if (!x && !b && !c) return ROM_OK;
-    if (!x || !b || !c) {
+    if (!b && x && c && rom_section(m, "PCSCAL")) b = NULL;
+    else if (!x || !b || !c) {
         return rom_fail(message, message_size, "resources: the port sections PORTX, PORTB, PORTC come together "
                         "(%s missing)", !x ? "PORTX" : (!b ? "PORTB" : "PORTC"));
     }
     m->n_ports = x->cols;
     m->port_x = x->data;
-    m->port_B = b->data;
+    m->port_B = b ? b->data : NULL;
     m->port_C = c->data;
     return ROM_OK;
 }
@@ -555,6 +565,7 @@ RomStatus rom_model_load_memory(const void *data, size_t size, RomModel **out, c
     if (status == ROM_OK) status = read_sections(m, bytes, sections_start, n_sections, message, message_size);
     if (status == ROM_OK) status = check_values(m, message, message_size);     /* before any use of the values */
     if (status == ROM_OK) status = ports_prepare(m, message, message_size);
+    if (status == ROM_OK) status = rom_channel_prepare(m, message, message_size);
     if (status == ROM_OK && kind->sections_ready) status = kind->sections_ready(m, message, message_size);
     if (status == ROM_OK) status = rom_bound_prepare(m, message, message_size);
     if (status != ROM_OK) {
@@ -618,6 +629,7 @@ void rom_model_free(RomModel *model) {
     if (!model) return;
     if (model->ops && model->ops->model_free) model->ops->model_free(model);
     free(model->bound.storage_);
+    free(model->channel.storage_);
     free(model->sections_storage_);
     free(model);
 }

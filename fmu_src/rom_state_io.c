@@ -16,8 +16,8 @@ static const RomBlob STATE = {"serialized state", ROM_STATE_MAGIC, "an sphrom FM
 
 /* The state's values in the order they are serialized: a^v [k_v], a^rho [k_rho] (linear: a, b), the kind's
  * block (state_put: frozen n_freeze, dt, M^T (k_v rows of k_rho) and F [k_v]; linear the forced part X [k]), then
- * the time since the start (format 4: the start time t0) and the input rate.  The parameters a state carries follow
- * them (params_put, params_get). */
+ * the time since the start (format 4: the start time t0) and the input rate, the error bounds' shadow and the port
+ * channel.  The parameters a state carries follow them (params_put, params_get). */
 static unsigned char *blocks_put(const RomState *s, unsigned char *cursor) {
     const RomModel *m = s->model;
     cursor = rom_put_f64s(cursor, s->av, m->k_v);
@@ -25,7 +25,8 @@ static unsigned char *blocks_put(const RomState *s, unsigned char *cursor) {
     cursor = m->ops->state_put(s, cursor);
     const double times[2] = {s->elapsed, s->f_rate};
     cursor = rom_put_f64s(cursor, times, 2);
-    return rom_bound_state_put(s, cursor);             /* the error bounds' shadow (rom_bound.c) */
+    cursor = rom_bound_state_put(s, cursor);           /* the error bounds' shadow (rom_bound.c) */
+    return rom_channel_state_put(s, cursor);           /* the port channel (rom_port.c) */
 }
 
 static const unsigned char *blocks_get(RomState *s, const unsigned char *cursor, uint32_t version) {
@@ -37,7 +38,8 @@ static const unsigned char *blocks_get(RomState *s, const unsigned char *cursor,
     cursor = rom_get_f64s(cursor, times, 2);
     s->elapsed = version == ROM_STATE_VERSION ? times[0] : s->time - times[0];     /* format 4: t0 */
     s->f_rate = times[1];
-    return rom_bound_state_get(s, cursor);
+    cursor = rom_bound_state_get(s, cursor);
+    return rom_channel_state_get(s, cursor);
 }
 
 /* With ports, after the state's blocks: area, F_port[n_ports], port_driven (0 or 1; the slot was reserved and
@@ -88,9 +90,10 @@ static const unsigned char *params_get(RomState *s, const unsigned char *cursor)
     return cursor;
 }
 
-/* the blocks (blocks_put), in doubles */
+/* the blocks (blocks_put), in doubles: the last is the port channel's (rom_port.c; none without it) */
 static size_t kind_doubles(const RomModel *m) {
-    return (size_t)m->k_v + m->k_rho + m->ops->state_doubles(m) + 2 + rom_bound_state_doubles(m);
+    return (size_t)m->k_v + m->k_rho + m->ops->state_doubles(m) + 2 + rom_bound_state_doubles(m) +
+           rom_channel_state_doubles(m);
 }
 
 static size_t state_doubles(const RomModel *m) {
@@ -203,6 +206,9 @@ RomStatus rom_state_check(const RomModel *m, const unsigned char *buffer, size_t
     }
     const unsigned char *params = buffer + ROM_STATE_HEADER_SIZE + 8 * kind_doubles(m);
     if (check_params_in_state(m, params, message, message_size) != ROM_OK) return ROM_FAIL;
+    if (rom_channel_state_check(m, params - 8 * rom_channel_state_doubles(m), message, message_size) != ROM_OK) {
+        return ROM_FAIL;
+    }
     const unsigned char *cursor = buffer + ROM_STATE_HEADER_SIZE;
     for (size_t i = 0; i < state_doubles(m); i++, cursor += 8) {
         if (!isfinite(rom_get_f64(cursor))) {

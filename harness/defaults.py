@@ -19,3 +19,4 @@ FMU_INITIAL_STATE_SCALE = 0     # the FMU starts at rest: initial state = this x
 MAX_INITIAL_STATE_SCALE = 1e3
 FMU_INPUT = 0                   # the inputs f [m s^-2] and F_port_j [N] before the importer sets them
 FMU_AREA = 1                    # the cross-section A of an FMU with ports [m^2]
+FMU_PORT_IMPEDANCE = 0          # port_impedance [N s m^-1]: 0, the force form of the ports (F_port_j the inputs)

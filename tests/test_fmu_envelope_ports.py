@@ -9,6 +9,11 @@ run's ranges (section ENVPORT names them).  Once a port force has acted the stat
 training run never saw, by design: from then on only |f| and the failure strain are checked (the frozen
 model's port error is measured to hold there: docs/fmu/envelope.md); until then, and after a reset,
 a port FMU is checked as one without ports.
+
+These are the FMUs whose ports enter the basis: a scene whose damping varies along the bar, or the build option
+``port_channel=False`` (the fixture's).  With the port channel (every uniform-d scene's port FMU,
+sphrom.rom.port_channel) a port force never reaches the model's own state, and the envelope keeps guarding it
+(the last test).
 """
 
 import zipfile
@@ -35,12 +40,14 @@ H = 1e-3
 
 @pytest.fixture(scope="module")
 def port_fmu(tmp_path_factory):
-    """(path, data, scene): damped_forced's frozen port FMU as sphrom.bench.port_coupling measures it (k = 12,
+    """(path, data, scene): damped_forced's frozen port FMU with its ports in the basis (build option
+    port_channel=False, symplectic Euler: as sphrom.bench.port_coupling measured it before the port channel; k = 12,
     ports at x/L = 0.3 and 0.7, FMI 2)."""
     scene = load_scene("damped_forced")
     path = tmp_path_factory.mktemp("envelope-port-fmu") / "frozen-ports.fmu"
     package_fmu(scene, path, k=12, fmi=2, progress=False, binaries=ensure_binaries(), model="frozen", ports=PORTS,
-                error_bounds=False)              # the envelope is the error signal of an FMU without bounds
+                error_bounds=False,              # the envelope is the error signal of an FMU without bounds
+                integrator="symplectic", build_options={"port_channel": False})
     return path, unpack(zipfile.ZipFile(path).read("resources/model.bin")), scene
 
 
@@ -188,3 +195,24 @@ def test_a_bad_envport_section_is_refused_naming_it(port_fmu, value, message):
     bad.sections["ENVPORT"] = value
     with pytest.raises(CoreError, match=message.replace("(", r"\(").replace("+", r"\+")):
         Core(ensure_binaries().core).load(pack(bad))
+
+
+def test_with_the_port_channel_the_envelope_keeps_guarding_the_model(tmp_path):
+    """The port channel takes every port force (no PORTB, no ENVPORT): 20x the open-loop port forces (probe strains
+    beyond 0.04, exact in J in the channel: no linearisation there) do not warn, and after them 10x the initial
+    state still warns by a reduced coordinate (the model's own state never saw a port force: not port-driven)."""
+    scene = load_scene("damped_forced")
+    path = tmp_path / "channel.fmu"
+    package_fmu(scene, path, k=12, fmi=2, progress=False, binaries=ensure_binaries(), model="frozen", ports=PORTS,
+                error_bounds=False)
+    data = unpack(zipfile.ZipFile(path).read("resources/model.bin"))
+    assert "PCSCAL" in data.sections and "PORTB" not in data.sections and "ENVPORT" not in data.sections
+    warnings, strain, errors = run(path, scene, 0.5, lambda t: 20.0 * open_loop_forces(t)[0])
+    assert strain > E.FAILURE_STRAIN and warnings == [] and errors == []
+    with FMU(path) as s:
+        s.initialize(initial_state_scale=10)
+        for i in range(20):
+            s.set_real(F_PORT, [1e-3, -1e-3])
+            s.do_step(i * H, H)
+        found = [text for status, _, text in s.messages if status == 1 and ENVELOPE_TEXT in text]
+        assert len(found) == 1 and "reduced coordinate" in found[0], found

@@ -191,12 +191,14 @@ def test_bounds_port_spring(make):
     assert np.abs(F).max() > 0
     v, rho, v_port = truth(case, 1.0, f, ports=PORTS, port_forces=F)
     check(out, names, v, rho, v_port)
-    # not vacuous: with ports (N <= PORT_ALL_PLANES) the shadow keeps every plane, so the port bound is the port
-    # error up to round-off: here both at round-off, the bound below 1e-6 of the port velocity (on this small
-    # scene the criterion's planes did as well; on damped_forced, N = 100, they left a port bound of 2e-2 m/s
-    # over errors of 1e-8: `sphrom bench error_bounds_ports`)
+    # not vacuous: the port channel is exact for the port forces (its own bound at round-off, every plane the port
+    # excites kept), so the port bound is the model's error in its response to f and the initial state, whose
+    # complement the shadow certifies (the shadow has the port rows, no port input columns): printed, and a small
+    # fraction of the port velocity
     bound = columns(out, names, "v_port_j_error_bound")
-    assert bound.max() < 1e-6 * np.abs(v_port).max(), (bound.max(), np.abs(v_port).max())
+    error = np.abs(columns(out, names, "v_port_j") - v_port)
+    print(f"port bound {bound.max():.3g} m/s, port error {error.max():.3g} m/s, |v_port| {np.abs(v_port).max():.3g}")
+    assert bound.max() < 1e-2 * np.abs(v_port).max(), (bound.max(), np.abs(v_port).max())
 
 
 def test_the_fmu_bounds_are_the_python_shadow(make):

@@ -1,6 +1,7 @@
 """The frozen model's particle refresh (fmu_src/rom_frozen.c refresh_particles, sections PART*).
 
-Where the refresh tensor costs more than the particles (a port model's larger basis), packaging stores U^rho,
+Where the refresh tensor costs more than the particles (a large basis: here a port model with its ports in the
+basis, the build option ``port_channel=False``; the port channel leaves the model portless), packaging stores U^rho,
 G U^v and 1/ρ0 and the core refreshes M from them.  Checked: the choice (particles for a port model on a small
 scene, the tensor for k = 12 on N = 400); the FMU's core against the Python frozen model with
 ``refresh="direct"`` bit for bit; the particle path against the tensor path on the same model: other bits, the
@@ -23,6 +24,7 @@ from sphrom.scene import load_scene
 from sphrom.sph.solver import build_problem
 
 PORTS = (0.3, 0.7)
+BASIS_PORTS = {"port_channel": False}    # the ports in the basis (its large k: the particle refresh)
 
 
 @pytest.fixture(scope="module")
@@ -30,7 +32,7 @@ def port_model(tmp_path_factory):
     """(model.bin bytes, its ModelData) of the small forced scene's frozen FMU with two ports (k = 6)."""
     path = tmp_path_factory.mktemp("particles") / "ports.fmu"
     package_fmu(fmu_scene("forced"), path, k=6, progress=False, ports=list(PORTS), bounds=False,
-                error_bounds=False)
+                error_bounds=False, build_options=BASIS_PORTS)
     blob = zipfile.ZipFile(path).read("resources/model.bin")
     return blob, unpack(blob)
 
@@ -71,7 +73,7 @@ def test_particles_against_the_tensor_path(port_model):
     from sphrom import defaults
     blob, data = port_model
     with_tensor, *_ = reduced_model(fmu_scene("forced"), 6, data.n_freeze, defaults.PROBES, data.integrator,
-                                    progress=False, ports=PORTS, tensor="always")
+                                    progress=False, ports=PORTS, tensor="always", build_options=BASIS_PORTS)
     assert with_tensor.T is not None and "PARTUR" not in with_tensor.sections
     core = Core(ensure_binaries().core)
     runs = {}
@@ -134,7 +136,7 @@ def test_the_python_models_paths_agree():
     scene = fmu_scene("forced")
     problem = build_problem(scene)
     data, ops, problem, _ = reduced_model(scene, 6, 10, [0.5], "euler", progress=False, problem=problem,
-                                          ports=PORTS, tensor="always")
+                                          ports=PORTS, tensor="always", build_options=BASIS_PORTS)
     spec = get_model("frozen")
     z = {r: spec.run(ops, problem, dt=scene.sph.dt, n_steps=2000, every=100,
                      options=spec.options(refresh=r)).z for r in ("direct", "tensor")}

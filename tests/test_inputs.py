@@ -170,8 +170,10 @@ def test_static_directions_solve_the_static_problem():
 def test_balanced_model_with_ports(tmp_path):
     """The balanced model takes the port forces as inputs and gives the port velocities as outputs: tenmode
     (N = 48) with a port at 0.5 from rest under a constant 1e-3 N, v_port within 2e-2 of the linear SPH at the
-    default order tolerance; its FMU (FMI 2) equals the Python model (the same
-    propagators) to 1e-12 with the port forces held over each step."""
+    default order tolerance; its FMU (FMI 2, the ports balanced: build option port_channel=False) equals the Python
+    model (the same propagators) to 1e-12 with the port forces held over each step.  The FMU as packaged by default
+    (the balanced model for f and the port channel for the port forces) from rest is the channel's response to
+    1e-12 (sphrom.rom.port_channel.run_channel)."""
     from sphrom.fmu.make.build import ensure_binaries
     from sphrom.fmu.make.package import package_fmu
     from sphrom.fmu.run.driver import FMU
@@ -191,7 +193,7 @@ def test_balanced_model_with_ports(tmp_path):
     fscene = small_scene("damped_forced", T=0.5, n=32)
     path = tmp_path / "balanced-ports.fmu"
     package_fmu(fscene, path, k=12, fmi=2, progress=False, binaries=ensure_binaries(), model="balanced",
-                ports=(0.3, 0.7), bounds=False)
+                ports=(0.3, 0.7), bounds=False, build_options={"port_channel": False})
     fproblem = build_problem(fscene)
     fops = spec.build(fproblem, None, 12, 12, ports=(0.3, 0.7))
     cut = spec.truncate(fproblem, spec.build(fproblem, None, 20, 20, ports=(0.3, 0.7)), 12, 12)   # the same model
@@ -211,6 +213,21 @@ def test_balanced_model_with_ports(tmp_path):
     out = np.array(out)
     assert np.ptp(out) > 0
     assert np.abs(out - expected).max() <= 1e-12 * np.abs(expected).max()
+    from sphrom.rom.port_channel import build_channel, probe_outputs, run_channel
+    package_fmu(fscene, path, k=12, fmi=2, progress=False, binaries=ensure_binaries(), model="balanced",
+                ports=(0.3, 0.7), bounds=False)
+    channel = build_channel(fproblem, (0.3, 0.7), (0.25, 0.5, 0.66))
+    t = np.arange(steps + 1) * H
+    expected = probe_outputs(channel, run_channel(channel, t, slow_port_forces))[2]
+    out = []
+    with FMU(path) as s:
+        s.initialize(initial_state_scale=0)
+        out.append(s.get_real([vr("v_port_j", 1), vr("v_port_j", 2)]))
+        for n in range(steps):
+            s.set_real([vr("F_port_j", 1), vr("F_port_j", 2)], list(slow_port_forces(n * H)[0]))
+            s.do_step(n * H, H)
+            out.append(s.get_real([vr("v_port_j", 1), vr("v_port_j", 2)]))
+    assert np.abs(np.array(out) - expected).max() <= 1e-12 * np.abs(expected).max()
 
 
 @pytest.mark.parametrize("base, d", [("tenmode", 0.0), ("damped_forced", None)])
@@ -259,17 +276,21 @@ def test_dominant_modes_hold_the_step_response(base, d):
 
 
 def test_a_port_fmu_steps_with_symplectic_euler_unless_told():
-    """A time-stepped FMU with ports takes symplectic Euler by default (explicit Euler grows an undamped bar's
-    ringing modes: the full SPH itself with explicit Euler drifts from the linear SPH exact in time, with
-    symplectic Euler it does not: asserted below a fifth of explicit Euler's drift, both printed on
-    failure); without ports the scene's integrator; a given
-    --integrator is kept; a linear model has none."""
+    """A time-stepped FMU whose ports enter its basis (a damping that varies along the bar: no port channel) takes
+    symplectic Euler by default (explicit Euler grows an undamped bar's ringing modes: the full SPH itself with
+    explicit Euler drifts from the linear SPH exact in time, with symplectic Euler it does not: asserted below a
+    fifth of explicit Euler's drift, both printed on failure); with the port channel (a uniform d) the model never
+    sees a port force and keeps the scene's integrator, as without ports; a given --integrator is kept; a linear
+    model has none."""
     from sphrom.fmu.make.options import check_options, default_integrator
     from sphrom.sph.ports import run_sph_ports
     scene = small_scene("tenmode", T=4.0, n=64, dt=2e-3)         # a long step: explicit Euler's growth shows
     assert scene.sph.integrator == "euler"
-    assert default_integrator(scene, (0.5,)) == "symplectic" and default_integrator(scene) == "euler"
-    assert check_options(scene, k=8, ports=(0.5,))[4] == "symplectic"
+    varied = small_scene("tenmode", T=4.0, n=64, dt=2e-3, d="0.5 + 0.5*sin(2*pi*x/L)")
+    assert default_integrator(varied, (0.5,)) == "symplectic" and default_integrator(varied) == "euler"
+    assert check_options(varied, k=8, ports=(0.5,))[4] == "symplectic"
+    assert default_integrator(scene, (0.5,)) == "euler" and default_integrator(scene) == "euler"
+    assert check_options(scene, k=8, ports=(0.5,))[4] == "euler"
     assert check_options(scene, k=8)[4] == "euler"
     assert check_options(scene, k=8, ports=(0.5,), integrator="euler")[4] == "euler"
     assert check_options(scene, k=8, ports=(0.5,), model="exact")[4] not in ("euler", "symplectic")

@@ -39,7 +39,7 @@ CONTRACT = {"time": 0, "f": 1, "n_freeze": 2, "dt": 3, "initial_state_scale": 4,
             "force_error_bound": 8, "initial_state_error_bound": 9, "v_probe_j": 1000, "rho_probe_j": 2000,
             "F_port_j": 3000, "v_port_j": 4000, "force_error_bound_j": 5000, "initial_state_error_bound_j": 6000,
             "error_tolerance": 10, "v_probe_j_error_bound": 7000, "rho_probe_j_error_bound": 8000,
-            "v_port_j_error_bound": 9000}
+            "v_port_j_error_bound": 9000, "port_impedance": 11, "a_port_j": 3100, "b_port_j": 4100}
 
 
 def test_generated_files_are_current():

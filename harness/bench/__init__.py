@@ -84,6 +84,15 @@ PROGRAMS = {
     "port_coupling": Program("sphrom.bench.port_coupling", "a port FMU against the full SPH with the same point "
                              "forces, open loop and coupled to a mass-spring", "measured: see the report",
                              "port_coupling.csv"),
+    "port_cost": Program("sphrom.bench.port_cost", "the cost per communication step of the FMUs with and without "
+                         "ports (the port channel, and the ports in the basis as before) and against k, by a native "
+                         "FMI 2 master, with the multiply-adds beside", "measured: see the report",
+                         "port_cost.csv; a BENCHMARKS.md section with --report"),
+    "port_loop": Program("sphrom.bench.port_loop", "ports in a system simulator's sampled loop: Jacobi, "
+                         "Gauss-Seidel and the wave form around the full SPH, the frozen and the exact port FMU, "
+                         "against the monolithic coupled system; the coupled energy at steps up to 50 ms",
+                         "measured: see the report", "port_loop.csv, port_loop_passivity.csv; a BENCHMARKS.md "
+                         "section with --report"),
     "port_envelope": Program("sphrom.bench.port_envelope", "the port FMU's accuracy against the port-force "
                              "amplitude", "measured: see the report", "port_envelope.csv"),
     "inputs": Program("sphrom.bench.inputs", "every input channel at every frequency: ports under slow "

@@ -138,6 +138,8 @@ FLAGS = {
     "input": (2, "an input: frozen row p, linear column B present"),
     "schur": (4, "linear only: the real Schur form Q, S of a skew A present (never with damping)"),
     "output_rows": (8, "linear only: the probe rows Pv, Pe act on the whole state z (the balanced model: k_e = 0)"),
+    "blocks": (16, "linear only: A is block diagonal, the model in its real eigen-coordinates (1 x 1 blocks and 2 x 2 "
+                   "blocks [[a, w], [-w, a]], A[i+1][i] != 0 starting one; with output_rows, never with schur)"),
 }
 
 
@@ -211,7 +213,7 @@ KINDS = (
          Array("pw", ("n_probes", 2), None, "the interpolation weights of the two particles"),
          Array("prho0", ("n_probes", 2), None, "rho0 at the two particles [kg m^-3]"),
          Array("probe_x", ("n_probes",), None, "the probe positions x/L in [0, 1]")),
-        ("damping", "input", "schur", "output_rows"),
+        ("damping", "input", "schur", "output_rows", "blocks"),
         (("X", "k", "the forced part of z (the whole z without the Schur form)"),),
         "rho_j = sum_m pw[j][m] prho0[j][m] / (1 + e_m); a file without output_rows is read as rows over z that are "
         "zero over the block they skip"),
@@ -327,11 +329,11 @@ SECTIONS: dict[str, Section] = {
     "A0": Section("linear model: the part of A without c or d", kind="linear"),
     "AC": Section("linear model: the part of A per unit c", kind="linear"),
     "AD": Section("linear model: the part of A per unit d", kind="linear"),
-    # mechanical ports (sphrom.sph.ports), all three or none
+    # mechanical ports (sphrom.sph.ports), all three or none (PORTB none with the port channel, sections PC*)
     "PORTX": Section("port positions x/L (1 x P)",
                      values=(Range("0:", "a port position x/L", low=0.0, high=1.0, high_open=True),)),
-    "PORTB": Section("port input rows at area 1 (P x k_v frozen, P x k linear)"),
-    "PORTC": Section("port velocity rows (P x k_v)"),
+    "PORTB": Section("port input rows at area 1 (P x k_v frozen, P x k linear); absent with the port channel"),
+    "PORTC": Section("port velocity rows (P x k_v; P x k over the whole state with output_rows)"),
     # the certified error bounds' shadow (harness/rom/bounds.py sections, fmu_src/rom_bound.c), all or none
     "SHSCAL": Section("error bounds: the shadow's sizes and scalars",
                       columns=("order", "planes", "inputs", "rows", "nodes", "groups", "h_tab", "q_tab", "x0_norm",
@@ -366,6 +368,18 @@ SECTIONS: dict[str, Section] = {
                                Range(("e_const_v", "e_const_e", "e_c_v", "e_c_e", "e_d_v", "e_d_e"),
                                      "a residual piece's norm", low=0.0))),
     "SHCPL": Section("error bounds: the complement's planes (parametric)"),
+    # the port channel (harness/rom/port_channel.py, fmu_src/rom_port.c), all or none; with it no PORTB
+    "PCSCAL": Section("port channel: its sizes and scalars", columns=("planes", "ports", "rows", "truncated", "dx")),
+    "PCLAM": Section("port channel: each plane's 2 x 2 block [[-d, s], [-s, 0]] (planes x 4)"),
+    "PCB": Section("port channel: each plane's input gains per unit F_j / area (planes x P)"),
+    "PCC": Section("port channel: the output rows over the planes (3 n_probes + P rows: v probes, e at their "
+                   "particles, v ports)"),
+    "PCD": Section("port channel: per row the truncated planes' static correction, then their bound's gains "
+                   "(rows x 2P)"),
+    "PCPROBE": Section("port channel: the probes' weights and rho0", columns=("pw0", "pw1", "rho0_0", "rho0_1"),
+                       values=(Range(("pw0", "pw1"), "an interpolation weight", low=0.0, high=1.0),
+                               Range(("rho0_0", "rho0_1"), "rho0 [kg m^-3]", low=0.0, low_open=True),
+                               RowSum(("pw0", "pw1"), "the probe's two weights"))),
 }
 # bits of ENVELOPE's column checks: the run-time checks of the training envelope (fmu_src/rom_envelope.c)
 ENVELOPE_CHECKS = {"coordinates": 1, "force": 2, "strain": 4, "failure": 8}
@@ -497,6 +511,9 @@ STATE_BLOCKS = (
     ("f_rate", "1", "df/dt over a step [m s^-3] (0: held)"),
     ("bounds", "with the error bounds (sections SH*)", "the shadow w[k_s], the inputs' weighted variations V[m groups] "
      "and last values u[m], the integral of |w|, the step count, started (0 or 1) (rom_bound.c)"),
+    ("channel", "with the port channel (sections PC*)", "its planes p[n], q[n], the inputs' variation tv[P] and "
+     "last values u[P], the step count, port_impedance [N s m^-1], a_port[P] [N], b_port[P] [N], the force held "
+     "over the last step of the wave form[P] [N] (rom_port.c)"),
     ("initial_state_scale", "1", "the parameter"),
     ("c", "1", "the parameter c [kg m^-1 s^-2] (0 without section PARAMS)"),
     ("d", "1", "the parameter d [s^-1] (0 without section PARAMS)"),

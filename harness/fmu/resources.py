@@ -30,8 +30,8 @@ FORMAT_VERSION = layout.FORMAT_VERSION
 MODEL_FROZEN = layout.KIND_BY_NAME["frozen"].number
 MODEL_EXACT_LINEAR = layout.KIND_BY_NAME["linear"].number
 INTEGRATORS = dict(layout.INTEGRATORS)
-FLAG_DAMPING, FLAG_INPUT, FLAG_SCHUR, FLAG_OUTPUT_ROWS = (layout.FLAGS[n][0] for n in
-                                                           ("damping", "input", "schur", "output_rows"))
+FLAG_DAMPING, FLAG_INPUT, FLAG_SCHUR, FLAG_OUTPUT_ROWS, FLAG_BLOCKS = (
+    layout.FLAGS[n][0] for n in ("damping", "input", "schur", "output_rows", "blocks"))
 LINEAR_EXACT_POD, LINEAR_BALANCED = layout.LINEAR_MODELS["exact_pod"], layout.LINEAR_MODELS["balanced"]
 TOKEN_SIZE = layout.TOKEN_SIZE
 SECTION_TAG_SIZE = layout.SECTION_TAG_SIZE
@@ -53,9 +53,15 @@ def __getattr__(name):
 
 
 def port_sections(ops):
-    """The tagged sections of a model with ports (PORTX, PORTB, PORTC; module docstring), {} without."""
+    """The tagged sections of a model with ports (PORTX, PORTB, PORTC; module docstring), {} without; with the port
+    channel (``ops.channel``, :mod:`sphrom.rom.port_channel`) PORTX, PORTC (the model's own part of v_port) and the
+    channel's sections PC*, no PORTB (the channel takes every port force)."""
     if not ops.ports:
         return {}
+    if ops.channel is not None:
+        from ..rom.port_channel import sections
+        return {"PORTX": np.asarray(ops.ports, float)[None, :], "PORTC": np.asarray(ops.Cp, float),
+                **sections(ops.channel)}
     return {"PORTX": np.asarray(ops.ports, float)[None, :], "PORTB": np.asarray(ops.Bp, float),
             "PORTC": np.asarray(ops.Cp, float)}
 

@@ -63,6 +63,7 @@ UNITS = {
     "m/s*s^0.5": (None, "m s⁻¹ s^½"),          # m s^-1 s^(1/2): no BaseUnit, whose exponents are integers
     "N": ({"kg": 1, "m": 1, "s": -2}, "N"),
     "m2": ({"m": 2}, "m²"),
+    "N.s/m": ({"kg": 1, "s": -1}, "N s m⁻¹"),
 }
 
 # declared types (units reach the variables through them, as in the Reference-FMUs): name -> (quantity, unit)
@@ -78,6 +79,7 @@ TYPES = {
     "InitialStateErrorBound": ("InitialStateErrorBound", "m/s*s^0.5"),
     "Force": ("Force", "N"),
     "Area": ("Area", "m2"),
+    "Impedance": ("MechanicalImpedance", "N.s/m"),
 }
 
 # presence rules: name -> (test on the FMU's facts, words).  instance.c holds the C side of each, rule_<name>
@@ -93,6 +95,7 @@ RULES = {
     "shadow": (lambda f: "SHSCAL" in f.sections, "FMUs with certified error bounds (N <= 200000; 1500 where d varies)"),
     "shadow_ports": (lambda f: "SHSCAL" in f.sections and bool(f.positions.get("port")),
                      "with certified error bounds and --ports"),
+    "channel": (lambda f: "PCSCAL" in f.sections, "with --ports and the port channel (a uniform damping d)"),
 }
 
 # families: name -> (what j counts, the C count)
@@ -237,6 +240,24 @@ VARIABLES = (
              "[m s^-1]",
              "sum_i W(x_i - x_j, h) v_i dx, power-conjugate to F_port_j",
              family="port", get="rom_v_port"),
+    Variable("port_impedance", 11, "Float64", "parameter", "fixed", "exact", "channel", "Impedance",
+             "the wave (transmission-line) form of the ports: 0, the force form (inputs F_port_j); Z > 0, the inputs "
+             "are the incident waves a_port_j and each port's force over a step is held at F = 2 a - Z vbar (vbar "
+             "its mean velocity over the step), the reflected wave b_port_j = a - F, which a master passes on as the "
+             "incident wave of the component at the line's other end one step later: passive at any communication "
+             "step (docs/fmu/coupling.md) [N s m^-1]",
+             "0: the force form; Z > 0: the wave form (inputs a_port_j, outputs b_port_j), passive at any step",
+             get="get_port_impedance", set="set_port_impedance", start=defaults.FMU_PORT_IMPEDANCE, min=0),
+    Variable("a_port_{j}", 3100, "Float64", "input", "continuous", "", "channel", "Force",
+             "incident force wave at port {j}, x/L = {x}, held over each communication step; used when "
+             "port_impedance > 0 (the wave form), F_port_{j} otherwise [N]",
+             "incident force wave at port j (the wave form, port_impedance > 0)",
+             family="port", get="rom_port_wave", set="rom_set_port_wave", start=defaults.FMU_INPUT),
+    Variable("b_port_{j}", 4100, "Float64", "output", "continuous", "calculated", "channel", "Force",
+             "reflected force wave at port {j}, x/L = {x}, over the last step: a_port_{j} - F, F the force held on "
+             "the bar (the wave form; 0 in the force form) [N]",
+             "reflected force wave at port j over the last step (the wave form)",
+             family="port", get="rom_port_reflected"),
     Variable("error_tolerance", 10, "Float64", "parameter", "fixed", "exact", "shadow", "Velocity",
              "a logStatusWarning (once) when the certified error bound of a velocity output (v_probe_j, v_port_j) "
              "first exceeds this; 0: no warning (default: 5 % of the training run's largest |v_probe|) [m s^-1]",

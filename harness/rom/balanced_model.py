@@ -103,6 +103,7 @@ class BalancedOperators(Operators):
     Cp: np.ndarray | None = None             # (P, r): v_port_j = Cp[j] x_r
     port_errors: tuple = ()
     lti_ports: LTI | None = None             # the LTI balanced: lti with the port columns and rows appended
+    channel: object = None                   # the port channel (sphrom.rom.port_channel.attach)
 
     @property
     def has_force_input(self):
@@ -149,6 +150,13 @@ class BalancedOperators(Operators):
             raise ValueError(f"probes: {list(probes)} (allowed: {list(self.lti.probes)}, the probes the model was "
                              "balanced for)")
         return error_bounds(self.lti, self.reduced, outputs="v", progress=progress)
+
+    def port_velocity_rows(self, problem, ports):
+        """Rows (P, r): v_port at ``ports`` (x/L) = rows @ x_r: the balanced port rows where the model was balanced
+        for them (``Cp``), else through the reconstruction V (as :meth:`velocity`)."""
+        if self.Cp is not None and tuple(float(x) for x in ports) == tuple(self.ports):
+            return self.Cp
+        return port_velocity_rows(problem, ports) @ (self.reduced.V[:self.lti.n] / self.lti.w_v[:, None])
 
     def velocity_probe_rows(self, problem, probes):
         """Rows (P, r): v at ``probes`` (x/L) = rows @ x_r, through the reconstruction V (as :meth:`velocity`)."""
@@ -217,7 +225,7 @@ def measured_errors(ops: BalancedOperators, T, force, samples=MEASURE_SAMPLES):
     return h, measured, gain
 
 
-def _operators(lti, bal, reduced, rho0, t_setup, ports=(), lti_ports=None):
+def _operators(lti, bal, reduced, rho0, t_setup, ports=(), lti_ports=None, port_outputs=()):
     t0 = time.perf_counter()
     Q = T = None
     if reduced.skew:
@@ -231,22 +239,31 @@ def _operators(lti, bal, reduced, rho0, t_setup, ports=(), lti_ports=None):
                      Cp=np.ascontiguousarray(reduced.Cr[n_out:]), port_errors=tuple(0.0 for _ in ports),
                      lti_ports=lti_ports)
         reduced = dataclasses.replace(reduced, Br=reduced.Br[:, :2], Cr=reduced.Cr[:n_out])
+    elif port_outputs:              # the port velocity rows only: the port channel takes the port forces
+        n_out = lti.C.shape[0]
+        extra = dict(ports=tuple(float(x) for x in port_outputs), Bp=None, Cp=np.ascontiguousarray(reduced.Cr[n_out:]),
+                     lti_ports=lti_ports)
+        reduced = dataclasses.replace(reduced, Cr=reduced.Cr[:n_out])
     return BalancedOperators(reduced=reduced, lti=lti, bal=bal, A=reduced.Ar, B=reduced.Br[:, 0].copy(),
                              z0=reduced.x0.copy(), skew=reduced.skew, schur_Q=Q, schur_T=T, rho0=rho0,
                              timings=timings, **extra)
 
 
-def with_ports(lti, problem, ports):
+def with_ports(lti, problem, ports, inputs=True):
     """``lti`` with one input column per port force (energy coordinates, area 1: √ρ0 · W(x - x_j, h)/ρ0 per N) and
     one output row per port velocity (v_port_j = Σ_i W(x_i - x_j, h) Δx v_i, v = x_v / √ρ0) appended: the port
-    forces are balanced as inputs and the port velocities as outputs (:mod:`sphrom.sph.ports`)."""
+    forces are balanced as inputs and the port velocities as outputs (:mod:`sphrom.sph.ports`); ``inputs`` False:
+    the rows only (the port channel takes the port forces, :mod:`sphrom.rom.port_channel`)."""
     n = lti.n
-    cols = np.column_stack([np.concatenate([w / lti.w_v, np.zeros(n)]) for w in port_kernel(problem, ports)])
     rows = np.hstack([port_velocity_rows(problem, ports) / lti.w_v[None, :], np.zeros((len(ports), n))])
+    if not inputs:
+        return dataclasses.replace(lti, C=np.vstack([lti.C, rows]))
+    cols = np.column_stack([np.concatenate([w / lti.w_v, np.zeros(n)]) for w in port_kernel(problem, ports)])
     return dataclasses.replace(lti, B=np.column_stack([lti.B, cols]), C=np.vstack([lti.C, rows]))
 
 
-def build(problem, basis, k_v, k_rho, *, order_tolerance=None, method="auto", probes=DEFAULT_PROBES, ports=()):
+def build(problem, basis, k_v, k_rho, *, order_tolerance=None, method="auto", probes=DEFAULT_PROBES, ports=(),
+          port_outputs=()):
     """Balance the full linear SPH of ``problem`` and keep order r (the model's builder, :mod:`sphrom.rom.model`).
 
     Parameters
@@ -265,6 +282,9 @@ def build(problem, basis, k_v, k_rho, *, order_tolerance=None, method="auto", pr
     ports : sequence of float
         Port positions x/L: the port forces are inputs and the port velocities outputs of the balanced system
         (:func:`with_ports`), so the reduction keeps what passes from each port force to each port velocity.
+    port_outputs : sequence of float
+        Port positions x/L whose velocities are outputs of the balanced system, without their forces as inputs
+        (an FMU whose port channel takes the port forces: ``Cp`` the model's own part of v_port, ``Bp`` None).
 
     Raises ValueError naming ``order`` or ``order_tolerance`` when out of range.
     """
@@ -275,6 +295,8 @@ def build(problem, basis, k_v, k_rho, *, order_tolerance=None, method="auto", pr
     if order_tolerance is None and k_v is not None and not 1 <= int(k_v) < lti.order:
         raise ValueError(f"order: {k_v} is out of range (allowed: 1 to {lti.order - 1}, below 2N)")
     balanced = with_ports(lti, problem, ports) if len(ports) else lti
+    if len(port_outputs) and not len(ports):
+        balanced = with_ports(lti, problem, port_outputs, inputs=False)
     t_setup = time.perf_counter() - t0
     bal = balancing(balanced, method=method)      # every input column per its unit (m s^-2 of f, N of F_port_j)
     if order_tolerance is not None or k_v is None:
@@ -282,7 +304,7 @@ def build(problem, basis, k_v, k_rho, *, order_tolerance=None, method="auto", pr
     else:
         r = int(k_v)
     return _operators(lti, bal, truncate_balanced(balanced, bal, r), problem.rho0, t_setup, ports,
-                      balanced if len(ports) else None)
+                      balanced if len(ports) or len(port_outputs) else None, port_outputs=port_outputs)
 
 
 def truncate(problem, ops: BalancedOperators, k_v, k_rho):
@@ -290,8 +312,9 @@ def truncate(problem, ops: BalancedOperators, k_v, k_rho):
     if not 1 <= k_v <= ops.order:
         raise ValueError(f"order: {k_v} is out of range (allowed: 1 to {ops.order})")
     balanced = ops.lti_ports if ops.ports else ops.lti
-    return _operators(ops.lti, ops.bal, truncate_balanced(balanced, ops.bal, k_v), ops.rho0, 0.0, ops.ports,
-                      ops.lti_ports)
+    inputs = ops.Bp is not None                      # the port forces were balanced inputs (no port channel)
+    return _operators(ops.lti, ops.bal, truncate_balanced(balanced, ops.bal, k_v), ops.rho0, 0.0,
+                      ops.ports if inputs else (), ops.lti_ports, port_outputs=() if inputs else ops.ports)
 
 
 def run(ops: BalancedOperators, problem, *, dt, n_steps, sample_steps, every, force, state, initial_state_scale,

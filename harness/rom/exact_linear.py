@@ -118,6 +118,7 @@ class LinearOperators(Operators):
     port_added_2: int = 0
     input_added: int = 0
     input_added_2: int = 0
+    channel: object = None          # the port channel (sphrom.rom.port_channel.attach): Bp None, Cp its own part
 
     @property
     def k_v(self):

@@ -39,6 +39,7 @@ import dataclasses
 import time
 
 import numpy as np
+import scipy.linalg as sla
 import scipy.sparse as sp
 
 from .lti import LTI
@@ -359,3 +360,91 @@ def free_outputs(ms: ModalSystem, rows, t, chunk=256):
         state = np.einsum("mnab,nb->mna", E, x)
         out[i:i + chunk] = np.einsum("mna,nar->mr", state, c).real
     return out
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# a reduced linear model in its real eigen-coordinates (the linear FMUs' block-diagonal form)
+# ---------------------------------------------------------------------------------------------------------------
+
+BLOCK_CONDITION = 1e6       # κ(V) of the eigenvector transform above this: the dense form is kept
+BLOCK_RESIDUAL = 1e-10      # ‖A V - V Λ‖ / ‖A‖ above this: the dense form is kept (a defective or unstable solve)
+
+
+@dataclasses.dataclass
+class RealBlocks:
+    """A = V Λ V⁻¹ with Λ block diagonal in real coordinates: 1 x 1 blocks (real eigenvalues) and 2 x 2 blocks
+    [[α, ω], [-ω, α]] (a pair α ± iω, ω > 0; Λ[i + 1, i] = -ω != 0 starts one), V's columns of unit norm.
+
+    Attributes
+    ----------
+    L, V, V_inv : ndarray (k, k)
+    condition : float
+        κ₂(V) (1 for a normal A: its real Schur form is block diagonal and V orthogonal).
+    residual : float
+        ‖A V - V Λ‖₂ / ‖A‖₂.
+    sizes : ndarray of int
+        The blocks' sizes in order.
+    """
+
+    L: np.ndarray
+    V: np.ndarray
+    V_inv: np.ndarray
+    condition: float
+    residual: float
+    sizes: np.ndarray
+
+    @property
+    def usable(self):
+        """The transform is well enough conditioned to step the model in it (:data:`BLOCK_CONDITION`)."""
+        return bool(self.condition <= BLOCK_CONDITION and self.residual <= BLOCK_RESIDUAL)
+
+
+def real_blocks(A, skew=None):
+    """The :class:`RealBlocks` of a real square A: from the real Schur form where A is normal (a skew A: the undamped
+    Galerkin models; V = Q orthogonal), else from its eigenvectors (a conjugate pair's v = v_r + i v_i gives the
+    columns v_r, v_i: A [v_r, v_i] = [v_r, v_i] [[α, ω], [-ω, α]]), pairs and real eigenvalues ordered by |λ|."""
+    A = np.asarray(A, float)
+    k = A.shape[0]
+    norm = max(float(np.linalg.norm(A, 2)), 1e-300)
+    skew = bool(np.abs(A + A.T).max() <= 1e-14 * norm) if skew is None else skew
+    if skew:
+        T, Q = sla.schur(A, output="real")
+        L = np.zeros_like(T)
+        sizes, i = [], 0
+        while i < k:
+            b = 2 if i + 1 < k and abs(T[i + 1, i]) > 1e-14 * norm else 1
+            if b == 2:                                  # exactly [[0, ω], [-ω, 0]] (a 1 x 1 block: exactly 0)
+                w = 0.5 * (T[i, i + 1] - T[i + 1, i])
+                L[i:i + 2, i:i + 2] = [[0.0, w], [-w, 0.0]]
+            sizes.append(b)
+            i += b
+        V, V_inv = Q, Q.T
+    else:
+        lam, vec = np.linalg.eig(A)
+        order = np.lexsort((-lam.imag, np.abs(lam)))
+        cols, blocks, sizes, used = [], [], [], np.zeros(k, bool)
+        for i in order:
+            if used[i]:
+                continue
+            used[i] = True
+            if abs(lam[i].imag) <= 1e-12 * norm:
+                v = np.real(vec[:, i])
+                cols.append(v / np.linalg.norm(v))
+                blocks.append(np.array([[lam[i].real]]))
+                sizes.append(1)
+                continue
+            j = next(j for j in order if not used[j] and abs(lam[j] - np.conj(lam[i])) <= 1e-9 * max(abs(lam[i]), 1))
+            used[j] = True
+            z = vec[:, i] if lam[i].imag > 0 else vec[:, j]
+            a, w = float(lam[i].real), abs(float(lam[i].imag))
+            vr, vi = np.real(z), np.imag(z)
+            s = max(np.linalg.norm(vr), np.linalg.norm(vi))
+            cols += [vr / s, vi / s]
+            blocks.append(np.array([[a, w], [-w, a]]))
+            sizes.append(2)
+        V = np.column_stack(cols)
+        L = sla.block_diag(*blocks)
+        V_inv = np.linalg.inv(V)
+    condition = float(np.linalg.cond(V))
+    residual = float(np.linalg.norm(A @ V - V @ L, 2) / norm)
+    return RealBlocks(L=L, V=V, V_inv=V_inv, condition=condition, residual=residual, sizes=np.array(sizes, np.int64))

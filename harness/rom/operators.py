@@ -139,6 +139,7 @@ class ReducedOperators(Operators):
     input_added_2: int = 0
     inner: str = "euclid"
     rest_added: int = 0
+    channel: object = None          # the port channel (sphrom.rom.port_channel.attach): Bp None, Cp its own part
 
     @property
     def has_force_input(self):

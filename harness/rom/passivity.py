@@ -277,12 +277,31 @@ class PortPassivity:
                 "energy than it took")
 
 
+def channel_port_system(channel):
+    """The :class:`PortSystem` of a port channel (:class:`sphrom.rom.port_channel.PortChannel`): its planes
+    (p_i, q_i) in order, A = blockdiag(Λ_i), B = [β_i; 0] per plane, C the port rows over p.  Collocated by
+    construction (C = Δx Bᵀ) and dissipative (Λ_i + Λ_iᵀ = diag(-2d, 0)): the full linear SPH's port map on the
+    planes it keeps."""
+    n, P = channel.planes, channel.n_ports
+    A = sla.block_diag(*channel.lam) if n else np.zeros((0, 0))
+    B = np.zeros((2 * n, P))
+    B[0::2] = channel.beta
+    C = np.zeros((P, 2 * n))
+    C[:, 0::2] = channel.rows[3 * channel.n_probes:]
+    return PortSystem(A=A, B=B, C=C)
+
+
 def port_passivity(ops, linear):
-    """:class:`PortPassivity` of a model with ports: the linear models' :func:`port_system` with the storage
+    """:class:`PortPassivity` of a model with ports: the port channel's (:func:`channel_port_system`: the port map
+    of every model with the channel, whatever the model) or the linear models' :func:`port_system` with the storage
     Q = α I (:func:`storage_certificate`), the frozen model linearised at rest (:func:`frozen_port_system`) with
     the block storage (:func:`block_storage_certificate`); when the storage's residuals are not at round-off,
     the frequency-grid margin (:func:`positive_real_margin`)."""
-    if linear:
+    if getattr(ops, "channel", None) is not None:
+        system = channel_port_system(ops.channel)
+        alpha, coll, diss = storage_certificate(system)
+        storage = (alpha, 1.0, coll, diss)
+    elif linear:
         system = port_system(ops)
         alpha, coll, diss = storage_certificate(system)
         storage = (alpha, 1.0, coll, diss)

@@ -45,6 +45,12 @@ model, they describe its state the same way:
 ``ports``, ``port_errors``, ``Bp``, ``Cp``
     Mechanical port positions x/L (empty without ports), each port profile's projection error, the port input
     rows and the port velocity rows (None without ports; :mod:`sphrom.sph.ports`).
+``channel``
+    The port channel (:class:`sphrom.rom.port_channel.PortChannel`) that takes every port force of an FMU's model
+    (``Bp`` then None: the model's own coordinates see no port force; ``Cp`` their part of v_port), or None.
+``port_velocity_rows(problem, ports)``
+    Rows (P, size of the velocity coordinates) giving the velocity of ports at ``ports`` (x/L) from the velocity
+    coordinates (:func:`sphrom.sph.ports.port_velocity_rows` of the model's velocity fields).
 ``input_error``, ``augmented``, ``timings``
     The force profile's relative projection error on the velocity modes before any was appended (nan without
     a force or a basis), whether it was appended, and the offline times [s] (``operators`` at least).
@@ -75,6 +81,7 @@ class Operators:
     port_errors = ()
     Bp = None                   # port input rows (P, ...) at area 1, None without ports
     Cp = None                   # port velocity rows (P, ...), None without ports
+    channel = None              # the port channel that takes every port force (sphrom.rom.port_channel), or None
     output_probes = None        # the probes the model's outputs are defined at; None: any
     method = ""
 
@@ -134,6 +141,12 @@ class Operators:
             raise ValueError("port_velocity: the operators have no ports (build them with ports=...)")
         return np.atleast_2d(a) @ self.Cp.T
 
+    def port_velocity_rows(self, problem, ports):
+        """Rows (P, k_v): v_port at ``ports`` (x/L) = rows @ a, from the velocity modes U_v of a POD model (the
+        balanced model overrides it; :func:`sphrom.sph.ports.port_velocity_rows`)."""
+        from ..sph.ports import port_velocity_rows
+        return port_velocity_rows(problem, ports) @ self.U_v
+
     def velocity_probe_rows(self, problem, probes):
         """Rows (P, k_v): v at ``probes`` (x/L) = rows @ a, from the velocity modes U_v of a POD model (the balanced
         model overrides it), linear between the particles as the FMU interpolates (:func:`probe_rows`)."""
@@ -160,8 +173,11 @@ class Operators:
 
         ``parametric``: the shadow of a model over a range of uniform c and d (its planes in pieces about the
         scene's c); ``scale_v`` [m s^-1]: the training run's largest probe velocity (``error_tolerance``'s
-        default is a fraction of it; None: the initial state's)."""
-        return fmu_shadow(problem, probes, tuple(self.ports), parametric=parametric, scale_v=scale_v)
+        default is a fraction of it; None: the initial state's).  With the port channel the shadow has the port
+        velocity rows and no port input columns: the channel is exact for the port forces and adds its own part and
+        bound to each row (fmu_src/rom_bound.c)."""
+        return fmu_shadow(problem, probes, tuple(self.ports), parametric=parametric, scale_v=scale_v,
+                          port_inputs=self.channel is None)
 
 
 def two_blocks(first, second, k_first, k_second):

@@ -266,3 +266,75 @@ def run_sph_ports(scene, ports, *, forces=None, lumped=None, area=1.0, t_end=Non
     v_s = np.array(out_v)
     return PortRun(t=np.array(out_t), v=v_s, rho=np.array(out_rho), v_port=np.array(out_vp), F_port=np.array(out_F),
                    y=np.array(out_y), momentum=v_s @ mass)
+
+
+class PortStepper:
+    """The full SPH stepped as an FMU with ports is (a master loop's bar, :mod:`sphrom.fmu.run.master`): each
+    :meth:`step` advances over a communication step h with the port forces held, by whole internal steps of the
+    scene's dt (h a multiple of it) with ``integrator`` (default symplectic Euler: explicit Euler grows an undamped
+    bar's modes that a kernel-wide port force rings); the scene's f as in :func:`run_sph_ports`.
+
+    Parameters
+    ----------
+    scene : Scene
+    ports : sequence of float
+        Port positions x/L.
+    integrator : {"euler", "symplectic"}
+    initial_state_scale : float
+        v(0) = this x the scene's v0 (ρ at ρ0): 0 at rest, 1 the scene's initial state.
+    area : float
+        Cross-section A [m^2].
+    """
+
+    def __init__(self, scene, ports, *, integrator="symplectic", initial_state_scale=1.0, area=1.0, problem=None):
+        from .solver import METHODS, build_problem
+        if integrator not in ("euler", "symplectic"):
+            raise FieldError("integrator", f"{integrator!r} (allowed: euler, symplectic)")
+        self.scene = scene
+        self.ports = parse_ports(ports)
+        self.problem = problem or build_problem(scene)
+        self.area = check_area(area)
+        self.acc = port_accelerations(self.problem, self.ports, area)
+        self.rows = port_velocity_rows(self.problem, self.ports)
+        self.method = METHODS[integrator]
+        self.args, bit = self.problem.loop_args("auto")
+        self.flags = self.problem.flags(True) | bit
+        self.v = float(initial_state_scale) * self.problem.v0.copy()
+        self.rho = self.problem.rho0.copy()
+        n = self.problem.n
+        self._dv, self._drho, self._p = np.empty(n), np.empty(n), np.empty(n)
+        self.t = 0.0
+        self.n = 0
+
+    def port_velocities(self):
+        """v_port_j now [m s^-1]."""
+        return self.rows @ self.v
+
+    def energy(self):
+        """½ Σ_i (ρ0_i v_i² + c_i e_i²) Δx A [J], e = ρ0/ρ - 1: the energy of eqs. 2.10-2.11 written in J (the
+        linear SPH's, :mod:`sphrom.rom.lti`), which the SPH's own dynamics conserves without damping to first order."""
+        p = self.problem
+        e = p.rho0 / self.rho - 1.0
+        return 0.5 * float(np.sum(p.rho0 * self.v ** 2 + p.c * e ** 2)) * p.neighbours.dx * self.area
+
+    def step(self, h, forces):
+        """Advance over h [s] (a whole number of the scene's dt) with the port forces ``forces`` [N] held."""
+        dt = self.scene.sph.dt
+        count = int(round(h / dt))
+        if count < 1 or abs(count * dt - h) > 1e-9 * h:
+            raise FieldError("h", f"{h!r} s is not a whole number of the scene's dt = {dt!r} s")
+        a_ports = np.asarray(forces, float) @ self.acc
+        for _ in range(count):
+            g = float(self.scene.force(self.n * dt))
+            loops.rates(self.v, self.rho, g, *self.args, self.flags, self._dv, self._drho, self._p)
+            if self.method == 1:                              # symplectic Euler: ρ first, then v
+                self.rho = self.rho + dt * self._drho
+                loops.rates(self.v, self.rho, g, *self.args, self.flags, self._dv, self._drho, self._p)
+                self.v = self.v + dt * (self._dv + a_ports)
+            else:
+                self.v, self.rho = self.v + dt * (self._dv + a_ports), self.rho + dt * self._drho
+            self.n += 1
+        self.t += h
+        if not (np.all(np.isfinite(self.v)) and np.all(self.rho > 0)):
+            raise SimulationError(f"SPH state with ports became non-finite or non-positive density by t = "
+                                  f"{self.t:.6g} s", step=self.n, time=self.t)

@@ -281,11 +281,15 @@ def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem
     from ...rom.registry import get_model
     from ..make.steps import model_basis
 
+    from ...rom.port_channel import attach, model_ports
     spec = get_model(model)
     basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem, made=made)
+    own_ports, options, channel = model_ports(problem, ports, build_options)
     ops = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction,
                      tensor="always" if tensor == "always" else "never",
-                     **({"ports": tuple(ports)} if ports else {}), **(build_options or {}))
+                     **({"ports": own_ports} if own_ports else {}), **options)
+    if channel:                     # the portless model and the port channel, which takes every port force
+        ops = attach(ops, problem, ports, probes)
     from ...rom.operators import wants_tensor
     if ops.T is None and (not particle_sections(ops, problem) or wants_tensor("auto", ops.k_v, ops.k_rho)):
         from ...rom.operators import refresh_tensor                     # the FMU's, or small enough to keep
@@ -513,13 +517,19 @@ class FrozenCosim:
         self._no_samples = np.zeros(0, dtype=np.int64)
         self._out = np.zeros((0, 1))
         # mechanical ports (resources sections PORTB, PORTC): F_port [N] held over a step, or going as
-        # F_port + port_rates τ [N s^-1] (input derivatives), divided by area
+        # F_port + port_rates τ [N s^-1] (input derivatives), divided by area; with the port channel (sections PC*,
+        # no PORTB) the channel takes them (fmu_src/rom_port.c), its part added to the outputs
+        from ...rom.port_channel import ChannelState, from_sections
         self.port_B = data.sections.get("PORTB")
         self.port_C = data.sections.get("PORTC")
-        self.n_ports = 0 if self.port_B is None else self.port_B.shape[0]
+        self.n_ports = 0 if self.port_C is None else self.port_C.shape[0]
         self.port_forces = np.zeros(self.n_ports)
         self.port_rates = np.zeros(self.n_ports)
         self.area = 1.0
+        channel = from_sections(data.sections)
+        self.channel = None if channel is None else ChannelState(channel)
+        self.impedance = 0.0                               # the wave form (port_impedance; 0: the force form)
+        self.waves = np.zeros(self.n_ports)
 
     def _advance(self, count, h, f, rate=0.0, tau0=0.0):
         from ...errors import SimulationError
@@ -546,10 +556,14 @@ class FrozenCosim:
         problem = step_error(self.t, self.t if t_comm is None else t_comm, h, self.elapsed)
         if problem:
             raise ValueError(problem)
+        v_own = self.own_port_velocities() if self.channel is not None else None
         n_full, rest = split_step(h, self.dt)
         self._advance(n_full, self.dt, f, rate, 0.0)
         if rest > 0.0:
             self._advance(1, rest, f, rate, n_full * self.dt)
+        if self.channel is not None:                       # the port forces' response (fmu_src/rom.c's order)
+            self.channel.fmu_step(h, self.port_forces, self.port_rates, self.area, self.impedance, self.waves,
+                                  0.5 * (v_own + self.own_port_velocities()))
         self.t = (self.t if t_comm is None else t_comm) + h
         self.elapsed = self.elapsed + h
         if self.n_ports:                                   # a port force with a rate goes on linearly (rom_do_step)
@@ -557,14 +571,26 @@ class FrozenCosim:
             self.port_forces = np.where(rates != 0.0, self.port_forces + rates * h, self.port_forces)
 
     def outputs(self):
-        """(v at the probes [m s^-1], rho at the probes [kg m^-3])."""
-        return probe_values(self.data.Pv, self.av), probe_values(self.data.Prho, self.ar)
+        """(v at the probes [m s^-1], rho at the probes [kg m^-3]), with the port channel's part."""
+        v, rho = probe_values(self.data.Pv, self.av), probe_values(self.data.Prho, self.ar)
+        if self.channel is None:
+            return v, rho
+        from ...rom.port_channel import density_shift, probe_outputs
+        vc, ec, _ = probe_outputs(self.channel.ch, self._channel_rows())
+        return v + vc, rho + density_shift(self.channel.ch, ec)
+
+    def _channel_rows(self):
+        return self.channel.rows(self.channel.inputs_now(self.port_forces, self.area, self.impedance))
+
+    def own_port_velocities(self):
+        """The model's own part of v_port_j [m s^-1] (PORTC over a^v), without the port channel's."""
+        return probe_values(self.port_C, self.av) if self.n_ports else np.zeros(0)
 
     def _port_arguments(self, tau):
         """(Bp, the port inputs F(τ)/area per step, (len(τ), P)) for frozen_advance, τ [s] the steps' times after
         the communication point; () without ports.  F(τ) = F + rate τ where the rate is nonzero, else F (held), as
         fmu_src/rom_frozen.c refresh computes it."""
-        if not self.n_ports:
+        if self.port_B is None:                            # no ports, or the port channel takes them
             return ()
         forces = np.asarray(self.port_forces, float)[None, :]
         rates = np.asarray(self.port_rates, float)[None, :]
@@ -573,8 +599,13 @@ class FrozenCosim:
         return self.port_B, np.ascontiguousarray(value / self.area)
 
     def port_velocities(self):
-        """v_port_j [m s^-1] (as rom_v_port: 0.0 + C[j][0] a_0 + ...); empty without ports."""
-        return probe_values(self.port_C, self.av) if self.n_ports else np.zeros(0)
+        """v_port_j [m s^-1] (as rom_v_port: 0.0 + C[j][0] a_0 + ..., plus the port channel's part); empty without
+        ports."""
+        v = self.own_port_velocities()
+        if self.channel is None:
+            return v
+        from ...rom.port_channel import probe_outputs
+        return v + probe_outputs(self.channel.ch, self._channel_rows())[2]
 
 
 def cosim_reference(data, steps, inputs, n_freeze=None, dt=None, rates=None, initial_state_scale=1.0):

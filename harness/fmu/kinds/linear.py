@@ -98,6 +98,8 @@ class ExactData:
     sections: dict = field(default_factory=dict)
     output_rows: bool = False
     bounds: dict | None = None
+    blocks: bool = False             # A block diagonal: the model in its real eigen-coordinates (flags bit4)
+    block_condition: float = float("nan")   # packaging only: κ(V) of the transform (to_blocks), kept or not
     KIND: ClassVar[int] = 2      # resources/model.bin's model_kind (sphrom.fmu.layout.KINDS)
 
     @property
@@ -163,6 +165,40 @@ def balanced_data(ops, problem, *, bound=None):
                                                                   **port_sections(ops)})
 
 
+def to_blocks(data):
+    """``data`` in the model's real eigen-coordinates y = V⁻¹ z (:func:`sphrom.rom.modal.real_blocks`): A block
+    diagonal (1 x 1 and 2 x 2 blocks, flags bit4), stepped block by block by the C core at O(k (2 + 2 inputs)) per
+    step instead of O(k²); B, z0 and the port input rows times V⁻¹, every output row (the probes' v and e, the ports'
+    v) times V over the whole state (output rows; k_v, k_e keep sizing the state's two blocks), the runaway bound
+    times ‖V⁻¹‖.  Where the transform is not well
+    conditioned (κ(V) above :data:`sphrom.rom.modal.BLOCK_CONDITION`, or its residual above round-off: a damped A
+    near a defective one) ``data`` is kept dense; ``block_condition`` says κ(V) either way.  A parametric model (A
+    assembled from pieces at run time) stays dense."""
+    import dataclasses
+
+    from ...rom.modal import real_blocks
+    if data.blocks or "A0" in data.sections:
+        return data
+    rb = real_blocks(data.A, skew=not data.damping)
+    if not rb.usable:
+        return dataclasses.replace(data, block_condition=rb.condition)
+    k, kv = data.k, data.k_v
+    V, W = rb.V, rb.V_inv
+    P = data.n_probes
+    Pv = data.Pv if data.output_rows else np.hstack([data.Pv, np.zeros((P, k - kv))])
+    Pe = data.Pe if data.output_rows else np.concatenate([np.zeros((P, 2, kv)), data.Pe], axis=2)
+    sections = dict(data.sections)
+    if "PORTC" in sections:                          # rows over a (k_v), or over z already (output rows)
+        Cp = np.asarray(sections["PORTC"], float)
+        sections["PORTC"] = np.hstack([Cp, np.zeros((Cp.shape[0], k - Cp.shape[1]))]) @ V
+    if "PORTB" in sections:                          # input columns over z, stored as rows
+        sections["PORTB"] = (W @ np.asarray(sections["PORTB"], float).T).T
+    return dataclasses.replace(data, bound=float(data.bound * np.linalg.norm(W, 2)), z0=W @ data.z0, A=rb.L,
+                               B=None if data.B is None else W @ data.B, Q=None, S=None, Pv=Pv @ V,
+                               Pe=np.einsum("psk,kj->psj", Pe, V), output_rows=True, blocks=True,
+                               block_condition=rb.condition, sections=sections)
+
+
 def from_operators(ops, problem, *, probes, bound=None):
     """:func:`exact_data` of operators built elsewhere (a benchmark's own); the runaway bound 10⁶ max|z0| unless
     given."""
@@ -199,12 +235,15 @@ def min_k_rho(flags):
 def file_fields(data):
     """(shared header fields, None: no header of its own, {array name: array}) of ``data`` for
     :func:`sphrom.fmu.resources.pack`."""
-    from ..resources import FLAG_DAMPING, FLAG_INPUT, FLAG_OUTPUT_ROWS, FLAG_SCHUR
+    from ..resources import FLAG_BLOCKS, FLAG_DAMPING, FLAG_INPUT, FLAG_OUTPUT_ROWS, FLAG_SCHUR
     if data.Q is not None and data.damping:
         raise ValueError("a Schur form needs a skew operator (no damping)")
+    if data.blocks and (data.Q is not None or not data.output_rows):
+        raise ValueError("blocks: the block-diagonal form has output rows over z and no Schur form")
     rows = bool(data.output_rows)
     flags = ((FLAG_DAMPING if data.damping else 0) | (FLAG_INPUT if data.B is not None else 0)
-             | (FLAG_SCHUR if data.Q is not None else 0) | (FLAG_OUTPUT_ROWS if rows else 0))
+             | (FLAG_SCHUR if data.Q is not None else 0) | (FLAG_OUTPUT_ROWS if rows else 0)
+             | (FLAG_BLOCKS if data.blocks else 0))
     header = {"k_v": data.k_v, "k_rho": data.k - data.k_v, "n_probes": data.n_probes, "flags": flags,
               "runaway_bound": data.bound, "L": data.L}
     arrays = {name: getattr(data, name) for name in ("z0", "A", "B", "Q", "S", "Pv", "Pe", "pw", "prho0", "probe_x")}
@@ -213,13 +252,13 @@ def file_fields(data):
 
 def from_file(header, head, arrays, token, sections):
     """The :class:`ExactData` of a linear model.bin's fields (:func:`sphrom.fmu.resources.unpack`)."""
-    from ..resources import FLAG_DAMPING, FLAG_OUTPUT_ROWS
+    from ..resources import FLAG_BLOCKS, FLAG_DAMPING, FLAG_OUTPUT_ROWS
     flags = header["flags"]
     return ExactData(bound=header["runaway_bound"], L=header["L"], k_v=header["k_v"], z0=arrays["z0"], A=arrays["A"],
                      B=arrays.get("B"), damping=bool(flags & FLAG_DAMPING), Q=arrays.get("Q"), S=arrays.get("S"),
                      Pv=arrays["Pv"], Pe=arrays["Pe"], pw=arrays["pw"], prho0=arrays["prho0"],
                      probe_x=arrays["probe_x"], token=token, sections=sections,
-                     output_rows=bool(flags & FLAG_OUTPUT_ROWS))
+                     output_rows=bool(flags & FLAG_OUTPUT_ROWS), blocks=bool(flags & FLAG_BLOCKS))
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -237,6 +276,10 @@ def resource(scene, model, k, n_freeze, probes, integrator, progress, problem, o
     from ..make.steps import shadow_step, training_basis, training_envelope
     from ..resources import pack
 
+    build_options = dict(build_options or {})
+    # build option blocks=True: the model in its real eigen-coordinates (to_blocks); the dense form stays the default
+    # until the block form's ~1e-14 differences from the dense outputs are accepted (capture, bitwise tests)
+    blocks = bool(build_options.pop("blocks", False))
     if get_model(model).needs_basis:
         basis, run, problem = training_basis(scene, progress, problem, extra_steps)
         data, ops, problem, _ = exact_model(scene, k, probes, progress=progress,
@@ -250,6 +293,8 @@ def resource(scene, model, k, n_freeze, probes, integrator, progress, problem, o
                                             problem=problem, model=model, build_options=build_options, ports=ports)
     if error_bounds:
         shadow_step(data, ops, problem, probes)
+    if blocks:
+        data = to_blocks(data)          # its real eigen-coordinates where well conditioned (the dense form kept else)
     if not bounds:
         return data, ops, pack(data)
     data.bounds = linear_bounds(ops, problem, probes, progress=progress)
@@ -274,10 +319,14 @@ def exact_model(scene, k, probes, progress=True, problem=None, model="exact", po
     from ...rom.registry import get_model
     from ..make.steps import model_basis
 
+    from ...rom.port_channel import attach, model_ports
     spec = get_model(model)
     basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem, made=made)
+    own_ports, options, channel = model_ports(problem, ports, build_options)
     lin = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction,
-                     **({"ports": tuple(ports)} if ports else {}), **(build_options or {}))
+                     **({"ports": own_ports} if own_ports else {}), **options)
+    if channel:                     # the portless model and the port channel, which takes every port force
+        lin = attach(lin, problem, ports, probes)
     data = exact_data(lin, problem, probes=probes, bound=linear_bound(lin, scene))
     return data, lin, problem, basis
 
@@ -290,18 +339,24 @@ def balanced_model(scene, k, probes, order_tolerance=None, problem=None, model="
     and truncated at order ``k`` (or the order ``order_tolerance`` gives; the default
     tolerance when both are None); :func:`sphrom.fmu.resources.balanced_data`.
     """
+    from ...rom.port_channel import attach, model_ports
     from ...rom.registry import get_model
     from ...sph.solver import build_problem
 
     problem = problem or build_problem(scene)
+    own_ports, options, channel = model_ports(problem, ports, build_options)
+    if channel:                     # balanced for the port velocities as outputs; the channel takes the port forces
+        options["port_outputs"] = tuple(ports)
     try:
         ops = get_model(model).build(problem, None, k, k, order_tolerance=None if k is not None else order_tolerance,
-                                     probes=probes, **({"ports": tuple(ports)} if ports else {}),
-                                     **(build_options or {}))
+                                     probes=probes, **({"ports": own_ports} if own_ports else {}),
+                                     **options)
     except ValueError as exc:
         field_name, _, detail = str(exc).partition(": ")
         from ...errors import FieldError
         raise FieldError("k" if field_name == "order" else field_name, detail) from None
+    if channel:
+        ops = attach(ops, problem, ports, probes)
     return balanced_data(ops, problem), ops, problem
 
 

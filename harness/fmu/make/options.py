@@ -42,14 +42,17 @@ FROZEN_INTEGRATORS = ("euler", "symplectic")      # the time-stepped model's own
 
 def default_integrator(scene, ports=()):
     """The time integrator of a time-stepped FMU given none: the scene's, but :data:`PORT_INTEGRATOR` (ρ then v)
-    for an FMU with ports.  A port couples the bar to components outside, and the coupled system is stable when
-    the FMU adds no energy (passivity, docs/fmu/ports.md); explicit Euler multiplies each mode's energy by
-    1 + (ω dt)² a step, symplectic Euler keeps a modified energy of the undamped bar.  Measured (``sphrom bench
+    for an FMU with ports whose port forces enter its basis (a damping that varies along the bar: no port channel,
+    :mod:`sphrom.rom.port_channel`).  A port couples the bar to components outside, and the coupled system is
+    stable when the FMU adds no energy (passivity, docs/fmu/ports.md); explicit Euler multiplies each mode's energy
+    by 1 + (ω dt)² a step, symplectic Euler keeps a modified energy of the undamped bar.  Measured (``sphrom bench
     inputs``, tenmode with a constant port force for 10 s): the full SPH with explicit Euler is 0.1 off the
-    linear SPH integrated exactly in time, with symplectic Euler 9e-6.  A scene whose full SPH steps with RK4 (which
-    the frozen model does not have): symplectic Euler too (the scene's step is within its limit on the reduced
-    model's lower frequencies)."""
-    if len(ports):
+    linear SPH integrated exactly in time, with symplectic Euler 9e-6.  With the port channel the port forces never
+    reach the model's own state (the channel, exact in time, takes them): the model is the portless one, with the
+    scene's integrator.  A scene whose full SPH steps with RK4 (which the frozen model does not have): symplectic
+    Euler too (the scene's step is within its limit on the reduced model's lower frequencies)."""
+    from ...rom.port_channel import scene_applies
+    if len(ports) and not scene_applies(scene):
         return PORT_INTEGRATOR
     return scene.sph.integrator if scene.sph.integrator in FROZEN_INTEGRATORS else PORT_INTEGRATOR
 

@@ -9,6 +9,8 @@ from __future__ import annotations
 import ctypes
 from pathlib import Path
 
+import numpy as np
+
 from .sph_c import SphC
 
 MESSAGE_SIZE = 1024         # ROM_MESSAGE_SIZE of fmu_src/rom.h: the core's message buffers
@@ -85,6 +87,15 @@ class Core:
         lib.rom_set_dt.restype = ctypes.c_int
         lib.rom_envelope_check.argtypes = [vp, cp, sz]
         lib.rom_envelope_check.restype = ctypes.c_int
+        # mechanical ports and the port channel (rom.h)
+        u32, d = ctypes.c_uint32, ctypes.c_double
+        for name, args, res in (("rom_n_ports", [vp], u32), ("rom_set_port_force", [vp, u32, d, cp, sz], ctypes.c_int),
+                                ("rom_v_port", [vp, u32], d), ("rom_set_area", [vp, d, cp, sz], ctypes.c_int),
+                                ("rom_set_port_impedance", [vp, d, cp, sz], ctypes.c_int),
+                                ("rom_set_port_wave", [vp, u32, d, cp, sz], ctypes.c_int),
+                                ("rom_port_reflected", [vp, u32], d), ("rom_channel_energy", [vp], d)):
+            getattr(lib, name).argtypes = args
+            getattr(lib, name).restype = res
         self.lib = lib
         self._sph = None
 
@@ -206,6 +217,36 @@ class CoreModel:
         lib = self.core.lib
         return ([lib.rom_v_probe(self.state, j) for j in range(n_probes)],
                 [lib.rom_rho_probe(self.state, j) for j in range(n_probes)])
+
+    @property
+    def n_ports(self):
+        return int(self.core.lib.rom_n_ports(self.model))
+
+    def set_port_forces(self, forces):
+        """F_port_j [N], held over the next steps."""
+        for j, F in enumerate(forces):
+            self._check(self.core.lib.rom_set_port_force(self.state, j, float(F), self._msg, MESSAGE_SIZE))
+
+    def port_velocities(self):
+        """v_port_j [m s^-1]."""
+        return np.array([self.core.lib.rom_v_port(self.state, j) for j in range(self.n_ports)])
+
+    def set_port_impedance(self, impedance):
+        """The wave form's port_impedance Z [N s m^-1] (0: the force form)."""
+        self._check(self.core.lib.rom_set_port_impedance(self.state, float(impedance), self._msg, MESSAGE_SIZE))
+
+    def set_port_waves(self, waves):
+        """The incident waves a_port_j [N] of the wave form."""
+        for j, a in enumerate(waves):
+            self._check(self.core.lib.rom_set_port_wave(self.state, j, float(a), self._msg, MESSAGE_SIZE))
+
+    def reflected_waves(self):
+        """b_port_j [N] after the last step (the wave form)."""
+        return np.array([self.core.lib.rom_port_reflected(self.state, j) for j in range(self.n_ports)])
+
+    def channel_energy(self):
+        """The port channel's energy ½ |w|² Δx area [J] (0 without it)."""
+        return float(self.core.lib.rom_channel_energy(self.state))
 
     def close(self):
         if self.state:

@@ -1,0 +1,648 @@
+/*
+ * The port channel (harness/rom/port_channel.py builds it; docs/fmu/ports.md): the full linear SPH's response to
+ * the port forces alone, exact in time, superposed on the model kind's outputs.  The full SPH is exactly linear in
+ * J, and with a uniform damping d each singular triplet of its coupling K spans an invariant plane; the planes the
+ * ports excite (all of them on every built-in scene) are stepped here, each by the exponential of its augmented
+ * matrix (cached per step length): O(planes x ports) per step, the outputs O(planes x rows) once per step, when
+ * first read.  Planes left out (more than the file keeps) add their static correction (a feedthrough into the e
+ * rows) and a certified remainder, sum_j gain_rj V(u_j), V(u) = |u(0)| + the total variation of u.
+ *
+ * The state of each plane is (p, q): x = sum_i p_i [u_i; 0] + q_i [0; w_i] in energy coordinates.  Arrays are kept
+ * per quantity (one array of p, one of q, one per map entry) and zero-padded to a multiple of 4, so that the loops
+ * run over 4 planes at a time; the arithmetic is not the Python reference's order (the channel is compared with it
+ * within tolerances, not bit for bit).
+ *
+ * The wave form (rom.h rom_set_port_impedance): with Z > 0 the port force over a step is held at
+ * F = 2 a - Z vbar, vbar the mean port velocity over the step, which is linear in F (the channel's mean per unit
+ * held input, M, cached with the maps): (I + Z M / area) F = 2 a - Z (vbar_free + v_own), solved by Gaussian
+ * elimination (P <= 4); b = a - F (a master passes it on as the incident wave a of the component at the line's
+ * other end, one step later: a lossless line whose delay is the communication step).
+ */
+#include "rom_internal.h"
+#include "rom_numerics.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+
+#define CHANNEL_CACHE 2                /* step lengths whose maps are kept */
+#define CHANNEL_ROUNDOFF 1e-9          /* harness/rom/port_channel.py ROUNDOFF */
+#define CHANNEL_ROUNDOFF_STEP 1e-15    /* ... ROUNDOFF_STEP */
+#define CHANNEL_AUG 6                  /* the augmented matrix: p, q, mean p, mean q, u0, du */
+
+/* the entries of one plane's maps (harness/rom/port_channel.py step_maps) */
+enum { PHI00, PHI01, PHI10, PHI11, G0P, G0Q, G1P, G1Q, PSIP, PSIQ, PSI0, PSI1, N_MAPS };
+
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) && \
+    !defined(ROM_NO_CLONES) && (__GNUC__ >= 8)
+#define CHANNEL_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
+#else
+#define CHANNEL_CLONES
+#endif
+#if defined(__GNUC__)
+typedef double c4d __attribute__((vector_size(32)));
+#define C4_LOAD(ptr) (*(const c4d *)(const void *)(ptr))
+#define C4_STORE(ptr, v) (*(c4d *)(void *)(ptr) = (v))
+#define C4_SPLAT(x) ((c4d){(x), (x), (x), (x)})
+#endif
+
+typedef struct {
+    double h;                  /* 0: empty */
+    int64_t used;
+    double *map[N_MAPS];       /* [pad] each */
+    double M[ROM_MAX_PORTS * ROM_MAX_PORTS];   /* mean v_port_j over the step per unit held u_l */
+} ChannelCache;
+
+typedef struct {
+    double *p, *q;             /* [pad] the planes' state */
+    double *ue, *de;           /* [pad] scratch: each plane's input at the step's start and its change */
+    double *values;            /* [rows] the rows' plane part and (w_norm) |w|, valid when valid != 0 */
+    double w_norm;
+    int valid;
+    double tv[ROM_MAX_PORTS];          /* |u(0)| + the total variation of each u_j so far */
+    double u_prev[ROM_MAX_PORTS];      /* u_j at the end of the last step */
+    double steps;              /* steps taken (the round-off allowance) */
+    double impedance;          /* the wave form's Z [N s m^-1]; 0: the force form */
+    double wave[ROM_MAX_PORTS];        /* a_j [N] */
+    double reflected[ROM_MAX_PORTS];   /* b_j [N] after the last step */
+    double applied[ROM_MAX_PORTS];     /* the port force held over the last step in the wave form [N] */
+    ChannelCache cache[CHANNEL_CACHE];
+    int64_t clock;
+    double work[4 * CHANNEL_AUG * CHANNEL_AUG];
+    void *storage_;
+} ChannelState;
+
+/* ------------------------------------------------------------------------ */
+/* resources                                                                 */
+/* ------------------------------------------------------------------------ */
+
+static const char *const TAGS[] = {"PCSCAL", "PCLAM", "PCB", "PCC", "PCD", "PCPROBE"};
+#define N_TAGS (sizeof TAGS / sizeof TAGS[0])
+
+RomStatus rom_channel_check_section(const RomModel *m, const RomSection *s, char *message, size_t message_size) {
+    (void)m;
+    if (!s || s->rows == 0 || s->cols == 0) return rom_fail(message, message_size, "resources: an empty section");
+    return ROM_OK;      /* the sizes against each other: rom_channel_prepare, once every section is read */
+}
+
+static RomStatus shape(const RomSection *s, uint32_t rows, uint32_t cols, char *message, size_t message_size) {
+    if (s->rows != rows || s->cols != cols) {
+        return rom_fail(message, message_size, "resources: section %s is %u x %u, expected %u x %u (the port "
+                        "channel)", s->tag, s->rows, s->cols, rows, cols);
+    }
+    return ROM_OK;
+}
+
+RomStatus rom_channel_prepare(RomModel *m, char *message, size_t message_size) {
+    const RomSection *sec[N_TAGS];
+    size_t found = 0;
+    for (size_t i = 0; i < N_TAGS; i++) {
+        sec[i] = rom_section(m, TAGS[i]);
+        if (sec[i]) found++;
+    }
+    if (found == 0) return ROM_OK;
+    if (found != N_TAGS) {
+        return rom_fail(message, message_size, "resources: the port channel's sections PCSCAL, PCLAM, PCB, PCC, PCD, "
+                        "PCPROBE come together (%zu of %zu present)", found, (size_t)N_TAGS);
+    }
+    if (!m->n_ports || m->port_B) {
+        return rom_fail(message, message_size, "resources: the port channel needs the sections PORTX and PORTC and "
+                        "no PORTB (the channel takes every port force)");
+    }
+    if (shape(sec[0], 1, ROM_PCSCAL_COLUMNS, message, message_size) != ROM_OK) return ROM_FAIL;
+    const double *v = sec[0]->data;
+    const double planes = v[ROM_PCSCAL_PLANES], truncated = v[ROM_PCSCAL_TRUNCATED], dx = v[ROM_PCSCAL_DX];
+    const uint32_t rows = 3u * m->n_probes + m->n_ports;
+    if (!(planes >= 1 && planes <= ROM_MAX_MODES && planes == floor(planes)) ||
+        v[ROM_PCSCAL_PORTS] != (double)m->n_ports || v[ROM_PCSCAL_ROWS] != (double)rows ||
+        !(truncated == 0.0 || truncated == 1.0) || !(dx > 0)) {
+        return rom_fail(message, message_size, "resources: section PCSCAL (the port channel's sizes) does not fit the "
+                        "model (%u ports, %u rows expected; planes 1 to %u; dx > 0)", m->n_ports, rows, ROM_MAX_MODES);
+    }
+    RomChannelModel *c = &m->channel;
+    const uint32_t n = (uint32_t)planes, P = m->n_ports;
+    if (shape(sec[1], n, 4, message, message_size) != ROM_OK || shape(sec[2], n, P, message, message_size) != ROM_OK ||
+        shape(sec[3], rows, n, message, message_size) != ROM_OK ||
+        shape(sec[4], rows, 2 * P, message, message_size) != ROM_OK ||
+        shape(sec[5], m->n_probes, 4, message, message_size) != ROM_OK) return ROM_FAIL;
+    for (uint32_t i = 0; i < n; i++) {         /* each block [[-d, s], [-s, 0]], d >= 0: dissipative */
+        const double *L = sec[1]->data + 4 * (size_t)i;
+        if (!(L[0] <= 0.0 && L[1] == -L[2] && L[3] == 0.0)) {
+            return rom_fail(message, message_size, "resources: section PCLAM: plane %u is not [[-d, s], [-s, 0]] with "
+                            "d >= 0", i + 1);
+        }
+    }
+    for (uint32_t r = 0; r < rows; r++) {
+        for (uint32_t j = 0; j < P; j++) {
+            if (!(sec[4]->data[(size_t)r * 2 * P + P + j] >= 0.0)) {
+                return rom_fail(message, message_size, "resources: section PCD: a negative gain of the port channel's "
+                                "bound (row %u, port %u)", r + 1, j + 1);
+            }
+        }
+    }
+    const size_t pad = rom_round_up(n, 16);
+    double *beta_t, *C_pad, *norms;               /* 64-byte aligned, zeroed: the 4-plane loads, 16 per turn */
+    const size_t counts[3] = {(size_t)P * pad, (size_t)rows * pad, rows};
+    double **ptrs[3] = {&beta_t, &C_pad, &norms};
+    c->storage_ = rom_alloc_arrays(counts, ptrs, 3);
+    if (!c->storage_) return rom_fail(message, message_size, "resources: out of memory (the port channel)");
+    for (uint32_t i = 0; i < n; i++) {
+        for (uint32_t j = 0; j < P; j++) beta_t[(size_t)j * pad + i] = sec[2]->data[(size_t)i * P + j];
+    }
+    for (uint32_t r = 0; r < rows; r++) {
+        double acc = 0.0;
+        for (uint32_t i = 0; i < n; i++) {
+            const double x = sec[3]->data[(size_t)r * n + i];
+            C_pad[(size_t)r * pad + i] = x;
+            acc += x * x;
+        }
+        norms[r] = sqrt(acc);
+    }
+    c->planes = n;
+    c->ports = P;
+    c->rows = rows;
+    c->pad = (uint32_t)pad;
+    c->truncated = truncated != 0.0;
+    c->dx = dx;
+    c->lam = sec[1]->data;
+    c->beta = sec[2]->data;
+    c->C = sec[3]->data;
+    c->D = sec[4]->data;
+    c->probe = sec[5]->data;
+    c->beta_t = beta_t;
+    c->C_pad = C_pad;
+    c->row_norm = norms;
+    return ROM_OK;
+}
+
+int rom_has_channel(const RomModel *m) {
+    return m && m->channel.planes > 0;
+}
+
+/* ------------------------------------------------------------------------ */
+/* the state                                                                 */
+/* ------------------------------------------------------------------------ */
+
+RomStatus rom_channel_state_new(RomState *s) {
+    const RomChannelModel *c = &s->model->channel;
+    s->channel = NULL;
+    if (!c->planes) return ROM_OK;
+    ChannelState *cs = (ChannelState *)calloc(1, sizeof(ChannelState));
+    if (!cs) return ROM_FAIL;
+    s->channel = cs;
+    enum { FIXED = 5 };
+    size_t counts[FIXED + CHANNEL_CACHE * N_MAPS];
+    double **ptrs[FIXED + CHANNEL_CACHE * N_MAPS];
+    counts[0] = counts[1] = counts[2] = counts[3] = c->pad;
+    counts[4] = c->rows;
+    ptrs[0] = &cs->p;
+    ptrs[1] = &cs->q;
+    ptrs[2] = &cs->ue;
+    ptrs[3] = &cs->de;
+    ptrs[4] = &cs->values;
+    for (int slot = 0; slot < CHANNEL_CACHE; slot++) {
+        for (int e = 0; e < N_MAPS; e++) {
+            counts[FIXED + slot * N_MAPS + e] = c->pad;
+            ptrs[FIXED + slot * N_MAPS + e] = &cs->cache[slot].map[e];
+        }
+    }
+    cs->storage_ = rom_alloc_arrays(counts, ptrs, FIXED + CHANNEL_CACHE * N_MAPS);
+    return cs->storage_ ? ROM_OK : ROM_FAIL;
+}
+
+void rom_channel_state_free(RomState *s) {
+    ChannelState *cs = (ChannelState *)s->channel;
+    if (!cs) return;
+    free(cs->storage_);
+    free(cs);
+    s->channel = NULL;
+}
+
+/* at rest, no input so far, the force form; the cached maps stay valid */
+void rom_channel_reset(RomState *s) {
+    ChannelState *cs = (ChannelState *)s->channel;
+    if (!cs) return;
+    const RomChannelModel *c = &s->model->channel;
+    memset(cs->p, 0, c->pad * sizeof(double));
+    memset(cs->q, 0, c->pad * sizeof(double));
+    for (uint32_t j = 0; j < ROM_MAX_PORTS; j++) {
+        cs->tv[j] = cs->u_prev[j] = cs->wave[j] = cs->reflected[j] = cs->applied[j] = 0.0;
+    }
+    cs->steps = 0.0;
+    cs->impedance = 0.0;
+    cs->valid = 0;
+}
+
+/* ------------------------------------------------------------------------ */
+/* the step                                                                  */
+/* ------------------------------------------------------------------------ */
+
+/* The maps of a step h, cached per step length (rom_same_step): per plane the exponential of the augmented matrix
+ * over (p, q, mean p, mean q, u0, du) (harness/rom/port_channel.py step_maps), and the wave form's M. */
+static const ChannelCache *channel_maps(ChannelState *cs, const RomModel *m, double h) {
+    const RomChannelModel *c = &m->channel;
+    cs->clock++;
+    for (int k = 0; k < CHANNEL_CACHE; k++) {
+        if (rom_same_step(h, cs->cache[k].h)) {
+            cs->cache[k].used = cs->clock;
+            return &cs->cache[k];
+        }
+    }
+    ChannelCache *slot = &cs->cache[0];
+    for (int k = 1; k < CHANNEL_CACHE; k++) {
+        if (cs->cache[k].used < slot->used) slot = &cs->cache[k];
+    }
+    enum { A = CHANNEL_AUG };
+    double M[A * A], *E = cs->work, *X = E + A * A, *T = X + A * A;
+    for (uint32_t i = 0; i < c->planes; i++) {
+        const double *L = c->lam + 4 * (size_t)i;
+        memset(M, 0, sizeof M);
+        M[0 * A + 0] = L[0] * h;
+        M[0 * A + 1] = L[1] * h;
+        M[1 * A + 0] = L[2] * h;
+        M[1 * A + 1] = L[3] * h;
+        M[0 * A + 4] = h;                 /* the input enters p */
+        M[2 * A + 0] = 1.0;               /* the means: d(mean)/d(tau/h) = the state */
+        M[3 * A + 1] = 1.0;
+        M[4 * A + 5] = 1.0;               /* u(tau) = u0 + du tau / h */
+        if (!rom_expm_taylor(A, M, E, X, T)) {
+            for (int e = 0; e < N_MAPS; e++) slot->map[e][i] = NAN;       /* the outputs become NaN: visible */
+            continue;
+        }
+        slot->map[PHI00][i] = E[0 * A + 0];
+        slot->map[PHI01][i] = E[0 * A + 1];
+        slot->map[PHI10][i] = E[1 * A + 0];
+        slot->map[PHI11][i] = E[1 * A + 1];
+        slot->map[G0P][i] = E[0 * A + 4];
+        slot->map[G0Q][i] = E[1 * A + 4];
+        slot->map[G1P][i] = E[0 * A + 5];
+        slot->map[G1Q][i] = E[1 * A + 5];
+        slot->map[PSIP][i] = E[2 * A + 0];
+        slot->map[PSIQ][i] = E[2 * A + 1];
+        slot->map[PSI0][i] = E[2 * A + 4];
+        slot->map[PSI1][i] = E[2 * A + 5];
+    }
+    const uint32_t P = c->ports, first = 3u * m->n_probes;
+    for (uint32_t j = 0; j < P; j++) {     /* M[j][l] = sum_i C_port_j,i psi0_i beta_il */
+        const double *row = c->C + (size_t)(first + j) * c->planes;
+        for (uint32_t l = 0; l < P; l++) {
+            double acc = 0.0;
+            for (uint32_t i = 0; i < c->planes; i++) acc += row[i] * slot->map[PSI0][i] * c->beta[(size_t)i * P + l];
+            slot->M[j * P + l] = acc;
+        }
+    }
+    slot->h = h;
+    slot->used = cs->clock;
+    return slot;
+}
+
+/* the planes' inputs: ue_i = sum_j beta_ij u_j, de_i = sum_j beta_ij du_j */
+CHANNEL_CLONES
+static void plane_inputs(const RomChannelModel *c, const double *u, const double *du, double *restrict ue,
+                         double *restrict de) {
+    const size_t pad = c->pad;
+    for (size_t i = 0; i < pad; i++) {
+        ue[i] = 0.0;
+        de[i] = 0.0;
+    }
+    for (uint32_t j = 0; j < c->ports; j++) {
+        const double *restrict b = c->beta_t + (size_t)j * pad;
+        const double uj = u[j], dj = du[j];
+        for (size_t i = 0; i < pad; i++) {
+            ue[i] += b[i] * uj;
+            de[i] += b[i] * dj;
+        }
+    }
+}
+
+/* p, q <- Phi (p, q) + g0 ue + g1 de, plane by plane */
+CHANNEL_CLONES
+static void advance_planes(const ChannelCache *k, size_t pad, double *restrict p, double *restrict q,
+                           const double *restrict ue, const double *restrict de) {
+    const double *restrict a = k->map[PHI00], *restrict b = k->map[PHI01], *restrict c = k->map[PHI10];
+    const double *restrict d = k->map[PHI11], *restrict g0p = k->map[G0P], *restrict g0q = k->map[G0Q];
+    const double *restrict g1p = k->map[G1P], *restrict g1q = k->map[G1Q];
+    for (size_t i = 0; i < pad; i++) {
+        const double pi = p[i], qi = q[i];
+        p[i] = a[i] * pi + b[i] * qi + g0p[i] * ue[i] + g1p[i] * de[i];
+        q[i] = c[i] * pi + d[i] * qi + g0q[i] * ue[i] + g1q[i] * de[i];
+    }
+}
+
+/* sum_i row_i x_i over the padded planes (a multiple of 16), sixteen partial sums in four independent chains */
+CHANNEL_CLONES
+static double dot(const double *restrict row, const double *restrict x, size_t pad) {
+#if defined(__GNUC__)
+    c4d a0 = C4_SPLAT(0.0), a1 = a0, a2 = a0, a3 = a0;
+    for (size_t i = 0; i < pad; i += 16) {
+        a0 += C4_LOAD(row + i) * C4_LOAD(x + i);
+        a1 += C4_LOAD(row + i + 4) * C4_LOAD(x + i + 4);
+        a2 += C4_LOAD(row + i + 8) * C4_LOAD(x + i + 8);
+        a3 += C4_LOAD(row + i + 12) * C4_LOAD(x + i + 12);
+    }
+    const c4d acc = (a0 + a1) + (a2 + a3);
+    return (acc[0] + acc[1]) + (acc[2] + acc[3]);
+#else
+    double acc[16] = {0.0};
+    for (size_t i = 0; i < pad; i += 16) {
+        for (int j = 0; j < 16; j++) acc[j] += row[i + j] * x[i + j];
+    }
+    double sum = 0.0;
+    for (int j = 0; j < 16; j++) sum += acc[j];
+    return sum;
+#endif
+}
+
+/* the mean port velocities over the step from the state now with no input: sum_i C_port_i (psi_p p + psi_q q) */
+static void free_mean(const RomChannelModel *c, const RomModel *m, const ChannelCache *k, const ChannelState *cs,
+                      double *out) {
+    const size_t pad = c->pad;
+    for (uint32_t j = 0; j < c->ports; j++) {
+        const double *row = c->C_pad + (size_t)(3u * m->n_probes + j) * pad;
+        double acc = 0.0;
+        for (size_t i = 0; i < pad; i++) acc += row[i] * (k->map[PSIP][i] * cs->p[i] + k->map[PSIQ][i] * cs->q[i]);
+        out[j] = acc;
+    }
+}
+
+/* A x = b, n <= ROM_MAX_PORTS, Gaussian elimination with partial pivoting (A = I + Z M / area: M is symmetric
+ * positive semi-definite, A is never singular); 0 when a pivot vanishes */
+static int solve_small(uint32_t n, double *A, double *b) {
+    for (uint32_t k = 0; k < n; k++) {
+        uint32_t best = k;
+        for (uint32_t i = k + 1; i < n; i++) {
+            if (fabs(A[i * n + k]) > fabs(A[best * n + k])) best = i;
+        }
+        if (!(fabs(A[best * n + k]) > 0)) return 0;
+        if (best != k) {
+            for (uint32_t j = 0; j < n; j++) {
+                const double t = A[k * n + j];
+                A[k * n + j] = A[best * n + j];
+                A[best * n + j] = t;
+            }
+            const double t = b[k];
+            b[k] = b[best];
+            b[best] = t;
+        }
+        for (uint32_t i = k + 1; i < n; i++) {
+            const double f = A[i * n + k] / A[k * n + k];
+            for (uint32_t j = k; j < n; j++) A[i * n + j] -= f * A[k * n + j];
+            b[i] -= f * b[k];
+        }
+    }
+    for (uint32_t k = n; k-- > 0;) {
+        double acc = b[k];
+        for (uint32_t j = k + 1; j < n; j++) acc -= A[k * n + j] * b[j];
+        b[k] = acc / A[k * n + k];
+    }
+    return 1;
+}
+
+RomStatus rom_channel_step(RomState *s, double h, const double *v_own, char *message, size_t message_size) {
+    ChannelState *cs = (ChannelState *)s->channel;
+    if (!cs) return ROM_OK;
+    const RomModel *m = s->model;
+    const RomChannelModel *c = &m->channel;
+    const uint32_t P = c->ports;
+    const ChannelCache *k = channel_maps(cs, m, h);
+    double u[ROM_MAX_PORTS], du[ROM_MAX_PORTS];
+    if (cs->impedance > 0.0) {             /* the wave form: F held, F = 2 a - Z vbar, solved exactly */
+        const double Z = cs->impedance;
+        double A[ROM_MAX_PORTS * ROM_MAX_PORTS], F[ROM_MAX_PORTS], mean[ROM_MAX_PORTS];
+        free_mean(c, m, k, cs, mean);
+        for (uint32_t j = 0; j < P; j++) {
+            for (uint32_t l = 0; l < P; l++) A[j * P + l] = (j == l ? 1.0 : 0.0) + Z * k->M[j * P + l] / s->area;
+            F[j] = 2.0 * cs->wave[j] - Z * (mean[j] + (v_own ? v_own[j] : 0.0));
+        }
+        if (!solve_small(P, A, F) || !rom_all_finite(F, P)) {
+            return rom_fail(message, message_size, "the wave form's port forces at t = %.9g s are not finite "
+                            "(port_impedance = %g N s m^-1)", s->time, Z);
+        }
+        for (uint32_t j = 0; j < P; j++) {
+            cs->applied[j] = F[j];
+            cs->reflected[j] = cs->wave[j] - F[j];
+            u[j] = F[j] / s->area;
+            du[j] = 0.0;
+        }
+    } else {
+        for (uint32_t j = 0; j < P; j++) {
+            u[j] = s->port_force[j] / s->area;
+            du[j] = s->port_rate[j] * h / s->area;
+        }
+    }
+    for (uint32_t j = 0; j < P; j++) {
+        cs->tv[j] += fabs(u[j] - cs->u_prev[j]) + fabs(du[j]);
+        cs->u_prev[j] = u[j] + du[j];
+    }
+    plane_inputs(c, u, du, cs->ue, cs->de);
+    advance_planes(k, c->pad, cs->p, cs->q, cs->ue, cs->de);
+    cs->steps += 1.0;
+    cs->valid = 0;
+    return ROM_OK;
+}
+
+/* ------------------------------------------------------------------------ */
+/* outputs                                                                   */
+/* ------------------------------------------------------------------------ */
+
+/* rows over q: the e rows at the probes' particles (P .. 3P - 1); the others over p */
+static int on_q(const RomModel *m, uint32_t r) {
+    return r >= m->n_probes && r < 3u * m->n_probes;
+}
+
+/* the port inputs now [N m^-2] (the static correction's): the force form's F_j / area, the wave form's last held
+ * force */
+static void inputs_now(const RomState *s, const ChannelState *cs, double *u) {
+    for (uint32_t j = 0; j < s->model->channel.ports; j++) {
+        u[j] = (cs->impedance > 0.0 ? cs->applied[j] : s->port_force[j]) / s->area;
+    }
+}
+
+double rom_channel_row(const RomState *s, uint32_t r, double *cert) {
+    ChannelState *cs = (ChannelState *)s->channel;
+    if (cert) *cert = 0.0;
+    if (!cs || r >= s->model->channel.rows) return 0.0;
+    const RomModel *m = s->model;
+    const RomChannelModel *c = &m->channel;
+    if (!cs->valid) {                      /* every row once per step, when first read */
+        for (uint32_t k = 0; k < c->rows; k++) {
+            cs->values[k] = dot(c->C_pad + (size_t)k * c->pad, on_q(m, k) ? cs->q : cs->p, c->pad);
+        }
+        cs->w_norm = -1.0;                 /* computed when a bound asks for it */
+        cs->valid = 1;
+    }
+    double value = cs->values[r];
+    const uint32_t P = c->ports;
+    const double *D = c->D + (size_t)r * 2 * P;
+    if (c->truncated) {
+        double u[ROM_MAX_PORTS];
+        inputs_now(s, cs, u);
+        for (uint32_t j = 0; j < P; j++) value += D[j] * u[j];
+    }
+    if (cert) {
+        if (cs->w_norm < 0.0) cs->w_norm = sqrt(dot(cs->p, cs->p, c->pad) + dot(cs->q, cs->q, c->pad));
+        double gain = 0.0;
+        for (uint32_t j = 0; j < P; j++) gain += D[P + j] * cs->tv[j];
+        *cert = gain + (CHANNEL_ROUNDOFF + CHANNEL_ROUNDOFF_STEP * cs->steps) * c->row_norm[r] * cs->w_norm;
+    }
+    return value;
+}
+
+double rom_channel_row_rate(const RomState *s, uint32_t r) {
+    const ChannelState *cs = (const ChannelState *)s->channel;
+    if (!cs || r >= s->model->channel.rows) return 0.0;
+    const RomModel *m = s->model;
+    const RomChannelModel *c = &m->channel;
+    const uint32_t P = c->ports;
+    double u[ROM_MAX_PORTS];
+    inputs_now(s, cs, u);
+    const double *row = c->C + (size_t)r * c->planes;
+    const int q_row = on_q(m, r);
+    double rate = 0.0;
+    for (uint32_t i = 0; i < c->planes; i++) {         /* (Lambda w + [beta u; 0])_p or _q */
+        const double *L = c->lam + 4 * (size_t)i;
+        double x;
+        if (q_row) {
+            x = L[2] * cs->p[i] + L[3] * cs->q[i];
+        } else {
+            x = L[0] * cs->p[i] + L[1] * cs->q[i];
+            for (uint32_t j = 0; j < P; j++) x += c->beta[(size_t)i * P + j] * u[j];
+        }
+        rate += row[i] * x;
+    }
+    if (c->truncated && !(cs->impedance > 0.0)) {       /* the static correction follows the input's rate */
+        const double *D = c->D + (size_t)r * 2 * P;
+        for (uint32_t j = 0; j < P; j++) rate += D[j] * s->port_rate[j] / s->area;
+    }
+    return rate;
+}
+
+double rom_channel_density_shift(const RomState *s, uint32_t j) {
+    if (!s->channel || j >= s->model->n_probes) return 0.0;
+    const double *pr = s->model->channel.probe + 4 * (size_t)j;       /* pw0, pw1, rho0_0, rho0_1 */
+    double shift = 0.0;
+    for (uint32_t side = 0; side < 2; side++) {
+        const double e = rom_channel_row(s, s->model->n_probes + 2 * j + side, NULL);
+        if (!(1.0 + e > 0)) return NAN;
+        shift += pr[side] * pr[2 + side] * (1.0 / (1.0 + e) - 1.0);
+    }
+    return shift;
+}
+
+double rom_channel_energy(const RomState *s) {
+    const ChannelState *cs = s ? (const ChannelState *)s->channel : NULL;
+    if (!cs) return 0.0;
+    double w2 = 0.0;
+    for (uint32_t i = 0; i < s->model->channel.planes; i++) w2 += cs->p[i] * cs->p[i] + cs->q[i] * cs->q[i];
+    return 0.5 * w2 * s->model->channel.dx * s->area;
+}
+
+/* ------------------------------------------------------------------------ */
+/* the wave form's parameter and variables                                   */
+/* ------------------------------------------------------------------------ */
+
+RomStatus rom_set_port_impedance(RomState *s, double impedance, char *message, size_t message_size) {
+    if (!s) return rom_fail(message, message_size, "no state");
+    ChannelState *cs = (ChannelState *)s->channel;
+    if (!cs) {
+        return rom_fail(message, message_size, "parameter port_impedance: this FMU has no port channel (the wave form "
+                        "needs it)");
+    }
+    if (!(isfinite(impedance) && impedance >= 0)) {
+        return rom_fail(message, message_size, "parameter port_impedance = %g N s m^-1 is out of range (allowed: a "
+                        "finite number >= 0; 0: the force form)", impedance);
+    }
+    cs->impedance = impedance;
+    return ROM_OK;
+}
+
+double rom_port_impedance(const RomState *s) {
+    const ChannelState *cs = s ? (const ChannelState *)s->channel : NULL;
+    return cs ? cs->impedance : NAN;
+}
+
+RomStatus rom_set_port_wave(RomState *s, uint32_t j, double wave, char *message, size_t message_size) {
+    if (!s) return rom_fail(message, message_size, "no state");
+    ChannelState *cs = (ChannelState *)s->channel;
+    if (!cs || j >= s->model->n_ports) {
+        return rom_fail(message, message_size, "a_port_%u: no such port wave (allowed: 1 to %u with the port channel)",
+                        j + 1, cs ? s->model->n_ports : 0u);
+    }
+    if (!isfinite(wave)) {
+        return rom_fail(message, message_size, "input a_port_%u = %g N at t = %.9g s is not finite (allowed: a finite "
+                        "force wave in N)", j + 1, wave, s->time);
+    }
+    cs->wave[j] = wave;
+    return ROM_OK;
+}
+
+double rom_port_wave(const RomState *s, uint32_t j) {
+    const ChannelState *cs = s ? (const ChannelState *)s->channel : NULL;
+    return cs && j < s->model->n_ports ? cs->wave[j] : NAN;
+}
+
+double rom_port_reflected(const RomState *s, uint32_t j) {
+    const ChannelState *cs = s ? (const ChannelState *)s->channel : NULL;
+    return cs && j < s->model->n_ports ? cs->reflected[j] : NAN;
+}
+
+/* ------------------------------------------------------------------------ */
+/* the serialized state: p[planes], q[planes], tv[P], u_prev[P], steps, Z, a[P], b[P], applied[P]          */
+/* ------------------------------------------------------------------------ */
+
+size_t rom_channel_state_doubles(const RomModel *m) {
+    const RomChannelModel *c = &m->channel;
+    return c->planes ? 2 * (size_t)c->planes + 5 * (size_t)c->ports + 2 : 0;
+}
+
+RomStatus rom_channel_state_check(const RomModel *m, const unsigned char *cursor, char *message, size_t message_size) {
+    const RomChannelModel *c = &m->channel;
+    if (!c->planes) return ROM_OK;
+    const unsigned char *at = cursor + 8 * (2 * (size_t)c->planes + 2 * (size_t)c->ports);
+    const double steps = rom_get_f64(at), Z = rom_get_f64(at + 8);
+    if (!(steps >= 0 && steps == floor(steps)) || !(isfinite(Z) && Z >= 0)) {
+        return rom_fail(message, message_size, "serialized state: the port channel's step count %g or parameter "
+                        "port_impedance = %g N s m^-1 is out of range (allowed: a whole number >= 0, a finite number "
+                        ">= 0)", steps, Z);
+    }
+    for (uint32_t j = 0; j < c->ports; j++) {
+        if (!(rom_get_f64(cursor + 8 * (2 * (size_t)c->planes + j)) >= 0)) {
+            return rom_fail(message, message_size, "serialized state: the port channel's input variation of port %u "
+                            "is negative", j + 1);
+        }
+    }
+    return ROM_OK;
+}
+
+unsigned char *rom_channel_state_put(const RomState *s, unsigned char *cursor) {
+    const ChannelState *cs = (const ChannelState *)s->channel;
+    if (!cs) return cursor;
+    const RomChannelModel *c = &s->model->channel;
+    cursor = rom_put_f64s(cursor, cs->p, c->planes);
+    cursor = rom_put_f64s(cursor, cs->q, c->planes);
+    cursor = rom_put_f64s(cursor, cs->tv, c->ports);
+    cursor = rom_put_f64s(cursor, cs->u_prev, c->ports);
+    const double scalars[2] = {cs->steps, cs->impedance};
+    cursor = rom_put_f64s(cursor, scalars, 2);
+    cursor = rom_put_f64s(cursor, cs->wave, c->ports);
+    cursor = rom_put_f64s(cursor, cs->reflected, c->ports);
+    return rom_put_f64s(cursor, cs->applied, c->ports);
+}
+
+const unsigned char *rom_channel_state_get(RomState *s, const unsigned char *cursor) {
+    ChannelState *cs = (ChannelState *)s->channel;
+    if (!cs) return cursor;
+    const RomChannelModel *c = &s->model->channel;
+    cursor = rom_get_f64s(cursor, cs->p, c->planes);
+    cursor = rom_get_f64s(cursor, cs->q, c->planes);
+    cursor = rom_get_f64s(cursor, cs->tv, c->ports);
+    cursor = rom_get_f64s(cursor, cs->u_prev, c->ports);
+    double scalars[2];
+    cursor = rom_get_f64s(cursor, scalars, 2);
+    cs->steps = scalars[0];
+    cs->impedance = scalars[1];
+    cursor = rom_get_f64s(cursor, cs->wave, c->ports);
+    cursor = rom_get_f64s(cursor, cs->reflected, c->ports);
+    cursor = rom_get_f64s(cursor, cs->applied, c->ports);
+    cs->valid = 0;
+    return cursor;
+}

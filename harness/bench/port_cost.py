@@ -1,0 +1,277 @@
+"""The cost per communication step of the FMUs with and without ports, measured by a native FMI 2 master.
+
+``python -m sphrom.bench.port_cost`` / ``sphrom bench port_cost [--steps M] [--repeats R] [--ks 4,8,12,24]
+[--out validation/benchmarks] [--report BENCHMARKS.md] [--quiet]``
+
+Each FMU is packaged as ``sphrom fmu`` makes it (FMI 2, the scene's defaults, with its certified error bounds) and
+driven by ``sphrom_step_cost`` (fmu_src/tests/step_cost.c): the FMU's own binary loaded with ``dlopen`` as an importer
+does, no Python in the loop; per step fmi2SetReal of f and of each F_port_j (a spring of 5 N/m to ground on each port,
+its force from the port velocity read after the last step), fmi2DoStep of 1 ms, fmi2GetReal of v_probe_j, rho_probe_j
+and v_port_j.  The thread's CPU time over M steps (the first, which computes a new step length's exponentials, not
+counted), the median of R runs taken in turn over all the FMUs (A B C A B C ...: a drift of the shared machine falls
+on all); the ratios of a port FMU to its portless one are taken run by run, then their median.  ``floor``: the same
+loop without fmi2DoStep, the cost of the calls themselves.
+
+Cases: tenmode (N = 400, undamped) with a port at x/L = 0.5 and damped_forced (N = 100) with ports at 0.3 and 0.7,
+the frozen and the exact model: without ports, with ports (the port channel: the portless model plus the channel,
+:mod:`sphrom.rom.port_channel`) and with the ports in the basis as before (build option ``port_channel=False``, the
+frozen one with symplectic Euler: the FMUs of before the channel).  Against k: tenmode's frozen and exact FMUs at
+each k of ``--ks``, without and with the port.
+
+Beside each time, the multiply-adds of one communication step as the C core does them (:func:`multiply_adds`): the
+model's own (the frozen model's internal steps and refreshes; the linear model's dense step), the port channel's
+(its planes' step and the output rows once), the error bounds' shadow (its planes' step and the check of the velocity
+bounds against error_tolerance after each step) and the outputs read.
+"""
+
+from __future__ import annotations
+
+import json
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+import zipfile
+from pathlib import Path
+
+from ..runio import atomic_path
+from . import program_command, program_parser
+from .lib.document import fmt, publish
+
+HEADING = "## Ports at their cost floor: the cost per communication step"
+CASES = (("tenmode", (0.5,)), ("damped_forced", (0.3, 0.7)))
+MODELS = ("frozen", "exact")
+STEP = 1e-3                  # the communication step [s]
+SLOW_STEPS = 2000            # steps of an FMU of before the channel (up to 0.3 ms each)
+
+
+def multiply_adds(data, h=STEP):
+    """{part: multiply-adds} of one communication step of length ``h`` [s] of the FMU whose model.bin is ``data``
+    (unpacked), as the C core computes them: ``model`` (the kind's step: fmu_src/rom_frozen.c's internal steps and
+    1/n_freeze of a refresh each, or rom_exact.c's dense step), ``channel`` (rom_port.c: each plane's step and its
+    inputs, the output rows once), ``shadow`` (rom_bound.c: each plane's step, and the velocity rows checked against
+    error_tolerance after each step), ``outputs`` (the probe and port rows read) and ``total``."""
+    from ..fmu.kinds import kind_of
+    from ..fmu.kinds.frozen import refresh_matrix_work
+    s = data.sections
+    P, n_ports = data.n_probes, (s["PORTC"].shape[0] if "PORTC" in s else 0)
+    port_inputs = s["PORTB"].shape[0] if "PORTB" in s else 0
+    pad = lambda k, m=4: -(-k // m) * m                                   # noqa: E731
+    kv, kr = data.k_v, data.k_rho
+    if kind_of(data).INTERNAL_STEP:
+        n_int = max(1, int(round(h / data.dt)))
+        kvp, krp = pad(kv), pad(kr)
+        step = krp * kv + kvp * (kr + (kv if data.D is not None else 0)) + kvp + krp + kv + kr
+        particles = s["PARTUR"].shape[0] if "PARTUR" in s else 0
+        refresh = refresh_matrix_work(kv, kr, particles) + kvp + port_inputs * kv
+        model = n_int * (step + refresh / max(int(data.n_freeze), 1))
+        outputs = P * (kv + kr) + n_ports * kv
+    else:
+        k = data.k
+        m = (1 if data.B is not None else 0) + port_inputs
+        model = k * k + 2 * k * m + (k * k + 3 * k if data.Q is not None else 0)
+        outputs = 3 * P * k + n_ports * kv
+    channel = 0.0
+    if "PCSCAL" in s:
+        planes = int(s["PCSCAL"][0, 0])
+        cp = pad(planes, 16)
+        rows = 3 * P + n_ports
+        channel = cp * (8 + 2 * n_ports) + rows * cp
+    shadow = 0.0
+    if "SHSCAL" in s:
+        order, planes, m = (int(x) for x in s["SHSCAL"][0, :3])
+        checked = P + n_ports if s["SHSCAL"][0, 10] > 0 else 0         # velocity bounds against error_tolerance
+        shadow = planes * (4 + 4 * m) + 3 * m * m + order + checked * order
+    total = model + channel + shadow + outputs
+    return {"model": float(model), "channel": float(channel), "shadow": float(shadow), "outputs": float(outputs),
+            "total": float(total)}
+
+
+def package(scene_name, model, ports, k, path, binaries, *, before=False):
+    """Package the FMU of the case (``before``: the ports in the basis, symplectic Euler for the frozen model, as
+    before the channel) at ``path``; returns its unpacked model.bin."""
+    from ..fmu.make.package import package_fmu
+    from ..fmu.resources import unpack
+    from ..scene import load_scene
+    options = {"build_options": {"port_channel": False}} if before else {}
+    if before and model == "frozen":
+        options["integrator"] = "symplectic"
+    package_fmu(load_scene(scene_name), path, k=k, fmi=2, progress=False, binaries=binaries, model=model,
+                ports=ports or None, verify=False, **options)
+    return unpack(zipfile.ZipFile(path).read("resources/model.bin"))
+
+
+def unzip(path, folder):
+    """The FMU at ``path`` unzipped into ``folder`` (a new folder), returned."""
+    folder = Path(folder)
+    folder.mkdir(parents=True)
+    with zipfile.ZipFile(path) as z:
+        z.extractall(folder)
+    return folder
+
+
+def step_cost(driver, folder, n_probes, n_ports, steps, *, h=STEP, floor=False, impedance=0.0):
+    """One run of the native master (fmu_src/tests/step_cost.c) on the unzipped FMU ``folder``: its JSON line."""
+    cmd = [str(driver), str(folder), "--probes", str(n_probes), "--ports", str(n_ports), "--steps", str(steps),
+           "--h", repr(h), "--repeats", "1", "--scale", "1"]
+    if floor:
+        cmd.append("--floor")
+    if impedance:
+        cmd += ["--impedance", repr(impedance)]
+    done = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    if done.returncode != 0:
+        raise RuntimeError(f"{driver.name} on {folder.name}: {done.stderr.strip()}")
+    return json.loads(done.stdout)
+
+
+def cases(ks):
+    """[(label, scene, model, ports, k, before)] of the measurement (module docstring)."""
+    out = []
+    for scene, ports in CASES:
+        for model in MODELS:
+            out += [(f"{scene} {model}", scene, model, (), 12, False),
+                    (f"{scene} {model} ports", scene, model, ports, 12, False),
+                    (f"{scene} {model} ports (before)", scene, model, ports, 12, True)]
+    for k in ks:
+        if k == 12:
+            continue
+        for model in MODELS:
+            out += [(f"tenmode {model} k={k}", "tenmode", model, (), k, False),
+                    (f"tenmode {model} ports k={k}", "tenmode", model, (0.5,), k, False)]
+    return out
+
+
+def measure(ks=(4, 8, 12, 24), steps=20000, repeats=5, progress=True, workdir=None):
+    """Rows (dict) per FMU: its sizes, multiply-adds and CPU ns per step (median), the floor, and for a port FMU its
+    ratio to the portless FMU of the same scene, model and k (median of the run-by-run ratios)."""
+    from ..fmu.make.build import ensure_binaries
+    from ..progress import progress_bar
+    binaries = ensure_binaries(quiet=not progress)
+    driver = binaries.folder / "sphrom_step_cost"
+    if not driver.exists():
+        raise RuntimeError(f"the native master {driver} was not built (POSIX, SPHROM_BUILD_TESTS)")
+    with tempfile.TemporaryDirectory(dir=workdir) as tmp:
+        fmus = []
+        todo = cases(ks)
+        with progress_bar(len(todo), "packaging", unit="FMU", enabled=progress) as bar:
+            for i, (label, scene, model, ports, k, before) in enumerate(todo):
+                path = Path(tmp) / f"{i}.fmu"
+                data = package(scene, model, ports, k, path, binaries, before=before)
+                fmus.append(dict(label=label, scene=scene, model=model, ports=len(ports), k=k, before=before,
+                                 data=data, folder=unzip(path, Path(tmp) / f"{i}")))
+                bar.update(1)
+        for f in fmus:
+            f["steps"] = SLOW_STEPS if f["before"] and f["ports"] else steps
+            f["floor"] = step_cost(driver, f["folder"], f["data"].n_probes, f["ports"], f["steps"], floor=True)
+        runs = {f["label"]: [] for f in fmus}
+        with progress_bar(repeats, "timing", unit="round", enabled=progress) as bar:
+            for _ in range(repeats):
+                for f in fmus:
+                    runs[f["label"]].append(step_cost(driver, f["folder"], f["data"].n_probes, f["ports"],
+                                                      f["steps"]))
+                bar.update(1)
+    rows = []
+    for f in fmus:
+        cpu = [r["ns_per_step_cpu"] for r in runs[f["label"]]]
+        data = f["data"]
+        base = next((g for g in fmus if g["scene"] == f["scene"] and g["model"] == f["model"] and g["k"] == f["k"]
+                     and not g["ports"] and not g["before"]), None)
+        ratio = float("nan")
+        if f["ports"] and base is not None:
+            ratio = statistics.median(a["ns_per_step_cpu"] / b["ns_per_step_cpu"]
+                                      for a, b in zip(runs[f["label"]], runs[base["label"]]))
+        planes = int(data.sections["PCSCAL"][0, 0]) if "PCSCAL" in data.sections else 0
+        shadow = int(data.sections["SHSCAL"][0, 0]) if "SHSCAL" in data.sections else 0
+        rows.append({"fmu": f["label"], "scene": f["scene"], "model": f["model"], "k": f["k"], "ports": f["ports"],
+                     "before": f["before"], "k_v": data.k_v, "k_rho": data.k_rho, "channel_planes": planes,
+                     "shadow_order": shadow, "steps": f["steps"], "ns_per_step": statistics.median(cpu),
+                     "ns_min": min(cpu), "ns_max": max(cpu), "floor_ns": f["floor"]["ns_per_step_cpu"],
+                     "ratio_to_portless": ratio, **{f"madds_{k}": v for k, v in multiply_adds(data).items()}})
+    return rows
+
+
+def table(rows):
+    """The report's table lines."""
+    out = ["| FMU | k_v, k_ρ | channel planes | shadow order | multiply-adds per step (model + channel + shadow "
+           "+ outputs) | CPU ns per step (median) | floor ns | × portless |",
+           "| --- | --- | ---: | ---: | --- | ---: | ---: | ---: |"]
+    for r in rows:
+        parts = f"{r['madds_total']:.0f} ({r['madds_model']:.0f} + {r['madds_channel']:.0f} + " \
+                f"{r['madds_shadow']:.0f} + {r['madds_outputs']:.0f})"
+        out.append(f"| {r['fmu']} | {r['k_v']}, {r['k_rho']} | {r['channel_planes'] or '—'} | "
+                   f"{r['shadow_order'] or '—'} | {parts} | {r['ns_per_step']:.0f} | {r['floor_ns']:.0f} | "
+                   f"{fmt(r['ratio_to_portless'], '.2f')} |")
+    return out
+
+
+def report_lines(rows, command, wall, steps, repeats):
+    from .lib.timing import cpu_model, load_average
+    lines = [HEADING, "",
+             f"Produced by `{command}` ({cpu_model()}, load average {load_average()} at the end; {wall:.0f} s wall; "
+             "`validation/benchmarks/port_cost.csv`).  Each FMU as `sphrom fmu` packages it (FMI 2, the scene's "
+             "defaults, with its certified error bounds), driven by the native FMI 2 master `fmu_src/tests/"
+             "step_cost.c` (the FMU's binary loaded with dlopen): per 1 ms step fmi2SetReal of f and of each F_port_j "
+             "(a spring to ground on each port), fmi2DoStep, fmi2GetReal of v_probe_j, rho_probe_j, v_port_j; the "
+             f"thread's CPU time over {steps} steps ({SLOW_STEPS} for the FMUs of before the channel), the median of "
+             f"{repeats} runs taken in turn over all the FMUs; × portless: the median of the run-by-run ratios to the "
+             "same scene's, model's and k's FMU without ports.  *ports*: the portless model plus the port channel "
+             "(docs/fmu/ports.md); *(before)*: the ports in the basis (build option `port_channel=False`, the frozen "
+             "model with symplectic Euler), as every port FMU was before.  floor: the same loop without fmi2DoStep "
+             "(the FMI calls themselves).  Multiply-adds: `sphrom.bench.port_cost.multiply_adds`, the C core's "
+             "arithmetic of one step (the frozen model's internal steps of its dt and 1/n_freeze of a refresh each; "
+             "the linear model's dense step; the channel's planes and its output rows once; the shadow's planes and "
+             "the check of the velocity bounds against error_tolerance after every step).", ""]
+    lines += table(rows)
+    lines.append("")
+    for scene, ports in CASES:
+        for model in MODELS:
+            r = next((r for r in rows if r["fmu"] == f"{scene} {model} ports"), None)
+            b = next((r for r in rows if r["fmu"] == f"{scene} {model} ports (before)"), None)
+            p = next((r for r in rows if r["fmu"] == f"{scene} {model}"), None)
+            if r and b and p:
+                lines.append(f"- {scene} {model} with ports at x/L = {', '.join(f'{x:g}' for x in ports)}: "
+                             f"{r['ratio_to_portless']:.2f}× its portless FMU per step (before: "
+                             f"{b['ns_per_step'] / p['ns_per_step']:.1f}×; target ≤ 1.5× for the frozen one).")
+    return lines
+
+
+def write_csv(path, rows):
+    keys = list(rows[0])
+    with atomic_path(Path(path)) as tmp:
+        Path(tmp).write_text("\n".join([",".join(keys)] + [",".join(
+            f"{r[k]:.6g}" if isinstance(r[k], float) else str(r[k]) for k in keys) for r in rows]) + "\n")
+
+
+def main(argv=None):
+    p = program_parser("port_cost", description=__doc__.split("\n\n")[0])
+    p.add_argument("--steps", type=int, default=20000, help="communication steps per run (default 20000)")
+    p.add_argument("--repeats", type=int, default=5, help="runs per FMU, taken in turn (default 5)")
+    p.add_argument("--ks", default="4,8,12,24", help="the k of tenmode's sweep (default 4,8,12,24)")
+    p.add_argument("--out", default="validation/benchmarks", metavar="FOLDER")
+    p.add_argument("--report", default=None, metavar="BENCHMARKS.md")
+    p.add_argument("--quiet", action="store_true")
+    args = p.parse_args(argv)
+    if args.steps < 10 or args.repeats < 1:
+        p.error("--steps: at least 10; --repeats: at least 1")
+    try:
+        ks = tuple(int(x) for x in args.ks.split(","))
+    except ValueError:
+        p.error(f"--ks: {args.ks!r} is not a comma-separated list of integers")
+    t0 = time.perf_counter()
+    rows = measure(ks=ks, steps=args.steps, repeats=args.repeats, progress=not args.quiet)
+    out = Path(args.out) / "port_cost.csv"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    write_csv(out, rows)
+    lines = report_lines(rows, program_command("port_cost", argv), time.perf_counter() - t0, args.steps,
+                         args.repeats)
+    if args.report:
+        publish(args.report, HEADING, lines, [out], time.perf_counter() - t0)
+    else:
+        print("\n".join(lines))
+        print(f"wrote {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
