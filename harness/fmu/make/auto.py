@@ -58,6 +58,15 @@ def package_auto(scene, out, *, tolerance, progress=True, integrator=None, bound
     return best, candidates
 
 
+def verdicts(chosen, candidates, tolerance):
+    """[(FMUSummary, verdict)] of :func:`package_auto`'s ``candidates``, the verdict in words: the ``chosen`` one,
+    one that meets ``tolerance`` at a higher cost, or one that does not meet it."""
+    from ..check.verify import acceptance
+    return [(c, "chosen: the cheapest that meets it" if c is chosen else
+             "meets it, costlier" if acceptance(c.verification, tolerance) is None else "does not meet it")
+            for c in candidates]
+
+
 def _cost(case):
     """The FMU's own work on a case [s] (its doStep calls), its whole run through fmpy where that was not timed."""
     return case.step_s if case.step_s == case.step_s else case.fmu_s

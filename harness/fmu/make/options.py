@@ -4,11 +4,17 @@ field and the allowed range)."""
 from __future__ import annotations
 
 import math
+import sys
 
 import numpy as np
 
 from ... import defaults
-from ...errors import FieldError
+from ...errors import FieldError, exact
+from ...rom import parametric as par
+from ...rom.registry import fmu_model_names, get_model, model_names
+from ...sph.ports import parse_ports
+from ...sph.solver import build_problem
+from ..kinds import for_model
 from ..resources import MAX_PROBES
 from ..variables import check_parameter
 
@@ -68,7 +74,6 @@ def check_options(scene, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaults.
     Raises FieldError naming the field (``k``, ``n_freeze``, ``probes``, ``fmi``, ``model``, ``integrator``,
     ``tolerance``, ``order_tolerance``) and the allowed range; the command line shows the option that set it.
     """
-    from ...rom.registry import fmu_model_names, get_model, model_names
     if model not in fmu_model_names():
         raise FieldError("model", f"{model!r} is out of range (allowed: {', '.join(fmu_model_names())})")
     spec = get_model(model)
@@ -94,7 +99,6 @@ def check_options(scene, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaults.
     probes = parse_probes(",".join(str(p) for p in probes)) if not isinstance(probes, str) else parse_probes(probes)
     if fmi not in (2, 3):
         raise FieldError("fmi", f"{fmi!r} is out of range (allowed: 2 or 3)")
-    from ..kinds import for_model
     kind = for_model(model)                 # the options its model kind takes (its BUILD_OPTIONS)
     if "integrator" not in kind.BUILD_OPTIONS:
         if integrator is not None:
@@ -116,12 +120,74 @@ def check_options(scene, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaults.
 def check_ports(ports, model):
     """The port positions (a list, empty for None) of an FMU of ``model``; FieldError naming ``ports`` when bad
     or when the model takes no port forces (the registry's ``ports``)."""
-    from ...rom.registry import get_model, model_names
-    from ...sph.ports import parse_ports
     if ports is None or (not isinstance(ports, str) and len(ports) == 0):
         return []
     ports = parse_ports(ports)
     if not get_model(model).ports:
         raise FieldError("ports", f"the {model} model takes no port forces (allowed with: "
                                   f"{', '.join(n for n in model_names(ports=True) if get_model(n).fmu_kind)})")
+    return ports
+
+
+def check_vary(scene, texts, model):
+    """The parameter ranges of a parametric FMU, checked before any run.
+
+    Parameters
+    ----------
+    scene : Scene
+    texts : list of str
+        ``c=LO:HI`` / ``d=LO:HI`` (``sphrom fmu --vary``): the uniform stiffness c [kg m^-1 s^-2] or damping d
+        [s^-1]; empty for an FMU that is not parametric.
+    model : str
+        The model to package (one with a POD basis).
+
+    Returns
+    -------
+    list of sphrom.rom.parametric.Range (empty for no ``texts``)
+
+    Raises
+    ------
+    FieldError
+        ``vary`` for a bad text or a subnormal bound, ``model`` for a model without a POD basis, and
+        ``fields.c`` / ``fields.d`` when the scene's field is not uniform.
+    """
+    if not texts:
+        return []
+    ranges = [par.parse_vary(text) for text in texts]
+    for r in ranges:                    # a subnormal bound keeps a few of its digits: c = 1e-320 is 9.99989e-321
+        for bound in (r.lo, r.hi):
+            if 0 < bound < sys.float_info.min:
+                raise FieldError("vary", f"{r.name} bound {exact(bound)} is below the smallest normal number "
+                                         f"{sys.float_info.min:.4g}, where doubles lose their precision (allowed: "
+                                         f"{'' if r.name == 'c' else r.name + ' = 0 or '}{r.name} >= "
+                                         f"{sys.float_info.min:.4g})")
+    if not get_model(model).needs_basis:
+        allowed = ", ".join(name for name in fmu_model_names() if get_model(name).needs_basis)
+        raise FieldError("model", f"{model} cannot be made parametric (allowed with vary: {allowed})")
+    par.parameter_space(build_problem(scene), ranges)
+    return ranges
+
+
+def check_port_spacing(scene, ports):
+    """``ports`` (x/L) unless two are closer than one particle spacing L/N on the periodic bar.
+
+    Each port's force is spread over the particles by the SPH kernel, so two ports within one spacing push nearly
+    the same particles with nearly the same weights and the model cannot tell their forces (nor their velocities)
+    apart; the second one's profile is then almost inside the first one's directions.
+
+    Raises
+    ------
+    FieldError
+        ``ports``, naming the two positions and their gap.
+    """
+    n = scene.sph.n_particles
+    for i, a in enumerate(ports):
+        for b in ports[i + 1:]:
+            gap = abs(a - b) % 1.0
+            gap = min(gap, 1.0 - gap)
+            if gap < 1.0 / n:
+                raise FieldError("ports", f"{exact(a)} and {exact(b)} are {gap:.3g} L apart, closer than one particle "
+                                          f"spacing (1/N = 1/{n} L): the SPH kernel spreads both forces over the same "
+                                          "particles, so the model cannot tell them apart (allowed: ports at least "
+                                          "L/N apart)")
     return ports
