@@ -8,7 +8,7 @@ integrator and Δt; exact: the exact linear model, scale invariant, whose error 
 full SPH's departure from linearity in J, its time stepping of ρ), the peak strain |ρ0/ρ - 1| of the full SPH at the particles and at the
 probes, and the frozen run's largest coordinate excess beyond the trained ranges in units of its
 block's largest half-width (the quantity the FMU's coordinate check compares with margin - 1,
-:mod:`sphrom.fmu.make.envelope`).  Run as::
+:mod:`sphrom.fmu.training.envelope`).  Run as::
 
     python -m sphrom.bench.envelope [SCENE ...] [--scales 1,1.5,...] [--out validation/benchmarks/envelope.csv]
                                      [--report BENCHMARKS.md]
@@ -30,8 +30,8 @@ from pathlib import Path
 import numpy as np
 
 from .. import defaults
-from ..fmu.make import envelope as E
-from ..fmu.make.envelope import FAILURE_STRAIN, MARGIN
+from ..fmu.training import envelope as E
+from ..fmu.training.envelope import FAILURE_STRAIN, MARGIN
 from ..fmu.resources import probe_pairs
 from ..markdown import write_text
 from ..norms import relative_l2

@@ -19,9 +19,9 @@ from pathlib import Path
 import numpy as np
 
 from ..fmu.make.build import ensure_binaries
-from ..fmu.make.envelope import Envelope
+from ..fmu.training.envelope import Envelope
 from ..fmu.make.package import package_fmu
-from ..fmu.resources import unpack
+from ..fmu.kinds import unpack
 from ..fmu.run.driver import FMU
 from ..fmu.variables import members
 from ..progress import progress_bar

@@ -300,7 +300,7 @@ class Section:
 
 
 SECTIONS: dict[str, Section] = {
-    # the training envelope (harness/fmu/make/envelope.py, fmu_src/rom_envelope.c)
+    # the training envelope (harness/fmu/training/envelope.py, fmu_src/rom_envelope.c)
     "ENVELOPE": Section("the training envelope's scalars",
                         columns=("force_amplitude", "force_band", "max_strain", "max_probe_strain", "failure_strain",
                                  "margin", "checks", "force_mean")),

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .probes import probe_pairs
+
 
 def linear_reference(problem, ports, t_end, step, *, force=None, port_forces=None, hold="held", state=True,
                      area=1.0, specific_volume=False):
@@ -144,7 +146,6 @@ def exact_probe_reference(problem, probes, t, force, scale=1.0, hold="held"):
             z[2 * n] = f[k]
             z[2 * n + 1] = f[k + 1] - f[k] if hold == "linear" else 0.0
             z = advance(z)
-    from ..fmu.resources import probe_pairs
     i0, i1, w = probe_pairs(problem.x, problem.scene.L, probes)
     v = states[:, :n] / lti.w_v
     e = states[:, n:] / lti.w_e

@@ -79,7 +79,7 @@ def core_rows(base, sizes, k=BENCH_K, n_freeze=BENCH_FREEZE, n_steps=200_000, re
     from ...fmu.make.build import ensure_binaries
     from ...fmu.run.core import Core
     from ...fmu.make.models import reduced_model
-    from ...fmu.resources import pack
+    from ...fmu.kinds import pack
 
     core = core or Core(ensure_binaries().core)
     rows = []

@@ -110,9 +110,9 @@ def reference_scene(path, scene, ports=()):
 def model_scene(data, scene, ports=()):
     """``scene`` with the integrator of the FMU whose model.bin is ``data`` (unpacked): a time-stepped FMU's own,
     an FMU integrated exactly in time (exact, balanced) the default one for its ports
-    (:func:`sphrom.fmu.make.options.default_integrator`: symplectic with ports, the scene's without)."""
-    from ..make.options import PORT_INTEGRATOR
+    (:func:`sphrom.fmu.kinds.frozen.default_integrator`: symplectic with ports, the scene's without)."""
     from ..kinds import kind_of
+    from ..kinds.frozen import PORT_INTEGRATOR
     integrator = kind_of(data).integrator(data) or (PORT_INTEGRATOR if len(ports) else scene.sph.integrator)
     if integrator == scene.sph.integrator:
         return scene
@@ -231,5 +231,5 @@ def _model(path):
     """The FMU's model.bin, unpacked (its probes, its integrator)."""
     import zipfile
 
-    from ..resources import unpack
+    from ..kinds import unpack
     return unpack(zipfile.ZipFile(path).read("resources/model.bin"))

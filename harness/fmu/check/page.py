@@ -23,7 +23,8 @@ import tempfile
 import zipfile
 from pathlib import Path
 
-from ..make.documentation import DOC_INDEX
+
+DOC_INDEX = "documentation/index.html"       # the FMU's page: FMI 2.0 / 3.0's documentation entry point
 
 BROWSERS = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable", "chrome", "headless_shell")
 PLAYWRIGHT = ("~/.cache/ms-playwright/chromium*/chrome-linux*/chrome",

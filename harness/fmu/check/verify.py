@@ -273,7 +273,7 @@ def force_amplitude(scene, nu):
     """A [m s^-2] of the step and the unseen sine (module docstring): the training force's peak |f| at the SPH's
     steps, or 2 pi nu max|v0| for a free scene."""
     from ...sph.operator import particle_positions
-    from ..make.envelope import training_force
+    from ..training.envelope import training_force
     peak, _, _ = training_force(scene)
     if peak > 0:
         return peak
@@ -299,7 +299,7 @@ def step_force(scene):
     """The step force's expression, a constant A_s (module docstring): the training force's peak |f| (forced scenes),
     else max|v0| / T (a free scene: a uniform step then moves the bar rigidly to the initial velocity's size by T)."""
     from ...sph.operator import particle_positions
-    from ..make.envelope import training_force
+    from ..training.envelope import training_force
     peak, _, _ = training_force(scene)
     if peak > 0:
         return f"{peak:.4g}"

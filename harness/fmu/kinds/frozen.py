@@ -45,6 +45,24 @@ BUILD_OPTIONS = ("n_freeze", "dt", "integrator")
 INTERNAL_STEP = True
 INITIAL_STATE = "a_v0"           # what initial_state_scale multiplies (rom.h rom_set_initial_state_scale)
 OUTPUT_DERIVATIVE_ORDER = 0      # a discrete map of internal steps: no output derivatives (rom.h)
+PORT_INTEGRATOR = "symplectic"
+FROZEN_INTEGRATORS = ("euler", "symplectic")      # the time-stepped model's own (the full SPH also has rk4)
+
+
+def default_integrator(scene, ports=()):
+    """The time integrator of a time-stepped FMU given none: the scene's, but :data:`PORT_INTEGRATOR` (ρ then v)
+    for an FMU with ports.  A port couples the bar to components outside, and the coupled system is stable when
+    the FMU adds no energy (passivity, docs/fmu/ports.md); explicit Euler multiplies each mode's energy by
+    1 + (ω dt)² a step, symplectic Euler keeps a modified energy of the undamped bar.  Measured (``sphrom bench
+    inputs``, tenmode with a constant port force for 10 s): the full SPH with explicit Euler is 0.1 off the
+    linear SPH integrated exactly in time, with symplectic Euler 9e-6.  A scene whose full SPH steps with RK4 (which
+    the frozen model does not have): symplectic Euler too (the scene's step is within its limit on the reduced
+    model's lower frequencies)."""
+    if len(ports):
+        return PORT_INTEGRATOR
+    return scene.sph.integrator if scene.sph.integrator in FROZEN_INTEGRATORS else PORT_INTEGRATOR
+
+
 MODELS = {
     "frozen": ModelWords(
         ports=("Each port's directions are in the basis as the exact model's (rigid motion, static deflection, "
@@ -81,7 +99,7 @@ class ModelData:
     a_v0, a_rho0, K, b, D, p, T, Pv, Prho, probe_x : ndarray
         D and p may be None.
     token : str
-        The instantiation token (set by :func:`sphrom.fmu.resources.pack`).
+        The instantiation token (set by :func:`sphrom.fmu.kinds.pack`).
     sections : dict of str to ndarray
         Tagged sections (tag -> 2-D float64 array), in file order.
     """
@@ -106,6 +124,7 @@ class ModelData:
     n_freeze_errors: dict = field(default_factory=dict)   # packaging only: choose_n_freeze's measurements
     bounds = None                # the frozen model has no certified error bounds (ExactData.bounds)
     KIND: ClassVar[int] = 1      # resources/model.bin's model_kind (sphrom.fmu.layout.KINDS)
+    INTERNAL_STEP: ClassVar[bool] = INTERNAL_STEP     # the kind's (sphrom.fmu.variables.facts reads it)
 
     @property
     def k_v(self):
@@ -127,7 +146,7 @@ def model_data(ops, problem, *, dt, integrator, n_freeze, probes, bound):
     ----------
     ops : ReducedOperators
         With the refresh tensor, or without it (``T`` None: the particle refresh's sections must then be added
-        to the data's sections before :func:`sphrom.fmu.resources.pack`,
+        to the data's sections before :func:`sphrom.fmu.kinds.pack`,
         :func:`particle_sections`); built
         with ``input_direction="needed"`` for an input row.
     problem : SPHProblem
@@ -190,7 +209,7 @@ def example(rng):
                      Prho=np.abs(rng.normal(size=(npr, kr))) + 1.0, probe_x=np.array([0.25, 0.5]))
 
 # ---------------------------------------------------------------------------------------------------------------
-# its part of model.bin (sphrom.fmu.resources pack, unpack)
+# its part of model.bin (sphrom.fmu.kinds pack, unpack; the shared pieces sphrom.fmu.resources write, read)
 # ---------------------------------------------------------------------------------------------------------------
 
 def min_k_rho(flags):
@@ -199,7 +218,7 @@ def min_k_rho(flags):
 
 
 def file_fields(data):
-    """(shared header fields, its own header, {array name: array}) of ``data`` for :func:`sphrom.fmu.resources.pack`;
+    """(shared header fields, its own header, {array name: array}) of ``data`` for :func:`sphrom.fmu.kinds.pack`;
     ``data.T`` None: no refresh tensor (n_pairs = 0), which the particle refresh's sections (PARTUR, PARTGUV, PARTIR0)
     then replace."""
     from ..resources import FLAG_DAMPING, FLAG_INPUT, INTEGRATORS
@@ -218,7 +237,7 @@ def file_fields(data):
 
 
 def from_file(header, head, arrays, token, sections):
-    """The :class:`ModelData` of a frozen model.bin's fields (:func:`sphrom.fmu.resources.unpack`)."""
+    """The :class:`ModelData` of a frozen model.bin's fields (:func:`sphrom.fmu.kinds.unpack`)."""
     from ..resources import INTEGRATORS
     kr = header["k_rho"]
     if head["n_pairs"] not in (0, kr * (kr + 1) // 2):         # 0: no tensor (the particle sections replace it)
@@ -240,8 +259,8 @@ def resource(scene, model, k, n_freeze, probes, integrator, progress, problem, o
     envelope and error bounds, (data, operators, model.bin bytes); ``n_freeze`` None: chosen per scene
     (:func:`choose_n_freeze`, the errors it measured in ``data.n_freeze_errors``)."""
     from ... import defaults
-    from ..make.steps import shadow_step, training_basis, training_envelope
-    from ..resources import pack
+    from ..training.steps import shadow_step, training_basis, training_envelope
+    from . import pack
     basis, run, problem = training_basis(scene, progress, problem, extra_steps)
     data, ops, problem, _ = reduced_model(scene, k, n_freeze or defaults.N_FREEZE, probes, integrator,
                                           progress=progress, problem=problem, model=model, ports=ports,
@@ -279,7 +298,7 @@ def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem
     them).
     """
     from ...rom.registry import get_model
-    from ..make.steps import model_basis
+    from ..training.steps import model_basis
 
     spec = get_model(model)
     basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem, made=made)

@@ -99,6 +99,7 @@ class ExactData:
     output_rows: bool = False
     bounds: dict | None = None
     KIND: ClassVar[int] = 2      # resources/model.bin's model_kind (sphrom.fmu.layout.KINDS)
+    INTERNAL_STEP: ClassVar[bool] = INTERNAL_STEP     # the kind's (sphrom.fmu.variables.facts reads it)
 
     @property
     def k(self):
@@ -187,7 +188,7 @@ def example(rng):
                      probe_x=np.array([0.25, 0.5]))
 
 # ---------------------------------------------------------------------------------------------------------------
-# its part of model.bin (sphrom.fmu.resources pack, unpack)
+# its part of model.bin (sphrom.fmu.kinds pack, unpack; the shared pieces sphrom.fmu.resources write, read)
 # ---------------------------------------------------------------------------------------------------------------
 
 def min_k_rho(flags):
@@ -198,7 +199,7 @@ def min_k_rho(flags):
 
 def file_fields(data):
     """(shared header fields, None: no header of its own, {array name: array}) of ``data`` for
-    :func:`sphrom.fmu.resources.pack`."""
+    :func:`sphrom.fmu.kinds.pack`."""
     from ..resources import FLAG_DAMPING, FLAG_INPUT, FLAG_OUTPUT_ROWS, FLAG_SCHUR
     if data.Q is not None and data.damping:
         raise ValueError("a Schur form needs a skew operator (no damping)")
@@ -212,7 +213,7 @@ def file_fields(data):
 
 
 def from_file(header, head, arrays, token, sections):
-    """The :class:`ExactData` of a linear model.bin's fields (:func:`sphrom.fmu.resources.unpack`)."""
+    """The :class:`ExactData` of a linear model.bin's fields (:func:`sphrom.fmu.kinds.unpack`)."""
     from ..resources import FLAG_DAMPING, FLAG_OUTPUT_ROWS
     flags = header["flags"]
     return ExactData(bound=header["runaway_bound"], L=header["L"], k_v=header["k_v"], z0=arrays["z0"], A=arrays["A"],
@@ -234,8 +235,8 @@ def resource(scene, model, k, n_freeze, probes, integrator, progress, problem, o
     the stepping only: the bounds take seconds to minutes at N = 400).  ``n_freeze`` and ``integrator`` are not
     this kind's options (a linear model has no internal step): the caller's values are ignored."""
     from ...rom.registry import get_model
-    from ..make.steps import shadow_step, training_basis, training_envelope
-    from ..resources import pack
+    from ..training.steps import shadow_step, training_basis, training_envelope
+    from . import pack
 
     if get_model(model).needs_basis:
         basis, run, problem = training_basis(scene, progress, problem, extra_steps)
@@ -272,7 +273,7 @@ def exact_model(scene, k, probes, progress=True, problem=None, model="exact", po
     velocity basis, so the input f is represented exactly) and ``build_options``.
     """
     from ...rom.registry import get_model
-    from ..make.steps import model_basis
+    from ..training.steps import model_basis
 
     spec = get_model(model)
     basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem, made=made)

@@ -83,7 +83,7 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
     model : str
         The registered reduced model packaged (its title heads the description).
     envelope : Envelope, optional
-        What the basis was trained on (:mod:`sphrom.fmu.make.envelope`), appended to the description; the
+        What the basis was trained on (:mod:`sphrom.fmu.training.envelope`), appended to the description; the
         nominal values of f and the probe outputs.
     measured : str, optional
         The verification's sentence (errors against the full SPH, run times), appended to the description.
@@ -267,7 +267,7 @@ def build_description(blob) -> str:
     """sources/buildDescription.xml of the FMI 3 FMU whose resources/model.bin is ``blob``: its sources, and the
     model it holds (read from the resources) in its description."""
     from ...rom.registry import get_model
-    from ..resources import unpack
+    from ..kinds import unpack
     title = get_model(model_name(unpack(blob))).title
     return render(template("buildDescription.xml"), {"description": f"{title}, FMI 3.0 co-simulation"},
                   {"source_files": [{"name": name} for name in fmu_sources(3) if name.endswith(".c")]})

@@ -19,9 +19,9 @@ import xml.etree.ElementTree as ET
 from html import escape
 
 from .. import layout
+from ..check.page import DOC_INDEX  # noqa: F401  (where the page goes)
 from ..kinds import kind_of
 
-DOC_INDEX = "documentation/index.html"
 DOC_PLOT = "documentation/probes.png"
 
 _STYLE = """body{font-family:sans-serif;max-width:60em;margin:1em auto;padding:0 1em;color:#222}
@@ -365,7 +365,7 @@ def channel_lines(verification):
 
 
 def envelope_section(envelope, linear, bounded=False):
-    """What the basis was trained on (:class:`sphrom.fmu.make.envelope.Envelope`) and what the FMU checks at run
+    """What the basis was trained on (:class:`sphrom.fmu.training.envelope.Envelope`) and what the FMU checks at run
     time (``bounded``: its certified error bounds); nothing when the FMU carries no envelope."""
     if envelope is None:
         return []

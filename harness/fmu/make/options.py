@@ -15,6 +15,7 @@ from ...rom.registry import fmu_model_names, get_model, model_names
 from ...sph.ports import parse_ports
 from ...sph.solver import build_problem
 from ..kinds import for_model
+from ..kinds.frozen import FROZEN_INTEGRATORS, PORT_INTEGRATOR, default_integrator  # noqa: F401
 from ..resources import MAX_PROBES
 from ..variables import check_parameter
 
@@ -40,24 +41,6 @@ def parse_probes(text):
         if not (math.isfinite(v) and 0.0 <= v <= 1.0):
             raise FieldError("probes", f"{v!r} is out of range (allowed: positions x/L in [0, 1])")
     return values
-
-
-PORT_INTEGRATOR = "symplectic"
-FROZEN_INTEGRATORS = ("euler", "symplectic")      # the time-stepped model's own (the full SPH also has rk4)
-
-
-def default_integrator(scene, ports=()):
-    """The time integrator of a time-stepped FMU given none: the scene's, but :data:`PORT_INTEGRATOR` (ρ then v)
-    for an FMU with ports.  A port couples the bar to components outside, and the coupled system is stable when
-    the FMU adds no energy (passivity, docs/fmu/ports.md); explicit Euler multiplies each mode's energy by
-    1 + (ω dt)² a step, symplectic Euler keeps a modified energy of the undamped bar.  Measured (``sphrom bench
-    inputs``, tenmode with a constant port force for 10 s): the full SPH with explicit Euler is 0.1 off the
-    linear SPH integrated exactly in time, with symplectic Euler 9e-6.  A scene whose full SPH steps with RK4 (which
-    the frozen model does not have): symplectic Euler too (the scene's step is within its limit on the reduced
-    model's lower frequencies)."""
-    if len(ports):
-        return PORT_INTEGRATOR
-    return scene.sph.integrator if scene.sph.integrator in FROZEN_INTEGRATORS else PORT_INTEGRATOR
 
 
 def check_options(scene, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaults.PROBES, fmi=2, integrator=None,

@@ -98,7 +98,7 @@ class FMUSummary:
     size: int
     timings: dict = field(default_factory=dict)
     model: str = "frozen"
-    envelope: object = None        # sphrom.fmu.make.envelope.Envelope: what the basis was trained on
+    envelope: object = None        # sphrom.fmu.training.envelope.Envelope: what the basis was trained on
     verification: object = None      # sphrom.fmu.check.verify.Verification when measured, else None
     bounds: dict | None = None
     method: str = ""
@@ -270,7 +270,7 @@ def model_step(scene, model, k, n_freeze, probes, integrator, progress, problem,
 
 def envelope_step(data):
     """Step 3: the training envelope stored in the resources' sections (:class:`.envelope.Envelope`)."""
-    from .envelope import Envelope
+    from ..training.envelope import Envelope
     return Envelope.from_sections(data.sections, data.k_v)
 
 

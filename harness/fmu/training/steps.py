@@ -33,8 +33,8 @@ def model_basis(scene, spec, k, progress=True, problem=None, made=None):
 
 
 def training_envelope(scene, ops, problem, probes, linear, progress=False, run=None):
-    """The :class:`~sphrom.fmu.make.envelope.Envelope` of the model ``ops``: its ranges over the scene's cached
-    full SPH training run (:mod:`sphrom.fmu.make.envelope`)."""
+    """The :class:`~sphrom.fmu.training.envelope.Envelope` of the model ``ops``: its ranges over the scene's cached
+    full SPH training run (:mod:`sphrom.fmu.training.envelope`)."""
     from ...pod.pipeline import basis_for_scene
     from .envelope import measure
     if run is None:
