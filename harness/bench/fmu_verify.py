@@ -22,10 +22,12 @@ import tempfile
 import time
 from pathlib import Path
 
-from ..fmu.check.verify import fmu_features, fmu_run, sph_reference
+from ..fmu.check.verify import acceptance, fmu_features, fmu_run, sph_reference
 from ..fmu.make.build import ensure_binaries
 from ..fmu.make.package import package_fmu
+from ..rom.registry import fmu_model_names
 from ..scene import builtin_names, load_scene
+from ..sph.solver import build_problem
 from . import machine_text, program_command, program_parser
 from .lib.document import fmt, update_report
 from .lib.tables import write_csv
@@ -42,9 +44,6 @@ def measure_scene(name, models, repeats, folder, fmi=2, progress=True, bounds=Tr
 
     ``bounds=False`` packages the linear FMUs without their certified error bounds (``sphrom fmu --no-bounds``:
     they cost the full 2N linear system, minutes at N = 1000; the outputs do not depend on them)."""
-
-    from ..fmu.check.verify import acceptance
-    from ..sph.solver import build_problem
 
     scene = load_scene(name)
     problem = build_problem(scene)
@@ -140,7 +139,6 @@ def main(argv=None):
     p.add_argument("--quiet", action="store_true")
     args = p.parse_args(argv)
     scenes = args.scenes or builtin_names()
-    from ..rom.registry import fmu_model_names
     models = [m for m in (args.models or ",".join(fmu_model_names())).split(",") if m]
     t0 = time.perf_counter()
     rows = []

@@ -35,7 +35,14 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import SimulationError, ToleranceError, UserError
+from ..fmu.check.verify import acceptance, case_errors, sph_reference
+from ..fmu.make.auto import choose_default, default_candidates
+from ..fmu.make.package import package_fmu
+from ..runio import atomic_path
+from ..scene import load_scene
 from . import machine_text, program_command, program_parser
+from .lib.corpus import corpus
 from .lib.document import fmt, program_outputs, publish
 from .lib.tables import write_csv
 
@@ -99,12 +106,6 @@ def fmu_row(prefix, summary, verdict):
 
 def measure_scene(name, text, facts, folder, progress=False):
     """One row: the scene as a user's file, its default and exact FMUs (module docstring)."""
-    from ..errors import SimulationError, ToleranceError, UserError
-    from ..fmu.check.verify import case_errors, sph_reference
-    from ..fmu.make.auto import choose_default, default_candidates
-    from ..fmu.make.package import package_fmu
-    from ..fmu.check.verify import acceptance
-    from ..scene import load_scene
     t0 = time.perf_counter()
     path = Path(folder) / f"{name}.toml"
     path.write_text(text)
@@ -236,8 +237,6 @@ def plot(rows, path):
 
 
 def main(argv=None):
-    from ..runio import atomic_path
-    from .lib.corpus import corpus
     p = program_parser("scenes", description=__doc__.split("\n\n")[0])
     p.add_argument("--seed", type=int, default=0, help="the corpus's seed (default 0)")
     p.add_argument("--count", type=int, default=16, help="scenes (default 16)")

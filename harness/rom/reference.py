@@ -5,7 +5,12 @@ the reference the reduced models' inputs are measured against (:mod:`sphrom.rom.
 from __future__ import annotations
 
 import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
 
+from ..sph.ports import port_kernel, port_velocity_rows
+from .exact_linear import propagators
+from .lti import full_linear_system
 from .probes import probe_pairs
 
 
@@ -38,9 +43,6 @@ def linear_reference(problem, ports, t_end, step, *, force=None, port_forces=Non
     -------
     t (M,) [s], v (M, N) [m s^-1], v_port (M, P) [m s^-1] (and e (M, N) with ``specific_volume``).
     """
-    from ..sph.ports import port_kernel, port_velocity_rows
-    from .exact_linear import propagators
-    from .lti import full_linear_system
     lti = full_linear_system(problem, [0.5])
     n = problem.n
     cols = []
@@ -113,10 +115,6 @@ def exact_probe_reference(problem, probes, t, force, scale=1.0, hold="held"):
     (:func:`scipy.sparse.linalg.expm_multiply`).  The explicit-Euler SPH the validation and ``sphrom fmu`` also run
     differs from it by its own time-step error (and its nonlinearity in ρ, eqs. 2.10-2.11 are exactly linear in J).
     """
-    import scipy.linalg as sla
-    import scipy.sparse as sp
-
-    from .lti import full_linear_system
     if hold not in ("held", "linear"):
         raise ValueError(f"hold: {hold!r} (allowed: held, linear)")
     t = np.asarray(t, float)

@@ -26,6 +26,9 @@ import math
 import numpy as np
 import scipy.sparse as sp
 
+from ...rom.lti import full_linear_system
+from ..resources import probe_pairs
+
 DENSE_MAX = 500            # N up to which the step map is a dense matrix exponential (order 2N + 2)
 THETA = 6.0                # ‖A τ‖₁ of a Taylor sub-step (sparse path)
 TERMS = 40                 # Taylor terms per sub-step: θ^(m+1)/(m+1)! = 2.4e-18 at θ = 6, m = 40
@@ -91,8 +94,6 @@ def exact_probe_outputs(problem, probes, t, inputs, scales, interpolate=False):
     (v, rho) : ndarrays (M, P, C)
         Probe velocities [m s^-1] and densities [kg m^-3].
     """
-    from ...rom.lti import full_linear_system
-    from ..resources import probe_pairs
     t = np.asarray(t, float)
     U = np.asarray(inputs, float).reshape(t.size, -1)
     C = U.shape[1]

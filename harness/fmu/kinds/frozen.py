@@ -33,12 +33,22 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from html import escape
 from typing import ClassVar
 
 import numpy as np
 
-from . import ModelWords
-from ..resources import port_sections
+from ... import defaults
+from ...errors import SimulationError
+from ...rom import parametric as par
+from ...rom.frozen import frozen_advance, loop_operators
+from ...rom.operators import probe_rows, wants_tensor
+from ...rom.registry import get_model
+from ...rom.stepping import initial_scale, runaway_bound
+from ...sph.solver import step_count
+from ..resources import FLAG_DAMPING, FLAG_INPUT, INTEGRATORS, port_sections
+from ..training.steps import model_basis, shadow_step, training_basis, training_envelope
+from . import ModelWords, pack, step_error
 
 NUMBER = 1
 BUILD_OPTIONS = ("n_freeze", "dt", "integrator")
@@ -161,8 +171,6 @@ def model_data(ops, problem, *, dt, integrator, n_freeze, probes, bound):
     bound : float
         Runaway bound on |a|.
     """
-    from ...rom.operators import probe_rows
-
     probes = np.asarray(probes, dtype=float)
     L = problem.scene.L
     return ModelData(integrator=integrator, n_freeze=int(n_freeze), dt=float(dt), bound=float(bound), L=float(L),
@@ -181,7 +189,6 @@ Data = ModelData
 def from_operators(ops, problem, *, probes, dt, n_freeze, integrator="euler", bound=None):
     """:func:`model_data` of operators built elsewhere (a benchmark's own), the runaway bound that of their initial
     state unless given (:func:`sphrom.rom.stepping.runaway_bound`)."""
-    from ...rom.stepping import runaway_bound
     return model_data(ops, problem, dt=dt, integrator=integrator, n_freeze=n_freeze, probes=probes,
                       bound=runaway_bound(ops) if bound is None else bound)
 
@@ -190,7 +197,6 @@ def parametric(affine, c, d, problem, *, probes, dt, n_freeze, integrator="euler
     """(data, operators, the affine pieces' sections KC, BC and DD with damping) of a parametric frozen model at
     (c, d) (:func:`sphrom.fmu.make.parametric.parametric_resource`; the C core assembles K = c K_c, b = c b_c,
     D = d D_d)."""
-    from ...rom import parametric as par
     ops = par.frozen_at(affine, c, d)
     data = from_operators(ops, problem, probes=probes, dt=dt, n_freeze=n_freeze, integrator=integrator)
     sections = {"KC": affine.unit.K, "BC": affine.unit.b[None, :]}
@@ -221,7 +227,6 @@ def file_fields(data):
     """(shared header fields, its own header, {array name: array}) of ``data`` for :func:`sphrom.fmu.kinds.pack`;
     ``data.T`` None: no refresh tensor (n_pairs = 0), which the particle refresh's sections (PARTUR, PARTGUV, PARTIR0)
     then replace."""
-    from ..resources import FLAG_DAMPING, FLAG_INPUT, INTEGRATORS
     if data.T is None and "PARTUR" not in data.sections:
         raise ValueError("T: a frozen model without its refresh tensor needs the particle sections PARTUR, PARTGUV, "
                          "PARTIR0")
@@ -238,7 +243,6 @@ def file_fields(data):
 
 def from_file(header, head, arrays, token, sections):
     """The :class:`ModelData` of a frozen model.bin's fields (:func:`sphrom.fmu.kinds.unpack`)."""
-    from ..resources import INTEGRATORS
     kr = header["k_rho"]
     if head["n_pairs"] not in (0, kr * (kr + 1) // 2):         # 0: no tensor (the particle sections replace it)
         raise ValueError("n_pairs")
@@ -258,9 +262,6 @@ def resource(scene, model, k, n_freeze, probes, integrator, progress, problem, o
     """The packaging step of kind 1 (``sphrom.fmu.make.package.model_step``): the frozen model with its training
     envelope and error bounds, (data, operators, model.bin bytes); ``n_freeze`` None: chosen per scene
     (:func:`choose_n_freeze`, the errors it measured in ``data.n_freeze_errors``)."""
-    from ... import defaults
-    from ..training.steps import shadow_step, training_basis, training_envelope
-    from . import pack
     basis, run, problem = training_basis(scene, progress, problem, extra_steps)
     data, ops, problem, _ = reduced_model(scene, k, n_freeze or defaults.N_FREEZE, probes, integrator,
                                           progress=progress, problem=problem, model=model, ports=ports,
@@ -297,22 +298,17 @@ def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem
     the model's build (``{"b": "paper"}``: eq. 2.22's b, the paper's variant, :mod:`sphrom.bench.rest` compares
     them).
     """
-    from ...rom.registry import get_model
-    from ..training.steps import model_basis
-
     spec = get_model(model)
     basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem, made=made)
     ops = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction,
                      tensor="always" if tensor == "always" else "never",
                      **({"ports": tuple(ports)} if ports else {}), **(build_options or {}))
-    from ...rom.operators import wants_tensor
     if ops.T is None and (not particle_sections(ops, problem) or wants_tensor("auto", ops.k_v, ops.k_rho)):
         from ...rom.operators import refresh_tensor                     # the FMU's, or small enough to keep
         t0 = time.perf_counter()
         ops.T = refresh_tensor(ops.U_rho, ops.GU_v, ops.inv_rho0)
         ops.timings["tensor"] = time.perf_counter() - t0
         ops.tensor_rule = "always"
-    from ...rom.stepping import runaway_bound
     data = model_data(ops, problem, dt=scene.sph.dt, integrator=integrator, n_freeze=n_freeze, probes=probes,
                       bound=runaway_bound(ops))
     if ops.T is None:                                                   # the particle refresh replaces it
@@ -355,9 +351,6 @@ def choose_n_freeze(scene, ops, problem, run, model="frozen", integrator=None, c
     first part (at least its first :data:`N_FREEZE_MIN_SAMPLES` samples).  ``refresh``: the frozen model's
     refresh path (default the tensor where ``ops`` has it, else the particles, ``"direct"``).
     """
-    from ...errors import SimulationError
-    from ...rom.registry import get_model
-    from ...sph.solver import step_count
     spec = get_model(model)
     refresh = refresh or ("tensor" if ops.T is not None else "direct")
     n_steps = step_count(scene.T, scene.sph.dt)
@@ -408,7 +401,6 @@ def stepping(data):
 
 def model_rows(data):
     """The documentation page's rows (quantity, HTML value) on the time stepping."""
-    from html import escape
     return [("integrator", escape(data.integrator)), ("default n_freeze", str(data.n_freeze)),
             ("default internal dt [s]", format(float(data.dt), "g"))]
 
@@ -509,8 +501,6 @@ class FrozenCosim:
     """
 
     def __init__(self, data, n_freeze=None, dt=None, initial_state_scale=1.0, start=0.0):
-        from ...rom.stepping import initial_scale
-        from ...rom.frozen import loop_operators
         self.data = data
         self.n_freeze = int(data.n_freeze if n_freeze is None else n_freeze)
         self.dt = float(data.dt if dt is None else dt)
@@ -541,8 +531,6 @@ class FrozenCosim:
         self.area = 1.0
 
     def _advance(self, count, h, f, rate=0.0, tau0=0.0):
-        from ...errors import SimulationError
-        from ...rom.frozen import frozen_advance
         if count <= 0:
             return
         # f at each step's time tau0 + j h after the communication point (fmu_src/rom_frozen.c run_steps_kernel)
@@ -561,7 +549,6 @@ class FrozenCosim:
         f + ``rate`` τ over the step (``rate`` df/dt [m s^-3], an input derivative), from ``t_comm`` [s] (default
         the time reached): a step doStep refuses is a ValueError in the core's words
         (:func:`sphrom.fmu.kinds.step_error`)."""
-        from . import step_error
         problem = step_error(self.t, self.t if t_comm is None else t_comm, h, self.elapsed)
         if problem:
             raise ValueError(problem)

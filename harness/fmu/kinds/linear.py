@@ -14,8 +14,16 @@ from typing import ClassVar
 
 import numpy as np
 
-from . import ModelWords
-from ..resources import LINEAR_BALANCED, LINEAR_EXACT_POD, port_sections, probe_pairs
+from ...progress import progress_bar
+from ...rom import parametric as par
+from ...rom.exact_linear import linear_runaway_bound, state_rate
+from ...rom.operators import probe_rows
+from ...rom.registry import get_model
+from ...sph.solver import build_problem
+from ..resources import (FLAG_DAMPING, FLAG_INPUT, FLAG_OUTPUT_ROWS, FLAG_SCHUR, LINEAR_BALANCED, LINEAR_EXACT_POD,
+                         port_sections, probe_pairs)
+from ..training.steps import model_basis, shadow_step, training_basis, training_envelope
+from . import ModelWords, pack
 
 NUMBER = 2
 BUILD_OPTIONS = ()
@@ -119,7 +127,6 @@ Data = ExactData
 
 def exact_data(lin, problem, *, probes, bound=None):
     """Collect the exact model's numbers from :class:`sphrom.rom.exact_linear.LinearOperators`."""
-    from ...rom.operators import probe_rows
     probes = np.asarray(probes, dtype=float)
     L = problem.scene.L
     i0, i1, w = probe_pairs(problem.x, L, probes)
@@ -173,7 +180,6 @@ def from_operators(ops, problem, *, probes, bound=None):
 def parametric(affine, c, d, problem, *, probes):
     """(data, operators, the affine pieces' sections A0, AC, AD) of a parametric linear model at (c, d)
     (:func:`sphrom.fmu.make.parametric.parametric_resource`; the C core assembles A = A_0 + c A_c + d A_d)."""
-    from ...rom import parametric as par
     lin = par.linear_at(affine, c, d)
     return exact_data(lin, problem, probes=probes), lin, {"A0": affine.A0, "AC": affine.Ac, "AD": affine.Ad}
 
@@ -193,14 +199,12 @@ def example(rng):
 
 def min_k_rho(flags):
     """The smallest k_e of a linear model's header: 0 with output rows over z (a state that does not split)."""
-    from ..resources import FLAG_OUTPUT_ROWS
     return 0 if flags & FLAG_OUTPUT_ROWS else 1
 
 
 def file_fields(data):
     """(shared header fields, None: no header of its own, {array name: array}) of ``data`` for
     :func:`sphrom.fmu.kinds.pack`."""
-    from ..resources import FLAG_DAMPING, FLAG_INPUT, FLAG_OUTPUT_ROWS, FLAG_SCHUR
     if data.Q is not None and data.damping:
         raise ValueError("a Schur form needs a skew operator (no damping)")
     rows = bool(data.output_rows)
@@ -214,7 +218,6 @@ def file_fields(data):
 
 def from_file(header, head, arrays, token, sections):
     """The :class:`ExactData` of a linear model.bin's fields (:func:`sphrom.fmu.kinds.unpack`)."""
-    from ..resources import FLAG_DAMPING, FLAG_OUTPUT_ROWS
     flags = header["flags"]
     return ExactData(bound=header["runaway_bound"], L=header["L"], k_v=header["k_v"], z0=arrays["z0"], A=arrays["A"],
                      B=arrays.get("B"), damping=bool(flags & FLAG_DAMPING), Q=arrays.get("Q"), S=arrays.get("S"),
@@ -234,10 +237,6 @@ def resource(scene, model, k, n_freeze, probes, integrator, progress, problem, o
     ``error_bounds``; section BOUNDS: force, initial state), unless ``bounds`` is False (benchmarks that time
     the stepping only: the bounds take seconds to minutes at N = 400).  ``n_freeze`` and ``integrator`` are not
     this kind's options (a linear model has no internal step): the caller's values are ignored."""
-    from ...rom.registry import get_model
-    from ..training.steps import shadow_step, training_basis, training_envelope
-    from . import pack
-
     if get_model(model).needs_basis:
         basis, run, problem = training_basis(scene, progress, problem, extra_steps)
         data, ops, problem, _ = exact_model(scene, k, probes, progress=progress,
@@ -272,9 +271,6 @@ def exact_model(scene, k, probes, progress=True, problem=None, model="exact", po
     model's ``fmu_input_direction`` (the exact model: ``"always"``, the force profile is always in its
     velocity basis, so the input f is represented exactly) and ``build_options``.
     """
-    from ...rom.registry import get_model
-    from ..training.steps import model_basis
-
     spec = get_model(model)
     basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem, made=made)
     lin = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction,
@@ -291,9 +287,6 @@ def balanced_model(scene, k, probes, order_tolerance=None, problem=None, model="
     and truncated at order ``k`` (or the order ``order_tolerance`` gives; the default
     tolerance when both are None); :func:`sphrom.fmu.resources.balanced_data`.
     """
-    from ...rom.registry import get_model
-    from ...sph.solver import build_problem
-
     problem = problem or build_problem(scene)
     try:
         ops = get_model(model).build(problem, None, k, k, order_tolerance=None if k is not None else order_tolerance,
@@ -309,8 +302,6 @@ def balanced_model(scene, k, probes, order_tolerance=None, problem=None, model="
 def linear_bounds(ops, problem, probes, progress=True):
     """The certified error bounds of a linear reduced model at the velocity probes (the operators'
     ``error_bounds``, :func:`sphrom.rom.balanced.error_bounds`), with a progress bar over the probes."""
-    from ...progress import progress_bar
-
     with progress_bar(len(probes), "error bounds", unit="probe", enabled=progress) as bar:
         return ops.error_bounds(problem, probes, progress=bar)
 
@@ -321,9 +312,6 @@ def linear_bound(lin, scene, samples=4097):
 
     10⁶ |z0| alone is 0 for a scene at rest, and such an FMU stopped as a runaway at its first forced step.
     """
-    import numpy as np
-
-    from ...rom.exact_linear import linear_runaway_bound
     t = np.linspace(0.0, float(scene.T), samples)
     f = np.abs(np.asarray(scene.force(t), float)) if lin.B is not None else np.zeros(samples)
     return linear_runaway_bound(lin, float(np.sum(0.5 * (f[1:] + f[:-1]) * np.diff(t))))
@@ -372,7 +360,6 @@ def linear_output_rates(data, z, f=0.0):
     dz/dt = A z + B f; dv_j/dt = Pv[j] . (dz/dt)_a; ρ_j = Σ_m w_m ρ0_m / J_m with J_m = 1 + Pe[j][m] . b, so
     dρ_j/dt = -Σ_m w_m ρ0_m (Pe[j][m] . (db/dt)) / J_m².  Returns (dv/dt [m s^-2], dρ/dt [kg m^-3 s^-1]).
     """
-    from ...rom.exact_linear import state_rate
     z = np.asarray(z, float)
     zdot = state_rate(data.A, data.B, z, f)
     kv = data.k_v

@@ -19,11 +19,12 @@ from ..kinds.frozen import FROZEN_INTEGRATORS, PORT_INTEGRATOR, default_integrat
 from ..resources import MAX_PROBES
 from ..variables import check_parameter
 
+from ...pod.pipeline import accel_modes
+
 
 def default_modes(scene):
     """K of the scene: max(rom.accel_modes), else rom.modes, else the automatic mode count of its POD
     (:func:`sphrom.pod.pipeline.scene_modes`: runs the full SPH when it is not cached)."""
-    from ...pod.pipeline import accel_modes
     return int(max(accel_modes(scene)))
 
 
