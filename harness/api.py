@@ -81,7 +81,7 @@ def verify_fmu(fmu, scene, *, progress=True):
     import zipfile
 
     from .fmu.make.package import verification_step
-    from .fmu.resources import unpack
+    from .fmu.kinds import unpack
     path = Path(fmu)
     with zipfile.ZipFile(path) as zf:
         data = unpack(zf.read("resources/model.bin"))

@@ -12,6 +12,7 @@ against the full SPH, every scene"), so its numbers are never typed by hand:
 
 from __future__ import annotations
 
+import argparse
 import csv
 from pathlib import Path
 from statistics import median
@@ -82,7 +83,6 @@ def stale(root=ROOT):
 
 
 def main(argv=None):
-    import argparse
     parser = argparse.ArgumentParser(prog="python3 -m sphrom.docs_figures",
                                      description=f"Regenerate (--write) or check (--check) the README's model "
                                                  f"table from {SOURCE}.")

@@ -13,8 +13,16 @@ page under ``docs/`` appears in it with its first heading as title, with nothing
 
 from __future__ import annotations
 
+import argparse
+import logging
 import re
+import tempfile
 from pathlib import Path
+
+from mkdocs.commands.build import build as mkdocs_build
+from mkdocs.config import load_config
+from mkdocs.exceptions import MkDocsException
+from mkdocs.structure.files import File, Files
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -87,8 +95,6 @@ def broken_links(root=ROOT):
 
 def on_files(files, config):
     """Replace the pages found under docs_dir by the repository's files at their repository paths."""
-    from mkdocs.structure.files import File, Files
-
     root = _root(config)
     docs_dir = Path(config["docs_dir"]).resolve()
     kept = [f for f in files if not Path(f.abs_src_path or "").resolve().is_relative_to(docs_dir)]
@@ -148,11 +154,6 @@ def on_config(config):
 def build(out, strict=True, root=ROOT):
     """Build the site of the checkout ``root`` into ``out`` (warnings are errors when ``strict``); raises mkdocs's
     error on failure."""
-    import logging
-
-    from mkdocs.commands.build import build as mkdocs_build
-    from mkdocs.config import load_config
-
     logger = logging.getLogger("mkdocs")
     if not logger.handlers:                       # mkdocs's own command line installs one; as a library, we do
         handler = logging.StreamHandler()
@@ -164,9 +165,6 @@ def build(out, strict=True, root=ROOT):
 
 
 def main(argv=None):
-    import argparse
-    import tempfile
-
     parser = argparse.ArgumentParser(prog="python3 -m sphrom.docs_site",
                                      description="Build the documentation site (mkdocs.yml) with warnings as "
                                                  "errors and every relative link checked.")
@@ -177,7 +175,6 @@ def main(argv=None):
         print(f"{name}: broken link {target}")
     if broken:
         return 1
-    from mkdocs.exceptions import MkDocsException
     try:
         if args.out:
             build(args.out)

@@ -10,10 +10,12 @@ minimal scene (:data:`MINIMAL_SCENE`, which the tests load and package as an FMU
 
 from __future__ import annotations
 
+import argparse
 import sys
+from pathlib import Path
 
 from .pod.automatic import automatic_rules
-from .scene_schema import KEYS, MAX_DEPTH, MAX_FILE_BYTES, MAX_TEXT, NAME_TEXT, SCALE, TABLES, Key, fmt, type_name
+from .scene_schema import KEYS, Key, MAX_DEPTH, MAX_FILE_BYTES, MAX_TEXT, NAME_TEXT, SCALE, TABLES, fmt, type_name
 
 MINIMAL_SCENE = '''\
 # my_bar.toml: the name comes from the file name
@@ -138,9 +140,6 @@ def markdown(automatic_rules) -> str:
 
 
 def main(argv=None):
-    import argparse
-    from pathlib import Path
-
     p = argparse.ArgumentParser(prog="python3 -m sphrom.scene_page",
                                 description="Print (or write) the scene schema page, generated from the loader's "
                                             "table of keys.")

@@ -367,7 +367,7 @@ def test_every_model_takes_the_same_default_error_tolerance(fmus):
     """error_tolerance's default is 5 % of the training run's largest |v_probe| for every model (the modelDescription
     says so): the balanced model, which has no training envelope, reads it from the scene's training run as the
     others read it from theirs (it took the initial state's instead, 4.5e-5 against 1.53e-4 on a forced scene)."""
-    from sphrom.fmu.make.steps import training_probe_speed
+    from sphrom.fmu.training.steps import training_probe_speed
     from sphrom.rom.bounds import TOLERANCE_FRACTION
     from sphrom.sph.solver import build_problem
     tolerances = {model: fmus(model)[2].error_tolerance for model in ("balanced", "exact", "frozen")}

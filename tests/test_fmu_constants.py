@@ -11,7 +11,7 @@ from pathlib import Path
 import sphrom.defaults as defaults
 import sphrom.fmu.kinds as kinds
 import sphrom.fmu.run.core as core
-import sphrom.fmu.make.envelope as envelope
+import sphrom.fmu.training.envelope as envelope
 import sphrom.fmu.run.driver as fmi
 import sphrom.fmu.check.python_cosim as python_cosim
 import sphrom.fmu.resources as resources
@@ -61,7 +61,7 @@ def test_constants_shared_by_c_and_python():
         "ROM_MAX_SECTIONS": resources.MAX_SECTIONS,
         "ROM_MAX_SECTION_VALUES": resources.MAX_SECTION_VALUES,
         "ROM_MAX_PORTS": resources.MAX_PORTS,
-        # the training envelope (harness/fmu/make/envelope.py, fmu_src/rom_envelope.c)
+        # the training envelope (harness/fmu/training/envelope.py, fmu_src/rom_envelope.c)
         "ROM_ENVELOPE_COLUMNS": envelope.N_SCALARS,
         "ROM_ENVELOPE_CHECK_COORDINATES": envelope.CHECK_COORDINATES,
         "ROM_ENVELOPE_CHECK_FORCE": envelope.CHECK_FORCE,

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from conftest import fmu_scene, model_per_kind
-from sphrom.fmu.make import envelope as E
+from sphrom.fmu.training import envelope as E
 from sphrom.fmu.make.build import ensure_binaries
 from sphrom.fmu.run.core import Core
 from sphrom.fmu.run.driver import FMU

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from conftest import small_scene
-from sphrom.fmu.make import envelope as E
+from sphrom.fmu.training import envelope as E
 from sphrom.fmu.make.build import ensure_binaries
 from sphrom.fmu.run.driver import FMU
 from sphrom.fmu.make.package import package_fmu
@@ -48,7 +48,7 @@ def test_envelope_is_the_union_over_the_sample_points(parametric_fmus):
     """ENVRANGE and the strains are those of the runs at every sample point (envelope.union of each run's
     envelope on the FMU's basis), wider than the run at the start value alone; the exact parametric FMU
     records its envelope without run-time checks."""
-    from sphrom.fmu.make.envelope import measure
+    from sphrom.fmu.training.envelope import measure
     from sphrom.defaults import PROBES as DEFAULT_PROBES
     sc = scene()
     path, data = parametric_fmus("frozen")

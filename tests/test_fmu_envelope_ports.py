@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 from sphrom.bench.lib.ports import PORTS, open_loop_forces
-from sphrom.fmu.make import envelope as E
+from sphrom.fmu.training import envelope as E
 from sphrom.fmu.make.build import ensure_binaries
 from sphrom.fmu.run.core import Core
 from sphrom.fmu.run.driver import FMU

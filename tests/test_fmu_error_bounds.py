@@ -358,11 +358,11 @@ def test_sparse_planes_match_the_dense_ones(monkeypatch):
 
 
 def test_the_bounds_truth_two_ways(monkeypatch):
-    """sphrom.rom.reference.exact_probe_reference (the truth the bounds are of; one case of sphrom.fmu.check.truth,
+    """sphrom.rom.reference.exact_probe_reference (the truth the bounds are of; one case of sphrom.rom.truth,
     which packaging's verification measures every FMU against) equals this file's truth (the dense step map of the
     augmented system), held and linear, and its sparse path (a Taylor series of the sparse operator, above
     truth.DENSE_MAX particles) equals its dense one to 1e-12 of the signal."""
-    import sphrom.fmu.check.truth as truth_module
+    import sphrom.rom.truth as truth_module
     import sphrom.rom.reference as reference
     from sphrom.sph.solver import build_problem
     problem = build_problem(fmu_scene("forced"))

@@ -124,7 +124,7 @@ def independent_fmu_run(path, md, force, T, step, scale):
 
 def independent_truth(problem, probes, force, T, step, scale, linear):
     """The full SPH linear in J at the communication points, integrated exactly in time without
-    sphrom.fmu.check.truth: one dense exponential of the input-augmented system (sphrom.rom.lti's matrices), f
+    sphrom.rom.truth: one dense exponential of the input-augmented system (sphrom.rom.lti's matrices), f
     linear between the points (``linear``) or held; probe values linear between particles (np.interp)."""
     import scipy.linalg as sla
     from sphrom.rom.lti import full_linear_system

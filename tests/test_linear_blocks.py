@@ -1,4 +1,4 @@
-"""The linear FMUs in their real eigen-coordinates (issue 34 item 2): A block diagonal (1 x 1 and 2 x 2 blocks),
+"""The linear FMUs in their real eigen-coordinates: A block diagonal (1 x 1 and 2 x 2 blocks),
 stepped block by block by the C core, equals the dense form of the same model; the transform's conditioning is
 checked (the dense form kept where it is ill-conditioned); the core refuses a file whose A leaves its blocks."""
 

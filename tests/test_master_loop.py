@@ -1,4 +1,4 @@
-"""A system simulator's master loop around a bar with ports (sphrom.fmu.run.master, issue 34 item 3): a mass on a
+"""A system simulator's master loop around a bar with ports (sphrom.fmu.run.master): a mass on a
 spring at each of two ports, Jacobi and Gauss-Seidel against the monolithic coupled system integrated exactly, the
 port FMUs against the full SPH in the same loop, and the wave form passive at any communication step."""
 

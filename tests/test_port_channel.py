@@ -135,3 +135,11 @@ def test_wave_form_is_passive_at_any_step(base):
             assert np.all(np.isfinite(w_mean))
         energies = np.array(energies)
         assert np.all(np.diff(energies) <= 1e-12 * energies[0]), (h, np.diff(energies).max())
+
+
+def test_the_channel_writes_pcscal_in_the_layout_columns():
+    """rom.port_channel writes and reads section PCSCAL by the names of the one layout (fmu.layout), kept apart so that
+    rom does not import fmu."""
+    from sphrom.fmu.layout import SECTIONS
+    from sphrom.rom.port_channel import PCSCAL_COLUMNS
+    assert SECTIONS["PCSCAL"].columns == PCSCAL_COLUMNS

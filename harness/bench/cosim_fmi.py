@@ -22,6 +22,7 @@ import numpy as np
 from ..fmu.make.build import ensure_binaries
 from ..fmu.make.package import package_fmu
 from ..fmu.run.cosim import run_cosim
+from ..rom.registry import get_model
 from ..scene import load_scene
 from . import program_parser
 from .lib.tables import write_csv
@@ -37,7 +38,6 @@ TABLE_END = "<!-- end cosim_fmi table -->"
 
 def measure(scene_name="tenmode", models=("frozen", "exact", "balanced"), force=FORCE, progress=False):
     """Rows (scene, model, input rule, largest relative difference, bitwise equal, communication steps)."""
-    from ..rom.registry import get_model
     scene = load_scene(scene_name)
     binaries = ensure_binaries(quiet=not progress)
     rows = []

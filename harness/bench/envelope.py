@@ -8,7 +8,7 @@ integrator and Δt; exact: the exact linear model, scale invariant, whose error 
 full SPH's departure from linearity in J, its time stepping of ρ), the peak strain |ρ0/ρ - 1| of the full SPH at the particles and at the
 probes, and the frozen run's largest coordinate excess beyond the trained ranges in units of its
 block's largest half-width (the quantity the FMU's coordinate check compares with margin - 1,
-:mod:`sphrom.fmu.make.envelope`).  Run as::
+:mod:`sphrom.fmu.training.envelope`).  Run as::
 
     python -m sphrom.bench.envelope [SCENE ...] [--scales 1,1.5,...] [--out validation/benchmarks/envelope.csv]
                                      [--report BENCHMARKS.md]
@@ -30,14 +30,17 @@ from pathlib import Path
 import numpy as np
 
 from .. import defaults
-from ..fmu.make import envelope as E
-from ..fmu.make.envelope import FAILURE_STRAIN, MARGIN
 from ..fmu.resources import probe_pairs
+from ..fmu.training import envelope as E
+from ..fmu.training.envelope import FAILURE_STRAIN, MARGIN
 from ..markdown import write_text
 from ..norms import relative_l2
+from ..pod.pipeline import accel_modes, basis_for_scene
 from ..progress import progress_bar
+from ..rom.registry import get_model
 from ..runio import atomic_path
 from ..scene import builtin_names, derive_scene, load_scene
+from ..sph.solver import build_problem, run_sph, step_count
 from . import program_parser
 from .lib.document import replace_section
 from .lib.tables import write_csv
@@ -68,10 +71,6 @@ def coordinate_excess(env, z, k_v):
 
 def measure(scene_name, scales=SCALES, progress=True):
     """Rows (dicts) of the amplitude sweep of one scene (a name, a path or a Scene; module docstring)."""
-    from ..pod.pipeline import accel_modes, basis_for_scene
-    from ..rom.registry import get_model
-    from ..sph.solver import build_problem, run_sph, step_count
-
     scene = load_scene(scene_name) if isinstance(scene_name, str) else scene_name
     problem = build_problem(scene)
     basis, run = basis_for_scene(scene, progress=False, problem=problem)
@@ -112,10 +111,6 @@ def measure(scene_name, scales=SCALES, progress=True):
 
 def training_headroom(scene_name):
     """One row: the frozen model's run of its own training scene against its recorded envelope."""
-    from ..pod.pipeline import accel_modes, basis_for_scene
-    from ..rom.registry import get_model
-    from ..sph.solver import build_problem, step_count
-
     scene = load_scene(scene_name)
     problem = build_problem(scene)
     basis, run = basis_for_scene(scene, progress=False, problem=problem)

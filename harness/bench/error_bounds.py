@@ -528,7 +528,7 @@ def measure_large(sizes, folder, probes, repeats, progress=True):
     own: :func:`sphrom.rom.bounds.build_shadow` timed apart), the shadow's size and how many planes were computed,
     the doStep cost with and without the bounds, and a certification run (LARGE_STEPS steps of STEP from the
     initial state under the chirp, held) against :func:`sphrom.rom.reference.exact_probe_reference` (one case of
-    :mod:`sphrom.fmu.check.truth`: a Taylor series of the sparse operator above 500 particles): violations and
+    :mod:`sphrom.rom.truth`: a Taylor series of the sparse operator above 500 particles): violations and
     effectivities."""
     from ..fmu.make.build import ensure_binaries
     from ..fmu.make.package import package_fmu
@@ -581,7 +581,7 @@ def large_section(rows, *, command, wall, machine):
              "`build_shadow` timed apart (its planes: the dense SVD up to 2500 particles, the sparse shift-invert "
              f"Lanczos solver above). Certification: {LARGE_STEPS} steps of {STEP * 1e3:g} ms from the initial "
              "state under the chirp, held, against the full linear SPH integrated exactly in time "
-             "(`sphrom.fmu.check.truth`, the truth packaging measures every FMU against: above 500 particles a "
+             "(`sphrom.rom.truth`, the truth packaging measures every FMU against: above 500 particles a "
              "Taylor series of the sparse operator to round-off). doStep: the C core's rom_do_step with and without "
              "the bounds' sections.", "",
              "| N | dt [s] | packaging [s] | shadow [s] (planes) | planes computed, method | k_v, k_ρ | shadow order | "

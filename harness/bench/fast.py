@@ -50,7 +50,7 @@ except ImportError:
     from sphrom.fmu.build import ensure_binaries
     from sphrom.fmu.package import reduced_model
     from sphrom.fmu.core import Core
-from sphrom.fmu.resources import pack
+from sphrom.fmu.kinds import pack
 from sphrom.scene import derive_scene, load_scene
 
 repeats = int(sys.argv[1])

@@ -22,10 +22,12 @@ import tempfile
 import time
 from pathlib import Path
 
-from ..fmu.check.verify import fmu_features, fmu_run, sph_reference
+from ..fmu.check.verify import acceptance, fmu_features, fmu_run, sph_reference
 from ..fmu.make.build import ensure_binaries
 from ..fmu.make.package import package_fmu
+from ..rom.registry import fmu_model_names
 from ..scene import builtin_names, load_scene
+from ..sph.solver import build_problem
 from . import machine_text, program_command, program_parser
 from .lib.document import fmt, update_report
 from .lib.tables import write_csv
@@ -42,9 +44,6 @@ def measure_scene(name, models, repeats, folder, fmi=2, progress=True, bounds=Tr
 
     ``bounds=False`` packages the linear FMUs without their certified error bounds (``sphrom fmu --no-bounds``:
     they cost the full 2N linear system, minutes at N = 1000; the outputs do not depend on them)."""
-
-    from ..fmu.check.verify import acceptance
-    from ..sph.solver import build_problem
 
     scene = load_scene(name)
     problem = build_problem(scene)
@@ -98,7 +97,7 @@ def packaged_fmu_section(rows, *, command, repeats, wall, machine):
              "default k, n_freeze = 10, probes x/L = 0.25, 0.5, 0.66), as `sphrom fmu SCENE --model MODEL` "
              "builds and measures it: co-simulated through fmpy at its default communication step (f at the "
              "points, held, or linear with df/dt where the FMU declares canInterpolateInputs) against the full "
-             "SPH linear in J, integrated exactly in time with the same input (harness/fmu/check/truth.py), "
+             "SPH linear in J, integrated exactly in time with the same input (harness/rom/truth.py), "
              "relative L² errors of eq. 3.4 at the probes (v; ρ as ρ − ρ0). Training: the scene's force and "
              "initial state. Step: a constant (the training force's peak, or max|v0|/T) from rest. Unseen: "
              "A sin(2π ν_u t), ν_u = 2.2 ν_1 (A: the training force's peak, or 2π ν_u max|v0| for a free scene), "
@@ -140,7 +139,6 @@ def main(argv=None):
     p.add_argument("--quiet", action="store_true")
     args = p.parse_args(argv)
     scenes = args.scenes or builtin_names()
-    from ..rom.registry import fmu_model_names
     models = [m for m in (args.models or ",".join(fmu_model_names())).split(",") if m]
     t0 = time.perf_counter()
     rows = []

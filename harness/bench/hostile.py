@@ -10,6 +10,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from tests.hostile.battery import main as battery_main
+
 
 def checkout():
     """The checkout that holds this code's ``tests/hostile/``, else None (an installed package)."""
@@ -26,7 +28,6 @@ def main(argv=None):
         return 2
     if str(root) not in sys.path:
         sys.path.insert(0, str(root))
-    from tests.hostile.battery import main as battery_main
     return battery_main(argv, prog="sphrom bench hostile")
 
 

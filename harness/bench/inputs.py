@@ -45,6 +45,16 @@ import time
 
 import numpy as np
 
+from ..fmu.make.models import particle_sections
+from ..fmu.make.options import default_integrator
+from ..fmu.make.parametric import PARAMETRIC_INPUT_DIRECTION, parametric_model
+from ..pod.pipeline import basis_for_scene
+from ..rom import parametric as par
+from ..rom.reference import linear_reference
+from ..rom.registry import get_model
+from ..scene import derive_scene, load_scene
+from ..sph.solver import build_problem
+from . import program_parser
 from .lib.responses import held, held_response
 
 H = 0.01
@@ -59,7 +69,6 @@ def basis_sizes(ops):
 
 def cases():
     """{name: (scene, ports, port forces, force, from the initial state?)}."""
-    from ..scene import derive_scene, load_scene
     damped = load_scene("damped_forced")
     profile = derive_scene(damped, {"force": {"profile": "1 + sin(2*pi*x/L) + 0.5*cos(6*pi*x/L)"}})
     shaped = derive_scene(load_scene("tenmode"), {"force": {"f": "1e-2*cos(2*t)",
@@ -80,12 +89,6 @@ def cases():
 
 def measure(name, scene, ports, port_forces, force, state):
     """Rows {case, model, variant, k_v, k_2, error, wall_s} of one case."""
-    from ..fmu.make.models import particle_sections
-    from ..fmu.make.options import default_integrator
-    from ..pod.pipeline import basis_for_scene
-    from ..rom.reference import linear_reference
-    from ..rom.registry import get_model
-    from ..sph.solver import build_problem
     problem = build_problem(scene)
     basis, _ = basis_for_scene(scene, progress=False, problem=problem)
     _, v, vp = linear_reference(problem, ports, T, H, force=force, port_forces=port_forces, state=state)
@@ -139,7 +142,6 @@ PROFILE = "1 + sin(2*pi*x/L) + 0.5*cos(6*pi*x/L)"
 
 def parametric_cases():
     """{name: (scene, force)} of the parametric frozen model's profile cases."""
-    from ..scene import derive_scene, load_scene
     f_const = lambda t: 1e-2 * np.ones(np.size(t))                                                         # noqa: E731
     f_sine = lambda t: 1e-2 * np.sin(7.0 * np.asarray(t))                                                  # noqa: E731
     tenmode = derive_scene(load_scene("tenmode"), {"force": {"profile": PROFILE}})
@@ -152,11 +154,6 @@ def measure_parametric(name, scene, force):
     """Rows of one parametric case: the frozen parametric model before ("project") and after (the FMU's rule),
     and the exact parametric model (its FMU's rule, after only): the worst relative L² error of the velocity field
     over c = 0.6, 1, 1.8 times the scene's c (at the scene's d)."""
-    from ..fmu.make.parametric import PARAMETRIC_INPUT_DIRECTION, parametric_model
-    from ..rom import parametric as par
-    from ..rom.reference import linear_reference
-    from ..rom.registry import get_model
-    from ..sph.solver import build_problem
     c0, d0 = float(build_problem(scene).c[0]), float(build_problem(scene).d[0])
     ranges = [par.Range("c", 0.5 * c0, 2.0 * c0)] + ([par.Range("d", 0.0, 2.0 * d0)] if d0 > 0 else [])
     rows = []
@@ -195,7 +192,6 @@ def table(rows):
 
 
 def main(argv=None):
-    from . import program_parser
     parser = program_parser("inputs", description=__doc__.split("\n\n")[0])
     all_cases, parametric = cases(), parametric_cases()
     parser.add_argument("--case", action="append", choices=sorted([*all_cases, *parametric]),

@@ -33,6 +33,23 @@ from pathlib import Path
 import numpy as np
 
 from .. import defaults
+from ..cache import cached_sph
+from ..fmu.make.build import ensure_binaries
+from ..fmu.make.models import exact_model, reduced_model
+from ..fmu.make.options import default_modes
+from ..fmu.make.package import package_fmu
+from ..fmu.make.parametric import parametric_model
+from ..fmu.run.driver import FMU
+from ..norms import relative_l2
+from ..pod.pipeline import error_steps
+from ..progress import progress_bar
+from ..rom import parametric as par
+from ..rom.exact_linear import run_exact
+from ..rom.operators import probe_rows
+from ..rom.registry import get_model
+from ..scene import load_scene
+from ..sph.solver import build_problem
+from . import program_parser
 
 PROBES = defaults.PROBES
 DEFAULT_VARY = ("c=0.05:0.2", "d=0:5")
@@ -40,14 +57,11 @@ DEFAULT_VARY = ("c=0.05:0.2", "d=0:5")
 
 def probe_velocity_error(v_red, v_ref, t):
     """Relative L² error (eq. 3.4's norm, time by the trapezoidal rule) of probe velocities (M, P) [m s^-1]."""
-    from ..norms import relative_l2
     return relative_l2(v_red, v_ref, t)
 
 
 def reduced_probe_velocity(model_name, ops, problem, scene, steps, n_freeze=10):
     """Probe velocities (M, P) [m s^-1] of reduced operators run over the scene at ``steps`` (f = the scene's)."""
-    from ..rom.exact_linear import run_exact
-    from ..rom.registry import get_model
     dt = scene.sph.dt
     if get_model(model_name).linear:
         t = steps * dt
@@ -63,7 +77,6 @@ def reduced_probe_velocity(model_name, ops, problem, scene, steps, n_freeze=10):
 
 def sph_probe_velocity(run, problem, scene, steps):
     """Probe velocities (M, P) of a cached full SPH run at ``steps`` (linear between particles, as the FMU)."""
-    from ..rom.operators import probe_rows
     index = np.searchsorted(run.steps, steps)
     rows = probe_rows(np.eye(problem.x.size), problem.x, scene.L, PROBES)
     return run.v[index] @ rows.T
@@ -74,11 +87,6 @@ def measure(scene, vary, model="frozen", k=None, n_points=10, progress=True, inp
 
     Also returns (space, training points, held-out points).
     """
-    from ..fmu.make.options import default_modes
-    from ..fmu.make.parametric import parametric_model
-    from ..progress import progress_bar
-    from ..rom import parametric as par
-
     k = k or default_modes(scene)
     affine, space, _, train = parametric_model(scene, vary, k, model=model, progress=progress,
                                                input_direction=input_direction)
@@ -93,13 +101,6 @@ def measure(scene, vary, model="frozen", k=None, n_points=10, progress=True, inp
 
 def _held_out_row(scene, affine, model, k, c, d):
     """One held-out point: the full SPH there, the parametric model and a model trained there alone."""
-    from ..cache import cached_sph
-    from ..fmu.make.models import exact_model, reduced_model
-    from ..pod.pipeline import error_steps
-    from ..rom import parametric as par
-    from ..rom.registry import get_model
-    from ..sph.solver import build_problem
-
     s = par.scene_at(scene, c, d)
     problem = build_problem(s)
     steps = error_steps(s)
@@ -121,9 +122,6 @@ def _held_out_row(scene, affine, model, k, c, d):
 
 def step_cost(scene, vary, model="frozen", k=None, steps=2000, h=0.01):
     """Mean wall time [s] of one doStep (h) of the parametric FMU (at its start values) and of the fixed FMU."""
-    from ..fmu.make.build import ensure_binaries
-    from ..fmu.run.driver import FMU
-    from ..fmu.make.package import package_fmu
     binaries = ensure_binaries()
     out = {}
     with tempfile.TemporaryDirectory() as folder:
@@ -184,7 +182,6 @@ def markdown(rows, cost=None):
 
 
 def main(argv=None):
-    from . import program_parser
     p = program_parser("parametric", description=__doc__.split("\n\n")[0])
     p.add_argument("--scene", default="tenmode")
     p.add_argument("--vary", action="append", default=None, metavar="c=LO:HI|d=LO:HI",
@@ -198,7 +195,6 @@ def main(argv=None):
     p.add_argument("--out", default="validation/benchmarks/parametric")
     args = p.parse_args(argv)
     from ..rom import parametric as par           # after the options: --help answers before numba loads
-    from ..scene import load_scene
     scene = load_scene(args.scene)
     vary = [par.parse_vary(text) for text in (args.vary or DEFAULT_VARY)]
     rows, space, train, _ = measure(scene, vary, model=args.model, k=args.modes, n_points=args.points,

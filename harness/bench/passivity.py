@@ -23,6 +23,14 @@ import sys
 
 import numpy as np
 
+from ..pod.pipeline import basis_for_scene
+from ..progress import progress_bar
+from ..rom import passivity as pv
+from ..rom.registry import get_model
+from ..scene import builtin_names, load_scene
+from ..sph.solver import build_problem
+from . import program_parser
+
 PORTS = (0.3, 0.7)
 K = 12
 MASS_RATIO = 10.0        # the lumped mass at each port, in bar masses
@@ -31,11 +39,6 @@ STIFFNESS = 1e4          # the spring at each port [N/m]
 
 def measure(name):
     """Rows {scene, N, model, k_v, k_2, verdict, margin, max_re, coupled_max_re} of one scene."""
-    from ..pod.pipeline import basis_for_scene
-    from ..rom import passivity as pv
-    from ..rom.registry import get_model
-    from ..scene import load_scene
-    from ..sph.solver import build_problem
     scene = load_scene(name)
     problem = build_problem(scene)
     basis, _ = basis_for_scene(scene, progress=False, problem=problem)
@@ -69,14 +72,11 @@ def table(rows):
 
 
 def main(argv=None):
-    from ..scene import builtin_names
-    from . import program_parser
     parser = program_parser("passivity", description=__doc__.split("\n\n")[0])
     parser.add_argument("--scene", action="append", choices=sorted(builtin_names()),
                         help="a built-in scene (default all)")
     parser.add_argument("--out", help="CSV file to write")
     args = parser.parse_args(argv)
-    from ..progress import progress_bar
     rows = []
     names = args.scene or sorted(builtin_names())
     with progress_bar(len(names), desc="passivity", unit="scene") as bar:

@@ -35,6 +35,7 @@ import time
 import zipfile
 from pathlib import Path
 
+from ..rom.registry import get_model
 from ..runio import atomic_path
 from . import program_command, program_parser
 from .lib.document import fmt, publish
@@ -95,7 +96,7 @@ def package(scene_name, model, ports, k, path, binaries, *, before=False):
     from ..fmu.resources import unpack
     from ..scene import load_scene
     options = {"build_options": {"port_channel": False}} if before else {}
-    if before and model == "frozen":
+    if before and not get_model(model).linear:         # the time-stepped model: symplectic with ports
         options["integrator"] = "symplectic"
     package_fmu(load_scene(scene_name), path, k=k, fmi=2, progress=False, binaries=binaries, model=model,
                 ports=ports or None, verify=False, **options)

@@ -18,14 +18,16 @@ from pathlib import Path
 
 import numpy as np
 
+from ..fmu.kinds import unpack
 from ..fmu.make.build import ensure_binaries
-from ..fmu.make.envelope import Envelope
 from ..fmu.make.package import package_fmu
-from ..fmu.resources import unpack
 from ..fmu.run.driver import FMU
+from ..fmu.training.envelope import Envelope
 from ..fmu.variables import members
 from ..progress import progress_bar
 from ..scene import load_scene
+from ..sph.ports import run_sph_ports
+from ..sph.solver import build_problem
 from . import program_parser
 from .lib.ports import PORTS, open_loop_forces, rel
 from .lib.tables import write_csv
@@ -61,9 +63,6 @@ def fmu_run(path, scene, h, n, forces):
 def measure(scene_name="damped_forced", scales=SCALES, t_end=1.0, h=1e-3, k=12, progress=True):
     """Rows (scale, port force amplitude [N], v_port error, probe strain, its multiple of the trained one,
     warning, error) of the frozen port FMU (module docstring)."""
-    from ..sph.ports import run_sph_ports
-    from ..sph.solver import build_problem
-
     scene = load_scene(scene_name)
     problem = build_problem(scene)
     n = int(round(t_end / h))

@@ -33,6 +33,7 @@ from pathlib import Path
 from ..runio import atomic_path
 from . import program_command, program_parser
 from .lib.document import fmt, publish
+from ..rom.registry import get_model
 from .lib.ports import MASS, S0, STIFFNESS
 
 HEADING = "## Ports in a sampled master loop"
@@ -56,7 +57,7 @@ def rel(a, b):
 def package(scene, model, path, before=False):
     from ..fmu.make.package import package_fmu
     options = {"build_options": {"port_channel": False}} if before else {}
-    if before and model == "frozen":
+    if before and not get_model(model).linear:         # the time-stepped model: symplectic with ports
         options["integrator"] = "symplectic"
     package_fmu(scene, path, model=model, ports=PORTS, progress=False, verify=False, error_bounds=False, **options)
     return path

@@ -24,7 +24,7 @@ import numpy as np
 
 from ..fmu.make.build import ensure_binaries
 from ..fmu.make.package import package_fmu
-from ..fmu.resources import unpack
+from ..fmu.kinds import unpack
 from ..fmu.run.driver import FMU
 from ..progress import progress_bar
 from ..scene import load_scene

@@ -41,6 +41,7 @@ from ..fmu.make.build import ensure_binaries
 from ..fmu.make.package import package_fmu
 from ..runio import atomic_path
 from ..scene import builtin_names, load_scene
+from ..sph.solver import build_problem
 from . import program_parser
 from .lib.document import split_sections, update_report
 from .lib.tables import write_csv
@@ -64,8 +65,6 @@ def rest_run(path, step, T=REST_T):
 
 def measure_scene(name, folder, progress=True):
     """Rows (frozen with eq. 2.22's b, frozen, exact) of scene ``name`` and the rest runs {model: (t, v)}."""
-    from ..sph.solver import build_problem
-
     scene = load_scene(name)
     problem = build_problem(scene)
     binaries = ensure_binaries(quiet=True)

@@ -41,7 +41,14 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import SimulationError, ToleranceError, UserError
+from ..fmu.check.verify import acceptance, case_errors, sph_reference
+from ..fmu.make.auto import DEFAULT_MODEL, FALLBACK_MODEL, choose_default, default_candidates
+from ..fmu.make.package import package_fmu
+from ..runio import atomic_path
+from ..scene import load_scene
 from . import machine_text, program_command, program_parser
+from .lib.corpus import corpus
 from .lib.document import fmt, program_outputs, publish, update_report
 from .lib.tables import write_csv
 
@@ -105,12 +112,6 @@ def fmu_row(prefix, summary, verdict):
 
 def measure_scene(name, text, facts, folder, progress=False):
     """One row: the scene as a user's file, its default and exact FMUs (module docstring)."""
-    from ..errors import SimulationError, ToleranceError, UserError
-    from ..fmu.check.verify import case_errors, sph_reference
-    from ..fmu.make.auto import choose_default, default_candidates
-    from ..fmu.make.package import package_fmu
-    from ..fmu.check.verify import acceptance
-    from ..scene import load_scene
     t0 = time.perf_counter()
     path = Path(folder) / f"{name}.toml"
     path.write_text(text)
@@ -129,7 +130,7 @@ def measure_scene(name, text, facts, folder, progress=False):
             row.update(fmu_row("default_", best, None), default_choice=note)
         except ToleranceError as exc:
             row.update(fmu_row("default_", tried[0][0], str(exc)), default_choice="")
-        exact = next((s for s in (t[0] for t in tried) if s is not None and s.model == "exact"), None)
+        exact = next((s for s in (t[0] for t in tried) if s is not None and s.model == FALLBACK_MODEL), None)
         if exact is None:
             exact = package_fmu(scene, Path(folder) / "exact.fmu", model="exact", accept=False,
                                 references=tried[0][0].verification.refs if tried[0][0] else None, **options)
@@ -163,7 +164,7 @@ def summary_lines(rows):
     false = sum(int(r.get("default_false_alarms") or 0) + int(r.get("exact_false_alarms") or 0) for r in rows)
     warns = sum(int(r.get("default_warnings") or 0) + int(r.get("exact_warnings") or 0) for r in rows)
     faster = count(lambda r: ok(r.get("default_cost_ratio"), 1.0) and ok(r.get("exact_cost_ratio"), 1.0))
-    fallback = count(lambda r: r.get("default_model") and r.get("default_model") != "frozen")
+    fallback = count(lambda r: r.get("default_model") and r.get("default_model") != DEFAULT_MODEL)
     worst = lambda key: max((r[key] for r in rows if isinstance(r.get(key), float) and r[key] == r[key]),
                             default=float("nan"))
     return [f"- **Built at the first try** (the default and the exact FMU written, no failure, no runaway, v error "

@@ -28,7 +28,9 @@ from .. import defaults
 from ..fmu.make.package import package_fmu
 from ..fmu.resources import probe_pairs
 from ..fmu.run.driver import FMU
+from ..rom.registry import fmu_model_names
 from ..scene import load_scene
+from ..sph.solver import build_problem, run_sph
 from . import program_parser
 from .lib.tables import write_csv
 
@@ -67,7 +69,6 @@ def _free_probe_velocities(path, h, n):
 
 def _sph_probe_velocities(scene, h, n, probes=defaults.PROBES):
     """The full SPH's velocity at the FMU's default probes (linear interpolation) every ``h`` [s]."""
-    from ..sph.solver import build_problem, run_sph
     problem = build_problem(scene)
     steps = np.round(np.arange(n + 1) * h / scene.sph.dt).astype(int)
     run = run_sph(scene, sample_steps=steps, progress=False, problem=problem)
@@ -77,7 +78,6 @@ def _sph_probe_velocities(scene, h, n, probes=defaults.PROBES):
 
 def measure(scene_name, models=None, folder=None):
     """Rows (scene, model, force, err_v, max_drho) for the FMU of each model of ``scene_name``."""
-    from ..rom.registry import fmu_model_names
     scene = load_scene(scene_name)
     folder = Path(folder or tempfile.mkdtemp(prefix="sphrom-unseen-"))
     rows = []

@@ -97,82 +97,85 @@ def run(args):
 
 
 def _run(args):
-    from ..errors import UserError, exact
-    from ..fmu.make.options import check_options
-    from ..fmu.make.package import package_fmu
+    from ..errors import UserError
+    from ..fmu.make.request import is_default_request, package_request, pod_modes_line
     from ..runio import check_output_path, check_run_memory
     from ..scene import announce, load_scene
 
     out = check_output_path(args.out)
     if out.suffix.lower() != ".fmu":
         raise UserError(f"--out: '{out}' must end in .fmu")
-    fmi = int(args.fmi)
-    from ..rom.registry import MODELS, fmu_model_names
+    by_default = is_default_request(args.model, verify=args.verify, n_freeze=args.n_freeze,
+                                    integrator=args.integrator)
+    args.model = check_arguments(args)
+    scene = load_scene(args.scene)
+    announce(scene, "fmu")
+    check_run_memory(scene, "fmu", args.model, args.modes)   # beyond this machine's memory: refused before the work
+    line = pod_modes_line(scene, args.model, args.modes, progress=not args.quiet)  # the full SPH and POD (cached)
+    if line:
+        print(line)
+    s, candidates, note = package_request(
+        scene, out, args.model, by_default=by_default, k=args.modes, n_freeze=args.n_freeze, probes=args.probes,
+        fmi=int(args.fmi), integrator=args.integrator, progress=not args.quiet, verify=args.verify,
+        tolerance=args.tolerance, vary=args.vary, ports=args.ports, bounds=args.bounds,
+        order_tolerance=args.order_tolerance)
+    if candidates is not None:
+        print_candidates(s, candidates, args.tolerance)
+    if note:
+        print(f"sphrom fmu: note: {note}", file=sys.stderr)
+    print_summary(s, modes=args.modes, order_tolerance=args.order_tolerance)
+    print_verification(s.verification, args.tolerance)
+    return 0
+
+
+def check_arguments(args):
+    """The model to package (``--model``, the default one when not given), once the options that go together
+    are checked (UserError naming the option): ``--tolerance`` ambiguous where it set a balanced model's order,
+    or without the measurement; ``--model auto`` with ``--tolerance`` and without ``--vary``, ``--ports``,
+    ``--order-tolerance``; ``--ports`` not with ``--vary``."""
+    from ..errors import UserError
     from ..fmu.make.auto import DEFAULT_MODEL
-    chosen_by_default = args.model is None and args.verify and args.n_freeze is None and args.integrator is None
-    args.model = DEFAULT_MODEL if args.model is None else args.model
-    if args.model not in fmu_model_names() + ("auto",):
-        raise UserError(f"--model: {args.model!r} is out of range (allowed: {', '.join(fmu_model_names())}, auto)")
-    if (args.tolerance is not None and args.model != "auto" and MODELS[args.model].sized_by_tolerance
+    from ..fmu.make.request import AUTO
+    from ..rom.registry import MODELS, fmu_model_names
+    model = DEFAULT_MODEL if args.model is None else args.model
+    if model not in fmu_model_names() + (AUTO,):
+        raise UserError(f"--model: {model!r} is out of range (allowed: {', '.join(fmu_model_names())}, {AUTO})")
+    if (args.tolerance is not None and model != AUTO and MODELS[model].sized_by_tolerance
             and args.modes is None and args.order_tolerance is None):
-        raise UserError(f"--tolerance: ambiguous with --model {args.model} and no --modes: it set the order before "
+        raise UserError(f"--tolerance: ambiguous with --model {model} and no --modes: it set the order before "
                         "and now means the measured training error accepted; give the order with --order-tolerance "
                         "TOL or --modes R (and --tolerance for the accepted error)")
     if args.tolerance is not None and not args.verify:
         raise UserError("--tolerance: needs the measurement (drop --no-verify)")
-    scene = load_scene(args.scene)
-    announce(scene, "fmu")
-    check_run_memory(scene, "fmu", args.model, args.modes)   # beyond this machine's memory: refused before the work
-    if args.modes is None and (args.model == "auto" or MODELS[args.model].basis_kind is not None):
-        from ..pod.pipeline import modes_line
-        line = modes_line(scene, progress=not args.quiet)    # runs the full SPH and the POD now (cached)
-        if line:
-            print(line)
-    if args.model == "auto":
+    if model == AUTO:
         if args.vary or args.ports:
             raise UserError(f"--{'vary' if args.vary else 'ports'}: not with --model auto (choose a model)")
         if args.tolerance is None:
             raise UserError("--model: auto needs --tolerance TOL (the error the chosen model must meet)")
         if args.order_tolerance is not None:
             raise UserError("--order-tolerance: not with --model auto (choose --model balanced)")
-        for model in fmu_model_names():
-            check_options(scene, k=args.modes, n_freeze=args.n_freeze, probes=args.probes, fmi=fmi,
-                          integrator=None if MODELS[model].linear else args.integrator, model=model,
-                          tolerance=args.tolerance)
-        from ..fmu.make.auto import package_auto
-        s, candidates = package_auto(scene, out, tolerance=args.tolerance, k=args.modes, n_freeze=args.n_freeze,
-                                     probes=args.probes, fmi=fmi, integrator=args.integrator,
-                                     progress=not args.quiet, bounds=args.bounds)
-        print(f"fmu {s.scene}: --model auto, tolerance {args.tolerance:g} on the v error of every case; "
-              "candidates (each packaged and measured):")
-        from ..fmu.check.verify import acceptance
-        for c in candidates:
-            tr, worst = c.verification.training, c.verification.worst
-            verdict = ("chosen: the cheapest that meets it" if c is s else
-                       "meets it, costlier" if acceptance(c.verification, args.tolerance) is None else
-                       "does not meet it")
-            print(f"  {c.model:8s} v error {tr.err_v:.3e} (largest {worst.err_v:.3e}, {worst.name}), its own work "
-                  f"{tr.step_s:.4f} s: {verdict}")
-    else:
-        check_options(scene, k=args.modes, n_freeze=args.n_freeze, probes=args.probes, fmi=fmi,
-                      integrator=args.integrator, model=args.model, tolerance=args.tolerance,
-                      order_tolerance=args.order_tolerance, ports=args.ports or ())
-        vary = check_vary(scene, args.vary, args.model)
-        from ..fmu.make.options import check_ports
-        ports = check_port_spacing(scene, check_ports(args.ports, args.model))
-        if vary and ports:
-            raise UserError("--ports: not with --vary (a parametric FMU has no ports)")
-        options = dict(k=args.modes, n_freeze=args.n_freeze, probes=args.probes, fmi=fmi,
-                       integrator=args.integrator, progress=not args.quiet, verify=args.verify,
-                       tolerance=args.tolerance, vary=vary, ports=ports, bounds=args.bounds,
-                       order_tolerance=args.order_tolerance)
-        if chosen_by_default:
-            from ..fmu.make.auto import package_default
-            s, note = package_default(scene, out, options)
-            if note:
-                print(f"sphrom fmu: note: {note}", file=sys.stderr)
-        else:
-            s = package_fmu(scene, out, model=args.model, **options)
+    if args.vary and args.ports:
+        raise UserError("--ports: not with --vary (a parametric FMU has no ports)")
+    return model
+
+
+def print_candidates(s, candidates, tolerance):
+    """``--model auto``: every candidate's measured error and own work, and the verdict on it."""
+    from ..fmu.make.auto import verdicts
+    print(f"fmu {s.scene}: --model auto, tolerance {tolerance:g} on the v error of every case; "
+          "candidates (each packaged and measured):")
+    for c, verdict in verdicts(s, candidates, tolerance):
+        tr, worst = c.verification.training, c.verification.worst
+        print(f"  {c.model:8s} v error {tr.err_v:.3e} (largest {worst.err_v:.3e}, {worst.name}), its own work "
+              f"{tr.step_s:.4f} s: {verdict}")
+
+
+def print_summary(s, modes=None, order_tolerance=None):
+    """What was written: the model, its modes or order, its input, integrator, probes, envelope, bounds,
+    parameters, ports and the times of each stage (``modes``, ``order_tolerance``: the options that set the
+    order, named in its line)."""
+    from ..errors import exact
+    from ..rom.registry import MODELS
     added = " (+ the force profile direction, not in the POD span)" if s.augmented else ""
     print(f"fmu {s.scene}: FMI {s.fmi}.0 co-simulation, {s.model} model, wrote {s.path} ({s.size / 1024:.1f} KiB)")
     print(f"  binaries for {s.platforms}")
@@ -183,8 +186,8 @@ def _run(args):
         from ..defaults import ORDER_TOLERANCE
         from ..rom.balanced_model import METHOD_TITLES
         print(f"  order r = {s.k_v} ({s.method}: {METHOD_TITLES.get(s.method, s.method)}"
-              + (f", from --order-tolerance {args.order_tolerance:g}" if args.order_tolerance is not None else
-                 "" if args.modes is not None else f", from the default order tolerance {ORDER_TOLERANCE:g}")
+              + (f", from --order-tolerance {order_tolerance:g}" if order_tolerance is not None else
+                 "" if modes is not None else f", from the default order tolerance {ORDER_TOLERANCE:g}")
               + "); the state does not split into velocity and specific-volume coordinates: outputs are rows "
               "over the whole state")
     elif model.basis_kind == "energy":
@@ -224,24 +227,29 @@ def _run(args):
         print(f"  parameter {row['name']} (value reference {row['vr']}): start {row['start']}, trained range "
               f"[{row['min']}, {row['max']}]")
     if s.ports:
-        print(f"  ports at x/L = {', '.join(exact(x) for x in s.ports)}: inputs F_port_1..{len(s.ports)} [N], outputs "
-              f"v_port_1..{len(s.ports)} [m s^-1], parameter area [m^2] (start 1); each port's profile, its "
-              f"short-time, static and in-band directions and the modes a step rings appended to the basis "
-              f"(docs/fmu/ports.md; profile projection errors on the modes: "
-              f"{', '.join(f'{e:.3g}' for e in s.port_errors)})")
-        if s.port_passivity is not None:
-            print(f"  port map (F_port to v_port): {s.port_passivity.line()}")
-            if s.port_passivity.verdict == "not passive":
-                print(f"sphrom fmu: warning: the {s.model} model's port map is not passive (min λ(H + Hᴴ)/‖H‖ = "
-                      f"{s.port_passivity.margin:.2e} at {s.port_passivity.at:.3g} rad/s): coupled through its ports "
-                      "to a passive component it can gain energy; --model exact is passive by structure",
-                      file=sys.stderr)
+        print_ports(s)
     t = s.timings
     print(f"  token {s.token}; fmpy validation: no problems; times: model {t['model']:.2f} s, "
           f"binaries {t['binaries']:.2f} s, package {t['package']:.2f} s"
           + (f", verification {t['verify']:.2f} s" if "verify" in t else ""))
-    print_verification(s.verification, args.tolerance)
-    return 0
+
+
+def print_ports(s):
+    """The ports' inputs and outputs, their profiles' projection errors and the port map's passivity (a warning on
+    stderr when it is not passive)."""
+    from ..errors import exact
+    print(f"  ports at x/L = {', '.join(exact(x) for x in s.ports)}: inputs F_port_1..{len(s.ports)} [N], outputs "
+          f"v_port_1..{len(s.ports)} [m s^-1], parameter area [m^2] (start 1); each port's profile, its "
+          f"short-time, static and in-band directions and the modes a step rings appended to the basis "
+          f"(docs/fmu/ports.md; profile projection errors on the modes: "
+          f"{', '.join(f'{e:.3g}' for e in s.port_errors)})")
+    if s.port_passivity is not None:
+        print(f"  port map (F_port to v_port): {s.port_passivity.line()}")
+        if s.port_passivity.verdict == "not passive":
+            print(f"sphrom fmu: warning: the {s.model} model's port map is not passive (min λ(H + Hᴴ)/‖H‖ = "
+                  f"{s.port_passivity.margin:.2e} at {s.port_passivity.at:.3g} rad/s): coupled through its ports "
+                  "to a passive component it can gain energy; --model exact is passive by structure",
+                  file=sys.stderr)
 
 
 def print_verification(v, tolerance=None):
@@ -297,53 +305,6 @@ def print_bounds(s):
         print(f"    {x:9.4g} | {b['force_error_bound'][j]:23.4e} | {b['initial_state_error_bound'][j]:.4e}")
     t = b["timings"]
     print(f"    computed in {sum(t.values()):.2f} s (H-infinity bisection {t['hinf']:.2f} s)")
-
-
-def check_vary(scene, texts, model):
-    """The parameter ranges of ``--vary`` (sphrom.rom.parametric.Range), checked before any run.
-
-    FieldError naming ``vary`` for a bad text, ``model`` for a model without a POD basis, and
-    ``fields.c`` / ``fields.d`` when the scene's field is not uniform.
-    """
-    if not texts:
-        return []
-    from ..errors import FieldError
-    from ..rom import parametric as par
-    from ..rom.registry import get_model
-    from ..sph.solver import build_problem
-
-    ranges = [par.parse_vary(text) for text in texts]
-    for r in ranges:                    # a subnormal bound keeps a few of its digits: c = 1e-320 is 9.99989e-321
-        for bound in (r.lo, r.hi):
-            if 0 < bound < sys.float_info.min:
-                from ..errors import exact
-                raise FieldError("vary", f"{r.name} bound {exact(bound)} is below the smallest normal number "
-                                         f"{sys.float_info.min:.4g}, where doubles lose their precision (allowed: "
-                                         f"{'' if r.name == 'c' else r.name + ' = 0 or '}{r.name} >= "
-                                         f"{sys.float_info.min:.4g})")
-    if not get_model(model).needs_basis:
-        raise FieldError("model", f"{model} cannot be made parametric (allowed with --vary: frozen, exact)")
-    par.parameter_space(build_problem(scene), ranges)
-    return ranges
-
-
-def check_port_spacing(scene, ports):
-    """``ports`` (x/L) unless two are closer than one particle spacing L/N on the periodic bar: each port's force
-    is spread over the particles by the SPH kernel, so two ports within one spacing push nearly the same
-    particles with nearly the same weights and the model cannot tell their forces (nor their velocities)
-    apart; the second one's profile is then almost inside the first one's directions. FieldError ``ports``."""
-    from ..errors import FieldError, exact
-    n = scene.sph.n_particles
-    for i, a in enumerate(ports):
-        for b in ports[i + 1:]:
-            gap = abs(a - b) % 1.0
-            gap = min(gap, 1.0 - gap)
-            if gap < 1.0 / n:
-                raise FieldError("ports", f"{exact(a)} and {exact(b)} are {gap:.3g} L apart, closer than one particle "
-                                          f"spacing (1/N = 1/{n} L): the SPH kernel spreads both forces over the same "
-                                          "particles, so the model cannot tell them apart (allowed: ports at least "
-                                          "L/N apart)")
-    return ports
 
 
 def input_decision(model, augmented, parametric=False):

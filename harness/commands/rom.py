@@ -9,9 +9,6 @@ from ..options import (LazyChoices, LazyHelp, add_n_freeze, add_order_tolerance,
 # deferred imports below (inside the handlers): start-up time, the parsers of every command import nothing heavy
 
 B_CHOICES = ("paper", "rest")    # the frozen model's b (sphrom.rom.operators.B_FORMS)
-# At most this many communication steps H in one run of a linear model (a Python loop of one k x k product
-# each, and the input sampled at every step): 1e6 steps take seconds, 1e12 would take days and terabytes.
-MAX_ROM_STEPS = 1_000_000
 
 
 def add_parser(sub):
@@ -60,16 +57,15 @@ def _models():
 
 
 def run(args):
-    from ..cache import cached_sph
-    from ..compare import error_table, exact_errors, format_errors
-    from ..errors import UserError, exact
+    from ..compare import format_errors
+    from ..errors import UserError
     from ..pod.io import read_basis
-    from ..pod.pipeline import error_steps, on_steps
     from ..rom.registry import get_model
+    from ..rom.scene_run import build_on_basis, check_basis, check_step, run_on_basis
     from ..rom.stepping import reduced_stability_warnings
-    from ..runio import check_output_path, scene_attrs, write_run
+    from ..runio import check_output_path, write_run
     from ..scene import announce, load_scene
-    from ..sph.solver import build_problem, step_count
+    from ..sph.solver import build_problem
 
     model = get_model(args.model)
     build = build_options(args, model)
@@ -84,12 +80,7 @@ def run(args):
     scene = load_scene(args.scene)
     basis = read_basis(args.basis)              # FieldError "basis": the CLI names --basis
     announce(scene, "rom")
-    if basis.U_v.shape[0] != scene.sph.n_particles:
-        raise UserError(f"--basis: '{args.basis}' has {basis.U_v.shape[0]} particles, the scene "
-                        f"{scene.sph.n_particles}")
-    if abs(basis.dt - scene.sph.dt) > 1e-15 * scene.sph.dt:
-        raise UserError(f"--basis: '{args.basis}' was made with dt = {exact(basis.dt)} s, the scene has "
-                        f"{exact(scene.sph.dt)} s")
+    check_basis(scene, basis, args.basis)
     integrator = args.integrator or (model.integrators[0] if model.linear else scene.sph.integrator)
     if integrator not in model.integrators:
         raise UserError(f"--integrator: {integrator} is not defined for the {model.name} model "
@@ -101,54 +92,25 @@ def run(args):
         raise UserError(f"--modes: {k_v},{k_r} is out of range (allowed: at most {rv},{rr}, the basis' modes)")
     check_step(args.step, scene.T, model)
     problem = build_problem(scene)
-    steps = error_steps(scene)
-    n = step_count(scene.T, scene.sph.dt)
-    try:
-        ops = model.build(problem, basis, k_v, k_r, input_direction="augment" if args.augment_input else "auto",
-                          **build)
-    except UserError as exc:
-        raise UserError(f"--basis: '{args.basis}': {exc}") from None
+    ops = build_on_basis(problem, model, basis, k_v, k_r, build=build, augment_input=args.augment_input,
+                         name=args.basis)
     for line in reduced_stability_warnings(model, ops, scene.sph.dt, integrator, scene.T):
         print(f"sphrom rom: warning: {line}", file=sys.stderr)
-    # the command's settings that are options of this model (integrator; n_freeze, refresh; step, hold)
-    options = model.select_options(integrator=integrator, n_freeze=args.n_freeze, refresh=args.refresh,
-                                   step=args.step, hold=args.hold)
-    result = model.run(ops, problem, dt=scene.sph.dt, n_steps=n, sample_steps=steps, options=options,
-                       force=scene.force, progress=not args.quiet)
-    if model.linear:
-        integrator = f"matrix exponential, H = {result.settings['step']:g} s, input {args.hold}"
-    sph_scene = scene if model.linear else scene.with_sph(integrator=integrator)
-    sph = cached_sph(sph_scene, steps, progress=not args.quiet, problem=problem)
-    v_sph, rho_sph = on_steps(sph, steps)
-    v, rho = result.v, result.rho
-    vs_sph = error_table(v, rho, v_sph, rho_sph, result.t, problem.rho0)
-    vs_exact = exact_errors(scene, result.t, problem.x, v, rho, problem.rho0)
-    offline = {"svd": basis.timings.get("svd", 0.0), "tensor": 0.0, **ops.timings}
+    r = run_on_basis(scene, model, ops, problem, integrator=integrator, n_freeze=args.n_freeze, refresh=args.refresh,
+                     step=args.step, hold=args.hold, build=build, basis=basis, basis_name=args.basis,
+                     progress=not args.quiet)
     label = (f"{args.model}" + (f", n_freeze = {args.n_freeze}, {args.refresh} refresh" if model.uses_n_freeze else "")
              + (", b = K a_rho_rest" if build.get("b") == "rest" else ""))
     k_first, k_second = ops.sizes.values()
     print(f"rom {scene.name}: {label}, k_v = {k_first}, k_{model.second_symbol} = {k_second}, "
-          f"{integrator}, to t = {n * scene.sph.dt:g} s")
-    print(format_errors(vs_sph, "  relative L2 error vs full SPH"))
-    if vs_exact is not None:
-        print(format_errors(vs_exact, "  relative L2 error vs exact   "))
-    print(f"  online {result.wall_time:.4f} s; offline: SVD {offline['svd'] * 1e3:.2f} ms, operators "
-          f"{offline['operators'] * 1e3:.2f} ms, tensor {offline['tensor'] * 1e3:.2f} ms; full SPH "
-          f"{sph.wall_time:.4f} s ({'cached run, timed earlier' if sph.reused else 'timed now'})")
-    attrs = {**scene_attrs(scene), "solver": f"rom-{args.model}", "solver.model": args.model,
-             "solver.integrator": integrator, "solver.k_v": k_first, "solver.k_rho": k_second,
-             "solver.basis": str(args.basis), "solver.augmented_input": int(ops.augmented),
-             "solver.input_error": ops.input_error, "wall_time_s": result.wall_time,
-             **{f"offline_time.{k}": v for k, v in offline.items()},
-             **{f"error.sph.{k}": v for k, v in vs_sph.items()}}
-    if model.uses_n_freeze:
-        attrs.update({"solver.n_freeze": args.n_freeze, "solver.refresh": args.refresh})
-    if "b" in build:
-        attrs["solver.b"] = build["b"]
-    if vs_exact is not None:
-        attrs.update({f"error.exact.{k}": v for k, v in vs_exact.items()})
-    write_run(out, result.t, problem.x, v, rho, attrs, steps=result.steps,
-              extra={"a_v": result.a_v, "a_rho": result.a_rho})
+          f"{r.integrator}, to t = {r.n_steps * scene.sph.dt:g} s")
+    print(format_errors(r.vs_sph, "  relative L2 error vs full SPH"))
+    if r.vs_exact is not None:
+        print(format_errors(r.vs_exact, "  relative L2 error vs exact   "))
+    print(f"  online {r.result.wall_time:.4f} s; offline: SVD {r.offline['svd'] * 1e3:.2f} ms, operators "
+          f"{r.offline['operators'] * 1e3:.2f} ms, tensor {r.offline['tensor'] * 1e3:.2f} ms; full SPH "
+          f"{r.sph.wall_time:.4f} s ({'cached run, timed earlier' if r.sph.reused else 'timed now'})")
+    write_run(out, r.result.t, problem.x, r.result.v, r.result.rho, r.attrs, steps=r.result.steps, extra=r.extra)
     print(f"wrote {out}")
     return 0
 
@@ -165,39 +127,13 @@ def build_options(args, model):
     return {"b": args.b or model.paper_build.get("b", "paper")}
 
 
-def check_step(step, T, model):
-    """FieldError ``step`` unless ``step`` (None: the default) is a communication step of a linear model with
-    at most MAX_ROM_STEPS steps to T [s] and no longer than T."""
-    from ..errors import FieldError, exact
-    if step is None:
-        return
-    if not model.linear:
-        raise FieldError("step", f"applies to the linear models, whose communication step it is (the {model.name} "
-                                 "model steps with the scene's dt)")
-    if not (step <= T and T / step <= MAX_ROM_STEPS):
-        raise FieldError("step", f"{exact(step)} is out of range (allowed: T / {MAX_ROM_STEPS:.0e} = "
-                                 f"{T / MAX_ROM_STEPS:g} s <= step <= T = {T:g} s)")
-
-
 def run_without_basis(args, model):
     """``sphrom rom --model M`` for a model without a POD basis (balanced): its order from --modes R or
     --order-tolerance, errors at the probes and of the reconstructed fields, and its certified error bounds."""
-    import time
-
-    import numpy as np
-
-    from ..cache import cached_sph
-    from ..compare import error_table, exact_errors, format_errors
-    from ..errors import FieldError, UserError
-    from ..norms import relative_l2
-    from ..pod.pipeline import error_steps, on_steps
-    from ..progress import progress_bar
-    from ..references.exact import exact_solution, is_available
-    from ..rom.balanced_model import METHOD_TITLES, measured_errors
-    from ..rom.result import probe_values
-    from ..runio import check_output_path, scene_attrs, write_run
+    from ..errors import UserError
+    from ..rom.scene_run import run_order
+    from ..runio import check_output_path, write_run
     from ..scene import load_scene
-    from ..sph.solver import build_problem, step_count
 
     if args.basis is not None:
         raise UserError(f"--basis: the {model.name} model uses no POD basis (leave --basis out)")
@@ -211,84 +147,46 @@ def run_without_basis(args, model):
                         f"(allowed: {', '.join(model.integrators)})")
     out = check_output_path(args.out)
     scene = load_scene(args.scene)
-    check_step(args.step, scene.T, model)
-    problem = build_problem(scene)
-    steps = error_steps(scene)
-    n = step_count(scene.T, scene.sph.dt)
-    order = None if args.modes is None else args.modes[0]
-    try:
-        ops = model.build(problem, None, order, order, order_tolerance=args.order_tolerance)
-    except ValueError as exc:
-        field, _, detail = str(exc).partition(": ")
-        raise FieldError("modes" if field == "order" else field, detail) from None
-    result = model.run(ops, problem, dt=scene.sph.dt, n_steps=n, sample_steps=steps, force=scene.force,
-                       options=model.options(step=args.step, hold=args.hold))
-    integrator = f"matrix exponential, H = {result.settings['step']:g} s, input {args.hold}"
-    sph = cached_sph(scene, steps, progress=not args.quiet, problem=problem)
-    v_sph, rho_sph = on_steps(sph, steps)
-    v, rho, t, x, L, rho0 = result.v, result.rho, result.t, problem.x, scene.L, problem.rho0
-    if not (np.all(np.isfinite(v)) and np.all(np.isfinite(rho)) and np.all(rho > 0)):
-        raise UserError(f"--modes: the fields reconstructed at order {ops.order} are not finite and positive; "
-                        "raise the order")
-    probes = ops.output_probes
-    P = probes.size
-    y = result.y
-    y_sph = probe_values(v_sph, rho_sph, rho0, x, L, probes)
-    probe_err = {"v": relative_l2(y[:, :P], y_sph[:, :P], t), "e": relative_l2(y[:, P:], y_sph[:, P:], t)}
-    vs_sph = error_table(v, rho, v_sph, rho_sph, t, rho0)
-    vs_exact = exact_errors(scene, t, x, v, rho, rho0)
-    probe_exact = None
-    if is_available(scene):
-        y_ex = probe_values(*exact_solution(scene, x, t), rho0, x, L, probes)
-        probe_exact = {"v": relative_l2(y[:, :P], y_ex[:, :P], t), "e": relative_l2(y[:, P:], y_ex[:, P:], t)}
-    # certified bounds, and what they bound measured apart (both models exact in time)
-    t0 = time.perf_counter()
-    with progress_bar(P, "bounds", unit="probe", enabled=not args.quiet) as bar:
-        bounds = ops.error_bounds(problem, probes, progress=bar)
-    t_bounds = time.perf_counter() - t0
-    h, measured, gain = measured_errors(ops, scene.T, scene.force)
-    fb, ib = bounds["force_error_bound"], bounds["initial_state_error_bound"]
-    offline = dict(ops.timings)
+    r = run_order(scene, model, order=None if args.modes is None else args.modes[0],
+                  order_tolerance=args.order_tolerance, step=args.step, hold=args.hold, progress=not args.quiet)
+    print_order_run(r, model)
+    write_run(out, r.result.t, r.problem.x, r.result.v, r.result.rho, r.attrs, steps=r.result.steps, extra=r.extra)
+    print(f"wrote {out}")
+    return 0
+
+
+def print_order_run(r, model):
+    """The lines of a run without a basis (:func:`sphrom.rom.scene_run.run_order`): its order, the errors at the
+    probes and of the reconstructed fields, its times, and a table of its certified bounds beside what they bound,
+    measured."""
+    import math
+
+    from ..compare import format_errors
+    from ..rom.balanced_model import METHOD_TITLES
+    ops, bounds, probes = r.ops, r.bounds, r.ops.output_probes
+    fb, ib, gain, measured = bounds["force_error_bound"], bounds["initial_state_error_bound"], r.gain, r.measured
     probe_list = ", ".join(f"{p:g}" for p in probes)
-    print(f"rom {scene.name}: {model.name}, order r = {ops.order} ({ops.method}: {METHOD_TITLES[ops.method]}), "
-          f"{integrator}, to t = {n * scene.sph.dt:g} s")
-    print(f"  relative L2 error at the probes x/L = {probe_list} vs full SPH: v {probe_err['v']:.4e}   "
-          f"e {probe_err['e']:.4e}")
-    if probe_exact is not None:
-        print(f"  relative L2 error at the probes x/L = {probe_list} vs exact   : v {probe_exact['v']:.4e}   "
-              f"e {probe_exact['e']:.4e}")
-    print(format_errors(vs_sph, "  fields reconstructed through V, vs full SPH"))
-    if vs_exact is not None:
-        print(format_errors(vs_exact, "  fields reconstructed through V, vs exact   "))
-    print(f"  online {result.wall_time:.4f} s; offline {offline['operators']:.3f} s (Lyapunov "
+    print(f"rom {r.scene.name}: {model.name}, order r = {ops.order} ({ops.method}: {METHOD_TITLES[ops.method]}), "
+          f"{r.integrator}, to t = {r.n_steps * r.scene.sph.dt:g} s")
+    print(f"  relative L2 error at the probes x/L = {probe_list} vs full SPH: v {r.probe_err['v']:.4e}   "
+          f"e {r.probe_err['e']:.4e}")
+    if r.probe_exact is not None:
+        print(f"  relative L2 error at the probes x/L = {probe_list} vs exact   : v {r.probe_exact['v']:.4e}   "
+              f"e {r.probe_exact['e']:.4e}")
+    print(format_errors(r.vs_sph, "  fields reconstructed through V, vs full SPH"))
+    if r.vs_exact is not None:
+        print(format_errors(r.vs_exact, "  fields reconstructed through V, vs exact   "))
+    offline = r.offline
+    print(f"  online {r.result.wall_time:.4f} s; offline {offline['operators']:.3f} s (Lyapunov "
           f"{offline.get('lyapunov', 0.0):.3f} s, factors + SVD {offline.get('svd', 0.0):.3f} s, projection "
-          f"{offline.get('projection', 0.0) * 1e3:.2f} ms); bounds {t_bounds:.2f} s; full SPH {sph.wall_time:.4f} s "
-          f"({'cached run, timed earlier' if sph.reused else 'timed now'})")
+          f"{offline.get('projection', 0.0) * 1e3:.2f} ms); bounds {r.t_bounds:.2f} s; full SPH "
+          f"{r.sph.wall_time:.4f} s ({'cached run, timed earlier' if r.sph.reused else 'timed now'})")
     shift = (f"shift sigma = {bounds['sigma']:.4g} 1/s, factor e^(sigma T) = {bounds['factor']:.4g}"
              if bounds["sigma"] else "shift sigma = 0: the error system is stable")
     print(f"  certified bounds on [0, T] = [0, {bounds['horizon']:g}] s against the full linear SPH ({shift}); "
-          "measured: both models exact in time, Simpson's rule at h = " f"{h:.3g} s and 2h, extrapolated")
+          "measured: both models exact in time, Simpson's rule at h = " f"{r.h:.3g} s and 2h, extrapolated")
     print("  probe x/L | force_error_bound [s] | measured, scene's force from rest [s] | "
           "initial_state_error_bound [m s^-1 s^1/2] | measured initial-state error | measured/bound")
-    for j in range(P):
-        print(f"  {probes[j]:9.4g} | {fb[j]:21.4e} | {'-' if np.isnan(gain[j]) else f'{gain[j]:.4e}':>37} | "
+    for j in range(probes.size):
+        print(f"  {probes[j]:9.4g} | {fb[j]:21.4e} | {'-' if math.isnan(gain[j]) else f'{gain[j]:.4e}':>37} | "
               f"{ib[j]:40.4e} | {measured[j]:28.4e} | {measured[j] / ib[j] if ib[j] else float('nan'):.6f}")
-    attrs = {**scene_attrs(scene), "solver": f"rom-{args.model}", "solver.model": args.model,
-             "solver.integrator": integrator, "solver.order": ops.order, "solver.method": ops.method,
-             "solver.k_v": ops.order, "solver.k_rho": 0, "solver.basis": "", "wall_time_s": result.wall_time,
-             "probes": probes, **{f"offline_time.{k}": v for k, v in offline.items()},
-             "offline_time.bounds": t_bounds,
-             **{f"error.sph.{k}": v for k, v in vs_sph.items()},
-             **{f"error.sph.probes.{k}": v for k, v in probe_err.items()},
-             "bound.force_error_bound": fb, "bound.initial_state_error_bound": ib,
-             "bound.initial_state_error_measured": measured, "bound.force_gain_measured": gain,
-             "bound.sigma": bounds["sigma"]}
-    if args.order_tolerance is not None:
-        attrs["solver.tolerance"] = args.order_tolerance          # the attribute's name kept (file layout)
-    if vs_exact is not None:
-        attrs.update({f"error.exact.{k}": v for k, v in vs_exact.items()})
-        attrs.update({f"error.exact.probes.{k}": v for k, v in probe_exact.items()})
-    write_run(out, t, x, v, rho, attrs, steps=result.steps,
-              extra={"x_r": result.z, "y": y, "hsv": ops.hsv})
-    print(f"wrote {out}")
-    return 0

@@ -6,11 +6,15 @@ One job per folder::
     layout.py      the binary contract written once: model.bin's and the serialized state's layout, from which
                    fmu_src/rom_layout.h is generated (python3 -m sphrom.fmu.layout --write)
     kinds/         one module per model kind of model.bin (frozen, linear): its data, its part of the file, its
-                   build options and packaging step, its words, its Python co-simulation (the C core's RomKindOps)
-    resources.py   resources/model.bin: pack and unpack for every kind (the shared header, sections, token, crc)
-    make/          making an FMU: option checks, per-kind resources, training envelope, parametric models,
-                   modelDescription.xml, documentation page, binaries (CMake), the archive, package_fmu's
-                   steps, --model auto
+                   build options and packaging step, its words, its Python co-simulation (the C core's RomKindOps);
+                   pack and unpack of any kind's model.bin
+    training/      what packaging learns from the scene for every kind: the POD basis and training run, the
+                   training envelope, the certified bounds' shadow
+    resources.py   resources/model.bin's shared pieces: header, sections, token, crc (write, read); the kinds'
+                   pack and unpack call them
+    make/          making an FMU: option checks, per-kind resources, parametric models, modelDescription.xml,
+                   documentation page, binaries (CMake), the archive, package_fmu's steps, --model auto, what
+                   sphrom fmu asks for (request.py)
     run/           running an FMU: the one Python driver of an FMU (driver.py), sphrom cosim (cosim.py), the C
                    core and the C full SPH through ctypes (core.py, sph_c.py)
     check/         checking an FMU: measured against the full SPH (verify.py), the Python mirror of its
@@ -26,9 +30,11 @@ Public names (imported from their modules on first use)::
     cosim_reference              the FMU's co-simulation in Python                 (check.python_cosim)
     verify_fmu                   the FMU against the full SPH                      (check.verify)
     ensure_binaries, Binaries    the binaries from fmu_src/, built once and cached (make.build)
-    model_data, exact_data, balanced_data, pack, pack_exact, unpack, ModelData, ExactData
-                                 resources/model.bin: frozen (kind 1), exact and balanced (kind 2) (resources;
-                                 the data classes and builders are the kinds', kinds.frozen and kinds.linear)
+    pack, pack_exact, unpack     resources/model.bin of any kind's data, and back  (kinds; the shared header,
+                                 sections, token and checksum: resources.write, resources.read)
+    model_data, exact_data, balanced_data, ModelData, ExactData
+                                 the data of kind 1 (frozen) and kind 2 (exact, balanced) (resources' old names;
+                                 they are the kinds', kinds.frozen and kinds.linear)
     kind_of                      the model kind module of a model's data                  (kinds)
     Core, CoreModel              ctypes access to the C core                       (run.core)
 
@@ -43,8 +49,8 @@ EXPORTS = {
     "FMU": "run.driver", "load_fmu": "run.driver",
     "cosim_reference": "check.python_cosim", "verify_fmu": "check.verify",
     "ensure_binaries": "make.build", "Binaries": "make.build",
-    "model_data": "resources", "exact_data": "resources", "balanced_data": "resources", "pack": "resources",
-    "pack_exact": "resources", "unpack": "resources",
+    "model_data": "resources", "exact_data": "resources", "balanced_data": "resources", "pack": "kinds",
+    "pack_exact": "kinds", "unpack": "kinds",
     "ModelData": "resources", "ExactData": "resources", "kind_of": "kinds",
     "Core": "run.core", "CoreModel": "run.core",
 }

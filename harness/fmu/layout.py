@@ -302,7 +302,7 @@ class Section:
 
 
 SECTIONS: dict[str, Section] = {
-    # the training envelope (harness/fmu/make/envelope.py, fmu_src/rom_envelope.c)
+    # the training envelope (harness/fmu/training/envelope.py, fmu_src/rom_envelope.c)
     "ENVELOPE": Section("the training envelope's scalars",
                         columns=("force_amplitude", "force_band", "max_strain", "max_probe_strain", "failure_strain",
                                  "margin", "checks", "force_mean")),
@@ -370,6 +370,7 @@ SECTIONS: dict[str, Section] = {
     "SHCPL": Section("error bounds: the complement's planes (parametric)"),
     # the port channel (harness/rom/port_channel.py, fmu_src/rom_port.c), all or none; with it no PORTB
     "PCSCAL": Section("port channel: its sizes and scalars", columns=("planes", "ports", "rows", "truncated", "dx")),
+    # (the same names as sphrom.rom.port_channel.PCSCAL_COLUMNS, which writes and reads them: tests/test_port_channel.py)
     "PCLAM": Section("port channel: each plane's 2 x 2 block [[-d, s], [-s, 0]] (planes x 4)"),
     "PCB": Section("port channel: each plane's input gains per unit F_j / area (planes x P)"),
     "PCC": Section("port channel: the output rows over the planes (3 n_probes + P rows: v probes, e at their "

@@ -22,6 +22,7 @@ import zlib
 
 import numpy as np
 
+from ..rom.probes import probe_pairs  # noqa: F401  (the FMU's probe interpolation, its name here kept)
 from . import layout
 
 # the layout's numbers under the names the rest of sphrom has always used
@@ -40,15 +41,17 @@ MAX_PROBES, MAX_MODES, MAX_SECTIONS, MAX_SECTION_VALUES, MAX_PORTS = (
 SECTION_TAGS: dict[str, str] = {tag: s.what for tag, s in layout.SECTIONS.items()}   # tag -> what it holds
 HEADER_SIZE = layout.HEADER.size
 
-# the kinds' data classes and builders, where they live now (imported on first use: the kinds import this module)
-_FROM_KINDS = {"ModelData": "frozen", "model_data": "frozen", "ExactData": "linear", "exact_data": "linear",
-               "balanced_data": "linear"}
+# the names this module had before the kinds were one unit each, where they live now (old names kept as aliases,
+# imported on first use: the kinds build on this module, which asks nothing of them)
+_FROM_KINDS = {"ModelData": "kinds.frozen", "model_data": "kinds.frozen", "ExactData": "kinds.linear",
+               "exact_data": "kinds.linear", "balanced_data": "kinds.linear", "pack": "kinds", "unpack": "kinds",
+               "pack_exact": "kinds", "kind_of": "kinds"}
 
 
 def __getattr__(name):
     if name in _FROM_KINDS:
         from importlib import import_module
-        return getattr(import_module(f"{__package__}.kinds.{_FROM_KINDS[name]}"), name)
+        return getattr(import_module(f"{__package__}.{_FROM_KINDS[name]}"), name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
@@ -64,17 +67,6 @@ def port_sections(ops):
                 **sections(ops.channel)}
     return {"PORTX": np.asarray(ops.ports, float)[None, :], "PORTB": np.asarray(ops.Bp, float),
             "PORTC": np.asarray(ops.Cp, float)}
-
-
-def probe_pairs(x, L, probes):
-    """(i0, i1, w): the particles around each probe and the weight of i1 (as probe_rows)."""
-    probes = np.asarray(probes, float)
-    n = x.size
-    dx = L / n
-    s = np.mod(probes * L - x[0], L) / dx
-    i0 = np.floor(s).astype(np.int64) % n
-    w = s - np.floor(s)
-    return i0, (i0 + 1) % n, w
 
 
 def make_token(digest16: bytes) -> str:
@@ -128,23 +120,16 @@ def unpack_sections(blob: bytes, cursor: int):
     return sections, cursor
 
 
-def kind_of(data):
-    """The model kind module (:mod:`sphrom.fmu.kinds`) of ``data``, a kind's data class."""
-    from .kinds import kind_of as lookup
-    return lookup(data)
+def write(spec, header, head, arrays, sections, min_k_rho=1):
+    """The bytes of model.bin of a model of kind ``spec`` (``layout.KINDS``), and its token.
 
-
-def pack(data) -> bytes:
-    """The bytes of model.bin of ``data`` (any kind's data class); sets ``data.token``.
-
-    The kind gives its header fields, its own header and its arrays (:func:`sphrom.fmu.kinds.frozen.file_fields`,
-    ...); the arrays are checked against the shapes of ``layout.KINDS`` and written in that order."""
-    kind = kind_of(data)
-    spec = layout.KIND_BY_NUMBER[kind.NUMBER]
-    header, head, arrays = kind.file_fields(data)
+    ``header``: the shared header's fields of the kind (magic, version and model_kind are added), ``head``: its own
+    header or None, ``arrays``: {array name: array} checked against the kind's shapes and written in its order,
+    ``sections``: the tagged sections; ``min_k_rho``: the smallest k_rho the kind's flags allow.  What a kind gives
+    is :func:`sphrom.fmu.kinds.pack`'s (each kind's ``file_fields``)."""
     header = {"magic": MAGIC, "format_version": FORMAT_VERSION, "model_kind": spec.number, **header}
     kv, kr, npr = header["k_v"], header["k_rho"], header["n_probes"]
-    if not (1 <= kv <= MAX_MODES and kind.min_k_rho(header["flags"]) <= kr <= MAX_MODES):
+    if not (1 <= kv <= MAX_MODES and min_k_rho <= kr <= MAX_MODES):
         raise ValueError(f"mode counts {kv}, {kr} out of range")
     if not 1 <= npr <= MAX_PROBES:
         raise ValueError(f"{npr} probes (allowed: 1 to {MAX_PROBES})")
@@ -160,17 +145,17 @@ def pack(data) -> bytes:
         if value is None or np.shape(value) != shape:
             raise ValueError(f"{array.name} has shape {None if value is None else np.shape(value)}, expected {shape}")
         body.append(np.ascontiguousarray(value, dtype="<f8").tobytes())
-    body.append(pack_sections(data.sections))
+    body.append(pack_sections(sections))
     blob = b"".join(body)
     token = make_token(hashlib.sha256(blob).digest()[:16])
-    data.token = token
     blob += token.encode("ascii").ljust(TOKEN_SIZE, b"\0")
-    return blob + struct.pack("<I", zlib.crc32(blob) & 0xFFFFFFFF)
+    return blob + struct.pack("<I", zlib.crc32(blob) & 0xFFFFFFFF), token
 
 
-def unpack(blob: bytes):
-    """Read model.bin bytes back (the checks of the C loader that concern the layout): the kind's data class."""
-    from .kinds import by_number
+def read(blob: bytes):
+    """Read model.bin bytes (the checks of the C loader that concern the layout): (spec, header, head, arrays,
+    token, sections), ``spec`` the kind's ``layout.KINDS`` row; :func:`sphrom.fmu.kinds.unpack` makes the kind's
+    data class of them."""
     if len(blob) < HEADER_SIZE + TOKEN_SIZE + 4:
         raise ValueError("truncated")
     header = layout.HEADER.unpack(blob)
@@ -181,7 +166,6 @@ def unpack(blob: bytes):
     if struct.unpack("<I", blob[-4:])[0] != zlib.crc32(blob[:-4]) & 0xFFFFFFFF:
         raise ValueError("crc mismatch")
     spec = layout.KIND_BY_NUMBER[header["model_kind"]]
-    kind = by_number(spec.number)
     cursor = HEADER_SIZE
     head = None
     if spec.head is not None:
@@ -201,15 +185,10 @@ def unpack(blob: bytes):
     token = blob[cursor:cursor + TOKEN_SIZE].rstrip(b"\0").decode("ascii")
     if cursor + TOKEN_SIZE + 4 != len(blob):
         raise ValueError("size mismatch")
-    return kind.from_file(header, head, arrays, token, sections)
+    return spec, header, head, arrays, token, sections
 
 
 def _ports(sections):
     """The ports a file's sections describe (section PORTX's columns; 0 without it)."""
     x = sections.get("PORTX")
     return 0 if x is None else int(np.shape(x)[-1])
-
-
-def pack_exact(data) -> bytes:
-    """:func:`pack` (its former name for the linear models' files)."""
-    return pack(data)

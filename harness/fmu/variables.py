@@ -406,7 +406,6 @@ def facts(data, fmi):
     import numpy as np
 
     from ..rom.parametric import PARAMETERS
-    from .kinds import kind_of
     from .layout import column, row
     sections = dict(getattr(data, "sections", {}) or {})
     params = sections.get("PARAMS")
@@ -415,7 +414,7 @@ def facts(data, fmi):
     ports = sections.get("PORTX")
     positions = {"probe": tuple(float(x) for x in np.asarray(data.probe_x)),
                  "port": tuple(float(x) for x in ports[0]) if ports is not None else ()}
-    return Facts(fmi=int(fmi), internal_step=kind_of(data).INTERNAL_STEP, sections=frozenset(sections), varied=varied,
+    return Facts(fmi=int(fmi), internal_step=type(data).INTERNAL_STEP, sections=frozenset(sections), varied=varied,
                  positions=positions)
 
 

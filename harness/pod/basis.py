@@ -16,6 +16,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..blas import sized, svd_flops
+
 
 def pod(snapshots):
     """Thin SVD of a snapshot matrix (eq. 2.15).
@@ -32,7 +34,6 @@ def pod(snapshots):
     sigma : ndarray, shape (min(N, m),)
         Singular values, decreasing.
     """
-    from ..blas import sized, svd_flops
     snapshots = np.asarray(snapshots, dtype=float)
     with sized(svd_flops(*snapshots.shape)):            # one BLAS thread for a small SVD (sphrom.blas)
         u, s, _ = np.linalg.svd(snapshots, full_matrices=False)

@@ -27,7 +27,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from ..errors import FieldError
-from ..scene import Scene
+from ..scene import MAX_STEPS, MAX_STEPS_TEXT, Scene
 from ..sph.operator import particle_positions
 from ..sph.solver import default_sample_steps, step_count
 
@@ -374,7 +374,6 @@ def check_dt(dt, T):
         raise FieldError("dt", f"{dt!r} is out of range (allowed: a number > 0)")
     if dt > T:
         raise FieldError("dt", f"{dt:g} is out of range (allowed: 0 < dt <= T = {T:g})")
-    from ..scene import MAX_STEPS, MAX_STEPS_TEXT
     if T / dt > MAX_STEPS:              # the same bound as the SPH's steps (sphrom.scene.MAX_STEPS)
         raise FieldError("dt", f"{dt:g} is out of range (allowed: dt >= T / {MAX_STEPS_TEXT} = {T / MAX_STEPS:g} s "
                                f"for T = {T:g} s, at most {MAX_STEPS_TEXT} steps)")

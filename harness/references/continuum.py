@@ -23,6 +23,7 @@ import numpy as np
 from .. import __version__
 from ..cache import cache_dir
 from ..runio import atomic_path, h5_create
+from . import skfem_ref
 
 RESOLUTION = 1024        # P2 elements
 DT = 1.25e-4             # s, Newmark average acceleration
@@ -57,7 +58,6 @@ def best_reference(scene, x, t, resolution=RESOLUTION, dt=DT, progress=True):
     (v, rho, label)
         v [m s^-1] and ρ [kg m^-3] of shape (M, N), and a label for reports.
     """
-    from . import skfem_ref
     x = np.asarray(x, dtype=float)
     t = np.asarray(t, dtype=float)
     path = cache_dir() / f"ref-{scene.name}-{_key(scene, x, t, resolution, dt)}.h5"

@@ -17,13 +17,14 @@ import numpy as np
 
 from ..compare import error_table
 from ..errors import UserError
+from ..markdown import image, num, table
 from ..norms import relative_l2, relative_l2_history
 from ..references import fd, pypde_ref, skfem_ref
+from ..references.common import coefficient_breaks
 from ..references.convergence import study_dt
 from ..references.exact import exact_solution, is_available
 from ..sph.operator import gradient_symbol
 from ..sph.solver import run_sph
-from ..markdown import image, num, table
 
 DEVIATION = 0.25          # |ours / paper's - 1| above which a figure "differs from the paper"
 FE_ELEMENTS = 1024        # scikit-fem P2 elements
@@ -91,7 +92,6 @@ def agreement_target(scene):
     A jump of c, ρ0, d or the force profile (:func:`~sphrom.references.common.coefficient_breaks`)
     sends kinks along the characteristics and the references converge at first order there.
     """
-    from ..references.common import coefficient_breaks
     return AGREEMENT_TARGET_JUMP if coefficient_breaks(scene).size else AGREEMENT_TARGET
 
 

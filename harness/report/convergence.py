@@ -11,10 +11,10 @@
 from __future__ import annotations
 
 from ..compare import error_table
-from ..references import pypde_ref, skfem_ref
-from ..references.common import output_points, output_times
-from ..references.convergence import SOLVERS, observed_orders, study
 from ..markdown import image, num, table
+from ..references import pypde_ref, skfem_ref
+from ..references.common import BREAK_FIELDS, field_jumps, output_points, output_times
+from ..references.convergence import SOLVERS, observed_orders, study
 
 TARGET = 1e-4                 # the product requirement at the finest resolution
 LABELS = {"skfem1": "scikit-fem P1", "skfem2": "scikit-fem P2", "pypde": "py-pde RK4", "fd": "paper's FD (staggered)"}
@@ -68,7 +68,6 @@ def convergence_section(scene_name, out_dir, stem, solvers=SOLVERS, progress=Non
 
 def _order_reason(scene):
     """Why the references converge as they do, from what the scene has (a jump or none)."""
-    from ..references.common import BREAK_FIELDS, field_jumps
     jumps = {name: field_jumps(lambda x, name=name: scene.field(name, x), scene.L) for name in BREAK_FIELDS}
     jumps = {name: pos for name, pos in jumps.items() if pos}
     if not jumps:

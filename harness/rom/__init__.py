@@ -18,15 +18,19 @@ Public names::
     runaway_bound                                                    the blow-up bound   (stepping)
 """
 
-from .exact_linear import LinearOperators, build_linear_operators, run_exact
-from .model import BASIS_KINDS, FrozenOptions, GalerkinOptions, LinearOptions, ReducedModel, basis_modes
-from .operators import ReducedOperators, build_operators, probe_rows
-from .protocol import Operators
-from .registry import MODEL_NAMES, MODELS, fmu_model_names, get_model, model_names
-from .result import ReducedResult
-from .stepping import runaway_bound
+from ..lazy import lazy_exports
 
-__all__ = ["BASIS_KINDS", "FrozenOptions", "GalerkinOptions", "LinearOperators", "LinearOptions", "MODEL_NAMES",
-           "MODELS", "Operators", "ReducedModel", "ReducedOperators", "ReducedResult", "basis_modes",
-           "build_linear_operators", "build_operators", "fmu_model_names", "get_model", "model_names", "probe_rows",
-           "run_exact", "runaway_bound"]
+# imported from their modules on first use: importing a leaf of sphrom.rom (probes, parametric) stays light
+EXPORTS = {
+    "LinearOperators": "exact_linear", "build_linear_operators": "exact_linear", "run_exact": "exact_linear",
+    "BASIS_KINDS": "model", "FrozenOptions": "model", "GalerkinOptions": "model", "LinearOptions": "model",
+    "ReducedModel": "model", "basis_modes": "model",
+    "ReducedOperators": "operators", "build_operators": "operators", "probe_rows": "operators",
+    "Operators": "protocol",
+    "MODEL_NAMES": "registry", "MODELS": "registry", "fmu_model_names": "registry", "get_model": "registry",
+    "model_names": "registry",
+    "ReducedResult": "result",
+    "runaway_bound": "stepping",
+}
+__all__ = sorted(EXPORTS)
+__getattr__, __dir__ = lazy_exports(__name__, EXPORTS)

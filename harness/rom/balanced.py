@@ -69,6 +69,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .. import defaults
+from . import modal
 from .lti import LTI, output_energy
 
 METHODS = ("auto", "bt", "galerkin", "bt_shifted")
@@ -217,7 +218,6 @@ def balancing(lti: LTI, method="auto", horizon=None, sigma=None, input_weights=N
     :func:`balanced_reduce`, reusable for several orders; arguments as there).  ``structure``
     (:func:`sphrom.rom.modal.applies`): "auto" balances a uniform scene above N = 1000 through its Fourier modes
     (reduce-then-balance, :mod:`sphrom.rom.modal`), "dense" always densely, "modal" through the modes."""
-    from . import modal
     if modal.applies(lti, structure):
         ms = modal.modal_system(lti)
         bal = balancing(ms.system, method, horizon, sigma, input_weights, output_weights, structure="dense")
@@ -519,7 +519,6 @@ def error_bounds(lti: LTI, reduced: ReducedLTI, horizon=None, sigma=None, output
         the bisection's lower and upper ends; ``sigma`` [s^-1], ``factor``
         e^{σT}, ``reduced_abscissa``, ``horizon``, ``timings``.
     """
-    from . import modal
     if modal.applies(lti, structure):
         return modal.error_bounds(lti, reduced, error_bounds, horizon=horizon, sigma=sigma, outputs=outputs, tol=tol,
                                   progress=progress)

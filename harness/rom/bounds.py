@@ -63,7 +63,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg as sla
 
-from .planes import Modes, eigen_planes, plane_modes, singular_planes
+from ..sph.ports import port_kernel, port_velocity_rows
+from .lti import probe_matrix
+from .planes import EIGEN_LIMIT, Modes, eigen_planes, gap_cuts, plane_modes, singular_planes
 
 SHADOW_TARGET = 1e-6        # the complement's certified part / the channel's response, per reference input
 MAX_PLANES = 96             # the largest shadow (planes; k_s = 2 x this)
@@ -238,8 +240,6 @@ class Shadow:
 def output_rows(problem, probes, ports=()):
     """(rows (n_rows, 2N) over energy coordinates, row_e, pw (P, 2), prho0 (P, 2)): v at each probe, e at the two
     particles around it, each port's velocity (module docstring)."""
-    from ..sph.ports import port_velocity_rows
-    from .lti import probe_matrix
     probes = np.asarray(probes, float)
     n = problem.rho0.size
     w_v, w_e = np.sqrt(problem.rho0), np.sqrt(problem.c)
@@ -268,7 +268,6 @@ def output_rows(problem, probes, ports=()):
 def input_columns(problem, ports=()):
     """(2N, 1 + P) input columns over energy coordinates: the force profile √ρ0 profile (per m s^-2), each port's
     W(x - x_j, h)/√ρ0 (per N m^-2, i.e. per unit F_j / area; :mod:`sphrom.sph.ports`)."""
-    from ..sph.ports import port_kernel
     n = problem.rho0.size
     w_v = np.sqrt(problem.rho0)
     cols = [np.concatenate([w_v * problem.profile, np.zeros(n)])]
@@ -276,13 +275,6 @@ def input_columns(problem, ports=()):
         for k in port_kernel(problem, ports):
             cols.append(np.concatenate([k / w_v, np.zeros(n)]))
     return np.column_stack(cols)
-
-
-def gap_cuts(sig, rel=1e-9):
-    """The counts n at which the ordering frequencies have a gap (σ_n > σ_{n-1} (1 + rel) + rel σ_max): a
-    degenerate pair (a cos and a sin of one wavenumber) is kept or left together."""
-    top = float(sig[-1]) if sig.size else 0.0
-    return [n for n in range(1, sig.size + 1) if n == sig.size or sig[n] > sig[n - 1] * (1 + rel) + rel * top]
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -787,7 +779,6 @@ def fmu_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, for
     """The shadow of an FMU's outputs, or None where the C core cannot certify it: more than
     :data:`FMU_MAX_PARTICLES` particles, a damping that varies on more than
     :data:`sphrom.rom.planes.EIGEN_LIMIT` particles, or a parametric model whose c or d is not uniform."""
-    from .planes import EIGEN_LIMIT
     d = np.asarray(problem.d, float)
     if d.size > FMU_MAX_PARTICLES:
         return None

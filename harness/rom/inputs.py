@@ -41,8 +41,11 @@ fixed.
 from __future__ import annotations
 
 import numpy as np
+import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+
+from ..sph.ports import port_accelerations
 
 INPUT_TOL = 1e-4            # a candidate direction is appended when the basis misses more than this of it
 MODAL_TOL = 5e-3            # the dominant modes: until the rest of the step response is below this of it
@@ -93,7 +96,6 @@ def bar_modes(problem):
     """(ω (m,) [rad s^-1] ascending, Φ (N, m) M-orthonormal): the modes K φ = ω² M φ of the module's second-order
     form; dense up to :data:`MODAL_DENSE_N` particles, else the lowest :data:`MODAL_SPARSE` (shift-invert
     Lanczos)."""
-    import scipy.linalg as sla
     M, _, K, _ = second_order(problem)
     n = K.shape[0]
     if n <= MODAL_DENSE_N:
@@ -263,7 +265,6 @@ def candidate_directions(problem, b, *, w_top=None, shifts=None, eta=None):
 def channel_profiles(problem, ports=(), profile=True):
     """[(name, b)] of the input channels: ``f`` along the scene's profile (if ``profile`` and it is nonzero), then
     ``F_port_j`` with b = W(x - x_j, h)/ρ0 (area 1) per port (:mod:`sphrom.sph.ports`)."""
-    from ..sph.ports import port_accelerations
     out = []
     if profile and np.any(problem.profile != 0):
         out.append(("f", np.asarray(problem.profile, float)))

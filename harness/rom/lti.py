@@ -46,6 +46,8 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from .. import defaults
+from ..sph import loops
+from .inputs import rigid_modes
 
 DEFAULT_PROBES = defaults.PROBES       # the FMU's default probes (x/L)
 
@@ -160,7 +162,6 @@ def null_modes(G, w_e, tol=1e-12):
     A candidate counts when |G k|_∞ <= tol · max|G|; on the periodic uniform
     lattice both are exact kernels (the alternating one for even N only).
     """
-    from .inputs import rigid_modes
     n = w_e.size
     vecs = [np.concatenate([np.zeros(n), k / w_e]) for k in rigid_modes(G, tol).T]
     if not vecs:
@@ -211,7 +212,6 @@ def sph_rates(problem, v, rho, f=0.0):
 
     Returns (v̇, ė) with ė = -ρ0 ρ̇ / ρ² (e = ρ0/ρ - 1).
     """
-    from ..sph import loops
     v = np.ascontiguousarray(v, float)
     rho = np.ascontiguousarray(rho, float)
     nb = problem.neighbours

@@ -39,7 +39,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..cache import cached_sph
 from ..errors import FieldError
+from ..pod.basis import Basis, pod, weighted_pod
+from ..pod.pipeline import error_steps
+from ..pod.snapshots import describe, snapshot_steps
+from ..scene import derive_scene
+from ..sph.solver import build_problem, step_count
+from .exact_linear import build_linear_operators
+from .operators import build_operators
 
 PARAMETERS = ("c", "d")
 UNITS = {"c": "kg m^-1 s^-2", "d": "s^-1"}        # c: Young's modulus (Pa in 1D: force per ...), d: damping rate
@@ -191,7 +199,6 @@ def held_out_points(space, count=10):
 
 def scene_at(scene, c, d):
     """The scene with uniform c [kg m^-1 s^-2] and d [s^-1] (a derived scene, validated as a file)."""
-    from ..scene import derive_scene
     return derive_scene(scene, {"fields": {"c": repr(float(c)), "d": repr(float(d))}})
 
 
@@ -207,12 +214,6 @@ def training_basis(scene, points, progress=True):
 
     Returns (basis, runs): ``runs`` the CachedRun of each point.
     """
-    from ..pod.basis import Basis, pod, weighted_pod
-    from ..pod.pipeline import error_steps
-    from ..pod.snapshots import describe, snapshot_steps
-    from ..cache import cached_sph
-    from ..sph.solver import build_problem, step_count
-
     spec = dict(scene.snapshots)
     if spec.get("all"):
         raise FieldError("snapshots", "a parametric basis needs a snapshot count and window (not all samples)")
@@ -274,9 +275,6 @@ def affine_frozen(scene, space, U_v, U_rho, *, input_direction="auto", input_tol
     ``input_direction``, ``input_tolerance``, ``tensor`` as in
     :func:`sphrom.rom.operators.build_operators` (the profile does not depend on c, d).
     """
-    from ..sph.solver import build_problem
-    from .operators import build_operators
-
     unit_problem = build_problem(scene_at(scene, 1.0, 1.0))
     unit = build_operators(unit_problem, U_v, U_rho, input_direction=input_direction, tensor=tensor,
                            input_tolerance=input_tolerance, b="rest")         # b_c = K_c a^ρ_rest, as the FMU
@@ -324,9 +322,6 @@ class AffineLinear:
 
 def affine_linear(scene, space, U_v, U_e, *, input_direction="auto", input_tolerance=None):
     """A_0, A_c, A_d of ρ0-orthonormal ``U_v`` and c_ref-orthonormal ``U_e`` (c_ref: the scene's c): AffineLinear."""
-    from ..sph.solver import build_problem
-    from .exact_linear import build_linear_operators
-
     # built at c = c_ref (d = 1): the input directions it appends to U_e are then c_ref-orthonormal, as U_e is
     # (at c = 1 they were Euclidean-normalised beside c_ref-orthonormal columns, and the affine A below, which
     # takes U_eᵀ c_ref U_e = I, was wrong along a non-uniform profile: of order 1 where it is 1e-12 now, python -m

@@ -297,7 +297,7 @@ def port_passivity(ops, linear):
     Q = α I (:func:`storage_certificate`), the frozen model linearised at rest (:func:`frozen_port_system`) with
     the block storage (:func:`block_storage_certificate`); when the storage's residuals are not at round-off,
     the frequency-grid margin (:func:`positive_real_margin`)."""
-    if getattr(ops, "channel", None) is not None:
+    if ops.channel is not None:
         system = channel_port_system(ops.channel)
         alpha, coll, diss = storage_certificate(system)
         storage = (alpha, 1.0, coll, diss)

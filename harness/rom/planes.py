@@ -22,9 +22,16 @@ state: in normal form ‖e^{N t}‖ = e^{-α t} exactly, which is what makes eve
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+import scipy.sparse.linalg as spl
+
+from .inputs import rigid_modes
+from .lti import full_linear_system
 
 DENSE_LIMIT = 2500          # particles: the dense singular value decomposition of K up to here
 EIGEN_LIMIT = 1500          # particles: the dense eigenvectors of A (a damping that varies) up to here
@@ -95,9 +102,15 @@ class Planes:
                           self.We[:, keep].reshape(self.We.shape[0], -1)])
 
 
+def gap_cuts(sig, rel=1e-9):
+    """The counts n at which the ordering frequencies have a gap (σ_n > σ_{n-1} (1 + rel) + rel σ_max): a
+    degenerate pair (a cos and a sin of one wavenumber) is kept or left together."""
+    top = float(sig[-1]) if sig.size else 0.0
+    return [n for n in range(1, sig.size + 1) if n == sig.size or sig[n] > sig[n - 1] * (1 + rel) + rel * top]
+
+
 def coupling(problem):
     """K = ρ0^-½ G c^½ as a sparse CSR matrix (N x N) [s^-1]."""
-    import scipy.sparse as sp
     G = problem.neighbours.matrix().tocsr()
     return (sp.diags(1.0 / np.sqrt(problem.rho0)) @ G @ sp.diags(np.sqrt(problem.c))).tocsr()
 
@@ -105,7 +118,6 @@ def coupling(problem):
 def null_rows(problem):
     """Orthonormal bases (N, k) of ker Kᵀ (v side: √ρ0 times the kernels of Gᵀ) and ker K (e side: c^-½ times
     those of G) among the rigid candidates {1, (-1)^i} (:func:`sphrom.rom.inputs.rigid_modes`)."""
-    from .inputs import rigid_modes
     G = problem.neighbours.matrix().tocsr()
     # G k's round-off grows like eps N (x_j - x_i loses log10 N digits: 2e-16 N of max|G| measured to N = 1e5)
     tol = max(1e-12, NULL_TOL * problem.rho0.size)
@@ -142,7 +154,6 @@ def singular_planes(problem, count=None, parametric=False):
     :data:`DENSE_LIMIT` or ``count`` is None and N is small enough, else the lowest ``count`` (sparse, whole
     degenerate clusters: a trailing cluster cut by ``count`` is dropped).  Needs a uniform d (the planes are
     invariant only then)."""
-    import time
     t0 = time.perf_counter()
     n = problem.rho0.size
     d = np.asarray(problem.d, float)
@@ -168,8 +179,6 @@ def singular_planes(problem, count=None, parametric=False):
 
 def _sparse_triplets(problem, K, count):
     """The lowest ``count`` singular triplets of the sparse K (σ ascending), whole degenerate clusters."""
-    import scipy.sparse as sp
-    import scipy.sparse.linalg as spl
     n = K.shape[0]
     u_null, w_null = null_rows(problem)
     M = (K.T @ K).tocsc()
@@ -194,7 +203,6 @@ def _sparse_triplets(problem, K, count):
     U = np.column_stack([u_null, Uh[:, order]])
     W = np.column_stack([W[:, :nz], W[:, nz:] @ Vt.T[:, order]])
     sig = np.concatenate([np.zeros(nz), s[order]])
-    from .bounds import gap_cuts
     cuts = [c for c in gap_cuts(sig) if c <= min(count, sig.size - 1)]
     keep = cuts[-1] if cuts else sig.size
     return U[:, :keep], sig[:keep], W[:, :keep]
@@ -204,8 +212,6 @@ def eigen_planes(problem, parametric=False):
     """The eigen-planes of A (any damping d(x), dense, N <= :data:`EIGEN_LIMIT`), slowest |λ| first (module
     docstring).  The null modes (eigenvalue 0, e = c^-½ k with k in ker G: uncontrollable, unobservable in v, not in
     x0) become a diagonal block of their own."""
-    import time
-    import scipy.linalg as sla
     if parametric:
         raise ValueError("a parametric shadow needs uniform c and d (singular planes)")
     t0 = time.perf_counter()
@@ -213,7 +219,6 @@ def eigen_planes(problem, parametric=False):
     if n > EIGEN_LIMIT:
         raise ValueError(f"n_particles: {n} is out of range for the error bounds of a damping that varies "
                          f"(allowed: up to {EIGEN_LIMIT}; the eigenvectors of A are dense)")
-    from .lti import full_linear_system
     A = full_linear_system(problem, [0.5]).A.toarray()
     lam, V = sla.eig(A)
     # sort: by |λ| (pairs together: the member with Im >= 0 first)

@@ -365,19 +365,27 @@ def sections(channel: PortChannel):
     PCD (R, 2P)        the static correction per unit u, then the truncated planes' gains
     PCPROBE (P_probes, 4)  each probe's weights and ρ0 at its two particles
     """
-    scal = [channel.planes, channel.n_ports, channel.n_rows, 1.0 if channel.truncated else 0.0, channel.dx]
+    scal = dict(planes=channel.planes, ports=channel.n_ports, rows=channel.n_rows,
+                truncated=1.0 if channel.truncated else 0.0, dx=channel.dx)
+    scal = [scal[name] for name in PCSCAL_COLUMNS]
     return {"PCSCAL": np.array([scal], float), "PCLAM": channel.lam.reshape(-1, 4).copy(),
             "PCB": np.ascontiguousarray(channel.beta, float), "PCC": np.ascontiguousarray(channel.rows, float),
             "PCD": np.hstack([channel.static, channel.gain]), "PCPROBE": np.hstack([channel.pw, channel.prho0])}
 
 
+PCSCAL_COLUMNS = ("planes", "ports", "rows", "truncated", "dx")   # section PCSCAL's columns (= fmu.layout's)
+
+
+def _pcscal(name):
+    return PCSCAL_COLUMNS.index(name)
+
+
 def from_sections(found, ports=None):
     """The :class:`PortChannel` of a model.bin's sections ``found`` (tag -> array), None without them."""
-    from ..fmu.layout import column
     scal = found.get("PCSCAL")
     if scal is None:
         return None
-    P = int(scal[0, column("PCSCAL", "ports")])
+    P = int(scal[0, _pcscal("ports")])
     n_probes = found["PCPROBE"].shape[0]
     D = np.asarray(found["PCD"], float)
     positions = tuple(float(x) for x in found["PORTX"][0]) if "PORTX" in found else tuple(range(P))
@@ -385,8 +393,8 @@ def from_sections(found, ports=None):
                        lam=np.asarray(found["PCLAM"], float).reshape(-1, 2, 2), beta=np.asarray(found["PCB"], float),
                        rows=np.asarray(found["PCC"], float), static=D[:, :P], gain=D[:, P:],
                        row_norm=np.linalg.norm(found["PCC"], axis=1), pw=found["PCPROBE"][:, :2],
-                       prho0=found["PCPROBE"][:, 2:], dx=float(scal[0, column("PCSCAL", "dx")]),
-                       info={"truncated": int(scal[0, column("PCSCAL", "truncated")])})
+                       prho0=found["PCPROBE"][:, 2:], dx=float(scal[0, _pcscal("dx")]),
+                       info={"truncated": int(scal[0, _pcscal("truncated")])})
 
 
 def attach(ops, problem, ports, probes, channel=None):

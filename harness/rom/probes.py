@@ -8,6 +8,32 @@ from __future__ import annotations
 import numpy as np
 
 
+def probe_pairs(x, L, probes):
+    """The particles around each probe and the weight of the second one, as the FMU interpolates.
+
+    Parameters
+    ----------
+    x : ndarray (N,)
+        Uniform, cell-centred particle positions [m].
+    L : float
+        Period [m].
+    probes : array_like
+        Probe positions in units of L, in [0, 1].
+
+    Returns
+    -------
+    (i0, i1, w) : ndarray (P,) int, ndarray (P,) int, ndarray (P,)
+        A field at probe j is (1 - w_j) f[i0_j] + w_j f[i1_j].
+    """
+    probes = np.asarray(probes, float)
+    n = x.size
+    dx = L / n
+    s = np.mod(probes * L - x[0], L) / dx        # fractional index from particle 0
+    i0 = np.floor(s).astype(np.int64) % n
+    w = s - np.floor(s)
+    return i0, (i0 + 1) % n, w
+
+
 def probe_rows(U, x, L, probes):
     """Rows that interpolate U a linearly between particles at ``probes``.
 
@@ -26,13 +52,7 @@ def probe_rows(U, x, L, probes):
     -------
     ndarray (P, k): row j gives the field at probe j as row @ a.
     """
-    probes = np.asarray(probes, float)
-    n = x.size
-    dx = L / n
-    s = np.mod(probes * L - x[0], L) / dx        # fractional index from particle 0
-    i0 = np.floor(s).astype(np.int64) % n
-    w = s - np.floor(s)
-    i1 = (i0 + 1) % n
+    i0, i1, w = probe_pairs(x, L, probes)
     return (1.0 - w)[:, None] * U[i0] + w[:, None] * U[i1]
 
 

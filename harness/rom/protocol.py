@@ -96,6 +96,12 @@ class Operators:
         return list(self.slices.values())[-1].stop
 
     @property
+    def velocity_modes(self):
+        """The velocity modes U^v (N, k_v) a POD model's velocity is spanned by (its POD modes first), None for a
+        model without a POD basis (the balanced one)."""
+        return getattr(self, "U_v", None)
+
+    @property
     def sizes(self):
         """{name: size} of the blocks of z, in order (``slices``' lengths)."""
         return {name: s.stop - s.start for name, s in self.slices.items()}

@@ -5,6 +5,14 @@ the reference the reduced models' inputs are measured against (:mod:`sphrom.rom.
 from __future__ import annotations
 
 import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+
+from ..sph.ports import port_kernel, port_velocity_rows
+from .exact_linear import propagators
+from .lti import full_linear_system
+from .probes import probe_pairs
+from .truth import exact_probe_outputs
 
 
 def linear_reference(problem, ports, t_end, step, *, force=None, port_forces=None, hold="held", state=True,
@@ -36,9 +44,6 @@ def linear_reference(problem, ports, t_end, step, *, force=None, port_forces=Non
     -------
     t (M,) [s], v (M, N) [m s^-1], v_port (M, P) [m s^-1] (and e (M, N) with ``specific_volume``).
     """
-    from ..sph.ports import port_kernel, port_velocity_rows
-    from .exact_linear import propagators
-    from .lti import full_linear_system
     lti = full_linear_system(problem, [0.5])
     n = problem.n
     cols = []
@@ -81,7 +86,7 @@ def linear_reference(problem, ports, t_end, step, *, force=None, port_forces=Non
 def exact_probe_reference(problem, probes, t, force, scale=1.0, hold="held"):
     """The truth of the FMUs' certified error bounds at the probes: the full SPH of eqs. 2.10-2.11, exactly linear in
     J (:mod:`.lti`), integrated exactly in time (docs/science/error-bounds.md).  One case of
-    :func:`sphrom.fmu.check.truth.exact_probe_outputs`, the one implementation of that truth (packaging's
+    :func:`sphrom.rom.truth.exact_probe_outputs`, the one implementation of that truth (packaging's
     verification measures every FMU against it too).
 
     Parameters
@@ -108,7 +113,6 @@ def exact_probe_reference(problem, probes, t, force, scale=1.0, hold="held"):
     The explicit-Euler SPH the validation also runs differs from it by its own time-step error (and its nonlinearity
     in ρ: eqs. 2.10-2.11 are exactly linear in J).
     """
-    from ..fmu.check.truth import exact_probe_outputs
     if hold not in ("held", "linear"):
         raise ValueError(f"hold: {hold!r} (allowed: held, linear)")
     t = np.asarray(t, float)

@@ -25,8 +25,9 @@ import numpy as np
 
 from ..errors import SimulationError
 from ..progress import progress_bar
-from ..sph.solver import (BLOWUP_FACTOR, GROWTH_WARN, energy_bound_factors, growth_figure, step_count,
-                          strain_energy)
+from ..sph.ports import port_accelerations
+from ..sph.solver import BLOWUP_FACTOR, GROWTH_WARN, energy_bound_factors, growth_figure, step_count, strain_energy
+from .operators import density_matrix
 
 METHODS = {"euler": 0, "symplectic": 1, "rk4": 2}
 RUNAWAY_FACTOR = 1e6
@@ -196,7 +197,6 @@ def port_work(problem, ports, port_forces, dt, area=1.0):
     """``work(n0, n1)`` = Σ_j σ_j ∫|F_j/A| dt over steps n0..n1 (rectangle rule at the step times), σ_j =
     (½ Σ ρ0 b_j² Δx)^½ with b_j = W(x - x_j, h)/ρ0 the port's acceleration per N (as σ of
     :func:`~sphrom.sph.solver.energy_bound_factors` for the profile): the ports' term of the energy bound."""
-    from ..sph.ports import port_accelerations
     b = port_accelerations(problem, ports)
     sig = np.sqrt(0.5 * problem.neighbours.dx * np.sum(problem.rho0[None, :] * b * b, axis=1))
 
@@ -216,7 +216,6 @@ def linearized_jacobian(ops):
     frozen, density-linearised and (to first order in the strain) original
     models alike.
     """
-    from .operators import density_matrix
     kv, kr = ops.k_v, ops.k_rho
     D = np.zeros((kv, kv)) if ops.D is None else ops.D
     return np.block([[-D, -ops.K], [-density_matrix(ops, ops.a_rho0), np.zeros((kr, kr))]])

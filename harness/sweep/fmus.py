@@ -27,6 +27,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .. import __version__
+from ..cache import cache_dir
+from ..fmu.make.build import build_key, ensure_binaries
+from ..fmu.make.package import package_fmu
 
 
 @dataclass
@@ -57,7 +60,6 @@ class Variant:
 
 
 def sweep_dir() -> Path:
-    from ..cache import cache_dir
     path = cache_dir() / "sweep"
     path.mkdir(parents=True, exist_ok=True)
     return path
@@ -80,9 +82,6 @@ def ensure_fmus(spec, entries, progress=True, log=None):
     UserError
         A variant that cannot be packaged (e.g. k above the POD modes).
     """
-    from ..fmu.make.build import build_key, ensure_binaries
-    from ..fmu.make.package import package_fmu
-
     binaries = None
     key_b = build_key()
     out = {}

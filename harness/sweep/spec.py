@@ -63,7 +63,11 @@ import numpy as np
 
 from .. import defaults
 from ..errors import UserError, exact
+from ..expr import compile_expr, shown
+from ..fmu.make.options import default_modes
+from ..fmu.resources import MAX_PROBES
 from ..paths import exists, is_file, not_a_file
+from ..scene import builtin_dir, derive_scene, load_scene
 
 SHAPES = {
     "sine": "A*sin(2*pi*F*t)",
@@ -254,7 +258,6 @@ def _range_values(table, where, check, allowed):
 
 def _grid_values(raw, name, where, scene):
     """Validated list of values of grid ``name`` (``raw`` as in the file)."""
-    from ..expr import compile_expr
     here = f"{where}: grid.{name}"
     numeric = {
         "amplitude": (None, "a finite number [m s^-2]"),
@@ -305,7 +308,6 @@ def _grid_values(raw, name, where, scene):
 
 def shape_expr(shape):
     """The compiled force shape (an :class:`~sphrom.expr.Expr` in t, T, A, F)."""
-    from ..expr import compile_expr, shown
     return compile_expr(SHAPES.get(shape, shape), ("t", "T", "A", "F"), f"shape {shown(shape)}")
 
 
@@ -327,7 +329,6 @@ def scene_value(scene, name):
 
 def resolve_scene(value, where, spec_path):
     """The base scene: a built-in name, else a path (relative to the spec's folder)."""
-    from ..scene import builtin_dir, load_scene
     if not isinstance(value, str) or not value.strip():
         _fail(f"{where}: scene", f"{value!r} is out of range (allowed: a built-in scene name or a scene TOML path)")
     if exists(builtin_dir() / f"{value}.toml") and not value.endswith(".toml"):
@@ -377,9 +378,6 @@ def parse_spec(text, source="<spec>", spec_path=None) -> Spec:
     UserError
         Naming the file, the field and the allowed range.
     """
-    from ..fmu.make.options import default_modes
-    from ..fmu.resources import MAX_PROBES
-
     try:
         raw = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -567,7 +565,6 @@ def _check_variants(scene, grids, source):
 
 def variant_scene(scene, c=None, d=None, profile=None, source=None):
     """The scene with uniform c [kg m^-1 s^-2], d [s^-1] and a force profile (None: unchanged)."""
-    from ..scene import derive_scene
     changes = {}
     if c is not None or d is not None:
         changes["fields"] = {}

@@ -42,17 +42,25 @@ import datetime as _dt
 import json
 import logging
 import math
+import os
+import shlex
 import shutil
 import signal
+import subprocess
 import sys
 import tempfile
 import time
 import uuid
+from concurrent.futures import CancelledError
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy
+
+from .. import __version__
 from ..errors import FieldError, Interrupted
 from ..signals import current_guard, deferred, pending
+from .plot import summary_plot
 from .spec import scene_value
 from .table import merge, read_results, write_results
 
@@ -131,8 +139,6 @@ def workers_ignore_sigint(folder):
     end when their nanny stops them (a message on its queue, then SIGKILL after a timeout) and with their
     parent.  Nothing changes where the script cannot be made or run (no /bin/sh, a folder mounted noexec)."""
     import multiprocessing.spawn as spawn
-    import os
-    import shlex
     script = Path(folder) / "python-ignoring-sigint"
     try:
         script.write_text(f"#!/bin/sh\ntrap '' INT TERM\nexec {shlex.quote(sys.executable)} \"$@\"\n")
@@ -154,7 +160,6 @@ def workers_ignore_sigint(folder):
 
 def subprocess_ok(script):
     """Whether ``script`` runs (a folder mounted noexec refuses it)."""
-    import subprocess
     try:
         return subprocess.run([str(script), "-c", "pass"], timeout=30).returncode == 0
     except (OSError, subprocess.SubprocessError):
@@ -221,8 +226,6 @@ def _versions():
     import dask
     import distributed
     import fmpy
-    import numpy
-    from .. import __version__
     return {"version.sphrom": __version__, "version.dask": dask.__version__,
             "version.distributed": distributed.__version__, "version.fmpy": fmpy.__version__,
             "version.numpy": numpy.__version__, "version.python": sys.version.split()[0]}
@@ -254,7 +257,6 @@ def run_study(spec, out, *, scheduler=None, workers=None, progress=True, checkpo
     """
     from ..progress import progress_bar
     from .fmus import bundle, ensure_fmus
-    from .plot import summary_plot
     from .worker import run_entry
 
     log = log or (lambda text: None)
@@ -397,8 +399,6 @@ def is_lost(exc):
     """Whether a task's exception means it was lost with a worker, not that the entry failed: dask's
     KilledWorker (its worker died while running it), or a cancellation by the scheduler (a dependency, the
     scattered FMU, died with its worker; the client cancels only on Ctrl-C, which ends the loop first)."""
-    from concurrent.futures import CancelledError
-
     from distributed import KilledWorker
     return isinstance(exc, (KilledWorker, CancelledError))
 

@@ -29,6 +29,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from .. import __version__
 from ..errors import FieldError
 from ..runio import atomic_paths, h5_create
 
@@ -148,7 +149,6 @@ def _table(rows, n_probes):
 
 
 def _write_h5(tmp, table, attrs):
-    from .. import __version__
     rows, cols, arrays = table
     with h5_create(tmp) as h5:
         h5.attrs["format"] = FORMAT

@@ -37,6 +37,15 @@ from pathlib import Path
 
 import numpy as np
 
+from ..expr import Expr
+from ..fmu.run.driver import FMU
+from ..norms import relative_l2
+from ..rom.operators import probe_rows
+from ..scene import parse_scene
+from ..sph.solver import build_problem, run_sph
+from .fmus import sweep_dir
+from .spec import force_at
+
 _SLAVES = {}                        # (fmu key, thread id) -> FMU
 _LOADS = collections.Counter()      # (fmu key, thread id) -> instantiations in this process
 _CALLS = collections.Counter()      # "runs", "sph" -> calls in this process
@@ -56,7 +65,6 @@ def worker_name():
 
 def extracted(bundle):
     """The FMU of ``bundle`` extracted once per machine (atomic rename); its folder."""
-    from .fmus import sweep_dir
     root = sweep_dir() / "unzipped"
     folder = root / bundle["key"]
     if (folder / "modelDescription.xml").is_file():
@@ -83,7 +91,6 @@ def extracted(bundle):
 
 def slave_for(bundle):
     """(FMU, load time [s]) of ``bundle``'s FMU for this thread: cached, instantiated on first use."""
-    from ..fmu.run.driver import FMU
     key = (bundle["key"], threading.get_ident())
     slave = _SLAVES.get(key)
     if slave is not None:
@@ -144,8 +151,6 @@ def held_force(entry):
     comparison measures the reduced model, not the sampling of the input.
     (For rk4 the stage at the step's end takes the next point's value.)
     """
-    from ..expr import Expr
-    from .spec import force_at
     h = entry.step
 
     def held(env):
@@ -160,9 +165,6 @@ def sph_run(bundle, entry):
     Returns (times [s], v (M+1, P) [m s^-1], rho (M+1, P) [kg m^-3], rho0 (P,), wall [s]):
     v and rho interpolated linearly at the probes (as the FMU's outputs are).
     """
-    from ..rom.operators import probe_rows
-    from ..scene import parse_scene
-    from ..sph.solver import build_problem, run_sph
     key = (bundle["key"], entry.c, entry.d) if entry.parametric else bundle["key"]
     if key not in _PROBLEMS:
         scene = parse_scene(bundle["scene_text"], f"<{entry.scene} variant>")
@@ -215,8 +217,6 @@ def run_entry(bundle, entry):
         ``task_wall_s``, ``worker``, ``fmu_loads`` (instantiations of this FMU
         by this worker thread so far), ``started_utc``.
     """
-    from ..norms import relative_l2
-    from .spec import force_at
     _CALLS["runs"] += 1
     t_task = time.perf_counter()
     started = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="microseconds")

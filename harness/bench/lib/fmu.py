@@ -31,6 +31,7 @@ Every figure is the median of ``repeats`` runs.
 from __future__ import annotations
 
 import atexit
+import hashlib
 import math
 import shutil
 import statistics
@@ -41,7 +42,22 @@ from pathlib import Path
 import numpy as np
 
 from ... import defaults
+from ...compare import error_table
+from ...fmu.kinds import pack
+from ...fmu.make.build import ensure_binaries
+from ...fmu.make.models import RESOURCES, reduced_model
+from ...fmu.make.package import package_fmu
+from ...fmu.resources import probe_pairs
+from ...fmu.run.core import Core
+from ...fmu.run.driver import FMU
+from ...norms import relative_l2
+from ...progress import progress_bar
+from ...references.exact import exact_solution, is_available
 from ...rom.registry import fmu_model_names, get_model
+from ...scene import derive_scene, load_scene
+from ...sph.solver import build_problem, force_values, run_sph, step_count
+from .methods import bench_row
+from .tables import write_csv
 
 BENCH_K = 12
 BENCH_FREEZE = defaults.N_FREEZE
@@ -59,7 +75,6 @@ def bench_scene(base, n):
     Euler amplifies the fastest SPH mode without bound at large N); neither
     changes the cost of a reduced step, which depends on k only.
     """
-    from ...scene import derive_scene, load_scene
     scene = load_scene(base)
     window = scene.snapshots.get("window")
     T = float(window[1]) if window else scene.T
@@ -76,11 +91,6 @@ def core_rows(base, sizes, k=BENCH_K, n_freeze=BENCH_FREEZE, n_steps=200_000, re
     (t(2M) - t(M)) / M, so that the call's fixed cost cancels: ``ns_per_step`` the median of the repeats' wall
     slopes (min and max beside), ``ns_per_step_cpu`` the median of the same runs' thread CPU-time slopes (the
     time the core itself ran, whatever else the machine ran meanwhile)."""
-    from ...fmu.make.build import ensure_binaries
-    from ...fmu.run.core import Core
-    from ...fmu.make.models import reduced_model
-    from ...fmu.resources import pack
-
     core = core or Core(ensure_binaries().core)
     rows = []
     for n in sizes:
@@ -122,7 +132,6 @@ def _simulate(path, stop_time, step, keep=None):
     initialize from the scene's initial state (initial_state_scale = 1, the training run's; the FMU's own start
     is rest), the loop to ``stop_time`` reading every output at each step, free.  (times, outputs, names) go into
     ``keep`` (a list) when given."""
-    from ...fmu.run.driver import FMU
     n = int(math.ceil(stop_time / step - 1e-9))
     times = np.minimum(np.arange(n + 1) * step, stop_time)
     t0 = time.perf_counter()
@@ -140,7 +149,6 @@ def _bare_calls(unzipdir, md, n_calls, h):
     """Wall time [s] of n_calls doSteps of length h on an extracted FMU through the driver's loop with no input
     and no output: the cost of a doStep call through fmpy's ctypes binding, of the loop itself and of the
     step's own work; :func:`end_to_end` takes the slope between n_calls and 2 n_calls."""
-    from ...fmu.run.driver import FMU
     with FMU(unzipdir, name="bench") as fmu:
         fmu.initialize(initial_state_scale=1.0)        # the scene's initial state, as every bench run
         times = np.arange(n_calls + 1) * h
@@ -153,11 +161,6 @@ def sph_at_probes(scene, problem, probes, step):
     """The full SPH sampled every ``step`` [s] and interpolated linearly at the probes (as the FMU interpolates
     its reduced field): (t, v (M, P)), and the relative L² error of that v against the exact solution at the
     probes when the scene has one (else None)."""
-    from ...norms import relative_l2
-    from ...references.exact import exact_solution, is_available
-    from ...sph.solver import run_sph, step_count
-    from ...fmu.resources import probe_pairs
-
     n = step_count(scene.T, scene.sph.dt)
     m = int(round(step / scene.sph.dt))
     sph = run_sph(scene, sample_steps=np.arange(0, n + 1, m), progress=False, problem=problem)
@@ -174,7 +177,6 @@ def probe_error(result, t, v_sph, scene):
     """Relative L² error over the run of an FMU's probe velocities (``result``: (times, outputs, names) of
     :func:`_simulate`) against the full SPH at the probes (:func:`sph_at_probes`) at the same communication
     points."""
-    from ...norms import relative_l2
     times, values, names = result
     v_fmu = values[:, [names.index(f"v_probe_{j + 1}") for j in range(v_sph.shape[1])]]
     rows = np.searchsorted(times, t - 1e-12 * max(1.0, scene.T))
@@ -201,12 +203,6 @@ def end_to_end(scene_name="tenmode", steps=(0.01, 0.001), repeats=5, k=None, pro
     import fmpy
     from fmpy import extract, read_model_description
 
-    from ...scene import load_scene
-    from ...sph.solver import build_problem, run_sph, step_count
-    from ...fmu.make.build import ensure_binaries
-    from ...fmu.run.core import Core
-    from ...fmu.make.models import RESOURCES
-    from ...fmu.make.package import package_fmu
 
     scene = load_scene(scene_name)
     problem = build_problem(scene)
@@ -312,12 +308,8 @@ def benched_fmu_models():
 def prepared_fmu(scene, k, model="frozen", n_freeze=defaults.N_FREEZE, problem=None, probes=defaults.PROBES):
     """(path, unzipdir, model description, summary) of the FMI 2 FMU of ``scene``: packaged and extracted
     once per process for each (scene text, k, model, n_freeze, probes)."""
-    import hashlib
-
     from fmpy import extract, read_model_description
 
-    from ...fmu.make.build import ensure_binaries
-    from ...fmu.make.package import package_fmu
     key = (hashlib.sha256(scene.text.encode()).hexdigest() if getattr(scene, "text", None) else scene.name,
            int(k), model, int(n_freeze), tuple(probes))
     if key not in _PREPARED:
@@ -350,7 +342,6 @@ def lean_loop(fmu, h, n_steps, f=None):
 def _fmu_states(unzipdir, md, summary, ops, steps, dt, force, n_freeze, h):
     """The FMU's fields at the error steps, from one untimed run on the timed configuration: communication
     points on the grid of h plus the error-step times, input held over each step at its start value."""
-    from ...fmu.run.driver import FMU
     t_samples = np.asarray(steps) * dt
     grid = np.arange(int(round(t_samples[-1] / h)) + 1) * h
     points = np.unique(np.concatenate([grid[grid < t_samples[-1]], t_samples]))
@@ -378,11 +369,6 @@ def bench_rows(context):
     the C full SPH (fmu_src/sph.c).  Errors against the full SPH (context v_sph/rho_sph at the
     context steps) and the reference; times are medians of context["repeats"].
     """
-    from ...compare import error_table
-    from ...fmu.make.build import ensure_binaries
-    from ...fmu.run.core import Core
-    from ...sph.solver import step_count
-
     scene, run = context["scene"], context["run"]
     problem = run.problem
     T = scene.T
@@ -414,9 +400,6 @@ def bench_rows(context):
 def _fmu_rows(k, model, *, scene, problem, steps, repeats, n, h, n_comm, force, f_comm, errors, core):
     """bench_rows for one k and model: the FMU through the driver (n_freeze 10 and 1 where it has one), and the C
     core alone for a time-stepped model."""
-    from ...fmu.make.models import RESOURCES
-    from ...fmu.run.driver import FMU
-    from .methods import bench_row
     spec = get_model(model)
     # the time-stepped FMU is "FMU (fmpy)", the product's default; the others are named
     method = "FMU (fmpy)" if spec.uses_n_freeze else f"FMU {model} (fmpy)"
@@ -477,8 +460,6 @@ def _core_time(core, blob, repeats, n, h, n_comm, f_comm):
 
 def _c_sph_row(*, scene, problem, steps, repeats, n, errors, core, forced, **_):
     """The C full SPH (fmu_src/sph.c), same scene and integrator: the bench row with its errors."""
-    from ...sph.solver import force_values
-    from .methods import bench_row
     dt = scene.sph.dt
     runner = core.sph.runner(problem, scene.sph.integrator)
     g = force_values(scene, problem, 0, n, dt, 0)[:, 0] if forced else None
@@ -502,9 +483,6 @@ def _c_sph_row(*, scene, problem, steps, repeats, n, errors, core, forced, **_):
 
 def sph_step_rows(base="tenmode", n=400, k=BENCH_K, n_freeze=BENCH_FREEZE, n_steps=20_000, repeats=5, core=None):
     """The same-language ratio at N = n: ns per step of the C frozen core and of the C full SPH (sph.c)."""
-    from ...sph.solver import build_problem
-    from ...fmu.make.build import ensure_binaries
-    from ...fmu.run.core import Core
     core = core or Core(ensure_binaries().core)
     frozen = core_rows(base, [n], k=k, n_freeze=n_freeze, n_steps=max(n_steps, 100_000), repeats=repeats,
                        core=core)[0]
@@ -530,7 +508,6 @@ def fmu_measurements(scene_name="tenmode", repeats=5, sizes=(100, 400, 1600), st
     Returns a dict: ``core`` (:func:`core_rows`), ``e2e`` (:func:`end_to_end`, or None), ``same``
     (:func:`sph_step_rows`, or None), ``repeats``.
     """
-    from ...progress import progress_bar
     total = len(sizes) + (len(steps) * len(benched_fmu_models()) + repeats if with_end_to_end else 0) + 1
     with progress_bar(total=total, desc="FMU", enabled=progress) as bar:
         e2e = end_to_end(scene_name, steps=steps, repeats=repeats, bar=bar) if with_end_to_end else None
@@ -542,7 +519,6 @@ def fmu_measurements(scene_name="tenmode", repeats=5, sizes=(100, 400, 1600), st
 
 def write_fmu_csv(out, core, e2e, prefix="bench_fmu_"):
     """``out``/<prefix>core.csv and, with ``e2e``, <prefix>e2e.csv (written atomically); returns the paths."""
-    from .tables import write_csv
     paths = [out / f"{prefix}core.csv"]
     write_csv(paths[0], core)
     if e2e is not None:

@@ -17,7 +17,7 @@ import numpy as np
 from ...defaults import PROBES as DEFAULT_PROBES
 from ...fmu.make.build import ensure_binaries
 from ...fmu.make.models import reduced_model
-from ...fmu.resources import pack
+from ...fmu.kinds import pack
 from ...fmu.run.core import Core
 from ...pod.pipeline import accel_modes, basis_for_scene
 from ...rom.registry import get_model

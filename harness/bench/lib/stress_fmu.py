@@ -25,18 +25,22 @@ from pathlib import Path
 import numpy as np
 
 from ... import defaults
-
+from ...fmu.make.archive import write_fmu
+from ...fmu.make.build import ensure_binaries
+from ...fmu.make.describe import model_description
+from ...fmu.make.models import operator_resource
+from ...fmu.run.driver import FMU
 from ...rom.registry import get_model
-from .fmu import benched_fmu_models
 from ...sph.diagnostics import energy
 from ...sph.solver import step_count
+from .fmu import benched_fmu_models
+from .stress import classify_energy, fmu_operators
 
 N_FREEZE = defaults.N_FREEZE
 _TIME = re.compile(r"t = ([-+0-9.eE]+) s")
 
 
 def _outcome(e, rho_bad_time=None):
-    from .stress import classify_energy
     outcome, growth, drift = classify_energy(e)
     if rho_bad_time is not None:
         outcome = "unphysical"
@@ -70,11 +74,6 @@ class FMUStress:
             return self._made[key]
         from fmpy import extract
 
-        from ...fmu.make.build import ensure_binaries
-        from ...fmu.make.describe import model_description
-        from ...fmu.make.models import operator_resource
-        from ...fmu.make.archive import write_fmu
-        from .stress import fmu_operators
 
         scene, problem = ctx.scene, ctx.problem
         ops = fmu_operators(ctx, model)             # the FMU's model: the frozen one with b about rest
@@ -92,7 +91,6 @@ class FMUStress:
         """One stress run of the FMU; the dict of :func:`sphrom.bench.lib.stress.run_one` plus fmu_error, silent_nan."""
         from fmpy.fmi1 import FMICallException
 
-        from ...fmu.run.driver import FMU
 
         scene, problem = ctx.scene, ctx.problem
         T = T or scene.T

@@ -27,9 +27,24 @@ drives the bar), each from rest, with the FMU's integrator (:func:`reference_sce
 from __future__ import annotations
 
 import time
+import zipfile
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg as sla
+
+from ...expr import compile_expr
+from ...norms import relative_l2
+from ...progress import progress_bar
+from ...rom.inputs import band
+from ...scene import derive_scene
+from ...sph.ports import mass_spring, run_sph_ports
+from ...sph.solver import build_problem, run_sph
+from ..kinds import kind_of, unpack
+from ..kinds.frozen import PORT_INTEGRATOR
+from ..run.driver import FMU
+from ..variables import members
+from .verify import SCALE_NAME, communication_times, fmu_features, probe_values, rows_at, unseen_force
 
 # the longest run per case, in units of the wave's time once around the bar T' (the full SPH with ports is a Python
 # loop over the steps): 2 s on the paper's bars (c = 0.1, rho0 = 1, L = 1: T' = sqrt(10) s), the same fraction of
@@ -66,8 +81,6 @@ def horizon(scene):
 
 def channel_forces(scene, problem, step):
     """{channel: {case: expression in t}} for f and, later, each port (module docstring)."""
-    from ...rom.inputs import band
-    from .verify import unseen_force
     amplitude = float(unseen_force(scene, step, problem).split("*")[0])
     w1 = band(problem)[0]
     w, w_in = SLOW_FRACTION * w1, IN_BAND * w1
@@ -82,8 +95,6 @@ def channel_forces(scene, problem, step):
 def smd_parameters(scene, problem, step):
     """(mass [kg], stiffness [N m^-1], damping [N s m^-1], initial elongation [m]) of the coupled case (module
     docstring), for a bar of cross-section 1 m²."""
-    from ...rom.inputs import band
-    from .verify import unseen_force
     bar = float(np.sum(problem.rho0) * problem.neighbours.dx)
     m = SMD_MASS * bar
     k = m * (SMD_TUNING * band(problem)[0]) ** 2
@@ -95,7 +106,6 @@ def smd_parameters(scene, problem, step):
 def smd_step(y, v_port, h, mass, stiffness, damping):
     """The spring-mass-damper (s, w) advanced exactly over h [s] with the port velocity held (s' = w - v_port,
     m w' = -k s - c (w - v_port)): the exponential of its affine system."""
-    import scipy.linalg as sla
     M = np.zeros((3, 3))
     M[0, 1], M[0, 2] = 1.0, -v_port
     M[1, 0], M[1, 1], M[1, 2] = -stiffness / mass, -damping / mass, damping * v_port / mass
@@ -110,9 +120,7 @@ def reference_scene(path, scene, ports=()):
 def model_scene(data, scene, ports=()):
     """``scene`` with the integrator of the FMU whose model.bin is ``data`` (unpacked): a time-stepped FMU's own,
     an FMU integrated exactly in time (exact, balanced) the default one for its ports
-    (:func:`sphrom.fmu.make.options.default_integrator`: symplectic with ports, the scene's without)."""
-    from ..make.options import PORT_INTEGRATOR
-    from ..kinds import kind_of
+    (:func:`sphrom.fmu.kinds.frozen.default_integrator`: symplectic with ports, the scene's without)."""
     integrator = kind_of(data).integrator(data) or (PORT_INTEGRATOR if len(ports) else scene.sph.integrator)
     if integrator == scene.sph.integrator:
         return scene
@@ -121,16 +129,6 @@ def model_scene(data, scene, ports=()):
 
 def measure_channels(path, scene, ports=(), problem=None, progress=False):
     """[ChannelCase] of the FMU at ``path`` (module docstring); ``ports`` the FMU's port positions x/L."""
-    from ...expr import compile_expr
-    from ...norms import relative_l2
-    from ...progress import progress_bar
-    from ..variables import members
-    from ...scene import derive_scene
-    from ...sph.ports import run_sph_ports
-    from ...sph.solver import build_problem, run_sph
-    from ..run.driver import FMU
-    from .verify import SCALE_NAME, communication_times, fmu_features, probe_values, rows_at
-
     model = _model(path)                                   # read once: the integrator and the probes
     scene = model_scene(model, scene, ports)
     problem = problem or build_problem(scene)
@@ -188,12 +186,6 @@ def measure_channels(path, scene, ports=(), problem=None, progress=False):
 
 def _coupled(path, scene, short, problem, ports, j, t, step, has_scale):
     """The ChannelCase of port j closed by the spring-mass-damper (module docstring)."""
-    from ...norms import relative_l2
-    from ...scene import derive_scene
-    from ...sph.ports import mass_spring, run_sph_ports
-    from ...sph.solver import build_problem
-    from ..run.driver import FMU
-    from .verify import SCALE_NAME, rows_at
     m, k, c, s0 = smd_parameters(scene, problem, step)
     quiet = derive_scene(short, {"force": {"f": "0"}})
     t0 = time.perf_counter()
@@ -229,7 +221,4 @@ def _coupled(path, scene, short, problem, ports, j, t, step, has_scale):
 
 def _model(path):
     """The FMU's model.bin, unpacked (its probes, its integrator)."""
-    import zipfile
-
-    from ..resources import unpack
     return unpack(zipfile.ZipFile(path).read("resources/model.bin"))

@@ -13,7 +13,9 @@ exits 1 when the page overflows horizontally (and says which elements), 2 when n
 
 from __future__ import annotations
 
+import argparse
 import glob
+import html
 import json
 import os
 import re
@@ -23,7 +25,8 @@ import tempfile
 import zipfile
 from pathlib import Path
 
-from ..make.documentation import DOC_INDEX
+
+DOC_INDEX = "documentation/index.html"       # the FMU's page: FMI 2.0 / 3.0's documentation entry point
 
 BROWSERS = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable", "chrome", "headless_shell")
 PLAYWRIGHT = ("~/.cache/ms-playwright/chromium*/chrome-linux*/chrome",
@@ -93,7 +96,6 @@ def layout(html_path, width=1280, browser=None, timeout=60):
     m = re.search(r'<pre id="sphrom-layout">(.*?)</pre>', done.stdout, re.S)
     if not m:
         raise RuntimeError(f"the browser gave no layout (exit status {done.returncode}): {done.stderr[-500:]}")
-    import html
     return json.loads(html.unescape(m.group(1)))
 
 
@@ -121,7 +123,6 @@ def extract_page(fmu, folder):
 
 
 def main(argv=None):
-    import argparse
     parser = argparse.ArgumentParser(prog="python3 -m sphrom.fmu.check.page",
                                      description="Load an FMU's documentation/index.html in a headless Chromium: "
                                                  "no element may reach beyond the window's width (exit 1 if one "

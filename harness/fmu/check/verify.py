@@ -32,11 +32,28 @@ default, ``--tolerance``) on a case, named in one line with the remedy.
 
 from __future__ import annotations
 
+import dataclasses
+import io
 import math
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from ...cache import cached_sph
+from ...expr import compile_expr
+from ...norms import relative_l2
+from ...pod.pipeline import error_steps
+from ...progress import progress_bar
+from ...rom.inputs import band as rayleigh
+from ...scene import derive_scene
+from ...sph.operator import particle_positions
+from ...sph.solver import build_problem, run_sph, step_count
+from ..resources import probe_pairs
+from ..run.driver import FMU, can_interpolate_inputs
+from ..training.envelope import training_force
+from ..variables import members
+from .truth import TRUTH_NAME, exact_probe_outputs
 
 SCALE_NAME = "initial_state_scale"     # the FMU's parameter (harness/fmu/variables.py)
 TOLERANCE_NAME = "error_tolerance"     # the FMU's parameter of its bounds' warning
@@ -213,7 +230,6 @@ def _ratio(r):
 def lowest_frequency(problem):
     """nu_1 [Hz]: the bar's lowest elastic frequency, the Rayleigh quotient of sin 2 pi x/L
     (:func:`sphrom.rom.inputs.band`)."""
-    from ...rom.inputs import band as rayleigh
     return rayleigh(problem)[0] / (2 * math.pi)
 
 
@@ -222,8 +238,7 @@ def top_frequency(scene, problem, ops, k):
     Rayleigh frequency of its first ``k`` velocity modes (a POD model: its POD modes, before any appended input
     direction; a model without a POD basis, the balanced one: the largest |Im lambda| of its state matrix) and the
     frequency below which 99 % of the training force's energy lies (:func:`force_top`)."""
-    from ...rom.inputs import band as rayleigh
-    U = getattr(ops, "U_v", None)
+    U = ops.velocity_modes
     if U is not None and U.shape[1]:
         w_top = rayleigh(problem, U[:, :max(1, min(int(k), U.shape[1]))])[1]
     else:
@@ -235,7 +250,6 @@ def force_top(scene, fraction=0.99):
     """The frequency [Hz] below which ``fraction`` of the energy of the training force's variation lies: f at the
     SPH's steps over [0, T] less the line through its two ends (so that the window's ends leave no jump whose
     spectrum would fill the band), one-sided power spectrum; 0 for a constant or linear force."""
-    from ...sph.solver import step_count
     n = step_count(scene.T, scene.sph.dt)
     t = np.arange(n + 1) * scene.sph.dt
     f = scene.force(t)
@@ -273,8 +287,6 @@ def communication_step(scene, nu_top, dt=None):
 def force_amplitude(scene, nu):
     """A [m s^-2] of the step and the unseen sine (module docstring): the training force's peak |f| at the SPH's
     steps, or 2 pi nu max|v0| for a free scene."""
-    from ...sph.operator import particle_positions
-    from ..make.envelope import training_force
     peak, _, _ = training_force(scene)
     if peak > 0:
         return peak
@@ -285,7 +297,6 @@ def force_amplitude(scene, nu):
 def unseen_frequency(scene, step, problem=None):
     """nu_u [Hz] of the unseen sine: :data:`UNSEEN_RATIO` nu_1, and in the band the communication step ``step`` [s]
     resolves (at most 1/(2 POINTS_PER_PERIOD h), half the top of the band it was chosen for); 3 digits."""
-    from ...sph.solver import build_problem
     nu_1 = lowest_frequency(problem or build_problem(scene))
     return float(f"{min(UNSEEN_RATIO * nu_1, 1.0 / (2 * POINTS_PER_PERIOD * step)):.3g}")
 
@@ -299,8 +310,6 @@ def unseen_force(scene, step, problem=None):
 def step_force(scene):
     """The step force's expression, a constant A_s (module docstring): the training force's peak |f| (forced scenes),
     else max|v0| / T (a free scene: a uniform step then moves the bar rigidly to the initial velocity's size by T)."""
-    from ...sph.operator import particle_positions
-    from ..make.envelope import training_force
     peak, _, _ = training_force(scene)
     if peak > 0:
         return f"{peak:.4g}"
@@ -311,7 +320,6 @@ def step_force(scene):
 def communication_times(scene, step):
     """(times, SPH steps at them): t_j = j h for j = 0, 1, ... while t_j <= T (to 1e-9 relative), and the SPH
     step nearest to each (the same time when h is a whole number of the scene's dt; else at most dt/2 away)."""
-    from ...sph.solver import step_count
     n = int(math.floor(scene.T / step * (1 + 1e-9)))
     t = np.arange(n + 1) * step
     return t, np.minimum(np.round(t / scene.sph.dt).astype(np.int64), step_count(scene.T, scene.sph.dt))
@@ -326,7 +334,6 @@ def rows_at(t, sample_dt, rows):
 
 def probe_values(problem, L, probes, fields):
     """The fields (M, N) interpolated linearly at the probes x/L (as the FMU's probe rows)."""
-    from ..resources import probe_pairs
     i0, i1, w = probe_pairs(problem.x, L, np.asarray(probes, float))
     return [a[..., i0] * (1 - w) + a[..., i1] * w for a in fields]
 
@@ -338,8 +345,6 @@ def sph_reference(scene, force, scale, step, probes, problem=None):
     ``force`` is an expression in t (the scene's own when it equals its text); ``scale`` multiplies the
     initial velocity v0 (1: the scene's initial state, 0: rest; rho starts at rho0 either way).
     """
-    from ...scene import derive_scene
-    from ...sph.solver import build_problem, run_sph
     problem = problem or build_problem(scene)
     run_scene = scene if force == scene.f.text else derive_scene(scene, {"force": {"f": force}})
     t, steps = communication_times(scene, step)
@@ -373,8 +378,6 @@ def fmu_case(path, force_values, t, scale=None, interpolate=False):
     call fails."""
     from fmpy.fmi1 import FMICallException
 
-    from ..run.driver import FMU
-    from ..variables import members
     with FMU(path) as fmu:
         try:
             t0 = time.perf_counter()
@@ -402,7 +405,6 @@ def case_errors(fmu_v, fmu_rho, sph_v, sph_rho, rho0, t):
     """(err_v, err_rho, max_drho): eq. 3.4, square-root form, of the probe velocities and of rho - rho0 (nan
     when the reference's rho - rho0 is 0 at every probe and time, to 1e-12 of rho0), and the largest
     |rho_FMU - rho_ref| [kg m^-3]."""
-    from ...norms import relative_l2
     flat = not np.any(np.abs(sph_rho - rho0) > 1e-12 * np.abs(rho0))
     err_rho = float("nan") if flat else relative_l2(fmu_rho, sph_rho, t, baseline=rho0)
     return relative_l2(fmu_v, sph_v, t), err_rho, float(np.max(np.abs(fmu_rho - sph_rho)))
@@ -417,7 +419,6 @@ def fmu_facts(path):
     """(has initial_state_scale, declares canInterpolateInputs, step [s], error_tolerance's start value or nan)."""
     from fmpy import read_model_description
 
-    from ..run.driver import can_interpolate_inputs
     md = read_model_description(str(path))
     names = {v.name: v for v in md.modelVariables}
     tol = names.get(TOLERANCE_NAME)
@@ -441,12 +442,6 @@ def references(scene, step, probes, has_scale, problem=None, progress=False, int
     """The truth of every case: {name: (force, scale, start, (t, v, rho, rho0, sph wall time))} (shared by every
     model measured on the same scene, probes, step and input mode; ``interpolate``: f linear between the points).
     The wall time is the full SPH's compiled loop over T of the scene's own run, timed now (:func:`sph_cost`)."""
-    from ...cache import cached_sph
-    from ...expr import compile_expr
-    from ...pod.pipeline import error_steps
-    from ...progress import progress_bar
-    from ...sph.solver import build_problem
-    from .truth import exact_probe_outputs
     problem = problem or build_problem(scene)
     cases = case_forces(scene, step, problem)
     if not has_scale:
@@ -495,9 +490,6 @@ def sph_cost(scene, problem, recorded):
     their ratio is measured under one load): the scene's own run (its force, integrator and dt) over T, or over
     the first steps that take about :data:`SPH_TIMING` s (``recorded``: the training run's recorded wall time over
     T, which sets how many), scaled to T (the loop's cost per step does not change along the run)."""
-    import dataclasses
-
-    from ...sph.solver import run_sph, step_count
     n = step_count(scene.T, scene.sph.dt)
     m = n if not recorded > SPH_TIMING else max(1, int(n * SPH_TIMING / recorded))
     short = scene if m == n else dataclasses.replace(scene, T=m * scene.sph.dt)
@@ -523,8 +515,6 @@ def verify_fmu(path, scene, probes, refs=None, problem=None, progress=False):
     -------
     Verification
     """
-    from ...expr import compile_expr
-    from .truth import TRUTH_NAME
     has_scale, interpolate, step, tolerance = fmu_facts(path)
     if refs is None or refs.get("_interpolate") != interpolate:
         refs = references(scene, step, probes, has_scale, problem=problem, progress=progress, interpolate=interpolate)
@@ -581,8 +571,6 @@ def _readable(force):
 def probes_png(verification, title="") -> bytes:
     """documentation/probes.png: FMU (dashed) against the truth (solid) probe velocity, one panel per case; with
     the FMU's certified bounds, the band FMU ± bound (against the full linear SPH: docs/science/error-bounds.md)."""
-    import io
-
     import matplotlib
     from matplotlib.figure import Figure          # not pyplot: its import is a second of the packaging's time
 

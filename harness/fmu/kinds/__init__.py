@@ -8,6 +8,9 @@ Python that the C core must equal, its words on the FMU's pages and the facts th
 elsewhere asks the kind of a model (:func:`kind_of` its data, :func:`by_number` the header's model_kind,
 :func:`for_model` a registry model's ``fmu_kind``), never the data's class.
 
+:func:`pack` and :func:`unpack` read and write any kind's model.bin: the kind gives its part, the shared header,
+sections, token and checksum are :func:`sphrom.fmu.resources.write` and :func:`sphrom.fmu.resources.read`.
+
 The table is :data:`sphrom.fmu.layout.KINDS` (the bytes' spec): kind ``name`` is the module ``sphrom.fmu.kinds.<name>``.
 A new kind is a row there, its module here and its C file (docs/internals/c-code.md).
 
@@ -43,6 +46,7 @@ from dataclasses import dataclass
 from importlib import import_module
 
 from .. import layout
+from ..resources import read, write
 
 # doStep's rules on the time, the same for every kind (fmu_src/rom.h, rom.c check_step, rom_internal.h
 # rom_same_step): every tolerance is the time's own rounding or the step's, never one that grows with |t|, so an
@@ -126,6 +130,29 @@ def by_number(number):
 def kind_of(data):
     """The kind module of ``data`` (a kind's data class: its KIND)."""
     return by_number(type(data).KIND)
+
+
+def pack(data) -> bytes:
+    """The bytes of model.bin of ``data`` (any kind's data class); sets ``data.token``.
+
+    The kind gives its header fields, its own header and its arrays (:func:`sphrom.fmu.kinds.frozen.file_fields`,
+    ...); :func:`sphrom.fmu.resources.write` checks the arrays against the shapes of ``layout.KINDS`` and writes
+    them in that order."""
+    kind = kind_of(data)
+    header, head, arrays = kind.file_fields(data)
+    blob, data.token = write(layout.KIND_BY_NUMBER[kind.NUMBER], header, head, arrays, data.sections,
+                             min_k_rho=kind.min_k_rho(header["flags"]))
+    return blob
+
+
+pack_exact = pack          # its former name for the linear models' files
+
+
+def unpack(blob: bytes):
+    """Read model.bin bytes back (:func:`sphrom.fmu.resources.read`: the checks of the C loader that concern the
+    layout): the kind's data class."""
+    spec, header, head, arrays, token, sections = read(blob)
+    return by_number(spec.number).from_file(header, head, arrays, token, sections)
 
 
 def for_model(name):

@@ -33,18 +33,51 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from html import escape
 from typing import ClassVar
 
 import numpy as np
 
-from . import ModelWords
-from ..resources import port_sections
+from ... import defaults
+from ...errors import SimulationError
+from ...rom import parametric as par
+from ...rom.frozen import frozen_advance, loop_operators
+from ...rom.operators import probe_rows, wants_tensor
+from ...rom import port_channel
+from ...rom.port_channel import (ChannelState, attach, density_shift, from_sections, model_ports,
+                                 probe_outputs)
+from ...rom.registry import get_model
+from ...rom.stepping import initial_scale, runaway_bound
+from ...sph.solver import step_count
+from ..resources import FLAG_DAMPING, FLAG_INPUT, INTEGRATORS, port_sections
+from ..training.steps import model_basis, shadow_step, training_basis, training_envelope
+from . import ModelWords, pack, step_error
 
 NUMBER = 1
 BUILD_OPTIONS = ("n_freeze", "dt", "integrator")
 INTERNAL_STEP = True
 INITIAL_STATE = "a_v0"           # what initial_state_scale multiplies (rom.h rom_set_initial_state_scale)
 OUTPUT_DERIVATIVE_ORDER = 0      # a discrete map of internal steps: no output derivatives (rom.h)
+PORT_INTEGRATOR = "symplectic"
+FROZEN_INTEGRATORS = ("euler", "symplectic")      # the time-stepped model's own (the full SPH also has rk4)
+
+
+def default_integrator(scene, ports=()):
+    """The time integrator of a time-stepped FMU given none: the scene's, but :data:`PORT_INTEGRATOR` (ρ then v)
+    for an FMU with ports whose port forces enter its basis (a damping that varies along the bar: no port channel,
+    :mod:`sphrom.rom.port_channel`).  A port couples the bar to components outside, and the coupled system is
+    stable when the FMU adds no energy (passivity, docs/fmu/ports.md); explicit Euler multiplies each mode's energy
+    by 1 + (ω dt)² a step, symplectic Euler keeps a modified energy of the undamped bar.  Measured (``sphrom bench
+    inputs``, tenmode with a constant port force for 10 s): the full SPH with explicit Euler is 0.1 off the
+    linear SPH integrated exactly in time, with symplectic Euler 9e-6.  With the port channel the port forces never
+    reach the model's own state (the channel, exact in time, takes them): the model is the portless one, with the
+    scene's integrator.  A scene whose full SPH steps with RK4 (which the frozen model does not have): symplectic
+    Euler too (the scene's step is within its limit on the reduced model's lower frequencies)."""
+    if len(ports) and not port_channel.scene_applies(scene):
+        return PORT_INTEGRATOR
+    return scene.sph.integrator if scene.sph.integrator in FROZEN_INTEGRATORS else PORT_INTEGRATOR
+
+
 MODELS = {
     "frozen": ModelWords(
         ports=("Each port's directions are in the basis as the exact model's (rigid motion, static deflection, "
@@ -81,7 +114,7 @@ class ModelData:
     a_v0, a_rho0, K, b, D, p, T, Pv, Prho, probe_x : ndarray
         D and p may be None.
     token : str
-        The instantiation token (set by :func:`sphrom.fmu.resources.pack`).
+        The instantiation token (set by :func:`sphrom.fmu.kinds.pack`).
     sections : dict of str to ndarray
         Tagged sections (tag -> 2-D float64 array), in file order.
     """
@@ -106,6 +139,7 @@ class ModelData:
     n_freeze_errors: dict = field(default_factory=dict)   # packaging only: choose_n_freeze's measurements
     bounds = None                # the frozen model has no certified error bounds (ExactData.bounds)
     KIND: ClassVar[int] = 1      # resources/model.bin's model_kind (sphrom.fmu.layout.KINDS)
+    INTERNAL_STEP: ClassVar[bool] = INTERNAL_STEP     # the kind's (sphrom.fmu.variables.facts reads it)
 
     @property
     def k_v(self):
@@ -127,7 +161,7 @@ def model_data(ops, problem, *, dt, integrator, n_freeze, probes, bound):
     ----------
     ops : ReducedOperators
         With the refresh tensor, or without it (``T`` None: the particle refresh's sections must then be added
-        to the data's sections before :func:`sphrom.fmu.resources.pack`,
+        to the data's sections before :func:`sphrom.fmu.kinds.pack`,
         :func:`particle_sections`); built
         with ``input_direction="needed"`` for an input row.
     problem : SPHProblem
@@ -142,8 +176,6 @@ def model_data(ops, problem, *, dt, integrator, n_freeze, probes, bound):
     bound : float
         Runaway bound on |a|.
     """
-    from ...rom.operators import probe_rows
-
     probes = np.asarray(probes, dtype=float)
     L = problem.scene.L
     return ModelData(integrator=integrator, n_freeze=int(n_freeze), dt=float(dt), bound=float(bound), L=float(L),
@@ -162,7 +194,6 @@ Data = ModelData
 def from_operators(ops, problem, *, probes, dt, n_freeze, integrator="euler", bound=None):
     """:func:`model_data` of operators built elsewhere (a benchmark's own), the runaway bound that of their initial
     state unless given (:func:`sphrom.rom.stepping.runaway_bound`)."""
-    from ...rom.stepping import runaway_bound
     return model_data(ops, problem, dt=dt, integrator=integrator, n_freeze=n_freeze, probes=probes,
                       bound=runaway_bound(ops) if bound is None else bound)
 
@@ -171,7 +202,6 @@ def parametric(affine, c, d, problem, *, probes, dt, n_freeze, integrator="euler
     """(data, operators, the affine pieces' sections KC, BC and DD with damping) of a parametric frozen model at
     (c, d) (:func:`sphrom.fmu.make.parametric.parametric_resource`; the C core assembles K = c K_c, b = c b_c,
     D = d D_d)."""
-    from ...rom import parametric as par
     ops = par.frozen_at(affine, c, d)
     data = from_operators(ops, problem, probes=probes, dt=dt, n_freeze=n_freeze, integrator=integrator)
     sections = {"KC": affine.unit.K, "BC": affine.unit.b[None, :]}
@@ -190,7 +220,7 @@ def example(rng):
                      Prho=np.abs(rng.normal(size=(npr, kr))) + 1.0, probe_x=np.array([0.25, 0.5]))
 
 # ---------------------------------------------------------------------------------------------------------------
-# its part of model.bin (sphrom.fmu.resources pack, unpack)
+# its part of model.bin (sphrom.fmu.kinds pack, unpack; the shared pieces sphrom.fmu.resources write, read)
 # ---------------------------------------------------------------------------------------------------------------
 
 def min_k_rho(flags):
@@ -199,10 +229,9 @@ def min_k_rho(flags):
 
 
 def file_fields(data):
-    """(shared header fields, its own header, {array name: array}) of ``data`` for :func:`sphrom.fmu.resources.pack`;
+    """(shared header fields, its own header, {array name: array}) of ``data`` for :func:`sphrom.fmu.kinds.pack`;
     ``data.T`` None: no refresh tensor (n_pairs = 0), which the particle refresh's sections (PARTUR, PARTGUV, PARTIR0)
     then replace."""
-    from ..resources import FLAG_DAMPING, FLAG_INPUT, INTEGRATORS
     if data.T is None and "PARTUR" not in data.sections:
         raise ValueError("T: a frozen model without its refresh tensor needs the particle sections PARTUR, PARTGUV, "
                          "PARTIR0")
@@ -218,8 +247,7 @@ def file_fields(data):
 
 
 def from_file(header, head, arrays, token, sections):
-    """The :class:`ModelData` of a frozen model.bin's fields (:func:`sphrom.fmu.resources.unpack`)."""
-    from ..resources import INTEGRATORS
+    """The :class:`ModelData` of a frozen model.bin's fields (:func:`sphrom.fmu.kinds.unpack`)."""
     kr = header["k_rho"]
     if head["n_pairs"] not in (0, kr * (kr + 1) // 2):         # 0: no tensor (the particle sections replace it)
         raise ValueError("n_pairs")
@@ -239,9 +267,6 @@ def resource(scene, model, k, n_freeze, probes, integrator, progress, problem, o
     """The packaging step of kind 1 (``sphrom.fmu.make.package.model_step``): the frozen model with its training
     envelope and error bounds, (data, operators, model.bin bytes); ``n_freeze`` None: chosen per scene
     (:func:`choose_n_freeze`, the errors it measured in ``data.n_freeze_errors``)."""
-    from ... import defaults
-    from ..make.steps import shadow_step, training_basis, training_envelope
-    from ..resources import pack
     basis, run, problem = training_basis(scene, progress, problem, extra_steps)
     data, ops, problem, _ = reduced_model(scene, k, n_freeze or defaults.N_FREEZE, probes, integrator,
                                           progress=progress, problem=problem, model=model, ports=ports,
@@ -278,10 +303,7 @@ def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem
     the model's build (``{"b": "paper"}``: eq. 2.22's b, the paper's variant, :mod:`sphrom.bench.rest` compares
     them).
     """
-    from ...rom.registry import get_model
-    from ..make.steps import model_basis
 
-    from ...rom.port_channel import attach, model_ports
     spec = get_model(model)
     basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem, made=made)
     own_ports, options, channel = model_ports(problem, ports, build_options)
@@ -290,14 +312,12 @@ def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem
                      **({"ports": own_ports} if own_ports else {}), **options)
     if channel:                     # the portless model and the port channel, which takes every port force
         ops = attach(ops, problem, ports, probes)
-    from ...rom.operators import wants_tensor
     if ops.T is None and (not particle_sections(ops, problem) or wants_tensor("auto", ops.k_v, ops.k_rho)):
         from ...rom.operators import refresh_tensor                     # the FMU's, or small enough to keep
         t0 = time.perf_counter()
         ops.T = refresh_tensor(ops.U_rho, ops.GU_v, ops.inv_rho0)
         ops.timings["tensor"] = time.perf_counter() - t0
         ops.tensor_rule = "always"
-    from ...rom.stepping import runaway_bound
     data = model_data(ops, problem, dt=scene.sph.dt, integrator=integrator, n_freeze=n_freeze, probes=probes,
                       bound=runaway_bound(ops))
     if ops.T is None:                                                   # the particle refresh replaces it
@@ -340,9 +360,6 @@ def choose_n_freeze(scene, ops, problem, run, model="frozen", integrator=None, c
     first part (at least its first :data:`N_FREEZE_MIN_SAMPLES` samples).  ``refresh``: the frozen model's
     refresh path (default the tensor where ``ops`` has it, else the particles, ``"direct"``).
     """
-    from ...errors import SimulationError
-    from ...rom.registry import get_model
-    from ...sph.solver import step_count
     spec = get_model(model)
     refresh = refresh or ("tensor" if ops.T is not None else "direct")
     n_steps = step_count(scene.T, scene.sph.dt)
@@ -393,7 +410,6 @@ def stepping(data):
 
 def model_rows(data):
     """The documentation page's rows (quantity, HTML value) on the time stepping."""
-    from html import escape
     return [("integrator", escape(data.integrator)), ("default n_freeze", str(data.n_freeze)),
             ("default internal dt [s]", format(float(data.dt), "g"))]
 
@@ -494,8 +510,6 @@ class FrozenCosim:
     """
 
     def __init__(self, data, n_freeze=None, dt=None, initial_state_scale=1.0, start=0.0):
-        from ...rom.stepping import initial_scale
-        from ...rom.frozen import loop_operators
         self.data = data
         self.n_freeze = int(data.n_freeze if n_freeze is None else n_freeze)
         self.dt = float(data.dt if dt is None else dt)
@@ -519,7 +533,6 @@ class FrozenCosim:
         # mechanical ports (resources sections PORTB, PORTC): F_port [N] held over a step, or going as
         # F_port + port_rates τ [N s^-1] (input derivatives), divided by area; with the port channel (sections PC*,
         # no PORTB) the channel takes them (fmu_src/rom_port.c), its part added to the outputs
-        from ...rom.port_channel import ChannelState, from_sections
         self.port_B = data.sections.get("PORTB")
         self.port_C = data.sections.get("PORTC")
         self.n_ports = 0 if self.port_C is None else self.port_C.shape[0]
@@ -532,8 +545,6 @@ class FrozenCosim:
         self.waves = np.zeros(self.n_ports)
 
     def _advance(self, count, h, f, rate=0.0, tau0=0.0):
-        from ...errors import SimulationError
-        from ...rom.frozen import frozen_advance
         if count <= 0:
             return
         # f at each step's time tau0 + j h after the communication point (fmu_src/rom_frozen.c run_steps_kernel)
@@ -552,7 +563,6 @@ class FrozenCosim:
         f + ``rate`` τ over the step (``rate`` df/dt [m s^-3], an input derivative), from ``t_comm`` [s] (default
         the time reached): a step doStep refuses is a ValueError in the core's words
         (:func:`sphrom.fmu.kinds.step_error`)."""
-        from . import step_error
         problem = step_error(self.t, self.t if t_comm is None else t_comm, h, self.elapsed)
         if problem:
             raise ValueError(problem)
@@ -575,7 +585,6 @@ class FrozenCosim:
         v, rho = probe_values(self.data.Pv, self.av), probe_values(self.data.Prho, self.ar)
         if self.channel is None:
             return v, rho
-        from ...rom.port_channel import density_shift, probe_outputs
         vc, ec, _ = probe_outputs(self.channel.ch, self._channel_rows())
         return v + vc, rho + density_shift(self.channel.ch, ec)
 
@@ -604,7 +613,6 @@ class FrozenCosim:
         v = self.own_port_velocities()
         if self.channel is None:
             return v
-        from ...rom.port_channel import probe_outputs
         return v + probe_outputs(self.channel.ch, self._channel_rows())[2]
 
 

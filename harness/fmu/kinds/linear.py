@@ -14,8 +14,18 @@ from typing import ClassVar
 
 import numpy as np
 
-from . import ModelWords
-from ..resources import LINEAR_BALANCED, LINEAR_EXACT_POD, port_sections, probe_pairs
+from ...progress import progress_bar
+from ...rom import parametric as par
+from ...rom.exact_linear import linear_runaway_bound, state_rate
+from ...rom.modal import real_blocks
+from ...rom.operators import probe_rows
+from ...rom.port_channel import attach, model_ports
+from ...rom.registry import get_model
+from ...sph.solver import build_problem
+from ..resources import (FLAG_BLOCKS, FLAG_DAMPING, FLAG_INPUT, FLAG_OUTPUT_ROWS, FLAG_SCHUR, LINEAR_BALANCED,
+                         LINEAR_EXACT_POD, port_sections, probe_pairs)
+from ..training.steps import model_basis, shadow_step, training_basis, training_envelope
+from . import ModelWords, pack
 
 NUMBER = 2
 BUILD_OPTIONS = ()
@@ -101,6 +111,7 @@ class ExactData:
     blocks: bool = False             # A block diagonal: the model in its real eigen-coordinates (flags bit4)
     block_condition: float = float("nan")   # packaging only: κ(V) of the transform (to_blocks), kept or not
     KIND: ClassVar[int] = 2      # resources/model.bin's model_kind (sphrom.fmu.layout.KINDS)
+    INTERNAL_STEP: ClassVar[bool] = INTERNAL_STEP     # the kind's (sphrom.fmu.variables.facts reads it)
 
     @property
     def k(self):
@@ -120,7 +131,6 @@ Data = ExactData
 
 def exact_data(lin, problem, *, probes, bound=None):
     """Collect the exact model's numbers from :class:`sphrom.rom.exact_linear.LinearOperators`."""
-    from ...rom.operators import probe_rows
     probes = np.asarray(probes, dtype=float)
     L = problem.scene.L
     i0, i1, w = probe_pairs(problem.x, L, probes)
@@ -176,7 +186,6 @@ def to_blocks(data):
     assembled from pieces at run time) stays dense."""
     import dataclasses
 
-    from ...rom.modal import real_blocks
     if data.blocks or "A0" in data.sections:
         return data
     rb = real_blocks(data.A, skew=not data.damping)
@@ -208,7 +217,6 @@ def from_operators(ops, problem, *, probes, bound=None):
 def parametric(affine, c, d, problem, *, probes):
     """(data, operators, the affine pieces' sections A0, AC, AD) of a parametric linear model at (c, d)
     (:func:`sphrom.fmu.make.parametric.parametric_resource`; the C core assembles A = A_0 + c A_c + d A_d)."""
-    from ...rom import parametric as par
     lin = par.linear_at(affine, c, d)
     return exact_data(lin, problem, probes=probes), lin, {"A0": affine.A0, "AC": affine.Ac, "AD": affine.Ad}
 
@@ -223,19 +231,17 @@ def example(rng):
                      probe_x=np.array([0.25, 0.5]))
 
 # ---------------------------------------------------------------------------------------------------------------
-# its part of model.bin (sphrom.fmu.resources pack, unpack)
+# its part of model.bin (sphrom.fmu.kinds pack, unpack; the shared pieces sphrom.fmu.resources write, read)
 # ---------------------------------------------------------------------------------------------------------------
 
 def min_k_rho(flags):
     """The smallest k_e of a linear model's header: 0 with output rows over z (a state that does not split)."""
-    from ..resources import FLAG_OUTPUT_ROWS
     return 0 if flags & FLAG_OUTPUT_ROWS else 1
 
 
 def file_fields(data):
     """(shared header fields, None: no header of its own, {array name: array}) of ``data`` for
     :func:`sphrom.fmu.resources.pack`."""
-    from ..resources import FLAG_BLOCKS, FLAG_DAMPING, FLAG_INPUT, FLAG_OUTPUT_ROWS, FLAG_SCHUR
     if data.Q is not None and data.damping:
         raise ValueError("a Schur form needs a skew operator (no damping)")
     if data.blocks and (data.Q is not None or not data.output_rows):
@@ -252,7 +258,6 @@ def file_fields(data):
 
 def from_file(header, head, arrays, token, sections):
     """The :class:`ExactData` of a linear model.bin's fields (:func:`sphrom.fmu.resources.unpack`)."""
-    from ..resources import FLAG_BLOCKS, FLAG_DAMPING, FLAG_OUTPUT_ROWS
     flags = header["flags"]
     return ExactData(bound=header["runaway_bound"], L=header["L"], k_v=header["k_v"], z0=arrays["z0"], A=arrays["A"],
                      B=arrays.get("B"), damping=bool(flags & FLAG_DAMPING), Q=arrays.get("Q"), S=arrays.get("S"),
@@ -272,9 +277,6 @@ def resource(scene, model, k, n_freeze, probes, integrator, progress, problem, o
     ``error_bounds``; section BOUNDS: force, initial state), unless ``bounds`` is False (benchmarks that time
     the stepping only: the bounds take seconds to minutes at N = 400).  ``n_freeze`` and ``integrator`` are not
     this kind's options (a linear model has no internal step): the caller's values are ignored."""
-    from ...rom.registry import get_model
-    from ..make.steps import shadow_step, training_basis, training_envelope
-    from ..resources import pack
 
     build_options = dict(build_options or {})
     # build option blocks=True: the model in its real eigen-coordinates (to_blocks); the dense form stays the default
@@ -316,10 +318,7 @@ def exact_model(scene, k, probes, progress=True, problem=None, model="exact", po
     model's ``fmu_input_direction`` (the exact model: ``"always"``, the force profile is always in its
     velocity basis, so the input f is represented exactly) and ``build_options``.
     """
-    from ...rom.registry import get_model
-    from ..make.steps import model_basis
 
-    from ...rom.port_channel import attach, model_ports
     spec = get_model(model)
     basis, problem = model_basis(scene, spec, k, progress=progress, problem=problem, made=made)
     own_ports, options, channel = model_ports(problem, ports, build_options)
@@ -339,9 +338,6 @@ def balanced_model(scene, k, probes, order_tolerance=None, problem=None, model="
     and truncated at order ``k`` (or the order ``order_tolerance`` gives; the default
     tolerance when both are None); :func:`sphrom.fmu.resources.balanced_data`.
     """
-    from ...rom.port_channel import attach, model_ports
-    from ...rom.registry import get_model
-    from ...sph.solver import build_problem
 
     problem = problem or build_problem(scene)
     own_ports, options, channel = model_ports(problem, ports, build_options)
@@ -363,8 +359,6 @@ def balanced_model(scene, k, probes, order_tolerance=None, problem=None, model="
 def linear_bounds(ops, problem, probes, progress=True):
     """The certified error bounds of a linear reduced model at the velocity probes (the operators'
     ``error_bounds``, :func:`sphrom.rom.balanced.error_bounds`), with a progress bar over the probes."""
-    from ...progress import progress_bar
-
     with progress_bar(len(probes), "error bounds", unit="probe", enabled=progress) as bar:
         return ops.error_bounds(problem, probes, progress=bar)
 
@@ -375,9 +369,6 @@ def linear_bound(lin, scene, samples=4097):
 
     10⁶ |z0| alone is 0 for a scene at rest, and such an FMU stopped as a runaway at its first forced step.
     """
-    import numpy as np
-
-    from ...rom.exact_linear import linear_runaway_bound
     t = np.linspace(0.0, float(scene.T), samples)
     f = np.abs(np.asarray(scene.force(t), float)) if lin.B is not None else np.zeros(samples)
     return linear_runaway_bound(lin, float(np.sum(0.5 * (f[1:] + f[:-1]) * np.diff(t))))
@@ -426,7 +417,6 @@ def linear_output_rates(data, z, f=0.0):
     dz/dt = A z + B f; dv_j/dt = Pv[j] . (dz/dt)_a; ρ_j = Σ_m w_m ρ0_m / J_m with J_m = 1 + Pe[j][m] . b, so
     dρ_j/dt = -Σ_m w_m ρ0_m (Pe[j][m] . (db/dt)) / J_m².  Returns (dv/dt [m s^-2], dρ/dt [kg m^-3 s^-1]).
     """
-    from ...rom.exact_linear import state_rate
     z = np.asarray(z, float)
     zdot = state_rate(data.A, data.B, z, f)
     kv = data.k_v

@@ -2,9 +2,15 @@
 
 from __future__ import annotations
 
+import shutil
+import tempfile
 from pathlib import Path
 
+from ...errors import FieldError, ToleranceError
+from ...rom.registry import fmu_model_names
 from ...runio import atomic_path
+from ..check.verify import acceptance
+from ..kinds import for_model
 from .package import package_fmu
 
 
@@ -28,13 +34,6 @@ def package_auto(scene, out, *, tolerance, progress=True, integrator=None, bound
     ToleranceError
         No model meets ``tolerance`` (the message lists each one's verdict); nothing is written.
     """
-    import shutil
-    import tempfile
-
-    from ...errors import ToleranceError
-    from ...rom.registry import fmu_model_names
-    from ..check.verify import acceptance
-    from ..kinds import for_model
     out = Path(out)
     candidates = []
     refs = None
@@ -58,6 +57,14 @@ def package_auto(scene, out, *, tolerance, progress=True, integrator=None, bound
     return best, candidates
 
 
+def verdicts(chosen, candidates, tolerance):
+    """[(FMUSummary, verdict)] of :func:`package_auto`'s ``candidates``, the verdict in words: the ``chosen`` one,
+    one that meets ``tolerance`` at a higher cost, or one that does not meet it."""
+    return [(c, "chosen: the cheapest that meets it" if c is chosen else
+             "meets it, costlier" if acceptance(c.verification, tolerance) is None else "does not meet it")
+            for c in candidates]
+
+
 def _cost(case):
     """The FMU's own work on a case [s] (its doStep calls), its whole run through fmpy where that was not timed."""
     return case.step_s if case.step_s == case.step_s else case.fmu_s
@@ -73,10 +80,6 @@ def default_candidates(scene, folder, options):
     (:func:`sphrom.fmu.check.verify.acceptance`, the verdict) or its own work per simulated second is above the full
     SPH's, the :data:`FALLBACK_MODEL`'s (measured on the same truth).  A default model that cannot be packaged for the
     scene (a FieldError: the frozen model's dt floor) is (None, why)."""
-    from pathlib import Path
-
-    from ...errors import FieldError
-    from ..check.verify import acceptance
     tried, refs = [], None
     for model in (DEFAULT_MODEL, FALLBACK_MODEL):
         try:
@@ -100,7 +103,6 @@ def choose_default(tried, out):
     """(the chosen FMUSummary, a one-line note or '') of :func:`default_candidates`: the candidate that meets the
     accuracy at the lowest cost per simulated second; the note says why it is not the default model.
     ToleranceError naming both verdicts when none meets it."""
-    from ...errors import ToleranceError
     good = [s for s, verdict in tried if verdict is None]
     if not good:
         raise ToleranceError(f"{tried[0][1]}; the {FALLBACK_MODEL} model too: {tried[-1][1].split('; remedy')[0]}; "
@@ -121,9 +123,6 @@ def package_default(scene, out, options):
     """``sphrom fmu`` without ``--model`` (nor the frozen model's own options): (FMUSummary at ``out``, note) of
     :func:`choose_default` over :func:`default_candidates`; nothing is written when no candidate meets the
     accuracy."""
-    import shutil
-    import tempfile
-
     out = Path(out)
     with tempfile.TemporaryDirectory(prefix="sphrom-fmu-") as tmp:
         best, note = choose_default(default_candidates(scene, tmp, options), out)

@@ -31,6 +31,7 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
+from ...cache import cache_dir
 from ...errors import UserError
 from ...paths import data_dir
 
@@ -343,7 +344,6 @@ def ensure_binaries(sanitize=False, cache_root=None, quiet=True) -> Binaries:
 
 
 def _build_root(cache_root=None) -> Path:
-    from ...cache import cache_dir
     return Path(cache_root) if cache_root else cache_dir() / "build"
 
 

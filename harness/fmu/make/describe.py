@@ -15,9 +15,11 @@ from xml.sax.saxutils import escape
 
 from ... import __version__
 from ...paths import data_dir
+from ...rom.registry import get_model
 from .. import layout, variables
-from .build import fmu_sources
+from ..kinds import kind_of, unpack
 from ..variables import number
+from .build import fmu_sources
 
 _BLOCK = re.compile(r"\{\{#(\w+)\}\}(.*?)\{\{/\1\}\}", re.S)
 _RAW = re.compile(r"\{\{\{(\w+)\}\}\}")
@@ -83,7 +85,7 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
     model : str
         The registered reduced model packaged (its title heads the description).
     envelope : Envelope, optional
-        What the basis was trained on (:mod:`sphrom.fmu.make.envelope`), appended to the description; the
+        What the basis was trained on (:mod:`sphrom.fmu.training.envelope`), appended to the description; the
         nominal values of f and the probe outputs.
     measured : str, optional
         The verification's sentence (errors against the full SPH, run times), appended to the description.
@@ -91,9 +93,6 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
         Linear models: the report of the certified error bounds (:func:`sphrom.rom.balanced.error_bounds`)
         whose values section BOUNDS holds (default ``data.bounds``), for the words of the description.
     """
-    from ...rom.registry import get_model
-    from ..kinds import kind_of
-
     kind = kind_of(data)
     bounds = bounds if bounds is not None else getattr(data, "bounds", None)
     facts = variables.facts(data, fmi)
@@ -149,7 +148,6 @@ def model_description(fmi: int, *, token, scene, data, k_requested, step_size, s
 def variable_values(fmi, scene, data, envelope, bounds):
     """The FMU's values the variable table's descriptions and :class:`~sphrom.fmu.variables.From` cells name
     (under ``probe``: one value per probe)."""
-    from ..kinds import kind_of
     values = {
         "profile": scene.fields["profile"].text,
         # FMI 2 only: the linear models integrate f + (df/dt) tau over a step exactly, the frozen model
@@ -266,8 +264,6 @@ def type_definitions(declared, fmi):
 def build_description(blob) -> str:
     """sources/buildDescription.xml of the FMI 3 FMU whose resources/model.bin is ``blob``: its sources, and the
     model it holds (read from the resources) in its description."""
-    from ...rom.registry import get_model
-    from ..resources import unpack
     title = get_model(model_name(unpack(blob))).title
     return render(template("buildDescription.xml"), {"description": f"{title}, FMI 3.0 co-simulation"},
                   {"source_files": [{"name": name} for name in fmu_sources(3) if name.endswith(".c")]})
@@ -276,5 +272,4 @@ def build_description(blob) -> str:
 def model_name(data):
     """The registered model a packed model.bin holds (its kind's answer: frozen for kind 1; exact or balanced for
     kind 2, from section LINMODEL)."""
-    from ..kinds import kind_of
     return kind_of(data).model_name(data)

@@ -19,9 +19,16 @@ import xml.etree.ElementTree as ET
 from html import escape
 
 from .. import layout
+from ..check.page import DOC_INDEX  # noqa: F401  (where the page goes)
 from ..kinds import kind_of
 
-DOC_INDEX = "documentation/index.html"
+import numpy as np
+
+from ... import __version__
+from ..check.verify import ACCURACY
+from ..kinds import model_words
+from ..resources import SECTION_TAGS
+
 DOC_PLOT = "documentation/probes.png"
 
 _STYLE = """body{font-family:sans-serif;max-width:60em;margin:1em auto;padding:0 1em;color:#222}
@@ -214,9 +221,7 @@ def ports_section(sections, model=None, passivity=None):
                 "<p>This FMU has no mechanical ports: its only input is <code>f</code>. <code>sphrom fmu SCENE "
                 "--ports X1,X2</code> adds ports at x/L = X1, X2 (inputs <code>F_port_j</code>, outputs "
                 f"<code>v_port_j</code>). The sign convention: {convention}</p>"]
-    import numpy as np
     xs = ", ".join(f"{x:g}" for x in np.ravel(positions))
-    from ..kinds import model_words
     words = model_words().get(model)
     represents = words.ports if words else ""
     return ["<h2>Ports</h2>", f"<p>Mechanical ports at x/L = {xs}. {convention}</p>"] + (
@@ -229,7 +234,6 @@ def ports_section(sections, model=None, passivity=None):
 
 def _envelope_rows(sections, probe_x):
     """The training envelope's sections as labelled rows (quantity, value)."""
-    import numpy as np
     rows = []
     if "ENVELOPE" in sections:
         amplitude, band, strain, probe_strain, failure, margin, checks, mean = (
@@ -283,9 +287,7 @@ def sections_section(sections, probe_x=(), linear=False, bounded=False):
     envelope in words of :func:`envelope_section`), then the others; [] without sections."""
     if not sections:
         return []
-    import numpy as np
 
-    from ..resources import SECTION_TAGS
     sections = {tag: np.atleast_2d(np.asarray(values, dtype=float)) for tag, values in sections.items()}
     envelope = [tag for tag in sections if "envelope" in SECTION_TAGS.get(tag, "").lower()]
     lines = []
@@ -338,7 +340,6 @@ def verification_section(verification, tolerance=None):
                      f"simulated second is {v.training.cost_ratio:.3g} times the full SPH's on this scene. The full "
                      "SPH may serve better here, or fewer modes, or another model.</p>")
     lines += channel_lines(v)
-    from ..check.verify import ACCURACY
     lines.append(f"<p>Accuracy accepted on every case's v error: {ACCURACY if tolerance is None else tolerance:g} "
                  "(met)" + (" and on every input channel's (met)" if tolerance is not None else "") + ".</p>")
     lines += ["<p><img src=\"probes.png\" alt=\"probe velocity of the FMU (dashed) and of the truth (solid) "
@@ -365,7 +366,7 @@ def channel_lines(verification):
 
 
 def envelope_section(envelope, linear, bounded=False):
-    """What the basis was trained on (:class:`sphrom.fmu.make.envelope.Envelope`) and what the FMU checks at run
+    """What the basis was trained on (:class:`sphrom.fmu.training.envelope.Envelope`) and what the FMU checks at run
     time (``bounded``: its certified error bounds); nothing when the FMU carries no envelope."""
     if envelope is None:
         return []
@@ -377,7 +378,6 @@ def index_html(*, scene, spec, data, k, input_error, augmented, description_xml,
                tolerance=None, envelope=None, passivity=None, platforms=None):
     """The text of documentation/index.html (module docstring); ``platforms``: the binaries it carries
     (:class:`sphrom.fmu.make.build.FMUBinaries`)."""
-    from ... import __version__
     title = f"sphrom FMU: {spec.name} model of scene {scene.name}"
     version, _, _ = _fmi(description_xml)
     sections = getattr(data, "sections", {}) or {}

@@ -1,6 +1,6 @@
 """Step "model" of ``package_fmu``: the reduced model's numbers and operators, made by the model kinds
 (:mod:`sphrom.fmu.kinds`: kind 1 the frozen model, kind 2 the exact model on its POD basis and the balanced model
-without one) on the steps they share (:mod:`.steps`: the POD basis, the training envelope, the certified error
+without one) on the steps they share (:mod:`sphrom.fmu.training.steps`: the POD basis, the training envelope, the certified error
 bounds' shadow).
 
 :func:`resources` maps a model's ``fmu_kind`` to its kind's packaging step; :func:`operator_resource` packs
@@ -11,12 +11,11 @@ they have always had.
 from __future__ import annotations
 
 from ... import defaults
-from ..kinds import by_number, kinds
+from ..kinds import by_number, kinds, pack
 from ..kinds.frozen import (N_FREEZE_BUDGET, N_FREEZE_CANDIDATES, N_FREEZE_MIN_SAMPLES,  # noqa: F401
                             N_FREEZE_SLACK, choose_n_freeze, particle_sections, reduced_model)
 from ..kinds.linear import balanced_model, exact_model, linear_bound, linear_bounds  # noqa: F401
-from ..resources import pack
-from .steps import model_basis, shadow_step, training_basis, training_envelope  # noqa: F401
+from ..training.steps import model_basis, shadow_step, training_basis, training_envelope  # noqa: F401
 
 
 def resources():

@@ -4,19 +4,27 @@ field and the allowed range)."""
 from __future__ import annotations
 
 import math
+import sys
 
 import numpy as np
 
 from ... import defaults
-from ...errors import FieldError
+from ...errors import FieldError, exact
+from ...rom import parametric as par
+from ...rom.registry import fmu_model_names, get_model, model_names
+from ...sph.ports import parse_ports
+from ...sph.solver import build_problem
+from ..kinds import for_model
+from ..kinds.frozen import FROZEN_INTEGRATORS, PORT_INTEGRATOR, default_integrator  # noqa: F401
 from ..resources import MAX_PROBES
 from ..variables import check_parameter
+
+from ...pod.pipeline import accel_modes
 
 
 def default_modes(scene):
     """K of the scene: max(rom.accel_modes), else rom.modes, else the automatic mode count of its POD
     (:func:`sphrom.pod.pipeline.scene_modes`: runs the full SPH when it is not cached)."""
-    from ...pod.pipeline import accel_modes
     return int(max(accel_modes(scene)))
 
 
@@ -36,27 +44,6 @@ def parse_probes(text):
     return values
 
 
-PORT_INTEGRATOR = "symplectic"
-FROZEN_INTEGRATORS = ("euler", "symplectic")      # the time-stepped model's own (the full SPH also has rk4)
-
-
-def default_integrator(scene, ports=()):
-    """The time integrator of a time-stepped FMU given none: the scene's, but :data:`PORT_INTEGRATOR` (ρ then v)
-    for an FMU with ports whose port forces enter its basis (a damping that varies along the bar: no port channel,
-    :mod:`sphrom.rom.port_channel`).  A port couples the bar to components outside, and the coupled system is
-    stable when the FMU adds no energy (passivity, docs/fmu/ports.md); explicit Euler multiplies each mode's energy
-    by 1 + (ω dt)² a step, symplectic Euler keeps a modified energy of the undamped bar.  Measured (``sphrom bench
-    inputs``, tenmode with a constant port force for 10 s): the full SPH with explicit Euler is 0.1 off the
-    linear SPH integrated exactly in time, with symplectic Euler 9e-6.  With the port channel the port forces never
-    reach the model's own state (the channel, exact in time, takes them): the model is the portless one, with the
-    scene's integrator.  A scene whose full SPH steps with RK4 (which the frozen model does not have): symplectic
-    Euler too (the scene's step is within its limit on the reduced model's lower frequencies)."""
-    from ...rom.port_channel import scene_applies
-    if len(ports) and not scene_applies(scene):
-        return PORT_INTEGRATOR
-    return scene.sph.integrator if scene.sph.integrator in FROZEN_INTEGRATORS else PORT_INTEGRATOR
-
-
 def check_options(scene, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaults.PROBES, fmi=2, integrator=None,
                   model="frozen", tolerance=None, order_tolerance=None, ports=()):
     """Validate the packaging options before any work; returns (k, n_freeze, probes, fmi, integrator).
@@ -71,7 +58,6 @@ def check_options(scene, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaults.
     Raises FieldError naming the field (``k``, ``n_freeze``, ``probes``, ``fmi``, ``model``, ``integrator``,
     ``tolerance``, ``order_tolerance``) and the allowed range; the command line shows the option that set it.
     """
-    from ...rom.registry import fmu_model_names, get_model, model_names
     if model not in fmu_model_names():
         raise FieldError("model", f"{model!r} is out of range (allowed: {', '.join(fmu_model_names())})")
     spec = get_model(model)
@@ -97,7 +83,6 @@ def check_options(scene, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaults.
     probes = parse_probes(",".join(str(p) for p in probes)) if not isinstance(probes, str) else parse_probes(probes)
     if fmi not in (2, 3):
         raise FieldError("fmi", f"{fmi!r} is out of range (allowed: 2 or 3)")
-    from ..kinds import for_model
     kind = for_model(model)                 # the options its model kind takes (its BUILD_OPTIONS)
     if "integrator" not in kind.BUILD_OPTIONS:
         if integrator is not None:
@@ -119,12 +104,74 @@ def check_options(scene, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaults.
 def check_ports(ports, model):
     """The port positions (a list, empty for None) of an FMU of ``model``; FieldError naming ``ports`` when bad
     or when the model takes no port forces (the registry's ``ports``)."""
-    from ...rom.registry import get_model, model_names
-    from ...sph.ports import parse_ports
     if ports is None or (not isinstance(ports, str) and len(ports) == 0):
         return []
     ports = parse_ports(ports)
     if not get_model(model).ports:
         raise FieldError("ports", f"the {model} model takes no port forces (allowed with: "
                                   f"{', '.join(n for n in model_names(ports=True) if get_model(n).fmu_kind)})")
+    return ports
+
+
+def check_vary(scene, texts, model):
+    """The parameter ranges of a parametric FMU, checked before any run.
+
+    Parameters
+    ----------
+    scene : Scene
+    texts : list of str
+        ``c=LO:HI`` / ``d=LO:HI`` (``sphrom fmu --vary``): the uniform stiffness c [kg m^-1 s^-2] or damping d
+        [s^-1]; empty for an FMU that is not parametric.
+    model : str
+        The model to package (one with a POD basis).
+
+    Returns
+    -------
+    list of sphrom.rom.parametric.Range (empty for no ``texts``)
+
+    Raises
+    ------
+    FieldError
+        ``vary`` for a bad text or a subnormal bound, ``model`` for a model without a POD basis, and
+        ``fields.c`` / ``fields.d`` when the scene's field is not uniform.
+    """
+    if not texts:
+        return []
+    ranges = [par.parse_vary(text) for text in texts]
+    for r in ranges:                    # a subnormal bound keeps a few of its digits: c = 1e-320 is 9.99989e-321
+        for bound in (r.lo, r.hi):
+            if 0 < bound < sys.float_info.min:
+                raise FieldError("vary", f"{r.name} bound {exact(bound)} is below the smallest normal number "
+                                         f"{sys.float_info.min:.4g}, where doubles lose their precision (allowed: "
+                                         f"{'' if r.name == 'c' else r.name + ' = 0 or '}{r.name} >= "
+                                         f"{sys.float_info.min:.4g})")
+    if not get_model(model).needs_basis:
+        allowed = ", ".join(name for name in fmu_model_names() if get_model(name).needs_basis)
+        raise FieldError("model", f"{model} cannot be made parametric (allowed with vary: {allowed})")
+    par.parameter_space(build_problem(scene), ranges)
+    return ranges
+
+
+def check_port_spacing(scene, ports):
+    """``ports`` (x/L) unless two are closer than one particle spacing L/N on the periodic bar.
+
+    Each port's force is spread over the particles by the SPH kernel, so two ports within one spacing push nearly
+    the same particles with nearly the same weights and the model cannot tell their forces (nor their velocities)
+    apart; the second one's profile is then almost inside the first one's directions.
+
+    Raises
+    ------
+    FieldError
+        ``ports``, naming the two positions and their gap.
+    """
+    n = scene.sph.n_particles
+    for i, a in enumerate(ports):
+        for b in ports[i + 1:]:
+            gap = abs(a - b) % 1.0
+            gap = min(gap, 1.0 - gap)
+            if gap < 1.0 / n:
+                raise FieldError("ports", f"{exact(a)} and {exact(b)} are {gap:.3g} L apart, closer than one particle "
+                                          f"spacing (1/N = 1/{n} L): the SPH kernel spreads both forces over the same "
+                                          "particles, so the model cannot tell them apart (allowed: ports at least "
+                                          "L/N apart)")
     return ports

@@ -16,7 +16,7 @@ Steps of :func:`package_fmu` (``sphrom fmu``), each a function of its own, each 
 1. options        every option checked before any work              (:mod:`.options`)
 2. model          the model's numbers and operators, per resource kind or parametric, with the training
                   envelope and (linear models) the certified bounds   (:mod:`.models`, :mod:`.parametric`)
-3. envelope       what the basis was trained on, read back            (:mod:`.envelope`)
+3. envelope       what the basis was trained on, read back            (:mod:`sphrom.fmu.training.envelope`)
 4. binaries       built once and cached                              (:mod:`.build`)
 5. description    modelDescription.xml                               (:mod:`.describe`)
 6. documentation  documentation/index.html (and probes.png)          (:mod:`.documentation`)
@@ -34,12 +34,22 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ... import defaults
-from ...errors import FieldError, SimulationError
+from ...errors import FieldError, SimulationError, ToleranceError
+from ...rom.passivity import port_passivity
+from ...rom.registry import get_model
 from ...runio import atomic_path
+from ...sph.solver import build_problem
 from .. import layout
-from ..kinds import kind_of
+from ..check.channels import horizon, measure_channels
+from ..check.verify import acceptance, communication_step, top_frequency, verify_fmu
+from ..kinds import for_model, kind_of
+from ..training.envelope import Envelope
 from .archive import validate, write_fmu
+from .build import fmu_binaries
+from .describe import model_description
+from .documentation import DOC_INDEX, DOC_PLOT, index_html
 from .options import check_options, check_ports
+from .parametric import parameter_variables, parametric_resource
 
 
 @dataclass
@@ -98,7 +108,7 @@ class FMUSummary:
     size: int
     timings: dict = field(default_factory=dict)
     model: str = "frozen"
-    envelope: object = None        # sphrom.fmu.make.envelope.Envelope: what the basis was trained on
+    envelope: object = None        # sphrom.fmu.training.envelope.Envelope: what the basis was trained on
     verification: object = None      # sphrom.fmu.check.verify.Verification when measured, else None
     bounds: dict | None = None
     method: str = ""
@@ -253,7 +263,6 @@ def model_step(scene, model, k, n_freeze, probes, integrator, progress, problem,
     """Step 2: (data, operators, resources/model.bin bytes, the parametric FMU's parameter rows) of ``model``:
     the model kind's packaging step (:mod:`sphrom.fmu.kinds`, ``resource``), or the parametric model over
     ``vary``."""
-    from ..kinds import for_model
     if not vary:
         data, ops, blob = for_model(model).resource(scene, model, k, n_freeze, probes, integrator, progress, problem,
                                                     order_tolerance=order_tolerance, bounds=bounds, ports=ports,
@@ -262,15 +271,13 @@ def model_step(scene, model, k, n_freeze, probes, integrator, progress, problem,
         return data, ops, blob, []
     if build_options:
         raise FieldError("build_options", "not with vary (a parametric model has its own build)")
-    from .parametric import parameter_variables, parametric_resource
     data, ops, blob, space = parametric_resource(scene, model, k, n_freeze or defaults.N_FREEZE, probes, integrator,
                                                  progress, vary, error_bounds=error_bounds)
     return data, ops, blob, parameter_variables(space)
 
 
 def envelope_step(data):
-    """Step 3: the training envelope stored in the resources' sections (:class:`.envelope.Envelope`)."""
-    from .envelope import Envelope
+    """Step 3: the training envelope stored in the resources' sections (:class:`sphrom.fmu.training.envelope.Envelope`)."""
     return Envelope.from_sections(data.sections, data.k_v)
 
 
@@ -278,13 +285,11 @@ def binaries_step(binaries, fmi, progress):
     """Step 4: the binaries the FMU carries (:class:`.build.FMUBinaries`): this platform's (``binaries`` given, or
     built once and cached: :func:`.build.ensure_binaries`) and the cross-compiled ones (:func:`.build.fmu_binaries`:
     win64 where MinGW-w64 is installed)."""
-    from .build import fmu_binaries
     return fmu_binaries(binaries, quiet=not progress)
 
 
 def description_step(*, scene, model, data, ops, k, fmi, step, envelope, verification=None, **_):
     """Step 5: modelDescription.xml, with the measured sentence when verified (:mod:`.describe`)."""
-    from .describe import model_description
     return model_description(fmi, token=data.token, scene=scene, data=data, k_requested=k, step_size=step,
                              stop_time=scene.T, input_error=ops.input_error, model=model, envelope=envelope,
                              bounds=data.bounds, measured=None if verification is None else verification.sentence())
@@ -293,7 +298,6 @@ def description_step(*, scene, model, data, ops, k, fmi, step, envelope, verific
 def archive_step(path, blob, binary, check=True, **texts):
     """Steps 5 to 7: description, documentation, the archive at ``path`` and fmpy's validation of it
     (``check``; SimulationError listing the problems)."""
-    from ...rom.registry import get_model
     description = description_step(**texts)
     docs = documentation_files(scene=texts["scene"], spec=get_model(texts["model"]), data=texts["data"],
                                k=texts["k"], input_error=texts["ops"].input_error,
@@ -313,8 +317,6 @@ def passivity_step(ops, model, ports):
     None without ports."""
     if not len(ports):
         return None
-    from ...rom.passivity import port_passivity
-    from ...rom.registry import get_model
     return port_passivity(ops, get_model(model).linear)
 
 
@@ -326,11 +328,8 @@ def verification_step(path, scene, probes, references, problem, progress, tolera
     :func:`sphrom.fmu.check.channels.measure_channels`); ToleranceError (``accept``) when the FMU failed, ran away or
     missed the accuracy on a case (:func:`sphrom.fmu.check.verify.acceptance`), or a channel's error is above
     ``tolerance``."""
-    from ..check.channels import measure_channels
-    from ..check.verify import verify_fmu
     verification = verify_fmu(path, scene, probes, refs=references, problem=problem, progress=progress)
     verification.channels = measure_channels(path, scene, ports=ports, problem=problem, progress=progress)
-    from ..check.channels import horizon
     verification.channel_horizon = horizon(scene)
     if accept:
         check_tolerance(verification, tolerance, out, model)
@@ -341,9 +340,6 @@ def default_step(scene, data, ops, k, problem=None):
     """The FMU's DefaultExperiment stepSize [s]: :func:`sphrom.fmu.check.verify.communication_step` of the top of
     the scene's band as the model holds it (:func:`sphrom.fmu.check.verify.top_frequency` of its first k modes; k
     None: all its coordinates), at least the model's internal dt."""
-    from ...sph.solver import build_problem
-    from ..check.verify import communication_step, top_frequency
-    from ..kinds import kind_of
     nu_top = top_frequency(scene, problem or build_problem(scene), ops, data.k_v if k is None else k)
     return communication_step(scene, nu_top, kind_of(data).parameter_starts(data).get("dt"))
 
@@ -360,8 +356,6 @@ def check_tolerance(verification, tolerance, out, model):
     or missed the accuracy (``tolerance``, None: :data:`sphrom.fmu.check.verify.ACCURACY`) on a case of
     ``verification`` (:func:`sphrom.fmu.check.verify.acceptance`), or, with a ``tolerance``, an input channel's error
     is above it."""
-    from ...errors import ToleranceError
-    from ..check.verify import acceptance
     verdict = acceptance(verification, tolerance, model)
     if verdict is not None:
         raise ToleranceError(f"{verdict}; '{out}' was not written (an existing file is unchanged)")
@@ -377,7 +371,6 @@ def check_tolerance(verification, tolerance, out, model):
 def documentation_files(*, scene, spec, data, k, input_error, augmented, description_xml, verification=None,
                         tolerance=None, envelope=None, passivity=None, platforms=None):
     """{archive name: content} of the FMU's documentation/ folder: index.html, and probes.png when measured."""
-    from .documentation import DOC_INDEX, DOC_PLOT, index_html
     files = {DOC_INDEX: index_html(scene=scene, spec=spec, data=data, k=k, input_error=input_error,
                                    augmented=augmented, description_xml=description_xml,
                                    verification=verification, tolerance=tolerance, envelope=envelope,

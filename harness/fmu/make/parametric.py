@@ -16,8 +16,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...errors import FieldError
 from ...rom import parametric as par
-from ..resources import pack
+from ...rom.model import basis_modes
+from ...rom.registry import get_model
+from ...sph.solver import build_problem
+from ..kinds import for_model, pack
+from ..training.envelope import measure, union
+from ..training.steps import shadow_step
 from ..variables import number, vr
 
 # How the force profile enters a parametric model's FMU (``input_direction`` of build_operators), by model.
@@ -64,11 +70,6 @@ def parametric_model(scene, ranges, k, *, model="frozen", progress=True, input_d
     ``input_direction`` (default :data:`PARAMETRIC_INPUT_DIRECTION`, else the model's FMU rule) as in
     :func:`sphrom.rom.operators.build_operators`.
     """
-    from ...errors import FieldError
-    from ...rom.model import basis_modes
-    from ...rom.registry import get_model
-    from ...sph.solver import build_problem
-
     spec = get_model(model)
     if not spec.needs_basis:
         raise FieldError("model", f"{model} cannot be made parametric (allowed: a POD model: frozen, exact)")
@@ -89,12 +90,10 @@ def parametric_model(scene, ranges, k, *, model="frozen", progress=True, input_d
 
 
 def parametric_envelope(scene, space, ops, probes, linear, progress=False):
-    """The training envelope (:mod:`sphrom.fmu.make.envelope`) of a parametric model: the union over the full SPH
+    """The training envelope (:mod:`sphrom.fmu.training.envelope`) of a parametric model: the union over the full SPH
     runs at every sample point (:func:`sphrom.rom.parametric.training_points`, the runs its basis was made of,
     cached), each projected on the model's basis as the ordinary FMU's (the exact model in the scene's c, in
     which its basis is orthonormal)."""
-    from ...sph.solver import build_problem
-    from .envelope import measure, union
     problem = build_problem(scene)
     _, runs = par.training_basis(scene, par.training_points(space), progress=progress)
     return union([measure(scene, ops, problem, run, probes, linear) for run in runs])
@@ -105,11 +104,6 @@ def parametric_resource(scene, model, k, n_freeze, probes, integrator, progress,
     the runs at all sample points (:func:`parametric_envelope`); with ``error_bounds`` the certified error bounds'
     parametric shadow about the scene's (c, d) (:func:`sphrom.fmu.make.models.shadow_step`; the C core
     assembles its planes at the FMU's c and d)."""
-    from ..kinds import for_model
-    from .models import shadow_step
-    from ...rom.registry import get_model
-    from ...sph.solver import build_problem
-
     affine, space, _, _ = parametric_model(scene, ranges, k, model=model, progress=progress)
     c0, d0 = space.start("c"), space.start("d")
     problem = build_problem(scene)

@@ -61,7 +61,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...sph.solver import step_count
 from .. import layout
+from ..resources import probe_pairs
 
 SCALARS = layout.SECTIONS["ENVELOPE"].columns    # the named columns of ENVELOPE (sphrom.fmu.layout)
 N_SCALARS = len(SCALARS)
@@ -186,7 +188,6 @@ def force_band(f, dt, fraction=ENERGY_FRACTION):
 
 def training_force(scene):
     """(amplitude max|f| [m s^-2], band [Hz], mean [m s^-2]) of the scene's force at its SPH steps over [0, T]."""
-    from ...sph.solver import step_count
     n = step_count(scene.T, scene.sph.dt)
     t = np.arange(n + 1) * scene.sph.dt
     f = scene.force(t)
@@ -198,7 +199,6 @@ def training_force(scene):
 
 def _probe_values(field, x, L, probes):
     """field (M, N) or (N,) interpolated linearly between particles at the probes (as probe_rows)."""
-    from ..resources import probe_pairs
     i0, i1, w = probe_pairs(x, L, probes)
     field = np.asarray(field, float)
     return (1.0 - w) * field[..., i0] + w * field[..., i1]

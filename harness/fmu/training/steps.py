@@ -6,20 +6,25 @@ They ask nothing of a kind (the kinds build on them, never the other way round).
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
+from ...cache import cached_sph
 from ...errors import FieldError
+from ...pod.pipeline import basis_for_scene, error_steps, training_steps
+from ...rom.bounds import sections
+from ...rom.model import BASIS_KINDS
+from ...sph.solver import build_problem
 from .. import layout
+from ..resources import probe_pairs
+from .envelope import measure
 
 
 def model_basis(scene, spec, k, progress=True, problem=None, made=None):
     """(basis, problem) of ``scene`` for the model ``spec``: its POD basis, with k checked against the modes of the
     model's basis kind (FieldError naming the field ``k`` or ``model``).  ``made``: the (basis, run) of
     :func:`sphrom.pod.pipeline.basis_for_scene` already made for this scene (not made again)."""
-    from ...pod.pipeline import basis_for_scene
-    from ...rom.model import BASIS_KINDS
-    from ...sph.solver import build_problem
-
     problem = problem or build_problem(scene)
     basis, _ = made or basis_for_scene(scene, progress=progress, problem=problem)
     available = spec.available_modes(basis)
@@ -33,10 +38,8 @@ def model_basis(scene, spec, k, progress=True, problem=None, made=None):
 
 
 def training_envelope(scene, ops, problem, probes, linear, progress=False, run=None):
-    """The :class:`~sphrom.fmu.make.envelope.Envelope` of the model ``ops``: its ranges over the scene's cached
-    full SPH training run (:mod:`sphrom.fmu.make.envelope`)."""
-    from ...pod.pipeline import basis_for_scene
-    from .envelope import measure
+    """The :class:`~sphrom.fmu.training.envelope.Envelope` of the model ``ops``: its ranges over the scene's cached
+    full SPH training run (:mod:`sphrom.fmu.training.envelope`)."""
     if run is None:
         _, run = basis_for_scene(scene, progress=progress, problem=problem)
     return measure(scene, ops, problem, run, probes, linear)
@@ -46,10 +49,6 @@ def training_basis(scene, progress, problem, extra_steps=()):
     """(basis, run, problem): the scene's POD basis and its cached training run, made once for the model and its
     training envelope (one SPH load and one POD).  ``extra_steps``: more samples the same run stores (the
     communication points a verification reads: the training run is then not run again for it)."""
-    import dataclasses
-
-    from ...pod.pipeline import basis_for_scene, error_steps
-    from ...sph.solver import build_problem
     problem = problem or build_problem(scene)
     basis, run = basis_for_scene(scene, progress=progress, problem=problem, extra_steps=extra_steps)
     # the envelope is measured on the samples the model asks for (error and snapshot steps), not on whatever
@@ -70,7 +69,6 @@ def shadow_step(data, ops, problem, probes, parametric=False):
     is not uniform gives the eigen-planes of A (:mod:`sphrom.rom.bounds`).  ``parametric``: the shadow of a parametric
     FMU (its planes in pieces of c and d, sections SHPIECE and SHPARAM; the C core assembles them at the FMU's c
     and d)."""
-    from ...rom.bounds import sections
     envelope = data.sections.get("ENVPROBE")
     scale_v = (float(np.max(envelope[layout.row("ENVPROBE", "v_max")])) if envelope is not None else
                training_probe_speed(problem, probes))
@@ -83,9 +81,6 @@ def training_probe_speed(problem, probes):
     """The training run's largest |v| at the probes [m s^-1] (the scene's cached full SPH run, on its stored samples,
     the probes linear between particles as the envelope's ENVPROBE): what a model without a training envelope (the
     balanced model) scales its default error_tolerance by, as every other model does."""
-    from ...cache import cached_sph
-    from ...pod.pipeline import training_steps
-    from ..resources import probe_pairs
     steps = training_steps(problem.scene)          # the samples the envelope is measured on (training_basis)
     run = cached_sph(problem.scene, steps, progress=False, problem=problem)
     i0, i1, w = probe_pairs(problem.x, problem.scene.L, np.asarray(probes, float))
