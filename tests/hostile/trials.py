@@ -12,12 +12,12 @@ take a signal), and then asks: did it exit 128 + the signal within :data:`LIMIT_
 line on stderr ("... interrupted (SIGINT) ..."), no traceback, no process of its group left, nothing left in its
 temporary folder (dask's scratch space included) and no temporary beside its output?  A run that ended before
 its signal (its exit came first: :func:`~tests.hostile.battery.still_running`) is run again at half the moment.
-Writes ``signal_trials.csv`` under --out and prints the counts.
+Writes ``signal_trials.csv`` and ``signal_trials_run.csv`` (the command, date, machine) under --out, recomposes
+the README there (:mod:`tests.hostile.report`) and prints the counts.
 """
 
 from __future__ import annotations
 
-import csv
 import os
 import random
 import shutil
@@ -188,12 +188,13 @@ def main(argv=None):
     rows = run_trials(root, args.sweeps, args.terms, args.seed, sweep_terms=args.sweep_terms)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    with open(out / "signal_trials.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
-    table, slowest = summary(rows)
+    from .report import compose_readme, machine, now, write_csv, write_run
     command = "python3 -m tests.hostile signals " + " ".join(argv if argv is not None else sys.argv[2:])
+    write_csv(out / "signal_trials.csv", rows)
+    write_run(out / "signal_trials_run.csv", command=command.strip(), seed=args.seed, trials=len(rows),
+              wall_s=f"{time.monotonic() - t0:.0f}", date=now(), machine=machine())
+    compose_readme(out)
+    table, slowest = summary(rows)
     print(f"{len(rows)} trials in {time.monotonic() - t0:.0f} s ({command.strip()}):")
     for (name, sig), by in table.items():
         print(f"  sphrom {name}, {sig}: " + ", ".join(f"{n} {o}" for o, n in sorted(by.items()))
