@@ -146,14 +146,14 @@ def run_trials(root, sweeps=50, terms=200, seed=36, log=print, sweep_terms=20):
         for i in range(count):
             delay = rng.uniform(0.0, length)
             for _ in range(4):
+                for p in work.iterdir():    # the outputs of the run before: a sweep would resume them, done at once
+                    if p.is_file():
+                        p.unlink()
                 row = trial(argv, work, ws.env, sig, delay, to_group)
                 if row["outcome"] != "ended before the signal":
                     break
                 delay /= 2
             rows.append(row)
-            for p in work.iterdir():
-                if p.is_file():
-                    p.unlink()
             if row["outcome"] != "clean":
                 log(f"  {name} #{i}: {row['outcome']} (delay {row['delay_s']} s, exit {row['exit']}): "
                     f"{row['last_line'] or row['left']}")
