@@ -120,9 +120,10 @@ def span(argv, cwd, env):
     return length
 
 
-def run_trials(root, sweeps=50, terms=200, seed=36, log=print, sweep_terms=20):
+def run_trials(root, sweeps=50, terms=200, seed=36, log=print, sweep_terms=20, on_row=None):
     """The trials in workspace ``root`` (scenes, an FMU and a sweep spec: :func:`tests.hostile.battery.prepare`);
-    a list of row dicts."""
+    a list of row dicts, each also handed to ``on_row(rows)`` as it comes (the files stay current: a run stopped
+    early keeps the counts of the trials it made)."""
     from .battery import prepare
     rng = random.Random(seed)
     ws = prepare(Path(root))
@@ -130,11 +131,11 @@ def run_trials(root, sweeps=50, terms=200, seed=36, log=print, sweep_terms=20):
     spec.write_text(ws["spec_long"].read_text().replace("t_end = 20.0", "t_end = 5.0").split("frequency")[0]
                     + "frequency = [" + ", ".join(f"{0.5 + 0.25 * i}" for i in range(16)) + "]\nk = [4]\n")
     sweep = ["sweep", str(spec), "--workers", "2", "--out", "r.h5", "--quiet"]
-    plans = [("sweep", sweep, signal.SIGINT, sweeps, True),
-             ("sweep", sweep, signal.SIGTERM, sweep_terms, True),
-             ("--help", ["--help"], signal.SIGTERM, terms // 2, False),
+    plans = [("--help", ["--help"], signal.SIGTERM, terms // 2, False),
              ("cosim", ["cosim", str(ws["fmu2"]), "--t-end", "20", "--step", "0.001", "--out", "o.csv"],
-              signal.SIGTERM, terms - terms // 2, False)]
+              signal.SIGTERM, terms - terms // 2, False),
+             ("sweep", sweep, signal.SIGINT, sweeps, True),
+             ("sweep", sweep, signal.SIGTERM, sweep_terms, True)]
     rows = []
     for name, argv, sig, count, to_group in plans:
         if not count:
@@ -154,6 +155,8 @@ def run_trials(root, sweeps=50, terms=200, seed=36, log=print, sweep_terms=20):
                     break
                 delay /= 2
             rows.append(row)
+            if on_row is not None:
+                on_row(rows)
             if row["outcome"] != "clean":
                 log(f"  {name} #{i}: {row['outcome']} (delay {row['delay_s']} s, exit {row['exit']}): "
                     f"{row['last_line'] or row['left']}")
@@ -185,15 +188,20 @@ def main(argv=None):
     args = p.parse_args(argv)
     root = Path(args.workdir or tempfile.mkdtemp(prefix="sphrom-trials-"))
     t0 = time.monotonic()
-    rows = run_trials(root, args.sweeps, args.terms, args.seed, sweep_terms=args.sweep_terms)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     from .report import compose_readme, machine, now, write_csv, write_run
     command = "python3 -m tests.hostile signals " + " ".join(argv if argv is not None else sys.argv[2:])
-    write_csv(out / "signal_trials.csv", rows)
-    write_run(out / "signal_trials_run.csv", command=command.strip(), seed=args.seed, trials=len(rows),
-              wall_s=f"{time.monotonic() - t0:.0f}", date=now(), machine=machine())
-    compose_readme(out)
+    date = now()
+
+    def save(rows):
+        write_csv(out / "signal_trials.csv", rows)
+        write_run(out / "signal_trials_run.csv", command=command.strip(), seed=args.seed, trials=len(rows),
+                  wall_s=f"{time.monotonic() - t0:.0f}", date=date, machine=machine())
+        compose_readme(out)
+
+    rows = run_trials(root, args.sweeps, args.terms, args.seed, sweep_terms=args.sweep_terms, on_row=save)
+    save(rows)
     table, slowest = summary(rows)
     print(f"{len(rows)} trials in {time.monotonic() - t0:.0f} s ({command.strip()}):")
     for (name, sig), by in table.items():
