@@ -168,7 +168,8 @@ def trial_lines(rows, run):
              f"`{run.get('command', '?')}`, run on {run.get('date', '?')} on {run.get('machine', '?')}: "
              f"{len(rows)} trials in {float(run.get('wall_s') or 'nan') / 60:.0f} min; every trial: "
              "`signal_trials.csv`.  A trial is clean when the command exits 128 + the signal within 10 s of it with "
-             "one line, no traceback, no process of its group and nothing in its temporary folder left.", ""]
+             "one line, no traceback, no process of its group and nothing in its temporary folder left."
+             + (f"  {run['note']}" if run.get("note") else ""), ""]
     table = {}
     for r in rows:
         key = (r["command"], r["signal"])
@@ -217,10 +218,16 @@ def compose_readme(out: Path):
     if battery:
         run = (read_csv(out / "battery_run.csv") or [{}])[0]
         lines += battery_lines(battery, run)
+    else:
+        lines += ["## The battery's counts", "", "None here: the battery has not written `hostile.csv` in this "
+                  "folder (run the first command above).", ""]
     trials = read_csv(out / "signal_trials.csv")
     if trials:
         run = (read_csv(out / "signal_trials_run.csv") or [{}])[0]
         lines += trial_lines(trials, run)
+    else:
+        lines += ["## The signal trials' counts", "", "None here: the trials have not written `signal_trials.csv` "
+                  "in this folder (run the second command above).", ""]
     from sphrom.runio import atomic_path
     with atomic_path(out / "README.md") as tmp:
         Path(tmp).write_text("\n".join(lines).rstrip("\n") + "\n")
