@@ -214,7 +214,7 @@ def connect(scheduler=None, workers=None, held=()):
         wait_for_workers(client, workers or 1, WORKER_TIMEOUT, held)
     except BaseException:
         if client is not None or cluster is not None:
-            _close(client, cluster)
+            _close(client, cluster, hurry=True)
         if cluster is None and "ignoring" in locals():
             ignoring.__exit__(None, None, None)
         shutil.rmtree(scratch, ignore_errors=True)
@@ -315,8 +315,12 @@ def run_study(spec, out, *, scheduler=None, workers=None, progress=True, checkpo
                              lambda: write_results(out, merge(previous, new_rows),
                                                    attrs_for(merge(previous, new_rows), state), n_probes),
                              bundle, run_entry, progress_bar, held)
-                finally:
+                except BaseException:
+                    _close(client, cluster, hurry=True)
+                    raise
+                else:
                     _close(client, cluster)
+                finally:
                     if held:                         # arrived while the cluster closed
                         raise Interrupted(held.pop(0))
         except KeyboardInterrupt as exc:
@@ -359,9 +363,18 @@ def _stop_if_pending():
         raise Interrupted(signum)
 
 
-def _close(client, cluster):
+def _close(client, cluster, hurry=False):
     """Close the client, then the LocalCluster (if ours), with dask's loggers silent meanwhile: a scheduler
-    still reporting on cancelled tasks logs each message to the closed client as CRITICAL, with a traceback."""
+    still reporting on cancelled tasks logs each message to the closed client as CRITICAL, with a traceback.
+    ``hurry`` (a signal or an error ends the study): the LocalCluster's worker processes are killed first, as
+    their results are no longer awaited; a graceful close of workers still starting took the whole
+    :data:`CLOSE_TIMEOUT`, on top of the cluster's start that a Ctrl-C waits for (on a loaded machine, more than
+    the few seconds a Ctrl-C may take)."""
+    if hurry and cluster is not None:
+        import multiprocessing
+        for proc in multiprocessing.active_children():   # dask's nannies spawn the workers through multiprocessing
+            with contextlib.suppress(Exception):
+                proc.kill()
     quiet = {name: logging.getLogger(name).level for name in list(logging.root.manager.loggerDict)
              if name == "distributed" or name.startswith("distributed.")}
     for name in quiet:

@@ -207,7 +207,7 @@ class _Mount:
         self.path = path
 
     def close(self):
-        left = [p.name for p in self.path.iterdir() if p.name != "pad"]
+        left = [p.name for p in self.path.iterdir() if ".tmp-" in p.name]     # (an output that fitted is no leftover)
         subprocess.run(["umount", "-l", str(self.path)], capture_output=True)
         for name in left:
             (self.path.parent / f"on-tmpfs-{name}.tmp-left").write_text(name)
@@ -315,7 +315,8 @@ def run_case(case: Case, ws: Workspace, index: int) -> Result:
             _make_node(folder / rel, kind, keep)
     except PermissionError as exc:
         return Result(case, "ok", f"skipped: {exc}", None, [], 0.0)
-    guarded = {rel: _snapshot(folder / rel) for rel, _ in case.make}
+    # a tmpfs's mount point is the battery's own, unmounted before the check (its inode then differs)
+    guarded = {rel: _snapshot(folder / rel) for rel, kind in case.make if kind != "tmpfs"}
     guarded.update({rel + ".target": _snapshot(folder / (rel + ".target")) for rel, kind in case.make
                     if kind == "link-file"})
     before = {p.name for p in folder.iterdir()}
@@ -776,11 +777,15 @@ def counts(results):
 
 
 def write_results(out: Path, results, wall, seed, command="python3 -m tests.hostile"):
+    """hostile.csv (one row per case), hostile_counts.csv (counts by category and outcome), battery_run.csv (the
+    command, date, machine) under ``out``, and the README composed from them (:mod:`tests.hostile.report`)."""
+    from .report import compose_readme, machine, now, write_run
     out.mkdir(parents=True, exist_ok=True)
     rows = [{"category": r.case.category, "command": r.case.command, "args": " ".join(r.case.args)[:400],
              "case": r.case.note, "signal": signal.Signals(r.case.signal).name if r.case.signal else "",
              "delay_s": f"{r.case.delay:.3f}" if r.case.signal else "", "exit": "" if r.code is None else r.code,
-             "stderr_lines": len(r.lines), "outcome": r.outcome, "detail": r.detail, "wall_s": f"{r.wall:.2f}"}
+             "stderr_lines": len(r.lines), "outcome": r.outcome, "detail": r.detail, "wall_s": f"{r.wall:.2f}",
+             "delivered": int(r.delivered)}
             for r in results]
     write_csv(out / "hostile.csv", rows)
     table = counts(results)
@@ -788,61 +793,16 @@ def write_results(out: Path, results, wall, seed, command="python3 -m tests.host
     total = {o: sum(by[o] for by in table.values()) for o in OUTCOMES}
     count_rows.append({"category": "all", **total})
     write_csv(out / "hostile_counts.csv", count_rows)
-    write_readme(out, results, table, total, wall, seed, command)
+    write_run(out / "battery_run.csv", command=command, seed=seed, cases=len(results), wall_s=f"{wall:.0f}",
+              date=now(), machine=machine())
+    compose_readme(out)
     return total
 
 
 def write_csv(path, rows):
     """``rows`` (dicts, the keys of the first as columns) as a CSV file at ``path``, written whole or not at all."""
-    from sphrom.runio import atomic_path
-    with atomic_path(path) as tmp, open(tmp, "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(dict.fromkeys(k for r in rows for k in r)))
-        w.writeheader()
-        w.writerows(rows)
-
-
-def md_table(header, rows):
-    """A Markdown table's lines (header, rule, rows) and a blank line."""
-    return ["| " + " | ".join(header) + " |", "| " + " | ".join("---" for _ in header) + " |",
-            *("| " + " | ".join(row) + " |" for row in rows), ""]
-
-
-def write_readme(out, results, table, total, wall, seed, command):
-    """README.md beside the CSV files: what the battery does, its counts and every case off target."""
-    lines = ["# Hostile-input battery", "",
-             f"Written by `{command}` (seed {seed}, {len(results)} cases, {wall / 60:.0f} min on the machine "
-             "that ran it); every case and its outcome: `hostile.csv`.  What each outcome means: the docstring of "
-             "`tests/hostile/battery.py`.", "", "## Counts by outcome", ""]
-    shown = [o for o in OUTCOMES]
-    rows = [[cat] + [str(by[o]) for o in shown] + [str(sum(by.values()))] for cat, by in table.items()]
-    rows.append(["**all**"] + [f"**{total[o]}**" for o in shown] + [f"**{sum(total.values())}**"])
-    lines += md_table(["category"] + shown + ["cases"], rows)
-    lines += ["## Signals delivered while the command ran", "",
-              "Moments uniform over each command's running span (measured once at the start, from sphrom's "
-              "handler being up to its end); a run that ended before its signal was run again with the moment "
-              "halved (up to three times).", ""]
-    for command in dict.fromkeys(r.case.command for r in results if r.case.category == "signals"):
-        mine = [r for r in results if r.case.category == "signals" and r.case.command == command and r.delivered]
-        if mine:
-            by = {o: sum(r.outcome == o for r in mine) for o in OUTCOMES}
-            lines.append(f"- `{command}`: {len(mine)} signals, " + ", ".join(f"{n} {o}" for o, n in by.items() if n)
-                         + "; " + ", ".join(sorted({r.case.note.split(",")[0] for r in mine})))
-    lines.append("")
-    bad = [r for r in results if r.outcome in BAD]
-    lines += ["## Cases off target", ""]
-    if not bad:
-        lines += ["None: no traceback, hang, silent wrong result, replaced file, temporary left behind or "
-                  "unclear error.", ""]
-    else:
-        lines += md_table(["outcome", "category", "command", "case", "detail"],
-                          [[r.outcome, r.case.category, r.case.command, r.case.note.replace("|", "/"),
-                            r.detail.replace("|", "/")[:160]] for r in bad])
-    outside = [r for r in results if r.outcome == "outside sphrom"]
-    if outside:
-        lines += [f"{len(outside)} signals reached the process before the interpreter ran sphrom's first line "
-                  "(its start-up, where Python's own default handlers act) or after it restored the default "
-                  "handlers while exiting: counted apart, nothing a program can catch there.", ""]
-    (out / "README.md").write_text("\n".join(lines) + "\n")
+    from .report import write_csv as write
+    write(path, rows)
 
 
 def print_counts(results, wall, command):

@@ -12,12 +12,12 @@ take a signal), and then asks: did it exit 128 + the signal within :data:`LIMIT_
 line on stderr ("... interrupted (SIGINT) ..."), no traceback, no process of its group left, nothing left in its
 temporary folder (dask's scratch space included) and no temporary beside its output?  A run that ended before
 its signal (its exit came first: :func:`~tests.hostile.battery.still_running`) is run again at half the moment.
-Writes ``signal_trials.csv`` under --out and prints the counts.
+Writes ``signal_trials.csv`` and ``signal_trials_run.csv`` (the command, date, machine) under --out, recomposes
+the README there (:mod:`tests.hostile.report`) and prints the counts.
 """
 
 from __future__ import annotations
 
-import csv
 import os
 import random
 import shutil
@@ -120,9 +120,10 @@ def span(argv, cwd, env):
     return length
 
 
-def run_trials(root, sweeps=50, terms=200, seed=36, log=print, sweep_terms=20):
+def run_trials(root, sweeps=50, terms=200, seed=36, log=print, sweep_terms=20, on_row=None):
     """The trials in workspace ``root`` (scenes, an FMU and a sweep spec: :func:`tests.hostile.battery.prepare`);
-    a list of row dicts."""
+    a list of row dicts, each also handed to ``on_row(rows)`` as it comes (the files stay current: a run stopped
+    early keeps the counts of the trials it made)."""
     from .battery import prepare
     rng = random.Random(seed)
     ws = prepare(Path(root))
@@ -130,11 +131,11 @@ def run_trials(root, sweeps=50, terms=200, seed=36, log=print, sweep_terms=20):
     spec.write_text(ws["spec_long"].read_text().replace("t_end = 20.0", "t_end = 5.0").split("frequency")[0]
                     + "frequency = [" + ", ".join(f"{0.5 + 0.25 * i}" for i in range(16)) + "]\nk = [4]\n")
     sweep = ["sweep", str(spec), "--workers", "2", "--out", "r.h5", "--quiet"]
-    plans = [("sweep", sweep, signal.SIGINT, sweeps, True),
-             ("sweep", sweep, signal.SIGTERM, sweep_terms, True),
-             ("--help", ["--help"], signal.SIGTERM, terms // 2, False),
+    plans = [("--help", ["--help"], signal.SIGTERM, terms // 2, False),
              ("cosim", ["cosim", str(ws["fmu2"]), "--t-end", "20", "--step", "0.001", "--out", "o.csv"],
-              signal.SIGTERM, terms - terms // 2, False)]
+              signal.SIGTERM, terms - terms // 2, False),
+             ("sweep", sweep, signal.SIGINT, sweeps, True),
+             ("sweep", sweep, signal.SIGTERM, sweep_terms, True)]
     rows = []
     for name, argv, sig, count, to_group in plans:
         if not count:
@@ -146,14 +147,16 @@ def run_trials(root, sweeps=50, terms=200, seed=36, log=print, sweep_terms=20):
         for i in range(count):
             delay = rng.uniform(0.0, length)
             for _ in range(4):
+                for p in work.iterdir():    # the outputs of the run before: a sweep would resume them, done at once
+                    if p.is_file():
+                        p.unlink()
                 row = trial(argv, work, ws.env, sig, delay, to_group)
                 if row["outcome"] != "ended before the signal":
                     break
                 delay /= 2
             rows.append(row)
-            for p in work.iterdir():
-                if p.is_file():
-                    p.unlink()
+            if on_row is not None:
+                on_row(rows)
             if row["outcome"] != "clean":
                 log(f"  {name} #{i}: {row['outcome']} (delay {row['delay_s']} s, exit {row['exit']}): "
                     f"{row['last_line'] or row['left']}")
@@ -185,15 +188,21 @@ def main(argv=None):
     args = p.parse_args(argv)
     root = Path(args.workdir or tempfile.mkdtemp(prefix="sphrom-trials-"))
     t0 = time.monotonic()
-    rows = run_trials(root, args.sweeps, args.terms, args.seed, sweep_terms=args.sweep_terms)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    with open(out / "signal_trials.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
-    table, slowest = summary(rows)
+    from .report import compose_readme, machine, now, write_csv, write_run
     command = "python3 -m tests.hostile signals " + " ".join(argv if argv is not None else sys.argv[2:])
+    date = now()
+
+    def save(rows):
+        write_csv(out / "signal_trials.csv", rows)
+        write_run(out / "signal_trials_run.csv", command=command.strip(), seed=args.seed, trials=len(rows),
+                  wall_s=f"{time.monotonic() - t0:.0f}", date=date, machine=machine())
+        compose_readme(out)
+
+    rows = run_trials(root, args.sweeps, args.terms, args.seed, sweep_terms=args.sweep_terms, on_row=save)
+    save(rows)
+    table, slowest = summary(rows)
     print(f"{len(rows)} trials in {time.monotonic() - t0:.0f} s ({command.strip()}):")
     for (name, sig), by in table.items():
         print(f"  sphrom {name}, {sig}: " + ", ".join(f"{n} {o}" for o, n in sorted(by.items()))
