@@ -25,7 +25,8 @@ import numpy as np
 
 STEPS = 120          # communication steps of the fixed input sequence
 SEED = 35            # its inputs: uniform in [-1, 1] times the input's scale, from this seed
-INPUT_SCALE = {"f": 0.05, "F_port": 1e-3}     # [m s^-2], [N]: small enough to stay inside the training envelope
+INPUT_SCALE = {"f": 0.05, "F_port": 1e-3, "a_port": 1e-3}   # [m s^-2], [N], [N]: inside the training envelope
+# (a_port_j, the wave form's incident wave, is read only with port_impedance > 0: driven alike, it must not matter)
 
 
 def bits(x):

@@ -39,8 +39,8 @@ k = [4]
 
 @pytest.fixture
 def packaging(monkeypatch):
-    """Every call of package_fmu during the test: a list of its ``vary`` arguments."""
-    import sphrom.fmu.make.package as package
+    """Every call of package_fmu by the sweep during the test: a list of its ``vary`` arguments."""
+    import sphrom.sweep.fmus as package                # (the sweep's name for it: it imports package_fmu at its top)
     calls = []
     real = package.package_fmu
 

@@ -13,9 +13,6 @@ from __future__ import annotations
 
 import argparse
 
-from ..pod.automatic import automatic_modes
-from ..pod.pipeline import basis_for_scene
-from ..pod.snapshots import describe
 from ..scene import builtin_names, dump_toml, load_scene, parse_scene, scene_dict
 from . import program_parser
 
@@ -28,6 +25,9 @@ COLUMNS = ["scene", "period_s", "every", "snapshots", "k", "file_every", "file_s
 
 def table(progress=False):
     """Rows (dicts of :data:`COLUMNS`), one per built-in scene."""
+    from ..pod.automatic import automatic_modes          # (deferred: numba; --help answers before it loads)
+    from ..pod.pipeline import basis_for_scene
+    from ..pod.snapshots import describe
     rows = []
     for name in builtin_names():
         given = load_scene(name)

@@ -29,17 +29,9 @@ import time
 from pathlib import Path
 
 import numpy as np
-import scipy.linalg as sla
-import scipy.sparse as sp
 
-from ..norms import relative_l2
-from ..pod.pipeline import basis_for_scene
 from ..progress import progress_bar
-from ..rom.balanced import balancing, error_bounds, reduced_from_exact, truncate
-from ..rom.exact_linear import build_linear_operators
-from ..rom.lti import input_norm, output_energy, sample_outputs
 from . import program_parser
-from .lib.linear_scenes import setup
 
 # The measuring modules (numba through the model code, scipy, matplotlib, pymor) are imported inside the functions:
 # `sphrom bench balanced_measure --help` answers before they load (tests/test_bench_programs.py).
@@ -53,6 +45,9 @@ DEFAULT_FORCE_SCENES = ("damped_forced:12,damped_forced@shaped:12,damped@shaped:
 
 def pod_model(scene, problem, lti, k):
     """The exact POD model with k velocity and k specific-volume modes, as a ReducedLTI."""
+    from ..pod.pipeline import basis_for_scene
+    from ..rom.balanced import reduced_from_exact
+    from ..rom.exact_linear import build_linear_operators
     basis, _ = basis_for_scene(scene, progress=False, problem=problem)
     ops = build_linear_operators(problem, basis.U_ve[:, :k], basis.U_e[:, :k], input_direction="needed")
     return reduced_from_exact(lti, ops)
@@ -60,6 +55,7 @@ def pod_model(scene, problem, lti, k):
 
 def scene_outputs(scene, lti, A, B, C, x0, h=FORCE_STEP):
     """Samples t, y (M, rows) of ẋ = A x + B f, y = C x from x0 under the scene's force (exact in time)."""
+    from ..rom.lti import sample_outputs
     t = np.arange(int(round(scene.T / h)) + 1) * h
     f = scene.force(t)
     if not np.any(f):
@@ -69,6 +65,7 @@ def scene_outputs(scene, lti, A, B, C, x0, h=FORCE_STEP):
 
 def model_errors(scene, lti, red, full):
     """(v error, e error) of eq. 3.4 (square root) over the probes, against the full samples ``full``."""
+    from ..norms import relative_l2
     t, y_full = full
     _, y = scene_outputs(scene, lti, red.Ar, red.Br[:, 0], red.Cr, red.x0)
     p = lti.n_probes
@@ -77,6 +74,7 @@ def model_errors(scene, lti, red, full):
 
 def energy_drift(red, T=1000.0, samples=2001):
     """max |E(t) - E(0)| / E(0) of the free response over [0, T] (d = f = 0)."""
+    import scipy.linalg as sla
     x = red.free_response(np.linspace(0.0, T, samples)) if red.skew else \
         np.array([sla.expm(red.Ar * t) @ red.x0 for t in np.linspace(0.0, T, samples)])
     E = 0.5 * np.sum(x * x, axis=1)
@@ -98,6 +96,8 @@ def print_table(header, rows):
 
 # ---------------------------------------------------------------------------
 def headline():
+    from ..rom.balanced import balancing, truncate
+    from .lib.linear_scenes import setup
     rows = []
     cases = [("damped_forced", 12, ["bt"]), ("tenmode", 24, ["galerkin", "bt_shifted"])]
     for name, r, methods in cases:
@@ -124,6 +124,9 @@ def headline():
 
 
 def orders(out):
+    from ..norms import relative_l2
+    from ..rom.balanced import balancing, truncate
+    from .lib.linear_scenes import setup
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -189,6 +192,8 @@ def random_forces(rng, T, h, count=10):
 
 def measured_gains(lti, red, h, U, hold):
     """‖y_err,j‖_L2(0,T) / ‖f‖_L2(0,T) from rest, exactly, shape (P, count)."""
+    import scipy.linalg as sla
+    from ..rom.lti import input_norm, output_energy
     Ae = sla.block_diag(lti.dense(), red.Ar)
     be = np.concatenate([lti.B[:, 0], red.Br[:, 0]])
     Ce = np.hstack([lti.C[:lti.n_probes], -red.Cr[:lti.n_probes]])
@@ -197,6 +202,8 @@ def measured_gains(lti, red, h, U, hold):
 
 
 def forces(scenes):
+    from ..rom.balanced import balancing, error_bounds, truncate
+    from .lib.linear_scenes import setup
     rows = []
     rng = np.random.default_rng(2026)
     for name, r in scenes:
@@ -222,6 +229,9 @@ def forces(scenes):
 
 
 def cost(large):
+    import scipy.sparse as sp
+    from ..rom.balanced import balancing
+    from .lib.linear_scenes import setup
     rows = []
     sizes = [400] + ([1600] if large else [])
     for n in sizes:

@@ -19,11 +19,6 @@ from pathlib import Path
 
 import numpy as np
 
-from ..fmu.make.build import ensure_binaries
-from ..fmu.make.package import package_fmu
-from ..fmu.run.cosim import run_cosim
-from ..rom.registry import get_model
-from ..scene import load_scene
 from . import program_parser
 from .lib.tables import write_csv
 
@@ -38,6 +33,11 @@ TABLE_END = "<!-- end cosim_fmi table -->"
 
 def measure(scene_name="tenmode", models=("frozen", "exact", "balanced"), force=FORCE, progress=False):
     """Rows (scene, model, input rule, largest relative difference, bitwise equal, communication steps)."""
+    from ..fmu.make.build import ensure_binaries      # (deferred: numba through the model code; --help answers first)
+    from ..fmu.make.package import package_fmu
+    from ..fmu.run.cosim import run_cosim
+    from ..rom.registry import get_model
+    from ..scene import load_scene
     scene = load_scene(scene_name)
     binaries = ensure_binaries(quiet=not progress)
     rows = []
@@ -100,7 +100,7 @@ def main(argv=None):
     if args.write:
         page = repo_root() / DOC_FILE
         if not page.is_file():
-            p.error(f"--write: {page} is not a file (run it from a checkout)")
+            p.error(f"{page} is not a file: the page is written in a checkout (run it from one)")
         note = (f"Measured by `{program_command('cosim_fmi', argv)}` ({machine_text()}, {wall:.0f} s wall): "
                 f"scene {args.scene}, f = {args.force}, {rows[0]['steps']} communication steps at the FMUs' default "
                 "step; relative difference: the largest |y_FMI3 - y_FMI2| over "

@@ -31,19 +31,17 @@ import numpy as np
 
 from .. import defaults
 from ..fmu.resources import probe_pairs
-from ..fmu.training import envelope as E
-from ..fmu.training.envelope import FAILURE_STRAIN, MARGIN
 from ..markdown import write_text
 from ..norms import relative_l2
-from ..pod.pipeline import accel_modes, basis_for_scene
 from ..progress import progress_bar
-from ..rom.registry import get_model
 from ..runio import atomic_path
 from ..scene import builtin_names, derive_scene, load_scene
-from ..sph.solver import build_problem, run_sph, step_count
 from . import program_parser
 from .lib.document import replace_section
 from .lib.tables import write_csv
+
+# The measuring modules (numba through the model code, scipy, fmpy, matplotlib) are imported inside the functions:
+# `sphrom bench NAME --help` answers before they load (tests/test_bench_programs.py).
 
 # Imported inside the functions: the modules that load numba, scipy or matplotlib (--help answers before they
 # load: tests/test_bench_programs.py).
@@ -71,6 +69,10 @@ def coordinate_excess(env, z, k_v):
 
 def measure(scene_name, scales=SCALES, progress=True):
     """Rows (dicts) of the amplitude sweep of one scene (a name, a path or a Scene; module docstring)."""
+    from ..fmu.training import envelope as E
+    from ..pod.pipeline import accel_modes, basis_for_scene
+    from ..rom.registry import get_model
+    from ..sph.solver import build_problem, run_sph, step_count
     scene = load_scene(scene_name) if isinstance(scene_name, str) else scene_name
     problem = build_problem(scene)
     basis, run = basis_for_scene(scene, progress=False, problem=problem)
@@ -111,6 +113,10 @@ def measure(scene_name, scales=SCALES, progress=True):
 
 def training_headroom(scene_name):
     """One row: the frozen model's run of its own training scene against its recorded envelope."""
+    from ..fmu.training import envelope as E
+    from ..pod.pipeline import accel_modes, basis_for_scene
+    from ..rom.registry import get_model
+    from ..sph.solver import build_problem, step_count
     scene = load_scene(scene_name)
     problem = build_problem(scene)
     basis, run = basis_for_scene(scene, progress=False, problem=problem)
@@ -144,6 +150,7 @@ def failure_strain(rows, scene, error=None):
 
 def plot(rows, path):
     """Probe velocity error against the full SPH's peak probe strain, one line per scene and model."""
+    from ..fmu.training.envelope import FAILURE_STRAIN
     import matplotlib.pyplot as plt
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     for scene in dict.fromkeys(r["scene"] for r in rows):
@@ -201,6 +208,7 @@ def envelope_section(envelope, image_dir=""):
     """The frozen FMU's training envelope (:func:`run`: rows, training, command, and
     failure, the probe strain per scene where the frozen error reaches failure_error): error against
     amplitude and strain, the margin's headroom on the training runs; [] without it."""
+    from ..fmu.training.envelope import FAILURE_STRAIN, MARGIN
     if not envelope:
         return []
     rows, d = envelope["rows"], image_dir.rstrip("/") + "/" if image_dir else ""

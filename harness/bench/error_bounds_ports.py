@@ -32,7 +32,6 @@ import numpy as np
 
 from .. import defaults
 from ..fmu.make.build import ensure_binaries
-from ..fmu.make.package import package_fmu
 from ..fmu.run.driver import FMU
 from ..fmu.variables import members
 from ..options import positive_float
@@ -42,6 +41,9 @@ from . import machine_text, program_command, program_parser
 from .lib.document import update_report
 from .lib.ports import S0, STIFFNESS, mass_spring_step
 from .lib.tables import write_csv
+
+# The measuring modules (numba through the model code, scipy, fmpy, matplotlib) are imported inside the functions:
+# `sphrom bench NAME --help` answers before they load (tests/test_bench_programs.py).
 
 # Imported inside the functions: the modules that load numba, scipy or matplotlib (--help answers before they
 # load: tests/test_bench_programs.py).
@@ -124,6 +126,7 @@ def compare(y, names, v, rho, v_port, warned, tol):
 
 
 def measure_scene(name, models, folder, span=SPAN, progress=True):
+    from ..fmu.make.package import package_fmu
     from ..sph.solver import build_problem
     scene = load_scene(name)
     problem = build_problem(scene)

@@ -22,16 +22,15 @@ import tempfile
 import time
 from pathlib import Path
 
-from ..fmu.check.verify import acceptance, fmu_features, fmu_run, sph_reference
 from ..fmu.make.build import ensure_binaries
-from ..fmu.make.package import package_fmu
-from ..rom.registry import fmu_model_names
 from ..scene import builtin_names, load_scene
-from ..sph.solver import build_problem
 from . import machine_text, program_command, program_parser
 from .lib.document import fmt, update_report
 from .lib.tables import write_csv
 from .lib.timing import median_times_interleaved
+
+# The measuring modules (numba through the model code, scipy, fmpy, matplotlib) are imported inside the functions:
+# `sphrom bench NAME --help` answers before they load (tests/test_bench_programs.py).
 
 # Imported inside the functions: the modules that load numba, scipy or matplotlib (--help answers before they
 # load: tests/test_bench_programs.py).
@@ -45,6 +44,9 @@ def measure_scene(name, models, repeats, folder, fmi=2, progress=True, bounds=Tr
     ``bounds=False`` packages the linear FMUs without their certified error bounds (``sphrom fmu --no-bounds``:
     they cost the full 2N linear system, minutes at N = 1000; the outputs do not depend on them)."""
 
+    from ..fmu.check.verify import acceptance, fmu_features, fmu_run, sph_reference
+    from ..fmu.make.package import package_fmu
+    from ..sph.solver import build_problem
     scene = load_scene(name)
     problem = build_problem(scene)
     binaries = ensure_binaries(quiet=True)
@@ -138,6 +140,7 @@ def main(argv=None):
                    help="package the linear FMUs without their error bounds (as sphrom fmu --no-bounds)")
     p.add_argument("--quiet", action="store_true")
     args = p.parse_args(argv)
+    from ..rom.registry import fmu_model_names
     scenes = args.scenes or builtin_names()
     models = [m for m in (args.models or ",".join(fmu_model_names())).split(",") if m]
     t0 = time.perf_counter()

@@ -18,13 +18,15 @@ from pathlib import Path
 import numpy as np
 
 from ..fmu.make.build import ensure_binaries
-from ..fmu.make.package import package_fmu
 from ..fmu.run.cosim import run_cosim
 from ..fmu.variables import members
 from ..progress import progress_bar
 from ..scene import load_scene
 from . import program_parser
 from .lib.tables import write_csv
+
+# The measuring modules (numba through the model code, scipy, fmpy, matplotlib) are imported inside the functions:
+# `sphrom bench NAME --help` answers before they load (tests/test_bench_programs.py).
 
 FORCE = "1e-2*sin(2*pi*t)"
 MODELS = ("exact", "frozen")
@@ -57,6 +59,7 @@ def measure(scene_name="tenmode", steps=STEPS, reference_step=REFERENCE_STEP, fo
 def _measure_model(model, scene_name, steps, reference_step, force, workdir, progress):
     """:func:`measure` for one model's FMU."""
 
+    from ..fmu.make.package import package_fmu
     scene = load_scene(scene_name)
     with tempfile.TemporaryDirectory(dir=workdir) as tmp:
         path = Path(tmp) / f"{scene_name}-{model}.fmu"

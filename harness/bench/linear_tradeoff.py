@@ -25,23 +25,20 @@ import time
 from pathlib import Path
 
 import numpy as np
-from scipy.integrate import simpson
 
 from .. import defaults
 from ..cache import cached_sph
 from ..markdown import write_text
 from ..norms import relative_l2
-from ..pod.pipeline import basis_for_scene, on_steps
 from ..progress import progress_bar
-from ..rom.lti import full_linear_system, input_norm, sample_outputs
-from ..rom.registry import get_model
 from ..rom.result import probe_values
 from ..scene import derive_scene
-from ..sph.solver import build_problem, step_count
 from . import program_parser
 from .lib.document import fmt
-from .lib.linear_scenes import setup
 from .lib.timing import median_time
+
+# The measuring modules (numba through the model code, scipy, fmpy, matplotlib) are imported inside the functions:
+# `sphrom bench NAME --help` answers before they load (tests/test_bench_programs.py).
 
 # Imported inside the functions: the modules that load numba, scipy or matplotlib (--help answers before they
 # load: tests/test_bench_programs.py).
@@ -57,6 +54,7 @@ STRESS_TITLE = "## Stability stress maps"
 
 def _scenes(name):
     """(training scene, unseen-force scene) of NAME or NAME@shaped (the shaped force profile)."""
+    from .lib.linear_scenes import setup
     scene, _, _ = setup(name)
     return scene, derive_scene(scene, {"force": {"f": UNSEEN_FORCE}})
 
@@ -68,6 +66,10 @@ def _probe_v(result, problem, scene):
 def measure_scene(name, orders=ORDERS, repeats=3, progress=None):
     """Rows (dict) of one scene: per force, order and model the online time, the probe velocity error against
     the full SPH and, for the linear models, the error against the full linear SPH and its bound."""
+    from ..pod.pipeline import basis_for_scene, on_steps
+    from ..rom.lti import full_linear_system, input_norm, sample_outputs
+    from ..rom.registry import get_model
+    from ..sph.solver import build_problem, step_count
     scene, unseen = _scenes(name)
     problem = build_problem(scene)
     basis, _ = basis_for_scene(scene, progress=False, problem=problem)
@@ -142,6 +144,7 @@ def measure_scene(name, orders=ORDERS, repeats=3, progress=None):
 
 def _l2(e, h):
     """‖e‖_L2 per column from samples at spacing h (4m intervals): Simpson at h and 2h, extrapolated."""
+    from scipy.integrate import simpson
     e2 = e ** 2
     fine, coarse = simpson(e2, dx=h, axis=0), simpson(e2[::2], dx=2 * h, axis=0)
     return np.sqrt(np.maximum(fine + (fine - coarse) / 15.0, 0.0))

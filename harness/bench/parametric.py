@@ -35,21 +35,14 @@ import numpy as np
 from .. import defaults
 from ..cache import cached_sph
 from ..fmu.make.build import ensure_binaries
-from ..fmu.make.models import exact_model, reduced_model
-from ..fmu.make.options import default_modes
-from ..fmu.make.package import package_fmu
-from ..fmu.make.parametric import parametric_model
 from ..fmu.run.driver import FMU
 from ..norms import relative_l2
-from ..pod.pipeline import error_steps
 from ..progress import progress_bar
-from ..rom import parametric as par
-from ..rom.exact_linear import run_exact
-from ..rom.operators import probe_rows
-from ..rom.registry import get_model
 from ..scene import load_scene
-from ..sph.solver import build_problem
 from . import program_parser
+
+# The measuring modules (numba through the model code, scipy, fmpy, matplotlib) are imported inside the functions:
+# `sphrom bench NAME --help` answers before they load (tests/test_bench_programs.py).
 
 PROBES = defaults.PROBES
 DEFAULT_VARY = ("c=0.05:0.2", "d=0:5")
@@ -62,6 +55,8 @@ def probe_velocity_error(v_red, v_ref, t):
 
 def reduced_probe_velocity(model_name, ops, problem, scene, steps, n_freeze=10):
     """Probe velocities (M, P) [m s^-1] of reduced operators run over the scene at ``steps`` (f = the scene's)."""
+    from ..rom.exact_linear import run_exact
+    from ..rom.registry import get_model
     dt = scene.sph.dt
     if get_model(model_name).linear:
         t = steps * dt
@@ -77,6 +72,7 @@ def reduced_probe_velocity(model_name, ops, problem, scene, steps, n_freeze=10):
 
 def sph_probe_velocity(run, problem, scene, steps):
     """Probe velocities (M, P) of a cached full SPH run at ``steps`` (linear between particles, as the FMU)."""
+    from ..rom.operators import probe_rows
     index = np.searchsorted(run.steps, steps)
     rows = probe_rows(np.eye(problem.x.size), problem.x, scene.L, PROBES)
     return run.v[index] @ rows.T
@@ -87,6 +83,9 @@ def measure(scene, vary, model="frozen", k=None, n_points=10, progress=True, inp
 
     Also returns (space, training points, held-out points).
     """
+    from ..rom import parametric as par
+    from ..fmu.make.options import default_modes
+    from ..fmu.make.parametric import parametric_model
     k = k or default_modes(scene)
     affine, space, _, train = parametric_model(scene, vary, k, model=model, progress=progress,
                                                input_direction=input_direction)
@@ -101,6 +100,11 @@ def measure(scene, vary, model="frozen", k=None, n_points=10, progress=True, inp
 
 def _held_out_row(scene, affine, model, k, c, d):
     """One held-out point: the full SPH there, the parametric model and a model trained there alone."""
+    from ..rom import parametric as par
+    from ..fmu.make.models import exact_model, reduced_model
+    from ..pod.pipeline import error_steps
+    from ..rom.registry import get_model
+    from ..sph.solver import build_problem
     s = par.scene_at(scene, c, d)
     problem = build_problem(s)
     steps = error_steps(s)
@@ -122,6 +126,7 @@ def _held_out_row(scene, affine, model, k, c, d):
 
 def step_cost(scene, vary, model="frozen", k=None, steps=2000, h=0.01):
     """Mean wall time [s] of one doStep (h) of the parametric FMU (at its start values) and of the fixed FMU."""
+    from ..fmu.make.package import package_fmu
     binaries = ensure_binaries()
     out = {}
     with tempfile.TemporaryDirectory() as folder:
@@ -194,6 +199,7 @@ def main(argv=None):
     p.add_argument("--no-fmu", action="store_true", help="skip the doStep timing of the FMUs")
     p.add_argument("--out", default="validation/benchmarks/parametric")
     args = p.parse_args(argv)
+    from ..rom import parametric as par
     from ..rom import parametric as par           # after the options: --help answers before numba loads
     scene = load_scene(args.scene)
     vary = [par.parse_vary(text) for text in (args.vary or DEFAULT_VARY)]

@@ -23,13 +23,12 @@ import sys
 
 import numpy as np
 
-from ..pod.pipeline import basis_for_scene
 from ..progress import progress_bar
-from ..rom import passivity as pv
-from ..rom.registry import get_model
 from ..scene import builtin_names, load_scene
-from ..sph.solver import build_problem
 from . import program_parser
+
+# The measuring modules (numba through the model code, scipy, fmpy, matplotlib) are imported inside the functions:
+# `sphrom bench NAME --help` answers before they load (tests/test_bench_programs.py).
 
 PORTS = (0.3, 0.7)
 K = 12
@@ -39,6 +38,10 @@ STIFFNESS = 1e4          # the spring at each port [N/m]
 
 def measure(name):
     """Rows {scene, N, model, k_v, k_2, verdict, margin, max_re, coupled_max_re} of one scene."""
+    from ..rom import passivity as pv
+    from ..pod.pipeline import basis_for_scene
+    from ..rom.registry import get_model
+    from ..sph.solver import build_problem
     scene = load_scene(name)
     problem = build_problem(scene)
     basis, _ = basis_for_scene(scene, progress=False, problem=problem)

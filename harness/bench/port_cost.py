@@ -35,10 +35,13 @@ import time
 import zipfile
 from pathlib import Path
 
-from ..rom.registry import get_model
+from ..options import int_at_least, int_list
 from ..runio import atomic_path
 from . import program_command, program_parser
 from .lib.document import fmt, publish
+
+# The measuring modules (numba through the model code, scipy, fmpy, matplotlib) are imported inside the functions:
+# `sphrom bench NAME --help` answers before they load (tests/test_bench_programs.py).
 
 HEADING = "## Ports at their cost floor: the cost per communication step"
 CASES = (("tenmode", (0.5,)), ("damped_forced", (0.3, 0.7)))
@@ -92,6 +95,7 @@ def multiply_adds(data, h=STEP):
 def package(scene_name, model, ports, k, path, binaries, *, before=False):
     """Package the FMU of the case (``before``: the ports in the basis, symplectic Euler for the frozen model, as
     before the channel) at ``path``; returns its unpacked model.bin."""
+    from ..rom.registry import get_model
     from ..fmu.make.package import package_fmu
     from ..fmu.resources import unpack
     from ..scene import load_scene
@@ -246,19 +250,14 @@ def write_csv(path, rows):
 
 def main(argv=None):
     p = program_parser("port_cost", description=__doc__.split("\n\n")[0])
-    p.add_argument("--steps", type=int, default=20000, help="communication steps per run (default 20000)")
-    p.add_argument("--repeats", type=int, default=5, help="runs per FMU, taken in turn (default 5)")
-    p.add_argument("--ks", default="4,8,12,24", help="the k of tenmode's sweep (default 4,8,12,24)")
+    p.add_argument("--steps", type=int_at_least(10), default=20000, help="communication steps per run (default 20000)")
+    p.add_argument("--repeats", type=int_at_least(1), default=5, help="runs per FMU, taken in turn (default 5)")
+    p.add_argument("--ks", type=int_list(lo=1), default=(4, 8, 12, 24), help="the k of tenmode's sweep (default 4,8,12,24)")
     p.add_argument("--out", default="validation/benchmarks", metavar="FOLDER")
     p.add_argument("--report", default=None, metavar="BENCHMARKS.md")
     p.add_argument("--quiet", action="store_true")
     args = p.parse_args(argv)
-    if args.steps < 10 or args.repeats < 1:
-        p.error("--steps: at least 10; --repeats: at least 1")
-    try:
-        ks = tuple(int(x) for x in args.ks.split(","))
-    except ValueError:
-        p.error(f"--ks: {args.ks!r} is not a comma-separated list of integers")
+    ks = tuple(args.ks)
     t0 = time.perf_counter()
     rows = measure(ks=ks, steps=args.steps, repeats=args.repeats, progress=not args.quiet)
     out = Path(args.out) / "port_cost.csv"

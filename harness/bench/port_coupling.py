@@ -27,13 +27,13 @@ from pathlib import Path
 import numpy as np
 
 from ..fmu.make.build import ensure_binaries
-from ..fmu.make.package import package_fmu
 from ..fmu.run.driver import FMU
 from ..scene import load_scene
-from ..sph.ports import mass_spring, run_sph_ports
-from ..sph.solver import build_problem
 from . import program_parser
 from .lib.ports import MASS, PORTS, S0, STIFFNESS, mass_spring_step, open_loop_forces, rel
+
+# The measuring modules (numba through the model code, scipy, fmpy, matplotlib) are imported inside the functions:
+# `sphrom bench NAME --help` answers before they load (tests/test_bench_programs.py).
 
 # Imported inside the functions: the modules that load numba, scipy or matplotlib (--help answers before they
 # load: tests/test_bench_programs.py).
@@ -68,6 +68,9 @@ def fmu_loop(path, scene, h, n, *, coupled, forced=True):
 
 def measure(scene_name="damped_forced", t_end=2.0, h=1e-3, k=12, models=("frozen", "exact"), progress=False):
     """Rows (dict) of the open-loop and coupled errors per model (module docstring)."""
+    from ..fmu.make.package import package_fmu
+    from ..sph.ports import mass_spring, run_sph_ports
+    from ..sph.solver import build_problem
     scene = load_scene(scene_name)                  # trained over the scene's T, compared over [0, t_end]
     problem = build_problem(scene)
     n = int(round(t_end / h))

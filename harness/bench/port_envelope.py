@@ -20,17 +20,16 @@ import numpy as np
 
 from ..fmu.kinds import unpack
 from ..fmu.make.build import ensure_binaries
-from ..fmu.make.package import package_fmu
 from ..fmu.run.driver import FMU
-from ..fmu.training.envelope import Envelope
 from ..fmu.variables import members
 from ..progress import progress_bar
 from ..scene import load_scene
-from ..sph.ports import run_sph_ports
-from ..sph.solver import build_problem
 from . import program_parser
 from .lib.ports import PORTS, open_loop_forces, rel
 from .lib.tables import write_csv
+
+# The measuring modules (numba through the model code, scipy, fmpy, matplotlib) are imported inside the functions:
+# `sphrom bench NAME --help` answers before they load (tests/test_bench_programs.py).
 
 # Imported inside the functions: the modules that load numba, scipy or matplotlib (--help answers before they
 # load: tests/test_bench_programs.py).
@@ -43,6 +42,7 @@ def fmu_run(path, scene, h, n, forces):
     """(v_port (m, P), largest probe strain, envelope warning or "", error or "") of the port FMU over n steps
     of h [s] on the FMU driver with the port forces ``forces(t) -> (P,)`` [N] held over each step (m < n + 1
     after an error)."""
+    from ..fmu.training.envelope import Envelope
     data = unpack(zipfile.ZipFile(path).read("resources/model.bin"))
     rho0 = Envelope.from_sections(data.sections, data.k_v).probe_rho0
     P = data.sections["PORTX"].shape[1]
@@ -63,6 +63,10 @@ def fmu_run(path, scene, h, n, forces):
 def measure(scene_name="damped_forced", scales=SCALES, t_end=1.0, h=1e-3, k=12, progress=True):
     """Rows (scale, port force amplitude [N], v_port error, probe strain, its multiple of the trained one,
     warning, error) of the frozen port FMU (module docstring)."""
+    from ..fmu.make.package import package_fmu
+    from ..fmu.training.envelope import Envelope
+    from ..sph.ports import run_sph_ports
+    from ..sph.solver import build_problem
     scene = load_scene(scene_name)
     problem = build_problem(scene)
     n = int(round(t_end / h))

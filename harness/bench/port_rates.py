@@ -23,7 +23,6 @@ from pathlib import Path
 import numpy as np
 
 from ..fmu.make.build import ensure_binaries
-from ..fmu.make.package import package_fmu
 from ..fmu.kinds import unpack
 from ..fmu.run.driver import FMU
 from ..progress import progress_bar
@@ -31,6 +30,9 @@ from ..scene import load_scene
 from . import program_parser
 from .lib.ports import PORTS, open_loop_forces
 from .lib.tables import write_csv
+
+# The measuring modules (numba through the model code, scipy, fmpy, matplotlib) are imported inside the functions:
+# `sphrom bench NAME --help` answers before they load (tests/test_bench_programs.py).
 
 STEPS = (4e-3, 1e-2, 2e-2, 5e-2)
 T_END = 2.0
@@ -54,6 +56,7 @@ def measure(scene_name="damped_forced", steps=STEPS, t_end=T_END, k=12, progress
     """Rows (model, step_ms, input, v_port error against the reference, against the port forces' effect,
     communication steps) of the frozen port FMU (module docstring)."""
 
+    from ..fmu.make.package import package_fmu
     scene = load_scene(scene_name)
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "frozen-ports.fmu"

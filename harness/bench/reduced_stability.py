@@ -22,13 +22,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..pod.pipeline import basis_for_scene, scene_modes
-from ..rom.registry import get_model
-from ..rom.stepping import reduced_amplification, reduced_energy
 from ..scene import load_scene
-from ..sph.solver import build_problem, energy_bound_factors, step_count
 from . import program_parser
 from .lib.tables import write_csv
+
+# The measuring modules (numba through the model code, scipy, fmpy, matplotlib) are imported inside the functions:
+# `sphrom bench NAME --help` answers before they load (tests/test_bench_programs.py).
 
 # Imported inside the functions: the modules that load numba, scipy or matplotlib (--help answers before they
 # load: tests/test_bench_programs.py).
@@ -40,6 +39,8 @@ RUNS = (("frozen", "euler"), ("frozen", "symplectic"), ("linearized", "euler"))
 
 def energy_ratio(result, ops, problem, scene):
     """max over the samples of E(t) / (e^{λt} (√E0 + σ ∫_0^t |f| ds))² (:func:`sphrom.sph.solver.energy_bound_factors`)."""
+    from ..rom.stepping import reduced_energy
+    from ..sph.solver import energy_bound_factors, step_count
     e = np.array([reduced_energy(ops, problem, av, ar) for av, ar in zip(result.a_v, result.a_rho)])
     n = step_count(scene.T, scene.sph.dt)
     f = np.abs(scene.force(np.arange(n + 1) * scene.sph.dt)) if problem.terms["force_profile"] else np.zeros(n + 1)
@@ -51,6 +52,10 @@ def energy_ratio(result, ops, problem, scene):
 def measure(scenes=SCENES, progress=True):
     """Rows (scene, model, integrator, k, growth, energy_ratio, wall_s)."""
 
+    from ..pod.pipeline import basis_for_scene, scene_modes
+    from ..rom.registry import get_model
+    from ..rom.stepping import reduced_amplification
+    from ..sph.solver import build_problem, step_count
     rows = []
     for name in scenes:
         scene = load_scene(name)

@@ -36,15 +36,15 @@ from pathlib import Path
 import numpy as np
 
 from .. import defaults
-from ..fmu.check.verify import fmu_features, fmu_run
 from ..fmu.make.build import ensure_binaries
-from ..fmu.make.package import package_fmu
 from ..runio import atomic_path
 from ..scene import builtin_names, load_scene
-from ..sph.solver import build_problem
 from . import program_parser
 from .lib.document import split_sections, update_report
 from .lib.tables import write_csv
+
+# The measuring modules (numba through the model code, scipy, fmpy, matplotlib) are imported inside the functions:
+# `sphrom bench NAME --help` answers before they load (tests/test_bench_programs.py).
 
 # Imported inside the functions: the modules that load numba, scipy or matplotlib (--help answers before they
 # load: tests/test_bench_programs.py).
@@ -58,6 +58,7 @@ EQ222 = "frozen, eq. 2.22's b"      # the row label of the comparison FMU
 
 def rest_run(path, step, T=REST_T):
     """(t, v (M, P), rho (M, P)) of the FMU at ``path`` left at rest (initial_state_scale 0), f = 0."""
+    from ..fmu.check.verify import fmu_run
     t = np.arange(int(round(T / step)) + 1) * step
     v, rho, _ = fmu_run(path, np.zeros_like(t), t, scale=0.0)
     return t, v, rho
@@ -65,6 +66,9 @@ def rest_run(path, step, T=REST_T):
 
 def measure_scene(name, folder, progress=True):
     """Rows (frozen with eq. 2.22's b, frozen, exact) of scene ``name`` and the rest runs {model: (t, v)}."""
+    from ..fmu.check.verify import fmu_features
+    from ..fmu.make.package import package_fmu
+    from ..sph.solver import build_problem
     scene = load_scene(name)
     problem = build_problem(scene)
     binaries = ensure_binaries(quiet=True)

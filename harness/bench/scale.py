@@ -31,23 +31,18 @@ import time
 from pathlib import Path
 
 import numpy as np
-from scipy.integrate import simpson
 
 from ..options import int_at_least, int_list
-from ..pod.pipeline import basis_for_scene
 from ..progress import progress_bar
-from ..rom import balanced as bl, modal
-from ..rom.balanced import reduced_from_exact
-from ..rom.lti import full_linear_system
-from ..rom.modal import DEFAULT_WAVENUMBERS, free_outputs
-from ..rom.registry import get_model
 from ..runio import atomic_path
 from ..scene import load_scene
-from ..sph.solver import build_problem
 from . import program_parser
 from .lib.document import program_outputs, publish
 from .lib.tables import write_csv
 from .lib.timing import cpu_model, load_average
+
+# The measuring modules (numba through the model code, scipy, fmpy, matplotlib) are imported inside the functions:
+# `sphrom bench NAME --help` answers before they load (tests/test_bench_programs.py).
 
 # Imported inside the functions: the modules that load numba, scipy or matplotlib (--help answers before they
 # load: tests/test_bench_programs.py).
@@ -68,6 +63,8 @@ def _timed(fn, repeats):
 def measured_free_error(ms, reduced, rows, horizon, samples):
     """‖y_j - y_r,j‖_L2(0,T) of the free responses from x0 (Simpson's rule on ``samples`` points), the full system's
     through every mode; and its L² norm."""
+    from scipy.integrate import simpson
+    from ..rom.modal import free_outputs
     t = np.linspace(0.0, horizon, samples)
     y = free_outputs(ms, rows, t)
     yr = reduced.free_response(t) @ reduced.Cr[rows].T
@@ -85,6 +82,10 @@ def numerical_rank(L, tol=1e-12):
 def exact_row(row, scene, problem, lti, ms, samples, repeats):
     """The exact POD model's row beside the balanced one's: its POD basis from the scene's full SPH training run at
     this N (cached; the run is timed as ``t_system``), k = the scene's ``rom.modes``, its bounds through the modes."""
+    from ..rom import balanced as bl, modal
+    from ..pod.pipeline import basis_for_scene
+    from ..rom.balanced import reduced_from_exact
+    from ..rom.registry import get_model
     spec = get_model("exact")
     (basis, _), t_pod = _timed(lambda: basis_for_scene(scene, progress=False, problem=problem), 1)
     k = int(scene.rom.get("modes", 12))
@@ -105,6 +106,9 @@ def exact_row(row, scene, problem, lti, ms, samples, repeats):
 def measure_one(scene_name, n, wavenumbers, repeats, samples, dense=False, exact=False, progress=None):
     """The rows at N = ``n`` for the scene: the balanced model on the modal path, the dense path when ``dense``,
     the exact POD model when ``exact`` (:func:`exact_row`)."""
+    from ..rom import balanced as bl, modal
+    from ..rom.lti import full_linear_system
+    from ..sph.solver import build_problem
     scene = load_scene(scene_name).with_sph(n_particles=n)
     problem = build_problem(scene)
     lti, t_lti = _timed(lambda: full_linear_system(problem), repeats)
@@ -245,6 +249,7 @@ def main(argv=None):
     p.add_argument("--report", default="BENCHMARKS.md", help="the Markdown report whose section is replaced")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     args = p.parse_args(argv)
+    from ..rom.modal import DEFAULT_WAVENUMBERS
     scenes = [s.strip() for s in args.scenes.split(",") if s.strip()]
     for name in scenes:
         load_scene(name)                            # a bad name: one line, before any work

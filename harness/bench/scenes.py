@@ -42,15 +42,15 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SimulationError, ToleranceError, UserError
-from ..fmu.check.verify import acceptance, case_errors, sph_reference
-from ..fmu.make.auto import DEFAULT_MODEL, FALLBACK_MODEL, choose_default, default_candidates
-from ..fmu.make.package import package_fmu
 from ..runio import atomic_path
 from ..scene import load_scene
 from . import machine_text, program_command, program_parser
 from .lib.corpus import corpus
 from .lib.document import fmt, program_outputs, publish, update_report
 from .lib.tables import write_csv
+
+# The measuring modules (numba through the model code, scipy, fmpy, matplotlib) are imported inside the functions:
+# `sphrom bench NAME --help` answers before they load (tests/test_bench_programs.py).
 
 # Imported inside the functions: the modules that load numba, scipy or matplotlib (--help answers before they
 # load: tests/test_bench_programs.py).
@@ -112,6 +112,9 @@ def fmu_row(prefix, summary, verdict):
 
 def measure_scene(name, text, facts, folder, progress=False):
     """One row: the scene as a user's file, its default and exact FMUs (module docstring)."""
+    from ..fmu.check.verify import acceptance, case_errors, sph_reference
+    from ..fmu.make.auto import FALLBACK_MODEL, choose_default, default_candidates
+    from ..fmu.make.package import package_fmu
     t0 = time.perf_counter()
     path = Path(folder) / f"{name}.toml"
     path.write_text(text)
@@ -149,6 +152,7 @@ def measure_scene(name, text, facts, folder, progress=False):
 
 def summary_lines(rows):
     """The section's summary: each acceptance criterion of a user's first try against the corpus."""
+    from ..fmu.make.auto import DEFAULT_MODEL
     n = len(rows)
     loaded = [r for r in rows if r.get("loaded")]
 
@@ -308,7 +312,6 @@ def write_outputs(args, argv, rows, wall, count):
 
 
 def main(argv=None):
-    from .lib.corpus import corpus
     p = program_parser("scenes", description=__doc__.split("\n\n")[0])
     p.add_argument("--seed", type=int, default=0, help="the corpus's seed (default 0)")
     p.add_argument("--count", type=int, default=16, help="scenes (default 16)")
@@ -320,6 +323,7 @@ def main(argv=None):
                    help="keep the rows of --out that a previous run of the same corpus measured; measure the rest")
     p.add_argument("--quiet", action="store_true")
     args = p.parse_args(argv)
+    from .lib.corpus import corpus
     scenes = corpus(args.seed, args.count, args.n_min, args.n_max)
     kept = read_rows(args.out, scenes) if args.resume else {}
     rows = []

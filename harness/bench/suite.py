@@ -313,7 +313,11 @@ CARRIED = ("## The full SPH step: numba against a hand-written C stencil",
            "## Fast end to end: before and after",
            "## Certified error bounds",        # sphrom bench error_bounds
            "## Certified error bounds: ports and coupled components",     # sphrom bench error_bounds_ports
-           "## Certified error bounds of parametric FMUs")   # sphrom bench error_bounds --parametric
+           "## Certified error bounds of parametric FMUs",   # sphrom bench error_bounds --parametric
+           "## Certified error bounds at large N",           # sphrom bench error_bounds --sizes
+           "## User scenes at the first try",                # sphrom bench scenes
+           "## Ports in a sampled master loop",              # sphrom bench port_loop
+           "## Ports at their cost floor: the cost per communication step")   # sphrom bench port_cost
 
 
 def report(results, image_dir, stress_image_dir=None, existing=None):

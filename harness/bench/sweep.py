@@ -37,10 +37,11 @@ import numpy as np
 
 from .. import __version__
 from ..markdown import write_text
-from ..sweep.fmus import ensure_fmus
-from ..sweep.spec import load_spec
 from ..sweep.table import finite, read_results
 from . import program_parser
+
+# The measuring modules (numba through the model code, scipy, fmpy, matplotlib) are imported inside the functions:
+# `sphrom bench NAME --help` answers before they load (tests/test_bench_programs.py).
 
 LOADS = []       # CPU used by other processes during each sweep run [cores]
 
@@ -98,6 +99,8 @@ def main(argv=None):
     p.add_argument("--work", default=None, help="folder for the result files (default: a temporary one)")
     p.add_argument("--out", default=str(root / "validation/sweeps"))
     args = p.parse_args(argv)
+    from ..sweep.fmus import ensure_fmus
+    from ..sweep.spec import load_spec
     workers = [int(w) for w in args.workers.split(",")]
     out = Path(args.out)
     work = Path(args.work) if args.work else Path(out / ".measure-work")

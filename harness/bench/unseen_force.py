@@ -25,14 +25,14 @@ from pathlib import Path
 import numpy as np
 
 from .. import defaults
-from ..fmu.make.package import package_fmu
 from ..fmu.resources import probe_pairs
 from ..fmu.run.driver import FMU
-from ..rom.registry import fmu_model_names
 from ..scene import load_scene
-from ..sph.solver import build_problem, run_sph
 from . import program_parser
 from .lib.tables import write_csv
+
+# The measuring modules (numba through the model code, scipy, fmpy, matplotlib) are imported inside the functions:
+# `sphrom bench NAME --help` answers before they load (tests/test_bench_programs.py).
 
 # Imported inside the functions: the modules that load numba, scipy or matplotlib (--help answers before they
 # load: tests/test_bench_programs.py).
@@ -69,6 +69,7 @@ def _free_probe_velocities(path, h, n):
 
 def _sph_probe_velocities(scene, h, n, probes=defaults.PROBES):
     """The full SPH's velocity at the FMU's default probes (linear interpolation) every ``h`` [s]."""
+    from ..sph.solver import build_problem, run_sph
     problem = build_problem(scene)
     steps = np.round(np.arange(n + 1) * h / scene.sph.dt).astype(int)
     run = run_sph(scene, sample_steps=steps, progress=False, problem=problem)
@@ -78,6 +79,8 @@ def _sph_probe_velocities(scene, h, n, probes=defaults.PROBES):
 
 def measure(scene_name, models=None, folder=None):
     """Rows (scene, model, force, err_v, max_drho) for the FMU of each model of ``scene_name``."""
+    from ..fmu.make.package import package_fmu
+    from ..rom.registry import fmu_model_names
     scene = load_scene(scene_name)
     folder = Path(folder or tempfile.mkdtemp(prefix="sphrom-unseen-"))
     rows = []
