@@ -1,5 +1,5 @@
 /*
- * The training envelope (harness/fmu/make/envelope.py writes it): what the basis was
+ * The training envelope (harness/fmu/training/envelope.py writes it): what the basis was
  * trained on, stored in three tagged sections, and the run-time check of the
  * state and the input against it widened by a margin.
  *
@@ -23,7 +23,7 @@
  *                (ENVPORT) left out
  *   force:       |f| > margin x the trained max |f|
  *   strain:      a probe strain above margin x the largest trained probe strain
- * harness/fmu/make/envelope.py check() repeats it.
+ * harness/fmu/training/envelope.py check() repeats it.
  */
 #include "rom_internal.h"
 
