@@ -1,5 +1,5 @@
 """The oldest numpy, scipy and numba that pyproject.toml allows and that have a wheel for this Python, as pip pins
-("numpy==1.26.0 scipy==1.11.2 numba==0.59.0"): for .ci/run's versions block (issue 32).  Asks pip's index (its
+("numpy==1.26.0 scipy==1.11.2 numba==0.59.0"): for .ci/run's versions block.  Asks pip's index (its
 list, then a dry run per candidate from the floor up until one has a wheel for this Python); pyproject.toml's floors
 are the only input, so raising a floor moves the test."""
 
