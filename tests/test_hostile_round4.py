@@ -252,22 +252,31 @@ def test_ctrl_c_to_a_sweep_process_group(hostile_scene, tmp_path):
     # SIGTERM to the group (kill -TERM -PGID) is a Ctrl-C's equal: the workers, which died on it with the results
     # they had not handed over ("no output written" at 85 % of the run), leave the closing to the command, and
     # the finished runs are kept
-    kept, length = [], span(argv, work, env)          # the FMU packaged now: the run's own span
-    # (late moments: most of a short run's span can be the cluster's start, before any run has finished)
-    for delay in (0.75 * length, 0.85 * length, 0.95 * length):
+    kept, lines = [], []
+    for attempt in range(3):                           # a timing test: each attempt measures the span anew
         if any(kept):
             break
-        for _ in range(4):
-            row = trial(argv, work, env, signal.SIGTERM, delay, to_group=True)
-            if row["outcome"] != "ended before the signal":
-                break
-            delay /= 2
-        assert row["outcome"] in ("clean", "ended before the signal"), row
-        if row["outcome"] == "clean":
-            kept.append("finished runs kept" in row["last_line"])
+        length = span(argv, work, env)                 # the FMU packaged now: the run's own span
         for p in work.iterdir():
             p.unlink()
-    assert any(kept), kept
+        # (late moments: most of a short run's span can be the cluster's start, before any run has finished)
+        for delay in (0.75 * length, 0.85 * length, 0.95 * length):
+            if any(kept):
+                break
+            for _ in range(4):
+                row = trial(argv, work, env, signal.SIGTERM, delay, to_group=True)
+                if row["outcome"] != "ended before the signal":
+                    break
+                for p in work.iterdir():              # (a finished run's results would be resumed)
+                    p.unlink()
+                delay /= 2
+            assert row["outcome"] in ("clean", "ended before the signal"), row
+            if row["outcome"] == "clean":
+                kept.append("finished runs kept" in row["last_line"])
+                lines.append((round(delay / length, 2), row["last_line"]))
+            for p in work.iterdir():
+                p.unlink()
+    assert any(kept), lines
 
 
 # -- case 7: a run beyond the machine's memory is refused before the work ----------------------------------------
