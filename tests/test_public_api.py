@@ -85,7 +85,9 @@ def test_the_package_docstring_example_runs(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     ns = {}
     exec(compile(code, "sphrom.__doc__", "exec"), ns)
-    assert (tmp_path / "tenmode.fmu").is_file() and ns["summary"].model == "exact"
+    # which model is written is chosen by the accuracy threshold (frozen, or exact where the frozen misses it):
+    # assert the property, the written model meets the accuracy, not the name a threshold picked
+    assert (tmp_path / "tenmode.fmu").is_file() and ns["summary"].model in ("frozen", "exact")
     assert ns["y"].shape == (101, 2 * len(ns["summary"].probes))
     assert ns["result"].values.shape[0] == ns["result"].steps + 1
-    assert np.isfinite(ns["measured"].training.err_v) and ns["measured"].channels
+    assert ns["measured"].training.err_v <= 0.1 and ns["measured"].channels      # the default accuracy, met
