@@ -15,9 +15,10 @@ import argparse
 import inspect
 import re
 import sys
-from pathlib import Path
 
 import sphrom
+
+from .markdown import print_or_write
 
 PAGE = "docs/user/api.md"
 COMMAND = f"python3 -m sphrom.api_page --write {PAGE}"
@@ -164,12 +165,7 @@ def main(argv=None):
     p.add_argument("--write", metavar="PATH", help=f"write the page here ({PAGE})")
     args = p.parse_args(argv)
     text = markdown()
-    if args.write:
-        Path(args.write).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.write).write_text(text, encoding="utf-8")
-        print(f"wrote {args.write}")
-    else:
-        sys.stdout.write(text)
+    print_or_write(text, args.write)
     return 0
 
 

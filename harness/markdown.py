@@ -33,3 +33,15 @@ def write_text(path, text):
     with atomic_path(path) as tmp:
         with open(tmp, "w", encoding="utf-8") as fh:
             fh.write(text)
+
+
+def print_or_write(text, path=None):
+    """A generated page's text to stdout, or written to ``path`` (its folder made; atomic, :func:`write_text`)."""
+    import sys
+    from pathlib import Path
+    if path:
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
+        write_text(path, text)
+        print(f"wrote {path}")
+    else:
+        sys.stdout.write(text)

@@ -12,9 +12,9 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 
 from .pod.automatic import automatic_rules
+from .markdown import print_or_write
 from .scene_schema import KEYS, Key, MAX_DEPTH, MAX_FILE_BYTES, MAX_TEXT, NAME_TEXT, SCALE, TABLES, fmt, type_name
 
 MINIMAL_SCENE = '''\
@@ -146,12 +146,7 @@ def main(argv=None):
     p.add_argument("--write", metavar="PATH", help="write the page here (docs/user/scenes.md)")
     args = p.parse_args(argv)
     text = markdown(automatic_rules())
-    if args.write:
-        Path(args.write).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.write).write_text(text, encoding="utf-8")
-        print(f"wrote {args.write}")
-    else:
-        sys.stdout.write(text)
+    print_or_write(text, args.write)
     return 0
 
 
