@@ -61,6 +61,22 @@ def tmp_out(tmp_path):
 
 
 @pytest.fixture(autouse=True, scope="session")
+def _signals_at_their_defaults():
+    """SIGINT and SIGTERM at Python's defaults for the session.  A shell starts a background job (``pytest &``
+    without job control: CI runners, nohup) with SIGINT ignored, and sphrom keeps an ignored signal ignored (as it
+    should), so the in-process signal tests and the children they start would test their launcher instead."""
+    import signal
+    previous = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+    if previous[signal.SIGINT] is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    if previous[signal.SIGTERM] is signal.SIG_IGN:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    yield
+    for sig, handler in previous.items():
+        signal.signal(sig, handler if handler is not None else signal.SIG_DFL)
+
+
+@pytest.fixture(autouse=True, scope="session")
 def _private_cache(tmp_path_factory):
     """Every test session gets its own SPH-run cache."""
     os.environ["SPHROM_CACHE"] = str(tmp_path_factory.mktemp("sphrom-cache"))

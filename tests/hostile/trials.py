@@ -47,12 +47,20 @@ def _group_alive(pgid):
     return alive
 
 
+def default_signals():
+    """In the child before exec: SIGINT and SIGTERM at their defaults.  A shell starts a background job (``cmd &``
+    without job control, as CI runners and nohup do) with SIGINT ignored, and sphrom rightly keeps an ignored
+    signal ignored: the trial would then measure its launcher, not sphrom."""
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, signal.SIG_DFL)
+
+
 def trial(argv, cwd, env, sig, delay, to_group):
     """One run of ``sphrom argv`` with ``sig`` after ``delay`` s: a dict of what happened."""
     tmp = Path(tempfile.mkdtemp(prefix="trial-tmp-", dir=cwd))
     env = {**env, "TMPDIR": str(tmp)}
     proc = subprocess.Popen([sys.executable, "-m", "sphrom", *argv], cwd=cwd, env=env, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, start_new_session=True)
+                            stderr=subprocess.PIPE, text=True, start_new_session=True, preexec_fn=default_signals)
     while not sphrom_catches_sigterm(proc.pid) and proc.poll() is None:      # sphrom's first line has run
         time.sleep(0.0005)
     time.sleep(delay)
@@ -108,7 +116,7 @@ def span(argv, cwd, env):
     """Seconds an undisturbed run of ``sphrom argv`` takes from sphrom's handler being up (its first line: before
     it the interpreter's own start-up runs, where no program can take a signal) to its end."""
     proc = subprocess.Popen([sys.executable, "-m", "sphrom", *argv], cwd=cwd, env=env, stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL)
+                            stderr=subprocess.DEVNULL, preexec_fn=default_signals)
     while not sphrom_catches_sigterm(proc.pid) and proc.poll() is None:
         time.sleep(0.0005)
     t0 = time.monotonic()
