@@ -513,7 +513,8 @@ def references(scene, step, probes, has_scale, problem=None, progress=False, int
     stepped = stepped_error(scene, problem, probes, run, t, v[:, :, i], rho[:, :, i], rho0)
     return {name: (force, scale, start, (t, v[:, :, i], rho[:, :, i], rho0, sph_s))
             for i, (name, (force, scale, start)) in enumerate(cases.items())} | {"_interpolate": interpolate,
-                                                                                 "_stepped_error": stepped}
+                                                                                 "_stepped_error": stepped,
+                                                                                 "_step": step}
 
 
 def stepped_error(scene, problem, probes, run, t, v_true, rho_true, rho0):
@@ -582,15 +583,15 @@ def verify_fmu(path, scene, probes, refs=None, problem=None, progress=False):
     probes : sequence of float
         The FMU's probes, x/L.
     refs : dict, optional
-        :func:`references` already computed for this scene, step and probes (recomputed when its input mode is not
-        this FMU's).
+        :func:`references` already computed for this scene, step and probes (recomputed when its input mode or its
+        communication step is not this FMU's: two models of one scene can hold different bands).
 
     Returns
     -------
     Verification
     """
     has_scale, interpolate, step, tolerance = fmu_facts(path)
-    if refs is None or refs.get("_interpolate") != interpolate:
+    if refs is None or refs.get("_interpolate") != interpolate or refs.get("_step", step) != step:
         refs = references(scene, step, probes, has_scale, problem=problem, progress=progress, interpolate=interpolate)
     result = Verification(step=step, T=scene.T, input="linear (df/dt)" if interpolate else "held",
                           probes=list(probes), refs=refs, truth=TRUTH_NAME, error_tolerance=tolerance,
