@@ -250,7 +250,7 @@ def top_frequency(scene, problem, ops, k):
     U = ops.velocity_modes
     if U is not None and U.shape[1]:
         run = cached_sph(scene, error_steps(scene), progress=False, problem=problem)   # the training run, cached
-        nu = energy_band(problem, U, run.v, problem.profile if problem.terms["force_profile"] else None)
+        nu = energy_band(problem, U, run.v, problem.profile if problem.terms["force_profile"] else None, scene.T)
     else:
         nu = float(np.max(np.abs(np.linalg.eigvals(np.asarray(ops.A, float)).imag), initial=0.0)) / (2 * math.pi)
     return max(nu, force_top(scene))
@@ -259,17 +259,18 @@ def top_frequency(scene, problem, ops, k):
 BAND_ENERGY = 0.99      # the fraction of the kinetic energy below the top of the band (:func:`energy_band`)
 
 
-def energy_band(problem, U, v_samples, profile=None, fraction=BAND_ENERGY):
+def energy_band(problem, U, v_samples, profile=None, horizon=None, fraction=BAND_ENERGY):
     """The frequency [Hz] below which ``fraction`` of the kinetic energy lies, in the modes of the bar reduced to
     the velocity modes ``U`` (N, k): the Galerkin problem K_r psi = omega^2 M_r psi (M_r = U^T M U, K_r = U^T K U,
     the linearised eqs. 2.10-2.11's mass and stiffness, :func:`sphrom.rom.inputs.second_order`), the larger of
 
     - the training run's: sum over the samples ``v_samples`` (m, N) [m s^-1] of (psi_j^T M v)^2 per mode;
-    - with a force ``profile`` (N,): the step case's, a force along it switched on at t = 0, whose elastic mode j
-      swings with velocity amplitude |psi_j^T M profile| / omega_j (the rigid modes have no frequency).
+    - with a force ``profile`` (N,) and its ``horizon`` [s]: the step case's, a force along it switched on at t = 0
+      from rest, mean square velocity over the horizon per mode: a_j^2 / (2 omega_j^2) for an elastic mode
+      (v = a_j sin(omega_j t) / omega_j), a_j^2 horizon^2 / 3 for a rigid one (v = a_j t), a_j = psi_j^T M profile.
 
-    Modes are sorted by omega; the top is the omega of the mode at which the cumulative energy reaches
-    ``fraction`` of the total (0 when there is no elastic energy)."""
+    Modes are sorted by omega (a rigid mode's is 0); the top is the omega of the mode at which the cumulative energy
+    reaches ``fraction`` of the total (0 when there is no energy, or when the rigid modes hold the fraction)."""
     from scipy.linalg import eigh
     from ...rom.inputs import second_order
 
@@ -282,8 +283,9 @@ def energy_band(problem, U, v_samples, profile=None, fraction=BAND_ENERGY):
     elastic = w > 1e-6 * max(float(w.max(initial=0.0)), 1e-300)
     PsiM = Q.T @ MU.T                                      # psi_j^T M, (k, N)
 
+    w = np.where(elastic, w, 0.0)
+
     def top(energy):
-        energy = np.where(elastic, energy, 0.0)
         total = float(energy.sum())
         if not total > 0:
             return 0.0
@@ -292,9 +294,9 @@ def energy_band(problem, U, v_samples, profile=None, fraction=BAND_ENERGY):
         return float(w[order][min(j, w.size - 1)])
 
     nu = top(np.sum((PsiM @ np.asarray(v_samples, float).T) ** 2, axis=1))
-    if profile is not None:
+    if profile is not None and horizon is not None:
         amp = PsiM @ np.asarray(profile, float)
-        nu = max(nu, top(np.where(elastic, amp / np.where(elastic, w, 1.0), 0.0) ** 2))
+        nu = max(nu, top(np.where(elastic, 0.5 * (amp / np.where(elastic, w, 1.0)) ** 2, amp ** 2 * horizon ** 2 / 3)))
     return nu / (2 * math.pi)
 
 
