@@ -554,10 +554,12 @@ def sph_cost(scene, problem, recorded, repeats=1):
 
 
 def cost_medians(path, scene, verification, problem=None, repeats=3):
-    """(FMU, full SPH): the CPU time [s] per simulated T of the FMU's doStep calls on the training case of
+    """(FMU, full SPH, ratio): the CPU time [s] per simulated T of the FMU's doStep calls on the training case of
     ``verification`` (its force, start and communication points) and of the full SPH's compiled loop
-    (:func:`sph_cost`), each the median of ``repeats`` runs timed in turn (FMU, SPH, FMU, ...), so that a change
-    of the machine's load falls on both; nan for the FMU when it failed."""
+    (:func:`sph_cost`), each the median of ``repeats`` runs timed in pairs (FMU, SPH, FMU, SPH, ...), and the median
+    of the pairs' ratios FMU / SPH: a pair is timed under one load (another process on the core's sibling thread
+    slows both; CPU time does not see that), so the ratio varies less than either time.  nan for the FMU when it
+    failed."""
     problem = problem or build_problem(scene)
     has_scale, interpolate, _, _ = fmu_facts(path)
     tr = verification.training
@@ -571,7 +573,8 @@ def cost_medians(path, scene, verification, problem=None, repeats=3):
         except RuntimeError:
             fmu.append(float("nan"))
         sph.append(sph_cost(scene, problem, recorded))
-    return float(np.median(fmu)), float(np.median(sph))
+    fmu, sph = np.asarray(fmu), np.asarray(sph)
+    return float(np.median(fmu)), float(np.median(sph)), float(np.median(fmu / np.where(sph > 0, sph, np.nan)))
 
 
 def verify_fmu(path, scene, probes, refs=None, problem=None, progress=False):
