@@ -4,8 +4,9 @@
   modes reduced to a basis: a motion in one mode of the bar is that mode's frequency, whatever else the basis
   holds; a mode carrying a thousandth of the energy does not raise it (the highest mode's frequency did); the step
   case's band of a profile along one mode is that mode's; the same relative to a bar's own time scale in SI units.
-- :func:`sphrom.pod.automatic.automatic_modes`: a linear model (advanced exactly in time) takes the energy
-  criterion's count up to the snapshots' rank, a time-stepped one is capped (its refresh costs O(k^4)).
+- :func:`sphrom.pod.automatic.automatic_modes`: a linear model (advanced exactly in time) takes the kinetic energy
+  criterion's count up to the snapshots' rank and the strain count capped; a time-stepped one is capped (its refresh
+  costs O(k^4)).
 """
 
 import math
