@@ -69,3 +69,18 @@ def test_the_certified_bounds_hold_at_every_point(built):
             for c in s.verification.cases:
                 assert c.fmu_v_bound is not None and c.bound_holds, (scene.name, s.model, c.name)
                 assert np.all(np.isfinite(c.fmu_v_bound))
+
+
+def test_the_cost_is_the_median_cpu_time_ratio_of_runs_timed_in_pairs(built):
+    """The bench's cost figures (sphrom bench scenes): thread CPU times of the FMU's doStep calls and of the full SPH's
+    loop, medians of runs timed in pairs, and the median of the pairs' ratios; the SPH's CPU time is within its wall
+    time (one thread)."""
+    from sphrom.fmu.check.verify import cost_medians, sph_cost
+    from sphrom.sph.solver import build_problem, run_sph
+    scene, _, _, exact = built[0]
+    problem = build_problem(scene)
+    fmu_s, sph_s, ratio = cost_medians(exact.path, scene, exact.verification, problem=problem, repeats=3)
+    assert np.isfinite(fmu_s) and fmu_s > 0 and np.isfinite(sph_s) and sph_s > 0 and np.isfinite(ratio) and ratio > 0
+    run = run_sph(scene, sample_steps=[1], progress=False, problem=problem)
+    assert 0 < run.cpu_time <= run.wall_time + 0.02            # 0.02 s: the clocks' tick on any system
+    assert sph_cost(scene, problem, run.wall_time, repeats=3) > 0

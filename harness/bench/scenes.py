@@ -16,7 +16,9 @@ step that resolves the scene's band).  Per scene and FMU:
   max bound / max(100 max error, 1 % max |v|) (useful when at most 1: the issue's criterion);
 - warnings: those the FMU logged, and the false alarms among them (a warning while the true error is below a tenth of
   error_tolerance);
-- cost: the FMU's own work (its doStep calls) per simulated second over the full SPH's (its compiled loop);
+- cost: the FMU's own work (its doStep calls) per simulated second over the full SPH's (its compiled loop): the
+  median of the ratios of :data:`COST_REPEATS` pairs of runs timed in turn, each run's CPU time of the process's
+  thread (:func:`time.thread_time`), so that the time other processes take the cores does not count;
 - the full SPH's own time error: the scene's full SPH (its integrator and dt) against the same truth on the training
   force.
 
@@ -94,11 +96,19 @@ def warning_figures(verification):
     return count, false
 
 
-def fmu_row(prefix, summary, verdict):
-    """The columns of one FMU (``prefix`` ``default_`` or ``exact_``)."""
+COST_REPEATS = 5     # pairs of runs (the FMU, the full SPH) whose median CPU-time ratio is the cost ratio
+
+
+def fmu_row(prefix, summary, verdict, scene=None):
+    """The columns of one FMU (``prefix`` ``default_`` or ``exact_``); with ``scene``, its cost ratio is the median
+    of the CPU-time ratios of :data:`COST_REPEATS` pairs of runs of the FMU and the full SPH timed in turn
+    (:func:`sphrom.fmu.check.verify.cost_medians`), else packaging's single run."""
+    from ..fmu.check.verify import cost_medians
     if summary is None:
         return {f"{prefix}built": False, f"{prefix}model": "", f"{prefix}note": verdict or ""}
     v = summary.verification
+    fmu_s, sph_s, ratio = (cost_medians(summary.path, scene, v, repeats=COST_REPEATS) if scene is not None
+                           else (v.training.step_s, v.training.sph_s, v.training.cost_ratio))
     holds, useful = bound_figures(v)
     warnings, false = warning_figures(v)
     return {f"{prefix}built": verdict is None, f"{prefix}model": summary.model,
@@ -106,7 +116,8 @@ def fmu_row(prefix, summary, verdict):
             f"{prefix}unseen_v": v.unseen.err_v, f"{prefix}max_v": v.worst.err_v,
             f"{prefix}bound_holds": holds, f"{prefix}bound_usefulness": useful,
             f"{prefix}warnings": warnings, f"{prefix}false_alarms": false,
-            f"{prefix}cost_ratio": v.training.cost_ratio, f"{prefix}fmpy_ratio": v.training.fmu_s / v.training.sph_s,
+            f"{prefix}cost_ratio": ratio, f"{prefix}fmu_cpu_s": fmu_s,
+            f"{prefix}sph_cpu_s": sph_s, f"{prefix}fmpy_ratio": v.training.fmu_s / v.training.sph_s,
             f"{prefix}note": verdict or ""}
 
 
@@ -130,14 +141,14 @@ def measure_scene(name, text, facts, folder, progress=False):
         tried = default_candidates(scene, folder, options)
         try:
             best, note = choose_default(tried, Path(folder) / "default.fmu")
-            row.update(fmu_row("default_", best, None), default_choice=note)
+            row.update(fmu_row("default_", best, None, scene), default_choice=note)
         except ToleranceError as exc:
             row.update(fmu_row("default_", tried[0][0], str(exc)), default_choice="")
         exact = next((s for s in (t[0] for t in tried) if s is not None and s.model == FALLBACK_MODEL), None)
         if exact is None:
             exact = package_fmu(scene, Path(folder) / "exact.fmu", model="exact", accept=False,
                                 references=tried[0][0].verification.refs if tried[0][0] else None, **options)
-        row.update(fmu_row("exact_", exact, acceptance(exact.verification, None, "exact")))
+        row.update(fmu_row("exact_", exact, acceptance(exact.verification, None, "exact"), scene))
         v = exact.verification
         _, sph_v, sph_rho, rho0, _ = sph_reference(scene, scene.f.text, 1.0, v.step, v.probes)[:5]
         tr = v.training
@@ -184,7 +195,7 @@ def summary_lines(rows):
             f"- **Warnings**: {warns} logged, {false} while the true error was below a tenth of error_tolerance "
             "(false alarms).",
             f"- **Faster than the full SPH** per simulated second (the FMU's doStep calls against the full SPH's "
-            f"compiled loop), both FMUs: {faster} of {n} (largest ratio: default "
+            f"compiled loop, the median CPU-time ratio of {COST_REPEATS} pairs of runs), both FMUs: {faster} of {n} (largest ratio: default "
             f"{fmt(worst('default_cost_ratio'), '.3g')}, exact {fmt(worst('exact_cost_ratio'), '.3g')}).",
             f"- The full SPH's own time error (its integrator and dt against the same truth, training force): at "
             f"most {fmt(worst('sph_time_error'), '.3g')}."]
@@ -302,8 +313,8 @@ def write_outputs(args, argv, rows, wall, count):
              "Per scene: *default* the model `sphrom fmu` wrote (or refused); *v*: the largest error over the three "
              "cases; *bound / allowed*: max bound / max(100 max error, 1 % max |v|), largest over the cases (useful "
              "when <= 1), default/exact; *warnings (false)*: logged by both FMUs (those while the true error was "
-             "below a tenth of error_tolerance); *cost*: the FMU's doStep time / the full SPH's compiled loop per "
-             "simulated second; *SPH time error*: the scene's full SPH against the same truth (training force).",
+             "below a tenth of error_tolerance); *cost*: the FMU's doStep CPU time / the full SPH's compiled loop's "
+             f"per simulated second (the median ratio of {COST_REPEATS} pairs of runs), default/exact; *SPH time error*: the scene's full SPH against the same truth (training force).",
              "", *table_lines(rows), "", f"![errors and costs of the corpus]({png_rel})", ""]
     if len(rows) == count:
         publish(args.report, SECTION_HEADING, lines, [out, png], wall)

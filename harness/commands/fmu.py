@@ -275,8 +275,9 @@ def print_verification(v, tolerance=None):
               + " (its time-step error, and f at every step against f "
               + ("linear" if v.input.startswith("linear") else "held") + " between the points in the truth)")
     tr = v.training
-    print(f"  cost per simulated T: the FMU's own work (doStep) {tr.step_s:.4g} s, through fmpy {tr.fmu_s:.4g} s; "
-          f"the full SPH's compiled loop {tr.sph_s:.4g} s (FMU / full SPH = {tr.cost_ratio:.3g})")
+    print(f"  cost per simulated T: the FMU's own work (doStep, CPU time) {tr.step_s:.4g} s, through fmpy (wall) "
+          f"{tr.fmu_s:.4g} s; the full SPH's compiled loop (CPU time) {tr.sph_s:.4g} s (FMU / full SPH = "
+          f"{tr.cost_ratio:.3g})")
     if v.channels:
         print(f"  every input channel from rest against the full SPH stepped in time (the integrator the FMU "
               f"reduces; over {v.channel_horizon:.4g} s; relative L2 of eq. 3.4):")

@@ -34,7 +34,13 @@ AUTO_EVERY_RULE = ("a sample at the spacing of the automatic snapshots (below; T
 
 # Modes (the truncation of eq. 2.15): the fewest modes that leave out at most ENERGY_LEFT_OUT of the snapshots'
 # energy in the energy-weighted bases of the exact model (kinetic: velocity weighted by rho0; strain: specific
-# volume e = rho0/rho - 1 weighted by c), plus one density mode for the rest density; at most MAX_AUTO_MODES.
+# volume e = rho0/rho - 1 weighted by c), plus one density mode for the rest density; at most MAX_AUTO_MODES for a
+# time-stepped model (the frozen model's refresh costs O(k^4)).  A linear model (advanced exactly in time, O(k^2) per
+# step) takes the kinetic energy's count k_v uncapped (up to the snapshots' rank): a cap there leaves out velocity the
+# criterion asked for, and the FMU's outputs and acceptance are velocities (a two-material bar whose stiff and soft
+# parts differ 19x in c needs k_v = 45 of 103 modes: capped at 20 the exact FMU's training error was 0.22); its
+# strain count k_e + 1 stays capped (a uniform force on a two-material bar of 926 particles spreads its strain energy
+# over k_e = 264 modes while k_v = 1: uncapped the exact FMU cost 25x the full SPH, capped at 20 its error is 2e-13).
 ENERGY_LEFT_OUT = 1e-3
 MAX_AUTO_MODES = 20
 AUTO_MODES_RULE = (
@@ -43,8 +49,10 @@ AUTO_MODES_RULE = (
     f"weighted by c), so a projection error of the snapshots of at most sqrt({ENERGY_LEFT_OUT:g}) = 3 %, of the "
     "order of the full SPH's own error on the paper's scenes of section 3 (their paper.sph_error_v: 6.7e-3 to "
     "8.5e-2); + 1 for the rest density, the first mode of the uncentred density basis (the paper's minimum data, "
-    f"section 3.1.2: 3 velocity and 4 density snapshots for 3 sine modes); at most {MAX_AUTO_MODES} (the paper's "
-    "scenes need at most 12; the frozen model's refresh costs O(k^4)) and at most the rank of the snapshots.  "
+    f"section 3.1.2: 3 velocity and 4 density snapshots for 3 sine modes); at most {MAX_AUTO_MODES} for a "
+    "time-stepped model (the paper's scenes need at most 12; the frozen model's refresh costs O(k^4)); a linear "
+    f"model (the exact one: O(k^2) per step) takes k = max(k_v, min(k_e + 1, {MAX_AUTO_MODES})), its velocity count "
+    "uncapped (its outputs are velocities); at most the rank of the snapshots.  "
     "Chosen when the POD is built (`sphrom pod`, `fmu`, `validate`), and printed")
 
 
@@ -67,9 +75,9 @@ def automatic_every(T, period, dt, n_steps, n_particles):
     return int(max(1, np.floor(T / (count * dt) + 1e-9), least_every(n_steps, n_particles)))
 
 
-def automatic_modes(basis):
+def automatic_modes(basis, linear=False):
     """(k, text): the mode count of :data:`AUTO_MODES_RULE` for ``basis`` (with its energy-weighted bases) and
-    a one-line account of the choice.
+    a one-line account of the choice; ``linear``: for a linear model (no :data:`MAX_AUTO_MODES` cap).
 
     Raises UserError naming ``rom.modes`` when the snapshots carry no motion (v0 = 0 and no force).
     """
@@ -82,11 +90,16 @@ def automatic_modes(basis):
         raise UserError("rom.modes: the snapshots carry no motion (v0 = 0 and no force), so there are no modes to "
                         "choose (allowed: a scene with v0 or a force, or rom.modes given)")
     k = max(k_v, k_e + 1)
-    cap = min(MAX_AUTO_MODES, *basis.max_modes)
-    text = (f"k = {min(k, cap)} (automatic: k_v = {k_v}, k_e = {k_e} modes leave out at most {ENERGY_LEFT_OUT:g} of "
+    rank = min(basis.max_modes)
+    cap = min(MAX_AUTO_MODES, rank)
+    k_linear = min(max(k_v, min(k_e + 1, cap)), rank)       # the velocity count uncapped
+    chosen = k_linear if linear else min(k, cap)
+    text = (f"k = {chosen} (automatic: k_v = {k_v}, k_e = {k_e} modes leave out at most {ENERGY_LEFT_OUT:g} of "
             f"the snapshots' kinetic and strain energy; k = max(k_v, k_e + 1) = {k}"
-            + (f", capped at {cap}" if k > cap else "") + ")")
-    return min(k, cap), text
+            + (f", capped at {cap}" if k > cap and not linear else "")
+            + (f"; a linear model: max(k_v, min(k_e + 1, {cap})) = {k_linear}" if linear or k_linear != chosen
+               else "") + ")")
+    return chosen, text
 
 
 def automatic_rules():

@@ -61,20 +61,22 @@ def on_steps(run, steps):
     return run.v[index], run.rho[index]
 
 
-def scene_modes(scene, basis=None, progress=True, problem=None):
+def scene_modes(scene, basis=None, progress=True, problem=None, linear=False):
     """The POD mode count k of ``scene``: its rom.modes, else :func:`automatic_modes` of its POD basis (the full
-    SPH run from the cache or run now)."""
+    SPH run from the cache or run now; ``linear``: the count for a linear model, uncapped)."""
     if "modes" in scene.rom:
         return int(scene.rom["modes"])
     if basis is None:
         basis, _ = basis_for_scene(scene, progress=progress, problem=problem)
-    return automatic_modes(basis)[0]
+    return automatic_modes(basis, linear=linear)[0]
 
 
-def accel_modes(scene, basis=None, progress=True, problem=None):
-    """The mode counts of the scene's acceleration study: rom.accel_modes, else [:func:`scene_modes`]."""
+def accel_modes(scene, basis=None, progress=True, problem=None, linear=False):
+    """The mode counts of the scene's acceleration study: rom.accel_modes, else [:func:`scene_modes`] (``linear``:
+    of a linear model)."""
     given = scene.rom.get("accel_modes")
-    return [int(k) for k in given] if given else [scene_modes(scene, basis, progress=progress, problem=problem)]
+    return [int(k) for k in given] if given else [scene_modes(scene, basis, progress=progress, problem=problem,
+                                                              linear=linear)]
 
 
 def modes_line(scene, basis=None, progress=True, problem=None):

@@ -93,13 +93,14 @@ class CaseResult:
     fmu_s : float
         Wall time [s] of the FMU's run over T through fmpy (initialization, inputs, doStep, outputs).
     sph_s : float
-        Wall time [s] of the full SPH's compiled time loop over T (the scene's training run).
+        CPU time [s] of the full SPH's compiled time loop over T (the scene's training run; :func:`sph_cost`).
     note : str
         The FMU's error message when it failed, else ''.
     fmu_v_bound : ndarray (M, P) or None
         The FMU's certified bounds of its probe velocities (``v_probe_j_error_bound``; None without them).
     step_s : float
-        Wall time [s] inside the FMU's doStep calls (its own work per simulated T).
+        CPU time [s] of the FMU's doStep calls (its own work per simulated T; :func:`time.thread_time`, as the full
+        SPH's ``sph_s``: their ratio does not count the time other processes took the core).
     warnings : list of str
         The warnings the FMU logged during the run.
     """
@@ -234,16 +235,69 @@ def lowest_frequency(problem):
 
 
 def top_frequency(scene, problem, ops, k):
-    """nu_top [Hz]: the top of the scene's own band as the reduced model ``ops`` holds it: the larger of the highest
-    Rayleigh frequency of its first ``k`` velocity modes (a POD model: its POD modes, before any appended input
-    direction; a model without a POD basis, the balanced one: the largest |Im lambda| of its state matrix) and the
-    frequency below which 99 % of the training force's energy lies (:func:`force_top`)."""
+    """nu_top [Hz]: the top of the band that matters for the scene as the reduced model ``ops`` holds it, the largest
+    of
+
+    - :func:`energy_band` of its velocity modes (a POD model: its POD modes and any appended input direction; ``k``
+      is not used there, kept for the callers): the frequency below which :data:`BAND_ENERGY` of the training run's kinetic energy lies, and that
+      of the step case's elastic response (a force along the scene's profile switched on at t = 0);
+    - the frequency below which 99 % of the training force's energy lies (:func:`force_top`).
+
+    The unseen sine is in this band by construction (:func:`unseen_frequency`).  Not the highest of the k modes'
+    own frequencies: a mode that carries a thousandth of the energy would set a step near the SPH's dt (a steel bar
+    of 71 particles: 48 kHz against a band of a few kHz) and the FMU would do more steps than the SPH it replaces.
+    A model without a POD basis (the balanced one): the largest |Im lambda| of its state matrix."""
     U = ops.velocity_modes
     if U is not None and U.shape[1]:
-        w_top = rayleigh(problem, U[:, :max(1, min(int(k), U.shape[1]))])[1]
+        run = cached_sph(scene, error_steps(scene), progress=False, problem=problem)   # the training run, cached
+        nu = energy_band(problem, U, run.v, problem.profile if problem.terms["force_profile"] else None, scene.T)
     else:
-        w_top = float(np.max(np.abs(np.linalg.eigvals(np.asarray(ops.A, float)).imag), initial=0.0))
-    return max(w_top / (2 * math.pi), force_top(scene))
+        nu = float(np.max(np.abs(np.linalg.eigvals(np.asarray(ops.A, float)).imag), initial=0.0)) / (2 * math.pi)
+    return max(nu, force_top(scene))
+
+
+BAND_ENERGY = 0.99      # the fraction of the kinetic energy below the top of the band (:func:`energy_band`)
+
+
+def energy_band(problem, U, v_samples, profile=None, horizon=None, fraction=BAND_ENERGY):
+    """The frequency [Hz] below which ``fraction`` of the kinetic energy lies, in the modes of the bar reduced to
+    the velocity modes ``U`` (N, k): the Galerkin problem K_r psi = omega^2 M_r psi (M_r = U^T M U, K_r = U^T K U,
+    the linearised eqs. 2.10-2.11's mass and stiffness, :func:`sphrom.rom.inputs.second_order`), the larger of
+
+    - the training run's: sum over the samples ``v_samples`` (m, N) [m s^-1] of (psi_j^T M v)^2 per mode;
+    - with a force ``profile`` (N,) and its ``horizon`` [s]: the step case's, a force along it switched on at t = 0
+      from rest, mean square velocity over the horizon per mode: a_j^2 / (2 omega_j^2) for an elastic mode
+      (v = a_j sin(omega_j t) / omega_j), a_j^2 horizon^2 / 3 for a rigid one (v = a_j t), a_j = psi_j^T M profile.
+
+    Modes are sorted by omega (a rigid mode's is 0); the top is the omega of the mode at which the cumulative energy
+    reaches ``fraction`` of the total (0 when there is no energy, or when the rigid modes hold the fraction)."""
+    from scipy.linalg import eigh
+    from ...rom.inputs import second_order
+
+    M, _, K, _ = second_order(problem)
+    U = np.asarray(U, float)
+    MU = np.asarray(M @ U)
+    Mr, Kr = U.T @ MU, U.T @ np.asarray(K @ U)
+    w2, Q = eigh(0.5 * (Kr + Kr.T), 0.5 * (Mr + Mr.T))
+    w = np.sqrt(np.clip(w2, 0.0, None))
+    elastic = w > 1e-6 * max(float(w.max(initial=0.0)), 1e-300)
+    PsiM = Q.T @ MU.T                                      # psi_j^T M, (k, N)
+
+    w = np.where(elastic, w, 0.0)
+
+    def top(energy):
+        total = float(energy.sum())
+        if not total > 0:
+            return 0.0
+        order = np.argsort(w)
+        j = int(np.searchsorted(np.cumsum(energy[order]), fraction * total))
+        return float(w[order][min(j, w.size - 1)])
+
+    nu = top(np.sum((PsiM @ np.asarray(v_samples, float).T) ** 2, axis=1))
+    if profile is not None and horizon is not None:
+        amp = PsiM @ np.asarray(profile, float)
+        nu = max(nu, top(np.where(elastic, 0.5 * (amp / np.where(elastic, w, 1.0)) ** 2, amp ** 2 * horizon ** 2 / 3)))
+    return nu / (2 * math.pi)
 
 
 def force_top(scene, fraction=0.99):
@@ -461,7 +515,8 @@ def references(scene, step, probes, has_scale, problem=None, progress=False, int
     stepped = stepped_error(scene, problem, probes, run, t, v[:, :, i], rho[:, :, i], rho0)
     return {name: (force, scale, start, (t, v[:, :, i], rho[:, :, i], rho0, sph_s))
             for i, (name, (force, scale, start)) in enumerate(cases.items())} | {"_interpolate": interpolate,
-                                                                                 "_stepped_error": stepped}
+                                                                                 "_stepped_error": stepped,
+                                                                                 "_step": step}
 
 
 def stepped_error(scene, problem, probes, run, t, v_true, rho_true, rho0):
@@ -485,16 +540,41 @@ def stepped_error(scene, problem, probes, run, t, v_true, rho_true, rho0):
 SPH_TIMING = 0.3     # [s] the least wall time of the full SPH's timed run (shorter than T when T takes longer)
 
 
-def sph_cost(scene, problem, recorded):
-    """The full SPH's compiled time loop over the scene's T [s], timed now (in the same run as the FMU's, so that
-    their ratio is measured under one load): the scene's own run (its force, integrator and dt) over T, or over
-    the first steps that take about :data:`SPH_TIMING` s (``recorded``: the training run's recorded wall time over
-    T, which sets how many), scaled to T (the loop's cost per step does not change along the run)."""
+def sph_cost(scene, problem, recorded, repeats=1):
+    """The CPU time [s] of the full SPH's compiled time loop over the scene's T (:func:`time.thread_time`: what the
+    loop cost, not the time other processes took the core), timed now: the scene's own run (its force, integrator
+    and dt) over T, or over the first steps that take about :data:`SPH_TIMING` s (``recorded``: the training run's
+    recorded wall time over T, which sets how many), scaled to T (the loop's cost per step does not change along
+    the run); the median of ``repeats`` runs."""
     n = step_count(scene.T, scene.sph.dt)
     m = n if not recorded > SPH_TIMING else max(1, int(n * SPH_TIMING / recorded))
     short = scene if m == n else dataclasses.replace(scene, T=m * scene.sph.dt)
-    run = run_sph(short, sample_steps=[m], progress=False, problem=problem)
-    return run.wall_time * n / m
+    times = [run_sph(short, sample_steps=[m], progress=False, problem=problem).cpu_time for _ in range(repeats)]
+    return float(np.median(times)) * n / m
+
+
+def cost_medians(path, scene, verification, problem=None, repeats=3):
+    """(FMU, full SPH, ratio): the CPU time [s] per simulated T of the FMU's doStep calls on the training case of
+    ``verification`` (its force, start and communication points) and of the full SPH's compiled loop
+    (:func:`sph_cost`), each the median of ``repeats`` runs timed in pairs (FMU, SPH, FMU, SPH, ...), and the median
+    of the pairs' ratios FMU / SPH: a pair is timed under one load (another process on the core's sibling thread
+    slows both; CPU time does not see that), so the ratio varies less than either time.  nan for the FMU when it
+    failed."""
+    problem = problem or build_problem(scene)
+    has_scale, interpolate, _, _ = fmu_facts(path)
+    tr = verification.training
+    expr = compile_expr(verification.refs["training"][0], ("t", "L", "T"), "force")
+    f = np.broadcast_to(expr(t=tr.t, L=scene.L, T=scene.T), tr.t.shape).astype(float)
+    recorded = cached_sph(scene, error_steps(scene), progress=False, problem=problem).wall_time
+    fmu, sph = [], []
+    for _ in range(repeats):
+        try:
+            fmu.append(fmu_case(path, f, tr.t, scale=1.0 if has_scale else None, interpolate=interpolate).step_s)
+        except RuntimeError:
+            fmu.append(float("nan"))
+        sph.append(sph_cost(scene, problem, recorded))
+    fmu, sph = np.asarray(fmu), np.asarray(sph)
+    return float(np.median(fmu)), float(np.median(sph)), float(np.median(fmu / np.where(sph > 0, sph, np.nan)))
 
 
 def verify_fmu(path, scene, probes, refs=None, problem=None, progress=False):
@@ -508,15 +588,15 @@ def verify_fmu(path, scene, probes, refs=None, problem=None, progress=False):
     probes : sequence of float
         The FMU's probes, x/L.
     refs : dict, optional
-        :func:`references` already computed for this scene, step and probes (recomputed when its input mode is not
-        this FMU's).
+        :func:`references` already computed for this scene, step and probes (recomputed when its input mode or its
+        communication step is not this FMU's: two models of one scene can hold different bands).
 
     Returns
     -------
     Verification
     """
     has_scale, interpolate, step, tolerance = fmu_facts(path)
-    if refs is None or refs.get("_interpolate") != interpolate:
+    if refs is None or refs.get("_interpolate") != interpolate or refs.get("_step", step) != step:
         refs = references(scene, step, probes, has_scale, problem=problem, progress=progress, interpolate=interpolate)
     result = Verification(step=step, T=scene.T, input="linear (df/dt)" if interpolate else "held",
                           probes=list(probes), refs=refs, truth=TRUTH_NAME, error_tolerance=tolerance,

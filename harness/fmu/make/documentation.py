@@ -329,9 +329,10 @@ def verification_section(verification, tolerance=None):
              "as under a uniform force from rest: then the largest density difference says it). Certified bound: "
              "whether v_probe_j_error_bound held at every point, and its largest value over the largest true "
              "error; warnings: those the FMU logged. Times over T, one run each on the packaging machine, setup "
-             "excluded: the FMU's own work (its doStep calls), its whole run through fmpy (initialize, inputs, "
-             "doSteps, outputs: Python's per-step overhead included), the full SPH's compiled time loop (the "
-             "scene's training run); cost ratio = the FMU's own work / the full SPH's.</p>",
+             "excluded: the FMU's own work (the CPU time of its doStep calls), its whole run through fmpy (wall time: "
+             "initialize, inputs, doSteps, outputs, Python's per-step overhead included), the full SPH's compiled "
+             "time loop (CPU time, the scene's training run); cost ratio = the FMU's own work / the full SPH's "
+             "(CPU times: the time other processes took the cores does not count).</p>",
              *_table(("force", "f(t) [m s^-2]", "from", "v error", "rho - rho0 error", "max |rho - rho_true| "
                       "[kg m^-3]", "bound", "bound / error", "warnings", "FMU doStep [s]", "FMU via fmpy [s]",
                       "full SPH [s]", "cost ratio", "note"), rows, table_id="measured")]

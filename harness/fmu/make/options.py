@@ -22,10 +22,11 @@ from ..variables import check_parameter
 from ...pod.pipeline import accel_modes
 
 
-def default_modes(scene):
+def default_modes(scene, linear=False):
     """K of the scene: max(rom.accel_modes), else rom.modes, else the automatic mode count of its POD
-    (:func:`sphrom.pod.pipeline.scene_modes`: runs the full SPH when it is not cached)."""
-    return int(max(accel_modes(scene)))
+    (:func:`sphrom.pod.pipeline.scene_modes`: runs the full SPH when it is not cached; ``linear``: for a linear
+    model, not capped at :data:`sphrom.pod.automatic.MAX_AUTO_MODES`)."""
+    return int(max(accel_modes(scene, linear=linear)))
 
 
 def parse_probes(text):
@@ -70,7 +71,7 @@ def check_options(scene, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaults.
                                             f"k (allowed with: {', '.join(model_names(sized_by_tolerance=True))})")
     if order_tolerance is not None and k is not None:
         raise FieldError("order_tolerance", "give the order k or order_tolerance, not both")
-    k = default_modes(scene) if k is None and not spec.sized_by_tolerance else k
+    k = default_modes(scene, linear=spec.linear) if k is None and not spec.sized_by_tolerance else k
     if k is not None and (isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1):
         raise FieldError("k", f"{k!r} is out of range (allowed: an integer >= 1)")
     limit = spec.max_modes(scene.sph.n_particles)
