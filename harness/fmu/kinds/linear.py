@@ -279,9 +279,9 @@ def resource(scene, model, k, n_freeze, probes, integrator, progress, problem, o
     this kind's options (a linear model has no internal step): the caller's values are ignored."""
 
     build_options = dict(build_options or {})
-    # build option blocks=True: the model in its real eigen-coordinates (to_blocks); the dense form stays the default
-    # until the block form's ~1e-14 differences from the dense outputs are accepted (capture, bitwise tests)
-    blocks = bool(build_options.pop("blocks", False))
+    # the model in its real eigen-coordinates (to_blocks; issue 34): O(k) per step instead of O(k²), the dense form
+    # kept where the transform is ill-conditioned; build option blocks=False keeps it dense (the form of before)
+    blocks = bool(build_options.pop("blocks", True))
     if get_model(model).needs_basis:
         basis, run, problem = training_basis(scene, progress, problem, extra_steps)
         data, ops, problem, _ = exact_model(scene, k, probes, progress=progress,
