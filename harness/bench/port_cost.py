@@ -15,13 +15,18 @@ loop without fmi2DoStep, the cost of the calls themselves.
 Cases: tenmode (N = 400, undamped) with a port at x/L = 0.5 and damped_forced (N = 100) with ports at 0.3 and 0.7,
 the frozen and the exact model: without ports, with ports (the port channel: the portless model plus the channel,
 :mod:`sphrom.rom.port_channel`) and with the ports in the basis as before (build option ``port_channel=False``, the
-frozen one with symplectic Euler: the FMUs of before the channel).  Against k: tenmode's frozen and exact FMUs at
-each k of ``--ks``, without and with the port.
+frozen one with symplectic Euler, the linear one dense: the FMUs of before the channel); the exact model (k = 12) and
+the balanced model (order :data:`BALANCED_ORDER`) without ports in their block form (the default) and dense (build
+option ``blocks=False``).  Against k: tenmode's frozen and exact FMUs at each k of ``--ks``, without and with the
+port, and the exact one dense.
 
 Beside each time, the multiply-adds of one communication step as the C core does them (:func:`multiply_adds`): the
-model's own (the frozen model's internal steps and refreshes; the linear model's dense step), the port channel's
-(its planes' step and the output rows once), the error bounds' shadow (its planes' step and the check of the velocity
-bounds against error_tolerance after each step) and the outputs read.
+model's own (the frozen model's internal steps and refreshes; the linear model's step, dense or block by block), the
+port channel's (its planes' step and the output rows once), the error bounds' shadow (its planes' step and the check
+of the velocity bounds against error_tolerance after each step) and the outputs read; the sincos calls per step
+(:func:`trig_calls`); and for a linear FMU its time over ``floor + multiply-adds x ns per multiply-add``, the rate of
+the core's own row loop timed by ``sphrom_step_cost --calibrate`` in each round (:func:`calibrate`).  The a priori
+bounds (``sphrom fmu --a-priori-bounds``) are not computed: as ``sphrom fmu`` packages by default.
 """
 
 from __future__ import annotations
@@ -294,8 +299,13 @@ def report_lines(rows, command, wall, steps, repeats):
              "model with symplectic Euler), as every port FMU was before.  floor: the same loop without fmi2DoStep "
              "(the FMI calls themselves).  Multiply-adds: `sphrom.bench.port_cost.multiply_adds`, the C core's "
              "arithmetic of one step (the frozen model's internal steps of its dt and 1/n_freeze of a refresh each; "
-             "the linear model's dense step; the channel's planes and its output rows once; the shadow's planes and "
-             "the check of the velocity bounds against error_tolerance after every step).", ""]
+             "the linear model's step: k² dense, Σ b² over its 1 × 1 and 2 × 2 blocks in the block form, the "
+             "default (build option `blocks`; *(dense)*: `blocks=False`); the channel's planes and its output rows "
+             "once; the shadow's planes and the check of the velocity bounds against error_tolerance after every "
+             "step); sincos: the calls per step beside them (a dense undamped model's free response at t).  "
+             "× (floor + madds): a linear FMU's CPU time per step over floor + multiply-adds × "
+             f"{rate_text(rows)} ns, the core's row loop timed by `sphrom_step_cost --calibrate` in each round "
+             "(the median of the run-by-run ratios).", ""]
     lines += table(rows)
     lines.append("")
     for scene, ports in CASES:
@@ -307,7 +317,20 @@ def report_lines(rows, command, wall, steps, repeats):
                 lines.append(f"- {scene} {model} with ports at x/L = {', '.join(f'{x:g}' for x in ports)}: "
                              f"{r['ratio_to_portless']:.2f}× its portless FMU per step (before: "
                              f"{b['ns_per_step'] / p['ns_per_step']:.1f}×; target ≤ 1.5× for the frozen one).")
+    linear = [r for r in rows if r["model"] != "frozen" and not r["before"]]
+    for form, name in ((True, "block form (the default)"), (False, "dense form")):
+        mine = [r for r in linear if r["blocks"] == form]
+        if mine:
+            worst = max(mine, key=lambda r: r["ratio_to_madds"])
+            lines.append(f"- linear FMUs in the {name}: at most {worst['ratio_to_madds']:.2f}× floor + multiply-adds "
+                         f"({worst['fmu']}; target ≤ 2× for the exact and balanced FMUs).")
     return lines
+
+
+def rate_text(rows):
+    """The median ns per multiply-add of the run, as printed."""
+    rates = [r["ns_per_madd"] for r in rows if r.get("ns_per_madd") == r.get("ns_per_madd")]
+    return f"{statistics.median(rates):.2f}" if rates else "—"
 
 
 def write_csv(path, rows):

@@ -415,12 +415,12 @@ def linear_output_rates(data, z, f=0.0):
     input ``f`` [m s^-2] now, as fmu_src/rom_exact.c gives them (fmi2GetRealOutputDerivatives).
 
     dz/dt = A z + B f; dv_j/dt = Pv[j] . (dz/dt)_a; ρ_j = Σ_m w_m ρ0_m / J_m with J_m = 1 + Pe[j][m] . b, so
-    dρ_j/dt = -Σ_m w_m ρ0_m (Pe[j][m] . (db/dt)) / J_m².  Returns (dv/dt [m s^-2], dρ/dt [kg m^-3 s^-1]).
+    dρ_j/dt = -Σ_m w_m ρ0_m (Pe[j][m] . (db/dt)) / J_m² (with output rows, over the whole z instead of a, b).  Returns (dv/dt [m s^-2], dρ/dt [kg m^-3 s^-1]).
     """
     z = np.asarray(z, float)
     zdot = state_rate(data.A, data.B, z, f)
-    kv = data.k_v
-    dv = data.Pv @ zdot[:kv]
+    kv = 0 if data.output_rows else data.k_v       # rows over the whole z (output rows: the block form, balanced)
+    dv = data.Pv @ (zdot if data.output_rows else zdot[:kv])
     J = 1.0 + np.einsum("psk,k->ps", data.Pe, z[kv:])
     dJ = np.einsum("psk,k->ps", data.Pe, zdot[kv:])
     drho = -np.sum(data.pw * data.prho0 * dJ / (J * J), axis=1)
