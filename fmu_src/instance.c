@@ -470,15 +470,26 @@ static uint32_t variable_span(const Variable *var) {
     return var->count == COUNT_PER_PROBE ? ROM_MAX_PROBES : var->count == COUNT_PER_PORT ? ROM_MAX_PORTS : 1u;
 }
 
-/* the variable of value reference ref in this FMU, or NULL; *j: the member of a family (a row whose span cannot
- * hold ref is passed over before its presence rule, which may search the model's sections, is asked) */
-static const Variable *lookup(const Instance *inst, uint32_t ref, uint32_t *j) {
+/* row var holds value reference ref in this FMU (*j: the member of a family); a row whose span cannot hold ref is
+ * passed over before its presence rule, which may search the model's sections, is asked */
+static int row_holds(const Instance *inst, const Variable *var, uint32_t ref, uint32_t *j) {
+    if (ref < var->vr || ref - var->vr >= variable_span(var)) return 0;
+    if (ref - var->vr >= variable_count(inst, var)) return 0;
+    *j = ref - var->vr;
+    return 1;
+}
+
+/* the variable of value reference ref in this FMU, or NULL.  The rows' spans do not overlap, so at most one row
+ * holds ref: the row of the last hit is asked first (an importer reads and writes the same families every step,
+ * a family's references one after another), then the table in order */
+static const Variable *lookup(Instance *inst, uint32_t ref, uint32_t *j) {
+    if (inst->lookup_hint < N_VARIABLES && row_holds(inst, &VARIABLES[inst->lookup_hint], ref, j)) {
+        return &VARIABLES[inst->lookup_hint];
+    }
     for (size_t i = 0; i < N_VARIABLES; i++) {
-        const Variable *var = &VARIABLES[i];
-        if (ref < var->vr || ref - var->vr >= variable_span(var)) continue;
-        if (ref - var->vr < variable_count(inst, var)) {
-            *j = ref - var->vr;
-            return var;
+        if (row_holds(inst, &VARIABLES[i], ref, j)) {
+            inst->lookup_hint = i;
+            return &VARIABLES[i];
         }
     }
     return NULL;

@@ -85,6 +85,7 @@ typedef struct {
     int warned_envelope;               /* the warning on leaving the training envelope was logged (reset re-arms) */
     int assembled;                     /* parametric models: the model's operators were assembled at */
     double assembled_c, assembled_d;   /* these c [kg m^-1 s^-2] and d [s^-1] (rom_model_assemble) */
+    size_t lookup_hint;                /* the variables table's row of the last value reference found */
     char message[ROM_MESSAGE_SIZE];    /* the core's last message */
 } Instance;
 

@@ -2,9 +2,11 @@
  * Model kind 2, the exact linear reduced model in the specific volume
  * (harness/rom/exact_linear.py), the path of every linear model: dz/dt = A z +
  * B f, advanced over each step by the matrix exponential of its augmented
- * matrix (cached per step length), and for a skew A the free response e^{At} z0
- * from the real Schur form, evaluated at the time itself so that no error
- * accumulates over steps.  Its body of the resources, state, outputs and their
+ * matrix (cached per step length), and for a dense skew A the free response
+ * e^{At} z0 from the real Schur form, evaluated at the time itself so that no
+ * error accumulates over steps; a block-diagonal A (the default, flag blocks)
+ * block by block, a skew one's rotations from cos and sin of w h once per step
+ * length (its |y| kept to round-off per step, no sincos per step).  Its body of the resources, state, outputs and their
  * rates, parameters and serialized block, and its table of operations
  * (rom_exact_kind, at the end).
  */
@@ -40,6 +42,15 @@ static int block_maps(const RomModel *m, const RomExactModel *em, RomExpCache *s
     }
     for (size_t c = 0; c < ni; c++) M[(b + c) * n + b + ni + c] = 1.0;
     if (!rom_expm_taylor(n, M, E, X, T)) return 0;
+    const double *a = em->A + lo * k + lo;
+    if (!em->damping && b == 2) {          /* a rotation [[0, w], [-w, 0]]: e^{A h} from cos and sin of w h (a
+                                            * rotation to round-off, so that stepping it keeps |y|, the energy) */
+        const double c = cos(a[1] * h), sn = sin(a[1] * h);
+        E[0] = c;
+        E[1] = sn;
+        E[n] = -sn;
+        E[n + 1] = c;
+    }
     for (size_t i = 0; i < b; i++) {
         for (size_t j = 0; j < b; j++) slot->Phi[(lo + i) * k + lo + j] = E[i * n + j];
         for (size_t c = 0; c < ni; c++) {
@@ -124,8 +135,8 @@ static RomExpCache *exact_maps(RomState *s, double h, char *message, size_t mess
 }
 
 /* z = e^{A t} z0 from the real Schur form A = Q S Q^T (skew A: S has 2x2
- * rotation blocks [[0, w], [-w, 0]] and zeros), evaluated at t directly; a skew block-diagonal A is its own S
- * (Q = I: z = y). */
+ * rotation blocks [[0, w], [-w, 0]] and zeros), evaluated at t directly (a block-diagonal A steps its rotations
+ * instead: no free path; without Q, S is A itself and z = y). */
 static void free_response(const RomExactModel *em, double t, double *restrict y, double *restrict z) {
     const size_t k = em->k;
     const double *S = em->Q ? em->S : em->A;
@@ -252,7 +263,7 @@ static double exact_rho_probe(const RomState *s, uint32_t j) {
     for (int side = 0; side < 2; side++) {
         const double e = exact_output(s, e_row(em, j, side)) + channel_e(s, j, side);
         const double J = 1.0 + e;
-        if (!(J > 0)) return NAN;                     /* compressed through J = 0: no density */
+        if (!(J > 0) || !isfinite(J)) return NAN;    /* compressed through J = 0 (or no J): no density */
         rho += em->pw[2 * j + side] * (em->prho0[2 * j + side] / J);
     }
     return rho;
@@ -365,7 +376,8 @@ static RomStatus exact_load(RomModel *m, const unsigned char *cursor, uint64_t d
                         "rows over z and no Schur form");
     }
     em->blocks = blocks;
-    em->free_path = cQ != 0 || (blocks && skew);
+    em->damping = !skew;
+    em->free_path = cQ != 0;     /* skew blocks step their rotations (block_maps): no sincos per step */
     const size_t counts[11] = {k, k * k, cB, cQ, cQ, em->free_path ? k : 0, np * k, np * 2 * k, 2 * np, 2 * np, np};
     double **ptrs[11] = {&em->z0, &em->A, &em->B, &em->Q, &em->S, &em->y0, &em->Pv, &em->Pe, &em->pw, &em->prho0,
                          &em->probe_x};
@@ -428,7 +440,6 @@ static RomStatus exact_load(RomModel *m, const unsigned char *cursor, uint64_t d
             }
             lo += b;
         }
-        if (em->free_path) memcpy(em->y0, em->z0, k * sizeof(double));   /* the model's own coordinates: Q = I */
     }
     return ROM_OK;
 }

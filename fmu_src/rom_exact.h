@@ -28,8 +28,10 @@ typedef struct {
     double *Pe;                /* [n_probes][2][k] e rows over z at the probe's two particles */
     double *pw, *prho0;        /* [n_probes][2] interpolation weights, rho0 at those particles */
     double *probe_x;           /* [n_probes] probe positions in units of L (RomModel.probe_x) */
-    int blocks;                /* 1: A block diagonal (flag blocks): stepped block by block, O(k) per step */
-    int free_path;             /* 1: a skew A (Schur form, or skew blocks): the free response evaluated at t */
+    int blocks;                /* 1: A block diagonal (flag blocks): stepped block by block, O(k) per step (a
+                                * skew one's 2 x 2 blocks: rotations by w h from cos and sin) */
+    int damping;               /* 0: a skew A (flag damping clear) */
+    int free_path;             /* 1: the Schur form (a dense skew A): the free response evaluated at t */
     void *storage_;            /* one allocation behind the arrays */
 } RomExactModel;
 

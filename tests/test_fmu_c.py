@@ -366,9 +366,9 @@ def test_exact_model_names_a_specific_volume_at_or_below_zero(packaged, binaries
     """J = 1 + e <= 0 at a probe (compression through zero volume) is named as such, not as a NaN density."""
     from sphrom.fmu.resources import pack_exact
     data = unpack(zipfile.ZipFile(packaged[("exact-unforced", 2)]).read("resources/model.bin"))
-    row = data.Pe[0, 0]
+    row = data.Pe[0, 0]                                    # over the whole z (output rows: the block form) or b
     data.z0 = data.z0.copy()
-    data.z0[data.k_v:] = -2.0 * row / (row @ row)          # e = -2 at probe 1's first particle
+    data.z0[data.k - row.size:] = -2.0 * row / (row @ row)  # e = -2 at probe 1's first particle
     data.bound = 1e6 * float(np.max(np.abs(data.z0)))
     model = Core(binaries.core).load(pack_exact(data))
     with pytest.raises(CoreError, match=r"specific volume J = 1 \+ e = -.* <= 0 at probe 1 \(x/L = 0.25\) at "

@@ -66,8 +66,8 @@ def test_exact_fmu_with_derivatives_equals_linear_input_model(fmus, tmp_path, re
     """fmpy with set_input_derivatives = run_exact(hold="linear") to 1e-11; held inputs differ by far more."""
     path = fmus("exact", 2)
     scene = fmu_scene("forced")
-    _, lin, _, _ = exact_model(scene, K, PROBES, progress=False)
-    data = unpack(zipfile.ZipFile(path).read("resources/model.bin"))
+    dense, lin, _, _ = exact_model(scene, K, PROBES, progress=False)   # its rows over the dense z (run_exact's)
+    assert unpack(zipfile.ZipFile(path).read("resources/model.bin")).blocks   # the FMU steps its block form
     t = np.arange(M + 1) * H
     csv = tmp_path / "f.csv"
     np.savetxt(csv, np.column_stack([t, _force(t)]), delimiter=",", header="time,f", comments="", fmt="%.17g")
@@ -76,8 +76,8 @@ def test_exact_fmu_with_derivatives_equals_linear_input_model(fmus, tmp_path, re
     assert lin_run.input_derivatives and not held_run.input_derivatives
     assert np.allclose(lin_run.values[:, 0], t, rtol=0, atol=1e-12)
     scene_force = lambda s: _force(np.asarray(s, float))                 # noqa: E731
-    ref_lin = probe_outputs(data, run_exact(lin, t, step=H, force=scene_force, hold="linear").z)
-    ref_held = probe_outputs(data, run_exact(lin, t, step=H, force=scene_force, hold="held").z)
+    ref_lin = probe_outputs(dense, run_exact(lin, t, step=H, force=scene_force, hold="linear").z)
+    ref_held = probe_outputs(dense, run_exact(lin, t, step=H, force=scene_force, hold="held").z)
     from sphrom.fmu.variables import members
     model = members(lin_run.names, "v_probe_j") + members(lin_run.names, "rho_probe_j")   # not the error bounds
     residual = relative_residual(lin_run.values[:, model], ref_lin)

@@ -9,12 +9,17 @@
  *
  *   sphrom_step_cost FMU_DIR --probes P [--ports N] [--steps M] [--h H] [--repeats R] [--scale S] [--bounds]
  *                    [--impedance Z] [--floor]
+ *   sphrom_step_cost --calibrate [--repeats R]
  *
  * Each repeat instantiates the FMU, sets the parameters (initial_state_scale S, port_impedance Z), initializes and
  * times M steps of H, thread CPU time and wall time; the first step of a repeat (the exponentials of a new step
  * length) is outside the clock.  --floor times the same loop without fmi2DoStep (the calls' own cost: the floor of
  * this driver).  Prints one line of JSON: the medians over the repeats in ns per step, and the values of the last
  * step's outputs (a check that the run was the same in every repeat).
+ *
+ * --calibrate times the core's own inner loop, a row times a state (acc += row[j] * z[j], compiled with the core's
+ * flags: no fused multiply-add, one dependent sum), over rows of 8 to 64 entries, and prints the median ns per
+ * multiply-add: the rate at which a linear model's multiply-adds are done, beside which its cost per step is read.
  *
  * No Python, no checks beyond the FMI statuses: a failed call prints its message and exits with status 1.
  */
@@ -91,7 +96,44 @@ static int read_token(const char *dir, char *token, size_t size) {
     return 1;
 }
 
+/* ns per multiply-add of the core's row loop (module comment, --calibrate) */
+static int calibrate(int repeats) {
+    enum { ROWS = 64, LONGEST = 64, SWEEPS = 4000 };
+    static double row[ROWS * LONGEST], z[LONGEST];
+    for (int i = 0; i < ROWS * LONGEST; i++) row[i] = 1.0 / (double)(i + 3);
+    for (int j = 0; j < LONGEST; j++) z[j] = 0.5 + 1e-3 * (double)j;
+    double ns[MAX_REPEATS];
+    volatile double sink = 0.0;
+    for (int r = 0; r < repeats; r++) {
+        double madds = 0.0;
+        const double c0 = seconds(CLOCK_THREAD_CPUTIME_ID);
+        for (int sweep = 0; sweep < SWEEPS; sweep++) {
+            const int k = 8 + 8 * (sweep % 8);          /* rows of 8, 16, ..., 64 entries */
+            for (int i = 0; i < ROWS; i++) {
+                const double *w = row + (size_t)i * LONGEST;
+                double acc = 0.0;
+                for (int j = 0; j < k; j++) acc += w[j] * z[j];
+                z[i % k] = 0.5 + 1e-9 * acc;             /* the next row reads this one's result */
+            }
+            madds += (double)ROWS * (double)k;
+        }
+        ns[r] = (seconds(CLOCK_THREAD_CPUTIME_ID) - c0) * 1e9 / madds;
+        sink = sink + z[0];
+    }
+    printf("{\"ns_per_madd\": %.6g, \"repeats\": %d}\n", median(ns, repeats), repeats);
+    (void)sink;
+    return 0;
+}
+
 int main(int argc, char **argv) {
+    if (argc >= 2 && !strcmp(argv[1], "--calibrate")) {
+        const int repeats = argc >= 4 && !strcmp(argv[2], "--repeats") ? atoi(argv[3]) : 5;
+        if (repeats < 1 || repeats > MAX_REPEATS) {
+            fprintf(stderr, "step_cost: --repeats 1..%d\n", MAX_REPEATS);
+            return 2;
+        }
+        return calibrate(repeats);
+    }
     if (argc < 2) {
         fprintf(stderr, "usage: %s FMU_DIR --probes P [--ports N] [--steps M] [--h H] [--repeats R] [--scale S] "
                 "[--bounds] [--impedance Z] [--floor]\n", argv[0]);

@@ -279,9 +279,9 @@ def resource(scene, model, k, n_freeze, probes, integrator, progress, problem, o
     this kind's options (a linear model has no internal step): the caller's values are ignored."""
 
     build_options = dict(build_options or {})
-    # build option blocks=True: the model in its real eigen-coordinates (to_blocks); the dense form stays the default
-    # until the block form's ~1e-14 differences from the dense outputs are accepted (capture, bitwise tests)
-    blocks = bool(build_options.pop("blocks", False))
+    # the model in its real eigen-coordinates (to_blocks; issue 34): O(k) per step instead of O(k²), the dense form
+    # kept where the transform is ill-conditioned; build option blocks=False keeps it dense (the form of before)
+    blocks = bool(build_options.pop("blocks", True))
     if get_model(model).needs_basis:
         basis, run, problem = training_basis(scene, progress, problem, extra_steps)
         data, ops, problem, _ = exact_model(scene, k, probes, progress=progress,
@@ -415,12 +415,12 @@ def linear_output_rates(data, z, f=0.0):
     input ``f`` [m s^-2] now, as fmu_src/rom_exact.c gives them (fmi2GetRealOutputDerivatives).
 
     dz/dt = A z + B f; dv_j/dt = Pv[j] . (dz/dt)_a; ρ_j = Σ_m w_m ρ0_m / J_m with J_m = 1 + Pe[j][m] . b, so
-    dρ_j/dt = -Σ_m w_m ρ0_m (Pe[j][m] . (db/dt)) / J_m².  Returns (dv/dt [m s^-2], dρ/dt [kg m^-3 s^-1]).
+    dρ_j/dt = -Σ_m w_m ρ0_m (Pe[j][m] . (db/dt)) / J_m² (with output rows, over the whole z instead of a, b).  Returns (dv/dt [m s^-2], dρ/dt [kg m^-3 s^-1]).
     """
     z = np.asarray(z, float)
     zdot = state_rate(data.A, data.B, z, f)
-    kv = data.k_v
-    dv = data.Pv @ zdot[:kv]
+    kv = 0 if data.output_rows else data.k_v       # rows over the whole z (output rows: the block form, balanced)
+    dv = data.Pv @ (zdot if data.output_rows else zdot[:kv])
     J = 1.0 + np.einsum("psk,k->ps", data.Pe, z[kv:])
     dJ = np.einsum("psk,k->ps", data.Pe, zdot[kv:])
     drho = -np.sum(data.pw * data.prho0 * dJ / (J * J), axis=1)
