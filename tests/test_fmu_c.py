@@ -3,6 +3,7 @@
 resources format, rebuilding from sources/ with fmpy, and the core benchmark.
 """
 
+import concurrent.futures
 import json
 import os
 import re
@@ -130,8 +131,12 @@ def test_c_driver_under_address_and_undefined_sanitizers(packaged, tmp_path):
     env = {"ASAN_OPTIONS": "detect_leaks=1:abort_on_error=0:halt_on_error=1:detect_stack_use_after_return=1",
            "UBSAN_OPTIONS": "halt_on_error=1:print_stacktrace=1",
            "SPHROM_DRIVER_NO_TIMING": "1"}      # the bound scenario's 10 s answer is timed in the release run
-    for case in ("forced", "unforced", "exact-forced", "exact-unforced", "parametric"):
-        rc, output = run_driver(san.driver, packaged[(case, "resources")], tmp_path / f"scratch-{case}", env=env)
+    cases = ("forced", "unforced", "exact-forced", "exact-unforced", "parametric")
+    # five independent processes: run side by side on the machine's cores (the sanitizers make each one slow)
+    with concurrent.futures.ThreadPoolExecutor(max_workers=min(len(cases), os.cpu_count() or 1)) as pool:
+        runs = pool.map(lambda case: run_driver(san.driver, packaged[(case, "resources")],
+                                                tmp_path / f"scratch-{case}", env=env), cases)
+    for rc, output in runs:
         assert rc == 0, output
         assert "AddressSanitizer" not in output and "LeakSanitizer" not in output and "runtime error" not in output
         for name in SCENARIOS:
