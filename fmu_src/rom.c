@@ -336,6 +336,9 @@ RomStatus rom_check_outputs(const RomState *s, char *message, size_t message_siz
         if (rho > 0 && isfinite(rho)) continue;   /* a kind's density is NaN where its own check fails: the check
                                                    * (and its message) only then, not twice the rows every step */
         if (ops->check_probe && ops->check_probe(s, j, message, message_size) != ROM_OK) return ROM_FAIL;
+        if (isnan(rho))                            /* "is nan" reads as a typo: say what it is */
+            return rom_fail(message, message_size, "density at probe %u (x/L = %g) is not a number (must be > 0) "
+                            "at t = %.9g s: the state ran away", j + 1, s->model->probe_x[j], s->time);
         return rom_fail(message, message_size, "density at probe %u (x/L = %g) is %g (must be > 0) at t = %.9g s",
                         j + 1, s->model->probe_x[j], rho, s->time);
     }

@@ -172,7 +172,7 @@ def passivity_table(rows):
         ends = [r["end"] for r in mine if r["step"] in (PASSIVITY_STEPS[0], PASSIVITY_STEPS[-1])]
         stopped = "; ".join(f"{r['step'] * 1e3:g} ms: {r['failed']}" for r in mine if r["failed"]) or "—"
         out.append(f"| {scene} | {model} | {master} | {max(r['step_growth'] for r in mine):.2e} | "
-                   f"{max(r['run_growth'] for r in mine):.2e} | {', '.join(f'{e:.3g}' for e in ends)} | {stopped} |")
+                   f"{max(r['run_growth'] for r in mine):.2e} | {', '.join(fmt(e, '.3g') for e in ends)} | {stopped} |")
     return out
 
 

@@ -279,7 +279,7 @@ def resource(scene, model, k, n_freeze, probes, integrator, progress, problem, o
     this kind's options (a linear model has no internal step): the caller's values are ignored."""
 
     build_options = dict(build_options or {})
-    # the model in its real eigen-coordinates (to_blocks; issue 34): O(k) per step instead of O(k²), the dense form
+    # the model in its real eigen-coordinates (to_blocks): O(k) per step instead of O(k²), the dense form
     # kept where the transform is ill-conditioned; build option blocks=False keeps it dense (the form of before)
     blocks = bool(build_options.pop("blocks", True))
     if get_model(model).needs_basis:
