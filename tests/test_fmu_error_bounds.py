@@ -477,3 +477,15 @@ def test_uncomputed_planes_weighted_norms():
     assert np.all(gains <= tail.gain())
     P = len(PROBES)
     assert np.all(tail.free()[:P] <= 5.0 * holder[:P])
+
+
+def test_bench_summary_counts_every_scenes_runs():
+    """sphrom bench error_bounds' per-model summary counts a run per scene, model and case: the case names repeat
+    across scenes, and keyed by the name alone the summary had kept one scene's runs (its violations and points)."""
+    from sphrom.bench.error_bounds import summarise
+    rows = [{"scene": s, "model": "exact", "case": c, "output": o, "effectivity": 1.0, "max_err": 1e-6,
+             "max_bound": 1e-6, "violations": v, "points": 11, "false_alarm": False}
+            for s, v in (("a", 0), ("b", 2)) for c in ("step, held, rest", "chirp, held, rest")
+            for o in ("v_probe_1", "rho_probe_1")]
+    (total,) = summarise(rows, ("model",))
+    assert total["runs"] == 4 and total["points"] == 44 and total["violations"] == 4 and total["outputs"] == 8

@@ -336,9 +336,10 @@ def summarise(rows, keys):
     for key, rs in groups.items():
         eff = np.array([r["effectivity"] for r in rs], float)
         counted = eff[np.isfinite(eff)]
-        runs = {r["case"] for r in rs}
-        per_run = {r["case"]: (r["violations"], r["points"], r["false_alarm"]) for r in rs}
-        out.append({**dict(zip(keys, key)), "runs": len(runs),
+        # a run is a case of one scene and model (case names repeat across scenes and models)
+        per_run = {(r.get("scene"), r.get("model"), r.get("point"), r["case"]):
+                   (r["violations"], r["points"], r["false_alarm"]) for r in rs}
+        out.append({**dict(zip(keys, key)), "runs": len(per_run),
                     "violations": sum(v[0] for v in per_run.values()), "points": sum(v[1] for v in per_run.values()),
                     "false_alarms": sum(v[2] for v in per_run.values()), "counted": int(counted.size),
                     "outputs": int(eff.size),
