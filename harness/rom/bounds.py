@@ -72,7 +72,7 @@ MAX_PLANES = 96             # the largest shadow (planes; k_s = 2 x this)
 PORT_ALL_PLANES = 500       # port forces as the shadow's inputs and N <= this: every plane (build_shadow)
 SPARSE_PLANES = 96          # planes computed above DENSE_LIMIT particles (the shadow's and a buffer of exact ones)
 INITIAL_BUDGET = 3.2e6      # ... more, up to this / N (at most MAX_COMPUTED), where the initial state's tail needs
-MAX_COMPUTED = 400          # them (build_shadow; Lanczos costs ~N k²: 11 s for k = 300 at N = 1e4)
+MAX_COMPUTED = 400          # them (build_shadow; Lanczos costs ~N k²: BENCHMARKS.md, "at large N")
 ROUNDOFF = 1e-11            # relative round-off allowance
 ROUNDOFF_STEP = 1e-15       # ... plus this per step
 SUM_ROUNDOFF = 1e-12        # the complement's sums: times (1 + this)
