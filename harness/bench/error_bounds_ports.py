@@ -250,7 +250,8 @@ def main(argv=None):
             rows += got
             for r in got:
                 if r.get("note"):
-                    print(f"{r['scene']:14s} {r['model']:9s} not built: {r['note']}", flush=True)
+                    where = f"{r['start']:14s} {r['case']:32s} " if r.get("case") else "not built: "
+                    print(f"{r['scene']:14s} {r['model']:9s} {where}{r['note']}", flush=True)
                     continue
                 print(f"{r['scene']:14s} {r['model']:9s} {r['start']:14s} {r['case']:32s} violations "
                       f"{r['violations']}, effectivity median {_g(r['eff_median'])} max {_g(r['eff_max'])} (v_port "
