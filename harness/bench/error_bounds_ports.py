@@ -68,9 +68,24 @@ def cases(t, T):
 
 def run_fmu(path, t, scale, f, F):
     """(outputs (M, n), names, the port forces applied (M, 2) [N], warnings, error_tolerance) of the FMU at ``path``
-    driven over ``t``; ``F`` None: port 1 coupled to the mass-spring, port 2 free."""
+    driven over ``t``; ``F`` None: port 1 coupled to the mass-spring, port 2 free.  Raises :class:`RunStopped`
+    (with the FMU's logged reason) when the FMU returns an error status."""
+    from fmpy.fmi1 import FMICallException
     applied = np.zeros((t.size, len(PORTS)))
-    with FMU(path) as fmu:
+    messages = []
+    try:
+        return _run_fmu(path, t, scale, f, F, applied, messages)
+    except FMICallException as exc:               # the FMU stopped the run (an error status): say why
+        errors = [text for status, _, text in messages if status >= 3]
+        raise RunStopped(errors[0] if errors else str(exc)) from None
+
+
+class RunStopped(RuntimeError):
+    """An FMU returned an error status during a run (the FMU's own message)."""
+
+
+def _run_fmu(path, t, scale, f, F, applied, messages):
+    with FMU(path, messages=messages) as fmu:
         names = fmu.outputs
         fmu.initialize(parameters={"initial_state_scale": scale}, inputs={"f": float(f[0])})
         if F is not None:
@@ -144,7 +159,12 @@ def measure_scene(name, models, folder, span=SPAN, progress=True):
             continue
         for start, scale in STARTS:
             for case, (f, F) in cases(t, T).items():
-                y, names, applied, warned, tol = run_fmu(path, t, scale, f, F)
+                try:
+                    y, names, applied, warned, tol = run_fmu(path, t, scale, f, F)
+                except RunStopped as exc:            # e.g. an explicit loop that the model does not keep stable
+                    rows.append({"scene": name, "model": model, "N": problem.n, "start": start, "case": case,
+                                 "note": f"the run stopped: {exc}"})
+                    continue
                 bad, points, eff, eff_port, max_err, max_bound, alarm = compare(
                     y, names, *truth(problem, t, scale, f, applied), warned, tol)
                 counted, port = eff[np.isfinite(eff)], eff_port[np.isfinite(eff_port)]
@@ -181,6 +201,10 @@ def section(rows, *, command, wall, machine):
              "v_port max | false alarm | max v_port error [m/s] | max v_port bound [m/s] |",
              "| --- | --- | --- | --- | --- | ---: | ---: | ---: | ---: | --- | ---: | ---: |"]
     for r in rows:
+        if r.get("note") and r.get("case"):
+            lines.append(f"| {r['scene']} | {r['model']} | {r['N']} | {r['start']} | {r['case']} | "
+                         f"{r['note'].replace('|', '/')} | | | | | | |")
+            continue
         if r.get("note"):
             lines.append(f"| {r['scene']} | {r['model']} | | | | not built: {r['note'].replace('|', '/')} | | | | | | |")
             continue
@@ -197,6 +221,9 @@ def section(rows, *, command, wall, machine):
                       f"{sum(r['false_alarm'] for r in built)} of {len(built)} runs; effectivity median "
                       f"{_g(float(np.median(every)) if every.size else float('nan'))}, max "
                       f"{_g(float(every.max()) if every.size else float('nan'))} over {every.size} outputs."]
+    stopped = [r for r in rows if r.get("note") and r.get("case")]
+    if stopped:
+        lines += ["", f"Runs the FMU stopped with an error (not counted above): {len(stopped)}."]
     return lines + [""]
 
 
@@ -223,7 +250,8 @@ def main(argv=None):
             rows += got
             for r in got:
                 if r.get("note"):
-                    print(f"{r['scene']:14s} {r['model']:9s} not built: {r['note']}", flush=True)
+                    where = f"{r['start']:14s} {r['case']:32s} " if r.get("case") else "not built: "
+                    print(f"{r['scene']:14s} {r['model']:9s} {where}{r['note']}", flush=True)
                     continue
                 print(f"{r['scene']:14s} {r['model']:9s} {r['start']:14s} {r['case']:32s} violations "
                       f"{r['violations']}, effectivity median {_g(r['eff_median'])} max {_g(r['eff_max'])} (v_port "

@@ -65,12 +65,14 @@ import scipy.linalg as sla
 
 from ..sph.ports import port_kernel, port_velocity_rows
 from .lti import probe_matrix
-from .planes import EIGEN_LIMIT, Modes, eigen_planes, gap_cuts, plane_modes, singular_planes
+from .planes import EIGEN_LIMIT, Modes, coupling, eigen_planes, gap_cuts, plane_modes, singular_planes
 
 SHADOW_TARGET = 1e-6        # the complement's certified part / the channel's response, per reference input
 MAX_PLANES = 96             # the largest shadow (planes; k_s = 2 x this)
 PORT_ALL_PLANES = 500       # port forces as the shadow's inputs and N <= this: every plane (build_shadow)
 SPARSE_PLANES = 96          # planes computed above DENSE_LIMIT particles (the shadow's and a buffer of exact ones)
+INITIAL_BUDGET = 3.2e6      # ... more, up to this / N (at most MAX_COMPUTED), where the initial state's tail needs
+MAX_COMPUTED = 400          # them (build_shadow; Lanczos costs ~N k²: BENCHMARKS.md, "at large N")
 ROUNDOFF = 1e-11            # relative round-off allowance
 ROUNDOFF_STEP = 1e-15       # ... plus this per step
 SUM_ROUNDOFF = 1e-12        # the complement's sums: times (1 + this)
@@ -332,7 +334,12 @@ def mode_gains(modes: Modes):
 
 @dataclass
 class Tail:
-    """The planes never computed (σ >= sigma_cut), bounded through norms (module docstring)."""
+    """The planes never computed (σ >= sigma_cut), bounded through norms (module docstring): per plane i
+    ‖ĉ_i‖ ‖e^{Λ_i t}‖ ‖η_i‖ <= κ e^{-α t} ‖ĉ_i‖ ‖η_i‖, summed over the tail by Cauchy-Schwarz, either plainly
+    (‖c_tail‖ ‖x0_tail‖) or with the weights ω_i² = σ_i² + s, s = σ_cut² (‖c‖_ω⁻¹ ‖x0‖_ω: Σ ‖ĉ_i‖² / ω_i² and
+    Σ ω_i² ‖η_i‖² come from one sparse solve with K Kᵀ + s and a product with Kᵀ, no plane formed), whichever
+    is smaller.  A point row (a probe) reaches every plane alike, a smooth initial state only the low ones: the
+    weights move the sum's weight onto the slowly decaying side (‖c_tail‖ ~ 1 against ‖c‖_ω⁻¹ ~ (N σ_cut)^-½)."""
 
     sigma_cut: float
     kappa: float              # the normal forms' condition number at sigma_cut (an upper bound beyond)
@@ -341,11 +348,37 @@ class Tail:
     c_norm: np.ndarray        # (rows,) ‖c_tail‖
     b_norm: np.ndarray        # (m,) ‖b_tail‖
     x0_norm: float            # ‖x0_tail‖
+    c_weighted: np.ndarray = None   # (rows,) ‖c_tail‖_ω⁻¹ = (Σ_tail ‖ĉ_i‖² / (σ_i² + s))^½
+    x0_weighted: float = math.inf   # ‖x0_tail‖_ω = (Σ_tail (σ_i² + s) ‖η_i‖²)^½
+
+    def _pairs(self, other):
+        """Σ_tail ‖ĉ_i‖ ‖o_i‖ / σ_i for input columns o (norms ``other``): min of the plain and weighted sums."""
+        plain = np.outer(self.c_norm, other) / self.sigma_cut
+        if self.c_weighted is None:
+            return plain
+        # Σ (‖ĉ‖/ω)(ω ‖b̂‖/σ) <= ‖c‖_ω⁻¹ ‖b_tail‖ max ω/σ, ω²/σ² = 1 + s/σ² <= 2
+        return np.minimum(plain, math.sqrt(2.0) * np.outer(self.c_weighted, other))
+
+    def gain(self):
+        """(rows, m): the transient's gain of the tail per unit weighted variation (Σ κ ‖ĉ‖ ‖b̂‖ / σ)."""
+        return self.kappa * self._pairs(self.b_norm)
+
+    def static(self):
+        """(rows, m): the quasi-static part's bound per unit |u| (Σ ‖ĉ‖ ‖Λ^-1‖ ‖b̂‖)."""
+        return self.inv_norm * self.sigma_cut * self._pairs(self.b_norm)
+
+    def free(self):
+        """(rows,): |g_tail,r(t)| <= this x e^{-α t}, the free response from x0 (Σ κ ‖ĉ‖ ‖η‖)."""
+        plain = self.c_norm * self.x0_norm
+        if self.c_weighted is not None:
+            plain = np.minimum(plain, self.c_weighted * self.x0_weighted)
+        return self.kappa * plain
 
 
-def tail_of(planes, C, Bcols, x0, d):
+def tail_of(planes, C, Bcols, x0, d, K=None):
     """The uncomputed planes' norms (:class:`Tail`), or None when every plane is computed.  Needs σ_cut > d / 2
-    (every uncomputed plane underdamped, decaying at d / 2)."""
+    (every uncomputed plane underdamped, decaying at d / 2).  ``K`` (sparse N x N, :func:`sphrom.rom.planes.
+    coupling`): the singular planes' coupling, for the weighted norms (without it, the plain ones alone)."""
     if planes.complete:
         return None
     sc = float(planes.info["sigma_cut"])
@@ -353,12 +386,35 @@ def tail_of(planes, C, Bcols, x0, d):
         raise ValueError(f"the computed planes end at sigma = {sc:g} s^-1, not above d / 2 = {d / 2:g} s^-1")
     S = planes.basis(np.arange(planes.count))
 
+    def residual(X):
+        return X - S @ (S.T @ X)
+
     def rest(X):
-        R = X - S @ (S.T @ X)
+        R = residual(X)
         return np.linalg.norm(R, axis=0) * (1 + 1e-12) + 1e-15 * np.linalg.norm(X, axis=0)
     kappa = math.sqrt((sc + d / 2) / (sc - d / 2)) if d > 0 else 1.0
-    return Tail(sigma_cut=sc, kappa=kappa, alpha=d / 2, inv_norm=(1.0 + d / sc) / sc, c_norm=rest(C.T),
+    tail = Tail(sigma_cut=sc, kappa=kappa, alpha=d / 2, inv_norm=(1.0 + d / sc) / sc, c_norm=rest(C.T),
                 b_norm=rest(Bcols), x0_norm=float(rest(x0[:, None])[0]))
+    if K is not None:
+        import scipy.sparse as sp
+        import scipy.sparse.linalg as spl
+        n = K.shape[0]
+        s = sc * sc
+        knorm = float(abs(K).sum(axis=1).max())                 # >= σ_max
+        Rc = residual(np.asarray(C, float).T)                    # (2N, rows): the rows' tail parts
+        eye = sp.identity(n, format="csc")
+        weighted = np.zeros(Rc.shape[1])
+        for part, M in ((Rc[:n], K @ K.T), (Rc[n:], K.T @ K)):
+            if np.any(part):
+                lu = spl.splu((M + s * eye).tocsc())
+                y = lu.solve(np.ascontiguousarray(part))
+                weighted += np.einsum("ij,ij->j", part, y)
+        # round-off of the solve and of the projection: 1e-10 relative, plus the rows' computed-plane residue
+        tail.c_weighted = np.sqrt(np.maximum(weighted, 0.0)) * (1 + 1e-10) + 1e-15 * np.linalg.norm(C, axis=1) / sc
+        r0 = residual(np.asarray(x0, float)[:, None])[:, 0]
+        energy = (np.linalg.norm(K.T @ r0[:n]) ** 2 + np.linalg.norm(K @ r0[n:]) ** 2 + s * (r0 @ r0))
+        tail.x0_weighted = math.sqrt(energy) * (1 + 1e-10) + 1e-15 * knorm * float(np.linalg.norm(x0))
+    return tail
 
 
 def complement(modes: Modes, planes_L, chat, bhat, tail: Tail | None, T, *, table=True):
@@ -382,9 +438,9 @@ def complement(modes: Modes, planes_L, chat, bhat, tail: Tail | None, T, *, tabl
     tail_free = np.zeros(rows)
     if tail is not None:
         gt = group[-1]
-        gain[:, :, gt] += tail.kappa / tail.sigma_cut * np.outer(tail.c_norm, tail.b_norm)
-        static += tail.inv_norm * np.outer(tail.c_norm, tail.b_norm)
-        tail_free = tail.kappa * tail.c_norm * tail.x0_norm
+        gain[:, :, gt] += tail.gain()
+        static += tail.static()
+        tail_free = tail.free()
     gain = np.where(np.isfinite(gain), gain * (1 + SUM_ROUNDOFF), np.inf)
     if table and (np.any(np.abs(modes.P)) or np.any(tail_free)):
         t_end, h, values, slopes, errors, q, tl = free_table(modes, group[:modes.alpha.size], rates, T, tail_free,
@@ -607,10 +663,10 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
                 modes_all.alpha[rest], 1e-300), np.inf)) + 1.0
             sine = (g * vs[None, :]).sum(axis=1)
             if tl is not None:
-                extra = tl.kappa / tl.sigma_cut * tl.c_norm * tl.b_norm[j]
+                extra = tl.gain()[:, j]
                 trans = trans + extra
                 vt = omega * min(span, 1.0 / tl.alpha if tl.alpha > 0 else np.inf) + 1.0
-                sine = sine + extra * vt + tl.inv_norm * tl.c_norm * tl.b_norm[j]
+                sine = sine + extra * vt + tl.static()[:, j]
             for c, cls in enumerate(classes):
                 for val, scale in ((trans, step_r[cls, j].max()), (sine, sine_r[cls, j].max())):
                     if scale > FLOOR * big[c]:
@@ -622,6 +678,8 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
                 np.zeros(int(rest.sum()), bool)
             err = size[:, ~interp].sum(axis=1) + size[:, interp] @ ((np.abs(modes_all.mu[rest][interp]) * h_tab)
                                                                      ** 4 / 384.0)
+            if tl is not None:
+                err = err + tl.free()                          # the planes never computed
             for c, cls in enumerate(classes):
                 scale = free_scale[cls].max()
                 if scale > FLOOR * big[c]:
@@ -690,24 +748,34 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
     if parametric and not (problem.terms["uniform_c"] and np.all(d == d[0])):
         raise ValueError("a parametric shadow needs uniform c and d")
     planes = decompose(problem, parametric=parametric, count=count or SPARSE_PLANES)
-    t_planes = time.perf_counter() - t_start
     C, row_e, pw, prho0 = output_rows(problem, probes, ports)
     Bcols = input_columns(problem, ports if port_inputs else ())
     x0 = np.concatenate([np.sqrt(problem.rho0) * problem.v0, np.zeros(n)])
+    K = coupling(problem) if not (planes.complete or parametric) else None   # (c_ref's: fixed parameters only)
+    tail = tail_of(planes, C, Bcols, x0, float(d[0]), K=K) if not planes.complete else None
+    more = min(MAX_COMPUTED, int(INITIAL_BUDGET / n))
+    P = len(probes)
+    if tail is not None and K is not None and count is None and more > planes.count and np.any(x0):
+        # the initial state as a channel: its planes never computed are bounded through norms only (Tail), which a
+        # smooth x0 with a kink (tenmode's v0 at the seam, coefficients ~ k^-2) leaves loose; more planes, within
+        # the budget, move them into the table (their free response exact)
+        scale = float(np.max(np.abs(C[:P] @ x0)))
+        if float(np.max(tail.free()[:P])) > target * scale:
+            planes = decompose(problem, parametric=parametric, count=more)
+            tail = tail_of(planes, C, Bcols, x0, float(d[0]), K=K)
+    t_planes = time.perf_counter() - t_start
     chat = np.moveaxis(planes.right(C.T), 2, 0)                 # (rows, n, 2)
     bhat = planes.left(Bcols)                                    # (n, 2, m)
     eta = planes.left(x0)                                        # (n, 2)
     L0 = planes.blocks[0] + ((float(problem.c[0]) * planes.blocks[1] + float(d[0]) * planes.blocks[2])
                              if parametric else 0.0)
     modes_all = plane_modes(L0, chat, bhat, eta)
-    tail = tail_of(planes, C, Bcols, x0, float(d[0])) if not planes.complete else None
     # planes that must be kept: a mode an input reaches with λ = 0 or without a decay bound (the rigid motion)
     gains = mode_gains(modes_all)
     must = modes_all.plane[np.any(~np.isfinite(gains), axis=(0, 2)) | ~np.isfinite(modes_all.scale)]
     if parametric:                      # the null planes (σ = 0): unbounded where d may be 0
         must = np.concatenate([must, np.flatnonzero(planes.key <= 1e-9 * max(float(planes.key[-1]), 1e-300))])
     at_least = int(must.max()) + 1 if must.size else 1
-    P = len(probes)
     if order is None and len(ports) and port_inputs and planes.complete and n <= PORT_ALL_PLANES:
         order = planes.count            # (module docstring: a port's force and velocity reach every plane)
     if order is not None:

@@ -55,11 +55,21 @@ MODAL_DENSE_N = 2000        # dense generalized eigensolve up to this N; above i
 MODAL_SPARSE = 300
 BAND_SHIFTS = 8             # candidate shifts over the band (each gives up to two directions)
 SHIFT_DAMPING = 0.2         # η of s_k = ω_k (η + i)
+NULL_TOL = 1e-14            # a rigid candidate is in ker G when max|G k| <= this x N x max|G| (50 x its round-off)
 
 
-def rigid_modes(G, tol=1e-12):
-    """The particle functions G kills among {1, (-1)^i} (N,) each, as columns (N, m): ker K of the module."""
+def kernel_tol(n):
+    """The relative tolerance of the kernel test of :func:`rigid_modes` for ``n`` particles: max(1e-12,
+    :data:`NULL_TOL` n).  G k's round-off grows like eps N (x_j - x_i loses log10 N digits: 2e-16 N of max|G|
+    measured up to N = 1e5), so a fixed 1e-12 missed ker G from N = 1e4 on."""
+    return max(1e-12, NULL_TOL * int(n))
+
+
+def rigid_modes(G, tol=None):
+    """The particle functions G kills among {1, (-1)^i} (N,) each, as columns (N, m): ker K of the module.  A
+    candidate k counts when max|G k| <= ``tol`` x max|G| (default :func:`kernel_tol` of N)."""
     n = G.shape[0]
+    tol = kernel_tol(n) if tol is None else float(tol)
     gmax = abs(G).max()
     out = []
     for k in (np.ones(n), (-1.0) ** np.arange(n)):

@@ -156,10 +156,10 @@ def probe_matrix(x, L, probes, w):
     return sp.csr_matrix((vals, (rows, cols)), shape=(probes.size, n)).toarray()
 
 
-def null_modes(G, w_e, tol=1e-12):
+def null_modes(G, w_e, tol=None):
     """Orthonormal basis of the e-null modes [0; c^-½ k], k in ker G among {1, (-1)^i} (module docstring).
 
-    A candidate counts when |G k|_∞ <= tol · max|G|; on the periodic uniform
+    A candidate counts when |G k|_∞ <= tol · max|G| (default :func:`sphrom.rom.inputs.kernel_tol` of N); on the periodic uniform
     lattice both are exact kernels (the alternating one for even N only).
     """
     n = w_e.size

@@ -30,12 +30,11 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spl
 
-from .inputs import rigid_modes
+from .inputs import NULL_TOL, rigid_modes  # noqa: F401  (NULL_TOL: its former home)
 from .lti import full_linear_system
 
 DENSE_LIMIT = 2500          # particles: the dense singular value decomposition of K up to here
 EIGEN_LIMIT = 1500          # particles: the dense eigenvectors of A (a damping that varies) up to here
-NULL_TOL = 1e-14            # a rigid candidate is in ker G when max|G k| <= this x N x max|G| (50 x its round-off)
 DEFECT = 1e-7               # a block whose eigenvalues are closer than this (relative) is treated as defective
 
 
@@ -119,11 +118,9 @@ def null_rows(problem):
     """Orthonormal bases (N, k) of ker Kᵀ (v side: √ρ0 times the kernels of Gᵀ) and ker K (e side: c^-½ times
     those of G) among the rigid candidates {1, (-1)^i} (:func:`sphrom.rom.inputs.rigid_modes`)."""
     G = problem.neighbours.matrix().tocsr()
-    # G k's round-off grows like eps N (x_j - x_i loses log10 N digits: 2e-16 N of max|G| measured to N = 1e5)
-    tol = max(1e-12, NULL_TOL * problem.rho0.size)
     out = []
     for M, weight in ((G.T.tocsr(), np.sqrt(problem.rho0)), (G, 1.0 / np.sqrt(problem.c))):
-        k = rigid_modes(M, tol)
+        k = rigid_modes(M)                                  # inputs.kernel_tol(N)
         if k.size == 0:
             out.append(np.zeros((problem.rho0.size, 0)))
             continue
