@@ -678,7 +678,7 @@ def main(argv=None):
     p.add_argument("--sizes", type=int_list(lo=16), default=None, metavar="N1,N2",
                    help="instead: the bounds at large N (e.g. 10000,100000): packaging time, cost, certification")
     p.add_argument("--package-limit", type=positive_int, default=PACKAGE_LIMIT, metavar="N",
-                   help=f"with --sizes: above N particles the shadow alone, no FMU (default {PACKAGE_LIMIT})")
+                   help="with --sizes: above N particles the shadow alone, no FMU (default %(default)s)")
     args = p.parse_args(argv)
     if args.sizes is not None:
         return main_large(args, list(args.sizes), argv)

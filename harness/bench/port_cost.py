@@ -41,7 +41,6 @@ import zipfile
 from pathlib import Path
 
 from ..options import int_at_least, int_list
-from ..rom.registry import get_model
 from ..runio import atomic_path
 from . import program_command, program_parser
 from .lib.document import fmt, publish
@@ -198,6 +197,12 @@ def cases(ks, before=True):
     return out
 
 
+def _linear(model):
+    """Whether the registered ``model`` is linear (exact in time: the dense and block forms apply)."""
+    from ..rom.registry import get_model          # numba's load deferred: `sphrom bench port_cost --help` is quick
+    return get_model(model).linear
+
+
 def calibrate(driver, repeats=5):
     """ns per multiply-add of the core's row loop on this machine (``sphrom_step_cost --calibrate``)."""
     done = subprocess.run([str(driver), "--calibrate", "--repeats", str(repeats)], capture_output=True, text=True,
@@ -278,7 +283,7 @@ def table(rows):
     for r in rows:
         parts = f"{r['madds_total']:.0f} ({r['madds_model']:.0f} + {r['madds_channel']:.0f} + " \
                 f"{r['madds_shadow']:.0f} + {r['madds_outputs']:.0f})"
-        form = "blocks" if r["blocks"] else ("dense" if get_model(r["model"]).linear else "—")
+        form = "blocks" if r["blocks"] else ("dense" if _linear(r["model"]) else "—")
         out.append(f"| {r['fmu']} | {form} | {r['k_v']}, {r['k_rho']} | {r['channel_planes'] or '—'} | "
                    f"{r['shadow_order'] or '—'} | {parts} | {r['sincos'] or '—'} | {r['ns_per_step']:.0f} | "
                    f"{r['floor_ns']:.0f} | {fmt(r['ratio_to_madds'], '.2f')} | {fmt(r['ratio_to_portless'], '.2f')} |")
@@ -318,7 +323,7 @@ def report_lines(rows, command, wall, steps, repeats):
                 lines.append(f"- {scene} {model} with ports at x/L = {', '.join(f'{x:g}' for x in ports)}: "
                              f"{r['ratio_to_portless']:.2f}× its portless FMU per step (before: "
                              f"{b['ns_per_step'] / p['ns_per_step']:.1f}×; target ≤ 1.5× for the frozen one).")
-    linear = [r for r in rows if get_model(r["model"]).linear and not r["before"]]
+    linear = [r for r in rows if _linear(r["model"]) and not r["before"]]
     for form, name in ((True, "block form (the default)"), (False, "dense form")):
         mine = [r for r in linear if r["blocks"] == form]
         if mine:

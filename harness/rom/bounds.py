@@ -377,8 +377,8 @@ class Tail:
 
 def tail_of(planes, C, Bcols, x0, d, K=None):
     """The uncomputed planes' norms (:class:`Tail`), or None when every plane is computed.  Needs σ_cut > d / 2
-    (every uncomputed plane underdamped, decaying at d / 2).  ``K`` (sparse N x N, :func:`sphrom.rom.planes.
-    coupling`): the singular planes' coupling, for the weighted norms (without it, the plain ones alone)."""
+    (every uncomputed plane underdamped, decaying at d / 2).  ``K`` (sparse N x N,
+    :func:`sphrom.rom.planes.coupling`): the singular planes' coupling, for the weighted norms (without it, the plain ones alone)."""
     if planes.complete:
         return None
     sc = float(planes.info["sigma_cut"])
