@@ -410,7 +410,7 @@ ROM_API double rom_v_port(const RomState *state, uint32_t j);
 ROM_API int rom_has_channel(const RomModel *model);
 /* The wave (transmission-line) form of the ports: the parameter port_impedance Z [N s m^-1] (finite, >= 0; 0, the
  * start: the force form, F_port_j are the inputs), and with Z > 0 the incident waves a_j [N] (inputs, held over a
- * step): over each step the port force is held at F_j = 2 a_j - Z vbar_j, vbar_j the mean port velocity over the
+ * step, or linear with a rate: rom_set_port_wave_rate): over each step the port force is held at F_j = 2 a_j - Z vbar_j, vbar_j the mean port velocity over the
  * step (solved exactly: the channel's mean is linear in F), and the reflected wave b_j = a_j - F_j = Z vbar_j - a_j
  * (output), which a master passes on, one step later, as the incident wave of the component at the line's other end
  * (the same form there).  The power over a step is F vbar = (a^2 - b^2) / Z: coupled through such lines the system's
