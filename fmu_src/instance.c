@@ -396,6 +396,11 @@ static RomStatus set_port_force(RomState *s, uint32_t j, double value, char *mes
     const RomStatus status = rom_set_port_force(s, j, value, message, message_size);
     return status == ROM_OK ? rom_set_port_rate(s, j, 0.0, message, message_size) : status;
 }
+/* the incident wave a_port_j (held when set: its rate goes back to 0, as F_port_j's) */
+static RomStatus set_port_wave(RomState *s, uint32_t j, double value, char *message, size_t message_size) {
+    const RomStatus status = rom_set_port_wave(s, j, value, message, message_size);
+    return status == ROM_OK ? rom_set_port_wave_rate(s, j, 0.0, message, message_size) : status;
+}
 
 /* The presence rules the table names (harness/fmu/variables.py RULES, decided there from the same resources):
  * 1 when the FMU has the rule's variables */

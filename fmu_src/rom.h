@@ -410,7 +410,7 @@ ROM_API double rom_v_port(const RomState *state, uint32_t j);
 ROM_API int rom_has_channel(const RomModel *model);
 /* The wave (transmission-line) form of the ports: the parameter port_impedance Z [N s m^-1] (finite, >= 0; 0, the
  * start: the force form, F_port_j are the inputs), and with Z > 0 the incident waves a_j [N] (inputs, held over a
- * step): over each step the port force is held at F_j = 2 a_j - Z vbar_j, vbar_j the mean port velocity over the
+ * step, or linear with a rate: rom_set_port_wave_rate): over each step the port force is held at F_j = 2 a_j - Z vbar_j, vbar_j the mean port velocity over the
  * step (solved exactly: the channel's mean is linear in F), and the reflected wave b_j = a_j - F_j = Z vbar_j - a_j
  * (output), which a master passes on, one step later, as the incident wave of the component at the line's other end
  * (the same form there).  The power over a step is F vbar = (a^2 - b^2) / Z: coupled through such lines the system's
@@ -422,7 +422,13 @@ ROM_API RomStatus rom_set_port_impedance(RomState *state, double impedance, char
 ROM_API double rom_port_impedance(const RomState *state);
 ROM_API RomStatus rom_set_port_wave(RomState *state, uint32_t j, double wave, char *message, size_t message_size);
 ROM_API double rom_port_wave(const RomState *state, uint32_t j);
-/* b_j [N] after the last step (0 before the first, and in the force form) */
+/* da_j/dt [N s^-1] (fmi2SetRealInputDerivatives, order 1; finite): a_j goes linearly over the step, a + adot tau, and
+ * continues after it; the held force is the mean of 2 a(t) - Z v(t) over the step, F_j = 2 abar_j - Z vbar_j with
+ * abar_j = a_j + adot_j h / 2, and b_j = abar_j - F_j.  0 (held) at the start; setting a_j holds it again (the
+ * wrappers reset the rate, as for f and F_port_j) */
+ROM_API RomStatus rom_set_port_wave_rate(RomState *state, uint32_t j, double rate, char *message, size_t message_size);
+ROM_API double rom_port_wave_rate(const RomState *state, uint32_t j);
+/* b_j [N] after the last step (0 before the first, and in the force form): abar_j - F_j */
 ROM_API double rom_port_reflected(const RomState *state, uint32_t j);
 /* the channel's energy 1/2 |w|^2 dx area [J] (0 without the channel) */
 ROM_API double rom_channel_energy(const RomState *state);

@@ -16,7 +16,11 @@
  * F = 2 a - Z vbar, vbar the mean port velocity over the step, which is linear in F (the channel's mean per unit
  * held input, M, cached with the maps): (I + Z M / area) F = 2 a - Z (vbar_free + v_own), solved by Gaussian
  * elimination (P <= 4); b = a - F (a master passes it on as the incident wave a of the component at the line's
- * other end, one step later: a lossless line whose delay is the communication step).
+ * other end, one step later: a lossless line whose delay is the communication step).  An incident wave with a rate
+ * (fmi2SetRealInputDerivatives on a_port_j) goes linearly over the step, a(t) = a + adot (t - t_k): the held force
+ * is the mean of 2 a(t) - Z v(t) over the step, so a enters as its exact mean over the step, abar = a + adot h / 2
+ * (F = 2 abar - Z vbar, b = abar - F, the power F vbar = (abar^2 - b^2) / Z: passive as held), and a continues
+ * along its line after the step, as f and F_port do.
  */
 #include "rom_internal.h"
 #include "rom_numerics.h"
@@ -62,6 +66,7 @@ typedef struct {
     double steps;              /* steps taken (the round-off allowance) */
     double impedance;          /* the wave form's Z [N s m^-1]; 0: the force form */
     double wave[ROM_MAX_PORTS];        /* a_j [N] */
+    double wave_rate[ROM_MAX_PORTS];   /* da_j/dt [N s^-1] (input derivatives; 0: held) */
     double reflected[ROM_MAX_PORTS];   /* b_j [N] after the last step */
     double applied[ROM_MAX_PORTS];     /* the port force held over the last step in the wave form [N] */
     ChannelCache cache[CHANNEL_CACHE];
@@ -222,7 +227,7 @@ void rom_channel_reset(RomState *s) {
     memset(cs->p, 0, c->pad * sizeof(double));
     memset(cs->q, 0, c->pad * sizeof(double));
     for (uint32_t j = 0; j < ROM_MAX_PORTS; j++) {
-        cs->tv[j] = cs->u_prev[j] = cs->wave[j] = cs->reflected[j] = cs->applied[j] = 0.0;
+        cs->tv[j] = cs->u_prev[j] = cs->wave[j] = cs->wave_rate[j] = cs->reflected[j] = cs->applied[j] = 0.0;
     }
     cs->steps = 0.0;
     cs->impedance = 0.0;
@@ -430,13 +435,15 @@ RomStatus rom_channel_step(RomState *s, double h, const double *v_own, char *mes
     const uint32_t P = c->ports;
     const ChannelCache *k = channel_maps(cs, m, h);
     double u[ROM_MAX_PORTS], du[ROM_MAX_PORTS];
-    if (cs->impedance > 0.0) {             /* the wave form: F held, F = 2 a - Z vbar, solved exactly */
+    if (cs->impedance > 0.0) {             /* the wave form: F held, F = 2 abar - Z vbar, solved exactly */
         const double Z = cs->impedance;
-        double A[ROM_MAX_PORTS * ROM_MAX_PORTS], F[ROM_MAX_PORTS], mean[ROM_MAX_PORTS];
+        double A[ROM_MAX_PORTS * ROM_MAX_PORTS], F[ROM_MAX_PORTS], mean[ROM_MAX_PORTS], abar[ROM_MAX_PORTS];
         free_mean(c, m, k, cs, mean);
         for (uint32_t j = 0; j < P; j++) {
+            /* the incident wave's mean over the step (held: a itself, bit for bit) */
+            abar[j] = cs->wave_rate[j] != 0.0 ? cs->wave[j] + 0.5 * cs->wave_rate[j] * h : cs->wave[j];
             for (uint32_t l = 0; l < P; l++) A[j * P + l] = (j == l ? 1.0 : 0.0) + Z * k->M[j * P + l] / s->area;
-            F[j] = 2.0 * cs->wave[j] - Z * (mean[j] + (v_own ? v_own[j] : 0.0));
+            F[j] = 2.0 * abar[j] - Z * (mean[j] + (v_own ? v_own[j] : 0.0));
         }
         if (!solve_small(P, A, F) || !rom_all_finite(F, P)) {
             return rom_fail(message, message_size, "the wave form's port forces at t = %.9g s are not finite "
@@ -444,9 +451,10 @@ RomStatus rom_channel_step(RomState *s, double h, const double *v_own, char *mes
         }
         for (uint32_t j = 0; j < P; j++) {
             cs->applied[j] = F[j];
-            cs->reflected[j] = cs->wave[j] - F[j];
+            cs->reflected[j] = abar[j] - F[j];
             u[j] = F[j] / s->area;
             du[j] = 0.0;
+            if (cs->wave_rate[j] != 0.0) cs->wave[j] = cs->wave[j] + cs->wave_rate[j] * h;   /* a continues */
         }
     } else {
         for (uint32_t j = 0; j < P; j++) {
@@ -599,6 +607,26 @@ RomStatus rom_set_port_wave(RomState *s, uint32_t j, double wave, char *message,
     return ROM_OK;
 }
 
+RomStatus rom_set_port_wave_rate(RomState *s, uint32_t j, double rate, char *message, size_t message_size) {
+    if (!s) return rom_fail(message, message_size, "no state");
+    ChannelState *cs = (ChannelState *)s->channel;
+    if (!cs || j >= s->model->n_ports) {
+        return rom_fail(message, message_size, "a_port_%u: no such port wave (allowed: 1 to %u with the port channel)",
+                        j + 1, cs ? s->model->n_ports : 0u);
+    }
+    if (!isfinite(rate)) {
+        return rom_fail(message, message_size, "input derivative of a_port_%u, da_port_%u/dt = %g N s^-1 at t = %.9g "
+                        "s, is not finite (allowed: a finite rate)", j + 1, j + 1, rate, s->time);
+    }
+    cs->wave_rate[j] = rate;
+    return ROM_OK;
+}
+
+double rom_port_wave_rate(const RomState *s, uint32_t j) {
+    const ChannelState *cs = s ? (const ChannelState *)s->channel : NULL;
+    return cs && j < s->model->n_ports ? cs->wave_rate[j] : NAN;
+}
+
 double rom_port_wave(const RomState *s, uint32_t j) {
     const ChannelState *cs = s ? (const ChannelState *)s->channel : NULL;
     return cs && j < s->model->n_ports ? cs->wave[j] : NAN;
@@ -610,12 +638,12 @@ double rom_port_reflected(const RomState *s, uint32_t j) {
 }
 
 /* ------------------------------------------------------------------------ */
-/* the serialized state: p[planes], q[planes], tv[P], u_prev[P], steps, Z, a[P], b[P], applied[P]          */
+/* the serialized state: p[planes], q[planes], tv[P], u_prev[P], steps, Z, a[P], b[P], applied[P], da/dt[P]   */
 /* ------------------------------------------------------------------------ */
 
 size_t rom_channel_state_doubles(const RomModel *m) {
     const RomChannelModel *c = &m->channel;
-    return c->planes ? 2 * (size_t)c->planes + 5 * (size_t)c->ports + 2 : 0;
+    return c->planes ? 2 * (size_t)c->planes + 6 * (size_t)c->ports + 2 : 0;
 }
 
 RomStatus rom_channel_state_check(const RomModel *m, const unsigned char *cursor, char *message, size_t message_size) {
@@ -649,7 +677,8 @@ unsigned char *rom_channel_state_put(const RomState *s, unsigned char *cursor) {
     cursor = rom_put_f64s(cursor, scalars, 2);
     cursor = rom_put_f64s(cursor, cs->wave, c->ports);
     cursor = rom_put_f64s(cursor, cs->reflected, c->ports);
-    return rom_put_f64s(cursor, cs->applied, c->ports);
+    cursor = rom_put_f64s(cursor, cs->applied, c->ports);
+    return rom_put_f64s(cursor, cs->wave_rate, c->ports);
 }
 
 const unsigned char *rom_channel_state_get(RomState *s, const unsigned char *cursor) {
@@ -667,6 +696,7 @@ const unsigned char *rom_channel_state_get(RomState *s, const unsigned char *cur
     cursor = rom_get_f64s(cursor, cs->wave, c->ports);
     cursor = rom_get_f64s(cursor, cs->reflected, c->ports);
     cursor = rom_get_f64s(cursor, cs->applied, c->ports);
+    cursor = rom_get_f64s(cursor, cs->wave_rate, c->ports);
     cs->valid = 0;
     return cursor;
 }

@@ -161,6 +161,24 @@ def fmu_maker(folder, default_model="frozen", k=6, probes=(0.25, 0.5, 0.66), sce
 
 
 @pytest.fixture(scope="session")
+def channel_port_fmu(tmp_path_factory):
+    """(path, data): a frozen FMI 2 FMU of the shrunk damped_forced scene (k = 6, probes 0.25 and 0.5) with ports at
+    0.3 and 0.7 and the port channel, packaged once per session (tests/test_fmu_ports_rates.py,
+    tests/test_fmu_wave_rates.py)."""
+    import zipfile
+
+    from sphrom.fmu.make.build import ensure_binaries
+    from sphrom.fmu.make.package import package_fmu
+    from sphrom.fmu.resources import unpack
+    path = tmp_path_factory.mktemp("channel-port-fmu") / "frozen-2.fmu"
+    package_fmu(fmu_scene("forced"), path, k=6, fmi=2, probes=(0.25, 0.5), progress=False,
+                binaries=ensure_binaries(), model="frozen", ports=(0.3, 0.7))
+    data = unpack(zipfile.ZipFile(path).read("resources/model.bin"))
+    assert "PCSCAL" in data.sections
+    return path, data
+
+
+@pytest.fixture(scope="session")
 def hostile_scene(tmp_path_factory):
     """The hostile-input tests' small files, made through the command line once per session: a scene
     (damped_forced, N = 32, T = 0.2), its POD basis, a frozen FMI 2 FMU (not measured)."""

@@ -194,16 +194,12 @@ def test_port_rates_make_the_frozen_port_fmu_second_order(frozen_port_fmu):
     assert 1.5 < errors[0.02]["held"] / errors[0.01]["held"] < 3.0, errors
 
 
-def test_port_channel_takes_the_port_rates_exactly(tmp_path):
+def test_port_channel_takes_the_port_rates_exactly(channel_port_fmu):
     """With the port channel the port forces go linearly over each step by their rates and the channel integrates
     them exactly: the frozen FMU equals its Python mirror with the channel (FrozenCosim, scipy's exponentials
     against the C core's Taylor series) to 1e-12 over whole, shortened and sub-dt steps, and the rates change the
     port velocities."""
-    path = tmp_path / "channel.fmu"
-    package_fmu(fmu_scene("forced"), path, k=6, fmi=2, probes=PROBES, progress=False, binaries=ensure_binaries(),
-                model="frozen", ports=PORTS)
-    data = unpack(zipfile.ZipFile(path).read("resources/model.bin"))
-    assert "PCSCAL" in data.sections
+    path, data = channel_port_fmu           # conftest.py: the same ports (PORTS) and probes (PROBES)
     dt = data.dt
     steps = [0.01] * 8 + [2.5 * dt, 0.3 * dt, 7.3 * dt, 13.03 * dt]
     t = np.concatenate([[0.0], np.cumsum(steps)])

@@ -514,7 +514,7 @@ STATE_BLOCKS = (
      "and last values u[m], the integral of |w|, the step count, started (0 or 1) (rom_bound.c)"),
     ("channel", "with the port channel (sections PC*)", "its planes p[n], q[n], the inputs' variation tv[P] and "
      "last values u[P], the step count, port_impedance [N s m^-1], a_port[P] [N], b_port[P] [N], the force held "
-     "over the last step of the wave form[P] [N] (rom_port.c)"),
+     "over the last step of the wave form[P] [N], da_port/dt[P] [N s^-1] (rom_port.c)"),
     ("initial_state_scale", "1", "the parameter"),
     ("c", "1", "the parameter c [kg m^-1 s^-2] (0 without section PARAMS)"),
     ("d", "1", "the parameter d [s^-1] (0 without section PARAMS)"),

@@ -249,13 +249,15 @@ VARIABLES = (
              "0: the force form; Z > 0: the wave form (inputs a_port_j, outputs b_port_j), passive at any step",
              get="get_port_impedance", set="set_port_impedance", start=defaults.FMU_PORT_IMPEDANCE, min=0),
     Variable("a_port_{j}", 3100, "Float64", "input", "continuous", "", "channel", "Force",
-             "incident force wave at port {j}, x/L = {x}, held over each communication step; used when "
-             "port_impedance > 0 (the wave form), F_port_{j} otherwise [N]",
+             "incident force wave at port {j}, x/L = {x}; " + _INPUT_HOLD + " (the force held on the bar is the "
+             "mean of 2 a - Z v over the step); used when port_impedance > 0 (the wave form), F_port_{j} otherwise "
+             "[N]",
              "incident force wave at port j (the wave form, port_impedance > 0)",
-             family="port", get="rom_port_wave", set="rom_set_port_wave", start=defaults.FMU_INPUT),
+             family="port", get="rom_port_wave", set="set_port_wave", set_rate="rom_set_port_wave_rate",
+             start=defaults.FMU_INPUT),
     Variable("b_port_{j}", 4100, "Float64", "output", "continuous", "calculated", "channel", "Force",
-             "reflected force wave at port {j}, x/L = {x}, over the last step: a_port_{j} - F, F the force held on "
-             "the bar (the wave form; 0 in the force form) [N]",
+             "reflected force wave at port {j}, x/L = {x}, over the last step: a_port_{j} - F (a_port_{j}'s mean over "
+             "the step with an input derivative), F the force held on the bar (the wave form; 0 in the force form) [N]",
              "reflected force wave at port j over the last step (the wave form)",
              family="port", get="rom_port_reflected"),
     Variable("error_tolerance", 10, "Float64", "parameter", "fixed", "exact", "shadow", "Velocity",

@@ -286,14 +286,16 @@ class ChannelState:
         self.steps += 1
         return mean
 
-    def fmu_step(self, h, forces, rates=None, area=1.0, impedance=0.0, waves=None, v_own=None):
+    def fmu_step(self, h, forces, rates=None, area=1.0, impedance=0.0, waves=None, v_own=None, wave_rates=None):
         """One doStep as fmu_src/rom_port.c takes it: the force form (``impedance`` 0) with the port forces [N] at the
         step's start and their rates [N s^-1] (None: held), or the wave form with the incident waves ``waves`` [N]
-        and the model's own mean port velocity ``v_own`` over the step [m s^-1] (:func:`wave_forces`)."""
+        at the step's start, their rates ``wave_rates`` [N s^-1] (None: held) and the model's own mean port
+        velocity ``v_own`` over the step [m s^-1] (:func:`wave_forces`)."""
         forces = np.asarray(forces, float)
         if impedance > 0:
-            F = wave_forces(self, h, waves, impedance, area, v_own)
-            self.applied, self.reflected = F, np.asarray(waves, float) - F
+            a_bar = mean_waves(h, waves, wave_rates)
+            F = wave_forces(self, h, a_bar, impedance, area, v_own)
+            self.applied, self.reflected = F, a_bar - F
             return self.step(h, F / area)
         du = None if rates is None else np.asarray(rates, float) * h / area
         return self.step(h, forces / area, du)
@@ -335,6 +337,18 @@ def density_shift(channel, e):
     kinds add e itself to theirs)."""
     e = np.asarray(e, float)
     return np.sum(channel.pw * channel.prho0 * (1.0 / (1.0 + e) - 1.0), axis=-1)
+
+
+def mean_waves(h, waves, rates=None):
+    """The incident waves' means over a step h [N]: a (held, bit for bit) or, with rates ȧ [N s^-1] (input
+    derivatives: a(t) = a + ȧ (t - t_k) over the step), a + ȧ h / 2, where a rate is nonzero.  The wave form holds
+    the port force at the mean of 2 a(t) - Z v(t) over the step, so a linear incident wave enters exactly through
+    its mean (fmu_src/rom_port.c)."""
+    waves = np.asarray(waves, float)
+    if rates is None:
+        return waves.copy()
+    rates = np.asarray(rates, float)
+    return np.where(rates != 0.0, waves + 0.5 * rates * h, waves)
 
 
 def wave_forces(state: ChannelState, h, waves, impedance, area, v_other=None):

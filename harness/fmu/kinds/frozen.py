@@ -543,6 +543,7 @@ class FrozenCosim:
         self.channel = None if channel is None else ChannelState(channel)
         self.impedance = 0.0                               # the wave form (port_impedance; 0: the force form)
         self.waves = np.zeros(self.n_ports)
+        self.wave_rates = np.zeros(self.n_ports)           # da_port/dt [N s^-1] (input derivatives; 0: held)
 
     def _advance(self, count, h, f, rate=0.0, tau0=0.0):
         if count <= 0:
@@ -573,7 +574,9 @@ class FrozenCosim:
             self._advance(1, rest, f, rate, n_full * self.dt)
         if self.channel is not None:                       # the port forces' response (fmu_src/rom.c's order)
             self.channel.fmu_step(h, self.port_forces, self.port_rates, self.area, self.impedance, self.waves,
-                                  0.5 * (v_own + self.own_port_velocities()))
+                                  0.5 * (v_own + self.own_port_velocities()), self.wave_rates)
+            if self.impedance > 0:                         # an incident wave with a rate goes on linearly
+                self.waves = np.where(self.wave_rates != 0.0, self.waves + self.wave_rates * h, self.waves)
         self.t = (self.t if t_comm is None else t_comm) + h
         self.elapsed = self.elapsed + h
         if self.n_ports:                                   # a port force with a rate goes on linearly (rom_do_step)
