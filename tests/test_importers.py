@@ -133,7 +133,7 @@ def assert_outputs_close(theirs, ours, names, name):
 
 def print_difference(importer, name, theirs, ours):
     """Print the largest |importer - fmpy| over the run, absolute and relative to the largest output (the figures
-    docs/fmu/importers.md quotes: ``python3 -m pytest -s tests/test_importers.py -k libcosim``)."""
+    docs/fmu/importers.md quotes: ``python3 -m pytest -n 0 -s tests/test_importers.py -k libcosim``)."""
     diff, scale = float(np.max(np.abs(theirs - ours))), float(np.max(np.abs(ours)))
     print(f"\n{importer} vs fmpy, {name}: max |difference| {diff:.2e} (largest output {scale:.3g}, "
           f"relative {diff / scale:.2e})")
@@ -345,7 +345,7 @@ def fmi_sim_outputs(tmp_path, path, fmi, start):
 def test_fmi_sim_runs_the_fmus_as_fmpy_does(fmus, tmp_path, name, fmi):
     """fmi-sim (Rust, its own FMI 2 and FMI 3 bindings) steps the plain and the port FMUs from the scene's initial
     state (port forces held at their start values): every output, the error bounds too, as fmpy gives it (the
-    differences: ``python3 -m pytest -s tests/test_importers.py -k fmi_sim``)."""
+    differences: ``python3 -m pytest -n 0 -s tests/test_importers.py -k fmi_sim``)."""
     if fmi_sim_executable() is None:
         pytest.skip("fmi-sim is not installed (cargo install fmi-sim; its build needs libclang: "
                     "LIBCLANG_PATH and BINDGEN_EXTRA_CLANG_ARGS=-I<gcc include>)")
