@@ -415,8 +415,7 @@ def section(rows, notes, *, command, wall, machine, image, span):
                      f"{_g(r['max_bound'], '.2e')} | {r['step_ns_bounds']:.0f} / {r['step_ns_plain']:.0f} | "
                      f"{r['cost_ratio']:.2f} |")
     for n in notes:
-        lines.append(f"| {n['scene']} | {n['model']} | | | | | | | not built: {n['note'].replace('|', '/')} | | | "
-                     "| | |")
+        lines.append(_note_row(n, before=6, after=5))
     scenes = {}
     for r in rows:
         scenes.setdefault(r["scene"], r.get("about", ""))
@@ -502,7 +501,7 @@ def parametric_section(rows, notes, *, command, wall, machine, span):
                      f"{r['violations']} / {r['points']} | {r['false_alarms']} | {_g(r['max_err'], '.2e')} | "
                      f"{_g(r['max_bound'], '.2e')} |")
     for n in notes:
-        lines.append(f"| {n['scene']} | {n['model']} | | | | | | | not built: {n['note'].replace('|', '/')} | | | |")
+        lines.append(_note_row(n, before=6, after=3))
     return lines + [""]
 
 
@@ -678,7 +677,7 @@ def main(argv=None):
     p.add_argument("--sizes", type=int_list(lo=16), default=None, metavar="N1,N2",
                    help="instead: the bounds at large N (e.g. 10000,100000): packaging time, cost, certification")
     p.add_argument("--package-limit", type=positive_int, default=PACKAGE_LIMIT, metavar="N",
-                   help="with --sizes: above N particles the shadow alone, no FMU (default %(default)s)")
+                   help="above N particles (with --sizes) the shadow alone, no FMU (default %(default)s)")
     args = p.parse_args(argv)
     if args.sizes is not None:
         return main_large(args, list(args.sizes), argv)
@@ -732,6 +731,13 @@ def main(argv=None):
         update_report(args.report, {SECTION_HEADING: lines})
         print(f"wrote {out / 'error_bounds.csv'}, {image} and the section of {args.report}")
     return 0 if all(r["violations"] == 0 for r in done) else 1
+
+
+def _note_row(note, before, after):
+    """A table row for a scene and model not built: ``before`` and ``after`` empty cells ("—") around its reason."""
+    cells = [note["scene"], note["model"], *["—"] * before, f"not built: {note['note'].replace('|', '/')}",
+             *["—"] * after]
+    return "| " + " | ".join(cells) + " |"
 
 
 def main_large(args, sizes, argv):

@@ -203,10 +203,11 @@ def section(rows, *, command, wall, machine):
     for r in rows:
         if r.get("note") and r.get("case"):
             lines.append(f"| {r['scene']} | {r['model']} | {r['N']} | {r['start']} | {r['case']} | "
-                         f"{r['note'].replace('|', '/')} | | | | | | |")
+                         f"{r['note'].replace('|', '/')} | — | — | — | — | — | — |")
             continue
         if r.get("note"):
-            lines.append(f"| {r['scene']} | {r['model']} | | | | not built: {r['note'].replace('|', '/')} | | | | | | |")
+            lines.append(f"| {r['scene']} | {r['model']} | — | — | — | not built: {r['note'].replace('|', '/')} | — | — | — | — | — "
+                         "| — |")
             continue
         lines.append(f"| {r['scene']} | {r['model']} | {r['N']}, {r['k_v']}, {r['k_rho']}, {r['shadow_order']} | "
                      f"{r['start']} | {r['case']} | {r['violations']} / {r['points']} | {_g(r['eff_median'])} | "
