@@ -592,13 +592,24 @@ double rom_port_impedance(const RomState *s) {
     return cs ? cs->impedance : NAN;
 }
 
-RomStatus rom_set_port_wave(RomState *s, uint32_t j, double wave, char *message, size_t message_size) {
-    if (!s) return rom_fail(message, message_size, "no state");
+/* the channel of port j's wave (a_port_j), or NULL with the message naming the ports allowed */
+static ChannelState *wave_port(RomState *s, uint32_t j, char *message, size_t message_size) {
+    if (!s) {
+        rom_fail(message, message_size, "no state");
+        return NULL;
+    }
     ChannelState *cs = (ChannelState *)s->channel;
     if (!cs || j >= s->model->n_ports) {
-        return rom_fail(message, message_size, "a_port_%u: no such port wave (allowed: 1 to %u with the port channel)",
-                        j + 1, cs ? s->model->n_ports : 0u);
+        rom_fail(message, message_size, "a_port_%u: no such port wave (allowed: 1 to %u with the port channel)",
+                 j + 1, cs ? s->model->n_ports : 0u);
+        return NULL;
     }
+    return cs;
+}
+
+RomStatus rom_set_port_wave(RomState *s, uint32_t j, double wave, char *message, size_t message_size) {
+    ChannelState *cs = wave_port(s, j, message, message_size);
+    if (!cs) return ROM_FAIL;
     if (!isfinite(wave)) {
         return rom_fail(message, message_size, "input a_port_%u = %g N at t = %.9g s is not finite (allowed: a finite "
                         "force wave in N)", j + 1, wave, s->time);
@@ -608,12 +619,8 @@ RomStatus rom_set_port_wave(RomState *s, uint32_t j, double wave, char *message,
 }
 
 RomStatus rom_set_port_wave_rate(RomState *s, uint32_t j, double rate, char *message, size_t message_size) {
-    if (!s) return rom_fail(message, message_size, "no state");
-    ChannelState *cs = (ChannelState *)s->channel;
-    if (!cs || j >= s->model->n_ports) {
-        return rom_fail(message, message_size, "a_port_%u: no such port wave (allowed: 1 to %u with the port channel)",
-                        j + 1, cs ? s->model->n_ports : 0u);
-    }
+    ChannelState *cs = wave_port(s, j, message, message_size);
+    if (!cs) return ROM_FAIL;
     if (!isfinite(rate)) {
         return rom_fail(message, message_size, "input derivative of a_port_%u, da_port_%u/dt = %g N s^-1 at t = %.9g "
                         "s, is not finite (allowed: a finite rate)", j + 1, j + 1, rate, s->time);
