@@ -234,13 +234,13 @@ def lowest_frequency(problem):
     return rayleigh(problem)[0] / (2 * math.pi)
 
 
-def top_frequency(scene, problem, ops, k):
+def top_frequency(scene, problem, ops):
     """nu_top [Hz]: the top of the band that matters for the scene as the reduced model ``ops`` holds it, the largest
     of
 
-    - :func:`energy_band` of its velocity modes (a POD model: its POD modes and any appended input direction; ``k``
-      is not used there, kept for the callers): the frequency below which :data:`BAND_ENERGY` of the training run's kinetic energy lies, and that
-      of the step case's elastic response (a force along the scene's profile switched on at t = 0);
+    - :func:`energy_band` of its velocity modes (a POD model: its POD modes and any appended input direction): the
+      frequency below which :data:`BAND_ENERGY` of the training run's kinetic energy lies, and that of the step
+      case's elastic response (a force along the scene's profile switched on at t = 0);
     - the frequency below which 99 % of the training force's energy lies (:func:`force_top`).
 
     The unseen sine is in this band by construction (:func:`unseen_frequency`).  Not the highest of the k modes'
@@ -282,7 +282,6 @@ def energy_band(problem, U, v_samples, profile=None, horizon=None, fraction=BAND
     w = np.sqrt(np.clip(w2, 0.0, None))
     elastic = w > 1e-6 * max(float(w.max(initial=0.0)), 1e-300)
     PsiM = Q.T @ MU.T                                      # psi_j^T M, (k, N)
-
     w = np.where(elastic, w, 0.0)
 
     def top(energy):

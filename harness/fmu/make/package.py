@@ -208,7 +208,7 @@ def package_fmu(scene, out, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaul
                                              vary=vary, ports=ports, bounds=bounds, order_tolerance=order_tolerance,
                                              error_bounds=error_bounds,
                                              build_options=build_options)
-    step = step_size if step_size is not None else default_step(scene, data, ops, k, problem)
+    step = step_size if step_size is not None else default_step(scene, data, ops, problem)
     timings["model"] = time.perf_counter() - t0
     stage_done(scene, "model", timings, progress)
     envelope = envelope_step(data)
@@ -336,11 +336,11 @@ def verification_step(path, scene, probes, references, problem, progress, tolera
     return verification
 
 
-def default_step(scene, data, ops, k, problem=None):
+def default_step(scene, data, ops, problem=None):
     """The FMU's DefaultExperiment stepSize [s]: :func:`sphrom.fmu.check.verify.communication_step` of the top of
-    the scene's band as the model holds it (:func:`sphrom.fmu.check.verify.top_frequency` of its first k modes; k
-    None: all its coordinates), at least the model's internal dt."""
-    nu_top = top_frequency(scene, problem or build_problem(scene), ops, data.k_v if k is None else k)
+    the scene's band as the model holds it (:func:`sphrom.fmu.check.verify.top_frequency` over its velocity modes),
+    at least the model's internal dt."""
+    nu_top = top_frequency(scene, problem or build_problem(scene), ops)
     return communication_step(scene, nu_top, kind_of(data).parameter_starts(data).get("dt"))
 
 
