@@ -330,7 +330,7 @@ def fmi_sim_outputs(tmp_path, path, fmi, start):
                 zout.writestr(item, data)
     out = tmp_path / "fmi-sim.csv"
     args = [exe, "--model", str(run), "-o", str(out), "co-simulation", "--step", str(H), "-f", str(N_STEPS * H),
-            "-n", "0"]
+            "--output-interval", str(H)]      # fmi-sim 0.7: "-n 0" still gives its 500 default output points
     for name, value in start.items():
         args += ["--init-values", f"{name}={value!r}"]
     done = subprocess.run(args, capture_output=True, text=True, timeout=300)
