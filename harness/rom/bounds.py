@@ -51,7 +51,8 @@ whose certified complement stays below :data:`SHADOW_TARGET` of each channel's r
 :data:`MAX_PLANES`.  Port forces as inputs of the shadow (no port channel exact on its own) with N <=
 :data:`PORT_ALL_PLANES`: every plane, since a port's force and velocity are spread and read by the kernel over a
 few particles and reach every plane alike (the complement is then empty and the port bounds |model - truth| up to
-round-off, at O(N) per step).  docs/science/error-bounds.md has the derivation.
+round-off, at O(N) per step).  Likewise every plane where even :data:`MAX_PLANES` leave a complement above
+:data:`ALL_PLANES_ABOVE` of a channel's response and N <= :data:`ALL_PLANES` (every plane computed).  docs/science/error-bounds.md has the derivation.
 """
 
 from __future__ import annotations
@@ -70,6 +71,8 @@ from .planes import EIGEN_LIMIT, Modes, coupling, eigen_planes, gap_cuts, plane_
 SHADOW_TARGET = 1e-6        # the complement's certified part / the channel's response, per reference input
 MAX_PLANES = 96             # the largest shadow (planes; k_s = 2 x this)
 PORT_ALL_PLANES = 500       # port forces as the shadow's inputs and N <= this: every plane (build_shadow)
+ALL_PLANES = 500            # N <= this and the largest cut's criterion above ALL_PLANES_ABOVE: every plane
+ALL_PLANES_ABOVE = 1e-2     # ... (build_shadow): a complement this large a part of a response makes bounds useless
 SPARSE_PLANES = 96          # planes computed above DENSE_LIMIT particles (the shadow's and a buffer of exact ones)
 INITIAL_BUDGET = 3.2e6      # ... more, up to this / N (at most MAX_COMPUTED), where the initial state's tail needs
 MAX_COMPUTED = 400          # them (build_shadow; Lanczos costs ~N k²: BENCHMARKS.md, "at large N")
@@ -637,8 +640,14 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
     n = planes.count
     rows, m = chat.shape[0], bhat.shape[2]
     key = planes.key
-    elastic = key[key > 1e-9 * max(float(key[-1]), 1e-300)]
-    omega = 0.5 * float(elastic[0]) if elastic.size else 1.0
+    # the first elastic frequency: the slowest plane that oscillates (σ of a singular plane [[-d, σ], [-σ, 0]], ω of a
+    # complex pair [[-α, ω], [-ω, -α]]); a plane of real modes (the rigid motion decaying at a damping that varies
+    # along the bar, |λ| ~ d) does not, and taking its |λ| put the reference sine near 0 Hz
+    freq = 0.5 * np.abs(L[:, 0, 1] - L[:, 1, 0])
+    elastic = freq[freq > 1e-9 * max(float(freq.max(initial=0.0)), 1e-300)]
+    if not elastic.size:                                       # (a parametric shadow's constant piece): the key
+        elastic = key[key > 1e-9 * max(float(key[-1]), 1e-300)]
+    omega = 0.5 * float(elastic.min()) if elastic.size else 1.0
     step_r, sine_r = reference_responses(L, chat, bhat, T, omega)
     classes = _row_classes(P, n_ports)
     span = REFERENCE_SPAN * T
@@ -689,7 +698,8 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
     values = {}
     lo, hi = 0, len(cuts) - 1
     best = values.setdefault(cuts[hi], value(cuts[hi]))
-    if best > target:                                          # the target is out of reach: where it levels off
+    reached = best <= target
+    if not reached:                                            # the target is out of reach: where it levels off
         target = PLATEAU * best
     if value(cuts[0]) <= target:
         chosen = cuts[0]
@@ -703,7 +713,7 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
                 lo = mid + 1
         chosen = cuts[lo]
     values.setdefault(chosen, value(chosen))
-    return chosen, values, {"omega_ref": omega}
+    return chosen, values, {"omega_ref": omega, "reached": bool(reached), "plateau": float(best)}
 
 
 def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, force=None, T=None,
@@ -784,6 +794,13 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
         chosen, values, ref = choose_planes(planes, modes_all, chat, bhat, eta, lambda: tail, T, P, len(ports),
                                             target=target, max_planes=max_planes, at_least=at_least,
                                             table=not parametric)
+        if ref["plateau"] > ALL_PLANES_ABOVE and planes.complete and not parametric and n <= ALL_PLANES:
+            # even the largest cut's complement is a sizeable part of a channel's response (an in-band force on a
+            # lightly damped bar: its decay-weighted variation ~ u'/α against a true response ~ u'/ω): the bound
+            # of any model more accurate than that would be loose (effectivities of 1e3, a false alarm); every
+            # plane costs O(N) per step at this N, and the complement is then empty: the bound |model - truth| up
+            # to round-off
+            chosen = planes.count
     chosen = min(chosen, planes.count)
     keep = np.arange(chosen)
     S = planes.basis(keep)
