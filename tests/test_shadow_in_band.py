@@ -2,7 +2,7 @@
 bar, a hammer force at 600 Hz on a few particles, no integrator or dt named.  Its complement's decay-weighted
 variation (u'/α, α ~ 10-50 s^-1) stands against a true response ~ u'/ω (ω ~ 1e4 s^-1): a shadow of MAX_PLANES planes
 left bounds 3e3x the true error of an exact model accurate to 1e-4 and a warning at a thousandth of
-error_tolerance (`sphrom fmu` on this scene at N = 160).  At such an N the shadow keeps every plane instead
+error_tolerance (`sphrom fmu` on this scene at N = 160).  Where every plane is computed the shadow keeps them all instead
 (harness/rom/bounds.py build_shadow, ALL_PLANES), and the reference sine that sizes it sits at half the first
 *elastic* frequency, not at the rigid motion's decay rate.
 """

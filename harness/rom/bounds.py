@@ -52,7 +52,7 @@ whose certified complement stays below :data:`SHADOW_TARGET` of each channel's r
 :data:`PORT_ALL_PLANES`: every plane, since a port's force and velocity are spread and read by the kernel over a
 few particles and reach every plane alike (the complement is then empty and the port bounds |model - truth| up to
 round-off, at O(N) per step).  Likewise every plane where even :data:`MAX_PLANES` leave a complement above
-:data:`ALL_PLANES_ABOVE` of a channel's response and N <= :data:`ALL_PLANES` (every plane computed).  docs/science/error-bounds.md has the derivation.
+:data:`ALL_PLANES_ABOVE` of a channel's response and every plane is computed (N <= :data:`ALL_PLANES`).  docs/science/error-bounds.md has the derivation.
 """
 
 from __future__ import annotations
@@ -71,7 +71,7 @@ from .planes import EIGEN_LIMIT, Modes, coupling, eigen_planes, gap_cuts, plane_
 SHADOW_TARGET = 1e-6        # the complement's certified part / the channel's response, per reference input
 MAX_PLANES = 96             # the largest shadow (planes; k_s = 2 x this)
 PORT_ALL_PLANES = 500       # port forces as the shadow's inputs and N <= this: every plane (build_shadow)
-ALL_PLANES = 500            # N <= this and the largest cut's criterion above ALL_PLANES_ABOVE: every plane
+ALL_PLANES = 2500           # N <= this and the largest cut's criterion above ALL_PLANES_ABOVE: every plane
 ALL_PLANES_ABOVE = 1e-2     # ... (build_shadow): a complement this large a part of a response makes bounds useless
 SPARSE_PLANES = 96          # planes computed above DENSE_LIMIT particles (the shadow's and a buffer of exact ones)
 INITIAL_BUDGET = 3.2e6      # ... more, up to this / N (at most MAX_COMPUTED), where the initial state's tail needs
@@ -798,8 +798,8 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
             # even the largest cut's complement is a sizeable part of a channel's response (an in-band force on a
             # lightly damped bar: its decay-weighted variation ~ u'/α against a true response ~ u'/ω): the bound
             # of any model more accurate than that would be loose (effectivities of 1e3, a false alarm); every
-            # plane costs O(N) per step at this N, and the complement is then empty: the bound |model - truth| up
-            # to round-off
+            # plane costs O(N) per step (a dense decomposition's N), and the complement is then empty: the bound
+            # |model - truth| up to round-off
             chosen = planes.count
     chosen = min(chosen, planes.count)
     keep = np.arange(chosen)
