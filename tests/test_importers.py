@@ -303,10 +303,12 @@ def test_fmu_manipulation_toolbox_container_leaves_the_fmi3_fmu_at_rest_as_fmpy_
 
 
 def fmi_sim_executable():
-    """fmi-sim (the Rust FMI importer, ``cargo install fmi-sim``), on PATH or in ~/.cargo/bin; None if absent."""
+    """fmi-sim (the Rust FMI importer, ``cargo install fmi-sim``, which ``.ci/run`` builds where cargo is), on PATH
+    or in cargo's bin folder ($CARGO_HOME/bin, by default ~/.cargo/bin); None if absent."""
+    import os
     from pathlib import Path
     found = shutil.which("fmi-sim")
-    cargo = Path.home() / ".cargo" / "bin" / "fmi-sim"
+    cargo = Path(os.environ.get("CARGO_HOME", Path.home() / ".cargo")) / "bin" / "fmi-sim"
     return found or (str(cargo) if cargo.exists() else None)
 
 
