@@ -4,12 +4,13 @@
  * J, and with a uniform damping d each singular triplet of its coupling K spans an invariant plane; the planes the
  * ports excite (all of them on every built-in scene) are stepped here, each by the exponential of its augmented
  * matrix (cached per step length): O(planes x ports) per step, the outputs O(planes x rows) once per step, when
- * first read.  Planes left out (more than the file keeps) add their static correction (a feedthrough into the e
+ * first read (rows four at a time in one pass over the planes; with the probes' density shifts and the rows' bounds,
+ * and the kind's own v_port from the step's end, each computed once per step however often it is read).  Planes left out (more than the file keeps) add their static correction (a feedthrough into the e
  * rows) and a certified remainder, sum_j gain_rj V(u_j), V(u) = |u(0)| + the total variation of u.
  *
  * The state of each plane is (p, q): x = sum_i p_i [u_i; 0] + q_i [0; w_i] in energy coordinates.  Arrays are kept
- * per quantity (one array of p, one of q, one per map entry) and zero-padded to a multiple of 4, so that the loops
- * run over 4 planes at a time; the arithmetic is not the Python reference's order (the channel is compared with it
+ * per quantity (one array of p, one of q, one per map entry) and zero-padded to a multiple of 16, so that the loops
+ * run over 8 planes at a time (16 partial sums per output row); the arithmetic is not the Python reference's order (the channel is compared with it
  * within tolerances, not bit for bit).
  *
  * The wave form (rom.h rom_set_port_impedance): with Z > 0 the port force over a step is held at
@@ -43,21 +44,22 @@ enum { PHI00, PHI01, PHI10, PHI11, G0P, G0Q, G1P, G1Q, PSIP, PSIQ, PSI0, PSI1, N
 #define CHANNEL_CLONES
 #endif
 #if defined(__GNUC__)
-typedef double c4d __attribute__((vector_size(32)));
-typedef double c8d __attribute__((vector_size(64)));    /* one AVX-512 register; two or four narrower ones */
+typedef double c4d __attribute__((vector_size(32)));    /* one AVX register (two SSE2 ones) */
 #define C4_LOAD(ptr) (*(const c4d *)(const void *)(ptr))
 #define C4_STORE(ptr, v) (*(c4d *)(void *)(ptr) = (v))
 #define C4_SPLAT(x) ((c4d){(x), (x), (x), (x)})
-#define C8_LOAD(ptr) (*(const c8d *)(const void *)(ptr))
-#define C8_STORE(ptr, v) (*(c8d *)(void *)(ptr) = (v))
-#define C8_SPLAT(x) ((c8d){(x), (x), (x), (x), (x), (x), (x), (x)})
 #endif
 #if defined(__GNUC__)
 #define CHANNEL_INLINE static inline __attribute__((always_inline))    /* into each clone, with its constants */
 #else
 #define CHANNEL_INLINE static inline
 #endif
-#define ROW_BLOCK 4                    /* output rows summed in one pass over the planes */
+#if defined(__GNUC__) && !defined(__clang__)
+#define CHANNEL_UNROLL _Pragma("GCC unroll 2")       /* the loops over a block's rows: the sums stay in registers */
+#else
+#define CHANNEL_UNROLL
+#endif
+#define ROW_BLOCK 2                    /* output rows summed in one pass over the planes (dot_rows) */
 
 typedef struct {
     double h;                  /* 0: empty */
@@ -336,11 +338,9 @@ static const ChannelCache *channel_maps(ChannelState *cs, const RomModel *m, dou
 /* p, q <- Phi (p, q) + g0 ue + g1 de, plane by plane, the planes' inputs ue_i = sum_j beta_ij u_j and
  * de_i = sum_j beta_ij du_j formed in the same pass (summed over j in order from 0, as a separate pass would); held
  * inputs (every du_j = 0, the common case) skip the g1 terms, which would add exact zeros */
-CHANNEL_CLONES
-static void step_planes(const RomChannelModel *ch, const ChannelCache *k, double *restrict p, double *restrict q,
-                        const double *u, const double *du) {
+CHANNEL_INLINE void step_planes_n(const RomChannelModel *ch, const ChannelCache *k, double *restrict p,
+                                 double *restrict q, const double *u, const double *du, const uint32_t P) {
     const size_t pad = ch->pad;
-    const uint32_t P = ch->ports;
     const double *restrict a = k->map[PHI00], *restrict b = k->map[PHI01], *restrict c = k->map[PHI10];
     const double *restrict d = k->map[PHI11], *restrict g0p = k->map[G0P], *restrict g0q = k->map[G0Q];
     const double *restrict g1p = k->map[G1P], *restrict g1q = k->map[G1Q];
@@ -356,30 +356,30 @@ static void step_planes(const RomChannelModel *ch, const ChannelCache *k, double
     const double u0 = uu[0], u1 = uu[1], u2 = uu[2], u3 = uu[3];
     const double d0 = dd[0], d1 = dd[1], d2 = dd[2], d3 = dd[3];
 #if defined(__GNUC__)
-    /* eight planes at a time (pad is a multiple of 16, the arrays 64-byte aligned): the same operations, lane by
+    /* four planes at a time (pad is a multiple of 16, the arrays 64-byte aligned): the same operations, lane by
      * lane (each plane's arithmetic does not depend on the width) */
-    const c8d U0 = C8_SPLAT(u0), U1 = C8_SPLAT(u1), U2 = C8_SPLAT(u2), U3 = C8_SPLAT(u3);
-    const c8d D0 = C8_SPLAT(d0), D1 = C8_SPLAT(d1), D2 = C8_SPLAT(d2), D3 = C8_SPLAT(d3);
-    for (size_t i = 0; i < pad; i += 8) {
-        c8d ue = C8_SPLAT(0.0);
-        if (P > 0) ue += C8_LOAD(b0 + i) * U0;
-        if (P > 1) ue += C8_LOAD(b1 + i) * U1;
-        if (P > 2) ue += C8_LOAD(b2 + i) * U2;
-        if (P > 3) ue += C8_LOAD(b3 + i) * U3;
-        const c8d pi = C8_LOAD(p + i), qi = C8_LOAD(q + i);
-        c8d pn = C8_LOAD(a + i) * pi + C8_LOAD(b + i) * qi + C8_LOAD(g0p + i) * ue;
-        c8d qn = C8_LOAD(c + i) * pi + C8_LOAD(d + i) * qi + C8_LOAD(g0q + i) * ue;
+    const c4d U0 = C4_SPLAT(u0), U1 = C4_SPLAT(u1), U2 = C4_SPLAT(u2), U3 = C4_SPLAT(u3);
+    const c4d D0 = C4_SPLAT(d0), D1 = C4_SPLAT(d1), D2 = C4_SPLAT(d2), D3 = C4_SPLAT(d3);
+    for (size_t i = 0; i < pad; i += 4) {
+        c4d ue = C4_SPLAT(0.0);
+        if (P > 0) ue += C4_LOAD(b0 + i) * U0;
+        if (P > 1) ue += C4_LOAD(b1 + i) * U1;
+        if (P > 2) ue += C4_LOAD(b2 + i) * U2;
+        if (P > 3) ue += C4_LOAD(b3 + i) * U3;
+        const c4d pi = C4_LOAD(p + i), qi = C4_LOAD(q + i);
+        c4d pn = C4_LOAD(a + i) * pi + C4_LOAD(b + i) * qi + C4_LOAD(g0p + i) * ue;
+        c4d qn = C4_LOAD(c + i) * pi + C4_LOAD(d + i) * qi + C4_LOAD(g0q + i) * ue;
         if (ramp) {                        /* de formed only for a ramp: held inputs skip it as the g1 terms */
-            c8d de = C8_SPLAT(0.0);
-            if (P > 0) de += C8_LOAD(b0 + i) * D0;
-            if (P > 1) de += C8_LOAD(b1 + i) * D1;
-            if (P > 2) de += C8_LOAD(b2 + i) * D2;
-            if (P > 3) de += C8_LOAD(b3 + i) * D3;
-            pn += C8_LOAD(g1p + i) * de;
-            qn += C8_LOAD(g1q + i) * de;
+            c4d de = C4_SPLAT(0.0);
+            if (P > 0) de += C4_LOAD(b0 + i) * D0;
+            if (P > 1) de += C4_LOAD(b1 + i) * D1;
+            if (P > 2) de += C4_LOAD(b2 + i) * D2;
+            if (P > 3) de += C4_LOAD(b3 + i) * D3;
+            pn += C4_LOAD(g1p + i) * de;
+            qn += C4_LOAD(g1q + i) * de;
         }
-        C8_STORE(p + i, pn);
-        C8_STORE(q + i, qn);
+        C4_STORE(p + i, pn);
+        C4_STORE(q + i, qn);
     }
 #else
     for (size_t i = 0; i < pad; i++) {
@@ -400,64 +400,98 @@ static void step_planes(const RomChannelModel *ch, const ChannelCache *k, double
 #endif
 }
 
-/* sum_i row_i x_i over the padded planes (a multiple of 16), sixteen partial sums in four independent chains */
+/* step_planes_n with the port count a constant (its loop without a test of P per plane) */
 CHANNEL_CLONES
-static double dot(const double *restrict row, const double *restrict x, size_t pad) {
-#if defined(__GNUC__)
-    c4d a0 = C4_SPLAT(0.0), a1 = a0, a2 = a0, a3 = a0;
-    for (size_t i = 0; i < pad; i += 16) {
-        a0 += C4_LOAD(row + i) * C4_LOAD(x + i);
-        a1 += C4_LOAD(row + i + 4) * C4_LOAD(x + i + 4);
-        a2 += C4_LOAD(row + i + 8) * C4_LOAD(x + i + 8);
-        a3 += C4_LOAD(row + i + 12) * C4_LOAD(x + i + 12);
+static void step_planes(const RomChannelModel *ch, const ChannelCache *k, double *restrict p, double *restrict q,
+                        const double *u, const double *du) {
+    switch (ch->ports) {
+        case 1: step_planes_n(ch, k, p, q, u, du, 1); break;
+        case 2: step_planes_n(ch, k, p, q, u, du, 2); break;
+        case 3: step_planes_n(ch, k, p, q, u, du, 3); break;
+        default: step_planes_n(ch, k, p, q, u, du, ROM_MAX_PORTS); break;
     }
-    const c4d acc = (a0 + a1) + (a2 + a3);
-    return (acc[0] + acc[1]) + (acc[2] + acc[3]);
-#else
+}
+
+#if !defined(__GNUC__)
+/* sum_i row_i x_i over the padded planes (a multiple of 16): sixteen partial sums, lane l holding the i = l mod 16,
+ * combined as dot_rows_n combines its registers' lanes (the same bits with or without vector types) */
+static double dot(const double *row, const double *x, size_t pad) {
     double acc[16] = {0.0};
     for (size_t i = 0; i < pad; i += 16) {
         for (int j = 0; j < 16; j++) acc[j] += row[i + j] * x[i + j];
     }
-    double sum = 0.0;
-    for (int j = 0; j < 16; j++) sum += acc[j];
-    return sum;
-#endif
+    double quad[4];
+    for (int l = 0; l < 4; l++) quad[l] = (acc[l] + acc[l + 4]) + (acc[l + 8] + acc[l + 12]);
+    return (quad[0] + quad[1]) + (quad[2] + quad[3]);
 }
+#endif
 
-/* rows[0 .. n-1] (each pad long) times x into out[0 .. n-1], in one pass over x: each row's sum bit for bit dot()'s
- * (the same sixteen partial sums, combined in the same order; a lane of lo or hi is one of dot's sixteen).  n is a
- * constant where dot_rows calls it, so that the sums stay in registers */
+#if defined(__GNUC__)
+/* the sixteen partial sums of a row (its four-lane chains a[0..3], lane l of a[c] holding the i = 4 c + l mod 16)
+ * into one: (a0 + a1) + (a2 + a3), then its lanes pairwise */
+CHANNEL_INLINE double fold16(const c4d *a) {
+    const c4d acc = (a[0] + a[1]) + (a[2] + a[3]);
+    return (acc[0] + acc[1]) + (acc[2] + acc[3]);
+}
+#endif
+
+/* rows[0 .. n-1] (each pad long) times x into out[0 .. n-1], in one pass over x: per row sixteen partial sums in
+ * four four-lane chains, lane l of chain c holding the i = 4 c + l mod 16, summed as (a0 + a1) + (a2 + a3), then the
+ * lanes pairwise (fold16; dot() without vector types: the same bits).  n is a constant where dot_rows calls it, so
+ * that the sums stay in registers */
 CHANNEL_INLINE void dot_rows_n(const double *restrict rows, size_t pad, const uint32_t n, const double *restrict x,
                               double *out) {
 #if defined(__GNUC__)
-    c8d lo[ROW_BLOCK], hi[ROW_BLOCK];
-    for (uint32_t r = 0; r < n; r++) lo[r] = hi[r] = C8_SPLAT(0.0);
+    c4d a[ROW_BLOCK][4];
+    CHANNEL_UNROLL
+    for (uint32_t r = 0; r < n; r++) a[r][0] = a[r][1] = a[r][2] = a[r][3] = C4_SPLAT(0.0);
     for (size_t i = 0; i < pad; i += 16) {
-        const c8d x0 = C8_LOAD(x + i), x1 = C8_LOAD(x + i + 8);
+        const c4d x0 = C4_LOAD(x + i), x1 = C4_LOAD(x + i + 4), x2 = C4_LOAD(x + i + 8), x3 = C4_LOAD(x + i + 12);
+        CHANNEL_UNROLL
         for (uint32_t r = 0; r < n; r++) {
-            lo[r] += C8_LOAD(rows + r * pad + i) * x0;
-            hi[r] += C8_LOAD(rows + r * pad + i + 8) * x1;
+            const double *row = rows + r * pad + i;
+            a[r][0] += C4_LOAD(row) * x0;
+            a[r][1] += C4_LOAD(row + 4) * x1;
+            a[r][2] += C4_LOAD(row + 8) * x2;
+            a[r][3] += C4_LOAD(row + 12) * x3;
         }
     }
-    for (uint32_t r = 0; r < n; r++) {           /* dot's (a0 + a1) + (a2 + a3), then its lanes pairwise */
-        double acc[4];
-        for (int l = 0; l < 4; l++) acc[l] = (lo[r][l] + lo[r][l + 4]) + (hi[r][l] + hi[r][l + 4]);
-        out[r] = (acc[0] + acc[1]) + (acc[2] + acc[3]);
-    }
+    CHANNEL_UNROLL
+    for (uint32_t r = 0; r < n; r++) out[r] = fold16(a[r]);
 #else
     for (uint32_t r = 0; r < n; r++) out[r] = dot(rows + r * pad, x, pad);
 #endif
 }
 
-/* dot_rows_n for 1 <= n <= ROW_BLOCK rows */
+/* |(p, q)|^2 = dot(p, p) + dot(q, q), bit for bit, both sums in one pass (as dot_rows_n forms them) */
+CHANNEL_CLONES
+static double norm2(const double *restrict p, const double *restrict q, size_t pad) {
+#if defined(__GNUC__)
+    c4d a[4], b[4];
+    a[0] = a[1] = a[2] = a[3] = b[0] = b[1] = b[2] = b[3] = C4_SPLAT(0.0);
+    for (size_t i = 0; i < pad; i += 16) {
+        const c4d p0 = C4_LOAD(p + i), p1 = C4_LOAD(p + i + 4), p2 = C4_LOAD(p + i + 8), p3 = C4_LOAD(p + i + 12);
+        const c4d q0 = C4_LOAD(q + i), q1 = C4_LOAD(q + i + 4), q2 = C4_LOAD(q + i + 8), q3 = C4_LOAD(q + i + 12);
+        a[0] += p0 * p0;
+        a[1] += p1 * p1;
+        a[2] += p2 * p2;
+        a[3] += p3 * p3;
+        b[0] += q0 * q0;
+        b[1] += q1 * q1;
+        b[2] += q2 * q2;
+        b[3] += q3 * q3;
+    }
+    return fold16(a) + fold16(b);
+#else
+    return dot(p, p, pad) + dot(q, q, pad);
+#endif
+}
+
+/* dot_rows_n for 1 <= n <= ROW_BLOCK rows (two: eight four-lane sums, in the sixteen AVX registers) */
 CHANNEL_CLONES
 static void dot_rows(const double *restrict rows, size_t pad, uint32_t n, const double *restrict x, double *out) {
-    switch (n) {
-        case 1: dot_rows_n(rows, pad, 1, x, out); break;
-        case 2: dot_rows_n(rows, pad, 2, x, out); break;
-        case 3: dot_rows_n(rows, pad, 3, x, out); break;
-        default: dot_rows_n(rows, pad, ROW_BLOCK, x, out); break;
-    }
+    if (n >= ROW_BLOCK) dot_rows_n(rows, pad, ROW_BLOCK, x, out);
+    else dot_rows_n(rows, pad, 1, x, out);
 }
 
 /* the mean port velocities over the step from the state now with no input: sum_i C_port_i (psi_p p + psi_q q) */
@@ -613,7 +647,7 @@ CHANNEL_INLINE double row_value(const RomState *s, const ChannelState *cs, uint3
 static void channel_certs(const RomState *s, ChannelState *cs) {
     const RomChannelModel *c = &s->model->channel;
     const uint32_t P = c->ports;
-    const double w_norm = sqrt(dot(cs->p, cs->p, c->pad) + dot(cs->q, cs->q, c->pad));
+    const double w_norm = sqrt(norm2(cs->p, cs->q, c->pad));
     const double allowance = CHANNEL_ROUNDOFF + CHANNEL_ROUNDOFF_STEP * cs->steps;
     for (uint32_t r = 0; r < c->rows; r++) {
         const double *D = c->D + (size_t)r * 2 * P;
@@ -641,7 +675,7 @@ double rom_channel_port_velocity(const RomState *s, uint32_t j) {
     if (!s || j >= s->model->n_ports) return NAN;
     ChannelState *cs = (ChannelState *)s->channel;
     if (!cs) return rom_port_velocity(s, j);
-    const double v = rom_channel_kind_velocity(s, j);
+    const double v = cs->kind_valid ? cs->v_kind[j] : rom_channel_kind_velocity(s, j);
     if (!cs->valid) channel_outputs(s, cs);
     return v + row_value(s, cs, 3 * s->model->n_probes + j);
 }
