@@ -406,13 +406,21 @@ static RomStatus check_port(const RomState *s, uint32_t j, char *message, size_t
     return ROM_OK;
 }
 
-RomStatus rom_set_port_force(RomState *s, uint32_t j, double force, char *message, size_t message_size) {
-    RomStatus status = check_port(s, j, message, message_size);
-    if (status != ROM_OK) return status;
-    if (!isfinite(force)) {
-        return rom_fail(message, message_size, "input F_port_%u = %g N at t = %.9g s is not finite (allowed: a finite "
-                        "force in N)", j + 1, force, s->time);
+RomStatus rom_check_port_input(const RomState *s, const char *name, uint32_t j, double value, const char *what,
+                               char *message, size_t message_size) {
+    if (!s || !name) return rom_fail(message, message_size, "no state or no input name");
+    if (isfinite(value)) return ROM_OK;
+    if (!what) {
+        return rom_fail(message, message_size, "input derivative of %s_%u, d%s_%u/dt = %g N s^-1 at t = %.9g s, is not "
+                        "finite (allowed: a finite rate)", name, j + 1, name, j + 1, value, s->time);
     }
+    return rom_fail(message, message_size, "input %s_%u = %g N at t = %.9g s is not finite (allowed: a finite %s in N)",
+                    name, j + 1, value, s->time, what);
+}
+
+RomStatus rom_set_port_force(RomState *s, uint32_t j, double force, char *message, size_t message_size) {
+    if (check_port(s, j, message, message_size) != ROM_OK ||
+        rom_check_port_input(s, "F_port", j, force, "force", message, message_size) != ROM_OK) return ROM_FAIL;
     s->port_force[j] = force;
     return ROM_OK;
 }
@@ -433,12 +441,8 @@ RomStatus rom_set_area(RomState *s, double area, char *message, size_t message_s
 }
 
 RomStatus rom_set_port_rate(RomState *s, uint32_t j, double rate, char *message, size_t message_size) {
-    RomStatus status = check_port(s, j, message, message_size);
-    if (status != ROM_OK) return status;
-    if (!isfinite(rate)) {
-        return rom_fail(message, message_size, "input derivative of F_port_%u, dF_port_%u/dt = %g N s^-1 at t = %.9g "
-                        "s, is not finite (allowed: a finite rate)", j + 1, j + 1, rate, s->time);
-    }
+    if (check_port(s, j, message, message_size) != ROM_OK ||
+        rom_check_port_input(s, "F_port", j, rate, NULL, message, message_size) != ROM_OK) return ROM_FAIL;
     s->port_rate[j] = rate;
     return ROM_OK;
 }

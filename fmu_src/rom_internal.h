@@ -197,6 +197,12 @@ static inline double rom_steps_per_call(double work) {
     return work > 0.0 ? floor(ROM_MAX_WORK_PER_CALL / work) : 0.0;
 }
 
+/* the finiteness check every port input's setter shares (F_port_j, a_port_j and their rates; rom.c): ROM_OK for a
+ * finite value, else ROM_FAIL with the message naming input name_{j+1}, "a finite <what> in N" (what NULL: the
+ * input's derivative, d<name>/dt in N s^-1) */
+RomStatus rom_check_port_input(const RomState *s, const char *name, uint32_t j, double value, const char *what,
+                               char *message, size_t message_size);
+
 /* ---- rom_port.c: the port channel (rom.h RomChannelModel) ---- */
 RomStatus rom_channel_check_section(const RomModel *m, const RomSection *s, char *message, size_t message_size);
 RomStatus rom_channel_prepare(RomModel *m, char *message, size_t message_size);   /* sizes of the PC* sections */

@@ -4,14 +4,15 @@
  * J, and with a uniform damping d each singular triplet of its coupling K spans an invariant plane; the planes the
  * ports excite (all of them on every built-in scene) are stepped here, each by the exponential of its augmented
  * matrix (cached per step length): O(planes x ports) per step, the outputs O(planes x rows) once per step, when
- * first read (rows four at a time in one pass over the planes; with the probes' density shifts and the rows' bounds,
- * and the kind's own v_port from the step's end, each computed once per step however often it is read).  Planes left out (more than the file keeps) add their static correction (a feedthrough into the e
- * rows) and a certified remainder, sum_j gain_rj V(u_j), V(u) = |u(0)| + the total variation of u.
+ * first read (two rows per pass over the planes; the probes' density shifts, the rows' bounds and the kind's own
+ * v_port at the step's end likewise once per step, however often they are read).  Planes left out (more than the
+ * file keeps) add their static correction (a feedthrough into the e rows) and a certified remainder,
+ * sum_j gain_rj V(u_j), V(u) = |u(0)| + the total variation of u.
  *
  * The state of each plane is (p, q): x = sum_i p_i [u_i; 0] + q_i [0; w_i] in energy coordinates.  Arrays are kept
  * per quantity (one array of p, one of q, one per map entry) and zero-padded to a multiple of 16, so that the loops
- * run over 8 planes at a time (16 partial sums per output row); the arithmetic is not the Python reference's order (the channel is compared with it
- * within tolerances, not bit for bit).
+ * run over 4 planes at a time (16 partial sums per output row); the arithmetic is not the Python reference's order
+ * (the channel is compared with it within tolerances, not bit for bit).
  *
  * The wave form (rom.h rom_set_port_impedance): with Z > 0 the port force over a step is held at
  * F = 2 a - Z vbar, vbar the mean port velocity over the step, which is linear in F (the channel's mean per unit
@@ -778,10 +779,8 @@ static ChannelState *wave_port(RomState *s, uint32_t j, char *message, size_t me
 
 RomStatus rom_set_port_wave(RomState *s, uint32_t j, double wave, char *message, size_t message_size) {
     ChannelState *cs = wave_port(s, j, message, message_size);
-    if (!cs) return ROM_FAIL;
-    if (!isfinite(wave)) {
-        return rom_fail(message, message_size, "input a_port_%u = %g N at t = %.9g s is not finite (allowed: a finite "
-                        "force wave in N)", j + 1, wave, s->time);
+    if (!cs || rom_check_port_input(s, "a_port", j, wave, "force wave", message, message_size) != ROM_OK) {
+        return ROM_FAIL;
     }
     cs->wave[j] = wave;
     return ROM_OK;
@@ -789,11 +788,7 @@ RomStatus rom_set_port_wave(RomState *s, uint32_t j, double wave, char *message,
 
 RomStatus rom_set_port_wave_rate(RomState *s, uint32_t j, double rate, char *message, size_t message_size) {
     ChannelState *cs = wave_port(s, j, message, message_size);
-    if (!cs) return ROM_FAIL;
-    if (!isfinite(rate)) {
-        return rom_fail(message, message_size, "input derivative of a_port_%u, da_port_%u/dt = %g N s^-1 at t = %.9g "
-                        "s, is not finite (allowed: a finite rate)", j + 1, j + 1, rate, s->time);
-    }
+    if (!cs || rom_check_port_input(s, "a_port", j, rate, NULL, message, message_size) != ROM_OK) return ROM_FAIL;
     cs->wave_rate[j] = rate;
     return ROM_OK;
 }

@@ -60,7 +60,7 @@ def multiply_adds(data, h=STEP):
     """{part: multiply-adds} of one communication step of length ``h`` [s] of the FMU whose model.bin is ``data``
     (unpacked), as the C core computes them: ``model`` (the kind's step: fmu_src/rom_frozen.c's internal steps and
     1/n_freeze of a refresh each, or rom_exact.c's dense step), ``channel`` (rom_port.c: each plane's step and its
-    inputs, the output rows once), ``shadow`` (rom_bound.c: each plane's step, and the velocity rows checked against
+    inputs with held port forces, the output rows and the state's norm for their bounds once), ``shadow`` (rom_bound.c: each plane's step, and the velocity rows checked against
     error_tolerance after each step), ``outputs`` (the probe and port rows read) and ``total``."""
     from ..fmu.kinds import kind_of
     import numpy as np
@@ -94,7 +94,10 @@ def multiply_adds(data, h=STEP):
         planes = int(s["PCSCAL"][0, 0])
         cp = pad(planes, 16)
         rows = 3 * P + n_ports
-        channel = cp * (8 + 2 * n_ports) + rows * cp
+        # each plane's step with held port forces (the master's here): its input from the ports, Phi (p, q) and g0
+        # times the input (a ramp adds g1 and its input: 2 + n_ports); the output rows and |w|^2 (the rows'
+        # bounds) once
+        channel = cp * (6 + n_ports) + rows * cp + 2 * cp
     shadow = 0.0
     if "SHSCAL" in s:
         order, planes, m = (int(x) for x in s["SHSCAL"][0, :3])
