@@ -440,6 +440,8 @@ typedef struct {
 
 static const Variable VARIABLES[] = {FMU_VARIABLE_ROWS};
 #define N_VARIABLES (sizeof VARIABLES / sizeof VARIABLES[0])
+/* lookup's slots keep a row + 1 and a member in 16 bits */
+typedef char lookup_fits_16_bits[(N_VARIABLES < 65535u && ROM_MAX_PROBES < 65535u) ? 1 : -1];
 
 /* the number of value references var stands for in this FMU (0: absent) */
 static uint32_t variable_count(const Instance *inst, const Variable *var) {
@@ -485,15 +487,20 @@ static int row_holds(const Instance *inst, const Variable *var, uint32_t ref, ui
 }
 
 /* the variable of value reference ref in this FMU, or NULL.  The rows' spans do not overlap, so at most one row
- * holds ref: the row of the last hit is asked first (an importer reads and writes the same families every step,
- * a family's references one after another), then the table in order */
+ * holds ref.  An importer reads and writes the same references every step: each one found is remembered in a
+ * direct-mapped slot (a multiplicative hash of ref), asked first; else the table in order.  What a row holds depends
+ * on the model only (its presence rule and counts), so a remembered answer stays true for the instance's life */
 static const Variable *lookup(Instance *inst, uint32_t ref, uint32_t *j) {
-    if (inst->lookup_hint < N_VARIABLES && row_holds(inst, &VARIABLES[inst->lookup_hint], ref, j)) {
-        return &VARIABLES[inst->lookup_hint];
+    const uint32_t slot = (uint32_t)(ref * 2654435761u) >> (32 - INSTANCE_LOOKUP_BITS);
+    if (inst->lookup_row[slot] && inst->lookup_ref[slot] == ref) {
+        *j = inst->lookup_member[slot];
+        return &VARIABLES[inst->lookup_row[slot] - 1];
     }
     for (size_t i = 0; i < N_VARIABLES; i++) {
         if (row_holds(inst, &VARIABLES[i], ref, j)) {
-            inst->lookup_hint = i;
+            inst->lookup_ref[slot] = ref;
+            inst->lookup_row[slot] = (uint16_t)(i + 1);
+            inst->lookup_member[slot] = (uint16_t)*j;
             return &VARIABLES[i];
         }
     }

@@ -53,6 +53,9 @@ typedef enum {
 #define INSTANCE_LOG_ERROR 4u        /* logStatusError */
 #define INSTANCE_LOG_ALL (INSTANCE_LOG_EVENTS | INSTANCE_LOG_WARNING | INSTANCE_LOG_ERROR)
 
+#define INSTANCE_LOOKUP_BITS 6
+#define INSTANCE_LOOKUP_SLOTS (1u << INSTANCE_LOOKUP_BITS)   /* value references remembered (Instance.lookup_ref) */
+
 /* The importer's logger, stored untyped; the version's adapter casts it back. */
 typedef void (*InstanceCallback)(void);
 
@@ -85,7 +88,11 @@ typedef struct {
     int warned_envelope;               /* the warning on leaving the training envelope was logged (reset re-arms) */
     int assembled;                     /* parametric models: the model's operators were assembled at */
     double assembled_c, assembled_d;   /* these c [kg m^-1 s^-2] and d [s^-1] (rom_model_assemble) */
-    size_t lookup_hint;                /* the variables table's row of the last value reference found */
+    /* the value references found so far, direct mapped by a hash of the reference (instance.c lookup): slot s holds
+     * reference lookup_ref[s], the table's row lookup_row[s] - 1 (0: empty), its member lookup_member[s] */
+    uint32_t lookup_ref[INSTANCE_LOOKUP_SLOTS];
+    uint16_t lookup_row[INSTANCE_LOOKUP_SLOTS];
+    uint16_t lookup_member[INSTANCE_LOOKUP_SLOTS];
     char message[ROM_MESSAGE_SIZE];    /* the core's last message */
 } Instance;
 

@@ -63,6 +63,7 @@ static void apply_initial_state(RomState *s) {
     memset(s->av, 0, m->kv_pad * sizeof(double));
     memset(s->ar, 0, m->kr_pad * sizeof(double));
     m->ops->initial_state(s);
+    rom_channel_kind_moved(s);
 }
 
 void rom_state_reset(RomState *s, double t_start) {
@@ -236,13 +237,18 @@ RomStatus rom_do_step(RomState *s, double t_comm, double h, char *message, size_
                                                                      * with the port channel, which takes them) */
         if (s->port_force[j] != 0.0 || s->port_rate[j] != 0.0) s->port_driven = 1.0;
     }
-    double v_own[ROM_MAX_PORTS];                                    /* the kind's v_port at the step's two ends */
+    double v_own[ROM_MAX_PORTS], v_end[ROM_MAX_PORTS];              /* the kind's v_port at the step's two ends */
     const uint32_t own = s->channel ? s->model->n_ports : 0u;
-    for (uint32_t j = 0; j < own; j++) v_own[j] = rom_port_velocity(s, j);
+    for (uint32_t j = 0; j < own; j++) v_own[j] = rom_channel_kind_velocity(s, j);   /* kept from the last step */
+    rom_channel_kind_moved(s);
     RomStatus status = s->model->ops->step(s, t_comm, h, message, message_size);
     if (status != ROM_OK) return status;
-    for (uint32_t j = 0; j < own; j++) v_own[j] = 0.5 * (v_own[j] + rom_port_velocity(s, j));
-    status = rom_channel_step(s, h, v_own, message, message_size);   /* the port forces' response (rom_port.c) */
+    for (uint32_t j = 0; j < own; j++) {
+        v_end[j] = rom_port_velocity(s, j);
+        v_own[j] = 0.5 * (v_own[j] + v_end[j]);
+    }
+    status = rom_channel_step(s, h, v_own, v_end, message, message_size);   /* the port forces' response
+                                                                              * (rom_port.c) */
     if (status != ROM_OK) return status;
     rom_bound_step(s, h);                                           /* the bounds' shadow over the same inputs */
     s->time = t_comm + h;
@@ -276,6 +282,7 @@ RomStatus rom_advance(RomState *s, int64_t n_steps, char *message, size_t messag
         return rom_fail(message, message_size, "%s has no internal step (rom_do_step advances it over any step)",
                         s->model->ops->name);
     }
+    rom_channel_kind_moved(s);
     const RomStatus status = s->model->ops->advance(s, n_steps, message, message_size);
     if (status == ROM_OK) s->elapsed = s->elapsed + (double)n_steps * rom_dt(s);     /* as the kind's time */
     return status;
@@ -378,6 +385,7 @@ RomStatus rom_model_assemble(RomModel *m, RomState *s, char *message, size_t mes
     if (!m || !s || s->model != m) return rom_fail(message, message_size, "assemble: no model or a foreign state");
     if (!rom_section(m, "PARAMS")) return ROM_OK;
     m->ops->assemble(m, s);
+    rom_channel_kind_moved(s);
     return rom_bound_assemble(m, s, message, message_size);      /* a parametric shadow's planes at (c, d) */
 }
 
@@ -398,13 +406,21 @@ static RomStatus check_port(const RomState *s, uint32_t j, char *message, size_t
     return ROM_OK;
 }
 
-RomStatus rom_set_port_force(RomState *s, uint32_t j, double force, char *message, size_t message_size) {
-    RomStatus status = check_port(s, j, message, message_size);
-    if (status != ROM_OK) return status;
-    if (!isfinite(force)) {
-        return rom_fail(message, message_size, "input F_port_%u = %g N at t = %.9g s is not finite (allowed: a finite "
-                        "force in N)", j + 1, force, s->time);
+RomStatus rom_check_port_input(const RomState *s, const char *name, uint32_t j, double value, const char *what,
+                               char *message, size_t message_size) {
+    if (!s || !name) return rom_fail(message, message_size, "no state or no input name");
+    if (isfinite(value)) return ROM_OK;
+    if (!what) {
+        return rom_fail(message, message_size, "input derivative of %s_%u, d%s_%u/dt = %g N s^-1 at t = %.9g s, is not "
+                        "finite (allowed: a finite rate)", name, j + 1, name, j + 1, value, s->time);
     }
+    return rom_fail(message, message_size, "input %s_%u = %g N at t = %.9g s is not finite (allowed: a finite %s in N)",
+                    name, j + 1, value, s->time, what);
+}
+
+RomStatus rom_set_port_force(RomState *s, uint32_t j, double force, char *message, size_t message_size) {
+    if (check_port(s, j, message, message_size) != ROM_OK ||
+        rom_check_port_input(s, "F_port", j, force, "force", message, message_size) != ROM_OK) return ROM_FAIL;
     s->port_force[j] = force;
     return ROM_OK;
 }
@@ -425,18 +441,14 @@ RomStatus rom_set_area(RomState *s, double area, char *message, size_t message_s
 }
 
 RomStatus rom_set_port_rate(RomState *s, uint32_t j, double rate, char *message, size_t message_size) {
-    RomStatus status = check_port(s, j, message, message_size);
-    if (status != ROM_OK) return status;
-    if (!isfinite(rate)) {
-        return rom_fail(message, message_size, "input derivative of F_port_%u, dF_port_%u/dt = %g N s^-1 at t = %.9g "
-                        "s, is not finite (allowed: a finite rate)", j + 1, j + 1, rate, s->time);
-    }
+    if (check_port(s, j, message, message_size) != ROM_OK ||
+        rom_check_port_input(s, "F_port", j, rate, NULL, message, message_size) != ROM_OK) return ROM_FAIL;
     s->port_rate[j] = rate;
     return ROM_OK;
 }
 
+/* the kind's part (kept per step with the port channel: rom_channel_kind_velocity) and the channel's */
 double rom_v_port(const RomState *s, uint32_t j) {
     if (!s || j >= s->model->n_ports) return NAN;
-    const double v = rom_port_velocity(s, j);
-    return s->channel ? v + rom_channel_row(s, 3 * s->model->n_probes + j, NULL) : v;
+    return s->channel ? rom_channel_port_velocity(s, j) : rom_port_velocity(s, j);
 }

@@ -197,6 +197,12 @@ static inline double rom_steps_per_call(double work) {
     return work > 0.0 ? floor(ROM_MAX_WORK_PER_CALL / work) : 0.0;
 }
 
+/* the finiteness check every port input's setter shares (F_port_j, a_port_j and their rates; rom.c): ROM_OK for a
+ * finite value, else ROM_FAIL with the message naming input name_{j+1}, "a finite <what> in N" (what NULL: the
+ * input's derivative, d<name>/dt in N s^-1) */
+RomStatus rom_check_port_input(const RomState *s, const char *name, uint32_t j, double value, const char *what,
+                               char *message, size_t message_size);
+
 /* ---- rom_port.c: the port channel (rom.h RomChannelModel) ---- */
 RomStatus rom_channel_check_section(const RomModel *m, const RomSection *s, char *message, size_t message_size);
 RomStatus rom_channel_prepare(RomModel *m, char *message, size_t message_size);   /* sizes of the PC* sections */
@@ -204,8 +210,18 @@ RomStatus rom_channel_state_new(RomState *s);     /* s->channel (NULL without th
 void rom_channel_state_free(RomState *s);
 void rom_channel_reset(RomState *s);
 /* advance the channel over the step from the state's port inputs (before rom.c continues them); v_own[j] the
- * kind's v_port_j at the step's start and end averaged (the wave form's part of the mean port velocity) */
-RomStatus rom_channel_step(RomState *s, double h, const double *v_own, char *message, size_t message_size);
+ * kind's v_port_j at the step's start and end averaged (the wave form's part of the mean port velocity), v_end[j]
+ * the kind's v_port_j at the step's end, kept for rom_channel_kind_velocity (NULL: not known) */
+RomStatus rom_channel_step(RomState *s, double h, const double *v_own, const double *v_end, char *message,
+                           size_t message_size);
+/* the kind's part of v_port_j (rom_port_velocity), kept from a step's end or its first read until
+ * rom_channel_kind_moved: rom.c calls that wherever the kind's state changes outside a read (before a step, at
+ * initial_state_scale, rom_advance, rom_model_assemble; a reset and a state read forget it too).  Without the
+ * channel: rom_port_velocity itself */
+double rom_channel_kind_velocity(const RomState *s, uint32_t j);
+/* rom.h rom_v_port with the channel: the kind's part (rom_channel_kind_velocity) and the channel's row */
+double rom_channel_port_velocity(const RomState *s, uint32_t j);
+void rom_channel_kind_moved(RomState *s);
 /* the channel's part of output row r (the shadow's order: P v probes, 2P e rows, the ports) with its certified
  * bound against the full linear SPH's port response in *cert (0 and 0 without the channel) */
 double rom_channel_row(const RomState *s, uint32_t r, double *cert);

@@ -4,13 +4,15 @@
  * J, and with a uniform damping d each singular triplet of its coupling K spans an invariant plane; the planes the
  * ports excite (all of them on every built-in scene) are stepped here, each by the exponential of its augmented
  * matrix (cached per step length): O(planes x ports) per step, the outputs O(planes x rows) once per step, when
- * first read.  Planes left out (more than the file keeps) add their static correction (a feedthrough into the e
- * rows) and a certified remainder, sum_j gain_rj V(u_j), V(u) = |u(0)| + the total variation of u.
+ * first read (two rows per pass over the planes; the probes' density shifts, the rows' bounds and the kind's own
+ * v_port at the step's end likewise once per step, however often they are read).  Planes left out (more than the
+ * file keeps) add their static correction (a feedthrough into the e rows) and a certified remainder,
+ * sum_j gain_rj V(u_j), V(u) = |u(0)| + the total variation of u.
  *
  * The state of each plane is (p, q): x = sum_i p_i [u_i; 0] + q_i [0; w_i] in energy coordinates.  Arrays are kept
- * per quantity (one array of p, one of q, one per map entry) and zero-padded to a multiple of 4, so that the loops
- * run over 4 planes at a time; the arithmetic is not the Python reference's order (the channel is compared with it
- * within tolerances, not bit for bit).
+ * per quantity (one array of p, one of q, one per map entry) and zero-padded to a multiple of 16, so that the loops
+ * run over 4 planes at a time (16 partial sums per output row); the arithmetic is not the Python reference's order
+ * (the channel is compared with it within tolerances, not bit for bit).
  *
  * The wave form (rom.h rom_set_port_impedance): with Z > 0 the port force over a step is held at
  * F = 2 a - Z vbar, vbar the mean port velocity over the step, which is linear in F (the channel's mean per unit
@@ -43,11 +45,22 @@ enum { PHI00, PHI01, PHI10, PHI11, G0P, G0Q, G1P, G1Q, PSIP, PSIQ, PSI0, PSI1, N
 #define CHANNEL_CLONES
 #endif
 #if defined(__GNUC__)
-typedef double c4d __attribute__((vector_size(32)));
+typedef double c4d __attribute__((vector_size(32)));    /* one AVX register (two SSE2 ones) */
 #define C4_LOAD(ptr) (*(const c4d *)(const void *)(ptr))
 #define C4_STORE(ptr, v) (*(c4d *)(void *)(ptr) = (v))
 #define C4_SPLAT(x) ((c4d){(x), (x), (x), (x)})
 #endif
+#if defined(__GNUC__)
+#define CHANNEL_INLINE static inline __attribute__((always_inline))    /* into each clone, with its constants */
+#else
+#define CHANNEL_INLINE static inline
+#endif
+#if defined(__GNUC__) && !defined(__clang__)
+#define CHANNEL_UNROLL _Pragma("GCC unroll 2")       /* the loops over a block's rows: the sums stay in registers */
+#else
+#define CHANNEL_UNROLL
+#endif
+#define ROW_BLOCK 2                    /* output rows summed in one pass over the planes (dot_rows) */
 
 typedef struct {
     double h;                  /* 0: empty */
@@ -58,9 +71,13 @@ typedef struct {
 
 typedef struct {
     double *p, *q;             /* [pad] the planes' state */
-    double *values;            /* [rows] the rows' plane part and (w_norm) |w|, valid when valid != 0 */
-    double w_norm;
-    int valid;
+    double *values;            /* [rows] the rows' plane part, valid when valid != 0 */
+    double *certs;             /* [rows] the rows' certified bounds, valid when valid and certs_valid != 0 */
+    double *shift;             /* [probes] rom_channel_density_shift, valid when valid != 0 and no plane is
+                                * truncated (else it follows the input now, computed when read) */
+    int valid, certs_valid;
+    double v_kind[ROM_MAX_PORTS];      /* the kind's v_port_j (rom_port_velocity) at the end of the last step, */
+    int kind_valid;                    /* kept until the kind's state moves (rom_channel_kind_moved) */
     double tv[ROM_MAX_PORTS];          /* |u(0)| + the total variation of each u_j so far */
     double u_prev[ROM_MAX_PORTS];      /* u_j at the end of the last step */
     double steps;              /* steps taken (the round-off allowance) */
@@ -193,14 +210,18 @@ RomStatus rom_channel_state_new(RomState *s) {
     ChannelState *cs = (ChannelState *)calloc(1, sizeof(ChannelState));
     if (!cs) return ROM_FAIL;
     s->channel = cs;
-    enum { FIXED = 3 };
+    enum { FIXED = 5 };
     size_t counts[FIXED + CHANNEL_CACHE * N_MAPS];
     double **ptrs[FIXED + CHANNEL_CACHE * N_MAPS];
     counts[0] = counts[1] = c->pad;
     counts[2] = c->rows;
+    counts[3] = s->model->n_probes;
+    counts[4] = c->rows;
     ptrs[0] = &cs->p;
     ptrs[1] = &cs->q;
     ptrs[2] = &cs->values;
+    ptrs[3] = &cs->shift;
+    ptrs[4] = &cs->certs;
     for (int slot = 0; slot < CHANNEL_CACHE; slot++) {
         for (int e = 0; e < N_MAPS; e++) {
             counts[FIXED + slot * N_MAPS + e] = c->pad;
@@ -232,6 +253,24 @@ void rom_channel_reset(RomState *s) {
     cs->steps = 0.0;
     cs->impedance = 0.0;
     cs->valid = 0;
+    cs->kind_valid = 0;
+}
+
+/* the kind's state moves (a step, initial_state_scale, rom_advance, a new parameter): its v_port is read anew */
+void rom_channel_kind_moved(RomState *s) {
+    ChannelState *cs = s ? (ChannelState *)s->channel : NULL;
+    if (cs) cs->kind_valid = 0;
+}
+
+double rom_channel_kind_velocity(const RomState *s, uint32_t j) {
+    if (!s || j >= s->model->n_ports) return NAN;
+    ChannelState *cs = (ChannelState *)s->channel;
+    if (!cs) return rom_port_velocity(s, j);
+    if (!cs->kind_valid) {                 /* every port's once, as rom_do_step does at a step's end */
+        for (uint32_t l = 0; l < s->model->n_ports; l++) cs->v_kind[l] = rom_port_velocity(s, l);
+        cs->kind_valid = 1;
+    }
+    return cs->v_kind[j];
 }
 
 /* ------------------------------------------------------------------------ */
@@ -300,11 +339,9 @@ static const ChannelCache *channel_maps(ChannelState *cs, const RomModel *m, dou
 /* p, q <- Phi (p, q) + g0 ue + g1 de, plane by plane, the planes' inputs ue_i = sum_j beta_ij u_j and
  * de_i = sum_j beta_ij du_j formed in the same pass (summed over j in order from 0, as a separate pass would); held
  * inputs (every du_j = 0, the common case) skip the g1 terms, which would add exact zeros */
-CHANNEL_CLONES
-static void step_planes(const RomChannelModel *ch, const ChannelCache *k, double *restrict p, double *restrict q,
-                        const double *u, const double *du) {
+CHANNEL_INLINE void step_planes_n(const RomChannelModel *ch, const ChannelCache *k, double *restrict p,
+                                 double *restrict q, const double *u, const double *du, const uint32_t P) {
     const size_t pad = ch->pad;
-    const uint32_t P = ch->ports;
     const double *restrict a = k->map[PHI00], *restrict b = k->map[PHI01], *restrict c = k->map[PHI10];
     const double *restrict d = k->map[PHI11], *restrict g0p = k->map[G0P], *restrict g0q = k->map[G0Q];
     const double *restrict g1p = k->map[G1P], *restrict g1q = k->map[G1Q];
@@ -320,19 +357,25 @@ static void step_planes(const RomChannelModel *ch, const ChannelCache *k, double
     const double u0 = uu[0], u1 = uu[1], u2 = uu[2], u3 = uu[3];
     const double d0 = dd[0], d1 = dd[1], d2 = dd[2], d3 = dd[3];
 #if defined(__GNUC__)
-    /* four planes at a time (pad is a multiple of 16, the arrays 64-byte aligned): the same operations, lane by lane */
+    /* four planes at a time (pad is a multiple of 16, the arrays 64-byte aligned): the same operations, lane by
+     * lane (each plane's arithmetic does not depend on the width) */
     const c4d U0 = C4_SPLAT(u0), U1 = C4_SPLAT(u1), U2 = C4_SPLAT(u2), U3 = C4_SPLAT(u3);
     const c4d D0 = C4_SPLAT(d0), D1 = C4_SPLAT(d1), D2 = C4_SPLAT(d2), D3 = C4_SPLAT(d3);
     for (size_t i = 0; i < pad; i += 4) {
-        c4d ue = C4_SPLAT(0.0), de = C4_SPLAT(0.0);
-        if (P > 0) { ue += C4_LOAD(b0 + i) * U0; de += C4_LOAD(b0 + i) * D0; }
-        if (P > 1) { ue += C4_LOAD(b1 + i) * U1; de += C4_LOAD(b1 + i) * D1; }
-        if (P > 2) { ue += C4_LOAD(b2 + i) * U2; de += C4_LOAD(b2 + i) * D2; }
-        if (P > 3) { ue += C4_LOAD(b3 + i) * U3; de += C4_LOAD(b3 + i) * D3; }
+        c4d ue = C4_SPLAT(0.0);
+        if (P > 0) ue += C4_LOAD(b0 + i) * U0;
+        if (P > 1) ue += C4_LOAD(b1 + i) * U1;
+        if (P > 2) ue += C4_LOAD(b2 + i) * U2;
+        if (P > 3) ue += C4_LOAD(b3 + i) * U3;
         const c4d pi = C4_LOAD(p + i), qi = C4_LOAD(q + i);
         c4d pn = C4_LOAD(a + i) * pi + C4_LOAD(b + i) * qi + C4_LOAD(g0p + i) * ue;
         c4d qn = C4_LOAD(c + i) * pi + C4_LOAD(d + i) * qi + C4_LOAD(g0q + i) * ue;
-        if (ramp) {
+        if (ramp) {                        /* de formed only for a ramp: held inputs skip it as the g1 terms */
+            c4d de = C4_SPLAT(0.0);
+            if (P > 0) de += C4_LOAD(b0 + i) * D0;
+            if (P > 1) de += C4_LOAD(b1 + i) * D1;
+            if (P > 2) de += C4_LOAD(b2 + i) * D2;
+            if (P > 3) de += C4_LOAD(b3 + i) * D3;
             pn += C4_LOAD(g1p + i) * de;
             qn += C4_LOAD(g1q + i) * de;
         }
@@ -358,28 +401,98 @@ static void step_planes(const RomChannelModel *ch, const ChannelCache *k, double
 #endif
 }
 
-/* sum_i row_i x_i over the padded planes (a multiple of 16), sixteen partial sums in four independent chains */
+/* step_planes_n with the port count a constant (its loop without a test of P per plane) */
 CHANNEL_CLONES
-static double dot(const double *restrict row, const double *restrict x, size_t pad) {
-#if defined(__GNUC__)
-    c4d a0 = C4_SPLAT(0.0), a1 = a0, a2 = a0, a3 = a0;
-    for (size_t i = 0; i < pad; i += 16) {
-        a0 += C4_LOAD(row + i) * C4_LOAD(x + i);
-        a1 += C4_LOAD(row + i + 4) * C4_LOAD(x + i + 4);
-        a2 += C4_LOAD(row + i + 8) * C4_LOAD(x + i + 8);
-        a3 += C4_LOAD(row + i + 12) * C4_LOAD(x + i + 12);
+static void step_planes(const RomChannelModel *ch, const ChannelCache *k, double *restrict p, double *restrict q,
+                        const double *u, const double *du) {
+    switch (ch->ports) {
+        case 1: step_planes_n(ch, k, p, q, u, du, 1); break;
+        case 2: step_planes_n(ch, k, p, q, u, du, 2); break;
+        case 3: step_planes_n(ch, k, p, q, u, du, 3); break;
+        default: step_planes_n(ch, k, p, q, u, du, ROM_MAX_PORTS); break;
     }
-    const c4d acc = (a0 + a1) + (a2 + a3);
-    return (acc[0] + acc[1]) + (acc[2] + acc[3]);
-#else
+}
+
+#if !defined(__GNUC__)
+/* sum_i row_i x_i over the padded planes (a multiple of 16): sixteen partial sums, lane l holding the i = l mod 16,
+ * combined as dot_rows_n combines its registers' lanes (the same bits with or without vector types) */
+static double dot(const double *row, const double *x, size_t pad) {
     double acc[16] = {0.0};
     for (size_t i = 0; i < pad; i += 16) {
         for (int j = 0; j < 16; j++) acc[j] += row[i + j] * x[i + j];
     }
-    double sum = 0.0;
-    for (int j = 0; j < 16; j++) sum += acc[j];
-    return sum;
+    double quad[4];
+    for (int l = 0; l < 4; l++) quad[l] = (acc[l] + acc[l + 4]) + (acc[l + 8] + acc[l + 12]);
+    return (quad[0] + quad[1]) + (quad[2] + quad[3]);
+}
 #endif
+
+#if defined(__GNUC__)
+/* the sixteen partial sums of a row (its four-lane chains a[0..3], lane l of a[c] holding the i = 4 c + l mod 16)
+ * into one: (a0 + a1) + (a2 + a3), then its lanes pairwise */
+CHANNEL_INLINE double fold16(const c4d *a) {
+    const c4d acc = (a[0] + a[1]) + (a[2] + a[3]);
+    return (acc[0] + acc[1]) + (acc[2] + acc[3]);
+}
+#endif
+
+/* rows[0 .. n-1] (each pad long) times x into out[0 .. n-1], in one pass over x: per row sixteen partial sums in
+ * four four-lane chains, lane l of chain c holding the i = 4 c + l mod 16, summed as (a0 + a1) + (a2 + a3), then the
+ * lanes pairwise (fold16; dot() without vector types: the same bits).  n is a constant where dot_rows calls it, so
+ * that the sums stay in registers */
+CHANNEL_INLINE void dot_rows_n(const double *restrict rows, size_t pad, const uint32_t n, const double *restrict x,
+                              double *out) {
+#if defined(__GNUC__)
+    c4d a[ROW_BLOCK][4];
+    CHANNEL_UNROLL
+    for (uint32_t r = 0; r < n; r++) a[r][0] = a[r][1] = a[r][2] = a[r][3] = C4_SPLAT(0.0);
+    for (size_t i = 0; i < pad; i += 16) {
+        const c4d x0 = C4_LOAD(x + i), x1 = C4_LOAD(x + i + 4), x2 = C4_LOAD(x + i + 8), x3 = C4_LOAD(x + i + 12);
+        CHANNEL_UNROLL
+        for (uint32_t r = 0; r < n; r++) {
+            const double *row = rows + r * pad + i;
+            a[r][0] += C4_LOAD(row) * x0;
+            a[r][1] += C4_LOAD(row + 4) * x1;
+            a[r][2] += C4_LOAD(row + 8) * x2;
+            a[r][3] += C4_LOAD(row + 12) * x3;
+        }
+    }
+    CHANNEL_UNROLL
+    for (uint32_t r = 0; r < n; r++) out[r] = fold16(a[r]);
+#else
+    for (uint32_t r = 0; r < n; r++) out[r] = dot(rows + r * pad, x, pad);
+#endif
+}
+
+/* |(p, q)|^2 = dot(p, p) + dot(q, q), bit for bit, both sums in one pass (as dot_rows_n forms them) */
+CHANNEL_CLONES
+static double norm2(const double *restrict p, const double *restrict q, size_t pad) {
+#if defined(__GNUC__)
+    c4d a[4], b[4];
+    a[0] = a[1] = a[2] = a[3] = b[0] = b[1] = b[2] = b[3] = C4_SPLAT(0.0);
+    for (size_t i = 0; i < pad; i += 16) {
+        const c4d p0 = C4_LOAD(p + i), p1 = C4_LOAD(p + i + 4), p2 = C4_LOAD(p + i + 8), p3 = C4_LOAD(p + i + 12);
+        const c4d q0 = C4_LOAD(q + i), q1 = C4_LOAD(q + i + 4), q2 = C4_LOAD(q + i + 8), q3 = C4_LOAD(q + i + 12);
+        a[0] += p0 * p0;
+        a[1] += p1 * p1;
+        a[2] += p2 * p2;
+        a[3] += p3 * p3;
+        b[0] += q0 * q0;
+        b[1] += q1 * q1;
+        b[2] += q2 * q2;
+        b[3] += q3 * q3;
+    }
+    return fold16(a) + fold16(b);
+#else
+    return dot(p, p, pad) + dot(q, q, pad);
+#endif
+}
+
+/* dot_rows_n for 1 <= n <= ROW_BLOCK rows (two: eight four-lane sums, in the sixteen AVX registers) */
+CHANNEL_CLONES
+static void dot_rows(const double *restrict rows, size_t pad, uint32_t n, const double *restrict x, double *out) {
+    if (n >= ROW_BLOCK) dot_rows_n(rows, pad, ROW_BLOCK, x, out);
+    else dot_rows_n(rows, pad, 1, x, out);
 }
 
 /* the mean port velocities over the step from the state now with no input: sum_i C_port_i (psi_p p + psi_q q) */
@@ -427,12 +540,18 @@ static int solve_small(uint32_t n, double *A, double *b) {
     return 1;
 }
 
-RomStatus rom_channel_step(RomState *s, double h, const double *v_own, char *message, size_t message_size) {
+RomStatus rom_channel_step(RomState *s, double h, const double *v_own, const double *v_end, char *message,
+                           size_t message_size) {
+    if (!s) return rom_fail(message, message_size, "no state");
     ChannelState *cs = (ChannelState *)s->channel;
     if (!cs) return ROM_OK;
     const RomModel *m = s->model;
     const RomChannelModel *c = &m->channel;
     const uint32_t P = c->ports;
+    if (v_end) {                           /* the kind's v_port now: its outputs' and the next step's start */
+        for (uint32_t j = 0; j < P; j++) cs->v_kind[j] = v_end[j];
+        cs->kind_valid = 1;
+    }
     const ChannelCache *k = channel_maps(cs, m, h);
     double u[ROM_MAX_PORTS], du[ROM_MAX_PORTS];
     if (cs->impedance > 0.0) {             /* the wave form: F held, F = 2 abar - Z vbar, solved exactly */
@@ -489,34 +608,77 @@ static void inputs_now(const RomState *s, const ChannelState *cs, double *u) {
     }
 }
 
-double rom_channel_row(const RomState *s, uint32_t r, double *cert) {
-    ChannelState *cs = (ChannelState *)s->channel;
-    if (cert) *cert = 0.0;
-    if (!cs || r >= s->model->channel.rows) return 0.0;
+static double density_shift(const RomState *s, ChannelState *cs, uint32_t j);
+
+/* every row's plane part once per step, when first read: runs of rows over the same half of the state (p or q),
+ * ROW_BLOCK at a time; and the probes' density shifts when no plane is truncated (then the rows are final) */
+static void channel_outputs(const RomState *s, ChannelState *cs) {
     const RomModel *m = s->model;
     const RomChannelModel *c = &m->channel;
-    if (!cs->valid) {                      /* every row once per step, when first read */
-        for (uint32_t k = 0; k < c->rows; k++) {
-            cs->values[k] = dot(c->C_pad + (size_t)k * c->pad, on_q(m, k) ? cs->q : cs->p, c->pad);
-        }
-        cs->w_norm = -1.0;                 /* computed when a bound asks for it */
-        cs->valid = 1;
+    for (uint32_t r = 0; r < c->rows;) {
+        const int q_rows = on_q(m, r);
+        uint32_t n = 1;
+        while (n < ROW_BLOCK && r + n < c->rows && on_q(m, r + n) == q_rows) n++;
+        dot_rows(c->C_pad + (size_t)r * c->pad, c->pad, n, q_rows ? cs->q : cs->p, cs->values + r);
+        r += n;
     }
+    cs->certs_valid = 0;                   /* computed when a bound asks for them */
+    cs->valid = 1;
+    if (!c->truncated) {
+        for (uint32_t j = 0; j < m->n_probes; j++) cs->shift[j] = density_shift(s, cs, j);
+    }
+}
+
+/* row r's value now (r < rows, cs->valid): its plane part, and the truncated planes' static correction */
+CHANNEL_INLINE double row_value(const RomState *s, const ChannelState *cs, uint32_t r) {
+    const RomChannelModel *c = &s->model->channel;
     double value = cs->values[r];
-    const uint32_t P = c->ports;
-    const double *D = c->D + (size_t)r * 2 * P;
     if (c->truncated) {
+        const uint32_t P = c->ports;
+        const double *D = c->D + (size_t)r * 2 * P;
         double u[ROM_MAX_PORTS];
         inputs_now(s, cs, u);
         for (uint32_t j = 0; j < P; j++) value += D[j] * u[j];
     }
-    if (cert) {
-        if (cs->w_norm < 0.0) cs->w_norm = sqrt(dot(cs->p, cs->p, c->pad) + dot(cs->q, cs->q, c->pad));
+    return value;
+}
+
+/* every row's certified bound, once per step (they change only with a step): the truncated planes' gains times
+ * V(u_j) and the round-off allowance on |w| */
+static void channel_certs(const RomState *s, ChannelState *cs) {
+    const RomChannelModel *c = &s->model->channel;
+    const uint32_t P = c->ports;
+    const double w_norm = sqrt(norm2(cs->p, cs->q, c->pad));
+    const double allowance = CHANNEL_ROUNDOFF + CHANNEL_ROUNDOFF_STEP * cs->steps;
+    for (uint32_t r = 0; r < c->rows; r++) {
+        const double *D = c->D + (size_t)r * 2 * P;
         double gain = 0.0;
         for (uint32_t j = 0; j < P; j++) gain += D[P + j] * cs->tv[j];
-        *cert = gain + (CHANNEL_ROUNDOFF + CHANNEL_ROUNDOFF_STEP * cs->steps) * c->row_norm[r] * cs->w_norm;
+        cs->certs[r] = gain + allowance * c->row_norm[r] * w_norm;
     }
-    return value;
+    cs->certs_valid = 1;
+}
+
+double rom_channel_row(const RomState *s, uint32_t r, double *cert) {
+    if (cert) *cert = 0.0;
+    if (!s) return NAN;
+    ChannelState *cs = (ChannelState *)s->channel;
+    if (!cs || r >= s->model->channel.rows) return 0.0;
+    if (!cs->valid) channel_outputs(s, cs);
+    if (cert) {
+        if (!cs->certs_valid) channel_certs(s, cs);
+        *cert = cs->certs[r];
+    }
+    return row_value(s, cs, r);
+}
+
+double rom_channel_port_velocity(const RomState *s, uint32_t j) {
+    if (!s || j >= s->model->n_ports) return NAN;
+    ChannelState *cs = (ChannelState *)s->channel;
+    if (!cs) return rom_port_velocity(s, j);
+    const double v = cs->kind_valid ? cs->v_kind[j] : rom_channel_kind_velocity(s, j);
+    if (!cs->valid) channel_outputs(s, cs);
+    return v + row_value(s, cs, 3 * s->model->n_probes + j);
 }
 
 double rom_channel_row_rate(const RomState *s, uint32_t r) {
@@ -549,11 +711,19 @@ double rom_channel_row_rate(const RomState *s, uint32_t r) {
 }
 
 double rom_channel_density_shift(const RomState *s, uint32_t j) {
-    if (!s->channel || j >= s->model->n_probes) return 0.0;
+    if (!s) return NAN;
+    ChannelState *cs = (ChannelState *)s->channel;
+    if (!cs || j >= s->model->n_probes) return 0.0;
+    if (!cs->valid) channel_outputs(s, cs);
+    return s->model->channel.truncated ? density_shift(s, cs, j) : cs->shift[j];
+}
+
+/* rom_channel_density_shift from the rows now (cs->valid) */
+static double density_shift(const RomState *s, ChannelState *cs, uint32_t j) {
     const double *pr = s->model->channel.probe + 4 * (size_t)j;       /* pw0, pw1, rho0_0, rho0_1 */
     double shift = 0.0;
     for (uint32_t side = 0; side < 2; side++) {
-        const double e = rom_channel_row(s, s->model->n_probes + 2 * j + side, NULL);
+        const double e = row_value(s, cs, s->model->n_probes + 2 * j + side);
         if (!(1.0 + e > 0)) return NAN;
         shift += pr[side] * pr[2 + side] * (1.0 / (1.0 + e) - 1.0);
     }
@@ -609,10 +779,8 @@ static ChannelState *wave_port(RomState *s, uint32_t j, char *message, size_t me
 
 RomStatus rom_set_port_wave(RomState *s, uint32_t j, double wave, char *message, size_t message_size) {
     ChannelState *cs = wave_port(s, j, message, message_size);
-    if (!cs) return ROM_FAIL;
-    if (!isfinite(wave)) {
-        return rom_fail(message, message_size, "input a_port_%u = %g N at t = %.9g s is not finite (allowed: a finite "
-                        "force wave in N)", j + 1, wave, s->time);
+    if (!cs || rom_check_port_input(s, "a_port", j, wave, "force wave", message, message_size) != ROM_OK) {
+        return ROM_FAIL;
     }
     cs->wave[j] = wave;
     return ROM_OK;
@@ -620,11 +788,7 @@ RomStatus rom_set_port_wave(RomState *s, uint32_t j, double wave, char *message,
 
 RomStatus rom_set_port_wave_rate(RomState *s, uint32_t j, double rate, char *message, size_t message_size) {
     ChannelState *cs = wave_port(s, j, message, message_size);
-    if (!cs) return ROM_FAIL;
-    if (!isfinite(rate)) {
-        return rom_fail(message, message_size, "input derivative of a_port_%u, da_port_%u/dt = %g N s^-1 at t = %.9g "
-                        "s, is not finite (allowed: a finite rate)", j + 1, j + 1, rate, s->time);
-    }
+    if (!cs || rom_check_port_input(s, "a_port", j, rate, NULL, message, message_size) != ROM_OK) return ROM_FAIL;
     cs->wave_rate[j] = rate;
     return ROM_OK;
 }
@@ -705,5 +869,6 @@ const unsigned char *rom_channel_state_get(RomState *s, const unsigned char *cur
     cursor = rom_get_f64s(cursor, cs->applied, c->ports);
     cursor = rom_get_f64s(cursor, cs->wave_rate, c->ports);
     cs->valid = 0;
+    cs->kind_valid = 0;                    /* the kind's state was read before the channel's */
     return cursor;
 }

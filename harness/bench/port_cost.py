@@ -60,8 +60,9 @@ def multiply_adds(data, h=STEP):
     """{part: multiply-adds} of one communication step of length ``h`` [s] of the FMU whose model.bin is ``data``
     (unpacked), as the C core computes them: ``model`` (the kind's step: fmu_src/rom_frozen.c's internal steps and
     1/n_freeze of a refresh each, or rom_exact.c's dense step), ``channel`` (rom_port.c: each plane's step and its
-    inputs, the output rows once), ``shadow`` (rom_bound.c: each plane's step, and the velocity rows checked against
-    error_tolerance after each step), ``outputs`` (the probe and port rows read) and ``total``."""
+    inputs with held port forces, the output rows and the state's norm for their bounds once), ``shadow``
+    (rom_bound.c: each plane's step, and the velocity rows checked against error_tolerance after each step),
+    ``outputs`` (the probe and port rows read) and ``total``."""
     from ..fmu.kinds import kind_of
     import numpy as np
     from ..fmu.kinds.frozen import refresh_matrix_work
@@ -94,7 +95,10 @@ def multiply_adds(data, h=STEP):
         planes = int(s["PCSCAL"][0, 0])
         cp = pad(planes, 16)
         rows = 3 * P + n_ports
-        channel = cp * (8 + 2 * n_ports) + rows * cp
+        # each plane's step with held port forces (the master's here): its input from the ports, Phi (p, q) and g0
+        # times the input (a ramp adds g1 and its input: 2 + n_ports); the output rows and |w|^2 (the rows'
+        # bounds) once
+        channel = cp * (6 + n_ports) + rows * cp + 2 * cp
     shadow = 0.0
     if "SHSCAL" in s:
         order, planes, m = (int(x) for x in s["SHSCAL"][0, :3])
@@ -252,10 +256,11 @@ def measure(ks=(4, 8, 12, 24), steps=20000, repeats=5, progress=True, workdir=No
         data = f["data"]
         base = next((g for g in fmus if g["scene"] == f["scene"] and g["model"] == f["model"] and g["k"] == f["k"]
                      and not g["ports"] and not g["before"] and not g["dense"]), None)
-        ratio = float("nan")
+        ratio = ratio_min = ratio_max = float("nan")
         if f["ports"] and base is not None:
-            ratio = statistics.median(a["ns_per_step_cpu"] / b["ns_per_step_cpu"]
-                                      for a, b in zip(runs[f["label"]], runs[base["label"]]))
+            ratios = [a["ns_per_step_cpu"] / b["ns_per_step_cpu"]
+                      for a, b in zip(runs[f["label"]], runs[base["label"]])]
+            ratio, ratio_min, ratio_max = statistics.median(ratios), min(ratios), max(ratios)
         planes = int(data.sections["PCSCAL"][0, 0]) if "PCSCAL" in data.sections else 0
         shadow = int(data.sections["SHSCAL"][0, 0]) if "SHSCAL" in data.sections else 0
         madds = multiply_adds(data)
@@ -269,7 +274,8 @@ def measure(ks=(4, 8, 12, 24), steps=20000, repeats=5, progress=True, workdir=No
                      "k_v": data.k_v, "k_rho": data.k_rho, "channel_planes": planes,
                      "shadow_order": shadow, "steps": f["steps"], "ns_per_step": statistics.median(cpu),
                      "ns_min": min(cpu), "ns_max": max(cpu), "floor_ns": floor,
-                     "ratio_to_portless": ratio, "ns_per_madd": statistics.median(rates),
+                     "ratio_to_portless": ratio, "ratio_min": ratio_min, "ratio_max": ratio_max,
+                     "ns_per_madd": statistics.median(rates),
                      "sincos": trig_calls(data) if linear else 0, "ratio_to_madds": to_madds,
                      **{f"madds_{k}": v for k, v in madds.items()}})
     return rows
@@ -297,9 +303,11 @@ def report_lines(rows, command, wall, steps, repeats):
              "`validation/benchmarks/port_cost.csv`).  Each FMU as `sphrom fmu` packages it (FMI 2, the scene's "
              "defaults, with its certified error bounds), driven by the native FMI 2 master `fmu_src/tests/"
              "step_cost.c` (the FMU's binary loaded with dlopen): per 1 ms step fmi2SetReal of f and of each F_port_j "
-             "(a spring to ground on each port), fmi2DoStep, fmi2GetReal of v_probe_j, rho_probe_j, v_port_j; the "
+             "(a spring to ground on each port), fmi2DoStep, fmi2GetReal of v_probe_j, rho_probe_j, v_port_j and a "
+             "second fmi2GetReal of v_port_j (the springs' feedback); the "
              f"thread's CPU time over {steps} steps ({SLOW_STEPS} for the FMUs of before the channel), the median of "
-             f"{repeats} runs taken in turn over all the FMUs; × portless: the median of the run-by-run ratios to the "
+             f"{repeats} runs taken in turn over all the FMUs; × portless: the median of the run-by-run ratios (their "
+             "range in the notes below the table) to the "
              "same scene's, model's and k's FMU without ports.  *ports*: the portless model plus the port channel "
              "(docs/fmu/ports.md); *(before)*: the ports in the basis (build option `port_channel=False`, the frozen "
              "model with symplectic Euler), as every port FMU was before.  floor: the same loop without fmi2DoStep "
@@ -321,7 +329,8 @@ def report_lines(rows, command, wall, steps, repeats):
             p = next((r for r in rows if r["fmu"] == f"{scene} {model}"), None)
             if r and b and p:
                 lines.append(f"- {scene} {model} with ports at x/L = {', '.join(f'{x:g}' for x in ports)}: "
-                             f"{r['ratio_to_portless']:.2f}× its portless FMU per step (before: "
+                             f"{r['ratio_to_portless']:.2f}× its portless FMU per step (runs "
+                             f"{r['ratio_min']:.2f} to {r['ratio_max']:.2f}; before: "
                              f"{b['ns_per_step'] / p['ns_per_step']:.1f}×; target ≤ 1.5× for the frozen one).")
     linear = [r for r in rows if _linear(r["model"]) and not r["before"]]
     for form, name in ((True, "block form (the default)"), (False, "dense form")):
