@@ -344,6 +344,12 @@ def nice_ceil(x):
     return 10.0 ** (e + 1)
 
 
+def ceil_digits(x, digits=2):
+    """The smallest whole number at least x (x > 0) with at most ``digits`` significant digits (126.3 -> 130)."""
+    unit = 10 ** max(0, math.floor(math.log10(x * (1 - 1e-12))) + 1 - digits)
+    return int(math.ceil(x * (1 - 1e-12) / unit) * unit)
+
+
 def communication_step(scene, nu_top, dt=None, nu_input=None):
     """The FMU's DefaultExperiment stepSize and its verification's step h [s]: T / n with n the smallest of 1, 2,
     5 x 10^m that gives at least :data:`POINTS_PER_PERIOD` points per period of the top of the scene's band
@@ -353,11 +359,14 @@ def communication_step(scene, nu_top, dt=None, nu_input=None):
 
     ``nu_input`` [Hz] given (a model exact in time, :func:`exact_time_step`): ``nu_top`` is then the response's band
     alone, sampled at :data:`OUTPUT_POINTS_PER_PERIOD` points per period, and the input's band ``nu_input`` at
-    :data:`POINTS_PER_PERIOD` (the input is what the step approximates: held, or linear between the points)."""
+    :data:`POINTS_PER_PERIOD` (the input is what the step approximates: held, or linear between the points); n is
+    then that count rounded up to two significant digits (:func:`ceil_digits`), not to 1, 2, 5 x 10^m: such a model
+    costs the same per step whatever h, so a count up to 2.5 times the need would cost up to 2.5 times more."""
     steps = 10.0
     if nu_input is not None:
         steps = max(steps, POINTS_PER_PERIOD * nu_input * scene.T, OUTPUT_POINTS_PER_PERIOD * nu_top * scene.T)
-    elif nu_top > 0:
+        return scene.T / max(1, ceil_digits(steps))      # every step costs the same: no more than 10 % above
+    if nu_top > 0:
         steps = max(steps, POINTS_PER_PERIOD * nu_top * scene.T)
     h = scene.T / max(1, int(nice_ceil(steps)))
     return float(max(h, dt) if dt is not None else h)

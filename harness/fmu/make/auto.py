@@ -122,20 +122,17 @@ def choose_default(tried, out):
 def cheaper_settings(summary, options):
     """[(words, changes of :func:`package_fmu`'s options)]: the cheaper configurations of the model of ``summary``
     that packaging tries, in turn, where its FMU costs more per simulated second than the full SPH: fewer modes
-    (half its k, where k was not given: ``options["k"]`` None), its certified error bounds left out (where it has
-    them: the shadow's stepping is a part of each doStep), and both."""
-    fewer = options.get("k") is None and not options.get("vary") and summary.k > 1
-    half = max(1, summary.k // 2)
-    bounded = summary.shadow_order > 0
-    out = []
-    if fewer:
-        out.append((f"fewer modes (k = {half} against {summary.k})", {"k": half}))
-    if bounded:
-        out.append(("no certified error bounds (no *_error_bound outputs, no error_tolerance warning)",
-                    {"error_bounds": False}))
-    if fewer and bounded:
-        out.append((f"fewer modes (k = {half} against {summary.k}) and no certified error bounds (no *_error_bound "
-                    "outputs, no error_tolerance warning)", {"k": half, "error_bounds": False}))
+    (a half and a quarter of its k, where k was not given: ``options["k"]`` None; the bounds kept), then its
+    certified error bounds left out (where it has them: the shadow's stepping is a part of each doStep) at its k and
+    at fewer modes."""
+    fewer = [] if options.get("k") is not None or options.get("vary") else \
+        list(dict.fromkeys(k for k in (summary.k // 2, summary.k // 4) if 1 <= k < summary.k))
+    no_bounds = "no certified error bounds (no *_error_bound outputs, no error_tolerance warning)"
+    out = [(f"fewer modes (k = {k} against {summary.k})", {"k": k}) for k in fewer]
+    if summary.shadow_order > 0:
+        out.append((no_bounds, {"error_bounds": False}))
+        out += [(f"fewer modes (k = {k} against {summary.k}) and {no_bounds}", {"k": k, "error_bounds": False})
+                for k in fewer]
     return out
 
 
