@@ -1,4 +1,4 @@
-"""Packaging's cost per simulated second (issue 32, "never slower than the SPH it replaces"): the figure is the median
+"""Packaging's cost per simulated second ("never slower than the SPH it replaces"): the figure is the median
 of pairs of CPU-time runs in steady stepping (sphrom.fmu.check.verify.measure_cost), the default keeps the cheaper of
 the candidates that meet the accuracy, a model exact in time steps at what its input and outputs need, and where the
 FMU is slower packaging takes a cheaper configuration that still meets the accuracy, or says that it is slower."""

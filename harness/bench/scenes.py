@@ -3,8 +3,8 @@
 ``sphrom bench scenes [--seed S] [--count C] [--n-min N] [--n-max N] [--out FILE.csv] [--report FILE.md]
 [--resume]`` writes each scene of the corpus to a TOML file and does what a user does with it: loads it (the
 loader's automatic integrator and dt, or a refusal in one line), packages the default FMU (``sphrom fmu SCENE``: the
-frozen model, or the exact one where the frozen misses the accuracy or is slower than the full SPH,
-:func:`sphrom.fmu.make.auto.package_default`) and the exact FMU (``sphrom fmu SCENE --model exact``), each measured
+cheaper per simulated second of the frozen and the exact model among those that meet the accuracy, then a cheaper
+configuration of it where it is slower than the full SPH, :func:`sphrom.fmu.make.auto.default_choice`) and the exact FMU (``sphrom fmu SCENE --model exact``), each measured
 by packaging's own check (:mod:`sphrom.fmu.check.verify`: the training force from the scene's initial state, a step
 and an in-band sine from rest, against the full SPH linear in J integrated exactly in time, at the communication
 step that resolves the scene's band).  Per scene and FMU:
@@ -201,7 +201,8 @@ def summary_lines(rows):
                             default=float("nan"))
     return [f"- **Built at the first try** (the default and the exact FMU written, no failure, no runaway, v error "
             f"at most 0.1 on every case): {both} of {n} scenes ({len(loaded)} loaded; the default model was the "
-            f"exact one on {fallback}, where the frozen missed the accuracy or was slower than the full SPH).",
+            f"exact one on {fallback}, where the frozen missed the accuracy or cost more per simulated second than "
+            "the exact one).",
             f"- **Accuracy** (largest v error over the three cases <= {DEFAULT_LIMIT:g} default, <= {EXACT_LIMIT:g} "
             f"exact): {acc} of {n} (largest: default {fmt(worst('default_max_v'), '.3g')}, exact "
             f"{fmt(worst('exact_max_v'), '.3g')}).",

@@ -52,8 +52,10 @@ def add_parser(sub):
                         "which adds no energy to the bar)")
     p.add_argument("--model", metavar="frozen|exact|balanced|auto", default=None,
                    help="reduced model: frozen (eqs. 2.19-2.24, internal dt; the default, but where the measured "
-                        "frozen FMU misses the accuracy or is slower than the full SPH, the exact model when that "
-                        "one meets it, said on the terminal; --model frozen keeps the frozen one), exact (the exact "
+                        "frozen FMU misses the accuracy or costs more per simulated second than the exact one, the "
+                        "exact model, said on the terminal; --model frozen keeps the frozen one; where the FMU "
+                        "written would be slower than the full SPH, a cheaper configuration that meets the accuracy "
+                        "(fewer modes, no certified bounds), else a warning), exact (the exact "
                         "linear "
                         "model in the specific volume, advanced by the matrix exponential over each "
                         "communication step) or balanced (balanced reduction of the full linear SPH, no POD basis, "

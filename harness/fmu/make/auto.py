@@ -73,7 +73,7 @@ def _cost(summary):
 
 
 DEFAULT_MODEL = "frozen"        # sphrom fmu without --model
-FALLBACK_MODEL = "exact"        # ... where the default model's FMU misses the accuracy or is slower than the full SPH
+FALLBACK_MODEL = "exact"        # ... where the default model's FMU misses the accuracy or costs more than this one
 
 
 def default_candidates(scene, folder, options):

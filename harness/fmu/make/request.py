@@ -20,7 +20,7 @@ AUTO = "auto"           # --model auto: every model packaged and measured, the c
 
 def is_default_request(model=None, *, verify=True, n_freeze=None, integrator=None):
     """Whether :func:`package_request` may write the fallback model (:data:`sphrom.fmu.make.auto.FALLBACK_MODEL`)
-    where the default one misses the accuracy or is slower than the full SPH: no model was asked for
+    where the default one misses the accuracy or costs more than it: no model was asked for
     (``model`` None), the FMU is measured (``verify``) and none of the default model's own options (``n_freeze``,
     ``integrator``) is given."""
     return model is None and verify and n_freeze is None and integrator is None
