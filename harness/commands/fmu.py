@@ -259,7 +259,10 @@ def print_verification(v, tolerance=None):
     if v is None:
         print("  not measured (--no-verify)")
         return
-    print(f"  measured against {v.truth or 'the full SPH'} at the probes (h = {v.step:g} s, T = {v.T:g} s, input "
+    finer = v.default_step == v.default_step and abs(v.default_step - v.step) > 1e-12 * v.step
+    print(f"  measured against {v.truth or 'the full SPH'} at the probes (h = {v.step:g} s"
+          + (f", finer than the default step {v.default_step:g} s, which sets the cost" if finer else "")
+          + f", T = {v.T:g} s, input "
           f"{v.input}; relative L2 of eq. 3.4; stored in the description and documentation/index.html):")
     for c in v.cases:
         rho = ("rho-rho0 of the truth is 0" if c.err_rho != c.err_rho else f"rho-rho0 error {c.err_rho:.3e}")

@@ -173,6 +173,7 @@ class Verification:
     stepped_error: tuple = (float("nan"), float("nan"), 0)   # the stepped SPH's (v, rho) error vs the truth, points
     channel_horizon: float = float("nan")          # the channels' horizon [s] (:func:`.channels.horizon`)
     cost: Cost | None = None     # the robust cost per simulated second (:func:`measure_cost`), when measured
+    default_step: float = float("nan")   # the FMU's DefaultExperiment stepSize [s] (``step`` is the measurement's)
 
     @property
     def cost_ratio(self):
@@ -377,6 +378,16 @@ def communication_step(scene, nu_top, dt=None, nu_input=None):
 # the sum of eq. 3.4 over points above the Nyquist rate is the L2 norm of a band-limited signal (Parseval), and
 # a plot of the outputs shows every oscillation of the band.  A finer step is the user's choice at no loss.
 OUTPUT_POINTS_PER_PERIOD = 5
+
+
+def measure_step(scene, problem, ops):
+    """The communication step [s] at which packaging measures the accuracy of a model exact in time: the one a
+    time-stepped model of the same band takes (:func:`communication_step` of :func:`top_frequency`, 25 points per
+    period of the top of the band).  The error of a reduced model lives in the modes it leaves out, above its band;
+    sampled at its default step (:func:`exact_time_step`, 5 points per period) a harmonic bar's error modes can
+    alias onto the points' zeros, and the unseen sine (at most half the band the step resolves) would be slower:
+    measured here, the error and the bounds are seen as every other model's."""
+    return communication_step(scene, top_frequency(scene, problem, ops))
 
 
 def exact_time_step(scene, problem, ops):
@@ -666,22 +677,23 @@ def cost_medians(path, scene, verification, problem=None, repeats=COST_REPEATS):
 def measure_cost(path, scene, verification, problem=None, repeats=COST_REPEATS):
     """The :class:`Cost` of the FMU at ``path`` per simulated second, the figure behind packaging's choice, its
     verdict and ``sphrom bench scenes``: the CPU time per simulated T of its doStep calls in steady stepping on the
-    training case of ``verification`` (its force, start and communication points; :func:`steady_seconds`) and of
+    training case of ``verification`` (its force and start) at the FMU's default communication step (what a user
+    runs it at; :func:`steady_seconds`) and of
     the full SPH's compiled loop (:func:`sph_cost`), each the median of ``repeats`` runs timed in pairs (FMU, SPH,
     FMU, SPH, ...), and the median of the pairs' ratios FMU / SPH: a pair is timed under one load (another process
     on the core's sibling thread slows both; CPU time does not see that), so the ratio varies less than either
     time.  nan for the FMU when it failed."""
     problem = problem or build_problem(scene)
-    has_scale, interpolate, _, _ = fmu_facts(path)
-    tr = verification.training
+    has_scale, interpolate, default, _ = fmu_facts(path)
+    t, _ = communication_times(scene, default)
     expr = compile_expr(verification.refs["training"][0], ("t", "L", "T"), "force")
-    f = np.broadcast_to(expr(t=tr.t, L=scene.L, T=scene.T), tr.t.shape).astype(float)
+    f = np.broadcast_to(expr(t=t, L=scene.L, T=scene.T), t.shape).astype(float)
     recorded = cached_sph(scene, error_steps(scene), progress=False, problem=problem).wall_time
-    steps = tr.t.size - 1
+    steps = t.size - 1
     fmu, first, sph = [], [], []
     for _ in range(repeats):
         try:
-            run = fmu_case(path, f, tr.t, scale=1.0 if has_scale else None, interpolate=interpolate)
+            run = fmu_case(path, f, t, scale=1.0 if has_scale else None, interpolate=interpolate)
             fmu.append(steady_seconds(run, steps))
             first.append(run.first_s)
         except RuntimeError:
@@ -694,7 +706,7 @@ def measure_cost(path, scene, verification, problem=None, repeats=COST_REPEATS):
                 steps=steps, sph_steps=step_count(scene.T, scene.sph.dt), repeats=repeats)
 
 
-def verify_fmu(path, scene, probes, refs=None, problem=None, progress=False):
+def verify_fmu(path, scene, probes, refs=None, problem=None, progress=False, step=None):
     """Measure the FMU at ``path`` against the truth of ``scene`` (module docstring).
 
     Parameters
@@ -707,17 +719,24 @@ def verify_fmu(path, scene, probes, refs=None, problem=None, progress=False):
     refs : dict, optional
         :func:`references` already computed for this scene, step and probes (recomputed when its input mode or its
         communication step is not this FMU's: two models of one scene can hold different bands).
+    step : float, optional
+        The communication step [s] of the measurement (default: the FMU's DefaultExperiment stepSize).  A model
+        exact in time is measured at the step a time-stepped model of its band takes (:func:`measure_step`), finer
+        than its default: its error and its bounds are then seen at the points that resolve its band, as any other
+        model's, while its cost is that of its default step (:func:`measure_cost`).
 
     Returns
     -------
     Verification
     """
-    has_scale, interpolate, step, tolerance = fmu_facts(path)
+    has_scale, interpolate, default, tolerance = fmu_facts(path)
+    step = default if step is None else float(step)
     if refs is None or refs.get("_interpolate") != interpolate or refs.get("_step", step) != step:
         refs = references(scene, step, probes, has_scale, problem=problem, progress=progress, interpolate=interpolate)
     result = Verification(step=step, T=scene.T, input="linear (df/dt)" if interpolate else "held",
                           probes=list(probes), refs=refs, truth=TRUTH_NAME, error_tolerance=tolerance,
-                          stepped_error=refs.get("_stepped_error", (float("nan"), float("nan"), 0)))
+                          stepped_error=refs.get("_stepped_error", (float("nan"), float("nan"), 0)),
+                          default_step=default)
     for name in CASES:
         force, scale, start, (t, sph_v, sph_rho, rho0, sph_s) = refs[name]
         expr = compile_expr(force, ("t", "L", "T"), "force")

@@ -322,7 +322,7 @@ def verification_section(verification, tolerance=None, choice=""):
                      _number(c.sph_s, ".4g"), _number(c.cost_ratio, ".3g"), escape(c.note or "")))
     truth = escape(v.truth or "the full SPH")
     lines = ["<h2>Measured accuracy and speed</h2>",
-             f"<p>This FMU, run through fmpy at its default communication step h = {v.step:g} s over T = "
+             f"<p>This FMU, run through fmpy at {_measured_at(v)} over T = "
              f"{v.T:g} s (input {escape(v.input)}), against {truth} (driven by the same input, from the same "
              "state), at the probes. Errors: relative L2 of eq. 3.4 (square-root form, trapezoidal in "
              "time, over all probes) of the velocity and of rho - rho0 ('-' where the truth's rho - rho0 is 0, "
@@ -353,6 +353,15 @@ def verification_section(verification, tolerance=None, choice=""):
     return lines
 
 
+def _measured_at(v):
+    """Where the measurement's step is the FMU's default and where it is finer (a model exact in time)."""
+    if not v.default_step == v.default_step or abs(v.default_step - v.step) <= 1e-12 * v.step:
+        return f"its default communication step h = {v.step:g} s"
+    return (f"the communication step h = {v.step:g} s, finer than its default {v.default_step:g} s: a model exact in "
+            "time steps at what its input and outputs need, and is measured at the points that resolve its band "
+            "(where its error lives), as a time-stepped model is; its cost is that of its default step")
+
+
 def cost_lines(v):
     """The paragraph on the robust cost per simulated second (:class:`sphrom.fmu.check.verify.Cost`), none when not
     measured."""
@@ -360,7 +369,7 @@ def cost_lines(v):
     if c is None:
         return []
     return [f"<p>Cost per simulated second (what packaging's choice and its verdict use): the FMU's doStep calls in "
-            f"steady stepping at h, {c.fmu_s:.4g} s per T ({c.steps} steps), against the full SPH's compiled loop, "
+            f"steady stepping at its default step, {c.fmu_s:.4g} s per T ({c.steps} steps), against the full SPH's compiled loop, "
             f"{c.sph_s:.4g} s per T ({c.sph_steps} time steps): <strong>{c.ratio:.3g}</strong> (CPU times, the "
             f"median ratio of {c.repeats} pairs of runs timed in turn). The first doStep, {c.setup_s:.3g} s, is a "
             "setup done once per step length (a linear model's maps e<sup>Ah</sup>, the bounds' plane maps, cached "

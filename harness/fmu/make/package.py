@@ -41,8 +41,8 @@ from ...runio import atomic_path
 from ...sph.solver import build_problem
 from .. import layout
 from ..check.channels import horizon, measure_channels
-from ..check.verify import (acceptance, communication_step, exact_time_step, measure_cost, top_frequency,
-                            verify_fmu)
+from ..check.verify import (acceptance, communication_step, exact_time_step, measure_cost, measure_step,
+                            top_frequency, verify_fmu)
 from ..kinds import for_model, kind_of
 from ..training.envelope import Envelope
 from .archive import validate, write_fmu
@@ -212,6 +212,7 @@ def package_fmu(scene, out, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaul
                                              vary=vary, ports=ports, bounds=bounds, order_tolerance=order_tolerance,
                                              error_bounds=error_bounds,
                                              build_options=build_options)
+    problem = problem or build_problem(scene)
     step = step_size if step_size is not None else default_step(scene, data, ops, problem)
     timings["model"] = time.perf_counter() - t0
     stage_done(scene, "model", timings, progress)
@@ -234,8 +235,10 @@ def package_fmu(scene, out, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaul
         stage_done(scene, "package", timings, progress)
         if verify:
             t3 = time.perf_counter()
+            exact_in_time = kind_of(data).integrator(data) is None and step_size is None
+            at = measure_step(scene, problem, ops) if exact_in_time else None
             verification = verification_step(tmp, scene, probes, references, problem, progress, tolerance, out, model,
-                                             ports=ports, accept=accept)
+                                             ports=ports, accept=accept, step=at)
             archive_step(tmp, blob, binary, verification=verification, **texts)   # only the texts change
             timings["verify"] = time.perf_counter() - t3
             stage_done(scene, "verify", timings, progress)
@@ -325,7 +328,7 @@ def passivity_step(ops, model, ports):
 
 
 def verification_step(path, scene, probes, references, problem, progress, tolerance, out, model, ports=(),
-                      accept=True):
+                      accept=True, step=None):
     """Step 8: the FMU at ``path`` measured against the full SPH linear in J, integrated exactly in time
     (:func:`sphrom.fmu.check.verify.verify_fmu`: the training force, a step and an unseen sine), and each input
     channel (f, each port force, against the full SPH with the FMU's integrator:
@@ -333,8 +336,9 @@ def verification_step(path, scene, probes, references, problem, progress, tolera
     (:func:`sphrom.fmu.check.verify.measure_cost`, the median of pairs of runs; when no case failed); ToleranceError
     (``accept``) when the FMU failed, ran away or
     missed the accuracy on a case (:func:`sphrom.fmu.check.verify.acceptance`), or a channel's error is above
-    ``tolerance``."""
-    verification = verify_fmu(path, scene, probes, refs=references, problem=problem, progress=progress)
+    ``tolerance``.  ``step``: the measurement's communication step (:func:`sphrom.fmu.check.verify.measure_step`
+    for a model exact in time; None: the FMU's default), the cost always at the FMU's default step."""
+    verification = verify_fmu(path, scene, probes, refs=references, problem=problem, progress=progress, step=step)
     if all(not c.note for c in verification.cases):     # it ran every case: its cost per simulated second
         verification.cost = measure_cost(path, scene, verification, problem=problem)
     verification.channels = measure_channels(path, scene, ports=ports, problem=problem, progress=progress)
