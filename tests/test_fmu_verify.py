@@ -160,7 +160,8 @@ def test_stored_errors_equal_an_independent_recomputation(packaged, case, model,
     scene = fmu_scene(case)
     problem = build_problem(scene)
     md = fmpy.read_model_description(str(path))
-    assert v.step == float(md.defaultExperiment.stepSize)
+    # measured at the FMU's default step, or (a model exact in time) at a finer one
+    assert v.default_step == float(md.defaultExperiment.stepSize) and v.step <= v.default_step * (1 + 1e-12)
     linear = fmi == 2 and md.coSimulation.canInterpolateInputs
     assert v.input == ("linear (df/dt)" if linear else "held")
     has_scale = "initial_state_scale" in {x.name for x in md.modelVariables}
@@ -248,12 +249,15 @@ def test_model_auto_keeps_the_fastest_model_meeting_the_tolerance(tmp_path):
     scene = fmu_scene("forced")
     best, candidates = package_auto(scene, tmp_path / "auto.fmu", tolerance=10.0, k=K, progress=False)
     assert {c.model for c in candidates} >= {"frozen", "exact"}
-    assert best.verification.training.step_s == min(c.verification.training.step_s for c in candidates)
+    # the cheapest per simulated second: packaging's own figure, the median of pairs of runs
+    assert best.verification.cost is not None
+    assert best.verification.cost_ratio == min(c.verification.cost_ratio for c in candidates)
     md = fmpy.read_model_description(str(tmp_path / "auto.fmu"))
     assert best.verification.sentence() in md.description
     errors = {c.model: c.verification.training.err_v for c in candidates}
-    # every model measured on the same full SPH runs
-    assert len({id(c.verification.refs) for c in candidates}) == 1
+    # the models at one communication step measured on the same truth (a model exact in time may take a coarser one)
+    for step in {c.verification.step for c in candidates}:
+        assert len({id(c.verification.refs) for c in candidates if c.verification.step == step}) == 1
     tight = min(errors.values()) * 1.0001
     best2, _ = package_auto(scene, tmp_path / "auto2.fmu", tolerance=tight, k=K, progress=False)
     assert best2.model == min(errors, key=errors.get)

@@ -36,6 +36,7 @@ Scenes that are not uniform (a jump in c, a varying ρ0 or d) keep the dense pat
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 
 import numpy as np
@@ -444,7 +445,11 @@ def real_blocks(A, skew=None):
             sizes.append(2)
         V = np.column_stack(cols)
         L = sla.block_diag(*blocks)
-        V_inv = np.linalg.inv(V)
+        try:
+            V_inv = np.linalg.inv(V)
+        except np.linalg.LinAlgError:            # eigenvectors exactly dependent (a defective A): not usable
+            return RealBlocks(L=L, V=V, V_inv=np.full_like(V, np.nan), condition=math.inf, residual=math.inf,
+                              sizes=np.array(sizes, np.int64))
     condition = float(np.linalg.cond(V))
     residual = float(np.linalg.norm(A @ V - V @ L, 2) / norm)
     return RealBlocks(L=L, V=V, V_inv=V_inv, condition=condition, residual=residual, sizes=np.array(sizes, np.int64))

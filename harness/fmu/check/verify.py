@@ -172,6 +172,19 @@ class Verification:
     error_tolerance: float = float("nan")          # the FMU's error_tolerance start value (nan without bounds)
     stepped_error: tuple = (float("nan"), float("nan"), 0)   # the stepped SPH's (v, rho) error vs the truth, points
     channel_horizon: float = float("nan")          # the channels' horizon [s] (:func:`.channels.horizon`)
+    cost: Cost | None = None     # the robust cost per simulated second (:func:`measure_cost`), when measured
+    default_step: float = float("nan")   # the FMU's DefaultExperiment stepSize [s] (``step`` is the measurement's)
+
+    @property
+    def cost_ratio(self):
+        """The FMU's cost per simulated second over the full SPH's: :attr:`cost`'s median ratio when measured, else
+        the training case's single run."""
+        return self.cost.ratio if self.cost is not None else self.training.cost_ratio
+
+    @property
+    def slower(self):
+        """Whether the FMU costs more per simulated second than the full SPH it replaces (:attr:`cost_ratio`)."""
+        return self.cost_ratio > 1
 
     def case(self, name):
         return next(c for c in self.cases if c.name == name)
@@ -193,10 +206,13 @@ class Verification:
         """The short text stored in the modelDescription's description."""
         tr, un = self.training, self.unseen
         others = "; ".join(f"{c.err_v:.2g} on {_force_words(c)}" for c in self.cases if c.name != "training")
+        c = self.cost
+        work = (f"{tr.step_s:.3g} s against {tr.sph_s:.3g} s for the full SPH per T ({_ratio(tr.cost_ratio)}"
+                if c is None else f"{c.fmu_s:.3g} s against {c.sph_s:.3g} s for the full SPH per T in steady "
+                f"stepping ({_ratio(c.ratio)}, the median of {c.repeats} pairs of runs; setup {c.setup_s:.2g} s")
         return (f"Measured against {self.truth or 'the full SPH'} at the probes (h = {self.step:g} s, T = "
                 f"{self.T:g} s, eq. 3.4): v error {tr.err_v:.2g} on the training force, {others}; its own work "
-                f"{tr.step_s:.3g} s against {tr.sph_s:.3g} s for the full SPH per T ({_ratio(tr.cost_ratio)}; "
-                f"{un.fmu_s:.3g} s through fmpy){self.channel_sentence()}; see documentation/index.html.")
+                f"{work}; {un.fmu_s:.3g} s through fmpy){self.channel_sentence()}; see documentation/index.html.")
 
     def channel_sentence(self):
         """'; input channels ...: largest error X (which)' when the channels were measured, else ''."""
@@ -247,13 +263,18 @@ def top_frequency(scene, problem, ops):
     own frequencies: a mode that carries a thousandth of the energy would set a step near the SPH's dt (a steel bar
     of 71 particles: 48 kHz against a band of a few kHz) and the FMU would do more steps than the SPH it replaces.
     A model without a POD basis (the balanced one): the largest |Im lambda| of its state matrix."""
+    return max(model_band(scene, problem, ops), force_top(scene))
+
+
+def model_band(scene, problem, ops):
+    """The response's part of :func:`top_frequency` [Hz]: :func:`energy_band` of the model's velocity modes (the
+    training run's and the step case's kinetic energy), or, without a POD basis, the largest |Im lambda| of its
+    state matrix."""
     U = ops.velocity_modes
     if U is not None and U.shape[1]:
         run = cached_sph(scene, error_steps(scene), progress=False, problem=problem)   # the training run, cached
-        nu = energy_band(problem, U, run.v, problem.profile if problem.terms["force_profile"] else None, scene.T)
-    else:
-        nu = float(np.max(np.abs(np.linalg.eigvals(np.asarray(ops.A, float)).imag), initial=0.0)) / (2 * math.pi)
-    return max(nu, force_top(scene))
+        return energy_band(problem, U, run.v, problem.profile if problem.terms["force_profile"] else None, scene.T)
+    return float(np.max(np.abs(np.linalg.eigvals(np.asarray(ops.A, float)).imag), initial=0.0)) / (2 * math.pi)
 
 
 BAND_ENERGY = 0.99      # the fraction of the kinetic energy below the top of the band (:func:`energy_band`)
@@ -324,17 +345,58 @@ def nice_ceil(x):
     return 10.0 ** (e + 1)
 
 
-def communication_step(scene, nu_top, dt=None):
+def ceil_digits(x, digits=2):
+    """The smallest whole number at least x (x > 0) with at most ``digits`` significant digits (126.3 -> 130)."""
+    unit = 10 ** max(0, math.floor(math.log10(x * (1 - 1e-12))) + 1 - digits)
+    return int(math.ceil(x * (1 - 1e-12) / unit) * unit)
+
+
+def communication_step(scene, nu_top, dt=None, nu_input=None):
     """The FMU's DefaultExperiment stepSize and its verification's step h [s]: T / n with n the smallest of 1, 2,
     5 x 10^m that gives at least :data:`POINTS_PER_PERIOD` points per period of the top of the scene's band
     ``nu_top`` [Hz] and at least 10 steps over T (a whole number of steps, and the same fraction of T for a bar
     and the same bar in other units), and at least ``dt`` (a model's own internal step: a communication step
-    shorter than it takes one shortened internal step)."""
+    shorter than it takes one shortened internal step).
+
+    ``nu_input`` [Hz] given (a model exact in time, :func:`exact_time_step`): ``nu_top`` is then the response's band
+    alone, sampled at :data:`OUTPUT_POINTS_PER_PERIOD` points per period, and the input's band ``nu_input`` at
+    :data:`POINTS_PER_PERIOD` (the input is what the step approximates: held, or linear between the points); n is
+    then that count rounded up to two significant digits (:func:`ceil_digits`), not to 1, 2, 5 x 10^m: such a model
+    costs the same per step whatever h, so a count up to 2.5 times the need would cost up to 2.5 times more."""
     steps = 10.0
+    if nu_input is not None:
+        steps = max(steps, POINTS_PER_PERIOD * nu_input * scene.T, OUTPUT_POINTS_PER_PERIOD * nu_top * scene.T)
+        return scene.T / max(1, ceil_digits(steps))      # every step costs the same: no more than 10 % above
     if nu_top > 0:
         steps = max(steps, POINTS_PER_PERIOD * nu_top * scene.T)
     h = scene.T / max(1, int(nice_ceil(steps)))
     return float(max(h, dt) if dt is not None else h)
+
+
+# Points per period of the top of the response's band for a model exact in time (:func:`exact_time_step`): 2.5 times
+# the Nyquist rate.  Its outputs are exact at every point whatever the step, so the points need only sample the band:
+# the sum of eq. 3.4 over points above the Nyquist rate is the L2 norm of a band-limited signal (Parseval), and
+# a plot of the outputs shows every oscillation of the band.  A finer step is the user's choice at no loss.
+OUTPUT_POINTS_PER_PERIOD = 5
+
+
+def measure_step(scene, problem, ops):
+    """The communication step [s] at which packaging measures the accuracy of a model exact in time: the one a
+    time-stepped model of the same band takes (:func:`communication_step` of :func:`top_frequency`, 25 points per
+    period of the top of the band).  The error of a reduced model lives in the modes it leaves out, above its band;
+    sampled at its default step (:func:`exact_time_step`, 5 points per period) a harmonic bar's error modes can
+    alias onto the points' zeros, and the unseen sine (at most half the band the step resolves) would be slower:
+    measured here, the error and the bounds are seen as every other model's."""
+    return communication_step(scene, top_frequency(scene, problem, ops))
+
+
+def exact_time_step(scene, problem, ops):
+    """The default communication step [s] of a model exact in time for a held or linear input (the linear models:
+    the matrix exponential over each step): :func:`communication_step` with the input's band (:func:`force_top`,
+    :data:`POINTS_PER_PERIOD` points per period) and the response's (:func:`model_band`,
+    :data:`OUTPUT_POINTS_PER_PERIOD`), not the :data:`POINTS_PER_PERIOD` points of the response's band that a
+    time-stepped model's own error needs: the model's fastest mode sets no step of its own."""
+    return communication_step(scene, model_band(scene, problem, ops), nu_input=force_top(scene))
 
 
 def force_amplitude(scene, nu):
@@ -422,6 +484,7 @@ class FMURun:
     wall: float
     step_s: float
     warnings: list
+    first_s: float = float("nan")     # CPU time [s] of the first doStep alone (part of step_s)
 
 
 def fmu_case(path, force_values, t, scale=None, interpolate=False):
@@ -442,9 +505,10 @@ def fmu_case(path, force_values, t, scale=None, interpolate=False):
         names = fmu.outputs
         warnings = list(fmu.warnings())
         step_s = float(getattr(fmu, "step_seconds", float("nan")))
+        first_s = float(getattr(fmu, "first_step_seconds", float("nan")))
     iv, ir, ib = members(names, "v_probe_j"), members(names, "rho_probe_j"), members(names, "v_probe_j_error_bound")
     return FMURun(v=out[:, iv], rho=out[:, ir], v_bound=out[:, ib] if ib else None, wall=wall, step_s=step_s,
-                  warnings=warnings)
+                  warnings=warnings, first_s=first_s)
 
 
 def fmu_run(path, force_values, t, scale=None, interpolate=False, bounds=False):
@@ -552,31 +616,97 @@ def sph_cost(scene, problem, recorded, repeats=1):
     return float(np.median(times)) * n / m
 
 
-def cost_medians(path, scene, verification, problem=None, repeats=3):
-    """(FMU, full SPH, ratio): the CPU time [s] per simulated T of the FMU's doStep calls on the training case of
-    ``verification`` (its force, start and communication points) and of the full SPH's compiled loop
-    (:func:`sph_cost`), each the median of ``repeats`` runs timed in pairs (FMU, SPH, FMU, SPH, ...), and the median
-    of the pairs' ratios FMU / SPH: a pair is timed under one load (another process on the core's sibling thread
-    slows both; CPU time does not see that), so the ratio varies less than either time.  nan for the FMU when it
-    failed."""
+COST_REPEATS = 5     # pairs of runs (the FMU, the full SPH) whose median CPU-time ratio is the cost ratio
+
+
+@dataclass
+class Cost:
+    """The FMU's cost per simulated second against the full SPH's (:func:`measure_cost`).
+
+    Attributes
+    ----------
+    fmu_s : float
+        CPU time [s] per simulated T of the FMU's doStep calls in steady stepping at its communication step (the
+        first call left out and scaled back to every step: :func:`steady_seconds`); the median of the runs.
+    sph_s : float
+        CPU time [s] of the full SPH's compiled loop per simulated T (:func:`sph_cost`); the median of the runs.
+    ratio : float
+        The median over the pairs of the ratio FMU / full SPH (< 1: the FMU is cheaper per simulated second).
+    setup_s : float
+        CPU time [s] of the FMU's first doStep (the median): the work done once per step length (a linear model's
+        maps e^{A h}, the bounds' plane maps), then cached for every later step of that length; a setup, as the
+        instantiation, not a cost per simulated second.
+    steps, sph_steps : int
+        Communication steps of the FMU, and time steps of the full SPH, over T.
+    repeats : int
+        Pairs timed.
+    """
+
+    fmu_s: float
+    sph_s: float
+    ratio: float
+    setup_s: float
+    steps: int
+    sph_steps: int
+    repeats: int
+
+    def why(self):
+        """What sets the ratio, in words: each one's CPU time per step and steps per T."""
+        per = self.fmu_s / max(self.steps, 1)
+        sph = self.sph_s / max(self.sph_steps, 1)
+        return (f"the FMU's doStep {per * 1e6:.3g} us per step x {self.steps} communication steps per T against "
+                f"the full SPH's {sph * 1e6:.3g} us per step x {self.sph_steps} time steps; its one-time setup "
+                f"(the first doStep) {self.setup_s * 1e3:.3g} ms")
+
+
+def steady_seconds(run, steps):
+    """The CPU time [s] of an :class:`FMURun`'s ``steps`` doStep calls in steady stepping: those after the first,
+    scaled to ``steps`` (the first computes what a step length needs once: :attr:`Cost.setup_s`); the whole
+    time for a single step."""
+    if steps <= 1 or not run.first_s == run.first_s:
+        return run.step_s
+    return (run.step_s - run.first_s) * steps / (steps - 1)
+
+
+def cost_medians(path, scene, verification, problem=None, repeats=COST_REPEATS):
+    """(FMU, full SPH, ratio) of :func:`measure_cost`."""
+    c = measure_cost(path, scene, verification, problem=problem, repeats=repeats)
+    return c.fmu_s, c.sph_s, c.ratio
+
+
+def measure_cost(path, scene, verification, problem=None, repeats=COST_REPEATS):
+    """The :class:`Cost` of the FMU at ``path`` per simulated second, the figure behind packaging's choice, its
+    verdict and ``sphrom bench scenes``: the CPU time per simulated T of its doStep calls in steady stepping on the
+    training case of ``verification`` (its force and start) at the FMU's default communication step (what a user
+    runs it at; :func:`steady_seconds`) and of
+    the full SPH's compiled loop (:func:`sph_cost`), each the median of ``repeats`` runs timed in pairs (FMU, SPH,
+    FMU, SPH, ...), and the median of the pairs' ratios FMU / SPH: a pair is timed under one load (another process
+    on the core's sibling thread slows both; CPU time does not see that), so the ratio varies less than either
+    time.  nan for the FMU when it failed."""
     problem = problem or build_problem(scene)
-    has_scale, interpolate, _, _ = fmu_facts(path)
-    tr = verification.training
+    has_scale, interpolate, default, _ = fmu_facts(path)
+    t, _ = communication_times(scene, default)
     expr = compile_expr(verification.refs["training"][0], ("t", "L", "T"), "force")
-    f = np.broadcast_to(expr(t=tr.t, L=scene.L, T=scene.T), tr.t.shape).astype(float)
+    f = np.broadcast_to(expr(t=t, L=scene.L, T=scene.T), t.shape).astype(float)
     recorded = cached_sph(scene, error_steps(scene), progress=False, problem=problem).wall_time
-    fmu, sph = [], []
+    steps = t.size - 1
+    fmu, first, sph = [], [], []
     for _ in range(repeats):
         try:
-            fmu.append(fmu_case(path, f, tr.t, scale=1.0 if has_scale else None, interpolate=interpolate).step_s)
+            run = fmu_case(path, f, t, scale=1.0 if has_scale else None, interpolate=interpolate)
+            fmu.append(steady_seconds(run, steps))
+            first.append(run.first_s)
         except RuntimeError:
             fmu.append(float("nan"))
+            first.append(float("nan"))
         sph.append(sph_cost(scene, problem, recorded))
     fmu, sph = np.asarray(fmu), np.asarray(sph)
-    return float(np.median(fmu)), float(np.median(sph)), float(np.median(fmu / np.where(sph > 0, sph, np.nan)))
+    return Cost(fmu_s=float(np.median(fmu)), sph_s=float(np.median(sph)),
+                ratio=float(np.median(fmu / np.where(sph > 0, sph, np.nan))), setup_s=float(np.median(first)),
+                steps=steps, sph_steps=step_count(scene.T, scene.sph.dt), repeats=repeats)
 
 
-def verify_fmu(path, scene, probes, refs=None, problem=None, progress=False):
+def verify_fmu(path, scene, probes, refs=None, problem=None, progress=False, step=None):
     """Measure the FMU at ``path`` against the truth of ``scene`` (module docstring).
 
     Parameters
@@ -589,17 +719,24 @@ def verify_fmu(path, scene, probes, refs=None, problem=None, progress=False):
     refs : dict, optional
         :func:`references` already computed for this scene, step and probes (recomputed when its input mode or its
         communication step is not this FMU's: two models of one scene can hold different bands).
+    step : float, optional
+        The communication step [s] of the measurement (default: the FMU's DefaultExperiment stepSize).  A model
+        exact in time is measured at the step a time-stepped model of its band takes (:func:`measure_step`), finer
+        than its default: its error and its bounds are then seen at the points that resolve its band, as any other
+        model's, while its cost is that of its default step (:func:`measure_cost`).
 
     Returns
     -------
     Verification
     """
-    has_scale, interpolate, step, tolerance = fmu_facts(path)
+    has_scale, interpolate, default, tolerance = fmu_facts(path)
+    step = default if step is None else float(step)
     if refs is None or refs.get("_interpolate") != interpolate or refs.get("_step", step) != step:
         refs = references(scene, step, probes, has_scale, problem=problem, progress=progress, interpolate=interpolate)
     result = Verification(step=step, T=scene.T, input="linear (df/dt)" if interpolate else "held",
                           probes=list(probes), refs=refs, truth=TRUTH_NAME, error_tolerance=tolerance,
-                          stepped_error=refs.get("_stepped_error", (float("nan"), float("nan"), 0)))
+                          stepped_error=refs.get("_stepped_error", (float("nan"), float("nan"), 0)),
+                          default_step=default)
     for name in CASES:
         force, scale, start, (t, sph_v, sph_rho, rho0, sph_s) = refs[name]
         expr = compile_expr(force, ("t", "L", "T"), "force")

@@ -306,7 +306,7 @@ def sections_section(sections, probe_x=(), linear=False, bounded=False):
     return lines
 
 
-def verification_section(verification, tolerance=None):
+def verification_section(verification, tolerance=None, choice=""):
     if verification is None:
         return ["<h2>Measured accuracy and speed</h2>",
                 "<p>Not measured: this FMU was packaged without the verification against the full SPH "
@@ -322,7 +322,7 @@ def verification_section(verification, tolerance=None):
                      _number(c.sph_s, ".4g"), _number(c.cost_ratio, ".3g"), escape(c.note or "")))
     truth = escape(v.truth or "the full SPH")
     lines = ["<h2>Measured accuracy and speed</h2>",
-             f"<p>This FMU, run through fmpy at its default communication step h = {v.step:g} s over T = "
+             f"<p>This FMU, run through fmpy at {_measured_at(v)} over T = "
              f"{v.T:g} s (input {escape(v.input)}), against {truth} (driven by the same input, from the same "
              "state), at the probes. Errors: relative L2 of eq. 3.4 (square-root form, trapezoidal in "
              "time, over all probes) of the velocity and of rho - rho0 ('-' where the truth's rho - rho0 is 0, "
@@ -336,16 +336,44 @@ def verification_section(verification, tolerance=None):
              *_table(("force", "f(t) [m s^-2]", "from", "v error", "rho - rho0 error", "max |rho - rho_true| "
                       "[kg m^-3]", "bound", "bound / error", "warnings", "FMU doStep [s]", "FMU via fmpy [s]",
                       "full SPH [s]", "cost ratio", "note"), rows, table_id="measured")]
-    if v.training.cost_ratio > 1:
+    lines += cost_lines(v)
+    if choice:
+        lines.append(f"<p><strong>Configuration chosen for its cost</strong>: {escape(choice)}.</p>")
+    if v.slower:
+        why = f" ({escape(v.cost.why())})" if v.cost is not None else ""
         lines.append(f"<p><strong>This FMU is slower than the full SPH it replaces</strong>: its own work per "
-                     f"simulated second is {v.training.cost_ratio:.3g} times the full SPH's on this scene. The full "
-                     "SPH may serve better here, or fewer modes, or another model.</p>")
+                     f"simulated second is {v.cost_ratio:.3g} times the full SPH's on this scene{why}; packaging "
+                     "tried the cheaper configurations it knows (fewer modes, no certified error bounds) and none met "
+                     "the accuracy at a lower cost. The full SPH may serve better here, or another model.</p>")
     lines += channel_lines(v)
     lines.append(f"<p>Accuracy accepted on every case's v error: {ACCURACY if tolerance is None else tolerance:g} "
                  "(met)" + (" and on every input channel's (met)" if tolerance is not None else "") + ".</p>")
     lines += ["<p><img src=\"probes.png\" alt=\"probe velocity of the FMU (dashed) and of the truth (solid) "
               "for the training, the step and the unseen force\"></p>"]
     return lines
+
+
+def _measured_at(v):
+    """Where the measurement's step is the FMU's default and where it is finer (a model exact in time)."""
+    if not v.default_step == v.default_step or abs(v.default_step - v.step) <= 1e-12 * v.step:
+        return f"its default communication step h = {v.step:g} s"
+    return (f"the communication step h = {v.step:g} s, finer than its default {v.default_step:g} s: a model exact in "
+            "time steps at what its input and outputs need, and is measured at the points that resolve its band "
+            "(where its error lives), as a time-stepped model is; its cost is that of its default step")
+
+
+def cost_lines(v):
+    """The paragraph on the robust cost per simulated second (:class:`sphrom.fmu.check.verify.Cost`), none when not
+    measured."""
+    c = v.cost
+    if c is None:
+        return []
+    return [f"<p>Cost per simulated second (what packaging's choice and its verdict use): the FMU's doStep calls in "
+            f"steady stepping at its default step, {c.fmu_s:.4g} s per T ({c.steps} steps), against the full SPH's compiled loop, "
+            f"{c.sph_s:.4g} s per T ({c.sph_steps} time steps): <strong>{c.ratio:.3g}</strong> (CPU times, the "
+            f"median ratio of {c.repeats} pairs of runs timed in turn). The first doStep, {c.setup_s:.3g} s, is a "
+            "setup done once per step length (a linear model's maps e<sup>Ah</sup>, the bounds' plane maps, cached "
+            "for every later step of that length), as the instantiation: not counted per simulated second.</p>"]
 
 
 def channel_lines(verification):
@@ -376,9 +404,10 @@ def envelope_section(envelope, linear, bounded=False):
 
 
 def index_html(*, scene, spec, data, k, input_error, augmented, description_xml, verification=None,
-               tolerance=None, envelope=None, passivity=None, platforms=None):
+               tolerance=None, envelope=None, passivity=None, platforms=None, choice=""):
     """The text of documentation/index.html (module docstring); ``platforms``: the binaries it carries
-    (:class:`sphrom.fmu.make.build.FMUBinaries`)."""
+    (:class:`sphrom.fmu.make.build.FMUBinaries`); ``choice``: why packaging chose this configuration (a cheaper one
+    than asked for: :func:`sphrom.fmu.make.auto.cheaper_if_slower`), '' for none."""
     title = f"sphrom FMU: {spec.name} model of scene {scene.name}"
     version, _, _ = _fmi(description_xml)
     sections = getattr(data, "sections", {}) or {}
@@ -397,7 +426,7 @@ def index_html(*, scene, spec, data, k, input_error, augmented, description_xml,
     body += envelope_section(envelope, spec.linear, bounded)
     body += sections_section(sections, probe_x=list(getattr(data, "probe_x", ())), linear=spec.linear,
                              bounded=bounded)
-    body += verification_section(verification, tolerance)
+    body += verification_section(verification, tolerance, choice)
     return "\n".join(["<!DOCTYPE html>", '<html lang="en">', "<head>", '<meta charset="utf-8">',
                       f"<title>{escape(title)}</title>", f"<style>{_STYLE}</style>", "</head>", "<body>", *body,
                       "</body>", "</html>", ""])

@@ -41,7 +41,8 @@ from ...runio import atomic_path
 from ...sph.solver import build_problem
 from .. import layout
 from ..check.channels import horizon, measure_channels
-from ..check.verify import acceptance, communication_step, top_frequency, verify_fmu
+from ..check.verify import (acceptance, communication_step, exact_time_step, measure_cost, measure_step,
+                            top_frequency, verify_fmu)
 from ..kinds import for_model, kind_of
 from ..training.envelope import Envelope
 from .archive import validate, write_fmu
@@ -126,7 +127,7 @@ class FMUSummary:
 def package_fmu(scene, out, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaults.PROBES, fmi=2, integrator=None,
                 step_size=None, progress=True, binaries=None, problem=None, model="frozen", verify=False,
                 tolerance=None, references=None, bounds=True, vary=(), ports=None, order_tolerance=None,
-                build_options=None, error_bounds=True, accept=True) -> FMUSummary:
+                build_options=None, error_bounds=True, accept=True, choice="") -> FMUSummary:
     """Build the FMU of ``scene`` at ``out`` (atomically) and validate it.
 
     Parameters
@@ -173,6 +174,9 @@ def package_fmu(scene, out, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaul
         ``b="paper"``: eq. 2.22's b instead of the rest-consistent one).
     references : dict, optional
         :func:`sphrom.fmu.check.verify.references` computed before (several models of one scene).
+    choice : str
+        Why packaging chose this configuration (:func:`sphrom.fmu.make.auto.cheaper_if_slower`), said on the FMU's
+        page; '' (default): nothing to say.
     error_bounds : bool
         Every model: the certified error bound of each output at every step (default; sections SH*,
         :mod:`sphrom.rom.bounds`, docs/science/error-bounds.md).  False leaves them out: the FMU then warns on
@@ -208,6 +212,7 @@ def package_fmu(scene, out, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaul
                                              vary=vary, ports=ports, bounds=bounds, order_tolerance=order_tolerance,
                                              error_bounds=error_bounds,
                                              build_options=build_options)
+    problem = problem or build_problem(scene)
     step = step_size if step_size is not None else default_step(scene, data, ops, problem)
     timings["model"] = time.perf_counter() - t0
     stage_done(scene, "model", timings, progress)
@@ -220,7 +225,7 @@ def package_fmu(scene, out, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaul
     k = data.k_v if k is None else k                 # the balanced model's order from its order tolerance
     passivity = passivity_step(ops, model, ports)
     texts = dict(scene=scene, model=model, data=data, ops=ops, k=k, fmi=fmi, step=step, envelope=envelope,
-                 tolerance=tolerance, passivity=passivity, platforms=carried)
+                 tolerance=tolerance, passivity=passivity, platforms=carried, choice=choice)
     t2 = time.perf_counter()
     out = Path(out)
     verification = None
@@ -230,8 +235,10 @@ def package_fmu(scene, out, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaul
         stage_done(scene, "package", timings, progress)
         if verify:
             t3 = time.perf_counter()
+            exact_in_time = kind_of(data).integrator(data) is None and step_size is None
+            at = measure_step(scene, problem, ops) if exact_in_time else None
             verification = verification_step(tmp, scene, probes, references, problem, progress, tolerance, out, model,
-                                             ports=ports, accept=accept)
+                                             ports=ports, accept=accept, step=at)
             archive_step(tmp, blob, binary, verification=verification, **texts)   # only the texts change
             timings["verify"] = time.perf_counter() - t3
             stage_done(scene, "verify", timings, progress)
@@ -304,7 +311,7 @@ def archive_step(path, blob, binary, check=True, **texts):
                                augmented=texts["ops"].augmented, description_xml=description,
                                verification=texts.get("verification"), tolerance=texts["tolerance"],
                                envelope=texts["envelope"], passivity=texts.get("passivity"),
-                               platforms=texts.get("platforms"))
+                               platforms=texts.get("platforms"), choice=texts.get("choice", ""))
     write_fmu(path, fmi=texts["fmi"], blob=blob, description=description, binary=binary, documentation=docs)
     problems = validate(path) if check else []
     if problems:
@@ -321,14 +328,19 @@ def passivity_step(ops, model, ports):
 
 
 def verification_step(path, scene, probes, references, problem, progress, tolerance, out, model, ports=(),
-                      accept=True):
+                      accept=True, step=None):
     """Step 8: the FMU at ``path`` measured against the full SPH linear in J, integrated exactly in time
     (:func:`sphrom.fmu.check.verify.verify_fmu`: the training force, a step and an unseen sine), and each input
     channel (f, each port force, against the full SPH with the FMU's integrator:
-    :func:`sphrom.fmu.check.channels.measure_channels`); ToleranceError (``accept``) when the FMU failed, ran away or
+    :func:`sphrom.fmu.check.channels.measure_channels`), and its cost per simulated second against the full SPH's
+    (:func:`sphrom.fmu.check.verify.measure_cost`, the median of pairs of runs; when no case failed); ToleranceError
+    (``accept``) when the FMU failed, ran away or
     missed the accuracy on a case (:func:`sphrom.fmu.check.verify.acceptance`), or a channel's error is above
-    ``tolerance``."""
-    verification = verify_fmu(path, scene, probes, refs=references, problem=problem, progress=progress)
+    ``tolerance``.  ``step``: the measurement's communication step (:func:`sphrom.fmu.check.verify.measure_step`
+    for a model exact in time; None: the FMU's default), the cost always at the FMU's default step."""
+    verification = verify_fmu(path, scene, probes, refs=references, problem=problem, progress=progress, step=step)
+    if all(not c.note for c in verification.cases):     # it ran every case: its cost per simulated second
+        verification.cost = measure_cost(path, scene, verification, problem=problem)
     verification.channels = measure_channels(path, scene, ports=ports, problem=problem, progress=progress)
     verification.channel_horizon = horizon(scene)
     if accept:
@@ -339,8 +351,12 @@ def verification_step(path, scene, probes, references, problem, progress, tolera
 def default_step(scene, data, ops, problem=None):
     """The FMU's DefaultExperiment stepSize [s]: :func:`sphrom.fmu.check.verify.communication_step` of the top of
     the scene's band as the model holds it (:func:`sphrom.fmu.check.verify.top_frequency` over its velocity modes),
-    at least the model's internal dt."""
-    nu_top = top_frequency(scene, problem or build_problem(scene), ops)
+    at least the model's internal dt; a model exact in time (no integrator of its own: the linear models) the step
+    its input and its outputs need (:func:`sphrom.fmu.check.verify.exact_time_step`)."""
+    problem = problem or build_problem(scene)
+    if kind_of(data).integrator(data) is None:        # exact in time: the step the input and the outputs need
+        return exact_time_step(scene, problem, ops)
+    nu_top = top_frequency(scene, problem, ops)
     return communication_step(scene, nu_top, kind_of(data).parameter_starts(data).get("dt"))
 
 
@@ -369,12 +385,12 @@ def check_tolerance(verification, tolerance, out, model):
 
 
 def documentation_files(*, scene, spec, data, k, input_error, augmented, description_xml, verification=None,
-                        tolerance=None, envelope=None, passivity=None, platforms=None):
+                        tolerance=None, envelope=None, passivity=None, platforms=None, choice=""):
     """{archive name: content} of the FMU's documentation/ folder: index.html, and probes.png when measured."""
     files = {DOC_INDEX: index_html(scene=scene, spec=spec, data=data, k=k, input_error=input_error,
                                    augmented=augmented, description_xml=description_xml,
                                    verification=verification, tolerance=tolerance, envelope=envelope,
-                                   passivity=passivity, platforms=platforms)}
+                                   passivity=passivity, platforms=platforms, choice=choice)}
     if verification is not None:
         from ..check.verify import probes_png
         files[DOC_PLOT] = probes_png(verification, title=f"{scene.name}, {spec.name} FMU against the full SPH")

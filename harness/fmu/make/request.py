@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from ...pod.pipeline import modes_line
 from ...rom.registry import MODELS, fmu_model_names
-from .auto import package_auto, package_default
+from .auto import package_auto, package_default, package_model
 from .options import check_options, check_port_spacing, check_ports, check_vary
 from .package import package_fmu
 
@@ -20,7 +20,7 @@ AUTO = "auto"           # --model auto: every model packaged and measured, the c
 
 def is_default_request(model=None, *, verify=True, n_freeze=None, integrator=None):
     """Whether :func:`package_request` may write the fallback model (:data:`sphrom.fmu.make.auto.FALLBACK_MODEL`)
-    where the default one misses the accuracy or is slower than the full SPH: no model was asked for
+    where the default one misses the accuracy or costs more than it: no model was asked for
     (``model`` None), the FMU is measured (``verify``) and none of the default model's own options (``n_freeze``,
     ``integrator``) is given."""
     return model is None and verify and n_freeze is None and integrator is None
@@ -85,5 +85,8 @@ def package_request(scene, out, model, *, by_default=False, k=None, n_freeze=Non
                    order_tolerance=order_tolerance)
     if by_default:
         summary, note = package_default(scene, out, options)
+        return summary, None, note
+    if verify:          # measured: a cheaper configuration where it costs more per simulated second than the SPH
+        summary, note = package_model(scene, out, model, options)
         return summary, None, note
     return package_fmu(scene, out, model=model, **options), None, ""

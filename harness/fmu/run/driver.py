@@ -258,6 +258,7 @@ class FMU:
         self.md = read_model_description(str(path))
         self._owns_dir = not path.is_dir()
         self.step_seconds = 0.0          # the CPU time inside the doStep calls of the last simulate() [s]
+        self.first_step_seconds = 0.0    # ... inside its first doStep (a linear model's maps of a new step length) [s]
         self.unzipdir = str(path) if path.is_dir() else extract_fmu(path)
         self.fmi = 2 if self.md.fmiVersion == "2.0" else 3
         self.messages = [] if messages is None else messages
@@ -474,7 +475,8 @@ class FMU:
         ndarray (M+1, len(outputs))
             The outputs at every communication point, the initial one included.  :attr:`step_seconds` is then
             the CPU time of this thread inside the doStep calls [s] (:func:`time.thread_time`: the FMU's own
-            work, without this loop's, nor the time other processes took the core).
+            work, without this loop's, nor the time other processes took the core), :attr:`first_step_seconds`
+            that of the first call alone (where a linear model computes the maps of a new step length, once).
         """
         times = np.asarray(times, dtype=float)
         inputs = {k: np.asarray(v, dtype=float) for k, v in (inputs or {}).items()}
@@ -516,7 +518,7 @@ class FMU:
         reached = 0
         from fmpy.fmi1 import FMICallException
         from time import thread_time as perf   # CPU time of this thread: not the time other processes took the core
-        stepping = 0.0
+        stepping = self.first_step_seconds = 0.0
         try:
             for j in range(m):
                 t, h = times[j], hs[j]
@@ -534,7 +536,10 @@ class FMU:
                         set_(comp, fb_vr[name], 1, fb_val)
                 c0 = perf()
                 step(t, h)
-                stepping += perf() - c0
+                spent = perf() - c0
+                stepping += spent
+                if j == 0:
+                    self.first_step_seconds = spent
                 get(comp, out_vr, n_out, out)
                 ys[j + 1] = out
                 reached = j + 1
