@@ -47,10 +47,14 @@ typedef struct {
     double *Phi;               /* [planes][4] */
     double *G0, *G1;           /* [order][inputs] */
     double decay[BOUND_MAX_GROUPS], slope[BOUND_MAX_GROUPS];   /* exp(-alpha h), (1 - exp(-alpha h)) / (alpha h) */
+    double growth;             /* exp(mu h): the shadow's growth over the step (w_int) */
 } BoundCache;
 
 typedef struct {
-    double *w, *w_new;         /* [order] the shadow's state, scratch */
+    double *w;                 /* [order] the shadow's state */
+    double *y;                 /* [rows + 1] C w of every row and |w|^2, valid when rows_valid (shadow_rows) */
+    double *ct;                /* [order][slots] C transposed, then w's slot (zero: w2 itself), then zeros */
+    int rows_valid;            /* 0 whenever w changes (step, reset, restore) */
     double V[BOUND_MAX_INPUTS * BOUND_MAX_GROUPS];    /* [inputs][groups] the weighted variations */
     double u_prev[BOUND_MAX_INPUTS];   /* the input at the end of the last step */
     double w_int;              /* int |w| dt so far (a bound) */
@@ -394,6 +398,11 @@ int rom_has_bounds(const RomModel *m) {
     return m && m->bound.order > 0;
 }
 
+/* the rows' pass's slots: the rows, |w|^2, rounded up to a whole group of four */
+static size_t row_slots(const RomBoundModel *b) {
+    return (b->rows + 1 + 3) / 4 * 4;
+}
+
 RomStatus rom_bound_state_new(RomState *s) {
     const RomBoundModel *b = &s->model->bound;
     s->bound = NULL;
@@ -401,20 +410,25 @@ RomStatus rom_bound_state_new(RomState *s) {
     BoundState *bs = (BoundState *)calloc(1, sizeof(BoundState));
     if (!bs) return ROM_FAIL;
     const size_t k = b->order, m = b->inputs, n = 2 + 2 * m;   /* a plane's augmented matrix's size */
-    size_t counts[3 + 3 * BOUND_CACHE] = {k, k, 4 * n * n};
-    double **ptrs[3 + 3 * BOUND_CACHE] = {&bs->w, &bs->w_new, &bs->work};
+    const size_t slots = row_slots(b);
+    size_t counts[4 + 3 * BOUND_CACHE] = {k, slots, 4 * n * n, k * slots};
+    double **ptrs[4 + 3 * BOUND_CACHE] = {&bs->w, &bs->y, &bs->work, &bs->ct};
     for (int c = 0; c < BOUND_CACHE; c++) {
-        counts[3 + 3 * c] = 4 * (size_t)b->planes;
-        counts[4 + 3 * c] = k * m;
+        counts[4 + 3 * c] = 4 * (size_t)b->planes;
         counts[5 + 3 * c] = k * m;
-        ptrs[3 + 3 * c] = &bs->cache[c].Phi;
-        ptrs[4 + 3 * c] = &bs->cache[c].G0;
-        ptrs[5 + 3 * c] = &bs->cache[c].G1;
+        counts[6 + 3 * c] = k * m;
+        ptrs[4 + 3 * c] = &bs->cache[c].Phi;
+        ptrs[5 + 3 * c] = &bs->cache[c].G0;
+        ptrs[6 + 3 * c] = &bs->cache[c].G1;
     }
-    bs->storage_ = rom_alloc_arrays(counts, ptrs, 3 + 3 * BOUND_CACHE);
+    bs->storage_ = rom_alloc_arrays(counts, ptrs, 4 + 3 * BOUND_CACHE);
     if (!bs->storage_) {
         free(bs);
         return ROM_FAIL;
+    }
+    for (size_t i = 0; i < k; i++) {             /* (rom_alloc_arrays' arrays start zeroed or are all written) */
+        double *col = bs->ct + i * slots;
+        for (size_t r = 0; r < slots; r++) col[r] = r < b->rows ? b->C[r * k + i] : 0.0;
     }
     bs->tail_tau = NAN;
     s->bound = bs;
@@ -435,6 +449,7 @@ void rom_bound_reset(RomState *s) {
     if (!bs) return;
     const size_t k = s->model->bound.order;
     memset(bs->w, 0, k * sizeof(double));
+    bs->rows_valid = 0;
     for (uint32_t i = 0; i < BOUND_MAX_INPUTS * BOUND_MAX_GROUPS; i++) bs->V[i] = 0.0;
     for (uint32_t i = 0; i < BOUND_MAX_INPUTS; i++) bs->u_prev[i] = 0.0;
     bs->w_int = bs->steps = bs->started = 0.0;
@@ -493,6 +508,7 @@ static const BoundCache *plane_maps(BoundState *bs, const RomBoundModel *b, doub
         slot->decay[g] = exp(-x);
         slot->slope[g] = x > 1e-8 ? -expm1(-x) / x : 1.0 - 0.5 * x;
     }
+    slot->growth = exp(b->mu * h);
     slot->h = h;
     slot->used = bs->clock;
     return slot;
@@ -537,31 +553,46 @@ void rom_bound_step(RomState *s, double h) {
         u2 += u[j] * u[j];
         e2 += (u[j] + du[j]) * (u[j] + du[j]);
     }
-    bs->w_int += h * exp(b->mu * h) * (norm2(bs->w, k) + h * b->b_norm * sqrt(fmax(u2, e2)));
-    for (uint32_t p = 0; p < b->planes; p++) {
-        const double *Phi = c->Phi + 4 * (size_t)p;
-        const double w0 = bs->w[2 * p], w1 = bs->w[2 * p + 1];
-        for (size_t i = 0; i < 2; i++) {
-            double acc = Phi[2 * i] * w0 + Phi[2 * i + 1] * w1;
-            const size_t r = (2 * p + i) * m;
-            for (size_t j = 0; j < m; j++) acc += c->G0[r + j] * u[j] + c->G1[r + j] * du[j];
-            bs->w_new[2 * p + i] = acc;
+    /* |w| at the step's start: the rows' pass computed it where an output's bound was read since the last step */
+    const double wn = bs->rows_valid ? sqrt(bs->y[b->rows]) : norm2(bs->w, k);
+    bs->w_int += h * c->growth * (wn + h * b->b_norm * sqrt(fmax(u2, e2)));
+    /* each plane in place (its two coordinates read before they are written); a held input (du = 0) skips the
+     * slope's columns, whose products are exact zeros: the same sums */
+    int held = 1;
+    for (size_t j = 0; j < m; j++) held &= du[j] == 0.0;
+    double *w = bs->w;
+    if (m == 1) {
+        const double u0 = u[0], du0 = du[0];
+        for (uint32_t p = 0; p < b->planes; p++) {
+            const double *Phi = c->Phi + 4 * (size_t)p, *G0 = c->G0 + 2 * (size_t)p, *G1 = c->G1 + 2 * (size_t)p;
+            const double w0 = w[2 * p], w1 = w[2 * p + 1];
+            if (held) {
+                w[2 * p] = Phi[0] * w0 + Phi[1] * w1 + G0[0] * u0;
+                w[2 * p + 1] = Phi[2] * w0 + Phi[3] * w1 + G0[1] * u0;
+            } else {
+                w[2 * p] = Phi[0] * w0 + Phi[1] * w1 + (G0[0] * u0 + G1[0] * du0);
+                w[2 * p + 1] = Phi[2] * w0 + Phi[3] * w1 + (G0[1] * u0 + G1[1] * du0);
+            }
+        }
+    } else {
+        for (uint32_t p = 0; p < b->planes; p++) {
+            const double *Phi = c->Phi + 4 * (size_t)p;
+            const double w0 = w[2 * p], w1 = w[2 * p + 1];
+            for (size_t i = 0; i < 2; i++) {
+                double acc = Phi[2 * i] * w0 + Phi[2 * i + 1] * w1;
+                const size_t r = (2 * p + i) * m;
+                for (size_t j = 0; j < m; j++) {
+                    acc += held ? c->G0[r + j] * u[j] : c->G0[r + j] * u[j] + c->G1[r + j] * du[j];
+                }
+                w[2 * p + i] = acc;
+            }
         }
     }
-    memcpy(bs->w, bs->w_new, k * sizeof(double));
+    bs->rows_valid = 0;
     for (size_t j = 0; j < m; j++) bs->u_prev[j] = u[j] + du[j];
     bs->steps += 1.0;
     const double tau = s->elapsed + h;                  /* the time since the start after this step */
     if (tau > table_end(b)) tail_decays(bs, b, tau);
-}
-
-/* the shadow's state now (s w0 before the first step) into out[order] */
-static const double *shadow_state(const RomState *s, double *scratch) {
-    const BoundState *bs = (const BoundState *)s->bound;
-    if (bs->started != 0.0) return bs->w;
-    const RomBoundModel *b = &s->model->bound;
-    for (size_t i = 0; i < b->order; i++) scratch[i] = s->initial_state_scale * b->w0[i];
-    return scratch;
 }
 
 /* the complement's free response of row r at tau since the start (per unit initial_state_scale): the table's
@@ -593,19 +624,67 @@ static void free_part(const RomBoundModel *b, const BoundState *bs, uint32_t r, 
     *error = acc;
 }
 
+/* C w of every row and |w|^2, in one pass over the state, kept until w changes (an importer reads every output's
+ * bound at each step, each row once).  The rows' sums run side by side, eight at a time from the transposed
+ * rows (no sum waits for another's last addition); each is still summed in the order of its coefficients from 0,
+ * as a row-by-row loop and norm2 sum it: the same numbers */
+static void shadow_rows(const RomState *s, BoundState *bs) {
+    const RomBoundModel *b = &s->model->bound;
+    const size_t k = b->order, slots = row_slots(b), R = b->rows;
+    const double *w = bs->w;
+    for (size_t i = 0; i < k; i++) bs->ct[i * slots + R] = w[i];       /* |w|^2: w's own slot */
+    size_t g = 0;
+    for (; g + 8 <= slots; g += 8) {                    /* eight sums side by side (a multiply-add's latency) */
+        double a[8] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+        const double *col = bs->ct + g;
+        for (size_t i = 0; i < k; i++, col += slots) {
+            const double wi = w[i];
+            a[0] += col[0] * wi;
+            a[1] += col[1] * wi;
+            a[2] += col[2] * wi;
+            a[3] += col[3] * wi;
+            a[4] += col[4] * wi;
+            a[5] += col[5] * wi;
+            a[6] += col[6] * wi;
+            a[7] += col[7] * wi;
+        }
+        memcpy(bs->y + g, a, sizeof a);
+    }
+    if (g < slots) {                                    /* the last four (slots is a multiple of four) */
+        double a[4] = {0.0, 0.0, 0.0, 0.0};
+        const double *col = bs->ct + g;
+        for (size_t i = 0; i < k; i++, col += slots) {
+            const double wi = w[i];
+            a[0] += col[0] * wi;
+            a[1] += col[1] * wi;
+            a[2] += col[2] * wi;
+            a[3] += col[3] * wi;
+        }
+        memcpy(bs->y + g, a, sizeof a);
+    }
+    bs->rows_valid = 1;
+}
+
 /* (the shadow's row r, its certified error) at the state's time */
 static void shadow_row(const RomState *s, uint32_t r, double *value, double *cert) {
     const RomBoundModel *b = &s->model->bound;
-    const BoundState *bs = (const BoundState *)s->bound;
-    double scratch[2 * ROM_MAX_MODES];
-    const double *w = shadow_state(s, scratch);
-    const size_t k = b->order, m = b->inputs, G = b->groups;
-    const double *Cr = b->C + (size_t)r * k;
+    BoundState *bs = (BoundState *)s->bound;
+    const size_t m = b->inputs, G = b->groups;
     const double *row = b->row + (size_t)r * b->row_len;
-    double y = 0.0, w2 = 0.0;
-    for (size_t i = 0; i < k; i++) {
-        y += Cr[i] * w[i];
-        w2 += w[i] * w[i];
+    double y, w2;
+    if (bs->started != 0.0) {
+        if (!bs->rows_valid) shadow_rows(s, bs);
+        y = bs->y[r];
+        w2 = bs->y[b->rows];
+    } else {                                            /* s w0 before the first step (s may still change) */
+        const size_t k = b->order;
+        const double *Cr = b->C + (size_t)r * k;
+        y = w2 = 0.0;
+        for (size_t i = 0; i < k; i++) {
+            const double wi = s->initial_state_scale * b->w0[i];
+            y += Cr[i] * wi;
+            w2 += wi * wi;
+        }
     }
     double quasi = 0.0, trans = 0.0;
     for (size_t j = 0; j < m; j++) {
@@ -711,6 +790,7 @@ const unsigned char *rom_bound_state_get(RomState *s, const unsigned char *curso
     if (!bs) return cursor;
     const RomBoundModel *b = &s->model->bound;
     cursor = rom_get_f64s(cursor, bs->w, b->order);
+    bs->rows_valid = 0;
     cursor = rom_get_f64s(cursor, bs->V, (size_t)b->inputs * b->groups);
     cursor = rom_get_f64s(cursor, bs->u_prev, b->inputs);
     double scalars[3];
