@@ -636,6 +636,7 @@ def measure_large(sizes, folder, probes, repeats, progress=True, package_limit=P
         eff = eff[np.isfinite(eff)]
         out.append({"N": n, "dt": scene.sph.dt, "package_s": package_s, "shadow_s": shadow_s,
                     "planes_s": shadow.info["timings"]["planes"], "method": shadow.info["method"],
+                    **tail_columns(shadow),
                     "computed": shadow.info["computed_planes"], "shadow_order": s.shadow_order, "k_v": s.k_v,
                     "k_rho": s.k_rho, "step_ns_bounds": with_ns, "step_ns_plain": without_ns,
                     "cost_ratio": with_ns / without_ns, "violations": bad, "points": t.size, "false_alarm": alarm,
@@ -647,6 +648,14 @@ def measure_large(sizes, folder, probes, repeats, progress=True, package_limit=P
         print(f"N {n}: packaging {package_s:.1f} s (shadow {shadow_s:.1f} s), doStep {with_ns:.0f}/{without_ns:.0f} "
               f"ns, violations {bad}, effectivity max {out[-1]['eff_max']:.3g}", flush=True)
     return out
+
+
+def tail_columns(shadow):
+    """{tail_nodes, tail_s}: the uncomputed planes' free response computed (:func:`sphrom.rom.bounds.tail_table`):
+    its nodes and seconds (0, 0: bounded by norms)."""
+    table = shadow.info.get("tail_table")
+    return {"tail_nodes": int(table["nodes"]) if table else 0,
+            "tail_s": float(shadow.info["timings"].get("tail_table", 0.0))}
 
 
 def shadow_row(problem, shadow, shadow_s, probes):
@@ -669,7 +678,7 @@ def shadow_row(problem, shadow, shadow_s, probes):
     eff = eff[np.isfinite(eff)]
     nan = float("nan")
     return {"N": problem.n, "dt": problem.scene.sph.dt, "package_s": nan, "shadow_s": shadow_s,
-            "planes_s": shadow.info["timings"]["planes"], "method": shadow.info["method"],
+            "planes_s": shadow.info["timings"]["planes"], "method": shadow.info["method"], **tail_columns(shadow),
             "computed": shadow.info["computed_planes"], "shadow_order": shadow.order, "k_v": "—", "k_rho": "—",
             "step_ns_bounds": nan, "step_ns_plain": nan, "cost_ratio": nan, "violations": int(np.sum(err > bound)),
             "points": t.size, "false_alarm": False, "eff_median": float(np.median(eff)) if eff.size else nan,
@@ -684,7 +693,9 @@ def large_section(rows, *, command, wall, machine):
              "harness/bench/error_bounds.py `large_scene`). Packaging: `sphrom fmu`'s whole packaging with the "
              "bounds (the full SPH training run, the POD, the model, the shadow), one run; the shadow: "
              "`build_shadow` timed apart (its planes: the dense SVD up to 2500 particles, the sparse shift-invert "
-             f"Lanczos solver above). Certification: {LARGE_STEPS} steps of {STEP * 1e3:g} ms from the initial "
+             "Lanczos solver above; the tail: the uncomputed planes' free response from x0 computed on the full "
+             "sparse system where that takes at most 16384 nodes and N x nodes <= 2e8, `tail_table`, else bounded "
+             f"by norms: tail nodes 0). Certification: {LARGE_STEPS} steps of {STEP * 1e3:g} ms from the initial "
              "state under the chirp, held, against the full linear SPH integrated exactly in time "
              "(`sphrom.rom.truth`, the truth packaging measures every FMU against: above 500 particles a "
              "Taylor series of the sparse operator to round-off). doStep: the C core's rom_do_step with and without "
@@ -694,13 +705,15 @@ def large_section(rows, *, command, wall, machine):
                  "effectivity is the certificate's (its largest over the run / the shadow's largest error, per "
                  "probe), their errors and bounds the shadow's." if any(r.get("shadow_only") for r in rows) else ""),
              "",
-             "| N | dt [s] | packaging [s] | shadow [s] (planes) | planes computed, method | k_v, k_ρ | shadow order | "
+             "| N | dt [s] | packaging [s] | shadow [s] (planes, tail) | planes computed, method | tail nodes | "
+             "k_v, k_ρ | shadow order | "
              "doStep ns with / without | ratio | violations | effectivity median | max | max v error [m/s] | "
              "max v bound [m/s] |",
-             "| ---: | ---: | ---: | ---: | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+             "| ---: | ---: | ---: | ---: | --- | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
     for r in rows:
         lines.append(f"| {r['N']} | {r['dt']:.3g} | {_g(r['package_s'], '.1f')} | {r['shadow_s']:.1f} "
-                     f"({r['planes_s']:.1f}) | {r['computed']}, {r['method']} | {r['k_v']}, {r['k_rho']} | "
+                     f"({r['planes_s']:.1f}, {r['tail_s']:.1f}) | {r['computed']}, {r['method']} | {r['tail_nodes']} | "
+                     f"{r['k_v']}, {r['k_rho']} | "
                      f"{r['shadow_order']} | {_g(r['step_ns_bounds'], '.0f')} / {_g(r['step_ns_plain'], '.0f')} | "
                      f"{_g(r['cost_ratio'], '.2f')} | {r['violations']} / {r['points']} | {_g(r['eff_median'])} | "
                      f"{_g(r['eff_max'])} | {_g(r['max_err'], '.2e')} | {_g(r['max_bound'], '.2e')} |")
