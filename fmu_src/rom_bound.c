@@ -40,6 +40,8 @@
 #define BOUND_CACHE 2                  /* step lengths whose plane maps are kept */
 #define BOUND_MAX_INPUTS (1u + ROM_MAX_PORTS)
 #define BOUND_MAX_GROUPS 8u
+_Static_assert((3u * ROM_MAX_PROBES + ROM_MAX_PORTS + 1u + 7u) / 8u <= 64u,
+               "the rows' sums' groups fit BoundState.groups' bits");
 
 typedef struct {
     double h;                  /* 0: empty */
@@ -52,9 +54,10 @@ typedef struct {
 
 typedef struct {
     double *w;                 /* [order] the shadow's state */
-    double *y;                 /* [rows + 1] C w of every row and |w|^2, valid when rows_valid (shadow_rows) */
-    double *ct;                /* [order][slots] C transposed, then w's slot (zero: w2 itself), then zeros */
-    int rows_valid;            /* 0 whenever w changes (step, reset, restore) */
+    double *y;                 /* [slots] |w|^2, then C w of every row (row r in slot r + 1), by groups of eight */
+    double *ct;                /* [order][slots] w (slot 0, written with group 0), C transposed, then zeros */
+    uint64_t groups;           /* bit g: y's group g holds the sums of this w; 0 whenever w changes (step, reset,
+                                  restore; at most 3 x 100 probes + 4 ports + 1 slots: 39 groups) */
     double V[BOUND_MAX_INPUTS * BOUND_MAX_GROUPS];    /* [inputs][groups] the weighted variations */
     double u_prev[BOUND_MAX_INPUTS];   /* the input at the end of the last step */
     double w_int;              /* int |w| dt so far (a bound) */
@@ -398,9 +401,9 @@ int rom_has_bounds(const RomModel *m) {
     return m && m->bound.order > 0;
 }
 
-/* the rows' pass's slots: the rows, |w|^2, rounded up to a whole group of four */
+/* the rows' sums' slots: |w|^2, the rows, rounded up to a whole group of eight (shadow_group) */
 static size_t row_slots(const RomBoundModel *b) {
-    return (b->rows + 1 + 3) / 4 * 4;
+    return (b->rows + 1 + 7) / 8 * 8;
 }
 
 RomStatus rom_bound_state_new(RomState *s) {
@@ -428,7 +431,7 @@ RomStatus rom_bound_state_new(RomState *s) {
     }
     for (size_t i = 0; i < k; i++) {             /* (rom_alloc_arrays' arrays start zeroed or are all written) */
         double *col = bs->ct + i * slots;
-        for (size_t r = 0; r < slots; r++) col[r] = r < b->rows ? b->C[r * k + i] : 0.0;
+        for (size_t r = 1; r < slots; r++) col[r] = r <= b->rows ? b->C[(r - 1) * k + i] : 0.0;
     }
     bs->tail_tau = NAN;
     s->bound = bs;
@@ -449,7 +452,7 @@ void rom_bound_reset(RomState *s) {
     if (!bs) return;
     const size_t k = s->model->bound.order;
     memset(bs->w, 0, k * sizeof(double));
-    bs->rows_valid = 0;
+    bs->groups = 0;
     for (uint32_t i = 0; i < BOUND_MAX_INPUTS * BOUND_MAX_GROUPS; i++) bs->V[i] = 0.0;
     for (uint32_t i = 0; i < BOUND_MAX_INPUTS; i++) bs->u_prev[i] = 0.0;
     bs->w_int = bs->steps = bs->started = 0.0;
@@ -554,7 +557,7 @@ void rom_bound_step(RomState *s, double h) {
         e2 += (u[j] + du[j]) * (u[j] + du[j]);
     }
     /* |w| at the step's start: the rows' pass computed it where an output's bound was read since the last step */
-    const double wn = bs->rows_valid ? sqrt(bs->y[b->rows]) : norm2(bs->w, k);
+    const double wn = (bs->groups & 1u) ? sqrt(bs->y[0]) : norm2(bs->w, k);
     bs->w_int += h * c->growth * (wn + h * b->b_norm * sqrt(fmax(u2, e2)));
     /* each plane in place (its two coordinates read before they are written); a held input (du = 0) skips the
      * slope's columns, whose products are exact zeros: the same sums */
@@ -588,7 +591,7 @@ void rom_bound_step(RomState *s, double h) {
             }
         }
     }
-    bs->rows_valid = 0;
+    bs->groups = 0;
     for (size_t j = 0; j < m; j++) bs->u_prev[j] = u[j] + du[j];
     bs->steps += 1.0;
     const double tau = s->elapsed + h;                  /* the time since the start after this step */
@@ -624,45 +627,33 @@ static void free_part(const RomBoundModel *b, const BoundState *bs, uint32_t r, 
     *error = acc;
 }
 
-/* C w of every row and |w|^2, in one pass over the state, kept until w changes (an importer reads every output's
- * bound at each step, each row once).  The rows' sums run side by side, eight at a time from the transposed
- * rows (no sum waits for another's last addition); each is still summed in the order of its coefficients from 0,
- * as a row-by-row loop and norm2 sum it: the same numbers */
-static void shadow_rows(const RomState *s, BoundState *bs) {
+/* group g of the rows' sums (slots 8 g to 8 g + 7: |w|^2 in slot 0, C w of row r in slot r + 1), kept until w
+ * changes: an importer reads every output's bound at each step, each row once, and the error_tolerance check in
+ * doStep needs only the velocity rows (group 0 with P <= 7).  The eight sums run side by side from the transposed
+ * rows (none waits for another's last addition: a row at a time waits for each of its own); each is still summed
+ * in the order of its coefficients from 0, as a row-by-row loop and norm2 sum it: the same numbers */
+static void shadow_group(const RomState *s, BoundState *bs, size_t g) {
     const RomBoundModel *b = &s->model->bound;
-    const size_t k = b->order, slots = row_slots(b), R = b->rows;
+    const size_t k = b->order, slots = row_slots(b);
     const double *w = bs->w;
-    for (size_t i = 0; i < k; i++) bs->ct[i * slots + R] = w[i];       /* |w|^2: w's own slot */
-    size_t g = 0;
-    for (; g + 8 <= slots; g += 8) {                    /* eight sums side by side (a multiply-add's latency) */
-        double a[8] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
-        const double *col = bs->ct + g;
-        for (size_t i = 0; i < k; i++, col += slots) {
-            const double wi = w[i];
-            a[0] += col[0] * wi;
-            a[1] += col[1] * wi;
-            a[2] += col[2] * wi;
-            a[3] += col[3] * wi;
-            a[4] += col[4] * wi;
-            a[5] += col[5] * wi;
-            a[6] += col[6] * wi;
-            a[7] += col[7] * wi;
-        }
-        memcpy(bs->y + g, a, sizeof a);
+    if (g == 0) {
+        for (size_t i = 0; i < k; i++) bs->ct[i * slots] = w[i];       /* |w|^2: w's own slot */
     }
-    if (g < slots) {                                    /* the last four (slots is a multiple of four) */
-        double a[4] = {0.0, 0.0, 0.0, 0.0};
-        const double *col = bs->ct + g;
-        for (size_t i = 0; i < k; i++, col += slots) {
-            const double wi = w[i];
-            a[0] += col[0] * wi;
-            a[1] += col[1] * wi;
-            a[2] += col[2] * wi;
-            a[3] += col[3] * wi;
-        }
-        memcpy(bs->y + g, a, sizeof a);
+    double a[8] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+    const double *col = bs->ct + 8 * g;
+    for (size_t i = 0; i < k; i++, col += slots) {
+        const double wi = w[i];
+        a[0] += col[0] * wi;
+        a[1] += col[1] * wi;
+        a[2] += col[2] * wi;
+        a[3] += col[3] * wi;
+        a[4] += col[4] * wi;
+        a[5] += col[5] * wi;
+        a[6] += col[6] * wi;
+        a[7] += col[7] * wi;
     }
-    bs->rows_valid = 1;
+    memcpy(bs->y + 8 * g, a, sizeof a);
+    bs->groups |= (uint64_t)1 << g;
 }
 
 /* (the shadow's row r, its certified error) at the state's time */
@@ -673,9 +664,11 @@ static void shadow_row(const RomState *s, uint32_t r, double *value, double *cer
     const double *row = b->row + (size_t)r * b->row_len;
     double y, w2;
     if (bs->started != 0.0) {
-        if (!bs->rows_valid) shadow_rows(s, bs);
-        y = bs->y[r];
-        w2 = bs->y[b->rows];
+        const size_t g = ((size_t)r + 1) / 8;
+        if (!(bs->groups & 1u)) shadow_group(s, bs, 0);
+        if (!(bs->groups & ((uint64_t)1 << g))) shadow_group(s, bs, g);
+        y = bs->y[r + 1];
+        w2 = bs->y[0];
     } else {                                            /* s w0 before the first step (s may still change) */
         const size_t k = b->order;
         const double *Cr = b->C + (size_t)r * k;
@@ -790,7 +783,7 @@ const unsigned char *rom_bound_state_get(RomState *s, const unsigned char *curso
     if (!bs) return cursor;
     const RomBoundModel *b = &s->model->bound;
     cursor = rom_get_f64s(cursor, bs->w, b->order);
-    bs->rows_valid = 0;
+    bs->groups = 0;
     cursor = rom_get_f64s(cursor, bs->V, (size_t)b->inputs * b->groups);
     cursor = rom_get_f64s(cursor, bs->u_prev, b->inputs);
     double scalars[3];

@@ -446,6 +446,25 @@ def test_every_kernel_test_uses_one_tolerance(n):
         assert np.linalg.norm(e - Z @ (Z.T @ e)) <= 1e-12 * np.linalg.norm(e)
 
 
+def shrunk_tail(k=24):
+    """The shrunk damped_forced (N = 400, tenmode's v0 with its kink at the seam) with the lowest ``k`` planes of
+    its dense SVD taken as the computed ones: (problem, dense planes, those k, k, rows, input columns, x0, Tail)."""
+    from conftest import small_scene
+    from sphrom.rom import planes as pl
+    from sphrom.rom.bounds import input_columns, output_rows, tail_of
+    from sphrom.sph.solver import build_problem
+    problem = build_problem(small_scene("damped_forced", T=0.5, n=400))
+    dense = pl.singular_planes(problem)
+    sub = pl.Planes(blocks=dense.blocks[:, :k], Vv=dense.Vv[:, :k], Ve=dense.Ve[:, :k], Wv=dense.Wv[:, :k],
+                    We=dense.We[:, :k], key=dense.key[:k], complete=False, orthonormal=True,
+                    info={"sigma_cut": float(dense.key[k])})
+    C = output_rows(problem, PROBES)[0]
+    B = input_columns(problem)
+    n = problem.rho0.size
+    x0 = np.concatenate([np.sqrt(problem.rho0) * problem.v0, np.zeros(n)])
+    return problem, dense, sub, k, C, B, x0, tail_of(sub, C, B, x0, float(problem.d[0]), K=pl.coupling(problem))
+
+
 def test_uncomputed_planes_weighted_norms():
     """The planes never computed (above DENSE_LIMIT particles) are bounded through norms (sphrom.rom.bounds.Tail):
     the weighted ones (ω² = σ² + σ_cut², one sparse solve with K Kᵀ + s and a product with Kᵀ, no plane formed) equal
@@ -454,21 +473,7 @@ def test_uncomputed_planes_weighted_norms():
     Hölder sums over those planes (the bound holds); and on the probe rows (point rows, every plane alike) against
     tenmode's v0 (a kink at the seam) the free response's bound is within 5x the Hölder sum (measured 1.6-1.9; the
     plain Cauchy-Schwarz ‖c_tail‖ ‖x0_tail‖ it replaces: 4.3-4.9)."""
-    from conftest import small_scene
-    from sphrom.rom import planes as pl
-    from sphrom.rom.bounds import input_columns, output_rows, tail_of
-    from sphrom.sph.solver import build_problem
-    problem = build_problem(small_scene("damped_forced", T=0.5, n=400))
-    dense = pl.singular_planes(problem)
-    k = 24
-    sub = pl.Planes(blocks=dense.blocks[:, :k], Vv=dense.Vv[:, :k], Ve=dense.Ve[:, :k], Wv=dense.Wv[:, :k],
-                    We=dense.We[:, :k], key=dense.key[:k], complete=False, orthonormal=True,
-                    info={"sigma_cut": float(dense.key[k])})
-    C = output_rows(problem, PROBES)[0]
-    B = input_columns(problem)
-    n = problem.rho0.size
-    x0 = np.concatenate([np.sqrt(problem.rho0) * problem.v0, np.zeros(n)])
-    tail = tail_of(sub, C, B, x0, float(problem.d[0]), K=pl.coupling(problem))
+    problem, dense, sub, k, C, B, x0, tail = shrunk_tail()
     chat = np.linalg.norm(dense.right(C.T)[k:], axis=1)           # (planes, rows) ‖ĉ_i‖ of the tail planes
     eta = np.linalg.norm(dense.left(x0)[k:], axis=1)
     bhat = np.linalg.norm(dense.left(B)[k:], axis=1)
@@ -505,21 +510,9 @@ def test_uncomputed_planes_free_response_computed():
     the certified error of that exact response, and that error is at most 1e-3 of the norm bound it replaces."""
     import scipy.linalg as sla
 
-    from conftest import small_scene
-    from sphrom.rom import planes as pl
-    from sphrom.rom.bounds import input_columns, output_rows, tail_of, tail_table
+    from sphrom.rom.bounds import tail_table
     from sphrom.rom.lti import full_linear_system
-    from sphrom.sph.solver import build_problem
-    problem = build_problem(small_scene("damped_forced", T=0.5, n=400))
-    dense = pl.singular_planes(problem)
-    k = 24
-    sub = pl.Planes(blocks=dense.blocks[:, :k], Vv=dense.Vv[:, :k], Ve=dense.Ve[:, :k], Wv=dense.Wv[:, :k],
-                    We=dense.We[:, :k], key=dense.key[:k], complete=False, orthonormal=True,
-                    info={"sigma_cut": float(dense.key[k])})
-    C = output_rows(problem, PROBES)[0]
-    n = problem.rho0.size
-    x0 = np.concatenate([np.sqrt(problem.rho0) * problem.v0, np.zeros(n)])
-    tail = tail_of(sub, C, input_columns(problem), x0, float(problem.d[0]), K=pl.coupling(problem))
+    problem, dense, sub, k, C, B, x0, tail = shrunk_tail()
     table = tail_table(problem, C, x0, sub, tail, problem.scene.T)
     assert table is not None and table.values.shape[1] > 100
     A = full_linear_system(problem, [0.5]).A.toarray()
