@@ -40,6 +40,8 @@
 #define BOUND_CACHE 2                  /* step lengths whose plane maps are kept */
 #define BOUND_MAX_INPUTS (1u + ROM_MAX_PORTS)
 #define BOUND_MAX_GROUPS 8u
+_Static_assert((3u * ROM_MAX_PROBES + ROM_MAX_PORTS + 1u + 7u) / 8u <= 64u,
+               "the rows' sums' groups fit BoundState.groups' bits");
 
 typedef struct {
     double h;                  /* 0: empty */
@@ -47,10 +49,15 @@ typedef struct {
     double *Phi;               /* [planes][4] */
     double *G0, *G1;           /* [order][inputs] */
     double decay[BOUND_MAX_GROUPS], slope[BOUND_MAX_GROUPS];   /* exp(-alpha h), (1 - exp(-alpha h)) / (alpha h) */
+    double growth;             /* exp(mu h): the shadow's growth over the step (w_int) */
 } BoundCache;
 
 typedef struct {
-    double *w, *w_new;         /* [order] the shadow's state, scratch */
+    double *w;                 /* [order] the shadow's state */
+    double *y;                 /* [slots] |w|^2, then C w of every row (row r in slot r + 1), by groups of eight */
+    double *ct;                /* [order][slots] w (slot 0, written with group 0), C transposed, then zeros */
+    uint64_t groups;           /* bit g: y's group g holds the sums of this w; 0 whenever w changes (step, reset,
+                                  restore; at most 3 x 100 probes + 4 ports + 1 slots: 39 groups) */
     double V[BOUND_MAX_INPUTS * BOUND_MAX_GROUPS];    /* [inputs][groups] the weighted variations */
     double u_prev[BOUND_MAX_INPUTS];   /* the input at the end of the last step */
     double w_int;              /* int |w| dt so far (a bound) */
@@ -394,6 +401,11 @@ int rom_has_bounds(const RomModel *m) {
     return m && m->bound.order > 0;
 }
 
+/* the rows' sums' slots: |w|^2, the rows, rounded up to a whole group of eight (shadow_group) */
+static size_t row_slots(const RomBoundModel *b) {
+    return (b->rows + 1 + 7) / 8 * 8;
+}
+
 RomStatus rom_bound_state_new(RomState *s) {
     const RomBoundModel *b = &s->model->bound;
     s->bound = NULL;
@@ -401,20 +413,25 @@ RomStatus rom_bound_state_new(RomState *s) {
     BoundState *bs = (BoundState *)calloc(1, sizeof(BoundState));
     if (!bs) return ROM_FAIL;
     const size_t k = b->order, m = b->inputs, n = 2 + 2 * m;   /* a plane's augmented matrix's size */
-    size_t counts[3 + 3 * BOUND_CACHE] = {k, k, 4 * n * n};
-    double **ptrs[3 + 3 * BOUND_CACHE] = {&bs->w, &bs->w_new, &bs->work};
+    const size_t slots = row_slots(b);
+    size_t counts[4 + 3 * BOUND_CACHE] = {k, slots, 4 * n * n, k * slots};
+    double **ptrs[4 + 3 * BOUND_CACHE] = {&bs->w, &bs->y, &bs->work, &bs->ct};
     for (int c = 0; c < BOUND_CACHE; c++) {
-        counts[3 + 3 * c] = 4 * (size_t)b->planes;
-        counts[4 + 3 * c] = k * m;
+        counts[4 + 3 * c] = 4 * (size_t)b->planes;
         counts[5 + 3 * c] = k * m;
-        ptrs[3 + 3 * c] = &bs->cache[c].Phi;
-        ptrs[4 + 3 * c] = &bs->cache[c].G0;
-        ptrs[5 + 3 * c] = &bs->cache[c].G1;
+        counts[6 + 3 * c] = k * m;
+        ptrs[4 + 3 * c] = &bs->cache[c].Phi;
+        ptrs[5 + 3 * c] = &bs->cache[c].G0;
+        ptrs[6 + 3 * c] = &bs->cache[c].G1;
     }
-    bs->storage_ = rom_alloc_arrays(counts, ptrs, 3 + 3 * BOUND_CACHE);
+    bs->storage_ = rom_alloc_arrays(counts, ptrs, 4 + 3 * BOUND_CACHE);
     if (!bs->storage_) {
         free(bs);
         return ROM_FAIL;
+    }
+    for (size_t i = 0; i < k; i++) {             /* (rom_alloc_arrays' arrays start zeroed or are all written) */
+        double *col = bs->ct + i * slots;
+        for (size_t r = 1; r < slots; r++) col[r] = r <= b->rows ? b->C[(r - 1) * k + i] : 0.0;
     }
     bs->tail_tau = NAN;
     s->bound = bs;
@@ -435,6 +452,7 @@ void rom_bound_reset(RomState *s) {
     if (!bs) return;
     const size_t k = s->model->bound.order;
     memset(bs->w, 0, k * sizeof(double));
+    bs->groups = 0;
     for (uint32_t i = 0; i < BOUND_MAX_INPUTS * BOUND_MAX_GROUPS; i++) bs->V[i] = 0.0;
     for (uint32_t i = 0; i < BOUND_MAX_INPUTS; i++) bs->u_prev[i] = 0.0;
     bs->w_int = bs->steps = bs->started = 0.0;
@@ -493,6 +511,7 @@ static const BoundCache *plane_maps(BoundState *bs, const RomBoundModel *b, doub
         slot->decay[g] = exp(-x);
         slot->slope[g] = x > 1e-8 ? -expm1(-x) / x : 1.0 - 0.5 * x;
     }
+    slot->growth = exp(b->mu * h);
     slot->h = h;
     slot->used = bs->clock;
     return slot;
@@ -537,31 +556,46 @@ void rom_bound_step(RomState *s, double h) {
         u2 += u[j] * u[j];
         e2 += (u[j] + du[j]) * (u[j] + du[j]);
     }
-    bs->w_int += h * exp(b->mu * h) * (norm2(bs->w, k) + h * b->b_norm * sqrt(fmax(u2, e2)));
-    for (uint32_t p = 0; p < b->planes; p++) {
-        const double *Phi = c->Phi + 4 * (size_t)p;
-        const double w0 = bs->w[2 * p], w1 = bs->w[2 * p + 1];
-        for (size_t i = 0; i < 2; i++) {
-            double acc = Phi[2 * i] * w0 + Phi[2 * i + 1] * w1;
-            const size_t r = (2 * p + i) * m;
-            for (size_t j = 0; j < m; j++) acc += c->G0[r + j] * u[j] + c->G1[r + j] * du[j];
-            bs->w_new[2 * p + i] = acc;
+    /* |w| at the step's start: the rows' pass computed it where an output's bound was read since the last step */
+    const double wn = (bs->groups & 1u) ? sqrt(bs->y[0]) : norm2(bs->w, k);
+    bs->w_int += h * c->growth * (wn + h * b->b_norm * sqrt(fmax(u2, e2)));
+    /* each plane in place (its two coordinates read before they are written); a held input (du = 0) skips the
+     * slope's columns, whose products are exact zeros: the same sums */
+    int held = 1;
+    for (size_t j = 0; j < m; j++) held &= du[j] == 0.0;
+    double *w = bs->w;
+    if (m == 1) {
+        const double u0 = u[0], du0 = du[0];
+        for (uint32_t p = 0; p < b->planes; p++) {
+            const double *Phi = c->Phi + 4 * (size_t)p, *G0 = c->G0 + 2 * (size_t)p, *G1 = c->G1 + 2 * (size_t)p;
+            const double w0 = w[2 * p], w1 = w[2 * p + 1];
+            if (held) {
+                w[2 * p] = Phi[0] * w0 + Phi[1] * w1 + G0[0] * u0;
+                w[2 * p + 1] = Phi[2] * w0 + Phi[3] * w1 + G0[1] * u0;
+            } else {
+                w[2 * p] = Phi[0] * w0 + Phi[1] * w1 + (G0[0] * u0 + G1[0] * du0);
+                w[2 * p + 1] = Phi[2] * w0 + Phi[3] * w1 + (G0[1] * u0 + G1[1] * du0);
+            }
+        }
+    } else {
+        for (uint32_t p = 0; p < b->planes; p++) {
+            const double *Phi = c->Phi + 4 * (size_t)p;
+            const double w0 = w[2 * p], w1 = w[2 * p + 1];
+            for (size_t i = 0; i < 2; i++) {
+                double acc = Phi[2 * i] * w0 + Phi[2 * i + 1] * w1;
+                const size_t r = (2 * p + i) * m;
+                for (size_t j = 0; j < m; j++) {
+                    acc += held ? c->G0[r + j] * u[j] : c->G0[r + j] * u[j] + c->G1[r + j] * du[j];
+                }
+                w[2 * p + i] = acc;
+            }
         }
     }
-    memcpy(bs->w, bs->w_new, k * sizeof(double));
+    bs->groups = 0;
     for (size_t j = 0; j < m; j++) bs->u_prev[j] = u[j] + du[j];
     bs->steps += 1.0;
     const double tau = s->elapsed + h;                  /* the time since the start after this step */
     if (tau > table_end(b)) tail_decays(bs, b, tau);
-}
-
-/* the shadow's state now (s w0 before the first step) into out[order] */
-static const double *shadow_state(const RomState *s, double *scratch) {
-    const BoundState *bs = (const BoundState *)s->bound;
-    if (bs->started != 0.0) return bs->w;
-    const RomBoundModel *b = &s->model->bound;
-    for (size_t i = 0; i < b->order; i++) scratch[i] = s->initial_state_scale * b->w0[i];
-    return scratch;
 }
 
 /* the complement's free response of row r at tau since the start (per unit initial_state_scale): the table's
@@ -593,19 +627,57 @@ static void free_part(const RomBoundModel *b, const BoundState *bs, uint32_t r, 
     *error = acc;
 }
 
+/* group g of the rows' sums (slots 8 g to 8 g + 7: |w|^2 in slot 0, C w of row r in slot r + 1), kept until w
+ * changes: an importer reads every output's bound at each step, each row once, and the error_tolerance check in
+ * doStep needs only the velocity rows (group 0 with P <= 7).  The eight sums run side by side from the transposed
+ * rows (none waits for another's last addition: a row at a time waits for each of its own); each is still summed
+ * in the order of its coefficients from 0, as a row-by-row loop and norm2 sum it: the same numbers */
+static void shadow_group(const RomState *s, BoundState *bs, size_t g) {
+    const RomBoundModel *b = &s->model->bound;
+    const size_t k = b->order, slots = row_slots(b);
+    const double *w = bs->w;
+    if (g == 0) {
+        for (size_t i = 0; i < k; i++) bs->ct[i * slots] = w[i];       /* |w|^2: w's own slot */
+    }
+    double a[8] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+    const double *col = bs->ct + 8 * g;
+    for (size_t i = 0; i < k; i++, col += slots) {
+        const double wi = w[i];
+        a[0] += col[0] * wi;
+        a[1] += col[1] * wi;
+        a[2] += col[2] * wi;
+        a[3] += col[3] * wi;
+        a[4] += col[4] * wi;
+        a[5] += col[5] * wi;
+        a[6] += col[6] * wi;
+        a[7] += col[7] * wi;
+    }
+    memcpy(bs->y + 8 * g, a, sizeof a);
+    bs->groups |= (uint64_t)1 << g;
+}
+
 /* (the shadow's row r, its certified error) at the state's time */
 static void shadow_row(const RomState *s, uint32_t r, double *value, double *cert) {
     const RomBoundModel *b = &s->model->bound;
-    const BoundState *bs = (const BoundState *)s->bound;
-    double scratch[2 * ROM_MAX_MODES];
-    const double *w = shadow_state(s, scratch);
-    const size_t k = b->order, m = b->inputs, G = b->groups;
-    const double *Cr = b->C + (size_t)r * k;
+    BoundState *bs = (BoundState *)s->bound;
+    const size_t m = b->inputs, G = b->groups;
     const double *row = b->row + (size_t)r * b->row_len;
-    double y = 0.0, w2 = 0.0;
-    for (size_t i = 0; i < k; i++) {
-        y += Cr[i] * w[i];
-        w2 += w[i] * w[i];
+    double y, w2;
+    if (bs->started != 0.0) {
+        const size_t g = ((size_t)r + 1) / 8;
+        if (!(bs->groups & 1u)) shadow_group(s, bs, 0);
+        if (!(bs->groups & ((uint64_t)1 << g))) shadow_group(s, bs, g);
+        y = bs->y[r + 1];
+        w2 = bs->y[0];
+    } else {                                            /* s w0 before the first step (s may still change) */
+        const size_t k = b->order;
+        const double *Cr = b->C + (size_t)r * k;
+        y = w2 = 0.0;
+        for (size_t i = 0; i < k; i++) {
+            const double wi = s->initial_state_scale * b->w0[i];
+            y += Cr[i] * wi;
+            w2 += wi * wi;
+        }
     }
     double quasi = 0.0, trans = 0.0;
     for (size_t j = 0; j < m; j++) {
@@ -711,6 +783,7 @@ const unsigned char *rom_bound_state_get(RomState *s, const unsigned char *curso
     if (!bs) return cursor;
     const RomBoundModel *b = &s->model->bound;
     cursor = rom_get_f64s(cursor, bs->w, b->order);
+    bs->groups = 0;
     cursor = rom_get_f64s(cursor, bs->V, (size_t)b->inputs * b->groups);
     cursor = rom_get_f64s(cursor, bs->u_prev, b->inputs);
     double scalars[3];

@@ -53,6 +53,7 @@ LINEAR = ("slow sine", "chirp")                         # the forces also run li
 FLOOR = 1e-9            # effectivity counted where the run's largest error exceeds this x its output's signal
 CHUNK = 20              # doStep calls timed together (the cost's medians are over such chunks)
 COST_STEPS = 1000
+NATIVE_STEPS = 20000    # steps per run of the native FMI master (native_cost)
 
 
 def forces(t, T_run):
@@ -259,6 +260,49 @@ def step_cost(path, repeats, n_steps=COST_STEPS):
     return tuple(statistics.median(x) for x in times)
 
 
+def native_cost(path, repeats, n_steps=NATIVE_STEPS):
+    """(ns per step with the bounds, with the bounds read, without) of the FMU at ``path`` in the native FMI 2 master
+    ``sphrom_step_cost`` (fmu_src/tests/step_cost.c: the FMU's binary loaded with dlopen, per step fmi2SetReal of f,
+    fmi2DoStep, fmi2GetReal of the outputs, with their bounds in the second figure), beside the same FMU without
+    the bounds' sections (its modelDescription's guid set to that model.bin's token): thread CPU time, medians over
+    ``repeats`` runs of ``n_steps`` steps of STEP, the three FMUs in turn.  None where the master was not built."""
+    import json
+    import re
+    import statistics
+    import subprocess
+    import zipfile
+
+    from ..fmu.make.build import ensure_binaries
+    from ..fmu.resources import pack, read, unpack
+    driver = ensure_binaries(quiet=True).folder / "sphrom_step_cost"
+    if not driver.exists():
+        return None
+    with tempfile.TemporaryDirectory(prefix="sphrom-native-cost-") as tmp:
+        with_dir, bare_dir = Path(tmp) / "with", Path(tmp) / "bare"
+        for folder in (with_dir, bare_dir):
+            with zipfile.ZipFile(path) as z:
+                z.extractall(folder)
+        data = unpack((with_dir / "resources" / "model.bin").read_bytes())
+        data.sections = {k: v for k, v in data.sections.items() if not k.startswith("SH")}
+        blob = pack(data)
+        (bare_dir / "resources" / "model.bin").write_bytes(blob)
+        md = bare_dir / "modelDescription.xml"
+        md.write_text(re.sub(r'guid="[^"]*"', f'guid="{read(blob)[4]}"', md.read_text(), count=1))
+
+        def run(folder, bounds):
+            cmd = [str(driver), str(folder.resolve()), "--probes", str(data.n_probes), "--steps", str(n_steps),
+                   "--h", repr(STEP), "--repeats", "1"] + (["--bounds"] if bounds else [])
+            done = subprocess.run(cmd, capture_output=True, text=True, check=False)
+            if done.returncode != 0:
+                raise RuntimeError(f"{driver.name} on {path}: {done.stderr.strip()}")
+            return json.loads(done.stdout)["ns_per_step_cpu"]
+        times = [[], [], []]
+        for _ in range(repeats):
+            for i, (folder, bounds) in enumerate(((with_dir, False), (with_dir, True), (bare_dir, False))):
+                times[i].append(run(folder, bounds))
+    return tuple(statistics.median(x) for x in times)
+
+
 def run_cases(t, T_run):
     """{case: (start name, scale, force name, f, linear)} of one scene: every force held from each start, the
     :data:`LINEAR` ones linear too."""
@@ -314,12 +358,15 @@ def measure_scene(scene, models, repeats, folder, probes, span, progress=True):
             continue
         seconds = time.perf_counter() - t0
         with_ns, without_ns, loop_ns = step_cost(path, repeats)
+        native = native_cost(path, repeats) or (float("nan"),) * 3
         rows, runs = measure_fmu(path, problem, probes, t, cases, truths)
         for r in rows:
             r.update({"scene": scene.name, "model": model, "about": note, "N": problem.n, "k_v": s.k_v,
                       "k_rho": s.k_rho, "shadow_order": s.shadow_order, "package_s": seconds,
                       "step_ns_bounds": with_ns, "step_ns_plain": without_ns, "loop_ns": loop_ns,
-                      "cost_ratio": with_ns / without_ns, "note": ""})
+                      "cost_ratio": with_ns / without_ns, "native_ns_bounds": native[0],
+                      "native_ns_read": native[1], "native_ns_plain": native[2],
+                      "native_ratio": native[0] / native[2], "native_read_ratio": native[1] / native[2], "note": ""})
         out += rows
         kept.update({(scene.name, model, c): v for c, v in runs.items()})
     return out, kept
@@ -349,7 +396,8 @@ def summarise(rows, keys):
                     "max_err": max(r["max_err"] for r in rs if r["output"].startswith("v_")),
                     "max_bound": max(r["max_bound"] for r in rs if r["output"].startswith("v_")),
                     **{k: rs[0][k] for k in ("N", "k_v", "k_rho", "shadow_order", "step_ns_bounds", "step_ns_plain",
-                                             "cost_ratio", "about", "package_s") if k in rs[0]}})
+                                             "cost_ratio", "native_ratio", "native_read_ratio", "about",
+                                             "package_s") if k in rs[0]}})
     return out
 
 
@@ -396,7 +444,11 @@ def section(rows, notes, *, command, wall, machine, image, span):
              "below the true error. False alarms: runs that warned (a velocity bound above error_tolerance) while "
              "their true velocity error stayed below a tenth of error_tolerance. doStep cost: the C core's "
              "rom_do_step through ctypes on the same model with and without the bounds' sections (ns per step, "
-             f"medians over chunks of {CHUNK} steps timed in turn; no FMI).", "",
+             f"medians over chunks of {CHUNK} steps timed in turn; no FMI). Native: the FMU in the native FMI 2 "
+             "master (fmu_src/tests/step_cost.c, `sphrom_step_cost`: per step fmi2SetReal of f, fmi2DoStep, "
+             "fmi2GetReal of the outputs) against the same FMU without the bounds' sections, thread CPU time per "
+             f"step, medians of {NATIVE_STEPS} steps per run: the ratio with the outputs alone read, and with their "
+             "bounds read too.", "",
              "All scenes together, per model:", "",
              "| model | runs | outputs counted / all | effectivity median | max | violations | false alarms |",
              "| --- | ---: | ---: | ---: | ---: | ---: | ---: |"]
@@ -406,16 +458,17 @@ def section(rows, notes, *, command, wall, machine, image, span):
     lines += ["", f"![bound and error]({image})", "",
               "| scene | model | N, k_v, k_ρ, shadow | inputs | start | runs | effectivity median | max | "
               "violations | false alarms | max v error [m/s] | max v bound [m/s] | doStep ns with / without | "
-              "ratio |",
-              "| --- | --- | --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+              "ratio | native ratio: outputs / with bounds read |",
+              "| --- | --- | --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
     for r in table:
         lines.append(f"| {r['scene']} | {r['model']} | {r['N']}, {r['k_v']}, {r['k_rho']}, {r['shadow_order']} | "
                      f"{r['hold']} | {r['start']} | {r['runs']} | {_g(r['eff_median'])} | {_g(r['eff_max'])} | "
                      f"{r['violations']} / {r['points']} | {r['false_alarms']} | {_g(r['max_err'], '.2e')} | "
                      f"{_g(r['max_bound'], '.2e')} | {r['step_ns_bounds']:.0f} / {r['step_ns_plain']:.0f} | "
-                     f"{r['cost_ratio']:.2f} |")
+                     f"{r['cost_ratio']:.2f} | {_g(r.get('native_ratio', float('nan')), '.2f')} / "
+                     f"{_g(r.get('native_read_ratio', float('nan')), '.2f')} |")
     for n in notes:
-        lines.append(_note_row(n, before=6, after=5))
+        lines.append(_note_row(n, before=6, after=6))
     scenes = {}
     for r in rows:
         scenes.setdefault(r["scene"], r.get("about", ""))
@@ -583,6 +636,7 @@ def measure_large(sizes, folder, probes, repeats, progress=True, package_limit=P
         eff = eff[np.isfinite(eff)]
         out.append({"N": n, "dt": scene.sph.dt, "package_s": package_s, "shadow_s": shadow_s,
                     "planes_s": shadow.info["timings"]["planes"], "method": shadow.info["method"],
+                    **tail_columns(shadow),
                     "computed": shadow.info["computed_planes"], "shadow_order": s.shadow_order, "k_v": s.k_v,
                     "k_rho": s.k_rho, "step_ns_bounds": with_ns, "step_ns_plain": without_ns,
                     "cost_ratio": with_ns / without_ns, "violations": bad, "points": t.size, "false_alarm": alarm,
@@ -594,6 +648,14 @@ def measure_large(sizes, folder, probes, repeats, progress=True, package_limit=P
         print(f"N {n}: packaging {package_s:.1f} s (shadow {shadow_s:.1f} s), doStep {with_ns:.0f}/{without_ns:.0f} "
               f"ns, violations {bad}, effectivity max {out[-1]['eff_max']:.3g}", flush=True)
     return out
+
+
+def tail_columns(shadow):
+    """{tail_nodes, tail_s}: the uncomputed planes' free response computed (:func:`sphrom.rom.bounds.tail_table`):
+    its nodes and seconds (0, 0: bounded by norms)."""
+    table = shadow.info.get("tail_table")
+    return {"tail_nodes": int(table["nodes"]) if table else 0,
+            "tail_s": float(shadow.info["timings"].get("tail_table", 0.0))}
 
 
 def shadow_row(problem, shadow, shadow_s, probes):
@@ -616,7 +678,7 @@ def shadow_row(problem, shadow, shadow_s, probes):
     eff = eff[np.isfinite(eff)]
     nan = float("nan")
     return {"N": problem.n, "dt": problem.scene.sph.dt, "package_s": nan, "shadow_s": shadow_s,
-            "planes_s": shadow.info["timings"]["planes"], "method": shadow.info["method"],
+            "planes_s": shadow.info["timings"]["planes"], "method": shadow.info["method"], **tail_columns(shadow),
             "computed": shadow.info["computed_planes"], "shadow_order": shadow.order, "k_v": "—", "k_rho": "—",
             "step_ns_bounds": nan, "step_ns_plain": nan, "cost_ratio": nan, "violations": int(np.sum(err > bound)),
             "points": t.size, "false_alarm": False, "eff_median": float(np.median(eff)) if eff.size else nan,
@@ -631,7 +693,9 @@ def large_section(rows, *, command, wall, machine):
              "harness/bench/error_bounds.py `large_scene`). Packaging: `sphrom fmu`'s whole packaging with the "
              "bounds (the full SPH training run, the POD, the model, the shadow), one run; the shadow: "
              "`build_shadow` timed apart (its planes: the dense SVD up to 2500 particles, the sparse shift-invert "
-             f"Lanczos solver above). Certification: {LARGE_STEPS} steps of {STEP * 1e3:g} ms from the initial "
+             "Lanczos solver above; the tail: the uncomputed planes' free response from x0 computed on the full "
+             "sparse system where that takes at most 16384 nodes and N x nodes <= 2e8, `tail_table`, else bounded "
+             f"by norms: tail nodes 0). Certification: {LARGE_STEPS} steps of {STEP * 1e3:g} ms from the initial "
              "state under the chirp, held, against the full linear SPH integrated exactly in time "
              "(`sphrom.rom.truth`, the truth packaging measures every FMU against: above 500 particles a "
              "Taylor series of the sparse operator to round-off). doStep: the C core's rom_do_step with and without "
@@ -641,13 +705,15 @@ def large_section(rows, *, command, wall, machine):
                  "effectivity is the certificate's (its largest over the run / the shadow's largest error, per "
                  "probe), their errors and bounds the shadow's." if any(r.get("shadow_only") for r in rows) else ""),
              "",
-             "| N | dt [s] | packaging [s] | shadow [s] (planes) | planes computed, method | k_v, k_ρ | shadow order | "
+             "| N | dt [s] | packaging [s] | shadow [s] (planes, tail) | planes computed, method | tail nodes | "
+             "k_v, k_ρ | shadow order | "
              "doStep ns with / without | ratio | violations | effectivity median | max | max v error [m/s] | "
              "max v bound [m/s] |",
-             "| ---: | ---: | ---: | ---: | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+             "| ---: | ---: | ---: | ---: | --- | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
     for r in rows:
         lines.append(f"| {r['N']} | {r['dt']:.3g} | {_g(r['package_s'], '.1f')} | {r['shadow_s']:.1f} "
-                     f"({r['planes_s']:.1f}) | {r['computed']}, {r['method']} | {r['k_v']}, {r['k_rho']} | "
+                     f"({r['planes_s']:.1f}, {r['tail_s']:.1f}) | {r['computed']}, {r['method']} | {r['tail_nodes']} | "
+                     f"{r['k_v']}, {r['k_rho']} | "
                      f"{r['shadow_order']} | {_g(r['step_ns_bounds'], '.0f')} / {_g(r['step_ns_plain'], '.0f')} | "
                      f"{_g(r['cost_ratio'], '.2f')} | {r['violations']} / {r['points']} | {_g(r['eff_median'])} | "
                      f"{_g(r['eff_max'])} | {_g(r['max_err'], '.2e')} | {_g(r['max_bound'], '.2e')} |")

@@ -39,7 +39,9 @@ The round-off of the planes (E = A V_s - V_s Λ_s) adds ‖c_r‖ ‖E‖ ∫‖
 Any N: above :data:`sphrom.rom.planes.DENSE_LIMIT` particles only the lowest planes are computed (a sparse
 eigensolver, K is banded) and the planes never computed (σ >= σ_cut) are bounded through norms, never formed:
 Σ |γ'||β'| / |λ| <= κ(σ_cut) ‖c_tail‖ ‖b_tail‖ / σ_cut and likewise for the free response and the quasi-static
-part, ‖c_tail‖ = ‖c - V Vᵀ c‖ over the computed planes.
+part, ‖c_tail‖ = ‖c - V Vᵀ c‖ over the computed planes.  Their free response from x0, input-independent, is
+computed instead where that is affordable (:func:`tail_table`: the full sparse system propagated from x0_tail into
+the free response's table, with a certified interpolation error).
 
 Parametric models (uniform c and d, :mod:`.parametric`): the planes are affine in (c, d) about c_ref; the complement
 planes are stored and the C core (and :meth:`Shadow.at`) computes D, the gains and the decaying Hölder sums of the
@@ -92,6 +94,11 @@ PIECES = ("const", "c", "d")   # A(c, d) = A_const + c A_c + d A_d
 TOLERANCE_FRACTION = 0.05   # error_tolerance's default: this x the training run's largest |v_probe| [m s^-1]
 FMU_MAX_PARTICLES = 200000  # above this N the FMU carries no shadow
 N_SCALARS = 14              # columns of section SHSCAL
+TAIL_RESOLUTION = 0.5       # the uncomputed planes' free response computed: table spacing h ‖A‖ <= this
+TAIL_DECAY = 1e-4           # ... over the span in which their bound decays by this (e^{-α t}); beyond, their norms
+MAX_TAIL_NODES = 16384      # ... only where that takes at most this many nodes
+TAIL_WORK = 2e8             # ... and N x nodes at most this (the propagation: TAYLOR_TERMS products with A per node)
+TAYLOR_TERMS = 10           # e^{A h} x by its Taylor series to this power (h ‖A‖ <= TAIL_RESOLUTION)
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -353,6 +360,7 @@ class Tail:
     x0_norm: float            # ‖x0_tail‖
     c_weighted: np.ndarray = None   # (rows,) ‖c_tail‖_ω⁻¹ = (Σ_tail ‖ĉ_i‖² / (σ_i² + s))^½
     x0_weighted: float = math.inf   # ‖x0_tail‖_ω = (Σ_tail (σ_i² + s) ‖η_i‖²)^½
+    exact: "TailTable | None" = None  # their free response computed on the full system (:func:`tail_table`)
 
     def _pairs(self, other):
         """Σ_tail ‖ĉ_i‖ ‖o_i‖ / σ_i for input columns o (norms ``other``): min of the plain and weighted sums."""
@@ -376,6 +384,77 @@ class Tail:
         if self.c_weighted is not None:
             plain = np.minimum(plain, self.c_weighted * self.x0_weighted)
         return self.kappa * plain
+
+
+@dataclass
+class TailTable:
+    """The uncomputed planes' free response g_tail,r(t) = c_rᵀ e^{A t} x0_tail (x0_tail = x0 - V Vᵀ x0 over the
+    computed planes), computed on the full sparse system at the nodes t_k = k h, k < nodes (:func:`tail_table`),
+    with the certified error of its cubic Hermite interpolation over each interval [t_k, t_k+1] (``error``): the
+    modes' fourth derivatives, Σ_tail |P| |μ|⁴ h⁴ / 384 e^{-α t_k} <= (h ‖A‖)⁴ / 384 x the tail's Hölder bound
+    (:meth:`Tail.free`) e^{-α t_k}, plus the propagation's and the products' round-off."""
+
+    h: float
+    t_end: float
+    values: np.ndarray        # (rows, nodes)
+    slopes: np.ndarray        # (rows, nodes) [per s]
+    error: np.ndarray         # (rows, nodes - 1)
+    a_norm: float             # ‖A‖_2 <= this [s^-1]
+    seconds: float
+
+
+def tail_table(problem, C, x0, planes, tail: Tail, T):
+    """The uncomputed planes' free response computed (:class:`TailTable`), or None where it would take more than
+    MAX_TAIL_NODES nodes or N x nodes above TAIL_WORK, or where the tail does not decay (d = 0).
+
+    The span: until the tail's norm bound has decayed by TAIL_DECAY (ln(1/TAIL_DECAY) / α, at most TABLE_SPAN x T);
+    the spacing h <= TAIL_RESOLUTION / ‖A‖ (‖A‖_2 <= (‖A‖_1 ‖A‖_∞)^½, every mode |μ| <= it).  The state steps by
+    e^{A h} x = Σ_{j <= J} (A h)^j x / j! (J = TAYLOR_TERMS; the rest <= 2 a^{J+1} / (J+1)! ‖x‖, a = h ‖A‖), and
+    e^{A t} is a contraction in the energy norm (A + Aᵀ = -2 diag(d, 0)), so node k's state is within
+    k (rest + 1e-14) ‖x0_tail‖ of the exact one; the products c_rᵀ x (and c_rᵀ A x, the slopes) add 4 N ε
+    ‖c_r‖ ‖x0_tail‖, x0_tail's own round-off 1e-13 ‖c_r‖ ‖x0‖; the slopes' errors enter the interpolant times
+    h max(|h10| + |h11|) <= 0.3 h (0.15 ‖c_r‖ with h ‖Aᵀ c_r‖ <= a ‖c_r‖)."""
+    if not tail.alpha > 0:
+        return None
+    n = problem.rho0.size
+    t0 = time.perf_counter()
+    from .lti import full_linear_system
+    A = full_linear_system(problem, [0.5]).A.tocsr()
+    a_norm = math.sqrt(float(abs(A).sum(axis=0).max()) * float(abs(A).sum(axis=1).max())) * (1 + 1e-12)
+    span = min(TABLE_SPAN * float(T), math.log(1.0 / TAIL_DECAY) / tail.alpha)
+    nodes = int(math.ceil(span * a_norm / TAIL_RESOLUTION)) + 1
+    if nodes > MAX_TAIL_NODES or n * nodes > TAIL_WORK:
+        return None
+    h = span / (nodes - 1)
+    a = h * a_norm
+    S = planes.basis(np.arange(planes.count))
+    x = np.asarray(x0, float) - S @ (S.T @ np.asarray(x0, float))
+    C = np.asarray(C, float)
+    rows = C.shape[0]
+    values, slopes = np.zeros((rows, nodes)), np.zeros((rows, nodes))
+    for k in range(nodes):
+        ax = A @ x
+        values[:, k] = C @ x
+        slopes[:, k] = C @ ax
+        if k + 1 == nodes:
+            break
+        term = ax * h
+        y = x + term
+        for j in range(2, TAYLOR_TERMS + 1):
+            term = (A @ term) * (h / j)
+            y += term
+        x = y
+    rest = 2.0 * a ** (TAYLOR_TERMS + 1) / math.factorial(TAYLOR_TERMS + 1)
+    eps = np.finfo(float).eps
+    xt = float(tail.x0_norm)
+    cn = np.linalg.norm(C, axis=1)
+    k = np.arange(1, nodes)                                   # interval k - 1 ends at node k: its errors
+    prop = (k * (rest + 1e-14) + 4 * n * eps) * xt
+    alloc = np.outer(cn, 1.15 * prop) + 1e-13 * np.outer(cn, np.full(k.size, np.linalg.norm(x0)))
+    tk = np.arange(nodes - 1) * h
+    interp = np.outer(tail.free(), np.exp(-tail.alpha * tk)) * (a ** 4 / 384.0)
+    return TailTable(h=h, t_end=(nodes - 1) * h, values=values, slopes=slopes, error=interp + alloc, a_norm=a_norm,
+                     seconds=time.perf_counter() - t0)
 
 
 def tail_of(planes, C, Bcols, x0, d, K=None):
@@ -447,7 +526,8 @@ def complement(modes: Modes, planes_L, chat, bhat, tail: Tail | None, T, *, tabl
     gain = np.where(np.isfinite(gain), gain * (1 + SUM_ROUNDOFF), np.inf)
     if table and (np.any(np.abs(modes.P)) or np.any(tail_free)):
         t_end, h, values, slopes, errors, q, tl = free_table(modes, group[:modes.alpha.size], rates, T, tail_free,
-                                                             tail.alpha if tail is not None else 0.0)
+                                                             tail.alpha if tail is not None else 0.0,
+                                                             exact=tail.exact if tail is not None else None)
     else:
         t_end, h, values, slopes, errors, q = 0.0, 0.0, None, None, None, 1
         tl = np.zeros((rows, G))
@@ -476,7 +556,7 @@ def table_step(modes: Modes, T, tail_alpha=None):
     return t_end, t_end / (nodes - 1), nodes
 
 
-def free_table(modes: Modes, group, rates, T, tail_free, tail_alpha):
+def free_table(modes: Modes, group, rates, T, tail_free, tail_alpha, exact: TailTable | None = None):
     """The complement's free response g_r(t) = Re Σ_M P_rM e^{μ_M t} (per unit initial_state_scale, module
     docstring), tabulated for a cubic Hermite interpolation with a certified error: (t_end, h, values (rows, n),
     slopes (rows, n) [per s], errors (rows, n_blocks), q, tail (rows, G)).
@@ -487,9 +567,16 @@ def free_table(modes: Modes, group, rates, T, tail_free, tail_alpha):
     other mode (faster, or
     defective) counts by its size |P| e^{-α t_k}, the planes never computed by κ ‖c_tail‖ ‖x0_tail‖
     e^{-α_tail t_k}, and 1e-13 of the modes' sizes covers the nodes' round-off.  errors[r, B]: the largest over the
-    intervals k of block B (k // q == B).  Beyond t_end: |g_r(t)| <= Σ_g tail_rg e^{-α_g (t - t_end)}."""
+    intervals k of block B (k // q == B).  Beyond t_end: |g_r(t)| <= Σ_g tail_rg e^{-α_g (t - t_end)}.
+
+    With ``exact`` (:class:`TailTable`) the uncomputed planes' free response is computed, not bounded, over its
+    span: the table takes its nodes, adds its values and slopes, and its interpolation errors replace the planes'
+    norm bound (which stays beyond the table's end)."""
     rows = modes.P.shape[0]
-    t_end, h, nodes = table_step(modes, T, tail_alpha if np.any(tail_free) else None)
+    if exact is not None:
+        t_end, h, nodes = exact.t_end, exact.h, exact.values.shape[1]
+    else:
+        t_end, h, nodes = table_step(modes, T, tail_alpha if np.any(tail_free) else None)
     t = np.arange(nodes) * h
     ex = modes.exact & (np.abs(modes.mu) * h <= INTERPOLATED)
     lo, rest = np.flatnonzero(ex), np.flatnonzero(~ex)
@@ -515,9 +602,14 @@ def free_table(modes: Modes, group, rates, T, tail_free, tail_alpha):
             err += size_rest @ np.exp(-np.outer(modes.alpha[rest], tk))
         if size_all.size:
             err += 1e-13 * (size_all @ np.exp(-np.outer(modes.alpha, tk)))
-        if np.any(tail_free):
+        if exact is not None:
+            err += exact.error[:, start:start + tk.size]
+        elif np.any(tail_free):
             err += np.outer(tail_free, np.exp(-tail_alpha * tk))
         bound[:, start:start + tk.size] = err
+    if exact is not None:
+        values += exact.values
+        slopes += exact.slopes
     q = max(1, int(math.ceil((nodes - 1) / N_BLOCKS)))
     blocks = int(math.ceil((nodes - 1) / q))
     errors = np.zeros((rows, blocks))
@@ -774,6 +866,10 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
             planes = decompose(problem, parametric=parametric, count=more)
             tail = tail_of(planes, C, Bcols, x0, float(d[0]), K=K)
     t_planes = time.perf_counter() - t_start
+    if tail is not None and K is not None and np.any(x0):
+        # the initial state's uncomputed planes: their free response computed where the full system's propagation
+        # over the span in which their norm bound matters is affordable (tail_table), else bounded by norms
+        tail.exact = tail_table(problem, C, x0, planes, tail, T)
     chat = np.moveaxis(planes.right(C.T), 2, 0)                 # (rows, n, 2)
     bhat = planes.left(Bcols)                                    # (n, 2, m)
     eta = planes.left(x0)                                        # (n, 2)
@@ -850,7 +946,10 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
                         "criterion": {int(k): float(v) for k, v in values.items()}, **ref,
                         "computed_planes": planes.count, "complete": planes.complete,
                         "method": planes.info.get("method"), "invariant": True,
-                        "timings": {"planes": t_planes, "shadow": time.perf_counter() - t_start}})
+                        "tail_table": None if tail is None or tail.exact is None else
+                        {"nodes": int(tail.exact.values.shape[1]), "h": tail.exact.h, "t_end": tail.exact.t_end},
+                        "timings": {"planes": t_planes, "shadow": time.perf_counter() - t_start,
+                                    "tail_table": 0.0 if tail is None or tail.exact is None else tail.exact.seconds}})
     return shadow
 
 
