@@ -406,18 +406,6 @@ static RomStatus check_port(const RomState *s, uint32_t j, char *message, size_t
     return ROM_OK;
 }
 
-RomStatus rom_check_port_input(const RomState *s, const char *name, uint32_t j, double value, const char *what,
-                               char *message, size_t message_size) {
-    if (!s || !name) return rom_fail(message, message_size, "no state or no input name");
-    if (isfinite(value)) return ROM_OK;
-    if (!what) {
-        return rom_fail(message, message_size, "input derivative of %s_%u, d%s_%u/dt = %g N s^-1 at t = %.9g s, is not "
-                        "finite (allowed: a finite rate)", name, j + 1, name, j + 1, value, s->time);
-    }
-    return rom_fail(message, message_size, "input %s_%u = %g N at t = %.9g s is not finite (allowed: a finite %s in N)",
-                    name, j + 1, value, s->time, what);
-}
-
 RomStatus rom_set_port_force(RomState *s, uint32_t j, double force, char *message, size_t message_size) {
     if (check_port(s, j, message, message_size) != ROM_OK ||
         rom_check_port_input(s, "F_port", j, force, "force", message, message_size) != ROM_OK) return ROM_FAIL;
@@ -447,8 +435,9 @@ RomStatus rom_set_port_rate(RomState *s, uint32_t j, double rate, char *message,
     return ROM_OK;
 }
 
-/* the kind's part (kept per step with the port channel: rom_channel_kind_velocity) and the channel's */
+/* the kind's part (kept per step with the port channel: rom_channel_kind_velocity) and the channel's; without the
+ * channel the kind's alone (rom_port.c rom_channel_port_velocity, which rom_bound.c reads too) */
 double rom_v_port(const RomState *s, uint32_t j) {
     if (!s || j >= s->model->n_ports) return NAN;
-    return s->channel ? rom_channel_port_velocity(s, j) : rom_port_velocity(s, j);
+    return rom_channel_port_velocity(s, j);
 }

@@ -730,7 +730,7 @@ double rom_v_port_error_bound(const RomState *s, uint32_t j) {
     if (!s || !s->bound || j >= s->model->n_ports) return NAN;
     double y, cert;
     shadow_row(s, 3 * s->model->n_probes + j, &y, &cert);
-    return fabs(rom_v_port(s, j) - y) + cert;          /* the model's output as rom.c rom_v_port gives it */
+    return fabs(rom_channel_port_velocity(s, j) - y) + cert;  /* the model's output, as rom.c rom_v_port gives it */
 }
 
 RomStatus rom_set_error_tolerance(RomState *s, double tolerance, char *message, size_t message_size) {

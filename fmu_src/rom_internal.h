@@ -197,7 +197,7 @@ static inline double rom_steps_per_call(double work) {
     return work > 0.0 ? floor(ROM_MAX_WORK_PER_CALL / work) : 0.0;
 }
 
-/* the finiteness check every port input's setter shares (F_port_j, a_port_j and their rates; rom.c): ROM_OK for a
+/* the finiteness check every port input's setter shares (F_port_j, a_port_j and their rates; rom_port.c): ROM_OK for a
  * finite value, else ROM_FAIL with the message naming input name_{j+1}, "a finite <what> in N" (what NULL: the
  * input's derivative, d<name>/dt in N s^-1) */
 RomStatus rom_check_port_input(const RomState *s, const char *name, uint32_t j, double value, const char *what,
@@ -219,7 +219,7 @@ RomStatus rom_channel_step(RomState *s, double h, const double *v_own, const dou
  * initial_state_scale, rom_advance, rom_model_assemble; a reset and a state read forget it too).  Without the
  * channel: rom_port_velocity itself */
 double rom_channel_kind_velocity(const RomState *s, uint32_t j);
-/* rom.h rom_v_port with the channel: the kind's part (rom_channel_kind_velocity) and the channel's row */
+/* rom.h rom_v_port: the kind's part (rom_channel_kind_velocity) and the channel's row; without the channel the kind's */
 double rom_channel_port_velocity(const RomState *s, uint32_t j);
 void rom_channel_kind_moved(RomState *s);
 /* the channel's part of output row r (the shadow's order: P v probes, 2P e rows, the ports) with its certified

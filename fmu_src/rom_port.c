@@ -262,6 +262,19 @@ void rom_channel_kind_moved(RomState *s) {
     if (cs) cs->kind_valid = 0;
 }
 
+/* (rom_internal.h; here, not in rom.c, which calls this file: no circle of calls) */
+RomStatus rom_check_port_input(const RomState *s, const char *name, uint32_t j, double value, const char *what,
+                               char *message, size_t message_size) {
+    if (!s || !name) return rom_fail(message, message_size, "no state or no input name");
+    if (isfinite(value)) return ROM_OK;
+    if (!what) {
+        return rom_fail(message, message_size, "input derivative of %s_%u, d%s_%u/dt = %g N s^-1 at t = %.9g s, is not "
+                        "finite (allowed: a finite rate)", name, j + 1, name, j + 1, value, s->time);
+    }
+    return rom_fail(message, message_size, "input %s_%u = %g N at t = %.9g s is not finite (allowed: a finite %s in N)",
+                    name, j + 1, value, s->time, what);
+}
+
 double rom_channel_kind_velocity(const RomState *s, uint32_t j) {
     if (!s || j >= s->model->n_ports) return NAN;
     ChannelState *cs = (ChannelState *)s->channel;
