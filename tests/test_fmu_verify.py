@@ -339,3 +339,20 @@ def test_stepped_sph_error_against_the_truth_equals_an_independent_run(case):
     if case == "unforced":        # f = 0: no input sampling in the truth, the difference is the time-step error
         finer = derive_scene(scene, {"sph": {"dt": scene.sph.dt / 4, "every": 4 * scene.sph.every}})
         assert verify.references(finer, step, defaults.PROBES, True)["_stepped_error"][0] < err_v / 2
+
+
+def test_an_fmu_the_core_refuses_to_load_is_a_failed_case_with_its_reason(packaged, tmp_path):
+    """A model.bin the C core refuses (here a section cut short) fails the check like a failed step: RuntimeError
+    naming the instantiation and the loader's reason (fmpy alone says "Failed to instantiate model"; packaging then
+    exits non-zero in one line instead of a traceback)."""
+    import zipfile
+
+    from sphrom.fmu.check.verify import fmu_case
+    path, _ = packaged(verify=False)
+    bad = tmp_path / "bad.fmu"
+    with zipfile.ZipFile(path) as src, zipfile.ZipFile(bad, "w") as dst:
+        for item in src.infolist():
+            data = src.read(item)
+            dst.writestr(item, data[:len(data) // 2] if item.filename == "resources/model.bin" else data)
+    with pytest.raises(RuntimeError, match=r"the FMU did not instantiate: .*model\.bin"):
+        fmu_case(bad, np.zeros(3), np.array([0.0, 0.01, 0.02]))

@@ -3,7 +3,7 @@ bar, a hammer force at 600 Hz on a few particles, no integrator or dt named.  It
 variation (u'/α, α ~ 10-50 s^-1) stands against a true response ~ u'/ω (ω ~ 1e4 s^-1): a shadow of MAX_PLANES planes
 left bounds 3e3x the true error of an exact model accurate to 1e-4 and a warning at a thousandth of
 error_tolerance (`sphrom fmu` on this scene at N = 160).  Where every plane is computed the shadow keeps them all instead
-(harness/rom/bounds.py build_shadow, ALL_PLANES), and the reference sine that sizes it sits at half the first
+(harness/rom/bounds.py build_shadow, ALL_PLANES, within the C core's limit on planes), and the reference sine that sizes it sits at half the first
 *elastic* frequency, not at the rigid motion's decay rate.
 """
 
@@ -96,3 +96,11 @@ def test_the_shadow_keeps_every_plane_and_the_bound_is_the_true_error():
     assert np.all(error <= bound)
     assert error.max() > 1e-4 * scale                              # the stand-in model has an error to bound
     assert np.abs(bound - error).max() <= 1e-6 * scale
+
+
+def test_every_plane_stays_within_what_the_c_core_loads():
+    """The shadow keeps every plane only up to the C core's limit on planes (MAX_MODES of the resource layout): a
+    rubber bar of 1083 particles with a local damping kept 1083 and its FMU did not instantiate."""
+    from sphrom.fmu.layout import LIMITS
+    from sphrom.rom.bounds import ALL_PLANES, MAX_PLANES, PORT_ALL_PLANES
+    assert max(ALL_PLANES, MAX_PLANES, PORT_ALL_PLANES) <= LIMITS["MAX_MODES"][0]

@@ -50,7 +50,7 @@ from ...scene import derive_scene
 from ...sph.operator import particle_positions
 from ...sph.solver import build_problem, run_sph, step_count
 from ..resources import probe_pairs
-from ..run.driver import FMU, can_interpolate_inputs
+from ..run.driver import FMU, can_interpolate_inputs, is_instantiate_failure
 from ..training.envelope import training_force
 from ..variables import members
 from .truth import TRUTH_NAME, exact_probe_outputs
@@ -491,10 +491,18 @@ def fmu_case(path, force_values, t, scale=None, interpolate=False):
     """Run the FMU over the communication points ``t`` with f = ``force_values`` there (the FMU driver): an
     :class:`FMURun`.  ``scale`` sets ``initial_state_scale`` (None: the FMU does not have it); ``interpolate`` passes
     df/dt to the next point (fmi2SetRealInputDerivatives).  Raises RuntimeError with the FMU's logged reason when a
-    call fails."""
+    call fails (the instantiation included)."""
     from fmpy.fmi1 import FMICallException
 
-    with FMU(path) as fmu:
+    messages = []
+    try:
+        instance = FMU(path, messages=messages)
+    except Exception as exc:                       # a model.bin the C core refuses: its reason, as a failed step's
+        if not is_instantiate_failure(exc):
+            raise
+        raise RuntimeError("the FMU did not instantiate: " + ("; ".join(text for status, _, text in messages
+                                                                          if status >= 3) or str(exc))) from None
+    with instance as fmu:
         try:
             t0 = time.perf_counter()
             fmu.initialize(parameters={SCALE_NAME: scale}, inputs={"f": float(force_values[0])})

@@ -140,11 +140,6 @@ def _not_instantiable(fmu, exc, messages):
     return FieldError("fmu", f"'{fmu}' cannot be instantiated: {reason}")
 
 
-def _is_instantiate_failure(exc) -> bool:
-    """fmpy raises a plain Exception("Failed to instantiate ...") when fmi2Instantiate / fmi3Instantiate... fail."""
-    return type(exc) is Exception and "instantiate" in str(exc).lower()
-
-
 def _csv_signal(path):
     if not is_file(path):
         raise FieldError("force", f"CSV file '{path}': {not_a_file(path)}")
@@ -337,12 +332,12 @@ def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None, hold_inputs
 def _open(path):
     """The :class:`~sphrom.fmu.run.driver.FMU` of ``path``; FieldError ``fmu`` with the FMU's own logged reason
     when it fails to instantiate (a bad file is the user's)."""
-    from .driver import FMU
+    from .driver import FMU, is_instantiate_failure
     messages = []
     try:
         return FMU(path, messages=messages)
     except Exception as exc:
-        if _is_instantiate_failure(exc):
+        if is_instantiate_failure(exc):
             raise _not_instantiable(path, exc, [text for status, _, text in messages if status >= 3]) from None
         raise
 

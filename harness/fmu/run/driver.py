@@ -58,6 +58,12 @@ def _register(fmu):
     return key
 
 
+def is_instantiate_failure(exc) -> bool:
+    """Whether ``exc`` is fmpy's plain Exception("Failed to instantiate ...") of a failed fmi2Instantiate /
+    fmi3Instantiate... (the FMU's logged reason is in the driver's messages)."""
+    return type(exc) is Exception and "instantiate" in str(exc).lower()
+
+
 def fmi2_logger(callback_type):
     """The process's FMI 2 logger callback (made on first use and kept for the process: fmpy's proxy holds it)."""
     if not _LOGGER:
