@@ -345,14 +345,14 @@ RomStatus rom_bound_prepare(RomModel *m, char *message, size_t message_size) {
     const uint32_t all = 1u + m->n_ports, rows = 3u * m->n_probes + m->n_ports;
     const int channel = rom_section(m, "PCSCAL") != NULL;
     const int inputs_ok = v[ROM_SHSCAL_INPUTS] == (double)all || (channel && v[ROM_SHSCAL_INPUTS] == 1.0);
-    if (!whole(v[ROM_SHSCAL_PLANES], 1, ROM_MAX_MODES) || v[ROM_SHSCAL_ORDER] != 2.0 * v[ROM_SHSCAL_PLANES] ||
+    if (!whole(v[ROM_SHSCAL_PLANES], 1, ROM_MAX_SHADOW_PLANES) || v[ROM_SHSCAL_ORDER] != 2.0 * v[ROM_SHSCAL_PLANES] ||
         !inputs_ok || v[ROM_SHSCAL_ROWS] != (double)rows || !whole(v[ROM_SHSCAL_NODES], 0, 1e7) ||
         !whole(v[ROM_SHSCAL_GROUPS], 1, BOUND_MAX_GROUPS) || !(v[ROM_SHSCAL_H_TAB] >= 0) ||
         !whole(v[ROM_SHSCAL_Q_TAB], 1, 1e7) || !(v[ROM_SHSCAL_X0_NORM] >= 0) || !(v[ROM_SHSCAL_E_NORM] >= 0) ||
         !(v[ROM_SHSCAL_B_NORM] >= 0) || !(v[ROM_SHSCAL_TOLERANCE] >= 0) || !whole(v[ROM_SHSCAL_CPLANES], 0, 1e7)) {
         return rom_fail(message, message_size, "resources: section SHSCAL (the error bounds' sizes) does not fit the "
                         "model (%u inputs%s, %u output rows expected; planes 1 to %u, groups 1 to %u)", all,
-                        channel ? " or 1" : "", rows, ROM_MAX_MODES, BOUND_MAX_GROUPS);
+                        channel ? " or 1" : "", rows, ROM_MAX_SHADOW_PLANES, BOUND_MAX_GROUPS);
     }
     RomBoundModel *b = &m->bound;
     const uint32_t planes = (uint32_t)v[ROM_SHSCAL_PLANES], order = 2u * planes;

@@ -192,6 +192,7 @@
 #define ROM_SECTION_TAG_SIZE                 8
 #define ROM_TOKEN_SIZE                       40
 #define ROM_MAX_MODES                        1024u   /* k_v, k_rho (and k_e) at most */
+#define ROM_MAX_SHADOW_PLANES                2500u   /* planes of the bounds' shadow at most (every plane of a dense decomposition) */
 #define ROM_MAX_PROBES                       100u   /* probes at most */
 #define ROM_MAX_SECTIONS                     32u   /* tagged sections of one file at most */
 #define ROM_MAX_SECTION_VALUES               67108864u   /* rows x cols of one section at most */

@@ -99,8 +99,9 @@ def test_the_shadow_keeps_every_plane_and_the_bound_is_the_true_error():
 
 
 def test_every_plane_stays_within_what_the_c_core_loads():
-    """The shadow keeps every plane only up to the C core's limit on planes (MAX_MODES of the resource layout): a
-    rubber bar of 1083 particles with a local damping kept 1083 and its FMU did not instantiate."""
+    """The shadow keeps every plane only up to the C core's limit on its planes (MAX_SHADOW_PLANES of the resource
+    layout): a rubber bar of 1083 particles with a local damping kept 1083 when the limit was the modes' 1024, and
+    its FMU did not instantiate."""
     from sphrom.fmu.layout import LIMITS
     from sphrom.rom.bounds import ALL_PLANES, MAX_PLANES, PORT_ALL_PLANES
-    assert max(ALL_PLANES, MAX_PLANES, PORT_ALL_PLANES) <= LIMITS["MAX_MODES"][0]
+    assert max(ALL_PLANES, MAX_PLANES, PORT_ALL_PLANES) <= LIMITS["MAX_SHADOW_PLANES"][0]

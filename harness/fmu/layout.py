@@ -126,6 +126,7 @@ SECTION_TAG_SIZE = TYPES["char8"][1]
 # limits every reader applies
 LIMITS = {
     "MAX_MODES": (1024, "k_v, k_rho (and k_e) at most"),
+    "MAX_SHADOW_PLANES": (2500, "planes of the bounds' shadow at most (every plane of a dense decomposition)"),
     "MAX_PROBES": (100, "probes at most"),
     "MAX_SECTIONS": (32, "tagged sections of one file at most"),
     "MAX_SECTION_VALUES": (1 << 26, "rows x cols of one section at most"),

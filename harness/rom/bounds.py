@@ -73,7 +73,7 @@ from .planes import EIGEN_LIMIT, Modes, coupling, eigen_planes, gap_cuts, plane_
 SHADOW_TARGET = 1e-6        # the complement's certified part / the channel's response, per reference input
 MAX_PLANES = 96             # the largest shadow (planes; k_s = 2 x this)
 PORT_ALL_PLANES = 500       # port forces as the shadow's inputs and N <= this: every plane (build_shadow)
-ALL_PLANES = 1024           # N <= this (the C core's planes at most, MAX_MODES of harness/fmu/layout.py) and the
+ALL_PLANES = 2500           # N <= this (the C core's shadow planes at most: MAX_SHADOW_PLANES of fmu/layout.py) and the
 ALL_PLANES_ABOVE = 1e-2     # largest cut's criterion above this: every plane (build_shadow; a complement this large a
                             # part of a response makes bounds useless)
 SPARSE_PLANES = 96          # planes computed above DENSE_LIMIT particles (the shadow's and a buffer of exact ones)
