@@ -270,6 +270,9 @@ def print_verification(v, tolerance=None):
         if c.bound_holds is not None:
             bound = (f"; certified bound {'holds' if c.bound_holds else 'FAILS'}, largest bound "
                      f"{c.bound_ratio:.3g}x the largest error")
+            if c.error_is_roundoff:                      # a ratio to round-off says nothing about the bound
+                from ..fmu.check.verify import ROUNDOFF_ERROR
+                bound += f" (that error is round-off, below {ROUNDOFF_ERROR:g} of max |v|)"
         print(f"    {c.name:8s} f = {c.force} from {c.start}: v error {c.err_v:.3e}, {rho}, max |rho - rho_true| "
               f"{c.max_drho:.2e} kg/m^3{bound}; {len(c.warnings)} warning(s)" + (f"; {c.note}" if c.note else ""))
     sv, sr, points = v.stepped_error

@@ -63,6 +63,9 @@ UNSEEN_RATIO = 2.2      # nu_u / nu_1: the unseen sine between a uniform bar's 2
 CASES = ("training", "step", "unseen")
 
 
+ROUNDOFF_ERROR = 1e-9     # a case's largest v error below this x max |v_truth|: round-off
+
+
 @dataclass
 class CaseResult:
     """One force case: the FMU and the truth at the probes, at the communication points.
@@ -147,6 +150,12 @@ class CaseResult:
             return None
         err = np.abs(self.fmu_v - self.sph_v)
         return bool(np.all(self.fmu_v_bound >= err - 1e-12 * np.max(np.abs(self.sph_v))))
+
+    @property
+    def error_is_roundoff(self):
+        """Whether the largest true error is below :data:`ROUNDOFF_ERROR` of the largest |v_truth| (a ratio of the bound to
+        it then says nothing; the benchmarks count no effectivity there either)."""
+        return self.max_error <= ROUNDOFF_ERROR * float(np.max(np.abs(self.sph_v)))
 
     @property
     def bound_ratio(self):
