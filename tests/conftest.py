@@ -135,6 +135,14 @@ def load_changed(data, change):
     return Core(ensure_binaries().core).load(pack(bad))
 
 
+def mixed_steps(dt):
+    """(steps, t): communication steps whole (10 ms), shortened and sub-dt (``dt`` the FMU's internal step [s]), and
+    the points t = 0, cumsum(steps): the rate tests' schedule for inputs linear over each step."""
+    import numpy as np
+    steps = [0.01] * 8 + [2.5 * dt, 0.3 * dt, 7.3 * dt, 13.03 * dt]
+    return steps, np.concatenate([[0.0], np.cumsum(steps)])
+
+
 def fmu_maker(folder, default_model="frozen", k=6, probes=(0.25, 0.5, 0.66), scene_of=None, default_case="forced",
               **options):
     """make(model, fmi, case) -> (path, the model kind's data): the FMU of ``scene_of(case)`` (default

@@ -16,6 +16,7 @@ from ctypes import c_double, c_int, c_uint32
 
 import numpy as np
 import pytest
+from conftest import mixed_steps
 
 from conftest import fmu_scene
 from sphrom.fmu.make.build import ensure_binaries
@@ -200,9 +201,7 @@ def test_port_channel_takes_the_port_rates_exactly(channel_port_fmu):
     against the C core's Taylor series) to 1e-12 over whole, shortened and sub-dt steps, and the rates change the
     port velocities."""
     path, data = channel_port_fmu           # conftest.py: the same ports (PORTS) and probes (PROBES)
-    dt = data.dt
-    steps = [0.01] * 8 + [2.5 * dt, 0.3 * dt, 7.3 * dt, 13.03 * dt]
-    t = np.concatenate([[0.0], np.cumsum(steps)])
+    steps, t = mixed_steps(data.dt)
     F, rates = forces(t[:-1]), np.diff(forces(t), axis=0) / np.diff(t)[:, None]
     out, back = run_fmu(path, steps, F, rates)
     mirror = run_mirror(data, steps, F, rates)

@@ -16,6 +16,7 @@ from ctypes import c_double, c_int, c_uint32
 
 import numpy as np
 import pytest
+from conftest import mixed_steps
 from fmpy.fmi1 import FMICallException
 
 from sphrom.fmu.run.driver import FMU
@@ -110,9 +111,7 @@ def test_linear_incident_waves_equal_the_python_channel(wave_fmu):
     channel's exact solution over each step, scipy's exponentials) to 1e-12; after a step a_port_j reads
     a_j + ȧ_j h; zero rates give the held run bit for bit; the rates change v_port and b_port."""
     path, data = wave_fmu
-    dt = data.dt
-    steps = [0.01] * 8 + [2.5 * dt, 0.3 * dt, 7.3 * dt, 13.03 * dt]
-    t = np.concatenate([[0.0], np.cumsum(steps)])
+    steps, t = mixed_steps(data.dt)
     a, rates = waves(t[:-1]), np.diff(waves(t), axis=0) / np.diff(t)[:, None]
     out, back = run_fmu(path, steps, a, rates)
     mirror = run_mirror(data, steps, a, rates)
