@@ -39,7 +39,7 @@ from ..parser import fmu_models
 from ..scene import builtin_names, load_scene
 from . import machine_text, program_command, program_parser
 from .lib.document import update_report
-from .lib.ports import S0, STIFFNESS, mass_spring_step
+from .lib.ports import S0, STIFFNESS, loop_radius, mass_spring_step
 from .lib.tables import write_csv
 
 # The measuring modules (numba through the model code, scipy, fmpy, matplotlib) are imported inside the functions:
@@ -148,6 +148,7 @@ def measure_scene(name, models, folder, span=SPAN, progress=True):
     T = min(span * scene.T, T_MAX)
     t = np.arange(int(round(T / STEP)) + 1) * STEP
     binaries = ensure_binaries(quiet=True)
+    radius = loop_radius(problem, PORTS[0], STEP)      # the coupled case's loop with the full SPH in it
     rows = []
     for model in models:
         path = Path(folder) / f"{name}-{model}-ports.fmu"
@@ -161,9 +162,13 @@ def measure_scene(name, models, folder, span=SPAN, progress=True):
             for case, (f, F) in cases(t, T).items():
                 try:
                     y, names, applied, warned, tol = run_fmu(path, t, scale, f, F)
-                except RunStopped as exc:            # e.g. an explicit loop that the model does not keep stable
+                except RunStopped as exc:            # e.g. an explicit loop that runs away with any model in it
+                    note = f"the run stopped: {exc}"
+                    if F is None and radius is not None and radius > 1.0 + 1e-12:
+                        note += (f"; the loop itself runs away at {STEP * 1e3:g} ms steps: with the full SPH in the "
+                                 f"FMU's place it grows by {radius:.6g} per step (bench/lib/ports.py loop_radius)")
                     rows.append({"scene": name, "model": model, "N": problem.n, "start": start, "case": case,
-                                 "note": f"the run stopped: {exc}"})
+                                 "loop_radius": radius if F is None else None, "note": note})
                     continue
                 bad, points, eff, eff_port, max_err, max_bound, alarm = compare(
                     y, names, *truth(problem, t, scale, f, applied), warned, tol)
@@ -176,7 +181,7 @@ def measure_scene(name, models, folder, span=SPAN, progress=True):
                              "eff_max": float(counted.max()) if counted.size else float("nan"),
                              "port_eff_max": float(port.max()) if port.size else float("nan"),
                              "false_alarm": alarm, "max_port_err": max_err, "max_port_bound": max_bound,
-                             "note": ""})
+                             "loop_radius": radius if F is None else None, "note": ""})
     return rows
 
 
@@ -225,6 +230,12 @@ def section(rows, *, command, wall, machine):
     stopped = [r for r in rows if r.get("note") and r.get("case")]
     if stopped:
         lines += ["", f"Runs the FMU stopped with an error (not counted above): {len(stopped)}."]
+    radii = {r["scene"]: r["loop_radius"] for r in rows if r.get("loop_radius") is not None}
+    if radii:
+        lines += ["", "The coupled case's loop with the full SPH (linear in J, exact over each step) in the FMU's "
+                      "place, its spectral radius per step (bench/lib/ports.py `loop_radius`; above 1 the loop itself "
+                      f"runs away at {STEP * 1e3:g} ms steps, whatever model stands in for the bar): "
+                      + ", ".join(f"{k} {v:.6g}" for k, v in radii.items()) + "."]
     return lines + [""]
 
 

@@ -23,6 +23,55 @@ def mass_spring_step(y, v_port, h):
     return np.array([s_new, ds + v_port])
 
 
+def loop_map(problem, port, h):
+    """The sampled loop of the port benchmarks with the full SPH in the FMU's place, as one linear map Z.
+
+    The loop: the lumped mass-spring on the port at x/L = ``port``, its spring force K s at the start of each
+    communication step held over it as the port force (per unit area), the port velocity read at the step's start
+    held in the mass-spring's step (:func:`mass_spring_step`); the bar is the full SPH of eqs. 2.10-2.11 linear in J
+    in energy coordinates x (:func:`sphrom.rom.lti.full_linear_system`), advanced exactly over each step.  Then
+    (x, s, w) at the next step = Z (x, s, w).
+
+    Parameters
+    ----------
+    problem : SPHProblem
+    port : float
+        The coupled port's position x/L.
+    h : float
+        Communication step [s].
+
+    Returns
+    -------
+    Z : ndarray (2N + 2, 2N + 2)
+    """
+    import scipy.linalg as sla
+    from ...rom.bounds import input_columns, output_rows
+    from ...rom.lti import full_linear_system
+    A = full_linear_system(problem, [0.5]).A.toarray()
+    n2 = A.shape[0]
+    b = input_columns(problem, (port,))[:, 1]                   # per F/area [N m^-2]
+    c = output_rows(problem, [0.5], (port,))[0][-1]            # v_port [m s^-1]
+    aug = np.zeros((n2 + 1, n2 + 1))
+    aug[:n2, :n2], aug[:n2, n2] = A * h, b * h
+    E = sla.expm(aug)                                          # [[e^{Ah}, ∫ e^{As} ds b], [0, 1]]
+    omega = np.sqrt(STIFFNESS / MASS)
+    co, sn = np.cos(omega * h), np.sin(omega * h)
+    Z = np.zeros((n2 + 2, n2 + 2))
+    Z[:n2, :n2], Z[:n2, n2] = E[:n2, :n2], E[:n2, n2] * STIFFNESS
+    Z[n2, :n2], Z[n2, n2], Z[n2, n2 + 1] = -c * sn / omega, co, sn / omega      # mass_spring_step, v_port = c x
+    Z[n2 + 1, :n2], Z[n2 + 1, n2], Z[n2 + 1, n2 + 1] = c * (1.0 - co), -omega * sn, co
+    return Z
+
+
+def loop_radius(problem, port, h, *, dense_limit=2500):
+    """The spectral radius of :func:`loop_map`: above 1 the sampled loop runs away at step ``h`` [s] whatever model
+    stands in for the bar (the held force feeds the bar energy faster than its damping takes it); at most 1 (the
+    rigid motion's 1) it does not.  None above ``dense_limit`` particles (the map is dense)."""
+    if problem.rho0.size > dense_limit:
+        return None
+    return float(np.abs(np.linalg.eigvals(loop_map(problem, port, h))).max())
+
+
 def rel(a, b):
     """Relative L² error of a against b."""
     return float(np.linalg.norm(np.asarray(a) - np.asarray(b)) / np.linalg.norm(b))
