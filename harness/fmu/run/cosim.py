@@ -134,10 +134,10 @@ def input_samples(signal, times):
     return f, rate
 
 
-def _not_instantiable(fmu, exc, messages):
-    """FieldError ``fmu`` with the FMU's own logged reason for a failed instantiate (a bad file is the user's)."""
-    reason = "; ".join(" ".join(m.split()) for m in messages) or str(exc).splitlines()[0]
-    return FieldError("fmu", f"'{fmu}' cannot be instantiated: {reason}")
+def _not_instantiable(fmu, exc):
+    """FieldError ``fmu`` with the FMU's own logged reason for a failed instantiate (a bad file is the user's):
+    ``exc`` the driver's :class:`~sphrom.fmu.run.driver.InstantiateError`."""
+    return FieldError("fmu", f"'{fmu}' cannot be instantiated: {exc.detail}")
 
 
 def _csv_signal(path):
@@ -332,14 +332,11 @@ def run_cosim(fmu, force=None, t_end=None, step=None, n_freeze=None, hold_inputs
 def _open(path):
     """The :class:`~sphrom.fmu.run.driver.FMU` of ``path``; FieldError ``fmu`` with the FMU's own logged reason
     when it fails to instantiate (a bad file is the user's)."""
-    from .driver import FMU, is_instantiate_failure
-    messages = []
+    from .driver import FMU, InstantiateError
     try:
-        return FMU(path, messages=messages)
-    except Exception as exc:
-        if is_instantiate_failure(exc):
-            raise _not_instantiable(path, exc, [text for status, _, text in messages if status >= 3]) from None
-        raise
+        return FMU(path)
+    except InstantiateError as exc:
+        raise _not_instantiable(path, exc) from None
 
 
 def write_csv(path, result: CosimResult):

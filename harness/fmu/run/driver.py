@@ -58,10 +58,15 @@ def _register(fmu):
     return key
 
 
-def is_instantiate_failure(exc) -> bool:
-    """Whether ``exc`` is fmpy's plain Exception("Failed to instantiate ...") of a failed fmi2Instantiate /
-    fmi3Instantiate... (the FMU's logged reason is in the driver's messages)."""
-    return type(exc) is Exception and "instantiate" in str(exc).lower()
+class InstantiateError(RuntimeError):
+    """fmi2Instantiate / fmi3InstantiateCoSimulation returned no instance (the C core refused the model: a damaged
+    or foreign model.bin, a layout it does not know).  ``reasons``: the FMU's own logged errors (empty when it
+    logged none); the message names them, or fmpy's text."""
+
+    def __init__(self, reasons, fallback):
+        self.reasons = [" ".join(str(r).split()) for r in reasons]
+        self.detail = "; ".join(self.reasons) or str(fallback).splitlines()[0]
+        super().__init__("the FMU did not instantiate: " + self.detail)
 
 
 def fmi2_logger(callback_type):
@@ -317,14 +322,17 @@ class FMU:
         self.instantiate_s = time.perf_counter() - t0
 
     def _instantiate(self, call):
-        """Run the instantiate call; on failure remove the folder we extracted before re-raising."""
+        """Run the instantiate call; on failure remove the folder we extracted, then raise
+        :class:`InstantiateError` with the FMU's logged reasons (fmpy says only "Failed to instantiate model")."""
         try:
             call()
-        except Exception:
+        except Exception as exc:
             self.fmu = None
             _INSTANCES.pop(getattr(self, "_environment", None), None)
             if self._owns_dir:
                 shutil.rmtree(self.unzipdir, ignore_errors=True)
+            if type(exc) is Exception and "instantiate" in str(exc).lower():
+                raise InstantiateError([text for status, _, text in self.messages if status >= 3], exc) from None
             raise
 
     # -- what the FMU declares ------------------------------------------------
