@@ -3,12 +3,14 @@
 ``sphrom bench error_bounds_ports [SCENE ...] [--models frozen,exact,balanced] [--span S] [--out FOLDER]
 [--report BENCHMARKS.md]`` packages each scene's FMU with ports at x/L = 0.3 and 0.7 (FMI 2, the scene's
 defaults, without the a priori bounds) for each model and drives it over S x the scene's T (default 20; at most
-T_MAX) at 10 ms communication steps, inputs held, from rest and from the scene's initial state, in four cases no
+T_MAX) at 10 ms communication steps, inputs held, from rest and from the scene's initial state, in five cases no
 basis saw
 (:func:`cases`): slow port forces (2e-3 sin 1.3t N at port 1, 1e-3 cos 3.1t + 5e-4·[t > T/2] N at port 2), a
 constant 1e-3 N at port 1, port 1 coupled to a mass-spring (0.05 kg, 5 N/m, stretched 1 mm at t = 0; the spring
-force at the start of a step held over it, :mod:`sphrom.bench.lib.ports`), and f = 2e-3 m s^-2 with the slow
-port forces.  The truth is the full SPH of eqs. 2.10-2.11 as the linear system in J with the port forces
+force at the start of a step held over it, :mod:`sphrom.bench.lib.ports`), the same with a dashpot of DAMPER
+beside the spring (the undamped loop runs away on an undamped bar whatever model is in it, the damped one does
+not: the section prints each loop's spectral radius with the full SPH in the FMU's place), and f = 2e-3 m s^-2
+with the slow port forces.  The truth is the full SPH of eqs. 2.10-2.11 as the linear system in J with the port forces
 (:func:`sphrom.rom.reference.linear_reference`), advanced exactly in time with the very inputs the FMU received
 (the coupled case's port forces as the FMU read them), independent of the reduced models and of the bounds.
 
@@ -24,6 +26,7 @@ tenmode (N = 400) and high_frequency (N = 1000, above 500 particles).
 from __future__ import annotations
 
 import sys
+from typing import NamedTuple
 import tempfile
 import time
 from pathlib import Path
@@ -39,7 +42,7 @@ from ..parser import fmu_models
 from ..scene import builtin_names, load_scene
 from . import machine_text, program_command, program_parser
 from .lib.document import update_report
-from .lib.ports import S0, STIFFNESS, loop_radius, mass_spring_step
+from .lib.ports import S0, coupling_force, loop_radius, mass_spring_step
 from .lib.tables import write_csv
 
 # The measuring modules (numba through the model code, scipy, fmpy, matplotlib) are imported inside the functions:
@@ -55,20 +58,29 @@ SPAN = 20.0             # runs over this x the scene's T ...
 T_MAX = 200.0           # [s] ... at most this
 FLOOR = 1e-9            # effectivity counted where the run's largest error exceeds this x its output's signal
 STARTS = (("rest", 0.0), ("initial state", 1.0))
+DAMPER = 0.1            # [N s m^-1] the dashpot of the mass-spring-damper case: its loop holds on every built-in scene
+
+
+class Coupled(NamedTuple):
+    """Port 1 coupled to the lumped mass-spring, with a dashpot of ``damping`` [N s m^-1] beside the spring."""
+    damping: float
 
 
 def cases(t, T):
-    """{case: (f (M,) [m s^-2], port forces (M, 2) [N] or None for the coupled mass-spring on port 1)}."""
+    """{case: (f (M,) [m s^-2], port forces (M, 2) [N] or :class:`Coupled` for port 1 tied to the lumped mass)}."""
     slow = np.stack([2e-3 * np.sin(1.3 * t), 1e-3 * np.cos(3.1 * t) + 5e-4 * (t > T / 2)], axis=1)
     constant = np.stack([np.full_like(t, 1e-3), np.zeros_like(t)], axis=1)
     zero = np.zeros_like(t)
     return {"slow port forces": (zero, slow), "constant 1e-3 N at port 1": (zero, constant),
-            "port 1 coupled to a mass-spring": (zero, None), "f = 2e-3 and slow port forces": (zero + 2e-3, slow)}
+            "port 1 coupled to a mass-spring": (zero, Coupled(0.0)),
+            "port 1 coupled to a mass-spring-damper": (zero, Coupled(DAMPER)),
+            "f = 2e-3 and slow port forces": (zero + 2e-3, slow)}
 
 
 def run_fmu(path, t, scale, f, F):
     """(outputs (M, n), names, the port forces applied (M, 2) [N], warnings, error_tolerance) of the FMU at ``path``
-    driven over ``t``; ``F`` None: port 1 coupled to the mass-spring, port 2 free.  Raises :class:`RunStopped`
+    driven over ``t``; ``F`` a :class:`Coupled`: port 1 coupled to the mass-spring(-damper), port 2 free.  Raises
+    :class:`RunStopped`
     (with the FMU's logged reason) when the FMU returns an error status."""
     from fmpy.fmi1 import FMICallException
     applied = np.zeros((t.size, len(PORTS)))
@@ -88,7 +100,7 @@ def _run_fmu(path, t, scale, f, F, applied, messages):
     with FMU(path, messages=messages) as fmu:
         names = fmu.outputs
         fmu.initialize(parameters={"initial_state_scale": scale}, inputs={"f": float(f[0])})
-        if F is not None:
+        if not isinstance(F, Coupled):
             applied[:] = F
             y = fmu.simulate(t, {"f": f, **{f"F_port_{j + 1}": F[:, j] for j in range(len(PORTS))}})
         else:
@@ -97,9 +109,9 @@ def _run_fmu(path, t, scale, f, F, applied, messages):
 
             def spring(j, tj, y):
                 if j:
-                    lumped[0] = mass_spring_step(lumped[0], feedback_v[0], STEP)
+                    lumped[0] = mass_spring_step(lumped[0], feedback_v[0], STEP, F.damping)
                 feedback_v[0] = y[at]
-                applied[j, 0] = STIFFNESS * lumped[0][0]
+                applied[j, 0] = coupling_force(lumped[0], feedback_v[0], F.damping)
                 return {"F_port_1": applied[j, 0]}
 
             feedback_v = [0.0]
@@ -148,7 +160,7 @@ def measure_scene(name, models, folder, span=SPAN, progress=True):
     T = min(span * scene.T, T_MAX)
     t = np.arange(int(round(T / STEP)) + 1) * STEP
     binaries = ensure_binaries(quiet=True)
-    radius = loop_radius(problem, PORTS[0], STEP)      # the coupled case's loop with the full SPH in it
+    radius = {}                                        # the coupled cases' loops with the full SPH in them
     rows = []
     for model in models:
         path = Path(folder) / f"{name}-{model}-ports.fmu"
@@ -160,15 +172,20 @@ def measure_scene(name, models, folder, span=SPAN, progress=True):
             continue
         for start, scale in STARTS:
             for case, (f, F) in cases(t, T).items():
+                loop = None
+                if isinstance(F, Coupled):
+                    if F.damping not in radius:
+                        radius[F.damping] = loop_radius(problem, PORTS[0], STEP, F.damping)
+                    loop = radius[F.damping]
                 try:
                     y, names, applied, warned, tol = run_fmu(path, t, scale, f, F)
                 except RunStopped as exc:            # e.g. an explicit loop that runs away with any model in it
                     note = f"the run stopped: {exc}"
-                    if F is None and radius is not None and radius > 1.0 + 1e-12:
+                    if loop is not None and loop > 1.0 + 1e-12:
                         note += (f"; the loop itself runs away at {STEP * 1e3:g} ms steps: with the full SPH in the "
-                                 f"FMU's place it grows by {radius:.6g} per step (bench/lib/ports.py loop_radius)")
+                                 f"FMU's place it grows by {loop:.6g} per step (bench/lib/ports.py loop_radius)")
                     rows.append({"scene": name, "model": model, "N": problem.n, "start": start, "case": case,
-                                 "loop_radius": radius if F is None else None, "note": note})
+                                 "loop_radius": loop, "note": note})
                     continue
                 bad, points, eff, eff_port, max_err, max_bound, alarm = compare(
                     y, names, *truth(problem, t, scale, f, applied), warned, tol)
@@ -181,7 +198,7 @@ def measure_scene(name, models, folder, span=SPAN, progress=True):
                              "eff_max": float(counted.max()) if counted.size else float("nan"),
                              "port_eff_max": float(port.max()) if port.size else float("nan"),
                              "false_alarm": alarm, "max_port_err": max_err, "max_port_bound": max_bound,
-                             "loop_radius": radius if F is None else None, "note": ""})
+                             "loop_radius": loop, "note": ""})
     return rows
 
 
@@ -194,8 +211,9 @@ def section(rows, *, command, wall, machine):
              f"Produced by `{command}` ({machine}, {wall:.0f} s wall; `validation/benchmarks/error_bounds_ports.csv`). "
              f"Each scene's FMU with ports at x/L = {', '.join(f'{x:g}' for x in PORTS)} (FMI 2, the scene's "
              f"defaults) over min(span x T, {T_MAX:g} s) at {STEP * 1e3:g} ms steps, inputs held, from rest and from the "
-             "scene's initial state, in four cases no basis saw (harness/bench/error_bounds_ports.py `cases`: slow "
-             "port forces, a constant port force, port 1 coupled to a mass-spring, f with slow port forces). Truth: "
+             "scene's initial state, in five cases no basis saw (harness/bench/error_bounds_ports.py `cases`: slow "
+             "port forces, a constant port force, port 1 coupled to a mass-spring, the same with a dashpot of "
+             f"{DAMPER:g} N s/m beside the spring, f with slow port forces). Truth: "
              "the full SPH of eqs. 2.10-2.11, linear in J, with the port forces the FMU received, exact in time. "
              "Violations: points where a bound of v_probe_j, rho_probe_j or v_port_j is below its true error. "
              "Effectivity: per output (v_probe_j, rho_probe_j, v_port_j) the largest bound over the run / the largest "
@@ -230,12 +248,17 @@ def section(rows, *, command, wall, machine):
     stopped = [r for r in rows if r.get("note") and r.get("case")]
     if stopped:
         lines += ["", f"Runs the FMU stopped with an error (not counted above): {len(stopped)}."]
-    radii = {r["scene"]: r["loop_radius"] for r in rows if r.get("loop_radius") is not None}
+    radii = {}
+    for r in rows:
+        if r.get("loop_radius") is not None:
+            radii.setdefault(r["scene"], {})[r["case"]] = r["loop_radius"]
     if radii:
-        lines += ["", "The coupled case's loop with the full SPH (linear in J, exact over each step) in the FMU's "
-                      "place, its spectral radius per step (bench/lib/ports.py `loop_radius`; above 1 the loop itself "
-                      f"runs away at {STEP * 1e3:g} ms steps, whatever model stands in for the bar): "
-                      + ", ".join(f"{k} {v:.6g}" for k, v in radii.items()) + "."]
+        lines += ["", "The coupled cases' loops with the full SPH (linear in J, exact over each step) in the FMU's "
+                      "place, their spectral radius per step (bench/lib/ports.py `loop_radius`; above 1 the loop "
+                      f"itself runs away at {STEP * 1e3:g} ms steps, whatever model stands in for the bar), "
+                      "mass-spring / mass-spring-damper: "
+                      + ", ".join(f"{k} " + " / ".join(f"{x:.6g}" for x in v.values()) for k, v in radii.items())
+                      + "."]
     return lines + [""]
 
 

@@ -13,24 +13,42 @@ def open_loop_forces(t):
     return 1e-3 * np.stack([np.sin(5 * t + 0.3), np.cos(2 * t) ** 2], axis=-1)
 
 
-def mass_spring_step(y, v_port, h):
-    """The mass-spring (s, w) advanced exactly over h [s] with the port velocity held: s'' = -ω² s, w = s' + v_port."""
-    omega = np.sqrt(STIFFNESS / MASS)
+def mass_spring_step(y, v_port, h, damping=0.0):
+    """The mass-spring (s, w) advanced exactly over h [s] with the port velocity held: s'' = -ω² s, w = s' + v_port.
+
+    ``damping`` [N s m^-1]: a dashpot beside the spring (a mass-spring-damper): m s'' = -K s - damping s'; the force
+    on the port is then K s + damping s' (:func:`coupling_force`)."""
     s, w = y
-    c, sn = np.cos(omega * h), np.sin(omega * h)
-    s_new = s * c + (w - v_port) / omega * sn
-    ds = -s * omega * sn + (w - v_port) * c
+    if damping == 0.0:
+        omega = np.sqrt(STIFFNESS / MASS)
+        c, sn = np.cos(omega * h), np.sin(omega * h)
+        s_new = s * c + (w - v_port) / omega * sn
+        ds = -s * omega * sn + (w - v_port) * c
+        return np.array([s_new, ds + v_port])
+    s_new, ds = _lumped_flow(h, damping) @ np.array([s, w - v_port])
     return np.array([s_new, ds + v_port])
 
 
-def loop_map(problem, port, h):
+def coupling_force(y, v_port, damping=0.0):
+    """The force [N] the lumped mass-spring(-damper) in state y = (s, w) puts on the port moving at v_port."""
+    return STIFFNESS * y[0] + damping * (y[1] - v_port)
+
+
+def _lumped_flow(h, damping):
+    """e^{A h} of (s, s')' = [[0, 1], [-K/m, -damping/m]] (s, s')."""
+    import scipy.linalg as sla
+    return sla.expm(np.array([[0.0, 1.0], [-STIFFNESS / MASS, -damping / MASS]]) * h)
+
+
+def loop_map(problem, port, h, damping=0.0):
     """The sampled loop of the port benchmarks with the full SPH in the FMU's place, as one linear map Z.
 
-    The loop: the lumped mass-spring on the port at x/L = ``port``, its spring force K s at the start of each
-    communication step held over it as the port force (per unit area), the port velocity read at the step's start
-    held in the mass-spring's step (:func:`mass_spring_step`); the bar is the full SPH of eqs. 2.10-2.11 linear in J
-    in energy coordinates x (:func:`sphrom.rom.lti.full_linear_system`), advanced exactly over each step.  Then
-    (x, s, w) at the next step = Z (x, s, w).
+    The loop: the lumped mass-spring (with a dashpot of ``damping`` [N s m^-1] beside the spring) on the port at
+    x/L = ``port``, its force at the start of each communication step (:func:`coupling_force`) held over it as the
+    port force (per unit area), the port velocity read at the step's start held in the mass-spring's step
+    (:func:`mass_spring_step`); the bar is the full SPH of eqs. 2.10-2.11 linear in J in energy coordinates x
+    (:func:`sphrom.rom.lti.full_linear_system`), advanced exactly over each step.  Then (x, s, w) at the next step
+    = Z (x, s, w).
 
     Parameters
     ----------
@@ -54,22 +72,26 @@ def loop_map(problem, port, h):
     aug = np.zeros((n2 + 1, n2 + 1))
     aug[:n2, :n2], aug[:n2, n2] = A * h, b * h
     E = sla.expm(aug)                                          # [[e^{Ah}, ∫ e^{As} ds b], [0, 1]]
-    omega = np.sqrt(STIFFNESS / MASS)
-    co, sn = np.cos(omega * h), np.sin(omega * h)
+    Phi, g = E[:n2, :n2], E[:n2, n2]
+    R = _lumped_flow(h, damping)                               # (s, w - v_port) over the step, v_port = c x held
     Z = np.zeros((n2 + 2, n2 + 2))
-    Z[:n2, :n2], Z[:n2, n2] = E[:n2, :n2], E[:n2, n2] * STIFFNESS
-    Z[n2, :n2], Z[n2, n2], Z[n2, n2 + 1] = -c * sn / omega, co, sn / omega      # mass_spring_step, v_port = c x
-    Z[n2 + 1, :n2], Z[n2 + 1, n2], Z[n2 + 1, n2 + 1] = c * (1.0 - co), -omega * sn, co
+    # F = K s + damping (w - c x), held: x+ = Phi x + g F
+    Z[:n2, :n2] = Phi - damping * np.outer(g, c)
+    Z[:n2, n2], Z[:n2, n2 + 1] = g * STIFFNESS, g * damping
+    # s+ = R00 s + R01 (w - c x);  w+ = R10 s + R11 (w - c x) + c x
+    Z[n2, :n2], Z[n2, n2], Z[n2, n2 + 1] = -R[0, 1] * c, R[0, 0], R[0, 1]
+    Z[n2 + 1, :n2], Z[n2 + 1, n2], Z[n2 + 1, n2 + 1] = (1.0 - R[1, 1]) * c, R[1, 0], R[1, 1]
     return Z
 
 
-def loop_radius(problem, port, h, *, dense_limit=2500):
-    """The spectral radius of :func:`loop_map`: above 1 the sampled loop runs away at step ``h`` [s] whatever model
-    stands in for the bar (the held force feeds the bar energy faster than its damping takes it); at most 1 (the
-    rigid motion's 1) it does not.  None above ``dense_limit`` particles (the map is dense)."""
+def loop_radius(problem, port, h, damping=0.0, *, dense_limit=2500):
+    """The spectral radius of :func:`loop_map` (``damping``: the dashpot beside the spring [N s m^-1]): above 1 the
+    sampled loop runs away at step ``h`` [s] whatever model stands in for the bar (the held force feeds the bar
+    energy faster than its damping takes it); at most 1 (the rigid motion's 1) it does not.  None above
+    ``dense_limit`` particles (the map is dense)."""
     if problem.rho0.size > dense_limit:
         return None
-    return float(np.abs(np.linalg.eigvals(loop_map(problem, port, h))).max())
+    return float(np.abs(np.linalg.eigvals(loop_map(problem, port, h, damping))).max())
 
 
 def rel(a, b):
