@@ -40,8 +40,8 @@ Any N: above :data:`sphrom.rom.planes.DENSE_LIMIT` particles only the lowest pla
 eigensolver, K is banded) and the planes never computed (σ >= σ_cut) are bounded through norms, never formed:
 Σ |γ'||β'| / |λ| <= κ(σ_cut) ‖c_tail‖ ‖b_tail‖ / σ_cut and likewise for the free response and the quasi-static
 part, ‖c_tail‖ = ‖c - V Vᵀ c‖ over the computed planes.  Their free response from x0, input-independent, is
-computed instead where that is affordable (:func:`tail_table`: the full sparse system propagated from x0_tail into
-the free response's table, with a certified interpolation error).
+computed instead where that is affordable (:func:`tail_table`: the full sparse system propagated from x0_tail, or
+at larger N a Chebyshev expansion in K Kᵀ and Kᵀ K, into the free response's table with a certified error).
 
 Parametric models (uniform c and d, :mod:`.parametric`): the planes are affine in (c, d) about c_ref; the complement
 planes are stored and the C core (and :meth:`Shadow.at`) computes D, the gains and the decaying Hölder sums of the
@@ -507,7 +507,7 @@ def chebyshev_degree(t, mu_max):
 
 def _plane_functions(lam, t, d):
     """F_t, F_t', G_t (G_t' = F_t) at the points lam (Q,) of the spectrum of K Kᵀ and the times t (B,): a plane of
-    σ² = λ started at [η; 0] has v(t) = F_t(λ) η and σ e(t) = -G_t(λ) η (eq. of :func:`tail_table`):
+    σ² = λ started at [η; 0] has v(t) = F_t(λ) η and e(t) = -σ G_t(λ) η (e^{Λt}, Λ = [[-d, σ], [-σ, 0]]):
     F = e^{-dt/2} [cos w t - (d/2) sin(w t) / w], G = e^{-dt/2} sin(w t) / w, F' = e^{-dt/2} [-d cos w t +
     (d²/2 - λ) sin(w t) / w], w = (λ - d²/4)^½ (cosh, sinh where λ < d²/4).  Returns three (Q, B) arrays."""
     z = lam - d * d / 4.0
@@ -594,8 +594,8 @@ def tail_free_chebyshev(K, C, xv, times, d, mu_max, free_bound, alpha):
     """g_r(t) = c_rᵀ e^{A t} [xv; 0] at ``times`` for a uniform damping d, and its slopes, with their certified
     errors: (values, slopes, value errors, slope errors), each (rows, nodes).
 
-    Per singular plane (σ, u, w) the state from [η; 0] is [F_t(σ²) η; -G_t(σ²) η / σ] (:func:`_plane_functions`),
-    and σ w = Kᵀ u, so g_r = c_v,rᵀ F_t(K Kᵀ) xv - c_e,rᵀ G_t(Kᵀ K) Kᵀ xv: two sides, each a function of one
+    Per singular plane (σ; [u; 0], [0; u_e]) the state from [η; 0] is [F_t(σ²) η; -σ G_t(σ²) η] (:func:`_plane_functions`),
+    and σ u_e = Kᵀ u, so g_r = c_v,rᵀ F_t(K Kᵀ) xv - c_e,rᵀ G_t(Kᵀ K) Kᵀ xv: two sides, each a function of one
     symmetric matrix M (K Kᵀ on xv, Kᵀ K on z = Kᵀ xv).  With H = 2 M / mu_max - 1 (spectrum in [-1, 1], mu_max >=
     ‖K‖_1 ‖K‖_∞ a power of 2: exact scalings) the moments μ_j = W T_j(H) y0 (W: the rows' parts) come from the
     three-term recurrence (:func:`_moments`); in blocks of nodes, the degree Q - 1 interpolant of f_t at Q Chebyshev
