@@ -364,6 +364,32 @@ def test_sparse_planes_match_the_dense_ones(monkeypatch):
         assert np.all(np.abs(truth - y) <= cert)
 
 
+def test_uncomputed_planes_chebyshev_response_in_the_shadow(monkeypatch):
+    """The uncomputed planes' free response by the Chebyshev expansion (sphrom.rom.bounds.tail_free_chebyshev, the
+    way at N = 1e5), in a whole shadow: on the shrunk damped scene forced to the sparse planes (DENSE_LIMIT = 10, 12
+    planes) and to that way (TAIL_WORK = 0), the shadow is certified against the exact-in-time truth at every point,
+    from the initial state and under a force, and its largest certificate over the run is at most the one of the
+    same shadow with that response bounded through norms alone (tail_response=False), row by row."""
+    import sphrom.rom.bounds as bounds
+    from sphrom.rom import planes as pl
+    from sphrom.rom.bounds import build_shadow, run_shadow
+    from sphrom.sph.solver import build_problem
+    problem = build_problem(fmu_scene("forced"))
+    monkeypatch.setattr(pl, "DENSE_LIMIT", 10)
+    monkeypatch.setattr(bounds, "TAIL_WORK", 0)
+    shadow = build_shadow(problem, PROBES, order=4, count=12)
+    norms = build_shadow(problem, PROBES, order=4, count=12, tail_response=False)
+    assert shadow.info["tail_table"] is not None and norms.info["tail_table"] is None
+    steps = 120
+    f = forces(np.arange(steps) * H)["chirp"]
+    truth_f = exact_rows(problem, f, scale=1.0)
+    args = (np.full(steps, H), f[:, None], np.zeros((steps, 1)))
+    y, cert = run_shadow(shadow, *args, scale=1.0)
+    y0, cert0 = run_shadow(norms, *args, scale=1.0)
+    assert np.all(np.abs(truth_f - y) <= cert) and np.all(np.abs(truth_f - y0) <= cert0)
+    assert np.all(cert.max(axis=0) <= cert0.max(axis=0))
+
+
 def test_the_bounds_truth_two_ways(monkeypatch):
     """sphrom.rom.reference.exact_probe_reference (the truth the bounds are of; one case of sphrom.rom.truth,
     which packaging's verification measures every FMU against) equals this file's truth (the dense step map of the
