@@ -364,6 +364,32 @@ def test_sparse_planes_match_the_dense_ones(monkeypatch):
         assert np.all(np.abs(truth - y) <= cert)
 
 
+def test_uncomputed_planes_chebyshev_response_in_the_shadow(monkeypatch):
+    """The uncomputed planes' free response by the Chebyshev expansion (sphrom.rom.bounds.tail_free_chebyshev, the
+    way at N = 1e5), in a whole shadow: on the shrunk damped scene forced to the sparse planes (DENSE_LIMIT = 10, 12
+    planes) and to that way (TAIL_WORK = 0), the shadow is certified against the exact-in-time truth at every point,
+    from the initial state and under a force, and its largest certificate over the run is at most the one of the
+    same shadow with that response bounded through norms alone (tail_response=False), row by row."""
+    import sphrom.rom.bounds as bounds
+    from sphrom.rom import planes as pl
+    from sphrom.rom.bounds import build_shadow, run_shadow
+    from sphrom.sph.solver import build_problem
+    problem = build_problem(fmu_scene("forced"))
+    monkeypatch.setattr(pl, "DENSE_LIMIT", 10)
+    monkeypatch.setattr(bounds, "TAIL_WORK", 0)
+    shadow = build_shadow(problem, PROBES, order=4, count=12)
+    norms = build_shadow(problem, PROBES, order=4, count=12, tail_response=False)
+    assert shadow.info["tail_table"] is not None and norms.info["tail_table"] is None
+    steps = 120
+    f = forces(np.arange(steps) * H)["chirp"]
+    truth_f = exact_rows(problem, f, scale=1.0)
+    args = (np.full(steps, H), f[:, None], np.zeros((steps, 1)))
+    y, cert = run_shadow(shadow, *args, scale=1.0)
+    y0, cert0 = run_shadow(norms, *args, scale=1.0)
+    assert np.all(np.abs(truth_f - y) <= cert) and np.all(np.abs(truth_f - y0) <= cert0)
+    assert np.all(cert.max(axis=0) <= cert0.max(axis=0))
+
+
 def test_the_bounds_truth_two_ways(monkeypatch):
     """sphrom.rom.reference.exact_probe_reference (the truth the bounds are of; one case of sphrom.rom.truth,
     which packaging's verification measures every FMU against) equals this file's truth (the dense step map of the
@@ -502,19 +528,29 @@ def test_bench_summary_counts_every_scenes_runs():
     assert total["runs"] == 4 and total["points"] == 44 and total["violations"] == 4 and total["outputs"] == 8
 
 
-def test_uncomputed_planes_free_response_computed():
-    """Where the full system's propagation is affordable the uncomputed planes' free response from x0 is computed,
-    not bounded (sphrom.rom.bounds.tail_table): on the shrunk damped_forced (N = 400, the lowest 24 planes of the
-    dense SVD taken as the computed ones, tenmode's v0 with its kink at the seam) its nodes equal c_rᵀ e^{A t} x0_tail
-    by the dense exponential to 1e-9 of the planes' norm bound, its Hermite interpolant between the nodes stays within
-    the certified error of that exact response, and that error is at most 1e-3 of the norm bound it replaces."""
+@pytest.mark.parametrize("path", ["taylor", "chebyshev"])
+def test_uncomputed_planes_free_response_computed(monkeypatch, path):
+    """Where it is affordable the uncomputed planes' free response from x0 is computed, not bounded
+    (sphrom.rom.bounds.tail_table), by the full state's Taylor propagation or (where that is not affordable, forced
+    here by TAIL_WORK = 0) by the Chebyshev expansion in K Kᵀ and Kᵀ K: on the shrunk damped_forced (N = 400, the
+    lowest 24 planes of the dense SVD taken as the computed ones, tenmode's v0 with its kink at the seam) its nodes
+    equal c_rᵀ e^{A t} x0_tail by the dense exponential to 1e-9 of the planes' norm bound, its Hermite interpolant
+    between the nodes stays within the certified error of that exact response, and that error is at most 1e-3 of the
+    norm bound it replaces at t = 0 and never above that bound plus the cubic's own size on any interval."""
     import scipy.linalg as sla
 
+    import sphrom.rom.bounds as bounds
     from sphrom.rom.bounds import tail_table
     from sphrom.rom.lti import full_linear_system
     problem, dense, sub, k, C, B, x0, tail = shrunk_tail()
+    if path == "chebyshev":
+        monkeypatch.setattr(bounds, "TAIL_WORK", 0)
     table = tail_table(problem, C, x0, sub, tail, problem.scene.T)
     assert table is not None and table.values.shape[1] > 100
+    tk = np.arange(table.error.shape[1]) * table.h
+    v, s = np.abs(table.values), np.abs(table.slopes)
+    cubic = np.maximum(v[:, :-1], v[:, 1:]) + 0.25 * table.h * np.maximum(s[:, :-1], s[:, 1:])
+    assert np.all(table.error <= (np.outer(tail.free(), np.exp(-tail.alpha * tk)) + cubic) * (1 + 1e-9))
     A = full_linear_system(problem, [0.5]).A.toarray()
     S = sub.basis(np.arange(k))
     x_tail = x0 - S @ (S.T @ x0)

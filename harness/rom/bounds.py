@@ -40,8 +40,8 @@ Any N: above :data:`sphrom.rom.planes.DENSE_LIMIT` particles only the lowest pla
 eigensolver, K is banded) and the planes never computed (σ >= σ_cut) are bounded through norms, never formed:
 Σ |γ'||β'| / |λ| <= κ(σ_cut) ‖c_tail‖ ‖b_tail‖ / σ_cut and likewise for the free response and the quasi-static
 part, ‖c_tail‖ = ‖c - V Vᵀ c‖ over the computed planes.  Their free response from x0, input-independent, is
-computed instead where that is affordable (:func:`tail_table`: the full sparse system propagated from x0_tail into
-the free response's table, with a certified interpolation error).
+computed instead where that is affordable (:func:`tail_table`: the full sparse system propagated from x0_tail, or
+at larger N a Chebyshev expansion in K Kᵀ and Kᵀ K, into the free response's table with a certified error).
 
 Parametric models (uniform c and d, :mod:`.parametric`): the planes are affine in (c, d) about c_ref; the complement
 planes are stored and the C core (and :meth:`Shadow.at`) computes D, the gains and the decaying Hölder sums of the
@@ -64,6 +64,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.fft as sf
 import scipy.linalg as sla
 
 from ..sph.ports import port_kernel, port_velocity_rows
@@ -97,9 +98,11 @@ FMU_MAX_PARTICLES = 200000  # above this N the FMU carries no shadow
 N_SCALARS = 14              # columns of section SHSCAL
 TAIL_RESOLUTION = 0.5       # the uncomputed planes' free response computed: table spacing h ‖A‖ <= this
 TAIL_DECAY = 1e-4           # ... over the span in which their bound decays by this (e^{-α t}); beyond, their norms
-MAX_TAIL_NODES = 16384      # ... only where that takes at most this many nodes
-TAIL_WORK = 2e8             # ... and N x nodes at most this (the propagation: TAYLOR_TERMS products with A per node)
-TAYLOR_TERMS = 10           # e^{A h} x by its Taylor series to this power (h ‖A‖ <= TAIL_RESOLUTION)
+MAX_TAIL_NODES = 131072     # ... only where that takes at most this many nodes
+TAIL_WORK = 2e8             # ... by the full state's propagation where N x nodes is at most this (TAYLOR_TERMS
+TAYLOR_TERMS = 10           # products with A per node: e^{A h} x by its Taylor series to this power)
+CHEBYSHEV_WORK = 4e9        # ... else by a Chebyshev expansion where N x its degree is at most this
+TAIL_SHARE = 0.1            # ... as long as that one's certified error is below this share of the norm bound
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -405,16 +408,19 @@ class TailTable:
 
 
 def tail_table(problem, C, x0, planes, tail: Tail, T):
-    """The uncomputed planes' free response computed (:class:`TailTable`), or None where it would take more than
-    MAX_TAIL_NODES nodes or N x nodes above TAIL_WORK, or where the tail does not decay (d = 0).
+    """The uncomputed planes' free response computed (:class:`TailTable`), or None where the tail does not decay
+    (d = 0) or the table is not affordable: more than MAX_TAIL_NODES nodes, or above both work limits below.
 
     The span: until the tail's norm bound has decayed by TAIL_DECAY (ln(1/TAIL_DECAY) / α, at most TABLE_SPAN x T);
-    the spacing h <= TAIL_RESOLUTION / ‖A‖ (‖A‖_2 <= (‖A‖_1 ‖A‖_∞)^½, every mode |μ| <= it).  The state steps by
-    e^{A h} x = Σ_{j <= J} (A h)^j x / j! (J = TAYLOR_TERMS; the rest <= 2 a^{J+1} / (J+1)! ‖x‖, a = h ‖A‖), and
-    e^{A t} is a contraction in the energy norm (A + Aᵀ = -2 diag(d, 0)), so node k's state is within
-    k (rest + 1e-14) ‖x0_tail‖ of the exact one; the products c_rᵀ x (and c_rᵀ A x, the slopes) add 4 N ε
-    ‖c_r‖ ‖x0_tail‖, x0_tail's own round-off 1e-13 ‖c_r‖ ‖x0‖; the slopes' errors enter the interpolant times
-    h max(|h10| + |h11|) <= 0.3 h (0.15 ‖c_r‖ with h ‖Aᵀ c_r‖ <= a ‖c_r‖)."""
+    the spacing h <= TAIL_RESOLUTION / ‖A‖ (‖A‖_2 <= (‖A‖_1 ‖A‖_∞)^½, every mode |μ| <= it, so the Hermite cubic
+    between nodes is within (h ‖A‖)⁴ / 384 x the norm bound e^{-α t_k}).  Two ways to the nodes:
+
+    - N x nodes <= TAIL_WORK: the full state propagated (:func:`_taylor_nodes`), e^{A h} x by its Taylor series to
+      TAYLOR_TERMS, ten products with A per node; e^{A t} is a contraction in the energy norm, so its errors only add.
+    - else, N x the Chebyshev degree <= CHEBYSHEV_WORK and x0 unstrained (x0_tail = [x_v; 0], always so for the
+      SPH's x0): the response as a function of K Kᵀ and Kᵀ K (:func:`tail_free_chebyshev`), one product with K and
+      Kᵀ per half unit of t σ_max (1/20 of the Taylor propagation's) but whose round-off bound grows like Q^2.5 with
+      the degree Q: the table ends where its certified error reaches TAIL_SHARE of the norm bound."""
     if not tail.alpha > 0:
         return None
     n = problem.rho0.size
@@ -424,13 +430,52 @@ def tail_table(problem, C, x0, planes, tail: Tail, T):
     a_norm = math.sqrt(float(abs(A).sum(axis=0).max()) * float(abs(A).sum(axis=1).max())) * (1 + 1e-12)
     span = min(TABLE_SPAN * float(T), math.log(1.0 / TAIL_DECAY) / tail.alpha)
     nodes = int(math.ceil(span * a_norm / TAIL_RESOLUTION)) + 1
-    if nodes > MAX_TAIL_NODES or n * nodes > TAIL_WORK:
+    K = coupling(problem)
+    mu_max = 2.0 ** math.ceil(math.log2(float(abs(K).sum(axis=0).max()) * float(abs(K).sum(axis=1).max())
+                                        * (1 + 1e-12)))
+    taylor = n * nodes <= TAIL_WORK
+    if nodes > MAX_TAIL_NODES or not (taylor or n * chebyshev_degree(span, mu_max) <= CHEBYSHEV_WORK):
+        return None
+    S = planes.basis(np.arange(planes.count))
+    x = np.asarray(x0, float) - S @ (S.T @ np.asarray(x0, float))
+    if not taylor and np.any(x[n:]):
         return None
     h = span / (nodes - 1)
     a = h * a_norm
-    S = planes.basis(np.arange(planes.count))
-    x = np.asarray(x0, float) - S @ (S.T @ np.asarray(x0, float))
     C = np.asarray(C, float)
+    cn = np.linalg.norm(C, axis=1)
+    times = np.arange(nodes) * h
+    bound = np.outer(tail.free(), np.exp(-tail.alpha * times))              # the norm bound at the nodes
+    if taylor:
+        values, slopes, ev, es = _taylor_nodes(A, C, x, nodes, h, a, float(tail.x0_norm))
+    else:
+        values, slopes, ev, es = tail_free_chebyshev(K, C, x[:n], times, 2.0 * tail.alpha, mu_max, tail.free(),
+                                                     tail.alpha)
+    ev = ev + 1e-13 * np.outer(cn, np.full(nodes, np.linalg.norm(x0)))      # x0_tail's own round-off
+    # the Chebyshev table ends where no row's computed error is below TAIL_SHARE of its norm bound (its round-off
+    # bound grows with t); on each interval the smaller of its error and |g| + |cubic| <= the norm bound + the cubic's
+    # size (each row past its own share: no worse than the norm bound by more than its computed response)
+    within = np.any((ev <= TAIL_SHARE * bound) & (h * es <= TAIL_SHARE * bound), axis=0)
+    last = nodes - 1 if taylor or np.all(within) else int(np.argmin(within)) - 1
+    if last < 1:
+        return None
+    k = last + 1
+    err = bound[:, :k - 1] * (a ** 4 / 384.0) + np.maximum(ev[:, :k - 1], ev[:, 1:k]) \
+        + 0.25 * h * np.maximum(es[:, :k - 1], es[:, 1:k])
+    cubic = np.maximum(np.abs(values[:, :k - 1]), np.abs(values[:, 1:k])) \
+        + 0.25 * h * np.maximum(np.abs(slopes[:, :k - 1]), np.abs(slopes[:, 1:k]))
+    err = np.minimum(err, (bound[:, :k - 1] + cubic) * (1 + 1e-12))
+    return TailTable(h=h, t_end=last * h, values=values[:, :k], slopes=slopes[:, :k], error=err, a_norm=a_norm,
+                     seconds=time.perf_counter() - t0)
+
+
+def _taylor_nodes(A, C, x, nodes, h, a, x_norm):
+    """c_rᵀ x and c_rᵀ A x at the nodes t_k = k h from x (:func:`tail_table`), e^{A h} x = Σ_{j <= J} (A h)^j x / j!
+    (J = TAYLOR_TERMS; the rest <= 2 a^{J+1} / (J+1)! ‖x‖, a = h ‖A‖), with their errors: node k's state is within
+    k (rest + 1e-14) ‖x0_tail‖ of the exact one (e^{A t} a contraction in the energy norm, A + Aᵀ = -2 diag(d, 0)),
+    the products c_rᵀ x add 4 N ε ‖c_r‖ ‖x0_tail‖; a slope's error (h ‖Aᵀ c_r‖ <= a ‖c_r‖) is at most the value's
+    x 0.6 / h.  Returns (values, slopes, value errors, slope errors), each (rows, nodes)."""
+    n = x.size // 2
     rows = C.shape[0]
     values, slopes = np.zeros((rows, nodes)), np.zeros((rows, nodes))
     for k in range(nodes):
@@ -447,15 +492,193 @@ def tail_table(problem, C, x0, planes, tail: Tail, T):
         x = y
     rest = 2.0 * a ** (TAYLOR_TERMS + 1) / math.factorial(TAYLOR_TERMS + 1)
     eps = np.finfo(float).eps
-    xt = float(tail.x0_norm)
     cn = np.linalg.norm(C, axis=1)
-    k = np.arange(1, nodes)                                   # interval k - 1 ends at node k: its errors
-    prop = (k * (rest + 1e-14) + 4 * n * eps) * xt
-    alloc = np.outer(cn, 1.15 * prop) + 1e-13 * np.outer(cn, np.full(k.size, np.linalg.norm(x0)))
-    tk = np.arange(nodes - 1) * h
-    interp = np.outer(tail.free(), np.exp(-tail.alpha * tk)) * (a ** 4 / 384.0)
-    return TailTable(h=h, t_end=(nodes - 1) * h, values=values, slopes=slopes, error=interp + alloc, a_norm=a_norm,
-                     seconds=time.perf_counter() - t0)
+    prop = (np.arange(nodes) * (rest + 1e-14) + 4 * n * eps) * x_norm
+    ev = np.outer(cn, prop)
+    return values, slopes, ev, ev * (0.6 / h)
+
+
+def chebyshev_degree(t, mu_max):
+    """The Chebyshev degree (in K Kᵀ) that resolves the free response up to time t [s]: the expansion of
+    cos(t σ) in T_2j(σ / σ_max) has its coefficients (Bessel functions J_2j(t σ_max)) negligible beyond
+    2j ~ t σ_max; a margin of 8 % + 64."""
+    return int(math.ceil(1.08 * t * math.sqrt(mu_max) / 2.0 + 64))
+
+
+def _plane_functions(lam, t, d):
+    """F_t, F_t', G_t (G_t' = F_t) at the points lam (Q,) of the spectrum of K Kᵀ and the times t (B,): a plane of
+    σ² = λ started at [η; 0] has v(t) = F_t(λ) η and e(t) = -σ G_t(λ) η (e^{Λt}, Λ = [[-d, σ], [-σ, 0]]):
+    F = e^{-dt/2} [cos w t - (d/2) sin(w t) / w], G = e^{-dt/2} sin(w t) / w, F' = e^{-dt/2} [-d cos w t +
+    (d²/2 - λ) sin(w t) / w], w = (λ - d²/4)^½ (cosh, sinh where λ < d²/4).  Returns three (Q, B) arrays."""
+    z = lam - d * d / 4.0
+    t = np.asarray(t, float)
+    F, Fp, G = (np.empty((lam.size, t.size)) for _ in range(3))
+    e = np.exp(-0.5 * d * t)[None, :]
+    osc = z > 0
+    if np.any(osc):
+        w = np.sqrt(z[osc])[:, None]
+        arg = w * t[None, :]
+        c, sn = np.cos(arg), np.sin(arg) / w
+        F[osc] = e * (c - 0.5 * d * sn)
+        G[osc] = e * sn
+        Fp[osc] = e * (-d * c + (0.5 * d * d - lam[osc, None]) * sn)
+    if not np.all(osc):                       # w = iκ, κ <= d/2: e^{-dt/2} cosh κt, e^{-dt/2} sinh(κt)/κ, no overflow
+        k = np.sqrt(-z[~osc])[:, None]
+        tt = t[None, :]
+        up, down = np.exp((k - 0.5 * d) * tt), np.exp(-(k + 0.5 * d) * tt)
+        c = 0.5 * (up + down)
+        small = k * tt < 1e-3
+        with np.errstate(invalid="ignore", divide="ignore"):
+            sn = np.where(small, tt * e * (1.0 + (k * tt) ** 2 / 6.0), 0.5 * (up - down) / np.where(small, 1.0, k))
+        F[~osc] = c - 0.5 * d * sn
+        G[~osc] = sn
+        Fp[~osc] = -d * c + (0.5 * d * d - lam[~osc, None]) * sn
+    return F, Fp, G
+
+
+def _truncation(t, Q, mu_max, d):
+    """(3, B) bounds of max over [0, mu_max] of |f - p| for f = F_t, F_t', G_t and p its Chebyshev interpolant of
+    degree Q - 1 in λ (Q points): in σ = λ^½ the λ-coefficients are the even σ-coefficients (T_j(2σ²/σ_m² - 1) =
+    T_2j(σ / σ_m)), on the Bernstein ellipse E_r of [-σ_m, σ_m] |Im σ| <= σ_m sinh u (r = e^u) and
+    |Im (σ² - d²/4)^½| <= |Im σ| + d/2, |λ| <= σ_m² cosh² u, so |F| <= (1 + dt/2) e^{t σ_m sinh u},
+    |G| <= t e^{...}, |F'| <= (d + (σ_m² cosh² u + d²/2) t) e^{...}; the interpolant's error <= 2 Σ_{j>=Q} |a_j|
+    <= 4 M r^{-2Q} / (1 - r^{-2}), the best of a grid of u."""
+    sm = math.sqrt(mu_max)
+    tt = np.asarray(t, float)[None, :]
+    ratio = max(2.0 * Q / max(float(np.max(t)) * sm, 1e-300), 1.0 + 1e-9)
+    u = np.unique(np.concatenate([np.geomspace(1e-6, 3.0, 96), [math.acosh(ratio)]]))[:, None]
+    base = tt * sm * np.sinh(u) - 2.0 * Q * u - np.log1p(-np.exp(-2.0 * u)) + math.log(4.0)
+    log_m = (np.log1p(0.5 * d * tt) + 0 * u,                                          # F
+             np.log(d + (mu_max * np.cosh(u) ** 2 + 0.5 * d * d) * tt + 1e-300),      # F'
+             np.log(np.maximum(tt, 1e-300)) + 0 * u)                                   # G
+    out = np.zeros((3, tt.shape[1]))
+    for i, lm in enumerate(log_m):
+        out[i] = np.exp(np.min(lm + base, axis=0))
+    return out
+
+
+def _moments(apply, start, W, mu_max, Qmax, local, stop):
+    """The Chebyshev moments μ_j = W T_j(H) start (H = 2 M / mu_max - 1, ``apply`` y -> M y in two sparse products)
+    for j < Qmax, or fewer where ``stop(j, ‖E_j‖ bound)`` says so: (moments (rows, Q), ‖E_j‖ bounds (Q,), ‖ŷ_j‖ (Q,)).
+    The recurrence's round-off: ‖δ_j‖ <= local (‖ŷ_j‖ + ‖ŷ_{j-1}‖) per step, propagated by U_{j-i-1}(H)
+    (‖U_n(H)‖ <= n + 1): ‖E_j‖ <= Σ_i (j - i) ‖δ_i‖ (:func:`tail_free_chebyshev`)."""
+    mom = np.zeros((W.shape[0], Qmax))
+    Eb = np.zeros(Qmax)
+    ynorm = np.zeros(Qmax)
+    c1, c0 = 4.0 / mu_max, 2.0 / mu_max
+    y_prev = start
+    mom[:, 0] = W @ y_prev
+    ynorm[0] = float(np.linalg.norm(start)) * (1 + 1e-10)
+    D = total = 0.0
+    y = None
+    for j in range(1, Qmax):
+        if j == 1:
+            y_new = c0 * apply(y_prev) - y_prev
+            delta = local * ynorm[0]
+        else:
+            y_new = c1 * apply(y) - 2.0 * y - y_prev
+            delta = local * (ynorm[j - 1] + ynorm[j - 2])
+            y_prev = y
+        y = y_new
+        D += delta
+        total += D
+        Eb[j] = total
+        ynorm[j] = float(np.linalg.norm(y)) * (1 + 1e-10)
+        mom[:, j] = W @ y
+        if j % 512 == 0 and stop(j, total):
+            return mom[:, :j + 1], Eb[:j + 1], ynorm[:j + 1]
+    return mom, Eb, ynorm
+
+
+def tail_free_chebyshev(K, C, xv, times, d, mu_max, free_bound, alpha):
+    """g_r(t) = c_rᵀ e^{A t} [xv; 0] at ``times`` for a uniform damping d, and its slopes, with their certified
+    errors: (values, slopes, value errors, slope errors), each (rows, nodes).
+
+    Per singular plane (σ; [u; 0], [0; u_e]) the state from [η; 0] is [F_t(σ²) η; -σ G_t(σ²) η] (:func:`_plane_functions`),
+    and σ u_e = Kᵀ u, so g_r = c_v,rᵀ F_t(K Kᵀ) xv - c_e,rᵀ G_t(Kᵀ K) Kᵀ xv: two sides, each a function of one
+    symmetric matrix M (K Kᵀ on xv, Kᵀ K on z = Kᵀ xv).  With H = 2 M / mu_max - 1 (spectrum in [-1, 1], mu_max >=
+    ‖K‖_1 ‖K‖_∞ a power of 2: exact scalings) the moments μ_j = W T_j(H) y0 (W: the rows' parts) come from the
+    three-term recurrence (:func:`_moments`); in blocks of nodes, the degree Q - 1 interpolant of f_t at Q Chebyshev
+    points λ_q gives wᵀ p(H) y0 = Σ_q f_t(λ_q) m_q, m = DCT-III(μ) / Q.  Errors: the interpolant's
+    (:func:`_truncation`, times ‖w‖ ‖y0‖); the recurrence's round-off ‖E_j‖, entering g times Σ_j |ĉ_j| <= (2 Q)^½
+    max_q |f_t(λ_q)| (the interpolant's discrete orthogonality) and ‖w‖; the dot products (N ε ‖w‖ ‖ŷ_j‖), the
+    functions' evaluation, the DCT and z's own round-off as allowances."""
+    n = xv.size
+    rows = C.shape[0]
+    Kc = K.tocsr()
+    KT = K.T.tocsr()
+    nr = int(np.diff(Kc.indptr).max()) if Kc.nnz else 0
+    nc = int(np.diff(KT.indptr).max()) if KT.nnz else 0
+    eps = np.finfo(float).eps
+    local = (4.0 * (nr + nc + 2) + 12.0) * eps * 1.01                      # ‖δ_i‖ <= local (‖ŷ_i‖ + ‖ŷ_{i-1}‖)
+    sm = math.sqrt(mu_max)
+    Qmax = chebyshev_degree(float(times[-1]), mu_max)
+
+    def t_of(Q):                                                             # the time degree Q resolves
+        return max(0.0, (Q - 64) * 2.0 / (1.08 * sm))
+    values = np.zeros((rows, times.size))
+    slopes = np.zeros((rows, times.size))
+    ev = np.zeros((rows, times.size))
+    es = np.zeros((rows, times.size))
+    z = KT @ xv
+    sides = (("v", lambda y: Kc @ (KT @ y), np.ascontiguousarray(C[:, :n]), xv),
+             ("e", lambda y: KT @ (Kc @ y), np.ascontiguousarray(C[:, n:]), z))
+    for side, apply, W, y0 in sides:
+        wn = np.linalg.norm(W, axis=1)
+        if not np.any(wn) or not np.any(y0):
+            continue
+        yn = float(np.linalg.norm(y0))
+
+        def stop(j, total):                    # the moments' error already above the norm bound's share: stop
+            t = t_of(j + 1)
+            theta = np.pi * (np.arange(j + 1) + 0.5) / (j + 1)
+            F, _, G = _plane_functions(mu_max * np.cos(0.5 * theta) ** 2, np.array([t]), d)
+            fmax = float(np.abs(F if side == "v" else G).max())
+            on = wn > 0
+            return bool(np.all(math.sqrt(2.0 * (j + 1)) * fmax * wn[on] * total
+                               > TAIL_SHARE * free_bound[on] * math.exp(-alpha * t)))
+        on = wn > 0
+        mom_on, Eb, ynorm = _moments(apply, y0, W[on], mu_max, Qmax, local, stop)
+        mom = np.zeros((rows, mom_on.shape[1]))
+        mom[on] = mom_on
+        reached = mom.shape[1]
+        dot = n * eps * 1.01 * ynorm                                         # per unit ‖w‖: the dot products
+        a = 0
+        while a < times.size:
+            need = chebyshev_degree(float(times[min(a + 7, times.size - 1)]), mu_max)
+            block = max(8, min(256, int(2e6 / need)))
+            tb = times[a:a + block]
+            need = chebyshev_degree(float(tb[-1]), mu_max)
+            if need > reached:                                               # beyond the moments computed
+                ev[wn > 0, a:], es[wn > 0, a:] = np.inf, np.inf
+                break
+            Q = need
+            m = sf.dct(mom[:, :Q], type=3, axis=1) / Q
+            theta = np.pi * (np.arange(Q) + 0.5) / Q
+            lam = mu_max * np.cos(0.5 * theta) ** 2                          # (1 + cos θ) / 2, no cancellation
+            F, Fp, G = _plane_functions(lam, tb, d)
+            tr = _truncation(tb, Q, mu_max, d)                               # (F, F', G)
+            # v side: value F, slope F'; e side: value -G, slope -F (G' = F)
+            fv, fs, tv, ts = (F, Fp, tr[0], tr[1]) if side == "v" else (G, F, tr[2], tr[0])
+            sign = 1.0 if side == "v" else -1.0
+            values[:, a:a + tb.size] += sign * (m @ fv)
+            slopes[:, a:a + tb.size] += sign * (m @ fs)
+            mom_err = math.sqrt(2.0 * Q) * (float(Eb[:Q].max()) + float(dot[:Q].max()))
+            # evaluation: f_t(λ_q) to 64 (2 + t σ_m) (1 + d t) ε of its terms, the sums over q (Q ε), the DCT
+            # (10 log2 Q ε, normwise); F' has terms of O(σ_m)
+            ea = 64.0 * eps * (2.0 + tb * sm) * (1.0 + d * tb) + Q * eps
+            dct = 10.0 * math.log2(max(Q, 2)) * eps * math.sqrt(Q)
+            s1, s2 = np.abs(m).sum(axis=1), np.linalg.norm(m, axis=1)
+            for out, fn, trunc, scale in ((ev, fv, tv, 1.0), (es, fs, ts, 1.0 + d + 2.0 * sm if side == "v" else 1.0)):
+                fmax = np.abs(fn).max(axis=0)
+                out[:, a:a + tb.size] += np.outer(wn, trunc * yn + mom_err * fmax) + np.outer(
+                    s1, ea * scale * (1.0 + fmax)) + np.outer(s2, dct * fmax)
+            a += tb.size
+    # z = Kᵀ xv is itself rounded: <= (n_c + 1) ε σ_m ‖xv‖, times ‖c_e‖ and |G| <= t (values), |F| <= 1 + dt (slopes)
+    zr = (nc + 1) * eps * 1.01 * sm * float(np.linalg.norm(xv)) * np.linalg.norm(C[:, n:], axis=1)
+    ev += np.outer(zr, times)
+    es += np.outer(zr, 1.0 + d * times)
+    return values, slopes, ev, es
 
 
 def tail_of(planes, C, Bcols, x0, d, K=None):
@@ -810,7 +1033,8 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
 
 
 def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, force=None, T=None,
-                 target=SHADOW_TARGET, order=None, max_planes=MAX_PLANES, port_inputs=True, count=None):
+                 target=SHADOW_TARGET, order=None, max_planes=MAX_PLANES, port_inputs=True, count=None,
+                 tail_response=True):
     """The certified shadow of the FMUs of ``problem`` at ``probes`` (and ``ports``) (module docstring).
 
     Parameters
@@ -839,6 +1063,9 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
         :mod:`sphrom.rom.port_channel`: f alone; the port rows stay).
     count : int, optional
         Planes to compute above DENSE_LIMIT particles (default :data:`SPARSE_PLANES`).
+    tail_response : bool
+        Compute the uncomputed planes' free response from x0 where affordable (:func:`tail_table`); False: bound it
+        through norms alone (the bench's reference model at large N).
 
     Returns
     -------
@@ -867,7 +1094,7 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
             planes = decompose(problem, parametric=parametric, count=more)
             tail = tail_of(planes, C, Bcols, x0, float(d[0]), K=K)
     t_planes = time.perf_counter() - t_start
-    if tail is not None and K is not None and np.any(x0):
+    if tail is not None and K is not None and np.any(x0) and tail_response:
         # the initial state's uncomputed planes: their free response computed where the full system's propagation
         # over the span in which their norm bound matters is affordable (tail_table), else bounded by norms
         tail.exact = tail_table(problem, C, x0, planes, tail, T)
