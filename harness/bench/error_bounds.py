@@ -600,7 +600,7 @@ def measure_large(sizes, folder, probes, repeats, progress=True, package_limit=P
     initial state under the chirp, held) against :func:`sphrom.rom.reference.exact_probe_reference` (one case of
     :mod:`sphrom.rom.truth`: a Taylor series of the sparse operator above 500 particles): violations and
     effectivities.  Above ``package_limit`` particles no FMU (:func:`shadow_row`)."""
-    from ..fmu.make.build import ensure_binaries
+    from ..fmu.make.build import ensure_binaries, fmu_binaries
     from ..fmu.make.package import package_fmu
     from ..rom.bounds import build_shadow
     from ..rom.reference import exact_probe_reference
@@ -620,6 +620,7 @@ def measure_large(sizes, folder, probes, repeats, progress=True, package_limit=P
         path = Path(folder) / f"large-{n}.fmu"
         binaries = ensure_binaries(quiet=True)      # (built once per cache: not the packaging's time)
         with _empty_cache(Path(folder) / f"cache-{n}"):   # the SPH training run is part of the time, never cached
+            fmu_binaries(binaries, quiet=True)      # ... the cross-compiled ones neither (win64: built per cache)
             t0 = time.perf_counter()
             s = package_fmu(scene, path, model="exact", fmi=2, progress=progress, binaries=binaries,
                             problem=problem, bounds=False)
