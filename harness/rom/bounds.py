@@ -87,6 +87,9 @@ MAX_NODES = 4096            # its nodes at most
 NODE_RESOLUTION = 0.1       # its spacing h: |μ| h <= this for every mode that matters (within MAX_NODES)
 INTERPOLATED = 3.7          # a mode with |μ| h above this counts by its size, not interpolated ((3.7)^4/384 = 0.49)
 PLATEAU = 2.0               # no cut meets the target: the smallest within this factor of the largest cut's value
+MODEL_FRACTION = 0.5        # a channel's complement may reach this x the model's own error on it (choose_planes)
+REFERENCE_STEPS = 2000      # the reference runs' held steps over T (reference_responses, the model's runs)
+FREE_SAMPLES = 4000         # the initial state's free response: intervals over TABLE_SPAN x T (choose_planes)
 N_BLOCKS = 256              # its error bounds: one per block of intervals
 MAX_GROUPS = 4              # decay-rate groups of the complement's transient
 REFERENCE_SPAN = 20.0       # the reference sine's run: this x T (its weighted variation)
@@ -682,22 +685,25 @@ def decompose(problem, parametric=False, count=None):
     return eigen_planes(problem)
 
 
-def reference_responses(L, chat, bhat, T, omega):
+def reference_responses(L, chat, bhat, T, omega, series=False):
     """(step (rows, m), sine (rows, m)): the largest |y_r| of the response to a unit step and to a unit sine of
-    ``omega`` [s^-1] on input j over [0, T] (held at T / 2000; every computed plane, exact in time), the channel
-    scales of :func:`choose_planes`."""
+    ``omega`` [s^-1] on input j over [0, T] (held over REFERENCE_STEPS steps; every computed plane, exact in
+    time), the channel scales of :func:`choose_planes`.  ``series``: also the responses themselves, a list per
+    reference input of (rows, m, REFERENCE_STEPS) arrays, y after each step (what a model's own runs are
+    compared with, :func:`model_errors`)."""
     n, m = L.shape[0], bhat.shape[2]
     rows = chat.shape[0]
-    steps = 2000
+    steps = REFERENCE_STEPS
     h = T / steps
     t = np.arange(steps) * h
-    out = []
+    out, runs = [], []
     for u in (np.ones(steps), np.sin(omega * t)):
         M = np.zeros((n, 4, 4))
         M[:, :2, :2] = L * h
         M[:, 3, 3] = 0.0
         M[:, 2, 3] = 0.0
         res = np.zeros((rows, m))
+        ys = np.zeros((rows, m, steps)) if series else None
         for j in range(m):
             M[:, :2, 2] = bhat[:, :, j] * h
             E = sla.expm(M)
@@ -706,10 +712,68 @@ def reference_responses(L, chat, bhat, T, omega):
             peak = np.zeros(rows)
             for k in range(steps):
                 z = np.einsum("nij,nj->ni", Phi, z) + g0 * u[k]
-                peak = np.maximum(peak, np.abs(np.einsum("rni,ni->r", chat, z)))
+                y = np.einsum("rni,ni->r", chat, z)
+                peak = np.maximum(peak, np.abs(y))
+                if series:
+                    ys[:, j, k] = y
             res[:, j] = peak
         out.append(res)
-    return out[0], out[1]
+        runs.append(ys)
+    return (out[0], out[1], runs) if series else (out[0], out[1])
+
+
+def reference_omega(planes):
+    """The reference sine's angular frequency [s^-1]: half the first elastic frequency (:func:`choose_planes`)."""
+    L = planes.blocks[0]
+    key = planes.key
+    # the first elastic frequency: the slowest plane that oscillates (σ of a singular plane [[-d, σ], [-σ, 0]], ω of a
+    # complex pair [[-α, ω], [-ω, -α]]); a plane of real modes (the rigid motion decaying at a damping that varies
+    # along the bar, |λ| ~ d) does not, and taking its |λ| put the reference sine near 0 Hz
+    freq = 0.5 * np.abs(L[:, 0, 1] - L[:, 1, 0])
+    elastic = freq[freq > 1e-9 * max(float(freq.max(initial=0.0)), 1e-300)]
+    if not elastic.size:                                       # (a parametric shadow's constant piece): the key
+        elastic = key[key > 1e-9 * max(float(key[-1]), 1e-300)]
+    return 0.5 * float(elastic.min()) if elastic.size else 1.0
+
+
+def model_errors(model_runs, truth_step, truth_sine, truth_free, omega, T, P, pw, prho0, strain=1e-4):
+    """The model's own error on the reference inputs, per shadow row (NaN where not measured): (step (rows, m),
+    sine (rows, m), free (rows,)), from ``model_runs(h, f, scale)`` -> (v (steps, P), ρ (steps, P)), the model's
+    probe outputs after each of len(f) steps of h [s] under the force f held over each step [m s^-2], from rest
+    (scale 0) or from its initial state (scale 1; then with the outputs at t = 0 first).  The truth: the full
+    linear SPH's series of :func:`reference_responses` (unit inputs) and the free response ``truth_free`` (rows,
+    FREE_SAMPLES + 1) over TABLE_SPAN x T.  Velocity rows: |v_model - v_true|; the two e rows of a probe: its
+    density's error over Σ_m pw_m ρ0_m (dρ/de at e = 0); port rows and port inputs: NaN (sized by the target
+    alone).  The force channel only (input 0), its reference inputs scaled down where the truth's largest |e| under
+    a unit input passes ``strain`` (a model whose density is not linear in e, the frozen one, is compared where the
+    truth's linearity in J and its own agree), the errors per unit input."""
+    rows, m, steps = truth_step.shape
+    step_e = np.full((rows, m), np.nan)
+    sine_e = np.full((rows, m), np.nan)
+    free_e = np.full(rows, np.nan)
+    rho_scale = (pw * prho0).sum(axis=1)                        # (P,)
+
+    def errors(v, rho, y):
+        """per row: the largest error of the model's (v, ρ) (M, P) against the truth's rows y (rows, M)"""
+        out = np.full(rows, np.nan)
+        out[:P] = np.abs(v - y[:P].T).max(axis=0)
+        for j in range(P):
+            e = y[P + 2 * j:P + 2 * j + 2].T                     # (M, 2)
+            rho_t = (pw[j] * prho0[j] / (1.0 + e)).sum(axis=1)
+            out[P + 2 * j:P + 2 * j + 2] = np.abs(rho[:, j] - rho_t).max() / rho_scale[j]
+        return out
+
+    h = T / steps
+    t = np.arange(steps) * h
+    for f, truth, into in ((np.ones(steps), truth_step, step_e), (np.sin(omega * t), truth_sine, sine_e)):
+        top = float(np.max(np.abs(truth[P:3 * P, 0, :]), initial=0.0))
+        a = min(1.0, strain / top) if top > 0 else 1.0
+        v, rho = model_runs(h, a * f, 0.0)
+        into[:, 0] = errors(np.asarray(v), np.asarray(rho), a * truth[:, 0, :]) / a
+    n_free = truth_free.shape[1] - 1
+    v, rho = model_runs(TABLE_SPAN * T / n_free, np.zeros(n_free), 1.0)
+    free_e[:] = errors(np.asarray(v), np.asarray(rho), truth_free)
+    return step_e, sine_e, free_e
 
 
 def _row_classes(P, n_ports):
@@ -721,43 +785,72 @@ def _row_classes(P, n_ports):
 
 
 def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *, target=SHADOW_TARGET,
-                  max_planes=MAX_PLANES, at_least=1, table=True):
-    """The smallest number of planes (a gap cut, >= ``at_least``) whose certified complement stays below
-    ``target`` of each channel's response (module docstring): per input j, a unit step (the transient's gains,
-    its variation 1) and a unit sine at half the first elastic frequency over REFERENCE_SPAN x T (the gains times
-    its weighted variation ω min(span, 1/α) + 1, plus the quasi-static tail), each against the largest response
-    of its row class; the initial state: its free response table's error at t = 0 (``table``; else, a parametric
-    shadow's, the complement's Hölder sum) against the largest free response.  Returns (planes, criterion value
-    per cut, the responses)."""
-    L = planes.blocks[0]
+                  max_planes=MAX_PLANES, at_least=1, table=True, model_runs=None, pw=None, prho0=None):
+    """The smallest number of planes (a gap cut, >= ``at_least``) whose certified complement stays below each
+    channel's allowance (module docstring): per input j, a unit step (the transient's gains, its variation 1) and a
+    unit sine at half the first elastic frequency over REFERENCE_SPAN x T (the gains times its weighted variation
+    ω min(span, 1/α) + 1, plus the quasi-static tail), each against the largest response of its row class; the
+    initial state: its free response table's error at t = 0 (``table``; else, a parametric shadow's, the
+    complement's Hölder sum) against the largest free response.
+
+    A channel's allowance is ``target`` x its response, or, where the model's own error on that reference input is
+    known (``model_runs``, :func:`model_errors`) and larger, MODEL_FRACTION x that error: the bound is at most the
+    error plus twice the complement's, so its effectivity on the reference inputs stays below 1 + 2 MODEL_FRACTION,
+    and a more accurate model gets at least as many planes.  Returns (planes, criterion value per cut (the
+    complement against the responses), the responses and, under "excess", the largest complement / allowance of
+    each cut tried)."""
     n = planes.count
     rows, m = chat.shape[0], bhat.shape[2]
     key = planes.key
-    # the first elastic frequency: the slowest plane that oscillates (σ of a singular plane [[-d, σ], [-σ, 0]], ω of a
-    # complex pair [[-α, ω], [-ω, -α]]); a plane of real modes (the rigid motion decaying at a damping that varies
-    # along the bar, |λ| ~ d) does not, and taking its |λ| put the reference sine near 0 Hz
-    freq = 0.5 * np.abs(L[:, 0, 1] - L[:, 1, 0])
-    elastic = freq[freq > 1e-9 * max(float(freq.max(initial=0.0)), 1e-300)]
-    if not elastic.size:                                       # (a parametric shadow's constant piece): the key
-        elastic = key[key > 1e-9 * max(float(key[-1]), 1e-300)]
-    omega = 0.5 * float(elastic.min()) if elastic.size else 1.0
-    step_r, sine_r = reference_responses(L, chat, bhat, T, omega)
+    L = planes.blocks[0]
+    omega = reference_omega(planes)
+    if model_runs is not None:
+        step_r, sine_r, runs = reference_responses(L, chat, bhat, T, omega, series=True)
+    else:
+        step_r, sine_r = reference_responses(L, chat, bhat, T, omega)
     classes = _row_classes(P, n_ports)
     span = REFERENCE_SPAN * T
-    t = np.linspace(0.0, TABLE_SPAN * T, 4001)
+    t = np.linspace(0.0, TABLE_SPAN * T, FREE_SAMPLES + 1)
     mg = mode_gains(modes_all)                                 # (rows, M, m)
     free_all = np.real(modes_all.P @ np.exp(np.outer(modes_all.mu, t)))   # the whole free response (all modes)
     free_scale = np.abs(free_all).max(axis=1)
     big = [max(float(step_r[cls].max()), float(sine_r[cls].max()), float(free_scale[cls].max()) if np.any(eta)
                else 0.0) for cls in classes]             # a channel this far below a class's largest: not judged
+    step_e = sine_e = free_e = None
+    model_info = None
+    if model_runs is not None:
+        try:
+            step_e, sine_e, free_e = model_errors(model_runs, runs[0], runs[1], free_all, omega, T, P, pw, prho0)
+            if not (np.all(np.isfinite(step_e[:3 * P, 0])) and np.all(np.isfinite(free_e[:3 * P]))):
+                raise ValueError("the model's reference runs are not finite")
+            model_info = {"step": float(np.nanmax(step_e[:P, 0])), "sine": float(np.nanmax(sine_e[:P, 0])),
+                          "free": float(np.nanmax(free_e[:P]))}
+        except Exception as exc:                               # (a model the core cannot run so): the target alone
+            step_e = sine_e = free_e = None
+            model_info = {"failed": str(exc).splitlines()[0] if str(exc) else type(exc).__name__}
     cuts = [c for c in gap_cuts(key) if at_least <= c <= min(max_planes, n)]
     if not cuts:
         cuts = [min(n, max(at_least, 1))]
 
+    def allowance(scale, err):
+        """the complement a channel may have: target x its response, or MODEL_FRACTION x the model's error on it"""
+        if err is None or not np.isfinite(err):
+            return target * scale
+        return max(target * scale, MODEL_FRACTION * float(err))
+
     def value(k):
+        """(the largest complement / response over the channels, the largest complement / allowance)"""
         rest = modes_all.plane >= k
         tl = tail_fn()
-        worst = 0.0
+        worst, excess = 0.0, 0.0
+
+        def judge(val, cls, scale, err):
+            nonlocal worst, excess
+            for r in cls:
+                allowed = allowance(scale, None if err is None else err[r])
+                excess = max(excess, float(val[r]) / allowed if allowed > 0 else np.inf)
+            worst = max(worst, float(val[cls].max()) / scale)
+
         for j in range(m):
             g = mg[:, rest, j]
             trans = g.sum(axis=1)
@@ -770,9 +863,10 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
                 vt = omega * min(span, 1.0 / tl.alpha if tl.alpha > 0 else np.inf) + 1.0
                 sine = sine + extra * vt + tl.static()[:, j]
             for c, cls in enumerate(classes):
-                for val, scale in ((trans, step_r[cls, j].max()), (sine, sine_r[cls, j].max())):
+                for val, scale, err in ((trans, step_r[cls, j].max(), None if step_e is None else step_e[:, j]),
+                                        (sine, sine_r[cls, j].max(), None if sine_e is None else sine_e[:, j])):
                     if scale > FLOOR * big[c]:
-                        worst = max(worst, float(val[cls].max()) / scale)
+                        judge(val, cls, scale, err)
         if np.any(eta):                                        # the free response table's error at t = 0
             h_tab = table_step(_select(modes_all, rest), T, tl.alpha if tl is not None else None)[1]
             size = np.abs(modes_all.P[:, rest])
@@ -785,32 +879,38 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
             for c, cls in enumerate(classes):
                 scale = free_scale[cls].max()
                 if scale > FLOOR * big[c]:
-                    worst = max(worst, float(err[cls].max()) / scale)
-        return worst
+                    judge(err, cls, scale, free_e)
+        return worst, excess
 
-    values = {}
+    values, excesses = {}, {}
+
+    def at(k):
+        if k not in values:
+            values[k], excesses[k] = value(k)
+        return excesses[k]
+
     lo, hi = 0, len(cuts) - 1
-    best = values.setdefault(cuts[hi], value(cuts[hi]))
-    reached = best <= target
-    if not reached:                                            # the target is out of reach: where it levels off
-        target = PLATEAU * best
-    if value(cuts[0]) <= target:
+    best = at(cuts[hi])
+    reached = best <= 1.0
+    limit = 1.0 if reached else PLATEAU * best                 # out of reach: where it levels off
+    if at(cuts[0]) <= limit:
         chosen = cuts[0]
     else:
         while lo < hi:                                         # bisection: the criterion falls with k
             mid = (lo + hi) // 2
-            v = values.setdefault(cuts[mid], value(cuts[mid]))
-            if v <= target:
+            if at(cuts[mid]) <= limit:
                 hi = mid
             else:
                 lo = mid + 1
         chosen = cuts[lo]
-    values.setdefault(chosen, value(chosen))
-    return chosen, values, {"omega_ref": omega, "reached": bool(reached), "plateau": float(best)}
+    at(chosen)
+    return chosen, values, {"omega_ref": omega, "reached": bool(reached), "plateau": float(values[cuts[-1]]),
+                            "excess": {int(k): float(v) for k, v in excesses.items()}, "model_error": model_info}
 
 
 def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, force=None, T=None,
-                 target=SHADOW_TARGET, order=None, max_planes=MAX_PLANES, port_inputs=True, count=None):
+                 target=SHADOW_TARGET, order=None, max_planes=MAX_PLANES, port_inputs=True, count=None,
+                 model_runs=None):
     """The certified shadow of the FMUs of ``problem`` at ``probes`` (and ``ports``) (module docstring).
 
     Parameters
@@ -839,6 +939,10 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
         :mod:`sphrom.rom.port_channel`: f alone; the port rows stay).
     count : int, optional
         Planes to compute above DENSE_LIMIT particles (default :data:`SPARSE_PLANES`).
+    model_runs : callable, optional
+        The model's own runs, ``model_runs(h, f, scale)`` -> (v (steps, P), ρ (steps, P)) (:func:`model_errors`):
+        the shadow is sized against the model's error on the reference inputs (:func:`choose_planes`); None: against
+        ``target`` alone.
 
     Returns
     -------
@@ -890,13 +994,16 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
     else:
         chosen, values, ref = choose_planes(planes, modes_all, chat, bhat, eta, lambda: tail, T, P, len(ports),
                                             target=target, max_planes=max_planes, at_least=at_least,
-                                            table=not parametric)
-        if ref["plateau"] > ALL_PLANES_ABOVE and planes.complete and not parametric and n <= ALL_PLANES:
+                                            table=not parametric, model_runs=None if parametric else model_runs,
+                                            pw=pw, prho0=prho0)
+        if (not ref["reached"] and ref["plateau"] > ALL_PLANES_ABOVE and planes.complete and not parametric
+                and n <= ALL_PLANES):
             # even the largest cut's complement is a sizeable part of a channel's response (an in-band force on a
             # lightly damped bar: its decay-weighted variation ~ u'/α against a true response ~ u'/ω): the bound
             # of any model more accurate than that would be loose (effectivities of 1e3, a false alarm); every
             # plane costs O(N) per step (a dense decomposition's N), and the complement is then empty: the bound
-            # |model - truth| up to round-off
+            # |model - truth| up to round-off.  Not where the model's own error is known and the largest cut's
+            # complement is within its allowance (choose_planes: the model is no more accurate than that)
             chosen = planes.count
     chosen = min(chosen, planes.count)
     keep = np.arange(chosen)
@@ -960,7 +1067,8 @@ def _select(modes: Modes, sel):
                  eta=modes.eta[sel], exact=modes.exact[sel])
 
 
-def fmu_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, force=None, T=None, port_inputs=True):
+def fmu_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, force=None, T=None, port_inputs=True,
+               model_runs=None):
     """The shadow of an FMU's outputs, or None where the C core cannot certify it: more than
     :data:`FMU_MAX_PARTICLES` particles, a damping that varies on more than
     :data:`sphrom.rom.planes.EIGEN_LIMIT` particles, or a parametric model whose c or d is not uniform."""
@@ -973,7 +1081,7 @@ def fmu_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, for
     if not uniform and d.size > EIGEN_LIMIT:
         return None
     return build_shadow(problem, probes, ports, parametric=parametric, scale_v=scale_v, T=T,
-                        port_inputs=port_inputs)
+                        port_inputs=port_inputs, model_runs=model_runs)
 
 
 # ---------------------------------------------------------------------------------------------------------------
