@@ -606,31 +606,63 @@ void rom_bound_step(RomState *s, double h) {
     if (tau > table_end(b)) tail_decays(bs, b, tau);
 }
 
-/* the complement's free response of row r at tau since the start (per unit initial_state_scale): the table's
- * Hermite interpolation into *value and its certified error into *error; after the table (or without one) 0 and
- * the decaying tail (harness/rom/bounds.py free_part) */
-static void free_part(const RomBoundModel *b, const BoundState *bs, uint32_t r, double tau, double *value,
-                      double *error) {
-    const double *row = b->row + (size_t)r * b->row_len;
-    const uint32_t m = b->inputs, G = b->groups;
-    const double t_end = table_end(b);
-    if (b->nodes && tau <= t_end) {
+/* what every row's bound shares at one time (tau since the start): the free response's table interval and
+ * Hermite weights, or the tail's decays after the table; the shadow's |w| and the round-off allowance's factor.
+ * Computed once for all the rows a caller reads at that time (rom_bound_exceeded: every velocity row) */
+typedef struct {
+    int in_table;              /* tau within the table */
+    uint32_t k;                /* its interval */
+    size_t block;              /* its error block */
+    double c0, c1, c2, c3;     /* the cubic Hermite weights of g[k], g[k + 1], dg[k], dg[k + 1] (dg's times h) */
+    double decay[BOUND_MAX_GROUPS];   /* after the table: exp(-alpha_g (tau - t_end)) */
+    double w_root;             /* |w| (started), else NaN: the rows compute s w0's */
+    double steps_factor;       /* BOUND_ROUNDOFF + BOUND_ROUNDOFF_STEP n */
+} RowTime;
+
+static void row_time(const RomState *s, RowTime *rt) {
+    const RomBoundModel *b = &s->model->bound;
+    BoundState *bs = (BoundState *)s->bound;
+    const double tau = s->elapsed, t_end = table_end(b);
+    rt->in_table = b->nodes && tau <= t_end;
+    if (rt->in_table) {
         const double x = (tau > 0 ? tau : 0.0) / b->h_tab;
         uint32_t k = (uint32_t)floor(x);
         if (k > b->nodes - 2) k = b->nodes - 2;
         const double t = x - (double)k, u = 1.0 - t;
+        rt->k = k;
+        rt->block = k / b->q;
+        rt->c0 = (1.0 + 2.0 * t) * u * u;
+        rt->c1 = t * t * (3.0 - 2.0 * t);
+        rt->c2 = t * u * u;
+        rt->c3 = t * t * (t - 1.0);
+    } else {
+        const double over = tau > t_end ? tau - t_end : 0.0;
+        const int cached = tau == bs->tail_tau;          /* the step's decays (rom_bound_step), else computed */
+        for (uint32_t g = 0; g < b->groups; g++) rt->decay[g] = cached ? bs->tail_decay[g] : exp(-b->rates[g] * over);
+    }
+    if (bs->started != 0.0) {
+        if (!group_fresh(bs, 0)) shadow_group(s, bs, 0);
+        rt->w_root = sqrt(bs->y[0]);
+    } else {
+        rt->w_root = NAN;
+    }
+    rt->steps_factor = BOUND_ROUNDOFF + BOUND_ROUNDOFF_STEP * bs->steps;
+}
+
+/* the complement's free response of row r at the time of rt (per unit initial_state_scale): the table's Hermite
+ * interpolation into *value and its certified error into *error; after the table (or without one) 0 and the
+ * decaying tail (harness/rom/bounds.py free_part) */
+static void free_part(const RomBoundModel *b, const RowTime *rt, uint32_t r, double *value, double *error) {
+    if (rt->in_table) {
+        const uint32_t k = rt->k;
         const double *g = b->tab + (size_t)r * b->nodes, *dg = b->tab + (size_t)(b->rows + r) * b->nodes;
-        *value = (1.0 + 2.0 * t) * u * u * g[k] + t * t * (3.0 - 2.0 * t) * g[k + 1] +
-                 b->h_tab * (t * u * u * dg[k] + t * t * (t - 1.0) * dg[k + 1]);
-        *error = b->terr[(size_t)r * b->blocks + k / b->q];
+        *value = rt->c0 * g[k] + rt->c1 * g[k + 1] + b->h_tab * (rt->c2 * dg[k] + rt->c3 * dg[k + 1]);
+        *error = b->terr[(size_t)r * b->blocks + rt->block];
         return;
     }
-    const double over = tau > t_end ? tau - t_end : 0.0;
-    const int cached = tau == bs->tail_tau;              /* the step's decays (rom_bound_step), else computed */
+    const double *tail = b->row + (size_t)r * b->row_len + 1 + 2 * (size_t)b->inputs + (size_t)b->inputs * b->groups;
     double acc = 0.0;
-    for (uint32_t g = 0; g < G; g++) {
-        acc += row[1 + 2 * m + m * G + g] * (cached ? bs->tail_decay[g] : exp(-b->rates[g] * over));
-    }
+    for (uint32_t g = 0; g < b->groups; g++) acc += tail[g] * rt->decay[g];
     *value = 0.0;
     *error = acc;
 }
@@ -673,28 +705,29 @@ static void shadow_group(const RomState *s, BoundState *bs, size_t g) {
     bs->groups[g / 64] |= (uint64_t)1 << (g % 64);
 }
 
-/* (the shadow's row r, its certified error) at the state's time */
-static void shadow_row(const RomState *s, uint32_t r, double *value, double *cert) {
+/* (the shadow's row r, its certified error) at the state's time (rt: its row_time) */
+static void shadow_row_at(const RomState *s, const RowTime *rt, uint32_t r, double *value, double *cert) {
     const RomBoundModel *b = &s->model->bound;
     BoundState *bs = (BoundState *)s->bound;
     const size_t m = b->inputs, G = b->groups;
     const double *row = b->row + (size_t)r * b->row_len;
-    double y, w2;
+    double y, w_root;
     if (bs->started != 0.0) {
         const size_t g = ((size_t)r + 1) / BOUND_GROUP;
-        if (!group_fresh(bs, 0)) shadow_group(s, bs, 0);
         if (!group_fresh(bs, g)) shadow_group(s, bs, g);
         y = bs->y[r + 1];
-        w2 = bs->y[0];
+        w_root = rt->w_root;
     } else {                                            /* s w0 before the first step (s may still change) */
         const size_t k = b->order;
         const double *Cr = b->C + (size_t)r * k;
-        y = w2 = 0.0;
+        double w2 = 0.0;
+        y = 0.0;
         for (size_t i = 0; i < k; i++) {
             const double wi = s->initial_state_scale * b->w0[i];
             y += Cr[i] * wi;
             w2 += wi * wi;
         }
+        w_root = sqrt(w2);
     }
     double quasi = 0.0, trans = 0.0;
     for (size_t j = 0; j < m; j++) {
@@ -709,20 +742,38 @@ static void shadow_row(const RomState *s, uint32_t r, double *value, double *cer
     const double row_scale = r >= P && r < 3 * P ? b->e_scale : 1.0;     /* e rows of a parametric shadow */
     const double cn = row[0] * row_scale, scale = fabs(s->initial_state_scale);
     double g_value, g_error;
-    free_part(b, bs, r, s->elapsed, &g_value, &g_error);
+    free_part(b, rt, r, &g_value, &g_error);
     y += s->initial_state_scale * g_value;
-    const double allow = cn * (BOUND_ROUNDOFF + BOUND_ROUNDOFF_STEP * bs->steps) * (sqrt(w2) + scale * b->x0_norm);
+    const double allow = cn * rt->steps_factor * (w_root + scale * b->x0_norm);
     double channel_cert;                    /* the port channel's part of the row and its own bound (rom_port.c) */
     *value = y + rom_channel_row(s, r, &channel_cert);
     *cert = scale * g_error + quasi + trans + cn * b->e_norm * bs->w_int + allow + channel_cert;
 }
 
-double rom_v_probe_error_bound(const RomState *s, uint32_t j) {
-    if (!s || !s->bound || j >= s->model->n_probes) return NAN;
+static void shadow_row(const RomState *s, uint32_t r, double *value, double *cert) {
+    RowTime rt;
+    row_time(s, &rt);
+    shadow_row_at(s, &rt, r, value, cert);
+}
+
+/* the velocity bound of probe j (port: of port j) at rt's time, as rom_v_probe_error_bound (rom_v_port_error_bound)
+ * gives it */
+static double velocity_bound(const RomState *s, const RowTime *rt, uint32_t j, int port) {
     double y, cert;
-    shadow_row(s, j, &y, &cert);
+    if (port) {
+        shadow_row_at(s, rt, 3 * s->model->n_probes + j, &y, &cert);
+        return fabs(rom_channel_port_velocity(s, j) - y) + cert;  /* the model's output, as rom.c rom_v_port */
+    }
+    shadow_row_at(s, rt, j, &y, &cert);
     /* the model's output as rom.c rom_v_probe gives it: the kind's and the port channel's */
     return fabs(s->model->ops->v_probe(s, j) + rom_channel_row(s, j, NULL) - y) + cert;
+}
+
+double rom_v_probe_error_bound(const RomState *s, uint32_t j) {
+    if (!s || !s->bound || j >= s->model->n_probes) return NAN;
+    RowTime rt;
+    row_time(s, &rt);
+    return velocity_bound(s, &rt, j, 0);
 }
 
 double rom_rho_probe_error_bound(const RomState *s, uint32_t j) {
@@ -745,9 +796,9 @@ double rom_rho_probe_error_bound(const RomState *s, uint32_t j) {
 
 double rom_v_port_error_bound(const RomState *s, uint32_t j) {
     if (!s || !s->bound || j >= s->model->n_ports) return NAN;
-    double y, cert;
-    shadow_row(s, 3 * s->model->n_probes + j, &y, &cert);
-    return fabs(rom_channel_port_velocity(s, j) - y) + cert;  /* the model's output, as rom.c rom_v_port gives it */
+    RowTime rt;
+    row_time(s, &rt);
+    return velocity_bound(s, &rt, j, 1);
 }
 
 RomStatus rom_set_error_tolerance(RomState *s, double tolerance, char *message, size_t message_size) {
@@ -762,10 +813,12 @@ RomStatus rom_set_error_tolerance(RomState *s, double tolerance, char *message, 
 
 int rom_bound_exceeded(const RomState *s, char *message, size_t message_size) {
     if (!s || !s->bound || !(s->error_tolerance > 0)) return 0;
+    RowTime rt;                                          /* one time for every velocity row */
+    row_time(s, &rt);
     for (uint32_t port = 0; port < 2; port++) {
         const uint32_t n = port ? s->model->n_ports : s->model->n_probes;
         for (uint32_t j = 0; j < n; j++) {
-            const double bound = port ? rom_v_port_error_bound(s, j) : rom_v_probe_error_bound(s, j);
+            const double bound = velocity_bound(s, &rt, j, (int)port);
             if (!(bound <= s->error_tolerance)) {
                 if (message && message_size) {
                     snprintf(message, message_size, "%s_%u's certified error bound %.3g m s^-1 exceeds "

@@ -785,7 +785,8 @@ def _row_classes(P, n_ports):
 
 
 def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *, target=SHADOW_TARGET,
-                  max_planes=MAX_PLANES, at_least=1, table=True, model_runs=None, pw=None, prho0=None):
+                  max_planes=MAX_PLANES, at_least=1, table=True, model_runs=None, pw=None, prho0=None,
+                  contiguous=False):
     """The smallest number of planes (a gap cut, >= ``at_least``) whose certified complement stays below each
     channel's allowance (module docstring): per input j, a unit step (the transient's gains, its variation 1) and a
     unit sine at half the first elastic frequency over REFERENCE_SPAN x T (the gains times its weighted variation
@@ -828,9 +829,25 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
         except Exception as exc:                               # (a model the core cannot run so): the target alone
             step_e = sine_e = free_e = None
             model_info = {"failed": str(exc).splitlines()[0] if str(exc) else type(exc).__name__}
-    cuts = [c for c in gap_cuts(key) if at_least <= c <= min(max_planes, n)]
-    if not cuts:
-        cuts = [min(n, max(at_least, 1))]
+    # the planes in clusters of one frequency (a degenerate pair is kept or left together, planes.gap_cuts), the
+    # clusters in the order of their largest complement term against target x the channel's response (the planes
+    # below at_least first): the shadow keeps a prefix of that order, the planes that matter whatever their
+    # frequency (a force profile with a short wavelength reaches a high plane and few below it)
+    edges = [0] + [c for c in gap_cuts(key) if c < n] + [n]
+    clusters = [np.arange(a, b) for a, b in zip(edges[:-1], edges[1:]) if b > a]
+    importance = cluster_importance(clusters, modes_all, mg, omega, span, classes, step_r, sine_r, free_scale, big,
+                                    np.any(eta))
+    forced = [i for i, c in enumerate(clusters) if c[0] < at_least]
+    others = sorted((i for i, c in enumerate(clusters) if c[0] >= at_least),
+                    key=lambda i: (0.0 if contiguous else -importance[i], i))
+    order = forced + others
+    sizes = np.cumsum([clusters[i].size for i in order])
+    counts = [c for c in range(max(len(forced), 1), len(order) + 1) if sizes[c - 1] <= max(max_planes, at_least)]
+    if not counts:
+        counts = [max(len(forced), 1)]
+
+    def kept(count):
+        return np.sort(np.concatenate([clusters[i] for i in order[:count]]))
 
     def allowance(scale, err):
         """the complement a channel may have: target x its response, or MODEL_FRACTION x the model's error on it"""
@@ -838,9 +855,10 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
             return target * scale
         return max(target * scale, MODEL_FRACTION * float(err))
 
-    def value(k):
-        """(the largest complement / response over the channels, the largest complement / allowance)"""
-        rest = modes_all.plane >= k
+    def value(count):
+        """(the largest complement / response over the channels, the largest complement / allowance) with the
+        first ``count`` clusters of ``order`` kept"""
+        rest = ~np.isin(modes_all.plane, kept(count))
         tl = tail_fn()
         worst, excess = 0.0, 0.0
 
@@ -884,28 +902,54 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
 
     values, excesses = {}, {}
 
-    def at(k):
-        if k not in values:
-            values[k], excesses[k] = value(k)
-        return excesses[k]
+    def at(count):
+        if count not in values:
+            values[count], excesses[count] = value(count)
+        return excesses[count]
 
-    lo, hi = 0, len(cuts) - 1
-    best = at(cuts[hi])
+    lo, hi = 0, len(counts) - 1
+    best = at(counts[hi])
     reached = best <= 1.0
     limit = 1.0 if reached else PLATEAU * best                 # out of reach: where it levels off
-    if at(cuts[0]) <= limit:
-        chosen = cuts[0]
+    if at(counts[0]) <= limit:
+        chosen = counts[0]
     else:
-        while lo < hi:                                         # bisection: the criterion falls with k
+        while lo < hi:                                         # bisection: the criterion falls with each cluster
             mid = (lo + hi) // 2
-            if at(cuts[mid]) <= limit:
+            if at(counts[mid]) <= limit:
                 hi = mid
             else:
                 lo = mid + 1
-        chosen = cuts[lo]
+        chosen = counts[lo]
     at(chosen)
-    return chosen, values, {"omega_ref": omega, "reached": bool(reached), "plateau": float(values[cuts[-1]]),
-                            "excess": {int(k): float(v) for k, v in excesses.items()}, "model_error": model_info}
+    size = {c: int(sizes[c - 1]) for c in values}
+    return kept(chosen), {size[c]: v for c, v in values.items()}, {
+        "omega_ref": omega, "reached": bool(reached), "plateau": float(values[counts[-1]]),
+        "excess": {size[c]: float(v) for c, v in excesses.items()}, "model_error": model_info}
+
+
+def cluster_importance(clusters, modes, mg, omega, span, classes, step_r, sine_r, free_scale, big, initial):
+    """Each cluster's largest complement term against its channel's response (:func:`choose_planes`): per mode the
+    step's gain, the sine's gain times its weighted variation, the free response's size (|P|), per row class
+    against the class's largest reference response (channels below FLOOR of the class's largest not judged)."""
+    vs = omega * np.minimum(span, np.where(modes.alpha > 0, 1.0 / np.maximum(modes.alpha, 1e-300), np.inf)) + 1.0
+    per_mode = np.zeros(modes.plane.size)
+    m = mg.shape[2]
+    size = np.abs(modes.P)
+    for c, cls in enumerate(classes):
+        for j in range(m):
+            for g, scale in ((mg[cls, :, j], step_r[cls, j].max()), (mg[cls, :, j] * vs[None, :],
+                                                                     sine_r[cls, j].max())):
+                if scale > FLOOR * big[c]:
+                    per_mode = np.maximum(per_mode, g.max(axis=0) / scale)
+        scale = free_scale[cls].max()
+        if initial and scale > FLOOR * big[c]:
+            per_mode = np.maximum(per_mode, size[cls].max(axis=0) / scale)
+    out = np.zeros(len(clusters))
+    for i, planes in enumerate(clusters):
+        sel = np.isin(modes.plane, planes)
+        out[i] = float(per_mode[sel].max()) if np.any(sel) else 0.0
+    return out
 
 
 def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, force=None, T=None,
@@ -990,12 +1034,12 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
     if order is None and len(ports) and port_inputs and planes.complete and n <= PORT_ALL_PLANES:
         order = planes.count            # (module docstring: a port's force and velocity reach every plane)
     if order is not None:
-        chosen, values, ref = int(order), {}, {}
+        keep, values, ref = np.arange(min(int(order), planes.count)), {}, {}
     else:
-        chosen, values, ref = choose_planes(planes, modes_all, chat, bhat, eta, lambda: tail, T, P, len(ports),
-                                            target=target, max_planes=max_planes, at_least=at_least,
-                                            table=not parametric, model_runs=None if parametric else model_runs,
-                                            pw=pw, prho0=prho0)
+        keep, values, ref = choose_planes(planes, modes_all, chat, bhat, eta, lambda: tail, T, P, len(ports),
+                                          target=target, max_planes=max_planes, at_least=at_least,
+                                          table=not parametric, model_runs=None if parametric else model_runs,
+                                          pw=pw, prho0=prho0, contiguous=parametric)
         if (not ref["reached"] and ref["plateau"] > ALL_PLANES_ABOVE and planes.complete and not parametric
                 and n <= ALL_PLANES):
             # even the largest cut's complement is a sizeable part of a channel's response (an in-band force on a
@@ -1004,16 +1048,15 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
             # plane costs O(N) per step (a dense decomposition's N), and the complement is then empty: the bound
             # |model - truth| up to round-off.  Not where the model's own error is known and the largest cut's
             # complement is within its allowance (choose_planes: the model is no more accurate than that)
-            chosen = planes.count
-    chosen = min(chosen, planes.count)
-    keep = np.arange(chosen)
+            keep = np.arange(planes.count)
+    chosen = int(keep.size)
     S = planes.basis(keep)
     Sl = planes.left_basis(keep)
     B = Sl.T @ Bcols
     w0 = Sl.T @ x0
     Cs = C @ S
     A = np.zeros((3, chosen, 2, 2))
-    A[:] = planes.blocks[:, :chosen]
+    A[:] = planes.blocks[:, keep]
     # the planes' residual (round-off of the decomposition): E = A S - S Λ, per piece for a parametric shadow
     E = np.zeros((3, 2))
     e_norm = 0.0
@@ -1035,8 +1078,8 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
             R = lti.A @ S - S @ sla.block_diag(*A[0])
             e_norm = float(np.linalg.norm(R, 2)) * 2.0 + 1e-15 * float(abs(lti.A).sum(axis=1).max()) * \
                 float(np.linalg.norm(S, 2))
-    rest_modes = _select(modes_all, modes_all.plane >= chosen)
-    restp = np.arange(chosen, planes.count)
+    restp = np.setdiff1d(np.arange(planes.count), keep)
+    rest_modes = _select(modes_all, np.isin(modes_all.plane, restp))
     comp, cplanes = None, None
     if parametric:
         cplanes = {"sigma": planes.key[restp].copy(), "chat": chat[:, restp].copy(),
@@ -1050,7 +1093,8 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
                     b_norm=float(np.linalg.norm(B, 2)) if B.size else 0.0, pw=pw, prho0=prho0,
                     n_ports=len(ports), parametric=bool(parametric),
                     c_ref=float(problem.c[0]) if parametric else float("nan"), E=E, cplanes=cplanes)
-    shadow.info.update({"planes": int(chosen), "order": shadow.order, "target": float(target), "scale_v": scale_v,
+    shadow.info.update({"planes": int(chosen), "kept": keep.tolist(), "order": shadow.order, "target": float(target),
+                        "scale_v": scale_v,
                         "criterion": {int(k): float(v) for k, v in values.items()}, **ref,
                         "computed_planes": planes.count, "complete": planes.complete,
                         "method": planes.info.get("method"), "invariant": True,
