@@ -829,25 +829,21 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
         except Exception as exc:                               # (a model the core cannot run so): the target alone
             step_e = sine_e = free_e = None
             model_info = {"failed": str(exc).splitlines()[0] if str(exc) else type(exc).__name__}
-    # the planes in clusters of one frequency (a degenerate pair is kept or left together, planes.gap_cuts), the
-    # clusters in the order of their largest complement term against target x the channel's response (the planes
-    # below at_least first): the shadow keeps a prefix of that order, the planes that matter whatever their
-    # frequency (a force profile with a short wavelength reaches a high plane and few below it)
+    # the planes in clusters of one frequency (a degenerate pair is kept or left together, planes.gap_cuts).  The
+    # shadow keeps a prefix of an order of the clusters: the lowest first (the planes below at_least always), or
+    # the clusters by their largest complement term against target x the channel's response (the planes that
+    # matter whatever their frequency: a force profile with a short wavelength reaches a high plane and few below
+    # it); the smaller of the two shadows that meet the allowances
     edges = [0] + [c for c in gap_cuts(key) if c < n] + [n]
     clusters = [np.arange(a, b) for a, b in zip(edges[:-1], edges[1:]) if b > a]
-    importance = cluster_importance(clusters, modes_all, mg, omega, span, classes, step_r, sine_r, free_scale, big,
-                                    np.any(eta))
     forced = [i for i, c in enumerate(clusters) if c[0] < at_least]
-    others = sorted((i for i, c in enumerate(clusters) if c[0] >= at_least),
-                    key=lambda i: (0.0 if contiguous else -importance[i], i))
-    order = forced + others
-    sizes = np.cumsum([clusters[i].size for i in order])
-    counts = [c for c in range(max(len(forced), 1), len(order) + 1) if sizes[c - 1] <= max(max_planes, at_least)]
-    if not counts:
-        counts = [max(len(forced), 1)]
-
-    def kept(count):
-        return np.sort(np.concatenate([clusters[i] for i in order[:count]]))
+    lowest = [i for i, c in enumerate(clusters) if c[0] >= at_least]
+    orders = [forced + lowest]
+    if not contiguous:
+        h_all = table_step(modes_all, T, None)[1] if table else 0.0
+        importance = cluster_importance(clusters, modes_all, mg, omega, span, classes, step_r, sine_r, free_scale,
+                                        big, np.any(eta), h_all)
+        orders.append(forced + sorted(lowest, key=lambda i: (-importance[i], i)))
 
     def allowance(scale, err):
         """the complement a channel may have: target x its response, or MODEL_FRACTION x the model's error on it"""
@@ -855,10 +851,10 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
             return target * scale
         return max(target * scale, MODEL_FRACTION * float(err))
 
-    def value(count):
+    def value(keep):
         """(the largest complement / response over the channels, the largest complement / allowance) with the
-        first ``count`` clusters of ``order`` kept"""
-        rest = ~np.isin(modes_all.plane, kept(count))
+        planes ``keep`` kept"""
+        rest = ~np.isin(modes_all.plane, keep)
         tl = tail_fn()
         worst, excess = 0.0, 0.0
 
@@ -900,42 +896,56 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
                     judge(err, cls, scale, free_e)
         return worst, excess
 
-    values, excesses = {}, {}
+    values, excesses = {}, {}                                  # per number of planes kept (both orders)
+    found = []
+    for order in orders:
+        sizes = np.cumsum([clusters[i].size for i in order])
+        counts = [c for c in range(max(len(forced), 1), len(order) + 1) if sizes[c - 1] <= max(max_planes, at_least)]
+        if not counts:
+            counts = [max(len(forced), 1)]
+        tried = {}
 
-    def at(count):
-        if count not in values:
-            values[count], excesses[count] = value(count)
-        return excesses[count]
+        def at(count):
+            if count not in tried:
+                keep = np.sort(np.concatenate([clusters[i] for i in order[:count]]))
+                tried[count] = (keep, *value(keep))
+            return tried[count][2]
 
-    lo, hi = 0, len(counts) - 1
-    best = at(counts[hi])
-    reached = best <= 1.0
-    limit = 1.0 if reached else PLATEAU * best                 # out of reach: where it levels off
-    if at(counts[0]) <= limit:
-        chosen = counts[0]
-    else:
-        while lo < hi:                                         # bisection: the criterion falls with each cluster
-            mid = (lo + hi) // 2
-            if at(counts[mid]) <= limit:
-                hi = mid
-            else:
-                lo = mid + 1
-        chosen = counts[lo]
-    at(chosen)
-    size = {c: int(sizes[c - 1]) for c in values}
-    return kept(chosen), {size[c]: v for c, v in values.items()}, {
-        "omega_ref": omega, "reached": bool(reached), "plateau": float(values[counts[-1]]),
-        "excess": {size[c]: float(v) for c, v in excesses.items()}, "model_error": model_info}
+        lo, hi = 0, len(counts) - 1
+        best = at(counts[hi])
+        reached = best <= 1.0
+        limit = 1.0 if reached else PLATEAU * best             # out of reach: where it levels off
+        if at(counts[0]) <= limit:
+            chosen = counts[0]
+        else:
+            while lo < hi:                                     # bisection: the criterion falls with each cluster
+                mid = (lo + hi) // 2
+                if at(counts[mid]) <= limit:
+                    hi = mid
+                else:
+                    lo = mid + 1
+            chosen = counts[lo]
+        for keep, raw, exc in tried.values():
+            values.setdefault(int(keep.size), raw)
+            excesses.setdefault(int(keep.size), exc)
+        found.append((not reached, tried[chosen][0].size, tried[chosen][0], float(tried[counts[-1]][1]), reached))
+    _, _, keep, plateau, reached = min(found, key=lambda x: (x[0], x[1]))   # (ties: the lowest planes)
+    return keep, values, {"omega_ref": omega, "reached": bool(reached), "plateau": plateau,
+                          "excess": excesses, "model_error": model_info}
 
 
-def cluster_importance(clusters, modes, mg, omega, span, classes, step_r, sine_r, free_scale, big, initial):
+def cluster_importance(clusters, modes, mg, omega, span, classes, step_r, sine_r, free_scale, big, initial, h_tab):
     """Each cluster's largest complement term against its channel's response (:func:`choose_planes`): per mode the
-    step's gain, the sine's gain times its weighted variation, the free response's size (|P|), per row class
-    against the class's largest reference response (channels below FLOOR of the class's largest not judged)."""
+    step's gain, the sine's gain times its weighted variation, the free response's size (|P|; times the table's
+    interpolation factor (|μ| h_tab)^4 / 384 for a mode the table interpolates, h_tab > 0), per row class against
+    the class's largest reference response (channels below FLOOR of the class's largest not judged)."""
     vs = omega * np.minimum(span, np.where(modes.alpha > 0, 1.0 / np.maximum(modes.alpha, 1e-300), np.inf)) + 1.0
     per_mode = np.zeros(modes.plane.size)
     m = mg.shape[2]
     size = np.abs(modes.P)
+    if h_tab > 0:
+        interp = modes.exact & (np.abs(modes.mu) * h_tab <= INTERPOLATED)
+        size = np.where(interp[None, :], size * (np.abs(modes.mu) * h_tab) ** 4 / 384.0, size)
     for c, cls in enumerate(classes):
         for j in range(m):
             for g, scale in ((mg[cls, :, j], step_r[cls, j].max()), (mg[cls, :, j] * vs[None, :],
