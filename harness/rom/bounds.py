@@ -10,7 +10,7 @@ The planes (:mod:`.planes`).  A is block diagonal in invariant planes: the singu
 (orthonormal), the eigenvectors of A for a damping that varies (with their conditioning).  In each plane i the
 state z_i = W_iᵀ x obeys z_i' = Λ_i z_i + b̂_i u, and an output is y_r = Σ_i ĉ_riᵀ z_i (ĉ_ri = V_iᵀ c_r).
 
-The shadow keeps the lowest planes s: w' = Λ_s w + b̂_s u, w(0) = s W_sᵀ x0, stepped exactly (each plane by the
+The shadow keeps a set of planes s (the lowest, or those an input reaches, :func:`choose_planes`): w' = Λ_s w + b̂_s u, w(0) = s W_sᵀ x0, stepped exactly (each plane by the
 exponential of its augmented matrix), O(k_s) per step, no N.  What it leaves out, the complement, is written
 with one integration by parts per plane (u(τ) = 0 before the start, dμ its jumps and slopes):
 
@@ -48,13 +48,16 @@ planes are stored and the C core (and :meth:`Shadow.at`) computes D, the gains a
 initial state at the model's (c, d) once, when c and d are fixed (no table).
 
 The shadow's size is chosen per input channel (:func:`choose_planes`): the force profile and each port with a
-reference step and an in-band sine over REFERENCE_SPAN x T, and the initial state; the smallest number of planes
-whose certified complement stays below :data:`SHADOW_TARGET` of each channel's response, at most
-:data:`MAX_PLANES`.  Port forces as inputs of the shadow (no port channel exact on its own) with N <=
-:data:`PORT_ALL_PLANES`: every plane, since a port's force and velocity are spread and read by the kernel over a
-few particles and reach every plane alike (the complement is then empty and the port bounds |model - truth| up to
-round-off, at O(N) per step).  Likewise every plane where even :data:`MAX_PLANES` leave a complement above
-:data:`ALL_PLANES_ABOVE` of a channel's response and every plane is computed (N <= :data:`ALL_PLANES`).  docs/science/error-bounds.md has the derivation.
+reference step and an in-band sine over REFERENCE_SPAN x T, and the initial state; the fewest planes (a prefix of the
+planes' clusters, lowest first or by their complement terms, whichever is smaller) whose certified complement stays
+within each channel's allowance: :data:`SHADOW_TARGET` of its response, or, where larger and known,
+:data:`MODEL_FRACTION` x the model's own error on that reference input (``model_runs``, :func:`model_errors`: the FMU's
+core runs the model at packaging), at most :data:`MAX_PLANES`.  Port forces as inputs of the shadow (no port channel
+exact on its own) with N <= :data:`PORT_ALL_PLANES`: every plane, since a port's force and velocity are spread and
+read by the kernel over a few particles and reach every plane alike (the complement is then empty and the port bounds
+|model - truth| up to round-off, at O(N) per step).  Likewise every plane where even :data:`MAX_PLANES` leave a
+complement above :data:`ALL_PLANES_ABOVE` of a channel's response and above its allowance, and every plane is
+computed (N <= :data:`ALL_PLANES`).  docs/science/error-bounds.md has the derivation.
 """
 
 from __future__ import annotations
