@@ -174,7 +174,8 @@ class Operators:
 
     def bound_shadow(self, problem, probes, *, parametric=False, scale_v=None, model_runs=None):
         """The certified shadow of the model's outputs at ``probes`` and its ``ports``
-        (:func:`sphrom.rom.bounds.fmu_shadow`: the full linear SPH's slowest planes, whatever the model), or None
+        (:func:`sphrom.rom.bounds.fmu_shadow`: planes of the full linear SPH, as many as the model's own error on
+        the reference inputs asks for when ``model_runs`` is given), or None
         where it cannot be certified.
 
         ``parametric``: the shadow of a model over a range of uniform c and d (its planes in pieces about the
