@@ -40,7 +40,9 @@
 #define BOUND_CACHE 2                  /* step lengths whose plane maps are kept */
 #define BOUND_MAX_INPUTS (1u + ROM_MAX_PORTS)
 #define BOUND_MAX_GROUPS 8u
-_Static_assert((3u * ROM_MAX_PROBES + ROM_MAX_PORTS + 1u + 7u) / 8u <= 64u,
+#define BOUND_GROUP 4u                 /* the rows' sums' slots per group (shadow_group) */
+#define BOUND_GROUP_WORDS 2u
+_Static_assert((3u * ROM_MAX_PROBES + ROM_MAX_PORTS + 1u + BOUND_GROUP - 1u) / BOUND_GROUP <= 64u * BOUND_GROUP_WORDS,
                "the rows' sums' groups fit BoundState.groups' bits");
 
 typedef struct {
@@ -54,10 +56,10 @@ typedef struct {
 
 typedef struct {
     double *w;                 /* [order] the shadow's state */
-    double *y;                 /* [slots] |w|^2, then C w of every row (row r in slot r + 1), by groups of eight */
-    double *ct;                /* [order][slots] w (slot 0, written with group 0), C transposed, then zeros */
-    uint64_t groups;           /* bit g: y's group g holds the sums of this w; 0 whenever w changes (step, reset,
-                                  restore; at most 3 x 100 probes + 4 ports + 1 slots: 39 groups) */
+    double *y;                 /* [slots] |w|^2, then C w of every row (row r in slot r + 1), by groups of four */
+    double *ct;                /* [order][slots] (slot 0 unused: |w|^2 from w itself), C transposed, then zeros */
+    uint64_t groups[BOUND_GROUP_WORDS];   /* bit g: y's group g holds the sums of this w; 0 whenever w changes (step,
+                                  reset, restore; at most 3 x 100 probes + 4 ports + 1 slots: 77 groups) */
     double V[BOUND_MAX_INPUTS * BOUND_MAX_GROUPS];    /* [inputs][groups] the weighted variations */
     double u_prev[BOUND_MAX_INPUTS];   /* the input at the end of the last step */
     double w_int;              /* int |w| dt so far (a bound) */
@@ -401,9 +403,17 @@ int rom_has_bounds(const RomModel *m) {
     return m && m->bound.order > 0;
 }
 
-/* the rows' sums' slots: |w|^2, the rows, rounded up to a whole group of eight (shadow_group) */
+/* the rows' sums' slots: |w|^2, the rows, rounded up to a whole group (shadow_group) */
 static size_t row_slots(const RomBoundModel *b) {
-    return (b->rows + 1 + 7) / 8 * 8;
+    return (b->rows + 1 + BOUND_GROUP - 1) / BOUND_GROUP * BOUND_GROUP;
+}
+
+static int group_fresh(const BoundState *bs, size_t g) {
+    return (int)((bs->groups[g / 64] >> (g % 64)) & 1u);
+}
+
+static void groups_stale(BoundState *bs) {
+    for (unsigned i = 0; i < BOUND_GROUP_WORDS; i++) bs->groups[i] = 0;
 }
 
 RomStatus rom_bound_state_new(RomState *s) {
@@ -452,7 +462,7 @@ void rom_bound_reset(RomState *s) {
     if (!bs) return;
     const size_t k = s->model->bound.order;
     memset(bs->w, 0, k * sizeof(double));
-    bs->groups = 0;
+    groups_stale(bs);
     for (uint32_t i = 0; i < BOUND_MAX_INPUTS * BOUND_MAX_GROUPS; i++) bs->V[i] = 0.0;
     for (uint32_t i = 0; i < BOUND_MAX_INPUTS; i++) bs->u_prev[i] = 0.0;
     bs->w_int = bs->steps = bs->started = 0.0;
@@ -517,12 +527,6 @@ static const BoundCache *plane_maps(BoundState *bs, const RomBoundModel *b, doub
     return slot;
 }
 
-static double norm2(const double *x, size_t n) {
-    double acc = 0.0;
-    for (size_t i = 0; i < n; i++) acc += x[i] * x[i];
-    return sqrt(acc);
-}
-
 /* the inputs over the step: u (its value at the step's start) and du (its change over the step); the shadow's
  * first `inputs` of f, F_j / area */
 static void step_inputs(const RomState *s, double h, double *u, double *du) {
@@ -533,6 +537,8 @@ static void step_inputs(const RomState *s, double h, double *u, double *du) {
         du[1 + j] = s->port_rate[j] * h / s->area;
     }
 }
+
+static void shadow_group(const RomState *s, BoundState *bs, size_t g);
 
 void rom_bound_step(RomState *s, double h) {
     BoundState *bs = (BoundState *)s->bound;
@@ -556,8 +562,10 @@ void rom_bound_step(RomState *s, double h) {
         u2 += u[j] * u[j];
         e2 += (u[j] + du[j]) * (u[j] + du[j]);
     }
-    /* |w| at the step's start: the rows' pass computed it where an output's bound was read since the last step */
-    const double wn = (bs->groups & 1u) ? sqrt(bs->y[0]) : norm2(bs->w, k);
+    /* |w| at the step's start: the rows' pass computed it where an output's bound was read since the last step
+     * (else that pass now: the same sum whichever path) */
+    if (!group_fresh(bs, 0)) shadow_group(s, bs, 0);
+    const double wn = sqrt(bs->y[0]);
     bs->w_int += h * c->growth * (wn + h * b->b_norm * sqrt(fmax(u2, e2)));
     /* each plane in place (its two coordinates read before they are written); a held input (du = 0) skips the
      * slope's columns, whose products are exact zeros: the same sums */
@@ -591,93 +599,135 @@ void rom_bound_step(RomState *s, double h) {
             }
         }
     }
-    bs->groups = 0;
+    groups_stale(bs);
     for (size_t j = 0; j < m; j++) bs->u_prev[j] = u[j] + du[j];
     bs->steps += 1.0;
     const double tau = s->elapsed + h;                  /* the time since the start after this step */
     if (tau > table_end(b)) tail_decays(bs, b, tau);
 }
 
-/* the complement's free response of row r at tau since the start (per unit initial_state_scale): the table's
- * Hermite interpolation into *value and its certified error into *error; after the table (or without one) 0 and
- * the decaying tail (harness/rom/bounds.py free_part) */
-static void free_part(const RomBoundModel *b, const BoundState *bs, uint32_t r, double tau, double *value,
-                      double *error) {
-    const double *row = b->row + (size_t)r * b->row_len;
-    const uint32_t m = b->inputs, G = b->groups;
-    const double t_end = table_end(b);
-    if (b->nodes && tau <= t_end) {
+/* what every row's bound shares at one time (tau since the start): the free response's table interval and
+ * Hermite weights, or the tail's decays after the table; the shadow's |w| and the round-off allowance's factor.
+ * Computed once for all the rows a caller reads at that time (rom_bound_exceeded: every velocity row) */
+typedef struct {
+    int in_table;              /* tau within the table */
+    uint32_t k;                /* its interval */
+    size_t block;              /* its error block */
+    double c0, c1, c2, c3;     /* the cubic Hermite weights of g[k], g[k + 1], dg[k], dg[k + 1] (dg's times h) */
+    double decay[BOUND_MAX_GROUPS];   /* after the table: exp(-alpha_g (tau - t_end)) */
+    double w_root;             /* |w| (started), else NaN: the rows compute s w0's */
+    double steps_factor;       /* BOUND_ROUNDOFF + BOUND_ROUNDOFF_STEP n */
+} RowTime;
+
+static void row_time(const RomState *s, RowTime *rt) {
+    const RomBoundModel *b = &s->model->bound;
+    BoundState *bs = (BoundState *)s->bound;
+    const double tau = s->elapsed, t_end = table_end(b);
+    rt->in_table = b->nodes && tau <= t_end;
+    if (rt->in_table) {
         const double x = (tau > 0 ? tau : 0.0) / b->h_tab;
         uint32_t k = (uint32_t)floor(x);
         if (k > b->nodes - 2) k = b->nodes - 2;
         const double t = x - (double)k, u = 1.0 - t;
+        rt->k = k;
+        rt->block = k / b->q;
+        rt->c0 = (1.0 + 2.0 * t) * u * u;
+        rt->c1 = t * t * (3.0 - 2.0 * t);
+        rt->c2 = t * u * u;
+        rt->c3 = t * t * (t - 1.0);
+    } else {
+        const double over = tau > t_end ? tau - t_end : 0.0;
+        const int cached = tau == bs->tail_tau;          /* the step's decays (rom_bound_step), else computed */
+        for (uint32_t g = 0; g < b->groups; g++) rt->decay[g] = cached ? bs->tail_decay[g] : exp(-b->rates[g] * over);
+    }
+    if (bs->started != 0.0) {
+        if (!group_fresh(bs, 0)) shadow_group(s, bs, 0);
+        rt->w_root = sqrt(bs->y[0]);
+    } else {
+        rt->w_root = NAN;
+    }
+    rt->steps_factor = BOUND_ROUNDOFF + BOUND_ROUNDOFF_STEP * bs->steps;
+}
+
+/* the complement's free response of row r at the time of rt (per unit initial_state_scale): the table's Hermite
+ * interpolation into *value and its certified error into *error; after the table (or without one) 0 and the
+ * decaying tail (harness/rom/bounds.py free_part) */
+static void free_part(const RomBoundModel *b, const RowTime *rt, uint32_t r, double *value, double *error) {
+    if (rt->in_table) {
+        const uint32_t k = rt->k;
         const double *g = b->tab + (size_t)r * b->nodes, *dg = b->tab + (size_t)(b->rows + r) * b->nodes;
-        *value = (1.0 + 2.0 * t) * u * u * g[k] + t * t * (3.0 - 2.0 * t) * g[k + 1] +
-                 b->h_tab * (t * u * u * dg[k] + t * t * (t - 1.0) * dg[k + 1]);
-        *error = b->terr[(size_t)r * b->blocks + k / b->q];
+        *value = rt->c0 * g[k] + rt->c1 * g[k + 1] + b->h_tab * (rt->c2 * dg[k] + rt->c3 * dg[k + 1]);
+        *error = b->terr[(size_t)r * b->blocks + rt->block];
         return;
     }
-    const double over = tau > t_end ? tau - t_end : 0.0;
-    const int cached = tau == bs->tail_tau;              /* the step's decays (rom_bound_step), else computed */
+    const double *tail = b->row + (size_t)r * b->row_len + 1 + 2 * (size_t)b->inputs + (size_t)b->inputs * b->groups;
     double acc = 0.0;
-    for (uint32_t g = 0; g < G; g++) {
-        acc += row[1 + 2 * m + m * G + g] * (cached ? bs->tail_decay[g] : exp(-b->rates[g] * over));
-    }
+    for (uint32_t g = 0; g < b->groups; g++) acc += tail[g] * rt->decay[g];
     *value = 0.0;
     *error = acc;
 }
 
-/* group g of the rows' sums (slots 8 g to 8 g + 7: |w|^2 in slot 0, C w of row r in slot r + 1), kept until w
+/* the four slots' sums over the k coefficients (rows' coefficients col[i * stride + c], w[i]); `self`: slot 0's
+ * coefficients are w itself (|w|^2) */
+static inline void group_sums(const double *col, size_t stride, const double *w, size_t k, int self, double *out) {
+    double a[4][BOUND_GROUP];                  /* [partial][slot] */
+    for (size_t p = 0; p < 4; p++) {
+        for (size_t c = 0; c < BOUND_GROUP; c++) a[p][c] = 0.0;
+    }
+    size_t i = 0;
+    for (; i + 4 <= k; i += 4, col += 4 * stride) {
+        for (size_t p = 0; p < 4; p++) {
+            const double wi = w[i + p];
+            const double *cp = col + p * stride;
+            a[p][0] += (self ? wi : cp[0]) * wi;
+            for (size_t c = 1; c < BOUND_GROUP; c++) a[p][c] += cp[c] * wi;
+        }
+    }
+    for (size_t p = 0; i < k; i++, p++, col += stride) {               /* the last k mod 4 coefficients */
+        a[p][0] += (self ? w[i] : col[0]) * w[i];
+        for (size_t c = 1; c < BOUND_GROUP; c++) a[p][c] += col[c] * w[i];
+    }
+    for (size_t c = 0; c < BOUND_GROUP; c++) out[c] = (a[0][c] + a[1][c]) + (a[2][c] + a[3][c]);
+}
+
+/* group g of the rows' sums (slots 4 g to 4 g + 3: |w|^2 in slot 0, C w of row r in slot r + 1), kept until w
  * changes: an importer reads every output's bound at each step, each row once, and the error_tolerance check in
- * doStep needs only the velocity rows (group 0 with P <= 7).  The eight sums run side by side from the transposed
- * rows (none waits for another's last addition: a row at a time waits for each of its own); each is still summed
- * in the order of its coefficients from 0, as a row-by-row loop and norm2 sum it: the same numbers */
+ * doStep needs only the velocity rows (group 0 with P <= 3).  Each sum is four partial sums side by side (the
+ * coefficients i = 0, 1, 2, 3 mod 4, then (a0 + a1) + (a2 + a3)), the four slots side by side from the transposed
+ * rows: none waits for another's last addition (one sum at a time waits for each of its own additions, the
+ * latency of an addition per coefficient).  The same order whichever path asks for a sum (the step's |w|, a row
+ * read or the check): the same numbers */
 static void shadow_group(const RomState *s, BoundState *bs, size_t g) {
     const RomBoundModel *b = &s->model->bound;
     const size_t k = b->order, slots = row_slots(b);
-    const double *w = bs->w;
-    if (g == 0) {
-        for (size_t i = 0; i < k; i++) bs->ct[i * slots] = w[i];       /* |w|^2: w's own slot */
-    }
-    double a[8] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
-    const double *col = bs->ct + 8 * g;
-    for (size_t i = 0; i < k; i++, col += slots) {
-        const double wi = w[i];
-        a[0] += col[0] * wi;
-        a[1] += col[1] * wi;
-        a[2] += col[2] * wi;
-        a[3] += col[3] * wi;
-        a[4] += col[4] * wi;
-        a[5] += col[5] * wi;
-        a[6] += col[6] * wi;
-        a[7] += col[7] * wi;
-    }
-    memcpy(bs->y + 8 * g, a, sizeof a);
-    bs->groups |= (uint64_t)1 << g;
+    if (g == 0) group_sums(bs->ct, slots, bs->w, k, 1, bs->y);
+    else group_sums(bs->ct + BOUND_GROUP * g, slots, bs->w, k, 0, bs->y + BOUND_GROUP * g);
+    bs->groups[g / 64] |= (uint64_t)1 << (g % 64);
 }
 
-/* (the shadow's row r, its certified error) at the state's time */
-static void shadow_row(const RomState *s, uint32_t r, double *value, double *cert) {
+/* (the shadow's row r, its certified error) at the state's time (rt: its row_time) */
+static void shadow_row_at(const RomState *s, const RowTime *rt, uint32_t r, double *value, double *cert) {
     const RomBoundModel *b = &s->model->bound;
     BoundState *bs = (BoundState *)s->bound;
     const size_t m = b->inputs, G = b->groups;
     const double *row = b->row + (size_t)r * b->row_len;
-    double y, w2;
+    double y, w_root;
     if (bs->started != 0.0) {
-        const size_t g = ((size_t)r + 1) / 8;
-        if (!(bs->groups & 1u)) shadow_group(s, bs, 0);
-        if (!(bs->groups & ((uint64_t)1 << g))) shadow_group(s, bs, g);
+        const size_t g = ((size_t)r + 1) / BOUND_GROUP;
+        if (!group_fresh(bs, g)) shadow_group(s, bs, g);
         y = bs->y[r + 1];
-        w2 = bs->y[0];
+        w_root = rt->w_root;
     } else {                                            /* s w0 before the first step (s may still change) */
         const size_t k = b->order;
         const double *Cr = b->C + (size_t)r * k;
-        y = w2 = 0.0;
+        double w2 = 0.0;
+        y = 0.0;
         for (size_t i = 0; i < k; i++) {
             const double wi = s->initial_state_scale * b->w0[i];
             y += Cr[i] * wi;
             w2 += wi * wi;
         }
+        w_root = sqrt(w2);
     }
     double quasi = 0.0, trans = 0.0;
     for (size_t j = 0; j < m; j++) {
@@ -692,20 +742,38 @@ static void shadow_row(const RomState *s, uint32_t r, double *value, double *cer
     const double row_scale = r >= P && r < 3 * P ? b->e_scale : 1.0;     /* e rows of a parametric shadow */
     const double cn = row[0] * row_scale, scale = fabs(s->initial_state_scale);
     double g_value, g_error;
-    free_part(b, bs, r, s->elapsed, &g_value, &g_error);
+    free_part(b, rt, r, &g_value, &g_error);
     y += s->initial_state_scale * g_value;
-    const double allow = cn * (BOUND_ROUNDOFF + BOUND_ROUNDOFF_STEP * bs->steps) * (sqrt(w2) + scale * b->x0_norm);
+    const double allow = cn * rt->steps_factor * (w_root + scale * b->x0_norm);
     double channel_cert;                    /* the port channel's part of the row and its own bound (rom_port.c) */
     *value = y + rom_channel_row(s, r, &channel_cert);
     *cert = scale * g_error + quasi + trans + cn * b->e_norm * bs->w_int + allow + channel_cert;
 }
 
-double rom_v_probe_error_bound(const RomState *s, uint32_t j) {
-    if (!s || !s->bound || j >= s->model->n_probes) return NAN;
+static void shadow_row(const RomState *s, uint32_t r, double *value, double *cert) {
+    RowTime rt;
+    row_time(s, &rt);
+    shadow_row_at(s, &rt, r, value, cert);
+}
+
+/* the velocity bound of probe j (port: of port j) at rt's time, as rom_v_probe_error_bound (rom_v_port_error_bound)
+ * gives it */
+static double velocity_bound(const RomState *s, const RowTime *rt, uint32_t j, int port) {
     double y, cert;
-    shadow_row(s, j, &y, &cert);
+    if (port) {
+        shadow_row_at(s, rt, 3 * s->model->n_probes + j, &y, &cert);
+        return fabs(rom_channel_port_velocity(s, j) - y) + cert;  /* the model's output, as rom.c rom_v_port */
+    }
+    shadow_row_at(s, rt, j, &y, &cert);
     /* the model's output as rom.c rom_v_probe gives it: the kind's and the port channel's */
     return fabs(s->model->ops->v_probe(s, j) + rom_channel_row(s, j, NULL) - y) + cert;
+}
+
+double rom_v_probe_error_bound(const RomState *s, uint32_t j) {
+    if (!s || !s->bound || j >= s->model->n_probes) return NAN;
+    RowTime rt;
+    row_time(s, &rt);
+    return velocity_bound(s, &rt, j, 0);
 }
 
 double rom_rho_probe_error_bound(const RomState *s, uint32_t j) {
@@ -728,9 +796,9 @@ double rom_rho_probe_error_bound(const RomState *s, uint32_t j) {
 
 double rom_v_port_error_bound(const RomState *s, uint32_t j) {
     if (!s || !s->bound || j >= s->model->n_ports) return NAN;
-    double y, cert;
-    shadow_row(s, 3 * s->model->n_probes + j, &y, &cert);
-    return fabs(rom_channel_port_velocity(s, j) - y) + cert;  /* the model's output, as rom.c rom_v_port gives it */
+    RowTime rt;
+    row_time(s, &rt);
+    return velocity_bound(s, &rt, j, 1);
 }
 
 RomStatus rom_set_error_tolerance(RomState *s, double tolerance, char *message, size_t message_size) {
@@ -745,10 +813,12 @@ RomStatus rom_set_error_tolerance(RomState *s, double tolerance, char *message, 
 
 int rom_bound_exceeded(const RomState *s, char *message, size_t message_size) {
     if (!s || !s->bound || !(s->error_tolerance > 0)) return 0;
+    RowTime rt;                                          /* one time for every velocity row */
+    row_time(s, &rt);
     for (uint32_t port = 0; port < 2; port++) {
         const uint32_t n = port ? s->model->n_ports : s->model->n_probes;
         for (uint32_t j = 0; j < n; j++) {
-            const double bound = port ? rom_v_port_error_bound(s, j) : rom_v_probe_error_bound(s, j);
+            const double bound = velocity_bound(s, &rt, j, (int)port);
             if (!(bound <= s->error_tolerance)) {
                 if (message && message_size) {
                     snprintf(message, message_size, "%s_%u's certified error bound %.3g m s^-1 exceeds "
@@ -783,7 +853,7 @@ const unsigned char *rom_bound_state_get(RomState *s, const unsigned char *curso
     if (!bs) return cursor;
     const RomBoundModel *b = &s->model->bound;
     cursor = rom_get_f64s(cursor, bs->w, b->order);
-    bs->groups = 0;
+    groups_stale(bs);
     cursor = rom_get_f64s(cursor, bs->V, (size_t)b->inputs * b->groups);
     cursor = rom_get_f64s(cursor, bs->u_prev, b->inputs);
     double scalars[3];

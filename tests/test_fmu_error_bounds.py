@@ -204,11 +204,14 @@ def test_bounds_port_spring(make):
 
 def test_the_fmu_bounds_are_the_python_shadow(make):
     """Two paths: the C core's bounds (fmu_src/rom_bound.c) equal harness/rom/bounds.py's run_shadow and
-    output_bounds on the same shadow, rebuilt from the scene (its sections equal the FMU's), to round-off."""
+    output_bounds on the same shadow, rebuilt from the scene and the FMU's model (its sections equal the FMU's), to
+    round-off."""
+    from sphrom.fmu.training.steps import core_runs
     from sphrom.rom.bounds import fmu_shadow, output_bounds, run_shadow, sections
     from sphrom.sph.solver import build_problem
     path, data = make(model="exact")
-    shadow = fmu_shadow(build_problem(fmu_scene("forced")), PROBES, scale_v=float(np.max(data.sections["ENVPROBE"][1])))
+    shadow = fmu_shadow(build_problem(fmu_scene("forced")), PROBES, scale_v=float(np.max(data.sections["ENVPROBE"][1])),
+                        model_runs=core_runs(data))              # (sized against the model's error, as packaging)
     for tag, value in sections(shadow).items():
         np.testing.assert_allclose(data.sections[tag], value, rtol=1e-12, atol=1e-300, err_msg=tag)
     t = np.arange(int(round(T / H)) + 1) * H

@@ -81,14 +81,16 @@ def test_graded_bound_does_not_grow_in_time():
 
 def test_graded_bounds_are_the_python_shadow_fmi2_and_3(fmus):
     """The C core's bounds (fmu_src/rom_bound.c) give harness/rom/bounds.py's run_shadow + output_bounds on the
-    shadow rebuilt from the scene (its sections equal the FMU's) within rtol 1e-9 (plus 1e-13 of the outputs'
+    shadow rebuilt from the scene and the FMU's model (its sections equal the FMU's; sized against the model's
+    error as packaging sizes it, the model run by the core) within rtol 1e-9 (plus 1e-13 of the outputs'
     largest); FMI 3 gives FMI 2's bounds (held inputs, rtol 1e-12)."""
+    from sphrom.fmu.training.steps import core_runs
     from sphrom.rom.bounds import fmu_shadow, output_bounds, run_shadow, sections
     from sphrom.scene import load_scene
     from sphrom.sph.solver import build_problem
     path, data = fmus("exact")
     shadow = fmu_shadow(build_problem(load_scene(SCENE)), base.PROBES,
-                        scale_v=float(np.max(data.sections["ENVPROBE"][1])))
+                        scale_v=float(np.max(data.sections["ENVPROBE"][1])), model_runs=core_runs(data))
     assert shadow.info["method"] == "dense eig(A)"
     for tag, value in sections(shadow).items():
         np.testing.assert_allclose(data.sections[tag], value, rtol=1e-12, atol=1e-300, err_msg=tag)

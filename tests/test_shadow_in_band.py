@@ -39,14 +39,14 @@ def problem():
     return build_problem(parse_scene(SCENE, "hammer.toml", name="hammer"))
 
 
-def exact_rows(problem, rows, f):
-    """The full linear SPH's ``rows`` at t = j H under f held over each step from rest, exact in time."""
+def exact_rows(problem, rows, f, h=H):
+    """The full linear SPH's ``rows`` at t = j h under f held over each step from rest, exact in time."""
     from sphrom.rom.bounds import input_columns
     from sphrom.rom.lti import full_linear_system
     n = problem.n
     M = np.zeros((2 * n + 1, 2 * n + 1))
-    M[:2 * n, :2 * n] = full_linear_system(problem, list(PROBES)).A.toarray() * H
-    M[:2 * n, 2 * n] = input_columns(problem)[:, 0] * H
+    M[:2 * n, :2 * n] = full_linear_system(problem, list(PROBES)).A.toarray() * h
+    M[:2 * n, 2 * n] = input_columns(problem)[:, 0] * h
     E = sla.expm(M)
     x, out = np.zeros(2 * n), []
     for fj in f:

@@ -755,7 +755,8 @@ def main(argv=None):
     from ..parser import fmu_models, positive_int
     from ..scene import builtin_names, load_scene
     p = program_parser("error_bounds", description=__doc__.split("\n\n")[0])
-    p.add_argument("scenes", nargs="*", metavar="SCENE", help="default: every built-in scene")
+    p.add_argument("scenes", nargs="*", metavar="SCENE",
+                   help="a built-in scene or a scene's TOML file (default: every built-in scene)")
     p.add_argument("--models", type=fmu_models, default="frozen,exact,balanced", metavar="M1,M2")
     p.add_argument("--corpus", type=int_at_least(0), default=4, metavar="N", help="generated user scenes (default 4; 0: none)")
     p.add_argument("--span", type=positive_float, default=SPAN, metavar="S", help="runs over S x the scene's T (default 20)")
@@ -775,9 +776,10 @@ def main(argv=None):
     if args.sizes is not None:
         return main_large(args, list(args.sizes), argv)
     names = args.scenes or builtin_names()
-    unknown = [s for s in names if s not in builtin_names()]
+    unknown = [s for s in names if s not in builtin_names() and not Path(s).is_file()]
     if unknown:
-        p.error(f"SCENE: {unknown[0]!r} is not a built-in scene (allowed: {', '.join(builtin_names())})")
+        p.error(f"SCENE: {unknown[0]!r} is neither a built-in scene nor a file (built-in: "
+                f"{', '.join(builtin_names())})")
     scenes = [load_scene(s) for s in names] + (user_scenes(args.corpus) if not args.parametric else [])
     probes = defaults.PROBES
     t0 = time.perf_counter()

@@ -10,7 +10,7 @@ The planes (:mod:`.planes`).  A is block diagonal in invariant planes: the singu
 (orthonormal), the eigenvectors of A for a damping that varies (with their conditioning).  In each plane i the
 state z_i = W_iᵀ x obeys z_i' = Λ_i z_i + b̂_i u, and an output is y_r = Σ_i ĉ_riᵀ z_i (ĉ_ri = V_iᵀ c_r).
 
-The shadow keeps the lowest planes s: w' = Λ_s w + b̂_s u, w(0) = s W_sᵀ x0, stepped exactly (each plane by the
+The shadow keeps a set of planes s (the lowest, or those an input reaches, :func:`choose_planes`): w' = Λ_s w + b̂_s u, w(0) = s W_sᵀ x0, stepped exactly (each plane by the
 exponential of its augmented matrix), O(k_s) per step, no N.  What it leaves out, the complement, is written
 with one integration by parts per plane (u(τ) = 0 before the start, dμ its jumps and slopes):
 
@@ -48,13 +48,16 @@ planes are stored and the C core (and :meth:`Shadow.at`) computes D, the gains a
 initial state at the model's (c, d) once, when c and d are fixed (no table).
 
 The shadow's size is chosen per input channel (:func:`choose_planes`): the force profile and each port with a
-reference step and an in-band sine over REFERENCE_SPAN x T, and the initial state; the smallest number of planes
-whose certified complement stays below :data:`SHADOW_TARGET` of each channel's response, at most
-:data:`MAX_PLANES`.  Port forces as inputs of the shadow (no port channel exact on its own) with N <=
-:data:`PORT_ALL_PLANES`: every plane, since a port's force and velocity are spread and read by the kernel over a
-few particles and reach every plane alike (the complement is then empty and the port bounds |model - truth| up to
-round-off, at O(N) per step).  Likewise every plane where even :data:`MAX_PLANES` leave a complement above
-:data:`ALL_PLANES_ABOVE` of a channel's response and every plane is computed (N <= :data:`ALL_PLANES`).  docs/science/error-bounds.md has the derivation.
+reference step and an in-band sine over REFERENCE_SPAN x T, and the initial state; the fewest planes (a prefix of the
+planes' clusters, lowest first or by their complement terms, whichever is smaller) whose certified complement stays
+within each channel's allowance: :data:`SHADOW_TARGET` of its response, or, where larger and known,
+:data:`MODEL_FRACTION` x the model's own error on that reference input (``model_runs``, :func:`model_errors`: the FMU's
+core runs the model at packaging), at most :data:`MAX_PLANES`.  Port forces as inputs of the shadow (no port channel
+exact on its own) with N <= :data:`PORT_ALL_PLANES`: every plane, since a port's force and velocity are spread and
+read by the kernel over a few particles and reach every plane alike (the complement is then empty and the port bounds
+|model - truth| up to round-off, at O(N) per step).  Likewise every plane where even :data:`MAX_PLANES` leave a
+complement above :data:`ALL_PLANES_ABOVE` of a channel's response and above its allowance, and every plane is
+computed (N <= :data:`ALL_PLANES`).  docs/science/error-bounds.md has the derivation.
 """
 
 from __future__ import annotations
@@ -88,6 +91,9 @@ MAX_NODES = 4096            # its nodes at most
 NODE_RESOLUTION = 0.1       # its spacing h: |μ| h <= this for every mode that matters (within MAX_NODES)
 INTERPOLATED = 3.7          # a mode with |μ| h above this counts by its size, not interpolated ((3.7)^4/384 = 0.49)
 PLATEAU = 2.0               # no cut meets the target: the smallest within this factor of the largest cut's value
+MODEL_FRACTION = 0.5        # a channel's complement may reach this x the model's own error on it (choose_planes)
+REFERENCE_STEPS = 2000      # the reference runs' held steps over T (reference_responses, the model's runs)
+FREE_SAMPLES = 4000         # the initial state's free response: intervals over TABLE_SPAN x T (choose_planes)
 N_BLOCKS = 256              # its error bounds: one per block of intervals
 MAX_GROUPS = 4              # decay-rate groups of the complement's transient
 REFERENCE_SPAN = 20.0       # the reference sine's run: this x T (its weighted variation)
@@ -905,22 +911,25 @@ def decompose(problem, parametric=False, count=None):
     return eigen_planes(problem)
 
 
-def reference_responses(L, chat, bhat, T, omega):
+def reference_responses(L, chat, bhat, T, omega, series=False):
     """(step (rows, m), sine (rows, m)): the largest |y_r| of the response to a unit step and to a unit sine of
-    ``omega`` [s^-1] on input j over [0, T] (held at T / 2000; every computed plane, exact in time), the channel
-    scales of :func:`choose_planes`."""
+    ``omega`` [s^-1] on input j over [0, T] (held over REFERENCE_STEPS steps; every computed plane, exact in
+    time), the channel scales of :func:`choose_planes`.  ``series``: also the responses themselves, a list per
+    reference input of (rows, m, REFERENCE_STEPS) arrays, y after each step (what a model's own runs are
+    compared with, :func:`model_errors`)."""
     n, m = L.shape[0], bhat.shape[2]
     rows = chat.shape[0]
-    steps = 2000
+    steps = REFERENCE_STEPS
     h = T / steps
     t = np.arange(steps) * h
-    out = []
+    out, runs = [], []
     for u in (np.ones(steps), np.sin(omega * t)):
         M = np.zeros((n, 4, 4))
         M[:, :2, :2] = L * h
         M[:, 3, 3] = 0.0
         M[:, 2, 3] = 0.0
         res = np.zeros((rows, m))
+        ys = np.zeros((rows, m, steps)) if series else None
         for j in range(m):
             M[:, :2, 2] = bhat[:, :, j] * h
             E = sla.expm(M)
@@ -929,10 +938,68 @@ def reference_responses(L, chat, bhat, T, omega):
             peak = np.zeros(rows)
             for k in range(steps):
                 z = np.einsum("nij,nj->ni", Phi, z) + g0 * u[k]
-                peak = np.maximum(peak, np.abs(np.einsum("rni,ni->r", chat, z)))
+                y = np.einsum("rni,ni->r", chat, z)
+                peak = np.maximum(peak, np.abs(y))
+                if series:
+                    ys[:, j, k] = y
             res[:, j] = peak
         out.append(res)
-    return out[0], out[1]
+        runs.append(ys)
+    return (out[0], out[1], runs) if series else (out[0], out[1])
+
+
+def reference_omega(planes):
+    """The reference sine's angular frequency [s^-1]: half the first elastic frequency (:func:`choose_planes`)."""
+    L = planes.blocks[0]
+    key = planes.key
+    # the first elastic frequency: the slowest plane that oscillates (σ of a singular plane [[-d, σ], [-σ, 0]], ω of a
+    # complex pair [[-α, ω], [-ω, -α]]); a plane of real modes (the rigid motion decaying at a damping that varies
+    # along the bar, |λ| ~ d) does not, and taking its |λ| put the reference sine near 0 Hz
+    freq = 0.5 * np.abs(L[:, 0, 1] - L[:, 1, 0])
+    elastic = freq[freq > 1e-9 * max(float(freq.max(initial=0.0)), 1e-300)]
+    if not elastic.size:                                       # (a parametric shadow's constant piece): the key
+        elastic = key[key > 1e-9 * max(float(key[-1]), 1e-300)]
+    return 0.5 * float(elastic.min()) if elastic.size else 1.0
+
+
+def model_errors(model_runs, truth_step, truth_sine, truth_free, omega, T, P, pw, prho0, strain=1e-4):
+    """The model's own error on the reference inputs, per shadow row (NaN where not measured): (step (rows, m),
+    sine (rows, m), free (rows,)), from ``model_runs(h, f, scale)`` -> (v (steps, P), ρ (steps, P)), the model's
+    probe outputs after each of len(f) steps of h [s] under the force f held over each step [m s^-2], from rest
+    (scale 0) or from its initial state (scale 1; then with the outputs at t = 0 first).  The truth: the full
+    linear SPH's series of :func:`reference_responses` (unit inputs) and the free response ``truth_free`` (rows,
+    FREE_SAMPLES + 1) over TABLE_SPAN x T.  Velocity rows: |v_model - v_true|; the two e rows of a probe: its
+    density's error over Σ_m pw_m ρ0_m (dρ/de at e = 0); port rows and port inputs: NaN (sized by the target
+    alone).  The force channel only (input 0), its reference inputs scaled down where the truth's largest |e| under
+    a unit input passes ``strain`` (a model whose density is not linear in e, the frozen one, is compared where the
+    truth's linearity in J and its own agree), the errors per unit input."""
+    rows, m, steps = truth_step.shape
+    step_e = np.full((rows, m), np.nan)
+    sine_e = np.full((rows, m), np.nan)
+    free_e = np.full(rows, np.nan)
+    rho_scale = (pw * prho0).sum(axis=1)                        # (P,)
+
+    def errors(v, rho, y):
+        """per row: the largest error of the model's (v, ρ) (M, P) against the truth's rows y (rows, M)"""
+        out = np.full(rows, np.nan)
+        out[:P] = np.abs(v - y[:P].T).max(axis=0)
+        for j in range(P):
+            e = y[P + 2 * j:P + 2 * j + 2].T                     # (M, 2)
+            rho_t = (pw[j] * prho0[j] / (1.0 + e)).sum(axis=1)
+            out[P + 2 * j:P + 2 * j + 2] = np.abs(rho[:, j] - rho_t).max() / rho_scale[j]
+        return out
+
+    h = T / steps
+    t = np.arange(steps) * h
+    for f, truth, into in ((np.ones(steps), truth_step, step_e), (np.sin(omega * t), truth_sine, sine_e)):
+        top = float(np.max(np.abs(truth[P:3 * P, 0, :]), initial=0.0))
+        a = min(1.0, strain / top) if top > 0 else 1.0
+        v, rho = model_runs(h, a * f, 0.0)
+        into[:, 0] = errors(np.asarray(v), np.asarray(rho), a * truth[:, 0, :]) / a
+    n_free = truth_free.shape[1] - 1
+    v, rho = model_runs(TABLE_SPAN * T / n_free, np.zeros(n_free), 1.0)
+    free_e[:] = errors(np.asarray(v), np.asarray(rho), truth_free)
+    return step_e, sine_e, free_e
 
 
 def _row_classes(P, n_ports):
@@ -944,43 +1011,86 @@ def _row_classes(P, n_ports):
 
 
 def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *, target=SHADOW_TARGET,
-                  max_planes=MAX_PLANES, at_least=1, table=True):
-    """The smallest number of planes (a gap cut, >= ``at_least``) whose certified complement stays below
-    ``target`` of each channel's response (module docstring): per input j, a unit step (the transient's gains,
-    its variation 1) and a unit sine at half the first elastic frequency over REFERENCE_SPAN x T (the gains times
-    its weighted variation ω min(span, 1/α) + 1, plus the quasi-static tail), each against the largest response
-    of its row class; the initial state: its free response table's error at t = 0 (``table``; else, a parametric
-    shadow's, the complement's Hölder sum) against the largest free response.  Returns (planes, criterion value
-    per cut, the responses)."""
-    L = planes.blocks[0]
+                  max_planes=MAX_PLANES, at_least=1, table=True, model_runs=None, pw=None, prho0=None,
+                  contiguous=False):
+    """The smallest number of planes (a gap cut, >= ``at_least``) whose certified complement stays below each
+    channel's allowance (module docstring): per input j, a unit step (the transient's gains, its variation 1) and a
+    unit sine at half the first elastic frequency over REFERENCE_SPAN x T (the gains times its weighted variation
+    ω min(span, 1/α) + 1, plus the quasi-static tail), each against the largest response of its row class; the
+    initial state: its free response table's error at t = 0 (``table``; else, a parametric shadow's, the
+    complement's Hölder sum) against the largest free response.
+
+    A channel's allowance is ``target`` x its response, or, where the model's own error on that reference input is
+    known (``model_runs``, :func:`model_errors`) and larger, MODEL_FRACTION x that error: the bound is at most the
+    error plus twice the complement's, so its effectivity on the reference inputs stays below 1 + 2 MODEL_FRACTION,
+    and a more accurate model gets at least as many planes.  Returns (planes, criterion value per cut (the
+    complement against the responses), the responses and, under "excess", the largest complement / allowance of
+    each cut tried)."""
     n = planes.count
     rows, m = chat.shape[0], bhat.shape[2]
     key = planes.key
-    # the first elastic frequency: the slowest plane that oscillates (σ of a singular plane [[-d, σ], [-σ, 0]], ω of a
-    # complex pair [[-α, ω], [-ω, -α]]); a plane of real modes (the rigid motion decaying at a damping that varies
-    # along the bar, |λ| ~ d) does not, and taking its |λ| put the reference sine near 0 Hz
-    freq = 0.5 * np.abs(L[:, 0, 1] - L[:, 1, 0])
-    elastic = freq[freq > 1e-9 * max(float(freq.max(initial=0.0)), 1e-300)]
-    if not elastic.size:                                       # (a parametric shadow's constant piece): the key
-        elastic = key[key > 1e-9 * max(float(key[-1]), 1e-300)]
-    omega = 0.5 * float(elastic.min()) if elastic.size else 1.0
-    step_r, sine_r = reference_responses(L, chat, bhat, T, omega)
+    L = planes.blocks[0]
+    omega = reference_omega(planes)
+    if model_runs is not None:
+        step_r, sine_r, runs = reference_responses(L, chat, bhat, T, omega, series=True)
+    else:
+        step_r, sine_r = reference_responses(L, chat, bhat, T, omega)
     classes = _row_classes(P, n_ports)
     span = REFERENCE_SPAN * T
-    t = np.linspace(0.0, TABLE_SPAN * T, 4001)
+    t = np.linspace(0.0, TABLE_SPAN * T, FREE_SAMPLES + 1)
     mg = mode_gains(modes_all)                                 # (rows, M, m)
     free_all = np.real(modes_all.P @ np.exp(np.outer(modes_all.mu, t)))   # the whole free response (all modes)
     free_scale = np.abs(free_all).max(axis=1)
     big = [max(float(step_r[cls].max()), float(sine_r[cls].max()), float(free_scale[cls].max()) if np.any(eta)
                else 0.0) for cls in classes]             # a channel this far below a class's largest: not judged
-    cuts = [c for c in gap_cuts(key) if at_least <= c <= min(max_planes, n)]
-    if not cuts:
-        cuts = [min(n, max(at_least, 1))]
+    step_e = sine_e = free_e = None
+    model_info = None
+    if model_runs is not None:
+        try:
+            step_e, sine_e, free_e = model_errors(model_runs, runs[0], runs[1], free_all, omega, T, P, pw, prho0)
+            if not (np.all(np.isfinite(step_e[:3 * P, 0])) and np.all(np.isfinite(free_e[:3 * P]))):
+                raise ValueError("the model's reference runs are not finite")
+            model_info = {"step": float(np.nanmax(step_e[:P, 0])), "sine": float(np.nanmax(sine_e[:P, 0])),
+                          "free": float(np.nanmax(free_e[:P]))}
+        except Exception as exc:                               # (a model the core cannot run so): the target alone
+            step_e = sine_e = free_e = None
+            model_info = {"failed": str(exc).splitlines()[0] if str(exc) else type(exc).__name__}
+    # the planes in clusters of one frequency (a degenerate pair is kept or left together, planes.gap_cuts).  The
+    # shadow keeps a prefix of an order of the clusters: the lowest first (the planes below at_least always), or
+    # the clusters by their largest complement term against target x the channel's response (the planes that
+    # matter whatever their frequency: a force profile with a short wavelength reaches a high plane and few below
+    # it); the smaller of the two shadows that meet the allowances
+    edges = [0] + [c for c in gap_cuts(key) if c < n] + [n]
+    clusters = [np.arange(a, b) for a, b in zip(edges[:-1], edges[1:]) if b > a]
+    forced = [i for i, c in enumerate(clusters) if c[0] < at_least]
+    lowest = [i for i, c in enumerate(clusters) if c[0] >= at_least]
+    orders = [forced + lowest]
+    if not contiguous:
+        h_all = table_step(modes_all, T, None)[1] if table else 0.0
+        importance = cluster_importance(clusters, modes_all, mg, omega, span, classes, step_r, sine_r, free_scale,
+                                        big, np.any(eta), h_all)
+        orders.append(forced + sorted(lowest, key=lambda i: (-importance[i], i)))
 
-    def value(k):
-        rest = modes_all.plane >= k
+    def allowance(scale, err):
+        """the complement a channel may have: target x its response, or MODEL_FRACTION x the model's error on it"""
+        if err is None or not np.isfinite(err):
+            return target * scale
+        return max(target * scale, MODEL_FRACTION * float(err))
+
+    def value(keep):
+        """(the largest complement / response over the channels, the largest complement / allowance) with the
+        planes ``keep`` kept"""
+        rest = ~np.isin(modes_all.plane, keep)
         tl = tail_fn()
-        worst = 0.0
+        worst, excess = 0.0, 0.0
+
+        def judge(val, cls, scale, err):
+            nonlocal worst, excess
+            for r in cls:
+                allowed = allowance(scale, None if err is None else err[r])
+                excess = max(excess, float(val[r]) / allowed if allowed > 0 else np.inf)
+            worst = max(worst, float(val[cls].max()) / scale)
+
         for j in range(m):
             g = mg[:, rest, j]
             trans = g.sum(axis=1)
@@ -993,9 +1103,10 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
                 vt = omega * min(span, 1.0 / tl.alpha if tl.alpha > 0 else np.inf) + 1.0
                 sine = sine + extra * vt + tl.static()[:, j]
             for c, cls in enumerate(classes):
-                for val, scale in ((trans, step_r[cls, j].max()), (sine, sine_r[cls, j].max())):
+                for val, scale, err in ((trans, step_r[cls, j].max(), None if step_e is None else step_e[:, j]),
+                                        (sine, sine_r[cls, j].max(), None if sine_e is None else sine_e[:, j])):
                     if scale > FLOOR * big[c]:
-                        worst = max(worst, float(val[cls].max()) / scale)
+                        judge(val, cls, scale, err)
         if np.any(eta):                                        # the free response table's error at t = 0
             h_tab = table_step(_select(modes_all, rest), T, tl.alpha if tl is not None else None)[1]
             size = np.abs(modes_all.P[:, rest])
@@ -1008,33 +1119,78 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
             for c, cls in enumerate(classes):
                 scale = free_scale[cls].max()
                 if scale > FLOOR * big[c]:
-                    worst = max(worst, float(err[cls].max()) / scale)
-        return worst
+                    judge(err, cls, scale, free_e)
+        return worst, excess
 
-    values = {}
-    lo, hi = 0, len(cuts) - 1
-    best = values.setdefault(cuts[hi], value(cuts[hi]))
-    reached = best <= target
-    if not reached:                                            # the target is out of reach: where it levels off
-        target = PLATEAU * best
-    if value(cuts[0]) <= target:
-        chosen = cuts[0]
-    else:
-        while lo < hi:                                         # bisection: the criterion falls with k
-            mid = (lo + hi) // 2
-            v = values.setdefault(cuts[mid], value(cuts[mid]))
-            if v <= target:
-                hi = mid
-            else:
-                lo = mid + 1
-        chosen = cuts[lo]
-    values.setdefault(chosen, value(chosen))
-    return chosen, values, {"omega_ref": omega, "reached": bool(reached), "plateau": float(best)}
+    values, excesses = {}, {}                                  # per number of planes kept (both orders)
+    found = []
+    for order in orders:
+        sizes = np.cumsum([clusters[i].size for i in order])
+        counts = [c for c in range(max(len(forced), 1), len(order) + 1) if sizes[c - 1] <= max(max_planes, at_least)]
+        if not counts:
+            counts = [max(len(forced), 1)]
+        tried = {}
+
+        def at(count):
+            if count not in tried:
+                keep = np.sort(np.concatenate([clusters[i] for i in order[:count]]))
+                tried[count] = (keep, *value(keep))
+            return tried[count][2]
+
+        lo, hi = 0, len(counts) - 1
+        best = at(counts[hi])
+        reached = best <= 1.0
+        limit = 1.0 if reached else PLATEAU * best             # out of reach: where it levels off
+        if at(counts[0]) <= limit:
+            chosen = counts[0]
+        else:
+            while lo < hi:                                     # bisection: the criterion falls with each cluster
+                mid = (lo + hi) // 2
+                if at(counts[mid]) <= limit:
+                    hi = mid
+                else:
+                    lo = mid + 1
+            chosen = counts[lo]
+        for keep, raw, exc in tried.values():
+            values.setdefault(int(keep.size), raw)
+            excesses.setdefault(int(keep.size), exc)
+        found.append((not reached, tried[chosen][0].size, tried[chosen][0], float(tried[counts[-1]][1]), reached))
+    _, _, keep, plateau, reached = min(found, key=lambda x: (x[0], x[1]))   # (ties: the lowest planes)
+    return keep, values, {"omega_ref": omega, "reached": bool(reached), "plateau": plateau,
+                          "excess": excesses, "model_error": model_info}
+
+
+def cluster_importance(clusters, modes, mg, omega, span, classes, step_r, sine_r, free_scale, big, initial, h_tab):
+    """Each cluster's largest complement term against its channel's response (:func:`choose_planes`): per mode the
+    step's gain, the sine's gain times its weighted variation, the free response's size (|P|; times the table's
+    interpolation factor (|μ| h_tab)^4 / 384 for a mode the table interpolates, h_tab > 0), per row class against
+    the class's largest reference response (channels below FLOOR of the class's largest not judged)."""
+    vs = omega * np.minimum(span, np.where(modes.alpha > 0, 1.0 / np.maximum(modes.alpha, 1e-300), np.inf)) + 1.0
+    per_mode = np.zeros(modes.plane.size)
+    m = mg.shape[2]
+    size = np.abs(modes.P)
+    if h_tab > 0:
+        interp = modes.exact & (np.abs(modes.mu) * h_tab <= INTERPOLATED)
+        size = np.where(interp[None, :], size * (np.abs(modes.mu) * h_tab) ** 4 / 384.0, size)
+    for c, cls in enumerate(classes):
+        for j in range(m):
+            for g, scale in ((mg[cls, :, j], step_r[cls, j].max()), (mg[cls, :, j] * vs[None, :],
+                                                                     sine_r[cls, j].max())):
+                if scale > FLOOR * big[c]:
+                    per_mode = np.maximum(per_mode, g.max(axis=0) / scale)
+        scale = free_scale[cls].max()
+        if initial and scale > FLOOR * big[c]:
+            per_mode = np.maximum(per_mode, size[cls].max(axis=0) / scale)
+    out = np.zeros(len(clusters))
+    for i, planes in enumerate(clusters):
+        sel = np.isin(modes.plane, planes)
+        out[i] = float(per_mode[sel].max()) if np.any(sel) else 0.0
+    return out
 
 
 def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, force=None, T=None,
                  target=SHADOW_TARGET, order=None, max_planes=MAX_PLANES, port_inputs=True, count=None,
-                 tail_response=True):
+                 tail_response=True, model_runs=None):
     """The certified shadow of the FMUs of ``problem`` at ``probes`` (and ``ports``) (module docstring).
 
     Parameters
@@ -1066,6 +1222,10 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
     tail_response : bool
         Compute the uncomputed planes' free response from x0 where affordable (:func:`tail_table`); False: bound it
         through norms alone (the bench's reference model at large N).
+    model_runs : callable, optional
+        The model's own runs, ``model_runs(h, f, scale)`` -> (v (steps, P), ρ (steps, P)) (:func:`model_errors`):
+        the shadow is sized against the model's error on the reference inputs (:func:`choose_planes`); None: against
+        ``target`` alone.
 
     Returns
     -------
@@ -1113,27 +1273,29 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
     if order is None and len(ports) and port_inputs and planes.complete and n <= PORT_ALL_PLANES:
         order = planes.count            # (module docstring: a port's force and velocity reach every plane)
     if order is not None:
-        chosen, values, ref = int(order), {}, {}
+        keep, values, ref = np.arange(min(int(order), planes.count)), {}, {}
     else:
-        chosen, values, ref = choose_planes(planes, modes_all, chat, bhat, eta, lambda: tail, T, P, len(ports),
-                                            target=target, max_planes=max_planes, at_least=at_least,
-                                            table=not parametric)
-        if ref["plateau"] > ALL_PLANES_ABOVE and planes.complete and not parametric and n <= ALL_PLANES:
+        keep, values, ref = choose_planes(planes, modes_all, chat, bhat, eta, lambda: tail, T, P, len(ports),
+                                          target=target, max_planes=max_planes, at_least=at_least,
+                                          table=not parametric, model_runs=None if parametric else model_runs,
+                                          pw=pw, prho0=prho0, contiguous=parametric)
+        if (not ref["reached"] and ref["plateau"] > ALL_PLANES_ABOVE and planes.complete and not parametric
+                and n <= ALL_PLANES):
             # even the largest cut's complement is a sizeable part of a channel's response (an in-band force on a
             # lightly damped bar: its decay-weighted variation ~ u'/α against a true response ~ u'/ω): the bound
             # of any model more accurate than that would be loose (effectivities of 1e3, a false alarm); every
             # plane costs O(N) per step (a dense decomposition's N), and the complement is then empty: the bound
-            # |model - truth| up to round-off
-            chosen = planes.count
-    chosen = min(chosen, planes.count)
-    keep = np.arange(chosen)
+            # |model - truth| up to round-off.  Not where the model's own error is known and the largest cut's
+            # complement is within its allowance (choose_planes: the model is no more accurate than that)
+            keep = np.arange(planes.count)
+    chosen = int(keep.size)
     S = planes.basis(keep)
     Sl = planes.left_basis(keep)
     B = Sl.T @ Bcols
     w0 = Sl.T @ x0
     Cs = C @ S
     A = np.zeros((3, chosen, 2, 2))
-    A[:] = planes.blocks[:, :chosen]
+    A[:] = planes.blocks[:, keep]
     # the planes' residual (round-off of the decomposition): E = A S - S Λ, per piece for a parametric shadow
     E = np.zeros((3, 2))
     e_norm = 0.0
@@ -1155,8 +1317,8 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
             R = lti.A @ S - S @ sla.block_diag(*A[0])
             e_norm = float(np.linalg.norm(R, 2)) * 2.0 + 1e-15 * float(abs(lti.A).sum(axis=1).max()) * \
                 float(np.linalg.norm(S, 2))
-    rest_modes = _select(modes_all, modes_all.plane >= chosen)
-    restp = np.arange(chosen, planes.count)
+    restp = np.setdiff1d(np.arange(planes.count), keep)
+    rest_modes = _select(modes_all, np.isin(modes_all.plane, restp))
     comp, cplanes = None, None
     if parametric:
         cplanes = {"sigma": planes.key[restp].copy(), "chat": chat[:, restp].copy(),
@@ -1170,7 +1332,8 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
                     b_norm=float(np.linalg.norm(B, 2)) if B.size else 0.0, pw=pw, prho0=prho0,
                     n_ports=len(ports), parametric=bool(parametric),
                     c_ref=float(problem.c[0]) if parametric else float("nan"), E=E, cplanes=cplanes)
-    shadow.info.update({"planes": int(chosen), "order": shadow.order, "target": float(target), "scale_v": scale_v,
+    shadow.info.update({"planes": int(chosen), "kept": keep.tolist(), "order": shadow.order, "target": float(target),
+                        "scale_v": scale_v,
                         "criterion": {int(k): float(v) for k, v in values.items()}, **ref,
                         "computed_planes": planes.count, "complete": planes.complete,
                         "method": planes.info.get("method"), "invariant": True,
@@ -1187,7 +1350,8 @@ def _select(modes: Modes, sel):
                  eta=modes.eta[sel], exact=modes.exact[sel])
 
 
-def fmu_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, force=None, T=None, port_inputs=True):
+def fmu_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, force=None, T=None, port_inputs=True,
+               model_runs=None):
     """The shadow of an FMU's outputs, or None where the C core cannot certify it: more than
     :data:`FMU_MAX_PARTICLES` particles, a damping that varies on more than
     :data:`sphrom.rom.planes.EIGEN_LIMIT` particles, or a parametric model whose c or d is not uniform."""
@@ -1200,7 +1364,7 @@ def fmu_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, for
     if not uniform and d.size > EIGEN_LIMIT:
         return None
     return build_shadow(problem, probes, ports, parametric=parametric, scale_v=scale_v, T=T,
-                        port_inputs=port_inputs)
+                        port_inputs=port_inputs, model_runs=model_runs)
 
 
 # ---------------------------------------------------------------------------------------------------------------

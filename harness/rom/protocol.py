@@ -172,18 +172,20 @@ class Operators:
         none.  ``progress``: an object with ``update(1)``, called once per probe."""
         return None
 
-    def bound_shadow(self, problem, probes, *, parametric=False, scale_v=None):
+    def bound_shadow(self, problem, probes, *, parametric=False, scale_v=None, model_runs=None):
         """The certified shadow of the model's outputs at ``probes`` and its ``ports``
-        (:func:`sphrom.rom.bounds.fmu_shadow`: the full linear SPH's slowest planes, whatever the model), or None
+        (:func:`sphrom.rom.bounds.fmu_shadow`: planes of the full linear SPH, as many as the model's own error on
+        the reference inputs asks for when ``model_runs`` is given), or None
         where it cannot be certified.
 
         ``parametric``: the shadow of a model over a range of uniform c and d (its planes in pieces about the
         scene's c); ``scale_v`` [m s^-1]: the training run's largest probe velocity (``error_tolerance``'s
         default is a fraction of it; None: the initial state's).  With the port channel the shadow has the port
         velocity rows and no port input columns: the channel is exact for the port forces and adds its own part and
-        bound to each row (fmu_src/rom_bound.c)."""
+        bound to each row (fmu_src/rom_bound.c).  ``model_runs``: the model's own runs on the reference inputs
+        (:func:`sphrom.rom.bounds.model_errors`), which size the shadow against the model's error."""
         return fmu_shadow(problem, probes, tuple(self.ports), parametric=parametric, scale_v=scale_v,
-                          port_inputs=self.channel is None)
+                          port_inputs=self.channel is None, model_runs=model_runs)
 
 
 def two_blocks(first, second, k_first, k_second):

@@ -17,7 +17,7 @@ from ...rom.bounds import sections
 from ...rom.model import BASIS_KINDS
 from ...sph.solver import build_problem
 from .. import layout
-from ..resources import probe_pairs
+from ..resources import pack, probe_pairs
 from .envelope import measure
 
 
@@ -72,9 +72,44 @@ def shadow_step(data, ops, problem, probes, parametric=False):
     envelope = data.sections.get("ENVPROBE")
     scale_v = (float(np.max(envelope[layout.row("ENVPROBE", "v_max")])) if envelope is not None else
                training_probe_speed(problem, probes))
-    shadow = ops.bound_shadow(problem, probes, parametric=parametric, scale_v=scale_v)
+    shadow = ops.bound_shadow(problem, probes, parametric=parametric, scale_v=scale_v,
+                              model_runs=None if parametric else core_runs(data))
     if shadow is not None:
         data.sections.update(sections(shadow))
+
+
+def core_runs(data):
+    """The model of ``data`` (its sections so far, no SH*) run by the C core, as
+    :func:`sphrom.rom.bounds.model_errors` asks: ``run(h, f, scale)`` -> (v, ρ) (steps, P) after each step of h [s]
+    under f held over each step, from rest (scale 0) or from the initial state (scale 1: the outputs at t = 0
+    first).  The shadow is sized against the model's own error on its reference inputs; the FMU's own core, so
+    the error is the FMU's.  The binaries are built (or found in the cache) on the first run."""
+    blob = pack(dataclasses.replace(data, sections={k: v for k, v in data.sections.items()
+                                                    if not k.startswith("SH")}))
+
+    def run(h, f, scale):
+        from ..make.build import ensure_binaries
+        from ..run.core import Core
+        model = Core(ensure_binaries(quiet=True).core).load(blob)
+        try:
+            model.reset(0.0)
+            model.set_initial_state_scale(float(scale))
+            P = data.n_probes
+            v, rho = [], []
+            if scale:
+                out = model.outputs(P)
+                v.append(out[0])
+                rho.append(out[1])
+            for i, fi in enumerate(np.asarray(f, float)):
+                model.set_input(float(fi))
+                model.do_step(i * h, h)
+                out = model.outputs(P)
+                v.append(out[0])
+                rho.append(out[1])
+            return np.array(v), np.array(rho)
+        finally:
+            model.close()
+    return run
 
 
 def training_probe_speed(problem, probes):
