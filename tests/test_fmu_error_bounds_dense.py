@@ -199,8 +199,8 @@ def test_eigen_planes_are_invariant_and_dual(tmp_path):
 def test_user_bar_bounds_hold_and_are_useful(tmp_path):
     """The FMU's shadow (fmu_shadow, as packaging builds it) of the user bar (N = 160) from its initial state under
     its own sine force and from rest under a step: at every communication point the certified bound holds against
-    the full SPH linear in J integrated exactly in time, and it is useful by issue 32's measure (at most 1 % of
-    the largest true |v|)."""
+    the full SPH linear in J integrated exactly in time, and it is useful (at most 1 % of the largest true |v|, the
+    floor of a useful bound on a user's bar)."""
     from sphrom.rom.bounds import fmu_shadow, run_shadow
     problem = user_bar(tmp_path, 160)
     shadow = fmu_shadow(problem, base.PROBES)

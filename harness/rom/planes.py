@@ -217,8 +217,8 @@ def eigen_planes(problem, parametric=False):
     docstring).  The null modes (eigenvalue 0, e = c^-½ k with k in ker G: uncontrollable, unobservable in v, not in
     x0) become a diagonal block of their own.
 
-    One real eigendecomposition (LAPACK dgeev, right vectors only: O((2N)^3), about 90 s of one core at N = 2500)
-    and one real inverse for the left basis; ``info`` records the residual ‖A V - V Λ‖ and the condition
+    One real eigendecomposition (LAPACK dgeev, right vectors only, O((2N)^3): the cost that sets the limit) and
+    one real inverse for the left basis; ``info`` records the residual ‖A V - V Λ‖ and the condition
     ‖V‖ ‖W‖ (2-norms, estimated by Lanczos: the planes' conditioning enters every coefficient).  The planes of the
     last A are kept (read-only) and returned again for the same A (``info["reused"]``)."""
     if parametric:
