@@ -235,8 +235,11 @@ def eigen_planes(problem, parametric=False):
     if key in _EIGEN_MEMO:
         kept = _EIGEN_MEMO[key]
         return dataclasses.replace(kept, info={**kept.info, "reused": True})
-    geev, = sla.get_lapack_funcs(("geev",), (np.empty(0),))
-    wr, wi, _, vr, info = geev(As.toarray(), compute_vl=0, compute_vr=1, overwrite_a=1)
+    geev, geev_lwork = sla.get_lapack_funcs(("geev", "geev_lwork"), (np.empty(0),))
+    # the optimal workspace (f2py's default is the minimal one: unblocked Hessenberg reduction, several times slower)
+    work, info = geev_lwork(2 * n, compute_vl=0, compute_vr=1)
+    lwork = max(int(work), 4 * 2 * n) if info == 0 else 66 * 2 * n
+    wr, wi, _, vr, info = geev(As.toarray(), lwork=lwork, compute_vl=0, compute_vr=1, overwrite_a=1)
     if info != 0:
         raise RuntimeError(f"the eigenvalues of A did not converge (LAPACK dgeev info {info})")
     t_eig = time.perf_counter() - t0
