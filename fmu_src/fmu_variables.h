@@ -27,9 +27,9 @@
 #define ROM_VR_PORT_IMPEDANCE                   11u    /* parameter port_impedance [N.s/m]; with --ports and the port channel (a uniform damping d) */
 #define ROM_VR_A_PORT                           3100u  /* input a_port_j: 3100 + j - 1 [N]; with --ports and the port channel (a uniform damping d) */
 #define ROM_VR_B_PORT                           4100u  /* output b_port_j: 4100 + j - 1 [N]; with --ports and the port channel (a uniform damping d) */
-#define ROM_VR_ERROR_TOLERANCE                  10u    /* parameter error_tolerance [m/s]; FMUs with certified error bounds (N <= 200000; 1500 where d varies) */
-#define ROM_VR_V_PROBE_ERROR_BOUND              7000u  /* output v_probe_j_error_bound: 7000 + j - 1 [m/s]; FMUs with certified error bounds (N <= 200000; 1500 where d varies) */
-#define ROM_VR_RHO_PROBE_ERROR_BOUND            8000u  /* output rho_probe_j_error_bound: 8000 + j - 1 [kg/m3]; FMUs with certified error bounds (N <= 200000; 1500 where d varies) */
+#define ROM_VR_ERROR_TOLERANCE                  10u    /* parameter error_tolerance [m/s]; FMUs with certified error bounds (N <= 200000; 2500 where d varies) */
+#define ROM_VR_V_PROBE_ERROR_BOUND              7000u  /* output v_probe_j_error_bound: 7000 + j - 1 [m/s]; FMUs with certified error bounds (N <= 200000; 2500 where d varies) */
+#define ROM_VR_RHO_PROBE_ERROR_BOUND            8000u  /* output rho_probe_j_error_bound: 8000 + j - 1 [kg/m3]; FMUs with certified error bounds (N <= 200000; 2500 where d varies) */
 #define ROM_VR_V_PORT_ERROR_BOUND               9000u  /* output v_port_j_error_bound: 9000 + j - 1 [m/s]; with certified error bounds and --ports */
 
 /* constant start values (harness/defaults.py) */

@@ -132,3 +132,104 @@ def test_core_refuses_a_malformed_shadow(fmus):
     for change, text in cases:
         with pytest.raises(CoreError, match=text):
             load(change)
+
+
+# a user's bar of the generated corpus (sphrom.bench.lib.corpus: seed 1's scene 15, which has 1841 particles, above
+# the former limit of 1500): graded modulus, a damping that vanishes at x = 0 (so that no decay rate holds for the
+# bar as a whole), an initial velocity and a local sine force; the same code path at any N <= EIGEN_LIMIT
+USER_BAR = """
+[domain]
+L = 1.0
+T = 3.0
+
+[fields]
+rho0 = "1.448"
+c = "0.7348*(1 + 15.28*(0.5 + 0.5*sin(2*pi*x/L + 4.159)))/16.28"
+d = "1.307*x/L"
+v0 = "9.506e-05*(0.3605*sin(2*pi*1*x/L + 4.181) + 0.2704*sin(2*pi*3*x/L + 4.589) + 0.1821*sin(2*pi*4*x/L + 3.487))"
+
+[force]
+f = "0.0003756*sin(2*pi*0.6288*t)"
+profile = "exp(-((x - 0.3217*L)/(0.08774*L))**2)"
+
+[sph]
+n_particles = {n}
+"""
+
+
+def user_bar(tmp_path, n):
+    from sphrom.scene import load_scene
+    from sphrom.sph.solver import build_problem
+    path = tmp_path / f"user_bar_{n}.toml"
+    path.write_text(USER_BAR.format(n=n))
+    return build_problem(load_scene(str(path)))
+
+
+def test_eigen_planes_are_invariant_and_dual(tmp_path):
+    """The eigen-planes of the user bar (N = 160): every plane is invariant (‖A V_i - V_i Λ_i‖ within 1e-12 of
+    ‖A‖), the left basis is dual to the right one (Wᵀ V = I within 1e-12 x the condition), each block is in
+    normal form or diagonal, the planes come slowest first, and the residual and condition that ``info`` records
+    (Lanczos estimates) are the dense 2-norms within 1e-6; a second call on the same bar returns the same planes
+    (kept, read-only)."""
+    import scipy.linalg as sla
+
+    from sphrom.rom.lti import full_linear_system
+    from sphrom.rom.planes import eigen_planes
+    problem = user_bar(tmp_path, 160)
+    n = problem.n
+    pl = eigen_planes(problem)
+    A = full_linear_system(problem, [0.5]).A.toarray()
+    V = np.concatenate([pl.Vv, pl.Ve]).reshape(2 * n, -1)
+    W = np.concatenate([pl.Wv, pl.We]).reshape(2 * n, -1)
+    R = A @ V - V @ sla.block_diag(*pl.blocks[0])
+    norm_a = np.linalg.norm(A, 2)
+    assert np.max(np.linalg.norm(R.reshape(2 * n, -1, 2), axis=(0, 2))) <= 1e-12 * norm_a
+    cond = np.linalg.norm(V, 2) * np.linalg.norm(W, 2)
+    assert np.abs(W.T @ V - np.eye(2 * n)).max() <= 1e-12 * cond
+    L = pl.blocks[0]
+    pair = L[:, 0, 1] != 0.0
+    np.testing.assert_array_equal(L[pair, 0, 0], L[pair, 1, 1])
+    np.testing.assert_array_equal(L[pair, 0, 1], -L[pair, 1, 0])
+    assert np.all(L[~pair, 1, 0] == 0.0) and np.all(pl.blocks[1:] == 0.0)
+    assert np.all(np.diff(pl.key) >= 0.0)
+    assert pl.info["condition"] == pytest.approx(cond, rel=1e-6)
+    assert pl.info["residual"] == pytest.approx(np.linalg.norm(R, 2), rel=1e-6)
+    again = eigen_planes(user_bar(tmp_path, 160))
+    assert again.info["reused"] and not pl.info["reused"] and again.Vv is pl.Vv and not again.Vv.flags.writeable
+
+
+def test_user_bar_bounds_hold_and_are_useful(tmp_path):
+    """The FMU's shadow (fmu_shadow, as packaging builds it) of the user bar (N = 160) from its initial state under
+    its own sine force and from rest under a step: at every communication point the certified bound holds against
+    the full SPH linear in J integrated exactly in time, and it is useful (at most 1 % of the largest true |v|, the
+    floor of a useful bound on a user's bar)."""
+    from sphrom.rom.bounds import fmu_shadow, run_shadow
+    problem = user_bar(tmp_path, 160)
+    shadow = fmu_shadow(problem, base.PROBES)
+    assert shadow is not None and shadow.info["method"] == "dense eig(A)"
+    steps = 300
+    t = np.arange(steps) * base.H
+    P = len(base.PROBES)
+    for scale, f in ((1.0, 0.0003756 * np.sin(2 * np.pi * 0.6288 * t)), (0.0, 2e-4 * (t > 0.37))):
+        truth = base.exact_rows(problem, f, scale=scale)
+        y, cert = run_shadow(shadow, np.full(steps, base.H), f[:, None], np.zeros((steps, 1)), scale=scale)
+        assert np.all(np.abs(truth - y) <= cert)
+        assert cert[:, :P].max() <= 1e-2 * np.abs(truth[:, :P]).max()
+
+
+def test_graded_damping_above_the_limit_is_refused_in_one_line(tmp_path, monkeypatch):
+    """Above EIGEN_LIMIT (lowered here to 100, the limit's own code path) a damping that varies gets no shadow
+    (fmu_shadow: None, the FMU keeps its envelope warning) and eigen_planes refuses in one line naming the field and
+    the allowed range; the limit covers the generated corpus (up to 2000 particles) and uniform d's dense planes."""
+    from sphrom.bench.lib.corpus import corpus
+    from sphrom.rom import bounds, planes
+    import inspect
+    assert planes.EIGEN_LIMIT >= planes.DENSE_LIMIT
+    assert planes.EIGEN_LIMIT >= inspect.signature(corpus).parameters["n_max"].default
+    problem = user_bar(tmp_path, 120)
+    monkeypatch.setattr(planes, "EIGEN_LIMIT", 100)
+    monkeypatch.setattr(bounds, "EIGEN_LIMIT", 100)
+    assert bounds.fmu_shadow(problem, base.PROBES) is None
+    with pytest.raises(ValueError, match=r"^n_particles: 120 is out of range .*\(allowed: up to 100;") as info:
+        planes.eigen_planes(problem)
+    assert "\n" not in str(info.value)

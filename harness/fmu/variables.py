@@ -92,7 +92,7 @@ RULES = {
     "varied_c": (lambda f: "c" in f.varied, "parametric FMU only, --vary c"),
     "varied_d": (lambda f: "d" in f.varied, "parametric FMU only, --vary d"),
     "ports": (lambda f: bool(f.positions.get("port")), "only with --ports"),
-    "shadow": (lambda f: "SHSCAL" in f.sections, "FMUs with certified error bounds (N <= 200000; 1500 where d varies)"),
+    "shadow": (lambda f: "SHSCAL" in f.sections, "FMUs with certified error bounds (N <= 200000; 2500 where d varies)"),
     "shadow_ports": (lambda f: "SHSCAL" in f.sections and bool(f.positions.get("port")),
                      "with certified error bounds and --ports"),
     "channel": (lambda f: "PCSCAL" in f.sections, "with --ports and the port channel (a uniform damping d)"),

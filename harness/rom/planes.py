@@ -22,6 +22,8 @@ state: in normal form ‖e^{N t}‖ = e^{-α t} exactly, which is what makes eve
 
 from __future__ import annotations
 
+import dataclasses
+import hashlib
 import time
 from dataclasses import dataclass, field
 
@@ -34,7 +36,7 @@ from .inputs import NULL_TOL, rigid_modes  # noqa: F401  (NULL_TOL: its former h
 from .lti import full_linear_system
 
 DENSE_LIMIT = 2500          # particles: the dense singular value decomposition of K up to here
-EIGEN_LIMIT = 1500          # particles: the dense eigenvectors of A (a damping that varies) up to here
+EIGEN_LIMIT = 2500          # particles: the dense eigenvectors of A (a damping that varies) up to here (DENSE_LIMIT's)
 DEFECT = 1e-7               # a block whose eigenvalues are closer than this (relative) is treated as defective
 
 
@@ -205,10 +207,20 @@ def _sparse_triplets(problem, K, count):
     return U[:, :keep], sig[:keep], W[:, :keep]
 
 
+# the last eigen-planes computed, by the hash of their A: packaging a scene builds the shadow of each FMU it tries
+# (the default, the exact, a cheaper configuration), minutes of the same dense eigenvectors each at N = 2500
+_EIGEN_MEMO: dict = {}
+
+
 def eigen_planes(problem, parametric=False):
     """The eigen-planes of A (any damping d(x), dense, N <= :data:`EIGEN_LIMIT`), slowest |λ| first (module
     docstring).  The null modes (eigenvalue 0, e = c^-½ k with k in ker G: uncontrollable, unobservable in v, not in
-    x0) become a diagonal block of their own."""
+    x0) become a diagonal block of their own.
+
+    One real eigendecomposition (LAPACK dgeev, right vectors only, O((2N)^3): the cost that sets the limit) and
+    one real inverse for the left basis; ``info`` records the residual ‖A V - V Λ‖ and the condition
+    ‖V‖ ‖W‖ (2-norms, estimated by Lanczos: the planes' conditioning enters every coefficient).  The planes of the
+    last A are kept (read-only) and returned again for the same A (``info["reused"]``)."""
     if parametric:
         raise ValueError("a parametric shadow needs uniform c and d (singular planes)")
     t0 = time.perf_counter()
@@ -216,60 +228,72 @@ def eigen_planes(problem, parametric=False):
     if n > EIGEN_LIMIT:
         raise ValueError(f"n_particles: {n} is out of range for the error bounds of a damping that varies "
                          f"(allowed: up to {EIGEN_LIMIT}; the eigenvectors of A are dense)")
-    A = full_linear_system(problem, [0.5]).A.toarray()
-    lam, V = sla.eig(A)
-    # sort: by |λ| (pairs together: the member with Im >= 0 first)
-    order = np.lexsort((-lam.imag, np.round(np.abs(lam), 12)))
-    lam, V = lam[order], V[:, order]
-    Vi = np.linalg.inv(V)
-    cols, lefts, blocks, keys = [], [], [], []
-    reals = []
-    used = np.zeros(lam.size, bool)
-    tol = 1e-9 * max(float(np.max(np.abs(lam))), 1e-300)
-    for i in range(lam.size):
-        if used[i]:
-            continue
-        if lam[i].imag > tol:
-            j = next(j for j in range(i + 1, lam.size) if not used[j] and abs(lam[j] - np.conj(lam[i])) <= 1e3 * tol)
-            used[[i, j]] = True
-            v = V[:, i]
-            w = Vi[i]                               # row: λ's left eigenvector, w v = 1
-            # A [p q] = [p q] [[a, b], [-b, a]] for v = p + i q, λ = a + i b; left rows: 2 Re w, -2 Im w
-            cols.append(np.column_stack([v.real, v.imag]))
-            lefts.append(np.column_stack([2.0 * w.real, -2.0 * w.imag]))
-            a, b = lam[i].real, lam[i].imag
-            blocks.append([[a, b], [-b, a]])
-            keys.append(abs(lam[i]))
+    As = full_linear_system(problem, [0.5]).A.tocsr()
+    As.sum_duplicates()
+    key = hashlib.sha256(b"".join(np.ascontiguousarray(a).tobytes()
+                                  for a in (np.asarray(As.shape), As.indptr, As.indices, As.data))).hexdigest()
+    if key in _EIGEN_MEMO:
+        kept = _EIGEN_MEMO[key]
+        return dataclasses.replace(kept, info={**kept.info, "reused": True})
+    geev, geev_lwork = sla.get_lapack_funcs(("geev", "geev_lwork"), (np.empty(0),))
+    # the optimal workspace (f2py's default is the minimal one: unblocked Hessenberg reduction, several times slower)
+    work, info = geev_lwork(2 * n, compute_vl=0, compute_vr=1)
+    lwork = max(int(work), 4 * 2 * n) if info == 0 else 66 * 2 * n
+    wr, wi, _, vr, info = geev(As.toarray(), lwork=lwork, compute_vl=0, compute_vr=1, overwrite_a=1)
+    if info != 0:
+        raise RuntimeError(f"the eigenvalues of A did not converge (LAPACK dgeev info {info})")
+    t_eig = time.perf_counter() - t0
+    # dgeev's real form: a complex pair λ = a ± ib (b > 0 first) is two adjacent columns p, q of vr, the
+    # eigenvector p ± iq, so A [p q] = [p q] [[a, b], [-b, a]]; a real eigenvalue has wi exactly 0
+    cols, blocks, keys, reals = [], [], [], []
+    j = 0
+    while j < wr.size:
+        if wi[j] != 0.0:
+            if not (wi[j] > 0.0 and j + 1 < wr.size and wi[j + 1] == -wi[j] and wr[j + 1] == wr[j]):
+                raise RuntimeError("the eigenvalues of A are not in LAPACK's real form (a pair not adjacent)")
+            cols.append((j, j + 1))
+            blocks.append([[wr[j], wi[j]], [-wi[j], wr[j]]])
+            keys.append(float(np.hypot(wr[j], wi[j])))
+            j += 2
         else:
-            used[i] = True
-            reals.append(i)
-    # real eigenvalues: two to a diagonal plane, in order of |λ| (an odd one last, with a zero partner)
-    reals.sort(key=lambda i: abs(lam[i]))
+            reals.append(j)
+            j += 1
+    # real eigenvalues: two to a diagonal plane, in order of |λ| (their count is even: 2N minus the pairs')
+    reals.sort(key=lambda i: abs(wr[i]))
     for a in range(0, len(reals), 2):
         pair = reals[a:a + 2]
-        vs = [V[:, i].real for i in pair]
-        ws = [Vi[i].real for i in pair]
-        ls = [lam[i].real for i in pair]
         if len(pair) == 1:
-            vs.append(np.zeros(2 * n))
-            ws.append(np.zeros(2 * n))
-            ls.append(0.0)
-        cols.append(np.column_stack(vs))
-        lefts.append(np.column_stack(ws))
-        blocks.append([[ls[0], 0.0], [0.0, ls[1]]])
-        keys.append(min(abs(x) for x in ls[:len(pair)]))
+            raise RuntimeError("an odd number of real eigenvalues of A")
+        cols.append(tuple(pair))
+        blocks.append([[wr[pair[0]], 0.0], [0.0, wr[pair[1]]]])
+        keys.append(float(min(abs(wr[pair[0]]), abs(wr[pair[1]]))))
     order = np.argsort(np.asarray(keys), kind="stable")
-    Vp = np.stack([cols[i] for i in order], axis=1)         # (2N, n, 2)
-    Wp = np.stack([lefts[i] for i in order], axis=1)
-    bl = np.zeros((3, len(order), 2, 2))
+    V = vr[:, np.asarray([cols[i] for i in order], np.int64).reshape(-1)]      # (2N, 2n): plane order
+    del vr
+    W = np.ascontiguousarray(sla.inv(V, check_finite=False).T).reshape(2 * n, -1, 2)   # left basis: Wᵀ V = I
+    bl = np.zeros((3, order.size, 2, 2))
     bl[0] = np.asarray([blocks[i] for i in order], float)
-    resid = A @ Vp.reshape(2 * n, -1) - (Vp.reshape(2 * n, -1) @ sla.block_diag(*bl[0]))
-    return Planes(blocks=bl, Vv=Vp[:n], Ve=Vp[n:], Wv=Wp[:n], We=Wp[n:], key=np.asarray(keys)[order],
-                  complete=True, orthonormal=False,
-                  info={"sigma_cut": float("inf"), "seconds": time.perf_counter() - t0, "method": "dense eig(A)",
-                        "residual": float(np.linalg.norm(resid, 2)),
-                        "condition": float(np.linalg.norm(Vp.reshape(2 * n, -1), 2) *
-                                           np.linalg.norm(Wp.reshape(2 * n, -1), 2))})
+    Vp = V.reshape(2 * n, order.size, 2)
+    resid = As @ V - np.einsum("jik,ikl->jil", Vp, bl[0]).reshape(2 * n, -1)
+    out = Planes(blocks=bl, Vv=Vp[:n], Ve=Vp[n:], Wv=W[:n], We=W[n:], key=np.asarray(keys)[order], complete=True,
+                 orthonormal=False,
+                 info={"sigma_cut": float("inf"), "seconds": time.perf_counter() - t0, "seconds_eig": t_eig,
+                       "method": "dense eig(A)", "residual": _norm2(resid),
+                       "condition": _norm2(V) * _norm2(W.reshape(2 * n, -1)), "reused": False})
+    for a in (out.blocks, out.Vv, out.Ve, out.Wv, out.We, out.key):
+        a.flags.writeable = False
+    _EIGEN_MEMO.clear()
+    _EIGEN_MEMO[key] = out
+    return out
+
+
+def _norm2(X):
+    """The 2-norm (largest singular value) of a dense matrix, by Lanczos (a dense SVD of a 5000 x 5000 matrix
+    takes minutes)."""
+    X = np.asarray(X, float)
+    if min(X.shape) < 3 or not np.any(X):
+        return float(np.linalg.norm(X, 2)) if X.size else 0.0
+    return float(spl.svds(X, k=1, return_singular_vectors=False, tol=1e-8, random_state=0)[0])
 
 
 # ---------------------------------------------------------------------------------------------------------------
