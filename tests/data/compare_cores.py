@@ -12,8 +12,9 @@ slot overwritten, checksum fixed) through rom_state_check and rom_state_deserial
 (truncations, flipped bytes with and without a fixed checksum, every header field set to edge values, NaN in the
 body, sections dropped, repeated, transposed, with edge values, every known and unknown tag added, PARAMS
 variants), each loaded and, when accepted, run briefly.  Each library runs in a process of its own and writes one
-JSON line per record; the lines are compared in order (exit 1 on a difference).  ``--make`` needs the harness
-(PYTHONPATH) and packages 16 FMUs of N = 32 scenes (a few minutes; the SPH runs are cached).
+JSON line per record; the lines are compared in order (exit 1 on a difference).  It needs the harness importable
+(``sphrom``: the damaged resources are cut along sphrom.fmu.layout); ``--make`` packages 16 FMUs of N = 32 scenes
+(a few minutes; the SPH runs are cached).
 """
 
 import argparse
@@ -113,21 +114,21 @@ def fix_crc(blob):
     return blob[:-4] + struct.pack("<I", zlib.crc32(blob[:-4]) & 0xffffffff)
 
 
-def body_doubles(kind, flags, kv, kr, n_probes, n_pairs):
-    """float64 values after the header (fmu_src/rom.h's format)."""
-    if kind == 2:
-        k = kv + kr
-        rows = flags & 8
-        return (k + k * k + (k if flags & 2 else 0) + (2 * k * k if flags & 4 else 0) +
-                n_probes * (k if rows else kv) + n_probes * 2 * (k if rows else kr) + 5 * n_probes)
-    return (kv + kr + kv * kr + kv + (kv * kv if flags & 1 else 0) + (kv if flags & 2 else 0) + n_pairs * kr * kv +
-            n_probes * (kv + kr + 1))
-
-
 def sections_of(blob):
-    """(offset of the section count, [[tag, rows, cols, data]], token)."""
-    kind, _, kv, kr, n_probes, n_pairs, flags = struct.unpack_from("<7I", blob, 12)
-    start = 72 + 8 * body_doubles(kind, flags, kv, kr, n_probes, n_pairs)
+    """(offset of the section count, [[tag, rows, cols, data]], token) of a model.bin of the current format (the
+    header, the kind's own header and body by :mod:`sphrom.fmu.layout`, as sphrom.fmu.resources.read walks them)."""
+    from sphrom.fmu import layout
+    header = layout.HEADER.unpack(blob)
+    spec = layout.KIND_BY_NUMBER[header["model_kind"]]
+    cursor, head = layout.HEADER.size, None
+    if spec.head is not None:
+        head = spec.head.unpack(blob, cursor)
+        cursor += spec.head.size
+    sizes = layout.dims(spec, header, head)
+    for array in spec.body:
+        if layout.present(array, header["flags"]):
+            cursor += 8 * int(np.prod(layout.shape(array, sizes)))
+    start = cursor
     cursor, sections = start + 4, []
     for _ in range(struct.unpack_from("<I", blob, start)[0]):
         tag, rows, cols = struct.unpack_from("<8s2I", blob, cursor)
