@@ -115,6 +115,13 @@ class Core:
         return CoreModel(self, handle)
 
 
+def built_core() -> Core:
+    """The C core of this machine's binaries, built or found in the cache
+    (:func:`sphrom.fmu.make.build.ensure_binaries`)."""
+    from ..make.build import ensure_binaries
+    return Core(ensure_binaries(quiet=True).core)
+
+
 class CoreModel:
     """A loaded model and one state on it (freed on close / garbage collection)."""
 

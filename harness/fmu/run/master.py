@@ -139,9 +139,8 @@ class CoreBar:
     energy when it starts at rest with f = 0, its own part then never moving)."""
 
     def __init__(self, blob, initial_state_scale=1.0, impedance=0.0):
-        from ..make.build import ensure_binaries
-        from .core import Core
-        self.model = Core(ensure_binaries(quiet=True).core).load(blob)
+        from .core import built_core
+        self.model = built_core().load(blob)
         self.model.set_initial_state_scale(initial_state_scale)
         if impedance:
             self.model.set_port_impedance(impedance)

@@ -88,9 +88,8 @@ def core_runs(data):
                                                     if not k.startswith("SH")}))
 
     def run(h, f, scale):
-        from ..make.build import ensure_binaries
-        from ..run.core import Core
-        model = Core(ensure_binaries(quiet=True).core).load(blob)
+        from ..run.core import built_core
+        model = built_core().load(blob)
         try:
             model.reset(0.0)
             model.set_initial_state_scale(float(scale))
