@@ -705,17 +705,26 @@ def shadow_row(problem, shadow, shadow_s, probes):
             "cert_max": float(cert.max()), "shadow_err": float(err_s.max())}
 
 
+def _e(x):
+    """2e8 for 2e+08."""
+    mant, exp = f"{x:.0e}".split("e")
+    return f"{mant}e{int(exp)}"
+
+
 def large_section(rows, *, command, wall, machine):
+    from ..rom.bounds import CHEBYSHEV_WORK, MAX_TAIL_NODES, TAIL_WORK
+    from ..rom.planes import DENSE_LIMIT
     lines = [LARGE_HEADING, "",
              f"Produced by `{command}` ({machine}, {wall:.0f} s wall). The exact FMU of damped_forced with N "
              f"particles over T = {LARGE_T:g} s (symplectic SPH at a quarter of its stability limit; "
              "harness/bench/error_bounds.py `large_scene`). Packaging: `sphrom fmu`'s whole packaging with the "
              "bounds (the full SPH training run, the POD, the model, the shadow), one run; the shadow: "
-             "`build_shadow` timed apart (its planes: the dense SVD up to 2500 particles, the sparse shift-invert "
-             "Lanczos solver above; the tail: the uncomputed planes' free response from x0 computed, `tail_table`, "
-             "by the full sparse system's Taylor propagation where N x nodes <= 2e8, else by a Chebyshev expansion "
-             "in K Kᵀ and Kᵀ K where N x its degree <= 4e9, at most 131072 nodes; tail nodes 0: bounded by "
-             f"norms). Certification: {LARGE_STEPS} steps of {STEP * 1e3:g} ms from the initial "
+             f"`build_shadow` timed apart (its planes: the dense SVD up to {DENSE_LIMIT} particles, the sparse "
+             "shift-invert Lanczos solver above; the tail: the uncomputed planes' free response from x0 computed, "
+             f"`tail_table`, by the full sparse system's Taylor propagation where N x nodes <= {_e(TAIL_WORK)}, else "
+             f"by a Chebyshev expansion in K Kᵀ and Kᵀ K where N x its degree <= {_e(CHEBYSHEV_WORK)}, at most "
+             f"{MAX_TAIL_NODES} nodes; tail nodes 0: bounded by norms). Certification: {LARGE_STEPS} steps of "
+             f"{STEP * 1e3:g} ms from the initial "
              "state under the chirp, held, against the full linear SPH integrated exactly in time "
              "(`sphrom.rom.truth`, the truth packaging measures every FMU against: above 500 particles a "
              "Taylor series of the sparse operator to round-off). doStep: the C core's rom_do_step with and without "

@@ -948,6 +948,18 @@ def reference_responses(L, chat, bhat, T, omega, series=False):
     return (out[0], out[1], runs) if series else (out[0], out[1])
 
 
+def sine_variation(alpha, omega, span):
+    """The weighted variation of the unit reference sine of ``omega`` [s^-1] over ``span`` [s] for a decay rate
+    alpha [s^-1] (an array or a number): ω min(span, 1/α) + 1 (1/α infinite where α <= 0)."""
+    alpha = np.asarray(alpha, float)
+    return omega * np.minimum(span, np.where(alpha > 0, 1.0 / np.maximum(alpha, 1e-300), np.inf)) + 1.0
+
+
+def probe_density(e, pw, prho0):
+    """ρ at a probe from e at its two particles: Σ_m pw_m ρ0_m / (1 + e_m) over the last axis (e (..., 2))."""
+    return np.sum(pw * prho0 / (1.0 + e), axis=-1)
+
+
 def reference_omega(planes):
     """The reference sine's angular frequency [s^-1]: half the first elastic frequency (:func:`choose_planes`)."""
     L = planes.blocks[0]
@@ -985,7 +997,7 @@ def model_errors(model_runs, truth_step, truth_sine, truth_free, omega, T, P, pw
         out[:P] = np.abs(v - y[:P].T).max(axis=0)
         for j in range(P):
             e = y[P + 2 * j:P + 2 * j + 2].T                     # (M, 2)
-            rho_t = (pw[j] * prho0[j] / (1.0 + e)).sum(axis=1)
+            rho_t = probe_density(e, pw[j], prho0[j])
             out[P + 2 * j:P + 2 * j + 2] = np.abs(rho[:, j] - rho_t).max() / rho_scale[j]
         return out
 
@@ -1094,14 +1106,11 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
         for j in range(m):
             g = mg[:, rest, j]
             trans = g.sum(axis=1)
-            vs = omega * np.minimum(span, np.where(modes_all.alpha[rest] > 0, 1.0 / np.maximum(
-                modes_all.alpha[rest], 1e-300), np.inf)) + 1.0
-            sine = (g * vs[None, :]).sum(axis=1)
+            sine = (g * sine_variation(modes_all.alpha[rest], omega, span)[None, :]).sum(axis=1)
             if tl is not None:
                 extra = tl.gain()[:, j]
                 trans = trans + extra
-                vt = omega * min(span, 1.0 / tl.alpha if tl.alpha > 0 else np.inf) + 1.0
-                sine = sine + extra * vt + tl.static()[:, j]
+                sine = sine + extra * float(sine_variation(tl.alpha, omega, span)) + tl.static()[:, j]
             for c, cls in enumerate(classes):
                 for val, scale, err in ((trans, step_r[cls, j].max(), None if step_e is None else step_e[:, j]),
                                         (sine, sine_r[cls, j].max(), None if sine_e is None else sine_e[:, j])):
@@ -1165,7 +1174,7 @@ def cluster_importance(clusters, modes, mg, omega, span, classes, step_r, sine_r
     step's gain, the sine's gain times its weighted variation, the free response's size (|P|; times the table's
     interpolation factor (|μ| h_tab)^4 / 384 for a mode the table interpolates, h_tab > 0), per row class against
     the class's largest reference response (channels below FLOOR of the class's largest not judged)."""
-    vs = omega * np.minimum(span, np.where(modes.alpha > 0, 1.0 / np.maximum(modes.alpha, 1e-300), np.inf)) + 1.0
+    vs = sine_variation(modes.alpha, omega, span)
     per_mode = np.zeros(modes.plane.size)
     m = mg.shape[2]
     size = np.abs(modes.P)
@@ -1496,7 +1505,7 @@ def output_bounds(sh: Shadow, y, cert, v_model, rho_model, port_model=None):
     beta = cert[:, P:3 * P].reshape(-1, P, 2)
     J = 1.0 + e
     low = J - beta
-    rho_s = np.sum(sh.pw * sh.prho0 / J, axis=2)
+    rho_s = probe_density(e, sh.pw, sh.prho0)
     with np.errstate(divide="ignore", invalid="ignore"):
         part = np.sum(sh.pw * sh.prho0 * beta / (J * low), axis=2)
     part = np.where(np.all(low > 0, axis=2), part, np.inf)

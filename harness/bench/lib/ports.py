@@ -1,6 +1,8 @@
 """What the port benchmarks share (:mod:`sphrom.bench.port_coupling`, :mod:`sphrom.bench.port_envelope`,
 :mod:`sphrom.bench.port_rates`): the ports, the open-loop port forces, the lumped mass-spring, the error."""
 
+import functools
+
 import numpy as np
 
 PORTS = (0.3, 0.7)
@@ -34,10 +36,14 @@ def coupling_force(y, v_port, damping=0.0):
     return STIFFNESS * y[0] + damping * (y[1] - v_port)
 
 
+@functools.lru_cache(maxsize=8)
 def _lumped_flow(h, damping):
-    """e^{A h} of (s, s')' = [[0, 1], [-K/m, -damping/m]] (s, s')."""
+    """e^{A h} of (s, s')' = [[0, 1], [-K/m, -damping/m]] (s, s'), read-only (one per step length and dashpot: a
+    loop's every step uses the same)."""
     import scipy.linalg as sla
-    return sla.expm(np.array([[0.0, 1.0], [-STIFFNESS / MASS, -damping / MASS]]) * h)
+    E = sla.expm(np.array([[0.0, 1.0], [-STIFFNESS / MASS, -damping / MASS]]) * h)
+    E.setflags(write=False)
+    return E
 
 
 def loop_map(problem, port, h, damping=0.0):
@@ -62,17 +68,14 @@ def loop_map(problem, port, h, damping=0.0):
     -------
     Z : ndarray (2N + 2, 2N + 2)
     """
-    import scipy.linalg as sla
     from ...rom.bounds import input_columns, output_rows
+    from ...rom.exact_linear import propagators
     from ...rom.lti import full_linear_system
     A = full_linear_system(problem, [0.5]).A.toarray()
     n2 = A.shape[0]
     b = input_columns(problem, (port,))[:, 1]                   # per F/area [N m^-2]
     c = output_rows(problem, [0.5], (port,))[0][-1]            # v_port [m s^-1]
-    aug = np.zeros((n2 + 1, n2 + 1))
-    aug[:n2, :n2], aug[:n2, n2] = A * h, b * h
-    E = sla.expm(aug)                                          # [[e^{Ah}, ∫ e^{As} ds b], [0, 1]]
-    Phi, g = E[:n2, :n2], E[:n2, n2]
+    Phi, g, _ = propagators(A, b, h)                           # e^{Ah}, ∫ e^{As} ds b (the force held)
     R = _lumped_flow(h, damping)                               # (s, w - v_port) over the step, v_port = c x held
     Z = np.zeros((n2 + 2, n2 + 2))
     # F = K s + damping (w - c x), held: x+ = Phi x + g F
