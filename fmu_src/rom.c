@@ -34,10 +34,11 @@ RomState *rom_state_new(const RomModel *model) {
     RomState *s = (RomState *)calloc(1, sizeof(RomState));
     if (!s) return NULL;
     s->model = model;
-    /* a^v, a^rho (never NULL: a linear state with k_e = 0 gets one slot); then the kind's own arrays */
-    const size_t counts[2] = {model->kv_pad, model->kr_pad ? model->kr_pad : 1};
-    double **ptrs[2] = {&s->av, &s->ar};
-    s->storage_ = rom_alloc_arrays(counts, ptrs, 2);
+    /* a^v, a^rho (never NULL: a linear state with k_e = 0 gets one slot), the kept v_probe; then the kind's own
+     * arrays */
+    const size_t counts[3] = {model->kv_pad, model->kr_pad ? model->kr_pad : 1, model->n_probes ? model->n_probes : 1};
+    double **ptrs[3] = {&s->av, &s->ar, &s->v_kept};
+    s->storage_ = rom_alloc_arrays(counts, ptrs, 3);
     if (!s->storage_ || model->ops->state_new(s) != ROM_OK || rom_bound_state_new(s) != ROM_OK ||
         rom_channel_state_new(s) != ROM_OK) {
         rom_state_free(s);
@@ -56,6 +57,14 @@ void rom_state_free(RomState *state) {
     free(state);
 }
 
+/* the kind's state moved (a step, a reset, initial_state_scale, rom_advance, a new parameter, a state read): its
+ * outputs are read anew, the kept v_probe and the port channel's kept v_port alike (rom_internal.h) */
+void rom_outputs_moved(RomState *s) {
+    if (!s || !s->v_kept) return;
+    for (uint32_t j = 0; j < s->model->n_probes; j++) s->v_kept[j] = NAN;
+    rom_channel_kind_moved(s);
+}
+
 /* The initial reduced state from the model's and initial_state_scale (the kind's initial_state; rom.h's
  * rom_set_initial_state_scale says what it is). */
 static void apply_initial_state(RomState *s) {
@@ -63,7 +72,7 @@ static void apply_initial_state(RomState *s) {
     memset(s->av, 0, m->kv_pad * sizeof(double));
     memset(s->ar, 0, m->kr_pad * sizeof(double));
     m->ops->initial_state(s);
-    rom_channel_kind_moved(s);
+    rom_outputs_moved(s);
 }
 
 void rom_state_reset(RomState *s, double t_start) {
@@ -85,6 +94,7 @@ void rom_state_reset(RomState *s, double t_start) {
     s->area = 1.0;                                             /* [m^2] */
     rom_bound_reset(s);                                        /* the bounds' shadow, error_tolerance */
     rom_channel_reset(s);                                      /* the port channel at rest, the force form */
+    rom_outputs_moved(s);                                      /* (after the kind's reset too) */
 }
 
 RomStatus rom_set_start_time(RomState *s, double t_start, char *message, size_t message_size) {
@@ -142,6 +152,7 @@ RomStatus rom_set_dt(RomState *s, double dt, char *message, size_t message_size)
         return rom_fail(message, message_size, "parameter dt = %g s is out of range (allowed: a finite number > 0)",
                         dt);
     }
+    rom_outputs_moved(s);
     return s->model->ops->set_dt(s, dt, message, message_size);     /* and its floor (the work of a doStep) */
 }
 
@@ -155,6 +166,7 @@ RomStatus rom_set_n_freeze(RomState *s, int64_t n_freeze, char *message, size_t 
         return rom_fail(message, message_size, "parameter n_freeze = %lld is out of range (allowed: an integer >= 1)",
                         (long long)n_freeze);
     }
+    rom_outputs_moved(s);
     return s->model->ops->set_n_freeze(s, (int32_t)n_freeze, message, message_size);
 }
 
@@ -240,7 +252,7 @@ RomStatus rom_do_step(RomState *s, double t_comm, double h, char *message, size_
     double v_own[ROM_MAX_PORTS], v_end[ROM_MAX_PORTS];              /* the kind's v_port at the step's two ends */
     const uint32_t own = s->channel ? s->model->n_ports : 0u;
     for (uint32_t j = 0; j < own; j++) v_own[j] = rom_channel_kind_velocity(s, j);   /* kept from the last step */
-    rom_channel_kind_moved(s);
+    rom_outputs_moved(s);
     RomStatus status = s->model->ops->step(s, t_comm, h, message, message_size);
     if (status != ROM_OK) return status;
     for (uint32_t j = 0; j < own; j++) {
@@ -282,16 +294,18 @@ RomStatus rom_advance(RomState *s, int64_t n_steps, char *message, size_t messag
         return rom_fail(message, message_size, "%s has no internal step (rom_do_step advances it over any step)",
                         s->model->ops->name);
     }
-    rom_channel_kind_moved(s);
+    rom_outputs_moved(s);
     const RomStatus status = s->model->ops->advance(s, n_steps, message, message_size);
     if (status == ROM_OK) s->elapsed = s->elapsed + (double)n_steps * rom_dt(s);     /* as the kind's time */
     return status;
 }
 
-/* the kind's output plus the port channel's part (rom_port.c; without the channel the kind's own bits) */
+/* the kind's output (kept until the state moves: the same number, one sum a step for the error check and the
+ * importer's read) plus the port channel's part (rom_port.c; without the channel the kind's own bits) */
 double rom_v_probe(const RomState *s, uint32_t j) {
     if (!s || j >= s->model->n_probes) return NAN;
-    const double v = s->model->ops->v_probe(s, j);
+    double v = s->v_kept[j];
+    if (isnan(v)) v = s->v_kept[j] = s->model->ops->v_probe(s, j);     /* (a NaN output is asked anew: still NaN) */
     return s->channel ? v + rom_channel_row(s, j, NULL) : v;
 }
 
@@ -385,7 +399,7 @@ RomStatus rom_model_assemble(RomModel *m, RomState *s, char *message, size_t mes
     if (!m || !s || s->model != m) return rom_fail(message, message_size, "assemble: no model or a foreign state");
     if (!rom_section(m, "PARAMS")) return ROM_OK;
     m->ops->assemble(m, s);
-    rom_channel_kind_moved(s);
+    rom_outputs_moved(s);
     return rom_bound_assemble(m, s, message, message_size);      /* a parametric shadow's planes at (c, d) */
 }
 

@@ -48,7 +48,7 @@ _Static_assert((3u * ROM_MAX_PROBES + ROM_MAX_PORTS + 1u + BOUND_GROUP - 1u) / B
 typedef struct {
     double h;                  /* 0: empty */
     int64_t used;
-    double *Phi;               /* [planes][4] */
+    double *Phi;               /* [planes][4]: each plane's 2 x 2 map by columns (Phi_00, Phi_10, Phi_01, Phi_11) */
     double *G0, *G1;           /* [order][inputs] */
     double decay[BOUND_MAX_GROUPS], slope[BOUND_MAX_GROUPS];   /* exp(-alpha h), (1 - exp(-alpha h)) / (alpha h) */
     double growth;             /* exp(mu h): the shadow's growth over the step (w_int) */
@@ -60,6 +60,7 @@ typedef struct {
     double *ct;                /* [order][slots] (slot 0 unused: |w|^2 from w itself), C transposed, then zeros */
     uint64_t groups[BOUND_GROUP_WORDS];   /* bit g: y's group g holds the sums of this w; 0 whenever w changes (step,
                                   reset, restore; at most 3 x 100 probes + 4 ports + 1 slots: 77 groups) */
+    double w_root;             /* |w| = sqrt(y[0]) while group 0 holds this w's sums */
     double V[BOUND_MAX_INPUTS * BOUND_MAX_GROUPS];    /* [inputs][groups] the weighted variations */
     double u_prev[BOUND_MAX_INPUTS];   /* the input at the end of the last step */
     double w_int;              /* int |w| dt so far (a bound) */
@@ -509,7 +510,7 @@ static const BoundCache *plane_maps(BoundState *bs, const RomBoundModel *b, doub
             continue;
         }
         for (size_t i = 0; i < 2; i++) {
-            for (size_t j = 0; j < 2; j++) slot->Phi[4 * p + 2 * i + j] = E[i * n + j];
+            for (size_t j = 0; j < 2; j++) slot->Phi[4 * p + 2 * j + i] = E[i * n + j];
             for (size_t c = 0; c < m; c++) {
                 slot->G0[(2 * p + i) * m + c] = E[i * n + 2 + c];
                 slot->G1[(2 * p + i) * m + c] = E[i * n + 2 + m + c];
@@ -540,6 +541,98 @@ static void step_inputs(const RomState *s, double h, double *u, double *du) {
 
 static void shadow_group(const RomState *s, BoundState *bs, size_t g);
 
+/* Two lanes side by side: GCC/Clang vector extensions (an SSE2 register on x86-64), plain arrays elsewhere; every
+ * lane does the scalar IEEE operation, in the same order (as rom_frozen.c's blocks).  Loads and stores through
+ * memcpy: the rows need no alignment. */
+#if defined(__GNUC__)
+typedef double BoundLanes __attribute__((vector_size(16)));
+#define LANES_LOAD(v, p) memcpy(&(v), (p), sizeof(BoundLanes))
+#endif
+
+/* group 0 of the rows' sums (|w|^2 in slot 0, C_r w of rows 0 to 2 in slots 1 to 3: the velocity rows the error
+ * check reads with up to three probes) from C's rows themselves: four partial sums per slot side by side (the
+ * coefficients i = 0, 1, 2, 3 mod 4, then (a0 + a1) + (a2 + a3)): group_sums' products and order */
+static void group0_sums(const RomBoundModel *b, const double *w, double *out) {
+    const size_t k = b->order;
+    const double *C0 = b->C, *C1 = C0 + k, *C2 = C1 + k;
+    double a[BOUND_GROUP][4];                        /* [slot][partial] */
+    size_t i = 0;
+#if defined(__GNUC__)
+    /* (named, not an array: kept in registers) the partials 0, 1 (lo) and 2, 3 (hi) of the four slots */
+    BoundLanes s0lo = {0.0, 0.0}, s0hi = s0lo, s1lo = s0lo, s1hi = s0lo, s2lo = s0lo, s2hi = s0lo, s3lo = s0lo,
+               s3hi = s0lo;
+    for (; i + 4 <= k; i += 4) {
+        BoundLanes xlo, xhi, rlo, rhi;
+        LANES_LOAD(xlo, w + i);
+        LANES_LOAD(xhi, w + i + 2);
+        s0lo += xlo * xlo;
+        s0hi += xhi * xhi;
+        LANES_LOAD(rlo, C0 + i);
+        LANES_LOAD(rhi, C0 + i + 2);
+        s1lo += rlo * xlo;
+        s1hi += rhi * xhi;
+        LANES_LOAD(rlo, C1 + i);
+        LANES_LOAD(rhi, C1 + i + 2);
+        s2lo += rlo * xlo;
+        s2hi += rhi * xhi;
+        LANES_LOAD(rlo, C2 + i);
+        LANES_LOAD(rhi, C2 + i + 2);
+        s3lo += rlo * xlo;
+        s3hi += rhi * xhi;
+    }
+    const BoundLanes *parts[BOUND_GROUP][2] = {{&s0lo, &s0hi}, {&s1lo, &s1hi}, {&s2lo, &s2hi}, {&s3lo, &s3hi}};
+    for (size_t c = 0; c < BOUND_GROUP; c++) {
+        memcpy(a[c], parts[c][0], sizeof(BoundLanes));
+        memcpy(a[c] + 2, parts[c][1], sizeof(BoundLanes));
+    }
+#else
+    for (size_t c = 0; c < BOUND_GROUP; c++) {
+        for (size_t l = 0; l < 4; l++) a[c][l] = 0.0;
+    }
+    for (; i + 4 <= k; i += 4) {
+        for (size_t l = 0; l < 4; l++) {
+            a[0][l] += w[i + l] * w[i + l];
+            a[1][l] += C0[i + l] * w[i + l];
+            a[2][l] += C1[i + l] * w[i + l];
+            a[3][l] += C2[i + l] * w[i + l];
+        }
+    }
+#endif
+    for (size_t l = 0; i < k; i++, l++) {            /* the last k mod 4 coefficients */
+        a[0][l] += w[i] * w[i];
+        a[1][l] += C0[i] * w[i];
+        a[2][l] += C1[i] * w[i];
+        a[3][l] += C2[i] * w[i];
+    }
+    for (size_t c = 0; c < BOUND_GROUP; c++) out[c] = (a[c][0] + a[c][1]) + (a[c][2] + a[c][3]);
+}
+
+/* the planes of a one-input shadow over the step (input u0 at its start, du0 its change over it; held: du0 = 0,
+ * the slope's products, exact zeros, skipped), each plane's two coordinates side by side (lane l: Phi_l0 w0 +
+ * Phi_l1 w1 + G0_l u0 (+ G1_l du0), Phi by columns), then group 0's sums of the new w (the step's |w| next time,
+ * the error check's velocity rows now) */
+static void plane_step_one(const RomState *s, BoundState *bs, const BoundCache *c, double u0, double du0, int held) {
+    const RomBoundModel *b = &s->model->bound;
+    double *w = bs->w;
+    if (held) {
+        for (uint32_t p = 0; p < b->planes; p++) {
+            const double *Phi = c->Phi + 4 * (size_t)p, *G0 = c->G0 + 2 * (size_t)p;
+            double *wp = w + 2 * (size_t)p;
+            const double w0 = wp[0], w1 = wp[1];
+            for (size_t l = 0; l < 2; l++) wp[l] = Phi[l] * w0 + Phi[2 + l] * w1 + G0[l] * u0;
+        }
+    } else {
+        for (uint32_t p = 0; p < b->planes; p++) {
+            const double *Phi = c->Phi + 4 * (size_t)p, *G0 = c->G0 + 2 * (size_t)p, *G1 = c->G1 + 2 * (size_t)p;
+            double *wp = w + 2 * (size_t)p;
+            const double w0 = wp[0], w1 = wp[1];
+            for (size_t l = 0; l < 2; l++) wp[l] = Phi[l] * w0 + Phi[2 + l] * w1 + (G0[l] * u0 + G1[l] * du0);
+        }
+    }
+    groups_stale(bs);
+    shadow_group(s, bs, 0);
+}
+
 void rom_bound_step(RomState *s, double h) {
     BoundState *bs = (BoundState *)s->bound;
     if (!bs) return;
@@ -562,35 +655,23 @@ void rom_bound_step(RomState *s, double h) {
         u2 += u[j] * u[j];
         e2 += (u[j] + du[j]) * (u[j] + du[j]);
     }
-    /* |w| at the step's start: the rows' pass computed it where an output's bound was read since the last step
-     * (else that pass now: the same sum whichever path) */
+    /* |w| at the step's start: the last step's end computed it (else a reset or a restored state: now) */
     if (!group_fresh(bs, 0)) shadow_group(s, bs, 0);
-    const double wn = sqrt(bs->y[0]);
+    const double wn = bs->w_root;
     bs->w_int += h * c->growth * (wn + h * b->b_norm * sqrt(fmax(u2, e2)));
     /* each plane in place (its two coordinates read before they are written); a held input (du = 0) skips the
      * slope's columns, whose products are exact zeros: the same sums */
     int held = 1;
     for (size_t j = 0; j < m; j++) held &= du[j] == 0.0;
-    double *w = bs->w;
     if (m == 1) {
-        const double u0 = u[0], du0 = du[0];
-        for (uint32_t p = 0; p < b->planes; p++) {
-            const double *Phi = c->Phi + 4 * (size_t)p, *G0 = c->G0 + 2 * (size_t)p, *G1 = c->G1 + 2 * (size_t)p;
-            const double w0 = w[2 * p], w1 = w[2 * p + 1];
-            if (held) {
-                w[2 * p] = Phi[0] * w0 + Phi[1] * w1 + G0[0] * u0;
-                w[2 * p + 1] = Phi[2] * w0 + Phi[3] * w1 + G0[1] * u0;
-            } else {
-                w[2 * p] = Phi[0] * w0 + Phi[1] * w1 + (G0[0] * u0 + G1[0] * du0);
-                w[2 * p + 1] = Phi[2] * w0 + Phi[3] * w1 + (G0[1] * u0 + G1[1] * du0);
-            }
-        }
+        plane_step_one(s, bs, c, u[0], held ? 0.0 : du[0], held);     /* with group 0's sums of the new w */
     } else {
+        double *w = bs->w;
         for (uint32_t p = 0; p < b->planes; p++) {
             const double *Phi = c->Phi + 4 * (size_t)p;
             const double w0 = w[2 * p], w1 = w[2 * p + 1];
             for (size_t i = 0; i < 2; i++) {
-                double acc = Phi[2 * i] * w0 + Phi[2 * i + 1] * w1;
+                double acc = Phi[i] * w0 + Phi[2 + i] * w1;
                 const size_t r = (2 * p + i) * m;
                 for (size_t j = 0; j < m; j++) {
                     acc += held ? c->G0[r + j] * u[j] : c->G0[r + j] * u[j] + c->G1[r + j] * du[j];
@@ -598,8 +679,8 @@ void rom_bound_step(RomState *s, double h) {
                 w[2 * p + i] = acc;
             }
         }
+        groups_stale(bs);
     }
-    groups_stale(bs);
     for (size_t j = 0; j < m; j++) bs->u_prev[j] = u[j] + du[j];
     bs->steps += 1.0;
     const double tau = s->elapsed + h;                  /* the time since the start after this step */
@@ -642,7 +723,7 @@ static void row_time(const RomState *s, RowTime *rt) {
     }
     if (bs->started != 0.0) {
         if (!group_fresh(bs, 0)) shadow_group(s, bs, 0);
-        rt->w_root = sqrt(bs->y[0]);
+        rt->w_root = bs->w_root;
     } else {
         rt->w_root = NAN;
     }
@@ -700,8 +781,10 @@ static inline void group_sums(const double *col, size_t stride, const double *w,
 static void shadow_group(const RomState *s, BoundState *bs, size_t g) {
     const RomBoundModel *b = &s->model->bound;
     const size_t k = b->order, slots = row_slots(b);
-    if (g == 0) group_sums(bs->ct, slots, bs->w, k, 1, bs->y);
-    else group_sums(bs->ct + BOUND_GROUP * g, slots, bs->w, k, 0, bs->y + BOUND_GROUP * g);
+    if (g == 0) {
+        group0_sums(b, bs->w, bs->y);
+        bs->w_root = sqrt(bs->y[0]);
+    } else group_sums(bs->ct + BOUND_GROUP * g, slots, bs->w, k, 0, bs->y + BOUND_GROUP * g);
     bs->groups[g / 64] |= (uint64_t)1 << (g % 64);
 }
 
@@ -745,8 +828,8 @@ static void shadow_row_at(const RomState *s, const RowTime *rt, uint32_t r, doub
     free_part(b, rt, r, &g_value, &g_error);
     y += s->initial_state_scale * g_value;
     const double allow = cn * rt->steps_factor * (w_root + scale * b->x0_norm);
-    double channel_cert;                    /* the port channel's part of the row and its own bound (rom_port.c) */
-    *value = y + rom_channel_row(s, r, &channel_cert);
+    double channel_cert = 0.0;              /* the port channel's part of the row and its own bound (rom_port.c) */
+    *value = s->channel ? y + rom_channel_row(s, r, &channel_cert) : y;
     *cert = scale * g_error + quasi + trans + cn * b->e_norm * bs->w_int + allow + channel_cert;
 }
 
@@ -765,8 +848,8 @@ static double velocity_bound(const RomState *s, const RowTime *rt, uint32_t j, i
         return fabs(rom_channel_port_velocity(s, j) - y) + cert;  /* the model's output, as rom.c rom_v_port */
     }
     shadow_row_at(s, rt, j, &y, &cert);
-    /* the model's output as rom.c rom_v_probe gives it: the kind's and the port channel's */
-    return fabs(s->model->ops->v_probe(s, j) + rom_channel_row(s, j, NULL) - y) + cert;
+    /* the model's output, as rom.c rom_v_probe (the kind's, kept for the importer's read, and the port channel's) */
+    return fabs(rom_v_probe(s, j) - y) + cert;
 }
 
 double rom_v_probe_error_bound(const RomState *s, uint32_t j) {

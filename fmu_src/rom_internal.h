@@ -222,6 +222,10 @@ double rom_channel_kind_velocity(const RomState *s, uint32_t j);
 /* rom.h rom_v_port: the kind's part (rom_channel_kind_velocity) and the channel's row; without the channel the kind's */
 double rom_channel_port_velocity(const RomState *s, uint32_t j);
 void rom_channel_kind_moved(RomState *s);
+/* rom.c: the kind's state moved (wherever a^v, a^rho or the kind's state change outside a read: a step, a reset,
+ * initial_state_scale, rom_advance, dt, n_freeze, a new parameter, a state read): the kept v_probe (RomState.v_kept)
+ * is forgotten and rom_channel_kind_moved called */
+void rom_outputs_moved(RomState *s);
 /* the channel's part of output row r (the shadow's order: P v probes, 2P e rows, the ports) with its certified
  * bound against the full linear SPH's port response in *cert (0 and 0 without the channel) */
 double rom_channel_row(const RomState *s, uint32_t r, double *cert);

@@ -229,5 +229,6 @@ RomStatus rom_state_deserialize(RomState *s, const unsigned char *buffer, size_t
     const unsigned char *cursor = blocks_get(s, buffer + ROM_STATE_HEADER_SIZE, rom_get_u32(buffer + 8));
     cursor = params_get(s, cursor);
     (void)ports_get(s, cursor);
+    rom_outputs_moved(s);                               /* the kept outputs were the old state's */
     return ROM_OK;
 }
