@@ -568,16 +568,15 @@ typedef double BoundLanes __attribute__((vector_size(16)));
  * check reads with up to three probes) from C's rows themselves: four partial sums per slot side by side (the
  * coefficients i = 0, 1, 2, 3 mod 4, then (a0 + a1) + (a2 + a3)): group_sums' products and order */
 static void group0_sums(const RomBoundModel *b, const double *w, double *out) {
-    const size_t k = b->order;
+    const size_t k = b->order;                       /* even: k mod 4 is 0 or 2 */
     const double *C0 = b->C, *C1 = C0 + k, *C2 = C1 + k;
-    double a[BOUND_GROUP][4];                        /* [slot][partial] */
     size_t i = 0;
 #if defined(__GNUC__)
     /* (named, not an array: kept in registers) the partials 0, 1 (lo) and 2, 3 (hi) of the four slots */
     BoundLanes s0lo = {0.0, 0.0}, s0hi = s0lo, s1lo = s0lo, s1hi = s0lo, s2lo = s0lo, s2hi = s0lo, s3lo = s0lo,
                s3hi = s0lo;
+    BoundLanes xlo, xhi, rlo, rhi;
     for (; i + 4 <= k; i += 4) {
-        BoundLanes xlo, xhi, rlo, rhi;
         LANES_LOAD(xlo, w + i);
         LANES_LOAD(xhi, w + i + 2);
         s0lo += xlo * xlo;
@@ -595,31 +594,31 @@ static void group0_sums(const RomBoundModel *b, const double *w, double *out) {
         s3lo += rlo * xlo;
         s3hi += rhi * xhi;
     }
-    const BoundLanes *parts[BOUND_GROUP][2] = {{&s0lo, &s0hi}, {&s1lo, &s1hi}, {&s2lo, &s2hi}, {&s3lo, &s3hi}};
-    for (size_t c = 0; c < BOUND_GROUP; c++) {
-        memcpy(a[c], parts[c][0], sizeof(BoundLanes));
-        memcpy(a[c] + 2, parts[c][1], sizeof(BoundLanes));
+    if (i < k) {                                     /* the last two coefficients: partials 0, 1 */
+        LANES_LOAD(xlo, w + i);
+        s0lo += xlo * xlo;
+        LANES_LOAD(rlo, C0 + i);
+        s1lo += rlo * xlo;
+        LANES_LOAD(rlo, C1 + i);
+        s2lo += rlo * xlo;
+        LANES_LOAD(rlo, C2 + i);
+        s3lo += rlo * xlo;
     }
+    out[0] = (s0lo[0] + s0lo[1]) + (s0hi[0] + s0hi[1]);
+    out[1] = (s1lo[0] + s1lo[1]) + (s1hi[0] + s1hi[1]);
+    out[2] = (s2lo[0] + s2lo[1]) + (s2hi[0] + s2hi[1]);
+    out[3] = (s3lo[0] + s3lo[1]) + (s3hi[0] + s3hi[1]);
 #else
-    for (size_t c = 0; c < BOUND_GROUP; c++) {
-        for (size_t l = 0; l < 4; l++) a[c][l] = 0.0;
-    }
-    for (; i + 4 <= k; i += 4) {
-        for (size_t l = 0; l < 4; l++) {
-            a[0][l] += w[i + l] * w[i + l];
-            a[1][l] += C0[i + l] * w[i + l];
-            a[2][l] += C1[i + l] * w[i + l];
-            a[3][l] += C2[i + l] * w[i + l];
-        }
-    }
-#endif
-    for (size_t l = 0; i < k; i++, l++) {            /* the last k mod 4 coefficients */
+    double a[BOUND_GROUP][4] = {{0.0}};              /* [slot][partial] */
+    for (; i < k; i++) {
+        const size_t l = i % 4;
         a[0][l] += w[i] * w[i];
         a[1][l] += C0[i] * w[i];
         a[2][l] += C1[i] * w[i];
         a[3][l] += C2[i] * w[i];
     }
     for (size_t c = 0; c < BOUND_GROUP; c++) out[c] = (a[c][0] + a[c][1]) + (a[c][2] + a[c][3]);
+#endif
 }
 
 /* the planes of a one-input shadow over the step (input u0 at its start, du0 its change over it; held: du0 = 0,
@@ -722,7 +721,7 @@ static void row_time(const RomState *s, RowTime *rt) {
     rt->in_table = b->nodes && tau <= t_end;
     if (rt->in_table) {
         const double x = (tau > 0 ? tau : 0.0) / b->h_tab;
-        uint32_t k = (uint32_t)floor(x);
+        uint32_t k = (uint32_t)x;                       /* floor: 0 <= x <= nodes - 1 (+ rounding) < 2^32 */
         if (k > b->nodes - 2) k = b->nodes - 2;
         const double t = x - (double)k, u = 1.0 - t;
         rt->k = k;
@@ -748,7 +747,7 @@ static void row_time(const RomState *s, RowTime *rt) {
 /* the complement's free response of row r at the time of rt (per unit initial_state_scale): the table's Hermite
  * interpolation into *value and its certified error into *error; after the table (or without one) 0 and the
  * decaying tail (harness/rom/bounds.py free_part) */
-static void free_part(const RomBoundModel *b, const RowTime *rt, uint32_t r, double *value, double *error) {
+static inline void free_part(const RomBoundModel *b, const RowTime *rt, uint32_t r, double *value, double *error) {
     if (rt->in_table) {
         const uint32_t k = rt->k;
         const double *g = b->tab + (size_t)r * b->nodes, *dg = b->tab + (size_t)(b->rows + r) * b->nodes;
@@ -803,60 +802,76 @@ static void shadow_group(const RomState *s, BoundState *bs, size_t g) {
     bs->groups[g / 64] |= (uint64_t)1 << (g % 64);
 }
 
-/* (the shadow's rows r0 to r0 + n - 1, their certified errors) at the state's time (rt: its row_time) into
- * value[0 .. n - 1], cert[0 .. n - 1]: what the rows share (the inputs' terms, the round-off allowance's factors)
- * read once for all of them (the error check asks for every velocity row at once) */
-static void shadow_rows(const RomState *s, const RowTime *rt, uint32_t r0, uint32_t n, double *value, double *cert) {
+/* what the rows share at one time beside rt: the input at the last step's end and its size */
+typedef struct {
+    double up[BOUND_MAX_INPUTS], ua[BOUND_MAX_INPUTS];
+} RowInputs;
+
+/* (the shadow's row r, its certified error) at rt's time into *value, *cert; m the shadow's inputs, started and
+ * channel whether w holds its steps and whether the model has a port channel (constants where a caller
+ * specializes: shadow_rows) */
+static inline void row_at(const RomState *s, const RowTime *rt, const RowInputs *in, uint32_t r, size_t m,
+                          int started, int channel, double *value, double *cert) {
     const RomBoundModel *b = &s->model->bound;
     BoundState *bs = (BoundState *)s->bound;
-    const size_t m = b->inputs, G = b->groups, len = b->row_len;
+    const size_t G = b->groups;
     const uint32_t P = s->model->n_probes;
-    const double iss = s->initial_state_scale, scale = fabs(iss), e_w = b->e_norm, w_int = bs->w_int;
-    double up[BOUND_MAX_INPUTS], ua[BOUND_MAX_INPUTS];       /* the input at the last step's end, its size */
-    for (size_t j = 0; j < m; j++) {
-        up[j] = bs->u_prev[j];
-        ua[j] = fabs(up[j]);
+    const double iss = s->initial_state_scale, scale = fabs(iss);
+    const double *row = b->row + (size_t)r * b->row_len;
+    double y, w_root;
+    if (started) {
+        const size_t g = ((size_t)r + 1) / BOUND_GROUP;
+        if (!group_fresh(bs, g)) shadow_group(s, bs, g);
+        y = bs->y[r + 1];
+        w_root = rt->w_root;
+    } else {                                            /* s w0 before the first step (s may still change) */
+        const size_t k = b->order;
+        const double *Cr = b->C + (size_t)r * k;
+        double w2 = 0.0;
+        y = 0.0;
+        for (size_t q = 0; q < k; q++) {
+            const double wq = iss * b->w0[q];
+            y += Cr[q] * wq;
+            w2 += wq * wq;
+        }
+        w_root = sqrt(w2);
     }
-    const double *V = bs->V;
-    for (uint32_t i = 0; i < n; i++) {
-        const uint32_t r = r0 + i;
-        const double *row = b->row + (size_t)r * len;
-        double y, w_root;
-        if (bs->started != 0.0) {
-            const size_t g = ((size_t)r + 1) / BOUND_GROUP;
-            if (!group_fresh(bs, g)) shadow_group(s, bs, g);
-            y = bs->y[r + 1];
-            w_root = rt->w_root;
-        } else {                                        /* s w0 before the first step (s may still change) */
-            const size_t k = b->order;
-            const double *Cr = b->C + (size_t)r * k;
-            double w2 = 0.0;
-            y = 0.0;
-            for (size_t q = 0; q < k; q++) {
-                const double wq = iss * b->w0[q];
-                y += Cr[q] * wq;
-                w2 += wq * wq;
-            }
-            w_root = sqrt(w2);
+    double quasi = 0.0, trans = 0.0;
+    for (size_t j = 0; j < m; j++) {
+        y += row[1 + j] * in->up[j];                    /* the complement's quasi-static response */
+        quasi += row[1 + m + j] * in->ua[j];
+        for (size_t g = 0; g < G; g++) {
+            const double H = row[1 + 2 * m + j * G + g], V = bs->V[j * G + g];
+            if (V > 0) trans += H < 0 ? INFINITY : H * V;
         }
-        double quasi = 0.0, trans = 0.0;
-        for (size_t j = 0; j < m; j++) {
-            y += row[1 + j] * up[j];                    /* the complement's quasi-static response */
-            quasi += row[1 + m + j] * ua[j];
-            for (size_t g = 0; g < G; g++) {
-                const double H = row[1 + 2 * m + j * G + g], Vj = V[j * G + g];
-                if (Vj > 0) trans += H < 0 ? INFINITY : H * Vj;
-            }
-        }
-        const double row_scale = r >= P && r < 3 * P ? b->e_scale : 1.0;     /* e rows of a parametric shadow */
-        const double cn = row[0] * row_scale;
-        double g_value, g_error;
-        free_part(b, rt, r, &g_value, &g_error);
-        y += iss * g_value;
-        const double allow = cn * rt->steps_factor * (w_root + scale * b->x0_norm);
-        double channel_cert = 0.0;          /* the port channel's part of the row and its own bound (rom_port.c) */
-        value[i] = s->channel ? y + rom_channel_row(s, r, &channel_cert) : y;
-        cert[i] = scale * g_error + quasi + trans + cn * e_w * w_int + allow + channel_cert;
+    }
+    const double row_scale = r >= P && r < 3 * P ? b->e_scale : 1.0;     /* e rows of a parametric shadow */
+    const double cn = row[0] * row_scale;
+    double g_value, g_error;
+    free_part(b, rt, r, &g_value, &g_error);
+    y += iss * g_value;
+    const double allow = cn * rt->steps_factor * (w_root + scale * b->x0_norm);
+    double channel_cert = 0.0;              /* the port channel's part of the row and its own bound (rom_port.c) */
+    *value = channel ? y + rom_channel_row(s, r, &channel_cert) : y;
+    *cert = scale * g_error + quasi + trans + cn * b->e_norm * bs->w_int + allow + channel_cert;
+}
+
+/* rows r0 to r0 + n - 1 (row_at) into value[0 .. n - 1], cert[0 .. n - 1], the inputs' terms read once for all of
+ * them (the error check asks for every velocity row at once); the common case (one input, stepped, no port
+ * channel) with those as constants */
+static void shadow_rows(const RomState *s, const RowTime *rt, uint32_t r0, uint32_t n, double *value, double *cert) {
+    const BoundState *bs = (const BoundState *)s->bound;
+    const size_t m = s->model->bound.inputs;
+    RowInputs in;
+    for (size_t j = 0; j < m; j++) {
+        in.up[j] = bs->u_prev[j];
+        in.ua[j] = fabs(in.up[j]);
+    }
+    const int started = bs->started != 0.0, channel = s->channel != NULL;
+    if (m == 1 && started && !channel) {
+        for (uint32_t i = 0; i < n; i++) row_at(s, rt, &in, r0 + i, 1, 1, 0, value + i, cert + i);
+    } else {
+        for (uint32_t i = 0; i < n; i++) row_at(s, rt, &in, r0 + i, m, started, channel, value + i, cert + i);
     }
 }
 
