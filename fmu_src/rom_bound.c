@@ -60,7 +60,10 @@ typedef struct {
     double *ct;                /* [order][slots] (slot 0 unused: |w|^2 from w itself), C transposed, then zeros */
     uint64_t groups[BOUND_GROUP_WORDS];   /* bit g: y's group g holds the sums of this w; 0 whenever w changes (step,
                                   reset, restore; at most 3 x 100 probes + 4 ports + 1 slots: 77 groups) */
-    double w_root;             /* |w| = sqrt(y[0]) while group 0 holds this w's sums */
+    double w_root;             /* |w| of this w while w_fresh (the step's end, or group 0's sums: the same sum) */
+    int w_fresh;
+    int rows_read;             /* group 0's rows were read since the last step (the error check): the next step
+                                  sums them while w is at hand; else it sums |w|^2 alone (the rows when read) */
     double V[BOUND_MAX_INPUTS * BOUND_MAX_GROUPS];    /* [inputs][groups] the weighted variations */
     double u_prev[BOUND_MAX_INPUTS];   /* the input at the end of the last step */
     double w_int;              /* int |w| dt so far (a bound) */
@@ -416,6 +419,7 @@ static int group_fresh(const BoundState *bs, size_t g) {
 
 static void groups_stale(BoundState *bs) {
     for (unsigned i = 0; i < BOUND_GROUP_WORDS; i++) bs->groups[i] = 0;
+    bs->w_fresh = 0;
 }
 
 RomStatus rom_bound_state_new(RomState *s) {
@@ -621,41 +625,98 @@ static void group0_sums(const RomBoundModel *b, const double *w, double *out) {
 #endif
 }
 
-/* the planes of a one-input shadow over the step (input u0 at its start, du0 its change over it; held: du0 = 0,
- * the slope's products, exact zeros, skipped), each plane's two coordinates side by side (lane l: Phi_l0 w0 +
- * Phi_l1 w1 + G0_l u0 (+ G1_l du0), Phi by columns), then group 0's sums of the new w (the step's |w| next time,
- * the error check's velocity rows now) */
-static void plane_step_one(const RomState *s, BoundState *bs, const BoundCache *c, double u0, double du0, int held) {
-    const RomBoundModel *b = &s->model->bound;
-    double *w = bs->w;
+/* one plane of a one-input shadow over the step, its two coordinates side by side (lane l: Phi_l0 w0 + Phi_l1 w1 +
+ * G0_l u0, + G1_l du0 unless held; Phi, G0, G1 the plane's: Phi by columns) into w, and their terms of group 0's
+ * sums into acc[slot]'s lanes (the partial sums (2 p + l) mod 4: acc holds the even planes' or the odd planes'):
+ * |w|^2 in slot 0, with `rows` also C_r w of rows 0 to 2 in slots 1 to 3 (C the plane's first column of C's rows,
+ * rows k apart) */
+#if defined(__GNUC__)
+static inline void plane_lanes(const double *restrict Phi, const double *restrict G0, const double *restrict G1,
+                               double *restrict w, const double *restrict C, size_t k, double u0, double du0,
+                               int held, int rows, BoundLanes *acc) {
+    BoundLanes c0, c1, g0, n;
+    LANES_LOAD(c0, Phi);
+    LANES_LOAD(c1, Phi + 2);
+    LANES_LOAD(g0, G0);
+    const BoundLanes w0 = {w[0], w[0]}, w1 = {w[1], w[1]}, u = {u0, u0};
     if (held) {
-        for (uint32_t p = 0; p < b->planes; p++) {
-            const double *Phi = c->Phi + 4 * (size_t)p, *G0 = c->G0 + 2 * (size_t)p;
-            double *wp = w + 2 * (size_t)p;
-            const double w0 = wp[0], w1 = wp[1];
-            for (size_t l = 0; l < 2; l++) wp[l] = Phi[l] * w0 + Phi[2 + l] * w1 + G0[l] * u0;
-        }
+        n = c0 * w0 + c1 * w1 + g0 * u;
     } else {
-        for (uint32_t p = 0; p < b->planes; p++) {
-            const double *Phi = c->Phi + 4 * (size_t)p, *G0 = c->G0 + 2 * (size_t)p, *G1 = c->G1 + 2 * (size_t)p;
-            double *wp = w + 2 * (size_t)p;
-            const double w0 = wp[0], w1 = wp[1];
-            for (size_t l = 0; l < 2; l++) wp[l] = Phi[l] * w0 + Phi[2 + l] * w1 + (G0[l] * u0 + G1[l] * du0);
+        BoundLanes g1;
+        LANES_LOAD(g1, G1);
+        const BoundLanes du = {du0, du0};
+        n = c0 * w0 + c1 * w1 + (g0 * u + g1 * du);
+    }
+    w[0] = n[0];
+    w[1] = n[1];
+    acc[0] += n * n;
+    if (rows) {
+        for (size_t r = 0; r + 1 < BOUND_GROUP; r++) {
+            BoundLanes cr;
+            LANES_LOAD(cr, C + r * k);
+            acc[r + 1] += cr * n;
         }
     }
+}
+#else
+static inline void plane_lanes(const double *restrict Phi, const double *restrict G0, const double *restrict G1,
+                               double *restrict w, const double *restrict C, size_t k, double u0, double du0,
+                               int held, int rows, double (*acc)[2]) {
+    const double w0 = w[0], w1 = w[1];
+    for (size_t l = 0; l < 2; l++) {
+        const double n = held ? Phi[l] * w0 + Phi[2 + l] * w1 + G0[l] * u0 :
+                                Phi[l] * w0 + Phi[2 + l] * w1 + (G0[l] * u0 + G1[l] * du0);
+        w[l] = n;
+        acc[0][l] += n * n;
+        for (size_t r = 0; rows && r + 1 < BOUND_GROUP; r++) acc[r + 1][l] += C[r * k + l] * n;
+    }
+}
+#endif
+
+/* the planes of a one-input shadow over the step (u0 the input at its start, du0 its change over it; held: du0 =
+ * 0, the slope's products, exact zeros, skipped) and group 0's sums of the new w while it is at hand, in
+ * group_sums' partial sums and order (planes 2 t and 2 t + 1 are coordinates 4 t to 4 t + 3): |w|^2 for the next
+ * step's start, and the velocity rows where `rows` (group 0's rows were read since the last step: the error check
+ * reads them after every step until it warns; else they are summed when read) */
+static inline void planes_one(BoundState *bs, const BoundCache *c, const RomBoundModel *b, double u0, double du0,
+                              int held, int rows) {
+    const uint32_t planes = b->planes;
+    const size_t k = b->order;
+    double *w = bs->w;
+    const double *restrict Phi = c->Phi, *restrict G0 = c->G0, *restrict G1 = c->G1, *restrict C = b->C;
+    uint32_t p = 0;
+#if defined(__GNUC__)
+    BoundLanes even[BOUND_GROUP], odd[BOUND_GROUP];
+    for (size_t r = 0; r < BOUND_GROUP; r++) even[r] = odd[r] = (BoundLanes){0.0, 0.0};
+#else
+    double even[BOUND_GROUP][2] = {{0.0}}, odd[BOUND_GROUP][2] = {{0.0}};
+#endif
+    for (; p + 2 <= planes; p += 2, Phi += 8, G0 += 4, G1 += 4, w += 4, C += 4) {
+        plane_lanes(Phi, G0, G1, w, C, k, u0, du0, held, rows, even);
+        plane_lanes(Phi + 4, G0 + 2, G1 + 2, w + 2, C + 2, k, u0, du0, held, rows, odd);
+    }
+    if (p < planes) plane_lanes(Phi, G0, G1, w, C, k, u0, du0, held, rows, even);     /* an odd count's last */
     groups_stale(bs);
-    shadow_group(s, bs, 0);
+    for (size_t r = 0; r < (rows ? BOUND_GROUP : 1u); r++) bs->y[r] = (even[r][0] + even[r][1]) + (odd[r][0] + odd[r][1]);
+    if (rows) bs->groups[0] |= 1u;
+    bs->w_root = sqrt(bs->y[0]);
+    bs->w_fresh = 1;
 }
 
-void rom_bound_step(RomState *s, double h) {
-    BoundState *bs = (BoundState *)s->bound;
-    if (!bs) return;
+static void plane_step_one(BoundState *bs, const BoundCache *c, const RomBoundModel *b, double u0, double du0,
+                           int held) {
+    const int rows = bs->rows_read;
+    bs->rows_read = 0;
+    if (held && rows) planes_one(bs, c, b, u0, 0.0, 1, 1);      /* the four cases, each with its constants */
+    else if (held) planes_one(bs, c, b, u0, 0.0, 1, 0);
+    else if (rows) planes_one(bs, c, b, u0, du0, 0, 1);
+    else planes_one(bs, c, b, u0, du0, 0, 0);
+}
+
+/* rom_bound_step's work once w holds its steps, m the shadow's inputs (a constant where the caller specializes) */
+static inline void step_shadow(RomState *s, BoundState *bs, double h, size_t m) {
     const RomBoundModel *b = &s->model->bound;
-    const size_t k = b->order, m = b->inputs, G = b->groups;
-    if (bs->started == 0.0) {
-        for (size_t i = 0; i < k; i++) bs->w[i] = s->initial_state_scale * b->w0[i];
-        bs->started = 1.0;
-    }
+    const size_t G = b->groups;
     double u[BOUND_MAX_INPUTS], du[BOUND_MAX_INPUTS];
     step_inputs(s, h, u, du);
     const BoundCache *c = plane_maps(bs, b, h);
@@ -670,15 +731,15 @@ void rom_bound_step(RomState *s, double h) {
         e2 += (u[j] + du[j]) * (u[j] + du[j]);
     }
     /* |w| at the step's start: the last step's end computed it (else a reset or a restored state: now) */
-    if (!group_fresh(bs, 0)) shadow_group(s, bs, 0);
-    const double wn = bs->w_root;
-    bs->w_int += h * c->growth * (wn + h * b->b_norm * sqrt(fmax(u2, e2)));
+    if (!bs->w_fresh) shadow_group(s, bs, 0);
+    const double wn = bs->w_root, u_max = u2 > e2 ? u2 : e2;     /* (fmax: neither is NaN, the inputs are finite) */
+    bs->w_int += h * c->growth * (wn + h * b->b_norm * sqrt(u_max));
     /* each plane in place (its two coordinates read before they are written); a held input (du = 0) skips the
      * slope's columns, whose products are exact zeros: the same sums */
     int held = 1;
     for (size_t j = 0; j < m; j++) held &= du[j] == 0.0;
     if (m == 1) {
-        plane_step_one(s, bs, c, u[0], held ? 0.0 : du[0], held);     /* with group 0's sums of the new w */
+        plane_step_one(bs, c, b, u[0], held ? 0.0 : du[0], held);     /* with group 0's sums of the new w */
     } else {
         double *w = bs->w;
         for (uint32_t p = 0; p < b->planes; p++) {
@@ -699,6 +760,18 @@ void rom_bound_step(RomState *s, double h) {
     bs->steps += 1.0;
     const double tau = s->elapsed + h;                  /* the time since the start after this step */
     if (tau > table_end(b)) tail_decays(bs, b, tau, s->elapsed, c, h);
+}
+
+void rom_bound_step(RomState *s, double h) {
+    BoundState *bs = s ? (BoundState *)s->bound : NULL;
+    if (!bs) return;
+    const RomBoundModel *b = &s->model->bound;
+    if (bs->started == 0.0) {
+        for (size_t i = 0; i < b->order; i++) bs->w[i] = s->initial_state_scale * b->w0[i];
+        bs->started = 1.0;
+    }
+    if (b->inputs == 1) step_shadow(s, bs, h, 1);     /* the force f alone: the common case, specialized */
+    else step_shadow(s, bs, h, b->inputs);
 }
 
 /* what every row's bound shares at one time (tau since the start): the free response's table interval and
@@ -736,7 +809,7 @@ static void row_time(const RomState *s, RowTime *rt) {
         for (uint32_t g = 0; g < b->groups; g++) rt->decay[g] = cached ? bs->tail_decay[g] : exp(-b->rates[g] * over);
     }
     if (bs->started != 0.0) {
-        if (!group_fresh(bs, 0)) shadow_group(s, bs, 0);
+        if (!bs->w_fresh) shadow_group(s, bs, 0);
         rt->w_root = bs->w_root;
     } else {
         rt->w_root = NAN;
@@ -798,6 +871,7 @@ static void shadow_group(const RomState *s, BoundState *bs, size_t g) {
     if (g == 0) {
         group0_sums(b, bs->w, bs->y);
         bs->w_root = sqrt(bs->y[0]);
+        bs->w_fresh = 1;
     } else group_sums(bs->ct + BOUND_GROUP * g, slots, bs->w, k, 0, bs->y + BOUND_GROUP * g);
     bs->groups[g / 64] |= (uint64_t)1 << (g % 64);
 }
@@ -822,6 +896,7 @@ static inline void row_at(const RomState *s, const RowTime *rt, const RowInputs 
     if (started) {
         const size_t g = ((size_t)r + 1) / BOUND_GROUP;
         if (!group_fresh(bs, g)) shadow_group(s, bs, g);
+        if (g == 0) bs->rows_read = 1;
         y = bs->y[r + 1];
         w_root = rt->w_root;
     } else {                                            /* s w0 before the first step (s may still change) */
