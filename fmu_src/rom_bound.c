@@ -560,10 +560,11 @@ static void step_inputs(const RomState *s, double h, double *u, double *du) {
 
 static void shadow_group(const RomState *s, BoundState *bs, size_t g);
 
-/* Two lanes side by side: GCC/Clang vector extensions (an SSE2 register on x86-64), plain arrays elsewhere; every
- * lane does the scalar IEEE operation, in the same order (as rom_frozen.c's blocks).  Loads and stores through
- * memcpy: the rows need no alignment. */
-#if defined(__GNUC__)
+/* Two lanes side by side: GCC/Clang vector extensions (an SSE2 register on x86-64), plain arrays elsewhere (or
+ * with -DROM_NO_LANES: tests/test_bound_lanes.py compares the two builds); every lane does the scalar IEEE
+ * operation, in the same order (as rom_frozen.c's blocks).  Loads through memcpy: the rows need no alignment. */
+#if defined(__GNUC__) && !defined(ROM_NO_LANES)
+#define BOUND_LANES 1
 typedef double BoundLanes __attribute__((vector_size(16)));
 #define LANES_LOAD(v, p) memcpy(&(v), (p), sizeof(BoundLanes))
 #endif
@@ -575,7 +576,7 @@ static void group0_sums(const RomBoundModel *b, const double *w, double *out) {
     const size_t k = b->order;                       /* even: k mod 4 is 0 or 2 */
     const double *C0 = b->C, *C1 = C0 + k, *C2 = C1 + k;
     size_t i = 0;
-#if defined(__GNUC__)
+#if defined(BOUND_LANES)
     /* (named, not an array: kept in registers) the partials 0, 1 (lo) and 2, 3 (hi) of the four slots */
     BoundLanes s0lo = {0.0, 0.0}, s0hi = s0lo, s1lo = s0lo, s1hi = s0lo, s2lo = s0lo, s2hi = s0lo, s3lo = s0lo,
                s3hi = s0lo;
@@ -630,7 +631,7 @@ static void group0_sums(const RomBoundModel *b, const double *w, double *out) {
  * sums into acc[slot]'s lanes (the partial sums (2 p + l) mod 4: acc holds the even planes' or the odd planes'):
  * |w|^2 in slot 0, with `rows` also C_r w of rows 0 to 2 in slots 1 to 3 (C the plane's first column of C's rows,
  * rows k apart) */
-#if defined(__GNUC__)
+#if defined(BOUND_LANES)
 static inline void plane_lanes(const double *restrict Phi, const double *restrict G0, const double *restrict G1,
                                double *restrict w, const double *restrict C, size_t k, double u0, double du0,
                                int held, int rows, BoundLanes *acc) {
@@ -685,7 +686,7 @@ static inline void planes_one(BoundState *bs, const BoundCache *c, const RomBoun
     double *w = bs->w;
     const double *restrict Phi = c->Phi, *restrict G0 = c->G0, *restrict G1 = c->G1, *restrict C = b->C;
     uint32_t p = 0;
-#if defined(__GNUC__)
+#if defined(BOUND_LANES)
     BoundLanes even[BOUND_GROUP], odd[BOUND_GROUP];
     for (size_t r = 0; r < BOUND_GROUP; r++) even[r] = odd[r] = (BoundLanes){0.0, 0.0};
 #else
@@ -883,7 +884,7 @@ typedef struct {
 
 /* (the shadow's row r, its certified error) at rt's time into *value, *cert; m the shadow's inputs, started and
  * channel whether w holds its steps and whether the model has a port channel (constants where a caller
- * specializes: shadow_rows) */
+ * specializes: rom_bound_exceeded) */
 static inline void row_at(const RomState *s, const RowTime *rt, const RowInputs *in, uint32_t r, size_t m,
                           int started, int channel, double *value, double *cert) {
     const RomBoundModel *b = &s->model->bound;
@@ -931,28 +932,21 @@ static inline void row_at(const RomState *s, const RowTime *rt, const RowInputs 
     *cert = scale * g_error + quasi + trans + cn * b->e_norm * bs->w_int + allow + channel_cert;
 }
 
-/* rows r0 to r0 + n - 1 (row_at) into value[0 .. n - 1], cert[0 .. n - 1], the inputs' terms read once for all of
- * them (the error check asks for every velocity row at once); the common case (one input, stepped, no port
- * channel) with those as constants */
-static void shadow_rows(const RomState *s, const RowTime *rt, uint32_t r0, uint32_t n, double *value, double *cert) {
+/* the inputs' terms the rows share (row_at) */
+static void row_inputs(const RomState *s, RowInputs *in) {
     const BoundState *bs = (const BoundState *)s->bound;
-    const size_t m = s->model->bound.inputs;
-    RowInputs in;
-    for (size_t j = 0; j < m; j++) {
-        in.up[j] = bs->u_prev[j];
-        in.ua[j] = fabs(in.up[j]);
-    }
-    const int started = bs->started != 0.0, channel = s->channel != NULL;
-    if (m == 1 && started && !channel) {
-        for (uint32_t i = 0; i < n; i++) row_at(s, rt, &in, r0 + i, 1, 1, 0, value + i, cert + i);
-    } else {
-        for (uint32_t i = 0; i < n; i++) row_at(s, rt, &in, r0 + i, m, started, channel, value + i, cert + i);
+    for (size_t j = 0; j < s->model->bound.inputs; j++) {
+        in->up[j] = bs->u_prev[j];
+        in->ua[j] = fabs(in->up[j]);
     }
 }
 
 /* (the shadow's row r, its certified error) at the state's time (rt: its row_time) */
 static void shadow_row_at(const RomState *s, const RowTime *rt, uint32_t r, double *value, double *cert) {
-    shadow_rows(s, rt, r, 1, value, cert);
+    RowInputs in;
+    row_inputs(s, &in);
+    row_at(s, rt, &in, r, s->model->bound.inputs, ((const BoundState *)s->bound)->started != 0.0, s->channel != NULL,
+           value, cert);
 }
 
 static void shadow_row(const RomState *s, uint32_t r, double *value, double *cert) {
@@ -1016,34 +1010,34 @@ RomStatus rom_set_error_tolerance(RomState *s, double tolerance, char *message, 
     return ROM_OK;
 }
 
-/* the rows the error check computes at a time (its arrays on the stack) */
-#define BOUND_CHECK_ROWS 16u
-
 int rom_bound_exceeded(const RomState *s, char *message, size_t message_size) {
     if (!s || !s->bound || !(s->error_tolerance > 0)) return 0;
-    RowTime rt;                                          /* one time for every velocity row */
+    RowTime rt;                                          /* one time and one input for every velocity row */
     row_time(s, &rt);
+    RowInputs in;
+    row_inputs(s, &in);
     const uint32_t P = s->model->n_probes;
-    double y[BOUND_CHECK_ROWS], cert[BOUND_CHECK_ROWS];
+    const size_t m = s->model->bound.inputs;
+    const int started = ((const BoundState *)s->bound)->started != 0.0, channel = s->channel != NULL;
+    const int common = m == 1 && started && !channel;    /* row_at with these as constants */
     for (uint32_t port = 0; port < 2; port++) {
         const uint32_t n = port ? s->model->n_ports : P;
-        for (uint32_t j0 = 0; j0 < n; j0 += BOUND_CHECK_ROWS) {
-            const uint32_t count = n - j0 < BOUND_CHECK_ROWS ? n - j0 : BOUND_CHECK_ROWS;
-            shadow_rows(s, &rt, port ? 3 * P + j0 : j0, count, y, cert);
-            for (uint32_t i = 0; i < count; i++) {
-                const uint32_t j = j0 + i;
-                /* the model's output as rom.c gives it (rom_v_port; rom_v_probe: the kind's, kept for the
-                 * importer's read, and the port channel's): velocity_bound's sum */
-                const double v = port ? rom_channel_port_velocity(s, j) : rom_v_probe(s, j);
-                const double bound = fabs(v - y[i]) + cert[i];
-                if (!(bound <= s->error_tolerance)) {
-                    if (message && message_size) {
-                        snprintf(message, message_size, "%s_%u's certified error bound %.3g m s^-1 exceeds "
-                                 "error_tolerance = %.3g m s^-1 at t = %.9g s", port ? "v_port" : "v_probe", j + 1,
-                                 bound, s->error_tolerance, s->time);
-                    }
-                    return 1;
+        for (uint32_t j = 0; j < n; j++) {
+            const uint32_t r = port ? 3 * P + j : j;
+            double y, cert;
+            if (common) row_at(s, &rt, &in, r, 1, 1, 0, &y, &cert);
+            else row_at(s, &rt, &in, r, m, started, channel, &y, &cert);
+            /* the model's output as rom.c gives it (rom_v_port; rom_v_probe: the kind's, kept for the importer's
+             * read, and the port channel's): velocity_bound's sum */
+            const double v = port ? rom_channel_port_velocity(s, j) : rom_v_probe(s, j);
+            const double bound = fabs(v - y) + cert;
+            if (!(bound <= s->error_tolerance)) {
+                if (message && message_size) {
+                    snprintf(message, message_size, "%s_%u's certified error bound %.3g m s^-1 exceeds "
+                             "error_tolerance = %.3g m s^-1 at t = %.9g s", port ? "v_port" : "v_probe", j + 1, bound,
+                             s->error_tolerance, s->time);
                 }
+                return 1;
             }
         }
     }
