@@ -531,6 +531,21 @@ def test_bench_summary_counts_every_scenes_runs():
     assert total["runs"] == 4 and total["points"] == 44 and total["violations"] == 4 and total["outputs"] == 8
 
 
+def test_bench_cost_summary_counts_every_fmu_once():
+    """The benches' native doStep ratio is summarised over FMUs, not rows: an FMU's ratio repeats on each of its
+    runs and outputs (and parametric points are FMUs of their own scene and model only once), and a row that was
+    not built or not timed (NaN) is left out rather than counted as within the target."""
+    from sphrom.bench.lib.native_cost import COST_TARGET, cost_summary
+    rows = ([{"scene": "a", "model": "exact", "native_ratio": 1.1, "case": c} for c in range(7)]
+            + [{"scene": "b", "model": "exact", "native_ratio": COST_TARGET + 0.5, "case": c} for c in range(3)]
+            + [{"scene": "c", "model": "exact", "native_ratio": float("nan")},
+               {"scene": "d", "model": "exact", "note": "not built"},
+               {"scene": "a", "model": "balanced", "native_ratio": COST_TARGET - 0.1}])
+    costs = cost_summary(rows)
+    assert costs["exact"] == (pytest.approx(0.5 * (1.1 + COST_TARGET + 0.5)), COST_TARGET + 0.5, 1, 2)
+    assert costs["balanced"][2:] == (0, 1)
+
+
 @pytest.mark.parametrize("path", ["taylor", "chebyshev"])
 def test_uncomputed_planes_free_response_computed(monkeypatch, path):
     """Where it is affordable the uncomputed planes' free response from x0 is computed, not bounded

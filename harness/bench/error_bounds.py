@@ -41,6 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from ..options import int_at_least, int_list, positive_float
+from .lib.native_cost import NATIVE_STEPS, cost_lines, native_cost
 
 SECTION_HEADING = "## Certified error bounds"
 PARAMETRIC_HEADING = "## Certified error bounds of parametric FMUs"
@@ -53,7 +54,6 @@ LINEAR = ("slow sine", "chirp")                         # the forces also run li
 FLOOR = 1e-9            # effectivity counted where the run's largest error exceeds this x its output's signal
 CHUNK = 20              # doStep calls timed together (the cost's medians are over such chunks)
 COST_STEPS = 1000
-NATIVE_STEPS = 20000    # steps per run of the native FMI master (native_cost)
 
 
 def forces(t, T_run):
@@ -260,49 +260,6 @@ def step_cost(path, repeats, n_steps=COST_STEPS):
     return tuple(statistics.median(x) for x in times)
 
 
-def native_cost(path, repeats, n_steps=NATIVE_STEPS):
-    """(ns per step with the bounds, with the bounds read, without) of the FMU at ``path`` in the native FMI 2 master
-    ``sphrom_step_cost`` (fmu_src/tests/step_cost.c: the FMU's binary loaded with dlopen, per step fmi2SetReal of f,
-    fmi2DoStep, fmi2GetReal of the outputs, with their bounds in the second figure), beside the same FMU without
-    the bounds' sections (its modelDescription's guid set to that model.bin's token): thread CPU time, medians over
-    ``repeats`` runs of ``n_steps`` steps of STEP, the three FMUs in turn.  None where the master was not built."""
-    import json
-    import re
-    import statistics
-    import subprocess
-    import zipfile
-
-    from ..fmu.make.build import ensure_binaries
-    from ..fmu.resources import pack, read, unpack
-    driver = ensure_binaries(quiet=True).folder / "sphrom_step_cost"
-    if not driver.exists():
-        return None
-    with tempfile.TemporaryDirectory(prefix="sphrom-native-cost-") as tmp:
-        with_dir, bare_dir = Path(tmp) / "with", Path(tmp) / "bare"
-        for folder in (with_dir, bare_dir):
-            with zipfile.ZipFile(path) as z:
-                z.extractall(folder)
-        data = unpack((with_dir / "resources" / "model.bin").read_bytes())
-        data.sections = {k: v for k, v in data.sections.items() if not k.startswith("SH")}
-        blob = pack(data)
-        (bare_dir / "resources" / "model.bin").write_bytes(blob)
-        md = bare_dir / "modelDescription.xml"
-        md.write_text(re.sub(r'guid="[^"]*"', f'guid="{read(blob)[4]}"', md.read_text(), count=1))
-
-        def run(folder, bounds):
-            cmd = [str(driver), str(folder.resolve()), "--probes", str(data.n_probes), "--steps", str(n_steps),
-                   "--h", repr(STEP), "--repeats", "1"] + (["--bounds"] if bounds else [])
-            done = subprocess.run(cmd, capture_output=True, text=True, check=False)
-            if done.returncode != 0:
-                raise RuntimeError(f"{driver.name} on {path}: {done.stderr.strip()}")
-            return json.loads(done.stdout)["ns_per_step_cpu"]
-        times = [[], [], []]
-        for _ in range(repeats):
-            for i, (folder, bounds) in enumerate(((with_dir, False), (with_dir, True), (bare_dir, False))):
-                times[i].append(run(folder, bounds))
-    return tuple(statistics.median(x) for x in times)
-
-
 def run_cases(t, T_run):
     """{case: (start name, scale, force name, f, linear)} of one scene: every force held from each start, the
     :data:`LINEAR` ones linear too."""
@@ -455,6 +412,7 @@ def section(rows, notes, *, command, wall, machine, image, span):
     for r in sorted(per_model, key=lambda r: r["model"]):
         lines.append(f"| {r['model']} | {r['runs']} | {r['counted']} / {r['outputs']} | {_g(r['eff_median'])} | "
                      f"{_g(r['eff_max'])} | {r['violations']} / {r['points']} | {r['false_alarms']} |")
+    lines += cost_lines(rows)
     lines += ["", f"![bound and error]({image})", "",
               "| scene | model | N, k_v, k_ρ, shadow | inputs | start | runs | effectivity median | max | "
               "violations | false alarms | max v error [m/s] | max v bound [m/s] | doStep ns with / without | "
@@ -487,7 +445,7 @@ def parametric_ranges(problem):
     return out
 
 
-def measure_parametric(scene, models, points, folder, probes, span, progress=True):
+def measure_parametric(scene, models, points, folder, probes, span, repeats=3, progress=True):
     """Rows (one per model, held-out point, run and output) of the parametric FMUs of ``scene``: against the full
     linear SPH with the point's c and d, exact in time."""
     from ..fmu.make.build import ensure_binaries
@@ -518,9 +476,12 @@ def measure_parametric(scene, models, points, folder, probes, span, progress=Tru
         except Exception as exc:                     # a model that does not build on this scene: say so
             out.append({"scene": scene.name, "model": model, "note": str(exc).splitlines()[0]})
             continue
+        native = native_cost(path, repeats) or (float("nan"),) * 3    # at the FMU's default c and d
         for (c, d), (problem_cd, truths) in at.items():
             rows, _ = measure_fmu(path, problem_cd, probes, t, cases, truths, parameters={"c": c, "d": d})
             for r in rows:
+                r.update({"native_ns_bounds": native[0], "native_ns_read": native[1], "native_ns_plain": native[2],
+                          "native_ratio": native[0] / native[2], "native_read_ratio": native[1] / native[2]})
                 r.update({"scene": scene.name, "model": model, "N": problem.n, "k_v": s.k_v, "k_rho": s.k_rho,
                           "shadow_order": s.shadow_order, "c": float(c), "d": float(d), "point": f"{c:.4g}, {d:.4g}",
                           "c_range": f"{ranges[0].lo:g}:{ranges[0].hi:g}",
@@ -545,16 +506,17 @@ def parametric_section(rows, notes, *, command, wall, machine, span):
     for r in sorted(per_model, key=lambda r: r["model"]):
         lines.append(f"| {r['model']} | {r['runs']} | {r['counted']} / {r['outputs']} | {_g(r['eff_median'])} | "
                      f"{_g(r['eff_max'])} | {r['violations']} / {r['points']} | {r['false_alarms']} |")
+    lines += cost_lines(rows)
     lines += ["", "| scene | model | N, k_v, k_ρ, shadow | c, d | start | runs | effectivity median | max | "
-              "violations | false alarms | max v error [m/s] | max v bound [m/s] |",
-              "| --- | --- | --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+              "violations | false alarms | max v error [m/s] | max v bound [m/s] | native doStep ratio |",
+              "| --- | --- | --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
     for r in table:
         lines.append(f"| {r['scene']} | {r['model']} | {r['N']}, {r['k_v']}, {r['k_rho']}, {r['shadow_order']} | "
                      f"{r['point']} | {r['start']} | {r['runs']} | {_g(r['eff_median'])} | {_g(r['eff_max'])} | "
                      f"{r['violations']} / {r['points']} | {r['false_alarms']} | {_g(r['max_err'], '.2e')} | "
-                     f"{_g(r['max_bound'], '.2e')} |")
+                     f"{_g(r['max_bound'], '.2e')} | {_g(r.get('native_ratio', float('nan')), '.2f')} |")
     for n in notes:
-        lines.append(_note_row(n, before=6, after=3))
+        lines.append(_note_row(n, before=6, after=4))
     return lines + [""]
 
 
@@ -801,7 +763,8 @@ def main(argv=None):
     with tempfile.TemporaryDirectory(prefix="sphrom-error-bounds-") as folder:
         for scene in scenes:
             if args.parametric:
-                got = measure(scene, models, args.points, folder, probes, args.span, progress=not args.quiet)
+                got = measure(scene, models, args.points, folder, probes, args.span, repeats=args.repeats,
+                              progress=not args.quiet)
             else:
                 got, runs = measure(scene, models, args.repeats, folder, probes, args.span, progress=not args.quiet)
                 kept.update(runs)

@@ -38,9 +38,10 @@ from ..fmu.make.build import ensure_binaries
 from ..fmu.run.driver import FMU
 from ..fmu.variables import members
 from ..options import positive_float
-from ..parser import fmu_models
+from ..parser import fmu_models, positive_int
 from ..scene import builtin_names, load_scene
 from . import machine_text, program_command, program_parser
+from .lib.native_cost import cost_lines, native_cost
 from .lib.document import update_report
 from .lib.ports import S0, coupling_force, loop_radius, mass_spring_step
 from .lib.tables import write_csv
@@ -59,6 +60,7 @@ T_MAX = 200.0           # [s] ... at most this
 FLOOR = 1e-9            # effectivity counted where the run's largest error exceeds this x its output's signal
 STARTS = (("rest", 0.0), ("initial state", 1.0))
 DAMPER = 0.1            # [N s m^-1] the dashpot of the mass-spring-damper case: its loop holds on every built-in scene
+COST_STEP = 1e-3        # [s] the native doStep cost's step (a spring to ground on each port: error_bounds.native_cost)
 
 
 class Coupled(NamedTuple):
@@ -152,7 +154,7 @@ def compare(y, names, v, rho, v_port, warned, tol):
             alarm)
 
 
-def measure_scene(name, models, folder, span=SPAN, progress=True):
+def measure_scene(name, models, folder, span=SPAN, progress=True, repeats=3):
     from ..fmu.make.package import package_fmu
     from ..sph.solver import build_problem
     scene = load_scene(name)
@@ -170,6 +172,9 @@ def measure_scene(name, models, folder, span=SPAN, progress=True):
         except Exception as exc:                     # a model that does not build on this scene: say so
             rows.append({"scene": name, "model": model, "note": str(exc).splitlines()[0]})
             continue
+        native = native_cost(path, repeats, h=COST_STEP) or (float("nan"),) * 3
+        cost = {"native_ns_bounds": native[0], "native_ns_read": native[1], "native_ns_plain": native[2],
+                "native_ratio": native[0] / native[2], "native_read_ratio": native[1] / native[2]}
         for start, scale in STARTS:
             for case, (f, F) in cases(t, T).items():
                 loop = None
@@ -198,7 +203,7 @@ def measure_scene(name, models, folder, span=SPAN, progress=True):
                              "eff_max": float(counted.max()) if counted.size else float("nan"),
                              "port_eff_max": float(port.max()) if port.size else float("nan"),
                              "false_alarm": alarm, "max_port_err": max_err, "max_port_bound": max_bound,
-                             "loop_radius": loop, "note": ""})
+                             "loop_radius": loop, **cost, "note": ""})
     return rows
 
 
@@ -219,7 +224,10 @@ def section(rows, *, command, wall, machine):
              "Effectivity: per output (v_probe_j, rho_probe_j, v_port_j) the largest bound over the run / the largest "
              f"true error over the run, where that error exceeds {FLOOR:g} of the output's signal (median and max over "
              "the run's counted outputs, and v_port_j's largest). False alarms: runs that warned while their true "
-             "velocity errors stayed below a tenth of error_tolerance.", "",
+             "velocity errors stayed below a tenth of error_tolerance. Native doStep ratio: each FMU in the native "
+             "FMI 2 master (fmu_src/tests/step_cost.c: per step fmi2SetReal of f and of each F_port_j, a spring to "
+             "ground on each port, fmi2DoStep, fmi2GetReal of the outputs) against the same FMU without the bounds' "
+             f"sections, {COST_STEP * 1e3:g} ms steps, thread CPU time, medians of the runs.", "",
              "| scene | model | N, k_v, k_ρ, shadow | start | case | violations | effectivity median | max | "
              "v_port max | false alarm | max v_port error [m/s] | max v_port bound [m/s] |",
              "| --- | --- | --- | --- | --- | ---: | ---: | ---: | ---: | --- | ---: | ---: |"]
@@ -245,6 +253,7 @@ def section(rows, *, command, wall, machine):
                       f"{sum(r['false_alarm'] for r in built)} of {len(built)} runs; effectivity median "
                       f"{_g(float(np.median(every)) if every.size else float('nan'))}, max "
                       f"{_g(float(every.max()) if every.size else float('nan'))} over {every.size} outputs."]
+    lines += cost_lines(built)
     stopped = [r for r in rows if r.get("note") and r.get("case")]
     if stopped:
         lines += ["", f"Runs the FMU stopped with an error (not counted above): {len(stopped)}."]
@@ -270,6 +279,8 @@ def main(argv=None):
                    f"at most {T_MAX:g} s)")
     p.add_argument("--out", default="validation/benchmarks", metavar="FOLDER")
     p.add_argument("--report", default="BENCHMARKS.md", metavar="FILE.md")
+    p.add_argument("--repeats", type=positive_int, default=3, metavar="R",
+                   help="runs of the native doStep cost per FMU (default 3)")
     p.add_argument("--quiet", action="store_true")
     args = p.parse_args(argv)
     scenes = args.scenes or ["damped_forced", "tenmode", "high_frequency"]
@@ -281,7 +292,7 @@ def main(argv=None):
     rows = []
     with tempfile.TemporaryDirectory(prefix="sphrom-error-bounds-ports-") as folder:
         for name in scenes:
-            got = measure_scene(name, models, folder, span=args.span, progress=not args.quiet)
+            got = measure_scene(name, models, folder, span=args.span, progress=not args.quiet, repeats=args.repeats)
             rows += got
             for r in got:
                 if r.get("note"):

@@ -357,6 +357,52 @@ def library(path, folder):
     return found[0]
 
 
+def _doubles(hex_text, start=0):
+    """The float64 values of a hex string from byte ``start`` on (whole values only)."""
+    raw = bytes.fromhex(hex_text)[start:]
+    return np.frombuffer(raw[:len(raw) // 8 * 8], dtype="<f8")
+
+
+def _ulps(x, y):
+    """|x - y| in units in the last place of the larger (inf where one is not finite and they differ)."""
+    if x == y or (np.isnan(x) and np.isnan(y)):
+        return 0.0
+    if not (np.isfinite(x) and np.isfinite(y)):
+        return float("inf")
+    return abs(x - y) / np.spacing(max(abs(x), abs(y)))
+
+
+def difference(a, b):
+    """What differs between two records (lists of JSON values): each differing field, a float64 (16 hex digits) as
+    its two values and their distance in ulps, a serialized state as the float64 values of its body that differ
+    (their index after the header, the two values, the ulps), anything else cut to 120 characters."""
+    from sphrom.fmu.layout import STATE_HEADER
+    lines = [f"differs: {a[0] if a else ''}"]
+    if len(a) != len(b):
+        lines.append(f"  {len(a)} fields against {len(b)}")
+    for i, (x, y) in enumerate(zip(a, b)):
+        if x == y:
+            continue
+        if isinstance(x, str) and isinstance(y, str) and len(x) == len(y) == 16 and i and a[i - 1] != "state":
+            try:
+                u, v = float(_doubles(x)[0]), float(_doubles(y)[0])
+                lines.append(f"  field {i}: {u!r} against {v!r} ({_ulps(u, v):.3g} ulps)")
+                continue
+            except ValueError:
+                pass
+        if i and a[i - 1] == "state" and isinstance(x, str) and isinstance(y, str) and len(x) == len(y):
+            u, v = _doubles(x, STATE_HEADER.size), _doubles(y, STATE_HEADER.size)
+            bad = [j for j in range(u.size) if not (u[j] == v[j] or (np.isnan(u[j]) and np.isnan(v[j])))]
+            head = bytes.fromhex(x)[:STATE_HEADER.size] != bytes.fromhex(y)[:STATE_HEADER.size]
+            worst = max((_ulps(u[j], v[j]) for j in bad), default=0.0)
+            lines.append(f"  state: {len(bad)} of {u.size} float64 values differ (largest {worst:.3g} ulps)"
+                         f"{'; the header differs' if head else ''}")
+            lines.extend(f"    value {j}: {float(u[j])!r} against {float(v[j])!r}" for j in bad[:6])
+            continue
+        lines.append(f"  field {i}: {str(x)[:120]} against {str(y)[:120]}")
+    return "\n".join(lines)
+
+
 def compare(old, new, resources):
     with tempfile.TemporaryDirectory() as tmp:
         libs = [library(p, Path(tmp) / label) for p, label in ((old, "old"), (new, "new"))]
@@ -369,7 +415,7 @@ def compare(old, new, resources):
             if a != b:
                 differ += 1
                 if differ <= 10:
-                    print(f"differs:\n  old {a[:300].rstrip()}\n  new {b[:300].rstrip()}")
+                    print(difference(json.loads(a), json.loads(b)))
         rest = [run.stdout.read() for run in runs]
         codes = [run.wait() for run in runs]
     if any(codes) or rest[0] != rest[1]:

@@ -1,0 +1,92 @@
+"""The native doStep cost of an FMU with its certified error bounds against the same FMU without them.
+
+The FMU's own binary in the native FMI 2 master ``sphrom_step_cost`` (fmu_src/tests/step_cost.c), beside a copy whose
+model.bin has no bounds' sections (SH*): the ratio the error bounds cost per communication step, with the outputs
+read (issue 33's figure: at most COST_TARGET) and with their bounds read too.
+"""
+
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+NATIVE_STEPS = 20000    # steps per run of the native FMI master (native_cost)
+COST_TARGET = 1.3       # doStep with the bounds at most this x without (native, the outputs read)
+STEP = 0.01             # [s] the communication step
+
+
+def native_cost(path, repeats, n_steps=NATIVE_STEPS, h=STEP):
+    """(ns per step with the bounds, with the bounds read, without) of the FMU at ``path`` in the native FMI 2 master
+    ``sphrom_step_cost`` (fmu_src/tests/step_cost.c: the FMU's binary loaded with dlopen, per step fmi2SetReal of f
+    (and of F_port_j: a spring to ground on each port of a port FMU), fmi2DoStep, fmi2GetReal of the outputs, with
+    their bounds in the second figure), beside the same FMU without the bounds' sections (its modelDescription's
+    guid set to that model.bin's token): thread CPU time, medians over ``repeats`` runs of ``n_steps`` steps of
+    ``h`` [s], the three FMUs in turn.  None where the master was not built."""
+    import json
+    import re
+    import statistics
+    import subprocess
+    import zipfile
+
+    from ...fmu.make.build import ensure_binaries
+    from ...fmu.resources import pack, read, unpack
+    driver = ensure_binaries(quiet=True).folder / "sphrom_step_cost"
+    if not driver.exists():
+        return None
+    with tempfile.TemporaryDirectory(prefix="sphrom-native-cost-") as tmp:
+        with_dir, bare_dir = Path(tmp) / "with", Path(tmp) / "bare"
+        for folder in (with_dir, bare_dir):
+            with zipfile.ZipFile(path) as z:
+                z.extractall(folder)
+        data = unpack((with_dir / "resources" / "model.bin").read_bytes())
+        n_ports = len(re.findall(r'name="F_port_\d+"', (with_dir / "modelDescription.xml").read_text()))
+        data.sections = {k: v for k, v in data.sections.items() if not k.startswith("SH")}
+        blob = pack(data)
+        (bare_dir / "resources" / "model.bin").write_bytes(blob)
+        md = bare_dir / "modelDescription.xml"
+        md.write_text(re.sub(r'guid="[^"]*"', f'guid="{read(blob)[4]}"', md.read_text(), count=1))
+
+        def run(folder, bounds):
+            cmd = [str(driver), str(folder.resolve()), "--probes", str(data.n_probes), "--ports", str(n_ports),
+                   "--steps", str(n_steps), "--h", repr(h), "--repeats", "1"] + (["--bounds"] if bounds else [])
+            done = subprocess.run(cmd, capture_output=True, text=True, check=False)
+            if done.returncode != 0:
+                raise RuntimeError(f"{driver.name} on {path}: {done.stderr.strip()}")
+            return json.loads(done.stdout)["ns_per_step_cpu"]
+        times = [[], [], []]
+        for _ in range(repeats):
+            for i, (folder, bounds) in enumerate(((with_dir, False), (with_dir, True), (bare_dir, False))):
+                times[i].append(run(folder, bounds))
+    return tuple(statistics.median(x) for x in times)
+
+
+def cost_summary(rows, key="model"):
+    """Per value of ``key``: (median, max, FMUs above COST_TARGET, FMUs) of the native doStep ratio (outputs read)
+    over the distinct FMUs of ``rows`` (one per scene, model and parametric point; rows without a ratio skipped)."""
+    per_fmu = {}
+    for r in rows:
+        x = r.get("native_ratio", float("nan"))
+        if r.get("note") or not np.isfinite(x):
+            continue
+        per_fmu[(r.get("scene"), r.get("model"), r.get("point"))] = (r[key], x)
+    out = {}
+    for group, x in per_fmu.values():
+        out.setdefault(group, []).append(x)
+    return {g: (float(np.median(x)), float(np.max(x)), int(np.sum(np.array(x) > COST_TARGET)), len(x))
+            for g, x in out.items()}
+
+
+def cost_lines(rows):
+    """The native doStep ratio per model (cost_summary) as a table's lines ([] where no FMU was timed)."""
+    costs = cost_summary(rows)
+    if not costs:
+        return []
+    lines = ["", f"doStep with the bounds against without (native FMI 2 master, the outputs read; the target is at "
+             f"most {COST_TARGET:g}x), over the FMUs:", "",
+             f"| model | FMUs | native ratio median | max | above {COST_TARGET:g} |", "| --- | ---: | ---: | ---: | ---: |"]
+    for model in sorted(costs):
+        med, mx, above, n = costs[model]
+        lines.append(f"| {model} | {n} | {med:.2f} | {mx:.2f} | {above} |")
+    med, mx, above, n = next(iter(cost_summary([{**r, "all": "all"} for r in rows], "all").values()))
+    lines.append(f"| all | {n} | {med:.2f} | {mx:.2f} | {above} |")
+    return lines
