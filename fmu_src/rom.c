@@ -300,13 +300,11 @@ RomStatus rom_advance(RomState *s, int64_t n_steps, char *message, size_t messag
     return status;
 }
 
-/* the kind's output (kept until the state moves: the same number, one sum a step for the error check and the
- * importer's read) plus the port channel's part (rom_port.c; without the channel the kind's own bits) */
+/* the kind's output (kept until the state moves: one sum per state for the error check and the importer's read)
+ * plus the port channel's part (rom_internal.h rom_v_probe_kept) */
 double rom_v_probe(const RomState *s, uint32_t j) {
     if (!s || j >= s->model->n_probes) return NAN;
-    double v = s->v_kept[j];
-    if (isnan(v)) v = s->v_kept[j] = s->model->ops->v_probe(s, j);     /* (a NaN output is asked anew: still NaN) */
-    return s->channel ? v + rom_channel_row(s, j, NULL) : v;
+    return rom_v_probe_kept(s, j);
 }
 
 /* the linear kinds superpose the channel's e in J themselves; to the frozen kind's density the linear SPH's

@@ -1029,7 +1029,7 @@ int rom_bound_exceeded(const RomState *s, char *message, size_t message_size) {
             else row_at(s, &rt, &in, r, m, started, channel, &y, &cert);
             /* the model's output as rom.c gives it (rom_v_port; rom_v_probe: the kind's, kept for the importer's
              * read, and the port channel's): velocity_bound's sum */
-            const double v = port ? rom_channel_port_velocity(s, j) : rom_v_probe(s, j);
+            const double v = port ? rom_channel_port_velocity(s, j) : rom_v_probe_kept(s, j);
             const double bound = fabs(v - y) + cert;
             if (!(bound <= s->error_tolerance)) {
                 if (message && message_size) {

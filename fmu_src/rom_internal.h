@@ -215,9 +215,9 @@ void rom_channel_reset(RomState *s);
 RomStatus rom_channel_step(RomState *s, double h, const double *v_own, const double *v_end, char *message,
                            size_t message_size);
 /* the kind's part of v_port_j (rom_port_velocity), kept from a step's end or its first read until
- * rom_channel_kind_moved: rom.c calls that wherever the kind's state changes outside a read (before a step, at
- * initial_state_scale, rom_advance, rom_model_assemble; a reset and a state read forget it too).  Without the
- * channel: rom_port_velocity itself */
+ * rom_channel_kind_moved: rom.c calls that (through rom_outputs_moved) wherever the kind's state changes outside a
+ * read (before a step, at initial_state_scale, rom_advance, rom_model_assemble; a reset and a state read forget it
+ * too).  Without the channel: rom_port_velocity itself */
 double rom_channel_kind_velocity(const RomState *s, uint32_t j);
 /* rom.h rom_v_port: the kind's part (rom_channel_kind_velocity) and the channel's row; without the channel the kind's */
 double rom_channel_port_velocity(const RomState *s, uint32_t j);
@@ -231,6 +231,14 @@ void rom_outputs_moved(RomState *s);
 double rom_channel_row(const RomState *s, uint32_t r, double *cert);
 /* the time derivative of that part now (the exact model's output derivatives) */
 double rom_channel_row_rate(const RomState *s, uint32_t r);
+/* rom.h rom_v_probe for probe j < n_probes of s: the kind's v_probe, kept in RomState.v_kept until the state moves
+ * (rom_outputs_moved; a NaN is asked anew, still NaN), plus the port channel's part (without the channel the kind's
+ * own bits): the importer's read and the error check (rom_bound.c) share one sum per state */
+static inline double rom_v_probe_kept(const RomState *s, uint32_t j) {
+    double v = s->v_kept[j];
+    if (isnan(v)) v = s->v_kept[j] = s->model->ops->v_probe(s, j);
+    return s->channel ? v + rom_channel_row(s, j, NULL) : v;
+}
 /* the linear SPH's density shift of the channel's e at probe j's two particles, sum_m pw_m rho0_m (1 / (1 + e_m) -
  * 1) [kg m^-3], added to a kind's density that does not hold it (the frozen kind's); NaN where 1 + e <= 0, 0
  * without the channel */

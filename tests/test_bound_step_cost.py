@@ -1,0 +1,164 @@
+"""The lean per-step work of the certified error bounds (issue 33's doStep cost; fmu_src/rom_bound.c, rom.c):
+
+- the kind's v_probe is kept per state (RomState.v_kept) so that doStep's error check and the importer's read share
+  one sum: every read equals what a fresh read of that state gives, after a step, a state restore, a reset and a set
+  input alike;
+- the error check warns at exactly the step where a velocity bound first exceeds error_tolerance, whether or not the
+  importer reads the bounds (group 0's rows are summed in the step where the check read them, else when read);
+- the SSE2 lanes of the shadow's step and rows' sums (GCC vector extensions) and the plain-array path
+  (-DROM_NO_LANES) give the same bits.
+"""
+import re
+import shutil
+import sys
+import zipfile
+
+import numpy as np
+import pytest
+
+from conftest import fmu_scene
+from sphrom.fmu.run.driver import FMU
+from sphrom.fmu.variables import members
+
+PROBES = (0.25, 0.5, 0.66)
+H = 0.01
+STEPS = 100
+
+
+@pytest.fixture(scope="module")
+def make(tmp_path_factory):
+    """make(model, ports) -> path: the FMU of fmu_scene("forced") (k = 6, with its shadow), packaged once."""
+    from sphrom.fmu.make.build import ensure_binaries
+    from sphrom.fmu.make.package import package_fmu
+    folder, made = tmp_path_factory.mktemp("bound-cost-fmus"), {}
+
+    def build(model="exact", ports=None):
+        key = (model, ports)
+        if key not in made:
+            path = folder / f"{model}-{bool(ports)}.fmu"
+            package_fmu(fmu_scene("forced"), path, k=6, fmi=2, probes=PROBES, progress=False,
+                        binaries=ensure_binaries(), model=model, ports=ports, bounds=False)
+            made[key] = path
+        return made[key]
+
+    return build
+
+
+def force(j):
+    """A force the basis never saw [m s^-2] at step j: a step up, then a fast tone."""
+    t = j * H
+    return 4e-3 * (t > 0.2) + 3e-3 * np.sin(2 * np.pi * 4.0 * t)
+
+
+def test_kept_outputs_are_the_states_own(make):
+    """v_probe read after a step, after a restore, after a reset and after setting the input is the same number a
+    read of that state gives the first time (a stale kept value would repeat the last state's): the restore's
+    reads equal the first pass's bit for bit, the reset's equal a fresh instance's, and a set input leaves them."""
+    path = make()
+    with FMU(path) as fresh:
+        fresh.initialize(parameters={"initial_state_scale": 1.0})
+        start = fresh.output_values()
+    with FMU(path) as fmu:
+        v = members(fmu.outputs, "v_probe_j")
+        fmu.initialize(parameters={"initial_state_scale": 1.0})
+        np.testing.assert_array_equal(fmu.output_values(), start)
+        for j in range(40):
+            fmu.set_input(force(j))
+            fmu.do_step(j * H, H)
+        state = fmu.get_state()
+        saved = fmu.output_values()
+        first = []
+        for j in range(40, 70):
+            before = fmu.output_values()
+            fmu.set_input(force(j))
+            np.testing.assert_array_equal(fmu.output_values(), before)    # the input moves no output
+            fmu.do_step(j * H, H)
+            first.append(fmu.output_values())
+        assert np.all(first[-1][v] != saved[v])                          # (the outputs moved)
+        fmu.set_state(state)
+        np.testing.assert_array_equal(fmu.output_values(), saved)        # at once, before a step
+        second = []
+        for j in range(40, 70):
+            fmu.set_input(force(j))
+            fmu.do_step(j * H, H)
+            second.append(fmu.output_values())
+        np.testing.assert_array_equal(np.array(second), np.array(first))
+        fmu.free_state(state)
+        fmu.fmu.reset()
+        fmu.initialize(parameters={"initial_state_scale": 1.0})
+        np.testing.assert_array_equal(fmu.output_values(), start)
+
+
+def warned_at(warnings):
+    """The time [s] named by the error check's one warning."""
+    assert len(warnings) == 1 and "error_tolerance" in warnings[0], warnings
+    return float(re.search(r"at t = ([-+0-9.eE]+) s", warnings[0]).group(1))
+
+
+@pytest.mark.parametrize("ports", [None, (0.3,)])
+def test_warning_at_the_step_where_a_bound_first_exceeds(make, ports):
+    """error_tolerance between the run's smallest and largest velocity bound: the one warning names the time of the
+    first step whose v_probe (or v_port) bound exceeds it, whether the importer reads the bounds at every step (the
+    rows then summed in the step) or never (summed by the check itself); a port force makes the shadow's inputs two
+    (the general path)."""
+    path = make(ports=ports)
+    names = None
+    with FMU(path) as fmu:                                  # the bounds at every step
+        fmu.initialize(parameters={"initial_state_scale": 1.0, "error_tolerance": 0.0})
+        names = [n for n in fmu.outputs if re.fullmatch(r"v_(probe|port)_\d+_error_bound", n)]
+        bounds = []
+        for j in range(STEPS):
+            fmu.set_input(force(j))
+            if ports:
+                fmu.set_real([fmu.vr["F_port_1"]], [2e-3 * np.cos(7.0 * j * H)])
+            fmu.do_step(j * H, H)
+            bounds.append(fmu.output_values(names).max())
+    bounds = np.array(bounds)
+    tol = float(np.sqrt(bounds.min() * bounds.max()))
+    first = int(np.argmax(bounds > tol))
+    assert bounds[0] <= tol < bounds.max() and first > 0
+    for read in (True, False):
+        with FMU(path) as fmu:
+            fmu.initialize(parameters={"initial_state_scale": 1.0, "error_tolerance": tol})
+            for j in range(STEPS):
+                fmu.set_input(force(j))
+                if ports:
+                    fmu.set_real([fmu.vr["F_port_1"]], [2e-3 * np.cos(7.0 * j * H)])
+                fmu.do_step(j * H, H)
+                if read:
+                    fmu.output_values(names)
+            assert warned_at(fmu.warnings()) == pytest.approx((first + 1) * H, rel=1e-6)   # (%.9g)
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="builds the Linux FMU binary")
+def test_lanes_and_plain_arrays_give_the_same_bits(make, tmp_path):
+    """The FMU binary built with -DROM_NO_LANES (rom_bound.c's plain-array path, what a compiler without GCC's
+    vector extensions builds) gives every output and every bound of the lanes build to 0 ulps over a run with a
+    restore (the same IEEE operations in the same order, no fused multiply-add)."""
+    from sphrom.fmu.make.build import configure_and_build
+    from sphrom.paths import data_dir
+    path = make()
+    built = tmp_path / "build"
+    configure_and_build(data_dir("fmu_src"), built, tests=False, options=("-DCMAKE_C_FLAGS=-DROM_NO_LANES",),
+                        targets=("sphrom_fmi2",))
+    runs = []
+    for plain in (False, True):
+        folder = tmp_path / f"fmu-{plain}"
+        with zipfile.ZipFile(path) as z:
+            z.extractall(folder)
+        if plain:
+            shutil.copy(built / "fmi2" / "sphrom.so", folder / "binaries" / "linux64" / "sphrom.so")
+        with FMU(folder) as fmu:
+            fmu.initialize(parameters={"initial_state_scale": 1.0})
+            rows = []
+            for j in range(STEPS):
+                if j == 60:
+                    state = fmu.get_state()
+                fmu.set_input(force(j))
+                fmu.do_step(j * H, H)
+                rows.append(fmu.output_values(fmu.outputs))
+            fmu.set_state(state)
+            rows.append(fmu.output_values(fmu.outputs))
+            fmu.free_state(state)
+        runs.append(np.array(rows))
+    np.testing.assert_array_equal(runs[0], runs[1])
