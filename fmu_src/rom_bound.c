@@ -57,7 +57,8 @@ typedef struct {
 typedef struct {
     double *w;                 /* [order] the shadow's state */
     double *y;                 /* [slots] |w|^2, then C w of every row (row r in slot r + 1), by groups of four */
-    double *ct;                /* [order][slots] (slot 0 unused: |w|^2 from w itself), C transposed, then zeros */
+    double *ct;                /* [order][slots] (slot 0 unused), C transposed, then zeros: the groups after group 0,
+                                  which group0_sums sums from C's rows themselves */
     uint64_t groups[BOUND_GROUP_WORDS];   /* bit g: y's group g holds the sums of this w; 0 whenever w changes (step,
                                   reset, restore; at most 3 x 100 probes + 4 ports + 1 slots: 77 groups) */
     double w_root;             /* |w| of this w while w_fresh (the step's end, or group 0's sums: the same sum) */
@@ -480,9 +481,10 @@ static double table_end(const RomBoundModel *b) {
     return b->nodes ? b->h_tab * (double)(b->nodes - 1) : 0.0;
 }
 
-/* exp(-x) rounded up for the tails' chain: glibc's exp is within 1 ulp, and the chain's products round twice; the
- * factor 1 + 2^-50 covers those and the rounding of x = alpha h (up to TAIL_CHAIN_X) with room to spare */
-#define TAIL_UP (1.0 + 8.881784197001252e-16)
+/* exp(-x) rounded up for the tails' chain: a libm exp within a few ulps, the chain's two roundings and the rounding
+ * of x = alpha h (up to TAIL_CHAIN_X: below 2 ulps) stay well inside the factor 1 + 2^-48 (16 ulps) per step; it
+ * loosens the tail by 1 + 3.6e-15 a step (1e-8 after 10^6 steps) */
+#define TAIL_UP (1.0 + 3.552713678800501e-15)
 #define TAIL_CHAIN_X 4.0
 
 /* the groups' decay of the rows' tails at tau after the table's end, once for every row (rom_bound_step, the step
@@ -495,9 +497,13 @@ static void tail_decays(BoundState *bs, const RomBoundModel *b, double tau, doub
     const int chain = bs->tail_tau == t0 && t0 > t_end && h == c->h;
     bs->tail_tau = tau;
     for (uint32_t g = 0; g < b->groups; g++) {
-        if (!(over > 0)) bs->tail_decay[g] = 1.0;
-        else if (chain && b->rates[g] * h <= TAIL_CHAIN_X) bs->tail_decay[g] = bs->tail_decay[g] * c->decay[g] * TAIL_UP;
-        else bs->tail_decay[g] = exp(-b->rates[g] * over);
+        if (!(over > 0)) {
+            bs->tail_decay[g] = 1.0;
+        } else if (chain && b->rates[g] * h <= TAIL_CHAIN_X) {
+            bs->tail_decay[g] = bs->tail_decay[g] * c->decay[g] * TAIL_UP;
+        } else {
+            bs->tail_decay[g] = exp(-b->rates[g] * over);
+        }
     }
 }
 
@@ -698,7 +704,9 @@ static inline void planes_one(BoundState *bs, const BoundCache *c, const RomBoun
     }
     if (p < planes) plane_lanes(Phi, G0, G1, w, C, k, u0, du0, held, rows, even);     /* an odd count's last */
     groups_stale(bs);
-    for (size_t r = 0; r < (rows ? BOUND_GROUP : 1u); r++) bs->y[r] = (even[r][0] + even[r][1]) + (odd[r][0] + odd[r][1]);
+    for (size_t r = 0; r < (rows ? BOUND_GROUP : 1u); r++) {
+        bs->y[r] = (even[r][0] + even[r][1]) + (odd[r][0] + odd[r][1]);
+    }
     if (rows) bs->groups[0] |= 1u;
     bs->w_root = sqrt(bs->y[0]);
     bs->w_fresh = 1;
@@ -836,9 +844,9 @@ static inline void free_part(const RomBoundModel *b, const RowTime *rt, uint32_t
     *error = acc;
 }
 
-/* the four slots' sums over the k coefficients (rows' coefficients col[i * stride + c], w[i]); `self`: slot 0's
- * coefficients are w itself (|w|^2) */
-static inline void group_sums(const double *col, size_t stride, const double *w, size_t k, int self, double *out) {
+/* the four slots' sums over the k coefficients (rows' coefficients col[i * stride + c], w[i]; group 0's:
+ * group0_sums) */
+static inline void group_sums(const double *col, size_t stride, const double *w, size_t k, double *out) {
     double a[4][BOUND_GROUP];                  /* [partial][slot] */
     for (size_t p = 0; p < 4; p++) {
         for (size_t c = 0; c < BOUND_GROUP; c++) a[p][c] = 0.0;
@@ -848,13 +856,11 @@ static inline void group_sums(const double *col, size_t stride, const double *w,
         for (size_t p = 0; p < 4; p++) {
             const double wi = w[i + p];
             const double *cp = col + p * stride;
-            a[p][0] += (self ? wi : cp[0]) * wi;
-            for (size_t c = 1; c < BOUND_GROUP; c++) a[p][c] += cp[c] * wi;
+            for (size_t c = 0; c < BOUND_GROUP; c++) a[p][c] += cp[c] * wi;
         }
     }
     for (size_t p = 0; i < k; i++, p++, col += stride) {               /* the last k mod 4 coefficients */
-        a[p][0] += (self ? w[i] : col[0]) * w[i];
-        for (size_t c = 1; c < BOUND_GROUP; c++) a[p][c] += col[c] * w[i];
+        for (size_t c = 0; c < BOUND_GROUP; c++) a[p][c] += col[c] * w[i];
     }
     for (size_t c = 0; c < BOUND_GROUP; c++) out[c] = (a[0][c] + a[1][c]) + (a[2][c] + a[3][c]);
 }
@@ -873,7 +879,7 @@ static void shadow_group(const RomState *s, BoundState *bs, size_t g) {
         group0_sums(b, bs->w, bs->y);
         bs->w_root = sqrt(bs->y[0]);
         bs->w_fresh = 1;
-    } else group_sums(bs->ct + BOUND_GROUP * g, slots, bs->w, k, 0, bs->y + BOUND_GROUP * g);
+    } else group_sums(bs->ct + BOUND_GROUP * g, slots, bs->w, k, bs->y + BOUND_GROUP * g);
     bs->groups[g / 64] |= (uint64_t)1 << (g % 64);
 }
 
