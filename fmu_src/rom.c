@@ -34,9 +34,10 @@ RomState *rom_state_new(const RomModel *model) {
     RomState *s = (RomState *)calloc(1, sizeof(RomState));
     if (!s) return NULL;
     s->model = model;
-    /* a^v, a^rho (never NULL: a linear state with k_e = 0 gets one slot), the kept v_probe; then the kind's own
-     * arrays */
-    const size_t counts[3] = {model->kv_pad, model->kr_pad ? model->kr_pad : 1, model->n_probes ? model->n_probes : 1};
+    /* a^v, a^rho (never NULL: a linear state with k_e = 0 gets one slot), the kept v_probe (with the error bounds,
+     * whose check reads it before the importer does); then the kind's own arrays */
+    const size_t counts[3] = {model->kv_pad, model->kr_pad ? model->kr_pad : 1,
+                              rom_has_bounds(model) ? model->n_probes : 0};
     double **ptrs[3] = {&s->av, &s->ar, &s->v_kept};
     s->storage_ = rom_alloc_arrays(counts, ptrs, 3);
     if (!s->storage_ || model->ops->state_new(s) != ROM_OK || rom_bound_state_new(s) != ROM_OK ||
@@ -60,8 +61,10 @@ void rom_state_free(RomState *state) {
 /* the kind's state moved (a step, a reset, initial_state_scale, rom_advance, a new parameter, a state read): its
  * outputs are read anew, the kept v_probe and the port channel's kept v_port alike (rom_internal.h) */
 void rom_outputs_moved(RomState *s) {
-    if (!s || !s->v_kept) return;
-    for (uint32_t j = 0; j < s->model->n_probes; j++) s->v_kept[j] = NAN;
+    if (!s) return;
+    if (s->v_kept) {
+        for (uint32_t j = 0; j < s->model->n_probes; j++) s->v_kept[j] = NAN;
+    }
     rom_channel_kind_moved(s);
 }
 

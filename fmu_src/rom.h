@@ -229,7 +229,7 @@ typedef struct {
     double *av, *ar;        /* reduced coordinates a^v [kv_pad], a^rho (linear: b = e coordinates) [kr_pad] */
     double *v_kept;         /* [n_probes] the kind's v_probe of this state, once read (NaN: not read since the state
                              * last moved; rom.c rom_outputs_moved): doStep's error check and the importer's reads
-                             * share one sum */
+                             * share one sum (NULL without the error bounds: one read per state) */
     int64_t n;              /* internal steps since reset (shortened ones too) */
     double time;            /* time of the state [s] */
     double f;               /* input, held over a communication step [m s^-2] */

@@ -232,11 +232,15 @@ double rom_channel_row(const RomState *s, uint32_t r, double *cert);
 /* the time derivative of that part now (the exact model's output derivatives) */
 double rom_channel_row_rate(const RomState *s, uint32_t r);
 /* rom.h rom_v_probe for probe j < n_probes of s: the kind's v_probe, kept in RomState.v_kept until the state moves
- * (rom_outputs_moved; a NaN is asked anew, still NaN), plus the port channel's part (without the channel the kind's
- * own bits): the importer's read and the error check (rom_bound.c) share one sum per state */
+ * (rom_outputs_moved; a NaN is asked anew, still NaN; without the error bounds not kept), plus the port channel's
+ * part (without the channel the kind's own bits): the importer's read and the error check (rom_bound.c) share one
+ * sum per state */
 static inline double rom_v_probe_kept(const RomState *s, uint32_t j) {
-    double v = s->v_kept[j];
-    if (isnan(v)) v = s->v_kept[j] = s->model->ops->v_probe(s, j);
+    double v = s->v_kept ? s->v_kept[j] : NAN;
+    if (isnan(v)) {
+        v = s->model->ops->v_probe(s, j);
+        if (s->v_kept) s->v_kept[j] = v;
+    }
     return s->channel ? v + rom_channel_row(s, j, NULL) : v;
 }
 /* the linear SPH's density shift of the channel's e at probe j's two particles, sum_m pw_m rho0_m (1 / (1 + e_m) -
