@@ -569,6 +569,11 @@ static void shadow_group(const RomState *s, BoundState *bs, size_t g);
 /* Two lanes side by side: GCC/Clang vector extensions (an SSE2 register on x86-64), plain arrays elsewhere (or
  * with -DROM_NO_LANES: tests/test_bound_lanes.py compares the two builds); every lane does the scalar IEEE
  * operation, in the same order (as rom_frozen.c's blocks).  Loads through memcpy: the rows need no alignment. */
+#if defined(__GNUC__)
+#define BOUND_INLINE static inline __attribute__((always_inline))   /* (the specialized copies: constants folded) */
+#else
+#define BOUND_INLINE static inline
+#endif
 #if defined(__GNUC__) && !defined(ROM_NO_LANES)
 #define BOUND_LANES 1
 typedef double BoundLanes __attribute__((vector_size(16)));
@@ -638,9 +643,9 @@ static void group0_sums(const RomBoundModel *b, const double *w, double *out) {
  * |w|^2 in slot 0, with `rows` also C_r w of rows 0 to 2 in slots 1 to 3 (C the plane's first column of C's rows,
  * rows k apart) */
 #if defined(BOUND_LANES)
-static inline void plane_lanes(const double *restrict Phi, const double *restrict G0, const double *restrict G1,
-                               double *restrict w, const double *restrict C, size_t k, double u0, double du0,
-                               int held, int rows, BoundLanes *acc) {
+BOUND_INLINE void plane_lanes(const double *restrict Phi, const double *restrict G0, const double *restrict G1,
+                              double *restrict w, const double *restrict C, size_t k, double u0, double du0,
+                              int held, int rows, BoundLanes *acc) {
     BoundLanes c0, c1, g0, n;
     LANES_LOAD(c0, Phi);
     LANES_LOAD(c1, Phi + 2);
@@ -666,9 +671,9 @@ static inline void plane_lanes(const double *restrict Phi, const double *restric
     }
 }
 #else
-static inline void plane_lanes(const double *restrict Phi, const double *restrict G0, const double *restrict G1,
-                               double *restrict w, const double *restrict C, size_t k, double u0, double du0,
-                               int held, int rows, double (*acc)[2]) {
+BOUND_INLINE void plane_lanes(const double *restrict Phi, const double *restrict G0, const double *restrict G1,
+                              double *restrict w, const double *restrict C, size_t k, double u0, double du0,
+                              int held, int rows, double (*acc)[2]) {
     const double w0 = w[0], w1 = w[1];
     for (size_t l = 0; l < 2; l++) {
         const double n = held ? Phi[l] * w0 + Phi[2 + l] * w1 + G0[l] * u0 :
@@ -685,8 +690,8 @@ static inline void plane_lanes(const double *restrict Phi, const double *restric
  * group_sums' partial sums and order (planes 2 t and 2 t + 1 are coordinates 4 t to 4 t + 3): |w|^2 for the next
  * step's start, and the velocity rows where `rows` (group 0's rows were read since the last step: the error check
  * reads them after every step until it warns; else they are summed when read) */
-static inline void planes_one(BoundState *bs, const BoundCache *c, const RomBoundModel *b, double u0, double du0,
-                              int held, int rows) {
+BOUND_INLINE void planes_one(BoundState *bs, const BoundCache *c, const RomBoundModel *b, double u0, double du0,
+                             int held, int rows) {
     const uint32_t planes = b->planes;
     const size_t k = b->order;
     double *w = bs->w;
@@ -723,7 +728,7 @@ static void plane_step_one(BoundState *bs, const BoundCache *c, const RomBoundMo
 }
 
 /* rom_bound_step's work once w holds its steps, m the shadow's inputs (a constant where the caller specializes) */
-static inline void step_shadow(RomState *s, BoundState *bs, double h, size_t m) {
+BOUND_INLINE void step_shadow(RomState *s, BoundState *bs, double h, size_t m) {
     const RomBoundModel *b = &s->model->bound;
     const size_t G = b->groups;
     double u[BOUND_MAX_INPUTS], du[BOUND_MAX_INPUTS];
@@ -891,8 +896,8 @@ typedef struct {
 /* (the shadow's row r, its certified error) at rt's time into *value, *cert; m the shadow's inputs, started and
  * channel whether w holds its steps and whether the model has a port channel (constants where a caller
  * specializes: rom_bound_exceeded) */
-static inline void row_at(const RomState *s, const RowTime *rt, const RowInputs *in, uint32_t r, size_t m,
-                          int started, int channel, double *value, double *cert) {
+BOUND_INLINE void row_at(const RomState *s, const RowTime *rt, const RowInputs *in, uint32_t r, size_t m,
+                        int started, int channel, double *value, double *cert) {
     const RomBoundModel *b = &s->model->bound;
     BoundState *bs = (BoundState *)s->bound;
     const size_t G = b->groups;
@@ -1016,38 +1021,45 @@ RomStatus rom_set_error_tolerance(RomState *s, double tolerance, char *message, 
     return ROM_OK;
 }
 
+/* the error check over the velocity rows of the probes (port: of the ports) j < n: 1 (and the message) at the first
+ * bound above error_tolerance, else 0; m, started, channel as row_at's (constants where rom_bound_exceeded
+ * specializes) */
+BOUND_INLINE int rows_exceed(const RomState *s, const RowTime *rt, const RowInputs *in, int port, uint32_t n,
+                             size_t m, int started, int channel, char *message, size_t message_size) {
+    const uint32_t P = s->model->n_probes;
+    for (uint32_t j = 0; j < n; j++) {
+        double y, cert;
+        row_at(s, rt, in, port ? 3 * P + j : j, m, started, channel, &y, &cert);
+        /* the model's output as rom.c gives it (rom_v_port; rom_v_probe: the kind's, kept for the importer's read,
+         * and the port channel's): velocity_bound's sum */
+        const double v = port ? rom_channel_port_velocity(s, j) : rom_v_probe_kept(s, j);
+        const double bound = fabs(v - y) + cert;
+        if (!(bound <= s->error_tolerance)) {
+            if (message && message_size) {
+                snprintf(message, message_size, "%s_%u's certified error bound %.3g m s^-1 exceeds error_tolerance = "
+                         "%.3g m s^-1 at t = %.9g s", port ? "v_port" : "v_probe", j + 1, bound, s->error_tolerance,
+                         s->time);
+            }
+            return 1;
+        }
+    }
+    return 0;
+}
+
 int rom_bound_exceeded(const RomState *s, char *message, size_t message_size) {
     if (!s || !s->bound || !(s->error_tolerance > 0)) return 0;
     RowTime rt;                                          /* one time and one input for every velocity row */
     row_time(s, &rt);
     RowInputs in;
     row_inputs(s, &in);
-    const uint32_t P = s->model->n_probes;
+    const uint32_t P = s->model->n_probes, ports = s->model->n_ports;
     const size_t m = s->model->bound.inputs;
     const int started = ((const BoundState *)s->bound)->started != 0.0, channel = s->channel != NULL;
-    const int common = m == 1 && started && !channel;    /* row_at with these as constants */
-    for (uint32_t port = 0; port < 2; port++) {
-        const uint32_t n = port ? s->model->n_ports : P;
-        for (uint32_t j = 0; j < n; j++) {
-            const uint32_t r = port ? 3 * P + j : j;
-            double y, cert;
-            if (common) row_at(s, &rt, &in, r, 1, 1, 0, &y, &cert);
-            else row_at(s, &rt, &in, r, m, started, channel, &y, &cert);
-            /* the model's output as rom.c gives it (rom_v_port; rom_v_probe: the kind's, kept for the importer's
-             * read, and the port channel's): velocity_bound's sum */
-            const double v = port ? rom_channel_port_velocity(s, j) : rom_v_probe_kept(s, j);
-            const double bound = fabs(v - y) + cert;
-            if (!(bound <= s->error_tolerance)) {
-                if (message && message_size) {
-                    snprintf(message, message_size, "%s_%u's certified error bound %.3g m s^-1 exceeds "
-                             "error_tolerance = %.3g m s^-1 at t = %.9g s", port ? "v_port" : "v_probe", j + 1, bound,
-                             s->error_tolerance, s->time);
-                }
-                return 1;
-            }
-        }
+    if (m == 1 && started && !channel && ports == 0) {   /* the common case: f alone, stepped, no ports */
+        return rows_exceed(s, &rt, &in, 0, P, 1, 1, 0, message, message_size);
     }
-    return 0;
+    return rows_exceed(s, &rt, &in, 0, P, m, started, channel, message, message_size) ||
+           rows_exceed(s, &rt, &in, 1, ports, m, started, channel, message, message_size);
 }
 
 size_t rom_bound_state_doubles(const RomModel *m) {
