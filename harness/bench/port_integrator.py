@@ -12,8 +12,8 @@ damped loop (port 1 tied to the lumped mass-spring with a dashpot of 0.1 N s/m b
 ``--t-end`` (default 200 s).  Per run: the integrator's amplification of the model's fastest mode over the run
 (linearised about rest, :func:`sphrom.rom.stepping.reduced_amplification`); the own state's energy
 ½ Σ (ρ0 v² + c e²) Δx (e = ρ0/ρ − 1, its fields from the Python build of the same model, checked equal at t = 0):
-its largest and last value over its start (undamped and unforced, physics keeps it); the own density's smallest
-value over ρ0; when and why the FMU stopped.  With ``--sph``, the full SPH (symplectic Euler at the scene's dt,
+its smallest, largest and last value over its start (undamped and unforced, physics keeps it); the own density's
+smallest value over ρ0; when and why the FMU stopped.  With ``--sph``, the full SPH (symplectic Euler at the scene's dt,
 :class:`sphrom.sph.ports.PortStepper`) in the same loop: its coupled energy (bar and mass-spring) at the end over its
 start, its density range, and each run's v_port_1 error against it (relative L² over the points both reached).
 Prints a Markdown table; ``port_integrator.csv`` with ``--out``.
@@ -107,7 +107,8 @@ def fmu_run(scene, integrator, t_end, folder):
     energy = np.array([s[0] for s in seen])
     return {"scene": scene.name, "integrator": integrator, "k_v": ops.k_v, "k_rho": ops.k_rho, "dt": scene.sph.dt,
             "amplification": reduced_amplification(ops, scene.sph.dt, integrator, t_end)[0],
-            "energy_max": float(energy.max() / energy[0]), "energy_end": float(energy[-1] / energy[0]),
+            "energy_min": float(energy.min() / energy[0]), "energy_max": float(energy.max() / energy[0]),
+            "energy_end": float(energy[-1] / energy[0]),
             "rho_min": min(s[1] for s in seen), "reached": (len(v) - 1) * STEP, "stop": stop or ""}, v
 
 
@@ -161,16 +162,17 @@ def markdown(rows):
     """The table of :func:`measure`'s rows."""
     from .lib.document import fmt
     sph = any("v_port_error" in r for r in rows)
-    head = ["scene", "integrator", "k_v, k_ρ", "fastest mode's amplification over the run", "own energy max / start",
-            "own energy end / start", "own min ρ/ρ0", "ran to [s]", "stopped"]
+    head = ["scene", "integrator", "k_v, k_ρ", "fastest mode's amplification over the run",
+            "own energy min / start", "own energy max / start", "own energy end / start", "own min ρ/ρ0", "ran to [s]",
+            "stopped"]
     if sph:
         head += ["v_port_1 error against the full SPH", "full SPH: coupled energy end / start",
                  "full SPH: ρ/ρ0 range"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in rows:
         cells = [r["scene"], r["integrator"], f"{r['k_v']}, {r['k_rho']}", fmt(r["amplification"]),
-                 fmt(r["energy_max"]), fmt(r["energy_end"]), f"{r['rho_min']:.4f}", f"{r['reached']:.2f}",
-                 r["stop"] or "no"]
+                 fmt(r["energy_min"]), fmt(r["energy_max"]), fmt(r["energy_end"]), f"{r['rho_min']:.4f}",
+                 f"{r['reached']:.2f}", r["stop"] or "no"]
         if sph:
             cells += [fmt(r["v_port_error"]), fmt(r["sph_energy_end"]),
                       f"{r['sph_rho_min']:.4f} to {r['sph_rho_max']:.4f}"]
@@ -195,7 +197,8 @@ def main(argv=None):
         integrators = [s.strip() for s in args.integrators.split(",") if s.strip()]
         bad = [s for s in integrators if s not in ("euler", "symplectic")]
         if bad or not integrators:
-            p.error(f"--integrators: {args.integrators!r} is out of range (allowed: euler, symplectic, comma-separated)")
+            p.error(f"--integrators: {args.integrators!r} is out of range (allowed: euler, symplectic, "
+                    "comma-separated)")
     rows = measure(args.scenes or ["heterogeneous"], t_end=args.t_end, integrators=integrators, sph=args.sph,
                    progress=not args.quiet)
     print(markdown(rows))

@@ -72,7 +72,7 @@ def default_integrator(scene, ports=()):
     for the whole co-simulation: heterogeneous's frozen part (k = 21, 20) with explicit Euler at dt = 2e-4 s
     amplifies its fastest mode (ω = 33.2 rad/s) by 3.6e9 over 200 s, and from the scene's initial state its
     density falls to 0.2 ρ0 by t = 190 s, a negative density at a probe once the channel's share is added in a
-    damped loop; with symplectic Euler its energy stays within 2 % of the start over the 200 s (docs/fmu/ports.md,
+    damped loop; with symplectic Euler its energy stays within 2.3 % of the start over the 200 s (docs/fmu/ports.md,
     "The integrator of a port FMU").  A scene whose full SPH steps with RK4 (which the frozen model does not have):
     symplectic Euler too (the scene's step is within its limit on the reduced model's lower frequencies)."""
     if len(ports):
