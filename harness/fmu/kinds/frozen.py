@@ -68,13 +68,14 @@ def default_integrator(scene, ports=()):
     each mode's energy by 1 + (ω dt)² a step, symplectic Euler keeps a modified energy of the undamped bar.
     Measured (``sphrom bench inputs``, tenmode with a constant port force for 10 s): the full SPH with explicit
     Euler is 0.1 off the linear SPH integrated exactly in time, with symplectic Euler 9e-6.  With the port channel
-    (:mod:`sphrom.rom.port_channel`) the port forces never reach the model's own state, but that state still runs
-    for the whole co-simulation: heterogeneous's frozen part (k = 21, 20) with explicit Euler at dt = 2e-4 s
-    amplifies its fastest mode (ω = 33.2 rad/s) by 3.6e9 over 200 s, and from the scene's initial state its
-    density falls to 0.2 ρ0 by t = 190 s, a negative density at a probe once the channel's share is added in a
-    damped loop; with symplectic Euler its energy stays within 2.3 % of the start over the 200 s (docs/fmu/ports.md,
-    "The integrator of a port FMU").  A scene whose full SPH steps with RK4 (which the frozen model does not have):
-    symplectic Euler too (the scene's step is within its limit on the reduced model's lower frequencies)."""
+    (:mod:`sphrom.rom.port_channel`) the port forces never reach the model's own state, but that state runs for
+    the whole co-simulation: heterogeneous's frozen part (k = 21, 20) with explicit Euler at dt = 2e-4 s amplifies
+    its fastest mode (ω = 33.2 rad/s) 3.6e9-fold over 200 s, and from the scene's initial state in the ports bench's
+    damped loop its density turns negative at a particle, and at probe 1 at t = 194.56 s; with symplectic Euler its
+    energy stays within 2.3 % of the start over the 200 s (``sphrom bench port_integrator heterogeneous --sph``;
+    docs/fmu/ports.md, "The integrator of a port FMU").  A scene whose full SPH steps with RK4 (which the frozen
+    model does not have): symplectic Euler too (the scene's step is within its limit on the reduced model's lower
+    frequencies)."""
     if len(ports):
         return PORT_INTEGRATOR
     return scene.sph.integrator if scene.sph.integrator in FROZEN_INTEGRATORS else PORT_INTEGRATOR
