@@ -24,6 +24,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from ..options import choice_list
 from . import program_parser
 from .lib.ports import MASS, PORTS, S0, STIFFNESS
 
@@ -186,19 +187,13 @@ def main(argv=None):
     p = program_parser("port_integrator", description=__doc__.split("\n\n")[0])
     p.add_argument("scenes", nargs="*", metavar="SCENE", help="default: heterogeneous")
     p.add_argument("--t-end", type=positive_float, default=T_END, metavar="T", help="seconds of loop (default 200)")
-    p.add_argument("--integrators", metavar="I1,I2", help="euler and/or symplectic (default: the scene's own and "
-                                                          "the port FMU's default)")
+    p.add_argument("--integrators", type=choice_list("euler", "symplectic"), metavar="I1,I2",
+                   help="euler and/or symplectic (default: the scene's own and the port FMU's default)")
     p.add_argument("--sph", action="store_true", help="the full SPH in the same loop too (minutes per 100 s)")
     p.add_argument("--out", metavar="FOLDER", help="write port_integrator.csv there")
     p.add_argument("--quiet", action="store_true")
     args = p.parse_args(argv)
-    integrators = None
-    if args.integrators:
-        integrators = [s.strip() for s in args.integrators.split(",") if s.strip()]
-        bad = [s for s in integrators if s not in ("euler", "symplectic")]
-        if bad or not integrators:
-            p.error(f"--integrators: {args.integrators!r} is out of range (allowed: euler, symplectic, "
-                    "comma-separated)")
+    integrators = args.integrators
     rows = measure(args.scenes or ["heterogeneous"], t_end=args.t_end, integrators=integrators, sph=args.sph,
                    progress=not args.quiet)
     print(markdown(rows))

@@ -81,6 +81,29 @@ def default_integrator(scene, ports=()):
     return scene.sph.integrator if scene.sph.integrator in FROZEN_INTEGRATORS else PORT_INTEGRATOR
 
 
+EULER_GROWTH = 1e-12     # explicit Euler is an FMU's default only where no reduced mode grows by more than this a step
+
+
+def open_ended_integrator(ops, dt, integrator):
+    """The integrator of a frozen FMU given none, once its operators are built: ``integrator`` (the scene's,
+    :func:`default_integrator`), but :data:`PORT_INTEGRATOR` where that is explicit Euler and it amplifies a reduced
+    mode at all: the spectral radius of its step on the model linearised about rest
+    (:func:`sphrom.rom.stepping.reduced_amplification` over one step dt) above 1 + EULER_GROWTH.
+
+    An FMU runs as long as its master does, not the scene's T: explicit Euler multiplies an undamped mode's energy
+    by 1 + (ω dt)² every step, so on an undamped bar (and where a damping d < ω² dt is too weak for the fastest
+    mode) its rounding errors and its state grow without end.  Heterogeneous's frozen FMU (k = 21, 20, dt = 2e-4
+    s): the fastest mode (ω = 33.2 rad/s) 3.6e9-fold over 200 s, its probe density down to 0.21 of ρ0 at 195 s from
+    the scene's initial state (``sphrom bench port_integrator``: the same own state in its port FMU).  Symplectic
+    Euler keeps a modified energy of the undamped bar.  A damped scene whose explicit Euler contracts every mode
+    keeps it: the paper's model as the paper ran it."""
+    from ...rom.stepping import reduced_amplification
+    if integrator != "euler":
+        return integrator
+    growth, _ = reduced_amplification(ops, dt, integrator, dt)
+    return PORT_INTEGRATOR if growth > 1.0 + EULER_GROWTH else integrator
+
+
 MODELS = {
     "frozen": ModelWords(
         ports=("Each port's directions are in the basis as the exact model's (rigid motion, static deflection, "
@@ -266,14 +289,17 @@ def from_file(header, head, arrays, token, sections):
 # ---------------------------------------------------------------------------------------------------------------
 
 def resource(scene, model, k, n_freeze, probes, integrator, progress, problem, order_tolerance=None,
-             bounds=True, ports=(), build_options=None, extra_steps=(), error_bounds=True):
+             bounds=True, ports=(), build_options=None, extra_steps=(), error_bounds=True, integrator_given=True):
     """The packaging step of kind 1 (``sphrom.fmu.make.package.model_step``): the frozen model with its training
     envelope and error bounds, (data, operators, model.bin bytes); ``n_freeze`` None: chosen per scene
-    (:func:`choose_n_freeze`, the errors it measured in ``data.n_freeze_errors``)."""
+    (:func:`choose_n_freeze`, the errors it measured in ``data.n_freeze_errors``); ``integrator_given`` False
+    (the user named none): :func:`open_ended_integrator` decides (``data.integrator``)."""
     basis, run, problem = training_basis(scene, progress, problem, extra_steps)
     data, ops, problem, _ = reduced_model(scene, k, n_freeze or defaults.N_FREEZE, probes, integrator,
                                           progress=progress, problem=problem, model=model, ports=ports,
                                           build_options=build_options, made=(basis, run))
+    if not integrator_given:
+        integrator = data.integrator = open_ended_integrator(ops, data.dt, integrator)
     data.sections.update(particle_sections(ops, problem))
     if "PARTUR" in data.sections:
         data.T = None                     # the particles replace the tensor: its bytes stay out of the FMU
