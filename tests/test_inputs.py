@@ -276,12 +276,12 @@ def test_dominant_modes_hold_the_step_response(base, d):
 
 
 def test_a_port_fmu_steps_with_symplectic_euler_unless_told():
-    """A time-stepped FMU whose ports enter its basis (a damping that varies along the bar: no port channel) takes
-    symplectic Euler by default (explicit Euler grows an undamped bar's ringing modes: the full SPH itself with
-    explicit Euler drifts from the linear SPH exact in time, with symplectic Euler it does not: asserted below a
-    fifth of explicit Euler's drift, both printed on failure); with the port channel (a uniform d) the model never
-    sees a port force and keeps the scene's integrator, as without ports; a given --integrator is kept; a linear
-    model has none."""
+    """A time-stepped FMU with ports takes symplectic Euler by default, whether its ports enter its basis (a damping
+    that varies along the bar: no port channel) or the port channel takes them (a uniform d: the model's own state
+    never sees a port force, but it runs as long as the co-simulation, tests/test_port_loop_energy.py); explicit
+    Euler grows an undamped bar's ringing modes: the full SPH itself with explicit Euler drifts from the linear SPH
+    exact in time, with symplectic Euler it does not (asserted below a fifth of explicit Euler's drift, both printed
+    on failure); without ports the scene's integrator; a given --integrator is kept; a linear model has none."""
     from sphrom.fmu.make.options import check_options, default_integrator
     from sphrom.sph.ports import run_sph_ports
     scene = small_scene("tenmode", T=4.0, n=64, dt=2e-3)         # a long step: explicit Euler's growth shows
@@ -289,8 +289,8 @@ def test_a_port_fmu_steps_with_symplectic_euler_unless_told():
     varied = small_scene("tenmode", T=4.0, n=64, dt=2e-3, d="0.5 + 0.5*sin(2*pi*x/L)")
     assert default_integrator(varied, (0.5,)) == "symplectic" and default_integrator(varied) == "euler"
     assert check_options(varied, k=8, ports=(0.5,))[4] == "symplectic"
-    assert default_integrator(scene, (0.5,)) == "euler" and default_integrator(scene) == "euler"
-    assert check_options(scene, k=8, ports=(0.5,))[4] == "euler"
+    assert default_integrator(scene, (0.5,)) == "symplectic" and default_integrator(scene) == "euler"
+    assert check_options(scene, k=8, ports=(0.5,))[4] == "symplectic"
     assert check_options(scene, k=8)[4] == "euler"
     assert check_options(scene, k=8, ports=(0.5,), integrator="euler")[4] == "euler"
     assert check_options(scene, k=8, ports=(0.5,), model="exact")[4] not in ("euler", "symplectic")

@@ -93,6 +93,9 @@ PROGRAMS = {
                          "against the monolithic coupled system; the coupled energy at steps up to 50 ms",
                          "measured: see the report", "port_loop.csv, port_loop_passivity.csv; a BENCHMARKS.md "
                          "section with --report"),
+    "port_integrator": Program("sphrom.bench.port_integrator", "the frozen port FMU's own state in a long damped "
+                               "loop per integrator: its energy against the full SPH's", "measured: see the report",
+                               "prints a table; port_integrator.csv with --out"),
     "port_envelope": Program("sphrom.bench.port_envelope", "the port FMU's accuracy against the port-force "
                              "amplitude", "measured: see the report", "port_envelope.csv"),
     "inputs": Program("sphrom.bench.inputs", "every input channel at every frequency: ports under slow "

@@ -48,8 +48,9 @@ def add_parser(sub):
                         "0.25,0.5,0.66)")
     p.add_argument("--fmi", type=one_of("2", "3"), metavar="2|3", default="2", help="FMI version (default 2)")
     p.add_argument("--integrator", type=one_of("euler", "symplectic"), metavar="euler|symplectic",
-                   help="time integrator of the frozen model (default: the scene's; with --ports symplectic, "
-                        "which adds no energy to the bar)")
+                   help="time integrator of the frozen model (default: the scene's where its explicit Euler "
+                        "amplifies no reduced mode; symplectic, which adds no energy to the bar, with --ports and "
+                        "where explicit Euler would grow a mode step after step: an FMU runs as long as its master)")
     p.add_argument("--model", metavar="frozen|exact|balanced|auto", default=None,
                    help="reduced model: frozen (eqs. 2.19-2.24, internal dt; the default, but where the measured "
                         "frozen FMU misses the accuracy or costs more per simulated second than the exact one, the "

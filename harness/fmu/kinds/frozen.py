@@ -43,7 +43,6 @@ from ...errors import SimulationError
 from ...rom import parametric as par
 from ...rom.frozen import frozen_advance, loop_operators
 from ...rom.operators import probe_rows, wants_tensor
-from ...rom import port_channel
 from ...rom.port_channel import (ChannelState, attach, density_shift, from_sections, model_ports,
                                  probe_outputs)
 from ...rom.registry import get_model
@@ -64,18 +63,45 @@ FROZEN_INTEGRATORS = ("euler", "symplectic")      # the time-stepped model's own
 
 def default_integrator(scene, ports=()):
     """The time integrator of a time-stepped FMU given none: the scene's, but :data:`PORT_INTEGRATOR` (ρ then v)
-    for an FMU with ports whose port forces enter its basis (a damping that varies along the bar: no port channel,
-    :mod:`sphrom.rom.port_channel`).  A port couples the bar to components outside, and the coupled system is
-    stable when the FMU adds no energy (passivity, docs/fmu/ports.md); explicit Euler multiplies each mode's energy
-    by 1 + (ω dt)² a step, symplectic Euler keeps a modified energy of the undamped bar.  Measured (``sphrom bench
-    inputs``, tenmode with a constant port force for 10 s): the full SPH with explicit Euler is 0.1 off the
-    linear SPH integrated exactly in time, with symplectic Euler 9e-6.  With the port channel the port forces never
-    reach the model's own state (the channel, exact in time, takes them): the model is the portless one, with the
-    scene's integrator.  A scene whose full SPH steps with RK4 (which the frozen model does not have): symplectic
-    Euler too (the scene's step is within its limit on the reduced model's lower frequencies)."""
-    if len(ports) and not port_channel.scene_applies(scene):
+    for any FMU with ports.  A port couples the bar to components outside, for as long as the master runs, and the
+    coupled system is stable when the FMU adds no energy (passivity, docs/fmu/ports.md); explicit Euler multiplies
+    each mode's energy by 1 + (ω dt)² a step, symplectic Euler keeps a modified energy of the undamped bar.
+    Measured (``sphrom bench inputs``, tenmode with a constant port force for 10 s): the full SPH with explicit
+    Euler is 0.1 off the linear SPH integrated exactly in time, with symplectic Euler 9e-6.  With the port channel
+    (:mod:`sphrom.rom.port_channel`) the port forces never reach the model's own state, but that state runs for
+    the whole co-simulation: heterogeneous's frozen part (k = 21, 20) with explicit Euler at dt = 2e-4 s amplifies
+    its fastest mode (ω = 33.2 rad/s) 3.6e9-fold over 200 s, and from the scene's initial state in the ports bench's
+    damped loop its density turns negative at a particle, and at probe 1 at t = 194.56 s; with symplectic Euler its
+    energy stays within 2.3 % of the start over the 200 s (``sphrom bench port_integrator heterogeneous --sph``;
+    docs/fmu/ports.md, "The integrator of a port FMU").  A scene whose full SPH steps with RK4 (which the frozen
+    model does not have): symplectic Euler too (the scene's step is within its limit on the reduced model's lower
+    frequencies)."""
+    if len(ports):
         return PORT_INTEGRATOR
     return scene.sph.integrator if scene.sph.integrator in FROZEN_INTEGRATORS else PORT_INTEGRATOR
+
+
+EULER_GROWTH = 1e-12     # explicit Euler is an FMU's default only where no reduced mode grows by more than this a step
+
+
+def open_ended_integrator(ops, dt, integrator):
+    """The integrator of a frozen FMU given none, once its operators are built: ``integrator`` (the scene's,
+    :func:`default_integrator`), but :data:`PORT_INTEGRATOR` where that is explicit Euler and it amplifies a reduced
+    mode at all: the spectral radius of its step on the model linearised about rest
+    (:func:`sphrom.rom.stepping.reduced_amplification` over one step dt) above 1 + EULER_GROWTH.
+
+    An FMU runs as long as its master does, not the scene's T: explicit Euler multiplies an undamped mode's energy
+    by 1 + (ω dt)² every step, so on an undamped bar (and where a damping d < ω² dt is too weak for the fastest
+    mode) its rounding errors and its state grow without end.  Heterogeneous's frozen FMU (k = 21, 20, dt = 2e-4
+    s): the fastest mode (ω = 33.2 rad/s) 3.6e9-fold over 200 s, its probe density down to 0.21 of ρ0 at 195 s from
+    the scene's initial state (``sphrom bench port_integrator``: the same own state in its port FMU).  Symplectic
+    Euler keeps a modified energy of the undamped bar.  A damped scene whose explicit Euler contracts every mode
+    keeps it: the paper's model as the paper ran it."""
+    from ...rom.stepping import reduced_amplification
+    if integrator != "euler":
+        return integrator
+    growth, _ = reduced_amplification(ops, dt, integrator, dt)
+    return PORT_INTEGRATOR if growth > 1.0 + EULER_GROWTH else integrator
 
 
 MODELS = {
@@ -263,14 +289,17 @@ def from_file(header, head, arrays, token, sections):
 # ---------------------------------------------------------------------------------------------------------------
 
 def resource(scene, model, k, n_freeze, probes, integrator, progress, problem, order_tolerance=None,
-             bounds=True, ports=(), build_options=None, extra_steps=(), error_bounds=True):
+             bounds=True, ports=(), build_options=None, extra_steps=(), error_bounds=True, integrator_given=True):
     """The packaging step of kind 1 (``sphrom.fmu.make.package.model_step``): the frozen model with its training
     envelope and error bounds, (data, operators, model.bin bytes); ``n_freeze`` None: chosen per scene
-    (:func:`choose_n_freeze`, the errors it measured in ``data.n_freeze_errors``)."""
+    (:func:`choose_n_freeze`, the errors it measured in ``data.n_freeze_errors``); ``integrator_given`` False
+    (the user named none): :func:`open_ended_integrator` decides (``data.integrator``)."""
     basis, run, problem = training_basis(scene, progress, problem, extra_steps)
     data, ops, problem, _ = reduced_model(scene, k, n_freeze or defaults.N_FREEZE, probes, integrator,
                                           progress=progress, problem=problem, model=model, ports=ports,
                                           build_options=build_options, made=(basis, run))
+    if not integrator_given:
+        integrator = data.integrator = open_ended_integrator(ops, data.dt, integrator)
     data.sections.update(particle_sections(ops, problem))
     if "PARTUR" in data.sections:
         data.T = None                     # the particles replace the tensor: its bytes stay out of the FMU

@@ -201,6 +201,7 @@ def package_fmu(scene, out, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaul
     ToleranceError
         ``verify`` (and ``accept``): the FMU failed, ran away or missed the accuracy on a case (nothing is written).
     """
+    integrator_given = integrator is not None
     k, n_freeze, probes, fmi, integrator = check_options(scene, k=k, n_freeze=n_freeze, probes=probes, fmi=fmi,
                                                          integrator=integrator, model=model,
                                                          tolerance=tolerance, order_tolerance=order_tolerance,
@@ -211,7 +212,8 @@ def package_fmu(scene, out, *, k=None, n_freeze=defaults.N_FREEZE, probes=defaul
     data, ops, blob, parameters = model_step(scene, model, k, n_freeze, probes, integrator, progress, problem,
                                              vary=vary, ports=ports, bounds=bounds, order_tolerance=order_tolerance,
                                              error_bounds=error_bounds,
-                                             build_options=build_options)
+                                             build_options=build_options, integrator_given=integrator_given)
+    integrator = kind_of(data).integrator(data) or integrator       # a frozen kind's own choice (open-ended runs)
     problem = problem or build_problem(scene)
     step = step_size if step_size is not None else default_step(scene, data, ops, problem)
     timings["model"] = time.perf_counter() - t0
@@ -266,20 +268,24 @@ def _shadow_facts(sections):
 
 
 def model_step(scene, model, k, n_freeze, probes, integrator, progress, problem, *, vary, ports, bounds,
-               order_tolerance, build_options, extra_steps=(), error_bounds=True):
+               order_tolerance, build_options, extra_steps=(), error_bounds=True, integrator_given=True):
     """Step 2: (data, operators, resources/model.bin bytes, the parametric FMU's parameter rows) of ``model``:
     the model kind's packaging step (:mod:`sphrom.fmu.kinds`, ``resource``), or the parametric model over
-    ``vary``."""
+    ``vary``.  ``integrator_given`` False: a time-stepped kind chooses its integrator for open-ended runs
+    (:func:`sphrom.fmu.kinds.frozen.open_ended_integrator`)."""
     if not vary:
-        data, ops, blob = for_model(model).resource(scene, model, k, n_freeze, probes, integrator, progress, problem,
-                                                    order_tolerance=order_tolerance, bounds=bounds, ports=ports,
-                                                    error_bounds=error_bounds, build_options=build_options,
-                                                    extra_steps=extra_steps)
+        kind = for_model(model)
+        own = {"integrator_given": integrator_given} if "integrator" in kind.BUILD_OPTIONS else {}
+        data, ops, blob = kind.resource(scene, model, k, n_freeze, probes, integrator, progress, problem,
+                                        order_tolerance=order_tolerance, bounds=bounds, ports=ports,
+                                        error_bounds=error_bounds, build_options=build_options,
+                                        extra_steps=extra_steps, **own)
         return data, ops, blob, []
     if build_options:
         raise FieldError("build_options", "not with vary (a parametric model has its own build)")
     data, ops, blob, space = parametric_resource(scene, model, k, n_freeze or defaults.N_FREEZE, probes, integrator,
-                                                 progress, vary, error_bounds=error_bounds)
+                                                 progress, vary, error_bounds=error_bounds,
+                                                 integrator_given=integrator_given)
     return data, ops, blob, parameter_variables(space)
 
 

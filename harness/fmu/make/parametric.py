@@ -99,16 +99,23 @@ def parametric_envelope(scene, space, ops, probes, linear, progress=False):
     return union([measure(scene, ops, problem, run, probes, linear) for run in runs])
 
 
-def parametric_resource(scene, model, k, n_freeze, probes, integrator, progress, ranges, error_bounds=True):
+def parametric_resource(scene, model, k, n_freeze, probes, integrator, progress, ranges, error_bounds=True,
+                        integrator_given=True):
     """(data, ops at the start values, resource bytes, space) of a parametric FMU; its training envelope that of
     the runs at all sample points (:func:`parametric_envelope`); with ``error_bounds`` the certified error bounds'
     parametric shadow about the scene's (c, d) (:func:`sphrom.fmu.make.models.shadow_step`; the C core
-    assembles its planes at the FMU's c and d)."""
+    assembles its planes at the FMU's c and d).  ``integrator_given`` False: a time-stepped kind's integrator
+    chosen for open-ended runs (:func:`sphrom.fmu.kinds.frozen.open_ended_integrator`) at the box's corner where
+    explicit Euler grows most (the largest c, the fastest modes; the smallest d)."""
     affine, space, _, _ = parametric_model(scene, ranges, k, model=model, progress=progress)
     c0, d0 = space.start("c"), space.start("d")
     problem = build_problem(scene)
     sections = {"PARAMS": params_section(space)}
     kind = for_model(model)                  # its operators at (c0, d0) and its affine pieces (KC, BC, DD or A0, AC, AD)
+    if not integrator_given and "integrator" in kind.BUILD_OPTIONS:
+        from ..kinds.frozen import open_ended_integrator
+        worst = par.frozen_at(affine, space.bounds("c")[1], space.bounds("d")[0])
+        integrator = open_ended_integrator(worst, scene.sph.dt, integrator)
     given = {"dt": scene.sph.dt, "n_freeze": n_freeze, "integrator": integrator}
     data, ops, pieces = kind.parametric(affine, c0, d0, problem, probes=probes,
                                         **{name: given[name] for name in kind.BUILD_OPTIONS})
