@@ -49,7 +49,8 @@ initial state at the model's (c, d) once, when c and d are fixed (no table).
 
 The shadow's size is chosen per input channel (:func:`choose_planes`): the force profile and each port with a
 reference step and an in-band sine over REFERENCE_SPAN x T, and the initial state; the fewest planes (a prefix of the
-planes' clusters, lowest first or by their complement terms, whichever is smaller) whose certified complement stays
+planes' clusters, lowest first or by their complement terms, whichever is smaller, less the clusters no allowance
+needs; with the free response's table of TABLE_NODES nodes that keeps the fewest) whose certified complement stays
 within each channel's allowance: :data:`SHADOW_TARGET` of its response, or, where larger and known,
 :data:`MODEL_FRACTION` x the model's own error on that reference input (``model_runs``, :func:`model_errors`: the FMU's
 core runs the model at packaging), at most :data:`MAX_PLANES`.  Port forces as inputs of the shadow (no port channel
