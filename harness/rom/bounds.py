@@ -98,7 +98,7 @@ MODEL_FRACTION = 0.5        # a channel's complement may reach this x the model'
 REFERENCE_STEPS = 2000      # the reference runs' held steps over T (reference_responses, the model's runs)
 FREE_SAMPLES = 4000         # the initial state's free response: intervals over TABLE_SPAN x T (choose_planes)
 N_BLOCKS = 256              # its error bounds: one per block of intervals
-MAX_GROUPS = 8              # decay-rate groups of the complement's transient
+MAX_GROUPS = 4              # decay-rate groups of the complement's transient
 REFERENCE_SPAN = 20.0       # the reference sine's run: this x T (its weighted variation)
 FLOOR = 1e-6                # a channel's response below this x its row class's largest is not judged (round-off)
 PIECES = ("const", "c", "d")   # A(c, d) = A_const + c A_c + d A_d
