@@ -89,7 +89,8 @@ ROUNDOFF_STEP = 1e-15       # ... plus this per step
 SUM_ROUNDOFF = 1e-12        # the complement's sums: times (1 + this)
 TABLE_SPAN = 20.0           # the initial state's free response table covers this x the scene's T (at most)
 MAX_NODES = 4096            # its nodes at most (at first: choose_planes tries the caps of TABLE_NODES)
-TABLE_NODES = (4096, 8192, 16384, 32768)   # ... the caps tried: the one that keeps the fewest planes, then the smallest
+TABLE_NODES = (4096, 8192, 16384, 32768)   # ... the caps tried: the one that keeps the fewest planes, then the fewest
+                            # nodes that still meet the allowances with them
 TABLE_VALUES = 2 ** 18      # ... within this many nodes x rows (the table's values and slopes: 8 MB x this / 2^18 / 2)
 NODE_RESOLUTION = 0.1       # its spacing h: |μ| h <= this for every mode that matters (within MAX_NODES)
 INTERPOLATED = 3.7          # a mode with |μ| h above this counts by its size, not interpolated ((3.7)^4/384 = 0.49)
@@ -1208,6 +1209,17 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
 
     results = [(cap, *search(cap)) for cap in caps]
     cap, keep, values, excesses, reached, plateau = min(results, key=lambda x: (not x[4], x[1].size, x[0]))
+    if reached and cap > MAX_NODES:
+        # the fewest nodes that still meet every allowance with these planes (the table's error falls like h^4:
+        # bisection; the FMU carries rows x nodes x 2 values)
+        lo, hi = MAX_NODES, cap
+        while hi - lo > max(64, lo // 64):
+            mid = (lo + hi) // 2
+            if value(keep, mid)[1] <= 1.0:
+                hi = mid
+            else:
+                lo = mid
+        cap = hi
     return keep, values, {"omega_ref": omega, "reached": bool(reached), "plateau": plateau,
                           "excess": excesses, "model_error": model_info, "table_nodes": int(cap)}
 
