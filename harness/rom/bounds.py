@@ -93,9 +93,11 @@ TABLE_NODES = (4096, 8192, 16384, 32768)   # ... the caps tried: the one that ke
                             # nodes that still meet the allowances with them
 TABLE_VALUES = 2 ** 18      # ... within this many nodes x rows (the table's values and slopes: 8 MB x this / 2^18 / 2)
 NODE_RESOLUTION = 0.1       # its spacing h: |μ| h <= this for every mode that matters (within MAX_NODES)
+FINE_RESOLUTION = 0.01      # ... or this, in a table of more than MAX_NODES nodes ((0.01)^4 / 384 = 2.6e-11)
 INTERPOLATED = 3.7          # a mode with |μ| h above this counts by its size, not interpolated ((3.7)^4/384 = 0.49)
 PLATEAU = 2.0               # no cut meets the target: the smallest within this factor of the largest cut's value
 MODEL_FRACTION = 0.5        # a channel's complement may reach this x the model's own error on it (choose_planes)
+FREE_TARGET = 1e-7          # the initial state's channel: the target where the model's error is known (choose_planes)
 REFERENCE_STEPS = 2000      # the reference runs' held steps over T (reference_responses, the model's runs)
 FREE_SAMPLES = 4000         # the initial state's free response: intervals over TABLE_SPAN x T (choose_planes)
 N_BLOCKS = 256              # its error bounds: one per block of intervals
@@ -781,7 +783,8 @@ def table_step(modes: Modes, T, tail_alpha=None, max_nodes=MAX_NODES):
     """(t_end, h, nodes): the free response table's span and node spacing.  The span: TABLE_SPAN x T, shorter where
     every mode (and the uncomputed planes) has decayed below 1e-14 of its start; the spacing resolves the modes
     that matter (|μ| h <= NODE_RESOLUTION for every mode above 1e-12 of the largest) with at most ``max_nodes``
-    nodes (:func:`choose_planes` chooses it, :data:`TABLE_NODES`)."""
+    nodes (:func:`choose_planes` chooses it, :data:`TABLE_NODES`); a finer table than MAX_NODES nodes, which the
+    sizing takes for its interpolation error alone, resolves them to FINE_RESOLUTION."""
     size = np.abs(modes.P).max(axis=0) if modes.P.size else np.zeros(0)
     t_end = TABLE_SPAN * float(T)
     alphas = list(modes.alpha[size > 0]) + ([tail_alpha] if tail_alpha is not None else [])
@@ -789,7 +792,8 @@ def table_step(modes: Modes, T, tail_alpha=None, max_nodes=MAX_NODES):
         t_end = min(t_end, math.log(1e14) / min(alphas))
     big = size > 1e-12 * max(float(size.max()), 1e-300) if size.size else size.astype(bool)
     omega = float(np.max(np.abs(modes.mu[big]))) if np.any(big) else 0.0
-    nodes = int(min(max_nodes, max(2, math.ceil(t_end * omega / NODE_RESOLUTION) + 1)))
+    resolution = NODE_RESOLUTION if max_nodes <= MAX_NODES else FINE_RESOLUTION
+    nodes = int(min(max_nodes, max(2, math.ceil(t_end * omega / resolution) + 1)))
     return t_end, t_end / (nodes - 1), nodes
 
 
@@ -1091,11 +1095,18 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
                                         big, np.any(eta), h_all)
         orders.append(forced + sorted(lowest, key=lambda i: (-importance[i], i)))
 
-    def allowance(scale, err):
-        """the complement a channel may have: target x its response, or MODEL_FRACTION x the model's error on it"""
+    def allowance(scale, err, floor=target):
+        """the complement a channel may have: ``floor`` x its response, or MODEL_FRACTION x the model's error on it"""
         if err is None or not np.isfinite(err):
             return target * scale
-        return max(target * scale, MODEL_FRACTION * float(err))
+        return max(floor * scale, MODEL_FRACTION * float(err))
+
+    # the free channel's floor where the model's error is known: its complement's part is the table's interpolation
+    # error, which more nodes shrink at no cost per step, so that a model more accurate than target x the free
+    # response from its initial state (multimode's exact model: 2e-7 of it) keeps its effectivity there below
+    # 1 + 2 MODEL_FRACTION (where its error is above FREE_TARGET x the response) instead of target x response / its
+    # error
+    free_floor = min(target, FREE_TARGET) if table else target
 
     def value(keep, max_nodes=MAX_NODES):
         """(the largest complement / response over the channels, the largest complement / allowance) with the
@@ -1104,10 +1115,10 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
         tl = tail_fn()
         worst, excess = 0.0, 0.0
 
-        def judge(val, cls, scale, err):
+        def judge(val, cls, scale, err, floor=target):
             nonlocal worst, excess
             for r in cls:
-                allowed = allowance(scale, None if err is None else err[r])
+                allowed = allowance(scale, None if err is None else err[r], floor)
                 excess = max(excess, float(val[r]) / allowed if allowed > 0 else np.inf)
             worst = max(worst, float(val[cls].max()) / scale)
 
@@ -1141,7 +1152,7 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
             for c, cls in enumerate(classes):
                 scale = free_scale[cls].max()
                 if scale > FLOOR * big[c]:
-                    judge(err, cls, scale, free_e)
+                    judge(err, cls, scale, free_e, free_floor)
         return worst, excess
 
     # the free response's table: the complement's free response is exact at its nodes, its error the cubic
