@@ -1049,7 +1049,8 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
     error plus twice the complement's, so its effectivity on the reference inputs stays below 1 + 2 MODEL_FRACTION,
     and a more accurate model gets at least as many planes.  Returns (planes, criterion value per cut (the
     complement against the responses), the responses and, under "excess", the largest complement / allowance of
-    each cut tried)."""
+    each cut tried, and under "table_nodes" the free response table's nodes at most: :func:`complement`'s
+    ``max_nodes``)."""
     n = planes.count
     rows, m = chat.shape[0], bhat.shape[2]
     key = planes.key
@@ -1156,7 +1157,8 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
         return worst, excess
 
     # the free response's table: the complement's free response is exact at its nodes, its error the cubic
-    # Hermite interpolant's, Σ |P| e^{-α t_k} (|μ| h)^4 / 384 per mode (free_table): h^4, so that a finer table
+    # Hermite interpolant's, h^4 / 384 sup |g^(4)| <= Σ |P| e^{-α t_k} (|μ| h)^4 / 384 over the modes on each
+    # interval (free_table, certified for any h), so h^4: a finer table
     # leaves out the planes only the initial state reaches (an undamped bar's: gaussian, heterogeneous) at no
     # cost per step (one interval's values and slopes are read whatever the nodes).  The node caps tried: those of
     # TABLE_NODES within TABLE_VALUES values per row set; the fewest planes, then the fewest nodes
@@ -1206,8 +1208,10 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
         if reached and not contiguous:
             # a prefix keeps clusters the allowances do not need (the importance order ranks by the largest term of
             # any row, the allowance binds on one): leave out each kept cluster, least important first, while every
-            # allowance still holds.  The bound holds for any set of planes (the complement's terms are those of
-            # the planes left out, whichever they are), so this changes its size, not its validity
+            # allowance still holds.  The bound holds for any set s of planes: y = cᵀ V_s w + D u(t⁻) + s g + R
+            # (module docstring) splits A's invariant planes, each z_i (i ∉ s) written on its own, so D, g and the
+            # gains of R are sums over whichever planes are left out; this changes the bound's size, not its
+            # validity (the C core steps any set of planes: SHLAM, SHB, SHC carry the kept ones)
             rank = {i: r for r, i in enumerate(orders[-1])}
             kept = [i for i in orders[-1] if i not in forced and np.isin(clusters[i], keep).all()]
             for i in sorted(kept, key=lambda i: -rank[i]):
