@@ -49,7 +49,8 @@ initial state at the model's (c, d) once, when c and d are fixed (no table).
 
 The shadow's size is chosen per input channel (:func:`choose_planes`): the force profile and each port with a
 reference step and an in-band sine over REFERENCE_SPAN x T, and the initial state; the fewest planes (a prefix of the
-planes' clusters, lowest first or by their complement terms, whichever is smaller) whose certified complement stays
+planes' clusters, lowest first or by their complement terms, whichever is smaller, less the clusters no allowance
+needs; with the free response's table of TABLE_NODES nodes that keeps the fewest) whose certified complement stays
 within each channel's allowance: :data:`SHADOW_TARGET` of its response, or, where larger and known,
 :data:`MODEL_FRACTION` x the model's own error on that reference input (``model_runs``, :func:`model_errors`: the FMU's
 core runs the model at packaging), at most :data:`MAX_PLANES`.  Port forces as inputs of the shadow (no port channel
@@ -87,11 +88,16 @@ ROUNDOFF = 1e-11            # relative round-off allowance
 ROUNDOFF_STEP = 1e-15       # ... plus this per step
 SUM_ROUNDOFF = 1e-12        # the complement's sums: times (1 + this)
 TABLE_SPAN = 20.0           # the initial state's free response table covers this x the scene's T (at most)
-MAX_NODES = 4096            # its nodes at most
+MAX_NODES = 4096            # its nodes at most (at first: choose_planes tries the caps of TABLE_NODES)
+TABLE_NODES = (4096, 8192, 16384, 32768)   # ... the caps tried: the one that keeps the fewest planes, then the fewest
+                            # nodes that still meet the allowances with them
+TABLE_VALUES = 2 ** 18      # ... within this many nodes x rows (the table's values and slopes: 8 MB x this / 2^18 / 2)
 NODE_RESOLUTION = 0.1       # its spacing h: |μ| h <= this for every mode that matters (within MAX_NODES)
+FINE_RESOLUTION = 0.01      # ... or this, in a table of more than MAX_NODES nodes ((0.01)^4 / 384 = 2.6e-11)
 INTERPOLATED = 3.7          # a mode with |μ| h above this counts by its size, not interpolated ((3.7)^4/384 = 0.49)
 PLATEAU = 2.0               # no cut meets the target: the smallest within this factor of the largest cut's value
 MODEL_FRACTION = 0.5        # a channel's complement may reach this x the model's own error on it (choose_planes)
+FREE_TARGET = 1e-7          # the initial state's channel: the target where the model's error is known (choose_planes)
 REFERENCE_STEPS = 2000      # the reference runs' held steps over T (reference_responses, the model's runs)
 FREE_SAMPLES = 4000         # the initial state's free response: intervals over TABLE_SPAN x T (choose_planes)
 N_BLOCKS = 256              # its error bounds: one per block of intervals
@@ -729,10 +735,11 @@ def tail_of(planes, C, Bcols, x0, d, K=None):
     return tail
 
 
-def complement(modes: Modes, planes_L, chat, bhat, tail: Tail | None, T, *, table=True):
+def complement(modes: Modes, planes_L, chat, bhat, tail: Tail | None, T, *, table=True, max_nodes=MAX_NODES):
     """The complement's terms (:class:`Complement`) of the modes ``modes`` (the complement's, every computed plane
     not in the shadow), their blocks ``planes_L`` with coefficients ``chat``, ``bhat`` (for D), the uncomputed
-    planes ``tail``; ``T`` the scene's horizon [s] (the table spans TABLE_SPAN x T)."""
+    planes ``tail``; ``T`` the scene's horizon [s] (the table spans TABLE_SPAN x T, at most ``max_nodes``
+    nodes)."""
     rows, m = chat.shape[0], bhat.shape[2]
     D = feedthrough(planes_L, chat, bhat) if planes_L.shape[0] else np.zeros((rows, m))
     alphas = list(modes.alpha) + ([tail.alpha] if tail is not None else [])
@@ -757,7 +764,8 @@ def complement(modes: Modes, planes_L, chat, bhat, tail: Tail | None, T, *, tabl
     if table and (np.any(np.abs(modes.P)) or np.any(tail_free)):
         t_end, h, values, slopes, errors, q, tl = free_table(modes, group[:modes.alpha.size], rates, T, tail_free,
                                                              tail.alpha if tail is not None else 0.0,
-                                                             exact=tail.exact if tail is not None else None)
+                                                             exact=tail.exact if tail is not None else None,
+                                                             max_nodes=max_nodes)
     else:
         t_end, h, values, slopes, errors, q = 0.0, 0.0, None, None, None, 1
         tl = np.zeros((rows, G))
@@ -771,10 +779,12 @@ def complement(modes: Modes, planes_L, chat, bhat, tail: Tail | None, T, *, tabl
                       slopes=slopes, errors=errors, q=int(q), t_end=float(t_end), tail=tl * (1 + SUM_ROUNDOFF))
 
 
-def table_step(modes: Modes, T, tail_alpha=None):
+def table_step(modes: Modes, T, tail_alpha=None, max_nodes=MAX_NODES):
     """(t_end, h, nodes): the free response table's span and node spacing.  The span: TABLE_SPAN x T, shorter where
     every mode (and the uncomputed planes) has decayed below 1e-14 of its start; the spacing resolves the modes
-    that matter (|μ| h <= 1 for every mode above 1e-12 of the largest) with at most MAX_NODES nodes."""
+    that matter (|μ| h <= NODE_RESOLUTION for every mode above 1e-12 of the largest) with at most ``max_nodes``
+    nodes (:func:`choose_planes` chooses it, :data:`TABLE_NODES`); a finer table than MAX_NODES nodes, which the
+    sizing takes for its interpolation error alone, resolves them to FINE_RESOLUTION."""
     size = np.abs(modes.P).max(axis=0) if modes.P.size else np.zeros(0)
     t_end = TABLE_SPAN * float(T)
     alphas = list(modes.alpha[size > 0]) + ([tail_alpha] if tail_alpha is not None else [])
@@ -782,11 +792,13 @@ def table_step(modes: Modes, T, tail_alpha=None):
         t_end = min(t_end, math.log(1e14) / min(alphas))
     big = size > 1e-12 * max(float(size.max()), 1e-300) if size.size else size.astype(bool)
     omega = float(np.max(np.abs(modes.mu[big]))) if np.any(big) else 0.0
-    nodes = int(min(MAX_NODES, max(2, math.ceil(t_end * omega / NODE_RESOLUTION) + 1)))
+    resolution = NODE_RESOLUTION if max_nodes <= MAX_NODES else FINE_RESOLUTION
+    nodes = int(min(max_nodes, max(2, math.ceil(t_end * omega / resolution) + 1)))
     return t_end, t_end / (nodes - 1), nodes
 
 
-def free_table(modes: Modes, group, rates, T, tail_free, tail_alpha, exact: TailTable | None = None):
+def free_table(modes: Modes, group, rates, T, tail_free, tail_alpha, exact: TailTable | None = None,
+               max_nodes=MAX_NODES):
     """The complement's free response g_r(t) = Re Σ_M P_rM e^{μ_M t} (per unit initial_state_scale, module
     docstring), tabulated for a cubic Hermite interpolation with a certified error: (t_end, h, values (rows, n),
     slopes (rows, n) [per s], errors (rows, n_blocks), q, tail (rows, G)).
@@ -806,7 +818,7 @@ def free_table(modes: Modes, group, rates, T, tail_free, tail_alpha, exact: Tail
     if exact is not None:
         t_end, h, nodes = exact.t_end, exact.h, exact.values.shape[1]
     else:
-        t_end, h, nodes = table_step(modes, T, tail_alpha if np.any(tail_free) else None)
+        t_end, h, nodes = table_step(modes, T, tail_alpha if np.any(tail_free) else None, max_nodes)
     t = np.arange(nodes) * h
     ex = modes.exact & (np.abs(modes.mu) * h <= INTERPOLATED)
     lo, rest = np.flatnonzero(ex), np.flatnonzero(~ex)
@@ -1037,7 +1049,8 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
     error plus twice the complement's, so its effectivity on the reference inputs stays below 1 + 2 MODEL_FRACTION,
     and a more accurate model gets at least as many planes.  Returns (planes, criterion value per cut (the
     complement against the responses), the responses and, under "excess", the largest complement / allowance of
-    each cut tried)."""
+    each cut tried, and under "table_nodes" the free response table's nodes at most: :func:`complement`'s
+    ``max_nodes``)."""
     n = planes.count
     rows, m = chat.shape[0], bhat.shape[2]
     key = planes.key
@@ -1083,41 +1096,53 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
                                         big, np.any(eta), h_all)
         orders.append(forced + sorted(lowest, key=lambda i: (-importance[i], i)))
 
-    def allowance(scale, err):
-        """the complement a channel may have: target x its response, or MODEL_FRACTION x the model's error on it"""
+    def allowance(scale, err, floor=target):
+        """the complement a channel may have: ``floor`` x its response, or MODEL_FRACTION x the model's error on it"""
         if err is None or not np.isfinite(err):
             return target * scale
-        return max(target * scale, MODEL_FRACTION * float(err))
+        return max(floor * scale, MODEL_FRACTION * float(err))
 
-    def value(keep):
+    # the free channel's floor where the model's error is known: its complement's part is the table's interpolation
+    # error, which more nodes shrink at no cost per step, so that a model more accurate than target x the free
+    # response from its initial state (multimode's exact model: 2e-7 of it) keeps its effectivity there below
+    # 1 + 2 MODEL_FRACTION (where its error is above FREE_TARGET x the response) instead of target x response / its
+    # error
+    free_floor = min(target, FREE_TARGET) if table else target
+
+    def value(keep, max_nodes=MAX_NODES):
         """(the largest complement / response over the channels, the largest complement / allowance) with the
-        planes ``keep`` kept"""
+        planes ``keep`` kept and a free response table of at most ``max_nodes`` nodes"""
         rest = ~np.isin(modes_all.plane, keep)
         tl = tail_fn()
         worst, excess = 0.0, 0.0
 
-        def judge(val, cls, scale, err):
+        def judge(val, cls, scale, err, floor=target):
             nonlocal worst, excess
             for r in cls:
-                allowed = allowance(scale, None if err is None else err[r])
+                allowed = allowance(scale, None if err is None else err[r], floor)
                 excess = max(excess, float(val[r]) / allowed if allowed > 0 else np.inf)
             worst = max(worst, float(val[cls].max()) / scale)
 
+        # each mode's variation at its group's rate, as the C core weighs it (complement: the groups of the modes
+        # left out, a group's rate the smallest of its members'), so that the criterion is the bound's own term
+        alphas = np.concatenate([modes_all.alpha[rest], [tl.alpha] if tl is not None else []])
+        rates, group = group_rates(alphas)
+        slow = rates[group] if rates.size else alphas
         for j in range(m):
             g = mg[:, rest, j]
             trans = g.sum(axis=1)
-            sine = (g * sine_variation(modes_all.alpha[rest], omega, span)[None, :]).sum(axis=1)
+            sine = (g * sine_variation(slow[:g.shape[1]], omega, span)[None, :]).sum(axis=1)
             if tl is not None:
                 extra = tl.gain()[:, j]
                 trans = trans + extra
-                sine = sine + extra * float(sine_variation(tl.alpha, omega, span)) + tl.static()[:, j]
+                sine = sine + extra * float(sine_variation(slow[-1], omega, span)) + tl.static()[:, j]
             for c, cls in enumerate(classes):
                 for val, scale, err in ((trans, step_r[cls, j].max(), None if step_e is None else step_e[:, j]),
                                         (sine, sine_r[cls, j].max(), None if sine_e is None else sine_e[:, j])):
                     if scale > FLOOR * big[c]:
                         judge(val, cls, scale, err)
         if np.any(eta):                                        # the free response table's error at t = 0
-            h_tab = table_step(_select(modes_all, rest), T, tl.alpha if tl is not None else None)[1]
+            h_tab = table_step(_select(modes_all, rest), T, tl.alpha if tl is not None else None, max_nodes)[1]
             size = np.abs(modes_all.P[:, rest])
             interp = (modes_all.exact & (np.abs(modes_all.mu) * h_tab <= INTERPOLATED))[rest] if table else \
                 np.zeros(int(rest.sum()), bool)
@@ -1128,45 +1153,90 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
             for c, cls in enumerate(classes):
                 scale = free_scale[cls].max()
                 if scale > FLOOR * big[c]:
-                    judge(err, cls, scale, free_e)
+                    judge(err, cls, scale, free_e, free_floor)
         return worst, excess
 
-    values, excesses = {}, {}                                  # per number of planes kept (both orders)
-    found = []
-    for order in orders:
-        sizes = np.cumsum([clusters[i].size for i in order])
-        counts = [c for c in range(max(len(forced), 1), len(order) + 1) if sizes[c - 1] <= max(max_planes, at_least)]
-        if not counts:
-            counts = [max(len(forced), 1)]
-        tried = {}
+    # the free response's table: the complement's free response is exact at its nodes, its error the cubic
+    # Hermite interpolant's, h^4 / 384 sup |g^(4)| <= Σ |P| e^{-α t_k} (|μ| h)^4 / 384 over the modes on each
+    # interval (free_table, certified for any h), so h^4: a finer table
+    # leaves out the planes only the initial state reaches (an undamped bar's: gaussian, heterogeneous) at no
+    # cost per step (one interval's values and slopes are read whatever the nodes).  The node caps tried: those of
+    # TABLE_NODES within TABLE_VALUES values per row set; the fewest planes, then the fewest nodes
+    caps = [MAX_NODES]
+    if table and np.any(eta) and tail_fn() is None:
+        caps = sorted({c for c in TABLE_NODES if c * rows <= TABLE_VALUES} | {MAX_NODES})
 
-        def at(count):
-            if count not in tried:
-                keep = np.sort(np.concatenate([clusters[i] for i in order[:count]]))
-                tried[count] = (keep, *value(keep))
-            return tried[count][2]
+    def search(cap):
+        """(planes kept, values, excesses, reached, plateau) of the two orders' smallest prefix, the table's nodes
+        at most ``cap``"""
+        values, excesses = {}, {}                              # per number of planes kept (both orders)
+        found = []
+        for order in orders:
+            sizes = np.cumsum([clusters[i].size for i in order])
+            counts = [c for c in range(max(len(forced), 1), len(order) + 1)
+                      if sizes[c - 1] <= max(max_planes, at_least)]
+            if not counts:
+                counts = [max(len(forced), 1)]
+            tried = {}
 
-        lo, hi = 0, len(counts) - 1
-        best = at(counts[hi])
-        reached = best <= 1.0
-        limit = 1.0 if reached else PLATEAU * best             # out of reach: where it levels off
-        if at(counts[0]) <= limit:
-            chosen = counts[0]
-        else:
-            while lo < hi:                                     # bisection: the criterion falls with each cluster
-                mid = (lo + hi) // 2
-                if at(counts[mid]) <= limit:
-                    hi = mid
-                else:
-                    lo = mid + 1
-            chosen = counts[lo]
-        for keep, raw, exc in tried.values():
-            values.setdefault(int(keep.size), raw)
-            excesses.setdefault(int(keep.size), exc)
-        found.append((not reached, tried[chosen][0].size, tried[chosen][0], float(tried[counts[-1]][1]), reached))
-    _, _, keep, plateau, reached = min(found, key=lambda x: (x[0], x[1]))   # (ties: the lowest planes)
+            def at(count):
+                if count not in tried:
+                    keep = np.sort(np.concatenate([clusters[i] for i in order[:count]]))
+                    tried[count] = (keep, *value(keep, cap))
+                return tried[count][2]
+
+            lo, hi = 0, len(counts) - 1
+            best = at(counts[hi])
+            reached = best <= 1.0
+            limit = 1.0 if reached else PLATEAU * best         # out of reach: where it levels off
+            if at(counts[0]) <= limit:
+                chosen = counts[0]
+            else:
+                while lo < hi:                                 # bisection: the criterion falls with each cluster
+                    mid = (lo + hi) // 2
+                    if at(counts[mid]) <= limit:
+                        hi = mid
+                    else:
+                        lo = mid + 1
+                chosen = counts[lo]
+            for keep, raw, exc in tried.values():
+                values.setdefault(int(keep.size), raw)
+                excesses.setdefault(int(keep.size), exc)
+            found.append((not reached, tried[chosen][0].size, tried[chosen][0], float(tried[counts[-1]][1]),
+                          reached))
+        _, _, keep, plateau, reached = min(found, key=lambda x: (x[0], x[1]))   # (ties: the lowest planes)
+        if reached and not contiguous:
+            # a prefix keeps clusters the allowances do not need (the importance order ranks by the largest term of
+            # any row, the allowance binds on one): leave out each kept cluster, least important first, while every
+            # allowance still holds.  The bound holds for any set s of planes: y = cᵀ V_s w + D u(t⁻) + s g + R
+            # (module docstring) splits A's invariant planes, each z_i (i ∉ s) written on its own, so D, g and the
+            # gains of R are sums over whichever planes are left out; this changes the bound's size, not its
+            # validity (the C core steps any set of planes: SHLAM, SHB, SHC carry the kept ones)
+            rank = {i: r for r, i in enumerate(orders[-1])}
+            kept = [i for i in orders[-1] if i not in forced and np.isin(clusters[i], keep).all()]
+            for i in sorted(kept, key=lambda i: -rank[i]):
+                trial = np.setdiff1d(keep, clusters[i])
+                if trial.size and value(trial, cap)[1] <= 1.0:
+                    keep = trial
+            raw, exc = value(keep, cap)
+            values[int(keep.size)], excesses[int(keep.size)] = raw, exc
+        return keep, values, excesses, reached, plateau
+
+    results = [(cap, *search(cap)) for cap in caps]
+    cap, keep, values, excesses, reached, plateau = min(results, key=lambda x: (not x[4], x[1].size, x[0]))
+    if reached and cap > MAX_NODES:
+        # the fewest nodes that still meet every allowance with these planes (the table's error falls like h^4:
+        # bisection; the FMU carries rows x nodes x 2 values)
+        lo, hi = MAX_NODES, cap
+        while hi - lo > max(64, lo // 64):
+            mid = (lo + hi) // 2
+            if value(keep, mid)[1] <= 1.0:
+                hi = mid
+            else:
+                lo = mid
+        cap = hi
     return keep, values, {"omega_ref": omega, "reached": bool(reached), "plateau": plateau,
-                          "excess": excesses, "model_error": model_info}
+                          "excess": excesses, "model_error": model_info, "table_nodes": int(cap)}
 
 
 def cluster_importance(clusters, modes, mg, omega, span, classes, step_r, sine_r, free_scale, big, initial, h_tab):
@@ -1333,7 +1403,8 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
         cplanes = {"sigma": planes.key[restp].copy(), "chat": chat[:, restp].copy(),
                    "bv": bhat[restp, 0, :].copy(), "eta": eta[restp, 0].copy()}
     else:
-        comp = complement(rest_modes, L0[restp], chat[:, restp], bhat[restp], tail, T)
+        comp = complement(rest_modes, L0[restp], chat[:, restp], bhat[restp], tail, T,
+                          max_nodes=int(ref.get("table_nodes", MAX_NODES)))
     row_norm = np.linalg.norm(C, axis=1)
     scale_v = float(scale_v) if scale_v is not None else float(np.max(np.abs(C[:P] @ x0)))
     shadow = Shadow(A=A, B=B, C=Cs, w0=w0, comp=comp, row_norm=row_norm, row_e=row_e,
