@@ -1,4 +1,4 @@
-"""The lean per-step work of the certified error bounds (issue 33's doStep cost; fmu_src/rom_bound.c, rom.c):
+"""The lean per-step work of the certified error bounds (the doStep cost with bounds; fmu_src/rom_bound.c, rom.c):
 
 - the kind's v_probe is kept per state (RomState.v_kept) so that doStep's error check and the importer's read share
   one sum: every read equals what a fresh read of that state gives, after a step, a state restore, a reset and a set
@@ -162,3 +162,27 @@ def test_lanes_and_plain_arrays_give_the_same_bits(make, tmp_path):
             fmu.free_state(state)
         runs.append(np.array(rows))
     np.testing.assert_array_equal(runs[0], runs[1])
+
+
+def test_warning_past_the_table_says_what_the_bound_is(tmp_path):
+    """On an undamped bar the uncomputed planes' free response from the initial state is tabulated over the table's
+    span; past it, it is bounded by its size alone (it does not decay).  A warning there names that share of the
+    bound and the table's end, so that a warning on an accurate model reads as what it is."""
+    from conftest import small_scene
+    from sphrom.fmu.make.package import package_fmu
+    scene = small_scene("multimode", T=0.25, n=32)
+    path = tmp_path / "mm-exact.fmu"
+    package_fmu(scene, path, k=6, fmi=2, probes=PROBES, progress=False, model="exact", bounds=False)
+    with FMU(path) as fmu:
+        fmu.initialize(parameters={"initial_state_scale": 1.0})
+        j = 0
+        while not fmu.warnings() and j < 2000:        # the table spans 20 T = 5 s: 500 steps
+            fmu.do_step(j * H, H)
+            j += 1
+        (text,) = fmu.warnings()
+    end = float(re.search(r"past the end of its table \(t > ([-+0-9.eE]+) s\)", text).group(1))
+    assert end == pytest.approx(20 * scene.T, rel=1e-6)
+    assert warned_at([text]) > end
+    share, bound = (float(re.search(p, text).group(1)) for p in (r", ([-+0-9.eE]+) m s\^-1 of it",
+                                                                  r"error bound ([-+0-9.eE]+) m s\^-1"))
+    assert 0.5 * bound <= share <= bound

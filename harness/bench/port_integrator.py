@@ -67,7 +67,7 @@ def own_fields(ops, problem):
     import numpy as np
 
     def fields(z):
-        v, rho = ops.U_v @ z[:ops.k_v], ops.U_rho @ z[ops.k_v:]
+        v, rho = (x[0] for x in ops.fields(z))                  # the protocol's fields of the state
         e = problem.rho0 / rho - 1.0
         energy = 0.5 * float(np.sum(problem.rho0 * v ** 2 + problem.c * e ** 2)) * problem.neighbours.dx
         return energy, float(np.min(rho / problem.rho0))
@@ -92,7 +92,7 @@ def fmu_run(scene, integrator, t_end, folder):
     model = built_core().load(zipfile.ZipFile(path).read("resources/model.bin"))
     try:
         model.set_initial_state_scale(1.0)
-        if not np.allclose(model.reduced_state(), np.r_[ops.a_v0, ops.a_rho0], rtol=1e-12, atol=1e-15):
+        if not np.allclose(model.reduced_state(), ops.z0, rtol=1e-12, atol=1e-15):
             raise RuntimeError(f"{path.name}: the FMU's start is not the Python build's (another k or basis)")
         fields = own_fields(ops, problem)
         clock = [0.0]
@@ -106,7 +106,8 @@ def fmu_run(scene, integrator, t_end, folder):
     finally:
         model.close()
     energy = np.array([s[0] for s in seen])
-    return {"scene": scene.name, "integrator": integrator, "k_v": ops.k_v, "k_rho": ops.k_rho, "dt": scene.sph.dt,
+    k_v, k_rho = ops.sizes.values()
+    return {"scene": scene.name, "integrator": integrator, "k_v": k_v, "k_rho": k_rho, "dt": scene.sph.dt,
             "amplification": reduced_amplification(ops, scene.sph.dt, integrator, t_end)[0],
             "energy_min": float(energy.min() / energy[0]), "energy_max": float(energy.max() / energy[0]),
             "energy_end": float(energy[-1] / energy[0]),

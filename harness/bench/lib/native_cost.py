@@ -2,7 +2,7 @@
 
 The FMU's own binary in the native FMI 2 master ``sphrom_step_cost`` (fmu_src/tests/step_cost.c), beside a copy whose
 model.bin has no bounds' sections (SH*): the ratio the error bounds cost per communication step, with the outputs
-read (issue 33's figure: at most COST_TARGET) and with their bounds read too.
+read (held to at most COST_TARGET) and with their bounds read too.
 """
 
 import tempfile
