@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from ..options import int_at_least, int_list, positive_float
-from .lib.native_cost import NATIVE_STEPS, cost_lines, native_cost
+from .lib.native_cost import NATIVE_STEPS, NO_COST, cost_lines, native_cost
 
 SECTION_HEADING = "## Certified error bounds"
 PARAMETRIC_HEADING = "## Certified error bounds of parametric FMUs"
@@ -315,15 +315,13 @@ def measure_scene(scene, models, repeats, folder, probes, span, progress=True):
             continue
         seconds = time.perf_counter() - t0
         with_ns, without_ns, loop_ns = step_cost(path, repeats)
-        native = native_cost(path, repeats) or (float("nan"),) * 3
+        native = native_cost(path, repeats) or NO_COST
         rows, runs = measure_fmu(path, problem, probes, t, cases, truths)
         for r in rows:
             r.update({"scene": scene.name, "model": model, "about": note, "N": problem.n, "k_v": s.k_v,
                       "k_rho": s.k_rho, "shadow_order": s.shadow_order, "package_s": seconds,
                       "step_ns_bounds": with_ns, "step_ns_plain": without_ns, "loop_ns": loop_ns,
-                      "cost_ratio": with_ns / without_ns, "native_ns_bounds": native[0],
-                      "native_ns_read": native[1], "native_ns_plain": native[2],
-                      "native_ratio": native[0] / native[2], "native_read_ratio": native[1] / native[2], "note": ""})
+                      "cost_ratio": with_ns / without_ns, **native.row(), "note": ""})
         out += rows
         kept.update({(scene.name, model, c): v for c, v in runs.items()})
     return out, kept
@@ -404,8 +402,8 @@ def section(rows, notes, *, command, wall, machine, image, span):
              f"medians over chunks of {CHUNK} steps timed in turn; no FMI). Native: the FMU in the native FMI 2 "
              "master (fmu_src/tests/step_cost.c, `sphrom_step_cost`: per step fmi2SetReal of f, fmi2DoStep, "
              "fmi2GetReal of the outputs) against the same FMU without the bounds' sections, thread CPU time per "
-             f"step, medians of {NATIVE_STEPS} steps per run: the ratio with the outputs alone read, and with their "
-             "bounds read too.", "",
+             f"step of runs of {NATIVE_STEPS} steps, the three back to back in each round: the median of the rounds' "
+             "ratios with the outputs alone read, and with their bounds read too.", "",
              "All scenes together, per model:", "",
              "| model | runs | outputs counted / all | effectivity median | max | violations | false alarms |",
              "| --- | ---: | ---: | ---: | ---: | ---: | ---: |"]
@@ -476,12 +474,11 @@ def measure_parametric(scene, models, points, folder, probes, span, repeats=3, p
         except Exception as exc:                     # a model that does not build on this scene: say so
             out.append({"scene": scene.name, "model": model, "note": str(exc).splitlines()[0]})
             continue
-        native = native_cost(path, repeats) or (float("nan"),) * 3    # at the FMU's default c and d
+        native = native_cost(path, repeats) or NO_COST    # at the FMU's default c and d
         for (c, d), (problem_cd, truths) in at.items():
             rows, _ = measure_fmu(path, problem_cd, probes, t, cases, truths, parameters={"c": c, "d": d})
             for r in rows:
-                r.update({"native_ns_bounds": native[0], "native_ns_read": native[1], "native_ns_plain": native[2],
-                          "native_ratio": native[0] / native[2], "native_read_ratio": native[1] / native[2]})
+                r.update(native.row())
                 r.update({"scene": scene.name, "model": model, "N": problem.n, "k_v": s.k_v, "k_rho": s.k_rho,
                           "shadow_order": s.shadow_order, "c": float(c), "d": float(d), "point": f"{c:.4g}, {d:.4g}",
                           "c_range": f"{ranges[0].lo:g}:{ranges[0].hi:g}",

@@ -172,9 +172,8 @@ def measure_scene(name, models, folder, span=SPAN, progress=True, repeats=3):
         except Exception as exc:                     # a model that does not build on this scene: say so
             rows.append({"scene": name, "model": model, "note": str(exc).splitlines()[0]})
             continue
-        native = native_cost(path, repeats, h=COST_STEP) or (float("nan"),) * 3
-        cost = {"native_ns_bounds": native[0], "native_ns_read": native[1], "native_ns_plain": native[2],
-                "native_ratio": native[0] / native[2], "native_read_ratio": native[1] / native[2]}
+        native = native_cost(path, repeats, h=COST_STEP)
+        cost = native.row() if native else {}
         for start, scale in STARTS:
             for case, (f, F) in cases(t, T).items():
                 loop = None

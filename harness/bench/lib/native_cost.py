@@ -7,6 +7,7 @@ read (held to at most COST_TARGET) and with their bounds read too.
 
 import tempfile
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -15,13 +16,32 @@ COST_TARGET = 1.3       # doStep with the bounds at most this x without (native,
 STEP = 0.01             # [s] the communication step
 
 
+class NativeCost(NamedTuple):
+    """ns per step (medians over the rounds) and the ratios to the FMU without bounds (medians of each round's ratio:
+    the three runs of a round are back to back, so a drift of the machine's speed falls on both sides of a ratio)."""
+    bounds_ns: float            # with the bounds, the outputs read
+    read_ns: float              # ... and every bound read too
+    plain_ns: float             # without the bounds' sections
+    ratio: float                # bounds_ns / plain_ns per round, median
+    read_ratio: float           # read_ns / plain_ns per round, median
+
+    def row(self):
+        """The benches' columns."""
+        return {"native_ns_bounds": self.bounds_ns, "native_ns_read": self.read_ns, "native_ns_plain": self.plain_ns,
+                "native_ratio": self.ratio, "native_read_ratio": self.read_ratio}
+
+
+NO_COST = NativeCost(*(float("nan"),) * 5)
+
+
 def native_cost(path, repeats, n_steps=NATIVE_STEPS, h=STEP):
-    """(ns per step with the bounds, with the bounds read, without) of the FMU at ``path`` in the native FMI 2 master
+    """:class:`NativeCost` (ns per step with the bounds, with the bounds read, without; the ratios) of the FMU at
+    ``path`` in the native FMI 2 master
     ``sphrom_step_cost`` (fmu_src/tests/step_cost.c: the FMU's binary loaded with dlopen, per step fmi2SetReal of f
     (and of F_port_j: a spring to ground on each port of a port FMU), fmi2DoStep, fmi2GetReal of the outputs, with
     their bounds in the second figure), beside the same FMU without the bounds' sections (its modelDescription's
     guid set to that model.bin's token): thread CPU time, medians over ``repeats`` runs of ``n_steps`` steps of
-    ``h`` [s], the three FMUs in turn.  None where the master was not built."""
+    ``h`` [s], the three in turn.  None where the master was not built."""
     import json
     import re
     import statistics
@@ -54,10 +74,13 @@ def native_cost(path, repeats, n_steps=NATIVE_STEPS, h=STEP):
                 raise RuntimeError(f"{driver.name} on {path}: {done.stderr.strip()}")
             return json.loads(done.stdout)["ns_per_step_cpu"]
         times = [[], [], []]
-        for _ in range(repeats):
-            for i, (folder, bounds) in enumerate(((with_dir, False), (with_dir, True), (bare_dir, False))):
-                times[i].append(run(folder, bounds))
-    return tuple(statistics.median(x) for x in times)
+        plan = ((with_dir, False), (with_dir, True), (bare_dir, False))
+        for r in range(repeats):             # a round: the three back to back, in turn forwards and backwards
+            for i in (range(3) if r % 2 == 0 else reversed(range(3))):
+                times[i].append(run(*plan[i]))
+    ratio = [a / c for a, c in zip(times[0], times[2])]
+    read_ratio = [b / c for b, c in zip(times[1], times[2])]
+    return NativeCost(*(statistics.median(x) for x in (*times, ratio, read_ratio)))
 
 
 def cost_summary(rows, key="model"):
