@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from conftest import small_scene
-from sphrom.bench.lib.ports import MASS, S0, STIFFNESS, coupling_force, mass_spring_step
+from sphrom.bench.lib.ports import damped_loop, frozen_fields, lumped_energy
 from sphrom.fmu.kinds.frozen import reduced_model
 from sphrom.fmu.make.options import default_integrator
 from sphrom.fmu.make.package import package_fmu
@@ -25,20 +25,13 @@ PROBES = (0.25, 0.5, 0.66)          # the FMU's default probes
 H, DAMPING, T_LOOP = 1e-2, 0.1, 20.0  # the ports bench's damped loop: 10 ms steps, a dashpot of 0.1 N s/m; 20 s
 
 
-def damped_loop(bar, n_steps, watch):
-    """Port 1 of ``bar`` tied to the bench's mass-spring-damper (forces held over each step, the port velocity held
-    in the mass-spring's exact step): v_port_1 at every communication point, ``watch()`` there and the
-    mass-spring's energy ½ m w² + ½ k s² [J]."""
-    y, vp, v, seen, lumped = np.array([S0, 0.0]), 0.0, [], [], []
-    for j in range(n_steps):
-        if j:
-            y = mass_spring_step(y, vp, H, DAMPING)
-        vp = float(bar.port_velocities()[0])
-        v.append(vp)
-        seen.append(watch())
-        lumped.append(0.5 * MASS * y[1] ** 2 + 0.5 * STIFFNESS * y[0] ** 2)
-        bar.step(H, [coupling_force(y, vp, DAMPING), 0.0])
-    return np.array(v), np.array(seen), np.array(lumped)
+def loop(bar, n_steps, watch):
+    """Port 1 of ``bar`` tied to the bench's mass-spring-damper (sphrom.bench.lib.ports.damped_loop): v_port_1 at
+    every communication point, ``watch()`` there and the mass-spring's energy ½ m w² + ½ k s² [J]."""
+    v, seen, stop = damped_loop(lambda: bar.port_velocities()[0], lambda F: bar.step(H, [F, 0.0]), n_steps,
+                                lambda y: (watch(), lumped_energy(y)), H, DAMPING)
+    assert stop is None, stop
+    return v, np.array([s[0] for s in seen]), np.array([s[1] for s in seen])
 
 
 @pytest.fixture(scope="module")
@@ -61,22 +54,13 @@ def het(tmp_path_factory):
     return scene, problem, ops, blobs
 
 
-def own_energy(ops, problem):
-    """E(z) = ½ Σ (ρ0 v² + c e²) Δx [J m^-2] of the fields of a frozen state z = [a^v, a^ρ], e = ρ0/ρ - 1."""
-    def energy(z):
-        v, rho = ops.U_v @ z[:ops.k_v], ops.U_rho @ z[ops.k_v:]
-        return 0.5 * float(np.sum(problem.rho0 * v ** 2 + problem.c * (problem.rho0 / rho - 1.0) ** 2)) * \
-            problem.neighbours.dx
-    return energy
-
-
 def own_run(blob, ops, problem, n):
     """The FMU of ``blob`` through its C core in the damped loop: (v_port_1, its own state's energy) per point."""
     bar = CoreBar(blob, initial_state_scale=1.0)
     try:
         np.testing.assert_allclose(bar.model.reduced_state(), np.r_[ops.a_v0, ops.a_rho0], rtol=1e-12, atol=1e-15)
-        energy = own_energy(ops, problem)
-        v, e_own, _ = damped_loop(bar, n, lambda: energy(bar.model.reduced_state()))
+        fields = frozen_fields(ops, problem)
+        v, e_own, _ = loop(bar, n, lambda: fields(bar.model.reduced_state())[0])
     finally:
         bar.close()
     return v, e_own
@@ -94,7 +78,7 @@ def test_frozen_port_fmu_keeps_its_energy_in_a_damped_loop(het):
     euler_growth = reduced_amplification(ops, scene.sph.dt, "euler", T_LOOP)[0]
     assert euler_growth > 100.0, euler_growth            # the setting shows the growth an integrator adds
     sph = SPHBar(scene, PORTS, initial_state_scale=1.0, problem=problem)
-    v_sph, e_sph, lumped = damped_loop(sph, n, sph.energy)
+    v_sph, e_sph, lumped = loop(sph, n, sph.energy)
     total = e_sph + lumped
     assert total[-1] < 0.5 * total[0], total[[0, -1]]      # the dashpot takes energy out of the coupled system
     v, e_own = own_run(blobs[None], ops, problem, n)

@@ -26,52 +26,13 @@ from pathlib import Path
 
 from ..options import choice_list
 from . import program_parser
-from .lib.ports import MASS, PORTS, S0, STIFFNESS
+from .lib.ports import PORTS, damped_loop, frozen_fields, lumped_energy
 
 # The measuring modules are imported inside the functions: `sphrom bench NAME --help` answers before they load.
 
 STEP, DAMPING = 1e-2, 0.1          # the ports bench's damped loop (harness/bench/error_bounds_ports.py)
 T_END = 200.0
 PROBES = (0.25, 0.5, 0.66)         # the FMU's default probes
-
-
-def damped_loop(bar_velocity, bar_step, n_steps, watch):
-    """Port 1 tied to the lumped mass-spring-damper over ``n_steps`` of :data:`STEP`: (v_port_1 at each point
-    reached, ``watch(y)`` there, the stop message or None).  ``bar_velocity()`` -> v_port_1, ``bar_step(F)``
-    advances the bar over a step with F on port 1 held."""
-    import numpy as np
-    from .lib.ports import coupling_force, mass_spring_step
-    y, vp, v, seen = np.array([S0, 0.0]), 0.0, [], []
-    for j in range(n_steps + 1):
-        if j:
-            y = mass_spring_step(y, vp, STEP, DAMPING)
-        vp = float(bar_velocity())
-        v.append(vp)
-        seen.append(watch(y))
-        if j == n_steps:
-            break
-        try:
-            bar_step(coupling_force(y, vp, DAMPING))
-        except Exception as exc:                 # the FMU's or the SPH's own stop: recorded, not raised
-            return np.array(v), seen, f"t = {(j + 1) * STEP:.2f} s: {exc}"
-    return np.array(v), seen, None
-
-
-def lumped_energy(y):
-    """½ m w² + ½ k s² [J] of the mass-spring in state y = (s, w)."""
-    return 0.5 * MASS * y[1] ** 2 + 0.5 * STIFFNESS * y[0] ** 2
-
-
-def own_fields(ops, problem):
-    """z -> (energy [J m^-2], min ρ/ρ0) of the fields of a frozen state z = [a^v, a^ρ]."""
-    import numpy as np
-
-    def fields(z):
-        v, rho = (x[0] for x in ops.fields(z))                  # the protocol's fields of the state
-        e = problem.rho0 / rho - 1.0
-        energy = 0.5 * float(np.sum(problem.rho0 * v ** 2 + problem.c * e ** 2)) * problem.neighbours.dx
-        return energy, float(np.min(rho / problem.rho0))
-    return fields
 
 
 def fmu_run(scene, integrator, t_end, folder):
@@ -94,7 +55,7 @@ def fmu_run(scene, integrator, t_end, folder):
         model.set_initial_state_scale(1.0)
         if not np.allclose(model.reduced_state(), ops.z0, rtol=1e-12, atol=1e-15):
             raise RuntimeError(f"{path.name}: the FMU's start is not the Python build's (another k or basis)")
-        fields = own_fields(ops, problem)
+        fields = frozen_fields(ops, problem)
         clock = [0.0]
 
         def step(F):
@@ -102,7 +63,7 @@ def fmu_run(scene, integrator, t_end, folder):
             model.do_step(clock[0], STEP)
             clock[0] += STEP
         v, seen, stop = damped_loop(lambda: model.port_velocities()[0], step, int(round(t_end / STEP)),
-                                    lambda y: fields(model.reduced_state()))
+                                    lambda y: fields(model.reduced_state()), STEP, DAMPING)
     finally:
         model.close()
     energy = np.array([s[0] for s in seen])
@@ -124,7 +85,7 @@ def sph_run(scene, t_end):
         return bar.energy() + lumped_energy(y), float(np.min(bar.rho / bar.problem.rho0)), \
             float(np.max(bar.rho / bar.problem.rho0))
     v, seen, stop = damped_loop(lambda: bar.port_velocities()[0], lambda F: bar.step(STEP, [F, 0.0]),
-                                int(round(t_end / STEP)), watch)
+                                int(round(t_end / STEP)), watch, STEP, DAMPING)
     return seen[-1][0] / seen[0][0], min(s[1] for s in seen), max(s[2] for s in seen), v, stop
 
 

@@ -100,3 +100,40 @@ def loop_radius(problem, port, h, damping=0.0, *, dense_limit=2500):
 def rel(a, b):
     """Relative L² error of a against b."""
     return float(np.linalg.norm(np.asarray(a) - np.asarray(b)) / np.linalg.norm(b))
+
+
+def lumped_energy(y):
+    """½ m w² + ½ k s² [J] of the lumped mass-spring in state y = (s, w)."""
+    return 0.5 * MASS * y[1] ** 2 + 0.5 * STIFFNESS * y[0] ** 2
+
+
+def damped_loop(bar_velocity, bar_step, n_steps, watch, h, damping):
+    """Port 1 tied to the lumped mass-spring(-damper) over ``n_steps`` of ``h`` [s], the spring (and dashpot)
+    force held over each step, the port velocity held in the mass-spring's exact step: (v_port_1 at each point
+    reached, ``watch(y)`` there, the stop message or None).  ``bar_velocity()`` -> v_port_1 [m s^-1],
+    ``bar_step(F)`` advances the bar over a step with F [N] on port 1."""
+    y, vp, v, seen = np.array([S0, 0.0]), 0.0, [], []
+    for j in range(n_steps + 1):
+        if j:
+            y = mass_spring_step(y, vp, h, damping)
+        vp = float(bar_velocity())
+        v.append(vp)
+        seen.append(watch(y))
+        if j == n_steps:
+            break
+        try:
+            bar_step(coupling_force(y, vp, damping))
+        except Exception as exc:                 # the FMU's or the SPH's own stop: recorded, not raised
+            return np.array(v), seen, f"t = {(j + 1) * h:.2f} s: {exc}"
+    return np.array(v), seen, None
+
+
+def frozen_fields(ops, problem):
+    """z -> (energy [J m^-2], min ρ/ρ0) of the fields of a frozen state z = [a^v, a^ρ] (the operators' protocol
+    ``fields``): E = ½ Σ (ρ0 v² + c e²) Δx, e = ρ0/ρ - 1."""
+    def fields(z):
+        v, rho = (x[0] for x in ops.fields(z))
+        e = problem.rho0 / rho - 1.0
+        energy = 0.5 * float(np.sum(problem.rho0 * v ** 2 + problem.c * e ** 2)) * problem.neighbours.dx
+        return energy, float(np.min(rho / problem.rho0))
+    return fields
