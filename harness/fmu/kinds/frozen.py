@@ -93,8 +93,9 @@ def open_ended_integrator(ops, dt, integrator):
     An FMU runs as long as its master does, not the scene's T: explicit Euler multiplies an undamped mode's energy
     by 1 + (ω dt)² every step, so on an undamped bar (and where a damping d < ω² dt is too weak for the fastest
     mode) its rounding errors and its state grow without end.  Heterogeneous's frozen FMU (k = 21, 20, dt = 2e-4
-    s): the fastest mode (ω = 33.2 rad/s) 3.6e9-fold over 200 s, its probe density down to 0.21 of ρ0 at 195 s from
-    the scene's initial state (``sphrom bench port_integrator``: the same own state in its port FMU).  Symplectic
+    s): the fastest mode (ω = 33.2 rad/s) 3.6e9-fold over 200 s; from the scene's initial state its own state's
+    energy reaches 8e11 x its start and a density turns negative (``sphrom bench port_integrator heterogeneous``:
+    the same own state in its port FMU, which no port force reaches).  Symplectic
     Euler keeps a modified energy of the undamped bar.  A damped scene whose explicit Euler contracts every mode
     keeps it: the paper's model as the paper ran it."""
     from ...rom.stepping import reduced_amplification
