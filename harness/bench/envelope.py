@@ -4,7 +4,8 @@ The scene's initial velocity is scaled by s (the density starts at ρ0, as the F
 ``initial_state_scale``); the full SPH runs the scaled scene, the reduced models start from the
 scaled coordinates on the x1 basis (the FMU's basis: what it was trained on).  Per s it records the
 relative L² error of the probe velocities against the full SPH (frozen: n_freeze = 10, the scene's
-integrator and Δt; exact: the exact linear model, scale invariant, whose error moves only with the
+FMU's integrator (``sphrom fmu``'s default: :func:`sphrom.fmu.kinds.frozen.open_ended_integrator`) and the
+scene's Δt; exact: the exact linear model, scale invariant, whose error moves only with the
 full SPH's departure from linearity in J, its time stepping of ρ), the peak strain |ρ0/ρ - 1| of the full SPH at the particles and at the
 probes, and the frozen run's largest coordinate excess beyond the trained ranges in units of its
 block's largest half-width (the quantity the FMU's coordinate check compares with margin - 1,
@@ -57,6 +58,14 @@ def _probe(field, x, L):
     return (1.0 - w) * field[..., i0] + w * field[..., i1]
 
 
+def fmu_integrator(ops, scene):
+    """The integrator ``sphrom fmu`` gives the frozen FMU of ``scene`` packaged without --integrator: the scene's,
+    or symplectic Euler where the scene's explicit Euler grows a reduced mode
+    (:func:`sphrom.fmu.kinds.frozen.open_ended_integrator`)."""
+    from ..fmu.kinds.frozen import default_integrator, open_ended_integrator
+    return open_ended_integrator(ops, scene.sph.dt, default_integrator(scene))
+
+
 def coordinate_excess(env, z, k_v):
     """max over samples and coordinates of (|a_i - c_i| - h_i) / H_block (the FMU's coordinate check)."""
     out = -np.inf
@@ -82,6 +91,7 @@ def measure(scene_name, scales=SCALES, progress=True):
                        tensor="always")            # the FMU's frozen model (the registry's: b about rest)
     lin = exact.build(problem, basis, k, k, input_direction=exact.fmu_input_direction)
     env = E.measure(scene, ops, problem, run, PROBES, linear=False)
+    integrator = fmu_integrator(ops, scene)
     n = step_count(scene.T, scene.sph.dt)
     steps = np.arange(0, n + 1, scene.sph.every)
     rho0 = np.asarray(problem.rho0, float)
@@ -93,10 +103,10 @@ def measure(scene_name, scales=SCALES, progress=True):
             v_ref = _probe(ref.v, problem.x, scene.L)
             strain = np.abs(rho0[None, :] / ref.rho - 1.0)
             probe_strain = np.abs(_probe(rho0, problem.x, scene.L) / _probe(ref.rho, problem.x, scene.L) - 1.0)
-            row = {"scene": scene.name, "scale": s, "peak_strain": float(strain.max()),
+            row = {"scene": scene.name, "scale": s, "integrator": integrator, "peak_strain": float(strain.max()),
                    "peak_probe_strain": float(probe_strain.max())}
             fr = frozen.run(ops, problem, dt=scene.sph.dt, n_steps=n, sample_steps=steps,
-                            options=frozen.options(n_freeze=N_FREEZE, integrator=scene.sph.integrator),
+                            options=frozen.options(n_freeze=N_FREEZE, integrator=integrator),
                             state=ops.initial_state(s))
             row["frozen_v_error"] = relative_l2(_probe(fr.v, problem.x, scene.L), v_ref, fr.t)
             fr_rho = _probe(fr.rho, problem.x, scene.L)
@@ -125,12 +135,13 @@ def training_headroom(scene_name):
     ops = frozen.build(problem, basis, k, k, input_direction=frozen.fmu_input_direction,
                        tensor="always")            # the FMU's frozen model (the registry's: b about rest)
     env = E.measure(scene, ops, problem, run, PROBES, linear=False)
+    integrator = fmu_integrator(ops, scene)
     n = step_count(scene.T, scene.sph.dt)
     fr = frozen.run(ops, problem, dt=scene.sph.dt, n_steps=n, every=scene.sph.every,
-                    options=frozen.options(n_freeze=N_FREEZE, integrator=scene.sph.integrator))
+                    options=frozen.options(n_freeze=N_FREEZE, integrator=integrator))
     rho0 = _probe(np.asarray(problem.rho0, float), problem.x, scene.L)
     strain = float(np.max(np.abs(rho0 / _probe(fr.rho, problem.x, scene.L) - 1.0)))
-    return {"scene": scene.name, "k_v": ops.sizes["velocity"],
+    return {"scene": scene.name, "integrator": integrator, "k_v": ops.sizes["velocity"],
             "coordinate_excess": coordinate_excess(env, fr.z, ops.sizes["velocity"]),
             "probe_strain_ratio": strain / env.max_probe_strain, "max_probe_strain": env.max_probe_strain,
             "allowed_excess": env.margin - 1.0, "allowed_ratio": env.margin}
@@ -204,6 +215,14 @@ def _within_margin(rows, scenes, margin):
     return f": at s = {margin:g} the frozen error is {', '.join(ratios)} its value at s = 1" if ratios else ""
 
 
+def _integrators(rows):
+    """"symplectic (tenmode, multimode), euler (damped)" from the rows' integrator column."""
+    by = {}
+    for r in rows:
+        by.setdefault(r.get("integrator", "the scene's"), []).append(r["scene"])
+    return ", ".join(f"{k} ({', '.join(dict.fromkeys(v))})" for k, v in by.items())
+
+
 def envelope_section(envelope, image_dir=""):
     """The frozen FMU's training envelope (:func:`run`: rows, training, command, and
     failure, the probe strain per scene where the frozen error reaches failure_error): error against
@@ -216,7 +235,8 @@ def envelope_section(envelope, image_dir=""):
     lines = ["## The training envelope of the frozen FMU", "",
              f"`{envelope['command']}` (`{d}envelope.csv`): the initial velocity scaled by s, the density at ρ0; "
              "the full SPH runs the scaled scene, the reduced models start from the scaled coordinates on the x1 "
-             "basis (the FMU's: k = the scene's largest `rom.accel_modes`, n_freeze = 10). Relative L² error of "
+             "basis (the FMU's: k = the scene's largest `rom.accel_modes`, n_freeze = 10), the frozen model stepped "
+             f"with the FMU's own integrator (`sphrom fmu`'s default: {_integrators(rows)}). Relative L² error of "
              "the probe velocities (x/L = 0.25, 0.5, 0.66) against the full SPH; peak strain |ρ0/ρ − 1| of the "
              "full SPH over the particles and at the probes; the frozen run's largest coordinate excess beyond "
              "its trained ranges in units of its block's largest half-width (the FMU warns above margin − 1 = "
