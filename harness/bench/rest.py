@@ -12,8 +12,9 @@ on it), and measures through fmpy:
   the largest |v_probe| over the run, relative to the largest |v_probe| of the scene's own full SPH training
   run, and the largest change of ρ_probe from its start, relative to ρ0;
 * **training** and **unseen**: the verification of ``sphrom fmu`` (:mod:`sphrom.fmu.check.verify`): the relative
-  L² errors (eq. 3.4) of the probe velocities against the full SPH on the scene's force and initial state,
-  and on A sin(2π·0.7 t) from rest.
+  L² errors (eq. 3.4) of the probe velocities against the full SPH linear in J, integrated exactly in time
+  (packaging's truth, :mod:`sphrom.fmu.check.truth`), on the scene's force and initial state, and on
+  A sin(2π·0.7 t) from rest.
 
 Run as::
 
@@ -129,7 +130,7 @@ def section(rows, command, wall, machine, out="validation/benchmarks/rest.csv"):
              f"T = {REST_T:g} s at the FMU's default step: the largest |v_probe| relative to the largest |v_probe| "
              "of the scene's full SPH training run, and the largest change of ρ_probe from its start relative to "
              "ρ0. *Training* / *unseen*: relative L² errors (eq. 3.4) of the probe velocities against the full SPH "
-             "(the scene's force and initial state; A sin(2π·0.7 t) from rest), as `sphrom fmu` measures them.",
+             "linear in J, integrated exactly in time (packaging's truth; the scene's force and initial state; A sin(2π·0.7 t) from rest), as `sphrom fmu` measures them.",
              "",
              "*Change*: the frozen FMU's error relative to the same FMU with eq. 2.22's b.",
              "",
