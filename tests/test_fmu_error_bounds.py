@@ -456,6 +456,56 @@ def test_bounds_past_the_free_response_table(make):
     np.testing.assert_allclose(vb_c[late], vb[late], rtol=1e-9, atol=atol + 2 * allow[late].max())
 
 
+def test_core_refuses_a_damaged_continuation(make):
+    """Section SHCONT (the modes continued past the free response table) damaged: the loader names the problem (a
+    wrong shape, an odd column count, a growing mode, a non-finite number, the section without its table) rather
+    than add a wrong or unbounded free response past the table."""
+    import struct
+    import zlib
+
+    from conftest import load_changed
+    from sphrom.fmu import layout
+    from sphrom.fmu.make.build import ensure_binaries
+    from sphrom.fmu.resources import pack
+    from sphrom.fmu.run.core import Core, CoreError
+    _, data = make(model="exact", case="unforced")
+    assert "SHCONT" in data.sections                       # (the undamped scene's free response is continued)
+
+    def untabled(s):
+        s.pop("SHTAB"), s.pop("SHTERR")
+        s["SHSCAL"] = s["SHSCAL"].copy()
+        s["SHSCAL"][0, 4] = 0.0                             # (nodes: no table)
+
+    def entry(row, col, value):
+        def change(s):
+            s["SHCONT"] = s["SHCONT"].copy()
+            s["SHCONT"][row, col] = value
+        return change
+
+    def written(row, col, value):
+        """model.bin with SHCONT[row, col] = value written over its bytes (the checksum recomputed: the Python
+        writer refuses a non-finite number, an editor of the file does not)"""
+        blob = pack(data)
+        at = blob.index(b"SHCONT\0\0")
+        cols = struct.unpack_from("<II", blob, at + 8)[1]
+        where = at + layout.SECTION.size + 8 * (row * cols + col)
+        blob = blob[:where] + struct.pack("<d", value) + blob[where + 8:]
+        return blob[:-4] + struct.pack("<I", zlib.crc32(blob[:-4]) & 0xFFFFFFFF)
+
+    load_changed(data, lambda s: None).close()
+    cases = [(lambda s: s.__setitem__("SHCONT", s["SHCONT"][:-1]), "section SHCONT is"),
+             (lambda s: s.__setitem__("SHCONT", s["SHCONT"][:, :-1]), "section SHCONT is"),
+             (entry(0, 0, 0.5), "SHCONT's mode 0 grows"),
+             (untabled, "SHCONT .* without the table")]
+    for change, text in cases:
+        with pytest.raises(CoreError, match=text):
+            load_changed(data, change)
+    core = Core(ensure_binaries().core)
+    for row, col, value in ((1, 1, np.nan), (0, 1, np.inf), (0, 0, np.nan)):
+        with pytest.raises(CoreError, match="non-finite numbers in section 'SHCONT'"):
+            core.load(written(row, col, value))
+
+
 @pytest.mark.parametrize("n", [64, 20000])
 def test_rigid_motion_is_in_the_planes_kernel_at_any_n(n):
     """The uniform velocity (rigid motion, no strain) is in ker Kᵀ at any N: null_rows finds it also where G 1's
