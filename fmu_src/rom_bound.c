@@ -851,8 +851,9 @@ typedef struct {
  * - the sum of n = n_cont terms Re Q E = Re Q Re E - Im Q Im E, each product rounded, added in order: (n + 1) eps
  *   sum (|Re Q| |Re E| + |Im Q| |Im E|) <= (n + 1) eps sum (|Re Q| + |Im Q|) |E|;
  * - Q's relative error (bounds.py's P, as the table's nodes'): BOUND_CONT_ROUNDOFF.
- * Together f_M = |E_M| (BOUND_CONT_ROUNDOFF + (n + 8) eps + 4 eps |mu_M| tau) (the 4 and the 8 cover 1.001 x 3,
- * n + 4 and the products of small terms), |E_M| = exp(Re mu_M x) as computed (within an ulp, in the slack). */
+ * Together f_M = |E_M| (BOUND_CONT_ROUNDOFF + (n + 8) eps + 4 eps (|Re mu_M| + |Im mu_M|) tau) (the 4 and the 8
+ * cover 1.001 x 3, n + 4 and the products of small terms; |Re| + |Im| >= |mu| saves a hypot), |E_M| = exp(Re mu_M
+ * x) as computed (within an ulp, in the slack; exactly 1 for an undamped mode, no exp). */
 static const double *cont_modes(BoundState *bs, const RomBoundModel *b, double tau) {
     if (!bs || !b || !b->n_cont || !bs->cont_e) return NULL;
     if (bs->cont_tau == tau) return bs->cont_e;
@@ -860,7 +861,8 @@ static const double *cont_modes(BoundState *bs, const RomBoundModel *b, double t
     const double base = BOUND_CONT_ROUNDOFF + ((double)b->n_cont + 8.0) * eps;
     for (uint32_t k = 0; k < b->n_cont; k++) {
         const double re = b->cont[2 * (size_t)k], im = b->cont[2 * (size_t)k + 1];
-        const double size = exp(re * x), phase = im * x, arg = 4.0 * eps * hypot(re, im) * tau;
+        const double size = re != 0.0 ? exp(re * x) : 1.0, phase = im * x;
+        const double arg = 4.0 * eps * (fabs(re) + fabs(im)) * tau;          /* (|re| + |im| >= |mu|) */
         double *e = bs->cont_e + 4 * (size_t)k;
         e[0] = im != 0.0 ? size * cos(phase) : size;
         e[1] = im != 0.0 ? size * sin(phase) : 0.0;

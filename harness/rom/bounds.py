@@ -915,12 +915,12 @@ def continued_modes(modes: Modes, decayed, budget, values, fixed):
 def cont_roundoff(comp: Complement, tau):
     """(rows,) the round-off allowance of the continued modes' sum at ``tau`` > t_end (:func:`free_part`; the C core's
     cont_modes, fmu_src/rom_bound.c, derives it): Σ_M (|Re Q_rM| + |Im Q_rM|) e^{Re μ_M x} (CONT_ROUNDOFF +
-    (M_c + 8) ε + 4 ε |μ_M| τ), x = τ - t_end, ε = 2^-53 (infinite where 4 ε |μ_M| τ > 1e-3)."""
+    (M_c + 8) ε + 4 ε (|Re μ_M| + |Im μ_M|) τ), x = τ - t_end, ε = 2^-53 (infinite where that last term > 1e-3)."""
     if comp.cont_mu is None or comp.cont_mu.size == 0:
         return np.zeros(comp.tail.shape[0])
     eps = 2.0 ** -53
     x = max(tau - comp.t_end, 0.0)
-    arg = 4 * eps * np.abs(comp.cont_mu) * tau
+    arg = 4 * eps * (np.abs(comp.cont_mu.real) + np.abs(comp.cont_mu.imag)) * tau     # (>= 4 ε |μ| τ)
     factor = np.exp(comp.cont_mu.real * x) * (CONT_ROUNDOFF + (comp.cont_mu.size + 8) * eps + arg)
     factor = np.where(arg <= 1e-3, factor, np.inf)
     return (np.abs(comp.cont_Q.real) + np.abs(comp.cont_Q.imag)) @ factor
