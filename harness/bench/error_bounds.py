@@ -43,6 +43,7 @@ import numpy as np
 
 from ..options import int_at_least, int_list, positive_float
 from .lib.error_corpus import CORPUS_MENU, user_scenes  # noqa: F401 (the corpus: shared with error_bounds_ports)
+from .lib.stopped import RunStopped, reason
 from .lib.native_cost import NATIVE_STEPS, NO_COST, cost_lines, native_cost
 
 SECTION_HEADING = "## Certified error bounds"
@@ -162,13 +163,22 @@ def modal_truth(problem, probes, t, cases, lti):
 
 
 def run_fmu(path, t, scale, f, linear, parameters=None):
-    """(outputs (M, n), names, warnings, error_tolerance) of the FMU driven over ``t``."""
+    """(outputs (M, n), names, warnings, error_tolerance) of the FMU driven over ``t``.  Raises
+    :class:`~sphrom.bench.lib.stopped.RunStopped` (with the FMU's logged reason) when the FMU returns an error
+    status: the run is recorded as stopped, not counted, and the bench goes on."""
+    from fmpy.fmi1 import FMICallException
+
     from ..fmu.run.driver import FMU
-    with FMU(path) as fmu:
-        fmu.initialize(parameters={"initial_state_scale": scale, **(parameters or {})}, inputs={"f": float(f[0])})
-        y = fmu.simulate(t, {"f": f}, rates=linear)
-        tol = fmu.get_real([fmu.vr["error_tolerance"]])[0]
-        return y, fmu.outputs, fmu.warnings(), tol
+    messages = []
+    try:
+        with FMU(path, messages=messages) as fmu:
+            fmu.initialize(parameters={"initial_state_scale": scale, **(parameters or {})},
+                           inputs={"f": float(f[0])})
+            y = fmu.simulate(t, {"f": f}, rates=linear)
+            tol = fmu.get_real([fmu.vr["error_tolerance"]])[0]
+            return y, fmu.outputs, fmu.warnings(), tol
+    except FMICallException as exc:               # the FMU stopped the run (an error status): say why
+        raise RunStopped(reason(messages, exc)) from None
 
 
 def run_metrics(y, names, v_t, rho_t, rho0_probe, warned, tol):
@@ -246,7 +256,12 @@ def measure_fmu(path, problem, probes, t, cases, truths, parameters=None):
     rho0_probe = probe_matrix(problem.x, problem.scene.L, probes, np.ones(problem.n)) @ problem.rho0
     rows, kept = [], {}
     for case, (start, scale, fname, f, linear) in cases.items():
-        y, names, warned, tol = run_fmu(path, t, scale, f, linear, parameters)
+        try:
+            y, names, warned, tol = run_fmu(path, t, scale, f, linear, parameters)
+        except RunStopped as exc:
+            rows.append({"case": case, "start": start, "force": fname, "hold": "linear" if linear else "held",
+                         "stopped": str(exc)})
+            continue
         v_t, rho_t = truths[case]
         outputs, bad, alarm = run_metrics(y, names, v_t, rho_t, rho0_probe[None, :], warned, tol)
         for name, eff, e_max, b_max in outputs:
@@ -288,7 +303,7 @@ def measure_scene(scene, models, repeats, folder, probes, span, progress=True):
             r.update({"scene": scene.name, "model": model, "about": note, "N": problem.n, "k_v": s.k_v,
                       "k_rho": s.k_rho, "shadow_order": s.shadow_order, "package_s": seconds,
                       "step_ns_bounds": with_ns, "step_ns_plain": without_ns, "loop_ns": loop_ns,
-                      "cost_ratio": with_ns / without_ns, **native.row(), "note": ""})
+                      "cost_ratio": with_ns / without_ns, **native.row(), "note": _stopped(r)})
         out += rows
         kept.update({(scene.name, model, c): v for c, v in runs.items()})
     return out, kept
@@ -449,7 +464,7 @@ def measure_parametric(scene, models, points, folder, probes, span, repeats=3, p
                 r.update({"scene": scene.name, "model": model, "N": problem.n, "k_v": s.k_v, "k_rho": s.k_rho,
                           "shadow_order": s.shadow_order, "c": float(c), "d": float(d), "point": f"{c:.4g}, {d:.4g}",
                           "c_range": f"{ranges[0].lo:g}:{ranges[0].hi:g}",
-                          "d_range": f"{ranges[1].lo:g}:{ranges[1].hi:g}", "note": ""})
+                          "d_range": f"{ranges[1].lo:g}:{ranges[1].hi:g}", "note": _stopped(r)})
             out += rows
     return out
 
@@ -739,7 +754,8 @@ def main(argv=None):
                       f"false alarms {r['false_alarms']}", flush=True)
             for r in got:
                 if r.get("note"):
-                    print(f"{r['scene']:20s} {r['model']:9s} not built: {r['note']}", flush=True)
+                    print(f"{r['scene']:20s} {r['model']:9s} {'' if r.get('stopped') else 'not built: '}"
+                          f"{r['note']}", flush=True)
     wall = time.perf_counter() - t0
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -764,10 +780,16 @@ def main(argv=None):
     return 0 if all(r["violations"] == 0 for r in done) else 1
 
 
+def _stopped(row):
+    """The note of a run the FMU stopped (its case and the FMU's reason), "" for a measured one."""
+    return f"the run {row['case']} stopped: {row['stopped']}" if row.get("stopped") else ""
+
+
 def _note_row(note, before, after):
-    """A table row for a scene and model not built: ``before`` and ``after`` empty cells ("—") around its reason."""
-    cells = [note["scene"], note["model"], *["—"] * before, f"not built: {note['note'].replace('|', '/')}",
-             *["—"] * after]
+    """A table row for a scene and model not built, or a run the FMU stopped: ``before`` and ``after`` empty cells
+    ("—") around its reason."""
+    text = note["note"] if note.get("stopped") else f"not built: {note['note']}"
+    cells = [note["scene"], note["model"], *["—"] * before, text.replace("|", "/"), *["—"] * after]
     return "| " + " | ".join(cells) + " |"
 
 

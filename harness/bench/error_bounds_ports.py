@@ -57,6 +57,7 @@ from . import machine_text, program_command, program_parser
 from .lib.native_cost import cost_lines, native_cost
 from .lib.document import update_report
 from .lib.error_corpus import user_scenes
+from .lib.stopped import RunStopped, reason
 from .lib.ports import MASS, S0, STIFFNESS, coupling_force, loop_radius, mass_spring_step
 from .lib.tables import write_csv
 
@@ -167,12 +168,7 @@ def run_fmu(path, t, scale, f, F):
     try:
         return _run_fmu(path, t, scale, f, F, applied, messages)
     except FMICallException as exc:               # the FMU stopped the run (an error status): say why
-        errors = [text for status, _, text in messages if status >= 3]
-        raise RunStopped(errors[0] if errors else str(exc)) from None
-
-
-class RunStopped(RuntimeError):
-    """An FMU returned an error status during a run (the FMU's own message)."""
+        raise RunStopped(reason(messages, exc)) from None
 
 
 def _run_fmu(path, t, scale, f, F, applied, messages):
