@@ -87,3 +87,22 @@ def test_steel_and_unit_bars_get_cases_of_their_own_magnitudes():
     scene = _steel_bar()
     assert ebp.step(scene) <= scene.T / ebp.STEPS_PER_T          # communication steps resolve the steel bar's T
     assert ebp.step(load_scene("tenmode")) == ebp.STEP
+
+
+def test_a_run_the_fmu_stops_is_recorded_with_its_reason(monkeypatch):
+    """error_bounds: an FMU's error status stops that run alone (recorded with the FMU's reason), not the bench."""
+    from sphrom import defaults
+    from sphrom.bench.lib.stopped import RunStopped
+
+    def stop(*args, **kwargs):
+        raise RunStopped("negative density at probe 1")
+    monkeypatch.setattr(error_bounds, "run_fmu", stop)
+    problem = build_problem(small_scene("multimode", T=0.5, n=32))
+    t = np.arange(3) * 0.01
+    cases = {"constant, held, rest": ("rest", 0.0, "constant", np.zeros(3), False)}
+    rows, kept = error_bounds.measure_fmu("unused.fmu", problem, defaults.PROBES, t, cases, {})
+    assert kept == {} and len(rows) == 1 and rows[0]["stopped"] == "negative density at probe 1"
+    note = {"scene": "multimode", "model": "exact", **rows[0], "note": error_bounds._stopped(rows[0])}
+    line = error_bounds._note_row(note, before=6, after=6)
+    assert "constant, held, rest stopped: negative density at probe 1" in line and "not built" not in line
+    assert line.count("|") == 16                                   # the table's 15 columns
