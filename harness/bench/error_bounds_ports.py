@@ -3,7 +3,7 @@
 ``sphrom bench error_bounds_ports [SCENE ...] [--corpus N] [--models frozen,exact,balanced] [--span S]
 [--out FOLDER] [--report BENCHMARKS.md]`` packages each scene's FMU with ports at x/L = 0.3 and 0.7 (FMI 2, the
 scene's defaults, without the a priori bounds) for each model and drives it over S x the scene's T (default 20; at
-most T_MAX) at 10 ms communication steps (at most T/200: :func:`step`), inputs held, from rest and from the scene's
+most T_MAX) at 10 ms communication steps (a user scene's: at most 0.02 / ω1, :func:`sizes`), inputs held, from rest and from the scene's
 initial state, in five cases no basis saw (:func:`cases`).  The scenes: built-in scenes or scenes' TOML files, and
 ``--corpus`` N generated user scenes, the corpus of ``sphrom bench error_bounds --corpus N``
 (:func:`sphrom.bench.lib.error_corpus.user_scenes`).
@@ -21,7 +21,9 @@ Z = M ω1 / 2π (ρ0 x the wave speed on a uniform bar) and its velocity scale V
 1e-3 of the wave speed).  The port force unit is F = Z V A (the force that moves a port at about V/2), the
 slow forces' frequencies 0.65 ω1 and 1.55 ω1, f = 0.2 V ω1, the lumped mass 5 % of the bar's mass, its spring
 tuned to 5 ω1 (inside the band [ω1, 10 ω1] of :func:`~sphrom.rom.inputs.band`), stretched 2 V / (5 ω1) at t = 0, the
-dashpot a tenth of the lumped oscillator's critical damping.  On the unit bar (ω1 = 2 s^-1, M = 1 kg m^-2, V = 5e-3
+dashpot a tenth of the lumped oscillator's critical damping, the communication step at most 0.02 / ω1 (the unit
+bar's ω1 h at 10 ms: with coarser steps the sampled loop of a user's stiff bar runs away, even with the dashpot, and
+with the full SPH in the FMU's place, :func:`~sphrom.bench.lib.ports.loop_radius`).  On the unit bar (ω1 = 2 s^-1, M = 1 kg m^-2, V = 5e-3
 m s^-1) these rules give back the built-in cases within a factor 1.3.  The truth is the full SPH of eqs. 2.10-2.11 as the linear system in J with the port forces
 (:func:`sphrom.rom.reference.linear_reference`), advanced exactly in time with the very inputs the FMU received
 (the coupled case's port forces as the FMU read them), independent of the reduced models and of the bounds.
@@ -67,7 +69,7 @@ from .lib.tables import write_csv
 SECTION_HEADING = "## Certified error bounds: ports and coupled components"
 PORTS = (0.3, 0.7)
 STEP = 0.01             # [s] the communication step ...
-STEPS_PER_T = 200       # ... at most the scene's T / this (a user's stiff bar: T a fraction of a millisecond)
+STEP_OMEGA = 0.02       # ... on a user scene at most this / its ω1 (the unit bar's ω1 h = 2 s^-1 x 10 ms)
 SPAN = 20.0             # runs over this x the scene's T ...
 T_MAX = 200.0           # [s] ... at most this
 FLOOR = 1e-9            # effectivity counted where the run's largest error exceeds this x its output's signal
@@ -96,6 +98,7 @@ class Sizes(NamedTuple):
     stiffness: float    # [N m^-1] its spring
     stretch: float      # [m] the spring's stretch at t = 0
     damper: float       # [N s m^-1] the dashpot of the mass-spring-damper case
+    step: float = STEP  # [s] the communication step
 
 
 # the built-in scenes' cases (the unit bar: L = 1 m, ρ0 = 1, c = 0.1): the published figures were measured with these
@@ -123,12 +126,7 @@ def sizes(problem, area=None):
     w_s = 5.0 * w1
     stiffness = mass * w_s ** 2
     return Sizes(force=Z * V * area, rate=w1, accel=0.2 * V * w1, mass=mass, stiffness=stiffness,
-                 stretch=2.0 * V / w_s, damper=0.1 * 2.0 * np.sqrt(stiffness * mass))
-
-
-def step(scene):
-    """The communication step [s]: :data:`STEP`, at most the scene's T / :data:`STEPS_PER_T`."""
-    return min(STEP, scene.T / STEPS_PER_T)
+                 stretch=2.0 * V / w_s, damper=0.1 * 2.0 * np.sqrt(stiffness * mass), step=min(STEP, STEP_OMEGA / w1))
 
 
 def cases(t, T, size=UNIT_BAR):
@@ -153,7 +151,7 @@ def _e(x):
 
 def sizes_line(name, size):
     """The report's line of one user scene's case sizes."""
-    return (f"{name}: port force {_e(size.force)} N at ω1 = {size.rate:.4g} rad/s, f {_e(size.accel)} m/s², lumped "
+    return (f"{name}: {size.step * 1e3:.4g} ms steps, port force {_e(size.force)} N at ω1 = {size.rate:.4g} rad/s, f {_e(size.accel)} m/s², lumped "
             f"mass {_e(size.mass)} kg on {_e(size.stiffness)} N/m (at {np.sqrt(size.stiffness / size.mass):.4g} "
             f"rad/s) stretched {_e(size.stretch)} m, dashpot {_e(size.damper)} N s/m")
 
@@ -241,7 +239,7 @@ def measure_scene(scene, models, folder, span=SPAN, progress=True, repeats=3):
     name = scene.name
     problem = build_problem(scene)
     size = UNIT_BAR if name in builtin_names() else sizes(problem)
-    h = step(scene)
+    h = size.step
     T = min(span * scene.T, T_MAX)
     t = np.arange(int(round(T / h)) + 1) * h
     binaries = ensure_binaries(quiet=True)
@@ -297,7 +295,7 @@ def section(rows, *, command, wall, machine, sized=()):
     lines = [SECTION_HEADING, "",
              f"Produced by `{command}` ({machine}, {wall:.0f} s wall; `validation/benchmarks/error_bounds_ports.csv`). "
              f"Each scene's FMU with ports at x/L = {', '.join(f'{x:g}' for x in PORTS)} (FMI 2, the scene's "
-             f"defaults) over min(span x T, {T_MAX:g} s) at {STEP * 1e3:g} ms steps (at most T/{STEPS_PER_T}), inputs held, from rest and from the "
+             f"defaults) over min(span x T, {T_MAX:g} s) at {STEP * 1e3:g} ms steps (a user scene's at most {STEP_OMEGA:g} / ω1), inputs held, from rest and from the "
              "scene's initial state, in five cases no basis saw (harness/bench/error_bounds_ports.py `cases`: slow "
              "port forces, a constant port force, port 1 coupled to a mass-spring, the same with a dashpot of "
              f"{DAMPER:g} N s/m beside the spring, f with slow port forces; on a user scene the same cases sized "
@@ -352,7 +350,7 @@ def section(rows, *, command, wall, machine, sized=()):
     if radii:
         lines += ["", "The coupled cases' loops with the full SPH (linear in J, exact over each step) in the FMU's "
                       "place, their spectral radius per step (bench/lib/ports.py `loop_radius`; above 1 the loop "
-                      f"itself runs away at {STEP * 1e3:g} ms steps, whatever model stands in for the bar), "
+                      "itself runs away at the communication step, whatever model stands in for the bar), "
                       "mass-spring / mass-spring-damper: "
                       + ", ".join(f"{k} " + " / ".join(f"{x:.6g}" for x in v.values()) for k, v in radii.items())
                       + "."]
