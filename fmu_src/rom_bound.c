@@ -12,8 +12,8 @@
  *   g_r(t)       their free response from the initial state, a fixed function of time: tabulated (SHTAB, cubic
  *                Hermite between nodes k h) with a certified error per block of intervals (SHTERR); after the
  *                table its modes that matter continued exactly, Re sum_M Q_rM exp(mu_M (t - t_end)) (SHCONT,
- *                Q_rM = P_rM exp(mu_M t_end), evaluated from the time: no state; cont_allowance its round-off), the
- *                others (or, without a table, all) bounded by sum_g tail_rg exp(-alpha_g (t - t_end));
+ *                Q_rM = P_rM exp(mu_M t_end), evaluated from the time: no state; cont_modes derives its round-off
+ *                allowance), the others (or, without a table, all) bounded by sum_g tail_rg exp(-alpha_g (t - t_end));
  *   |R_r(t)|  <= sum_j static_rj |u_j(t-)| + sum_jg H_rjg V_jg(t), V_jg = int exp(-alpha_g (t - tau)) |du_j(tau)|
  *                (the input's jumps and slopes weighted by the decay of group g, SHRATE): it saturates under a
  *                persistent input;
@@ -78,7 +78,7 @@ typedef struct {
     double tail_decay[BOUND_MAX_GROUPS];   /* exp(-alpha_g (tau - t_end)) there: the rows' tails after the table */
     double cont_tau;           /* the time since the start at which cont_e holds (NaN: none) */
     double *cont_e;            /* [n_cont][4]: exp(mu_M (tau - t_end)) (Re, Im), its round-off allowance's factor
-                                  per unit |Re Q| + |Im Q| (cont_factors), 0 (not kept: computed from the time) */
+                                  per unit |Re Q| + |Im Q| (cont_modes), 0 (not kept: computed from the time) */
     BoundCache cache[BOUND_CACHE];
     int64_t clock;
     double *work;              /* [4][n][n], n = 2 + 2 inputs (the exponential's matrices) */

@@ -114,7 +114,7 @@ MAX_TAIL_NODES = 131072     # ... only where that takes at most this many nodes
 TAIL_WORK = 2e8             # ... by the full state's propagation where N x nodes is at most this (TAYLOR_TERMS
 TAYLOR_TERMS = 10           # products with A per node: e^{A h} x by its Taylor series to this power)
 CHEBYSHEV_WORK = 4e9        # ... else by a Chebyshev expansion where N x its degree is at most this
-CONT_ROUNDOFF = 1e-13       # the continued modes past the table: their amplitudes' relative error (as the table's nodes')
+CONT_ROUNDOFF = 1e-13       # the modes continued past the table: their amplitudes' relative error (the nodes')
 TAIL_SHARE = 0.1            # ... as long as that one's certified error is below this share of the norm bound
 
 
