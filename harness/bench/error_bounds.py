@@ -520,7 +520,7 @@ def parametric_section(rows, notes, *, command, wall, machine, span):
 LARGE_HEADING = "## Certified error bounds at large N"
 LARGE_T = 0.5            # [s] the large scenes' horizon (their training run)
 LARGE_STEPS = 30         # communication steps of the certification run at large N
-PACKAGE_LIMIT = 20000    # above this N the shadow alone (the FMU's SPH training run grows like N^2: ~100x from 1e4 to 1e5)
+PACKAGE_LIMIT = 200000   # above this N the shadow alone (FMU_MAX_PARTICLES: an FMU carries no shadow above it)
 
 
 def large_scene(n):
