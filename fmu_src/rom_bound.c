@@ -49,6 +49,8 @@ typedef struct {
     double h;                  /* 0: empty */
     int64_t used;
     double *Phi;               /* [planes][4]: each plane's 2 x 2 map by columns (Phi_00, Phi_10, Phi_01, Phi_11) */
+    double *Phi2;              /* [planes / 2][8]: the same of planes 2 t and 2 t + 1 by columns side by side (Phi_00,
+                                  Phi_10 of 2 t, of 2 t + 1, then Phi_01, Phi_11 of each): planes_quads' lanes */
     double *G0, *G1;           /* [order][inputs] */
     double decay[BOUND_MAX_GROUPS], slope[BOUND_MAX_GROUPS];   /* exp(-alpha h), (1 - exp(-alpha h)) / (alpha h) */
     double growth;             /* exp(mu h): the shadow's growth over the step (w_int) */
@@ -431,17 +433,19 @@ RomStatus rom_bound_state_new(RomState *s) {
     if (!bs) return ROM_FAIL;
     const size_t k = b->order, m = b->inputs, n = 2 + 2 * m;   /* a plane's augmented matrix's size */
     const size_t slots = row_slots(b);
-    size_t counts[4 + 3 * BOUND_CACHE] = {k, slots, 4 * n * n, k * slots};
-    double **ptrs[4 + 3 * BOUND_CACHE] = {&bs->w, &bs->y, &bs->work, &bs->ct};
+    size_t counts[4 + 4 * BOUND_CACHE] = {k, slots, 4 * n * n, k * slots};
+    double **ptrs[4 + 4 * BOUND_CACHE] = {&bs->w, &bs->y, &bs->work, &bs->ct};
     for (int c = 0; c < BOUND_CACHE; c++) {
-        counts[4 + 3 * c] = 4 * (size_t)b->planes;
-        counts[5 + 3 * c] = k * m;
-        counts[6 + 3 * c] = k * m;
-        ptrs[4 + 3 * c] = &bs->cache[c].Phi;
-        ptrs[5 + 3 * c] = &bs->cache[c].G0;
-        ptrs[6 + 3 * c] = &bs->cache[c].G1;
+        counts[4 + 4 * c] = 4 * (size_t)b->planes;
+        counts[5 + 4 * c] = k * m;
+        counts[6 + 4 * c] = k * m;
+        counts[7 + 4 * c] = 4 * (size_t)b->planes;
+        ptrs[4 + 4 * c] = &bs->cache[c].Phi;
+        ptrs[5 + 4 * c] = &bs->cache[c].G0;
+        ptrs[6 + 4 * c] = &bs->cache[c].G1;
+        ptrs[7 + 4 * c] = &bs->cache[c].Phi2;
     }
-    bs->storage_ = rom_alloc_arrays(counts, ptrs, 4 + 3 * BOUND_CACHE);
+    bs->storage_ = rom_alloc_arrays(counts, ptrs, 4 + 4 * BOUND_CACHE);
     if (!bs->storage_) {
         free(bs);
         return ROM_FAIL;
@@ -542,6 +546,14 @@ static const BoundCache *plane_maps(BoundState *bs, const RomBoundModel *b, doub
             }
         }
     }
+    for (uint32_t t = 0; t < b->planes / 2; t++) {      /* planes 2 t and 2 t + 1 by columns side by side */
+        for (size_t i = 0; i < 2; i++) {
+            for (size_t l = 0; l < 2; l++) {
+                slot->Phi2[8 * t + 4 * i + l] = slot->Phi[8 * t + 2 * i + l];
+                slot->Phi2[8 * t + 4 * i + 2 + l] = slot->Phi[8 * t + 4 + 2 * i + l];
+            }
+        }
+    }
     for (uint32_t g = 0; g < b->groups; g++) {          /* harness/rom/bounds.py step_weights */
         const double x = b->rates[g] * h;
         slot->decay[g] = exp(-x);
@@ -637,40 +649,111 @@ static void group0_sums(const RomBoundModel *b, const double *w, double *out) {
 #endif
 }
 
-/* one plane of a one-input shadow over the step, its two coordinates side by side (lane l: Phi_l0 w0 + Phi_l1 w1 +
- * G0_l u0, + G1_l du0 unless held; Phi, G0, G1 the plane's: Phi by columns) into w, and their terms of group 0's
- * sums into acc[slot]'s lanes (the partial sums (2 p + l) mod 4: acc holds the even planes' or the odd planes'):
- * |w|^2 in slot 0, with `rows` also C_r w of rows 0 to 2 in slots 1 to 3 (C the plane's first column of C's rows,
- * rows k apart) */
 #if defined(BOUND_LANES)
-BOUND_INLINE void plane_lanes(const double *restrict Phi, const double *restrict G0, const double *restrict G1,
-                              double *restrict w, const double *restrict C, size_t k, double u0, double du0,
-                              int held, int rows, BoundLanes *acc) {
-    BoundLanes c0, c1, g0, n;
-    LANES_LOAD(c0, Phi);
-    LANES_LOAD(c1, Phi + 2);
-    LANES_LOAD(g0, G0);
-    const BoundLanes w0 = {w[0], w[0]}, w1 = {w[1], w[1]}, u = {u0, u0};
-    if (held) {
-        n = c0 * w0 + c1 * w1 + g0 * u;
-    } else {
-        BoundLanes g1;
-        LANES_LOAD(g1, G1);
-        const BoundLanes du = {du0, du0};
-        n = c0 * w0 + c1 * w1 + (g0 * u + g1 * du);
-    }
-    w[0] = n[0];
-    w[1] = n[1];
-    acc[0] += n * n;
-    if (rows) {
-        for (size_t r = 0; r + 1 < BOUND_GROUP; r++) {
-            BoundLanes cr;
-            LANES_LOAD(cr, C + r * k);
-            acc[r + 1] += cr * n;
+/* Four lanes (one AVX register, two SSE2 ones): planes 2 t and 2 t + 1, coordinates 4 t to 4 t + 3, side by side.
+ * planes_quads is compiled for AVX2 and the baseline and picked at load time (GCC function multiversioning, x86-64
+ * Linux, as rom_frozen.c's ROM_CLONES; -DROM_NO_CLONES: the baseline alone); every variant does each lane's scalar
+ * IEEE operations in the same order: the same bits */
+typedef double BoundQuad __attribute__((vector_size(32)));
+#define QUAD_LOAD(v, p) memcpy(&(v), (p), sizeof(BoundQuad))
+#define QUAD_STORE(p, v) memcpy((p), &(v), sizeof(BoundQuad))
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) && \
+    !defined(ROM_NO_CLONES) && (__GNUC__ >= 8)
+#define BOUND_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define BOUND_CLONES
+#endif
+
+/* the planes of a one-input shadow over the step (lane l of planes 2 t, 2 t + 1: Phi_l0 w0 + Phi_l1 w1 + G0_l u0,
+ * + G1_l du0 unless held, each plane's own w0, w1) into w, and group 0's sums of the new w into out[slot]: four
+ * partial sums per slot, lane l holding the coordinates l mod 4 (group_sums' partials), then (a0 + a1) + (a2 + a3):
+ * |w|^2 in slot 0, with `rows` also C_r w of rows 0 to 2 in slots 1 to 3 (C's rows k apart) */
+BOUND_INLINE void quads_body(double *restrict w, const BoundCache *c, const RomBoundModel *b, double u0, double du0,
+                             int held, int rows, double *restrict out) {
+    const uint32_t planes = b->planes;
+    const size_t k = b->order;
+    const double *restrict P2 = c->Phi2, *restrict G0 = c->G0, *restrict G1 = c->G1, *restrict C = b->C;
+    const BoundQuad zero = {0.0, 0.0, 0.0, 0.0}, u = {u0, u0, u0, u0}, du = {du0, du0, du0, du0};
+    BoundQuad a0 = zero, a1 = zero, a2 = zero, a3 = zero;
+    uint32_t p = 0;
+    for (; p + 2 <= planes; p += 2, P2 += 8, G0 += 4, G1 += 4, w += 4, C += 4) {
+        BoundQuad x, c0, c1, g0, n;
+        QUAD_LOAD(x, w);
+        QUAD_LOAD(c0, P2);
+        QUAD_LOAD(c1, P2 + 4);
+        QUAD_LOAD(g0, G0);
+        const BoundQuad x0 = {x[0], x[0], x[2], x[2]}, x1 = {x[1], x[1], x[3], x[3]};
+        if (held) {
+            n = c0 * x0 + c1 * x1 + g0 * u;
+        } else {
+            BoundQuad g1;
+            QUAD_LOAD(g1, G1);
+            n = c0 * x0 + c1 * x1 + (g0 * u + g1 * du);
+        }
+        QUAD_STORE(w, n);
+        a0 += n * n;
+        if (rows) {
+            BoundQuad r0, r1, r2;
+            QUAD_LOAD(r0, C);
+            QUAD_LOAD(r1, C + k);
+            QUAD_LOAD(r2, C + 2 * k);
+            a1 += r0 * n;
+            a2 += r1 * n;
+            a3 += r2 * n;
         }
     }
+    if (p < planes) {                          /* an odd count's last plane: lanes 0 and 1 */
+        const double *Phi = c->Phi + 4 * (size_t)p;
+        const double w0 = w[0], w1 = w[1];
+        for (size_t l = 0; l < 2; l++) {
+            const double n = held ? Phi[l] * w0 + Phi[2 + l] * w1 + G0[l] * u0 :
+                                    Phi[l] * w0 + Phi[2 + l] * w1 + (G0[l] * u0 + G1[l] * du0);
+            w[l] = n;
+            a0[l] += n * n;
+            if (rows) {
+                a1[l] += C[l] * n;
+                a2[l] += C[k + l] * n;
+                a3[l] += C[2 * k + l] * n;
+            }
+        }
+    }
+    out[0] = (a0[0] + a0[1]) + (a0[2] + a0[3]);
+    if (rows) {
+        out[1] = (a1[0] + a1[1]) + (a1[2] + a1[3]);
+        out[2] = (a2[0] + a2[1]) + (a2[2] + a2[3]);
+        out[3] = (a3[0] + a3[1]) + (a3[2] + a3[3]);
+    }
+}
+
+/* quads_body's four cases, each with its constants (held: du0 = 0, the slope's products, exact zeros, skipped) */
+BOUND_CLONES static void planes_quads(double *w, const BoundCache *c, const RomBoundModel *b, double u0, double du0,
+                                      int held, int rows, double *out) {
+    if (!w || !c || !b || !out) return;
+    if (held && rows) quads_body(w, c, b, u0, 0.0, 1, 1, out);
+    else if (held) quads_body(w, c, b, u0, 0.0, 1, 0, out);
+    else if (rows) quads_body(w, c, b, u0, du0, 0, 1, out);
+    else quads_body(w, c, b, u0, du0, 0, 0, out);
+}
+
+/* the planes of a one-input shadow over the step (u0 the input at its start, du0 its change over it) and group
+ * 0's sums of the new w while it is at hand, in group_sums' partial sums and order: |w|^2 for the next step's start,
+ * and the velocity rows where group 0's rows were read since the last step (the error check reads them after every
+ * step until it warns; else they are summed when read) */
+static void plane_step_one(BoundState *bs, const BoundCache *c, const RomBoundModel *b, double u0, double du0,
+                           int held) {
+    const int rows = bs->rows_read;
+    bs->rows_read = 0;
+    planes_quads(bs->w, c, b, u0, held ? 0.0 : du0, held, rows, bs->y);
+    groups_stale(bs);
+    if (rows) bs->groups[0] |= 1u;
+    bs->w_root = sqrt(bs->y[0]);
+    bs->w_fresh = 1;
 }
 #else
+/* one plane of a one-input shadow over the step (lane l: Phi_l0 w0 + Phi_l1 w1 + G0_l u0, + G1_l du0 unless held;
+ * Phi, G0, G1 the plane's: Phi by columns) into w, and their terms of group 0's sums into acc[slot][l] (the partial
+ * sums (2 p + l) mod 4: acc holds the even planes' or the odd planes'): |w|^2 in slot 0, with `rows` also C_r w of
+ * rows 0 to 2 in slots 1 to 3 (C the plane's first column of C's rows, rows k apart) */
 BOUND_INLINE void plane_lanes(const double *restrict Phi, const double *restrict G0, const double *restrict G1,
                               double *restrict w, const double *restrict C, size_t k, double u0, double du0,
                               int held, int rows, double (*acc)[2]) {
@@ -683,13 +766,12 @@ BOUND_INLINE void plane_lanes(const double *restrict Phi, const double *restrict
         for (size_t r = 0; rows && r + 1 < BOUND_GROUP; r++) acc[r + 1][l] += C[r * k + l] * n;
     }
 }
-#endif
 
 /* the planes of a one-input shadow over the step (u0 the input at its start, du0 its change over it; held: du0 =
  * 0, the slope's products, exact zeros, skipped) and group 0's sums of the new w while it is at hand, in
  * group_sums' partial sums and order (planes 2 t and 2 t + 1 are coordinates 4 t to 4 t + 3): |w|^2 for the next
  * step's start, and the velocity rows where `rows` (group 0's rows were read since the last step: the error check
- * reads them after every step until it warns; else they are summed when read) */
+ * reads them after every step until it warns; else they are summed when read): the lanes path's bits */
 BOUND_INLINE void planes_one(BoundState *bs, const BoundCache *c, const RomBoundModel *b, double u0, double du0,
                              int held, int rows) {
     const uint32_t planes = b->planes;
@@ -697,12 +779,7 @@ BOUND_INLINE void planes_one(BoundState *bs, const BoundCache *c, const RomBound
     double *w = bs->w;
     const double *restrict Phi = c->Phi, *restrict G0 = c->G0, *restrict G1 = c->G1, *restrict C = b->C;
     uint32_t p = 0;
-#if defined(BOUND_LANES)
-    BoundLanes even[BOUND_GROUP], odd[BOUND_GROUP];
-    for (size_t r = 0; r < BOUND_GROUP; r++) even[r] = odd[r] = (BoundLanes){0.0, 0.0};
-#else
     double even[BOUND_GROUP][2] = {{0.0}}, odd[BOUND_GROUP][2] = {{0.0}};
-#endif
     for (; p + 2 <= planes; p += 2, Phi += 8, G0 += 4, G1 += 4, w += 4, C += 4) {
         plane_lanes(Phi, G0, G1, w, C, k, u0, du0, held, rows, even);
         plane_lanes(Phi + 4, G0 + 2, G1 + 2, w + 2, C + 2, k, u0, du0, held, rows, odd);
@@ -726,6 +803,7 @@ static void plane_step_one(BoundState *bs, const BoundCache *c, const RomBoundMo
     else if (rows) planes_one(bs, c, b, u0, du0, 0, 1);
     else planes_one(bs, c, b, u0, du0, 0, 0);
 }
+#endif
 
 /* rom_bound_step's work once w holds its steps, m the shadow's inputs (a constant where the caller specializes) */
 BOUND_INLINE void step_shadow(RomState *s, BoundState *bs, double h, size_t m) {
