@@ -33,6 +33,13 @@
 #include <stdio.h>
 #include <stdlib.h>
 
+/* the planes' step in four AVX2 lanes where the CPU has AVX2, picked per state (GCC x86-64 Linux, as rom_frozen.c's
+ * ROM_CLONES; -DROM_NO_CLONES or -DROM_NO_LANES: never) */
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) && \
+    !defined(ROM_NO_CLONES) && !defined(ROM_NO_LANES) && (__GNUC__ >= 8)
+#define BOUND_AVX2 1
+#endif
+
 #define BOUND_ROUNDOFF 1e-11           /* harness/rom/bounds.py ROUNDOFF */
 #define BOUND_ROUNDOFF_STEP 1e-15      /* ... ROUNDOFF_STEP */
 #define BOUND_SUM_ROUNDOFF 1e-12       /* ... SUM_ROUNDOFF */
@@ -65,6 +72,7 @@ typedef struct {
                                   reset, restore; at most 3 x 100 probes + 4 ports + 1 slots: 77 groups) */
     double w_root;             /* |w| of this w while w_fresh (the step's end, or group 0's sums: the same sum) */
     int w_fresh;
+    int avx2;                  /* the CPU has AVX2: planes_quads steps the planes (BOUND_AVX2) */
     int rows_read;             /* group 0's rows were read since the last step (the error check): the next step
                                   sums them while w is at hand; else it sums |w|^2 alone (the rows when read) */
     double V[BOUND_MAX_INPUTS * BOUND_MAX_GROUPS];    /* [inputs][groups] the weighted variations */
@@ -455,6 +463,9 @@ RomStatus rom_bound_state_new(RomState *s) {
         for (size_t r = 1; r < slots; r++) col[r] = r <= b->rows ? b->C[(r - 1) * k + i] : 0.0;
     }
     bs->tail_tau = NAN;
+#if defined(BOUND_AVX2)
+    bs->avx2 = __builtin_cpu_supports("avx2") != 0;
+#endif
     s->bound = bs;
     return ROM_OK;
 }
@@ -650,20 +661,93 @@ static void group0_sums(const RomBoundModel *b, const double *w, double *out) {
 #endif
 }
 
+/* one plane of a one-input shadow over the step, its two coordinates side by side (lane l: Phi_l0 w0 + Phi_l1 w1 +
+ * G0_l u0, + G1_l du0 unless held; Phi, G0, G1 the plane's: Phi by columns) into w, and their terms of group 0's
+ * sums into acc[slot]'s lanes (the partial sums (2 p + l) mod 4: acc holds the even planes' or the odd planes'):
+ * |w|^2 in slot 0, with `rows` also C_r w of rows 0 to 2 in slots 1 to 3 (C the plane's first column of C's rows,
+ * rows k apart) */
 #if defined(BOUND_LANES)
-/* Four lanes (one AVX register, two SSE2 ones): planes 2 t and 2 t + 1, coordinates 4 t to 4 t + 3, side by side.
- * planes_quads is compiled for AVX2 and the baseline and picked at load time (GCC function multiversioning, x86-64
- * Linux, as rom_frozen.c's ROM_CLONES; -DROM_NO_CLONES: the baseline alone); every variant does each lane's scalar
- * IEEE operations in the same order: the same bits */
+BOUND_INLINE void plane_lanes(const double *restrict Phi, const double *restrict G0, const double *restrict G1,
+                              double *restrict w, const double *restrict C, size_t k, double u0, double du0,
+                              int held, int rows, BoundLanes *acc) {
+    BoundLanes c0, c1, g0, n;
+    LANES_LOAD(c0, Phi);
+    LANES_LOAD(c1, Phi + 2);
+    LANES_LOAD(g0, G0);
+    const BoundLanes w0 = {w[0], w[0]}, w1 = {w[1], w[1]}, u = {u0, u0};
+    if (held) {
+        n = c0 * w0 + c1 * w1 + g0 * u;
+    } else {
+        BoundLanes g1;
+        LANES_LOAD(g1, G1);
+        const BoundLanes du = {du0, du0};
+        n = c0 * w0 + c1 * w1 + (g0 * u + g1 * du);
+    }
+    w[0] = n[0];
+    w[1] = n[1];
+    acc[0] += n * n;
+    if (rows) {
+        for (size_t r = 0; r + 1 < BOUND_GROUP; r++) {
+            BoundLanes cr;
+            LANES_LOAD(cr, C + r * k);
+            acc[r + 1] += cr * n;
+        }
+    }
+}
+#else
+BOUND_INLINE void plane_lanes(const double *restrict Phi, const double *restrict G0, const double *restrict G1,
+                              double *restrict w, const double *restrict C, size_t k, double u0, double du0,
+                              int held, int rows, double (*acc)[2]) {
+    const double w0 = w[0], w1 = w[1];
+    for (size_t l = 0; l < 2; l++) {
+        const double n = held ? Phi[l] * w0 + Phi[2 + l] * w1 + G0[l] * u0 :
+                                Phi[l] * w0 + Phi[2 + l] * w1 + (G0[l] * u0 + G1[l] * du0);
+        w[l] = n;
+        acc[0][l] += n * n;
+        for (size_t r = 0; rows && r + 1 < BOUND_GROUP; r++) acc[r + 1][l] += C[r * k + l] * n;
+    }
+}
+#endif
+
+/* the planes of a one-input shadow over the step (u0 the input at its start, du0 its change over it; held: du0 =
+ * 0, the slope's products, exact zeros, skipped) and group 0's sums of the new w while it is at hand, in
+ * group_sums' partial sums and order (planes 2 t and 2 t + 1 are coordinates 4 t to 4 t + 3): |w|^2 for the next
+ * step's start, and the velocity rows where `rows` (group 0's rows were read since the last step: the error check
+ * reads them after every step until it warns; else they are summed when read) */
+BOUND_INLINE void planes_one(BoundState *bs, const BoundCache *c, const RomBoundModel *b, double u0, double du0,
+                             int held, int rows) {
+    const uint32_t planes = b->planes;
+    const size_t k = b->order;
+    double *w = bs->w;
+    const double *restrict Phi = c->Phi, *restrict G0 = c->G0, *restrict G1 = c->G1, *restrict C = b->C;
+    uint32_t p = 0;
+#if defined(BOUND_LANES)
+    BoundLanes even[BOUND_GROUP], odd[BOUND_GROUP];
+    for (size_t r = 0; r < BOUND_GROUP; r++) even[r] = odd[r] = (BoundLanes){0.0, 0.0};
+#else
+    double even[BOUND_GROUP][2] = {{0.0}}, odd[BOUND_GROUP][2] = {{0.0}};
+#endif
+    for (; p + 2 <= planes; p += 2, Phi += 8, G0 += 4, G1 += 4, w += 4, C += 4) {
+        plane_lanes(Phi, G0, G1, w, C, k, u0, du0, held, rows, even);
+        plane_lanes(Phi + 4, G0 + 2, G1 + 2, w + 2, C + 2, k, u0, du0, held, rows, odd);
+    }
+    if (p < planes) plane_lanes(Phi, G0, G1, w, C, k, u0, du0, held, rows, even);     /* an odd count's last */
+    groups_stale(bs);
+    for (size_t r = 0; r < (rows ? BOUND_GROUP : 1u); r++) {
+        bs->y[r] = (even[r][0] + even[r][1]) + (odd[r][0] + odd[r][1]);
+    }
+    if (rows) bs->groups[0] |= 1u;
+    bs->w_root = sqrt(bs->y[0]);
+    bs->w_fresh = 1;
+}
+
+#if defined(BOUND_AVX2)
+/* Four lanes (one AVX register): planes 2 t and 2 t + 1, coordinates 4 t to 4 t + 3, side by side, where the CPU has
+ * AVX2 (BoundState.avx2; else planes_one's two lanes); each lane does planes_one's scalar IEEE operations in the same
+ * order: the same bits */
 typedef double BoundQuad __attribute__((vector_size(32)));
 #define QUAD_LOAD(v, p) memcpy(&(v), (p), sizeof(BoundQuad))
 #define QUAD_STORE(p, v) memcpy((p), &(v), sizeof(BoundQuad))
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) && \
-    !defined(ROM_NO_CLONES) && (__GNUC__ >= 8)
-#define BOUND_CLONES __attribute__((target_clones("avx2", "default")))
-#else
-#define BOUND_CLONES
-#endif
 
 /* the planes of a one-input shadow over the step (lane l of planes 2 t, 2 t + 1: Phi_l0 w0 + Phi_l1 w1 + G0_l u0,
  * + G1_l du0 unless held, each plane's own w0, w1) into w, and group 0's sums of the new w into out[slot]: four
@@ -703,19 +787,24 @@ BOUND_INLINE void quads_body(double *restrict w, const BoundCache *c, const RomB
             a3 += r2 * n;
         }
     }
-    if (p < planes) {                          /* an odd count's last plane: lanes 0 and 1 */
+    if (p < planes) {             /* an odd count's last plane: lanes 0 and 1; lanes 2 and 3 add 0 * 0 = +0, which
+                                     leaves a sum as it is (never -0: it starts at +0) */
         const double *Phi = c->Phi + 4 * (size_t)p;
         const double w0 = w[0], w1 = w[1];
+        double n[2];
         for (size_t l = 0; l < 2; l++) {
-            const double n = held ? Phi[l] * w0 + Phi[2 + l] * w1 + G0[l] * u0 :
-                                    Phi[l] * w0 + Phi[2 + l] * w1 + (G0[l] * u0 + G1[l] * du0);
-            w[l] = n;
-            a0[l] += n * n;
-            if (rows) {
-                a1[l] += C[l] * n;
-                a2[l] += C[k + l] * n;
-                a3[l] += C[2 * k + l] * n;
-            }
+            n[l] = held ? Phi[l] * w0 + Phi[2 + l] * w1 + G0[l] * u0 :
+                          Phi[l] * w0 + Phi[2 + l] * w1 + (G0[l] * u0 + G1[l] * du0);
+            w[l] = n[l];
+        }
+        const BoundQuad nt = {n[0], n[1], 0.0, 0.0};
+        a0 += nt * nt;
+        if (rows) {
+            const BoundQuad r0 = {C[0], C[1], 0.0, 0.0}, r1 = {C[k], C[k + 1], 0.0, 0.0},
+                            r2 = {C[2 * k], C[2 * k + 1], 0.0, 0.0};
+            a1 += r0 * nt;
+            a2 += r1 * nt;
+            a3 += r2 * nt;
         }
     }
     out[0] = (a0[0] + a0[1]) + (a0[2] + a0[3]);
@@ -727,84 +816,35 @@ BOUND_INLINE void quads_body(double *restrict w, const BoundCache *c, const RomB
 }
 
 /* quads_body's four cases, each with its constants (held: du0 = 0, the slope's products, exact zeros, skipped) */
-BOUND_CLONES static void planes_quads(double *w, const BoundCache *c, const RomBoundModel *b, double u0, double du0,
-                                      int held, int rows, double *out) {
+__attribute__((target("avx2"))) static void planes_quads(double *w, const BoundCache *c, const RomBoundModel *b,
+                                                        double u0, double du0, int held, int rows, double *out) {
     if (!w || !c || !b || !out) return;
     if (held && rows) quads_body(w, c, b, u0, 0.0, 1, 1, out);
     else if (held) quads_body(w, c, b, u0, 0.0, 1, 0, out);
     else if (rows) quads_body(w, c, b, u0, du0, 0, 1, out);
     else quads_body(w, c, b, u0, du0, 0, 0, out);
 }
-
-/* the planes of a one-input shadow over the step (u0 the input at its start, du0 its change over it) and group
- * 0's sums of the new w while it is at hand, in group_sums' partial sums and order: |w|^2 for the next step's start,
- * and the velocity rows where group 0's rows were read since the last step (the error check reads them after every
- * step until it warns; else they are summed when read) */
-static void plane_step_one(BoundState *bs, const BoundCache *c, const RomBoundModel *b, double u0, double du0,
-                           int held) {
-    const int rows = bs->rows_read;
-    bs->rows_read = 0;
-    planes_quads(bs->w, c, b, u0, held ? 0.0 : du0, held, rows, bs->y);
-    groups_stale(bs);
-    if (rows) bs->groups[0] |= 1u;
-    bs->w_root = sqrt(bs->y[0]);
-    bs->w_fresh = 1;
-}
-#else
-/* one plane of a one-input shadow over the step (lane l: Phi_l0 w0 + Phi_l1 w1 + G0_l u0, + G1_l du0 unless held;
- * Phi, G0, G1 the plane's: Phi by columns) into w, and their terms of group 0's sums into acc[slot][l] (the partial
- * sums (2 p + l) mod 4: acc holds the even planes' or the odd planes'): |w|^2 in slot 0, with `rows` also C_r w of
- * rows 0 to 2 in slots 1 to 3 (C the plane's first column of C's rows, rows k apart) */
-BOUND_INLINE void plane_lanes(const double *restrict Phi, const double *restrict G0, const double *restrict G1,
-                              double *restrict w, const double *restrict C, size_t k, double u0, double du0,
-                              int held, int rows, double (*acc)[2]) {
-    const double w0 = w[0], w1 = w[1];
-    for (size_t l = 0; l < 2; l++) {
-        const double n = held ? Phi[l] * w0 + Phi[2 + l] * w1 + G0[l] * u0 :
-                                Phi[l] * w0 + Phi[2 + l] * w1 + (G0[l] * u0 + G1[l] * du0);
-        w[l] = n;
-        acc[0][l] += n * n;
-        for (size_t r = 0; rows && r + 1 < BOUND_GROUP; r++) acc[r + 1][l] += C[r * k + l] * n;
-    }
-}
-
-/* the planes of a one-input shadow over the step (u0 the input at its start, du0 its change over it; held: du0 =
- * 0, the slope's products, exact zeros, skipped) and group 0's sums of the new w while it is at hand, in
- * group_sums' partial sums and order (planes 2 t and 2 t + 1 are coordinates 4 t to 4 t + 3): |w|^2 for the next
- * step's start, and the velocity rows where `rows` (group 0's rows were read since the last step: the error check
- * reads them after every step until it warns; else they are summed when read): the lanes path's bits */
-BOUND_INLINE void planes_one(BoundState *bs, const BoundCache *c, const RomBoundModel *b, double u0, double du0,
-                             int held, int rows) {
-    const uint32_t planes = b->planes;
-    const size_t k = b->order;
-    double *w = bs->w;
-    const double *restrict Phi = c->Phi, *restrict G0 = c->G0, *restrict G1 = c->G1, *restrict C = b->C;
-    uint32_t p = 0;
-    double even[BOUND_GROUP][2] = {{0.0}}, odd[BOUND_GROUP][2] = {{0.0}};
-    for (; p + 2 <= planes; p += 2, Phi += 8, G0 += 4, G1 += 4, w += 4, C += 4) {
-        plane_lanes(Phi, G0, G1, w, C, k, u0, du0, held, rows, even);
-        plane_lanes(Phi + 4, G0 + 2, G1 + 2, w + 2, C + 2, k, u0, du0, held, rows, odd);
-    }
-    if (p < planes) plane_lanes(Phi, G0, G1, w, C, k, u0, du0, held, rows, even);     /* an odd count's last */
-    groups_stale(bs);
-    for (size_t r = 0; r < (rows ? BOUND_GROUP : 1u); r++) {
-        bs->y[r] = (even[r][0] + even[r][1]) + (odd[r][0] + odd[r][1]);
-    }
-    if (rows) bs->groups[0] |= 1u;
-    bs->w_root = sqrt(bs->y[0]);
-    bs->w_fresh = 1;
-}
+#endif
 
 static void plane_step_one(BoundState *bs, const BoundCache *c, const RomBoundModel *b, double u0, double du0,
                            int held) {
     const int rows = bs->rows_read;
     bs->rows_read = 0;
+#if defined(BOUND_AVX2)
+    if (bs->avx2) {                                             /* four lanes: planes_one's sums, the same bits */
+        planes_quads(bs->w, c, b, u0, held ? 0.0 : du0, held, rows, bs->y);
+        groups_stale(bs);
+        if (rows) bs->groups[0] |= 1u;
+        bs->w_root = sqrt(bs->y[0]);
+        bs->w_fresh = 1;
+        return;
+    }
+#endif
     if (held && rows) planes_one(bs, c, b, u0, 0.0, 1, 1);      /* the four cases, each with its constants */
     else if (held) planes_one(bs, c, b, u0, 0.0, 1, 0);
     else if (rows) planes_one(bs, c, b, u0, du0, 0, 1);
     else planes_one(bs, c, b, u0, du0, 0, 0);
 }
-#endif
 
 /* rom_bound_step's work once w holds its steps, m the shadow's inputs (a constant where the caller specializes) */
 BOUND_INLINE void step_shadow(RomState *s, BoundState *bs, double h, size_t m) {
