@@ -589,8 +589,8 @@ static void step_inputs(const RomState *s, double h, double *u, double *du) {
 
 static void shadow_group(const RomState *s, BoundState *bs, size_t g);
 
-/* Two lanes side by side (four in the planes' step: planes_quads): GCC/Clang vector extensions (an SSE2 register
- * on x86-64), plain arrays elsewhere (or with -DROM_NO_LANES: tests/test_bound_step_cost.py compares the builds);
+/* Two lanes side by side (four in the planes' step with AVX2: planes_quads): GCC/Clang vector extensions (an SSE2
+ * register on x86-64), plain arrays elsewhere (or with -DROM_NO_LANES: tests/test_bound_step_cost.py compares the builds);
  * every lane does the scalar IEEE operation, in the same order (as rom_frozen.c's blocks).  Loads through memcpy:
  * the rows need no alignment. */
 #if defined(__GNUC__)

@@ -5,8 +5,8 @@
   input alike;
 - the error check warns at exactly the step where a velocity bound first exceeds error_tolerance, whether or not the
   importer reads the bounds (group 0's rows are summed in the step where the check read them, else when read);
-- the lanes of the shadow's step and rows' sums (GCC vector extensions: the planes' step in four lanes, compiled
-  for AVX2 and the baseline, the other sums in two) and the plain-array path (-DROM_NO_LANES) give the same bits.
+- the lanes of the shadow's step and rows' sums (GCC vector extensions: two SSE2 lanes, the planes' step in four
+  AVX2 lanes on a CPU that has AVX2) and the plain-array path (-DROM_NO_LANES) give the same bits.
 """
 import re
 import shutil
@@ -143,10 +143,10 @@ def parametric(tmp_path_factory):
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="builds the Linux FMU binary")
 def test_lanes_clones_and_plain_arrays_give_the_same_bits(make, parametric, tmp_path):
-    """The FMU binary built with -DROM_NO_CLONES (rom_bound.c's four lanes compiled for the baseline x86-64 alone:
-    SSE2, where the default build picks its AVX2 copy on a CPU that has AVX2) and with -DROM_NO_LANES (the
-    plain-array path, what a compiler without GCC's vector extensions builds) give every output and every bound of
-    the default build to 0 ulps over a run with a restore, a held input and one with input derivatives (the slope's
+    """The FMU binary built with -DROM_NO_CLONES (rom_bound.c's two SSE2 lanes alone, what a CPU without AVX2 runs,
+    where the default build steps a one-input shadow's planes in four AVX2 lanes on a CPU that has AVX2) and with
+    -DROM_NO_LANES (the plain-array path, what a compiler without GCC's vector extensions builds) give every output
+    and every bound of the default build to 0 ulps over a run with a restore, a held input and one with input derivatives (the slope's
     columns), on the forced FMU and on a parametric one at c, d away from its scene's (the same IEEE operations in
     the same order, no fused multiply-add)."""
     from sphrom.fmu.make.build import configure_and_build
