@@ -113,7 +113,8 @@ PROGRAMS = {
                             "error_bounds_parametric.csv); a BENCHMARKS.md section"),
     "error_bounds_ports": Program("sphrom.bench.error_bounds_ports", "the certified error bounds of port FMUs: "
                                   "open-loop port forces, a coupled mass-spring, f with port forces, against the "
-                                  "linear SPH exact in time", "measured: see the report", "error_bounds_ports.csv; "
+                                  "linear SPH exact in time (--corpus N: error_bounds's user scenes, cases sized "
+                                  "from each scene)", "measured: see the report", "error_bounds_ports.csv; "
                                   "a BENCHMARKS.md section"),
     "parametric": Program("sphrom.bench.parametric", "the parametric model at held-out (c, d) against the full SPH "
                           "and a model trained there", "not recorded", "CSV and a PNG map into --out"),

@@ -5,8 +5,9 @@
 without the a priori bounds) and drives it over S x the scene's T (default 20) at 10 ms communication steps, from
 rest and from the scene's initial state, under five forces no basis saw (:func:`forces`), held over each step, and
 two of them linear over each step (FMI 2 input derivatives).  The scenes: every built-in scene and ``--corpus`` N
-generated user scenes (:func:`user_scenes`: damping that varies along the bar, force profiles that are not uniform,
-c and ρ0 that vary, rough initial states; default 4).
+generated user scenes (:func:`sphrom.bench.lib.error_corpus.user_scenes`, shared with ``error_bounds_ports
+--corpus``: damping that varies along the bar, force profiles that are not uniform, c and ρ0 that vary, rough initial
+states; default 4).
 
 The truth is the full SPH of eqs. 2.10-2.11 as the linear system in J (:mod:`sphrom.rom.lti`) integrated exactly in
 time: the matrix exponential of the system augmented with the input and its slope, one dense step map applied to
@@ -41,6 +42,8 @@ from pathlib import Path
 import numpy as np
 
 from ..options import int_at_least, int_list, positive_float
+from .lib.error_corpus import CORPUS_MENU, user_scenes  # noqa: F401 (the corpus: shared with error_bounds_ports)
+from .lib.stopped import RunStopped, reason
 from .lib.native_cost import NATIVE_STEPS, NO_COST, cost_lines, native_cost
 
 SECTION_HEADING = "## Certified error bounds"
@@ -64,41 +67,6 @@ def forces(t, T_run):
             "step at a third": 3e-3 * (t > T_run / 3),
             "chirp": 5e-3 * np.sin(2 * np.pi * (0.5 * t + 4.5 / (2 * T_run) * t * t)),
             "two tones": 4e-3 * (np.sin(2 * np.pi * 1.3 * t) + 0.5 * np.sin(2 * np.pi * 4.1 * t + 1.0))}
-
-
-# the menu of the generated user scenes (fields as expressions of x, L, t, T)
-CORPUS_MENU = {
-    "d": ("0", "1", "2 + 1.5*sin(2*pi*x/L)", "4 + 3*sin(2*pi*x/L + 1)", "6*exp(-((x/L - 0.5)/0.2)**2) + 0.5"),
-    "c": ("0.1", "0.1*(1 + 0.4*sin(2*pi*x/L))"),
-    "rho0": ("1", "1 + 0.3*cos(2*pi*x/L)"),
-    "profile": ("1", "cos(8*pi*x/L)", "1 + 0.5*cos(2*pi*x/L)", "exp(-((x/L - 0.3)/0.08)**2)"),
-    "v0": ("4e-3*sin(2*pi*x/L)", "4e-3*(x/L)*(1 - x/L)*sum(sin(2*pi*l*x/L + l**2) for l in range(1, 6))",
-           "2e-3*exp(-((x/L - 0.5)/0.1)**2)"),
-    "f": ("0", "2e-3*sin(3*t)", "1e-3"),
-}
-
-
-def user_scenes(count, seed=33):
-    """``count`` generated user scenes (seeded): fields drawn from :data:`CORPUS_MENU` over the scene
-    mild_damped_forced's settings, N in {64, 96, 128}, T in {2, 3} s; every other one with a damping that varies
-    along the bar.  (A stand-in for the project's generator of user scenes.)"""
-    from ..scene import derive_scene, load_scene
-    rng = np.random.default_rng(seed)
-    base = load_scene("mild_damped_forced")
-    out = []
-    for i in range(count):
-        pick = {k: v[int(rng.integers(len(v)))] for k, v in CORPUS_MENU.items()}
-        if i % 2 == 0:                                   # every other scene: a damping that varies
-            pick["d"] = CORPUS_MENU["d"][2 + int(rng.integers(3))]
-        n = int(rng.choice([64, 96, 128]))
-        T = float(rng.choice([2.0, 3.0]))
-        changes = {"name": f"user_{i + 1}", "title": f"generated user scene {i + 1}", "domain": {"T": T},
-                   "fields": {k: pick[k] for k in ("rho0", "v0", "c", "d")},
-                   "force": {"f": pick["f"], "profile": pick["profile"]},
-                   "sph": {"n_particles": n, "dt": 2e-4 * 64 / n, "every": max(1, int(round(0.01 / (2e-4 * 64 / n))))},
-                   "snapshots": {"count": 20, "window": [0.0, 0.8 * T]}}
-        out.append(derive_scene(base, changes))
-    return out
 
 
 def scene_note(scene, problem):
@@ -195,13 +163,22 @@ def modal_truth(problem, probes, t, cases, lti):
 
 
 def run_fmu(path, t, scale, f, linear, parameters=None):
-    """(outputs (M, n), names, warnings, error_tolerance) of the FMU driven over ``t``."""
+    """(outputs (M, n), names, warnings, error_tolerance) of the FMU driven over ``t``.  Raises
+    :class:`~sphrom.bench.lib.stopped.RunStopped` (with the FMU's logged reason) when the FMU returns an error
+    status: the run is recorded as stopped, not counted, and the bench goes on."""
+    from fmpy.fmi1 import FMICallException
+
     from ..fmu.run.driver import FMU
-    with FMU(path) as fmu:
-        fmu.initialize(parameters={"initial_state_scale": scale, **(parameters or {})}, inputs={"f": float(f[0])})
-        y = fmu.simulate(t, {"f": f}, rates=linear)
-        tol = fmu.get_real([fmu.vr["error_tolerance"]])[0]
-        return y, fmu.outputs, fmu.warnings(), tol
+    messages = []
+    try:
+        with FMU(path, messages=messages) as fmu:
+            fmu.initialize(parameters={"initial_state_scale": scale, **(parameters or {})},
+                           inputs={"f": float(f[0])})
+            y = fmu.simulate(t, {"f": f}, rates=linear)
+            tol = fmu.get_real([fmu.vr["error_tolerance"]])[0]
+            return y, fmu.outputs, fmu.warnings(), tol
+    except FMICallException as exc:               # the FMU stopped the run (an error status): say why
+        raise RunStopped(reason(messages, exc)) from None
 
 
 def run_metrics(y, names, v_t, rho_t, rho0_probe, warned, tol):
@@ -279,7 +256,12 @@ def measure_fmu(path, problem, probes, t, cases, truths, parameters=None):
     rho0_probe = probe_matrix(problem.x, problem.scene.L, probes, np.ones(problem.n)) @ problem.rho0
     rows, kept = [], {}
     for case, (start, scale, fname, f, linear) in cases.items():
-        y, names, warned, tol = run_fmu(path, t, scale, f, linear, parameters)
+        try:
+            y, names, warned, tol = run_fmu(path, t, scale, f, linear, parameters)
+        except RunStopped as exc:
+            rows.append({"case": case, "start": start, "force": fname, "hold": "linear" if linear else "held",
+                         "stopped": str(exc)})
+            continue
         v_t, rho_t = truths[case]
         outputs, bad, alarm = run_metrics(y, names, v_t, rho_t, rho0_probe[None, :], warned, tol)
         for name, eff, e_max, b_max in outputs:
@@ -321,7 +303,7 @@ def measure_scene(scene, models, repeats, folder, probes, span, progress=True):
             r.update({"scene": scene.name, "model": model, "about": note, "N": problem.n, "k_v": s.k_v,
                       "k_rho": s.k_rho, "shadow_order": s.shadow_order, "package_s": seconds,
                       "step_ns_bounds": with_ns, "step_ns_plain": without_ns, "loop_ns": loop_ns,
-                      "cost_ratio": with_ns / without_ns, **native.row(), "note": ""})
+                      "cost_ratio": with_ns / without_ns, **native.row(), "note": _stopped(r)})
         out += rows
         kept.update({(scene.name, model, c): v for c, v in runs.items()})
     return out, kept
@@ -482,7 +464,7 @@ def measure_parametric(scene, models, points, folder, probes, span, repeats=3, p
                 r.update({"scene": scene.name, "model": model, "N": problem.n, "k_v": s.k_v, "k_rho": s.k_rho,
                           "shadow_order": s.shadow_order, "c": float(c), "d": float(d), "point": f"{c:.4g}, {d:.4g}",
                           "c_range": f"{ranges[0].lo:g}:{ranges[0].hi:g}",
-                          "d_range": f"{ranges[1].lo:g}:{ranges[1].hi:g}", "note": ""})
+                          "d_range": f"{ranges[1].lo:g}:{ranges[1].hi:g}", "note": _stopped(r)})
             out += rows
     return out
 
@@ -772,7 +754,8 @@ def main(argv=None):
                       f"false alarms {r['false_alarms']}", flush=True)
             for r in got:
                 if r.get("note"):
-                    print(f"{r['scene']:20s} {r['model']:9s} not built: {r['note']}", flush=True)
+                    print(f"{r['scene']:20s} {r['model']:9s} {'' if r.get('stopped') else 'not built: '}"
+                          f"{r['note']}", flush=True)
     wall = time.perf_counter() - t0
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -797,10 +780,16 @@ def main(argv=None):
     return 0 if all(r["violations"] == 0 for r in done) else 1
 
 
+def _stopped(row):
+    """The note of a run the FMU stopped (its case and the FMU's reason), "" for a measured one."""
+    return f"the run {row['case']} stopped: {row['stopped']}" if row.get("stopped") else ""
+
+
 def _note_row(note, before, after):
-    """A table row for a scene and model not built: ``before`` and ``after`` empty cells ("—") around its reason."""
-    cells = [note["scene"], note["model"], *["—"] * before, f"not built: {note['note'].replace('|', '/')}",
-             *["—"] * after]
+    """A table row for a scene and model not built, or a run the FMU stopped: ``before`` and ``after`` empty cells
+    ("—") around its reason."""
+    text = note["note"] if note.get("stopped") else f"not built: {note['note']}"
+    cells = [note["scene"], note["model"], *["—"] * before, text.replace("|", "/"), *["—"] * after]
     return "| " + " | ".join(cells) + " |"
 
 

@@ -15,38 +15,39 @@ def open_loop_forces(t):
     return 1e-3 * np.stack([np.sin(5 * t + 0.3), np.cos(2 * t) ** 2], axis=-1)
 
 
-def mass_spring_step(y, v_port, h, damping=0.0):
+def mass_spring_step(y, v_port, h, damping=0.0, *, mass=MASS, stiffness=STIFFNESS):
     """The mass-spring (s, w) advanced exactly over h [s] with the port velocity held: s'' = -ω² s, w = s' + v_port.
 
     ``damping`` [N s m^-1]: a dashpot beside the spring (a mass-spring-damper): m s'' = -K s - damping s'; the force
-    on the port is then K s + damping s' (:func:`coupling_force`)."""
+    on the port is then K s + damping s' (:func:`coupling_force`).  ``mass`` [kg], ``stiffness`` [N m^-1]: m and K
+    (default the unit bar's :data:`MASS`, :data:`STIFFNESS`)."""
     s, w = y
     if damping == 0.0:
-        omega = np.sqrt(STIFFNESS / MASS)
+        omega = np.sqrt(stiffness / mass)
         c, sn = np.cos(omega * h), np.sin(omega * h)
         s_new = s * c + (w - v_port) / omega * sn
         ds = -s * omega * sn + (w - v_port) * c
         return np.array([s_new, ds + v_port])
-    s_new, ds = _lumped_flow(h, damping) @ np.array([s, w - v_port])
+    s_new, ds = _lumped_flow(h, damping, mass, stiffness) @ np.array([s, w - v_port])
     return np.array([s_new, ds + v_port])
 
 
-def coupling_force(y, v_port, damping=0.0):
+def coupling_force(y, v_port, damping=0.0, *, stiffness=STIFFNESS):
     """The force [N] the lumped mass-spring(-damper) in state y = (s, w) puts on the port moving at v_port."""
-    return STIFFNESS * y[0] + damping * (y[1] - v_port)
+    return stiffness * y[0] + damping * (y[1] - v_port)
 
 
 @functools.lru_cache(maxsize=8)
-def _lumped_flow(h, damping):
-    """e^{A h} of (s, s')' = [[0, 1], [-K/m, -damping/m]] (s, s'), read-only (one per step length and dashpot: a
-    loop's every step uses the same)."""
+def _lumped_flow(h, damping, mass=MASS, stiffness=STIFFNESS):
+    """e^{A h} of (s, s')' = [[0, 1], [-K/m, -damping/m]] (s, s'), read-only (one per step length, dashpot, mass
+    and spring: a loop's every step uses the same)."""
     import scipy.linalg as sla
-    E = sla.expm(np.array([[0.0, 1.0], [-STIFFNESS / MASS, -damping / MASS]]) * h)
+    E = sla.expm(np.array([[0.0, 1.0], [-stiffness / mass, -damping / mass]]) * h)
     E.setflags(write=False)
     return E
 
 
-def loop_map(problem, port, h, damping=0.0):
+def loop_map(problem, port, h, damping=0.0, *, mass=MASS, stiffness=STIFFNESS):
     """The sampled loop of the port benchmarks with the full SPH in the FMU's place, as one linear map Z.
 
     The loop: the lumped mass-spring (with a dashpot of ``damping`` [N s m^-1] beside the spring) on the port at
@@ -63,6 +64,8 @@ def loop_map(problem, port, h, damping=0.0):
         The coupled port's position x/L.
     h : float
         Communication step [s].
+    damping, mass, stiffness : float
+        The lumped element's dashpot [N s m^-1], mass [kg] and spring [N m^-1] (default the unit bar's).
 
     Returns
     -------
@@ -76,25 +79,25 @@ def loop_map(problem, port, h, damping=0.0):
     b = input_columns(problem, (port,))[:, 1]                   # per F/area [N m^-2]
     c = output_rows(problem, [0.5], (port,))[0][-1]            # v_port [m s^-1]
     Phi, g, _ = propagators(A, b, h)                           # e^{Ah}, ∫ e^{As} ds b (the force held)
-    R = _lumped_flow(h, damping)                               # (s, w - v_port) over the step, v_port = c x held
+    R = _lumped_flow(h, damping, mass, stiffness)              # (s, w - v_port) over the step, v_port = c x held
     Z = np.zeros((n2 + 2, n2 + 2))
     # F = K s + damping (w - c x), held: x+ = Phi x + g F
     Z[:n2, :n2] = Phi - damping * np.outer(g, c)
-    Z[:n2, n2], Z[:n2, n2 + 1] = g * STIFFNESS, g * damping
+    Z[:n2, n2], Z[:n2, n2 + 1] = g * stiffness, g * damping
     # s+ = R00 s + R01 (w - c x);  w+ = R10 s + R11 (w - c x) + c x
     Z[n2, :n2], Z[n2, n2], Z[n2, n2 + 1] = -R[0, 1] * c, R[0, 0], R[0, 1]
     Z[n2 + 1, :n2], Z[n2 + 1, n2], Z[n2 + 1, n2 + 1] = (1.0 - R[1, 1]) * c, R[1, 0], R[1, 1]
     return Z
 
 
-def loop_radius(problem, port, h, damping=0.0, *, dense_limit=2500):
-    """The spectral radius of :func:`loop_map` (``damping``: the dashpot beside the spring [N s m^-1]): above 1 the
+def loop_radius(problem, port, h, damping=0.0, *, dense_limit=2500, mass=MASS, stiffness=STIFFNESS):
+    """The spectral radius of :func:`loop_map` (``damping``, ``mass``, ``stiffness``: the lumped element): above 1 the
     sampled loop runs away at step ``h`` [s] whatever model stands in for the bar (the held force feeds the bar
     energy faster than its damping takes it); at most 1 (the rigid motion's 1) it does not.  None above
     ``dense_limit`` particles (the map is dense)."""
     if problem.rho0.size > dense_limit:
         return None
-    return float(np.abs(np.linalg.eigvals(loop_map(problem, port, h, damping))).max())
+    return float(np.abs(np.linalg.eigvals(loop_map(problem, port, h, damping, mass=mass, stiffness=stiffness))).max())
 
 
 def rel(a, b):
