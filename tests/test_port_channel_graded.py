@@ -7,6 +7,8 @@ Before the fix the channel took pairs 2.7e-7 s^-1 apart (within 1e-9 of σ_max) 
 coupling: an error of 4.6e-9 of the response, growing, past a bound that shrank as the energy left for the lumped
 mass (the first violation at t = 0.56 s of this loop)."""
 
+from pathlib import Path
+
 import numpy as np
 
 from sphrom.bench.lib.ports import coupling_force, mass_spring_step
@@ -19,40 +21,18 @@ from sphrom.sph.solver import build_problem
 
 PROBES = (0.25, 0.5, 0.66)
 PORTS = (0.3, 0.7)
-# a generated user scene (sphrom bench error_bounds --corpus, seed 0 #3): rubber, c graded 1.4e5 .. 2.07e6, undamped;
-# its graded c splits the wave pairs by 1e-13 .. 3e-7 s^-1
-SCENE = """
-[domain]
-L = 1.7487459861948875
-T = 0.1463
-
-[fields]
-rho0 = "1029"
-c = "2.074e+06*(1 + 13.39*(0.5 + 0.5*sin(2*pi*x/L + 4.542)))/14.39"
-d = "0"
-v0 = "0.01562*(0.5104*sin(2*pi*1*x/L + 1.946) + 0.1316*sin(2*pi*4*x/L + 2.569))"
-
-[force]
-f = "0.6868*(sin(2*pi*6.997*t) + 0.5*cos(2*pi*16.09*t))"
-
-[sph]
-n_particles = 179
-integrator = "rk4"
-dt = 0.0001242
-"""
+SCENE = Path(__file__).parent / "data" / "graded_rubber.toml"   # a user's rubber bar, c graded 1.4e5 .. 2.07e6
 
 
-def graded_problem(tmp_path):
-    path = tmp_path / "graded_rubber.toml"
-    path.write_text(SCENE)
-    return build_problem(load_scene(path))
+def graded_problem():
+    return build_problem(load_scene(SCENE))
 
 
-def test_near_degenerate_pairs_are_not_rotated_together(tmp_path):
+def test_near_degenerate_pairs_are_not_rotated_together():
     """The scene has pairs closer than 1e-9 σ_max (what the former rule took as equal) but farther apart than the
     decomposition's residual; the channel keeps them apart, and its charged planes' residual bounds the coupling a
     rotation would drop."""
-    problem = graded_problem(tmp_path)
+    problem = graded_problem()
     K, U, sig, W = coupling_planes(problem)
     gaps = np.diff(sig)
     residual = float(np.linalg.norm(K @ W - U * sig[None, :]))
@@ -66,11 +46,11 @@ def test_near_degenerate_pairs_are_not_rotated_together(tmp_path):
     assert ch.info["residual"] < 1e-12 * sig[-1]                        # round-off, not a dropped coupling
 
 
-def test_channel_in_a_mass_spring_damper_loop_is_certified(tmp_path):
+def test_channel_in_a_mass_spring_damper_loop_is_certified():
     """Port 1 tied to a mass-spring-damper (5 % of the bar's mass, tuned to 5 ω1, a tenth of critical damping), from
     rest, 6000 steps of 0.02 / ω1 (1 s): every row of the channel (v at the probes and ports, e at the probes'
     particles) within its certified bound of the truth at every point, and the error round-off."""
-    problem = graded_problem(tmp_path)
+    problem = graded_problem()
     ch = build_channel(problem, PORTS, PROBES)
     w1 = band(problem)[0]
     h = 0.02 / w1
