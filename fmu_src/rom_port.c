@@ -157,9 +157,10 @@ RomStatus rom_channel_prepare(RomModel *m, char *message, size_t message_size) {
     }
     for (uint32_t r = 0; r < rows; r++) {
         for (uint32_t j = P; j < 4 * P + 1; j++) {      /* the remainder's and the drift's gains */
-            if (!(sec[4]->data[(size_t)r * (4 * P + 1) + j] >= 0.0 && isfinite(sec[4]->data[(size_t)r * (4 * P + 1) + j]))) {
-                return rom_fail(message, message_size, "resources: section PCD: a negative or infinite gain of the port "
-                                "channel's bound (row %u, column %u; allowed: a finite number >= 0)", r + 1, j + 1);
+            const double g = sec[4]->data[(size_t)r * (4 * P + 1) + j];
+            if (!(g >= 0.0 && isfinite(g))) {
+                return rom_fail(message, message_size, "resources: section PCD: a negative or infinite gain of the "
+                                "port channel's bound (row %u, column %u; allowed: a finite number >= 0)", r + 1, j + 1);
             }
         }
     }

@@ -43,6 +43,7 @@ RIGID = 1e-12               # σ below this x the largest: a rigid plane (kept w
 ROUNDOFF = 1e-9             # the round-off allowance of the channel's rows, relative (as the shadow's)
 ROUNDOFF_STEP = 1e-15       # ... plus this per step
 N_MAPS = 12                 # numbers of one plane's step maps (:func:`step_maps`)
+CHUNK = 256                 # columns of the planes' residual computed at a time (:func:`plane_residual`)
 DENSE_LIMIT = 4000          # N above this: no dense singular value decomposition (no channel)
 
 
@@ -159,8 +160,9 @@ def plane_residual(lti, U, s, W, d):
     Λ_i = [[-d, s_i], [-s_i, 0]]: the Frobenius norm (≥ the 2-norm) of the computed residual, plus the round-off of
     computing it.  Each entry of fl(A S - S Λ) is an inner product of at most b + 2 terms (b the most nonzeros of
     a row of A), so it is within γ_{b+2} (|A| |S| + |S| |Λ|) of the exact one (the standard model of floating-point
-    arithmetic, γ_m = m ε / (1 - m ε)); that matrix's Frobenius norm is computed too.  A rotation within a
-    cluster of unequal σ (:func:`clusters`) shows here as the off-diagonal couplings it leaves out."""
+    arithmetic, γ_m = m ε / (1 - m ε)); that matrix's Frobenius norm is computed too (the sums of squares are
+    numpy's pairwise ones, within log2(terms) ε relative, far below the 1e-12 the result is raised by).  A rotation
+    within a cluster of unequal σ (:func:`clusters`) shows here as the off-diagonal couplings it leaves out."""
     import scipy.sparse as sp
     n = U.shape[0]
     A = sp.csr_matrix(lti.A)
@@ -168,15 +170,18 @@ def plane_residual(lti, U, s, W, d):
     eps = np.finfo(float).eps
     b = int(np.diff(A.indptr).max()) if A.nnz else 0
     gamma = (b + 2) * eps / (1 - (b + 2) * eps)
-    Ad, Ac = A[:, :n], A[:, n:]
-    R_p = Ad @ U - np.vstack([-d * U, -W * s[None, :]])                 # the p columns: S Λ's first column
-    R_q = Ac @ W - np.vstack([U * s[None, :], np.zeros_like(W)])       # the q columns
-    aU, aW, as_ = np.abs(U), np.abs(W), np.abs(s)[None, :]
-    G_p = abs(Ad) @ aU + np.vstack([abs(d) * aU, aW * as_])
-    G_q = abs(Ac) @ aW + np.vstack([aU * as_, np.zeros_like(aW)])
-    del absA
-    res = np.sqrt(np.sum(R_p * R_p) + np.sum(R_q * R_q))
-    rnd = gamma * np.sqrt(np.sum(G_p * G_p) + np.sum(G_q * G_q))
+    Ad, Ac, aAd, aAc = A[:, :n], A[:, n:], absA[:, :n], absA[:, n:]
+    res2 = rnd2 = 0.0
+    for a in range(0, s.size, CHUNK):           # by columns: 2N x CHUNK at a time (N up to DENSE_LIMIT)
+        u, w, sv = U[:, a:a + CHUNK], W[:, a:a + CHUNK], s[None, a:a + CHUNK]
+        R_p = Ad @ u - np.vstack([-d * u, -w * sv])                 # the p columns: S Λ's first column
+        R_q = Ac @ w - np.vstack([u * sv, np.zeros_like(w)])        # the q columns
+        au, aw, asv = np.abs(u), np.abs(w), np.abs(sv)
+        G_p = aAd @ au + np.vstack([abs(d) * au, aw * asv])
+        G_q = aAc @ aw + np.vstack([au * asv, np.zeros_like(aw)])
+        res2 += float(np.sum(R_p * R_p) + np.sum(R_q * R_q))
+        rnd2 += float(np.sum(G_p * G_p) + np.sum(G_q * G_q))
+    res, rnd = np.sqrt(res2), gamma * np.sqrt(rnd2)
     return float((res + rnd) * (1 + 1e-12))
 
 
@@ -469,7 +474,8 @@ def sections(channel: PortChannel):
     scal = [scal[name] for name in PCSCAL_COLUMNS]
     return {"PCSCAL": np.array([scal], float), "PCLAM": channel.lam.reshape(-1, 4).copy(),
             "PCB": np.ascontiguousarray(channel.beta, float), "PCC": np.ascontiguousarray(channel.rows, float),
-            "PCD": np.hstack([channel.static, channel.gain, channel.drift]), "PCPROBE": np.hstack([channel.pw, channel.prho0])}
+            "PCD": np.hstack([channel.static, channel.gain, channel.drift]),
+            "PCPROBE": np.hstack([channel.pw, channel.prho0])}
 
 
 PCSCAL_COLUMNS = ("planes", "ports", "rows", "truncated", "dx")   # section PCSCAL's columns (= fmu.layout's)
