@@ -33,6 +33,13 @@
 #include <stdio.h>
 #include <stdlib.h>
 
+/* the planes' step in four AVX2 lanes where the CPU has AVX2, picked per state (GCC x86-64 Linux, as rom_frozen.c's
+ * ROM_CLONES; -DROM_NO_CLONES or -DROM_NO_LANES: never) */
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) && \
+    !defined(ROM_NO_CLONES) && !defined(ROM_NO_LANES) && (__GNUC__ >= 8)
+#define BOUND_AVX2 1
+#endif
+
 #define BOUND_ROUNDOFF 1e-11           /* harness/rom/bounds.py ROUNDOFF */
 #define BOUND_ROUNDOFF_STEP 1e-15      /* ... ROUNDOFF_STEP */
 #define BOUND_SUM_ROUNDOFF 1e-12       /* ... SUM_ROUNDOFF */
@@ -49,6 +56,8 @@ typedef struct {
     double h;                  /* 0: empty */
     int64_t used;
     double *Phi;               /* [planes][4]: each plane's 2 x 2 map by columns (Phi_00, Phi_10, Phi_01, Phi_11) */
+    double *Phi2;              /* [planes / 2][8]: the same of planes 2 t and 2 t + 1 by columns side by side (Phi_00,
+                                  Phi_10 of 2 t, of 2 t + 1, then Phi_01, Phi_11 of each): planes_quads' lanes */
     double *G0, *G1;           /* [order][inputs] */
     double decay[BOUND_MAX_GROUPS], slope[BOUND_MAX_GROUPS];   /* exp(-alpha h), (1 - exp(-alpha h)) / (alpha h) */
     double growth;             /* exp(mu h): the shadow's growth over the step (w_int) */
@@ -63,6 +72,7 @@ typedef struct {
                                   reset, restore; at most 3 x 100 probes + 4 ports + 1 slots: 77 groups) */
     double w_root;             /* |w| of this w while w_fresh (the step's end, or group 0's sums: the same sum) */
     int w_fresh;
+    int avx2;                  /* the CPU has AVX2: planes_quads steps the planes (BOUND_AVX2) */
     int rows_read;             /* group 0's rows were read since the last step (the error check): the next step
                                   sums them while w is at hand; else it sums |w|^2 alone (the rows when read) */
     double V[BOUND_MAX_INPUTS * BOUND_MAX_GROUPS];    /* [inputs][groups] the weighted variations */
@@ -431,17 +441,19 @@ RomStatus rom_bound_state_new(RomState *s) {
     if (!bs) return ROM_FAIL;
     const size_t k = b->order, m = b->inputs, n = 2 + 2 * m;   /* a plane's augmented matrix's size */
     const size_t slots = row_slots(b);
-    size_t counts[4 + 3 * BOUND_CACHE] = {k, slots, 4 * n * n, k * slots};
-    double **ptrs[4 + 3 * BOUND_CACHE] = {&bs->w, &bs->y, &bs->work, &bs->ct};
+    size_t counts[4 + 4 * BOUND_CACHE] = {k, slots, 4 * n * n, k * slots};
+    double **ptrs[4 + 4 * BOUND_CACHE] = {&bs->w, &bs->y, &bs->work, &bs->ct};
     for (int c = 0; c < BOUND_CACHE; c++) {
-        counts[4 + 3 * c] = 4 * (size_t)b->planes;
-        counts[5 + 3 * c] = k * m;
-        counts[6 + 3 * c] = k * m;
-        ptrs[4 + 3 * c] = &bs->cache[c].Phi;
-        ptrs[5 + 3 * c] = &bs->cache[c].G0;
-        ptrs[6 + 3 * c] = &bs->cache[c].G1;
+        counts[4 + 4 * c] = 4 * (size_t)b->planes;
+        counts[5 + 4 * c] = k * m;
+        counts[6 + 4 * c] = k * m;
+        counts[7 + 4 * c] = 4 * (size_t)b->planes;
+        ptrs[4 + 4 * c] = &bs->cache[c].Phi;
+        ptrs[5 + 4 * c] = &bs->cache[c].G0;
+        ptrs[6 + 4 * c] = &bs->cache[c].G1;
+        ptrs[7 + 4 * c] = &bs->cache[c].Phi2;
     }
-    bs->storage_ = rom_alloc_arrays(counts, ptrs, 4 + 3 * BOUND_CACHE);
+    bs->storage_ = rom_alloc_arrays(counts, ptrs, 4 + 4 * BOUND_CACHE);
     if (!bs->storage_) {
         free(bs);
         return ROM_FAIL;
@@ -451,6 +463,9 @@ RomStatus rom_bound_state_new(RomState *s) {
         for (size_t r = 1; r < slots; r++) col[r] = r <= b->rows ? b->C[(r - 1) * k + i] : 0.0;
     }
     bs->tail_tau = NAN;
+#if defined(BOUND_AVX2)
+    bs->avx2 = __builtin_cpu_supports("avx2") != 0;
+#endif
     s->bound = bs;
     return ROM_OK;
 }
@@ -542,6 +557,14 @@ static const BoundCache *plane_maps(BoundState *bs, const RomBoundModel *b, doub
             }
         }
     }
+    for (uint32_t t = 0; t < b->planes / 2; t++) {      /* planes 2 t and 2 t + 1 by columns side by side */
+        for (size_t i = 0; i < 2; i++) {
+            for (size_t l = 0; l < 2; l++) {
+                slot->Phi2[8 * t + 4 * i + l] = slot->Phi[8 * t + 2 * i + l];
+                slot->Phi2[8 * t + 4 * i + 2 + l] = slot->Phi[8 * t + 4 + 2 * i + l];
+            }
+        }
+    }
     for (uint32_t g = 0; g < b->groups; g++) {          /* harness/rom/bounds.py step_weights */
         const double x = b->rates[g] * h;
         slot->decay[g] = exp(-x);
@@ -566,9 +589,10 @@ static void step_inputs(const RomState *s, double h, double *u, double *du) {
 
 static void shadow_group(const RomState *s, BoundState *bs, size_t g);
 
-/* Two lanes side by side: GCC/Clang vector extensions (an SSE2 register on x86-64), plain arrays elsewhere (or
- * with -DROM_NO_LANES: tests/test_bound_lanes.py compares the two builds); every lane does the scalar IEEE
- * operation, in the same order (as rom_frozen.c's blocks).  Loads through memcpy: the rows need no alignment. */
+/* Two lanes side by side (four in the planes' step with AVX2: planes_quads): GCC/Clang vector extensions (an SSE2
+ * register on x86-64), plain arrays elsewhere (or with -DROM_NO_LANES: tests/test_bound_step_cost.py compares the builds);
+ * every lane does the scalar IEEE operation, in the same order (as rom_frozen.c's blocks).  Loads through memcpy:
+ * the rows need no alignment. */
 #if defined(__GNUC__)
 #define BOUND_INLINE static inline __attribute__((always_inline))   /* (the specialized copies: constants folded) */
 #else
@@ -717,10 +741,105 @@ BOUND_INLINE void planes_one(BoundState *bs, const BoundCache *c, const RomBound
     bs->w_fresh = 1;
 }
 
+#if defined(BOUND_AVX2)
+/* Four lanes (one AVX register): planes 2 t and 2 t + 1, coordinates 4 t to 4 t + 3, side by side, where the CPU has
+ * AVX2 (BoundState.avx2; else planes_one's two lanes); each lane does planes_one's scalar IEEE operations in the same
+ * order: the same bits */
+typedef double BoundQuad __attribute__((vector_size(32)));
+#define QUAD_LOAD(v, p) memcpy(&(v), (p), sizeof(BoundQuad))
+#define QUAD_STORE(p, v) memcpy((p), &(v), sizeof(BoundQuad))
+
+/* the planes of a one-input shadow over the step (lane l of planes 2 t, 2 t + 1: Phi_l0 w0 + Phi_l1 w1 + G0_l u0,
+ * + G1_l du0 unless held, each plane's own w0, w1) into w, and group 0's sums of the new w into out[slot]: four
+ * partial sums per slot, lane l holding the coordinates l mod 4 (group_sums' partials), then (a0 + a1) + (a2 + a3):
+ * |w|^2 in slot 0, with `rows` also C_r w of rows 0 to 2 in slots 1 to 3 (C's rows k apart) */
+BOUND_INLINE void quads_body(double *restrict w, const BoundCache *c, const RomBoundModel *b, double u0, double du0,
+                             int held, int rows, double *restrict out) {
+    const uint32_t planes = b->planes;
+    const size_t k = b->order;
+    const double *restrict P2 = c->Phi2, *restrict G0 = c->G0, *restrict G1 = c->G1, *restrict C = b->C;
+    const BoundQuad zero = {0.0, 0.0, 0.0, 0.0}, u = {u0, u0, u0, u0}, du = {du0, du0, du0, du0};
+    BoundQuad a0 = zero, a1 = zero, a2 = zero, a3 = zero;
+    uint32_t p = 0;
+    for (; p + 2 <= planes; p += 2, P2 += 8, G0 += 4, G1 += 4, w += 4, C += 4) {
+        BoundQuad x, c0, c1, g0, n;
+        QUAD_LOAD(x, w);
+        QUAD_LOAD(c0, P2);
+        QUAD_LOAD(c1, P2 + 4);
+        QUAD_LOAD(g0, G0);
+        const BoundQuad x0 = {x[0], x[0], x[2], x[2]}, x1 = {x[1], x[1], x[3], x[3]};
+        if (held) {
+            n = c0 * x0 + c1 * x1 + g0 * u;
+        } else {
+            BoundQuad g1;
+            QUAD_LOAD(g1, G1);
+            n = c0 * x0 + c1 * x1 + (g0 * u + g1 * du);
+        }
+        QUAD_STORE(w, n);
+        a0 += n * n;
+        if (rows) {
+            BoundQuad r0, r1, r2;
+            QUAD_LOAD(r0, C);
+            QUAD_LOAD(r1, C + k);
+            QUAD_LOAD(r2, C + 2 * k);
+            a1 += r0 * n;
+            a2 += r1 * n;
+            a3 += r2 * n;
+        }
+    }
+    if (p < planes) {             /* an odd count's last plane: lanes 0 and 1; lanes 2 and 3 add 0 * 0 = +0, which
+                                     leaves a sum as it is (never -0: it starts at +0) */
+        const double *Phi = c->Phi + 4 * (size_t)p;
+        const double w0 = w[0], w1 = w[1];
+        double n[2];
+        for (size_t l = 0; l < 2; l++) {
+            n[l] = held ? Phi[l] * w0 + Phi[2 + l] * w1 + G0[l] * u0 :
+                          Phi[l] * w0 + Phi[2 + l] * w1 + (G0[l] * u0 + G1[l] * du0);
+            w[l] = n[l];
+        }
+        const BoundQuad nt = {n[0], n[1], 0.0, 0.0};
+        a0 += nt * nt;
+        if (rows) {
+            const BoundQuad r0 = {C[0], C[1], 0.0, 0.0}, r1 = {C[k], C[k + 1], 0.0, 0.0},
+                            r2 = {C[2 * k], C[2 * k + 1], 0.0, 0.0};
+            a1 += r0 * nt;
+            a2 += r1 * nt;
+            a3 += r2 * nt;
+        }
+    }
+    out[0] = (a0[0] + a0[1]) + (a0[2] + a0[3]);
+    if (rows) {
+        out[1] = (a1[0] + a1[1]) + (a1[2] + a1[3]);
+        out[2] = (a2[0] + a2[1]) + (a2[2] + a2[3]);
+        out[3] = (a3[0] + a3[1]) + (a3[2] + a3[3]);
+    }
+}
+
+/* quads_body's four cases, each with its constants (held: du0 = 0, the slope's products, exact zeros, skipped) */
+__attribute__((target("avx2"))) static void planes_quads(double *w, const BoundCache *c, const RomBoundModel *b,
+                                                        double u0, double du0, int held, int rows, double *out) {
+    if (!w || !c || !b || !out) return;
+    if (held && rows) quads_body(w, c, b, u0, 0.0, 1, 1, out);
+    else if (held) quads_body(w, c, b, u0, 0.0, 1, 0, out);
+    else if (rows) quads_body(w, c, b, u0, du0, 0, 1, out);
+    else quads_body(w, c, b, u0, du0, 0, 0, out);
+}
+#endif
+
 static void plane_step_one(BoundState *bs, const BoundCache *c, const RomBoundModel *b, double u0, double du0,
                            int held) {
     const int rows = bs->rows_read;
     bs->rows_read = 0;
+#if defined(BOUND_AVX2)
+    if (bs->avx2) {                                             /* four lanes: planes_one's sums, the same bits */
+        planes_quads(bs->w, c, b, u0, held ? 0.0 : du0, held, rows, bs->y);
+        groups_stale(bs);
+        if (rows) bs->groups[0] |= 1u;
+        bs->w_root = sqrt(bs->y[0]);
+        bs->w_fresh = 1;
+        return;
+    }
+#endif
     if (held && rows) planes_one(bs, c, b, u0, 0.0, 1, 1);      /* the four cases, each with its constants */
     else if (held) planes_one(bs, c, b, u0, 0.0, 1, 0);
     else if (rows) planes_one(bs, c, b, u0, du0, 0, 1);

@@ -5,8 +5,8 @@
   input alike;
 - the error check warns at exactly the step where a velocity bound first exceeds error_tolerance, whether or not the
   importer reads the bounds (group 0's rows are summed in the step where the check read them, else when read);
-- the SSE2 lanes of the shadow's step and rows' sums (GCC vector extensions) and the plain-array path
-  (-DROM_NO_LANES) give the same bits.
+- the lanes of the shadow's step and rows' sums (GCC vector extensions: two SSE2 lanes, the planes' step in four
+  AVX2 lanes on a CPU that has AVX2) and the plain-array path (-DROM_NO_LANES) give the same bits.
 """
 import re
 import shutil
@@ -130,38 +130,58 @@ def test_warning_at_the_step_where_a_bound_first_exceeds(make, ports):
             assert warned_at(fmu.warnings()) == pytest.approx((first + 1) * H, rel=1e-6)   # (%.9g)
 
 
+@pytest.fixture(scope="module")
+def parametric(tmp_path_factory):
+    """The parametric exact FMU of fmu_scene("unforced") over c in [0.05, 0.2], d in [0, 5] (k = 6): its shadow keeps
+    14 of the 32 planes, assembled in the core at the c and d it is given."""
+    from conftest import fmu_maker
+    from sphrom.rom import parametric as par
+    make = fmu_maker(tmp_path_factory.mktemp("bound-cost-parametric"), probes=PROBES, default_case="unforced",
+                     vary=[par.Range("c", 0.05, 0.2), par.Range("d", 0.0, 5.0)])
+    return make("exact")[0]
+
+
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="builds the Linux FMU binary")
-def test_lanes_and_plain_arrays_give_the_same_bits(make, tmp_path):
-    """The FMU binary built with -DROM_NO_LANES (rom_bound.c's plain-array path, what a compiler without GCC's
-    vector extensions builds) gives every output and every bound of the lanes build to 0 ulps over a run with a
-    restore (the same IEEE operations in the same order, no fused multiply-add)."""
+def test_lanes_clones_and_plain_arrays_give_the_same_bits(make, parametric, tmp_path):
+    """The FMU binary built with -DROM_NO_CLONES (rom_bound.c's two SSE2 lanes alone, what a CPU without AVX2 runs,
+    where the default build steps a one-input shadow's planes in four AVX2 lanes on a CPU that has AVX2) and with
+    -DROM_NO_LANES (the plain-array path, what a compiler without GCC's vector extensions builds) give every output
+    and every bound of the default build to 0 ulps over a run with a restore, a held input and one with input derivatives (the slope's
+    columns), on the forced FMU and on a parametric one at c, d away from its scene's (the same IEEE operations in
+    the same order, no fused multiply-add)."""
     from sphrom.fmu.make.build import configure_and_build
     from sphrom.paths import data_dir
-    path = make()
-    built = tmp_path / "build"
-    configure_and_build(data_dir("fmu_src"), built, tests=False, options=("-DCMAKE_C_FLAGS=-DROM_NO_LANES",),
-                        targets=("sphrom_fmi2",))
-    runs = []
-    for plain in (False, True):
-        folder = tmp_path / f"fmu-{plain}"
-        with zipfile.ZipFile(path) as z:
-            z.extractall(folder)
-        if plain:
-            shutil.copy(built / "fmi2" / "sphrom.so", folder / "binaries" / "linux64" / "sphrom.so")
-        with FMU(folder) as fmu:
-            fmu.initialize(parameters={"initial_state_scale": 1.0})
-            rows = []
-            for j in range(STEPS):
-                if j == 60:
-                    state = fmu.get_state()
-                fmu.set_input(force(j))
-                fmu.do_step(j * H, H)
+    builds = {}
+    for flag in ("ROM_NO_CLONES", "ROM_NO_LANES"):
+        builds[flag] = tmp_path / flag
+        configure_and_build(data_dir("fmu_src"), builds[flag], tests=False, options=(f"-DCMAKE_C_FLAGS=-D{flag}",),
+                            targets=("sphrom_fmi2",))
+    for path, parameters in ((make(), {}), (parametric, {"c": 0.13, "d": 2.5})):
+        runs = []
+        for build in (None, *builds.values()):
+            folder = tmp_path / f"fmu-{path.stem}-{build.name if build else 'default'}"
+            with zipfile.ZipFile(path) as z:
+                z.extractall(folder)
+            if build:
+                shutil.copy(build / "fmi2" / "sphrom.so", folder / "binaries" / "linux64" / "sphrom.so")
+            with FMU(folder) as fmu:
+                fmu.initialize(parameters={"initial_state_scale": 1.0, **parameters})
+                assert fmu.can_interpolate_inputs
+                rows = []
+                for j in range(STEPS):
+                    if j == 60:
+                        state = fmu.get_state()
+                    fmu.set_input(force(j))
+                    fmu.set_input_derivative(3e-2 * np.cos(3.0 * j * H) if j % 50 < 25 else 0.0)
+                    fmu.do_step(j * H, H)
+                    rows.append(fmu.output_values(fmu.outputs))
+                fmu.set_state(state)
                 rows.append(fmu.output_values(fmu.outputs))
-            fmu.set_state(state)
-            rows.append(fmu.output_values(fmu.outputs))
-            fmu.free_state(state)
-        runs.append(np.array(rows))
-    np.testing.assert_array_equal(runs[0], runs[1])
+                fmu.free_state(state)
+            runs.append(np.array(rows))
+        assert np.all(np.isfinite(runs[0]))
+        for other in runs[1:]:
+            np.testing.assert_array_equal(other, runs[0])
 
 
 def test_warning_past_the_table_says_what_the_bound_is(tmp_path):

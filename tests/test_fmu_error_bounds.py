@@ -546,6 +546,19 @@ def test_bench_cost_summary_counts_every_fmu_once():
     assert costs["balanced"][2:] == (0, 1)
 
 
+def test_bench_cost_tables_carry_the_instruction_count_where_measured():
+    """The cost tables show the native timing's ratio and, where callgrind measured it, the instruction count's:
+    a row set without instruction counts (no valgrind) gives the timing's table alone, never a table of NaNs."""
+    from sphrom.bench.lib.native_cost import cost_lines, cost_summary
+    timed = [{"scene": "a", "model": "exact", "native_ratio": 1.2, "instr_ratio": float("nan")}]
+    counted = [{**timed[0], "instr_ratio": 1.1}, {"scene": "b", "model": "exact", "native_ratio": 1.4,
+                                                  "instr_ratio": 1.25}]
+    assert cost_summary(counted, value="instr_ratio")["exact"] == (pytest.approx(1.175), 1.25, 0, 2)
+    only_timing, both = "\n".join(cost_lines(timed)), "\n".join(cost_lines(counted))
+    assert "native ratio median" in only_timing and "instruction ratio" not in only_timing
+    assert "native ratio median" in both and "| exact | 2 | 1.18 | 1.25 | 0 |" in both
+
+
 @pytest.mark.parametrize("path", ["taylor", "chebyshev"])
 def test_uncomputed_planes_free_response_computed(monkeypatch, path):
     """Where it is affordable the uncomputed planes' free response from x0 is computed, not bounded

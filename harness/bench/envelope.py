@@ -59,7 +59,7 @@ def _probe(field, x, L):
 
 
 def fmu_integrator(ops, scene):
-    """The integrator ``sphrom fmu`` gives the frozen FMU of ``scene`` packaged without --integrator: the scene's,
+    """The integrator ``sphrom fmu`` gives the frozen FMU of ``scene`` when no integrator is named: the scene's,
     or symplectic Euler where the scene's explicit Euler grows a reduced mode
     (:func:`sphrom.fmu.kinds.frozen.open_ended_integrator`)."""
     from ..fmu.kinds.frozen import default_integrator, open_ended_integrator

@@ -56,7 +56,7 @@ from ..options import int_at_least, positive_float
 from ..parser import fmu_models, positive_int
 from ..scene import builtin_names, load_scene
 from . import machine_text, program_command, program_parser
-from .lib.native_cost import cost_lines, native_cost
+from .lib.native_cost import COUNT_STEPS, cost_lines, native_cost
 from .lib.document import update_report
 from .lib.error_corpus import user_scenes
 from .lib.stopped import RunStopped, reason
@@ -310,7 +310,9 @@ def section(rows, *, command, wall, machine, sized=()):
              "FMI 2 master (fmu_src/tests/step_cost.c: per step fmi2SetReal of f and of each F_port_j, a spring to "
              "ground on each port, fmi2DoStep, fmi2GetReal of the outputs) against the same FMU without the bounds' "
              f"sections, {COST_STEP * 1e3:g} ms steps (at most a tenth of the communication step), thread CPU time, "
-             "medians of the runs.", "",
+             "medians of the runs; and its instructions per step (callgrind, the difference of runs of "
+             f"{COUNT_STEPS[1]} and "
+             f"{COUNT_STEPS[0]} steps), which the load of a shared machine does not move.", "",
              "| scene | model | N, k_v, k_ρ, shadow | start | case | violations | effectivity median | max | "
              "v_port max | false alarm | max v_port error [m/s] | max v_port bound [m/s] |",
              "| --- | --- | --- | --- | --- | ---: | ---: | ---: | ---: | --- | ---: | ---: |"]

@@ -2,7 +2,9 @@
 
 The FMU's own binary in the native FMI 2 master ``sphrom_step_cost`` (fmu_src/tests/step_cost.c), beside a copy whose
 model.bin has no bounds' sections (SH*): the ratio the error bounds cost per communication step, with the outputs
-read (held to at most COST_TARGET) and with their bounds read too.
+read (held to at most COST_TARGET) and with their bounds read too.  Where valgrind is installed, also the same
+ratio in instructions (callgrind): a count that does not move with the machine's load, where the timings of a
+shared machine do.
 """
 
 import tempfile
@@ -14,6 +16,7 @@ import numpy as np
 NATIVE_STEPS = 20000    # steps per run of the native FMI master (native_cost)
 COST_TARGET = 1.3       # doStep with the bounds at most this x without (native, the outputs read)
 STEP = 0.01             # [s] the communication step
+COUNT_STEPS = (500, 1500)   # instruction counts: runs of these many steps, per step the difference / 1000 (setup cancels)
 
 
 class NativeCost(NamedTuple):
@@ -24,14 +27,40 @@ class NativeCost(NamedTuple):
     plain_ns: float             # without the bounds' sections
     ratio: float                # bounds_ns / plain_ns per round, median
     read_ratio: float           # read_ns / plain_ns per round, median
+    instr_bounds: float = float("nan")   # instructions per step with the bounds, the outputs read (callgrind)
+    instr_plain: float = float("nan")    # ... without the bounds' sections
+    instr_ratio: float = float("nan")    # instr_bounds / instr_plain (NaN: valgrind not installed)
 
     def row(self):
         """The benches' columns."""
         return {"native_ns_bounds": self.bounds_ns, "native_ns_read": self.read_ns, "native_ns_plain": self.plain_ns,
-                "native_ratio": self.ratio, "native_read_ratio": self.read_ratio}
+                "native_ratio": self.ratio, "native_read_ratio": self.read_ratio,
+                "instr_bounds": self.instr_bounds, "instr_plain": self.instr_plain, "instr_ratio": self.instr_ratio}
 
 
 NO_COST = NativeCost(*(float("nan"),) * 5)
+
+
+def instructions_per_step(command, steps=COUNT_STEPS):
+    """Instructions per step of the native master's ``command`` (its arguments but --steps) under callgrind: the
+    difference of the totals of runs of ``steps[1]`` and ``steps[0]`` steps over their difference (the setup, the
+    loading and the first steps cancel).  NaN where valgrind is not installed."""
+    import re
+    import shutil
+    import subprocess
+    if shutil.which("valgrind") is None:
+        return float("nan")
+    totals = []
+    with tempfile.TemporaryDirectory(prefix="sphrom-callgrind-") as tmp:
+        for n in steps:
+            out = Path(tmp) / f"callgrind.{n}"
+            done = subprocess.run(["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}", *command,
+                                   "--steps", str(n)], capture_output=True, text=True, check=False)
+            found = re.search(r"^totals: (\d+)", out.read_text(), re.M) if out.exists() else None
+            if done.returncode != 0 or not found:
+                raise RuntimeError(f"callgrind on {command[0]}: {done.stderr.strip()[-300:]}")
+            totals.append(int(found.group(1)))
+    return (totals[1] - totals[0]) / (steps[1] - steps[0])
 
 
 def native_cost(path, repeats, n_steps=NATIVE_STEPS, h=STEP):
@@ -66,9 +95,12 @@ def native_cost(path, repeats, n_steps=NATIVE_STEPS, h=STEP):
         md = bare_dir / "modelDescription.xml"
         md.write_text(re.sub(r'guid="[^"]*"', f'guid="{read(blob)[4]}"', md.read_text(), count=1))
 
+        def command(folder, bounds):
+            return [str(driver), str(folder.resolve()), "--probes", str(data.n_probes), "--ports", str(n_ports),
+                    "--h", repr(h), "--repeats", "1"] + (["--bounds"] if bounds else [])
+
         def run(folder, bounds):
-            cmd = [str(driver), str(folder.resolve()), "--probes", str(data.n_probes), "--ports", str(n_ports),
-                   "--steps", str(n_steps), "--h", repr(h), "--repeats", "1"] + (["--bounds"] if bounds else [])
+            cmd = command(folder, bounds) + ["--steps", str(n_steps)]
             done = subprocess.run(cmd, capture_output=True, text=True, check=False)
             if done.returncode != 0:
                 raise RuntimeError(f"{driver.name} on {path}: {done.stderr.strip()}")
@@ -78,17 +110,20 @@ def native_cost(path, repeats, n_steps=NATIVE_STEPS, h=STEP):
         for r in range(repeats):             # a round: the three back to back, in turn forwards and backwards
             for i in (range(3) if r % 2 == 0 else reversed(range(3))):
                 times[i].append(run(*plan[i]))
+        counts = [instructions_per_step(command(with_dir, False)), instructions_per_step(command(bare_dir, False))]
     ratio = [a / c for a, c in zip(times[0], times[2])]
     read_ratio = [b / c for b, c in zip(times[1], times[2])]
-    return NativeCost(*(statistics.median(x) for x in (*times, ratio, read_ratio)))
+    return NativeCost(*(statistics.median(x) for x in (*times, ratio, read_ratio)), counts[0], counts[1],
+                      counts[0] / counts[1])
 
 
-def cost_summary(rows, key="model"):
-    """Per value of ``key``: (median, max, FMUs above COST_TARGET, FMUs) of the native doStep ratio (outputs read)
-    over the distinct FMUs of ``rows`` (one per scene, model and parametric point; rows without a ratio skipped)."""
+def cost_summary(rows, key="model", value="native_ratio"):
+    """Per value of ``key``: (median, max, FMUs above COST_TARGET, FMUs) of the doStep ratio ``value`` (native_ratio:
+    the native timing, the outputs read; instr_ratio: its instruction count) over the distinct FMUs of ``rows`` (one
+    per scene, model and parametric point; rows without that ratio skipped)."""
     per_fmu = {}
     for r in rows:
-        x = r.get("native_ratio", float("nan"))
+        x = r.get(value, float("nan"))
         if r.get("note") or not np.isfinite(x):
             continue
         per_fmu[(r.get("scene"), r.get("model"), r.get("point"))] = (r[key], x)
@@ -99,17 +134,25 @@ def cost_summary(rows, key="model"):
             for g, x in out.items()}
 
 
+RATIOS = (("native_ratio", "native FMI 2 master, thread CPU time, the outputs read", "native ratio"),
+          ("instr_ratio", "the same runs' instructions per step, callgrind: independent of the machine's load",
+           "instruction ratio"))
+
+
 def cost_lines(rows):
-    """The native doStep ratio per model (cost_summary) as a table's lines ([] where no FMU was timed)."""
-    costs = cost_summary(rows)
-    if not costs:
-        return []
-    lines = ["", f"doStep with the bounds against without (native FMI 2 master, the outputs read; the target is at "
-             f"most {COST_TARGET:g}x), over the FMUs:", "",
-             f"| model | FMUs | native ratio median | max | above {COST_TARGET:g} |", "| --- | ---: | ---: | ---: | ---: |"]
-    for model in sorted(costs):
-        med, mx, above, n = costs[model]
-        lines.append(f"| {model} | {n} | {med:.2f} | {mx:.2f} | {above} |")
-    med, mx, above, n = next(iter(cost_summary([{**r, "all": "all"} for r in rows], "all").values()))
-    lines.append(f"| all | {n} | {med:.2f} | {mx:.2f} | {above} |")
+    """The doStep ratios per model (cost_summary: the native timing, and the instruction count where measured) as
+    tables' lines ([] where no FMU was timed)."""
+    lines = []
+    for value, what, name in RATIOS:
+        costs = cost_summary(rows, value=value)
+        if not costs:
+            continue
+        lines += ["", f"doStep with the bounds against without ({what}; the target is at most {COST_TARGET:g}x), "
+                  "over the FMUs:", "",
+                  f"| model | FMUs | {name} median | max | above {COST_TARGET:g} |", "| --- | ---: | ---: | ---: | ---: |"]
+        for model in sorted(costs):
+            med, mx, above, n = costs[model]
+            lines.append(f"| {model} | {n} | {med:.2f} | {mx:.2f} | {above} |")
+        med, mx, above, n = next(iter(cost_summary([{**r, "all": "all"} for r in rows], "all", value).values()))
+        lines.append(f"| all | {n} | {med:.2f} | {mx:.2f} | {above} |")
     return lines
