@@ -82,6 +82,8 @@ typedef struct {
     double u_int[ROM_MAX_PORTS];       /* bounds of int |u_j| dt, int tv_j dt and int |w| dt so far: the */
     double tv_int[ROM_MAX_PORTS];      /* decomposition's drift (channel_drift) */
     double w_int;
+    double w_norm;             /* |w| of the state now, valid when norm_valid (channel_norm: the drift's and the */
+    int norm_valid;            /* certs' one sum per state) */
     double u_prev[ROM_MAX_PORTS];      /* u_j at the end of the last step */
     double steps;              /* steps taken (the round-off allowance) */
     double impedance;          /* the wave form's Z [N s m^-1]; 0: the force form */
@@ -265,6 +267,7 @@ void rom_channel_reset(RomState *s) {
     cs->steps = 0.0;
     cs->impedance = 0.0;
     cs->valid = 0;
+    cs->norm_valid = 0;
     cs->kind_valid = 0;
 }
 
@@ -516,6 +519,14 @@ static double norm2(const double *restrict p, const double *restrict q, size_t p
 /* the drift's integrals over a step h from the state now (before the step), as port_channel.py ChannelState._drift:
  * u linear over the step, so |u_j(t)| <= m_j = max(|u_j|, |u_j + du_j|); each plane's e^{L t} is a contraction
  * (d >= 0), so |w(t)| <= |w(0)| + t |beta|_F |m|; tv_j (already at the step's end) bounds tv_j(t) over it */
+static double channel_norm(const RomChannelModel *c, ChannelState *cs) {
+    if (!cs->norm_valid) {
+        cs->w_norm = sqrt(norm2(cs->p, cs->q, c->pad));
+        cs->norm_valid = 1;
+    }
+    return cs->w_norm;
+}
+
 static void channel_drift(const RomChannelModel *c, ChannelState *cs, double h, const double *u, const double *du) {
     double m2 = 0.0;
     for (uint32_t j = 0; j < c->ports; j++) {
@@ -524,7 +535,7 @@ static void channel_drift(const RomChannelModel *c, ChannelState *cs, double h, 
         cs->tv_int[j] += h * cs->tv[j];
         m2 += m * m;
     }
-    cs->w_int += h * sqrt(norm2(cs->p, cs->q, c->pad)) + 0.5 * h * h * c->beta_norm * sqrt(m2);
+    cs->w_int += h * channel_norm(c, cs) + 0.5 * h * h * c->beta_norm * sqrt(m2);
 }
 
 /* dot_rows_n for 1 <= n <= ROW_BLOCK rows (two: eight four-lane sums, in the sixteen AVX registers) */
@@ -628,6 +639,7 @@ RomStatus rom_channel_step(RomState *s, double h, const double *v_own, const dou
     step_planes(c, k, cs->p, cs->q, u, du);
     cs->steps += 1.0;
     cs->valid = 0;
+    cs->norm_valid = 0;
     return ROM_OK;
 }
 
@@ -689,7 +701,7 @@ CHANNEL_INLINE double row_value(const RomState *s, const ChannelState *cs, uint3
 static void channel_certs(const RomState *s, ChannelState *cs) {
     const RomChannelModel *c = &s->model->channel;
     const uint32_t P = c->ports;
-    const double w_norm = sqrt(norm2(cs->p, cs->q, c->pad));
+    const double w_norm = channel_norm(c, cs);
     const double allowance = CHANNEL_ROUNDOFF + CHANNEL_ROUNDOFF_STEP * cs->steps;
     for (uint32_t r = 0; r < c->rows; r++) {
         const double *D = c->D + (size_t)r * (4 * P + 1);
@@ -928,6 +940,7 @@ const unsigned char *rom_channel_state_get(RomState *s, const unsigned char *cur
     cursor = rom_get_f64s(cursor, cs->tv_int, c->ports);
     cursor = rom_get_f64s(cursor, &cs->w_int, 1);
     cs->valid = 0;
+    cs->norm_valid = 0;
     cs->kind_valid = 0;                    /* the kind's state was read before the channel's */
     return cursor;
 }
