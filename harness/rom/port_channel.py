@@ -157,27 +157,30 @@ def clusters(sig, tol):
 def plane_residual(lti, U, s, W, d):
     """The planes' residual [s^-1]: an upper bound of ‖A S - S Λ‖₂ over every plane of the decomposition, A the full
     linear SPH's matrix (:func:`sphrom.rom.lti.full_linear_system`, the truth's), S = [[U, 0], [0, W]] and
-    Λ_i = [[-d, s_i], [-s_i, 0]]: the Frobenius norm (≥ the 2-norm) of the computed residual, plus the round-off of
-    computing it.  Each entry of fl(A S - S Λ) is an inner product of at most b + 2 terms (b the most nonzeros of
-    a row of A), so it is within γ_{b+2} (|A| |S| + |S| |Λ|) of the exact one (the standard model of floating-point
-    arithmetic, γ_m = m ε / (1 - m ε)); that matrix's Frobenius norm is computed too (the sums of squares are
-    numpy's pairwise ones, within log2(terms) ε relative, far below the 1e-12 the result is raised by).  A rotation
-    within a cluster of unequal σ (:func:`clusters`) shows here as the off-diagonal couplings it leaves out."""
+    Λ_i = [[-d, s_i], [-s_i, 0]]: the Frobenius norm (≥ the 2-norm) of the residual computed in extended precision
+    (numpy's longdouble: every double converts to it exactly), plus the round-off of computing it there.  Each entry
+    of fl(A S - S Λ) is an inner product of at most b + 2 terms (b the most nonzeros of a row of A), so it is within
+    γ_{b+2} (|A| |S| + |S| |Λ|) of the exact one (the standard model of floating-point arithmetic,
+    γ_m = m u / (1 - m u), u the longdouble's unit round-off: 1.1e-19 on x86-64, the double's 2.2e-16 where the two
+    are one type); that matrix's Frobenius norm is computed too (the sums of squares are numpy's pairwise ones,
+    within log2(terms) u relative, far below the 1e-12 the result is raised by).  A rotation within a cluster of
+    unequal σ (:func:`clusters`) shows here as the off-diagonal couplings it leaves out."""
     import scipy.sparse as sp
+    ld = np.longdouble
     n = U.shape[0]
-    A = sp.csr_matrix(lti.A)
+    A = sp.csr_matrix(lti.A).astype(ld)
     absA = abs(A)
-    eps = np.finfo(float).eps
+    eps = float(np.finfo(ld).eps)
     b = int(np.diff(A.indptr).max()) if A.nnz else 0
     gamma = (b + 2) * eps / (1 - (b + 2) * eps)
     Ad, Ac, aAd, aAc = A[:, :n], A[:, n:], absA[:, :n], absA[:, n:]
     res2 = rnd2 = 0.0
     for a in range(0, s.size, CHUNK):           # by columns: 2N x CHUNK at a time (N up to DENSE_LIMIT)
-        u, w, sv = U[:, a:a + CHUNK], W[:, a:a + CHUNK], s[None, a:a + CHUNK]
-        R_p = Ad @ u - np.vstack([-d * u, -w * sv])                 # the p columns: S Λ's first column
+        u, w, sv = U[:, a:a + CHUNK].astype(ld), W[:, a:a + CHUNK].astype(ld), s[None, a:a + CHUNK].astype(ld)
+        R_p = Ad @ u - np.vstack([-ld(d) * u, -w * sv])             # the p columns: S Λ's first column
         R_q = Ac @ w - np.vstack([u * sv, np.zeros_like(w)])        # the q columns
         au, aw, asv = np.abs(u), np.abs(w), np.abs(sv)
-        G_p = aAd @ au + np.vstack([abs(d) * au, aw * asv])
+        G_p = aAd @ au + np.vstack([ld(abs(d)) * au, aw * asv])
         G_q = aAc @ aw + np.vstack([au * asv, np.zeros_like(aw)])
         res2 += float(np.sum(R_p * R_p) + np.sum(R_q * R_q))
         rnd2 += float(np.sum(G_p * G_p) + np.sum(G_q * G_q))
@@ -187,18 +190,23 @@ def plane_residual(lti, U, s, W, d):
 
 def input_residual(U, Bv):
     """Per port column ‖b_j - U Uᵀ b_j‖ (energy units per unit u_j = F_j / area) over every plane of the decomposition:
-    the part of the port input the planes do not carry (U orthonormal up to round-off), plus the round-off of
-    computing it: fl(Uᵀ b) and fl(U y) are inner products of N terms, within γ_N |Uᵀ| |b| and γ_N |U| |y| (y = Uᵀ b),
-    so the computed residual is within γ_{N+1} (|U| (|Uᵀ| |b| + |y|) + |b|) of the exact one, whose norm is
-    computed too."""
-    eps = np.finfo(float).eps
+    the part of the port input the planes do not carry (U orthonormal up to round-off), computed in extended
+    precision (longdouble, as :func:`plane_residual`), plus the round-off of computing it there: fl(Uᵀ b) and
+    fl(U y) are inner products of N terms, within γ_N |Uᵀ| |b| and γ_N |U| |y| (y = Uᵀ b), so the computed residual
+    is within γ_{N+1} (|U| (|Uᵀ| |b| + |y|) + |b|) of the exact one, whose norm is computed too (in double: its
+    terms are nonnegative, so it is within γ_{N+2} of double's unit round-off relative)."""
+    ld = np.longdouble
+    eps = float(np.finfo(ld).eps)
     n = U.shape[0]
-    y = U.T @ Bv
-    r = Bv - U @ y
+    Ul, Bl = U.astype(ld), Bv.astype(ld)
+    y = Ul.T @ Bl
+    r = Bl - Ul @ y
     aU = np.abs(U)
-    G = aU @ (aU.T @ np.abs(Bv) + np.abs(y)) + np.abs(Bv)
+    G = aU @ (aU.T @ np.abs(Bv) + np.abs(y.astype(float))) + np.abs(Bv)
     gamma = (n + 1) * eps / (1 - (n + 1) * eps)
-    return (np.linalg.norm(r, axis=0) + gamma * np.linalg.norm(G, axis=0)) * (1 + 1e-12)
+    e64 = float(np.finfo(float).eps)
+    in_double = 1 + (n + 2) * e64 / (1 - (n + 2) * e64)
+    return (np.linalg.norm(r.astype(float), axis=0) + gamma * np.linalg.norm(G, axis=0) * in_double) * (1 + 1e-12)
 
 
 def build_channel(problem, ports, probes, *, max_planes=MAX_PLANES):
