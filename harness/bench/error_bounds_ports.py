@@ -368,8 +368,8 @@ def scene_names(scenes, corpus):
 def main(argv=None):
     p = program_parser("error_bounds_ports", description=__doc__.split("\n\n")[0])
     p.add_argument("scenes", nargs="*", metavar="SCENE",
-                   help=f"a built-in scene or a scene's TOML file (default: {' '.join(DEFAULT_SCENES)}; with "
-                        "--corpus: none)")
+                   help=f"a built-in scene or a scene's TOML file (default: {' '.join(DEFAULT_SCENES)}; none "
+                        "where --corpus is given)")
     p.add_argument("--corpus", type=int_at_least(0), default=0, metavar="N",
                    help="also N generated user scenes, those of `sphrom bench error_bounds --corpus N`, their cases "
                         "sized from their own properties (default 0)")
