@@ -134,10 +134,10 @@ RomStatus rom_fail(char *message, size_t message_size, const char *format, ...)
 typedef struct RomKindOps RomKindOps;
 
 /* The certified error bounds' shadow (rom_bound.c; sections SHSCAL, SHLAM, SHB, SHC, SHW0, SHROW, SHRATE, SHPROBE,
- * SHTAB and SHTERR with an initial state outside the shadow, SHPIECE, SHPARAM, SHCPL of a parametric model, written
- * by harness/rom/bounds.py): the full linear SPH's lowest `planes` invariant planes, stepped exactly, and per
- * output row r the shadow's value (with the complement's quasi-static feedthrough and its tabulated free response)
- * and the certified bound of the rest (docs/science/error-bounds.md).
+ * SHTAB and SHTERR with an initial state outside the shadow (SHCONT: its modes continued past the table), SHPIECE,
+ * SHPARAM, SHCPL of a parametric model, written by harness/rom/bounds.py): the full linear SPH's lowest `planes`
+ * invariant planes, stepped exactly, and per output row r the shadow's value (with the complement's quasi-static
+ * feedthrough and its tabulated free response) and the certified bound of the rest (docs/science/error-bounds.md).
  * Rows: v at each probe, e at the two particles of each probe (P + 2 j + m), each port's velocity (3 P + j).
  * Inputs: f [m s^-2], then F_j / area [N m^-2] (f alone with a port channel).  order 0: the model has no bounds. */
 typedef struct {
@@ -159,6 +159,9 @@ typedef struct {
     const double *rates;       /* [groups] [s^-1] */
     const double *tab;         /* [2 rows][nodes]: g_r at the nodes, then g_r' */
     const double *terr;        /* [rows][blocks] */
+    uint32_t n_cont;           /* the modes continued past the table's end (section SHCONT; 0: none) */
+    const double *cont;        /* [1 + rows][2 n_cont]: their exponents mu_M (Re, Im) [s^-1], then per row the
+                                  amplitudes P_rM exp(mu_M t_end) (Re, Im) */
     const double *probe;       /* [n_probes][4] the probe's weights and rho0 at its two particles */
     /* a parametric shadow (sections SHPIECE, SHPARAM, SHCPL, with PARAMS; NULL piece: none): lam = SHLAM + c
      * piece[0:4] + d piece[4:8] per plane, and the rows' terms and rates computed from the complement planes, at the

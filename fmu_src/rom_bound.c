@@ -11,7 +11,9 @@
  *   D_r u(t-)    their quasi-static response, exact: added to the shadow's row (SHROW's D);
  *   g_r(t)       their free response from the initial state, a fixed function of time: tabulated (SHTAB, cubic
  *                Hermite between nodes k h) with a certified error per block of intervals (SHTERR); after the
- *                table (or without one) bounded by sum_g tail_rg exp(-alpha_g (t - t_end));
+ *                table its modes that matter continued exactly, Re sum_M Q_rM exp(mu_M (t - t_end)) (SHCONT,
+ *                Q_rM = P_rM exp(mu_M t_end), evaluated from the time: no state; cont_modes derives its round-off
+ *                allowance), the others (or, without a table, all) bounded by sum_g tail_rg exp(-alpha_g (t - t_end));
  *   |R_r(t)|  <= sum_j static_rj |u_j(t-)| + sum_jg H_rjg V_jg(t), V_jg = int exp(-alpha_g (t - tau)) |du_j(tau)|
  *                (the input's jumps and slopes weighted by the decay of group g, SHRATE): it saturates under a
  *                persistent input;
@@ -49,6 +51,8 @@
 #define BOUND_MAX_GROUPS 8u
 #define BOUND_GROUP 4u                 /* the rows' sums' slots per group (shadow_group) */
 #define BOUND_GROUP_WORDS 2u
+#define BOUND_MAX_CONT 65536u          /* the modes continued past the free response table at most (SHCONT) */
+#define BOUND_CONT_ROUNDOFF 1e-13      /* harness/rom/bounds.py CONT_ROUNDOFF */
 _Static_assert((3u * ROM_MAX_PROBES + ROM_MAX_PORTS + 1u + BOUND_GROUP - 1u) / BOUND_GROUP <= 64u * BOUND_GROUP_WORDS,
                "the rows' sums' groups fit BoundState.groups' bits");
 
@@ -82,6 +86,9 @@ typedef struct {
     double started;            /* 1 once w holds s w0 and its steps (the first doStep), 0 before */
     double tail_tau;           /* the time since the start at which tail_decay holds (NaN: none) */
     double tail_decay[BOUND_MAX_GROUPS];   /* exp(-alpha_g (tau - t_end)) there: the rows' tails after the table */
+    double cont_tau;           /* the time since the start at which cont_e holds (NaN: none) */
+    double *cont_e;            /* [n_cont][4]: exp(mu_M (tau - t_end)) (Re, Im), its round-off allowance's factor
+                                  per unit |Re Q| + |Im Q| (cont_modes), 0 (not kept: computed from the time) */
     BoundCache cache[BOUND_CACHE];
     int64_t clock;
     double *work;              /* [4][n][n], n = 2 + 2 inputs (the exponential's matrices) */
@@ -315,6 +322,35 @@ RomStatus rom_bound_assemble(RomModel *m, RomState *s, char *message, size_t mes
     return ROM_OK;
 }
 
+/* the modes continued past the table: section SHCONT (only with SHTAB; (1 + rows) x 2 n_cont, n_cont <= BOUND_MAX_CONT:
+ * row 0 the exponents mu_M (Re <= 0: no mode grows), then per row the amplitudes at the table's end; finite: the
+ * loader's check of every section) */
+static RomStatus prepare_continuation(RomModel *m, char *message, size_t message_size) {
+    RomBoundModel *b = &m->bound;
+    const RomSection *cont = rom_section(m, "SHCONT");
+    b->n_cont = 0;
+    b->cont = NULL;
+    if (!cont) return ROM_OK;
+    if (!b->nodes) {
+        return rom_fail(message, message_size, "resources: section SHCONT (the free response's modes past its "
+                        "table) without the table's sections SHTAB and SHTERR");
+    }
+    if (cont->rows != 1 + b->rows || cont->cols % 2 != 0 || cont->cols / 2 > BOUND_MAX_CONT) {
+        return rom_fail(message, message_size, "resources: section SHCONT is %u x %u, expected %u x 2 n (the error "
+                        "bounds' modes past the table; n from 1 to %u)", cont->rows, cont->cols, 1 + b->rows,
+                        BOUND_MAX_CONT);
+    }
+    for (uint32_t k = 0; k < cont->cols / 2; k++) {
+        if (!(cont->data[2 * (size_t)k] <= 0)) {
+            return rom_fail(message, message_size, "resources: section SHCONT's mode %u grows: Re mu = %g s^-1 "
+                            "(allowed: <= 0)", k, cont->data[2 * (size_t)k]);
+        }
+    }
+    b->n_cont = cont->cols / 2;
+    b->cont = cont->data;
+    return ROM_OK;
+}
+
 /* sections SHTAB and SHTERR (both or neither; SHSCAL's nodes > 0 with them) */
 static RomStatus prepare_table(RomModel *m, char *message, size_t message_size) {
     RomBoundModel *b = &m->bound;
@@ -323,7 +359,7 @@ static RomStatus prepare_table(RomModel *m, char *message, size_t message_size) 
         return rom_fail(message, message_size, "resources: the error bounds' sections SHTAB and SHTERR come "
                         "together, when SHSCAL's nodes > 0");
     }
-    if (!tab) return ROM_OK;
+    if (!tab) return prepare_continuation(m, message, message_size);      /* (refuses an SHCONT without table) */
     if (!(b->h_tab > 0) || b->nodes < 2 || b->q < 1) {
         return rom_fail(message, message_size, "resources: section SHSCAL's table (nodes %u, h %g s, q %u; allowed: "
                         "nodes >= 2, h > 0, q >= 1)", b->nodes, b->h_tab, b->q);
@@ -333,7 +369,7 @@ static RomStatus prepare_table(RomModel *m, char *message, size_t message_size) 
         shape(terr, b->rows, b->blocks, message, message_size) != ROM_OK) return ROM_FAIL;
     b->tab = tab->data;
     b->terr = terr->data;
-    return ROM_OK;
+    return prepare_continuation(m, message, message_size);
 }
 
 RomStatus rom_bound_prepare(RomModel *m, char *message, size_t message_size) {
@@ -346,9 +382,9 @@ RomStatus rom_bound_prepare(RomModel *m, char *message, size_t message_size) {
     }
     if (found == 0) {
         if (rom_section(m, "SHPIECE") || rom_section(m, "SHPARAM") || rom_section(m, "SHCPL") ||
-            rom_section(m, "SHTAB") || rom_section(m, "SHTERR")) {
+            rom_section(m, "SHTAB") || rom_section(m, "SHTERR") || rom_section(m, "SHCONT")) {
             return rom_fail(message, message_size, "resources: the error bounds' sections SHPIECE, SHPARAM, SHCPL, "
-                            "SHTAB or SHTERR without the sections SH*");
+                            "SHTAB, SHTERR or SHCONT without the sections SH*");
         }
         return ROM_OK;
     }
@@ -441,19 +477,19 @@ RomStatus rom_bound_state_new(RomState *s) {
     if (!bs) return ROM_FAIL;
     const size_t k = b->order, m = b->inputs, n = 2 + 2 * m;   /* a plane's augmented matrix's size */
     const size_t slots = row_slots(b);
-    size_t counts[4 + 4 * BOUND_CACHE] = {k, slots, 4 * n * n, k * slots};
-    double **ptrs[4 + 4 * BOUND_CACHE] = {&bs->w, &bs->y, &bs->work, &bs->ct};
+    size_t counts[5 + 4 * BOUND_CACHE] = {k, slots, 4 * n * n, k * slots, 4 * (size_t)b->n_cont};
+    double **ptrs[5 + 4 * BOUND_CACHE] = {&bs->w, &bs->y, &bs->work, &bs->ct, &bs->cont_e};
     for (int c = 0; c < BOUND_CACHE; c++) {
-        counts[4 + 4 * c] = 4 * (size_t)b->planes;
-        counts[5 + 4 * c] = k * m;
+        counts[5 + 4 * c] = 4 * (size_t)b->planes;
         counts[6 + 4 * c] = k * m;
-        counts[7 + 4 * c] = 4 * (size_t)b->planes;
-        ptrs[4 + 4 * c] = &bs->cache[c].Phi;
-        ptrs[5 + 4 * c] = &bs->cache[c].G0;
-        ptrs[6 + 4 * c] = &bs->cache[c].G1;
-        ptrs[7 + 4 * c] = &bs->cache[c].Phi2;
+        counts[7 + 4 * c] = k * m;
+        counts[8 + 4 * c] = 4 * (size_t)b->planes;
+        ptrs[5 + 4 * c] = &bs->cache[c].Phi;
+        ptrs[6 + 4 * c] = &bs->cache[c].G0;
+        ptrs[7 + 4 * c] = &bs->cache[c].G1;
+        ptrs[8 + 4 * c] = &bs->cache[c].Phi2;
     }
-    bs->storage_ = rom_alloc_arrays(counts, ptrs, 4 + 4 * BOUND_CACHE);
+    bs->storage_ = rom_alloc_arrays(counts, ptrs, 5 + 4 * BOUND_CACHE);
     if (!bs->storage_) {
         free(bs);
         return ROM_FAIL;
@@ -462,7 +498,7 @@ RomStatus rom_bound_state_new(RomState *s) {
         double *col = bs->ct + i * slots;
         for (size_t r = 1; r < slots; r++) col[r] = r <= b->rows ? b->C[(r - 1) * k + i] : 0.0;
     }
-    bs->tail_tau = NAN;
+    bs->tail_tau = bs->cont_tau = NAN;
 #if defined(BOUND_AVX2)
     bs->avx2 = __builtin_cpu_supports("avx2") != 0;
 #endif
@@ -488,7 +524,7 @@ void rom_bound_reset(RomState *s) {
     for (uint32_t i = 0; i < BOUND_MAX_INPUTS * BOUND_MAX_GROUPS; i++) bs->V[i] = 0.0;
     for (uint32_t i = 0; i < BOUND_MAX_INPUTS; i++) bs->u_prev[i] = 0.0;
     bs->w_int = bs->steps = bs->started = 0.0;
-    bs->tail_tau = NAN;
+    bs->tail_tau = bs->cont_tau = NAN;
     for (int c = 0; c < BOUND_CACHE; c++) bs->cache[c].h = 0.0;      /* the maps stay valid; kept empty anyway */
 }
 
@@ -916,9 +952,45 @@ typedef struct {
     size_t block;              /* its error block */
     double c0, c1, c2, c3;     /* the cubic Hermite weights of g[k], g[k + 1], dg[k], dg[k + 1] (dg's times h) */
     double decay[BOUND_MAX_GROUPS];   /* after the table: exp(-alpha_g (tau - t_end)) */
+    const double *cont;        /* after the table with SHCONT: the continued modes' exponentials (BoundState.cont_e) */
     double w_root;             /* |w| (started), else NaN: the rows compute s w0's */
     double steps_factor;       /* BOUND_ROUNDOFF + BOUND_ROUNDOFF_STEP n */
 } RowTime;
+
+/* the continued modes past the table (SHCONT) at tau > t_end: per mode E_M = exp(mu_M x), x = tau - t_end, and the
+ * round-off allowance's factor f_M, computed from the time (no state: a restored state reads the same values) once
+ * per time (cont_tau) for every row; row r adds Re sum_M Q_rM E_M and allows sum_M (|Re Q_rM| + |Im Q_rM|) f_M
+ * (>= sum |Q_rM| f_M).  The allowance (harness/rom/bounds.py cont_roundoff, the same formula), eps = 2^-53:
+ * - the argument: t_end = h_tab (nodes - 1) here, within 2 eps t_end of bounds.py's (h = t_end / (nodes - 1)
+ *   there, rounded, times nodes - 1 here, rounded), x rounded (eps x), mu x rounded (eps |mu| x), and Q's own
+ *   exp(mu t_end) in bounds.py (eps |mu| t_end): the argument is off by |delta| <= 3 eps |mu| tau (t_end + x = tau),
+ *   so exp(mu x) by |exp(delta) - 1| <= 1.001 |delta| of |E_M| where |delta| <= 1e-3 (beyond: no bound, inf;
+ *   |mu| tau >= 2e12 rad);
+ * - exp, cos, sin within an ulp each and the two products |E| cos, |E| sin rounded: 3 eps of |E_M| more;
+ * - the sum of n = n_cont terms Re Q E = Re Q Re E - Im Q Im E, each product rounded, added in order: (n + 1) eps
+ *   sum (|Re Q| |Re E| + |Im Q| |Im E|) <= (n + 1) eps sum (|Re Q| + |Im Q|) |E|;
+ * - Q's relative error (bounds.py's P, as the table's nodes'): BOUND_CONT_ROUNDOFF.
+ * Together f_M = |E_M| (BOUND_CONT_ROUNDOFF + (n + 8) eps + 4 eps (|Re mu_M| + |Im mu_M|) tau) (the 4 and the 8
+ * cover 1.001 x 3, n + 4 and the products of small terms; |Re| + |Im| >= |mu| saves a hypot), |E_M| = exp(Re mu_M
+ * x) as computed (within an ulp, in the slack; exactly 1 for an undamped mode, no exp). */
+static const double *cont_modes(BoundState *bs, const RomBoundModel *b, double tau) {
+    if (!bs || !b || !b->n_cont || !bs->cont_e) return NULL;
+    if (bs->cont_tau == tau) return bs->cont_e;
+    const double eps = 0x1p-53, x = tau - table_end(b);
+    const double base = BOUND_CONT_ROUNDOFF + ((double)b->n_cont + 8.0) * eps;
+    for (uint32_t k = 0; k < b->n_cont; k++) {
+        const double re = b->cont[2 * (size_t)k], im = b->cont[2 * (size_t)k + 1];
+        const double size = re != 0.0 ? exp(re * x) : 1.0, phase = im * x;
+        const double arg = 4.0 * eps * (fabs(re) + fabs(im)) * tau;          /* (|re| + |im| >= |mu|) */
+        double *e = bs->cont_e + 4 * (size_t)k;
+        e[0] = im != 0.0 ? size * cos(phase) : size;
+        e[1] = im != 0.0 ? size * sin(phase) : 0.0;
+        e[2] = arg <= 1e-3 ? size * (base + arg) : INFINITY;
+        e[3] = 0.0;
+    }
+    bs->cont_tau = tau;
+    return bs->cont_e;
+}
 
 static void row_time(const RomState *s, RowTime *rt) {
     const RomBoundModel *b = &s->model->bound;
@@ -940,6 +1012,7 @@ static void row_time(const RomState *s, RowTime *rt) {
         const double over = tau > t_end ? tau - t_end : 0.0;
         const int cached = tau == bs->tail_tau;          /* the step's decays (rom_bound_step), else computed */
         for (uint32_t g = 0; g < b->groups; g++) rt->decay[g] = cached ? bs->tail_decay[g] : exp(-b->rates[g] * over);
+        rt->cont = b->n_cont ? cont_modes(bs, b, tau) : NULL;
     }
     if (bs->started != 0.0) {
         if (!bs->w_fresh) shadow_group(s, bs, 0);
@@ -951,8 +1024,9 @@ static void row_time(const RomState *s, RowTime *rt) {
 }
 
 /* the complement's free response of row r at the time of rt (per unit initial_state_scale): the table's Hermite
- * interpolation into *value and its certified error into *error; after the table (or without one) 0 and the
- * decaying tail (harness/rom/bounds.py free_part) */
+ * interpolation into *value and its certified error into *error; after the table the continued modes' sum (0
+ * without SHCONT, or without a table) and the decaying tail of the others with the sum's round-off allowance
+ * (harness/rom/bounds.py free_part) */
 static inline void free_part(const RomBoundModel *b, const RowTime *rt, uint32_t r, double *value, double *error) {
     if (rt->in_table) {
         const uint32_t k = rt->k;
@@ -964,8 +1038,18 @@ static inline void free_part(const RomBoundModel *b, const RowTime *rt, uint32_t
     const double *tail = b->row + (size_t)r * b->row_len + 1 + 2 * (size_t)b->inputs + (size_t)b->inputs * b->groups;
     double acc = 0.0;
     for (uint32_t g = 0; g < b->groups; g++) acc += tail[g] * rt->decay[g];
-    *value = 0.0;
-    *error = acc;
+    double sum = 0.0, allow = 0.0;
+    if (rt->cont) {                                     /* the continued modes (cont_modes) */
+        const double *Q = b->cont + 2 * (size_t)b->n_cont * (1 + (size_t)r);
+        for (uint32_t k = 0; k < b->n_cont; k++) {
+            const double *e = rt->cont + 4 * (size_t)k;
+            const double qr = Q[2 * (size_t)k], qi = Q[2 * (size_t)k + 1];
+            sum += qr * e[0] - qi * e[1];
+            allow += (fabs(qr) + fabs(qi)) * e[2];
+        }
+    }
+    *value = sum;
+    *error = acc + allow;
 }
 
 /* the four slots' sums over the k coefficients (rows' coefficients col[i * stride + c], w[i]; group 0's:
@@ -1162,14 +1246,16 @@ BOUND_INLINE int rows_exceed(const RomState *s, const RowTime *rt, const RowInpu
                 double g_value, g_error;
                 free_part(b, rt, port ? 3 * P + j : j, &g_value, &g_error);
                 const double free_share = fabs(s->initial_state_scale) * g_error;
-                /* past the table the uncomputed planes' free response is bounded by its size alone (an undamped
-                 * bar's does not decay): say so where that is most of the bound, so that a warning on an accurate
-                 * model reads as what it is */
+                /* past the table the modes of the complement's free response that are not continued (SHCONT: those
+                 * left out as too small to matter, the defective ones, the planes never computed) are bounded by
+                 * their size alone (an undamped bar's does not decay): say so where that is most of the bound, so
+                 * that a warning on an accurate model reads as what it is */
                 if (b->nodes && !rt->in_table && free_share >= 0.5 * bound && written > 0 &&
                     (size_t)written < message_size) {
-                    snprintf(message + written, message_size - (size_t)written, ", %.3g m s^-1 of it the uncomputed "
-                             "planes' free response from the initial state past the end of its table (t > %.9g s), "
-                             "bounded by its size alone, not by the model's error", free_share, table_end(b));
+                    snprintf(message + written, message_size - (size_t)written, ", %.3g m s^-1 of it the "
+                             "complement's free response from the initial state past the end of its table "
+                             "(t > %.9g s): %u modes continued exactly, the others bounded by their size, not by the "
+                             "model's error", free_share, table_end(b), b->n_cont);
                 }
             }
             return 1;
@@ -1223,7 +1309,7 @@ const unsigned char *rom_bound_state_get(RomState *s, const unsigned char *curso
     bs->w_int = scalars[0];
     bs->steps = scalars[1];
     bs->started = scalars[2] != 0.0 ? 1.0 : 0.0;
-    bs->tail_tau = NAN;                                  /* recomputed at the next row */
+    bs->tail_tau = bs->cont_tau = NAN;                   /* recomputed at the next row */
     for (size_t i = 0; i < (size_t)b->inputs * b->groups; i++) {
         if (!(bs->V[i] >= 0)) bs->V[i] = INFINITY;       /* a damaged variation: no bound, visibly */
     }

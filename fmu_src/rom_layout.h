@@ -103,6 +103,7 @@
  *     SHTAB: error bounds: the complement's free response and its slope at the table's nodes
  *     SHTERR: error bounds: the free response table's error per block of intervals; values: a certified
  *         interpolation error (columns 0:) >= 0
+ *     SHCONT: error bounds: the complement's modes continued past the table (exponents, then amplitudes)
  *     SHPIECE: error bounds: the planes' pieces per unit c and per unit d
  *     SHPARAM: error bounds: c_ref and the residual pieces' norms; columns c_ref, e_const_v, e_const_e, e_c_v,
  *         e_c_e, e_d_v, e_d_e; values: the shadow's reference stiffness c_ref [kg m^-1 s^-2] (columns c_ref) > 0;
@@ -310,7 +311,7 @@
 #define ROM_ROW_SUM_RULES(X) \
     X("SHPROBE", 0, 0, 2, 0, 1.0, 1e-12, "the probe's two weights") \
     X("PCPROBE", 0, 0, 2, 0, 1.0, 1e-12, "the probe's two weights")
-#define ROM_N_SECTION_TAGS                   38u   /* rom_resources.c's SECTION_RULES has one row each */
+#define ROM_N_SECTION_TAGS                   39u   /* rom_resources.c's SECTION_RULES has one row each */
 /* the model kinds' tables of operations (rom_internal.h RomKindOps; rom_resources.c's list of kinds) */
 #define ROM_KIND_TABLES(X) X(rom_frozen_kind) X(rom_exact_kind)
 

@@ -272,6 +272,8 @@ static const SectionRule SECTION_RULES[] = {
     {"SHTAB", "error bounds: the complement's free response and its slope at the table's nodes",
      rom_bound_check_section},
     {"SHTERR", "error bounds: the free response table's error per block of intervals", rom_bound_check_section},
+    {"SHCONT", "error bounds: the complement's modes continued past the table (exponents, then amplitudes)",
+     rom_bound_check_section},
     {"SHPIECE", "error bounds: the planes' pieces per unit c and per unit d", rom_bound_check_section},
     {"SHPARAM", "error bounds: c_ref and the residual pieces' norms", rom_bound_check_section},
     {"SHCPL", "error bounds: the complement's planes (parametric)", rom_bound_check_section},

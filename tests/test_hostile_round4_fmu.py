@@ -330,7 +330,7 @@ def test_edits_the_rules_allow_leave_bounds_finite_and_non_negative(exact_fmus, 
     path, _ = exact_fmus(model, 2, "damped")
     folder = Path(extract(str(path), unzipdir=str(tmp_path / "orig")))
     blob = (folder / "resources" / "model.bin").read_bytes()
-    for tag in ("SHLAM", "SHB", "SHC", "SHW0", "SHRATE", "SHROW", "SHTAB", "SHTERR"):
+    for tag in ("SHLAM", "SHB", "SHC", "SHW0", "SHRATE", "SHROW", "SHTAB", "SHTERR", "SHCONT"):
         if tag.encode("ascii").ljust(8, b"\0") not in blob:
             continue                                      # (SHTAB, SHTERR: only with a free response outside)
         for change in (lambda a: -a, lambda a: 1e6 * a, lambda a: 1e-6 * a):

@@ -360,6 +360,8 @@ SECTIONS: dict[str, Section] = {
     "SHTAB": Section("error bounds: the complement's free response and its slope at the table's nodes"),
     "SHTERR": Section("error bounds: the free response table's error per block of intervals",
                       values=(Range("0:", "a certified interpolation error", low=0.0),)),
+    # ... and, where some of its modes are continued exactly past the table's end, this one
+    "SHCONT": Section("error bounds: the complement's modes continued past the table (exponents, then amplitudes)"),
     # ... a parametric FMU's shadow adds these three (with section PARAMS)
     "SHPIECE": Section("error bounds: the planes' pieces per unit c and per unit d"),
     "SHPARAM": Section("error bounds: c_ref and the residual pieces' norms",

@@ -114,6 +114,7 @@ MAX_TAIL_NODES = 131072     # ... only where that takes at most this many nodes
 TAIL_WORK = 2e8             # ... by the full state's propagation where N x nodes is at most this (TAYLOR_TERMS
 TAYLOR_TERMS = 10           # products with A per node: e^{A h} x by its Taylor series to this power)
 CHEBYSHEV_WORK = 4e9        # ... else by a Chebyshev expansion where N x its degree is at most this
+CONT_ROUNDOFF = 1e-13       # the modes continued past the table: their amplitudes' relative error (the nodes')
 TAIL_SHARE = 0.1            # ... as long as that one's certified error is below this share of the norm bound
 
 
@@ -146,7 +147,13 @@ class Complement:
     t_end : float
         The table's end [s] ((n - 1) h).
     tail : ndarray (rows, G)
-        |g_r(t)| <= Σ_g tail_rg e^{-α_g (t - t_end)} for t >= t_end.
+        |g_r(t) - Re Σ_M cont_Q_rM e^{cont_mu_M (t - t_end)}| <= Σ_g tail_rg e^{-α_g (t - t_end)} for t >= t_end:
+        the size of the modes not continued (and of the planes never computed).
+    cont_mu : ndarray (M_c,) of complex or None
+        The continued modes' exponents μ_M [s^-1] (:func:`continuation`): past the table their free response is
+        added exactly, Re Σ_M cont_Q_rM e^{μ_M (t - t_end)}, with the round-off allowance :func:`cont_roundoff`.
+    cont_Q : ndarray (rows, M_c) of complex or None
+        Their amplitudes at the table's end, P_rM e^{μ_M t_end} (per unit initial_state_scale).
     """
 
     D: np.ndarray
@@ -160,6 +167,8 @@ class Complement:
     q: int
     t_end: float
     tail: np.ndarray
+    cont_mu: np.ndarray | None = None
+    cont_Q: np.ndarray | None = None
 
 
 @dataclass
@@ -762,12 +771,12 @@ def complement(modes: Modes, planes_L, chat, bhat, tail: Tail | None, T, *, tabl
         tail_free = tail.free()
     gain = np.where(np.isfinite(gain), gain * (1 + SUM_ROUNDOFF), np.inf)
     if table and (np.any(np.abs(modes.P)) or np.any(tail_free)):
-        t_end, h, values, slopes, errors, q, tl = free_table(modes, group[:modes.alpha.size], rates, T, tail_free,
-                                                             tail.alpha if tail is not None else 0.0,
-                                                             exact=tail.exact if tail is not None else None,
-                                                             max_nodes=max_nodes)
+        t_end, h, values, slopes, errors, q, tl, cmu, cq = free_table(
+            modes, group[:modes.alpha.size], rates, T, tail_free, tail.alpha if tail is not None else 0.0,
+            exact=tail.exact if tail is not None else None, max_nodes=max_nodes)
     else:
         t_end, h, values, slopes, errors, q = 0.0, 0.0, None, None, None, 1
+        cmu, cq = None, None
         tl = np.zeros((rows, G))
         hold = np.abs(modes.P)
         for g in range(G):
@@ -776,7 +785,8 @@ def complement(modes: Modes, planes_L, chat, bhat, tail: Tail | None, T, *, tabl
         if tail is not None:
             tl[:, group[-1]] += tail_free
     return Complement(D=D, static=static * (1 + SUM_ROUNDOFF), rates=rates, gain=gain, h=float(h), values=values,
-                      slopes=slopes, errors=errors, q=int(q), t_end=float(t_end), tail=tl * (1 + SUM_ROUNDOFF))
+                      slopes=slopes, errors=errors, q=int(q), t_end=float(t_end), tail=tl * (1 + SUM_ROUNDOFF),
+                      cont_mu=cmu, cont_Q=cq)
 
 
 def table_step(modes: Modes, T, tail_alpha=None, max_nodes=MAX_NODES):
@@ -801,7 +811,7 @@ def free_table(modes: Modes, group, rates, T, tail_free, tail_alpha, exact: Tail
                max_nodes=MAX_NODES):
     """The complement's free response g_r(t) = Re Σ_M P_rM e^{μ_M t} (per unit initial_state_scale, module
     docstring), tabulated for a cubic Hermite interpolation with a certified error: (t_end, h, values (rows, n),
-    slopes (rows, n) [per s], errors (rows, n_blocks), q, tail (rows, G)).
+    slopes (rows, n) [per s], errors (rows, n_blocks), q, tail (rows, G), cont_mu (M_c,), cont_Q (rows, M_c)).
 
     Nodes t_k = k h over [0, t_end] (:func:`table_step`).  The exact normal modes with |μ| h <= 1 are summed at the
     nodes (value and slope); on [t_k, t_k+1] the Hermite cubic of a sum of such modes is within Σ |P| e^{-α t_k}
@@ -809,7 +819,9 @@ def free_table(modes: Modes, group, rates, T, tail_free, tail_alpha, exact: Tail
     other mode (faster, or
     defective) counts by its size |P| e^{-α t_k}, the planes never computed by κ ‖c_tail‖ ‖x0_tail‖
     e^{-α_tail t_k}, and 1e-13 of the modes' sizes covers the nodes' round-off.  errors[r, B]: the largest over the
-    intervals k of block B (k // q == B).  Beyond t_end: |g_r(t)| <= Σ_g tail_rg e^{-α_g (t - t_end)}.
+    intervals k of block B (k // q == B).  Beyond t_end the modes that matter (:func:`continued_modes`) are continued
+    exactly, Re Σ cont_Q_rM e^{μ_M (t - t_end)} with cont_Q = P e^{μ t_end}, and the rest is bounded by its size,
+    Σ_g tail_rg e^{-α_g (t - t_end)} (the tail holds only the modes left out).
 
     With ``exact`` (:class:`TailTable`) the uncomputed planes' free response is computed, not bounded, over its
     span: the table takes its nodes, adds its values and slopes, and its interpolation errors replace the planes'
@@ -860,12 +872,58 @@ def free_table(modes: Modes, group, rates, T, tail_free, tail_alpha, exact: Tail
     G = rates.size
     tail = np.zeros((rows, G))
     decayed = np.abs(modes.P) * np.exp(-modes.alpha * t_end)[None, :]
+    free_end = tail_free * math.exp(-tail_alpha * t_end) if np.any(tail_free) else np.zeros(rows)
+    cont = continued_modes(modes, decayed, errors.max(axis=1) if errors.size else np.zeros(rows), values, free_end)
     for g in range(G):
-        tail[:, g] = decayed[:, group == g].sum(axis=1)
+        tail[:, g] = decayed[:, (group == g) & ~cont].sum(axis=1)
     if np.any(tail_free):
         gt = int(np.searchsorted(rates, tail_alpha * (1 + 1e-9) + 1e-300, side="right") - 1)
-        tail[:, max(gt, 0)] += tail_free * math.exp(-tail_alpha * t_end)
-    return t_end, h, values, slopes, errors * (1 + SUM_ROUNDOFF), q, tail * (1 + SUM_ROUNDOFF)
+        tail[:, max(gt, 0)] += free_end
+    cont_mu = modes.mu[cont].astype(complex)
+    cont_Q = modes.P[:, cont].astype(complex) * np.exp(cont_mu * t_end)[None, :]
+    return (t_end, h, values, slopes, errors * (1 + SUM_ROUNDOFF), q, tail * (1 + SUM_ROUNDOFF), cont_mu,
+            cont_Q)
+
+
+def continued_modes(modes: Modes, decayed, budget, values, fixed):
+    """(M,) bool: the exact normal modes whose free response is continued past the table's end (added exactly,
+    :func:`free_part`) rather than bounded by its size there, ``decayed`` (rows, M) = |P_rM| e^{-α_M t_end}.
+
+    Per row r, the modes left out keep their Hölder sum Σ |P_rM| e^{-α_M t_end} (with ``fixed`` (rows,), the size
+    left out whatever is chosen: the defective modes' and the planes never computed) within the allowance the table's
+    own error was sized to (:func:`choose_planes`: ``budget`` (rows,), the table's largest certified error, or
+    FREE_TARGET x the row's largest tabulated free response where that is larger): the bound's free part past the
+    table is then no larger than within it.  The smallest modes are left out first; a mode is continued where any
+    row needs it."""
+    M = decayed.shape[1]
+    cont = np.zeros(M, bool)
+    if M == 0:
+        return cont
+    fixed = np.asarray(fixed, float) + decayed[:, ~modes.exact].sum(axis=1)
+    scale = np.abs(values).max(axis=1) if values is not None and values.size else np.zeros(decayed.shape[0])
+    room = np.maximum(np.maximum(np.asarray(budget, float), FREE_TARGET * scale) - fixed, 0.0)
+    candidate = modes.exact & np.all(np.isfinite(decayed), axis=0) & np.any(decayed > 0, axis=0)
+    idx = np.flatnonzero(candidate)
+    for r in range(decayed.shape[0]):
+        d = decayed[r, idx]
+        order = np.argsort(d, kind="stable")
+        left = np.cumsum(d[order]) <= room[r]                 # the smallest, while their sum stays within the room
+        cont[idx[order[~left]]] = True
+    return cont
+
+
+def cont_roundoff(comp: Complement, tau):
+    """(rows,) the round-off allowance of the continued modes' sum at ``tau`` > t_end (:func:`free_part`; the C core's
+    cont_modes, fmu_src/rom_bound.c, derives it): Σ_M (|Re Q_rM| + |Im Q_rM|) e^{Re μ_M x} (CONT_ROUNDOFF +
+    (M_c + 8) ε + 4 ε (|Re μ_M| + |Im μ_M|) τ), x = τ - t_end, ε = 2^-53 (infinite where that last term > 1e-3)."""
+    if comp.cont_mu is None or comp.cont_mu.size == 0:
+        return np.zeros(comp.tail.shape[0])
+    eps = 2.0 ** -53
+    x = max(tau - comp.t_end, 0.0)
+    arg = 4 * eps * (np.abs(comp.cont_mu.real) + np.abs(comp.cont_mu.imag)) * tau     # (>= 4 ε |μ| τ)
+    factor = np.exp(comp.cont_mu.real * x) * (CONT_ROUNDOFF + (comp.cont_mu.size + 8) * eps + arg)
+    factor = np.where(arg <= 1e-3, factor, np.inf)
+    return (np.abs(comp.cont_Q.real) + np.abs(comp.cont_Q.imag)) @ factor
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -1473,8 +1531,9 @@ def growth_rate(blocks):
 
 def free_part(comp: Complement, tau):
     """(value, error) (rows,) of the complement's free response at time ``tau`` since the start (per unit
-    initial_state_scale): the table's Hermite interpolation and its certified error, or beyond the table (or
-    without one) 0 and the decaying tail."""
+    initial_state_scale): the table's Hermite interpolation and its certified error, or beyond the table the
+    continued modes' sum (0 without them, or without a table) and the decaying tail of the others (with the sum's
+    round-off allowance)."""
     if comp.values is not None and tau <= comp.t_end:
         x = tau / comp.h
         k = min(int(math.floor(x)), comp.values.shape[1] - 2)
@@ -1485,7 +1544,12 @@ def free_part(comp: Complement, tau):
              comp.h * (h10 * comp.slopes[:, k] + h11 * comp.slopes[:, k + 1]))
         return v, comp.errors[:, k // comp.q]
     over = max(tau - comp.t_end, 0.0)
-    return np.zeros(comp.tail.shape[0]), comp.tail @ np.exp(-comp.rates * over)
+    error = comp.tail @ np.exp(-comp.rates * over)
+    if comp.cont_mu is None or comp.cont_mu.size == 0:
+        return np.zeros(comp.tail.shape[0]), error
+    # the continued modes (free_table): Re Σ_M Q_rM e^{μ_M (τ - t_end)}, their round-off allowance (cont_roundoff)
+    value = np.real(comp.cont_Q @ np.exp(comp.cont_mu * over))
+    return value, error + cont_roundoff(comp, tau)
 
 
 def step_weights(rates, h):
@@ -1606,6 +1670,11 @@ def sections(sh: Shadow):
     SHTAB (2 rows, n)  the complement's free response g_r at the nodes t_k = k h, then its slopes [per s] (per unit
                      initial_state_scale; cubic Hermite between nodes)
     SHTERR (rows, ceil((n - 1) / q))  the interpolation's certified error over the intervals of each block
+    SHCONT (1 + rows, 2 M_c)  with a table, the modes continued past its end (:func:`continued_modes`; absent
+                     where none is): row 0 their exponents μ_M as (Re, Im) pairs [s^-1] (Re <= 0), then per row
+                     the amplitudes at the table's end P_rM e^{μ_M t_end} as (Re, Im) pairs (per unit
+                     initial_state_scale); past the table g_r(t) = Re Σ_M Q_rM e^{μ_M (t - t_end)} + what SHROW's
+                     tail bounds
     SHPROBE (P, 4)   per probe: the weights and ρ0 of its two particles [kg m^-3]
 
     Without an initial state outside the shadow: n = 0, no SHTAB, SHTERR.  A parametric shadow (Λ_i(c, d) = SHLAM_i
@@ -1648,6 +1717,10 @@ def sections(sh: Shadow):
     if nodes:
         out["SHTAB"] = np.vstack([comp.values, comp.slopes])
         out["SHTERR"] = np.asarray(comp.errors, float)
+        if comp.cont_mu is not None and comp.cont_mu.size:
+            mu = np.column_stack([comp.cont_mu.real, comp.cont_mu.imag]).ravel()
+            Q = np.stack([comp.cont_Q.real, comp.cont_Q.imag], axis=2).reshape(rows, -1)
+            out["SHCONT"] = np.vstack([mu[None, :], Q])
     if sh.parametric:
         out["SHPIECE"] = np.column_stack([np.asarray(sh.A[1], float).reshape(-1, 4),
                                           np.asarray(sh.A[2], float).reshape(-1, 4)])

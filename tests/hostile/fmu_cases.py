@@ -310,7 +310,8 @@ def _child_step_bound(cases, emit):
 EPOCH = 1.7e9
 EPOCH_STEPS = [1e-6, 3.5e-6, 3.5e-6, 3.5e-6] + [0.01] * 10 + [0.01, 0.013] * 5
 EDITS = {"negated": -1.0, "x 1e6": 1e6, "x 1e-6": 1e-6}
-SHADOW_TAGS = ("SHLAM", "SHB", "SHC", "SHW0", "SHROW", "SHRATE", "SHTAB", "SHTERR", "SHPROBE", "SHSCAL")
+SHADOW_TAGS = ("SHLAM", "SHB", "SHC", "SHW0", "SHROW", "SHRATE", "SHTAB", "SHTERR", "SHCONT", "SHPROBE",
+               "SHSCAL")
 
 
 def round_four_cases(ws, fmu_names):
@@ -336,7 +337,7 @@ def round_four_cases(ws, fmu_names):
         blob = (Path(unzipdir) / "resources" / "model.bin").read_bytes()
         for tag in SHADOW_TAGS:
             if tag.encode("ascii").ljust(8, b"\0") not in blob:
-                continue                                  # (SHTAB, SHTERR: only with a free response outside)
+                continue                                  # (SHTAB, SHTERR, SHCONT: only with a free response outside)
             for how, factor in EDITS.items():
                 folder = ws.root / f"round4-{name}-{tag}-{how.replace(' ', '')}"
                 shutil.rmtree(folder, ignore_errors=True)
