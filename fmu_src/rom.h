@@ -188,7 +188,10 @@ typedef struct {
     const double *lam;         /* [planes][4] each plane's block [s^-1] */
     const double *beta;        /* [planes][ports] the input gains per unit F_j / area */
     const double *C;           /* [rows][planes] */
-    const double *D;           /* [rows][2 ports]: the static correction per unit u, then the remainder's gains */
+    const double *D;           /* [rows][4 ports + 1]: the static correction per unit u, then the remainder's gains,
+                                * then the decomposition's drift gains per unit of int |u_j| dt, of int tv_j dt and
+                                * of int |w| dt (harness/rom/port_channel.py PortChannel.drift) */
+    double beta_norm;          /* the Frobenius norm of beta (the drift's bound of |w| over a step) */
     const double *probe;       /* [n_probes][4] the probe's weights and rho0 at its two particles */
     void *storage_;            /* beta^T [ports][pad], C [rows][pad] zero-padded, the row norms [rows] */
     const double *beta_t, *C_pad, *row_norm;

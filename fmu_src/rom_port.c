@@ -79,6 +79,11 @@ typedef struct {
     double v_kind[ROM_MAX_PORTS];      /* the kind's v_port_j (rom_port_velocity) at the end of the last step, */
     int kind_valid;                    /* kept until the kind's state moves (rom_channel_kind_moved) */
     double tv[ROM_MAX_PORTS];          /* |u(0)| + the total variation of each u_j so far */
+    double u_int[ROM_MAX_PORTS];       /* bounds of int |u_j| dt, int tv_j dt and int |w| dt so far: the */
+    double tv_int[ROM_MAX_PORTS];      /* decomposition's drift (channel_drift) */
+    double w_int;
+    double w_norm;             /* |w| of the state now, valid when norm_valid (channel_norm: the drift's and the */
+    int norm_valid;            /* certs' one sum per state) */
     double u_prev[ROM_MAX_PORTS];      /* u_j at the end of the last step */
     double steps;              /* steps taken (the round-off allowance) */
     double impedance;          /* the wave form's Z [N s m^-1]; 0: the force form */
@@ -143,7 +148,7 @@ RomStatus rom_channel_prepare(RomModel *m, char *message, size_t message_size) {
     const uint32_t n = (uint32_t)planes, P = m->n_ports;
     if (shape(sec[1], n, 4, message, message_size) != ROM_OK || shape(sec[2], n, P, message, message_size) != ROM_OK ||
         shape(sec[3], rows, n, message, message_size) != ROM_OK ||
-        shape(sec[4], rows, 2 * P, message, message_size) != ROM_OK ||
+        shape(sec[4], rows, 4 * P + 1, message, message_size) != ROM_OK ||
         shape(sec[5], m->n_probes, 4, message, message_size) != ROM_OK) return ROM_FAIL;
     for (uint32_t i = 0; i < n; i++) {         /* each block [[-d, s], [-s, 0]], d >= 0: dissipative */
         const double *L = sec[1]->data + 4 * (size_t)i;
@@ -153,10 +158,11 @@ RomStatus rom_channel_prepare(RomModel *m, char *message, size_t message_size) {
         }
     }
     for (uint32_t r = 0; r < rows; r++) {
-        for (uint32_t j = 0; j < P; j++) {
-            if (!(sec[4]->data[(size_t)r * 2 * P + P + j] >= 0.0)) {
-                return rom_fail(message, message_size, "resources: section PCD: a negative gain of the port channel's "
-                                "bound (row %u, port %u)", r + 1, j + 1);
+        for (uint32_t j = P; j < 4 * P + 1; j++) {      /* the remainder's and the drift's gains */
+            const double g = sec[4]->data[(size_t)r * (4 * P + 1) + j];
+            if (!(g >= 0.0 && isfinite(g))) {
+                return rom_fail(message, message_size, "resources: section PCD: a negative or infinite gain of the "
+                                "port channel's bound (row %u, column %u; allowed: a finite number >= 0)", r + 1, j + 1);
             }
         }
     }
@@ -166,9 +172,15 @@ RomStatus rom_channel_prepare(RomModel *m, char *message, size_t message_size) {
     double **ptrs[3] = {&beta_t, &C_pad, &norms};
     c->storage_ = rom_alloc_arrays(counts, ptrs, 3);
     if (!c->storage_) return rom_fail(message, message_size, "resources: out of memory (the port channel)");
+    double beta2 = 0.0;
     for (uint32_t i = 0; i < n; i++) {
-        for (uint32_t j = 0; j < P; j++) beta_t[(size_t)j * pad + i] = sec[2]->data[(size_t)i * P + j];
+        for (uint32_t j = 0; j < P; j++) {
+            const double b = sec[2]->data[(size_t)i * P + j];
+            beta_t[(size_t)j * pad + i] = b;
+            beta2 += b * b;
+        }
     }
+    c->beta_norm = sqrt(beta2) * (1.0 + 1e-12);   /* (the sum's round-off: n P additions, far below 1e-12) */
     for (uint32_t r = 0; r < rows; r++) {
         double acc = 0.0;
         for (uint32_t i = 0; i < n; i++) {
@@ -249,10 +261,13 @@ void rom_channel_reset(RomState *s) {
     memset(cs->q, 0, c->pad * sizeof(double));
     for (uint32_t j = 0; j < ROM_MAX_PORTS; j++) {
         cs->tv[j] = cs->u_prev[j] = cs->wave[j] = cs->wave_rate[j] = cs->reflected[j] = cs->applied[j] = 0.0;
+        cs->u_int[j] = cs->tv_int[j] = 0.0;
     }
+    cs->w_int = 0.0;
     cs->steps = 0.0;
     cs->impedance = 0.0;
     cs->valid = 0;
+    cs->norm_valid = 0;
     cs->kind_valid = 0;
 }
 
@@ -501,6 +516,28 @@ static double norm2(const double *restrict p, const double *restrict q, size_t p
 #endif
 }
 
+/* the drift's integrals over a step h from the state now (before the step), as port_channel.py ChannelState._drift:
+ * u linear over the step, so |u_j(t)| <= m_j = max(|u_j|, |u_j + du_j|); each plane's e^{L t} is a contraction
+ * (d >= 0), so |w(t)| <= |w(0)| + t |beta|_F |m|; tv_j (already at the step's end) bounds tv_j(t) over it */
+static double channel_norm(const RomChannelModel *c, ChannelState *cs) {
+    if (!cs->norm_valid) {
+        cs->w_norm = sqrt(norm2(cs->p, cs->q, c->pad));
+        cs->norm_valid = 1;
+    }
+    return cs->w_norm;
+}
+
+static void channel_drift(const RomChannelModel *c, ChannelState *cs, double h, const double *u, const double *du) {
+    double m2 = 0.0;
+    for (uint32_t j = 0; j < c->ports; j++) {
+        const double m = fmax(fabs(u[j]), fabs(u[j] + du[j]));
+        cs->u_int[j] += h * m;
+        cs->tv_int[j] += h * cs->tv[j];
+        m2 += m * m;
+    }
+    cs->w_int += h * channel_norm(c, cs) + 0.5 * h * h * c->beta_norm * sqrt(m2);
+}
+
 /* dot_rows_n for 1 <= n <= ROW_BLOCK rows (two: eight four-lane sums, in the sixteen AVX registers) */
 CHANNEL_CLONES
 static void dot_rows(const double *restrict rows, size_t pad, uint32_t n, const double *restrict x, double *out) {
@@ -598,9 +635,11 @@ RomStatus rom_channel_step(RomState *s, double h, const double *v_own, const dou
         cs->tv[j] += fabs(u[j] - cs->u_prev[j]) + fabs(du[j]);
         cs->u_prev[j] = u[j] + du[j];
     }
+    channel_drift(c, cs, h, u, du);
     step_planes(c, k, cs->p, cs->q, u, du);
     cs->steps += 1.0;
     cs->valid = 0;
+    cs->norm_valid = 0;
     return ROM_OK;
 }
 
@@ -648,7 +687,7 @@ CHANNEL_INLINE double row_value(const RomState *s, const ChannelState *cs, uint3
     double value = cs->values[r];
     if (c->truncated) {
         const uint32_t P = c->ports;
-        const double *D = c->D + (size_t)r * 2 * P;
+        const double *D = c->D + (size_t)r * (4 * P + 1);
         double u[ROM_MAX_PORTS];
         inputs_now(s, cs, u);
         for (uint32_t j = 0; j < P; j++) value += D[j] * u[j];
@@ -657,17 +696,21 @@ CHANNEL_INLINE double row_value(const RomState *s, const ChannelState *cs, uint3
 }
 
 /* every row's certified bound, once per step (they change only with a step): the truncated planes' gains times
- * V(u_j) and the round-off allowance on |w| */
+ * V(u_j), the decomposition's drift (its gains times the integrals, which n additions of positive terms leave within
+ * (1 + eps)^n <= 1 + CHANNEL_ROUNDOFF_STEP n of their exact sums) and the round-off allowance on |w| */
 static void channel_certs(const RomState *s, ChannelState *cs) {
     const RomChannelModel *c = &s->model->channel;
     const uint32_t P = c->ports;
-    const double w_norm = sqrt(norm2(cs->p, cs->q, c->pad));
+    const double w_norm = channel_norm(c, cs);
     const double allowance = CHANNEL_ROUNDOFF + CHANNEL_ROUNDOFF_STEP * cs->steps;
     for (uint32_t r = 0; r < c->rows; r++) {
-        const double *D = c->D + (size_t)r * 2 * P;
-        double gain = 0.0;
-        for (uint32_t j = 0; j < P; j++) gain += D[P + j] * cs->tv[j];
-        cs->certs[r] = gain + allowance * c->row_norm[r] * w_norm;
+        const double *D = c->D + (size_t)r * (4 * P + 1);
+        double gain = 0.0, drift = D[4 * P] * cs->w_int;
+        for (uint32_t j = 0; j < P; j++) {
+            gain += D[P + j] * cs->tv[j];
+            drift += D[2 * P + j] * cs->u_int[j] + D[3 * P + j] * cs->tv_int[j];
+        }
+        cs->certs[r] = gain + drift * (1.0 + CHANNEL_ROUNDOFF_STEP * cs->steps) + allowance * c->row_norm[r] * w_norm;
     }
     cs->certs_valid = 1;
 }
@@ -717,7 +760,7 @@ double rom_channel_row_rate(const RomState *s, uint32_t r) {
         rate += row[i] * x;
     }
     if (c->truncated && !(cs->impedance > 0.0)) {       /* the static correction follows the input's rate */
-        const double *D = c->D + (size_t)r * 2 * P;
+        const double *D = c->D + (size_t)r * (4 * P + 1);
         for (uint32_t j = 0; j < P; j++) rate += D[j] * s->port_rate[j] / s->area;
     }
     return rate;
@@ -822,12 +865,13 @@ double rom_port_reflected(const RomState *s, uint32_t j) {
 }
 
 /* ------------------------------------------------------------------------ */
-/* the serialized state: p[planes], q[planes], tv[P], u_prev[P], steps, Z, a[P], b[P], applied[P], da/dt[P]   */
+/* the serialized state: p[planes], q[planes], tv[P], u_prev[P], steps, Z, a[P], b[P], applied[P], da/dt[P],
+ * then the drift's integrals u_int[P], tv_int[P], w_int                                                        */
 /* ------------------------------------------------------------------------ */
 
 size_t rom_channel_state_doubles(const RomModel *m) {
     const RomChannelModel *c = &m->channel;
-    return c->planes ? 2 * (size_t)c->planes + 6 * (size_t)c->ports + 2 : 0;
+    return c->planes ? 2 * (size_t)c->planes + 8 * (size_t)c->ports + 3 : 0;
 }
 
 RomStatus rom_channel_state_check(const RomModel *m, const unsigned char *cursor, char *message, size_t message_size) {
@@ -846,6 +890,14 @@ RomStatus rom_channel_state_check(const RomModel *m, const unsigned char *cursor
                             "is negative", j + 1);
         }
     }
+    const unsigned char *drift = cursor + 8 * (2 * (size_t)c->planes + 6 * (size_t)c->ports + 2);
+    for (size_t i = 0; i < 2 * (size_t)c->ports + 1; i++) {
+        const double x = rom_get_f64(drift + 8 * i);
+        if (!(x >= 0 && isfinite(x))) {
+            return rom_fail(message, message_size, "serialized state: the port channel's drift integral %zu is %g "
+                            "(allowed: a finite number >= 0)", i + 1, x);
+        }
+    }
     return ROM_OK;
 }
 
@@ -862,7 +914,10 @@ unsigned char *rom_channel_state_put(const RomState *s, unsigned char *cursor) {
     cursor = rom_put_f64s(cursor, cs->wave, c->ports);
     cursor = rom_put_f64s(cursor, cs->reflected, c->ports);
     cursor = rom_put_f64s(cursor, cs->applied, c->ports);
-    return rom_put_f64s(cursor, cs->wave_rate, c->ports);
+    cursor = rom_put_f64s(cursor, cs->wave_rate, c->ports);
+    cursor = rom_put_f64s(cursor, cs->u_int, c->ports);
+    cursor = rom_put_f64s(cursor, cs->tv_int, c->ports);
+    return rom_put_f64s(cursor, &cs->w_int, 1);
 }
 
 const unsigned char *rom_channel_state_get(RomState *s, const unsigned char *cursor) {
@@ -881,7 +936,11 @@ const unsigned char *rom_channel_state_get(RomState *s, const unsigned char *cur
     cursor = rom_get_f64s(cursor, cs->reflected, c->ports);
     cursor = rom_get_f64s(cursor, cs->applied, c->ports);
     cursor = rom_get_f64s(cursor, cs->wave_rate, c->ports);
+    cursor = rom_get_f64s(cursor, cs->u_int, c->ports);
+    cursor = rom_get_f64s(cursor, cs->tv_int, c->ports);
+    cursor = rom_get_f64s(cursor, &cs->w_int, 1);
     cs->valid = 0;
+    cs->norm_valid = 0;
     cs->kind_valid = 0;                    /* the kind's state was read before the channel's */
     return cursor;
 }

@@ -378,8 +378,9 @@ SECTIONS: dict[str, Section] = {
     "PCB": Section("port channel: each plane's input gains per unit F_j / area (planes x P)"),
     "PCC": Section("port channel: the output rows over the planes (3 n_probes + P rows: v probes, e at their "
                    "particles, v ports)"),
-    "PCD": Section("port channel: per row the truncated planes' static correction, then their bound's gains "
-                   "(rows x 2P)"),
+    "PCD": Section("port channel: per row the truncated planes' static correction, then their bound's gains, "
+                   "then the decomposition's drift gains per unit of the integrals of |u_j|, tv_j and |w| (rows x "
+                   "(4P + 1))"),
     "PCPROBE": Section("port channel: the probes' weights and rho0", columns=("pw0", "pw1", "rho0_0", "rho0_1"),
                        values=(Range(("pw0", "pw1"), "an interpolation weight", low=0.0, high=1.0),
                                Range(("rho0_0", "rho0_1"), "rho0 [kg m^-3]", low=0.0, low_open=True),
@@ -517,7 +518,8 @@ STATE_BLOCKS = (
      "and last values u[m], the integral of |w|, the step count, started (0 or 1) (rom_bound.c)"),
     ("channel", "with the port channel (sections PC*)", "its planes p[n], q[n], the inputs' variation tv[P] and "
      "last values u[P], the step count, port_impedance [N s m^-1], a_port[P] [N], b_port[P] [N], the force held "
-     "over the last step of the wave form[P] [N], da_port/dt[P] [N s^-1] (rom_port.c)"),
+     "over the last step of the wave form[P] [N], da_port/dt[P] [N s^-1], the drift's integrals of |u_j|[P] "
+     "[N m^-2 s], of tv_j[P] [N m^-2 s] and of |w| (rom_port.c)"),
     ("initial_state_scale", "1", "the parameter"),
     ("c", "1", "the parameter c [kg m^-1 s^-2] (0 without section PARAMS)"),
     ("d", "1", "the parameter d [s^-1] (0 without section PARAMS)"),

@@ -38,12 +38,12 @@ import numpy as np
 import scipy.linalg as sla
 
 MAX_PLANES = 1024           # ROM_MAX_MODES: the most planes a channel keeps (the rest: static correction and bound)
-CLUSTER_GAP = 1e-9          # σ within this (relative) of the previous one: the same cluster (a degenerate pair)
 EXCITED = 1e-13             # a rotated plane whose port inputs are below this x the largest: no port reaches it
 RIGID = 1e-12               # σ below this x the largest: a rigid plane (kept whatever its input: Λ is singular)
 ROUNDOFF = 1e-9             # the round-off allowance of the channel's rows, relative (as the shadow's)
 ROUNDOFF_STEP = 1e-15       # ... plus this per step
 N_MAPS = 12                 # numbers of one plane's step maps (:func:`step_maps`)
+CHUNK = 256                 # columns of the planes' residual computed at a time (:func:`plane_residual`)
 DENSE_LIMIT = 4000          # N above this: no dense singular value decomposition (no channel)
 
 
@@ -69,6 +69,10 @@ class PortChannel:
         The truncated planes' remainder per unit of V(u_j): Σ |c_ri| ‖Λ_i⁻¹‖ |β_ij| (zero likewise).
     row_norm : ndarray (R,)
         ‖c_r‖ over the kept planes (the round-off allowance).
+    drift : ndarray (R, 2P + 1)
+        The decomposition's residual's gains (module docstring): per unit ∫|u_j| dt (the input residual), per unit
+        ∫tv_j dt (the left-out planes' state through the planes' residual), per unit ∫‖w‖ dt (likewise the kept
+        planes' state).
     pw, prho0 : ndarray (P_probes, 2)
         Each probe's interpolation weights and ρ0 at its two particles [kg m^-3] (the density's part).
     dx : float
@@ -85,6 +89,7 @@ class PortChannel:
     static: np.ndarray
     gain: np.ndarray
     row_norm: np.ndarray
+    drift: np.ndarray
     pw: np.ndarray
     prho0: np.ndarray
     dx: float
@@ -137,15 +142,71 @@ def coupling_planes(problem):
     return K, U[:, order], sig[order], Wt.T[:, order]
 
 
-def clusters(sig, rel=CLUSTER_GAP):
-    """Index arrays of the runs of equal singular values (within ``rel`` of the previous, relative to the largest)."""
-    top = float(sig[-1]) if sig.size else 0.0
+def clusters(sig, tol):
+    """Index arrays of the runs of equal singular values: each run's spread (largest - smallest, ascending ``sig``)
+    at most ``tol`` [s^-1] (:func:`build_channel` passes the decomposition's own residual: a rotation within a run
+    then leaves out couplings no larger than the round-off already there)."""
     out, start = [], 0
     for i in range(1, sig.size + 1):
-        if i == sig.size or sig[i] > sig[i - 1] * (1 + rel) + rel * top:
+        if i == sig.size or sig[i] - sig[start] > tol:
             out.append(np.arange(start, i))
             start = i
     return out
+
+
+def plane_residual(lti, U, s, W, d):
+    """The planes' residual [s^-1]: an upper bound of ‖A S - S Λ‖₂ over every plane of the decomposition, A the full
+    linear SPH's matrix (:func:`sphrom.rom.lti.full_linear_system`, the truth's), S = [[U, 0], [0, W]] and
+    Λ_i = [[-d, s_i], [-s_i, 0]]: the Frobenius norm (≥ the 2-norm) of the residual computed in extended precision
+    (numpy's longdouble: every double converts to it exactly), plus the round-off of computing it there.  Each entry
+    of fl(A S - S Λ) is an inner product of at most b + 2 terms (b the most nonzeros of a row of A), so it is within
+    γ_{b+2} (|A| |S| + |S| |Λ|) of the exact one (the standard model of floating-point arithmetic,
+    γ_m = m u / (1 - m u), u the longdouble's unit round-off: 1.1e-19 on x86-64, the double's 2.2e-16 where the two
+    are one type); that matrix's Frobenius norm is computed too (the sums of squares are numpy's pairwise ones,
+    within log2(terms) u relative, far below the 1e-12 the result is raised by).  A rotation within a cluster of
+    unequal σ (:func:`clusters`) shows here as the off-diagonal couplings it leaves out."""
+    import scipy.sparse as sp
+    ld = np.longdouble
+    n = U.shape[0]
+    A = sp.csr_matrix(lti.A).astype(ld)
+    absA = abs(A)
+    eps = float(np.finfo(ld).eps)
+    b = int(np.diff(A.indptr).max()) if A.nnz else 0
+    gamma = (b + 2) * eps / (1 - (b + 2) * eps)
+    Ad, Ac, aAd, aAc = A[:, :n], A[:, n:], absA[:, :n], absA[:, n:]
+    res2 = rnd2 = 0.0
+    for a in range(0, s.size, CHUNK):           # by columns: 2N x CHUNK at a time (N up to DENSE_LIMIT)
+        u, w, sv = U[:, a:a + CHUNK].astype(ld), W[:, a:a + CHUNK].astype(ld), s[None, a:a + CHUNK].astype(ld)
+        R_p = Ad @ u - np.vstack([-ld(d) * u, -w * sv])             # the p columns: S Λ's first column
+        R_q = Ac @ w - np.vstack([u * sv, np.zeros_like(w)])        # the q columns
+        au, aw, asv = np.abs(u), np.abs(w), np.abs(sv)
+        G_p = aAd @ au + np.vstack([ld(abs(d)) * au, aw * asv])
+        G_q = aAc @ aw + np.vstack([au * asv, np.zeros_like(aw)])
+        res2 += float(np.sum(R_p * R_p) + np.sum(R_q * R_q))
+        rnd2 += float(np.sum(G_p * G_p) + np.sum(G_q * G_q))
+    res, rnd = np.sqrt(res2), gamma * np.sqrt(rnd2)
+    return float((res + rnd) * (1 + 1e-12))
+
+
+def input_residual(U, Bv):
+    """Per port column ‖b_j - U Uᵀ b_j‖ (energy units per unit u_j = F_j / area) over every plane of the decomposition:
+    the part of the port input the planes do not carry (U orthonormal up to round-off), computed in extended
+    precision (longdouble, as :func:`plane_residual`), plus the round-off of computing it there: fl(Uᵀ b) and
+    fl(U y) are inner products of N terms, within γ_N |Uᵀ| |b| and γ_N |U| |y| (y = Uᵀ b), so the computed residual
+    is within γ_{N+1} (|U| (|Uᵀ| |b| + |y|) + |b|) of the exact one, whose norm is computed too (in double: its
+    terms are nonnegative, so it is within γ_{N+2} of double's unit round-off relative)."""
+    ld = np.longdouble
+    eps = float(np.finfo(ld).eps)
+    n = U.shape[0]
+    Ul, Bl = U.astype(ld), Bv.astype(ld)
+    y = Ul.T @ Bl
+    r = Bl - Ul @ y
+    aU = np.abs(U)
+    G = aU @ (aU.T @ np.abs(Bv) + np.abs(y.astype(float))) + np.abs(Bv)
+    gamma = (n + 1) * eps / (1 - (n + 1) * eps)
+    e64 = float(np.finfo(float).eps)
+    in_double = 1 + (n + 2) * e64 / (1 - (n + 2) * e64)
+    return (np.linalg.norm(r.astype(float), axis=0) + gamma * np.linalg.norm(G, axis=0) * in_double) * (1 + 1e-12)
 
 
 def build_channel(problem, ports, probes, *, max_planes=MAX_PLANES):
@@ -169,7 +230,12 @@ def build_channel(problem, ports, probes, *, max_planes=MAX_PLANES):
     K, U, sig, W = coupling_planes(problem)
     d = float(np.asarray(problem.d, float)[0])
     Bv = (port_kernel(problem, ports) / np.sqrt(problem.rho0)[None, :]).T          # (N, P) over x_v
-    for idx in clusters(sig):               # rotate each cluster so that the inputs fill its first planes
+    # a cluster is a run of singular values equal to the decomposition's own accuracy (its residual): rotating it
+    # leaves out couplings no larger than that.  A relative gap (1e-9 of σ_max) took near-degenerate pairs of a
+    # graded bar (σ 2.7e-7 apart on a rubber bar of c 1.4e5..2.07e6) for equal ones, and the couplings the rotation
+    # dropped (1.3e-7 s^-1) drove an error of 4.6e-9 of the response past the channel's bound
+    svd_residual = float(np.linalg.norm(K @ W - U * sig[None, :]))
+    for idx in clusters(sig, svd_residual):  # rotate each cluster so that the inputs fill its first planes
         if idx.size > 1:
             Q, _, _ = np.linalg.svd(U[:, idx].T @ Bv)
             U[:, idx] = U[:, idx] @ Q
@@ -198,14 +264,25 @@ def build_channel(problem, ports, probes, *, max_planes=MAX_PLANES):
         lam_rest[:, 0, 0], lam_rest[:, 0, 1], lam_rest[:, 1, 0] = -d, s[rest], -s[rest]
         inv = 1.0 / np.linalg.svd(lam_rest, compute_uv=False)[:, -1]
         gain = (np.abs(c_all[:, rest]) * inv[None, :]) @ np.abs(beta[rest]) * (1.0 + 1e-12)
+    # the decomposition's error against the truth's A (module docstring, "The decomposition's residual")
+    from .lti import full_linear_system
+    e_norm = plane_residual(full_linear_system(problem, [0.5]), U, s, W, d)
+    b_res = input_residual(U, Bv)
+    rest_w = np.zeros(P)            # ‖w_rest(t)‖ <= Σ_j rest_w_j 2 tv_j(t) (the left-out planes' state)
+    if rest.size:
+        rest_w = 2.0 * np.linalg.norm(inv[:, None] * np.abs(beta[rest]), axis=0) * (1.0 + 1e-12)
+    row_full = np.linalg.norm(C, axis=1) * (1.0 + 1e-12)                         # ‖c_r‖ in energy coordinates
+    drift = np.hstack([row_full[:, None] * b_res[None, :], row_full[:, None] * e_norm * rest_w[None, :],
+                       row_full[:, None] * e_norm])
     rows = np.ascontiguousarray(c_all[:, keep])
     return PortChannel(ports=tuple(float(x) for x in ports), n_probes=len(probes), lam=lam,
-                       beta=np.ascontiguousarray(beta[keep]), rows=rows, static=static, gain=gain,
+                       beta=np.ascontiguousarray(beta[keep]), rows=rows, static=static, gain=gain, drift=drift,
                        row_norm=np.linalg.norm(rows, axis=1), pw=pw, prho0=prho0, dx=float(problem.neighbours.dx),
                        info={"planes_of_K": int(n), "excited": int(np.count_nonzero(excited)), "kept": int(keep.size),
                              "truncated": int(np.count_nonzero(excited[rest])) if rest.size else 0,
                              "sigma_max": float(sig[-1]), "sigma_kept": float(s[keep].max()) if keep.size else 0.0,
-                             "d": d, "timings": {"channel": time.perf_counter() - t0}})
+                             "d": d, "residual": e_norm, "input_residual": b_res.tolist(),
+                             "svd_residual": svd_residual, "timings": {"channel": time.perf_counter() - t0}})
 
 
 def step_maps(lam, h):
@@ -248,6 +325,9 @@ class ChannelState:
         self.ch = channel
         self.w = np.zeros((channel.planes, 2))
         self.tv = np.zeros(channel.n_ports)            # |u(0)| + the total variation of each u_j so far
+        self.u_int = np.zeros(channel.n_ports)         # bounds of ∫|u_j| dt, ∫tv_j dt, ∫‖w‖ dt so far (the drift)
+        self.tv_int = np.zeros(channel.n_ports)
+        self.w_int = 0.0
         self.u_prev = np.zeros(channel.n_ports)
         self.steps = 0
         self._maps = {}
@@ -277,6 +357,7 @@ class ChannelState:
         du = np.zeros_like(u) if du is None else np.asarray(du, float)
         self.tv += np.abs(u - self.u_prev) + np.abs(du)
         self.u_prev = u + du
+        self._drift(h, u, du)
         mean = self.mean_port_velocity(h, u, du)
         m = self.maps(h)
         vu, vd = self.ch.beta @ u, self.ch.beta @ du
@@ -285,6 +366,16 @@ class ChannelState:
         self.w[:, 1] = m[:, 2] * p + m[:, 3] * q + m[:, 5] * vu + m[:, 7] * vd
         self.steps += 1
         return mean
+
+    def _drift(self, h, u, du):
+        """The drift's integrals over a step h (fmu_src/rom_port.c channel_drift): u linear over the step, so |u_j| <=
+        max(|u_j|, |u_j + du_j|) = m_j; each plane's e^{Λ τ} is a contraction (d >= 0), so ‖w(τ)‖ <= ‖w(0)‖ +
+        τ ‖β‖_F ‖m‖; tv_j (already at the step's end) bounds tv_j(τ) over it."""
+        m = np.maximum(np.abs(u), np.abs(u + du))
+        self.u_int += h * m
+        self.tv_int += h * self.tv
+        self.w_int += h * float(np.linalg.norm(self.w)) + 0.5 * h * h * float(np.linalg.norm(self.ch.beta)) * \
+            float(np.linalg.norm(m))
 
     def fmu_step(self, h, forces, rates=None, area=1.0, impedance=0.0, waves=None, v_own=None, wave_rates=None):
         """One doStep as fmu_src/rom_port.c takes it: the force form (``impedance`` 0) with the port forces [N] at the
@@ -313,9 +404,15 @@ class ChannelState:
 
     def cert(self):
         """The certified bound of each row's channel part against the full linear SPH's port response (R,): the
-        truncated planes' gains times V(u), and the round-off allowance."""
+        truncated planes' gains times V(u), the decomposition's drift (its residuals' gains times the integrals,
+        which n additions of positive terms leave within (1 + ε)^n <= 1 + ROUNDOFF_STEP n of their exact sums), and
+        the round-off allowance."""
+        P = self.ch.n_ports
+        D = self.ch.drift
+        drift = (D[:, :P] @ self.u_int + D[:, P:2 * P] @ self.tv_int + D[:, 2 * P] * self.w_int) * \
+            (1.0 + ROUNDOFF_STEP * self.steps)
         allow = (ROUNDOFF + ROUNDOFF_STEP * self.steps) * self.ch.row_norm * float(np.linalg.norm(self.w))
-        return self.ch.gain @ self.tv + allow
+        return self.ch.gain @ self.tv + drift + allow
 
     def energy(self, area=1.0):
         """The channel's energy ½ |w|² Δx area [J]: the full linear SPH's energy of the port response (every plane it
@@ -376,7 +473,8 @@ def sections(channel: PortChannel):
     PCLAM (planes, 4)  each plane's block Λ_i row-major [s^-1]
     PCB (planes, P)    β_ij [per N m^-2]
     PCC (R, planes)    the output rows (probe v over p, e at the probes' particles over q, port v over p)
-    PCD (R, 2P)        the static correction per unit u, then the truncated planes' gains
+    PCD (R, 4P + 1)    the static correction per unit u, then the truncated planes' gains, then the drift's gains
+                       (:attr:`PortChannel.drift`)
     PCPROBE (P_probes, 4)  each probe's weights and ρ0 at its two particles
     """
     scal = dict(planes=channel.planes, ports=channel.n_ports, rows=channel.n_rows,
@@ -384,7 +482,8 @@ def sections(channel: PortChannel):
     scal = [scal[name] for name in PCSCAL_COLUMNS]
     return {"PCSCAL": np.array([scal], float), "PCLAM": channel.lam.reshape(-1, 4).copy(),
             "PCB": np.ascontiguousarray(channel.beta, float), "PCC": np.ascontiguousarray(channel.rows, float),
-            "PCD": np.hstack([channel.static, channel.gain]), "PCPROBE": np.hstack([channel.pw, channel.prho0])}
+            "PCD": np.hstack([channel.static, channel.gain, channel.drift]),
+            "PCPROBE": np.hstack([channel.pw, channel.prho0])}
 
 
 PCSCAL_COLUMNS = ("planes", "ports", "rows", "truncated", "dx")   # section PCSCAL's columns (= fmu.layout's)
@@ -405,7 +504,7 @@ def from_sections(found, ports=None):
     positions = tuple(float(x) for x in found["PORTX"][0]) if "PORTX" in found else tuple(range(P))
     return PortChannel(ports=positions if ports is None else tuple(ports), n_probes=n_probes,
                        lam=np.asarray(found["PCLAM"], float).reshape(-1, 2, 2), beta=np.asarray(found["PCB"], float),
-                       rows=np.asarray(found["PCC"], float), static=D[:, :P], gain=D[:, P:],
+                       rows=np.asarray(found["PCC"], float), static=D[:, :P], gain=D[:, P:2 * P], drift=D[:, 2 * P:],
                        row_norm=np.linalg.norm(found["PCC"], axis=1), pw=found["PCPROBE"][:, :2],
                        prho0=found["PCPROBE"][:, 2:], dx=float(scal[0, _pcscal("dx")]),
                        info={"truncated": int(scal[0, _pcscal("truncated")])})
