@@ -410,7 +410,7 @@ def section(rows, notes, *, command, wall, machine, image, span):
                      f"{_g(r.get('native_read_ratio', float('nan')), '.2f')} | "
                      f"{_g(r.get('instr_ratio', float('nan')), '.2f')} |")
     for n in notes:
-        lines.append(_note_row(n, before=6, after=6))
+        lines.append(_note_row(n, before=6, after=7))
     scenes = {}
     for r in rows:
         scenes.setdefault(r["scene"], r.get("about", ""))
@@ -500,7 +500,7 @@ def parametric_section(rows, notes, *, command, wall, machine, span):
                      f"{_g(r['max_bound'], '.2e')} | {_g(r.get('native_ratio', float('nan')), '.2f')} | "
                      f"{_g(r.get('instr_ratio', float('nan')), '.2f')} |")
     for n in notes:
-        lines.append(_note_row(n, before=6, after=4))
+        lines.append(_note_row(n, before=6, after=5))
     return lines + [""]
 
 
