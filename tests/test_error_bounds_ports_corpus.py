@@ -104,6 +104,6 @@ def test_a_run_the_fmu_stops_is_recorded_with_its_reason(monkeypatch):
     rows, kept = error_bounds.measure_fmu("unused.fmu", problem, defaults.PROBES, t, cases, {})
     assert kept == {} and len(rows) == 1 and rows[0]["stopped"] == "negative density at probe 1"
     note = {"scene": "multimode", "model": "exact", **rows[0], "note": error_bounds._stopped(rows[0])}
-    line = error_bounds._note_row(note, before=6, after=6)
+    line = error_bounds._note_row(note, before=6, after=7)
     assert "constant, held, rest stopped: negative density at probe 1" in line and "not built" not in line
-    assert line.count("|") == 16                                   # the table's 15 columns
+    assert line.count("|") == 17                                   # the table's 16 columns

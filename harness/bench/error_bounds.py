@@ -507,7 +507,6 @@ def parametric_section(rows, notes, *, command, wall, machine, span):
 LARGE_HEADING = "## Certified error bounds at large N"
 LARGE_T = 0.5            # [s] the large scenes' horizon (their training run)
 LARGE_STEPS = 30         # communication steps of the certification run at large N
-PACKAGE_LIMIT = 200000   # above this N the shadow alone (FMU_MAX_PARTICLES: an FMU carries no shadow above it)
 
 
 def large_scene(n):
@@ -539,13 +538,16 @@ def _empty_cache(path):
             os.environ["SPHROM_CACHE"] = before
 
 
-def measure_large(sizes, folder, probes, repeats, progress=True, package_limit=PACKAGE_LIMIT):
+def measure_large(sizes, folder, probes, repeats, progress=True, package_limit=None):
     """Rows (one per N) of the exact FMU of :func:`large_scene`: its packaging time (all of it, and the shadow's
     own: :func:`sphrom.rom.bounds.build_shadow` timed apart), the shadow's size and how many planes were computed,
     the doStep cost with and without the bounds, and a certification run (LARGE_STEPS steps of STEP from the
     initial state under the chirp, held) against :func:`sphrom.rom.reference.exact_probe_reference` (one case of
     :mod:`sphrom.rom.truth`: a Taylor series of the sparse operator above 500 particles): violations and
-    effectivities.  Above ``package_limit`` particles no FMU (:func:`shadow_row`)."""
+    effectivities.  Above ``package_limit`` particles (default the FMU's own limit,
+    :data:`sphrom.rom.bounds.FMU_MAX_PARTICLES`: no shadow above it) no FMU (:func:`shadow_row`)."""
+    if package_limit is None:
+        from ..rom.bounds import FMU_MAX_PARTICLES as package_limit
     from ..fmu.make.build import ensure_binaries, fmu_binaries
     from ..fmu.make.package import package_fmu
     from ..rom.bounds import build_shadow
@@ -725,8 +727,9 @@ def main(argv=None):
                    help="held-out (c, d) per scene with --parametric (default 2)")
     p.add_argument("--sizes", type=int_list(lo=16), default=None, metavar="N1,N2",
                    help="instead: the bounds at large N (e.g. 10000,100000): packaging time, cost, certification")
-    p.add_argument("--package-limit", type=positive_int, default=PACKAGE_LIMIT, metavar="N",
-                   help="above N particles (with --sizes) the shadow alone, no FMU (default %(default)s)")
+    p.add_argument("--package-limit", type=positive_int, default=None, metavar="N",
+                   help="above N particles (with --sizes) the shadow alone, no FMU (default: the FMU's own limit, "
+                        "above which it carries no bounds)")
     args = p.parse_args(argv)
     if args.sizes is not None:
         return main_large(args, list(args.sizes), argv)
