@@ -97,7 +97,7 @@ FINE_RESOLUTION = 0.01      # ... or this, in a table of more than MAX_NODES nod
 INTERPOLATED = 3.7          # a mode with |μ| h above this counts by its size, not interpolated ((3.7)^4/384 = 0.49)
 PLATEAU = 2.0               # no cut meets the target: the smallest within this factor of the largest cut's value
 MODEL_FRACTION = 0.5        # a channel's complement may reach this x the model's own error on it (choose_planes)
-FREE_TARGET = 1e-7          # the initial state's channel: the target where the model's error is known (choose_planes)
+FREE_TARGET = 1e-7          # the initial state's channel's target (with a table; choose_planes), error known or not
 REFERENCE_STEPS = 2000      # the reference runs' held steps over T (reference_responses, the model's runs)
 FREE_SAMPLES = 4000         # the initial state's free response: intervals over TABLE_SPAN x T (choose_planes)
 N_BLOCKS = 256              # its error bounds: one per block of intervals
@@ -1102,10 +1102,12 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
     initial state: its free response table's error at t = 0 (``table``; else, a parametric shadow's, the
     complement's Hölder sum) against the largest free response.
 
-    A channel's allowance is ``target`` x its response, or, where the model's own error on that reference input is
-    known (``model_runs``, :func:`model_errors`) and larger, MODEL_FRACTION x that error: the bound is at most the
-    error plus twice the complement's, so its effectivity on the reference inputs stays below 1 + 2 MODEL_FRACTION,
-    and a more accurate model gets at least as many planes.  Returns (planes, criterion value per cut (the
+    A channel's allowance is ``target`` x its response (the initial state's, with a table: FREE_TARGET x it), or,
+    where the model's own error on that reference input is known (``model_runs``, :func:`model_errors`) and larger,
+    MODEL_FRACTION x that error: the bound is at most the error plus twice the complement's, so its effectivity on
+    the reference inputs stays below 1 + 2 MODEL_FRACTION, and a more accurate model gets at least as many planes;
+    an unknown error (port rows, ``model_runs`` None) counts as 0, so that such a shadow gets at least as many planes
+    as any known model's.  Returns (planes, criterion value per cut (the
     complement against the responses), the responses and, under "excess", the largest complement / allowance of
     each cut tried, and under "table_nodes" the free response table's nodes at most: :func:`complement`'s
     ``max_nodes``)."""
@@ -1155,16 +1157,19 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
         orders.append(forced + sorted(lowest, key=lambda i: (-importance[i], i)))
 
     def allowance(scale, err, floor=target):
-        """the complement a channel may have: ``floor`` x its response, or MODEL_FRACTION x the model's error on it"""
+        """the complement a channel may have: ``floor`` x its response, or MODEL_FRACTION x the model's error on it
+        where that is known and larger.  One rule whether or not the error is known: an unknown error (a port row,
+        a model the core cannot run so, a shadow sized on the target alone) counts as 0, the error of a perfect
+        model, so such a row gets the tightest allowance, never a looser one than a known accurate model's"""
         if err is None or not np.isfinite(err):
-            return target * scale
+            return floor * scale
         return max(floor * scale, MODEL_FRACTION * float(err))
 
-    # the free channel's floor where the model's error is known: its complement's part is the table's interpolation
-    # error, which more nodes shrink at no cost per step, so that a model more accurate than target x the free
-    # response from its initial state (multimode's exact model: 2e-7 of it) keeps its effectivity there below
-    # 1 + 2 MODEL_FRACTION (where its error is above FREE_TARGET x the response) instead of target x response / its
-    # error
+    # the free channel's floor: its complement's part is the table's interpolation error, which more nodes shrink at
+    # no cost per step, so that a model more accurate than target x the free response from its initial state
+    # (multimode's exact model: 2e-7 of it) keeps its effectivity there below 1 + 2 MODEL_FRACTION (where its error
+    # is above FREE_TARGET x the response) instead of target x response / its error.  The same floor where the error
+    # is not known (the port rows, a shadow sized on the target alone): such a model may be that accurate too
     free_floor = min(target, FREE_TARGET) if table else target
 
     def value(keep, max_nodes=MAX_NODES):
