@@ -1,12 +1,16 @@
 """The certified error bounds of port FMUs, measured: open-loop port forces, a coupled mass-spring, f and ports.
 
-``sphrom bench error_bounds_ports [SCENE ...] [--corpus N] [--models frozen,exact,balanced] [--span S]
+``sphrom bench error_bounds_ports [SCENE ...] [--corpus N] [--si-corpus N [--si-seed S]] [--models frozen,exact,balanced] [--span S]
 [--out FOLDER] [--report BENCHMARKS.md]`` packages each scene's FMU with ports at x/L = 0.3 and 0.7 (FMI 2, the
 scene's defaults, without the a priori bounds) for each model and drives it over S x the scene's T (default 20; at
 most T_MAX) at 10 ms communication steps (a user scene's: at most 0.02 / ω1, :func:`sizes`), inputs held, from rest and from the scene's
 initial state, in five cases no basis saw (:func:`cases`).  The scenes: built-in scenes or scenes' TOML files, and
 ``--corpus`` N generated user scenes, the corpus of ``sphrom bench error_bounds --corpus N``
-(:func:`sphrom.bench.lib.error_corpus.user_scenes`).
+(:func:`sphrom.bench.lib.error_corpus.user_scenes`: unit bars of N 64-128), and ``--si-corpus`` N scenes of the SI
+corpus of ``sphrom bench scenes`` (seed ``--si-seed``, default 0: unit, rubber and steel bars of any magnitudes) with
+at least :data:`~sphrom.bench.lib.error_corpus.SI_MIN_PARTICLES` particles
+(:func:`sphrom.bench.lib.error_corpus.si_scenes`; seed 0: user0_02 steel N 507, user0_03 the graded rubber bar of
+tests/data/graded_rubber.toml, user0_04 rubber N 910, ...).
 
 On a built-in scene the cases are those of the unit bar (:data:`UNIT_BAR`): slow port forces (2e-3 sin 1.3t N at port 1, 1e-3 cos 3.1t + 5e-4·[t > T/2] N at port 2), a
 constant 1e-3 N at port 1, port 1 coupled to a mass-spring (0.05 kg, 5 N/m, stretched 1 mm at t = 0; the spring
@@ -58,7 +62,7 @@ from ..scene import builtin_names, load_scene
 from . import machine_text, program_command, program_parser
 from .lib.native_cost import COUNT_STEPS, cost_lines, native_cost
 from .lib.document import update_report
-from .lib.error_corpus import user_scenes
+from .lib.error_corpus import SI_MIN_PARTICLES, si_scenes, user_scenes
 from .lib.stopped import RunStopped, reason
 from .lib.ports import MASS, S0, STIFFNESS, coupling_force, loop_radius, mass_spring_step
 from .lib.tables import write_csv
@@ -361,7 +365,7 @@ def section(rows, *, command, wall, machine, sized=()):
 
 def scene_names(scenes, corpus):
     """The SCENE arguments to measure: those given; none given, :data:`DEFAULT_SCENES` without a corpus and none
-    with one (the corpus alone)."""
+    with one (the corpus alone; ``corpus``: --corpus or --si-corpus)."""
     return list(scenes) or ([] if corpus else list(DEFAULT_SCENES))
 
 
@@ -369,10 +373,16 @@ def main(argv=None):
     p = program_parser("error_bounds_ports", description=__doc__.split("\n\n")[0])
     p.add_argument("scenes", nargs="*", metavar="SCENE",
                    help=f"a built-in scene or a scene's TOML file (default: {' '.join(DEFAULT_SCENES)}; none "
-                        "where --corpus is given)")
+                        "where --corpus or --si-corpus is given)")
     p.add_argument("--corpus", type=int_at_least(0), default=0, metavar="N",
                    help="also N generated user scenes, those of `sphrom bench error_bounds --corpus N`, their cases "
                         "sized from their own properties (default 0)")
+    p.add_argument("--si-corpus", type=int_at_least(0), default=0, metavar="N",
+                   help="also the first N scenes of the SI corpus of `sphrom bench scenes` (unit, rubber and steel "
+                        f"bars) with at least {SI_MIN_PARTICLES} particles, their cases sized from their own "
+                        "properties (default 0)")
+    p.add_argument("--si-seed", type=int_at_least(0), default=0, metavar="S",
+                   help="the SI corpus's seed (default 0)")
     p.add_argument("--models", type=fmu_models, default="frozen,exact,balanced", metavar="M1,M2")
     p.add_argument("--span", type=positive_float, default=SPAN, metavar="S", help="runs over S x the scene's T (default 20, "
                    f"at most {T_MAX:g} s)")
@@ -382,12 +392,12 @@ def main(argv=None):
                    help="runs of the native doStep cost per FMU (default 3)")
     p.add_argument("--quiet", action="store_true")
     args = p.parse_args(argv)
-    names = scene_names(args.scenes, args.corpus)
+    names = scene_names(args.scenes, args.corpus or args.si_corpus)
     unknown = [s for s in names if s not in builtin_names() and not Path(s).is_file()]
     if unknown:
         p.error(f"SCENE: {unknown[0]!r} is neither a built-in scene nor a file (built-in: "
                 f"{', '.join(builtin_names())})")
-    scenes = [load_scene(s) for s in names] + user_scenes(args.corpus)
+    scenes = [load_scene(s) for s in names] + user_scenes(args.corpus) + si_scenes(args.si_corpus, args.si_seed)
     models = args.models
     t0 = time.perf_counter()
     rows, sized = [], []

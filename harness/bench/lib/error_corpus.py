@@ -38,3 +38,24 @@ def user_scenes(count, seed=33):
                    "snapshots": {"count": 20, "window": [0.0, 0.8 * T]}}
         out.append(derive_scene(base, changes))
     return out
+
+
+SI_MIN_PARTICLES = 101      # si_scenes: the SI corpus's scenes above the unit corpus's N (64-128 above: port FMUs of
+#                             at most 96 particles keep every plane, a weak test of the sizing)
+SI_SCAN = 1000              # ... looked for among its first this many indices
+
+
+def si_scenes(count, seed=0, min_particles=SI_MIN_PARTICLES):
+    """The first ``count`` scenes of the SI corpus of ``seed`` (:mod:`sphrom.bench.lib.corpus`, the user scenes of
+    ``sphrom bench scenes``: unit, rubber and steel bars of any magnitudes) with at least ``min_particles`` particles,
+    in the corpus's order, each named as there (user<seed>_<index>)."""
+    from ...scene import parse_scene
+    from .corpus import user_scene
+    out = []
+    for index in range(SI_SCAN):
+        if len(out) >= count:
+            break
+        name, text, facts = user_scene(seed, index)
+        if facts["n"] >= min_particles:
+            out.append(parse_scene(text, f"{name}.toml", name=name))
+    return out
