@@ -150,6 +150,8 @@ typedef struct {
     double x0_norm;            /* the whole initial state's norm */
     double e_norm, b_norm;     /* the planes' residual norm (round-off), the shadow's input norm */
     double mu;                 /* the largest growth rate of a plane's symmetric part (0 at least) */
+    double growth;             /* [s^-1] the truth's e^{At} grows by at most e^{growth t}: the residual's drift term
+                                  carries it (harness/rom/lti.py skew_growth; 0: a contraction) */
     double tolerance;          /* error_tolerance's default [m s^-1] */
     const double *lam;         /* [planes][4] each plane's 2 x 2 block */
     const double *B;           /* [order][inputs] */
@@ -192,6 +194,7 @@ typedef struct {
                                 * then the decomposition's drift gains per unit of int |u_j| dt, of int tv_j dt and
                                 * of int |w| dt (harness/rom/port_channel.py PortChannel.drift) */
     double beta_norm;          /* the Frobenius norm of beta (the drift's bound of |w| over a step) */
+    double growth;             /* [s^-1] the truth's e^{At} grows by at most e^{growth t}: the drift carries it */
     const double *probe;       /* [n_probes][4] the probe's weights and rho0 at its two particles */
     void *storage_;            /* beta^T [ports][pad], C [rows][pad] zero-padded, the row norms [rows] */
     const double *beta_t, *C_pad, *row_norm;

@@ -18,7 +18,8 @@
  *                (the input's jumps and slopes weighted by the decay of group g, SHRATE): it saturates under a
  *                persistent input;
  *
- * plus |c_r| |E| int |w| (the planes' round-off) and |c_r| (1e-11 + 1e-15 n) (|w| + |s| |x0|) (floating point).
+ * plus |c_r| |E| int |w| e^{growth t} (the planes' round-off; growth, SHSCAL: the truth's e^{At} is a contraction up
+ * to the round-off of the computed A) and |c_r| (1e-11 + 1e-15 n) (|w| + |s| |x0|) (floating point).
  * An output's bound is |model - (shadow + feedthrough + table)| + that (the density through
  * rho = sum_m pw rho0 / (1 + e_m), harness/rom/bounds.py output_bounds).  O(k_s m + m G) per doStep, no N.  The
  * same arithmetic as harness/rom/bounds.py run_shadow (not bit for bit: a bound, compared within tolerances).
@@ -403,7 +404,8 @@ RomStatus rom_bound_prepare(RomModel *m, char *message, size_t message_size) {
         !inputs_ok || v[ROM_SHSCAL_ROWS] != (double)rows || !whole(v[ROM_SHSCAL_NODES], 0, 1e7) ||
         !whole(v[ROM_SHSCAL_GROUPS], 1, BOUND_MAX_GROUPS) || !(v[ROM_SHSCAL_H_TAB] >= 0) ||
         !whole(v[ROM_SHSCAL_Q_TAB], 1, 1e7) || !(v[ROM_SHSCAL_X0_NORM] >= 0) || !(v[ROM_SHSCAL_E_NORM] >= 0) ||
-        !(v[ROM_SHSCAL_B_NORM] >= 0) || !(v[ROM_SHSCAL_TOLERANCE] >= 0) || !whole(v[ROM_SHSCAL_CPLANES], 0, 1e7)) {
+        !(v[ROM_SHSCAL_B_NORM] >= 0) || !(v[ROM_SHSCAL_TOLERANCE] >= 0) || !whole(v[ROM_SHSCAL_CPLANES], 0, 1e7) ||
+        !(v[ROM_SHSCAL_GROWTH] >= 0 && isfinite(v[ROM_SHSCAL_GROWTH]))) {
         return rom_fail(message, message_size, "resources: section SHSCAL (the error bounds' sizes) does not fit the "
                         "model (%u inputs%s, %u output rows expected; planes 1 to %u, groups 1 to %u)", all,
                         channel ? " or 1" : "", rows, ROM_MAX_SHADOW_PLANES, BOUND_MAX_GROUPS);
@@ -436,6 +438,7 @@ RomStatus rom_bound_prepare(RomModel *m, char *message, size_t message_size) {
     b->e_norm = v[ROM_SHSCAL_E_NORM];
     b->b_norm = v[ROM_SHSCAL_B_NORM];
     b->tolerance = v[ROM_SHSCAL_TOLERANCE];
+    b->growth = v[ROM_SHSCAL_GROWTH];
     b->mu = plane_growth(sec[1]->data, planes);
     b->lam = sec[1]->data;
     b->B = sec[2]->data;
@@ -955,6 +958,7 @@ typedef struct {
     const double *cont;        /* after the table with SHCONT: the continued modes' exponentials (BoundState.cont_e) */
     double w_root;             /* |w| (started), else NaN: the rows compute s w0's */
     double steps_factor;       /* BOUND_ROUNDOFF + BOUND_ROUNDOFF_STEP n */
+    double drift_growth;       /* exp(growth tau): the residual's drift, a Duhamel integral of e^{A (t - s)} */
 } RowTime;
 
 /* the continued modes past the table (SHCONT) at tau > t_end: per mode E_M = exp(mu_M x), x = tau - t_end, and the
@@ -1021,6 +1025,7 @@ static void row_time(const RomState *s, RowTime *rt) {
         rt->w_root = NAN;
     }
     rt->steps_factor = BOUND_ROUNDOFF + BOUND_ROUNDOFF_STEP * bs->steps;
+    rt->drift_growth = b->growth > 0 ? exp(b->growth * (tau > 0 ? tau : 0.0)) : 1.0;
 }
 
 /* the complement's free response of row r at the time of rt (per unit initial_state_scale): the table's Hermite
@@ -1143,7 +1148,7 @@ BOUND_INLINE void row_at(const RomState *s, const RowTime *rt, const RowInputs *
     const double allow = cn * rt->steps_factor * (w_root + scale * b->x0_norm);
     double channel_cert = 0.0;              /* the port channel's part of the row and its own bound (rom_port.c) */
     *value = channel ? y + rom_channel_row(s, r, &channel_cert) : y;
-    *cert = scale * g_error + quasi + trans + cn * b->e_norm * bs->w_int + allow + channel_cert;
+    *cert = scale * g_error + quasi + trans + cn * b->e_norm * bs->w_int * rt->drift_growth + allow + channel_cert;
 }
 
 /* the inputs' terms the rows share (row_at) */

@@ -86,9 +86,10 @@
  *     PORTB: port input rows at area 1 (P x k_v frozen, P x k linear); absent with the port channel
  *     PORTC: port velocity rows (P x k_v; P x k over the whole state with output_rows)
  *     SHSCAL: error bounds: the shadow's sizes and scalars; columns order, planes, inputs, rows, nodes, groups,
- *         h_tab, q_tab, x0_norm, e_norm, b_norm, tolerance, cplanes, reserved; values: the free response table's
- *         node spacing [s] (columns h_tab) >= 0; a norm (columns x0_norm, e_norm, b_norm) >= 0; error_tolerance's
- *         default [m s^-1] (columns tolerance) >= 0
+ *         h_tab, q_tab, x0_norm, e_norm, b_norm, tolerance, cplanes, growth; values: the free response table's
+ *         node spacing [s] (columns h_tab) >= 0; a norm (columns x0_norm, e_norm, b_norm) >= 0; the residual
+ *         drift's growth rate [s^-1] (0: none) (columns growth) >= 0; error_tolerance's default [m s^-1] (columns
+ *         tolerance) >= 0
  *     SHLAM: error bounds: the shadow's planes
  *     SHB: error bounds: the shadow's input columns
  *     SHC: error bounds: the shadow's output rows
@@ -109,7 +110,8 @@
  *         e_c_e, e_d_v, e_d_e; values: the shadow's reference stiffness c_ref [kg m^-1 s^-2] (columns c_ref) > 0;
  *         a residual piece's norm (columns e_const_v, e_const_e, e_c_v, e_c_e, e_d_v, e_d_e) >= 0
  *     SHCPL: error bounds: the complement's planes (parametric)
- *     PCSCAL: port channel: its sizes and scalars; columns planes, ports, rows, truncated, dx
+ *     PCSCAL: port channel: its sizes and scalars; columns planes, ports, rows, truncated, dx, growth; values: the
+ *         drift's growth rate [s^-1] (0: none) (columns growth) >= 0
  *     PCLAM: port channel: each plane's 2 x 2 block [[-d, s], [-s, 0]] (planes x 4)
  *     PCB: port channel: each plane's input gains per unit F_j / area (planes x P)
  *     PCC: port channel: the output rows over the planes (3 n_probes + P rows: v probes, e at their particles, v
@@ -243,7 +245,7 @@
 #define ROM_SHSCAL_B_NORM                    10
 #define ROM_SHSCAL_TOLERANCE                 11
 #define ROM_SHSCAL_CPLANES                   12
-#define ROM_SHSCAL_RESERVED                  13
+#define ROM_SHSCAL_GROWTH                    13
 #define ROM_SHPROBE_COLUMNS                  4u
 #define ROM_SHPROBE_PW0                      0
 #define ROM_SHPROBE_PW1                      1
@@ -257,12 +259,13 @@
 #define ROM_SHPARAM_E_C_E                    4
 #define ROM_SHPARAM_E_D_V                    5
 #define ROM_SHPARAM_E_D_E                    6
-#define ROM_PCSCAL_COLUMNS                   5u
+#define ROM_PCSCAL_COLUMNS                   6u
 #define ROM_PCSCAL_PLANES                    0
 #define ROM_PCSCAL_PORTS                     1
 #define ROM_PCSCAL_ROWS                      2
 #define ROM_PCSCAL_TRUNCATED                 3
 #define ROM_PCSCAL_DX                        4
+#define ROM_PCSCAL_GROWTH                    5
 #define ROM_PCPROBE_COLUMNS                  4u
 #define ROM_PCPROBE_PW0                      0
 #define ROM_PCPROBE_PW1                      1
@@ -287,6 +290,7 @@
     X("SHSCAL", 8, 0, 9, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "a norm", ">= 0") \
     X("SHSCAL", 9, 0, 10, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "a norm", ">= 0") \
     X("SHSCAL", 10, 0, 11, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "a norm", ">= 0") \
+    X("SHSCAL", 13, 0, 14, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "the residual drift's growth rate [s^-1] (0: none)", ">= 0") \
     X("SHSCAL", 11, 0, 12, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "error_tolerance's default [m s^-1]", ">= 0") \
     X("SHROW", 0, 0, 1, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "the output row's norm |c_r|", ">= 0") \
     X("SHROW", 1, 1, -1, 0, 0.0, INFINITY, 0, 0, 1, -1.0, "a gain or a tail of the complement (-1: infinite)", ">= 0 or -1") \
@@ -303,6 +307,7 @@
     X("SHPARAM", 4, 0, 5, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "a residual piece's norm", ">= 0") \
     X("SHPARAM", 5, 0, 6, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "a residual piece's norm", ">= 0") \
     X("SHPARAM", 6, 0, 7, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "a residual piece's norm", ">= 0") \
+    X("PCSCAL", 5, 0, 6, 0, 0.0, INFINITY, 0, 0, 0, 0.0, "the drift's growth rate [s^-1] (0: none)", ">= 0") \
     X("PCPROBE", 0, 0, 1, 0, 0.0, 1.0, 0, 0, 0, 0.0, "an interpolation weight", "in [0, 1]") \
     X("PCPROBE", 1, 0, 2, 0, 0.0, 1.0, 0, 0, 0, 0.0, "an interpolation weight", "in [0, 1]") \
     X("PCPROBE", 2, 0, 3, 0, 0.0, INFINITY, 1, 0, 0, 0.0, "rho0 [kg m^-3]", "> 0") \

@@ -140,9 +140,11 @@ RomStatus rom_channel_prepare(RomModel *m, char *message, size_t message_size) {
     const uint32_t rows = 3u * m->n_probes + m->n_ports;
     if (!(planes >= 1 && planes <= ROM_MAX_MODES && planes == floor(planes)) ||
         v[ROM_PCSCAL_PORTS] != (double)m->n_ports || v[ROM_PCSCAL_ROWS] != (double)rows ||
-        !(truncated == 0.0 || truncated == 1.0) || !(dx > 0)) {
+        !(truncated == 0.0 || truncated == 1.0) || !(dx > 0) ||
+        !(v[ROM_PCSCAL_GROWTH] >= 0 && isfinite(v[ROM_PCSCAL_GROWTH]))) {
         return rom_fail(message, message_size, "resources: section PCSCAL (the port channel's sizes) does not fit the "
-                        "model (%u ports, %u rows expected; planes 1 to %u; dx > 0)", m->n_ports, rows, ROM_MAX_MODES);
+                        "model (%u ports, %u rows expected; planes 1 to %u; dx > 0; a finite growth >= 0)", m->n_ports,
+                        rows, ROM_MAX_MODES);
     }
     RomChannelModel *c = &m->channel;
     const uint32_t n = (uint32_t)planes, P = m->n_ports;
@@ -196,6 +198,7 @@ RomStatus rom_channel_prepare(RomModel *m, char *message, size_t message_size) {
     c->pad = (uint32_t)pad;
     c->truncated = truncated != 0.0;
     c->dx = dx;
+    c->growth = v[ROM_PCSCAL_GROWTH];
     c->lam = sec[1]->data;
     c->beta = sec[2]->data;
     c->C = sec[3]->data;
@@ -703,6 +706,8 @@ static void channel_certs(const RomState *s, ChannelState *cs) {
     const uint32_t P = c->ports;
     const double w_norm = channel_norm(c, cs);
     const double allowance = CHANNEL_ROUNDOFF + CHANNEL_ROUNDOFF_STEP * cs->steps;
+    /* the drift is a Duhamel integral of e^{A (t - s)}, which grows by at most e^{growth t} (rom.h) */
+    const double growth = c->growth > 0 ? exp(c->growth * (s->elapsed > 0 ? s->elapsed : 0.0)) : 1.0;
     for (uint32_t r = 0; r < c->rows; r++) {
         const double *D = c->D + (size_t)r * (4 * P + 1);
         double gain = 0.0, drift = D[4 * P] * cs->w_int;
@@ -710,7 +715,8 @@ static void channel_certs(const RomState *s, ChannelState *cs) {
             gain += D[P + j] * cs->tv[j];
             drift += D[2 * P + j] * cs->u_int[j] + D[3 * P + j] * cs->tv_int[j];
         }
-        cs->certs[r] = gain + drift * (1.0 + CHANNEL_ROUNDOFF_STEP * cs->steps) + allowance * c->row_norm[r] * w_norm;
+        cs->certs[r] = gain + drift * (1.0 + CHANNEL_ROUNDOFF_STEP * cs->steps) * growth +
+                       allowance * c->row_norm[r] * w_norm;
     }
     cs->certs_valid = 1;
 }

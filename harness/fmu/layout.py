@@ -338,9 +338,10 @@ SECTIONS: dict[str, Section] = {
     # the certified error bounds' shadow (harness/rom/bounds.py sections, fmu_src/rom_bound.c), all or none
     "SHSCAL": Section("error bounds: the shadow's sizes and scalars",
                       columns=("order", "planes", "inputs", "rows", "nodes", "groups", "h_tab", "q_tab", "x0_norm",
-                               "e_norm", "b_norm", "tolerance", "cplanes", "reserved"),
+                               "e_norm", "b_norm", "tolerance", "cplanes", "growth"),
                       values=(Range("h_tab", "the free response table's node spacing [s]", low=0.0),
                               Range(("x0_norm", "e_norm", "b_norm"), "a norm", low=0.0),
+                              Range("growth", "the residual drift's growth rate [s^-1] (0: none)", low=0.0),
                               Range("tolerance", "error_tolerance's default [m s^-1]", low=0.0))),
     "SHLAM": Section("error bounds: the shadow's planes"),
     "SHB": Section("error bounds: the shadow's input columns"),
@@ -372,7 +373,9 @@ SECTIONS: dict[str, Section] = {
                                      "a residual piece's norm", low=0.0))),
     "SHCPL": Section("error bounds: the complement's planes (parametric)"),
     # the port channel (harness/rom/port_channel.py, fmu_src/rom_port.c), all or none; with it no PORTB
-    "PCSCAL": Section("port channel: its sizes and scalars", columns=("planes", "ports", "rows", "truncated", "dx")),
+    "PCSCAL": Section("port channel: its sizes and scalars",
+                      columns=("planes", "ports", "rows", "truncated", "dx", "growth"),
+                      values=(Range("growth", "the drift's growth rate [s^-1] (0: none)", low=0.0),)),
     # (the same names as sphrom.rom.port_channel.PCSCAL_COLUMNS, which writes and reads them: tests/test_port_channel.py)
     "PCLAM": Section("port channel: each plane's 2 x 2 block [[-d, s], [-s, 0]] (planes x 4)"),
     "PCB": Section("port channel: each plane's input gains per unit F_j / area (planes x P)"),

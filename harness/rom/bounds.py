@@ -200,6 +200,10 @@ class Shadow:
         A parametric shadow's residual pieces' norms (v rows, e rows).
     cplanes : dict or None
         A parametric shadow's complement planes: sigma (n,), chat (rows, n, 2), bv (n, m), eta (n,).
+    growth : float
+        ω [s^-1]: the truth's e^{A t} grows by at most e^{ω t} (:func:`sphrom.rom.lti.skew_growth`, round-off of
+        the computed A), which the residual's drift carries (:func:`run_shadow`); 0 for a parametric shadow (its
+        residual pieces take the truth's M as -Kᵀ: a contraction).
     info : dict
     """
 
@@ -220,6 +224,7 @@ class Shadow:
     c_ref: float = float("nan")
     E: np.ndarray = field(default_factory=lambda: np.zeros((3, 2)))
     cplanes: dict | None = None
+    growth: float = 0.0
     info: dict = field(default_factory=dict)
 
     @property
@@ -437,7 +442,8 @@ def tail_table(problem, C, x0, planes, tail: Tail, T):
     between nodes is within (h ‖A‖)⁴ / 384 x the norm bound e^{-α t_k}).  Two ways to the nodes:
 
     - N x nodes <= TAIL_WORK: the full state propagated (:func:`_taylor_nodes`), e^{A h} x by its Taylor series to
-      TAYLOR_TERMS, ten products with A per node; e^{A t} is a contraction in the energy norm, so its errors only add.
+      TAYLOR_TERMS, ten products with A per node; e^{A t} is a contraction in the energy norm up to the computed A's
+      round-off (‖e^{A t}‖ <= e^{ω t}, :func:`sphrom.rom.lti.skew_growth`), so its errors only add, times e^{ω t_k}.
     - else, N x the Chebyshev degree <= CHEBYSHEV_WORK and x0 unstrained (x0_tail = [x_v; 0], always so for the
       SPH's x0): the response as a function of K Kᵀ and Kᵀ K (:func:`tail_free_chebyshev`), one product with K and
       Kᵀ per half unit of t σ_max (1/20 of the Taylor propagation's) but whose round-off bound grows like Q^2.5 with
@@ -446,8 +452,9 @@ def tail_table(problem, C, x0, planes, tail: Tail, T):
         return None
     n = problem.rho0.size
     t0 = time.perf_counter()
-    from .lti import full_linear_system
-    A = full_linear_system(problem, [0.5]).A.tocsr()
+    from .lti import full_linear_system, skew_growth
+    lti = full_linear_system(problem, [0.5])
+    A = lti.A.tocsr()
     a_norm = math.sqrt(float(abs(A).sum(axis=0).max()) * float(abs(A).sum(axis=1).max())) * (1 + 1e-12)
     span = min(TABLE_SPAN * float(T), math.log(1.0 / TAIL_DECAY) / tail.alpha)
     nodes = int(math.ceil(span * a_norm / TAIL_RESOLUTION)) + 1
@@ -469,6 +476,8 @@ def tail_table(problem, C, x0, planes, tail: Tail, T):
     bound = np.outer(tail.free(), np.exp(-tail.alpha * times))              # the norm bound at the nodes
     if taylor:
         values, slopes, ev, es = _taylor_nodes(A, C, x, nodes, h, a, float(tail.x0_norm))
+        grow = np.exp(skew_growth(lti) * times)[None, :]          # node k's errors: Σ_j e^{A (t_k - t_j)} δ_j
+        ev, es = ev * grow, es * grow
     else:
         values, slopes, ev, es = tail_free_chebyshev(K, C, x[:n], times, 2.0 * tail.alpha, mu_max, tail.free(),
                                                      tail.alpha)
@@ -1046,13 +1055,14 @@ def reference_omega(planes):
 
 def model_errors(model_runs, truth_step, truth_sine, truth_free, omega, T, P, pw, prho0, strain=1e-4):
     """The model's own error on the reference inputs, per shadow row (NaN where not measured): (step (rows, m),
-    sine (rows, m), free (rows,)), from ``model_runs(h, f, scale)`` -> (v (steps, P), ρ (steps, P)), the model's
-    probe outputs after each of len(f) steps of h [s] under the force f held over each step [m s^-2], from rest
-    (scale 0) or from its initial state (scale 1; then with the outputs at t = 0 first).  The truth: the full
+    sine (rows, m), free (rows,)), from ``model_runs(h, f, scale)`` -> (v (steps, P), ρ (steps, P)) or (v, ρ,
+    v_port (steps, ports)), the model's outputs after each of len(f) steps of h [s] under the force f held over each
+    step [m s^-2] (no port force), from rest (scale 0) or from its initial state (scale 1; then with the outputs at
+    t = 0 first).  The truth: the full
     linear SPH's series of :func:`reference_responses` (unit inputs) and the free response ``truth_free`` (rows,
     FREE_SAMPLES + 1) over TABLE_SPAN x T.  Velocity rows: |v_model - v_true|; the two e rows of a probe: its
-    density's error over Σ_m pw_m ρ0_m (dρ/de at e = 0); port rows and port inputs: NaN (sized by the target
-    alone).  The force channel only (input 0), its reference inputs scaled down where the truth's largest |e| under
+    density's error over Σ_m pw_m ρ0_m (dρ/de at e = 0); port rows: |v_port_model - v_port_true| where the runs
+    give v_port, else NaN (sized by the target alone); port inputs: NaN.  The force channel only (input 0), its reference inputs scaled down where the truth's largest |e| under
     a unit input passes ``strain`` (a model whose density is not linear in e, the frozen one, is compared where the
     truth's linearity in J and its own agree), the errors per unit input."""
     rows, m, steps = truth_step.shape
@@ -1061,10 +1071,13 @@ def model_errors(model_runs, truth_step, truth_sine, truth_free, omega, T, P, pw
     free_e = np.full(rows, np.nan)
     rho_scale = (pw * prho0).sum(axis=1)                        # (P,)
 
-    def errors(v, rho, y):
-        """per row: the largest error of the model's (v, ρ) (M, P) against the truth's rows y (rows, M)"""
+    def errors(v, rho, y, v_port=None):
+        """per row: the largest error of the model's (v, ρ) (M, P) and v_port (M, ports) against the truth's rows y
+        (rows, M)"""
         out = np.full(rows, np.nan)
         out[:P] = np.abs(v - y[:P].T).max(axis=0)
+        if v_port is not None and rows > 3 * P:
+            out[3 * P:] = np.abs(np.asarray(v_port, float).reshape(y.shape[1], -1) - y[3 * P:].T).max(axis=0)
         for j in range(P):
             e = y[P + 2 * j:P + 2 * j + 2].T                     # (M, 2)
             rho_t = probe_density(e, pw[j], prho0[j])
@@ -1076,11 +1089,11 @@ def model_errors(model_runs, truth_step, truth_sine, truth_free, omega, T, P, pw
     for f, truth, into in ((np.ones(steps), truth_step, step_e), (np.sin(omega * t), truth_sine, sine_e)):
         top = float(np.max(np.abs(truth[P:3 * P, 0, :]), initial=0.0))
         a = min(1.0, strain / top) if top > 0 else 1.0
-        v, rho = model_runs(h, a * f, 0.0)
-        into[:, 0] = errors(np.asarray(v), np.asarray(rho), a * truth[:, 0, :]) / a
+        got = model_runs(h, a * f, 0.0)
+        into[:, 0] = errors(np.asarray(got[0]), np.asarray(got[1]), a * truth[:, 0, :], *got[2:3]) / a
     n_free = truth_free.shape[1] - 1
-    v, rho = model_runs(TABLE_SPAN * T / n_free, np.zeros(n_free), 1.0)
-    free_e[:] = errors(np.asarray(v), np.asarray(rho), truth_free)
+    got = model_runs(TABLE_SPAN * T / n_free, np.zeros(n_free), 1.0)
+    free_e[:] = errors(np.asarray(got[0]), np.asarray(got[1]), truth_free, *got[2:3])
     return step_e, sine_e, free_e
 
 
@@ -1441,8 +1454,9 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
     # the planes' residual (round-off of the decomposition): E = A S - S Λ, per piece for a parametric shadow
     E = np.zeros((3, 2))
     e_norm = 0.0
+    growth = 0.0
     if chosen:
-        from .lti import full_linear_system
+        from .lti import full_linear_system, skew_growth
         lti = full_linear_system(problem, [0.5])
         if parametric:
             import scipy.sparse as sp
@@ -1459,6 +1473,7 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
             R = lti.A @ S - S @ sla.block_diag(*A[0])
             e_norm = float(np.linalg.norm(R, 2)) * 2.0 + 1e-15 * float(abs(lti.A).sum(axis=1).max()) * \
                 float(np.linalg.norm(S, 2))
+            growth = skew_growth(lti)            # the residual's drift is a Duhamel integral of e^{A (t - τ)}
     restp = np.setdiff1d(np.arange(planes.count), keep)
     rest_modes = _select(modes_all, np.isin(modes_all.plane, restp))
     comp, cplanes = None, None
@@ -1474,7 +1489,8 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
                     x0_norm=float(np.linalg.norm(x0)), e_norm=e_norm,
                     b_norm=float(np.linalg.norm(B, 2)) if B.size else 0.0, pw=pw, prho0=prho0,
                     n_ports=len(ports), parametric=bool(parametric),
-                    c_ref=float(problem.c[0]) if parametric else float("nan"), E=E, cplanes=cplanes)
+                    c_ref=float(problem.c[0]) if parametric else float("nan"), E=E, cplanes=cplanes,
+                    growth=growth)
     shadow.info.update({"planes": int(chosen), "kept": keep.tolist(), "order": shadow.order, "target": float(target),
                         "scale_v": scale_v,
                         "criterion": {int(k): float(v) for k, v in values.items()}, **ref,
@@ -1611,7 +1627,9 @@ def run_shadow(sh: Shadow, h, u, rate, *, scale=1.0, c=None, d=None):
         if np.any(~np.isfinite(comp.gain) & (V[None] > 0)):
             trans = np.where(np.any(~np.isfinite(comp.gain) & (V[None] > 0), axis=(1, 2)), np.inf, trans)
         allow = cn * (ROUNDOFF + ROUNDOFF_STEP * n) * (np.linalg.norm(w) + abs(scale) * sh.x0_norm)
-        return init + static + trans + cn * enorm * w_int + allow
+        # the residual's drift ∫ e^{A (t - τ)} (A V_s - V_s Λ_s) w dτ: ‖e^{A s}‖ <= e^{ω s} (lti.skew_growth)
+        drift = cn * enorm * w_int * (math.exp(sh.growth * tau) if sh.growth > 0 else 1.0)
+        return init + static + trans + drift + allow
 
     Y.append(sh.C @ w + comp.D @ uprev + scale * free_part(comp, 0.0)[0])
     CERT.append(cert(0.0, 0))
@@ -1665,7 +1683,8 @@ def sections(sh: Shadow):
 
     SHSCAL (1, 14)   k_s, planes, inputs m, rows, the table's nodes n, groups G, its node spacing h [s], its error
                      blocks' length q (intervals), ‖x0‖, ‖E‖ [s^-1], ‖B_s‖, error_tolerance's default [m s^-1],
-                     complement planes n_c (a parametric shadow; else 0), 0
+                     complement planes n_c (a parametric shadow; else 0), the residual drift's growth rate ω
+                     [s^-1] (:attr:`Shadow.growth`: its term times e^{ω t}; 0 in a parametric shadow)
     SHLAM (planes, 4)  each plane's Λ_i row-major [s^-1] (parametric: its constant piece)
     SHB (k_s, m), SHC (rows, k_s), SHW0 (1, k_s)
     SHROW (rows, 1 + 2m + m G + G)  per row: ‖c_r‖, the feedthrough D_r (m), the uncomputed planes' quasi-static
@@ -1710,7 +1729,7 @@ def sections(sh: Shadow):
             nodes, h, q = comp.values.shape[1], comp.h, comp.q
     row[:, 0] = sh.row_norm
     scal = [sh.order, sh.planes, m, rows, nodes, G, h, q, sh.x0_norm,
-            0.0 if sh.parametric else sh.residual_norm(), sh.b_norm, tol, n_c, 0.0]
+            0.0 if sh.parametric else sh.residual_norm(), sh.b_norm, tol, n_c, sh.growth]
     out = {"SHSCAL": np.array([scal], float),
            "SHLAM": np.asarray(sh.A[0], float).reshape(-1, 4),
            "SHB": np.asarray(sh.B, float).reshape(sh.order, m),

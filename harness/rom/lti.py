@@ -39,6 +39,7 @@ matrix exponential), so no quadrature error enters.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -205,6 +206,28 @@ def full_linear_system(problem, probes=DEFAULT_PROBES) -> LTI:
     return LTI(A=A, J=J, R=R, B=B, C=C, x0=x0, w_v=w_v, w_e=w_e, null=null_modes(G, w_e), probes=probes,
                damped=bool(np.all(d > 0)), T=float(problem.scene.T),
                info={"skew_defect": float(skew), "scene": problem.scene.name})
+
+
+def skew_growth(lti: LTI) -> float:
+    """ω [s^-1] at least the largest eigenvalue of (A + Aᵀ)/2, so that ‖e^{A t}‖₂ <= e^{ω t} in energy coordinates.
+
+    In exact arithmetic J is skew (module docstring) and A + Aᵀ = -2 diag(d, 0): e^{A t} is a contraction.  The
+    computed blocks K = ρ0^-½ G c^½ and M = c^½ G ρ0^-½ are each rounded on their own (and G's entries at x_i - x_j
+    and x_j - x_i), so the matrix the truth integrates has M + Kᵀ of round-off size, not 0 (the graded rubber bar of
+    tests/data/graded_rubber.toml: a largest eigenvalue 3.3e-13 s^-1 of (A + Aᵀ)/2), and e^{A t} may grow by that
+    rate.  With A = [[-D, K], [M, 0]], D = diag(d) >= 0: xᵀ A x = -x_vᵀ D x_v + x_vᵀ (K + Mᵀ) x_e <= ‖K + Mᵀ‖₂ |x_v|
+    |x_e| <= ‖K + Mᵀ‖₂ |x|² / 2, so ω = ‖K + Mᵀ‖_F / 2 (>= ‖K + Mᵀ‖₂ / 2; plus the largest -d, were any d < 0).
+    K + Mᵀ is exact where its terms nearly cancel (a difference of doubles within a factor 2 of each other is exact),
+    else within the unit round-off of each entry; the squares' sum is math.fsum's and the margin 1e-12 covers the
+    rest.  The error bounds' decomposition drift (:func:`sphrom.rom.bounds.run_shadow`'s residual term,
+    :class:`sphrom.rom.port_channel.ChannelState`'s drift) is a Duhamel integral of e^{A (t - τ)}: it carries e^{ω t}."""
+    n = lti.w_v.size
+    A = sp.csr_matrix(lti.A)
+    X = sp.csr_matrix(A[:n, n:] + A[n:, :n].T)
+    sq = np.asarray(X.data, float) ** 2
+    norm = math.sqrt(math.fsum(sq.tolist())) if sq.size else 0.0
+    d = -np.asarray(A[:n, :n].diagonal(), float)
+    return float(0.5 * norm * (1.0 + 1e-12) + max(0.0, -float(d.min(initial=0.0))))
 
 
 def sph_rates(problem, v, rho, f=0.0):

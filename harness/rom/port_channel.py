@@ -31,6 +31,7 @@ the input's value and its change over the step, and the mean of p over the step 
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 
@@ -77,6 +78,9 @@ class PortChannel:
         Each probe's interpolation weights and ρ0 at its two particles [kg m^-3] (the density's part).
     dx : float
         The particle spacing [m]: the energy is ½ |w|² Δx area.
+    growth : float
+        ω [s^-1]: the truth's e^{A t} grows by at most e^{ω t} (:func:`sphrom.rom.lti.skew_growth`: the computed
+        A's round-off), which the drift carries (:meth:`ChannelState.cert`).
     info : dict
         planes of K, excited, kept, truncated, σ, timings.
     """
@@ -93,6 +97,7 @@ class PortChannel:
     pw: np.ndarray
     prho0: np.ndarray
     dx: float
+    growth: float = 0.0
     info: dict = field(default_factory=dict)
 
     @property
@@ -265,8 +270,9 @@ def build_channel(problem, ports, probes, *, max_planes=MAX_PLANES):
         inv = 1.0 / np.linalg.svd(lam_rest, compute_uv=False)[:, -1]
         gain = (np.abs(c_all[:, rest]) * inv[None, :]) @ np.abs(beta[rest]) * (1.0 + 1e-12)
     # the decomposition's error against the truth's A (module docstring, "The decomposition's residual")
-    from .lti import full_linear_system
-    e_norm = plane_residual(full_linear_system(problem, [0.5]), U, s, W, d)
+    from .lti import full_linear_system, skew_growth
+    lti = full_linear_system(problem, [0.5])
+    e_norm = plane_residual(lti, U, s, W, d)
     b_res = input_residual(U, Bv)
     rest_w = np.zeros(P)            # ‖w_rest(t)‖ <= Σ_j rest_w_j 2 tv_j(t) (the left-out planes' state)
     if rest.size:
@@ -278,7 +284,7 @@ def build_channel(problem, ports, probes, *, max_planes=MAX_PLANES):
     return PortChannel(ports=tuple(float(x) for x in ports), n_probes=len(probes), lam=lam,
                        beta=np.ascontiguousarray(beta[keep]), rows=rows, static=static, gain=gain, drift=drift,
                        row_norm=np.linalg.norm(rows, axis=1), pw=pw, prho0=prho0, dx=float(problem.neighbours.dx),
-                       info={"planes_of_K": int(n), "excited": int(np.count_nonzero(excited)), "kept": int(keep.size),
+                       growth=skew_growth(lti), info={"planes_of_K": int(n), "excited": int(np.count_nonzero(excited)), "kept": int(keep.size),
                              "truncated": int(np.count_nonzero(excited[rest])) if rest.size else 0,
                              "sigma_max": float(sig[-1]), "sigma_kept": float(s[keep].max()) if keep.size else 0.0,
                              "d": d, "residual": e_norm, "input_residual": b_res.tolist(),
@@ -330,6 +336,7 @@ class ChannelState:
         self.w_int = 0.0
         self.u_prev = np.zeros(channel.n_ports)
         self.steps = 0
+        self.elapsed = 0.0                             # [s] the steps' sum (the drift's growth, e^{ω t})
         self._maps = {}
         self.applied = np.zeros(channel.n_ports)       # the wave form: the force held over the last step [N]
         self.reflected = np.zeros(channel.n_ports)     # ... b_j = F_j - a_j [N]
@@ -365,6 +372,7 @@ class ChannelState:
         self.w[:, 0] = m[:, 0] * p + m[:, 1] * q + m[:, 4] * vu + m[:, 6] * vd
         self.w[:, 1] = m[:, 2] * p + m[:, 3] * q + m[:, 5] * vu + m[:, 7] * vd
         self.steps += 1
+        self.elapsed += float(h)
         return mean
 
     def _drift(self, h, u, du):
@@ -405,12 +413,13 @@ class ChannelState:
     def cert(self):
         """The certified bound of each row's channel part against the full linear SPH's port response (R,): the
         truncated planes' gains times V(u), the decomposition's drift (its residuals' gains times the integrals,
-        which n additions of positive terms leave within (1 + ε)^n <= 1 + ROUNDOFF_STEP n of their exact sums), and
-        the round-off allowance."""
+        which n additions of positive terms leave within (1 + ε)^n <= 1 + ROUNDOFF_STEP n of their exact sums; the
+        Duhamel integrals' ‖e^{A (t - τ)}‖ <= e^{ω t}, :attr:`PortChannel.growth`), and the round-off allowance."""
         P = self.ch.n_ports
         D = self.ch.drift
+        growth = math.exp(self.ch.growth * self.elapsed) if self.ch.growth > 0 else 1.0
         drift = (D[:, :P] @ self.u_int + D[:, P:2 * P] @ self.tv_int + D[:, 2 * P] * self.w_int) * \
-            (1.0 + ROUNDOFF_STEP * self.steps)
+            (1.0 + ROUNDOFF_STEP * self.steps) * growth
         allow = (ROUNDOFF + ROUNDOFF_STEP * self.steps) * self.ch.row_norm * float(np.linalg.norm(self.w))
         return self.ch.gain @ self.tv + drift + allow
 
@@ -469,7 +478,7 @@ def wave_forces(state: ChannelState, h, waves, impedance, area, v_other=None):
 def sections(channel: PortChannel):
     """{tag: 2-D float64 array} of the channel for resources/model.bin (harness/fmu/layout.py SECTIONS PC*):
 
-    PCSCAL (1, 5)      planes, ports, rows, truncated (0 or 1), dx [m]
+    PCSCAL (1, 6)      planes, ports, rows, truncated (0 or 1), dx [m], the drift's growth rate ω [s^-1]
     PCLAM (planes, 4)  each plane's block Λ_i row-major [s^-1]
     PCB (planes, P)    β_ij [per N m^-2]
     PCC (R, planes)    the output rows (probe v over p, e at the probes' particles over q, port v over p)
@@ -478,7 +487,7 @@ def sections(channel: PortChannel):
     PCPROBE (P_probes, 4)  each probe's weights and ρ0 at its two particles
     """
     scal = dict(planes=channel.planes, ports=channel.n_ports, rows=channel.n_rows,
-                truncated=1.0 if channel.truncated else 0.0, dx=channel.dx)
+                truncated=1.0 if channel.truncated else 0.0, dx=channel.dx, growth=channel.growth)
     scal = [scal[name] for name in PCSCAL_COLUMNS]
     return {"PCSCAL": np.array([scal], float), "PCLAM": channel.lam.reshape(-1, 4).copy(),
             "PCB": np.ascontiguousarray(channel.beta, float), "PCC": np.ascontiguousarray(channel.rows, float),
@@ -486,7 +495,7 @@ def sections(channel: PortChannel):
             "PCPROBE": np.hstack([channel.pw, channel.prho0])}
 
 
-PCSCAL_COLUMNS = ("planes", "ports", "rows", "truncated", "dx")   # section PCSCAL's columns (= fmu.layout's)
+PCSCAL_COLUMNS = ("planes", "ports", "rows", "truncated", "dx", "growth")   # section PCSCAL's columns (= fmu.layout's)
 
 
 def _pcscal(name):
@@ -507,6 +516,7 @@ def from_sections(found, ports=None):
                        rows=np.asarray(found["PCC"], float), static=D[:, :P], gain=D[:, P:2 * P], drift=D[:, 2 * P:],
                        row_norm=np.linalg.norm(found["PCC"], axis=1), pw=found["PCPROBE"][:, :2],
                        prho0=found["PCPROBE"][:, 2:], dx=float(scal[0, _pcscal("dx")]),
+                       growth=float(scal[0, _pcscal("growth")]),
                        info={"truncated": int(scal[0, _pcscal("truncated")])})
 
 

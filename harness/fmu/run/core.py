@@ -93,7 +93,8 @@ class Core:
                                 ("rom_v_port", [vp, u32], d), ("rom_set_area", [vp, d, cp, sz], ctypes.c_int),
                                 ("rom_set_port_impedance", [vp, d, cp, sz], ctypes.c_int),
                                 ("rom_set_port_wave", [vp, u32, d, cp, sz], ctypes.c_int),
-                                ("rom_port_reflected", [vp, u32], d), ("rom_channel_energy", [vp], d)):
+                                ("rom_port_reflected", [vp, u32], d), ("rom_channel_energy", [vp], d),
+                                ("rom_v_probe_error_bound", [vp, u32], d), ("rom_v_port_error_bound", [vp, u32], d)):
             getattr(lib, name).argtypes = args
             getattr(lib, name).restype = res
         self.lib = lib
@@ -237,6 +238,12 @@ class CoreModel:
     def port_velocities(self):
         """v_port_j [m s^-1]."""
         return np.array([self.core.lib.rom_v_port(self.state, j) for j in range(self.n_ports)])
+
+    def error_bounds(self, n_probes):
+        """The certified error bounds of v_probe_j then v_port_j [m s^-1] (NaN: the model has none)."""
+        lib = self.core.lib
+        return np.array([lib.rom_v_probe_error_bound(self.state, j) for j in range(n_probes)] +
+                        [lib.rom_v_port_error_bound(self.state, j) for j in range(self.n_ports)])
 
     def set_port_impedance(self, impedance):
         """The wave form's port_impedance Z [N s m^-1] (0: the force form)."""

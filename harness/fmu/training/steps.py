@@ -82,7 +82,7 @@ def core_runs(data):
     """The model of ``data`` (its sections so far, no SH*) run by the C core, as
     :func:`sphrom.rom.bounds.model_errors` asks: ``run(h, f, scale)`` -> (v, ρ) (steps, P) after each step of h [s]
     under f held over each step, from rest (scale 0) or from the initial state (scale 1: the outputs at t = 0
-    first).  The shadow is sized against the model's own error on its reference inputs; the FMU's own core, so
+    first), and with ports v_port (steps, ports) too (no port force: the model's own part of it).  The shadow is sized against the model's own error on its reference inputs; the FMU's own core, so
     the error is the FMU's.  The binaries are built (or found in the cache) on the first run."""
     blob = pack(dataclasses.replace(data, sections={k: v for k, v in data.sections.items()
                                                     if not k.startswith("SH")}))
@@ -93,19 +93,22 @@ def core_runs(data):
         try:
             model.reset(0.0)
             model.set_initial_state_scale(float(scale))
-            P = data.n_probes
-            v, rho = [], []
-            if scale:
+            P, ports = data.n_probes, model.n_ports
+            v, rho, v_port = [], [], []
+
+            def read():
                 out = model.outputs(P)
                 v.append(out[0])
                 rho.append(out[1])
+                if ports:
+                    v_port.append(model.port_velocities())
+            if scale:
+                read()
             for i, fi in enumerate(np.asarray(f, float)):
                 model.set_input(float(fi))
                 model.do_step(i * h, h)
-                out = model.outputs(P)
-                v.append(out[0])
-                rho.append(out[1])
-            return np.array(v), np.array(rho)
+                read()
+            return (np.array(v), np.array(rho)) + ((np.array(v_port),) if ports else ())
         finally:
             model.close()
     return run
