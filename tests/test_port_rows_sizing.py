@@ -121,12 +121,13 @@ def test_the_truths_growth_rate_bounds_its_symmetric_part(size):
 def test_the_core_carries_the_growth(channel_port_fmu):
     """The C core multiplies the bounds' drift terms by e^{growth t}: the channel FMU's v_port and v_probe bounds with
     a growth of 5 s^-1 written into sections SHSCAL and PCSCAL are never below those with 0, above them once the
-    drift is not 0, and never above e^{5 t} x them (the factor takes a part of the bound)."""
+    drift is not 0, and never above growth_factor(5, t) (>= e^{5 t}) x them (the factor takes a part of the bound)."""
     import dataclasses
 
     from sphrom.fmu import layout
     from sphrom.fmu.kinds import pack
     from sphrom.fmu.run.core import built_core
+    from sphrom.rom.lti import growth_factor
     _, data = channel_port_fmu
     assert "SHSCAL" in data.sections
     growth, h, steps = 5.0, 0.01, 60
@@ -153,4 +154,14 @@ def test_the_core_carries_the_growth(channel_port_fmu):
     grown, plain = bounds[growth], bounds[0.0]
     assert np.all(grown >= plain)
     assert np.all(grown[-1] > plain[-1])
-    assert np.all(grown <= np.exp(growth * t)[:, None] * plain)
+    assert np.all(grown <= np.array([growth_factor(growth, x) for x in t])[:, None] * plain)
+
+
+def test_growth_factor_bounds_the_exponential():
+    """lti.growth_factor (the C core's arithmetic: 1 + x + x² up to x = 1, then exp) is at least e^x, to the last
+    ulp of either, and exactly 1 at x = 0 (a shadow or channel of growth 0 keeps its former bounds bit for bit)."""
+    from sphrom.rom.lti import growth_factor
+    x = np.concatenate([[0.0], np.geomspace(1e-18, 1.0, 200), np.linspace(1.0, 5.0, 41)])
+    got = np.array([growth_factor(1.0, t) for t in x])
+    assert np.all(got >= np.exp(x) * (1.0 - 2.0 ** -52))
+    assert growth_factor(0.0, 1e9) == 1.0 and growth_factor(3.0, 0.0) == 1.0

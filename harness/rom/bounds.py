@@ -72,7 +72,7 @@ import scipy.fft as sf
 import scipy.linalg as sla
 
 from ..sph.ports import port_kernel, port_velocity_rows
-from .lti import probe_matrix
+from .lti import growth_factor, probe_matrix
 from .planes import EIGEN_LIMIT, Modes, coupling, eigen_planes, gap_cuts, plane_modes, singular_planes
 
 SHADOW_TARGET = 1e-6        # the complement's certified part / the channel's response, per reference input
@@ -476,7 +476,8 @@ def tail_table(problem, C, x0, planes, tail: Tail, T):
     bound = np.outer(tail.free(), np.exp(-tail.alpha * times))              # the norm bound at the nodes
     if taylor:
         values, slopes, ev, es = _taylor_nodes(A, C, x, nodes, h, a, float(tail.x0_norm))
-        grow = np.exp(skew_growth(lti) * times)[None, :]          # node k's errors: Σ_j e^{A (t_k - t_j)} δ_j
+        omega = skew_growth(lti)
+        grow = np.array([growth_factor(omega, t) for t in times])[None, :]   # node k's: Σ_j e^{A (t_k - t_j)} δ_j
         ev, es = ev * grow, es * grow
     else:
         values, slopes, ev, es = tail_free_chebyshev(K, C, x[:n], times, 2.0 * tail.alpha, mu_max, tail.free(),
@@ -1628,7 +1629,7 @@ def run_shadow(sh: Shadow, h, u, rate, *, scale=1.0, c=None, d=None):
             trans = np.where(np.any(~np.isfinite(comp.gain) & (V[None] > 0), axis=(1, 2)), np.inf, trans)
         allow = cn * (ROUNDOFF + ROUNDOFF_STEP * n) * (np.linalg.norm(w) + abs(scale) * sh.x0_norm)
         # the residual's drift ∫ e^{A (t - τ)} (A V_s - V_s Λ_s) w dτ: ‖e^{A s}‖ <= e^{ω s} (lti.skew_growth)
-        drift = cn * enorm * w_int * (math.exp(sh.growth * tau) if sh.growth > 0 else 1.0)
+        drift = cn * enorm * w_int * growth_factor(sh.growth, tau)
         return init + static + trans + drift + allow
 
     Y.append(sh.C @ w + comp.D @ uprev + scale * free_part(comp, 0.0)[0])

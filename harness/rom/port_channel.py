@@ -31,12 +31,13 @@ the input's value and its change over the step, and the mean of p over the step 
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg as sla
+
+from .lti import growth_factor
 
 MAX_PLANES = 1024           # ROM_MAX_MODES: the most planes a channel keeps (the rest: static correction and bound)
 EXCITED = 1e-13             # a rotated plane whose port inputs are below this x the largest: no port reaches it
@@ -417,7 +418,7 @@ class ChannelState:
         Duhamel integrals' ‖e^{A (t - τ)}‖ <= e^{ω t}, :attr:`PortChannel.growth`), and the round-off allowance."""
         P = self.ch.n_ports
         D = self.ch.drift
-        growth = math.exp(self.ch.growth * self.elapsed) if self.ch.growth > 0 else 1.0
+        growth = growth_factor(self.ch.growth, self.elapsed)
         drift = (D[:, :P] @ self.u_int + D[:, P:2 * P] @ self.tv_int + D[:, 2 * P] * self.w_int) * \
             (1.0 + ROUNDOFF_STEP * self.steps) * growth
         allow = (ROUNDOFF + ROUNDOFF_STEP * self.steps) * self.ch.row_norm * float(np.linalg.norm(self.w))
