@@ -47,6 +47,24 @@ def test_options_and_scene_selection(capsys):
         assert "--corpus" in err[0] and "allowed: an integer >= 0" in err[0]
 
 
+def test_the_si_corpus_scenes_are_the_scenes_benchs_above_the_unit_corpus():
+    """--si-corpus N: the first N scenes of `sphrom bench scenes`'s corpus (seed --si-seed) with at least
+    SI_MIN_PARTICLES particles, in its order and under its names (the unit corpus's N of 64-128 port FMUs keep every
+    plane); --si-corpus alone measures them alone, and a bad count is refused in one line."""
+    from sphrom.bench.lib.corpus import user_scene
+    from sphrom.bench.lib.error_corpus import SI_MIN_PARTICLES, si_scenes
+    got = si_scenes(3, seed=0)
+    drawn = [user_scene(0, i) for i in range(40)]
+    want = [name for name, _, facts in drawn if facts["n"] >= SI_MIN_PARTICLES][:3]
+    assert [s.name for s in got] == want
+    for s in got:
+        assert build_problem(s).n >= SI_MIN_PARTICLES
+    assert ebp.scene_names([], 2) == []                    # (main passes --corpus or --si-corpus)
+    with pytest.raises(SystemExit) as exc:
+        ebp.main(["--si-corpus", "-1"])
+    assert exc.value.code == 2
+
+
 def test_builtin_scenes_keep_the_published_cases():
     t = np.arange(0, 3.0, 0.01)
     got = ebp.cases(t, 3.0)
