@@ -1172,9 +1172,10 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
 
     def allowance(scale, err, floor=target):
         """the complement a channel may have: ``floor`` x its response, or MODEL_FRACTION x the model's error on it
-        where that is known and larger.  One rule whether or not the error is known: an unknown error (a port row,
-        a model the core cannot run so, a shadow sized on the target alone) counts as 0, the error of a perfect
-        model, so such a row gets the tightest allowance, never a looser one than a known accurate model's"""
+        where that is known and larger.  One rule whether or not the error is known: an unknown error (a port row
+        the runs do not give, a model the core cannot run so, a shadow sized on the target alone) counts as 0, the
+        error of a perfect model, so such a row gets the tightest allowance, never a looser one than a known accurate
+        model's"""
         if err is None or not np.isfinite(err):
             return floor * scale
         return max(floor * scale, MODEL_FRACTION * float(err))
@@ -1183,7 +1184,8 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
     # no cost per step, so that a model more accurate than target x the free response from its initial state
     # (multimode's exact model: 2e-7 of it) keeps its effectivity there below 1 + 2 MODEL_FRACTION (where its error
     # is above FREE_TARGET x the response) instead of target x response / its error.  The same floor where the error
-    # is not known (the port rows, a shadow sized on the target alone): such a model may be that accurate too
+    # is not known (port rows the runs do not give, a shadow sized on the target alone): such a model may be that
+    # accurate too
     free_floor = min(target, FREE_TARGET) if table else target
 
     def value(keep, max_nodes=MAX_NODES):
