@@ -88,6 +88,8 @@ typedef struct {
     double started;            /* 1 once w holds s w0 and its steps (the first doStep), 0 before */
     double tail_tau;           /* the time since the start at which tail_decay holds (NaN: none) */
     double tail_decay[BOUND_MAX_GROUPS];   /* exp(-alpha_g (tau - t_end)) there: the rows' tails after the table */
+    int tails_restored;        /* tail_decay came with a restored state (of the state's own c, d: a parametric
+                                  shadow's assembly at them keeps it), until the next step or assembly */
     /* the continued modes past the table (SHCONT; cont_step): E_M = exp(mu_M (tau - t_end)) carried over the steps,
      * E_M <- E_M exp(mu_M h), anchored exactly (exp, cos, sin) at the first step past the table, after
      * BOUND_CONT_ANCHOR steps and where the step length changes (serialized: the same continuation after a restore) */
@@ -332,7 +334,9 @@ RomStatus rom_bound_assemble(RomModel *m, RomState *s, char *message, size_t mes
     BoundState *bs = (BoundState *)s->bound;
     if (bs) {
         for (int c = 0; c < BOUND_CACHE; c++) bs->cache[c].h = 0.0;     /* the plane maps of the old planes */
-        bs->tail_tau = NAN;                                             /* and the tails' decays of the old rates */
+        if (!bs->tails_restored) bs->tail_tau = NAN;                    /* and the tails' decays of the old rates
+                                                                           (a restored state's are of its c, d) */
+        bs->tails_restored = 0;
     }
     return ROM_OK;
 }
@@ -569,6 +573,9 @@ void rom_bound_reset(RomState *s) {
     bs->w_int = bs->steps = bs->started = 0.0;
     bs->tail_tau = bs->cont_tau = bs->read_tau = NAN;
     bs->cont_n = bs->cont_h = 0.0;
+    bs->tails_restored = 0;
+    for (uint32_t g = 0; g < BOUND_MAX_GROUPS; g++) bs->tail_decay[g] = 0.0;      /* (a reset's state as a new one's) */
+    for (size_t i = 0; i < 2 * (size_t)s->model->bound.n_cont; i++) bs->cont_z[i] = 0.0;
     for (int c = 0; c < BOUND_CACHE; c++) bs->cache[c].h = 0.0;      /* the maps stay valid; kept empty anyway */
 }
 
@@ -1050,6 +1057,7 @@ void rom_bound_step(RomState *s, double h) {
         for (size_t i = 0; i < b->order; i++) bs->w[i] = s->initial_state_scale * b->w0[i];
         bs->started = 1.0;
     }
+    bs->tails_restored = 0;
     if (b->inputs == 1) step_shadow(s, bs, h, 1);     /* the force f alone: the common case, specialized */
     else step_shadow(s, bs, h, b->inputs);
 }
@@ -1383,15 +1391,47 @@ int rom_bound_exceeded(const RomState *s, char *message, size_t message_size) {
            rows_exceed(s, &rt, &in, 1, ports, m, started, channel, message, message_size);
 }
 
-/* the serialized shadow: w, V, u_prev, w_int, steps, started, then with SHCONT the continued modes' E_M (Re, Im),
- * cont_tau, cont_n, cont_h (the continuation carried over the steps: cont_step) */
+/* the serialized shadow: w, V, u_prev, w_int, steps, started, the tails' decays after the table (tail_tau,
+ * tail_decay[groups]: chained over the steps, tail_decays), then with SHCONT the continued modes' E_M (Re, Im),
+ * cont_tau, cont_n, cont_h (carried over the steps, cont_step): a restored state continues with the same bits */
 static size_t cont_state_doubles(const RomBoundModel *b) {
     return b->n_cont ? 2 * (size_t)b->n_cont + 3 : 0;
 }
 
 size_t rom_bound_state_doubles(const RomModel *m) {
     const RomBoundModel *b = &m->bound;
-    return b->order ? b->order + (size_t)b->inputs * (b->groups + 1) + 3 + cont_state_doubles(b) : 0;
+    return b->order ? b->order + (size_t)b->inputs * (b->groups + 1) + 3 + 1 + b->groups + cont_state_doubles(b) : 0;
+}
+
+/* a restored tails' chain (serialized: tail_tau, -1 for none, tail_decay): a time after the table's end and decays
+ * in [0, 2] (tail_decays' chain, rounded up from at most 1); else none (computed exactly at the next step).  Kept
+ * where a parametric shadow is assembled at the state's c, d next (rom_bound_assemble): the state's own rates */
+static void tails_restored(BoundState *bs, const RomBoundModel *b) {
+    int valid = bs->tail_tau > table_end(b);
+    for (uint32_t g = 0; valid && g < b->groups; g++) valid = bs->tail_decay[g] >= 0 && bs->tail_decay[g] <= 2.0;
+    if (!valid) bs->tail_tau = NAN;
+    bs->tails_restored = valid;
+}
+
+/* a restored continuation (cont_step): at a time after the table's end, a step count from 0 to BOUND_CONT_ANCHOR, a
+ * step length > 0, and each E_M within twice its allowance's relative error (cont_exact's derivation: eps_n +
+ * eps_0, the exact value's own) of the exact value at cont_tau; else none (anchored exactly at the next step) */
+static void cont_restored(BoundState *bs, const RomBoundModel *b) {
+    const double tau = bs->cont_tau, n = bs->cont_n, u = 0x1p-53;
+    int valid = isfinite(tau) && tau > table_end(b) && whole(n, 0, BOUND_CONT_ANCHOR) && isfinite(bs->cont_h) &&
+                bs->cont_h > 0;
+    if (valid) cont_exact(b, tau - table_end(b), bs->cont_e);
+    for (uint32_t k = 0; valid && k < b->n_cont; k++) {
+        const double a = fabs(b->cont[2 * (size_t)k]) + fabs(b->cont[2 * (size_t)k + 1]);
+        const double *z = bs->cont_z + 2 * (size_t)k, *e = bs->cont_e + 2 * (size_t)k;
+        const double rel = 2.0 * 1.002 * u * (6.0 + 12.0 * n + (8.0 + n) * a * tau);
+        valid = fabs(z[0] - e[0]) + fabs(z[1] - e[1]) <= rel * (fabs(e[0]) + fabs(e[1])) + 4.0 * u;   /* NaN: not */
+    }
+    bs->read_tau = NAN;
+    if (!valid) {
+        bs->cont_tau = NAN;
+        bs->cont_n = bs->cont_h = 0.0;
+    }
 }
 
 unsigned char *rom_bound_state_put(const RomState *s, unsigned char *cursor) {
@@ -1403,9 +1443,12 @@ unsigned char *rom_bound_state_put(const RomState *s, unsigned char *cursor) {
     cursor = rom_put_f64s(cursor, bs->u_prev, b->inputs);
     const double scalars[3] = {bs->w_int, bs->steps, bs->started};
     cursor = rom_put_f64s(cursor, scalars, 3);
+    const double tail_tau = isfinite(bs->tail_tau) ? bs->tail_tau : -1.0;     /* (a state's values are finite) */
+    cursor = rom_put_f64s(cursor, &tail_tau, 1);
+    cursor = rom_put_f64s(cursor, bs->tail_decay, b->groups);
     if (!cont_state_doubles(b)) return cursor;
     cursor = rom_put_f64s(cursor, bs->cont_z, 2 * (size_t)b->n_cont);
-    const double cont[3] = {bs->cont_tau, bs->cont_n, bs->cont_h};
+    const double cont[3] = {isfinite(bs->cont_tau) ? bs->cont_tau : -1.0, bs->cont_n, bs->cont_h};
     return rom_put_f64s(cursor, cont, 3);
 }
 
@@ -1422,10 +1465,12 @@ const unsigned char *rom_bound_state_get(RomState *s, const unsigned char *curso
     bs->w_int = scalars[0];
     bs->steps = scalars[1];
     bs->started = scalars[2] != 0.0 ? 1.0 : 0.0;
-    bs->tail_tau = bs->read_tau = NAN;                  /* recomputed at the next row */
     for (size_t i = 0; i < (size_t)b->inputs * b->groups; i++) {
         if (!(bs->V[i] >= 0)) bs->V[i] = INFINITY;       /* a damaged variation: no bound, visibly */
     }
+    cursor = rom_get_f64s(cursor, &bs->tail_tau, 1);
+    cursor = rom_get_f64s(cursor, bs->tail_decay, b->groups);
+    tails_restored(bs, b);
     if (!cont_state_doubles(b)) return cursor;
     cursor = rom_get_f64s(cursor, bs->cont_z, 2 * (size_t)b->n_cont);
     double cont[3];
@@ -1433,16 +1478,6 @@ const unsigned char *rom_bound_state_get(RomState *s, const unsigned char *curso
     bs->cont_tau = cont[0];
     bs->cont_n = cont[1];
     bs->cont_h = cont[2];
-    /* a damaged continuation (E_M beyond |E| <= 1, a step count or length out of range, a time within the table):
-     * none, anchored exactly at the next step past the table */
-    int valid = cont[0] > table_end(b) && isfinite(cont[0]) && whole(cont[1], 0, BOUND_CONT_ANCHOR) &&
-                isfinite(cont[2]) && cont[2] > 0;
-    for (uint32_t k = 0; valid && k < b->n_cont; k++) {
-        valid = fabs(bs->cont_z[2 * (size_t)k]) + fabs(bs->cont_z[2 * (size_t)k + 1]) <= 2.0;   /* (NaN: not) */
-    }
-    if (!valid) {
-        bs->cont_tau = NAN;
-        bs->cont_n = bs->cont_h = 0.0;
-    }
+    cont_restored(bs, b);
     return cursor;
 }
