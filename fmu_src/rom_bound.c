@@ -54,7 +54,8 @@
 #define BOUND_GROUP_WORDS 2u
 #define BOUND_MAX_CONT 65536u          /* the modes continued past the free response table at most (SHCONT) */
 #define BOUND_CONT_ROUNDOFF 1e-13      /* harness/rom/bounds.py CONT_ROUNDOFF */
-#define BOUND_CONT_ANCHOR 64.0         /* ... CONT_ANCHOR: the continued modes' steps between exact anchors */
+#define BOUND_CONT_ANCHOR 256.0        /* ... CONT_ANCHOR: the continued modes' steps between exact anchors */
+#define BOUND_CONT_FOLD 3u             /* the rows whose continued sums the step forms (the velocity rows of group 0) */
 _Static_assert((3u * ROM_MAX_PROBES + ROM_MAX_PORTS + 1u + BOUND_GROUP - 1u) / BOUND_GROUP <= 64u * BOUND_GROUP_WORDS,
                "the rows' sums' groups fit BoundState.groups' bits");
 
@@ -97,8 +98,13 @@ typedef struct {
     double cont_tau;           /* the time since the start at which cont_z holds (NaN: none) */
     double cont_n;             /* the steps since cont_z was anchored (0 to BOUND_CONT_ANCHOR) */
     double cont_h;             /* the last step's length (0: none): a new length anchors */
-    double *cont_r;            /* [n_cont][2]: exp(mu_M cont_rh) (Re, Im), the step's factor (not state: a function
-                                  of the step length) */
+    double cont_drift;         /* sum |tau_i - (tau_i-1 + h_i)| over the steps since the anchor [s]: the state's time
+                                  against the steps' exact sum (each term exact: two_sum) */
+    double cont_sum[BOUND_CONT_FOLD][2];   /* rows 0 to 2's sums sum_M (Re Q Re E, Im Q Im E) at cont_tau, formed in
+                                  the step while E is at hand (the error check's velocity rows; not state) */
+    int cont_summed;           /* cont_sum holds them (the step formed them: the check read the rows before it) */
+    double *cont_r;            /* [n_cont][4]: R_M = exp(mu_M cont_rh) as (Re R, Im R, -Im R, Re R), the step's
+                                  factor (not state: a function of the step length) */
     double cont_rh;            /* the step length of cont_r (0: none) */
     double *cont_e;            /* [n_cont][2]: E_M computed exactly at read_tau, where a row is read at a time the
                                   steps did not carry (not state: no row read changes the continuation) */
@@ -520,7 +526,7 @@ RomStatus rom_bound_state_new(RomState *s) {
     const size_t slots = row_slots(b);
     const size_t nc = 2 * (size_t)b->n_cont;
 #define BOUND_ARRAYS 8
-    size_t counts[BOUND_ARRAYS + 4 * BOUND_CACHE] = {k, slots, 4 * n * n, k * slots, nc, nc, nc,
+    size_t counts[BOUND_ARRAYS + 4 * BOUND_CACHE] = {k, slots, 4 * n * n, k * slots, nc, 2 * nc, nc,
                                                      b->n_cont ? 2 * (size_t)b->rows : 0};
     double **ptrs[BOUND_ARRAYS + 4 * BOUND_CACHE] = {&bs->w, &bs->y, &bs->work, &bs->ct, &bs->cont_z, &bs->cont_r,
                                                      &bs->cont_e, &bs->cont_rows};
@@ -572,8 +578,8 @@ void rom_bound_reset(RomState *s) {
     for (uint32_t i = 0; i < BOUND_MAX_INPUTS; i++) bs->u_prev[i] = 0.0;
     bs->w_int = bs->steps = bs->started = 0.0;
     bs->tail_tau = bs->cont_tau = bs->read_tau = NAN;
-    bs->cont_n = bs->cont_h = 0.0;
-    bs->tails_restored = 0;
+    bs->cont_n = bs->cont_h = bs->cont_drift = 0.0;
+    bs->cont_summed = bs->tails_restored = 0;
     for (uint32_t g = 0; g < BOUND_MAX_GROUPS; g++) bs->tail_decay[g] = 0.0;      /* (a reset's state as a new one's) */
     for (size_t i = 0; i < 2 * (size_t)s->model->bound.n_cont; i++) bs->cont_z[i] = 0.0;
     for (int c = 0; c < BOUND_CACHE; c++) bs->cache[c].h = 0.0;      /* the maps stay valid; kept empty anyway */
@@ -589,25 +595,26 @@ static double table_end(const RomBoundModel *b) {
  * sincos), and anchored, E_M computed exactly from the time (cont_exact), at the first step past the table, after
  * BOUND_CONT_ANCHOR steps and at a step whose length is not the last one's (cont_step).  The round-off allowance
  * (harness/rom/bounds.py cont_roundoff, the same formula; u = 2^-53, a_M = |Re mu_M| + |Im mu_M| >= |mu_M|, n the
- * steps since the anchor, tau = tau_n the time since the start, taken as the truth's time):
+ * steps since the anchor, tau = tau_n the time since the start, the state's, taken as the truth's time):
  * - the anchor at tau_a: t_end = h_tab (nodes - 1) here, within 2 u t_end of bounds.py's (its Q's exp(mu t_end)),
  *   x rounded (u x), mu x rounded (u |mu| x), Q's own exp(mu t_end) rounded (u |mu| t_end): the argument is off by
  *   |delta| <= 3 u |mu| tau_a, so E_M by 1.001 |delta| of |E_M| (|delta| <= 1e-3); exp, cos, sin within an ulp each
  *   and the products |E| cos, |E| sin rounded: 3 u more: eps_0 <= 3 u + 3.003 u a_M tau_a;
  * - a step: R_M within (6.3 + a_M h) u of exp(mu_M h) (exp 2 u, cos and sin 2 sqrt(2) u, the products sqrt(2) u, the
  *   arguments mu h rounded u a_M h), the product E R within 2 sqrt(2) u of |E R| (no fused multiply-add: each part
- *   two products and a sum rounded; 2 u with one): 12 u + u a_M h, and the time: the state's tau_i = tau_i-1 + h
- *   rounded (rom.c), up to u tau_i from the steps' sum, u a_M tau_i of E_M: the relative error after n steps is
- *   eps_n <= (1 + g)^n (1 + eps_0) - 1 <= 1.002 (eps_0 + sum_i g_i) where that sum <= 1e-3, g_i = (12 + a_M h_i) u +
- *   u a_M tau_i, and sum_i a_M h_i <= a_M (tau - tau_a): eps_n <= 1.002 u (3 + 12 n + (4 + n) a_M tau);
- * - the row's sum of n_c terms Re Q E = Re Q Re E - Im Q Im E, each product rounded, added in order: (n_c + 1) u
- *   sum_M q_rM |E_M| (q = |Re Q| + |Im Q|), and Q's relative error (bounds.py's P, as the table's nodes'):
- *   BOUND_CONT_ROUNDOFF.
+ *   two products and a sum rounded): g_i = (12 + a_M h_i) u; and the time: the state's tau_i is tau_i-1 + h_i
+ *   rounded (rom.c), d_i = |tau_i - (tau_i-1 + h_i)| off the steps' exact sum, which E carries (two_sum_error, exact;
+ *   summed in cont_drift, D = sum d_i): a_M D of E_M.  The relative error after n steps is eps_n <= (1 + g)^n (1 +
+ *   eps_0) - 1 + 1.001 a_M D <= 1.002 (eps_0 + sum_i g_i + a_M D) where that is <= 1e-3, and sum_i a_M h_i <= a_M
+ *   (tau - tau_a) (tau_a <= tau): eps_n <= 1.002 (u (3 + 12 n + 4 a_M tau) + a_M D);
+ * - the row's sum of n_c terms Re Q E = Re Q Re E - Im Q Im E (two lanes, sum_M Re Q Re E and sum_M Im Q Im E, each
+ *   product rounded, added in order, then their difference): (n_c + 1) u sum_M q_rM |E_M| (q = |Re Q| + |Im Q|), and
+ *   Q's relative error (bounds.py's P, as the table's nodes'): BOUND_CONT_ROUNDOFF.
  * With |E_M| <= 1 (Re mu_M <= 0: prepare_continuation) the allowance is, per row, k0 sum_M q_rM + k1 sum_M q_rM a_M
- * (cont_rows) with k0 = 1.01 (BOUND_CONT_ROUNDOFF + (n_c + 8 + 12 n) u), k1 = 1.01 (4 + n) u tau (the 1.01 and the 8
- * cover 1.002 x 1.001, the sums' own rounding and the products of small terms), infinite where (12 n + (4 + n)
- * max_M a_M tau) u > 1e-3 (beyond |mu| tau ~ 1e11 rad: no bound).  O(1) per row: the modes' sizes, 1e-13 of the
- * free response, stay below the shadow's own round-off allowance (1e-11 of |c_r| |x0|) without their decay. */
+ * (cont_rows) with k0 = 1.01 (BOUND_CONT_ROUNDOFF + (n_c + 8 + 12 n) u), k1 = 1.01 (4 u tau + D) (the 1.01 and the 8
+ * cover 1.002 x 1.001, the sums' own rounding and the products of small terms), infinite where (12 n + 4 max_M a_M
+ * tau) u + max_M a_M D > 1e-3 (beyond |mu| tau ~ 1e12 rad: no bound).  O(1) per row: the modes' sizes, 1e-13 of
+ * the free response, stay below the shadow's own round-off allowance (1e-11 of |c_r| |x0|) without their decay. */
 
 /* E_M = exp(mu_M x) (Re, Im) of every continued mode into out[2 n_cont]: an exp and a sincos (exactly 1 and 0 where
  * Re mu, Im mu are 0, no libm call) */
@@ -618,33 +625,6 @@ static void cont_exact(const RomBoundModel *b, double x, double *out) {
         out[2 * (size_t)k] = im != 0.0 ? size * cos(phase) : size;
         out[2 * (size_t)k + 1] = im != 0.0 ? size * sin(phase) : 0.0;
     }
-}
-
-/* the continued modes over a step of length h from t0 to tau > t_end (rom_bound_step): E_M <- E_M R_M where the
- * state holds E_M at t0, fewer than BOUND_CONT_ANCHOR steps since its anchor, and the last step had the length h;
- * else anchored exactly at tau.  A function of the state and h alone (R_M of h, recomputed where cont_rh is
- * another length): a restored state continues with the same bits */
-static void cont_step(BoundState *bs, const RomBoundModel *b, double t0, double h, double tau) {
-    if (!bs || !b || !b->n_cont || !bs->cont_z) return;
-    if (bs->cont_tau == t0 && bs->cont_n < BOUND_CONT_ANCHOR && h == bs->cont_h) {
-        if (bs->cont_rh != h) {
-            cont_exact(b, h, bs->cont_r);
-            bs->cont_rh = h;
-        }
-        double *restrict z = bs->cont_z;
-        const double *restrict R = bs->cont_r;
-        for (uint32_t k = 0; k < b->n_cont; k++, z += 2, R += 2) {
-            const double zr = z[0], zi = z[1];
-            z[0] = zr * R[0] - zi * R[1];
-            z[1] = zr * R[1] + zi * R[0];
-        }
-        bs->cont_n += 1.0;
-    } else {
-        cont_exact(b, tau - table_end(b), bs->cont_z);
-        bs->cont_n = 0.0;
-    }
-    bs->cont_tau = tau;
-    bs->cont_h = h;
 }
 
 /* exp(-x) rounded up for the tails' chain: a libm exp within a few ulps, the chain's two roundings and the rounding
@@ -997,10 +977,127 @@ static void plane_step_one(BoundState *bs, const BoundCache *c, const RomBoundMo
     else planes_one(bs, c, b, u0, du0, 0, 0);
 }
 
+/* the continued modes' sums of row r (its Q, 2 n_cont, the E_M's at hand): the two lanes sum_M Re Q_rM Re E_M and
+ * sum_M Im Q_rM Im E_M (in the modes' order; the row's value Re sum Q E is their difference), whoever asks (the
+ * step's fold, cont_fold_step, or a row read, free_part): the same bits */
+#if defined(BOUND_LANES)
+BOUND_INLINE void cont_row_sums(const double *restrict Q, const double *restrict E, uint32_t n, double *out) {
+    BoundLanes acc = {0.0, 0.0}, q, e;
+    for (uint32_t k = 0; k < n; k++) {
+        LANES_LOAD(q, Q + 2 * (size_t)k);
+        LANES_LOAD(e, E + 2 * (size_t)k);
+        acc += q * e;
+    }
+    out[0] = acc[0];
+    out[1] = acc[1];
+}
+#else
+BOUND_INLINE void cont_row_sums(const double *restrict Q, const double *restrict E, uint32_t n, double *out) {
+    double acc[2] = {0.0, 0.0};
+    for (uint32_t k = 0; k < n; k++) {
+        acc[0] += Q[2 * (size_t)k] * E[2 * (size_t)k];
+        acc[1] += Q[2 * (size_t)k + 1] * E[2 * (size_t)k + 1];
+    }
+    out[0] = acc[0];
+    out[1] = acc[1];
+}
+#endif
+
+/* E_M <- E_M R_M for every mode (R as (Re R, Im R, -Im R, Re R): lane 0 Re E Re R + Im E (-Im R), lane 1 Re E Im R +
+ * Im E Re R, each product rounded, then their sum: the complex product's IEEE operations) and, with `fold` rows
+ * (rows 0 to fold - 1), their sums of the new E_M (cont_row_sums' lanes, products and order) into sum */
+#if defined(BOUND_LANES)
+BOUND_INLINE void cont_rotate(double *restrict z, const double *restrict R, const double *restrict Q, size_t row,
+                              uint32_t n, uint32_t fold, double (*sum)[2]) {
+    BoundLanes acc[BOUND_CONT_FOLD];
+    for (uint32_t r = 0; r < BOUND_CONT_FOLD; r++) acc[r] = (BoundLanes){0.0, 0.0};
+    for (uint32_t k = 0; k < n; k++, z += 2, R += 4, Q += 2) {
+        BoundLanes r0, r1, q;
+        LANES_LOAD(r0, R);
+        LANES_LOAD(r1, R + 2);
+        const BoundLanes zr = {z[0], z[0]}, zi = {z[1], z[1]};
+        const BoundLanes e = zr * r0 + zi * r1;
+        z[0] = e[0];
+        z[1] = e[1];
+        for (uint32_t r = 0; r < fold; r++) {
+            LANES_LOAD(q, Q + r * row);
+            acc[r] += q * e;
+        }
+    }
+    for (uint32_t r = 0; r < fold; r++) {
+        sum[r][0] = acc[r][0];
+        sum[r][1] = acc[r][1];
+    }
+}
+#else
+BOUND_INLINE void cont_rotate(double *restrict z, const double *restrict R, const double *restrict Q, size_t row,
+                              uint32_t n, uint32_t fold, double (*sum)[2]) {
+    double acc[BOUND_CONT_FOLD][2] = {{0.0}};
+    for (uint32_t k = 0; k < n; k++, z += 2, R += 4, Q += 2) {
+        const double zr = z[0], zi = z[1];
+        z[0] = zr * R[0] + zi * R[2];
+        z[1] = zr * R[1] + zi * R[3];
+        for (uint32_t r = 0; r < fold; r++) {
+            acc[r][0] += Q[r * row] * z[0];
+            acc[r][1] += Q[r * row + 1] * z[1];
+        }
+    }
+    for (uint32_t r = 0; r < fold; r++) {
+        sum[r][0] = acc[r][0];
+        sum[r][1] = acc[r][1];
+    }
+}
+#endif
+
+/* the rounding error of s = a + b rounded: (a + b) - s exactly (two_sum, round to nearest, no fused operations) */
+static double two_sum_error(double a, double b, double s) {
+    const double bb = s - a;
+    return (a - (s - bb)) + (b - bb);
+}
+
+/* the continued modes over a step of length h from t0 to tau = t0 + h rounded > t_end (rom_bound_step): E_M <- E_M
+ * R_M where the state holds E_M at t0, fewer than BOUND_CONT_ANCHOR steps since its anchor, and the last step had
+ * the length h; else anchored exactly at tau (cont_exact).  With `fold` (the error check read rows 0 to 2 since the
+ * last step: it reads them after every step until it warns) their sums of the new E_M are formed here, while E is at
+ * hand (cont_sum).  A function of the state and h alone (R_M of h, recomputed where cont_rh is another length): a
+ * restored state continues with the same bits */
+static void cont_step(BoundState *bs, const RomBoundModel *b, double t0, double h, double tau, int fold) {
+    if (!bs || !b || !b->n_cont || !bs->cont_z) return;
+    const uint32_t n = b->n_cont, rows = fold ? (b->rows < BOUND_CONT_FOLD ? b->rows : BOUND_CONT_FOLD) : 0u;
+    const double *Q = b->cont + 2 * (size_t)n;                      /* row 0's amplitudes, rows 2 n apart */
+    if (bs->cont_tau == t0 && bs->cont_n < BOUND_CONT_ANCHOR && h == bs->cont_h) {
+        if (bs->cont_rh != h) {
+            cont_exact(b, h, bs->cont_e);
+            for (uint32_t k = 0; k < n; k++) {
+                const double re = bs->cont_e[2 * (size_t)k], im = bs->cont_e[2 * (size_t)k + 1];
+                double *R = bs->cont_r + 4 * (size_t)k;
+                R[0] = re;
+                R[1] = im;
+                R[2] = -im;
+                R[3] = re;
+            }
+            bs->cont_rh = h;
+            bs->read_tau = NAN;                                     /* (cont_e lent as scratch) */
+        }
+        if (rows == 3) cont_rotate(bs->cont_z, bs->cont_r, Q, 2 * (size_t)n, n, 3, bs->cont_sum);
+        else cont_rotate(bs->cont_z, bs->cont_r, Q, 2 * (size_t)n, n, rows, bs->cont_sum);
+        bs->cont_n += 1.0;
+        bs->cont_drift += fabs(two_sum_error(t0, h, tau));
+    } else {
+        cont_exact(b, tau - table_end(b), bs->cont_z);
+        for (uint32_t r = 0; r < rows; r++) cont_row_sums(Q + 2 * (size_t)n * r, bs->cont_z, n, bs->cont_sum[r]);
+        bs->cont_n = bs->cont_drift = 0.0;
+    }
+    bs->cont_summed = rows > 0;
+    bs->cont_tau = tau;
+    bs->cont_h = h;
+}
+
 /* rom_bound_step's work once w holds its steps, m the shadow's inputs (a constant where the caller specializes) */
 BOUND_INLINE void step_shadow(RomState *s, BoundState *bs, double h, size_t m) {
     const RomBoundModel *b = &s->model->bound;
     const size_t G = b->groups;
+    const int rows_read = bs->rows_read;                /* (the check read group 0's rows: plane_step_one) */
     double u[BOUND_MAX_INPUTS], du[BOUND_MAX_INPUTS];
     step_inputs(s, h, u, du);
     const BoundCache *c = plane_maps(bs, b, h);
@@ -1045,7 +1142,7 @@ BOUND_INLINE void step_shadow(RomState *s, BoundState *bs, double h, size_t m) {
     const double tau = s->elapsed + h;                  /* the time since the start after this step (as rom.c's) */
     if (tau > table_end(b)) {
         tail_decays(bs, b, tau, s->elapsed, c, h);
-        if (b->n_cont) cont_step(bs, b, s->elapsed, h, tau);
+        if (b->n_cont) cont_step(bs, b, s->elapsed, h, tau, rows_read);
     }
 }
 
@@ -1073,22 +1170,28 @@ typedef struct {
     double decay[BOUND_MAX_GROUPS];   /* after the table: exp(-alpha_g (tau - t_end)) */
     const double *cont;        /* after the table with SHCONT: the continued modes' E_M (cont_modes) */
     const double *cont_rows;   /* ... the rows' sums of their allowance (BoundState.cont_rows) */
-    double cont_k0, cont_k1;   /* ... its factors (cont_allowance) */
+    double cont_k0, cont_k1;   /* ... its factors (cont_modes) */
+    const double (*cont_sum)[2];   /* ... rows 0 to 2's sums where the step formed them (cont_step), else NULL */
     double w_root;             /* |w| (started), else NaN: the rows compute s w0's */
     double steps_factor;       /* BOUND_ROUNDOFF + BOUND_ROUNDOFF_STEP n */
 } RowTime;
 
-/* the continued modes' E_M at tau > t_end for every row read then, and the factors of their round-off allowance
- * (the derivation above cont_exact): the state's, carried over the steps, where it holds tau; else computed exactly
- * (an anchor) into a scratch kept per time, the state left as it is (a read never changes the continuation) */
-static const double *cont_modes(BoundState *bs, const RomBoundModel *b, double tau, double *k0, double *k1) {
-    *k0 = *k1 = 0.0;
+/* the continued modes' E_M at tau > t_end for every row read then, the factors of their round-off allowance (the
+ * derivation above cont_exact) and rows 0 to 2's sums where the step formed them: the state's, carried over the steps,
+ * where it holds tau; else computed exactly (an anchor) into a scratch kept per time, the state left as it is (a
+ * read never changes the continuation) */
+static const double *cont_modes(BoundState *bs, const RomBoundModel *b, double tau, RowTime *rt) {
+    rt->cont_k0 = rt->cont_k1 = 0.0;
+    rt->cont_sum = NULL;
+    rt->cont_rows = bs ? bs->cont_rows : NULL;
     if (!bs || !b || !b->n_cont || !bs->cont_z) return NULL;
     const double u = 0x1p-53;
-    double n = 0.0;
+    double n = 0.0, drift = 0.0;
     const double *E = bs->cont_z;
     if (bs->cont_tau == tau) {
         n = bs->cont_n;
+        drift = bs->cont_drift;
+        if (bs->cont_summed) rt->cont_sum = bs->cont_sum;
     } else {
         if (bs->read_tau != tau) {
             cont_exact(b, tau - table_end(b), bs->cont_e);
@@ -1096,11 +1199,11 @@ static const double *cont_modes(BoundState *bs, const RomBoundModel *b, double t
         }
         E = bs->cont_e;
     }
-    if (!((12.0 * n + (4.0 + n) * bs->cont_amax * tau) * u <= 1e-3)) {
-        *k0 = *k1 = INFINITY;                             /* (|mu| tau ~ 1e11 rad: no bound) */
+    if (!((12.0 * n + 4.0 * bs->cont_amax * tau) * u + bs->cont_amax * drift <= 1e-3)) {
+        rt->cont_k0 = rt->cont_k1 = INFINITY;             /* (|mu| tau ~ 1e12 rad: no bound) */
     } else {
-        *k0 = 1.01 * (BOUND_CONT_ROUNDOFF + ((double)b->n_cont + 8.0 + 12.0 * n) * u);
-        *k1 = 1.01 * (4.0 + n) * u * tau;
+        rt->cont_k0 = 1.01 * (BOUND_CONT_ROUNDOFF + ((double)b->n_cont + 8.0 + 12.0 * n) * u);
+        rt->cont_k1 = 1.01 * (4.0 * u * tau + drift);
     }
     return E;
 }
@@ -1125,8 +1228,7 @@ static void row_time(const RomState *s, RowTime *rt) {
         const double over = tau > t_end ? tau - t_end : 0.0;
         const int cached = tau == bs->tail_tau;          /* the step's decays (rom_bound_step), else computed */
         for (uint32_t g = 0; g < b->groups; g++) rt->decay[g] = cached ? bs->tail_decay[g] : exp(-b->rates[g] * over);
-        rt->cont = b->n_cont ? cont_modes(bs, b, tau, &rt->cont_k0, &rt->cont_k1) : NULL;
-        rt->cont_rows = bs->cont_rows;
+        rt->cont = b->n_cont ? cont_modes(bs, b, tau, rt) : NULL;
     }
     if (bs->started != 0.0) {
         if (!bs->w_fresh) shadow_group(s, bs, 0);
@@ -1154,9 +1256,14 @@ static inline void free_part(const RomBoundModel *b, const RowTime *rt, uint32_t
     for (uint32_t g = 0; g < b->groups; g++) acc += tail[g] * rt->decay[g];
     double sum = 0.0, allow = 0.0;
     if (rt->cont) {                                     /* the continued modes (cont_modes) */
-        const double *restrict Q = b->cont + 2 * (size_t)b->n_cont * (1 + (size_t)r), *restrict E = rt->cont;
-        for (uint32_t k = 0; k < b->n_cont; k++) sum += Q[2 * (size_t)k] * E[2 * (size_t)k] -
-                                                        Q[2 * (size_t)k + 1] * E[2 * (size_t)k + 1];
+        double lanes[2];
+        if (rt->cont_sum && r < BOUND_CONT_FOLD) {
+            lanes[0] = rt->cont_sum[r][0];               /* formed in the step (cont_step): the same sums */
+            lanes[1] = rt->cont_sum[r][1];
+        } else {
+            cont_row_sums(b->cont + 2 * (size_t)b->n_cont * (1 + (size_t)r), rt->cont, b->n_cont, lanes);
+        }
+        sum = lanes[0] - lanes[1];                      /* Re sum_M Q_rM E_M */
         allow = rt->cont_k0 * rt->cont_rows[2 * (size_t)r] + rt->cont_k1 * rt->cont_rows[2 * (size_t)r + 1];
     }
     *value = sum;
@@ -1393,9 +1500,10 @@ int rom_bound_exceeded(const RomState *s, char *message, size_t message_size) {
 
 /* the serialized shadow: w, V, u_prev, w_int, steps, started, the tails' decays after the table (tail_tau,
  * tail_decay[groups]: chained over the steps, tail_decays), then with SHCONT the continued modes' E_M (Re, Im),
- * cont_tau, cont_n, cont_h (carried over the steps, cont_step): a restored state continues with the same bits */
+ * cont_tau, cont_n, cont_h, cont_drift (carried over the steps, cont_step): a restored state continues with the same
+ * bits */
 static size_t cont_state_doubles(const RomBoundModel *b) {
-    return b->n_cont ? 2 * (size_t)b->n_cont + 3 : 0;
+    return b->n_cont ? 2 * (size_t)b->n_cont + 4 : 0;
 }
 
 size_t rom_bound_state_doubles(const RomModel *m) {
@@ -1417,20 +1525,21 @@ static void tails_restored(BoundState *bs, const RomBoundModel *b) {
  * step length > 0, and each E_M within twice its allowance's relative error (cont_exact's derivation: eps_n +
  * eps_0, the exact value's own) of the exact value at cont_tau; else none (anchored exactly at the next step) */
 static void cont_restored(BoundState *bs, const RomBoundModel *b) {
-    const double tau = bs->cont_tau, n = bs->cont_n, u = 0x1p-53;
+    const double tau = bs->cont_tau, n = bs->cont_n, drift = bs->cont_drift, u = 0x1p-53;
     int valid = isfinite(tau) && tau > table_end(b) && whole(n, 0, BOUND_CONT_ANCHOR) && isfinite(bs->cont_h) &&
-                bs->cont_h > 0;
+                bs->cont_h > 0 && drift >= 0 && drift <= n * u * tau;
     if (valid) cont_exact(b, tau - table_end(b), bs->cont_e);
     for (uint32_t k = 0; valid && k < b->n_cont; k++) {
         const double a = fabs(b->cont[2 * (size_t)k]) + fabs(b->cont[2 * (size_t)k + 1]);
         const double *z = bs->cont_z + 2 * (size_t)k, *e = bs->cont_e + 2 * (size_t)k;
-        const double rel = 2.0 * 1.002 * u * (6.0 + 12.0 * n + (8.0 + n) * a * tau);
+        const double rel = 2.0 * 1.002 * (u * (6.0 + 12.0 * n + 8.0 * a * tau) + a * drift);
         valid = fabs(z[0] - e[0]) + fabs(z[1] - e[1]) <= rel * (fabs(e[0]) + fabs(e[1])) + 4.0 * u;   /* NaN: not */
     }
     bs->read_tau = NAN;
+    bs->cont_summed = 0;                                /* (rows 0 to 2's sums: formed again from E when read) */
     if (!valid) {
         bs->cont_tau = NAN;
-        bs->cont_n = bs->cont_h = 0.0;
+        bs->cont_n = bs->cont_h = bs->cont_drift = 0.0;
     }
 }
 
@@ -1448,8 +1557,8 @@ unsigned char *rom_bound_state_put(const RomState *s, unsigned char *cursor) {
     cursor = rom_put_f64s(cursor, bs->tail_decay, b->groups);
     if (!cont_state_doubles(b)) return cursor;
     cursor = rom_put_f64s(cursor, bs->cont_z, 2 * (size_t)b->n_cont);
-    const double cont[3] = {isfinite(bs->cont_tau) ? bs->cont_tau : -1.0, bs->cont_n, bs->cont_h};
-    return rom_put_f64s(cursor, cont, 3);
+    const double cont[4] = {isfinite(bs->cont_tau) ? bs->cont_tau : -1.0, bs->cont_n, bs->cont_h, bs->cont_drift};
+    return rom_put_f64s(cursor, cont, 4);
 }
 
 const unsigned char *rom_bound_state_get(RomState *s, const unsigned char *cursor) {
@@ -1473,11 +1582,12 @@ const unsigned char *rom_bound_state_get(RomState *s, const unsigned char *curso
     tails_restored(bs, b);
     if (!cont_state_doubles(b)) return cursor;
     cursor = rom_get_f64s(cursor, bs->cont_z, 2 * (size_t)b->n_cont);
-    double cont[3];
-    cursor = rom_get_f64s(cursor, cont, 3);
+    double cont[4];
+    cursor = rom_get_f64s(cursor, cont, 4);
     bs->cont_tau = cont[0];
     bs->cont_n = cont[1];
     bs->cont_h = cont[2];
+    bs->cont_drift = cont[3];
     cont_restored(bs, b);
     return cursor;
 }

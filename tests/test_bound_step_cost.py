@@ -142,13 +142,14 @@ def parametric(tmp_path_factory):
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="builds the Linux FMU binary")
-def test_lanes_clones_and_plain_arrays_give_the_same_bits(make, parametric, tmp_path):
+def test_lanes_clones_and_plain_arrays_give_the_same_bits(make, parametric, undamped, tmp_path):
     """The FMU binary built with -DROM_NO_CLONES (rom_bound.c's two SSE2 lanes alone, what a CPU without AVX2 runs,
     where the default build steps a one-input shadow's planes in four AVX2 lanes on a CPU that has AVX2) and with
     -DROM_NO_LANES (the plain-array path, what a compiler without GCC's vector extensions builds) give every output
     and every bound of the default build to 0 ulps over a run with a restore, a held input and one with input derivatives (the slope's
-    columns), on the forced FMU and on a parametric one at c, d away from its scene's (the same IEEE operations in
-    the same order, no fused multiply-add)."""
+    columns), on the forced FMU, on a parametric one at c, d away from its scene's, and on the undamped exact FMU
+    past its free response table (the continued modes' product and sums in lanes) (the same IEEE operations in the
+    same order, no fused multiply-add)."""
     from sphrom.fmu.make.build import configure_and_build
     from sphrom.paths import data_dir
     builds = {}
@@ -156,7 +157,9 @@ def test_lanes_clones_and_plain_arrays_give_the_same_bits(make, parametric, tmp_
         builds[flag] = tmp_path / flag
         configure_and_build(data_dir("fmu_src"), builds[flag], tests=False, options=(f"-DCMAKE_C_FLAGS=-D{flag}",),
                             targets=("sphrom_fmi2",))
-    for path, parameters in ((make(), {}), (parametric, {"c": 0.13, "d": 2.5})):
+    past = int(round(20 * undamped(2)[1].T / H)) + 40               # 40 steps past the table's end
+    for path, parameters, steps in ((make(), {}, STEPS), (parametric, {"c": 0.13, "d": 2.5}, STEPS),
+                                    (undamped(2)[0], {}, past + 40)):
         runs = []
         for build in (None, *builds.values()):
             folder = tmp_path / f"fmu-{path.stem}-{build.name if build else 'default'}"
@@ -168,8 +171,8 @@ def test_lanes_clones_and_plain_arrays_give_the_same_bits(make, parametric, tmp_
                 fmu.initialize(parameters={"initial_state_scale": 1.0, **parameters})
                 assert fmu.can_interpolate_inputs
                 rows = []
-                for j in range(STEPS):
-                    if j == 60:
+                for j in range(steps):
+                    if j == steps - 40:
                         state = fmu.get_state()
                     fmu.set_input(force(j))
                     fmu.set_input_derivative(3e-2 * np.cos(3.0 * j * H) if j % 50 < 25 else 0.0)

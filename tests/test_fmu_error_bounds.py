@@ -424,7 +424,7 @@ def test_bounds_past_the_free_response_table(make):
     out is sized to the table's own error allowance); a tolerance 10 x the largest true error does not warn; and the
     C core's bounds equal run_shadow's (the same shadow, rebuilt as packaging builds it) past the table too, within
     the continued sum's round-off allowance (bounds.cont_roundoff, the FMU's: its exponentials carried over up to
-    CONT_ANCHOR steps)."""
+    CONT_ANCHOR steps, the state's time off the steps' sum by at most an ulp per step)."""
     from sphrom.fmu.training.steps import core_runs
     from sphrom.rom.bounds import CONT_ANCHOR, cont_roundoff, fmu_shadow, output_bounds, run_shadow
     from sphrom.sph.solver import build_problem
@@ -449,7 +449,8 @@ def test_bounds_past_the_free_response_table(make):
     y, cert = run_shadow(shadow, np.full(steps, H), f[:-1, None], np.zeros((steps, 1)), scale=1.0)
     v, rho = columns(out, names, "v_probe_j"), columns(out, names, "rho_probe_j")
     vb, rb, _ = output_bounds(shadow, y, cert, v, rho)
-    allow = np.array([cont_roundoff(comp, tau, steps=CONT_ANCHOR)[:len(PROBES)] for tau in t])
+    allow = np.array([cont_roundoff(comp, tau, steps=CONT_ANCHOR, drift=CONT_ANCHOR * 2.0 ** -53 * tau)[:len(PROBES)]
+                      for tau in t])
     # (the shadow's exponentials differ, C: Taylor, scipy: Padé, by round-off of the outputs that grows with the
     # steps: 1e-12 of the outputs after 1500 steps, as over the table's span)
     atol = 1e-12 * np.abs(v).max()
