@@ -978,28 +978,38 @@ static void plane_step_one(BoundState *bs, const BoundCache *c, const RomBoundMo
 }
 
 /* the continued modes' sums of row r (its Q, 2 n_cont, the E_M's at hand): the two lanes sum_M Re Q_rM Re E_M and
- * sum_M Im Q_rM Im E_M (in the modes' order; the row's value Re sum Q E is their difference), whoever asks (the
- * step's fold, cont_fold_step, or a row read, free_part): the same bits */
+ * sum_M Im Q_rM Im E_M (the row's value Re sum Q E is their difference), each as the even modes' sum plus the odd
+ * modes' (each in the modes' order: the order of cont_rotate's lanes and of cont_quads' four), whoever asks (the
+ * step's fold, cont_step, or a row read, free_part): the same bits */
 #if defined(BOUND_LANES)
 BOUND_INLINE void cont_row_sums(const double *restrict Q, const double *restrict E, uint32_t n, double *out) {
-    BoundLanes acc = {0.0, 0.0}, q, e;
-    for (uint32_t k = 0; k < n; k++) {
+    BoundLanes even = {0.0, 0.0}, odd = even, q, e;
+    uint32_t k = 0;
+    for (; k + 2 <= n; k += 2) {
         LANES_LOAD(q, Q + 2 * (size_t)k);
         LANES_LOAD(e, E + 2 * (size_t)k);
-        acc += q * e;
+        even += q * e;
+        LANES_LOAD(q, Q + 2 * (size_t)k + 2);
+        LANES_LOAD(e, E + 2 * (size_t)k + 2);
+        odd += q * e;
     }
-    out[0] = acc[0];
-    out[1] = acc[1];
+    if (k < n) {
+        LANES_LOAD(q, Q + 2 * (size_t)k);
+        LANES_LOAD(e, E + 2 * (size_t)k);
+        even += q * e;
+    }
+    out[0] = even[0] + odd[0];
+    out[1] = even[1] + odd[1];
 }
 #else
 BOUND_INLINE void cont_row_sums(const double *restrict Q, const double *restrict E, uint32_t n, double *out) {
-    double acc[2] = {0.0, 0.0};
+    double acc[2][2] = {{0.0}};                          /* [even, odd][lane] */
     for (uint32_t k = 0; k < n; k++) {
-        acc[0] += Q[2 * (size_t)k] * E[2 * (size_t)k];
-        acc[1] += Q[2 * (size_t)k + 1] * E[2 * (size_t)k + 1];
+        acc[k % 2][0] += Q[2 * (size_t)k] * E[2 * (size_t)k];
+        acc[k % 2][1] += Q[2 * (size_t)k + 1] * E[2 * (size_t)k + 1];
     }
-    out[0] = acc[0];
-    out[1] = acc[1];
+    out[0] = acc[0][0] + acc[1][0];
+    out[1] = acc[0][1] + acc[1][1];
 }
 #endif
 
@@ -1009,8 +1019,8 @@ BOUND_INLINE void cont_row_sums(const double *restrict Q, const double *restrict
 #if defined(BOUND_LANES)
 BOUND_INLINE void cont_rotate(double *restrict z, const double *restrict R, const double *restrict Q, size_t row,
                               uint32_t n, uint32_t fold, double (*sum)[2]) {
-    BoundLanes acc[BOUND_CONT_FOLD];
-    for (uint32_t r = 0; r < BOUND_CONT_FOLD; r++) acc[r] = (BoundLanes){0.0, 0.0};
+    BoundLanes acc[2][BOUND_CONT_FOLD];                  /* [even, odd][row] */
+    for (uint32_t r = 0; r < BOUND_CONT_FOLD; r++) acc[0][r] = acc[1][r] = (BoundLanes){0.0, 0.0};
     for (uint32_t k = 0; k < n; k++, z += 2, R += 4, Q += 2) {
         BoundLanes r0, r1, q;
         LANES_LOAD(r0, R);
@@ -1021,31 +1031,80 @@ BOUND_INLINE void cont_rotate(double *restrict z, const double *restrict R, cons
         z[1] = e[1];
         for (uint32_t r = 0; r < fold; r++) {
             LANES_LOAD(q, Q + r * row);
-            acc[r] += q * e;
+            acc[k % 2][r] += q * e;
         }
     }
     for (uint32_t r = 0; r < fold; r++) {
-        sum[r][0] = acc[r][0];
-        sum[r][1] = acc[r][1];
+        sum[r][0] = acc[0][r][0] + acc[1][r][0];
+        sum[r][1] = acc[0][r][1] + acc[1][r][1];
     }
 }
 #else
 BOUND_INLINE void cont_rotate(double *restrict z, const double *restrict R, const double *restrict Q, size_t row,
                               uint32_t n, uint32_t fold, double (*sum)[2]) {
-    double acc[BOUND_CONT_FOLD][2] = {{0.0}};
+    double acc[2][BOUND_CONT_FOLD][2] = {{{0.0}}};      /* [even, odd][row][lane] */
     for (uint32_t k = 0; k < n; k++, z += 2, R += 4, Q += 2) {
         const double zr = z[0], zi = z[1];
         z[0] = zr * R[0] + zi * R[2];
         z[1] = zr * R[1] + zi * R[3];
         for (uint32_t r = 0; r < fold; r++) {
-            acc[r][0] += Q[r * row] * z[0];
-            acc[r][1] += Q[r * row + 1] * z[1];
+            acc[k % 2][r][0] += Q[r * row] * z[0];
+            acc[k % 2][r][1] += Q[r * row + 1] * z[1];
         }
     }
     for (uint32_t r = 0; r < fold; r++) {
-        sum[r][0] = acc[r][0];
-        sum[r][1] = acc[r][1];
+        sum[r][0] = acc[0][r][0] + acc[1][r][0];
+        sum[r][1] = acc[0][r][1] + acc[1][r][1];
     }
+}
+#endif
+
+#if defined(BOUND_AVX2)
+/* cont_rotate in four lanes where the CPU has AVX2 (BoundState.avx2): modes 2 t and 2 t + 1 side by side (lanes 0,
+ * 1 the even mode's, lanes 2, 3 the odd one's: the even and odd sums of cont_row_sums), each lane the same IEEE
+ * operations in the same order: the same bits; an odd count's last mode in lanes 0, 1 (lanes 2, 3 add 0 * 0 = +0,
+ * which leaves a sum started at +0 as it is) */
+BOUND_INLINE void quads_cont(double *restrict z, const double *restrict R, const double *restrict Q, size_t row,
+                             uint32_t n, uint32_t fold, double (*sum)[2]) {
+    const BoundQuad zero = {0.0, 0.0, 0.0, 0.0};
+    BoundQuad acc[BOUND_CONT_FOLD];
+    for (uint32_t r = 0; r < BOUND_CONT_FOLD; r++) acc[r] = zero;
+    uint32_t k = 0;
+    for (; k + 2 <= n; k += 2, z += 4, R += 8, Q += 4) {
+        BoundQuad x, r0, r1, q;
+        QUAD_LOAD(x, z);
+        const BoundQuad zr = {x[0], x[0], x[2], x[2]}, zi = {x[1], x[1], x[3], x[3]};
+        r0 = (BoundQuad){R[0], R[1], R[4], R[5]};
+        r1 = (BoundQuad){R[2], R[3], R[6], R[7]};
+        const BoundQuad e = zr * r0 + zi * r1;
+        QUAD_STORE(z, e);
+        for (uint32_t r = 0; r < fold; r++) {
+            QUAD_LOAD(q, Q + r * row);
+            acc[r] += q * e;
+        }
+    }
+    if (k < n) {
+        const double zr = z[0], zi = z[1];
+        z[0] = zr * R[0] + zi * R[2];
+        z[1] = zr * R[1] + zi * R[3];
+        const BoundQuad e = {z[0], z[1], 0.0, 0.0};
+        for (uint32_t r = 0; r < fold; r++) {
+            const BoundQuad q = {Q[r * row], Q[r * row + 1], 0.0, 0.0};
+            acc[r] += q * e;
+        }
+    }
+    for (uint32_t r = 0; r < fold; r++) {
+        sum[r][0] = acc[r][0] + acc[r][2];
+        sum[r][1] = acc[r][1] + acc[r][3];
+    }
+}
+
+/* quads_cont's two cases, each with its constant (fold 3: the check reads the velocity rows; 0) */
+__attribute__((target("avx2"))) static void cont_quads(double *z, const double *R, const double *Q, size_t row,
+                                                      uint32_t n, uint32_t fold, double (*sum)[2]) {
+    if (!z || !R || !Q || !sum) return;
+    if (fold == BOUND_CONT_FOLD) quads_cont(z, R, Q, row, n, BOUND_CONT_FOLD, sum);
+    else quads_cont(z, R, Q, row, n, 0, sum);
 }
 #endif
 
@@ -1079,8 +1138,16 @@ static void cont_step(BoundState *bs, const RomBoundModel *b, double t0, double 
             bs->cont_rh = h;
             bs->read_tau = NAN;                                     /* (cont_e lent as scratch) */
         }
-        if (rows == 3) cont_rotate(bs->cont_z, bs->cont_r, Q, 2 * (size_t)n, n, 3, bs->cont_sum);
-        else cont_rotate(bs->cont_z, bs->cont_r, Q, 2 * (size_t)n, n, rows, bs->cont_sum);
+        double *z = bs->cont_z;
+        const double *R = bs->cont_r;
+        const size_t row = 2 * (size_t)n;
+        int quads = 0;
+#if defined(BOUND_AVX2)
+        quads = bs->avx2 && (rows == BOUND_CONT_FOLD || rows == 0);      /* four lanes: the same bits */
+        if (quads) cont_quads(z, R, Q, row, n, rows, bs->cont_sum);
+#endif
+        if (!quads && rows == BOUND_CONT_FOLD) cont_rotate(z, R, Q, row, n, BOUND_CONT_FOLD, bs->cont_sum);
+        else if (!quads) cont_rotate(z, R, Q, row, n, rows, bs->cont_sum);
         bs->cont_n += 1.0;
         bs->cont_drift += fabs(two_sum_error(t0, h, tau));
     } else {
