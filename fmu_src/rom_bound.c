@@ -83,9 +83,6 @@ typedef struct {
     int rows_read;             /* group 0's rows were read since the last step (the error check): the next step
                                   sums them while w is at hand; else it sums |w|^2 alone (the rows when read) */
     double V[BOUND_MAX_INPUTS * BOUND_MAX_GROUPS];    /* [inputs][groups] the weighted variations */
-    double trans[BOUND_CONT_FOLD];   /* rows 0 to trans_rows - 1's transient sums sum_jg H_rjg V_jg of this V, formed
-                                  in the step with V (the error check's velocity rows: row_at's sums, same order) */
-    uint32_t trans_rows;       /* (0 whenever V or the rows change without them: reset, restore, assembly) */
     double u_prev[BOUND_MAX_INPUTS];   /* the input at the end of the last step */
     double w_int;              /* int |w| dt so far (a bound) */
     double steps;              /* steps taken (the round-off allowance) */
@@ -343,7 +340,6 @@ RomStatus rom_bound_assemble(RomModel *m, RomState *s, char *message, size_t mes
     BoundState *bs = (BoundState *)s->bound;
     if (bs) {
         for (int c = 0; c < BOUND_CACHE; c++) bs->cache[c].h = 0.0;     /* the plane maps of the old planes */
-        bs->trans_rows = 0;                                             /* the rows' transient sums of the old H */
         if (!bs->tails_restored) bs->tail_tau = NAN;                    /* and the tails' decays of the old rates
                                                                            (a restored state's are of its c, d) */
         bs->tails_restored = 0;
@@ -579,7 +575,6 @@ void rom_bound_reset(RomState *s) {
     memset(bs->w, 0, k * sizeof(double));
     groups_stale(bs);
     for (uint32_t i = 0; i < BOUND_MAX_INPUTS * BOUND_MAX_GROUPS; i++) bs->V[i] = 0.0;
-    bs->trans_rows = 0;
     for (uint32_t i = 0; i < BOUND_MAX_INPUTS; i++) bs->u_prev[i] = 0.0;
     bs->w_int = bs->steps = bs->started = 0.0;
     bs->tail_tau = bs->cont_tau = bs->read_tau = NAN;
@@ -1174,28 +1169,15 @@ BOUND_INLINE void step_shadow(RomState *s, BoundState *bs, double h, size_t m) {
     step_inputs(s, h, u, du);
     const BoundCache *c = plane_maps(bs, b, h);
     double u2 = 0.0, e2 = 0.0;
-    /* with rows_read (the check reads rows 0 to 2 after every step until it warns) their transient sums of the new
-     * V while it is at hand, in row_at's order (j, then g) and operations: the same sums */
-    const uint32_t fold = rows_read ? (b->rows < BOUND_CONT_FOLD ? b->rows : BOUND_CONT_FOLD) : 0u;
-    const size_t len = b->row_len, at = 1 + 2 * m;
-    double trans[BOUND_CONT_FOLD] = {0.0, 0.0, 0.0};
     for (size_t j = 0; j < m; j++) {    /* the weighted variations: the jump at the step's start, the slope over it */
         const double jump = fabs(u[j] - bs->u_prev[j]), slope = fabs(du[j]);
         for (size_t g = 0; g < G; g++) {
             double *V = &bs->V[j * G + g];
             *V = c->decay[g] * (*V + jump) + c->slope[g] * slope;
-            if (*V > 0) {
-                for (uint32_t r = 0; r < fold; r++) {
-                    const double H = b->row[r * len + at + j * G + g];
-                    trans[r] += H < 0 ? INFINITY : H * *V;
-                }
-            }
         }
         u2 += u[j] * u[j];
         e2 += (u[j] + du[j]) * (u[j] + du[j]);
     }
-    for (uint32_t r = 0; r < fold; r++) bs->trans[r] = trans[r];
-    bs->trans_rows = fold;
     /* |w| at the step's start: the last step's end computed it (else a reset or a restored state: now) */
     if (!bs->w_fresh) shadow_group(s, bs, 0);
     const double wn = bs->w_root, u_max = u2 > e2 ? u2 : e2;     /* (fmax: neither is NaN, the inputs are finite) */
@@ -1430,16 +1412,14 @@ BOUND_INLINE void row_at(const RomState *s, const RowTime *rt, const RowInputs *
         w_root = sqrt(w2);
     }
     double quasi = 0.0, trans = 0.0;
-    const int formed = r < bs->trans_rows;             /* the step formed the transient sum (step_shadow) */
     for (size_t j = 0; j < m; j++) {
         y += row[1 + j] * in->up[j];                    /* the complement's quasi-static response */
         quasi += row[1 + m + j] * in->ua[j];
-        for (size_t g = 0; g < G && !formed; g++) {
+        for (size_t g = 0; g < G; g++) {
             const double H = row[1 + 2 * m + j * G + g], V = bs->V[j * G + g];
             if (V > 0) trans += H < 0 ? INFINITY : H * V;
         }
     }
-    if (formed) trans = bs->trans[r];
     const double row_scale = r >= P && r < 3 * P ? b->e_scale : 1.0;     /* e rows of a parametric shadow */
     const double cn = row[0] * row_scale;
     double g_value, g_error;
@@ -1664,7 +1644,6 @@ const unsigned char *rom_bound_state_get(RomState *s, const unsigned char *curso
     for (size_t i = 0; i < (size_t)b->inputs * b->groups; i++) {
         if (!(bs->V[i] >= 0)) bs->V[i] = INFINITY;       /* a damaged variation: no bound, visibly */
     }
-    bs->trans_rows = 0;
     cursor = rom_get_f64s(cursor, &bs->tail_tau, 1);
     cursor = rom_get_f64s(cursor, bs->tail_decay, b->groups);
     tails_restored(bs, b);
