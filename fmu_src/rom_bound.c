@@ -90,7 +90,7 @@ typedef struct {
     double tail_tau;           /* the time since the start at which tail_decay holds (NaN: none) */
     double tail_decay[BOUND_MAX_GROUPS];   /* exp(-alpha_g (tau - t_end)) there: the rows' tails after the table */
     int tails_restored;        /* tail_decay came with a restored state (of the state's own c, d: a parametric
-                                  shadow's assembly at them keeps it), until the next step or assembly */
+                                  shadow's assembly at them keeps it), until the chain moves on or an assembly */
     /* the continued modes past the table (SHCONT; cont_step): E_M = exp(mu_M (tau - t_end)) carried over the steps,
      * E_M <- E_M exp(mu_M h), anchored exactly (exp, cos, sin) at the first step past the table, after
      * BOUND_CONT_ANCHOR steps and where the step length changes (serialized: the same continuation after a restore) */
@@ -642,6 +642,7 @@ static void tail_decays(BoundState *bs, const RomBoundModel *b, double tau, doub
     const double t_end = table_end(b), over = tau - t_end;
     const int chain = bs->tail_tau == t0 && t0 > t_end && h == c->h;
     bs->tail_tau = tau;
+    bs->tails_restored = 0;                             /* (the chain moved on: an assembly now is of new rates) */
     for (uint32_t g = 0; g < b->groups; g++) {
         if (!(over > 0)) {
             bs->tail_decay[g] = 1.0;
@@ -1164,7 +1165,6 @@ static void cont_step(BoundState *bs, const RomBoundModel *b, double t0, double 
 BOUND_INLINE void step_shadow(RomState *s, BoundState *bs, double h, size_t m) {
     const RomBoundModel *b = &s->model->bound;
     const size_t G = b->groups;
-    const int rows_read = bs->rows_read;                /* (the check read group 0's rows: plane_step_one) */
     double u[BOUND_MAX_INPUTS], du[BOUND_MAX_INPUTS];
     step_inputs(s, h, u, du);
     const BoundCache *c = plane_maps(bs, b, h);
@@ -1207,10 +1207,7 @@ BOUND_INLINE void step_shadow(RomState *s, BoundState *bs, double h, size_t m) {
     for (size_t j = 0; j < m; j++) bs->u_prev[j] = u[j] + du[j];
     bs->steps += 1.0;
     const double tau = s->elapsed + h;                  /* the time since the start after this step (as rom.c's) */
-    if (tau > table_end(b)) {
-        tail_decays(bs, b, tau, s->elapsed, c, h);
-        if (b->n_cont) cont_step(bs, b, s->elapsed, h, tau, rows_read);
-    }
+    if (tau > table_end(b)) tail_decays(bs, b, tau, s->elapsed, c, h);
 }
 
 void rom_bound_step(RomState *s, double h) {
@@ -1221,9 +1218,13 @@ void rom_bound_step(RomState *s, double h) {
         for (size_t i = 0; i < b->order; i++) bs->w[i] = s->initial_state_scale * b->w0[i];
         bs->started = 1.0;
     }
-    bs->tails_restored = 0;
     if (b->inputs == 1) step_shadow(s, bs, h, 1);     /* the force f alone: the common case, specialized */
     else step_shadow(s, bs, h, b->inputs);
+    /* the continued modes past the table (group 0 fresh: plane_step_one summed the rows the check read since the
+     * last step: their sums too) */
+    if (b->n_cont && s->elapsed + h > table_end(b)) {
+        cont_step(bs, b, s->elapsed, h, s->elapsed + h, (int)(bs->groups[0] & 1u));
+    }
 }
 
 /* what every row's bound shares at one time (tau since the start): the free response's table interval and
