@@ -12,8 +12,9 @@
  *   g_r(t)       their free response from the initial state, a fixed function of time: tabulated (SHTAB, cubic
  *                Hermite between nodes k h) with a certified error per block of intervals (SHTERR); after the
  *                table its modes that matter continued exactly, Re sum_M Q_rM exp(mu_M (t - t_end)) (SHCONT,
- *                Q_rM = P_rM exp(mu_M t_end), evaluated from the time: no state; cont_modes derives its round-off
- *                allowance), the others (or, without a table, all) bounded by sum_g tail_rg exp(-alpha_g (t - t_end));
+ *                Q_rM = P_rM exp(mu_M t_end), the exponentials carried in the state over the steps, anchored
+ *                exactly every BOUND_CONT_ANCHOR steps: cont_step, which derives its round-off allowance), the
+ *                others (or, without a table, all) bounded by sum_g tail_rg exp(-alpha_g (t - t_end));
  *   |R_r(t)|  <= sum_j static_rj |u_j(t-)| + sum_jg H_rjg V_jg(t), V_jg = int exp(-alpha_g (t - tau)) |du_j(tau)|
  *                (the input's jumps and slopes weighted by the decay of group g, SHRATE): it saturates under a
  *                persistent input;
@@ -54,6 +55,8 @@
 #define BOUND_GROUP_WORDS 2u
 #define BOUND_MAX_CONT 65536u          /* the modes continued past the free response table at most (SHCONT) */
 #define BOUND_CONT_ROUNDOFF 1e-13      /* harness/rom/bounds.py CONT_ROUNDOFF */
+#define BOUND_CONT_ANCHOR 256.0        /* ... CONT_ANCHOR: the continued modes' steps between exact anchors */
+#define BOUND_CONT_FOLD 3u             /* the rows whose continued sums the step forms (the velocity rows of group 0) */
 _Static_assert((3u * ROM_MAX_PROBES + ROM_MAX_PORTS + 1u + BOUND_GROUP - 1u) / BOUND_GROUP <= 64u * BOUND_GROUP_WORDS,
                "the rows' sums' groups fit BoundState.groups' bits");
 
@@ -87,9 +90,29 @@ typedef struct {
     double started;            /* 1 once w holds s w0 and its steps (the first doStep), 0 before */
     double tail_tau;           /* the time since the start at which tail_decay holds (NaN: none) */
     double tail_decay[BOUND_MAX_GROUPS];   /* exp(-alpha_g (tau - t_end)) there: the rows' tails after the table */
-    double cont_tau;           /* the time since the start at which cont_e holds (NaN: none) */
-    double *cont_e;            /* [n_cont][4]: exp(mu_M (tau - t_end)) (Re, Im), its round-off allowance's factor
-                                  per unit |Re Q| + |Im Q| (cont_modes), 0 (not kept: computed from the time) */
+    int tails_restored;        /* tail_decay came with a restored state (of the state's own c, d: a parametric
+                                  shadow's assembly at them keeps it), until the chain moves on or an assembly */
+    /* the continued modes past the table (SHCONT; cont_step): E_M = exp(mu_M (tau - t_end)) carried over the steps,
+     * E_M <- E_M exp(mu_M h), anchored exactly (exp, cos, sin) at the first step past the table, after
+     * BOUND_CONT_ANCHOR steps and where the step length changes (serialized: the same continuation after a restore) */
+    double *cont_z;            /* [n_cont][2]: E_M (Re, Im) at cont_tau */
+    double cont_tau;           /* the time since the start at which cont_z holds (NaN: none) */
+    double cont_n;             /* the steps since cont_z was anchored (0 to BOUND_CONT_ANCHOR) */
+    double cont_h;             /* the last step's length (0: none): a new length anchors */
+    double cont_drift;         /* sum |tau_i - (tau_i-1 + h_i)| over the steps since the anchor [s]: the state's time
+                                  against the steps' exact sum (each term exact: two_sum) */
+    double cont_sum[BOUND_CONT_FOLD][2];   /* rows 0 to 2's sums sum_M (Re Q Re E, Im Q Im E) at cont_tau, formed in
+                                  the step while E is at hand (the error check's velocity rows; not state) */
+    int cont_summed;           /* cont_sum holds them (the step formed them: the check read the rows before it) */
+    double *cont_r;            /* [n_cont][4]: R_M = exp(mu_M cont_rh) as (Re R, Im R, -Im R, Re R), the step's
+                                  factor (not state: a function of the step length) */
+    double cont_rh;            /* the step length of cont_r (0: none) */
+    double *cont_e;            /* [n_cont][2]: E_M computed exactly at read_tau, where a row is read at a time the
+                                  steps did not carry (not state: no row read changes the continuation) */
+    double read_tau;           /* (NaN: none) */
+    double *cont_rows;         /* [rows][2]: per row sum_M (|Re Q_rM| + |Im Q_rM|) and the same weighted by
+                                  |Re mu_M| + |Im mu_M| (the round-off allowance, cont_allowance) */
+    double cont_amax;          /* max_M |Re mu_M| + |Im mu_M| */
     BoundCache cache[BOUND_CACHE];
     int64_t clock;
     double *work;              /* [4][n][n], n = 2 + 2 inputs (the exponential's matrices) */
@@ -318,7 +341,9 @@ RomStatus rom_bound_assemble(RomModel *m, RomState *s, char *message, size_t mes
     BoundState *bs = (BoundState *)s->bound;
     if (bs) {
         for (int c = 0; c < BOUND_CACHE; c++) bs->cache[c].h = 0.0;     /* the plane maps of the old planes */
-        bs->tail_tau = NAN;                                             /* and the tails' decays of the old rates */
+        if (!bs->tails_restored) bs->tail_tau = NAN;                    /* and the tails' decays of the old rates
+                                                                           (a restored state's are of its c, d) */
+        bs->tails_restored = 0;
     }
     return ROM_OK;
 }
@@ -472,6 +497,28 @@ static void groups_stale(BoundState *bs) {
     bs->w_fresh = 0;
 }
 
+/* per output row the continued modes' sums that their round-off allowance weighs (cont_allowance): sum_M q_rM and
+ * sum_M q_rM a_M, q_rM = |Re Q_rM| + |Im Q_rM| (>= |Q_rM|), a_M = |Re mu_M| + |Im mu_M| (>= |mu_M|), and max_M a_M */
+static void cont_rows(BoundState *bs, const RomBoundModel *b) {
+    bs->cont_amax = 0.0;
+    if (!bs || !b || !b->n_cont || !bs->cont_rows) return;
+    for (uint32_t k = 0; k < b->n_cont; k++) {
+        const double a = fabs(b->cont[2 * (size_t)k]) + fabs(b->cont[2 * (size_t)k + 1]);
+        if (a > bs->cont_amax) bs->cont_amax = a;
+    }
+    for (uint32_t r = 0; r < b->rows; r++) {
+        const double *Q = b->cont + 2 * (size_t)b->n_cont * (1 + (size_t)r);
+        double sum = 0.0, weighted = 0.0;
+        for (uint32_t k = 0; k < b->n_cont; k++) {
+            const double q = fabs(Q[2 * (size_t)k]) + fabs(Q[2 * (size_t)k + 1]);
+            sum += q;
+            weighted += q * (fabs(b->cont[2 * (size_t)k]) + fabs(b->cont[2 * (size_t)k + 1]));
+        }
+        bs->cont_rows[2 * (size_t)r] = sum;
+        bs->cont_rows[2 * (size_t)r + 1] = weighted;
+    }
+}
+
 RomStatus rom_bound_state_new(RomState *s) {
     const RomBoundModel *b = &s->model->bound;
     s->bound = NULL;
@@ -480,19 +527,24 @@ RomStatus rom_bound_state_new(RomState *s) {
     if (!bs) return ROM_FAIL;
     const size_t k = b->order, m = b->inputs, n = 2 + 2 * m;   /* a plane's augmented matrix's size */
     const size_t slots = row_slots(b);
-    size_t counts[5 + 4 * BOUND_CACHE] = {k, slots, 4 * n * n, k * slots, 4 * (size_t)b->n_cont};
-    double **ptrs[5 + 4 * BOUND_CACHE] = {&bs->w, &bs->y, &bs->work, &bs->ct, &bs->cont_e};
+    const size_t nc = 2 * (size_t)b->n_cont;
+#define BOUND_ARRAYS 8
+    size_t counts[BOUND_ARRAYS + 4 * BOUND_CACHE] = {k, slots, 4 * n * n, k * slots, nc, 2 * nc, nc,
+                                                     b->n_cont ? 2 * (size_t)b->rows : 0};
+    double **ptrs[BOUND_ARRAYS + 4 * BOUND_CACHE] = {&bs->w, &bs->y, &bs->work, &bs->ct, &bs->cont_z, &bs->cont_r,
+                                                     &bs->cont_e, &bs->cont_rows};
     for (int c = 0; c < BOUND_CACHE; c++) {
-        counts[5 + 4 * c] = 4 * (size_t)b->planes;
-        counts[6 + 4 * c] = k * m;
-        counts[7 + 4 * c] = k * m;
-        counts[8 + 4 * c] = 4 * (size_t)b->planes;
-        ptrs[5 + 4 * c] = &bs->cache[c].Phi;
-        ptrs[6 + 4 * c] = &bs->cache[c].G0;
-        ptrs[7 + 4 * c] = &bs->cache[c].G1;
-        ptrs[8 + 4 * c] = &bs->cache[c].Phi2;
+        counts[BOUND_ARRAYS + 4 * c] = 4 * (size_t)b->planes;
+        counts[BOUND_ARRAYS + 1 + 4 * c] = k * m;
+        counts[BOUND_ARRAYS + 2 + 4 * c] = k * m;
+        counts[BOUND_ARRAYS + 3 + 4 * c] = 4 * (size_t)b->planes;
+        ptrs[BOUND_ARRAYS + 4 * c] = &bs->cache[c].Phi;
+        ptrs[BOUND_ARRAYS + 1 + 4 * c] = &bs->cache[c].G0;
+        ptrs[BOUND_ARRAYS + 2 + 4 * c] = &bs->cache[c].G1;
+        ptrs[BOUND_ARRAYS + 3 + 4 * c] = &bs->cache[c].Phi2;
     }
-    bs->storage_ = rom_alloc_arrays(counts, ptrs, 5 + 4 * BOUND_CACHE);
+    bs->storage_ = rom_alloc_arrays(counts, ptrs, BOUND_ARRAYS + 4 * BOUND_CACHE);
+#undef BOUND_ARRAYS
     if (!bs->storage_) {
         free(bs);
         return ROM_FAIL;
@@ -501,7 +553,8 @@ RomStatus rom_bound_state_new(RomState *s) {
         double *col = bs->ct + i * slots;
         for (size_t r = 1; r < slots; r++) col[r] = r <= b->rows ? b->C[(r - 1) * k + i] : 0.0;
     }
-    bs->tail_tau = bs->cont_tau = NAN;
+    cont_rows(bs, b);
+    bs->tail_tau = bs->cont_tau = bs->read_tau = NAN;
 #if defined(BOUND_AVX2)
     bs->avx2 = __builtin_cpu_supports("avx2") != 0;
 #endif
@@ -527,12 +580,54 @@ void rom_bound_reset(RomState *s) {
     for (uint32_t i = 0; i < BOUND_MAX_INPUTS * BOUND_MAX_GROUPS; i++) bs->V[i] = 0.0;
     for (uint32_t i = 0; i < BOUND_MAX_INPUTS; i++) bs->u_prev[i] = 0.0;
     bs->w_int = bs->steps = bs->started = 0.0;
-    bs->tail_tau = bs->cont_tau = NAN;
+    bs->tail_tau = bs->cont_tau = bs->read_tau = NAN;
+    bs->cont_n = bs->cont_h = bs->cont_drift = 0.0;
+    bs->cont_summed = bs->tails_restored = 0;
+    for (uint32_t g = 0; g < BOUND_MAX_GROUPS; g++) bs->tail_decay[g] = 0.0;      /* (a reset's state as a new one's) */
+    for (size_t i = 0; i < 2 * (size_t)s->model->bound.n_cont; i++) bs->cont_z[i] = 0.0;
     for (int c = 0; c < BOUND_CACHE; c++) bs->cache[c].h = 0.0;      /* the maps stay valid; kept empty anyway */
 }
 
 static double table_end(const RomBoundModel *b) {
     return b->nodes ? b->h_tab * (double)(b->nodes - 1) : 0.0;
+}
+
+/* The continued modes past the table (SHCONT): row r adds Re sum_M Q_rM E_M, E_M = exp(mu_M x), x = tau - t_end,
+ * Q_rM = P_rM exp(mu_M t_end).  E_M is carried in the state over the steps, E_M <- E_M R_M, R_M = exp(mu_M h)
+ * computed once per step length (a complex product per mode and step, where an exact E_M costs an exp and a
+ * sincos), and anchored, E_M computed exactly from the time (cont_exact), at the first step past the table, after
+ * BOUND_CONT_ANCHOR steps and at a step whose length is not the last one's (cont_step).  The round-off allowance
+ * (harness/rom/bounds.py cont_roundoff, the same formula; u = 2^-53, a_M = |Re mu_M| + |Im mu_M| >= |mu_M|, n the
+ * steps since the anchor, tau = tau_n the time since the start, the state's, taken as the truth's time):
+ * - the anchor at tau_a: t_end = h_tab (nodes - 1) here, within 2 u t_end of bounds.py's (its Q's exp(mu t_end)),
+ *   x rounded (u x), mu x rounded (u |mu| x), Q's own exp(mu t_end) rounded (u |mu| t_end): the argument is off by
+ *   |delta| <= 3 u |mu| tau_a, so E_M by 1.001 |delta| of |E_M| (|delta| <= 1e-3); exp, cos, sin within an ulp each
+ *   and the products |E| cos, |E| sin rounded: 3 u more: eps_0 <= 3 u + 3.003 u a_M tau_a;
+ * - a step: R_M within (6.3 + a_M h) u of exp(mu_M h) (exp 2 u, cos and sin 2 sqrt(2) u, the products sqrt(2) u, the
+ *   arguments mu h rounded u a_M h), the product E R within 2 sqrt(2) u of |E R| (no fused multiply-add: each part
+ *   two products and a sum rounded): g_i = (12 + a_M h_i) u; and the time: the state's tau_i is tau_i-1 + h_i
+ *   rounded (rom.c), d_i = |tau_i - (tau_i-1 + h_i)| off the steps' exact sum, which E carries (two_sum_error, exact;
+ *   summed in cont_drift, D = sum d_i): a_M D of E_M.  The relative error after n steps is eps_n <= (1 + g)^n (1 +
+ *   eps_0) - 1 + 1.001 a_M D <= 1.002 (eps_0 + sum_i g_i + a_M D) where that is <= 1e-3, and sum_i a_M h_i <= a_M
+ *   (tau - tau_a) (tau_a <= tau): eps_n <= 1.002 (u (3 + 12 n + 4 a_M tau) + a_M D);
+ * - the row's sum of n_c terms Re Q E = Re Q Re E - Im Q Im E (two lanes, sum_M Re Q Re E and sum_M Im Q Im E, each
+ *   product rounded, added in order, then their difference): (n_c + 1) u sum_M q_rM |E_M| (q = |Re Q| + |Im Q|), and
+ *   Q's relative error (bounds.py's P, as the table's nodes'): BOUND_CONT_ROUNDOFF.
+ * With |E_M| <= 1 (Re mu_M <= 0: prepare_continuation) the allowance is, per row, k0 sum_M q_rM + k1 sum_M q_rM a_M
+ * (cont_rows) with k0 = 1.01 (BOUND_CONT_ROUNDOFF + (n_c + 8 + 12 n) u), k1 = 1.01 (4 u tau + D) (the 1.01 and the 8
+ * cover 1.002 x 1.001, the sums' own rounding and the products of small terms), infinite where (12 n + 4 max_M a_M
+ * tau) u + max_M a_M D > 1e-3 (beyond |mu| tau ~ 1e12 rad: no bound).  O(1) per row: the modes' sizes, 1e-13 of
+ * the free response, stay below the shadow's own round-off allowance (1e-11 of |c_r| |x0|) without their decay. */
+
+/* E_M = exp(mu_M x) (Re, Im) of every continued mode into out[2 n_cont]: an exp and a sincos (exactly 1 and 0 where
+ * Re mu, Im mu are 0, no libm call) */
+static void cont_exact(const RomBoundModel *b, double x, double *out) {
+    for (uint32_t k = 0; k < b->n_cont; k++) {
+        const double re = b->cont[2 * (size_t)k], im = b->cont[2 * (size_t)k + 1];
+        const double size = re != 0.0 ? exp(re * x) : 1.0, phase = im * x;
+        out[2 * (size_t)k] = im != 0.0 ? size * cos(phase) : size;
+        out[2 * (size_t)k + 1] = im != 0.0 ? size * sin(phase) : 0.0;
+    }
 }
 
 /* exp(-x) rounded up for the tails' chain: a libm exp within a few ulps, the chain's two roundings and the rounding
@@ -550,6 +645,7 @@ static void tail_decays(BoundState *bs, const RomBoundModel *b, double tau, doub
     const double t_end = table_end(b), over = tau - t_end;
     const int chain = bs->tail_tau == t0 && t0 > t_end && h == c->h;
     bs->tail_tau = tau;
+    bs->tails_restored = 0;                             /* (the chain moved on: an assembly now is of new rates) */
     for (uint32_t g = 0; g < b->groups; g++) {
         if (!(over > 0)) {
             bs->tail_decay[g] = 1.0;
@@ -885,6 +981,189 @@ static void plane_step_one(BoundState *bs, const BoundCache *c, const RomBoundMo
     else planes_one(bs, c, b, u0, du0, 0, 0);
 }
 
+/* the continued modes' sums of row r (its Q, 2 n_cont, the E_M's at hand): the two lanes sum_M Re Q_rM Re E_M and
+ * sum_M Im Q_rM Im E_M (the row's value Re sum Q E is their difference), each as the even modes' sum plus the odd
+ * modes' (each in the modes' order: the order of cont_rotate's lanes and of cont_quads' four), whoever asks (the
+ * step's fold, cont_step, or a row read, free_part): the same bits */
+#if defined(BOUND_LANES)
+BOUND_INLINE void cont_row_sums(const double *restrict Q, const double *restrict E, uint32_t n, double *out) {
+    BoundLanes even = {0.0, 0.0}, odd = even, q, e;
+    uint32_t k = 0;
+    for (; k + 2 <= n; k += 2) {
+        LANES_LOAD(q, Q + 2 * (size_t)k);
+        LANES_LOAD(e, E + 2 * (size_t)k);
+        even += q * e;
+        LANES_LOAD(q, Q + 2 * (size_t)k + 2);
+        LANES_LOAD(e, E + 2 * (size_t)k + 2);
+        odd += q * e;
+    }
+    if (k < n) {
+        LANES_LOAD(q, Q + 2 * (size_t)k);
+        LANES_LOAD(e, E + 2 * (size_t)k);
+        even += q * e;
+    }
+    out[0] = even[0] + odd[0];
+    out[1] = even[1] + odd[1];
+}
+#else
+BOUND_INLINE void cont_row_sums(const double *restrict Q, const double *restrict E, uint32_t n, double *out) {
+    double acc[2][2] = {{0.0}};                          /* [even, odd][lane] */
+    for (uint32_t k = 0; k < n; k++) {
+        acc[k % 2][0] += Q[2 * (size_t)k] * E[2 * (size_t)k];
+        acc[k % 2][1] += Q[2 * (size_t)k + 1] * E[2 * (size_t)k + 1];
+    }
+    out[0] = acc[0][0] + acc[1][0];
+    out[1] = acc[0][1] + acc[1][1];
+}
+#endif
+
+/* E_M <- E_M R_M for every mode (R as (Re R, Im R, -Im R, Re R): lane 0 Re E Re R + Im E (-Im R), lane 1 Re E Im R +
+ * Im E Re R, each product rounded, then their sum: the complex product's IEEE operations) and, with `fold` rows
+ * (rows 0 to fold - 1), their sums of the new E_M (cont_row_sums' lanes, products and order) into sum */
+#if defined(BOUND_LANES)
+BOUND_INLINE void cont_rotate(double *restrict z, const double *restrict R, const double *restrict Q, size_t row,
+                              uint32_t n, uint32_t fold, double (*sum)[2]) {
+    BoundLanes acc[2][BOUND_CONT_FOLD];                  /* [even, odd][row] */
+    for (uint32_t r = 0; r < BOUND_CONT_FOLD; r++) acc[0][r] = acc[1][r] = (BoundLanes){0.0, 0.0};
+    for (uint32_t k = 0; k < n; k++, z += 2, R += 4, Q += 2) {
+        BoundLanes r0, r1, q;
+        LANES_LOAD(r0, R);
+        LANES_LOAD(r1, R + 2);
+        const BoundLanes zr = {z[0], z[0]}, zi = {z[1], z[1]};
+        const BoundLanes e = zr * r0 + zi * r1;
+        z[0] = e[0];
+        z[1] = e[1];
+        for (uint32_t r = 0; r < fold; r++) {
+            LANES_LOAD(q, Q + r * row);
+            acc[k % 2][r] += q * e;
+        }
+    }
+    for (uint32_t r = 0; r < fold; r++) {
+        sum[r][0] = acc[0][r][0] + acc[1][r][0];
+        sum[r][1] = acc[0][r][1] + acc[1][r][1];
+    }
+}
+#else
+BOUND_INLINE void cont_rotate(double *restrict z, const double *restrict R, const double *restrict Q, size_t row,
+                              uint32_t n, uint32_t fold, double (*sum)[2]) {
+    double acc[2][BOUND_CONT_FOLD][2] = {{{0.0}}};      /* [even, odd][row][lane] */
+    for (uint32_t k = 0; k < n; k++, z += 2, R += 4, Q += 2) {
+        const double zr = z[0], zi = z[1];
+        z[0] = zr * R[0] + zi * R[2];
+        z[1] = zr * R[1] + zi * R[3];
+        for (uint32_t r = 0; r < fold; r++) {
+            acc[k % 2][r][0] += Q[r * row] * z[0];
+            acc[k % 2][r][1] += Q[r * row + 1] * z[1];
+        }
+    }
+    for (uint32_t r = 0; r < fold; r++) {
+        sum[r][0] = acc[0][r][0] + acc[1][r][0];
+        sum[r][1] = acc[0][r][1] + acc[1][r][1];
+    }
+}
+#endif
+
+#if defined(BOUND_AVX2)
+/* cont_rotate in four lanes where the CPU has AVX2 (BoundState.avx2): modes 2 t and 2 t + 1 side by side (lanes 0,
+ * 1 the even mode's, lanes 2, 3 the odd one's: the even and odd sums of cont_row_sums), each lane the same IEEE
+ * operations in the same order: the same bits; an odd count's last mode in lanes 0, 1 (lanes 2, 3 add 0 * 0 = +0,
+ * which leaves a sum started at +0 as it is) */
+BOUND_INLINE void quads_cont(double *restrict z, const double *restrict R, const double *restrict Q, size_t row,
+                             uint32_t n, uint32_t fold, double (*sum)[2]) {
+    const BoundQuad zero = {0.0, 0.0, 0.0, 0.0};
+    BoundQuad acc[BOUND_CONT_FOLD];
+    for (uint32_t r = 0; r < BOUND_CONT_FOLD; r++) acc[r] = zero;
+    uint32_t k = 0;
+    for (; k + 2 <= n; k += 2, z += 4, R += 8, Q += 4) {
+        BoundQuad x, r0, r1, q;
+        QUAD_LOAD(x, z);
+        const BoundQuad zr = {x[0], x[0], x[2], x[2]}, zi = {x[1], x[1], x[3], x[3]};
+        r0 = (BoundQuad){R[0], R[1], R[4], R[5]};
+        r1 = (BoundQuad){R[2], R[3], R[6], R[7]};
+        const BoundQuad e = zr * r0 + zi * r1;
+        QUAD_STORE(z, e);
+        for (uint32_t r = 0; r < fold; r++) {
+            QUAD_LOAD(q, Q + r * row);
+            acc[r] += q * e;
+        }
+    }
+    if (k < n) {
+        const double zr = z[0], zi = z[1];
+        z[0] = zr * R[0] + zi * R[2];
+        z[1] = zr * R[1] + zi * R[3];
+        const BoundQuad e = {z[0], z[1], 0.0, 0.0};
+        for (uint32_t r = 0; r < fold; r++) {
+            const BoundQuad q = {Q[r * row], Q[r * row + 1], 0.0, 0.0};
+            acc[r] += q * e;
+        }
+    }
+    for (uint32_t r = 0; r < fold; r++) {
+        sum[r][0] = acc[r][0] + acc[r][2];
+        sum[r][1] = acc[r][1] + acc[r][3];
+    }
+}
+
+/* quads_cont's two cases, each with its constant (fold 3: the check reads the velocity rows; 0) */
+__attribute__((target("avx2"))) static void cont_quads(double *z, const double *R, const double *Q, size_t row,
+                                                      uint32_t n, uint32_t fold, double (*sum)[2]) {
+    if (!z || !R || !Q || !sum) return;
+    if (fold == BOUND_CONT_FOLD) quads_cont(z, R, Q, row, n, BOUND_CONT_FOLD, sum);
+    else quads_cont(z, R, Q, row, n, 0, sum);
+}
+#endif
+
+/* the rounding error of s = a + b rounded: (a + b) - s exactly (two_sum, round to nearest, no fused operations) */
+static double two_sum_error(double a, double b, double s) {
+    const double bb = s - a;
+    return (a - (s - bb)) + (b - bb);
+}
+
+/* the continued modes over a step of length h from t0 to tau = t0 + h rounded > t_end (rom_bound_step): E_M <- E_M
+ * R_M where the state holds E_M at t0, fewer than BOUND_CONT_ANCHOR steps since its anchor, and the last step had
+ * the length h; else anchored exactly at tau (cont_exact).  With `fold` (the error check read rows 0 to 2 since the
+ * last step: it reads them after every step until it warns) their sums of the new E_M are formed here, while E is at
+ * hand (cont_sum).  A function of the state and h alone (R_M of h, recomputed where cont_rh is another length): a
+ * restored state continues with the same bits */
+static void cont_step(BoundState *bs, const RomBoundModel *b, double t0, double h, double tau, int fold) {
+    if (!bs || !b || !b->n_cont || !bs->cont_z) return;
+    const uint32_t n = b->n_cont, rows = fold ? (b->rows < BOUND_CONT_FOLD ? b->rows : BOUND_CONT_FOLD) : 0u;
+    const double *Q = b->cont + 2 * (size_t)n;                      /* row 0's amplitudes, rows 2 n apart */
+    if (bs->cont_tau == t0 && bs->cont_n < BOUND_CONT_ANCHOR && h == bs->cont_h) {
+        if (bs->cont_rh != h) {
+            cont_exact(b, h, bs->cont_e);
+            for (uint32_t k = 0; k < n; k++) {
+                const double re = bs->cont_e[2 * (size_t)k], im = bs->cont_e[2 * (size_t)k + 1];
+                double *R = bs->cont_r + 4 * (size_t)k;
+                R[0] = re;
+                R[1] = im;
+                R[2] = -im;
+                R[3] = re;
+            }
+            bs->cont_rh = h;
+            bs->read_tau = NAN;                                     /* (cont_e lent as scratch) */
+        }
+        double *z = bs->cont_z;
+        const double *R = bs->cont_r;
+        const size_t row = 2 * (size_t)n;
+        int quads = 0;
+#if defined(BOUND_AVX2)
+        quads = bs->avx2 && (rows == BOUND_CONT_FOLD || rows == 0);      /* four lanes: the same bits */
+        if (quads) cont_quads(z, R, Q, row, n, rows, bs->cont_sum);
+#endif
+        if (!quads && rows == BOUND_CONT_FOLD) cont_rotate(z, R, Q, row, n, BOUND_CONT_FOLD, bs->cont_sum);
+        else if (!quads) cont_rotate(z, R, Q, row, n, rows, bs->cont_sum);
+        bs->cont_n += 1.0;
+        bs->cont_drift += fabs(two_sum_error(t0, h, tau));
+    } else {
+        cont_exact(b, tau - table_end(b), bs->cont_z);
+        for (uint32_t r = 0; r < rows; r++) cont_row_sums(Q + 2 * (size_t)n * r, bs->cont_z, n, bs->cont_sum[r]);
+        bs->cont_n = bs->cont_drift = 0.0;
+    }
+    bs->cont_summed = rows > 0;
+    bs->cont_tau = tau;
+    bs->cont_h = h;
+}
+
 /* rom_bound_step's work once w holds its steps, m the shadow's inputs (a constant where the caller specializes) */
 BOUND_INLINE void step_shadow(RomState *s, BoundState *bs, double h, size_t m) {
     const RomBoundModel *b = &s->model->bound;
@@ -930,7 +1209,7 @@ BOUND_INLINE void step_shadow(RomState *s, BoundState *bs, double h, size_t m) {
     }
     for (size_t j = 0; j < m; j++) bs->u_prev[j] = u[j] + du[j];
     bs->steps += 1.0;
-    const double tau = s->elapsed + h;                  /* the time since the start after this step */
+    const double tau = s->elapsed + h;                  /* the time since the start after this step (as rom.c's) */
     if (tau > table_end(b)) tail_decays(bs, b, tau, s->elapsed, c, h);
 }
 
@@ -944,6 +1223,11 @@ void rom_bound_step(RomState *s, double h) {
     }
     if (b->inputs == 1) step_shadow(s, bs, h, 1);     /* the force f alone: the common case, specialized */
     else step_shadow(s, bs, h, b->inputs);
+    /* the continued modes past the table (group 0 fresh: plane_step_one summed the rows the check read since the
+     * last step: their sums too) */
+    if (b->n_cont && s->elapsed + h > table_end(b)) {
+        cont_step(bs, b, s->elapsed, h, s->elapsed + h, (int)(bs->groups[0] & 1u));
+    }
 }
 
 /* what every row's bound shares at one time (tau since the start): the free response's table interval and
@@ -955,45 +1239,45 @@ typedef struct {
     size_t block;              /* its error block */
     double c0, c1, c2, c3;     /* the cubic Hermite weights of g[k], g[k + 1], dg[k], dg[k + 1] (dg's times h) */
     double decay[BOUND_MAX_GROUPS];   /* after the table: exp(-alpha_g (tau - t_end)) */
-    const double *cont;        /* after the table with SHCONT: the continued modes' exponentials (BoundState.cont_e) */
+    const double *cont;        /* after the table with SHCONT: the continued modes' E_M (cont_modes) */
+    const double *cont_rows;   /* ... the rows' sums of their allowance (BoundState.cont_rows) */
+    double cont_k0, cont_k1;   /* ... its factors (cont_modes) */
+    const double (*cont_sum)[2];   /* ... rows 0 to 2's sums where the step formed them (cont_step), else NULL */
     double w_root;             /* |w| (started), else NaN: the rows compute s w0's */
     double steps_factor;       /* BOUND_ROUNDOFF + BOUND_ROUNDOFF_STEP n */
     double drift_growth;       /* exp(growth tau): the residual's drift, a Duhamel integral of e^{A (t - s)} */
 } RowTime;
 
-/* the continued modes past the table (SHCONT) at tau > t_end: per mode E_M = exp(mu_M x), x = tau - t_end, and the
- * round-off allowance's factor f_M, computed from the time (no state: a restored state reads the same values) once
- * per time (cont_tau) for every row; row r adds Re sum_M Q_rM E_M and allows sum_M (|Re Q_rM| + |Im Q_rM|) f_M
- * (>= sum |Q_rM| f_M).  The allowance (harness/rom/bounds.py cont_roundoff, the same formula), eps = 2^-53:
- * - the argument: t_end = h_tab (nodes - 1) here, within 2 eps t_end of bounds.py's (h = t_end / (nodes - 1)
- *   there, rounded, times nodes - 1 here, rounded), x rounded (eps x), mu x rounded (eps |mu| x), and Q's own
- *   exp(mu t_end) in bounds.py (eps |mu| t_end): the argument is off by |delta| <= 3 eps |mu| tau (t_end + x = tau),
- *   so exp(mu x) by |exp(delta) - 1| <= 1.001 |delta| of |E_M| where |delta| <= 1e-3 (beyond: no bound, inf;
- *   |mu| tau >= 2e12 rad);
- * - exp, cos, sin within an ulp each and the two products |E| cos, |E| sin rounded: 3 eps of |E_M| more;
- * - the sum of n = n_cont terms Re Q E = Re Q Re E - Im Q Im E, each product rounded, added in order: (n + 1) eps
- *   sum (|Re Q| |Re E| + |Im Q| |Im E|) <= (n + 1) eps sum (|Re Q| + |Im Q|) |E|;
- * - Q's relative error (bounds.py's P, as the table's nodes'): BOUND_CONT_ROUNDOFF.
- * Together f_M = |E_M| (BOUND_CONT_ROUNDOFF + (n + 8) eps + 4 eps (|Re mu_M| + |Im mu_M|) tau) (the 4 and the 8
- * cover 1.001 x 3, n + 4 and the products of small terms; |Re| + |Im| >= |mu| saves a hypot), |E_M| = exp(Re mu_M
- * x) as computed (within an ulp, in the slack; exactly 1 for an undamped mode, no exp). */
-static const double *cont_modes(BoundState *bs, const RomBoundModel *b, double tau) {
-    if (!bs || !b || !b->n_cont || !bs->cont_e) return NULL;
-    if (bs->cont_tau == tau) return bs->cont_e;
-    const double eps = 0x1p-53, x = tau - table_end(b);
-    const double base = BOUND_CONT_ROUNDOFF + ((double)b->n_cont + 8.0) * eps;
-    for (uint32_t k = 0; k < b->n_cont; k++) {
-        const double re = b->cont[2 * (size_t)k], im = b->cont[2 * (size_t)k + 1];
-        const double size = re != 0.0 ? exp(re * x) : 1.0, phase = im * x;
-        const double arg = 4.0 * eps * (fabs(re) + fabs(im)) * tau;          /* (|re| + |im| >= |mu|) */
-        double *e = bs->cont_e + 4 * (size_t)k;
-        e[0] = im != 0.0 ? size * cos(phase) : size;
-        e[1] = im != 0.0 ? size * sin(phase) : 0.0;
-        e[2] = arg <= 1e-3 ? size * (base + arg) : INFINITY;
-        e[3] = 0.0;
+/* the continued modes' E_M at tau > t_end for every row read then, the factors of their round-off allowance (the
+ * derivation above cont_exact) and rows 0 to 2's sums where the step formed them: the state's, carried over the steps,
+ * where it holds tau; else computed exactly (an anchor) into a scratch kept per time, the state left as it is (a
+ * read never changes the continuation) */
+static const double *cont_modes(BoundState *bs, const RomBoundModel *b, double tau, RowTime *rt) {
+    rt->cont_k0 = rt->cont_k1 = 0.0;
+    rt->cont_sum = NULL;
+    rt->cont_rows = bs ? bs->cont_rows : NULL;
+    if (!bs || !b || !b->n_cont || !bs->cont_z) return NULL;
+    const double u = 0x1p-53;
+    double n = 0.0, drift = 0.0;
+    const double *E = bs->cont_z;
+    if (bs->cont_tau == tau) {
+        n = bs->cont_n;
+        drift = bs->cont_drift;
+        if (bs->cont_summed) rt->cont_sum = bs->cont_sum;
+    } else {
+        if (bs->read_tau != tau) {
+            cont_exact(b, tau - table_end(b), bs->cont_e);
+            bs->read_tau = tau;
+        }
+        E = bs->cont_e;
     }
-    bs->cont_tau = tau;
-    return bs->cont_e;
+    if (!((12.0 * n + 4.0 * bs->cont_amax * tau) * u + bs->cont_amax * drift <= 1e-3)) {
+        rt->cont_k0 = rt->cont_k1 = INFINITY;             /* (|mu| tau ~ 1e12 rad: no bound) */
+    } else {
+        rt->cont_k0 = 1.01 * (BOUND_CONT_ROUNDOFF + ((double)b->n_cont + 8.0 + 12.0 * n) * u);
+        rt->cont_k1 = 1.01 * (4.0 * u * tau + drift);
+    }
+    return E;
 }
 
 static void row_time(const RomState *s, RowTime *rt) {
@@ -1016,7 +1300,7 @@ static void row_time(const RomState *s, RowTime *rt) {
         const double over = tau > t_end ? tau - t_end : 0.0;
         const int cached = tau == bs->tail_tau;          /* the step's decays (rom_bound_step), else computed */
         for (uint32_t g = 0; g < b->groups; g++) rt->decay[g] = cached ? bs->tail_decay[g] : exp(-b->rates[g] * over);
-        rt->cont = b->n_cont ? cont_modes(bs, b, tau) : NULL;
+        rt->cont = b->n_cont ? cont_modes(bs, b, tau, rt) : NULL;
     }
     if (bs->started != 0.0) {
         if (!bs->w_fresh) shadow_group(s, bs, 0);
@@ -1046,13 +1330,15 @@ static inline void free_part(const RomBoundModel *b, const RowTime *rt, uint32_t
     for (uint32_t g = 0; g < b->groups; g++) acc += tail[g] * rt->decay[g];
     double sum = 0.0, allow = 0.0;
     if (rt->cont) {                                     /* the continued modes (cont_modes) */
-        const double *Q = b->cont + 2 * (size_t)b->n_cont * (1 + (size_t)r);
-        for (uint32_t k = 0; k < b->n_cont; k++) {
-            const double *e = rt->cont + 4 * (size_t)k;
-            const double qr = Q[2 * (size_t)k], qi = Q[2 * (size_t)k + 1];
-            sum += qr * e[0] - qi * e[1];
-            allow += (fabs(qr) + fabs(qi)) * e[2];
+        double lanes[2];
+        if (rt->cont_sum && r < BOUND_CONT_FOLD) {
+            lanes[0] = rt->cont_sum[r][0];               /* formed in the step (cont_step): the same sums */
+            lanes[1] = rt->cont_sum[r][1];
+        } else {
+            cont_row_sums(b->cont + 2 * (size_t)b->n_cont * (1 + (size_t)r), rt->cont, b->n_cont, lanes);
         }
+        sum = lanes[0] - lanes[1];                      /* Re sum_M Q_rM E_M */
+        allow = rt->cont_k0 * rt->cont_rows[2 * (size_t)r] + rt->cont_k1 * rt->cont_rows[2 * (size_t)r + 1];
     }
     *value = sum;
     *error = acc + allow;
@@ -1286,9 +1572,49 @@ int rom_bound_exceeded(const RomState *s, char *message, size_t message_size) {
            rows_exceed(s, &rt, &in, 1, ports, m, started, channel, message, message_size);
 }
 
+/* the serialized shadow: w, V, u_prev, w_int, steps, started, the tails' decays after the table (tail_tau,
+ * tail_decay[groups]: chained over the steps, tail_decays), then with SHCONT the continued modes' E_M (Re, Im),
+ * cont_tau, cont_n, cont_h, cont_drift (carried over the steps, cont_step): a restored state continues with the same
+ * bits */
+static size_t cont_state_doubles(const RomBoundModel *b) {
+    return b->n_cont ? 2 * (size_t)b->n_cont + 4 : 0;
+}
+
 size_t rom_bound_state_doubles(const RomModel *m) {
     const RomBoundModel *b = &m->bound;
-    return b->order ? b->order + (size_t)b->inputs * (b->groups + 1) + 3 : 0;
+    return b->order ? b->order + (size_t)b->inputs * (b->groups + 1) + 3 + 1 + b->groups + cont_state_doubles(b) : 0;
+}
+
+/* a restored tails' chain (serialized: tail_tau, -1 for none, tail_decay): a time after the table's end and decays
+ * in [0, 2] (tail_decays' chain, rounded up from at most 1); else none (computed exactly at the next step).  Kept
+ * where a parametric shadow is assembled at the state's c, d next (rom_bound_assemble): the state's own rates */
+static void tails_restored(BoundState *bs, const RomBoundModel *b) {
+    int valid = bs->tail_tau > table_end(b);
+    for (uint32_t g = 0; valid && g < b->groups; g++) valid = bs->tail_decay[g] >= 0 && bs->tail_decay[g] <= 2.0;
+    if (!valid) bs->tail_tau = NAN;
+    bs->tails_restored = valid;
+}
+
+/* a restored continuation (cont_step): at a time after the table's end, a step count from 0 to BOUND_CONT_ANCHOR, a
+ * step length > 0, and each E_M within twice its allowance's relative error (cont_exact's derivation: eps_n +
+ * eps_0, the exact value's own) of the exact value at cont_tau; else none (anchored exactly at the next step) */
+static void cont_restored(BoundState *bs, const RomBoundModel *b) {
+    const double tau = bs->cont_tau, n = bs->cont_n, drift = bs->cont_drift, u = 0x1p-53;
+    int valid = isfinite(tau) && tau > table_end(b) && whole(n, 0, BOUND_CONT_ANCHOR) && isfinite(bs->cont_h) &&
+                bs->cont_h > 0 && drift >= 0 && drift <= n * u * tau;
+    if (valid) cont_exact(b, tau - table_end(b), bs->cont_e);
+    for (uint32_t k = 0; valid && k < b->n_cont; k++) {
+        const double a = fabs(b->cont[2 * (size_t)k]) + fabs(b->cont[2 * (size_t)k + 1]);
+        const double *z = bs->cont_z + 2 * (size_t)k, *e = bs->cont_e + 2 * (size_t)k;
+        const double rel = 2.0 * 1.002 * (u * (6.0 + 12.0 * n + 8.0 * a * tau) + a * drift);
+        valid = fabs(z[0] - e[0]) + fabs(z[1] - e[1]) <= rel * (fabs(e[0]) + fabs(e[1])) + 4.0 * u;   /* NaN: not */
+    }
+    bs->read_tau = NAN;
+    bs->cont_summed = 0;                                /* (rows 0 to 2's sums: formed again from E when read) */
+    if (!valid) {
+        bs->cont_tau = NAN;
+        bs->cont_n = bs->cont_h = bs->cont_drift = 0.0;
+    }
 }
 
 unsigned char *rom_bound_state_put(const RomState *s, unsigned char *cursor) {
@@ -1299,7 +1625,14 @@ unsigned char *rom_bound_state_put(const RomState *s, unsigned char *cursor) {
     cursor = rom_put_f64s(cursor, bs->V, (size_t)b->inputs * b->groups);
     cursor = rom_put_f64s(cursor, bs->u_prev, b->inputs);
     const double scalars[3] = {bs->w_int, bs->steps, bs->started};
-    return rom_put_f64s(cursor, scalars, 3);
+    cursor = rom_put_f64s(cursor, scalars, 3);
+    const double tail_tau = isfinite(bs->tail_tau) ? bs->tail_tau : -1.0;     /* (a state's values are finite) */
+    cursor = rom_put_f64s(cursor, &tail_tau, 1);
+    cursor = rom_put_f64s(cursor, bs->tail_decay, b->groups);
+    if (!cont_state_doubles(b)) return cursor;
+    cursor = rom_put_f64s(cursor, bs->cont_z, 2 * (size_t)b->n_cont);
+    const double cont[4] = {isfinite(bs->cont_tau) ? bs->cont_tau : -1.0, bs->cont_n, bs->cont_h, bs->cont_drift};
+    return rom_put_f64s(cursor, cont, 4);
 }
 
 const unsigned char *rom_bound_state_get(RomState *s, const unsigned char *cursor) {
@@ -1315,9 +1648,20 @@ const unsigned char *rom_bound_state_get(RomState *s, const unsigned char *curso
     bs->w_int = scalars[0];
     bs->steps = scalars[1];
     bs->started = scalars[2] != 0.0 ? 1.0 : 0.0;
-    bs->tail_tau = bs->cont_tau = NAN;                   /* recomputed at the next row */
     for (size_t i = 0; i < (size_t)b->inputs * b->groups; i++) {
         if (!(bs->V[i] >= 0)) bs->V[i] = INFINITY;       /* a damaged variation: no bound, visibly */
     }
+    cursor = rom_get_f64s(cursor, &bs->tail_tau, 1);
+    cursor = rom_get_f64s(cursor, bs->tail_decay, b->groups);
+    tails_restored(bs, b);
+    if (!cont_state_doubles(b)) return cursor;
+    cursor = rom_get_f64s(cursor, bs->cont_z, 2 * (size_t)b->n_cont);
+    double cont[4];
+    cursor = rom_get_f64s(cursor, cont, 4);
+    bs->cont_tau = cont[0];
+    bs->cont_n = cont[1];
+    bs->cont_h = cont[2];
+    bs->cont_drift = cont[3];
+    cont_restored(bs, b);
     return cursor;
 }

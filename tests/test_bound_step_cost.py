@@ -142,13 +142,14 @@ def parametric(tmp_path_factory):
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="builds the Linux FMU binary")
-def test_lanes_clones_and_plain_arrays_give_the_same_bits(make, parametric, tmp_path):
+def test_lanes_clones_and_plain_arrays_give_the_same_bits(make, parametric, undamped, tmp_path):
     """The FMU binary built with -DROM_NO_CLONES (rom_bound.c's two SSE2 lanes alone, what a CPU without AVX2 runs,
     where the default build steps a one-input shadow's planes in four AVX2 lanes on a CPU that has AVX2) and with
     -DROM_NO_LANES (the plain-array path, what a compiler without GCC's vector extensions builds) give every output
     and every bound of the default build to 0 ulps over a run with a restore, a held input and one with input derivatives (the slope's
-    columns), on the forced FMU and on a parametric one at c, d away from its scene's (the same IEEE operations in
-    the same order, no fused multiply-add)."""
+    columns), on the forced FMU, on a parametric one at c, d away from its scene's, and on the undamped exact FMU
+    past its free response table (the continued modes' product and sums in lanes) (the same IEEE operations in the
+    same order, no fused multiply-add)."""
     from sphrom.fmu.make.build import configure_and_build
     from sphrom.paths import data_dir
     builds = {}
@@ -156,7 +157,9 @@ def test_lanes_clones_and_plain_arrays_give_the_same_bits(make, parametric, tmp_
         builds[flag] = tmp_path / flag
         configure_and_build(data_dir("fmu_src"), builds[flag], tests=False, options=(f"-DCMAKE_C_FLAGS=-D{flag}",),
                             targets=("sphrom_fmi2",))
-    for path, parameters in ((make(), {}), (parametric, {"c": 0.13, "d": 2.5})):
+    past = int(round(20 * undamped(2)[1].T / H)) + 40               # 40 steps past the table's end
+    for path, parameters, steps in ((make(), {}, STEPS), (parametric, {"c": 0.13, "d": 2.5}, STEPS),
+                                    (undamped(2)[0], {}, past + 40)):
         runs = []
         for build in (None, *builds.values()):
             folder = tmp_path / f"fmu-{path.stem}-{build.name if build else 'default'}"
@@ -168,8 +171,8 @@ def test_lanes_clones_and_plain_arrays_give_the_same_bits(make, parametric, tmp_
                 fmu.initialize(parameters={"initial_state_scale": 1.0, **parameters})
                 assert fmu.can_interpolate_inputs
                 rows = []
-                for j in range(STEPS):
-                    if j == 60:
+                for j in range(steps):
+                    if j == steps - 40:
                         state = fmu.get_state()
                     fmu.set_input(force(j))
                     fmu.set_input_derivative(3e-2 * np.cos(3.0 * j * H) if j % 50 < 25 else 0.0)
@@ -184,19 +187,141 @@ def test_lanes_clones_and_plain_arrays_give_the_same_bits(make, parametric, tmp_
             np.testing.assert_array_equal(other, runs[0])
 
 
-def test_warning_past_the_table_says_what_the_bound_is(tmp_path):
+@pytest.fixture(scope="module")
+def undamped(tmp_path_factory):
+    """undamped(fmi) -> (path, scene): the exact FMU of multimode shrunk (N = 32, T = 0.25 s: the free response table
+    spans 20 T = 5 s, 500 steps of H; undamped, so its modes that matter are continued past it), packaged once."""
+    from conftest import small_scene
+    from sphrom.fmu.make.package import package_fmu
+    scene, folder, made = small_scene("multimode", T=0.25, n=32), tmp_path_factory.mktemp("bound-undamped"), {}
+
+    def build(fmi=2):
+        if fmi not in made:
+            made[fmi] = folder / f"mm-exact-{fmi}.fmu"
+            package_fmu(scene, made[fmi], k=6, fmi=fmi, probes=PROBES, progress=False, model="exact", bounds=False)
+        return made[fmi], scene
+
+    return build
+
+
+def step_plan(seed, span, lengths=(H, 1.3 * H, 0.7 * H)):
+    """Step lengths [s] over ``span`` [s]: runs of 1 to 150 steps of one length, drawn from ``lengths`` (the FMU
+    carries the continued modes' exponentials within a run and anchors them where the length changes)."""
+    rng = np.random.default_rng(seed)
+    plan, t = [], 0.0
+    while t < span:
+        h = float(lengths[rng.integers(len(lengths))])
+        for _ in range(int(rng.integers(1, 151))):
+            plan.append(h)
+            t += h
+    return plan
+
+
+def drive(fmu, plan, t=0.0):
+    """Step ``fmu`` over the steps ``plan`` from time ``t`` (a held tone f = 3e-3 sin(1.7 t)); the outputs after each
+    step (every bound too) and the time at the end."""
+    rows = []
+    for h in plan:
+        fmu.set_input(3e-3 * np.sin(1.7 * t))
+        fmu.do_step(t, h)
+        t += h
+        rows.append(fmu.output_values(fmu.outputs))
+    return np.array(rows), t
+
+
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_continuation_restored_past_the_table_continues_bit_for_bit(undamped, fmi):
+    """Past the free response table the continued modes' exponentials are carried in the FMU's state over the steps
+    (e^{mu h} per step, anchored exactly every CONT_ANCHOR steps and where the step length changes): a state saved
+    past the table's end, restored in the same instance and (serialized) in a fresh one, continues with the same
+    bits as the uninterrupted run, over steps of changing lengths that cross an anchor; and a reset instance repeats
+    the run from the start bit for bit (the continuation forgotten)."""
+    from sphrom.rom.bounds import CONT_ANCHOR
+    path, scene = undamped(fmi)
+    t_end = 20 * scene.T
+    before = [H] * (int(round(t_end / H)) + 30)               # 30 steps past the table's end: carried, not anchored
+    after = [H] * (CONT_ANCHOR + 20) + [1.3 * H] * 25 + [H] * 15 + [0.7 * H] * 10
+    with FMU(path) as fmu:
+        fmu.initialize(parameters={"initial_state_scale": 1.0})
+        first, t = drive(fmu, before)
+        assert t > t_end
+        state = fmu.get_state()
+        blob = fmu.serialize(state)
+        straight, _ = drive(fmu, after, t)
+        fmu.set_state(state)
+        again, _ = drive(fmu, after, t)
+        np.testing.assert_array_equal(again, straight)
+        fmu.free_state(state)
+        fmu.reset()
+        fmu.initialize(parameters={"initial_state_scale": 1.0})
+        np.testing.assert_array_equal(drive(fmu, before)[0], first)
+    with FMU(path) as other:
+        other.initialize(parameters={"initial_state_scale": 1.0})
+        drive(other, [0.9 * H] * 20)                         # (another history: the restore replaces it)
+        state = other.deserialize(blob)
+        other.set_state(state)
+        restored, _ = drive(other, after, t)
+        other.free_state(state)
+    np.testing.assert_array_equal(restored, straight)
+    assert np.all(np.isfinite(straight))
+
+
+def test_continued_bounds_hold_over_long_runs_of_varying_steps(undamped):
+    """The bounds against the truth (the full linear SPH, each step's exact map) over 3 x the table's span with steps
+    of three lengths in runs of 1 to 150 (the continued modes' exponentials carried over each run, anchored where the
+    length changes and every CONT_ANCHOR steps, with the recurrence's round-off allowance): every velocity and
+    density bound >= the true error at every point, and past the table the velocity bound stays within 2 x its
+    largest over the table's last 2 T."""
+    import scipy.linalg as sla
+    from sphrom.rom.lti import full_linear_system, probe_matrix
+    from sphrom.sph.solver import build_problem
+    path, scene = undamped(2)
+    t_end = 20 * scene.T
+    plan = step_plan(7, 3 * t_end)
+    problem = build_problem(scene)
+    lti = full_linear_system(problem, PROBES)
+    n, A, b = problem.rho0.size, lti.A.toarray(), lti.B[:, 0]
+    maps = {}
+    for h in set(plan):                                      # the exact map of a held input over a step of h
+        M = np.zeros((2 * n + 1,) * 2)
+        M[:2 * n, :2 * n], M[:2 * n, 2 * n] = A * h, b * h
+        E = sla.expm(M)
+        maps[h] = (E[:2 * n, :2 * n], E[:2 * n, 2 * n])
+    x, t, X, times = lti.x0.copy(), 0.0, [], []
+    for h in plan:
+        Phi, g = maps[h]
+        x = Phi @ x + g * (3e-3 * np.sin(1.7 * t))
+        t += h
+        X.append(x)
+        times.append(t)
+    X, times = np.array(X), np.array(times)
+    interp = probe_matrix(problem.x, problem.scene.L, PROBES, np.ones(n))
+    v_true = (X[:, :n] / np.sqrt(problem.rho0)) @ interp.T
+    rho_true = (problem.rho0 / (1.0 + X[:, n:] / np.sqrt(problem.c))) @ interp.T
+    with FMU(path) as fmu:
+        fmu.initialize(parameters={"initial_state_scale": 1.0})
+        out, _ = drive(fmu, plan)
+        names = fmu.outputs
+    ev = np.abs(out[:, members(names, "v_probe_j")] - v_true)
+    er = np.abs(out[:, members(names, "rho_probe_j")] - rho_true)
+    vb, rb = out[:, members(names, "v_probe_j_error_bound")], out[:, members(names, "rho_probe_j_error_bound")]
+    assert np.all(vb >= ev), np.max(ev - vb)
+    assert np.all(rb >= er), np.max(er - rb)
+    late = times > t_end
+    assert late.sum() > len(plan) // 2
+    before = (times > t_end - 2 * scene.T) & ~late
+    assert vb[late].max() <= 2.0 * vb[before].max(), (vb[late].max(), vb[before].max())
+
+
+def test_warning_past_the_table_says_what_the_bound_is(undamped, tmp_path):
     """On an undamped bar the complement's free response from the initial state is tabulated over the table's span
     and its modes that matter are continued exactly past it (section SHCONT): an accurate model run from the initial
     state four times as long as the table does not warn at the default tolerance (it warned just past the table's
     end while its size alone bounded it).  Without SHCONT (every mode bounded by its size past the table, as before)
     the warning there names that share of the bound, the table's end and the modes continued (0), so that a warning
     on an accurate model reads as what it is."""
-    from conftest import small_scene
-    from sphrom.fmu.make.package import package_fmu
     from sphrom.fmu.resources import pack, unpack
-    scene = small_scene("multimode", T=0.25, n=32)
-    path = tmp_path / "mm-exact.fmu"
-    package_fmu(scene, path, k=6, fmi=2, probes=PROBES, progress=False, model="exact", bounds=False)
+    path, scene = undamped(2)
 
     def run(fmu_path, steps):
         with FMU(fmu_path) as fmu:

@@ -121,16 +121,17 @@ def test_c_driver_release(binaries, packaged, tmp_path, case):
 
 
 def test_c_driver_under_address_and_undefined_sanitizers(packaged, tmp_path):
-    """All scenarios, the bad-input ones and 1000 instantiate/free cycles included, clean under ASan+UBSan+LSan,
-    for both models (the exact one's exponentials and their cache included) and a parametric one (its operators
-    and its error bounds' planes assembled)."""
+    """All scenarios, the bad-input ones and 100 instantiate/free cycles included (the release run makes 1000),
+    clean under ASan+UBSan+LSan, for both models (the exact one's exponentials and their cache included) and a
+    parametric one (its operators and its error bounds' planes assembled)."""
     if not sanitizers_available(tmp_path):
         pytest.skip("the C compiler cannot build and run -fsanitize=address,undefined programs")
     san = ensure_binaries(sanitize=True)
     assert san.driver is not None
     env = {"ASAN_OPTIONS": "detect_leaks=1:abort_on_error=0:halt_on_error=1:detect_stack_use_after_return=1",
            "UBSAN_OPTIONS": "halt_on_error=1:print_stacktrace=1",
-           "SPHROM_DRIVER_NO_TIMING": "1"}      # the bound scenario's 10 s answer is timed in the release run
+           "SPHROM_DRIVER_NO_TIMING": "1",      # the bound scenario's 10 s answer is timed in the release run
+           "SPHROM_DRIVER_CYCLES": "100"}
     cases = ("forced", "unforced", "exact-forced", "exact-unforced", "parametric")
     # five independent processes: run side by side on the machine's cores (the sanitizers make each one slow)
     with concurrent.futures.ThreadPoolExecutor(max_workers=min(len(cases), os.cpu_count() or 1)) as pool:

@@ -423,9 +423,10 @@ def test_bounds_past_the_free_response_table(make):
     point; past the table the largest bound stays within 2 x its largest over the table's last 2 T (the one left
     out is sized to the table's own error allowance); a tolerance 10 x the largest true error does not warn; and the
     C core's bounds equal run_shadow's (the same shadow, rebuilt as packaging builds it) past the table too, within
-    the continued sum's round-off allowance (bounds.cont_roundoff)."""
+    the continued sum's round-off allowance (bounds.cont_roundoff, the FMU's: its exponentials carried over up to
+    CONT_ANCHOR steps, the state's time off the steps' sum by at most an ulp per step)."""
     from sphrom.fmu.training.steps import core_runs
-    from sphrom.rom.bounds import cont_roundoff, fmu_shadow, output_bounds, run_shadow
+    from sphrom.rom.bounds import CONT_ANCHOR, cont_roundoff, fmu_shadow, output_bounds, run_shadow
     from sphrom.sph.solver import build_problem
     path, data = make(model="exact", case="unforced")
     shadow = fmu_shadow(build_problem(fmu_scene("unforced")), PROBES,
@@ -448,7 +449,8 @@ def test_bounds_past_the_free_response_table(make):
     y, cert = run_shadow(shadow, np.full(steps, H), f[:-1, None], np.zeros((steps, 1)), scale=1.0)
     v, rho = columns(out, names, "v_probe_j"), columns(out, names, "rho_probe_j")
     vb, rb, _ = output_bounds(shadow, y, cert, v, rho)
-    allow = np.array([cont_roundoff(comp, tau)[:len(PROBES)] for tau in t])
+    allow = np.array([cont_roundoff(comp, tau, steps=CONT_ANCHOR, drift=CONT_ANCHOR * 2.0 ** -53 * tau)[:len(PROBES)]
+                      for tau in t])
     # (the shadow's exponentials differ, C: Taylor, scipy: Padé, by round-off of the outputs that grows with the
     # steps: 1e-12 of the outputs after 1500 steps, as over the table's span)
     atol = 1e-12 * np.abs(v).max()
@@ -456,20 +458,34 @@ def test_bounds_past_the_free_response_table(make):
     np.testing.assert_allclose(vb_c[late], vb[late], rtol=1e-9, atol=atol + 2 * allow[late].max())
 
 
-def test_core_refuses_a_damaged_continuation(make):
+def test_core_refuses_a_damaged_continuation(make, monkeypatch):
     """Section SHCONT (the modes continued past the free response table) damaged: the loader names the problem (a
     wrong shape, an odd column count, a growing mode, a non-finite number, the section without its table) rather
     than add a wrong or unbounded free response past the table."""
+    import copy
     import struct
     import zlib
 
+    import sphrom.rom.bounds as bounds
     from conftest import load_changed
     from sphrom.fmu import layout
     from sphrom.fmu.make.build import ensure_binaries
     from sphrom.fmu.resources import pack
     from sphrom.fmu.run.core import Core, CoreError
-    _, data = make(model="exact", case="unforced")
-    assert "SHCONT" in data.sections                       # (the undamped scene's free response is continued)
+    from sphrom.fmu.training.steps import core_runs
+    from sphrom.sph.solver import build_problem
+    _, packaged = make(model="exact", case="unforced")
+    # the premise, a model.bin with SHCONT: which modes are continued is a floating-point budget's choice
+    # (bounds.continued_modes), so the shadow is rebuilt as packaging builds it with every candidate mode continued
+    # (exact, of a finite size > 0 at the table's end): on the undamped scene the complement's free response from
+    # the initial state is tabulated and does not decay, so its modes are candidates by construction
+    monkeypatch.setattr(bounds, "continued_modes", lambda modes, decayed, *rest: (
+        modes.exact & np.all(np.isfinite(decayed), axis=0) & np.any(decayed > 0, axis=0)))
+    shadow = bounds.fmu_shadow(build_problem(fmu_scene("unforced")), PROBES,
+                               scale_v=float(np.max(packaged.sections["ENVPROBE"][1])), model_runs=core_runs(packaged))
+    data = copy.deepcopy(packaged)
+    data.sections = {**{k: v for k, v in data.sections.items() if not k.startswith("SH")}, **bounds.sections(shadow)}
+    assert "SHCONT" in data.sections
 
     def untabled(s):
         s.pop("SHTAB"), s.pop("SHTERR")

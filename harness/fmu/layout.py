@@ -518,7 +518,10 @@ STATE_BLOCKS = (
      "the error bounds' table; format 4 held the start time t0 here, read as time - t0)"),
     ("f_rate", "1", "df/dt over a step [m s^-3] (0: held)"),
     ("bounds", "with the error bounds (sections SH*)", "the shadow w[k_s], the inputs' weighted variations V[m groups] "
-     "and last values u[m], the integral of |w|, the step count, started (0 or 1) (rom_bound.c)"),
+     "and last values u[m], the integral of |w|, the step count, started (0 or 1), the time of the tails' decays "
+     "after the table [s] (-1: none) and those decays[groups]; with SHCONT the continued modes' exp(mu (tau - "
+     "t_end)) carried over the steps (Re, Im)[2 M_c], their time tau [s] (-1: none), the steps since their exact "
+     "anchor, the last step's length [s], the time's rounding summed over those steps [s] (rom_bound.c)"),
     ("channel", "with the port channel (sections PC*)", "its planes p[n], q[n], the inputs' variation tv[P] and "
      "last values u[P], the step count, port_impedance [N s m^-1], a_port[P] [N], b_port[P] [N], the force held "
      "over the last step of the wave form[P] [N], da_port/dt[P] [N s^-1], the drift's integrals of |u_j|[P] "

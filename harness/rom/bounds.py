@@ -115,6 +115,7 @@ TAIL_WORK = 2e8             # ... by the full state's propagation where N x node
 TAYLOR_TERMS = 10           # products with A per node: e^{A h} x by its Taylor series to this power)
 CHEBYSHEV_WORK = 4e9        # ... else by a Chebyshev expansion where N x its degree is at most this
 CONT_ROUNDOFF = 1e-13       # the modes continued past the table: their amplitudes' relative error (the nodes')
+CONT_ANCHOR = 256           # ... the steps the FMU carries their exponentials over (e^{μ h} per step) between exact anchors
 TAIL_SHARE = 0.1            # ... as long as that one's certified error is below this share of the norm bound
 
 
@@ -922,18 +923,26 @@ def continued_modes(modes: Modes, decayed, budget, values, fixed):
     return cont
 
 
-def cont_roundoff(comp: Complement, tau):
-    """(rows,) the round-off allowance of the continued modes' sum at ``tau`` > t_end (:func:`free_part`; the C core's
-    cont_modes, fmu_src/rom_bound.c, derives it): Σ_M (|Re Q_rM| + |Im Q_rM|) e^{Re μ_M x} (CONT_ROUNDOFF +
-    (M_c + 8) ε + 4 ε (|Re μ_M| + |Im μ_M|) τ), x = τ - t_end, ε = 2^-53 (infinite where that last term > 1e-3)."""
+def cont_roundoff(comp: Complement, tau, steps=0, drift=0.0):
+    """(rows,) the round-off allowance of the continued modes' sum at ``tau`` > t_end [s] (:func:`free_part`; the C
+    core's, fmu_src/rom_bound.c, derives it above cont_exact), ``steps`` steps after the exponentials
+    e^{μ_M (τ - t_end)} were computed exactly (the FMU carries them over the steps, e^{μ h} per step, anchored
+    exactly every :data:`CONT_ANCHOR` steps; 0: computed exactly, as here), ``drift`` [s] the state's time off the
+    steps' exact sum since then (the sum of each step's rounding of τ + h; at most ``steps`` ε τ):
+    1.01 [Σ_M q_rM (CONT_ROUNDOFF + (M_c + 8 + 12 n) ε) + Σ_M q_rM a_M (4 ε τ + D)], q_rM = |Re Q_rM| + |Im Q_rM|,
+    a_M = |Re μ_M| + |Im μ_M|, n = ``steps``, D = ``drift``, ε = 2^-53 (with |e^{μ x}| <= 1: O(1) per row in the
+    FMU); infinite where (12 n + 4 max_M a_M τ) ε + max_M a_M D > 1e-3."""
     if comp.cont_mu is None or comp.cont_mu.size == 0:
         return np.zeros(comp.tail.shape[0])
     eps = 2.0 ** -53
-    x = max(tau - comp.t_end, 0.0)
-    arg = 4 * eps * (np.abs(comp.cont_mu.real) + np.abs(comp.cont_mu.imag)) * tau     # (>= 4 ε |μ| τ)
-    factor = np.exp(comp.cont_mu.real * x) * (CONT_ROUNDOFF + (comp.cont_mu.size + 8) * eps + arg)
-    factor = np.where(arg <= 1e-3, factor, np.inf)
-    return (np.abs(comp.cont_Q.real) + np.abs(comp.cont_Q.imag)) @ factor
+    n = float(steps)
+    q = np.abs(comp.cont_Q.real) + np.abs(comp.cont_Q.imag)
+    a = np.abs(comp.cont_mu.real) + np.abs(comp.cont_mu.imag)
+    if not (12 * n + 4 * a.max() * tau) * eps + a.max() * drift <= 1e-3:
+        return np.full(q.shape[0], np.inf)
+    k0 = 1.01 * (CONT_ROUNDOFF + (comp.cont_mu.size + 8 + 12 * n) * eps)
+    k1 = 1.01 * (4 * eps * tau + drift)
+    return k0 * q.sum(axis=1) + k1 * (q @ a)
 
 
 # ---------------------------------------------------------------------------------------------------------------
