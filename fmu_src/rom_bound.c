@@ -1245,7 +1245,7 @@ typedef struct {
     const double (*cont_sum)[2];   /* ... rows 0 to 2's sums where the step formed them (cont_step), else NULL */
     double w_root;             /* |w| (started), else NaN: the rows compute s w0's */
     double steps_factor;       /* BOUND_ROUNDOFF + BOUND_ROUNDOFF_STEP n */
-    double drift_growth;       /* exp(growth tau): the residual's drift, a Duhamel integral of e^{A (t - s)} */
+    double drift_growth;       /* >= exp(growth tau) (1 + x + x^2, x <= 1): the residual's drift, a Duhamel integral */
 } RowTime;
 
 /* the continued modes' E_M at tau > t_end for every row read then, the factors of their round-off allowance (the
