@@ -640,6 +640,9 @@ def test_bench_cost_tables_carry_the_instruction_count_where_measured():
     only_timing, both = "\n".join(cost_lines(timed)), "\n".join(cost_lines(counted))
     assert "native ratio median" in only_timing and "instruction ratio" not in only_timing
     assert "native ratio median" in both and "| exact | 2 | 1.18 | 1.25 | 0 |" in both
+    assert "past-table" not in both                  # no FMU with a table counted past its end: no such table
+    past = [{**counted[0], "instr_past_ratio": 1.2}, {**counted[1], "instr_past_ratio": float("nan")}]
+    assert "| exact | 1 | 1.20 | 1.20 | 0 |" in "\n".join(cost_lines(past)).split("past-table")[1]
 
 
 @pytest.mark.parametrize("path", ["taylor", "chebyshev"])

@@ -4,7 +4,8 @@ The FMU's own binary in the native FMI 2 master ``sphrom_step_cost`` (fmu_src/te
 model.bin has no bounds' sections (SH*): the ratio the error bounds cost per communication step, with the outputs
 read (held to at most COST_TARGET) and with their bounds read too.  Where valgrind is installed, also the same
 ratio in instructions (callgrind): a count that does not move with the machine's load, where the timings of a
-shared machine do.
+shared machine do; and, for an FMU with a free response table, the same count past the table's end (t > t_end, where
+the complement's modes that matter are continued by a recurrence instead of read from the table).
 """
 
 import tempfile
@@ -17,6 +18,7 @@ NATIVE_STEPS = 20000    # steps per run of the native FMI master (native_cost)
 COST_TARGET = 1.3       # doStep with the bounds at most this x without (native, the outputs read)
 STEP = 0.01             # [s] the communication step
 COUNT_STEPS = (500, 1500)   # instruction counts: runs of these many steps, per step the difference / 1000 (setup cancels)
+PAST_STEPS = 50             # past the table: the counted steps begin this many steps after t_end
 
 
 class NativeCost(NamedTuple):
@@ -30,12 +32,17 @@ class NativeCost(NamedTuple):
     instr_bounds: float = float("nan")   # instructions per step with the bounds, the outputs read (callgrind)
     instr_plain: float = float("nan")    # ... without the bounds' sections
     instr_ratio: float = float("nan")    # instr_bounds / instr_plain (NaN: valgrind not installed)
+    instr_past_bounds: float = float("nan")   # instructions per step with the bounds past the table's end (NaN: no
+    instr_past_plain: float = float("nan")    # table, or no valgrind) ... without the bounds' sections, as far
+    instr_past_ratio: float = float("nan")    # instr_past_bounds / instr_past_plain
 
     def row(self):
         """The benches' columns."""
         return {"native_ns_bounds": self.bounds_ns, "native_ns_read": self.read_ns, "native_ns_plain": self.plain_ns,
                 "native_ratio": self.ratio, "native_read_ratio": self.read_ratio,
-                "instr_bounds": self.instr_bounds, "instr_plain": self.instr_plain, "instr_ratio": self.instr_ratio}
+                "instr_bounds": self.instr_bounds, "instr_plain": self.instr_plain, "instr_ratio": self.instr_ratio,
+                "instr_past_bounds": self.instr_past_bounds, "instr_past_plain": self.instr_past_plain,
+                "instr_past_ratio": self.instr_past_ratio}
 
 
 NO_COST = NativeCost(*(float("nan"),) * 5)
@@ -70,13 +77,15 @@ def native_cost(path, repeats, n_steps=NATIVE_STEPS, h=STEP):
     (and of F_port_j: a spring to ground on each port of a port FMU), fmi2DoStep, fmi2GetReal of the outputs, with
     their bounds in the second figure), beside the same FMU without the bounds' sections (its modelDescription's
     guid set to that model.bin's token): thread CPU time, medians over ``repeats`` runs of ``n_steps`` steps of
-    ``h`` [s], the three in turn.  None where the master was not built."""
+    ``h`` [s], the three in turn; where the FMU has a free response table (its span t_end), the instruction counts
+    also over the 1000 steps from PAST_STEPS steps past t_end.  None where the master was not built."""
     import json
     import re
     import statistics
     import subprocess
     import zipfile
 
+    from ...fmu import layout
     from ...fmu.make.build import ensure_binaries
     from ...fmu.resources import pack, read, unpack
     driver = ensure_binaries(quiet=True).folder / "sphrom_step_cost"
@@ -88,6 +97,9 @@ def native_cost(path, repeats, n_steps=NATIVE_STEPS, h=STEP):
             with zipfile.ZipFile(path) as z:
                 z.extractall(folder)
         data = unpack((with_dir / "resources" / "model.bin").read_bytes())
+        scal = data.sections.get("SHSCAL")
+        nodes = int(scal[0, layout.column("SHSCAL", "nodes")]) if scal is not None else 0
+        t_end = scal[0, layout.column("SHSCAL", "h_tab")] * (nodes - 1) if nodes > 1 else None
         n_ports = len(re.findall(r'name="F_port_\d+"', (with_dir / "modelDescription.xml").read_text()))
         data.sections = {k: v for k, v in data.sections.items() if not k.startswith("SH")}
         blob = pack(data)
@@ -111,10 +123,16 @@ def native_cost(path, repeats, n_steps=NATIVE_STEPS, h=STEP):
             for i in (range(3) if r % 2 == 0 else reversed(range(3))):
                 times[i].append(run(*plan[i]))
         counts = [instructions_per_step(command(with_dir, False)), instructions_per_step(command(bare_dir, False))]
+        past = [float("nan")] * 2
+        if t_end is not None:
+            first = int(np.ceil(t_end / h)) + PAST_STEPS
+            steps = (first, first + COUNT_STEPS[1] - COUNT_STEPS[0])
+            past = [instructions_per_step(command(with_dir, False), steps),
+                    instructions_per_step(command(bare_dir, False), steps)]
     ratio = [a / c for a, c in zip(times[0], times[2])]
     read_ratio = [b / c for b, c in zip(times[1], times[2])]
     return NativeCost(*(statistics.median(x) for x in (*times, ratio, read_ratio)), counts[0], counts[1],
-                      counts[0] / counts[1])
+                      counts[0] / counts[1], past[0], past[1], past[0] / past[1])
 
 
 def cost_summary(rows, key="model", value="native_ratio"):
@@ -136,7 +154,9 @@ def cost_summary(rows, key="model", value="native_ratio"):
 
 RATIOS = (("native_ratio", "native FMI 2 master, thread CPU time, the outputs read", "native ratio"),
           ("instr_ratio", "the same runs' instructions per step, callgrind: independent of the machine's load",
-           "instruction ratio"))
+           "instruction ratio"),
+          ("instr_past_ratio", "instructions per step past the free response table's end, where the complement's "
+           "modes that matter are continued, callgrind; the FMUs with a table", "past-table instruction ratio"))
 
 
 def cost_lines(rows):
