@@ -1309,8 +1309,7 @@ static void row_time(const RomState *s, RowTime *rt) {
         rt->w_root = NAN;
     }
     rt->steps_factor = BOUND_ROUNDOFF + BOUND_ROUNDOFF_STEP * bs->steps;
-    const double x = b->growth * (tau > 0 ? tau : 0.0);     /* e^x <= 1 + x + x^2 on [0, 1]: no libm call */
-    rt->drift_growth = x <= 1.0 ? 1.0 + x * (1.0 + x) : exp(x);
+    rt->drift_growth = rom_growth_factor(b->growth, tau);
 }
 
 /* the complement's free response of row r at the time of rt (per unit initial_state_scale): the table's Hermite

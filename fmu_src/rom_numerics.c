@@ -1,7 +1,8 @@
 /*
  * The dense numerics the model kinds and the error bounds share: the matrix exponential of a small dense
  * matrix (the exact linear model's step maps, rom_exact.c; the error bounds' plane and block maps,
- * rom_bound.c).  It calls no other file of the core.
+ * rom_bound.c), and the growth factor of the truth's e^{At} (rom_bound.c, rom_port.c).  It calls no other file of
+ * the core.
  */
 #include "rom_numerics.h"
 
@@ -57,4 +58,9 @@ int rom_expm_taylor(size_t n, const double *M, double *E, double *X, double *T) 
         memcpy(E, T, n * n * sizeof(double));
     }
     return rom_all_finite(E, n * n);
+}
+
+double rom_growth_factor(double rate, double t) {
+    const double x = rate * (t > 0 ? t : 0.0);
+    return x <= 1.0 ? 1.0 + x * (1.0 + x) : exp(x);
 }

@@ -707,8 +707,7 @@ static void channel_certs(const RomState *s, ChannelState *cs) {
     const double w_norm = channel_norm(c, cs);
     const double allowance = CHANNEL_ROUNDOFF + CHANNEL_ROUNDOFF_STEP * cs->steps;
     /* the drift is a Duhamel integral of e^{A (t - s)}, which grows by at most e^{growth t} (rom.h) */
-    const double x = c->growth * (s->elapsed > 0 ? s->elapsed : 0.0);    /* e^x <= 1 + x + x^2 on [0, 1] */
-    const double growth = x <= 1.0 ? 1.0 + x * (1.0 + x) : exp(x);
+    const double growth = rom_growth_factor(c->growth, s->elapsed);
     for (uint32_t r = 0; r < c->rows; r++) {
         const double *D = c->D + (size_t)r * (4 * P + 1);
         double gain = 0.0, drift = D[4 * P] * cs->w_int;

@@ -1471,13 +1471,11 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
         from .lti import full_linear_system, skew_growth
         lti = full_linear_system(problem, [0.5])
         if parametric:
-            import scipy.sparse as sp
             c_ref = float(problem.c[0])
             K = lti.A[:n, n:]
             pieces = [lambda X: np.vstack([np.zeros_like(X[:n]), -(K.T @ X[:n]) * 1.0]),
                       lambda X: np.vstack([K @ X[n:] / c_ref, np.zeros_like(X[n:])]),
                       lambda X: np.vstack([-X[:n], np.zeros_like(X[n:])])]
-            del sp
             for p, piece in enumerate(pieces):
                 Ep = piece(S) - S @ sla.block_diag(*A[p])
                 E[p] = [np.linalg.norm(Ep[:n], 2), np.linalg.norm(Ep[n:], 2)]

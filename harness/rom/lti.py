@@ -231,8 +231,8 @@ def skew_growth(lti: LTI) -> float:
 
 
 def growth_factor(omega, t):
-    """An upper bound of e^{ω t} (ω t >= 0), as the C core computes it (fmu_src/rom_bound.c row_time, rom_port.c
-    channel_certs): 1 + x + x² for x = ω t <= 1 (e^x - 1 - x = Σ_{k>=2} x^k/k! <= (e - 2) x² there; no libm call
+    """An upper bound of e^{ω t} (ω t >= 0), as the C core computes it (fmu_src/rom_numerics.c
+    rom_growth_factor, for the shadow's and the port channel's drifts): 1 + x + x² for x = ω t <= 1 (e^x - 1 - x = Σ_{k>=2} x^k/k! <= (e - 2) x² there; no libm call
     per step), else e^x; exactly 1 at ω = 0."""
     x = float(omega) * max(float(t), 0.0)
     return 1.0 + x * (1.0 + x) if x <= 1.0 else math.exp(x)
