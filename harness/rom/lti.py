@@ -213,9 +213,9 @@ def skew_growth(lti: LTI) -> float:
 
     In exact arithmetic J is skew (module docstring) and A + Aᵀ = -2 diag(d, 0): e^{A t} is a contraction.  The
     computed blocks K = ρ0^-½ G c^½ and M = c^½ G ρ0^-½ are each rounded on their own (and G's entries at x_i - x_j
-    and x_j - x_i), so the matrix the truth integrates has M + Kᵀ of round-off size, not 0 (the graded rubber bar of
-    tests/data/graded_rubber.toml: a largest eigenvalue 3.3e-13 s^-1 of (A + Aᵀ)/2), and e^{A t} may grow by that
-    rate.  With A = [[-D, K], [M, 0]], D = diag(d) >= 0: xᵀ A x = -x_vᵀ D x_v + x_vᵀ (K + Mᵀ) x_e <= ‖K + Mᵀ‖₂ |x_v|
+    and x_j - x_i), so the matrix the truth integrates has M + Kᵀ of round-off size, not 0 ((A + Aᵀ)/2 may have a
+    positive eigenvalue of that size: tests/test_port_rows_sizing.py checks that ω bounds it), and e^{A t} may grow
+    by that rate.  With A = [[-D, K], [M, 0]], D = diag(d) >= 0: xᵀ A x = -x_vᵀ D x_v + x_vᵀ (K + Mᵀ) x_e <= ‖K + Mᵀ‖₂ |x_v|
     |x_e| <= ‖K + Mᵀ‖₂ |x|² / 2, so ω = ‖K + Mᵀ‖_F / 2 (>= ‖K + Mᵀ‖₂ / 2; plus the largest -d, were any d < 0).
     K + Mᵀ is exact where its terms nearly cancel (a difference of doubles within a factor 2 of each other is exact),
     else within the unit round-off of each entry; the squares' sum is math.fsum's and the margin 1e-12 covers the
