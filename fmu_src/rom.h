@@ -147,6 +147,7 @@ typedef struct {
     uint32_t row_len;          /* 1 + 2 m + m G + G: |c_r|, D_r, static gains, transient gains, tail */
     uint32_t n_cpl;            /* a parametric shadow's complement planes */
     double h_tab;              /* [s] the table's node spacing */
+    double t_end;              /* [s] the table's end h_tab (nodes - 1) (0: no table) */
     double x0_norm;            /* the whole initial state's norm */
     double e_norm, b_norm;     /* the planes' residual norm (round-off), the shadow's input norm */
     double mu;                 /* the largest growth rate of a plane's symmetric part (0 at least) */
@@ -174,6 +175,8 @@ typedef struct {
     double c_ref;              /* [kg m^-1 s^-2] the c of the shadow's energy coordinates */
     double e_piece[6];         /* |E_p| of the pieces (const, c, d), their v rows and e rows */
     double e_scale;            /* 1 without pieces */
+    uint64_t generation;       /* the rows' terms' version: 1 once prepared, + 1 at each assembly (a state's copies
+                                  of them, rom_bound.c check_terms, are of one version) */
     double *storage_;          /* [planes][4] planes, [rows][row_len] row terms, [groups] rates; owned by the model */
 } RomBoundModel;
 

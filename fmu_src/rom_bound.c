@@ -56,6 +56,8 @@
 #define BOUND_MAX_CONT 65536u          /* the modes continued past the free response table at most (SHCONT) */
 #define BOUND_CONT_ROUNDOFF 1e-13      /* harness/rom/bounds.py CONT_ROUNDOFF */
 #define BOUND_CONT_ANCHOR 256.0        /* ... CONT_ANCHOR: the continued modes' steps between exact anchors */
+#define BOUND_CHECK_LANES 4u        /* the error check's rows side by side (table_rows_exceed) */
+#define BOUND_CHECK_ROWS ((ROM_MAX_PROBES + BOUND_CHECK_LANES - 1) / BOUND_CHECK_LANES * BOUND_CHECK_LANES)
 #define BOUND_CONT_FOLD 3u             /* the rows whose continued sums the step forms (the velocity rows of group 0) */
 _Static_assert((3u * ROM_MAX_PROBES + ROM_MAX_PORTS + 1u + BOUND_GROUP - 1u) / BOUND_GROUP <= 64u * BOUND_GROUP_WORDS,
                "the rows' sums' groups fit BoundState.groups' bits");
@@ -113,6 +115,12 @@ typedef struct {
     double *cont_rows;         /* [rows][2]: per row sum_M (|Re Q_rM| + |Im Q_rM|) and the same weighted by
                                   |Re mu_M| + |Im mu_M| (the round-off allowance, cont_allowance) */
     double cont_amax;          /* max_M |Re mu_M| + |Im mu_M| */
+    double *chk;               /* [ceil(P / 4)][4 + groups][4]: the probes' velocity rows' terms for the error check,
+                                  four rows side by side (check_terms; not state: a function of the model's rows) */
+    uint64_t chk_gen;          /* the model's rows' version chk holds (0: none yet) */
+    size_t chk_row[BOUND_CHECK_ROWS];     /* lane by lane the row read (the quads' last lanes past P: row P - 1, not
+                                  checked), then its offsets in the table's rows (r nodes) and in SHTERR (r blocks) */
+    size_t chk_tab[BOUND_CHECK_ROWS], chk_err[BOUND_CHECK_ROWS];
     BoundCache cache[BOUND_CACHE];
     int64_t clock;
     double *work;              /* [4][n][n], n = 2 + 2 inputs (the exponential's matrices) */
@@ -273,6 +281,7 @@ static RomStatus assemble_planes(RomBoundModel *b, const double *lam0, double c,
     b->mu = plane_growth(b->storage_, b->planes);
     b->e_norm = e_norm;
     b->e_scale = sqrt(b->c_ref / c);
+    b->generation++;                                    /* (the rows' terms change: the states' copies are stale) */
     return assemble_complement(b, c, d, message, message_size);
 }
 
@@ -391,6 +400,7 @@ static RomStatus prepare_table(RomModel *m, char *message, size_t message_size) 
                         "nodes >= 2, h > 0, q >= 1)", b->nodes, b->h_tab, b->q);
     }
     b->blocks = (b->nodes - 1 + b->q - 1) / b->q;
+    b->t_end = b->h_tab * (double)(b->nodes - 1);
     if (shape(tab, 2 * b->rows, b->nodes, message, message_size) != ROM_OK ||
         shape(terr, b->rows, b->blocks, message, message_size) != ROM_OK) return ROM_FAIL;
     b->tab = tab->data;
@@ -476,6 +486,7 @@ RomStatus rom_bound_prepare(RomModel *m, char *message, size_t message_size) {
         memset(&m->bound, 0, sizeof m->bound);
         return ROM_FAIL;
     }
+    b->generation++;                                    /* (>= 1: a new state's copies, version 0, are made anew) */
     return ROM_OK;
 }
 
@@ -528,11 +539,13 @@ RomStatus rom_bound_state_new(RomState *s) {
     const size_t k = b->order, m = b->inputs, n = 2 + 2 * m;   /* a plane's augmented matrix's size */
     const size_t slots = row_slots(b);
     const size_t nc = 2 * (size_t)b->n_cont;
-#define BOUND_ARRAYS 8
+#define BOUND_ARRAYS 9
+    const size_t quads = ((size_t)s->model->n_probes + BOUND_CHECK_LANES - 1) / BOUND_CHECK_LANES;
     size_t counts[BOUND_ARRAYS + 4 * BOUND_CACHE] = {k, slots, 4 * n * n, k * slots, nc, 2 * nc, nc,
-                                                     b->n_cont ? 2 * (size_t)b->rows : 0};
+                                                     b->n_cont ? 2 * (size_t)b->rows : 0,
+                                                     quads * (4 + b->groups) * BOUND_CHECK_LANES};
     double **ptrs[BOUND_ARRAYS + 4 * BOUND_CACHE] = {&bs->w, &bs->y, &bs->work, &bs->ct, &bs->cont_z, &bs->cont_r,
-                                                     &bs->cont_e, &bs->cont_rows};
+                                                     &bs->cont_e, &bs->cont_rows, &bs->chk};
     for (int c = 0; c < BOUND_CACHE; c++) {
         counts[BOUND_ARRAYS + 4 * c] = 4 * (size_t)b->planes;
         counts[BOUND_ARRAYS + 1 + 4 * c] = k * m;
@@ -589,7 +602,7 @@ void rom_bound_reset(RomState *s) {
 }
 
 static double table_end(const RomBoundModel *b) {
-    return b->nodes ? b->h_tab * (double)(b->nodes - 1) : 0.0;
+    return b->t_end;                                    /* (prepare_table) */
 }
 
 /* The continued modes past the table (SHCONT): row r adds Re sum_M Q_rM E_M, E_M = exp(mu_M x), x = tau - t_end,
@@ -1309,7 +1322,7 @@ static void row_time(const RomState *s, RowTime *rt) {
         rt->w_root = NAN;
     }
     rt->steps_factor = BOUND_ROUNDOFF + BOUND_ROUNDOFF_STEP * bs->steps;
-    rt->drift_growth = rom_growth_factor(b->growth, tau);
+    rt->drift_growth = b->growth != 0.0 ? rom_growth_factor(b->growth, tau) : 1.0;     /* (its value at rate 0) */
 }
 
 /* the complement's free response of row r at the time of rt (per unit initial_state_scale): the table's Hermite
@@ -1555,18 +1568,153 @@ BOUND_INLINE int rows_exceed(const RomState *s, const RowTime *rt, const RowInpu
     return 0;
 }
 
+/* The error check's common case (the probes' velocity rows of a one-input shadow whose w holds its steps, no port
+ * channel, no ports) within the free response table: every velocity row after every step until the warning.  Four
+ * rows side by side (lane l of quad q: row 4 q + l), each lane row_time's, row_at's and rows_exceed's scalar IEEE
+ * operations in their order (the same bits, the same answer), from the rows' terms laid out by lanes once per version
+ * of the model's rows (check_terms: |c_r|, D_r, the static gain, |c_r| |E|, the transient gains with a negative one
+ * (unbounded) as +inf, which is what row_at adds for it where V_g > 0; the rows' offsets in the table), each V_g > 0
+ * (row_at's test) once for all the rows.  -DROM_NO_LANES, past the table, or other models: rows_exceed. */
+#if defined(BOUND_LANES)
+static void check_terms(BoundState *bs, const RomBoundModel *b, uint32_t P) {
+    const size_t G = b->groups, L = BOUND_CHECK_LANES, width = (4 + G) * L;
+    for (uint32_t r = 0; r < (P + L - 1) / L * L; r++) {
+        double *t = bs->chk + r / L * width + r % L;
+        const double *row = b->row + (size_t)r * b->row_len;
+        const int real = r < P;
+        bs->chk_row[r] = real ? r : P - 1;
+        bs->chk_tab[r] = bs->chk_row[r] * b->nodes;
+        bs->chk_err[r] = bs->chk_row[r] * b->blocks;
+        t[0] = real ? row[0] * 1.0 : 0.0;               /* cn: row_at's row scale of a velocity row, 1 */
+        t[L] = real ? row[1] : 0.0;
+        t[2 * L] = real ? row[2] : 0.0;
+        t[3 * L] = real ? t[0] * b->e_norm : 0.0;
+        for (size_t g = 0; g < G; g++) t[(4 + g) * L] = real ? (row[3 + g] < 0 ? INFINITY : row[3 + g]) : 0.0;
+    }
+    bs->chk_gen = b->generation;
+}
+
+typedef double BoundRows __attribute__((vector_size(32)));      /* four rows (an AVX register, or two SSE2 ones) */
+typedef int64_t BoundRowBits __attribute__((vector_size(32)));
+#define ROWS_LOAD(v, p) memcpy(&(v), (p), sizeof(BoundRows))
+#define ROWS_SPLAT(x) ((BoundRows){(x), (x), (x), (x)})
+#define ROWS_GATHER(p, o) ((BoundRows){(p)[(o)[0]], (p)[(o)[1]], (p)[(o)[2]], (p)[(o)[3]]})
+
+/* 1 where a probe's velocity bound is above error_tolerance, else 0 (table_rows_exceed: within the table, check_terms
+ * current, the rows' groups of sums and |w| fresh; vs the model's outputs by quads) */
+BOUND_INLINE int table_lanes_body(const RomState *s, const BoundState *bs, const double *vs) {
+    const RomBoundModel *b = &s->model->bound;
+    /* row_time's table interval and weights, its |w|, round-off factor and drift */
+    const double tau = s->elapsed, x = (tau > 0 ? tau : 0.0) / b->h_tab;
+    uint32_t k = (uint32_t)x;
+    if (k > b->nodes - 2) k = b->nodes - 2;
+    const double t = x - (double)k, u = 1.0 - t;
+    const BoundRows c0 = ROWS_SPLAT((1.0 + 2.0 * t) * u * u), c1 = ROWS_SPLAT(t * t * (3.0 - 2.0 * t)),
+                    c2 = ROWS_SPLAT(t * u * u), c3 = ROWS_SPLAT(t * t * (t - 1.0)), ht = ROWS_SPLAT(b->h_tab);
+    const double steps_factor = BOUND_ROUNDOFF + BOUND_ROUNDOFF_STEP * bs->steps;
+    const double drift = b->growth != 0.0 ? rom_growth_factor(b->growth, tau) : 1.0;
+    const double iss = s->initial_state_scale, scale = fabs(iss), up = bs->u_prev[0], tol = s->error_tolerance;
+    const BoundRows zero = ROWS_SPLAT(0.0), ups = ROWS_SPLAT(up), ua = ROWS_SPLAT(fabs(up)), is = ROWS_SPLAT(iss),
+                    sc = ROWS_SPLAT(scale), sf = ROWS_SPLAT(steps_factor),
+                    wp = ROWS_SPLAT(bs->w_root + scale * b->x0_norm), wd = ROWS_SPLAT(bs->w_int),
+                    dr = ROWS_SPLAT(drift);
+    const BoundRowBits magnitude = {INT64_MAX, INT64_MAX, INT64_MAX, INT64_MAX};
+    const double *gk = b->tab + k, *dk = gk + (size_t)b->rows * b->nodes, *te = b->terr + k / b->q;
+    const uint32_t P = s->model->n_probes, L = BOUND_CHECK_LANES;
+    const size_t G = b->groups;
+    for (uint32_t q = 0; q * L < P; q++) {
+        const double *T = bs->chk + q * (4 + G) * L;
+        const size_t *row = bs->chk_row + q * L, *og = bs->chk_tab + q * L, *oe = bs->chk_err + q * L;
+        BoundRows y = ROWS_GATHER(bs->y + 1, row), v, cn, D, S, cne, H;
+        /* free_part's table: row r's nodes k, k + 1 at gk + r nodes */
+        const BoundRows g_value = c0 * ROWS_GATHER(gk, og) + c1 * ROWS_GATHER(gk + 1, og) +
+                                  ht * (c2 * ROWS_GATHER(dk, og) + c3 * ROWS_GATHER(dk + 1, og));
+        const BoundRows g_error = ROWS_GATHER(te, oe);
+        ROWS_LOAD(v, vs + q * L);
+        ROWS_LOAD(cn, T);
+        ROWS_LOAD(D, T + L);
+        ROWS_LOAD(S, T + 2 * L);
+        ROWS_LOAD(cne, T + 3 * L);
+        y += D * ups;                                   /* row_at's sums, in its order */
+        const BoundRows quasi = zero + S * ua;
+        BoundRows trans = zero;
+        for (size_t g = 0; g < G; g++) {
+            const double Vg = bs->V[g];
+            if (Vg > 0) {                               /* (row_at's test) */
+                ROWS_LOAD(H, T + (4 + g) * L);
+                trans += H * ROWS_SPLAT(Vg);
+            }
+        }
+        y += is * g_value;
+        const BoundRows allow = cn * sf * wp;
+        const BoundRows cert = sc * g_error + quasi + trans + cne * wd * dr + allow + zero;
+        const BoundRows bound = (BoundRows)((BoundRowBits)(v - y) & magnitude) + cert;    /* fabs(v - y) + cert */
+        const uint32_t n = P - q * L < L ? P - q * L : L;
+        for (uint32_t l = 0; l < n; l++) {
+            if (!(bound[l] <= tol)) return 1;
+        }
+    }
+    return 0;
+}
+
+#if defined(BOUND_AVX2)
+__attribute__((target("avx2"))) static int table_lanes_avx2(const RomState *s, const BoundState *bs,
+                                                           const double *vs) {
+    if (!s || !bs || !vs) return 0;
+    return table_lanes_body(s, bs, vs);
+}
+#endif
+
+static int table_lanes(const RomState *s, const BoundState *bs, const double *vs) {
+    if (!s || !bs || !vs) return 0;
+#if defined(BOUND_AVX2)
+    if (bs->avx2) return table_lanes_avx2(s, bs, vs);
+#endif
+    return table_lanes_body(s, bs, vs);
+}
+#endif
+
+/* the error check of the probes' velocity rows within the table (the common case above): 1 (and rows_exceed's
+ * message: the same rows, asked again, the same bits) at the first bound above error_tolerance, else 0 */
+static int table_rows_exceed(const RomState *s, char *message, size_t message_size) {
+    const uint32_t P = s->model->n_probes;
+#if defined(BOUND_LANES)
+    const RomBoundModel *b = &s->model->bound;
+    BoundState *bs = (BoundState *)s->bound;
+    if (P == 0) return 0;
+    for (size_t g = 0; g <= (size_t)P / BOUND_GROUP; g++) {          /* rows 0 to P - 1: slots 1 to P; |w| */
+        if (!group_fresh(bs, g)) shadow_group(s, bs, g);
+    }
+    if (!bs->w_fresh) shadow_group(s, bs, 0);           /* (row_time's) */
+    bs->rows_read = 1;                                  /* group 0's rows (row_at): the next step sums them */
+    if (bs->chk_gen != b->generation) check_terms(bs, b, P);
+    /* the model's outputs as rows_exceed reads them (rom_v_probe_kept: here once per step, the importer reads them
+     * kept), by quads (the last one's lanes past P: 0, not checked) */
+    double vs[BOUND_CHECK_ROWS];
+    for (uint32_t j = 0; j < P; j++) vs[j] = rom_v_probe_kept(s, j);
+    for (uint32_t j = P; j % BOUND_CHECK_LANES; j++) vs[j] = 0.0;
+    if (!table_lanes(s, bs, vs)) return 0;
+#endif
+    RowTime rt;
+    row_time(s, &rt);
+    RowInputs in;
+    row_inputs(s, &in);
+    return rows_exceed(s, &rt, &in, 0, P, 1, 1, 0, message, message_size);
+}
+
 int rom_bound_exceeded(const RomState *s, char *message, size_t message_size) {
     if (!s || !s->bound || !(s->error_tolerance > 0)) return 0;
+    const RomBoundModel *b = &s->model->bound;
+    const uint32_t P = s->model->n_probes, ports = s->model->n_ports;
+    const size_t m = b->inputs;
+    const int started = ((const BoundState *)s->bound)->started != 0.0, channel = s->channel != NULL;
+    const int common = m == 1 && started && !channel && ports == 0;     /* f alone, stepped, no ports */
+    if (common && b->nodes && s->elapsed <= table_end(b)) return table_rows_exceed(s, message, message_size);
     RowTime rt;                                          /* one time and one input for every velocity row */
     row_time(s, &rt);
     RowInputs in;
     row_inputs(s, &in);
-    const uint32_t P = s->model->n_probes, ports = s->model->n_ports;
-    const size_t m = s->model->bound.inputs;
-    const int started = ((const BoundState *)s->bound)->started != 0.0, channel = s->channel != NULL;
-    if (m == 1 && started && !channel && ports == 0) {   /* the common case: f alone, stepped, no ports */
-        return rows_exceed(s, &rt, &in, 0, P, 1, 1, 0, message, message_size);
-    }
+    if (common) return rows_exceed(s, &rt, &in, 0, P, 1, 1, 0, message, message_size);
     return rows_exceed(s, &rt, &in, 0, P, m, started, channel, message, message_size) ||
            rows_exceed(s, &rt, &in, 1, ports, m, started, channel, message, message_size);
 }
