@@ -75,7 +75,8 @@ typedef struct {
 
 typedef struct {
     double *w;                 /* [order] the shadow's state */
-    double *y;                 /* [slots] |w|^2, then C w of every row (row r in slot r + 1), by groups of four */
+    double *y;                 /* [slots] |w|^2, then C w of every row (row r in slot r + 1), by groups of four (and
+                                  four more, never summed: table_quad_body's load of a quad's last rows) */
     double *ct;                /* [order][slots] (slot 0 unused), C transposed, then zeros: the groups after group 0,
                                   which group0_sums sums from C's rows themselves */
     uint64_t groups[BOUND_GROUP_WORDS];   /* bit g: y's group g holds the sums of this w; 0 whenever w changes (step,
@@ -118,9 +119,8 @@ typedef struct {
     double *chk;               /* [ceil(P / 4)][4 + groups][4]: the probes' velocity rows' terms for the error check,
                                   four rows side by side (check_terms; not state: a function of the model's rows) */
     uint64_t chk_gen;          /* the model's rows' version chk holds (0: none yet) */
-    size_t chk_row[BOUND_CHECK_ROWS];     /* lane by lane the row read (the quads' last lanes past P: row P - 1, not
-                                  checked), then its offsets in the table's rows (r nodes) and in SHTERR (r blocks) */
-    size_t chk_tab[BOUND_CHECK_ROWS], chk_err[BOUND_CHECK_ROWS];
+    size_t chk_tab[BOUND_CHECK_ROWS], chk_err[BOUND_CHECK_ROWS];   /* lane by lane the row's offsets in the table's
+                                  rows (r nodes) and in SHTERR (r blocks) (the quads' last lanes past P: row P - 1's) */
     BoundCache cache[BOUND_CACHE];
     int64_t clock;
     double *work;              /* [4][n][n], n = 2 + 2 inputs (the exponential's matrices) */
@@ -541,8 +541,8 @@ RomStatus rom_bound_state_new(RomState *s) {
     const size_t nc = 2 * (size_t)b->n_cont;
 #define BOUND_ARRAYS 9
     const size_t quads = ((size_t)s->model->n_probes + BOUND_CHECK_LANES - 1) / BOUND_CHECK_LANES;
-    size_t counts[BOUND_ARRAYS + 4 * BOUND_CACHE] = {k, slots, 4 * n * n, k * slots, nc, 2 * nc, nc,
-                                                     b->n_cont ? 2 * (size_t)b->rows : 0,
+    size_t counts[BOUND_ARRAYS + 4 * BOUND_CACHE] = {k, slots + BOUND_CHECK_LANES, 4 * n * n, k * slots, nc, 2 * nc,
+                                                     nc, b->n_cont ? 2 * (size_t)b->rows : 0,
                                                      quads * (4 + b->groups) * BOUND_CHECK_LANES};
     double **ptrs[BOUND_ARRAYS + 4 * BOUND_CACHE] = {&bs->w, &bs->y, &bs->work, &bs->ct, &bs->cont_z, &bs->cont_r,
                                                      &bs->cont_e, &bs->cont_rows, &bs->chk};
@@ -908,33 +908,38 @@ BOUND_INLINE void quads_body(double *restrict w, const BoundCache *c, const RomB
     const double *restrict P2 = c->Phi2, *restrict G0 = c->G0, *restrict G1 = c->G1, *restrict C = b->C;
     const BoundQuad zero = {0.0, 0.0, 0.0, 0.0}, u = {u0, u0, u0, u0}, du = {du0, du0, du0, du0};
     BoundQuad a0 = zero, a1 = zero, a2 = zero, a3 = zero;
-    uint32_t p = 0;
-    for (; p + 2 <= planes; p += 2, P2 += 8, G0 += 4, G1 += 4, w += 4, C += 4) {
+    const size_t quads = 4 * (size_t)(planes / 2);     /* planes 2 t and 2 t + 1: coordinates i = 4 t to 4 t + 3 */
+    for (size_t i = 0; i < quads; i += 4) {            /* (one index for every array: the loop's own work least) */
         BoundQuad x, c0, c1, g0, n;
-        QUAD_LOAD(x, w);
-        QUAD_LOAD(c0, P2);
-        QUAD_LOAD(c1, P2 + 4);
-        QUAD_LOAD(g0, G0);
+        QUAD_LOAD(x, w + i);
+        QUAD_LOAD(c0, P2 + 2 * i);
+        QUAD_LOAD(c1, P2 + 2 * i + 4);
+        QUAD_LOAD(g0, G0 + i);
         const BoundQuad x0 = {x[0], x[0], x[2], x[2]}, x1 = {x[1], x[1], x[3], x[3]};
         if (held) {
             n = c0 * x0 + c1 * x1 + g0 * u;
         } else {
             BoundQuad g1;
-            QUAD_LOAD(g1, G1);
+            QUAD_LOAD(g1, G1 + i);
             n = c0 * x0 + c1 * x1 + (g0 * u + g1 * du);
         }
-        QUAD_STORE(w, n);
+        QUAD_STORE(w + i, n);
         a0 += n * n;
         if (rows) {
             BoundQuad r0, r1, r2;
-            QUAD_LOAD(r0, C);
-            QUAD_LOAD(r1, C + k);
-            QUAD_LOAD(r2, C + 2 * k);
+            QUAD_LOAD(r0, C + i);
+            QUAD_LOAD(r1, C + k + i);
+            QUAD_LOAD(r2, C + 2 * k + i);
             a1 += r0 * n;
             a2 += r1 * n;
             a3 += r2 * n;
         }
     }
+    const uint32_t p = planes / 2 * 2;
+    w += quads;
+    G0 += quads;
+    G1 += quads;
+    C += quads;
     if (p < planes) {             /* an odd count's last plane: lanes 0 and 1; lanes 2 and 3 add 0 * 0 = +0, which
                                      leaves a sum as it is (never -0: it starts at +0) */
         const double *Phi = c->Phi + 4 * (size_t)p;
@@ -1183,7 +1188,13 @@ BOUND_INLINE void step_shadow(RomState *s, BoundState *bs, double h, size_t m) {
     const size_t G = b->groups;
     double u[BOUND_MAX_INPUTS], du[BOUND_MAX_INPUTS];
     step_inputs(s, h, u, du);
-    const BoundCache *c = plane_maps(bs, b, h);
+    const BoundCache *c;
+    if (h == bs->cache[0].h) {                          /* plane_maps' first hit, without the call */
+        bs->cache[0].used = ++bs->clock;
+        c = &bs->cache[0];
+    } else {
+        c = plane_maps(bs, b, h);
+    }
     double u2 = 0.0, e2 = 0.0;
     for (size_t j = 0; j < m; j++) {    /* the weighted variations: the jump at the step's start, the slope over it */
         const double jump = fabs(u[j] - bs->u_prev[j]), slope = fabs(du[j]);
@@ -1582,9 +1593,9 @@ static void check_terms(BoundState *bs, const RomBoundModel *b, uint32_t P) {
         double *t = bs->chk + r / L * width + r % L;
         const double *row = b->row + (size_t)r * b->row_len;
         const int real = r < P;
-        bs->chk_row[r] = real ? r : P - 1;
-        bs->chk_tab[r] = bs->chk_row[r] * b->nodes;
-        bs->chk_err[r] = bs->chk_row[r] * b->blocks;
+        const size_t read = real ? r : P - 1;
+        bs->chk_tab[r] = read * b->nodes;
+        bs->chk_err[r] = read * b->blocks;
         t[0] = real ? row[0] * 1.0 : 0.0;               /* cn: row_at's row scale of a velocity row, 1 */
         t[L] = real ? row[1] : 0.0;
         t[2 * L] = real ? row[2] : 0.0;
@@ -1600,9 +1611,10 @@ typedef int64_t BoundRowBits __attribute__((vector_size(32)));
 #define ROWS_SPLAT(x) ((BoundRows){(x), (x), (x), (x)})
 #define ROWS_GATHER(p, o) ((BoundRows){(p)[(o)[0]], (p)[(o)[1]], (p)[(o)[2]], (p)[(o)[3]]})
 
-/* 1 where a probe's velocity bound is above error_tolerance, else 0 (table_rows_exceed: within the table, check_terms
- * current, the rows' groups of sums and |w| fresh; vs the model's outputs by quads) */
-BOUND_INLINE int table_lanes_body(const RomState *s, const BoundState *bs, const double *vs) {
+/* 1 where the velocity bound of a probe of quad q (probes 4 q to 4 q + 3) is above error_tolerance, else 0
+ * (table_rows_exceed: within the table, check_terms current, the rows' groups of sums and |w| fresh; vs the model's
+ * outputs by quads).  One quad a call: what the lanes share is in registers, not spilled over a loop */
+BOUND_INLINE int table_quad_body(const RomState *s, const BoundState *bs, const double *vs, uint32_t q) {
     const RomBoundModel *b = &s->model->bound;
     /* row_time's table interval and weights, its |w|, round-off factor and drift */
     const double tau = s->elapsed, x = (tau > 0 ? tau : 0.0) / b->h_tab;
@@ -1622,10 +1634,11 @@ BOUND_INLINE int table_lanes_body(const RomState *s, const BoundState *bs, const
     const double *gk = b->tab + k, *dk = gk + (size_t)b->rows * b->nodes, *te = b->terr + k / b->q;
     const uint32_t P = s->model->n_probes, L = BOUND_CHECK_LANES;
     const size_t G = b->groups;
-    for (uint32_t q = 0; q * L < P; q++) {
+    {
         const double *T = bs->chk + q * (4 + G) * L;
-        const size_t *row = bs->chk_row + q * L, *og = bs->chk_tab + q * L, *oe = bs->chk_err + q * L;
-        BoundRows y = ROWS_GATHER(bs->y + 1, row), v, cn, D, S, cne, H;
+        const size_t *og = bs->chk_tab + q * L, *oe = bs->chk_err + q * L;
+        BoundRows y, v, cn, D, S, cne, H;
+        ROWS_LOAD(y, bs->y + 1 + q * L);                /* slots 4 q + 1 to 4 q + 4 (y has four slots' slack) */
         /* free_part's table: row r's nodes k, k + 1 at gk + r nodes */
         const BoundRows g_value = c0 * ROWS_GATHER(gk, og) + c1 * ROWS_GATHER(gk + 1, og) +
                                   ht * (c2 * ROWS_GATHER(dk, og) + c3 * ROWS_GATHER(dk + 1, og));
@@ -1658,19 +1671,31 @@ BOUND_INLINE int table_lanes_body(const RomState *s, const BoundState *bs, const
 }
 
 #if defined(BOUND_AVX2)
-__attribute__((target("avx2"))) static int table_lanes_avx2(const RomState *s, const BoundState *bs,
-                                                           const double *vs) {
+__attribute__((target("avx2"))) static int table_quad_avx2(const RomState *s, const BoundState *bs,
+                                                          const double *vs, uint32_t q) {
     if (!s || !bs || !vs) return 0;
-    return table_lanes_body(s, bs, vs);
+    return table_quad_body(s, bs, vs, q);
 }
 #endif
 
+static int table_quad(const RomState *s, const BoundState *bs, const double *vs, uint32_t q) {
+    if (!s || !bs || !vs) return 0;
+    return table_quad_body(s, bs, vs, q);
+}
+
+/* table_quad over the probes' quads, in four AVX2 lanes where the CPU has AVX2 (the same bits) */
 static int table_lanes(const RomState *s, const BoundState *bs, const double *vs) {
     if (!s || !bs || !vs) return 0;
+    for (uint32_t q = 0; q * BOUND_CHECK_LANES < s->model->n_probes; q++) {
 #if defined(BOUND_AVX2)
-    if (bs->avx2) return table_lanes_avx2(s, bs, vs);
+        if (bs->avx2) {
+            if (table_quad_avx2(s, bs, vs, q)) return 1;
+            continue;
+        }
 #endif
-    return table_lanes_body(s, bs, vs);
+        if (table_quad(s, bs, vs, q)) return 1;
+    }
+    return 0;
 }
 #endif
 
@@ -1691,7 +1716,17 @@ static int table_rows_exceed(const RomState *s, char *message, size_t message_si
     /* the model's outputs as rows_exceed reads them (rom_v_probe_kept: here once per step, the importer reads them
      * kept), by quads (the last one's lanes past P: 0, not checked) */
     double vs[BOUND_CHECK_ROWS];
-    for (uint32_t j = 0; j < P; j++) vs[j] = rom_v_probe_kept(s, j);
+    if (s->v_kept && !s->channel) {                     /* rom_v_probe_kept without a channel, its loads hoisted */
+        double *kept = s->v_kept;
+        double (*const v_probe)(const RomState *, uint32_t) = s->model->ops->v_probe;
+        for (uint32_t j = 0; j < P; j++) {
+            double v = kept[j];
+            if (isnan(v)) kept[j] = v = v_probe(s, j);
+            vs[j] = v;
+        }
+    } else {
+        for (uint32_t j = 0; j < P; j++) vs[j] = rom_v_probe_kept(s, j);
+    }
     for (uint32_t j = P; j % BOUND_CHECK_LANES; j++) vs[j] = 0.0;
     if (!table_lanes(s, bs, vs)) return 0;
 #endif
