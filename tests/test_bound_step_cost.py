@@ -6,7 +6,11 @@
 - the error check warns at exactly the step where a velocity bound first exceeds error_tolerance, whether or not the
   importer reads the bounds (group 0's rows are summed in the step where the check read them, else when read);
 - the lanes of the shadow's step and rows' sums (GCC vector extensions: two SSE2 lanes, the planes' step in four
-  AVX2 lanes on a CPU that has AVX2) and the plain-array path (-DROM_NO_LANES) give the same bits.
+  AVX2 lanes on a CPU that has AVX2) and the plain-array path (-DROM_NO_LANES) give the same bits;
+- within the free response table the error check reads the probes' velocity rows four side by side (rom_bound.c
+  table_rows_exceed): whatever the build, it warns at exactly the step where a velocity bound output (the rows one at
+  a time, rom_v_probe_error_bound) first exceeds error_tolerance, a tolerance equal to a bound included (no warning
+  there: the same bits).
 """
 import re
 import shutil
@@ -32,11 +36,11 @@ def make(tmp_path_factory):
     from sphrom.fmu.make.package import package_fmu
     folder, made = tmp_path_factory.mktemp("bound-cost-fmus"), {}
 
-    def build(model="exact", ports=None):
-        key = (model, ports)
+    def build(model="exact", ports=None, probes=PROBES):
+        key = (model, ports, probes)
         if key not in made:
-            path = folder / f"{model}-{bool(ports)}.fmu"
-            package_fmu(fmu_scene("forced"), path, k=6, fmi=2, probes=PROBES, progress=False,
+            path = folder / f"{model}-{bool(ports)}-{len(probes)}.fmu"
+            package_fmu(fmu_scene("forced"), path, k=6, fmi=2, probes=probes, progress=False,
                         binaries=ensure_binaries(), model=model, ports=ports, bounds=False)
             made[key] = path
         return made[key]
@@ -141,8 +145,76 @@ def parametric(tmp_path_factory):
     return make("exact")[0]
 
 
+@pytest.fixture(scope="module")
+def builds(tmp_path_factory):
+    """{flag: folder}: the FMU binary built with -DROM_NO_CLONES (rom_bound.c's two SSE2 lanes alone, what a CPU
+    without AVX2 runs) and with -DROM_NO_LANES (the plain-array path, what a compiler without GCC's vector extensions
+    builds)."""
+    from sphrom.fmu.make.build import configure_and_build
+    from sphrom.paths import data_dir
+    out = {}
+    for flag in ("ROM_NO_CLONES", "ROM_NO_LANES"):
+        out[flag] = tmp_path_factory.mktemp(flag)
+        configure_and_build(data_dir("fmu_src"), out[flag], tests=False, options=(f"-DCMAKE_C_FLAGS=-D{flag}",),
+                            targets=("sphrom_fmi2",))
+    return out
+
+
+def with_binary(path, build, folder):
+    """The FMU at ``path`` unzipped into ``folder``, its binary the one of ``build`` (None: its own)."""
+    with zipfile.ZipFile(path) as z:
+        z.extractall(folder)
+    if build:
+        shutil.copy(build / "fmi2" / "sphrom.so", folder / "binaries" / "linux64" / "sphrom.so")
+    return folder
+
+
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="builds the Linux FMU binary")
-def test_lanes_clones_and_plain_arrays_give_the_same_bits(make, parametric, undamped, tmp_path):
+def test_check_warns_where_the_bound_outputs_first_exceed(make, parametric, undamped, builds, tmp_path):
+    """The error check against the bound outputs (rom_v_probe_error_bound: the rows one at a time, the scalar path):
+    on the forced FMU with 3 probes (one quad of rows) and with 5 (a second quad, three of its lanes past the probes),
+    on a parametric one (no table: the scalar path) and on the undamped one across its table's end, with the default
+    build, -DROM_NO_CLONES and -DROM_NO_LANES, at tolerances between the run's bounds, equal to a bound output (not
+    above it: no warning at its step) and just below one (the number before it: a warning there at the latest), the one
+    warning names the first step whose velocity bound output exceeds the tolerance, and no warning comes where none
+    does: the check's bounds are the outputs' to the bit."""
+    past = int(round(20 * undamped(2)[1].T / H)) + 40               # 40 steps past the table's end
+    cases = ((make(), {}, STEPS), (make(probes=(0.1, 0.3, 0.45, 0.6, 0.85)), {}, STEPS),
+             (parametric, {"c": 0.13, "d": 2.5}, STEPS), (undamped(2)[0], {}, past))
+
+    def run(folder, parameters, steps, tol, read):
+        with FMU(folder) as fmu:
+            fmu.initialize(parameters={"initial_state_scale": 1.0, "error_tolerance": tol, **parameters})
+            names = [n for n in fmu.outputs if re.fullmatch(r"v_probe_\d+_error_bound", n)]
+            bounds = []
+            for j in range(steps):
+                fmu.set_input(force(j))
+                fmu.do_step(j * H, H)
+                if read:
+                    bounds.append(fmu.output_values(names).max())
+            return np.array(bounds), fmu.warnings()
+
+    for i, (path, parameters, steps) in enumerate(cases):
+        bounds, warned = run(with_binary(path, None, tmp_path / f"read-{i}"), parameters, steps, 0.0, True)
+        assert warned == [] and np.all(np.isfinite(bounds))
+        order = np.sort(bounds)
+        # a bound itself (no warning at its step) and the number just below it (a warning there at the latest), the
+        # largest bound (no warning), a tolerance between bounds
+        tolerances = [float(x) for b in (order[len(order) // 2], order[-2], order[-1])
+                      for x in (b, np.nextafter(b, 0.0))] + [float(order[len(order) // 4] * 1.000001)]
+        for build in (None, *builds.values()):
+            folder = with_binary(path, build, tmp_path / f"fmu-{i}-{build.name if build else 'default'}")
+            for tol in tolerances:
+                first = np.flatnonzero(bounds > tol)
+                _, warned = run(folder, parameters, steps, tol, False)
+                if first.size == 0:
+                    assert warned == [], (path.name, build, tol)
+                else:
+                    assert warned_at(warned) == pytest.approx((first[0] + 1) * H, rel=1e-6), (path.name, build, tol)
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="builds the Linux FMU binary")
+def test_lanes_clones_and_plain_arrays_give_the_same_bits(make, parametric, undamped, builds, tmp_path):
     """The FMU binary built with -DROM_NO_CLONES (rom_bound.c's two SSE2 lanes alone, what a CPU without AVX2 runs,
     where the default build steps a one-input shadow's planes in four AVX2 lanes on a CPU that has AVX2) and with
     -DROM_NO_LANES (the plain-array path, what a compiler without GCC's vector extensions builds) give every output
@@ -150,23 +222,12 @@ def test_lanes_clones_and_plain_arrays_give_the_same_bits(make, parametric, unda
     columns), on the forced FMU, on a parametric one at c, d away from its scene's, and on the undamped exact FMU
     past its free response table (the continued modes' product and sums in lanes) (the same IEEE operations in the
     same order, no fused multiply-add)."""
-    from sphrom.fmu.make.build import configure_and_build
-    from sphrom.paths import data_dir
-    builds = {}
-    for flag in ("ROM_NO_CLONES", "ROM_NO_LANES"):
-        builds[flag] = tmp_path / flag
-        configure_and_build(data_dir("fmu_src"), builds[flag], tests=False, options=(f"-DCMAKE_C_FLAGS=-D{flag}",),
-                            targets=("sphrom_fmi2",))
     past = int(round(20 * undamped(2)[1].T / H)) + 40               # 40 steps past the table's end
     for path, parameters, steps in ((make(), {}, STEPS), (parametric, {"c": 0.13, "d": 2.5}, STEPS),
                                     (undamped(2)[0], {}, past + 40)):
         runs = []
         for build in (None, *builds.values()):
-            folder = tmp_path / f"fmu-{path.stem}-{build.name if build else 'default'}"
-            with zipfile.ZipFile(path) as z:
-                z.extractall(folder)
-            if build:
-                shutil.copy(build / "fmi2" / "sphrom.so", folder / "binaries" / "linux64" / "sphrom.so")
+            folder = with_binary(path, build, tmp_path / f"fmu-{path.stem}-{build.name if build else 'default'}")
             with FMU(folder) as fmu:
                 fmu.initialize(parameters={"initial_state_scale": 1.0, **parameters})
                 assert fmu.can_interpolate_inputs
