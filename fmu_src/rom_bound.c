@@ -894,6 +894,7 @@ BOUND_INLINE void planes_one(BoundState *bs, const BoundCache *c, const RomBound
  * AVX2 (BoundState.avx2; else planes_one's two lanes); each lane does planes_one's scalar IEEE operations in the same
  * order: the same bits */
 typedef double BoundQuad __attribute__((vector_size(32)));
+typedef int64_t BoundQuadBits __attribute__((vector_size(32)));
 #define QUAD_LOAD(v, p) memcpy(&(v), (p), sizeof(BoundQuad))
 #define QUAD_STORE(p, v) memcpy((p), &(v), sizeof(BoundQuad))
 
@@ -960,11 +961,14 @@ BOUND_INLINE void quads_body(double *restrict w, const BoundCache *c, const RomB
             a3 += r2 * nt;
         }
     }
-    out[0] = (a0[0] + a0[1]) + (a0[2] + a0[3]);
-    if (rows) {
-        out[1] = (a1[0] + a1[1]) + (a1[2] + a1[3]);
-        out[2] = (a2[0] + a2[1]) + (a2[2] + a2[3]);
-        out[3] = (a3[0] + a3[1]) + (a3[2] + a3[3]);
+    if (rows) {                   /* the four slots' (a0 + a1) + (a2 + a3) side by side: the same sums */
+        const BoundQuadBits even = {0, 4, 2, 6}, odd = {1, 5, 3, 7}, low = {0, 1, 4, 5}, high = {2, 3, 6, 7};
+        const BoundQuad s01 = __builtin_shuffle(a0, a1, even) + __builtin_shuffle(a0, a1, odd);
+        const BoundQuad s23 = __builtin_shuffle(a2, a3, even) + __builtin_shuffle(a2, a3, odd);
+        const BoundQuad sums = __builtin_shuffle(s01, s23, low) + __builtin_shuffle(s01, s23, high);
+        QUAD_STORE(out, sums);
+    } else {
+        out[0] = (a0[0] + a0[1]) + (a0[2] + a0[3]);
     }
 }
 
