@@ -743,8 +743,10 @@ static void shadow_group(const RomState *s, BoundState *bs, size_t g);
  * the rows need no alignment. */
 #if defined(__GNUC__)
 #define BOUND_INLINE static inline __attribute__((always_inline))   /* (the specialized copies: constants folded) */
+#define BOUND_APART static __attribute__((noinline))   /* (a path kept out of its caller's frame) */
 #else
 #define BOUND_INLINE static inline
+#define BOUND_APART static
 #endif
 #if defined(__GNUC__) && !defined(ROM_NO_LANES)
 #define BOUND_LANES 1
@@ -1682,7 +1684,7 @@ __attribute__((target("avx2"))) static int table_quad_avx2(const RomState *s, co
 }
 #endif
 
-static int table_quad(const RomState *s, const BoundState *bs, const double *vs, uint32_t q) {
+BOUND_APART int table_quad(const RomState *s, const BoundState *bs, const double *vs, uint32_t q) {
     if (!s || !bs || !vs) return 0;
     return table_quad_body(s, bs, vs, q);
 }
@@ -1703,9 +1705,18 @@ static int table_lanes(const RomState *s, const BoundState *bs, const double *vs
 }
 #endif
 
+/* rows_exceed of the probes' velocity rows (the common case: one input, stepped, no channel) */
+BOUND_APART int probe_rows_exceed(const RomState *s, char *message, size_t message_size) {
+    RowTime rt;
+    row_time(s, &rt);
+    RowInputs in;
+    row_inputs(s, &in);
+    return rows_exceed(s, &rt, &in, 0, s->model->n_probes, 1, 1, 0, message, message_size);
+}
+
 /* the error check of the probes' velocity rows within the table (the common case above): 1 (and rows_exceed's
  * message: the same rows, asked again, the same bits) at the first bound above error_tolerance, else 0 */
-static int table_rows_exceed(const RomState *s, char *message, size_t message_size) {
+BOUND_APART int table_rows_exceed(const RomState *s, char *message, size_t message_size) {
     const uint32_t P = s->model->n_probes;
 #if defined(BOUND_LANES)
     const RomBoundModel *b = &s->model->bound;
@@ -1734,28 +1745,31 @@ static int table_rows_exceed(const RomState *s, char *message, size_t message_si
     for (uint32_t j = P; j % BOUND_CHECK_LANES; j++) vs[j] = 0.0;
     if (!table_lanes(s, bs, vs)) return 0;
 #endif
-    RowTime rt;
+    return probe_rows_exceed(s, message, message_size);
+}
+
+/* rom_bound_exceeded's other cases: ports, a port channel, several inputs, before the first step */
+BOUND_APART int all_rows_exceed(const RomState *s, char *message, size_t message_size) {
+    RowTime rt;                                          /* one time and one input for every velocity row */
     row_time(s, &rt);
     RowInputs in;
     row_inputs(s, &in);
-    return rows_exceed(s, &rt, &in, 0, P, 1, 1, 0, message, message_size);
+    const uint32_t P = s->model->n_probes, ports = s->model->n_ports;
+    const size_t m = s->model->bound.inputs;
+    const int started = ((const BoundState *)s->bound)->started != 0.0, channel = s->channel != NULL;
+    return rows_exceed(s, &rt, &in, 0, P, m, started, channel, message, message_size) ||
+           rows_exceed(s, &rt, &in, 1, ports, m, started, channel, message, message_size);
 }
 
 int rom_bound_exceeded(const RomState *s, char *message, size_t message_size) {
     if (!s || !s->bound || !(s->error_tolerance > 0)) return 0;
     const RomBoundModel *b = &s->model->bound;
-    const uint32_t P = s->model->n_probes, ports = s->model->n_ports;
-    const size_t m = b->inputs;
-    const int started = ((const BoundState *)s->bound)->started != 0.0, channel = s->channel != NULL;
-    const int common = m == 1 && started && !channel && ports == 0;     /* f alone, stepped, no ports */
-    if (common && b->nodes && s->elapsed <= table_end(b)) return table_rows_exceed(s, message, message_size);
-    RowTime rt;                                          /* one time and one input for every velocity row */
-    row_time(s, &rt);
-    RowInputs in;
-    row_inputs(s, &in);
-    if (common) return rows_exceed(s, &rt, &in, 0, P, 1, 1, 0, message, message_size);
-    return rows_exceed(s, &rt, &in, 0, P, m, started, channel, message, message_size) ||
-           rows_exceed(s, &rt, &in, 1, ports, m, started, channel, message, message_size);
+    const int started = ((const BoundState *)s->bound)->started != 0.0;
+    if (b->inputs == 1 && started && !s->channel && s->model->n_ports == 0) {    /* f alone, stepped, no ports */
+        if (b->nodes && s->elapsed <= table_end(b)) return table_rows_exceed(s, message, message_size);
+        return probe_rows_exceed(s, message, message_size);
+    }
+    return all_rows_exceed(s, message, message_size);
 }
 
 /* the serialized shadow: w, V, u_prev, w_int, steps, started, the tails' decays after the table (tail_tau,
