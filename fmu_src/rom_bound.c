@@ -1717,8 +1717,8 @@ BOUND_APART int probe_rows_exceed(const RomState *s, char *message, size_t messa
 /* the error check of the probes' velocity rows within the table (the common case above): 1 (and rows_exceed's
  * message: the same rows, asked again, the same bits) at the first bound above error_tolerance, else 0 */
 BOUND_APART int table_rows_exceed(const RomState *s, char *message, size_t message_size) {
-    const uint32_t P = s->model->n_probes;
 #if defined(BOUND_LANES)
+    const uint32_t P = s->model->n_probes;
     const RomBoundModel *b = &s->model->bound;
     BoundState *bs = (BoundState *)s->bound;
     if (P == 0) return 0;
