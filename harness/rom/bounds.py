@@ -480,7 +480,7 @@ def tail_table(problem, C, x0, planes, tail: Tail, T, truth=None):
     bound = np.outer(tail.free(), np.exp(-tail.alpha * times))              # the norm bound at the nodes
     if taylor:
         values, slopes, ev, es = _taylor_nodes(A, C, x, nodes, h, a, float(tail.x0_norm))
-        grow = np.array([growth_factor(truth.growth, t) for t in times])[None, :]   # node k's: Σ_j e^{A (t_k - t_j)} δ_j
+        grow = growth_factor(truth.growth, times)[None, :]        # node k's: Σ_j e^{A (t_k - t_j)} δ_j
         ev, es = ev * grow, es * grow
     else:
         values, slopes, ev, es = tail_free_chebyshev(K, C, x[:n], times, 2.0 * tail.alpha, mu_max, tail.free(),
