@@ -58,6 +58,13 @@
 #define BOUND_CONT_ANCHOR 256.0        /* ... CONT_ANCHOR: the continued modes' steps between exact anchors */
 #define BOUND_CHECK_LANES 4u        /* the error check's rows side by side (table_rows_exceed) */
 #define BOUND_CHECK_ROWS ((ROM_MAX_PROBES + BOUND_CHECK_LANES - 1) / BOUND_CHECK_LANES * BOUND_CHECK_LANES)
+/* No subnormal operand on the hot path (a subnormal product costs ~100 cycles on x86): the tails' decays after the
+ * table and the weighted variations are kept at or above BOUND_DECAY_FLOOR once positive, and the complement's
+ * positive gains and tails at or above BOUND_SIZE_FLOOR (bounds.py SIZE_FLOOR; the parametric sums here), so their
+ * products stay normal numbers (>= 2^-900); each floor raises an upper bound, by at most ~1e-120 of the bound */
+#define BOUND_DECAY_FLOOR 0x1p-500     /* harness/rom/bounds.py DECAY_FLOOR */
+#define BOUND_DECAY_FLOOR_X 347.0      /* exp(-x) <= BOUND_DECAY_FLOOR for x >= this (> 500 ln 2 = 346.57) */
+#define BOUND_SIZE_FLOOR 0x1p-400      /* ... SIZE_FLOOR */
 #define BOUND_CONT_FOLD 3u             /* the rows whose continued sums the step forms (the velocity rows of group 0) */
 _Static_assert((3u * ROM_MAX_PROBES + ROM_MAX_PORTS + 1u + BOUND_GROUP - 1u) / BOUND_GROUP <= 64u * BOUND_GROUP_WORDS,
                "the rows' sums' groups fit BoundState.groups' bits");
@@ -253,7 +260,10 @@ static RomStatus assemble_complement(RomBoundModel *b, double c, double d, char 
     rates[1] = fmin(isfinite(slow) ? slow : 0.5 * d, 0.5 * d);
     for (uint32_t r = 0; r < R; r++) {
         double *row = rows + (size_t)r * len;
-        for (uint32_t k = 1 + 2 * m; k < len; k++) row[k] *= 1.0 + BOUND_SUM_ROUNDOFF;
+        for (uint32_t k = 1 + 2 * m; k < len; k++) {
+            row[k] *= 1.0 + BOUND_SUM_ROUNDOFF;
+            if (row[k] > 0 && row[k] < BOUND_SIZE_FLOOR) row[k] = BOUND_SIZE_FLOOR;
+        }
     }
     return ROM_OK;
 }
@@ -653,6 +663,11 @@ static void cont_exact(const RomBoundModel *b, double x, double *out) {
  * of length h = c->h from t0 = tau - h): exp(-alpha_g (tau - t_end)), or, where the last step left them at t0
  * after the table's end, those times this step's exp(-alpha_g h) (c->decay) rounded up (TAIL_UP): never below
  * the decay over the steps' own sum, without an exponential per group and step */
+/* exp(-x), x >= 0, at least BOUND_DECAY_FLOOR (an upper bound of it; no libm call where it underflows there) */
+static inline double floored_decay(double x) {
+    return x >= BOUND_DECAY_FLOOR_X ? BOUND_DECAY_FLOOR : fmax(exp(-x), BOUND_DECAY_FLOOR);
+}
+
 static void tail_decays(BoundState *bs, const RomBoundModel *b, double tau, double t0, const BoundCache *c,
                         double h) {
     const double t_end = table_end(b), over = tau - t_end;
@@ -663,9 +678,9 @@ static void tail_decays(BoundState *bs, const RomBoundModel *b, double tau, doub
         if (!(over > 0)) {
             bs->tail_decay[g] = 1.0;
         } else if (chain && b->rates[g] * h <= TAIL_CHAIN_X) {
-            bs->tail_decay[g] = bs->tail_decay[g] * c->decay[g] * TAIL_UP;
+            bs->tail_decay[g] = fmax(bs->tail_decay[g] * c->decay[g] * TAIL_UP, BOUND_DECAY_FLOOR);
         } else {
-            bs->tail_decay[g] = exp(-b->rates[g] * over);
+            bs->tail_decay[g] = floored_decay(b->rates[g] * over);
         }
     }
 }
@@ -1206,7 +1221,8 @@ BOUND_INLINE void step_shadow(RomState *s, BoundState *bs, double h, size_t m) {
         const double jump = fabs(u[j] - bs->u_prev[j]), slope = fabs(du[j]);
         for (size_t g = 0; g < G; g++) {
             double *V = &bs->V[j * G + g];
-            *V = c->decay[g] * (*V + jump) + c->slope[g] * slope;
+            const double v = c->decay[g] * (*V + jump) + c->slope[g] * slope;
+            *V = v > 0 && v < BOUND_DECAY_FLOOR ? BOUND_DECAY_FLOOR : v;     /* (kept normal once positive) */
         }
         u2 += u[j] * u[j];
         e2 += (u[j] + du[j]) * (u[j] + du[j]);
@@ -1329,7 +1345,7 @@ static void row_time(const RomState *s, RowTime *rt) {
     } else {
         const double over = tau > t_end ? tau - t_end : 0.0;
         const int cached = tau == bs->tail_tau;          /* the step's decays (rom_bound_step), else computed */
-        for (uint32_t g = 0; g < b->groups; g++) rt->decay[g] = cached ? bs->tail_decay[g] : exp(-b->rates[g] * over);
+        for (uint32_t g = 0; g < b->groups; g++) rt->decay[g] = cached ? bs->tail_decay[g] : floored_decay(b->rates[g] * over);
         rt->cont = b->n_cont ? cont_modes(bs, b, tau, rt) : NULL;
     }
     if (bs->started != 0.0) {

@@ -72,7 +72,7 @@ import scipy.fft as sf
 import scipy.linalg as sla
 
 from ..sph.ports import port_kernel, port_velocity_rows
-from .lti import growth_factor, probe_matrix
+from .lti import growth_factor, probe_matrix, truth_matrix
 from .planes import EIGEN_LIMIT, Modes, coupling, eigen_planes, gap_cuts, plane_modes, singular_planes
 
 SHADOW_TARGET = 1e-6        # the complement's certified part / the channel's response, per reference input
@@ -87,6 +87,10 @@ MAX_COMPUTED = 400          # them (build_shadow; Lanczos costs ~N k²: BENCHMAR
 ROUNDOFF = 1e-11            # relative round-off allowance
 ROUNDOFF_STEP = 1e-15       # ... plus this per step
 SUM_ROUNDOFF = 1e-12        # the complement's sums: times (1 + this)
+DECAY_FLOOR = 2.0 ** -500   # the tails' decays after the table and the variations, once positive: at least this
+DECAY_FLOOR_X = 347.0       # ... e^{-x} <= DECAY_FLOOR for x >= this (> 500 ln 2)
+SIZE_FLOOR = 2.0 ** -400    # the complement's positive gains and tails: at least this (so that no product the FMU
+                            # forms per step is subnormal: rom_bound.c BOUND_DECAY_FLOOR; raising an upper bound)
 TABLE_SPAN = 20.0           # the initial state's free response table covers this x the scene's T (at most)
 MAX_NODES = 4096            # its nodes at most (at first: choose_planes tries the caps of TABLE_NODES)
 TABLE_NODES = (4096, 8192, 16384, 32768)   # ... the caps tried: the one that keeps the fewest planes, then the fewest
@@ -434,7 +438,7 @@ class TailTable:
     seconds: float
 
 
-def tail_table(problem, C, x0, planes, tail: Tail, T):
+def tail_table(problem, C, x0, planes, tail: Tail, T, truth=None):
     """The uncomputed planes' free response computed (:class:`TailTable`), or None where the tail does not decay
     (d = 0) or the table is not affordable: more than MAX_TAIL_NODES nodes, or above both work limits below.
 
@@ -448,14 +452,17 @@ def tail_table(problem, C, x0, planes, tail: Tail, T):
     - else, N x the Chebyshev degree <= CHEBYSHEV_WORK and x0 unstrained (x0_tail = [x_v; 0], always so for the
       SPH's x0): the response as a function of K Kᵀ and Kᵀ K (:func:`tail_free_chebyshev`), one product with K and
       Kᵀ per half unit of t σ_max (1/20 of the Taylor propagation's) but whose round-off bound grows like Q^2.5 with
-      the degree Q: the table ends where its certified error reaches TAIL_SHARE of the norm bound."""
+      the degree Q: the table ends where its certified error reaches TAIL_SHARE of the norm bound.
+
+    ``truth``: the truth's matrix and growth rate (:func:`sphrom.rom.lti.truth_matrix`, built here if None)."""
     if not tail.alpha > 0:
         return None
     n = problem.rho0.size
     t0 = time.perf_counter()
-    from .lti import full_linear_system, skew_growth
-    lti = full_linear_system(problem, [0.5])
-    A = lti.A.tocsr()
+    if truth is None:
+        from .lti import truth_matrix
+        truth = truth_matrix(problem)
+    A = truth.lti.A.tocsr()
     a_norm = math.sqrt(float(abs(A).sum(axis=0).max()) * float(abs(A).sum(axis=1).max())) * (1 + 1e-12)
     span = min(TABLE_SPAN * float(T), math.log(1.0 / TAIL_DECAY) / tail.alpha)
     nodes = int(math.ceil(span * a_norm / TAIL_RESOLUTION)) + 1
@@ -477,8 +484,7 @@ def tail_table(problem, C, x0, planes, tail: Tail, T):
     bound = np.outer(tail.free(), np.exp(-tail.alpha * times))              # the norm bound at the nodes
     if taylor:
         values, slopes, ev, es = _taylor_nodes(A, C, x, nodes, h, a, float(tail.x0_norm))
-        omega = skew_growth(lti)
-        grow = np.array([growth_factor(omega, t) for t in times])[None, :]   # node k's: Σ_j e^{A (t_k - t_j)} δ_j
+        grow = growth_factor(truth.growth, times)[None, :]        # node k's: Σ_j e^{A (t_k - t_j)} δ_j
         ev, es = ev * grow, es * grow
     else:
         values, slopes, ev, es = tail_free_chebyshev(K, C, x[:n], times, 2.0 * tail.alpha, mu_max, tail.free(),
@@ -755,6 +761,20 @@ def tail_of(planes, C, Bcols, x0, d, K=None):
     return tail
 
 
+def floored(a, floor=SIZE_FLOOR):
+    """``a`` (non-negative sizes) with its positive entries below ``floor`` raised to it (zeros and inf kept): an
+    upper bound still, whose products with the decays (>= DECAY_FLOOR) the FMU forms as normal numbers (a subnormal
+    operand costs ~100 cycles on x86; fmu_src/rom_bound.c BOUND_SIZE_FLOOR)."""
+    a = np.asarray(a, float)
+    return np.where((a > 0) & (a < floor), floor, a)
+
+
+def floored_decay(x):
+    """e^{-x} (x >= 0, array) at least DECAY_FLOOR (an upper bound of it; rom_bound.c floored_decay)."""
+    x = np.asarray(x, float)
+    return np.where(x >= DECAY_FLOOR_X, DECAY_FLOOR, np.maximum(np.exp(-np.minimum(x, DECAY_FLOOR_X)), DECAY_FLOOR))
+
+
 def complement(modes: Modes, planes_L, chat, bhat, tail: Tail | None, T, *, table=True, max_nodes=MAX_NODES):
     """The complement's terms (:class:`Complement`) of the modes ``modes`` (the complement's, every computed plane
     not in the shadow), their blocks ``planes_L`` with coefficients ``chat``, ``bhat`` (for D), the uncomputed
@@ -780,7 +800,7 @@ def complement(modes: Modes, planes_L, chat, bhat, tail: Tail | None, T, *, tabl
         gain[:, :, gt] += tail.gain()
         static += tail.static()
         tail_free = tail.free()
-    gain = np.where(np.isfinite(gain), gain * (1 + SUM_ROUNDOFF), np.inf)
+    gain = floored(np.where(np.isfinite(gain), gain * (1 + SUM_ROUNDOFF), np.inf))
     if table and (np.any(np.abs(modes.P)) or np.any(tail_free)):
         t_end, h, values, slopes, errors, q, tl, cmu, cq = free_table(
             modes, group[:modes.alpha.size], rates, T, tail_free, tail.alpha if tail is not None else 0.0,
@@ -796,7 +816,7 @@ def complement(modes: Modes, planes_L, chat, bhat, tail: Tail | None, T, *, tabl
         if tail is not None:
             tl[:, group[-1]] += tail_free
     return Complement(D=D, static=static * (1 + SUM_ROUNDOFF), rates=rates, gain=gain, h=float(h), values=values,
-                      slopes=slopes, errors=errors, q=int(q), t_end=float(t_end), tail=tl * (1 + SUM_ROUNDOFF),
+                      slopes=slopes, errors=errors, q=int(q), t_end=float(t_end), tail=floored(tl * (1 + SUM_ROUNDOFF)),
                       cont_mu=cmu, cont_Q=cq)
 
 
@@ -982,8 +1002,9 @@ def parametric_complement(cp, c_ref, c, d):
     tail[:, 0] = np.abs(modes.P[:, under]).sum(axis=1)
     tail[:, 1] = np.abs(modes.P[:, ~under]).sum(axis=1)
     return Complement(D=D, static=np.zeros((rows, m)), rates=rates,
-                      gain=np.where(np.isfinite(gain), gain * (1 + SUM_ROUNDOFF), np.inf), h=0.0, values=None,
-                      slopes=None, errors=None, q=1, t_end=0.0, tail=tail * (1 + SUM_ROUNDOFF))
+                      gain=floored(np.where(np.isfinite(gain), gain * (1 + SUM_ROUNDOFF), np.inf)), h=0.0,
+                      values=None, slopes=None, errors=None, q=1, t_end=0.0,
+                      tail=floored(tail * (1 + SUM_ROUNDOFF)))
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -1357,7 +1378,7 @@ def cluster_importance(clusters, modes, mg, omega, span, classes, step_r, sine_r
 
 def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, force=None, T=None,
                  target=SHADOW_TARGET, order=None, max_planes=MAX_PLANES, port_inputs=True, count=None,
-                 tail_response=True, model_runs=None):
+                 tail_response=True, model_runs=None, truth=None):
     """The certified shadow of the FMUs of ``problem`` at ``probes`` (and ``ports``) (module docstring).
 
     Parameters
@@ -1393,6 +1414,10 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
         The model's own runs, ``model_runs(h, f, scale)`` -> (v (steps, P), ρ (steps, P)) (:func:`model_errors`):
         the shadow is sized against the model's error on the reference inputs (:func:`choose_planes`); None: against
         ``target`` alone.
+    truth : sphrom.rom.lti.Truth, optional
+        The truth's matrix and growth rate (:func:`sphrom.rom.lti.truth_matrix` of ``problem``: a packaging builds
+        it once for the shadow and the port channel); None: built here where needed (once, for the tail table and
+        the planes' residual).
 
     Returns
     -------
@@ -1424,7 +1449,9 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
     if tail is not None and K is not None and np.any(x0) and tail_response:
         # the initial state's uncomputed planes: their free response computed where the full system's propagation
         # over the span in which their norm bound matters is affordable (tail_table), else bounded by norms
-        tail.exact = tail_table(problem, C, x0, planes, tail, T)
+        if truth is None and tail.alpha > 0:
+            truth = truth_matrix(problem)
+        tail.exact = tail_table(problem, C, x0, planes, tail, T, truth=truth)
     chat = np.moveaxis(planes.right(C.T), 2, 0)                 # (rows, n, 2)
     bhat = planes.left(Bcols)                                    # (n, 2, m)
     eta = planes.left(x0)                                        # (n, 2)
@@ -1468,8 +1495,8 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
     e_norm = 0.0
     growth = 0.0
     if chosen:
-        from .lti import full_linear_system, skew_growth
-        lti = full_linear_system(problem, [0.5])
+        truth = truth if truth is not None else truth_matrix(problem)
+        lti = truth.lti
         if parametric:
             c_ref = float(problem.c[0])
             K = lti.A[:n, n:]
@@ -1483,7 +1510,7 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
             R = lti.A @ S - S @ sla.block_diag(*A[0])
             e_norm = float(np.linalg.norm(R, 2)) * 2.0 + 1e-15 * float(abs(lti.A).sum(axis=1).max()) * \
                 float(np.linalg.norm(S, 2))
-            growth = skew_growth(lti)            # the residual's drift is a Duhamel integral of e^{A (t - τ)}
+            growth = truth.growth                # the residual's drift is a Duhamel integral of e^{A (t - τ)}
     restp = np.setdiff1d(np.arange(planes.count), keep)
     rest_modes = _select(modes_all, np.isin(modes_all.plane, restp))
     comp, cplanes = None, None
@@ -1519,21 +1546,30 @@ def _select(modes: Modes, sel):
                  eta=modes.eta[sel], exact=modes.exact[sel])
 
 
-def fmu_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, force=None, T=None, port_inputs=True,
-               model_runs=None):
-    """The shadow of an FMU's outputs, or None where the C core cannot certify it: more than
-    :data:`FMU_MAX_PARTICLES` particles, a damping that varies on more than
-    :data:`sphrom.rom.planes.EIGEN_LIMIT` particles, or a parametric model whose c or d is not uniform."""
+def fmu_shadow_applies(problem, parametric=False):
+    """Whether the C core can certify an FMU of ``problem`` (:func:`fmu_shadow` builds its shadow): at most
+    :data:`FMU_MAX_PARTICLES` particles, a damping that varies on at most :data:`sphrom.rom.planes.EIGEN_LIMIT`
+    particles, and for a ``parametric`` model uniform c and d."""
     d = np.asarray(problem.d, float)
     if d.size > FMU_MAX_PARTICLES:
-        return None
+        return False
     uniform = bool(np.all(d == d[0]))
     if parametric and not (problem.terms["uniform_c"] and uniform):
-        return None
-    if not uniform and d.size > EIGEN_LIMIT:
+        return False
+    return uniform or d.size <= EIGEN_LIMIT
+
+
+def fmu_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, force=None, T=None, port_inputs=True,
+               model_runs=None, truth=None):
+    """The shadow of an FMU's outputs, or None where the C core cannot certify it (:func:`fmu_shadow_applies`):
+    more than :data:`FMU_MAX_PARTICLES` particles, a damping that varies on more than
+    :data:`sphrom.rom.planes.EIGEN_LIMIT` particles, or a parametric model whose c or d is not uniform.
+    ``truth``: the truth's matrix the packaging built once (:func:`sphrom.rom.lti.truth_matrix`; None: built
+    here)."""
+    if not fmu_shadow_applies(problem, parametric):
         return None
     return build_shadow(problem, probes, ports, parametric=parametric, scale_v=scale_v, T=T,
-                        port_inputs=port_inputs, model_runs=model_runs)
+                        port_inputs=port_inputs, model_runs=model_runs, truth=truth)
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -1575,7 +1611,7 @@ def free_part(comp: Complement, tau):
              comp.h * (h10 * comp.slopes[:, k] + h11 * comp.slopes[:, k + 1]))
         return v, comp.errors[:, k // comp.q]
     over = max(tau - comp.t_end, 0.0)
-    error = comp.tail @ np.exp(-comp.rates * over)
+    error = comp.tail @ floored_decay(comp.rates * over)
     if comp.cont_mu is None or comp.cont_mu.size == 0:
         return np.zeros(comp.tail.shape[0]), error
     # the continued modes (free_table): Re Σ_M Q_rM e^{μ_M (τ - t_end)}, their round-off allowance (cont_roundoff)
@@ -1651,6 +1687,7 @@ def run_shadow(sh: Shadow, h, u, rate, *, scale=1.0, c=None, d=None):
         u0, r = u[k], rate[k]
         du = r * hk
         V = decay[None, :] * (V + np.abs(u0 - uprev)[:, None]) + slope[None, :] * np.abs(du)[:, None]
+        V = np.where((V > 0) & (V < DECAY_FLOOR), DECAY_FLOOR, V)        # (kept normal once positive: the FMU's)
         w_int += hk * math.exp(mu * hk) * (np.linalg.norm(w) + hk * sh.b_norm * max(np.linalg.norm(u0),
                                                                                     np.linalg.norm(u0 + du)))
         new = np.empty_like(w)
