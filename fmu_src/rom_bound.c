@@ -1610,6 +1610,7 @@ BOUND_INLINE int rows_exceed(const RomState *s, const RowTime *rt, const RowInpu
  * (row_at's test) once for all the rows.  -DROM_NO_LANES, past the table, or other models: rows_exceed. */
 #if defined(BOUND_LANES)
 static void check_terms(BoundState *bs, const RomBoundModel *b, uint32_t P) {
+    if (!bs || !b || !bs->chk || P > BOUND_CHECK_ROWS) return;
     const size_t G = b->groups, L = BOUND_CHECK_LANES, width = (4 + G) * L;
     for (uint32_t r = 0; r < (P + L - 1) / L * L; r++) {
         double *t = bs->chk + r / L * width + r % L;
@@ -1723,6 +1724,7 @@ static int table_lanes(const RomState *s, const BoundState *bs, const double *vs
 
 /* rows_exceed of the probes' velocity rows (the common case: one input, stepped, no channel) */
 BOUND_APART int probe_rows_exceed(const RomState *s, char *message, size_t message_size) {
+    if (!s || !s->bound) return 0;
     RowTime rt;
     row_time(s, &rt);
     RowInputs in;
@@ -1733,6 +1735,7 @@ BOUND_APART int probe_rows_exceed(const RomState *s, char *message, size_t messa
 /* the error check of the probes' velocity rows within the table (the common case above): 1 (and rows_exceed's
  * message: the same rows, asked again, the same bits) at the first bound above error_tolerance, else 0 */
 BOUND_APART int table_rows_exceed(const RomState *s, char *message, size_t message_size) {
+    if (!s || !s->bound) return 0;
 #if defined(BOUND_LANES)
     const uint32_t P = s->model->n_probes;
     const RomBoundModel *b = &s->model->bound;
@@ -1744,6 +1747,7 @@ BOUND_APART int table_rows_exceed(const RomState *s, char *message, size_t messa
     if (!bs->w_fresh) shadow_group(s, bs, 0);           /* (row_time's) */
     bs->rows_read = 1;                                  /* group 0's rows (row_at): the next step sums them */
     if (bs->chk_gen != b->generation) check_terms(bs, b, P);
+    if (bs->chk_gen != b->generation) return probe_rows_exceed(s, message, message_size);     /* (never: P <= 100) */
     /* the model's outputs as rows_exceed reads them (rom_v_probe_kept: here once per step, the importer reads them
      * kept), by quads (the last one's lanes past P: 0, not checked) */
     double vs[BOUND_CHECK_ROWS];
@@ -1766,6 +1770,7 @@ BOUND_APART int table_rows_exceed(const RomState *s, char *message, size_t messa
 
 /* rom_bound_exceeded's other cases: ports, a port channel, several inputs, before the first step */
 BOUND_APART int all_rows_exceed(const RomState *s, char *message, size_t message_size) {
+    if (!s || !s->bound) return 0;
     RowTime rt;                                          /* one time and one input for every velocity row */
     row_time(s, &rt);
     RowInputs in;
