@@ -1657,38 +1657,36 @@ BOUND_INLINE int table_quad_body(const RomState *s, const BoundState *bs, const 
     const double *gk = b->tab + k, *dk = gk + (size_t)b->rows * b->nodes, *te = b->terr + k / b->q;
     const uint32_t P = s->model->n_probes, L = BOUND_CHECK_LANES;
     const size_t G = b->groups;
-    {
-        const double *T = bs->chk + q * (4 + G) * L;
-        const size_t *og = bs->chk_tab + q * L, *oe = bs->chk_err + q * L;
-        BoundRows y, v, cn, D, S, cne, H;
-        ROWS_LOAD(y, bs->y + 1 + q * L);                /* slots 4 q + 1 to 4 q + 4 (y has four slots' slack) */
-        /* free_part's table: row r's nodes k, k + 1 at gk + r nodes */
-        const BoundRows g_value = c0 * ROWS_GATHER(gk, og) + c1 * ROWS_GATHER(gk + 1, og) +
-                                  ht * (c2 * ROWS_GATHER(dk, og) + c3 * ROWS_GATHER(dk + 1, og));
-        const BoundRows g_error = ROWS_GATHER(te, oe);
-        ROWS_LOAD(v, vs + q * L);
-        ROWS_LOAD(cn, T);
-        ROWS_LOAD(D, T + L);
-        ROWS_LOAD(S, T + 2 * L);
-        ROWS_LOAD(cne, T + 3 * L);
-        y += D * ups;                                   /* row_at's sums, in its order */
-        const BoundRows quasi = zero + S * ua;
-        BoundRows trans = zero;
-        for (size_t g = 0; g < G; g++) {
-            const double Vg = bs->V[g];
-            if (Vg > 0) {                               /* (row_at's test) */
-                ROWS_LOAD(H, T + (4 + g) * L);
-                trans += H * ROWS_SPLAT(Vg);
-            }
+    const double *T = bs->chk + q * (4 + G) * L;
+    const size_t *og = bs->chk_tab + q * L, *oe = bs->chk_err + q * L;
+    BoundRows y, v, cn, D, S, cne, H;
+    ROWS_LOAD(y, bs->y + 1 + q * L);                /* slots 4 q + 1 to 4 q + 4 (y has four slots' slack) */
+    /* free_part's table: row r's nodes k, k + 1 at gk + r nodes */
+    const BoundRows g_value = c0 * ROWS_GATHER(gk, og) + c1 * ROWS_GATHER(gk + 1, og) +
+                              ht * (c2 * ROWS_GATHER(dk, og) + c3 * ROWS_GATHER(dk + 1, og));
+    const BoundRows g_error = ROWS_GATHER(te, oe);
+    ROWS_LOAD(v, vs + q * L);
+    ROWS_LOAD(cn, T);
+    ROWS_LOAD(D, T + L);
+    ROWS_LOAD(S, T + 2 * L);
+    ROWS_LOAD(cne, T + 3 * L);
+    y += D * ups;                                   /* row_at's sums, in its order */
+    const BoundRows quasi = zero + S * ua;
+    BoundRows trans = zero;
+    for (size_t g = 0; g < G; g++) {
+        const double Vg = bs->V[g];
+        if (Vg > 0) {                               /* (row_at's test) */
+            ROWS_LOAD(H, T + (4 + g) * L);
+            trans += H * ROWS_SPLAT(Vg);
         }
-        y += is * g_value;
-        const BoundRows allow = cn * sf * wp;
-        const BoundRows cert = sc * g_error + quasi + trans + cne * wd * dr + allow + zero;
-        const BoundRows bound = (BoundRows)((BoundRowBits)(v - y) & magnitude) + cert;    /* fabs(v - y) + cert */
-        const uint32_t n = P - q * L < L ? P - q * L : L;
-        for (uint32_t l = 0; l < n; l++) {
-            if (!(bound[l] <= tol)) return 1;
-        }
+    }
+    y += is * g_value;
+    const BoundRows allow = cn * sf * wp;
+    const BoundRows cert = sc * g_error + quasi + trans + cne * wd * dr + allow + zero;
+    const BoundRows bound = (BoundRows)((BoundRowBits)(v - y) & magnitude) + cert;    /* fabs(v - y) + cert */
+    const uint32_t n = P - q * L < L ? P - q * L : L;
+    for (uint32_t l = 0; l < n; l++) {
+        if (!(bound[l] <= tol)) return 1;
     }
     return 0;
 }
