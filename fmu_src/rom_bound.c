@@ -69,6 +69,7 @@ typedef struct {
     double *G0, *G1;           /* [order][inputs] */
     double decay[BOUND_MAX_GROUPS], slope[BOUND_MAX_GROUPS];   /* exp(-alpha h), (1 - exp(-alpha h)) / (alpha h) */
     double growth;             /* exp(mu h): the shadow's growth over the step (w_int) */
+    int chain;                 /* every group's alpha h <= TAIL_CHAIN_X: the tails' decays chain over the step */
 } BoundCache;
 
 typedef struct {
@@ -646,6 +647,11 @@ static void tail_decays(BoundState *bs, const RomBoundModel *b, double tau, doub
     const int chain = bs->tail_tau == t0 && t0 > t_end && h == c->h;
     bs->tail_tau = tau;
     bs->tails_restored = 0;                             /* (the chain moved on: an assembly now is of new rates) */
+    if (chain && c->chain && over > 0) {                /* every group chains (the loop's second case, the same
+                                                           bits): the common step past the table, one test a step */
+        for (uint32_t g = 0; g < b->groups; g++) bs->tail_decay[g] = bs->tail_decay[g] * c->decay[g] * TAIL_UP;
+        return;
+    }
     for (uint32_t g = 0; g < b->groups; g++) {
         if (!(over > 0)) {
             bs->tail_decay[g] = 1.0;
@@ -700,10 +706,12 @@ static const BoundCache *plane_maps(BoundState *bs, const RomBoundModel *b, doub
             }
         }
     }
+    slot->chain = 1;
     for (uint32_t g = 0; g < b->groups; g++) {          /* harness/rom/bounds.py step_weights */
         const double x = b->rates[g] * h;
         slot->decay[g] = exp(-x);
         slot->slope[g] = x > 1e-8 ? -expm1(-x) / x : 1.0 - 0.5 * x;
+        slot->chain &= x <= TAIL_CHAIN_X;               /* (tail_decays' test: the same product) */
     }
     slot->growth = exp(b->mu * h);
     slot->h = h;
