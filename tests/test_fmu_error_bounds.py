@@ -645,6 +645,27 @@ def test_bench_cost_tables_carry_the_instruction_count_where_measured():
     assert "| exact | 1 | 1.20 | 1.20 | 0 |" in "\n".join(cost_lines(past)).split("past-table")[1]
 
 
+def test_bench_native_timing_rounds_within_the_budget():
+    """The native timing's rounds (timing_rounds): the three variants back to back in each round, in turn forwards
+    and backwards, as many rounds as NATIVE_ROUNDS where they fit in the budget, never fewer than the repeats asked
+    for (an FMU of costly steps: the repeats alone, the bench no slower than before for it)."""
+    from sphrom.bench.lib.native_cost import NATIVE_ROUNDS, timing_rounds
+    now, order = [0.0], []
+
+    def run(cost):
+        def one(i):
+            order.append(i)
+            now[0] += cost
+            return 100.0 + i
+        return one
+    quick = timing_rounds(run(0.001), 3, budget=4.0, clock=lambda: now[0])
+    assert [len(x) for x in quick] == [NATIVE_ROUNDS] * 3 and quick[2] == [102.0] * NATIVE_ROUNDS
+    assert order[:6] == [0, 1, 2, 2, 1, 0]
+    now[0] = 0.0
+    assert [len(x) for x in timing_rounds(run(2.0), 3, budget=4.0, clock=lambda: now[0])] == [3] * 3
+    now[0] = 0.0
+    assert [len(x) for x in timing_rounds(run(0.5), 1, budget=4.0, clock=lambda: now[0])] == [3] * 3
+
 @pytest.mark.parametrize("path", ["taylor", "chebyshev"])
 def test_uncomputed_planes_free_response_computed(monkeypatch, path):
     """Where it is affordable the uncomputed planes' free response from x0 is computed, not bounded

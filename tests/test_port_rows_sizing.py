@@ -165,3 +165,13 @@ def test_growth_factor_bounds_the_exponential():
     got = np.array([growth_factor(1.0, t) for t in x])
     assert np.all(got >= np.exp(x) * (1.0 - 2.0 ** -52))
     assert growth_factor(0.0, 1e9) == 1.0 and growth_factor(3.0, 0.0) == 1.0
+
+
+def test_growth_factor_on_an_array_is_the_scalars():
+    """lti.growth_factor on an array of times (tail_table's nodes) gives each element the bits of the scalar call
+    (0 ulps: the same operations as the C core's rom_growth_factor), on both sides of x = 1 and at t <= 0."""
+    from sphrom.rom.lti import growth_factor
+    t = np.concatenate([[-1.0, -0.0, 0.0], np.geomspace(1e-12, 3.0, 301), np.linspace(0.19, 0.21, 101)])
+    for omega in (0.0, 3.7e-9, 1.0, 5.0):
+        scalars = np.array([growth_factor(omega, x) for x in t])
+        assert np.array_equal(growth_factor(omega, t).view(np.int64), scalars.view(np.int64))

@@ -44,7 +44,8 @@ import numpy as np
 from ..options import int_at_least, int_list, positive_float
 from .lib.error_corpus import CORPUS_MENU, user_scenes  # noqa: F401 (the corpus: shared with error_bounds_ports)
 from .lib.stopped import RunStopped, reason
-from .lib.native_cost import COUNT_STEPS, NATIVE_STEPS, NO_COST, PAST_STEPS, cost_lines, native_cost
+from .lib.native_cost import (COUNT_STEPS, NATIVE_BUDGET, NATIVE_ROUNDS, NATIVE_STEPS, NO_COST, PAST_STEPS,
+                               cost_lines, native_cost)
 
 SECTION_HEADING = "## Certified error bounds"
 PARAMETRIC_HEADING = "## Certified error bounds of parametric FMUs"
@@ -386,7 +387,8 @@ def section(rows, notes, *, command, wall, machine, image, span):
              "master (fmu_src/tests/step_cost.c, `sphrom_step_cost`: per step fmi2SetReal of f, fmi2DoStep, "
              "fmi2GetReal of the outputs) against the same FMU without the bounds' sections, thread CPU time per "
              f"step of runs of {NATIVE_STEPS} steps, the three back to back in each round: the median of the rounds' "
-             "ratios with the outputs alone read, and with their bounds read too. Instruction ratio: the same master's "
+             f"ratios (at least --repeats, up to {NATIVE_ROUNDS} while they take less than {NATIVE_BUDGET:g} s) with the "
+             "outputs alone read, and with their bounds read too. Instruction ratio: the same master's "
              "instructions per step with the outputs read (callgrind, the difference of runs of "
              f"{COUNT_STEPS[1]} and {COUNT_STEPS[0]} steps), "
              "with the bounds' sections against without: a count the load of a shared machine does not move; "

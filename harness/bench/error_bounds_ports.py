@@ -60,7 +60,7 @@ from ..options import int_at_least, positive_float
 from ..parser import fmu_models, positive_int
 from ..scene import builtin_names, load_scene
 from . import machine_text, program_command, program_parser
-from .lib.native_cost import COUNT_STEPS, cost_lines, native_cost
+from .lib.native_cost import COUNT_STEPS, NATIVE_BUDGET, NATIVE_ROUNDS, cost_lines, native_cost
 from .lib.document import update_report
 from .lib.error_corpus import SI_MIN_PARTICLES, si_scenes, user_scenes
 from .lib.stopped import RunStopped, reason
@@ -314,7 +314,9 @@ def section(rows, *, command, wall, machine, sized=()):
              "FMI 2 master (fmu_src/tests/step_cost.c: per step fmi2SetReal of f and of each F_port_j, a spring to "
              "ground on each port, fmi2DoStep, fmi2GetReal of the outputs) against the same FMU without the bounds' "
              f"sections, {COST_STEP * 1e3:g} ms steps (at most a tenth of the communication step), thread CPU time, "
-             "medians of the runs; and its instructions per step (callgrind, the difference of runs of "
+             "the three back to back in each round, the median of the rounds' ratios "
+             f"(at least --repeats, up to {NATIVE_ROUNDS} while they take less than {NATIVE_BUDGET:g} s); and its "
+             "instructions per step (callgrind, the difference of runs of "
              f"{COUNT_STEPS[1]} and "
              f"{COUNT_STEPS[0]} steps), which the load of a shared machine does not move.", "",
              "| scene | model | N, k_v, k_ρ, shadow | start | case | violations | effectivity median | max | "
@@ -389,7 +391,8 @@ def main(argv=None):
     p.add_argument("--out", default="validation/benchmarks", metavar="FOLDER")
     p.add_argument("--report", default="BENCHMARKS.md", metavar="FILE.md")
     p.add_argument("--repeats", type=positive_int, default=3, metavar="R",
-                   help="runs of the native doStep cost per FMU (default 3)")
+                   help="rounds of the native doStep cost per FMU at least (default 3; up to "
+                        f"{NATIVE_ROUNDS} while they take less than {NATIVE_BUDGET:g} s)")
     p.add_argument("--quiet", action="store_true")
     args = p.parse_args(argv)
     names = scene_names(args.scenes, args.corpus or args.si_corpus)

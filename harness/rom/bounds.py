@@ -72,7 +72,7 @@ import scipy.fft as sf
 import scipy.linalg as sla
 
 from ..sph.ports import port_kernel, port_velocity_rows
-from .lti import growth_factor, probe_matrix
+from .lti import growth_factor, probe_matrix, truth_matrix
 from .planes import EIGEN_LIMIT, Modes, coupling, eigen_planes, gap_cuts, plane_modes, singular_planes
 
 SHADOW_TARGET = 1e-6        # the complement's certified part / the channel's response, per reference input
@@ -436,7 +436,7 @@ class TailTable:
     seconds: float
 
 
-def tail_table(problem, C, x0, planes, tail: Tail, T):
+def tail_table(problem, C, x0, planes, tail: Tail, T, truth=None):
     """The uncomputed planes' free response computed (:class:`TailTable`), or None where the tail does not decay
     (d = 0) or the table is not affordable: more than MAX_TAIL_NODES nodes, or above both work limits below.
 
@@ -450,14 +450,17 @@ def tail_table(problem, C, x0, planes, tail: Tail, T):
     - else, N x the Chebyshev degree <= CHEBYSHEV_WORK and x0 unstrained (x0_tail = [x_v; 0], always so for the
       SPH's x0): the response as a function of K Kᵀ and Kᵀ K (:func:`tail_free_chebyshev`), one product with K and
       Kᵀ per half unit of t σ_max (1/20 of the Taylor propagation's) but whose round-off bound grows like Q^2.5 with
-      the degree Q: the table ends where its certified error reaches TAIL_SHARE of the norm bound."""
+      the degree Q: the table ends where its certified error reaches TAIL_SHARE of the norm bound.
+
+    ``truth``: the truth's matrix and growth rate (:func:`sphrom.rom.lti.truth_matrix`, built here if None)."""
     if not tail.alpha > 0:
         return None
     n = problem.rho0.size
     t0 = time.perf_counter()
-    from .lti import full_linear_system, skew_growth
-    lti = full_linear_system(problem, [0.5])
-    A = lti.A.tocsr()
+    if truth is None:
+        from .lti import truth_matrix
+        truth = truth_matrix(problem)
+    A = truth.lti.A.tocsr()
     a_norm = math.sqrt(float(abs(A).sum(axis=0).max()) * float(abs(A).sum(axis=1).max())) * (1 + 1e-12)
     span = min(TABLE_SPAN * float(T), math.log(1.0 / TAIL_DECAY) / tail.alpha)
     nodes = int(math.ceil(span * a_norm / TAIL_RESOLUTION)) + 1
@@ -479,8 +482,7 @@ def tail_table(problem, C, x0, planes, tail: Tail, T):
     bound = np.outer(tail.free(), np.exp(-tail.alpha * times))              # the norm bound at the nodes
     if taylor:
         values, slopes, ev, es = _taylor_nodes(A, C, x, nodes, h, a, float(tail.x0_norm))
-        omega = skew_growth(lti)
-        grow = np.array([growth_factor(omega, t) for t in times])[None, :]   # node k's: Σ_j e^{A (t_k - t_j)} δ_j
+        grow = growth_factor(truth.growth, times)[None, :]        # node k's: Σ_j e^{A (t_k - t_j)} δ_j
         ev, es = ev * grow, es * grow
     else:
         values, slopes, ev, es = tail_free_chebyshev(K, C, x[:n], times, 2.0 * tail.alpha, mu_max, tail.free(),
@@ -1370,7 +1372,7 @@ def cluster_importance(clusters, modes, mg, omega, span, classes, step_r, sine_r
 
 def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, force=None, T=None,
                  target=SHADOW_TARGET, order=None, max_planes=MAX_PLANES, port_inputs=True, count=None,
-                 tail_response=True, model_runs=None):
+                 tail_response=True, model_runs=None, truth=None):
     """The certified shadow of the FMUs of ``problem`` at ``probes`` (and ``ports``) (module docstring).
 
     Parameters
@@ -1406,6 +1408,10 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
         The model's own runs, ``model_runs(h, f, scale)`` -> (v (steps, P), ρ (steps, P)) (:func:`model_errors`):
         the shadow is sized against the model's error on the reference inputs (:func:`choose_planes`); None: against
         ``target`` alone.
+    truth : sphrom.rom.lti.Truth, optional
+        The truth's matrix and growth rate (:func:`sphrom.rom.lti.truth_matrix` of ``problem``: a packaging builds
+        it once for the shadow and the port channel); None: built here where needed (once, for the tail table and
+        the planes' residual).
 
     Returns
     -------
@@ -1437,7 +1443,9 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
     if tail is not None and K is not None and np.any(x0) and tail_response:
         # the initial state's uncomputed planes: their free response computed where the full system's propagation
         # over the span in which their norm bound matters is affordable (tail_table), else bounded by norms
-        tail.exact = tail_table(problem, C, x0, planes, tail, T)
+        if truth is None and tail.alpha > 0:
+            truth = truth_matrix(problem)
+        tail.exact = tail_table(problem, C, x0, planes, tail, T, truth=truth)
     chat = np.moveaxis(planes.right(C.T), 2, 0)                 # (rows, n, 2)
     bhat = planes.left(Bcols)                                    # (n, 2, m)
     eta = planes.left(x0)                                        # (n, 2)
@@ -1481,8 +1489,8 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
     e_norm = 0.0
     growth = 0.0
     if chosen:
-        from .lti import full_linear_system, skew_growth
-        lti = full_linear_system(problem, [0.5])
+        truth = truth if truth is not None else truth_matrix(problem)
+        lti = truth.lti
         if parametric:
             c_ref = float(problem.c[0])
             K = lti.A[:n, n:]
@@ -1496,7 +1504,7 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
             R = lti.A @ S - S @ sla.block_diag(*A[0])
             e_norm = float(np.linalg.norm(R, 2)) * 2.0 + 1e-15 * float(abs(lti.A).sum(axis=1).max()) * \
                 float(np.linalg.norm(S, 2))
-            growth = skew_growth(lti)            # the residual's drift is a Duhamel integral of e^{A (t - τ)}
+            growth = truth.growth                # the residual's drift is a Duhamel integral of e^{A (t - τ)}
     restp = np.setdiff1d(np.arange(planes.count), keep)
     rest_modes = _select(modes_all, np.isin(modes_all.plane, restp))
     comp, cplanes = None, None
@@ -1534,21 +1542,30 @@ def _select(modes: Modes, sel):
                  eta=modes.eta[sel], exact=modes.exact[sel])
 
 
-def fmu_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, force=None, T=None, port_inputs=True,
-               model_runs=None):
-    """The shadow of an FMU's outputs, or None where the C core cannot certify it: more than
-    :data:`FMU_MAX_PARTICLES` particles, a damping that varies on more than
-    :data:`sphrom.rom.planes.EIGEN_LIMIT` particles, or a parametric model whose c or d is not uniform."""
+def fmu_shadow_applies(problem, parametric=False):
+    """Whether the C core can certify an FMU of ``problem`` (:func:`fmu_shadow` builds its shadow): at most
+    :data:`FMU_MAX_PARTICLES` particles, a damping that varies on at most :data:`sphrom.rom.planes.EIGEN_LIMIT`
+    particles, and for a ``parametric`` model uniform c and d."""
     d = np.asarray(problem.d, float)
     if d.size > FMU_MAX_PARTICLES:
-        return None
+        return False
     uniform = bool(np.all(d == d[0]))
     if parametric and not (problem.terms["uniform_c"] and uniform):
-        return None
-    if not uniform and d.size > EIGEN_LIMIT:
+        return False
+    return uniform or d.size <= EIGEN_LIMIT
+
+
+def fmu_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, force=None, T=None, port_inputs=True,
+               model_runs=None, truth=None):
+    """The shadow of an FMU's outputs, or None where the C core cannot certify it (:func:`fmu_shadow_applies`):
+    more than :data:`FMU_MAX_PARTICLES` particles, a damping that varies on more than
+    :data:`sphrom.rom.planes.EIGEN_LIMIT` particles, or a parametric model whose c or d is not uniform.
+    ``truth``: the truth's matrix the packaging built once (:func:`sphrom.rom.lti.truth_matrix`; None: built
+    here)."""
+    if not fmu_shadow_applies(problem, parametric):
         return None
     return build_shadow(problem, probes, ports, parametric=parametric, scale_v=scale_v, T=T,
-                        port_inputs=port_inputs, model_runs=model_runs)
+                        port_inputs=port_inputs, model_runs=model_runs, truth=truth)
 
 
 # ---------------------------------------------------------------------------------------------------------------

@@ -230,12 +230,50 @@ def skew_growth(lti: LTI) -> float:
     return float(0.5 * norm * (1.0 + 1e-12) + max(0.0, -float(d.min(initial=0.0))))
 
 
+@dataclass(frozen=True)
+class Truth:
+    """The truth's matrix as the certified error bounds read it (:func:`truth_matrix`): the full linear SPH
+    (:func:`full_linear_system` with one probe at 0.5: its A, the same whatever the probes) and its growth rate
+    ω = :func:`skew_growth` [s^-1].  A packaging builds it once and passes it to the shadow
+    (:func:`sphrom.rom.bounds.build_shadow`, its :func:`sphrom.rom.bounds.tail_table`) and the port channel
+    (:func:`sphrom.rom.port_channel.build_channel`); each builds its own where it is not given."""
+
+    lti: LTI
+    growth: float
+
+
+def truth_matrix(problem) -> Truth:
+    """The :class:`Truth` of ``problem``: :func:`full_linear_system` at the probe 0.5 and its :func:`skew_growth`."""
+    lti = full_linear_system(problem, [0.5])
+    return Truth(lti=lti, growth=skew_growth(lti))
+
+
 def growth_factor(omega, t):
     """An upper bound of e^{ω t} (ω t >= 0), as the C core computes it (fmu_src/rom_numerics.c
     rom_growth_factor, for the shadow's and the port channel's drifts): 1 + x + x² for x = ω t <= 1 (e^x - 1 - x = Σ_{k>=2} x^k/k! <= (e - 2) x² there; no libm call
-    per step), else e^x; exactly 1 at ω = 0."""
-    x = float(omega) * max(float(t), 0.0)
-    return 1.0 + x * (1.0 + x) if x <= 1.0 else math.exp(x)
+    per step), else e^x; exactly 1 at ω = 0.
+
+    Parameters
+    ----------
+    omega : float
+        ω [s^-1].
+    t : float or array_like
+        Times [s] (negative ones count as 0).
+
+    Returns
+    -------
+    float, or an array of t's shape: each element by the same operations as a float t (the same bits; e^x by
+    libm's exp, math.exp, as the C core's: numpy's own exp may differ in the last bit).
+    """
+    if np.ndim(t) == 0:
+        x = float(omega) * max(float(t), 0.0)
+        return 1.0 + x * (1.0 + x) if x <= 1.0 else math.exp(x)
+    x = float(omega) * np.maximum(np.asarray(t, float), 0.0)
+    out = 1.0 + x * (1.0 + x)
+    big = x > 1.0
+    if np.any(big):
+        out[big] = [math.exp(v) for v in x[big].tolist()]
+    return out
 
 
 def sph_rates(problem, v, rho, f=0.0):

@@ -215,7 +215,7 @@ def input_residual(U, Bv):
     return (np.linalg.norm(r.astype(float), axis=0) + gamma * np.linalg.norm(G, axis=0) * in_double) * (1 + 1e-12)
 
 
-def build_channel(problem, ports, probes, *, max_planes=MAX_PLANES):
+def build_channel(problem, ports, probes, *, max_planes=MAX_PLANES, truth=None):
     """The port channel of ``problem`` with ports at ``ports`` and outputs at ``probes`` (module docstring), or
     None where it does not apply (:func:`applies`: a damping that varies along the bar, or N above the limit).
 
@@ -226,6 +226,9 @@ def build_channel(problem, ports, probes, *, max_planes=MAX_PLANES):
         Positions x/L.
     max_planes : int
         The most planes kept (the lowest σ the ports excite; the rest by their static correction).
+    truth : sphrom.rom.lti.Truth, optional
+        The truth's matrix and growth rate (:func:`sphrom.rom.lti.truth_matrix` of ``problem``: a packaging builds
+        it once for the channel and the shadow); None: built here.
     """
     from ..sph.ports import port_kernel
     from .bounds import output_rows
@@ -271,9 +274,10 @@ def build_channel(problem, ports, probes, *, max_planes=MAX_PLANES):
         inv = 1.0 / np.linalg.svd(lam_rest, compute_uv=False)[:, -1]
         gain = (np.abs(c_all[:, rest]) * inv[None, :]) @ np.abs(beta[rest]) * (1.0 + 1e-12)
     # the decomposition's error against the truth's A (module docstring, "The decomposition's residual")
-    from .lti import full_linear_system, skew_growth
-    lti = full_linear_system(problem, [0.5])
-    e_norm = plane_residual(lti, U, s, W, d)
+    if truth is None:
+        from .lti import truth_matrix
+        truth = truth_matrix(problem)
+    e_norm = plane_residual(truth.lti, U, s, W, d)
     b_res = input_residual(U, Bv)
     rest_w = np.zeros(P)            # ‖w_rest(t)‖ <= Σ_j rest_w_j 2 tv_j(t) (the left-out planes' state)
     if rest.size:
@@ -285,7 +289,7 @@ def build_channel(problem, ports, probes, *, max_planes=MAX_PLANES):
     return PortChannel(ports=tuple(float(x) for x in ports), n_probes=len(probes), lam=lam,
                        beta=np.ascontiguousarray(beta[keep]), rows=rows, static=static, gain=gain, drift=drift,
                        row_norm=np.linalg.norm(rows, axis=1), pw=pw, prho0=prho0, dx=float(problem.neighbours.dx),
-                       growth=skew_growth(lti), info={"planes_of_K": int(n), "excited": int(np.count_nonzero(excited)), "kept": int(keep.size),
+                       growth=truth.growth, info={"planes_of_K": int(n), "excited": int(np.count_nonzero(excited)), "kept": int(keep.size),
                              "truncated": int(np.count_nonzero(excited[rest])) if rest.size else 0,
                              "sigma_max": float(sig[-1]), "sigma_kept": float(s[keep].max()) if keep.size else 0.0,
                              "d": d, "residual": e_norm, "input_residual": b_res.tolist(),
@@ -521,13 +525,14 @@ def from_sections(found, ports=None):
                        info={"truncated": int(scal[0, _pcscal("truncated")])})
 
 
-def attach(ops, problem, ports, probes, channel=None):
+def attach(ops, problem, ports, probes, channel=None, truth=None):
     """``ops`` (a model built without ports) with the port channel of ``ports``: its ``channel``, ``ports`` and the
     port velocity rows of its own coordinates ``Cp`` (its part of v_port: the response to f and the initial state,
     which no port force moves), and no port input rows (``Bp`` None: the channel takes every port force).  The
-    operators of an FMU with ports (:mod:`sphrom.fmu.kinds`)."""
+    operators of an FMU with ports (:mod:`sphrom.fmu.kinds`).  ``truth``: the packaging's truth's matrix for
+    :func:`build_channel` (:func:`sphrom.rom.lti.truth_matrix`; None: built there)."""
     import dataclasses
-    channel = channel or build_channel(problem, ports, probes)
+    channel = channel or build_channel(problem, ports, probes, truth=truth)
     Cp = np.ascontiguousarray(ops.port_velocity_rows(problem, ports))
     return dataclasses.replace(ops, ports=tuple(float(x) for x in ports), Bp=None, Cp=Cp, channel=channel)
 

@@ -35,10 +35,10 @@ model, they describe its state the same way:
 ``error_bounds(problem, probes, progress=None)``
     Certified bounds on the probe velocity errors against the full linear SPH
     (:func:`sphrom.rom.balanced.error_bounds`), or None for a model without them.
-``bound_shadow(problem, probes, *, parametric=False, scale_v=None)``
+``bound_shadow(problem, probes, *, parametric=False, scale_v=None, model_runs=None, truth=None)``
     The certified shadow of the model's outputs (:mod:`sphrom.rom.bounds`): what an FMU's ``*_error_bound``
     outputs are computed from at run time, at ``probes`` and the model's ports; None where it cannot be
-    certified.
+    certified.  ``truth``: the truth's matrix the packaging built once (:func:`sphrom.rom.lti.truth_matrix`).
 ``has_force_input``
     The model takes the scene's force f(t) along its profile (False: the scene has none, or the operators were
     built without its input, ``input_direction="never"``).
@@ -172,7 +172,7 @@ class Operators:
         none.  ``progress``: an object with ``update(1)``, called once per probe."""
         return None
 
-    def bound_shadow(self, problem, probes, *, parametric=False, scale_v=None, model_runs=None):
+    def bound_shadow(self, problem, probes, *, parametric=False, scale_v=None, model_runs=None, truth=None):
         """The certified shadow of the model's outputs at ``probes`` and its ``ports``
         (:func:`sphrom.rom.bounds.fmu_shadow`: planes of the full linear SPH, as many as the model's own error on
         the reference inputs asks for when ``model_runs`` is given), or None
@@ -183,9 +183,11 @@ class Operators:
         default is a fraction of it; None: the initial state's).  With the port channel the shadow has the port
         velocity rows and no port input columns: the channel is exact for the port forces and adds its own part and
         bound to each row (fmu_src/rom_bound.c).  ``model_runs``: the model's own runs on the reference inputs
-        (:func:`sphrom.rom.bounds.model_errors`), which size the shadow against the model's error."""
+        (:func:`sphrom.rom.bounds.model_errors`), which size the shadow against the model's error.  ``truth``: the
+        truth's matrix and growth rate the packaging built once for the shadow and the port channel
+        (:func:`sphrom.rom.lti.truth_matrix`; None: built by the shadow)."""
         return fmu_shadow(problem, probes, tuple(self.ports), parametric=parametric, scale_v=scale_v,
-                          port_inputs=self.channel is None, model_runs=model_runs)
+                          port_inputs=self.channel is None, model_runs=model_runs, truth=truth)
 
 
 def two_blocks(first, second, k_first, k_second):

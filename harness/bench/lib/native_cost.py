@@ -6,6 +6,15 @@ read (held to at most COST_TARGET) and with their bounds read too.  Where valgri
 ratio in instructions (callgrind): a count that does not move with the machine's load, where the timings of a
 shared machine do; and, for an FMU with a free response table, the same count past the table's end (t > t_end, where
 the complement's modes that matter are continued by a recurrence instead of read from the table).
+
+The timing on a loaded machine (:func:`timing_rounds`).  Each run is short (NATIVE_STEPS steps: milliseconds for most
+FMUs) and the three variants' runs of a round are back to back, so the two runs of a ratio are close in time; the
+ratio is the median over many rounds (NATIVE_ROUNDS, as many as fit in NATIVE_BUDGET).  On a loaded shared virtual
+machine the thread CPU time of a run is off both ways (runs reported well below the usual time as well as above), so
+a variant's minimum over the runs is no estimate, and a median over a few rounds moves with the one or two of them
+that were off.  A run spans n_steps h from t = 0 (NATIVE_STEPS x STEP = 200 s): for an FMU whose free response table
+ends sooner, its steps past the table's end too, so the native ratio mixes the two regimes the instruction counts
+keep apart, and past the table a step's time need not follow its instructions.
 """
 
 import tempfile
@@ -15,6 +24,8 @@ from typing import NamedTuple
 import numpy as np
 
 NATIVE_STEPS = 20000    # steps per run of the native FMI master (native_cost)
+NATIVE_ROUNDS = 15      # rounds of the three runs (native_cost: the ratios' medians over them), at least ``repeats``
+NATIVE_BUDGET = 4.0     # [s] ... the rounds past ``repeats`` only while the timing has taken less than this
 COST_TARGET = 1.3       # doStep with the bounds at most this x without (native, the outputs read)
 STEP = 0.01             # [s] the communication step
 COUNT_STEPS = (500, 1500)   # instruction counts: runs of these many steps, per step the difference / 1000 (setup cancels)
@@ -23,7 +34,8 @@ PAST_STEPS = 50             # past the table: the counted steps begin this many 
 
 class NativeCost(NamedTuple):
     """ns per step (medians over the rounds) and the ratios to the FMU without bounds (medians of each round's ratio:
-    the three runs of a round are back to back, so a drift of the machine's speed falls on both sides of a ratio)."""
+    the three runs of a round are back to back, so a drift of the machine's speed falls on both sides of a ratio;
+    :func:`timing_rounds`: NATIVE_ROUNDS rounds where they fit in NATIVE_BUDGET, else the ``repeats`` asked for)."""
     bounds_ns: float            # with the bounds, the outputs read
     read_ns: float              # ... and every bound read too
     plain_ns: float             # without the bounds' sections
@@ -70,14 +82,33 @@ def instructions_per_step(command, steps=COUNT_STEPS):
     return (totals[1] - totals[0]) / (steps[1] - steps[0])
 
 
+def timing_rounds(run, repeats, rounds=NATIVE_ROUNDS, budget=NATIVE_BUDGET, clock=None):
+    """The times of ``run(i)`` (i = 0, 1, 2: the three variants of :func:`native_cost`) in rounds: each round the
+    three back to back, in turn forwards and backwards (a drift of the machine's speed falls on both sides of a
+    ratio), ``repeats`` rounds at least and up to ``rounds`` while the rounds so far took less than ``budget`` [s]
+    (an FMU of costly steps stays at ``repeats``).  ``clock``: seconds (time.perf_counter).  Returns three lists,
+    one time per round each."""
+    import time
+    clock = clock or time.perf_counter
+    times = [[], [], []]
+    start = clock()
+    r = 0
+    while r < max(int(repeats), 1) or (r < rounds and clock() - start < budget):
+        for i in (range(3) if r % 2 == 0 else reversed(range(3))):
+            times[i].append(run(i))
+        r += 1
+    return times
+
+
 def native_cost(path, repeats, n_steps=NATIVE_STEPS, h=STEP):
     """:class:`NativeCost` (ns per step with the bounds, with the bounds read, without; the ratios) of the FMU at
     ``path`` in the native FMI 2 master
     ``sphrom_step_cost`` (fmu_src/tests/step_cost.c: the FMU's binary loaded with dlopen, per step fmi2SetReal of f
     (and of F_port_j: a spring to ground on each port of a port FMU), fmi2DoStep, fmi2GetReal of the outputs, with
     their bounds in the second figure), beside the same FMU without the bounds' sections (its modelDescription's
-    guid set to that model.bin's token): thread CPU time, medians over ``repeats`` runs of ``n_steps`` steps of
-    ``h`` [s], the three in turn; where the FMU has a free response table (its span t_end), the instruction counts
+    guid set to that model.bin's token): thread CPU time, medians over the rounds (:func:`timing_rounds`: at least
+    ``repeats``, up to NATIVE_ROUNDS within NATIVE_BUDGET) of runs of ``n_steps`` steps of ``h`` [s], the three
+    back to back in each round; where the FMU has a free response table (its span t_end), the instruction counts
     also over the 1000 steps from PAST_STEPS steps past t_end.  None where the master was not built."""
     import json
     import re
@@ -117,11 +148,8 @@ def native_cost(path, repeats, n_steps=NATIVE_STEPS, h=STEP):
             if done.returncode != 0:
                 raise RuntimeError(f"{driver.name} on {path}: {done.stderr.strip()}")
             return json.loads(done.stdout)["ns_per_step_cpu"]
-        times = [[], [], []]
         plan = ((with_dir, False), (with_dir, True), (bare_dir, False))
-        for r in range(repeats):             # a round: the three back to back, in turn forwards and backwards
-            for i in (range(3) if r % 2 == 0 else reversed(range(3))):
-                times[i].append(run(*plan[i]))
+        times = timing_rounds(lambda i: run(*plan[i]), repeats)
         counts = [instructions_per_step(command(with_dir, False)), instructions_per_step(command(bare_dir, False))]
         past = [float("nan")] * 2
         if t_end is not None:

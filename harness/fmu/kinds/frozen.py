@@ -49,7 +49,7 @@ from ...rom.registry import get_model
 from ...rom.stepping import initial_scale, runaway_bound
 from ...sph.solver import step_count
 from ..resources import FLAG_DAMPING, FLAG_INPUT, INTEGRATORS, port_sections
-from ..training.steps import model_basis, shadow_step, training_basis, training_envelope
+from ..training.steps import model_basis, packaging_truth, shadow_step, training_basis, training_envelope
 from . import ModelWords, pack, step_error
 
 NUMBER = 1
@@ -296,9 +296,10 @@ def resource(scene, model, k, n_freeze, probes, integrator, progress, problem, o
     (:func:`choose_n_freeze`, the errors it measured in ``data.n_freeze_errors``); ``integrator_given`` False
     (the user named none): :func:`open_ended_integrator` decides (``data.integrator``)."""
     basis, run, problem = training_basis(scene, progress, problem, extra_steps)
+    truth = packaging_truth(problem, ports, build_options, error_bounds)   # the port channel's and the shadow's
     data, ops, problem, _ = reduced_model(scene, k, n_freeze or defaults.N_FREEZE, probes, integrator,
                                           progress=progress, problem=problem, model=model, ports=ports,
-                                          build_options=build_options, made=(basis, run))
+                                          build_options=build_options, made=(basis, run), truth=truth)
     if not integrator_given:
         integrator = data.integrator = open_ended_integrator(ops, data.dt, integrator)
     data.sections.update(particle_sections(ops, problem))
@@ -310,7 +311,7 @@ def resource(scene, model, k, n_freeze, probes, integrator, progress, problem, o
                                                               else "tensor")
     data.sections.update(training_envelope(scene, ops, problem, probes, False, progress, run=run).sections())
     if error_bounds:
-        shadow_step(data, ops, problem, probes)
+        shadow_step(data, ops, problem, probes, truth=truth)
     return data, ops, pack(data)
 
 
@@ -320,7 +321,7 @@ def parameter_starts(data):
 
 
 def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem=None, model="frozen", ports=(),
-                  build_options=None, made=None, tensor=None):
+                  build_options=None, made=None, tensor=None, truth=None):
     """The FMU's numbers for a model of resource kind 1 (frozen coefficients): (ModelData, ops, problem, basis).
 
     Runs (or reuses) the full SPH and the POD (sphrom.pod.pipeline), builds the model's operators
@@ -331,7 +332,8 @@ def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem
     particle refresh, :func:`particle_sections`, or has at most ``TENSOR_MAX_ENTRIES`` entries; a port model's
     larger basis, whose tensor grows as k⁴, is not built; ``"always"``: built anyway).  ``build_options`` go to
     the model's build (``{"b": "paper"}``: eq. 2.22's b, the paper's variant, :mod:`sphrom.bench.rest` compares
-    them).
+    them).  ``truth``: the packaging's truth's matrix for the port channel
+    (:func:`sphrom.fmu.training.steps.packaging_truth`; None: built there).
     """
 
     spec = get_model(model)
@@ -341,7 +343,7 @@ def reduced_model(scene, k, n_freeze, probes, integrator, progress=True, problem
                      tensor="always" if tensor == "always" else "never",
                      **({"ports": own_ports} if own_ports else {}), **options)
     if channel:                     # the portless model and the port channel, which takes every port force
-        ops = attach(ops, problem, ports, probes)
+        ops = attach(ops, problem, ports, probes, truth=truth)
     if ops.T is None and (not particle_sections(ops, problem) or wants_tensor("auto", ops.k_v, ops.k_rho)):
         from ...rom.operators import refresh_tensor                     # the FMU's, or small enough to keep
         t0 = time.perf_counter()

@@ -24,7 +24,7 @@ from ...rom.registry import get_model
 from ...sph.solver import build_problem
 from ..resources import (FLAG_BLOCKS, FLAG_DAMPING, FLAG_INPUT, FLAG_OUTPUT_ROWS, FLAG_SCHUR, LINEAR_BALANCED,
                          LINEAR_EXACT_POD, port_sections, probe_pairs)
-from ..training.steps import model_basis, shadow_step, training_basis, training_envelope
+from ..training.steps import model_basis, packaging_truth, shadow_step, training_basis, training_envelope
 from . import ModelWords, pack
 
 NUMBER = 2
@@ -284,17 +284,21 @@ def resource(scene, model, k, n_freeze, probes, integrator, progress, problem, o
     blocks = bool(build_options.pop("blocks", True))
     if get_model(model).needs_basis:
         basis, run, problem = training_basis(scene, progress, problem, extra_steps)
+        truth = packaging_truth(problem, ports, build_options, error_bounds)   # the channel's and the shadow's
         data, ops, problem, _ = exact_model(scene, k, probes, progress=progress,
                                             problem=problem,
                                             model=model, ports=ports, build_options=build_options,
-                                            made=(basis, run))
+                                            made=(basis, run), truth=truth)
         data.sections.update(training_envelope(scene, ops, problem, probes, True, progress, run=run).sections())
     else:
+        problem = problem or build_problem(scene)
+        truth = packaging_truth(problem, ports, build_options, error_bounds)
         data, ops, problem = balanced_model(scene, k, probes,
                                             order_tolerance=order_tolerance,
-                                            problem=problem, model=model, build_options=build_options, ports=ports)
+                                            problem=problem, model=model, build_options=build_options, ports=ports,
+                                            truth=truth)
     if error_bounds:
-        shadow_step(data, ops, problem, probes)
+        shadow_step(data, ops, problem, probes, truth=truth)
     if blocks:
         data = to_blocks(data)          # its real eigen-coordinates where well conditioned (the dense form kept else)
     if not bounds:
@@ -310,13 +314,14 @@ def parameter_starts(data):
 
 
 def exact_model(scene, k, probes, progress=True, problem=None, model="exact", ports=(),
-                build_options=None, made=None):
+                build_options=None, made=None, truth=None):
     """The FMU's numbers for a model of resource kind 2 on a POD basis (the exact model):
     (ExactData, lin, problem, basis).
 
     The model's bases (the exact model: the energy-weighted ``Basis.U_ve``, ``U_e``), the operators with the
     model's ``fmu_input_direction`` (the exact model: ``"always"``, the force profile is always in its
-    velocity basis, so the input f is represented exactly) and ``build_options``.
+    velocity basis, so the input f is represented exactly) and ``build_options``.  ``truth``: the packaging's
+    truth's matrix for the port channel (:func:`sphrom.fmu.training.steps.packaging_truth`; None: built there).
     """
 
     spec = get_model(model)
@@ -325,18 +330,19 @@ def exact_model(scene, k, probes, progress=True, problem=None, model="exact", po
     lin = spec.build(problem, basis, k, k, input_direction=spec.fmu_input_direction,
                      **({"ports": own_ports} if own_ports else {}), **options)
     if channel:                     # the portless model and the port channel, which takes every port force
-        lin = attach(lin, problem, ports, probes)
+        lin = attach(lin, problem, ports, probes, truth=truth)
     data = exact_data(lin, problem, probes=probes, bound=linear_bound(lin, scene))
     return data, lin, problem, basis
 
 
 def balanced_model(scene, k, probes, order_tolerance=None, problem=None, model="balanced",
-                   build_options=None, ports=()):
+                   build_options=None, ports=(), truth=None):
     """The FMU's numbers for a linear model without a POD basis (balanced): (ExactData, ops, problem).
 
     The full linear SPH of the scene with the FMU's probes as outputs, balanced
     and truncated at order ``k`` (or the order ``order_tolerance`` gives; the default
-    tolerance when both are None); :func:`sphrom.fmu.resources.balanced_data`.
+    tolerance when both are None); :func:`sphrom.fmu.resources.balanced_data`.  ``truth``: the packaging's
+    truth's matrix for the port channel (:func:`sphrom.fmu.training.steps.packaging_truth`; None: built there).
     """
 
     problem = problem or build_problem(scene)
@@ -352,7 +358,7 @@ def balanced_model(scene, k, probes, order_tolerance=None, problem=None, model="
         from ...errors import FieldError
         raise FieldError("k" if field_name == "order" else field_name, detail) from None
     if channel:
-        ops = attach(ops, problem, ports, probes)
+        ops = attach(ops, problem, ports, probes, truth=truth)
     return balanced_data(ops, problem), ops, problem
 
 

@@ -13,7 +13,9 @@ import numpy as np
 from ...cache import cached_sph
 from ...errors import FieldError
 from ...pod.pipeline import basis_for_scene, error_steps, training_steps
-from ...rom.bounds import sections
+from ...rom.bounds import fmu_shadow_applies, sections
+from ...rom.lti import truth_matrix
+from ...rom.port_channel import model_ports
 from ...rom.model import BASIS_KINDS
 from ...sph.solver import build_problem
 from .. import layout
@@ -59,7 +61,17 @@ def training_basis(scene, progress, problem, extra_steps=()):
     return basis, run, problem
 
 
-def shadow_step(data, ops, problem, probes, parametric=False):
+def packaging_truth(problem, ports=(), build_options=None, error_bounds=True, parametric=False):
+    """The truth's matrix and growth rate (:func:`sphrom.rom.lti.truth_matrix`) of a packaging, built once for its
+    port channel (:func:`sphrom.rom.port_channel.attach`) and its shadow (:func:`shadow_step`), or None where
+    neither is built: no port channel (:func:`sphrom.rom.port_channel.model_ports`) and no shadow (``error_bounds``
+    False, or :func:`sphrom.rom.bounds.fmu_shadow_applies` not)."""
+    channel = model_ports(problem, ports, build_options)[2]
+    shadow = bool(error_bounds) and fmu_shadow_applies(problem, parametric)
+    return truth_matrix(problem) if channel or shadow else None
+
+
+def shadow_step(data, ops, problem, probes, parametric=False, truth=None):
     """The certified error bounds' shadow of every output of the model ``ops`` (its probes and ports, the
     operators' ``bound_shadow``) into ``data.sections`` (SH*, :mod:`sphrom.rom.bounds`;
     the FMU's outputs ``*_error_bound`` and parameter ``error_tolerance``), its default tolerance from the training
@@ -68,12 +80,12 @@ def shadow_step(data, ops, problem, probes, parametric=False):
     certify (more than FMU_MAX_PARTICLES particles, a parametric model whose d is not uniform).  A damping d that
     is not uniform gives the eigen-planes of A (:mod:`sphrom.rom.bounds`).  ``parametric``: the shadow of a parametric
     FMU (its planes in pieces of c and d, sections SHPIECE and SHPARAM; the C core assembles them at the FMU's c
-    and d)."""
+    and d).  ``truth``: the packaging's truth's matrix (:func:`packaging_truth`; None: the shadow builds its own)."""
     envelope = data.sections.get("ENVPROBE")
     scale_v = (float(np.max(envelope[layout.row("ENVPROBE", "v_max")])) if envelope is not None else
                training_probe_speed(problem, probes))
     shadow = ops.bound_shadow(problem, probes, parametric=parametric, scale_v=scale_v,
-                              model_runs=None if parametric else core_runs(data))
+                              model_runs=None if parametric else core_runs(data), truth=truth)
     if shadow is not None:
         data.sections.update(sections(shadow))
 
