@@ -449,6 +449,7 @@ RomStatus rom_bound_prepare(RomModel *m, char *message, size_t message_size) {
     b->q = (uint32_t)v[ROM_SHSCAL_Q_TAB];
     b->n_cpl = (uint32_t)v[ROM_SHSCAL_CPLANES];
     b->h_tab = v[ROM_SHSCAL_H_TAB];
+    b->t_end = b->nodes ? b->h_tab * (double)(b->nodes - 1) : 0.0;     /* (table_end) */
     if (shape(sec[1], planes, 4, message, message_size) != ROM_OK ||
         shape(sec[2], order, inputs, message, message_size) != ROM_OK ||
         shape(sec[3], rows, order, message, message_size) != ROM_OK ||
@@ -589,8 +590,9 @@ void rom_bound_reset(RomState *s) {
     for (int c = 0; c < BOUND_CACHE; c++) bs->cache[c].h = 0.0;      /* the maps stay valid; kept empty anyway */
 }
 
+/* the free response table's end [s] (0: no table): h_tab (nodes - 1), computed when the section was read */
 static double table_end(const RomBoundModel *b) {
-    return b->nodes ? b->h_tab * (double)(b->nodes - 1) : 0.0;
+    return b ? b->t_end : 0.0;
 }
 
 /* The continued modes past the table (SHCONT): row r adds Re sum_M Q_rM E_M, E_M = exp(mu_M x), x = tau - t_end,
