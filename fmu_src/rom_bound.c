@@ -57,6 +57,11 @@
 #define BOUND_CONT_ROUNDOFF 1e-13      /* harness/rom/bounds.py CONT_ROUNDOFF */
 #define BOUND_CONT_ANCHOR 256.0        /* ... CONT_ANCHOR: the continued modes' steps between exact anchors */
 #define BOUND_CONT_FOLD 3u             /* the rows whose continued sums the step forms (the velocity rows of group 0) */
+#if defined(__GNUC__)
+#define BOUND_INLINE static inline __attribute__((always_inline))   /* (the specialized copies: constants folded) */
+#else
+#define BOUND_INLINE static inline
+#endif
 _Static_assert((3u * ROM_MAX_PROBES + ROM_MAX_PORTS + 1u + BOUND_GROUP - 1u) / BOUND_GROUP <= 64u * BOUND_GROUP_WORDS,
                "the rows' sums' groups fit BoundState.groups' bits");
 
@@ -643,8 +648,8 @@ static void cont_exact(const RomBoundModel *b, double x, double *out) {
  * of length h = c->h from t0 = tau - h): exp(-alpha_g (tau - t_end)), or, where the last step left them at t0
  * after the table's end, those times this step's exp(-alpha_g h) (c->decay) rounded up (TAIL_UP): never below
  * the decay over the steps' own sum, without an exponential per group and step */
-static void tail_decays(BoundState *bs, const RomBoundModel *b, double tau, double t0, const BoundCache *c,
-                        double h) {
+BOUND_INLINE void tail_decays(BoundState *bs, const RomBoundModel *b, double tau, double t0,
+                              const BoundCache *c, double h) {
     const double t_end = table_end(b), over = tau - t_end;
     const int chain = bs->tail_tau == t0 && t0 > t_end && h == c->h;
     bs->tail_tau = tau;
@@ -738,11 +743,6 @@ static void shadow_group(const RomState *s, BoundState *bs, size_t g);
  * register on x86-64), plain arrays elsewhere (or with -DROM_NO_LANES: tests/test_bound_step_cost.py compares the builds);
  * every lane does the scalar IEEE operation, in the same order (as rom_frozen.c's blocks).  Loads through memcpy:
  * the rows need no alignment. */
-#if defined(__GNUC__)
-#define BOUND_INLINE static inline __attribute__((always_inline))   /* (the specialized copies: constants folded) */
-#else
-#define BOUND_INLINE static inline
-#endif
 #if defined(__GNUC__) && !defined(ROM_NO_LANES)
 #define BOUND_LANES 1
 typedef double BoundLanes __attribute__((vector_size(16)));
