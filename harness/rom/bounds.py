@@ -911,13 +911,18 @@ def continued_modes(modes: Modes, decayed, budget, values, fixed, floor=None):
     left out whatever is chosen: the defective modes' and the planes never computed) within the allowance the table's
     own error was sized to (:func:`choose_planes`: ``budget`` (rows,), the table's largest certified error, or
     FREE_TARGET x the row's largest tabulated free response where that is larger): the bound's free part past the
-    table is then no larger than within it.  Or within ``floor`` (rows,) where that is larger: :data:`CONT_SHARE` of
-    the round-off allowance the bound carries at every time, ROUNDOFF ‖c_r‖ ‖x0‖ per unit initial_state_scale
-    (:func:`run_shadow`, the C core's), so that past the table the bound exceeds the one with every such mode
-    continued by at most CONT_SHARE x that allowance: a complement whose free response is round-off (the initial state's
-    coefficients on the planes left out of an accurate shadow, 1e-16 of the response: high_frequency's) is not
-    continued mode by mode (each costs the FMU a complex product and its sums per step).  The smallest modes are
-    left out first; a mode is continued where any row needs it."""
+    table is then no larger than within it.  Or within ``floor`` (rows,) where that is larger (:func:`build_shadow`):
+    :data:`CONT_SHARE` of the round-off allowance the bound carries at every time, ROUNDOFF ‖c_r‖ ‖x0‖ per unit
+    initial_state_scale (:func:`run_shadow`, the C core's), so that past the table the bound exceeds the one with
+    every such mode continued by at most CONT_SHARE x that allowance: a complement whose free response is round-off
+    (the initial state's coefficients on the planes left out of an accurate shadow, 1e-16 of the response:
+    high_frequency's) is not continued mode by mode (each costs the FMU a complex product and its sums per step); and
+    where the model's own error from its initial state is known (:func:`choose_planes`, ``model_runs``), the free
+    channel's allowance of it, MODEL_FRACTION x that error: past the table the bound's free part stays within the
+    allowance the channel was sized to, as within it (the table is finer than that allowance asks: more nodes cost
+    nothing per step), so the bound of a model less accurate than the table stays within 1 + 2 MODEL_FRACTION of
+    its largest error from its initial state.  The smallest modes are left out first; a mode is continued where any
+    row needs it."""
     M = decayed.shape[1]
     cont = np.zeros(M, bool)
     if M == 0:
@@ -1338,8 +1343,12 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
             else:
                 lo = mid
         cap = hi
+    # past the table the modes left out may reach the free channel's allowance where the model's error gave it
+    # (continued_modes): MODEL_FRACTION x the model's error from its initial state, per row (0 where not known)
+    model_room = np.zeros(rows) if free_e is None else MODEL_FRACTION * np.nan_to_num(np.asarray(free_e, float))
     return keep, values, {"omega_ref": omega, "reached": bool(reached), "plateau": plateau,
-                          "excess": excesses, "model_error": model_info, "table_nodes": int(cap)}
+                          "excess": excesses, "model_error": model_info, "table_nodes": int(cap),
+                          "free_model_room": [float(x) for x in model_room]}
 
 
 def cluster_importance(clusters, modes, mg, omega, span, classes, step_r, sine_r, free_scale, big, initial, h_tab):
@@ -1512,10 +1521,13 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
         cplanes = {"sigma": planes.key[restp].copy(), "chat": chat[:, restp].copy(),
                    "bv": bhat[restp, 0, :].copy(), "eta": eta[restp, 0].copy()}
     else:
-        # past the table, the modes left out within CONT_SHARE of the bound's round-off allowance (continued_modes)
+        # past the table, the modes left out within CONT_SHARE of the bound's round-off allowance, or within the
+        # free channel's allowance of the model's own error (choose_planes), where larger (continued_modes)
+        floor = CONT_SHARE * ROUNDOFF * np.linalg.norm(C, axis=1) * float(np.linalg.norm(x0))
+        if "free_model_room" in ref:
+            floor = np.maximum(floor, np.asarray(ref["free_model_room"], float))
         comp = complement(rest_modes, L0[restp], chat[:, restp], bhat[restp], tail, T,
-                          max_nodes=int(ref.get("table_nodes", MAX_NODES)),
-                          floor=CONT_SHARE * ROUNDOFF * np.linalg.norm(C, axis=1) * float(np.linalg.norm(x0)))
+                          max_nodes=int(ref.get("table_nodes", MAX_NODES)), floor=floor)
     row_norm = np.linalg.norm(C, axis=1)
     scale_v = float(scale_v) if scale_v is not None else float(np.max(np.abs(C[:P] @ x0)))
     shadow = Shadow(A=A, B=B, C=Cs, w0=w0, comp=comp, row_norm=row_norm, row_e=row_e,
