@@ -56,6 +56,13 @@
 #define BOUND_MAX_CONT 65536u          /* the modes continued past the free response table at most (SHCONT) */
 #define BOUND_CONT_ROUNDOFF 1e-13      /* harness/rom/bounds.py CONT_ROUNDOFF */
 #define BOUND_CONT_ANCHOR 256.0        /* ... CONT_ANCHOR: the continued modes' steps between exact anchors */
+/* No subnormal operand on the hot path (a subnormal product costs ~100 cycles on x86): the tails' decays after the
+ * table and the weighted variations are kept at or above BOUND_DECAY_FLOOR once positive, and the complement's
+ * positive gains and tails at or above BOUND_SIZE_FLOOR (bounds.py SIZE_FLOOR; the parametric sums here), so their
+ * products stay normal numbers (>= 2^-900); each floor raises an upper bound, by at most ~1e-120 of the bound */
+#define BOUND_DECAY_FLOOR 0x1p-500     /* harness/rom/bounds.py DECAY_FLOOR */
+#define BOUND_DECAY_FLOOR_X 347.0      /* exp(-x) <= BOUND_DECAY_FLOOR for x >= this (> 500 ln 2 = 346.57) */
+#define BOUND_SIZE_FLOOR 0x1p-400      /* ... SIZE_FLOOR */
 #define BOUND_CONT_FOLD 3u             /* the rows whose continued sums the step forms (the velocity rows of group 0) */
 #if defined(__GNUC__)
 #define BOUND_INLINE static inline __attribute__((always_inline))   /* (the specialized copies: constants folded) */
@@ -251,7 +258,10 @@ static RomStatus assemble_complement(RomBoundModel *b, double c, double d, char 
     rates[1] = fmin(isfinite(slow) ? slow : 0.5 * d, 0.5 * d);
     for (uint32_t r = 0; r < R; r++) {
         double *row = rows + (size_t)r * len;
-        for (uint32_t k = 1 + 2 * m; k < len; k++) row[k] *= 1.0 + BOUND_SUM_ROUNDOFF;
+        for (uint32_t k = 1 + 2 * m; k < len; k++) {
+            row[k] *= 1.0 + BOUND_SUM_ROUNDOFF;
+            if (row[k] > 0 && row[k] < BOUND_SIZE_FLOOR) row[k] = BOUND_SIZE_FLOOR;
+        }
     }
     return ROM_OK;
 }
@@ -648,6 +658,11 @@ static void cont_exact(const RomBoundModel *b, double x, double *out) {
  * of length h = c->h from t0 = tau - h): exp(-alpha_g (tau - t_end)), or, where the last step left them at t0
  * after the table's end, those times this step's exp(-alpha_g h) (c->decay) rounded up (TAIL_UP): never below
  * the decay over the steps' own sum, without an exponential per group and step */
+/* exp(-x), x >= 0, at least BOUND_DECAY_FLOOR (an upper bound of it; no libm call where it underflows there) */
+static inline double floored_decay(double x) {
+    return x >= BOUND_DECAY_FLOOR_X ? BOUND_DECAY_FLOOR : fmax(exp(-x), BOUND_DECAY_FLOOR);
+}
+
 BOUND_INLINE void tail_decays(BoundState *bs, const RomBoundModel *b, double tau, double t0,
                               const BoundCache *c, double h) {
     const double t_end = table_end(b), over = tau - t_end;
@@ -656,16 +671,18 @@ BOUND_INLINE void tail_decays(BoundState *bs, const RomBoundModel *b, double tau
     bs->tails_restored = 0;                             /* (the chain moved on: an assembly now is of new rates) */
     if (chain && c->chain && over > 0) {                /* every group chains (the loop's second case, the same
                                                            bits): the common step past the table, one test a step */
-        for (uint32_t g = 0; g < b->groups; g++) bs->tail_decay[g] = bs->tail_decay[g] * c->decay[g] * TAIL_UP;
+        for (uint32_t g = 0; g < b->groups; g++) {
+            bs->tail_decay[g] = fmax(bs->tail_decay[g] * c->decay[g] * TAIL_UP, BOUND_DECAY_FLOOR);
+        }
         return;
     }
     for (uint32_t g = 0; g < b->groups; g++) {
         if (!(over > 0)) {
             bs->tail_decay[g] = 1.0;
         } else if (chain && b->rates[g] * h <= TAIL_CHAIN_X) {
-            bs->tail_decay[g] = bs->tail_decay[g] * c->decay[g] * TAIL_UP;
+            bs->tail_decay[g] = fmax(bs->tail_decay[g] * c->decay[g] * TAIL_UP, BOUND_DECAY_FLOOR);
         } else {
-            bs->tail_decay[g] = exp(-b->rates[g] * over);
+            bs->tail_decay[g] = floored_decay(b->rates[g] * over);
         }
     }
 }
@@ -1186,7 +1203,8 @@ BOUND_INLINE void step_shadow(RomState *s, BoundState *bs, double h, size_t m) {
         const double jump = fabs(u[j] - bs->u_prev[j]), slope = fabs(du[j]);
         for (size_t g = 0; g < G; g++) {
             double *V = &bs->V[j * G + g];
-            *V = c->decay[g] * (*V + jump) + c->slope[g] * slope;
+            const double v = c->decay[g] * (*V + jump) + c->slope[g] * slope;
+            *V = v > 0 && v < BOUND_DECAY_FLOOR ? BOUND_DECAY_FLOOR : v;     /* (kept normal once positive) */
         }
         u2 += u[j] * u[j];
         e2 += (u[j] + du[j]) * (u[j] + du[j]);
@@ -1309,7 +1327,7 @@ static void row_time(const RomState *s, RowTime *rt) {
     } else {
         const double over = tau > t_end ? tau - t_end : 0.0;
         const int cached = tau == bs->tail_tau;          /* the step's decays (rom_bound_step), else computed */
-        for (uint32_t g = 0; g < b->groups; g++) rt->decay[g] = cached ? bs->tail_decay[g] : exp(-b->rates[g] * over);
+        for (uint32_t g = 0; g < b->groups; g++) rt->decay[g] = cached ? bs->tail_decay[g] : floored_decay(b->rates[g] * over);
         rt->cont = b->n_cont ? cont_modes(bs, b, tau, rt) : NULL;
     }
     if (bs->started != 0.0) {

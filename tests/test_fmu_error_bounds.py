@@ -707,3 +707,52 @@ def test_uncomputed_planes_free_response_computed(monkeypatch, path):
             truth_t = C @ (sla.expm(A * t) @ x_tail)
             assert np.all(np.abs(cubic - truth_t) <= table.error[:, j]), (j, s)
     assert np.all(table.error[:, 0] <= 1e-3 * scale)
+
+
+def test_no_subnormal_number_on_the_bounds_hot_path(make):
+    """A subnormal operand costs the CPU about 100 cycles per operation (a damped scene's doStep with bounds cost
+    1.29 x its doStep without, in time, past the free response table while its instructions said 1.13: tails of
+    1e-289 times decays of 1e-20 each step).  The complement's positive gains and tails are at least SIZE_FLOOR in
+    the FMU's sections, and the tails' decays after the table and the weighted variations, once positive, at least
+    DECAY_FLOOR (raised: still upper bounds), so the products the step forms are normal numbers: checked in the
+    serialized state at a time where the fastest group's decay e^{-α (τ - t_end)} would be subnormal (α (τ - t_end)
+    = 720), reached by one long step; the bounds there equal run_shadow's, which floors the same way, and hold."""
+    from sphrom.fmu.layout import STATE_HEADER
+    from sphrom.fmu.training.steps import core_runs
+    from sphrom.rom.bounds import DECAY_FLOOR, SIZE_FLOOR, fmu_shadow, floored_decay, output_bounds, run_shadow
+    from sphrom.sph.solver import build_problem
+    tiny = np.finfo(float).tiny
+    x = np.concatenate([np.linspace(0.0, 800.0, 4001), [1e4, np.inf]])
+    assert np.all(floored_decay(x) >= np.exp(-x)) and np.all(floored_decay(x) >= DECAY_FLOOR)
+    assert SIZE_FLOOR * DECAY_FLOOR >= 2.0 ** 100 * tiny          # (a gain times a variation, a tail times a decay)
+    path, data = make(model="exact", case="forced")
+    row = data.sections["SHROW"]
+    terms = row[:, 1 + 2 * 1:]                                      # (one input: norm, D, static, then H, tail)
+    assert np.all((terms <= 0) | (terms >= SIZE_FLOOR)), terms[(terms > 0) & (terms < SIZE_FLOOR)]
+    shadow = fmu_shadow(build_problem(fmu_scene("forced")), PROBES, scale_v=float(np.max(data.sections["ENVPROBE"][1])),
+                        model_runs=core_runs(data))
+    comp = shadow.comp
+    assert comp.values is not None and comp.rates.max() > 0
+    tau = comp.t_end + 720.0 / comp.rates.max()
+    h = np.concatenate([np.full(10, H), [tau - 10 * H], np.full(10, H)])
+    t = np.concatenate([[0.0], np.cumsum(h)])
+    f = 3e-3 * np.sin(1.7 * t)
+    with FMU(path) as fmu:
+        fmu.initialize(parameters={"initial_state_scale": 1.0}, inputs={"f": float(f[0])})
+        outs = [fmu.output_values(fmu.outputs)]
+        for j in range(h.size):
+            fmu.set_input(float(f[j]))
+            fmu.do_step(t[j], h[j])
+            outs.append(fmu.output_values(fmu.outputs))
+            if j == 10:
+                blob = fmu.serialize(fmu.get_state())
+        names = fmu.outputs
+    values = np.frombuffer(blob[STATE_HEADER.size:len(blob) - 4], dtype="<f8")
+    odd = values[(values != 0) & (np.abs(values) < tiny)]
+    assert odd.size == 0, odd
+    out = np.array(outs)
+    y, cert = run_shadow(shadow, h, f[:-1, None], np.zeros((h.size, 1)), scale=1.0)
+    v, rho = columns(out, names, "v_probe_j"), columns(out, names, "rho_probe_j")
+    vb, rb, _ = output_bounds(shadow, y, cert, v, rho)
+    np.testing.assert_allclose(columns(out, names, "v_probe_j_error_bound")[11:], vb[11:], rtol=1e-9,
+                               atol=1e-12 * np.abs(v).max())

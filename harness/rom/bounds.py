@@ -87,6 +87,10 @@ MAX_COMPUTED = 400          # them (build_shadow; Lanczos costs ~N k²: BENCHMAR
 ROUNDOFF = 1e-11            # relative round-off allowance
 ROUNDOFF_STEP = 1e-15       # ... plus this per step
 SUM_ROUNDOFF = 1e-12        # the complement's sums: times (1 + this)
+DECAY_FLOOR = 2.0 ** -500   # the tails' decays after the table and the variations, once positive: at least this
+DECAY_FLOOR_X = 347.0       # ... e^{-x} <= DECAY_FLOOR for x >= this (> 500 ln 2)
+SIZE_FLOOR = 2.0 ** -400    # the complement's positive gains and tails: at least this (so that no product the FMU
+                            # forms per step is subnormal: rom_bound.c BOUND_DECAY_FLOOR; raising an upper bound)
 TABLE_SPAN = 20.0           # the initial state's free response table covers this x the scene's T (at most)
 MAX_NODES = 4096            # its nodes at most (at first: choose_planes tries the caps of TABLE_NODES)
 TABLE_NODES = (4096, 8192, 16384, 32768)   # ... the caps tried: the one that keeps the fewest planes, then the fewest
@@ -759,6 +763,20 @@ def tail_of(planes, C, Bcols, x0, d, K=None):
     return tail
 
 
+def floored(a, floor=SIZE_FLOOR):
+    """``a`` (non-negative sizes) with its positive entries below ``floor`` raised to it (zeros and inf kept): an
+    upper bound still, whose products with the decays (>= DECAY_FLOOR) the FMU forms as normal numbers (a subnormal
+    operand costs ~100 cycles on x86; fmu_src/rom_bound.c BOUND_SIZE_FLOOR)."""
+    a = np.asarray(a, float)
+    return np.where((a > 0) & (a < floor), floor, a)
+
+
+def floored_decay(x):
+    """e^{-x} (x >= 0, array) at least DECAY_FLOOR (an upper bound of it; rom_bound.c floored_decay)."""
+    x = np.asarray(x, float)
+    return np.where(x >= DECAY_FLOOR_X, DECAY_FLOOR, np.maximum(np.exp(-np.minimum(x, DECAY_FLOOR_X)), DECAY_FLOOR))
+
+
 def complement(modes: Modes, planes_L, chat, bhat, tail: Tail | None, T, *, table=True, max_nodes=MAX_NODES,
                floor=None):
     """The complement's terms (:class:`Complement`) of the modes ``modes`` (the complement's, every computed plane
@@ -785,7 +803,7 @@ def complement(modes: Modes, planes_L, chat, bhat, tail: Tail | None, T, *, tabl
         gain[:, :, gt] += tail.gain()
         static += tail.static()
         tail_free = tail.free()
-    gain = np.where(np.isfinite(gain), gain * (1 + SUM_ROUNDOFF), np.inf)
+    gain = floored(np.where(np.isfinite(gain), gain * (1 + SUM_ROUNDOFF), np.inf))
     if table and (np.any(np.abs(modes.P)) or np.any(tail_free)):
         t_end, h, values, slopes, errors, q, tl, cmu, cq = free_table(
             modes, group[:modes.alpha.size], rates, T, tail_free, tail.alpha if tail is not None else 0.0,
@@ -801,7 +819,7 @@ def complement(modes: Modes, planes_L, chat, bhat, tail: Tail | None, T, *, tabl
         if tail is not None:
             tl[:, group[-1]] += tail_free
     return Complement(D=D, static=static * (1 + SUM_ROUNDOFF), rates=rates, gain=gain, h=float(h), values=values,
-                      slopes=slopes, errors=errors, q=int(q), t_end=float(t_end), tail=tl * (1 + SUM_ROUNDOFF),
+                      slopes=slopes, errors=errors, q=int(q), t_end=float(t_end), tail=floored(tl * (1 + SUM_ROUNDOFF)),
                       cont_mu=cmu, cont_Q=cq)
 
 
@@ -1002,8 +1020,9 @@ def parametric_complement(cp, c_ref, c, d):
     tail[:, 0] = np.abs(modes.P[:, under]).sum(axis=1)
     tail[:, 1] = np.abs(modes.P[:, ~under]).sum(axis=1)
     return Complement(D=D, static=np.zeros((rows, m)), rates=rates,
-                      gain=np.where(np.isfinite(gain), gain * (1 + SUM_ROUNDOFF), np.inf), h=0.0, values=None,
-                      slopes=None, errors=None, q=1, t_end=0.0, tail=tail * (1 + SUM_ROUNDOFF))
+                      gain=floored(np.where(np.isfinite(gain), gain * (1 + SUM_ROUNDOFF), np.inf)), h=0.0,
+                      values=None, slopes=None, errors=None, q=1, t_end=0.0,
+                      tail=floored(tail * (1 + SUM_ROUNDOFF)))
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -1619,7 +1638,7 @@ def free_part(comp: Complement, tau):
              comp.h * (h10 * comp.slopes[:, k] + h11 * comp.slopes[:, k + 1]))
         return v, comp.errors[:, k // comp.q]
     over = max(tau - comp.t_end, 0.0)
-    error = comp.tail @ np.exp(-comp.rates * over)
+    error = comp.tail @ floored_decay(comp.rates * over)
     if comp.cont_mu is None or comp.cont_mu.size == 0:
         return np.zeros(comp.tail.shape[0]), error
     # the continued modes (free_table): Re Σ_M Q_rM e^{μ_M (τ - t_end)}, their round-off allowance (cont_roundoff)
@@ -1695,6 +1714,7 @@ def run_shadow(sh: Shadow, h, u, rate, *, scale=1.0, c=None, d=None):
         u0, r = u[k], rate[k]
         du = r * hk
         V = decay[None, :] * (V + np.abs(u0 - uprev)[:, None]) + slope[None, :] * np.abs(du)[:, None]
+        V = np.where((V > 0) & (V < DECAY_FLOOR), DECAY_FLOOR, V)        # (kept normal once positive: the FMU's)
         w_int += hk * math.exp(mu * hk) * (np.linalg.norm(w) + hk * sh.b_norm * max(np.linalg.norm(u0),
                                                                                     np.linalg.norm(u0 + du)))
         new = np.empty_like(w)
