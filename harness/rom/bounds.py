@@ -933,8 +933,8 @@ def continued_modes(modes: Modes, decayed, budget, values, fixed, floor=None):
     :data:`CONT_SHARE` of the round-off allowance the bound carries at every time, ROUNDOFF ‖c_r‖ ‖x0‖ per unit
     initial_state_scale (:func:`run_shadow`, the C core's), so that past the table the bound exceeds the one with
     every such mode continued by at most CONT_SHARE x that allowance: a complement whose free response is round-off
-    (the initial state's coefficients on the planes left out of an accurate shadow, 1e-16 of the response:
-    high_frequency's) is not continued mode by mode (each costs the FMU a complex product and its sums per step); and
+    (the initial state's coefficients on the planes left out of an accurate shadow: high_frequency's; tests/
+    test_bound_step_cost.py test_round_off_complement_is_not_continued_past_the_table) is not continued mode by mode (each costs the FMU a complex product and its sums per step); and
     where the model's own error from its initial state is known (:func:`choose_planes`, ``model_runs``), the free
     channel's allowance of it, MODEL_FRACTION x that error: past the table the bound's free part stays within the
     allowance the channel was sized to, as within it (the table is finer than that allowance asks: more nodes cost
