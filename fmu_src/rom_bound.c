@@ -66,6 +66,13 @@
 #define BOUND_DECAY_FLOOR_X 347.0      /* exp(-x) <= BOUND_DECAY_FLOOR for x >= this (> 500 ln 2 = 346.57) */
 #define BOUND_SIZE_FLOOR 0x1p-400      /* ... SIZE_FLOOR */
 #define BOUND_CONT_FOLD 3u             /* the rows whose continued sums the step forms (the velocity rows of group 0) */
+#if defined(__GNUC__)
+#define BOUND_INLINE static inline __attribute__((always_inline))   /* (the specialized copies: constants folded) */
+#define BOUND_APART static __attribute__((noinline))   /* (a path kept out of its caller's frame) */
+#else
+#define BOUND_INLINE static inline
+#define BOUND_APART static
+#endif
 _Static_assert((3u * ROM_MAX_PROBES + ROM_MAX_PORTS + 1u + BOUND_GROUP - 1u) / BOUND_GROUP <= 64u * BOUND_GROUP_WORDS,
                "the rows' sums' groups fit BoundState.groups' bits");
 
@@ -78,6 +85,7 @@ typedef struct {
     double *G0, *G1;           /* [order][inputs] */
     double decay[BOUND_MAX_GROUPS], slope[BOUND_MAX_GROUPS];   /* exp(-alpha h), (1 - exp(-alpha h)) / (alpha h) */
     double growth;             /* exp(mu h): the shadow's growth over the step (w_int) */
+    int chain;                 /* every group's alpha h <= TAIL_CHAIN_X: the tails' decays chain over the step */
 } BoundCache;
 
 typedef struct {
@@ -410,7 +418,6 @@ static RomStatus prepare_table(RomModel *m, char *message, size_t message_size) 
                         "nodes >= 2, h > 0, q >= 1)", b->nodes, b->h_tab, b->q);
     }
     b->blocks = (b->nodes - 1 + b->q - 1) / b->q;
-    b->t_end = b->h_tab * (double)(b->nodes - 1);
     if (shape(tab, 2 * b->rows, b->nodes, message, message_size) != ROM_OK ||
         shape(terr, b->rows, b->blocks, message, message_size) != ROM_OK) return ROM_FAIL;
     b->tab = tab->data;
@@ -468,6 +475,7 @@ RomStatus rom_bound_prepare(RomModel *m, char *message, size_t message_size) {
     b->q = (uint32_t)v[ROM_SHSCAL_Q_TAB];
     b->n_cpl = (uint32_t)v[ROM_SHSCAL_CPLANES];
     b->h_tab = v[ROM_SHSCAL_H_TAB];
+    b->t_end = b->nodes ? b->h_tab * (double)(b->nodes - 1) : 0.0;     /* (table_end) */
     if (shape(sec[1], planes, 4, message, message_size) != ROM_OK ||
         shape(sec[2], order, inputs, message, message_size) != ROM_OK ||
         shape(sec[3], rows, order, message, message_size) != ROM_OK ||
@@ -611,8 +619,9 @@ void rom_bound_reset(RomState *s) {
     for (int c = 0; c < BOUND_CACHE; c++) bs->cache[c].h = 0.0;      /* the maps stay valid; kept empty anyway */
 }
 
+/* the free response table's end [s] (0: no table): h_tab (nodes - 1), computed when the section was read */
 static double table_end(const RomBoundModel *b) {
-    return b->t_end;                                    /* (prepare_table) */
+    return b ? b->t_end : 0.0;
 }
 
 /* The continued modes past the table (SHCONT): row r adds Re sum_M Q_rM E_M, E_M = exp(mu_M x), x = tau - t_end,
@@ -668,12 +677,19 @@ static inline double floored_decay(double x) {
     return x >= BOUND_DECAY_FLOOR_X ? BOUND_DECAY_FLOOR : fmax(exp(-x), BOUND_DECAY_FLOOR);
 }
 
-static void tail_decays(BoundState *bs, const RomBoundModel *b, double tau, double t0, const BoundCache *c,
-                        double h) {
+BOUND_INLINE void tail_decays(BoundState *bs, const RomBoundModel *b, double tau, double t0,
+                              const BoundCache *c, double h) {
     const double t_end = table_end(b), over = tau - t_end;
     const int chain = bs->tail_tau == t0 && t0 > t_end && h == c->h;
     bs->tail_tau = tau;
     bs->tails_restored = 0;                             /* (the chain moved on: an assembly now is of new rates) */
+    if (chain && c->chain && over > 0) {                /* every group chains (the loop's second case, the same
+                                                           bits): the common step past the table, one test a step */
+        for (uint32_t g = 0; g < b->groups; g++) {
+            bs->tail_decay[g] = fmax(bs->tail_decay[g] * c->decay[g] * TAIL_UP, BOUND_DECAY_FLOOR);
+        }
+        return;
+    }
     for (uint32_t g = 0; g < b->groups; g++) {
         if (!(over > 0)) {
             bs->tail_decay[g] = 1.0;
@@ -728,10 +744,12 @@ static const BoundCache *plane_maps(BoundState *bs, const RomBoundModel *b, doub
             }
         }
     }
+    slot->chain = 1;
     for (uint32_t g = 0; g < b->groups; g++) {          /* harness/rom/bounds.py step_weights */
         const double x = b->rates[g] * h;
         slot->decay[g] = exp(-x);
         slot->slope[g] = x > 1e-8 ? -expm1(-x) / x : 1.0 - 0.5 * x;
+        slot->chain &= x <= TAIL_CHAIN_X;               /* (tail_decays' test: the same product) */
     }
     slot->growth = exp(b->mu * h);
     slot->h = h;
@@ -756,13 +774,6 @@ static void shadow_group(const RomState *s, BoundState *bs, size_t g);
  * register on x86-64), plain arrays elsewhere (or with -DROM_NO_LANES: tests/test_bound_step_cost.py compares the builds);
  * every lane does the scalar IEEE operation, in the same order (as rom_frozen.c's blocks).  Loads through memcpy:
  * the rows need no alignment. */
-#if defined(__GNUC__)
-#define BOUND_INLINE static inline __attribute__((always_inline))   /* (the specialized copies: constants folded) */
-#define BOUND_APART static __attribute__((noinline))   /* (a path kept out of its caller's frame) */
-#else
-#define BOUND_INLINE static inline
-#define BOUND_APART static
-#endif
 #if defined(__GNUC__) && !defined(ROM_NO_LANES)
 #define BOUND_LANES 1
 typedef double BoundLanes __attribute__((vector_size(16)));

@@ -415,3 +415,40 @@ def test_warning_past_the_table_says_what_the_bound_is(undamped, tmp_path):
     share, bound = (float(re.search(p, text).group(1)) for p in (r", ([-+0-9.eE]+) m s\^-1 of it",
                                                                   r"error bound ([-+0-9.eE]+) m s\^-1"))
     assert 0.5 * bound <= share <= bound
+
+
+def test_round_off_complement_is_not_continued_past_the_table(monkeypatch):
+    """Past the free response table each continued mode costs the FMU a complex product and its rows' sums per step
+    (cont_step): a complement whose free response from the initial state is round-off (an undamped bar's lowest sine
+    for v0, its shadow of 12 planes: what the planes left out carry of x0 is the decomposition's round-off) is bounded
+    by its size there instead, within CONT_SHARE of the round-off allowance ROUNDOFF |c_r| |x0| the bound carries at
+    every time (bounds.continued_modes).  Against the shadow that continues every mode the table's own error asks
+    for: fewer modes continued, the same bound within the table, past it a bound larger by at most that share; and
+    the velocity rows' bound holds against the truth (the full linear SPH exact in time, sphrom.rom.truth) over 1.5 x
+    the table's span from the initial state."""
+    import sphrom.rom.bounds as bounds
+    from conftest import small_scene
+    from sphrom.rom.truth import exact_probe_outputs
+    from sphrom.sph.solver import build_problem
+    problem = build_problem(small_scene("high_frequency", T=0.5, n=64, v0="1e-3*sin(2*pi*x/L)"))
+    lean = bounds.build_shadow(problem, PROBES, order=12)
+    rule = bounds.continued_modes
+    monkeypatch.setattr(bounds, "continued_modes", lambda modes, decayed, budget, values, fixed, floor=None:
+                        rule(modes, decayed, budget, values, fixed))      # the room of the table's own error alone
+    full = bounds.build_shadow(problem, PROBES, order=12)
+    assert 0 < full.comp.t_end == lean.comp.t_end
+    assert lean.comp.cont_mu.size < full.comp.cont_mu.size
+    steps = int(round(1.5 * lean.comp.t_end / H))
+    t = np.arange(steps + 1) * H
+    zero = np.zeros((steps, 1))
+    y, cert = bounds.run_shadow(lean, np.full(steps, H), zero, zero, scale=1.0)
+    y_full, cert_full = bounds.run_shadow(full, np.full(steps, H), zero, zero, scale=1.0)
+    late = t > lean.comp.t_end
+    assert late.sum() > 0.3 * steps
+    np.testing.assert_allclose(cert[~late], cert_full[~late], rtol=1e-14, atol=0)
+    share = bounds.CONT_SHARE * bounds.ROUNDOFF * lean.row_norm * lean.x0_norm * (1 + 1e-9)
+    assert np.all(cert[late] - cert_full[late] <= share[None, :]), np.max(cert[late] - cert_full[late] - share)
+    v_true, _ = exact_probe_outputs(problem, PROBES, t, np.zeros((t.size, 1)), [1.0])
+    P = len(PROBES)
+    err = np.abs(y[:, :P] - v_true[:, :, 0])
+    assert np.all(err <= cert[:, :P]), np.max(err - cert[:, :P])

@@ -106,3 +106,58 @@ def test_a_short_wave_force_keeps_the_plane_it_reaches_not_those_below():
     bound = np.abs(model - y[:, :P]) + cert[:, :P]
     assert np.all(error <= bound)
     assert np.all(bound.max(axis=0) <= 10.0 * error.max(axis=0))
+
+
+def test_past_the_table_the_modes_left_out_may_reach_the_model_allowance(monkeypatch):
+    """heterogeneous, a model 5 % off (the modal model of 12 planes with its velocity and its density's change
+    scaled by 1.05): past the free response table the complement's modes left out
+    (bounded by their size there, each continued one costs the FMU a complex product and its rows' sums per step)
+    may reach the free channel's allowance of the model's own error from its initial state, MODEL_FRACTION x it,
+    where that is larger than the table's own error (bounds.continued_modes).  Against the shadow whose room is the
+    table's error alone: fewer modes continued, the same bound within the table, past it a bound larger by at most
+    that allowance (or the round-off share); and the rows' bound holds against the full linear SPH (exact in time)
+    from the initial state, over the table's last second and 3 s past its end."""
+    import scipy.linalg as sla
+
+    import sphrom.rom.bounds as bounds
+    from sphrom.rom.bounds import output_rows
+    from sphrom.rom.lti import full_linear_system
+    from sphrom.scene import load_scene
+    from sphrom.sph.solver import build_problem
+    p = build_problem(load_scene("heterogeneous"))
+    modal = modal_runs(p, 12)
+
+    def runs(h, f, scale):
+        v, rho = modal(h, f, scale)
+        rho = np.asarray(rho)
+        return 1.05 * np.asarray(v), rho[0] + 1.05 * (rho - rho[0])
+    coarse = bounds.build_shadow(p, PROBES, model_runs=runs)
+    rule = bounds.continued_modes
+    monkeypatch.setattr(bounds, "continued_modes", lambda modes, decayed, budget, values, fixed, floor=None:
+                        rule(modes, decayed, budget, values, fixed))      # the room of the table's own error alone
+    tight = bounds.build_shadow(p, PROBES, model_runs=runs)
+    monkeypatch.undo()
+    t_end = coarse.comp.t_end
+    assert 0 < t_end == tight.comp.t_end
+    assert coarse.comp.cont_mu.size < tight.comp.cont_mu.size
+    h = 0.01
+    plan = np.array([t_end - 1.0] + [h] * 400)
+    zero = np.zeros((plan.size, 1))
+    y, cert = bounds.run_shadow(coarse, plan, zero, zero, scale=1.0)
+    _, cert_tight = bounds.run_shadow(tight, plan, zero, zero, scale=1.0)
+    t = np.concatenate([[0.0], np.cumsum(plan)])
+    late = t > t_end
+    assert late.sum() > 250
+    np.testing.assert_allclose(cert[~late], cert_tight[~late], rtol=1e-14, atol=0)
+    room = np.maximum(np.asarray(coarse.info["free_model_room"]),
+                      bounds.CONT_SHARE * bounds.ROUNDOFF * coarse.row_norm * coarse.x0_norm) * (1 + 1e-9)
+    assert np.all(cert[late] - cert_tight[late] <= room[None, :]), np.max(cert[late] - cert_tight[late] - room)
+    lti = full_linear_system(p, list(PROBES))
+    A = lti.A.toarray()
+    x, out = lti.x0.copy(), [output_rows(p, PROBES)[0] @ lti.x0]
+    maps = {s: sla.expm(A * s) for s in set(plan.tolist())}
+    for s in plan:
+        x = maps[s] @ x
+        out.append(output_rows(p, PROBES)[0] @ x)
+    truth = np.array(out)
+    assert np.all(np.abs(y - truth) <= cert), np.max(np.abs(y - truth) - cert)

@@ -121,6 +121,8 @@ CHEBYSHEV_WORK = 4e9        # ... else by a Chebyshev expansion where N x its de
 CONT_ROUNDOFF = 1e-13       # the modes continued past the table: their amplitudes' relative error (the nodes')
 CONT_ANCHOR = 256           # ... the steps the FMU carries their exponentials over (e^{μ h} per step) between exact anchors
 TAIL_SHARE = 0.1            # ... as long as that one's certified error is below this share of the norm bound
+CONT_SHARE = 0.1            # past the table the modes left out may reach this share of the bound's round-off allowance
+                            # ROUNDOFF ‖c_r‖ |s| ‖x0‖ (continued_modes: it is there at every time)
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -775,11 +777,12 @@ def floored_decay(x):
     return np.where(x >= DECAY_FLOOR_X, DECAY_FLOOR, np.maximum(np.exp(-np.minimum(x, DECAY_FLOOR_X)), DECAY_FLOOR))
 
 
-def complement(modes: Modes, planes_L, chat, bhat, tail: Tail | None, T, *, table=True, max_nodes=MAX_NODES):
+def complement(modes: Modes, planes_L, chat, bhat, tail: Tail | None, T, *, table=True, max_nodes=MAX_NODES,
+               floor=None):
     """The complement's terms (:class:`Complement`) of the modes ``modes`` (the complement's, every computed plane
     not in the shadow), their blocks ``planes_L`` with coefficients ``chat``, ``bhat`` (for D), the uncomputed
     planes ``tail``; ``T`` the scene's horizon [s] (the table spans TABLE_SPAN x T, at most ``max_nodes``
-    nodes)."""
+    nodes); ``floor`` (rows,) the least room of the modes left out past the table (:func:`continued_modes`)."""
     rows, m = chat.shape[0], bhat.shape[2]
     D = feedthrough(planes_L, chat, bhat) if planes_L.shape[0] else np.zeros((rows, m))
     alphas = list(modes.alpha) + ([tail.alpha] if tail is not None else [])
@@ -804,7 +807,7 @@ def complement(modes: Modes, planes_L, chat, bhat, tail: Tail | None, T, *, tabl
     if table and (np.any(np.abs(modes.P)) or np.any(tail_free)):
         t_end, h, values, slopes, errors, q, tl, cmu, cq = free_table(
             modes, group[:modes.alpha.size], rates, T, tail_free, tail.alpha if tail is not None else 0.0,
-            exact=tail.exact if tail is not None else None, max_nodes=max_nodes)
+            exact=tail.exact if tail is not None else None, max_nodes=max_nodes, floor=floor)
     else:
         t_end, h, values, slopes, errors, q = 0.0, 0.0, None, None, None, 1
         cmu, cq = None, None
@@ -839,7 +842,7 @@ def table_step(modes: Modes, T, tail_alpha=None, max_nodes=MAX_NODES):
 
 
 def free_table(modes: Modes, group, rates, T, tail_free, tail_alpha, exact: TailTable | None = None,
-               max_nodes=MAX_NODES):
+               max_nodes=MAX_NODES, floor=None):
     """The complement's free response g_r(t) = Re Σ_M P_rM e^{μ_M t} (per unit initial_state_scale, module
     docstring), tabulated for a cubic Hermite interpolation with a certified error: (t_end, h, values (rows, n),
     slopes (rows, n) [per s], errors (rows, n_blocks), q, tail (rows, G), cont_mu (M_c,), cont_Q (rows, M_c)).
@@ -856,7 +859,8 @@ def free_table(modes: Modes, group, rates, T, tail_free, tail_alpha, exact: Tail
 
     With ``exact`` (:class:`TailTable`) the uncomputed planes' free response is computed, not bounded, over its
     span: the table takes its nodes, adds its values and slopes, and its interpolation errors replace the planes'
-    norm bound (which stays beyond the table's end)."""
+    norm bound (which stays beyond the table's end).  ``floor`` (rows,): the least room of the modes left out past
+    the table (:func:`continued_modes`)."""
     rows = modes.P.shape[0]
     if exact is not None:
         t_end, h, nodes = exact.t_end, exact.h, exact.values.shape[1]
@@ -904,7 +908,8 @@ def free_table(modes: Modes, group, rates, T, tail_free, tail_alpha, exact: Tail
     tail = np.zeros((rows, G))
     decayed = np.abs(modes.P) * np.exp(-modes.alpha * t_end)[None, :]
     free_end = tail_free * math.exp(-tail_alpha * t_end) if np.any(tail_free) else np.zeros(rows)
-    cont = continued_modes(modes, decayed, errors.max(axis=1) if errors.size else np.zeros(rows), values, free_end)
+    cont = continued_modes(modes, decayed, errors.max(axis=1) if errors.size else np.zeros(rows), values, free_end,
+                           floor)
     for g in range(G):
         tail[:, g] = decayed[:, (group == g) & ~cont].sum(axis=1)
     if np.any(tail_free):
@@ -916,7 +921,7 @@ def free_table(modes: Modes, group, rates, T, tail_free, tail_alpha, exact: Tail
             cont_Q)
 
 
-def continued_modes(modes: Modes, decayed, budget, values, fixed):
+def continued_modes(modes: Modes, decayed, budget, values, fixed, floor=None):
     """(M,) bool: the exact normal modes whose free response is continued past the table's end (added exactly,
     :func:`free_part`) rather than bounded by its size there, ``decayed`` (rows, M) = |P_rM| e^{-α_M t_end}.
 
@@ -924,7 +929,17 @@ def continued_modes(modes: Modes, decayed, budget, values, fixed):
     left out whatever is chosen: the defective modes' and the planes never computed) within the allowance the table's
     own error was sized to (:func:`choose_planes`: ``budget`` (rows,), the table's largest certified error, or
     FREE_TARGET x the row's largest tabulated free response where that is larger): the bound's free part past the
-    table is then no larger than within it.  The smallest modes are left out first; a mode is continued where any
+    table is then no larger than within it.  Or within ``floor`` (rows,) where that is larger (:func:`build_shadow`):
+    :data:`CONT_SHARE` of the round-off allowance the bound carries at every time, ROUNDOFF ‖c_r‖ ‖x0‖ per unit
+    initial_state_scale (:func:`run_shadow`, the C core's), so that past the table the bound exceeds the one with
+    every such mode continued by at most CONT_SHARE x that allowance: a complement whose free response is round-off
+    (the initial state's coefficients on the planes left out of an accurate shadow: high_frequency's; tests/
+    test_bound_step_cost.py test_round_off_complement_is_not_continued_past_the_table) is not continued mode by mode (each costs the FMU a complex product and its sums per step); and
+    where the model's own error from its initial state is known (:func:`choose_planes`, ``model_runs``), the free
+    channel's allowance of it, MODEL_FRACTION x that error: past the table the bound's free part stays within the
+    allowance the channel was sized to, as within it (the table is finer than that allowance asks: more nodes cost
+    nothing per step), so the bound of a model less accurate than the table stays within 1 + 2 MODEL_FRACTION of
+    its largest error from its initial state.  The smallest modes are left out first; a mode is continued where any
     row needs it."""
     M = decayed.shape[1]
     cont = np.zeros(M, bool)
@@ -932,7 +947,10 @@ def continued_modes(modes: Modes, decayed, budget, values, fixed):
         return cont
     fixed = np.asarray(fixed, float) + decayed[:, ~modes.exact].sum(axis=1)
     scale = np.abs(values).max(axis=1) if values is not None and values.size else np.zeros(decayed.shape[0])
-    room = np.maximum(np.maximum(np.asarray(budget, float), FREE_TARGET * scale) - fixed, 0.0)
+    room = np.maximum(np.asarray(budget, float), FREE_TARGET * scale)
+    if floor is not None:
+        room = np.maximum(room, np.asarray(floor, float))
+    room = np.maximum(room - fixed, 0.0)
     candidate = modes.exact & np.all(np.isfinite(decayed), axis=0) & np.any(decayed > 0, axis=0)
     idx = np.flatnonzero(candidate)
     for r in range(decayed.shape[0]):
@@ -1344,8 +1362,12 @@ def choose_planes(planes, modes_all, chat, bhat, eta, tail_fn, T, P, n_ports, *,
             else:
                 lo = mid
         cap = hi
+    # past the table the modes left out may reach the free channel's allowance where the model's error gave it
+    # (continued_modes): MODEL_FRACTION x the model's error from its initial state, per row (0 where not known)
+    model_room = np.zeros(rows) if free_e is None else MODEL_FRACTION * np.nan_to_num(np.asarray(free_e, float))
     return keep, values, {"omega_ref": omega, "reached": bool(reached), "plateau": plateau,
-                          "excess": excesses, "model_error": model_info, "table_nodes": int(cap)}
+                          "excess": excesses, "model_error": model_info, "table_nodes": int(cap),
+                          "free_model_room": [float(x) for x in model_room]}
 
 
 def cluster_importance(clusters, modes, mg, omega, span, classes, step_r, sine_r, free_scale, big, initial, h_tab):
@@ -1518,8 +1540,13 @@ def build_shadow(problem, probes, ports=(), *, parametric=False, scale_v=None, f
         cplanes = {"sigma": planes.key[restp].copy(), "chat": chat[:, restp].copy(),
                    "bv": bhat[restp, 0, :].copy(), "eta": eta[restp, 0].copy()}
     else:
+        # past the table, the modes left out within CONT_SHARE of the bound's round-off allowance, or within the
+        # free channel's allowance of the model's own error (choose_planes), where larger (continued_modes)
+        floor = CONT_SHARE * ROUNDOFF * np.linalg.norm(C, axis=1) * float(np.linalg.norm(x0))
+        if "free_model_room" in ref:
+            floor = np.maximum(floor, np.asarray(ref["free_model_room"], float))
         comp = complement(rest_modes, L0[restp], chat[:, restp], bhat[restp], tail, T,
-                          max_nodes=int(ref.get("table_nodes", MAX_NODES)))
+                          max_nodes=int(ref.get("table_nodes", MAX_NODES)), floor=floor)
     row_norm = np.linalg.norm(C, axis=1)
     scale_v = float(scale_v) if scale_v is not None else float(np.max(np.abs(C[:P] @ x0)))
     shadow = Shadow(A=A, B=B, C=Cs, w0=w0, comp=comp, row_norm=row_norm, row_e=row_e,
