@@ -131,7 +131,7 @@ typedef struct {
     double *cont_rows;         /* [rows][2]: per row sum_M (|Re Q_rM| + |Im Q_rM|) and the same weighted by
                                   |Re mu_M| + |Im mu_M| (the round-off allowance, cont_allowance) */
     double cont_amax;          /* max_M |Re mu_M| + |Im mu_M| */
-    double *chk;               /* [ceil(P / 4)][4 + groups][4]: the probes' velocity rows' terms for the error check,
+    double *chk;               /* [ceil(P / 4)][4 + 2 groups][4]: the probes' velocity rows' terms for the error check,
                                   four rows side by side (check_terms; not state: a function of the model's rows) */
     uint64_t chk_gen;          /* the model's rows' version chk holds (0: none yet) */
     size_t chk_tab[BOUND_CHECK_ROWS], chk_err[BOUND_CHECK_ROWS];   /* lane by lane the row's offsets in the table's
@@ -561,7 +561,7 @@ RomStatus rom_bound_state_new(RomState *s) {
     const size_t quads = ((size_t)s->model->n_probes + BOUND_CHECK_LANES - 1) / BOUND_CHECK_LANES;
     size_t counts[BOUND_ARRAYS + 4 * BOUND_CACHE] = {k, slots + BOUND_CHECK_LANES, 4 * n * n, k * slots, nc, 2 * nc,
                                                      nc, b->n_cont ? 2 * (size_t)b->rows : 0,
-                                                     quads * (4 + b->groups) * BOUND_CHECK_LANES};
+                                                     quads * (4 + 2 * (size_t)b->groups) * BOUND_CHECK_LANES};
     double **ptrs[BOUND_ARRAYS + 4 * BOUND_CACHE] = {&bs->w, &bs->y, &bs->work, &bs->ct, &bs->cont_z, &bs->cont_r,
                                                      &bs->cont_e, &bs->cont_rows, &bs->chk};
     for (int c = 0; c < BOUND_CACHE; c++) {
@@ -1618,11 +1618,13 @@ BOUND_INLINE int rows_exceed(const RomState *s, const RowTime *rt, const RowInpu
  * operations in their order (the same bits, the same answer), from the rows' terms laid out by lanes once per version
  * of the model's rows (check_terms: |c_r|, D_r, the static gain, |c_r| |E|, the transient gains with a negative one
  * (unbounded) as +inf, which is what row_at adds for it where V_g > 0; the rows' offsets in the table), each V_g > 0
- * (row_at's test) once for all the rows.  -DROM_NO_LANES, past the table, or other models: rows_exceed. */
+ * (row_at's test) once for all the rows; past the table where no mode is continued (SHCONT absent), the same with
+ * free_part's tail sum over the groups' decays (the rows' tails laid out beside the gains).  -DROM_NO_LANES, past the
+ * table with continued modes, or other models: rows_exceed. */
 #if defined(BOUND_LANES)
 static void check_terms(BoundState *bs, const RomBoundModel *b, uint32_t P) {
     if (!bs || !b || !bs->chk || P > BOUND_CHECK_ROWS) return;
-    const size_t G = b->groups, L = BOUND_CHECK_LANES, width = (4 + G) * L;
+    const size_t G = b->groups, L = BOUND_CHECK_LANES, width = (4 + 2 * G) * L;
     for (uint32_t r = 0; r < (P + L - 1) / L * L; r++) {
         double *t = bs->chk + r / L * width + r % L;
         const double *row = b->row + (size_t)r * b->row_len;
@@ -1635,6 +1637,7 @@ static void check_terms(BoundState *bs, const RomBoundModel *b, uint32_t P) {
         t[2 * L] = real ? row[2] : 0.0;
         t[3 * L] = real ? t[0] * b->e_norm : 0.0;
         for (size_t g = 0; g < G; g++) t[(4 + g) * L] = real ? (row[3 + g] < 0 ? INFINITY : row[3 + g]) : 0.0;
+        for (size_t g = 0; g < G; g++) t[(4 + G + g) * L] = real ? row[3 + G + g] : 0.0;      /* free_part's tail */
     }
     bs->chk_gen = b->generation;
 }
@@ -1648,15 +1651,10 @@ typedef int64_t BoundRowBits __attribute__((vector_size(32)));
 /* 1 where the velocity bound of a probe of quad q (probes 4 q to 4 q + 3) is above error_tolerance, else 0
  * (table_rows_exceed: within the table, check_terms current, the rows' groups of sums and |w| fresh; vs the model's
  * outputs by quads).  One quad a call: what the lanes share is in registers, not spilled over a loop */
-BOUND_INLINE int table_quad_body(const RomState *s, const BoundState *bs, const double *vs, uint32_t q) {
+BOUND_INLINE int table_quad_body(const RomState *s, const BoundState *bs, const double *vs, uint32_t q, int past) {
     const RomBoundModel *b = &s->model->bound;
-    /* row_time's table interval and weights, its |w|, round-off factor and drift */
-    const double tau = s->elapsed, x = (tau > 0 ? tau : 0.0) / b->h_tab;
-    uint32_t k = (uint32_t)x;
-    if (k > b->nodes - 2) k = b->nodes - 2;
-    const double t = x - (double)k, u = 1.0 - t;
-    const BoundRows c0 = ROWS_SPLAT((1.0 + 2.0 * t) * u * u), c1 = ROWS_SPLAT(t * t * (3.0 - 2.0 * t)),
-                    c2 = ROWS_SPLAT(t * u * u), c3 = ROWS_SPLAT(t * t * (t - 1.0)), ht = ROWS_SPLAT(b->h_tab);
+    /* row_time's |w|, round-off factor and drift */
+    const double tau = s->elapsed;
     const double steps_factor = BOUND_ROUNDOFF + BOUND_ROUNDOFF_STEP * bs->steps;
     const double drift = b->growth != 0.0 ? rom_growth_factor(b->growth, tau) : 1.0;
     const double iss = s->initial_state_scale, scale = fabs(iss), up = bs->u_prev[0], tol = s->error_tolerance;
@@ -1665,17 +1663,38 @@ BOUND_INLINE int table_quad_body(const RomState *s, const BoundState *bs, const 
                     wp = ROWS_SPLAT(bs->w_root + scale * b->x0_norm), wd = ROWS_SPLAT(bs->w_int),
                     dr = ROWS_SPLAT(drift);
     const BoundRowBits magnitude = {INT64_MAX, INT64_MAX, INT64_MAX, INT64_MAX};
-    const double *gk = b->tab + k, *dk = gk + (size_t)b->rows * b->nodes, *te = b->terr + k / b->q;
     const uint32_t P = s->model->n_probes, L = BOUND_CHECK_LANES;
     const size_t G = b->groups;
-    const double *T = bs->chk + q * (4 + G) * L;
-    const size_t *og = bs->chk_tab + q * L, *oe = bs->chk_err + q * L;
-    BoundRows y, v, cn, D, S, cne, H;
+    const double *T = bs->chk + q * (4 + 2 * G) * L;
+    BoundRows y, v, cn, D, S, cne, H, g_value, g_error;
     ROWS_LOAD(y, bs->y + 1 + q * L);                /* slots 4 q + 1 to 4 q + 4 (y has four slots' slack) */
-    /* free_part's table: row r's nodes k, k + 1 at gk + r nodes */
-    const BoundRows g_value = c0 * ROWS_GATHER(gk, og) + c1 * ROWS_GATHER(gk + 1, og) +
-                              ht * (c2 * ROWS_GATHER(dk, og) + c3 * ROWS_GATHER(dk + 1, og));
-    const BoundRows g_error = ROWS_GATHER(te, oe);
+    if (!past) {
+        /* row_time's table interval and weights; free_part's table: row r's nodes k, k + 1 at gk + r nodes */
+        const double x = (tau > 0 ? tau : 0.0) / b->h_tab;
+        uint32_t k = (uint32_t)x;
+        if (k > b->nodes - 2) k = b->nodes - 2;
+        const double t = x - (double)k, u = 1.0 - t;
+        const BoundRows c0 = ROWS_SPLAT((1.0 + 2.0 * t) * u * u), c1 = ROWS_SPLAT(t * t * (3.0 - 2.0 * t)),
+                        c2 = ROWS_SPLAT(t * u * u), c3 = ROWS_SPLAT(t * t * (t - 1.0)), ht = ROWS_SPLAT(b->h_tab);
+        const double *gk = b->tab + k, *dk = gk + (size_t)b->rows * b->nodes, *te = b->terr + k / b->q;
+        const size_t *og = bs->chk_tab + q * L, *oe = bs->chk_err + q * L;
+        g_value = c0 * ROWS_GATHER(gk, og) + c1 * ROWS_GATHER(gk + 1, og) +
+                  ht * (c2 * ROWS_GATHER(dk, og) + c3 * ROWS_GATHER(dk + 1, og));
+        g_error = ROWS_GATHER(te, oe);
+    } else {
+        /* past the table without continued modes: row_time's decays (the step's chained ones, else computed) and
+         * free_part's tail sum (value 0, allowance 0) */
+        const double t_end = table_end(b), over = tau > t_end ? tau - t_end : 0.0;
+        const int cached = tau == bs->tail_tau;
+        BoundRows acc = zero, tail;
+        for (size_t g = 0; g < G; g++) {
+            const double dg = cached ? bs->tail_decay[g] : floored_decay(b->rates[g] * over);
+            ROWS_LOAD(tail, T + (4 + G + g) * L);
+            acc += tail * ROWS_SPLAT(dg);
+        }
+        g_value = zero;
+        g_error = acc + zero;
+    }
     ROWS_LOAD(v, vs + q * L);
     ROWS_LOAD(cn, T);
     ROWS_LOAD(D, T + L);
@@ -1704,28 +1723,28 @@ BOUND_INLINE int table_quad_body(const RomState *s, const BoundState *bs, const 
 
 #if defined(BOUND_AVX2)
 __attribute__((target("avx2"))) static int table_quad_avx2(const RomState *s, const BoundState *bs,
-                                                          const double *vs, uint32_t q) {
+                                                          const double *vs, uint32_t q, int past) {
     if (!s || !bs || !vs) return 0;
-    return table_quad_body(s, bs, vs, q);
+    return past ? table_quad_body(s, bs, vs, q, 1) : table_quad_body(s, bs, vs, q, 0);     /* (each specialized) */
 }
 #endif
 
-BOUND_APART int table_quad(const RomState *s, const BoundState *bs, const double *vs, uint32_t q) {
+BOUND_APART int table_quad(const RomState *s, const BoundState *bs, const double *vs, uint32_t q, int past) {
     if (!s || !bs || !vs) return 0;
-    return table_quad_body(s, bs, vs, q);
+    return past ? table_quad_body(s, bs, vs, q, 1) : table_quad_body(s, bs, vs, q, 0);     /* (each specialized) */
 }
 
 /* table_quad over the probes' quads, in four AVX2 lanes where the CPU has AVX2 (the same bits) */
-static int table_lanes(const RomState *s, const BoundState *bs, const double *vs) {
+static int table_lanes(const RomState *s, const BoundState *bs, const double *vs, int past) {
     if (!s || !bs || !vs) return 0;
     for (uint32_t q = 0; q * BOUND_CHECK_LANES < s->model->n_probes; q++) {
 #if defined(BOUND_AVX2)
         if (bs->avx2) {
-            if (table_quad_avx2(s, bs, vs, q)) return 1;
+            if (table_quad_avx2(s, bs, vs, q, past)) return 1;
             continue;
         }
 #endif
-        if (table_quad(s, bs, vs, q)) return 1;
+        if (table_quad(s, bs, vs, q, past)) return 1;
     }
     return 0;
 }
@@ -1772,7 +1791,7 @@ BOUND_APART int table_rows_exceed(const RomState *s, char *message, size_t messa
         for (uint32_t j = 0; j < P; j++) vs[j] = rom_v_probe_kept(s, j);
     }
     for (uint32_t j = P; j % BOUND_CHECK_LANES; j++) vs[j] = 0.0;
-    if (!table_lanes(s, bs, vs)) return 0;
+    if (!table_lanes(s, bs, vs, !(s->elapsed <= table_end(b)))) return 0;
 #endif
     return probe_rows_exceed(s, message, message_size);
 }
@@ -1796,7 +1815,7 @@ int rom_bound_exceeded(const RomState *s, char *message, size_t message_size) {
     const RomBoundModel *b = &s->model->bound;
     const int started = ((const BoundState *)s->bound)->started != 0.0;
     if (b->inputs == 1 && started && !s->channel && s->model->n_ports == 0) {    /* f alone, stepped, no ports */
-        if (b->nodes && s->elapsed <= table_end(b)) return table_rows_exceed(s, message, message_size);
+        if (b->nodes && (s->elapsed <= table_end(b) || !b->n_cont)) return table_rows_exceed(s, message, message_size);
         return probe_rows_exceed(s, message, message_size);
     }
     return all_rows_exceed(s, message, message_size);
