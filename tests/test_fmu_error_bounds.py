@@ -344,7 +344,8 @@ def test_sparse_planes_match_the_dense_ones(monkeypatch):
     """Above DENSE_LIMIT particles the lowest planes come from the sparse shift-invert Lanczos solver on KᵀK (K is
     banded): on the shrunk damped scene (forced to that path) its singular values equal the dense SVD's to 1e-9 and
     its planes span the same subspace; the shadow built on them bounds the planes it never computed through norms
-    (σ >= σ_cut) and is certified from the initial state and under a force."""
+    (σ >= σ_cut) and is certified from the initial state and under a force; a second solve gives the same bits (the
+    Lanczos start vector is fixed, not ARPACK's random one: packaging above DENSE_LIMIT writes the same model.bin)."""
     from sphrom.rom import planes as pl
     from sphrom.rom.bounds import build_shadow, run_shadow
     from sphrom.sph.solver import build_problem
@@ -353,6 +354,10 @@ def test_sparse_planes_match_the_dense_ones(monkeypatch):
     monkeypatch.setattr(pl, "DENSE_LIMIT", 10)
     sparse = pl.singular_planes(problem, count=12)
     assert not sparse.complete and 8 <= sparse.count <= 12
+    again = pl.singular_planes(problem, count=12)              # (Lanczos from a fixed start: the same bits)
+    np.testing.assert_array_equal(again.key, sparse.key)
+    np.testing.assert_array_equal(again.Vv, sparse.Vv)
+    np.testing.assert_array_equal(again.Ve, sparse.Ve)
     k = sparse.count
     np.testing.assert_allclose(sparse.key, dense.key[:k], rtol=1e-9, atol=1e-9 * dense.key[-1])
     Sd, Ss = dense.basis(np.arange(k)), sparse.basis(np.arange(k))

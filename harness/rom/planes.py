@@ -186,7 +186,9 @@ def _sparse_triplets(problem, K, count):
     k = min(count + 8, n - 2)
     lu = spl.splu((M - shift * sp.identity(n, format="csc")).tocsc())
     op = spl.LinearOperator((n, n), matvec=lu.solve, dtype=float)
-    vals, W = spl.eigsh(M, k=k, sigma=shift, which="LM", OPinv=op, tol=0.0)
+    # a fixed start vector (ARPACK's default is random): the same planes, so the same model.bin, from run to run
+    v0 = np.random.default_rng(0).standard_normal(n)
+    vals, W = spl.eigsh(M, k=k, sigma=shift, which="LM", OPinv=op, tol=0.0, v0=v0)
     order = np.argsort(vals)
     vals, W = np.maximum(vals[order], 0.0), W[:, order]
     sig = np.sqrt(vals)
