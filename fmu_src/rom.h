@@ -148,6 +148,7 @@ typedef struct {
     uint32_t n_cpl;            /* a parametric shadow's complement planes */
     double h_tab;              /* [s] the table's node spacing */
     double t_end;              /* [s] the table's end, h_tab (nodes - 1) (0: no table; set with them, read per step) */
+    double inv_q;              /* 1 / q (0: no table): the block of an interval without an integer division per step */
     double x0_norm;            /* the whole initial state's norm */
     double e_norm, b_norm;     /* the planes' residual norm (round-off), the shadow's input norm */
     double mu;                 /* the largest growth rate of a plane's symmetric part (0 at least) */

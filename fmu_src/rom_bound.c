@@ -476,6 +476,7 @@ RomStatus rom_bound_prepare(RomModel *m, char *message, size_t message_size) {
     b->n_cpl = (uint32_t)v[ROM_SHSCAL_CPLANES];
     b->h_tab = v[ROM_SHSCAL_H_TAB];
     b->t_end = b->nodes ? b->h_tab * (double)(b->nodes - 1) : 0.0;     /* (table_end) */
+    b->inv_q = b->q ? 1.0 / (double)b->q : 0.0;                         /* (table_block) */
     if (shape(sec[1], planes, 4, message, message_size) != ROM_OK ||
         shape(sec[2], order, inputs, message, message_size) != ROM_OK ||
         shape(sec[3], rows, order, message, message_size) != ROM_OK ||
@@ -673,6 +674,18 @@ static void cont_exact(const RomBoundModel *b, double x, double *out) {
  * after the table's end, those times this step's exp(-alpha_g h) (c->decay) rounded up (TAIL_UP): never below
  * the decay over the steps' own sum, without an exponential per group and step */
 /* exp(-x), x >= 0, at least BOUND_DECAY_FLOOR (an upper bound of it; no libm call where it underflows there) */
+/* k / q, the error block of the table's interval k (q >= 1), without an integer division (tens of cycles each
+ * step): k times 1 / q rounded is within one of the quotient (k < 2^32), which one comparison each way corrects */
+static inline uint32_t table_block(const RomBoundModel *b, uint32_t k) {
+    uint32_t B = (uint32_t)((double)k * b->inv_q);
+    if ((uint64_t)B * b->q > k) {
+        B--;
+    } else if ((uint64_t)(B + 1) * b->q <= k) {
+        B++;
+    }
+    return B;
+}
+
 static inline double floored_decay(double x) {
     return x >= BOUND_DECAY_FLOOR_X ? BOUND_DECAY_FLOOR : fmax(exp(-x), BOUND_DECAY_FLOOR);
 }
@@ -1348,7 +1361,7 @@ static void row_time(const RomState *s, RowTime *rt) {
         if (k > b->nodes - 2) k = b->nodes - 2;
         const double t = x - (double)k, u = 1.0 - t;
         rt->k = k;
-        rt->block = k / b->q;
+        rt->block = table_block(b, k);
         rt->c0 = (1.0 + 2.0 * t) * u * u;
         rt->c1 = t * t * (3.0 - 2.0 * t);
         rt->c2 = t * u * u;
@@ -1676,7 +1689,7 @@ BOUND_INLINE int table_quad_body(const RomState *s, const BoundState *bs, const 
         const double t = x - (double)k, u = 1.0 - t;
         const BoundRows c0 = ROWS_SPLAT((1.0 + 2.0 * t) * u * u), c1 = ROWS_SPLAT(t * t * (3.0 - 2.0 * t)),
                         c2 = ROWS_SPLAT(t * u * u), c3 = ROWS_SPLAT(t * t * (t - 1.0)), ht = ROWS_SPLAT(b->h_tab);
-        const double *gk = b->tab + k, *dk = gk + (size_t)b->rows * b->nodes, *te = b->terr + k / b->q;
+        const double *gk = b->tab + k, *dk = gk + (size_t)b->rows * b->nodes, *te = b->terr + table_block(b, k);
         const size_t *og = bs->chk_tab + q * L, *oe = bs->chk_err + q * L;
         g_value = c0 * ROWS_GATHER(gk, og) + c1 * ROWS_GATHER(gk + 1, og) +
                   ht * (c2 * ROWS_GATHER(dk, og) + c3 * ROWS_GATHER(dk + 1, og));
