@@ -669,11 +669,6 @@ static void cont_exact(const RomBoundModel *b, double x, double *out) {
 #define TAIL_UP (1.0 + 3.552713678800501e-15)
 #define TAIL_CHAIN_X 4.0
 
-/* the groups' decay of the rows' tails at tau after the table's end, once for every row (rom_bound_step, the step
- * of length h = c->h from t0 = tau - h): exp(-alpha_g (tau - t_end)), or, where the last step left them at t0
- * after the table's end, those times this step's exp(-alpha_g h) (c->decay) rounded up (TAIL_UP): never below
- * the decay over the steps' own sum, without an exponential per group and step */
-/* exp(-x), x >= 0, at least BOUND_DECAY_FLOOR (an upper bound of it; no libm call where it underflows there) */
 /* k / q, the error block of the table's interval k (q >= 1), without an integer division (tens of cycles each
  * step): k times 1 / q rounded is within one of the quotient (k < 2^32), which one comparison each way corrects */
 static inline uint32_t table_block(const RomBoundModel *b, uint32_t k) {
@@ -686,10 +681,20 @@ static inline uint32_t table_block(const RomBoundModel *b, uint32_t k) {
     return B;
 }
 
+/* exp(-x), x >= 0, at least BOUND_DECAY_FLOOR (an upper bound of it; no libm call where it underflows there) */
 static inline double floored_decay(double x) {
     return x >= BOUND_DECAY_FLOOR_X ? BOUND_DECAY_FLOOR : fmax(exp(-x), BOUND_DECAY_FLOOR);
 }
 
+/* a decay chained over a step: d times the step's exp(-alpha h) rounded up (TAIL_UP), at least BOUND_DECAY_FLOOR */
+static inline double chained_decay(double d, double step) {
+    return fmax(d * step * TAIL_UP, BOUND_DECAY_FLOOR);
+}
+
+/* the groups' decay of the rows' tails at tau after the table's end, once for every row (rom_bound_step, the step
+ * of length h = c->h from t0 = tau - h): exp(-alpha_g (tau - t_end)), or, where the last step left them at t0
+ * after the table's end, those times this step's exp(-alpha_g h) (c->decay) rounded up (TAIL_UP): never below
+ * the decay over the steps' own sum, without an exponential per group and step */
 BOUND_INLINE void tail_decays(BoundState *bs, const RomBoundModel *b, double tau, double t0,
                               const BoundCache *c, double h) {
     const double t_end = table_end(b), over = tau - t_end;
@@ -699,7 +704,7 @@ BOUND_INLINE void tail_decays(BoundState *bs, const RomBoundModel *b, double tau
     if (chain && c->chain && over > 0) {                /* every group chains (the loop's second case, the same
                                                            bits): the common step past the table, one test a step */
         for (uint32_t g = 0; g < b->groups; g++) {
-            bs->tail_decay[g] = fmax(bs->tail_decay[g] * c->decay[g] * TAIL_UP, BOUND_DECAY_FLOOR);
+            bs->tail_decay[g] = chained_decay(bs->tail_decay[g], c->decay[g]);
         }
         return;
     }
@@ -707,7 +712,7 @@ BOUND_INLINE void tail_decays(BoundState *bs, const RomBoundModel *b, double tau
         if (!(over > 0)) {
             bs->tail_decay[g] = 1.0;
         } else if (chain && b->rates[g] * h <= TAIL_CHAIN_X) {
-            bs->tail_decay[g] = fmax(bs->tail_decay[g] * c->decay[g] * TAIL_UP, BOUND_DECAY_FLOOR);
+            bs->tail_decay[g] = chained_decay(bs->tail_decay[g], c->decay[g]);
         } else {
             bs->tail_decay[g] = floored_decay(b->rates[g] * over);
         }
@@ -1350,7 +1355,7 @@ static const double *cont_modes(BoundState *bs, const RomBoundModel *b, double t
     return E;
 }
 
-static void row_time(const RomState *s, RowTime *rt) {
+BOUND_INLINE void row_time(const RomState *s, RowTime *rt) {
     const RomBoundModel *b = &s->model->bound;
     BoundState *bs = (BoundState *)s->bound;
     const double tau = s->elapsed, t_end = table_end(b);
@@ -1627,8 +1632,9 @@ BOUND_INLINE int rows_exceed(const RomState *s, const RowTime *rt, const RowInpu
 
 /* The error check's common case (the probes' velocity rows of a one-input shadow whose w holds its steps, no port
  * channel, no ports) within the free response table: every velocity row after every step until the warning.  Four
- * rows side by side (lane l of quad q: row 4 q + l), each lane row_time's, row_at's and rows_exceed's scalar IEEE
- * operations in their order (the same bits, the same answer), from the rows' terms laid out by lanes once per version
+ * rows side by side (lane l of quad q: row 4 q + l) at row_time's interval, weights and decays (computed once for
+ * the quads), each lane row_at's and rows_exceed's scalar IEEE operations in their order (the same bits, the same
+ * answer), from the rows' terms laid out by lanes once per version
  * of the model's rows (check_terms: |c_r|, D_r, the static gain, |c_r| |E|, the transient gains with a negative one
  * (unbounded) as +inf, which is what row_at adds for it where V_g > 0; the rows' offsets in the table), each V_g > 0
  * (row_at's test) once for all the rows; past the table where no mode is continued (SHCONT absent), the same with
@@ -1664,17 +1670,14 @@ typedef int64_t BoundRowBits __attribute__((vector_size(32)));
 /* 1 where the velocity bound of a probe of quad q (probes 4 q to 4 q + 3) is above error_tolerance, else 0
  * (table_rows_exceed: within the table, check_terms current, the rows' groups of sums and |w| fresh; vs the model's
  * outputs by quads).  One quad a call: what the lanes share is in registers, not spilled over a loop */
-BOUND_INLINE int table_quad_body(const RomState *s, const BoundState *bs, const double *vs, uint32_t q, int past) {
+BOUND_INLINE int table_quad_body(const RomState *s, const BoundState *bs, const double *vs, uint32_t q,
+                                 const RowTime *rt, int past) {
     const RomBoundModel *b = &s->model->bound;
-    /* row_time's |w|, round-off factor and drift */
-    const double tau = s->elapsed;
-    const double steps_factor = BOUND_ROUNDOFF + BOUND_ROUNDOFF_STEP * bs->steps;
-    const double drift = b->growth != 0.0 ? rom_growth_factor(b->growth, tau) : 1.0;
     const double iss = s->initial_state_scale, scale = fabs(iss), up = bs->u_prev[0], tol = s->error_tolerance;
     const BoundRows zero = ROWS_SPLAT(0.0), ups = ROWS_SPLAT(up), ua = ROWS_SPLAT(fabs(up)), is = ROWS_SPLAT(iss),
-                    sc = ROWS_SPLAT(scale), sf = ROWS_SPLAT(steps_factor),
-                    wp = ROWS_SPLAT(bs->w_root + scale * b->x0_norm), wd = ROWS_SPLAT(bs->w_int),
-                    dr = ROWS_SPLAT(drift);
+                    sc = ROWS_SPLAT(scale), sf = ROWS_SPLAT(rt->steps_factor),
+                    wp = ROWS_SPLAT(rt->w_root + scale * b->x0_norm), wd = ROWS_SPLAT(bs->w_int),
+                    dr = ROWS_SPLAT(rt->drift_growth);
     const BoundRowBits magnitude = {INT64_MAX, INT64_MAX, INT64_MAX, INT64_MAX};
     const uint32_t P = s->model->n_probes, L = BOUND_CHECK_LANES;
     const size_t G = b->groups;
@@ -1682,28 +1685,21 @@ BOUND_INLINE int table_quad_body(const RomState *s, const BoundState *bs, const 
     BoundRows y, v, cn, D, S, cne, H, g_value, g_error;
     ROWS_LOAD(y, bs->y + 1 + q * L);                /* slots 4 q + 1 to 4 q + 4 (y has four slots' slack) */
     if (!past) {
-        /* row_time's table interval and weights; free_part's table: row r's nodes k, k + 1 at gk + r nodes */
-        const double x = (tau > 0 ? tau : 0.0) / b->h_tab;
-        uint32_t k = (uint32_t)x;
-        if (k > b->nodes - 2) k = b->nodes - 2;
-        const double t = x - (double)k, u = 1.0 - t;
-        const BoundRows c0 = ROWS_SPLAT((1.0 + 2.0 * t) * u * u), c1 = ROWS_SPLAT(t * t * (3.0 - 2.0 * t)),
-                        c2 = ROWS_SPLAT(t * u * u), c3 = ROWS_SPLAT(t * t * (t - 1.0)), ht = ROWS_SPLAT(b->h_tab);
-        const double *gk = b->tab + k, *dk = gk + (size_t)b->rows * b->nodes, *te = b->terr + table_block(b, k);
+        /* free_part's table at row_time's interval and weights: row r's nodes k, k + 1 at gk + r nodes */
+        const BoundRows c0 = ROWS_SPLAT(rt->c0), c1 = ROWS_SPLAT(rt->c1), c2 = ROWS_SPLAT(rt->c2),
+                        c3 = ROWS_SPLAT(rt->c3), ht = ROWS_SPLAT(b->h_tab);
+        const double *gk = b->tab + rt->k, *dk = gk + (size_t)b->rows * b->nodes, *te = b->terr + rt->block;
         const size_t *og = bs->chk_tab + q * L, *oe = bs->chk_err + q * L;
         g_value = c0 * ROWS_GATHER(gk, og) + c1 * ROWS_GATHER(gk + 1, og) +
                   ht * (c2 * ROWS_GATHER(dk, og) + c3 * ROWS_GATHER(dk + 1, og));
         g_error = ROWS_GATHER(te, oe);
     } else {
-        /* past the table without continued modes: row_time's decays (the step's chained ones, else computed) and
-         * free_part's tail sum (value 0, allowance 0) */
-        const double t_end = table_end(b), over = tau > t_end ? tau - t_end : 0.0;
-        const int cached = tau == bs->tail_tau;
+        /* past the table without continued modes: free_part's tail sum over row_time's decays (value 0, allowance
+         * 0) */
         BoundRows acc = zero, tail;
         for (size_t g = 0; g < G; g++) {
-            const double dg = cached ? bs->tail_decay[g] : floored_decay(b->rates[g] * over);
             ROWS_LOAD(tail, T + (4 + G + g) * L);
-            acc += tail * ROWS_SPLAT(dg);
+            acc += tail * ROWS_SPLAT(rt->decay[g]);
         }
         g_value = zero;
         g_error = acc + zero;
@@ -1736,28 +1732,29 @@ BOUND_INLINE int table_quad_body(const RomState *s, const BoundState *bs, const 
 
 #if defined(BOUND_AVX2)
 __attribute__((target("avx2"))) static int table_quad_avx2(const RomState *s, const BoundState *bs,
-                                                          const double *vs, uint32_t q, int past) {
-    if (!s || !bs || !vs) return 0;
-    return past ? table_quad_body(s, bs, vs, q, 1) : table_quad_body(s, bs, vs, q, 0);     /* (each specialized) */
+                                                          const double *vs, uint32_t q, const RowTime *rt) {
+    if (!s || !bs || !vs || !rt) return 0;
+    return rt->in_table ? table_quad_body(s, bs, vs, q, rt, 0) : table_quad_body(s, bs, vs, q, rt, 1);
 }
 #endif
 
-BOUND_APART int table_quad(const RomState *s, const BoundState *bs, const double *vs, uint32_t q, int past) {
-    if (!s || !bs || !vs) return 0;
-    return past ? table_quad_body(s, bs, vs, q, 1) : table_quad_body(s, bs, vs, q, 0);     /* (each specialized) */
+BOUND_APART int table_quad(const RomState *s, const BoundState *bs, const double *vs, uint32_t q,
+                           const RowTime *rt) {
+    if (!s || !bs || !vs || !rt) return 0;
+    return rt->in_table ? table_quad_body(s, bs, vs, q, rt, 0) : table_quad_body(s, bs, vs, q, rt, 1);
 }
 
 /* table_quad over the probes' quads, in four AVX2 lanes where the CPU has AVX2 (the same bits) */
-static int table_lanes(const RomState *s, const BoundState *bs, const double *vs, int past) {
-    if (!s || !bs || !vs) return 0;
+static int table_lanes(const RomState *s, const BoundState *bs, const double *vs, const RowTime *rt) {
+    if (!s || !bs || !vs || !rt) return 0;
     for (uint32_t q = 0; q * BOUND_CHECK_LANES < s->model->n_probes; q++) {
 #if defined(BOUND_AVX2)
         if (bs->avx2) {
-            if (table_quad_avx2(s, bs, vs, q, past)) return 1;
+            if (table_quad_avx2(s, bs, vs, q, rt)) return 1;
             continue;
         }
 #endif
-        if (table_quad(s, bs, vs, q, past)) return 1;
+        if (table_quad(s, bs, vs, q, rt)) return 1;
     }
     return 0;
 }
@@ -1804,7 +1801,9 @@ BOUND_APART int table_rows_exceed(const RomState *s, char *message, size_t messa
         for (uint32_t j = 0; j < P; j++) vs[j] = rom_v_probe_kept(s, j);
     }
     for (uint32_t j = P; j % BOUND_CHECK_LANES; j++) vs[j] = 0.0;
-    if (!table_lanes(s, bs, vs, !(s->elapsed <= table_end(b)))) return 0;
+    RowTime rt;                                         /* (the interval, weights, decays every quad reads) */
+    row_time(s, &rt);
+    if (!table_lanes(s, bs, vs, &rt)) return 0;
 #endif
     return probe_rows_exceed(s, message, message_size);
 }
